@@ -1,0 +1,32 @@
+/* error.h — how the host reports failure: a code plus a one-line message, filled once at
+ * the place that failed and passed up unchanged. Only main() prints and exits. */
+#ifndef TS_ERROR_H
+#define TS_ERROR_H
+
+#include <stddef.h>
+
+typedef struct ts_error {
+    int code;        /* 0 = no error; else a TS_E* value */
+    char msg[2048];  /* one line, no trailing newline; scene errors start with file:line:col */
+    char *detail;    /* optional multi-line detail (a kernel build log); owned, may be NULL */
+} ts_error;
+
+enum {
+    TS_OK = 0,
+    TS_E_USAGE = 1,    /* bad command line */
+    TS_E_IO = 2,       /* a file could not be read or written */
+    TS_E_SCENE = 3,    /* the scene file is malformed */
+    TS_E_DEVICE = 4,   /* an OpenCL call failed */
+    TS_E_MEMORY = 5,   /* host allocation failed */
+    TS_E_INTERNAL = 6, /* an invariant broke: a bug */
+};
+
+/* Sets err (if non-NULL and not already set) and returns code. The first error wins, so a
+ * caller may add nothing that hides the root cause. */
+int ts_error_set(ts_error *err, int code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+/* Takes ownership of a malloc'd detail text (for example a build log). */
+void ts_error_set_detail(ts_error *err, char *detail);
+void ts_error_clear(ts_error *err);
+
+#endif

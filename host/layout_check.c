@@ -1,0 +1,23 @@
+/* layout_check.c — compile-time checks of the structs shared with the kernels
+ * (lib/shared_types.h): sizes and the offsets that padding could move. The device side is
+ * checked at run time by tests/test_layout.c. */
+#include "lib/shared_types.h"
+
+#include <stddef.h>
+
+_Static_assert(sizeof(ts_vec4) == 16, "ts_vec4 is 16 bytes");
+_Static_assert(sizeof(ts_box) == 24, "ts_box is 24 bytes");
+_Static_assert(sizeof(ts_qbvh_node) == 128, "ts_qbvh_node is 128 bytes");
+_Static_assert(offsetof(ts_qbvh_node, child) == 96, "child[] follows the 24 box floats");
+_Static_assert(offsetof(ts_qbvh_node, parent) == 112, "parent after child[4]");
+_Static_assert(sizeof(ts_pair) == 8, "ts_pair is 8 bytes");
+_Static_assert(sizeof(ts_segment) == 32, "ts_segment is 32 bytes");
+_Static_assert(sizeof(ts_hit) == 20, "ts_hit is 20 bytes");
+_Static_assert(offsetof(ts_hit, patch) == 12, "ts_hit.patch after t, u, v");
+_Static_assert(sizeof(ts_patch_attr) == 16, "ts_patch_attr is 16 bytes");
+_Static_assert(sizeof(ts_camera_params) == 96, "ts_camera_params is 96 bytes");
+_Static_assert(offsetof(ts_camera_params, width) == 64, "width after four float[4]");
+_Static_assert(sizeof(ts_shade_params) == 48, "ts_shade_params is 48 bytes");
+
+/* Keeps the translation unit non-empty for strict compilers. */
+int ts_layout_checked(void) { return 1; }

@@ -1,0 +1,151 @@
+/* shared_types.h — every struct and constant the host and the kernels exchange.
+ *
+ * Included by the C11 host (host/ *.c) and by every OpenCL C 1.2 kernel. Rules (STYLE.md 1-2):
+ * fixed-width scalars only, vectors as named float fields (never float3: 12 bytes on the
+ * host, 16 on the device), explicit padding, no bool/size_t/pointers. Sizes and offsets are
+ * checked with _Static_assert in host/layout_check.c and against the device by
+ * tests/test_layout.c, which runs a kernel writing sizeof/offsetof back.
+ */
+#ifndef TS_SHARED_TYPES_H
+#define TS_SHARED_TYPES_H
+
+#ifdef __OPENCL_C_VERSION__
+typedef uint ts_u32;
+typedef int ts_i32;
+#define TS_GLOBAL __global
+#define TS_CONST_GLOBAL __global const
+#define TS_INLINE inline
+#else
+#include <stdint.h>
+typedef uint32_t ts_u32;
+typedef int32_t ts_i32;
+#define TS_GLOBAL
+#define TS_CONST_GLOBAL const
+#define TS_INLINE static inline
+/* Every (struct, field) whose offset the host and the device must agree on; the struct's
+ * size is checked with it. host/layout_check.c asserts the sizes at compile time;
+ * kernels/layout.cl writes sizeof/offsetof of each entry back for tests/test_layout.c. */
+#define TS_LAYOUT_FIELDS(X)                                                                 \
+    X(ts_vec4, w) X(ts_box, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
+    X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
+    X(ts_pair, window) X(ts_segment, slot) X(ts_segment, lod) X(ts_hit, patch)               \
+    X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_camera_params, forward)                     \
+    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count)      \
+    X(ts_shade_params, light_color) X(ts_shade_params, ambient)
+
+#endif
+
+/* Hard ceiling on the level of detail: 4^10 micro-quads per patch (Hanika §4 uses m <= 10).
+ * Kernel stacks are sized from it. */
+#define TS_LOD_LIMIT 10
+/* Marks an unused pair or a finished traversal. */
+#define TS_INVALID 0xffffffffu
+/* Top-level traversal state: (node << 3) | next position in the ray's child order.
+ * 0 = root, position 0 (a fresh ray); TS_INVALID = traversal finished. */
+#define TS_ENTRY_START 0u
+#define TS_CHILD_EMPTY ((ts_i32)0x80000000)
+
+/* Four floats; w carries a per-field extra (see each use). 16 bytes. */
+typedef struct ts_vec4 {
+    float x, y, z, w;
+} ts_vec4;
+
+/* Axis-aligned box, 24 bytes. Empty boxes have lo > hi. */
+typedef struct ts_box {
+    float lo_x, lo_y, lo_z;
+    float hi_x, hi_y, hi_z;
+} ts_box;
+
+/* One node of the top-level 4-wide BVH (Hanika §3.1, Dammertz et al. 2008), 128 bytes.
+ * child[i] >= 0: inner node index; child[i] < 0 and != TS_CHILD_EMPTY: a leaf holding
+ * patch ~child[i]; TS_CHILD_EMPTY: no child (its box is empty).
+ * Children 0,1 lie below children 2,3 along axis (axes & 3); child 0 below 1 along
+ * ((axes >> 2) & 3); child 2 below 3 along ((axes >> 4) & 3). Ordered traversal visits
+ * them front to back by the signs of the ray direction on those axes, which is what lets
+ * a ray resume from a saved (node, position). */
+typedef struct ts_qbvh_node {
+    float lo_x[4], lo_y[4], lo_z[4];
+    float hi_x[4], hi_y[4], hi_z[4];
+    ts_i32 child[4];
+    ts_i32 parent;      /* -1 at the root */
+    ts_u32 axes;        /* three 2-bit split axes, see above */
+    ts_u32 parent_slot; /* which child of the parent this node is (0..3) */
+    ts_u32 pad;
+} ts_qbvh_node;
+
+/* A (leaf, ray) candidate produced by top_level and sorted by leaf (Hanika Fig. 2).
+ * window = active_index * n_per_ray + k: where the candidate was written, which names the
+ * ray (window / n_per_ray) and the per-candidate hit record. 8 bytes. */
+typedef struct ts_pair {
+    ts_u32 leaf;
+    ts_u32 window;
+} ts_pair;
+
+/* The pairs of one patch after sort: [begin, end) in the sorted pair array. 32 bytes. */
+typedef struct ts_segment {
+    ts_u32 patch;
+    ts_u32 begin, end;
+    ts_u32 slot; /* patch slot (grid + quad-tree buffers) it is diced into */
+    ts_u32 lod;  /* m: (2^m+1)^2 vertices, 4^m micro-quads */
+    ts_u32 pad[3];
+} ts_segment;
+
+/* Closest hit of one ray against one patch (bottom_level), or of the ray overall
+ * (resolve). t = TS_NO_HIT when nothing was hit. prim = micro-triangle index
+ * (2 * quad + 0/1). u, v: patch parameters at the hit. 20 bytes. */
+typedef struct ts_hit {
+    float t, u, v;
+    ts_u32 patch, prim;
+} ts_hit;
+
+/* Per-patch attributes from the scene: colour Cs. 16 bytes. */
+typedef struct ts_patch_attr {
+    float cs_r, cs_g, cs_b;
+    ts_u32 flags;
+} ts_patch_attr;
+
+/* Everything the camera kernel needs, in world space. 96 bytes.
+ * Ray through raster point (px, py): screen (sx, sy) = window lerp, direction =
+ * sx * right + sy * up + forward (RenderMan: x right, y up, looking down +z). */
+typedef struct ts_camera_params {
+    float origin[4];  /* eye position, w unused */
+    float right[4];   /* camera x axis in world space, scaled by the screen half-width */
+    float up[4];      /* camera y axis, scaled by the screen half-height */
+    float forward[4]; /* camera z axis (unit) */
+    ts_u32 width, height;
+    ts_u32 spp, seed;
+    ts_u32 first_sample; /* global index of the first ray of this wave */
+    ts_u32 ray_count;    /* rays in this wave */
+    ts_u32 pad[2];
+} ts_camera_params;
+
+/* Shading parameters for the primary-ray shade stage (Lambert, one distant light). 48 bytes. */
+typedef struct ts_shade_params {
+    float light_dir[4];   /* unit vector towards the light, world space */
+    float light_color[4]; /* intensity * color */
+    float ambient[4];     /* constant fill so unlit sides are not black */
+} ts_shade_params;
+
+#define TS_NO_HIT 3.402823466e+38f
+
+/* Ray state as SoA: one buffer per field, generated from this one list (STYLE.md 7).
+ * X(type, name, comment). */
+#define TS_RAY_FIELDS(X)                                                                    \
+    X(ts_vec4, org, "origin xyz, w = tmin")                                                 \
+    X(ts_vec4, dir, "unit direction xyz, w = time in [0,1)")                                \
+    X(ts_hit, hit, "closest hit so far; hit.t is the traversal tmax")                      \
+    X(ts_u32, entry, "top-level resume state, TS_ENTRY_START or (node << 3 | pos)")         \
+    X(ts_u32, pixel, "pixel index y * width + x")
+
+/* Every (struct, field) whose offset the host and the device must agree on; the struct's
+ * size is checked with it. host/layout_check.c asserts the sizes at compile time;
+ * kernels/layout.cl writes sizeof/offsetof of each entry back for tests/test_layout.c. */
+#define TS_LAYOUT_FIELDS(X)                                                                 \
+    X(ts_vec4, w) X(ts_box, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
+    X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
+    X(ts_pair, window) X(ts_segment, slot) X(ts_segment, lod) X(ts_hit, patch)               \
+    X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_camera_params, forward)                     \
+    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count)      \
+    X(ts_shade_params, light_color) X(ts_shade_params, ambient)
+
+#endif
