@@ -1,0 +1,159 @@
+/* rib_internal.h — what the parts of the RIB loader share, private to them:
+ *   rib_lex.c    tokens;
+ *   rib.c        reads each request and its arguments, dispatches, rib_load/rib_parse_string;
+ *   rib_state.c  graphics state: transformations, blocks, camera options, Color, Basis;
+ *   rib_geom.c   Patch, PatchMesh and LightSource into the scene.
+ *
+ * Matrices are row-major 4x4 doubles acting on column vectors (p' = M p), as in scene.h.
+ * RIB writes matrices for row vectors (p' = p M, translation in elements 12..14), so a RIB
+ * [16] array is transposed on input.
+ */
+#ifndef TS_RIB_INTERNAL_H
+#define TS_RIB_INTERNAL_H
+
+#include "basis.h"
+#include "error.h"
+#include "rib_lex.h"
+#include "scene.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* Bounds that keep a hostile file from exhausting memory or stack. */
+#define RIB_MAX_VALUES (1u << 24) /* numbers or strings in one request */
+#define RIB_MAX_ARGS (1u << 16)   /* arguments of one request */
+#define RIB_MAX_CHARS (1u << 26)  /* string bytes in one request */
+#define RIB_MAX_DEPTH 1024        /* nested Attribute/Transform blocks */
+#define RIB_MAX_WARNED 64         /* distinct warnings remembered */
+#define RIB_WARN_KEY 160          /* bytes of one remembered warning */
+#define RIB_PRINT_MAX 48          /* bytes of a file string echoed in a message */
+
+typedef enum rib_arg_kind {
+    RIB_ARG_NUMBER,
+    RIB_ARG_STRING,
+    RIB_ARG_NUMBERS, /* [ numbers ], also the empty array [] */
+    RIB_ARG_STRINGS, /* [ "strings" ] */
+} rib_arg_kind;
+
+/* One argument of a request. first indexes nums (numbers) or strs (strings). */
+typedef struct rib_arg {
+    rib_arg_kind kind;
+    int line, col;
+    size_t first, count;
+} rib_arg;
+
+typedef enum rib_frame_kind {
+    RIB_FRAME_ATTRIBUTE,
+    RIB_FRAME_TRANSFORM,
+    RIB_FRAME_WORLD,
+} rib_frame_kind;
+
+/* What AttributeBegin / TransformBegin / WorldBegin saved. */
+typedef struct rib_frame {
+    rib_frame_kind kind;
+    int line, col;
+    double ctm[16];
+    double color[3];
+    ts_basis ubasis, vbasis;
+} rib_frame;
+
+typedef enum rib_world_phase { RIB_BEFORE_WORLD, RIB_IN_WORLD, RIB_AFTER_WORLD } rib_world_phase;
+
+typedef struct rib_parser {
+    rib_lexer lx;
+    ts_scene *scene;
+    ts_error *err;
+    int quiet;
+    /* The request being handled and its arguments (pools reset per request). */
+    char req[RIB_MAX_NAME + 1];
+    int req_line, req_col;
+    rib_arg *args;
+    size_t nargs, args_cap;
+    double *nums;
+    size_t nnums, nums_cap;
+    size_t *strs; /* offsets into chars */
+    size_t nstrs, strs_cap;
+    char *chars;
+    size_t nchars, chars_cap;
+    /* Graphics state. */
+    double ctm[16]; /* object to world in the world block, object to camera before it */
+    double color[3];
+    ts_basis ubasis, vbasis;
+    rib_frame *stack;
+    size_t depth, stack_cap;
+    rib_world_phase phase;
+    uint32_t first_patch, first_light; /* what this parse added: may need camera->world */
+    char warned[RIB_MAX_WARNED][RIB_WARN_KEY];
+    int nwarned;
+} rib_parser;
+
+/* ---- rib.c: messages and argument access ---- */
+
+/* Sets TS_E_SCENE "file:line:col: error: <fmt>" and returns TS_E_SCENE. */
+int rib_error_at(rib_parser *p, int line, int col, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+/* Prints "file:line:col: warning: <what>" once per distinct text unless quiet. */
+void rib_warn_once(rib_parser *p, int line, int col, const char *what);
+
+/* s with control and non-ASCII bytes as '?', cut to RIB_PRINT_MAX - 1 bytes ("..."):
+ * for echoing file strings in one-line messages. Returns buf. */
+const char *rib_printable(const char *s, char buf[RIB_PRINT_MAX]);
+const char *rib_arg_str(const rib_parser *p, const rib_arg *a, size_t k);
+const double *rib_arg_nums(const rib_parser *p, const rib_arg *a);
+/* n numbers at args[*i], as n bare numbers or one [n] array; advances *i past them. */
+int rib_numbers(rib_parser *p, size_t *i, size_t n, double *out);
+/* Fails when arguments are left from index i on. */
+int rib_no_more(rib_parser *p, size_t i);
+/* An integer in [1, max] at args[*i]; advances *i. */
+int rib_integer(rib_parser *p, size_t *i, const char *what, double max, int *out);
+/* A string (or a one-string array) at args[i]. */
+int rib_string_arg(rib_parser *p, size_t i, const char *what, const char **out);
+
+/* One "name" value pair of a parameter list; an inline declaration ("float fov",
+ * "uniform color lightcolor") is reduced to its last word. */
+typedef struct rib_param {
+    const char *name;
+    const rib_arg *key, *val;
+} rib_param;
+
+/* The pair at args[i], args[i + 1]. */
+int rib_param_at(rib_parser *p, size_t i, rib_param *out);
+/* The numbers of a parameter value: exactly n of them unless n == 0. */
+int rib_param_numbers(rib_parser *p, const rib_param *prm, size_t n, const double **out,
+                      size_t *count);
+/* Warns once that a parameter of the current request is ignored. */
+void rib_warn_param(rib_parser *p, const rib_param *prm);
+
+/* ---- rib_state.c: matrices ---- */
+
+void rib_mat_identity(double m[16]);
+/* ctm = ctm · t: t acts on points first (RI Spec §4.3). */
+void rib_mat_concat(double ctm[16], const double t[16]);
+/* Bottom row (0 0 0 w), w != 0: the maps under which Bézier patches stay polynomial. */
+int rib_mat_is_affine(const double m[16]);
+/* Maps a point by an affine m; 0 when the result is not a finite float. */
+int rib_mat_point(const double m[16], const double p[3], double out[3]);
+
+/* ---- request handlers: all read p->args, return TS_OK or an error code ---- */
+
+int rib_req_identity(rib_parser *p);
+int rib_req_translate(rib_parser *p);
+int rib_req_rotate(rib_parser *p);
+int rib_req_scale(rib_parser *p);
+int rib_req_concat_transform(rib_parser *p);
+int rib_req_transform(rib_parser *p);
+int rib_req_attribute_begin(rib_parser *p);
+int rib_req_attribute_end(rib_parser *p);
+int rib_req_transform_begin(rib_parser *p);
+int rib_req_transform_end(rib_parser *p);
+int rib_req_world_begin(rib_parser *p);
+int rib_req_world_end(rib_parser *p);
+int rib_req_format(rib_parser *p);
+int rib_req_projection(rib_parser *p);
+int rib_req_color(rib_parser *p);
+int rib_req_basis(rib_parser *p);
+int rib_req_patch(rib_parser *p);
+int rib_req_patch_mesh(rib_parser *p);
+int rib_req_light_source(rib_parser *p);
+
+#endif

@@ -1,0 +1,756 @@
+/* test_rib.c — the RIB loader (host/rib*.c), the basis conversion (host/basis.c) and scene
+ * growth (host/scene.c). Host only: never skips. Every test asserts numbers: transformed
+ * control points, surface points compared with a direct evaluation of the original basis,
+ * patch counts, and the exact "file:line:col: error:" prefix of each scene error. */
+#include "basis.h"
+#include "rib.h"
+#include "scene.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <setjmp.h>
+#include <cmocka.h>
+
+/* ---- helpers -------------------------------------------------------------------------- */
+
+/* $TESSERA_SOURCE_DIR/rel (set by ctest), else the first of ., .., ../.. holding it. */
+static const char *source_path(const char *rel)
+{
+    static char buf[4096];
+    const char *dir = getenv("TESSERA_SOURCE_DIR");
+    if (dir && *dir) {
+        snprintf(buf, sizeof buf, "%s/%s", dir, rel);
+        return buf;
+    }
+    static const char *const tries[] = {".", "..", "../.."};
+    for (size_t i = 0; i < 3; i++) {
+        snprintf(buf, sizeof buf, "%s/%s", tries[i], rel);
+        if (access(buf, R_OK) == 0) return buf;
+    }
+    return rel;
+}
+
+static int parse(const char *text, ts_scene *s, ts_error *e)
+{
+    memset(s, 0, sizeof *s);
+    memset(e, 0, sizeof *e);
+    return rib_parse_string("t.rib", text, strlen(text), s, 1, e);
+}
+
+/* Parses text that must load; fails the test with the loader's message otherwise. */
+static void parse_ok(const char *text, ts_scene *s)
+{
+    ts_error e;
+    if (parse(text, s, &e) != TS_OK) fail_msg("unexpected error: %s", e.msg);
+}
+
+/* Parses text that must fail with `code` and a message that is exactly `msg`, or starts
+ * with it when msg ends in "...". The scene must be left empty. */
+static void expect_error(const char *text, int code, const char *msg)
+{
+    ts_scene s;
+    ts_error e;
+    assert_int_equal(parse(text, &s, &e), code);
+    assert_int_equal(e.code, code);
+    size_t n = strlen(msg);
+    if (n > 3 && strcmp(msg + n - 3, "...") == 0) {
+        if (strncmp(e.msg, msg, n - 3) != 0) fail_msg("got \"%s\", want \"%s\"", e.msg, msg);
+    } else if (strcmp(e.msg, msg) != 0) {
+        fail_msg("got \"%s\", want \"%s\"", e.msg, msg);
+    }
+    assert_int_equal(s.patch_count, 0);
+    assert_null(s.cp);
+    assert_null(s.lights);
+}
+
+static void assert_vec(const ts_vec4 *c, double x, double y, double z, double tol)
+{
+    if (fabs(c->x - x) > tol || fabs(c->y - y) > tol || fabs(c->z - z) > tol)
+        fail_msg("got (%g %g %g), want (%g %g %g)", c->x, c->y, c->z, x, y, z);
+}
+
+static void assert_dvec(const double *a, double x, double y, double z, double tol)
+{
+    if (fabs(a[0] - x) > tol || fabs(a[1] - y) > tol || fabs(a[2] - z) > tol)
+        fail_msg("got (%g %g %g), want (%g %g %g)", a[0], a[1], a[2], x, y, z);
+}
+
+/* p' = M p for a row-major column-vector matrix, w = 1. */
+static void mat_apply(const double m[16], const double p[3], double out[3])
+{
+    for (int i = 0; i < 3; i++)
+        out[i] = m[i * 4] * p[0] + m[i * 4 + 1] * p[1] + m[i * 4 + 2] * p[2] + m[i * 4 + 3];
+}
+
+static double lcg(uint32_t *s)
+{
+    *s = *s * 1664525u + 1013904223u;
+    return (*s >> 8) * (1.0 / 16777216.0);
+}
+
+/* The Bézier patch p of the scene at (u, v), by Bernstein polynomials. */
+static void bezier_eval(const ts_scene *s, uint32_t p, double u, double v, double out[3])
+{
+    const double bu[4] = {(1 - u) * (1 - u) * (1 - u), 3 * u * (1 - u) * (1 - u),
+                          3 * u * u * (1 - u), u * u * u};
+    const double bv[4] = {(1 - v) * (1 - v) * (1 - v), 3 * v * (1 - v) * (1 - v),
+                          3 * v * v * (1 - v), v * v * v};
+    out[0] = out[1] = out[2] = 0.0;
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++) {
+            const ts_vec4 *c = &s->cp[p * 16 + j * 4 + i];
+            double w = bu[i] * bv[j];
+            out[0] += w * c->x, out[1] += w * c->y, out[2] += w * c->z;
+        }
+}
+
+/* A bicubic patch in its own bases, straight from the RenderMan definition
+ * P(u,v) = sum_ij (U Mu)_i (V Mv)_j G[j][i] with U = (u^3, u^2, u, 1); independent of
+ * basis.c so that the conversion is checked, not restated. */
+static void direct_eval(const double mu[16], const double mv[16], const double g[16][3], double u,
+                        double v, double out[3])
+{
+    const double U[4] = {u * u * u, u * u, u, 1}, V[4] = {v * v * v, v * v, v, 1};
+    double wu[4] = {0}, wv[4] = {0};
+    for (int i = 0; i < 4; i++)
+        for (int r = 0; r < 4; r++)
+            wu[i] += U[r] * mu[r * 4 + i], wv[i] += V[r] * mv[r * 4 + i];
+    out[0] = out[1] = out[2] = 0.0;
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++)
+            for (int d = 0; d < 3; d++)
+                out[d] += wu[i] * wv[j] * g[j * 4 + i][d];
+}
+
+/* Appends "[x y z ...]" for n points to a text buffer. */
+static void print_points(char *buf, size_t cap, const double (*pts)[3], int n)
+{
+    size_t len = strlen(buf);
+    len += (size_t)snprintf(buf + len, cap - len, "[");
+    for (int k = 0; k < n; k++)
+        len += (size_t)snprintf(buf + len, cap - len, "%.17g %.17g %.17g\n", pts[k][0], pts[k][1],
+                                pts[k][2]);
+    snprintf(buf + len, cap - len, "]\n");
+}
+
+static void random_grid(uint32_t *seed, double g[16][3])
+{
+    for (int k = 0; k < 16; k++)
+        for (int d = 0; d < 3; d++)
+            g[k][d] = 4.0 * lcg(seed) - 2.0;
+}
+
+/* Loads `basis_line` + one bicubic patch of grid g and compares 50 random surface points
+ * with the direct evaluation in bases mu, mv. */
+static void check_basis_patch(const char *basis_line, const ts_basis *bu, const ts_basis *bv)
+{
+    uint32_t seed = 12345;
+    double g[16][3];
+    random_grid(&seed, g);
+    char text[4096];
+    snprintf(text, sizeof text, "WorldBegin\n%s\nPatch \"bicubic\" \"P\" ", basis_line);
+    print_points(text, sizeof text, (const double(*)[3])g, 16);
+    strncat(text, "WorldEnd\n", sizeof text - strlen(text) - 1);
+    ts_scene s;
+    parse_ok(text, &s);
+    assert_int_equal(s.patch_count, 1);
+    for (int k = 0; k < 50; k++) {
+        double u = lcg(&seed), v = lcg(&seed), a[3], b[3];
+        bezier_eval(&s, 0, u, v, a);
+        direct_eval(bu->m, bv->m, (const double(*)[3])g, u, v, b);
+        assert_dvec(a, b[0], b[1], b[2], 1e-5);
+    }
+    scene_free(&s);
+}
+
+#define BILINEAR_UNIT "Patch \"bilinear\" \"P\" [1 0 0  0 1 0  0 0 1  2 3 4]\n"
+
+/* ---- transformations ------------------------------------------------------------------ */
+
+/* Translate then Rotate: the Rotate, written last, acts on points first. */
+static void test_translate_then_rotate(void **state)
+{
+    (void)state;
+    ts_scene s;
+    parse_ok("WorldBegin\nTranslate 1 2 3\nRotate 90 0 0 1\n" BILINEAR_UNIT "WorldEnd\n", &s);
+    assert_int_equal(s.patch_count, 1);
+    assert_vec(&s.cp[0], 1, 3, 3, 1e-6);   /* (1,0,0) -> (0,1,0) -> +(1,2,3) */
+    assert_vec(&s.cp[3], 0, 2, 3, 1e-6);   /* (0,1,0) -> (-1,0,0) -> ... */
+    assert_vec(&s.cp[12], 1, 2, 4, 1e-6);  /* (0,0,1) unchanged by the rotation */
+    assert_vec(&s.cp[15], -2, 4, 7, 1e-6); /* (2,3,4) -> (-3,2,4) -> ... */
+    scene_free(&s);
+}
+
+/* RenderMan's left-handed sense in coordinates: x -> y about z, y -> z about x,
+ * z -> x about y. */
+static void test_rotate_convention(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *rotate;
+        double x, y, z;    /* image of (1,0,0) */
+        double ux, uy, uz; /* image of (0,0,1) */
+    } cases[] = {
+        {"Rotate 90 0 0 1", 0, 1, 0, 0, 0, 1},
+        {"Rotate 90 1 0 0", 1, 0, 0, 0, -1, 0},
+        {"Rotate 90 0 1 0", 0, 0, -1, 1, 0, 0},
+        {"Rotate -90 0 0 2", 0, -1, 0, 0, 0, 1},
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        char text[512];
+        snprintf(text, sizeof text, "WorldBegin\n%s\n%sWorldEnd\n", cases[k].rotate, BILINEAR_UNIT);
+        ts_scene s;
+        parse_ok(text, &s);
+        assert_vec(&s.cp[0], cases[k].x, cases[k].y, cases[k].z, 1e-6);
+        assert_vec(&s.cp[12], cases[k].ux, cases[k].uy, cases[k].uz, 1e-6);
+        scene_free(&s);
+    }
+}
+
+static void test_scale_and_matrices(void **state)
+{
+    (void)state;
+    ts_scene s;
+    /* Scale then Translate: the translation applies first. */
+    parse_ok("WorldBegin\nScale 2 3 4\nTranslate 1 1 1\n" BILINEAR_UNIT "WorldEnd\n", &s);
+    assert_vec(&s.cp[0], 4, 3, 4, 1e-6);
+    scene_free(&s);
+    /* RIB matrices are for row vectors: the translation is in elements 12..14. */
+    parse_ok("WorldBegin\nTranslate 100 0 0\n"
+             "ConcatTransform [1 0 0 0  0 1 0 0  0 0 1 0  5 6 7 1]\n" BILINEAR_UNIT
+             "Transform [2 0 0 0  0 2 0 0  0 0 2 0  0 0 1 1]\n" BILINEAR_UNIT
+             "Identity\n" BILINEAR_UNIT "WorldEnd\n",
+             &s);
+    assert_int_equal(s.patch_count, 3);
+    assert_vec(&s.cp[0], 106, 6, 7, 1e-6);
+    assert_vec(&s.cp[16], 2, 0, 1, 1e-6);
+    assert_vec(&s.cp[32], 1, 0, 0, 1e-6);
+    scene_free(&s);
+}
+
+/* The CTM at WorldBegin becomes world_to_camera and the CTM restarts at the identity. */
+static void test_world_to_camera(void **state)
+{
+    (void)state;
+    ts_scene s;
+    parse_ok("Projection \"perspective\" \"fov\" [45]\nTranslate 0 0 10\nRotate 90 0 1 0\n"
+             "WorldBegin\nTranslate 1 0 0\n" BILINEAR_UNIT "WorldEnd\n",
+             &s);
+    const double *m = s.camera.world_to_camera;
+    double p[3], q[3] = {1, 0, 0};
+    mat_apply(m, q, p);
+    assert_dvec(p, 0, 0, 9, 1e-12); /* +x turns to -z, then 10 ahead */
+    assert_true(fabs(m[3]) < 1e-12 && fabs(m[7]) < 1e-12 && fabs(m[11] - 10) < 1e-12);
+    assert_true(m[12] == 0 && m[13] == 0 && m[14] == 0 && m[15] == 1);
+    assert_vec(&s.cp[0], 2, 0, 0, 1e-6); /* world space: no camera transform in it */
+    assert_true(s.camera.fov_deg == 45.0);
+    assert_int_equal(s.camera.has_format, 0);
+    scene_free(&s);
+    /* Defaults with no camera at all; a file without WorldBegin is world = camera. */
+    parse_ok(BILINEAR_UNIT, &s);
+    assert_true(s.camera.fov_deg == 90.0);
+    for (int k = 0; k < 16; k++)
+        assert_true(s.camera.world_to_camera[k] == (k % 5 == 0));
+    assert_vec(&s.cp[15], 2, 3, 4, 0);
+    scene_free(&s);
+}
+
+static void test_format_and_projection(void **state)
+{
+    (void)state;
+    ts_scene s;
+    parse_ok("Format 640 480 1\nProjection \"perspective\" \"float fov\" [30.5]\n", &s);
+    assert_int_equal(s.camera.has_format, 1);
+    assert_int_equal(s.camera.width, 640);
+    assert_int_equal(s.camera.height, 480);
+    assert_true(s.camera.fov_deg == 30.5);
+    scene_free(&s);
+}
+
+/* ---- attributes and blocks ------------------------------------------------------------ */
+
+static void test_blocks_restore_state(void **state)
+{
+    (void)state;
+    ts_scene s;
+    parse_ok("WorldBegin\nColor [0.5 0.25 0.125]\n"
+             "AttributeBegin\nColor 1 0 0\nTranslate 5 0 0\nBasis \"b-spline\" 1 \"b-spline\" "
+             "1\n" BILINEAR_UNIT "AttributeEnd\n" BILINEAR_UNIT
+             "TransformBegin\nColor [0 1 0]\nTranslate 0 7 0\n" BILINEAR_UNIT
+             "TransformEnd\n" BILINEAR_UNIT "WorldEnd\n",
+             &s);
+    assert_int_equal(s.patch_count, 4);
+    assert_vec(&s.cp[0], 6, 0, 0, 1e-6);
+    assert_true(s.attr[0].cs_r == 1.0f && s.attr[0].cs_g == 0.0f && s.attr[0].cs_b == 0.0f);
+    assert_vec(&s.cp[16], 1, 0, 0, 0); /* CTM restored */
+    assert_true(s.attr[1].cs_r == 0.5f && s.attr[1].cs_g == 0.25f && s.attr[1].cs_b == 0.125f);
+    assert_vec(&s.cp[32], 1, 7, 0, 1e-6);
+    assert_true(s.attr[2].cs_g == 1.0f);
+    assert_vec(&s.cp[48], 1, 0, 0, 0); /* TransformEnd restores the CTM ... */
+    assert_true(s.attr[3].cs_g == 1.0f && s.attr[3].cs_r == 0.0f); /* ... but not Color */
+    scene_free(&s);
+    /* AttributeEnd restores the basis: this grid must come through unchanged (Bézier). */
+    parse_ok("AttributeBegin\nBasis \"catmull-rom\" 1 \"catmull-rom\" 1\nAttributeEnd\n"
+             "Patch \"bicubic\" \"P\" [0 0 0 1 0 0 2 0 0 3 0 0  0 1 0 1 1 1 2 1 0 3 1 0\n"
+             "0 2 0 1 2 0 2 2 5 3 2 0  0 3 0 1 3 0 2 3 0 3 3 9]\n",
+             &s);
+    assert_vec(&s.cp[5], 1, 1, 1, 0);
+    assert_vec(&s.cp[10], 2, 2, 5, 0);
+    assert_vec(&s.cp[15], 3, 3, 9, 0);
+    scene_free(&s);
+}
+
+/* ---- bases and patch kinds ------------------------------------------------------------ */
+
+static void test_basis_conversions(void **state)
+{
+    (void)state;
+    check_basis_patch("Basis \"b-spline\" 1 \"b-spline\" 1", &basis_bspline, &basis_bspline);
+    check_basis_patch("Basis \"catmull-rom\" 1 \"catmull-rom\" 1", &basis_catmull_rom,
+                      &basis_catmull_rom);
+    /* Different u and v bases catch a transposed grid. */
+    check_basis_patch("Basis \"catmull-rom\" 1 \"bspline\" 1", &basis_catmull_rom, &basis_bspline);
+    check_basis_patch("Basis \"hermite\" 2 \"power\" 4", &basis_hermite, &basis_power);
+    check_basis_patch("Basis [-1 3 -3 1 3 -6 3 0 -3 0 3 0 1 4 1 0] 1 \"bezier\" 3",
+                      &(ts_basis){{-1, 3, -3, 1, 3, -6, 3, 0, -3, 0, 3, 0, 1, 4, 1, 0}, 1},
+                      &basis_bezier);
+    /* The named table and steps. */
+    assert_ptr_equal(basis_by_name("bspline"), &basis_bspline);
+    assert_null(basis_by_name("nurbs"));
+    assert_int_equal(basis_bezier.step, 3);
+    assert_int_equal(basis_bspline.step, 1);
+    assert_int_equal(basis_catmull_rom.step, 1);
+    assert_int_equal(basis_hermite.step, 2);
+    assert_int_equal(basis_power.step, 4);
+}
+
+/* Bilinear patches become bicubic Béziers describing exactly the same surface. */
+static void test_bilinear_exact(void **state)
+{
+    (void)state;
+    ts_scene s;
+    parse_ok("Patch \"bilinear\" \"P\" [0 0 0  3 0 1  0 3 2  3 3 -6]\n", &s);
+    uint32_t seed = 7;
+    for (int k = 0; k < 50; k++) {
+        double u = lcg(&seed), v = lcg(&seed), a[3];
+        bezier_eval(&s, 0, u, v, a);
+        assert_dvec(a, 3 * u, 3 * v, (1 - u) * v * 2 + u * (1 - v) * 1 + u * v * -6, 1e-6);
+    }
+    assert_vec(&s.cp[1], 1, 0, 1.0 / 3, 1e-7); /* elevated edge point (1/3, 0) */
+    scene_free(&s);
+}
+
+static void mesh_count(const char *text, uint32_t want)
+{
+    ts_scene s;
+    parse_ok(text, &s);
+    assert_int_equal(s.patch_count, want);
+    scene_free(&s);
+}
+
+static void test_patch_mesh_counts(void **state)
+{
+    (void)state;
+    char text[8192], pts[7000] = "";
+    double p[42][3];
+    for (int k = 0; k < 42; k++)
+        p[k][0] = k % 7, p[k][1] = k / 7, p[k][2] = k * 0.01;
+    print_points(pts, sizeof pts, (const double(*)[3])p, 28);
+    /* Bézier step 3: nonperiodic 7 -> 2, 4 -> 1; periodic 6 -> 2. */
+    snprintf(text, sizeof text,
+             "PatchMesh \"bicubic\" 7 \"nonperiodic\" 4 \"nonperiodic\" \"P\" %s", pts);
+    mesh_count(text, 2);
+    /* B-spline step 1: periodic 7 -> 7, nonperiodic 4 -> 1. */
+    snprintf(text, sizeof text,
+             "Basis \"b-spline\" 1 \"b-spline\" 1\n"
+             "PatchMesh \"bicubic\" 7 \"periodic\" 4 \"nonperiodic\" \"P\" %s",
+             pts);
+    mesh_count(text, 7);
+    snprintf(text, sizeof text,
+             "Basis \"b-spline\" 1 \"b-spline\" 1\n"
+             "PatchMesh \"bicubic\" 7 \"periodic\" 4 \"periodic\" \"P\" %s",
+             pts);
+    mesh_count(text, 28);
+    /* Bilinear: nonperiodic n - 1, periodic n. */
+    snprintf(text, sizeof text,
+             "PatchMesh \"bilinear\" 7 \"nonperiodic\" 4 \"nonperiodic\" \"P\" %s", pts);
+    mesh_count(text, 18);
+    snprintf(text, sizeof text, "PatchMesh \"bilinear\" 7 \"periodic\" 4 \"nonperiodic\" \"P\" %s",
+             pts);
+    mesh_count(text, 21);
+    /* The periodic wrap: the last bilinear patch in u runs from point 6 back to point 0. */
+    ts_scene s;
+    parse_ok(text, &s);
+    assert_vec(&s.cp[6 * 16 + 0], 6, 0, 0.06, 1e-6);
+    assert_vec(&s.cp[6 * 16 + 3], 0, 0, 0, 1e-6);
+    scene_free(&s);
+    /* A periodic b-spline mesh matches the direct evaluation on its wrapped patch. */
+    snprintf(text, sizeof text,
+             "Basis \"b-spline\" 1 \"b-spline\" 1\n"
+             "PatchMesh \"bicubic\" 7 \"periodic\" 4 \"nonperiodic\" \"P\" %s",
+             pts);
+    parse_ok(text, &s);
+    double g[16][3], a[3], b[3];
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++)
+            memcpy(g[j * 4 + i], p[j * 7 + (5 + i) % 7], sizeof g[0]);
+    bezier_eval(&s, 5, 0.3, 0.6, a);
+    direct_eval(basis_bspline.m, basis_bspline.m, (const double(*)[3])g, 0.3, 0.6, b);
+    assert_dvec(a, b[0], b[1], b[2], 1e-5);
+    scene_free(&s);
+}
+
+/* ---- lexical details ------------------------------------------------------------------ */
+
+static void test_arrays_comments_escapes(void **state)
+{
+    (void)state;
+    ts_scene s;
+    /* Arrays across lines with comments inside; "\120" is an octal 'P', "bi\154inear" an
+     * octal 'l'; a backslash-newline continues a string. */
+    parse_ok("# header comment\nWorldBegin # trailing\nPatch \"bi\\154in\\\near\" # c\n"
+             "  \"\\120\" [ 1 0 0 # first point\n   0 1 0\n\n 0 0 1\n 2 3 4 ] WorldEnd",
+             &s);
+    assert_int_equal(s.patch_count, 1);
+    assert_vec(&s.cp[15], 2, 3, 4, 0);
+    scene_free(&s);
+    /* CR LF line ends, also after a continuation backslash. */
+    parse_ok(
+        "WorldBegin\r\nPatch \"bil\\\r\ninear\" \"P\" [1 0 0 0 1 0 0 0 1 2 3 4]\r\nWorldEnd\r\n",
+        &s);
+    assert_int_equal(s.patch_count, 1);
+    scene_free(&s);
+    /* \n \t \\ \" decode: the projection name comes back in the message. */
+    expect_error("Projection \"x\\ty\\\\z\\\"w\\n\"", TS_E_SCENE,
+                 "t.rib:1:12: error: unknown projection \"x?y\\z\"w?\"");
+    /* Numbers: signs, leading dots, exponents. */
+    parse_ok("Patch \"bilinear\" \"P\" [+1 -.5 1e1  2.5E-1 0. -0  1 1 1  0 0 0]\n", &s);
+    assert_vec(&s.cp[0], 1, -0.5, 10, 0);
+    assert_vec(&s.cp[3], 0.25, 0, 0, 0);
+    scene_free(&s);
+}
+
+/* ---- lights --------------------------------------------------------------------------- */
+
+static void test_lights(void **state)
+{
+    (void)state;
+    ts_scene s;
+    parse_ok("WorldBegin\nTranslate 1 2 3\nLightSource \"distantlight\" 1\n"
+             "LightSource \"distantlight\" \"key\" \"intensity\" 2 \"lightcolor\" [1 0.5 0.25]\n"
+             "  \"point from\" [0 0 0] \"point to\" [1 0 0]\n"
+             "LightSource \"distantlight\" \"from\" [0 5 0] \"to\" [0 0 0]\nWorldEnd\n",
+             &s);
+    assert_int_equal(s.light_count, 3);
+    assert_dvec(s.lights[0].from, 1, 2, 3, 0);
+    assert_dvec(s.lights[0].to, 1, 2, 4, 0);
+    assert_true(s.lights[0].intensity == 1.0);
+    assert_dvec(s.lights[0].color, 1, 1, 1, 0);
+    assert_true(s.lights[1].intensity == 2.0);
+    assert_dvec(s.lights[1].color, 1, 0.5, 0.25, 0);
+    assert_dvec(s.lights[1].to, 2, 2, 3, 0);
+    assert_dvec(s.lights[2].from, 1, 7, 3, 0);
+    scene_free(&s);
+    /* Before WorldBegin a light is in camera space and is moved to world space. */
+    parse_ok("LightSource \"distantlight\" 1 \"from\" [0 0 0] \"to\" [0 0 1]\n"
+             "Translate 0 0 5\nRotate 90 0 1 0\nWorldBegin\nWorldEnd\n",
+             &s);
+    assert_dvec(s.lights[0].from, 5, 0, 0, 1e-12); /* camera origin in world space */
+    assert_dvec(s.lights[0].to, 4, 0, 0, 1e-12);
+    scene_free(&s);
+}
+
+/* ---- the scene files ------------------------------------------------------------------ */
+
+/* Asserts that every control point lies in front of the camera and inside the image. */
+static void assert_framed(const ts_scene *s, double margin)
+{
+    double t = tan(0.5 * s->camera.fov_deg * M_PI / 180.0);
+    double ax = (double)s->camera.width / s->camera.height;
+    for (uint32_t k = 0; k < s->patch_count * 16; k++) {
+        double w[3] = {s->cp[k].x, s->cp[k].y, s->cp[k].z}, c[3];
+        mat_apply(s->camera.world_to_camera, w, c);
+        assert_true(c[2] > 0.0);
+        assert_true(fabs(c[0] / c[2]) < margin * t * ax);
+        assert_true(fabs(c[1] / c[2]) < margin * t);
+    }
+}
+
+static void test_teapot_file(void **state)
+{
+    (void)state;
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    const char *path = source_path("scene/teapot.rib");
+    if (rib_load(path, &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_int_equal(s.patch_count, 32);
+    assert_vec(&s.cp[0], 1.4f, 0.0f, 2.4f, 0); /* no object transform: exactly the data */
+    assert_true(s.cp[0].x == 1.4f && s.cp[0].z == 2.4f && s.cp[0].w == 1.0f);
+    for (int k = 0; k < 4; k++) {
+        assert_vec(&s.cp[20 * 16 + k], 0, 0, 3.15f, 0); /* lid apex row, degenerate */
+        assert_vec(&s.cp[28 * 16 + k], 0, 0, 0, 0);     /* bottom centre row */
+    }
+    assert_true(s.attr[31].cs_r == 0.8f && s.attr[31].cs_g == 0.55f && s.attr[31].cs_b == 0.35f);
+    assert_int_equal(s.camera.width, 1280);
+    assert_int_equal(s.camera.height, 720);
+    assert_true(s.camera.fov_deg >= 30.0 && s.camera.fov_deg <= 35.0);
+    assert_framed(&s, 0.9);
+    /* Upright: world +z is camera +y; the light falls downwards, away from the camera. */
+    const double *m = s.camera.world_to_camera;
+    assert_true(m[6] > 0.9);
+    assert_int_equal(s.light_count, 1);
+    double d[3], dc[3], o[3] = {0, 0, 0}, oc[3];
+    for (int k = 0; k < 3; k++)
+        d[k] = s.lights[0].to[k] - s.lights[0].from[k];
+    mat_apply(m, d, dc);
+    mat_apply(m, o, oc);
+    for (int k = 0; k < 3; k++)
+        dc[k] -= oc[k];
+    assert_true(d[2] < 0.0);                                /* from above in world */
+    assert_true(dc[0] > 0.0 && dc[1] < 0.0 && dc[2] > 0.0); /* from upper left front */
+    scene_free(&s);
+}
+
+static void test_one_patch_file(void **state)
+{
+    (void)state;
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    if (rib_load(source_path("scene/one_patch.rib"), &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_int_equal(s.patch_count, 1);
+    assert_int_equal(s.light_count, 1);
+    assert_framed(&s, 1.0);
+    ts_box b = scene_patch_box(&s, 0);
+    assert_true(b.lo_x == -1.5f && b.hi_x == 1.5f && b.lo_z == -0.5f && b.hi_z == 0.0f);
+    scene_free(&s);
+}
+
+/* ---- errors: exact positions and codes ------------------------------------------------ */
+
+/* One case per error path: the input and the exact message (a "..." end: a prefix). */
+static const struct {
+    const char *text, *msg;
+} error_cases[] = {
+    {"Patch \"bicubic\" \"P\" [0 0 0]",
+     "t.rib:1:21: error: Patch: parameter \"P\" needs 48 values, got 3"},
+    {"WorldBegin\n  AttributeEnd\n",
+     "t.rib:2:3: error: AttributeEnd without a matching AttributeBegin"},
+    {"TransformBegin\nAttributeEnd\n",
+     "t.rib:2:1: error: AttributeEnd does not match the TransformBegin at 1:1"},
+    {"WorldBegin\nAttributeBegin\n",
+     "t.rib:2:1: error: AttributeBegin is never closed (missing AttributeEnd)"},
+    {"WorldBegin\n", "t.rib:1:1: error: WorldBegin is never closed (missing WorldEnd)"},
+    {"Display \"x\" \"file\n", "t.rib:1:13: error: unterminated string"},
+    {"Color [1 0\n 0\n",
+     "t.rib:1:7: error: unterminated array ('[' without ']' before the end of file)"},
+    {"Color [1 0 0\nWorldBegin",
+     "t.rib:1:7: error: unterminated array ('[' without ']' before WorldBegin at 2:1)"},
+    {"  WorldEnd\n", "t.rib:1:3: error: WorldEnd without WorldBegin"},
+    {"Projection \"orthographic\"",
+     "t.rib:1:12: error: Projection \"orthographic\" is not supported yet (only \"perspective\")"},
+    {"Patch \"bicubic\" \"Pw\" [0]",
+     "t.rib:1:17: error: Patch: rational patches (\"Pw\") are not supported; give \"P\""},
+    {"\nNuPatch 4 4 [0 0 0 0 1 1 1 1]",
+     "t.rib:2:1: error: NuPatch is not supported: NURBS patches cannot be loaded ..."},
+    {"Frobnicate 1", "t.rib:1:1: error: unknown request Frobnicate"},
+    {"Sphere 1 -1 1 360", "t.rib:1:1: error: Sphere is not supported"},
+    {"Translate 1 2", "t.rib:1:1: error: Translate expects 3 numbers, got 2"},
+    {"Translate 1 2 3 4", "t.rib:1:17: error: too many arguments to Translate"},
+    {"Rotate 10 0 0 0", "t.rib:1:1: error: Rotate about a zero-length axis"},
+    {"Translate 1.2.3 0 0", "t.rib:1:11: error: malformed number"},
+    {"Translate 1e999 0 0", "t.rib:1:11: error: number out of range"},
+    {"Color [[1 1 1]]", "t.rib:1:8: error: nested arrays are not allowed"},
+    {"Color [1 \"a\" 1]", "t.rib:1:10: error: array mixes numbers and strings"},
+    {"Color 1 1 1 ]", "t.rib:1:13: error: ']' without '['"},
+    {"1 2 3", "t.rib:1:1: error: expected a request name, found a number"},
+    {"Color \x81", "t.rib:1:7: error: unexpected byte 0x81 (binary RIB is not supported)"},
+    {"Display \"a\\q\"", "t.rib:1:12: error: unknown escape sequence '\\q'"},
+    {"Basis \"nurbs\" 1 \"bezier\" 3", "t.rib:1:7: error: unknown basis ..."},
+    {"PatchMesh \"bicubic\" 5 \"nonperiodic\" 4 \"nonperiodic\" \"P\" [0]",
+     "t.rib:1:21: error: PatchMesh: nonperiodic nu = 5 is not 4 + k * 3 (the u step)"},
+    {"WorldBegin WorldEnd WorldBegin",
+     "t.rib:1:21: error: a second WorldBegin: only one world block per file is supported"},
+    {"WorldBegin\nFormat 10 10 1\n", "t.rib:2:1: error: Format must come before WorldBegin"},
+    {"Projection \"perspective\" \"fov\" [180]",
+     "t.rib:1:32: error: fov must be between 0 and 180 degrees, got 180"},
+};
+
+static void test_errors(void **state)
+{
+    (void)state;
+    for (size_t k = 0; k < sizeof error_cases / sizeof error_cases[0]; k++)
+        expect_error(error_cases[k].text, TS_E_SCENE, error_cases[k].msg);
+}
+
+/* Errors whose input is generated: 47 of 48 numbers, a long string, deep nesting. */
+static void test_errors_generated(void **state)
+{
+    (void)state;
+    char text[2048] = "WorldBegin\nPatch \"bicubic\"\n  \"P\" [";
+    for (int k = 0; k < 47; k++)
+        strcat(text, "1 ");
+    strcat(text, "]\nWorldEnd\n");
+    expect_error(text, TS_E_SCENE,
+                 "t.rib:3:7: error: Patch: parameter \"P\" needs 48 values, got 47");
+    /* Strings echoed in messages are printable and cut short. */
+    char longtype[160], want[200];
+    snprintf(longtype, sizeof longtype, "Patch \"%060d\"", 7);
+    snprintf(want, sizeof want,
+             "t.rib:1:7: error: Patch: unknown patch type \"%044d...\" (bicubic or bilinear)", 0);
+    expect_error(longtype, TS_E_SCENE, want);
+    /* Nesting is bounded. */
+    char *deep = calloc(1100 * 15 + 1, 1);
+    assert_non_null(deep);
+    for (int k = 0; k < 1100; k++)
+        strcat(deep, "AttributeBegin\n");
+    expect_error(deep, TS_E_SCENE,
+                 "t.rib:1025:1: error: AttributeBegin nested deeper than 1024 levels");
+    free(deep);
+}
+
+/* A missing file is an I/O error naming the path. */
+static void test_error_missing_file(void **state)
+{
+    (void)state;
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    assert_int_equal(rib_load("/nonexistent/dir/x.rib", &s, 1, &e), TS_E_IO);
+    assert_int_equal(e.code, TS_E_IO);
+    assert_string_equal(e.msg, "/nonexistent/dir/x.rib: No such file or directory");
+}
+
+/* Ignored requests: accepted, one warning per request name. */
+static void test_ignored_requests_warn_once(void **state)
+{
+    (void)state;
+    const char *text = "Surface \"plastic\"\nSurface \"matte\"\n  Sides 2\nOption \"a\" \"b\" [1]\n"
+                       "WorldBegin\nWorldEnd\n";
+    FILE *tmp = tmpfile();
+    assert_non_null(tmp);
+    fflush(stderr);
+    int saved = dup(fileno(stderr));
+    assert_true(saved >= 0);
+    assert_true(dup2(fileno(tmp), fileno(stderr)) >= 0);
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    int rc = rib_parse_string("w.rib", text, strlen(text), &s, 0, &e);
+    fflush(stderr);
+    dup2(saved, fileno(stderr));
+    close(saved);
+    assert_int_equal(rc, TS_OK);
+    char out[1024] = "";
+    rewind(tmp);
+    size_t got = fread(out, 1, sizeof out - 1, tmp);
+    out[got] = '\0';
+    fclose(tmp);
+    assert_string_equal(out, "w.rib:1:1: warning: Surface is ignored\n"
+                             "w.rib:3:3: warning: Sides is ignored\n"
+                             "w.rib:4:1: warning: Option is ignored\n");
+    scene_free(&s);
+}
+
+/* Hostile input: truncations and byte flips of the teapot file must load or fail cleanly
+ * (run under ASan/valgrind this also checks bounds and leaks). */
+static void test_hostile_input(void **state)
+{
+    (void)state;
+    FILE *f = fopen(source_path("scene/teapot.rib"), "rb");
+    assert_non_null(f);
+    static char text[65536];
+    size_t len = fread(text, 1, sizeof text, f);
+    fclose(f);
+    assert_true(len > 1000 && len < sizeof text);
+    uint32_t seed = 99;
+    for (size_t cut = 0; cut < len; cut += 97) {
+        ts_scene s = {0};
+        ts_error e = {0};
+        int rc = rib_parse_string("cut.rib", text, cut, &s, 1, &e);
+        assert_true(rc == TS_OK || rc == TS_E_SCENE);
+        if (rc != TS_OK) assert_true(s.patch_count == 0 && strncmp(e.msg, "cut.rib:", 8) == 0);
+        scene_free(&s);
+    }
+    for (int k = 0; k < 300; k++) {
+        static char mutated[65536];
+        memcpy(mutated, text, len);
+        for (int f2 = 0; f2 < 4; f2++)
+            mutated[(size_t)(lcg(&seed) * len)] = (char)(lcg(&seed) * 256);
+        ts_scene s = {0};
+        ts_error e = {0};
+        int rc = rib_parse_string("m.rib", mutated, len, &s, 1, &e);
+        assert_true(rc == TS_OK || rc == TS_E_SCENE);
+        scene_free(&s);
+    }
+}
+
+/* ---- scene.c -------------------------------------------------------------------------- */
+
+static void test_scene_growth_and_box(void **state)
+{
+    (void)state;
+    ts_scene s = {0};
+    ts_error e = {0};
+    double cp[16][3];
+    for (uint32_t p = 0; p < 1000; p++) {
+        for (int k = 0; k < 16; k++)
+            cp[k][0] = p, cp[k][1] = k, cp[k][2] = -(double)k;
+        assert_int_equal(scene_add_patch(&s, (const double(*)[3])cp, NULL, &e), TS_OK);
+    }
+    assert_int_equal(s.patch_count, 1000);
+    assert_true(s.patch_capacity >= 1000);
+    assert_vec(&s.cp[999 * 16 + 15], 999, 15, -15, 0);
+    assert_true(s.attr[5].cs_r == 1.0f); /* NULL attr: white */
+    ts_box b = scene_patch_box(&s, 7);
+    assert_true(b.lo_x == 7 && b.hi_x == 7 && b.lo_y == 0 && b.hi_y == 15 && b.lo_z == -15 &&
+                b.hi_z == 0);
+    ts_box empty = scene_patch_box(&s, 1000);
+    assert_true(empty.lo_x > empty.hi_x);
+    for (int k = 0; k < 100; k++) {
+        ts_distant_light l = {{k, 0, 0}, {0, 0, 1}, 1, {1, 1, 1}};
+        assert_int_equal(scene_add_light(&s, &l, &e), TS_OK);
+    }
+    assert_int_equal(s.light_count, 100);
+    assert_true(s.lights[99].from[0] == 99);
+    scene_free(&s);
+    assert_null(s.cp);
+    assert_int_equal(s.patch_count, 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_translate_then_rotate),
+        cmocka_unit_test(test_rotate_convention),
+        cmocka_unit_test(test_scale_and_matrices),
+        cmocka_unit_test(test_world_to_camera),
+        cmocka_unit_test(test_format_and_projection),
+        cmocka_unit_test(test_blocks_restore_state),
+        cmocka_unit_test(test_basis_conversions),
+        cmocka_unit_test(test_bilinear_exact),
+        cmocka_unit_test(test_patch_mesh_counts),
+        cmocka_unit_test(test_arrays_comments_escapes),
+        cmocka_unit_test(test_lights),
+        cmocka_unit_test(test_teapot_file),
+        cmocka_unit_test(test_one_patch_file),
+        cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_errors_generated),
+        cmocka_unit_test(test_error_missing_file),
+        cmocka_unit_test(test_ignored_requests_warn_once),
+        cmocka_unit_test(test_hostile_input),
+        cmocka_unit_test(test_scene_growth_and_box),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
