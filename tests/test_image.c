@@ -1,0 +1,362 @@
+/* test_image.c — image I/O through OpenImageIO (host/image.h) and the sRGB tone map
+ * (host/tonemap.h): bit-exact EXR round trips, PNG values, metadata, and the atomic-write
+ * guarantees (no partial file, no stray temporary, an existing target untouched). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include <dirent.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "error.h"
+#include "image.h"
+#include "tonemap.h"
+
+/* ---- scratch directory: one per test, emptied and removed by teardown ---- */
+
+typedef struct scratch {
+    char dir[64];
+} scratch;
+
+static int scratch_setup(void **state)
+{
+    scratch *s = calloc(1, sizeof *s);
+    if (!s) return -1;
+    strcpy(s->dir, "/tmp/ts-test-image-XXXXXX");
+    if (!mkdtemp(s->dir)) return -1;
+    *state = s;
+    return 0;
+}
+
+static int scratch_teardown(void **state)
+{
+    scratch *s = *state;
+    DIR *d = opendir(s->dir);
+    struct dirent *e;
+    char p[512];
+    while (d && (e = readdir(d))) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
+        snprintf(p, sizeof p, "%s/%s", s->dir, e->d_name);
+        if (unlink(p) != 0) rmdir(p); /* tests make at most one level of directories */
+    }
+    if (d) closedir(d);
+    rmdir(s->dir);
+    free(s);
+    return 0;
+}
+
+/* Writes s->dir/name into out (256 bytes) and returns out. */
+static const char *scratch_path(char *out, const scratch *s, const char *name)
+{
+    snprintf(out, 256, "%s/%s", s->dir, name);
+    return out;
+}
+
+/* Asserts that dir holds exactly the n names given (so no temporary was left behind). */
+static void assert_dir_holds(const char *dir, const char *const *names, int n)
+{
+    DIR *d = opendir(dir);
+    assert_non_null(d);
+    struct dirent *e;
+    int count = 0;
+    while ((e = readdir(d))) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
+        int known = 0;
+        for (int i = 0; i < n; i++)
+            known |= strcmp(e->d_name, names[i]) == 0;
+        if (!known) print_error("unexpected file in %s: %s\n", dir, e->d_name);
+        assert_true(known);
+        count++;
+    }
+    closedir(d);
+    assert_int_equal(count, n);
+}
+
+static int file_exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+/* Reads a whole (small) file into buf; returns its size in bytes. */
+static size_t slurp(const char *path, char *buf, size_t cap)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    size_t n = fread(buf, 1, cap, f);
+    fclose(f);
+    return n;
+}
+
+static void spit(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+static uint32_t float_bits(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+/* ---- tone map ---- */
+
+static void test_tonemap_values(void **state)
+{
+    (void)state;
+    assert_int_equal(tonemap_srgb8(0.0f), 0);
+    assert_int_equal(tonemap_srgb8(0.0031308f), 10); /* 12.92 x * 255 = 10.31 */
+    assert_int_equal(tonemap_srgb8(0.5f), 188);      /* 0.73536 * 255 = 187.52 */
+    assert_int_equal(tonemap_srgb8(0.18f), 118);     /* 0.46135 * 255 = 117.64 */
+    assert_int_equal(tonemap_srgb8(1.0f), 255);
+    assert_int_equal(tonemap_srgb8(2.0f), 255);
+    assert_int_equal(tonemap_srgb8(INFINITY), 255);
+    assert_int_equal(tonemap_srgb8(NAN), 0);
+    assert_int_equal(tonemap_srgb8(-1.0f), 0);
+    assert_int_equal(tonemap_srgb8(-INFINITY), 0);
+    /* Monotone over [0, 1] in steps of 1e-4, and the buffer form agrees. */
+    uint8_t prev = 0, one;
+    for (int i = 0; i <= 10000; i++) {
+        float x = (float)i * 1e-4f;
+        uint8_t v = tonemap_srgb8(x);
+        assert_true(v >= prev);
+        tonemap_srgb8_buffer(&x, &one, 1);
+        assert_int_equal(one, v);
+        prev = v;
+    }
+}
+
+/* ---- EXR ---- */
+
+enum { EXR_W = 3, EXR_H = 2, EXR_C = 7 };
+
+static void fill_exr_pixels(float *px)
+{
+    for (int i = 0; i < EXR_W * EXR_H * EXR_C; i++)
+        px[i] = (float)i / 3.0f - 5.0f;
+    px[3] = INFINITY;  /* Z of a miss, pixel 0 */
+    px[10] = INFINITY; /* Z, pixel 1 */
+    px[11] = -0.0f;
+    px[12] = 1e-45f; /* smallest denormal */
+    px[13] = 3.4028235e38f;
+    px[20] = -INFINITY;
+    px[27] = NAN; /* bits must survive too */
+}
+
+static void test_exr_round_trip(void **state)
+{
+    scratch *s = *state;
+    char buf0[256];
+    const char *names[EXR_C] = {"R", "G", "B", "Z", "N.x", "N.y", "N.z"};
+    float px[EXR_W * EXR_H * EXR_C];
+    fill_exr_pixels(px);
+    ts_image img = {EXR_W, EXR_H, EXR_C, names, px};
+    ts_error err = {0};
+    const char *path = scratch_path(buf0, s, "out.exr");
+    assert_int_equal(image_write_exr(path, &img, NULL, 0, &err), TS_OK);
+    assert_int_equal(err.code, 0);
+
+    ts_image back;
+    assert_int_equal(image_read(path, &back, &err), TS_OK);
+    assert_int_equal(back.width, EXR_W);
+    assert_int_equal(back.height, EXR_H);
+    assert_int_equal(back.channels, EXR_C);
+    for (int c = 0; c < EXR_C; c++)
+        assert_string_equal(back.channel_names[c], names[c]);
+    assert_null(back.channel_names[EXR_C]);
+    for (int i = 0; i < EXR_W * EXR_H * EXR_C; i++)
+        assert_int_equal(float_bits(back.pixels[i]), float_bits(px[i]));
+    image_free(&back);
+    assert_null(back.pixels);
+
+    const char *left[] = {"out.exr"};
+    assert_dir_holds(s->dir, left, 1);
+}
+
+/* EXR sorts channels by name on disk and OIIO reads them R, G, B, A, Z first; the
+ * order the writer gave must come back, with each value under its own name. */
+static void test_exr_channel_order(void **state)
+{
+    scratch *s = *state;
+    char buf0[256];
+    const char *names[] = {"albedo.R", "Z", "B", "N.x", "G", "R", "N.y"};
+    float px[7] = {1, 2, 3, 4, 5, 6, 7};
+    ts_image img = {1, 1, 7, names, px};
+    ts_error err = {0};
+    const char *path = scratch_path(buf0, s, "order.exr");
+    assert_int_equal(image_write_exr(path, &img, NULL, 0, &err), TS_OK);
+    ts_image back;
+    assert_int_equal(image_read(path, &back, &err), TS_OK);
+    assert_int_equal(back.channels, 7);
+    for (int c = 0; c < 7; c++) {
+        assert_string_equal(back.channel_names[c], names[c]);
+        assert_true(back.pixels[c] == px[c]);
+    }
+    image_free(&back);
+}
+
+static void test_exr_meta(void **state)
+{
+    scratch *s = *state;
+    char buf0[256];
+    float px[3] = {0.25f, 0.5f, 1.0f};
+    ts_image img = {1, 1, 3, NULL, px};
+    ts_image_meta meta[] = {{"tessera:spp", 16}, {"tessera:seed", -7}};
+    ts_error err = {0};
+    const char *path = scratch_path(buf0, s, "meta.exr");
+    assert_int_equal(image_write_exr(path, &img, meta, 2, &err), TS_OK);
+    int v = 0;
+    assert_int_equal(image_read_meta_int(path, "tessera:spp", &v, &err), TS_OK);
+    assert_int_equal(v, 16);
+    assert_int_equal(image_read_meta_int(path, "tessera:seed", &v, &err), TS_OK);
+    assert_int_equal(v, -7);
+    assert_int_equal(image_read_meta_int(path, "tessera:depth", &v, &err), TS_E_IO);
+    assert_non_null(strstr(err.msg, path));
+    assert_non_null(strstr(err.msg, "tessera:depth"));
+    ts_error_clear(&err);
+}
+
+/* ---- PNG ---- */
+
+static void test_png_round_trip(void **state)
+{
+    scratch *s = *state;
+    char buf0[256];
+    enum { N = 7 };
+    const float lin[N] = {0.0f, 0.0031308f, 0.5f, 1.0f, 2.0f, NAN, -1.0f};
+    const int want[N] = {0, 10, 188, 255, 255, 0, 0};
+    float rgb[N * 3];
+    for (int i = 0; i < N; i++) /* rotate values through R, G, B to catch channel swaps */
+        for (int c = 0; c < 3; c++)
+            rgb[i * 3 + c] = lin[(i + c) % N];
+    ts_error err = {0};
+    const char *path = scratch_path(buf0, s, "out.png");
+    assert_int_equal(image_write_png(path, N, 1, rgb, &err), TS_OK);
+
+    ts_image back;
+    assert_int_equal(image_read(path, &back, &err), TS_OK);
+    assert_int_equal(back.width, N);
+    assert_int_equal(back.height, 1);
+    assert_int_equal(back.channels, 3);
+    assert_string_equal(back.channel_names[0], "R");
+    assert_string_equal(back.channel_names[2], "B");
+    for (int i = 0; i < N; i++)
+        for (int c = 0; c < 3; c++) /* 8-bit values read back as v / 255 */
+            assert_int_equal((int)lroundf(back.pixels[i * 3 + c] * 255.0f), want[(i + c) % N]);
+    image_free(&back);
+    const char *left[] = {"out.png"};
+    assert_dir_holds(s->dir, left, 1);
+}
+
+/* ---- failures ---- */
+
+static void test_write_into_missing_dir(void **state)
+{
+    scratch *s = *state;
+    char buf0[256], buf1[256];
+    float px[3] = {1, 1, 1};
+    ts_image img = {1, 1, 3, NULL, px};
+    ts_error err = {0};
+    const char *exr = scratch_path(buf0, s, "no-such-dir/out.exr");
+    assert_int_equal(image_write_exr(exr, &img, NULL, 0, &err), TS_E_IO);
+    assert_int_equal(err.code, TS_E_IO);
+    assert_non_null(strstr(err.msg, exr));
+    assert_false(file_exists(exr));
+    ts_error_clear(&err);
+
+    const char *png = scratch_path(buf1, s, "no-such-dir/out.png");
+    assert_int_equal(image_write_png(png, 1, 1, px, &err), TS_E_IO);
+    assert_non_null(strstr(err.msg, png));
+    assert_false(file_exists(png));
+    ts_error_clear(&err);
+    assert_dir_holds(s->dir, NULL, 0);
+}
+
+static void test_failed_write_keeps_target(void **state)
+{
+    scratch *s = *state;
+    char buf0[256], buf1[256], buf2[256];
+    float px[3] = {0.5f, 0.5f, 0.5f};
+    ts_error err = {0};
+    char before[4096], after[4096];
+
+    /* A bad image (0 width) over an existing PNG. */
+    const char *png = scratch_path(buf0, s, "keep.png");
+    assert_int_equal(image_write_png(png, 1, 1, px, &err), TS_OK);
+    size_t n0 = slurp(png, before, sizeof before);
+    assert_int_equal(image_write_png(png, 0, 1, px, &err), TS_E_IO);
+    assert_non_null(strstr(err.msg, png));
+    assert_non_null(strstr(err.msg, "invalid image size"));
+    ts_error_clear(&err);
+    assert_int_equal(slurp(png, after, sizeof after), n0);
+    assert_memory_equal(before, after, n0);
+
+    /* An extension no writer here handles, over an existing file. */
+    const char *xyz = scratch_path(buf1, s, "keep.xyz");
+    spit(xyz, "old contents");
+    ts_image img = {1, 1, 3, NULL, px};
+    assert_int_equal(image_write_exr(xyz, &img, NULL, 0, &err), TS_E_IO);
+    assert_non_null(strstr(err.msg, xyz));
+    assert_non_null(strstr(err.msg, "unsupported output format"));
+    ts_error_clear(&err);
+    size_t n1 = slurp(xyz, after, sizeof after);
+    assert_int_equal(n1, strlen("old contents"));
+    assert_memory_equal(after, "old contents", n1);
+
+    /* A failure after the temporary was written: the rename onto a directory fails. */
+    const char *dir = scratch_path(buf2, s, "taken.exr");
+    assert_int_equal(mkdir(dir, 0700), 0);
+    assert_int_equal(image_write_exr(dir, &img, NULL, 0, &err), TS_E_IO);
+    assert_non_null(strstr(err.msg, dir));
+    ts_error_clear(&err);
+
+    const char *left[] = {"keep.png", "keep.xyz", "taken.exr"};
+    assert_dir_holds(s->dir, left, 3);
+}
+
+static void test_read_missing_file(void **state)
+{
+    scratch *s = *state;
+    char buf0[256];
+    ts_error err = {0};
+    ts_image img;
+    memset(&img, 0xff, sizeof img);
+    const char *path = scratch_path(buf0, s, "absent.exr");
+    assert_int_equal(image_read(path, &img, &err), TS_E_IO);
+    assert_non_null(strstr(err.msg, path));
+    assert_null(img.pixels);
+    assert_null(img.channel_names);
+    assert_null(strchr(err.msg, '\n'));
+    ts_error_clear(&err);
+    image_free(&img); /* a zeroed image is fine to free */
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_tonemap_values),
+        cmocka_unit_test_setup_teardown(test_exr_round_trip, scratch_setup, scratch_teardown),
+        cmocka_unit_test_setup_teardown(test_exr_channel_order, scratch_setup, scratch_teardown),
+        cmocka_unit_test_setup_teardown(test_exr_meta, scratch_setup, scratch_teardown),
+        cmocka_unit_test_setup_teardown(test_png_round_trip, scratch_setup, scratch_teardown),
+        cmocka_unit_test_setup_teardown(test_write_into_missing_dir, scratch_setup,
+                                        scratch_teardown),
+        cmocka_unit_test_setup_teardown(test_failed_write_keeps_target, scratch_setup,
+                                        scratch_teardown),
+        cmocka_unit_test_setup_teardown(test_read_missing_file, scratch_setup, scratch_teardown),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
