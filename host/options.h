@@ -1,0 +1,25 @@
+/* options.h — everything `tessera render` takes from the command line, zero-initialised
+ * with defaults set in one place (STYLE.md 16). */
+#ifndef TS_OPTIONS_H
+#define TS_OPTIONS_H
+
+#include "cl_runtime.h"
+
+typedef struct ts_render_options {
+    const char *scene_path;
+    const char *output_path;
+    const char *stats_path;  /* NULL: no --stats */
+    int width, height;       /* 0: from the scene's Format, else 640x480 */
+    int spp;                 /* samples per pixel */
+    int depth;               /* path depth (primary rays only for now; kept for the contract) */
+    unsigned seed;
+    int max_lod;             /* m: patches are diced at (2^m)^2 micro-quads */
+    int memory_mb;           /* budget for rays, pairs and patch slots */
+    int quiet;
+    ts_cl_options cl;
+} ts_render_options;
+
+/* Defaults: spp 1, depth 3, seed 0, max_lod 8, memory 1024 MB, device from TESSERA_DEVICE. */
+void render_options_defaults(ts_render_options *o);
+
+#endif

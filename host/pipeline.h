@@ -1,0 +1,79 @@
+/* pipeline.h — the wavefront two-level tracer on one OpenCL device (DESIGN.md §1): the
+ * buffers of a fixed memory budget, and one function per stage. pipeline_trace runs the
+ * loop top_level -> sort -> dice -> build -> bottom_level -> resolve until no ray of the wave
+ * is active. Memory is fixed at creation: it depends on the budget, never on the scene's
+ * micro-polygon count (Hanika §4). */
+#ifndef TS_PIPELINE_H
+#define TS_PIPELINE_H
+
+#include "cl_runtime.h"
+#include "qbvh.h"
+#include "radix_sort.h"
+#include "scene.h"
+#include "stats.h"
+
+/* Candidate pairs reserved per ray of a full wave: N starts near this (Hanika Table 3 starts
+ * at N = 8) and grows as rays finish. */
+#define TS_PAIRS_PER_RAY 8u
+/* N is clipped to [1, 100] (Hanika Table 3). */
+#define TS_N_MAX 100u
+/* Work-group size of every launch: one size, so PoCL compiles each kernel once. */
+#define TS_LOCAL_SIZE 64u
+
+/* Bytes of device memory one ray costs: its SoA fields, active/count/alive, radiance and
+ * aov, and TS_PAIRS_PER_RAY pairs (two sort buffers + a hit record each). */
+#define TS_BYTES_PER_RAY (16u + 16u + 20u + 4u + 4u + 4u + 4u + 4u + 16u + 16u + TS_PAIRS_PER_RAY * (8u + 8u + 20u))
+
+typedef struct ts_pipeline_plan {
+    uint32_t ray_capacity;  /* rays per wave */
+    uint32_t pair_capacity; /* (leaf, ray) candidates per iteration */
+    uint32_t slot_count;    /* patch slots: segments diced per batch */
+    uint32_t max_lod;
+} ts_pipeline_plan;
+
+/* Splits a budget of `memory_bytes` between patch slots (at most a quarter, at least one)
+ * and rays, for waves of at most `rays_wanted`, within the device's single-allocation limit.
+ * Returns TS_E_USAGE when not even one slot and one work-group of rays fit. */
+int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
+                  uint64_t max_alloc, ts_pipeline_plan *plan, ts_error *err);
+
+typedef struct ts_pipeline {
+    ts_cl *cl;
+    const ts_scene *scene;
+    ts_stats *stats;
+    ts_pipeline_plan plan;
+    uint32_t verts_per_slot, leaves_per_slot, nodes_per_slot, pixel_count;
+    ts_qbvh qbvh;
+    radix_sorter *sorter;
+    ts_segment *segments_host; /* one per patch at most */
+    cl_kernel k_camera, k_top_level, k_dice, k_build_leaves, k_build_level, k_bottom_level,
+        k_resolve, k_shade, k_film;
+    cl_mem qbvh_nodes, cp, attr;
+#define TS_RAY_BUFFER(type, name, what) cl_mem ray_##name;
+    TS_RAY_FIELDS(TS_RAY_BUFFER)
+#undef TS_RAY_BUFFER
+    cl_mem active, count, alive, pairs[2], pair_hit, segments, grid, nodes;
+    cl_mem radiance, aov, accum, aov_film;
+    uint32_t wave;
+} ts_pipeline;
+
+/* Creates buffers and kernels for `scene` on `cl` with an image of pixel_count pixels. */
+int pipeline_create(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, const ts_pipeline_plan *plan,
+                    uint32_t pixel_count, ts_stats *stats, ts_error *err);
+void pipeline_destroy(ts_pipeline *p);
+
+/* camera: generates rays first_sample .. first_sample + ray_count. */
+int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err);
+/* The two-level loop over the wave's ray_count rays (already in the ray buffers, with
+ * active[i] = i): returns when every ray's closest hit is known. */
+int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err);
+/* Single stages, for tests of one kernel against its C reference. pipeline_top_level runs
+ * top_level once over active[0..active_count) and waits; pipeline_dice_build dices and
+ * builds segments_host[0..count) (patch, slot and lod set by the caller) and waits. */
+int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err);
+int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err);
+/* shade + film for the wave. */
+int pipeline_shade_film(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sample,
+                        uint32_t ray_count, ts_error *err);
+
+#endif

@@ -1,0 +1,207 @@
+/* trace.c — the two-level loop of one wave (Hanika §3.1-3.2, DESIGN.md §1):
+ *   while rays are active:
+ *     top_level   -> up to N (leaf, window) candidates per active ray, N = capacity / R
+ *     sort        -> candidates by leaf, segments [begin, end) per patch
+ *     per batch of slot_count segments: dice -> build -> bottom_level
+ *     resolve     -> closest hit per ray; rays whose traversal is finished retire
+ * Host stages (sort, the compaction in resolve) are timed on the monotonic clock; kernels by
+ * their profiling events (cl_launch / cl_finish). */
+#include "pipeline.h"
+
+#include <string.h>
+
+#define ARG(x) sizeof(x), &(x)
+
+static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray,
+                           ts_error *err)
+{
+    if (cl_set_args(p->k_top_level, err, ARG(p->qbvh_nodes), ARG(p->active), ARG(active_count),
+                    ARG(n_per_ray), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
+                    ARG(p->ray_entry), ARG(p->pairs[0]), ARG(p->count), (size_t)0))
+        return err->code;
+    if (cl_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
+        return err->code;
+    return cl_finish(p->cl, p->stats, err);
+}
+
+/* Sorts the candidate windows on the host through mapped buffers (zero copy on CPU
+ * devices). Sets *sorted_buffer (0 or 1: which pairs buffer holds the result), and the
+ * segment table; returns the segment count through *segment_count. */
+static int stage_sort(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint32_t *valid,
+                      uint32_t *segment_count, ts_error *err)
+{
+    double t0 = stats_now();
+    cl_command_queue q = p->cl->queue;
+    cl_int rc0, rc1;
+    size_t bytes = (size_t)n * sizeof(ts_pair);
+    ts_pair *a = clEnqueueMapBuffer(q, p->pairs[0], CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes,
+                                    0, NULL, NULL, &rc0);
+    ts_pair *b = clEnqueueMapBuffer(q, p->pairs[1], CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes,
+                                    0, NULL, NULL, &rc1);
+    CL_CHECK(rc0, err);
+    CL_CHECK(rc1, err);
+    const ts_pair *sorted = NULL;
+    int rc = radix_sort_pairs(p->sorter, a, b, n, p->scene->patch_count, &sorted, valid, err);
+    uint32_t segs = 0;
+    if (rc == TS_OK) {
+        segs = sort_segments(sorted, *valid, p->segments_host, p->scene->patch_count);
+        if (segs == UINT32_MAX)
+            rc = ts_error_set(err, TS_E_INTERNAL, "sort: more segments than patches");
+    }
+    *sorted_buffer = sorted == b ? 1u : 0u;
+    CL_CHECK(clEnqueueUnmapMemObject(q, p->pairs[0], a, 0, NULL, NULL), err);
+    CL_CHECK(clEnqueueUnmapMemObject(q, p->pairs[1], b, 0, NULL, NULL), err);
+    if (rc) return rc;
+    /* LOD: every segment at max_lod (ray-driven LOD selection is a later stage of work). */
+    for (uint32_t s = 0; s < segs; ++s) {
+        p->segments_host[s].slot = s % p->plan.slot_count;
+        p->segments_host[s].lod = p->plan.max_lod;
+    }
+    if (segs)
+        CL_CHECK(clEnqueueWriteBuffer(q, p->segments, CL_TRUE, 0, segs * sizeof(ts_segment),
+                                      p->segments_host, 0, NULL, NULL),
+                 err);
+    *segment_count = segs;
+    p->stats->stage_seconds[TS_STAGE_sort] += stats_now() - t0;
+    return TS_OK;
+}
+
+static int stage_dice(ts_pipeline *p, uint32_t first, uint32_t count, ts_error *err)
+{
+    if (cl_set_args(p->k_dice, err, ARG(p->segments), ARG(first), ARG(count),
+                    ARG(p->verts_per_slot), ARG(p->cp), ARG(p->grid), (size_t)0))
+        return err->code;
+    for (uint32_t s = first; s < first + count; ++s) {
+        p->stats->counters[TS_COUNTER_patches_diced] += 1;
+        p->stats->counters[TS_COUNTER_micropolygons_created] += 1ull << (2u * p->segments_host[s].lod);
+    }
+    return cl_launch(p->cl, p->k_dice, TS_STAGE_dice, (size_t)count * p->verts_per_slot,
+                     TS_LOCAL_SIZE, err);
+}
+
+static int stage_build(ts_pipeline *p, uint32_t first, uint32_t count, ts_error *err)
+{
+    if (cl_set_args(p->k_build_leaves, err, ARG(p->segments), ARG(first), ARG(count),
+                    ARG(p->leaves_per_slot), ARG(p->verts_per_slot), ARG(p->nodes_per_slot),
+                    ARG(p->grid), ARG(p->nodes), (size_t)0) ||
+        cl_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)count * p->leaves_per_slot,
+                  TS_LOCAL_SIZE, err))
+        return err->code;
+    for (uint32_t level = p->plan.max_lod; level-- > 0;) {
+        if (cl_set_args(p->k_build_level, err, ARG(p->segments), ARG(first), ARG(count),
+                        ARG(level), ARG(p->nodes_per_slot), ARG(p->nodes), (size_t)0) ||
+            cl_launch(p->cl, p->k_build_level, TS_STAGE_build, (size_t)count << (2u * level),
+                      TS_LOCAL_SIZE, err))
+            return err->code;
+    }
+    return TS_OK;
+}
+
+static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, uint32_t first,
+                              uint32_t count, uint32_t n_per_ray, ts_error *err)
+{
+    const ts_segment *s = p->segments_host;
+    uint32_t pair_first = s[first].begin, pair_count = s[first + count - 1].end - pair_first;
+    if (cl_set_args(p->k_bottom_level, err, ARG(p->pairs[sorted_buffer]), ARG(pair_first),
+                    ARG(pair_count), ARG(p->segments), ARG(first), ARG(count),
+                    ARG(p->verts_per_slot), ARG(p->nodes_per_slot), ARG(n_per_ray),
+                    ARG(p->active), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
+                    ARG(p->grid), ARG(p->nodes), ARG(p->pair_hit), (size_t)0))
+        return err->code;
+    return cl_launch(p->cl, p->k_bottom_level, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE,
+                     err);
+}
+
+/* Folds candidate hits into each ray's closest hit, then compacts the active list on the
+ * host (kept in order, so results never depend on timing). Returns the new active count. */
+static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray,
+                         uint32_t *still_active, ts_error *err)
+{
+    if (cl_set_args(p->k_resolve, err, ARG(p->active), ARG(active_count), ARG(n_per_ray),
+                    ARG(p->count), ARG(p->pair_hit), ARG(p->ray_hit), ARG(p->ray_entry),
+                    ARG(p->alive), (size_t)0) ||
+        cl_launch(p->cl, p->k_resolve, TS_STAGE_resolve, active_count, TS_LOCAL_SIZE, err) ||
+        cl_finish(p->cl, p->stats, err))
+        return err->code;
+    double t0 = stats_now();
+    cl_command_queue q = p->cl->queue;
+    size_t bytes = (size_t)active_count * sizeof(uint32_t);
+    cl_int rc0, rc1;
+    uint32_t *act = clEnqueueMapBuffer(q, p->active, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes,
+                                       0, NULL, NULL, &rc0);
+    uint32_t *alive = clEnqueueMapBuffer(q, p->alive, CL_TRUE, CL_MAP_READ, 0, bytes, 0, NULL,
+                                         NULL, &rc1);
+    CL_CHECK(rc0, err);
+    CL_CHECK(rc1, err);
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < active_count; ++i)
+        if (alive[i]) act[n++] = act[i];
+    CL_CHECK(clEnqueueUnmapMemObject(q, p->active, act, 0, NULL, NULL), err);
+    CL_CHECK(clEnqueueUnmapMemObject(q, p->alive, alive, 0, NULL, NULL), err);
+    *still_active = n;
+    p->stats->stage_seconds[TS_STAGE_resolve] += stats_now() - t0;
+    return TS_OK;
+}
+
+int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err)
+{
+    return stage_top_level(p, active_count, n_per_ray, err);
+}
+
+int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
+{
+    if (count > p->plan.slot_count)
+        return ts_error_set(err, TS_E_INTERNAL, "%u segments for %u slots", count, p->plan.slot_count);
+    CL_CHECK(clEnqueueWriteBuffer(p->cl->queue, p->segments, CL_TRUE, 0, count * sizeof(ts_segment),
+                                  p->segments_host, 0, NULL, NULL),
+             err);
+    if (stage_dice(p, 0, count, err) || stage_build(p, 0, count, err)) return err->code;
+    return cl_finish(p->cl, p->stats, err);
+}
+
+/* N per ray for R active rays: capacity / R, clipped to [1, 100] (Hanika §3.1, Table 3). */
+static uint32_t pairs_per_ray(uint32_t capacity, uint32_t active)
+{
+    uint32_t n = capacity / (active ? active : 1);
+    return n < 1 ? 1 : n > TS_N_MAX ? TS_N_MAX : n;
+}
+
+int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
+{
+    uint32_t active = ray_count;
+    p->stats->counters[TS_COUNTER_rays] += ray_count;
+    for (uint32_t it = 0; active > 0; ++it) {
+        uint32_t n_per_ray = pairs_per_ray(p->plan.pair_capacity, active);
+        uint32_t sorted_buffer = 0, valid = 0, segs = 0;
+        if (stage_top_level(p, active, n_per_ray, err) ||
+            stage_sort(p, active * n_per_ray, &sorted_buffer, &valid, &segs, err))
+            return err->code;
+        for (uint32_t first = 0; first < segs; first += p->plan.slot_count) {
+            uint32_t count = segs - first < p->plan.slot_count ? segs - first : p->plan.slot_count;
+            if (stage_dice(p, first, count, err) || stage_build(p, first, count, err) ||
+                stage_bottom_level(p, sorted_buffer, first, count, n_per_ray, err))
+                return err->code;
+        }
+        ts_iteration rec = {p->wave, it, active, n_per_ray, valid, segs};
+        if (stats_add_iteration(p->stats, &rec, err)) return err->code;
+        p->stats->counters[TS_COUNTER_pairs] += valid;
+        p->stats->counters[TS_COUNTER_iterations] += 1;
+        if (stage_resolve(p, active, n_per_ray, &active, err)) return err->code;
+    }
+    return TS_OK;
+}
+
+int pipeline_shade_film(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sample,
+                        uint32_t ray_count, ts_error *err)
+{
+    ts_shade_params s = *sp;
+    if (cl_set_args(p->k_shade, err, ARG(s), ARG(ray_count), ARG(p->ray_dir), ARG(p->ray_hit),
+                    ARG(p->cp), ARG(p->attr), ARG(p->radiance), ARG(p->aov), (size_t)0) ||
+        cl_launch(p->cl, p->k_shade, TS_STAGE_shade, ray_count, TS_LOCAL_SIZE, err))
+        return err->code;
+    if (cl_set_args(p->k_film, err, ARG(first_sample), ARG(ray_count), ARG(p->pixel_count),
+                    ARG(p->radiance), ARG(p->aov), ARG(p->accum), ARG(p->aov_film), (size_t)0) ||
+        cl_launch(p->cl, p->k_film, TS_STAGE_film, p->pixel_count, TS_LOCAL_SIZE, err))
+        return err->code;
+    return cl_finish(p->cl, p->stats, err);
+}

@@ -1,0 +1,38 @@
+/* camera.cl — stage `camera`: generates one wave of eye rays.
+ * Reads:  ts_camera_params (by value).
+ * Writes: per ray org, dir, hit (cleared), entry (TS_ENTRY_START), pixel; active[i] = i.
+ * Ray g = first_sample + i covers pixel g % (width*height), sample g / (width*height), so a
+ * wave is a run of whole sample passes and the film can sum samples in a fixed order.
+ * RenderMan screen: x right, y up; raster y grows downwards. One sample per pixel goes
+ * through the pixel centre; more are jittered by the counter-based RNG (lib/rng.h). */
+#include "lib/shared_types.h"
+#include "lib/rng.h"
+
+__kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __global ts_vec4 *dir,
+                              __global ts_hit *hit, __global uint *entry, __global uint *pixel,
+                              __global uint *active)
+{
+    uint i = get_global_id(0);
+    if (i >= p.ray_count) return;
+    uint npix = p.width * p.height;
+    uint g = p.first_sample + i;
+    uint pix = g % npix, sample = g / npix;
+    uint x = pix % p.width, y = pix / p.width;
+    float jx = 0.5f, jy = 0.5f;
+    if (p.spp > 1) {
+        jx = rng_uniform(pix, sample, 0, 0, p.seed);
+        jy = rng_uniform(pix, sample, 0, 1, p.seed);
+    }
+    float sx = 2.0f * ((float)x + jx) / (float)p.width - 1.0f;
+    float sy = 1.0f - 2.0f * ((float)y + jy) / (float)p.height;
+    float dx = sx * p.right[0] + sy * p.up[0] + p.forward[0];
+    float dy = sx * p.right[1] + sy * p.up[1] + p.forward[1];
+    float dz = sx * p.right[2] + sy * p.up[2] + p.forward[2];
+    float inv = 1.0f / sqrt(dx * dx + dy * dy + dz * dz);
+    org[i] = (ts_vec4){p.origin[0], p.origin[1], p.origin[2], 0.0f};
+    dir[i] = (ts_vec4){dx * inv, dy * inv, dz * inv, 0.0f};
+    hit[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
+    entry[i] = TS_ENTRY_START;
+    pixel[i] = pix;
+    active[i] = i;
+}

@@ -1,0 +1,101 @@
+/* bezier.h — bicubic Bézier patch evaluation, shared by the dice/shade kernels and the host
+ * (the brute-force reference tracer dices with it so both sides produce the same vertices
+ * bit for bit; tests/test_dice.c checks it against an independent de Casteljau in double).
+ * Control points: 16 ts_vec4, row by row with u fastest (cp[j * 4 + i]). */
+#ifndef TS_BEZIER_H
+#define TS_BEZIER_H
+
+#include "lib/shared_types.h"
+
+#ifndef __OPENCL_C_VERSION__
+#include <math.h>
+#endif
+
+/* Cubic Bernstein basis at t: (1-t)^3, 3t(1-t)^2, 3t^2(1-t), t^3. */
+TS_INLINE void bezier_basis(float t, float b[4])
+{
+    float s = 1.0f - t;
+    b[0] = s * s * s;
+    b[1] = 3.0f * t * s * s;
+    b[2] = 3.0f * t * t * s;
+    b[3] = t * t * t;
+}
+
+/* Derivative of the basis: 3 * (-(1-t)^2, (1-t)^2 - 2t(1-t), 2t(1-t) - t^2, t^2). */
+TS_INLINE void bezier_basis_deriv(float t, float d[4])
+{
+    float s = 1.0f - t;
+    d[0] = -3.0f * s * s;
+    d[1] = 3.0f * (s * s - 2.0f * t * s);
+    d[2] = 3.0f * (2.0f * t * s - t * t);
+    d[3] = 3.0f * t * t;
+}
+
+/* Sum over the grid with weights bu[i] * bv[j]; fixed operation order (no FMA, see
+ * FP_CONTRACT) so host and device agree. */
+TS_INLINE ts_vec4 bezier_combine(TS_CONST_GLOBAL ts_vec4 *cp, const float bu[4],
+                                 const float bv[4])
+{
+    ts_vec4 r = {0.0f, 0.0f, 0.0f, 0.0f};
+    for (int j = 0; j < 4; ++j) {
+        float rx = 0.0f, ry = 0.0f, rz = 0.0f;
+        for (int i = 0; i < 4; ++i) {
+            ts_vec4 c = cp[j * 4 + i];
+            rx += bu[i] * c.x;
+            ry += bu[i] * c.y;
+            rz += bu[i] * c.z;
+        }
+        r.x += bv[j] * rx;
+        r.y += bv[j] * ry;
+        r.z += bv[j] * rz;
+    }
+    return r;
+}
+
+/* Position at (u, v) in [0,1]^2; w = 1. */
+TS_INLINE ts_vec4 bezier_eval(TS_CONST_GLOBAL ts_vec4 *cp, float u, float v)
+{
+    float bu[4], bv[4];
+    bezier_basis(u, bu);
+    bezier_basis(v, bv);
+    ts_vec4 p = bezier_combine(cp, bu, bv);
+    p.w = 1.0f;
+    return p;
+}
+
+/* Unnormalised surface normal dP/du x dP/dv at (u, v). Zero where a derivative vanishes
+ * (the teapot's lid apex and bottom centre): see bezier_normal. */
+TS_INLINE ts_vec4 bezier_cross_derivs(TS_CONST_GLOBAL ts_vec4 *cp, float u, float v)
+{
+    float bu[4], bv[4], du[4], dv[4];
+    bezier_basis(u, bu);
+    bezier_basis(v, bv);
+    bezier_basis_deriv(u, du);
+    bezier_basis_deriv(v, dv);
+    ts_vec4 pu = bezier_combine(cp, du, bv);
+    ts_vec4 pv = bezier_combine(cp, bu, dv);
+    ts_vec4 n = {pu.y * pv.z - pu.z * pv.y, pu.z * pv.x - pu.x * pv.z, pu.x * pv.y - pu.y * pv.x,
+                 0.0f};
+    return n;
+}
+
+/* Unit normal at (u, v). At a degenerate point (a collapsed edge, dP/du = 0) the normal is
+ * the limit from inside the patch: it is evaluated a little towards the centre. */
+TS_INLINE ts_vec4 bezier_normal(TS_CONST_GLOBAL ts_vec4 *cp, float u, float v)
+{
+    ts_vec4 n = bezier_cross_derivs(cp, u, v);
+    float len2 = n.x * n.x + n.y * n.y + n.z * n.z;
+    for (int k = 0; k < 8 && !(len2 > 1e-20f); ++k) {
+        u = 0.5f + 0.999f * (u - 0.5f) + (u < 0.5f ? 1e-3f : -1e-3f);
+        v = 0.5f + 0.999f * (v - 0.5f) + (v < 0.5f ? 1e-3f : -1e-3f);
+        n = bezier_cross_derivs(cp, u, v);
+        len2 = n.x * n.x + n.y * n.y + n.z * n.z;
+    }
+    float inv = len2 > 0.0f ? 1.0f / sqrt(len2) : 0.0f;
+    n.x *= inv;
+    n.y *= inv;
+    n.z *= inv;
+    return n;
+}
+
+#endif

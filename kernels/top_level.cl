@@ -1,0 +1,78 @@
+/* top_level.cl — stage `top_level` (Hanika §3.1, Fig. 2): each active ray resumes its
+ * ordered traversal of the top-level QBVH and appends up to n_per_ray candidate
+ * (leaf, window) pairs, front to back.
+ * Reads:  nodes, active[0..active_count), org, dir, hit.t (tmax: closest hit so far),
+ *         entry (where the ray stopped last iteration).
+ * Writes: pairs[i*n_per_ray .. +n_per_ray) (unused entries: leaf = TS_INVALID), count[i],
+ *         entry (TS_INVALID once the traversal is finished).
+ * Invariant: the child order of a node depends only on the signs of the ray direction on
+ * the node's split axes, so (node, position) is enough to resume, and across all
+ * iterations every leaf box the ray meets within tmax is emitted exactly once. */
+#include "lib/shared_types.h"
+#include "lib/intersect.h"
+
+/* The ray's visiting order of a node's four children (see ts_qbvh_node). */
+inline void child_order(uint axes, float dx, float dy, float dz, uint order[4])
+{
+    float d[3] = {dx, dy, dz};
+    uint a0 = axes & 3u, a1 = (axes >> 2) & 3u, a2 = (axes >> 4) & 3u;
+    uint first = d[a0] >= 0.0f ? 0u : 2u;
+    uint lo0 = d[a1] >= 0.0f ? 0u : 1u, lo1 = d[a2] >= 0.0f ? 2u : 3u;
+    uint pair0[2] = {lo0, 1u - lo0}, pair1[2] = {lo1, 5u - lo1};
+    order[0] = first == 0u ? pair0[0] : pair1[0];
+    order[1] = first == 0u ? pair0[1] : pair1[1];
+    order[2] = first == 0u ? pair1[0] : pair0[0];
+    order[3] = first == 0u ? pair1[1] : pair0[1];
+}
+
+__kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global const uint *active,
+                                uint active_count, uint n_per_ray, __global const ts_vec4 *org,
+                                __global const ts_vec4 *dir, __global const ts_hit *hit,
+                                __global uint *entry, __global ts_pair *pairs,
+                                __global uint *count)
+{
+    uint i = get_global_id(0);
+    if (i >= active_count) return;
+    uint ray = active[i];
+    ts_vec4 o = org[ray], d = dir[ray];
+    float ix = safe_reciprocal(d.x), iy = safe_reciprocal(d.y), iz = safe_reciprocal(d.z);
+    float tmax = hit[ray].t;
+    uint state = entry[ray];
+    uint node = state >> 3, pos = state & 7u, n = 0;
+    uint order[4];
+    if (state != TS_INVALID) child_order(nodes[node].axes, d.x, d.y, d.z, order);
+    while (state != TS_INVALID) {
+        if (pos < 4u) {
+            uint c = order[pos++];
+            __global const ts_qbvh_node *q = &nodes[node];
+            float te = box_enter(o.x, o.y, o.z, ix, iy, iz, q->lo_x[c], q->lo_y[c], q->lo_z[c],
+                                 q->hi_x[c], q->hi_y[c], q->hi_z[c], o.w, tmax);
+            int child = q->child[c];
+            if (te < 0.0f || child == TS_CHILD_EMPTY) continue;
+            if (child >= 0) {
+                node = (uint)child;
+                pos = 0u;
+                child_order(nodes[node].axes, d.x, d.y, d.z, order);
+                continue;
+            }
+            pairs[i * n_per_ray + n] = (ts_pair){(uint)~child, i * n_per_ray + n};
+            if (++n == n_per_ray) {
+                state = (node << 3) | pos;
+                break;
+            }
+        } else if (node == 0u) {
+            state = TS_INVALID; /* back at the root with every child done */
+        } else {
+            uint slot = nodes[node].parent_slot;
+            node = (uint)nodes[node].parent;
+            child_order(nodes[node].axes, d.x, d.y, d.z, order);
+            pos = 0u;
+            while (order[pos] != slot) ++pos;
+            ++pos;
+        }
+    }
+    for (uint k = n; k < n_per_ray; ++k)
+        pairs[i * n_per_ray + k] = (ts_pair){TS_INVALID, i * n_per_ray + k};
+    count[i] = n;
+    entry[ray] = state;
+}

@@ -1,0 +1,184 @@
+/* test_cli.c — `tessera` as a user runs it: bad input gives a one-line error, exit status 1
+ * and no output file; a render writes the EXR with its AOV channels and a --stats JSON with
+ * the schema of DESIGN.md §4; the second run loads the kernels from the binary cache. */
+#include "test_support.h"
+#include "image.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+static char dir[4096], cache[4200];
+
+/* Runs tessera with `args`; returns the exit status; stderr goes to dir/stderr.txt. */
+static int run(const char *args)
+{
+    char cmd[16384];
+    snprintf(cmd, sizeof cmd, "TESSERA_CACHE_DIR='%s' '%s' %s 2>'%s/stderr.txt' >/dev/null", cache,
+             test_tessera_binary(), args, dir);
+    int st = system(cmd);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static void read_stderr(char *buf, size_t cap)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/stderr.txt", dir);
+    FILE *f = fopen(path, "r");
+    size_t n = f ? fread(buf, 1, cap - 1, f) : 0;
+    buf[n] = '\0';
+    if (f) fclose(f);
+}
+
+static int exists(const char *name)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+static void expect_error(const char *args, const char *needle)
+{
+    assert_int_equal(run(args), 1);
+    char err[8192];
+    read_stderr(err, sizeof err);
+    if (!strstr(err, needle)) fail_msg("stderr of `tessera %s` lacks \"%s\":\n%s", args, needle, err);
+    /* One line: the message and its newline, nothing else. */
+    assert_non_null(strchr(err, '\n'));
+    assert_true(strchr(err, '\n')[1] == '\0');
+    assert_false(exists("out.png"));
+}
+
+static int setup(void **state)
+{
+    snprintf(dir, sizeof dir, "%s", test_scratch_dir());
+    snprintf(cache, sizeof cache, "%s/cache", dir);
+    return 0;
+}
+
+static void test_bad_input(void **state)
+{
+    char args[8192], bad[4200];
+    snprintf(bad, sizeof bad, "%s/bad.rib", dir);
+    FILE *f = fopen(bad, "w");
+    fputs("WorldBegin\nPatch \"bicubic\" \"P\" [0 0 0\n", f); /* unterminated array */
+    fclose(f);
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png'", bad, dir);
+    expect_error(args, "bad.rib:2:");
+    snprintf(args, sizeof args, "render '%s/missing.rib' -o '%s/out.png'", dir, dir);
+    expect_error(args, "missing.rib");
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --device 99", test_source_path("scene/teapot.rib"), dir);
+    expect_error(args, "unknown device index 99");
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --bogus", test_source_path("scene/teapot.rib"), dir);
+    expect_error(args, "unknown option --bogus");
+    expect_error("frobnicate", "unknown command");
+}
+
+static double number(const cJSON *o, const char *key)
+{
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
+    if (!cJSON_IsNumber(v)) fail_msg("stats: \"%s\" is missing or not a number", key);
+    return v->valuedouble;
+}
+
+static cJSON *load_json(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    static char text[1 << 20];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[n] = '\0';
+    cJSON *j = cJSON_Parse(text);
+    assert_non_null(j);
+    return j;
+}
+
+static void test_render_exr_and_stats(void **state)
+{
+    char args[8192], path[4200];
+    snprintf(args, sizeof args, "render '%s' -o '%s/t.exr' --res 64x36 --max-lod 4 --stats '%s/s.json' --quiet",
+             test_source_path("scene/teapot.rib"), dir, dir);
+    assert_int_equal(run(args), 0);
+    snprintf(path, sizeof path, "%s/t.exr", dir);
+    ts_image img;
+    ts_error err = {0};
+    assert_int_equal(image_read(path, &img, &err), TS_OK);
+    assert_int_equal(img.width, 64);
+    assert_int_equal(img.channels, 7);
+    const char *want[] = {"R", "G", "B", "Z", "N.x", "N.y", "N.z"};
+    for (int c = 0; c < 7; ++c) assert_string_equal(img.channel_names[c], want[c]);
+    int hits = 0;
+    for (int i = 0; i < img.width * img.height; ++i) {
+        const float *px = &img.pixels[i * 7];
+        if (isinf(px[3])) continue; /* a miss: black, no normal */
+        ++hits;
+        float nl = sqrtf(px[4] * px[4] + px[5] * px[5] + px[6] * px[6]);
+        assert_true(px[3] > 0 && fabsf(nl - 1.0f) < 1e-3f);
+    }
+    assert_true(hits > 200 && hits < 64 * 36);
+    image_free(&img);
+
+    snprintf(path, sizeof path, "%s/s.json", dir);
+    cJSON *j = load_json(path);
+    assert_true(cJSON_IsString(cJSON_GetObjectItemCaseSensitive(j, "device")));
+    assert_true(number(j, "wall_seconds") > 0);
+    assert_true(number(j, "peak_rss_bytes") > 0);
+    const cJSON *stages = cJSON_GetObjectItemCaseSensitive(j, "stages");
+    const char *names[] = {"camera", "top_level", "sort", "dice", "build", "bottom_level", "resolve", "shade", "film"};
+    for (int i = 0; i < 9; ++i) assert_true(number(stages, names[i]) >= 0);
+    const cJSON *c = cJSON_GetObjectItemCaseSensitive(j, "counters");
+    assert_int_equal((int)number(c, "rays"), 64 * 36);
+    assert_int_equal((int)number(c, "shadow_rays"), 0);
+    assert_true(number(c, "pairs") >= hits);
+    assert_true(number(c, "patches_diced") >= 1);
+    assert_int_equal((long)number(c, "micropolygons_potential"), 32L * 256);
+    assert_int_equal((long)number(c, "micropolygons_created"), (long)number(c, "patches_diced") * 256);
+    const cJSON *its = cJSON_GetObjectItemCaseSensitive(j, "iterations");
+    assert_true(cJSON_GetArraySize(its) >= 1);
+    const cJSON *first = cJSON_GetArrayItem(its, 0);
+    assert_int_equal((int)number(first, "active_rays"), 64 * 36);
+    assert_true(number(first, "n_per_ray") >= 1 && number(first, "n_per_ray") <= 100);
+    number(first, "wave"), number(first, "iteration"), number(first, "pairs");
+    cJSON_Delete(j);
+
+    /* Same command again: the kernels come from the binary cache. */
+    assert_int_equal(run(args), 0);
+    j = load_json(path);
+    assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(j, "kernel_cache_hit")));
+    cJSON_Delete(j);
+}
+
+static void test_png_is_written_atomically(void **state)
+{
+    char args[8192];
+    snprintf(args, sizeof args, "render '%s' -o '%s/t.png' --res 32x18 --max-lod 3 --quiet",
+             test_source_path("scene/teapot.rib"), dir);
+    assert_int_equal(run(args), 0);
+    assert_true(exists("t.png"));
+    /* No temporary is left beside it. */
+    char cmd[8400];
+    snprintf(cmd, sizeof cmd, "ls -a '%s' | grep -q tmp", dir);
+    assert_int_not_equal(system(cmd), 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_bad_input),
+        cmocka_unit_test(test_render_exr_and_stats),
+        cmocka_unit_test(test_png_is_written_atomically),
+    };
+    ts_device_info *list = NULL;
+    ts_error err = {0};
+    int n = cl_list_devices(&list, &err);
+    free(list);
+    if (n <= 0) return TS_TEST_SKIP;
+    return cmocka_run_group_tests(tests, setup, NULL);
+}

@@ -1,0 +1,48 @@
+/* test_stages.c — docs/stages.md names the same stages, in the same order, as the
+ * TS_STAGES list that drives the enum, the --stats keys and the timing table (STYLE.md 4). */
+#include "test_support.h"
+#include "stages.h"
+
+#include <stdio.h>
+#include <string.h>
+
+static void test_docs_name_the_stages_in_order(void **state)
+{
+    FILE *f = fopen(test_source_path("docs/stages.md"), "r");
+    assert_non_null(f);
+    char line[4096];
+    int next = 0;
+    while (fgets(line, sizeof line, f)) {
+        char name[64];
+        /* Table rows start with "| `name` |". */
+        if (sscanf(line, "| `%63[a-z_]` |", name) != 1) continue;
+        if (next >= TS_STAGE_COUNT) fail_msg("docs/stages.md lists an extra stage %s", name);
+        if (strcmp(name, ts_stage_names[next]) != 0)
+            fail_msg("docs/stages.md row %d is %s, host/stages.h says %s", next + 1, name, ts_stage_names[next]);
+        ++next;
+    }
+    fclose(f);
+    assert_int_equal(next, TS_STAGE_COUNT);
+}
+
+static void test_each_stage_has_a_kernel_file_or_host_file(void **state)
+{
+    /* Device stages live in kernels/<stage>.cl; sort is the host's radix sort. */
+    for (int i = 0; i < TS_STAGE_COUNT; ++i) {
+        char rel[128];
+        if (strcmp(ts_stage_names[i], "sort") == 0) snprintf(rel, sizeof rel, "host/radix_sort.c");
+        else snprintf(rel, sizeof rel, "kernels/%s.cl", ts_stage_names[i]);
+        FILE *f = fopen(test_source_path(rel), "r");
+        if (!f) fail_msg("stage %s has no %s", ts_stage_names[i], rel);
+        fclose(f);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_docs_name_the_stages_in_order),
+        cmocka_unit_test(test_each_stage_has_a_kernel_file_or_host_file),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

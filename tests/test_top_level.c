@@ -1,0 +1,120 @@
+/* test_top_level.c — the top_level kernel's resumable ordered traversal against brute force:
+ * over all iterations a ray emits exactly the patches whose box it meets within tmax, each
+ * once (Hanika §3.1), for N = 1, 3 and 100 candidates per iteration, with infinite and
+ * finite tmax, and the traversal ends in TS_INVALID. */
+#include "test_support.h"
+#include "lib/intersect.h"
+#include "pipeline.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+enum { PATCHES = 300, RAYS = 500 };
+
+static void random_patches(ts_scene *s, uint32_t seed)
+{
+    memset(s, 0, sizeof *s);
+    ts_error err = {0};
+    for (int p = 0; p < PATCHES; ++p) {
+        double cp[16][3];
+        float ox = test_uniform(&seed, -10, 10), oy = test_uniform(&seed, -10, 10),
+              oz = test_uniform(&seed, -10, 10), size = test_uniform(&seed, 0.1f, 2.5f);
+        for (int k = 0; k < 16; ++k) {
+            cp[k][0] = ox + size * test_uniform(&seed, 0, 1);
+            cp[k][1] = oy + size * test_uniform(&seed, 0, 1);
+            cp[k][2] = oz + size * test_uniform(&seed, 0, 1);
+        }
+        ts_patch_attr a = {1, 1, 1, 0};
+        assert_int_equal(scene_add_patch(s, cp, &a, &err), TS_OK);
+    }
+}
+
+static void run_case(ts_cl *cl, const ts_scene *s, uint32_t n_per_ray, int finite_tmax)
+{
+    ts_stats stats;
+    memset(&stats, 0, sizeof stats);
+    ts_error err = {0};
+    ts_pipeline_plan plan = {.ray_capacity = RAYS, .pair_capacity = RAYS * 100, .slot_count = 1, .max_lod = 1};
+    ts_pipeline p;
+    if (pipeline_create(&p, cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
+    ts_vec4 org[RAYS], dir[RAYS];
+    ts_hit hit[RAYS];
+    uint32_t entry[RAYS], active[RAYS];
+    uint32_t seed = 99u + n_per_ray;
+    for (int r = 0; r < RAYS; ++r) {
+        org[r] = (ts_vec4){test_uniform(&seed, -12, 12), test_uniform(&seed, -12, 12), test_uniform(&seed, -12, 12), 0};
+        float dx = test_uniform(&seed, -1, 1), dy = test_uniform(&seed, -1, 1), dz = test_uniform(&seed, -1, 1);
+        if (r % 17 == 0) dy = 0.0f; /* axis-parallel components take the 0 * inf path */
+        dir[r] = (ts_vec4){dx, dy, dz, 0};
+        hit[r] = (ts_hit){finite_tmax ? test_uniform(&seed, 1, 20) : TS_NO_HIT, 0, 0, TS_INVALID, TS_INVALID};
+        entry[r] = TS_ENTRY_START;
+        active[r] = (uint32_t)r;
+    }
+    cl_command_queue q = cl->queue;
+    clEnqueueWriteBuffer(q, p.ray_org, CL_TRUE, 0, sizeof org, org, 0, NULL, NULL);
+    clEnqueueWriteBuffer(q, p.ray_dir, CL_TRUE, 0, sizeof dir, dir, 0, NULL, NULL);
+    clEnqueueWriteBuffer(q, p.ray_hit, CL_TRUE, 0, sizeof hit, hit, 0, NULL, NULL);
+    clEnqueueWriteBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL);
+    clEnqueueWriteBuffer(q, p.active, CL_TRUE, 0, sizeof active, active, 0, NULL, NULL);
+    uint8_t *seen = calloc((size_t)RAYS * PATCHES, 1);
+    ts_pair *pairs = malloc((size_t)RAYS * n_per_ray * sizeof *pairs);
+    uint32_t count[RAYS];
+    int done = 0;
+    for (int it = 0; it < 1000 && !done; ++it) {
+        if (pipeline_top_level(&p, RAYS, n_per_ray, &err)) fail_msg("%s", err.msg);
+        clEnqueueReadBuffer(q, p.pairs[0], CL_TRUE, 0, (size_t)RAYS * n_per_ray * sizeof *pairs, pairs, 0, NULL, NULL);
+        clEnqueueReadBuffer(q, p.count, CL_TRUE, 0, sizeof count, count, 0, NULL, NULL);
+        clEnqueueReadBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL);
+        done = 1;
+        for (int r = 0; r < RAYS; ++r) {
+            assert_true(count[r] <= n_per_ray);
+            for (uint32_t k = 0; k < n_per_ray; ++k) {
+                ts_pair pr = pairs[r * n_per_ray + k];
+                assert_int_equal(pr.window, r * n_per_ray + k);
+                if (k >= count[r]) {
+                    assert_int_equal(pr.leaf, TS_INVALID);
+                    continue;
+                }
+                assert_true(pr.leaf < PATCHES);
+                if (seen[(size_t)r * PATCHES + pr.leaf]++)
+                    fail_msg("ray %d emitted patch %u twice (N=%u)", r, pr.leaf, n_per_ray);
+            }
+            if (entry[r] != TS_INVALID) done = 0;
+            else if (count[r] == 0) continue;
+        }
+    }
+    assert_true(done);
+    for (int r = 0; r < RAYS; ++r) {
+        float ix = safe_reciprocal(dir[r].x), iy = safe_reciprocal(dir[r].y), iz = safe_reciprocal(dir[r].z);
+        for (uint32_t b = 0; b < PATCHES; ++b) {
+            ts_box x = scene_patch_box(s, b);
+            int want = box_enter(org[r].x, org[r].y, org[r].z, ix, iy, iz, x.lo_x, x.lo_y, x.lo_z,
+                                 x.hi_x, x.hi_y, x.hi_z, 0.0f, hit[r].t) >= 0.0f;
+            if (want != seen[(size_t)r * PATCHES + b])
+                fail_msg("ray %d patch %u: brute force %d, traversal %d (N=%u)", r, b, want,
+                         seen[(size_t)r * PATCHES + b], n_per_ray);
+        }
+    }
+    free(seen);
+    free(pairs);
+    pipeline_destroy(&p);
+}
+
+static void test_every_box_once(void **state)
+{
+    ts_cl cl;
+    test_open_device(&cl);
+    ts_scene s;
+    random_patches(&s, 7u);
+    const uint32_t ns[3] = {1, 3, 100};
+    for (int i = 0; i < 3; ++i)
+        for (int finite = 0; finite < 2; ++finite) run_case(&cl, &s, ns[i], finite);
+    scene_free(&s);
+    cl_close(&cl);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_every_box_once)};
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
