@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# tools/setup.sh — installs the Debian 12 packages Tessera needs (only those missing), then
+# configures and builds into build/. Used by tools/demo.sh and tools/test.sh.
+# Environment: BUILD_DIR (default build), BUILD_TYPE (default RelWithDebInfo),
+# CMAKE_ARGS (extra arguments for cmake, e.g. -DTESSERA_SANITIZE=ON).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(
+  cmake ninja-build gcc g++ pkg-config
+  pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo
+  libopenimageio-dev libcjson-dev libcmocka-dev
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  sudo=""
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || { echo "setup: run as root or install: ${missing[*]}" >&2; exit 1; }
+    sudo=sudo
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -qq
+  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+build_dir=${BUILD_DIR:-build}
+# shellcheck disable=SC2086
+cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-RelWithDebInfo}" ${CMAKE_ARGS:-} >/dev/null
+cmake --build "$build_dir" -j "$(nproc)"
