@@ -85,9 +85,9 @@ struct radix_sorter {
     uint32_t generation;   /* one per call */
     bool quit;
     radix_job job;
-    _Atomic uint64_t next;                /* (generation << 32) | next task to claim */
-    atomic_uint done[RADIX_PHASES];       /* tasks completed per phase */
-    uint32_t *rows; /* [RADIX_MAX_CHUNKS][RADIX_HIST_STRIDE], 64-byte aligned */
+    _Atomic uint64_t next;          /* (generation << 32) | next task to claim */
+    atomic_uint done[RADIX_PHASES]; /* tasks completed per phase */
+    uint32_t *rows;                 /* [RADIX_MAX_CHUNKS][RADIX_HIST_STRIDE], 64-byte aligned */
 };
 
 static inline void radix_cpu_relax(void)
@@ -418,7 +418,10 @@ void radix_sorter_destroy(radix_sorter *s)
     if (s) radix_sorter_free(s);
 }
 
-int radix_sorter_threads(const radix_sorter *s) { return s->threads; }
+int radix_sorter_threads(const radix_sorter *s)
+{
+    return s->threads;
+}
 
 void radix_sorter_set_grain(radix_sorter *s, uint32_t pairs_per_chunk)
 {

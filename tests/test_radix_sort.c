@@ -185,18 +185,34 @@ static void run_size(void **state, uint32_t n, uint32_t grain)
     free(expect);
 }
 
-static void test_size_0(void **state) { run_size(state, 0, 1); }
-static void test_size_1(void **state) { run_size(state, 1, 1); }
-static void test_size_7(void **state) { run_size(state, 7, 1); }
-static void test_size_1000(void **state) { run_size(state, 1000, 1); }
+static void test_size_0(void **state)
+{
+    run_size(state, 0, 1);
+}
+static void test_size_1(void **state)
+{
+    run_size(state, 1, 1);
+}
+static void test_size_7(void **state)
+{
+    run_size(state, 7, 1);
+}
+static void test_size_1000(void **state)
+{
+    run_size(state, 1000, 1);
+}
 /* Default grain: 2^20 pairs spread over every thread of the pool. */
-static void test_size_1m(void **state) { run_size(state, 1u << 20, RADIX_DEFAULT_GRAIN); }
+static void test_size_1m(void **state)
+{
+    run_size(state, 1u << 20, RADIX_DEFAULT_GRAIN);
+}
 
 static void test_pass_count(void **state)
 {
     (void)state;
-    const uint32_t limits[] = {0, 1, 2, 255, 256, 257, 65536, 65537, 70000, 1u << 24,
-                               (1u << 24) + 1, 0xFFFFFFFEu, 0xFFFFFFFFu};
+    const uint32_t limits[] = {
+        0,           1,          2, 255, 256, 257, 65536, 65537, 70000, 1u << 24, (1u << 24) + 1,
+        0xFFFFFFFEu, 0xFFFFFFFFu};
     const uint32_t passes[] = {0, 0, 1, 1, 1, 2, 2, 3, 3, 3, 4, 4, 4};
     for (size_t i = 0; i < sizeof limits / sizeof limits[0]; i++)
         assert_int_equal(radix_sort_pass_count(limits[i]), passes[i]);

@@ -74,13 +74,20 @@ static int bench_parse(int argc, char **argv, bench_options *o)
     int c;
     while ((c = getopt_long(argc, argv, "n:r:t:j:h", longopts, NULL)) != -1) {
         switch (c) {
-        case 'n': o->pairs = (uint32_t)strtoul(optarg, NULL, 0); break;
-        case 'r': o->repeat = atoi(optarg); break;
-        case 't': o->threads = atoi(optarg); break;
-        case 'j': o->json_path = optarg; break;
+        case 'n':
+            o->pairs = (uint32_t)strtoul(optarg, NULL, 0);
+            break;
+        case 'r':
+            o->repeat = atoi(optarg);
+            break;
+        case 't':
+            o->threads = atoi(optarg);
+            break;
+        case 'j':
+            o->json_path = optarg;
+            break;
         default:
-            fprintf(stderr,
-                    "usage: %s [--pairs N] [--repeat R] [--threads T] [--json PATH]\n",
+            fprintf(stderr, "usage: %s [--pairs N] [--repeat R] [--threads T] [--json PATH]\n",
                     argv[0]);
             return c == 'h' ? 0 : 1;
         }
@@ -152,8 +159,8 @@ static int bench_run_case(radix_sorter *s, const bench_options *o, bench_buffers
     return err->code;
 }
 
-static int bench_write_json(const char *path, const bench_options *o, int threads,
-                            double copy_s, const bench_case *cases)
+static int bench_write_json(const char *path, const bench_options *o, int threads, double copy_s,
+                            const bench_case *cases)
 {
     double bytes = (double)o->pairs * (double)sizeof(ts_pair);
     cJSON *root = cJSON_CreateObject();
@@ -191,16 +198,15 @@ static int bench_write_json(const char *path, const bench_options *o, int thread
     return ok ? 0 : 1;
 }
 
-static void bench_print(const bench_options *o, int threads, double copy_s,
-                        const bench_case *cases)
+static void bench_print(const bench_options *o, int threads, double copy_s, const bench_case *cases)
 {
     double bytes = (double)o->pairs * (double)sizeof(ts_pair);
     printf("sort: %u pairs (%.1f MiB), 50%% invalid, %d threads, median of %d\n", o->pairs,
            bytes / (1024.0 * 1024.0), threads, o->repeat);
     printf("memcpy %.1f MiB: %.3f ms, %.2f GB/s\n", bytes / (1024.0 * 1024.0), copy_s * 1e3,
            bytes / copy_s * 1e-9);
-    printf("%10s %6s %9s %9s %10s %10s %12s %8s %12s\n", "key_range", "passes", "valid",
-           "segments", "sort_ms", "min_ms", "Mpairs/s", "ratio", "segments_ms");
+    printf("%10s %6s %9s %9s %10s %10s %12s %8s %12s\n", "key_range", "passes", "valid", "segments",
+           "sort_ms", "min_ms", "Mpairs/s", "ratio", "segments_ms");
     for (int c = 0; c < BENCH_CASES; c++)
         printf("%10u %6u %9u %9u %10.3f %10.3f %12.1f %8.2f %12.3f\n", cases[c].key_range,
                cases[c].passes, cases[c].valid, cases[c].segments, cases[c].sort_s * 1e3,
