@@ -7,7 +7,7 @@
 static uint64_t slot_bytes(uint32_t m)
 {
     return (uint64_t)quadtree_vertex_count(m) * sizeof(ts_vec4) +
-           (uint64_t)quadtree_node_count(m) * sizeof(ts_box);
+           (uint64_t)quadtree_group_count(m) * sizeof(ts_box4);
 }
 
 int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
@@ -20,7 +20,7 @@ int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
     uint64_t slots = memory_bytes / 4 / per_slot;
     if (slots < 1) slots = 1;
     if (slots > 256) slots = 256; /* more slots than this only lengthens batches */
-    uint64_t node_bytes = (uint64_t)quadtree_node_count(max_lod) * sizeof(ts_box);
+    uint64_t node_bytes = (uint64_t)quadtree_group_count(max_lod) * sizeof(ts_box4);
     if (slots * node_bytes > max_alloc) slots = max_alloc / node_bytes;
     if (slots < 1 || per_slot > memory_bytes)
         return ts_error_set(err, TS_E_USAGE,
@@ -89,7 +89,7 @@ static int create_buffers(ts_pipeline *p, ts_error *err)
         {&p->pair_hit, CL_MEM_READ_WRITE, pairs * sizeof(ts_hit), NULL},
         {&p->segments, CL_MEM_READ_ONLY, (s->patch_count ? s->patch_count : 1) * sizeof(ts_segment), NULL},
         {&p->grid, CL_MEM_READ_WRITE, slots * p->verts_per_slot * sizeof(ts_vec4), NULL},
-        {&p->nodes, CL_MEM_READ_WRITE, slots * p->nodes_per_slot * sizeof(ts_box), NULL},
+        {&p->nodes, CL_MEM_READ_WRITE, slots * p->groups_per_slot * sizeof(ts_box4), NULL},
         {&p->radiance, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4), NULL},
         {&p->aov, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4), NULL},
         {&p->accum, host_rw, (size_t)p->pixel_count * sizeof(ts_vec4), NULL},
@@ -121,7 +121,7 @@ int pipeline_create(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, const ts_p
     p->pixel_count = pixel_count;
     p->verts_per_slot = quadtree_vertex_count(plan->max_lod);
     p->leaves_per_slot = 1u << (2u * plan->max_lod);
-    p->nodes_per_slot = quadtree_node_count(plan->max_lod);
+    p->groups_per_slot = quadtree_group_count(plan->max_lod);
     ts_box *boxes = malloc((scene->patch_count ? scene->patch_count : 1) * sizeof *boxes);
     p->segments_host = malloc((scene->patch_count ? scene->patch_count : 1) * sizeof(ts_segment));
     if (!boxes || !p->segments_host) {

@@ -42,7 +42,7 @@ typedef struct ts_pipeline {
     const ts_scene *scene;
     ts_stats *stats;
     ts_pipeline_plan plan;
-    uint32_t verts_per_slot, leaves_per_slot, nodes_per_slot, pixel_count;
+    uint32_t verts_per_slot, leaves_per_slot, groups_per_slot, pixel_count;
     ts_qbvh qbvh;
     radix_sorter *sorter;
     ts_segment *segments_host; /* one per patch at most */

@@ -82,14 +82,14 @@ static int stage_dice(ts_pipeline *p, uint32_t first, uint32_t count, ts_error *
 static int stage_build(ts_pipeline *p, uint32_t first, uint32_t count, ts_error *err)
 {
     if (cl_set_args(p->k_build_leaves, err, ARG(p->segments), ARG(first), ARG(count),
-                    ARG(p->leaves_per_slot), ARG(p->verts_per_slot), ARG(p->nodes_per_slot),
+                    ARG(p->leaves_per_slot), ARG(p->verts_per_slot), ARG(p->groups_per_slot),
                     ARG(p->grid), ARG(p->nodes), (size_t)0) ||
         cl_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)count * p->leaves_per_slot,
                   TS_LOCAL_SIZE, err))
         return err->code;
     for (uint32_t level = p->plan.max_lod; level-- > 0;) {
         if (cl_set_args(p->k_build_level, err, ARG(p->segments), ARG(first), ARG(count),
-                        ARG(level), ARG(p->nodes_per_slot), ARG(p->nodes), (size_t)0) ||
+                        ARG(level), ARG(p->groups_per_slot), ARG(p->nodes), (size_t)0) ||
             cl_launch(p->cl, p->k_build_level, TS_STAGE_build, (size_t)count << (2u * level),
                       TS_LOCAL_SIZE, err))
             return err->code;
@@ -104,7 +104,7 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, uint32_t f
     uint32_t pair_first = s[first].begin, pair_count = s[first + count - 1].end - pair_first;
     if (cl_set_args(p->k_bottom_level, err, ARG(p->pairs[sorted_buffer]), ARG(pair_first),
                     ARG(pair_count), ARG(p->segments), ARG(first), ARG(count),
-                    ARG(p->verts_per_slot), ARG(p->nodes_per_slot), ARG(n_per_ray),
+                    ARG(p->verts_per_slot), ARG(p->groups_per_slot), ARG(n_per_ray),
                     ARG(p->active), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
                     ARG(p->grid), ARG(p->nodes), ARG(p->pair_hit), (size_t)0))
         return err->code;

@@ -60,7 +60,7 @@ static int box_equal(ts_box a, ts_box b)
 }
 
 static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec4 *grid,
-                          const ts_box *nodes)
+                          const ts_box4 *nodes)
 {
     const ts_vec4 *cp = &s->cp[seg->patch * 16];
     uint32_t m = seg->lod, n = (1u << m) + 1u;
@@ -93,19 +93,19 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
             b.lo_y = fminf(b.lo_y, v[q].y), b.hi_y = fmaxf(b.hi_y, v[q].y);
             b.lo_z = fminf(b.lo_z, v[q].z), b.hi_z = fmaxf(b.hi_z, v[q].z);
         }
-        assert_true(box_equal(b, nodes[quadtree_level_offset(m) + k]));
+        assert_true(box_equal(b, quadtree_box(nodes, m, k)));
     }
     /* Inner nodes: exactly the union of their four children. */
     for (uint32_t l = 0; l < m; ++l)
         for (uint32_t k = 0; k < (1u << (2 * l)); ++k) {
-            const ts_box *c = &nodes[quadtree_level_offset(l + 1) + 4 * k];
-            ts_box u = c[0];
-            for (int q = 1; q < 4; ++q) {
-                u.lo_x = fminf(u.lo_x, c[q].lo_x), u.hi_x = fmaxf(u.hi_x, c[q].hi_x);
-                u.lo_y = fminf(u.lo_y, c[q].lo_y), u.hi_y = fmaxf(u.hi_y, c[q].hi_y);
-                u.lo_z = fminf(u.lo_z, c[q].lo_z), u.hi_z = fmaxf(u.hi_z, c[q].hi_z);
+            ts_box u = quadtree_box(nodes, l + 1, 4 * k);
+            for (uint32_t q = 1; q < 4; ++q) {
+                ts_box c = quadtree_box(nodes, l + 1, 4 * k + q);
+                u.lo_x = fminf(u.lo_x, c.lo_x), u.hi_x = fmaxf(u.hi_x, c.hi_x);
+                u.lo_y = fminf(u.lo_y, c.lo_y), u.hi_y = fmaxf(u.hi_y, c.hi_y);
+                u.lo_z = fminf(u.lo_z, c.lo_z), u.hi_z = fmaxf(u.hi_z, c.hi_z);
             }
-            if (!box_equal(u, nodes[quadtree_level_offset(l) + k]))
+            if (!box_equal(u, quadtree_box(nodes, l, k)))
                 fail_msg("patch %u m %u: node %u of level %u is not the union of its children",
                          seg->patch, m, k, l);
         }
@@ -128,15 +128,15 @@ static void test_dice_and_build_match_reference(void **state)
         p.segments_host[i] = (ts_segment){.patch = 5 - i, .slot = (i + 2) % 6, .lod = lods[i]};
     if (pipeline_dice_build(&p, 6, &err)) fail_msg("%s", err.msg);
     size_t gbytes = 6 * (size_t)p.verts_per_slot * sizeof(ts_vec4);
-    size_t nbytes = 6 * (size_t)p.nodes_per_slot * sizeof(ts_box);
+    size_t nbytes = 6 * (size_t)p.groups_per_slot * sizeof(ts_box4);
     ts_vec4 *grid = malloc(gbytes);
-    ts_box *nodes = malloc(nbytes);
+    ts_box4 *nodes = malloc(nbytes);
     assert_int_equal(clEnqueueReadBuffer(cl.queue, p.grid, CL_TRUE, 0, gbytes, grid, 0, NULL, NULL), CL_SUCCESS);
     assert_int_equal(clEnqueueReadBuffer(cl.queue, p.nodes, CL_TRUE, 0, nbytes, nodes, 0, NULL, NULL), CL_SUCCESS);
     for (uint32_t i = 0; i < 6; ++i) {
         const ts_segment *seg = &p.segments_host[i];
         check_segment(&s, seg, grid + (size_t)seg->slot * p.verts_per_slot,
-                      nodes + (size_t)seg->slot * p.nodes_per_slot);
+                      nodes + (size_t)seg->slot * p.groups_per_slot);
     }
     assert_int_equal(stats.counters[TS_COUNTER_patches_diced], 6);
     assert_int_equal(stats.counters[TS_COUNTER_micropolygons_created], 1 + 4 + 16 + 64 + 1024 + 256);

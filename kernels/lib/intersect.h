@@ -10,9 +10,16 @@
 #include <math.h>
 #endif
 
-/* Slab test of [tmin, tmax] against a box, with reciprocal direction `inv` (±inf for a zero
- * component). Returns the entry distance, or -1 for a miss. tfar is widened by 1 + 2*gamma(3)
- * (Ize 2013, "Robust BVH ray traversal") so rounding never culls a box the ray touches. */
+/* Minimum and maximum without NaN handling: one instruction each, where OpenCL's fmin/fmax
+ * cost a compare, an unordered check and a blend. Safe here because no operand is NaN: see
+ * safe_reciprocal. */
+#define TS_MIN(a, b) ((a) < (b) ? (a) : (b))
+#define TS_MAX(a, b) ((a) > (b) ? (a) : (b))
+
+/* Slab test of [tmin, tmax] against a box, with reciprocal direction `inv` from
+ * safe_reciprocal. Returns the entry distance, or -1 for a miss. tfar is widened by
+ * 1 + 2*gamma(3) (Ize 2013, "Robust BVH ray traversal") so rounding never culls a box the
+ * ray touches. */
 TS_INLINE float box_enter(float ox, float oy, float oz, float ix, float iy, float iz,
                           float lox, float loy, float loz, float hix, float hiy, float hiz,
                           float tmin, float tmax)
@@ -20,16 +27,19 @@ TS_INLINE float box_enter(float ox, float oy, float oz, float ix, float iy, floa
     float tx0 = (lox - ox) * ix, tx1 = (hix - ox) * ix;
     float ty0 = (loy - oy) * iy, ty1 = (hiy - oy) * iy;
     float tz0 = (loz - oz) * iz, tz1 = (hiz - oz) * iz;
-    /* fmin/fmax drop the NaN of 0 * inf (origin on a slab plane, zero direction). */
-    float tn = fmax(fmax(fmin(tx0, tx1), fmin(ty0, ty1)), fmax(fmin(tz0, tz1), tmin));
-    float tf = fmin(fmin(fmax(tx0, tx1), fmax(ty0, ty1)), fmin(fmax(tz0, tz1), tmax));
+    float tn = TS_MAX(TS_MAX(TS_MIN(tx0, tx1), TS_MIN(ty0, ty1)), TS_MAX(TS_MIN(tz0, tz1), tmin));
+    float tf = TS_MIN(TS_MIN(TS_MAX(tx0, tx1), TS_MAX(ty0, ty1)), TS_MIN(TS_MAX(tz0, tz1), tmax));
     tf *= 1.0000003576f; /* 1 + 2 * gamma(3), gamma(n) = n*eps/(1 - n*eps), eps = 2^-24 */
     return (lox <= hix && tn <= tf) ? tn : -1.0f;
 }
 
+/* 1/d, with zero (and tiny) components mapped to +-1e30 instead of infinity, so a slab
+ * product is never 0 * inf = NaN: a ray with origin on a slab plane and no motion across it
+ * gets the interval [0, +-big] there, i.e. it is inside that slab. */
 TS_INLINE float safe_reciprocal(float d)
 {
-    return d != 0.0f ? 1.0f / d : (signbit(d) ? -INFINITY : INFINITY);
+    float r = d != 0.0f ? 1.0f / d : 1e30f;
+    return fabs(r) < 1e30f ? r : (signbit(d) ? -1e30f : 1e30f);
 }
 
 /* Per-ray set-up of the watertight ray-triangle test (Woop, Benthin, Wald 2013,
@@ -66,22 +76,14 @@ TS_INLINE ts_ray_shear ray_shear(float dx, float dy, float dz)
     return s;
 }
 
-/* Returns t in (tmin, tmax) and the barycentrics (b1, b2) of p1, p2, or -1 for a miss.
- * Double-sided. An edge or vertex hit counts for every triangle sharing it, so no ray
- * passes between two triangles of a grid. */
-TS_INLINE float triangle_hit(const ts_ray_shear *s, float ox, float oy, float oz, ts_vec4 p0,
-                             ts_vec4 p1, ts_vec4 p2, float tmin, float tmax, float *b1_out,
-                             float *b2_out)
+/* The watertight test on vertices already relative to the ray origin and permuted to
+ * (kx, ky, kz) (ray_shear). Returns t in (tmin, tmax) and the barycentrics (b1, b2) of the
+ * second and third vertex, or -1 for a miss. Double-sided. An edge or vertex hit counts
+ * for every triangle sharing it, so no ray passes between two triangles of a grid. */
+TS_INLINE float triangle_hit_permuted(const ts_ray_shear *s, float ax, float ay, float az,
+                                      float bx, float by, float bz, float cx, float cy, float cz,
+                                      float tmin, float tmax, float *b1_out, float *b2_out)
 {
-    float ax = vec_axis(p0.x - ox, p0.y - oy, p0.z - oz, s->kx);
-    float ay = vec_axis(p0.x - ox, p0.y - oy, p0.z - oz, s->ky);
-    float az = vec_axis(p0.x - ox, p0.y - oy, p0.z - oz, s->kz);
-    float bx = vec_axis(p1.x - ox, p1.y - oy, p1.z - oz, s->kx);
-    float by = vec_axis(p1.x - ox, p1.y - oy, p1.z - oz, s->ky);
-    float bz = vec_axis(p1.x - ox, p1.y - oy, p1.z - oz, s->kz);
-    float cx = vec_axis(p2.x - ox, p2.y - oy, p2.z - oz, s->kx);
-    float cy = vec_axis(p2.x - ox, p2.y - oy, p2.z - oz, s->ky);
-    float cz = vec_axis(p2.x - ox, p2.y - oy, p2.z - oz, s->kz);
     ax = ax - s->sx * az;
     ay = ay - s->sy * az;
     bx = bx - s->sx * bz;
@@ -99,6 +101,21 @@ TS_INLINE float triangle_hit(const ts_ray_shear *s, float ox, float oy, float oz
     *b1_out = v * inv;
     *b2_out = w * inv;
     return t;
+}
+
+/* triangle_hit_permuted for world-space vertices p0, p1, p2 and ray origin o. */
+TS_INLINE float triangle_hit(const ts_ray_shear *s, float ox, float oy, float oz, ts_vec4 p0,
+                             ts_vec4 p1, ts_vec4 p2, float tmin, float tmax, float *b1_out,
+                             float *b2_out)
+{
+    float ax = p0.x - ox, ay = p0.y - oy, az = p0.z - oz;
+    float bx = p1.x - ox, by = p1.y - oy, bz = p1.z - oz;
+    float cx = p2.x - ox, cy = p2.y - oy, cz = p2.z - oz;
+    return triangle_hit_permuted(s, vec_axis(ax, ay, az, s->kx), vec_axis(ax, ay, az, s->ky),
+                                 vec_axis(ax, ay, az, s->kz), vec_axis(bx, by, bz, s->kx),
+                                 vec_axis(bx, by, bz, s->ky), vec_axis(bx, by, bz, s->kz),
+                                 vec_axis(cx, cy, cz, s->kx), vec_axis(cx, cy, cz, s->ky),
+                                 vec_axis(cx, cy, cz, s->kz), tmin, tmax, b1_out, b2_out);
 }
 
 #endif

@@ -1,7 +1,10 @@
 /* quadtree.h — indexing of the implicit complete quad-tree over a diced patch
- * (Hanika §3.2.1). Levels 0..m are stored one after another; level l holds 4^l nodes in
- * Morton (Z) order, so the children of node k of level l are 4k..4k+3 of level l+1 and the
- * leaves (level m) are the 4^m micro-quads. Total nodes: (4^(m+1) - 1) / 3. */
+ * (Hanika §3.2.1). Level l holds 4^l nodes in Morton (Z) order, so the children of node k
+ * of level l are 4k..4k+3 of level l+1 and the leaves (level m) are the 4^m micro-quads.
+ * Storage is by sibling group (ts_box4, SoA): group 0 holds the root in lane 0 (lanes 1-3
+ * empty); level l >= 1 holds its 4^(l-1) groups from quadtree_group_offset(l), node k in
+ * group k / 4, lane k % 4. So the children of node k of level l are exactly group
+ * quadtree_group_offset(l + 1) + k: one load for four boxes. */
 #ifndef TS_QUADTREE_H
 #define TS_QUADTREE_H
 
@@ -13,9 +16,25 @@ TS_INLINE ts_u32 quadtree_level_offset(ts_u32 l)
     return ((1u << (2u * l)) - 1u) / 3u;
 }
 
-TS_INLINE ts_u32 quadtree_node_count(ts_u32 m)
+/* First sibling group of level l (l >= 1); level 0 is group 0. */
+TS_INLINE ts_u32 quadtree_group_offset(ts_u32 l)
 {
-    return quadtree_level_offset(m + 1u);
+    return l == 0u ? 0u : 1u + quadtree_level_offset(l - 1u);
+}
+
+/* Sibling groups of a tree of depth m: the root's group plus levels 1..m. */
+TS_INLINE ts_u32 quadtree_group_count(ts_u32 m)
+{
+    return 1u + quadtree_level_offset(m);
+}
+
+/* The box of node k of level l. */
+TS_INLINE ts_box quadtree_box(TS_CONST_GLOBAL ts_box4 *groups, ts_u32 l, ts_u32 k)
+{
+    TS_CONST_GLOBAL ts_box4 *g = groups + (l == 0u ? 0u : quadtree_group_offset(l) + (k >> 2));
+    ts_u32 q = l == 0u ? 0u : (k & 3u);
+    ts_box b = {g->lo_x[q], g->lo_y[q], g->lo_z[q], g->hi_x[q], g->hi_y[q], g->hi_z[q]};
+    return b;
 }
 
 /* Grid vertices of a patch diced at m: (2^m + 1)^2. */

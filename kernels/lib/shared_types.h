@@ -26,7 +26,7 @@ typedef int32_t ts_i32;
  * size is checked with it. host/layout_check.c asserts the sizes at compile time;
  * kernels/layout.cl writes sizeof/offsetof of each entry back for tests/test_layout.c. */
 #define TS_LAYOUT_FIELDS(X)                                                                 \
-    X(ts_vec4, w) X(ts_box, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
+    X(ts_vec4, w) X(ts_box, hi_z) X(ts_box4, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
     X(ts_pair, window) X(ts_segment, slot) X(ts_segment, lod) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_camera_params, forward)                     \
@@ -55,6 +55,13 @@ typedef struct ts_box {
     float lo_x, lo_y, lo_z;
     float hi_x, hi_y, hi_z;
 } ts_box;
+
+/* Four sibling boxes of a patch's implicit quad-tree (nodes 4g..4g+3 of one level), stored
+ * SoA so one float4 slab test covers all four children (lib/quadtree.h). 96 bytes. */
+typedef struct ts_box4 {
+    float lo_x[4], lo_y[4], lo_z[4];
+    float hi_x[4], hi_y[4], hi_z[4];
+} ts_box4;
 
 /* One node of the top-level 4-wide BVH (Hanika §3.1, Dammertz et al. 2008), 128 bytes.
  * child[i] >= 0: inner node index; child[i] < 0 and != TS_CHILD_EMPTY: a leaf holding
@@ -141,7 +148,7 @@ typedef struct ts_shade_params {
  * size is checked with it. host/layout_check.c asserts the sizes at compile time;
  * kernels/layout.cl writes sizeof/offsetof of each entry back for tests/test_layout.c. */
 #define TS_LAYOUT_FIELDS(X)                                                                 \
-    X(ts_vec4, w) X(ts_box, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
+    X(ts_vec4, w) X(ts_box, hi_z) X(ts_box4, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
     X(ts_pair, window) X(ts_segment, slot) X(ts_segment, lod) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_camera_params, forward)                     \
