@@ -21,8 +21,12 @@ static const char *usage_text =
     "      --seed S          random seed (default 0)\n"
     "      --device I        OpenCL device index from `tessera devices` (default:\n"
     "                        $TESSERA_DEVICE, else 0)\n"
-    "      --max-lod M       dice each patch into (2^M)^2 micro-quads, 0..10 (default 8)\n"
-    "      --memory MB       budget for rays, candidates and patch slots (default 1024)\n"
+    "      --max-lod M       the finest level of detail: (2^M)^2 micro-quads per patch,\n"
+    "                        0..10 (default 10)\n"
+    "      --lod M           dice every patch at m = M instead of by ray density\n"
+    "      --intersect KIND  boxes: leaf boxes are the geometry, hole-free across levels of\n"
+    "                        detail (default); triangles: exact micro-triangles\n"
+    "      --memory MB       budget for rays, candidates and diced patches (default 1024)\n"
     "      --stats FILE      write per-stage timings and counters as JSON\n"
     "      --quiet           no progress or timings on stderr\n"
     "      --kernel-dir DIR  build kernels from DIR instead of the embedded copy\n"
@@ -64,7 +68,7 @@ static int cmd_devices(void)
     return 0;
 }
 
-enum { OPT_RES = 256, OPT_SPP, OPT_DEPTH, OPT_SEED, OPT_DEVICE, OPT_MAX_LOD, OPT_MEMORY,
+enum { OPT_RES = 256, OPT_LOD, OPT_INTERSECT, OPT_SPP, OPT_DEPTH, OPT_SEED, OPT_DEVICE, OPT_MAX_LOD, OPT_MEMORY,
        OPT_STATS, OPT_QUIET, OPT_KERNEL_DIR, OPT_NO_CACHE, OPT_HELP };
 
 static const struct option render_options[] = {
@@ -72,6 +76,7 @@ static const struct option render_options[] = {
     {"spp", required_argument, 0, OPT_SPP},  {"depth", required_argument, 0, OPT_DEPTH},
     {"seed", required_argument, 0, OPT_SEED}, {"device", required_argument, 0, OPT_DEVICE},
     {"max-lod", required_argument, 0, OPT_MAX_LOD}, {"memory", required_argument, 0, OPT_MEMORY},
+    {"lod", required_argument, 0, OPT_LOD}, {"intersect", required_argument, 0, OPT_INTERSECT},
     {"stats", required_argument, 0, OPT_STATS}, {"quiet", no_argument, 0, OPT_QUIET},
     {"kernel-dir", required_argument, 0, OPT_KERNEL_DIR},
     {"no-kernel-cache", no_argument, 0, OPT_NO_CACHE}, {"help", no_argument, 0, OPT_HELP},
@@ -95,6 +100,11 @@ static int parse_render_args(int argc, char **argv, ts_render_options *o)
         case OPT_SEED: bad = parse_int(optarg, 0, 0x7fffffff, &v); o->seed = (unsigned)v; break;
         case OPT_DEVICE: bad = parse_int(optarg, 0, 1 << 20, &o->cl.device_index); break;
         case OPT_MAX_LOD: bad = parse_int(optarg, 0, TS_LOD_LIMIT, &o->max_lod); break;
+        case OPT_LOD: bad = parse_int(optarg, 0, TS_LOD_LIMIT, &o->fixed_lod); break;
+        case OPT_INTERSECT:
+            bad = strcmp(optarg, "boxes") != 0 && strcmp(optarg, "triangles") != 0;
+            o->exact = strcmp(optarg, "triangles") == 0;
+            break;
         case OPT_MEMORY: bad = parse_int(optarg, 1, 1 << 24, &o->memory_mb); break;
         case OPT_STATS: o->stats_path = optarg; break;
         case OPT_QUIET: o->quiet = 1; break;

@@ -13,13 +13,16 @@ typedef struct ts_render_options {
     int spp;                 /* samples per pixel */
     int depth;               /* path depth (primary rays only for now; kept for the contract) */
     unsigned seed;
-    int max_lod;             /* m: patches are diced at (2^m)^2 micro-quads */
+    int max_lod;             /* the finest m: (2^m)^2 micro-quads per patch */
+    int fixed_lod;           /* -1: m per patch from the frame's ray density; else this m */
+    int exact;               /* 1: intersect micro-triangles; 0: leaf boxes (hole-free) */
     int memory_mb;           /* budget for rays, pairs and patch slots */
     int quiet;
     ts_cl_options cl;
 } ts_render_options;
 
-/* Defaults: spp 1, depth 3, seed 0, max_lod 8, memory 1024 MB, device from TESSERA_DEVICE. */
+/* Defaults: spp 1, depth 3, seed 0, max_lod 10, ray-driven LOD, leaf boxes as geometry,
+ * memory 1024 MB, device from TESSERA_DEVICE. */
 void render_options_defaults(ts_render_options *o);
 
 #endif

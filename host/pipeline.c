@@ -1,13 +1,22 @@
 #include "pipeline.h"
+#include "lib/patch.h"
 #include "lib/quadtree.h"
 
 #include <stdlib.h>
 #include <string.h>
 
+/* Bytes of one patch's grid and tree at LOD m, one time sample. */
 static uint64_t slot_bytes(uint32_t m)
 {
     return (uint64_t)quadtree_vertex_count(m) * sizeof(ts_vec4) +
            (uint64_t)quadtree_group_count(m) * sizeof(ts_box4);
+}
+
+void pipeline_plan_arenas(ts_pipeline_plan *plan, uint32_t patches, uint32_t m)
+{
+    plan->vert_capacity = 2u * patches * quadtree_vertex_count(m);
+    plan->group_capacity = 2u * patches * quadtree_group_count(m);
+    plan->max_lod = m;
 }
 
 int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
@@ -16,31 +25,36 @@ int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
     if (max_lod > TS_LOD_LIMIT)
         return ts_error_set(err, TS_E_USAGE, "--max-lod %u is above the limit %d", max_lod,
                             TS_LOD_LIMIT);
-    uint64_t per_slot = slot_bytes(max_lod);
-    uint64_t slots = memory_bytes / 4 / per_slot;
-    if (slots < 1) slots = 1;
-    if (slots > 256) slots = 256; /* more slots than this only lengthens batches */
-    uint64_t node_bytes = (uint64_t)quadtree_group_count(max_lod) * sizeof(ts_box4);
-    if (slots * node_bytes > max_alloc) slots = max_alloc / node_bytes;
-    if (slots < 1 || per_slot > memory_bytes)
-        return ts_error_set(err, TS_E_USAGE,
-                            "--memory %llu MB cannot hold one patch slot at --max-lod %u "
-                            "(%llu MB); raise --memory or lower --max-lod",
-                            (unsigned long long)(memory_bytes >> 20), max_lod,
-                            (unsigned long long)((per_slot + (1 << 20) - 1) >> 20));
-    uint64_t rest = memory_bytes - slots * per_slot;
+    /* A quarter of the budget for the arenas, split between vertices and boxes in the
+     * proportion one patch needs, with room for at least one moving patch at max_lod. */
+    uint64_t arena = memory_bytes / 4;
+    uint32_t m = max_lod;
+    while (m > 0 && 2 * slot_bytes(m) > arena) --m;
+    if (2 * slot_bytes(m) > arena)
+        return ts_error_set(err, TS_E_USAGE, "--memory %llu MB leaves no room for a patch",
+                            (unsigned long long)(memory_bytes >> 20));
+    uint64_t per = slot_bytes(m), patches = arena / per;
+    uint64_t vert_bytes = patches * quadtree_vertex_count(m) * sizeof(ts_vec4);
+    uint64_t group_bytes = patches * quadtree_group_count(m) * sizeof(ts_box4);
+    if (vert_bytes > max_alloc) patches = max_alloc / (quadtree_vertex_count(m) * sizeof(ts_vec4));
+    if (group_bytes > max_alloc) patches = max_alloc / (quadtree_group_count(m) * sizeof(ts_box4));
+    if (patches < 2)
+        return ts_error_set(err, TS_E_USAGE, "the device's largest buffer cannot hold a patch at m = %u", m);
+    uint64_t vcap = patches * quadtree_vertex_count(m), gcap = patches * quadtree_group_count(m);
+    plan->vert_capacity = vcap > UINT32_MAX ? UINT32_MAX : (uint32_t)vcap;
+    plan->group_capacity = gcap > UINT32_MAX ? UINT32_MAX : (uint32_t)gcap;
+    plan->max_lod = m;
+    uint64_t rest = memory_bytes - patches * per;
     uint64_t rays = rest / TS_BYTES_PER_RAY;
     uint64_t biggest_per_ray = TS_PAIRS_PER_RAY * sizeof(ts_hit); /* pair_hit buffer */
     if (rays * biggest_per_ray > max_alloc) rays = max_alloc / biggest_per_ray;
     if (rays > rays_wanted) rays = rays_wanted;
-    if (rays > (1u << 28)) rays = 1u << 28; /* indices stay far from 32-bit overflow */
+    if (rays > (1u << 25)) rays = 1u << 25; /* pair windows stay below 2^28 */
     if (rays < TS_LOCAL_SIZE && rays < rays_wanted)
         return ts_error_set(err, TS_E_USAGE, "--memory %llu MB leaves no room for rays",
                             (unsigned long long)(memory_bytes >> 20));
     plan->ray_capacity = (uint32_t)rays;
     plan->pair_capacity = (uint32_t)rays * TS_PAIRS_PER_RAY;
-    plan->slot_count = (uint32_t)slots;
-    plan->max_lod = max_lod;
     return TS_OK;
 }
 
@@ -51,6 +65,7 @@ static int create_kernels(ts_pipeline *p, ts_error *err)
         const char *name;
     } list[] = {
         {&p->k_camera, "camera_generate"},   {&p->k_top_level, "top_level_collect"},
+        {&p->k_lod, "lod_count"},
         {&p->k_dice, "dice_grid"},           {&p->k_build_leaves, "build_leaves"},
         {&p->k_build_level, "build_level"},  {&p->k_bottom_level, "bottom_level_trace"},
         {&p->k_resolve, "resolve_closest"},  {&p->k_shade, "shade_lambert"},
@@ -61,52 +76,100 @@ static int create_kernels(ts_pipeline *p, ts_error *err)
     return TS_OK;
 }
 
+/* Patch data as the kernels read it: the scene's arrays, or defaults where the scene has
+ * none (no motion: cp1 = cp; no transforms: the identity; no normals: +z). */
+static int create_patch_buffers(ts_pipeline *p, ts_error *err)
+{
+    const ts_scene *s = p->scene;
+    size_t n = s->patch_count ? s->patch_count : 1;
+    const cl_mem_flags ro_copy = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
+    ts_vec4 *flat = malloc(n * sizeof *flat), *normals = NULL;
+    if (!flat) return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    for (uint32_t i = 0; i < s->patch_count; ++i)
+        flat[i] = patch_flatness(&s->cp[i * 16], s->cp1 ? &s->cp1[i * 16] : &s->cp[i * 16], 0);
+    const ts_vec4 *cn = s->corner_n;
+    if (!cn) {
+        normals = calloc(n * 4, sizeof *normals);
+        if (!normals) {
+            free(flat);
+            return ts_error_set(err, TS_E_MEMORY, "out of memory");
+        }
+        for (size_t i = 0; i < n * 4; ++i) normals[i].z = 1.0f;
+        cn = normals;
+    }
+    const ts_xform identity = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
+    struct {
+        cl_mem *m;
+        size_t size;
+        const void *host;
+    } list[] = {
+        {&p->qbvh_nodes, p->qbvh.node_count * sizeof(ts_qbvh_node), p->qbvh.nodes},
+        {&p->cp, n * 16 * sizeof(ts_vec4), s->cp},
+        {&p->cp1, n * 16 * sizeof(ts_vec4), s->cp1 ? s->cp1 : s->cp},
+        {&p->corner_n, n * 4 * sizeof(ts_vec4), cn},
+        {&p->attr, n * sizeof(ts_patch_attr), s->attr},
+        {&p->xform, (s->xform_count ? s->xform_count : 1) * sizeof(ts_xform),
+         s->xform_count ? (const void *)s->xform : (const void *)&identity},
+        {&p->flatness, n * sizeof(ts_vec4), flat},
+    };
+    int rc = TS_OK;
+    for (size_t i = 0; i < sizeof list / sizeof *list && rc == TS_OK; ++i) {
+        /* An empty scene still gets one (unused) element so no buffer has size 0. */
+        static const ts_vec4 zeros[16];
+        const void *host = s->patch_count || list[i].host == p->qbvh.nodes ? list[i].host : zeros;
+        if (!host) host = zeros;
+        *list[i].m = cl_buffer_create(p->cl, ro_copy, list[i].size, (void *)host, err);
+        if (!*list[i].m) rc = err->code;
+    }
+    free(flat);
+    free(normals);
+    return rc;
+}
+
 static int create_buffers(ts_pipeline *p, ts_error *err)
 {
     ts_cl *cl = p->cl;
-    const ts_scene *s = p->scene;
     size_t rays = p->plan.ray_capacity, pairs = p->plan.pair_capacity;
-    size_t slots = p->plan.slot_count;
-    const cl_mem_flags ro_copy = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
+    size_t n = p->scene->patch_count ? p->scene->patch_count : 1;
     const cl_mem_flags host_rw = CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR;
+    if (create_patch_buffers(p, err)) return err->code;
     struct {
         cl_mem *m;
         cl_mem_flags flags;
         size_t size;
-        void *host;
     } list[] = {
-        {&p->qbvh_nodes, ro_copy, p->qbvh.node_count * sizeof(ts_qbvh_node), p->qbvh.nodes},
-        {&p->cp, ro_copy, (size_t)s->patch_count * 16 * sizeof(ts_vec4), s->cp},
-        {&p->attr, ro_copy, (size_t)s->patch_count * sizeof(ts_patch_attr), s->attr},
-#define TS_RAY_ALLOC(type, name, what) {&p->ray_##name, CL_MEM_READ_WRITE, rays * sizeof(type), NULL},
+#define TS_RAY_ALLOC(type, name, what) {&p->ray_##name, CL_MEM_READ_WRITE, rays * sizeof(type)},
         TS_RAY_FIELDS(TS_RAY_ALLOC)
 #undef TS_RAY_ALLOC
-        {&p->active, host_rw, rays * sizeof(uint32_t), NULL},
-        {&p->count, CL_MEM_READ_WRITE, rays * sizeof(uint32_t), NULL},
-        {&p->alive, host_rw, rays * sizeof(uint32_t), NULL},
-        {&p->pairs[0], host_rw, pairs * sizeof(ts_pair), NULL},
-        {&p->pairs[1], host_rw, pairs * sizeof(ts_pair), NULL},
-        {&p->pair_hit, CL_MEM_READ_WRITE, pairs * sizeof(ts_hit), NULL},
-        {&p->segments, CL_MEM_READ_ONLY, (s->patch_count ? s->patch_count : 1) * sizeof(ts_segment), NULL},
-        {&p->grid, CL_MEM_READ_WRITE, slots * p->verts_per_slot * sizeof(ts_vec4), NULL},
-        {&p->nodes, CL_MEM_READ_WRITE, slots * p->groups_per_slot * sizeof(ts_box4), NULL},
-        {&p->radiance, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4), NULL},
-        {&p->aov, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4), NULL},
-        {&p->accum, host_rw, (size_t)p->pixel_count * sizeof(ts_vec4), NULL},
-        {&p->aov_film, host_rw, (size_t)p->pixel_count * sizeof(ts_vec4), NULL},
+        {&p->active, host_rw, rays * sizeof(uint32_t)},
+        {&p->count, CL_MEM_READ_WRITE, rays * sizeof(uint32_t)},
+        {&p->alive, host_rw, rays * sizeof(uint32_t)},
+        {&p->pairs[0], host_rw, pairs * sizeof(ts_pair)},
+        {&p->pairs[1], host_rw, pairs * sizeof(ts_pair)},
+        {&p->pair_hit, CL_MEM_READ_WRITE, pairs * sizeof(ts_hit)},
+        {&p->segments, CL_MEM_READ_ONLY, n * sizeof(ts_segment)},
+        {&p->trees, CL_MEM_READ_ONLY, 2 * n * sizeof(uint32_t)},
+        {&p->lod_counts, CL_MEM_READ_WRITE, n * sizeof(uint32_t)},
+        {&p->grid, CL_MEM_READ_WRITE, (size_t)p->plan.vert_capacity * sizeof(ts_vec4)},
+        {&p->groups, CL_MEM_READ_WRITE, (size_t)p->plan.group_capacity * sizeof(ts_box4)},
+        {&p->radiance, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4)},
+        {&p->aov, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4)},
+        {&p->accum, host_rw, (size_t)p->pixel_count * sizeof(ts_vec4)},
+        {&p->aov_film, host_rw, (size_t)p->pixel_count * sizeof(ts_vec4)},
     };
     for (size_t i = 0; i < sizeof list / sizeof *list; ++i) {
-        *list[i].m = cl_buffer_create(cl, list[i].flags, list[i].size, list[i].host, err);
+        *list[i].m = cl_buffer_create(cl, list[i].flags, list[i].size, NULL, err);
         if (!*list[i].m) return err->code;
     }
-    /* The film starts black; the aov film starts as "nothing hit". */
+    /* The film starts black and "nothing hit"; the LOD counts at zero. */
     ts_vec4 zero = {0, 0, 0, 0};
+    cl_uint zero_u = 0;
     CL_CHECK(clEnqueueFillBuffer(cl->queue, p->accum, &zero, sizeof zero, 0,
-                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL),
-             err);
+                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL), err);
     CL_CHECK(clEnqueueFillBuffer(cl->queue, p->aov_film, &zero, sizeof zero, 0,
-                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL),
-             err);
+                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL), err);
+    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->lod_counts, &zero_u, sizeof zero_u, 0,
+                                 n * sizeof(uint32_t), 0, NULL, NULL), err);
     return TS_OK;
 }
 
@@ -119,15 +182,18 @@ int pipeline_create(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, const ts_p
     p->stats = stats;
     p->plan = *plan;
     p->pixel_count = pixel_count;
-    p->verts_per_slot = quadtree_vertex_count(plan->max_lod);
-    p->leaves_per_slot = 1u << (2u * plan->max_lod);
-    p->groups_per_slot = quadtree_group_count(plan->max_lod);
-    ts_box *boxes = malloc((scene->patch_count ? scene->patch_count : 1) * sizeof *boxes);
-    p->segments_host = malloc((scene->patch_count ? scene->patch_count : 1) * sizeof(ts_segment));
-    if (!boxes || !p->segments_host) {
+    p->mode = (ts_trace_mode){1u, (int)plan->max_lod, 1};
+    size_t n = scene->patch_count ? scene->patch_count : 1;
+    ts_box *boxes = malloc(n * sizeof *boxes);
+    p->segments_host = malloc(n * sizeof *p->segments_host);
+    p->trees_host = malloc(2 * n * sizeof *p->trees_host);
+    p->batches = malloc(n * sizeof *p->batches);
+    p->patch_lod = malloc(n);
+    if (!boxes || !p->segments_host || !p->trees_host || !p->batches || !p->patch_lod) {
         free(boxes);
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     }
+    memset(p->patch_lod, (int)plan->max_lod, n);
     for (uint32_t i = 0; i < scene->patch_count; ++i) boxes[i] = scene_patch_box(scene, i);
     int rc = qbvh_build(&p->qbvh, boxes, scene->patch_count, err);
     free(boxes);
@@ -141,20 +207,25 @@ int pipeline_create(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, const ts_p
 
 void pipeline_destroy(ts_pipeline *p)
 {
-    cl_kernel ks[] = {p->k_camera, p->k_top_level, p->k_dice, p->k_build_leaves, p->k_build_level,
-                      p->k_bottom_level, p->k_resolve, p->k_shade, p->k_film};
+    cl_kernel ks[] = {p->k_camera, p->k_lod, p->k_top_level, p->k_dice, p->k_build_leaves,
+                      p->k_build_level, p->k_bottom_level, p->k_resolve, p->k_shade, p->k_film};
     for (size_t i = 0; i < sizeof ks / sizeof *ks; ++i)
         if (ks[i]) clReleaseKernel(ks[i]);
-    cl_mem ms[] = {p->qbvh_nodes, p->cp, p->attr,
+    cl_mem ms[] = {p->qbvh_nodes, p->cp, p->cp1, p->corner_n, p->attr, p->xform, p->flatness,
+                   p->lod_counts,
 #define TS_RAY_RELEASE(type, name, what) p->ray_##name,
                    TS_RAY_FIELDS(TS_RAY_RELEASE)
 #undef TS_RAY_RELEASE
                    p->active, p->count, p->alive, p->pairs[0], p->pairs[1], p->pair_hit,
-                   p->segments, p->grid, p->nodes, p->radiance, p->aov, p->accum, p->aov_film};
+                   p->segments, p->trees, p->grid, p->groups, p->radiance, p->aov, p->accum,
+                   p->aov_film};
     for (size_t i = 0; i < sizeof ms / sizeof *ms; ++i)
         if (ms[i]) clReleaseMemObject(ms[i]);
     if (p->sorter) radix_sorter_destroy(p->sorter);
     free(p->segments_host);
+    free(p->trees_host);
+    free(p->batches);
+    free(p->patch_lod);
     qbvh_free(&p->qbvh);
     memset(p, 0, sizeof *p);
 }
@@ -168,4 +239,39 @@ int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
                     ARG(p->ray_entry), ARG(p->ray_pixel), ARG(p->active), (size_t)0))
         return err->code;
     return cl_launch(p->cl, p->k_camera, TS_STAGE_camera, c.ray_count, TS_LOCAL_SIZE, err);
+}
+
+int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, ts_error *err)
+{
+    if (cl_set_args(p->k_lod, err, ARG(p->qbvh_nodes), ARG(ray_count), ARG(p->ray_org),
+                    ARG(p->ray_dir), ARG(p->lod_counts), (size_t)0))
+        return err->code;
+    return cl_launch(p->cl, p->k_lod, TS_STAGE_lod, ray_count, TS_LOCAL_SIZE, err);
+}
+
+int pipeline_lod_finish(ts_pipeline *p, ts_error *err)
+{
+    uint32_t n = p->scene->patch_count;
+    if (n == 0) return TS_OK;
+    if (cl_finish(p->cl, p->stats, err)) return err->code;
+    double t0 = stats_now();
+    uint32_t *counts = malloc(n * sizeof *counts);
+    if (!counts) return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    cl_int rc = clEnqueueReadBuffer(p->cl->queue, p->lod_counts, CL_TRUE, 0, n * sizeof *counts,
+                                    counts, 0, NULL, NULL);
+    cl_uint zero = 0;
+    if (rc == CL_SUCCESS)
+        rc = clEnqueueFillBuffer(p->cl->queue, p->lod_counts, &zero, sizeof zero, 0,
+                                 n * sizeof *counts, 0, NULL, NULL);
+    for (uint32_t i = 0; rc == CL_SUCCESS && i < n; ++i) {
+        /* Smallest m with 4^m >= R / spp (Hanika §3.3), at most max_lod. */
+        uint32_t m = 0;
+        while (m < p->plan.max_lod && ((uint64_t)1 << (2 * m)) * p->mode.spp < counts[i]) ++m;
+        p->patch_lod[i] = (uint8_t)m;
+    }
+    free(counts);
+    p->stats->stage_seconds[TS_STAGE_lod] += stats_now() - t0;
+    if (rc != CL_SUCCESS)
+        return ts_error_set(err, TS_E_DEVICE, "%s reading the LOD counts", cl_error_name(rc));
+    return TS_OK;
 }

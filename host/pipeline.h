@@ -25,34 +25,59 @@
 #define TS_BYTES_PER_RAY (16u + 16u + 20u + 4u + 4u + 4u + 4u + 4u + 16u + 16u + TS_PAIRS_PER_RAY * (8u + 8u + 20u))
 
 typedef struct ts_pipeline_plan {
-    uint32_t ray_capacity;  /* rays per wave */
-    uint32_t pair_capacity; /* (leaf, ray) candidates per iteration */
-    uint32_t slot_count;    /* patch slots: segments diced per batch */
-    uint32_t max_lod;
+    uint32_t ray_capacity;   /* rays per wave */
+    uint32_t pair_capacity;  /* (leaf, ray) candidates per iteration */
+    uint32_t vert_capacity;  /* ts_vec4 entries of the vertex arena (diced grids) */
+    uint32_t group_capacity; /* ts_box4 entries of the group arena (quad-trees) */
+    uint32_t max_lod;        /* the finest m; the arenas hold at least one moving patch at it */
 } ts_pipeline_plan;
 
-/* Splits a budget of `memory_bytes` between patch slots (at most a quarter, at least one)
- * and rays, for waves of at most `rays_wanted`, within the device's single-allocation limit.
- * Returns TS_E_USAGE when not even one slot and one work-group of rays fit. */
+/* Splits a budget of `memory_bytes` between the patch arenas (a quarter) and rays, for
+ * waves of at most `rays_wanted`, within the device's single-allocation limit. If the
+ * arenas cannot hold one moving patch at max_lod, max_lod is lowered until they can (the
+ * caller reports it: plan->max_lod < max_lod). Returns TS_E_USAGE when nothing fits. */
 int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
                   uint64_t max_alloc, ts_pipeline_plan *plan, ts_error *err);
 
+/* Arena sizes that hold `patches` moving patches at LOD m, for tests. */
+void pipeline_plan_arenas(ts_pipeline_plan *plan, uint32_t patches, uint32_t m);
+
+/* How the bottom level picks the LOD and what it intersects (DESIGN.md §2-3). */
+typedef struct ts_trace_mode {
+    uint32_t spp;  /* samples per pixel, for the LOD rule 4^m >= R / spp */
+    int fixed_lod; /* >= 0: every patch at this m (cross-checks); -1: per patch from the lod
+                      stage's counts (pipeline_lod_*) */
+    int exact;     /* 1: micro-triangles (cross-checks at fixed m); 0: leaf boxes as
+                      geometry, hole-free across LODs (Hanika §3.3) */
+} ts_trace_mode;
+
+/* A run of segments diced together: they fit the arenas at once. */
+typedef struct ts_batch {
+    uint32_t seg_first, seg_count;
+    uint32_t tree_first, tree_count; /* in the tree list, by decreasing m */
+} ts_batch;
+
 typedef struct ts_pipeline {
     ts_cl *cl;
+    ts_trace_mode mode; /* set by pipeline_create to {1, max_lod, 1}; callers may change it */
     const ts_scene *scene;
     ts_stats *stats;
     ts_pipeline_plan plan;
-    uint32_t verts_per_slot, leaves_per_slot, groups_per_slot, pixel_count;
+    uint32_t pixel_count;
     ts_qbvh qbvh;
     radix_sorter *sorter;
     ts_segment *segments_host; /* one per patch at most */
-    cl_kernel k_camera, k_top_level, k_dice, k_build_leaves, k_build_level, k_bottom_level,
-        k_resolve, k_shade, k_film;
-    cl_mem qbvh_nodes, cp, attr;
+    uint32_t *trees_host;      /* two per patch at most */
+    ts_batch *batches;         /* one per patch at most */
+    uint32_t batch_count;
+    uint8_t *patch_lod; /* m of each patch for this frame (lod stage); max_lod until counted */
+    cl_kernel k_camera, k_lod, k_top_level, k_dice, k_build_leaves, k_build_level,
+        k_bottom_level, k_resolve, k_shade, k_film;
+    cl_mem qbvh_nodes, cp, cp1, corner_n, attr, xform, flatness, lod_counts;
 #define TS_RAY_BUFFER(type, name, what) cl_mem ray_##name;
     TS_RAY_FIELDS(TS_RAY_BUFFER)
 #undef TS_RAY_BUFFER
-    cl_mem active, count, alive, pairs[2], pair_hit, segments, grid, nodes;
+    cl_mem active, count, alive, pairs[2], pair_hit, segments, trees, grid, groups;
     cl_mem radiance, aov, accum, aov_film;
     uint32_t wave;
 } ts_pipeline;
@@ -64,12 +89,18 @@ void pipeline_destroy(ts_pipeline *p);
 
 /* camera: generates rays first_sample .. first_sample + ray_count. */
 int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err);
+/* lod: pipeline_lod_count adds the wave's rays (from pipeline_camera) to the per-patch
+ * counts; pipeline_lod_finish turns the counts into patch_lod (4^m >= R / spp, clamped to
+ * [0, max_lod]) and clears them. */
+int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, ts_error *err);
+int pipeline_lod_finish(ts_pipeline *p, ts_error *err);
 /* The two-level loop over the wave's ray_count rays (already in the ray buffers, with
  * active[i] = i): returns when every ray's closest hit is known. */
 int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err);
 /* Single stages, for tests of one kernel against its C reference. pipeline_top_level runs
  * top_level once over active[0..active_count) and waits; pipeline_dice_build dices and
- * builds segments_host[0..count) (patch, slot and lod set by the caller) and waits. */
+ * builds segments_host[0..count) (patch and lod set by the caller; they must fit the
+ * arenas together) as one batch and waits. */
 int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err);
 int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err);
 /* shade + film for the wave. */

@@ -71,7 +71,7 @@ int radix_sort_pairs(radix_sorter *s, ts_pair *pairs, ts_pair *scratch, uint32_t
                      ts_error *err);
 
 /* Fills out[] with one segment per distinct leaf of sorted[0, n) (which must be sorted by
- * leaf): patch = leaf, [begin, end) its pairs; slot, lod and pad are set to 0. Returns the
+ * leaf): patch = leaf, [begin, end) its pairs; the other fields are set to 0. Returns the
  * segment count (0 for n == 0). If there are more than `capacity` distinct leaves it returns
  * UINT32_MAX, having written only out[0, capacity): size out for the number of leaves (the
  * key_limit given to radix_sort_pairs) and that never happens. */

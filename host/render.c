@@ -14,7 +14,9 @@ void render_options_defaults(ts_render_options *o)
     o->spp = 1;
     o->depth = 3;
     o->seed = 0;
-    o->max_lod = 8;
+    o->max_lod = 10;
+    o->fixed_lod = -1;
+    o->exact = 0;
     o->memory_mb = 1024;
     o->cl.device_index = -1;
 }
@@ -130,7 +132,7 @@ static int write_output(const ts_render_options *o, ts_pipeline *p, int width, i
     if (!rc && exr) {
         const char *names[] = {"R", "G", "B", "Z", "N.x", "N.y", "N.z"};
         ts_image img = {width, height, 7, names, px};
-        ts_image_meta meta[] = {{"tessera:spp", o->spp}, {"tessera:max_lod", o->max_lod}};
+        ts_image_meta meta[] = {{"tessera:spp", o->spp}, {"tessera:max_lod", (int)p->plan.max_lod}};
         rc = image_write_exr(o->output_path, &img, meta, 2, err);
     } else if (!rc) {
         rc = image_write_png(o->output_path, width, height, px, err);
@@ -148,12 +150,27 @@ static int check_output_path(const char *path, ts_error *err)
     return TS_OK;
 }
 
+/* The lod stage: all eye rays of the frame, wave by wave, counted per patch box. */
+static int render_lod(ts_pipeline *p, ts_camera_params cam, uint64_t total, ts_error *err)
+{
+    uint32_t per_wave = p->plan.ray_capacity;
+    for (uint64_t first = 0; first < total; first += per_wave) {
+        uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
+        cam.first_sample = (uint32_t)first;
+        cam.ray_count = n;
+        if (pipeline_camera(p, &cam, err) || pipeline_lod_count(p, n, err)) return err->code;
+    }
+    return pipeline_lod_finish(p, err);
+}
+
 /* Runs the waves: each is a run of global sample indices [first, first + rays). */
 static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
                         const ts_shade_params *shade, ts_error *err)
 {
     uint64_t total = (uint64_t)cam.width * cam.height * (uint64_t)o->spp;
     uint32_t per_wave = p->plan.ray_capacity;
+    p->mode = (ts_trace_mode){(uint32_t)o->spp, o->fixed_lod, o->exact};
+    if (o->fixed_lod < 0 && render_lod(p, cam, total, err)) return err->code;
     for (uint64_t first = 0; first < total; first += per_wave) {
         uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
         cam.first_sample = (uint32_t)first;
@@ -194,6 +211,10 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_error *err)
         rc = pipeline_plan((uint64_t)o->memory_mb << 20, rays, (uint32_t)o->max_lod,
                            cl.info.max_alloc, &plan, err);
     }
+    if (!rc && !o->quiet && plan.max_lod < (uint32_t)o->max_lod)
+        fprintf(stderr, "tessera: --memory %d MB holds patches up to m = %u; dicing at most that "
+                        "finely (raise --memory for --max-lod %d)\n",
+                o->memory_mb, plan.max_lod, o->max_lod);
     if (!rc) rc = pipeline_create(&pipe, &cl, &scene, &plan, (uint32_t)(width * height), stats, err);
     if (!rc) {
         cam.spp = (uint32_t)o->spp;

@@ -296,9 +296,12 @@ static const struct {
     {"Basis", rib_req_basis},
     {"Color", rib_req_color},
     {"ConcatTransform", rib_req_concat_transform},
+    {"Displacement", rib_req_displacement},
     {"Format", rib_req_format},
     {"Identity", rib_req_identity},
     {"LightSource", rib_req_light_source},
+    {"MotionBegin", rib_req_motion_begin},
+    {"MotionEnd", rib_req_motion_end},
     {"Patch", rib_req_patch},
     {"PatchMesh", rib_req_patch_mesh},
     {"Projection", rib_req_projection},
@@ -327,7 +330,6 @@ static const char *const rib_ignored[] = {
     "DepthOfField",
     "Detail",
     "DetailRange",
-    "Displacement",
     "Display",
     "DisplayChannel",
     "Exposure",
@@ -371,8 +373,6 @@ static const char *const rib_unsupported[] = {
     "Disk",
     "GeneralPolygon",
     "Hyperboloid",
-    "MotionBegin",
-    "MotionEnd",
     "ObjectBegin",
     "ObjectEnd",
     "ObjectInstance",
@@ -404,6 +404,10 @@ static int rib_in_list(const char *name, const char *const *list, size_t n)
 
 static int rib_dispatch(rib_parser *p)
 {
+    if (p->motion.active && strcmp(p->req, "MotionEnd") != 0) {
+        int rc = rib_motion_check(p);
+        if (rc != TS_OK) return rc;
+    }
     for (size_t i = 0; i < RIB_COUNT(rib_handlers); i++)
         if (strcmp(p->req, rib_handlers[i].name) == 0) return rib_handlers[i].fn(p);
     if (strcmp(p->req, "version") == 0) return TS_OK; /* RIB header line */
@@ -443,6 +447,9 @@ static int rib_run(rib_parser *p)
         rc = rib_read_args(p, &t);
         if (rc == TS_OK) rc = rib_dispatch(p);
     }
+    if (rc == TS_OK && p->motion.active)
+        rc = rib_error_at(p, p->motion.line, p->motion.col,
+                          "MotionBegin is never closed (missing MotionEnd)");
     if (rc == TS_OK && p->depth > 0) {
         const rib_frame *f = &p->stack[p->depth - 1];
         rc = rib_error_at(p, f->line, f->col, "%s is never closed (missing %s)",
@@ -459,6 +466,8 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     p->err = err;
     p->quiet = quiet;
     rib_mat_identity(p->ctm);
+    rib_mat_identity(p->ctm1);
+    p->disp = (rib_disp){TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5};
     p->color[0] = p->color[1] = p->color[2] = 1.0;
     p->ubasis = basis_bezier;
     p->vbasis = basis_bezier;
@@ -482,6 +491,7 @@ int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *s
     }
     rib_parser_init(p, name, text, len, scene, quiet, err);
     int rc = rib_run(p);
+    if (rc == TS_OK) rc = scene_finalize(scene, err);
     rib_lex_free(&p->lx);
     free(p->args);
     free(p->nums);

@@ -4,21 +4,25 @@
  *
  * Every patch is converted when it is read: bicubic grids from the current u/v bases with
  * basis_grid_to_bezier, bilinear ones by exact degree elevation, then its control points
- * are moved by the CTM. Both steps are exact for affine maps, which is why a projective
- * CTM is rejected here.
+ * are moved by the CTM (by both of its time samples when it moves). Both steps are exact
+ * for affine maps, which is why a projective CTM is rejected here. A varying "N" gives the
+ * corner displacement normals, moved by the inverse transpose of the CTM; the current
+ * Displacement is stored with the world-to-object transform (the inverse CTM).
  */
 #include "rib_internal.h"
 
+#include <math.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <string.h>
 
-/* Geometry needs a place in the world block (or a file without one) and an affine CTM. */
+/* Geometry needs a place in the world block (or a file without one) and an affine CTM
+ * (at both time samples). */
 static int geom_check_state(rib_parser *p)
 {
     if (p->phase == RIB_AFTER_WORLD)
         return rib_error_at(p, p->req_line, p->req_col, "%s after WorldEnd", p->req);
-    if (!rib_mat_is_affine(p->ctm))
+    if (!rib_mat_is_affine(p->ctm) || !rib_mat_is_affine(p->ctm1))
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s: the current transformation is projective; patches and lights "
                             "need an affine one",
@@ -26,19 +30,81 @@ static int geom_check_state(rib_parser *p)
     return TS_OK;
 }
 
-/* Moves 16 object-space Bézier points by the CTM and appends the patch with the current
- * colour. `at` locates the "P" values for messages. */
-static int geom_emit(rib_parser *p, const rib_arg *at, const double g[16][3])
+/* Moves 16 object-space points by m into w; fails naming the "P" values at line:col. */
+static int geom_points(rib_parser *p, int line, int col, const double m[16],
+                       const double g[16][3], double w[16][3])
 {
-    double w[16][3];
     for (int k = 0; k < 16; k++)
-        if (!rib_mat_point(p->ctm, g[k], w[k]))
-            return rib_error_at(p, at->line, at->col,
+        if (!rib_mat_point(m, g[k], w[k]))
+            return rib_error_at(p, line, col,
                                 "%s: control point %d leaves the float range after the "
                                 "current transformation",
                                 p->req, k);
-    const ts_patch_attr attr = {(float)p->color[0], (float)p->color[1], (float)p->color[2], 0u};
-    return scene_add_patch(p->scene, (const double(*)[3])w, &attr, p->err);
+    return TS_OK;
+}
+
+/* The index of the world-to-object transform inv (the inverse of the CTM), reusing the
+ * last one while the CTM is unchanged. */
+static int geom_xform(rib_parser *p, const double inv[16], uint32_t *index)
+{
+    if (p->xf_valid && memcmp(p->xf_ctm, p->ctm, sizeof p->xf_ctm) == 0) {
+        *index = p->xf_index;
+        return TS_OK;
+    }
+    int rc = scene_add_xform(p->scene, inv, index, p->err);
+    if (rc != TS_OK) return rc;
+    memcpy(p->xf_ctm, p->ctm, sizeof p->xf_ctm);
+    p->xf_index = *index;
+    p->xf_valid = 1;
+    return TS_OK;
+}
+
+/* Appends a patch: g0 (and g1, the points at shutter close, or NULL) in object space are
+ * moved by the CTM — by its two samples when it moves, which makes the patch move too —
+ * with the current colour and displacement. n: the four object-space corner normals of a
+ * varying "N" (moved by the inverse transpose of the CTM at shutter open), or NULL.
+ * (line, col): the "P" values, (nline, ncol): the "N" values, for messages. */
+static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
+                     const double g1[16][3], const double n[4][3], int nline, int ncol)
+{
+    double w0[16][3], w1[16][3], wn[4][3], inv[16];
+    int moving = g1 != NULL || p->ctm_moving;
+    int rc = geom_points(p, line, col, p->ctm, g0, w0);
+    if (rc == TS_OK && moving) rc = geom_points(p, line, col, p->ctm1, g1 ? g1 : g0, w1);
+    if (rc != TS_OK) return rc;
+    ts_patch_attr attr = {.cs_r = (float)p->color[0],
+                          .cs_g = (float)p->color[1],
+                          .cs_b = (float)p->color[2],
+                          .flags = 0u,
+                          .disp_kind = p->disp.kind,
+                          .disp_octaves = p->disp.octaves,
+                          .disp_amplitude = (float)p->disp.amplitude,
+                          .disp_frequency = (float)p->disp.frequency,
+                          .disp_lacunarity = (float)p->disp.lacunarity,
+                          .disp_gain = (float)p->disp.gain,
+                          .xform = 0u,
+                          .pad = 0u};
+    if ((attr.disp_kind != TS_DISP_NONE || n) && !rib_mat_invert(p->ctm, inv))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s: the current transformation is singular; %s needs an "
+                            "invertible one",
+                            p->req, n ? "\"N\"" : "Displacement");
+    if (attr.disp_kind != TS_DISP_NONE) {
+        rc = geom_xform(p, inv, &attr.xform);
+        if (rc != TS_OK) return rc;
+    }
+    if (n)
+        for (int c = 0; c < 4; c++) {
+            rib_mat_normal(inv, n[c], wn[c]);
+            double len = sqrt(wn[c][0] * wn[c][0] + wn[c][1] * wn[c][1] + wn[c][2] * wn[c][2]);
+            if (!(len > 0.0) || !isfinite(len))
+                return rib_error_at(p, nline, ncol,
+                                    "%s: normal %d of \"N\" %s after the current transformation",
+                                    p->req, c, len > 0.0 ? "is not finite" : "is zero");
+        }
+    return scene_add_patch_ex(p->scene, (const double(*)[3])w0,
+                              moving ? (const double(*)[3])w1 : NULL,
+                              n ? (const double(*)[3])wn : NULL, &attr, p->err);
 }
 
 /* Degree elevation of the bilinear patch with corners c00, c10, c01, c11 (u fastest) to a
@@ -55,13 +121,16 @@ static void geom_bilinear_to_bezier(const double *c00, const double *c10, const 
                                   9.0;
 }
 
-/* Finds "P" with exactly `need` numbers among the parameters from args[first]. "Pw" and
- * "Pz" are errors (rational and height-field patches are not supported); any other
- * parameter ("Cs", "st", "N", ...) is ignored with a warning. */
+/* Finds "P" with exactly `need` numbers and "N" (varying normals) with exactly `need_n`
+ * among the parameters from args[first]; *nrm stays NULL without "N". "Pw" and "Pz" are
+ * errors (rational and height-field patches are not supported); any other parameter
+ * ("Cs", "st", ...) is ignored with a warning. A normal of zero length is an error. */
 static int geom_find_p(rib_parser *p, size_t first, size_t need, const double **pts,
-                       const rib_arg **at)
+                       const rib_arg **at, size_t need_n, const double **nrm,
+                       const rib_arg **nat)
 {
     *pts = NULL;
+    *nrm = NULL;
     for (size_t i = first; i < p->nargs; i += 2) {
         rib_param prm;
         int rc = rib_param_at(p, i, &prm);
@@ -70,6 +139,16 @@ static int geom_find_p(rib_parser *p, size_t first, size_t need, const double **
             rc = rib_param_numbers(p, &prm, need, pts, NULL);
             if (rc != TS_OK) return rc;
             *at = prm.val;
+        } else if (strcmp(prm.name, "N") == 0) {
+            rc = rib_param_numbers(p, &prm, need_n, nrm, NULL);
+            if (rc != TS_OK) return rc;
+            *nat = prm.val;
+            for (size_t k = 0; k < need_n / 3; k++) {
+                const double *v = *nrm + 3 * k;
+                if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
+                    return rib_error_at(p, prm.val->line, prm.val->col,
+                                        "%s: normal %zu of \"N\" is zero", p->req, k);
+            }
         } else if (strcmp(prm.name, "Pw") == 0) {
             return rib_error_at(p, prm.key->line, prm.key->col,
                                 "%s: rational patches (\"Pw\") are not supported; give \"P\"",
@@ -101,17 +180,19 @@ static int geom_patch_type(rib_parser *p, int *bicubic)
     return TS_OK;
 }
 
-/* Patch "bicubic" "P" [48] in the current bases, or Patch "bilinear" "P" [12]. */
+/* Patch "bicubic" "P" [48] in the current bases, or Patch "bilinear" "P" [12]; optional
+ * varying "N" [12] at the corners (0,0), (1,0), (0,1), (1,1). Inside a motion block the
+ * patch is a sample, emitted at MotionEnd. */
 int rib_req_patch(rib_parser *p)
 {
     int bicubic;
-    const double *pts;
-    const rib_arg *at;
+    const double *pts, *nrm;
+    const rib_arg *at = NULL, *nat = NULL;
     int rc = geom_patch_type(p, &bicubic);
     if (rc == TS_OK) rc = geom_check_state(p);
-    if (rc == TS_OK) rc = geom_find_p(p, 1, bicubic ? 48 : 12, &pts, &at);
+    if (rc == TS_OK) rc = geom_find_p(p, 1, bicubic ? 48 : 12, &pts, &at, 12, &nrm, &nat);
     if (rc != TS_OK) return rc;
-    double g[16][3];
+    double g[16][3], n[4][3];
     if (bicubic) {
         double in[16][3];
         memcpy(in, pts, sizeof in);
@@ -119,7 +200,38 @@ int rib_req_patch(rib_parser *p)
     } else {
         geom_bilinear_to_bezier(pts, pts + 3, pts + 6, pts + 9, g);
     }
-    return geom_emit(p, at, (const double(*)[3])g);
+    if (nrm) memcpy(n, nrm, sizeof n);
+    rib_motion *m = &p->motion;
+    if (m->active) {
+        if (m->count == 0) {
+            m->bicubic = bicubic;
+            m->has_n = nrm != NULL;
+            if (nrm) memcpy(m->n, n, sizeof n), m->n_line = nat->line, m->n_col = nat->col;
+            m->p_line = at->line, m->p_col = at->col;
+        } else if (bicubic != m->bicubic) {
+            return rib_error_at(p, p->args[0].line, p->args[0].col,
+                                "Patch: type %s does not match the %s Patch at %d:%d in the "
+                                "motion block",
+                                bicubic ? "bicubic" : "bilinear",
+                                m->bicubic ? "bicubic" : "bilinear", m->first_line, m->first_col);
+        }
+        memcpy(m->g[m->count++], g, sizeof g);
+        return TS_OK;
+    }
+    return geom_emit(p, at->line, at->col, (const double(*)[3])g, NULL,
+                     nrm ? (const double(*)[3])n : NULL, nat ? nat->line : 0,
+                     nat ? nat->col : 0);
+}
+
+/* MotionEnd of a block of two Patch requests: one moving patch, "N" from the first. */
+int rib_geom_motion_patch(rib_parser *p)
+{
+    const rib_motion *m = &p->motion;
+    int rc = geom_check_state(p);
+    if (rc != TS_OK) return rc;
+    return geom_emit(p, m->p_line, m->p_col, (const double(*)[3])m->g[0],
+                     (const double(*)[3])m->g[1], m->has_n ? (const double(*)[3])m->n : NULL,
+                     m->n_line, m->n_col);
 }
 
 /* Patches along one direction of a PatchMesh (RI Spec §5.3, RiPatchMesh): bicubic
@@ -166,10 +278,19 @@ static int geom_mesh_direction(rib_parser *p, size_t i, int bicubic, int step, c
     return geom_mesh_count(p, bicubic, *n, step, *periodic, &p->args[i], dir, count);
 }
 
+/* The varying "N" of a PatchMesh: one normal per corner of the patch grid, nuv x nvv of
+ * them (u fastest), nuv = patches in u + 1 (nonperiodic) or patches in u (periodic,
+ * wrapping), likewise in v (RI Spec §5.3, varying variables). */
+typedef struct geom_mesh_n {
+    const double *n; /* NULL: no "N" */
+    int nuv, nvv;
+    int line, col;
+} geom_mesh_n;
+
 /* Copies the 4x4 (bicubic) or 2x2 (bilinear) window of patch (pu, pv) out of the mesh,
  * wrapping around periodic directions, and emits it. */
 static int geom_mesh_patch(rib_parser *p, const rib_arg *at, const double *pts, int bicubic, int nu,
-                           int nv, int pu, int pv)
+                           int nv, int pu, int pv, const geom_mesh_n *mn)
 {
     const int su = bicubic ? p->ubasis.step : 1, sv = bicubic ? p->vbasis.step : 1;
     const int size = bicubic ? 4 : 2;
@@ -184,15 +305,24 @@ static int geom_mesh_patch(rib_parser *p, const rib_arg *at, const double *pts, 
         basis_grid_to_bezier(&p->ubasis, &p->vbasis, (const double(*)[3])win, g);
     else
         geom_bilinear_to_bezier(win[0], win[1], win[2], win[3], g);
-    return geom_emit(p, at, (const double(*)[3])g);
+    double n[4][3];
+    if (mn->n)
+        for (int c = 0; c < 4; c++) {
+            size_t iu = (size_t)(pu + (c & 1)) % (size_t)mn->nuv;
+            size_t iv = (size_t)(pv + (c >> 1)) % (size_t)mn->nvv;
+            memcpy(n[c], mn->n + 3 * (iv * (size_t)mn->nuv + iu), sizeof n[c]);
+        }
+    return geom_emit(p, at->line, at->col, (const double(*)[3])g, NULL,
+                     mn->n ? (const double(*)[3])n : NULL, mn->line, mn->col);
 }
 
-/* PatchMesh type nu uwrap nv vwrap "P" [3 nu nv]. */
+/* PatchMesh type nu uwrap nv vwrap "P" [3 nu nv] ["N" [3 nuv nvv]]. */
 int rib_req_patch_mesh(rib_parser *p)
 {
     int bicubic, nu, nv, uper, vper, cu, cv;
     const double *pts;
-    const rib_arg *at;
+    const rib_arg *at = NULL, *nat = NULL;
+    geom_mesh_n mn = {NULL, 0, 0, 0, 0};
     int rc = geom_patch_type(p, &bicubic);
     if (rc == TS_OK) rc = geom_check_state(p);
     if (rc == TS_OK) rc = geom_mesh_direction(p, 1, bicubic, p->ubasis.step, 'u', &nu, &uper, &cu);
@@ -200,10 +330,14 @@ int rib_req_patch_mesh(rib_parser *p)
     if (rc != TS_OK) return rc;
     if ((size_t)nu > RIB_MAX_VALUES / (size_t)nv)
         return rib_error_at(p, p->req_line, p->req_col, "PatchMesh: nu * nv is too large");
-    rc = geom_find_p(p, 5, 3 * (size_t)nu * (size_t)nv, &pts, &at);
+    mn.nuv = uper ? cu : cu + 1;
+    mn.nvv = vper ? cv : cv + 1;
+    rc = geom_find_p(p, 5, 3 * (size_t)nu * (size_t)nv, &pts, &at,
+                     3 * (size_t)mn.nuv * (size_t)mn.nvv, &mn.n, &nat);
+    if (nat) mn.line = nat->line, mn.col = nat->col;
     for (int pv = 0; rc == TS_OK && pv < cv; pv++)
         for (int pu = 0; rc == TS_OK && pu < cu; pu++)
-            rc = geom_mesh_patch(p, at, pts, bicubic, nu, nv, pu, pv);
+            rc = geom_mesh_patch(p, at, pts, bicubic, nu, nv, pu, pv, &mn);
     return rc;
 }
 
@@ -260,6 +394,9 @@ int rib_req_light_source(rib_parser *p)
         rib_warn_once(p, p->req_line, p->req_col, what);
         return TS_OK;
     }
+    if (p->ctm_moving)
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "LightSource under a moving transformation is placed at shutter open");
     ts_distant_light l = {{0, 0, 0}, {0, 0, 1}, 1.0, {1, 1, 1}};
     rc = geom_distant_params(p, first, &l);
     if (rc != TS_OK) return rc;

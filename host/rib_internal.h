@@ -1,7 +1,8 @@
 /* rib_internal.h — what the parts of the RIB loader share, private to them:
  *   rib_lex.c    tokens;
  *   rib.c        reads each request and its arguments, dispatches, rib_load/rib_parse_string;
- *   rib_state.c  graphics state: transformations, blocks, camera options, Color, Basis;
+ *   rib_state.c  graphics state: transformations, blocks, camera options, Color, Basis,
+ *                Displacement, motion blocks;
  *   rib_geom.c   Patch, PatchMesh and LightSource into the scene.
  *
  * Matrices are row-major 4x4 doubles acting on column vectors (p' = M p), as in scene.h.
@@ -48,14 +49,39 @@ typedef enum rib_frame_kind {
     RIB_FRAME_WORLD,
 } rib_frame_kind;
 
+/* The Displacement attribute (docs/rib.md). kind TS_DISP_NONE: off. */
+typedef struct rib_disp {
+    uint32_t kind, octaves;
+    double amplitude, frequency, lacunarity, gain;
+} rib_disp;
+
 /* What AttributeBegin / TransformBegin / WorldBegin saved. */
 typedef struct rib_frame {
     rib_frame_kind kind;
     int line, col;
-    double ctm[16];
+    double ctm[16], ctm1[16];
+    int ctm_moving;
     double color[3];
     ts_basis ubasis, vbasis;
+    rib_disp disp;
 } rib_frame;
+
+/* An open MotionBegin [t0 t1] block: its two samples, either two Patch requests of one
+ * type or two transformations of one kind, applied at MotionEnd. */
+typedef struct rib_motion {
+    int active;
+    int line, col;                  /* of MotionBegin */
+    int count;                      /* samples read so far (0..2) */
+    char first[RIB_MAX_NAME + 1];   /* request name of the first sample */
+    int first_line, first_col;
+    double m[2][16];                /* transformation samples */
+    int replace;                    /* Transform (replaces the CTM) rather than a concat */
+    int bicubic;                    /* patch samples: type of the first */
+    double g[2][16][3];             /* patch samples: object-space Bézier points */
+    int has_n;
+    double n[4][3];                 /* "N" of the first patch sample, object space */
+    int p_line, p_col, n_line, n_col; /* of the first sample's "P" and "N" values */
+} rib_motion;
 
 typedef enum rib_world_phase { RIB_BEFORE_WORLD, RIB_IN_WORLD, RIB_AFTER_WORLD } rib_world_phase;
 
@@ -77,8 +103,16 @@ typedef struct rib_parser {
     size_t nchars, chars_cap;
     /* Graphics state. */
     double ctm[16]; /* object to world in the world block, object to camera before it */
+    double ctm1[16]; /* the CTM at shutter close; equal to ctm unless ctm_moving */
+    int ctm_moving;
     double color[3];
     ts_basis ubasis, vbasis;
+    rib_disp disp;
+    rib_motion motion;
+    /* The last world-to-object transform added for a displaced patch, by its CTM. */
+    double xf_ctm[16];
+    uint32_t xf_index;
+    int xf_valid;
     rib_frame *stack;
     size_t depth, stack_cap;
     rib_world_phase phase;
@@ -133,6 +167,18 @@ void rib_mat_concat(double ctm[16], const double t[16]);
 int rib_mat_is_affine(const double m[16]);
 /* Maps a point by an affine m; 0 when the result is not a finite float. */
 int rib_mat_point(const double m[16], const double p[3], double out[3]);
+/* Gauss-Jordan inverse; 0 when m is singular or not finite. */
+int rib_mat_invert(const double m[16], double inv[16]);
+/* Maps a normal by the inverse transpose of the linear part of the affine map whose
+ * inverse is inv (n' = (L^-1)^T n, inv normalised to w = 1); not renormalised. */
+void rib_mat_normal(const double inv[16], const double n[3], double out[3]);
+
+/* ---- rib_state.c: motion blocks ---- */
+
+/* Called for every request inside an open motion block (MotionEnd excepted): fails for
+ * requests a motion block may not hold, a third sample, or a kind that differs from the
+ * first sample's. */
+int rib_motion_check(rib_parser *p);
 
 /* ---- request handlers: all read p->args, return TS_OK or an error code ---- */
 
@@ -152,8 +198,13 @@ int rib_req_format(rib_parser *p);
 int rib_req_projection(rib_parser *p);
 int rib_req_color(rib_parser *p);
 int rib_req_basis(rib_parser *p);
+int rib_req_displacement(rib_parser *p);
+int rib_req_motion_begin(rib_parser *p);
+int rib_req_motion_end(rib_parser *p);
 int rib_req_patch(rib_parser *p);
 int rib_req_patch_mesh(rib_parser *p);
 int rib_req_light_source(rib_parser *p);
+/* rib_geom.c: emits the moving patch of a completed motion block (MotionEnd). */
+int rib_geom_motion_patch(rib_parser *p);
 
 #endif

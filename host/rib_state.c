@@ -1,7 +1,10 @@
-/* rib_state.c — the RIB graphics state: the current transformation (RI Spec 3.2 §4.3),
- * Attribute/Transform/World blocks, camera options (Format, Projection) and the Color and
- * Basis attributes. See rib_internal.h for the matrix convention. */
+/* rib_state.c — the RIB graphics state: the current transformation (RI Spec 3.2 §4.3) with
+ * its two time samples, Attribute/Transform/World blocks, camera options (Format,
+ * Projection), the Color, Basis and Displacement attributes and MotionBegin/MotionEnd
+ * blocks. See rib_internal.h for the matrix convention. */
 #include "rib_internal.h"
+
+#include "lib/displace.h"
 
 #include <float.h>
 #include <math.h>
@@ -56,7 +59,7 @@ static int rib_mat_rotate(double deg, double x, double y, double z, double m[16]
 }
 
 /* Gauss-Jordan with partial pivoting. Returns 0 when m is singular or not finite. */
-static int rib_mat_invert(const double m[16], double inv[16])
+int rib_mat_invert(const double m[16], double inv[16])
 {
     double a[4][8];
     for (int i = 0; i < 4; i++)
@@ -108,13 +111,48 @@ int rib_mat_point(const double m[16], const double p[3], double out[3])
     return 1;
 }
 
+/* n' = (L^-1)^T n with L^-1 the linear part of inv / inv[15]: column i of inv is row i of
+ * its transpose. */
+void rib_mat_normal(const double inv[16], const double n[3], double out[3])
+{
+    for (int i = 0; i < 3; i++)
+        out[i] = (inv[i] * n[0] + inv[4 + i] * n[1] + inv[8 + i] * n[2]) / inv[15];
+}
+
 /* ---- transformations (RI Spec §4.3) ---------------------------------------------- */
+
+/* Both time samples of the CTM become m (replace) or are multiplied by m. Inside a motion
+ * block the matrix is a sample, applied at MotionEnd. */
+static int rib_apply_transform(rib_parser *p, const double m[16], int replace)
+{
+    rib_motion *mo = &p->motion;
+    if (mo->active) {
+        memcpy(mo->m[mo->count], m, sizeof mo->m[0]);
+        mo->replace = replace;
+        mo->count++;
+        return TS_OK;
+    }
+    if (replace) {
+        memcpy(p->ctm, m, sizeof p->ctm);
+        memcpy(p->ctm1, m, sizeof p->ctm1);
+        p->ctm_moving = 0;
+    } else {
+        rib_mat_concat(p->ctm, m);
+        if (p->ctm_moving)
+            rib_mat_concat(p->ctm1, m);
+        else
+            memcpy(p->ctm1, p->ctm, sizeof p->ctm1);
+    }
+    return TS_OK;
+}
 
 int rib_req_identity(rib_parser *p)
 {
+    double id[16];
     int rc = rib_no_more(p, 0);
-    if (rc == TS_OK) rib_mat_identity(p->ctm);
-    return rc;
+    if (rc != TS_OK) return rc;
+    rib_mat_identity(id);
+    return rib_apply_transform(p, id, 1);
 }
 
 int rib_req_translate(rib_parser *p)
@@ -126,8 +164,7 @@ int rib_req_translate(rib_parser *p)
     if (rc != TS_OK) return rc;
     rib_mat_identity(t);
     t[3] = v[0], t[7] = v[1], t[11] = v[2];
-    rib_mat_concat(p->ctm, t);
-    return TS_OK;
+    return rib_apply_transform(p, t, 0);
 }
 
 int rib_req_scale(rib_parser *p)
@@ -139,8 +176,7 @@ int rib_req_scale(rib_parser *p)
     if (rc != TS_OK) return rc;
     rib_mat_identity(t);
     t[0] = v[0], t[5] = v[1], t[10] = v[2];
-    rib_mat_concat(p->ctm, t);
-    return TS_OK;
+    return rib_apply_transform(p, t, 0);
 }
 
 int rib_req_rotate(rib_parser *p)
@@ -152,8 +188,7 @@ int rib_req_rotate(rib_parser *p)
     if (rc != TS_OK) return rc;
     if (!rib_mat_rotate(v[0], v[1], v[2], v[3], t))
         return rib_error_at(p, p->req_line, p->req_col, "Rotate about a zero-length axis");
-    rib_mat_concat(p->ctm, t);
-    return TS_OK;
+    return rib_apply_transform(p, t, 0);
 }
 
 /* A RIB [16] matrix (row vectors) as a column-vector matrix: its transpose. */
@@ -173,15 +208,16 @@ int rib_req_concat_transform(rib_parser *p)
 {
     double m[16];
     int rc = rib_matrix(p, m);
-    if (rc == TS_OK) rib_mat_concat(p->ctm, m);
-    return rc;
+    return rc == TS_OK ? rib_apply_transform(p, m, 0) : rc;
 }
 
 /* Transform replaces the CTM: object to world inside the world block, object to camera
  * before it. */
 int rib_req_transform(rib_parser *p)
 {
-    return rib_matrix(p, p->ctm);
+    double m[16];
+    int rc = rib_matrix(p, m);
+    return rc == TS_OK ? rib_apply_transform(p, m, 1) : rc;
 }
 
 /* ---- blocks: AttributeBegin/End, TransformBegin/End, WorldBegin/End ---------------- */
@@ -205,14 +241,18 @@ static int rib_push(rib_parser *p, rib_frame_kind kind)
     f->line = p->req_line;
     f->col = p->req_col;
     memcpy(f->ctm, p->ctm, sizeof f->ctm);
+    memcpy(f->ctm1, p->ctm1, sizeof f->ctm1);
+    f->ctm_moving = p->ctm_moving;
     memcpy(f->color, p->color, sizeof f->color);
     f->ubasis = p->ubasis;
     f->vbasis = p->vbasis;
+    f->disp = p->disp;
     return TS_OK;
 }
 
-/* Pops the innermost block, which must be of `kind`. TransformEnd restores the CTM only;
- * AttributeEnd and WorldEnd also restore colour and bases. */
+/* Pops the innermost block, which must be of `kind`. TransformEnd restores the CTM (both
+ * time samples) only; AttributeEnd and WorldEnd also restore colour, bases and
+ * displacement. */
 static int rib_pop(rib_parser *p, rib_frame_kind kind)
 {
     int rc = rib_no_more(p, 0);
@@ -225,10 +265,13 @@ static int rib_pop(rib_parser *p, rib_frame_kind kind)
         return rib_error_at(p, p->req_line, p->req_col, "%s does not match the %s at %d:%d", p->req,
                             rib_frame_begin[top->kind], top->line, top->col);
     memcpy(p->ctm, top->ctm, sizeof p->ctm);
+    memcpy(p->ctm1, top->ctm1, sizeof p->ctm1);
+    p->ctm_moving = top->ctm_moving;
     if (kind != RIB_FRAME_TRANSFORM) {
         memcpy(p->color, top->color, sizeof p->color);
         p->ubasis = top->ubasis;
         p->vbasis = top->vbasis;
+        p->disp = top->disp;
     }
     p->depth--;
     return TS_OK;
@@ -255,19 +298,74 @@ int rib_req_transform_end(rib_parser *p)
     return rib_pop(p, RIB_FRAME_TRANSFORM);
 }
 
+/* Moves n control points from camera to world space. */
+static int rib_camera_points_to_world(rib_parser *p, ts_vec4 *c, size_t n,
+                                      const double cam_to_world[16])
+{
+    for (size_t k = 0; k < n; k++) {
+        double a[3] = {c[k].x, c[k].y, c[k].z}, b[3];
+        if (!rib_mat_point(cam_to_world, a, b))
+            return rib_error_at(p, p->req_line, p->req_col,
+                                "a patch before WorldBegin leaves the float range");
+        c[k].x = (float)b[0], c[k].y = (float)b[1], c[k].z = (float)b[2];
+    }
+    return TS_OK;
+}
+
+/* The corner normals and world-to-object transforms of patches read before WorldBegin:
+ * normals by the inverse transpose of camera_to_world (the transpose of world_to_camera's
+ * linear part), renormalised; camera-to-object transforms X become X · world_to_camera. */
+static int rib_camera_attrs_to_world(rib_parser *p, const double w2c[16])
+{
+    ts_scene *s = p->scene;
+    for (size_t k = (size_t)p->first_patch * 4u; k < (size_t)s->patch_count * 4u; k++) {
+        ts_vec4 *c = &s->corner_n[k];
+        double a[3] = {c->x, c->y, c->z}, b[3];
+        for (int i = 0; i < 3; i++)
+            b[i] = (w2c[i] * a[0] + w2c[4 + i] * a[1] + w2c[8 + i] * a[2]) / w2c[15];
+        double len = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+        if (len > 0.0 && isfinite(len))
+            c->x = (float)(b[0] / len), c->y = (float)(b[1] / len), c->z = (float)(b[2] / len);
+    }
+    uint32_t last_old = 0, last_new = 0;
+    int have_last = 0;
+    for (uint32_t q = p->first_patch; q < s->patch_count; q++) {
+        ts_patch_attr *a = &s->attr[q];
+        if (a->disp_kind == TS_DISP_NONE) continue; /* xform unused */
+        if (have_last && a->xform == last_old) {
+            a->xform = last_new;
+            continue;
+        }
+        const ts_xform *x = &s->xform[a->xform];
+        const float *rows[3] = {x->r0, x->r1, x->r2};
+        double m[16];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 4; j++) {
+                double v = 0.0;
+                for (int k = 0; k < 4; k++)
+                    v += (double)rows[i][k] * w2c[k * 4 + j];
+                m[i * 4 + j] = v / w2c[15];
+            }
+        m[12] = m[13] = m[14] = 0.0, m[15] = 1.0;
+        last_old = a->xform;
+        int rc = scene_add_xform(s, m, &a->xform, p->err);
+        if (rc != TS_OK) return rc;
+        last_new = a->xform;
+        have_last = 1;
+    }
+    return TS_OK;
+}
+
 /* Patches and lights read before WorldBegin were placed by a CTM that ends in camera
  * space; move them to world space with camera_to_world = world_to_camera^-1. */
 static int rib_camera_items_to_world(rib_parser *p, const double cam_to_world[16])
 {
     ts_scene *s = p->scene;
-    for (size_t k = (size_t)p->first_patch * 16u; k < (size_t)s->patch_count * 16u; k++) {
-        ts_vec4 *c = &s->cp[k];
-        double a[3] = {c->x, c->y, c->z}, b[3];
-        if (!rib_mat_point(cam_to_world, a, b))
-            return rib_error_at(p, p->req_line, p->req_col,
-                                "a patch before WorldBegin leaves the float range");
-        c->x = (float)b[0], c->y = (float)b[1], c->z = (float)b[2];
-    }
+    size_t first = (size_t)p->first_patch * 16u, n = (size_t)(s->patch_count - p->first_patch) * 16u;
+    int rc = rib_camera_points_to_world(p, s->cp + first, n, cam_to_world);
+    if (rc == TS_OK && s->cp1) rc = rib_camera_points_to_world(p, s->cp1 + first, n, cam_to_world);
+    if (rc == TS_OK) rc = rib_camera_attrs_to_world(p, p->ctm);
+    if (rc != TS_OK) return rc;
     for (uint32_t l = p->first_light; l < s->light_count; l++) {
         ts_distant_light *d = &s->lights[l];
         double from[3], to[3];
@@ -292,6 +390,10 @@ int rib_req_world_begin(rib_parser *p)
         return rib_error_at(p, p->req_line, p->req_col,
                             "a second WorldBegin: only one world block per file is supported");
     double inv[16];
+    if (p->ctm_moving)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "a moving camera transform is not supported (MotionBegin before "
+                            "WorldBegin)");
     if (!rib_mat_is_affine(p->ctm))
         return rib_error_at(p, p->req_line, p->req_col, "the camera transform is projective");
     if (!rib_mat_invert(p->ctm, inv))
@@ -302,6 +404,8 @@ int rib_req_world_begin(rib_parser *p)
     for (int k = 0; k < 16; k++)
         p->scene->camera.world_to_camera[k] = p->ctm[k] / p->ctm[15];
     rib_mat_identity(p->ctm);
+    rib_mat_identity(p->ctm1);
+    p->xf_valid = 0;
     p->phase = RIB_IN_WORLD;
     return TS_OK;
 }
@@ -383,6 +487,8 @@ int rib_req_projection(rib_parser *p)
         rib_warn_once(p, p->req_line, p->req_col,
                       "transformations before Projection are discarded");
     rib_mat_identity(p->ctm);
+    rib_mat_identity(p->ctm1);
+    p->ctm_moving = 0;
     return TS_OK;
 }
 
@@ -438,5 +544,144 @@ int rib_req_basis(rib_parser *p)
     if (rc != TS_OK) return rc;
     p->ubasis = u;
     p->vbasis = v;
+    return TS_OK;
+}
+
+/* ---- Displacement (docs/rib.md) ---------------------------------------------------- */
+
+/* Displacement "fbm" | "ridged" ["amplitude" a] ["frequency" f] ["octaves" n]
+ * ["lacunarity" l] ["gain" g]; Displacement "null" or "" turns it off. An attribute: it
+ * applies to the patches that follow and AttributeEnd restores it. */
+int rib_req_displacement(rib_parser *p)
+{
+    const char *name;
+    int rc = rib_string_arg(p, 0, "a displacement name", &name);
+    if (rc != TS_OK) return rc;
+    char shown[RIB_PRINT_MAX];
+    rib_disp d = {TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5};
+    int off = name[0] == '\0' || strcmp(name, "null") == 0;
+    if (strcmp(name, "fbm") == 0)
+        d.kind = TS_DISP_FBM;
+    else if (strcmp(name, "ridged") == 0)
+        d.kind = TS_DISP_RIDGED;
+    else if (!off)
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "unknown displacement \"%s\" (fbm, ridged or null)",
+                            rib_printable(name, shown));
+    for (size_t i = 1; i < p->nargs; i += 2) {
+        rib_param prm;
+        const double *v;
+        rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        static const char *const known[] = {"amplitude", "frequency", "octaves", "lacunarity",
+                                            "gain"};
+        size_t k = 0;
+        while (k < 5 && strcmp(prm.name, known[k]) != 0)
+            k++;
+        if (k == 5 || off) {
+            rib_warn_param(p, &prm);
+            continue;
+        }
+        rc = rib_param_numbers(p, &prm, 1, &v, NULL);
+        if (rc != TS_OK) return rc;
+        double x = v[0];
+        int ok = fabs(x) <= FLT_MAX;
+        const char *need = "a finite number";
+        if (k == 1 || k == 3) ok = ok && x > 0.0, need = "positive";
+        if (k == 2) ok = x >= 0.5 && x < (double)TS_DISP_MAX_OCTAVES + 0.5, need = "between 1 and 16";
+        if (!ok)
+            return rib_error_at(p, prm.val->line, prm.val->col, "Displacement: %s must be %s, got %g",
+                                known[k], need, x);
+        if (k == 0) d.amplitude = x;
+        if (k == 1) d.frequency = x;
+        if (k == 2) d.octaves = (uint32_t)floor(x + 0.5);
+        if (k == 3) d.lacunarity = x;
+        if (k == 4) d.gain = x;
+    }
+    if (off || d.amplitude == 0.0) d.kind = TS_DISP_NONE;
+    p->disp = d;
+    return TS_OK;
+}
+
+/* ---- motion blocks (docs/rib.md) --------------------------------------------------- */
+
+/* Requests a motion block may hold: one kind per block, two samples. */
+static const char *const rib_motion_kinds[] = {"Patch", "Translate", "Rotate", "Scale",
+                                               "ConcatTransform", "Transform"};
+
+int rib_motion_check(rib_parser *p)
+{
+    rib_motion *m = &p->motion;
+    if (strcmp(p->req, "MotionBegin") == 0)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "MotionBegin inside the motion block at %d:%d", m->line, m->col);
+    size_t k = 0, n = sizeof rib_motion_kinds / sizeof rib_motion_kinds[0];
+    while (k < n && strcmp(p->req, rib_motion_kinds[k]) != 0)
+        k++;
+    if (k == n)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s is not allowed in the motion block at %d:%d (only Patch, "
+                            "Translate, Rotate, Scale, ConcatTransform or Transform)",
+                            p->req, m->line, m->col);
+    if (m->count >= 2)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s: the motion block at %d:%d already has its 2 samples", p->req,
+                            m->line, m->col);
+    if (m->count == 0) {
+        memcpy(m->first, p->req, sizeof m->first);
+        m->first_line = p->req_line;
+        m->first_col = p->req_col;
+    } else if (strcmp(p->req, m->first) != 0) {
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s does not match the %s at %d:%d in the motion block", p->req,
+                            m->first, m->first_line, m->first_col);
+    }
+    return TS_OK;
+}
+
+/* MotionBegin [t0 t1]: exactly two increasing times, which become shutter open and close. */
+int rib_req_motion_begin(rib_parser *p)
+{
+    double t[2];
+    size_t i = 0;
+    if (p->nargs > 0 && p->args[0].kind == RIB_ARG_NUMBERS && p->args[0].count != 2)
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "MotionBegin: exactly 2 times are supported, got %zu",
+                            p->args[0].count);
+    int rc = rib_numbers(p, &i, 2, t);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    if (rc != TS_OK) return rc;
+    if (!(t[0] < t[1]))
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "MotionBegin: the times must increase, got %g %g", t[0], t[1]);
+    memset(&p->motion, 0, sizeof p->motion);
+    p->motion.active = 1;
+    p->motion.line = p->req_line;
+    p->motion.col = p->req_col;
+    return TS_OK;
+}
+
+/* MotionEnd: applies the two samples: a moving patch, or a CTM with two time samples. */
+int rib_req_motion_end(rib_parser *p)
+{
+    rib_motion *m = &p->motion;
+    int rc = rib_no_more(p, 0);
+    if (rc != TS_OK) return rc;
+    if (!m->active)
+        return rib_error_at(p, p->req_line, p->req_col, "MotionEnd without MotionBegin");
+    if (m->count != 2)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "MotionEnd: the motion block at %d:%d has %d sample%s for 2 times",
+                            m->line, m->col, m->count, m->count == 1 ? "" : "s");
+    m->active = 0;
+    if (strcmp(m->first, "Patch") == 0) return rib_geom_motion_patch(p);
+    if (m->replace) {
+        memcpy(p->ctm, m->m[0], sizeof p->ctm);
+        memcpy(p->ctm1, m->m[1], sizeof p->ctm1);
+    } else {
+        rib_mat_concat(p->ctm, m->m[0]);
+        rib_mat_concat(p->ctm1, m->m[1]);
+    }
+    p->ctm_moving = memcmp(p->ctm, p->ctm1, sizeof p->ctm) != 0;
     return TS_OK;
 }

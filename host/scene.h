@@ -29,9 +29,21 @@ typedef struct ts_scene {
     uint32_t patch_count;
     uint32_t patch_capacity;
     /* patch_count * 16 control points, world space, Bézier basis, row by row with u
-     * fastest: point (i, j) of patch p is cp[p * 16 + j * 4 + i], w = 1. */
+     * fastest: point (i, j) of patch p is cp[p * 16 + j * 4 + i], w = 1. For a moving patch
+     * (attr.flags & TS_PATCH_MOVING) these are the points at shutter open (time 0). */
     ts_vec4 *cp;
+    /* Points at shutter close (time 1), same layout; NULL while no patch moves. Static
+     * patches hold a copy of cp here once any patch moves (Hanika §3.4). */
+    ts_vec4 *cp1;
+    /* patch_count * 4 displacement normals at the corners (u, v) = (0,0), (1,0), (0,1),
+     * (1,1), unit length, w = 0 (DESIGN.md §2). From a varying "N" when the scene gives one,
+     * else set by scene_finalize to the average over every patch sharing the corner. */
+    ts_vec4 *corner_n;
     ts_patch_attr *attr; /* patch_count entries */
+    /* World-to-object transforms referenced by attr.xform (noise is evaluated in object
+     * space); xform[0] is the identity. */
+    ts_xform *xform;
+    uint32_t xform_count, xform_capacity;
     ts_camera camera;
     ts_distant_light *lights;
     uint32_t light_count;
@@ -41,10 +53,27 @@ typedef struct ts_scene {
  * TS_E_MEMORY. */
 int scene_add_patch(ts_scene *s, const double cp[16][3], const ts_patch_attr *attr,
                     ts_error *err);
+/* The general form: cp1 (points at time 1) NULL for a static patch, else the patch moves
+ * (sets TS_PATCH_MOVING); normals (corner displacement normals in the corner order above,
+ * world space, any length) NULL to have scene_finalize average them. */
+int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16][3],
+                       const double normals[4][3], const ts_patch_attr *attr, ts_error *err);
+/* Adds a world-to-object transform (row-major 4x4, affine) and returns its index for
+ * ts_patch_attr.xform; an identical transform already added is reused. */
+int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *index,
+                    ts_error *err);
+/* Completes a loaded scene: corner normals for patches without explicit ones (the
+ * geometric normal of each patch at each corner, averaged over all patches whose corner
+ * has exactly the same position, then normalised; where a patch's derivatives vanish at a
+ * corner the limit from inside the patch is used), and cp1 copies for static patches when
+ * any patch moves. Loaders call it once at the end. */
+int scene_finalize(ts_scene *s, ts_error *err);
 /* Appends a distant light. */
 int scene_add_light(ts_scene *s, const ts_distant_light *light, ts_error *err);
-/* Conservative world-space box of patch p: the box of its control points, which holds the
- * surface by the convex hull property of Bézier patches (Hanika §3.3). */
+/* Conservative world-space box of patch p over the whole shutter interval: the box of its
+ * control points at both times (convex hull property of Bézier patches, Hanika §3.3) grown
+ * by the largest displacement the patch's function can produce (displace_bound in
+ * lib/displace.h) in every axis. */
 ts_box scene_patch_box(const ts_scene *s, uint32_t p);
 void scene_free(ts_scene *s);
 

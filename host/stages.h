@@ -6,9 +6,10 @@
 
 #define TS_STAGES(X)                                                                        \
     X(camera, "generate the wave's rays")                                                   \
+    X(lod, "count the frame's eye rays per patch box, choose m per patch")                   \
     X(top_level, "traverse the top-level QBVH, append (leaf, ray) candidates")              \
     X(sort, "radix sort the candidates by leaf, cut per-patch segments")                    \
-    X(dice, "evaluate (2^m+1)^2 vertices per patch segment into a slot")                    \
+    X(dice, "evaluate the (2^m+1)^2 displaced vertices of each patch segment")             \
     X(build, "implicit quad-tree boxes, bottom-up min-max")                                 \
     X(bottom_level, "trace each (ray, patch) pair through the patch's quad-tree")           \
     X(resolve, "closest hit per ray, retire finished rays")                                 \

@@ -2,11 +2,14 @@
  *   while rays are active:
  *     top_level   -> up to N (leaf, window) candidates per active ray, N = capacity / R
  *     sort        -> candidates by leaf, segments [begin, end) per patch
- *     per batch of slot_count segments: dice -> build -> bottom_level
+ *     per batch of segments that fit the arenas: dice -> build -> bottom_level
  *     resolve     -> closest hit per ray; rays whose traversal is finished retire
  * Host stages (sort, the compaction in resolve) are timed on the monotonic clock; kernels by
  * their profiling events (cl_launch / cl_finish). */
 #include "pipeline.h"
+#include "lib/quadtree.h"
+
+#include <stdlib.h>
 
 #include <string.h>
 
@@ -22,6 +25,49 @@ static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per
     if (cl_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
         return err->code;
     return cl_finish(p->cl, p->stats, err);
+}
+
+/* Gives each segment its LOD and arena place and cuts the segments into batches that fit
+ * the arenas; lists each batch's trees (segment, time) by decreasing m. */
+static void plan_batches(ts_pipeline *p, uint32_t segs)
+{
+    uint32_t vused = 0, gused = 0, ntrees = 0;
+    p->batch_count = 0;
+    ts_batch *b = NULL;
+    for (uint32_t i = 0; i < segs; ++i) {
+        ts_segment *s = &p->segments_host[i];
+        const ts_patch_attr *a = &p->scene->attr[s->patch];
+        int fixed = p->mode.fixed_lod;
+        s->lod = fixed >= 0 ? ((uint32_t)fixed < p->plan.max_lod ? (uint32_t)fixed : p->plan.max_lod)
+                            : p->patch_lod[s->patch];
+        s->flags = a->flags & TS_PATCH_MOVING;
+        s->pad = 0;
+        uint32_t times = s->flags ? 2u : 1u;
+        uint32_t nv = times * quadtree_vertex_count(s->lod), ng = times * quadtree_group_count(s->lod);
+        if (!b || vused + nv > p->plan.vert_capacity || gused + ng > p->plan.group_capacity) {
+            b = &p->batches[p->batch_count++];
+            *b = (ts_batch){i, 0, ntrees, 0};
+            vused = gused = 0;
+        }
+        s->vert_first = vused;
+        s->group_first = gused;
+        vused += nv, gused += ng;
+        b->seg_count++;
+        for (uint32_t t = 0; t < times; ++t) p->trees_host[ntrees++] = (i << 1) | t, b->tree_count++;
+    }
+    /* Counting sort of each batch's trees by decreasing m (stable). */
+    for (uint32_t k = 0; k < p->batch_count; ++k) {
+        ts_batch *bk = &p->batches[k];
+        uint32_t *list = &p->trees_host[bk->tree_first], count[TS_LOD_LIMIT + 1] = {0};
+        uint32_t tmp[2 * 64], *scratch = bk->tree_count <= 128 ? tmp : malloc(bk->tree_count * sizeof *scratch);
+        if (!scratch) continue; /* unsorted: build_level then visits idle trees, still correct */
+        for (uint32_t t = 0; t < bk->tree_count; ++t) count[p->segments_host[TS_TREE_SEGMENT(list[t])].lod]++;
+        uint32_t start[TS_LOD_LIMIT + 1], at = 0;
+        for (int m = TS_LOD_LIMIT; m >= 0; --m) start[m] = at, at += count[m];
+        for (uint32_t t = 0; t < bk->tree_count; ++t) scratch[start[p->segments_host[TS_TREE_SEGMENT(list[t])].lod]++] = list[t];
+        memcpy(list, scratch, bk->tree_count * sizeof *list);
+        if (scratch != tmp) free(scratch);
+    }
 }
 
 /* Sorts the candidate windows on the host through mapped buffers (zero copy on CPU
@@ -52,61 +98,88 @@ static int stage_sort(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint3
     CL_CHECK(clEnqueueUnmapMemObject(q, p->pairs[0], a, 0, NULL, NULL), err);
     CL_CHECK(clEnqueueUnmapMemObject(q, p->pairs[1], b, 0, NULL, NULL), err);
     if (rc) return rc;
-    /* LOD: every segment at max_lod (ray-driven LOD selection is a later stage of work). */
-    for (uint32_t s = 0; s < segs; ++s) {
-        p->segments_host[s].slot = s % p->plan.slot_count;
-        p->segments_host[s].lod = p->plan.max_lod;
-    }
-    if (segs)
+    plan_batches(p, segs);
+    if (segs) {
         CL_CHECK(clEnqueueWriteBuffer(q, p->segments, CL_TRUE, 0, segs * sizeof(ts_segment),
                                       p->segments_host, 0, NULL, NULL),
                  err);
+        uint32_t trees = p->batches[p->batch_count - 1].tree_first + p->batches[p->batch_count - 1].tree_count;
+        CL_CHECK(clEnqueueWriteBuffer(q, p->trees, CL_TRUE, 0, trees * sizeof(uint32_t),
+                                      p->trees_host, 0, NULL, NULL),
+                 err);
+    }
     *segment_count = segs;
     p->stats->stage_seconds[TS_STAGE_sort] += stats_now() - t0;
     return TS_OK;
 }
 
-static int stage_dice(ts_pipeline *p, uint32_t first, uint32_t count, ts_error *err)
+/* Dices each tree run of one LOD with one launch (trees are listed by decreasing m). */
+static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
-    if (cl_set_args(p->k_dice, err, ARG(p->segments), ARG(first), ARG(count),
-                    ARG(p->verts_per_slot), ARG(p->cp), ARG(p->grid), (size_t)0))
-        return err->code;
-    for (uint32_t s = first; s < first + count; ++s) {
-        p->stats->counters[TS_COUNTER_patches_diced] += 1;
-        p->stats->counters[TS_COUNTER_micropolygons_created] += 1ull << (2u * p->segments_host[s].lod);
+    for (uint32_t t = 0; t < b->tree_count;) {
+        uint32_t m = p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])].lod, run = 0;
+        while (t + run < b->tree_count &&
+               p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t + run])].lod == m)
+            ++run;
+        uint32_t first = b->tree_first + t;
+        if (cl_set_args(p->k_dice, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
+                        ARG(p->segments), ARG(p->cp), ARG(p->cp1), ARG(p->corner_n), ARG(p->attr),
+                        ARG(p->xform), ARG(p->grid), (size_t)0) ||
+            cl_launch(p->cl, p->k_dice, TS_STAGE_dice, (size_t)run * quadtree_vertex_count(m),
+                      TS_LOCAL_SIZE, err))
+            return err->code;
+        t += run;
     }
-    return cl_launch(p->cl, p->k_dice, TS_STAGE_dice, (size_t)count * p->verts_per_slot,
-                     TS_LOCAL_SIZE, err);
+    for (uint32_t i = b->seg_first; i < b->seg_first + b->seg_count; ++i) {
+        p->stats->counters[TS_COUNTER_patches_diced] += 1;
+        p->stats->counters[TS_COUNTER_micropolygons_created] += 1ull << (2u * p->segments_host[i].lod);
+    }
+    return TS_OK;
 }
 
-static int stage_build(ts_pipeline *p, uint32_t first, uint32_t count, ts_error *err)
+/* Leaves per LOD run, then one launch per level over the trees deeper than it. */
+static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
-    if (cl_set_args(p->k_build_leaves, err, ARG(p->segments), ARG(first), ARG(count),
-                    ARG(p->leaves_per_slot), ARG(p->verts_per_slot), ARG(p->groups_per_slot),
-                    ARG(p->grid), ARG(p->nodes), (size_t)0) ||
-        cl_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)count * p->leaves_per_slot,
-                  TS_LOCAL_SIZE, err))
-        return err->code;
-    for (uint32_t level = p->plan.max_lod; level-- > 0;) {
-        if (cl_set_args(p->k_build_level, err, ARG(p->segments), ARG(first), ARG(count),
-                        ARG(level), ARG(p->groups_per_slot), ARG(p->nodes), (size_t)0) ||
-            cl_launch(p->cl, p->k_build_level, TS_STAGE_build, (size_t)count << (2u * level),
+    uint32_t top = 0;
+    for (uint32_t t = 0; t < b->tree_count;) {
+        uint32_t m = p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])].lod, run = 0;
+        while (t + run < b->tree_count &&
+               p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t + run])].lod == m)
+            ++run;
+        if (t == 0) top = m;
+        uint32_t first = b->tree_first + t;
+        if (cl_set_args(p->k_build_leaves, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
+                        ARG(p->segments), ARG(p->grid), ARG(p->corner_n), ARG(p->attr),
+                        ARG(p->xform), ARG(p->flatness), ARG(p->groups), (size_t)0) ||
+            cl_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
+                      TS_LOCAL_SIZE, err))
+            return err->code;
+        t += run;
+    }
+    for (uint32_t level = top; level-- > 0;) {
+        uint32_t deeper = 0; /* trees with m > level: a prefix of the list */
+        while (deeper < b->tree_count &&
+               p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + deeper])].lod > level)
+            ++deeper;
+        if (cl_set_args(p->k_build_level, err, ARG(p->trees), ARG(b->tree_first), ARG(deeper),
+                        ARG(level), ARG(p->segments), ARG(p->groups), (size_t)0) ||
+            cl_launch(p->cl, p->k_build_level, TS_STAGE_build, (size_t)deeper << (2u * level),
                       TS_LOCAL_SIZE, err))
             return err->code;
     }
     return TS_OK;
 }
 
-static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, uint32_t first,
-                              uint32_t count, uint32_t n_per_ray, ts_error *err)
+static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_batch *b,
+                              uint32_t n_per_ray, ts_error *err)
 {
     const ts_segment *s = p->segments_host;
+    uint32_t first = b->seg_first, count = b->seg_count, exact = p->mode.exact ? 1u : 0u;
     uint32_t pair_first = s[first].begin, pair_count = s[first + count - 1].end - pair_first;
     if (cl_set_args(p->k_bottom_level, err, ARG(p->pairs[sorted_buffer]), ARG(pair_first),
-                    ARG(pair_count), ARG(p->segments), ARG(first), ARG(count),
-                    ARG(p->verts_per_slot), ARG(p->groups_per_slot), ARG(n_per_ray),
-                    ARG(p->active), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
-                    ARG(p->grid), ARG(p->nodes), ARG(p->pair_hit), (size_t)0))
+                    ARG(pair_count), ARG(p->segments), ARG(first), ARG(count), ARG(n_per_ray),
+                    ARG(exact), ARG(p->active), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
+                    ARG(p->grid), ARG(p->groups), ARG(p->pair_hit), (size_t)0))
         return err->code;
     return cl_launch(p->cl, p->k_bottom_level, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE,
                      err);
@@ -150,12 +223,27 @@ int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray
 
 int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
 {
-    if (count > p->plan.slot_count)
-        return ts_error_set(err, TS_E_INTERNAL, "%u segments for %u slots", count, p->plan.slot_count);
+    /* Keep the caller's per-segment LODs: plan_batches reads them from patch_lod. */
+    size_t n = p->scene->patch_count ? p->scene->patch_count : 1;
+    uint8_t *saved = p->patch_lod, *lods = calloc(n, 1);
+    if (!lods) return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    for (uint32_t i = 0; i < count; ++i) lods[p->segments_host[i].patch] = (uint8_t)p->segments_host[i].lod;
+    int fixed = p->mode.fixed_lod;
+    p->mode.fixed_lod = -1;
+    p->patch_lod = lods;
+    plan_batches(p, count);
+    p->patch_lod = saved;
+    p->mode.fixed_lod = fixed;
+    free(lods);
+    if (p->batch_count != 1)
+        return ts_error_set(err, TS_E_INTERNAL, "pipeline_dice_build: the segments do not fit one batch");
     CL_CHECK(clEnqueueWriteBuffer(p->cl->queue, p->segments, CL_TRUE, 0, count * sizeof(ts_segment),
                                   p->segments_host, 0, NULL, NULL),
              err);
-    if (stage_dice(p, 0, count, err) || stage_build(p, 0, count, err)) return err->code;
+    CL_CHECK(clEnqueueWriteBuffer(p->cl->queue, p->trees, CL_TRUE, 0,
+                                  p->batches[0].tree_count * sizeof(uint32_t), p->trees_host, 0, NULL, NULL),
+             err);
+    if (stage_dice(p, &p->batches[0], err) || stage_build(p, &p->batches[0], err)) return err->code;
     return cl_finish(p->cl, p->stats, err);
 }
 
@@ -176,10 +264,10 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
         if (stage_top_level(p, active, n_per_ray, err) ||
             stage_sort(p, active * n_per_ray, &sorted_buffer, &valid, &segs, err))
             return err->code;
-        for (uint32_t first = 0; first < segs; first += p->plan.slot_count) {
-            uint32_t count = segs - first < p->plan.slot_count ? segs - first : p->plan.slot_count;
-            if (stage_dice(p, first, count, err) || stage_build(p, first, count, err) ||
-                stage_bottom_level(p, sorted_buffer, first, count, n_per_ray, err))
+        for (uint32_t k = 0; k < (segs ? p->batch_count : 0); ++k) {
+            const ts_batch *b = &p->batches[k];
+            if (stage_dice(p, b, err) || stage_build(p, b, err) ||
+                stage_bottom_level(p, sorted_buffer, b, n_per_ray, err))
                 return err->code;
         }
         ts_iteration rec = {p->wave, it, active, n_per_ray, valid, segs};
@@ -196,7 +284,8 @@ int pipeline_shade_film(ts_pipeline *p, const ts_shade_params *sp, uint32_t firs
 {
     ts_shade_params s = *sp;
     if (cl_set_args(p->k_shade, err, ARG(s), ARG(ray_count), ARG(p->ray_dir), ARG(p->ray_hit),
-                    ARG(p->cp), ARG(p->attr), ARG(p->radiance), ARG(p->aov), (size_t)0) ||
+                    ARG(p->cp), ARG(p->corner_n), ARG(p->attr), ARG(p->xform), ARG(p->radiance),
+                    ARG(p->aov), (size_t)0) ||
         cl_launch(p->cl, p->k_shade, TS_STAGE_shade, ray_count, TS_LOCAL_SIZE, err))
         return err->code;
     if (cl_set_args(p->k_film, err, ARG(first_sample), ARG(ray_count), ARG(p->pixel_count),

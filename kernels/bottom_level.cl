@@ -1,12 +1,18 @@
-/* bottom_level.cl — stage `bottom_level` (Hanika §3.2.1): each sorted (ray, patch) pair of a
- * batch traverses its patch's quad-tree front to back and intersects the micro-triangles of
- * the leaves it reaches (each micro-quad (i, j) is split along its (i,j)-(i+1,j+1) diagonal;
- * the watertight test of lib/intersect.h, so no ray slips between micro-triangles).
- * Reads:  pairs[pair_first ..), the batch's segments (to find the pair's slot), ray org/dir,
- *         hit.t as tmax, grid and quad-tree nodes of the slot.
+/* bottom_level.cl — stage `bottom_level` (Hanika §3.2.1-3.4): each sorted (ray, patch) pair
+ * of a batch traverses its patch's quad-tree front to back.
+ * Reads:  pairs[pair_first ..), the batch's segments (found by binary search on begin), ray
+ *         org/dir (dir.w = time), hit.t as tmax, the grid(s) and tree(s) of the segment.
  * Writes: pair_hit[pair.window]: the closest hit in this patch below tmax, or t = TS_NO_HIT.
- * Sibling boxes are tested four at a time (SoA groups, lib/quadtree.h), the paper's use of
- * the implicit tree's memory layout (§3.2.1). Stack: at most 3 entries per level plus one. */
+ * Geometry, by `exact`:
+ *   0 (default): the leaf boxes themselves (§3.3): conservative over each micro-quad's
+ *     parameter square, so patches diced at different m leave no holes; the hit is the
+ *     ray's entry into the box, (u, v) the square's centre.
+ *   1: the two micro-triangles of each micro-quad (split along (i,j)-(i+1,j+1)), with the
+ *     watertight test of lib/intersect.h; for cross-checks at a fixed m.
+ * Motion (§3.4): a moving segment has a tree and a grid per time sample; boxes and vertices
+ * are interpolated linearly at the ray's time.
+ * Sibling boxes are tested four at a time (SoA groups, lib/quadtree.h). Stack: at most 3
+ * entries per level plus one. */
 #include "lib/shared_types.h"
 #include "lib/intersect.h"
 #include "lib/quadtree.h"
@@ -25,52 +31,80 @@ inline uint segment_of(__global const ts_segment *seg, uint count, uint p)
     return lo;
 }
 
-/* Tests micro-quad k of a patch diced at m; updates *best on a closer hit. The four
- * vertices are made relative to the origin and permuted to the shear's axes with one
- * shuffle each (the host reference, triangle_hit, does the same arithmetic per component). */
-inline void leaf_intersect(__global const ts_vec4 *g, uint m, uint k, float4 o4, float tmin,
-                           uint4 perm, const ts_ray_shear *sh, ts_hit *best, uint patch)
+/* Vertex v of the grid at the ray's time (g1 == 0 for a static patch). */
+inline float4 vertex_at(__global const float4 *g0, __global const float4 *g1, uint v, float time)
 {
-    __global const float4 *gv = (__global const float4 *)g;
+    float4 p = g0[v];
+    if (g1) p = p + time * (g1[v] - p);
+    return p;
+}
+
+/* Tests the micro-triangles of micro-quad k of a patch diced at m; updates *best. The
+ * vertices are made relative to the origin and permuted to the shear's axes with one
+ * shuffle each (the host reference, triangle_hit, does the same arithmetic). */
+inline void leaf_triangles(__global const float4 *g0, __global const float4 *g1, float time,
+                           uint m, uint k, float4 o4, float tmin, uint4 perm,
+                           const ts_ray_shear *sh, ts_hit *best, uint patch)
+{
     uint i = morton_i(k), j = morton_j(k), n = (1u << m) + 1u;
-    float4 v00 = shuffle(gv[j * n + i] - o4, perm), v10 = shuffle(gv[j * n + i + 1u] - o4, perm);
-    float4 v01 = shuffle(gv[(j + 1u) * n + i] - o4, perm);
-    float4 v11 = shuffle(gv[(j + 1u) * n + i + 1u] - o4, perm);
+    float4 v00 = shuffle(vertex_at(g0, g1, j * n + i, time) - o4, perm);
+    float4 v10 = shuffle(vertex_at(g0, g1, j * n + i + 1u, time) - o4, perm);
+    float4 v01 = shuffle(vertex_at(g0, g1, (j + 1u) * n + i, time) - o4, perm);
+    float4 v11 = shuffle(vertex_at(g0, g1, (j + 1u) * n + i + 1u, time) - o4, perm);
     float b1, b2, scale = ldexp(1.0f, -(int)m);
+    uint quad = j * (n - 1u) + i;
     float t = triangle_hit_permuted(sh, v00.x, v00.y, v00.z, v10.x, v10.y, v10.z, v11.x, v11.y,
                                     v11.z, tmin, best->t, &b1, &b2);
     if (t >= 0.0f) {
         *best = (ts_hit){t, ((float)i + b1 + b2) * scale, ((float)j + b2) * scale, patch,
-                         2u * (j * (n - 1u) + i)};
+                         TS_PRIM(m, 2u * quad)};
     }
     t = triangle_hit_permuted(sh, v00.x, v00.y, v00.z, v11.x, v11.y, v11.z, v01.x, v01.y, v01.z,
                               tmin, best->t, &b1, &b2);
     if (t >= 0.0f) {
         *best = (ts_hit){t, ((float)i + b1) * scale, ((float)j + b1 + b2) * scale, patch,
-                         2u * (j * (n - 1u) + i) + 1u};
+                         TS_PRIM(m, 2u * quad + 1u)};
     }
 }
 
-/* Slab test of the four boxes of a sibling group at once (lib/intersect.h box_enter,
- * lane by lane). Returns the entry distances, -1 in lanes that miss. */
-inline float4 group_enter(__global const ts_box4 *g, float4 o, float4 inv, float tmin, float tmax)
+/* A leaf box hit at entry distance e (box mode). */
+inline void leaf_box(uint m, uint k, float e, ts_hit *best, uint patch)
 {
-    float4 tx0 = (vload4(0, g->lo_x) - o.x) * inv.x, tx1 = (vload4(0, g->hi_x) - o.x) * inv.x;
-    float4 ty0 = (vload4(0, g->lo_y) - o.y) * inv.y, ty1 = (vload4(0, g->hi_y) - o.y) * inv.y;
-    float4 tz0 = (vload4(0, g->lo_z) - o.z) * inv.z, tz1 = (vload4(0, g->hi_z) - o.z) * inv.z;
+    if (!(e < best->t)) return;
+    uint i = morton_i(k), j = morton_j(k);
+    float scale = ldexp(1.0f, -(int)m);
+    *best = (ts_hit){e, ((float)i + 0.5f) * scale, ((float)j + 0.5f) * scale, patch,
+                     TS_PRIM(m, 2u * (j * (1u << m) + i))};
+}
+
+/* Slab test of the four boxes of sibling group g (and of its time-1 twin g1, interpolated
+ * at `time`, when g1 != 0). Returns the entry distances, -1 in lanes that miss. */
+inline float4 group_enter(__global const ts_box4 *g, __global const ts_box4 *g1, float time,
+                          float4 o, float4 inv, float tmin, float tmax)
+{
+    float4 lx = vload4(0, g->lo_x), ly = vload4(0, g->lo_y), lz = vload4(0, g->lo_z);
+    float4 hx = vload4(0, g->hi_x), hy = vload4(0, g->hi_y), hz = vload4(0, g->hi_z);
+    if (g1) {
+        lx += time * (vload4(0, g1->lo_x) - lx), ly += time * (vload4(0, g1->lo_y) - ly);
+        lz += time * (vload4(0, g1->lo_z) - lz), hx += time * (vload4(0, g1->hi_x) - hx);
+        hy += time * (vload4(0, g1->hi_y) - hy), hz += time * (vload4(0, g1->hi_z) - hz);
+    }
+    float4 tx0 = (lx - o.x) * inv.x, tx1 = (hx - o.x) * inv.x;
+    float4 ty0 = (ly - o.y) * inv.y, ty1 = (hy - o.y) * inv.y;
+    float4 tz0 = (lz - o.z) * inv.z, tz1 = (hz - o.z) * inv.z;
     float4 tn = TS_MAX(TS_MAX(TS_MIN(tx0, tx1), TS_MIN(ty0, ty1)), TS_MAX(TS_MIN(tz0, tz1), (float4)(tmin)));
     float4 tf = TS_MIN(TS_MIN(TS_MAX(tx0, tx1), TS_MAX(ty0, ty1)), TS_MIN(TS_MAX(tz0, tz1), (float4)(tmax)));
     tf *= 1.0000003576f;
-    return select((float4)(-1.0f), tn, tn <= tf && vload4(0, g->lo_x) <= vload4(0, g->hi_x));
+    return select((float4)(-1.0f), tn, tn <= tf && lx <= hx);
 }
 
 __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first, uint pair_count,
                                  __global const ts_segment *segments, uint seg_first,
-                                 uint seg_count, uint verts_per_slot, uint groups_per_slot,
-                                 uint n_per_ray, __global const uint *active,
-                                 __global const ts_vec4 *org, __global const ts_vec4 *dir,
-                                 __global const ts_hit *hit, __global const ts_vec4 *grid,
-                                 __global const ts_box4 *groups, __global ts_hit *pair_hit)
+                                 uint seg_count, uint n_per_ray, uint exact,
+                                 __global const uint *active, __global const ts_vec4 *org,
+                                 __global const ts_vec4 *dir, __global const ts_hit *hit,
+                                 __global const ts_vec4 *grid, __global const ts_box4 *groups,
+                                 __global ts_hit *pair_hit)
 {
     uint gid = get_global_id(0);
     if (gid >= pair_count) return;
@@ -84,19 +118,23 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
     ts_ray_shear sh = ray_shear(d.x, d.y, d.z);
     uint4 perm = (uint4)((uint)sh.kx, (uint)sh.ky, (uint)sh.kz, 3u);
     ts_hit best = {hit[ray].t, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
-    __global const ts_vec4 *g = grid + (size_t)seg.slot * verts_per_slot;
-    __global const ts_box4 *t = groups + (size_t)seg.slot * groups_per_slot;
     uint m = seg.lod;
+    int moving = (seg.flags & TS_PATCH_MOVING) != 0u;
+    float time = d.w;
+    __global const float4 *g0 = (__global const float4 *)(grid + seg.vert_first);
+    __global const float4 *g1 = moving ? g0 + quadtree_vertex_count(m) : 0;
+    __global const ts_box4 *t0 = groups + seg.group_first;
+    __global const ts_box4 *t1 = moving ? t0 + quadtree_group_count(m) : 0;
     /* Stack of inner nodes still to visit: (level << 24) | index in the level, with the
      * entry distance. Leaves are intersected as soon as their group is tested. */
     uint stack[BL_STACK];
     float stack_t[BL_STACK];
     int sp = 0;
-    ts_box root = quadtree_box(t, 0u, 0u);
-    float te = box_enter(o.x, o.y, o.z, inv.x, inv.y, inv.z, root.lo_x, root.lo_y, root.lo_z,
-                         root.hi_x, root.hi_y, root.hi_z, o.w, best.t);
-    if (te >= 0.0f && m == 0u) leaf_intersect(g, 0u, 0u, o4, o.w, perm, &sh, &best, seg.patch);
-    else if (te >= 0.0f) {
+    float te = group_enter(t0, t1, time, o4, inv, o.w, best.t).x; /* the root, lane 0 */
+    if (te >= 0.0f && m == 0u) {
+        if (exact) leaf_triangles(g0, g1, time, 0u, 0u, o4, o.w, perm, &sh, &best, seg.patch);
+        else leaf_box(0u, 0u, te, &best, seg.patch);
+    } else if (te >= 0.0f) {
         stack[0] = 0u;
         stack_t[0] = te;
         sp = 1;
@@ -105,7 +143,8 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
         --sp;
         if (stack_t[sp] > best.t) continue;
         uint level = stack[sp] >> 24, k = stack[sp] & 0xffffffu;
-        float4 e4 = group_enter(t + quadtree_group_offset(level + 1u) + k, o4, inv, o.w, best.t);
+        uint grp = quadtree_group_offset(level + 1u) + k;
+        float4 e4 = group_enter(t0 + grp, t1 ? t1 + grp : 0, time, o4, inv, o.w, best.t);
         float e[4] = {e4.x, e4.y, e4.z, e4.w};
         /* Children that are hit, sorted by entry distance, farthest first. */
         float tc[4];
@@ -123,8 +162,11 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
             id[at] = 4u * k + q;
         }
         if (level + 1u == m) { /* the children are leaves: nearest first */
-            for (uint q = nc; q-- > 0u;)
-                if (tc[q] <= best.t) leaf_intersect(g, m, id[q], o4, o.w, perm, &sh, &best, seg.patch);
+            for (uint q = nc; q-- > 0u;) {
+                if (!(tc[q] <= best.t)) continue;
+                if (exact) leaf_triangles(g0, g1, time, m, id[q], o4, o.w, perm, &sh, &best, seg.patch);
+                else leaf_box(m, id[q], tc[q], &best, seg.patch);
+            }
             continue;
         }
         for (uint q = 0; q < nc; ++q) {

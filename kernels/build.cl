@@ -1,14 +1,24 @@
-/* build.cl — stage `build` (Hanika §3.2.1): the implicit complete quad-tree over a diced
- * patch, in time linear in its micro-polygons, stored as SoA sibling groups
- * (lib/quadtree.h).
- * build_leaves: leaf k (Morton order) of level m gets the box of its micro-quad's four
- *   vertices, which holds both of its micro-triangles.
- * build_level:  node k of level l gets the union of its children, the four lanes of group
- *   quadtree_group_offset(l + 1) + k; launched for l = max_lod-1 down to 0 (bottom-up
- *   min-max reduction); segments with m <= l skip. The root's group gets empty lanes 1-3.
- * Reads: segments, grid. Writes: the slot's groups.
- * Invariant after the last launch: every inner box equals the union of its children. */
+/* build.cl — stage `build` (Hanika §3.2.1, §3.3): the implicit complete quad-tree of each tree
+ * of a batch, linear in its micro-polygons, stored as SoA sibling groups (lib/quadtree.h).
+ * build_leaves (one launch per LOD m in the batch): leaf k (Morton order) gets a box that
+ *   holds the displaced surface over the micro-quad's whole parameter square, not only its
+ *   four vertices, so coarse leaves span every finer tessellation and patches diced at
+ *   different m stay hole-free when boxes are the geometry (§3.3):
+ *     undisplaced part: box of the four undisplaced corners (vertex - d * normal) grown by
+ *       the flatness bound E0 * 4^-m (lib/patch.h patch_flatness),
+ *     displacement part: [d] x [N] per axis, [d] by interval arithmetic on the noise over
+ *       the time-0 undisplaced box (lib/displace.h), [N] the box of the bilinear
+ *       displacement normal over the square (its values at the four corners).
+ * build_level (one launch per level l, deepest first): node k of level l of every tree with
+ *   m > l (a prefix of the batch's tree list, which is sorted by decreasing m) gets the union
+ *   of its four children — the bottom-up min-max reduction. The root group's lanes 1-3 are
+ *   left empty.
+ * Reads: trees, segments, grid (w = d), corner normals, attributes, transforms, flatness.
+ * Writes: groups[group_first + time * quadtree_group_count(m) ...].
+ * Invariants: every vertex of a micro-quad lies in its leaf box; every inner box is the union
+ * of its children (tests/test_dice_build.c, tests/test_bounds.c). */
 #include "lib/shared_types.h"
+#include "lib/displace.h"
 #include "lib/quadtree.h"
 
 /* Stores box b as node k of level l. */
@@ -30,41 +40,92 @@ inline void node_store(__global ts_box4 *groups, uint l, uint k, ts_box b)
     }
 }
 
-__kernel void build_leaves(__global const ts_segment *segments, uint seg_first, uint seg_count,
-                           uint leaves_per_slot, uint verts_per_slot, uint groups_per_slot,
-                           __global const ts_vec4 *grid, __global ts_box4 *groups)
+inline void box_add(ts_box *b, float x, float y, float z)
 {
-    uint gid = get_global_id(0);
-    uint s = gid / leaves_per_slot, k = gid % leaves_per_slot;
-    if (s >= seg_count) return;
-    ts_segment seg = segments[seg_first + s];
-    uint m = seg.lod, side = 1u << m;
-    if (k >= side * side) return;
-    uint i = morton_i(k), j = morton_j(k), n = side + 1u;
-    __global const ts_vec4 *g = grid + (size_t)seg.slot * verts_per_slot;
-    ts_vec4 a = g[j * n + i], b = g[j * n + i + 1u];
-    ts_vec4 c = g[(j + 1u) * n + i], d = g[(j + 1u) * n + i + 1u];
-    ts_box box;
-    box.lo_x = fmin(fmin(a.x, b.x), fmin(c.x, d.x));
-    box.lo_y = fmin(fmin(a.y, b.y), fmin(c.y, d.y));
-    box.lo_z = fmin(fmin(a.z, b.z), fmin(c.z, d.z));
-    box.hi_x = fmax(fmax(a.x, b.x), fmax(c.x, d.x));
-    box.hi_y = fmax(fmax(a.y, b.y), fmax(c.y, d.y));
-    box.hi_z = fmax(fmax(a.z, b.z), fmax(c.z, d.z));
-    node_store(groups + (size_t)seg.slot * groups_per_slot, m, k, box);
+    b->lo_x = fmin(b->lo_x, x), b->hi_x = fmax(b->hi_x, x);
+    b->lo_y = fmin(b->lo_y, y), b->hi_y = fmax(b->hi_y, y);
+    b->lo_z = fmin(b->lo_z, z), b->hi_z = fmax(b->hi_z, z);
 }
 
-__kernel void build_level(__global const ts_segment *segments, uint seg_first, uint seg_count,
-                          uint level, uint groups_per_slot, __global ts_box4 *groups)
+/* Box of the undisplaced corners (vertex - d * normal) of micro-quad (i, j) of grid g. */
+inline ts_box base_box(__global const ts_vec4 *g, uint n, uint i, uint j, __global const ts_vec4 *cn,
+                       float h)
 {
-    uint gid = get_global_id(0);
-    uint per_seg = 1u << (2u * level);
-    uint s = gid / per_seg, k = gid % per_seg;
-    if (s >= seg_count) return;
-    ts_segment seg = segments[seg_first + s];
-    if (seg.lod <= level) return;
-    __global ts_box4 *t = groups + (size_t)seg.slot * groups_per_slot;
-    __global const ts_box4 *c = t + quadtree_group_offset(level + 1u) + k;
+    ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    for (uint c = 0; c < 4u; ++c) {
+        uint ci = i + (c & 1u), cj = j + (c >> 1);
+        ts_vec4 p = g[cj * n + ci];
+        ts_vec4 dn = displace_normal(cn, (float)ci * h, (float)cj * h);
+        box_add(&b, p.x - p.w * dn.x, p.y - p.w * dn.y, p.z - p.w * dn.z);
+    }
+    return b;
+}
+
+/* [lo, hi] * [a, b] for intervals. */
+inline float2 interval_mul(float lo, float hi, float a, float b)
+{
+    float p0 = lo * a, p1 = lo * b, p2 = hi * a, p3 = hi * b;
+    return (float2)(fmin(fmin(p0, p1), fmin(p2, p3)), fmax(fmax(p0, p1), fmax(p2, p3)));
+}
+
+__kernel void build_leaves(__global const uint *trees, uint tree_first, uint tree_count, uint m,
+                           __global const ts_segment *segments, __global const ts_vec4 *grid,
+                           __global const ts_vec4 *corner_n, __global const ts_patch_attr *attr,
+                           __global const ts_xform *xform, __global const ts_vec4 *flatness,
+                           __global ts_box4 *groups)
+{
+    uint nl = 1u << (2u * m), gid = get_global_id(0);
+    uint t = gid / nl, k = gid % nl;
+    if (t >= tree_count) return;
+    uint tree = trees[tree_first + t];
+    ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
+    uint time = TS_TREE_TIME(tree), n = (1u << m) + 1u, nv = n * n;
+    uint i = morton_i(k), j = morton_j(k);
+    float h = ldexp(1.0f, -(int)m);
+    __global const ts_vec4 *cn = corner_n + (size_t)seg.patch * 4u;
+    __global const ts_vec4 *g = grid + (size_t)seg.vert_first + time * nv;
+    ts_box b = base_box(g, n, i, j, cn, h);
+    ts_vec4 e = flatness[seg.patch];
+    float s = ldexp(1.0f, -2 * (int)m);
+    /* Flatness, plus a few ulps for the rounding of the vertices and of vertex - d * n. */
+    float mag = fmax(fmax(fabs(b.lo_x), fabs(b.hi_x)), fmax(fmax(fabs(b.lo_y), fabs(b.hi_y)), fmax(fabs(b.lo_z), fabs(b.hi_z))));
+    float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
+    b.lo_x -= ex, b.hi_x += ex, b.lo_y -= ey, b.hi_y += ey, b.lo_z -= ez, b.hi_z += ez;
+    __global const ts_patch_attr *a = attr + seg.patch;
+    if (a->disp_kind != TS_DISP_NONE) {
+        ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
+        if (time == 1u) {
+            b0 = base_box(grid + seg.vert_first, n, i, j, cn, h);
+            b0.lo_x -= ex, b0.hi_x += ex, b0.lo_y -= ey, b0.hi_y += ey, b0.lo_z -= ez, b0.hi_z += ez;
+        }
+        ts_interval d = displace_interval(a, xform + a->xform, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
+        ts_box nb = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+        for (uint c = 0; c < 4u; ++c) {
+            ts_vec4 dn = displace_normal(cn, (float)(i + (c & 1u)) * h, (float)(j + (c >> 1)) * h);
+            box_add(&nb, dn.x, dn.y, dn.z);
+        }
+        float2 ox = interval_mul(d.lo, d.hi, nb.lo_x, nb.hi_x);
+        float2 oy = interval_mul(d.lo, d.hi, nb.lo_y, nb.hi_y);
+        float2 oz = interval_mul(d.lo, d.hi, nb.lo_z, nb.hi_z);
+        float slack = 4e-7f * (mag + fmax(fabs(d.lo), fabs(d.hi)));
+        b.lo_x += ox.x - slack, b.hi_x += ox.y + slack;
+        b.lo_y += oy.x - slack, b.hi_y += oy.y + slack;
+        b.lo_z += oz.x - slack, b.hi_z += oz.y + slack;
+    }
+    node_store(groups + (size_t)seg.group_first + time * quadtree_group_count(m), m, k, b);
+}
+
+__kernel void build_level(__global const uint *trees, uint tree_first, uint tree_count,
+                          uint level, __global const ts_segment *segments,
+                          __global ts_box4 *groups)
+{
+    uint per_tree = 1u << (2u * level), gid = get_global_id(0);
+    uint t = gid / per_tree, k = gid % per_tree;
+    if (t >= tree_count) return;
+    uint tree = trees[tree_first + t];
+    ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
+    __global ts_box4 *base = groups + (size_t)seg.group_first + TS_TREE_TIME(tree) * quadtree_group_count(seg.lod);
+    __global const ts_box4 *c = base + quadtree_group_offset(level + 1u) + k;
     ts_box box;
     box.lo_x = fmin(fmin(c->lo_x[0], c->lo_x[1]), fmin(c->lo_x[2], c->lo_x[3]));
     box.lo_y = fmin(fmin(c->lo_y[0], c->lo_y[1]), fmin(c->lo_y[2], c->lo_y[3]));
@@ -72,5 +133,5 @@ __kernel void build_level(__global const ts_segment *segments, uint seg_first, u
     box.hi_x = fmax(fmax(c->hi_x[0], c->hi_x[1]), fmax(c->hi_x[2], c->hi_x[3]));
     box.hi_y = fmax(fmax(c->hi_y[0], c->hi_y[1]), fmax(c->hi_y[2], c->hi_y[3]));
     box.hi_z = fmax(fmax(c->hi_z[0], c->hi_z[1]), fmax(c->hi_z[2], c->hi_z[3]));
-    node_store(t, level, k, box);
+    node_store(base, level, k, box);
 }

@@ -1,6 +1,7 @@
 /* camera.cl — stage `camera`: generates one wave of eye rays.
  * Reads:  ts_camera_params (by value).
- * Writes: per ray org, dir, hit (cleared), entry (TS_ENTRY_START), pixel; active[i] = i.
+ * Writes: per ray org, dir (w = time in [0,1)), hit (cleared), entry (TS_ENTRY_START), pixel;
+ *         active[i] = i.
  * Ray g = first_sample + i covers pixel g % (width*height), sample g / (width*height), so a
  * wave is a run of whole sample passes and the film can sum samples in a fixed order.
  * RenderMan screen: x right, y up; raster y grows downwards. One sample per pixel goes
@@ -30,7 +31,8 @@ __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __globa
     float dz = sx * p.right[2] + sy * p.up[2] + p.forward[2];
     float inv = 1.0f / sqrt(dx * dx + dy * dy + dz * dz);
     org[i] = (ts_vec4){p.origin[0], p.origin[1], p.origin[2], 0.0f};
-    dir[i] = (ts_vec4){dx * inv, dy * inv, dz * inv, 0.0f};
+    /* Time in [0, 1) for motion blur (Hanika §3.4): a dimension of the same RNG. */
+    dir[i] = (ts_vec4){dx * inv, dy * inv, dz * inv, rng_uniform(pix, sample, 0, 2, p.seed)};
     hit[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
     entry[i] = TS_ENTRY_START;
     pixel[i] = pix;

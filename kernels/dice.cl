@@ -1,22 +1,34 @@
-/* dice.cl — stage `dice` (Hanika §3.2): evaluates the (2^m+1)^2 vertices of each patch
- * segment of a batch into the segment's slot.
- * Reads:  segments[seg_first .. seg_first+seg_count) (patch, slot, lod = m), control points.
- * Writes: grid[slot * verts_per_slot + j * (2^m+1) + i] = P(i / 2^m, j / 2^m).
- * One work-item per (segment, vertex); items past a segment's (2^m+1)^2 return.
- * Parameters are i * 2^-m exactly (ldexp), so the host reference dices the same points. */
+/* dice.cl — stage `dice` (Hanika §3.2): evaluates the (2^m+1)^2 displaced vertices of each
+ * tree of a batch into the vertex arena.
+ * Reads:  trees[tree_first .. tree_first + tree_count) — all of LOD m (the host launches once
+ *         per m present), segments (patch, vert_first), control points at both times, corner
+ *         normals, attributes, transforms.
+ * Writes: grid[vert_first + time * (2^m+1)^2 + j * (2^m+1) + i] = patch_vertex(i 2^-m, j 2^-m):
+ *         xyz the displaced position, w the displacement d (build recovers the undisplaced
+ *         point from it).
+ * Parameters are i * 2^-m exactly (ldexp), so the host references dice the same points. */
 #include "lib/shared_types.h"
-#include "lib/bezier.h"
+#include "lib/patch.h"
+#include "lib/quadtree.h"
 
-__kernel void dice_grid(__global const ts_segment *segments, uint seg_first, uint seg_count,
-                        uint verts_per_slot, __global const ts_vec4 *cp, __global ts_vec4 *grid)
+__kernel void dice_grid(__global const uint *trees, uint tree_first, uint tree_count, uint m,
+                        __global const ts_segment *segments, __global const ts_vec4 *cp0,
+                        __global const ts_vec4 *cp1, __global const ts_vec4 *corner_n,
+                        __global const ts_patch_attr *attr, __global const ts_xform *xform,
+                        __global ts_vec4 *grid)
 {
+    uint nv = quadtree_vertex_count(m);
     uint gid = get_global_id(0);
-    uint s = gid / verts_per_slot, v = gid % verts_per_slot;
-    if (s >= seg_count) return;
-    ts_segment seg = segments[seg_first + s];
-    uint n = (1u << seg.lod) + 1u;
-    if (v >= n * n) return;
-    float u = ldexp((float)(v % n), -(int)seg.lod);
-    float w = ldexp((float)(v / n), -(int)seg.lod);
-    grid[(size_t)seg.slot * verts_per_slot + v] = bezier_eval(cp + (size_t)seg.patch * 16u, u, w);
+    uint t = gid / nv, v = gid % nv;
+    if (t >= tree_count) return;
+    uint tree = trees[tree_first + t];
+    ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
+    uint time = TS_TREE_TIME(tree), n = (1u << m) + 1u;
+    __global const ts_vec4 *c0 = cp0 + (size_t)seg.patch * 16u;
+    __global const ts_vec4 *c = time ? cp1 + (size_t)seg.patch * 16u : c0;
+    __global const ts_patch_attr *a = attr + seg.patch;
+    float u = ldexp((float)(v % n), -(int)m);
+    float w = ldexp((float)(v / n), -(int)m);
+    grid[(size_t)seg.vert_first + time * nv + v] =
+        patch_vertex(c, c0, corner_n + (size_t)seg.patch * 4u, a, xform + a->xform, u, w);
 }

@@ -10,20 +10,7 @@
  * iterations every leaf box the ray meets within tmax is emitted exactly once. */
 #include "lib/shared_types.h"
 #include "lib/intersect.h"
-
-/* The ray's visiting order of a node's four children (see ts_qbvh_node). */
-inline void child_order(uint axes, float dx, float dy, float dz, uint order[4])
-{
-    float d[3] = {dx, dy, dz};
-    uint a0 = axes & 3u, a1 = (axes >> 2) & 3u, a2 = (axes >> 4) & 3u;
-    uint first = d[a0] >= 0.0f ? 0u : 2u;
-    uint lo0 = d[a1] >= 0.0f ? 0u : 1u, lo1 = d[a2] >= 0.0f ? 2u : 3u;
-    uint pair0[2] = {lo0, 1u - lo0}, pair1[2] = {lo1, 5u - lo1};
-    order[0] = first == 0u ? pair0[0] : pair1[0];
-    order[1] = first == 0u ? pair0[1] : pair1[1];
-    order[2] = first == 0u ? pair1[0] : pair0[0];
-    order[3] = first == 0u ? pair1[1] : pair0[1];
-}
+#include "lib/qbvh.h"
 
 __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global const uint *active,
                                 uint active_count, uint n_per_ray, __global const ts_vec4 *org,

@@ -139,7 +139,9 @@ static void test_render_exr_and_stats(void **state)
     assert_true(number(c, "pairs") >= hits);
     assert_true(number(c, "patches_diced") >= 1);
     assert_int_equal((long)number(c, "micropolygons_potential"), 32L * 256);
-    assert_int_equal((long)number(c, "micropolygons_created"), (long)number(c, "patches_diced") * 256);
+    /* Ray-driven LOD: each dicing makes 4^m micro-quads with m <= --max-lod 4. */
+    assert_true(number(c, "micropolygons_created") >= number(c, "patches_diced"));
+    assert_true(number(c, "micropolygons_created") <= number(c, "patches_diced") * 256);
     const cJSON *its = cJSON_GetObjectItemCaseSensitive(j, "iterations");
     assert_true(cJSON_GetArraySize(its) >= 1);
     const cJSON *first = cJSON_GetArrayItem(its, 0);

@@ -1,9 +1,11 @@
 /* test_dice_build.c — the dice and build kernels against plain-C references on random
- * patches: dice vertices vs an independent de Casteljau evaluation in double (tolerance)
- * and vs the shared float evaluation (bitwise); quad-tree leaf boxes vs their micro-quad's
- * vertices and inner boxes vs the union of their children (exact). */
+ * patches, plain and displaced (fbm, ridged): dice vertices vs the shared float evaluation
+ * (bitwise) and, undisplaced, vs an independent de Casteljau in double (tolerance); leaf
+ * boxes hold the displaced surface at random points of their parameter squares and inner
+ * boxes are the union of their children (exact); every vertex lies in the patch's
+ * top-level box. */
 #include "test_support.h"
-#include "lib/bezier.h"
+#include "lib/patch.h"
 #include "lib/quadtree.h"
 #include "pipeline.h"
 
@@ -35,10 +37,14 @@ static void reference_point(const ts_vec4 *cp, double u, double v, double out[3]
     casteljau(rows, v, out);
 }
 
+/* Patches in random places; the odd ones carry fbm displacement in a scaled object space. */
 static void random_scene(ts_scene *s, int patches, uint32_t seed)
 {
     memset(s, 0, sizeof *s);
     ts_error err = {0};
+    const double w2o[16] = {2, 0, 0, 0.5, 0, 1.5, 0, 0, 0, 0, 1, -0.25, 0, 0, 0, 1};
+    uint32_t xf;
+    assert_int_equal(scene_add_xform(s, w2o, &xf, &err), TS_OK);
     for (int p = 0; p < patches; ++p) {
         double cp[16][3];
         float ox = test_uniform(&seed, -5, 5), oy = test_uniform(&seed, -5, 5), oz = test_uniform(&seed, -5, 5);
@@ -48,9 +54,15 @@ static void random_scene(ts_scene *s, int patches, uint32_t seed)
                 cp[j * 4 + i][1] = oy + j + test_uniform(&seed, -0.4f, 0.4f);
                 cp[j * 4 + i][2] = oz + test_uniform(&seed, -1.5f, 1.5f);
             }
-        ts_patch_attr a = {1, 1, 1, 0};
+        ts_patch_attr a = {.cs_r = 1, .cs_g = 1, .cs_b = 1};
+        if (p % 2) {
+            a.disp_kind = p % 4 == 1 ? TS_DISP_FBM : TS_DISP_RIDGED;
+            a.disp_octaves = 3, a.disp_amplitude = 0.3f, a.disp_frequency = 1.7f;
+            a.disp_lacunarity = 2.0f, a.disp_gain = 0.5f, a.xform = xf;
+        }
         assert_int_equal(scene_add_patch(s, cp, &a, &err), TS_OK);
     }
+    assert_int_equal(scene_finalize(s, &err), TS_OK);
 }
 
 static int box_equal(ts_box a, ts_box b)
@@ -59,41 +71,56 @@ static int box_equal(ts_box a, ts_box b)
            a.hi_y == b.hi_y && a.hi_z == b.hi_z;
 }
 
-static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec4 *grid,
-                          const ts_box4 *nodes)
+static int box_contains(ts_box b, ts_vec4 p)
 {
-    const ts_vec4 *cp = &s->cp[seg->patch * 16];
+    return p.x >= b.lo_x && p.x <= b.hi_x && p.y >= b.lo_y && p.y <= b.hi_y && p.z >= b.lo_z &&
+           p.z <= b.hi_z;
+}
+
+static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec4 *grid,
+                          const ts_box4 *nodes, uint32_t *seed)
+{
+    uint32_t pi = seg->patch;
+    const ts_vec4 *cp = &s->cp[pi * 16], *cn = &s->corner_n[pi * 4];
+    const ts_patch_attr *a = &s->attr[pi];
+    const ts_xform *x = &s->xform[a->xform];
     uint32_t m = seg->lod, n = (1u << m) + 1u;
-    ts_box ext = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
-    for (int k = 0; k < 16; ++k) {
-        ext.lo_x = fminf(ext.lo_x, cp[k].x), ext.hi_x = fmaxf(ext.hi_x, cp[k].x);
-        ext.lo_y = fminf(ext.lo_y, cp[k].y), ext.hi_y = fmaxf(ext.hi_y, cp[k].y);
-        ext.lo_z = fminf(ext.lo_z, cp[k].z), ext.hi_z = fmaxf(ext.hi_z, cp[k].z);
-    }
+    ts_box ext = scene_patch_box(s, pi);
     double tol = 1e-5 * fmax(ext.hi_x - ext.lo_x, fmax(ext.hi_y - ext.lo_y, ext.hi_z - ext.lo_z));
     for (uint32_t j = 0; j < n; ++j)
         for (uint32_t i = 0; i < n; ++i) {
             ts_vec4 g = grid[j * n + i];
-            ts_vec4 same = bezier_eval(cp, ldexpf((float)i, -(int)m), ldexpf((float)j, -(int)m));
+            float u = ldexpf((float)i, -(int)m), v = ldexpf((float)j, -(int)m);
+            ts_vec4 same = patch_vertex(cp, cp, cn, a, x, u, v);
             if (memcmp(&g, &same, sizeof g) != 0)
-                fail_msg("patch %u m %u vertex (%u,%u): device (%a %a %a) host (%a %a %a)", seg->patch,
-                         m, i, j, g.x, g.y, g.z, same.x, same.y, same.z);
+                fail_msg("patch %u m %u vertex (%u,%u): device (%a %a %a %a) host (%a %a %a %a)", pi, m,
+                         i, j, g.x, g.y, g.z, g.w, same.x, same.y, same.z, same.w);
+            /* The undisplaced point against an independent evaluation. */
+            ts_vec4 dn = displace_normal(cn, u, v);
             double r[3];
-            reference_point(cp, ldexp(i, -(int)m), ldexp(j, -(int)m), r);
-            assert_true(fabs(g.x - r[0]) <= tol && fabs(g.y - r[1]) <= tol && fabs(g.z - r[2]) <= tol);
+            reference_point(cp, u, v, r);
+            assert_true(fabs(g.x - g.w * dn.x - r[0]) <= tol && fabs(g.y - g.w * dn.y - r[1]) <= tol &&
+                        fabs(g.z - g.w * dn.z - r[2]) <= tol);
+            if (a->disp_kind == TS_DISP_NONE) assert_true(g.w == 0.0f);
+            assert_true(box_contains(ext, g)); /* the top-level box is conservative */
         }
-    /* Leaves: exactly the box of the micro-quad's four vertices. */
+    /* Leaves: the displaced surface at random points of each micro-quad's parameter square
+     * (not only its vertices) lies in the leaf box (Hanika §3.3). */
     uint32_t side = 1u << m;
     for (uint32_t k = 0; k < side * side; ++k) {
         uint32_t i = morton_i(k), j = morton_j(k);
-        ts_vec4 v[4] = {grid[j * n + i], grid[j * n + i + 1], grid[(j + 1) * n + i], grid[(j + 1) * n + i + 1]};
-        ts_box b = {v[0].x, v[0].y, v[0].z, v[0].x, v[0].y, v[0].z};
-        for (int q = 1; q < 4; ++q) {
-            b.lo_x = fminf(b.lo_x, v[q].x), b.hi_x = fmaxf(b.hi_x, v[q].x);
-            b.lo_y = fminf(b.lo_y, v[q].y), b.hi_y = fmaxf(b.hi_y, v[q].y);
-            b.lo_z = fminf(b.lo_z, v[q].z), b.hi_z = fmaxf(b.hi_z, v[q].z);
+        ts_box b = quadtree_box(nodes, m, k);
+        for (int c = 0; c < 4; ++c) {
+            ts_vec4 g = grid[(j + (c >> 1)) * n + i + (c & 1)];
+            if (!box_contains(b, g)) fail_msg("patch %u m %u: vertex outside leaf %u", pi, m, k);
         }
-        assert_true(box_equal(b, quadtree_box(nodes, m, k)));
+        for (int q = 0; q < 4; ++q) {
+            float u = ((float)i + test_uniform(seed, 0, 1)) * ldexpf(1.0f, -(int)m);
+            float v = ((float)j + test_uniform(seed, 0, 1)) * ldexpf(1.0f, -(int)m);
+            ts_vec4 p = patch_vertex(cp, cp, cn, a, x, u, v);
+            if (!box_contains(b, p))
+                fail_msg("patch %u m %u leaf %u: surface point (%g, %g) outside its box", pi, m, k, u, v);
+        }
     }
     /* Inner nodes: exactly the union of their four children. */
     for (uint32_t l = 0; l < m; ++l)
@@ -106,8 +133,7 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
                 u.lo_z = fminf(u.lo_z, c.lo_z), u.hi_z = fmaxf(u.hi_z, c.hi_z);
             }
             if (!box_equal(u, quadtree_box(nodes, l, k)))
-                fail_msg("patch %u m %u: node %u of level %u is not the union of its children",
-                         seg->patch, m, k, l);
+                fail_msg("patch %u m %u: node %u of level %u is not the union of its children", pi, m, k, l);
         }
 }
 
@@ -120,23 +146,24 @@ static void test_dice_and_build_match_reference(void **state)
     ts_stats stats;
     memset(&stats, 0, sizeof stats);
     ts_error err = {0};
-    ts_pipeline_plan plan = {.ray_capacity = 64, .pair_capacity = 512, .slot_count = 6, .max_lod = 5};
+    ts_pipeline_plan plan = {.ray_capacity = 64, .pair_capacity = 512};
+    pipeline_plan_arenas(&plan, 6, 5);
     ts_pipeline p;
     if (pipeline_create(&p, &cl, &s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
     const uint32_t lods[6] = {0, 1, 2, 3, 5, 4};
     for (uint32_t i = 0; i < 6; ++i)
-        p.segments_host[i] = (ts_segment){.patch = 5 - i, .slot = (i + 2) % 6, .lod = lods[i]};
+        p.segments_host[i] = (ts_segment){.patch = 5 - i, .lod = lods[i]};
     if (pipeline_dice_build(&p, 6, &err)) fail_msg("%s", err.msg);
-    size_t gbytes = 6 * (size_t)p.verts_per_slot * sizeof(ts_vec4);
-    size_t nbytes = 6 * (size_t)p.groups_per_slot * sizeof(ts_box4);
+    size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4);
+    size_t nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
     ts_vec4 *grid = malloc(gbytes);
     ts_box4 *nodes = malloc(nbytes);
     assert_int_equal(clEnqueueReadBuffer(cl.queue, p.grid, CL_TRUE, 0, gbytes, grid, 0, NULL, NULL), CL_SUCCESS);
-    assert_int_equal(clEnqueueReadBuffer(cl.queue, p.nodes, CL_TRUE, 0, nbytes, nodes, 0, NULL, NULL), CL_SUCCESS);
+    assert_int_equal(clEnqueueReadBuffer(cl.queue, p.groups, CL_TRUE, 0, nbytes, nodes, 0, NULL, NULL), CL_SUCCESS);
+    uint32_t seed = 77u;
     for (uint32_t i = 0; i < 6; ++i) {
         const ts_segment *seg = &p.segments_host[i];
-        check_segment(&s, seg, grid + (size_t)seg->slot * p.verts_per_slot,
-                      nodes + (size_t)seg->slot * p.groups_per_slot);
+        check_segment(&s, seg, grid + seg->vert_first, nodes + seg->group_first, &seed);
     }
     assert_int_equal(stats.counters[TS_COUNTER_patches_diced], 6);
     assert_int_equal(stats.counters[TS_COUNTER_micropolygons_created], 1 + 4 + 16 + 64 + 1024 + 256);

@@ -74,7 +74,7 @@ static uint32_t reference_sort(const ts_pair *in, uint32_t n, ts_pair *out)
 }
 
 /* Segments of sorted[0, m): contiguous from 0 to m, non-empty, one leaf each, strictly
- * increasing leaves (so one per distinct leaf), slot and lod 0. Returns the count. */
+ * increasing leaves (so one per distinct leaf), the other fields 0. Returns the count. */
 static uint32_t check_segments(const ts_pair *sorted, uint32_t m)
 {
     ts_segment *seg = malloc(((size_t)m + 1) * sizeof *seg);
@@ -90,7 +90,7 @@ static uint32_t check_segments(const ts_pair *sorted, uint32_t m)
         assert_int_equal(seg[k].begin, pos);
         assert_true(seg[k].end > seg[k].begin);
         if (k > 0) assert_true(seg[k].patch > seg[k - 1].patch);
-        assert_int_equal(seg[k].slot, 0);
+        assert_int_equal(seg[k].vert_first, 0);
         assert_int_equal(seg[k].lod, 0);
         for (uint32_t i = seg[k].begin; i < seg[k].end; i++)
             assert_int_equal(sorted[i].leaf, seg[k].patch);
@@ -345,7 +345,7 @@ static void test_segments_capacity(void **state)
         assert_int_equal(seg[k].patch, expect[k][0]);
         assert_int_equal(seg[k].begin, expect[k][1]);
         assert_int_equal(seg[k].end, expect[k][2]);
-        assert_int_equal(seg[k].slot, 0);
+        assert_int_equal(seg[k].vert_first, 0);
         assert_int_equal(seg[k].lod, 0);
     }
     /* too small: UINT32_MAX, nothing written past capacity */

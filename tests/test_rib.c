@@ -583,6 +583,65 @@ static const struct {
     {"WorldBegin\nFormat 10 10 1\n", "t.rib:2:1: error: Format must come before WorldBegin"},
     {"Projection \"perspective\" \"fov\" [180]",
      "t.rib:1:32: error: fov must be between 0 and 180 degrees, got 180"},
+    /* Displacement */
+    {"Displacement \"dented\" \"Km\" 1",
+     "t.rib:1:14: error: unknown displacement \"dented\" (fbm, ridged or null)"},
+    {"Displacement \"fbm\" \"octaves\" 17",
+     "t.rib:1:30: error: Displacement: octaves must be between 1 and 16, got 17"},
+    {"Displacement \"ridged\" \"float octaves\" [0.4]",
+     "t.rib:1:39: error: Displacement: octaves must be between 1 and 16, got 0.4"},
+    {"Displacement \"fbm\" \"frequency\" [0]",
+     "t.rib:1:32: error: Displacement: frequency must be positive, got 0"},
+    {"Displacement \"fbm\"\n  \"lacunarity\" -2",
+     "t.rib:2:16: error: Displacement: lacunarity must be positive, got -2"},
+    {"Displacement \"fbm\" \"amplitude\" [1 2]",
+     "t.rib:1:32: error: Displacement: parameter \"amplitude\" needs 1 values, got 2"},
+    {"Displacement \"fbm\" \"gain\" \"x\"",
+     "t.rib:1:27: error: Displacement: parameter \"gain\" needs numbers"},
+    {"Displacement 1", "t.rib:1:14: error: Displacement: expected a displacement name (a string)"},
+    {"Displacement \"fbm\"\nScale 0 1 1\n" BILINEAR_UNIT,
+     "t.rib:3:1: error: Patch: the current transformation is singular; Displacement needs an "
+     "invertible one"},
+    /* "N" */
+    {"Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1]",
+     "t.rib:1:52: error: Patch: parameter \"N\" needs 12 values, got 3"},
+    {"Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1 0 0 1 0 0 0 0 0 1]",
+     "t.rib:1:52: error: Patch: normal 2 of \"N\" is zero"},
+    {"Scale 1 0 1\nPatch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1 0 0 1 0 0 1 0 0 1]",
+     "t.rib:2:1: error: Patch: the current transformation is singular; \"N\" needs an "
+     "invertible one"},
+    {"PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 0 0 1 0 1 "
+     "1 0 2 1 0] \"N\" [0 0 1 0 0 1 0 0 1 0 0 1]",
+     "t.rib:1:100: error: PatchMesh: parameter \"N\" needs 18 values, got 12"},
+    /* motion blocks */
+    {"WorldBegin\n MotionEnd\nWorldEnd", "t.rib:2:2: error: MotionEnd without MotionBegin"},
+    {"MotionBegin [0 1]\nMotionBegin [0 1]",
+     "t.rib:2:1: error: MotionBegin inside the motion block at 1:1"},
+    {"MotionBegin [0 1]\nColor 1 0 0",
+     "t.rib:2:1: error: Color is not allowed in the motion block at 1:1 (only Patch, Translate, "
+     "Rotate, Scale, ConcatTransform or Transform)"},
+    {"MotionBegin [0 1]\nAttributeBegin",
+     "t.rib:2:1: error: AttributeBegin is not allowed in the motion block at 1:1 ..."},
+    {"MotionBegin [0 1]\nTranslate 1 0 0\n  Rotate 90 0 0 1\nMotionEnd",
+     "t.rib:3:3: error: Rotate does not match the Translate at 2:1 in the motion block"},
+    {"MotionBegin [0 1]\n" BILINEAR_UNIT "Translate 1 0 0\nMotionEnd",
+     "t.rib:3:1: error: Translate does not match the Patch at 2:1 in the motion block"},
+    {"MotionBegin [0 1]\nScale 1 1 1\nScale 2 2 2\nScale 3 3 3\nMotionEnd",
+     "t.rib:4:1: error: Scale: the motion block at 1:1 already has its 2 samples"},
+    {"MotionBegin [0 1]\nTranslate 1 0 0\nMotionEnd",
+     "t.rib:3:1: error: MotionEnd: the motion block at 1:1 has 1 sample for 2 times"},
+    {"MotionBegin [0 1]\nMotionEnd",
+     "t.rib:2:1: error: MotionEnd: the motion block at 1:1 has 0 samples for 2 times"},
+    {"WorldBegin\nMotionBegin [0 1]\nTranslate 1 0 0\n",
+     "t.rib:2:1: error: MotionBegin is never closed (missing MotionEnd)"},
+    {"MotionBegin [0 0.5 1]", "t.rib:1:13: error: MotionBegin: exactly 2 times are supported, got 3"},
+    {"MotionBegin [1 0]", "t.rib:1:13: error: MotionBegin: the times must increase, got 1 0"},
+    {"MotionBegin", "t.rib:1:1: error: MotionBegin expects 2 numbers, got 0"},
+    {"MotionBegin [0 1]\nTranslate 0 0 1\nTranslate 0 0 2\nMotionEnd\nWorldBegin",
+     "t.rib:5:1: error: a moving camera transform is not supported (MotionBegin before "
+     "WorldBegin)"},
+    {"MotionBegin [0 1]\nPatch \"bicubic\" \"P\" [0]",
+     "t.rib:2:21: error: Patch: parameter \"P\" needs 48 values, got 1"},
 };
 
 static void test_errors(void **state)
@@ -590,6 +649,19 @@ static void test_errors(void **state)
     (void)state;
     for (size_t k = 0; k < sizeof error_cases / sizeof error_cases[0]; k++)
         expect_error(error_cases[k].text, TS_E_SCENE, error_cases[k].msg);
+}
+
+/* Two Patch samples of different types. */
+static void test_motion_patch_types(void **state)
+{
+    (void)state;
+    char text[2048] = "MotionBegin [0 1]\n" BILINEAR_UNIT "Patch \"bicubic\" \"P\" [";
+    for (int k = 0; k < 48; k++)
+        strcat(text, "0 ");
+    strcat(text, "]\nMotionEnd\n");
+    expect_error(text, TS_E_SCENE,
+                 "t.rib:3:7: error: Patch: type bicubic does not match the bilinear Patch at 2:1 "
+                 "in the motion block");
 }
 
 /* Errors whose input is generated: 47 of 48 numbers, a long string, deep nesting. */
@@ -696,6 +768,244 @@ static void test_hostile_input(void **state)
     }
 }
 
+/* ---- Displacement, "N", motion blocks --------------------------------------------------- */
+
+/* World point w through patch p's world-to-object transform. */
+static void xform_apply(const ts_scene *s, uint32_t p, const ts_vec4 *w, double out[3])
+{
+    const ts_xform *x = &s->xform[s->attr[p].xform];
+    const float *r[3] = {x->r0, x->r1, x->r2};
+    for (int i = 0; i < 3; i++)
+        out[i] = (double)r[i][0] * w->x + (double)r[i][1] * w->y + (double)r[i][2] * w->z + r[i][3];
+}
+
+static void assert_disp(const ts_patch_attr *a, uint32_t kind, float amp, float freq,
+                        uint32_t oct, float lac, float gain)
+{
+    assert_int_equal(a->disp_kind, kind);
+    if (kind == TS_DISP_NONE) return;
+    if (a->disp_amplitude != amp || a->disp_frequency != freq || a->disp_octaves != oct ||
+        a->disp_lacunarity != lac || a->disp_gain != gain)
+        fail_msg("got %g %g %u %g %g, want %g %g %u %g %g", a->disp_amplitude, a->disp_frequency,
+                 a->disp_octaves, a->disp_lacunarity, a->disp_gain, amp, freq, oct, lac, gain);
+}
+
+/* Displacement is an attribute: parameters (typed or not) and defaults, saved by
+ * AttributeBegin, off with "null", "" or amplitude 0; the world-to-object transform is the
+ * inverse of the CTM at each Patch. */
+static void test_displacement(void **state)
+{
+    (void)state;
+    ts_scene s;
+    parse_ok("WorldBegin\n"
+             "Displacement \"fbm\" \"float amplitude\" [0.2] \"frequency\" [3] \"octaves\" 5.4\n"
+             "  \"uniform float lacunarity\" [2.5] \"gain\" 0.4\n"
+             "Scale 2 2 2\nTranslate 1 0 0\n" BILINEAR_UNIT
+             "AttributeBegin\nDisplacement \"ridged\" \"amplitude\" 0.05\n" BILINEAR_UNIT
+             "Displacement \"null\"\n" BILINEAR_UNIT "AttributeEnd\n" BILINEAR_UNIT
+             "Displacement \"\"\n" BILINEAR_UNIT
+             "Translate 0 0 1\nDisplacement \"fbm\"\n" BILINEAR_UNIT
+             "Displacement \"ridged\" \"amplitude\" [0]\n" BILINEAR_UNIT "WorldEnd\n",
+             &s);
+    assert_int_equal(s.patch_count, 7);
+    assert_disp(&s.attr[0], TS_DISP_FBM, 0.2f, 3.0f, 5, 2.5f, 0.4f);
+    assert_disp(&s.attr[1], TS_DISP_RIDGED, 0.05f, 1.0f, 4, 2.0f, 0.5f); /* defaults */
+    assert_disp(&s.attr[2], TS_DISP_NONE, 0, 0, 0, 0, 0);
+    assert_disp(&s.attr[3], TS_DISP_FBM, 0.2f, 3.0f, 5, 2.5f, 0.4f); /* restored */
+    assert_disp(&s.attr[4], TS_DISP_NONE, 0, 0, 0, 0, 0);
+    assert_disp(&s.attr[5], TS_DISP_FBM, 0.1f, 1.0f, 4, 2.0f, 0.5f); /* all defaults */
+    assert_disp(&s.attr[6], TS_DISP_NONE, 0, 0, 0, 0, 0);
+    /* World (4,0,0) = Scale 2 (Translate 1 (1,0,0)) goes back to the object point (1,0,0). */
+    assert_true(s.attr[0].xform != 0);
+    assert_int_equal(s.attr[3].xform, s.attr[0].xform); /* same CTM: one transform */
+    assert_int_equal(s.attr[1].xform, s.attr[0].xform);
+    assert_int_equal(s.attr[4].xform, 0);
+    const ts_xform *x = &s.xform[s.attr[0].xform];
+    assert_true(x->r0[0] == 0.5f && x->r0[1] == 0 && x->r0[3] == -1.0f && x->r1[1] == 0.5f &&
+                x->r1[3] == 0 && x->r2[2] == 0.5f && x->r2[3] == 0);
+    assert_true(s.attr[5].xform != s.attr[0].xform && s.attr[5].xform != 0);
+    for (uint32_t p = 0; p < 7; p += 5) {
+        static const double obj[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {2, 3, 4}};
+        static const int cpk[4] = {0, 3, 12, 15};
+        for (int c = 0; c < 4; c++) {
+            double o[3];
+            xform_apply(&s, p, &s.cp[p * 16 + cpk[c]], o);
+            assert_dvec(o, obj[c][0], obj[c][1], obj[c][2], 1e-6);
+        }
+    }
+    /* rib_parse_string finalised the scene: unit corner normals, marked final. */
+    assert_true(s.xform_count == 3);
+    for (uint32_t k = 0; k < 7 * 4; k++)
+        assert_true(s.corner_n[k].w == 0.0f &&
+                    fabs(s.corner_n[k].x * s.corner_n[k].x + s.corner_n[k].y * s.corner_n[k].y +
+                         s.corner_n[k].z * s.corner_n[k].z - 1.0) < 1e-6);
+    scene_free(&s);
+    /* Before WorldBegin the CTM ends in camera space: the transform (and the points) are
+     * moved to world space at WorldBegin. */
+    parse_ok("Rotate 90 0 0 1\nDisplacement \"fbm\"\n" BILINEAR_UNIT
+             "Identity\nTranslate 0 0 5\nRotate 90 0 1 0\nWorldBegin\nWorldEnd\n",
+             &s);
+    static const double obj[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {2, 3, 4}};
+    static const int cpk[4] = {0, 3, 12, 15};
+    for (int c = 0; c < 4; c++) {
+        double o[3];
+        xform_apply(&s, 0, &s.cp[cpk[c]], o);
+        assert_dvec(o, obj[c][0], obj[c][1], obj[c][2], 1e-5);
+    }
+    assert_vec(&s.cp[0], 5, 1, 0, 1e-6); /* (1,0,0) -> (0,1,0) in camera -> world */
+    scene_free(&s);
+}
+
+/* A varying "N" gives the corner normals, by the inverse transpose of the CTM. */
+static void test_explicit_normals(void **state)
+{
+    (void)state;
+    ts_scene s;
+    const double a = 1 / sqrt(5.0);
+    /* Rotate (written first) acts after Scale: n' = R S^-1 n. (1,1,0) -> (0.5,1,0) ->
+     * (-1,0.5,0). The second patch shares corners with the first and has no "N": it is
+     * averaged on its own and does not change the first's. */
+    parse_ok("WorldBegin\nRotate 90 0 0 1\nScale 2 1 1\n"
+             "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 1] \"N\" [1 1 0  0 0 3  1 0 0  0 1 0]\n"
+             "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 1]\n"
+             "Patch \"bicubic\" \"P\" [0 0 0 1 0 0 2 0 0 3 0 0  0 1 0 1 1 0 2 1 0 3 1 0\n"
+             "  0 2 0 1 2 0 2 2 0 3 2 0  0 3 0 1 3 0 2 3 0 3 3 0] \"varying normal N\" [0 0 1 0 0 1 1 0 1 0 0 -1]\n"
+             "WorldEnd\n",
+             &s);
+    assert_int_equal(s.patch_count, 3);
+    assert_vec(&s.corner_n[0], -2 * a, a, 0, 1e-7);
+    assert_vec(&s.corner_n[1], 0, 0, 1, 1e-7);
+    assert_vec(&s.corner_n[2], 0, 1, 0, 1e-7); /* (1,0,0) -> (0.5,0,0) -> (0,0.5,0) */
+    assert_vec(&s.corner_n[3], -1, 0, 0, 1e-7);
+    for (int k = 0; k < 4; k++)
+        assert_true(s.corner_n[k].w == 0.0f);
+    assert_vec(&s.corner_n[8 + 2], 0, a, 2 * a, 1e-7); /* (1,0,1) -> (0.5,0,1) -> (0,0.5,1) */
+    assert_vec(&s.corner_n[8 + 3], 0, 0, -1, 1e-7);
+    scene_free(&s);
+}
+
+/* PatchMesh "N": one normal per corner of the patch grid, wrapping in periodic directions. */
+static void mesh_normals(const char *head, int npts, int nn, const int *want, int npatch)
+{
+    char text[4096], pts[2048] = "", nrm[1024] = "";
+    double p[16][3], n[16][3];
+    for (int k = 0; k < 16; k++) {
+        p[k][0] = k % 4, p[k][1] = k / 4, p[k][2] = 0.1 * k;
+        n[k][0] = k + 1, n[k][1] = 0, n[k][2] = 1; /* normal k: x/z = k + 1 */
+    }
+    print_points(pts, sizeof pts, (const double(*)[3])p, npts);
+    print_points(nrm, sizeof nrm, (const double(*)[3])n, nn);
+    snprintf(text, sizeof text, "%s \"P\" %s \"N\" %s", head, pts, nrm);
+    ts_scene s;
+    parse_ok(text, &s);
+    assert_int_equal(s.patch_count, npatch);
+    for (int k = 0; k < npatch * 4; k++) {
+        const ts_vec4 *c = &s.corner_n[k];
+        double got = c->x / c->z;
+        if (fabs(got - (want[k] + 1)) > 1e-5)
+            fail_msg("%s: corner %d of patch %d has normal %g, want %d", head, k % 4, k / 4,
+                     got - 1, want[k]);
+    }
+    scene_free(&s);
+}
+
+static void test_mesh_normals(void **state)
+{
+    (void)state;
+    /* Bilinear 4 x 4 nonperiodic: 3 x 3 patches, 4 x 4 normals. */
+    mesh_normals("PatchMesh \"bilinear\" 4 \"nonperiodic\" 4 \"nonperiodic\"", 16, 16,
+                 (const int[]){0, 1, 4, 5, 1, 2, 5, 6, 2, 3, 6, 7, 4, 5, 8, 9, 5, 6, 9, 10, 6, 7,
+                               10, 11, 8, 9, 12, 13, 9, 10, 13, 14, 10, 11, 14, 15},
+                 9);
+    /* Bilinear periodic in u: 4 patches per row, the last wraps to column 0. */
+    mesh_normals("PatchMesh \"bilinear\" 4 \"periodic\" 2 \"nonperiodic\"", 8, 8,
+                 (const int[]){0, 1, 4, 5, 1, 2, 5, 6, 2, 3, 6, 7, 3, 0, 7, 4}, 4);
+    /* Bézier 4 x 4: one patch, 2 x 2 normals. */
+    mesh_normals("PatchMesh \"bicubic\" 4 \"nonperiodic\" 4 \"nonperiodic\"", 16, 4,
+                 (const int[]){0, 1, 2, 3}, 1);
+    /* B-spline periodic in u (4 patches, 4 normals per row), nonperiodic in v (1 patch, 2
+     * rows of normals). */
+    mesh_normals("Basis \"b-spline\" 1 \"b-spline\" 1\n"
+                 "PatchMesh \"bicubic\" 4 \"periodic\" 4 \"nonperiodic\"",
+                 16, 8, (const int[]){0, 1, 4, 5, 1, 2, 5, 6, 2, 3, 6, 7, 3, 0, 7, 4}, 4);
+    /* Catmull-Rom periodic in both: 4 x 4 patches, 4 x 4 normals. */
+    mesh_normals("Basis \"catmull-rom\" 1 \"catmull-rom\" 1\n"
+                 "PatchMesh \"bicubic\" 4 \"periodic\" 4 \"periodic\"",
+                 16, 16,
+                 (const int[]){0,  1,  4,  5,  1,  2,  5,  6,  2,  3,  6,  7,  3,  0,  7,  4,
+                               4,  5,  8,  9,  5,  6,  9,  10, 6,  7,  10, 11, 7,  4,  11, 8,
+                               8,  9,  12, 13, 9,  10, 13, 14, 10, 11, 14, 15, 11, 8,  15, 12,
+                               12, 13, 0,  1,  13, 14, 1,  2,  14, 15, 2,  3,  15, 12, 3,  0},
+                 16);
+}
+
+/* Moving patches: two Patch samples, or a CTM with two samples, in MotionBegin/MotionEnd. */
+static void test_motion(void **state)
+{
+    (void)state;
+    ts_scene s;
+    parse_ok("WorldBegin\n" BILINEAR_UNIT "MotionBegin [0 1]\n"
+             "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1 0 0 1 0 0 1 0 0 1]\n"
+             "Patch \"bilinear\" \"P\" [0 0 1 1 0 1 0 1 1 1 1 2]\nMotionEnd\n" BILINEAR_UNIT
+             "WorldEnd\n",
+             &s);
+    assert_int_equal(s.patch_count, 3);
+    assert_non_null(s.cp1);
+    assert_int_equal(s.attr[0].flags, 0);
+    assert_int_equal(s.attr[1].flags, TS_PATCH_MOVING);
+    assert_int_equal(s.attr[2].flags, 0);
+    assert_vec(&s.cp[16 + 15], 1, 1, 0, 0);
+    assert_vec(&s.cp1[16 + 15], 1, 1, 2, 0);
+    assert_vec(&s.cp1[16], 0, 0, 1, 0);
+    assert_true(memcmp(s.cp1, s.cp, 16 * sizeof(ts_vec4)) == 0);
+    assert_true(memcmp(s.cp1 + 32, s.cp + 32, 16 * sizeof(ts_vec4)) == 0);
+    assert_vec(&s.corner_n[4], 0, 0, 1, 0); /* "N" of the first sample */
+    ts_box b = scene_patch_box(&s, 1);
+    assert_true(b.lo_z == 0.0f && b.hi_z == 2.0f);
+    scene_free(&s);
+    /* A moving CTM: every patch under it moves; blocks save and restore both samples. */
+    parse_ok("WorldBegin\nAttributeBegin\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 5 0 0\n"
+             "MotionEnd\n" BILINEAR_UNIT "TransformBegin\nScale 1 1 2\n" BILINEAR_UNIT
+             "TransformEnd\n" BILINEAR_UNIT "AttributeEnd\n" BILINEAR_UNIT
+             "MotionBegin [2.5 7]\nRotate 0 0 0 1\nRotate 90 0 0 1\nMotionEnd\n" BILINEAR_UNIT
+             "MotionBegin [0 1]\nConcatTransform [1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1]\n"
+             "ConcatTransform [1 0 0 0 0 1 0 0 0 0 1 0 0 0 3 1]\nMotionEnd\n" BILINEAR_UNIT
+             "MotionBegin [0 1]\nTransform [1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1]\n"
+             "Transform [2 0 0 0 0 2 0 0 0 0 2 0 0 0 0 1]\nMotionEnd\n"
+             "MotionBegin [0 1]\n" BILINEAR_UNIT "Patch \"bilinear\" \"P\" [0 0 0 0 0 0 0 0 0 1 1 1]\n"
+             "MotionEnd\nMotionBegin [0 1]\nScale 1 1 1\nScale 1 1 1\nMotionEnd\n" BILINEAR_UNIT
+             "Identity\n" BILINEAR_UNIT "WorldEnd\n",
+             &s);
+    assert_int_equal(s.patch_count, 9);
+    static const uint32_t flags[9] = {1, 1, 1, 0, 1, 1, 1, 1, 0};
+    for (int p = 0; p < 9; p++)
+        assert_int_equal(s.attr[p].flags, flags[p]);
+    assert_vec(&s.cp[15], 2, 3, 4, 0);
+    assert_vec(&s.cp1[15], 7, 3, 4, 0);
+    assert_vec(&s.cp[16 + 15], 2, 3, 8, 0);   /* TransformBegin: Scale on both samples */
+    assert_vec(&s.cp1[16 + 15], 7, 3, 8, 0);
+    assert_vec(&s.cp1[32 + 15], 7, 3, 4, 0);  /* TransformEnd restored the moving CTM */
+    assert_vec(&s.cp1[48 + 15], 2, 3, 4, 0);  /* AttributeEnd: static again */
+    assert_vec(&s.cp[64 + 15], 2, 3, 4, 1e-6); /* [2.5 7]: the first time is shutter open */
+    assert_vec(&s.cp1[64 + 15], -3, 2, 4, 1e-6);
+    assert_vec(&s.cp[80 + 15], 2, 3, 4, 1e-6);   /* the moving Rotate composed with ... */
+    assert_vec(&s.cp1[80 + 15], -3, 2, 7, 1e-6); /* ... a moving ConcatTransform */
+    /* Transform samples replace both; the patch samples are moved by them. */
+    assert_vec(&s.cp[96 + 15], 2, 3, 4, 0);
+    assert_vec(&s.cp1[96 + 15], 2, 2, 2, 0);
+    assert_vec(&s.cp1[96 + 0], 0, 0, 0, 0);
+    assert_vec(&s.cp1[112 + 15], 4, 6, 8, 0); /* two equal Scale samples: still moving */
+    assert_vec(&s.cp1[128 + 15], 2, 3, 4, 0); /* Identity: static */
+    scene_free(&s);
+    /* A displaced patch under a moving CTM: the transform is the CTM's at shutter open. */
+    parse_ok("MotionBegin [0 1]\nTranslate 1 0 0\nTranslate 9 0 0\nMotionEnd\n"
+             "Displacement \"fbm\"\n" BILINEAR_UNIT,
+             &s);
+    const ts_xform *x = &s.xform[s.attr[0].xform];
+    assert_true(x->r0[3] == -1.0f && x->r0[0] == 1.0f);
+    scene_free(&s);
+}
+
 /* ---- scene.c -------------------------------------------------------------------------- */
 
 static void test_scene_growth_and_box(void **state)
@@ -750,6 +1060,11 @@ int main(void)
         cmocka_unit_test(test_error_missing_file),
         cmocka_unit_test(test_ignored_requests_warn_once),
         cmocka_unit_test(test_hostile_input),
+        cmocka_unit_test(test_displacement),
+        cmocka_unit_test(test_explicit_normals),
+        cmocka_unit_test(test_mesh_normals),
+        cmocka_unit_test(test_motion),
+        cmocka_unit_test(test_motion_patch_types),
         cmocka_unit_test(test_scene_growth_and_box),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -24,7 +24,7 @@ static void random_patches(ts_scene *s, uint32_t seed)
             cp[k][1] = oy + size * test_uniform(&seed, 0, 1);
             cp[k][2] = oz + size * test_uniform(&seed, 0, 1);
         }
-        ts_patch_attr a = {1, 1, 1, 0};
+        ts_patch_attr a = {.cs_r = 1, .cs_g = 1, .cs_b = 1};
         assert_int_equal(scene_add_patch(s, cp, &a, &err), TS_OK);
     }
 }
@@ -34,7 +34,8 @@ static void run_case(ts_cl *cl, const ts_scene *s, uint32_t n_per_ray, int finit
     ts_stats stats;
     memset(&stats, 0, sizeof stats);
     ts_error err = {0};
-    ts_pipeline_plan plan = {.ray_capacity = RAYS, .pair_capacity = RAYS * 100, .slot_count = 1, .max_lod = 1};
+    ts_pipeline_plan plan = {.ray_capacity = RAYS, .pair_capacity = RAYS * 100};
+    pipeline_plan_arenas(&plan, 1, 1);
     ts_pipeline p;
     if (pipeline_create(&p, cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
     ts_vec4 org[RAYS], dir[RAYS];

@@ -3,7 +3,7 @@
  * micro-triangle of every patch diced at the same m (DESIGN.md §5). Also: a tiny pair
  * buffer (N = 1, many iterations) and few slots (many batches) give bit-identical hits. */
 #include "test_support.h"
-#include "lib/bezier.h"
+#include "lib/patch.h"
 #include "lib/intersect.h"
 #include "pipeline.h"
 #include "render.h"
@@ -46,7 +46,9 @@ static void brute_force(const ts_scene *s, const traced *t, float *tbest, uint32
     ts_vec4 *grid = malloc((size_t)s->patch_count * n * n * sizeof *grid);
     for (uint32_t p = 0; p < s->patch_count; ++p)
         for (uint32_t v = 0; v < n * n; ++v)
-            grid[p * n * n + v] = bezier_eval(&s->cp[p * 16], ldexpf((float)(v % n), -M), ldexpf((float)(v / n), -M));
+            grid[p * n * n + v] = patch_vertex(&s->cp[p * 16], &s->cp[p * 16], &s->corner_n[p * 4], &s->attr[p],
+                                               &s->xform[s->attr[p].xform], ldexpf((float)(v % n), -M),
+                                               ldexpf((float)(v / n), -M));
     for (int r = 0; r < W * H; ++r) {
         ts_vec4 o = t->org[r], d = t->dir[r];
         ts_ray_shear sh = ray_shear(d.x, d.y, d.z);
@@ -84,7 +86,8 @@ static void test_teapot_matches_brute_force(void **state)
     ts_scene s;
     load_teapot(&s);
     static traced t;
-    ts_pipeline_plan plan = {.ray_capacity = W * H, .pair_capacity = W * H * 8, .slot_count = 32, .max_lod = M};
+    ts_pipeline_plan plan = {.ray_capacity = W * H, .pair_capacity = W * H * 8};
+    pipeline_plan_arenas(&plan, 32, M);
     trace_teapot(&cl, &s, &plan, &t);
     float *tb = malloc(W * H * sizeof *tb);
     uint32_t *pb = malloc(W * H * sizeof *pb);
@@ -113,8 +116,10 @@ static void test_budget_does_not_change_hits(void **state)
     ts_scene s;
     load_teapot(&s);
     static traced a, b;
-    ts_pipeline_plan roomy = {.ray_capacity = W * H, .pair_capacity = W * H * 8, .slot_count = 32, .max_lod = M};
-    ts_pipeline_plan tight = {.ray_capacity = W * H, .pair_capacity = W * H, .slot_count = 3, .max_lod = M};
+    ts_pipeline_plan roomy = {.ray_capacity = W * H, .pair_capacity = W * H * 8};
+    ts_pipeline_plan tight = {.ray_capacity = W * H, .pair_capacity = W * H};
+    pipeline_plan_arenas(&roomy, 32, M);
+    pipeline_plan_arenas(&tight, 1, M); /* one moving patch's room: two static patches a batch */
     trace_teapot(&cl, &s, &roomy, &a);
     trace_teapot(&cl, &s, &tight, &b);
     assert_memory_equal(a.hit, b.hit, sizeof a.hit);

@@ -10,6 +10,7 @@ packages=(
   cmake ninja-build gcc g++ pkg-config
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo
   libopenimageio-dev libcjson-dev libcmocka-dev
+  libembree-dev
 )
 missing=()
 for p in "${packages[@]}"; do

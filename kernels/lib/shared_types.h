@@ -17,22 +17,14 @@ typedef int ts_i32;
 #define TS_INLINE inline
 #else
 #include <stdint.h>
+/* Type-generic maths, as in OpenCL C: fabs, floor, fmin, sqrt... of a float stay in float,
+ * so the shared helpers round the same on host and device. */
+#include <tgmath.h>
 typedef uint32_t ts_u32;
 typedef int32_t ts_i32;
 #define TS_GLOBAL
 #define TS_CONST_GLOBAL const
 #define TS_INLINE static inline
-/* Every (struct, field) whose offset the host and the device must agree on; the struct's
- * size is checked with it. host/layout_check.c asserts the sizes at compile time;
- * kernels/layout.cl writes sizeof/offsetof of each entry back for tests/test_layout.c. */
-#define TS_LAYOUT_FIELDS(X)                                                                 \
-    X(ts_vec4, w) X(ts_box, hi_z) X(ts_box4, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
-    X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
-    X(ts_pair, window) X(ts_segment, slot) X(ts_segment, lod) X(ts_hit, patch)               \
-    X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_camera_params, forward)                     \
-    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count)      \
-    X(ts_shade_params, light_color) X(ts_shade_params, ambient)
-
 #endif
 
 /* Hard ceiling on the level of detail: 4^10 micro-quads per patch (Hanika §4 uses m <= 10).
@@ -88,28 +80,68 @@ typedef struct ts_pair {
     ts_u32 window;
 } ts_pair;
 
-/* The pairs of one patch after sort: [begin, end) in the sorted pair array. 32 bytes. */
+/* The pairs of one patch after sort: [begin, end) in the sorted pair array, and where
+ * the patch is diced in the batch's arenas (patch slots of variable size, DESIGN.md §1).
+ * A moving patch has two grids and two trees, time 0 then time 1. 32 bytes. */
 typedef struct ts_segment {
     ts_u32 patch;
     ts_u32 begin, end;
-    ts_u32 slot; /* patch slot (grid + quad-tree buffers) it is diced into */
-    ts_u32 lod;  /* m: (2^m+1)^2 vertices, 4^m micro-quads */
-    ts_u32 pad[3];
+    ts_u32 lod;         /* m: (2^m+1)^2 vertices, 4^m micro-quads */
+    ts_u32 vert_first;  /* first vertex of its grid(s) in the vertex arena */
+    ts_u32 group_first; /* first sibling group of its tree(s) in the group arena */
+    ts_u32 flags;       /* TS_PATCH_MOVING: two time samples */
+    ts_u32 pad;
 } ts_segment;
 
+/* One tree of a batch for the dice and build kernels: (segment index << 1) | time. The
+ * host lists a batch's trees by decreasing m, so the trees deeper than a level are a
+ * prefix of the list (one launch per level, no idle work-items). */
+#define TS_TREE_SEGMENT(t) ((t) >> 1)
+#define TS_TREE_TIME(t) ((t) & 1u)
+
 /* Closest hit of one ray against one patch (bottom_level), or of the ray overall
- * (resolve). t = TS_NO_HIT when nothing was hit. prim = micro-triangle index
- * (2 * quad + 0/1). u, v: patch parameters at the hit. 20 bytes. */
+ * (resolve). t = TS_NO_HIT when nothing was hit. prim = TS_PRIM(m, index): the LOD the
+ * patch was diced at and the micro-triangle (2 * quad + 0/1, exact mode) or leaf box
+ * (2 * quad, box mode) hit, quad = j * 2^m + i. u, v: patch parameters at the hit. 20 bytes. */
+#define TS_PRIM(m, index) (((m) << 24) | (index))
+#define TS_PRIM_LOD(prim) ((prim) >> 24)
+#define TS_PRIM_INDEX(prim) ((prim) & 0xffffffu)
 typedef struct ts_hit {
     float t, u, v;
     ts_u32 patch, prim;
 } ts_hit;
 
-/* Per-patch attributes from the scene: colour Cs. 16 bytes. */
+/* Displacement functions (DESIGN.md §2, RIB `Displacement "name" ...`). Each bounds its
+ * value by a conservative interval (lib/displace.h). */
+#define TS_DISP_NONE 0u
+#define TS_DISP_FBM 1u    /* fractal Brownian motion of gradient noise, object space */
+#define TS_DISP_RIDGED 2u /* ridged fBm: sum of gain^o * (1 - 2|noise|) */
+
+/* ts_patch_attr.flags */
+#define TS_PATCH_MOVING 1u /* has a second time sample (scene cp1), Hanika §3.4 */
+
+/* Per-patch attributes from the scene, 48 bytes.
+ * Displacement d(P) moves a surface point along its displacement normal (the bilinear
+ * interpolation of the patch's corner normals, scene corner_n); the noise is evaluated at
+ * the object-space position world_to_object(P), the transform of scene xform[xform]. */
 typedef struct ts_patch_attr {
     float cs_r, cs_g, cs_b;
     ts_u32 flags;
+    ts_u32 disp_kind;      /* TS_DISP_* */
+    ts_u32 disp_octaves;   /* >= 1 */
+    float disp_amplitude;  /* world units */
+    float disp_frequency;  /* of the first octave, per object-space unit */
+    float disp_lacunarity; /* frequency ratio between octaves (default 2) */
+    float disp_gain;       /* amplitude ratio between octaves (default 0.5) */
+    ts_u32 xform;          /* index of the patch's world-to-object transform */
+    ts_u32 pad;
 } ts_patch_attr;
+
+/* An affine world-to-object transform: rows of a 3x4 matrix (x' = r0 . (x, y, z, 1)).
+ * 48 bytes. */
+typedef struct ts_xform {
+    float r0[4], r1[4], r2[4];
+} ts_xform;
 
 /* Everything the camera kernel needs, in world space. 96 bytes.
  * Ray through raster point (px, py): screen (sx, sy) = window lerp, direction =
@@ -150,8 +182,8 @@ typedef struct ts_shade_params {
 #define TS_LAYOUT_FIELDS(X)                                                                 \
     X(ts_vec4, w) X(ts_box, hi_z) X(ts_box4, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
-    X(ts_pair, window) X(ts_segment, slot) X(ts_segment, lod) X(ts_hit, patch)               \
-    X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_camera_params, forward)                     \
+    X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_hit, patch)               \
+    X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
     X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count)      \
     X(ts_shade_params, light_color) X(ts_shade_params, ambient)
 

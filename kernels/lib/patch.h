@@ -1,0 +1,70 @@
+/* patch.h — one diced vertex of a patch (Hanika §3.2): the Bézier surface point, moved along
+ * the displacement normal by the patch's displacement function. The one definition used by
+ * the dice kernel and by every host reference (brute force, Embree), so they dice the same
+ * micro-polygons bit for bit. */
+#ifndef TS_PATCH_H
+#define TS_PATCH_H
+
+#include "lib/bezier.h"
+#include "lib/displace.h"
+#include "lib/shared_types.h"
+
+/* The vertex at (u, v) of patch cp (16 control points of the time sample being diced),
+ * with corner normals n (4) and attributes a, transform x. xyz = displaced position,
+ * w = the displacement d. The noise is evaluated at the undisplaced point of time 0
+ * (cp0), so the pattern moves with a moving patch. */
+TS_INLINE ts_vec4 patch_vertex(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLOBAL ts_vec4 *cp0,
+                               TS_CONST_GLOBAL ts_vec4 *n, TS_CONST_GLOBAL ts_patch_attr *a,
+                               TS_CONST_GLOBAL ts_xform *x, float u, float v)
+{
+    ts_vec4 p = bezier_eval(cp, u, v);
+    if (a->disp_kind == TS_DISP_NONE) {
+        p.w = 0.0f;
+        return p;
+    }
+    ts_vec4 p0 = cp0 == cp ? p : bezier_eval(cp0, u, v);
+    float d = displace_value(a, x, p0.x, p0.y, p0.z);
+    ts_vec4 dn = displace_normal(n, u, v);
+    ts_vec4 r = {p.x + d * dn.x, p.y + d * dn.y, p.z + d * dn.z, d};
+    return r;
+}
+
+/* Upper bound, per axis, of how far the undisplaced surface strays from the bilinear
+ * interpolation of its four corner points over any parameter square of side h = 2^-m:
+ * f - L = (f - L_u f) + L_u (f - L_v f) gives |f - L| <= h^2/8 (max|P_uu| + max|P_vv|),
+ * and for a cubic Bézier |P_uu| <= 6 max |second difference of the control points along u|
+ * (a convex combination of them), likewise along v. Covers both time samples when
+ * cp1 != cp. Returns (ex, ey, ez). */
+TS_INLINE ts_vec4 patch_flatness(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLOBAL ts_vec4 *cp1,
+                                 ts_u32 m)
+{
+    float h = ldexp(1.0f, -(int)m), e[3] = {0.0f, 0.0f, 0.0f};
+    for (int t = 0; t < 2; ++t) {
+        TS_CONST_GLOBAL ts_vec4 *c = t == 0 ? cp : cp1;
+        float uu[3] = {0, 0, 0}, vv[3] = {0, 0, 0};
+        for (int j = 0; j < 4; ++j)
+            for (int i = 0; i < 4; ++i) {
+                ts_vec4 p = c[j * 4 + i];
+                if (i < 2) {
+                    ts_vec4 q = c[j * 4 + i + 1], r = c[j * 4 + i + 2];
+                    uu[0] = fmax(uu[0], fabs(p.x - 2.0f * q.x + r.x));
+                    uu[1] = fmax(uu[1], fabs(p.y - 2.0f * q.y + r.y));
+                    uu[2] = fmax(uu[2], fabs(p.z - 2.0f * q.z + r.z));
+                }
+                if (j < 2) {
+                    ts_vec4 q = c[(j + 1) * 4 + i], r = c[(j + 2) * 4 + i];
+                    vv[0] = fmax(vv[0], fabs(p.x - 2.0f * q.x + r.x));
+                    vv[1] = fmax(vv[1], fabs(p.y - 2.0f * q.y + r.y));
+                    vv[2] = fmax(vv[2], fabs(p.z - 2.0f * q.z + r.z));
+                }
+            }
+        for (int k = 0; k < 3; ++k)
+            e[k] = fmax(e[k], h * h * 0.75f * (uu[k] + vv[k]));
+        if (cp1 == cp) break;
+    }
+    /* Slack for the rounding of the float evaluation of the corners. */
+    ts_vec4 r = {e[0] * 1.001f, e[1] * 1.001f, e[2] * 1.001f, 0.0f};
+    return r;
+}
+
+#endif
