@@ -6,6 +6,7 @@
 
 #include "error.h"
 #include "stages.h"
+#include "lib/shared_types.h"
 
 #include <stdint.h>
 
@@ -40,6 +41,7 @@ typedef struct ts_stats {
     uint64_t counters[TS_COUNTER_COUNT];
     ts_iteration *iterations;
     uint32_t iteration_count, iteration_capacity;
+    uint64_t lod_histogram[TS_LOD_LIMIT + 1]; /* dicings per LOD m */
     char device[256];
     double wall_seconds;
     double kernel_build_seconds;

@@ -133,6 +133,7 @@ static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
     for (uint32_t i = b->seg_first; i < b->seg_first + b->seg_count; ++i) {
         p->stats->counters[TS_COUNTER_patches_diced] += 1;
         p->stats->counters[TS_COUNTER_micropolygons_created] += 1ull << (2u * p->segments_host[i].lod);
+        p->stats->lod_histogram[p->segments_host[i].lod] += 1;
     }
     return TS_OK;
 }

@@ -89,7 +89,8 @@ TS_INLINE ts_interval displace_interval(TS_CONST_GLOBAL ts_patch_attr *a,
 TS_INLINE float displace_bound(TS_CONST_GLOBAL ts_patch_attr *a)
 {
     if (a->disp_kind == TS_DISP_NONE) return 0.0f;
-    float per = a->disp_kind == TS_DISP_RIDGED ? 1.0f + 2.0f * NOISE_BOUND : NOISE_BOUND;
+    /* ridged: 1 - 2|n| lies in [1 - 2 NOISE_BOUND, 1]. */
+    float per = a->disp_kind == TS_DISP_RIDGED ? fmax(1.0f, 2.0f * NOISE_BOUND - 1.0f) : NOISE_BOUND;
     float w = 1.0f, sum = 0.0f;
     ts_u32 n = displace_octaves(a);
     for (ts_u32 o = 0; o < n; ++o) {

@@ -1,6 +1,10 @@
 #include "test_support.h"
 
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
+#include <sys/wait.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -50,4 +54,83 @@ float test_uniform(uint32_t *state, float lo, float hi)
 {
     *state = *state * 1664525u + 1013904223u;
     return lo + (hi - lo) * (float)(*state >> 8) * (1.0f / 16777216.0f);
+}
+
+int test_run_tessera(const char *dir, const char *fmt, ...)
+{
+    char args[8192], cmd[16384];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(args, sizeof args, fmt, ap);
+    va_end(ap);
+    snprintf(cmd, sizeof cmd, "'%s' %s 2>'%s/stderr.txt' >/dev/null", test_tessera_binary(), args, dir);
+    int st = system(cmd);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+/* Point (s, t) in [-1,1]^2 of cube face f, on the sphere of radius r. */
+static void sphere_point(int f, double s, double t, double r, double out[3])
+{
+    double c[3];
+    int axis = f / 2;
+    double sign = f % 2 ? -1.0 : 1.0;
+    c[axis] = sign;
+    c[(axis + 1) % 3] = sign * s;
+    c[(axis + 2) % 3] = t;
+    double len = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    for (int k = 0; k < 3; ++k) out[k] = r * c[k] / len;
+}
+
+void test_write_sphere_patches(void *file, int k, double r)
+{
+    FILE *f = file;
+    /* Cubic through samples at 0, 1/3, 2/3, 1 -> Bézier control points. */
+    static const double to_bezier[4][4] = {
+        {1, 0, 0, 0}, {-5.0 / 6, 3, -1.5, 1.0 / 3}, {1.0 / 3, -1.5, 3, -5.0 / 6}, {0, 0, 0, 1}};
+    for (int face = 0; face < 6; ++face)
+        for (int b = 0; b < k; ++b)
+            for (int a = 0; a < k; ++a) {
+                double sample[4][4][3], cp[4][4][3] = {{{0}}};
+                for (int j = 0; j < 4; ++j)
+                    for (int i = 0; i < 4; ++i) {
+                        /* Integer numerators keep shared points bit-identical across faces. */
+                        double s = (double)(3 * a + i) / (1.5 * k) - 1.0;
+                        double t = (double)(3 * b + j) / (1.5 * k) - 1.0;
+                        sphere_point(face, s, t, r, sample[j][i]);
+                    }
+                for (int j = 0; j < 4; ++j)
+                    for (int i = 0; i < 4; ++i)
+                        for (int q = 0; q < 4; ++q)
+                            for (int p = 0; p < 4; ++p)
+                                for (int c = 0; c < 3; ++c)
+                                    cp[j][i][c] += to_bezier[j][q] * to_bezier[i][p] * sample[q][p][c];
+                fprintf(f, "Patch \"bicubic\" \"P\" [");
+                for (int j = 0; j < 4; ++j)
+                    for (int i = 0; i < 4; ++i)
+                        fprintf(f, " %.17g %.17g %.17g", cp[j][i][0], cp[j][i][1], cp[j][i][2]);
+                fprintf(f, " ]\n");
+            }
+}
+
+double test_stats_number(const char *json_path, const char *key)
+{
+    FILE *f = fopen(json_path, "rb");
+    if (!f) fail_msg("%s: cannot open", json_path);
+    static char text[1 << 20];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[n] = '\0';
+    cJSON *root = cJSON_Parse(text), *v = root;
+    char part[256];
+    const char *p = key;
+    while (v && *p) {
+        size_t len = strcspn(p, ".");
+        snprintf(part, sizeof part, "%.*s", (int)len, p);
+        v = cJSON_IsArray(v) ? cJSON_GetArrayItem(v, atoi(part)) : cJSON_GetObjectItemCaseSensitive(v, part);
+        p += len + (p[len] == '.');
+    }
+    if (!cJSON_IsNumber(v)) fail_msg("%s: no number at %s", json_path, key);
+    double d = v->valuedouble;
+    cJSON_Delete(root);
+    return d;
 }

@@ -23,6 +23,16 @@ const char *test_tessera_binary(void);
 void test_open_device(ts_cl *cl);
 /* A fresh directory under $TMPDIR; the path is static storage. */
 const char *test_scratch_dir(void);
+/* Runs `tessera ARGS` (printf-style) with $TESSERA_CACHE_DIR kept, stdout discarded and
+ * stderr saved to dir/stderr.txt; returns the exit status (-1 if it did not exit). */
+int test_run_tessera(const char *dir, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* Writes a closed sphere of radius r around the origin as RIB patches to f: a cube whose
+ * six faces are each split into k x k bicubic patches interpolating the sphere at thirds,
+ * so neighbouring patches share their boundary control points exactly. */
+void test_write_sphere_patches(void *file, int k, double r);
+/* Reads a number from a --stats JSON file: `path` like "counters.rays" or
+ * "lod_histogram.3"; fails the test if absent. */
+double test_stats_number(const char *json_path, const char *key);
 /* Deterministic uniform floats in [lo, hi). */
 float test_uniform(uint32_t *state, float lo, float hi);
 

@@ -1,0 +1,132 @@
+#!/usr/bin/env bash
+# tools/check_kernels.sh — runs every OpenCL kernel under Oclgrind on tiny inputs and fails on
+# any report: out-of-bounds access, data race (global or local memory), read of uninitialised
+# memory, OpenCL API error, or an Oclgrind internal error. Also fails when a __kernel in
+# kernels/*.cl was never launched, so a new kernel must get a run here (a unit test that
+# opens the device, or a render below). Registered as the ctest test `check_kernels`.
+#
+# Usage: tools/check_kernels.sh [BUILD_DIR]      (default $BUILD_DIR, else build; must be built)
+# Environment: CHECK_KERNELS_TIMEOUT  seconds per program (default 120)
+#              CHECK_KERNELS_KEEP=1   keep the work directory (logs) after a pass too
+# Exit status: 0 clean, 1 a report / a failing program / a kernel never launched,
+#              77 oclgrind is not installed (ctest: skipped).
+#
+# What runs, each under `oclgrind --data-races --uninitialized --check-api`:
+#   - `tessera render` of scene/teapot.rib at 16x9, 2 spp, --max-lod 3, and of
+#     scene/one_patch.rib at 8x8, --max-lod 0, both with --memory 4 (the whole pipeline,
+#     every stage);
+#   - every test program whose source calls test_open_device() (the kernel unit tests),
+#     except SLOW_TESTS (whole-renderer comparisons, minutes under Oclgrind; the renders
+#     above run the same kernels).
+# The programs open device 0 of the first platform; under Oclgrind's runtime (preloaded by
+# the `oclgrind` wrapper) that platform is Oclgrind's and no other, which the launch log
+# below confirms for every launch.
+#
+# Two details, both for Oclgrind 21.10 (Debian 12):
+#   - kernels are built with -cl-opt-disable (--build-options): with optimisation, clang
+#     emits LLVM `freeze` instructions that its --uninitialized plugin does not support
+#     ("OCLGRIND FATAL ERROR ... Unsupported instruction: freeze"), which aborts the kernel
+#     and then reports false uninitialised reads downstream;
+#   - tools/oclgrind_host_writes.c is preloaded in front of Oclgrind's runtime: it makes
+#     partial host writes, fills and read-write mappings visible to --uninitialized (see the
+#     file), and logs every program build and kernel launch to $TESSERA_LAUNCH_LOG, which
+#     is how coverage is checked (independent of Oclgrind's output format).
+set -uo pipefail
+cd "$(dirname "$0")/.."
+src=$PWD
+build=$(cd "${1:-${BUILD_DIR:-build}}" 2>/dev/null && pwd) || { echo "check_kernels: no build directory ${1:-${BUILD_DIR:-build}} (run tools/setup.sh)" >&2; exit 1; }
+timeout_s=${CHECK_KERNELS_TIMEOUT:-120}
+SLOW_TESTS="test_trace test_embree"
+
+if ! command -v oclgrind >/dev/null; then
+  echo "check_kernels: oclgrind is not installed (apt-get install oclgrind): skipping"
+  exit 77
+fi
+[ -x "$build/tessera" ] || { echo "check_kernels: $build/tessera not built" >&2; exit 1; }
+
+work=$(mktemp -d "${TMPDIR:-/tmp}/check-kernels-XXXXXX")
+shim=$work/liboclgrind_host_writes.so
+cc -O2 -shared -fPIC -o "$shim" tools/oclgrind_host_writes.c -ldl || { echo "check_kernels: cannot build the shim" >&2; exit 1; }
+export TESSERA_LAUNCH_LOG=$work/launches.tsv TESSERA_CHECK_SHIM=$shim
+export TESSERA_CACHE_DIR=$work/kernel-cache # nothing built elsewhere is loaded
+export TESSERA_SOURCE_DIR=$src TESSERA_BINARY=$build/tessera TESSERA_SHARED_DIR=$src/../shared
+unset TESSERA_DEVICE
+: >"$TESSERA_LAUNCH_LOG"
+
+# Lines Oclgrind writes about a problem, in case any reach the program's output rather than
+# the --log file (every line of the --log file counts as a report anyway).
+report_re='OCLGRIND|Oclgrind - |Invalid (read|write)|[Dd]ata race|Uninitiali[sz]ed (value|address)|[Dd]ivergence|Entity: |errors generated'
+
+failed=0
+t_start=$SECONDS
+# run NAME PROGRAM [ARGS...]: one program under Oclgrind; its log, output and status checked.
+run() {
+  local name=$1; shift
+  local log=$work/$name.oclgrind.log out=$work/$name.out t0=$SECONDS rc
+  timeout "$timeout_s" oclgrind --data-races --uninitialized --check-api \
+    --build-options -cl-opt-disable --log "$log" \
+    sh -c 'LD_PRELOAD="$TESSERA_CHECK_SHIM${LD_PRELOAD:+:$LD_PRELOAD}"; export LD_PRELOAD; exec "$@"' \
+    sh "$@" >"$out" 2>&1
+  rc=$?
+  local bad=""
+  [ "$rc" -eq 124 ] && bad="did not finish in ${timeout_s} s under Oclgrind (give it a smaller input or add it to SLOW_TESTS)"
+  [ -z "$bad" ] && [ "$rc" -ne 0 ] && bad="exit status $rc"
+  if [ -s "$log" ]; then
+    bad="${bad:+$bad; }$(grep -c 'Kernel:' "$log") Oclgrind report(s)"
+  fi
+  if grep -Eq "$report_re" "$out"; then bad="${bad:+$bad; }Oclgrind report(s) in its output"; fi
+  if [ -n "$bad" ]; then
+    echo "FAIL  $name ($((SECONDS - t0)) s): $bad"
+    echo "----- $name: Oclgrind log ($log), first 60 lines"
+    [ -s "$log" ] && head -n 60 "$log"
+    echo "----- $name: program output, last 30 lines"
+    tail -n 30 "$out"
+    echo "-----"
+    failed=1
+  else
+    echo "ok    $name ($((SECONDS - t0)) s)"
+  fi
+}
+
+# --memory 4: small buffers; Oclgrind's checkers cost time per byte of buffer, not only per
+# work-item (the default budget makes the same render ~6x slower).
+run render_teapot "$build/tessera" render scene/teapot.rib --res 16x9 --spp 2 --max-lod 3 \
+  --memory 4 -o "$work/teapot.exr" --no-kernel-cache --quiet
+run render_one_patch "$build/tessera" render scene/one_patch.rib --res 8x8 --max-lod 0 \
+  --memory 4 -o "$work/one_patch.exr" --no-kernel-cache --quiet
+for f in tests/test_*.c; do
+  t=$(basename "$f" .c)
+  grep -q 'test_open_device' "$f" || continue
+  case " $SLOW_TESTS " in *" $t "*) echo "skip  $t (SLOW_TESTS)"; continue ;; esac
+  if [ ! -x "$build/tests/$t" ]; then echo "FAIL  $t: $build/tests/$t not built"; failed=1; continue; fi
+  run "$t" "$build/tests/$t"
+done
+
+# Coverage: every kernel named in kernels/*.cl, or in a program that was built, was launched,
+# and every launch ran on Oclgrind's device.
+source_kernels=$(perl -0777 -ne 's{/\*.*?\*/}{}gs; s{//[^\n]*}{}g;
+  print "$1\n" while /\b(?:__)?kernel\s+(?:__attribute__\s*\(\(.*?\)\)\s*)*void\s+(\w+)\s*\(/gs' kernels/*.cl | sort -u)
+program_kernels=$(awk -F'\t' '$1 == "program" { n = split($2, k, ";"); for (i = 1; i <= n; i++) if (k[i] != "") print k[i] }' "$TESSERA_LAUNCH_LOG" | sort -u)
+launched=$(awk -F'\t' '$1 == "launch" { print $2 }' "$TESSERA_LAUNCH_LOG" | sort -u)
+devices=$(awk -F'\t' '$1 == "launch" { print $3 }' "$TESSERA_LAUNCH_LOG" | sort -u)
+if [ -z "$program_kernels" ]; then
+  echo "FAIL  no program build was logged (is the shim preloaded?)"; failed=1
+fi
+missing=$(comm -23 <(printf '%s\n' $source_kernels $program_kernels | sort -u) <(printf '%s\n' $launched))
+if [ -n "$missing" ]; then
+  echo "FAIL  kernels never launched under Oclgrind: $(echo $missing)"
+  echo "      (launch each from a test that calls test_open_device(), or from a render above)"
+  failed=1
+fi
+if [ "$devices" != "Oclgrind Simulator" ]; then
+  echo "FAIL  launches ran on: $(echo "$devices" | paste -sd, -), expected only Oclgrind Simulator"; failed=1
+fi
+echo "kernels launched under Oclgrind ($(echo $launched | wc -w)): $(echo $launched)"
+echo "check_kernels: $((SECONDS - t_start)) s"
+
+if [ "$failed" -ne 0 ]; then
+  echo "check_kernels: FAILED (logs kept in $work)"
+  exit 1
+fi
+[ "${CHECK_KERNELS_KEEP:-0}" = 1 ] && echo "logs in $work" || rm -rf "$work"
+echo "check_kernels: no Oclgrind reports"
