@@ -14,13 +14,15 @@ _Static_assert(sizeof(ts_pair) == 8, "ts_pair is 8 bytes");
 _Static_assert(sizeof(ts_segment) == 32, "ts_segment is 32 bytes");
 _Static_assert(sizeof(ts_hit) == 20, "ts_hit is 20 bytes");
 _Static_assert(offsetof(ts_hit, patch) == 12, "ts_hit.patch after t, u, v");
-_Static_assert(sizeof(ts_patch_attr) == 48, "ts_patch_attr is 48 bytes");
+_Static_assert(sizeof(ts_patch_attr) == 80, "ts_patch_attr is 80 bytes");
+_Static_assert(sizeof(ts_light) == 48, "ts_light is 48 bytes");
+_Static_assert(sizeof(ts_emitter) == 16, "ts_emitter is 16 bytes");
 _Static_assert(offsetof(ts_patch_attr, disp_amplitude) == 24, "displacement after colour, flags, kind, octaves");
 _Static_assert(sizeof(ts_xform) == 48, "ts_xform is 48 bytes");
 _Static_assert(sizeof(ts_box4) == 96, "ts_box4 is 96 bytes");
 _Static_assert(sizeof(ts_camera_params) == 96, "ts_camera_params is 96 bytes");
 _Static_assert(offsetof(ts_camera_params, width) == 64, "width after four float[4]");
-_Static_assert(sizeof(ts_shade_params) == 48, "ts_shade_params is 48 bytes");
+_Static_assert(sizeof(ts_shade_params) == 32, "ts_shade_params is 32 bytes");
 
 /* Keeps the translation unit non-empty for strict compilers. */
 int ts_layout_checked(void) { return 1; }

@@ -17,7 +17,7 @@ static const char *usage_text =
     "                        Z, N.x N.y N.z)\n"
     "      --res WxH         image size (default: the scene's Format, else 640x480)\n"
     "      --spp N           samples per pixel (default 1)\n"
-    "      --depth D         path depth (default 3)\n"
+    "      --depth D         path depth: bounces after the eye ray (default 3)\n"
     "      --seed S          random seed (default 0)\n"
     "      --device I        OpenCL device index from `tessera devices` (default:\n"
     "                        $TESSERA_DEVICE, else 0)\n"
@@ -26,6 +26,8 @@ static const char *usage_text =
     "      --lod M           dice every patch at m = M instead of by ray density\n"
     "      --intersect KIND  boxes: leaf boxes are the geometry, hole-free across levels of\n"
     "                        detail (default); triangles: exact micro-triangles\n"
+    "      --sampling KIND   mis: light and BSDF sampling combined (default); light or\n"
+    "                        bsdf: one alone (for checking the estimators)\n"
     "      --memory MB       budget for rays, candidates and diced patches (default 1024)\n"
     "      --stats FILE      write per-stage timings and counters as JSON\n"
     "      --quiet           no progress or timings on stderr\n"
@@ -68,7 +70,7 @@ static int cmd_devices(void)
     return 0;
 }
 
-enum { OPT_RES = 256, OPT_LOD, OPT_INTERSECT, OPT_SPP, OPT_DEPTH, OPT_SEED, OPT_DEVICE, OPT_MAX_LOD, OPT_MEMORY,
+enum { OPT_RES = 256, OPT_LOD, OPT_INTERSECT, OPT_SAMPLING, OPT_SPP, OPT_DEPTH, OPT_SEED, OPT_DEVICE, OPT_MAX_LOD, OPT_MEMORY,
        OPT_STATS, OPT_QUIET, OPT_KERNEL_DIR, OPT_NO_CACHE, OPT_HELP };
 
 static const struct option render_options[] = {
@@ -77,6 +79,7 @@ static const struct option render_options[] = {
     {"seed", required_argument, 0, OPT_SEED}, {"device", required_argument, 0, OPT_DEVICE},
     {"max-lod", required_argument, 0, OPT_MAX_LOD}, {"memory", required_argument, 0, OPT_MEMORY},
     {"lod", required_argument, 0, OPT_LOD}, {"intersect", required_argument, 0, OPT_INTERSECT},
+    {"sampling", required_argument, 0, OPT_SAMPLING},
     {"stats", required_argument, 0, OPT_STATS}, {"quiet", no_argument, 0, OPT_QUIET},
     {"kernel-dir", required_argument, 0, OPT_KERNEL_DIR},
     {"no-kernel-cache", no_argument, 0, OPT_NO_CACHE}, {"help", no_argument, 0, OPT_HELP},
@@ -94,6 +97,12 @@ static int parse_render_args(int argc, char **argv, ts_render_options *o)
         case OPT_RES:
             bad = sscanf(optarg, "%dx%d", &o->width, &o->height) != 2 || o->width < 1 ||
                   o->height < 1 || o->width > 65536 || o->height > 65536;
+            break;
+        case OPT_SAMPLING:
+            o->sampling = !strcmp(optarg, "mis") ? (int)TS_SAMPLING_MIS
+                          : !strcmp(optarg, "light") ? (int)TS_SAMPLING_LIGHT
+                          : !strcmp(optarg, "bsdf") ? (int)TS_SAMPLING_BSDF : -1;
+            bad = o->sampling < 0;
             break;
         case OPT_SPP: bad = parse_int(optarg, 1, 1 << 16, &o->spp); break;
         case OPT_DEPTH: bad = parse_int(optarg, 1, 64, &o->depth); break;

@@ -16,6 +16,7 @@ typedef struct ts_render_options {
     int max_lod;             /* the finest m: (2^m)^2 micro-quads per patch */
     int fixed_lod;           /* -1: m per patch from the frame's ray density; else this m */
     int exact;               /* 1: intersect micro-triangles; 0: leaf boxes (hole-free) */
+    int sampling;            /* TS_SAMPLING_*: light and BSDF sampling by MIS, or one alone */
     int memory_mb;           /* budget for rays, pairs and patch slots */
     int quiet;
     ts_cl_options cl;

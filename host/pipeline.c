@@ -2,6 +2,7 @@
 #include "lib/patch.h"
 #include "lib/quadtree.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -68,11 +69,81 @@ static int create_kernels(ts_pipeline *p, ts_error *err)
         {&p->k_lod, "lod_count"},
         {&p->k_dice, "dice_grid"},           {&p->k_build_leaves, "build_leaves"},
         {&p->k_build_level, "build_level"},  {&p->k_bottom_level, "bottom_level_trace"},
-        {&p->k_resolve, "resolve_closest"},  {&p->k_shade, "shade_lambert"},
+        {&p->k_resolve, "resolve_closest"},  {&p->k_shade, "shade_path"},
         {&p->k_film, "film_accumulate"},
     };
     for (size_t i = 0; i < sizeof list / sizeof *list; ++i)
         if (!(*list[i].k = cl_kernel_create(p->cl, list[i].name, err))) return err->code;
+    return TS_OK;
+}
+
+/* Area of patch p's undisplaced surface at time 0: |dP/du x dP/dv| on an 8 x 8 midpoint
+ * grid. */
+static float patch_area(const ts_scene *s, uint32_t p)
+{
+    double a = 0;
+    for (int j = 0; j < 8; ++j)
+        for (int i = 0; i < 8; ++i) {
+            ts_vec4 n = bezier_cross_derivs(&s->cp[p * 16], (i + 0.5f) / 8, (j + 0.5f) / 8);
+            a += sqrt((double)n.x * n.x + (double)n.y * n.y + (double)n.z * n.z) / 64.0;
+        }
+    return (float)a;
+}
+
+/* The lights as the kernels read them (lib/lights.h): every distant light, the dome, and
+ * one area light over all emissive patches, which are listed in an emitter table chosen by
+ * power (area times brightest channel). attr gets each emitter's index. */
+static int build_lights(ts_pipeline *p, ts_patch_attr *attr, ts_light *lights, ts_emitter **em,
+                        uint32_t *emitter_count, ts_error *err)
+{
+    const ts_scene *s = p->scene;
+    uint32_t nl = 0, ne = 0;
+    for (uint32_t i = 0; i < s->light_count; ++i) {
+        const ts_distant_light *d = &s->lights[i];
+        ts_light l = {.type = TS_LIGHT_DISTANT, .cos_max = 1.0f};
+        double dir[3] = {d->from[0] - d->to[0], d->from[1] - d->to[1], d->from[2] - d->to[2]};
+        double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+        double half = 0.5 * d->angle * M_PI / 180.0, e_scale = 1.0;
+        if (half > 0) { /* radiance L with L * pi sin^2(half) = E, uniform in the cone */
+            l.cos_max = (float)cos(half);
+            l.solid_angle = (float)(2 * M_PI * (1 - cos(half)));
+            e_scale = 1.0 / (M_PI * sin(half) * sin(half));
+        }
+        for (int k = 0; k < 3; ++k) {
+            l.dir[k] = (float)(dir[k] / len);
+            l.radiance[k] = (float)(d->intensity * d->color[k] * e_scale);
+        }
+        lights[nl++] = l;
+    }
+    if (s->dome.present) {
+        ts_light l = {.type = TS_LIGHT_DOME, .cos_max = 1.0f};
+        for (int k = 0; k < 3; ++k) l.radiance[k] = (float)(s->dome.intensity * s->dome.color[k]);
+        lights[nl++] = l;
+    }
+    for (uint32_t i = 0; i < s->patch_count; ++i)
+        ne += attr[i].le_r > 0 || attr[i].le_g > 0 || attr[i].le_b > 0;
+    *em = malloc((ne ? ne : 1) * sizeof **em);
+    if (!*em) return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    double total = 0;
+    ne = 0;
+    for (uint32_t i = 0; i < s->patch_count; ++i) {
+        attr[i].emitter = TS_INVALID;
+        float le = fmaxf(attr[i].le_r, fmaxf(attr[i].le_g, attr[i].le_b));
+        if (!(le > 0)) continue;
+        float area = patch_area(s, i);
+        (*em)[ne] = (ts_emitter){i, 0, area * le, area};
+        total += area * le;
+        attr[i].emitter = ne++;
+    }
+    double acc = 0;
+    for (uint32_t k = 0; k < ne; ++k) {
+        (*em)[k].prob = total > 0 ? (float)((*em)[k].prob / total) : 0.0f;
+        acc += (*em)[k].prob;
+        (*em)[k].cdf = k + 1 == ne ? 1.0f : (float)acc;
+    }
+    if (ne) lights[nl++] = (ts_light){.type = TS_LIGHT_AREA, .emitter_count = ne, .cos_max = 1.0f};
+    *emitter_count = ne;
+    p->light_count = nl;
     return TS_OK;
 }
 
@@ -84,9 +155,29 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
     size_t n = s->patch_count ? s->patch_count : 1;
     const cl_mem_flags ro_copy = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
     ts_vec4 *flat = malloc(n * sizeof *flat), *normals = NULL;
-    if (!flat) return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    for (uint32_t i = 0; i < s->patch_count; ++i)
+    ts_patch_attr *attr = malloc(n * sizeof *attr);
+    ts_light lights[66];
+    ts_emitter *emitters = NULL;
+    uint32_t emitter_count = 0;
+    if (!flat || !attr) {
+        free(flat), free(attr);
+        return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    }
+    if (s->light_count > 64) {
+        free(flat), free(attr);
+        return ts_error_set(err, TS_E_SCENE, "%u distant lights: at most 64", s->light_count);
+    }
+    memcpy(attr, s->attr, s->patch_count * sizeof *attr);
+    if (build_lights(p, attr, lights, &emitters, &emitter_count, err)) {
+        free(flat), free(attr);
+        return err->code;
+    }
+    /* w: the longest side of the patch's box, for the secondary-ray offset l / 2^m. */
+    for (uint32_t i = 0; i < s->patch_count; ++i) {
         flat[i] = patch_flatness(&s->cp[i * 16], s->cp1 ? &s->cp1[i * 16] : &s->cp[i * 16], 0);
+        ts_box b = scene_patch_box(s, i);
+        flat[i].w = fmaxf(b.hi_x - b.lo_x, fmaxf(b.hi_y - b.lo_y, b.hi_z - b.lo_z));
+    }
     const ts_vec4 *cn = s->corner_n;
     if (!cn) {
         normals = calloc(n * 4, sizeof *normals);
@@ -107,7 +198,9 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
         {&p->cp, n * 16 * sizeof(ts_vec4), s->cp},
         {&p->cp1, n * 16 * sizeof(ts_vec4), s->cp1 ? s->cp1 : s->cp},
         {&p->corner_n, n * 4 * sizeof(ts_vec4), cn},
-        {&p->attr, n * sizeof(ts_patch_attr), s->attr},
+        {&p->attr, n * sizeof(ts_patch_attr), attr},
+        {&p->lights, (p->light_count ? p->light_count : 1) * sizeof(ts_light), lights},
+        {&p->emitters, (emitter_count ? emitter_count : 1) * sizeof(ts_emitter), emitters},
         {&p->xform, (s->xform_count ? s->xform_count : 1) * sizeof(ts_xform),
          s->xform_count ? (const void *)s->xform : (const void *)&identity},
         {&p->flatness, n * sizeof(ts_vec4), flat},
@@ -116,13 +209,16 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
     for (size_t i = 0; i < sizeof list / sizeof *list && rc == TS_OK; ++i) {
         /* An empty scene still gets one (unused) element so no buffer has size 0. */
         static const ts_vec4 zeros[16];
-        const void *host = s->patch_count || list[i].host == p->qbvh.nodes ? list[i].host : zeros;
+        const void *host = s->patch_count || list[i].host == p->qbvh.nodes ||
+                                   list[i].host == lights ? list[i].host : zeros;
         if (!host) host = zeros;
         *list[i].m = cl_buffer_create(p->cl, ro_copy, list[i].size, (void *)host, err);
         if (!*list[i].m) rc = err->code;
     }
     free(flat);
     free(normals);
+    free(attr);
+    free(emitters);
     return rc;
 }
 
@@ -141,7 +237,11 @@ static int create_buffers(ts_pipeline *p, ts_error *err)
 #define TS_RAY_ALLOC(type, name, what) {&p->ray_##name, CL_MEM_READ_WRITE, rays * sizeof(type)},
         TS_RAY_FIELDS(TS_RAY_ALLOC)
 #undef TS_RAY_ALLOC
+#define TS_PATH_ALLOC(type, name, what) {&p->path_##name, CL_MEM_READ_WRITE, rays * sizeof(type)},
+        TS_PATH_FIELDS(TS_PATH_ALLOC)
+#undef TS_PATH_ALLOC
         {&p->active, host_rw, rays * sizeof(uint32_t)},
+        {&p->wave_paths, host_rw, rays * sizeof(uint32_t)},
         {&p->count, CL_MEM_READ_WRITE, rays * sizeof(uint32_t)},
         {&p->alive, host_rw, rays * sizeof(uint32_t)},
         {&p->pairs[0], host_rw, pairs * sizeof(ts_pair)},
@@ -154,6 +254,8 @@ static int create_buffers(ts_pipeline *p, ts_error *err)
         {&p->groups, CL_MEM_READ_WRITE, (size_t)p->plan.group_capacity * sizeof(ts_box4)},
         {&p->radiance, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4)},
         {&p->aov, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4)},
+        {&p->albedo, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4)},
+        {&p->albedo_film, host_rw, (size_t)p->pixel_count * sizeof(ts_vec4)},
         {&p->accum, host_rw, (size_t)p->pixel_count * sizeof(ts_vec4)},
         {&p->aov_film, host_rw, (size_t)p->pixel_count * sizeof(ts_vec4)},
     };
@@ -167,6 +269,8 @@ static int create_buffers(ts_pipeline *p, ts_error *err)
     CL_CHECK(clEnqueueFillBuffer(cl->queue, p->accum, &zero, sizeof zero, 0,
                                  (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL), err);
     CL_CHECK(clEnqueueFillBuffer(cl->queue, p->aov_film, &zero, sizeof zero, 0,
+                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL), err);
+    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->albedo_film, &zero, sizeof zero, 0,
                                  (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL), err);
     CL_CHECK(clEnqueueFillBuffer(cl->queue, p->lod_counts, &zero_u, sizeof zero_u, 0,
                                  n * sizeof(uint32_t), 0, NULL, NULL), err);
@@ -212,7 +316,11 @@ void pipeline_destroy(ts_pipeline *p)
     for (size_t i = 0; i < sizeof ks / sizeof *ks; ++i)
         if (ks[i]) clReleaseKernel(ks[i]);
     cl_mem ms[] = {p->qbvh_nodes, p->cp, p->cp1, p->corner_n, p->attr, p->xform, p->flatness,
-                   p->lod_counts,
+                   p->lod_counts, p->lights, p->emitters,
+#define TS_PATH_RELEASE(type, name, what) p->path_##name,
+                   TS_PATH_FIELDS(TS_PATH_RELEASE)
+#undef TS_PATH_RELEASE
+                   p->wave_paths, p->albedo, p->albedo_film,
 #define TS_RAY_RELEASE(type, name, what) p->ray_##name,
                    TS_RAY_FIELDS(TS_RAY_RELEASE)
 #undef TS_RAY_RELEASE
@@ -236,7 +344,8 @@ int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 {
     ts_camera_params c = *cam;
     if (cl_set_args(p->k_camera, err, ARG(c), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
-                    ARG(p->ray_entry), ARG(p->ray_pixel), ARG(p->active), (size_t)0))
+                    ARG(p->ray_entry), ARG(p->ray_pixel), ARG(p->ray_flags), ARG(p->active),
+                    ARG(p->wave_paths), ARG(p->path_throughput), ARG(p->path_mis), ARG(p->radiance), (size_t)0))
         return err->code;
     return cl_launch(p->cl, p->k_camera, TS_STAGE_camera, c.ray_count, TS_LOCAL_SIZE, err);
 }

@@ -22,7 +22,10 @@
 
 /* Bytes of device memory one ray costs: its SoA fields, active/count/alive, radiance and
  * aov, and TS_PAIRS_PER_RAY pairs (two sort buffers + a hit record each). */
-#define TS_BYTES_PER_RAY (16u + 16u + 20u + 4u + 4u + 4u + 4u + 4u + 16u + 16u + TS_PAIRS_PER_RAY * (8u + 8u + 20u))
+#define TS_BYTES_PER_RAY                                                                    \
+    (16u + 16u + 20u + 4u + 4u + 4u /* ray fields */ + 4u + 4u + 4u + 4u /* active, count,  \
+    alive, wave_paths */ + 3u * 16u /* path fields */ + 16u + 16u + 16u /* radiance, aov,     \
+    albedo */ + TS_PAIRS_PER_RAY * (8u + 8u + 20u))
 
 typedef struct ts_pipeline_plan {
     uint32_t ray_capacity;   /* rays per wave */
@@ -73,12 +76,16 @@ typedef struct ts_pipeline {
     uint8_t *patch_lod; /* m of each patch for this frame (lod stage); max_lod until counted */
     cl_kernel k_camera, k_lod, k_top_level, k_dice, k_build_leaves, k_build_level,
         k_bottom_level, k_resolve, k_shade, k_film;
-    cl_mem qbvh_nodes, cp, cp1, corner_n, attr, xform, flatness, lod_counts;
+    cl_mem qbvh_nodes, cp, cp1, corner_n, attr, xform, flatness, lod_counts, lights, emitters;
+    uint32_t light_count;
 #define TS_RAY_BUFFER(type, name, what) cl_mem ray_##name;
     TS_RAY_FIELDS(TS_RAY_BUFFER)
 #undef TS_RAY_BUFFER
-    cl_mem active, count, alive, pairs[2], pair_hit, segments, trees, grid, groups;
-    cl_mem radiance, aov, accum, aov_film;
+#define TS_PATH_BUFFER(type, name, what) cl_mem path_##name;
+    TS_PATH_FIELDS(TS_PATH_BUFFER)
+#undef TS_PATH_BUFFER
+    cl_mem active, count, alive, wave_paths, pairs[2], pair_hit, segments, trees, grid, groups;
+    cl_mem radiance, aov, albedo, accum, aov_film, albedo_film;
     uint32_t wave;
 } ts_pipeline;
 
@@ -87,15 +94,17 @@ int pipeline_create(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, const ts_p
                     uint32_t pixel_count, ts_stats *stats, ts_error *err);
 void pipeline_destroy(ts_pipeline *p);
 
-/* camera: generates rays first_sample .. first_sample + ray_count. */
+/* camera: generates rays (and paths) first_sample .. first_sample + ray_count; lists them
+ * in active and wave_paths. A wave holds at most ray_capacity / 2 paths: each path also
+ * owns a shadow-ray slot. */
 int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err);
 /* lod: pipeline_lod_count adds the wave's rays (from pipeline_camera) to the per-patch
  * counts; pipeline_lod_finish turns the counts into patch_lod (4^m >= R / spp, clamped to
  * [0, max_lod]) and clears them. */
 int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, ts_error *err);
 int pipeline_lod_finish(ts_pipeline *p, ts_error *err);
-/* The two-level loop over the wave's ray_count rays (already in the ray buffers, with
- * active[i] = i): returns when every ray's closest hit is known. */
+/* The two-level loop over the rays listed in active[0..ray_count) (camera lists them all):
+ * returns when every ray's closest hit is known (or, for a shadow ray, any hit). */
 int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err);
 /* Single stages, for tests of one kernel against its C reference. pipeline_top_level runs
  * top_level once over active[0..active_count) and waits; pipeline_dice_build dices and
@@ -103,8 +112,13 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err);
  * arenas together) as one batch and waits. */
 int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err);
 int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err);
-/* shade + film for the wave. */
-int pipeline_shade_film(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sample,
-                        uint32_t ray_count, ts_error *err);
+/* shade: one path-tracing step for the paths wave_paths[0..path_count) of a wave of
+ * wave_size paths (path i traces ray i and its shadow ray wave_size + i). Lists the paths
+ * that go on in wave_paths and their rays in active; returns the counts. */
+int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sample,
+                   uint32_t wave_size, uint32_t path_count, uint32_t *next_paths,
+                   uint32_t *next_rays, uint32_t *shadow_rays, ts_error *err);
+/* film: adds the wave's ray_count finished paths to the image. */
+int pipeline_film(ts_pipeline *p, uint32_t first_sample, uint32_t ray_count, ts_error *err);
 
 #endif

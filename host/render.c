@@ -79,65 +79,39 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
     return TS_OK;
 }
 
-static void normalize3(float v[3])
-{
-    float l = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (l > 0) v[0] /= l, v[1] /= l, v[2] /= l;
-}
-
-ts_shade_params render_shade_params(const ts_scene *scene, const ts_camera_params *cam)
-{
-    ts_shade_params s;
-    memset(&s, 0, sizeof s);
-    if (scene->light_count > 0) {
-        const ts_distant_light *l = &scene->lights[0];
-        for (int k = 0; k < 3; ++k) {
-            s.light_dir[k] = (float)(l->from[k] - l->to[k]);
-            s.light_color[k] = (float)(l->intensity * l->color[k]);
-        }
-    } else {
-        /* From above-left of the camera, a little from behind it. */
-        for (int k = 0; k < 3; ++k) {
-            s.light_dir[k] = -0.5f * cam->right[k] + 1.0f * cam->up[k] - 0.7f * cam->forward[k];
-            s.light_color[k] = 1.0f;
-        }
-    }
-    normalize3(s.light_dir);
-    for (int k = 0; k < 3; ++k) s.ambient[k] = 0.08f;
-    return s;
-}
-
 /* Reads the film back and writes the image (EXR with AOVs, or tone-mapped PNG). */
 static int write_output(const ts_render_options *o, ts_pipeline *p, int width, int height,
                         ts_error *err)
 {
     size_t npix = (size_t)width * height;
     ts_vec4 *acc = malloc(npix * sizeof *acc), *aov = malloc(npix * sizeof *aov);
-    float *px = malloc(npix * 7 * sizeof *px);
+    ts_vec4 *alb = malloc(npix * sizeof *alb);
+    float *px = malloc(npix * 10 * sizeof *px);
     int rc = TS_OK;
-    if (!acc || !aov || !px) rc = ts_error_set(err, TS_E_MEMORY, "out of memory (image)");
+    if (!acc || !aov || !alb || !px) rc = ts_error_set(err, TS_E_MEMORY, "out of memory (image)");
     cl_command_queue q = p->cl->queue;
     if (!rc && (clEnqueueReadBuffer(q, p->accum, CL_TRUE, 0, npix * sizeof *acc, acc, 0, NULL, NULL) ||
-                clEnqueueReadBuffer(q, p->aov_film, CL_TRUE, 0, npix * sizeof *aov, aov, 0, NULL, NULL)))
+                clEnqueueReadBuffer(q, p->aov_film, CL_TRUE, 0, npix * sizeof *aov, aov, 0, NULL, NULL) ||
+                clEnqueueReadBuffer(q, p->albedo_film, CL_TRUE, 0, npix * sizeof *alb, alb, 0, NULL, NULL)))
         rc = ts_error_set(err, TS_E_DEVICE, "reading the image back from the device failed");
     const char *ext = strrchr(o->output_path, '.');
     int exr = ext && strcmp(ext, ".exr") == 0;
     for (size_t i = 0; !rc && i < npix; ++i) {
         float inv = acc[i].w > 0 ? 1.0f / acc[i].w : 0.0f;
-        float v[7] = {acc[i].x * inv, acc[i].y * inv, acc[i].z * inv, aov[i].w,
-                      aov[i].x, aov[i].y, aov[i].z};
+        float v[10] = {acc[i].x * inv, acc[i].y * inv, acc[i].z * inv, aov[i].w,
+                       aov[i].x, aov[i].y, aov[i].z, alb[i].x, alb[i].y, alb[i].z};
         if (aov[i].w == 0.0f && acc[i].w == 0.0f) v[3] = INFINITY; /* never sampled */
-        memcpy(exr ? &px[i * 7] : &px[i * 3], v, (exr ? 7 : 3) * sizeof(float));
+        memcpy(exr ? &px[i * 10] : &px[i * 3], v, (exr ? 10 : 3) * sizeof(float));
     }
     if (!rc && exr) {
-        const char *names[] = {"R", "G", "B", "Z", "N.x", "N.y", "N.z"};
-        ts_image img = {width, height, 7, names, px};
+        const char *names[] = {"R", "G", "B", "Z", "N.x", "N.y", "N.z", "albedo.R", "albedo.G", "albedo.B"};
+        ts_image img = {width, height, 10, names, px};
         ts_image_meta meta[] = {{"tessera:spp", o->spp}, {"tessera:max_lod", (int)p->plan.max_lod}};
         rc = image_write_exr(o->output_path, &img, meta, 2, err);
     } else if (!rc) {
         rc = image_write_png(o->output_path, width, height, px, err);
     }
-    free(acc), free(aov), free(px);
+    free(acc), free(aov), free(alb), free(px);
     return rc;
 }
 
@@ -163,24 +137,52 @@ static int render_lod(ts_pipeline *p, ts_camera_params cam, uint64_t total, ts_e
     return pipeline_lod_finish(p, err);
 }
 
+/* Traces one wave of paths from the eye: eye rays, then each bounce's rays (BSDF and
+ * shadow rays together, Hanika §3.5: rays grouped by generation) until none is left or the
+ * depth is reached. */
+static int render_paths(const ts_render_options *o, ts_pipeline *p, uint32_t first,
+                        uint32_t n, ts_error *err)
+{
+    ts_shade_params sp = {.light_count = p->light_count, .depth = (uint32_t)o->depth,
+                          .sampling = (uint32_t)o->sampling, .seed = o->seed,
+                          .light_prob = 0.5f};
+    uint32_t rays = n, paths = n;
+    p->stats->counters[TS_COUNTER_rays] += n;
+    for (uint32_t b = 0; rays > 0; ++b) {
+        uint32_t shadows;
+        sp.bounce = b;
+        p->wave = b;
+        if (pipeline_trace(p, rays, err) ||
+            pipeline_shade(p, &sp, first, n, paths, &paths, &rays, &shadows, err))
+            return err->code;
+        p->stats->counters[TS_COUNTER_rays] += rays - shadows;
+        p->stats->counters[TS_COUNTER_shadow_rays] += shadows;
+    }
+    return pipeline_film(p, first, n, err);
+}
+
 /* Runs the waves: each is a run of global sample indices [first, first + rays). */
 static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
-                        const ts_shade_params *shade, ts_error *err)
+                        ts_error *err)
 {
     uint64_t total = (uint64_t)cam.width * cam.height * (uint64_t)o->spp;
-    uint32_t per_wave = p->plan.ray_capacity;
+    uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
     p->mode = (ts_trace_mode){(uint32_t)o->spp, o->fixed_lod, o->exact};
+    double t0 = stats_now();
     if (o->fixed_lod < 0 && render_lod(p, cam, total, err)) return err->code;
     for (uint64_t first = 0; first < total; first += per_wave) {
         uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
         cam.first_sample = (uint32_t)first;
         cam.ray_count = n;
-        if (pipeline_camera(p, &cam, err) || pipeline_trace(p, n, err) ||
-            pipeline_shade_film(p, shade, (uint32_t)first, n, err))
+        if (pipeline_camera(p, &cam, err) || render_paths(o, p, (uint32_t)first, n, err))
             return err->code;
-        if (!o->quiet)
-            fprintf(stderr, "\rtessera: %llu / %llu samples traced", (unsigned long long)(first + n),
-                    (unsigned long long)total);
+        if (!o->quiet) {
+            double dt = stats_now() - t0, done = (double)(first + n);
+            double rays = (double)(p->stats->counters[TS_COUNTER_rays] + p->stats->counters[TS_COUNTER_shadow_rays]);
+            fprintf(stderr, "\rtessera: %llu / %llu samples, %.2f Mrays/s, ETA %.0f s   ",
+                    (unsigned long long)(first + n), (unsigned long long)total,
+                    dt > 0 ? rays / dt / 1e6 : 0.0, dt * (total - done) / done);
+        }
     }
     if (!o->quiet) fputc('\n', stderr);
     return TS_OK;
@@ -196,7 +198,7 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_error *err)
     memset(&cl, 0, sizeof cl);
     ts_pipeline pipe;
     memset(&pipe, 0, sizeof pipe);
-    int rc = rib_load(o->scene_path, &scene, o->quiet, err);
+    int rc = scene_load(o->scene_path, &scene, o->quiet, err);
     int width = o->width ? o->width : scene.camera.has_format ? scene.camera.width : 640;
     int height = o->height ? o->height : scene.camera.has_format ? scene.camera.height : 480;
     ts_camera_params cam;
@@ -207,7 +209,7 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_error *err)
         snprintf(stats->device, sizeof stats->device, "%.120s (%.120s)", cl.info.name, cl.info.platform_name);
         stats->kernel_build_seconds = cl.build_seconds;
         stats->kernel_cache_hit = cl.cache_hit;
-        uint64_t rays = (uint64_t)width * height * (uint64_t)o->spp;
+        uint64_t rays = 2 * (uint64_t)width * height * (uint64_t)o->spp; /* + shadow slots */
         rc = pipeline_plan((uint64_t)o->memory_mb << 20, rays, (uint32_t)o->max_lod,
                            cl.info.max_alloc, &plan, err);
     }
@@ -219,8 +221,7 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_error *err)
     if (!rc) {
         cam.spp = (uint32_t)o->spp;
         cam.seed = o->seed;
-        ts_shade_params shade = render_shade_params(&scene, &cam);
-        rc = render_waves(o, &pipe, cam, &shade, err);
+        rc = render_waves(o, &pipe, cam, err);
     }
     if (!rc) {
         double tw = stats_now();

@@ -13,10 +13,6 @@
 int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_params *out,
                          ts_error *err);
 
-/* The primary-ray light: the scene's first distant light, or a default key light from the
- * camera's upper left when it has none. */
-ts_shade_params render_shade_params(const ts_scene *scene, const ts_camera_params *cam);
-
 /* Renders options->scene_path to options->output_path. Fills stats. */
 int render_run(const ts_render_options *options, ts_stats *stats, ts_error *err);
 

@@ -294,8 +294,11 @@ static const struct {
     {"AttributeBegin", rib_req_attribute_begin},
     {"AttributeEnd", rib_req_attribute_end},
     {"Basis", rib_req_basis},
+    {"AreaLightSource", rib_req_area_light_source},
+    {"Clipping", rib_req_clipping},
     {"Color", rib_req_color},
     {"ConcatTransform", rib_req_concat_transform},
+    {"CropWindow", rib_req_crop_window},
     {"Displacement", rib_req_displacement},
     {"Format", rib_req_format},
     {"Identity", rib_req_identity},
@@ -304,9 +307,14 @@ static const struct {
     {"MotionEnd", rib_req_motion_end},
     {"Patch", rib_req_patch},
     {"PatchMesh", rib_req_patch_mesh},
+    {"PixelSamples", rib_req_pixel_samples},
+    {"Procedural", rib_req_procedural},
     {"Projection", rib_req_projection},
+    {"ReadArchive", rib_req_read_archive},
     {"Rotate", rib_req_rotate},
     {"Scale", rib_req_scale},
+    {"Shutter", rib_req_shutter},
+    {"Surface", rib_req_surface},
     {"Transform", rib_req_transform},
     {"TransformBegin", rib_req_transform_begin},
     {"TransformEnd", rib_req_transform_end},
@@ -317,15 +325,12 @@ static const struct {
 
 /* Accepted with a warning: they change neither geometry nor camera placement. */
 static const char *const rib_ignored[] = {
-    "AreaLightSource",
     "Atmosphere",
     "Attribute",
     "Bound",
-    "Clipping",
     "ClippingPlane",
     "ColorSamples",
     "CoordinateSystem",
-    "CropWindow",
     "Declare",
     "DepthOfField",
     "Detail",
@@ -347,7 +352,6 @@ static const char *const rib_ignored[] = {
     "Option",
     "Orientation",
     "PixelFilter",
-    "PixelSamples",
     "PixelVariance",
     "Quantize",
     "RelativeDetail",
@@ -355,9 +359,7 @@ static const char *const rib_ignored[] = {
     "ScreenWindow",
     "ShadingInterpolation",
     "ShadingRate",
-    "Shutter",
     "Sides",
-    "Surface",
     "TextureCoordinates",
 };
 
@@ -382,8 +384,6 @@ static const char *const rib_unsupported[] = {
     "PointsGeneralPolygons",
     "PointsPolygons",
     "Polygon",
-    "Procedural",
-    "ReadArchive",
     "Skew",
     "SolidBegin",
     "SolidEnd",
@@ -431,7 +431,7 @@ static int rib_dispatch(rib_parser *p)
 static const char *const rib_frame_end[] = {"AttributeEnd", "TransformEnd", "WorldEnd"};
 static const char *const rib_frame_name[] = {"AttributeBegin", "TransformBegin", "WorldBegin"};
 
-static int rib_run(rib_parser *p)
+int rib_run_requests(rib_parser *p)
 {
     rib_token t;
     int rc = rib_lex_next(&p->lx, &t);
@@ -447,6 +447,13 @@ static int rib_run(rib_parser *p)
         rc = rib_read_args(p, &t);
         if (rc == TS_OK) rc = rib_dispatch(p);
     }
+    return rc;
+}
+
+/* The whole file: its requests, then every block must be closed. */
+static int rib_run(rib_parser *p)
+{
+    int rc = rib_run_requests(p);
     if (rc == TS_OK && p->motion.active)
         rc = rib_error_at(p, p->motion.line, p->motion.col,
                           "MotionBegin is never closed (missing MotionEnd)");
@@ -469,6 +476,7 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     rib_mat_identity(p->ctm1);
     p->disp = (rib_disp){TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5};
     p->color[0] = p->color[1] = p->color[2] = 1.0;
+    p->surface = (rib_surface){TS_MAT_MATTE, 1.0, 0.0, 0.1};
     p->ubasis = basis_bezier;
     p->vbasis = basis_bezier;
     p->phase = RIB_BEFORE_WORLD;
@@ -478,6 +486,11 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     scene->camera.fov_deg = 90.0;
     scene->camera.width = scene->camera.height = 0;
     scene->camera.has_format = 0;
+    scene->camera.spp = 0;
+    scene->camera.clip_near = 1e-10, scene->camera.clip_far = 1e30;
+    scene->camera.shutter[0] = scene->camera.shutter[1] = 0.0;
+    scene->camera.crop[0] = scene->camera.crop[2] = 0.0;
+    scene->camera.crop[1] = scene->camera.crop[3] = 1.0;
 }
 
 int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *scene, int quiet,
@@ -493,6 +506,7 @@ int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *s
     int rc = rib_run(p);
     if (rc == TS_OK) rc = scene_finalize(scene, err);
     rib_lex_free(&p->lx);
+    rib_archive_free(p);
     free(p->args);
     free(p->nums);
     free(p->strs);

@@ -11,6 +11,7 @@
 
 #include "error.h"
 #include "scene.h"
+#include "scene_load.h" /* scene_load: a RIB file or a mesh, by the file name */
 
 #include <stddef.h>
 

@@ -11,6 +11,7 @@
  */
 #include "rib_internal.h"
 
+#include <float.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -59,22 +60,14 @@ static int geom_xform(rib_parser *p, const double inv[16], uint32_t *index)
     return TS_OK;
 }
 
-/* Appends a patch: g0 (and g1, the points at shutter close, or NULL) in object space are
- * moved by the CTM — by its two samples when it moves, which makes the patch move too —
- * with the current colour and displacement. n: the four object-space corner normals of a
- * varying "N" (moved by the inverse transpose of the CTM at shutter open), or NULL.
- * (line, col): the "P" values, (nline, ncol): the "N" values, for messages. */
-static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
-                     const double g1[16][3], const double n[4][3], int nline, int ncol)
+/* The attributes in effect as a patch's: colour cs (NULL: the current Color),
+ * Displacement (xform still 0), Surface, AreaLightSource. */
+static ts_patch_attr geom_attr(const rib_parser *p, const double *cs)
 {
-    double w0[16][3], w1[16][3], wn[4][3], inv[16];
-    int moving = g1 != NULL || p->ctm_moving;
-    int rc = geom_points(p, line, col, p->ctm, g0, w0);
-    if (rc == TS_OK && moving) rc = geom_points(p, line, col, p->ctm1, g1 ? g1 : g0, w1);
-    if (rc != TS_OK) return rc;
-    ts_patch_attr attr = {.cs_r = (float)p->color[0],
-                          .cs_g = (float)p->color[1],
-                          .cs_b = (float)p->color[2],
+    if (!cs) cs = p->color;
+    ts_patch_attr attr = {.cs_r = (float)cs[0],
+                          .cs_g = (float)cs[1],
+                          .cs_b = (float)cs[2],
                           .flags = 0u,
                           .disp_kind = p->disp.kind,
                           .disp_octaves = p->disp.octaves,
@@ -83,7 +76,49 @@ static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
                           .disp_lacunarity = (float)p->disp.lacunarity,
                           .disp_gain = (float)p->disp.gain,
                           .xform = 0u,
+                          .material = p->surface.material,
+                          .kd = (float)p->surface.kd,
+                          .ks = (float)p->surface.ks,
+                          .roughness = (float)p->surface.roughness,
+                          .emitter = TS_INVALID,
+                          .le_r = (float)p->emission[0],
+                          .le_g = (float)p->emission[1],
+                          .le_b = (float)p->emission[2],
                           .pad = 0u};
+    return attr;
+}
+
+int rib_geom_procedural_attr(rib_parser *p, ts_patch_attr *attr)
+{
+    int rc = geom_check_state(p);
+    if (rc != TS_OK) return rc;
+    *attr = geom_attr(p, NULL);
+    double inv[16];
+    if (attr->disp_kind == TS_DISP_NONE) return TS_OK;
+    if (!rib_mat_invert(p->ctm, inv))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s: the current transformation is singular; Displacement needs an "
+                            "invertible one",
+                            p->req);
+    return geom_xform(p, inv, &attr->xform);
+}
+
+/* Appends a patch: g0 (and g1, the points at shutter close, or NULL) in object space are
+ * moved by the CTM — by its two samples when it moves, which makes the patch move too —
+ * with the current attributes and colour cs (NULL: the current Color). n: the four
+ * object-space corner normals from "N" (moved by the inverse transpose of the CTM at
+ * shutter open), or NULL. (line, col): the "P" values, (nline, ncol): the "N" values, for
+ * messages. */
+static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
+                     const double g1[16][3], const double n[4][3], int nline, int ncol,
+                     const double *cs)
+{
+    double w0[16][3], w1[16][3], wn[4][3], inv[16];
+    int moving = g1 != NULL || p->ctm_moving;
+    int rc = geom_points(p, line, col, p->ctm, g0, w0);
+    if (rc == TS_OK && moving) rc = geom_points(p, line, col, p->ctm1, g1 ? g1 : g0, w1);
+    if (rc != TS_OK) return rc;
+    ts_patch_attr attr = geom_attr(p, cs);
     if ((attr.disp_kind != TS_DISP_NONE || n) && !rib_mat_invert(p->ctm, inv))
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s: the current transformation is singular; %s needs an "
@@ -121,34 +156,108 @@ static void geom_bilinear_to_bezier(const double *c00, const double *c10, const 
                                   9.0;
 }
 
-/* Finds "P" with exactly `need` numbers and "N" (varying normals) with exactly `need_n`
- * among the parameters from args[first]; *nrm stays NULL without "N". "Pw" and "Pz" are
- * errors (rational and height-field patches are not supported); any other parameter
- * ("Cs", "st", ...) is ignored with a warning. A normal of zero length is an error. */
-static int geom_find_p(rib_parser *p, size_t first, size_t need, const double **pts,
-                       const rib_arg **at, size_t need_n, const double **nrm,
-                       const rib_arg **nat)
+/* ---- primitive variables ------------------------------------------------------------ */
+
+/* Storage classes of primitive variables (RI Spec 3.2 §5.1). */
+enum { GEOM_CONSTANT, GEOM_UNIFORM, GEOM_VARYING, GEOM_VERTEX, GEOM_FACEVARYING, GEOM_CLASSES };
+static const char *const geom_class_names[GEOM_CLASSES] = {"constant", "uniform", "varying",
+                                                           "vertex", "facevarying"};
+
+/* The patch grid of a Patch (one patch) or PatchMesh: nu x nv control points (u fastest),
+ * cu x cv patches, wrapping in periodic directions. */
+typedef struct geom_grid {
+    int bicubic, nu, nv, cu, cv, uper, vper;
+} geom_grid;
+
+/* A primitive variable of 3 numbers per value ("N", "Cs"): its values and class. */
+typedef struct geom_var {
+    const double *v; /* NULL: not given */
+    int cls;
+    int line, col; /* of the values */
+} geom_var;
+
+typedef struct geom_vars {
+    const double *P;
+    const rib_arg *P_at;
+    geom_var N, Cs;
+} geom_vars;
+
+/* How many values a variable of class cls has on the grid (RI Spec §5.3): uniform one per
+ * patch, varying one per patch corner (shared, wrapping), vertex one per control point,
+ * facevarying four per patch. */
+static size_t geom_class_count(const geom_grid *g, int cls)
 {
-    *pts = NULL;
-    *nrm = NULL;
+    size_t patches = (size_t)g->cu * (size_t)g->cv;
+    size_t nuv = (size_t)(g->uper ? g->cu : g->cu + 1), nvv = (size_t)(g->vper ? g->cv : g->cv + 1);
+    switch (cls) {
+    case GEOM_CONSTANT: return 1;
+    case GEOM_UNIFORM: return patches;
+    case GEOM_VARYING: return nuv * nvv;
+    case GEOM_VERTEX: return (size_t)g->nu * (size_t)g->nv;
+    default: return 4 * patches;
+    }
+}
+
+/* The class named in an inline declaration ("uniform color Cs"), else `dflt`. */
+static int geom_class_of(const char *decl, int dflt)
+{
+    size_t n = strlen(decl);
+    for (size_t s = 0; s < n;) {
+        size_t e = s;
+        while (e < n && decl[e] != ' ')
+            e++;
+        for (int c = 0; c < GEOM_CLASSES; c++)
+            if (e - s == strlen(geom_class_names[c]) && strncmp(decl + s, geom_class_names[c], e - s) == 0)
+                return c;
+        if (e - s == 10 && strncmp(decl + s, "facevertex", 10) == 0) return GEOM_FACEVARYING;
+        s = e + 1;
+    }
+    return dflt;
+}
+
+/* Reads one 3-number variable ("N" or "Cs") with its class and count. */
+static int geom_read_var(rib_parser *p, const rib_param *prm, const geom_grid *g, geom_var *out)
+{
+    int cls = geom_class_of(rib_arg_str(p, prm->key, 0), GEOM_VARYING);
+    size_t count = geom_class_count(g, cls);
+    const double *v;
+    int rc = rib_param_numbers(p, prm, 3 * count, &v, NULL);
+    if (rc != TS_OK) return rc;
+    int is_n = strcmp(prm->name, "N") == 0;
+    for (size_t k = 0; k < count; k++) {
+        const double *x = v + 3 * k;
+        if (is_n && x[0] == 0.0 && x[1] == 0.0 && x[2] == 0.0)
+            return rib_error_at(p, prm->val->line, prm->val->col, "%s: normal %zu of \"N\" is zero",
+                                p->req, k);
+        if (!is_n && !(fabs(x[0]) <= FLT_MAX && fabs(x[1]) <= FLT_MAX && fabs(x[2]) <= FLT_MAX))
+            return rib_error_at(p, prm->val->line, prm->val->col,
+                                "%s: colour %zu of \"Cs\" is out of range", p->req, k);
+    }
+    out->v = v;
+    out->cls = cls;
+    out->line = prm->val->line;
+    out->col = prm->val->col;
+    return TS_OK;
+}
+
+/* Finds "P" (3 nu nv numbers), "N" and "Cs" (any class, 3 numbers per value) among the
+ * parameters from args[first]. "Pw" and "Pz" are errors (rational and height-field patches
+ * are not supported); any other parameter ("st", "s", "t", "Os", ...) is ignored with a
+ * warning. */
+static int geom_find_vars(rib_parser *p, size_t first, const geom_grid *g, geom_vars *out)
+{
+    memset(out, 0, sizeof *out);
     for (size_t i = first; i < p->nargs; i += 2) {
         rib_param prm;
         int rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
         if (strcmp(prm.name, "P") == 0) {
-            rc = rib_param_numbers(p, &prm, need, pts, NULL);
-            if (rc != TS_OK) return rc;
-            *at = prm.val;
+            rc = rib_param_numbers(p, &prm, 3 * (size_t)g->nu * (size_t)g->nv, &out->P, NULL);
+            out->P_at = prm.val;
         } else if (strcmp(prm.name, "N") == 0) {
-            rc = rib_param_numbers(p, &prm, need_n, nrm, NULL);
-            if (rc != TS_OK) return rc;
-            *nat = prm.val;
-            for (size_t k = 0; k < need_n / 3; k++) {
-                const double *v = *nrm + 3 * k;
-                if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
-                    return rib_error_at(p, prm.val->line, prm.val->col,
-                                        "%s: normal %zu of \"N\" is zero", p->req, k);
-            }
+            rc = geom_read_var(p, &prm, g, &out->N);
+        } else if (strcmp(prm.name, "Cs") == 0) {
+            rc = geom_read_var(p, &prm, g, &out->Cs);
         } else if (strcmp(prm.name, "Pw") == 0) {
             return rib_error_at(p, prm.key->line, prm.key->col,
                                 "%s: rational patches (\"Pw\") are not supported; give \"P\"",
@@ -160,9 +269,75 @@ static int geom_find_p(rib_parser *p, size_t first, size_t need, const double **
         } else {
             rib_warn_param(p, &prm);
         }
+        if (rc != TS_OK) return rc;
     }
-    if (!*pts) return rib_error_at(p, p->req_line, p->req_col, "%s: missing \"P\"", p->req);
+    if (!out->P) return rib_error_at(p, p->req_line, p->req_col, "%s: missing \"P\"", p->req);
     return TS_OK;
+}
+
+/* The 4x4 (bicubic) or 2x2 (bilinear) window of per-control-point values (3 numbers each)
+ * of patch (pu, pv), wrapping around periodic directions. */
+static void geom_window(const rib_parser *p, const geom_grid *g, const double *vals, int pu, int pv,
+                        double win[16][3])
+{
+    const int su = g->bicubic ? p->ubasis.step : 1, sv = g->bicubic ? p->vbasis.step : 1;
+    const int size = g->bicubic ? 4 : 2;
+    for (int j = 0; j < size; j++)
+        for (int i = 0; i < size; i++) {
+            size_t iu = ((size_t)pu * (size_t)su + (size_t)i) % (size_t)g->nu;
+            size_t iv = ((size_t)pv * (size_t)sv + (size_t)j) % (size_t)g->nv;
+            memcpy(win[j * size + i], vals + 3 * (iv * (size_t)g->nu + iu), sizeof win[0]);
+        }
+}
+
+/* The control window of patch (pu, pv) as a Bézier grid: bicubic windows through the
+ * current bases, bilinear ones degree-elevated. */
+static void geom_to_bezier(const rib_parser *p, const geom_grid *g, const double *vals, int pu,
+                           int pv, double out[16][3])
+{
+    double win[16][3];
+    geom_window(p, g, vals, pu, pv, win);
+    if (g->bicubic)
+        basis_grid_to_bezier(&p->ubasis, &p->vbasis, (const double(*)[3])win, out);
+    else
+        geom_bilinear_to_bezier(win[0], win[1], win[2], win[3], out);
+}
+
+/* The values of a variable at the four corners (0,0), (1,0), (0,1), (1,1) of patch
+ * (pu, pv). Vertex-class values are control values like "P": the corners of their Bézier
+ * form are the values the surface takes there. */
+static void geom_var_corners(const rib_parser *p, const geom_grid *g, const geom_var *var, int pu,
+                             int pv, double out[4][3])
+{
+    size_t patch = (size_t)pv * (size_t)g->cu + (size_t)pu;
+    size_t nuv = (size_t)(g->uper ? g->cu : g->cu + 1), nvv = (size_t)(g->vper ? g->cv : g->cv + 1);
+    if (var->cls == GEOM_VERTEX) {
+        double bez[16][3];
+        geom_to_bezier(p, g, var->v, pu, pv, bez);
+        static const int corner[4] = {0, 3, 12, 15};
+        for (int c = 0; c < 4; c++)
+            memcpy(out[c], bez[corner[c]], sizeof out[c]);
+        return;
+    }
+    for (int c = 0; c < 4; c++) {
+        size_t k = 0;
+        if (var->cls == GEOM_UNIFORM) k = patch;
+        if (var->cls == GEOM_FACEVARYING) k = 4 * patch + (size_t)c;
+        if (var->cls == GEOM_VARYING)
+            k = ((size_t)(pv + (c >> 1)) % nvv) * nuv + (size_t)(pu + (c & 1)) % nuv;
+        memcpy(out[c], var->v + 3 * k, sizeof out[c]);
+    }
+}
+
+/* The patch's colour from "Cs": the average of its four corner colours (the renderer keeps
+ * one colour per patch). */
+static void geom_var_colour(const rib_parser *p, const geom_grid *g, const geom_var *var, int pu,
+                            int pv, double cs[3])
+{
+    double c4[4][3];
+    geom_var_corners(p, g, var, pu, pv, c4);
+    for (int d = 0; d < 3; d++)
+        cs[d] = 0.25 * (c4[0][d] + c4[1][d] + c4[2][d] + c4[3][d]);
 }
 
 /* The patch type argument: 1 for "bicubic", 0 for "bilinear". */
@@ -181,33 +356,31 @@ static int geom_patch_type(rib_parser *p, int *bicubic)
 }
 
 /* Patch "bicubic" "P" [48] in the current bases, or Patch "bilinear" "P" [12]; optional
- * varying "N" [12] at the corners (0,0), (1,0), (0,1), (1,1). Inside a motion block the
- * patch is a sample, emitted at MotionEnd. */
+ * "N" (corner normals) and "Cs" (colour) of any class. Inside a motion block the patch is
+ * a sample, emitted at MotionEnd. */
 int rib_req_patch(rib_parser *p)
 {
     int bicubic;
-    const double *pts, *nrm;
-    const rib_arg *at = NULL, *nat = NULL;
+    geom_vars vars;
     int rc = geom_patch_type(p, &bicubic);
     if (rc == TS_OK) rc = geom_check_state(p);
-    if (rc == TS_OK) rc = geom_find_p(p, 1, bicubic ? 48 : 12, &pts, &at, 12, &nrm, &nat);
     if (rc != TS_OK) return rc;
-    double g[16][3], n[4][3];
-    if (bicubic) {
-        double in[16][3];
-        memcpy(in, pts, sizeof in);
-        basis_grid_to_bezier(&p->ubasis, &p->vbasis, (const double(*)[3])in, g);
-    } else {
-        geom_bilinear_to_bezier(pts, pts + 3, pts + 6, pts + 9, g);
-    }
-    if (nrm) memcpy(n, nrm, sizeof n);
+    geom_grid g = {bicubic, bicubic ? 4 : 2, bicubic ? 4 : 2, 1, 1, 0, 0};
+    rc = geom_find_vars(p, 1, &g, &vars);
+    if (rc != TS_OK) return rc;
+    double bez[16][3], n[4][3], cs[3];
+    geom_to_bezier(p, &g, vars.P, 0, 0, bez);
+    if (vars.N.v) geom_var_corners(p, &g, &vars.N, 0, 0, n);
+    if (vars.Cs.v) geom_var_colour(p, &g, &vars.Cs, 0, 0, cs);
     rib_motion *m = &p->motion;
     if (m->active) {
         if (m->count == 0) {
             m->bicubic = bicubic;
-            m->has_n = nrm != NULL;
-            if (nrm) memcpy(m->n, n, sizeof n), m->n_line = nat->line, m->n_col = nat->col;
-            m->p_line = at->line, m->p_col = at->col;
+            m->has_n = vars.N.v != NULL;
+            if (vars.N.v) memcpy(m->n, n, sizeof n), m->n_line = vars.N.line, m->n_col = vars.N.col;
+            m->has_cs = vars.Cs.v != NULL;
+            if (vars.Cs.v) memcpy(m->cs, cs, sizeof cs);
+            m->p_line = vars.P_at->line, m->p_col = vars.P_at->col;
         } else if (bicubic != m->bicubic) {
             return rib_error_at(p, p->args[0].line, p->args[0].col,
                                 "Patch: type %s does not match the %s Patch at %d:%d in the "
@@ -215,15 +388,16 @@ int rib_req_patch(rib_parser *p)
                                 bicubic ? "bicubic" : "bilinear",
                                 m->bicubic ? "bicubic" : "bilinear", m->first_line, m->first_col);
         }
-        memcpy(m->g[m->count++], g, sizeof g);
+        memcpy(m->g[m->count++], bez, sizeof bez);
         return TS_OK;
     }
-    return geom_emit(p, at->line, at->col, (const double(*)[3])g, NULL,
-                     nrm ? (const double(*)[3])n : NULL, nat ? nat->line : 0,
-                     nat ? nat->col : 0);
+    return geom_emit(p, vars.P_at->line, vars.P_at->col, (const double(*)[3])bez, NULL,
+                     vars.N.v ? (const double(*)[3])n : NULL, vars.N.line, vars.N.col,
+                     vars.Cs.v ? cs : NULL);
 }
 
-/* MotionEnd of a block of two Patch requests: one moving patch, "N" from the first. */
+/* MotionEnd of a block of two Patch requests: one moving patch, "N" and "Cs" from the
+ * first. */
 int rib_geom_motion_patch(rib_parser *p)
 {
     const rib_motion *m = &p->motion;
@@ -231,7 +405,7 @@ int rib_geom_motion_patch(rib_parser *p)
     if (rc != TS_OK) return rc;
     return geom_emit(p, m->p_line, m->p_col, (const double(*)[3])m->g[0],
                      (const double(*)[3])m->g[1], m->has_n ? (const double(*)[3])m->n : NULL,
-                     m->n_line, m->n_col);
+                     m->n_line, m->n_col, m->has_cs ? m->cs : NULL);
 }
 
 /* Patches along one direction of a PatchMesh (RI Spec §5.3, RiPatchMesh): bicubic
@@ -278,66 +452,32 @@ static int geom_mesh_direction(rib_parser *p, size_t i, int bicubic, int step, c
     return geom_mesh_count(p, bicubic, *n, step, *periodic, &p->args[i], dir, count);
 }
 
-/* The varying "N" of a PatchMesh: one normal per corner of the patch grid, nuv x nvv of
- * them (u fastest), nuv = patches in u + 1 (nonperiodic) or patches in u (periodic,
- * wrapping), likewise in v (RI Spec §5.3, varying variables). */
-typedef struct geom_mesh_n {
-    const double *n; /* NULL: no "N" */
-    int nuv, nvv;
-    int line, col;
-} geom_mesh_n;
-
-/* Copies the 4x4 (bicubic) or 2x2 (bilinear) window of patch (pu, pv) out of the mesh,
- * wrapping around periodic directions, and emits it. */
-static int geom_mesh_patch(rib_parser *p, const rib_arg *at, const double *pts, int bicubic, int nu,
-                           int nv, int pu, int pv, const geom_mesh_n *mn)
-{
-    const int su = bicubic ? p->ubasis.step : 1, sv = bicubic ? p->vbasis.step : 1;
-    const int size = bicubic ? 4 : 2;
-    double win[16][3], g[16][3];
-    for (int j = 0; j < size; j++)
-        for (int i = 0; i < size; i++) {
-            size_t iu = ((size_t)pu * (size_t)su + (size_t)i) % (size_t)nu;
-            size_t iv = ((size_t)pv * (size_t)sv + (size_t)j) % (size_t)nv;
-            memcpy(win[j * size + i], pts + 3 * (iv * (size_t)nu + iu), sizeof win[0]);
-        }
-    if (bicubic)
-        basis_grid_to_bezier(&p->ubasis, &p->vbasis, (const double(*)[3])win, g);
-    else
-        geom_bilinear_to_bezier(win[0], win[1], win[2], win[3], g);
-    double n[4][3];
-    if (mn->n)
-        for (int c = 0; c < 4; c++) {
-            size_t iu = (size_t)(pu + (c & 1)) % (size_t)mn->nuv;
-            size_t iv = (size_t)(pv + (c >> 1)) % (size_t)mn->nvv;
-            memcpy(n[c], mn->n + 3 * (iv * (size_t)mn->nuv + iu), sizeof n[c]);
-        }
-    return geom_emit(p, at->line, at->col, (const double(*)[3])g, NULL,
-                     mn->n ? (const double(*)[3])n : NULL, mn->line, mn->col);
-}
-
-/* PatchMesh type nu uwrap nv vwrap "P" [3 nu nv] ["N" [3 nuv nvv]]. */
+/* PatchMesh type nu uwrap nv vwrap "P" [3 nu nv] ["N" ...] ["Cs" ...]: "N" and "Cs" of any
+ * class, counted on the grid of patches (geom_class_count). */
 int rib_req_patch_mesh(rib_parser *p)
 {
-    int bicubic, nu, nv, uper, vper, cu, cv;
-    const double *pts;
-    const rib_arg *at = NULL, *nat = NULL;
-    geom_mesh_n mn = {NULL, 0, 0, 0, 0};
-    int rc = geom_patch_type(p, &bicubic);
+    geom_grid g;
+    geom_vars vars;
+    int rc = geom_patch_type(p, &g.bicubic);
     if (rc == TS_OK) rc = geom_check_state(p);
-    if (rc == TS_OK) rc = geom_mesh_direction(p, 1, bicubic, p->ubasis.step, 'u', &nu, &uper, &cu);
-    if (rc == TS_OK) rc = geom_mesh_direction(p, 3, bicubic, p->vbasis.step, 'v', &nv, &vper, &cv);
+    if (rc == TS_OK)
+        rc = geom_mesh_direction(p, 1, g.bicubic, p->ubasis.step, 'u', &g.nu, &g.uper, &g.cu);
+    if (rc == TS_OK)
+        rc = geom_mesh_direction(p, 3, g.bicubic, p->vbasis.step, 'v', &g.nv, &g.vper, &g.cv);
     if (rc != TS_OK) return rc;
-    if ((size_t)nu > RIB_MAX_VALUES / (size_t)nv)
+    if ((size_t)g.nu > RIB_MAX_VALUES / (size_t)g.nv)
         return rib_error_at(p, p->req_line, p->req_col, "PatchMesh: nu * nv is too large");
-    mn.nuv = uper ? cu : cu + 1;
-    mn.nvv = vper ? cv : cv + 1;
-    rc = geom_find_p(p, 5, 3 * (size_t)nu * (size_t)nv, &pts, &at,
-                     3 * (size_t)mn.nuv * (size_t)mn.nvv, &mn.n, &nat);
-    if (nat) mn.line = nat->line, mn.col = nat->col;
-    for (int pv = 0; rc == TS_OK && pv < cv; pv++)
-        for (int pu = 0; rc == TS_OK && pu < cu; pu++)
-            rc = geom_mesh_patch(p, at, pts, bicubic, nu, nv, pu, pv, &mn);
+    rc = geom_find_vars(p, 5, &g, &vars);
+    for (int pv = 0; rc == TS_OK && pv < g.cv; pv++)
+        for (int pu = 0; rc == TS_OK && pu < g.cu; pu++) {
+            double bez[16][3], n[4][3], cs[3];
+            geom_to_bezier(p, &g, vars.P, pu, pv, bez);
+            if (vars.N.v) geom_var_corners(p, &g, &vars.N, pu, pv, n);
+            if (vars.Cs.v) geom_var_colour(p, &g, &vars.Cs, pu, pv, cs);
+            rc = geom_emit(p, vars.P_at->line, vars.P_at->col, (const double(*)[3])bez, NULL,
+                           vars.N.v ? (const double(*)[3])n : NULL, vars.N.line, vars.N.col,
+                           vars.Cs.v ? cs : NULL);
+        }
     return rc;
 }
 
@@ -354,15 +494,16 @@ static int geom_distant_params(rib_parser *p, size_t first, ts_distant_light *l)
         {"lightcolor", 3, offsetof(ts_distant_light, color)},
         {"from", 3, offsetof(ts_distant_light, from)},
         {"to", 3, offsetof(ts_distant_light, to)},
+        {"angle", 1, offsetof(ts_distant_light, angle)},
     };
     for (size_t i = first; i < p->nargs; i += 2) {
         rib_param prm;
         int rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
         size_t k = 0;
-        while (k < 4 && strcmp(prm.name, known[k].name) != 0)
+        while (k < 5 && strcmp(prm.name, known[k].name) != 0)
             k++;
-        if (k == 4) {
+        if (k == 5) {
             rib_warn_param(p, &prm);
             continue;
         }
@@ -387,9 +528,10 @@ int rib_req_light_source(rib_parser *p)
     if (first == 2 && p->args[1].kind != RIB_ARG_NUMBER && p->args[1].kind != RIB_ARG_STRING)
         return rib_error_at(p, p->args[1].line, p->args[1].col,
                             "LightSource: the light handle must be a number or a string");
+    if (strcmp(shader, "domelight") == 0) return rib_dome_light(p, first);
     if (strcmp(shader, "distantlight") != 0) {
         char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
-        snprintf(what, sizeof what, "LightSource \"%s\" is ignored (only distantlight)",
+        snprintf(what, sizeof what, "LightSource \"%s\" is ignored (distantlight, domelight)",
                  rib_printable(shader, shown));
         rib_warn_once(p, p->req_line, p->req_col, what);
         return TS_OK;
@@ -397,7 +539,7 @@ int rib_req_light_source(rib_parser *p)
     if (p->ctm_moving)
         rib_warn_once(p, p->req_line, p->req_col,
                       "LightSource under a moving transformation is placed at shutter open");
-    ts_distant_light l = {{0, 0, 0}, {0, 0, 1}, 1.0, {1, 1, 1}};
+    ts_distant_light l = {{0, 0, 0}, {0, 0, 1}, 1.0, {1, 1, 1}, 0.0};
     rc = geom_distant_params(p, first, &l);
     if (rc != TS_OK) return rc;
     double from[3], to[3];
@@ -408,6 +550,9 @@ int rib_req_light_source(rib_parser *p)
     if (from[0] == to[0] && from[1] == to[1] && from[2] == to[2])
         return rib_error_at(p, p->req_line, p->req_col,
                             "LightSource: distantlight \"from\" and \"to\" are the same point");
+    if (!(l.angle >= 0.0 && l.angle < 180.0))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "LightSource: distantlight \"angle\" %g is outside [0, 180) degrees", l.angle);
     memcpy(l.from, from, sizeof from);
     memcpy(l.to, to, sizeof to);
     return scene_add_light(p->scene, &l, p->err);

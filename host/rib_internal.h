@@ -28,6 +28,7 @@
 #define RIB_MAX_WARNED 64         /* distinct warnings remembered */
 #define RIB_WARN_KEY 160          /* bytes of one remembered warning */
 #define RIB_PRINT_MAX 48          /* bytes of a file string echoed in a message */
+#define RIB_MAX_INCLUDE 16        /* nested ReadArchive / DelayedReadArchive files */
 
 typedef enum rib_arg_kind {
     RIB_ARG_NUMBER,
@@ -55,6 +56,12 @@ typedef struct rib_disp {
     double amplitude, frequency, lacunarity, gain;
 } rib_disp;
 
+/* The current Surface (rib_shading.c). */
+typedef struct rib_surface {
+    uint32_t material; /* TS_MAT_* */
+    double kd, ks, roughness;
+} rib_surface;
+
 /* What AttributeBegin / TransformBegin / WorldBegin saved. */
 typedef struct rib_frame {
     rib_frame_kind kind;
@@ -64,6 +71,8 @@ typedef struct rib_frame {
     double color[3];
     ts_basis ubasis, vbasis;
     rib_disp disp;
+    rib_surface surface;
+    double emission[3];
 } rib_frame;
 
 /* An open MotionBegin [t0 t1] block: its two samples, either two Patch requests of one
@@ -80,6 +89,8 @@ typedef struct rib_motion {
     double g[2][16][3];             /* patch samples: object-space Bézier points */
     int has_n;
     double n[4][3];                 /* "N" of the first patch sample, object space */
+    int has_cs;
+    double cs[3];                   /* "Cs" of the first patch sample (its average) */
     int p_line, p_col, n_line, n_col; /* of the first sample's "P" and "N" values */
 } rib_motion;
 
@@ -108,6 +119,8 @@ typedef struct rib_parser {
     double color[3];
     ts_basis ubasis, vbasis;
     rib_disp disp;
+    rib_surface surface;  /* Surface: material of the following patches */
+    double emission[3];   /* AreaLightSource: radiance the following patches emit */
     rib_motion motion;
     /* The last world-to-object transform added for a displaced patch, by its CTM. */
     double xf_ctm[16];
@@ -119,6 +132,7 @@ typedef struct rib_parser {
     uint32_t first_patch, first_light; /* what this parse added: may need camera->world */
     char warned[RIB_MAX_WARNED][RIB_WARN_KEY];
     int nwarned;
+    struct rib_include *inc; /* rib_archive.c: the archives being read, NULL before any */
 } rib_parser;
 
 /* ---- rib.c: messages and argument access ---- */
@@ -204,7 +218,39 @@ int rib_req_motion_end(rib_parser *p);
 int rib_req_patch(rib_parser *p);
 int rib_req_patch_mesh(rib_parser *p);
 int rib_req_light_source(rib_parser *p);
+
+/* ---- rib_shading.c: Surface, AreaLightSource, LightSource "domelight" ---- */
+
+int rib_req_surface(rib_parser *p);
+int rib_req_area_light_source(rib_parser *p);
+/* LightSource "domelight": params from index `first`. */
+int rib_dome_light(rib_parser *p, size_t first);
 /* rib_geom.c: emits the moving patch of a completed motion block (MotionEnd). */
 int rib_geom_motion_patch(rib_parser *p);
+/* rib_geom.c: the attributes in effect (colour, displacement with its world-to-object
+ * transform, surface, emission) for patches a procedural adds; fails where geometry may
+ * not stand (after WorldEnd, a projective or, for displacement, singular CTM). */
+int rib_geom_procedural_attr(rib_parser *p, ts_patch_attr *attr);
+
+/* ---- rib.c: the request loop, also run on the text of an archive ---- */
+
+/* Reads and dispatches requests from p->lx until its end of file. */
+int rib_run_requests(rib_parser *p);
+
+/* ---- rib_options.c: PixelSamples, Clipping, Shutter, CropWindow ---- */
+
+int rib_req_pixel_samples(rib_parser *p);
+int rib_req_clipping(rib_parser *p);
+int rib_req_shutter(rib_parser *p);
+int rib_req_crop_window(rib_parser *p);
+
+/* ---- rib_archive.c: ReadArchive, Procedural ---- */
+
+int rib_req_read_archive(rib_parser *p);
+int rib_req_procedural(rib_parser *p);
+/* Frees p->inc. */
+void rib_archive_free(rib_parser *p);
+/* Reads a whole file into a malloc'd buffer; TS_E_IO or TS_E_MEMORY with *errnum set. */
+int rib_read_file(const char *path, char **text, size_t *len, int *errnum);
 
 #endif

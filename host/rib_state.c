@@ -247,6 +247,8 @@ static int rib_push(rib_parser *p, rib_frame_kind kind)
     f->ubasis = p->ubasis;
     f->vbasis = p->vbasis;
     f->disp = p->disp;
+    f->surface = p->surface;
+    memcpy(f->emission, p->emission, sizeof f->emission);
     return TS_OK;
 }
 
@@ -272,6 +274,8 @@ static int rib_pop(rib_parser *p, rib_frame_kind kind)
         p->ubasis = top->ubasis;
         p->vbasis = top->vbasis;
         p->disp = top->disp;
+        p->surface = top->surface;
+        memcpy(p->emission, top->emission, sizeof p->emission);
     }
     p->depth--;
     return TS_OK;

@@ -169,7 +169,8 @@ int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16]
 {
     ts_patch_attr a = {.cs_r = 1.0f, .cs_g = 1.0f, .cs_b = 1.0f, .disp_kind = TS_DISP_NONE,
                        .disp_octaves = 1u, .disp_lacunarity = 2.0f, .disp_gain = 0.5f,
-                       .xform = 0u};
+                       .xform = 0u, .material = TS_MAT_MATTE, .kd = 1.0f,
+                       .emitter = TS_INVALID};
     if (attr) a = *attr;
     a.flags = cp1 ? (a.flags | TS_PATCH_MOVING) : (a.flags & ~TS_PATCH_MOVING);
     int rc = scene_ensure_identity(s, err);

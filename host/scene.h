@@ -16,14 +16,33 @@ typedef struct ts_camera {
     double fov_deg;             /* Projection "perspective" "fov"; default 90 */
     int width, height;          /* Format; 0 when the scene sets none */
     int has_format;
+    /* PixelSamples xs ys: xs * ys samples per pixel; 0 when the scene sets none. The
+     * command line's --spp overrides it. */
+    int spp;
+    /* Stored from the RIB options but not applied by the renderer yet (docs/rib.md):
+     * Clipping near far, Shutter open close, CropWindow xmin xmax ymin ymax. rib_load
+     * sets the RenderMan defaults (1e-10 1e30, 0 0, 0 1 0 1); zero in other scenes. */
+    double clip_near, clip_far;
+    double shutter[2];
+    double crop[4];
 } ts_camera;
 
-/* A distant light (LightSource "distantlight"): light travels from `from` to `to`. */
+/* A distant light (LightSource "distantlight"): light travels from `from` to `to`; the sun
+ * when angle (its angular diameter, degrees) > 0. intensity * color is the irradiance it
+ * gives a surface facing it. */
 typedef struct ts_distant_light {
     double from[3], to[3];
     double intensity;
     double color[3];
+    double angle;
 } ts_distant_light;
+
+/* A uniform sky (LightSource "domelight"): radiance intensity * color from every direction. */
+typedef struct ts_dome_light {
+    int present;
+    double intensity;
+    double color[3];
+} ts_dome_light;
 
 typedef struct ts_scene {
     uint32_t patch_count;
@@ -47,6 +66,7 @@ typedef struct ts_scene {
     ts_camera camera;
     ts_distant_light *lights;
     uint32_t light_count;
+    ts_dome_light dome;
 } ts_scene;
 
 /* Appends one Bézier patch (16 world-space points, u fastest). Returns TS_OK or

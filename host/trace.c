@@ -180,7 +180,7 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
     if (cl_set_args(p->k_bottom_level, err, ARG(p->pairs[sorted_buffer]), ARG(pair_first),
                     ARG(pair_count), ARG(p->segments), ARG(first), ARG(count), ARG(n_per_ray),
                     ARG(exact), ARG(p->active), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
-                    ARG(p->grid), ARG(p->groups), ARG(p->pair_hit), (size_t)0))
+                    ARG(p->ray_flags), ARG(p->grid), ARG(p->groups), ARG(p->pair_hit), (size_t)0))
         return err->code;
     return cl_launch(p->cl, p->k_bottom_level, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE,
                      err);
@@ -193,7 +193,7 @@ static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_r
 {
     if (cl_set_args(p->k_resolve, err, ARG(p->active), ARG(active_count), ARG(n_per_ray),
                     ARG(p->count), ARG(p->pair_hit), ARG(p->ray_hit), ARG(p->ray_entry),
-                    ARG(p->alive), (size_t)0) ||
+                    ARG(p->ray_flags), ARG(p->alive), (size_t)0) ||
         cl_launch(p->cl, p->k_resolve, TS_STAGE_resolve, active_count, TS_LOCAL_SIZE, err) ||
         cl_finish(p->cl, p->stats, err))
         return err->code;
@@ -258,7 +258,6 @@ static uint32_t pairs_per_ray(uint32_t capacity, uint32_t active)
 int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 {
     uint32_t active = ray_count;
-    p->stats->counters[TS_COUNTER_rays] += ray_count;
     for (uint32_t it = 0; active > 0; ++it) {
         uint32_t n_per_ray = pairs_per_ray(p->plan.pair_capacity, active);
         uint32_t sorted_buffer = 0, valid = 0, segs = 0;
@@ -280,17 +279,59 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
     return TS_OK;
 }
 
-int pipeline_shade_film(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sample,
-                        uint32_t ray_count, ts_error *err)
+int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sample,
+                   uint32_t wave_size, uint32_t path_count, uint32_t *next_paths,
+                   uint32_t *next_rays, uint32_t *shadow_rays, ts_error *err)
 {
     ts_shade_params s = *sp;
-    if (cl_set_args(p->k_shade, err, ARG(s), ARG(ray_count), ARG(p->ray_dir), ARG(p->ray_hit),
-                    ARG(p->cp), ARG(p->corner_n), ARG(p->attr), ARG(p->xform), ARG(p->radiance),
-                    ARG(p->aov), (size_t)0) ||
-        cl_launch(p->cl, p->k_shade, TS_STAGE_shade, ray_count, TS_LOCAL_SIZE, err))
+    *next_paths = *next_rays = *shadow_rays = 0;
+    if (path_count == 0) return TS_OK;
+    if (cl_set_args(p->k_shade, err, ARG(s), ARG(first_sample), ARG(p->pixel_count),
+                    ARG(wave_size), ARG(p->wave_paths), ARG(path_count), ARG(p->ray_org), ARG(p->ray_dir),
+                    ARG(p->ray_hit), ARG(p->ray_entry), ARG(p->ray_flags), ARG(p->ray_pixel),
+                    ARG(p->path_throughput), ARG(p->path_mis), ARG(p->path_pending),
+                    ARG(p->radiance), ARG(p->aov), ARG(p->albedo), ARG(p->cp), ARG(p->corner_n),
+                    ARG(p->attr), ARG(p->xform), ARG(p->lights), ARG(p->emitters),
+                    ARG(p->flatness), ARG(p->alive), (size_t)0) ||
+        cl_launch(p->cl, p->k_shade, TS_STAGE_shade, path_count, TS_LOCAL_SIZE, err) ||
+        cl_finish(p->cl, p->stats, err))
         return err->code;
+    /* The next wave: the paths that go on and their rays, in path order. */
+    double t0 = stats_now();
+    cl_command_queue q = p->cl->queue;
+    size_t bytes = (size_t)path_count * sizeof(uint32_t);
+    cl_int rc0, rc1, rc2;
+    uint32_t *paths = clEnqueueMapBuffer(q, p->wave_paths, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0,
+                                         bytes, 0, NULL, NULL, &rc0);
+    uint32_t *alive = clEnqueueMapBuffer(q, p->alive, CL_TRUE, CL_MAP_READ, 0, bytes, 0, NULL, NULL, &rc1);
+    uint32_t *next = clEnqueueMapBuffer(q, p->active, CL_TRUE, CL_MAP_WRITE, 0, 2 * bytes, 0, NULL,
+                                        NULL, &rc2);
+    CL_CHECK(rc0, err);
+    CL_CHECK(rc1, err);
+    CL_CHECK(rc2, err);
+    uint32_t np = 0, nr = 0, shadows = 0;
+    for (uint32_t k = 0; k < path_count; ++k) {
+        uint32_t path = paths[k], bits = alive[k];
+        if (!bits) continue;
+        paths[np++] = path; /* np <= k: compacting in place */
+        if (bits & 1u) next[nr++] = path;
+        if (bits & 2u) next[nr++] = wave_size + path, ++shadows;
+    }
+    CL_CHECK(clEnqueueUnmapMemObject(q, p->wave_paths, paths, 0, NULL, NULL), err);
+    CL_CHECK(clEnqueueUnmapMemObject(q, p->alive, alive, 0, NULL, NULL), err);
+    CL_CHECK(clEnqueueUnmapMemObject(q, p->active, next, 0, NULL, NULL), err);
+    *next_paths = np;
+    *next_rays = nr;
+    *shadow_rays = shadows;
+    p->stats->stage_seconds[TS_STAGE_shade] += stats_now() - t0;
+    return TS_OK;
+}
+
+int pipeline_film(ts_pipeline *p, uint32_t first_sample, uint32_t ray_count, ts_error *err)
+{
     if (cl_set_args(p->k_film, err, ARG(first_sample), ARG(ray_count), ARG(p->pixel_count),
-                    ARG(p->radiance), ARG(p->aov), ARG(p->accum), ARG(p->aov_film), (size_t)0) ||
+                    ARG(p->radiance), ARG(p->aov), ARG(p->albedo), ARG(p->accum), ARG(p->aov_film),
+                    ARG(p->albedo_film), (size_t)0) ||
         cl_launch(p->cl, p->k_film, TS_STAGE_film, p->pixel_count, TS_LOCAL_SIZE, err))
         return err->code;
     return cl_finish(p->cl, p->stats, err);

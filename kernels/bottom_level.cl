@@ -78,9 +78,10 @@ inline void leaf_box(uint m, uint k, float e, ts_hit *best, uint patch)
 }
 
 /* Slab test of the four boxes of sibling group g (and of its time-1 twin g1, interpolated
- * at `time`, when g1 != 0). Returns the entry distances, -1 in lanes that miss. */
+ * at `time`, when g1 != 0). Returns the entry distances, -1 in lanes that miss; *raw gets
+ * the entries before clamping to tmin (below tmin when the ray starts inside the box). */
 inline float4 group_enter(__global const ts_box4 *g, __global const ts_box4 *g1, float time,
-                          float4 o, float4 inv, float tmin, float tmax)
+                          float4 o, float4 inv, float tmin, float tmax, float4 *raw)
 {
     float4 lx = vload4(0, g->lo_x), ly = vload4(0, g->lo_y), lz = vload4(0, g->lo_z);
     float4 hx = vload4(0, g->hi_x), hy = vload4(0, g->hi_y), hz = vload4(0, g->hi_z);
@@ -92,9 +93,11 @@ inline float4 group_enter(__global const ts_box4 *g, __global const ts_box4 *g1,
     float4 tx0 = (lx - o.x) * inv.x, tx1 = (hx - o.x) * inv.x;
     float4 ty0 = (ly - o.y) * inv.y, ty1 = (hy - o.y) * inv.y;
     float4 tz0 = (lz - o.z) * inv.z, tz1 = (hz - o.z) * inv.z;
-    float4 tn = TS_MAX(TS_MAX(TS_MIN(tx0, tx1), TS_MIN(ty0, ty1)), TS_MAX(TS_MIN(tz0, tz1), (float4)(tmin)));
+    float4 in = TS_MAX(TS_MAX(TS_MIN(tx0, tx1), TS_MIN(ty0, ty1)), TS_MIN(tz0, tz1));
+    float4 tn = TS_MAX(in, (float4)(tmin));
     float4 tf = TS_MIN(TS_MIN(TS_MAX(tx0, tx1), TS_MAX(ty0, ty1)), TS_MIN(TS_MAX(tz0, tz1), (float4)(tmax)));
     tf *= 1.0000003576f;
+    *raw = in;
     return select((float4)(-1.0f), tn, tn <= tf && lx <= hx);
 }
 
@@ -103,6 +106,7 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
                                  uint seg_count, uint n_per_ray, uint exact,
                                  __global const uint *active, __global const ts_vec4 *org,
                                  __global const ts_vec4 *dir, __global const ts_hit *hit,
+                                 __global const uint *ray_flags,
                                  __global const ts_vec4 *grid, __global const ts_box4 *groups,
                                  __global ts_hit *pair_hit)
 {
@@ -118,7 +122,14 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
     ts_ray_shear sh = ray_shear(d.x, d.y, d.z);
     uint4 perm = (uint4)((uint)sh.kx, (uint)sh.ky, (uint)sh.kz, 3u);
     ts_hit best = {hit[ray].t, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
-    uint m = seg.lod;
+    uint m = seg.lod, flags = ray_flags[ray];
+    /* A shadow ray towards a point of an area light is not stopped by that light's own
+     * (conservative) boxes. */
+    if ((flags & TS_RAY_SHADOW) && (flags >> 1) == seg.patch + 1u) {
+        best.t = TS_NO_HIT;
+        pair_hit[pr.window] = best;
+        return;
+    }
     int moving = (seg.flags & TS_PATCH_MOVING) != 0u;
     float time = d.w;
     __global const float4 *g0 = (__global const float4 *)(grid + seg.vert_first);
@@ -130,10 +141,11 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
     uint stack[BL_STACK];
     float stack_t[BL_STACK];
     int sp = 0;
-    float te = group_enter(t0, t1, time, o4, inv, o.w, best.t).x; /* the root, lane 0 */
+    float4 raw4;
+    float te = group_enter(t0, t1, time, o4, inv, o.w, best.t, &raw4).x; /* the root, lane 0 */
     if (te >= 0.0f && m == 0u) {
         if (exact) leaf_triangles(g0, g1, time, 0u, 0u, o4, o.w, perm, &sh, &best, seg.patch);
-        else leaf_box(0u, 0u, te, &best, seg.patch);
+        else if (raw4.x >= o.w) leaf_box(0u, 0u, te, &best, seg.patch);
     } else if (te >= 0.0f) {
         stack[0] = 0u;
         stack_t[0] = te;
@@ -144,8 +156,13 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
         if (stack_t[sp] > best.t) continue;
         uint level = stack[sp] >> 24, k = stack[sp] & 0xffffffu;
         uint grp = quadtree_group_offset(level + 1u) + k;
-        float4 e4 = group_enter(t0 + grp, t1 ? t1 + grp : 0, time, o4, inv, o.w, best.t);
+        float4 e4 = group_enter(t0 + grp, t1 ? t1 + grp : 0, time, o4, inv, o.w, best.t, &raw4);
         float e[4] = {e4.x, e4.y, e4.z, e4.w};
+        /* A leaf box the ray starts inside is not geometry for it: the ray is leaving the
+         * surface there (secondary rays, offset by epsilon, Hanika §3.3). */
+        if (level + 1u == m && !exact)
+            e4 = select(e4, (float4)(-1.0f), raw4 < (float4)(o.w)), e[0] = e4.x, e[1] = e4.y,
+            e[2] = e4.z, e[3] = e4.w;
         /* Children that are hit, sorted by entry distance, farthest first. */
         float tc[4];
         uint id[4];

@@ -1,7 +1,7 @@
 /* camera.cl — stage `camera`: generates one wave of eye rays.
  * Reads:  ts_camera_params (by value).
- * Writes: per ray org, dir (w = time in [0,1)), hit (cleared), entry (TS_ENTRY_START), pixel;
- *         active[i] = i.
+ * Writes: per ray org, dir (w = time in [0,1)), hit (cleared), entry (TS_ENTRY_START), pixel,
+ *         flags (0); active[i] = paths[i] = i; a fresh path state (throughput 1, radiance 0).
  * Ray g = first_sample + i covers pixel g % (width*height), sample g / (width*height), so a
  * wave is a run of whole sample passes and the film can sum samples in a fixed order.
  * RenderMan screen: x right, y up; raster y grows downwards. One sample per pixel goes
@@ -11,7 +11,10 @@
 
 __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __global ts_vec4 *dir,
                               __global ts_hit *hit, __global uint *entry, __global uint *pixel,
-                              __global uint *active)
+                              __global uint *flags, __global uint *active,
+                              __global uint *paths,
+                              __global ts_vec4 *throughput, __global ts_vec4 *mis,
+                              __global ts_vec4 *radiance)
 {
     uint i = get_global_id(0);
     if (i >= p.ray_count) return;
@@ -36,5 +39,12 @@ __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __globa
     hit[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
     entry[i] = TS_ENTRY_START;
     pixel[i] = pix;
+    flags[i] = 0u;
     active[i] = i;
+    paths[i] = i;
+    /* A new path: weight 1, nothing gathered, MIS weight 1 for what the eye ray finds, its
+     * BSDF-ray slot traced (mis.z bit 0). */
+    throughput[i] = (ts_vec4){1.0f, 1.0f, 1.0f, 0.0f};
+    mis[i] = (ts_vec4){1.0f, 0.0f, 1.0f, 0.0f};
+    radiance[i] = (ts_vec4){0.0f, 0.0f, 0.0f, 0.0f};
 }

@@ -3,13 +3,14 @@
  *         pixel g % pixel_count, sample g / pixel_count, see camera.cl).
  * Writes: accum[pixel] += radiance of each of its samples in this wave, in sample order (a
  *         fixed summation order: the image does not depend on how samples were split into
- *         waves); aov_film[pixel] = the aov of sample 0.
+ *         waves); aov_film[pixel] and albedo_film[pixel] = the aov and albedo of sample 0.
  * One work-item per pixel, so no two items write the same pixel. */
 #include "lib/shared_types.h"
 
 __kernel void film_accumulate(uint first_sample, uint ray_count, uint pixel_count,
                               __global const ts_vec4 *radiance, __global const ts_vec4 *aov,
-                              __global ts_vec4 *accum, __global ts_vec4 *aov_film)
+                              __global const ts_vec4 *albedo, __global ts_vec4 *accum,
+                              __global ts_vec4 *aov_film, __global ts_vec4 *albedo_film)
 {
     uint p = get_global_id(0);
     if (p >= pixel_count) return;
@@ -23,7 +24,7 @@ __kernel void film_accumulate(uint first_sample, uint ray_count, uint pixel_coun
         acc.y += r.y;
         acc.z += r.z;
         acc.w += 1.0f;
-        if (g < pixel_count) aov_film[p] = aov[g - first];
+        if (g < pixel_count) aov_film[p] = aov[g - first], albedo_film[p] = albedo[g - first];
     }
     accum[p] = acc;
 }

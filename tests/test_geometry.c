@@ -139,7 +139,11 @@ static void write_patch_scene(const char *name, int moving, double dx, double t)
 {
     FILE *f = fopen(path(name), "w");
     assert_non_null(f);
-    fprintf(f, "Format 48 32 1\nProjection \"perspective\" \"fov\" [40]\nWorldBegin\n");
+    /* A delta sun from the camera's side: the patch has radiance Kd E / pi = 1, the
+     * background 0. */
+    fprintf(f, "Format 48 32 1\nProjection \"perspective\" \"fov\" [40]\nWorldBegin\n"
+               "LightSource \"distantlight\" 1 \"float intensity\" [3.14159265358979] "
+               "\"point from\" [0 0 0] \"point to\" [0 0 1]\n");
     if (moving) fprintf(f, "MotionBegin [0 1]\nTranslate 0 0 0\nTranslate %.17g 0 0\nMotionEnd\n", dx);
     else fprintf(f, "Translate %.17g 0 0\n", t * dx);
     fputs("Patch \"bilinear\" \"P\" [-1.2 -0.6 4  -0.2 -0.6 4  -1.2 0.6 4  -0.2 0.6 4]\nWorldEnd\n", f);

@@ -707,7 +707,7 @@ static void test_error_missing_file(void **state)
 static void test_ignored_requests_warn_once(void **state)
 {
     (void)state;
-    const char *text = "Surface \"plastic\"\nSurface \"matte\"\n  Sides 2\nOption \"a\" \"b\" [1]\n"
+    const char *text = "Atmosphere \"fog\"\nAtmosphere \"fog\"\n  Sides 2\nOption \"a\" \"b\" [1]\n"
                        "WorldBegin\nWorldEnd\n";
     FILE *tmp = tmpfile();
     assert_non_null(tmp);
@@ -729,7 +729,7 @@ static void test_ignored_requests_warn_once(void **state)
     size_t got = fread(out, 1, sizeof out - 1, tmp);
     out[got] = '\0';
     fclose(tmp);
-    assert_string_equal(out, "w.rib:1:1: warning: Surface is ignored\n"
+    assert_string_equal(out, "w.rib:1:1: warning: Atmosphere is ignored\n"
                              "w.rib:3:3: warning: Sides is ignored\n"
                              "w.rib:4:1: warning: Option is ignored\n");
     scene_free(&s);

@@ -10,7 +10,9 @@ packages=(
   cmake ninja-build gcc g++ pkg-config
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo
   libopenimageio-dev libcjson-dev libcmocka-dev
+  oclgrind clang libclang-rt-14-dev # checks: tools/check_kernels.sh, tools/fuzz.sh (libFuzzer runtime)
   libembree-dev
+  libassimp-dev assimp-testmodels
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -40,7 +40,8 @@ Format 1280 720 1
 Projection "perspective" "fov" [32]
 # Key light in camera space (the CTM is the identity right after Projection): from the
 # upper left, in front of the teapot, shining towards +z.
-LightSource "distantlight" 1 "float intensity" [1] "color lightcolor" [1 1 1]
+LightSource "domelight" 2 "float intensity" [0.35] "color lightcolor" [0.8 0.9 1]
+LightSource "distantlight" 1 "float intensity" [2.5] "color lightcolor" [1 0.95 0.85] "float angle" [2]
     "point from" [-1 1 -1] "point to" [0 0 0]
 # Camera transform (the last line acts on points first).
 Translate 0 0 9

@@ -120,10 +120,15 @@ typedef struct ts_hit {
 /* ts_patch_attr.flags */
 #define TS_PATCH_MOVING 1u /* has a second time sample (scene cp1), Hanika §3.4 */
 
-/* Per-patch attributes from the scene, 48 bytes.
+/* Materials (RIB Surface), with the patch colour Cs. */
+#define TS_MAT_MATTE 0u   /* Lambertian, albedo Kd * Cs */
+#define TS_MAT_PLASTIC 1u /* Kd * Cs / pi plus a GGX lobe of albedo <= Ks, alpha = roughness */
+
+/* Per-patch attributes from the scene, 80 bytes.
  * Displacement d(P) moves a surface point along its displacement normal (the bilinear
  * interpolation of the patch's corner normals, scene corner_n); the noise is evaluated at
- * the object-space position world_to_object(P), the transform of scene xform[xform]. */
+ * the object-space position world_to_object(P), the transform of scene xform[xform].
+ * Emission (RIB AreaLightSource): radiance le_* leaves both sides of the patch. */
 typedef struct ts_patch_attr {
     float cs_r, cs_g, cs_b;
     ts_u32 flags;
@@ -134,8 +139,36 @@ typedef struct ts_patch_attr {
     float disp_lacunarity; /* frequency ratio between octaves (default 2) */
     float disp_gain;       /* amplitude ratio between octaves (default 0.5) */
     ts_u32 xform;          /* index of the patch's world-to-object transform */
+    ts_u32 material;       /* TS_MAT_* */
+    float kd, ks, roughness; /* diffuse and specular weights, GGX alpha */
+    ts_u32 emitter;        /* index in the emitter table, TS_INVALID if it does not emit */
+    float le_r, le_g, le_b; /* emitted radiance */
     ts_u32 pad;
 } ts_patch_attr;
+
+/* Lights (DESIGN.md §3). One light is chosen uniformly per light sample. */
+#define TS_LIGHT_DISTANT 0u /* the sun: a cone of directions around dir (a delta if cos_max = 1) */
+#define TS_LIGHT_DOME 1u    /* uniform sky radiance from every direction */
+#define TS_LIGHT_AREA 2u    /* every emissive patch, chosen by area (the emitter table) */
+
+/* 48 bytes. */
+typedef struct ts_light {
+    ts_u32 type;
+    ts_u32 emitter_count; /* area: entries of the emitter table */
+    float cos_max;        /* distant: cosine of the cone's half angle; 1 = delta */
+    float solid_angle;    /* distant: of the cone (0 for a delta) */
+    float dir[4];         /* distant: unit vector towards the light */
+    float radiance[4];    /* distant: radiance in the cone, or irradiance E for a delta; dome: L */
+} ts_light;
+
+/* An emissive patch for light sampling: chosen with probability prob (by area), then
+ * (u, v) uniform. 16 bytes. */
+typedef struct ts_emitter {
+    ts_u32 patch;
+    float cdf;  /* cumulative probability up to and including this entry */
+    float prob; /* probability of choosing this entry */
+    float area; /* approximate area, world units^2 */
+} ts_emitter;
 
 /* An affine world-to-object transform: rows of a 3x4 matrix (x' = r0 . (x, y, z, 1)).
  * 48 bytes. */
@@ -158,12 +191,25 @@ typedef struct ts_camera_params {
     ts_u32 pad[2];
 } ts_camera_params;
 
-/* Shading parameters for the primary-ray shade stage (Lambert, one distant light). 48 bytes. */
+/* Light sampling vs BSDF sampling at each path vertex (ts_shade_params.sampling). */
+#define TS_SAMPLING_MIS 0u   /* one of the two by Russian roulette, combined by MIS */
+#define TS_SAMPLING_LIGHT 1u /* light sampling only (next-event estimation) */
+#define TS_SAMPLING_BSDF 2u  /* BSDF sampling only */
+
+/* Parameters of the shade stage for one bounce. 32 bytes. */
 typedef struct ts_shade_params {
-    float light_dir[4];   /* unit vector towards the light, world space */
-    float light_color[4]; /* intensity * color */
-    float ambient[4];     /* constant fill so unlit sides are not black */
+    ts_u32 light_count;
+    ts_u32 bounce;   /* 0: the eye rays' hits */
+    ts_u32 depth;    /* path vertices that scatter: bounce < depth; bounce == depth only
+                        collects emission */
+    ts_u32 sampling; /* TS_SAMPLING_* */
+    ts_u32 seed;
+    float light_prob; /* probability of a light sample at a vertex in MIS mode */
+    ts_u32 pad[2];
 } ts_shade_params;
+
+/* Per-ray flags (ray field `flags`). */
+#define TS_RAY_SHADOW 1u /* any hit below tmax ends the ray: it only answers "occluded?" */
 
 #define TS_NO_HIT 3.402823466e+38f
 
@@ -174,7 +220,16 @@ typedef struct ts_shade_params {
     X(ts_vec4, dir, "unit direction xyz, w = time in [0,1)")                                \
     X(ts_hit, hit, "closest hit so far; hit.t is the traversal tmax")                      \
     X(ts_u32, entry, "top-level resume state, TS_ENTRY_START or (node << 3 | pos)")         \
-    X(ts_u32, pixel, "pixel index y * width + x")
+    X(ts_u32, pixel, "pixel index y * width + x")                                           \
+    X(ts_u32, flags, "TS_RAY_SHADOW for shadow rays")
+
+/* Path state as SoA, one entry per path of the wave (path i traces ray i). */
+#define TS_PATH_FIELDS(X)                                                                   \
+    X(ts_vec4, throughput, "rgb: the path's weight up to its last vertex")                 \
+    X(ts_vec4, mis, "x: (1-q) p_bsdf of the last BSDF sample, y: q there, for the MIS weight "\
+                    "of emission found by the next ray; zw unused")                         \
+    X(ts_vec4, pending, "rgb: the light sample's contribution, added if its shadow ray is "  \
+                        "unoccluded")
 
 /* Every (struct, field) whose offset the host and the device must agree on; the struct's
  * size is checked with it. host/layout_check.c asserts the sizes at compile time;
@@ -185,6 +240,7 @@ typedef struct ts_shade_params {
     X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
     X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count)      \
-    X(ts_shade_params, light_color) X(ts_shade_params, ambient)
+    X(ts_shade_params, light_prob) X(ts_light, dir) X(ts_light, radiance) X(ts_emitter, area) \
+    X(ts_patch_attr, kd) X(ts_patch_attr, le_r)
 
 #endif

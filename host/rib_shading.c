@@ -1,0 +1,110 @@
+/* rib_shading.c — the RIB requests that say how surfaces look and what lights them:
+ * Surface "matte" / "plastic" (with the current Color as Cs), AreaLightSource "arealight"
+ * (the following patches emit), LightSource "domelight" (a uniform sky). DESIGN.md §3. */
+#include "rib_internal.h"
+
+#include <stdio.h>
+#include <string.h>
+
+/* Reads parameters named in `names` (one number each, or three for colours) into `out`;
+ * unknown names are warned about once. */
+static int shading_params(rib_parser *p, size_t first, const char *const *names,
+                          const size_t *counts, double *const *out, size_t n)
+{
+    for (size_t i = first; i < p->nargs; i += 2) {
+        rib_param prm;
+        int rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        size_t k = 0;
+        while (k < n && strcmp(prm.name, names[k]) != 0) k++;
+        if (k == n) {
+            rib_warn_param(p, &prm);
+            continue;
+        }
+        const double *v;
+        rc = rib_param_numbers(p, &prm, counts[k], &v, NULL);
+        if (rc != TS_OK) return rc;
+        memcpy(out[k], v, counts[k] * sizeof *v);
+    }
+    return TS_OK;
+}
+
+/* Surface "matte" "float Kd" [k] | "plastic" "float Kd" [..] "float Ks" [..]
+ * "float roughness" [..]. Defaults as RenderMan's shaders: matte Kd 1; plastic Kd 0.5,
+ * Ks 0.5, roughness 0.1. Other shaders are warned about once and render as matte. */
+int rib_req_surface(rib_parser *p)
+{
+    const char *name;
+    int rc = rib_string_arg(p, 0, "a surface shader name", &name);
+    if (rc != TS_OK) return rc;
+    rib_surface s = {TS_MAT_MATTE, 1.0, 0.0, 0.1};
+    if (strcmp(name, "plastic") == 0) s = (rib_surface){TS_MAT_PLASTIC, 0.5, 0.5, 0.1};
+    else if (strcmp(name, "matte") != 0) {
+        char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+        snprintf(what, sizeof what, "Surface \"%s\" renders as matte (matte, plastic)",
+                 rib_printable(name, shown));
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
+    static const char *const names[] = {"Kd", "Ks", "roughness"};
+    static const size_t counts[] = {1, 1, 1};
+    double *out[] = {&s.kd, &s.ks, &s.roughness};
+    rc = shading_params(p, 1, names, counts, out, s.material == TS_MAT_PLASTIC ? 3 : 1);
+    if (rc != TS_OK) return rc;
+    if (!(s.kd >= 0 && s.ks >= 0 && s.kd + s.ks <= 1.0 + 1e-6 && s.roughness > 0 && s.roughness <= 1))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Surface \"%s\": need Kd, Ks >= 0 with Kd + Ks <= 1 (energy "
+                            "conservation) and 0 < roughness <= 1",
+                            name);
+    p->surface = s;
+    return TS_OK;
+}
+
+/* AreaLightSource "arealight" handle "float intensity" [i] "color lightcolor" [r g b]: the
+ * patches that follow in the attribute block emit radiance i * color from both sides. */
+int rib_req_area_light_source(rib_parser *p)
+{
+    const char *name;
+    int rc = rib_string_arg(p, 0, "an area light shader name", &name);
+    if (rc != TS_OK) return rc;
+    if (strcmp(name, "arealight") != 0) {
+        char shown[RIB_PRINT_MAX];
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "unknown area light \"%s\" (arealight)", rib_printable(name, shown));
+    }
+    size_t first = (p->nargs % 2 == 0) ? 2 : 1; /* a handle makes the count even */
+    double intensity = 1.0, color[3] = {1, 1, 1};
+    static const char *const names[] = {"intensity", "lightcolor"};
+    static const size_t counts[] = {1, 3};
+    double *out[] = {&intensity, color};
+    rc = shading_params(p, first, names, counts, out, 2);
+    if (rc != TS_OK) return rc;
+    if (!(intensity >= 0))
+        return rib_error_at(p, p->req_line, p->req_col, "AreaLightSource: intensity must be >= 0");
+    for (int k = 0; k < 3; ++k) p->emission[k] = intensity * color[k];
+    return TS_OK;
+}
+
+/* LightSource "domelight" handle "float intensity" [i] "color lightcolor" [r g b]: a sky of
+ * uniform radiance i * color. "string mapname" (an environment map) is not supported yet
+ * and is an error rather than a silently different picture. */
+int rib_dome_light(rib_parser *p, size_t first)
+{
+    ts_dome_light d = {1, 1.0, {1, 1, 1}};
+    for (size_t i = first; i < p->nargs; i += 2) {
+        rib_param prm;
+        int rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        if (strcmp(prm.name, "mapname") == 0)
+            return rib_error_at(p, prm.key->line, prm.key->col,
+                                "domelight \"mapname\": environment maps are not supported yet");
+    }
+    static const char *const names[] = {"intensity", "lightcolor"};
+    static const size_t counts[] = {1, 3};
+    double *out[] = {&d.intensity, d.color};
+    int rc = shading_params(p, first, names, counts, out, 2);
+    if (rc != TS_OK) return rc;
+    if (p->scene->dome.present)
+        return rib_error_at(p, p->req_line, p->req_col, "only one domelight per scene");
+    p->scene->dome = d;
+    return TS_OK;
+}

@@ -1,0 +1,130 @@
+/* bsdf.h — the materials of DESIGN.md §3, their sampling and pdfs, shared by the shade
+ * kernel and the host tests. Directions are unit vectors in world space; n is the unit
+ * shading normal on the side of wo (the direction back along the incoming ray).
+ *   matte:   f = Kd Cs / pi, sampled by cosine.
+ *   plastic: f = Kd Cs / pi + Ks D(h) G(wo, wi) / (4 cos_o cos_i), GGX D with alpha =
+ *            roughness and the separable Smith G (Walter et al. 2007). Energy-conserving for
+ *            Kd + Ks <= 1 (the parser enforces it): the GGX lobe without Fresnel reflects at
+ *            most Ks. Sampled by choosing the lobe with probability Ks / (Kd + Ks), then the
+ *            cosine or D(h) cos(theta_h). */
+#ifndef TS_BSDF_H
+#define TS_BSDF_H
+
+#include "lib/shared_types.h"
+
+#ifndef __OPENCL_C_VERSION__
+#include <math.h>
+#endif
+
+#define TS_PI 3.14159265358979f
+
+typedef struct ts_v3 {
+    float x, y, z;
+} ts_v3;
+
+TS_INLINE ts_v3 v3(float x, float y, float z)
+{
+    ts_v3 r = {x, y, z};
+    return r;
+}
+TS_INLINE float v3_dot(ts_v3 a, ts_v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+TS_INLINE ts_v3 v3_scale(ts_v3 a, float s) { return v3(a.x * s, a.y * s, a.z * s); }
+TS_INLINE ts_v3 v3_add(ts_v3 a, ts_v3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+TS_INLINE ts_v3 v3_sub(ts_v3 a, ts_v3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+TS_INLINE ts_v3 v3_cross(ts_v3 a, ts_v3 b)
+{
+    return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+TS_INLINE ts_v3 v3_normalize(ts_v3 a)
+{
+    float l = sqrt(v3_dot(a, a));
+    return l > 0.0f ? v3_scale(a, 1.0f / l) : a;
+}
+
+/* An orthonormal basis (t, b, n) around unit n (Duff et al. 2017). */
+TS_INLINE void onb(ts_v3 n, ts_v3 *t, ts_v3 *b)
+{
+    float s = n.z >= 0.0f ? 1.0f : -1.0f;
+    float a = -1.0f / (s + n.z), c = n.x * n.y * a;
+    *t = v3(1.0f + s * n.x * n.x * a, s * c, -s * n.x);
+    *b = v3(c, s + n.y * n.y * a, -n.y);
+}
+
+TS_INLINE ts_v3 local_to_world(ts_v3 l, ts_v3 n)
+{
+    ts_v3 t, b;
+    onb(n, &t, &b);
+    return v3_add(v3_add(v3_scale(t, l.x), v3_scale(b, l.y)), v3_scale(n, l.z));
+}
+
+/* Cosine-weighted direction around n from (u1, u2); pdf cos / pi. */
+TS_INLINE ts_v3 sample_cosine(ts_v3 n, float u1, float u2)
+{
+    float r = sqrt(u1), phi = 2.0f * TS_PI * u2;
+    return local_to_world(v3(r * cos(phi), r * sin(phi), sqrt(fmax(0.0f, 1.0f - u1))), n);
+}
+
+/* GGX normal distribution D(h) for cos(theta_h) = c. */
+TS_INLINE float ggx_d(float c, float alpha)
+{
+    if (c <= 0.0f) return 0.0f;
+    float a2 = alpha * alpha, d = c * c * (a2 - 1.0f) + 1.0f;
+    return a2 / (TS_PI * d * d);
+}
+
+/* Smith G1 for GGX at cos(theta) = c. */
+TS_INLINE float ggx_g1(float c, float alpha)
+{
+    if (c <= 0.0f) return 0.0f;
+    float t2 = (1.0f - c * c) / (c * c);
+    return 2.0f / (1.0f + sqrt(1.0f + alpha * alpha * t2));
+}
+
+TS_INLINE float plastic_spec_prob(TS_CONST_GLOBAL ts_patch_attr *a)
+{
+    float s = a->kd + a->ks;
+    return a->material == TS_MAT_PLASTIC && s > 0.0f ? a->ks / s : 0.0f;
+}
+
+/* f(wo, wi) (rgb in r[]) and the pdf of sampling wi with bsdf_sample. */
+TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, ts_v3 n, ts_v3 wo, ts_v3 wi,
+                          float f[3])
+{
+    float ci = v3_dot(n, wi), co = v3_dot(n, wo);
+    f[0] = f[1] = f[2] = 0.0f;
+    if (ci <= 0.0f || co <= 0.0f) return 0.0f;
+    float kd = a->kd / TS_PI;
+    f[0] = kd * a->cs_r, f[1] = kd * a->cs_g, f[2] = kd * a->cs_b;
+    float ps = plastic_spec_prob(a);
+    float pdf = (1.0f - ps) * ci / TS_PI;
+    if (a->material == TS_MAT_PLASTIC) {
+        ts_v3 h = v3_normalize(v3_add(wo, wi));
+        float ch = v3_dot(n, h), d = ggx_d(ch, a->roughness);
+        float spec = a->ks * d * ggx_g1(co, a->roughness) * ggx_g1(ci, a->roughness) / (4.0f * co * ci);
+        f[0] += spec, f[1] += spec, f[2] += spec;
+        float oh = v3_dot(wo, h);
+        if (oh > 0.0f) pdf += ps * d * ch / (4.0f * oh);
+    }
+    return pdf;
+}
+
+/* Samples wi from (u0, u1, u2); returns its pdf (0 when the sample is below the surface),
+ * with f(wo, wi) in f[]. */
+TS_INLINE float bsdf_sample(TS_CONST_GLOBAL ts_patch_attr *a, ts_v3 n, ts_v3 wo, float u0,
+                            float u1, float u2, ts_v3 *wi, float f[3])
+{
+    float ps = plastic_spec_prob(a);
+    if (u0 < ps) {
+        /* GGX: tan^2(theta_h) = alpha^2 u1 / (1 - u1). */
+        float alpha = a->roughness, t2 = alpha * alpha * u1 / fmax(1.0f - u1, 1e-7f);
+        float ch = 1.0f / sqrt(1.0f + t2), sh = sqrt(fmax(0.0f, 1.0f - ch * ch));
+        float phi = 2.0f * TS_PI * u2;
+        ts_v3 h = local_to_world(v3(sh * cos(phi), sh * sin(phi), ch), n);
+        *wi = v3_sub(v3_scale(h, 2.0f * v3_dot(wo, h)), wo);
+    } else {
+        *wi = sample_cosine(n, u1, u2);
+    }
+    return bsdf_eval(a, n, wo, *wi, f);
+}
+
+#endif

@@ -1,0 +1,37 @@
+/* fuzz_rib.c — libFuzzer harness for the RIB parser (tools/fuzz.sh; -DTESSERA_FUZZ=ON with
+ * clang). Each input is parsed by rib_parse_string as one RIB file and the scene freed; a
+ * crash, an ASan/UBSan report, a leak or a broken contract (a failed parse must leave the
+ * scene zeroed and say why) aborts. Inputs that crashed go to tests/fuzz/regressions/,
+ * which test_fuzz_regressions replays in the normal suite. */
+#include "rib.h"
+#include "scene.h"
+
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    static const ts_scene zero;
+    ts_scene scene;
+    memset(&scene, 0, sizeof scene);
+    ts_error err = {0};
+    int rc = rib_parse_string("fuzz.rib", (const char *)data, size, &scene, 1, &err);
+    if (rc != TS_OK) {
+        if (memcmp(&scene, &zero, sizeof scene) != 0) {
+            fprintf(stderr, "fuzz_rib: failed parse (%s) left a non-empty scene\n", err.msg);
+            abort();
+        }
+        if (err.code != rc || err.msg[0] == '\0') {
+            fprintf(stderr, "fuzz_rib: failed parse returned %d, err.code %d, message \"%s\"\n",
+                    rc, err.code, err.msg);
+            abort();
+        }
+    }
+    scene_free(&scene);
+    ts_error_clear(&err);
+    return 0;
+}

@@ -1,0 +1,470 @@
+/* test_rib_archive.c — the RIB requests real files write beyond the basic subset
+ * (host/rib_options.c, host/rib_archive.c, primitive variables in host/rib_geom.c):
+ * PixelSamples, Clipping, Shutter, CropWindow, "Cs"/"N" of every storage class, ReadArchive
+ * and Procedural (DelayedReadArchive, DynamicLoad "mesh" and "forest"). Every error path
+ * asserts its exact "file:line:col: error:" message. Host only: never skips. */
+#include "rib.h"
+#include "scene.h"
+#include "test_support.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* ---- helpers -------------------------------------------------------------------------- */
+
+static int parse(const char *text, ts_scene *s, ts_error *e)
+{
+    memset(s, 0, sizeof *s);
+    memset(e, 0, sizeof *e);
+    return rib_parse_string("t.rib", text, strlen(text), s, 1, e);
+}
+
+static void parse_ok(const char *text, ts_scene *s)
+{
+    ts_error e;
+    if (parse(text, s, &e) != TS_OK) fail_msg("unexpected error: %s", e.msg);
+}
+
+/* The message must be exactly msg, or start with it when msg ends in "...". */
+static void assert_msg(const char *got, const char *msg)
+{
+    size_t n = strlen(msg);
+    if (n > 3 && strcmp(msg + n - 3, "...") == 0) {
+        if (strncmp(got, msg, n - 3) != 0) fail_msg("got \"%s\", want \"%s\"", got, msg);
+    } else if (strcmp(got, msg) != 0) {
+        fail_msg("got \"%s\", want \"%s\"", got, msg);
+    }
+}
+
+static void expect_error(const char *text, const char *msg)
+{
+    ts_scene s;
+    ts_error e;
+    assert_int_equal(parse(text, &s, &e), TS_E_SCENE);
+    assert_msg(e.msg, msg);
+    assert_int_equal(s.patch_count, 0);
+}
+
+/* Loads the file at path; must fail with TS_E_SCENE and message msg. */
+static void expect_file_error(const char *path, const char *msg)
+{
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    assert_int_equal(rib_load(path, &s, 1, &e), TS_E_SCENE);
+    assert_msg(e.msg, msg);
+    assert_int_equal(s.patch_count, 0);
+}
+
+static void write_file(const char *dir, const char *name, const char *text)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "w");
+    if (!f) fail_msg("cannot write %s", path);
+    fputs(text, f);
+    fclose(f);
+}
+
+/* Runs rib_parse_string with stderr captured; returns what it printed. */
+static const char *warnings_of(const char *text, int *rc)
+{
+    static char out[4096];
+    FILE *tmp = tmpfile();
+    assert_non_null(tmp);
+    fflush(stderr);
+    int saved = dup(fileno(stderr));
+    assert_true(saved >= 0);
+    assert_true(dup2(fileno(tmp), fileno(stderr)) >= 0);
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    *rc = rib_parse_string("w.rib", text, strlen(text), &s, 0, &e);
+    fflush(stderr);
+    dup2(saved, fileno(stderr));
+    close(saved);
+    rewind(tmp);
+    size_t got = fread(out, 1, sizeof out - 1, tmp);
+    out[got] = '\0';
+    fclose(tmp);
+    scene_free(&s);
+    return out;
+}
+
+static void assert_cs(const ts_scene *s, uint32_t p, double r, double g, double b)
+{
+    const ts_patch_attr *a = &s->attr[p];
+    if (fabs(a->cs_r - r) > 1e-6 || fabs(a->cs_g - g) > 1e-6 || fabs(a->cs_b - b) > 1e-6)
+        fail_msg("patch %u: colour (%g %g %g), want (%g %g %g)", p, a->cs_r, a->cs_g, a->cs_b, r,
+                 g, b);
+}
+
+static void assert_n(const ts_scene *s, size_t k, double x, double y, double z)
+{
+    const ts_vec4 *n = &s->corner_n[k];
+    double l = sqrt(x * x + y * y + z * z);
+    if (fabs(n->x - x / l) > 1e-6 || fabs(n->y - y / l) > 1e-6 || fabs(n->z - z / l) > 1e-6)
+        fail_msg("corner normal %zu: (%g %g %g), want (%g %g %g)", k, n->x, n->y, n->z, x / l,
+                 y / l, z / l);
+}
+
+#define UNIT_P "\"P\" [0 0 0 1 0 0 0 1 0 1 1 0]"
+
+/* ---- options -------------------------------------------------------------------------- */
+
+static void test_pixel_samples(void **state)
+{
+    (void)state;
+    ts_scene s;
+    parse_ok("WorldBegin\nWorldEnd\n", &s);
+    assert_int_equal(s.camera.spp, 0); /* not given: the command line decides */
+    scene_free(&s);
+    parse_ok("PixelSamples 2 3\nWorldBegin\nWorldEnd\n", &s);
+    assert_int_equal(s.camera.spp, 6);
+    scene_free(&s);
+    parse_ok("PixelSamples [4 4]\n", &s);
+    assert_int_equal(s.camera.spp, 16);
+    scene_free(&s);
+    parse_ok("PixelSamples 1.4 2.6\n", &s); /* rounded */
+    assert_int_equal(s.camera.spp, 3);
+    scene_free(&s);
+    expect_error("PixelSamples 0 1", "t.rib:1:1: error: PixelSamples: xsamples must be between 1 "
+                                     "and 256, got 0");
+    expect_error("PixelSamples 1 300", "t.rib:1:1: error: PixelSamples: ysamples must be between 1 "
+                                       "and 256, got 300");
+    expect_error("PixelSamples 2", "t.rib:1:1: error: PixelSamples expects 2 numbers, got 1");
+    expect_error("PixelSamples 2 2 2", "t.rib:1:18: error: too many arguments to PixelSamples");
+    expect_error("WorldBegin\n  PixelSamples 2 2",
+                 "t.rib:2:3: error: PixelSamples must come before WorldBegin");
+}
+
+static void test_clipping_shutter_crop(void **state)
+{
+    (void)state;
+    ts_scene s;
+    parse_ok("WorldBegin\nWorldEnd\n", &s); /* RenderMan defaults */
+    assert_true(s.camera.clip_near == 1e-10 && s.camera.clip_far == 1e30);
+    assert_true(s.camera.shutter[0] == 0.0 && s.camera.shutter[1] == 0.0);
+    assert_true(s.camera.crop[0] == 0.0 && s.camera.crop[1] == 1.0);
+    assert_true(s.camera.crop[2] == 0.0 && s.camera.crop[3] == 1.0);
+    scene_free(&s);
+    parse_ok("Clipping 0.1 1000\nShutter 0 0.5\nCropWindow 0.25 0.75 0 0.5\nWorldBegin\n", &s);
+    assert_true(s.camera.clip_near == 0.1 && s.camera.clip_far == 1000.0);
+    assert_true(s.camera.shutter[0] == 0.0 && s.camera.shutter[1] == 0.5);
+    assert_true(s.camera.crop[0] == 0.25 && s.camera.crop[1] == 0.75);
+    assert_true(s.camera.crop[2] == 0.0 && s.camera.crop[3] == 0.5);
+    scene_free(&s);
+    expect_error("Clipping 1 0.5", "t.rib:1:1: error: Clipping: need 0 < near < far, got 1 0.5");
+    expect_error("Clipping 0 1", "t.rib:1:1: error: Clipping: need 0 < near < far, got 0 1");
+    expect_error("Shutter 1 0", "t.rib:1:1: error: Shutter: the close time must not precede the "
+                                "open time, got 1 0");
+    expect_error("CropWindow 0 1 0.5 0.5", "t.rib:1:1: error: CropWindow: need 0 <= min < max <= 1 "
+                                           "on both axes, got 0 1 0.5 0.5");
+    expect_error("CropWindow 0 1.5 0 1", "t.rib:1:1: error: CropWindow: need 0 <= min < max <= 1 "
+                                         "on both axes, got 0 1.5 0 1");
+    expect_error("CropWindow 0 1 0", "t.rib:1:1: error: CropWindow expects 4 numbers, got 3");
+    expect_error("WorldBegin\nClipping 1 2", "t.rib:2:1: error: Clipping must come before "
+                                             "WorldBegin");
+    expect_error("WorldBegin\nShutter 0 1", "t.rib:2:1: error: Shutter must come before "
+                                            "WorldBegin");
+    /* Each stored-but-unused option warns once; Option and Attribute once per name. */
+    int rc;
+    const char *out = warnings_of("Clipping 0.1 10\nClipping 0.2 10\nShutter 0 1\nShutter 0 1\n"
+                                  "CropWindow 0 1 0 1\nOption \"limits\" \"bucketsize\" [16 16]\n"
+                                  "Option \"searchpath\" \"shader\" \"x\"\nWorldBegin\n"
+                                  "Attribute \"identifier\" \"name\" \"a\"\n"
+                                  "Attribute \"dice\" \"binary\" [1]\nWorldEnd\n",
+                                  &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out,
+                        "w.rib:1:1: warning: Clipping is stored but not applied (rays are not "
+                        "clipped)\n"
+                        "w.rib:3:1: warning: Shutter is stored but not applied (motion blocks "
+                        "always span the whole shutter)\n"
+                        "w.rib:5:1: warning: CropWindow is stored but not applied (the whole "
+                        "image is rendered)\n"
+                        "w.rib:6:1: warning: Option is ignored\n"
+                        "w.rib:9:1: warning: Attribute is ignored\n");
+}
+
+/* ---- primitive variables ------------------------------------------------------------- */
+
+static void test_cs_classes(void **state)
+{
+    (void)state;
+    ts_scene s;
+    /* Patch: constant, uniform, varying (average of the corners), facevarying, vertex. */
+    parse_ok("Color [0.1 0.2 0.3]\n"
+             "Patch \"bilinear\" " UNIT_P "\n"
+             "Patch \"bilinear\" " UNIT_P " \"constant color Cs\" [1 0.5 0.25]\n"
+             "Patch \"bilinear\" " UNIT_P " \"uniform color Cs\" [0.5 0.25 1]\n"
+             "Patch \"bilinear\" " UNIT_P " \"Cs\" [1 0 0  0 1 0  0 0 1  1 1 1]\n"
+             "Patch \"bilinear\" " UNIT_P " \"facevarying color Cs\" [1 0 0 1 0 0 0 0 0 0 0 0]\n"
+             "Patch \"bilinear\" " UNIT_P " \"vertex color Cs\" [0 0 0 0 0 0 0 0 1 0 0 1]\n",
+             &s);
+    assert_int_equal(s.patch_count, 6);
+    assert_cs(&s, 0, 0.1, 0.2, 0.3); /* the current Color */
+    assert_cs(&s, 1, 1, 0.5, 0.25);
+    assert_cs(&s, 2, 0.5, 0.25, 1);
+    assert_cs(&s, 3, 0.5, 0.5, 0.5);
+    assert_cs(&s, 4, 0.5, 0, 0);
+    assert_cs(&s, 5, 0, 0, 0.5);
+    scene_free(&s);
+    /* A bicubic patch with vertex Cs: the corners of its Bezier form, averaged. In the
+     * B-spline basis a constant grid stays constant. */
+    char text[4096] = "Basis \"b-spline\" 1 \"b-spline\" 1\nPatch \"bicubic\" \"P\" [";
+    for (int k = 0; k < 16; k++) {
+        char v[64];
+        snprintf(v, sizeof v, "%d %d 0 ", k % 4, k / 4);
+        strcat(text, v);
+    }
+    strcat(text, "] \"vertex color Cs\" [");
+    for (int k = 0; k < 16; k++)
+        strcat(text, "0.25 0.5 0.75 ");
+    strcat(text, "]\n");
+    parse_ok(text, &s);
+    assert_int_equal(s.patch_count, 1);
+    assert_cs(&s, 0, 0.25, 0.5, 0.75);
+    scene_free(&s);
+    /* PatchMesh: a bilinear 3 x 2 grid of vertices is 2 x 1 patches; varying colours are per
+     * grid corner, uniform per patch. */
+    parse_ok("PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 0 "
+             "0 1 0 1 1 0 2 1 0] \"Cs\" [1 0 0 0 0 0 0 0 1 1 0 0 0 0 0 0 0 1]\n"
+             "PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 0 "
+             "0 1 0 1 1 0 2 1 0] \"uniform color Cs\" [0 1 0 0 0 1]\n",
+             &s);
+    assert_int_equal(s.patch_count, 4);
+    assert_cs(&s, 0, 0.5, 0, 0);
+    assert_cs(&s, 1, 0, 0, 0.5);
+    assert_cs(&s, 2, 0, 1, 0);
+    assert_cs(&s, 3, 0, 0, 1);
+    scene_free(&s);
+    /* Wrong counts name the class's count. */
+    expect_error("Patch \"bilinear\" " UNIT_P " \"Cs\" [1 0 0]",
+                 "t.rib:1:52: error: Patch: parameter \"Cs\" needs 12 values, got 3");
+    expect_error("Patch \"bilinear\" " UNIT_P " \"uniform color Cs\" [1 0 0 1 0 0]",
+                 "t.rib:1:67: error: Patch: parameter \"uniform color Cs\" needs 3 values, got 6");
+    expect_error("PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 "
+                 "0 0 1 0 1 1 0 2 1 0] \"facevarying color Cs\" [1 0 0]",
+                 "t.rib:1:127: error: PatchMesh: parameter \"facevarying color Cs\" needs 24 "
+                 "values, got 3");
+    expect_error("Patch \"bilinear\" " UNIT_P " \"Cs\" \"red\"",
+                 "t.rib:1:52: error: Patch: parameter \"Cs\" needs numbers");
+}
+
+static void test_n_classes_and_st(void **state)
+{
+    (void)state;
+    ts_scene s;
+    parse_ok("Patch \"bilinear\" " UNIT_P " \"uniform normal N\" [0 0 -2]\n"
+             "Patch \"bilinear\" " UNIT_P " \"constant normal N\" [1 0 1]\n"
+             "Patch \"bilinear\" " UNIT_P " \"vertex normal N\" [0 0 1 0 1 1 1 0 1 1 1 1]\n"
+             "Patch \"bilinear\" " UNIT_P " \"st\" [0 0 1 0 0 1 1 1] \"varying float s\" [0 1 0 1]\n",
+             &s);
+    assert_int_equal(s.patch_count, 4);
+    for (int c = 0; c < 4; c++) {
+        assert_n(&s, (size_t)c, 0, 0, -1);
+        assert_n(&s, 4u + (size_t)c, 1, 0, 1);
+    }
+    assert_n(&s, 8, 0, 0, 1);
+    assert_n(&s, 9, 0, 1, 1);
+    assert_n(&s, 10, 1, 0, 1);
+    assert_n(&s, 11, 1, 1, 1);
+    scene_free(&s);
+    expect_error("Patch \"bilinear\" " UNIT_P " \"uniform normal N\" [0 0 0]",
+                 "t.rib:1:67: error: Patch: normal 0 of \"N\" is zero");
+    /* "st" and other variables are accepted with one warning each. */
+    int rc;
+    const char *out = warnings_of("Patch \"bilinear\" " UNIT_P " \"st\" [0 0 1 0 0 1 1 1]\n"
+                                  "Patch \"bilinear\" " UNIT_P " \"st\" [0 0 1 0 0 1 1 1]\n",
+                                  &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:1:49: warning: Patch parameter \"st\" is ignored\n");
+    /* NuPatch stays a clear error. */
+    expect_error("NuPatch 4 4 [0 0 0 0 1 1 1 1] 0 1 4 4 [0 0 0 0 1 1 1 1] 0 1 \"Pw\" []",
+                 "t.rib:1:1: error: NuPatch is not supported: NURBS patches cannot be loaded "
+                 "(use Patch or PatchMesh)");
+}
+
+/* ---- ReadArchive and Procedural ------------------------------------------------------- */
+
+static void test_read_archive(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    char path[4096], sub[4096], want[8192];
+    snprintf(sub, sizeof sub, "%s/sub", dir);
+    assert_int_equal(mkdir(sub, 0755), 0);
+    /* main.rib -> sub/a.rib -> (relative to sub/) b.rib; attributes set inside an archive
+     * hold after it, as if its text stood in place of the request. */
+    write_file(dir, "main.rib",
+               "Format 64 32 1\nWorldBegin\nReadArchive \"sub/a.rib\"\n"
+               "Patch \"bilinear\" " UNIT_P "\nWorldEnd\n");
+    write_file(dir, "sub/a.rib", "Color [0 1 0]\nPatch \"bilinear\" " UNIT_P "\nReadArchive \"b.rib\"\n");
+    write_file(dir, "sub/b.rib", "# b\nTranslate 0 0 5\nPatch \"bilinear\" " UNIT_P "\n");
+    snprintf(path, sizeof path, "%s/main.rib", dir);
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    if (rib_load(path, &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_int_equal(s.patch_count, 3);
+    assert_cs(&s, 0, 0, 1, 0);
+    assert_true(s.cp[16].z == 5.0f);       /* b.rib's Translate */
+    assert_true(s.cp[32].z == 5.0f);       /* ... still in effect after the archive */
+    assert_cs(&s, 2, 0, 1, 0);
+    assert_int_equal(s.camera.width, 64);
+    scene_free(&s);
+
+    /* An error inside an archive names the archive's file, line and column. */
+    write_file(dir, "sub/b.rib", "# b\n  Frobnicate 1\n");
+    snprintf(want, sizeof want, "%s/sub/b.rib:2:3: error: unknown request Frobnicate", dir);
+    expect_file_error(path, want);
+    write_file(dir, "sub/b.rib", "Patch \"bilinear\" \"P\" [0 0 0]\n");
+    snprintf(want, sizeof want,
+             "%s/sub/b.rib:1:23: error: Patch: parameter \"P\" needs 12 values, got 3", dir);
+    expect_file_error(path, want);
+
+    /* A cycle, through a relative path, and a file that includes itself. */
+    write_file(dir, "sub/b.rib", "\n\nReadArchive \"../main.rib\"\n");
+    snprintf(want, sizeof want,
+             "%s/sub/b.rib:3:13: error: ReadArchive: \"../main.rib\" is already being read (an "
+             "include cycle)",
+             dir);
+    expect_file_error(path, want);
+    write_file(dir, "self.rib", "ReadArchive \"self.rib\"\n");
+    snprintf(path, sizeof path, "%s/self.rib", dir);
+    snprintf(want, sizeof want,
+             "%s/self.rib:1:13: error: ReadArchive: \"self.rib\" is already being read (an "
+             "include cycle)",
+             dir);
+    expect_file_error(path, want);
+
+    /* A missing archive; a name that is not a string. */
+    write_file(dir, "missing.rib", "WorldBegin\nReadArchive \"nope.rib\"\n");
+    snprintf(path, sizeof path, "%s/missing.rib", dir);
+    snprintf(want, sizeof want,
+             "%s/missing.rib:2:13: error: ReadArchive: cannot read \"%s/nope.rib\": No such file "
+             "or directory",
+             dir, dir);
+    expect_file_error(path, want);
+    expect_error("ReadArchive 3", "t.rib:1:13: error: ReadArchive: expected a file name (a string)");
+    expect_error("ReadArchive \"a\" \"b\"", "t.rib:1:17: error: too many arguments to ReadArchive");
+    expect_error("MotionBegin [0 1]\nReadArchive \"a.rib\"",
+                 "t.rib:2:1: error: ReadArchive is not allowed in the motion block at 1:1 (only "
+                 "Patch, Translate, Rotate, Scale, ConcatTransform or Transform)");
+
+    /* Depth: a chain of 20 distinct files stops at 16. */
+    for (int k = 0; k < 20; k++) {
+        char name[64], text[128];
+        snprintf(name, sizeof name, "d%02d.rib", k);
+        snprintf(text, sizeof text, "ReadArchive \"d%02d.rib\"\n", k + 1);
+        write_file(dir, name, text);
+    }
+    snprintf(path, sizeof path, "%s/d00.rib", dir);
+    snprintf(want, sizeof want,
+             "%s/d16.rib:1:13: error: ReadArchive: archives nested deeper than 16 levels", dir);
+    expect_file_error(path, want);
+}
+
+/* A two-quad OBJ with normals, for DynamicLoad "mesh". */
+static const char *const two_quads_obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nv 2 1 0\n"
+                                         "vn 0 0 1\n"
+                                         "f 1//1 2//1 3//1 4//1\nf 2//1 5//1 6//1 3//1\n";
+
+static void test_procedural(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    char path[4096], want[8192], sub[4096];
+    snprintf(sub, sizeof sub, "%s/m", dir);
+    assert_int_equal(mkdir(sub, 0755), 0);
+    write_file(dir, "m/quads.obj", two_quads_obj);
+    write_file(dir, "m/part.rib", "Patch \"bilinear\" " UNIT_P "\n");
+    /* Paths relative to the RIB file; the mesh moved by the CTM with the current Color. */
+    write_file(dir, "scene.rib",
+               "WorldBegin\nColor [0.5 0.5 1]\nTranslate 0 0 3\n"
+               "Procedural \"DynamicLoad\" [\"mesh\" \"m/quads.obj\"] [0 2 0 1 0 0]\n"
+               "Procedural \"DelayedReadArchive\" [\"m/part.rib\"] [0 1 0 1 0 0]\n"
+               "Procedural \"DynamicLoad\" [\"forest\" \"trees=1 seed=2 detail=0\"] "
+               "[-20 20 -5 20 -20 20]\nWorldEnd\n");
+    snprintf(path, sizeof path, "%s/scene.rib", dir);
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    if (rib_load(path, &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_true(s.patch_count > 3 + 100);
+    assert_cs(&s, 0, 0.5, 0.5, 1);
+    assert_true(s.cp[0].z == 3.0f && s.cp[15].x == 1.0f && s.cp[15].y == 1.0f);
+    assert_true(s.cp[16 + 3].x == 2.0f);
+    assert_true(s.cp[32 + 15].z == 3.0f); /* the archive's patch, under the Translate */
+    assert_n(&s, 0, 0, 0, 1);
+    scene_free(&s);
+
+    /* Error paths. */
+    write_file(dir, "bad.rib", "WorldBegin\nProcedural \"DynamicLoad\" [\"mesh\" \"m/none.obj\"] "
+                               "[0 1 0 1 0 1]\n");
+    snprintf(path, sizeof path, "%s/bad.rib", dir);
+    snprintf(want, sizeof want,
+             "%s/bad.rib:2:26: error: Procedural \"mesh\": %s/m/none.obj: No such file or directory",
+             dir, dir);
+    expect_file_error(path, want);
+    write_file(dir, "m/junk.obj", "this is not a mesh\n");
+    write_file(dir, "bad.rib", "Procedural \"DynamicLoad\" [\"mesh\" \"m/junk.obj\"] [0 1 0 1 0 1]\n");
+    snprintf(want, sizeof want, "%s/bad.rib:1:26: error: Procedural \"mesh\": %s/m/junk.obj: ...",
+             dir, dir);
+    expect_file_error(path, want);
+    expect_error("Procedural \"DynamicLoad\" [\"forest\" \"trees=10 leaves=3\"] [0 1 0 1 0 1]",
+                 "t.rib:1:26: error: Procedural \"forest\": unknown parameter \"leaves\" (trees, "
+                 "seed, detail)");
+    expect_error("Procedural \"DynamicLoad\" [\"forest\" \"trees=0\"] [0 1 0 1 0 1]",
+                 "t.rib:1:26: error: Procedural \"forest\": trees must be in [1, 100000], got 0");
+    expect_error("Procedural \"DynamicLoad\" [\"forest\" \"detail=x\"] [0 1 0 1 0 1]",
+                 "t.rib:1:26: error: Procedural \"forest\": detail needs an integer");
+    expect_error("Procedural \"DynamicLoad\" [\"forest\" \"trees\"] [0 1 0 1 0 1]",
+                 "t.rib:1:26: error: Procedural \"forest\": expected key=value, got \"trees\"");
+    expect_error("Procedural \"DynamicLoad\" [\"teapot\"] [0 1 0 1 0 1]",
+                 "t.rib:1:26: error: Procedural \"DynamicLoad\": unknown generator \"teapot\" (mesh "
+                 "or forest)");
+    expect_error("Procedural \"DynamicLoad\" [\"mesh\"] [0 1 0 1 0 1]",
+                 "t.rib:1:26: error: Procedural \"DynamicLoad\": [\"mesh\" \"file\"] takes one file "
+                 "name");
+    expect_error("Procedural \"DynamicLoad\" [\"forest\" \"trees=1\"] [0 1 0 1]",
+                 "t.rib:1:48: error: Procedural: expected a bound [xmin xmax ymin ymax zmin zmax]");
+    expect_error("Procedural \"DynamicLoad\" [\"forest\" \"trees=1\"]",
+                 "t.rib:1:1: error: Procedural: expected a bound [xmin xmax ymin ymax zmin zmax]");
+    expect_error("Procedural \"DynamicLoad\" \"forest\" [0 1 0 1 0 1]",
+                 "t.rib:1:26: error: Procedural: expected an array of strings after "
+                 "\"DynamicLoad\"");
+    expect_error("Procedural \"RunProgram\" [\"gen\" \"\"] [0 1 0 1 0 1]",
+                 "t.rib:1:12: error: Procedural \"RunProgram\" is not supported (DynamicLoad or "
+                 "DelayedReadArchive)");
+    expect_error("Procedural \"Magic\" [\"x\"] [0 1 0 1 0 1]",
+                 "t.rib:1:12: error: unknown procedural \"Magic\" (DynamicLoad or "
+                 "DelayedReadArchive)");
+    expect_error("WorldBegin\nWorldEnd\nProcedural \"DynamicLoad\" [\"forest\" \"\"] [0 1 0 1 0 1]",
+                 "t.rib:3:1: error: Procedural after WorldEnd");
+    expect_error("MotionBegin [0 1]\nTranslate 0 0 0\nTranslate 1 0 0\nMotionEnd\n"
+                 "Procedural \"DynamicLoad\" [\"forest\" \"\"] [0 1 0 1 0 1]",
+                 "t.rib:5:1: error: Procedural under a moving transformation is not supported");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_pixel_samples),
+        cmocka_unit_test(test_clipping_shutter_crop),
+        cmocka_unit_test(test_cs_classes),
+        cmocka_unit_test(test_n_classes_and_st),
+        cmocka_unit_test(test_read_archive),
+        cmocka_unit_test(test_procedural),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
