@@ -15,7 +15,7 @@ _Static_assert(sizeof(ts_segment) == 32, "ts_segment is 32 bytes");
 _Static_assert(sizeof(ts_hit) == 20, "ts_hit is 20 bytes");
 _Static_assert(offsetof(ts_hit, patch) == 12, "ts_hit.patch after t, u, v");
 _Static_assert(sizeof(ts_patch_attr) == 80, "ts_patch_attr is 80 bytes");
-_Static_assert(sizeof(ts_light) == 48, "ts_light is 48 bytes");
+_Static_assert(sizeof(ts_light) == 64, "ts_light is 64 bytes");
 _Static_assert(sizeof(ts_emitter) == 16, "ts_emitter is 16 bytes");
 _Static_assert(offsetof(ts_patch_attr, disp_amplitude) == 24, "displacement after colour, flags, kind, octaves");
 _Static_assert(sizeof(ts_xform) == 48, "ts_xform is 48 bytes");

@@ -1,4 +1,5 @@
 #include "pipeline.h"
+#include "image.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
 
@@ -90,11 +91,57 @@ static float patch_area(const ts_scene *s, uint32_t p)
     return (float)a;
 }
 
+/* The dome's environment map for the kernels (lib/lights.h): texels, and the CDFs that
+ * sample it by luminance times sin(theta). Without a map: one unused element each. */
+typedef struct env_map {
+    ts_vec4 *texels;
+    float *marginal, *conditional;
+    uint32_t width, height;
+} env_map;
+
+static int env_load(const char *path, env_map *e, ts_error *err)
+{
+    memset(e, 0, sizeof *e);
+    ts_image img;
+    if (image_read(path, &img, err)) return err->code;
+    uint32_t w = (uint32_t)img.width, h = (uint32_t)img.height;
+    e->texels = malloc((size_t)w * h * sizeof *e->texels);
+    e->marginal = malloc(h * sizeof *e->marginal);
+    e->conditional = malloc((size_t)w * h * sizeof *e->conditional);
+    if (!e->texels || !e->marginal || !e->conditional) {
+        image_free(&img);
+        return ts_error_set(err, TS_E_MEMORY, "%s: out of memory for the environment map", path);
+    }
+    double total = 0;
+    for (uint32_t y = 0; y < h; ++y) {
+        double row = 0, s = sin(M_PI * (y + 0.5) / h);
+        for (uint32_t x = 0; x < w; ++x) {
+            const float *px = &img.pixels[((size_t)y * w + x) * img.channels];
+            float r = px[0], g = img.channels > 2 ? px[1] : r, b = img.channels > 2 ? px[2] : r;
+            if (!(r >= 0 && g >= 0 && b >= 0 && r < 1e30f && g < 1e30f && b < 1e30f)) r = g = b = 0;
+            e->texels[(size_t)y * w + x] = (ts_vec4){r, g, b, 0};
+            row += (0.2126 * r + 0.7152 * g + 0.0722 * b) * s;
+            e->conditional[(size_t)y * w + x] = (float)row;
+        }
+        for (uint32_t x = 0; x < w; ++x) /* cumulative within the row, ending at 1 */
+            e->conditional[(size_t)y * w + x] = row > 0 ? (float)(e->conditional[(size_t)y * w + x] / row)
+                                                        : (float)(x + 1) / w;
+        e->conditional[(size_t)y * w + w - 1] = 1.0f;
+        total += row;
+        e->marginal[y] = (float)total;
+    }
+    for (uint32_t y = 0; y < h; ++y) e->marginal[y] = total > 0 ? (float)(e->marginal[y] / total) : (float)(y + 1) / h;
+    e->marginal[h - 1] = 1.0f;
+    e->width = w, e->height = h;
+    image_free(&img);
+    return TS_OK;
+}
+
 /* The lights as the kernels read them (lib/lights.h): every distant light, the dome, and
  * one area light over all emissive patches, which are listed in an emitter table chosen by
  * power (area times brightest channel). attr gets each emitter's index. */
 static int build_lights(ts_pipeline *p, ts_patch_attr *attr, ts_light *lights, ts_emitter **em,
-                        uint32_t *emitter_count, ts_error *err)
+                        uint32_t *emitter_count, const env_map *env, ts_error *err)
 {
     const ts_scene *s = p->scene;
     uint32_t nl = 0, ne = 0;
@@ -116,7 +163,8 @@ static int build_lights(ts_pipeline *p, ts_patch_attr *attr, ts_light *lights, t
         lights[nl++] = l;
     }
     if (s->dome.present) {
-        ts_light l = {.type = TS_LIGHT_DOME, .cos_max = 1.0f};
+        ts_light l = {.type = TS_LIGHT_DOME, .cos_max = 1.0f, .map_width = env->width,
+                      .map_height = env->height};
         for (int k = 0; k < 3; ++k) l.radiance[k] = (float)(s->dome.intensity * s->dome.color[k]);
         lights[nl++] = l;
     }
@@ -159,6 +207,12 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
     ts_light lights[66];
     ts_emitter *emitters = NULL;
     uint32_t emitter_count = 0;
+    env_map env = {0};
+    static const float one = 1.0f;
+    if (s->dome.present && s->dome.mapname[0] && env_load(s->dome.mapname, &env, err)) {
+        free(env.texels), free(env.marginal), free(env.conditional), free(flat), free(attr);
+        return err->code;
+    }
     if (!flat || !attr) {
         free(flat), free(attr);
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
@@ -168,7 +222,7 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
         return ts_error_set(err, TS_E_SCENE, "%u distant lights: at most 64", s->light_count);
     }
     memcpy(attr, s->attr, s->patch_count * sizeof *attr);
-    if (build_lights(p, attr, lights, &emitters, &emitter_count, err)) {
+    if (build_lights(p, attr, lights, &emitters, &emitter_count, &env, err)) {
         free(flat), free(attr);
         return err->code;
     }
@@ -201,6 +255,12 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
         {&p->attr, n * sizeof(ts_patch_attr), attr},
         {&p->lights, (p->light_count ? p->light_count : 1) * sizeof(ts_light), lights},
         {&p->emitters, (emitter_count ? emitter_count : 1) * sizeof(ts_emitter), emitters},
+        {&p->env_texels, (env.width ? (size_t)env.width * env.height : 1) * sizeof(ts_vec4),
+         env.width ? (const void *)env.texels : (const void *)lights},
+        {&p->env_marginal, (env.width ? env.height : 1) * sizeof(float),
+         env.width ? (const void *)env.marginal : (const void *)&one},
+        {&p->env_conditional, (env.width ? (size_t)env.width * env.height : 1) * sizeof(float),
+         env.width ? (const void *)env.conditional : (const void *)&one},
         {&p->xform, (s->xform_count ? s->xform_count : 1) * sizeof(ts_xform),
          s->xform_count ? (const void *)s->xform : (const void *)&identity},
         {&p->flatness, n * sizeof(ts_vec4), flat},
@@ -210,7 +270,10 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
         /* An empty scene still gets one (unused) element so no buffer has size 0. */
         static const ts_vec4 zeros[16];
         const void *host = s->patch_count || list[i].host == p->qbvh.nodes ||
-                                   list[i].host == lights ? list[i].host : zeros;
+                                   list[i].host == lights || list[i].host == &one ||
+                                   list[i].host == env.texels || list[i].host == env.marginal ||
+                                   list[i].host == env.conditional
+                               ? list[i].host : zeros;
         if (!host) host = zeros;
         *list[i].m = cl_buffer_create(p->cl, ro_copy, list[i].size, (void *)host, err);
         if (!*list[i].m) rc = err->code;
@@ -219,6 +282,7 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
     free(normals);
     free(attr);
     free(emitters);
+    free(env.texels), free(env.marginal), free(env.conditional);
     return rc;
 }
 
@@ -316,7 +380,8 @@ void pipeline_destroy(ts_pipeline *p)
     for (size_t i = 0; i < sizeof ks / sizeof *ks; ++i)
         if (ks[i]) clReleaseKernel(ks[i]);
     cl_mem ms[] = {p->qbvh_nodes, p->cp, p->cp1, p->corner_n, p->attr, p->xform, p->flatness,
-                   p->lod_counts, p->lights, p->emitters,
+                   p->lod_counts, p->lights, p->emitters, p->env_texels, p->env_marginal,
+                   p->env_conditional,
 #define TS_PATH_RELEASE(type, name, what) p->path_##name,
                    TS_PATH_FIELDS(TS_PATH_RELEASE)
 #undef TS_PATH_RELEASE

@@ -77,6 +77,7 @@ typedef struct ts_pipeline {
     cl_kernel k_camera, k_lod, k_top_level, k_dice, k_build_leaves, k_build_level,
         k_bottom_level, k_resolve, k_shade, k_film;
     cl_mem qbvh_nodes, cp, cp1, corner_n, attr, xform, flatness, lod_counts, lights, emitters;
+    cl_mem env_texels, env_marginal, env_conditional; /* the dome's map (1 element if none) */
     uint32_t light_count;
 #define TS_RAY_BUFFER(type, name, what) cl_mem ray_##name;
     TS_RAY_FIELDS(TS_RAY_BUFFER)

@@ -73,7 +73,7 @@ int rib_read_file(const char *path, char **text, size_t *len, int *errnum)
 
 /* `name` relative to the directory of the file being read (absolute names as they are).
  * Returns a malloc'd path or NULL. */
-static char *rib_resolve(const rib_parser *p, const char *name)
+char *rib_resolve(const rib_parser *p, const char *name)
 {
     const char *file = p->lx.file, *slash = strrchr(file, '/');
     size_t dir = (name[0] == '/' || !slash) ? 0 : (size_t)(slash - file) + 1;

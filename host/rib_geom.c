@@ -221,6 +221,14 @@ static int geom_read_var(rib_parser *p, const rib_param *prm, const geom_grid *g
     int cls = geom_class_of(rib_arg_str(p, prm->key, 0), GEOM_VARYING);
     size_t count = geom_class_count(g, cls);
     const double *v;
+    const rib_arg *val = prm->val;
+    char shown[RIB_PRINT_MAX];
+    if (cls != GEOM_VARYING && (val->kind == RIB_ARG_NUMBER || val->kind == RIB_ARG_NUMBERS) &&
+        val->count != 3 * count)
+        return rib_error_at(p, val->line, val->col,
+                            "%s: parameter \"%s\" (%s) needs %zu values, got %zu", p->req,
+                            rib_printable(prm->name, shown), geom_class_names[cls], 3 * count,
+                            val->count);
     int rc = rib_param_numbers(p, prm, 3 * count, &v, NULL);
     if (rc != TS_OK) return rc;
     int is_n = strcmp(prm->name, "N") == 0;

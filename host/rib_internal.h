@@ -219,6 +219,10 @@ int rib_req_patch(rib_parser *p);
 int rib_req_patch_mesh(rib_parser *p);
 int rib_req_light_source(rib_parser *p);
 
+/* `name` relative to the directory of the file being read (absolute names as they are);
+ * a malloc'd path or NULL (rib_archive.c). */
+char *rib_resolve(const rib_parser *p, const char *name);
+
 /* ---- rib_shading.c: Surface, AreaLightSource, LightSource "domelight" ---- */
 
 int rib_req_surface(rib_parser *p);

@@ -4,12 +4,13 @@
 #include "rib_internal.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* Reads parameters named in `names` (one number each, or three for colours) into `out`;
- * unknown names are warned about once. */
+ * `skip` (or NULL) is handled by the caller; other names are warned about once. */
 static int shading_params(rib_parser *p, size_t first, const char *const *names,
-                          const size_t *counts, double *const *out, size_t n)
+                          const size_t *counts, double *const *out, size_t n, const char *skip)
 {
     for (size_t i = first; i < p->nargs; i += 2) {
         rib_param prm;
@@ -17,6 +18,7 @@ static int shading_params(rib_parser *p, size_t first, const char *const *names,
         if (rc != TS_OK) return rc;
         size_t k = 0;
         while (k < n && strcmp(prm.name, names[k]) != 0) k++;
+        if (skip && strcmp(prm.name, skip) == 0) continue;
         if (k == n) {
             rib_warn_param(p, &prm);
             continue;
@@ -48,7 +50,7 @@ int rib_req_surface(rib_parser *p)
     static const char *const names[] = {"Kd", "Ks", "roughness"};
     static const size_t counts[] = {1, 1, 1};
     double *out[] = {&s.kd, &s.ks, &s.roughness};
-    rc = shading_params(p, 1, names, counts, out, s.material == TS_MAT_PLASTIC ? 3 : 1);
+    rc = shading_params(p, 1, names, counts, out, s.material == TS_MAT_PLASTIC ? 3 : 1, NULL);
     if (rc != TS_OK) return rc;
     if (!(s.kd >= 0 && s.ks >= 0 && s.kd + s.ks <= 1.0 + 1e-6 && s.roughness > 0 && s.roughness <= 1))
         return rib_error_at(p, p->req_line, p->req_col,
@@ -76,7 +78,7 @@ int rib_req_area_light_source(rib_parser *p)
     static const char *const names[] = {"intensity", "lightcolor"};
     static const size_t counts[] = {1, 3};
     double *out[] = {&intensity, color};
-    rc = shading_params(p, first, names, counts, out, 2);
+    rc = shading_params(p, first, names, counts, out, 2, NULL);
     if (rc != TS_OK) return rc;
     if (!(intensity >= 0))
         return rib_error_at(p, p->req_line, p->req_col, "AreaLightSource: intensity must be >= 0");
@@ -84,24 +86,33 @@ int rib_req_area_light_source(rib_parser *p)
     return TS_OK;
 }
 
-/* LightSource "domelight" handle "float intensity" [i] "color lightcolor" [r g b]: a sky of
- * uniform radiance i * color. "string mapname" (an environment map) is not supported yet
- * and is an error rather than a silently different picture. */
+/* LightSource "domelight" handle "float intensity" [i] "color lightcolor" [r g b]
+ * ["string mapname" ["sky.exr"]]: a sky of radiance i * color, times the lat-long map's
+ * texel in each direction when it has one (the path is relative to the RIB file; the image
+ * is read when the render starts). */
 int rib_dome_light(rib_parser *p, size_t first)
 {
-    ts_dome_light d = {1, 1.0, {1, 1, 1}};
+    ts_dome_light d = {1, 1.0, {1, 1, 1}, ""};
     for (size_t i = first; i < p->nargs; i += 2) {
         rib_param prm;
         int rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
-        if (strcmp(prm.name, "mapname") == 0)
-            return rib_error_at(p, prm.key->line, prm.key->col,
-                                "domelight \"mapname\": environment maps are not supported yet");
+        if (strcmp(prm.name, "mapname") != 0) continue;
+        const char *name;
+        rc = rib_string_arg(p, i + 1, "a map name", &name);
+        if (rc != TS_OK) return rc;
+        char *path = rib_resolve(p, name);
+        if (!path || strlen(path) >= sizeof d.mapname) {
+            free(path);
+            return rib_error_at(p, prm.key->line, prm.key->col, "domelight \"mapname\": path too long");
+        }
+        strcpy(d.mapname, path);
+        free(path);
     }
     static const char *const names[] = {"intensity", "lightcolor"};
     static const size_t counts[] = {1, 3};
     double *out[] = {&d.intensity, d.color};
-    int rc = shading_params(p, first, names, counts, out, 2);
+    int rc = shading_params(p, first, names, counts, out, 2, "mapname");
     if (rc != TS_OK) return rc;
     if (p->scene->dome.present)
         return rib_error_at(p, p->req_line, p->req_col, "only one domelight per scene");

@@ -42,6 +42,7 @@ typedef struct ts_dome_light {
     int present;
     double intensity;
     double color[3];
+    char mapname[4096]; /* a lat-long environment map (any OpenImageIO format), "" for none */
 } ts_dome_light;
 
 typedef struct ts_scene {

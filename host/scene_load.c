@@ -49,14 +49,16 @@ void scene_frame_auto(ts_scene *s)
     double eye[3], f[3], right[3], up[3], wup[3] = {0, 1, 0};
     for (int d = 0; d < 3; d++)
         eye[d] = c[d] + dist * dir[d], f[d] = -dir[d];
-    /* RenderMan camera space: x right, y up, z forward (left-handed). */
-    right[0] = wup[1] * f[2] - wup[2] * f[1];
-    right[1] = wup[2] * f[0] - wup[0] * f[2];
-    right[2] = wup[0] * f[1] - wup[1] * f[0];
+    /* RenderMan camera space: x right, y up, z forward. Mesh formats (OBJ, glTF, ...) are
+     * right-handed, so "right" is forward x up: the model is seen as its authors saw it,
+     * not mirrored. */
+    right[0] = f[1] * wup[2] - f[2] * wup[1];
+    right[1] = f[2] * wup[0] - f[0] * wup[2];
+    right[2] = f[0] * wup[1] - f[1] * wup[0];
     normalize(right);
-    up[0] = f[1] * right[2] - f[2] * right[1];
-    up[1] = f[2] * right[0] - f[0] * right[2];
-    up[2] = f[0] * right[1] - f[1] * right[0];
+    up[0] = right[1] * f[2] - right[2] * f[1];
+    up[1] = right[2] * f[0] - right[0] * f[2];
+    up[2] = right[0] * f[1] - right[1] * f[0];
     double *m = s->camera.world_to_camera;
     const double *rows[3] = {right, up, f};
     for (int i = 0; i < 3; i++) {

@@ -292,6 +292,7 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
                     ARG(p->path_throughput), ARG(p->path_mis), ARG(p->path_pending),
                     ARG(p->radiance), ARG(p->aov), ARG(p->albedo), ARG(p->cp), ARG(p->corner_n),
                     ARG(p->attr), ARG(p->xform), ARG(p->lights), ARG(p->emitters),
+                    ARG(p->env_texels), ARG(p->env_marginal), ARG(p->env_conditional),
                     ARG(p->flatness), ARG(p->alive), (size_t)0) ||
         cl_launch(p->cl, p->k_shade, TS_STAGE_shade, path_count, TS_LOCAL_SIZE, err) ||
         cl_finish(p->cl, p->stats, err))

@@ -77,11 +77,14 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
                          __global const ts_vec4 *cp, __global const ts_vec4 *corner_n,
                          __global const ts_patch_attr *attr, __global const ts_xform *xform,
                          __global const ts_light *lights, __global const ts_emitter *emitters,
-                         __global const ts_vec4 *flatness, __global uint *alive)
+                         __global const ts_vec4 *env_texels, __global const float *env_marginal,
+                         __global const float *env_conditional, __global const ts_vec4 *flatness,
+                         __global uint *alive)
 {
     uint k = get_global_id(0);
     if (k >= path_count) return;
     uint i = paths[k], traced = (uint)mis[i].z;
+    ts_env env = {env_texels, env_marginal, env_conditional};
     alive[k] = 0u;
     if ((traced & 2u) && hit[wave_size + i].patch == TS_INVALID) { /* the light was visible */
         ts_vec4 pe = pending[i], r = radiance[i];
@@ -95,7 +98,7 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     uint pix = pixel[i], sample = (first_sample + i) / pixel_count, b = sp.bounce;
     if (h.patch == TS_INVALID) { /* sky and sun */
         float pl;
-        light_escape(lights, sp.light_count, d, le, &pl);
+        light_escape(lights, sp.light_count, env, d, le, &pl);
         add_rgb(&radiance[i], tp, le, emission_weight(m4, pl));
         if (b == 0u) aov[i] = (ts_vec4){0.0f, 0.0f, 0.0f, INFINITY}, albedo[i] = (ts_vec4){0, 0, 0, 0};
         return;
@@ -123,7 +126,7 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     uint out = 0u;
     if (sp.light_count > 0u && sp.sampling != TS_SAMPLING_BSDF) { /* next-event estimation */
         uint li = min((uint)(rng_uniform(pix, sample, b + 1u, 1u, sp.seed) * (float)sp.light_count), sp.light_count - 1u);
-        ts_light_sample ls = light_sample(lights, sp.light_count, li, emitters, cp, attr, p,
+        ts_light_sample ls = light_sample(lights, sp.light_count, li, env, emitters, cp, attr, p,
                                           rng_uniform(pix, sample, b + 1u, 2u, sp.seed),
                                           rng_uniform(pix, sample, b + 1u, 3u, sp.seed),
                                           rng_uniform(pix, sample, b + 1u, 4u, sp.seed));

@@ -224,6 +224,80 @@ static void test_shadow_rays_are_counted(void **state)
     assert_true(shadow > 0 && shadow <= rays);
 }
 
+/* A lat-long map of w x h: constant 1, or black with a bright patch around the direction
+ * +y (phi = 90 degrees, theta = 90 degrees: the middle row, a quarter of the way across). */
+static void write_env(const char *name, int w, int h, int spot)
+{
+    float *px = calloc((size_t)w * h * 3, sizeof *px);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            float v = spot ? 0.05f : 1.0f;
+            if (spot && abs(y - h / 2) <= 1 && abs(x - w / 4) <= 1) v = 200.0f;
+            for (int c = 0; c < 3; ++c) px[((size_t)y * w + x) * 3 + c] = v;
+        }
+    const char *names[] = {"R", "G", "B"};
+    ts_image img = {w, h, 3, names, px};
+    ts_error err = {0};
+    if (image_write_exr(path(name), &img, NULL, 0, &err)) fail_msg("%s", err.msg);
+    free(px);
+}
+
+static void test_environment_map(void **state)
+{
+    enum { SPP = 64 };
+    /* A constant map is the uniform dome: the furnace still reflects exactly 1. */
+    write_env("white.exr", 32, 16, 0);
+    FILE *f = fopen(path("env.rib"), "w");
+    assert_non_null(f);
+    fprintf(f, "Format 48 48 1\nProjection \"perspective\" \"fov\" [40]\n"
+               "LightSource \"domelight\" 1 \"string mapname\" [\"white.exr\"]\nTranslate 0 0 4\n"
+               "WorldBegin\nColor [1 1 1]\n");
+    test_write_sphere_patches(f, 2, 1.0);
+    fputs("WorldEnd\n", f);
+    fclose(f);
+    render("env.rib", "env.exr", "--spp 64");
+    ts_image img;
+    load("env.exr", &img);
+    double sum = 0;
+    int n = 0;
+    for (int i = 0; i < img.width * img.height; ++i)
+        if (!isinf(img.pixels[i * img.channels + 3])) sum += img.pixels[i * img.channels], ++n;
+    image_free(&img);
+    assert_true(n > 300 && fabs(sum / n - 1.0) < 5 * 0.8 / sqrt((double)SPP * n));
+    /* A bright spot towards +y (world = camera space here: up on screen) lights the upper
+     * half, and the three estimators agree. */
+    write_env("spot.exr", 64, 32, 1);
+    f = fopen(path("spot.rib"), "w");
+    assert_non_null(f);
+    fprintf(f, "Format 48 48 1\nProjection \"perspective\" \"fov\" [40]\n"
+               "LightSource \"domelight\" 1 \"string mapname\" [\"spot.exr\"]\nTranslate 0 0 4\n"
+               "WorldBegin\nColor [0.8 0.8 0.8]\n");
+    test_write_sphere_patches(f, 2, 1.0);
+    fputs("WorldEnd\n", f);
+    fclose(f);
+    const char *modes[] = {"light", "bsdf", "mis"};
+    double mean[3], var[3];
+    for (int m = 0; m < 3; ++m) {
+        char args[256];
+        snprintf(args, sizeof args, "--spp 32 --depth 1 --sampling %s --seed 1", modes[m]);
+        render("spot.rib", "a.exr", args);
+        snprintf(args, sizeof args, "--spp 32 --depth 1 --sampling %s --seed 2", modes[m]);
+        render("spot.rib", "b.exr", args);
+        mean_and_var("a.exr", "b.exr", &mean[m], &var[m]);
+    }
+    for (int i = 0; i < 3; ++i)
+        for (int j = i + 1; j < 3; ++j)
+            if (fabs(mean[i] - mean[j]) > 5 * sqrt(var[i] + var[j]))
+                fail_msg("spot map: %s mean %g vs %s mean %g", modes[i], mean[i], modes[j], mean[j]);
+    load("a.exr", &img); /* mis, seed 2 */
+    double top = 0, bottom = 0;
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x)
+            *(y < img.height / 2 ? &top : &bottom) += img.pixels[((size_t)y * img.width + x) * img.channels];
+    image_free(&img);
+    assert_true(top > 3 * bottom);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -233,6 +307,7 @@ int main(void)
         cmocka_unit_test(test_light_bsdf_and_mis_agree),
         cmocka_unit_test(test_same_bits_whatever_memory_and_threads),
         cmocka_unit_test(test_shadow_rays_are_counted),
+        cmocka_unit_test(test_environment_map),
     };
     ts_device_info *list = NULL;
     ts_error err = {0};

@@ -154,7 +154,7 @@ static void test_clipping_shutter_crop(void **state)
     assert_true(s.camera.crop[0] == 0.0 && s.camera.crop[1] == 1.0);
     assert_true(s.camera.crop[2] == 0.0 && s.camera.crop[3] == 1.0);
     scene_free(&s);
-    parse_ok("Clipping 0.1 1000\nShutter 0 0.5\nCropWindow 0.25 0.75 0 0.5\nWorldBegin\n", &s);
+    parse_ok("Clipping 0.1 1000\nShutter 0 0.5\nCropWindow 0.25 0.75 0 0.5\nWorldBegin\nWorldEnd\n", &s);
     assert_true(s.camera.clip_near == 0.1 && s.camera.clip_far == 1000.0);
     assert_true(s.camera.shutter[0] == 0.0 && s.camera.shutter[1] == 0.5);
     assert_true(s.camera.crop[0] == 0.25 && s.camera.crop[1] == 0.75);
@@ -247,15 +247,15 @@ static void test_cs_classes(void **state)
     scene_free(&s);
     /* Wrong counts name the class's count. */
     expect_error("Patch \"bilinear\" " UNIT_P " \"Cs\" [1 0 0]",
-                 "t.rib:1:52: error: Patch: parameter \"Cs\" needs 12 values, got 3");
+                 "t.rib:1:53: error: Patch: parameter \"Cs\" needs 12 values, got 3");
     expect_error("Patch \"bilinear\" " UNIT_P " \"uniform color Cs\" [1 0 0 1 0 0]",
-                 "t.rib:1:67: error: Patch: parameter \"uniform color Cs\" needs 3 values, got 6");
+                 "t.rib:1:67: error: Patch: parameter \"Cs\" (uniform) needs 3 values, got 6");
     expect_error("PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 "
                  "0 0 1 0 1 1 0 2 1 0] \"facevarying color Cs\" [1 0 0]",
-                 "t.rib:1:127: error: PatchMesh: parameter \"facevarying color Cs\" needs 24 "
+                 "t.rib:1:119: error: PatchMesh: parameter \"Cs\" (facevarying) needs 24 "
                  "values, got 3");
     expect_error("Patch \"bilinear\" " UNIT_P " \"Cs\" \"red\"",
-                 "t.rib:1:52: error: Patch: parameter \"Cs\" needs numbers");
+                 "t.rib:1:53: error: Patch: parameter \"Cs\" needs numbers");
 }
 
 static void test_n_classes_and_st(void **state)
@@ -285,7 +285,7 @@ static void test_n_classes_and_st(void **state)
                                   "Patch \"bilinear\" " UNIT_P " \"st\" [0 0 1 0 0 1 1 1]\n",
                                   &rc);
     assert_int_equal(rc, TS_OK);
-    assert_string_equal(out, "w.rib:1:49: warning: Patch parameter \"st\" is ignored\n");
+    assert_string_equal(out, "w.rib:1:48: warning: Patch parameter \"st\" is ignored\n");
     /* NuPatch stays a clear error. */
     expect_error("NuPatch 4 4 [0 0 0 0 1 1 1 1] 0 1 4 4 [0 0 0 0 1 1 1 1] 0 1 \"Pw\" []",
                  "t.rib:1:1: error: NuPatch is not supported: NURBS patches cannot be loaded "
@@ -328,7 +328,7 @@ static void test_read_archive(void **state)
     expect_file_error(path, want);
     write_file(dir, "sub/b.rib", "Patch \"bilinear\" \"P\" [0 0 0]\n");
     snprintf(want, sizeof want,
-             "%s/sub/b.rib:1:23: error: Patch: parameter \"P\" needs 12 values, got 3", dir);
+             "%s/sub/b.rib:1:22: error: Patch: parameter \"P\" needs 12 values, got 3", dir);
     expect_file_error(path, want);
 
     /* A cycle, through a relative path, and a file that includes itself. */
@@ -437,7 +437,7 @@ static void test_procedural(void **state)
                  "t.rib:1:26: error: Procedural \"DynamicLoad\": [\"mesh\" \"file\"] takes one file "
                  "name");
     expect_error("Procedural \"DynamicLoad\" [\"forest\" \"trees=1\"] [0 1 0 1]",
-                 "t.rib:1:48: error: Procedural: expected a bound [xmin xmax ymin ymax zmin zmax]");
+                 "t.rib:1:47: error: Procedural: expected a bound [xmin xmax ymin ymax zmin zmax]");
     expect_error("Procedural \"DynamicLoad\" [\"forest\" \"trees=1\"]",
                  "t.rib:1:1: error: Procedural: expected a bound [xmin xmax ymin ymax zmin zmax]");
     expect_error("Procedural \"DynamicLoad\" \"forest\" [0 1 0 1 0 1]",

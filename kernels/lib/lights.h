@@ -3,7 +3,11 @@
  * light_count; the pdfs below include that choice. Solid-angle pdfs throughout.
  *   distant (sun): a cone of half angle acos(cos_max) around dir, uniform in solid angle,
  *     radiance = E / solid angle; a delta light when cos_max = 1 (irradiance E).
- *   dome: uniform radiance L, sampled uniformly over the sphere (pdf 1 / 4 pi).
+ *   dome: radiance L, uniform or times a lat-long map (z up: row 0 looks along +z, column
+ *     x spans phi in [2 pi x / W, 2 pi (x + 1) / W) from +x towards +y); a uniform dome is
+ *     sampled uniformly over the sphere (pdf 1 / 4 pi), a mapped one by texel luminance times
+ *     sin(theta) through a marginal CDF over rows and a conditional CDF within each row
+ *     (pdf = p(texel) W H / (2 pi^2 sin theta)).
  *   area: an emissive patch chosen by area (the emitter table), (u, v) uniform on its
  *     undisplaced surface; pdf = prob * dist^2 / (|dP/du x dP/dv| |cos_light|). */
 #ifndef TS_LIGHTS_H
@@ -21,6 +25,60 @@ typedef struct ts_light_sample {
     int delta;      /* a delta light: no BSDF sample can find it */
     ts_u32 patch;   /* area: the sampled patch (its own boxes must not shadow the ray) */
 } ts_light_sample;
+
+/* The environment map of a dome light: texels (rgb), the marginal CDF over rows (H) and the
+ * conditional CDF within each row (W x H), cumulative, each ending at 1. */
+typedef struct ts_env {
+    TS_CONST_GLOBAL ts_vec4 *texels;
+    TS_CONST_GLOBAL float *marginal;
+    TS_CONST_GLOBAL float *conditional;
+} ts_env;
+
+/* First index i in cdf[0..n) with u < cdf[i]. */
+TS_INLINE ts_u32 cdf_find(TS_CONST_GLOBAL float *cdf, ts_u32 n, float u)
+{
+    ts_u32 lo = 0, hi = n - 1u;
+    while (lo < hi) {
+        ts_u32 mid = (lo + hi) / 2u;
+        if (u < cdf[mid]) hi = mid;
+        else lo = mid + 1u;
+    }
+    return lo;
+}
+
+/* Texel of direction d, and the density of sampling d by the map (solid angle). */
+TS_INLINE ts_u32 env_lookup(TS_CONST_GLOBAL ts_light *l, ts_env env, ts_v3 d, float *pdf)
+{
+    ts_u32 w = l->map_width, h = l->map_height;
+    float z = fmin(fmax(d.z, -1.0f), 1.0f), theta = acos(z), phi = atan2(d.y, d.x);
+    if (phi < 0.0f) phi += 2.0f * TS_PI;
+    ts_u32 x = (ts_u32)(phi / (2.0f * TS_PI) * (float)w), y = (ts_u32)(theta / TS_PI * (float)h);
+    x = x < w ? x : w - 1u;
+    y = y < h ? y : h - 1u;
+    float pr = env.marginal[y] - (y ? env.marginal[y - 1u] : 0.0f);
+    TS_CONST_GLOBAL float *row = env.conditional + (size_t)y * w;
+    float pc = row[x] - (x ? row[x - 1u] : 0.0f);
+    float s = sin(theta);
+    *pdf = s > 0.0f ? pr * pc * (float)(w * h) / (2.0f * TS_PI * TS_PI * s) : 0.0f;
+    return y * w + x;
+}
+
+/* Samples a direction of the map from (u1, u2): a row, then a column, then a point inside
+ * the texel. */
+TS_INLINE ts_v3 env_sample(TS_CONST_GLOBAL ts_light *l, ts_env env, float u1, float u2)
+{
+    ts_u32 w = l->map_width, h = l->map_height;
+    ts_u32 y = cdf_find(env.marginal, h, u1);
+    float r0 = y ? env.marginal[y - 1u] : 0.0f, r1 = env.marginal[y];
+    float fy = r1 > r0 ? (u1 - r0) / (r1 - r0) : 0.5f;
+    TS_CONST_GLOBAL float *row = env.conditional + (size_t)y * w;
+    ts_u32 x = cdf_find(row, w, u2);
+    float c0 = x ? row[x - 1u] : 0.0f, c1 = row[x];
+    float fx = c1 > c0 ? (u2 - c0) / (c1 - c0) : 0.5f;
+    float phi = 2.0f * TS_PI * ((float)x + fmin(fmax(fx, 0.0f), 1.0f)) / (float)w;
+    float theta = TS_PI * ((float)y + fmin(fmax(fy, 0.0f), 1.0f)) / (float)h;
+    return v3(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
+}
 
 /* Direction in a cone around unit axis d with cos(half angle) = cos_max. */
 TS_INLINE ts_v3 sample_cone(ts_v3 d, float cos_max, float u1, float u2)
@@ -44,7 +102,7 @@ TS_INLINE ts_u32 emitter_pick(TS_CONST_GLOBAL ts_emitter *e, ts_u32 n, float u)
 
 /* Samples light `li` as seen from point p. */
 TS_INLINE ts_light_sample light_sample(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count,
-                                       ts_u32 li, TS_CONST_GLOBAL ts_emitter *emitters,
+                                       ts_u32 li, ts_env env, TS_CONST_GLOBAL ts_emitter *emitters,
                                        TS_CONST_GLOBAL ts_vec4 *cp,
                                        TS_CONST_GLOBAL ts_patch_attr *attr, ts_v3 p, float u1,
                                        float u2, float u3)
@@ -61,6 +119,12 @@ TS_INLINE ts_light_sample light_sample(TS_CONST_GLOBAL ts_light *lights, ts_u32 
         } else {
             s.dir = sample_cone(d, l->cos_max, u1, u2), s.pdf = choose / l->solid_angle;
         }
+    } else if (l->type == TS_LIGHT_DOME && l->map_width) {
+        float pdf;
+        s.dir = env_sample(l, env, u1, u2);
+        ts_vec4 t = env.texels[env_lookup(l, env, s.dir, &pdf)];
+        s.le[0] *= t.x, s.le[1] *= t.y, s.le[2] *= t.z;
+        s.pdf = choose * pdf;
     } else if (l->type == TS_LIGHT_DOME) {
         float z = 1.0f - 2.0f * u1, r = sqrt(fmax(0.0f, 1.0f - z * z)), phi = 2.0f * TS_PI * u2;
         s.dir = v3(r * cos(phi), r * sin(phi), z), s.pdf = choose / (4.0f * TS_PI);
@@ -89,15 +153,20 @@ TS_INLINE ts_light_sample light_sample(TS_CONST_GLOBAL ts_light *lights, ts_u32 
 
 /* Radiance arriving along dir from the lights at infinity (a ray that hit nothing), with
  * the pdf with which light sampling would have chosen that direction. */
-TS_INLINE void light_escape(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count, ts_v3 dir,
-                            float le[3], float *pdf)
+TS_INLINE void light_escape(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count, ts_env env,
+                            ts_v3 dir, float le[3], float *pdf)
 {
     le[0] = le[1] = le[2] = 0.0f;
     *pdf = 0.0f;
     float choose = 1.0f / (float)(light_count ? light_count : 1u);
     for (ts_u32 i = 0; i < light_count; ++i) {
         TS_CONST_GLOBAL ts_light *l = &lights[i];
-        if (l->type == TS_LIGHT_DOME) {
+        if (l->type == TS_LIGHT_DOME && l->map_width) {
+            float p;
+            ts_vec4 t = env.texels[env_lookup(l, env, dir, &p)];
+            le[0] += l->radiance[0] * t.x, le[1] += l->radiance[1] * t.y, le[2] += l->radiance[2] * t.z;
+            *pdf += choose * p;
+        } else if (l->type == TS_LIGHT_DOME) {
             le[0] += l->radiance[0], le[1] += l->radiance[1], le[2] += l->radiance[2];
             *pdf += choose / (4.0f * TS_PI);
         } else if (l->type == TS_LIGHT_DISTANT && l->cos_max < 1.0f &&

@@ -151,14 +151,17 @@ typedef struct ts_patch_attr {
 #define TS_LIGHT_DOME 1u    /* uniform sky radiance from every direction */
 #define TS_LIGHT_AREA 2u    /* every emissive patch, chosen by area (the emitter table) */
 
-/* 48 bytes. */
+/* 64 bytes. */
 typedef struct ts_light {
     ts_u32 type;
     ts_u32 emitter_count; /* area: entries of the emitter table */
     float cos_max;        /* distant: cosine of the cone's half angle; 1 = delta */
     float solid_angle;    /* distant: of the cone (0 for a delta) */
     float dir[4];         /* distant: unit vector towards the light */
-    float radiance[4];    /* distant: radiance in the cone, or irradiance E for a delta; dome: L */
+    float radiance[4];    /* distant: radiance in the cone, or irradiance E for a delta; dome: L
+                             (times the map's texel when it has one) */
+    ts_u32 map_width, map_height; /* dome: its lat-long map, 0 x 0 for a uniform sky */
+    ts_u32 pad[2];
 } ts_light;
 
 /* An emissive patch for light sampling: chosen with probability prob (by area), then
