@@ -199,8 +199,21 @@ static int program_build(ts_cl *cl, cl_program prog, ts_error *err)
         clGetProgramBuildInfo(prog, cl->info.device, CL_PROGRAM_BUILD_LOG, n, log, NULL);
         log[n] = '\0';
     }
-    ts_error_set(err, TS_E_DEVICE, "%s in clBuildProgram: the kernels failed to build on %s",
-                 cl_error_name(rc), cl->info.name);
+    /* The one-line message names the first error's place (kernels/FILE.cl:LINE:COL, from
+     * the #line directives of kernel_source.c); the whole log follows it. */
+    char first[512] = "";
+    for (const char *line = log; line && *line;) {
+        size_t len = strcspn(line, "\n");
+        const char *e = strstr(line, "error:");
+        if (e && e < line + len) {
+            const char *from = strncmp(line, "error: ", 7) == 0 ? line + 7 : line;
+            snprintf(first, sizeof first, " (first error: %.*s)", (int)(line + len - from), from);
+            break;
+        }
+        line += len + (line[len] == '\n');
+    }
+    ts_error_set(err, TS_E_DEVICE, "%s in clBuildProgram: the kernels failed to build on %s%s",
+                 cl_error_name(rc), cl->info.name, first);
     ts_error_set_detail(err, log);
     return TS_E_DEVICE;
 }
@@ -312,10 +325,29 @@ cl_kernel cl_kernel_create(ts_cl *cl, const char *name, ts_error *err)
     return k;
 }
 
+/* Testing aids from the environment (docs/errors.md): TESSERA_FAIL_ALLOC=N makes the first
+ * N buffer creations fail with CL_MEM_OBJECT_ALLOCATION_FAILURE; TESSERA_FAIL_LAUNCH=K
+ * makes the K-th kernel launch (counting from 1) fail with CL_OUT_OF_RESOURCES. Read once. */
+static long env_count(const char *name, long *cache)
+{
+    if (*cache < 0) {
+        const char *e = getenv(name);
+        long v = e && *e ? strtol(e, NULL, 10) : 0;
+        *cache = v > 0 ? v : 0;
+    }
+    return *cache;
+}
+
+static long fail_alloc_left = -1, fail_launch_at = -1, launch_count;
+
 cl_mem cl_buffer_create(ts_cl *cl, cl_mem_flags flags, size_t size, void *host, ts_error *err)
 {
     cl_int rc = ts_cl_inject_alloc_error;
     cl_mem m = NULL;
+    if (rc == CL_SUCCESS && env_count("TESSERA_FAIL_ALLOC", &fail_alloc_left) > 0) {
+        --fail_alloc_left;
+        rc = CL_MEM_OBJECT_ALLOCATION_FAILURE;
+    }
     if (rc == CL_SUCCESS) m = clCreateBuffer(cl->context, flags, size ? size : 1, host, &rc);
     if (rc != CL_SUCCESS) {
         ts_error_set(err, TS_E_DEVICE, "%s in clCreateBuffer(%zu bytes)", cl_error_name(rc), size);
@@ -358,7 +390,9 @@ int cl_launch(ts_cl *cl, cl_kernel k, ts_stage stage, size_t global, size_t loca
         cl->pending_capacity = cap;
     }
     cl_event ev;
-    cl_int rc = clEnqueueNDRangeKernel(cl->queue, k, 1, NULL, &rounded, &local, 0, NULL, &ev);
+    cl_int rc = CL_OUT_OF_RESOURCES;
+    if (++launch_count != env_count("TESSERA_FAIL_LAUNCH", &fail_launch_at))
+        rc = clEnqueueNDRangeKernel(cl->queue, k, 1, NULL, &rounded, &local, 0, NULL, &ev);
     if (rc != CL_SUCCESS) {
         char name[128] = "?";
         clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);

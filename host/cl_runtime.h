@@ -43,7 +43,10 @@ typedef struct ts_device_info {
 int cl_list_devices(ts_device_info **out, ts_error *err);
 
 /* Test hook: when non-zero, clCreateBuffer calls made through cl_buffer_create fail with
- * this error code (for tests of the failure paths). */
+ * this error code (for tests of the failure paths). From the command line, the environment
+ * does the same: TESSERA_FAIL_ALLOC=N fails the first N buffer creations with
+ * CL_MEM_OBJECT_ALLOCATION_FAILURE, TESSERA_FAIL_LAUNCH=K the K-th launch through cl_launch
+ * with CL_OUT_OF_RESOURCES (docs/errors.md). */
 extern cl_int ts_cl_inject_alloc_error;
 
 typedef struct ts_kernel_event {

@@ -5,9 +5,14 @@
 
 #include <errno.h>
 #include <getopt.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* Exit statuses (docs/errors.md): 0 done, 1 error, 3 interrupted by SIGINT or SIGTERM with
+ * the finished samples written. */
+#define TS_EXIT_INTERRUPTED 3
 
 static const char *usage_text =
     "usage: tessera devices\n"
@@ -31,6 +36,7 @@ static const char *usage_text =
     "      --memory MB       budget for rays, candidates and diced patches (default 1024)\n"
     "      --stats FILE      write per-stage timings and counters as JSON\n"
     "      --quiet           no progress or timings on stderr\n"
+    "      --resume          continue the interrupted render in OUT.exr (same command)\n"
     "      --kernel-dir DIR  build kernels from DIR instead of the embedded copy\n"
     "      --no-kernel-cache neither read nor write the kernel binary cache\n";
 
@@ -71,7 +77,7 @@ static int cmd_devices(void)
 }
 
 enum { OPT_RES = 256, OPT_LOD, OPT_INTERSECT, OPT_SAMPLING, OPT_SPP, OPT_DEPTH, OPT_SEED, OPT_DEVICE, OPT_MAX_LOD, OPT_MEMORY,
-       OPT_STATS, OPT_QUIET, OPT_KERNEL_DIR, OPT_NO_CACHE, OPT_HELP };
+       OPT_STATS, OPT_QUIET, OPT_KERNEL_DIR, OPT_NO_CACHE, OPT_HELP, OPT_RESUME };
 
 static const struct option render_options[] = {
     {"output", required_argument, 0, 'o'},   {"res", required_argument, 0, OPT_RES},
@@ -83,6 +89,7 @@ static const struct option render_options[] = {
     {"stats", required_argument, 0, OPT_STATS}, {"quiet", no_argument, 0, OPT_QUIET},
     {"kernel-dir", required_argument, 0, OPT_KERNEL_DIR},
     {"no-kernel-cache", no_argument, 0, OPT_NO_CACHE}, {"help", no_argument, 0, OPT_HELP},
+    {"resume", no_argument, 0, OPT_RESUME},
     {0, 0, 0, 0},
 };
 
@@ -117,6 +124,7 @@ static int parse_render_args(int argc, char **argv, ts_render_options *o)
         case OPT_MEMORY: bad = parse_int(optarg, 1, 1 << 24, &o->memory_mb); break;
         case OPT_STATS: o->stats_path = optarg; break;
         case OPT_QUIET: o->quiet = 1; break;
+        case OPT_RESUME: o->resume = 1; break;
         case OPT_KERNEL_DIR: o->cl.kernel_dir = optarg; break;
         case OPT_NO_CACHE: o->cl.no_cache = 1; break;
         case OPT_HELP: fputs(usage_text, stdout); exit(0);
@@ -146,14 +154,32 @@ static int cmd_render(int argc, char **argv)
     ts_stats stats;
     memset(&stats, 0, sizeof stats);
     ts_error err = {0};
-    int rc = render_run(&o, &stats, &err);
-    if (!rc && o.stats_path) rc = stats_write_json(&stats, o.stats_path, &err);
+    ts_render_result result;
+    int rc = render_run(&o, &stats, &result, &err);
+    if (!rc && o.stats_path && result.outcome != TS_RENDER_UP_TO_DATE)
+        rc = stats_write_json(&stats, o.stats_path, &err);
     if (rc) {
         fprintf(stderr, "tessera: %s\n", err.msg);
         if (err.detail) fprintf(stderr, "%s\n", err.detail);
         ts_error_clear(&err);
         stats_free(&stats);
         return 1;
+    }
+    if (result.outcome == TS_RENDER_UP_TO_DATE) {
+        fprintf(stderr, "tessera: %s is already complete (%llu samples): nothing to do\n",
+                o.output_path, result.samples_total);
+        stats_free(&stats);
+        return 0;
+    }
+    if (result.outcome == TS_RENDER_INTERRUPTED) {
+        const char *ext = strrchr(o.output_path, '.');
+        fprintf(stderr, "tessera: interrupted by %s after %llu of %llu samples; wrote %s (%s)\n",
+                result.signal == SIGINT ? "SIGINT" : "SIGTERM", result.samples_done,
+                result.samples_total, o.output_path,
+                ext && strcmp(ext, ".exr") == 0 ? "continue with --resume"
+                                                 : "a partial PNG cannot be resumed: use .exr");
+        stats_free(&stats);
+        return TS_EXIT_INTERRUPTED;
     }
     if (!o.quiet) {
         fprintf(stderr, "tessera: wrote %s on %s\n", o.output_path, stats.device);

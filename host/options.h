@@ -19,6 +19,7 @@ typedef struct ts_render_options {
     int sampling;            /* TS_SAMPLING_*: light and BSDF sampling by MIS, or one alone */
     int memory_mb;           /* budget for rays, pairs and patch slots */
     int quiet;
+    int resume;              /* 1: continue the partial EXR at output_path (--resume) */
     ts_cl_options cl;
 } ts_render_options;
 

@@ -75,14 +75,19 @@ void scene_frame_auto(ts_scene *s)
          * direction (-1, 1, -1) towards the light. */
         ts_distant_light l;
         memset(&l, 0, sizeof l);
-        l.intensity = 1.0;
-        l.color[0] = l.color[1] = l.color[2] = 1.0;
+        l.intensity = 2.5;
+        l.color[0] = 1.0, l.color[1] = 0.95, l.color[2] = 0.85;
         for (int d = 0; d < 3; d++) {
             l.to[d] = c[d];
             l.from[d] = c[d] - right[d] + up[d] - f[d];
         }
         ts_error ignored = {0};
         scene_add_light(s, &l, &ignored);
+    }
+    if (!s->dome.present) { /* a dim sky, so the sides away from the light are not black */
+        s->dome.present = 1;
+        s->dome.intensity = 0.35;
+        s->dome.color[0] = 0.8, s->dome.color[1] = 0.9, s->dome.color[2] = 1.0;
     }
 }
 

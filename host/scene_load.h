@@ -13,8 +13,9 @@
  * patches' control points from a three-quarter view above (y up, from the +z side turned
  * 35 degrees towards +x and raised 25 degrees; right-handed like the mesh formats, so the
  * model is not mirrored), far enough that the sphere fills the shorter image axis at fov
- * 30; Format 960x540; one distant light from the upper left of the view. Same errors as
- * rib_load / mesh_load; s is left empty on failure. */
+ * 30; Format 960x540; one distant light from the upper left of the view (intensity 2.5)
+ * and a dim dome light (0.35). Same errors as rib_load / mesh_load; s is left empty on
+ * failure. */
 int scene_load(const char *path, ts_scene *s, int quiet, ts_error *err);
 
 /* The automatic camera and light described above, for the patches already in s (used by

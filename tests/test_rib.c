@@ -1029,7 +1029,7 @@ static void test_scene_growth_and_box(void **state)
     ts_box empty = scene_patch_box(&s, 1000);
     assert_true(empty.lo_x > empty.hi_x);
     for (int k = 0; k < 100; k++) {
-        ts_distant_light l = {{k, 0, 0}, {0, 0, 1}, 1, {1, 1, 1}};
+        ts_distant_light l = {{k, 0, 0}, {0, 0, 1}, 1, {1, 1, 1}, 0};
         assert_int_equal(scene_add_light(&s, &l, &e), TS_OK);
     }
     assert_int_equal(s.light_count, 100);

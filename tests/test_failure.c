@@ -1,0 +1,318 @@
+/* test_failure.c — failures as a user meets them (docs/errors.md): the device running out
+ * of memory (injected with TESSERA_FAIL_ALLOC / TESSERA_FAIL_LAUNCH) is retried with a
+ * smaller budget or ends in one clear line; SIGTERM during a render writes the finished
+ * samples and exits 3; --resume continues such an image to exactly the bits of an
+ * uninterrupted render and refuses one made by another command; a kernel that does not
+ * compile names kernels/FILE.cl:LINE. */
+#include "test_support.h"
+#include "image.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+/* A render of a few seconds in many waves: 17 waves of about 14k samples at 16 MB. */
+#define RES "320x180"
+#define SPP "4"
+#define MEMORY "16"
+#define TOTAL (320u * 180u * 4u)
+#define RENDER_ARGS "--res " RES " --spp " SPP " --memory " MEMORY
+
+static char dir[4096];
+
+static const char *in_dir(const char *name)
+{
+    static char buf[4][4200];
+    static int next;
+    char *out = buf[next++ % 4];
+    snprintf(out, sizeof buf[0], "%s/%s", dir, name);
+    return out;
+}
+
+static int exists(const char *name)
+{
+    struct stat st;
+    return stat(in_dir(name), &st) == 0;
+}
+
+static char *read_text(const char *path)
+{
+    static char buf[1 << 16];
+    FILE *f = fopen(path, "r");
+    size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
+    buf[n] = '\0';
+    if (f) fclose(f);
+    return buf;
+}
+
+static const char *stderr_text(void)
+{
+    return read_text(in_dir("stderr.txt"));
+}
+
+static void expect_in_stderr(const char *needle)
+{
+    const char *err = stderr_text();
+    if (!strstr(err, needle)) fail_msg("stderr lacks \"%s\":\n%s", needle, err);
+}
+
+static int meta_int(const char *name, const char *key)
+{
+    int v = -1;
+    ts_error err = {0};
+    if (image_read_meta_int(in_dir(name), key, &v, &err)) fail_msg("%s", err.msg);
+    return v;
+}
+
+static void assert_no_temporary(void)
+{
+    char cmd[4400];
+    snprintf(cmd, sizeof cmd, "ls -a '%s' | grep -q tmp", dir);
+    if (system(cmd) == 0) fail_msg("a temporary file is left in %s", dir);
+}
+
+/* Starts `tessera render teapot -o OUT RENDER_ARGS [extra]` in the background with stderr
+ * to dir/NAME.stderr; waits for its first progress line (a wave is finished), sends
+ * SIGTERM and returns the exit status. */
+static int render_and_interrupt(const char *out, const char *extra)
+{
+    char errpath[4300];
+    snprintf(errpath, sizeof errpath, "%s.stderr", in_dir(out));
+    const char *bin = test_tessera_binary(), *scene = test_source_path("scene/teapot.rib");
+    char outpath[4200];
+    snprintf(outpath, sizeof outpath, "%s", in_dir(out));
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        int fd = open(errpath, O_WRONLY | O_CREAT | O_TRUNC, 0644), nul = open("/dev/null", O_WRONLY);
+        if (fd < 0 || nul < 0) _exit(126);
+        dup2(fd, 2), dup2(nul, 1);
+        execl(bin, bin, "render", scene, "-o", outpath, "--res", RES, "--spp", SPP, "--memory",
+              MEMORY, extra ? extra : (char *)NULL, (char *)NULL);
+        _exit(127);
+    }
+    int status = 0, progressed = 0;
+    for (int i = 0; i < 6000 && !progressed; ++i) { /* up to 60 s (a cold kernel cache) */
+        if (waitpid(pid, &status, WNOHANG) == pid)
+            fail_msg("the render ended before it was interrupted:\n%s", read_text(errpath));
+        progressed = strstr(read_text(errpath), " samples, ") != NULL;
+        if (!progressed) nanosleep(&(struct timespec){0, 10000000}, NULL);
+    }
+    if (!progressed) kill(pid, SIGKILL);
+    assert_true(progressed);
+    kill(pid, SIGTERM);
+    assert_int_equal(waitpid(pid, &status, 0), pid);
+    if (!WIFEXITED(status)) fail_msg("the render died by signal %d", WTERMSIG(status));
+    snprintf(errpath, sizeof errpath, "cp '%s.stderr' '%s'", in_dir(out), in_dir("stderr.txt"));
+    assert_int_equal(system(errpath), 0);
+    return WEXITSTATUS(status);
+}
+
+/* The uninterrupted render, made once. */
+static const char *reference(void)
+{
+    if (!exists("reference.exr"))
+        assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --quiet",
+                                          test_source_path("scene/teapot.rib"), in_dir("reference.exr")),
+                         0);
+    return "reference.exr";
+}
+
+/* The R G B Z N albedo channels of two EXRs are equal bit for bit. */
+static void assert_same_image(const char *a_name, const char *b_name)
+{
+    ts_image a, b;
+    ts_error err = {0};
+    if (image_read(in_dir(a_name), &a, &err) || image_read(in_dir(b_name), &b, &err))
+        fail_msg("%s", err.msg);
+    assert_int_equal(a.width, b.width);
+    assert_int_equal(a.height, b.height);
+    assert_int_equal(b.channels, 10); /* complete: no partial channels left */
+    const char *names[] = {"R", "G", "B", "Z", "N.x", "N.y", "N.z", "albedo.R", "albedo.G", "albedo.B"};
+    size_t npix = (size_t)a.width * a.height, differ = 0;
+    for (int c = 0; c < 10; ++c) {
+        int ia = -1, ib = -1;
+        for (int k = 0; k < a.channels; ++k) ia = strcmp(a.channel_names[k], names[c]) ? ia : k;
+        for (int k = 0; k < b.channels; ++k) ib = strcmp(b.channel_names[k], names[c]) ? ib : k;
+        assert_true(ia >= 0 && ib >= 0);
+        for (size_t i = 0; i < npix; ++i)
+            differ += memcmp(&a.pixels[i * a.channels + ia], &b.pixels[i * b.channels + ib], sizeof(float)) != 0;
+    }
+    if (differ) fail_msg("%s and %s differ in %zu values", a_name, b_name, differ);
+    image_free(&a);
+    image_free(&b);
+}
+
+static void test_alloc_failure_is_retried(void **state)
+{
+    (void)state;
+    setenv("TESSERA_FAIL_ALLOC", "1", 1);
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' --res 64x36 --max-lod 4",
+                              test_source_path("scene/teapot.rib"), in_dir("retried.png"));
+    unsetenv("TESSERA_FAIL_ALLOC");
+    assert_int_equal(rc, 0);
+    expect_in_stderr("the device could not provide 1024 MB");
+    expect_in_stderr("retrying with 512 MB");
+    assert_true(exists("retried.png"));
+}
+
+static void test_alloc_failure_gives_up(void **state)
+{
+    (void)state;
+    setenv("TESSERA_FAIL_ALLOC", "1000", 1);
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' --res 64x36 --max-lod 4 --quiet",
+                              test_source_path("scene/teapot.rib"), in_dir("never.png"));
+    unsetenv("TESSERA_FAIL_ALLOC");
+    assert_int_equal(rc, 1);
+    const char *err = stderr_text();
+    /* One line naming the OpenCL error and what to do. */
+    if (!strstr(err, "tessera: CL_MEM_OBJECT_ALLOCATION_FAILURE") || !strstr(err, "--max-lod"))
+        fail_msg("unexpected message:\n%s", err);
+    assert_non_null(strchr(err, '\n'));
+    assert_true(strchr(err, '\n')[1] == '\0');
+    assert_false(exists("never.png"));
+    assert_no_temporary();
+}
+
+/* A launch that fails in the middle of the render: the finished waves are kept, the rest
+ * is traced with half the budget, and the image is the uninterrupted one. */
+static void test_launch_failure_mid_render_is_retried(void **state)
+{
+    (void)state;
+    const char *ref = reference();
+    setenv("TESSERA_FAIL_LAUNCH", "300", 1);
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' --res " RES " --spp " SPP " --memory 32",
+                              test_source_path("scene/teapot.rib"), in_dir("launch.exr"));
+    unsetenv("TESSERA_FAIL_LAUNCH");
+    assert_int_equal(rc, 0);
+    const char *err = stderr_text(), *retry = strstr(err, "retrying with 16 MB");
+    if (!retry || !strstr(err, "CL_OUT_OF_RESOURCES")) fail_msg("no retry:\n%s", err);
+    const char *progress = strstr(err, " samples, ");
+    if (!progress || progress > retry) fail_msg("the launch failed before any wave finished:\n%s", err);
+    assert_same_image(ref, "launch.exr");
+}
+
+static void test_sigterm_writes_the_finished_samples(void **state)
+{
+    (void)state;
+    assert_int_equal(render_and_interrupt("partial.exr", NULL), 3);
+    expect_in_stderr("interrupted by SIGTERM after ");
+    assert_true(exists("partial.exr"));
+    assert_no_temporary();
+    unsigned done = (unsigned)meta_int("partial.exr", "tessera:samples_done");
+    assert_true(done > 0 && done < TOTAL);
+    assert_int_equal(meta_int("partial.exr", "tessera:spp"), 4);
+    /* R G B are the means of the finished samples, next to their sums and counts. */
+    ts_image img;
+    ts_error err = {0};
+    if (image_read(in_dir("partial.exr"), &img, &err)) fail_msg("%s", err.msg);
+    assert_int_equal(img.channels, 14);
+    assert_string_equal(img.channel_names[10], "tessera.sum.R");
+    assert_string_equal(img.channel_names[13], "tessera.count");
+    double counted = 0;
+    for (int i = 0; i < img.width * img.height; ++i) {
+        const float *px = &img.pixels[i * 14];
+        counted += px[13];
+        float inv = px[13] > 0 ? 1.0f / px[13] : 0.0f;
+        assert_true(px[0] == px[10] * inv);
+    }
+    assert_true(counted == (double)done);
+    image_free(&img);
+}
+
+static void test_resume_matches_the_uninterrupted_render(void **state)
+{
+    (void)state;
+    const char *ref = reference(), *scene = test_source_path("scene/teapot.rib");
+    assert_int_equal(render_and_interrupt("resumed.exr", NULL), 3);
+    int done = meta_int("resumed.exr", "tessera:samples_done");
+    /* Another command: refused, the file untouched. */
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --seed 1 --resume --quiet",
+                                      scene, in_dir("resumed.exr")), 1);
+    expect_in_stderr("cannot resume: it was rendered with --seed 0, this command has --seed 1");
+    assert_int_equal(meta_int("resumed.exr", "tessera:samples_done"), done);
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' --res 160x90 --spp " SPP " --resume --quiet",
+                                      scene, in_dir("resumed.exr")), 1);
+    expect_in_stderr("cannot resume: it is 320x180 but this command renders 160x90");
+    /* The same command: continues from the finished samples to the same bits. */
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume", scene,
+                                      in_dir("resumed.exr")), 0);
+    expect_in_stderr("resuming");
+    assert_int_equal(meta_int("resumed.exr", "tessera:samples_done"), (int)TOTAL);
+    assert_same_image(ref, "resumed.exr");
+    assert_no_temporary();
+    /* Complete: nothing to do. */
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet", scene,
+                                      in_dir("resumed.exr")), 0);
+    expect_in_stderr("already complete");
+}
+
+static void test_kernel_build_failure_names_file_and_line(void **state)
+{
+    (void)state;
+    char cmd[8800];
+    snprintf(cmd, sizeof cmd, "cp -r '%s' '%s'", test_source_path("kernels"), in_dir("kernels"));
+    assert_int_equal(system(cmd), 0);
+    /* Break the line of film.cl that reads the work-item id. */
+    char path[4300];
+    snprintf(path, sizeof path, "%s/film.cl", in_dir("kernels"));
+    static char text[1 << 16], out[(1 << 16) + 256];
+    snprintf(text, sizeof text, "%s", read_text(path));
+    int line = 0, broken = 0;
+    size_t o = 0;
+    for (const char *p = text; *p;) {
+        size_t len = strcspn(p, "\n");
+        ++line;
+        if (!broken && memmem(p, len, "get_global_id", 13)) {
+            broken = line;
+            o += (size_t)snprintf(out + o, sizeof out - o, "    this line is broken on purpose;\n");
+        } else {
+            o += (size_t)snprintf(out + o, sizeof out - o, "%.*s\n", (int)len, p);
+        }
+        p += len + (p[len] == '\n');
+    }
+    assert_true(broken > 0);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(out, f);
+    fclose(f);
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' --res 32x18 --kernel-dir '%s' --no-kernel-cache",
+                                      test_source_path("scene/teapot.rib"), in_dir("k.png"),
+                                      in_dir("kernels")), 1);
+    expect_in_stderr("tessera: CL_BUILD_PROGRAM_FAILURE in clBuildProgram");
+    char where[64];
+    snprintf(where, sizeof where, "kernels/film.cl:%d:", broken);
+    expect_in_stderr(where);
+    assert_false(exists("k.png"));
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "%s", test_scratch_dir());
+    return 0;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_alloc_failure_is_retried),
+        cmocka_unit_test(test_alloc_failure_gives_up),
+        cmocka_unit_test(test_launch_failure_mid_render_is_retried),
+        cmocka_unit_test(test_sigterm_writes_the_finished_samples),
+        cmocka_unit_test(test_resume_matches_the_uninterrupted_render),
+        cmocka_unit_test(test_kernel_build_failure_names_file_and_line),
+    };
+    ts_device_info *list = NULL;
+    ts_error err = {0};
+    int n = cl_list_devices(&list, &err);
+    free(list);
+    if (n <= 0) return TS_TEST_SKIP;
+    return cmocka_run_group_tests(tests, setup, NULL);
+}
