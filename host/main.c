@@ -16,12 +16,13 @@
 
 static const char *usage_text =
     "usage: tessera devices\n"
-    "       tessera render SCENE.rib -o OUT.{png,exr} [options]\n"
+    "       tessera render SCENE.rib|MODEL -o OUT.{png,exr} [options]\n"
+    "       (MODEL: any mesh Assimp reads, framed by an automatic camera)\n"
     "options:\n"
     "  -o, --output FILE     image to write: .png (tone-mapped sRGB) or .exr (float RGB,\n"
     "                        Z, N.x N.y N.z)\n"
     "      --res WxH         image size (default: the scene's Format, else 640x480)\n"
-    "      --spp N           samples per pixel (default 1)\n"
+    "      --spp N           samples per pixel (default: the scene's PixelSamples, else 1)\n"
     "      --depth D         path depth: bounces after the eye ray (default 3)\n"
     "      --seed S          random seed (default 0)\n"
     "      --device I        OpenCL device index from `tessera devices` (default:\n"
@@ -31,6 +32,9 @@ static const char *usage_text =
     "      --lod M           dice every patch at m = M instead of by ray density\n"
     "      --intersect KIND  boxes: leaf boxes are the geometry, hole-free across levels of\n"
     "                        detail (default); triangles: exact micro-triangles\n"
+    "      --leaf-mode MODE  ray: each work-item intersects its own leaves (default); group:\n"
+    "                        the work-group pools them (PantaRay Fig. 8)\n"
+    "      --leaf-size N     leaves of N x N micro-quads: 1 (default), 2 or 4\n"
     "      --sampling KIND   mis: light and BSDF sampling combined (default); light or\n"
     "                        bsdf: one alone (for checking the estimators)\n"
     "      --memory MB       budget for rays, candidates and diced patches (default 1024)\n"
@@ -76,7 +80,7 @@ static int cmd_devices(void)
     return 0;
 }
 
-enum { OPT_RES = 256, OPT_LOD, OPT_INTERSECT, OPT_SAMPLING, OPT_SPP, OPT_DEPTH, OPT_SEED, OPT_DEVICE, OPT_MAX_LOD, OPT_MEMORY,
+enum { OPT_RES = 256, OPT_LOD, OPT_INTERSECT, OPT_SAMPLING, OPT_LEAF_MODE, OPT_LEAF_SIZE, OPT_SPP, OPT_DEPTH, OPT_SEED, OPT_DEVICE, OPT_MAX_LOD, OPT_MEMORY,
        OPT_STATS, OPT_QUIET, OPT_KERNEL_DIR, OPT_NO_CACHE, OPT_HELP, OPT_RESUME };
 
 static const struct option render_options[] = {
@@ -86,6 +90,7 @@ static const struct option render_options[] = {
     {"max-lod", required_argument, 0, OPT_MAX_LOD}, {"memory", required_argument, 0, OPT_MEMORY},
     {"lod", required_argument, 0, OPT_LOD}, {"intersect", required_argument, 0, OPT_INTERSECT},
     {"sampling", required_argument, 0, OPT_SAMPLING},
+    {"leaf-mode", required_argument, 0, OPT_LEAF_MODE}, {"leaf-size", required_argument, 0, OPT_LEAF_SIZE},
     {"stats", required_argument, 0, OPT_STATS}, {"quiet", no_argument, 0, OPT_QUIET},
     {"kernel-dir", required_argument, 0, OPT_KERNEL_DIR},
     {"no-kernel-cache", no_argument, 0, OPT_NO_CACHE}, {"help", no_argument, 0, OPT_HELP},
@@ -104,6 +109,13 @@ static int parse_render_args(int argc, char **argv, ts_render_options *o)
         case OPT_RES:
             bad = sscanf(optarg, "%dx%d", &o->width, &o->height) != 2 || o->width < 1 ||
                   o->height < 1 || o->width > 65536 || o->height > 65536;
+            break;
+        case OPT_LEAF_MODE:
+            bad = strcmp(optarg, "ray") != 0 && strcmp(optarg, "group") != 0;
+            o->leaf_group = strcmp(optarg, "group") == 0;
+            break;
+        case OPT_LEAF_SIZE:
+            bad = parse_int(optarg, 1, 4, &o->leaf_size) || o->leaf_size == 3;
             break;
         case OPT_SAMPLING:
             o->sampling = !strcmp(optarg, "mis") ? (int)TS_SAMPLING_MIS

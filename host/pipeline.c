@@ -67,7 +67,7 @@ static int create_kernels(ts_pipeline *p, ts_error *err)
         const char *name;
     } list[] = {
         {&p->k_camera, "camera_generate"},   {&p->k_top_level, "top_level_collect"},
-        {&p->k_lod, "lod_count"},
+        {&p->k_lod, "lod_count"},           {&p->k_bottom_group, "bottom_level_group"},
         {&p->k_dice, "dice_grid"},           {&p->k_build_leaves, "build_leaves"},
         {&p->k_build_level, "build_level"},  {&p->k_bottom_level, "bottom_level_trace"},
         {&p->k_resolve, "resolve_closest"},  {&p->k_shade, "shade_path"},
@@ -314,6 +314,7 @@ static int create_buffers(ts_pipeline *p, ts_error *err)
         {&p->segments, CL_MEM_READ_ONLY, n * sizeof(ts_segment)},
         {&p->trees, CL_MEM_READ_ONLY, 2 * n * sizeof(uint32_t)},
         {&p->lod_counts, CL_MEM_READ_WRITE, n * sizeof(uint32_t)},
+        {&p->utilisation, CL_MEM_READ_WRITE, 2 * sizeof(uint32_t)},
         {&p->grid, CL_MEM_READ_WRITE, (size_t)p->plan.vert_capacity * sizeof(ts_vec4)},
         {&p->groups, CL_MEM_READ_WRITE, (size_t)p->plan.group_capacity * sizeof(ts_box4)},
         {&p->radiance, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4)},
@@ -338,6 +339,8 @@ static int create_buffers(ts_pipeline *p, ts_error *err)
                                  (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL), err);
     CL_CHECK(clEnqueueFillBuffer(cl->queue, p->lod_counts, &zero_u, sizeof zero_u, 0,
                                  n * sizeof(uint32_t), 0, NULL, NULL), err);
+    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->utilisation, &zero_u, sizeof zero_u, 0,
+                                 2 * sizeof(uint32_t), 0, NULL, NULL), err);
     return TS_OK;
 }
 
@@ -350,7 +353,7 @@ int pipeline_create(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, const ts_p
     p->stats = stats;
     p->plan = *plan;
     p->pixel_count = pixel_count;
-    p->mode = (ts_trace_mode){1u, (int)plan->max_lod, 1};
+    p->mode = (ts_trace_mode){1u, (int)plan->max_lod, 1, 0, 0u};
     size_t n = scene->patch_count ? scene->patch_count : 1;
     ts_box *boxes = malloc(n * sizeof *boxes);
     p->segments_host = malloc(n * sizeof *p->segments_host);
@@ -376,11 +379,12 @@ int pipeline_create(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, const ts_p
 void pipeline_destroy(ts_pipeline *p)
 {
     cl_kernel ks[] = {p->k_camera, p->k_lod, p->k_top_level, p->k_dice, p->k_build_leaves,
-                      p->k_build_level, p->k_bottom_level, p->k_resolve, p->k_shade, p->k_film};
+                      p->k_build_level, p->k_bottom_level, p->k_bottom_group, p->k_resolve,
+                      p->k_shade, p->k_film};
     for (size_t i = 0; i < sizeof ks / sizeof *ks; ++i)
         if (ks[i]) clReleaseKernel(ks[i]);
     cl_mem ms[] = {p->qbvh_nodes, p->cp, p->cp1, p->corner_n, p->attr, p->xform, p->flatness,
-                   p->lod_counts, p->lights, p->emitters, p->env_texels, p->env_marginal,
+                   p->lod_counts, p->utilisation, p->lights, p->emitters, p->env_texels, p->env_marginal,
                    p->env_conditional,
 #define TS_PATH_RELEASE(type, name, what) p->path_##name,
                    TS_PATH_FIELDS(TS_PATH_RELEASE)

@@ -18,7 +18,7 @@
 /* N is clipped to [1, 100] (Hanika Table 3). */
 #define TS_N_MAX 100u
 /* Work-group size of every launch: one size, so PoCL compiles each kernel once. */
-#define TS_LOCAL_SIZE 64u
+#define TS_LOCAL_SIZE ((size_t)TS_GROUP_SIZE)
 
 /* Bytes of device memory one ray costs: its SoA fields, active/count/alive, radiance and
  * aov, and TS_PAIRS_PER_RAY pairs (two sort buffers + a hit record each). */
@@ -52,6 +52,8 @@ typedef struct ts_trace_mode {
                       stage's counts (pipeline_lod_*) */
     int exact;     /* 1: micro-triangles (cross-checks at fixed m); 0: leaf boxes as
                       geometry, hole-free across LODs (Hanika §3.3) */
+    int leaf_group; /* 1: work-group-wide leaf intersection (PantaRay Fig. 8); 0: per ray */
+    uint32_t leaf_b; /* leaves are blocks of 2^leaf_b x 2^leaf_b micro-quads (0..2) */
 } ts_trace_mode;
 
 /* A run of segments diced together: they fit the arenas at once. */
@@ -75,7 +77,8 @@ typedef struct ts_pipeline {
     uint32_t batch_count;
     uint8_t *patch_lod; /* m of each patch for this frame (lod stage); max_lod until counted */
     cl_kernel k_camera, k_lod, k_top_level, k_dice, k_build_leaves, k_build_level,
-        k_bottom_level, k_resolve, k_shade, k_film;
+        k_bottom_level, k_bottom_group, k_resolve, k_shade, k_film;
+    cl_mem utilisation; /* 2 uints: micro-quad tests, work-item slots (bottom_level) */
     cl_mem qbvh_nodes, cp, cp1, corner_n, attr, xform, flatness, lod_counts, lights, emitters;
     cl_mem env_texels, env_marginal, env_conditional; /* the dome's map (1 element if none) */
     uint32_t light_count;

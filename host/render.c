@@ -14,12 +14,14 @@
 void render_options_defaults(ts_render_options *o)
 {
     memset(o, 0, sizeof *o);
-    o->spp = 1;
+    o->spp = 0; /* the scene's PixelSamples, else 1 */
     o->depth = 3;
     o->seed = 0;
     o->max_lod = 10;
     o->fixed_lod = -1;
     o->exact = 0;
+    o->leaf_group = 0;
+    o->leaf_size = 1;
     o->memory_mb = 1024;
     o->cl.device_index = -1;
 }
@@ -344,7 +346,8 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
 {
     uint64_t total = job->total, start = job->samples_done;
     uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
-    p->mode = (ts_trace_mode){(uint32_t)o->spp, o->fixed_lod, o->exact};
+    p->mode = (ts_trace_mode){(uint32_t)o->spp, o->fixed_lod, o->exact, o->leaf_group,
+                              o->leaf_size == 4 ? 2u : o->leaf_size == 2 ? 1u : 0u};
     if (o->fixed_lod < 0 && render_lod(p, cam, total, err)) return err->code;
     int32_t lod = lod_hash(p, o);
     job->lod_mismatch = job->check_lod && lod != job->lod;
@@ -491,6 +494,10 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
     ts_job job = {0};
     int complete = 0;
     int rc = scene_load(o->scene_path, &scene, o->quiet, err);
+    /* Samples per pixel: --spp, else the scene's PixelSamples, else 1. */
+    ts_render_options effective = *o;
+    if (effective.spp <= 0) effective.spp = !rc && scene.camera.spp > 0 ? scene.camera.spp : 1;
+    o = &effective;
     int width = o->width ? o->width : scene.camera.has_format ? scene.camera.width : 640;
     int height = o->height ? o->height : scene.camera.has_format ? scene.camera.height : 480;
     ts_camera_params cam;

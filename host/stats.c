@@ -64,6 +64,10 @@ static cJSON *stats_to_json(const ts_stats *s)
     cJSON *counters = cJSON_AddObjectToObject(root, "counters");
     for (int i = 0; i < TS_COUNTER_COUNT; ++i)
         cJSON_AddNumberToObject(counters, ts_counter_names[i], (double)s->counters[i]);
+    cJSON_AddNumberToObject(root, "leaf_utilisation",
+                            s->counters[TS_COUNTER_leaf_slots]
+                                ? (double)s->counters[TS_COUNTER_leaf_tests] / (double)s->counters[TS_COUNTER_leaf_slots]
+                                : 0.0);
     cJSON *hist = cJSON_AddArrayToObject(root, "lod_histogram");
     for (int m = 0; m <= TS_LOD_LIMIT; ++m)
         cJSON_AddItemToArray(hist, cJSON_CreateNumber((double)s->lod_histogram[m]));

@@ -18,7 +18,9 @@
     X(micropolygons_created, "micro-quads diced, summed over all dicings")                  \
     X(micropolygons_potential, "micro-quads of every patch at max LOD")                     \
     X(iterations, "top_level/sort/dice/bottom_level iterations")                            \
-    X(pair_overflow, "candidates dropped because the pair buffer was full (always 0)")
+    X(pair_overflow, "candidates dropped because the pair buffer was full (always 0)")      \
+    X(leaf_tests, "micro-quad tests in bottom_level's leaves")                              \
+    X(leaf_slots, "work-item slots those tests occupied (utilisation = tests / slots)")
 
 typedef enum ts_counter {
 #define TS_COUNTER_ENUM(name, what) TS_COUNTER_##name,

@@ -177,13 +177,15 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
     const ts_segment *s = p->segments_host;
     uint32_t first = b->seg_first, count = b->seg_count, exact = p->mode.exact ? 1u : 0u;
     uint32_t pair_first = s[first].begin, pair_count = s[first + count - 1].end - pair_first;
-    if (cl_set_args(p->k_bottom_level, err, ARG(p->pairs[sorted_buffer]), ARG(pair_first),
-                    ARG(pair_count), ARG(p->segments), ARG(first), ARG(count), ARG(n_per_ray),
-                    ARG(exact), ARG(p->active), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
-                    ARG(p->ray_flags), ARG(p->grid), ARG(p->groups), ARG(p->pair_hit), (size_t)0))
+    uint32_t leaf_b = p->mode.leaf_b;
+    cl_kernel k = p->mode.leaf_group ? p->k_bottom_group : p->k_bottom_level;
+    if (cl_set_args(k, err, ARG(p->pairs[sorted_buffer]), ARG(pair_first), ARG(pair_count),
+                    ARG(p->segments), ARG(first), ARG(count), ARG(n_per_ray), ARG(exact),
+                    ARG(leaf_b), ARG(p->active), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
+                    ARG(p->ray_flags), ARG(p->grid), ARG(p->groups), ARG(p->pair_hit),
+                    ARG(p->utilisation), (size_t)0))
         return err->code;
-    return cl_launch(p->cl, p->k_bottom_level, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE,
-                     err);
+    return cl_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
 }
 
 /* Folds candidate hits into each ray's closest hit, then compacts the active list on the
@@ -213,6 +215,13 @@ static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_r
     CL_CHECK(clEnqueueUnmapMemObject(q, p->active, act, 0, NULL, NULL), err);
     CL_CHECK(clEnqueueUnmapMemObject(q, p->alive, alive, 0, NULL, NULL), err);
     *still_active = n;
+    /* Leaf utilisation of this iteration's bottom_level launches (32-bit counters, reset). */
+    cl_uint util[2] = {0, 0};
+    CL_CHECK(clEnqueueReadBuffer(q, p->utilisation, CL_TRUE, 0, sizeof util, util, 0, NULL, NULL), err);
+    p->stats->counters[TS_COUNTER_leaf_tests] += util[0];
+    p->stats->counters[TS_COUNTER_leaf_slots] += util[1];
+    cl_uint zero = 0;
+    CL_CHECK(clEnqueueFillBuffer(q, p->utilisation, &zero, sizeof zero, 0, sizeof util, 0, NULL, NULL), err);
     p->stats->stage_seconds[TS_STAGE_resolve] += stats_now() - t0;
     return TS_OK;
 }

@@ -12,12 +12,26 @@
  * Motion (§3.4): a moving segment has a tree and a grid per time sample; boxes and vertices
  * are interpolated linearly at the ray's time.
  * Sibling boxes are tested four at a time (SoA groups, lib/quadtree.h). Stack: at most 3
- * entries per level plus one. */
+ * entries per level plus one.
+ * Leaves are blocks of 2^b x 2^b micro-quads (`leaf_b`; traversal stops b levels above m),
+ * intersected by one of two kernels that return identical hits:
+ *   bottom_level_trace: each work-item loops over its blocks' micro-quads (per-ray leaves);
+ *   bottom_level_group: PantaRay's warp-wide leaf intersection (Pantaleoni et al. 2010,
+ *     §4.4, Fig. 8) on a work-group: each round every work-item advances to its next block,
+ *     an exclusive scan in local memory gives each (ray, micro-quad) task a slot, every
+ *     work-item runs tasks with the owner's ray copied through local memory, and each owner
+ *     folds its results back in order. Every work-item reaches every barrier.
+ * Identical hits: both visit blocks in the same order (nearest first, the same culling),
+ * test each micro-quad with quad_test, and keep the first of equal distances in the order
+ * block, micro-quad (Morton), triangle. Both count leaf-stage utilisation: micro-quad tests
+ * over work-item slots (a work-group in lockstep for the per-ray kernel). */
 #include "lib/shared_types.h"
 #include "lib/intersect.h"
 #include "lib/quadtree.h"
 
 #define BL_STACK (3 * TS_LOD_LIMIT + 2)
+#define BL_WG TS_GROUP_SIZE /* work-group size of bottom_level_group */
+#define BL_MAX_BLOCK 16u     /* micro-quads in the largest leaf block (4 x 4) */
 
 /* Index (within the batch) of the segment holding sorted pair p: the last with begin <= p. */
 inline uint segment_of(__global const ts_segment *seg, uint count, uint p)
@@ -101,68 +115,104 @@ inline float4 group_enter(__global const ts_box4 *g, __global const ts_box4 *g1,
     return select((float4)(-1.0f), tn, tn <= tf && lx <= hx);
 }
 
-__kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first, uint pair_count,
-                                 __global const ts_segment *segments, uint seg_first,
-                                 uint seg_count, uint n_per_ray, uint exact,
-                                 __global const uint *active, __global const ts_vec4 *org,
-                                 __global const ts_vec4 *dir, __global const ts_hit *hit,
-                                 __global const uint *ray_flags,
-                                 __global const ts_vec4 *grid, __global const ts_box4 *groups,
-                                 __global ts_hit *pair_hit)
-{
-    uint gid = get_global_id(0);
-    if (gid >= pair_count) return;
-    ts_pair pr = pairs[pair_first + gid];
-    __global const ts_segment *batch = segments + seg_first;
-    ts_segment seg = batch[segment_of(batch, seg_count, pair_first + gid)];
-    uint ray = active[pr.window / n_per_ray];
-    ts_vec4 o = org[ray], d = dir[ray];
-    float4 o4 = (float4)(o.x, o.y, o.z, 0.0f);
-    float4 inv = (float4)(safe_reciprocal(d.x), safe_reciprocal(d.y), safe_reciprocal(d.z), 0.0f);
-    ts_ray_shear sh = ray_shear(d.x, d.y, d.z);
-    uint4 perm = (uint4)((uint)sh.kx, (uint)sh.ky, (uint)sh.kz, 3u);
-    ts_hit best = {hit[ray].t, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
-    uint m = seg.lod, flags = ray_flags[ray];
-    /* A shadow ray towards a point of an area light is not stopped by that light's own
-     * (conservative) boxes. */
-    if ((flags & TS_RAY_SHADOW) && (flags >> 1) == seg.patch + 1u) {
-        best.t = TS_NO_HIT;
-        pair_hit[pr.window] = best;
-        return;
-    }
-    int moving = (seg.flags & TS_PATCH_MOVING) != 0u;
-    float time = d.w;
-    __global const float4 *g0 = (__global const float4 *)(grid + seg.vert_first);
-    __global const float4 *g1 = moving ? g0 + quadtree_vertex_count(m) : 0;
-    __global const ts_box4 *t0 = groups + seg.group_first;
-    __global const ts_box4 *t1 = moving ? t0 + quadtree_group_count(m) : 0;
-    /* Stack of inner nodes still to visit: (level << 24) | index in the level, with the
-     * entry distance. Leaves are intersected as soon as their group is tested. */
+/* One ray, as the leaf tests need it. */
+typedef struct bl_ray {
+    float4 o4;  /* origin, w = 0 */
+    float4 inv; /* reciprocal direction (safe_reciprocal), w = time */
+    ts_ray_shear sh;
+    uint4 perm;
+    float tmin;
+} bl_ray;
+
+/* One diced patch: its grid(s) and tree(s); the second of each only when it moves. */
+typedef struct bl_patch {
+    __global const float4 *g0, *g1;
+    __global const ts_box4 *t0, *t1;
+    uint m, patch;
+} bl_patch;
+
+/* The traversal of one ray through one patch's tree, stopped at blocks of level L. */
+typedef struct bl_trav {
     uint stack[BL_STACK];
     float stack_t[BL_STACK];
-    int sp = 0;
-    float4 raw4;
-    float te = group_enter(t0, t1, time, o4, inv, o.w, best.t, &raw4).x; /* the root, lane 0 */
-    if (te >= 0.0f && m == 0u) {
-        if (exact) leaf_triangles(g0, g1, time, 0u, 0u, o4, o.w, perm, &sh, &best, seg.patch);
-        else if (raw4.x >= o.w) leaf_box(0u, 0u, te, &best, seg.patch);
-    } else if (te >= 0.0f) {
-        stack[0] = 0u;
-        stack_t[0] = te;
-        sp = 1;
+    int sp;
+    uint blk[4]; /* the hit blocks of the last node expanded, nearest first */
+    float blt[4];
+    uint qn, qi; /* how many, and the next to visit */
+} bl_trav;
+
+inline bl_ray bl_ray_make(ts_vec4 o, ts_vec4 d)
+{
+    bl_ray r;
+    r.o4 = (float4)(o.x, o.y, o.z, 0.0f);
+    r.inv = (float4)(safe_reciprocal(d.x), safe_reciprocal(d.y), safe_reciprocal(d.z), d.w);
+    r.sh = ray_shear(d.x, d.y, d.z);
+    r.perm = (uint4)((uint)r.sh.kx, (uint)r.sh.ky, (uint)r.sh.kz, 3u);
+    r.tmin = o.w;
+    return r;
+}
+
+inline bl_patch bl_patch_make(ts_segment seg, __global const ts_vec4 *grid,
+                              __global const ts_box4 *groups)
+{
+    bl_patch pt;
+    int moving = (seg.flags & TS_PATCH_MOVING) != 0u;
+    pt.m = seg.lod;
+    pt.patch = seg.patch;
+    pt.g0 = (__global const float4 *)(grid + seg.vert_first);
+    pt.g1 = moving ? pt.g0 + quadtree_vertex_count(seg.lod) : 0;
+    pt.t0 = groups + seg.group_first;
+    pt.t1 = moving ? pt.t0 + quadtree_group_count(seg.lod) : 0;
+    return pt;
+}
+
+/* Tests micro-quad qi (level m, Morton order) against the ray; a hit closer than best->t
+ * replaces *best. Exact: its two triangles. Boxes: its leaf box, unless the ray starts
+ * inside it (the ray is leaving the surface there, Hanika §3.3). */
+inline void quad_test(const bl_ray *r, const bl_patch *pt, uint qi, uint exact, ts_hit *best)
+{
+    float time = r->inv.w;
+    if (exact) {
+        leaf_triangles(pt->g0, pt->g1, time, pt->m, qi, r->o4, r->tmin, r->perm, &r->sh, best, pt->patch);
+        return;
     }
-    while (sp > 0) {
-        --sp;
-        if (stack_t[sp] > best.t) continue;
-        uint level = stack[sp] >> 24, k = stack[sp] & 0xffffffu;
+    uint grp = pt->m == 0u ? 0u : quadtree_group_offset(pt->m) + (qi >> 2), lane = pt->m == 0u ? 0u : (qi & 3u);
+    float4 raw, e = group_enter(pt->t0 + grp, pt->t1 ? pt->t1 + grp : 0, time, r->o4, r->inv,
+                                r->tmin, best->t, &raw);
+    float el = lane == 0u ? e.x : lane == 1u ? e.y : lane == 2u ? e.z : e.w;
+    float rl = lane == 0u ? raw.x : lane == 1u ? raw.y : lane == 2u ? raw.z : raw.w;
+    if (el >= 0.0f && rl >= r->tmin) leaf_box(pt->m, qi, el, best, pt->patch);
+}
+
+/* Starts the traversal at the root. */
+inline void bl_trav_start(bl_trav *s, const bl_ray *r, const bl_patch *pt, float tmax)
+{
+    float4 raw;
+    float te = group_enter(pt->t0, pt->t1, r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw).x;
+    s->sp = 0, s->qn = 0, s->qi = 0;
+    if (te >= 0.0f) s->stack[0] = 0u, s->stack_t[0] = te, s->sp = 1;
+}
+
+/* The next block of level L to visit (its index), or -1 when the traversal is done:
+ * blocks are taken from the last expanded node nearest first, skipping those that start
+ * beyond tmax; then the stack is popped and nodes expanded front to back. */
+inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L, float tmax)
+{
+    for (;;) {
+        while (s->qi < s->qn && s->blt[s->qi] > tmax) ++s->qi;
+        if (s->qi < s->qn) return (int)s->blk[s->qi++];
+        if (s->sp == 0) return -1;
+        --s->sp;
+        if (s->stack_t[s->sp] > tmax) continue;
+        uint level = s->stack[s->sp] >> 24, k = s->stack[s->sp] & 0xffffffu;
+        if (level == L) { /* the root itself is the block */
+            s->blk[0] = k, s->blt[0] = s->stack_t[s->sp], s->qn = 1, s->qi = 0;
+            continue;
+        }
         uint grp = quadtree_group_offset(level + 1u) + k;
-        float4 e4 = group_enter(t0 + grp, t1 ? t1 + grp : 0, time, o4, inv, o.w, best.t, &raw4);
+        float4 raw, e4 = group_enter(pt->t0 + grp, pt->t1 ? pt->t1 + grp : 0, r->inv.w, r->o4,
+                                     r->inv, r->tmin, tmax, &raw);
         float e[4] = {e4.x, e4.y, e4.z, e4.w};
-        /* A leaf box the ray starts inside is not geometry for it: the ray is leaving the
-         * surface there (secondary rays, offset by epsilon, Hanika §3.3). */
-        if (level + 1u == m && !exact)
-            e4 = select(e4, (float4)(-1.0f), raw4 < (float4)(o.w)), e[0] = e4.x, e[1] = e4.y,
-            e[2] = e4.z, e[3] = e4.w;
         /* Children that are hit, sorted by entry distance, farthest first. */
         float tc[4];
         uint id[4];
@@ -178,20 +228,168 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
             tc[at] = e[q];
             id[at] = 4u * k + q;
         }
-        if (level + 1u == m) { /* the children are leaves: nearest first */
-            for (uint q = nc; q-- > 0u;) {
-                if (!(tc[q] <= best.t)) continue;
-                if (exact) leaf_triangles(g0, g1, time, m, id[q], o4, o.w, perm, &sh, &best, seg.patch);
-                else leaf_box(m, id[q], tc[q], &best, seg.patch);
-            }
+        if (level + 1u == L) { /* the children are blocks: visit them nearest first */
+            for (uint q = 0; q < nc; ++q) s->blk[q] = id[nc - 1u - q], s->blt[q] = tc[nc - 1u - q];
+            s->qn = nc, s->qi = 0;
             continue;
         }
         for (uint q = 0; q < nc; ++q) {
-            stack[sp] = ((level + 1u) << 24) | id[q];
-            stack_t[sp] = tc[q];
-            ++sp;
+            s->stack[s->sp] = ((level + 1u) << 24) | id[q];
+            s->stack_t[s->sp] = tc[q];
+            ++s->sp;
         }
     }
-    if (best.patch == TS_INVALID) best.t = TS_NO_HIT;
-    pair_hit[pr.window] = best;
+}
+
+/* The pair of work-item gid: its ray, its patch, and whether it is to be traced at all (a
+ * shadow ray is not stopped by the light it aims at). */
+inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
+                   __global const ts_segment *segments, uint seg_first, uint seg_count,
+                   uint n_per_ray, __global const uint *active, __global const ts_vec4 *org,
+                   __global const ts_vec4 *dir, __global const ts_hit *hit,
+                   __global const uint *ray_flags, __global const ts_vec4 *grid,
+                   __global const ts_box4 *groups, bl_ray *r, bl_patch *pt, ts_hit *best,
+                   uint *window)
+{
+    ts_pair pr = pairs[pair_first + gid];
+    __global const ts_segment *batch = segments + seg_first;
+    ts_segment seg = batch[segment_of(batch, seg_count, pair_first + gid)];
+    uint ray = active[pr.window / n_per_ray], flags = ray_flags[ray];
+    *window = pr.window;
+    *r = bl_ray_make(org[ray], dir[ray]);
+    *pt = bl_patch_make(seg, grid, groups);
+    *best = (ts_hit){hit[ray].t, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
+    return !((flags & TS_RAY_SHADOW) && (flags >> 1) == seg.patch + 1u);
+}
+
+__kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first, uint pair_count,
+                                 __global const ts_segment *segments, uint seg_first,
+                                 uint seg_count, uint n_per_ray, uint exact, uint leaf_b,
+                                 __global const uint *active, __global const ts_vec4 *org,
+                                 __global const ts_vec4 *dir, __global const ts_hit *hit,
+                                 __global const uint *ray_flags, __global const ts_vec4 *grid,
+                                 __global const ts_box4 *groups, __global ts_hit *pair_hit,
+                                 __global uint *utilisation)
+{
+    uint gid = get_global_id(0), tests = 0;
+    if (gid < pair_count) {
+        bl_ray r;
+        bl_patch pt;
+        ts_hit best;
+        uint window;
+        if (bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active,
+                    org, dir, hit, ray_flags, grid, groups, &r, &pt, &best, &window)) {
+            uint b = min(leaf_b, pt.m), L = pt.m - b, nq = 1u << (2u * b);
+            bl_trav s;
+            bl_trav_start(&s, &r, &pt, best.t);
+            for (int k; (k = bl_next_block(&s, &r, &pt, L, best.t)) >= 0;)
+                for (uint q = 0; q < nq; ++q, ++tests) quad_test(&r, &pt, ((uint)k << (2u * b)) + q, exact, &best);
+        }
+        if (best.patch == TS_INVALID) best.t = TS_NO_HIT;
+        pair_hit[window] = best;
+    }
+    /* Utilisation of a work-group in lockstep: its tests over (size x the longest loop). */
+    __local uint l_sum, l_max;
+    if (get_local_id(0) == 0u) l_sum = 0u, l_max = 0u;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    atomic_add(&l_sum, tests);
+    atomic_max(&l_max, tests);
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (get_local_id(0) == 0u && l_max > 0u) {
+        atomic_add(&utilisation[0], l_sum);
+        atomic_add(&utilisation[1], l_max * (uint)get_local_size(0));
+    }
+}
+
+__kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void
+bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_count,
+                   __global const ts_segment *segments, uint seg_first, uint seg_count,
+                   uint n_per_ray, uint exact, uint leaf_b, __global const uint *active,
+                   __global const ts_vec4 *org, __global const ts_vec4 *dir,
+                   __global const ts_hit *hit, __global const uint *ray_flags,
+                   __global const ts_vec4 *grid, __global const ts_box4 *groups,
+                   __global ts_hit *pair_hit, __global uint *utilisation)
+{
+    /* The owners' rays and blocks, and one result slot per task (PantaRay Fig. 8). */
+    __local float4 l_o4[BL_WG], l_inv[BL_WG], l_shear[BL_WG];
+    __local uint4 l_meta[BL_WG];            /* m | moving << 8 | b << 16, patch, vert, group */
+    __local uint l_block[BL_WG], l_perm[BL_WG], l_first[BL_WG + 1];
+    __local ts_hit l_res[BL_WG * BL_MAX_BLOCK];
+    uint lid = get_local_id(0), gid = get_global_id(0);
+    bl_ray r;
+    bl_patch pt;
+    ts_hit best;
+    bl_trav s;
+    uint window = 0, b = 0, L = 0, done = 1, count = 0, useful = 0, slots = 0;
+    if (gid < pair_count) {
+        done = !bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active,
+                        org, dir, hit, ray_flags, grid, groups, &r, &pt, &best, &window);
+        b = min(leaf_b, pt.m), L = pt.m - b;
+        if (!done) bl_trav_start(&s, &r, &pt, best.t);
+    }
+    for (;;) {
+        /* 1. Each work-item advances to its next block and posts its micro-quads. */
+        int k = done ? -1 : bl_next_block(&s, &r, &pt, L, best.t);
+        if (k < 0) done = 1;
+        count = done ? 0u : 1u << (2u * b);
+        if (!done) {
+            l_o4[lid] = (float4)(r.o4.x, r.o4.y, r.o4.z, r.tmin);
+            l_inv[lid] = r.inv;
+            l_shear[lid] = (float4)(r.sh.sx, r.sh.sy, r.sh.sz, best.t);
+            l_perm[lid] = (uint)r.sh.kx | ((uint)r.sh.ky << 2) | ((uint)r.sh.kz << 4);
+            l_meta[lid] = (uint4)(pt.m | ((pt.g1 != 0) << 8) | (b << 16), pt.patch,
+                                  (uint)(pt.g0 - (__global const float4 *)grid),
+                                  (uint)(pt.t0 - groups));
+            l_block[lid] = (uint)k;
+        }
+        l_first[lid + 1u] = count;
+        barrier(CLK_LOCAL_MEM_FENCE);
+        /* 2. Exclusive scan of the task counts (one work-item: 64 additions). */
+        if (lid == 0u) {
+            l_first[0] = 0u;
+            for (uint i = 1u; i <= BL_WG; ++i) l_first[i] += l_first[i - 1u];
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+        uint total = l_first[BL_WG];
+        if (total == 0u) break; /* the same for every work-item */
+        /* 3. Every work-item runs tasks: the owner's ray comes through local memory. */
+        for (uint j = lid; j < total; j += BL_WG) {
+            uint lo = 0u, hi = BL_WG;
+            while (hi - lo > 1u) { /* the owner: the last with l_first <= j */
+                uint mid = (lo + hi) / 2u;
+                if (l_first[mid] <= j) lo = mid;
+                else hi = mid;
+            }
+            uint4 meta = l_meta[lo];
+            bl_ray tr;
+            tr.o4 = (float4)(l_o4[lo].xyz, 0.0f);
+            tr.tmin = l_o4[lo].w;
+            tr.inv = l_inv[lo];
+            uint pm = l_perm[lo];
+            tr.sh.kx = (int)(pm & 3u), tr.sh.ky = (int)((pm >> 2) & 3u), tr.sh.kz = (int)((pm >> 4) & 3u);
+            tr.sh.sx = l_shear[lo].x, tr.sh.sy = l_shear[lo].y, tr.sh.sz = l_shear[lo].z;
+            tr.perm = (uint4)(tr.sh.kx, tr.sh.ky, tr.sh.kz, 3u);
+            bl_patch tp;
+            tp.m = meta.x & 0xffu, tp.patch = meta.y;
+            tp.g0 = (__global const float4 *)grid + meta.z;
+            tp.g1 = (meta.x >> 8) & 1u ? tp.g0 + quadtree_vertex_count(tp.m) : 0;
+            tp.t0 = groups + meta.w;
+            tp.t1 = (meta.x >> 8) & 1u ? tp.t0 + quadtree_group_count(tp.m) : 0;
+            uint tb = meta.x >> 16;
+            ts_hit h = {l_shear[lo].w, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
+            quad_test(&tr, &tp, (l_block[lo] << (2u * tb)) + (j - l_first[lo]), exact, &h);
+            l_res[j] = h;
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+        /* 4. Each owner folds its results in order: the first of equal distances wins. */
+        for (uint j = l_first[lid]; j < l_first[lid] + count; ++j)
+            if (l_res[j].patch != TS_INVALID && l_res[j].t < best.t) best = l_res[j];
+        useful += total, slots += (total + BL_WG - 1u) / BL_WG * BL_WG;
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (gid < pair_count) {
+        if (best.patch == TS_INVALID) best.t = TS_NO_HIT;
+        pair_hit[window] = best;
+    }
+    if (lid == 0u && slots > 0u) atomic_add(&utilisation[0], useful), atomic_add(&utilisation[1], slots);
 }

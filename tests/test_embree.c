@@ -215,6 +215,10 @@ static void incoherent_rays(ts_cl *cl, teapot *tp, const char *name)
     assert_int_equal(clEnqueueWriteBuffer(q, p.ray_hit, CL_TRUE, 0, sizeof r.hit, r.hit, 0, NULL, NULL), CL_SUCCESS);
     assert_int_equal(clEnqueueWriteBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL), CL_SUCCESS);
     assert_int_equal(clEnqueueWriteBuffer(q, p.ray_pixel, CL_TRUE, 0, sizeof pixel, pixel, 0, NULL, NULL), CL_SUCCESS);
+    /* Closest-hit rays (no TS_RAY_SHADOW): the flags must be written too, or resolve would
+     * read whatever the buffer held. */
+    cl_uint zero = 0;
+    assert_int_equal(clEnqueueFillBuffer(q, p.ray_flags, &zero, sizeof zero, 0, sizeof(cl_uint) * RAYS, 0, NULL, NULL), CL_SUCCESS);
     assert_int_equal(clEnqueueWriteBuffer(q, p.active, CL_TRUE, 0, sizeof active, active, 0, NULL, NULL), CL_SUCCESS);
     if (pipeline_trace(&p, RAYS, &err)) fail_msg("%s", err.msg);
     read_back(&p, &r);

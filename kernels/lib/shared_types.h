@@ -27,6 +27,10 @@ typedef int32_t ts_i32;
 #define TS_INLINE static inline
 #endif
 
+/* Work-group size of every launch (one size, so PoCL compiles each kernel once); the
+ * work-group leaf intersection sizes its local memory by it. */
+#define TS_GROUP_SIZE 64
+
 /* Hard ceiling on the level of detail: 4^10 micro-quads per patch (Hanika §4 uses m <= 10).
  * Kernel stacks are sized from it. */
 #define TS_LOD_LIMIT 10
