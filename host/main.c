@@ -23,7 +23,8 @@ static const char *usage_text =
     "                        Z, N.x N.y N.z)\n"
     "      --res WxH         image size (default: the scene's Format, else 640x480)\n"
     "      --spp N           samples per pixel (default: the scene's PixelSamples, else 1)\n"
-    "      --depth D         path depth: bounces after the eye ray (default 3)\n"
+    "      --depth D         path depth: bounces after the eye ray, 0..64 (default 3;\n"
+    "                        0: eye rays only, lights seen directly)\n"
     "      --seed S          random seed (default 0)\n"
     "      --device I        OpenCL device index from `tessera devices` (default:\n"
     "                        $TESSERA_DEVICE, else 0)\n"
@@ -124,7 +125,7 @@ static int parse_render_args(int argc, char **argv, ts_render_options *o)
             bad = o->sampling < 0;
             break;
         case OPT_SPP: bad = parse_int(optarg, 1, 1 << 16, &o->spp); break;
-        case OPT_DEPTH: bad = parse_int(optarg, 1, 64, &o->depth); break;
+        case OPT_DEPTH: bad = parse_int(optarg, 0, 64, &o->depth); break;
         case OPT_SEED: bad = parse_int(optarg, 0, 0x7fffffff, &v); o->seed = (unsigned)v; break;
         case OPT_DEVICE: bad = parse_int(optarg, 0, 1 << 20, &o->cl.device_index); break;
         case OPT_MAX_LOD: bad = parse_int(optarg, 0, TS_LOD_LIMIT, &o->max_lod); break;

@@ -15,6 +15,7 @@
 #   - `tessera render` of scene/teapot.rib at 16x9, 2 spp, --max-lod 3, and of
 #     scene/one_patch.rib at 8x8, --max-lod 0, both with --memory 4 (the whole pipeline,
 #     every stage);
+#   - the same teapot with --leaf-mode group --leaf-size 2 (the work-group leaf kernel);
 #   - every test program whose source calls test_open_device() (the kernel unit tests),
 #     except SLOW_TESTS (whole-renderer comparisons, minutes under Oclgrind; the renders
 #     above run the same kernels).
@@ -36,7 +37,7 @@ cd "$(dirname "$0")/.."
 src=$PWD
 build=$(cd "${1:-${BUILD_DIR:-build}}" 2>/dev/null && pwd) || { echo "check_kernels: no build directory ${1:-${BUILD_DIR:-build}} (run tools/setup.sh)" >&2; exit 1; }
 timeout_s=${CHECK_KERNELS_TIMEOUT:-120}
-SLOW_TESTS="test_trace test_embree"
+SLOW_TESTS="test_trace test_embree test_leaf_modes"
 
 if ! command -v oclgrind >/dev/null; then
   echo "check_kernels: oclgrind is not installed (apt-get install oclgrind): skipping"
@@ -100,6 +101,10 @@ run render_teapot "$build/tessera" render scene/teapot.rib --res 16x9 --spp 2 --
   --memory 4 -o "$work/teapot.exr" --no-kernel-cache --quiet
 run render_one_patch "$build/tessera" render scene/one_patch.rib --res 8x8 --max-lod 0 \
   --memory 4 -o "$work/one_patch.exr" --no-kernel-cache --quiet
+# The work-group leaf intersection (bottom_level_group, local memory and barriers): leaf
+# blocks of 2x2, so work-items of one group share tasks.
+run render_leaf_group "$build/tessera" render scene/teapot.rib --res 16x9 --spp 1 --max-lod 3 \
+  --memory 4 -o "$work/leaf_group.exr" --no-kernel-cache --quiet --leaf-mode group --leaf-size 2
 for f in tests/test_*.c; do
   t=$(basename "$f" .c)
   grep -q 'test_open_device' "$f" || continue
