@@ -366,8 +366,10 @@ static int rib_camera_items_to_world(rib_parser *p, const double cam_to_world[16
 {
     ts_scene *s = p->scene;
     size_t first = (size_t)p->first_patch * 16u, n = (size_t)(s->patch_count - p->first_patch) * 16u;
-    int rc = rib_camera_points_to_world(p, s->cp + first, n, cam_to_world);
-    if (rc == TS_OK && s->cp1) rc = rib_camera_points_to_world(p, s->cp1 + first, n, cam_to_world);
+    int rc = TS_OK; /* (no pointer arithmetic on the arrays while there are no patches) */
+    if (n > 0) rc = rib_camera_points_to_world(p, s->cp + first, n, cam_to_world);
+    if (rc == TS_OK && n > 0 && s->cp1)
+        rc = rib_camera_points_to_world(p, s->cp1 + first, n, cam_to_world);
     if (rc == TS_OK) rc = rib_camera_attrs_to_world(p, p->ctm);
     if (rc != TS_OK) return rc;
     for (uint32_t l = p->first_light; l < s->light_count; l++) {

@@ -40,12 +40,7 @@ __kernel void lod_count(__global const ts_qbvh_node *nodes, uint ray_count,
         } else if (node == 0u) {
             return;
         } else {
-            uint slot = nodes[node].parent_slot;
-            node = (uint)nodes[node].parent;
-            child_order(nodes[node].axes, d.x, d.y, d.z, order);
-            pos = 0u;
-            while (order[pos] != slot) ++pos;
-            ++pos;
+            qbvh_ascend(nodes, &node, &pos, order, d.x, d.y, d.z);
         }
     }
 }

@@ -50,12 +50,7 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
         } else if (node == 0u) {
             state = TS_INVALID; /* back at the root with every child done */
         } else {
-            uint slot = nodes[node].parent_slot;
-            node = (uint)nodes[node].parent;
-            child_order(nodes[node].axes, d.x, d.y, d.z, order);
-            pos = 0u;
-            while (order[pos] != slot) ++pos;
-            ++pos;
+            qbvh_ascend(nodes, &node, &pos, order, d.x, d.y, d.z);
         }
     }
     for (uint k = n; k < n_per_ray; ++k)

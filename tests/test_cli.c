@@ -177,10 +177,5 @@ int main(void)
         cmocka_unit_test(test_render_exr_and_stats),
         cmocka_unit_test(test_png_is_written_atomically),
     };
-    ts_device_info *list = NULL;
-    ts_error err = {0};
-    int n = cl_list_devices(&list, &err);
-    free(list);
-    if (n <= 0) return TS_TEST_SKIP;
-    return cmocka_run_group_tests(tests, setup, NULL);
+    return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -309,10 +309,5 @@ int main(void)
         cmocka_unit_test(test_resume_matches_the_uninterrupted_render),
         cmocka_unit_test(test_kernel_build_failure_names_file_and_line),
     };
-    ts_device_info *list = NULL;
-    ts_error err = {0};
-    int n = cl_list_devices(&list, &err);
-    free(list);
-    if (n <= 0) return TS_TEST_SKIP;
-    return cmocka_run_group_tests(tests, setup, NULL);
+    return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -23,31 +23,11 @@ static int setup(void **state)
     return 0;
 }
 
-static const char *path(const char *name)
-{
-    static char buf[4][4300];
-    static int next;
-    char *p = buf[next++ % 4];
-    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
-    return p;
-}
+static const char *path(const char *name) { return test_path_in(dir, name); }
 
-static void render_ok(const char *fmt_args)
-{
-    int rc = test_run_tessera(dir, "%s", fmt_args);
-    if (rc != 0) {
-        char cmd[4400];
-        snprintf(cmd, sizeof cmd, "cat '%s/stderr.txt' >&2", dir);
-        (void)system(cmd);
-        fail_msg("tessera %s exited %d", fmt_args, rc);
-    }
-}
+static void render_ok(const char *args) { test_tessera_ok(dir, "%s", args); }
 
-static void load(const char *name, ts_image *img)
-{
-    ts_error err = {0};
-    if (image_read(path(name), img, &err)) fail_msg("%s", err.msg);
-}
+static void load(const char *name, ts_image *img) { test_read_image(path(name), img); }
 
 static void test_displaced_sphere_is_hole_free_from_inside(void **state)
 {
@@ -199,10 +179,5 @@ int main(void)
         cmocka_unit_test(test_ten_billion_potential_micropolygons_in_fixed_memory),
         cmocka_unit_test(test_motion_blur_is_the_time_average),
     };
-    ts_device_info *list = NULL;
-    ts_error err = {0};
-    int n = cl_list_devices(&list, &err);
-    free(list);
-    if (n <= 0) return TS_TEST_SKIP;
-    return cmocka_run_group_tests(tests, setup, NULL);
+    return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -22,31 +22,14 @@ static int setup(void **state)
     return 0;
 }
 
-static const char *path(const char *name)
-{
-    static char buf[4][4300];
-    static int next;
-    char *p = buf[next++ % 4];
-    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
-    return p;
-}
+static const char *path(const char *name) { return test_path_in(dir, name); }
 
 static void render(const char *scene, const char *out, const char *extra)
 {
-    int rc = test_run_tessera(dir, "render '%s' -o '%s' --quiet %s", path(scene), path(out), extra);
-    if (rc != 0) {
-        char cmd[4400];
-        snprintf(cmd, sizeof cmd, "cat '%s/stderr.txt' >&2", dir);
-        (void)system(cmd);
-        fail_msg("render of %s exited %d", scene, rc);
-    }
+    test_tessera_ok(dir, "render '%s' -o '%s' --quiet %s", path(scene), path(out), extra);
 }
 
-static void load(const char *name, ts_image *img)
-{
-    ts_error err = {0};
-    if (image_read(path(name), img, &err)) fail_msg("%s", err.msg);
-}
+static void load(const char *name, ts_image *img) { test_read_image(path(name), img); }
 
 /* A white sphere (optionally displaced) at distance 4 under a uniform dome of radiance 1. */
 static void write_furnace(const char *name, int displaced)
@@ -309,10 +292,5 @@ int main(void)
         cmocka_unit_test(test_shadow_rays_are_counted),
         cmocka_unit_test(test_environment_map),
     };
-    ts_device_info *list = NULL;
-    ts_error err = {0};
-    int n = cl_list_devices(&list, &err);
-    free(list);
-    if (n <= 0) return TS_TEST_SKIP;
-    return cmocka_run_group_tests(tests, setup, NULL);
+    return TEST_RUN_WITH_DEVICE(tests, setup);
 }

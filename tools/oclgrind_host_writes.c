@@ -20,6 +20,12 @@
  * every successful clBuildProgram appends "program<TAB>k1;k2;..." (CL_PROGRAM_KERNEL_NAMES)
  * and every successful clEnqueueNDRangeKernel appends "launch<TAB>kernel<TAB>device name".
  *
+ * A third problem of the same checker: clReleaseMemObject frees a buffer's index, the next
+ * clCreateBuffer reuses it, and the new buffer inherits the old one's shadow (its contents'
+ * "initialised" state and its size: stores past the old size are dropped, loads past it
+ * read as uninitialised). So the shim keeps the last reference of every buffer until the
+ * process ends: no index is reused. Tests and tiny renders allocate little.
+ *
  * Build: cc -shared -fPIC -o liboclgrind_host_writes.so tools/oclgrind_host_writes.c -ldl */
 #define _GNU_SOURCE
 #define CL_TARGET_OPENCL_VERSION 120
@@ -48,6 +54,7 @@ typedef void *(*clEnqueueMapBuffer_fn)(cl_command_queue, cl_mem, cl_bool, cl_map
 typedef cl_int (*clEnqueueUnmapMemObject_fn)(cl_command_queue, cl_mem, void *, cl_uint,
                                              const cl_event *, cl_event *);
 typedef cl_int (*clFinish_fn)(cl_command_queue);
+typedef cl_int (*clReleaseMemObject_fn)(cl_mem);
 typedef cl_int (*clGetMemObjectInfo_fn)(cl_mem, cl_mem_info, size_t, void *, size_t *);
 typedef cl_int (*clBuildProgram_fn)(cl_program, cl_uint, const cl_device_id *, const char *,
                                     void(CL_CALLBACK *)(cl_program, void *), void *);
@@ -206,4 +213,23 @@ cl_int clEnqueueNDRangeKernel(cl_command_queue q, cl_kernel k, cl_uint dim, cons
         log_line("launch", name, device);
     }
     return rc;
+}
+
+/* Keeps the last reference of a buffer (see the top of the file); sub-buffers and images
+ * are released as usual. */
+cl_int clReleaseMemObject(cl_mem mem)
+{
+    cl_mem_object_type type = 0;
+    cl_uint refs = 0;
+    cl_mem parent = NULL;
+    if (NEXT(clGetMemObjectInfo)(mem, CL_MEM_TYPE, sizeof type, &type, NULL) == CL_SUCCESS &&
+        type == CL_MEM_OBJECT_BUFFER &&
+        NEXT(clGetMemObjectInfo)(mem, CL_MEM_ASSOCIATED_MEMOBJECT, sizeof parent, &parent,
+                                 NULL) == CL_SUCCESS &&
+        parent == NULL &&
+        NEXT(clGetMemObjectInfo)(mem, CL_MEM_REFERENCE_COUNT, sizeof refs, &refs, NULL) ==
+            CL_SUCCESS &&
+        refs == 1)
+        return CL_SUCCESS;
+    return NEXT(clReleaseMemObject)(mem);
 }

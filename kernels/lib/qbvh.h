@@ -21,4 +21,18 @@ TS_INLINE void child_order(ts_u32 axes, float dx, float dy, float dz, ts_u32 ord
     order[3] = first == 0u ? pair1[1] : pair0[1];
 }
 
+/* Climbs from *node (all four children done) to its parent, and sets *pos to the position
+ * after it in the parent's child order (refreshed in order[]), so the ordered traversal
+ * goes on with the next sibling. */
+TS_INLINE void qbvh_ascend(TS_CONST_GLOBAL ts_qbvh_node *nodes, ts_u32 *node, ts_u32 *pos,
+                           ts_u32 order[4], float dx, float dy, float dz)
+{
+    ts_u32 slot = nodes[*node].parent_slot;
+    *node = (ts_u32)nodes[*node].parent;
+    child_order(nodes[*node].axes, dx, dy, dz, order);
+    ts_u32 p = 0u;
+    while (order[p] != slot) ++p;
+    *pos = p + 1u;
+}
+
 #endif

@@ -1,4 +1,5 @@
 #include "test_support.h"
+#include "image.h"
 
 #include <cjson/cJSON.h>
 #include <math.h>
@@ -133,4 +134,44 @@ double test_stats_number(const char *json_path, const char *key)
     double d = v->valuedouble;
     cJSON_Delete(root);
     return d;
+}
+
+const char *test_path_in(const char *dir, const char *name)
+{
+    static char buf[4][4400];
+    static int next;
+    char *p = buf[next++ % 4];
+    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
+    return p;
+}
+
+void test_tessera_ok(const char *dir, const char *fmt, ...)
+{
+    char args[8192];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(args, sizeof args, fmt, ap);
+    va_end(ap);
+    int rc = test_run_tessera(dir, "%s", args);
+    if (rc != 0) {
+        char cmd[4500];
+        snprintf(cmd, sizeof cmd, "cat '%s/stderr.txt' >&2", dir);
+        if (system(cmd) != 0) fprintf(stderr, "(no stderr)\n");
+        fail_msg("tessera %s exited %d", args, rc);
+    }
+}
+
+void test_read_image(const char *path, struct ts_image *img)
+{
+    ts_error err = {0};
+    if (image_read(path, img, &err)) fail_msg("%s", err.msg);
+}
+
+int test_has_device(void)
+{
+    ts_device_info *list = NULL;
+    ts_error err = {0};
+    int n = cl_list_devices(&list, &err);
+    free(list);
+    return n > 0;
 }

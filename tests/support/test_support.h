@@ -33,6 +33,19 @@ void test_write_sphere_patches(void *file, int k, double r);
 /* Reads a number from a --stats JSON file: `path` like "counters.rays" or
  * "lod_histogram.3"; fails the test if absent. */
 double test_stats_number(const char *json_path, const char *key);
+/* `dir/name` (static storage, four in rotation). */
+const char *test_path_in(const char *dir, const char *name);
+/* Runs `tessera ARGS` (printf-style) with test_run_tessera; on a non-zero exit prints its
+ * stderr and fails the test. */
+void test_tessera_ok(const char *dir, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* Reads an image with image_read or fails the test (free it with image_free). */
+struct ts_image;
+void test_read_image(const char *path, struct ts_image *img);
+/* The main() of a test that runs `tessera` or opens a device: exits 77 (skipped) when the
+ * machine has no OpenCL device, else runs the group. */
+#define TEST_RUN_WITH_DEVICE(tests, setup)                                                  \
+    (test_has_device() ? cmocka_run_group_tests(tests, setup, NULL) : TS_TEST_SKIP)
+int test_has_device(void);
 /* Deterministic uniform floats in [lo, hi). */
 float test_uniform(uint32_t *state, float lo, float hi);
 
