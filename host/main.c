@@ -20,7 +20,7 @@ static const char *usage_text =
     "       (MODEL: any mesh Assimp reads, framed by an automatic camera)\n"
     "options:\n"
     "  -o, --output FILE     image to write: .png (tone-mapped sRGB) or .exr (float RGB,\n"
-    "                        Z, N.x N.y N.z)\n"
+    "                        Z, N.x N.y N.z, albedo.R albedo.G albedo.B)\n"
     "      --res WxH         image size (default: the scene's Format, else 640x480)\n"
     "      --spp N           samples per pixel (default: the scene's PixelSamples, else 1)\n"
     "      --depth D         path depth: bounces after the eye ray, 0..64 (default 3;\n"
