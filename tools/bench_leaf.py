@@ -29,7 +29,7 @@ def main():
     configs = [(mode, int(size)) for size in a.sizes.split(",") for mode in ("ray", "group")]
     samples = {c: [] for c in configs}
     base = [a.binary, "render", a.scene, "-o", os.path.join(tmp, "x.exr"), "--quiet", "--res", a.res,
-            "--depth", "0", "--lod", a.lod, "--intersect", "triangles", "--stats", stats]
+            "--spp", "1", "--depth", "0", "--lod", a.lod, "--intersect", "triangles", "--stats", stats]
     for c in configs:  # warm the kernel caches
         subprocess.run(base + ["--leaf-mode", c[0], "--leaf-size", str(c[1])], check=True)
     for _ in range(a.runs):

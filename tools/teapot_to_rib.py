@@ -37,6 +37,7 @@ HEADER = """\
 # World space is z-up; the patches are in world space (no object transform).
 version 3.04
 Format 1280 720 1
+PixelSamples 4 4
 Projection "perspective" "fov" [32]
 # Key light in camera space (the CTM is the identity right after Projection): from the
 # upper left, in front of the teapot, shining towards +z.
