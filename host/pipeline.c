@@ -170,7 +170,7 @@ static int build_lights(ts_pipeline *p, ts_patch_attr *attr, ts_light *lights, t
     }
     for (uint32_t i = 0; i < s->patch_count; ++i)
         ne += attr[i].le_r > 0 || attr[i].le_g > 0 || attr[i].le_b > 0;
-    *em = malloc((ne ? ne : 1) * sizeof **em);
+    *em = calloc(ne ? ne : 1, sizeof **em);
     if (!*em) return ts_error_set(err, TS_E_MEMORY, "out of memory");
     double total = 0;
     ne = 0;
@@ -202,13 +202,12 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
     const ts_scene *s = p->scene;
     size_t n = s->patch_count ? s->patch_count : 1;
     const cl_mem_flags ro_copy = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
-    ts_vec4 *flat = malloc(n * sizeof *flat), *normals = NULL;
-    ts_patch_attr *attr = malloc(n * sizeof *attr);
+    ts_vec4 *flat = calloc(n, sizeof *flat), *normals = NULL;
+    ts_patch_attr *attr = calloc(n, sizeof *attr);
     ts_light lights[66];
     ts_emitter *emitters = NULL;
     uint32_t emitter_count = 0;
     env_map env = {0};
-    static const float one = 1.0f;
     if (s->dome.present && s->dome.mapname[0] && env_load(s->dome.mapname, &env, err)) {
         free(env.texels), free(env.marginal), free(env.conditional), free(flat), free(attr);
         return err->code;
@@ -255,26 +254,19 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
         {&p->attr, n * sizeof(ts_patch_attr), attr},
         {&p->lights, (p->light_count ? p->light_count : 1) * sizeof(ts_light), lights},
         {&p->emitters, (emitter_count ? emitter_count : 1) * sizeof(ts_emitter), emitters},
-        {&p->env_texels, (env.width ? (size_t)env.width * env.height : 1) * sizeof(ts_vec4),
-         env.width ? (const void *)env.texels : (const void *)lights},
-        {&p->env_marginal, (env.width ? env.height : 1) * sizeof(float),
-         env.width ? (const void *)env.marginal : (const void *)&one},
-        {&p->env_conditional, (env.width ? (size_t)env.width * env.height : 1) * sizeof(float),
-         env.width ? (const void *)env.conditional : (const void *)&one},
+        {&p->env_texels, (env.width ? (size_t)env.width * env.height : 1) * sizeof(ts_vec4), env.texels},
+        {&p->env_marginal, (env.width ? env.height : 1) * sizeof(float), env.marginal},
+        {&p->env_conditional, (env.width ? (size_t)env.width * env.height : 1) * sizeof(float), env.conditional},
         {&p->xform, (s->xform_count ? s->xform_count : 1) * sizeof(ts_xform),
          s->xform_count ? (const void *)s->xform : (const void *)&identity},
         {&p->flatness, n * sizeof(ts_vec4), flat},
     };
     int rc = TS_OK;
     for (size_t i = 0; i < sizeof list / sizeof *list && rc == TS_OK; ++i) {
-        /* An empty scene still gets one (unused) element so no buffer has size 0. */
+        /* What the scene lacks (no patch, no map) is one unused zeroed element, so no buffer
+         * has size 0; the largest such element is a patch's 16 control points. */
         static const ts_vec4 zeros[16];
-        const void *host = s->patch_count || list[i].host == p->qbvh.nodes ||
-                                   list[i].host == lights || list[i].host == &one ||
-                                   list[i].host == env.texels || list[i].host == env.marginal ||
-                                   list[i].host == env.conditional
-                               ? list[i].host : zeros;
-        if (!host) host = zeros;
+        const void *host = list[i].host ? list[i].host : zeros;
         *list[i].m = cl_buffer_create(p->cl, ro_copy, list[i].size, (void *)host, err);
         if (!*list[i].m) rc = err->code;
     }

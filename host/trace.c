@@ -27,8 +27,20 @@ static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per
     return cl_finish(p->cl, p->stats, err);
 }
 
-/* Gives each segment its LOD and arena place and cuts the segments into batches that fit
- * the arenas; lists each batch's trees (segment, time) by decreasing m. */
+/* Gives each segment its LOD: --lod's, clamped to max_lod, or its patch's from the lod
+ * stage. */
+static void assign_lods(ts_pipeline *p, uint32_t segs)
+{
+    int fixed = p->mode.fixed_lod;
+    for (uint32_t i = 0; i < segs; ++i) {
+        ts_segment *s = &p->segments_host[i];
+        s->lod = fixed >= 0 ? ((uint32_t)fixed < p->plan.max_lod ? (uint32_t)fixed : p->plan.max_lod)
+                            : p->patch_lod[s->patch];
+    }
+}
+
+/* Gives each segment (its LOD set) its arena place and cuts the segments into batches
+ * that fit the arenas; lists each batch's trees (segment, time) by decreasing m. */
 static void plan_batches(ts_pipeline *p, uint32_t segs)
 {
     uint32_t vused = 0, gused = 0, ntrees = 0;
@@ -37,9 +49,6 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
     for (uint32_t i = 0; i < segs; ++i) {
         ts_segment *s = &p->segments_host[i];
         const ts_patch_attr *a = &p->scene->attr[s->patch];
-        int fixed = p->mode.fixed_lod;
-        s->lod = fixed >= 0 ? ((uint32_t)fixed < p->plan.max_lod ? (uint32_t)fixed : p->plan.max_lod)
-                            : p->patch_lod[s->patch];
         s->flags = a->flags & TS_PATCH_MOVING;
         s->pad = 0;
         uint32_t times = s->flags ? 2u : 1u;
@@ -98,6 +107,7 @@ static int stage_sort(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint3
     CL_CHECK(clEnqueueUnmapMemObject(q, p->pairs[0], a, 0, NULL, NULL), err);
     CL_CHECK(clEnqueueUnmapMemObject(q, p->pairs[1], b, 0, NULL, NULL), err);
     if (rc) return rc;
+    assign_lods(p, segs);
     plan_batches(p, segs);
     if (segs) {
         CL_CHECK(clEnqueueWriteBuffer(q, p->segments, CL_TRUE, 0, segs * sizeof(ts_segment),
@@ -113,14 +123,27 @@ static int stage_sort(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint3
     return TS_OK;
 }
 
-/* Dices each tree run of one LOD with one launch (trees are listed by decreasing m). */
+/* The LOD of tree t of batch b. */
+static uint32_t tree_lod(const ts_pipeline *p, const ts_batch *b, uint32_t t)
+{
+    return p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])].lod;
+}
+
+/* How many trees from t on share tree t's LOD (*m): one launch of dice or build_leaves
+ * each (trees are listed by decreasing m). */
+static uint32_t tree_run(const ts_pipeline *p, const ts_batch *b, uint32_t t, uint32_t *m)
+{
+    uint32_t run = 0;
+    *m = tree_lod(p, b, t);
+    while (t + run < b->tree_count && tree_lod(p, b, t + run) == *m) ++run;
+    return run;
+}
+
+/* Dices each tree run of one LOD with one launch. */
 static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
     for (uint32_t t = 0; t < b->tree_count;) {
-        uint32_t m = p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])].lod, run = 0;
-        while (t + run < b->tree_count &&
-               p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t + run])].lod == m)
-            ++run;
+        uint32_t m, run = tree_run(p, b, t, &m);
         uint32_t first = b->tree_first + t;
         if (cl_set_args(p->k_dice, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
                         ARG(p->segments), ARG(p->cp), ARG(p->cp1), ARG(p->corner_n), ARG(p->attr),
@@ -143,10 +166,7 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
     uint32_t top = 0;
     for (uint32_t t = 0; t < b->tree_count;) {
-        uint32_t m = p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])].lod, run = 0;
-        while (t + run < b->tree_count &&
-               p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t + run])].lod == m)
-            ++run;
+        uint32_t m, run = tree_run(p, b, t, &m);
         if (t == 0) top = m;
         uint32_t first = b->tree_first + t;
         if (cl_set_args(p->k_build_leaves, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
@@ -159,9 +179,7 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
     }
     for (uint32_t level = top; level-- > 0;) {
         uint32_t deeper = 0; /* trees with m > level: a prefix of the list */
-        while (deeper < b->tree_count &&
-               p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + deeper])].lod > level)
-            ++deeper;
+        while (deeper < b->tree_count && tree_lod(p, b, deeper) > level) ++deeper;
         if (cl_set_args(p->k_build_level, err, ARG(p->trees), ARG(b->tree_first), ARG(deeper),
                         ARG(level), ARG(p->segments), ARG(p->groups), (size_t)0) ||
             cl_launch(p->cl, p->k_build_level, TS_STAGE_build, (size_t)deeper << (2u * level),
@@ -233,18 +251,7 @@ int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray
 
 int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
 {
-    /* Keep the caller's per-segment LODs: plan_batches reads them from patch_lod. */
-    size_t n = p->scene->patch_count ? p->scene->patch_count : 1;
-    uint8_t *saved = p->patch_lod, *lods = calloc(n, 1);
-    if (!lods) return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    for (uint32_t i = 0; i < count; ++i) lods[p->segments_host[i].patch] = (uint8_t)p->segments_host[i].lod;
-    int fixed = p->mode.fixed_lod;
-    p->mode.fixed_lod = -1;
-    p->patch_lod = lods;
-    plan_batches(p, count);
-    p->patch_lod = saved;
-    p->mode.fixed_lod = fixed;
-    free(lods);
+    plan_batches(p, count); /* the caller set each segment's LOD */
     if (p->batch_count != 1)
         return ts_error_set(err, TS_E_INTERNAL, "pipeline_dice_build: the segments do not fit one batch");
     CL_CHECK(clEnqueueWriteBuffer(p->cl->queue, p->segments, CL_TRUE, 0, count * sizeof(ts_segment),

@@ -137,8 +137,9 @@ typedef struct bl_trav {
     float stack_t[BL_STACK];
     int sp;
     uint blk[4]; /* the hit blocks of the last node expanded, nearest first */
-    float blt[4];
+    float blt[4], blr[4]; /* their entry distances, clamped to tmin and raw */
     uint qn, qi; /* how many, and the next to visit */
+    float root_raw; /* the root's raw entry, for a root that is itself the block */
 } bl_trav;
 
 inline bl_ray bl_ray_make(ts_vec4 o, ts_vec4 d)
@@ -189,32 +190,38 @@ inline void bl_trav_start(bl_trav *s, const bl_ray *r, const bl_patch *pt, float
 {
     float4 raw;
     float te = group_enter(pt->t0, pt->t1, r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw).x;
-    s->sp = 0, s->qn = 0, s->qi = 0;
+    s->sp = 0, s->qn = 0, s->qi = 0, s->root_raw = raw.x;
     if (te >= 0.0f) s->stack[0] = 0u, s->stack_t[0] = te, s->sp = 1;
 }
 
 /* The next block of level L to visit (its index), or -1 when the traversal is done:
  * blocks are taken from the last expanded node nearest first, skipping those that start
- * beyond tmax; then the stack is popped and nodes expanded front to back. */
-inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L, float tmax)
+ * beyond tmax; then the stack is popped and nodes expanded front to back. *te and *raw get
+ * the block box's entry distance (clamped to tmin, and raw), so a block that is a single
+ * leaf box (leaf_b = 0, box mode) needs no second test. */
+inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L, float tmax,
+                         float *te, float *raw)
 {
     for (;;) {
         while (s->qi < s->qn && s->blt[s->qi] > tmax) ++s->qi;
-        if (s->qi < s->qn) return (int)s->blk[s->qi++];
+        if (s->qi < s->qn) {
+            *te = s->blt[s->qi], *raw = s->blr[s->qi];
+            return (int)s->blk[s->qi++];
+        }
         if (s->sp == 0) return -1;
         --s->sp;
         if (s->stack_t[s->sp] > tmax) continue;
         uint level = s->stack[s->sp] >> 24, k = s->stack[s->sp] & 0xffffffu;
         if (level == L) { /* the root itself is the block */
-            s->blk[0] = k, s->blt[0] = s->stack_t[s->sp], s->qn = 1, s->qi = 0;
+            s->blk[0] = k, s->blt[0] = s->stack_t[s->sp], s->blr[0] = s->root_raw, s->qn = 1, s->qi = 0;
             continue;
         }
         uint grp = quadtree_group_offset(level + 1u) + k;
         float4 raw, e4 = group_enter(pt->t0 + grp, pt->t1 ? pt->t1 + grp : 0, r->inv.w, r->o4,
                                      r->inv, r->tmin, tmax, &raw);
-        float e[4] = {e4.x, e4.y, e4.z, e4.w};
+        float e[4] = {e4.x, e4.y, e4.z, e4.w}, er[4] = {raw.x, raw.y, raw.z, raw.w};
         /* Children that are hit, sorted by entry distance, farthest first. */
-        float tc[4];
+        float tc[4], tr[4];
         uint id[4];
         uint nc = 0;
         for (uint q = 0; q < 4u; ++q) {
@@ -222,14 +229,17 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
             uint at = nc++;
             while (at > 0u && tc[at - 1u] < e[q]) {
                 tc[at] = tc[at - 1u];
+                tr[at] = tr[at - 1u];
                 id[at] = id[at - 1u];
                 --at;
             }
             tc[at] = e[q];
+            tr[at] = er[q];
             id[at] = 4u * k + q;
         }
         if (level + 1u == L) { /* the children are blocks: visit them nearest first */
-            for (uint q = 0; q < nc; ++q) s->blk[q] = id[nc - 1u - q], s->blt[q] = tc[nc - 1u - q];
+            for (uint q = 0; q < nc; ++q)
+                s->blk[q] = id[nc - 1u - q], s->blt[q] = tc[nc - 1u - q], s->blr[q] = tr[nc - 1u - q];
             s->qn = nc, s->qi = 0;
             continue;
         }
@@ -282,8 +292,15 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
             uint b = min(leaf_b, pt.m), L = pt.m - b, nq = 1u << (2u * b);
             bl_trav s;
             bl_trav_start(&s, &r, &pt, best.t);
-            for (int k; (k = bl_next_block(&s, &r, &pt, L, best.t)) >= 0;)
+            float te, raw;
+            for (int k; (k = bl_next_block(&s, &r, &pt, L, best.t, &te, &raw)) >= 0;) {
+                if (!exact && b == 0u) { /* the block is one leaf box, already tested */
+                    if (raw >= r.tmin) leaf_box(pt.m, (uint)k, te, &best, pt.patch);
+                    ++tests;
+                    continue;
+                }
                 for (uint q = 0; q < nq; ++q, ++tests) quad_test(&r, &pt, ((uint)k << (2u * b)) + q, exact, &best);
+            }
         }
         if (best.patch == TS_INVALID) best.t = TS_NO_HIT;
         pair_hit[window] = best;
@@ -329,7 +346,8 @@ bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_cou
     }
     for (;;) {
         /* 1. Each work-item advances to its next block and posts its micro-quads. */
-        int k = done ? -1 : bl_next_block(&s, &r, &pt, L, best.t);
+        float te, raw; /* (the group kernel re-tests single leaf boxes in its tasks) */
+        int k = done ? -1 : bl_next_block(&s, &r, &pt, L, best.t, &te, &raw);
         if (k < 0) done = 1;
         count = done ? 0u : 1u << (2u * b);
         if (!done) {

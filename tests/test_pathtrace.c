@@ -130,6 +130,31 @@ static void mean_and_var(const char *a, const char *b, double *mean, double *var
     image_free(&y);
 }
 
+/* Renders `scene` with light sampling, BSDF sampling and MIS, each with two seeds (32 spp,
+ * the given depth), and fails unless the three image means agree within 5 sigma of the
+ * two-seed variance estimates; var gets those variances. Leaves the MIS seed-1 render in
+ * a.exr. */
+static void estimators_agree(const char *scene, int depth, double var[3])
+{
+    const char *modes[] = {"light", "bsdf", "mis"};
+    double mean[3];
+    for (int m = 0; m < 3; ++m) {
+        char args[256];
+        snprintf(args, sizeof args, "--spp 32 --depth %d --sampling %s --seed 2", depth, modes[m]);
+        render(scene, "b.exr", args);
+        snprintf(args, sizeof args, "--spp 32 --depth %d --sampling %s --seed 1", depth, modes[m]);
+        render(scene, "a.exr", args);
+        mean_and_var("a.exr", "b.exr", &mean[m], &var[m]);
+    }
+    for (int i = 0; i < 3; ++i)
+        for (int j = i + 1; j < 3; ++j) {
+            double tol = 5 * sqrt(var[i] + var[j]);
+            if (fabs(mean[i] - mean[j]) > tol)
+                fail_msg("%s: %s mean %g vs %s mean %g: more than 5 sigma (%g)", scene, modes[i],
+                         mean[i], modes[j], mean[j], tol);
+        }
+}
+
 static void test_light_bsdf_and_mis_agree(void **state)
 {
     FILE *f = fopen(path("mis.rib"), "w");
@@ -143,23 +168,8 @@ static void test_light_bsdf_and_mis_agree(void **state)
           "Patch \"bilinear\" \"P\" [-3 -3 0  3 -3 0  -3 3 0  3 3 0]\nWorldEnd\n",
           f);
     fclose(f);
-    const char *modes[] = {"light", "bsdf", "mis"};
-    double mean[3], var[3];
-    for (int m = 0; m < 3; ++m) {
-        char args[256];
-        snprintf(args, sizeof args, "--spp 32 --depth 2 --sampling %s --seed 1", modes[m]);
-        render("mis.rib", "a.exr", args);
-        snprintf(args, sizeof args, "--spp 32 --depth 2 --sampling %s --seed 2", modes[m]);
-        render("mis.rib", "b.exr", args);
-        mean_and_var("a.exr", "b.exr", &mean[m], &var[m]);
-    }
-    for (int i = 0; i < 3; ++i)
-        for (int j = i + 1; j < 3; ++j) {
-            double tol = 5 * sqrt(var[i] + var[j]);
-            if (fabs(mean[i] - mean[j]) > tol)
-                fail_msg("%s mean %g vs %s mean %g: more than 5 sigma (%g)", modes[i], mean[i],
-                         modes[j], mean[j], tol);
-        }
+    double var[3];
+    estimators_agree("mis.rib", 2, var);
     /* MIS should be no noisier than the worse of the two alone. */
     assert_true(var[2] <= fmax(var[0], var[1]));
 }
@@ -258,21 +268,9 @@ static void test_environment_map(void **state)
     test_write_sphere_patches(f, 2, 1.0);
     fputs("WorldEnd\n", f);
     fclose(f);
-    const char *modes[] = {"light", "bsdf", "mis"};
-    double mean[3], var[3];
-    for (int m = 0; m < 3; ++m) {
-        char args[256];
-        snprintf(args, sizeof args, "--spp 32 --depth 1 --sampling %s --seed 1", modes[m]);
-        render("spot.rib", "a.exr", args);
-        snprintf(args, sizeof args, "--spp 32 --depth 1 --sampling %s --seed 2", modes[m]);
-        render("spot.rib", "b.exr", args);
-        mean_and_var("a.exr", "b.exr", &mean[m], &var[m]);
-    }
-    for (int i = 0; i < 3; ++i)
-        for (int j = i + 1; j < 3; ++j)
-            if (fabs(mean[i] - mean[j]) > 5 * sqrt(var[i] + var[j]))
-                fail_msg("spot map: %s mean %g vs %s mean %g", modes[i], mean[i], modes[j], mean[j]);
-    load("a.exr", &img); /* mis, seed 2 */
+    double var[3];
+    estimators_agree("spot.rib", 1, var);
+    load("a.exr", &img); /* mis, seed 1 */
     double top = 0, bottom = 0;
     for (int y = 0; y < img.height; ++y)
         for (int x = 0; x < img.width; ++x)

@@ -16,39 +16,10 @@
 #include <unistd.h>
 #include <setjmp.h>
 #include <cmocka.h>
+#include "test_support.h"
 
 /* ---- helpers -------------------------------------------------------------------------- */
 
-/* $TESSERA_SOURCE_DIR/rel (set by ctest), else the first of ., .., ../.. holding it. */
-static const char *source_path(const char *rel)
-{
-    static char buf[4096];
-    const char *dir = getenv("TESSERA_SOURCE_DIR");
-    if (dir && *dir) {
-        snprintf(buf, sizeof buf, "%s/%s", dir, rel);
-        return buf;
-    }
-    static const char *const tries[] = {".", "..", "../.."};
-    for (size_t i = 0; i < 3; i++) {
-        snprintf(buf, sizeof buf, "%s/%s", tries[i], rel);
-        if (access(buf, R_OK) == 0) return buf;
-    }
-    return rel;
-}
-
-static int parse(const char *text, ts_scene *s, ts_error *e)
-{
-    memset(s, 0, sizeof *s);
-    memset(e, 0, sizeof *e);
-    return rib_parse_string("t.rib", text, strlen(text), s, 1, e);
-}
-
-/* Parses text that must load; fails the test with the loader's message otherwise. */
-static void parse_ok(const char *text, ts_scene *s)
-{
-    ts_error e;
-    if (parse(text, s, &e) != TS_OK) fail_msg("unexpected error: %s", e.msg);
-}
 
 /* Parses text that must fail with `code` and a message that is exactly `msg`, or starts
  * with it when msg ends in "...". The scene must be left empty. */
@@ -56,7 +27,7 @@ static void expect_error(const char *text, int code, const char *msg)
 {
     ts_scene s;
     ts_error e;
-    assert_int_equal(parse(text, &s, &e), code);
+    assert_int_equal(test_parse_rib(text, &s, &e), code);
     assert_int_equal(e.code, code);
     size_t n = strlen(msg);
     if (n > 3 && strcmp(msg + n - 3, "...") == 0) {
@@ -158,7 +129,7 @@ static void check_basis_patch(const char *basis_line, const ts_basis *bu, const 
     print_points(text, sizeof text, (const double(*)[3])g, 16);
     strncat(text, "WorldEnd\n", sizeof text - strlen(text) - 1);
     ts_scene s;
-    parse_ok(text, &s);
+    test_parse_rib_ok(text, &s);
     assert_int_equal(s.patch_count, 1);
     for (int k = 0; k < 50; k++) {
         double u = lcg(&seed), v = lcg(&seed), a[3], b[3];
@@ -178,7 +149,7 @@ static void test_translate_then_rotate(void **state)
 {
     (void)state;
     ts_scene s;
-    parse_ok("WorldBegin\nTranslate 1 2 3\nRotate 90 0 0 1\n" BILINEAR_UNIT "WorldEnd\n", &s);
+    test_parse_rib_ok("WorldBegin\nTranslate 1 2 3\nRotate 90 0 0 1\n" BILINEAR_UNIT "WorldEnd\n", &s);
     assert_int_equal(s.patch_count, 1);
     assert_vec(&s.cp[0], 1, 3, 3, 1e-6);   /* (1,0,0) -> (0,1,0) -> +(1,2,3) */
     assert_vec(&s.cp[3], 0, 2, 3, 1e-6);   /* (0,1,0) -> (-1,0,0) -> ... */
@@ -206,7 +177,7 @@ static void test_rotate_convention(void **state)
         char text[512];
         snprintf(text, sizeof text, "WorldBegin\n%s\n%sWorldEnd\n", cases[k].rotate, BILINEAR_UNIT);
         ts_scene s;
-        parse_ok(text, &s);
+        test_parse_rib_ok(text, &s);
         assert_vec(&s.cp[0], cases[k].x, cases[k].y, cases[k].z, 1e-6);
         assert_vec(&s.cp[12], cases[k].ux, cases[k].uy, cases[k].uz, 1e-6);
         scene_free(&s);
@@ -218,11 +189,11 @@ static void test_scale_and_matrices(void **state)
     (void)state;
     ts_scene s;
     /* Scale then Translate: the translation applies first. */
-    parse_ok("WorldBegin\nScale 2 3 4\nTranslate 1 1 1\n" BILINEAR_UNIT "WorldEnd\n", &s);
+    test_parse_rib_ok("WorldBegin\nScale 2 3 4\nTranslate 1 1 1\n" BILINEAR_UNIT "WorldEnd\n", &s);
     assert_vec(&s.cp[0], 4, 3, 4, 1e-6);
     scene_free(&s);
     /* RIB matrices are for row vectors: the translation is in elements 12..14. */
-    parse_ok("WorldBegin\nTranslate 100 0 0\n"
+    test_parse_rib_ok("WorldBegin\nTranslate 100 0 0\n"
              "ConcatTransform [1 0 0 0  0 1 0 0  0 0 1 0  5 6 7 1]\n" BILINEAR_UNIT
              "Transform [2 0 0 0  0 2 0 0  0 0 2 0  0 0 1 1]\n" BILINEAR_UNIT
              "Identity\n" BILINEAR_UNIT "WorldEnd\n",
@@ -239,7 +210,7 @@ static void test_world_to_camera(void **state)
 {
     (void)state;
     ts_scene s;
-    parse_ok("Projection \"perspective\" \"fov\" [45]\nTranslate 0 0 10\nRotate 90 0 1 0\n"
+    test_parse_rib_ok("Projection \"perspective\" \"fov\" [45]\nTranslate 0 0 10\nRotate 90 0 1 0\n"
              "WorldBegin\nTranslate 1 0 0\n" BILINEAR_UNIT "WorldEnd\n",
              &s);
     const double *m = s.camera.world_to_camera;
@@ -253,7 +224,7 @@ static void test_world_to_camera(void **state)
     assert_int_equal(s.camera.has_format, 0);
     scene_free(&s);
     /* Defaults with no camera at all; a file without WorldBegin is world = camera. */
-    parse_ok(BILINEAR_UNIT, &s);
+    test_parse_rib_ok(BILINEAR_UNIT, &s);
     assert_true(s.camera.fov_deg == 90.0);
     for (int k = 0; k < 16; k++)
         assert_true(s.camera.world_to_camera[k] == (k % 5 == 0));
@@ -265,7 +236,7 @@ static void test_format_and_projection(void **state)
 {
     (void)state;
     ts_scene s;
-    parse_ok("Format 640 480 1\nProjection \"perspective\" \"float fov\" [30.5]\n", &s);
+    test_parse_rib_ok("Format 640 480 1\nProjection \"perspective\" \"float fov\" [30.5]\n", &s);
     assert_int_equal(s.camera.has_format, 1);
     assert_int_equal(s.camera.width, 640);
     assert_int_equal(s.camera.height, 480);
@@ -279,7 +250,7 @@ static void test_blocks_restore_state(void **state)
 {
     (void)state;
     ts_scene s;
-    parse_ok("WorldBegin\nColor [0.5 0.25 0.125]\n"
+    test_parse_rib_ok("WorldBegin\nColor [0.5 0.25 0.125]\n"
              "AttributeBegin\nColor 1 0 0\nTranslate 5 0 0\nBasis \"b-spline\" 1 \"b-spline\" "
              "1\n" BILINEAR_UNIT "AttributeEnd\n" BILINEAR_UNIT
              "TransformBegin\nColor [0 1 0]\nTranslate 0 7 0\n" BILINEAR_UNIT
@@ -296,7 +267,7 @@ static void test_blocks_restore_state(void **state)
     assert_true(s.attr[3].cs_g == 1.0f && s.attr[3].cs_r == 0.0f); /* ... but not Color */
     scene_free(&s);
     /* AttributeEnd restores the basis: this grid must come through unchanged (Bézier). */
-    parse_ok("AttributeBegin\nBasis \"catmull-rom\" 1 \"catmull-rom\" 1\nAttributeEnd\n"
+    test_parse_rib_ok("AttributeBegin\nBasis \"catmull-rom\" 1 \"catmull-rom\" 1\nAttributeEnd\n"
              "Patch \"bicubic\" \"P\" [0 0 0 1 0 0 2 0 0 3 0 0  0 1 0 1 1 1 2 1 0 3 1 0\n"
              "0 2 0 1 2 0 2 2 5 3 2 0  0 3 0 1 3 0 2 3 0 3 3 9]\n",
              &s);
@@ -335,7 +306,7 @@ static void test_bilinear_exact(void **state)
 {
     (void)state;
     ts_scene s;
-    parse_ok("Patch \"bilinear\" \"P\" [0 0 0  3 0 1  0 3 2  3 3 -6]\n", &s);
+    test_parse_rib_ok("Patch \"bilinear\" \"P\" [0 0 0  3 0 1  0 3 2  3 3 -6]\n", &s);
     uint32_t seed = 7;
     for (int k = 0; k < 50; k++) {
         double u = lcg(&seed), v = lcg(&seed), a[3];
@@ -349,7 +320,7 @@ static void test_bilinear_exact(void **state)
 static void mesh_count(const char *text, uint32_t want)
 {
     ts_scene s;
-    parse_ok(text, &s);
+    test_parse_rib_ok(text, &s);
     assert_int_equal(s.patch_count, want);
     scene_free(&s);
 }
@@ -386,7 +357,7 @@ static void test_patch_mesh_counts(void **state)
     mesh_count(text, 21);
     /* The periodic wrap: the last bilinear patch in u runs from point 6 back to point 0. */
     ts_scene s;
-    parse_ok(text, &s);
+    test_parse_rib_ok(text, &s);
     assert_vec(&s.cp[6 * 16 + 0], 6, 0, 0.06, 1e-6);
     assert_vec(&s.cp[6 * 16 + 3], 0, 0, 0, 1e-6);
     scene_free(&s);
@@ -395,7 +366,7 @@ static void test_patch_mesh_counts(void **state)
              "Basis \"b-spline\" 1 \"b-spline\" 1\n"
              "PatchMesh \"bicubic\" 7 \"periodic\" 4 \"nonperiodic\" \"P\" %s",
              pts);
-    parse_ok(text, &s);
+    test_parse_rib_ok(text, &s);
     double g[16][3], a[3], b[3];
     for (int j = 0; j < 4; j++)
         for (int i = 0; i < 4; i++)
@@ -414,14 +385,14 @@ static void test_arrays_comments_escapes(void **state)
     ts_scene s;
     /* Arrays across lines with comments inside; "\120" is an octal 'P', "bi\154inear" an
      * octal 'l'; a backslash-newline continues a string. */
-    parse_ok("# header comment\nWorldBegin # trailing\nPatch \"bi\\154in\\\near\" # c\n"
+    test_parse_rib_ok("# header comment\nWorldBegin # trailing\nPatch \"bi\\154in\\\near\" # c\n"
              "  \"\\120\" [ 1 0 0 # first point\n   0 1 0\n\n 0 0 1\n 2 3 4 ] WorldEnd",
              &s);
     assert_int_equal(s.patch_count, 1);
     assert_vec(&s.cp[15], 2, 3, 4, 0);
     scene_free(&s);
     /* CR LF line ends, also after a continuation backslash. */
-    parse_ok(
+    test_parse_rib_ok(
         "WorldBegin\r\nPatch \"bil\\\r\ninear\" \"P\" [1 0 0 0 1 0 0 0 1 2 3 4]\r\nWorldEnd\r\n",
         &s);
     assert_int_equal(s.patch_count, 1);
@@ -430,7 +401,7 @@ static void test_arrays_comments_escapes(void **state)
     expect_error("Projection \"x\\ty\\\\z\\\"w\\n\"", TS_E_SCENE,
                  "t.rib:1:12: error: unknown projection \"x?y\\z\"w?\"");
     /* Numbers: signs, leading dots, exponents. */
-    parse_ok("Patch \"bilinear\" \"P\" [+1 -.5 1e1  2.5E-1 0. -0  1 1 1  0 0 0]\n", &s);
+    test_parse_rib_ok("Patch \"bilinear\" \"P\" [+1 -.5 1e1  2.5E-1 0. -0  1 1 1  0 0 0]\n", &s);
     assert_vec(&s.cp[0], 1, -0.5, 10, 0);
     assert_vec(&s.cp[3], 0.25, 0, 0, 0);
     scene_free(&s);
@@ -442,7 +413,7 @@ static void test_lights(void **state)
 {
     (void)state;
     ts_scene s;
-    parse_ok("WorldBegin\nTranslate 1 2 3\nLightSource \"distantlight\" 1\n"
+    test_parse_rib_ok("WorldBegin\nTranslate 1 2 3\nLightSource \"distantlight\" 1\n"
              "LightSource \"distantlight\" \"key\" \"intensity\" 2 \"lightcolor\" [1 0.5 0.25]\n"
              "  \"point from\" [0 0 0] \"point to\" [1 0 0]\n"
              "LightSource \"distantlight\" \"from\" [0 5 0] \"to\" [0 0 0]\nWorldEnd\n",
@@ -458,7 +429,7 @@ static void test_lights(void **state)
     assert_dvec(s.lights[2].from, 1, 7, 3, 0);
     scene_free(&s);
     /* Before WorldBegin a light is in camera space and is moved to world space. */
-    parse_ok("LightSource \"distantlight\" 1 \"from\" [0 0 0] \"to\" [0 0 1]\n"
+    test_parse_rib_ok("LightSource \"distantlight\" 1 \"from\" [0 0 0] \"to\" [0 0 1]\n"
              "Translate 0 0 5\nRotate 90 0 1 0\nWorldBegin\nWorldEnd\n",
              &s);
     assert_dvec(s.lights[0].from, 5, 0, 0, 1e-12); /* camera origin in world space */
@@ -489,7 +460,7 @@ static void test_teapot_file(void **state)
     ts_error e;
     memset(&s, 0, sizeof s);
     memset(&e, 0, sizeof e);
-    const char *path = source_path("scene/teapot.rib");
+    const char *path = test_source_path("scene/teapot.rib");
     if (rib_load(path, &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
     assert_int_equal(s.patch_count, 32);
     assert_vec(&s.cp[0], 1.4f, 0.0f, 2.4f, 0); /* no object transform: exactly the data */
@@ -526,7 +497,7 @@ static void test_one_patch_file(void **state)
     ts_error e;
     memset(&s, 0, sizeof s);
     memset(&e, 0, sizeof e);
-    if (rib_load(source_path("scene/one_patch.rib"), &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    if (rib_load(test_source_path("scene/one_patch.rib"), &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
     assert_int_equal(s.patch_count, 1);
     assert_int_equal(s.light_count, 1);
     assert_framed(&s, 1.0);
@@ -740,7 +711,7 @@ static void test_ignored_requests_warn_once(void **state)
 static void test_hostile_input(void **state)
 {
     (void)state;
-    FILE *f = fopen(source_path("scene/teapot.rib"), "rb");
+    FILE *f = fopen(test_source_path("scene/teapot.rib"), "rb");
     assert_non_null(f);
     static char text[65536];
     size_t len = fread(text, 1, sizeof text, f);
@@ -797,7 +768,7 @@ static void test_displacement(void **state)
 {
     (void)state;
     ts_scene s;
-    parse_ok("WorldBegin\n"
+    test_parse_rib_ok("WorldBegin\n"
              "Displacement \"fbm\" \"float amplitude\" [0.2] \"frequency\" [3] \"octaves\" 5.4\n"
              "  \"uniform float lacunarity\" [2.5] \"gain\" 0.4\n"
              "Scale 2 2 2\nTranslate 1 0 0\n" BILINEAR_UNIT
@@ -842,7 +813,7 @@ static void test_displacement(void **state)
     scene_free(&s);
     /* Before WorldBegin the CTM ends in camera space: the transform (and the points) are
      * moved to world space at WorldBegin. */
-    parse_ok("Rotate 90 0 0 1\nDisplacement \"fbm\"\n" BILINEAR_UNIT
+    test_parse_rib_ok("Rotate 90 0 0 1\nDisplacement \"fbm\"\n" BILINEAR_UNIT
              "Identity\nTranslate 0 0 5\nRotate 90 0 1 0\nWorldBegin\nWorldEnd\n",
              &s);
     static const double obj[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {2, 3, 4}};
@@ -865,7 +836,7 @@ static void test_explicit_normals(void **state)
     /* Rotate (written first) acts after Scale: n' = R S^-1 n. (1,1,0) -> (0.5,1,0) ->
      * (-1,0.5,0). The second patch shares corners with the first and has no "N": it is
      * averaged on its own and does not change the first's. */
-    parse_ok("WorldBegin\nRotate 90 0 0 1\nScale 2 1 1\n"
+    test_parse_rib_ok("WorldBegin\nRotate 90 0 0 1\nScale 2 1 1\n"
              "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 1] \"N\" [1 1 0  0 0 3  1 0 0  0 1 0]\n"
              "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 1]\n"
              "Patch \"bicubic\" \"P\" [0 0 0 1 0 0 2 0 0 3 0 0  0 1 0 1 1 0 2 1 0 3 1 0\n"
@@ -897,7 +868,7 @@ static void mesh_normals(const char *head, int npts, int nn, const int *want, in
     print_points(nrm, sizeof nrm, (const double(*)[3])n, nn);
     snprintf(text, sizeof text, "%s \"P\" %s \"N\" %s", head, pts, nrm);
     ts_scene s;
-    parse_ok(text, &s);
+    test_parse_rib_ok(text, &s);
     assert_int_equal(s.patch_count, npatch);
     for (int k = 0; k < npatch * 4; k++) {
         const ts_vec4 *c = &s.corner_n[k];
@@ -944,7 +915,7 @@ static void test_motion(void **state)
 {
     (void)state;
     ts_scene s;
-    parse_ok("WorldBegin\n" BILINEAR_UNIT "MotionBegin [0 1]\n"
+    test_parse_rib_ok("WorldBegin\n" BILINEAR_UNIT "MotionBegin [0 1]\n"
              "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1 0 0 1 0 0 1 0 0 1]\n"
              "Patch \"bilinear\" \"P\" [0 0 1 1 0 1 0 1 1 1 1 2]\nMotionEnd\n" BILINEAR_UNIT
              "WorldEnd\n",
@@ -964,7 +935,7 @@ static void test_motion(void **state)
     assert_true(b.lo_z == 0.0f && b.hi_z == 2.0f);
     scene_free(&s);
     /* A moving CTM: every patch under it moves; blocks save and restore both samples. */
-    parse_ok("WorldBegin\nAttributeBegin\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 5 0 0\n"
+    test_parse_rib_ok("WorldBegin\nAttributeBegin\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 5 0 0\n"
              "MotionEnd\n" BILINEAR_UNIT "TransformBegin\nScale 1 1 2\n" BILINEAR_UNIT
              "TransformEnd\n" BILINEAR_UNIT "AttributeEnd\n" BILINEAR_UNIT
              "MotionBegin [2.5 7]\nRotate 0 0 0 1\nRotate 90 0 0 1\nMotionEnd\n" BILINEAR_UNIT
@@ -998,7 +969,7 @@ static void test_motion(void **state)
     assert_vec(&s.cp1[128 + 15], 2, 3, 4, 0); /* Identity: static */
     scene_free(&s);
     /* A displaced patch under a moving CTM: the transform is the CTM's at shutter open. */
-    parse_ok("MotionBegin [0 1]\nTranslate 1 0 0\nTranslate 9 0 0\nMotionEnd\n"
+    test_parse_rib_ok("MotionBegin [0 1]\nTranslate 1 0 0\nTranslate 9 0 0\nMotionEnd\n"
              "Displacement \"fbm\"\n" BILINEAR_UNIT,
              &s);
     const ts_xform *x = &s.xform[s.attr[0].xform];

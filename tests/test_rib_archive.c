@@ -16,18 +16,6 @@
 
 /* ---- helpers -------------------------------------------------------------------------- */
 
-static int parse(const char *text, ts_scene *s, ts_error *e)
-{
-    memset(s, 0, sizeof *s);
-    memset(e, 0, sizeof *e);
-    return rib_parse_string("t.rib", text, strlen(text), s, 1, e);
-}
-
-static void parse_ok(const char *text, ts_scene *s)
-{
-    ts_error e;
-    if (parse(text, s, &e) != TS_OK) fail_msg("unexpected error: %s", e.msg);
-}
 
 /* The message must be exactly msg, or start with it when msg ends in "...". */
 static void assert_msg(const char *got, const char *msg)
@@ -44,7 +32,7 @@ static void expect_error(const char *text, const char *msg)
 {
     ts_scene s;
     ts_error e;
-    assert_int_equal(parse(text, &s, &e), TS_E_SCENE);
+    assert_int_equal(test_parse_rib(text, &s, &e), TS_E_SCENE);
     assert_msg(e.msg, msg);
     assert_int_equal(s.patch_count, 0);
 }
@@ -122,16 +110,16 @@ static void test_pixel_samples(void **state)
 {
     (void)state;
     ts_scene s;
-    parse_ok("WorldBegin\nWorldEnd\n", &s);
+    test_parse_rib_ok("WorldBegin\nWorldEnd\n", &s);
     assert_int_equal(s.camera.spp, 0); /* not given: the command line decides */
     scene_free(&s);
-    parse_ok("PixelSamples 2 3\nWorldBegin\nWorldEnd\n", &s);
+    test_parse_rib_ok("PixelSamples 2 3\nWorldBegin\nWorldEnd\n", &s);
     assert_int_equal(s.camera.spp, 6);
     scene_free(&s);
-    parse_ok("PixelSamples [4 4]\n", &s);
+    test_parse_rib_ok("PixelSamples [4 4]\n", &s);
     assert_int_equal(s.camera.spp, 16);
     scene_free(&s);
-    parse_ok("PixelSamples 1.4 2.6\n", &s); /* rounded */
+    test_parse_rib_ok("PixelSamples 1.4 2.6\n", &s); /* rounded */
     assert_int_equal(s.camera.spp, 3);
     scene_free(&s);
     expect_error("PixelSamples 0 1", "t.rib:1:1: error: PixelSamples: xsamples must be between 1 "
@@ -148,13 +136,13 @@ static void test_clipping_shutter_crop(void **state)
 {
     (void)state;
     ts_scene s;
-    parse_ok("WorldBegin\nWorldEnd\n", &s); /* RenderMan defaults */
+    test_parse_rib_ok("WorldBegin\nWorldEnd\n", &s); /* RenderMan defaults */
     assert_true(s.camera.clip_near == 1e-10 && s.camera.clip_far == 1e30);
     assert_true(s.camera.shutter[0] == 0.0 && s.camera.shutter[1] == 0.0);
     assert_true(s.camera.crop[0] == 0.0 && s.camera.crop[1] == 1.0);
     assert_true(s.camera.crop[2] == 0.0 && s.camera.crop[3] == 1.0);
     scene_free(&s);
-    parse_ok("Clipping 0.1 1000\nShutter 0 0.5\nCropWindow 0.25 0.75 0 0.5\nWorldBegin\nWorldEnd\n", &s);
+    test_parse_rib_ok("Clipping 0.1 1000\nShutter 0 0.5\nCropWindow 0.25 0.75 0 0.5\nWorldBegin\nWorldEnd\n", &s);
     assert_true(s.camera.clip_near == 0.1 && s.camera.clip_far == 1000.0);
     assert_true(s.camera.shutter[0] == 0.0 && s.camera.shutter[1] == 0.5);
     assert_true(s.camera.crop[0] == 0.25 && s.camera.crop[1] == 0.75);
@@ -200,7 +188,7 @@ static void test_cs_classes(void **state)
     (void)state;
     ts_scene s;
     /* Patch: constant, uniform, varying (average of the corners), facevarying, vertex. */
-    parse_ok("Color [0.1 0.2 0.3]\n"
+    test_parse_rib_ok("Color [0.1 0.2 0.3]\n"
              "Patch \"bilinear\" " UNIT_P "\n"
              "Patch \"bilinear\" " UNIT_P " \"constant color Cs\" [1 0.5 0.25]\n"
              "Patch \"bilinear\" " UNIT_P " \"uniform color Cs\" [0.5 0.25 1]\n"
@@ -228,13 +216,13 @@ static void test_cs_classes(void **state)
     for (int k = 0; k < 16; k++)
         strcat(text, "0.25 0.5 0.75 ");
     strcat(text, "]\n");
-    parse_ok(text, &s);
+    test_parse_rib_ok(text, &s);
     assert_int_equal(s.patch_count, 1);
     assert_cs(&s, 0, 0.25, 0.5, 0.75);
     scene_free(&s);
     /* PatchMesh: a bilinear 3 x 2 grid of vertices is 2 x 1 patches; varying colours are per
      * grid corner, uniform per patch. */
-    parse_ok("PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 0 "
+    test_parse_rib_ok("PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 0 "
              "0 1 0 1 1 0 2 1 0] \"Cs\" [1 0 0 0 0 0 0 0 1 1 0 0 0 0 0 0 0 1]\n"
              "PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 0 "
              "0 1 0 1 1 0 2 1 0] \"uniform color Cs\" [0 1 0 0 0 1]\n",
@@ -262,7 +250,7 @@ static void test_n_classes_and_st(void **state)
 {
     (void)state;
     ts_scene s;
-    parse_ok("Patch \"bilinear\" " UNIT_P " \"uniform normal N\" [0 0 -2]\n"
+    test_parse_rib_ok("Patch \"bilinear\" " UNIT_P " \"uniform normal N\" [0 0 -2]\n"
              "Patch \"bilinear\" " UNIT_P " \"constant normal N\" [1 0 1]\n"
              "Patch \"bilinear\" " UNIT_P " \"vertex normal N\" [0 0 1 0 1 1 1 0 1 1 1 1]\n"
              "Patch \"bilinear\" " UNIT_P " \"st\" [0 0 1 0 0 1 1 1] \"varying float s\" [0 1 0 1]\n",

@@ -18,23 +18,7 @@
 #include <unistd.h>
 #include <setjmp.h>
 #include <cmocka.h>
-
-/* $TESSERA_SOURCE_DIR/rel (set by ctest), else the first of ., .., ../.. holding it. */
-static const char *source_path(const char *rel)
-{
-    static char buf[4096];
-    const char *dir = getenv("TESSERA_SOURCE_DIR");
-    if (dir && *dir) {
-        snprintf(buf, sizeof buf, "%s/%s", dir, rel);
-        return buf;
-    }
-    static const char *const tries[] = {".", "..", "../.."};
-    for (size_t i = 0; i < 3; i++) {
-        snprintf(buf, sizeof buf, "%s/%s", tries[i], rel);
-        if (access(buf, R_OK) == 0) return buf;
-    }
-    return rel;
-}
+#include "test_support.h"
 
 static double lcg(uint32_t *s)
 {
@@ -79,7 +63,7 @@ static void test_teapot_corner_normals(void **state)
     (void)state;
     ts_scene s = {0};
     ts_error e = {0};
-    if (rib_load(source_path("scene/teapot.rib"), &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    if (rib_load(test_source_path("scene/teapot.rib"), &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
     assert_int_equal(s.patch_count, 32);
     assert_non_null(s.corner_n);
     assert_null(s.cp1);

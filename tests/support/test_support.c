@@ -1,5 +1,8 @@
 #include "test_support.h"
 #include "image.h"
+#include "rib.h"
+
+#include <unistd.h>
 
 #include <cjson/cJSON.h>
 #include <math.h>
@@ -15,8 +18,29 @@ const char *test_source_path(const char *rel)
     static int next;
     const char *root = getenv("TESSERA_SOURCE_DIR");
     char *out = buf[next++ % 8];
-    snprintf(out, sizeof buf[0], "%s/%s", root && *root ? root : "..", rel);
-    return out;
+    if (root && *root) {
+        snprintf(out, sizeof buf[0], "%s/%s", root, rel);
+        return out;
+    }
+    static const char *const tries[] = {".", "..", "../.."};
+    for (size_t i = 0; i < 3; i++) {
+        snprintf(out, sizeof buf[0], "%s/%s", tries[i], rel);
+        if (access(out, R_OK) == 0) return out;
+    }
+    return rel;
+}
+
+int test_parse_rib(const char *text, ts_scene *s, ts_error *e)
+{
+    memset(s, 0, sizeof *s);
+    memset(e, 0, sizeof *e);
+    return rib_parse_string("t.rib", text, strlen(text), s, 1, e);
+}
+
+void test_parse_rib_ok(const char *text, ts_scene *s)
+{
+    ts_error e;
+    if (test_parse_rib(text, s, &e) != TS_OK) fail_msg("unexpected error: %s", e.msg);
 }
 
 const char *test_tessera_binary(void)

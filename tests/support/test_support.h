@@ -14,8 +14,14 @@
 /* Exit code that ctest reports as "skipped" (SKIP_RETURN_CODE in tests/CMakeLists.txt). */
 #define TS_TEST_SKIP 77
 
-/* Path of `rel` inside the source tree ($TESSERA_SOURCE_DIR, set by ctest). */
+/* Path of `rel` inside the source tree: $TESSERA_SOURCE_DIR (set by ctest), else the first
+ * of ., .., ../.. that holds it. */
 const char *test_source_path(const char *rel);
+/* Parses RIB text named "t.rib" into a zeroed scene (quiet); returns the loader's code. */
+struct ts_scene;
+int test_parse_rib(const char *text, struct ts_scene *s, ts_error *e);
+/* The same for text that must load: fails the test with the loader's message otherwise. */
+void test_parse_rib_ok(const char *text, struct ts_scene *s);
 /* Path of the tessera binary ($TESSERA_BINARY). */
 const char *test_tessera_binary(void);
 /* Opens the default device with the embedded kernels; exits 77 (skip) when the machine has
