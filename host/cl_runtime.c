@@ -68,6 +68,9 @@ static void device_query(ts_device_info *d, ts_error *err)
                     NULL);
     clGetDeviceInfo(d->device, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof d->max_alloc, &d->max_alloc,
                     NULL);
+    /* Deprecated in OpenCL 2.0 but answered by every 1.2 driver we target. */
+    clGetDeviceInfo(d->device, CL_DEVICE_HOST_UNIFIED_MEMORY, sizeof d->host_unified,
+                    &d->host_unified, NULL);
     clGetDeviceInfo(d->device, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof d->max_work_group,
                     &d->max_work_group, NULL);
 }
@@ -187,8 +190,9 @@ static void cache_store(cl_program prog, const char *path)
 
 static const char *build_options = "-cl-std=CL1.2";
 
-/* Builds `prog`; on failure returns TS_E_DEVICE with the full build log as detail. */
-static int program_build(ts_cl *cl, cl_program prog, ts_error *err)
+/* Builds `prog` from the program text `src`; on failure returns TS_E_DEVICE with the full
+ * build log as detail. */
+static int program_build(ts_cl *cl, cl_program prog, const char *src, ts_error *err)
 {
     cl_int rc = clBuildProgram(prog, 1, &cl->info.device, build_options, NULL, NULL);
     if (rc == CL_SUCCESS) return TS_OK;
@@ -198,6 +202,10 @@ static int program_build(ts_cl *cl, cl_program prog, ts_error *err)
     if (log) {
         clGetProgramBuildInfo(prog, cl->info.device, CL_PROGRAM_BUILD_LOG, n, log, NULL);
         log[n] = '\0';
+        /* Compilers that ignore #line (NVIDIA: "<kernel>:LINE:COL") get their places
+         * mapped back to the kernel files here. */
+        char *mapped = kernel_source_translate_log(src, log);
+        if (mapped) free(log), log = mapped;
     }
     /* The one-line message names the first error's place (kernels/FILE.cl:LINE:COL, from
      * the #line directives of kernel_source.c); the whole log follows it. */
@@ -259,7 +267,7 @@ static int program_open(ts_cl *cl, const ts_cl_options *opt, ts_error *err)
             return ts_error_set(err, TS_E_DEVICE, "%s in clCreateProgramWithSource",
                                 cl_error_name(rc));
         }
-        if (program_build(cl, cl->program, err)) {
+        if (program_build(cl, cl->program, src, err)) {
             free(src);
             return err->code;
         }

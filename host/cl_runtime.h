@@ -35,6 +35,7 @@ typedef struct ts_device_info {
     cl_device_type type;
     cl_uint compute_units;
     cl_ulong global_mem, local_mem, max_alloc;
+    cl_bool host_unified; /* shares memory with the host (CPU devices): maps are zero copy */
     size_t max_work_group;
 } ts_device_info;
 

@@ -1,6 +1,7 @@
 #include "kernel_source.h"
 
 #include <dirent.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -187,4 +188,64 @@ char *kernel_source_program(const char *kernel_dir, ts_error *err)
         return NULL;
     }
     return in.out.p;
+}
+
+int kernel_source_locate(const char *program, int line, char *file, size_t cap)
+{
+    int file_line = 0, physical = 1;
+    if (cap) file[0] = '\0';
+    for (const char *p = program; p && *p && physical <= line; ++physical) {
+        size_t len = strcspn(p, "\n");
+        int n = 0;
+        char name[256];
+        if (physical == line) return file_line;
+        if (sscanf(p, "#line %d \"%255[^\"]\"", &n, name) == 2) {
+            file_line = n;
+            snprintf(file, cap, "%s", name);
+        } else if (file_line) {
+            ++file_line;
+        }
+        p += len + (p[len] == '\n');
+    }
+    if (physical == line && file_line) return file_line; /* the text's last, unterminated line */
+    if (cap) file[0] = '\0';
+    return 0;
+}
+
+char *kernel_source_translate_log(const char *program, const char *log)
+{
+    static const char *const tags[] = {"<kernel>:", "<source>:"};
+    sbuf out = {0};
+    if (sbuf_add(&out, "", 0)) return NULL;
+    for (const char *p = log; *p;) {
+        const char *hit = NULL;
+        size_t tag_len = 0;
+        for (size_t i = 0; i < sizeof tags / sizeof *tags; ++i) {
+            const char *h = strstr(p, tags[i]);
+            if (h && (!hit || h < hit)) hit = h, tag_len = strlen(tags[i]);
+        }
+        char *end = NULL;
+        long line = hit ? strtol(hit + tag_len, &end, 10) : 0;
+        if (!hit) {
+            if (sbuf_add(&out, p, strlen(p))) goto oom;
+            break;
+        }
+        char file[256], place[320];
+        int file_line = line > 0 && line < INT_MAX && end && *end == ':'
+                            ? kernel_source_locate(program, (int)line, file, sizeof file)
+                            : 0;
+        if (sbuf_add(&out, p, (size_t)(hit - p))) goto oom;
+        if (file_line) {
+            int n = snprintf(place, sizeof place, "%s:%d", file, file_line);
+            if (sbuf_add(&out, place, (size_t)n)) goto oom;
+            p = end;
+        } else {
+            if (sbuf_add(&out, hit, tag_len)) goto oom;
+            p = hit + tag_len;
+        }
+    }
+    return out.p;
+oom:
+    free(out.p);
+    return NULL;
 }

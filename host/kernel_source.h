@@ -5,6 +5,8 @@
 #ifndef TS_KERNEL_SOURCE_H
 #define TS_KERNEL_SOURCE_H
 
+#include <stddef.h>
+
 #include "error.h"
 
 typedef struct ts_embedded_file {
@@ -19,5 +21,16 @@ extern const ts_embedded_file ts_embedded_kernels[];
  * resolved. kernel_dir NULL = the embedded copy. Returns a malloc'd string or NULL with
  * err set. */
 char *kernel_source_program(const char *kernel_dir, ts_error *err);
+
+/* Maps line `line` (1-based) of the program text to the kernel file and line its last
+ * #line marker names. Returns the file line, or 0 (and file "") if the line is outside
+ * the text. For compilers that report places in the program text itself instead of
+ * honouring #line (NVIDIA's says `<kernel>:LINE:COL`). */
+int kernel_source_locate(const char *program, int line, char *file, size_t cap);
+
+/* Returns a malloc'd copy of a compiler log in which every `<kernel>:LINE:` and
+ * `<source>:LINE:` place is rewritten as `kernels/FILE:LINE:` by kernel_source_locate;
+ * NULL if out of memory. Logs that already name files pass through unchanged. */
+char *kernel_source_translate_log(const char *program, const char *log);
 
 #endif

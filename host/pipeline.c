@@ -363,6 +363,15 @@ int pipeline_create(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, const ts_p
     if (rc) return rc;
     if (!(p->sorter = radix_sorter_create(0, err))) return err->code;
     if (create_kernels(p, err) || create_buffers(p, err)) return err->code;
+    /* TESSERA_SORT_VIA_COPY=1|0 overrides the choice (tests run both paths on PoCL). */
+    const char *via_copy = getenv("TESSERA_SORT_VIA_COPY");
+    if (via_copy && *via_copy ? strcmp(via_copy, "0") != 0 : !cl->info.host_unified) {
+        size_t bytes = ((size_t)plan->pair_capacity * sizeof(ts_pair) + 4095) & ~(size_t)4095;
+        for (int i = 0; i < 2; ++i)
+            if (!(p->sort_host[i] = aligned_alloc(4096, bytes)))
+                return ts_error_set(err, TS_E_MEMORY, "out of memory (%zu MiB of sort buffers)",
+                                    2 * bytes >> 20);
+    }
     stats->counters[TS_COUNTER_micropolygons_potential] =
         (uint64_t)scene->patch_count << (2u * plan->max_lod);
     return TS_OK;
@@ -391,6 +400,8 @@ void pipeline_destroy(ts_pipeline *p)
     for (size_t i = 0; i < sizeof ms / sizeof *ms; ++i)
         if (ms[i]) clReleaseMemObject(ms[i]);
     if (p->sorter) radix_sorter_destroy(p->sorter);
+    free(p->sort_host[0]);
+    free(p->sort_host[1]);
     free(p->segments_host);
     free(p->trees_host);
     free(p->batches);

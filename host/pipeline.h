@@ -71,6 +71,10 @@ typedef struct ts_pipeline {
     uint32_t pixel_count;
     ts_qbvh qbvh;
     radix_sorter *sorter;
+    /* Discrete devices: host copies of the two pair buffers, so sort reads the window once
+     * and writes back only the valid pairs instead of mapping both buffers (NULL on devices
+     * that share host memory, where the mapped buffers are sorted in place). */
+    ts_pair *sort_host[2];
     ts_segment *segments_host; /* one per patch at most */
     uint32_t *trees_host;      /* two per patch at most */
     ts_batch *batches;         /* one per patch at most */

@@ -79,13 +79,35 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
     }
 }
 
-/* Sorts the candidate windows on the host through mapped buffers (zero copy on CPU
- * devices). Sets *sorted_buffer (0 or 1: which pairs buffer holds the result), and the
- * segment table; returns the segment count through *segment_count. */
-static int stage_sort(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint32_t *valid,
-                      uint32_t *segment_count, ts_error *err)
+/* Discrete devices: reads the window into host memory, sorts it there and writes back
+ * only the valid pairs, sorted, into pairs[0]: one window read and one write of the valid
+ * part over the bus instead of reading and writing both mapped buffers whole. */
+static int sort_via_copy(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint32_t *valid,
+                         uint32_t *segs, ts_error *err)
 {
-    double t0 = stats_now();
+    cl_command_queue q = p->cl->queue;
+    ts_pair *a = p->sort_host[0], *b = p->sort_host[1];
+    CL_CHECK(clEnqueueReadBuffer(q, p->pairs[0], CL_TRUE, 0, (size_t)n * sizeof(ts_pair), a, 0,
+                                 NULL, NULL),
+             err);
+    const ts_pair *sorted = NULL;
+    int rc = radix_sort_pairs(p->sorter, a, b, n, p->scene->patch_count, &sorted, valid, err);
+    if (rc) return rc;
+    *segs = sort_segments(sorted, *valid, p->segments_host, p->scene->patch_count);
+    if (*segs == UINT32_MAX) return ts_error_set(err, TS_E_INTERNAL, "sort: more segments than patches");
+    if (*valid)
+        CL_CHECK(clEnqueueWriteBuffer(q, p->pairs[0], CL_TRUE, 0, (size_t)*valid * sizeof(ts_pair),
+                                      sorted, 0, NULL, NULL),
+                 err);
+    *sorted_buffer = 0;
+    return TS_OK;
+}
+
+/* Sorts the candidate windows on the host through mapped buffers (zero copy on CPU
+ * devices). */
+static int sort_mapped(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint32_t *valid,
+                       uint32_t *segment_count, ts_error *err)
+{
     cl_command_queue q = p->cl->queue;
     cl_int rc0, rc1;
     size_t bytes = (size_t)n * sizeof(ts_pair);
@@ -106,6 +128,22 @@ static int stage_sort(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint3
     *sorted_buffer = sorted == b ? 1u : 0u;
     CL_CHECK(clEnqueueUnmapMemObject(q, p->pairs[0], a, 0, NULL, NULL), err);
     CL_CHECK(clEnqueueUnmapMemObject(q, p->pairs[1], b, 0, NULL, NULL), err);
+    *segment_count = segs;
+    return rc;
+}
+
+/* Sorts the candidate windows on the host (radix_sort.c), by mapping the buffers or, on
+ * discrete devices, by copying (pipeline.h sort_host). Sets *sorted_buffer (0 or 1: which
+ * pairs buffer holds the result), and the segment table; returns the segment count through
+ * *segment_count. */
+static int stage_sort(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint32_t *valid,
+                      uint32_t *segment_count, ts_error *err)
+{
+    double t0 = stats_now();
+    cl_command_queue q = p->cl->queue;
+    uint32_t segs = 0;
+    int rc = p->sort_host[0] ? sort_via_copy(p, n, sorted_buffer, valid, &segs, err)
+                             : sort_mapped(p, n, sorted_buffer, valid, &segs, err);
     if (rc) return rc;
     assign_lods(p, segs);
     plan_batches(p, segs);

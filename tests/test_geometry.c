@@ -82,6 +82,29 @@ static void test_memory_budget_does_not_change_the_image(void **state)
                 test_stats_number(path("big.json"), "counters.iterations"));
 }
 
+static void test_sort_by_copy_matches_mapped_sort(void **state)
+{
+    /* Discrete devices sort a host copy of the pairs (pipeline.h sort_host); CPU devices
+     * sort the mapped buffers. Both paths, forced on this device, give the same bits. */
+    char args[16384];
+    const char *common = "--res 160x90 --spp 2 --max-lod 6 --quiet";
+    const char *names[2][2] = {{"mapped.exr", "0"}, {"copied.exr", "1"}};
+    for (int i = 0; i < 2; ++i) {
+        setenv("TESSERA_SORT_VIA_COPY", names[i][1], 1);
+        snprintf(args, sizeof args, "render '%s' -o '%s' %s",
+                 test_source_path("scene/teapot_displaced.rib"), path(names[i][0]), common);
+        render_ok(args);
+    }
+    unsetenv("TESSERA_SORT_VIA_COPY");
+    ts_image a, b;
+    load("mapped.exr", &a);
+    load("copied.exr", &b);
+    assert_int_equal(a.width * a.height * a.channels, b.width * b.height * b.channels);
+    assert_memory_equal(a.pixels, b.pixels, sizeof(float) * a.width * a.height * a.channels);
+    image_free(&a);
+    image_free(&b);
+}
+
 static void test_ten_billion_potential_micropolygons_in_fixed_memory(void **state)
 {
     /* A 100 x 100 field of displaced patches: 10^4 patches at m = 10 is 1.05 * 10^10
@@ -176,6 +199,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_displaced_sphere_is_hole_free_from_inside),
         cmocka_unit_test(test_memory_budget_does_not_change_the_image),
+        cmocka_unit_test(test_sort_by_copy_matches_mapped_sort),
         cmocka_unit_test(test_ten_billion_potential_micropolygons_in_fixed_memory),
         cmocka_unit_test(test_motion_blur_is_the_time_average),
     };
