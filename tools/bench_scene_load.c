@@ -28,7 +28,8 @@
 #define MAX_REPEAT 100
 
 static const char *const tiny_scenes[] = {"teapot.rib", "forest-1.rib", NULL};
-static const char *const forest_scenes[] = {"forest-1.rib", "forest-100.rib", "forest-1000.rib", NULL};
+static const char *const forest_scenes[] = {"forest-1.rib", "forest-100.rib", "forest-1000.rib",
+                                            NULL};
 
 static double now(void)
 {
@@ -134,10 +135,12 @@ int main(int argc, char **argv)
     cJSON_AddNumberToObject(root, "repeat", repeat);
     cJSON_AddNumberToObject(root, "lod_limit", TS_LOD_LIMIT);
     cJSON *rows = cJSON_AddArrayToObject(root, "scenes");
-    printf("%-28s %10s %14s %10s %12s\n", "scene", "patches", "potential", "load s", "peak RSS MiB");
+    printf("%-28s %10s %14s %10s %12s\n", "scene", "patches", "potential", "load s",
+           "peak RSS MiB");
     int rc = 0;
     if (optind < argc) {
-        for (int a = optind; a < argc && !rc; a++) rc = bench_scene(argv[a], repeat, rows);
+        for (int a = optind; a < argc && !rc; a++)
+            rc = bench_scene(argv[a], repeat, rows);
     } else {
         for (int k = 0; defaults[k] && !rc; k++) {
             char path[4096];
