@@ -9,8 +9,14 @@
  * as one copy of the pair array). One warm-up repetition per key range is not recorded.
  * The fastest sort is printed too: on a shared machine it is the less noisy figure.
  * sort_segments is timed separately (Mpairs/s and ratio are from the median sort).
+ * After the last repetition of each key range the result is verified (outside the timing):
+ * exactly the valid input pairs, ascending by leaf, equal leaves in input order, and one
+ * segment per distinct leaf covering its pairs; a wrong result exits 1.
  *
- * usage: bench_sort [--pairs N] [--repeat R] [--threads T] [--json PATH]
+ * --size tiny|small|full (tools/bench, issue 8): 2^14 pairs x 3, 2^20 x 15 (default), 2^23
+ * x 15; --pairs and --repeat given after it override.
+ *
+ * usage: bench_sort [--size tiny|small|full] [--pairs N] [--repeat R] [--threads T] [--json PATH]
  */
 #include "radix_sort.h"
 
@@ -38,11 +44,27 @@ typedef struct bench_case {
     double sort_min_s; /* fastest sort: the floor on a noisy machine */
     double segments_s; /* median seconds per sort_segments */
     uint32_t segments;
+    int verified; /* bench_verify passed on the last repetition */
 } bench_case;
 
 static void bench_defaults(bench_options *o)
 {
     *o = (bench_options){.pairs = 1u << 20, .repeat = 15, .threads = 0, .json_path = NULL};
+}
+
+/* --size: tiny (seconds, the ctest smoke test), small (the docs' figures), full. */
+static int bench_size(const char *name, bench_options *o)
+{
+    static const struct { const char *name; uint32_t pairs; int repeat; } sizes[] = {
+        {"tiny", 1u << 14, 3}, {"small", 1u << 20, 15}, {"full", 1u << 23, 15}};
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++)
+        if (strcmp(name, sizes[i].name) == 0) {
+            o->pairs = sizes[i].pairs;
+            o->repeat = sizes[i].repeat;
+            return 0;
+        }
+    fprintf(stderr, "bench_sort: --size must be tiny, small or full, not '%s'\n", name);
+    return 1;
 }
 
 static double bench_now(void)
@@ -69,11 +91,15 @@ static int bench_parse(int argc, char **argv, bench_options *o)
     static const struct option longopts[] = {
         {"pairs", required_argument, NULL, 'n'},   {"repeat", required_argument, NULL, 'r'},
         {"threads", required_argument, NULL, 't'}, {"json", required_argument, NULL, 'j'},
-        {"help", no_argument, NULL, 'h'},          {NULL, 0, NULL, 0},
+        {"size", required_argument, NULL, 's'},    {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0},
     };
     int c;
-    while ((c = getopt_long(argc, argv, "n:r:t:j:h", longopts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, "n:r:t:j:s:h", longopts, NULL)) != -1) {
         switch (c) {
+        case 's':
+            if (bench_size(optarg, o)) return 1;
+            break;
         case 'n':
             o->pairs = (uint32_t)strtoul(optarg, NULL, 0);
             break;
@@ -87,7 +113,9 @@ static int bench_parse(int argc, char **argv, bench_options *o)
             o->json_path = optarg;
             break;
         default:
-            fprintf(stderr, "usage: %s [--pairs N] [--repeat R] [--threads T] [--json PATH]\n",
+            fprintf(stderr,
+                    "usage: %s [--size tiny|small|full] [--pairs N] [--repeat R] [--threads T] "
+                    "[--json PATH]\n",
                     argv[0]);
             return c == 'h' ? 0 : 1;
         }
@@ -110,6 +138,37 @@ static void bench_fill(ts_pair *p, uint32_t n, uint32_t key_range, uint64_t seed
         p[i].leaf = (x & 1) ? TS_INVALID : (uint32_t)((x >> 32) % key_range);
         p[i].window = i;
     }
+}
+
+/* Checks sorted[0, valid) and segs[0, nseg) against input[0, n) (filled by bench_fill, so
+ * input[i].window == i): the valid pairs, ascending by leaf, equal leaves in input order
+ * (stable), none lost or duplicated; segments one per distinct leaf, contiguous. */
+static int bench_verify(const ts_pair *input, uint32_t n, const ts_pair *sorted, uint32_t valid,
+                        const ts_segment *segs, uint32_t nseg, uint32_t key_range)
+{
+    uint32_t expect = 0;
+    for (uint32_t i = 0; i < n; i++) expect += input[i].leaf != TS_INVALID;
+    if (valid != expect) return 0;
+    /* Each output pair is an input pair (its window names it, the leaf matches); windows
+     * strictly increase within a leaf, so none repeats; with the count right, every valid
+     * input pair appears exactly once, in input order per leaf. */
+    for (uint32_t i = 0; i < valid; i++) {
+        const ts_pair *p = &sorted[i];
+        if (p->leaf >= key_range || p->window >= n || input[p->window].leaf != p->leaf) return 0;
+        if (i > 0 && (sorted[i - 1].leaf > p->leaf ||
+                      (sorted[i - 1].leaf == p->leaf && sorted[i - 1].window >= p->window)))
+            return 0;
+    }
+    uint32_t at = 0;
+    for (uint32_t k = 0; k < nseg; k++) {
+        const ts_segment *g = &segs[k];
+        if (g->begin != at || g->end <= g->begin || g->end > valid) return 0;
+        if (k > 0 && segs[k - 1].patch >= g->patch) return 0;
+        for (uint32_t i = g->begin; i < g->end; i++)
+            if (sorted[i].leaf != g->patch) return 0;
+        at = g->end;
+    }
+    return at == valid;
 }
 
 typedef struct bench_buffers {
@@ -144,11 +203,17 @@ static int bench_run_case(radix_sorter *s, const bench_options *o, bench_buffers
         double t2 = bench_now();
         out->segments = sort_segments(sorted, out->valid, b->segments, key_range);
         double t3 = bench_now();
+        if (r == o->repeat - 1)
+            out->verified = bench_verify(b->input, o->pairs, sorted, out->valid, b->segments,
+                                         out->segments, key_range);
         if (r < 0) continue;
         b->copy_s[b->copies++] = t1 - t0;
         sort_s[r] = t2 - t1;
         seg_s[r] = t3 - t2;
     }
+    if (err->code == TS_OK && !out->verified)
+        ts_error_set(err, TS_E_INTERNAL, "key range %u: the sorted output is wrong",
+                     key_range);
     if (err->code == TS_OK) {
         out->sort_s = bench_median(sort_s, o->repeat); /* sorts sort_s: [0] is the minimum */
         out->sort_min_s = sort_s[0];
@@ -181,6 +246,7 @@ static int bench_write_json(const char *path, const bench_options *o, int thread
         cJSON_AddNumberToObject(j, "passes", cases[c].passes);
         cJSON_AddNumberToObject(j, "valid_pairs", cases[c].valid);
         cJSON_AddNumberToObject(j, "segments", cases[c].segments);
+        cJSON_AddBoolToObject(j, "verified", cases[c].verified);
         cJSON_AddNumberToObject(j, "median_seconds", cases[c].sort_s);
         cJSON_AddNumberToObject(j, "min_seconds", cases[c].sort_min_s);
         cJSON_AddNumberToObject(j, "pairs_per_second", o->pairs / cases[c].sort_s);

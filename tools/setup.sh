@@ -13,6 +13,7 @@ packages=(
   oclgrind clang libclang-rt-14-dev # checks: tools/check_kernels.sh, tools/fuzz.sh (libFuzzer runtime)
   libembree-dev
   libassimp-dev assimp-testmodels
+  python3 librsvg2-bin # benchmarks (tools/bench, tools/bench_*.py); tools/profile --png (rsvg-convert)
 )
 missing=()
 for p in "${packages[@]}"; do

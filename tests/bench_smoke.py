@@ -1,0 +1,337 @@
+#!/usr/bin/env python3
+"""bench_smoke.py — ctest smoke tests of the benchmarks and tools/profile (issue 8).
+
+Each test runs one benchmark at --size tiny (seconds) and asserts that its JSON has the
+fields docs/benchmarks.md relies on and that they agree with each other; timings are only
+checked for being positive and consistent, never against a target. Exit 77 (skipped) when a
+test needs an OpenCL device and `tessera devices` finds none.
+
+    bench_smoke.py TEST --source DIR --build DIR
+    TEST: profile, render, stages, leaf, sort, scene_load, bench
+"""
+import argparse
+import importlib.machinery
+import importlib.util
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import xml.etree.ElementTree as ET
+
+SKIP = 77
+SVG_NS = "{http://www.w3.org/2000/svg}"
+
+
+class Fail(Exception):
+    pass
+
+
+def check(cond, msg):
+    if not cond:
+        raise Fail(msg)
+
+
+def close(a, b, rel=1e-9, what=""):
+    check(math.isclose(a, b, rel_tol=rel, abs_tol=1e-12), f"{what}: {a!r} != {b!r}")
+
+
+def run(cmd, ok=True, **kw):
+    r = subprocess.run(cmd, capture_output=True, text=True, **kw)
+    if ok and r.returncode != 0:
+        raise Fail(f"{' '.join(cmd)} exited {r.returncode}\nstdout:\n{r.stdout}\nstderr:\n{r.stderr}")
+    return r
+
+
+def load(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+def stage_names(src):
+    """The stage names of host/stages.h, in order."""
+    with open(os.path.join(src, "host", "stages.h")) as f:
+        text = f.read()
+    body = text[text.index("#define TS_STAGES(X)"):text.index("typedef enum ts_stage")]
+    names = re.findall(r"X\((\w+),", body)
+    check(len(names) >= 9, f"host/stages.h: found only {names}")
+    return names
+
+
+def require_device(ctx):
+    r = subprocess.run([ctx.tessera, "devices"], capture_output=True, text=True)
+    if r.returncode != 0 or "no OpenCL devices found" in r.stdout:
+        print("no OpenCL device: skipped")
+        sys.exit(SKIP)
+
+
+def render_stats(ctx, tmp, scene, out_name, *args):
+    path = os.path.join(tmp, out_name)
+    run([ctx.tessera, "render", os.path.join(ctx.source, "scene", scene), "-o",
+         os.path.join(tmp, "img.png"), "--quiet", "--stats", path] + list(args))
+    return path
+
+
+def check_profile_numbers(p, stats, stages):
+    """One profile entry of tools/profile --json against the --stats document it came from."""
+    check(list(p["stages"]) == stages, f"{p['label']}: stage order {list(p['stages'])}")
+    for k in stages:
+        close(p["stages"][k], stats["stages"][k], what=f"{p['label']}.stages.{k}")
+    close(p["total_seconds"], sum(stats["stages"].values()), what=f"{p['label']} total_seconds")
+    close(sum(p["stage_shares"].values()), 1.0, 1e-9, f"{p['label']} shares")
+    rays = stats["counters"]["rays"] + stats["counters"]["shadow_rays"]
+    check(p["rays_total"] == rays, f"{p['label']}: rays_total {p['rays_total']} != {rays}")
+    close(p["rays_per_second"], rays / p["total_seconds"], what=f"{p['label']} rays/s")
+    check(p["total_seconds"] <= stats["wall_seconds"], f"{p['label']}: stages exceed the wall time")
+    dc = p["depth_complexity"]
+    rows = dc["rows"]
+    check(rows, f"{p['label']}: no depth-complexity rows")
+    # Every traced ray (eye, bounce, shadow) enters iteration 0 of its wave once.
+    first = sum(r["active_rays"] for r in rows if r["iteration"] == 0)
+    check(first == rays, f"{p['label']}: iteration-0 rays {first} != rays traced {rays}")
+    check(sum(r["pairs"] for r in rows) == stats["counters"]["pairs"], f"{p['label']}: pairs")
+    check(dc["batches"] >= 1, "batches")
+    for w in {r["wave"] for r in rows}:
+        its = [r for r in rows if r["wave"] == w]
+        check([r["iteration"] for r in its] == list(range(len(its))), f"wave {w}: iterations")
+        shares = [r["finished_share"] for r in its]
+        check(all(0 <= s <= 1 for s in shares) and shares == sorted(shares) and shares[-1] == 1.0,
+              f"{p['label']} wave {w}: finished shares {shares}")
+        check(all(its[i + 1]["active_rays"] <= its[i]["active_rays"] for i in range(len(its) - 1)),
+              f"wave {w}: active rays grow")
+        check(all(1 <= r["n_min"] <= r["n_max"] <= 100 for r in its), f"wave {w}: N outside [1, 100]")
+
+
+def test_profile(ctx):
+    prof = os.path.join(ctx.source, "tools", "profile")
+    stages = stage_names(ctx.source)
+    # Every stage has its fixed colour.
+    loader = importlib.machinery.SourceFileLoader("tessera_profile", prof)
+    mod = importlib.util.module_from_spec(importlib.util.spec_from_loader(loader.name, loader))
+    loader.exec_module(mod)
+    missing = [s for s in stages if s not in mod.STAGE_COLOURS]
+    check(not missing, f"tools/profile: no colour for stage(s) {missing}")
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-profile-") as tmp:
+        # Bad input: a clear message and exit 1.
+        bad_json = os.path.join(tmp, "bad.json")
+        with open(bad_json, "w") as f:
+            json.dump({"wall_seconds": 1.0}, f)
+        not_json = os.path.join(tmp, "not.json")
+        with open(not_json, "w") as f:
+            f.write("stages: none\n")
+        for arg, words in ((os.path.join(tmp, "missing.json"), "no such file"),
+                           (bad_json, 'no "stages"'), (not_json, "not JSON")):
+            r = run([sys.executable, prof, arg, "--svg", os.path.join(tmp, "x.svg")], ok=False)
+            check(r.returncode == 1, f"tools/profile {arg}: exit {r.returncode}, expected 1")
+            check(words in r.stderr, f"tools/profile {arg}: message {r.stderr!r}")
+            check(not os.path.exists(os.path.join(tmp, "x.svg")), "an SVG was written for bad input")
+
+        require_device(ctx)
+        a = render_stats(ctx, tmp, "teapot.rib", "teapot.json", "--res", "48x27", "--spp", "1")
+        b = render_stats(ctx, tmp, "forest-1.rib", "forest.json", "--res", "64x26")
+        svg, js, png = (os.path.join(tmp, n) for n in ("p.svg", "p.json", "p.png"))
+        cmd = [sys.executable, prof, a, "forest & co=" + b, "--svg", svg, "--json", js]
+        has_png = subprocess.run(["sh", "-c", "command -v rsvg-convert"], capture_output=True).returncode == 0
+        if has_png:
+            cmd += ["--png", png]
+        r = run(cmd)
+        for k in stages:
+            check(f"| {k} |" in r.stdout, f"table 1 has no row for {k}")
+        check("| eye | 0 |" in r.stdout, "no depth-complexity table")
+
+        root = ET.parse(svg).getroot()  # raises on malformed XML
+        check(root.tag == SVG_NS + "svg", f"root element {root.tag}")
+        bars = [g for g in root.iter(SVG_NS + "g") if g.get("class") == "bar"]
+        check(len(bars) == 2, f"{len(bars)} bar groups for 2 inputs")
+        check([g.get("data-label") for g in bars] == ["teapot", "forest & co"], "bar labels")
+        docs = [load(a), load(b)]
+        for g, d in zip(bars, docs):
+            rects = [x for x in g.iter(SVG_NS + "rect") if x.get("class") == "stage"]
+            drawn = [x.get("data-stage") for x in rects]
+            check(drawn == [s for s in stages if d["stages"][s] > 0], f"stacking order {drawn}")
+            heights = sum(float(x.get("height")) for x in rects)
+            ys = [float(x.get("y")) for x in rects]
+            check(all(ys[i + 1] < ys[i] for i in range(len(ys) - 1)), "segments do not stack upwards")
+            for x in rects:
+                close(float(x.get("data-seconds")), d["stages"][x.get("data-stage")], 1e-5, "data-seconds")
+            check(heights > 0, "empty bar")
+        # Bar heights are proportional to the totals (same axis).
+        h = [sum(float(x.get("height")) for x in g.iter(SVG_NS + "rect") if x.get("class") == "stage")
+             for g in bars]
+        tot = [sum(d["stages"].values()) for d in docs]
+        close(h[0] / h[1], tot[0] / tot[1], 1e-3, "bar height ratio")
+
+        out = load(js)
+        check(out["stage_order"] == stages, f"stage_order {out['stage_order']}")
+        check(len(out["profiles"]) == 2, "profiles")
+        for p, d in zip(out["profiles"], docs):
+            check_profile_numbers(p, d, stages)
+        if has_png:
+            with open(png, "rb") as f:
+                check(f.read(8) == b"\x89PNG\r\n\x1a\n", "not a PNG")
+
+
+def test_render(ctx):
+    require_device(ctx)
+    stages = stage_names(ctx.source)
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-render-") as tmp:
+        js, st = os.path.join(tmp, "r.json"), os.path.join(tmp, "stats.json")
+        run([sys.executable, os.path.join(ctx.source, "tools", "bench_render.py"), "--size", "tiny",
+             "--binary", ctx.tessera, "--json", js, "--stats-out", st])
+        r = load(js)
+        for k in ("device", "runs", "resolution", "max_lod", "wall_seconds_median", "stages_median",
+                  "pairs", "bottom_level_pairs_per_second", "iterations", "peak_rss_bytes", "per_run",
+                  "kernel_build_seconds_cached", "wall_seconds_cold", "kernel_build_seconds_cold"):
+            check(k in r, f"bench_render JSON has no {k}")
+        check(r["size"] == "tiny" and r["runs"] == 1 and len(r["per_run"]) == 1, "runs")
+        check(r["wall_seconds_cold"] is None, "tiny has no cold run")
+        check(list(r["stages_median"]) == stages, f"stages {list(r['stages_median'])}")
+        check(all(v >= 0 for v in r["stages_median"].values()), "negative stage seconds")
+        for run_ in r["per_run"]:
+            check(0 < run_["stage_seconds_sum"] <= run_["wall_seconds"],
+                  f"stage seconds {run_['stage_seconds_sum']} vs wall {run_['wall_seconds']}")
+        close(sum(r["stages_median"].values()), r["per_run"][0]["stage_seconds_sum"], 1e-9, "stage sum")
+        close(r["wall_seconds_median"], r["per_run"][0]["wall_seconds"], 1e-12, "wall median")
+        check(r["pairs"] > 0 and r["iterations"] >= 1 and r["peak_rss_bytes"] > 0, "counters")
+        close(r["bottom_level_pairs_per_second"], r["pairs"] / r["stages_median"]["bottom_level"], 1e-9,
+              "pairs/s")
+        s = load(st)  # the median run's --stats file, as tools/profile reads it
+        close(s["wall_seconds"], r["wall_seconds_median"], 1e-12, "--stats-out is the median run")
+        check(s["counters"]["pairs"] == r["pairs"], "--stats-out pairs")
+
+
+def test_stages(ctx):
+    require_device(ctx)
+    stages = stage_names(ctx.source)
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-stages-") as tmp:
+        js, sd = os.path.join(tmp, "s.json"), os.path.join(tmp, "stats")
+        r = run([sys.executable, os.path.join(ctx.source, "tools", "bench_stages.py"), "--size", "tiny",
+                 "--binary", ctx.tessera, "--scene-dir", os.path.join(ctx.source, "scene"),
+                 "--stats-dir", sd, "--json", js])
+        check("| bottom_level |" in r.stdout, "no stage table printed")
+        out = load(js)
+        names = [s["scene"] for s in out["scenes"]]
+        check(names == ["teapot", "teapot_displaced", "forest-1"], f"scenes {names}")
+        check([p["label"] for p in out["profile"]["profiles"]] == names, "profile labels")
+        for sc, p in zip(out["scenes"], out["profile"]["profiles"]):
+            check(len(sc["wall_seconds"]) == out["runs"] == 1, "runs")
+            d = load(sc["stats"])
+            close(d["wall_seconds"], sc["wall_seconds_median"], 1e-12, f"{sc['scene']} median run")
+            check_profile_numbers(p, d, stages)
+
+
+def test_leaf(ctx):
+    require_device(ctx)
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-leaf-") as tmp:
+        js = os.path.join(tmp, "l.json")
+        run([sys.executable, os.path.join(ctx.source, "tools", "bench_leaf.py"), "--size", "tiny",
+             "--binary", ctx.tessera, "--json", js])
+        r = load(js)
+        check(r["size"] == "tiny" and r["runs"] == 1, "size/runs")
+        rows = r["rows"]
+        check(sorted((x["leaf_mode"], x["leaf_size"]) for x in rows) ==
+              sorted((m, s) for s in (1, 2, 4) for m in ("ray", "group")), "configurations")
+        pairs = {x["pairs"] for x in rows}
+        check(len(pairs) == 1 and pairs.pop() > 0, "pairs differ between leaf modes")
+        for x in rows:
+            check(0 < x["leaf_utilisation"] <= 1, f"utilisation {x['leaf_utilisation']}")
+            check(x["bottom_level_seconds"] > 0 and x["traversals_per_second"] > 0, "timings")
+            close(x["traversals_per_second"], x["pairs"] / x["bottom_level_seconds"], 1e-9, "traversals/s")
+        by = {(x["leaf_mode"], x["leaf_size"]): x for x in rows}
+        for s in (1, 2, 4):
+            check(by["ray", s]["leaf_tests"] == by["group", s]["leaf_tests"] > 0,
+                  f"leaf size {s}: micro-quad tests differ between ray and group")
+        # A leaf of s x s micro-quads tests more quads than a smaller one (never fewer).
+        check(by["ray", 1]["leaf_tests"] < by["ray", 2]["leaf_tests"] < by["ray", 4]["leaf_tests"],
+              "micro-quad tests do not grow with the leaf size")
+
+
+def test_sort(ctx):
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-sort-") as tmp:
+        js = os.path.join(tmp, "s.json")
+        run([os.path.join(ctx.build, "bench_sort"), "--size", "tiny", "--json", js])
+        r = load(js)
+        check(r["benchmark"] == "sort" and r["pairs"] == 1 << 14 and r["repeat"] == 3, "size tiny")
+        copy = r["memcpy"]
+        check(copy["bytes"] == r["pairs"] * r["pair_bytes"] and copy["median_seconds"] > 0, "memcpy")
+        close(copy["gb_per_second"], copy["bytes"] / copy["median_seconds"] * 1e-9, 1e-9, "GB/s")
+        check([c["passes"] for c in r["cases"]] == [1, 2, 3], "passes")
+        for c in r["cases"]:
+            check(c["verified"] is True, f"key range {c['key_range']}: sorted output not verified")
+            check(0 < c["valid_pairs"] < r["pairs"], "valid pairs")
+            check(0 < c["segments"] <= min(c["key_range"], c["valid_pairs"]), "segments")
+            check(0 < c["min_seconds"] <= c["median_seconds"], "min <= median")
+            check(c["pairs_per_second"] > 0, "pairs/s")
+            close(c["pairs_per_second"], r["pairs"] / c["median_seconds"], 1e-9, "pairs/s")
+            close(c["ratio_to_memcpy"], c["median_seconds"] / copy["median_seconds"], 1e-9, "ratio")
+        bad = run([os.path.join(ctx.build, "bench_sort"), "--size", "huge"], ok=False)
+        check(bad.returncode != 0 and "tiny, small or full" in bad.stderr, "--size huge accepted")
+
+
+def test_scene_load(ctx):
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-load-") as tmp:
+        js = os.path.join(tmp, "l.json")
+        run([os.path.join(ctx.build, "bench_scene_load"), "--size", "tiny", "--scene-dir",
+             os.path.join(ctx.source, "scene"), "--json", js])
+        r = load(js)
+        check(r["benchmark"] == "scene_load" and r["repeat"] == 1, "size tiny")
+        names = [os.path.basename(s["scene"]) for s in r["scenes"]]
+        check(names == ["teapot.rib", "forest-1.rib"], f"scenes {names}")
+        check(r["scenes"][0]["patches"] == 32, "the teapot has 32 patches")
+        check(r["scenes"][1]["patches"] > 1000, "forest-1 has about 1100 patches")
+        for s in r["scenes"]:
+            check(s["micropolygons_potential"] == s["patches"] * 4 ** r["lod_limit"], "potential")
+            check(0 < s["min_seconds"] <= s["median_seconds"], "load seconds")
+            check(s["peak_rss_bytes"] > 0, "peak RSS")
+        check(r["scenes"][0]["peak_rss_bytes"] <= r["scenes"][1]["peak_rss_bytes"], "peak RSS shrank")
+        bad = run([os.path.join(ctx.build, "bench_scene_load"), os.path.join(tmp, "none.rib")], ok=False)
+        check(bad.returncode != 0, "a missing scene was accepted")
+
+
+def test_bench(ctx):
+    bench = os.path.join(ctx.source, "tools", "bench")
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-bench-") as tmp:
+        out = os.path.join(tmp, "b")
+        r = run([sys.executable, bench, "--size", "tiny", "--only", "sort,scene_load", "--out", out,
+                 "--build", ctx.build])
+        s = load(os.path.join(out, "summary.json"))
+        check([b["name"] for b in s["benchmarks"]] == ["sort", "scene_load"], "benchmarks run")
+        for b in s["benchmarks"]:
+            check(b["status"] == "ok", f"{b['name']}: {b['status']}")
+            check(os.path.exists(os.path.join(out, f"{b['name']}.json")), f"{b['name']}.json")
+            check(os.path.exists(os.path.join(out, f"{b['name']}.txt")), f"{b['name']}.txt")
+        check("=== summary" in r.stdout, "no summary printed")
+        # A benchmark whose program does not exist is skipped, not failed.
+        r = run([sys.executable, bench, "--size", "tiny", "--only", "sort", "--out", out,
+                 "--build", os.path.join(tmp, "no-build")])
+        s = load(os.path.join(out, "summary.json"))
+        check(s["benchmarks"][0]["status"].startswith("skipped: program not found"), "missing program")
+        r = run([sys.executable, bench, "--only", "nonsense", "--out", out], ok=False)
+        check(r.returncode == 2 and "unknown benchmark" in r.stderr, "unknown benchmark accepted")
+
+
+TESTS = {"profile": test_profile, "render": test_render, "stages": test_stages, "leaf": test_leaf,
+         "sort": test_sort, "scene_load": test_scene_load, "bench": test_bench}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("test", choices=sorted(TESTS))
+    ap.add_argument("--source", required=True, help="source tree")
+    ap.add_argument("--build", required=True, help="build directory (bench_* programs)")
+    ap.add_argument("--tessera", default=None, help="tessera program (default: BUILD/tessera)")
+    ctx = ap.parse_args()
+    ctx.tessera = ctx.tessera or os.path.join(ctx.build, "tessera")
+    try:
+        TESTS[ctx.test](ctx)
+    except Fail as e:
+        print(f"FAIL {ctx.test}: {e}")
+        return 1
+    print(f"ok {ctx.test}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
