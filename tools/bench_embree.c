@@ -434,7 +434,8 @@ static int child_embree(const ts_scene *s, uint32_t m, const char *dir, int runs
 /* Traces r through the pipeline in chunks of the plan's wave size; adds the trace stages'
  * seconds to *stage_s and pipeline_trace's wall time to *wall_s. */
 static int tessera_trace(ts_pipeline *p, ts_stats *stats, const rays *r, ts_hit *hit,
-                         double *stage_s, double *wall_s, uint64_t *iterations, ts_error *err)
+                         double *stage_s, double *wall_s, uint64_t *iterations,
+                         double per_stage[TS_STAGE_COUNT], ts_error *err)
 {
     static const ts_stage traced[] = {TS_STAGE_top_level, TS_STAGE_sort, TS_STAGE_dice,
                                       TS_STAGE_build, TS_STAGE_bottom_level, TS_STAGE_resolve};
@@ -478,6 +479,7 @@ static int tessera_trace(ts_pipeline *p, ts_stats *stats, const rays *r, ts_hit 
     *stage_s = 0;
     for (size_t i = 0; i < sizeof traced / sizeof *traced; ++i) *stage_s += stats->stage_seconds[traced[i]];
     *iterations = stats->counters[TS_COUNTER_iterations];
+    for (int i = 0; i < TS_STAGE_COUNT; ++i) per_stage[i] = stats->stage_seconds[i];
     free(idx), free(entry), free(clear);
     return rc;
 }
@@ -518,7 +520,8 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
     }
     p.mode.fixed_lod = (int)m;
     ts_hit *hit[2][2] = {{NULL, NULL}, {NULL, NULL}}; /* [mode][kind] */
-    double stage[2][2][MAX_RUNS], wall[2][2][MAX_RUNS];
+    double stage[2][2][MAX_RUNS], wall[2][2][MAX_RUNS], each[TS_STAGE_COUNT] = {0};
+    static double per_stage[2][2][TS_STAGE_COUNT][MAX_RUNS];
     uint64_t iters[2][2] = {{0}};
     for (int mode = 0; mode < 2 && !rc; ++mode) /* 0 triangles, 1 boxes */
         for (int kind = 0; kind < 2 && !rc; ++kind) {
@@ -531,9 +534,11 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
             p.mode.exact = mode == 0;
             hit[mode][kind] = malloc((r[kind].count ? r[kind].count : 1) * sizeof(ts_hit));
             if (!hit[mode][kind]) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
-            for (int run = 0; run < runs && !rc; ++run)
+            for (int run = 0; run < runs && !rc; ++run) {
                 rc = tessera_trace(&p, &stats, &r[kind], hit[mode][kind], &stage[mode][kind][run],
-                                   &wall[mode][kind][run], &iters[mode][kind], err);
+                                   &wall[mode][kind][run], &iters[mode][kind], each, err);
+                for (int i = 0; i < TS_STAGE_COUNT; ++i) per_stage[mode][kind][i][run] = each[i];
+            }
         }
     if (!rc && (write_file(path_in(dir, "tessera_eye.hits"), hit[0][0], r[0].count * sizeof(ts_hit), NULL, 0) ||
                 write_file(path_in(dir, "tessera_bounce.hits"), hit[0][1], r[1].count * sizeof(ts_hit), NULL, 0)))
@@ -554,6 +559,9 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
                 double v[3] = {median(stage[mode][kind], runs), median(wall[mode][kind], runs),
                                (double)iters[mode][kind]};
                 add_kind(o, kinds[kind], r[kind].count, count_hits(hit[mode][kind], r[kind].count), keys, v, 3);
+                cJSON *st = cJSON_AddObjectToObject(cJSON_GetObjectItemCaseSensitive(o, kinds[kind]), "stage_seconds");
+                for (int i = TS_STAGE_top_level; i <= TS_STAGE_resolve; ++i)
+                    cJSON_AddNumberToObject(st, ts_stage_names[i], median(per_stage[mode][kind][i], runs));
             }
         }
         if (write_json(path_in(dir, "tessera.json"), root)) rc = ts_error_set(err, TS_E_IO, "cannot write json");
