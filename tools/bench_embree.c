@@ -33,8 +33,15 @@
  * usage: bench_embree [--size tiny|small|full] [--scene PATH] [--lod M]... [--res WxH]
  *                     [--runs R] [--memory MB] [--seed S] [--only embree|tessera]
  *                     [--json PATH] [--keep DIR]
- * --scene/--lod/--res replace the size's cases by one scene at each --lod given. Exit 77
- * when there is no OpenCL device (the smoke test skips).
+ * Sizes: tiny = teapot at m = 3, 64x36, 1 run (the smoke test, seconds); small =
+ * teapot_displaced at m = 6, 7, 8, 640x360, 3 runs (a few minutes); full = teapot_displaced
+ * at m = 6..10, 1280x720 (m = 10: 67 M triangles, ~7.5 GiB for Embree), then forest-100 at
+ * m = 6 with Tessera alone (917 M triangles, ~100 GiB for Embree), 3 runs (an hour or more).
+ * --scene/--lod/--res replace the size's cases by one scene at each --lod given; --only runs
+ * one tracer (Tessera alone makes the bounce rays from its own micro-triangle hits). The
+ * last line (and "largest_scene" in the JSON) extrapolates Embree's peak resident set,
+ * linear in the triangles (the slope between the two largest cases), to 24 GiB and to
+ * --memory. Exit 77 when there is no OpenCL device (the smoke test skips).
  */
 #include "cl_runtime.h"
 #include "embree_ref.h"
@@ -744,25 +751,25 @@ static int run_case(const bench_case *c, const config *cfg, const char *dir, cJS
                cfg->memory_mb, mib(num(t, "device_buffer_bytes", NULL, NULL), b1),
                num(t, "wave_rays", NULL, NULL), mib(peak_t, b2), mib(peak_base, b3));
     }
-    printf("%-7s %-24s %10s %9s %10s %12s\n", "rays", "tracer", "count", "hits", "seconds", "M rays/s");
+    printf("%-7s %-26s %10s %9s %10s %12s\n", "rays", "tracer", "count", "hits", "seconds", "M rays/s");
     for (int k = 0; k < 2; ++k) {
         if (e) {
             const cJSON *x = cJSON_GetObjectItemCaseSensitive(e, kinds[k]);
-            printf("%-7s %-24s %10u %9.0f %10.4f %12.3f\n", kinds[k], "embree 1 thread", counts[k],
+            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k], "embree 1 thread", counts[k],
                    num(x, "hits", NULL, NULL), num(x, "seconds_1thread", NULL, NULL),
                    1e-6 * num(x, "rays_per_second_1thread", NULL, NULL));
-            printf("%-7s %-24s %10u %9.0f %10.4f %12.3f\n", kinds[k], "embree 2 threads", counts[k],
+            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k], "embree 2 threads", counts[k],
                    num(x, "hits", NULL, NULL), num(x, "seconds_2threads", NULL, NULL),
                    1e-6 * num(x, "rays_per_second_2threads", NULL, NULL));
         }
         for (int md = 0; t && md < 2; ++md) {
             const cJSON *x = cJSON_GetObjectItemCaseSensitive(
                 cJSON_GetObjectItemCaseSensitive(t, md ? "boxes" : "triangles"), kinds[k]);
-            printf("%-7s %-24s %10u %9.0f %10.4f %12.3f\n", kinds[k],
+            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k],
                    md ? "tessera boxes (stages)" : "tessera triangles (stages)", counts[k],
                    num(x, "hits", NULL, NULL), num(x, "trace_seconds", NULL, NULL),
                    1e-6 * num(x, "rays_per_second", NULL, NULL));
-            printf("%-7s %-24s %10u %9.0f %10.4f %12.3f\n", kinds[k], md ? "tessera boxes (wall)" : "tessera triangles (wall)",
+            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k], md ? "tessera boxes (wall)" : "tessera triangles (wall)",
                    counts[k], num(x, "hits", NULL, NULL), num(x, "wall_seconds", NULL, NULL),
                    1e-6 * num(x, "rays_per_second_wall", NULL, NULL));
         }
@@ -881,8 +888,10 @@ static int set_size(config *c, const char *size)
         c->case_count = 3;
         c->runs = 3;
     } else if (!strcmp(size, "full")) {
+        /* m = 10: 67 M triangles, ~7.5 GiB for Embree; forest-100 at m = 6 would be 917 M
+         * triangles, ~100 GiB for Embree: Tessera alone (~15 minutes). */
         for (uint32_t m = 6; m <= 10; ++m) c->cases[m - 6] = (bench_case){"scene/teapot_displaced.rib", m, 1280, 720, 1};
-        c->cases[5] = (bench_case){"scene/forest-1.rib", 8, 1280, 512, 1};
+        c->cases[5] = (bench_case){"scene/forest-100.rib", 6, 320, 128, 0};
         c->case_count = 6;
         c->runs = 3;
     } else {
@@ -989,6 +998,7 @@ int main(int argc, char **argv)
         for (uint32_t i = 0; i < lod_count; ++i)
             cfg.cases[i] = (bench_case){scene, lods[i], w ? w : 640, h ? h : 360, 1};
         cfg.case_count = (int)lod_count;
+        cfg.size = "custom";
     }
     ts_device_info *list = NULL;
     ts_error err = {0};
