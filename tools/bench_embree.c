@@ -45,10 +45,7 @@
  */
 #include "cl_runtime.h"
 #include "embree_ref.h"
-#include "lib/bsdf.h"
-#include "lib/patch.h"
-#include "lib/quadtree.h"
-#include "lib/rng.h"
+#include "ray_sets.h"
 #include "pipeline.h"
 #include "render.h"
 #include "scene_load.h"
@@ -139,190 +136,11 @@ static const char *path_in(const char *dir, const char *name)
     return p;
 }
 
-static int write_file(const char *path, const void *a, size_t an, const void *b, size_t bn)
-{
-    FILE *f = fopen(path, "wb");
-    int ok = f && fwrite(a, 1, an, f) == an && (!bn || fwrite(b, 1, bn, f) == bn);
-    if (f && fclose(f)) ok = 0;
-    if (!ok) fprintf(stderr, "bench_embree: cannot write %s: %s\n", path, strerror(errno));
-    return ok ? 0 : -1;
-}
-
-/* Reads a whole file; NULL (and a message) if it cannot. */
-static void *read_file(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    void *data = NULL;
-    long n = -1;
-    if (f && fseek(f, 0, SEEK_END) == 0 && (n = ftell(f)) >= 0 && fseek(f, 0, SEEK_SET) == 0 &&
-        (data = malloc((size_t)n + 1)) && fread(data, 1, (size_t)n, f) != (size_t)n) {
-        free(data);
-        data = NULL;
-    }
-    if (f) fclose(f);
-    if (!data) fprintf(stderr, "bench_embree: cannot read %s\n", path);
-    else ((char *)data)[n] = '\0', *size = (size_t)n;
-    return data;
-}
-
-/* A ray set on disk: count, then count origins, then count directions (ts_vec4). */
-typedef struct rays {
-    uint32_t count;
-    ts_vec4 *org, *dir;
-    uint32_t *pixel; /* pixel of the eye ray it continues (not stored: rebuilt) */
-} rays;
-
-static void rays_free(rays *r)
-{
-    free(r->org), free(r->dir), free(r->pixel);
-    memset(r, 0, sizeof *r);
-}
-
-static int rays_alloc(rays *r, uint32_t n)
-{
-    r->count = n;
-    r->org = malloc((n ? n : 1) * sizeof *r->org);
-    r->dir = malloc((n ? n : 1) * sizeof *r->dir);
-    r->pixel = malloc((n ? n : 1) * sizeof *r->pixel);
-    return r->org && r->dir && r->pixel ? 0 : -1;
-}
-
-static int rays_save(const char *path, const rays *r)
-{
-    size_t n = r->count;
-    size_t bytes = 4 + 2 * n * sizeof(ts_vec4) + n * 4;
-    unsigned char *buf = malloc(bytes);
-    if (!buf) return -1;
-    memcpy(buf, &r->count, 4);
-    memcpy(buf + 4, r->org, n * sizeof(ts_vec4));
-    memcpy(buf + 4 + n * sizeof(ts_vec4), r->dir, n * sizeof(ts_vec4));
-    memcpy(buf + 4 + 2 * n * sizeof(ts_vec4), r->pixel, n * 4);
-    int rc = write_file(path, buf, bytes, NULL, 0);
-    free(buf);
-    return rc;
-}
-
-static int rays_load(const char *path, rays *r)
-{
-    size_t size = 0;
-    unsigned char *buf = read_file(path, &size);
-    if (!buf) return -1;
-    uint32_t n = 0;
-    if (size >= 4) memcpy(&n, buf, 4);
-    if (size != 4 + 2 * (size_t)n * sizeof(ts_vec4) + (size_t)n * 4 || rays_alloc(r, n)) {
-        fprintf(stderr, "bench_embree: %s: not a ray file\n", path);
-        free(buf);
-        return -1;
-    }
-    memcpy(r->org, buf + 4, (size_t)n * sizeof(ts_vec4));
-    memcpy(r->dir, buf + 4 + (size_t)n * sizeof(ts_vec4), (size_t)n * sizeof(ts_vec4));
-    memcpy(r->pixel, buf + 4 + 2 * (size_t)n * sizeof(ts_vec4), (size_t)n * 4);
-    free(buf);
-    return 0;
-}
-
-static ts_hit *hits_load(const char *path, uint32_t count)
-{
-    size_t size = 0;
-    ts_hit *h = read_file(path, &size);
-    if (h && size != (size_t)count * sizeof(ts_hit)) {
-        fprintf(stderr, "bench_embree: %s: %zu bytes, expected %u hits\n", path, size, count);
-        free(h);
-        return NULL;
-    }
-    return h;
-}
-
-static uint32_t count_hits(const ts_hit *h, uint32_t n)
-{
-    uint32_t k = 0;
-    for (uint32_t i = 0; i < n; ++i) k += h[i].patch != TS_INVALID;
-    return k;
-}
-
-/* ---------------------------------------------------------------- the rays */
-
-/* The camera kernel's eye rays (kernels/camera.cl) at 1 spp: pixel centres, time from the
- * RNG. */
-static int eye_rays(const ts_scene *s, uint32_t w, uint32_t h, uint32_t seed, rays *r, ts_error *err)
-{
-    ts_camera_params p;
-    if (render_camera_params(&s->camera, (int)w, (int)h, &p, err)) return err->code;
-    if (rays_alloc(r, w * h)) return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    for (uint32_t pix = 0; pix < w * h; ++pix) {
-        uint32_t x = pix % w, y = pix / w;
-        float sx = 2.0f * ((float)x + 0.5f) / (float)w - 1.0f;
-        float sy = 1.0f - 2.0f * ((float)y + 0.5f) / (float)h;
-        float dx = sx * p.right[0] + sy * p.up[0] + p.forward[0];
-        float dy = sx * p.right[1] + sy * p.up[1] + p.forward[1];
-        float dz = sx * p.right[2] + sy * p.up[2] + p.forward[2];
-        float inv = 1.0f / sqrtf(dx * dx + dy * dy + dz * dz);
-        r->org[pix] = (ts_vec4){p.origin[0], p.origin[1], p.origin[2], 0.0f};
-        r->dir[pix] = (ts_vec4){dx * inv, dy * inv, dz * inv, rng_uniform(pix, 0, 0, 2, seed)};
-        r->pixel[pix] = pix;
-    }
-    return TS_OK;
-}
-
-/* The shading normal at (u, v) of a patch diced at m: the shade kernel's surface_normal
- * (kernels/shade.cl) on the host. */
-static ts_vec4 surface_normal(const ts_scene *s, uint32_t patch, float u, float v, uint32_t m)
-{
-    const ts_vec4 *cp = &s->cp[(size_t)patch * 16u];
-    const ts_patch_attr *a = &s->attr[patch];
-    if (a->disp_kind == TS_DISP_NONE) return bezier_normal(cp, u, v);
-    static const ts_vec4 up[4] = {{0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}};
-    const ts_vec4 *n = s->corner_n ? &s->corner_n[(size_t)patch * 4u] : up;
-    static const ts_xform identity = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
-    const ts_xform *x = s->xform ? &s->xform[a->xform] : &identity;
-    float h = 0.5f * ldexpf(1.0f, -(int)m);
-    float u0 = fmaxf(u - h, 0.0f), u1 = fminf(u + h, 1.0f);
-    float v0 = fmaxf(v - h, 0.0f), v1 = fminf(v + h, 1.0f);
-    ts_vec4 pu0 = patch_vertex(cp, cp, n, a, x, u0, v), pu1 = patch_vertex(cp, cp, n, a, x, u1, v);
-    ts_vec4 pv0 = patch_vertex(cp, cp, n, a, x, u, v0), pv1 = patch_vertex(cp, cp, n, a, x, u, v1);
-    ts_v3 du = v3(pu1.x - pu0.x, pu1.y - pu0.y, pu1.z - pu0.z);
-    ts_v3 dv = v3(pv1.x - pv0.x, pv1.y - pv0.y, pv1.z - pv0.z);
-    ts_v3 c = v3_cross(du, dv);
-    float len = sqrtf(v3_dot(c, c));
-    if (!(len > 0.0f)) return bezier_normal(cp, u, v);
-    return (ts_vec4){c.x / len, c.y / len, c.z / len, 0.0f};
-}
-
-/* One generation of diffuse bounce rays from the hits of `eye` (see the top of the file). */
-static int bounce_rays(const ts_scene *s, uint32_t m, uint32_t seed, const rays *eye,
-                       const ts_hit *hit, rays *out, ts_error *err)
-{
-    if (rays_alloc(out, eye->count)) return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    uint32_t n = 0;
-    for (uint32_t k = 0; k < eye->count; ++k) {
-        const ts_hit *h = &hit[k];
-        if (h->patch == TS_INVALID) continue;
-        ts_vec4 o4 = eye->org[k], d4 = eye->dir[k];
-        ts_v3 d = v3(d4.x, d4.y, d4.z), wo = v3_scale(d, -1.0f);
-        ts_vec4 n4 = surface_normal(s, h->patch, h->u, h->v, m);
-        ts_v3 nn = v3(n4.x, n4.y, n4.z);
-        if (v3_dot(nn, wo) < 0.0f) nn = v3_scale(nn, -1.0f);
-        ts_v3 p = v3(o4.x + h->t * d.x, o4.y + h->t * d.y, o4.z + h->t * d.z);
-        ts_box b = scene_patch_box(s, h->patch);
-        float l = fmaxf(b.hi_x - b.lo_x, fmaxf(b.hi_y - b.lo_y, b.hi_z - b.lo_z));
-        float eps = l * ldexpf(1.0f, -(int)m);
-        uint32_t pix = eye->pixel[k];
-        ts_v3 wi = sample_cosine(nn, rng_uniform(pix, 0, 1, 5, seed), rng_uniform(pix, 0, 1, 6, seed));
-        if (!(v3_dot(nn, wi) > 0.0f)) continue;
-        out->org[n] = (ts_vec4){p.x + eps * nn.x, p.y + eps * nn.y, p.z + eps * nn.z, 0.0f};
-        out->dir[n] = (ts_vec4){wi.x, wi.y, wi.z, d4.w};
-        out->pixel[n] = pix;
-        ++n;
-    }
-    out->count = n;
-    return TS_OK;
-}
-
 /* ---------------------------------------------------------------- child: embree */
 
 typedef struct trace_job {
     ts_embree_ref *ref;
-    const rays *r;
+    const ts_ray_set *r;
     ts_hit *hit;
     uint32_t first, count;
     int rc;
@@ -339,7 +157,7 @@ static void *trace_thread(void *arg)
 
 /* Traces r with `threads` pthreads, each a contiguous share; returns the wall seconds or
  * -1 on an error. */
-static double embree_trace(ts_embree_ref *ref, const rays *r, ts_hit *hit, int threads, ts_error *err)
+static double embree_trace(ts_embree_ref *ref, const ts_ray_set *r, ts_hit *hit, int threads, ts_error *err)
 {
     trace_job jobs[2];
     pthread_t tid[2];
@@ -376,7 +194,7 @@ static void add_kind(cJSON *parent, const char *name, uint32_t rays_n, uint32_t 
 static int write_json(const char *path, cJSON *root)
 {
     char *text = cJSON_Print(root);
-    int rc = text ? write_file(path, text, strlen(text), "\n", 1) : -1;
+    int rc = text ? ray_set_write_file(path, text, strlen(text), "\n", 1) : -1;
     free(text);
     return rc;
 }
@@ -384,8 +202,8 @@ static int write_json(const char *path, cJSON *root)
 static int child_embree(const ts_scene *s, uint32_t m, const char *dir, int runs, uint32_t seed,
                         ts_error *err)
 {
-    rays eye = {0}, bounce = {0};
-    if (rays_load(path_in(dir, "eye.rays"), &eye)) return ts_error_set(err, TS_E_IO, "no eye rays");
+    ts_ray_set eye = {0}, bounce = {0};
+    if (ray_set_load(path_in(dir, "eye.rays"), &eye)) return ts_error_set(err, TS_E_IO, "no eye rays");
     uint64_t rss_before = rss_now();
     ts_hit *eye_hit = malloc((eye.count ? eye.count : 1) * sizeof *eye_hit), *bounce_hit = NULL;
     double tess[MAX_RUNS], build[MAX_RUNS], te[2][MAX_RUNS], tb[2][MAX_RUNS];
@@ -400,8 +218,8 @@ static int child_embree(const ts_scene *s, uint32_t m, const char *dir, int runs
         for (int th = 0; th < 2 && !rc; ++th)
             if ((te[th][run] = embree_trace(ref, &eye, eye_hit, th + 1, err)) < 0) rc = err->code;
         if (!rc && run == 0) {
-            rc = bounce_rays(s, m, seed, &eye, eye_hit, &bounce, err);
-            if (!rc) rc = rays_save(path_in(dir, "bounce.rays"), &bounce) ? TS_E_IO : TS_OK;
+            rc = ray_set_bounce(s, m, seed, &eye, eye_hit, &bounce, err);
+            if (!rc) rc = ray_set_save(path_in(dir, "bounce.rays"), &bounce) ? TS_E_IO : TS_OK;
             if (!rc && !(bounce_hit = malloc((bounce.count ? bounce.count : 1) * sizeof *bounce_hit)))
                 rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
         }
@@ -409,8 +227,8 @@ static int child_embree(const ts_scene *s, uint32_t m, const char *dir, int runs
             if ((tb[th][run] = embree_trace(ref, &bounce, bounce_hit, th + 1, err)) < 0) rc = err->code;
         embree_ref_destroy(ref);
     }
-    if (!rc && (write_file(path_in(dir, "embree_eye.hits"), eye_hit, eye.count * sizeof(ts_hit), NULL, 0) ||
-                write_file(path_in(dir, "embree_bounce.hits"), bounce_hit, bounce.count * sizeof(ts_hit), NULL, 0)))
+    if (!rc && (ray_set_write_file(path_in(dir, "embree_eye.hits"), eye_hit, eye.count * sizeof(ts_hit), NULL, 0) ||
+                ray_set_write_file(path_in(dir, "embree_bounce.hits"), bounce_hit, bounce.count * sizeof(ts_hit), NULL, 0)))
         rc = ts_error_set(err, TS_E_IO, "cannot write the hits");
     if (!rc) {
         cJSON *root = cJSON_CreateObject();
@@ -426,13 +244,13 @@ static int child_embree(const ts_scene *s, uint32_t m, const char *dir, int runs
         const char *keys[2] = {"seconds_1thread", "seconds_2threads"};
         double e[2] = {median(te[0], runs), median(te[1], runs)};
         double b[2] = {median(tb[0], runs), median(tb[1], runs)};
-        add_kind(root, "eye", eye.count, count_hits(eye_hit, eye.count), keys, e, 2);
-        add_kind(root, "bounce", bounce.count, count_hits(bounce_hit, bounce.count), keys, b, 2);
+        add_kind(root, "eye", eye.count, ray_set_count_hits(eye_hit, eye.count), keys, e, 2);
+        add_kind(root, "bounce", bounce.count, ray_set_count_hits(bounce_hit, bounce.count), keys, b, 2);
         if (write_json(path_in(dir, "embree.json"), root)) rc = ts_error_set(err, TS_E_IO, "cannot write json");
         cJSON_Delete(root);
     }
     free(eye_hit), free(bounce_hit);
-    rays_free(&eye), rays_free(&bounce);
+    ray_set_free(&eye), ray_set_free(&bounce);
     return rc;
 }
 
@@ -440,7 +258,7 @@ static int child_embree(const ts_scene *s, uint32_t m, const char *dir, int runs
 
 /* Traces r through the pipeline in chunks of the plan's wave size; adds the trace stages'
  * seconds to *stage_s and pipeline_trace's wall time to *wall_s. */
-static int tessera_trace(ts_pipeline *p, ts_stats *stats, const rays *r, ts_hit *hit,
+static int tessera_trace(ts_pipeline *p, ts_stats *stats, const ts_ray_set *r, ts_hit *hit,
                          double *stage_s, double *wall_s, uint64_t *iterations,
                          double per_stage[TS_STAGE_COUNT], ts_error *err)
 {
@@ -504,10 +322,10 @@ static double plan_bytes(const ts_pipeline_plan *plan, const ts_scene *s)
 static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int runs, int memory_mb,
                          uint32_t seed, ts_error *err)
 {
-    rays r[2] = {{0}, {0}};
-    if (rays_load(path_in(dir, "eye.rays"), &r[0])) return ts_error_set(err, TS_E_IO, "no eye rays");
+    ts_ray_set r[2] = {{0}, {0}};
+    if (ray_set_load(path_in(dir, "eye.rays"), &r[0])) return ts_error_set(err, TS_E_IO, "no eye rays");
     int have_bounce = access(path_in(dir, "bounce.rays"), R_OK) == 0;
-    if (have_bounce && rays_load(path_in(dir, "bounce.rays"), &r[1])) return ts_error_set(err, TS_E_IO, "bad bounce rays");
+    if (have_bounce && ray_set_load(path_in(dir, "bounce.rays"), &r[1])) return ts_error_set(err, TS_E_IO, "bad bounce rays");
     ts_cl cl;
     ts_cl_options opt = {.device_index = -1};
     if (cl_open(&cl, &opt, err)) return err->code;
@@ -533,8 +351,8 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
     for (int mode = 0; mode < 2 && !rc; ++mode) /* 0 triangles, 1 boxes */
         for (int kind = 0; kind < 2 && !rc; ++kind) {
             if (kind == 1 && !have_bounce) { /* no Embree: bounce from the micro-triangles */
-                rc = bounce_rays(s, m, seed, &r[0], hit[0][0], &r[1], err);
-                if (!rc) rc = rays_save(path_in(dir, "bounce.rays"), &r[1]) ? TS_E_IO : TS_OK;
+                rc = ray_set_bounce(s, m, seed, &r[0], hit[0][0], &r[1], err);
+                if (!rc) rc = ray_set_save(path_in(dir, "bounce.rays"), &r[1]) ? TS_E_IO : TS_OK;
                 have_bounce = 1;
                 if (rc) break;
             }
@@ -547,8 +365,8 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
                 for (int i = 0; i < TS_STAGE_COUNT; ++i) per_stage[mode][kind][i][run] = each[i];
             }
         }
-    if (!rc && (write_file(path_in(dir, "tessera_eye.hits"), hit[0][0], r[0].count * sizeof(ts_hit), NULL, 0) ||
-                write_file(path_in(dir, "tessera_bounce.hits"), hit[0][1], r[1].count * sizeof(ts_hit), NULL, 0)))
+    if (!rc && (ray_set_write_file(path_in(dir, "tessera_eye.hits"), hit[0][0], r[0].count * sizeof(ts_hit), NULL, 0) ||
+                ray_set_write_file(path_in(dir, "tessera_bounce.hits"), hit[0][1], r[1].count * sizeof(ts_hit), NULL, 0)))
         rc = ts_error_set(err, TS_E_IO, "cannot write the hits");
     if (!rc) {
         cJSON *root = cJSON_CreateObject();
@@ -565,7 +383,7 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
             for (int kind = 0; kind < 2; ++kind) {
                 double v[3] = {median(stage[mode][kind], runs), median(wall[mode][kind], runs),
                                (double)iters[mode][kind]};
-                add_kind(o, kinds[kind], r[kind].count, count_hits(hit[mode][kind], r[kind].count), keys, v, 3);
+                add_kind(o, kinds[kind], r[kind].count, ray_set_count_hits(hit[mode][kind], r[kind].count), keys, v, 3);
                 cJSON *st = cJSON_AddObjectToObject(cJSON_GetObjectItemCaseSensitive(o, kinds[kind]), "stage_seconds");
                 for (int i = TS_STAGE_top_level; i <= TS_STAGE_resolve; ++i)
                     cJSON_AddNumberToObject(st, ts_stage_names[i], median(per_stage[mode][kind][i], runs));
@@ -578,7 +396,7 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
     pipeline_destroy(&p);
     stats_free(&stats);
     cl_close(&cl);
-    rays_free(&r[0]), rays_free(&r[1]);
+    ray_set_free(&r[0]), ray_set_free(&r[1]);
     return rc;
 }
 
@@ -615,7 +433,7 @@ static int run_child(const char *what, const bench_case *c, const config *cfg, c
 static cJSON *load_json(const char *path)
 {
     size_t n = 0;
-    char *text = read_file(path, &n);
+    char *text = ray_set_read_file(path, &n);
     cJSON *j = text ? cJSON_Parse(text) : NULL;
     free(text);
     if (!j) fprintf(stderr, "bench_embree: %s: not JSON\n", path);
@@ -658,6 +476,91 @@ static const char *mib(double bytes, char *buf)
     return buf;
 }
 
+/* The table of rays/s: each kind of ray, each tracer. */
+static void print_rates(const cJSON *e, const cJSON *t, const uint32_t counts[2])
+{
+    static const char *const kinds[2] = {"eye", "bounce"};
+    printf("%-7s %-26s %10s %9s %10s %12s\n", "rays", "tracer", "count", "hits", "seconds", "M rays/s");
+    for (int k = 0; k < 2; ++k) {
+        if (e) {
+            const cJSON *x = cJSON_GetObjectItemCaseSensitive(e, kinds[k]);
+            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k], "embree 1 thread", counts[k],
+                   num(x, "hits", NULL, NULL), num(x, "seconds_1thread", NULL, NULL),
+                   1e-6 * num(x, "rays_per_second_1thread", NULL, NULL));
+            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k], "embree 2 threads", counts[k],
+                   num(x, "hits", NULL, NULL), num(x, "seconds_2threads", NULL, NULL),
+                   1e-6 * num(x, "rays_per_second_2threads", NULL, NULL));
+        }
+        for (int md = 0; t && md < 2; ++md) {
+            const cJSON *x = cJSON_GetObjectItemCaseSensitive(
+                cJSON_GetObjectItemCaseSensitive(t, md ? "boxes" : "triangles"), kinds[k]);
+            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k],
+                   md ? "tessera boxes (stages)" : "tessera triangles (stages)", counts[k],
+                   num(x, "hits", NULL, NULL), num(x, "trace_seconds", NULL, NULL),
+                   1e-6 * num(x, "rays_per_second", NULL, NULL));
+            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k], md ? "tessera boxes (wall)" : "tessera triangles (wall)",
+                   counts[k], num(x, "hits", NULL, NULL), num(x, "wall_seconds", NULL, NULL),
+                   1e-6 * num(x, "rays_per_second_wall", NULL, NULL));
+        }
+    }
+}
+
+/* Ray-by-ray agreement (o.agreement) and the ratios of rates, frame times and memory
+ * (o.ratios) of the Embree and Tessera results e and t; prints them. 0, or -1 when the hit
+ * files cannot be read. */
+static int compare(cJSON *o, const cJSON *e, const cJSON *t, const uint32_t counts[2],
+                   double peak_base, const char *dir)
+{
+    static const char *const kinds[2] = {"eye", "bounce"};
+    double peak_e = num(e, "peak_rss_bytes", NULL, NULL), peak_t = num(t, "peak_rss_bytes", NULL, NULL);
+    int rc = 0;
+    cJSON *ag = cJSON_AddObjectToObject(o, "agreement"), *ratios = cJSON_AddObjectToObject(o, "ratios");
+    for (int k = 0; k < 2; ++k) {
+        ts_hit *ha = ray_set_load_hits(path_in(dir, k ? "embree_bounce.hits" : "embree_eye.hits"), counts[k]);
+        ts_hit *hb = ray_set_load_hits(path_in(dir, k ? "tessera_bounce.hits" : "tessera_eye.hits"), counts[k]);
+        if (!ha || !hb) rc = -1;
+        else cJSON_AddItemToObject(ag, kinds[k], agreement(ha, hb, counts[k]));
+        free(ha), free(hb);
+        if (rc) break;
+        const cJSON *ex = cJSON_GetObjectItemCaseSensitive(e, kinds[k]);
+        const cJSON *tx = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(t, "triangles"), kinds[k]);
+        const cJSON *bx = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(t, "boxes"), kinds[k]);
+        double t_tri = num(tx, "rays_per_second", NULL, NULL), t_box = num(bx, "rays_per_second", NULL, NULL);
+        cJSON *r = cJSON_AddObjectToObject(ratios, kinds[k]);
+        /* How many times Embree's rays/s is Tessera's. */
+        cJSON_AddNumberToObject(r, "embree_1thread_over_tessera_triangles", t_tri > 0 ? num(ex, "rays_per_second_1thread", NULL, NULL) / t_tri : 0);
+        cJSON_AddNumberToObject(r, "embree_2threads_over_tessera_triangles", t_tri > 0 ? num(ex, "rays_per_second_2threads", NULL, NULL) / t_tri : 0);
+        cJSON_AddNumberToObject(r, "embree_2threads_over_tessera_boxes", t_box > 0 ? num(ex, "rays_per_second_2threads", NULL, NULL) / t_box : 0);
+    }
+    /* A frame: Embree's tessellation + build + both traces (2 threads) against Tessera's
+     * trace stages for both (it dices as it goes). */
+    double ef = num(e, "tessellate_seconds", NULL, NULL) + num(e, "build_seconds", NULL, NULL) +
+                num(e, "eye", "seconds_2threads", NULL) + num(e, "bounce", "seconds_2threads", NULL);
+    double tf = num(t, "triangles", "eye", "trace_seconds") + num(t, "triangles", "bounce", "trace_seconds");
+    double bf = num(t, "boxes", "eye", "trace_seconds") + num(t, "boxes", "bounce", "trace_seconds");
+    cJSON_AddNumberToObject(ratios, "frame_embree_seconds", ef);
+    cJSON_AddNumberToObject(ratios, "frame_tessera_triangles_seconds", tf);
+    cJSON_AddNumberToObject(ratios, "frame_tessera_boxes_seconds", bf);
+    cJSON_AddNumberToObject(ratios, "frame_tessera_triangles_over_embree", ef > 0 ? tf / ef : 0);
+    cJSON_AddNumberToObject(ratios, "peak_rss_embree_over_tessera", peak_t > 0 ? peak_e / peak_t : 0);
+    double pe = peak_e - peak_base, pt = peak_t - peak_base;
+    cJSON_AddNumberToObject(ratios, "peak_rss_above_baseline_embree_over_tessera", pt > 0 ? pe / pt : 0);
+    for (int k = 0; k < 2 && !rc; ++k) {
+        const cJSON *x = cJSON_GetObjectItemCaseSensitive(ag, kinds[k]);
+        printf("agreement %-6s: %u rays, hit/miss mismatches %.0f, both hit %.0f, same patch and t %.0f\n",
+               kinds[k], counts[k], num(x, "hit_miss_mismatches", NULL, NULL), num(x, "both_hit", NULL, NULL),
+               num(x, "same_patch_and_t", NULL, NULL));
+    }
+    printf("ratios: Embree 2 threads / Tessera triangles rays/s: eye %.2f, bounce %.2f; "
+           "frame (Embree incl. build) Tessera/Embree time %.2f; peak RSS Embree/Tessera %.2f\n",
+           num(ratios, "eye", "embree_2threads_over_tessera_triangles", NULL),
+           num(ratios, "bounce", "embree_2threads_over_tessera_triangles", NULL),
+           num(ratios, "frame_tessera_triangles_over_embree", NULL, NULL),
+           num(ratios, "peak_rss_embree_over_tessera", NULL, NULL));
+
+    return rc;
+}
+
 /* One case: rays, children, comparison. Adds the case's object to `cases`. */
 static int run_case(const bench_case *c, const config *cfg, const char *dir, cJSON *cases)
 {
@@ -668,8 +571,8 @@ static int run_case(const bench_case *c, const config *cfg, const char *dir, cJS
         fprintf(stderr, "bench_embree: %s\n", err.msg);
         return -1;
     }
-    rays eye = {0};
-    if (eye_rays(&s, c->width, c->height, cfg->seed, &eye, &err) || rays_save(path_in(dir, "eye.rays"), &eye)) {
+    ts_ray_set eye = {0};
+    if (ray_set_eye(&s, c->width, c->height, cfg->seed, &eye, &err) || ray_set_save(path_in(dir, "eye.rays"), &eye)) {
         fprintf(stderr, "bench_embree: %s\n", err.msg);
         scene_free(&s);
         return -1;
@@ -684,7 +587,7 @@ static int run_case(const bench_case *c, const config *cfg, const char *dir, cJS
            c->width, c->height, patches, 2.0 * patches * (double)(1u << (2 * c->lod)));
     if (run_child("baseline", c, cfg, dir) || (do_embree && run_child("embree", c, cfg, dir)) ||
         (do_tessera && run_child("tessera", c, cfg, dir))) {
-        rays_free(&eye);
+        ray_set_free(&eye);
         return -1;
     }
     cJSON *base = load_json(path_in(dir, "baseline.json"));
@@ -692,16 +595,16 @@ static int run_case(const bench_case *c, const config *cfg, const char *dir, cJS
     cJSON *t = do_tessera ? load_json(path_in(dir, "tessera.json")) : NULL;
     if (!base || (do_embree && !e) || (do_tessera && !t)) {
         cJSON_Delete(base), cJSON_Delete(e), cJSON_Delete(t);
-        rays_free(&eye);
+        ray_set_free(&eye);
         return -1;
     }
     peak_base = num(base, "peak_rss_bytes", NULL, NULL);
     cJSON_Delete(base);
     if (e) peak_e = num(e, "peak_rss_bytes", NULL, NULL);
     if (t) peak_t = num(t, "peak_rss_bytes", NULL, NULL);
-    rays bounce = {0};
-    if (rays_load(path_in(dir, "bounce.rays"), &bounce)) {
-        rays_free(&eye);
+    ts_ray_set bounce = {0};
+    if (ray_set_load(path_in(dir, "bounce.rays"), &bounce)) {
+        ray_set_free(&eye);
         return -1;
     }
     cJSON *o = cJSON_CreateObject();
@@ -751,76 +654,9 @@ static int run_case(const bench_case *c, const config *cfg, const char *dir, cJS
                cfg->memory_mb, mib(num(t, "device_buffer_bytes", NULL, NULL), b1),
                num(t, "wave_rays", NULL, NULL), mib(peak_t, b2), mib(peak_base, b3));
     }
-    printf("%-7s %-26s %10s %9s %10s %12s\n", "rays", "tracer", "count", "hits", "seconds", "M rays/s");
-    for (int k = 0; k < 2; ++k) {
-        if (e) {
-            const cJSON *x = cJSON_GetObjectItemCaseSensitive(e, kinds[k]);
-            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k], "embree 1 thread", counts[k],
-                   num(x, "hits", NULL, NULL), num(x, "seconds_1thread", NULL, NULL),
-                   1e-6 * num(x, "rays_per_second_1thread", NULL, NULL));
-            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k], "embree 2 threads", counts[k],
-                   num(x, "hits", NULL, NULL), num(x, "seconds_2threads", NULL, NULL),
-                   1e-6 * num(x, "rays_per_second_2threads", NULL, NULL));
-        }
-        for (int md = 0; t && md < 2; ++md) {
-            const cJSON *x = cJSON_GetObjectItemCaseSensitive(
-                cJSON_GetObjectItemCaseSensitive(t, md ? "boxes" : "triangles"), kinds[k]);
-            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k],
-                   md ? "tessera boxes (stages)" : "tessera triangles (stages)", counts[k],
-                   num(x, "hits", NULL, NULL), num(x, "trace_seconds", NULL, NULL),
-                   1e-6 * num(x, "rays_per_second", NULL, NULL));
-            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k], md ? "tessera boxes (wall)" : "tessera triangles (wall)",
-                   counts[k], num(x, "hits", NULL, NULL), num(x, "wall_seconds", NULL, NULL),
-                   1e-6 * num(x, "rays_per_second_wall", NULL, NULL));
-        }
-    }
-    int rc = 0;
-    if (e && t) {
-        cJSON *ag = cJSON_AddObjectToObject(o, "agreement"), *ratios = cJSON_AddObjectToObject(o, "ratios");
-        for (int k = 0; k < 2; ++k) {
-            ts_hit *ha = hits_load(path_in(dir, k ? "embree_bounce.hits" : "embree_eye.hits"), counts[k]);
-            ts_hit *hb = hits_load(path_in(dir, k ? "tessera_bounce.hits" : "tessera_eye.hits"), counts[k]);
-            if (!ha || !hb) rc = -1;
-            else cJSON_AddItemToObject(ag, kinds[k], agreement(ha, hb, counts[k]));
-            free(ha), free(hb);
-            if (rc) break;
-            const cJSON *ex = cJSON_GetObjectItemCaseSensitive(e, kinds[k]);
-            const cJSON *tx = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(t, "triangles"), kinds[k]);
-            const cJSON *bx = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(t, "boxes"), kinds[k]);
-            double t_tri = num(tx, "rays_per_second", NULL, NULL), t_box = num(bx, "rays_per_second", NULL, NULL);
-            cJSON *r = cJSON_AddObjectToObject(ratios, kinds[k]);
-            /* How many times Embree's rays/s is Tessera's. */
-            cJSON_AddNumberToObject(r, "embree_1thread_over_tessera_triangles", t_tri > 0 ? num(ex, "rays_per_second_1thread", NULL, NULL) / t_tri : 0);
-            cJSON_AddNumberToObject(r, "embree_2threads_over_tessera_triangles", t_tri > 0 ? num(ex, "rays_per_second_2threads", NULL, NULL) / t_tri : 0);
-            cJSON_AddNumberToObject(r, "embree_2threads_over_tessera_boxes", t_box > 0 ? num(ex, "rays_per_second_2threads", NULL, NULL) / t_box : 0);
-        }
-        /* A frame: Embree's tessellation + build + both traces (2 threads) against Tessera's
-         * trace stages for both (it dices as it goes). */
-        double ef = num(e, "tessellate_seconds", NULL, NULL) + num(e, "build_seconds", NULL, NULL) +
-                    num(e, "eye", "seconds_2threads", NULL) + num(e, "bounce", "seconds_2threads", NULL);
-        double tf = num(t, "triangles", "eye", "trace_seconds") + num(t, "triangles", "bounce", "trace_seconds");
-        double bf = num(t, "boxes", "eye", "trace_seconds") + num(t, "boxes", "bounce", "trace_seconds");
-        cJSON_AddNumberToObject(ratios, "frame_embree_seconds", ef);
-        cJSON_AddNumberToObject(ratios, "frame_tessera_triangles_seconds", tf);
-        cJSON_AddNumberToObject(ratios, "frame_tessera_boxes_seconds", bf);
-        cJSON_AddNumberToObject(ratios, "frame_tessera_triangles_over_embree", ef > 0 ? tf / ef : 0);
-        cJSON_AddNumberToObject(ratios, "peak_rss_embree_over_tessera", peak_t > 0 ? peak_e / peak_t : 0);
-        double pe = peak_e - peak_base, pt = peak_t - peak_base;
-        cJSON_AddNumberToObject(ratios, "peak_rss_above_baseline_embree_over_tessera", pt > 0 ? pe / pt : 0);
-        for (int k = 0; k < 2 && !rc; ++k) {
-            const cJSON *x = cJSON_GetObjectItemCaseSensitive(ag, kinds[k]);
-            printf("agreement %-6s: %u rays, hit/miss mismatches %.0f, both hit %.0f, same patch and t %.0f\n",
-                   kinds[k], counts[k], num(x, "hit_miss_mismatches", NULL, NULL), num(x, "both_hit", NULL, NULL),
-                   num(x, "same_patch_and_t", NULL, NULL));
-        }
-        printf("ratios: Embree 2 threads / Tessera triangles rays/s: eye %.2f, bounce %.2f; "
-               "frame (Embree incl. build) Tessera/Embree time %.2f; peak RSS Embree/Tessera %.2f\n",
-               num(ratios, "eye", "embree_2threads_over_tessera_triangles", NULL),
-               num(ratios, "bounce", "embree_2threads_over_tessera_triangles", NULL),
-               num(ratios, "frame_tessera_triangles_over_embree", NULL, NULL),
-               num(ratios, "peak_rss_embree_over_tessera", NULL, NULL));
-    }
-    rays_free(&eye), rays_free(&bounce);
+    print_rates(e, t, counts);
+    int rc = e && t ? compare(o, e, t, counts, peak_base, dir) : 0;
+    ray_set_free(&eye), ray_set_free(&bounce);
     cJSON_AddItemToArray(cases, o);
     return rc;
 }
@@ -976,9 +812,9 @@ int main(int argc, char **argv)
         else if (!rc && !strcmp(child, "tessera"))
             rc = child_tessera(&s, lods[0], cfg.keep_dir, cfg.runs, cfg.memory_mb, cfg.seed, &err);
         else if (!rc && !strcmp(child, "baseline")) {
-            rays r = {0};
-            rc = rays_load(path_in(cfg.keep_dir, "eye.rays"), &r) ? TS_E_IO : TS_OK;
-            rays_free(&r);
+            ts_ray_set r = {0};
+            rc = ray_set_load(path_in(cfg.keep_dir, "eye.rays"), &r) ? TS_E_IO : TS_OK;
+            ray_set_free(&r);
             cJSON *root = cJSON_CreateObject();
             cJSON_AddNumberToObject(root, "peak_rss_bytes", (double)rss_peak());
             if (!rc && write_json(path_in(cfg.keep_dir, "baseline.json"), root))
