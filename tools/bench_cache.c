@@ -22,7 +22,9 @@
  * <= cache 10.
  *
  * usage: bench_cache [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N]
- *                    [--memory MB] [--memo-mb MB] [--json PATH]
+ *                    [--memory MB] [--memo-mb MB] [--order pixel|pass] [--json PATH]
+ *   --order pass: the caches see the rays sample pass by sample pass (the order of Tessera's
+ *   camera), instead of scanline order with each pixel's samples in turn (default, pixel).
  *   tiny:  scene/forest-1.rib at 160x64, 1 spp
  *   small: scene/forest-100.rib and scene/forest-1000.rib at 480x192, 4 spp
  *   full:  the same at 1920x768, 4 spp (the paper: 1920x768x64 rays, with motion blur)
@@ -48,6 +50,7 @@ typedef struct bench_options {
     const char *size, *json_path;
     const char *scenes[4];
     int scene_count, width, height, spp, memory_mb, memo_mb;
+    int pass_order; /* 0: scanline, each pixel's samples in turn; 1: sample pass by pass */
 } bench_options;
 
 /* One LRU cache of diced patches: a doubly linked list over `cap` slots, most recent first. */
@@ -131,12 +134,12 @@ static int bench_parse(int argc, char **argv, bench_options *o)
         {"size", required_argument, NULL, 's'},   {"scene", required_argument, NULL, 'S'},
         {"res", required_argument, NULL, 'r'},    {"spp", required_argument, NULL, 'p'},
         {"memory", required_argument, NULL, 'm'}, {"memo-mb", required_argument, NULL, 'M'},
-        {"json", required_argument, NULL, 'j'},   {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0},
+        {"json", required_argument, NULL, 'j'},   {"order", required_argument, NULL, 'o'},
+        {"help", no_argument, NULL, 'h'},         {NULL, 0, NULL, 0},
     };
     *o = (bench_options){.size = "small", .memory_mb = 1024, .memo_mb = 2048};
     int c, w = 0, h = 0, spp = 0;
-    while ((c = getopt_long(argc, argv, "s:S:r:p:m:M:j:h", longopts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, "s:S:r:p:m:M:j:o:h", longopts, NULL)) != -1) {
         switch (c) {
         case 's': o->size = optarg; break;
         case 'S':
@@ -156,9 +159,16 @@ static int bench_parse(int argc, char **argv, bench_options *o)
         case 'm': o->memory_mb = atoi(optarg); break;
         case 'M': o->memo_mb = atoi(optarg); break;
         case 'j': o->json_path = optarg; break;
+        case 'o':
+            if (strcmp(optarg, "pixel") && strcmp(optarg, "pass")) {
+                fprintf(stderr, "bench_cache: --order must be pixel or pass, not '%s'\n", optarg);
+                return 1;
+            }
+            o->pass_order = !strcmp(optarg, "pass");
+            break;
         default:
             fprintf(stderr, "usage: %s [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N] "
-                    "[--memory MB] [--memo-mb MB] [--json PATH]\n", argv[0]);
+                    "[--memory MB] [--memo-mb MB] [--order pixel|pass] [--json PATH]\n", argv[0]);
             return c == 'h' ? 0 : 1;
         }
     }
@@ -376,7 +386,8 @@ static int run_cache(const bench_options *o, const ts_scene *s, const frame *f, 
     uint64_t npix = (uint64_t)o->width * o->height;
     for (uint64_t pix = 0; pix < npix && !rc; ++pix)
         for (uint64_t smp = 0; smp < (uint64_t)o->spp && !rc; ++smp) {
-            uint64_t g = smp * npix + pix; /* the camera's global sample index */
+            /* g: the camera's global sample index of the ray traced now */
+            uint64_t g = o->pass_order ? pix * (uint64_t)o->spp + smp : smp * npix + pix;
             ts_hit hc;
             if (trace_one(s, &q, f, g, &mm, &h, res, &hc)) {
                 rc = ts_error_set(err, TS_E_MEMORY, "out of memory in the cache tracer");
@@ -430,9 +441,10 @@ static int bench_check(const bench_result *r)
 
 static void bench_print(const bench_options *o, const bench_result *r)
 {
-    printf("%s: %u patches, %dx%d x %d spp = %llu eye rays, --memory %d MB: %u waves, %llu iterations, max m %u\n",
-           r->scene, r->patches, o->width, o->height, o->spp, (unsigned long long)r->rays, o->memory_mb,
-           r->waves, (unsigned long long)r->reorder_iterations, r->max_lod);
+    printf("%s: %u patches, %dx%d x %d spp = %llu eye rays, --memory %d MB: %u waves, %llu iterations, "
+           "max m %u; caches see the rays %s\n", r->scene, r->patches, o->width, o->height, o->spp,
+           (unsigned long long)r->rays, o->memory_mb, r->waves, (unsigned long long)r->reorder_iterations,
+           r->max_lod, o->pass_order ? "sample pass by pass" : "in scanline order, each pixel's samples in turn");
     printf("  %-12s %12s %16s %14s\n", "method", "dicings", "micro-polygons", "vs cache 1000");
     for (int c = 0; c < BENCH_CACHES; ++c)
         printf("  cache %-6u %12llu %16llu %14.2f\n", r->cache[c].cap, (unsigned long long)r->cache[c].dicings,
@@ -455,7 +467,7 @@ static int bench_json(const bench_options *o, const bench_result *rs, int n, con
     cJSON_AddNumberToObject(root, "height", o->height);
     cJSON_AddNumberToObject(root, "spp", o->spp);
     cJSON_AddNumberToObject(root, "memory_mb", o->memory_mb);
-    cJSON_AddStringToObject(root, "ray_order", "scanline, samples of a pixel consecutive");
+    cJSON_AddStringToObject(root, "ray_order", o->pass_order ? "pass" : "pixel");
     cJSON *arr = cJSON_AddArrayToObject(root, "scenes");
     for (int i = 0; i < n; ++i) {
         const bench_result *r = &rs[i];
