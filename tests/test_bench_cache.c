@@ -64,6 +64,11 @@ static void test_tiny(void **state)
     assert_true(hits > 0.05 * number(s, "rays"));
     assert_true(number(s, "cache_hits") == hits);
     assert_true(number(s, "hit_t_equal") >= 0.99 * hits);
+    /* The program's own verdicts, as reported. */
+    const cJSON *ck = cJSON_GetObjectItem(s, "checks");
+    assert_true(cJSON_IsTrue(cJSON_GetObjectItem(ck, "reorder_le_cache_10")));
+    assert_true(cJSON_IsTrue(cJSON_GetObjectItem(ck, "cache_1000_le_100_le_10")));
+    assert_true(cJSON_IsTrue(cJSON_GetObjectItem(ck, "same_rays_hit")));
     cJSON_Delete(root);
 }
 

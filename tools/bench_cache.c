@@ -67,6 +67,8 @@ typedef struct bench_result {
     uint32_t patches, max_lod, waves;
     uint64_t rays, reorder_dicings, reorder_micropolygons, reorder_iterations, reorder_pairs;
     uint64_t lookups, hits_reorder, hits_cache, hit_t_equal, host_dicings;
+    uint64_t t_reorder_nearer, t_cache_nearer; /* both hit, at different distances */
+    int check_reorder_le_cache10, check_caches_monotone, check_same_hits;
     lru cache[BENCH_CACHES];
     double reorder_seconds, cache_seconds;
 } bench_result;
@@ -396,7 +398,10 @@ static int run_cache(const bench_options *o, const ts_scene *s, const frame *f, 
             const ts_hit *hr = &f->hit[g];
             res->hits_cache += hc.patch != TS_INVALID;
             res->hits_reorder += hr->patch != TS_INVALID;
-            res->hit_t_equal += hc.patch != TS_INVALID && hr->patch != TS_INVALID && hc.t == hr->t;
+            int both = hc.patch != TS_INVALID && hr->patch != TS_INVALID;
+            res->hit_t_equal += both && hc.t == hr->t;
+            res->t_reorder_nearer += both && hr->t < hc.t;
+            res->t_cache_nearer += both && hc.t < hr->t;
         }
     res->cache_seconds = stats_now() - t0;
     res->host_dicings = mm.dicings;
@@ -426,17 +431,19 @@ static int bench_scene(const bench_options *o, ts_cl *cl, const char *path, benc
 }
 
 /* The checks of issue 8 item 1; returns the number that failed. */
-static int bench_check(const bench_result *r)
+static int bench_check(bench_result *r)
 {
-    int bad = 0;
     const lru *c = r->cache;
-    if (r->reorder_dicings > c[0].dicings) fprintf(stderr, "bench_cache: %s: reordering dices more than a 10-entry cache\n", r->scene), ++bad;
-    if (!(c[2].dicings <= c[1].dicings && c[1].dicings <= c[0].dicings))
-        fprintf(stderr, "bench_cache: %s: larger caches dice more\n", r->scene), ++bad;
-    if (r->hits_cache != r->hits_reorder)
-        fprintf(stderr, "bench_cache: %s: %llu rays hit in the cache tracer, %llu in Tessera\n", r->scene,
-                (unsigned long long)r->hits_cache, (unsigned long long)r->hits_reorder), ++bad;
-    return bad;
+    r->check_reorder_le_cache10 = r->reorder_dicings <= c[0].dicings;
+    r->check_caches_monotone = c[2].dicings <= c[1].dicings && c[1].dicings <= c[0].dicings;
+    r->check_same_hits = r->hits_cache == r->hits_reorder;
+    if (!r->check_reorder_le_cache10)
+        fprintf(stderr, "bench_cache: CHECK FAILED: %s: reordering dices more than a 10-entry cache\n", r->scene);
+    if (!r->check_caches_monotone) fprintf(stderr, "bench_cache: CHECK FAILED: %s: larger caches dice more\n", r->scene);
+    if (!r->check_same_hits)
+        fprintf(stderr, "bench_cache: CHECK FAILED: %s: %llu rays hit in the cache tracer, %llu in Tessera\n",
+                r->scene, (unsigned long long)r->hits_cache, (unsigned long long)r->hits_reorder);
+    return !r->check_reorder_le_cache10 + !r->check_caches_monotone + !r->check_same_hits;
 }
 
 static void bench_print(const bench_options *o, const bench_result *r)
@@ -451,10 +458,12 @@ static void bench_print(const bench_options *o, const bench_result *r)
                (unsigned long long)r->cache[c].micropolygons, (double)r->cache[c].dicings / (double)r->cache[2].dicings);
     printf("  %-12s %12llu %16llu %14.2f\n", "reordering", (unsigned long long)r->reorder_dicings,
            (unsigned long long)r->reorder_micropolygons, (double)r->reorder_dicings / (double)r->cache[2].dicings);
-    printf("  rays hit: %llu (Tessera) / %llu (cache tracer), equal hit distances %llu; patch lookups %llu; "
-           "%.1f s wavefront, %.1f s cache tracer\n", (unsigned long long)r->hits_reorder,
-           (unsigned long long)r->hits_cache, (unsigned long long)r->hit_t_equal, (unsigned long long)r->lookups,
-           r->reorder_seconds, r->cache_seconds);
+    printf("  rays hit: %llu (Tessera) / %llu (cache tracer); hit distances equal %llu, nearer in Tessera %llu, "
+           "nearer in the cache tracer %llu\n", (unsigned long long)r->hits_reorder, (unsigned long long)r->hits_cache,
+           (unsigned long long)r->hit_t_equal, (unsigned long long)r->t_reorder_nearer,
+           (unsigned long long)r->t_cache_nearer);
+    printf("  patch lookups %llu (%.2f per ray); %.1f s wavefront, %.1f s cache tracer\n",
+           (unsigned long long)r->lookups, (double)r->lookups / (double)r->rays, r->reorder_seconds, r->cache_seconds);
 }
 
 static int bench_json(const bench_options *o, const bench_result *rs, int n, const char *device)
@@ -495,6 +504,12 @@ static int bench_json(const bench_options *o, const bench_result *rs, int n, con
         cJSON_AddNumberToObject(j, "cache_lookups", (double)r->lookups);
         cJSON_AddNumberToObject(j, "cache_hits", (double)r->hits_cache);
         cJSON_AddNumberToObject(j, "hit_t_equal", (double)r->hit_t_equal);
+        cJSON_AddNumberToObject(j, "hit_t_nearer_reorder", (double)r->t_reorder_nearer);
+        cJSON_AddNumberToObject(j, "hit_t_nearer_cache", (double)r->t_cache_nearer);
+        cJSON *ck = cJSON_AddObjectToObject(j, "checks");
+        cJSON_AddBoolToObject(ck, "reorder_le_cache_10", r->check_reorder_le_cache10);
+        cJSON_AddBoolToObject(ck, "cache_1000_le_100_le_10", r->check_caches_monotone);
+        cJSON_AddBoolToObject(ck, "same_rays_hit", r->check_same_hits);
         cJSON_AddNumberToObject(j, "cache_seconds", r->cache_seconds);
         cJSON_AddNumberToObject(j, "ratio_reorder_to_cache_1000", (double)r->reorder_dicings / (double)r->cache[2].dicings);
         cJSON_AddNumberToObject(j, "ratio_reorder_to_cache_10", (double)r->reorder_dicings / (double)r->cache[0].dicings);
@@ -524,9 +539,9 @@ int main(int argc, char **argv)
     if (cl_open(&cl, &clo, &err) == TS_OK)
         for (; n < o.scene_count; ++n) {
             if (bench_scene(&o, &cl, o.scenes[n], &res[n], &err)) break;
+            bad += bench_check(&res[n]);
             bench_print(&o, &res[n]);
             fflush(stdout);
-            bad += bench_check(&res[n]);
         }
     rc = err.code != TS_OK;
     if (rc) fprintf(stderr, "bench_cache: %s\n", err.msg);
