@@ -10,7 +10,9 @@
  *   c_1thread:  host/bottom_level_ref.c on one thread;
  *   c_threads:  the same on T pthreads (default 2, PoCL's thread count on this machine)
  *               taking chunks of 1024 pairs from a shared counter;
- * and the medians are reported as M traversals/s with the ratios C / OpenCL. Every run's hit
+ * and the medians are reported as M traversals/s with the ratios C / OpenCL, and how many
+ * cores each parallel variant really got (process CPU time over wall time: the machine is
+ * shared). Every run's hit
  * records must agree bitwise between the three (the benchmark fails otherwise). Both
  * geometry modes (leaf boxes, micro-triangles) at leaf size 1.
  *
@@ -47,12 +49,21 @@ typedef struct bench_mode {
     int exact;
     uint64_t hits, tests;
     bench_timing ocl_kernel, ocl_wall, c1, ct;
+    double ocl_cores, ct_cores; /* process CPU seconds over wall seconds, medians */
 } bench_mode;
 
 static double bench_now(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* CPU seconds of the whole process (every thread, PoCL's included). */
+static double bench_cpu(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
@@ -238,23 +249,24 @@ static int bench_mode_run(const bench_options *o, bench_setup *s, bench_mode *m,
 {
     uint32_t n = s->pair_count;
     ts_hit *dev = malloc(n * sizeof *dev), *c1 = malloc(n * sizeof *c1), *ct = malloc(n * sizeof *ct);
-    double *tk = malloc((size_t)o->repeat * 4 * sizeof *tk), *tw = tk + o->repeat, *t1 = tw + o->repeat, *tt = t1 + o->repeat;
+    double *tk = malloc((size_t)o->repeat * 6 * sizeof *tk), *tw = tk + o->repeat, *t1 = tw + o->repeat, *tt = t1 + o->repeat;
+    double *uo = tt + o->repeat, *ut = uo + o->repeat; /* cores used */
     if (!dev || !c1 || !ct || !tk) return ts_error_set(err, TS_E_MEMORY, "out of memory");
     s->p.mode.exact = m->exact, s->p.mode.leaf_b = 0, s->p.mode.leaf_group = 0;
     bl_ref_batch b = {s->pairs, 0, n, s->p.segments_host, 0, s->scene.patch_count, 1, (uint32_t)m->exact, 0,
                       s->active, s->org, s->dir, s->hit, s->flags, s->grid, s->groups};
     uint64_t bad = 0;
     for (int r = -1; r < o->repeat && !bad; ++r) {
-        double k0 = s->stats.stage_seconds[TS_STAGE_bottom_level], w0 = bench_now();
+        double k0 = s->stats.stage_seconds[TS_STAGE_bottom_level], c0 = bench_cpu(), w0 = bench_now();
         if (pipeline_bottom_level(&s->p, 1, err)) break;
-        double w1 = bench_now();
+        double w1 = bench_now(), c1t = bench_cpu();
         m->tests = bottom_level_ref_pairs(&b, 0, n, c1);
-        double w2 = bench_now();
+        double c2t = bench_cpu(), w2 = bench_now();
         if (bench_threads(&b, n, o->threads, ct)) {
             ts_error_set(err, TS_E_INTERNAL, "pthread_create failed");
             break;
         }
-        double w3 = bench_now();
+        double w3 = bench_now(), c3t = bench_cpu();
         if (clEnqueueReadBuffer(s->cl.queue, s->p.pair_hit, CL_TRUE, 0, n * sizeof *dev, dev, 0, NULL, NULL)) {
             ts_error_set(err, TS_E_DEVICE, "reading pair_hit");
             break;
@@ -262,6 +274,7 @@ static int bench_mode_run(const bench_options *o, bench_setup *s, bench_mode *m,
         bad = bench_diff(dev, c1, n) + bench_diff(c1, ct, n);
         if (r < 0) continue;
         tk[r] = s->stats.stage_seconds[TS_STAGE_bottom_level] - k0, tw[r] = w1 - w0, t1[r] = w2 - w1, tt[r] = w3 - w2;
+        uo[r] = (c1t - c0) / (w1 - w0), ut[r] = (c3t - c2t) / (w3 - w2);
     }
     if (bad && !err->code) ts_error_set(err, TS_E_INTERNAL, "%s: %llu hit records differ between OpenCL and C", m->name, (unsigned long long)bad);
     if (!err->code) {
@@ -269,6 +282,7 @@ static int bench_mode_run(const bench_options *o, bench_setup *s, bench_mode *m,
         for (uint32_t i = 0; i < n; ++i) m->hits += c1[i].patch != TS_INVALID;
         m->ocl_kernel = bench_stats(tk, o->repeat), m->ocl_wall = bench_stats(tw, o->repeat);
         m->c1 = bench_stats(t1, o->repeat), m->ct = bench_stats(tt, o->repeat);
+        m->ocl_cores = bench_stats(uo, o->repeat).median_s, m->ct_cores = bench_stats(ut, o->repeat).median_s;
     }
     free(dev), free(c1), free(ct), free(tk);
     return err->code;
@@ -310,6 +324,8 @@ static int bench_json(const bench_options *o, const bench_setup *s, const bench_
         add_rate(j, "opencl_wall", m->ocl_wall, n);
         add_rate(j, "c_1thread", m->c1, n);
         add_rate(j, "c_threads", m->ct, n);
+        cJSON_AddNumberToObject(j, "opencl_cores_used", m->ocl_cores);
+        cJSON_AddNumberToObject(j, "c_threads_cores_used", m->ct_cores);
         cJSON_AddNumberToObject(j, "ratio_c_1thread_to_opencl", m->ocl_kernel.median_s / m->c1.median_s);
         cJSON_AddNumberToObject(j, "ratio_c_threads_to_opencl", m->ocl_kernel.median_s / m->ct.median_s);
         cJSON_AddItemToArray(arr, j);
@@ -331,16 +347,17 @@ static void bench_print(const bench_options *o, const bench_setup *s, const benc
            "(%u compute units), C on %d threads, median of %d\n",
            o->scene, o->width, o->height, s->scene.patch_count, o->lod, s->pair_count, s->cl.info.name,
            s->cl.info.compute_units, o->threads, o->repeat);
-    printf("%-10s %8s %12s %12s %12s %12s %9s %9s\n", "intersect", "hits", "OpenCL M/s", "(wall) M/s",
-           "C 1thr M/s", "C thr M/s", "C1/OCL", "Cthr/OCL");
+    printf("%-10s %8s %12s %12s %12s %12s %9s %9s %10s\n", "intersect", "hits", "OpenCL M/s", "(wall) M/s",
+           "C 1thr M/s", "C thr M/s", "C1/OCL", "Cthr/OCL", "cores O/C");
     for (int i = 0; i < nm; ++i) {
         const bench_mode *m = &modes[i];
-        printf("%-10s %8llu %12.2f %12.2f %12.2f %12.2f %9.2f %9.2f\n", m->name, (unsigned long long)m->hits,
-               n / m->ocl_kernel.median_s * 1e-6, n / m->ocl_wall.median_s * 1e-6, n / m->c1.median_s * 1e-6,
-               n / m->ct.median_s * 1e-6, m->ocl_kernel.median_s / m->c1.median_s,
-               m->ocl_kernel.median_s / m->ct.median_s);
+        printf("%-10s %8llu %12.2f %12.2f %12.2f %12.2f %9.2f %9.2f %4.2f/%4.2f\n", m->name,
+               (unsigned long long)m->hits, n / m->ocl_kernel.median_s * 1e-6, n / m->ocl_wall.median_s * 1e-6,
+               n / m->c1.median_s * 1e-6, n / m->ct.median_s * 1e-6, m->ocl_kernel.median_s / m->c1.median_s,
+               m->ocl_kernel.median_s / m->ct.median_s, m->ocl_cores, m->ct_cores);
     }
-    printf("hit records: identical (bitwise) between OpenCL and C in every run\n");
+    printf("hit records: identical (bitwise) between OpenCL and C in every run; cores O/C: process CPU "
+           "seconds per wall second while OpenCL / the C threads ran\n");
 }
 
 int main(int argc, char **argv)
