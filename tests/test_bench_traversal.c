@@ -58,6 +58,9 @@ static void test_tiny(void **state)
             assert_true(rate[i] > 0);
             assert_true(number(r, "min_seconds") <= number(r, "median_seconds"));
         }
+        /* Cores really used (CPU seconds per wall second) are measured. */
+        assert_true(number(m, "opencl_cores_used") > 0 && number(m, "c_threads_cores_used") > 0);
+        assert_true(number(m, "micro_quad_tests") >= number(m, "hits"));
         double r1 = number(m, "ratio_c_1thread_to_opencl"), rt = number(m, "ratio_c_threads_to_opencl");
         assert_true(r1 > 0 && rt > 0);
         assert_true(fabs(r1 - rate[2] / rate[0]) <= 1e-9 * r1);
