@@ -22,7 +22,8 @@ static ref_ray ref_ray_make(ts_vec4 o, ts_vec4 d)
 {
     ref_ray r;
     r.o[0] = o.x, r.o[1] = o.y, r.o[2] = o.z;
-    r.inv[0] = safe_reciprocal(d.x), r.inv[1] = safe_reciprocal(d.y), r.inv[2] = safe_reciprocal(d.z);
+    r.inv[0] = safe_reciprocal(d.x), r.inv[1] = safe_reciprocal(d.y),
+    r.inv[2] = safe_reciprocal(d.z);
     r.time = d.w;
     r.tmin = o.w;
     r.sh = ray_shear(d.x, d.y, d.z);
@@ -75,7 +76,8 @@ static void leaf_triangles(const ref_ray *r, const bl_ref_patch *pt, uint32_t k,
     ts_vec4 v11 = vertex_at(pt, (j + 1u) * n + i + 1u, r->time);
     float b1 = 0.0f, b2 = 0.0f, scale = ldexpf(1.0f, -(int)m);
     uint32_t quad = j * (n - 1u) + i;
-    float t = triangle_hit(&r->sh, r->o[0], r->o[1], r->o[2], v00, v10, v11, r->tmin, best->t, &b1, &b2);
+    float t =
+        triangle_hit(&r->sh, r->o[0], r->o[1], r->o[2], v00, v10, v11, r->tmin, best->t, &b1, &b2);
     if (t >= 0.0f)
         *best = (ts_hit){t, ((float)i + b1 + b2) * scale, ((float)j + b2) * scale, pt->patch,
                          TS_PRIM(m, 2u * quad)};
@@ -96,7 +98,8 @@ static void leaf_box(uint32_t m, uint32_t k, float e, ts_hit *best, uint32_t pat
 }
 
 /* Micro-quad qi against the ray (the kernel's quad_test). */
-static void quad_test(const ref_ray *r, const bl_ref_patch *pt, uint32_t qi, int exact, ts_hit *best)
+static void quad_test(const ref_ray *r, const bl_ref_patch *pt, uint32_t qi, int exact,
+                      ts_hit *best)
 {
     if (exact) {
         leaf_triangles(r, pt, qi, best);
@@ -146,11 +149,12 @@ static uint32_t children_hit(const ref_ray *r, const bl_ref_patch *pt, uint32_t 
 }
 
 /* The next block of level L (its index), or -1 when done (the kernel's bl_next_block). */
-static int next_block(ref_trav *s, const ref_ray *r, const bl_ref_patch *pt, uint32_t L,
-                      float tmax, float *te, float *raw)
+static int next_block(ref_trav *s, const ref_ray *r, const bl_ref_patch *pt, uint32_t L, float tmax,
+                      float *te, float *raw)
 {
     for (;;) {
-        while (s->qi < s->qn && s->blt[s->qi] > tmax) ++s->qi;
+        while (s->qi < s->qn && s->blt[s->qi] > tmax)
+            ++s->qi;
         if (s->qi < s->qn) {
             *te = s->blt[s->qi], *raw = s->blr[s->qi];
             return (int)s->blk[s->qi++];
@@ -160,14 +164,16 @@ static int next_block(ref_trav *s, const ref_ray *r, const bl_ref_patch *pt, uin
         if (s->stack_t[s->sp] > tmax) continue;
         uint32_t level = s->stack[s->sp] >> 24, k = s->stack[s->sp] & 0xffffffu;
         if (level == L) { /* the root itself is the block */
-            s->blk[0] = k, s->blt[0] = s->stack_t[s->sp], s->blr[0] = s->root_raw, s->qn = 1, s->qi = 0;
+            s->blk[0] = k, s->blt[0] = s->stack_t[s->sp], s->blr[0] = s->root_raw, s->qn = 1,
+            s->qi = 0;
             continue;
         }
         float tc[4], tr[4];
         uint32_t id[4], nc = children_hit(r, pt, level, k, tmax, tc, tr, id);
         if (level + 1u == L) { /* the children are blocks: nearest first */
             for (uint32_t q = 0; q < nc; ++q)
-                s->blk[q] = id[nc - 1u - q], s->blt[q] = tc[nc - 1u - q], s->blr[q] = tr[nc - 1u - q];
+                s->blk[q] = id[nc - 1u - q], s->blt[q] = tc[nc - 1u - q],
+                s->blr[q] = tr[nc - 1u - q];
             s->qn = nc, s->qi = 0;
             continue;
         }
@@ -179,7 +185,8 @@ static int next_block(ref_trav *s, const ref_ray *r, const bl_ref_patch *pt, uin
     }
 }
 
-bl_ref_patch bottom_level_ref_patch(const ts_segment *seg, const ts_vec4 *grid, const ts_box4 *groups)
+bl_ref_patch bottom_level_ref_patch(const ts_segment *seg, const ts_vec4 *grid,
+                                    const ts_box4 *groups)
 {
     int moving = (seg->flags & TS_PATCH_MOVING) != 0u;
     bl_ref_patch pt;
@@ -207,7 +214,8 @@ ts_hit bottom_level_ref_trace(ts_vec4 org, ts_vec4 dir, float tmax, const bl_ref
             ++n;
             continue;
         }
-        for (uint32_t q = 0; q < nq; ++q, ++n) quad_test(&r, pt, ((uint32_t)k << (2u * b)) + q, exact, &best);
+        for (uint32_t q = 0; q < nq; ++q, ++n)
+            quad_test(&r, pt, ((uint32_t)k << (2u * b)) + q, exact, &best);
     }
     if (best.patch == TS_INVALID) best.t = TS_NO_HIT;
     if (tests) *tests = n;
@@ -220,13 +228,16 @@ static uint32_t segment_of(const ts_segment *seg, uint32_t count, uint32_t p)
     uint32_t lo = 0, hi = count;
     while (hi - lo > 1u) {
         uint32_t mid = (lo + hi) / 2u;
-        if (seg[mid].begin <= p) lo = mid;
-        else hi = mid;
+        if (seg[mid].begin <= p)
+            lo = mid;
+        else
+            hi = mid;
     }
     return lo;
 }
 
-uint64_t bottom_level_ref_pairs(const bl_ref_batch *b, uint32_t first, uint32_t count, ts_hit *pair_hit)
+uint64_t bottom_level_ref_pairs(const bl_ref_batch *b, uint32_t first, uint32_t count,
+                                ts_hit *pair_hit)
 {
     const ts_segment *batch = b->segments + b->seg_first;
     uint64_t tests = 0;

@@ -35,7 +35,8 @@ ts_hit bottom_level_ref_trace(ts_vec4 org, ts_vec4 dir, float tmax, const bl_ref
 
 /* The arguments of one bottom_level launch (trace.c's stage_bottom_level), host side. */
 typedef struct bl_ref_batch {
-    const ts_pair *pairs; /* sorted pairs; the batch is pairs[pair_first, pair_first + pair_count) */
+    const ts_pair
+        *pairs; /* sorted pairs; the batch is pairs[pair_first, pair_first + pair_count) */
     uint32_t pair_first, pair_count;
     const ts_segment *segments; /* the batch is segments[seg_first, seg_first + seg_count) */
     uint32_t seg_first, seg_count;

@@ -37,7 +37,8 @@ static void box_add(ts_box *b, float x, float y, float z)
 }
 
 /* Box of the undisplaced corners of micro-quad (i, j) of grid g (build.cl's base_box). */
-static ts_box base_box(const ts_vec4 *g, uint32_t n, uint32_t i, uint32_t j, const ts_vec4 *cn, float h)
+static ts_box base_box(const ts_vec4 *g, uint32_t n, uint32_t i, uint32_t j, const ts_vec4 *cn,
+                       float h)
 {
     ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (uint32_t c = 0; c < 4u; ++c) {
@@ -62,15 +63,16 @@ static void grow(ts_box *b, float ex, float ey, float ez)
 }
 
 /* Leaf k of the tree of time `time` (build_leaves for one work-item). */
-static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t k, const ts_vec4 *cn,
-                       const ts_patch_attr *a, const ts_xform *x, ts_vec4 e)
+static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t k,
+                       const ts_vec4 *cn, const ts_patch_attr *a, const ts_xform *x, ts_vec4 e)
 {
     uint32_t n = (1u << m) + 1u, nv = n * n, i = morton_i(k), j = morton_j(k);
     float h = ldexpf(1.0f, -(int)m);
     ts_box b = base_box(grid + time * nv, n, i, j, cn, h);
     float s = ldexpf(1.0f, -2 * (int)m);
-    float mag = fmaxf(fmaxf(fabsf(b.lo_x), fabsf(b.hi_x)),
-                      fmaxf(fmaxf(fabsf(b.lo_y), fabsf(b.hi_y)), fmaxf(fabsf(b.lo_z), fabsf(b.hi_z))));
+    float mag =
+        fmaxf(fmaxf(fabsf(b.lo_x), fabsf(b.hi_x)),
+              fmaxf(fmaxf(fabsf(b.lo_y), fabsf(b.hi_y)), fmaxf(fabsf(b.lo_z), fabsf(b.hi_z))));
     float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
     grow(&b, ex, ey, ez);
     if (a->disp_kind == TS_DISP_NONE) return b;

@@ -24,8 +24,9 @@ static void test_tiny(void **state)
     char bin[4096], cmd[16384];
     snprintf(bin, sizeof bin, "%s", test_tessera_binary());
     const char *json = test_path_in(test_scratch_dir(), "cache.json");
-    snprintf(cmd, sizeof cmd, "'%s/bench_cache' --size tiny --scene '%s' --json '%s' > /dev/null 2>&1",
-             dirname(bin), test_source_path("scene/forest-1.rib"), json);
+    snprintf(cmd, sizeof cmd,
+             "'%s/bench_cache' --size tiny --scene '%s' --json '%s' > /dev/null 2>&1", dirname(bin),
+             test_source_path("scene/forest-1.rib"), json);
     assert_int_equal(system(cmd), 0); /* the program's own checks passed */
     FILE *f = fopen(json, "rb");
     assert_non_null(f);
@@ -41,7 +42,8 @@ static void test_tiny(void **state)
     assert_int_equal(cJSON_GetArraySize(scenes), 1);
     const cJSON *s = cJSON_GetArrayItem(scenes, 0);
     assert_true(number(s, "patches") > 1000); /* forest-1: one tree on terrain */
-    assert_true(number(s, "rays") == number(root, "width") * number(root, "height") * number(root, "spp"));
+    assert_true(number(s, "rays") ==
+                number(root, "width") * number(root, "height") * number(root, "spp"));
     const cJSON *ro = cJSON_GetObjectItem(s, "reorder"), *ca = cJSON_GetObjectItem(s, "cache");
     assert_int_equal(cJSON_GetArraySize(ca), 3);
     double d[3], mp[3], lookups = number(s, "cache_lookups");
@@ -58,7 +60,8 @@ static void test_tiny(void **state)
     double reorder = number(ro, "dicings");
     assert_true(reorder > 0 && reorder <= d[0]);
     assert_true(number(ro, "micropolygons") >= reorder);
-    assert_true(fabs(number(s, "ratio_reorder_to_cache_1000") - reorder / d[2]) <= 1e-9 * reorder / d[2]);
+    assert_true(fabs(number(s, "ratio_reorder_to_cache_1000") - reorder / d[2]) <=
+                1e-9 * reorder / d[2]);
     /* Both tracers find the closest hit among the same micro-geometry. */
     double hits = number(ro, "hits");
     assert_true(hits > 0.05 * number(s, "rays"));

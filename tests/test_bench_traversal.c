@@ -15,8 +15,9 @@ static cJSON *run_bench(void)
     char bin[4096], cmd[16384];
     snprintf(bin, sizeof bin, "%s", test_tessera_binary());
     const char *json = test_path_in(test_scratch_dir(), "traversal.json");
-    snprintf(cmd, sizeof cmd, "'%s/bench_traversal' --size tiny --scene '%s' --json '%s' > /dev/null",
-             dirname(bin), test_source_path("scene/teapot.rib"), json);
+    snprintf(cmd, sizeof cmd,
+             "'%s/bench_traversal' --size tiny --scene '%s' --json '%s' > /dev/null", dirname(bin),
+             test_source_path("scene/teapot.rib"), json);
     assert_int_equal(system(cmd), 0);
     FILE *f = fopen(json, "rb");
     assert_non_null(f);
@@ -61,7 +62,8 @@ static void test_tiny(void **state)
         /* Cores really used (CPU seconds per wall second) are measured. */
         assert_true(number(m, "opencl_cores_used") > 0 && number(m, "c_threads_cores_used") > 0);
         assert_true(number(m, "micro_quad_tests") >= number(m, "hits"));
-        double r1 = number(m, "ratio_c_1thread_to_opencl"), rt = number(m, "ratio_c_threads_to_opencl");
+        double r1 = number(m, "ratio_c_1thread_to_opencl"),
+               rt = number(m, "ratio_c_threads_to_opencl");
         assert_true(r1 > 0 && rt > 0);
         assert_true(fabs(r1 - rate[2] / rate[0]) <= 1e-9 * r1);
         assert_true(fabs(rt - rate[3] / rate[0]) <= 1e-9 * rt);

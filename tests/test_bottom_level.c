@@ -35,7 +35,8 @@ static void load(ts_scene *s, int displaced, int moving)
     if (displaced)
         strcat(extra, "Displacement \"fbm\" \"float amplitude\" [0.05] \"float frequency\" [3] "
                       "\"float octaves\" [3]\n");
-    if (moving) strcat(extra, "MotionBegin [0 1]\nTranslate 0 0 0\nTranslate 0.15 -0.1 0.05\nMotionEnd\n");
+    if (moving)
+        strcat(extra, "MotionBegin [0 1]\nTranslate 0 0 0\nTranslate 0.15 -0.1 0.05\nMotionEnd\n");
     char *wb = strstr(text, "WorldBegin\n");
     assert_non_null(wb);
     size_t at = (size_t)(wb - text) + strlen("WorldBegin\n"), len = strlen(extra);
@@ -50,12 +51,14 @@ static void load(ts_scene *s, int displaced, int moving)
 
 static void read_buffer(ts_cl *cl, cl_mem m, size_t bytes, void *host)
 {
-    assert_int_equal(clEnqueueReadBuffer(cl->queue, m, CL_TRUE, 0, bytes, host, 0, NULL, NULL), CL_SUCCESS);
+    assert_int_equal(clEnqueueReadBuffer(cl->queue, m, CL_TRUE, 0, bytes, host, 0, NULL, NULL),
+                     CL_SUCCESS);
 }
 
 static void write_buffer(ts_cl *cl, cl_mem m, size_t bytes, const void *host)
 {
-    assert_int_equal(clEnqueueWriteBuffer(cl->queue, m, CL_TRUE, 0, bytes, host, 0, NULL, NULL), CL_SUCCESS);
+    assert_int_equal(clEnqueueWriteBuffer(cl->queue, m, CL_TRUE, 0, bytes, host, 0, NULL, NULL),
+                     CL_SUCCESS);
 }
 
 /* The rays of the frame at 4 spp (jittered, with times), then some given a tmin > 0 and some
@@ -104,12 +107,15 @@ static void check_scene(int displaced, int moving)
     /* Patch q at m = q % 6, its pairs [q R, (q + 1) R): every ray, window = ray * P + q. */
     static ts_pair pairs[R * P];
     for (uint32_t q = 0; q < P; ++q) {
-        p.segments_host[q] = (ts_segment){.patch = q, .begin = q * R, .end = (q + 1) * R, .lod = q % (M + 1)};
-        for (uint32_t r = 0; r < R; ++r) pairs[q * R + r] = (ts_pair){q, r * P + q};
+        p.segments_host[q] =
+            (ts_segment){.patch = q, .begin = q * R, .end = (q + 1) * R, .lod = q % (M + 1)};
+        for (uint32_t r = 0; r < R; ++r)
+            pairs[q * R + r] = (ts_pair){q, r * P + q};
     }
     if (pipeline_dice_build(&p, P, &err)) fail_msg("%s", err.msg);
     write_buffer(&cl, p.pairs[0], sizeof pairs, pairs);
-    size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4), nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
+    size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4),
+           nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
     ts_vec4 *grid = malloc(gbytes), *hgrid = malloc(gbytes);
     ts_box4 *groups = malloc(nbytes), *hgroups = malloc(nbytes);
     assert_true(grid && hgrid && groups && hgroups);
@@ -122,12 +128,15 @@ static void check_scene(int displaced, int moving)
         assert_int_equal(times, moving ? 2u : 1u);
         assert_int_equal(sg->flags & TS_PATCH_MOVING, moving ? TS_PATCH_MOVING : 0u);
         dice_build_ref(&s, q, sg->lod, hgrid, hgroups);
-        if (memcmp(hgrid, grid + sg->vert_first, times * quadtree_vertex_count(sg->lod) * sizeof *grid))
+        if (memcmp(hgrid, grid + sg->vert_first,
+                   times * quadtree_vertex_count(sg->lod) * sizeof *grid))
             fail_msg("patch %u m %u: the host dice reference differs from dice_grid", q, sg->lod);
-        if (memcmp(hgroups, groups + sg->group_first, times * quadtree_group_count(sg->lod) * sizeof *groups))
+        if (memcmp(hgroups, groups + sg->group_first,
+                   times * quadtree_group_count(sg->lod) * sizeof *groups))
             fail_msg("patch %u m %u: the host build reference differs from build", q, sg->lod);
     }
-    bl_ref_batch b = {pairs, 0, R * P, p.segments_host, 0, P, P, 0, 0, active, org, dir, hit, flags, grid, groups};
+    bl_ref_batch b = {pairs, 0,   R * P, p.segments_host, 0,    P,     P, 0, 0, active,
+                      org,   dir, hit,   flags,           grid, groups};
     uint64_t hits_boxes = 0, hits_exact = 0;
     for (int group = 0; group < 2; ++group)
         for (int exact = 0; exact < 2; ++exact)
@@ -143,9 +152,10 @@ static void check_scene(int displaced, int moving)
                     const ts_hit *d = &dev[w], *h = &ref[w];
                     if (memcmp(d, h, sizeof *d))
                         fail_msg("%s kernel, %s, leaf %u, ray %u patch %u: device (%a %a %a %u %x) "
-                                 "C (%a %a %a %u %x)", group ? "group" : "per-ray",
-                                 exact ? "triangles" : "boxes", 1u << lb, w / P, w % P, d->t, d->u,
-                                 d->v, d->patch, d->prim, h->t, h->u, h->v, h->patch, h->prim);
+                                 "C (%a %a %a %u %x)",
+                                 group ? "group" : "per-ray", exact ? "triangles" : "boxes",
+                                 1u << lb, w / P, w % P, d->t, d->u, d->v, d->patch, d->prim, h->t,
+                                 h->u, h->v, h->patch, h->prim);
                     n += h->patch != TS_INVALID;
                 }
                 *(exact ? &hits_exact : &hits_boxes) += n;
@@ -159,9 +169,18 @@ static void check_scene(int displaced, int moving)
     cl_close(&cl);
 }
 
-static void test_teapot(void **state) { check_scene(0, 0); }
-static void test_displaced_teapot(void **state) { check_scene(1, 0); }
-static void test_moving_displaced_teapot(void **state) { check_scene(1, 1); }
+static void test_teapot(void **state)
+{
+    check_scene(0, 0);
+}
+static void test_displaced_teapot(void **state)
+{
+    check_scene(1, 0);
+}
+static void test_moving_displaced_teapot(void **state)
+{
+    check_scene(1, 1);
+}
 
 int main(void)
 {

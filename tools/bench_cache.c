@@ -56,8 +56,8 @@ typedef struct bench_options {
 /* One LRU cache of diced patches: a doubly linked list over `cap` slots, most recent first. */
 typedef struct lru {
     uint32_t cap, size, head, tail;
-    int32_t *slot_of;    /* per patch: its slot, or -1 */
-    uint32_t *patch_of;  /* per slot */
+    int32_t *slot_of;   /* per patch: its slot, or -1 */
+    uint32_t *patch_of; /* per slot */
     uint32_t *prev, *next;
     uint64_t dicings, micropolygons;
 } lru;
@@ -91,17 +91,23 @@ static void lru_free(lru *c)
 
 static void lru_unlink(lru *c, uint32_t s)
 {
-    if (s == c->head) c->head = c->next[s];
-    else c->next[c->prev[s]] = c->next[s];
-    if (s == c->tail) c->tail = c->prev[s];
-    else c->prev[c->next[s]] = c->prev[s];
+    if (s == c->head)
+        c->head = c->next[s];
+    else
+        c->next[c->prev[s]] = c->next[s];
+    if (s == c->tail)
+        c->tail = c->prev[s];
+    else
+        c->prev[c->next[s]] = c->prev[s];
 }
 
 static void lru_push_front(lru *c, uint32_t s)
 {
     c->prev[s] = UINT32_MAX, c->next[s] = c->size > 1 ? c->head : UINT32_MAX;
-    if (c->size > 1) c->prev[c->head] = s;
-    else c->tail = s;
+    if (c->size > 1)
+        c->prev[c->head] = s;
+    else
+        c->tail = s;
     c->head = s;
 }
 
@@ -143,7 +149,9 @@ static int bench_parse(int argc, char **argv, bench_options *o)
     int c, w = 0, h = 0, spp = 0;
     while ((c = getopt_long(argc, argv, "s:S:r:p:m:M:j:o:h", longopts, NULL)) != -1) {
         switch (c) {
-        case 's': o->size = optarg; break;
+        case 's':
+            o->size = optarg;
+            break;
         case 'S':
             if (o->scene_count == 4) {
                 fprintf(stderr, "bench_cache: at most 4 --scene\n");
@@ -157,10 +165,18 @@ static int bench_parse(int argc, char **argv, bench_options *o)
                 return 1;
             }
             break;
-        case 'p': spp = atoi(optarg); break;
-        case 'm': o->memory_mb = atoi(optarg); break;
-        case 'M': o->memo_mb = atoi(optarg); break;
-        case 'j': o->json_path = optarg; break;
+        case 'p':
+            spp = atoi(optarg);
+            break;
+        case 'm':
+            o->memory_mb = atoi(optarg);
+            break;
+        case 'M':
+            o->memo_mb = atoi(optarg);
+            break;
+        case 'j':
+            o->json_path = optarg;
+            break;
         case 'o':
             if (strcmp(optarg, "pixel") && strcmp(optarg, "pass")) {
                 fprintf(stderr, "bench_cache: --order must be pixel or pass, not '%s'\n", optarg);
@@ -169,27 +185,36 @@ static int bench_parse(int argc, char **argv, bench_options *o)
             o->pass_order = !strcmp(optarg, "pass");
             break;
         default:
-            fprintf(stderr, "usage: %s [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N] "
-                    "[--memory MB] [--memo-mb MB] [--order pixel|pass] [--json PATH]\n", argv[0]);
+            fprintf(stderr,
+                    "usage: %s [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N] "
+                    "[--memory MB] [--memo-mb MB] [--order pixel|pass] [--json PATH]\n",
+                    argv[0]);
             return c == 'h' ? 0 : 1;
         }
     }
     int big = 0;
-    if (!strcmp(o->size, "tiny")) o->width = 160, o->height = 64, o->spp = 1;
-    else if (!strcmp(o->size, "small")) o->width = 480, o->height = 192, o->spp = 4, big = 1;
-    else if (!strcmp(o->size, "full")) o->width = 1920, o->height = 768, o->spp = 4, big = 1;
+    if (!strcmp(o->size, "tiny"))
+        o->width = 160, o->height = 64, o->spp = 1;
+    else if (!strcmp(o->size, "small"))
+        o->width = 480, o->height = 192, o->spp = 4, big = 1;
+    else if (!strcmp(o->size, "full"))
+        o->width = 1920, o->height = 768, o->spp = 4, big = 1;
     else {
         fprintf(stderr, "bench_cache: --size must be tiny, small or full, not '%s'\n", o->size);
         return 1;
     }
     if (o->scene_count == 0) {
-        if (big) o->scenes[0] = "scene/forest-100.rib", o->scenes[1] = "scene/forest-1000.rib", o->scene_count = 2;
-        else o->scenes[0] = "scene/forest-1.rib", o->scene_count = 1;
+        if (big)
+            o->scenes[0] = "scene/forest-100.rib", o->scenes[1] = "scene/forest-1000.rib",
+            o->scene_count = 2;
+        else
+            o->scenes[0] = "scene/forest-1.rib", o->scene_count = 1;
     }
     if (w) o->width = w, o->height = h;
     if (spp) o->spp = spp;
     if (o->spp < 1 || o->memory_mb < 16 || o->memo_mb < 1) {
-        fprintf(stderr, "bench_cache: --spp must be positive, --memory at least 16, --memo-mb positive\n");
+        fprintf(stderr,
+                "bench_cache: --spp must be positive, --memory at least 16, --memo-mb positive\n");
         return 1;
     }
     return -1;
@@ -211,7 +236,8 @@ static int run_reorder(const bench_options *o, ts_cl *cl, const ts_scene *s, fra
 {
     uint64_t total = (uint64_t)o->width * o->height * o->spp;
     ts_pipeline_plan plan;
-    if (pipeline_plan((uint64_t)o->memory_mb << 20, total, 10, cl->info.max_alloc, &plan, err)) return err->code;
+    if (pipeline_plan((uint64_t)o->memory_mb << 20, total, 10, cl->info.max_alloc, &plan, err))
+        return err->code;
     ts_stats st;
     memset(&st, 0, sizeof st);
     ts_pipeline p;
@@ -221,7 +247,9 @@ static int run_reorder(const bench_options *o, ts_cl *cl, const ts_scene *s, fra
     f->rays = total;
     f->org = malloc(total * sizeof *f->org), f->dir = malloc(total * sizeof *f->dir);
     f->hit = malloc(total * sizeof *f->hit), f->lod = malloc(s->patch_count ? s->patch_count : 1);
-    if (!rc && (!f->org || !f->dir || !f->hit || !f->lod)) rc = ts_error_set(err, TS_E_MEMORY, "out of memory for %llu rays", (unsigned long long)total);
+    if (!rc && (!f->org || !f->dir || !f->hit || !f->lod))
+        rc = ts_error_set(err, TS_E_MEMORY, "out of memory for %llu rays",
+                          (unsigned long long)total);
     double t0 = stats_now();
     uint32_t per = plan.ray_capacity;
     cam.spp = (uint32_t)o->spp;
@@ -239,9 +267,14 @@ static int run_reorder(const bench_options *o, ts_cl *cl, const ts_scene *s, fra
         uint32_t n = cam.ray_count;
         if ((rc = pipeline_camera(&p, &cam, err) || pipeline_trace(&p, n, err))) break;
         cl_command_queue q = cl->queue;
-        cl_int e = clEnqueueReadBuffer(q, p.ray_org, CL_TRUE, 0, n * sizeof(ts_vec4), f->org + first, 0, NULL, NULL);
-        if (!e) e = clEnqueueReadBuffer(q, p.ray_dir, CL_TRUE, 0, n * sizeof(ts_vec4), f->dir + first, 0, NULL, NULL);
-        if (!e) e = clEnqueueReadBuffer(q, p.ray_hit, CL_TRUE, 0, n * sizeof(ts_hit), f->hit + first, 0, NULL, NULL);
+        cl_int e = clEnqueueReadBuffer(q, p.ray_org, CL_TRUE, 0, n * sizeof(ts_vec4),
+                                       f->org + first, 0, NULL, NULL);
+        if (!e)
+            e = clEnqueueReadBuffer(q, p.ray_dir, CL_TRUE, 0, n * sizeof(ts_vec4), f->dir + first,
+                                    0, NULL, NULL);
+        if (!e)
+            e = clEnqueueReadBuffer(q, p.ray_hit, CL_TRUE, 0, n * sizeof(ts_hit), f->hit + first, 0,
+                                    NULL, NULL);
         if (e) rc = ts_error_set(err, TS_E_DEVICE, "%s reading the rays back", cl_error_name(e));
     }
     res->reorder_seconds = stats_now() - t0;
@@ -279,7 +312,8 @@ static int memo_get(memo *mm, const ts_scene *s, uint32_t p, uint32_t m, bl_ref_
 {
     uint32_t times = dice_build_ref_times(s, p);
     if (!mm->grid[p]) {
-        size_t gb = times * quadtree_vertex_count(m) * sizeof(ts_vec4), nb = times * quadtree_group_count(m) * sizeof(ts_box4);
+        size_t gb = times * quadtree_vertex_count(m) * sizeof(ts_vec4),
+               nb = times * quadtree_group_count(m) * sizeof(ts_box4);
         if (mm->bytes + gb + nb > mm->limit) memo_clear(mm);
         mm->grid[p] = malloc(gb), mm->groups[p] = malloc(nb);
         if (!mm->grid[p] || !mm->groups[p]) return 1;
@@ -287,8 +321,12 @@ static int memo_get(memo *mm, const ts_scene *s, uint32_t p, uint32_t m, bl_ref_
         mm->bytes += gb + nb;
         mm->dicings++;
     }
-    *out = (bl_ref_patch){mm->grid[p], times == 2 ? mm->grid[p] + quadtree_vertex_count(m) : NULL,
-                          mm->groups[p], times == 2 ? mm->groups[p] + quadtree_group_count(m) : NULL, m, p};
+    *out = (bl_ref_patch){mm->grid[p],
+                          times == 2 ? mm->grid[p] + quadtree_vertex_count(m) : NULL,
+                          mm->groups[p],
+                          times == 2 ? mm->groups[p] + quadtree_group_count(m) : NULL,
+                          m,
+                          p};
     return 0;
 }
 
@@ -312,7 +350,8 @@ static int heap_push(heap *h, float t, int32_t item)
         h->v = v, h->cap = cap;
     }
     uint32_t i = h->n++;
-    while (i > 0 && h->v[(i - 1) / 2].t > t) h->v[i] = h->v[(i - 1) / 2], i = (i - 1) / 2;
+    while (i > 0 && h->v[(i - 1) / 2].t > t)
+        h->v[i] = h->v[(i - 1) / 2], i = (i - 1) / 2;
     h->v[i] = (heap_item){t, item};
     return 0;
 }
@@ -347,7 +386,8 @@ static int trace_one(const ts_scene *s, const ts_qbvh *q, const frame *f, uint64
         if (it.item < 0) {
             uint32_t p = (uint32_t)~it.item, m = f->lod[p];
             res->lookups++;
-            for (int c = 0; c < BENCH_CACHES; ++c) lru_access(&res->cache[c], p, m);
+            for (int c = 0; c < BENCH_CACHES; ++c)
+                lru_access(&res->cache[c], p, m);
             bl_ref_patch pt;
             if (memo_get(mm, s, p, m, &pt)) return 1;
             ts_hit hh = bottom_level_ref_trace(o, d, best.t, &pt, 0, 0u, NULL);
@@ -368,21 +408,28 @@ static int trace_one(const ts_scene *s, const ts_qbvh *q, const frame *f, uint64
 }
 
 /* The cache baseline over the frame's rays in scanline order, each pixel's samples in turn. */
-static int run_cache(const bench_options *o, const ts_scene *s, const frame *f, bench_result *res, ts_error *err)
+static int run_cache(const bench_options *o, const ts_scene *s, const frame *f, bench_result *res,
+                     ts_error *err)
 {
     uint32_t np = s->patch_count;
     ts_box *boxes = malloc((np ? np : 1) * sizeof *boxes);
     if (!boxes) return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    for (uint32_t i = 0; i < np; ++i) boxes[i] = scene_patch_box(s, i);
+    for (uint32_t i = 0; i < np; ++i)
+        boxes[i] = scene_patch_box(s, i);
     ts_qbvh q;
     int rc = qbvh_build(&q, boxes, np, err);
     free(boxes);
     if (rc) return rc;
-    memo mm = {calloc(np ? np : 1, sizeof(ts_vec4 *)), calloc(np ? np : 1, sizeof(ts_box4 *)), 0,
-               (uint64_t)o->memo_mb << 20, 0, np};
+    memo mm = {calloc(np ? np : 1, sizeof(ts_vec4 *)),
+               calloc(np ? np : 1, sizeof(ts_box4 *)),
+               0,
+               (uint64_t)o->memo_mb << 20,
+               0,
+               np};
     heap h = {0};
     for (int c = 0; c < BENCH_CACHES && !rc; ++c)
-        if (lru_init(&res->cache[c], cache_sizes[c], np ? np : 1)) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
+        if (lru_init(&res->cache[c], cache_sizes[c], np ? np : 1))
+            rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
     if (!mm.grid || !mm.groups) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
     double t0 = stats_now();
     uint64_t npix = (uint64_t)o->width * o->height;
@@ -411,7 +458,8 @@ static int run_cache(const bench_options *o, const ts_scene *s, const frame *f, 
     return rc;
 }
 
-static int bench_scene(const bench_options *o, ts_cl *cl, const char *path, bench_result *res, ts_error *err)
+static int bench_scene(const bench_options *o, ts_cl *cl, const char *path, bench_result *res,
+                       ts_error *err)
 {
     ts_scene s;
     memset(&s, 0, sizeof s);
@@ -438,32 +486,46 @@ static int bench_check(bench_result *r)
     r->check_caches_monotone = c[2].dicings <= c[1].dicings && c[1].dicings <= c[0].dicings;
     r->check_same_hits = r->hits_cache == r->hits_reorder;
     if (!r->check_reorder_le_cache10)
-        fprintf(stderr, "bench_cache: CHECK FAILED: %s: reordering dices more than a 10-entry cache\n", r->scene);
-    if (!r->check_caches_monotone) fprintf(stderr, "bench_cache: CHECK FAILED: %s: larger caches dice more\n", r->scene);
+        fprintf(stderr,
+                "bench_cache: CHECK FAILED: %s: reordering dices more than a 10-entry cache\n",
+                r->scene);
+    if (!r->check_caches_monotone)
+        fprintf(stderr, "bench_cache: CHECK FAILED: %s: larger caches dice more\n", r->scene);
     if (!r->check_same_hits)
-        fprintf(stderr, "bench_cache: CHECK FAILED: %s: %llu rays hit in the cache tracer, %llu in Tessera\n",
-                r->scene, (unsigned long long)r->hits_cache, (unsigned long long)r->hits_reorder);
+        fprintf(
+            stderr,
+            "bench_cache: CHECK FAILED: %s: %llu rays hit in the cache tracer, %llu in Tessera\n",
+            r->scene, (unsigned long long)r->hits_cache, (unsigned long long)r->hits_reorder);
     return !r->check_reorder_le_cache10 + !r->check_caches_monotone + !r->check_same_hits;
 }
 
 static void bench_print(const bench_options *o, const bench_result *r)
 {
-    printf("%s: %u patches, %dx%d x %d spp = %llu eye rays, --memory %d MB: %u waves, %llu iterations, "
-           "max m %u; caches see the rays %s\n", r->scene, r->patches, o->width, o->height, o->spp,
-           (unsigned long long)r->rays, o->memory_mb, r->waves, (unsigned long long)r->reorder_iterations,
-           r->max_lod, o->pass_order ? "sample pass by pass" : "in scanline order, each pixel's samples in turn");
+    printf("%s: %u patches, %dx%d x %d spp = %llu eye rays, --memory %d MB: %u waves, %llu "
+           "iterations, "
+           "max m %u; caches see the rays %s\n",
+           r->scene, r->patches, o->width, o->height, o->spp, (unsigned long long)r->rays,
+           o->memory_mb, r->waves, (unsigned long long)r->reorder_iterations, r->max_lod,
+           o->pass_order ? "sample pass by pass"
+                         : "in scanline order, each pixel's samples in turn");
     printf("  %-12s %12s %16s %14s\n", "method", "dicings", "micro-polygons", "vs cache 1000");
     for (int c = 0; c < BENCH_CACHES; ++c)
-        printf("  cache %-6u %12llu %16llu %14.2f\n", r->cache[c].cap, (unsigned long long)r->cache[c].dicings,
-               (unsigned long long)r->cache[c].micropolygons, (double)r->cache[c].dicings / (double)r->cache[2].dicings);
+        printf("  cache %-6u %12llu %16llu %14.2f\n", r->cache[c].cap,
+               (unsigned long long)r->cache[c].dicings,
+               (unsigned long long)r->cache[c].micropolygons,
+               (double)r->cache[c].dicings / (double)r->cache[2].dicings);
     printf("  %-12s %12llu %16llu %14.2f\n", "reordering", (unsigned long long)r->reorder_dicings,
-           (unsigned long long)r->reorder_micropolygons, (double)r->reorder_dicings / (double)r->cache[2].dicings);
-    printf("  rays hit: %llu (Tessera) / %llu (cache tracer); hit distances equal %llu, nearer in Tessera %llu, "
-           "nearer in the cache tracer %llu\n", (unsigned long long)r->hits_reorder, (unsigned long long)r->hits_cache,
+           (unsigned long long)r->reorder_micropolygons,
+           (double)r->reorder_dicings / (double)r->cache[2].dicings);
+    printf("  rays hit: %llu (Tessera) / %llu (cache tracer); hit distances equal %llu, nearer in "
+           "Tessera %llu, "
+           "nearer in the cache tracer %llu\n",
+           (unsigned long long)r->hits_reorder, (unsigned long long)r->hits_cache,
            (unsigned long long)r->hit_t_equal, (unsigned long long)r->t_reorder_nearer,
            (unsigned long long)r->t_cache_nearer);
     printf("  patch lookups %llu (%.2f per ray); %.1f s wavefront, %.1f s cache tracer\n",
-           (unsigned long long)r->lookups, (double)r->lookups / (double)r->rays, r->reorder_seconds, r->cache_seconds);
+           (unsigned long long)r->lookups, (double)r->lookups / (double)r->rays, r->reorder_seconds,
+           r->cache_seconds);
 }
 
 static int bench_json(const bench_options *o, const bench_result *rs, int n, const char *device)
@@ -511,8 +573,10 @@ static int bench_json(const bench_options *o, const bench_result *rs, int n, con
         cJSON_AddBoolToObject(ck, "cache_1000_le_100_le_10", r->check_caches_monotone);
         cJSON_AddBoolToObject(ck, "same_rays_hit", r->check_same_hits);
         cJSON_AddNumberToObject(j, "cache_seconds", r->cache_seconds);
-        cJSON_AddNumberToObject(j, "ratio_reorder_to_cache_1000", (double)r->reorder_dicings / (double)r->cache[2].dicings);
-        cJSON_AddNumberToObject(j, "ratio_reorder_to_cache_10", (double)r->reorder_dicings / (double)r->cache[0].dicings);
+        cJSON_AddNumberToObject(j, "ratio_reorder_to_cache_1000",
+                                (double)r->reorder_dicings / (double)r->cache[2].dicings);
+        cJSON_AddNumberToObject(j, "ratio_reorder_to_cache_10",
+                                (double)r->reorder_dicings / (double)r->cache[0].dicings);
         cJSON_AddItemToArray(arr, j);
     }
     char *text = cJSON_Print(root);
@@ -547,7 +611,8 @@ int main(int argc, char **argv)
     if (rc) fprintf(stderr, "bench_cache: %s\n", err.msg);
     if (!rc && o.json_path) rc = bench_json(&o, res, n, cl.info.name);
     for (int i = 0; i < n; ++i)
-        for (int c = 0; c < BENCH_CACHES; ++c) lru_free(&res[i].cache[c]);
+        for (int c = 0; c < BENCH_CACHES; ++c)
+            lru_free(&res[i].cache[c]);
     if (cl.context) cl_close(&cl);
     return rc || bad ? 1 : 0;
 }
