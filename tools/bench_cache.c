@@ -2,8 +2,9 @@
  * how many times patches are diced to trace the same eye rays (issue 8 item 1, DESIGN.md §6).
  *
  * reordering: Tessera's wavefront loop (host/trace.c) traces the frame's eye rays in waves
- *   of the plan's ray capacity (--memory); the count is its `patches_diced` counter. The lod
- *   stage first sets each patch's m from the frame's ray counts (4^m >= R / spp), as
+ *   of the plan's ray capacity (--memory; `tessera render` makes its waves half that, as
+ *   each path also owns a shadow-ray slot); the count is its `patches_diced` counter. The
+ *   lod stage first sets each patch's m from the frame's ray counts (4^m >= R / spp), as
  *   `tessera render` does.
  * cache C (10, 100, 1000 diced patches, LRU): the same rays (read back from the device) are
  *   traced one at a time in the original order — scanline order of pixels, each pixel's
@@ -19,7 +20,8 @@
  * Both tracers find the closest hit of every ray among the same micro-geometry, so the
  * benchmark fails unless they hit the same rays (and it reports how many hit distances are
  * bitwise equal). Checks: dicings(reorder) <= dicings(cache 10) and cache 1000 <= cache 100
- * <= cache 10.
+ * <= cache 10. A failed check is printed ("CHECK FAILED") and recorded under "checks" in the
+ * JSON, which is still written; the exit status is then 1.
  *
  * usage: bench_cache [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N]
  *                    [--memory MB] [--memo-mb MB] [--order pixel|pass] [--json PATH]
