@@ -120,6 +120,10 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err);
  * arenas together) as one batch and waits. */
 int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err);
 int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err);
+/* bottom_level (p->mode's kernel, exact and leaf_b) over the batch pipeline_dice_build made:
+ * the pairs in pairs[0] from segments_host[0].begin to the last segment's end, sorted by
+ * segment, rays named by active[window / n_per_ray]; waits. Hits go to pair_hit[window]. */
+int pipeline_bottom_level(ts_pipeline *p, uint32_t n_per_ray, ts_error *err);
 /* shade: one path-tracing step for the paths wave_paths[0..path_count) of a wave of
  * wave_size paths (path i traces ray i and its shadow ray wave_size + i). Lists the paths
  * that go on in wave_paths and their rays in active; returns the counts. */

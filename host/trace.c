@@ -302,6 +302,14 @@ int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
     return cl_finish(p->cl, p->stats, err);
 }
 
+int pipeline_bottom_level(ts_pipeline *p, uint32_t n_per_ray, ts_error *err)
+{
+    if (p->batch_count != 1)
+        return ts_error_set(err, TS_E_INTERNAL, "pipeline_bottom_level: no single batch diced");
+    if (stage_bottom_level(p, 0u, &p->batches[0], n_per_ray, err)) return err->code;
+    return cl_finish(p->cl, p->stats, err);
+}
+
 /* N per ray for R active rays: capacity / R, clipped to [1, 100] (Hanika §3.1, Table 3). */
 static uint32_t pairs_per_ray(uint32_t capacity, uint32_t active)
 {

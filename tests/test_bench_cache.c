@@ -1,0 +1,82 @@
+/* test_bench_cache.c — smoke test of tools/bench_cache.c at --size tiny (forest-1): the
+ * reordering vs caching counts are consistent: dicings(reorder) <= dicings(cache 10),
+ * cache 1000 <= cache 100 <= cache 10, a cache never dices more often than it is looked up
+ * nor fewer times than the patches it must hold at least once, micro-polygons follow the
+ * dicings, and the wavefront tracer and the one-ray-at-a-time tracer hit the same rays. */
+#include "test_support.h"
+
+#include <cjson/cJSON.h>
+#include <libgen.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static double number(const cJSON *o, const char *key)
+{
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
+    if (!cJSON_IsNumber(v)) fail_msg("bench_cache JSON: no number '%s'", key);
+    return v->valuedouble;
+}
+
+static void test_tiny(void **state)
+{
+    char bin[4096], cmd[16384];
+    snprintf(bin, sizeof bin, "%s", test_tessera_binary());
+    const char *json = test_path_in(test_scratch_dir(), "cache.json");
+    snprintf(cmd, sizeof cmd,
+             "'%s/bench_cache' --size tiny --scene '%s' --json '%s' > /dev/null 2>&1", dirname(bin),
+             test_source_path("scene/forest-1.rib"), json);
+    assert_int_equal(system(cmd), 0); /* the program's own checks passed */
+    FILE *f = fopen(json, "rb");
+    assert_non_null(f);
+    static char text[1 << 16];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[n] = '\0';
+    cJSON *root = cJSON_Parse(text);
+    assert_non_null(root);
+    assert_string_equal(cJSON_GetObjectItem(root, "benchmark")->valuestring, "cache");
+    assert_true(number(root, "spp") >= 1);
+    const cJSON *scenes = cJSON_GetObjectItem(root, "scenes");
+    assert_int_equal(cJSON_GetArraySize(scenes), 1);
+    const cJSON *s = cJSON_GetArrayItem(scenes, 0);
+    assert_true(number(s, "patches") > 1000); /* forest-1: one tree on terrain */
+    assert_true(number(s, "rays") ==
+                number(root, "width") * number(root, "height") * number(root, "spp"));
+    const cJSON *ro = cJSON_GetObjectItem(s, "reorder"), *ca = cJSON_GetObjectItem(s, "cache");
+    assert_int_equal(cJSON_GetArraySize(ca), 3);
+    double d[3], mp[3], lookups = number(s, "cache_lookups");
+    const int entries[3] = {10, 100, 1000};
+    for (int i = 0; i < 3; ++i) {
+        const cJSON *c = cJSON_GetArrayItem(ca, i);
+        assert_int_equal((int)number(c, "entries"), entries[i]);
+        d[i] = number(c, "dicings"), mp[i] = number(c, "micropolygons");
+        assert_true(d[i] > 0 && d[i] <= lookups);
+        assert_true(mp[i] >= d[i]); /* at least one micro-quad per dicing */
+    }
+    assert_true(d[2] <= d[1] && d[1] <= d[0]);
+    assert_true(mp[2] <= mp[1] && mp[1] <= mp[0]);
+    double reorder = number(ro, "dicings");
+    assert_true(reorder > 0 && reorder <= d[0]);
+    assert_true(number(ro, "micropolygons") >= reorder);
+    assert_true(fabs(number(s, "ratio_reorder_to_cache_1000") - reorder / d[2]) <=
+                1e-9 * reorder / d[2]);
+    /* Both tracers find the closest hit among the same micro-geometry. */
+    double hits = number(ro, "hits");
+    assert_true(hits > 0.05 * number(s, "rays"));
+    assert_true(number(s, "cache_hits") == hits);
+    assert_true(number(s, "hit_t_equal") >= 0.99 * hits);
+    /* The program's own verdicts, as reported. */
+    const cJSON *ck = cJSON_GetObjectItem(s, "checks");
+    assert_true(cJSON_IsTrue(cJSON_GetObjectItem(ck, "reorder_le_cache_10")));
+    assert_true(cJSON_IsTrue(cJSON_GetObjectItem(ck, "cache_1000_le_100_le_10")));
+    assert_true(cJSON_IsTrue(cJSON_GetObjectItem(ck, "same_rays_hit")));
+    cJSON_Delete(root);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_tiny)};
+    return TEST_RUN_WITH_DEVICE(tests, NULL);
+}

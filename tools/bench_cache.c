@@ -1,0 +1,620 @@
+/* bench_cache.c — reordering vs caching (Hanika et al. 2010, Table 2; Pharr et al. 1997):
+ * how many times patches are diced to trace the same eye rays (issue 8 item 1, DESIGN.md §6).
+ *
+ * reordering: Tessera's wavefront loop (host/trace.c) traces the frame's eye rays in waves
+ *   of the plan's ray capacity (--memory; `tessera render` makes its waves half that, as
+ *   each path also owns a shadow-ray slot); the count is its `patches_diced` counter. The
+ *   lod stage first sets each patch's m from the frame's ray counts (4^m >= R / spp), as
+ *   `tessera render` does.
+ * cache C (10, 100, 1000 diced patches, LRU): the same rays (read back from the device) are
+ *   traced one at a time in the original order — scanline order of pixels, each pixel's
+ *   samples in turn — by a plain-C tracer: exact front-to-back traversal of the same patch
+ *   QBVH (host/qbvh.c) with a priority queue on entry distance, stopping when the nearest
+ *   entry left is beyond the closest hit so far; each patch reached is looked up in the
+ *   cache (a miss is one dicing of the patch at Tessera's m for it), then intersected with
+ *   the plain-C bottom level (host/bottom_level_ref.c, leaf boxes, leaf size 1) on the grid
+ *   and tree of the plain-C dice/build references (host/dice_build_ref.c). The three caches
+ *   see the same sequence of lookups, so one pass serves all three. The host keeps the grids
+ *   it really dices in a memo (cleared when it passes --memo-mb) so each patch is not
+ *   recomputed on every simulated miss; that changes no count.
+ * Both tracers find the closest hit of every ray among the same micro-geometry, so the
+ * benchmark fails unless they hit the same rays (and it reports how many hit distances are
+ * bitwise equal). Checks: dicings(reorder) <= dicings(cache 10) and cache 1000 <= cache 100
+ * <= cache 10. A failed check is printed ("CHECK FAILED") and recorded under "checks" in the
+ * JSON, which is still written; the exit status is then 1.
+ *
+ * usage: bench_cache [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N]
+ *                    [--memory MB] [--memo-mb MB] [--order pixel|pass] [--json PATH]
+ *   --order pass: the caches see the rays sample pass by sample pass (the order of Tessera's
+ *   camera), instead of scanline order with each pixel's samples in turn (default, pixel).
+ *   tiny:  scene/forest-1.rib at 160x64, 1 spp
+ *   small: scene/forest-100.rib and scene/forest-1000.rib at 480x192, 4 spp
+ *   full:  the same at 1920x768, 4 spp (the paper: 1920x768x64 rays, with motion blur)
+ * Scene paths are relative to the working directory. */
+#include "bottom_level_ref.h"
+#include "dice_build_ref.h"
+#include "lib/intersect.h"
+#include "lib/quadtree.h"
+#include "pipeline.h"
+#include "render.h"
+#include "rib.h"
+
+#include <cjson/cJSON.h>
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define BENCH_CACHES 3
+static const uint32_t cache_sizes[BENCH_CACHES] = {10, 100, 1000};
+
+typedef struct bench_options {
+    const char *size, *json_path;
+    const char *scenes[4];
+    int scene_count, width, height, spp, memory_mb, memo_mb;
+    int pass_order; /* 0: scanline, each pixel's samples in turn; 1: sample pass by pass */
+} bench_options;
+
+/* One LRU cache of diced patches: a doubly linked list over `cap` slots, most recent first. */
+typedef struct lru {
+    uint32_t cap, size, head, tail;
+    int32_t *slot_of;   /* per patch: its slot, or -1 */
+    uint32_t *patch_of; /* per slot */
+    uint32_t *prev, *next;
+    uint64_t dicings, micropolygons;
+} lru;
+
+typedef struct bench_result {
+    const char *scene;
+    uint32_t patches, max_lod, waves;
+    uint64_t rays, reorder_dicings, reorder_micropolygons, reorder_iterations, reorder_pairs;
+    uint64_t lookups, hits_reorder, hits_cache, hit_t_equal, host_dicings;
+    uint64_t t_reorder_nearer, t_cache_nearer; /* both hit, at different distances */
+    int check_reorder_le_cache10, check_caches_monotone, check_same_hits;
+    lru cache[BENCH_CACHES];
+    double reorder_seconds, cache_seconds;
+} bench_result;
+
+static int lru_init(lru *c, uint32_t cap, uint32_t patches)
+{
+    *c = (lru){.cap = cap};
+    c->slot_of = malloc(patches * sizeof *c->slot_of);
+    c->patch_of = malloc(cap * sizeof *c->patch_of);
+    c->prev = malloc(cap * sizeof *c->prev), c->next = malloc(cap * sizeof *c->next);
+    if (!c->slot_of || !c->patch_of || !c->prev || !c->next) return 1;
+    memset(c->slot_of, 0xff, patches * sizeof *c->slot_of);
+    return 0;
+}
+
+static void lru_free(lru *c)
+{
+    free(c->slot_of), free(c->patch_of), free(c->prev), free(c->next);
+}
+
+static void lru_unlink(lru *c, uint32_t s)
+{
+    if (s == c->head)
+        c->head = c->next[s];
+    else
+        c->next[c->prev[s]] = c->next[s];
+    if (s == c->tail)
+        c->tail = c->prev[s];
+    else
+        c->prev[c->next[s]] = c->prev[s];
+}
+
+static void lru_push_front(lru *c, uint32_t s)
+{
+    c->prev[s] = UINT32_MAX, c->next[s] = c->size > 1 ? c->head : UINT32_MAX;
+    if (c->size > 1)
+        c->prev[c->head] = s;
+    else
+        c->tail = s;
+    c->head = s;
+}
+
+/* Patch p is needed diced at m: a hit moves it to the front; a miss dices it (counted),
+ * evicting the least recently used patch when the cache is full. */
+static void lru_access(lru *c, uint32_t p, uint32_t m)
+{
+    int32_t s = c->slot_of[p];
+    if (s >= 0) {
+        if ((uint32_t)s != c->head) {
+            lru_unlink(c, (uint32_t)s);
+            lru_push_front(c, (uint32_t)s);
+        }
+        return;
+    }
+    c->dicings++, c->micropolygons += 1ull << (2u * m);
+    uint32_t slot;
+    if (c->size < c->cap) {
+        slot = c->size++;
+    } else {
+        slot = c->tail;
+        c->slot_of[c->patch_of[slot]] = -1;
+        lru_unlink(c, slot);
+    }
+    c->slot_of[p] = (int32_t)slot, c->patch_of[slot] = p;
+    lru_push_front(c, slot);
+}
+
+static int bench_parse(int argc, char **argv, bench_options *o)
+{
+    static const struct option longopts[] = {
+        {"size", required_argument, NULL, 's'},   {"scene", required_argument, NULL, 'S'},
+        {"res", required_argument, NULL, 'r'},    {"spp", required_argument, NULL, 'p'},
+        {"memory", required_argument, NULL, 'm'}, {"memo-mb", required_argument, NULL, 'M'},
+        {"json", required_argument, NULL, 'j'},   {"order", required_argument, NULL, 'o'},
+        {"help", no_argument, NULL, 'h'},         {NULL, 0, NULL, 0},
+    };
+    *o = (bench_options){.size = "small", .memory_mb = 1024, .memo_mb = 2048};
+    int c, w = 0, h = 0, spp = 0;
+    while ((c = getopt_long(argc, argv, "s:S:r:p:m:M:j:o:h", longopts, NULL)) != -1) {
+        switch (c) {
+        case 's':
+            o->size = optarg;
+            break;
+        case 'S':
+            if (o->scene_count == 4) {
+                fprintf(stderr, "bench_cache: at most 4 --scene\n");
+                return 1;
+            }
+            o->scenes[o->scene_count++] = optarg;
+            break;
+        case 'r':
+            if (sscanf(optarg, "%dx%d", &w, &h) != 2 || w < 1 || h < 1) {
+                fprintf(stderr, "bench_cache: --res wants WxH, not '%s'\n", optarg);
+                return 1;
+            }
+            break;
+        case 'p':
+            spp = atoi(optarg);
+            break;
+        case 'm':
+            o->memory_mb = atoi(optarg);
+            break;
+        case 'M':
+            o->memo_mb = atoi(optarg);
+            break;
+        case 'j':
+            o->json_path = optarg;
+            break;
+        case 'o':
+            if (strcmp(optarg, "pixel") && strcmp(optarg, "pass")) {
+                fprintf(stderr, "bench_cache: --order must be pixel or pass, not '%s'\n", optarg);
+                return 1;
+            }
+            o->pass_order = !strcmp(optarg, "pass");
+            break;
+        default:
+            fprintf(stderr,
+                    "usage: %s [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N] "
+                    "[--memory MB] [--memo-mb MB] [--order pixel|pass] [--json PATH]\n",
+                    argv[0]);
+            return c == 'h' ? 0 : 1;
+        }
+    }
+    int big = 0;
+    if (!strcmp(o->size, "tiny"))
+        o->width = 160, o->height = 64, o->spp = 1;
+    else if (!strcmp(o->size, "small"))
+        o->width = 480, o->height = 192, o->spp = 4, big = 1;
+    else if (!strcmp(o->size, "full"))
+        o->width = 1920, o->height = 768, o->spp = 4, big = 1;
+    else {
+        fprintf(stderr, "bench_cache: --size must be tiny, small or full, not '%s'\n", o->size);
+        return 1;
+    }
+    if (o->scene_count == 0) {
+        if (big)
+            o->scenes[0] = "scene/forest-100.rib", o->scenes[1] = "scene/forest-1000.rib",
+            o->scene_count = 2;
+        else
+            o->scenes[0] = "scene/forest-1.rib", o->scene_count = 1;
+    }
+    if (w) o->width = w, o->height = h;
+    if (spp) o->spp = spp;
+    if (o->spp < 1 || o->memory_mb < 16 || o->memo_mb < 1) {
+        fprintf(stderr,
+                "bench_cache: --spp must be positive, --memory at least 16, --memo-mb positive\n");
+        return 1;
+    }
+    return -1;
+}
+
+/* The frame's eye rays, their hits by Tessera's wavefront loop, and each patch's m. */
+typedef struct frame {
+    ts_vec4 *org, *dir;
+    ts_hit *hit;
+    uint8_t *lod;
+    uint64_t rays;
+} frame;
+
+/* reordering: lod stage over the frame, then the eye rays wave by wave through
+ * pipeline_trace, as `tessera render` does (one wave = the plan's ray capacity here: eye
+ * rays only, no shadow-ray slots). Keeps every ray and its hit, in global sample order. */
+static int run_reorder(const bench_options *o, ts_cl *cl, const ts_scene *s, frame *f,
+                       bench_result *res, ts_error *err)
+{
+    uint64_t total = (uint64_t)o->width * o->height * o->spp;
+    ts_pipeline_plan plan;
+    if (pipeline_plan((uint64_t)o->memory_mb << 20, total, 10, cl->info.max_alloc, &plan, err))
+        return err->code;
+    ts_stats st;
+    memset(&st, 0, sizeof st);
+    ts_pipeline p;
+    int rc = pipeline_create(&p, cl, s, &plan, (uint32_t)(o->width * o->height), &st, err);
+    ts_camera_params cam;
+    if (!rc) rc = render_camera_params(&s->camera, o->width, o->height, &cam, err);
+    f->rays = total;
+    f->org = malloc(total * sizeof *f->org), f->dir = malloc(total * sizeof *f->dir);
+    f->hit = malloc(total * sizeof *f->hit), f->lod = malloc(s->patch_count ? s->patch_count : 1);
+    if (!rc && (!f->org || !f->dir || !f->hit || !f->lod))
+        rc = ts_error_set(err, TS_E_MEMORY, "out of memory for %llu rays",
+                          (unsigned long long)total);
+    double t0 = stats_now();
+    uint32_t per = plan.ray_capacity;
+    cam.spp = (uint32_t)o->spp;
+    p.mode = (ts_trace_mode){(uint32_t)o->spp, -1, 0, 0, 0u};
+    for (uint64_t first = 0; !rc && first < total; first += per) { /* the lod stage */
+        cam.first_sample = (uint32_t)first;
+        cam.ray_count = (uint32_t)(total - first < per ? total - first : per);
+        rc = pipeline_camera(&p, &cam, err) || pipeline_lod_count(&p, cam.ray_count, err);
+    }
+    if (!rc) rc = pipeline_lod_finish(&p, err);
+    res->waves = 0;
+    for (uint64_t first = 0; !rc && first < total; first += per, res->waves++) {
+        cam.first_sample = (uint32_t)first;
+        cam.ray_count = (uint32_t)(total - first < per ? total - first : per);
+        uint32_t n = cam.ray_count;
+        if ((rc = pipeline_camera(&p, &cam, err) || pipeline_trace(&p, n, err))) break;
+        cl_command_queue q = cl->queue;
+        cl_int e = clEnqueueReadBuffer(q, p.ray_org, CL_TRUE, 0, n * sizeof(ts_vec4),
+                                       f->org + first, 0, NULL, NULL);
+        if (!e)
+            e = clEnqueueReadBuffer(q, p.ray_dir, CL_TRUE, 0, n * sizeof(ts_vec4), f->dir + first,
+                                    0, NULL, NULL);
+        if (!e)
+            e = clEnqueueReadBuffer(q, p.ray_hit, CL_TRUE, 0, n * sizeof(ts_hit), f->hit + first, 0,
+                                    NULL, NULL);
+        if (e) rc = ts_error_set(err, TS_E_DEVICE, "%s reading the rays back", cl_error_name(e));
+    }
+    res->reorder_seconds = stats_now() - t0;
+    if (!rc) {
+        memcpy(f->lod, p.patch_lod, s->patch_count);
+        res->max_lod = p.plan.max_lod;
+        res->reorder_dicings = st.counters[TS_COUNTER_patches_diced];
+        res->reorder_micropolygons = st.counters[TS_COUNTER_micropolygons_created];
+        res->reorder_iterations = st.counters[TS_COUNTER_iterations];
+        res->reorder_pairs = st.counters[TS_COUNTER_pairs];
+    }
+    if (p.cl) pipeline_destroy(&p);
+    stats_free(&st);
+    return rc ? err->code : TS_OK;
+}
+
+/* The host's diced patches (a memo of real dicing work, not the simulated cache). */
+typedef struct memo {
+    ts_vec4 **grid;
+    ts_box4 **groups;
+    uint64_t bytes, limit, dicings;
+    uint32_t count;
+} memo;
+
+static void memo_clear(memo *mm)
+{
+    for (uint32_t i = 0; i < mm->count; ++i) {
+        free(mm->grid[i]), free(mm->groups[i]);
+        mm->grid[i] = NULL, mm->groups[i] = NULL;
+    }
+    mm->bytes = 0;
+}
+
+static int memo_get(memo *mm, const ts_scene *s, uint32_t p, uint32_t m, bl_ref_patch *out)
+{
+    uint32_t times = dice_build_ref_times(s, p);
+    if (!mm->grid[p]) {
+        size_t gb = times * quadtree_vertex_count(m) * sizeof(ts_vec4),
+               nb = times * quadtree_group_count(m) * sizeof(ts_box4);
+        if (mm->bytes + gb + nb > mm->limit) memo_clear(mm);
+        mm->grid[p] = malloc(gb), mm->groups[p] = malloc(nb);
+        if (!mm->grid[p] || !mm->groups[p]) return 1;
+        dice_build_ref(s, p, m, mm->grid[p], mm->groups[p]);
+        mm->bytes += gb + nb;
+        mm->dicings++;
+    }
+    *out = (bl_ref_patch){mm->grid[p],
+                          times == 2 ? mm->grid[p] + quadtree_vertex_count(m) : NULL,
+                          mm->groups[p],
+                          times == 2 ? mm->groups[p] + quadtree_group_count(m) : NULL,
+                          m,
+                          p};
+    return 0;
+}
+
+/* A binary min-heap of (entry distance, QBVH item): item >= 0 a node, < 0 a leaf ~patch. */
+typedef struct heap_item {
+    float t;
+    int32_t item;
+} heap_item;
+
+typedef struct heap {
+    heap_item *v;
+    uint32_t n, cap;
+} heap;
+
+static int heap_push(heap *h, float t, int32_t item)
+{
+    if (h->n == h->cap) {
+        uint32_t cap = h->cap ? 2 * h->cap : 256;
+        heap_item *v = realloc(h->v, cap * sizeof *v);
+        if (!v) return 1;
+        h->v = v, h->cap = cap;
+    }
+    uint32_t i = h->n++;
+    while (i > 0 && h->v[(i - 1) / 2].t > t)
+        h->v[i] = h->v[(i - 1) / 2], i = (i - 1) / 2;
+    h->v[i] = (heap_item){t, item};
+    return 0;
+}
+
+static heap_item heap_pop(heap *h)
+{
+    heap_item top = h->v[0], last = h->v[--h->n];
+    uint32_t i = 0;
+    for (;;) {
+        uint32_t c = 2 * i + 1;
+        if (c >= h->n) break;
+        if (c + 1 < h->n && h->v[c + 1].t < h->v[c].t) ++c;
+        if (!(h->v[c].t < last.t)) break;
+        h->v[i] = h->v[c], i = c;
+    }
+    if (h->n) h->v[i] = last;
+    return top;
+}
+
+/* One ray, one at a time: patches in order of entry distance until the nearest entry left
+ * is beyond the closest hit; each is looked up in every cache and intersected. */
+static int trace_one(const ts_scene *s, const ts_qbvh *q, const frame *f, uint64_t g, memo *mm,
+                     heap *h, bench_result *res, ts_hit *out)
+{
+    ts_vec4 o = f->org[g], d = f->dir[g];
+    float ix = safe_reciprocal(d.x), iy = safe_reciprocal(d.y), iz = safe_reciprocal(d.z);
+    ts_hit best = {TS_NO_HIT, 0, 0, TS_INVALID, TS_INVALID};
+    h->n = 0;
+    if (heap_push(h, o.w, 0)) return 1;
+    while (h->n && !(h->v[0].t > best.t)) {
+        heap_item it = heap_pop(h);
+        if (it.item < 0) {
+            uint32_t p = (uint32_t)~it.item, m = f->lod[p];
+            res->lookups++;
+            for (int c = 0; c < BENCH_CACHES; ++c)
+                lru_access(&res->cache[c], p, m);
+            bl_ref_patch pt;
+            if (memo_get(mm, s, p, m, &pt)) return 1;
+            ts_hit hh = bottom_level_ref_trace(o, d, best.t, &pt, 0, 0u, NULL);
+            if (hh.patch != TS_INVALID && hh.t < best.t) best = hh;
+            continue;
+        }
+        const ts_qbvh_node *nd = &q->nodes[it.item];
+        for (int c = 0; c < 4; ++c) {
+            int32_t child = nd->child[c];
+            if (child == TS_CHILD_EMPTY) continue;
+            float te = box_enter(o.x, o.y, o.z, ix, iy, iz, nd->lo_x[c], nd->lo_y[c], nd->lo_z[c],
+                                 nd->hi_x[c], nd->hi_y[c], nd->hi_z[c], o.w, best.t);
+            if (te >= 0.0f && heap_push(h, te, child)) return 1;
+        }
+    }
+    *out = best;
+    return 0;
+}
+
+/* The cache baseline over the frame's rays in scanline order, each pixel's samples in turn. */
+static int run_cache(const bench_options *o, const ts_scene *s, const frame *f, bench_result *res,
+                     ts_error *err)
+{
+    uint32_t np = s->patch_count;
+    ts_box *boxes = malloc((np ? np : 1) * sizeof *boxes);
+    if (!boxes) return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    for (uint32_t i = 0; i < np; ++i)
+        boxes[i] = scene_patch_box(s, i);
+    ts_qbvh q;
+    int rc = qbvh_build(&q, boxes, np, err);
+    free(boxes);
+    if (rc) return rc;
+    memo mm = {calloc(np ? np : 1, sizeof(ts_vec4 *)),
+               calloc(np ? np : 1, sizeof(ts_box4 *)),
+               0,
+               (uint64_t)o->memo_mb << 20,
+               0,
+               np};
+    heap h = {0};
+    for (int c = 0; c < BENCH_CACHES && !rc; ++c)
+        if (lru_init(&res->cache[c], cache_sizes[c], np ? np : 1))
+            rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
+    if (!mm.grid || !mm.groups) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
+    double t0 = stats_now();
+    uint64_t npix = (uint64_t)o->width * o->height;
+    for (uint64_t pix = 0; pix < npix && !rc; ++pix)
+        for (uint64_t smp = 0; smp < (uint64_t)o->spp && !rc; ++smp) {
+            /* g: the camera's global sample index of the ray traced now */
+            uint64_t g = o->pass_order ? pix * (uint64_t)o->spp + smp : smp * npix + pix;
+            ts_hit hc;
+            if (trace_one(s, &q, f, g, &mm, &h, res, &hc)) {
+                rc = ts_error_set(err, TS_E_MEMORY, "out of memory in the cache tracer");
+                break;
+            }
+            const ts_hit *hr = &f->hit[g];
+            res->hits_cache += hc.patch != TS_INVALID;
+            res->hits_reorder += hr->patch != TS_INVALID;
+            int both = hc.patch != TS_INVALID && hr->patch != TS_INVALID;
+            res->hit_t_equal += both && hc.t == hr->t;
+            res->t_reorder_nearer += both && hr->t < hc.t;
+            res->t_cache_nearer += both && hc.t < hr->t;
+        }
+    res->cache_seconds = stats_now() - t0;
+    res->host_dicings = mm.dicings;
+    memo_clear(&mm);
+    free(mm.grid), free(mm.groups), free(h.v);
+    qbvh_free(&q);
+    return rc;
+}
+
+static int bench_scene(const bench_options *o, ts_cl *cl, const char *path, bench_result *res,
+                       ts_error *err)
+{
+    ts_scene s;
+    memset(&s, 0, sizeof s);
+    memset(res, 0, sizeof *res);
+    res->scene = path;
+    if (rib_load(path, &s, 1, err)) return err->code;
+    res->patches = s.patch_count;
+    frame f = {0};
+    fprintf(stderr, "bench_cache: %s: reordering (Tessera's wavefront loop)...\n", path);
+    int rc = run_reorder(o, cl, &s, &f, res, err);
+    res->rays = f.rays;
+    if (!rc) fprintf(stderr, "bench_cache: %s: caches, one ray at a time...\n", path);
+    if (!rc) rc = run_cache(o, &s, &f, res, err);
+    free(f.org), free(f.dir), free(f.hit), free(f.lod);
+    scene_free(&s);
+    return rc;
+}
+
+/* The checks of issue 8 item 1; returns the number that failed. */
+static int bench_check(bench_result *r)
+{
+    const lru *c = r->cache;
+    r->check_reorder_le_cache10 = r->reorder_dicings <= c[0].dicings;
+    r->check_caches_monotone = c[2].dicings <= c[1].dicings && c[1].dicings <= c[0].dicings;
+    r->check_same_hits = r->hits_cache == r->hits_reorder;
+    if (!r->check_reorder_le_cache10)
+        fprintf(stderr,
+                "bench_cache: CHECK FAILED: %s: reordering dices more than a 10-entry cache\n",
+                r->scene);
+    if (!r->check_caches_monotone)
+        fprintf(stderr, "bench_cache: CHECK FAILED: %s: larger caches dice more\n", r->scene);
+    if (!r->check_same_hits)
+        fprintf(
+            stderr,
+            "bench_cache: CHECK FAILED: %s: %llu rays hit in the cache tracer, %llu in Tessera\n",
+            r->scene, (unsigned long long)r->hits_cache, (unsigned long long)r->hits_reorder);
+    return !r->check_reorder_le_cache10 + !r->check_caches_monotone + !r->check_same_hits;
+}
+
+static void bench_print(const bench_options *o, const bench_result *r)
+{
+    printf("%s: %u patches, %dx%d x %d spp = %llu eye rays, --memory %d MB: %u waves, %llu "
+           "iterations, "
+           "max m %u; caches see the rays %s\n",
+           r->scene, r->patches, o->width, o->height, o->spp, (unsigned long long)r->rays,
+           o->memory_mb, r->waves, (unsigned long long)r->reorder_iterations, r->max_lod,
+           o->pass_order ? "sample pass by pass"
+                         : "in scanline order, each pixel's samples in turn");
+    printf("  %-12s %12s %16s %14s\n", "method", "dicings", "micro-polygons", "vs cache 1000");
+    for (int c = 0; c < BENCH_CACHES; ++c)
+        printf("  cache %-6u %12llu %16llu %14.2f\n", r->cache[c].cap,
+               (unsigned long long)r->cache[c].dicings,
+               (unsigned long long)r->cache[c].micropolygons,
+               (double)r->cache[c].dicings / (double)r->cache[2].dicings);
+    printf("  %-12s %12llu %16llu %14.2f\n", "reordering", (unsigned long long)r->reorder_dicings,
+           (unsigned long long)r->reorder_micropolygons,
+           (double)r->reorder_dicings / (double)r->cache[2].dicings);
+    printf("  rays hit: %llu (Tessera) / %llu (cache tracer); hit distances equal %llu, nearer in "
+           "Tessera %llu, "
+           "nearer in the cache tracer %llu\n",
+           (unsigned long long)r->hits_reorder, (unsigned long long)r->hits_cache,
+           (unsigned long long)r->hit_t_equal, (unsigned long long)r->t_reorder_nearer,
+           (unsigned long long)r->t_cache_nearer);
+    printf("  patch lookups %llu (%.2f per ray); %.1f s wavefront, %.1f s cache tracer\n",
+           (unsigned long long)r->lookups, (double)r->lookups / (double)r->rays, r->reorder_seconds,
+           r->cache_seconds);
+}
+
+static int bench_json(const bench_options *o, const bench_result *rs, int n, const char *device)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddStringToObject(root, "benchmark", "cache");
+    cJSON_AddStringToObject(root, "size", o->size);
+    cJSON_AddStringToObject(root, "device", device);
+    cJSON_AddNumberToObject(root, "width", o->width);
+    cJSON_AddNumberToObject(root, "height", o->height);
+    cJSON_AddNumberToObject(root, "spp", o->spp);
+    cJSON_AddNumberToObject(root, "memory_mb", o->memory_mb);
+    cJSON_AddStringToObject(root, "ray_order", o->pass_order ? "pass" : "pixel");
+    cJSON *arr = cJSON_AddArrayToObject(root, "scenes");
+    for (int i = 0; i < n; ++i) {
+        const bench_result *r = &rs[i];
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddStringToObject(j, "scene", r->scene);
+        cJSON_AddNumberToObject(j, "patches", r->patches);
+        cJSON_AddNumberToObject(j, "rays", (double)r->rays);
+        cJSON_AddNumberToObject(j, "max_lod", r->max_lod);
+        cJSON *ro = cJSON_AddObjectToObject(j, "reorder");
+        cJSON_AddNumberToObject(ro, "dicings", (double)r->reorder_dicings);
+        cJSON_AddNumberToObject(ro, "micropolygons", (double)r->reorder_micropolygons);
+        cJSON_AddNumberToObject(ro, "waves", r->waves);
+        cJSON_AddNumberToObject(ro, "iterations", (double)r->reorder_iterations);
+        cJSON_AddNumberToObject(ro, "pairs", (double)r->reorder_pairs);
+        cJSON_AddNumberToObject(ro, "hits", (double)r->hits_reorder);
+        cJSON_AddNumberToObject(ro, "seconds", r->reorder_seconds);
+        cJSON *ca = cJSON_AddArrayToObject(j, "cache");
+        for (int c = 0; c < BENCH_CACHES; ++c) {
+            cJSON *e = cJSON_CreateObject();
+            cJSON_AddNumberToObject(e, "entries", r->cache[c].cap);
+            cJSON_AddNumberToObject(e, "dicings", (double)r->cache[c].dicings);
+            cJSON_AddNumberToObject(e, "micropolygons", (double)r->cache[c].micropolygons);
+            cJSON_AddItemToArray(ca, e);
+        }
+        cJSON_AddNumberToObject(j, "cache_lookups", (double)r->lookups);
+        cJSON_AddNumberToObject(j, "cache_hits", (double)r->hits_cache);
+        cJSON_AddNumberToObject(j, "hit_t_equal", (double)r->hit_t_equal);
+        cJSON_AddNumberToObject(j, "hit_t_nearer_reorder", (double)r->t_reorder_nearer);
+        cJSON_AddNumberToObject(j, "hit_t_nearer_cache", (double)r->t_cache_nearer);
+        cJSON *ck = cJSON_AddObjectToObject(j, "checks");
+        cJSON_AddBoolToObject(ck, "reorder_le_cache_10", r->check_reorder_le_cache10);
+        cJSON_AddBoolToObject(ck, "cache_1000_le_100_le_10", r->check_caches_monotone);
+        cJSON_AddBoolToObject(ck, "same_rays_hit", r->check_same_hits);
+        cJSON_AddNumberToObject(j, "cache_seconds", r->cache_seconds);
+        cJSON_AddNumberToObject(j, "ratio_reorder_to_cache_1000",
+                                (double)r->reorder_dicings / (double)r->cache[2].dicings);
+        cJSON_AddNumberToObject(j, "ratio_reorder_to_cache_10",
+                                (double)r->reorder_dicings / (double)r->cache[0].dicings);
+        cJSON_AddItemToArray(arr, j);
+    }
+    char *text = cJSON_Print(root);
+    cJSON_Delete(root);
+    FILE *f = text ? fopen(o->json_path, "w") : NULL;
+    int ok = f && fputs(text, f) >= 0 && fputc('\n', f) != EOF;
+    if (f && fclose(f) != 0) ok = 0;
+    free(text);
+    if (!ok) fprintf(stderr, "bench_cache: cannot write %s\n", o->json_path);
+    return ok ? 0 : 1;
+}
+
+int main(int argc, char **argv)
+{
+    bench_options o;
+    int rc = bench_parse(argc, argv, &o);
+    if (rc >= 0) return rc;
+    ts_error err = {0};
+    ts_cl cl;
+    memset(&cl, 0, sizeof cl);
+    ts_cl_options clo = {.device_index = -1};
+    bench_result res[4];
+    int n = 0, bad = 0;
+    if (cl_open(&cl, &clo, &err) == TS_OK)
+        for (; n < o.scene_count; ++n) {
+            if (bench_scene(&o, &cl, o.scenes[n], &res[n], &err)) break;
+            bad += bench_check(&res[n]);
+            bench_print(&o, &res[n]);
+            fflush(stdout);
+        }
+    rc = err.code != TS_OK;
+    if (rc) fprintf(stderr, "bench_cache: %s\n", err.msg);
+    if (!rc && o.json_path) rc = bench_json(&o, res, n, cl.info.name);
+    for (int i = 0; i < n; ++i)
+        for (int c = 0; c < BENCH_CACHES; ++c)
+            lru_free(&res[i].cache[c]);
+    if (cl.context) cl_close(&cl);
+    return rc || bad ? 1 : 0;
+}
