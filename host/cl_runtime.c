@@ -188,13 +188,24 @@ static void cache_store(cl_program prog, const char *path)
     free(bin);
 }
 
-static const char *build_options = "-cl-std=CL1.2";
+/* OpenCL C 1.2, and IEEE division and square root where the device offers them: OpenCL
+ * lets single-precision x / y be off by 2.5 ulp and sqrt by 3 (NVIDIA's are), which would
+ * break the bitwise agreement of the kernels with their plain-C references (and between
+ * devices) through 1 / d in every slab test. */
+static void cl_build_options(ts_cl *cl)
+{
+    cl_device_fp_config fp = 0;
+    clGetDeviceInfo(cl->info.device, CL_DEVICE_SINGLE_FP_CONFIG, sizeof fp, &fp, NULL);
+    snprintf(cl->build_options, sizeof cl->build_options, "-cl-std=CL1.2%s",
+             fp & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT ? " -cl-fp32-correctly-rounded-divide-sqrt"
+                                                      : "");
+}
 
 /* Builds `prog` from the program text `src`; on failure returns TS_E_DEVICE with the full
  * build log as detail. */
 static int program_build(ts_cl *cl, cl_program prog, const char *src, ts_error *err)
 {
-    cl_int rc = clBuildProgram(prog, 1, &cl->info.device, build_options, NULL, NULL);
+    cl_int rc = clBuildProgram(prog, 1, &cl->info.device, cl->build_options, NULL, NULL);
     if (rc == CL_SUCCESS) return TS_OK;
     size_t n = 0;
     clGetProgramBuildInfo(prog, cl->info.device, CL_PROGRAM_BUILD_LOG, 0, NULL, &n);
@@ -237,7 +248,7 @@ static cl_program program_from_cache(ts_cl *cl, const char *path)
                                                 &status, &rc);
     free(bin);
     if (rc != CL_SUCCESS || status != CL_SUCCESS) return NULL;
-    if (clBuildProgram(prog, 1, &cl->info.device, build_options, NULL, NULL) != CL_SUCCESS) {
+    if (clBuildProgram(prog, 1, &cl->info.device, cl->build_options, NULL, NULL) != CL_SUCCESS) {
         clReleaseProgram(prog);
         return NULL; /* a stale or foreign binary: rebuild from source */
     }
@@ -247,11 +258,12 @@ static cl_program program_from_cache(ts_cl *cl, const char *path)
 static int program_open(ts_cl *cl, const ts_cl_options *opt, ts_error *err)
 {
     double t0 = stats_now();
+    cl_build_options(cl);
     char *src = kernel_source_program(opt->kernel_dir, err);
     if (!src) return err->code;
     uint64_t key = 0xcbf29ce484222325ull;
     const char *parts[] = {cl->info.platform_name, cl->info.name, cl->info.version,
-                           cl->info.driver, build_options, src};
+                           cl->info.driver, cl->build_options, src};
     for (size_t i = 0; i < sizeof parts / sizeof *parts; ++i)
         key = fnv1a(key, parts[i], strlen(parts[i]) + 1);
     char path[4200];

@@ -65,6 +65,7 @@ typedef struct ts_cl {
     size_t pending_count, pending_capacity;
     double build_seconds;
     int cache_hit;
+    char build_options[128]; /* cl_build_options() for this device */
 } ts_cl;
 
 typedef struct ts_cl_options {
