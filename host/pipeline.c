@@ -260,6 +260,11 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
         {&p->xform, (s->xform_count ? s->xform_count : 1) * sizeof(ts_xform),
          s->xform_count ? (const void *)s->xform : (const void *)&identity},
         {&p->flatness, n * sizeof(ts_vec4), flat},
+        /* Textures: every tile of every level, uploaded once (tex_pages is the identity). */
+        {&p->textures, (s->texture_count ? s->texture_count : 1) * sizeof(ts_texture), s->textures},
+        {&p->tex_pages, (s->tex_tile_count ? s->tex_tile_count : 1) * sizeof(uint32_t), s->tex_pages},
+        {&p->tex_pool, (s->tex_tile_count ? (size_t)s->tex_tile_count * TS_TEX_TILE * TS_TEX_TILE : 1) * sizeof(ts_vec4),
+         s->tex_pool},
     };
     int rc = TS_OK;
     for (size_t i = 0; i < sizeof list / sizeof *list && rc == TS_OK; ++i) {
@@ -377,7 +382,7 @@ void pipeline_destroy(ts_pipeline *p)
         if (ks[i]) clReleaseKernel(ks[i]);
     cl_mem ms[] = {p->qbvh_nodes, p->cp, p->cp1, p->corner_n, p->attr, p->xform, p->flatness,
                    p->lod_counts, p->utilisation, p->lights, p->emitters, p->env_texels, p->env_marginal,
-                   p->env_conditional,
+                   p->env_conditional, p->textures, p->tex_pages, p->tex_pool,
 #define TS_PATH_RELEASE(type, name, what) p->path_##name,
                    TS_PATH_FIELDS(TS_PATH_RELEASE)
 #undef TS_PATH_RELEASE

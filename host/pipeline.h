@@ -81,6 +81,7 @@ typedef struct ts_pipeline {
     cl_mem utilisation; /* 2 uints: micro-quad tests, work-item slots (bottom_level) */
     cl_mem qbvh_nodes, cp, cp1, corner_n, attr, xform, flatness, lod_counts, lights, emitters;
     cl_mem env_texels, env_marginal, env_conditional; /* the dome's map (1 element if none) */
+    cl_mem textures, tex_pages, tex_pool; /* image textures (scene.h), 1 element if none */
     uint32_t light_count;
 #define TS_RAY_BUFFER(type, name, what) cl_mem ray_##name;
     TS_RAY_FIELDS(TS_RAY_BUFFER)

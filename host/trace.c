@@ -147,7 +147,8 @@ static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
         uint32_t first = b->tree_first + t;
         if (cl_set_args(p->k_dice, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
                         ARG(p->segments), ARG(p->cp), ARG(p->cp1), ARG(p->corner_n), ARG(p->attr),
-                        ARG(p->xform), ARG(p->grid), (size_t)0) ||
+                        ARG(p->xform), ARG(p->textures), ARG(p->tex_pages), ARG(p->tex_pool),
+                        ARG(p->grid), (size_t)0) ||
             cl_launch(p->cl, p->k_dice, TS_STAGE_dice, (size_t)run * quadtree_vertex_count(m),
                       TS_LOCAL_SIZE, err))
             return err->code;
@@ -171,7 +172,8 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
         uint32_t first = b->tree_first + t;
         if (cl_set_args(p->k_build_leaves, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
                         ARG(p->segments), ARG(p->grid), ARG(p->corner_n), ARG(p->attr),
-                        ARG(p->xform), ARG(p->flatness), ARG(p->groups), (size_t)0) ||
+                        ARG(p->xform), ARG(p->flatness), ARG(p->textures), ARG(p->tex_pages),
+                        ARG(p->tex_pool), ARG(p->groups), (size_t)0) ||
             cl_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
                       TS_LOCAL_SIZE, err))
             return err->code;
@@ -309,7 +311,8 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
                     ARG(p->radiance), ARG(p->aov), ARG(p->albedo), ARG(p->cp), ARG(p->corner_n),
                     ARG(p->attr), ARG(p->xform), ARG(p->lights), ARG(p->emitters),
                     ARG(p->env_texels), ARG(p->env_marginal), ARG(p->env_conditional),
-                    ARG(p->flatness), ARG(p->alive), (size_t)0) ||
+                    ARG(p->flatness), ARG(p->textures), ARG(p->tex_pages), ARG(p->tex_pool),
+                    ARG(p->alive), (size_t)0) ||
         cl_launch(p->cl, p->k_shade, TS_STAGE_shade, path_count, TS_LOCAL_SIZE, err) ||
         cl_finish(p->cl, p->stats, err))
         return err->code;

@@ -91,7 +91,7 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
         for (uint32_t i = 0; i < n; ++i) {
             ts_vec4 g = grid[j * n + i];
             float u = ldexpf((float)i, -(int)m), v = ldexpf((float)j, -(int)m);
-            ts_vec4 same = patch_vertex(cp, cp, cn, a, x, u, v);
+            ts_vec4 same = patch_vertex(cp, cp, cn, a, x, scene_tex_ctx(s), u, v);
             if (memcmp(&g, &same, sizeof g) != 0)
                 fail_msg("patch %u m %u vertex (%u,%u): device (%a %a %a %a) host (%a %a %a %a)", pi, m,
                          i, j, g.x, g.y, g.z, g.w, same.x, same.y, same.z, same.w);
@@ -117,7 +117,7 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
         for (int q = 0; q < 4; ++q) {
             float u = ((float)i + test_uniform(seed, 0, 1)) * ldexpf(1.0f, -(int)m);
             float v = ((float)j + test_uniform(seed, 0, 1)) * ldexpf(1.0f, -(int)m);
-            ts_vec4 p = patch_vertex(cp, cp, cn, a, x, u, v);
+            ts_vec4 p = patch_vertex(cp, cp, cn, a, x, scene_tex_ctx(s), u, v);
             if (!box_contains(b, p))
                 fail_msg("patch %u m %u leaf %u: surface point (%g, %g) outside its box", pi, m, k, u, v);
         }
