@@ -2,7 +2,8 @@
  * the min-max pyramid against brute force, tex_range against bilinear lookups at random
  * points of random st rectangles (wrapping, negative and large coordinates), the RIB
  * requests and their errors (file:line:col), and two renders: a colour texture seen through
- * the albedo AOV, and a constant displacement texture equal to a moved plane (Z AOV). */
+ * the albedo AOV, a constant displacement texture equal to a moved plane (Z AOV), and
+ * paging (a tile pool smaller than the textures) giving the same image as full residency. */
 #include "image.h"
 #include "rib.h"
 #include "scene.h"
@@ -347,6 +348,71 @@ static void test_render_constant_displacement(void **state)
     for (int k = 0; k < 3; k++) image_free(&img[k]);
 }
 
+static float wave_texel(int x, int y, int c, uint32_t *seed)
+{
+    (void)seed;
+    return 0.5f + 0.25f * sinf(0.11f * (float)x + (float)c) * cosf(0.07f * (float)y) + 0.2f * sinf(0.031f * (float)(x + y));
+}
+
+/* Paging: with --memory 16 the tile pool (2 MiB, 128 tiles, raised to what the most
+ * demanding patch needs) is smaller than the scene's 602 tiles, so tiles move in and out
+ * per batch and per chunk of shaded paths; the image must be bit-identical to the one
+ * rendered with every tile resident. */
+static void test_render_paged(void **state)
+{
+    (void)state;
+    write_texture("h512.exr", 512, 512, 1, wave_texel, 0u);
+    write_texture("c512.exr", 512, 512, 3, wave_texel, 0u);
+    FILE *f = fopen(test_path_in(dir, "paged.rib"), "w");
+    assert_non_null(f);
+    fprintf(f, "Format 64 36 1\nProjection \"perspective\" \"fov\" [30]\n"
+               "LightSource \"distantlight\" 1 \"intensity\" [2] \"from\" [1.5 1 -0.4] \"to\" [0 0 0]\n"
+               "Translate 0 0 8.5\nRotate -130 1 0 0\nRotate 25 0 0 1\nWorldBegin\n"
+               "Surface \"matte\" \"texturename\" \"c512.exr\"\n"
+               "Displacement \"texture\" \"texturename\" \"h512.exr\" \"amplitude\" 0.2\n"
+               "PatchMesh \"bilinear\" 5 \"nonperiodic\" 5 \"nonperiodic\" \"P\" [");
+    for (int j = 0; j < 5; j++)
+        for (int i = 0; i < 5; i++) fprintf(f, " %d %d 0", i - 2, j - 2);
+    fprintf(f, "] \"st\" [");
+    for (int j = 0; j < 5; j++)
+        for (int i = 0; i < 5; i++) fprintf(f, " %g %g", 0.5 * i, 2 - 0.5 * j);
+    fprintf(f, "]\nWorldEnd\n");
+    fclose(f);
+    const char *mem[2] = {"256", "16"};
+    ts_image img[2];
+    double pool[2], tiles[2], up[2], bytes[2];
+    for (int k = 0; k < 2; k++) {
+        char exr[32], json[32];
+        snprintf(exr, sizeof exr, "paged%d.exr", k);
+        snprintf(json, sizeof json, "paged%d.json", k);
+        test_tessera_ok(dir, "render '%s' -o '%s' --spp 1 --memory %s --quiet --stats '%s'",
+                        test_path_in(dir, "paged.rib"), test_path_in(dir, exr), mem[k], test_path_in(dir, json));
+        test_read_image(test_path_in(dir, exr), &img[k]);
+        const char *js = test_path_in(dir, json);
+        pool[k] = test_stats_number(js, "counters.texture_pool_tiles");
+        tiles[k] = test_stats_number(js, "counters.texture_tiles");
+        up[k] = test_stats_number(js, "counters.texture_tiles_uploaded");
+        bytes[k] = test_stats_number(js, "counters.texture_bytes_uploaded");
+    }
+    /* 512^2 displacement with its pyramid: 256 + 64 + 16 + 4 + 1 + 1 + 1 + 1 + 1 + 1 tiles;
+     * colour: 256. */
+    assert_true(tiles[0] == 602 && tiles[1] == 602);
+    assert_true(pool[0] == 602 && up[0] == 602); /* all resident, uploaded once */
+    assert_true(pool[1] < 602 && pool[1] >= 128);
+    assert_true(up[1] > 0 && bytes[1] == up[1] * 32 * 32 * 16);
+    assert_int_equal(img[0].width * img[0].height * img[0].channels, img[1].width * img[1].height * img[1].channels);
+    size_t n = (size_t)img[0].width * img[0].height * img[0].channels;
+    int lit = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (memcmp(&img[0].pixels[i], &img[1].pixels[i], sizeof(float)) != 0)
+            fail_msg("value %zu (channel %s): %g resident, %g paged", i, img[0].channel_names[i % img[0].channels],
+                     img[0].pixels[i], img[1].pixels[i]);
+        lit += img[0].pixels[i] > 0.0f && isfinite(img[0].pixels[i]);
+    }
+    assert_true(lit > 1000);
+    for (int k = 0; k < 2; k++) image_free(&img[k]);
+}
+
 static int setup(void **state)
 {
     (void)state;
@@ -364,6 +430,7 @@ int main(void)
     const struct CMUnitTest device[] = {
         cmocka_unit_test(test_render_colour),
         cmocka_unit_test(test_render_constant_displacement),
+        cmocka_unit_test(test_render_paged),
     };
     int rc = cmocka_run_group_tests(host, setup, NULL);
     if (rc) return rc;
