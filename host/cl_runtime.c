@@ -400,6 +400,12 @@ int cl_set_args(cl_kernel k, ts_error *err, ...)
 int cl_launch(ts_cl *cl, cl_kernel k, ts_stage stage, size_t global, size_t local,
               ts_error *err)
 {
+    return cl_launch_range(cl, k, stage, 0, global, local, err);
+}
+
+int cl_launch_range(ts_cl *cl, cl_kernel k, ts_stage stage, size_t offset, size_t global,
+                    size_t local, ts_error *err)
+{
     if (global == 0) return TS_OK;
     size_t rounded = (global + local - 1) / local * local;
     if (cl->pending_count == cl->pending_capacity) {
@@ -412,7 +418,8 @@ int cl_launch(ts_cl *cl, cl_kernel k, ts_stage stage, size_t global, size_t loca
     cl_event ev;
     cl_int rc = CL_OUT_OF_RESOURCES;
     if (++launch_count != env_count("TESSERA_FAIL_LAUNCH", &fail_launch_at))
-        rc = clEnqueueNDRangeKernel(cl->queue, k, 1, NULL, &rounded, &local, 0, NULL, &ev);
+        rc = clEnqueueNDRangeKernel(cl->queue, k, 1, offset ? &offset : NULL, &rounded, &local, 0,
+                                    NULL, &ev);
     if (rc != CL_SUCCESS) {
         char name[128] = "?";
         clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);

@@ -90,6 +90,10 @@ int cl_set_args(cl_kernel k, ts_error *err, ...);
  * `local`; the kernels guard their range) and records a profiling event for `stage`. */
 int cl_launch(ts_cl *cl, cl_kernel k, ts_stage stage, size_t global, size_t local,
               ts_error *err);
+/* The same over items [offset, offset + global) (global rounded up; get_global_id counts
+ * from offset). */
+int cl_launch_range(ts_cl *cl, cl_kernel k, ts_stage stage, size_t offset, size_t global,
+                    size_t local, ts_error *err);
 /* Waits for the queue and adds every pending launch's (end - start) to stats. */
 int cl_finish(ts_cl *cl, ts_stats *stats, ts_error *err);
 

@@ -64,7 +64,8 @@ static void grow(ts_box *b, float ex, float ey, float ez)
 
 /* Leaf k of the tree of time `time` (build_leaves for one work-item). */
 static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t k,
-                       const ts_vec4 *cn, const ts_patch_attr *a, const ts_xform *x, ts_vec4 e)
+                       const ts_vec4 *cn, const ts_patch_attr *a, const ts_xform *x,
+                       ts_tex_ctx tex, ts_vec4 e)
 {
     uint32_t n = (1u << m) + 1u, nv = n * n, i = morton_i(k), j = morton_j(k);
     float h = ldexpf(1.0f, -(int)m);
@@ -76,12 +77,18 @@ static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t 
     float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
     grow(&b, ex, ey, ez);
     if (a->disp_kind == TS_DISP_NONE) return b;
-    ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
-    if (time == 1u) {
-        b0 = base_box(grid, n, i, j, cn, h);
-        grow(&b0, ex, ey, ez);
+    ts_interval d;
+    if (a->disp_kind == TS_DISP_TEXTURE) {
+        d = displace_texture_interval(a, tex, (float)i * h, (float)j * h, (float)(i + 1u) * h,
+                                      (float)(j + 1u) * h);
+    } else {
+        ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
+        if (time == 1u) {
+            b0 = base_box(grid, n, i, j, cn, h);
+            grow(&b0, ex, ey, ez);
+        }
+        d = displace_interval(a, x, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
     }
-    ts_interval d = displace_interval(a, x, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
     ts_box nb = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (uint32_t c = 0; c < 4u; ++c) {
         ts_vec4 dn = displace_normal(cn, (float)(i + (c & 1u)) * h, (float)(j + (c >> 1)) * h);
@@ -105,17 +112,18 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid, ts
     const ts_patch_attr *a = &s->attr[p];
     const ts_xform *x = s->xform_count ? &s->xform[a->xform] : &identity_xform;
     ts_vec4 e = patch_flatness(c0, s->cp1 ? &s->cp1[p * 16u] : c0, 0);
+    ts_tex_ctx tex = scene_tex_ctx(s); /* every tile resident */
     for (uint32_t t = 0; t < times; ++t) {
         const ts_vec4 *c = t ? &s->cp1[p * 16u] : c0;
         for (uint32_t v = 0; v < nv; ++v)
-            grid[t * nv + v] = patch_vertex(c, c0, cn, a, x, ldexpf((float)(v % n), -(int)m),
+            grid[t * nv + v] = patch_vertex(c, c0, cn, a, x, tex, ldexpf((float)(v % n), -(int)m),
                                             ldexpf((float)(v / n), -(int)m));
     }
     uint32_t ng = quadtree_group_count(m);
     for (uint32_t t = 0; t < times; ++t) {
         ts_box4 *tree = groups + t * ng;
         for (uint32_t k = 0; k < (1u << (2u * m)); ++k)
-            node_store(tree, m, k, leaf_box(grid, t, m, k, cn, a, x, e));
+            node_store(tree, m, k, leaf_box(grid, t, m, k, cn, a, x, tex, e));
         for (uint32_t level = m; level-- > 0;) /* bottom-up min-max reduction */
             for (uint32_t k = 0; k < (1u << (2u * level)); ++k) {
                 const ts_box4 *c = tree + quadtree_group_offset(level + 1u) + k;

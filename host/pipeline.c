@@ -57,6 +57,7 @@ int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
                             (unsigned long long)(memory_bytes >> 20));
     plan->ray_capacity = (uint32_t)rays;
     plan->pair_capacity = (uint32_t)rays * TS_PAIRS_PER_RAY;
+    plan->tex_pool_bytes = memory_bytes / 8;
     return TS_OK;
 }
 
@@ -260,6 +261,7 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
         {&p->xform, (s->xform_count ? s->xform_count : 1) * sizeof(ts_xform),
          s->xform_count ? (const void *)s->xform : (const void *)&identity},
         {&p->flatness, n * sizeof(ts_vec4), flat},
+        {&p->textures, (s->texture_count ? s->texture_count : 1) * sizeof(ts_texture), s->textures},
     };
     int rc = TS_OK;
     for (size_t i = 0; i < sizeof list / sizeof *list && rc == TS_OK; ++i) {
@@ -275,7 +277,14 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
     free(attr);
     free(emitters);
     free(env.texels), free(env.marginal), free(env.conditional);
-    return rc;
+    if (rc != TS_OK) return rc;
+    /* Texture tiles: a pool of tex.slots tiles and the page table (tex_cache.h). */
+    if (tex_cache_create(&p->tex, s, p->plan.tex_pool_bytes, err)) return err->code;
+    size_t slots = p->tex.slots ? p->tex.slots : 1, pages = p->tex.pages ? p->tex.pages : 1;
+    p->tex_pool = cl_buffer_create(p->cl, CL_MEM_READ_ONLY, slots * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4), NULL, err);
+    p->tex_pages = p->tex_pool ? cl_buffer_create(p->cl, CL_MEM_READ_ONLY, pages * sizeof(uint32_t), NULL, err) : NULL;
+    if (!p->tex_pages) return err->code;
+    return tex_cache_upload_initial(&p->tex, p->cl, p->tex_pool, p->tex_pages, s, p->stats, err);
 }
 
 static int create_buffers(ts_pipeline *p, ts_error *err)
@@ -386,7 +395,7 @@ void pipeline_destroy(ts_pipeline *p)
         if (ks[i]) clReleaseKernel(ks[i]);
     cl_mem ms[] = {p->qbvh_nodes, p->cp, p->cp1, p->corner_n, p->attr, p->xform, p->flatness,
                    p->lod_counts, p->utilisation, p->lights, p->emitters, p->env_texels, p->env_marginal,
-                   p->env_conditional,
+                   p->env_conditional, p->textures, p->tex_pages, p->tex_pool,
 #define TS_PATH_RELEASE(type, name, what) p->path_##name,
                    TS_PATH_FIELDS(TS_PATH_RELEASE)
 #undef TS_PATH_RELEASE
@@ -402,6 +411,7 @@ void pipeline_destroy(ts_pipeline *p)
     if (p->sorter) radix_sorter_destroy(p->sorter);
     free(p->sort_host[0]);
     free(p->sort_host[1]);
+    tex_cache_free(&p->tex);
     free(p->segments_host);
     free(p->trees_host);
     free(p->batches);

@@ -11,6 +11,7 @@
 #include "radix_sort.h"
 #include "scene.h"
 #include "stats.h"
+#include "tex_cache.h"
 
 /* Candidate pairs reserved per ray of a full wave: N starts near this (Hanika Table 3 starts
  * at N = 8) and grows as rays finish. */
@@ -33,9 +34,11 @@ typedef struct ts_pipeline_plan {
     uint32_t vert_capacity;  /* ts_vec4 entries of the vertex arena (diced grids) */
     uint32_t group_capacity; /* ts_box4 entries of the group arena (quad-trees) */
     uint32_t max_lod;        /* the finest m; the arenas hold at least one moving patch at it */
+    uint64_t tex_pool_bytes; /* texture tile pool (tex_cache.h); 0: every tile resident */
 } ts_pipeline_plan;
 
-/* Splits a budget of `memory_bytes` between the patch arenas (a quarter) and rays, for
+/* Splits a budget of `memory_bytes` between the patch arenas (a quarter) and rays, and sets
+ * the texture tile pool to an eighth of it (on top; tex_cache.h), for
  * waves of at most `rays_wanted`, within the device's single-allocation limit. If the
  * arenas cannot hold one moving patch at max_lod, max_lod is lowered until they can (the
  * caller reports it: plan->max_lod < max_lod). Returns TS_E_USAGE when nothing fits. */
@@ -85,6 +88,8 @@ typedef struct ts_pipeline {
     cl_mem utilisation; /* 2 uints: micro-quad tests, work-item slots (bottom_level) */
     cl_mem qbvh_nodes, cp, cp1, corner_n, attr, xform, flatness, lod_counts, lights, emitters;
     cl_mem env_texels, env_marginal, env_conditional; /* the dome's map (1 element if none) */
+    cl_mem textures, tex_pages, tex_pool; /* image textures (scene.h), 1 element if none */
+    ts_tex_cache tex;                     /* which tiles tex_pool holds (tex_cache.h) */
     uint32_t light_count;
 #define TS_RAY_BUFFER(type, name, what) cl_mem ray_##name;
     TS_RAY_FIELDS(TS_RAY_BUFFER)

@@ -316,8 +316,12 @@ static int job_hash(const ts_render_options *o, const ts_scene *s, const ts_came
     if (s->corner_n) h = fnv1a(h, s->corner_n, (size_t)s->patch_count * 4 * sizeof(ts_vec4));
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         ts_patch_attr a = s->attr[i];
-        a.pad = 0;
+        a.pad[0] = a.pad[1] = 0;
         h = fnv1a(h, &a, sizeof a);
+    }
+    if (s->texture_count) { /* texel contents, not file names */
+        h = fnv1a(h, s->textures, (size_t)s->texture_count * sizeof(ts_texture));
+        h = fnv1a(h, s->tex_pool, (size_t)s->tex_tile_count * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4));
     }
     if (s->xform) h = fnv1a(h, s->xform, (size_t)s->xform_count * sizeof(ts_xform));
     for (uint32_t i = 0; i < s->light_count; ++i) h = fnv1a(h, &s->lights[i], sizeof s->lights[i]);

@@ -60,9 +60,10 @@ static int geom_xform(rib_parser *p, const double inv[16], uint32_t *index)
     return TS_OK;
 }
 
-/* The attributes in effect as a patch's: colour cs (NULL: the current Color),
- * Displacement (xform still 0), Surface, AreaLightSource. */
-static ts_patch_attr geom_attr(const rib_parser *p, const double *cs)
+/* The attributes in effect as a patch's: colour cs (NULL: the current Color), texture
+ * coordinates st at the corners (NULL: the corners' (u, v)), Displacement (xform still 0),
+ * Surface, AreaLightSource. */
+static ts_patch_attr geom_attr(const rib_parser *p, const double *cs, const double st[4][2])
 {
     if (!cs) cs = p->color;
     ts_patch_attr attr = {.cs_r = (float)cs[0],
@@ -84,7 +85,14 @@ static ts_patch_attr geom_attr(const rib_parser *p, const double *cs)
                           .le_r = (float)p->emission[0],
                           .le_g = (float)p->emission[1],
                           .le_b = (float)p->emission[2],
-                          .pad = 0u};
+                          .color_tex = p->surface.textured ? p->surface.tex : 0u,
+                          .disp_tex = p->disp.kind == TS_DISP_TEXTURE ? p->disp.tex : 0u,
+                          .disp_offset = (float)p->disp.offset,
+                          .st = {0, 0, 1, 0, 0, 1, 1, 1}};
+    if (p->surface.textured) attr.flags |= TS_PATCH_COLOR_TEX;
+    if (st)
+        for (int c = 0; c < 4; c++)
+            attr.st[2 * c] = (float)st[c][0], attr.st[2 * c + 1] = (float)st[c][1];
     return attr;
 }
 
@@ -92,9 +100,9 @@ int rib_geom_procedural_attr(rib_parser *p, ts_patch_attr *attr)
 {
     int rc = geom_check_state(p);
     if (rc != TS_OK) return rc;
-    *attr = geom_attr(p, NULL);
+    *attr = geom_attr(p, NULL, NULL);
     double inv[16];
-    if (attr->disp_kind == TS_DISP_NONE) return TS_OK;
+    if (attr->disp_kind == TS_DISP_NONE || attr->disp_kind == TS_DISP_TEXTURE) return TS_OK;
     if (!rib_mat_invert(p->ctm, inv))
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s: the current transformation is singular; Displacement needs an "
@@ -105,26 +113,28 @@ int rib_geom_procedural_attr(rib_parser *p, ts_patch_attr *attr)
 
 /* Appends a patch: g0 (and g1, the points at shutter close, or NULL) in object space are
  * moved by the CTM — by its two samples when it moves, which makes the patch move too —
- * with the current attributes and colour cs (NULL: the current Color). n: the four
+ * with the current attributes, colour cs (NULL: the current Color) and corner texture
+ * coordinates st (NULL: the corners' (u, v)). n: the four
  * object-space corner normals from "N" (moved by the inverse transpose of the CTM at
  * shutter open), or NULL. (line, col): the "P" values, (nline, ncol): the "N" values, for
  * messages. */
 static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
                      const double g1[16][3], const double n[4][3], int nline, int ncol,
-                     const double *cs)
+                     const double *cs, const double st[4][2])
 {
     double w0[16][3], w1[16][3], wn[4][3], inv[16];
     int moving = g1 != NULL || p->ctm_moving;
     int rc = geom_points(p, line, col, p->ctm, g0, w0);
     if (rc == TS_OK && moving) rc = geom_points(p, line, col, p->ctm1, g1 ? g1 : g0, w1);
     if (rc != TS_OK) return rc;
-    ts_patch_attr attr = geom_attr(p, cs);
-    if ((attr.disp_kind != TS_DISP_NONE || n) && !rib_mat_invert(p->ctm, inv))
+    ts_patch_attr attr = geom_attr(p, cs, st);
+    int noise = attr.disp_kind == TS_DISP_FBM || attr.disp_kind == TS_DISP_RIDGED;
+    if ((noise || n) && !rib_mat_invert(p->ctm, inv))
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s: the current transformation is singular; %s needs an "
                             "invertible one",
                             p->req, n ? "\"N\"" : "Displacement");
-    if (attr.disp_kind != TS_DISP_NONE) {
+    if (noise) {
         rc = geom_xform(p, inv, &attr.xform);
         if (rc != TS_OK) return rc;
     }
@@ -169,17 +179,18 @@ typedef struct geom_grid {
     int bicubic, nu, nv, cu, cv, uper, vper;
 } geom_grid;
 
-/* A primitive variable of 3 numbers per value ("N", "Cs"): its values and class. */
+/* A primitive variable of dim numbers per value ("N", "Cs": 3, "st": 2): its values and
+ * class. */
 typedef struct geom_var {
     const double *v; /* NULL: not given */
-    int cls;
+    int cls, dim;
     int line, col; /* of the values */
 } geom_var;
 
 typedef struct geom_vars {
     const double *P;
     const rib_arg *P_at;
-    geom_var N, Cs;
+    geom_var N, Cs, st;
 } geom_vars;
 
 /* How many values a variable of class cls has on the grid (RI Spec §5.3): uniform one per
@@ -243,15 +254,37 @@ static int geom_read_var(rib_parser *p, const rib_param *prm, const geom_grid *g
     }
     out->v = v;
     out->cls = cls;
+    out->dim = 3;
     out->line = prm->val->line;
     out->col = prm->val->col;
     return TS_OK;
 }
 
-/* Finds "P" (3 nu nv numbers), "N" and "Cs" (any class, 3 numbers per value) among the
- * parameters from args[first]. "Pw" and "Pz" are errors (rational and height-field patches
- * are not supported); any other parameter ("st", "s", "t", "Os", ...) is ignored with a
- * warning. */
+/* Reads "st" (2 numbers per value, varying unless declared; not vertex) with its class. */
+static int geom_read_st(rib_parser *p, const rib_param *prm, const geom_grid *g, geom_var *out)
+{
+    int cls = geom_class_of(rib_arg_str(p, prm->key, 0), GEOM_VARYING);
+    if (cls == GEOM_VERTEX)
+        return rib_error_at(p, prm->key->line, prm->key->col,
+                            "%s: \"st\" of class vertex is not supported (varying, uniform, "
+                            "facevarying or constant)",
+                            p->req);
+    size_t count = geom_class_count(g, cls);
+    const double *v;
+    int rc = rib_param_numbers(p, prm, 2 * count, &v, NULL);
+    if (rc != TS_OK) return rc;
+    for (size_t k = 0; k < 2 * count; k++)
+        if (!(fabs(v[k]) <= FLT_MAX))
+            return rib_error_at(p, prm->val->line, prm->val->col,
+                                "%s: value %zu of \"st\" is out of range", p->req, k);
+    *out = (geom_var){v, cls, 2, prm->val->line, prm->val->col};
+    return TS_OK;
+}
+
+/* Finds "P" (3 nu nv numbers), "N" and "Cs" (any class, 3 numbers per value), "st" (2 per
+ * value) among the parameters from args[first]. "Pw" and "Pz" are errors (rational and
+ * height-field patches are not supported); any other parameter ("s", "t", "Os", ...) is
+ * ignored with a warning. */
 static int geom_find_vars(rib_parser *p, size_t first, const geom_grid *g, geom_vars *out)
 {
     memset(out, 0, sizeof *out);
@@ -266,6 +299,8 @@ static int geom_find_vars(rib_parser *p, size_t first, const geom_grid *g, geom_
             rc = geom_read_var(p, &prm, g, &out->N);
         } else if (strcmp(prm.name, "Cs") == 0) {
             rc = geom_read_var(p, &prm, g, &out->Cs);
+        } else if (strcmp(prm.name, "st") == 0) {
+            rc = geom_read_st(p, &prm, g, &out->st);
         } else if (strcmp(prm.name, "Pw") == 0) {
             return rib_error_at(p, prm.key->line, prm.key->col,
                                 "%s: rational patches (\"Pw\") are not supported; give \"P\"",
@@ -333,8 +368,18 @@ static void geom_var_corners(const rib_parser *p, const geom_grid *g, const geom
         if (var->cls == GEOM_FACEVARYING) k = 4 * patch + (size_t)c;
         if (var->cls == GEOM_VARYING)
             k = ((size_t)(pv + (c >> 1)) % nvv) * nuv + (size_t)(pu + (c & 1)) % nuv;
-        memcpy(out[c], var->v + 3 * k, sizeof out[c]);
+        memcpy(out[c], var->v + (size_t)var->dim * k, (size_t)var->dim * sizeof out[c][0]);
     }
+}
+
+/* The patch's "st" at its four corners. */
+static void geom_st_corners(const rib_parser *p, const geom_grid *g, const geom_var *var, int pu,
+                            int pv, double st[4][2])
+{
+    double c4[4][3];
+    geom_var_corners(p, g, var, pu, pv, c4);
+    for (int c = 0; c < 4; c++)
+        st[c][0] = c4[c][0], st[c][1] = c4[c][1];
 }
 
 /* The patch's colour from "Cs": the average of its four corner colours (the renderer keeps
@@ -376,10 +421,11 @@ int rib_req_patch(rib_parser *p)
     geom_grid g = {bicubic, bicubic ? 4 : 2, bicubic ? 4 : 2, 1, 1, 0, 0};
     rc = geom_find_vars(p, 1, &g, &vars);
     if (rc != TS_OK) return rc;
-    double bez[16][3], n[4][3], cs[3];
+    double bez[16][3], n[4][3], cs[3], st[4][2];
     geom_to_bezier(p, &g, vars.P, 0, 0, bez);
     if (vars.N.v) geom_var_corners(p, &g, &vars.N, 0, 0, n);
     if (vars.Cs.v) geom_var_colour(p, &g, &vars.Cs, 0, 0, cs);
+    if (vars.st.v) geom_st_corners(p, &g, &vars.st, 0, 0, st);
     rib_motion *m = &p->motion;
     if (m->active) {
         if (m->count == 0) {
@@ -388,6 +434,8 @@ int rib_req_patch(rib_parser *p)
             if (vars.N.v) memcpy(m->n, n, sizeof n), m->n_line = vars.N.line, m->n_col = vars.N.col;
             m->has_cs = vars.Cs.v != NULL;
             if (vars.Cs.v) memcpy(m->cs, cs, sizeof cs);
+            m->has_st = vars.st.v != NULL;
+            if (vars.st.v) memcpy(m->st, st, sizeof st);
             m->p_line = vars.P_at->line, m->p_col = vars.P_at->col;
         } else if (bicubic != m->bicubic) {
             return rib_error_at(p, p->args[0].line, p->args[0].col,
@@ -401,11 +449,11 @@ int rib_req_patch(rib_parser *p)
     }
     return geom_emit(p, vars.P_at->line, vars.P_at->col, (const double(*)[3])bez, NULL,
                      vars.N.v ? (const double(*)[3])n : NULL, vars.N.line, vars.N.col,
-                     vars.Cs.v ? cs : NULL);
+                     vars.Cs.v ? cs : NULL, vars.st.v ? (const double(*)[2])st : NULL);
 }
 
-/* MotionEnd of a block of two Patch requests: one moving patch, "N" and "Cs" from the
- * first. */
+/* MotionEnd of a block of two Patch requests: one moving patch, "N", "Cs" and "st" from
+ * the first. */
 int rib_geom_motion_patch(rib_parser *p)
 {
     const rib_motion *m = &p->motion;
@@ -413,7 +461,8 @@ int rib_geom_motion_patch(rib_parser *p)
     if (rc != TS_OK) return rc;
     return geom_emit(p, m->p_line, m->p_col, (const double(*)[3])m->g[0],
                      (const double(*)[3])m->g[1], m->has_n ? (const double(*)[3])m->n : NULL,
-                     m->n_line, m->n_col, m->has_cs ? m->cs : NULL);
+                     m->n_line, m->n_col, m->has_cs ? m->cs : NULL,
+                     m->has_st ? (const double(*)[2])m->st : NULL);
 }
 
 /* Patches along one direction of a PatchMesh (RI Spec §5.3, RiPatchMesh): bicubic
@@ -460,8 +509,9 @@ static int geom_mesh_direction(rib_parser *p, size_t i, int bicubic, int step, c
     return geom_mesh_count(p, bicubic, *n, step, *periodic, &p->args[i], dir, count);
 }
 
-/* PatchMesh type nu uwrap nv vwrap "P" [3 nu nv] ["N" ...] ["Cs" ...]: "N" and "Cs" of any
- * class, counted on the grid of patches (geom_class_count). */
+/* PatchMesh type nu uwrap nv vwrap "P" [3 nu nv] ["N" ...] ["Cs" ...] ["st" ...]: "N" and
+ * "Cs" of any class, "st" of any but vertex, counted on the grid of patches
+ * (geom_class_count). */
 int rib_req_patch_mesh(rib_parser *p)
 {
     geom_grid g;
@@ -478,13 +528,14 @@ int rib_req_patch_mesh(rib_parser *p)
     rc = geom_find_vars(p, 5, &g, &vars);
     for (int pv = 0; rc == TS_OK && pv < g.cv; pv++)
         for (int pu = 0; rc == TS_OK && pu < g.cu; pu++) {
-            double bez[16][3], n[4][3], cs[3];
+            double bez[16][3], n[4][3], cs[3], st[4][2];
             geom_to_bezier(p, &g, vars.P, pu, pv, bez);
             if (vars.N.v) geom_var_corners(p, &g, &vars.N, pu, pv, n);
             if (vars.Cs.v) geom_var_colour(p, &g, &vars.Cs, pu, pv, cs);
+            if (vars.st.v) geom_st_corners(p, &g, &vars.st, pu, pv, st);
             rc = geom_emit(p, vars.P_at->line, vars.P_at->col, (const double(*)[3])bez, NULL,
                            vars.N.v ? (const double(*)[3])n : NULL, vars.N.line, vars.N.col,
-                           vars.Cs.v ? cs : NULL);
+                           vars.Cs.v ? cs : NULL, vars.st.v ? (const double(*)[2])st : NULL);
         }
     return rc;
 }

@@ -54,12 +54,16 @@ typedef enum rib_frame_kind {
 typedef struct rib_disp {
     uint32_t kind, octaves;
     double amplitude, frequency, lacunarity, gain;
+    uint32_t tex;  /* "texture": the scene texture (TS_TEX_MINMAX) */
+    double offset; /* "texture": texel value of zero displacement */
 } rib_disp;
 
 /* The current Surface (rib_shading.c). */
 typedef struct rib_surface {
     uint32_t material; /* TS_MAT_* */
     double kd, ks, roughness;
+    int textured; /* "texturename": Cs is multiplied by scene texture tex (TS_TEX_RGB) */
+    uint32_t tex;
 } rib_surface;
 
 /* What AttributeBegin / TransformBegin / WorldBegin saved. */
@@ -91,6 +95,8 @@ typedef struct rib_motion {
     double n[4][3];                 /* "N" of the first patch sample, object space */
     int has_cs;
     double cs[3];                   /* "Cs" of the first patch sample (its average) */
+    int has_st;
+    double st[4][2];                /* "st" of the first patch sample at its corners */
     int p_line, p_col, n_line, n_col; /* of the first sample's "P" and "N" values */
 } rib_motion;
 
@@ -222,6 +228,10 @@ int rib_req_light_source(rib_parser *p);
 /* `name` relative to the directory of the file being read (absolute names as they are);
  * a malloc'd path or NULL (rib_archive.c). */
 char *rib_resolve(const rib_parser *p, const char *name);
+/* Reads the texture named by string argument args[i] (relative to the RIB file) as kind
+ * TS_TEX_* into the scene; an unreadable file is an error at that argument naming it
+ * (rib_shading.c). */
+int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, uint32_t *index);
 
 /* ---- rib_shading.c: Surface, AreaLightSource, LightSource "domelight" ---- */
 

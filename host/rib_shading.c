@@ -31,16 +31,37 @@ static int shading_params(rib_parser *p, size_t first, const char *const *names,
     return TS_OK;
 }
 
+int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, uint32_t *index)
+{
+    const char *name;
+    int rc = rib_string_arg(p, i, "a texture file name", &name);
+    if (rc != TS_OK) return rc;
+    char *path = rib_resolve(p, name);
+    if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    ts_error e = {0};
+    rc = scene_add_texture(p->scene, path, kind, index, &e);
+    free(path);
+    if (rc == TS_E_MEMORY) return ts_error_set(p->err, rc, "%s", e.msg);
+    if (rc != TS_OK) {
+        char shown[RIB_PRINT_MAX];
+        rc = rib_error_at(p, p->args[i].line, p->args[i].col, "%s: cannot read texture \"%s\": %s",
+                          p->req, rib_printable(name, shown), e.msg);
+    }
+    ts_error_clear(&e);
+    return rc;
+}
+
 /* Surface "matte" "float Kd" [k] | "plastic" "float Kd" [..] "float Ks" [..]
- * "float roughness" [..]. Defaults as RenderMan's shaders: matte Kd 1; plastic Kd 0.5,
+ * "float roughness" [..], either with "string texturename" ["file"]: Cs times the file's
+ * colour at the point's st. Defaults as RenderMan's shaders: matte Kd 1; plastic Kd 0.5,
  * Ks 0.5, roughness 0.1. Other shaders are warned about once and render as matte. */
 int rib_req_surface(rib_parser *p)
 {
     const char *name;
     int rc = rib_string_arg(p, 0, "a surface shader name", &name);
     if (rc != TS_OK) return rc;
-    rib_surface s = {TS_MAT_MATTE, 1.0, 0.0, 0.1};
-    if (strcmp(name, "plastic") == 0) s = (rib_surface){TS_MAT_PLASTIC, 0.5, 0.5, 0.1};
+    rib_surface s = {TS_MAT_MATTE, 1.0, 0.0, 0.1, 0, 0};
+    if (strcmp(name, "plastic") == 0) s = (rib_surface){TS_MAT_PLASTIC, 0.5, 0.5, 0.1, 0, 0};
     else if (strcmp(name, "matte") != 0) {
         char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
         snprintf(what, sizeof what, "Surface \"%s\" renders as matte (matte, plastic)",
@@ -50,13 +71,23 @@ int rib_req_surface(rib_parser *p)
     static const char *const names[] = {"Kd", "Ks", "roughness"};
     static const size_t counts[] = {1, 1, 1};
     double *out[] = {&s.kd, &s.ks, &s.roughness};
-    rc = shading_params(p, 1, names, counts, out, s.material == TS_MAT_PLASTIC ? 3 : 1, NULL);
+    rc = shading_params(p, 1, names, counts, out, s.material == TS_MAT_PLASTIC ? 3 : 1,
+                        "texturename");
     if (rc != TS_OK) return rc;
     if (!(s.kd >= 0 && s.ks >= 0 && s.kd + s.ks <= 1.0 + 1e-6 && s.roughness > 0 && s.roughness <= 1))
         return rib_error_at(p, p->req_line, p->req_col,
                             "Surface \"%s\": need Kd, Ks >= 0 with Kd + Ks <= 1 (energy "
                             "conservation) and 0 < roughness <= 1",
                             name);
+    for (size_t i = 1; i < p->nargs; i += 2) {
+        rib_param prm;
+        rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        if (strcmp(prm.name, "texturename") != 0) continue;
+        rc = rib_texture_arg(p, i + 1, TS_TEX_RGB, &s.tex);
+        if (rc != TS_OK) return rc;
+        s.textured = 1;
+    }
     p->surface = s;
     return TS_OK;
 }

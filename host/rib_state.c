@@ -556,36 +556,47 @@ int rib_req_basis(rib_parser *p)
 /* ---- Displacement (docs/rib.md) ---------------------------------------------------- */
 
 /* Displacement "fbm" | "ridged" ["amplitude" a] ["frequency" f] ["octaves" n]
- * ["lacunarity" l] ["gain" g]; Displacement "null" or "" turns it off. An attribute: it
- * applies to the patches that follow and AttributeEnd restores it. */
+ * ["lacunarity" l] ["gain" g]; Displacement "texture" "texturename" ["file"] ["amplitude" a]
+ * ["offset" o]; Displacement "null" or "" turns it off. An attribute: it applies to the
+ * patches that follow and AttributeEnd restores it. */
 int rib_req_displacement(rib_parser *p)
 {
     const char *name;
     int rc = rib_string_arg(p, 0, "a displacement name", &name);
     if (rc != TS_OK) return rc;
     char shown[RIB_PRINT_MAX];
-    rib_disp d = {TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5};
-    int off = name[0] == '\0' || strcmp(name, "null") == 0;
+    rib_disp d = {TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0};
+    int off = name[0] == '\0' || strcmp(name, "null") == 0, has_tex = 0;
     if (strcmp(name, "fbm") == 0)
         d.kind = TS_DISP_FBM;
     else if (strcmp(name, "ridged") == 0)
         d.kind = TS_DISP_RIDGED;
+    else if (strcmp(name, "texture") == 0)
+        d.kind = TS_DISP_TEXTURE;
     else if (!off)
         return rib_error_at(p, p->args[0].line, p->args[0].col,
-                            "unknown displacement \"%s\" (fbm, ridged or null)",
+                            "unknown displacement \"%s\" (fbm, ridged, texture or null)",
                             rib_printable(name, shown));
+    int tex = d.kind == TS_DISP_TEXTURE;
     for (size_t i = 1; i < p->nargs; i += 2) {
         rib_param prm;
         const double *v;
         rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
+        /* Which parameters each function takes: noise 0-4, texture 0, 5, 6. */
         static const char *const known[] = {"amplitude", "frequency", "octaves", "lacunarity",
-                                            "gain"};
+                                            "gain", "offset", "texturename"};
         size_t k = 0;
-        while (k < 5 && strcmp(prm.name, known[k]) != 0)
+        while (k < 7 && strcmp(prm.name, known[k]) != 0)
             k++;
-        if (k == 5 || off) {
+        if (k == 7 || off || (tex && k >= 1 && k <= 4) || (!tex && k >= 5)) {
             rib_warn_param(p, &prm);
+            continue;
+        }
+        if (k == 6) {
+            rc = rib_texture_arg(p, i + 1, TS_TEX_MINMAX, &d.tex);
+            if (rc != TS_OK) return rc;
+            has_tex = 1;
             continue;
         }
         rc = rib_param_numbers(p, &prm, 1, &v, NULL);
@@ -603,7 +614,11 @@ int rib_req_displacement(rib_parser *p)
         if (k == 2) d.octaves = (uint32_t)floor(x + 0.5);
         if (k == 3) d.lacunarity = x;
         if (k == 4) d.gain = x;
+        if (k == 5) d.offset = x;
     }
+    if (tex && !has_tex)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Displacement \"texture\": missing \"texturename\"");
     if (off || d.amplitude == 0.0) d.kind = TS_DISP_NONE;
     p->disp = d;
     return TS_OK;

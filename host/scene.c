@@ -170,7 +170,7 @@ int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16]
     ts_patch_attr a = {.cs_r = 1.0f, .cs_g = 1.0f, .cs_b = 1.0f, .disp_kind = TS_DISP_NONE,
                        .disp_octaves = 1u, .disp_lacunarity = 2.0f, .disp_gain = 0.5f,
                        .xform = 0u, .material = TS_MAT_MATTE, .kd = 1.0f,
-                       .emitter = TS_INVALID};
+                       .emitter = TS_INVALID, .st = {0, 0, 1, 0, 0, 1, 1, 1}};
     if (attr) a = *attr;
     a.flags = cp1 ? (a.flags | TS_PATCH_MOVING) : (a.flags & ~TS_PATCH_MOVING);
     int rc = scene_ensure_identity(s, err);
@@ -178,6 +178,11 @@ int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16]
     if (a.xform >= s->xform_count)
         return ts_error_set(err, TS_E_INTERNAL, "scene: patch refers to transform %u of %u",
                             a.xform, s->xform_count);
+    if ((a.disp_kind == TS_DISP_TEXTURE &&
+         (a.disp_tex >= s->texture_count || s->textures[a.disp_tex].kind != TS_TEX_MINMAX)) ||
+        ((a.flags & TS_PATCH_COLOR_TEX) &&
+         (a.color_tex >= s->texture_count || s->textures[a.color_tex].kind != TS_TEX_RGB)))
+        return ts_error_set(err, TS_E_INTERNAL, "scene: patch refers to a texture it cannot use");
     double nn[4][3];
     if (normals)
         for (int c = 0; c < 4; c++) {
@@ -429,6 +434,10 @@ ts_box scene_patch_box(const ts_scene *s, uint32_t p)
      * at most 1 in magnitude, so d * n moves a point by at most |d| per axis. Rounded
      * outwards so the float box stays conservative. */
     float g = displace_bound(&s->attr[p]);
+    if (s->attr[p].disp_kind == TS_DISP_TEXTURE) {
+        ts_interval d = displace_texture_interval(&s->attr[p], scene_tex_ctx(s), 0.0f, 0.0f, 1.0f, 1.0f);
+        g = fmaxf(fabsf(d.lo), fabsf(d.hi));
+    }
     if (g > 0.0f) {
         b.lo_x = nextafterf(b.lo_x - g, -INFINITY);
         b.lo_y = nextafterf(b.lo_y - g, -INFINITY);
@@ -449,5 +458,11 @@ void scene_free(ts_scene *s)
     free(s->attr);
     free(s->xform);
     free(s->lights);
+    for (uint32_t i = 0; i < s->texture_count; i++)
+        free(s->tex_source[i]);
+    free(s->tex_source);
+    free(s->textures);
+    free(s->tex_pool);
+    free(s->tex_pages);
     memset(s, 0, sizeof *s);
 }

@@ -6,6 +6,7 @@
 
 #include "error.h"
 #include "lib/shared_types.h"
+#include "lib/texture.h"
 
 #include <stdint.h>
 
@@ -64,6 +65,16 @@ typedef struct ts_scene {
      * space); xform[0] is the identity. */
     ts_xform *xform;
     uint32_t xform_count, xform_capacity;
+    /* Image textures (lib/texture.h, host/texture.c), referenced by attr.disp_tex and
+     * attr.color_tex: texture_count descriptors, every tile of every level in tex_pool
+     * (tex_tile_count tiles of TS_TEX_TILE^2 texels) and the identity page table
+     * tex_pages[i] = i; tex_source[i] is the file texture i was read from. */
+    ts_texture *textures;
+    char **tex_source;
+    uint32_t texture_count;
+    ts_vec4 *tex_pool;
+    uint32_t *tex_pages;
+    uint32_t tex_tile_count;
     ts_camera camera;
     ts_distant_light *lights;
     uint32_t light_count;
@@ -94,8 +105,20 @@ int scene_add_light(ts_scene *s, const ts_distant_light *light, ts_error *err);
 /* Conservative world-space box of patch p over the whole shutter interval: the box of its
  * control points at both times (convex hull property of Bézier patches, Hanika §3.3) grown
  * by the largest displacement the patch's function can produce (displace_bound in
- * lib/displace.h) in every axis. */
+ * lib/displace.h; for a texture its min-max pyramid over the patch's st rectangle,
+ * displace_texture_interval) in every axis. */
 ts_box scene_patch_box(const ts_scene *s, uint32_t p);
 void scene_free(ts_scene *s);
+
+/* Reads an image (any format OpenImageIO reads) as texture kind TS_TEX_MINMAX (the first
+ * channel, with its min-max pyramid) or TS_TEX_RGB (grey for one or two channels, else the
+ * first three) and returns its index; a file already read as that kind is reused.
+ * Non-finite texels are an error (TS_E_IO "PATH: ..."), as is a side over 32768. */
+int scene_add_texture(ts_scene *s, const char *path, uint32_t kind, uint32_t *index,
+                      ts_error *err);
+/* The textures as lib/texture.h reads them on the host (every tile resident). */
+ts_tex_ctx scene_tex_ctx(const ts_scene *s);
+/* The range of texture `index`'s first channel (its coarsest min-max level), TS_TEX_MINMAX. */
+ts_interval scene_texture_range(const ts_scene *s, uint32_t index);
 
 #endif

@@ -20,7 +20,11 @@
     X(iterations, "top_level/sort/dice/bottom_level iterations")                            \
     X(pair_overflow, "candidates dropped because the pair buffer was full (always 0)")      \
     X(leaf_tests, "micro-quad tests in bottom_level's leaves")                              \
-    X(leaf_slots, "work-item slots those tests occupied (utilisation = tests / slots)")
+    X(leaf_slots, "work-item slots those tests occupied (utilisation = tests / slots)")     \
+    X(texture_tiles_uploaded, "texture tiles (32 x 32 texels) copied to the device pool")   \
+    X(texture_bytes_uploaded, "bytes of those tiles")                                      \
+    X(texture_pool_tiles, "tiles the device pool holds (every tile unless --memory pages)") \
+    X(texture_tiles, "tiles of every texture level in the scene")
 
 typedef enum ts_counter {
 #define TS_COUNTER_ENUM(name, what) TS_COUNTER_##name,

@@ -43,7 +43,7 @@ static void assign_lods(ts_pipeline *p, uint32_t segs)
  * that fit the arenas; lists each batch's trees (segment, time) by decreasing m. */
 static void plan_batches(ts_pipeline *p, uint32_t segs)
 {
-    uint32_t vused = 0, gused = 0, ntrees = 0;
+    uint32_t vused = 0, gused = 0, tused = 0, ntrees = 0;
     p->batch_count = 0;
     ts_batch *b = NULL;
     for (uint32_t i = 0; i < segs; ++i) {
@@ -53,14 +53,18 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
         s->pad = 0;
         uint32_t times = s->flags ? 2u : 1u;
         uint32_t nv = times * quadtree_vertex_count(s->lod), ng = times * quadtree_group_count(s->lod);
-        if (!b || vused + nv > p->plan.vert_capacity || gused + ng > p->plan.group_capacity) {
+        /* Texture tiles: the batch's patches' needs add up to at most the pool (an over-count
+         * where they share tiles; each alone fits, tex_cache_create sized the pool so). */
+        uint32_t nt = p->tex.paged ? p->tex.patch_tiles[s->patch] : 0u;
+        if (!b || vused + nv > p->plan.vert_capacity || gused + ng > p->plan.group_capacity ||
+            tused + nt > p->tex.slots) {
             b = &p->batches[p->batch_count++];
             *b = (ts_batch){i, 0, ntrees, 0};
-            vused = gused = 0;
+            vused = gused = tused = 0;
         }
         s->vert_first = vused;
         s->group_first = gused;
-        vused += nv, gused += ng;
+        vused += nv, gused += ng, tused += nt;
         b->seg_count++;
         for (uint32_t t = 0; t < times; ++t) p->trees_host[ntrees++] = (i << 1) | t, b->tree_count++;
     }
@@ -177,15 +181,27 @@ static uint32_t tree_run(const ts_pipeline *p, const ts_batch *b, uint32_t t, ui
     return run;
 }
 
+/* Makes the texture tiles the batch's dice and build read resident (tex_cache.h). */
+static int batch_textures(ts_pipeline *p, const ts_batch *b, ts_error *err)
+{
+    if (!p->tex.paged) return TS_OK;
+    tex_cache_begin(&p->tex);
+    for (uint32_t i = b->seg_first; i < b->seg_first + b->seg_count; ++i)
+        tex_cache_mark_patch(&p->tex, p->scene, p->segments_host[i].patch);
+    return tex_cache_commit(&p->tex, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
+}
+
 /* Dices each tree run of one LOD with one launch. */
 static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
+    if (batch_textures(p, b, err)) return err->code;
     for (uint32_t t = 0; t < b->tree_count;) {
         uint32_t m, run = tree_run(p, b, t, &m);
         uint32_t first = b->tree_first + t;
         if (cl_set_args(p->k_dice, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
                         ARG(p->segments), ARG(p->cp), ARG(p->cp1), ARG(p->corner_n), ARG(p->attr),
-                        ARG(p->xform), ARG(p->grid), (size_t)0) ||
+                        ARG(p->xform), ARG(p->textures), ARG(p->tex_pages), ARG(p->tex_pool),
+                        ARG(p->grid), (size_t)0) ||
             cl_launch(p->cl, p->k_dice, TS_STAGE_dice, (size_t)run * quadtree_vertex_count(m),
                       TS_LOCAL_SIZE, err))
             return err->code;
@@ -209,7 +225,8 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
         uint32_t first = b->tree_first + t;
         if (cl_set_args(p->k_build_leaves, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
                         ARG(p->segments), ARG(p->grid), ARG(p->corner_n), ARG(p->attr),
-                        ARG(p->xform), ARG(p->flatness), ARG(p->groups), (size_t)0) ||
+                        ARG(p->xform), ARG(p->flatness), ARG(p->textures), ARG(p->tex_pages),
+                        ARG(p->tex_pool), ARG(p->groups), (size_t)0) ||
             cl_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
                       TS_LOCAL_SIZE, err))
             return err->code;
@@ -341,6 +358,53 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
     return TS_OK;
 }
 
+/* Launches shade over paths [first, end): its path_count argument (index 5) is the end, so
+ * the work-items the rounding adds past the chunk do nothing. */
+static int launch_shade_range(ts_pipeline *p, uint32_t first, uint32_t end, ts_error *err)
+{
+    CL_CHECK(clSetKernelArg(p->k_shade, 5, sizeof end, &end), err);
+    return cl_launch_range(p->cl, p->k_shade, TS_STAGE_shade, first, end - first, TS_LOCAL_SIZE, err);
+}
+
+/* Launches shade over paths [0, path_count). With paged textures, the paths go in chunks
+ * whose hits' tiles fit the pool together: each hit needs level 0 of its patch's textures
+ * over the micro-quad around it (the shading normal's differences and the colour lookup). */
+static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count, ts_error *err)
+{
+    if (!p->tex.paged) return cl_launch(p->cl, p->k_shade, TS_STAGE_shade, path_count, TS_LOCAL_SIZE, err);
+    cl_command_queue q = p->cl->queue;
+    uint32_t *paths = malloc((size_t)path_count * sizeof *paths);
+    ts_hit *hits = malloc((size_t)wave_size * sizeof *hits);
+    int rc = paths && hits ? TS_OK : ts_error_set(err, TS_E_MEMORY, "out of memory");
+    cl_int r0 = CL_SUCCESS, r1 = CL_SUCCESS;
+    if (rc == TS_OK) {
+        r0 = clEnqueueReadBuffer(q, p->wave_paths, CL_TRUE, 0, (size_t)path_count * sizeof *paths, paths, 0, NULL, NULL);
+        r1 = clEnqueueReadBuffer(q, p->ray_hit, CL_TRUE, 0, (size_t)wave_size * sizeof *hits, hits, 0, NULL, NULL);
+        if (r0 != CL_SUCCESS || r1 != CL_SUCCESS)
+            rc = ts_error_set(err, TS_E_DEVICE, "%s reading the wave's hits", cl_error_name(r0 != CL_SUCCESS ? r0 : r1));
+    }
+    ts_tex_cache *c = &p->tex;
+    uint32_t start = 0;
+    tex_cache_begin(c);
+    for (uint32_t k = 0; rc == TS_OK && k < path_count; ++k) {
+        ts_hit h = paths[k] < wave_size ? hits[paths[k]] : (ts_hit){0, 0, 0, TS_INVALID, 0};
+        if (h.patch >= p->scene->patch_count || c->patch_tiles[h.patch] == 0) continue;
+        float hw = 0.5f * ldexpf(1.0f, -(int)TS_PRIM_LOD(h.prim));
+        float u0 = fmaxf(h.u - hw, 0.0f), v0 = fmaxf(h.v - hw, 0.0f), u1 = fminf(h.u + hw, 1.0f), v1 = fminf(h.v + hw, 1.0f);
+        if (c->marked + tex_cache_mark_hit(c, p->scene, h.patch, u0, v0, u1, v1, 1) > c->slots) {
+            rc = tex_cache_commit(c, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
+            if (rc == TS_OK) rc = launch_shade_range(p, start, k, err);
+            tex_cache_begin(c);
+            start = k;
+        }
+        tex_cache_mark_hit(c, p->scene, h.patch, u0, v0, u1, v1, 0);
+    }
+    if (rc == TS_OK) rc = tex_cache_commit(c, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
+    if (rc == TS_OK) rc = launch_shade_range(p, start, path_count, err);
+    free(paths), free(hits);
+    return rc;
+}
+
 int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sample,
                    uint32_t wave_size, uint32_t path_count, uint32_t *next_paths,
                    uint32_t *next_rays, uint32_t *shadow_rays, ts_error *err)
@@ -355,9 +419,9 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
                     ARG(p->radiance), ARG(p->aov), ARG(p->albedo), ARG(p->cp), ARG(p->corner_n),
                     ARG(p->attr), ARG(p->xform), ARG(p->lights), ARG(p->emitters),
                     ARG(p->env_texels), ARG(p->env_marginal), ARG(p->env_conditional),
-                    ARG(p->flatness), ARG(p->alive), (size_t)0) ||
-        cl_launch(p->cl, p->k_shade, TS_STAGE_shade, path_count, TS_LOCAL_SIZE, err) ||
-        cl_finish(p->cl, p->stats, err))
+                    ARG(p->flatness), ARG(p->textures), ARG(p->tex_pages), ARG(p->tex_pool),
+                    ARG(p->alive), (size_t)0) ||
+        launch_shade(p, wave_size, path_count, err) || cl_finish(p->cl, p->stats, err))
         return err->code;
     /* The next wave: the paths that go on and their rays, in path order. */
     double t0 = stats_now();

@@ -13,7 +13,8 @@
  *   m > l (a prefix of the batch's tree list, which is sorted by decreasing m) gets the union
  *   of its four children — the bottom-up min-max reduction. The root group's lanes 1-3 are
  *   left empty.
- * Reads: trees, segments, grid (w = d), corner normals, attributes, transforms, flatness.
+ * Reads: trees, segments, grid (w = d), corner normals, attributes, transforms, flatness,
+ *        textures (the min-max tiles under the leaves' st rectangles must be resident).
  * Writes: groups[group_first + time * quadtree_group_count(m) ...].
  * Invariants: every vertex of a micro-quad lies in its leaf box; every inner box is the union
  * of its children (tests/test_dice_build.c, tests/test_bounds.c). */
@@ -72,7 +73,8 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                            __global const ts_segment *segments, __global const ts_vec4 *grid,
                            __global const ts_vec4 *corner_n, __global const ts_patch_attr *attr,
                            __global const ts_xform *xform, __global const ts_vec4 *flatness,
-                           __global ts_box4 *groups)
+                           __global const ts_texture *textures, __global const uint *tex_pages,
+                           __global const ts_vec4 *tex_pool, __global ts_box4 *groups)
 {
     uint nl = 1u << (2u * m), gid = get_global_id(0);
     uint t = gid / nl, k = gid % nl;
@@ -93,12 +95,19 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     b.lo_x -= ex, b.hi_x += ex, b.lo_y -= ey, b.hi_y += ey, b.lo_z -= ez, b.hi_z += ez;
     __global const ts_patch_attr *a = attr + seg.patch;
     if (a->disp_kind != TS_DISP_NONE) {
-        ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
-        if (time == 1u) {
-            b0 = base_box(grid + seg.vert_first, n, i, j, cn, h);
-            b0.lo_x -= ex, b0.hi_x += ex, b0.lo_y -= ey, b0.hi_y += ey, b0.lo_z -= ez, b0.hi_z += ez;
+        ts_interval d;
+        if (a->disp_kind == TS_DISP_TEXTURE) {
+            ts_tex_ctx tex = {textures, tex_pages, tex_pool};
+            d = displace_texture_interval(a, tex, (float)i * h, (float)j * h, (float)(i + 1u) * h,
+                                          (float)(j + 1u) * h);
+        } else {
+            ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
+            if (time == 1u) {
+                b0 = base_box(grid + seg.vert_first, n, i, j, cn, h);
+                b0.lo_x -= ex, b0.hi_x += ex, b0.lo_y -= ey, b0.hi_y += ey, b0.lo_z -= ez, b0.hi_z += ez;
+            }
+            d = displace_interval(a, xform + a->xform, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
         }
-        ts_interval d = displace_interval(a, xform + a->xform, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
         ts_box nb = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
         for (uint c = 0; c < 4u; ++c) {
             ts_vec4 dn = displace_normal(cn, (float)(i + (c & 1u)) * h, (float)(j + (c >> 1)) * h);

@@ -2,7 +2,8 @@
  * tree of a batch into the vertex arena.
  * Reads:  trees[tree_first .. tree_first + tree_count) — all of LOD m (the host launches once
  *         per m present), segments (patch, vert_first), control points at both times, corner
- *         normals, attributes, transforms.
+ *         normals, attributes, transforms, textures (descriptors, page table, tile pool:
+ *         the level-0 tiles under the batch's st rectangles must be resident).
  * Writes: grid[vert_first + time * (2^m+1)^2 + j * (2^m+1) + i] = patch_vertex(i 2^-m, j 2^-m):
  *         xyz the displaced position, w the displacement d (build recovers the undisplaced
  *         point from it).
@@ -15,7 +16,8 @@ __kernel void dice_grid(__global const uint *trees, uint tree_first, uint tree_c
                         __global const ts_segment *segments, __global const ts_vec4 *cp0,
                         __global const ts_vec4 *cp1, __global const ts_vec4 *corner_n,
                         __global const ts_patch_attr *attr, __global const ts_xform *xform,
-                        __global ts_vec4 *grid)
+                        __global const ts_texture *textures, __global const uint *tex_pages,
+                        __global const ts_vec4 *tex_pool, __global ts_vec4 *grid)
 {
     uint nv = quadtree_vertex_count(m);
     uint gid = get_global_id(0);
@@ -24,11 +26,12 @@ __kernel void dice_grid(__global const uint *trees, uint tree_first, uint tree_c
     uint tree = trees[tree_first + t];
     ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
     uint time = TS_TREE_TIME(tree), n = (1u << m) + 1u;
+    ts_tex_ctx tex = {textures, tex_pages, tex_pool};
     __global const ts_vec4 *c0 = cp0 + (size_t)seg.patch * 16u;
     __global const ts_vec4 *c = time ? cp1 + (size_t)seg.patch * 16u : c0;
     __global const ts_patch_attr *a = attr + seg.patch;
     float u = ldexp((float)(v % n), -(int)m);
     float w = ldexp((float)(v / n), -(int)m);
     grid[(size_t)seg.vert_first + time * nv + v] =
-        patch_vertex(c, c0, corner_n + (size_t)seg.patch * 4u, a, xform + a->xform, u, w);
+        patch_vertex(c, c0, corner_n + (size_t)seg.patch * 4u, a, xform + a->xform, tex, u, w);
 }

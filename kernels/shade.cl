@@ -2,7 +2,8 @@
  * traced a ray in this wave. Path i owns two ray slots: i for its BSDF ray and
  * wave_size + i for its shadow ray; path state mis.z says which of the two it traced.
  * Reads:  the wave's paths (paths[0..path_count)), their rays (dir, hit, flags), path state
- *         (throughput, mis, pending), patch data, lights, emitters.
+ *         (throughput, mis, pending), patch data, lights, emitters, textures (colour at the
+ *         hit's st, displacement for the normal; every tile resident).
  * Writes: radiance (accumulated per path: one work-item per path, so no races), aov
  *         (normal, Z) and albedo at the eye hit, the path's next rays into its two slots,
  *         path state, alive[k]: bit 0 a BSDF ray is next, bit 1 a shadow ray.
@@ -22,15 +23,15 @@
 
 inline ts_vec4 surface_normal(__global const ts_vec4 *cp, __global const ts_vec4 *n,
                               __global const ts_patch_attr *a, __global const ts_xform *x,
-                              float u, float v, uint m)
+                              ts_tex_ctx tex, float u, float v, uint m)
 {
     if (a->disp_kind == TS_DISP_NONE) return bezier_normal(cp, u, v);
     /* The displaced surface's normal by central differences over one micro-quad (§3.2). */
     float h = 0.5f * ldexp(1.0f, -(int)m);
     float u0 = fmax(u - h, 0.0f), u1 = fmin(u + h, 1.0f);
     float v0 = fmax(v - h, 0.0f), v1 = fmin(v + h, 1.0f);
-    ts_vec4 pu0 = patch_vertex(cp, cp, n, a, x, u0, v), pu1 = patch_vertex(cp, cp, n, a, x, u1, v);
-    ts_vec4 pv0 = patch_vertex(cp, cp, n, a, x, u, v0), pv1 = patch_vertex(cp, cp, n, a, x, u, v1);
+    ts_vec4 pu0 = patch_vertex(cp, cp, n, a, x, tex, u0, v), pu1 = patch_vertex(cp, cp, n, a, x, tex, u1, v);
+    ts_vec4 pv0 = patch_vertex(cp, cp, n, a, x, tex, u, v0), pv1 = patch_vertex(cp, cp, n, a, x, tex, u, v1);
     ts_v3 du = v3(pu1.x - pu0.x, pu1.y - pu0.y, pu1.z - pu0.z);
     ts_v3 dv = v3(pv1.x - pv0.x, pv1.y - pv0.y, pv1.z - pv0.z);
     ts_v3 c = v3_cross(du, dv);
@@ -79,12 +80,14 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
                          __global const ts_light *lights, __global const ts_emitter *emitters,
                          __global const ts_vec4 *env_texels, __global const float *env_marginal,
                          __global const float *env_conditional, __global const ts_vec4 *flatness,
-                         __global uint *alive)
+                         __global const ts_texture *textures, __global const uint *tex_pages,
+                         __global const ts_vec4 *tex_pool, __global uint *alive)
 {
     uint k = get_global_id(0);
     if (k >= path_count) return;
     uint i = paths[k], traced = (uint)mis[i].z;
     ts_env env = {env_texels, env_marginal, env_conditional};
+    ts_tex_ctx tex = {textures, tex_pages, tex_pool};
     alive[k] = 0u;
     if ((traced & 2u) && hit[wave_size + i].patch == TS_INVALID) { /* the light was visible */
         ts_vec4 pe = pending[i], r = radiance[i];
@@ -105,14 +108,16 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     }
     __global const ts_patch_attr *a = attr + h.patch;
     __global const ts_vec4 *c = cp + (size_t)h.patch * 16u;
-    ts_vec4 n4 = surface_normal(c, corner_n + (size_t)h.patch * 4u, a, xform + a->xform, h.u, h.v,
-                                TS_PRIM_LOD(h.prim));
+    ts_vec4 n4 = surface_normal(c, corner_n + (size_t)h.patch * 4u, a, xform + a->xform, tex, h.u,
+                                h.v, TS_PRIM_LOD(h.prim));
+    float cs[3];
+    tex_surface_colour(a, tex, h.u, h.v, cs);
     ts_v3 n = v3(n4.x, n4.y, n4.z), wo = v3_scale(d, -1.0f);
     if (v3_dot(n, wo) < 0.0f) n = v3_scale(n, -1.0f);
     ts_v3 p = v3(o4.x + h.t * d.x, o4.y + h.t * d.y, o4.z + h.t * d.z);
     if (b == 0u) {
         aov[i] = (ts_vec4){n.x, n.y, n.z, h.t};
-        albedo[i] = (ts_vec4){a->kd * a->cs_r, a->kd * a->cs_g, a->kd * a->cs_b, 0.0f};
+        albedo[i] = (ts_vec4){a->kd * cs[0], a->kd * cs[1], a->kd * cs[2], 0.0f};
     }
     if (a->le_r > 0.0f || a->le_g > 0.0f || a->le_b > 0.0f) {
         float e[3] = {a->le_r, a->le_g, a->le_b};
@@ -130,7 +135,7 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
                                           rng_uniform(pix, sample, b + 1u, 2u, sp.seed),
                                           rng_uniform(pix, sample, b + 1u, 3u, sp.seed),
                                           rng_uniform(pix, sample, b + 1u, 4u, sp.seed));
-        float pb = ls.pdf > 0.0f ? bsdf_eval(a, n, wo, ls.dir, f) : 0.0f;
+        float pb = ls.pdf > 0.0f ? bsdf_eval(a, cs, n, wo, ls.dir, f) : 0.0f;
         float cosl = ls.pdf > 0.0f ? v3_dot(n, ls.dir) : 0.0f;
         if (cosl > 0.0f && (f[0] > 0.0f || f[1] > 0.0f || f[2] > 0.0f)) {
             float denom = ls.delta || sp.sampling == TS_SAMPLING_LIGHT ? ls.pdf : ls.pdf + pb;
@@ -146,7 +151,7 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
         }
     }
     ts_v3 wi;
-    float pb = bsdf_sample(a, n, wo, rng_uniform(pix, sample, b + 1u, 5u, sp.seed),
+    float pb = bsdf_sample(a, cs, n, wo, rng_uniform(pix, sample, b + 1u, 5u, sp.seed),
                            rng_uniform(pix, sample, b + 1u, 6u, sp.seed),
                            rng_uniform(pix, sample, b + 1u, 7u, sp.seed), &wi, f);
     float cosi = v3_dot(n, wi);

@@ -1,5 +1,5 @@
 /* test_dice_build.c — the dice and build kernels against plain-C references on random
- * patches, plain and displaced (fbm, ridged): dice vertices vs the shared float evaluation
+ * patches, plain and displaced (fbm, ridged, an image texture): dice vertices vs the shared float evaluation
  * (bitwise) and, undisplaced, vs an independent de Casteljau in double (tolerance); leaf
  * boxes hold the displaced surface at random points of their parameter squares and inner
  * boxes are the union of their children (exact); every vertex lies in the patch's
@@ -7,6 +7,7 @@
 #include "test_support.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
+#include "image.h"
 #include "pipeline.h"
 
 #include <math.h>
@@ -91,7 +92,7 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
         for (uint32_t i = 0; i < n; ++i) {
             ts_vec4 g = grid[j * n + i];
             float u = ldexpf((float)i, -(int)m), v = ldexpf((float)j, -(int)m);
-            ts_vec4 same = patch_vertex(cp, cp, cn, a, x, u, v);
+            ts_vec4 same = patch_vertex(cp, cp, cn, a, x, scene_tex_ctx(s), u, v);
             if (memcmp(&g, &same, sizeof g) != 0)
                 fail_msg("patch %u m %u vertex (%u,%u): device (%a %a %a %a) host (%a %a %a %a)", pi, m,
                          i, j, g.x, g.y, g.z, g.w, same.x, same.y, same.z, same.w);
@@ -114,10 +115,12 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
             ts_vec4 g = grid[(j + (c >> 1)) * n + i + (c & 1)];
             if (!box_contains(b, g)) fail_msg("patch %u m %u: vertex outside leaf %u", pi, m, k);
         }
-        for (int q = 0; q < 4; ++q) {
+        /* Texture leaves: more points, their bound is tight (a few texels). */
+        int points = a->disp_kind == TS_DISP_TEXTURE ? 32 : 4;
+        for (int q = 0; q < points; ++q) {
             float u = ((float)i + test_uniform(seed, 0, 1)) * ldexpf(1.0f, -(int)m);
             float v = ((float)j + test_uniform(seed, 0, 1)) * ldexpf(1.0f, -(int)m);
-            ts_vec4 p = patch_vertex(cp, cp, cn, a, x, u, v);
+            ts_vec4 p = patch_vertex(cp, cp, cn, a, x, scene_tex_ctx(s), u, v);
             if (!box_contains(b, p))
                 fail_msg("patch %u m %u leaf %u: surface point (%g, %g) outside its box", pi, m, k, u, v);
         }
@@ -137,20 +140,60 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
         }
 }
 
-static void test_dice_and_build_match_reference(void **state)
+/* Patches with an image displacement texture (random texels, 53 x 40) at random corner st:
+ * spanning less than a texel up to several periods, negative and large coordinates. */
+static void random_textured_scene(ts_scene *s, int patches, uint32_t seed)
+{
+    memset(s, 0, sizeof *s);
+    ts_error err = {0};
+    const int w = 53, h = 40;
+    float *px = malloc((size_t)w * h * sizeof *px);
+    for (int i = 0; i < w * h; ++i) px[i] = test_uniform(&seed, -1.0f, 2.0f);
+    ts_image img = {w, h, 1, NULL, px};
+    const char *path = test_path_in(test_scratch_dir(), "disp.exr");
+    if (image_write_exr(path, &img, NULL, 0, &err)) fail_msg("%s", err.msg);
+    free(px);
+    uint32_t tex;
+    if (scene_add_texture(s, path, TS_TEX_MINMAX, &tex, &err)) fail_msg("%s", err.msg);
+    for (int p = 0; p < patches; ++p) {
+        double cp[16][3];
+        float ox = test_uniform(&seed, -5, 5), oy = test_uniform(&seed, -5, 5), oz = test_uniform(&seed, -5, 5);
+        for (int j = 0; j < 4; ++j)
+            for (int i = 0; i < 4; ++i) {
+                cp[j * 4 + i][0] = ox + i + test_uniform(&seed, -0.4f, 0.4f);
+                cp[j * 4 + i][1] = oy + j + test_uniform(&seed, -0.4f, 0.4f);
+                /* Even patches flat (normal +-z): their leaf boxes' z extent is the
+                 * displacement bound itself, so a bound missing a texel shows. */
+                float bend = test_uniform(&seed, -1.5f, 1.5f);
+                cp[j * 4 + i][2] = oz + (p % 2 ? bend : 0.0f);
+            }
+        ts_patch_attr a = {.cs_r = 1, .cs_g = 1, .cs_b = 1, .disp_kind = TS_DISP_TEXTURE,
+                           .disp_amplitude = p % 2 ? 0.3f : -0.2f, .disp_offset = 0.5f, .disp_tex = tex};
+        /* Corner st: a random place, then within a square of side 10^-2.5 .. 10^0.6. */
+        float span = powf(10.0f, test_uniform(&seed, -2.5f, 0.6f)), base = p == 3 ? 1000.0f : 0.0f;
+        float s0 = base + test_uniform(&seed, -2.0f, 2.0f), t0 = base + test_uniform(&seed, -2.0f, 2.0f);
+        for (int c = 0; c < 4; ++c) {
+            a.st[2 * c] = s0 + span * test_uniform(&seed, 0, 1);
+            a.st[2 * c + 1] = t0 + span * test_uniform(&seed, 0, 1);
+        }
+        assert_int_equal(scene_add_patch(s, cp, &a, &err), TS_OK);
+    }
+    assert_int_equal(scene_finalize(s, &err), TS_OK);
+}
+
+/* Dices and builds the six patches of s at LODs lods[] (patch 5 - i gets lods[i]) as one
+ * batch and checks every segment against the references. */
+static void dice_build_and_check(ts_scene *s, const uint32_t lods[6])
 {
     ts_cl cl;
     test_open_device(&cl);
-    ts_scene s;
-    random_scene(&s, 6, 12345u);
     ts_stats stats;
     memset(&stats, 0, sizeof stats);
     ts_error err = {0};
     ts_pipeline_plan plan = {.ray_capacity = 64, .pair_capacity = 512};
     pipeline_plan_arenas(&plan, 6, 5);
     ts_pipeline p;
-    if (pipeline_create(&p, &cl, &s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
-    const uint32_t lods[6] = {0, 1, 2, 3, 5, 4};
+    if (pipeline_create(&p, &cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
     for (uint32_t i = 0; i < 6; ++i)
         p.segments_host[i] = (ts_segment){.patch = 5 - i, .lod = lods[i]};
     if (pipeline_dice_build(&p, 6, &err)) fail_msg("%s", err.msg);
@@ -163,19 +206,41 @@ static void test_dice_and_build_match_reference(void **state)
     uint32_t seed = 77u;
     for (uint32_t i = 0; i < 6; ++i) {
         const ts_segment *seg = &p.segments_host[i];
-        check_segment(&s, seg, grid + seg->vert_first, nodes + seg->group_first, &seed);
+        check_segment(s, seg, grid + seg->vert_first, nodes + seg->group_first, &seed);
     }
     assert_int_equal(stats.counters[TS_COUNTER_patches_diced], 6);
-    assert_int_equal(stats.counters[TS_COUNTER_micropolygons_created], 1 + 4 + 16 + 64 + 1024 + 256);
+    uint64_t quads = 0;
+    for (uint32_t i = 0; i < 6; ++i) quads += 1ull << (2 * lods[i]);
+    assert_int_equal(stats.counters[TS_COUNTER_micropolygons_created], quads);
     free(grid);
     free(nodes);
     pipeline_destroy(&p);
-    scene_free(&s);
     cl_close(&cl);
+}
+
+static void test_dice_and_build_match_reference(void **state)
+{
+    (void)state;
+    ts_scene s;
+    random_scene(&s, 6, 12345u);
+    const uint32_t lods[6] = {0, 1, 2, 3, 5, 4};
+    dice_build_and_check(&s, lods);
+    scene_free(&s);
+}
+
+static void test_dice_and_build_textured(void **state)
+{
+    (void)state;
+    ts_scene s;
+    random_textured_scene(&s, 6, 4242u);
+    const uint32_t lods[6] = {0, 1, 2, 3, 4, 2}; /* small: minutes under Oclgrind otherwise */
+    dice_build_and_check(&s, lods);
+    scene_free(&s);
 }
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {cmocka_unit_test(test_dice_and_build_match_reference)};
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_dice_and_build_match_reference),
+                                       cmocka_unit_test(test_dice_and_build_textured)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

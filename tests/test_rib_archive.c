@@ -267,13 +267,13 @@ static void test_n_classes_and_st(void **state)
     scene_free(&s);
     expect_error("Patch \"bilinear\" " UNIT_P " \"uniform normal N\" [0 0 0]",
                  "t.rib:1:67: error: Patch: normal 0 of \"N\" is zero");
-    /* "st" and other variables are accepted with one warning each. */
+    /* Variables other than "P", "N", "Cs", "st" are accepted with one warning each. */
     int rc;
-    const char *out = warnings_of("Patch \"bilinear\" " UNIT_P " \"st\" [0 0 1 0 0 1 1 1]\n"
-                                  "Patch \"bilinear\" " UNIT_P " \"st\" [0 0 1 0 0 1 1 1]\n",
+    const char *out = warnings_of("Patch \"bilinear\" " UNIT_P " \"varying float s\" [0 1 0 1]\n"
+                                  "Patch \"bilinear\" " UNIT_P " \"varying float s\" [0 1 0 1]\n",
                                   &rc);
     assert_int_equal(rc, TS_OK);
-    assert_string_equal(out, "w.rib:1:48: warning: Patch parameter \"st\" is ignored\n");
+    assert_string_equal(out, "w.rib:1:48: warning: Patch parameter \"s\" is ignored\n");
     /* NuPatch stays a clear error. */
     expect_error("NuPatch 4 4 [0 0 0 0 1 1 1 1] 0 1 4 4 [0 0 0 0 1 1 1 1] 0 1 \"Pw\" []",
                  "t.rib:1:1: error: NuPatch is not supported: NURBS patches cannot be loaded "

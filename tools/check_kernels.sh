@@ -16,6 +16,7 @@
 #     scene/one_patch.rib at 8x8, --max-lod 0, both with --memory 4 (the whole pipeline,
 #     every stage);
 #   - the same teapot with --leaf-mode group --leaf-size 2 (the work-group leaf kernel);
+#   - scene/textured.rib at 8x6, --max-lod 2 (image textures: displacement and colour);
 #   - every test program whose source calls test_open_device() (the kernel unit tests),
 #     except SLOW_TESTS (whole-renderer comparisons, minutes under Oclgrind; the renders
 #     above run the same kernels).
@@ -105,6 +106,10 @@ run render_one_patch "$build/tessera" render scene/one_patch.rib --res 8x8 --max
 # blocks of 2x2, so work-items of one group share tasks.
 run render_leaf_group "$build/tessera" render scene/teapot.rib --res 16x9 --spp 1 --max-lod 3 \
   --memory 4 -o "$work/leaf_group.exr" --no-kernel-cache --quiet --leaf-mode group --leaf-size 2
+# Image textures: displacement (dice, build leaf bounds from the min-max pyramid, the
+# shading normal) and colour (shade) through the page table and tile pool.
+run render_textured "$build/tessera" render scene/textured.rib --res 8x6 --spp 1 --max-lod 2 \
+  --memory 4 -o "$work/textured.exr" --no-kernel-cache --quiet
 for f in tests/test_*.c; do
   t=$(basename "$f" .c)
   grep -q 'test_open_device' "$f" || continue

@@ -86,15 +86,17 @@ TS_INLINE float plastic_spec_prob(TS_CONST_GLOBAL ts_patch_attr *a)
     return a->material == TS_MAT_PLASTIC && s > 0.0f ? a->ks / s : 0.0f;
 }
 
-/* f(wo, wi) (rgb in r[]) and the pdf of sampling wi with bsdf_sample. */
-TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, ts_v3 n, ts_v3 wo, ts_v3 wi,
-                          float f[3])
+/* f(wo, wi) (rgb in r[]) and the pdf of sampling wi with bsdf_sample; cs: the surface
+ * colour at the point (Cs, times the colour texture if any; lib/texture.h
+ * tex_surface_colour). */
+TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], ts_v3 n, ts_v3 wo,
+                          ts_v3 wi, float f[3])
 {
     float ci = v3_dot(n, wi), co = v3_dot(n, wo);
     f[0] = f[1] = f[2] = 0.0f;
     if (ci <= 0.0f || co <= 0.0f) return 0.0f;
     float kd = a->kd / TS_PI;
-    f[0] = kd * a->cs_r, f[1] = kd * a->cs_g, f[2] = kd * a->cs_b;
+    f[0] = kd * cs[0], f[1] = kd * cs[1], f[2] = kd * cs[2];
     float ps = plastic_spec_prob(a);
     float pdf = (1.0f - ps) * ci / TS_PI;
     if (a->material == TS_MAT_PLASTIC) {
@@ -110,8 +112,8 @@ TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, ts_v3 n, ts_v3 wo, t
 
 /* Samples wi from (u0, u1, u2); returns its pdf (0 when the sample is below the surface),
  * with f(wo, wi) in f[]. */
-TS_INLINE float bsdf_sample(TS_CONST_GLOBAL ts_patch_attr *a, ts_v3 n, ts_v3 wo, float u0,
-                            float u1, float u2, ts_v3 *wi, float f[3])
+TS_INLINE float bsdf_sample(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], ts_v3 n,
+                            ts_v3 wo, float u0, float u1, float u2, ts_v3 *wi, float f[3])
 {
     float ps = plastic_spec_prob(a);
     if (u0 < ps) {
@@ -124,7 +126,7 @@ TS_INLINE float bsdf_sample(TS_CONST_GLOBAL ts_patch_attr *a, ts_v3 n, ts_v3 wo,
     } else {
         *wi = sample_cosine(n, u1, u2);
     }
-    return bsdf_eval(a, n, wo, *wi, f);
+    return bsdf_eval(a, cs, n, wo, *wi, f);
 }
 
 #endif

@@ -10,20 +10,25 @@
 #include "lib/shared_types.h"
 
 /* The vertex at (u, v) of patch cp (16 control points of the time sample being diced),
- * with corner normals n (4) and attributes a, transform x. xyz = displaced position,
- * w = the displacement d. The noise is evaluated at the undisplaced point of time 0
- * (cp0), so the pattern moves with a moving patch. */
+ * with corner normals n (4) and attributes a, transform x, textures tex. xyz = displaced
+ * position, w = the displacement d. The noise is evaluated at the undisplaced point of
+ * time 0 (cp0), so the pattern moves with a moving patch; a texture at the st of (u, v). */
 TS_INLINE ts_vec4 patch_vertex(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLOBAL ts_vec4 *cp0,
                                TS_CONST_GLOBAL ts_vec4 *n, TS_CONST_GLOBAL ts_patch_attr *a,
-                               TS_CONST_GLOBAL ts_xform *x, float u, float v)
+                               TS_CONST_GLOBAL ts_xform *x, ts_tex_ctx tex, float u, float v)
 {
     ts_vec4 p = bezier_eval(cp, u, v);
     if (a->disp_kind == TS_DISP_NONE) {
         p.w = 0.0f;
         return p;
     }
-    ts_vec4 p0 = cp0 == cp ? p : bezier_eval(cp0, u, v);
-    float d = displace_value(a, x, p0.x, p0.y, p0.z);
+    float d;
+    if (a->disp_kind == TS_DISP_TEXTURE) {
+        d = displace_texture_value(a, tex, u, v);
+    } else {
+        ts_vec4 p0 = cp0 == cp ? p : bezier_eval(cp0, u, v);
+        d = displace_value(a, x, p0.x, p0.y, p0.z);
+    }
     ts_vec4 dn = displace_normal(n, u, v);
     ts_vec4 r = {p.x + d * dn.x, p.y + d * dn.y, p.z + d * dn.z, d};
     return r;

@@ -120,18 +120,24 @@ typedef struct ts_hit {
 #define TS_DISP_NONE 0u
 #define TS_DISP_FBM 1u    /* fractal Brownian motion of gradient noise, object space */
 #define TS_DISP_RIDGED 2u /* ridged fBm: sum of gain^o * (1 - 2|noise|) */
+#define TS_DISP_TEXTURE 3u /* amplitude * (texel - offset): an image texture at the patch's st */
 
 /* ts_patch_attr.flags */
 #define TS_PATCH_MOVING 1u /* has a second time sample (scene cp1), Hanika §3.4 */
+#define TS_PATCH_COLOR_TEX 2u /* Cs is multiplied by texture color_tex at the hit's st */
 
 /* Materials (RIB Surface), with the patch colour Cs. */
 #define TS_MAT_MATTE 0u   /* Lambertian, albedo Kd * Cs */
 #define TS_MAT_PLASTIC 1u /* Kd * Cs / pi plus a GGX lobe of albedo <= Ks, alpha = roughness */
 
-/* Per-patch attributes from the scene, 80 bytes.
+/* Per-patch attributes from the scene, 128 bytes.
  * Displacement d(P) moves a surface point along its displacement normal (the bilinear
  * interpolation of the patch's corner normals, scene corner_n); the noise is evaluated at
  * the object-space position world_to_object(P), the transform of scene xform[xform].
+ * TS_DISP_TEXTURE: d = disp_amplitude * (texel - disp_offset), the texel of texture
+ * disp_tex at the point's texture coordinates (lib/texture.h).
+ * Texture coordinates (s, t) at (u, v): the bilinear interpolation of st[] at the corners
+ * (0,0), (1,0), (0,1), (1,1) (RIB "st", default the corners' (u, v)).
  * Emission (RIB AreaLightSource): radiance le_* leaves both sides of the patch. */
 typedef struct ts_patch_attr {
     float cs_r, cs_g, cs_b;
@@ -147,7 +153,11 @@ typedef struct ts_patch_attr {
     float kd, ks, roughness; /* diffuse and specular weights, GGX alpha */
     ts_u32 emitter;        /* index in the emitter table, TS_INVALID if it does not emit */
     float le_r, le_g, le_b; /* emitted radiance */
-    ts_u32 pad;
+    ts_u32 color_tex;      /* texture multiplying Cs when flags has TS_PATCH_COLOR_TEX */
+    ts_u32 disp_tex;       /* TS_DISP_TEXTURE: the displacement texture */
+    float disp_offset;     /* TS_DISP_TEXTURE: texel value of zero displacement */
+    ts_u32 pad[2];
+    float st[8];           /* (s, t) at the four corners, in corner order */
 } ts_patch_attr;
 
 /* Lights (DESIGN.md §3). One light is chosen uniformly per light sample. */
@@ -182,6 +192,28 @@ typedef struct ts_emitter {
 typedef struct ts_xform {
     float r0[4], r1[4], r2[4];
 } ts_xform;
+
+/* Image textures (lib/texture.h, docs/rendering.md). Each level of a texture is split into
+ * tiles of TS_TEX_TILE x TS_TEX_TILE texels (row-major in the level); tile (tx, ty) of level
+ * k is page level_page[k] + ty * ceil(width_k / TS_TEX_TILE) + tx of the page table, whose
+ * entry names the slot of the tile pool holding it (TS_INVALID: not resident). A slot is
+ * TS_TEX_TILE^2 ts_vec4 texels, row-major. width_k = ceil(width / 2^k).
+ * TS_TEX_MINMAX: x = the minimum, y = the maximum of the first channel over the level-0
+ * texels the texel covers (level 0: x = y = the value); levels down to 1 x 1.
+ * TS_TEX_RGB: xyz = colour, level 0 only. */
+#define TS_TEX_TILE_LOG2 5u
+#define TS_TEX_TILE (1u << TS_TEX_TILE_LOG2)
+#define TS_TEX_MAX_LEVELS 16u /* up to 32768 texels a side */
+#define TS_TEX_MINMAX 0u
+#define TS_TEX_RGB 1u
+
+/* 80 bytes. */
+typedef struct ts_texture {
+    ts_u32 width, height;
+    ts_u32 levels; /* 1 + ceil(log2(max(width, height))) for TS_TEX_MINMAX, 1 for TS_TEX_RGB */
+    ts_u32 kind;   /* TS_TEX_* */
+    ts_u32 level_page[TS_TEX_MAX_LEVELS];
+} ts_texture;
 
 /* Everything the camera kernel needs, in world space. 96 bytes.
  * Ray through raster point (px, py): screen (sx, sy) = window lerp, direction =
@@ -248,6 +280,8 @@ typedef struct ts_shade_params {
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
     X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count)      \
     X(ts_shade_params, light_prob) X(ts_light, dir) X(ts_light, radiance) X(ts_emitter, area) \
-    X(ts_patch_attr, kd) X(ts_patch_attr, le_r)
+    X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \
+    X(ts_patch_attr, disp_offset) X(ts_patch_attr, st) X(ts_texture, kind)                    \
+    X(ts_texture, level_page)
 
 #endif

@@ -141,8 +141,9 @@ ts_vec4 ray_set_normal(const ts_scene *s, uint32_t patch, float u, float v, uint
     float h = 0.5f * ldexpf(1.0f, -(int)m);
     float u0 = fmaxf(u - h, 0.0f), u1 = fminf(u + h, 1.0f);
     float v0 = fmaxf(v - h, 0.0f), v1 = fminf(v + h, 1.0f);
-    ts_vec4 pu0 = patch_vertex(cp, cp, n, a, x, u0, v), pu1 = patch_vertex(cp, cp, n, a, x, u1, v);
-    ts_vec4 pv0 = patch_vertex(cp, cp, n, a, x, u, v0), pv1 = patch_vertex(cp, cp, n, a, x, u, v1);
+    ts_tex_ctx tex = scene_tex_ctx(s);
+    ts_vec4 pu0 = patch_vertex(cp, cp, n, a, x, tex, u0, v), pu1 = patch_vertex(cp, cp, n, a, x, tex, u1, v);
+    ts_vec4 pv0 = patch_vertex(cp, cp, n, a, x, tex, u, v0), pv1 = patch_vertex(cp, cp, n, a, x, tex, u, v1);
     ts_v3 du = v3(pu1.x - pu0.x, pu1.y - pu0.y, pu1.z - pu0.z);
     ts_v3 dv = v3(pv1.x - pv0.x, pv1.y - pv0.y, pv1.z - pv0.z);
     ts_v3 c = v3_cross(du, dv);
