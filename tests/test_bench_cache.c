@@ -28,14 +28,7 @@ static void test_tiny(void **state)
              "'%s/bench_cache' --size tiny --scene '%s' --json '%s' > /dev/null 2>&1", dirname(bin),
              test_source_path("scene/forest-1.rib"), json);
     assert_int_equal(system(cmd), 0); /* the program's own checks passed */
-    FILE *f = fopen(json, "rb");
-    assert_non_null(f);
-    static char text[1 << 16];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = '\0';
-    cJSON *root = cJSON_Parse(text);
-    assert_non_null(root);
+    cJSON *root = test_read_json(json);
     assert_string_equal(cJSON_GetObjectItem(root, "benchmark")->valuestring, "cache");
     assert_true(number(root, "spp") >= 1);
     const cJSON *scenes = cJSON_GetObjectItem(root, "scenes");

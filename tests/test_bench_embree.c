@@ -52,14 +52,7 @@ static int run_bench(void **state)
         if (system(cmd) != 0) fprintf(stderr, "(no output)\n");
         fail_msg("bench_embree --size tiny exited %d", WIFEXITED(st) ? WEXITSTATUS(st) : -1);
     }
-    FILE *f = fopen(json, "rb");
-    assert_non_null(f);
-    static char text[1 << 20];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = '\0';
-    root = cJSON_Parse(text);
-    assert_non_null(root);
+    root = test_read_json(json);
     *state = root;
     return 0;
 }

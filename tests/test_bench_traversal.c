@@ -19,14 +19,7 @@ static cJSON *run_bench(void)
              "'%s/bench_traversal' --size tiny --scene '%s' --json '%s' > /dev/null", dirname(bin),
              test_source_path("scene/teapot.rib"), json);
     assert_int_equal(system(cmd), 0);
-    FILE *f = fopen(json, "rb");
-    assert_non_null(f);
-    static char text[1 << 16];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = '\0';
-    cJSON *root = cJSON_Parse(text);
-    assert_non_null(root);
+    cJSON *root = test_read_json(json);
     return root;
 }
 

@@ -87,19 +87,6 @@ static double number(const cJSON *o, const char *key)
     return v->valuedouble;
 }
 
-static cJSON *load_json(const char *path)
-{
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    static char text[1 << 20];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = '\0';
-    cJSON *j = cJSON_Parse(text);
-    assert_non_null(j);
-    return j;
-}
-
 static void test_render_exr_and_stats(void **state)
 {
     char args[8192], path[4200];
@@ -126,7 +113,7 @@ static void test_render_exr_and_stats(void **state)
     image_free(&img);
 
     snprintf(path, sizeof path, "%s/s.json", dir);
-    cJSON *j = load_json(path);
+    cJSON *j = test_read_json(path);
     assert_true(cJSON_IsString(cJSON_GetObjectItemCaseSensitive(j, "device")));
     assert_true(number(j, "wall_seconds") > 0);
     assert_true(number(j, "peak_rss_bytes") > 0);
@@ -152,7 +139,7 @@ static void test_render_exr_and_stats(void **state)
 
     /* Same command again: the kernels come from the binary cache. */
     assert_int_equal(run(args), 0);
-    j = load_json(path);
+    j = test_read_json(path);
     assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(j, "kernel_cache_hit")));
     cJSON_Delete(j);
 }

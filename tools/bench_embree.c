@@ -43,6 +43,7 @@
  * linear in the triangles (the slope between the two largest cases), to 24 GiB and to
  * --memory. Exit 77 when there is no OpenCL device (the smoke test skips).
  */
+#include "bench_util.h"
 #include "cl_runtime.h"
 #include "embree_ref.h"
 #include "ray_sets.h"
@@ -82,25 +83,6 @@ typedef struct config {
 } config;
 
 /* ---------------------------------------------------------------- small helpers */
-
-static double now(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 /* A /proc/self/status field in bytes ("VmRSS: %llu kB"), 0 if unknown. */
 static uint64_t proc_status(const char *format)
@@ -161,7 +143,7 @@ static double embree_trace(ts_embree_ref *ref, const ts_ray_set *r, ts_hit *hit,
 {
     trace_job jobs[2];
     pthread_t tid[2];
-    double t0 = now();
+    double t0 = bench_now();
     for (int i = 0; i < threads; ++i) {
         uint32_t a = (uint32_t)((uint64_t)r->count * i / threads);
         uint32_t b = (uint32_t)((uint64_t)r->count * (i + 1) / threads);
@@ -173,7 +155,7 @@ static double embree_trace(ts_embree_ref *ref, const ts_ray_set *r, ts_hit *hit,
     }
     trace_thread(&jobs[0]);
     for (int i = 1; i < threads; ++i) pthread_join(tid[i], NULL);
-    double t = now() - t0;
+    double t = bench_now() - t0;
     for (int i = 0; i < threads; ++i)
         if (jobs[i].rc) {
             ts_error_set(err, jobs[i].rc, "%s", jobs[i].err.msg);
@@ -234,16 +216,16 @@ static int child_embree(const ts_scene *s, uint32_t m, const char *dir, int runs
         cJSON *root = cJSON_CreateObject();
         cJSON_AddNumberToObject(root, "triangles", (double)info.triangles);
         cJSON_AddNumberToObject(root, "vertices", (double)info.vertices);
-        cJSON_AddNumberToObject(root, "tessellate_seconds", median(tess, runs));
-        cJSON_AddNumberToObject(root, "build_seconds", median(build, runs));
+        cJSON_AddNumberToObject(root, "tessellate_seconds", bench_median(tess, runs));
+        cJSON_AddNumberToObject(root, "build_seconds", bench_median(build, runs));
         cJSON_AddNumberToObject(root, "bytes_before_build", (double)info.bytes_before_build);
         cJSON_AddNumberToObject(root, "bytes_peak", (double)info.bytes_peak);
         cJSON_AddNumberToObject(root, "bytes_after_build", (double)info.bytes_after_build);
         cJSON_AddNumberToObject(root, "rss_before_bytes", (double)rss_before);
         cJSON_AddNumberToObject(root, "peak_rss_bytes", (double)rss_peak());
         const char *keys[2] = {"seconds_1thread", "seconds_2threads"};
-        double e[2] = {median(te[0], runs), median(te[1], runs)};
-        double b[2] = {median(tb[0], runs), median(tb[1], runs)};
+        double e[2] = {bench_median(te[0], runs), bench_median(te[1], runs)};
+        double b[2] = {bench_median(tb[0], runs), bench_median(tb[1], runs)};
         add_kind(root, "eye", eye.count, ray_set_count_hits(eye_hit, eye.count), keys, e, 2);
         add_kind(root, "bounce", bounce.count, ray_set_count_hits(bounce_hit, bounce.count), keys, b, 2);
         if (write_json(path_in(dir, "embree.json"), root)) rc = ts_error_set(err, TS_E_IO, "cannot write json");
@@ -294,10 +276,10 @@ static int tessera_trace(ts_pipeline *p, ts_stats *stats, const ts_ray_set *r, t
             rc = ts_error_set(err, TS_E_DEVICE, "writing the rays: OpenCL error %d", e);
             break;
         }
-        double t0 = now();
+        double t0 = bench_now();
         rc = pipeline_trace(p, n, err);
         if (!rc) rc = cl_finish(p->cl, stats, err);
-        *wall_s += now() - t0;
+        *wall_s += bench_now() - t0;
         if (!rc && (e = clEnqueueReadBuffer(q, p->ray_hit, CL_TRUE, 0, n * sizeof(ts_hit), hit + first, 0, NULL, NULL)))
             rc = ts_error_set(err, TS_E_DEVICE, "reading the hits: OpenCL error %d", e);
     }
@@ -381,12 +363,12 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
         for (int mode = 0; mode < 2; ++mode) {
             cJSON *o = cJSON_AddObjectToObject(root, modes[mode]);
             for (int kind = 0; kind < 2; ++kind) {
-                double v[3] = {median(stage[mode][kind], runs), median(wall[mode][kind], runs),
+                double v[3] = {bench_median(stage[mode][kind], runs), bench_median(wall[mode][kind], runs),
                                (double)iters[mode][kind]};
                 add_kind(o, kinds[kind], r[kind].count, ray_set_count_hits(hit[mode][kind], r[kind].count), keys, v, 3);
                 cJSON *st = cJSON_AddObjectToObject(cJSON_GetObjectItemCaseSensitive(o, kinds[kind]), "stage_seconds");
                 for (int i = TS_STAGE_top_level; i <= TS_STAGE_resolve; ++i)
-                    cJSON_AddNumberToObject(st, ts_stage_names[i], median(per_stage[mode][kind][i], runs));
+                    cJSON_AddNumberToObject(st, ts_stage_names[i], bench_median(per_stage[mode][kind][i], runs));
             }
         }
         if (write_json(path_in(dir, "tessera.json"), root)) rc = ts_error_set(err, TS_E_IO, "cannot write json");

@@ -15,6 +15,7 @@
  * usage: bench_scene_load [--size tiny|small|full] [--repeat R] [--scene-dir DIR]
  *                         [--json PATH] [SCENE...]
  */
+#include "bench_util.h"
 #include "scene_load.h"
 
 #include <cjson/cJSON.h>
@@ -30,19 +31,6 @@
 static const char *const tiny_scenes[] = {"teapot.rib", "forest-1.rib", NULL};
 static const char *const forest_scenes[] = {"forest-1.rib", "forest-100.rib", "forest-1000.rib",
                                             NULL};
-
-static double now(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
 
 static int usage(void)
 {
@@ -60,9 +48,9 @@ static int bench_scene(const char *path, int repeat, cJSON *rows)
         ts_scene s;
         ts_error e = {0};
         memset(&s, 0, sizeof s);
-        double t0 = now();
+        double t0 = bench_now();
         int rc = scene_load(path, &s, 1, &e);
-        t[r] = now() - t0;
+        t[r] = bench_now() - t0;
         if (rc != TS_OK) {
             fprintf(stderr, "bench_scene_load: %s\n", e.msg);
             ts_error_clear(&e);
@@ -71,7 +59,7 @@ static int bench_scene(const char *path, int repeat, cJSON *rows)
         patches = s.patch_count;
         scene_free(&s);
     }
-    qsort(t, (size_t)repeat, sizeof t[0], cmp_double);
+    qsort(t, (size_t)repeat, sizeof t[0], bench_cmp_double);
     double median = repeat % 2 ? t[repeat / 2] : 0.5 * (t[repeat / 2 - 1] + t[repeat / 2]);
     struct rusage ru;
     getrusage(RUSAGE_SELF, &ru);

@@ -18,6 +18,7 @@
  *
  * usage: bench_sort [--size tiny|small|full] [--pairs N] [--repeat R] [--threads T] [--json PATH]
  */
+#include "bench_util.h"
 #include "radix_sort.h"
 
 #include <cjson/cJSON.h>
@@ -65,25 +66,6 @@ static int bench_size(const char *name, bench_options *o)
         }
     fprintf(stderr, "bench_sort: --size must be tiny, small or full, not '%s'\n", name);
     return 1;
-}
-
-static double bench_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double bench_median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 static int bench_parse(int argc, char **argv, bench_options *o)

@@ -20,6 +20,7 @@
  *                        [--scene RIB]   (default scene/teapot.rib, relative to the cwd)
  *   tiny: 64x36, m = 3; small: 640x360, m = 6; full: 1280x720, m = 8 (the foundation
  *   benchmark's teapot). */
+#include "bench_util.h"
 #include "bottom_level_ref.h"
 #include "lib/intersect.h"
 #include "pipeline.h"
@@ -52,31 +53,10 @@ typedef struct bench_mode {
     double ocl_cores, ct_cores; /* process CPU seconds over wall seconds, medians */
 } bench_mode;
 
-static double bench_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-/* CPU seconds of the whole process (every thread, PoCL's included). */
-static double bench_cpu(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 static bench_timing bench_stats(double *v, int n)
 {
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return (bench_timing){n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]), v[0]};
+    double median = bench_median(v, n); /* sorts v: v[0] is the minimum */
+    return (bench_timing){median, v[0]};
 }
 
 static int bench_parse(int argc, char **argv, bench_options *o)

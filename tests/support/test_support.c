@@ -137,15 +137,23 @@ void test_write_sphere_patches(void *file, int k, double r)
             }
 }
 
-double test_stats_number(const char *json_path, const char *key)
+cJSON *test_read_json(const char *path)
 {
-    FILE *f = fopen(json_path, "rb");
-    if (!f) fail_msg("%s: cannot open", json_path);
+    FILE *f = fopen(path, "rb");
+    if (!f) fail_msg("%s: cannot open", path);
     static char text[1 << 20];
     size_t n = fread(text, 1, sizeof text - 1, f);
     fclose(f);
+    if (n == sizeof text - 1) fail_msg("%s: larger than %zu bytes", path, sizeof text - 1);
     text[n] = '\0';
-    cJSON *root = cJSON_Parse(text), *v = root;
+    cJSON *root = cJSON_Parse(text);
+    if (!root) fail_msg("%s: not JSON", path);
+    return root;
+}
+
+double test_stats_number(const char *json_path, const char *key)
+{
+    cJSON *root = test_read_json(json_path), *v = root;
     char part[256];
     const char *p = key;
     while (v && *p) {

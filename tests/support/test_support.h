@@ -39,6 +39,9 @@ void test_write_sphere_patches(void *file, int k, double r);
 /* Reads a number from a --stats JSON file: `path` like "counters.rays" or
  * "lod_histogram.3"; fails the test if absent. */
 double test_stats_number(const char *json_path, const char *key);
+
+/* Parses the JSON file at path (fails the test if it cannot); cJSON_Delete the result. */
+struct cJSON *test_read_json(const char *path);
 /* `dir/name` (static storage, four in rotation). */
 const char *test_path_in(const char *dir, const char *name);
 /* Runs `tessera ARGS` (printf-style) with test_run_tessera; on a non-zero exit prints its
