@@ -105,6 +105,14 @@ static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t 
     return b;
 }
 
+/* build.cl's leaf_clamp. */
+static ts_box leaf_clamp(ts_box b, ts_box p)
+{
+    b.lo_x = fmaxf(b.lo_x, p.lo_x), b.lo_y = fmaxf(b.lo_y, p.lo_y), b.lo_z = fmaxf(b.lo_z, p.lo_z);
+    b.hi_x = fminf(b.hi_x, p.hi_x), b.hi_y = fminf(b.hi_y, p.hi_y), b.hi_z = fminf(b.hi_z, p.hi_z);
+    return b;
+}
+
 void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid, ts_box4 *groups)
 {
     uint32_t times = dice_build_ref_times(s, p), n = (1u << m) + 1u, nv = n * n;
@@ -113,6 +121,7 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid, ts
     const ts_xform *x = s->xform_count ? &s->xform[a->xform] : &identity_xform;
     ts_vec4 e = patch_flatness(c0, s->cp1 ? &s->cp1[p * 16u] : c0, 0);
     ts_tex_ctx tex = scene_tex_ctx(s); /* every tile resident */
+    ts_box pb = scene_patch_box(s, p);
     for (uint32_t t = 0; t < times; ++t) {
         const ts_vec4 *c = t ? &s->cp1[p * 16u] : c0;
         for (uint32_t v = 0; v < nv; ++v)
@@ -123,7 +132,7 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid, ts
     for (uint32_t t = 0; t < times; ++t) {
         ts_box4 *tree = groups + t * ng;
         for (uint32_t k = 0; k < (1u << (2u * m)); ++k)
-            node_store(tree, m, k, leaf_box(grid, t, m, k, cn, a, x, tex, e));
+            node_store(tree, m, k, leaf_clamp(leaf_box(grid, t, m, k, cn, a, x, tex, e), pb));
         for (uint32_t level = m; level-- > 0;) /* bottom-up min-max reduction */
             for (uint32_t k = 0; k < (1u << (2u * level)); ++k) {
                 const ts_box4 *c = tree + quadtree_group_offset(level + 1u) + k;

@@ -204,39 +204,40 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
     size_t n = s->patch_count ? s->patch_count : 1;
     const cl_mem_flags ro_copy = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
     ts_vec4 *flat = calloc(n, sizeof *flat), *normals = NULL;
+    ts_box *pbox = calloc(n, sizeof *pbox);
     ts_patch_attr *attr = calloc(n, sizeof *attr);
     ts_light lights[66];
     ts_emitter *emitters = NULL;
     uint32_t emitter_count = 0;
     env_map env = {0};
     if (s->dome.present && s->dome.mapname[0] && env_load(s->dome.mapname, &env, err)) {
-        free(env.texels), free(env.marginal), free(env.conditional), free(flat), free(attr);
+        free(env.texels), free(env.marginal), free(env.conditional), free(flat), free(pbox), free(attr);
         return err->code;
     }
-    if (!flat || !attr) {
-        free(flat), free(attr);
+    if (!flat || !attr || !pbox) {
+        free(flat), free(pbox), free(attr);
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     }
     if (s->light_count > 64) {
-        free(flat), free(attr);
+        free(flat), free(pbox), free(attr);
         return ts_error_set(err, TS_E_SCENE, "%u distant lights: at most 64", s->light_count);
     }
     memcpy(attr, s->attr, s->patch_count * sizeof *attr);
     if (build_lights(p, attr, lights, &emitters, &emitter_count, &env, err)) {
-        free(flat), free(attr);
+        free(flat), free(pbox), free(attr);
         return err->code;
     }
     /* w: the longest side of the patch's box, for the secondary-ray offset l / 2^m. */
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         flat[i] = patch_flatness(&s->cp[i * 16], s->cp1 ? &s->cp1[i * 16] : &s->cp[i * 16], 0);
-        ts_box b = scene_patch_box(s, i);
+        ts_box b = pbox[i] = scene_patch_box(s, i);
         flat[i].w = fmaxf(b.hi_x - b.lo_x, fmaxf(b.hi_y - b.lo_y, b.hi_z - b.lo_z));
     }
     const ts_vec4 *cn = s->corner_n;
     if (!cn) {
         normals = calloc(n * 4, sizeof *normals);
         if (!normals) {
-            free(flat);
+            free(flat), free(pbox);
             return ts_error_set(err, TS_E_MEMORY, "out of memory");
         }
         for (size_t i = 0; i < n * 4; ++i) normals[i].z = 1.0f;
@@ -261,6 +262,7 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
         {&p->xform, (s->xform_count ? s->xform_count : 1) * sizeof(ts_xform),
          s->xform_count ? (const void *)s->xform : (const void *)&identity},
         {&p->flatness, n * sizeof(ts_vec4), flat},
+        {&p->patch_box, n * sizeof(ts_box), pbox},
         {&p->textures, (s->texture_count ? s->texture_count : 1) * sizeof(ts_texture), s->textures},
     };
     int rc = TS_OK;
@@ -272,7 +274,7 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
         *list[i].m = cl_buffer_create(p->cl, ro_copy, list[i].size, (void *)host, err);
         if (!*list[i].m) rc = err->code;
     }
-    free(flat);
+    free(flat), free(pbox);
     free(normals);
     free(attr);
     free(emitters);
@@ -393,7 +395,7 @@ void pipeline_destroy(ts_pipeline *p)
                       p->k_shade, p->k_film};
     for (size_t i = 0; i < sizeof ks / sizeof *ks; ++i)
         if (ks[i]) clReleaseKernel(ks[i]);
-    cl_mem ms[] = {p->qbvh_nodes, p->cp, p->cp1, p->corner_n, p->attr, p->xform, p->flatness,
+    cl_mem ms[] = {p->qbvh_nodes, p->cp, p->cp1, p->corner_n, p->attr, p->xform, p->flatness, p->patch_box,
                    p->lod_counts, p->utilisation, p->lights, p->emitters, p->env_texels, p->env_marginal,
                    p->env_conditional, p->textures, p->tex_pages, p->tex_pool,
 #define TS_PATH_RELEASE(type, name, what) p->path_##name,

@@ -87,6 +87,7 @@ typedef struct ts_pipeline {
         k_bottom_level, k_bottom_group, k_resolve, k_shade, k_film;
     cl_mem utilisation; /* 2 uints: micro-quad tests, work-item slots (bottom_level) */
     cl_mem qbvh_nodes, cp, cp1, corner_n, attr, xform, flatness, lod_counts, lights, emitters;
+    cl_mem patch_box; /* scene_patch_box of every patch: build clamps leaf boxes to it */
     cl_mem env_texels, env_marginal, env_conditional; /* the dome's map (1 element if none) */
     cl_mem textures, tex_pages, tex_pool; /* image textures (scene.h), 1 element if none */
     ts_tex_cache tex;                     /* which tiles tex_pool holds (tex_cache.h) */

@@ -438,6 +438,11 @@ ts_box scene_patch_box(const ts_scene *s, uint32_t p)
         ts_interval d = displace_texture_interval(&s->attr[p], scene_tex_ctx(s), 0.0f, 0.0f, 1.0f, 1.0f);
         g = fmaxf(fabsf(d.lo), fabsf(d.hi));
     }
+    /* A few ulps of |P| as well: the diced vertices are rounded, and build clamps every leaf
+     * box to this box (build.cl), so it must hold them. */
+    float mag = fmaxf(fmaxf(fmaxf(fabsf(b.lo_x), fabsf(b.hi_x)), fmaxf(fabsf(b.lo_y), fabsf(b.hi_y))),
+                      fmaxf(fabsf(b.lo_z), fabsf(b.hi_z)));
+    g += 1e-6f * (mag + g);
     if (g > 0.0f) {
         b.lo_x = nextafterf(b.lo_x - g, -INFINITY);
         b.lo_y = nextafterf(b.lo_y - g, -INFINITY);

@@ -225,8 +225,8 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
         uint32_t first = b->tree_first + t;
         if (cl_set_args(p->k_build_leaves, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
                         ARG(p->segments), ARG(p->grid), ARG(p->corner_n), ARG(p->attr),
-                        ARG(p->xform), ARG(p->flatness), ARG(p->textures), ARG(p->tex_pages),
-                        ARG(p->tex_pool), ARG(p->groups), (size_t)0) ||
+                        ARG(p->xform), ARG(p->flatness), ARG(p->patch_box), ARG(p->textures),
+                        ARG(p->tex_pages), ARG(p->tex_pool), ARG(p->groups), (size_t)0) ||
             cl_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
                       TS_LOCAL_SIZE, err))
             return err->code;

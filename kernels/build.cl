@@ -14,6 +14,7 @@
  *   of its four children — the bottom-up min-max reduction. The root group's lanes 1-3 are
  *   left empty.
  * Reads: trees, segments, grid (w = d), corner normals, attributes, transforms, flatness,
+ *        patch boxes (every leaf box is clamped to its patch's top-level box),
  *        textures (the min-max tiles under the leaves' st rectangles must be resident).
  * Writes: groups[group_first + time * quadtree_group_count(m) ...].
  * Invariants: every vertex of a micro-quad lies in its leaf box; every inner box is the union
@@ -62,6 +63,18 @@ inline ts_box base_box(__global const ts_vec4 *g, uint n, uint i, uint j, __glob
     return b;
 }
 
+/* A leaf box clamped to the patch's top-level box (scene_patch_box: the control hull of
+ * both time samples grown by the displacement bound and a few ulps). Both contain the
+ * leaf's piece of surface, so their intersection does too; without it a coarse leaf (its
+ * corners' box grown by the flatness bound e / 4^m) can stick out of the patch box, and a
+ * ray could hit it nearer than the patch box the top level sorted it by (test_scene). */
+inline ts_box leaf_clamp(ts_box b, ts_box p)
+{
+    b.lo_x = fmax(b.lo_x, p.lo_x), b.lo_y = fmax(b.lo_y, p.lo_y), b.lo_z = fmax(b.lo_z, p.lo_z);
+    b.hi_x = fmin(b.hi_x, p.hi_x), b.hi_y = fmin(b.hi_y, p.hi_y), b.hi_z = fmin(b.hi_z, p.hi_z);
+    return b;
+}
+
 /* [lo, hi] * [a, b] for intervals. */
 inline float2 interval_mul(float lo, float hi, float a, float b)
 {
@@ -73,8 +86,9 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                            __global const ts_segment *segments, __global const ts_vec4 *grid,
                            __global const ts_vec4 *corner_n, __global const ts_patch_attr *attr,
                            __global const ts_xform *xform, __global const ts_vec4 *flatness,
-                           __global const ts_texture *textures, __global const uint *tex_pages,
-                           __global const ts_vec4 *tex_pool, __global ts_box4 *groups)
+                           __global const ts_box *patch_box, __global const ts_texture *textures,
+                           __global const uint *tex_pages, __global const ts_vec4 *tex_pool,
+                           __global ts_box4 *groups)
 {
     uint nl = 1u << (2u * m), gid = get_global_id(0);
     uint t = gid / nl, k = gid % nl;
@@ -121,6 +135,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         b.lo_y += oy.x - slack, b.hi_y += oy.y + slack;
         b.lo_z += oz.x - slack, b.hi_z += oz.y + slack;
     }
+    b = leaf_clamp(b, patch_box[seg.patch]);
     node_store(groups + (size_t)seg.group_first + time * quadtree_group_count(m), m, k, b);
 }
 

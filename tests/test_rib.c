@@ -440,6 +440,24 @@ static void test_lights(void **state)
 /* ---- the scene files ------------------------------------------------------------------ */
 
 /* Asserts that every control point lies in front of the camera and inside the image. */
+/* scene_patch_box is the control points' box grown by a few ulps of its magnitude (it must
+ * hold the rounded diced vertices): within 1e-5 of the expected bounds (relative to the
+ * largest of them), never inside them.
+ * NAN skips a bound. */
+static void assert_box(ts_box b, float lx, float ly, float lz, float hx, float hy, float hz)
+{
+    const float got[6] = {b.lo_x, b.lo_y, b.lo_z, b.hi_x, b.hi_y, b.hi_z}, want[6] = {lx, ly, lz, hx, hy, hz};
+    float mag = 1.0f;
+    for (int i = 0; i < 6; ++i)
+        if (!isnan(want[i])) mag = fmaxf(mag, fabsf(want[i]));
+    for (int i = 0; i < 6; ++i) {
+        if (isnan(want[i])) continue;
+        float grown = i < 3 ? want[i] - got[i] : got[i] - want[i];
+        if (!(grown >= 0.0f && grown < 1e-5f * mag))
+            fail_msg("box bound %d is %.9g, expected %.9g (grown by less than 1e-5)", i, got[i], want[i]);
+    }
+}
+
 static void assert_framed(const ts_scene *s, double margin)
 {
     double t = tan(0.5 * s->camera.fov_deg * M_PI / 180.0);
@@ -502,7 +520,7 @@ static void test_one_patch_file(void **state)
     assert_int_equal(s.light_count, 1);
     assert_framed(&s, 1.0);
     ts_box b = scene_patch_box(&s, 0);
-    assert_true(b.lo_x == -1.5f && b.hi_x == 1.5f && b.lo_z == -0.5f && b.hi_z == 0.0f);
+    assert_box(b, -1.5f, NAN, -0.5f, 1.5f, NAN, 0.0f);
     scene_free(&s);
 }
 
@@ -932,7 +950,7 @@ static void test_motion(void **state)
     assert_true(memcmp(s.cp1 + 32, s.cp + 32, 16 * sizeof(ts_vec4)) == 0);
     assert_vec(&s.corner_n[4], 0, 0, 1, 0); /* "N" of the first sample */
     ts_box b = scene_patch_box(&s, 1);
-    assert_true(b.lo_z == 0.0f && b.hi_z == 2.0f);
+    assert_box(b, NAN, NAN, 0.0f, NAN, NAN, 2.0f);
     scene_free(&s);
     /* A moving CTM: every patch under it moves; blocks save and restore both samples. */
     test_parse_rib_ok("WorldBegin\nAttributeBegin\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 5 0 0\n"
@@ -995,8 +1013,7 @@ static void test_scene_growth_and_box(void **state)
     assert_vec(&s.cp[999 * 16 + 15], 999, 15, -15, 0);
     assert_true(s.attr[5].cs_r == 1.0f); /* NULL attr: white */
     ts_box b = scene_patch_box(&s, 7);
-    assert_true(b.lo_x == 7 && b.hi_x == 7 && b.lo_y == 0 && b.hi_y == 15 && b.lo_z == -15 &&
-                b.hi_z == 0);
+    assert_box(b, 7, 0, -15, 7, 15, 0);
     ts_box empty = scene_patch_box(&s, 1000);
     assert_true(empty.lo_x > empty.hi_x);
     for (int k = 0; k < 100; k++) {

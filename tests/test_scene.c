@@ -4,6 +4,9 @@
  * Host only: never skips. */
 #include "rib.h"
 #include "scene.h"
+#include "scene_load.h"
+#include "dice_build_ref.h"
+#include "lib/quadtree.h"
 
 #include "lib/bezier.h"
 #include "lib/displace.h"
@@ -324,8 +327,11 @@ static void test_box_moving(void **state)
         assert_int_equal(scene_add_patch(&s, (const double(*)[3])g1, NULL, &e), TS_OK);
     assert_int_equal(scene_finalize(&s, &e), TS_OK);
     ts_box b0 = scene_patch_box(&s, 0), b1 = scene_patch_box(&s, 1);
-    assert_true(b0.lo_x == 0.0f && b0.hi_x == 3.0f);
-    assert_true(b1.lo_x == -4.0f && b1.hi_x == 3.0f && b1.lo_z == -0.25f && b1.hi_z == 0.5f);
+    /* The box of both control point sets, grown by a few ulps of |P| (scene_patch_box). */
+    const float u = 1e-5f;
+    assert_true(b0.lo_x < 0.0f && b0.lo_x > -u && b0.hi_x > 3.0f && b0.hi_x < 3.0f + u);
+    assert_true(b1.lo_x < -4.0f && b1.lo_x > -4.0f - u && b1.hi_x > 3.0f && b1.hi_x < 3.0f + u);
+    assert_true(b1.lo_z < -0.25f && b1.lo_z > -0.25f - u && b1.hi_z > 0.5f && b1.hi_z < 0.5f + u);
     /* Static patches: cp1 is a copy of cp. */
     assert_true(memcmp(s.cp1, s.cp, 16 * sizeof(ts_vec4)) == 0);
     assert_true(memcmp(s.cp1 + 101 * 16, s.cp + 101 * 16, 16 * sizeof(ts_vec4)) == 0);
@@ -337,6 +343,56 @@ static void test_box_moving(void **state)
     assert_null(s.corner_n);
 }
 
+/* Leaf-box mode: every node box of the quad-trees build makes, at every m, lies inside the
+ * patch's top-level box, so the top level never culls a patch whose leaf boxes a ray could
+ * still hit nearer (a coarse leaf, its corners' box grown by the flatness bound, sticks out
+ * of the control hull unless build clamps it). Checked with the plain-C dice/build
+ * reference, bitwise equal to the kernels (test_bottom_level). */
+static void check_trees_in_patch_boxes(const char *scene, uint32_t stride)
+{
+    ts_scene s = {0};
+    ts_error e = {0};
+    if (scene_load(test_source_path(scene), &s, 1, &e) != TS_OK) fail_msg("%s: %s", scene, e.msg);
+    size_t checked = 0;
+    for (uint32_t p = 0; p < s.patch_count; p += stride) {
+        ts_box b = scene_patch_box(&s, p);
+        for (uint32_t m = 0; m <= 4; ++m) {
+            uint32_t n = (1u << m) + 1u, ng = quadtree_group_count(m), times = dice_build_ref_times(&s, p);
+            ts_vec4 *grid = malloc(times * n * n * sizeof *grid);
+            ts_box4 *groups = malloc(times * ng * sizeof *groups);
+            assert_true(grid && groups);
+            dice_build_ref(&s, p, m, grid, groups);
+            for (uint32_t g = 0; g < times * ng; ++g)
+                for (int q = 0; q < 4; ++q) {
+                    const ts_box4 *x = &groups[g];
+                    if (x->lo_x[q] > x->hi_x[q]) continue; /* an empty lane of the root group */
+                    if (x->lo_x[q] < b.lo_x || x->lo_y[q] < b.lo_y || x->lo_z[q] < b.lo_z ||
+                        x->hi_x[q] > b.hi_x || x->hi_y[q] > b.hi_y || x->hi_z[q] > b.hi_z)
+                        fail_msg("%s patch %u, m = %u: a tree box sticks out of the patch box",
+                                 scene, p, m);
+                    ++checked;
+                }
+            for (uint32_t v = 0; v < times * n * n; ++v) /* and so does every vertex */
+                if (grid[v].x < b.lo_x || grid[v].y < b.lo_y || grid[v].z < b.lo_z ||
+                    grid[v].x > b.hi_x || grid[v].y > b.hi_y || grid[v].z > b.hi_z)
+                    fail_msg("%s patch %u, m = %u: vertex %u outside the patch box", scene, p, m, v);
+            free(grid);
+            free(groups);
+        }
+    }
+    assert_true(checked > 1000);
+    scene_free(&s);
+}
+
+static void test_trees_inside_patch_boxes(void **state)
+{
+    (void)state;
+    check_trees_in_patch_boxes("scene/teapot.rib", 1);
+    check_trees_in_patch_boxes("scene/teapot_displaced.rib", 1);
+    check_trees_in_patch_boxes("scene/textured.rib", 1);
+    check_trees_in_patch_boxes("scene/forest-1.rib", 7);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -346,6 +402,7 @@ int main(void)
         cmocka_unit_test(test_xform_dedupe),
         cmocka_unit_test(test_box_displaced),
         cmocka_unit_test(test_box_moving),
+        cmocka_unit_test(test_trees_inside_patch_boxes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
