@@ -366,16 +366,35 @@ static int launch_shade_range(ts_pipeline *p, uint32_t first, uint32_t end, ts_e
     return cl_launch_range(p->cl, p->k_shade, TS_STAGE_shade, first, end - first, TS_LOCAL_SIZE, err);
 }
 
+/* A path of the wave list and the patch its ray hit (UINT32_MAX: none or untextured). */
+typedef struct shade_key {
+    uint32_t patch, k;
+} shade_key;
+
+static int cmp_shade_key(const void *a, const void *b)
+{
+    const shade_key *x = a, *y = b;
+    if (x->patch != y->patch) return x->patch < y->patch ? -1 : 1;
+    return (x->k > y->k) - (x->k < y->k);
+}
+
 /* Launches shade over paths [0, path_count). With paged textures, the paths go in chunks
  * whose hits' tiles fit the pool together: each hit needs level 0 of its patch's textures
- * over the micro-quad around it (the shading normal's differences and the colour lookup). */
+ * over the micro-quad around it (the shading normal's differences and the colour lookup).
+ * The path list is shaded sorted by hit patch, so that a chunk holds the hits of a few
+ * patches and their tiles, not a sweep over the image that touches every tile (Pharr et
+ * al. 1997: schedule work by the data it needs); shade's results go to each path's own
+ * slots (but alive[k], per list slot), so the order changes no bit; the list and alive
+ * are put back in path order afterwards for the next wave. */
 static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count, ts_error *err)
 {
     if (!p->tex.paged) return cl_launch(p->cl, p->k_shade, TS_STAGE_shade, path_count, TS_LOCAL_SIZE, err);
     cl_command_queue q = p->cl->queue;
     uint32_t *paths = malloc((size_t)path_count * sizeof *paths);
+    uint32_t *sorted = malloc((size_t)path_count * sizeof *sorted);
+    shade_key *keys = malloc((size_t)path_count * sizeof *keys);
     ts_hit *hits = malloc((size_t)wave_size * sizeof *hits);
-    int rc = paths && hits ? TS_OK : ts_error_set(err, TS_E_MEMORY, "out of memory");
+    int rc = paths && sorted && keys && hits ? TS_OK : ts_error_set(err, TS_E_MEMORY, "out of memory");
     cl_int r0 = CL_SUCCESS, r1 = CL_SUCCESS;
     if (rc == TS_OK) {
         r0 = clEnqueueReadBuffer(q, p->wave_paths, CL_TRUE, 0, (size_t)path_count * sizeof *paths, paths, 0, NULL, NULL);
@@ -384,11 +403,22 @@ static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count,
             rc = ts_error_set(err, TS_E_DEVICE, "%s reading the wave's hits", cl_error_name(r0 != CL_SUCCESS ? r0 : r1));
     }
     ts_tex_cache *c = &p->tex;
+    if (rc == TS_OK) {
+        for (uint32_t k = 0; k < path_count; ++k) {
+            uint32_t patch = paths[k] < wave_size ? hits[paths[k]].patch : TS_INVALID;
+            if (patch >= p->scene->patch_count || c->patch_tiles[patch] == 0) patch = UINT32_MAX;
+            keys[k] = (shade_key){patch, k};
+        }
+        qsort(keys, path_count, sizeof *keys, cmp_shade_key);
+        for (uint32_t k = 0; k < path_count; ++k) sorted[k] = paths[keys[k].k];
+        r0 = clEnqueueWriteBuffer(q, p->wave_paths, CL_TRUE, 0, (size_t)path_count * sizeof *sorted, sorted, 0, NULL, NULL);
+        if (r0 != CL_SUCCESS) rc = ts_error_set(err, TS_E_DEVICE, "%s writing the shade order", cl_error_name(r0));
+    }
     uint32_t start = 0;
     tex_cache_begin(c);
     for (uint32_t k = 0; rc == TS_OK && k < path_count; ++k) {
-        ts_hit h = paths[k] < wave_size ? hits[paths[k]] : (ts_hit){0, 0, 0, TS_INVALID, 0};
-        if (h.patch >= p->scene->patch_count || c->patch_tiles[h.patch] == 0) continue;
+        if (keys[k].patch == UINT32_MAX) continue;
+        ts_hit h = hits[sorted[k]];
         float hw = 0.5f * ldexpf(1.0f, -(int)TS_PRIM_LOD(h.prim));
         float u0 = fmaxf(h.u - hw, 0.0f), v0 = fmaxf(h.v - hw, 0.0f), u1 = fminf(h.u + hw, 1.0f), v1 = fminf(h.v + hw, 1.0f);
         if (c->marked + tex_cache_mark_hit(c, p->scene, h.patch, u0, v0, u1, v1, 1) > c->slots) {
@@ -401,7 +431,16 @@ static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count,
     }
     if (rc == TS_OK) rc = tex_cache_commit(c, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
     if (rc == TS_OK) rc = launch_shade_range(p, start, path_count, err);
-    free(paths), free(hits);
+    if (rc == TS_OK) { /* back to path order: the list, and alive[k] (written per list slot) */
+        size_t bytes = (size_t)path_count * sizeof(uint32_t);
+        r0 = clEnqueueReadBuffer(q, p->alive, CL_TRUE, 0, bytes, sorted, 0, NULL, NULL);
+        for (uint32_t k = 0; r0 == CL_SUCCESS && k < path_count; ++k) keys[k].patch = sorted[k];
+        for (uint32_t k = 0; r0 == CL_SUCCESS && k < path_count; ++k) sorted[keys[k].k] = keys[k].patch;
+        if (r0 == CL_SUCCESS) r0 = clEnqueueWriteBuffer(q, p->alive, CL_TRUE, 0, bytes, sorted, 0, NULL, NULL);
+        if (r0 == CL_SUCCESS) r0 = clEnqueueWriteBuffer(q, p->wave_paths, CL_TRUE, 0, bytes, paths, 0, NULL, NULL);
+        if (r0 != CL_SUCCESS) rc = ts_error_set(err, TS_E_DEVICE, "%s restoring the path order", cl_error_name(r0));
+    }
+    free(paths), free(sorted), free(keys), free(hits);
     return rc;
 }
 
