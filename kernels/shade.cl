@@ -21,26 +21,6 @@
 #include "lib/patch.h"
 #include "lib/rng.h"
 
-inline ts_vec4 surface_normal(__global const ts_vec4 *cp, __global const ts_vec4 *n,
-                              __global const ts_patch_attr *a, __global const ts_xform *x,
-                              ts_tex_ctx tex, float u, float v, uint m)
-{
-    if (a->disp_kind == TS_DISP_NONE) return bezier_normal(cp, u, v);
-    /* The displaced surface's normal by central differences over one micro-quad (§3.2). */
-    float h = 0.5f * ldexp(1.0f, -(int)m);
-    float u0 = fmax(u - h, 0.0f), u1 = fmin(u + h, 1.0f);
-    float v0 = fmax(v - h, 0.0f), v1 = fmin(v + h, 1.0f);
-    ts_vec4 pu0 = patch_vertex(cp, cp, n, a, x, tex, u0, v), pu1 = patch_vertex(cp, cp, n, a, x, tex, u1, v);
-    ts_vec4 pv0 = patch_vertex(cp, cp, n, a, x, tex, u, v0), pv1 = patch_vertex(cp, cp, n, a, x, tex, u, v1);
-    ts_v3 du = v3(pu1.x - pu0.x, pu1.y - pu0.y, pu1.z - pu0.z);
-    ts_v3 dv = v3(pv1.x - pv0.x, pv1.y - pv0.y, pv1.z - pv0.z);
-    ts_v3 c = v3_cross(du, dv);
-    float len = sqrt(v3_dot(c, c));
-    if (!(len > 0.0f)) return bezier_normal(cp, u, v); /* a degenerate corner */
-    ts_vec4 r = {c.x / len, c.y / len, c.z / len, 0.0f};
-    return r;
-}
-
 inline void add_rgb(__global ts_vec4 *acc, const float t[3], const float l[3], float w)
 {
     ts_vec4 a = *acc;
@@ -108,7 +88,7 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     }
     __global const ts_patch_attr *a = attr + h.patch;
     __global const ts_vec4 *c = cp + (size_t)h.patch * 16u;
-    ts_vec4 n4 = surface_normal(c, corner_n + (size_t)h.patch * 4u, a, xform + a->xform, tex, h.u,
+    ts_vec4 n4 = patch_shading_normal(c, corner_n + (size_t)h.patch * 4u, a, xform + a->xform, tex, h.u,
                                 h.v, TS_PRIM_LOD(h.prim));
     float cs[3];
     tex_surface_colour(a, tex, h.u, h.v, cs);

@@ -6,6 +6,7 @@
 #define TS_PATCH_H
 
 #include "lib/bezier.h"
+#include "lib/bsdf.h"
 #include "lib/displace.h"
 #include "lib/shared_types.h"
 
@@ -69,6 +70,30 @@ TS_INLINE ts_vec4 patch_flatness(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLOBAL ts
     }
     /* Slack for the rounding of the float evaluation of the corners. */
     ts_vec4 r = {e[0] * 1.001f, e[1] * 1.001f, e[2] * 1.001f, 0.0f};
+    return r;
+}
+
+/* The shading normal at (u, v) of patch cp diced at LOD m (shade.cl; the Embree
+ * benchmark's bounce rays on the host): the Bézier normal without displacement, else the
+ * displaced surface's normal by central differences over one micro-quad (Hanika §3.2),
+ * falling back to the Bézier normal at a degenerate corner. */
+TS_INLINE ts_vec4 patch_shading_normal(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLOBAL ts_vec4 *n,
+                                       TS_CONST_GLOBAL ts_patch_attr *a,
+                                       TS_CONST_GLOBAL ts_xform *x, ts_tex_ctx tex, float u,
+                                       float v, ts_u32 m)
+{
+    if (a->disp_kind == TS_DISP_NONE) return bezier_normal(cp, u, v);
+    float h = 0.5f * ldexp(1.0f, -(int)m);
+    float u0 = fmax(u - h, 0.0f), u1 = fmin(u + h, 1.0f);
+    float v0 = fmax(v - h, 0.0f), v1 = fmin(v + h, 1.0f);
+    ts_vec4 pu0 = patch_vertex(cp, cp, n, a, x, tex, u0, v), pu1 = patch_vertex(cp, cp, n, a, x, tex, u1, v);
+    ts_vec4 pv0 = patch_vertex(cp, cp, n, a, x, tex, u, v0), pv1 = patch_vertex(cp, cp, n, a, x, tex, u, v1);
+    ts_v3 du = v3(pu1.x - pu0.x, pu1.y - pu0.y, pu1.z - pu0.z);
+    ts_v3 dv = v3(pv1.x - pv0.x, pv1.y - pv0.y, pv1.z - pv0.z);
+    ts_v3 c = v3_cross(du, dv);
+    float len = sqrt(v3_dot(c, c));
+    if (!(len > 0.0f)) return bezier_normal(cp, u, v);
+    ts_vec4 r = {c.x / len, c.y / len, c.z / len, 0.0f};
     return r;
 }
 

@@ -127,29 +127,18 @@ int ray_set_eye(const ts_scene *s, uint32_t w, uint32_t h, uint32_t seed, ts_ray
     return TS_OK;
 }
 
-/* The shading normal at (u, v) of a patch diced at m: the shade kernel's surface_normal
- * (kernels/shade.cl) on the host. */
+/* The shading normal at (u, v) of a patch diced at m, as shade computes it
+ * (lib/patch.h patch_shading_normal), with pipeline.c's defaults for missing normals and
+ * transforms. */
 ts_vec4 ray_set_normal(const ts_scene *s, uint32_t patch, float u, float v, uint32_t m)
 {
     const ts_vec4 *cp = &s->cp[(size_t)patch * 16u];
     const ts_patch_attr *a = &s->attr[patch];
-    if (a->disp_kind == TS_DISP_NONE) return bezier_normal(cp, u, v);
     static const ts_vec4 up[4] = {{0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}};
     const ts_vec4 *n = s->corner_n ? &s->corner_n[(size_t)patch * 4u] : up;
     static const ts_xform identity = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
     const ts_xform *x = s->xform ? &s->xform[a->xform] : &identity;
-    float h = 0.5f * ldexpf(1.0f, -(int)m);
-    float u0 = fmaxf(u - h, 0.0f), u1 = fminf(u + h, 1.0f);
-    float v0 = fmaxf(v - h, 0.0f), v1 = fminf(v + h, 1.0f);
-    ts_tex_ctx tex = scene_tex_ctx(s);
-    ts_vec4 pu0 = patch_vertex(cp, cp, n, a, x, tex, u0, v), pu1 = patch_vertex(cp, cp, n, a, x, tex, u1, v);
-    ts_vec4 pv0 = patch_vertex(cp, cp, n, a, x, tex, u, v0), pv1 = patch_vertex(cp, cp, n, a, x, tex, u, v1);
-    ts_v3 du = v3(pu1.x - pu0.x, pu1.y - pu0.y, pu1.z - pu0.z);
-    ts_v3 dv = v3(pv1.x - pv0.x, pv1.y - pv0.y, pv1.z - pv0.z);
-    ts_v3 c = v3_cross(du, dv);
-    float len = sqrtf(v3_dot(c, c));
-    if (!(len > 0.0f)) return bezier_normal(cp, u, v);
-    return (ts_vec4){c.x / len, c.y / len, c.z / len, 0.0f};
+    return patch_shading_normal(cp, n, a, x, scene_tex_ctx(s), u, v, m);
 }
 
 /* One generation of diffuse bounce rays from the hits of `eye` (see the top of the file). */
