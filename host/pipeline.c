@@ -197,47 +197,47 @@ static int build_lights(ts_pipeline *p, ts_patch_attr *attr, ts_light *lights, t
 }
 
 /* Patch data as the kernels read it: the scene's arrays, or defaults where the scene has
- * none (no motion: cp1 = cp; no transforms: the identity; no normals: +z). */
-static int create_patch_buffers(ts_pipeline *p, ts_error *err)
+ * none (no motion: cp1 = cp; no transforms: the identity; no normals: +z). boxes: each
+ * patch's scene_patch_box, computed once by pipeline_create. */
+static int create_patch_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *err)
 {
     const ts_scene *s = p->scene;
     size_t n = s->patch_count ? s->patch_count : 1;
     const cl_mem_flags ro_copy = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
     ts_vec4 *flat = calloc(n, sizeof *flat), *normals = NULL;
-    ts_box *pbox = calloc(n, sizeof *pbox);
     ts_patch_attr *attr = calloc(n, sizeof *attr);
     ts_light lights[66];
     ts_emitter *emitters = NULL;
     uint32_t emitter_count = 0;
     env_map env = {0};
     if (s->dome.present && s->dome.mapname[0] && env_load(s->dome.mapname, &env, err)) {
-        free(env.texels), free(env.marginal), free(env.conditional), free(flat), free(pbox), free(attr);
+        free(env.texels), free(env.marginal), free(env.conditional), free(flat), free(attr);
         return err->code;
     }
-    if (!flat || !attr || !pbox) {
-        free(flat), free(pbox), free(attr);
+    if (!flat || !attr) {
+        free(flat), free(attr);
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     }
     if (s->light_count > 64) {
-        free(flat), free(pbox), free(attr);
+        free(flat), free(attr);
         return ts_error_set(err, TS_E_SCENE, "%u distant lights: at most 64", s->light_count);
     }
     memcpy(attr, s->attr, s->patch_count * sizeof *attr);
     if (build_lights(p, attr, lights, &emitters, &emitter_count, &env, err)) {
-        free(flat), free(pbox), free(attr);
+        free(flat), free(attr);
         return err->code;
     }
     /* w: the longest side of the patch's box, for the secondary-ray offset l / 2^m. */
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         flat[i] = patch_flatness(&s->cp[i * 16], s->cp1 ? &s->cp1[i * 16] : &s->cp[i * 16], 0);
-        ts_box b = pbox[i] = scene_patch_box(s, i);
+        ts_box b = boxes[i];
         flat[i].w = fmaxf(b.hi_x - b.lo_x, fmaxf(b.hi_y - b.lo_y, b.hi_z - b.lo_z));
     }
     const ts_vec4 *cn = s->corner_n;
     if (!cn) {
         normals = calloc(n * 4, sizeof *normals);
         if (!normals) {
-            free(flat), free(pbox);
+            free(flat);
             return ts_error_set(err, TS_E_MEMORY, "out of memory");
         }
         for (size_t i = 0; i < n * 4; ++i) normals[i].z = 1.0f;
@@ -262,7 +262,7 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
         {&p->xform, (s->xform_count ? s->xform_count : 1) * sizeof(ts_xform),
          s->xform_count ? (const void *)s->xform : (const void *)&identity},
         {&p->flatness, n * sizeof(ts_vec4), flat},
-        {&p->patch_box, n * sizeof(ts_box), pbox},
+        {&p->patch_box, n * sizeof(ts_box), s->patch_count ? boxes : NULL},
         {&p->textures, (s->texture_count ? s->texture_count : 1) * sizeof(ts_texture), s->textures},
     };
     int rc = TS_OK;
@@ -274,7 +274,7 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
         *list[i].m = cl_buffer_create(p->cl, ro_copy, list[i].size, (void *)host, err);
         if (!*list[i].m) rc = err->code;
     }
-    free(flat), free(pbox);
+    free(flat);
     free(normals);
     free(attr);
     free(emitters);
@@ -289,13 +289,13 @@ static int create_patch_buffers(ts_pipeline *p, ts_error *err)
     return tex_cache_upload_initial(&p->tex, p->cl, p->tex_pool, p->tex_pages, s, p->stats, err);
 }
 
-static int create_buffers(ts_pipeline *p, ts_error *err)
+static int create_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *err)
 {
     ts_cl *cl = p->cl;
     size_t rays = p->plan.ray_capacity, pairs = p->plan.pair_capacity;
     size_t n = p->scene->patch_count ? p->scene->patch_count : 1;
     const cl_mem_flags host_rw = CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR;
-    if (create_patch_buffers(p, err)) return err->code;
+    if (create_patch_buffers(p, boxes, err)) return err->code;
     struct {
         cl_mem *m;
         cl_mem_flags flags;
@@ -369,11 +369,13 @@ int pipeline_create(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, const ts_p
     }
     memset(p->patch_lod, (int)plan->max_lod, n);
     for (uint32_t i = 0; i < scene->patch_count; ++i) boxes[i] = scene_patch_box(scene, i);
+    /* The patch boxes: the top-level BVH's leaves, build's clamp (patch_box) and the
+     * secondary-ray offset (flatness w). */
     int rc = qbvh_build(&p->qbvh, boxes, scene->patch_count, err);
+    if (rc == TS_OK && !(p->sorter = radix_sorter_create(0, err))) rc = err->code;
+    if (rc == TS_OK && (create_kernels(p, err) || create_buffers(p, boxes, err))) rc = err->code;
     free(boxes);
     if (rc) return rc;
-    if (!(p->sorter = radix_sorter_create(0, err))) return err->code;
-    if (create_kernels(p, err) || create_buffers(p, err)) return err->code;
     /* TESSERA_SORT_VIA_COPY=1|0 overrides the choice (tests run both paths on PoCL). */
     const char *via_copy = getenv("TESSERA_SORT_VIA_COPY");
     if (via_copy && *via_copy ? strcmp(via_copy, "0") != 0 : !cl->info.host_unified) {
