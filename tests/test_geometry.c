@@ -70,13 +70,7 @@ static void test_memory_budget_does_not_change_the_image(void **state)
     snprintf(args, sizeof args, "render '%s' -o '%s' --memory 1024 --stats '%s' %s",
              test_source_path("scene/teapot.rib"), path("big.exr"), path("big.json"), common);
     render_ok(args);
-    ts_image a, b;
-    load("small.exr", &a);
-    load("big.exr", &b);
-    assert_int_equal(a.width * a.height * a.channels, b.width * b.height * b.channels);
-    assert_memory_equal(a.pixels, b.pixels, sizeof(float) * a.width * a.height * a.channels);
-    image_free(&a);
-    image_free(&b);
+    test_assert_same_pixels(path("small.exr"), path("big.exr"));
     /* The small budget really split the work: more iterations or waves. */
     assert_true(test_stats_number(path("small.json"), "counters.iterations") >
                 test_stats_number(path("big.json"), "counters.iterations"));
@@ -96,13 +90,7 @@ static void test_sort_by_copy_matches_mapped_sort(void **state)
         render_ok(args);
     }
     unsetenv("TESSERA_SORT_VIA_COPY");
-    ts_image a, b;
-    load("mapped.exr", &a);
-    load("copied.exr", &b);
-    assert_int_equal(a.width * a.height * a.channels, b.width * b.height * b.channels);
-    assert_memory_equal(a.pixels, b.pixels, sizeof(float) * a.width * a.height * a.channels);
-    image_free(&a);
-    image_free(&b);
+    test_assert_same_pixels(path("mapped.exr"), path("copied.exr"));
 }
 
 static void test_ten_billion_potential_micropolygons_in_fixed_memory(void **state)

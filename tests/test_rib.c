@@ -698,30 +698,12 @@ static void test_ignored_requests_warn_once(void **state)
     (void)state;
     const char *text = "Atmosphere \"fog\"\nAtmosphere \"fog\"\n  Sides 2\nOption \"a\" \"b\" [1]\n"
                        "WorldBegin\nWorldEnd\n";
-    FILE *tmp = tmpfile();
-    assert_non_null(tmp);
-    fflush(stderr);
-    int saved = dup(fileno(stderr));
-    assert_true(saved >= 0);
-    assert_true(dup2(fileno(tmp), fileno(stderr)) >= 0);
-    ts_scene s;
-    ts_error e;
-    memset(&s, 0, sizeof s);
-    memset(&e, 0, sizeof e);
-    int rc = rib_parse_string("w.rib", text, strlen(text), &s, 0, &e);
-    fflush(stderr);
-    dup2(saved, fileno(stderr));
-    close(saved);
+    int rc = -1;
+    const char *out = test_rib_warnings(text, &rc);
     assert_int_equal(rc, TS_OK);
-    char out[1024] = "";
-    rewind(tmp);
-    size_t got = fread(out, 1, sizeof out - 1, tmp);
-    out[got] = '\0';
-    fclose(tmp);
     assert_string_equal(out, "w.rib:1:1: warning: Atmosphere is ignored\n"
                              "w.rib:3:3: warning: Sides is ignored\n"
                              "w.rib:4:1: warning: Option is ignored\n");
-    scene_free(&s);
 }
 
 /* Hostile input: truncations and byte flips of the teapot file must load or fail cleanly

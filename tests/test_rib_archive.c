@@ -59,32 +59,6 @@ static void write_file(const char *dir, const char *name, const char *text)
     fclose(f);
 }
 
-/* Runs rib_parse_string with stderr captured; returns what it printed. */
-static const char *warnings_of(const char *text, int *rc)
-{
-    static char out[4096];
-    FILE *tmp = tmpfile();
-    assert_non_null(tmp);
-    fflush(stderr);
-    int saved = dup(fileno(stderr));
-    assert_true(saved >= 0);
-    assert_true(dup2(fileno(tmp), fileno(stderr)) >= 0);
-    ts_scene s;
-    ts_error e;
-    memset(&s, 0, sizeof s);
-    memset(&e, 0, sizeof e);
-    *rc = rib_parse_string("w.rib", text, strlen(text), &s, 0, &e);
-    fflush(stderr);
-    dup2(saved, fileno(stderr));
-    close(saved);
-    rewind(tmp);
-    size_t got = fread(out, 1, sizeof out - 1, tmp);
-    out[got] = '\0';
-    fclose(tmp);
-    scene_free(&s);
-    return out;
-}
-
 static void assert_cs(const ts_scene *s, uint32_t p, double r, double g, double b)
 {
     const ts_patch_attr *a = &s->attr[p];
@@ -163,7 +137,7 @@ static void test_clipping_shutter_crop(void **state)
                                             "WorldBegin");
     /* Each stored-but-unused option warns once; Option and Attribute once per name. */
     int rc;
-    const char *out = warnings_of("Clipping 0.1 10\nClipping 0.2 10\nShutter 0 1\nShutter 0 1\n"
+    const char *out = test_rib_warnings("Clipping 0.1 10\nClipping 0.2 10\nShutter 0 1\nShutter 0 1\n"
                                   "CropWindow 0 1 0 1\nOption \"limits\" \"bucketsize\" [16 16]\n"
                                   "Option \"searchpath\" \"shader\" \"x\"\nWorldBegin\n"
                                   "Attribute \"identifier\" \"name\" \"a\"\n"
@@ -269,7 +243,7 @@ static void test_n_classes_and_st(void **state)
                  "t.rib:1:67: error: Patch: normal 0 of \"N\" is zero");
     /* Variables other than "P", "N", "Cs", "st" are accepted with one warning each. */
     int rc;
-    const char *out = warnings_of("Patch \"bilinear\" " UNIT_P " \"varying float s\" [0 1 0 1]\n"
+    const char *out = test_rib_warnings("Patch \"bilinear\" " UNIT_P " \"varying float s\" [0 1 0 1]\n"
                                   "Patch \"bilinear\" " UNIT_P " \"varying float s\" [0 1 0 1]\n",
                                   &rc);
     assert_int_equal(rc, TS_OK);

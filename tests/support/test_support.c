@@ -43,6 +43,31 @@ void test_parse_rib_ok(const char *text, ts_scene *s)
     if (test_parse_rib(text, s, &e) != TS_OK) fail_msg("unexpected error: %s", e.msg);
 }
 
+const char *test_rib_warnings(const char *text, int *rc)
+{
+    static char out[4096];
+    FILE *tmp = tmpfile();
+    assert_non_null(tmp);
+    fflush(stderr);
+    int saved = dup(fileno(stderr));
+    assert_true(saved >= 0);
+    assert_true(dup2(fileno(tmp), fileno(stderr)) >= 0);
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    *rc = rib_parse_string("w.rib", text, strlen(text), &s, 0, &e);
+    fflush(stderr);
+    dup2(saved, fileno(stderr));
+    close(saved);
+    rewind(tmp);
+    size_t got = fread(out, 1, sizeof out - 1, tmp);
+    out[got] = '\0';
+    fclose(tmp);
+    scene_free(&s);
+    return out;
+}
+
 const char *test_tessera_binary(void)
 {
     const char *b = getenv("TESSERA_BINARY");
@@ -197,6 +222,19 @@ void test_read_image(const char *path, struct ts_image *img)
 {
     ts_error err = {0};
     if (image_read(path, img, &err)) fail_msg("%s", err.msg);
+}
+
+void test_assert_same_pixels(const char *path_a, const char *path_b)
+{
+    ts_image a, b;
+    test_read_image(path_a, &a);
+    test_read_image(path_b, &b);
+    assert_int_equal(a.width, b.width);
+    assert_int_equal(a.height, b.height);
+    assert_int_equal(a.channels, b.channels);
+    assert_memory_equal(a.pixels, b.pixels, sizeof(float) * a.width * a.height * a.channels);
+    image_free(&a);
+    image_free(&b);
 }
 
 int test_has_device(void)

@@ -22,6 +22,10 @@ struct ts_scene;
 int test_parse_rib(const char *text, struct ts_scene *s, ts_error *e);
 /* The same for text that must load: fails the test with the loader's message otherwise. */
 void test_parse_rib_ok(const char *text, struct ts_scene *s);
+
+/* Parses RIB text as file "w.rib" into a scratch scene (freed) with stderr captured; sets
+ * *rc to rib_parse_string's status and returns what it printed (warnings), a static buffer. */
+const char *test_rib_warnings(const char *text, int *rc);
 /* Path of the tessera binary ($TESSERA_BINARY). */
 const char *test_tessera_binary(void);
 /* Opens the default device with the embedded kernels; exits 77 (skip) when the machine has
@@ -50,6 +54,10 @@ void test_tessera_ok(const char *dir, const char *fmt, ...) __attribute__((forma
 /* Reads an image with image_read or fails the test (free it with image_free). */
 struct ts_image;
 void test_read_image(const char *path, struct ts_image *img);
+
+/* The two image files hold the same pixels bit for bit: same size, same channels, same
+ * float values (fails the test otherwise). */
+void test_assert_same_pixels(const char *path_a, const char *path_b);
 /* The main() of a test that runs `tessera` or opens a device: exits 77 (skipped) when the
  * machine has no OpenCL device, else runs the group. */
 #define TEST_RUN_WITH_DEVICE(tests, setup)                                                  \
