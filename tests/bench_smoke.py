@@ -51,12 +51,12 @@ def load(path):
 
 
 def stage_names(src):
-    """The stage names of host/stages.h, in order."""
-    with open(os.path.join(src, "host", "stages.h")) as f:
+    """The stage names of host/base/stages.h, in order."""
+    with open(os.path.join(src, "host", "base", "stages.h")) as f:
         text = f.read()
     body = text[text.index("#define TS_STAGES(X)"):text.index("typedef enum ts_stage")]
     names = re.findall(r"X\((\w+),", body)
-    check(len(names) >= 9, f"host/stages.h: found only {names}")
+    check(len(names) >= 9, f"host/base/stages.h: found only {names}")
     return names
 
 

@@ -1,6 +1,6 @@
 /* test_bottom_level.c — the bottom_level kernels against their plain-C reference
- * (host/bottom_level_ref.c, DESIGN.md §5), and dice/build against theirs
- * (host/dice_build_ref.c): the real pipeline stages on the device dice the teapot's patches
+ * (host/ref/bottom_level_ref.c, DESIGN.md §5), and dice/build against theirs
+ * (host/ref/dice_build_ref.c): the real pipeline stages on the device dice the teapot's patches
  * at LODs 0..5, then every (ray, patch) pair of a 48 x 27 frame is traced by the kernel and
  * by the C reference; the hit records (t, u, v, patch, prim) must agree bitwise for every
  * pair, in both geometry modes (leaf boxes, micro-triangles), leaf blocks of 1, 2 and 4
@@ -9,12 +9,12 @@
  * inside-the-box rule and motion interpolation are covered. Scenes: the teapot, a displaced
  * (fbm) teapot, and the displaced teapot moving over the shutter. */
 #include "test_support.h"
-#include "bottom_level_ref.h"
-#include "dice_build_ref.h"
+#include "ref/bottom_level_ref.h"
+#include "ref/dice_build_ref.h"
 #include "lib/quadtree.h"
-#include "pipeline.h"
-#include "render.h"
-#include "rib.h"
+#include "pipeline/pipeline.h"
+#include "app/render.h"
+#include "scene/rib/rib.h"
 
 #include <stdio.h>
 #include <stdlib.h>

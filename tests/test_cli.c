@@ -2,7 +2,7 @@
  * and no output file; a render writes the EXR with its AOV channels and a --stats JSON with
  * the schema of DESIGN.md §4; the second run loads the kernels from the binary cache. */
 #include "test_support.h"
-#include "image.h"
+#include "image/image.h"
 
 #include <cjson/cJSON.h>
 #include <math.h>

@@ -7,8 +7,8 @@
 #include "test_support.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
-#include "image.h"
-#include "pipeline.h"
+#include "image/image.h"
+#include "pipeline/pipeline.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -6,9 +6,9 @@
  * both hit, >= 99.9% hit the same patch at |t - t_embree| <= 1e-4 t_embree. */
 #include "test_support.h"
 #include "embree_ref.h"
-#include "pipeline.h"
-#include "render.h"
-#include "rib.h"
+#include "pipeline/pipeline.h"
+#include "app/render.h"
+#include "scene/rib/rib.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -5,7 +5,7 @@
  * uninterrupted render and refuses one made by another command; a kernel that does not
  * compile names kernels/FILE.cl:LINE. */
 #include "test_support.h"
-#include "image.h"
+#include "image/image.h"
 
 #include <fcntl.h>
 #include <signal.h>

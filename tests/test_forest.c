@@ -1,10 +1,10 @@
-/* test_forest.c — the procedural forest (host/forest.c): deterministic, linear in the
+/* test_forest.c — the procedural forest (host/scene/forest.c): deterministic, linear in the
  * number of trees, at least 10^11 / 10^12 potential micro-polygons (4^10 per patch) for
  * 100 / 1000 trees (counted without storing, as the scene would hold them), finite patches
  * with unit corner normals, and watertight rings around each branch segment. Host only;
  * nothing is rendered. */
-#include "forest.h"
-#include "scene.h"
+#include "scene/forest.h"
+#include "scene/scene.h"
 #include "test_support.h"
 
 #include <math.h>

@@ -4,8 +4,8 @@
  * leak), a failure must leave the scene zeroed with a message, and a success must give a
  * scene that scene_free releases. Host only: never skips. */
 #include "test_support.h"
-#include "rib.h"
-#include "scene.h"
+#include "scene/rib/rib.h"
+#include "scene/scene.h"
 
 #include <dirent.h>
 #include <stdio.h>

@@ -8,7 +8,7 @@
  * - motion blur (§3.4): a moving patch's image equals the average of the patch rendered
  *   static at many times, within a tolerance derived from the sample count. */
 #include "test_support.h"
-#include "image.h"
+#include "image/image.h"
 
 #include <math.h>
 #include <stdio.h>

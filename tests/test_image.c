@@ -1,5 +1,5 @@
-/* test_image.c — image I/O through OpenImageIO (host/image.h) and the sRGB tone map
- * (host/tonemap.h): bit-exact EXR round trips, PNG values, metadata, and the atomic-write
+/* test_image.c — image I/O through OpenImageIO (host/image/image.h) and the sRGB tone map
+ * (host/image/tonemap.h): bit-exact EXR round trips, PNG values, metadata, and the atomic-write
  * guarantees (no partial file, no stray temporary, an existing target untouched). */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -17,9 +17,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "error.h"
-#include "image.h"
-#include "tonemap.h"
+#include "base/error.h"
+#include "image/image.h"
+#include "image/tonemap.h"
 
 /* ---- scratch directory: one per test, emptied and removed by teardown ---- */
 

@@ -2,7 +2,7 @@
  * that ignore #line (NVIDIA reports "<kernel>:LINE:COL") still get kernels/FILE:LINE in
  * the error message. Host only: runs without an OpenCL device. */
 #include "test_support.h"
-#include "kernel_source.h"
+#include "device/kernel_source.h"
 
 #include <stdio.h>
 #include <stdlib.h>

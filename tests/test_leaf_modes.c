@@ -4,9 +4,9 @@
  * of 1, 2 and 4 micro-quads a side, in both geometry modes; the leaf size changes no hit
  * distance; the utilisation counters are consistent. */
 #include "test_support.h"
-#include "pipeline.h"
-#include "render.h"
-#include "rib.h"
+#include "pipeline/pipeline.h"
+#include "app/render.h"
+#include "scene/rib/rib.h"
 
 #include <stdio.h>
 #include <stdlib.h>

@@ -1,13 +1,13 @@
-/* test_mesh.c — meshes as PN patches (host/mesh.c) and scene_load (host/scene_load.c).
+/* test_mesh.c — meshes as PN patches (host/scene/mesh.c) and scene_load (host/scene/scene_load.c).
  * The patches must interpolate the mesh vertices, their Bézier normal at each corner must
  * be parallel to the vertex normal (which is also the corner displacement normal), shared
  * edges must have identical control points, and a PN triangle must equal its collapsed
  * bicubic form exactly. Checked on formulas, on small OBJ files written here, and on a real
  * model from Debian's assimp-testmodels (that part is skipped, with a message, only when the
  * package is not installed). Host only. */
-#include "mesh.h"
-#include "scene.h"
-#include "scene_load.h"
+#include "scene/mesh.h"
+#include "scene/scene.h"
+#include "scene/scene_load.h"
 #include "test_support.h"
 
 #include <math.h>

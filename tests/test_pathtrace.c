@@ -7,7 +7,7 @@
  * - the same command gives the same bits, whatever --memory or the thread count;
  * - shadow rays are counted apart. Tolerances come from the sample counts. */
 #include "test_support.h"
-#include "image.h"
+#include "image/image.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -1,4 +1,4 @@
-/* test_radix_sort.c — the `sort` stage (host/radix_sort.c) against a reference: qsort of the
+/* test_radix_sort.c — the `sort` stage (host/pipeline/sort.c) against a reference: qsort of the
  * valid pairs on (leaf, input position), which is the unique stable order. Host-only; never
  * skips.
  *
@@ -20,7 +20,7 @@
 
 #include <cmocka.h>
 
-#include "radix_sort.h"
+#include "pipeline/sort.h"
 
 #define THREAD_CASES 3 /* pools of 1, 2 and 3 threads */
 

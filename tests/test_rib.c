@@ -1,10 +1,10 @@
-/* test_rib.c — the RIB loader (host/rib*.c), the basis conversion (host/basis.c) and scene
- * growth (host/scene.c). Host only: never skips. Every test asserts numbers: transformed
+/* test_rib.c — the RIB loader (host/scene/rib/rib*.c), the basis conversion (host/scene/rib/basis.c) and scene
+ * growth (host/scene/scene.c). Host only: never skips. Every test asserts numbers: transformed
  * control points, surface points compared with a direct evaluation of the original basis,
  * patch counts, and the exact "file:line:col: error:" prefix of each scene error. */
-#include "basis.h"
-#include "rib.h"
-#include "scene.h"
+#include "scene/rib/basis.h"
+#include "scene/rib/rib.h"
+#include "scene/scene.h"
 
 #include <math.h>
 #include <stdarg.h>

@@ -1,10 +1,10 @@
 /* test_rib_archive.c — the RIB requests real files write beyond the basic subset
- * (host/rib_options.c, host/rib_archive.c, primitive variables in host/rib_geom.c):
+ * (host/scene/rib/rib_options.c, host/scene/rib/rib_archive.c, primitive variables in host/scene/rib/rib_geom.c):
  * PixelSamples, Clipping, Shutter, CropWindow, "Cs"/"N" of every storage class, ReadArchive
  * and Procedural (DelayedReadArchive, DynamicLoad "mesh" and "forest"). Every error path
  * asserts its exact "file:line:col: error:" message. Host only: never skips. */
-#include "rib.h"
-#include "scene.h"
+#include "scene/rib/rib.h"
+#include "scene/scene.h"
 #include "test_support.h"
 
 #include <math.h>

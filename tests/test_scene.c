@@ -1,11 +1,11 @@
-/* test_scene.c — the scene model (host/scene.c): corner displacement normals from
+/* test_scene.c — the scene model (host/scene/scene.c): corner displacement normals from
  * scene_finalize, world-to-object transforms, moving patches and scene_patch_box, which
  * must hold the displaced surface (lib/bezier.h, lib/displace.h) over the whole shutter.
  * Host only: never skips. */
-#include "rib.h"
-#include "scene.h"
-#include "scene_load.h"
-#include "dice_build_ref.h"
+#include "scene/rib/rib.h"
+#include "scene/scene.h"
+#include "scene/scene_load.h"
+#include "ref/dice_build_ref.h"
 #include "lib/quadtree.h"
 
 #include "lib/bezier.h"

@@ -1,12 +1,12 @@
-/* test_texture.c — image textures (host/texture.c, lib/texture.h, docs/rendering.md):
+/* test_texture.c — image textures (host/scene/texture.c, lib/texture.h, docs/rendering.md):
  * the min-max pyramid against brute force, tex_range against bilinear lookups at random
  * points of random st rectangles (wrapping, negative and large coordinates), the RIB
  * requests and their errors (file:line:col), and two renders: a colour texture seen through
  * the albedo AOV, a constant displacement texture equal to a moved plane (Z AOV), and
  * paging (a tile pool smaller than the textures) giving the same image as full residency. */
-#include "image.h"
-#include "rib.h"
-#include "scene.h"
+#include "image/image.h"
+#include "scene/rib/rib.h"
+#include "scene/scene.h"
 #include "lib/displace.h"
 #include "lib/texture.h"
 

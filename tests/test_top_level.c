@@ -4,7 +4,7 @@
  * finite tmax, and the traversal ends in TS_INVALID. */
 #include "test_support.h"
 #include "lib/intersect.h"
-#include "pipeline.h"
+#include "pipeline/pipeline.h"
 
 #include <stdlib.h>
 #include <string.h>

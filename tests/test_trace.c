@@ -5,9 +5,9 @@
 #include "test_support.h"
 #include "lib/patch.h"
 #include "lib/intersect.h"
-#include "pipeline.h"
-#include "render.h"
-#include "rib.h"
+#include "pipeline/pipeline.h"
+#include "app/render.h"
+#include "scene/rib/rib.h"
 
 #include <math.h>
 #include <stdlib.h>

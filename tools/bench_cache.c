@@ -1,7 +1,7 @@
 /* bench_cache.c — reordering vs caching (Hanika et al. 2010, Table 2; Pharr et al. 1997):
  * how many times patches are diced to trace the same eye rays (issue 8 item 1, DESIGN.md §6).
  *
- * reordering: Tessera's wavefront loop (host/trace.c) traces the frame's eye rays in waves
+ * reordering: Tessera's wavefront loop (host/pipeline/trace.c) traces the frame's eye rays in waves
  *   of the plan's ray capacity (--memory; `tessera render` makes its waves half that, as
  *   each path also owns a shadow-ray slot); the count is its `patches_diced` counter. The
  *   lod stage first sets each patch's m from the frame's ray counts (4^m >= R / spp), as
@@ -9,11 +9,11 @@
  * cache C (10, 100, 1000 diced patches, LRU): the same rays (read back from the device) are
  *   traced one at a time in the original order — scanline order of pixels, each pixel's
  *   samples in turn — by a plain-C tracer: exact front-to-back traversal of the same patch
- *   QBVH (host/qbvh.c) with a priority queue on entry distance, stopping when the nearest
+ *   QBVH (host/pipeline/qbvh.c) with a priority queue on entry distance, stopping when the nearest
  *   entry left is beyond the closest hit so far; each patch reached is looked up in the
  *   cache (a miss is one dicing of the patch at Tessera's m for it), then intersected with
- *   the plain-C bottom level (host/bottom_level_ref.c, leaf boxes, leaf size 1) on the grid
- *   and tree of the plain-C dice/build references (host/dice_build_ref.c). The three caches
+ *   the plain-C bottom level (host/ref/bottom_level_ref.c, leaf boxes, leaf size 1) on the grid
+ *   and tree of the plain-C dice/build references (host/ref/dice_build_ref.c). The three caches
  *   see the same sequence of lookups, so one pass serves all three. The host keeps the grids
  *   it really dices in a memo (cleared when it passes --memo-mb) so each patch is not
  *   recomputed on every simulated miss; that changes no count.
@@ -34,13 +34,13 @@
  *   small: scene/forest-100.rib and scene/forest-1000.rib at 480x192, 4 spp
  *   full:  the same at 1920x768, 4 spp (the paper: 1920x768x64 rays, with motion blur)
  * Scene paths are relative to the working directory. */
-#include "bottom_level_ref.h"
-#include "dice_build_ref.h"
+#include "ref/bottom_level_ref.h"
+#include "ref/dice_build_ref.h"
 #include "lib/intersect.h"
 #include "lib/quadtree.h"
-#include "pipeline.h"
-#include "render.h"
-#include "rib.h"
+#include "pipeline/pipeline.h"
+#include "app/render.h"
+#include "scene/rib/rib.h"
 
 #include <cjson/cJSON.h>
 #include <getopt.h>

@@ -44,13 +44,13 @@
  * --memory. Exit 77 when there is no OpenCL device (the smoke test skips).
  */
 #include "bench_util.h"
-#include "cl_runtime.h"
+#include "device/device.h"
 #include "embree_ref.h"
 #include "ray_sets.h"
-#include "pipeline.h"
-#include "render.h"
-#include "scene_load.h"
-#include "stats.h"
+#include "pipeline/pipeline.h"
+#include "app/render.h"
+#include "scene/scene_load.h"
+#include "base/stats.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>

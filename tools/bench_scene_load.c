@@ -1,7 +1,7 @@
 /* bench_scene_load.c — how long a scene takes to load and how much host memory it needs
  * (issue 7: the forest's load time and memory for 1, 100 and 1000 trees, docs/benchmarks.md).
  *
- * Loads each scene R times with scene_load (RIB or mesh, host/scene_load.h: parsing,
+ * Loads each scene R times with scene_load (RIB or mesh, host/scene/scene_load.h: parsing,
  * procedurals, scene_finalize) and prints the patch count, micropolygons_potential
  * (patches * 4^TS_LOD_LIMIT, as --stats counts it), the median load time and the peak
  * resident set of the process after that scene (getrusage). The process holds one scene at
@@ -16,7 +16,7 @@
  *                         [--json PATH] [SCENE...]
  */
 #include "bench_util.h"
-#include "scene_load.h"
+#include "scene/scene_load.h"
 
 #include <cjson/cJSON.h>
 #include <getopt.h>

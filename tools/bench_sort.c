@@ -1,4 +1,4 @@
-/* bench_sort.c — throughput of the `sort` stage (host/radix_sort.c) against the machine's
+/* bench_sort.c — throughput of the `sort` stage (host/pipeline/sort.c) against the machine's
  * copy bandwidth measured in the same run (DESIGN.md §6).
  *
  * For key ranges 32, 65536 and 2^21 (1, 2 and 3 passes) it sorts N pairs (8 bytes each),
@@ -19,7 +19,7 @@
  * usage: bench_sort [--size tiny|small|full] [--pairs N] [--repeat R] [--threads T] [--json PATH]
  */
 #include "bench_util.h"
-#include "radix_sort.h"
+#include "pipeline/sort.h"
 
 #include <cjson/cJSON.h>
 #include <getopt.h>

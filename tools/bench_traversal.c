@@ -7,7 +7,7 @@
  * times after one warm-up, the same pairs are traced by
  *   opencl:     the per-ray kernel bottom_level_trace on the default device (PoCL), timed by
  *               its profiling event (and by the wall clock around launch + finish);
- *   c_1thread:  host/bottom_level_ref.c on one thread;
+ *   c_1thread:  host/ref/bottom_level_ref.c on one thread;
  *   c_threads:  the same on T pthreads (default 2, PoCL's thread count on this machine)
  *               taking chunks of 1024 pairs from a shared counter;
  * and the medians are reported as M traversals/s with the ratios C / OpenCL, and how many
@@ -21,11 +21,11 @@
  *   tiny: 64x36, m = 3; small: 640x360, m = 6; full: 1280x720, m = 8 (the foundation
  *   benchmark's teapot). */
 #include "bench_util.h"
-#include "bottom_level_ref.h"
+#include "ref/bottom_level_ref.h"
 #include "lib/intersect.h"
-#include "pipeline.h"
-#include "render.h"
-#include "rib.h"
+#include "pipeline/pipeline.h"
+#include "app/render.h"
+#include "scene/rib/rib.h"
 
 #include <cjson/cJSON.h>
 #include <getopt.h>

@@ -1,9 +1,9 @@
 /* shared_types.h — every struct and constant the host and the kernels exchange.
  *
- * Included by the C11 host (host/ *.c) and by every OpenCL C 1.2 kernel. Rules (STYLE.md 1-2):
+ * Included by the C11 host (the .c files under host/) and by every OpenCL C 1.2 kernel. Rules (STYLE.md 1-2):
  * fixed-width scalars only, vectors as named float fields (never float3: 12 bytes on the
  * host, 16 on the device), explicit padding, no bool/size_t/pointers. Sizes and offsets are
- * checked with _Static_assert in host/layout_check.c and against the device by
+ * checked with _Static_assert in host/base/layout_check.c and against the device by
  * tests/test_layout.c, which runs a kernel writing sizeof/offsetof back.
  */
 #ifndef TS_SHARED_TYPES_H
@@ -271,7 +271,7 @@ typedef struct ts_shade_params {
                         "unoccluded")
 
 /* Every (struct, field) whose offset the host and the device must agree on; the struct's
- * size is checked with it. host/layout_check.c asserts the sizes at compile time;
+ * size is checked with it. host/base/layout_check.c asserts the sizes at compile time;
  * kernels/layout.cl writes sizeof/offsetof of each entry back for tests/test_layout.c. */
 #define TS_LAYOUT_FIELDS(X)                                                                 \
     X(ts_vec4, w) X(ts_box, hi_z) X(ts_box4, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \

@@ -3,8 +3,8 @@
  * crash, an ASan/UBSan report, a leak or a broken contract (a failed parse must leave the
  * scene zeroed and say why) aborts. Inputs that crashed go to tests/fuzz/regressions/,
  * which test_fuzz_regressions replays in the normal suite. */
-#include "rib.h"
-#include "scene.h"
+#include "scene/rib/rib.h"
+#include "scene/scene.h"
 
 #include <stdint.h>
 #include <stdio.h>

@@ -10,8 +10,8 @@
 #ifndef TS_EMBREE_REF_H
 #define TS_EMBREE_REF_H
 
-#include "error.h"
-#include "scene.h"
+#include "base/error.h"
+#include "scene/scene.h"
 
 #include <stdint.h>
 

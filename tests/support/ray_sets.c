@@ -3,7 +3,7 @@
 #include "lib/bsdf.h"
 #include "lib/patch.h"
 #include "lib/rng.h"
-#include "render.h"
+#include "app/render.h"
 
 #include <errno.h>
 #include <math.h>

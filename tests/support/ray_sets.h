@@ -5,8 +5,8 @@
 #ifndef TS_RAY_SETS_H
 #define TS_RAY_SETS_H
 
-#include "error.h"
-#include "scene.h"
+#include "base/error.h"
+#include "scene/scene.h"
 
 #include <stddef.h>
 #include <stdint.h>

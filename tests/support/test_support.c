@@ -1,6 +1,6 @@
 #include "test_support.h"
-#include "image.h"
-#include "rib.h"
+#include "image/image.h"
+#include "scene/rib/rib.h"
 
 #include <unistd.h>
 

@@ -3,7 +3,7 @@
 #ifndef TS_TEST_SUPPORT_H
 #define TS_TEST_SUPPORT_H
 
-#include "cl_runtime.h"
+#include "device/device.h"
 
 #include <stdarg.h>
 #include <stddef.h>

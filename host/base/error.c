@@ -1,0 +1,35 @@
+#include "base/error.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+int ts_error_set(ts_error *err, int code, const char *fmt, ...)
+{
+    if (!err || err->code != 0) return code;
+    err->code = code;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(err->msg, sizeof err->msg, fmt, ap);
+    va_end(ap);
+    return code;
+}
+
+void ts_error_set_detail(ts_error *err, char *detail)
+{
+    if (!err) {
+        free(detail);
+        return;
+    }
+    free(err->detail);
+    err->detail = detail;
+}
+
+void ts_error_clear(ts_error *err)
+{
+    if (!err) return;
+    free(err->detail);
+    err->detail = NULL;
+    err->code = 0;
+    err->msg[0] = '\0';
+}

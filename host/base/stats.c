@@ -1,0 +1,128 @@
+#include "base/stats.h"
+
+#include <cjson/cJSON.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <sys/resource.h>
+#include <time.h>
+#include <unistd.h>
+
+const char *const ts_stage_names[TS_STAGE_COUNT] = {
+#define TS_STAGE_NAME(name, what) #name,
+    TS_STAGES(TS_STAGE_NAME)
+#undef TS_STAGE_NAME
+};
+const char *const ts_stage_descriptions[TS_STAGE_COUNT] = {
+#define TS_STAGE_WHAT(name, what) what,
+    TS_STAGES(TS_STAGE_WHAT)
+#undef TS_STAGE_WHAT
+};
+const char *const ts_counter_names[TS_COUNTER_COUNT] = {
+#define TS_COUNTER_NAME(name, what) #name,
+    TS_COUNTERS(TS_COUNTER_NAME)
+#undef TS_COUNTER_NAME
+};
+
+double stats_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+int stats_add_iteration(ts_stats *s, const ts_iteration *it, ts_error *err)
+{
+    if (s->iteration_count == s->iteration_capacity) {
+        uint32_t cap = s->iteration_capacity ? 2 * s->iteration_capacity : 64;
+        ts_iteration *p = realloc(s->iterations, cap * sizeof *p);
+        if (!p) return ts_error_set(err, TS_E_MEMORY, "out of memory (iteration log)");
+        s->iterations = p;
+        s->iteration_capacity = cap;
+    }
+    s->iterations[s->iteration_count++] = *it;
+    return TS_OK;
+}
+
+uint64_t stats_peak_rss_bytes(void)
+{
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru) != 0) return 0;
+    return (uint64_t)ru.ru_maxrss * 1024u; /* Linux reports kilobytes */
+}
+
+static cJSON *stats_to_json(const ts_stats *s)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddStringToObject(root, "device", s->device);
+    cJSON_AddNumberToObject(root, "wall_seconds", s->wall_seconds);
+    cJSON_AddNumberToObject(root, "peak_rss_bytes", (double)stats_peak_rss_bytes());
+    cJSON_AddNumberToObject(root, "kernel_build_seconds", s->kernel_build_seconds);
+    cJSON_AddBoolToObject(root, "kernel_cache_hit", s->kernel_cache_hit);
+    cJSON *stages = cJSON_AddObjectToObject(root, "stages");
+    for (int i = 0; i < TS_STAGE_COUNT; ++i)
+        cJSON_AddNumberToObject(stages, ts_stage_names[i], s->stage_seconds[i]);
+    cJSON *counters = cJSON_AddObjectToObject(root, "counters");
+    for (int i = 0; i < TS_COUNTER_COUNT; ++i)
+        cJSON_AddNumberToObject(counters, ts_counter_names[i], (double)s->counters[i]);
+    cJSON_AddNumberToObject(root, "leaf_utilisation",
+                            s->counters[TS_COUNTER_leaf_slots]
+                                ? (double)s->counters[TS_COUNTER_leaf_tests] / (double)s->counters[TS_COUNTER_leaf_slots]
+                                : 0.0);
+    cJSON *hist = cJSON_AddArrayToObject(root, "lod_histogram");
+    for (int m = 0; m <= TS_LOD_LIMIT; ++m)
+        cJSON_AddItemToArray(hist, cJSON_CreateNumber((double)s->lod_histogram[m]));
+    cJSON *its = cJSON_AddArrayToObject(root, "iterations");
+    for (uint32_t i = 0; i < s->iteration_count; ++i) {
+        const ts_iteration *it = &s->iterations[i];
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddNumberToObject(o, "wave", it->wave);
+        cJSON_AddNumberToObject(o, "iteration", it->iteration);
+        cJSON_AddNumberToObject(o, "active_rays", (double)it->active_rays);
+        cJSON_AddNumberToObject(o, "n_per_ray", it->n_per_ray);
+        cJSON_AddNumberToObject(o, "pairs", (double)it->pairs);
+        cJSON_AddNumberToObject(o, "segments", it->segments);
+        cJSON_AddItemToArray(its, o);
+    }
+    return root;
+}
+
+int stats_write_json(const ts_stats *s, const char *path, ts_error *err)
+{
+    cJSON *root = stats_to_json(s);
+    char *text = root ? cJSON_Print(root) : NULL;
+    cJSON_Delete(root);
+    if (!text) return ts_error_set(err, TS_E_MEMORY, "out of memory (stats JSON)");
+    char tmp[4096];
+    snprintf(tmp, sizeof tmp, "%s.tmp-%ld", path, (long)getpid());
+    FILE *f = fopen(tmp, "wb");
+    int ok = f && fputs(text, f) >= 0 && fputc('\n', f) != EOF;
+    if (f && fclose(f) != 0) ok = 0;
+    free(text);
+    if (!ok || rename(tmp, path) != 0) {
+        remove(tmp);
+        return ts_error_set(err, TS_E_IO, "%s: cannot write stats", path);
+    }
+    return TS_OK;
+}
+
+void stats_print_table(const ts_stats *s, void *file)
+{
+    FILE *f = file;
+    double total = 0;
+    for (int i = 0; i < TS_STAGE_COUNT; ++i) total += s->stage_seconds[i];
+    fprintf(f, "%-14s %10s %7s\n", "stage", "seconds", "share");
+    for (int i = 0; i < TS_STAGE_COUNT; ++i)
+        fprintf(f, "%-14s %10.4f %6.1f%%\n", ts_stage_names[i], s->stage_seconds[i],
+                total > 0 ? 100.0 * s->stage_seconds[i] / total : 0.0);
+    fprintf(f, "%-14s %10.4f   (wall %.3f s, kernel build %.3f s%s)\n", "sum of stages", total,
+            s->wall_seconds, s->kernel_build_seconds, s->kernel_cache_hit ? ", cached" : "");
+    for (int i = 0; i < TS_COUNTER_COUNT; ++i)
+        fprintf(f, "%-24s %llu\n", ts_counter_names[i], (unsigned long long)s->counters[i]);
+}
+
+void stats_free(ts_stats *s)
+{
+    free(s->iterations);
+    s->iterations = NULL;
+    s->iteration_count = s->iteration_capacity = 0;
+}

@@ -1,0 +1,70 @@
+/* stats.h — what a render measured: seconds per stage (OpenCL profiling events for kernels,
+ * a monotonic clock for host stages), counters, and the per-iteration log that reproduces
+ * Hanika Table 3. Written as JSON by --stats (schema in DESIGN.md §4). */
+#ifndef TS_STATS_H
+#define TS_STATS_H
+
+#include "base/error.h"
+#include "base/stages.h"
+#include "lib/shared_types.h"
+
+#include <stdint.h>
+
+#define TS_COUNTERS(X)                                                                      \
+    X(rays, "rays traced (all waves)")                                                      \
+    X(shadow_rays, "shadow rays traced")                                                    \
+    X(pairs, "(leaf, ray) candidates produced by top_level")                                \
+    X(patches_diced, "patch segments diced")                                                \
+    X(micropolygons_created, "micro-quads diced, summed over all dicings")                  \
+    X(micropolygons_potential, "micro-quads of every patch at max LOD")                     \
+    X(iterations, "top_level/sort/dice/bottom_level iterations")                            \
+    X(pair_overflow, "candidates dropped because the pair buffer was full (always 0)")      \
+    X(leaf_tests, "micro-quad tests in bottom_level's leaves")                              \
+    X(leaf_slots, "work-item slots those tests occupied (utilisation = tests / slots)")     \
+    X(texture_tiles_uploaded, "texture tiles (32 x 32 texels) copied to the device pool")   \
+    X(texture_bytes_uploaded, "bytes of those tiles")                                      \
+    X(texture_pool_tiles, "tiles the device pool holds (every tile unless --memory pages)") \
+    X(texture_tiles, "tiles of every texture level in the scene")
+
+typedef enum ts_counter {
+#define TS_COUNTER_ENUM(name, what) TS_COUNTER_##name,
+    TS_COUNTERS(TS_COUNTER_ENUM)
+#undef TS_COUNTER_ENUM
+        TS_COUNTER_COUNT
+} ts_counter;
+
+/* One iteration of the two-level loop (Hanika Table 3: R and N). */
+typedef struct ts_iteration {
+    uint32_t wave, iteration;
+    uint64_t active_rays;
+    uint32_t n_per_ray;
+    uint64_t pairs;
+    uint32_t segments;
+} ts_iteration;
+
+typedef struct ts_stats {
+    double stage_seconds[TS_STAGE_COUNT];
+    uint64_t counters[TS_COUNTER_COUNT];
+    ts_iteration *iterations;
+    uint32_t iteration_count, iteration_capacity;
+    uint64_t lod_histogram[TS_LOD_LIMIT + 1]; /* dicings per LOD m */
+    char device[256];
+    double wall_seconds;
+    double kernel_build_seconds;
+    int kernel_cache_hit;
+} ts_stats;
+
+extern const char *const ts_counter_names[TS_COUNTER_COUNT];
+
+/* Seconds on CLOCK_MONOTONIC. */
+double stats_now(void);
+int stats_add_iteration(ts_stats *s, const ts_iteration *it, ts_error *err);
+/* Peak resident set size of this process in bytes (getrusage). */
+uint64_t stats_peak_rss_bytes(void);
+/* Writes the JSON document atomically (temporary file, then rename). */
+int stats_write_json(const ts_stats *s, const char *path, ts_error *err);
+/* Prints the per-stage table (seconds, share) and counters to `f`. */
+void stats_print_table(const ts_stats *s, void *file);
+void stats_free(ts_stats *s);
+
+#endif

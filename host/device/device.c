@@ -1,0 +1,446 @@
+#include "device/device.h"
+#include "device/kernel_source.h"
+
+#include <errno.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+cl_int ts_cl_inject_alloc_error = 0;
+
+#define TS_CL_ERRORS(X)                                                                     \
+    X(CL_SUCCESS) X(CL_DEVICE_NOT_FOUND) X(CL_DEVICE_NOT_AVAILABLE)                         \
+    X(CL_COMPILER_NOT_AVAILABLE) X(CL_MEM_OBJECT_ALLOCATION_FAILURE) X(CL_OUT_OF_RESOURCES) \
+    X(CL_OUT_OF_HOST_MEMORY) X(CL_PROFILING_INFO_NOT_AVAILABLE) X(CL_MEM_COPY_OVERLAP)      \
+    X(CL_IMAGE_FORMAT_MISMATCH) X(CL_IMAGE_FORMAT_NOT_SUPPORTED) X(CL_BUILD_PROGRAM_FAILURE) \
+    X(CL_MAP_FAILURE) X(CL_MISALIGNED_SUB_BUFFER_OFFSET)                                    \
+    X(CL_EXEC_STATUS_ERROR_FOR_EVENTS_IN_WAIT_LIST) X(CL_COMPILE_PROGRAM_FAILURE)           \
+    X(CL_LINKER_NOT_AVAILABLE) X(CL_LINK_PROGRAM_FAILURE) X(CL_DEVICE_PARTITION_FAILED)     \
+    X(CL_KERNEL_ARG_INFO_NOT_AVAILABLE) X(CL_INVALID_VALUE) X(CL_INVALID_DEVICE_TYPE)       \
+    X(CL_INVALID_PLATFORM) X(CL_INVALID_DEVICE) X(CL_INVALID_CONTEXT)                       \
+    X(CL_INVALID_QUEUE_PROPERTIES) X(CL_INVALID_COMMAND_QUEUE) X(CL_INVALID_HOST_PTR)       \
+    X(CL_INVALID_MEM_OBJECT) X(CL_INVALID_IMAGE_FORMAT_DESCRIPTOR)                          \
+    X(CL_INVALID_IMAGE_SIZE) X(CL_INVALID_SAMPLER) X(CL_INVALID_BINARY)                     \
+    X(CL_INVALID_BUILD_OPTIONS) X(CL_INVALID_PROGRAM) X(CL_INVALID_PROGRAM_EXECUTABLE)      \
+    X(CL_INVALID_KERNEL_NAME) X(CL_INVALID_KERNEL_DEFINITION) X(CL_INVALID_KERNEL)          \
+    X(CL_INVALID_ARG_INDEX) X(CL_INVALID_ARG_VALUE) X(CL_INVALID_ARG_SIZE)                  \
+    X(CL_INVALID_KERNEL_ARGS) X(CL_INVALID_WORK_DIMENSION) X(CL_INVALID_WORK_GROUP_SIZE)    \
+    X(CL_INVALID_WORK_ITEM_SIZE) X(CL_INVALID_GLOBAL_OFFSET) X(CL_INVALID_EVENT_WAIT_LIST)  \
+    X(CL_INVALID_EVENT) X(CL_INVALID_OPERATION) X(CL_INVALID_GL_OBJECT)                     \
+    X(CL_INVALID_BUFFER_SIZE) X(CL_INVALID_MIP_LEVEL) X(CL_INVALID_GLOBAL_WORK_SIZE)        \
+    X(CL_INVALID_PROPERTY) X(CL_INVALID_IMAGE_DESCRIPTOR) X(CL_INVALID_COMPILER_OPTIONS)    \
+    X(CL_INVALID_LINKER_OPTIONS) X(CL_INVALID_DEVICE_PARTITION_COUNT)
+
+const char *cl_error_name(cl_int code)
+{
+    switch (code) {
+#define TS_CL_ERROR_CASE(name)                                                              \
+    case name:                                                                              \
+        return #name;
+        TS_CL_ERRORS(TS_CL_ERROR_CASE)
+#undef TS_CL_ERROR_CASE
+    case -1001:
+        return "CL_PLATFORM_NOT_FOUND_KHR";
+    default: {
+        static _Thread_local char buf[48];
+        snprintf(buf, sizeof buf, "CL_UNKNOWN_ERROR(%d)", (int)code);
+        return buf;
+    }
+    }
+}
+
+static void device_query(ts_device_info *d, ts_error *err)
+{
+    clGetPlatformInfo(d->platform, CL_PLATFORM_NAME, sizeof d->platform_name, d->platform_name,
+                      NULL);
+    clGetDeviceInfo(d->device, CL_DEVICE_NAME, sizeof d->name, d->name, NULL);
+    clGetDeviceInfo(d->device, CL_DEVICE_VERSION, sizeof d->version, d->version, NULL);
+    clGetDeviceInfo(d->device, CL_DRIVER_VERSION, sizeof d->driver, d->driver, NULL);
+    clGetDeviceInfo(d->device, CL_DEVICE_TYPE, sizeof d->type, &d->type, NULL);
+    clGetDeviceInfo(d->device, CL_DEVICE_MAX_COMPUTE_UNITS, sizeof d->compute_units,
+                    &d->compute_units, NULL);
+    clGetDeviceInfo(d->device, CL_DEVICE_GLOBAL_MEM_SIZE, sizeof d->global_mem, &d->global_mem,
+                    NULL);
+    clGetDeviceInfo(d->device, CL_DEVICE_LOCAL_MEM_SIZE, sizeof d->local_mem, &d->local_mem,
+                    NULL);
+    clGetDeviceInfo(d->device, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof d->max_alloc, &d->max_alloc,
+                    NULL);
+    /* Deprecated in OpenCL 2.0 but answered by every 1.2 driver we target. */
+    clGetDeviceInfo(d->device, CL_DEVICE_HOST_UNIFIED_MEMORY, sizeof d->host_unified,
+                    &d->host_unified, NULL);
+    clGetDeviceInfo(d->device, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof d->max_work_group,
+                    &d->max_work_group, NULL);
+}
+
+int cl_list_devices(ts_device_info **out, ts_error *err)
+{
+    *out = NULL;
+    cl_uint np = 0;
+    cl_int rc = clGetPlatformIDs(0, NULL, &np);
+    if (rc == -1001 /* CL_PLATFORM_NOT_FOUND_KHR: no ICD installed */ || np == 0) return 0;
+    if (rc != CL_SUCCESS) {
+        ts_error_set(err, TS_E_DEVICE, "%s in clGetPlatformIDs", cl_error_name(rc));
+        return -1;
+    }
+    cl_platform_id platforms[16];
+    if (np > 16) np = 16;
+    clGetPlatformIDs(np, platforms, NULL);
+    int count = 0, cap = 0;
+    ts_device_info *list = NULL;
+    for (cl_uint p = 0; p < np; ++p) {
+        cl_uint nd = 0;
+        if (clGetDeviceIDs(platforms[p], CL_DEVICE_TYPE_ALL, 0, NULL, &nd) != CL_SUCCESS)
+            continue;
+        cl_device_id devs[64];
+        if (nd > 64) nd = 64;
+        clGetDeviceIDs(platforms[p], CL_DEVICE_TYPE_ALL, nd, devs, NULL);
+        for (cl_uint d = 0; d < nd; ++d) {
+            if (count == cap) {
+                cap = cap ? 2 * cap : 8;
+                ts_device_info *grown = realloc(list, (size_t)cap * sizeof *list);
+                if (!grown) {
+                    free(list);
+                    ts_error_set(err, TS_E_MEMORY, "out of memory");
+                    return -1;
+                }
+                list = grown;
+            }
+            ts_device_info *info = &list[count++];
+            memset(info, 0, sizeof *info);
+            info->platform = platforms[p];
+            info->device = devs[d];
+            device_query(info, err);
+        }
+    }
+    *out = list;
+    return count;
+}
+
+/* 64-bit FNV-1a, for the binary cache key. */
+static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *p = data;
+    for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ull;
+    return h;
+}
+
+static int cache_path(const ts_cl_options *opt, uint64_t key, char *out, size_t cap)
+{
+    const char *dir = opt->cache_dir ? opt->cache_dir : getenv("TESSERA_CACHE_DIR");
+    char buf[4096];
+    if (!dir || !*dir) {
+        const char *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
+        if (xdg && *xdg) snprintf(buf, sizeof buf, "%s/tessera", xdg);
+        else if (home && *home) snprintf(buf, sizeof buf, "%s/.cache/tessera", home);
+        else return -1;
+        dir = buf;
+    }
+    /* mkdir -p of the last two levels is enough for ~/.cache/tessera. */
+    char parent[4096];
+    snprintf(parent, sizeof parent, "%s", dir);
+    char *slash = strrchr(parent, '/');
+    if (slash && slash != parent) {
+        *slash = '\0';
+        mkdir(parent, 0755);
+    }
+    mkdir(dir, 0755);
+    snprintf(out, cap, "%s/%016llx.bin", dir, (unsigned long long)key);
+    return 0;
+}
+
+static unsigned char *read_all(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *p = n > 0 ? malloc((size_t)n) : NULL;
+    if (p && fread(p, 1, (size_t)n, f) != (size_t)n) {
+        free(p);
+        p = NULL;
+    }
+    fclose(f);
+    *size = p ? (size_t)n : 0;
+    return p;
+}
+
+static void cache_store(cl_program prog, const char *path)
+{
+    size_t size = 0;
+    if (clGetProgramInfo(prog, CL_PROGRAM_BINARY_SIZES, sizeof size, &size, NULL) != CL_SUCCESS ||
+        size == 0)
+        return;
+    unsigned char *bin = malloc(size);
+    if (!bin) return;
+    unsigned char *bins[1] = {bin};
+    if (clGetProgramInfo(prog, CL_PROGRAM_BINARIES, sizeof bins, bins, NULL) == CL_SUCCESS) {
+        char tmp[4300];
+        snprintf(tmp, sizeof tmp, "%s.tmp-%ld", path, (long)getpid());
+        FILE *f = fopen(tmp, "wb");
+        int ok = f && fwrite(bin, 1, size, f) == size;
+        if (f && fclose(f) != 0) ok = 0;
+        if (!ok || rename(tmp, path) != 0) remove(tmp);
+    }
+    free(bin);
+}
+
+/* OpenCL C 1.2, and IEEE division and square root where the device offers them: OpenCL
+ * lets single-precision x / y be off by 2.5 ulp and sqrt by 3 (NVIDIA's are), which would
+ * break the bitwise agreement of the kernels with their plain-C references (and between
+ * devices) through 1 / d in every slab test. */
+static void cl_build_options(ts_cl *cl)
+{
+    cl_device_fp_config fp = 0;
+    clGetDeviceInfo(cl->info.device, CL_DEVICE_SINGLE_FP_CONFIG, sizeof fp, &fp, NULL);
+    snprintf(cl->build_options, sizeof cl->build_options, "-cl-std=CL1.2%s",
+             fp & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT ? " -cl-fp32-correctly-rounded-divide-sqrt"
+                                                      : "");
+}
+
+/* Builds `prog` from the program text `src`; on failure returns TS_E_DEVICE with the full
+ * build log as detail. */
+static int program_build(ts_cl *cl, cl_program prog, const char *src, ts_error *err)
+{
+    cl_int rc = clBuildProgram(prog, 1, &cl->info.device, cl->build_options, NULL, NULL);
+    if (rc == CL_SUCCESS) return TS_OK;
+    size_t n = 0;
+    clGetProgramBuildInfo(prog, cl->info.device, CL_PROGRAM_BUILD_LOG, 0, NULL, &n);
+    char *log = malloc(n + 1);
+    if (log) {
+        clGetProgramBuildInfo(prog, cl->info.device, CL_PROGRAM_BUILD_LOG, n, log, NULL);
+        log[n] = '\0';
+        /* Compilers that ignore #line (NVIDIA: "<kernel>:LINE:COL") get their places
+         * mapped back to the kernel files here. */
+        char *mapped = kernel_source_translate_log(src, log);
+        if (mapped) free(log), log = mapped;
+    }
+    /* The one-line message names the first error's place (kernels/FILE.cl:LINE:COL, from
+     * the #line directives of kernel_source.c); the whole log follows it. */
+    char first[512] = "";
+    for (const char *line = log; line && *line;) {
+        size_t len = strcspn(line, "\n");
+        const char *e = strstr(line, "error:");
+        if (e && e < line + len) {
+            const char *from = strncmp(line, "error: ", 7) == 0 ? line + 7 : line;
+            snprintf(first, sizeof first, " (first error: %.*s)", (int)(line + len - from), from);
+            break;
+        }
+        line += len + (line[len] == '\n');
+    }
+    ts_error_set(err, TS_E_DEVICE, "%s in clBuildProgram: the kernels failed to build on %s%s",
+                 cl_error_name(rc), cl->info.name, first);
+    ts_error_set_detail(err, log);
+    return TS_E_DEVICE;
+}
+
+static cl_program program_from_cache(ts_cl *cl, const char *path)
+{
+    size_t size = 0;
+    unsigned char *bin = read_all(path, &size);
+    if (!bin) return NULL;
+    const unsigned char *bins[1] = {bin};
+    cl_int status = 0, rc = 0;
+    cl_program prog = clCreateProgramWithBinary(cl->context, 1, &cl->info.device, &size, bins,
+                                                &status, &rc);
+    free(bin);
+    if (rc != CL_SUCCESS || status != CL_SUCCESS) return NULL;
+    if (clBuildProgram(prog, 1, &cl->info.device, cl->build_options, NULL, NULL) != CL_SUCCESS) {
+        clReleaseProgram(prog);
+        return NULL; /* a stale or foreign binary: rebuild from source */
+    }
+    return prog;
+}
+
+static int program_open(ts_cl *cl, const ts_cl_options *opt, ts_error *err)
+{
+    double t0 = stats_now();
+    cl_build_options(cl);
+    char *src = kernel_source_program(opt->kernel_dir, err);
+    if (!src) return err->code;
+    uint64_t key = 0xcbf29ce484222325ull;
+    const char *parts[] = {cl->info.platform_name, cl->info.name, cl->info.version,
+                           cl->info.driver, cl->build_options, src};
+    for (size_t i = 0; i < sizeof parts / sizeof *parts; ++i)
+        key = fnv1a(key, parts[i], strlen(parts[i]) + 1);
+    char path[4200];
+    int use_cache = !opt->no_cache && cache_path(opt, key, path, sizeof path) == 0;
+    if (use_cache && (cl->program = program_from_cache(cl, path))) {
+        cl->cache_hit = 1;
+    } else {
+        cl_int rc;
+        const char *srcs[1] = {src};
+        cl->program = clCreateProgramWithSource(cl->context, 1, srcs, NULL, &rc);
+        if (rc != CL_SUCCESS) {
+            free(src);
+            return ts_error_set(err, TS_E_DEVICE, "%s in clCreateProgramWithSource",
+                                cl_error_name(rc));
+        }
+        if (program_build(cl, cl->program, src, err)) {
+            free(src);
+            return err->code;
+        }
+        if (use_cache) cache_store(cl->program, path);
+    }
+    free(src);
+    cl->build_seconds = stats_now() - t0;
+    return TS_OK;
+}
+
+int cl_open(ts_cl *cl, const ts_cl_options *opt, ts_error *err)
+{
+    memset(cl, 0, sizeof *cl);
+    ts_device_info *list = NULL;
+    int n = cl_list_devices(&list, err);
+    if (n < 0) return err->code;
+    int index = opt->device_index;
+    if (index < 0) {
+        const char *env = getenv("TESSERA_DEVICE");
+        index = env && *env ? atoi(env) : 0;
+    }
+    if (n == 0) {
+        free(list);
+        return ts_error_set(err, TS_E_DEVICE,
+                            "no OpenCL device found (install pocl-opencl-icd for the CPU)");
+    }
+    if (index < 0 || index >= n) {
+        free(list);
+        return ts_error_set(err, TS_E_USAGE,
+                            "unknown device index %d: there are %d devices (see tessera devices)",
+                            index, n);
+    }
+    cl->info = list[index];
+    free(list);
+    cl_int rc;
+    cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)cl->info.platform,
+                                     0};
+    cl->context = clCreateContext(props, 1, &cl->info.device, NULL, NULL, &rc);
+    CL_CHECK(rc, err);
+    cl->queue = clCreateCommandQueue(cl->context, cl->info.device, CL_QUEUE_PROFILING_ENABLE, &rc);
+    CL_CHECK(rc, err);
+    return program_open(cl, opt, err);
+}
+
+void cl_close(ts_cl *cl)
+{
+    for (size_t i = 0; i < cl->pending_count; ++i) clReleaseEvent(cl->pending[i].event);
+    free(cl->pending);
+    if (cl->program) clReleaseProgram(cl->program);
+    if (cl->queue) clReleaseCommandQueue(cl->queue);
+    if (cl->context) clReleaseContext(cl->context);
+    memset(cl, 0, sizeof *cl);
+}
+
+cl_kernel cl_kernel_create(ts_cl *cl, const char *name, ts_error *err)
+{
+    cl_int rc;
+    cl_kernel k = clCreateKernel(cl->program, name, &rc);
+    if (rc != CL_SUCCESS) {
+        ts_error_set(err, TS_E_DEVICE, "%s in clCreateKernel(%s)", cl_error_name(rc), name);
+        return NULL;
+    }
+    return k;
+}
+
+/* Testing aids from the environment (docs/errors.md): TESSERA_FAIL_ALLOC=N makes the first
+ * N buffer creations fail with CL_MEM_OBJECT_ALLOCATION_FAILURE; TESSERA_FAIL_LAUNCH=K
+ * makes the K-th kernel launch (counting from 1) fail with CL_OUT_OF_RESOURCES. Read once. */
+static long env_count(const char *name, long *cache)
+{
+    if (*cache < 0) {
+        const char *e = getenv(name);
+        long v = e && *e ? strtol(e, NULL, 10) : 0;
+        *cache = v > 0 ? v : 0;
+    }
+    return *cache;
+}
+
+static long fail_alloc_left = -1, fail_launch_at = -1, launch_count;
+
+cl_mem cl_buffer_create(ts_cl *cl, cl_mem_flags flags, size_t size, void *host, ts_error *err)
+{
+    cl_int rc = ts_cl_inject_alloc_error;
+    cl_mem m = NULL;
+    if (rc == CL_SUCCESS && env_count("TESSERA_FAIL_ALLOC", &fail_alloc_left) > 0) {
+        --fail_alloc_left;
+        rc = CL_MEM_OBJECT_ALLOCATION_FAILURE;
+    }
+    if (rc == CL_SUCCESS) m = clCreateBuffer(cl->context, flags, size ? size : 1, host, &rc);
+    if (rc != CL_SUCCESS) {
+        ts_error_set(err, TS_E_DEVICE, "%s in clCreateBuffer(%zu bytes)", cl_error_name(rc), size);
+        return NULL;
+    }
+    return m;
+}
+
+int cl_set_args(cl_kernel k, ts_error *err, ...)
+{
+    va_list ap;
+    va_start(ap, err);
+    for (cl_uint i = 0;; ++i) {
+        size_t size = va_arg(ap, size_t);
+        if (size == 0) break;
+        const void *value = va_arg(ap, const void *);
+        cl_int rc = clSetKernelArg(k, i, size, value);
+        if (rc != CL_SUCCESS) {
+            va_end(ap);
+            char name[128] = "?";
+            clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);
+            return ts_error_set(err, TS_E_DEVICE, "%s in clSetKernelArg(%s, %u)",
+                                cl_error_name(rc), name, i);
+        }
+    }
+    va_end(ap);
+    return TS_OK;
+}
+
+int cl_launch(ts_cl *cl, cl_kernel k, ts_stage stage, size_t global, size_t local,
+              ts_error *err)
+{
+    return cl_launch_range(cl, k, stage, 0, global, local, err);
+}
+
+int cl_launch_range(ts_cl *cl, cl_kernel k, ts_stage stage, size_t offset, size_t global,
+                    size_t local, ts_error *err)
+{
+    if (global == 0) return TS_OK;
+    size_t rounded = (global + local - 1) / local * local;
+    if (cl->pending_count == cl->pending_capacity) {
+        size_t cap = cl->pending_capacity ? 2 * cl->pending_capacity : 64;
+        ts_kernel_event *p = realloc(cl->pending, cap * sizeof *p);
+        if (!p) return ts_error_set(err, TS_E_MEMORY, "out of memory");
+        cl->pending = p;
+        cl->pending_capacity = cap;
+    }
+    cl_event ev;
+    cl_int rc = CL_OUT_OF_RESOURCES;
+    if (++launch_count != env_count("TESSERA_FAIL_LAUNCH", &fail_launch_at))
+        rc = clEnqueueNDRangeKernel(cl->queue, k, 1, offset ? &offset : NULL, &rounded, &local, 0,
+                                    NULL, &ev);
+    if (rc != CL_SUCCESS) {
+        char name[128] = "?";
+        clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);
+        return ts_error_set(err, TS_E_DEVICE, "%s in clEnqueueNDRangeKernel(%s, %zu items)",
+                            cl_error_name(rc), name, rounded);
+    }
+    cl->pending[cl->pending_count++] = (ts_kernel_event){ev, stage};
+    return TS_OK;
+}
+
+int cl_finish(ts_cl *cl, ts_stats *stats, ts_error *err)
+{
+    CL_CHECK(clFinish(cl->queue), err);
+    for (size_t i = 0; i < cl->pending_count; ++i) {
+        cl_ulong start = 0, end = 0;
+        cl_event ev = cl->pending[i].event;
+        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof start, &start, NULL);
+        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof end, &end, NULL);
+        if (stats && end > start) stats->stage_seconds[cl->pending[i].stage] += 1e-9 * (double)(end - start);
+        clReleaseEvent(ev);
+    }
+    cl->pending_count = 0;
+    return TS_OK;
+}

@@ -1,0 +1,100 @@
+/* cl_runtime.h — the OpenCL layer: device listing and selection, the program build (with
+ * the build log on failure and an on-disk binary cache), and the one launch wrapper through
+ * which every kernel runs, named by its stage and timed by profiling events (STYLE.md 5). */
+#ifndef TS_CL_RUNTIME_H
+#define TS_CL_RUNTIME_H
+
+#include "base/error.h"
+#include "base/stages.h"
+#include "base/stats.h"
+
+#include <CL/cl.h>
+#include <stddef.h>
+
+/* The name of an OpenCL error code ("CL_OUT_OF_RESOURCES"), or "CL_UNKNOWN_ERROR(-N)". */
+const char *cl_error_name(cl_int code);
+
+/* Checks an OpenCL call; on failure fills err with the error name, the call and the place,
+ * and returns TS_E_DEVICE from the enclosing function (STYLE.md 10). */
+#define CL_CHECK(call, err)                                                                 \
+    do {                                                                                    \
+        cl_int cl_check_rc_ = (call);                                                       \
+        if (cl_check_rc_ != CL_SUCCESS)                                                     \
+            return ts_error_set((err), TS_E_DEVICE, "%s in %s (%s:%d)",                     \
+                                cl_error_name(cl_check_rc_), #call, __FILE__, __LINE__);    \
+    } while (0)
+
+/* One OpenCL device as `tessera devices` lists it. */
+typedef struct ts_device_info {
+    cl_platform_id platform;
+    cl_device_id device;
+    char platform_name[128];
+    char name[128];
+    char version[128];
+    char driver[128];
+    cl_device_type type;
+    cl_uint compute_units;
+    cl_ulong global_mem, local_mem, max_alloc;
+    cl_bool host_unified; /* shares memory with the host (CPU devices): maps are zero copy */
+    size_t max_work_group;
+} ts_device_info;
+
+/* Lists every device of every platform in a stable order (platform, then device).
+ * *out is malloc'd; returns the count (0 when there is no OpenCL platform) or -1. */
+int cl_list_devices(ts_device_info **out, ts_error *err);
+
+/* Test hook: when non-zero, clCreateBuffer calls made through cl_buffer_create fail with
+ * this error code (for tests of the failure paths). From the command line, the environment
+ * does the same: TESSERA_FAIL_ALLOC=N fails the first N buffer creations with
+ * CL_MEM_OBJECT_ALLOCATION_FAILURE, TESSERA_FAIL_LAUNCH=K the K-th launch through cl_launch
+ * with CL_OUT_OF_RESOURCES (docs/errors.md). */
+extern cl_int ts_cl_inject_alloc_error;
+
+typedef struct ts_kernel_event {
+    cl_event event;
+    ts_stage stage;
+} ts_kernel_event;
+
+/* A selected device with its context, in-order profiling queue and built program. */
+typedef struct ts_cl {
+    ts_device_info info;
+    cl_context context;
+    cl_command_queue queue;
+    cl_program program;
+    ts_kernel_event *pending; /* launches whose times are not yet collected */
+    size_t pending_count, pending_capacity;
+    double build_seconds;
+    int cache_hit;
+    char build_options[128]; /* cl_build_options() for this device */
+} ts_cl;
+
+typedef struct ts_cl_options {
+    int device_index;       /* -1: TESSERA_DEVICE, else 0 */
+    const char *kernel_dir; /* NULL: embedded kernels */
+    const char *cache_dir;  /* NULL: $TESSERA_CACHE_DIR, $XDG_CACHE_HOME/tessera, ~/.cache/tessera */
+    int no_cache;           /* 1: never read or write the binary cache */
+} ts_cl_options;
+
+/* Opens the device, builds (or loads from the cache) the program. */
+int cl_open(ts_cl *cl, const ts_cl_options *opt, ts_error *err);
+void cl_close(ts_cl *cl);
+
+cl_kernel cl_kernel_create(ts_cl *cl, const char *name, ts_error *err);
+/* clCreateBuffer with the error named; size 0 is rounded up to 1 byte. */
+cl_mem cl_buffer_create(ts_cl *cl, cl_mem_flags flags, size_t size, void *host, ts_error *err);
+
+/* Sets arguments in order from (size, pointer) pairs; ends at size 0. */
+int cl_set_args(cl_kernel k, ts_error *err, ...);
+
+/* The launch wrapper: enqueues `k` over `global` items (rounded up to a multiple of
+ * `local`; the kernels guard their range) and records a profiling event for `stage`. */
+int cl_launch(ts_cl *cl, cl_kernel k, ts_stage stage, size_t global, size_t local,
+              ts_error *err);
+/* The same over items [offset, offset + global) (global rounded up; get_global_id counts
+ * from offset). */
+int cl_launch_range(ts_cl *cl, cl_kernel k, ts_stage stage, size_t offset, size_t global,
+                    size_t local, ts_error *err);
+/* Waits for the queue and adds every pending launch's (end - start) to stats. */
+int cl_finish(ts_cl *cl, ts_stats *stats, ts_error *err);
+
+#endif

@@ -1,0 +1,58 @@
+/* image.h — image files in and out through OpenImageIO, behind a C-only interface
+ * (implemented in image_oiio.cpp, the project's one C++ file, which includes this header
+ * inside extern "C"; no exception crosses it).
+ *
+ * Writes are atomic: the image goes to a hidden temporary next to the target
+ * (".NAME.tmp-PID-N"), which is renamed over the target only after a successful close.
+ * On failure the temporary is removed and the target is left as it was (absent or the
+ * old file). Every failure is TS_E_IO with "PATH: reason" (TS_E_MEMORY if allocation
+ * fails), reported through ts_error. */
+#ifndef TS_IMAGE_H
+#define TS_IMAGE_H
+
+#include "base/error.h"
+
+/* A float image. pixels holds width * height * channels floats, interleaved by pixel,
+ * rows top to bottom (row 0 = top). channel_names has `channels` entries; for images
+ * from image_read it is also NULL-terminated. */
+typedef struct ts_image {
+    int width, height, channels;
+    const char **channel_names;
+    float *pixels;
+} ts_image;
+
+/* One integer metadata item, stored as an EXR int attribute, e.g. {"tessera:spp", 16}. */
+typedef struct ts_image_meta {
+    const char *key;
+    int value;
+} ts_image_meta;
+
+/* Writes img as OpenEXR: 32-bit float channels named channel_names (distinct, in that
+ * order; NULL gives OIIO's defaults R, G, B, A, channel4...), ZIP compression, plus
+ * meta_count integer attributes. path must end in ".exr" (else "unsupported output
+ * format"). EXR stores channels sorted by name; the given order is kept in the string
+ * array attribute "tessera:channel_order", which image_read uses to restore it.
+ * Returns TS_OK or the error code. */
+int image_write_exr(const char *path, const ts_image *img, const ts_image_meta *meta,
+                    int meta_count, ts_error *err);
+
+/* Writes 8-bit sRGB PNG from rgb_linear (3 floats per pixel, rows top to bottom),
+ * tone-mapped by tonemap_srgb8. path must end in ".png". Returns TS_OK or the code. */
+int image_write_png(const char *path, int width, int height, const float *rgb_linear,
+                    ts_error *err);
+
+/* Reads the first subimage of any format OIIO knows, all channels converted to float
+ * (8-bit PNG values come back as v / 255). Channel order is the one written by
+ * image_write_exr where recorded, else OIIO's (R, G, B, A, Z first). On success *out owns
+ * its pixels and names: release them with image_free. On failure *out is zeroed. */
+int image_read(const char *path, ts_image *out, ts_error *err);
+
+/* Reads the integer metadata item `key` into *value; a missing or non-integer item is
+ * TS_E_IO "PATH: no integer metadata \"KEY\"". */
+int image_read_meta_int(const char *path, const char *key, int *value, ts_error *err);
+
+/* Frees what image_read allocated and zeroes *img. Only for images from image_read;
+ * NULL and zeroed images are fine. */
+void image_free(ts_image *img);
+
+#endif

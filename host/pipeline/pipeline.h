@@ -1,0 +1,142 @@
+/* pipeline.h — the wavefront two-level tracer on one OpenCL device (DESIGN.md §1): the
+ * buffers of a fixed memory budget, and one function per stage. pipeline_trace runs the
+ * loop top_level -> sort -> dice -> build -> bottom_level -> resolve until no ray of the wave
+ * is active. Memory is fixed at creation: it depends on the budget, never on the scene's
+ * micro-polygon count (Hanika §4). */
+#ifndef TS_PIPELINE_H
+#define TS_PIPELINE_H
+
+#include "device/device.h"
+#include "pipeline/qbvh.h"
+#include "pipeline/sort.h"
+#include "scene/scene.h"
+#include "base/stats.h"
+#include "pipeline/tex_cache.h"
+
+/* Candidate pairs reserved per ray of a full wave: N starts near this (Hanika Table 3 starts
+ * at N = 8) and grows as rays finish. */
+#define TS_PAIRS_PER_RAY 8u
+/* N is clipped to [1, 100] (Hanika Table 3). */
+#define TS_N_MAX 100u
+/* Work-group size of every launch: one size, so PoCL compiles each kernel once. */
+#define TS_LOCAL_SIZE ((size_t)TS_GROUP_SIZE)
+
+/* Bytes of device memory one ray costs: its SoA fields, active/count/alive, radiance and
+ * aov, and TS_PAIRS_PER_RAY pairs (two sort buffers + a hit record each). */
+#define TS_BYTES_PER_RAY                                                                    \
+    (16u + 16u + 20u + 4u + 4u + 4u /* ray fields */ + 4u + 4u + 4u + 4u /* active, count,  \
+    alive, wave_paths */ + 3u * 16u /* path fields */ + 16u + 16u + 16u /* radiance, aov,     \
+    albedo */ + TS_PAIRS_PER_RAY * (8u + 8u + 20u))
+
+typedef struct ts_pipeline_plan {
+    uint32_t ray_capacity;   /* rays per wave */
+    uint32_t pair_capacity;  /* (leaf, ray) candidates per iteration */
+    uint32_t vert_capacity;  /* ts_vec4 entries of the vertex arena (diced grids) */
+    uint32_t group_capacity; /* ts_box4 entries of the group arena (quad-trees) */
+    uint32_t max_lod;        /* the finest m; the arenas hold at least one moving patch at it */
+    uint64_t tex_pool_bytes; /* texture tile pool (tex_cache.h); 0: every tile resident */
+} ts_pipeline_plan;
+
+/* Splits a budget of `memory_bytes` between the patch arenas (a quarter) and rays, and sets
+ * the texture tile pool to an eighth of it (on top; tex_cache.h), for
+ * waves of at most `rays_wanted`, within the device's single-allocation limit. If the
+ * arenas cannot hold one moving patch at max_lod, max_lod is lowered until they can (the
+ * caller reports it: plan->max_lod < max_lod). Returns TS_E_USAGE when nothing fits. */
+int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
+                  uint64_t max_alloc, ts_pipeline_plan *plan, ts_error *err);
+
+/* Arena sizes that hold `patches` moving patches at LOD m, for tests. */
+void pipeline_plan_arenas(ts_pipeline_plan *plan, uint32_t patches, uint32_t m);
+
+/* How the bottom level picks the LOD and what it intersects (DESIGN.md §2-3). */
+typedef struct ts_trace_mode {
+    uint32_t spp;  /* samples per pixel, for the LOD rule 4^m >= R / spp */
+    int fixed_lod; /* >= 0: every patch at this m (cross-checks); -1: per patch from the lod
+                      stage's counts (pipeline_lod_*) */
+    int exact;     /* 1: micro-triangles (cross-checks at fixed m); 0: leaf boxes as
+                      geometry, hole-free across LODs (Hanika §3.3) */
+    int leaf_group; /* 1: work-group-wide leaf intersection (PantaRay Fig. 8); 0: per ray */
+    uint32_t leaf_b; /* leaves are blocks of 2^leaf_b x 2^leaf_b micro-quads (0..2) */
+} ts_trace_mode;
+
+/* A run of segments diced together: they fit the arenas at once. */
+typedef struct ts_batch {
+    uint32_t seg_first, seg_count;
+    uint32_t tree_first, tree_count; /* in the tree list, by decreasing m */
+} ts_batch;
+
+typedef struct ts_pipeline {
+    ts_cl *cl;
+    ts_trace_mode mode; /* set by pipeline_create to {1, max_lod, 1}; callers may change it */
+    const ts_scene *scene;
+    ts_stats *stats;
+    ts_pipeline_plan plan;
+    uint32_t pixel_count;
+    ts_qbvh qbvh;
+    radix_sorter *sorter;
+    /* Discrete devices: host copies of the two pair buffers, so sort reads the window once
+     * and writes back only the valid pairs instead of mapping both buffers (NULL on devices
+     * that share host memory, where the mapped buffers are sorted in place). */
+    ts_pair *sort_host[2];
+    ts_segment *segments_host; /* one per patch at most */
+    uint32_t *trees_host;      /* two per patch at most */
+    ts_batch *batches;         /* one per patch at most */
+    uint32_t batch_count;
+    uint8_t *patch_lod; /* m of each patch for this frame (lod stage); max_lod until counted */
+    cl_kernel k_camera, k_lod, k_top_level, k_dice, k_build_leaves, k_build_level,
+        k_bottom_level, k_bottom_group, k_resolve, k_shade, k_film;
+    cl_mem utilisation; /* 2 uints: micro-quad tests, work-item slots (bottom_level) */
+    cl_mem qbvh_nodes, cp, cp1, corner_n, attr, xform, flatness, lod_counts, lights, emitters;
+    cl_mem patch_box; /* scene_patch_box of every patch: build clamps leaf boxes to it */
+    cl_mem env_texels, env_marginal, env_conditional; /* the dome's map (1 element if none) */
+    cl_mem textures, tex_pages, tex_pool; /* image textures (scene.h), 1 element if none */
+    ts_tex_cache tex;                     /* which tiles tex_pool holds (tex_cache.h) */
+    uint32_t light_count;
+#define TS_RAY_BUFFER(type, name, what) cl_mem ray_##name;
+    TS_RAY_FIELDS(TS_RAY_BUFFER)
+#undef TS_RAY_BUFFER
+#define TS_PATH_BUFFER(type, name, what) cl_mem path_##name;
+    TS_PATH_FIELDS(TS_PATH_BUFFER)
+#undef TS_PATH_BUFFER
+    cl_mem active, count, alive, wave_paths, pairs[2], pair_hit, segments, trees, grid, groups;
+    cl_mem radiance, aov, albedo, accum, aov_film, albedo_film;
+    uint32_t wave;
+} ts_pipeline;
+
+/* Creates buffers and kernels for `scene` on `cl` with an image of pixel_count pixels. */
+int pipeline_create(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, const ts_pipeline_plan *plan,
+                    uint32_t pixel_count, ts_stats *stats, ts_error *err);
+void pipeline_destroy(ts_pipeline *p);
+
+/* camera: generates rays (and paths) first_sample .. first_sample + ray_count; lists them
+ * in active and wave_paths. A wave holds at most ray_capacity / 2 paths: each path also
+ * owns a shadow-ray slot. */
+int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err);
+/* lod: pipeline_lod_count adds the wave's rays (from pipeline_camera) to the per-patch
+ * counts; pipeline_lod_finish turns the counts into patch_lod (4^m >= R / spp, clamped to
+ * [0, max_lod]) and clears them. */
+int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, ts_error *err);
+int pipeline_lod_finish(ts_pipeline *p, ts_error *err);
+/* The two-level loop over the rays listed in active[0..ray_count) (camera lists them all):
+ * returns when every ray's closest hit is known (or, for a shadow ray, any hit). */
+int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err);
+/* Single stages, for tests of one kernel against its C reference. pipeline_top_level runs
+ * top_level once over active[0..active_count) and waits; pipeline_dice_build dices and
+ * builds segments_host[0..count) (patch and lod set by the caller; they must fit the
+ * arenas together) as one batch and waits. */
+int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err);
+int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err);
+/* bottom_level (p->mode's kernel, exact and leaf_b) over the batch pipeline_dice_build made:
+ * the pairs in pairs[0] from segments_host[0].begin to the last segment's end, sorted by
+ * segment, rays named by active[window / n_per_ray]; waits. Hits go to pair_hit[window]. */
+int pipeline_bottom_level(ts_pipeline *p, uint32_t n_per_ray, ts_error *err);
+/* shade: one path-tracing step for the paths wave_paths[0..path_count) of a wave of
+ * wave_size paths (path i traces ray i and its shadow ray wave_size + i). Lists the paths
+ * that go on in wave_paths and their rays in active; returns the counts. */
+int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sample,
+                   uint32_t wave_size, uint32_t path_count, uint32_t *next_paths,
+                   uint32_t *next_rays, uint32_t *shadow_rays, ts_error *err);
+/* film: adds the wave's ray_count finished paths to the image. */
+int pipeline_film(ts_pipeline *p, uint32_t first_sample, uint32_t ray_count, ts_error *err);
+
+#endif

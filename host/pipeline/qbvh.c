@@ -1,0 +1,238 @@
+#include "pipeline/qbvh.h"
+
+#include <float.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SAH_BINS 16
+
+/* Binary build node: leaf when count == 1. */
+typedef struct bnode {
+    ts_box box;
+    int32_t left, right; /* children (binary node indices), -1 for a leaf */
+    uint32_t first, count; /* range in the index array */
+    uint32_t axis;
+} bnode;
+
+typedef struct builder {
+    const ts_box *boxes;
+    uint32_t *index;
+    float *centroid; /* 3 per box */
+    bnode *nodes;
+    uint32_t node_count;
+} builder;
+
+static ts_box box_empty(void)
+{
+    return (ts_box){FLT_MAX, FLT_MAX, FLT_MAX, -FLT_MAX, -FLT_MAX, -FLT_MAX};
+}
+
+static void box_grow(ts_box *b, const ts_box *o)
+{
+    if (o->lo_x < b->lo_x) b->lo_x = o->lo_x;
+    if (o->lo_y < b->lo_y) b->lo_y = o->lo_y;
+    if (o->lo_z < b->lo_z) b->lo_z = o->lo_z;
+    if (o->hi_x > b->hi_x) b->hi_x = o->hi_x;
+    if (o->hi_y > b->hi_y) b->hi_y = o->hi_y;
+    if (o->hi_z > b->hi_z) b->hi_z = o->hi_z;
+}
+
+static double box_area(const ts_box *b)
+{
+    if (b->lo_x > b->hi_x) return 0.0;
+    double dx = b->hi_x - b->lo_x, dy = b->hi_y - b->lo_y, dz = b->hi_z - b->lo_z;
+    return 2.0 * (dx * dy + dy * dz + dz * dx);
+}
+
+/* Chooses the binned-SAH split of [first, first+count). Returns 0 if no split beats the
+ * others (all centroids equal): the caller then splits at the median index. */
+static int sah_split(const builder *b, uint32_t first, uint32_t count, uint32_t *axis_out,
+                     float *pos_out)
+{
+    float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
+    for (uint32_t i = first; i < first + count; ++i)
+        for (int a = 0; a < 3; ++a) {
+            float c = b->centroid[3 * b->index[i] + a];
+            if (c < lo[a]) lo[a] = c;
+            if (c > hi[a]) hi[a] = c;
+        }
+    double best = DBL_MAX;
+    int found = 0;
+    for (uint32_t a = 0; a < 3; ++a) {
+        if (!(hi[a] > lo[a])) continue;
+        ts_box bin_box[SAH_BINS];
+        uint32_t bin_n[SAH_BINS] = {0};
+        for (int k = 0; k < SAH_BINS; ++k) bin_box[k] = box_empty();
+        float scale = SAH_BINS / (hi[a] - lo[a]);
+        for (uint32_t i = first; i < first + count; ++i) {
+            int k = (int)((b->centroid[3 * b->index[i] + a] - lo[a]) * scale);
+            k = k < 0 ? 0 : k >= SAH_BINS ? SAH_BINS - 1 : k;
+            bin_n[k]++;
+            box_grow(&bin_box[k], &b->boxes[b->index[i]]);
+        }
+        double right_cost[SAH_BINS];
+        ts_box acc = box_empty();
+        uint32_t n = 0;
+        for (int k = SAH_BINS - 1; k > 0; --k) {
+            box_grow(&acc, &bin_box[k]);
+            n += bin_n[k];
+            right_cost[k] = n * box_area(&acc);
+        }
+        acc = box_empty();
+        n = 0;
+        for (int k = 0; k < SAH_BINS - 1; ++k) {
+            box_grow(&acc, &bin_box[k]);
+            n += bin_n[k];
+            double cost = n * box_area(&acc) + right_cost[k + 1];
+            if (n > 0 && n < count && cost < best) {
+                best = cost;
+                *axis_out = a;
+                *pos_out = lo[a] + (float)(k + 1) / scale;
+                found = 1;
+            }
+        }
+    }
+    return found;
+}
+
+static int32_t build_binary(builder *b, uint32_t first, uint32_t count)
+{
+    int32_t id = (int32_t)b->node_count++;
+    bnode *nd = &b->nodes[id];
+    nd->box = box_empty();
+    for (uint32_t i = first; i < first + count; ++i) box_grow(&nd->box, &b->boxes[b->index[i]]);
+    nd->first = first;
+    nd->count = count;
+    nd->left = nd->right = -1;
+    nd->axis = 0;
+    if (count == 1) return id;
+    uint32_t axis = 0, mid = first + count / 2;
+    float pos;
+    if (sah_split(b, first, count, &axis, &pos)) {
+        /* Partition: centroids below pos go left (the lower side along axis). */
+        uint32_t i = first, j = first + count;
+        while (i < j) {
+            if (b->centroid[3 * b->index[i] + axis] < pos) ++i;
+            else {
+                uint32_t t = b->index[i];
+                b->index[i] = b->index[--j];
+                b->index[j] = t;
+            }
+        }
+        if (i > first && i < first + count) mid = i;
+    }
+    int32_t l = build_binary(b, first, mid - first);
+    int32_t r = build_binary(b, mid, first + count - mid);
+    nd = &b->nodes[id]; /* (nodes do not move: preallocated) */
+    nd->left = l;
+    nd->right = r;
+    nd->axis = axis;
+    return id;
+}
+
+typedef struct collapser {
+    const builder *b;
+    ts_qbvh_node *out;
+    uint32_t count;
+    uint32_t depth;
+} collapser;
+
+static void slot_set(collapser *c, uint32_t q, int slot, int32_t bn, uint32_t level);
+
+/* Emits the 4-wide node for binary inner node bn; returns its index. */
+static uint32_t collapse(collapser *c, int32_t bn, int32_t parent, uint32_t parent_slot,
+                         uint32_t level)
+{
+    uint32_t q = c->count++;
+    if (level + 1 > c->depth) c->depth = level + 1;
+    ts_qbvh_node *n = &c->out[q];
+    memset(n, 0, sizeof *n);
+    n->parent = parent;
+    n->parent_slot = parent_slot;
+    for (int s = 0; s < 4; ++s) {
+        n->child[s] = TS_CHILD_EMPTY;
+        n->lo_x[s] = n->lo_y[s] = n->lo_z[s] = FLT_MAX;
+        n->hi_x[s] = n->hi_y[s] = n->hi_z[s] = -FLT_MAX;
+    }
+    const bnode *bnd = &c->b->nodes[bn];
+    if (bnd->left < 0) { /* a single leaf at the root */
+        slot_set(c, q, 0, bn, level);
+        return q;
+    }
+    uint32_t axes = bnd->axis;
+    const int32_t halves[2] = {bnd->left, bnd->right};
+    for (int h = 0; h < 2; ++h) {
+        const bnode *half = &c->b->nodes[halves[h]];
+        if (half->left < 0) {
+            slot_set(c, q, 2 * h, halves[h], level);
+        } else {
+            axes |= half->axis << (2 + 2 * h);
+            slot_set(c, q, 2 * h, half->left, level);
+            slot_set(c, q, 2 * h + 1, half->right, level);
+        }
+    }
+    c->out[q].axes = axes;
+    return q;
+}
+
+static void slot_set(collapser *c, uint32_t q, int slot, int32_t bn, uint32_t level)
+{
+    const bnode *b = &c->b->nodes[bn];
+    ts_qbvh_node *n = &c->out[q];
+    n->lo_x[slot] = b->box.lo_x;
+    n->lo_y[slot] = b->box.lo_y;
+    n->lo_z[slot] = b->box.lo_z;
+    n->hi_x[slot] = b->box.hi_x;
+    n->hi_y[slot] = b->box.hi_y;
+    n->hi_z[slot] = b->box.hi_z;
+    if (b->left < 0) {
+        n->child[slot] = ~(int32_t)c->b->index[b->first];
+    } else {
+        uint32_t child = collapse(c, bn, (int32_t)q, (uint32_t)slot, level + 1);
+        c->out[q].child[slot] = (int32_t)child;
+    }
+}
+
+int qbvh_build(ts_qbvh *q, const ts_box *boxes, uint32_t count, ts_error *err)
+{
+    memset(q, 0, sizeof *q);
+    builder b = {.boxes = boxes};
+    size_t bn_cap = count ? 2 * (size_t)count - 1 : 1;
+    b.index = malloc((count ? count : 1) * sizeof *b.index);
+    b.centroid = malloc((count ? count : 1) * 3 * sizeof *b.centroid);
+    b.nodes = malloc(bn_cap * sizeof *b.nodes);
+    q->nodes = malloc(bn_cap * sizeof *q->nodes); /* 4-wide nodes <= binary inner nodes */
+    if (!b.index || !b.centroid || !b.nodes || !q->nodes) {
+        free(b.index), free(b.centroid), free(b.nodes), qbvh_free(q);
+        return ts_error_set(err, TS_E_MEMORY, "out of memory (top-level BVH, %u patches)", count);
+    }
+    for (uint32_t i = 0; i < count; ++i) {
+        b.index[i] = i;
+        b.centroid[3 * i + 0] = 0.5f * (boxes[i].lo_x + boxes[i].hi_x);
+        b.centroid[3 * i + 1] = 0.5f * (boxes[i].lo_y + boxes[i].hi_y);
+        b.centroid[3 * i + 2] = 0.5f * (boxes[i].lo_z + boxes[i].hi_z);
+    }
+    collapser c = {.b = &b, .out = q->nodes};
+    if (count == 0) {
+        bnode empty = {.box = box_empty(), .left = -1, .right = -1};
+        b.index[0] = 0;
+        b.nodes[0] = empty;
+        collapse(&c, 0, -1, 0, 0);
+        c.out[0].child[0] = TS_CHILD_EMPTY; /* no patch at all */
+    } else {
+        build_binary(&b, 0, count);
+        collapse(&c, 0, -1, 0, 0);
+    }
+    q->node_count = c.count;
+    q->depth = c.depth;
+    free(b.index);
+    free(b.centroid);
+    free(b.nodes);
+    return TS_OK;
+}
+
+void qbvh_free(ts_qbvh *q)
+{
+    free(q->nodes);
+    memset(q, 0, sizeof *q);
+}

@@ -1,0 +1,149 @@
+/* dice_build_ref.c — dice_grid, build_leaves and build_level of one patch in scalar C (see
+ * dice_build_ref.h). Defaults as pipeline.c gives the kernels: +z corner normals and the
+ * identity transform when the scene has none; flatness from patch_flatness at m = 0. */
+#include "ref/dice_build_ref.h"
+#include "lib/patch.h"
+#include "lib/quadtree.h"
+
+#include <math.h>
+
+static const ts_xform identity_xform = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
+static const ts_vec4 up_normals[4] = {{0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}};
+
+uint32_t dice_build_ref_times(const ts_scene *s, uint32_t p)
+{
+    return (s->attr[p].flags & TS_PATCH_MOVING) && s->cp1 ? 2u : 1u;
+}
+
+/* Node k of level l gets box b (build.cl's node_store). */
+static void node_store(ts_box4 *groups, uint32_t l, uint32_t k, ts_box b)
+{
+    ts_box4 *g = groups + (l == 0u ? 0u : quadtree_group_offset(l) + (k >> 2));
+    uint32_t q = l == 0u ? 0u : (k & 3u);
+    g->lo_x[q] = b.lo_x, g->lo_y[q] = b.lo_y, g->lo_z[q] = b.lo_z;
+    g->hi_x[q] = b.hi_x, g->hi_y[q] = b.hi_y, g->hi_z[q] = b.hi_z;
+    if (l == 0u)
+        for (uint32_t e = 1u; e < 4u; ++e) {
+            g->lo_x[e] = g->lo_y[e] = g->lo_z[e] = 1e30f;
+            g->hi_x[e] = g->hi_y[e] = g->hi_z[e] = -1e30f;
+        }
+}
+
+static void box_add(ts_box *b, float x, float y, float z)
+{
+    b->lo_x = fminf(b->lo_x, x), b->hi_x = fmaxf(b->hi_x, x);
+    b->lo_y = fminf(b->lo_y, y), b->hi_y = fmaxf(b->hi_y, y);
+    b->lo_z = fminf(b->lo_z, z), b->hi_z = fmaxf(b->hi_z, z);
+}
+
+/* Box of the undisplaced corners of micro-quad (i, j) of grid g (build.cl's base_box). */
+static ts_box base_box(const ts_vec4 *g, uint32_t n, uint32_t i, uint32_t j, const ts_vec4 *cn,
+                       float h)
+{
+    ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t c = 0; c < 4u; ++c) {
+        uint32_t ci = i + (c & 1u), cj = j + (c >> 1);
+        ts_vec4 p = g[cj * n + ci];
+        ts_vec4 dn = displace_normal(cn, (float)ci * h, (float)cj * h);
+        box_add(&b, p.x - p.w * dn.x, p.y - p.w * dn.y, p.z - p.w * dn.z);
+    }
+    return b;
+}
+
+static void interval_mul(float lo, float hi, float a, float b, float *out_lo, float *out_hi)
+{
+    float p0 = lo * a, p1 = lo * b, p2 = hi * a, p3 = hi * b;
+    *out_lo = fminf(fminf(p0, p1), fminf(p2, p3));
+    *out_hi = fmaxf(fmaxf(p0, p1), fmaxf(p2, p3));
+}
+
+static void grow(ts_box *b, float ex, float ey, float ez)
+{
+    b->lo_x -= ex, b->hi_x += ex, b->lo_y -= ey, b->hi_y += ey, b->lo_z -= ez, b->hi_z += ez;
+}
+
+/* Leaf k of the tree of time `time` (build_leaves for one work-item). */
+static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t k,
+                       const ts_vec4 *cn, const ts_patch_attr *a, const ts_xform *x,
+                       ts_tex_ctx tex, ts_vec4 e)
+{
+    uint32_t n = (1u << m) + 1u, nv = n * n, i = morton_i(k), j = morton_j(k);
+    float h = ldexpf(1.0f, -(int)m);
+    ts_box b = base_box(grid + time * nv, n, i, j, cn, h);
+    float s = ldexpf(1.0f, -2 * (int)m);
+    float mag =
+        fmaxf(fmaxf(fabsf(b.lo_x), fabsf(b.hi_x)),
+              fmaxf(fmaxf(fabsf(b.lo_y), fabsf(b.hi_y)), fmaxf(fabsf(b.lo_z), fabsf(b.hi_z))));
+    float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
+    grow(&b, ex, ey, ez);
+    if (a->disp_kind == TS_DISP_NONE) return b;
+    ts_interval d;
+    if (a->disp_kind == TS_DISP_TEXTURE) {
+        d = displace_texture_interval(a, tex, (float)i * h, (float)j * h, (float)(i + 1u) * h,
+                                      (float)(j + 1u) * h);
+    } else {
+        ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
+        if (time == 1u) {
+            b0 = base_box(grid, n, i, j, cn, h);
+            grow(&b0, ex, ey, ez);
+        }
+        d = displace_interval(a, x, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
+    }
+    ts_box nb = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t c = 0; c < 4u; ++c) {
+        ts_vec4 dn = displace_normal(cn, (float)(i + (c & 1u)) * h, (float)(j + (c >> 1)) * h);
+        box_add(&nb, dn.x, dn.y, dn.z);
+    }
+    float ox0, ox1, oy0, oy1, oz0, oz1;
+    interval_mul(d.lo, d.hi, nb.lo_x, nb.hi_x, &ox0, &ox1);
+    interval_mul(d.lo, d.hi, nb.lo_y, nb.hi_y, &oy0, &oy1);
+    interval_mul(d.lo, d.hi, nb.lo_z, nb.hi_z, &oz0, &oz1);
+    float slack = 4e-7f * (mag + fmaxf(fabsf(d.lo), fabsf(d.hi)));
+    b.lo_x += ox0 - slack, b.hi_x += ox1 + slack;
+    b.lo_y += oy0 - slack, b.hi_y += oy1 + slack;
+    b.lo_z += oz0 - slack, b.hi_z += oz1 + slack;
+    return b;
+}
+
+/* build.cl's leaf_clamp. */
+static ts_box leaf_clamp(ts_box b, ts_box p)
+{
+    b.lo_x = fmaxf(b.lo_x, p.lo_x), b.lo_y = fmaxf(b.lo_y, p.lo_y), b.lo_z = fmaxf(b.lo_z, p.lo_z);
+    b.hi_x = fminf(b.hi_x, p.hi_x), b.hi_y = fminf(b.hi_y, p.hi_y), b.hi_z = fminf(b.hi_z, p.hi_z);
+    return b;
+}
+
+void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid, ts_box4 *groups)
+{
+    uint32_t times = dice_build_ref_times(s, p), n = (1u << m) + 1u, nv = n * n;
+    const ts_vec4 *c0 = &s->cp[p * 16u], *cn = s->corner_n ? &s->corner_n[p * 4u] : up_normals;
+    const ts_patch_attr *a = &s->attr[p];
+    const ts_xform *x = s->xform_count ? &s->xform[a->xform] : &identity_xform;
+    ts_vec4 e = patch_flatness(c0, s->cp1 ? &s->cp1[p * 16u] : c0, 0);
+    ts_tex_ctx tex = scene_tex_ctx(s); /* every tile resident */
+    ts_box pb = scene_patch_box(s, p);
+    for (uint32_t t = 0; t < times; ++t) {
+        const ts_vec4 *c = t ? &s->cp1[p * 16u] : c0;
+        for (uint32_t v = 0; v < nv; ++v)
+            grid[t * nv + v] = patch_vertex(c, c0, cn, a, x, tex, ldexpf((float)(v % n), -(int)m),
+                                            ldexpf((float)(v / n), -(int)m));
+    }
+    uint32_t ng = quadtree_group_count(m);
+    for (uint32_t t = 0; t < times; ++t) {
+        ts_box4 *tree = groups + t * ng;
+        for (uint32_t k = 0; k < (1u << (2u * m)); ++k)
+            node_store(tree, m, k, leaf_clamp(leaf_box(grid, t, m, k, cn, a, x, tex, e), pb));
+        for (uint32_t level = m; level-- > 0;) /* bottom-up min-max reduction */
+            for (uint32_t k = 0; k < (1u << (2u * level)); ++k) {
+                const ts_box4 *c = tree + quadtree_group_offset(level + 1u) + k;
+                ts_box b;
+                b.lo_x = fminf(fminf(c->lo_x[0], c->lo_x[1]), fminf(c->lo_x[2], c->lo_x[3]));
+                b.lo_y = fminf(fminf(c->lo_y[0], c->lo_y[1]), fminf(c->lo_y[2], c->lo_y[3]));
+                b.lo_z = fminf(fminf(c->lo_z[0], c->lo_z[1]), fminf(c->lo_z[2], c->lo_z[3]));
+                b.hi_x = fmaxf(fmaxf(c->hi_x[0], c->hi_x[1]), fmaxf(c->hi_x[2], c->hi_x[3]));
+                b.hi_y = fmaxf(fmaxf(c->hi_y[0], c->hi_y[1]), fmaxf(c->hi_y[2], c->hi_y[3]));
+                b.hi_z = fmaxf(fmaxf(c->hi_z[0], c->hi_z[1]), fmaxf(c->hi_z[2], c->hi_z[3]));
+                node_store(tree, level, k, b);
+            }
+    }
+}

@@ -1,0 +1,31 @@
+/* rib.h — loads a RenderMan RIB file (the subset in docs/rib.md) into a ts_scene.
+ *
+ * Conventions are RenderMan's (RI Spec 3.2 §4): camera space is left-handed, x right, y up,
+ * looking down +z; each new transform applies to points before the current one
+ * (CTM = CTM · T with column vectors); at WorldBegin the CTM becomes world_to_camera and
+ * is reset to the identity. Patches are converted to Bézier and moved to world space as
+ * they are read.
+ */
+#ifndef TS_RIB_H
+#define TS_RIB_H
+
+#include "base/error.h"
+#include "scene/scene.h"
+#include "scene/scene_load.h" /* scene_load: a RIB file or a mesh, by the file name */
+
+#include <stddef.h>
+
+/* Reads and parses the RIB file at path. `scene` must be zero-initialised (or freed);
+ * on success it holds the patches, lights and camera; on failure it is left empty and
+ * err says why: TS_E_IO ("path: No such file or directory"), TS_E_SCENE
+ * ("file:line:col: error: ...") or TS_E_MEMORY. Warnings for ignored requests go to
+ * stderr, one per request name, unless quiet. */
+int rib_load(const char *path, ts_scene *scene, int quiet, ts_error *err);
+
+/* Parses len bytes of RIB text (no NUL terminator needed); `name` is used in messages.
+ * Safe on arbitrary bytes: never reads outside [text, text + len), bounds nesting depth,
+ * token and array sizes, and frees everything on failure. Same contract as rib_load. */
+int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *scene, int quiet,
+                     ts_error *err);
+
+#endif

@@ -1,0 +1,264 @@
+/* rib_archive.c — RIB requests that bring in geometry from elsewhere: ReadArchive (another
+ * RIB file, read as if it stood in place of the request), Procedural "DelayedReadArchive"
+ * (the same, read at once), Procedural "DynamicLoad" ["mesh" "file"] (host/scene/mesh.c) and
+ * ["forest" "trees=.. seed=.. detail=.."] (host/scene/forest.c). Relative paths are relative to
+ * the directory of the file that holds the request. Nesting is bounded and a file that
+ * includes itself, directly or not, is an error. docs/rib.md has the details. */
+#include "scene/rib/rib_internal.h"
+
+#include "scene/forest.h"
+#include "scene/mesh.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The files being read, outermost first: their canonical paths (realpath), for the cycle
+ * check; NULL where the name is not a file (rib_parse_string's name). */
+struct rib_include {
+    int depth; /* archives open below the top-level file */
+    char *real[RIB_MAX_INCLUDE + 1];
+};
+
+void rib_archive_free(rib_parser *p)
+{
+    if (!p->inc) return;
+    for (int k = 0; k <= RIB_MAX_INCLUDE; k++)
+        free(p->inc->real[k]);
+    free(p->inc);
+    p->inc = NULL;
+}
+
+int rib_read_file(const char *path, char **text, size_t *len, int *errnum)
+{
+    *text = NULL;
+    *len = 0;
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        *errnum = errno;
+        return TS_E_IO;
+    }
+    char *buf = NULL;
+    size_t n = 0, cap = 0;
+    for (;;) {
+        if (n == cap) {
+            size_t c = cap ? cap * 2 : 65536;
+            char *b = realloc(buf, c);
+            if (!b) {
+                free(buf);
+                fclose(f);
+                *errnum = ENOMEM;
+                return TS_E_MEMORY;
+            }
+            buf = b;
+            cap = c;
+        }
+        size_t got = fread(buf + n, 1, cap - n, f);
+        n += got;
+        if (got == 0) break;
+    }
+    int bad = ferror(f);
+    *errnum = errno;
+    fclose(f);
+    if (bad) {
+        free(buf);
+        return TS_E_IO;
+    }
+    *text = buf;
+    *len = n;
+    return TS_OK;
+}
+
+/* `name` relative to the directory of the file being read (absolute names as they are).
+ * Returns a malloc'd path or NULL. */
+char *rib_resolve(const rib_parser *p, const char *name)
+{
+    const char *file = p->lx.file, *slash = strrchr(file, '/');
+    size_t dir = (name[0] == '/' || !slash) ? 0 : (size_t)(slash - file) + 1;
+    size_t n = strlen(name);
+    char *out = malloc(dir + n + 1);
+    if (!out) return NULL;
+    memcpy(out, file, dir);
+    memcpy(out + dir, name, n + 1);
+    return out;
+}
+
+/* Reads the RIB file `name` (argument `at` of the current request) in place. */
+static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
+{
+    char shown[RIB_PRINT_MAX];
+    if (!p->inc) {
+        p->inc = calloc(1, sizeof *p->inc);
+        if (!p->inc) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+        p->inc->real[0] = realpath(p->lx.file, NULL);
+    }
+    struct rib_include *inc = p->inc;
+    if (inc->depth >= RIB_MAX_INCLUDE)
+        return rib_error_at(p, at->line, at->col, "%s: archives nested deeper than %d levels",
+                            p->req, RIB_MAX_INCLUDE);
+    char *path = rib_resolve(p, name);
+    if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    char *text;
+    size_t len;
+    int errnum;
+    int rc = rib_read_file(path, &text, &len, &errnum);
+    if (rc != TS_OK) {
+        rc = rib_error_at(p, at->line, at->col, "%s: cannot read \"%s\": %s", p->req,
+                          rib_printable(path, shown), strerror(errnum));
+        free(path);
+        return rc;
+    }
+    char *real = realpath(path, NULL);
+    for (int k = 0; real && k <= inc->depth; k++)
+        if (inc->real[k] && strcmp(inc->real[k], real) == 0) {
+            rc = rib_error_at(p, at->line, at->col,
+                              "%s: \"%s\" is already being read (an include cycle)", p->req,
+                              rib_printable(name, shown));
+            break;
+        }
+    if (rc != TS_OK) {
+        free(real);
+        free(text);
+        free(path);
+        return rc;
+    }
+    inc->real[++inc->depth] = real;
+    rib_lexer saved = p->lx;
+    rib_lex_init(&p->lx, path, text, len, p->err);
+    rc = rib_run_requests(p);
+    rib_lex_free(&p->lx);
+    p->lx = saved;
+    free(inc->real[inc->depth]);
+    inc->real[inc->depth--] = NULL;
+    free(text);
+    free(path);
+    return rc;
+}
+
+/* ReadArchive "file.rib" */
+int rib_req_read_archive(rib_parser *p)
+{
+    const char *name;
+    int rc = rib_string_arg(p, 0, "a file name", &name);
+    if (rc == TS_OK) rc = rib_no_more(p, 1);
+    if (rc != TS_OK) return rc;
+    const rib_arg *at = &p->args[0];
+    /* The arguments live in the parser's pools, which the archive's requests reuse. */
+    char *copy = strdup(name);
+    if (!copy) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    rib_arg where = *at;
+    rc = rib_include_file(p, copy, &where);
+    free(copy);
+    return rc;
+}
+
+/* DynamicLoad "mesh": the file through Assimp, moved by the CTM, with the current
+ * attributes. Errors of the loader become scene errors at the request. */
+static int rib_proc_mesh(rib_parser *p, const char *file, const rib_arg *at)
+{
+    ts_patch_attr attr;
+    int rc = rib_geom_procedural_attr(p, &attr);
+    if (rc != TS_OK) return rc;
+    char *path = rib_resolve(p, file);
+    if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    ts_error e = {0};
+    rc = mesh_load(path, p->ctm, &attr, p->scene, &e);
+    if (rc == TS_E_IO || rc == TS_E_SCENE)
+        rc = rib_error_at(p, at->line, at->col, "Procedural \"mesh\": %s", e.msg);
+    else if (rc != TS_OK)
+        rc = ts_error_set(p->err, rc, "%s", e.msg);
+    ts_error_clear(&e);
+    free(path);
+    return rc;
+}
+
+/* DynamicLoad "forest": the procedural forest, placed by the CTM. */
+static int rib_proc_forest(rib_parser *p, const char *params, const rib_arg *at)
+{
+    forest_params fp;
+    forest_params_default(&fp);
+    char why[160];
+    if (forest_parse_params(params, &fp, why, sizeof why) != 0)
+        return rib_error_at(p, at->line, at->col, "Procedural \"forest\": %s", why);
+    ts_patch_attr attr;
+    int rc = rib_geom_procedural_attr(p, &attr);
+    if (rc != TS_OK) return rc;
+    ts_error e = {0};
+    rc = forest_generate(&fp, p->ctm, &attr, p->scene, NULL, &e);
+    if (rc == TS_E_SCENE)
+        rc = rib_error_at(p, at->line, at->col, "Procedural \"forest\": %s", e.msg);
+    else if (rc != TS_OK)
+        rc = ts_error_set(p->err, rc, "%s", e.msg);
+    ts_error_clear(&e);
+    return rc;
+}
+
+/* Procedural "DelayedReadArchive" ["file.rib"] [bound]
+ * Procedural "DynamicLoad" ["mesh" "model.obj"] [bound]
+ * Procedural "DynamicLoad" ["forest" "trees=1000 seed=1 detail=1"] [bound]
+ * The bound (six numbers, xmin xmax ymin ymax zmin zmax) is checked and not used: the
+ * patches' own boxes are exact. */
+int rib_req_procedural(rib_parser *p)
+{
+    const char *kind;
+    char shown[RIB_PRINT_MAX];
+    int rc = rib_string_arg(p, 0, "a procedural name", &kind);
+    if (rc != TS_OK) return rc;
+    if (p->nargs < 2 || p->args[1].kind != RIB_ARG_STRINGS || p->args[1].count == 0)
+        return rib_error_at(p, p->nargs < 2 ? p->req_line : p->args[1].line,
+                            p->nargs < 2 ? p->req_col : p->args[1].col,
+                            "Procedural: expected an array of strings after \"%s\"",
+                            rib_printable(kind, shown));
+    if (p->nargs < 3 || p->args[2].kind != RIB_ARG_NUMBERS || p->args[2].count != 6)
+        return rib_error_at(p, p->nargs < 3 ? p->req_line : p->args[2].line,
+                            p->nargs < 3 ? p->req_col : p->args[2].col,
+                            "Procedural: expected a bound [xmin xmax ymin ymax zmin zmax]");
+    rc = rib_no_more(p, 3);
+    if (rc != TS_OK) return rc;
+    const rib_arg *data = &p->args[1];
+    /* Copies: the arguments live in pools that the procedural's own requests reuse. */
+    char *a0 = strdup(rib_arg_str(p, data, 0));
+    char *a1 = data->count > 1 ? strdup(rib_arg_str(p, data, 1)) : NULL;
+    rib_arg where = *data;
+    if (!a0 || (data->count > 1 && !a1)) {
+        free(a0);
+        free(a1);
+        return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    }
+    if (strcmp(kind, "DelayedReadArchive") == 0) {
+        rc = data->count == 1 ? rib_include_file(p, a0, &where)
+                              : rib_error_at(p, where.line, where.col,
+                                             "Procedural \"DelayedReadArchive\" takes one file name");
+    } else if (strcmp(kind, "DynamicLoad") == 0) {
+        int mesh = strcmp(a0, "mesh") == 0, forest = strcmp(a0, "forest") == 0;
+        if (!mesh && !forest)
+            rc = rib_error_at(p, where.line, where.col,
+                              "Procedural \"DynamicLoad\": unknown generator \"%s\" (mesh or forest)",
+                              rib_printable(a0, shown));
+        else if (mesh && data->count != 2)
+            rc = rib_error_at(p, where.line, where.col,
+                              "Procedural \"DynamicLoad\": [\"mesh\" \"file\"] takes one file name");
+        else if (forest && data->count > 2)
+            rc = rib_error_at(p, where.line, where.col,
+                              "Procedural \"DynamicLoad\": [\"forest\" \"parameters\"] takes one "
+                              "parameter string");
+        else if (p->ctm_moving)
+            rc = rib_error_at(p, p->req_line, p->req_col,
+                              "Procedural under a moving transformation is not supported");
+        else
+            rc = mesh ? rib_proc_mesh(p, a1, &where) : rib_proc_forest(p, a1 ? a1 : "", &where);
+    } else if (strcmp(kind, "RunProgram") == 0) {
+        rc = rib_error_at(p, p->args[0].line, p->args[0].col,
+                          "Procedural \"RunProgram\" is not supported (DynamicLoad or "
+                          "DelayedReadArchive)");
+    } else {
+        rc = rib_error_at(p, p->args[0].line, p->args[0].col,
+                          "unknown procedural \"%s\" (DynamicLoad or DelayedReadArchive)",
+                          rib_printable(kind, shown));
+    }
+    free(a0);
+    free(a1);
+    return rc;
+}

@@ -1,0 +1,618 @@
+/* rib_geom.c — RIB geometry and lights into the scene: Patch and PatchMesh (RI Spec 3.2
+ * §5.3) become world-space bicubic Bézier patches, LightSource "distantlight" becomes a
+ * ts_distant_light.
+ *
+ * Every patch is converted when it is read: bicubic grids from the current u/v bases with
+ * basis_grid_to_bezier, bilinear ones by exact degree elevation, then its control points
+ * are moved by the CTM (by both of its time samples when it moves). Both steps are exact
+ * for affine maps, which is why a projective CTM is rejected here. A varying "N" gives the
+ * corner displacement normals, moved by the inverse transpose of the CTM; the current
+ * Displacement is stored with the world-to-object transform (the inverse CTM).
+ */
+#include "scene/rib/rib_internal.h"
+
+#include <float.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <string.h>
+
+/* Geometry needs a place in the world block (or a file without one) and an affine CTM
+ * (at both time samples). */
+static int geom_check_state(rib_parser *p)
+{
+    if (p->phase == RIB_AFTER_WORLD)
+        return rib_error_at(p, p->req_line, p->req_col, "%s after WorldEnd", p->req);
+    if (!rib_mat_is_affine(p->ctm) || !rib_mat_is_affine(p->ctm1))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s: the current transformation is projective; patches and lights "
+                            "need an affine one",
+                            p->req);
+    return TS_OK;
+}
+
+/* Moves 16 object-space points by m into w; fails naming the "P" values at line:col. */
+static int geom_points(rib_parser *p, int line, int col, const double m[16],
+                       const double g[16][3], double w[16][3])
+{
+    for (int k = 0; k < 16; k++)
+        if (!rib_mat_point(m, g[k], w[k]))
+            return rib_error_at(p, line, col,
+                                "%s: control point %d leaves the float range after the "
+                                "current transformation",
+                                p->req, k);
+    return TS_OK;
+}
+
+/* The index of the world-to-object transform inv (the inverse of the CTM), reusing the
+ * last one while the CTM is unchanged. */
+static int geom_xform(rib_parser *p, const double inv[16], uint32_t *index)
+{
+    if (p->xf_valid && memcmp(p->xf_ctm, p->ctm, sizeof p->xf_ctm) == 0) {
+        *index = p->xf_index;
+        return TS_OK;
+    }
+    int rc = scene_add_xform(p->scene, inv, index, p->err);
+    if (rc != TS_OK) return rc;
+    memcpy(p->xf_ctm, p->ctm, sizeof p->xf_ctm);
+    p->xf_index = *index;
+    p->xf_valid = 1;
+    return TS_OK;
+}
+
+/* The attributes in effect as a patch's: colour cs (NULL: the current Color), texture
+ * coordinates st at the corners (NULL: the corners' (u, v)), Displacement (xform still 0),
+ * Surface, AreaLightSource. */
+static ts_patch_attr geom_attr(const rib_parser *p, const double *cs, const double st[4][2])
+{
+    if (!cs) cs = p->color;
+    ts_patch_attr attr = {.cs_r = (float)cs[0],
+                          .cs_g = (float)cs[1],
+                          .cs_b = (float)cs[2],
+                          .flags = 0u,
+                          .disp_kind = p->disp.kind,
+                          .disp_octaves = p->disp.octaves,
+                          .disp_amplitude = (float)p->disp.amplitude,
+                          .disp_frequency = (float)p->disp.frequency,
+                          .disp_lacunarity = (float)p->disp.lacunarity,
+                          .disp_gain = (float)p->disp.gain,
+                          .xform = 0u,
+                          .material = p->surface.material,
+                          .kd = (float)p->surface.kd,
+                          .ks = (float)p->surface.ks,
+                          .roughness = (float)p->surface.roughness,
+                          .emitter = TS_INVALID,
+                          .le_r = (float)p->emission[0],
+                          .le_g = (float)p->emission[1],
+                          .le_b = (float)p->emission[2],
+                          .color_tex = p->surface.textured ? p->surface.tex : 0u,
+                          .disp_tex = p->disp.kind == TS_DISP_TEXTURE ? p->disp.tex : 0u,
+                          .disp_offset = (float)p->disp.offset,
+                          .st = {0, 0, 1, 0, 0, 1, 1, 1}};
+    if (p->surface.textured) attr.flags |= TS_PATCH_COLOR_TEX;
+    if (st)
+        for (int c = 0; c < 4; c++)
+            attr.st[2 * c] = (float)st[c][0], attr.st[2 * c + 1] = (float)st[c][1];
+    return attr;
+}
+
+int rib_geom_procedural_attr(rib_parser *p, ts_patch_attr *attr)
+{
+    int rc = geom_check_state(p);
+    if (rc != TS_OK) return rc;
+    *attr = geom_attr(p, NULL, NULL);
+    double inv[16];
+    if (attr->disp_kind == TS_DISP_NONE || attr->disp_kind == TS_DISP_TEXTURE) return TS_OK;
+    if (!rib_mat_invert(p->ctm, inv))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s: the current transformation is singular; Displacement needs an "
+                            "invertible one",
+                            p->req);
+    return geom_xform(p, inv, &attr->xform);
+}
+
+/* Appends a patch: g0 (and g1, the points at shutter close, or NULL) in object space are
+ * moved by the CTM — by its two samples when it moves, which makes the patch move too —
+ * with the current attributes, colour cs (NULL: the current Color) and corner texture
+ * coordinates st (NULL: the corners' (u, v)). n: the four
+ * object-space corner normals from "N" (moved by the inverse transpose of the CTM at
+ * shutter open), or NULL. (line, col): the "P" values, (nline, ncol): the "N" values, for
+ * messages. */
+static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
+                     const double g1[16][3], const double n[4][3], int nline, int ncol,
+                     const double *cs, const double st[4][2])
+{
+    double w0[16][3], w1[16][3], wn[4][3], inv[16];
+    int moving = g1 != NULL || p->ctm_moving;
+    int rc = geom_points(p, line, col, p->ctm, g0, w0);
+    if (rc == TS_OK && moving) rc = geom_points(p, line, col, p->ctm1, g1 ? g1 : g0, w1);
+    if (rc != TS_OK) return rc;
+    ts_patch_attr attr = geom_attr(p, cs, st);
+    int noise = attr.disp_kind == TS_DISP_FBM || attr.disp_kind == TS_DISP_RIDGED;
+    if ((noise || n) && !rib_mat_invert(p->ctm, inv))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s: the current transformation is singular; %s needs an "
+                            "invertible one",
+                            p->req, n ? "\"N\"" : "Displacement");
+    if (noise) {
+        rc = geom_xform(p, inv, &attr.xform);
+        if (rc != TS_OK) return rc;
+    }
+    if (n)
+        for (int c = 0; c < 4; c++) {
+            rib_mat_normal(inv, n[c], wn[c]);
+            double len = sqrt(wn[c][0] * wn[c][0] + wn[c][1] * wn[c][1] + wn[c][2] * wn[c][2]);
+            if (!(len > 0.0) || !isfinite(len))
+                return rib_error_at(p, nline, ncol,
+                                    "%s: normal %d of \"N\" %s after the current transformation",
+                                    p->req, c, len > 0.0 ? "is not finite" : "is zero");
+        }
+    return scene_add_patch_ex(p->scene, (const double(*)[3])w0,
+                              moving ? (const double(*)[3])w1 : NULL,
+                              n ? (const double(*)[3])wn : NULL, &attr, p->err);
+}
+
+/* Degree elevation of the bilinear patch with corners c00, c10, c01, c11 (u fastest) to a
+ * bicubic Bézier: for a (bi)linear map the Bézier points are its values at the Greville
+ * abscissae (i/3, j/3), so the surface is unchanged. */
+static void geom_bilinear_to_bezier(const double *c00, const double *c10, const double *c01,
+                                    const double *c11, double g[16][3])
+{
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++)
+            for (int d = 0; d < 3; d++)
+                g[j * 4 + i][d] = ((3 - i) * (3 - j) * c00[d] + i * (3 - j) * c10[d] +
+                                   (3 - i) * j * c01[d] + i * j * c11[d]) /
+                                  9.0;
+}
+
+/* ---- primitive variables ------------------------------------------------------------ */
+
+/* Storage classes of primitive variables (RI Spec 3.2 §5.1). */
+enum { GEOM_CONSTANT, GEOM_UNIFORM, GEOM_VARYING, GEOM_VERTEX, GEOM_FACEVARYING, GEOM_CLASSES };
+static const char *const geom_class_names[GEOM_CLASSES] = {"constant", "uniform", "varying",
+                                                           "vertex", "facevarying"};
+
+/* The patch grid of a Patch (one patch) or PatchMesh: nu x nv control points (u fastest),
+ * cu x cv patches, wrapping in periodic directions. */
+typedef struct geom_grid {
+    int bicubic, nu, nv, cu, cv, uper, vper;
+} geom_grid;
+
+/* A primitive variable of dim numbers per value ("N", "Cs": 3, "st": 2): its values and
+ * class. */
+typedef struct geom_var {
+    const double *v; /* NULL: not given */
+    int cls, dim;
+    int line, col; /* of the values */
+} geom_var;
+
+typedef struct geom_vars {
+    const double *P;
+    const rib_arg *P_at;
+    geom_var N, Cs, st;
+} geom_vars;
+
+/* How many values a variable of class cls has on the grid (RI Spec §5.3): uniform one per
+ * patch, varying one per patch corner (shared, wrapping), vertex one per control point,
+ * facevarying four per patch. */
+static size_t geom_class_count(const geom_grid *g, int cls)
+{
+    size_t patches = (size_t)g->cu * (size_t)g->cv;
+    size_t nuv = (size_t)(g->uper ? g->cu : g->cu + 1), nvv = (size_t)(g->vper ? g->cv : g->cv + 1);
+    switch (cls) {
+    case GEOM_CONSTANT: return 1;
+    case GEOM_UNIFORM: return patches;
+    case GEOM_VARYING: return nuv * nvv;
+    case GEOM_VERTEX: return (size_t)g->nu * (size_t)g->nv;
+    default: return 4 * patches;
+    }
+}
+
+/* The class named in an inline declaration ("uniform color Cs"), else `dflt`. */
+static int geom_class_of(const char *decl, int dflt)
+{
+    size_t n = strlen(decl);
+    for (size_t s = 0; s < n;) {
+        size_t e = s;
+        while (e < n && decl[e] != ' ')
+            e++;
+        for (int c = 0; c < GEOM_CLASSES; c++)
+            if (e - s == strlen(geom_class_names[c]) && strncmp(decl + s, geom_class_names[c], e - s) == 0)
+                return c;
+        if (e - s == 10 && strncmp(decl + s, "facevertex", 10) == 0) return GEOM_FACEVARYING;
+        s = e + 1;
+    }
+    return dflt;
+}
+
+/* Reads one 3-number variable ("N" or "Cs") with its class and count. */
+static int geom_read_var(rib_parser *p, const rib_param *prm, const geom_grid *g, geom_var *out)
+{
+    int cls = geom_class_of(rib_arg_str(p, prm->key, 0), GEOM_VARYING);
+    size_t count = geom_class_count(g, cls);
+    const double *v;
+    const rib_arg *val = prm->val;
+    char shown[RIB_PRINT_MAX];
+    if (cls != GEOM_VARYING && (val->kind == RIB_ARG_NUMBER || val->kind == RIB_ARG_NUMBERS) &&
+        val->count != 3 * count)
+        return rib_error_at(p, val->line, val->col,
+                            "%s: parameter \"%s\" (%s) needs %zu values, got %zu", p->req,
+                            rib_printable(prm->name, shown), geom_class_names[cls], 3 * count,
+                            val->count);
+    int rc = rib_param_numbers(p, prm, 3 * count, &v, NULL);
+    if (rc != TS_OK) return rc;
+    int is_n = strcmp(prm->name, "N") == 0;
+    for (size_t k = 0; k < count; k++) {
+        const double *x = v + 3 * k;
+        if (is_n && x[0] == 0.0 && x[1] == 0.0 && x[2] == 0.0)
+            return rib_error_at(p, prm->val->line, prm->val->col, "%s: normal %zu of \"N\" is zero",
+                                p->req, k);
+        if (!is_n && !(fabs(x[0]) <= FLT_MAX && fabs(x[1]) <= FLT_MAX && fabs(x[2]) <= FLT_MAX))
+            return rib_error_at(p, prm->val->line, prm->val->col,
+                                "%s: colour %zu of \"Cs\" is out of range", p->req, k);
+    }
+    out->v = v;
+    out->cls = cls;
+    out->dim = 3;
+    out->line = prm->val->line;
+    out->col = prm->val->col;
+    return TS_OK;
+}
+
+/* Reads "st" (2 numbers per value, varying unless declared; not vertex) with its class. */
+static int geom_read_st(rib_parser *p, const rib_param *prm, const geom_grid *g, geom_var *out)
+{
+    int cls = geom_class_of(rib_arg_str(p, prm->key, 0), GEOM_VARYING);
+    if (cls == GEOM_VERTEX)
+        return rib_error_at(p, prm->key->line, prm->key->col,
+                            "%s: \"st\" of class vertex is not supported (varying, uniform, "
+                            "facevarying or constant)",
+                            p->req);
+    size_t count = geom_class_count(g, cls);
+    const double *v;
+    int rc = rib_param_numbers(p, prm, 2 * count, &v, NULL);
+    if (rc != TS_OK) return rc;
+    for (size_t k = 0; k < 2 * count; k++)
+        if (!(fabs(v[k]) <= FLT_MAX))
+            return rib_error_at(p, prm->val->line, prm->val->col,
+                                "%s: value %zu of \"st\" is out of range", p->req, k);
+    *out = (geom_var){v, cls, 2, prm->val->line, prm->val->col};
+    return TS_OK;
+}
+
+/* Finds "P" (3 nu nv numbers), "N" and "Cs" (any class, 3 numbers per value), "st" (2 per
+ * value) among the parameters from args[first]. "Pw" and "Pz" are errors (rational and
+ * height-field patches are not supported); any other parameter ("s", "t", "Os", ...) is
+ * ignored with a warning. */
+static int geom_find_vars(rib_parser *p, size_t first, const geom_grid *g, geom_vars *out)
+{
+    memset(out, 0, sizeof *out);
+    for (size_t i = first; i < p->nargs; i += 2) {
+        rib_param prm;
+        int rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        if (strcmp(prm.name, "P") == 0) {
+            rc = rib_param_numbers(p, &prm, 3 * (size_t)g->nu * (size_t)g->nv, &out->P, NULL);
+            out->P_at = prm.val;
+        } else if (strcmp(prm.name, "N") == 0) {
+            rc = geom_read_var(p, &prm, g, &out->N);
+        } else if (strcmp(prm.name, "Cs") == 0) {
+            rc = geom_read_var(p, &prm, g, &out->Cs);
+        } else if (strcmp(prm.name, "st") == 0) {
+            rc = geom_read_st(p, &prm, g, &out->st);
+        } else if (strcmp(prm.name, "Pw") == 0) {
+            return rib_error_at(p, prm.key->line, prm.key->col,
+                                "%s: rational patches (\"Pw\") are not supported; give \"P\"",
+                                p->req);
+        } else if (strcmp(prm.name, "Pz") == 0) {
+            return rib_error_at(p, prm.key->line, prm.key->col,
+                                "%s: height-field patches (\"Pz\") are not supported; give \"P\"",
+                                p->req);
+        } else {
+            rib_warn_param(p, &prm);
+        }
+        if (rc != TS_OK) return rc;
+    }
+    if (!out->P) return rib_error_at(p, p->req_line, p->req_col, "%s: missing \"P\"", p->req);
+    return TS_OK;
+}
+
+/* The 4x4 (bicubic) or 2x2 (bilinear) window of per-control-point values (3 numbers each)
+ * of patch (pu, pv), wrapping around periodic directions. */
+static void geom_window(const rib_parser *p, const geom_grid *g, const double *vals, int pu, int pv,
+                        double win[16][3])
+{
+    const int su = g->bicubic ? p->ubasis.step : 1, sv = g->bicubic ? p->vbasis.step : 1;
+    const int size = g->bicubic ? 4 : 2;
+    for (int j = 0; j < size; j++)
+        for (int i = 0; i < size; i++) {
+            size_t iu = ((size_t)pu * (size_t)su + (size_t)i) % (size_t)g->nu;
+            size_t iv = ((size_t)pv * (size_t)sv + (size_t)j) % (size_t)g->nv;
+            memcpy(win[j * size + i], vals + 3 * (iv * (size_t)g->nu + iu), sizeof win[0]);
+        }
+}
+
+/* The control window of patch (pu, pv) as a Bézier grid: bicubic windows through the
+ * current bases, bilinear ones degree-elevated. */
+static void geom_to_bezier(const rib_parser *p, const geom_grid *g, const double *vals, int pu,
+                           int pv, double out[16][3])
+{
+    double win[16][3];
+    geom_window(p, g, vals, pu, pv, win);
+    if (g->bicubic)
+        basis_grid_to_bezier(&p->ubasis, &p->vbasis, (const double(*)[3])win, out);
+    else
+        geom_bilinear_to_bezier(win[0], win[1], win[2], win[3], out);
+}
+
+/* The values of a variable at the four corners (0,0), (1,0), (0,1), (1,1) of patch
+ * (pu, pv). Vertex-class values are control values like "P": the corners of their Bézier
+ * form are the values the surface takes there. */
+static void geom_var_corners(const rib_parser *p, const geom_grid *g, const geom_var *var, int pu,
+                             int pv, double out[4][3])
+{
+    size_t patch = (size_t)pv * (size_t)g->cu + (size_t)pu;
+    size_t nuv = (size_t)(g->uper ? g->cu : g->cu + 1), nvv = (size_t)(g->vper ? g->cv : g->cv + 1);
+    if (var->cls == GEOM_VERTEX) {
+        double bez[16][3];
+        geom_to_bezier(p, g, var->v, pu, pv, bez);
+        static const int corner[4] = {0, 3, 12, 15};
+        for (int c = 0; c < 4; c++)
+            memcpy(out[c], bez[corner[c]], sizeof out[c]);
+        return;
+    }
+    for (int c = 0; c < 4; c++) {
+        size_t k = 0;
+        if (var->cls == GEOM_UNIFORM) k = patch;
+        if (var->cls == GEOM_FACEVARYING) k = 4 * patch + (size_t)c;
+        if (var->cls == GEOM_VARYING)
+            k = ((size_t)(pv + (c >> 1)) % nvv) * nuv + (size_t)(pu + (c & 1)) % nuv;
+        memcpy(out[c], var->v + (size_t)var->dim * k, (size_t)var->dim * sizeof out[c][0]);
+    }
+}
+
+/* The patch's "st" at its four corners. */
+static void geom_st_corners(const rib_parser *p, const geom_grid *g, const geom_var *var, int pu,
+                            int pv, double st[4][2])
+{
+    double c4[4][3];
+    geom_var_corners(p, g, var, pu, pv, c4);
+    for (int c = 0; c < 4; c++)
+        st[c][0] = c4[c][0], st[c][1] = c4[c][1];
+}
+
+/* The patch's colour from "Cs": the average of its four corner colours (the renderer keeps
+ * one colour per patch). */
+static void geom_var_colour(const rib_parser *p, const geom_grid *g, const geom_var *var, int pu,
+                            int pv, double cs[3])
+{
+    double c4[4][3];
+    geom_var_corners(p, g, var, pu, pv, c4);
+    for (int d = 0; d < 3; d++)
+        cs[d] = 0.25 * (c4[0][d] + c4[1][d] + c4[2][d] + c4[3][d]);
+}
+
+/* The patch type argument: 1 for "bicubic", 0 for "bilinear". */
+static int geom_patch_type(rib_parser *p, int *bicubic)
+{
+    const char *type;
+    int rc = rib_string_arg(p, 0, "a patch type", &type);
+    if (rc != TS_OK) return rc;
+    *bicubic = strcmp(type, "bicubic") == 0;
+    char shown[RIB_PRINT_MAX];
+    if (!*bicubic && strcmp(type, "bilinear") != 0)
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "%s: unknown patch type \"%s\" (bicubic or bilinear)", p->req,
+                            rib_printable(type, shown));
+    return TS_OK;
+}
+
+/* Patch "bicubic" "P" [48] in the current bases, or Patch "bilinear" "P" [12]; optional
+ * "N" (corner normals) and "Cs" (colour) of any class. Inside a motion block the patch is
+ * a sample, emitted at MotionEnd. */
+int rib_req_patch(rib_parser *p)
+{
+    int bicubic;
+    geom_vars vars;
+    int rc = geom_patch_type(p, &bicubic);
+    if (rc == TS_OK) rc = geom_check_state(p);
+    if (rc != TS_OK) return rc;
+    geom_grid g = {bicubic, bicubic ? 4 : 2, bicubic ? 4 : 2, 1, 1, 0, 0};
+    rc = geom_find_vars(p, 1, &g, &vars);
+    if (rc != TS_OK) return rc;
+    double bez[16][3], n[4][3], cs[3], st[4][2];
+    geom_to_bezier(p, &g, vars.P, 0, 0, bez);
+    if (vars.N.v) geom_var_corners(p, &g, &vars.N, 0, 0, n);
+    if (vars.Cs.v) geom_var_colour(p, &g, &vars.Cs, 0, 0, cs);
+    if (vars.st.v) geom_st_corners(p, &g, &vars.st, 0, 0, st);
+    rib_motion *m = &p->motion;
+    if (m->active) {
+        if (m->count == 0) {
+            m->bicubic = bicubic;
+            m->has_n = vars.N.v != NULL;
+            if (vars.N.v) memcpy(m->n, n, sizeof n), m->n_line = vars.N.line, m->n_col = vars.N.col;
+            m->has_cs = vars.Cs.v != NULL;
+            if (vars.Cs.v) memcpy(m->cs, cs, sizeof cs);
+            m->has_st = vars.st.v != NULL;
+            if (vars.st.v) memcpy(m->st, st, sizeof st);
+            m->p_line = vars.P_at->line, m->p_col = vars.P_at->col;
+        } else if (bicubic != m->bicubic) {
+            return rib_error_at(p, p->args[0].line, p->args[0].col,
+                                "Patch: type %s does not match the %s Patch at %d:%d in the "
+                                "motion block",
+                                bicubic ? "bicubic" : "bilinear",
+                                m->bicubic ? "bicubic" : "bilinear", m->first_line, m->first_col);
+        }
+        memcpy(m->g[m->count++], bez, sizeof bez);
+        return TS_OK;
+    }
+    return geom_emit(p, vars.P_at->line, vars.P_at->col, (const double(*)[3])bez, NULL,
+                     vars.N.v ? (const double(*)[3])n : NULL, vars.N.line, vars.N.col,
+                     vars.Cs.v ? cs : NULL, vars.st.v ? (const double(*)[2])st : NULL);
+}
+
+/* MotionEnd of a block of two Patch requests: one moving patch, "N", "Cs" and "st" from
+ * the first. */
+int rib_geom_motion_patch(rib_parser *p)
+{
+    const rib_motion *m = &p->motion;
+    int rc = geom_check_state(p);
+    if (rc != TS_OK) return rc;
+    return geom_emit(p, m->p_line, m->p_col, (const double(*)[3])m->g[0],
+                     (const double(*)[3])m->g[1], m->has_n ? (const double(*)[3])m->n : NULL,
+                     m->n_line, m->n_col, m->has_cs ? m->cs : NULL,
+                     m->has_st ? (const double(*)[2])m->st : NULL);
+}
+
+/* Patches along one direction of a PatchMesh (RI Spec §5.3, RiPatchMesh): bicubic
+ * nonperiodic (n - 4) / step + 1 with n = 4 + k step, periodic n / step with n = k step;
+ * bilinear nonperiodic n - 1, periodic n. */
+static int geom_mesh_count(rib_parser *p, int bicubic, int n, int step, int periodic,
+                           const rib_arg *at, char dir, int *count)
+{
+    if (!bicubic) {
+        if (n < 2)
+            return rib_error_at(p, at->line, at->col, "PatchMesh: bilinear n%c must be at least 2",
+                                dir);
+        *count = periodic ? n : n - 1;
+    } else if (periodic) {
+        if (n % step != 0)
+            return rib_error_at(p, at->line, at->col,
+                                "PatchMesh: periodic n%c = %d is not a multiple of the %c step %d",
+                                dir, n, dir, step);
+        *count = n / step;
+    } else {
+        if (n < 4 || (n - 4) % step != 0)
+            return rib_error_at(p, at->line, at->col,
+                                "PatchMesh: nonperiodic n%c = %d is not 4 + k * %d (the %c step)",
+                                dir, n, step, dir);
+        *count = (n - 4) / step + 1;
+    }
+    return TS_OK;
+}
+
+/* Reads n<dir> (args[i]) and its wrap mode (args[i + 1]) and counts the patches. */
+static int geom_mesh_direction(rib_parser *p, size_t i, int bicubic, int step, char dir, int *n,
+                               int *periodic, int *count)
+{
+    const char *wrap;
+    char what[4] = {'n', dir, '\0', '\0'};
+    size_t k = i;
+    int rc = rib_integer(p, &k, what, RIB_MAX_VALUES, n);
+    if (rc == TS_OK) rc = rib_string_arg(p, i + 1, "\"periodic\" or \"nonperiodic\"", &wrap);
+    if (rc != TS_OK) return rc;
+    *periodic = strcmp(wrap, "periodic") == 0;
+    if (!*periodic && strcmp(wrap, "nonperiodic") != 0)
+        return rib_error_at(p, p->args[i + 1].line, p->args[i + 1].col,
+                            "PatchMesh: %cwrap must be \"periodic\" or \"nonperiodic\"", dir);
+    return geom_mesh_count(p, bicubic, *n, step, *periodic, &p->args[i], dir, count);
+}
+
+/* PatchMesh type nu uwrap nv vwrap "P" [3 nu nv] ["N" ...] ["Cs" ...] ["st" ...]: "N" and
+ * "Cs" of any class, "st" of any but vertex, counted on the grid of patches
+ * (geom_class_count). */
+int rib_req_patch_mesh(rib_parser *p)
+{
+    geom_grid g;
+    geom_vars vars;
+    int rc = geom_patch_type(p, &g.bicubic);
+    if (rc == TS_OK) rc = geom_check_state(p);
+    if (rc == TS_OK)
+        rc = geom_mesh_direction(p, 1, g.bicubic, p->ubasis.step, 'u', &g.nu, &g.uper, &g.cu);
+    if (rc == TS_OK)
+        rc = geom_mesh_direction(p, 3, g.bicubic, p->vbasis.step, 'v', &g.nv, &g.vper, &g.cv);
+    if (rc != TS_OK) return rc;
+    if ((size_t)g.nu > RIB_MAX_VALUES / (size_t)g.nv)
+        return rib_error_at(p, p->req_line, p->req_col, "PatchMesh: nu * nv is too large");
+    rc = geom_find_vars(p, 5, &g, &vars);
+    for (int pv = 0; rc == TS_OK && pv < g.cv; pv++)
+        for (int pu = 0; rc == TS_OK && pu < g.cu; pu++) {
+            double bez[16][3], n[4][3], cs[3], st[4][2];
+            geom_to_bezier(p, &g, vars.P, pu, pv, bez);
+            if (vars.N.v) geom_var_corners(p, &g, &vars.N, pu, pv, n);
+            if (vars.Cs.v) geom_var_colour(p, &g, &vars.Cs, pu, pv, cs);
+            if (vars.st.v) geom_st_corners(p, &g, &vars.st, pu, pv, st);
+            rc = geom_emit(p, vars.P_at->line, vars.P_at->col, (const double(*)[3])bez, NULL,
+                           vars.N.v ? (const double(*)[3])n : NULL, vars.N.line, vars.N.col,
+                           vars.Cs.v ? cs : NULL, vars.st.v ? (const double(*)[2])st : NULL);
+        }
+    return rc;
+}
+
+/* The parameters of "distantlight" (RI Spec §9.1.1): intensity, lightcolor, from, to,
+ * with or without inline types. */
+static int geom_distant_params(rib_parser *p, size_t first, ts_distant_light *l)
+{
+    static const struct {
+        const char *name;
+        size_t n;
+        size_t offset;
+    } known[] = {
+        {"intensity", 1, offsetof(ts_distant_light, intensity)},
+        {"lightcolor", 3, offsetof(ts_distant_light, color)},
+        {"from", 3, offsetof(ts_distant_light, from)},
+        {"to", 3, offsetof(ts_distant_light, to)},
+        {"angle", 1, offsetof(ts_distant_light, angle)},
+    };
+    for (size_t i = first; i < p->nargs; i += 2) {
+        rib_param prm;
+        int rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        size_t k = 0;
+        while (k < 5 && strcmp(prm.name, known[k].name) != 0)
+            k++;
+        if (k == 5) {
+            rib_warn_param(p, &prm);
+            continue;
+        }
+        const double *v;
+        rc = rib_param_numbers(p, &prm, known[k].n, &v, NULL);
+        if (rc != TS_OK) return rc;
+        memcpy((char *)l + known[k].offset, v, known[k].n * sizeof(double));
+    }
+    return TS_OK;
+}
+
+/* LightSource "distantlight" [handle] params. The handle (a number or a string) is
+ * optional and unused. from/to are points in the current space, moved by the CTM; before
+ * WorldBegin that is camera space and rib_state.c moves them to world at WorldBegin. */
+int rib_req_light_source(rib_parser *p)
+{
+    const char *shader;
+    int rc = rib_string_arg(p, 0, "a light shader name", &shader);
+    if (rc == TS_OK) rc = geom_check_state(p);
+    if (rc != TS_OK) return rc;
+    size_t first = (p->nargs % 2 == 0) ? 2 : 1; /* a handle makes the count even */
+    if (first == 2 && p->args[1].kind != RIB_ARG_NUMBER && p->args[1].kind != RIB_ARG_STRING)
+        return rib_error_at(p, p->args[1].line, p->args[1].col,
+                            "LightSource: the light handle must be a number or a string");
+    if (strcmp(shader, "domelight") == 0) return rib_dome_light(p, first);
+    if (strcmp(shader, "distantlight") != 0) {
+        char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+        snprintf(what, sizeof what, "LightSource \"%s\" is ignored (distantlight, domelight)",
+                 rib_printable(shader, shown));
+        rib_warn_once(p, p->req_line, p->req_col, what);
+        return TS_OK;
+    }
+    if (p->ctm_moving)
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "LightSource under a moving transformation is placed at shutter open");
+    ts_distant_light l = {{0, 0, 0}, {0, 0, 1}, 1.0, {1, 1, 1}, 0.0};
+    rc = geom_distant_params(p, first, &l);
+    if (rc != TS_OK) return rc;
+    double from[3], to[3];
+    if (!rib_mat_point(p->ctm, l.from, from) || !rib_mat_point(p->ctm, l.to, to))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "LightSource: from/to leave the float range after the current "
+                            "transformation");
+    if (from[0] == to[0] && from[1] == to[1] && from[2] == to[2])
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "LightSource: distantlight \"from\" and \"to\" are the same point");
+    if (!(l.angle >= 0.0 && l.angle < 180.0))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "LightSource: distantlight \"angle\" %g is outside [0, 180) degrees", l.angle);
+    memcpy(l.from, from, sizeof from);
+    memcpy(l.to, to, sizeof to);
+    return scene_add_light(p->scene, &l, p->err);
+}

@@ -1,0 +1,90 @@
+/* rib_options.c — camera and image options that real RIB files give before WorldBegin:
+ * PixelSamples (sets the default samples per pixel), Clipping, Shutter and CropWindow
+ * (read, checked and stored in ts_camera; the renderer does not apply them yet, which
+ * each says once in a warning). docs/rib.md has the rules. */
+#include "scene/rib/rib_internal.h"
+
+#include <float.h>
+#include <math.h>
+
+static int options_before_world(rib_parser *p)
+{
+    if (p->phase == RIB_BEFORE_WORLD) return TS_OK;
+    return rib_error_at(p, p->req_line, p->req_col, "%s must come before WorldBegin", p->req);
+}
+
+/* n numbers, then nothing. */
+static int options_numbers(rib_parser *p, size_t n, double *v)
+{
+    size_t i = 0;
+    int rc = options_before_world(p);
+    if (rc == TS_OK) rc = rib_numbers(p, &i, n, v);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    return rc;
+}
+
+/* PixelSamples xsamples ysamples: spp = round(x) * round(y), each in [1, 256]. */
+int rib_req_pixel_samples(rib_parser *p)
+{
+    double v[2];
+    int rc = options_numbers(p, 2, v);
+    if (rc != TS_OK) return rc;
+    for (int k = 0; k < 2; k++)
+        if (!(v[k] >= 0.5 && v[k] < 256.5))
+            return rib_error_at(p, p->req_line, p->req_col,
+                                "PixelSamples: %csamples must be between 1 and 256, got %g",
+                                k ? 'y' : 'x', v[k]);
+    p->scene->camera.spp = (int)floor(v[0] + 0.5) * (int)floor(v[1] + 0.5);
+    return TS_OK;
+}
+
+/* Clipping near far: 0 < near < far. */
+int rib_req_clipping(rib_parser *p)
+{
+    double v[2];
+    int rc = options_numbers(p, 2, v);
+    if (rc != TS_OK) return rc;
+    if (!(v[0] > 0.0 && v[1] > v[0]))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Clipping: need 0 < near < far, got %g %g", v[0], v[1]);
+    p->scene->camera.clip_near = v[0];
+    p->scene->camera.clip_far = v[1];
+    rib_warn_once(p, p->req_line, p->req_col,
+                  "Clipping is stored but not applied (rays are not clipped)");
+    return TS_OK;
+}
+
+/* Shutter open close: open <= close. */
+int rib_req_shutter(rib_parser *p)
+{
+    double v[2];
+    int rc = options_numbers(p, 2, v);
+    if (rc != TS_OK) return rc;
+    if (!(v[0] <= v[1]))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Shutter: the close time must not precede the open time, got %g %g",
+                            v[0], v[1]);
+    p->scene->camera.shutter[0] = v[0];
+    p->scene->camera.shutter[1] = v[1];
+    rib_warn_once(p, p->req_line, p->req_col,
+                  "Shutter is stored but not applied (motion blocks always span the whole "
+                  "shutter)");
+    return TS_OK;
+}
+
+/* CropWindow xmin xmax ymin ymax: within [0, 1], min < max. */
+int rib_req_crop_window(rib_parser *p)
+{
+    double v[4];
+    int rc = options_numbers(p, 4, v);
+    if (rc != TS_OK) return rc;
+    if (!(v[0] >= 0.0 && v[0] < v[1] && v[1] <= 1.0 && v[2] >= 0.0 && v[2] < v[3] && v[3] <= 1.0))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "CropWindow: need 0 <= min < max <= 1 on both axes, got %g %g %g %g",
+                            v[0], v[1], v[2], v[3]);
+    for (int k = 0; k < 4; k++)
+        p->scene->camera.crop[k] = v[k];
+    rib_warn_once(p, p->req_line, p->req_col,
+                  "CropWindow is stored but not applied (the whole image is rendered)");
+    return TS_OK;
+}

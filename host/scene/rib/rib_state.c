@@ -1,0 +1,708 @@
+/* rib_state.c — the RIB graphics state: the current transformation (RI Spec 3.2 §4.3) with
+ * its two time samples, Attribute/Transform/World blocks, camera options (Format,
+ * Projection), the Color, Basis and Displacement attributes and MotionBegin/MotionEnd
+ * blocks. See rib_internal.h for the matrix convention. */
+#include "scene/rib/rib_internal.h"
+
+#include "lib/displace.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- matrices (row-major, column vectors) ---------------------------------------- */
+
+void rib_mat_identity(double m[16])
+{
+    for (int k = 0; k < 16; k++)
+        m[k] = (k % 5 == 0) ? 1.0 : 0.0;
+}
+
+/* ctm = ctm · t, so t acts on points first: RI Spec §4.3, "the new transformation is
+ * applied to points before the old current transformation". */
+void rib_mat_concat(double ctm[16], const double t[16])
+{
+    double r[16];
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) {
+            double s = 0.0;
+            for (int k = 0; k < 4; k++)
+                s += ctm[i * 4 + k] * t[k * 4 + j];
+            r[i * 4 + j] = s;
+        }
+    memcpy(ctm, r, sizeof r);
+}
+
+/* Rotate deg (degrees) about (x, y, z), RI Spec §4.3 RiRotate. RenderMan spaces are
+ * left-handed, so a positive angle turns clockwise seen from the positive end of the axis
+ * looking at the origin (the left-hand rule). Written in coordinates that is the ordinary
+ * axis-angle (Rodrigues) matrix, the same numbers as pbrt's Rotate: only the picture of
+ * "clockwise" depends on handedness, not the matrix. Rotate 90 0 0 1 takes +x to +y,
+ * Rotate 90 1 0 0 takes +y to +z, Rotate 90 0 1 0 takes +z to +x. Returns 0 for a
+ * zero-length axis. */
+static int rib_mat_rotate(double deg, double x, double y, double z, double m[16])
+{
+    double len = sqrt(x * x + y * y + z * z);
+    if (!(len > 0.0) || !isfinite(len)) return 0;
+    x /= len, y /= len, z /= len;
+    double rad = deg * (3.14159265358979323846 / 180.0);
+    double c = cos(rad), s = sin(rad), t = 1.0 - c;
+    /* clang-format off */
+    const double r[16] = {x * x * t + c,     x * y * t - z * s, x * z * t + y * s, 0,
+                          x * y * t + z * s, y * y * t + c,     y * z * t - x * s, 0,
+                          x * z * t - y * s, y * z * t + x * s, z * z * t + c,     0,
+                          0,                 0,                 0,                 1};
+    /* clang-format on */
+    memcpy(m, r, sizeof r);
+    return 1;
+}
+
+/* Gauss-Jordan with partial pivoting. Returns 0 when m is singular or not finite. */
+int rib_mat_invert(const double m[16], double inv[16])
+{
+    double a[4][8];
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 8; j++)
+            a[i][j] = j < 4 ? m[i * 4 + j] : (j - 4 == i);
+    for (int c = 0; c < 4; c++) {
+        int piv = c;
+        for (int r = c + 1; r < 4; r++)
+            if (fabs(a[r][c]) > fabs(a[piv][c])) piv = r;
+        if (!(fabs(a[piv][c]) > 1e-300) || !isfinite(a[piv][c])) return 0;
+        for (int j = 0; j < 8; j++) {
+            double tmp = a[c][j];
+            a[c][j] = a[piv][j];
+            a[piv][j] = tmp;
+        }
+        double d = a[c][c];
+        for (int j = 0; j < 8; j++)
+            a[c][j] /= d;
+        for (int r = 0; r < 4; r++) {
+            if (r == c) continue;
+            double f = a[r][c];
+            for (int j = 0; j < 8; j++)
+                a[r][j] -= f * a[c][j];
+        }
+    }
+    for (int i = 0; i < 16; i++)
+        inv[i] = a[i / 4][4 + i % 4];
+    for (int i = 0; i < 16; i++)
+        if (!isfinite(inv[i])) return 0;
+    return 1;
+}
+
+/* Affine up to the scale of w: bottom row (0 0 0 w), w != 0. Patches stay polynomial only
+ * under affine maps. */
+int rib_mat_is_affine(const double m[16])
+{
+    return m[12] == 0.0 && m[13] == 0.0 && m[14] == 0.0 && m[15] != 0.0 && isfinite(m[15]);
+}
+
+/* Maps a point by an affine m. Returns 0 when the result is not a finite float. */
+int rib_mat_point(const double m[16], const double p[3], double out[3])
+{
+    for (int i = 0; i < 3; i++) {
+        double v =
+            (m[i * 4] * p[0] + m[i * 4 + 1] * p[1] + m[i * 4 + 2] * p[2] + m[i * 4 + 3]) / m[15];
+        if (!(fabs(v) <= FLT_MAX)) return 0;
+        out[i] = v;
+    }
+    return 1;
+}
+
+/* n' = (L^-1)^T n with L^-1 the linear part of inv / inv[15]: column i of inv is row i of
+ * its transpose. */
+void rib_mat_normal(const double inv[16], const double n[3], double out[3])
+{
+    for (int i = 0; i < 3; i++)
+        out[i] = (inv[i] * n[0] + inv[4 + i] * n[1] + inv[8 + i] * n[2]) / inv[15];
+}
+
+/* ---- transformations (RI Spec §4.3) ---------------------------------------------- */
+
+/* Both time samples of the CTM become m (replace) or are multiplied by m. Inside a motion
+ * block the matrix is a sample, applied at MotionEnd. */
+static int rib_apply_transform(rib_parser *p, const double m[16], int replace)
+{
+    rib_motion *mo = &p->motion;
+    if (mo->active) {
+        memcpy(mo->m[mo->count], m, sizeof mo->m[0]);
+        mo->replace = replace;
+        mo->count++;
+        return TS_OK;
+    }
+    if (replace) {
+        memcpy(p->ctm, m, sizeof p->ctm);
+        memcpy(p->ctm1, m, sizeof p->ctm1);
+        p->ctm_moving = 0;
+    } else {
+        rib_mat_concat(p->ctm, m);
+        if (p->ctm_moving)
+            rib_mat_concat(p->ctm1, m);
+        else
+            memcpy(p->ctm1, p->ctm, sizeof p->ctm1);
+    }
+    return TS_OK;
+}
+
+int rib_req_identity(rib_parser *p)
+{
+    double id[16];
+    int rc = rib_no_more(p, 0);
+    if (rc != TS_OK) return rc;
+    rib_mat_identity(id);
+    return rib_apply_transform(p, id, 1);
+}
+
+int rib_req_translate(rib_parser *p)
+{
+    double v[3], t[16];
+    size_t i = 0;
+    int rc = rib_numbers(p, &i, 3, v);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    if (rc != TS_OK) return rc;
+    rib_mat_identity(t);
+    t[3] = v[0], t[7] = v[1], t[11] = v[2];
+    return rib_apply_transform(p, t, 0);
+}
+
+int rib_req_scale(rib_parser *p)
+{
+    double v[3], t[16];
+    size_t i = 0;
+    int rc = rib_numbers(p, &i, 3, v);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    if (rc != TS_OK) return rc;
+    rib_mat_identity(t);
+    t[0] = v[0], t[5] = v[1], t[10] = v[2];
+    return rib_apply_transform(p, t, 0);
+}
+
+int rib_req_rotate(rib_parser *p)
+{
+    double v[4], t[16];
+    size_t i = 0;
+    int rc = rib_numbers(p, &i, 4, v);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    if (rc != TS_OK) return rc;
+    if (!rib_mat_rotate(v[0], v[1], v[2], v[3], t))
+        return rib_error_at(p, p->req_line, p->req_col, "Rotate about a zero-length axis");
+    return rib_apply_transform(p, t, 0);
+}
+
+/* A RIB [16] matrix (row vectors) as a column-vector matrix: its transpose. */
+static int rib_matrix(rib_parser *p, double m[16])
+{
+    double r[16];
+    size_t i = 0;
+    int rc = rib_numbers(p, &i, 16, r);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    if (rc != TS_OK) return rc;
+    for (int k = 0; k < 16; k++)
+        m[k] = r[(k % 4) * 4 + k / 4];
+    return TS_OK;
+}
+
+int rib_req_concat_transform(rib_parser *p)
+{
+    double m[16];
+    int rc = rib_matrix(p, m);
+    return rc == TS_OK ? rib_apply_transform(p, m, 0) : rc;
+}
+
+/* Transform replaces the CTM: object to world inside the world block, object to camera
+ * before it. */
+int rib_req_transform(rib_parser *p)
+{
+    double m[16];
+    int rc = rib_matrix(p, m);
+    return rc == TS_OK ? rib_apply_transform(p, m, 1) : rc;
+}
+
+/* ---- blocks: AttributeBegin/End, TransformBegin/End, WorldBegin/End ---------------- */
+
+static const char *const rib_frame_begin[] = {"AttributeBegin", "TransformBegin", "WorldBegin"};
+
+static int rib_push(rib_parser *p, rib_frame_kind kind)
+{
+    if (p->depth >= RIB_MAX_DEPTH)
+        return rib_error_at(p, p->req_line, p->req_col, "%s nested deeper than %d levels", p->req,
+                            RIB_MAX_DEPTH);
+    if (p->depth == p->stack_cap) {
+        size_t cap = p->stack_cap ? p->stack_cap * 2 : 16;
+        rib_frame *s = realloc(p->stack, cap * sizeof *s);
+        if (!s) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+        p->stack = s;
+        p->stack_cap = cap;
+    }
+    rib_frame *f = &p->stack[p->depth++];
+    f->kind = kind;
+    f->line = p->req_line;
+    f->col = p->req_col;
+    memcpy(f->ctm, p->ctm, sizeof f->ctm);
+    memcpy(f->ctm1, p->ctm1, sizeof f->ctm1);
+    f->ctm_moving = p->ctm_moving;
+    memcpy(f->color, p->color, sizeof f->color);
+    f->ubasis = p->ubasis;
+    f->vbasis = p->vbasis;
+    f->disp = p->disp;
+    f->surface = p->surface;
+    memcpy(f->emission, p->emission, sizeof f->emission);
+    return TS_OK;
+}
+
+/* Pops the innermost block, which must be of `kind`. TransformEnd restores the CTM (both
+ * time samples) only; AttributeEnd and WorldEnd also restore colour, bases and
+ * displacement. */
+static int rib_pop(rib_parser *p, rib_frame_kind kind)
+{
+    int rc = rib_no_more(p, 0);
+    if (rc != TS_OK) return rc;
+    const rib_frame *top = p->depth ? &p->stack[p->depth - 1] : NULL;
+    if (!top || (top->kind == RIB_FRAME_WORLD && kind != RIB_FRAME_WORLD))
+        return rib_error_at(p, p->req_line, p->req_col, "%s without a matching %s", p->req,
+                            rib_frame_begin[kind]);
+    if (top->kind != kind)
+        return rib_error_at(p, p->req_line, p->req_col, "%s does not match the %s at %d:%d", p->req,
+                            rib_frame_begin[top->kind], top->line, top->col);
+    memcpy(p->ctm, top->ctm, sizeof p->ctm);
+    memcpy(p->ctm1, top->ctm1, sizeof p->ctm1);
+    p->ctm_moving = top->ctm_moving;
+    if (kind != RIB_FRAME_TRANSFORM) {
+        memcpy(p->color, top->color, sizeof p->color);
+        p->ubasis = top->ubasis;
+        p->vbasis = top->vbasis;
+        p->disp = top->disp;
+        p->surface = top->surface;
+        memcpy(p->emission, top->emission, sizeof p->emission);
+    }
+    p->depth--;
+    return TS_OK;
+}
+
+int rib_req_attribute_begin(rib_parser *p)
+{
+    int rc = rib_no_more(p, 0);
+    return rc == TS_OK ? rib_push(p, RIB_FRAME_ATTRIBUTE) : rc;
+}
+
+int rib_req_transform_begin(rib_parser *p)
+{
+    int rc = rib_no_more(p, 0);
+    return rc == TS_OK ? rib_push(p, RIB_FRAME_TRANSFORM) : rc;
+}
+
+int rib_req_attribute_end(rib_parser *p)
+{
+    return rib_pop(p, RIB_FRAME_ATTRIBUTE);
+}
+int rib_req_transform_end(rib_parser *p)
+{
+    return rib_pop(p, RIB_FRAME_TRANSFORM);
+}
+
+/* Moves n control points from camera to world space. */
+static int rib_camera_points_to_world(rib_parser *p, ts_vec4 *c, size_t n,
+                                      const double cam_to_world[16])
+{
+    for (size_t k = 0; k < n; k++) {
+        double a[3] = {c[k].x, c[k].y, c[k].z}, b[3];
+        if (!rib_mat_point(cam_to_world, a, b))
+            return rib_error_at(p, p->req_line, p->req_col,
+                                "a patch before WorldBegin leaves the float range");
+        c[k].x = (float)b[0], c[k].y = (float)b[1], c[k].z = (float)b[2];
+    }
+    return TS_OK;
+}
+
+/* The corner normals and world-to-object transforms of patches read before WorldBegin:
+ * normals by the inverse transpose of camera_to_world (the transpose of world_to_camera's
+ * linear part), renormalised; camera-to-object transforms X become X · world_to_camera. */
+static int rib_camera_attrs_to_world(rib_parser *p, const double w2c[16])
+{
+    ts_scene *s = p->scene;
+    for (size_t k = (size_t)p->first_patch * 4u; k < (size_t)s->patch_count * 4u; k++) {
+        ts_vec4 *c = &s->corner_n[k];
+        double a[3] = {c->x, c->y, c->z}, b[3];
+        for (int i = 0; i < 3; i++)
+            b[i] = (w2c[i] * a[0] + w2c[4 + i] * a[1] + w2c[8 + i] * a[2]) / w2c[15];
+        double len = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+        if (len > 0.0 && isfinite(len))
+            c->x = (float)(b[0] / len), c->y = (float)(b[1] / len), c->z = (float)(b[2] / len);
+    }
+    uint32_t last_old = 0, last_new = 0;
+    int have_last = 0;
+    for (uint32_t q = p->first_patch; q < s->patch_count; q++) {
+        ts_patch_attr *a = &s->attr[q];
+        if (a->disp_kind == TS_DISP_NONE) continue; /* xform unused */
+        if (have_last && a->xform == last_old) {
+            a->xform = last_new;
+            continue;
+        }
+        const ts_xform *x = &s->xform[a->xform];
+        const float *rows[3] = {x->r0, x->r1, x->r2};
+        double m[16];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 4; j++) {
+                double v = 0.0;
+                for (int k = 0; k < 4; k++)
+                    v += (double)rows[i][k] * w2c[k * 4 + j];
+                m[i * 4 + j] = v / w2c[15];
+            }
+        m[12] = m[13] = m[14] = 0.0, m[15] = 1.0;
+        last_old = a->xform;
+        int rc = scene_add_xform(s, m, &a->xform, p->err);
+        if (rc != TS_OK) return rc;
+        last_new = a->xform;
+        have_last = 1;
+    }
+    return TS_OK;
+}
+
+/* Patches and lights read before WorldBegin were placed by a CTM that ends in camera
+ * space; move them to world space with camera_to_world = world_to_camera^-1. */
+static int rib_camera_items_to_world(rib_parser *p, const double cam_to_world[16])
+{
+    ts_scene *s = p->scene;
+    size_t first = (size_t)p->first_patch * 16u, n = (size_t)(s->patch_count - p->first_patch) * 16u;
+    int rc = TS_OK; /* (no pointer arithmetic on the arrays while there are no patches) */
+    if (n > 0) rc = rib_camera_points_to_world(p, s->cp + first, n, cam_to_world);
+    if (rc == TS_OK && n > 0 && s->cp1)
+        rc = rib_camera_points_to_world(p, s->cp1 + first, n, cam_to_world);
+    if (rc == TS_OK) rc = rib_camera_attrs_to_world(p, p->ctm);
+    if (rc != TS_OK) return rc;
+    for (uint32_t l = p->first_light; l < s->light_count; l++) {
+        ts_distant_light *d = &s->lights[l];
+        double from[3], to[3];
+        if (!rib_mat_point(cam_to_world, d->from, from) || !rib_mat_point(cam_to_world, d->to, to))
+            return rib_error_at(p, p->req_line, p->req_col,
+                                "a light before WorldBegin leaves the float range");
+        memcpy(d->from, from, sizeof from);
+        memcpy(d->to, to, sizeof to);
+    }
+    return TS_OK;
+}
+
+/* The CTM becomes world_to_camera (normalised to w = 1) and the CTM restarts at the
+ * identity (RI Spec §4.1.1). */
+int rib_req_world_begin(rib_parser *p)
+{
+    int rc = rib_no_more(p, 0);
+    if (rc != TS_OK) return rc;
+    if (p->phase == RIB_IN_WORLD)
+        return rib_error_at(p, p->req_line, p->req_col, "WorldBegin inside the world block");
+    if (p->phase == RIB_AFTER_WORLD)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "a second WorldBegin: only one world block per file is supported");
+    double inv[16];
+    if (p->ctm_moving)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "a moving camera transform is not supported (MotionBegin before "
+                            "WorldBegin)");
+    if (!rib_mat_is_affine(p->ctm))
+        return rib_error_at(p, p->req_line, p->req_col, "the camera transform is projective");
+    if (!rib_mat_invert(p->ctm, inv))
+        return rib_error_at(p, p->req_line, p->req_col, "the camera transform is singular");
+    rc = rib_camera_items_to_world(p, inv);
+    if (rc == TS_OK) rc = rib_push(p, RIB_FRAME_WORLD);
+    if (rc != TS_OK) return rc;
+    for (int k = 0; k < 16; k++)
+        p->scene->camera.world_to_camera[k] = p->ctm[k] / p->ctm[15];
+    rib_mat_identity(p->ctm);
+    rib_mat_identity(p->ctm1);
+    p->xf_valid = 0;
+    p->phase = RIB_IN_WORLD;
+    return TS_OK;
+}
+
+int rib_req_world_end(rib_parser *p)
+{
+    if (p->phase != RIB_IN_WORLD)
+        return rib_error_at(p, p->req_line, p->req_col, "WorldEnd without WorldBegin");
+    int rc = rib_pop(p, RIB_FRAME_WORLD);
+    if (rc == TS_OK) p->phase = RIB_AFTER_WORLD;
+    return rc;
+}
+
+/* ---- camera options and attributes ---------------------------------------------- */
+
+static int rib_before_world(rib_parser *p)
+{
+    if (p->phase == RIB_BEFORE_WORLD) return TS_OK;
+    return rib_error_at(p, p->req_line, p->req_col, "%s must come before WorldBegin", p->req);
+}
+
+int rib_req_format(rib_parser *p)
+{
+    size_t i = 0;
+    int w, h;
+    double aspect;
+    int rc = rib_before_world(p);
+    if (rc == TS_OK) rc = rib_integer(p, &i, "xresolution", 65536, &w);
+    if (rc == TS_OK) rc = rib_integer(p, &i, "yresolution", 65536, &h);
+    if (rc == TS_OK) rc = rib_numbers(p, &i, 1, &aspect);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    if (rc != TS_OK) return rc;
+    if (!(aspect > 0.0))
+        return rib_error_at(p, p->args[i - 1].line, p->args[i - 1].col,
+                            "Format: the pixel aspect ratio must be positive, got %g", aspect);
+    if (aspect != 1.0)
+        rib_warn_once(p, p->req_line, p->req_col, "Format pixel aspect ratio is ignored");
+    p->scene->camera.width = w;
+    p->scene->camera.height = h;
+    p->scene->camera.has_format = 1;
+    return TS_OK;
+}
+
+/* Projection "perspective" ["fov" f]: fov is the full angle across the shorter image axis.
+ * Like RiProjection, it restarts the CTM at the identity (RI Spec §4.1.1). */
+int rib_req_projection(rib_parser *p)
+{
+    const char *name;
+    int rc = rib_before_world(p);
+    if (rc == TS_OK) rc = rib_string_arg(p, 0, "a projection name", &name);
+    if (rc != TS_OK) return rc;
+    if (strcmp(name, "orthographic") == 0)
+        return rib_error_at(
+            p, p->args[0].line, p->args[0].col,
+            "Projection \"orthographic\" is not supported yet (only \"perspective\")");
+    char shown[RIB_PRINT_MAX];
+    if (strcmp(name, "perspective") != 0)
+        return rib_error_at(p, p->args[0].line, p->args[0].col, "unknown projection \"%s\"",
+                            rib_printable(name, shown));
+    for (size_t i = 1; i < p->nargs; i += 2) {
+        rib_param prm;
+        const double *v;
+        rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        if (strcmp(prm.name, "fov") != 0) {
+            rib_warn_param(p, &prm);
+            continue;
+        }
+        rc = rib_param_numbers(p, &prm, 1, &v, NULL);
+        if (rc != TS_OK) return rc;
+        if (!(v[0] > 0.0 && v[0] < 180.0))
+            return rib_error_at(p, prm.val->line, prm.val->col,
+                                "fov must be between 0 and 180 degrees, got %g", v[0]);
+        p->scene->camera.fov_deg = v[0];
+    }
+    double id[16];
+    rib_mat_identity(id);
+    if (memcmp(id, p->ctm, sizeof id) != 0)
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "transformations before Projection are discarded");
+    rib_mat_identity(p->ctm);
+    rib_mat_identity(p->ctm1);
+    p->ctm_moving = 0;
+    return TS_OK;
+}
+
+int rib_req_color(rib_parser *p)
+{
+    size_t i = 0;
+    double c[3];
+    int rc = rib_numbers(p, &i, 3, c);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    if (rc != TS_OK) return rc;
+    for (int k = 0; k < 3; k++)
+        if (!(fabs(c[k]) <= FLT_MAX))
+            return rib_error_at(p, p->req_line, p->req_col, "Color: %g is out of range", c[k]);
+    memcpy(p->color, c, sizeof c);
+    return TS_OK;
+}
+
+/* A basis given by name or as a [16] array (RI Spec §5.4, RiBasis). */
+static int rib_basis_arg(rib_parser *p, size_t i, const char *what, ts_basis *out)
+{
+    if (i >= p->nargs)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Basis expects ubasis ustep vbasis vstep, %s is missing", what);
+    const rib_arg *a = &p->args[i];
+    if (a->kind == RIB_ARG_STRING) {
+        const ts_basis *b = basis_by_name(rib_arg_str(p, a, 0));
+        char shown[RIB_PRINT_MAX];
+        if (!b)
+            return rib_error_at(p, a->line, a->col,
+                                "unknown basis \"%s\" (bezier, b-spline, catmull-rom, "
+                                "hermite, power or a [16] matrix)",
+                                rib_printable(rib_arg_str(p, a, 0), shown));
+        *out = *b;
+        return TS_OK;
+    }
+    if (a->kind == RIB_ARG_NUMBERS && a->count == 16) {
+        *out = basis_from_matrix(rib_arg_nums(p, a), 1);
+        return TS_OK;
+    }
+    return rib_error_at(p, a->line, a->col, "Basis: %s must be a basis name or a [16] matrix",
+                        what);
+}
+
+int rib_req_basis(rib_parser *p)
+{
+    ts_basis u, v;
+    size_t i = 1, j = 3;
+    int rc = rib_basis_arg(p, 0, "ubasis", &u);
+    if (rc == TS_OK) rc = rib_integer(p, &i, "ustep", 65536, &u.step);
+    if (rc == TS_OK) rc = rib_basis_arg(p, 2, "vbasis", &v);
+    if (rc == TS_OK) rc = rib_integer(p, &j, "vstep", 65536, &v.step);
+    if (rc == TS_OK) rc = rib_no_more(p, 4);
+    if (rc != TS_OK) return rc;
+    p->ubasis = u;
+    p->vbasis = v;
+    return TS_OK;
+}
+
+/* ---- Displacement (docs/rib.md) ---------------------------------------------------- */
+
+/* Displacement "fbm" | "ridged" ["amplitude" a] ["frequency" f] ["octaves" n]
+ * ["lacunarity" l] ["gain" g]; Displacement "texture" "texturename" ["file"] ["amplitude" a]
+ * ["offset" o]; Displacement "null" or "" turns it off. An attribute: it applies to the
+ * patches that follow and AttributeEnd restores it. */
+int rib_req_displacement(rib_parser *p)
+{
+    const char *name;
+    int rc = rib_string_arg(p, 0, "a displacement name", &name);
+    if (rc != TS_OK) return rc;
+    char shown[RIB_PRINT_MAX];
+    rib_disp d = {TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0};
+    int off = name[0] == '\0' || strcmp(name, "null") == 0, has_tex = 0;
+    if (strcmp(name, "fbm") == 0)
+        d.kind = TS_DISP_FBM;
+    else if (strcmp(name, "ridged") == 0)
+        d.kind = TS_DISP_RIDGED;
+    else if (strcmp(name, "texture") == 0)
+        d.kind = TS_DISP_TEXTURE;
+    else if (!off)
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "unknown displacement \"%s\" (fbm, ridged, texture or null)",
+                            rib_printable(name, shown));
+    int tex = d.kind == TS_DISP_TEXTURE;
+    for (size_t i = 1; i < p->nargs; i += 2) {
+        rib_param prm;
+        const double *v;
+        rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        /* Which parameters each function takes: noise 0-4, texture 0, 5, 6. */
+        static const char *const known[] = {"amplitude", "frequency", "octaves", "lacunarity",
+                                            "gain", "offset", "texturename"};
+        size_t k = 0;
+        while (k < 7 && strcmp(prm.name, known[k]) != 0)
+            k++;
+        if (k == 7 || off || (tex && k >= 1 && k <= 4) || (!tex && k >= 5)) {
+            rib_warn_param(p, &prm);
+            continue;
+        }
+        if (k == 6) {
+            rc = rib_texture_arg(p, i + 1, TS_TEX_MINMAX, &d.tex);
+            if (rc != TS_OK) return rc;
+            has_tex = 1;
+            continue;
+        }
+        rc = rib_param_numbers(p, &prm, 1, &v, NULL);
+        if (rc != TS_OK) return rc;
+        double x = v[0];
+        int ok = fabs(x) <= FLT_MAX;
+        const char *need = "a finite number";
+        if (k == 1 || k == 3) ok = ok && x > 0.0, need = "positive";
+        if (k == 2) ok = x >= 0.5 && x < (double)TS_DISP_MAX_OCTAVES + 0.5, need = "between 1 and 16";
+        if (!ok)
+            return rib_error_at(p, prm.val->line, prm.val->col, "Displacement: %s must be %s, got %g",
+                                known[k], need, x);
+        if (k == 0) d.amplitude = x;
+        if (k == 1) d.frequency = x;
+        if (k == 2) d.octaves = (uint32_t)floor(x + 0.5);
+        if (k == 3) d.lacunarity = x;
+        if (k == 4) d.gain = x;
+        if (k == 5) d.offset = x;
+    }
+    if (tex && !has_tex)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Displacement \"texture\": missing \"texturename\"");
+    if (off || d.amplitude == 0.0) d.kind = TS_DISP_NONE;
+    p->disp = d;
+    return TS_OK;
+}
+
+/* ---- motion blocks (docs/rib.md) --------------------------------------------------- */
+
+/* Requests a motion block may hold: one kind per block, two samples. */
+static const char *const rib_motion_kinds[] = {"Patch", "Translate", "Rotate", "Scale",
+                                               "ConcatTransform", "Transform"};
+
+int rib_motion_check(rib_parser *p)
+{
+    rib_motion *m = &p->motion;
+    if (strcmp(p->req, "MotionBegin") == 0)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "MotionBegin inside the motion block at %d:%d", m->line, m->col);
+    size_t k = 0, n = sizeof rib_motion_kinds / sizeof rib_motion_kinds[0];
+    while (k < n && strcmp(p->req, rib_motion_kinds[k]) != 0)
+        k++;
+    if (k == n)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s is not allowed in the motion block at %d:%d (only Patch, "
+                            "Translate, Rotate, Scale, ConcatTransform or Transform)",
+                            p->req, m->line, m->col);
+    if (m->count >= 2)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s: the motion block at %d:%d already has its 2 samples", p->req,
+                            m->line, m->col);
+    if (m->count == 0) {
+        memcpy(m->first, p->req, sizeof m->first);
+        m->first_line = p->req_line;
+        m->first_col = p->req_col;
+    } else if (strcmp(p->req, m->first) != 0) {
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s does not match the %s at %d:%d in the motion block", p->req,
+                            m->first, m->first_line, m->first_col);
+    }
+    return TS_OK;
+}
+
+/* MotionBegin [t0 t1]: exactly two increasing times, which become shutter open and close. */
+int rib_req_motion_begin(rib_parser *p)
+{
+    double t[2];
+    size_t i = 0;
+    if (p->nargs > 0 && p->args[0].kind == RIB_ARG_NUMBERS && p->args[0].count != 2)
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "MotionBegin: exactly 2 times are supported, got %zu",
+                            p->args[0].count);
+    int rc = rib_numbers(p, &i, 2, t);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    if (rc != TS_OK) return rc;
+    if (!(t[0] < t[1]))
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "MotionBegin: the times must increase, got %g %g", t[0], t[1]);
+    memset(&p->motion, 0, sizeof p->motion);
+    p->motion.active = 1;
+    p->motion.line = p->req_line;
+    p->motion.col = p->req_col;
+    return TS_OK;
+}
+
+/* MotionEnd: applies the two samples: a moving patch, or a CTM with two time samples. */
+int rib_req_motion_end(rib_parser *p)
+{
+    rib_motion *m = &p->motion;
+    int rc = rib_no_more(p, 0);
+    if (rc != TS_OK) return rc;
+    if (!m->active)
+        return rib_error_at(p, p->req_line, p->req_col, "MotionEnd without MotionBegin");
+    if (m->count != 2)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "MotionEnd: the motion block at %d:%d has %d sample%s for 2 times",
+                            m->line, m->col, m->count, m->count == 1 ? "" : "s");
+    m->active = 0;
+    if (strcmp(m->first, "Patch") == 0) return rib_geom_motion_patch(p);
+    if (m->replace) {
+        memcpy(p->ctm, m->m[0], sizeof p->ctm);
+        memcpy(p->ctm1, m->m[1], sizeof p->ctm1);
+    } else {
+        rib_mat_concat(p->ctm, m->m[0]);
+        rib_mat_concat(p->ctm1, m->m[1]);
+    }
+    p->ctm_moving = memcmp(p->ctm, p->ctm1, sizeof p->ctm) != 0;
+    return TS_OK;
+}

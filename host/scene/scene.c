@@ -1,0 +1,473 @@
+/* scene.c — growth, completion and bounds of the loaded scene (see scene.h for the layout).
+ *
+ * corner_n carries a marker in w while the scene is being loaded: w = 0 for a normal the
+ * scene gave (final), w = 1 for a provisional one (the patch's own unit normal at the
+ * corner) that scene_finalize replaces by the average over every patch sharing the corner
+ * and then marks final (w = 0). The provisional value keeps a scene that is never
+ * finalised (hand-built test scenes) usable. */
+#include "scene/scene.h"
+
+#include "lib/displace.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* First allocation, in patches (64 * 16 control points * 16 bytes = 16 KiB). */
+#define SCENE_FIRST_PATCHES 64u
+/* Lights carry no capacity field: the capacity is implied by the count, the next power of
+ * two at or above it, at least SCENE_FIRST_LIGHTS. */
+#define SCENE_FIRST_LIGHTS 4u
+#define SCENE_FIRST_XFORMS 8u
+
+/* corner_n.w while loading (see above). */
+#define SCENE_N_GIVEN 0.0f
+#define SCENE_N_PENDING 1.0f
+
+/* Doubles the patch arrays when full. Each array is grown in turn and its pointer kept as
+ * soon as realloc succeeds; the capacity only moves when all succeeded, so a failure
+ * leaves the scene consistent (some arrays merely larger than needed). */
+static int scene_reserve_patch(ts_scene *s, ts_error *err)
+{
+    if (s->patch_count < s->patch_capacity) return TS_OK;
+    if (s->patch_capacity > UINT32_MAX / 2)
+        return ts_error_set(err, TS_E_MEMORY, "scene: more than %u patches", s->patch_capacity);
+    uint32_t cap = s->patch_capacity ? s->patch_capacity * 2u : SCENE_FIRST_PATCHES;
+    ts_vec4 *cp = realloc(s->cp, (size_t)cap * 16u * sizeof *cp);
+    if (!cp) goto fail;
+    s->cp = cp;
+    if (s->cp1) {
+        ts_vec4 *cp1 = realloc(s->cp1, (size_t)cap * 16u * sizeof *cp1);
+        if (!cp1) goto fail;
+        s->cp1 = cp1;
+    }
+    ts_vec4 *n = realloc(s->corner_n, (size_t)cap * 4u * sizeof *n);
+    if (!n) goto fail;
+    s->corner_n = n;
+    ts_patch_attr *attr = realloc(s->attr, (size_t)cap * sizeof *attr);
+    if (!attr) goto fail;
+    s->attr = attr;
+    s->patch_capacity = cap;
+    return TS_OK;
+fail:
+    return ts_error_set(err, TS_E_MEMORY, "scene: out of memory for %u patches", cap);
+}
+
+/* Creates cp1 (capacity patch_capacity) holding a copy of cp: the first moving patch. */
+static int scene_start_motion(ts_scene *s, ts_error *err)
+{
+    if (s->cp1) return TS_OK;
+    size_t n = (size_t)s->patch_capacity * 16u;
+    s->cp1 = malloc((n ? n : 16u) * sizeof *s->cp1);
+    if (!s->cp1) return ts_error_set(err, TS_E_MEMORY, "scene: out of memory for motion");
+    if (s->patch_count) memcpy(s->cp1, s->cp, (size_t)s->patch_count * 16u * sizeof *s->cp);
+    return TS_OK;
+}
+
+/* Float control points from doubles, w = 1; 0 when one leaves the float range. */
+static int scene_points(ts_vec4 *dst, const double cp[16][3])
+{
+    for (int k = 0; k < 16; k++) {
+        for (int d = 0; d < 3; d++)
+            if (!(fabs(cp[k][d]) <= FLT_MAX)) return 0;
+        dst[k].x = (float)cp[k][0];
+        dst[k].y = (float)cp[k][1];
+        dst[k].z = (float)cp[k][2];
+        dst[k].w = 1.0f;
+    }
+    return 1;
+}
+
+/* ---- normals of a Bézier patch, in double -------------------------------------------- */
+
+static void scene_bernstein(double t, double b[4], double d[4])
+{
+    double s = 1.0 - t;
+    b[0] = s * s * s, b[1] = 3.0 * t * s * s, b[2] = 3.0 * t * t * s, b[3] = t * t * t;
+    d[0] = -3.0 * s * s, d[1] = 3.0 * (s * s - 2.0 * t * s), d[2] = 3.0 * (2.0 * t * s - t * t);
+    d[3] = 3.0 * t * t;
+}
+
+/* dP/du x dP/dv at (u, v). */
+static void scene_cross_derivs(const ts_vec4 *cp, double u, double v, double n[3])
+{
+    double bu[4], du[4], bv[4], dv[4], pu[3] = {0, 0, 0}, pv[3] = {0, 0, 0};
+    scene_bernstein(u, bu, du);
+    scene_bernstein(v, bv, dv);
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++) {
+            const ts_vec4 *c = &cp[j * 4 + i];
+            double wu = du[i] * bv[j], wv = bu[i] * dv[j];
+            pu[0] += wu * c->x, pu[1] += wu * c->y, pu[2] += wu * c->z;
+            pv[0] += wv * c->x, pv[1] += wv * c->y, pv[2] += wv * c->z;
+        }
+    n[0] = pu[1] * pv[2] - pu[2] * pv[1];
+    n[1] = pu[2] * pv[0] - pu[0] * pv[2];
+    n[2] = pu[0] * pv[1] - pu[1] * pv[0];
+}
+
+/* The unit geometric normal of the patch at corner c (0..3: (0,0), (1,0), (0,1), (1,1)).
+ * Where dP/du x dP/dv vanishes at the corner (a collapsed edge such as the teapot's lid
+ * apex, or parallel derivatives) the limit from inside is taken: the normal a little
+ * inside along the diagonal, with the first step small enough that its direction error,
+ * O(step), is far below float precision. Returns 0 (n = 0) for a patch degenerate all the
+ * way in. */
+static int scene_corner_normal(const ts_vec4 *cp, int c, double n[3])
+{
+    static const double steps[] = {0.0, 1e-7, 1e-5, 1e-3, 1e-2, 0.1, 0.5};
+    double ext = 0.0; /* size of the control polygon, for a scale-free threshold */
+    for (int k = 1; k < 16; k++) {
+        ext = fmax(ext, fabs((double)cp[k].x - cp[0].x));
+        ext = fmax(ext, fabs((double)cp[k].y - cp[0].y));
+        ext = fmax(ext, fabs((double)cp[k].z - cp[0].z));
+    }
+    double tiny = 1e-14 * ext * ext;
+    for (size_t k = 0; k < sizeof steps / sizeof steps[0]; k++) {
+        double u = (c & 1) ? 1.0 - steps[k] : steps[k], v = (c & 2) ? 1.0 - steps[k] : steps[k];
+        scene_cross_derivs(cp, u, v, n);
+        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        if (len > tiny && len > 0.0 && isfinite(len)) {
+            n[0] /= len, n[1] /= len, n[2] /= len;
+            return 1;
+        }
+    }
+    n[0] = n[1] = n[2] = 0.0;
+    return 0;
+}
+
+/* Writes the provisional corner normals of patch p (its own, w = SCENE_N_PENDING). */
+static void scene_own_normals(ts_scene *s, uint32_t p)
+{
+    for (int c = 0; c < 4; c++) {
+        double n[3];
+        scene_corner_normal(s->cp + (size_t)p * 16u, c, n);
+        ts_vec4 *o = &s->corner_n[(size_t)p * 4u + (size_t)c];
+        o->x = (float)n[0], o->y = (float)n[1], o->z = (float)n[2], o->w = SCENE_N_PENDING;
+    }
+}
+
+/* ---- patches ------------------------------------------------------------------------- */
+
+int scene_add_patch(ts_scene *s, const double cp[16][3], const ts_patch_attr *attr, ts_error *err)
+{
+    return scene_add_patch_ex(s, cp, NULL, NULL, attr, err);
+}
+
+/* The identity transform as xform[0], if there is none yet. */
+static int scene_ensure_identity(ts_scene *s, ts_error *err)
+{
+    if (s->xform_count) return TS_OK;
+    uint32_t index;
+    double id[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    return scene_add_xform(s, id, &index, err);
+}
+
+int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16][3],
+                       const double normals[4][3], const ts_patch_attr *attr, ts_error *err)
+{
+    ts_patch_attr a = {.cs_r = 1.0f, .cs_g = 1.0f, .cs_b = 1.0f, .disp_kind = TS_DISP_NONE,
+                       .disp_octaves = 1u, .disp_lacunarity = 2.0f, .disp_gain = 0.5f,
+                       .xform = 0u, .material = TS_MAT_MATTE, .kd = 1.0f,
+                       .emitter = TS_INVALID, .st = {0, 0, 1, 0, 0, 1, 1, 1}};
+    if (attr) a = *attr;
+    a.flags = cp1 ? (a.flags | TS_PATCH_MOVING) : (a.flags & ~TS_PATCH_MOVING);
+    int rc = scene_ensure_identity(s, err);
+    if (rc != TS_OK) return rc;
+    if (a.xform >= s->xform_count)
+        return ts_error_set(err, TS_E_INTERNAL, "scene: patch refers to transform %u of %u",
+                            a.xform, s->xform_count);
+    if ((a.disp_kind == TS_DISP_TEXTURE &&
+         (a.disp_tex >= s->texture_count || s->textures[a.disp_tex].kind != TS_TEX_MINMAX)) ||
+        ((a.flags & TS_PATCH_COLOR_TEX) &&
+         (a.color_tex >= s->texture_count || s->textures[a.color_tex].kind != TS_TEX_RGB)))
+        return ts_error_set(err, TS_E_INTERNAL, "scene: patch refers to a texture it cannot use");
+    double nn[4][3];
+    if (normals)
+        for (int c = 0; c < 4; c++) {
+            double len = sqrt(normals[c][0] * normals[c][0] + normals[c][1] * normals[c][1] +
+                              normals[c][2] * normals[c][2]);
+            if (!(len > 0.0) || !isfinite(len))
+                return ts_error_set(err, TS_E_SCENE, "scene: corner normal %d of patch %u has %s",
+                                    c, s->patch_count, len > 0.0 ? "no finite length" : "zero length");
+            for (int d = 0; d < 3; d++)
+                nn[c][d] = normals[c][d] / len;
+        }
+    rc = scene_reserve_patch(s, err);
+    if (rc == TS_OK && cp1) rc = scene_start_motion(s, err);
+    if (rc != TS_OK) return rc;
+    uint32_t p = s->patch_count;
+    ts_vec4 *dst = s->cp + (size_t)p * 16u;
+    if (!scene_points(dst, cp) || (cp1 && !scene_points(s->cp1 + (size_t)p * 16u, cp1)))
+        return ts_error_set(err, TS_E_SCENE, "scene: patch %u leaves the float range", p);
+    if (s->cp1 && !cp1) memcpy(s->cp1 + (size_t)p * 16u, dst, 16u * sizeof *dst);
+    s->attr[p] = a;
+    if (normals) {
+        for (int c = 0; c < 4; c++) {
+            ts_vec4 *o = &s->corner_n[(size_t)p * 4u + (size_t)c];
+            o->x = (float)nn[c][0], o->y = (float)nn[c][1], o->z = (float)nn[c][2];
+            o->w = SCENE_N_GIVEN;
+        }
+    } else {
+        scene_own_normals(s, p);
+    }
+    s->patch_count = p + 1u;
+    return TS_OK;
+}
+
+/* ---- transforms ---------------------------------------------------------------------- */
+
+static int scene_xform_equal(const ts_xform *a, const ts_xform *b)
+{
+    for (int k = 0; k < 4; k++)
+        if (a->r0[k] != b->r0[k] || a->r1[k] != b->r1[k] || a->r2[k] != b->r2[k]) return 0;
+    return 1;
+}
+
+int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *index,
+                    ts_error *err)
+{
+    const double *m = world_to_object;
+    if (!(m[12] == 0.0 && m[13] == 0.0 && m[14] == 0.0 && m[15] != 0.0 && isfinite(m[15])))
+        return ts_error_set(err, TS_E_INTERNAL, "scene: transform is not affine");
+    ts_xform x;
+    float *rows[3] = {x.r0, x.r1, x.r2};
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 4; c++) {
+            double v = m[r * 4 + c] / m[15];
+            if (!(fabs(v) <= FLT_MAX))
+                return ts_error_set(err, TS_E_SCENE, "scene: transform leaves the float range");
+            rows[r][c] = (float)v;
+        }
+    if (s->xform_count == 0) {
+        /* xform[0] is the identity: add it first (unless this is it). */
+        static const ts_xform id = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
+        s->xform = malloc(SCENE_FIRST_XFORMS * sizeof *s->xform);
+        if (!s->xform) return ts_error_set(err, TS_E_MEMORY, "scene: out of memory for transforms");
+        s->xform_capacity = SCENE_FIRST_XFORMS;
+        s->xform[0] = id;
+        s->xform_count = 1;
+    }
+    /* Newest first: consecutive patches mostly share their transform. */
+    for (uint32_t k = s->xform_count; k-- > 0;)
+        if (scene_xform_equal(&s->xform[k], &x)) {
+            *index = k;
+            return TS_OK;
+        }
+    if (s->xform_count == s->xform_capacity) {
+        if (s->xform_capacity > UINT32_MAX / 2)
+            return ts_error_set(err, TS_E_MEMORY, "scene: more than %u transforms",
+                                s->xform_capacity);
+        uint32_t cap = s->xform_capacity * 2u;
+        ts_xform *t = realloc(s->xform, (size_t)cap * sizeof *t);
+        if (!t) return ts_error_set(err, TS_E_MEMORY, "scene: out of memory for transforms");
+        s->xform = t;
+        s->xform_capacity = cap;
+    }
+    s->xform[s->xform_count] = x;
+    *index = s->xform_count++;
+    return TS_OK;
+}
+
+/* ---- finalize: shared corner normals ----------------------------------------------- */
+
+/* A corner position as a hash key; -0 and +0 are the same position. */
+typedef struct scene_key {
+    float x, y, z;
+} scene_key;
+
+static uint32_t scene_bits(float f)
+{
+    uint32_t u;
+    f += 0.0f; /* -0 -> +0 */
+    memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+static uint32_t scene_hash(const scene_key *k)
+{
+    uint32_t h = 2166136261u;
+    uint32_t w[3] = {scene_bits(k->x), scene_bits(k->y), scene_bits(k->z)};
+    for (int i = 0; i < 3; i++) {
+        h = (h ^ w[i]) * 16777619u;
+        h ^= h >> 15;
+        h *= 0x2c1b3c6du;
+        h ^= h >> 12;
+    }
+    return h;
+}
+
+static int scene_key_equal(const scene_key *a, const scene_key *b)
+{
+    return a->x == b->x && a->y == b->y && a->z == b->z;
+}
+
+/* Replaces every pending corner normal by the renormalised sum of the unit normals of all
+ * pending corners at exactly the same position. A sum that nearly cancels (patches of
+ * opposite orientation meeting) keeps the patch's own normal. */
+static int scene_average_normals(ts_scene *s, ts_error *err)
+{
+    size_t corners = (size_t)s->patch_count * 4u, pending = 0;
+    for (size_t k = 0; k < corners; k++)
+        pending += s->corner_n[k].w != SCENE_N_GIVEN;
+    if (pending == 0) return TS_OK;
+    size_t slots = 16;
+    while (slots < 2 * pending)
+        slots *= 2;
+    uint32_t *table = malloc(slots * sizeof *table);
+    uint32_t *id = malloc(corners * sizeof *id);          /* corner -> unique position */
+    scene_key *keys = malloc(pending * sizeof *keys);     /* unique positions */
+    double(*sum)[3] = malloc(pending * sizeof *sum);      /* sums of unit normals */
+    int rc = TS_OK;
+    if (!table || !id || !keys || !sum) {
+        rc = ts_error_set(err, TS_E_MEMORY, "scene: out of memory for corner normals");
+        goto done;
+    }
+    memset(table, 0xff, slots * sizeof *table);
+    static const int corner_cp[4] = {0, 3, 12, 15};
+    uint32_t unique = 0;
+    for (uint32_t p = 0; p < s->patch_count; p++) {
+        const ts_vec4 *cp = s->cp + (size_t)p * 16u;
+        for (int c = 0; c < 4; c++) {
+            size_t k = (size_t)p * 4u + (size_t)c;
+            if (s->corner_n[k].w == SCENE_N_GIVEN) continue;
+            double n[3];
+            scene_corner_normal(cp, c, n); /* from the current points (cp may have moved) */
+            ts_vec4 *o = &s->corner_n[k];
+            o->x = (float)n[0], o->y = (float)n[1], o->z = (float)n[2];
+            const ts_vec4 *pt = &cp[corner_cp[c]];
+            scene_key key = {pt->x, pt->y, pt->z};
+            size_t h = scene_hash(&key) & (slots - 1);
+            while (table[h] != UINT32_MAX && !scene_key_equal(&keys[table[h]], &key))
+                h = (h + 1) & (slots - 1);
+            if (table[h] == UINT32_MAX) {
+                table[h] = unique;
+                keys[unique] = key;
+                sum[unique][0] = sum[unique][1] = sum[unique][2] = 0.0;
+                unique++;
+            }
+            id[k] = table[h];
+            for (int d = 0; d < 3; d++)
+                sum[id[k]][d] += n[d];
+        }
+    }
+    for (size_t k = 0; k < corners; k++) {
+        ts_vec4 *o = &s->corner_n[k];
+        if (o->w == SCENE_N_GIVEN) continue;
+        const double *a = sum[id[k]];
+        double len = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+        if (len > 1e-3) {
+            o->x = (float)(a[0] / len), o->y = (float)(a[1] / len), o->z = (float)(a[2] / len);
+        } else if (o->x == 0.0f && o->y == 0.0f && o->z == 0.0f) {
+            o->z = 1.0f; /* no direction anywhere near this corner: any unit vector */
+        }
+        o->w = SCENE_N_GIVEN;
+    }
+done:
+    free(table);
+    free(id);
+    free(keys);
+    free(sum);
+    return rc;
+}
+
+int scene_finalize(ts_scene *s, ts_error *err)
+{
+    int rc = scene_ensure_identity(s, err);
+    if (rc != TS_OK) return rc;
+    int moving = 0;
+    for (uint32_t p = 0; p < s->patch_count; p++) {
+        if (s->attr[p].xform >= s->xform_count)
+            return ts_error_set(err, TS_E_INTERNAL, "scene: patch %u refers to transform %u of %u",
+                                p, s->attr[p].xform, s->xform_count);
+        moving |= (s->attr[p].flags & TS_PATCH_MOVING) != 0;
+    }
+    if (moving) {
+        rc = scene_start_motion(s, err);
+        if (rc != TS_OK) return rc;
+        for (uint32_t p = 0; p < s->patch_count; p++)
+            if (!(s->attr[p].flags & TS_PATCH_MOVING))
+                memcpy(s->cp1 + (size_t)p * 16u, s->cp + (size_t)p * 16u, 16u * sizeof *s->cp);
+    }
+    return scene_average_normals(s, err);
+}
+
+/* ---- lights, boxes, free --------------------------------------------------------- */
+
+int scene_add_light(ts_scene *s, const ts_distant_light *light, ts_error *err)
+{
+    uint32_t n = s->light_count;
+    int full = (n == 0) || (n >= SCENE_FIRST_LIGHTS && (n & (n - 1u)) == 0);
+    if (full) {
+        if (n > UINT32_MAX / 2)
+            return ts_error_set(err, TS_E_MEMORY, "scene: more than %u lights", n);
+        uint32_t cap = n ? n * 2u : SCENE_FIRST_LIGHTS;
+        ts_distant_light *l = realloc(s->lights, (size_t)cap * sizeof *l);
+        if (!l) return ts_error_set(err, TS_E_MEMORY, "scene: out of memory for %u lights", cap);
+        s->lights = l;
+    }
+    s->lights[n] = *light;
+    s->light_count = n + 1u;
+    return TS_OK;
+}
+
+static void scene_box_points(ts_box *b, const ts_vec4 *c)
+{
+    for (int k = 0; k < 16; k++) {
+        b->lo_x = fminf(b->lo_x, c[k].x);
+        b->lo_y = fminf(b->lo_y, c[k].y);
+        b->lo_z = fminf(b->lo_z, c[k].z);
+        b->hi_x = fmaxf(b->hi_x, c[k].x);
+        b->hi_y = fmaxf(b->hi_y, c[k].y);
+        b->hi_z = fmaxf(b->hi_z, c[k].z);
+    }
+}
+
+ts_box scene_patch_box(const ts_scene *s, uint32_t p)
+{
+    ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    if (!s || p >= s->patch_count) return b; /* empty: lo > hi */
+    scene_box_points(&b, s->cp + (size_t)p * 16u);
+    if (s->cp1 && (s->attr[p].flags & TS_PATCH_MOVING)) scene_box_points(&b, s->cp1 + (size_t)p * 16u);
+    /* The displacement normal interpolates unit corner normals: each of its components is
+     * at most 1 in magnitude, so d * n moves a point by at most |d| per axis. Rounded
+     * outwards so the float box stays conservative. */
+    float g = displace_bound(&s->attr[p]);
+    if (s->attr[p].disp_kind == TS_DISP_TEXTURE) {
+        ts_interval d = displace_texture_interval(&s->attr[p], scene_tex_ctx(s), 0.0f, 0.0f, 1.0f, 1.0f);
+        g = fmaxf(fabsf(d.lo), fabsf(d.hi));
+    }
+    /* A few ulps of |P| as well: the diced vertices are rounded, and build clamps every leaf
+     * box to this box (build.cl), so it must hold them. */
+    float mag = fmaxf(fmaxf(fmaxf(fabsf(b.lo_x), fabsf(b.hi_x)), fmaxf(fabsf(b.lo_y), fabsf(b.hi_y))),
+                      fmaxf(fabsf(b.lo_z), fabsf(b.hi_z)));
+    g += 1e-6f * (mag + g);
+    if (g > 0.0f) {
+        b.lo_x = nextafterf(b.lo_x - g, -INFINITY);
+        b.lo_y = nextafterf(b.lo_y - g, -INFINITY);
+        b.lo_z = nextafterf(b.lo_z - g, -INFINITY);
+        b.hi_x = nextafterf(b.hi_x + g, INFINITY);
+        b.hi_y = nextafterf(b.hi_y + g, INFINITY);
+        b.hi_z = nextafterf(b.hi_z + g, INFINITY);
+    }
+    return b;
+}
+
+void scene_free(ts_scene *s)
+{
+    if (!s) return;
+    free(s->cp);
+    free(s->cp1);
+    free(s->corner_n);
+    free(s->attr);
+    free(s->xform);
+    free(s->lights);
+    for (uint32_t i = 0; i < s->texture_count; i++)
+        free(s->tex_source[i]);
+    free(s->tex_source);
+    free(s->textures);
+    free(s->tex_pool);
+    free(s->tex_pages);
+    memset(s, 0, sizeof *s);
+}

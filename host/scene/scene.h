@@ -1,0 +1,124 @@
+/* scene.h — the scene as the renderer sees it after loading: bicubic Bézier patches in
+ * world space, their attributes, the camera and the lights. Every patch kind the loaders
+ * accept (other bases, PatchMesh, later meshes) is converted to Bézier here. */
+#ifndef TS_SCENE_H
+#define TS_SCENE_H
+
+#include "base/error.h"
+#include "lib/shared_types.h"
+#include "lib/texture.h"
+
+#include <stdint.h>
+
+/* The camera as RIB describes it (RenderMan conventions: camera space is left-handed,
+ * x right, y up, looking down +z; fov is the full angle of the shorter image axis). */
+typedef struct ts_camera {
+    double world_to_camera[16]; /* row-major 4x4, column vectors: p_cam = M * p_world */
+    double fov_deg;             /* Projection "perspective" "fov"; default 90 */
+    int width, height;          /* Format; 0 when the scene sets none */
+    int has_format;
+    /* PixelSamples xs ys: xs * ys samples per pixel; 0 when the scene sets none. The
+     * command line's --spp overrides it. */
+    int spp;
+    /* Stored from the RIB options but not applied by the renderer yet (docs/rib.md):
+     * Clipping near far, Shutter open close, CropWindow xmin xmax ymin ymax. rib_load
+     * sets the RenderMan defaults (1e-10 1e30, 0 0, 0 1 0 1); zero in other scenes. */
+    double clip_near, clip_far;
+    double shutter[2];
+    double crop[4];
+} ts_camera;
+
+/* A distant light (LightSource "distantlight"): light travels from `from` to `to`; the sun
+ * when angle (its angular diameter, degrees) > 0. intensity * color is the irradiance it
+ * gives a surface facing it. */
+typedef struct ts_distant_light {
+    double from[3], to[3];
+    double intensity;
+    double color[3];
+    double angle;
+} ts_distant_light;
+
+/* A uniform sky (LightSource "domelight"): radiance intensity * color from every direction. */
+typedef struct ts_dome_light {
+    int present;
+    double intensity;
+    double color[3];
+    char mapname[4096]; /* a lat-long environment map (any OpenImageIO format), "" for none */
+} ts_dome_light;
+
+typedef struct ts_scene {
+    uint32_t patch_count;
+    uint32_t patch_capacity;
+    /* patch_count * 16 control points, world space, Bézier basis, row by row with u
+     * fastest: point (i, j) of patch p is cp[p * 16 + j * 4 + i], w = 1. For a moving patch
+     * (attr.flags & TS_PATCH_MOVING) these are the points at shutter open (time 0). */
+    ts_vec4 *cp;
+    /* Points at shutter close (time 1), same layout; NULL while no patch moves. Static
+     * patches hold a copy of cp here once any patch moves (Hanika §3.4). */
+    ts_vec4 *cp1;
+    /* patch_count * 4 displacement normals at the corners (u, v) = (0,0), (1,0), (0,1),
+     * (1,1), unit length, w = 0 (DESIGN.md §2). From a varying "N" when the scene gives one,
+     * else set by scene_finalize to the average over every patch sharing the corner. */
+    ts_vec4 *corner_n;
+    ts_patch_attr *attr; /* patch_count entries */
+    /* World-to-object transforms referenced by attr.xform (noise is evaluated in object
+     * space); xform[0] is the identity. */
+    ts_xform *xform;
+    uint32_t xform_count, xform_capacity;
+    /* Image textures (lib/texture.h, host/scene/texture.c), referenced by attr.disp_tex and
+     * attr.color_tex: texture_count descriptors, every tile of every level in tex_pool
+     * (tex_tile_count tiles of TS_TEX_TILE^2 texels) and the identity page table
+     * tex_pages[i] = i; tex_source[i] is the file texture i was read from. */
+    ts_texture *textures;
+    char **tex_source;
+    uint32_t texture_count;
+    ts_vec4 *tex_pool;
+    uint32_t *tex_pages;
+    uint32_t tex_tile_count;
+    ts_camera camera;
+    ts_distant_light *lights;
+    uint32_t light_count;
+    ts_dome_light dome;
+} ts_scene;
+
+/* Appends one Bézier patch (16 world-space points, u fastest). Returns TS_OK or
+ * TS_E_MEMORY. */
+int scene_add_patch(ts_scene *s, const double cp[16][3], const ts_patch_attr *attr,
+                    ts_error *err);
+/* The general form: cp1 (points at time 1) NULL for a static patch, else the patch moves
+ * (sets TS_PATCH_MOVING); normals (corner displacement normals in the corner order above,
+ * world space, any length) NULL to have scene_finalize average them. */
+int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16][3],
+                       const double normals[4][3], const ts_patch_attr *attr, ts_error *err);
+/* Adds a world-to-object transform (row-major 4x4, affine) and returns its index for
+ * ts_patch_attr.xform; an identical transform already added is reused. */
+int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *index,
+                    ts_error *err);
+/* Completes a loaded scene: corner normals for patches without explicit ones (the
+ * geometric normal of each patch at each corner, averaged over all patches whose corner
+ * has exactly the same position, then normalised; where a patch's derivatives vanish at a
+ * corner the limit from inside the patch is used), and cp1 copies for static patches when
+ * any patch moves. Loaders call it once at the end. */
+int scene_finalize(ts_scene *s, ts_error *err);
+/* Appends a distant light. */
+int scene_add_light(ts_scene *s, const ts_distant_light *light, ts_error *err);
+/* Conservative world-space box of patch p over the whole shutter interval: the box of its
+ * control points at both times (convex hull property of Bézier patches, Hanika §3.3) grown
+ * by the largest displacement the patch's function can produce (displace_bound in
+ * lib/displace.h; for a texture its min-max pyramid over the patch's st rectangle,
+ * displace_texture_interval) in every axis. */
+ts_box scene_patch_box(const ts_scene *s, uint32_t p);
+void scene_free(ts_scene *s);
+
+/* Reads an image (any format OpenImageIO reads) as texture kind TS_TEX_MINMAX (the first
+ * channel, with its min-max pyramid) or TS_TEX_RGB (grey for one or two channels, else the
+ * first three) and returns its index; a file already read as that kind is reused.
+ * Non-finite texels are an error (TS_E_IO "PATH: ..."), as is a side over 32768. */
+int scene_add_texture(ts_scene *s, const char *path, uint32_t kind, uint32_t *index,
+                      ts_error *err);
+/* The textures as lib/texture.h reads them on the host (every tile resident). */
+ts_tex_ctx scene_tex_ctx(const ts_scene *s);
+/* The range of texture `index`'s first channel (its coarsest min-max level), TS_TEX_MINMAX. */
+ts_interval scene_texture_range(const ts_scene *s, uint32_t index);
+
+#endif
