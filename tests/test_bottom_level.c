@@ -49,13 +49,13 @@ static void load(ts_scene *s, int displaced, int moving)
     assert_int_equal(s->patch_count, P);
 }
 
-static void read_buffer(ts_cl *cl, cl_mem m, size_t bytes, void *host)
+static void read_buffer(ts_device *cl, cl_mem m, size_t bytes, void *host)
 {
     assert_int_equal(clEnqueueReadBuffer(cl->queue, m, CL_TRUE, 0, bytes, host, 0, NULL, NULL),
                      CL_SUCCESS);
 }
 
-static void write_buffer(ts_cl *cl, cl_mem m, size_t bytes, const void *host)
+static void write_buffer(ts_device *cl, cl_mem m, size_t bytes, const void *host)
 {
     assert_int_equal(clEnqueueWriteBuffer(cl->queue, m, CL_TRUE, 0, bytes, host, 0, NULL, NULL),
                      CL_SUCCESS);
@@ -63,7 +63,7 @@ static void write_buffer(ts_cl *cl, cl_mem m, size_t bytes, const void *host)
 
 /* The rays of the frame at 4 spp (jittered, with times), then some given a tmin > 0 and some
  * a finite tmax around the teapot's depth; written back to the device. */
-static void make_rays(ts_cl *cl, ts_pipeline *p, const ts_scene *s, ts_vec4 *org, ts_vec4 *dir,
+static void make_rays(ts_device *cl, ts_pipeline *p, const ts_scene *s, ts_vec4 *org, ts_vec4 *dir,
                       ts_hit *hit, uint32_t *flags, uint32_t *active)
 {
     ts_error err = {0};
@@ -72,7 +72,7 @@ static void make_rays(ts_cl *cl, ts_pipeline *p, const ts_scene *s, ts_vec4 *org
     cam.spp = 4;
     cam.ray_count = R;
     cam.first_sample = 2u * R; /* the third sample pass: jittered */
-    if (pipeline_camera(p, &cam, &err) || cl_finish(cl, p->stats, &err)) fail_msg("%s", err.msg);
+    if (pipeline_camera(p, &cam, &err) || dev_finish(cl, p->stats, &err)) fail_msg("%s", err.msg);
     read_buffer(cl, p->ray_org, R * sizeof *org, org);
     read_buffer(cl, p->ray_dir, R * sizeof *dir, dir);
     read_buffer(cl, p->ray_hit, R * sizeof *hit, hit);
@@ -89,7 +89,7 @@ static void make_rays(ts_cl *cl, ts_pipeline *p, const ts_scene *s, ts_vec4 *org
 
 static void check_scene(int displaced, int moving)
 {
-    ts_cl cl;
+    ts_device cl;
     test_open_device(&cl);
     ts_scene s;
     load(&s, displaced, moving);
@@ -166,7 +166,7 @@ static void check_scene(int displaced, int moving)
     pipeline_destroy(&p);
     stats_free(&stats);
     scene_free(&s);
-    cl_close(&cl);
+    dev_close(&cl);
 }
 
 static void test_teapot(void **state)

@@ -185,7 +185,7 @@ static void random_textured_scene(ts_scene *s, int patches, uint32_t seed)
  * batch and checks every segment against the references. */
 static void dice_build_and_check(ts_scene *s, const uint32_t lods[6])
 {
-    ts_cl cl;
+    ts_device cl;
     test_open_device(&cl);
     ts_stats stats;
     memset(&stats, 0, sizeof stats);
@@ -215,7 +215,7 @@ static void dice_build_and_check(ts_scene *s, const uint32_t lods[6])
     free(grid);
     free(nodes);
     pipeline_destroy(&p);
-    cl_close(&cl);
+    dev_close(&cl);
 }
 
 static void test_dice_and_build_match_reference(void **state)

@@ -28,7 +28,7 @@ typedef struct teapot {
 } teapot;
 
 typedef struct fixture {
-    ts_cl cl;
+    ts_device cl;
     teapot plain, displaced;
 } fixture;
 
@@ -93,12 +93,12 @@ static int teardown(void **state)
         embree_ref_destroy(t[k]->ref);
         scene_free(&t[k]->scene);
     }
-    cl_close(&f->cl);
+    dev_close(&f->cl);
     return 0;
 }
 
 /* A pipeline in exact micro-triangle mode with every patch at m. */
-static void create_exact(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, ts_stats *stats)
+static void create_exact(ts_pipeline *p, ts_device *cl, const ts_scene *scene, ts_stats *stats)
 {
     ts_error err = {0};
     ts_pipeline_plan plan = {.ray_capacity = RAYS, .pair_capacity = RAYS * 8};
@@ -160,7 +160,7 @@ static void compare(const char *name, teapot *tp, rays *r, int min_hits)
     assert_true(agree >= 0.999 * both);
 }
 
-static void camera_rays(ts_cl *cl, teapot *tp, const char *name)
+static void camera_rays(ts_device *cl, teapot *tp, const char *name)
 {
     static rays r;
     ts_error err = {0};
@@ -180,7 +180,7 @@ static void camera_rays(ts_cl *cl, teapot *tp, const char *name)
 
 /* Rays from uniform points of the teapot's bounding box in uniform directions, written
  * into the ray buffers directly. */
-static void incoherent_rays(ts_cl *cl, teapot *tp, const char *name)
+static void incoherent_rays(ts_device *cl, teapot *tp, const char *name)
 {
     static rays r;
     static ts_u32 entry[RAYS], active[RAYS], pixel[RAYS];

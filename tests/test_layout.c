@@ -7,7 +7,7 @@
 
 static void test_layout_matches_host(void **state)
 {
-    ts_cl cl;
+    ts_device cl;
     test_open_device(&cl);
     ts_error err = {0};
     static const struct { const char *name; unsigned size, offset; } host[] = {
@@ -16,13 +16,13 @@ static void test_layout_matches_host(void **state)
 #undef HOST_LAYOUT
     };
     enum { N = sizeof host / sizeof *host };
-    cl_mem out = cl_buffer_create(&cl, CL_MEM_WRITE_ONLY, 2 * N * sizeof(cl_uint), NULL, &err);
+    cl_mem out = dev_buffer_create(&cl, CL_MEM_WRITE_ONLY, 2 * N * sizeof(cl_uint), NULL, &err);
     assert_non_null(out);
-    cl_kernel k = cl_kernel_create(&cl, "layout_probe", &err);
+    cl_kernel k = dev_kernel_create(&cl, "layout_probe", &err);
     assert_non_null(k);
-    assert_int_equal(cl_set_args(k, &err, sizeof out, &out, (size_t)0), TS_OK);
-    assert_int_equal(cl_launch(&cl, k, TS_STAGE_camera, 1, 1, &err), TS_OK);
-    assert_int_equal(cl_finish(&cl, NULL, &err), TS_OK);
+    assert_int_equal(dev_set_args(k, &err, sizeof out, &out, (size_t)0), TS_OK);
+    assert_int_equal(dev_launch(&cl, k, TS_STAGE_camera, 1, 1, &err), TS_OK);
+    assert_int_equal(dev_finish(&cl, NULL, &err), TS_OK);
     cl_uint dev[2 * N];
     assert_int_equal(clEnqueueReadBuffer(cl.queue, out, CL_TRUE, 0, sizeof dev, dev, 0, NULL, NULL), CL_SUCCESS);
     for (int i = 0; i < N; ++i) {
@@ -32,7 +32,7 @@ static void test_layout_matches_host(void **state)
     }
     clReleaseKernel(k);
     clReleaseMemObject(out);
-    cl_close(&cl);
+    dev_close(&cl);
 }
 
 int main(void)

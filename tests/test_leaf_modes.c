@@ -42,7 +42,7 @@ static void load(ts_scene *s, int displaced)
     if (rib_parse_string("teapot.rib", text, n, s, 1, &err)) fail_msg("%s", err.msg);
 }
 
-static void trace(ts_cl *cl, const ts_scene *s, int exact, int group, uint32_t leaf_b, run *out)
+static void trace(ts_device *cl, const ts_scene *s, int exact, int group, uint32_t leaf_b, run *out)
 {
     ts_error err = {0};
     ts_stats stats;
@@ -66,7 +66,7 @@ static void trace(ts_cl *cl, const ts_scene *s, int exact, int group, uint32_t l
 
 static void check_scene(int displaced)
 {
-    ts_cl cl;
+    ts_device cl;
     test_open_device(&cl);
     ts_scene s;
     load(&s, displaced);
@@ -95,7 +95,7 @@ static void check_scene(int displaced)
         }
     assert_true(hits > W * H); /* the teapot was hit, in every configuration */
     scene_free(&s);
-    cl_close(&cl);
+    dev_close(&cl);
 }
 
 static void test_teapot(void **state) { check_scene(0); }

@@ -29,7 +29,7 @@ static void random_patches(ts_scene *s, uint32_t seed)
     }
 }
 
-static void run_case(ts_cl *cl, const ts_scene *s, uint32_t n_per_ray, int finite_tmax)
+static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int finite_tmax)
 {
     ts_stats stats;
     memset(&stats, 0, sizeof stats);
@@ -103,7 +103,7 @@ static void run_case(ts_cl *cl, const ts_scene *s, uint32_t n_per_ray, int finit
 
 static void test_every_box_once(void **state)
 {
-    ts_cl cl;
+    ts_device cl;
     test_open_device(&cl);
     ts_scene s;
     random_patches(&s, 7u);
@@ -111,7 +111,7 @@ static void test_every_box_once(void **state)
     for (int i = 0; i < 3; ++i)
         for (int finite = 0; finite < 2; ++finite) run_case(&cl, &s, ns[i], finite);
     scene_free(&s);
-    cl_close(&cl);
+    dev_close(&cl);
 }
 
 int main(void)

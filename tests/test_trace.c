@@ -21,7 +21,7 @@ typedef struct traced {
     ts_stats stats;
 } traced;
 
-static void trace_teapot(ts_cl *cl, const ts_scene *s, const ts_pipeline_plan *plan, traced *out)
+static void trace_teapot(ts_device *cl, const ts_scene *s, const ts_pipeline_plan *plan, traced *out)
 {
     ts_error err = {0};
     memset(&out->stats, 0, sizeof out->stats);
@@ -81,7 +81,7 @@ static void load_teapot(ts_scene *s)
 
 static void test_teapot_matches_brute_force(void **state)
 {
-    ts_cl cl;
+    ts_device cl;
     test_open_device(&cl);
     ts_scene s;
     load_teapot(&s);
@@ -106,12 +106,12 @@ static void test_teapot_matches_brute_force(void **state)
     free(tb);
     free(pb);
     scene_free(&s);
-    cl_close(&cl);
+    dev_close(&cl);
 }
 
 static void test_budget_does_not_change_hits(void **state)
 {
-    ts_cl cl;
+    ts_device cl;
     test_open_device(&cl);
     ts_scene s;
     load_teapot(&s);
@@ -132,7 +132,7 @@ static void test_budget_does_not_change_hits(void **state)
     stats_free(&a.stats);
     stats_free(&b.stats);
     scene_free(&s);
-    cl_close(&cl);
+    dev_close(&cl);
 }
 
 int main(void)

@@ -236,7 +236,7 @@ typedef struct frame {
 /* reordering: lod stage over the frame, then the eye rays wave by wave through
  * pipeline_trace, as `tessera render` does (one wave = the plan's ray capacity here: eye
  * rays only, no shadow-ray slots). Keeps every ray and its hit, in global sample order. */
-static int run_reorder(const bench_options *o, ts_cl *cl, const ts_scene *s, frame *f,
+static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s, frame *f,
                        bench_result *res, ts_error *err)
 {
     uint64_t total = (uint64_t)o->width * o->height * o->spp;
@@ -280,7 +280,7 @@ static int run_reorder(const bench_options *o, ts_cl *cl, const ts_scene *s, fra
         if (!e)
             e = clEnqueueReadBuffer(q, p.ray_hit, CL_TRUE, 0, n * sizeof(ts_hit), f->hit + first, 0,
                                     NULL, NULL);
-        if (e) rc = ts_error_set(err, TS_E_DEVICE, "%s reading the rays back", cl_error_name(e));
+        if (e) rc = ts_error_set(err, TS_E_DEVICE, "%s reading the rays back", dev_error_name(e));
     }
     res->reorder_seconds = stats_now() - t0;
     if (!rc) {
@@ -463,7 +463,7 @@ static int run_cache(const bench_options *o, const ts_scene *s, const frame *f, 
     return rc;
 }
 
-static int bench_scene(const bench_options *o, ts_cl *cl, const char *path, bench_result *res,
+static int bench_scene(const bench_options *o, ts_device *cl, const char *path, bench_result *res,
                        ts_error *err)
 {
     ts_scene s;
@@ -601,12 +601,12 @@ int main(int argc, char **argv)
     int rc = bench_parse(argc, argv, &o);
     if (rc >= 0) return rc;
     ts_error err = {0};
-    ts_cl cl;
+    ts_device cl;
     memset(&cl, 0, sizeof cl);
-    ts_cl_options clo = {.device_index = -1};
+    ts_device_options clo = {.device_index = -1};
     bench_result res[4];
     int n = 0, bad = 0;
-    if (cl_open(&cl, &clo, &err) == TS_OK)
+    if (dev_open(&cl, &clo, &err) == TS_OK)
         for (; n < o.scene_count; ++n) {
             if (bench_scene(&o, &cl, o.scenes[n], &res[n], &err)) break;
             bad += bench_check(&res[n]);
@@ -619,6 +619,6 @@ int main(int argc, char **argv)
     for (int i = 0; i < n; ++i)
         for (int c = 0; c < BENCH_CACHES; ++c)
             lru_free(&res[i].cache[c]);
-    if (cl.context) cl_close(&cl);
+    if (cl.context) dev_close(&cl);
     return rc || bad ? 1 : 0;
 }

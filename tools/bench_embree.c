@@ -278,7 +278,7 @@ static int tessera_trace(ts_pipeline *p, ts_stats *stats, const ts_ray_set *r, t
         }
         double t0 = bench_now();
         rc = pipeline_trace(p, n, err);
-        if (!rc) rc = cl_finish(p->cl, stats, err);
+        if (!rc) rc = dev_finish(p->cl, stats, err);
         *wall_s += bench_now() - t0;
         if (!rc && (e = clEnqueueReadBuffer(q, p->ray_hit, CL_TRUE, 0, n * sizeof(ts_hit), hit + first, 0, NULL, NULL)))
             rc = ts_error_set(err, TS_E_DEVICE, "reading the hits: OpenCL error %d", e);
@@ -308,9 +308,9 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
     if (ray_set_load(path_in(dir, "eye.rays"), &r[0])) return ts_error_set(err, TS_E_IO, "no eye rays");
     int have_bounce = access(path_in(dir, "bounce.rays"), R_OK) == 0;
     if (have_bounce && ray_set_load(path_in(dir, "bounce.rays"), &r[1])) return ts_error_set(err, TS_E_IO, "bad bounce rays");
-    ts_cl cl;
-    ts_cl_options opt = {.device_index = -1};
-    if (cl_open(&cl, &opt, err)) return err->code;
+    ts_device cl;
+    ts_device_options opt = {.device_index = -1};
+    if (dev_open(&cl, &opt, err)) return err->code;
     uint64_t rss_before = rss_now();
     uint32_t most = r[0].count > 1 ? r[0].count : 1;
     ts_pipeline_plan plan;
@@ -322,7 +322,7 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
         rc = ts_error_set(err, TS_E_USAGE, "--memory %d MB holds patches up to m = %u only", memory_mb, plan.max_lod);
     if (!rc) rc = pipeline_create(&p, &cl, s, &plan, most, &stats, err);
     if (rc) {
-        cl_close(&cl);
+        dev_close(&cl);
         return rc;
     }
     p.mode.fixed_lod = (int)m;
@@ -377,7 +377,7 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
     for (int i = 0; i < 4; ++i) free(hit[i / 2][i % 2]);
     pipeline_destroy(&p);
     stats_free(&stats);
-    cl_close(&cl);
+    dev_close(&cl);
     ray_set_free(&r[0]), ray_set_free(&r[1]);
     return rc;
 }
@@ -820,7 +820,7 @@ int main(int argc, char **argv)
     }
     ts_device_info *list = NULL;
     ts_error err = {0};
-    int n = cl_list_devices(&list, &err);
+    int n = dev_list(&list, &err);
     free(list);
     if (n <= 0 && (!cfg.only || strcmp(cfg.only, "embree"))) {
         fprintf(stderr, "bench_embree: no OpenCL device%s%s: skipping\n", n < 0 ? ": " : "", n < 0 ? err.msg : "");

@@ -148,7 +148,7 @@ static int bench_threads(const bl_ref_batch *b, uint32_t count, int threads, ts_
 }
 
 typedef struct bench_setup {
-    ts_cl cl;
+    ts_device cl;
     ts_scene scene;
     ts_stats stats;
     ts_pipeline p;
@@ -164,8 +164,8 @@ typedef struct bench_setup {
  * every patch diced and built at o->lod by the pipeline's stages. */
 static int bench_prepare(const bench_options *o, bench_setup *s, ts_error *err)
 {
-    ts_cl_options clo = {.device_index = -1};
-    if (cl_open(&s->cl, &clo, err) || rib_load(o->scene, &s->scene, 1, err)) return err->code;
+    ts_device_options clo = {.device_index = -1};
+    if (dev_open(&s->cl, &clo, err) || rib_load(o->scene, &s->scene, 1, err)) return err->code;
     uint32_t np = s->scene.patch_count, rays = (uint32_t)(o->width * o->height);
     s->rays = rays;
     /* Pairs per patch: count first (for the buffer sizes). */
@@ -175,7 +175,7 @@ static int bench_prepare(const bench_options *o, bench_setup *s, ts_error *err)
     ts_pipeline_plan probe = {.ray_capacity = rays, .pair_capacity = rays};
     pipeline_plan_arenas(&probe, np, (uint32_t)o->lod);
     if (pipeline_create(&s->p, &s->cl, &s->scene, &probe, rays, &s->stats, err) ||
-        pipeline_camera(&s->p, &cam, err) || cl_finish(&s->cl, &s->stats, err))
+        pipeline_camera(&s->p, &cam, err) || dev_finish(&s->cl, &s->stats, err))
         return err->code;
     s->org = malloc(rays * sizeof *s->org), s->dir = malloc(rays * sizeof *s->dir);
     if (!s->org || !s->dir) return ts_error_set(err, TS_E_MEMORY, "out of memory");
@@ -425,7 +425,7 @@ int main(int argc, char **argv)
     free(s.org), free(s.dir), free(s.hit), free(s.flags), free(s.active), free(s.pairs),
         free(s.grid), free(s.groups);
     scene_free(&s.scene);
-    if (s.cl.context) cl_close(&s.cl);
+    if (s.cl.context) dev_close(&s.cl);
     stats_free(&s.stats);
     return rc;
 }

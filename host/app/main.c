@@ -60,7 +60,7 @@ static int cmd_devices(void)
 {
     ts_error err = {0};
     ts_device_info *list;
-    int n = cl_list_devices(&list, &err);
+    int n = dev_list(&list, &err);
     if (n < 0) {
         fprintf(stderr, "tessera: %s\n", err.msg);
         return 1;

@@ -22,7 +22,7 @@ typedef struct ts_render_options {
     int memory_mb;           /* budget for rays, pairs and patch slots */
     int quiet;
     int resume;              /* 1: continue the partial EXR at output_path (--resume) */
-    ts_cl_options cl;
+    ts_device_options cl;
 } ts_render_options;
 
 /* Defaults: spp from the scene (else 1), depth 3, seed 0, max_lod 10, ray-driven LOD, leaf boxes as geometry,

@@ -129,7 +129,7 @@ static int film_transfer(ts_pipeline *p, ts_film_state *s, int upload, ts_error 
                            : clEnqueueReadBuffer(p->cl->queue, dev[i], CL_TRUE, 0, bytes, host[i], 0, NULL, NULL);
         if (rc != CL_SUCCESS)
             return ts_error_set(err, TS_E_DEVICE, "%s in %s (copying the image %s the device)",
-                                cl_error_name(rc), upload ? "clEnqueueWriteBuffer" : "clEnqueueReadBuffer",
+                                dev_error_name(rc), upload ? "clEnqueueWriteBuffer" : "clEnqueueReadBuffer",
                                 upload ? "to" : "from");
     }
     return TS_OK;
@@ -490,7 +490,7 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
                             "the sums of the samples)");
     ts_scene scene;
     memset(&scene, 0, sizeof scene);
-    ts_cl cl;
+    ts_device cl;
     memset(&cl, 0, sizeof cl);
     ts_pipeline pipe;
     memset(&pipe, 0, sizeof pipe);
@@ -520,7 +520,7 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
         scene_free(&scene);
         return TS_OK;
     }
-    if (!rc) rc = cl_open(&cl, &o->cl, err);
+    if (!rc) rc = dev_open(&cl, &o->cl, err);
     if (!rc) {
         snprintf(stats->device, sizeof stats->device, "%.120s (%.120s)", cl.info.name, cl.info.platform_name);
         stats->kernel_build_seconds = cl.build_seconds;
@@ -550,7 +550,7 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
         if (!rc) noted_lod = plan.max_lod;
         if (!rc) rc = pipeline_create(&pipe, &cl, &scene, &plan, (uint32_t)(width * height), stats, err);
         if (!rc && state.accum) rc = film_transfer(&pipe, &state, 1, err);
-        if (!rc) rc = cl_finish(&cl, stats, err); /* the buffers' first use */
+        if (!rc) rc = dev_finish(&cl, stats, err); /* the buffers' first use */
         uint64_t before = job.samples_done;
         if (!rc) rc = render_waves(o, &pipe, cam, &job, err);
         if (!rc || !is_out_of_memory(err)) break;
@@ -610,7 +610,7 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
     stop_handlers_restore();
     film_state_free(&state);
     pipeline_destroy(&pipe);
-    cl_close(&cl);
+    dev_close(&cl);
     scene_free(&scene);
     stats->wall_seconds = stats_now() - t0;
     return rc;

@@ -9,7 +9,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-cl_int ts_cl_inject_alloc_error = 0;
+cl_int ts_dev_inject_alloc_error = 0;
 
 #define TS_CL_ERRORS(X)                                                                     \
     X(CL_SUCCESS) X(CL_DEVICE_NOT_FOUND) X(CL_DEVICE_NOT_AVAILABLE)                         \
@@ -34,7 +34,7 @@ cl_int ts_cl_inject_alloc_error = 0;
     X(CL_INVALID_PROPERTY) X(CL_INVALID_IMAGE_DESCRIPTOR) X(CL_INVALID_COMPILER_OPTIONS)    \
     X(CL_INVALID_LINKER_OPTIONS) X(CL_INVALID_DEVICE_PARTITION_COUNT)
 
-const char *cl_error_name(cl_int code)
+const char *dev_error_name(cl_int code)
 {
     switch (code) {
 #define TS_CL_ERROR_CASE(name)                                                              \
@@ -75,14 +75,14 @@ static void device_query(ts_device_info *d, ts_error *err)
                     &d->max_work_group, NULL);
 }
 
-int cl_list_devices(ts_device_info **out, ts_error *err)
+int dev_list(ts_device_info **out, ts_error *err)
 {
     *out = NULL;
     cl_uint np = 0;
     cl_int rc = clGetPlatformIDs(0, NULL, &np);
     if (rc == -1001 /* CL_PLATFORM_NOT_FOUND_KHR: no ICD installed */ || np == 0) return 0;
     if (rc != CL_SUCCESS) {
-        ts_error_set(err, TS_E_DEVICE, "%s in clGetPlatformIDs", cl_error_name(rc));
+        ts_error_set(err, TS_E_DEVICE, "%s in clGetPlatformIDs", dev_error_name(rc));
         return -1;
     }
     cl_platform_id platforms[16];
@@ -127,7 +127,7 @@ static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
     return h;
 }
 
-static int cache_path(const ts_cl_options *opt, uint64_t key, char *out, size_t cap)
+static int cache_path(const ts_device_options *opt, uint64_t key, char *out, size_t cap)
 {
     const char *dir = opt->cache_dir ? opt->cache_dir : getenv("TESSERA_CACHE_DIR");
     char buf[4096];
@@ -192,7 +192,7 @@ static void cache_store(cl_program prog, const char *path)
  * lets single-precision x / y be off by 2.5 ulp and sqrt by 3 (NVIDIA's are), which would
  * break the bitwise agreement of the kernels with their plain-C references (and between
  * devices) through 1 / d in every slab test. */
-static void cl_build_options(ts_cl *cl)
+static void dev_build_options(ts_device *cl)
 {
     cl_device_fp_config fp = 0;
     clGetDeviceInfo(cl->info.device, CL_DEVICE_SINGLE_FP_CONFIG, sizeof fp, &fp, NULL);
@@ -203,7 +203,7 @@ static void cl_build_options(ts_cl *cl)
 
 /* Builds `prog` from the program text `src`; on failure returns TS_E_DEVICE with the full
  * build log as detail. */
-static int program_build(ts_cl *cl, cl_program prog, const char *src, ts_error *err)
+static int program_build(ts_device *cl, cl_program prog, const char *src, ts_error *err)
 {
     cl_int rc = clBuildProgram(prog, 1, &cl->info.device, cl->build_options, NULL, NULL);
     if (rc == CL_SUCCESS) return TS_OK;
@@ -232,12 +232,12 @@ static int program_build(ts_cl *cl, cl_program prog, const char *src, ts_error *
         line += len + (line[len] == '\n');
     }
     ts_error_set(err, TS_E_DEVICE, "%s in clBuildProgram: the kernels failed to build on %s%s",
-                 cl_error_name(rc), cl->info.name, first);
+                 dev_error_name(rc), cl->info.name, first);
     ts_error_set_detail(err, log);
     return TS_E_DEVICE;
 }
 
-static cl_program program_from_cache(ts_cl *cl, const char *path)
+static cl_program program_from_cache(ts_device *cl, const char *path)
 {
     size_t size = 0;
     unsigned char *bin = read_all(path, &size);
@@ -255,10 +255,10 @@ static cl_program program_from_cache(ts_cl *cl, const char *path)
     return prog;
 }
 
-static int program_open(ts_cl *cl, const ts_cl_options *opt, ts_error *err)
+static int program_open(ts_device *cl, const ts_device_options *opt, ts_error *err)
 {
     double t0 = stats_now();
-    cl_build_options(cl);
+    dev_build_options(cl);
     char *src = kernel_source_program(opt->kernel_dir, err);
     if (!src) return err->code;
     uint64_t key = 0xcbf29ce484222325ull;
@@ -277,7 +277,7 @@ static int program_open(ts_cl *cl, const ts_cl_options *opt, ts_error *err)
         if (rc != CL_SUCCESS) {
             free(src);
             return ts_error_set(err, TS_E_DEVICE, "%s in clCreateProgramWithSource",
-                                cl_error_name(rc));
+                                dev_error_name(rc));
         }
         if (program_build(cl, cl->program, src, err)) {
             free(src);
@@ -290,11 +290,11 @@ static int program_open(ts_cl *cl, const ts_cl_options *opt, ts_error *err)
     return TS_OK;
 }
 
-int cl_open(ts_cl *cl, const ts_cl_options *opt, ts_error *err)
+int dev_open(ts_device *cl, const ts_device_options *opt, ts_error *err)
 {
     memset(cl, 0, sizeof *cl);
     ts_device_info *list = NULL;
-    int n = cl_list_devices(&list, err);
+    int n = dev_list(&list, err);
     if (n < 0) return err->code;
     int index = opt->device_index;
     if (index < 0) {
@@ -324,7 +324,7 @@ int cl_open(ts_cl *cl, const ts_cl_options *opt, ts_error *err)
     return program_open(cl, opt, err);
 }
 
-void cl_close(ts_cl *cl)
+void dev_close(ts_device *cl)
 {
     for (size_t i = 0; i < cl->pending_count; ++i) clReleaseEvent(cl->pending[i].event);
     free(cl->pending);
@@ -334,12 +334,12 @@ void cl_close(ts_cl *cl)
     memset(cl, 0, sizeof *cl);
 }
 
-cl_kernel cl_kernel_create(ts_cl *cl, const char *name, ts_error *err)
+cl_kernel dev_kernel_create(ts_device *cl, const char *name, ts_error *err)
 {
     cl_int rc;
     cl_kernel k = clCreateKernel(cl->program, name, &rc);
     if (rc != CL_SUCCESS) {
-        ts_error_set(err, TS_E_DEVICE, "%s in clCreateKernel(%s)", cl_error_name(rc), name);
+        ts_error_set(err, TS_E_DEVICE, "%s in clCreateKernel(%s)", dev_error_name(rc), name);
         return NULL;
     }
     return k;
@@ -360,9 +360,9 @@ static long env_count(const char *name, long *cache)
 
 static long fail_alloc_left = -1, fail_launch_at = -1, launch_count;
 
-cl_mem cl_buffer_create(ts_cl *cl, cl_mem_flags flags, size_t size, void *host, ts_error *err)
+cl_mem dev_buffer_create(ts_device *cl, cl_mem_flags flags, size_t size, void *host, ts_error *err)
 {
-    cl_int rc = ts_cl_inject_alloc_error;
+    cl_int rc = ts_dev_inject_alloc_error;
     cl_mem m = NULL;
     if (rc == CL_SUCCESS && env_count("TESSERA_FAIL_ALLOC", &fail_alloc_left) > 0) {
         --fail_alloc_left;
@@ -370,13 +370,13 @@ cl_mem cl_buffer_create(ts_cl *cl, cl_mem_flags flags, size_t size, void *host, 
     }
     if (rc == CL_SUCCESS) m = clCreateBuffer(cl->context, flags, size ? size : 1, host, &rc);
     if (rc != CL_SUCCESS) {
-        ts_error_set(err, TS_E_DEVICE, "%s in clCreateBuffer(%zu bytes)", cl_error_name(rc), size);
+        ts_error_set(err, TS_E_DEVICE, "%s in clCreateBuffer(%zu bytes)", dev_error_name(rc), size);
         return NULL;
     }
     return m;
 }
 
-int cl_set_args(cl_kernel k, ts_error *err, ...)
+int dev_set_args(cl_kernel k, ts_error *err, ...)
 {
     va_list ap;
     va_start(ap, err);
@@ -390,20 +390,20 @@ int cl_set_args(cl_kernel k, ts_error *err, ...)
             char name[128] = "?";
             clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);
             return ts_error_set(err, TS_E_DEVICE, "%s in clSetKernelArg(%s, %u)",
-                                cl_error_name(rc), name, i);
+                                dev_error_name(rc), name, i);
         }
     }
     va_end(ap);
     return TS_OK;
 }
 
-int cl_launch(ts_cl *cl, cl_kernel k, ts_stage stage, size_t global, size_t local,
+int dev_launch(ts_device *cl, cl_kernel k, ts_stage stage, size_t global, size_t local,
               ts_error *err)
 {
-    return cl_launch_range(cl, k, stage, 0, global, local, err);
+    return dev_launch_range(cl, k, stage, 0, global, local, err);
 }
 
-int cl_launch_range(ts_cl *cl, cl_kernel k, ts_stage stage, size_t offset, size_t global,
+int dev_launch_range(ts_device *cl, cl_kernel k, ts_stage stage, size_t offset, size_t global,
                     size_t local, ts_error *err)
 {
     if (global == 0) return TS_OK;
@@ -424,13 +424,13 @@ int cl_launch_range(ts_cl *cl, cl_kernel k, ts_stage stage, size_t offset, size_
         char name[128] = "?";
         clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);
         return ts_error_set(err, TS_E_DEVICE, "%s in clEnqueueNDRangeKernel(%s, %zu items)",
-                            cl_error_name(rc), name, rounded);
+                            dev_error_name(rc), name, rounded);
     }
     cl->pending[cl->pending_count++] = (ts_kernel_event){ev, stage};
     return TS_OK;
 }
 
-int cl_finish(ts_cl *cl, ts_stats *stats, ts_error *err)
+int dev_finish(ts_device *cl, ts_stats *stats, ts_error *err)
 {
     CL_CHECK(clFinish(cl->queue), err);
     for (size_t i = 0; i < cl->pending_count; ++i) {

@@ -1,4 +1,4 @@
-/* cl_runtime.h — the OpenCL layer: device listing and selection, the program build (with
+/* device.h — the OpenCL layer: device listing and selection, the program build (with
  * the build log on failure and an on-disk binary cache), and the one launch wrapper through
  * which every kernel runs, named by its stage and timed by profiling events (STYLE.md 5). */
 #ifndef TS_CL_RUNTIME_H
@@ -12,7 +12,7 @@
 #include <stddef.h>
 
 /* The name of an OpenCL error code ("CL_OUT_OF_RESOURCES"), or "CL_UNKNOWN_ERROR(-N)". */
-const char *cl_error_name(cl_int code);
+const char *dev_error_name(cl_int code);
 
 /* Checks an OpenCL call; on failure fills err with the error name, the call and the place,
  * and returns TS_E_DEVICE from the enclosing function (STYLE.md 10). */
@@ -21,7 +21,7 @@ const char *cl_error_name(cl_int code);
         cl_int cl_check_rc_ = (call);                                                       \
         if (cl_check_rc_ != CL_SUCCESS)                                                     \
             return ts_error_set((err), TS_E_DEVICE, "%s in %s (%s:%d)",                     \
-                                cl_error_name(cl_check_rc_), #call, __FILE__, __LINE__);    \
+                                dev_error_name(cl_check_rc_), #call, __FILE__, __LINE__);    \
     } while (0)
 
 /* One OpenCL device as `tessera devices` lists it. */
@@ -41,14 +41,14 @@ typedef struct ts_device_info {
 
 /* Lists every device of every platform in a stable order (platform, then device).
  * *out is malloc'd; returns the count (0 when there is no OpenCL platform) or -1. */
-int cl_list_devices(ts_device_info **out, ts_error *err);
+int dev_list(ts_device_info **out, ts_error *err);
 
-/* Test hook: when non-zero, clCreateBuffer calls made through cl_buffer_create fail with
+/* Test hook: when non-zero, clCreateBuffer calls made through dev_buffer_create fail with
  * this error code (for tests of the failure paths). From the command line, the environment
  * does the same: TESSERA_FAIL_ALLOC=N fails the first N buffer creations with
- * CL_MEM_OBJECT_ALLOCATION_FAILURE, TESSERA_FAIL_LAUNCH=K the K-th launch through cl_launch
+ * CL_MEM_OBJECT_ALLOCATION_FAILURE, TESSERA_FAIL_LAUNCH=K the K-th launch through dev_launch
  * with CL_OUT_OF_RESOURCES (docs/errors.md). */
-extern cl_int ts_cl_inject_alloc_error;
+extern cl_int ts_dev_inject_alloc_error;
 
 typedef struct ts_kernel_event {
     cl_event event;
@@ -56,7 +56,7 @@ typedef struct ts_kernel_event {
 } ts_kernel_event;
 
 /* A selected device with its context, in-order profiling queue and built program. */
-typedef struct ts_cl {
+typedef struct ts_device {
     ts_device_info info;
     cl_context context;
     cl_command_queue queue;
@@ -65,36 +65,36 @@ typedef struct ts_cl {
     size_t pending_count, pending_capacity;
     double build_seconds;
     int cache_hit;
-    char build_options[128]; /* cl_build_options() for this device */
-} ts_cl;
+    char build_options[128]; /* dev_build_options() for this device */
+} ts_device;
 
-typedef struct ts_cl_options {
+typedef struct ts_device_options {
     int device_index;       /* -1: TESSERA_DEVICE, else 0 */
     const char *kernel_dir; /* NULL: embedded kernels */
     const char *cache_dir;  /* NULL: $TESSERA_CACHE_DIR, $XDG_CACHE_HOME/tessera, ~/.cache/tessera */
     int no_cache;           /* 1: never read or write the binary cache */
-} ts_cl_options;
+} ts_device_options;
 
 /* Opens the device, builds (or loads from the cache) the program. */
-int cl_open(ts_cl *cl, const ts_cl_options *opt, ts_error *err);
-void cl_close(ts_cl *cl);
+int dev_open(ts_device *cl, const ts_device_options *opt, ts_error *err);
+void dev_close(ts_device *cl);
 
-cl_kernel cl_kernel_create(ts_cl *cl, const char *name, ts_error *err);
+cl_kernel dev_kernel_create(ts_device *cl, const char *name, ts_error *err);
 /* clCreateBuffer with the error named; size 0 is rounded up to 1 byte. */
-cl_mem cl_buffer_create(ts_cl *cl, cl_mem_flags flags, size_t size, void *host, ts_error *err);
+cl_mem dev_buffer_create(ts_device *cl, cl_mem_flags flags, size_t size, void *host, ts_error *err);
 
 /* Sets arguments in order from (size, pointer) pairs; ends at size 0. */
-int cl_set_args(cl_kernel k, ts_error *err, ...);
+int dev_set_args(cl_kernel k, ts_error *err, ...);
 
 /* The launch wrapper: enqueues `k` over `global` items (rounded up to a multiple of
  * `local`; the kernels guard their range) and records a profiling event for `stage`. */
-int cl_launch(ts_cl *cl, cl_kernel k, ts_stage stage, size_t global, size_t local,
+int dev_launch(ts_device *cl, cl_kernel k, ts_stage stage, size_t global, size_t local,
               ts_error *err);
 /* The same over items [offset, offset + global) (global rounded up; get_global_id counts
  * from offset). */
-int cl_launch_range(ts_cl *cl, cl_kernel k, ts_stage stage, size_t offset, size_t global,
+int dev_launch_range(ts_device *cl, cl_kernel k, ts_stage stage, size_t offset, size_t global,
                     size_t local, ts_error *err);
 /* Waits for the queue and adds every pending launch's (end - start) to stats. */
-int cl_finish(ts_cl *cl, ts_stats *stats, ts_error *err);
+int dev_finish(ts_device *cl, ts_stats *stats, ts_error *err);
 
 #endif

@@ -75,7 +75,7 @@ static int create_kernels(ts_pipeline *p, ts_error *err)
         {&p->k_film, "film_accumulate"},
     };
     for (size_t i = 0; i < sizeof list / sizeof *list; ++i)
-        if (!(*list[i].k = cl_kernel_create(p->cl, list[i].name, err))) return err->code;
+        if (!(*list[i].k = dev_kernel_create(p->cl, list[i].name, err))) return err->code;
     return TS_OK;
 }
 
@@ -271,7 +271,7 @@ static int create_patch_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *e
          * has size 0; the largest such element is a patch's 16 control points. */
         static const ts_vec4 zeros[16];
         const void *host = list[i].host ? list[i].host : zeros;
-        *list[i].m = cl_buffer_create(p->cl, ro_copy, list[i].size, (void *)host, err);
+        *list[i].m = dev_buffer_create(p->cl, ro_copy, list[i].size, (void *)host, err);
         if (!*list[i].m) rc = err->code;
     }
     free(flat);
@@ -283,15 +283,15 @@ static int create_patch_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *e
     /* Texture tiles: a pool of tex.slots tiles and the page table (tex_cache.h). */
     if (tex_cache_create(&p->tex, s, p->plan.tex_pool_bytes, err)) return err->code;
     size_t slots = p->tex.slots ? p->tex.slots : 1, pages = p->tex.pages ? p->tex.pages : 1;
-    p->tex_pool = cl_buffer_create(p->cl, CL_MEM_READ_ONLY, slots * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4), NULL, err);
-    p->tex_pages = p->tex_pool ? cl_buffer_create(p->cl, CL_MEM_READ_ONLY, pages * sizeof(uint32_t), NULL, err) : NULL;
+    p->tex_pool = dev_buffer_create(p->cl, CL_MEM_READ_ONLY, slots * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4), NULL, err);
+    p->tex_pages = p->tex_pool ? dev_buffer_create(p->cl, CL_MEM_READ_ONLY, pages * sizeof(uint32_t), NULL, err) : NULL;
     if (!p->tex_pages) return err->code;
     return tex_cache_upload_initial(&p->tex, p->cl, p->tex_pool, p->tex_pages, s, p->stats, err);
 }
 
 static int create_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *err)
 {
-    ts_cl *cl = p->cl;
+    ts_device *cl = p->cl;
     size_t rays = p->plan.ray_capacity, pairs = p->plan.pair_capacity;
     size_t n = p->scene->patch_count ? p->scene->patch_count : 1;
     const cl_mem_flags host_rw = CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR;
@@ -328,7 +328,7 @@ static int create_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *err)
         {&p->aov_film, host_rw, (size_t)p->pixel_count * sizeof(ts_vec4)},
     };
     for (size_t i = 0; i < sizeof list / sizeof *list; ++i) {
-        *list[i].m = cl_buffer_create(cl, list[i].flags, list[i].size, NULL, err);
+        *list[i].m = dev_buffer_create(cl, list[i].flags, list[i].size, NULL, err);
         if (!*list[i].m) return err->code;
     }
     /* The film starts black and "nothing hit"; the LOD counts at zero. */
@@ -347,7 +347,7 @@ static int create_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *err)
     return TS_OK;
 }
 
-int pipeline_create(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, const ts_pipeline_plan *plan,
+int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene, const ts_pipeline_plan *plan,
                     uint32_t pixel_count, ts_stats *stats, ts_error *err)
 {
     memset(p, 0, sizeof *p);
@@ -429,26 +429,26 @@ void pipeline_destroy(ts_pipeline *p)
 int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 {
     ts_camera_params c = *cam;
-    if (cl_set_args(p->k_camera, err, ARG(c), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
+    if (dev_set_args(p->k_camera, err, ARG(c), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
                     ARG(p->ray_entry), ARG(p->ray_pixel), ARG(p->ray_flags), ARG(p->active),
                     ARG(p->wave_paths), ARG(p->path_throughput), ARG(p->path_mis), ARG(p->radiance), (size_t)0))
         return err->code;
-    return cl_launch(p->cl, p->k_camera, TS_STAGE_camera, c.ray_count, TS_LOCAL_SIZE, err);
+    return dev_launch(p->cl, p->k_camera, TS_STAGE_camera, c.ray_count, TS_LOCAL_SIZE, err);
 }
 
 int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 {
-    if (cl_set_args(p->k_lod, err, ARG(p->qbvh_nodes), ARG(ray_count), ARG(p->ray_org),
+    if (dev_set_args(p->k_lod, err, ARG(p->qbvh_nodes), ARG(ray_count), ARG(p->ray_org),
                     ARG(p->ray_dir), ARG(p->lod_counts), (size_t)0))
         return err->code;
-    return cl_launch(p->cl, p->k_lod, TS_STAGE_lod, ray_count, TS_LOCAL_SIZE, err);
+    return dev_launch(p->cl, p->k_lod, TS_STAGE_lod, ray_count, TS_LOCAL_SIZE, err);
 }
 
 int pipeline_lod_finish(ts_pipeline *p, ts_error *err)
 {
     uint32_t n = p->scene->patch_count;
     if (n == 0) return TS_OK;
-    if (cl_finish(p->cl, p->stats, err)) return err->code;
+    if (dev_finish(p->cl, p->stats, err)) return err->code;
     double t0 = stats_now();
     uint32_t *counts = malloc(n * sizeof *counts);
     if (!counts) return ts_error_set(err, TS_E_MEMORY, "out of memory");
@@ -467,6 +467,6 @@ int pipeline_lod_finish(ts_pipeline *p, ts_error *err)
     free(counts);
     p->stats->stage_seconds[TS_STAGE_lod] += stats_now() - t0;
     if (rc != CL_SUCCESS)
-        return ts_error_set(err, TS_E_DEVICE, "%s reading the LOD counts", cl_error_name(rc));
+        return ts_error_set(err, TS_E_DEVICE, "%s reading the LOD counts", dev_error_name(rc));
     return TS_OK;
 }

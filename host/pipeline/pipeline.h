@@ -66,7 +66,7 @@ typedef struct ts_batch {
 } ts_batch;
 
 typedef struct ts_pipeline {
-    ts_cl *cl;
+    ts_device *cl;
     ts_trace_mode mode; /* set by pipeline_create to {1, max_lod, 1}; callers may change it */
     const ts_scene *scene;
     ts_stats *stats;
@@ -104,7 +104,7 @@ typedef struct ts_pipeline {
 } ts_pipeline;
 
 /* Creates buffers and kernels for `scene` on `cl` with an image of pixel_count pixels. */
-int pipeline_create(ts_pipeline *p, ts_cl *cl, const ts_scene *scene, const ts_pipeline_plan *plan,
+int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene, const ts_pipeline_plan *plan,
                     uint32_t pixel_count, ts_stats *stats, ts_error *err);
 void pipeline_destroy(ts_pipeline *p);
 

@@ -125,7 +125,7 @@ void tex_cache_free(ts_tex_cache *c)
     memset(c, 0, sizeof *c);
 }
 
-int tex_cache_upload_initial(ts_tex_cache *c, ts_cl *cl, cl_mem pool, cl_mem page_table,
+int tex_cache_upload_initial(ts_tex_cache *c, ts_device *cl, cl_mem pool, cl_mem page_table,
                              const ts_scene *s, ts_stats *stats, ts_error *err)
 {
     stats->counters[TS_COUNTER_texture_pool_tiles] = c->slots;
@@ -144,7 +144,7 @@ int tex_cache_upload_initial(ts_tex_cache *c, ts_cl *cl, cl_mem pool, cl_mem pag
     return TS_OK;
 }
 
-int tex_cache_commit(ts_tex_cache *c, ts_cl *cl, cl_mem pool, cl_mem page_table,
+int tex_cache_commit(ts_tex_cache *c, ts_device *cl, cl_mem pool, cl_mem page_table,
                      const ts_scene *s, ts_stats *stats, ts_error *err)
 {
     if (!c->paged || c->marked == 0) return TS_OK;

@@ -55,11 +55,11 @@ uint32_t tex_cache_mark_hit(ts_tex_cache *c, const ts_scene *s, uint32_t p, floa
  * with blocking writes on the in-order queue, so kernels launched before still read the
  * old contents. Counts uploads in stats. Fails (TS_E_INTERNAL) if more tiles are marked
  * than the pool holds: callers keep requests within `slots`. */
-int tex_cache_commit(ts_tex_cache *c, ts_cl *cl, cl_mem pool, cl_mem page_table,
+int tex_cache_commit(ts_tex_cache *c, ts_device *cl, cl_mem pool, cl_mem page_table,
                      const ts_scene *s, ts_stats *stats, ts_error *err);
 /* Uploads the pool and page table the first time (every tile when not paged, else an
  * empty table). */
-int tex_cache_upload_initial(ts_tex_cache *c, ts_cl *cl, cl_mem pool, cl_mem page_table,
+int tex_cache_upload_initial(ts_tex_cache *c, ts_device *cl, cl_mem pool, cl_mem page_table,
                              const ts_scene *s, ts_stats *stats, ts_error *err);
 
 #endif

@@ -5,7 +5,7 @@
  *     per batch of segments that fit the arenas: dice -> build -> bottom_level
  *     resolve     -> closest hit per ray; rays whose traversal is finished retire
  * Host stages (sort, the compaction in resolve) are timed on the monotonic clock; kernels by
- * their profiling events (cl_launch / cl_finish). */
+ * their profiling events (dev_launch / dev_finish). */
 #include "pipeline/pipeline.h"
 #include "lib/quadtree.h"
 
@@ -18,13 +18,13 @@
 static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray,
                            ts_error *err)
 {
-    if (cl_set_args(p->k_top_level, err, ARG(p->qbvh_nodes), ARG(p->active), ARG(active_count),
+    if (dev_set_args(p->k_top_level, err, ARG(p->qbvh_nodes), ARG(p->active), ARG(active_count),
                     ARG(n_per_ray), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
                     ARG(p->ray_entry), ARG(p->pairs[0]), ARG(p->count), (size_t)0))
         return err->code;
-    if (cl_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
+    if (dev_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
         return err->code;
-    return cl_finish(p->cl, p->stats, err);
+    return dev_finish(p->cl, p->stats, err);
 }
 
 /* Gives each segment its LOD: --lod's, clamped to max_lod, or its patch's from the lod
@@ -198,11 +198,11 @@ static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
     for (uint32_t t = 0; t < b->tree_count;) {
         uint32_t m, run = tree_run(p, b, t, &m);
         uint32_t first = b->tree_first + t;
-        if (cl_set_args(p->k_dice, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
+        if (dev_set_args(p->k_dice, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
                         ARG(p->segments), ARG(p->cp), ARG(p->cp1), ARG(p->corner_n), ARG(p->attr),
                         ARG(p->xform), ARG(p->textures), ARG(p->tex_pages), ARG(p->tex_pool),
                         ARG(p->grid), (size_t)0) ||
-            cl_launch(p->cl, p->k_dice, TS_STAGE_dice, (size_t)run * quadtree_vertex_count(m),
+            dev_launch(p->cl, p->k_dice, TS_STAGE_dice, (size_t)run * quadtree_vertex_count(m),
                       TS_LOCAL_SIZE, err))
             return err->code;
         t += run;
@@ -223,11 +223,11 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
         uint32_t m, run = tree_run(p, b, t, &m);
         if (t == 0) top = m;
         uint32_t first = b->tree_first + t;
-        if (cl_set_args(p->k_build_leaves, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
+        if (dev_set_args(p->k_build_leaves, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
                         ARG(p->segments), ARG(p->grid), ARG(p->corner_n), ARG(p->attr),
                         ARG(p->xform), ARG(p->flatness), ARG(p->patch_box), ARG(p->textures),
                         ARG(p->tex_pages), ARG(p->tex_pool), ARG(p->groups), (size_t)0) ||
-            cl_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
+            dev_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
                       TS_LOCAL_SIZE, err))
             return err->code;
         t += run;
@@ -235,9 +235,9 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
     for (uint32_t level = top; level-- > 0;) {
         uint32_t deeper = 0; /* trees with m > level: a prefix of the list */
         while (deeper < b->tree_count && tree_lod(p, b, deeper) > level) ++deeper;
-        if (cl_set_args(p->k_build_level, err, ARG(p->trees), ARG(b->tree_first), ARG(deeper),
+        if (dev_set_args(p->k_build_level, err, ARG(p->trees), ARG(b->tree_first), ARG(deeper),
                         ARG(level), ARG(p->segments), ARG(p->groups), (size_t)0) ||
-            cl_launch(p->cl, p->k_build_level, TS_STAGE_build, (size_t)deeper << (2u * level),
+            dev_launch(p->cl, p->k_build_level, TS_STAGE_build, (size_t)deeper << (2u * level),
                       TS_LOCAL_SIZE, err))
             return err->code;
     }
@@ -252,13 +252,13 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
     uint32_t pair_first = s[first].begin, pair_count = s[first + count - 1].end - pair_first;
     uint32_t leaf_b = p->mode.leaf_b;
     cl_kernel k = p->mode.leaf_group ? p->k_bottom_group : p->k_bottom_level;
-    if (cl_set_args(k, err, ARG(p->pairs[sorted_buffer]), ARG(pair_first), ARG(pair_count),
+    if (dev_set_args(k, err, ARG(p->pairs[sorted_buffer]), ARG(pair_first), ARG(pair_count),
                     ARG(p->segments), ARG(first), ARG(count), ARG(n_per_ray), ARG(exact),
                     ARG(leaf_b), ARG(p->active), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
                     ARG(p->ray_flags), ARG(p->grid), ARG(p->groups), ARG(p->pair_hit),
                     ARG(p->utilisation), (size_t)0))
         return err->code;
-    return cl_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
+    return dev_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
 }
 
 /* Folds candidate hits into each ray's closest hit, then compacts the active list on the
@@ -266,11 +266,11 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
 static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray,
                          uint32_t *still_active, ts_error *err)
 {
-    if (cl_set_args(p->k_resolve, err, ARG(p->active), ARG(active_count), ARG(n_per_ray),
+    if (dev_set_args(p->k_resolve, err, ARG(p->active), ARG(active_count), ARG(n_per_ray),
                     ARG(p->count), ARG(p->pair_hit), ARG(p->ray_hit), ARG(p->ray_entry),
                     ARG(p->ray_flags), ARG(p->alive), (size_t)0) ||
-        cl_launch(p->cl, p->k_resolve, TS_STAGE_resolve, active_count, TS_LOCAL_SIZE, err) ||
-        cl_finish(p->cl, p->stats, err))
+        dev_launch(p->cl, p->k_resolve, TS_STAGE_resolve, active_count, TS_LOCAL_SIZE, err) ||
+        dev_finish(p->cl, p->stats, err))
         return err->code;
     double t0 = stats_now();
     cl_command_queue q = p->cl->queue;
@@ -316,7 +316,7 @@ int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
                                   p->batches[0].tree_count * sizeof(uint32_t), p->trees_host, 0, NULL, NULL),
              err);
     if (stage_dice(p, &p->batches[0], err) || stage_build(p, &p->batches[0], err)) return err->code;
-    return cl_finish(p->cl, p->stats, err);
+    return dev_finish(p->cl, p->stats, err);
 }
 
 int pipeline_bottom_level(ts_pipeline *p, uint32_t n_per_ray, ts_error *err)
@@ -324,7 +324,7 @@ int pipeline_bottom_level(ts_pipeline *p, uint32_t n_per_ray, ts_error *err)
     if (p->batch_count != 1)
         return ts_error_set(err, TS_E_INTERNAL, "pipeline_bottom_level: no single batch diced");
     if (stage_bottom_level(p, 0u, &p->batches[0], n_per_ray, err)) return err->code;
-    return cl_finish(p->cl, p->stats, err);
+    return dev_finish(p->cl, p->stats, err);
 }
 
 /* N per ray for R active rays: capacity / R, clipped to [1, 100] (Hanika §3.1, Table 3). */
@@ -363,7 +363,7 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 static int launch_shade_range(ts_pipeline *p, uint32_t first, uint32_t end, ts_error *err)
 {
     CL_CHECK(clSetKernelArg(p->k_shade, 5, sizeof end, &end), err);
-    return cl_launch_range(p->cl, p->k_shade, TS_STAGE_shade, first, end - first, TS_LOCAL_SIZE, err);
+    return dev_launch_range(p->cl, p->k_shade, TS_STAGE_shade, first, end - first, TS_LOCAL_SIZE, err);
 }
 
 /* A path of the wave list and the patch its ray hit (UINT32_MAX: none or untextured). */
@@ -388,7 +388,7 @@ static int cmp_shade_key(const void *a, const void *b)
  * are put back in path order afterwards for the next wave. */
 static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count, ts_error *err)
 {
-    if (!p->tex.paged) return cl_launch(p->cl, p->k_shade, TS_STAGE_shade, path_count, TS_LOCAL_SIZE, err);
+    if (!p->tex.paged) return dev_launch(p->cl, p->k_shade, TS_STAGE_shade, path_count, TS_LOCAL_SIZE, err);
     cl_command_queue q = p->cl->queue;
     uint32_t *paths = malloc((size_t)path_count * sizeof *paths);
     uint32_t *sorted = malloc((size_t)path_count * sizeof *sorted);
@@ -400,7 +400,7 @@ static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count,
         r0 = clEnqueueReadBuffer(q, p->wave_paths, CL_TRUE, 0, (size_t)path_count * sizeof *paths, paths, 0, NULL, NULL);
         r1 = clEnqueueReadBuffer(q, p->ray_hit, CL_TRUE, 0, (size_t)wave_size * sizeof *hits, hits, 0, NULL, NULL);
         if (r0 != CL_SUCCESS || r1 != CL_SUCCESS)
-            rc = ts_error_set(err, TS_E_DEVICE, "%s reading the wave's hits", cl_error_name(r0 != CL_SUCCESS ? r0 : r1));
+            rc = ts_error_set(err, TS_E_DEVICE, "%s reading the wave's hits", dev_error_name(r0 != CL_SUCCESS ? r0 : r1));
     }
     ts_tex_cache *c = &p->tex;
     if (rc == TS_OK) {
@@ -412,7 +412,7 @@ static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count,
         qsort(keys, path_count, sizeof *keys, cmp_shade_key);
         for (uint32_t k = 0; k < path_count; ++k) sorted[k] = paths[keys[k].k];
         r0 = clEnqueueWriteBuffer(q, p->wave_paths, CL_TRUE, 0, (size_t)path_count * sizeof *sorted, sorted, 0, NULL, NULL);
-        if (r0 != CL_SUCCESS) rc = ts_error_set(err, TS_E_DEVICE, "%s writing the shade order", cl_error_name(r0));
+        if (r0 != CL_SUCCESS) rc = ts_error_set(err, TS_E_DEVICE, "%s writing the shade order", dev_error_name(r0));
     }
     uint32_t start = 0;
     tex_cache_begin(c);
@@ -438,7 +438,7 @@ static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count,
         for (uint32_t k = 0; r0 == CL_SUCCESS && k < path_count; ++k) sorted[keys[k].k] = keys[k].patch;
         if (r0 == CL_SUCCESS) r0 = clEnqueueWriteBuffer(q, p->alive, CL_TRUE, 0, bytes, sorted, 0, NULL, NULL);
         if (r0 == CL_SUCCESS) r0 = clEnqueueWriteBuffer(q, p->wave_paths, CL_TRUE, 0, bytes, paths, 0, NULL, NULL);
-        if (r0 != CL_SUCCESS) rc = ts_error_set(err, TS_E_DEVICE, "%s restoring the path order", cl_error_name(r0));
+        if (r0 != CL_SUCCESS) rc = ts_error_set(err, TS_E_DEVICE, "%s restoring the path order", dev_error_name(r0));
     }
     free(paths), free(sorted), free(keys), free(hits);
     return rc;
@@ -451,7 +451,7 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
     ts_shade_params s = *sp;
     *next_paths = *next_rays = *shadow_rays = 0;
     if (path_count == 0) return TS_OK;
-    if (cl_set_args(p->k_shade, err, ARG(s), ARG(first_sample), ARG(p->pixel_count),
+    if (dev_set_args(p->k_shade, err, ARG(s), ARG(first_sample), ARG(p->pixel_count),
                     ARG(wave_size), ARG(p->wave_paths), ARG(path_count), ARG(p->ray_org), ARG(p->ray_dir),
                     ARG(p->ray_hit), ARG(p->ray_entry), ARG(p->ray_flags), ARG(p->ray_pixel),
                     ARG(p->path_throughput), ARG(p->path_mis), ARG(p->path_pending),
@@ -460,7 +460,7 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
                     ARG(p->env_texels), ARG(p->env_marginal), ARG(p->env_conditional),
                     ARG(p->flatness), ARG(p->textures), ARG(p->tex_pages), ARG(p->tex_pool),
                     ARG(p->alive), (size_t)0) ||
-        launch_shade(p, wave_size, path_count, err) || cl_finish(p->cl, p->stats, err))
+        launch_shade(p, wave_size, path_count, err) || dev_finish(p->cl, p->stats, err))
         return err->code;
     /* The next wave: the paths that go on and their rays, in path order. */
     double t0 = stats_now();
@@ -495,10 +495,10 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
 
 int pipeline_film(ts_pipeline *p, uint32_t first_sample, uint32_t ray_count, ts_error *err)
 {
-    if (cl_set_args(p->k_film, err, ARG(first_sample), ARG(ray_count), ARG(p->pixel_count),
+    if (dev_set_args(p->k_film, err, ARG(first_sample), ARG(ray_count), ARG(p->pixel_count),
                     ARG(p->radiance), ARG(p->aov), ARG(p->albedo), ARG(p->accum), ARG(p->aov_film),
                     ARG(p->albedo_film), (size_t)0) ||
-        cl_launch(p->cl, p->k_film, TS_STAGE_film, p->pixel_count, TS_LOCAL_SIZE, err))
+        dev_launch(p->cl, p->k_film, TS_STAGE_film, p->pixel_count, TS_LOCAL_SIZE, err))
         return err->code;
-    return cl_finish(p->cl, p->stats, err);
+    return dev_finish(p->cl, p->stats, err);
 }

@@ -74,19 +74,19 @@ const char *test_tessera_binary(void)
     return b && *b ? b : "./tessera";
 }
 
-void test_open_device(ts_cl *cl)
+void test_open_device(ts_device *cl)
 {
     ts_device_info *list = NULL;
     ts_error err = {0};
-    int n = cl_list_devices(&list, &err);
+    int n = dev_list(&list, &err);
     free(list);
     if (n == 0) {
         fprintf(stderr, "no OpenCL device: skipping\n");
         exit(TS_TEST_SKIP);
     }
-    ts_cl_options opt = {.device_index = -1};
-    if (n < 0 || cl_open(cl, &opt, &err) != TS_OK) {
-        fprintf(stderr, "cl_open: %s\n%s\n", err.msg, err.detail ? err.detail : "");
+    ts_device_options opt = {.device_index = -1};
+    if (n < 0 || dev_open(cl, &opt, &err) != TS_OK) {
+        fprintf(stderr, "dev_open: %s\n%s\n", err.msg, err.detail ? err.detail : "");
         fail_msg("cannot open the OpenCL device: %s", err.msg);
     }
 }
@@ -241,7 +241,7 @@ int test_has_device(void)
 {
     ts_device_info *list = NULL;
     ts_error err = {0};
-    int n = cl_list_devices(&list, &err);
+    int n = dev_list(&list, &err);
     free(list);
     return n > 0;
 }

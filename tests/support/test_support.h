@@ -30,7 +30,7 @@ const char *test_rib_warnings(const char *text, int *rc);
 const char *test_tessera_binary(void);
 /* Opens the default device with the embedded kernels; exits 77 (skip) when the machine has
  * no OpenCL device at all, fails the test on any other error. */
-void test_open_device(ts_cl *cl);
+void test_open_device(ts_device *cl);
 /* A fresh directory under $TMPDIR; the path is static storage. */
 const char *test_scratch_dir(void);
 /* Runs `tessera ARGS` (printf-style) with $TESSERA_CACHE_DIR kept, stdout discarded and
