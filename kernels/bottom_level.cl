@@ -31,7 +31,7 @@
 
 #define BL_STACK (3 * TS_LOD_LIMIT + 2)
 #define BL_WG TS_GROUP_SIZE /* work-group size of bottom_level_group */
-#define BL_MAX_BLOCK 16u     /* micro-quads in the largest leaf block (4 x 4) */
+#define BL_MAX_BLOCK 16u    /* micro-quads in the largest leaf block (4 x 4) */
 
 /* Index (within the batch) of the segment holding sorted pair p: the last with begin <= p. */
 inline uint segment_of(__global const ts_segment *seg, uint count, uint p)
@@ -39,8 +39,10 @@ inline uint segment_of(__global const ts_segment *seg, uint count, uint p)
     uint lo = 0, hi = count;
     while (hi - lo > 1u) {
         uint mid = (lo + hi) / 2u;
-        if (seg[mid].begin <= p) lo = mid;
-        else hi = mid;
+        if (seg[mid].begin <= p)
+            lo = mid;
+        else
+            hi = mid;
     }
     return lo;
 }
@@ -56,9 +58,9 @@ inline float4 vertex_at(__global const float4 *g0, __global const float4 *g1, ui
 /* Tests the micro-triangles of micro-quad k of a patch diced at m; updates *best. The
  * vertices are made relative to the origin and permuted to the shear's axes with one
  * shuffle each (the host reference, triangle_hit, does the same arithmetic). */
-inline void leaf_triangles(__global const float4 *g0, __global const float4 *g1, float time,
-                           uint m, uint k, float4 o4, float tmin, uint4 perm,
-                           const ts_ray_shear *sh, ts_hit *best, uint patch)
+inline void leaf_triangles(__global const float4 *g0, __global const float4 *g1, float time, uint m,
+                           uint k, float4 o4, float tmin, uint4 perm, const ts_ray_shear *sh,
+                           ts_hit *best, uint patch)
 {
     uint i = morton_i(k), j = morton_j(k), n = (1u << m) + 1u;
     float4 v00 = shuffle(vertex_at(g0, g1, j * n + i, time) - o4, perm);
@@ -109,7 +111,8 @@ inline float4 group_enter(__global const ts_box4 *g, __global const ts_box4 *g1,
     float4 tz0 = (lz - o.z) * inv.z, tz1 = (hz - o.z) * inv.z;
     float4 in = TS_MAX(TS_MAX(TS_MIN(tx0, tx1), TS_MIN(ty0, ty1)), TS_MIN(tz0, tz1));
     float4 tn = TS_MAX(in, (float4)(tmin));
-    float4 tf = TS_MIN(TS_MIN(TS_MAX(tx0, tx1), TS_MAX(ty0, ty1)), TS_MIN(TS_MAX(tz0, tz1), (float4)(tmax)));
+    float4 tf = TS_MIN(TS_MIN(TS_MAX(tx0, tx1), TS_MAX(ty0, ty1)),
+                       TS_MIN(TS_MAX(tz0, tz1), (float4)(tmax)));
     tf *= 1.0000003576f;
     *raw = in;
     return select((float4)(-1.0f), tn, tn <= tf && lx <= hx);
@@ -136,10 +139,10 @@ typedef struct bl_trav {
     uint stack[BL_STACK];
     float stack_t[BL_STACK];
     int sp;
-    uint blk[4]; /* the hit blocks of the last node expanded, nearest first */
+    uint blk[4];          /* the hit blocks of the last node expanded, nearest first */
     float blt[4], blr[4]; /* their entry distances, clamped to tmin and raw */
-    uint qn, qi; /* how many, and the next to visit */
-    float root_raw; /* the root's raw entry, for a root that is itself the block */
+    uint qn, qi;          /* how many, and the next to visit */
+    float root_raw;       /* the root's raw entry, for a root that is itself the block */
 } bl_trav;
 
 inline bl_ray bl_ray_make(ts_vec4 o, ts_vec4 d)
@@ -174,10 +177,12 @@ inline void quad_test(const bl_ray *r, const bl_patch *pt, uint qi, uint exact, 
 {
     float time = r->inv.w;
     if (exact) {
-        leaf_triangles(pt->g0, pt->g1, time, pt->m, qi, r->o4, r->tmin, r->perm, &r->sh, best, pt->patch);
+        leaf_triangles(pt->g0, pt->g1, time, pt->m, qi, r->o4, r->tmin, r->perm, &r->sh, best,
+                       pt->patch);
         return;
     }
-    uint grp = pt->m == 0u ? 0u : quadtree_group_offset(pt->m) + (qi >> 2), lane = pt->m == 0u ? 0u : (qi & 3u);
+    uint grp = pt->m == 0u ? 0u : quadtree_group_offset(pt->m) + (qi >> 2),
+         lane = pt->m == 0u ? 0u : (qi & 3u);
     float4 raw, e = group_enter(pt->t0 + grp, pt->t1 ? pt->t1 + grp : 0, time, r->o4, r->inv,
                                 r->tmin, best->t, &raw);
     float el = lane == 0u ? e.x : lane == 1u ? e.y : lane == 2u ? e.z : e.w;
@@ -203,7 +208,8 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
                          float *te, float *raw)
 {
     for (;;) {
-        while (s->qi < s->qn && s->blt[s->qi] > tmax) ++s->qi;
+        while (s->qi < s->qn && s->blt[s->qi] > tmax)
+            ++s->qi;
         if (s->qi < s->qn) {
             *te = s->blt[s->qi], *raw = s->blr[s->qi];
             return (int)s->blk[s->qi++];
@@ -213,7 +219,8 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
         if (s->stack_t[s->sp] > tmax) continue;
         uint level = s->stack[s->sp] >> 24, k = s->stack[s->sp] & 0xffffffu;
         if (level == L) { /* the root itself is the block */
-            s->blk[0] = k, s->blt[0] = s->stack_t[s->sp], s->blr[0] = s->root_raw, s->qn = 1, s->qi = 0;
+            s->blk[0] = k, s->blt[0] = s->stack_t[s->sp], s->blr[0] = s->root_raw, s->qn = 1,
+            s->qi = 0;
             continue;
         }
         uint grp = quadtree_group_offset(level + 1u) + k;
@@ -239,7 +246,8 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
         }
         if (level + 1u == L) { /* the children are blocks: visit them nearest first */
             for (uint q = 0; q < nc; ++q)
-                s->blk[q] = id[nc - 1u - q], s->blt[q] = tc[nc - 1u - q], s->blr[q] = tr[nc - 1u - q];
+                s->blk[q] = id[nc - 1u - q], s->blt[q] = tc[nc - 1u - q],
+                s->blr[q] = tr[nc - 1u - q];
             s->qn = nc, s->qi = 0;
             continue;
         }
@@ -287,8 +295,8 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
         bl_patch pt;
         ts_hit best;
         uint window;
-        if (bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active,
-                    org, dir, hit, ray_flags, grid, groups, &r, &pt, &best, &window)) {
+        if (bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active, org,
+                    dir, hit, ray_flags, grid, groups, &r, &pt, &best, &window)) {
             uint b = min(leaf_b, pt.m), L = pt.m - b, nq = 1u << (2u * b);
             bl_trav s;
             bl_trav_start(&s, &r, &pt, best.t);
@@ -299,7 +307,8 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
                     ++tests;
                     continue;
                 }
-                for (uint q = 0; q < nq; ++q, ++tests) quad_test(&r, &pt, ((uint)k << (2u * b)) + q, exact, &best);
+                for (uint q = 0; q < nq; ++q, ++tests)
+                    quad_test(&r, &pt, ((uint)k << (2u * b)) + q, exact, &best);
             }
         }
         if (best.patch == TS_INVALID) best.t = TS_NO_HIT;
@@ -329,7 +338,7 @@ bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_cou
 {
     /* The owners' rays and blocks, and one result slot per task (PantaRay Fig. 8). */
     __local float4 l_o4[BL_WG], l_inv[BL_WG], l_shear[BL_WG];
-    __local uint4 l_meta[BL_WG];            /* m | moving << 8 | b << 16, patch, vert, group */
+    __local uint4 l_meta[BL_WG]; /* m | moving << 8 | b << 16, patch, vert, group */
     __local uint l_block[BL_WG], l_perm[BL_WG], l_first[BL_WG + 1];
     __local ts_hit l_res[BL_WG * BL_MAX_BLOCK];
     uint lid = get_local_id(0), gid = get_global_id(0);
@@ -355,9 +364,9 @@ bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_cou
             l_inv[lid] = r.inv;
             l_shear[lid] = (float4)(r.sh.sx, r.sh.sy, r.sh.sz, best.t);
             l_perm[lid] = (uint)r.sh.kx | ((uint)r.sh.ky << 2) | ((uint)r.sh.kz << 4);
-            l_meta[lid] = (uint4)(pt.m | ((pt.g1 != 0) << 8) | (b << 16), pt.patch,
-                                  (uint)(pt.g0 - (__global const float4 *)grid),
-                                  (uint)(pt.t0 - groups));
+            l_meta[lid] =
+                (uint4)(pt.m | ((pt.g1 != 0) << 8) | (b << 16), pt.patch,
+                        (uint)(pt.g0 - (__global const float4 *)grid), (uint)(pt.t0 - groups));
             l_block[lid] = (uint)k;
         }
         l_first[lid + 1u] = count;
@@ -365,7 +374,8 @@ bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_cou
         /* 2. Exclusive scan of the task counts (one work-item: 64 additions). */
         if (lid == 0u) {
             l_first[0] = 0u;
-            for (uint i = 1u; i <= BL_WG; ++i) l_first[i] += l_first[i - 1u];
+            for (uint i = 1u; i <= BL_WG; ++i)
+                l_first[i] += l_first[i - 1u];
         }
         barrier(CLK_LOCAL_MEM_FENCE);
         uint total = l_first[BL_WG];
@@ -375,8 +385,10 @@ bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_cou
             uint lo = 0u, hi = BL_WG;
             while (hi - lo > 1u) { /* the owner: the last with l_first <= j */
                 uint mid = (lo + hi) / 2u;
-                if (l_first[mid] <= j) lo = mid;
-                else hi = mid;
+                if (l_first[mid] <= j)
+                    lo = mid;
+                else
+                    hi = mid;
             }
             uint4 meta = l_meta[lo];
             bl_ray tr;
@@ -384,7 +396,8 @@ bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_cou
             tr.tmin = l_o4[lo].w;
             tr.inv = l_inv[lo];
             uint pm = l_perm[lo];
-            tr.sh.kx = (int)(pm & 3u), tr.sh.ky = (int)((pm >> 2) & 3u), tr.sh.kz = (int)((pm >> 4) & 3u);
+            tr.sh.kx = (int)(pm & 3u), tr.sh.ky = (int)((pm >> 2) & 3u),
+            tr.sh.kz = (int)((pm >> 4) & 3u);
             tr.sh.sx = l_shear[lo].x, tr.sh.sy = l_shear[lo].y, tr.sh.sz = l_shear[lo].z;
             tr.perm = (uint4)(tr.sh.kx, tr.sh.ky, tr.sh.kz, 3u);
             bl_patch tp;
@@ -409,5 +422,6 @@ bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_cou
         if (best.patch == TS_INVALID) best.t = TS_NO_HIT;
         pair_hit[window] = best;
     }
-    if (lid == 0u && slots > 0u) atomic_add(&utilisation[0], useful), atomic_add(&utilisation[1], slots);
+    if (lid == 0u && slots > 0u)
+        atomic_add(&utilisation[0], useful), atomic_add(&utilisation[1], slots);
 }

@@ -50,8 +50,8 @@ inline void box_add(ts_box *b, float x, float y, float z)
 }
 
 /* Box of the undisplaced corners (vertex - d * normal) of micro-quad (i, j) of grid g. */
-inline ts_box base_box(__global const ts_vec4 *g, uint n, uint i, uint j, __global const ts_vec4 *cn,
-                       float h)
+inline ts_box base_box(__global const ts_vec4 *g, uint n, uint i, uint j,
+                       __global const ts_vec4 *cn, float h)
 {
     ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (uint c = 0; c < 4u; ++c) {
@@ -104,7 +104,8 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     ts_vec4 e = flatness[seg.patch];
     float s = ldexp(1.0f, -2 * (int)m);
     /* Flatness, plus a few ulps for the rounding of the vertices and of vertex - d * n. */
-    float mag = fmax(fmax(fabs(b.lo_x), fabs(b.hi_x)), fmax(fmax(fabs(b.lo_y), fabs(b.hi_y)), fmax(fabs(b.lo_z), fabs(b.hi_z))));
+    float mag = fmax(fmax(fabs(b.lo_x), fabs(b.hi_x)),
+                     fmax(fmax(fabs(b.lo_y), fabs(b.hi_y)), fmax(fabs(b.lo_z), fabs(b.hi_z))));
     float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
     b.lo_x -= ex, b.hi_x += ex, b.lo_y -= ey, b.hi_y += ey, b.lo_z -= ez, b.hi_z += ez;
     __global const ts_patch_attr *a = attr + seg.patch;
@@ -118,9 +119,11 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
             ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
             if (time == 1u) {
                 b0 = base_box(grid + seg.vert_first, n, i, j, cn, h);
-                b0.lo_x -= ex, b0.hi_x += ex, b0.lo_y -= ey, b0.hi_y += ey, b0.lo_z -= ez, b0.hi_z += ez;
+                b0.lo_x -= ex, b0.hi_x += ex, b0.lo_y -= ey, b0.hi_y += ey, b0.lo_z -= ez,
+                    b0.hi_z += ez;
             }
-            d = displace_interval(a, xform + a->xform, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
+            d = displace_interval(a, xform + a->xform, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y,
+                                  b0.hi_z);
         }
         ts_box nb = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
         for (uint c = 0; c < 4u; ++c) {
@@ -139,16 +142,16 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     node_store(groups + (size_t)seg.group_first + time * quadtree_group_count(m), m, k, b);
 }
 
-__kernel void build_level(__global const uint *trees, uint tree_first, uint tree_count,
-                          uint level, __global const ts_segment *segments,
-                          __global ts_box4 *groups)
+__kernel void build_level(__global const uint *trees, uint tree_first, uint tree_count, uint level,
+                          __global const ts_segment *segments, __global ts_box4 *groups)
 {
     uint per_tree = 1u << (2u * level), gid = get_global_id(0);
     uint t = gid / per_tree, k = gid % per_tree;
     if (t >= tree_count) return;
     uint tree = trees[tree_first + t];
     ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
-    __global ts_box4 *base = groups + (size_t)seg.group_first + TS_TREE_TIME(tree) * quadtree_group_count(seg.lod);
+    __global ts_box4 *base =
+        groups + (size_t)seg.group_first + TS_TREE_TIME(tree) * quadtree_group_count(seg.lod);
     __global const ts_box4 *c = base + quadtree_group_offset(level + 1u) + k;
     ts_box box;
     box.lo_x = fmin(fmin(c->lo_x[0], c->lo_x[1]), fmin(c->lo_x[2], c->lo_x[3]));

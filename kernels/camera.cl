@@ -11,8 +11,7 @@
 
 __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __global ts_vec4 *dir,
                               __global ts_hit *hit, __global uint *entry, __global uint *pixel,
-                              __global uint *flags, __global uint *active,
-                              __global uint *paths,
+                              __global uint *flags, __global uint *active, __global uint *paths,
                               __global ts_vec4 *throughput, __global ts_vec4 *mis,
                               __global ts_vec4 *radiance)
 {

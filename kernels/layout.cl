@@ -8,11 +8,11 @@ __kernel void layout_probe(__global uint *out)
     if (get_global_id(0) != 0) return;
     uint k = 0;
     /* OpenCL C 1.2 has no offsetof: measure on a private instance. */
-#define TS_LAYOUT_PROBE(type, field)                                                        \
-    {                                                                                       \
-        type probe;                                                                         \
-        out[k++] = (uint)sizeof(type);                                                      \
-        out[k++] = (uint)((char *)&probe.field - (char *)&probe);                           \
+#define TS_LAYOUT_PROBE(type, field)                                                               \
+    {                                                                                              \
+        type probe;                                                                                \
+        out[k++] = (uint)sizeof(type);                                                             \
+        out[k++] = (uint)((char *)&probe.field - (char *)&probe);                                  \
     }
     TS_LAYOUT_FIELDS(TS_LAYOUT_PROBE)
 #undef TS_LAYOUT_PROBE

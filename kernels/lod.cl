@@ -27,8 +27,8 @@ __kernel void lod_count(__global const ts_qbvh_node *nodes, uint ray_count,
             __global const ts_qbvh_node *q = &nodes[node];
             int child = q->child[c];
             if (child == TS_CHILD_EMPTY ||
-                box_enter(o.x, o.y, o.z, ix, iy, iz, q->lo_x[c], q->lo_y[c], q->lo_z[c],
-                          q->hi_x[c], q->hi_y[c], q->hi_z[c], o.w, INFINITY) < 0.0f)
+                box_enter(o.x, o.y, o.z, ix, iy, iz, q->lo_x[c], q->lo_y[c], q->lo_z[c], q->hi_x[c],
+                          q->hi_y[c], q->hi_z[c], o.w, INFINITY) < 0.0f)
                 continue;
             if (child >= 0) {
                 node = (uint)child;

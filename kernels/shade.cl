@@ -83,13 +83,14 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
         float pl;
         light_escape(lights, sp.light_count, env, d, le, &pl);
         add_rgb(&radiance[i], tp, le, emission_weight(m4, pl));
-        if (b == 0u) aov[i] = (ts_vec4){0.0f, 0.0f, 0.0f, INFINITY}, albedo[i] = (ts_vec4){0, 0, 0, 0};
+        if (b == 0u)
+            aov[i] = (ts_vec4){0.0f, 0.0f, 0.0f, INFINITY}, albedo[i] = (ts_vec4){0, 0, 0, 0};
         return;
     }
     __global const ts_patch_attr *a = attr + h.patch;
     __global const ts_vec4 *c = cp + (size_t)h.patch * 16u;
-    ts_vec4 n4 = patch_shading_normal(c, corner_n + (size_t)h.patch * 4u, a, xform + a->xform, tex, h.u,
-                                h.v, TS_PRIM_LOD(h.prim));
+    ts_vec4 n4 = patch_shading_normal(c, corner_n + (size_t)h.patch * 4u, a, xform + a->xform, tex,
+                                      h.u, h.v, TS_PRIM_LOD(h.prim));
     float cs[3];
     tex_surface_colour(a, tex, h.u, h.v, cs);
     ts_v3 n = v3(n4.x, n4.y, n4.z), wo = v3_scale(d, -1.0f);
@@ -101,7 +102,8 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     }
     if (a->le_r > 0.0f || a->le_g > 0.0f || a->le_b > 0.0f) {
         float e[3] = {a->le_r, a->le_g, a->le_b};
-        float pl = light_pdf_area(lights, sp.light_count, emitters, cp, a->emitter, h.patch, h.u, h.v, d, h.t);
+        float pl = light_pdf_area(lights, sp.light_count, emitters, cp, a->emitter, h.patch, h.u,
+                                  h.v, d, h.t);
         add_rgb(&radiance[i], tp, e, emission_weight(m4, pl));
     }
     if (b >= sp.depth) return;
@@ -110,7 +112,8 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     float eps = flatness[h.patch].w * ldexp(1.0f, -(int)TS_PRIM_LOD(h.prim)), f[3];
     uint out = 0u;
     if (sp.light_count > 0u && sp.sampling != TS_SAMPLING_BSDF) { /* next-event estimation */
-        uint li = min((uint)(rng_uniform(pix, sample, b + 1u, 1u, sp.seed) * (float)sp.light_count), sp.light_count - 1u);
+        uint li = min((uint)(rng_uniform(pix, sample, b + 1u, 1u, sp.seed) * (float)sp.light_count),
+                      sp.light_count - 1u);
         ts_light_sample ls = light_sample(lights, sp.light_count, li, env, emitters, cp, attr, p,
                                           rng_uniform(pix, sample, b + 1u, 2u, sp.seed),
                                           rng_uniform(pix, sample, b + 1u, 3u, sp.seed),
@@ -142,7 +145,8 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
         if (rng_uniform(pix, sample, b + 1u, 0u, sp.seed) < survive) {
             throughput[i] = (ts_vec4){nt[0] / survive, nt[1] / survive, nt[2] / survive, 0.0f};
             float mode = sp.light_count == 0u || sp.sampling == TS_SAMPLING_BSDF ? 0.0f
-                         : sp.sampling == TS_SAMPLING_LIGHT ? 2.0f : 1.0f;
+                         : sp.sampling == TS_SAMPLING_LIGHT                      ? 2.0f
+                                                                                 : 1.0f;
             emit_ray(i, p, n, eps, wi, d4.w, TS_NO_HIT, 0u, org, dir, hit, entry, ray_flags);
             mis[i] = (ts_vec4){pb, mode, 0.0f, 0.0f};
             out |= 1u;

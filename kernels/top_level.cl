@@ -15,8 +15,7 @@
 __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global const uint *active,
                                 uint active_count, uint n_per_ray, __global const ts_vec4 *org,
                                 __global const ts_vec4 *dir, __global const ts_hit *hit,
-                                __global uint *entry, __global ts_pair *pairs,
-                                __global uint *count)
+                                __global uint *entry, __global ts_pair *pairs, __global uint *count)
 {
     uint i = get_global_id(0);
     if (i >= active_count) return;

@@ -23,7 +23,8 @@ static const cJSON *get(const cJSON *o, const char *path)
 {
     char buf[256];
     snprintf(buf, sizeof buf, "%s", path);
-    for (char *save = NULL, *key = strtok_r(buf, ".", &save); key; key = strtok_r(NULL, ".", &save)) {
+    for (char *save = NULL, *key = strtok_r(buf, ".", &save); key;
+         key = strtok_r(NULL, ".", &save)) {
         o = cJSON_GetObjectItemCaseSensitive(o, key);
         if (!o) fail_msg("JSON has no %s (at %s)", path, key);
     }
@@ -44,7 +45,8 @@ static int run_bench(void **state)
     snprintf(bin, sizeof bin, "%s", test_tessera_binary());
     snprintf(json, sizeof json, "%s/bench.json", dir);
     /* bench_embree is built next to tessera; scene paths are relative to the source tree. */
-    snprintf(cmd, sizeof cmd, "cd '%s' && '%s/bench_embree' --size tiny --json '%s' > '%s/stdout.txt'",
+    snprintf(cmd, sizeof cmd,
+             "cd '%s' && '%s/bench_embree' --size tiny --json '%s' > '%s/stdout.txt'",
              test_source_path("."), dirname(bin), json, dir);
     int st = system(cmd);
     if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) {
@@ -77,19 +79,29 @@ static void test_fields(void **state)
     assert_int_equal((int)number(c, "rays.eye"), 64 * 36);
     assert_int_equal((int)number(c, "embree.triangles"), 2 * 32 * 64);
     assert_int_equal((int)number(c, "micro_triangles"), 2 * 32 * 64);
-    static const char *const positive[] = {
-        "embree.eye.rays_per_second_1thread", "embree.eye.rays_per_second_2threads",
-        "embree.bounce.rays_per_second_1thread", "embree.bounce.rays_per_second_2threads",
-        "embree.build_seconds", "embree.bytes_after_build", "embree.bytes_peak",
-        "embree.peak_rss_bytes", "embree.bytes_per_triangle",
-        "tessera.triangles.eye.rays_per_second", "tessera.triangles.bounce.rays_per_second",
-        "tessera.triangles.eye.rays_per_second_wall", "tessera.boxes.eye.rays_per_second",
-        "tessera.boxes.bounce.rays_per_second", "tessera.peak_rss_bytes",
-        "tessera.device_buffer_bytes", "baseline_peak_rss_bytes",
-        "ratios.eye.embree_2threads_over_tessera_triangles",
-        "ratios.bounce.embree_1thread_over_tessera_triangles",
-        "ratios.frame_tessera_triangles_over_embree", "ratios.peak_rss_embree_over_tessera",
-        "largest_scene.embree_max_triangles_24GiB", "largest_scene.tessera_max_peak_rss_bytes"};
+    static const char *const positive[] = {"embree.eye.rays_per_second_1thread",
+                                           "embree.eye.rays_per_second_2threads",
+                                           "embree.bounce.rays_per_second_1thread",
+                                           "embree.bounce.rays_per_second_2threads",
+                                           "embree.build_seconds",
+                                           "embree.bytes_after_build",
+                                           "embree.bytes_peak",
+                                           "embree.peak_rss_bytes",
+                                           "embree.bytes_per_triangle",
+                                           "tessera.triangles.eye.rays_per_second",
+                                           "tessera.triangles.bounce.rays_per_second",
+                                           "tessera.triangles.eye.rays_per_second_wall",
+                                           "tessera.boxes.eye.rays_per_second",
+                                           "tessera.boxes.bounce.rays_per_second",
+                                           "tessera.peak_rss_bytes",
+                                           "tessera.device_buffer_bytes",
+                                           "baseline_peak_rss_bytes",
+                                           "ratios.eye.embree_2threads_over_tessera_triangles",
+                                           "ratios.bounce.embree_1thread_over_tessera_triangles",
+                                           "ratios.frame_tessera_triangles_over_embree",
+                                           "ratios.peak_rss_embree_over_tessera",
+                                           "largest_scene.embree_max_triangles_24GiB",
+                                           "largest_scene.tessera_max_peak_rss_bytes"};
     for (size_t i = 0; i < sizeof positive / sizeof *positive; ++i) {
         const cJSON *x = get(positive[i][0] == 'l' ? r : c, positive[i]);
         if (!cJSON_IsNumber(x) || !(x->valuedouble > 0)) fail_msg("%s is not > 0", positive[i]);

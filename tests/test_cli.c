@@ -48,7 +48,8 @@ static void expect_error(const char *args, const char *needle)
     assert_int_equal(run(args), 1);
     char err[8192];
     read_stderr(err, sizeof err);
-    if (!strstr(err, needle)) fail_msg("stderr of `tessera %s` lacks \"%s\":\n%s", args, needle, err);
+    if (!strstr(err, needle))
+        fail_msg("stderr of `tessera %s` lacks \"%s\":\n%s", args, needle, err);
     /* One line: the message and its newline, nothing else. */
     assert_non_null(strchr(err, '\n'));
     assert_true(strchr(err, '\n')[1] == '\0');
@@ -73,9 +74,11 @@ static void test_bad_input(void **state)
     expect_error(args, "bad.rib:2:");
     snprintf(args, sizeof args, "render '%s/missing.rib' -o '%s/out.png'", dir, dir);
     expect_error(args, "missing.rib");
-    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --device 99", test_source_path("scene/teapot.rib"), dir);
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --device 99",
+             test_source_path("scene/teapot.rib"), dir);
     expect_error(args, "unknown device index 99");
-    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --bogus", test_source_path("scene/teapot.rib"), dir);
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --bogus",
+             test_source_path("scene/teapot.rib"), dir);
     expect_error(args, "unknown option --bogus");
     expect_error("frobnicate", "unknown command");
 }
@@ -90,8 +93,10 @@ static double number(const cJSON *o, const char *key)
 static void test_render_exr_and_stats(void **state)
 {
     char args[8192], path[4200];
-    snprintf(args, sizeof args, "render '%s' -o '%s/t.exr' --res 64x36 --spp 1 --max-lod 4 --stats '%s/s.json' --quiet",
-             test_source_path("scene/teapot.rib"), dir, dir);
+    snprintf(
+        args, sizeof args,
+        "render '%s' -o '%s/t.exr' --res 64x36 --spp 1 --max-lod 4 --stats '%s/s.json' --quiet",
+        test_source_path("scene/teapot.rib"), dir, dir);
     assert_int_equal(run(args), 0);
     snprintf(path, sizeof path, "%s/t.exr", dir);
     ts_image img;
@@ -99,8 +104,10 @@ static void test_render_exr_and_stats(void **state)
     assert_int_equal(image_read(path, &img, &err), TS_OK);
     assert_int_equal(img.width, 64);
     assert_int_equal(img.channels, 10);
-    const char *want[] = {"R", "G", "B", "Z", "N.x", "N.y", "N.z", "albedo.R", "albedo.G", "albedo.B"};
-    for (int c = 0; c < 10; ++c) assert_string_equal(img.channel_names[c], want[c]);
+    const char *want[] = {"R",   "G",   "B",        "Z",        "N.x",
+                          "N.y", "N.z", "albedo.R", "albedo.G", "albedo.B"};
+    for (int c = 0; c < 10; ++c)
+        assert_string_equal(img.channel_names[c], want[c]);
     int hits = 0;
     for (int i = 0; i < img.width * img.height; ++i) {
         const float *px = &img.pixels[i * 10];
@@ -118,7 +125,8 @@ static void test_render_exr_and_stats(void **state)
     assert_true(number(j, "wall_seconds") > 0);
     assert_true(number(j, "peak_rss_bytes") > 0);
     const cJSON *stages = cJSON_GetObjectItemCaseSensitive(j, "stages");
-    for (int i = 0; i < TS_STAGE_COUNT; ++i) assert_true(number(stages, ts_stage_names[i]) >= 0);
+    for (int i = 0; i < TS_STAGE_COUNT; ++i)
+        assert_true(number(stages, ts_stage_names[i]) >= 0);
     const cJSON *c = cJSON_GetObjectItemCaseSensitive(j, "counters");
     /* Eye rays plus the bounce rays of the paths (depth 3); the teapot is lit: shadow rays. */
     assert_true(number(c, "rays") >= 64 * 36 && number(c, "rays") <= 4 * 64 * 36);

@@ -1,6 +1,6 @@
 /* test_dice_build.c — the dice and build kernels against plain-C references on random
- * patches, plain and displaced (fbm, ridged, an image texture): dice vertices vs the shared float evaluation
- * (bitwise) and, undisplaced, vs an independent de Casteljau in double (tolerance); leaf
+ * patches, plain and displaced (fbm, ridged, an image texture): dice vertices vs the shared float
+ * evaluation (bitwise) and, undisplaced, vs an independent de Casteljau in double (tolerance); leaf
  * boxes hold the displaced surface at random points of their parameter squares and inner
  * boxes are the union of their children (exact); every vertex lies in the patch's
  * top-level box. */
@@ -21,7 +21,8 @@ static void casteljau(const double p[4][3], double t, double out[3])
     memcpy(q, p, sizeof q);
     for (int r = 3; r > 0; --r)
         for (int i = 0; i < r; ++i)
-            for (int k = 0; k < 3; ++k) q[i][k] = (1 - t) * q[i][k] + t * q[i + 1][k];
+            for (int k = 0; k < 3; ++k)
+                q[i][k] = (1 - t) * q[i][k] + t * q[i + 1][k];
     memcpy(out, q[0], sizeof q[0]);
 }
 
@@ -48,7 +49,8 @@ static void random_scene(ts_scene *s, int patches, uint32_t seed)
     assert_int_equal(scene_add_xform(s, w2o, &xf, &err), TS_OK);
     for (int p = 0; p < patches; ++p) {
         double cp[16][3];
-        float ox = test_uniform(&seed, -5, 5), oy = test_uniform(&seed, -5, 5), oz = test_uniform(&seed, -5, 5);
+        float ox = test_uniform(&seed, -5, 5), oy = test_uniform(&seed, -5, 5),
+              oz = test_uniform(&seed, -5, 5);
         for (int j = 0; j < 4; ++j)
             for (int i = 0; i < 4; ++i) {
                 cp[j * 4 + i][0] = ox + i + test_uniform(&seed, -0.4f, 0.4f);
@@ -94,13 +96,14 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
             float u = ldexpf((float)i, -(int)m), v = ldexpf((float)j, -(int)m);
             ts_vec4 same = patch_vertex(cp, cp, cn, a, x, scene_tex_ctx(s), u, v);
             if (memcmp(&g, &same, sizeof g) != 0)
-                fail_msg("patch %u m %u vertex (%u,%u): device (%a %a %a %a) host (%a %a %a %a)", pi, m,
-                         i, j, g.x, g.y, g.z, g.w, same.x, same.y, same.z, same.w);
+                fail_msg("patch %u m %u vertex (%u,%u): device (%a %a %a %a) host (%a %a %a %a)",
+                         pi, m, i, j, g.x, g.y, g.z, g.w, same.x, same.y, same.z, same.w);
             /* The undisplaced point against an independent evaluation. */
             ts_vec4 dn = displace_normal(cn, u, v);
             double r[3];
             reference_point(cp, u, v, r);
-            assert_true(fabs(g.x - g.w * dn.x - r[0]) <= tol && fabs(g.y - g.w * dn.y - r[1]) <= tol &&
+            assert_true(fabs(g.x - g.w * dn.x - r[0]) <= tol &&
+                        fabs(g.y - g.w * dn.y - r[1]) <= tol &&
                         fabs(g.z - g.w * dn.z - r[2]) <= tol);
             if (a->disp_kind == TS_DISP_NONE) assert_true(g.w == 0.0f);
             assert_true(box_contains(ext, g)); /* the top-level box is conservative */
@@ -122,7 +125,8 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
             float v = ((float)j + test_uniform(seed, 0, 1)) * ldexpf(1.0f, -(int)m);
             ts_vec4 p = patch_vertex(cp, cp, cn, a, x, scene_tex_ctx(s), u, v);
             if (!box_contains(b, p))
-                fail_msg("patch %u m %u leaf %u: surface point (%g, %g) outside its box", pi, m, k, u, v);
+                fail_msg("patch %u m %u leaf %u: surface point (%g, %g) outside its box", pi, m, k,
+                         u, v);
         }
     }
     /* Inner nodes: exactly the union of their four children. */
@@ -136,7 +140,8 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
                 u.lo_z = fminf(u.lo_z, c.lo_z), u.hi_z = fmaxf(u.hi_z, c.hi_z);
             }
             if (!box_equal(u, quadtree_box(nodes, l, k)))
-                fail_msg("patch %u m %u: node %u of level %u is not the union of its children", pi, m, k, l);
+                fail_msg("patch %u m %u: node %u of level %u is not the union of its children", pi,
+                         m, k, l);
         }
 }
 
@@ -148,7 +153,8 @@ static void random_textured_scene(ts_scene *s, int patches, uint32_t seed)
     ts_error err = {0};
     const int w = 53, h = 40;
     float *px = malloc((size_t)w * h * sizeof *px);
-    for (int i = 0; i < w * h; ++i) px[i] = test_uniform(&seed, -1.0f, 2.0f);
+    for (int i = 0; i < w * h; ++i)
+        px[i] = test_uniform(&seed, -1.0f, 2.0f);
     ts_image img = {w, h, 1, NULL, px};
     const char *path = test_path_in(test_scratch_dir(), "disp.exr");
     if (image_write_exr(path, &img, NULL, 0, &err)) fail_msg("%s", err.msg);
@@ -157,7 +163,8 @@ static void random_textured_scene(ts_scene *s, int patches, uint32_t seed)
     if (scene_add_texture(s, path, TS_TEX_MINMAX, &tex, &err)) fail_msg("%s", err.msg);
     for (int p = 0; p < patches; ++p) {
         double cp[16][3];
-        float ox = test_uniform(&seed, -5, 5), oy = test_uniform(&seed, -5, 5), oz = test_uniform(&seed, -5, 5);
+        float ox = test_uniform(&seed, -5, 5), oy = test_uniform(&seed, -5, 5),
+              oz = test_uniform(&seed, -5, 5);
         for (int j = 0; j < 4; ++j)
             for (int i = 0; i < 4; ++i) {
                 cp[j * 4 + i][0] = ox + i + test_uniform(&seed, -0.4f, 0.4f);
@@ -167,11 +174,17 @@ static void random_textured_scene(ts_scene *s, int patches, uint32_t seed)
                 float bend = test_uniform(&seed, -1.5f, 1.5f);
                 cp[j * 4 + i][2] = oz + (p % 2 ? bend : 0.0f);
             }
-        ts_patch_attr a = {.cs_r = 1, .cs_g = 1, .cs_b = 1, .disp_kind = TS_DISP_TEXTURE,
-                           .disp_amplitude = p % 2 ? 0.3f : -0.2f, .disp_offset = 0.5f, .disp_tex = tex};
+        ts_patch_attr a = {.cs_r = 1,
+                           .cs_g = 1,
+                           .cs_b = 1,
+                           .disp_kind = TS_DISP_TEXTURE,
+                           .disp_amplitude = p % 2 ? 0.3f : -0.2f,
+                           .disp_offset = 0.5f,
+                           .disp_tex = tex};
         /* Corner st: a random place, then within a square of side 10^-2.5 .. 10^0.6. */
         float span = powf(10.0f, test_uniform(&seed, -2.5f, 0.6f)), base = p == 3 ? 1000.0f : 0.0f;
-        float s0 = base + test_uniform(&seed, -2.0f, 2.0f), t0 = base + test_uniform(&seed, -2.0f, 2.0f);
+        float s0 = base + test_uniform(&seed, -2.0f, 2.0f),
+              t0 = base + test_uniform(&seed, -2.0f, 2.0f);
         for (int c = 0; c < 4; ++c) {
             a.st[2 * c] = s0 + span * test_uniform(&seed, 0, 1);
             a.st[2 * c + 1] = t0 + span * test_uniform(&seed, 0, 1);
@@ -201,8 +214,11 @@ static void dice_build_and_check(ts_scene *s, const uint32_t lods[6])
     size_t nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
     ts_vec4 *grid = malloc(gbytes);
     ts_box4 *nodes = malloc(nbytes);
-    assert_int_equal(clEnqueueReadBuffer(cl.queue, p.grid, CL_TRUE, 0, gbytes, grid, 0, NULL, NULL), CL_SUCCESS);
-    assert_int_equal(clEnqueueReadBuffer(cl.queue, p.groups, CL_TRUE, 0, nbytes, nodes, 0, NULL, NULL), CL_SUCCESS);
+    assert_int_equal(clEnqueueReadBuffer(cl.queue, p.grid, CL_TRUE, 0, gbytes, grid, 0, NULL, NULL),
+                     CL_SUCCESS);
+    assert_int_equal(
+        clEnqueueReadBuffer(cl.queue, p.groups, CL_TRUE, 0, nbytes, nodes, 0, NULL, NULL),
+        CL_SUCCESS);
     uint32_t seed = 77u;
     for (uint32_t i = 0; i < 6; ++i) {
         const ts_segment *seg = &p.segments_host[i];
@@ -210,7 +226,8 @@ static void dice_build_and_check(ts_scene *s, const uint32_t lods[6])
     }
     assert_int_equal(stats.counters[TS_COUNTER_patches_diced], 6);
     uint64_t quads = 0;
-    for (uint32_t i = 0; i < 6; ++i) quads += 1ull << (2 * lods[i]);
+    for (uint32_t i = 0; i < 6; ++i)
+        quads += 1ull << (2 * lods[i]);
     assert_int_equal(stats.counters[TS_COUNTER_micropolygons_created], quads);
     free(grid);
     free(nodes);

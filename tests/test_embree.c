@@ -51,14 +51,16 @@ static int load(teapot *t, const char *insert, ts_error *err)
     if (insert) {
         char *at = strstr(text, "WorldBegin\n"), *end = text + len;
         size_t add = strlen(insert);
-        if (!at || len + add >= sizeof text) return ts_error_set(err, TS_E_SCENE, "%s: no WorldBegin", path);
+        if (!at || len + add >= sizeof text)
+            return ts_error_set(err, TS_E_SCENE, "%s: no WorldBegin", path);
         at += strlen("WorldBegin\n");
         memmove(at + add, at, (size_t)(end - at) + 1);
         memcpy(at, insert, add);
         len += add;
     }
     if (rib_parse_string(path, text, len, &t->scene, 1, err)) return err->code;
-    if (t->scene.patch_count != 32) return ts_error_set(err, TS_E_SCENE, "teapot: %u patches", t->scene.patch_count);
+    if (t->scene.patch_count != 32)
+        return ts_error_set(err, TS_E_SCENE, "teapot: %u patches", t->scene.patch_count);
     if (insert && t->scene.attr[0].disp_kind != TS_DISP_FBM)
         return ts_error_set(err, TS_E_SCENE, "teapot: the displacement did not reach the patches");
     if (embree_ref_create(&t->ref, &t->scene, M, NULL, err)) return err->code;
@@ -112,9 +114,15 @@ static void create_exact(ts_pipeline *p, ts_device *cl, const ts_scene *scene, t
 static void read_back(ts_pipeline *p, rays *r)
 {
     cl_command_queue q = p->cl->queue;
-    assert_int_equal(clEnqueueReadBuffer(q, p->ray_org, CL_TRUE, 0, sizeof r->org, r->org, 0, NULL, NULL), CL_SUCCESS);
-    assert_int_equal(clEnqueueReadBuffer(q, p->ray_dir, CL_TRUE, 0, sizeof r->dir, r->dir, 0, NULL, NULL), CL_SUCCESS);
-    assert_int_equal(clEnqueueReadBuffer(q, p->ray_hit, CL_TRUE, 0, sizeof r->hit, r->hit, 0, NULL, NULL), CL_SUCCESS);
+    assert_int_equal(
+        clEnqueueReadBuffer(q, p->ray_org, CL_TRUE, 0, sizeof r->org, r->org, 0, NULL, NULL),
+        CL_SUCCESS);
+    assert_int_equal(
+        clEnqueueReadBuffer(q, p->ray_dir, CL_TRUE, 0, sizeof r->dir, r->dir, 0, NULL, NULL),
+        CL_SUCCESS);
+    assert_int_equal(
+        clEnqueueReadBuffer(q, p->ray_hit, CL_TRUE, 0, sizeof r->hit, r->hit, 0, NULL, NULL),
+        CL_SUCCESS);
 }
 
 /* Traces the rays read back with Embree and asserts the agreement; prints the numbers and
@@ -146,15 +154,15 @@ static void compare(const char *name, teapot *tp, rays *r, int min_hits)
         same_prim += patch_ok && a->prim == b->prim;
         if (patch_ok) worst = fmax(worst, fabs((double)a->t - b->t) / b->t);
         if (!(patch_ok && t_ok))
-            printf("%s: ray %d: two-level patch %u prim %u t %.9g, embree patch %u prim %u t %.9g\n",
-                   name, k, a->patch, a->prim, a->t, b->patch, b->prim, b->t);
+            printf(
+                "%s: ray %d: two-level patch %u prim %u t %.9g, embree patch %u prim %u t %.9g\n",
+                name, k, a->patch, a->prim, a->t, b->patch, b->prim, b->t);
     }
     printf("%s: %d rays, hit/miss disagree on %d (%.4f%%); both hit %d: same patch %.4f%%, "
            "t within 1e-4 %.4f%%, both %.4f%%, same micro-triangle %.4f%%; largest relative t "
            "difference %.3g\n",
-           name, RAYS, miss_disagree, 100.0 * miss_disagree / RAYS, both,
-           100.0 * same_patch / both, 100.0 * t_close / both, 100.0 * agree / both,
-           100.0 * same_prim / both, worst);
+           name, RAYS, miss_disagree, 100.0 * miss_disagree / RAYS, both, 100.0 * same_patch / both,
+           100.0 * t_close / both, 100.0 * agree / both, 100.0 * same_prim / both, worst);
     assert_true(both >= min_hits); /* the comparison covers enough hits to mean something */
     assert_true(miss_disagree <= 0.001 * RAYS);
     assert_true(agree >= 0.999 * both);
@@ -191,16 +199,20 @@ static void incoherent_rays(ts_device *cl, teapot *tp, const char *name)
     ts_box b = scene_patch_box(&tp->scene, 0);
     for (uint32_t k = 1; k < tp->scene.patch_count; ++k) {
         ts_box x = scene_patch_box(&tp->scene, k);
-        b.lo_x = fminf(b.lo_x, x.lo_x), b.lo_y = fminf(b.lo_y, x.lo_y), b.lo_z = fminf(b.lo_z, x.lo_z);
-        b.hi_x = fmaxf(b.hi_x, x.hi_x), b.hi_y = fmaxf(b.hi_y, x.hi_y), b.hi_z = fmaxf(b.hi_z, x.hi_z);
+        b.lo_x = fminf(b.lo_x, x.lo_x), b.lo_y = fminf(b.lo_y, x.lo_y),
+        b.lo_z = fminf(b.lo_z, x.lo_z);
+        b.hi_x = fmaxf(b.hi_x, x.hi_x), b.hi_y = fmaxf(b.hi_y, x.hi_y),
+        b.hi_z = fmaxf(b.hi_z, x.hi_z);
     }
     uint32_t seed = 12345u;
     for (int k = 0; k < RAYS; ++k) {
-        r.org[k] = (ts_vec4){test_uniform(&seed, b.lo_x, b.hi_x), test_uniform(&seed, b.lo_y, b.hi_y),
-                             test_uniform(&seed, b.lo_z, b.hi_z), 0.0f};
+        r.org[k] =
+            (ts_vec4){test_uniform(&seed, b.lo_x, b.hi_x), test_uniform(&seed, b.lo_y, b.hi_y),
+                      test_uniform(&seed, b.lo_z, b.hi_z), 0.0f};
         float x, y, z, len2;
         do { /* uniform on the sphere: a point of the unit ball, normalised */
-            x = test_uniform(&seed, -1, 1), y = test_uniform(&seed, -1, 1), z = test_uniform(&seed, -1, 1);
+            x = test_uniform(&seed, -1, 1), y = test_uniform(&seed, -1, 1),
+            z = test_uniform(&seed, -1, 1);
             len2 = x * x + y * y + z * z;
         } while (!(len2 > 1e-4f && len2 <= 1.0f));
         float inv = 1.0f / sqrtf(len2);
@@ -210,16 +222,30 @@ static void incoherent_rays(ts_device *cl, teapot *tp, const char *name)
         active[k] = pixel[k] = (ts_u32)k;
     }
     cl_command_queue q = cl->queue;
-    assert_int_equal(clEnqueueWriteBuffer(q, p.ray_org, CL_TRUE, 0, sizeof r.org, r.org, 0, NULL, NULL), CL_SUCCESS);
-    assert_int_equal(clEnqueueWriteBuffer(q, p.ray_dir, CL_TRUE, 0, sizeof r.dir, r.dir, 0, NULL, NULL), CL_SUCCESS);
-    assert_int_equal(clEnqueueWriteBuffer(q, p.ray_hit, CL_TRUE, 0, sizeof r.hit, r.hit, 0, NULL, NULL), CL_SUCCESS);
-    assert_int_equal(clEnqueueWriteBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL), CL_SUCCESS);
-    assert_int_equal(clEnqueueWriteBuffer(q, p.ray_pixel, CL_TRUE, 0, sizeof pixel, pixel, 0, NULL, NULL), CL_SUCCESS);
+    assert_int_equal(
+        clEnqueueWriteBuffer(q, p.ray_org, CL_TRUE, 0, sizeof r.org, r.org, 0, NULL, NULL),
+        CL_SUCCESS);
+    assert_int_equal(
+        clEnqueueWriteBuffer(q, p.ray_dir, CL_TRUE, 0, sizeof r.dir, r.dir, 0, NULL, NULL),
+        CL_SUCCESS);
+    assert_int_equal(
+        clEnqueueWriteBuffer(q, p.ray_hit, CL_TRUE, 0, sizeof r.hit, r.hit, 0, NULL, NULL),
+        CL_SUCCESS);
+    assert_int_equal(
+        clEnqueueWriteBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL),
+        CL_SUCCESS);
+    assert_int_equal(
+        clEnqueueWriteBuffer(q, p.ray_pixel, CL_TRUE, 0, sizeof pixel, pixel, 0, NULL, NULL),
+        CL_SUCCESS);
     /* Closest-hit rays (no TS_RAY_SHADOW): the flags must be written too, or resolve would
      * read whatever the buffer held. */
     cl_uint zero = 0;
-    assert_int_equal(clEnqueueFillBuffer(q, p.ray_flags, &zero, sizeof zero, 0, sizeof(cl_uint) * RAYS, 0, NULL, NULL), CL_SUCCESS);
-    assert_int_equal(clEnqueueWriteBuffer(q, p.active, CL_TRUE, 0, sizeof active, active, 0, NULL, NULL), CL_SUCCESS);
+    assert_int_equal(clEnqueueFillBuffer(q, p.ray_flags, &zero, sizeof zero, 0,
+                                         sizeof(cl_uint) * RAYS, 0, NULL, NULL),
+                     CL_SUCCESS);
+    assert_int_equal(
+        clEnqueueWriteBuffer(q, p.active, CL_TRUE, 0, sizeof active, active, 0, NULL, NULL),
+        CL_SUCCESS);
     if (pipeline_trace(&p, RAYS, &err)) fail_msg("%s", err.msg);
     read_back(&p, &r);
     pipeline_destroy(&p);

@@ -90,7 +90,8 @@ static int render_and_interrupt(const char *out, const char *extra)
     pid_t pid = fork();
     assert_true(pid >= 0);
     if (pid == 0) {
-        int fd = open(errpath, O_WRONLY | O_CREAT | O_TRUNC, 0644), nul = open("/dev/null", O_WRONLY);
+        int fd = open(errpath, O_WRONLY | O_CREAT | O_TRUNC, 0644),
+            nul = open("/dev/null", O_WRONLY);
         if (fd < 0 || nul < 0) _exit(126);
         dup2(fd, 2), dup2(nul, 1);
         execl(bin, bin, "render", scene, "-o", outpath, "--res", RES, "--spp", SPP, "--memory",
@@ -119,7 +120,8 @@ static const char *reference(void)
 {
     if (!exists("reference.exr"))
         assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --quiet",
-                                          test_source_path("scene/teapot.rib"), in_dir("reference.exr")),
+                                          test_source_path("scene/teapot.rib"),
+                                          in_dir("reference.exr")),
                          0);
     return "reference.exr";
 }
@@ -134,15 +136,19 @@ static void assert_same_image(const char *a_name, const char *b_name)
     assert_int_equal(a.width, b.width);
     assert_int_equal(a.height, b.height);
     assert_int_equal(b.channels, 10); /* complete: no partial channels left */
-    const char *names[] = {"R", "G", "B", "Z", "N.x", "N.y", "N.z", "albedo.R", "albedo.G", "albedo.B"};
+    const char *names[] = {"R",   "G",   "B",        "Z",        "N.x",
+                           "N.y", "N.z", "albedo.R", "albedo.G", "albedo.B"};
     size_t npix = (size_t)a.width * a.height, differ = 0;
     for (int c = 0; c < 10; ++c) {
         int ia = -1, ib = -1;
-        for (int k = 0; k < a.channels; ++k) ia = strcmp(a.channel_names[k], names[c]) ? ia : k;
-        for (int k = 0; k < b.channels; ++k) ib = strcmp(b.channel_names[k], names[c]) ? ib : k;
+        for (int k = 0; k < a.channels; ++k)
+            ia = strcmp(a.channel_names[k], names[c]) ? ia : k;
+        for (int k = 0; k < b.channels; ++k)
+            ib = strcmp(b.channel_names[k], names[c]) ? ib : k;
         assert_true(ia >= 0 && ib >= 0);
         for (size_t i = 0; i < npix; ++i)
-            differ += memcmp(&a.pixels[i * a.channels + ia], &b.pixels[i * b.channels + ib], sizeof(float)) != 0;
+            differ += memcmp(&a.pixels[i * a.channels + ia], &b.pixels[i * b.channels + ib],
+                             sizeof(float)) != 0;
     }
     if (differ) fail_msg("%s and %s differ in %zu values", a_name, b_name, differ);
     image_free(&a);
@@ -194,7 +200,8 @@ static void test_launch_failure_mid_render_is_retried(void **state)
     const char *err = stderr_text(), *retry = strstr(err, "retrying with 16 MB");
     if (!retry || !strstr(err, "CL_OUT_OF_RESOURCES")) fail_msg("no retry:\n%s", err);
     const char *progress = strstr(err, " samples, ");
-    if (!progress || progress > retry) fail_msg("the launch failed before any wave finished:\n%s", err);
+    if (!progress || progress > retry)
+        fail_msg("the launch failed before any wave finished:\n%s", err);
     assert_same_image(ref, "launch.exr");
 }
 
@@ -233,23 +240,29 @@ static void test_resume_matches_the_uninterrupted_render(void **state)
     assert_int_equal(render_and_interrupt("resumed.exr", NULL), 3);
     int done = meta_int("resumed.exr", "tessera:samples_done");
     /* Another command: refused, the file untouched. */
-    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --seed 1 --resume --quiet",
-                                      scene, in_dir("resumed.exr")), 1);
+    assert_int_equal(
+        test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --seed 1 --resume --quiet",
+                         scene, in_dir("resumed.exr")),
+        1);
     expect_in_stderr("cannot resume: it was rendered with --seed 0, this command has --seed 1");
     assert_int_equal(meta_int("resumed.exr", "tessera:samples_done"), done);
-    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' --res 160x90 --spp " SPP " --resume --quiet",
-                                      scene, in_dir("resumed.exr")), 1);
+    assert_int_equal(
+        test_run_tessera(dir, "render '%s' -o '%s' --res 160x90 --spp " SPP " --resume --quiet",
+                         scene, in_dir("resumed.exr")),
+        1);
     expect_in_stderr("cannot resume: it is 320x180 but this command renders 160x90");
     /* The same command: continues from the finished samples to the same bits. */
     assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume", scene,
-                                      in_dir("resumed.exr")), 0);
+                                      in_dir("resumed.exr")),
+                     0);
     expect_in_stderr("resuming");
     assert_int_equal(meta_int("resumed.exr", "tessera:samples_done"), (int)TOTAL);
     assert_same_image(ref, "resumed.exr");
     assert_no_temporary();
     /* Complete: nothing to do. */
-    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet", scene,
-                                      in_dir("resumed.exr")), 0);
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
+                                      scene, in_dir("resumed.exr")),
+                     0);
     expect_in_stderr("already complete");
 }
 
@@ -282,9 +295,10 @@ static void test_kernel_build_failure_names_file_and_line(void **state)
     assert_non_null(f);
     fputs(out, f);
     fclose(f);
-    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' --res 32x18 --kernel-dir '%s' --no-kernel-cache",
-                                      test_source_path("scene/teapot.rib"), in_dir("k.png"),
-                                      in_dir("kernels")), 1);
+    assert_int_equal(
+        test_run_tessera(dir, "render '%s' -o '%s' --res 32x18 --kernel-dir '%s' --no-kernel-cache",
+                         test_source_path("scene/teapot.rib"), in_dir("k.png"), in_dir("kernels")),
+        1);
     expect_in_stderr("tessera: CL_BUILD_PROGRAM_FAILURE in clBuildProgram");
     char where[64];
     snprintf(where, sizeof where, "kernels/film.cl:%d:", broken);

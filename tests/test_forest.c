@@ -69,7 +69,8 @@ static void test_linear_in_trees(void **state)
 {
     (void)state;
     forest_counts c50 = count_only(50, 1, 1), c200 = count_only(200, 1, 1);
-    double per50 = (double)(c50.bark + c50.leaves) / 50, per200 = (double)(c200.bark + c200.leaves) / 200;
+    double per50 = (double)(c50.bark + c50.leaves) / 50,
+           per200 = (double)(c200.bark + c200.leaves) / 200;
     printf("patches per tree: %.1f (50 trees), %.1f (200 trees); terrain %llu, %llu\n", per50,
            per200, (unsigned long long)c50.terrain, (unsigned long long)c200.terrain);
     assert_true(per50 > 800 && per50 < 1400);
@@ -190,10 +191,8 @@ static void test_params(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_deterministic),
-        cmocka_unit_test(test_linear_in_trees),
-        cmocka_unit_test(test_potential),
-        cmocka_unit_test(test_patches_valid),
+        cmocka_unit_test(test_deterministic), cmocka_unit_test(test_linear_in_trees),
+        cmocka_unit_test(test_potential),     cmocka_unit_test(test_patches_valid),
         cmocka_unit_test(test_params),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

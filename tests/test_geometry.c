@@ -23,11 +23,20 @@ static int setup(void **state)
     return 0;
 }
 
-static const char *path(const char *name) { return test_path_in(dir, name); }
+static const char *path(const char *name)
+{
+    return test_path_in(dir, name);
+}
 
-static void render_ok(const char *args) { test_tessera_ok(dir, "%s", args); }
+static void render_ok(const char *args)
+{
+    test_tessera_ok(dir, "%s", args);
+}
 
-static void load(const char *name, ts_image *img) { test_read_image(path(name), img); }
+static void load(const char *name, ts_image *img)
+{
+    test_read_image(path(name), img);
+}
 
 static void test_displaced_sphere_is_hole_free_from_inside(void **state)
 {
@@ -46,7 +55,8 @@ static void test_displaced_sphere_is_hole_free_from_inside(void **state)
     ts_image img;
     load("sphere.exr", &img);
     int escaped = 0;
-    for (int i = 0; i < img.width * img.height; ++i) escaped += isinf(img.pixels[i * img.channels + 3]);
+    for (int i = 0; i < img.width * img.height; ++i)
+        escaped += isinf(img.pixels[i * img.channels + 3]);
     image_free(&img);
     assert_int_equal(escaped, 0);
     /* Neighbours really were diced at different levels of detail. */
@@ -135,9 +145,12 @@ static void write_patch_scene(const char *name, int moving, double dx, double t)
     fprintf(f, "Format 48 32 1\nProjection \"perspective\" \"fov\" [40]\nWorldBegin\n"
                "LightSource \"distantlight\" 1 \"float intensity\" [3.14159265358979] "
                "\"point from\" [0 0 0] \"point to\" [0 0 1]\n");
-    if (moving) fprintf(f, "MotionBegin [0 1]\nTranslate 0 0 0\nTranslate %.17g 0 0\nMotionEnd\n", dx);
-    else fprintf(f, "Translate %.17g 0 0\n", t * dx);
-    fputs("Patch \"bilinear\" \"P\" [-1.2 -0.6 4  -0.2 -0.6 4  -1.2 0.6 4  -0.2 0.6 4]\nWorldEnd\n", f);
+    if (moving)
+        fprintf(f, "MotionBegin [0 1]\nTranslate 0 0 0\nTranslate %.17g 0 0\nMotionEnd\n", dx);
+    else
+        fprintf(f, "Translate %.17g 0 0\n", t * dx);
+    fputs("Patch \"bilinear\" \"P\" [-1.2 -0.6 4  -0.2 -0.6 4  -1.2 0.6 4  -0.2 0.6 4]\nWorldEnd\n",
+          f);
     fclose(f);
 }
 
@@ -160,7 +173,8 @@ static void test_motion_blur_is_the_time_average(void **state)
                  path("static.rib"), path("static.exr"), k);
         render_ok(args);
         load("static.exr", &st);
-        for (int i = 0; i < npix; ++i) avg[i] += st.pixels[i * st.channels] / STEPS;
+        for (int i = 0; i < npix; ++i)
+            avg[i] += st.pixels[i * st.channels] / STEPS;
         image_free(&st);
     }
     /* Each pixel of the moving render averages SPP samples of a value in [0, vmax]; its
@@ -168,7 +182,8 @@ static void test_motion_blur_is_the_time_average(void **state)
      * (STEPS * 16 samples) plus the time quadrature error of a step function, at most
      * vmax / STEPS per pixel. Allow 5 standard deviations plus the quadrature error. */
     double vmax = 0, worst = 0, blurred = 0;
-    for (int i = 0; i < npix; ++i) vmax = fmax(vmax, avg[i]);
+    for (int i = 0; i < npix; ++i)
+        vmax = fmax(vmax, avg[i]);
     double sigma = vmax / (2.0 * sqrt((double)SPP)) * sqrt(1.0 + (double)SPP / (STEPS * 16.0));
     double tol = 5.0 * sigma + vmax / STEPS;
     for (int i = 0; i < npix; ++i) {

@@ -35,7 +35,9 @@ static void test_program_lines_map_to_kernel_files(void **state)
     char *prog = kernel_source_program(NULL, &err);
     assert_non_null(prog);
     /* A line of a stage file and a line of an included header. */
-    const struct { const char *path, *needle; } cases[] = {
+    const struct {
+        const char *path, *needle;
+    } cases[] = {
         {"film.cl", "__kernel void film"},
         {"lib/intersect.h", "#ifndef TS_INTERSECT_H"},
         {"bottom_level.cl", "__kernel void bottom_level_trace"},
@@ -64,10 +66,14 @@ static void test_nvidia_style_log_is_translated(void **state)
     int physical = line_of(prog, "__kernel void film");
     int want = line_of(embedded("film.cl"), "__kernel void film");
     char log[512], expect[512];
-    snprintf(log, sizeof log, "<kernel>:%d:5: error: use of undeclared identifier 'x'\n"
-             "    x = 1;\n<source>:%d:1: note: here\n", physical, physical + 1);
-    snprintf(expect, sizeof expect, "kernels/film.cl:%d:5: error: use of undeclared identifier 'x'\n"
-             "    x = 1;\nkernels/film.cl:%d:1: note: here\n", want, want + 1);
+    snprintf(log, sizeof log,
+             "<kernel>:%d:5: error: use of undeclared identifier 'x'\n"
+             "    x = 1;\n<source>:%d:1: note: here\n",
+             physical, physical + 1);
+    snprintf(expect, sizeof expect,
+             "kernels/film.cl:%d:5: error: use of undeclared identifier 'x'\n"
+             "    x = 1;\nkernels/film.cl:%d:1: note: here\n",
+             want, want + 1);
     char *out = kernel_source_translate_log(prog, log);
     assert_non_null(out);
     assert_string_equal(out, expect);

@@ -10,8 +10,12 @@ static void test_layout_matches_host(void **state)
     ts_device cl;
     test_open_device(&cl);
     ts_error err = {0};
-    static const struct { const char *name; unsigned size, offset; } host[] = {
-#define HOST_LAYOUT(type, field) {#type "." #field, (unsigned)sizeof(type), (unsigned)offsetof(type, field)},
+    static const struct {
+        const char *name;
+        unsigned size, offset;
+    } host[] = {
+#define HOST_LAYOUT(type, field)                                                                   \
+    {#type "." #field, (unsigned)sizeof(type), (unsigned)offsetof(type, field)},
         TS_LAYOUT_FIELDS(HOST_LAYOUT)
 #undef HOST_LAYOUT
     };
@@ -24,7 +28,8 @@ static void test_layout_matches_host(void **state)
     assert_int_equal(dev_launch(&cl, k, TS_STAGE_camera, 1, 1, &err), TS_OK);
     assert_int_equal(dev_finish(&cl, NULL, &err), TS_OK);
     cl_uint dev[2 * N];
-    assert_int_equal(clEnqueueReadBuffer(cl.queue, out, CL_TRUE, 0, sizeof dev, dev, 0, NULL, NULL), CL_SUCCESS);
+    assert_int_equal(clEnqueueReadBuffer(cl.queue, out, CL_TRUE, 0, sizeof dev, dev, 0, NULL, NULL),
+                     CL_SUCCESS);
     for (int i = 0; i < N; ++i) {
         if (dev[2 * i] != host[i].size || dev[2 * i + 1] != host[i].offset)
             fail_msg("%s: device sizeof %u offset %u, host %u %u", host[i].name, dev[2 * i],

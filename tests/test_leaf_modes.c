@@ -79,13 +79,14 @@ static void check_scene(int displaced)
             for (int i = 0; i < W * H; ++i) {
                 const ts_hit *a = &ray.hit[i], *g = &group.hit[i];
                 if (a->patch != g->patch || a->prim != g->prim || memcmp(&a->t, &g->t, sizeof a->t))
-                    fail_msg("ray %d (exact %d, leaf %u): per-ray (%u, %u, %a), group (%u, %u, %a)", i,
-                             exact, 1u << b, a->patch, a->prim, a->t, g->patch, g->prim, g->t);
+                    fail_msg("ray %d (exact %d, leaf %u): per-ray (%u, %u, %a), group (%u, %u, %a)",
+                             i, exact, 1u << b, a->patch, a->prim, a->t, g->patch, g->prim, g->t);
             }
             if (b == 0) memcpy(&ref, &ray, sizeof ref);
             for (int i = 0; i < W * H; ++i) { /* the leaf size moves no hit */
                 assert_int_equal(ray.hit[i].patch == TS_INVALID, ref.hit[i].patch == TS_INVALID);
-                if (ray.hit[i].patch != TS_INVALID) assert_true(ray.hit[i].t == ref.hit[i].t), ++hits;
+                if (ray.hit[i].patch != TS_INVALID)
+                    assert_true(ray.hit[i].t == ref.hit[i].t), ++hits;
             }
             /* Utilisation: tests fill at most every slot, and something was tested. */
             assert_true(ray.tests > 0 && ray.tests <= ray.slots);
@@ -98,8 +99,14 @@ static void check_scene(int displaced)
     dev_close(&cl);
 }
 
-static void test_teapot(void **state) { check_scene(0); }
-static void test_displaced_teapot(void **state) { check_scene(1); }
+static void test_teapot(void **state)
+{
+    check_scene(0);
+}
+static void test_displaced_teapot(void **state)
+{
+    check_scene(1);
+}
 
 int main(void)
 {

@@ -449,7 +449,8 @@ static void test_scene_load_framing(void **state)
     scene_free(&s);
     /* A .rib name goes to the RIB loader. */
     memset(&s, 0, sizeof s);
-    if (scene_load(test_source_path("scene/one_patch.rib"), &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    if (scene_load(test_source_path("scene/one_patch.rib"), &s, 1, &e) != TS_OK)
+        fail_msg("%s", e.msg);
     assert_int_equal(s.patch_count, 1);
     assert_int_equal(s.camera.width, 512);
     scene_free(&s);
@@ -546,12 +547,9 @@ static void test_real_model(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_pn_formulas),
-        cmocka_unit_test(test_pn_triangle_exact),
-        cmocka_unit_test(test_obj_file),
-        cmocka_unit_test(test_errors),
-        cmocka_unit_test(test_scene_load_framing),
-        cmocka_unit_test(test_real_model),
+        cmocka_unit_test(test_pn_formulas),        cmocka_unit_test(test_pn_triangle_exact),
+        cmocka_unit_test(test_obj_file),           cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_scene_load_framing), cmocka_unit_test(test_real_model),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -22,14 +22,20 @@ static int setup(void **state)
     return 0;
 }
 
-static const char *path(const char *name) { return test_path_in(dir, name); }
+static const char *path(const char *name)
+{
+    return test_path_in(dir, name);
+}
 
 static void render(const char *scene, const char *out, const char *extra)
 {
     test_tessera_ok(dir, "render '%s' -o '%s' --quiet %s", path(scene), path(out), extra);
 }
 
-static void load(const char *name, ts_image *img) { test_read_image(path(name), img); }
+static void load(const char *name, ts_image *img)
+{
+    test_read_image(path(name), img);
+}
 
 /* A white sphere (optionally displaced) at distance 4 under a uniform dome of radiance 1. */
 static void write_furnace(const char *name, int displaced)
@@ -65,7 +71,8 @@ static void check_furnace(int displaced)
             continue;
         }
         ++object;
-        for (int c = 0; c < 3; ++c) sum += px[c] / 3.0;
+        for (int c = 0; c < 3; ++c)
+            sum += px[c] / 3.0;
         if (!displaced && fabs(px[0] - 1.0) > 6 * sigma)
             fail_msg("pixel %d: %g, furnace expects 1 +- %g", i, px[0], 6 * sigma);
     }
@@ -75,8 +82,14 @@ static void check_furnace(int displaced)
     if (fabs(mean - 1.0) > tol) fail_msg("object mean %.5f, expected 1 +- %.5f", mean, tol);
 }
 
-static void test_furnace(void **state) { check_furnace(0); }
-static void test_furnace_displaced(void **state) { check_furnace(1); }
+static void test_furnace(void **state)
+{
+    check_furnace(0);
+}
+static void test_furnace_displaced(void **state)
+{
+    check_furnace(1);
+}
 
 static void test_plane_under_the_sun(void **state)
 {
@@ -85,11 +98,12 @@ static void test_plane_under_the_sun(void **state)
     for (int cone = 0; cone < 2; ++cone) {
         FILE *f = fopen(path("sun.rib"), "w");
         assert_non_null(f);
-        fprintf(f, "Format 32 32 1\nProjection \"perspective\" \"fov\" [30]\nTranslate 0 0 5\n"
-                   "WorldBegin\nLightSource \"distantlight\" 1 \"float intensity\" [%g] "
-                   "\"point from\" [%.17g 0 %.17g] \"point to\" [0 0 0] \"float angle\" [%g]\n"
-                   "Color [1 1 1]\nSurface \"matte\" \"float Kd\" [%g]\n"
-                   "Patch \"bilinear\" \"P\" [-5 -5 0  5 -5 0  -5 5 0  5 5 0]\nWorldEnd\n",
+        fprintf(f,
+                "Format 32 32 1\nProjection \"perspective\" \"fov\" [30]\nTranslate 0 0 5\n"
+                "WorldBegin\nLightSource \"distantlight\" 1 \"float intensity\" [%g] "
+                "\"point from\" [%.17g 0 %.17g] \"point to\" [0 0 0] \"float angle\" [%g]\n"
+                "Color [1 1 1]\nSurface \"matte\" \"float Kd\" [%g]\n"
+                "Patch \"bilinear\" \"P\" [-5 -5 0  5 -5 0  -5 5 0  5 5 0]\nWorldEnd\n",
                 e, sin(theta), -cos(theta), cone ? 4.0 : 0.0, kd);
         fclose(f);
         render("sun.rib", "sun.exr", "--spp 16");
@@ -102,7 +116,8 @@ static void test_plane_under_the_sun(void **state)
             /* A delta sun is sampled exactly: only rounding. In a 4-degree cone a pixel also
              * catches rare BSDF rays that find the sun (MIS weight ~1e-3, value ~0.4): only
              * the image mean is tight there. */
-            if (!cone && fabs(v - want) > want * 1e-4) fail_msg("pixel %d: %g, want %g", i, v, want);
+            if (!cone && fabs(v - want) > want * 1e-4)
+                fail_msg("pixel %d: %g, want %g", i, v, want);
             sum += v;
         }
         image_free(&img);
@@ -159,14 +174,16 @@ static void test_light_bsdf_and_mis_agree(void **state)
 {
     FILE *f = fopen(path("mis.rib"), "w");
     assert_non_null(f);
-    fputs("Format 40 40 1\nProjection \"perspective\" \"fov\" [35]\nTranslate 0 0 6\nRotate -30 1 0 0\n"
-          "WorldBegin\nLightSource \"domelight\" 2 \"float intensity\" [0.2]\n"
-          "AttributeBegin\nAreaLightSource \"arealight\" 3 \"float intensity\" [6]\n"
-          "Patch \"bilinear\" \"P\" [-0.6 -0.6 2  0.6 -0.6 2  -0.6 0.6 2  0.6 0.6 2]\nAttributeEnd\n"
-          "Color [0.9 0.8 0.7]\nSurface \"plastic\" \"float Kd\" [0.5] \"float Ks\" [0.4] "
-          "\"float roughness\" [0.3]\n"
-          "Patch \"bilinear\" \"P\" [-3 -3 0  3 -3 0  -3 3 0  3 3 0]\nWorldEnd\n",
-          f);
+    fputs(
+        "Format 40 40 1\nProjection \"perspective\" \"fov\" [35]\nTranslate 0 0 6\nRotate -30 1 0 "
+        "0\n"
+        "WorldBegin\nLightSource \"domelight\" 2 \"float intensity\" [0.2]\n"
+        "AttributeBegin\nAreaLightSource \"arealight\" 3 \"float intensity\" [6]\n"
+        "Patch \"bilinear\" \"P\" [-0.6 -0.6 2  0.6 -0.6 2  -0.6 0.6 2  0.6 0.6 2]\nAttributeEnd\n"
+        "Color [0.9 0.8 0.7]\nSurface \"plastic\" \"float Kd\" [0.5] \"float Ks\" [0.4] "
+        "\"float roughness\" [0.3]\n"
+        "Patch \"bilinear\" \"P\" [-3 -3 0  3 -3 0  -3 3 0  3 3 0]\nWorldEnd\n",
+        f);
     fclose(f);
     double var[3];
     estimators_agree("mis.rib", 2, var);
@@ -183,12 +200,14 @@ static void test_same_bits_whatever_memory_and_threads(void **state)
                               path("det.rib"), path("d3.exr"));
     assert_int_equal(rc, 0);
     char cmd[8800];
-    snprintf(cmd, sizeof cmd, "POCL_MAX_PTHREAD_COUNT=1 '%s' render '%s' -o '%s' --quiet --spp 8 "
+    snprintf(cmd, sizeof cmd,
+             "POCL_MAX_PTHREAD_COUNT=1 '%s' render '%s' -o '%s' --quiet --spp 8 "
              "--depth 3 --seed 7 2>/dev/null",
              test_tessera_binary(), path("det.rib"), path("d4.exr"));
     assert_int_equal(system(cmd), 0);
     const char *others[] = {"d2.exr", "d3.exr", "d4.exr"};
-    for (int k = 0; k < 3; ++k) test_assert_same_pixels(path("d1.exr"), path(others[k]));
+    for (int k = 0; k < 3; ++k)
+        test_assert_same_pixels(path("d1.exr"), path(others[k]));
     /* A different seed gives a different image. */
     render("det.rib", "d5.exr", "--spp 8 --depth 3 --seed 8");
     ts_image a, b;
@@ -220,7 +239,8 @@ static void write_env(const char *name, int w, int h, int spot)
         for (int x = 0; x < w; ++x) {
             float v = spot ? 0.05f : 1.0f;
             if (spot && abs(y - h / 2) <= 1 && abs(x - w / 4) <= 1) v = 200.0f;
-            for (int c = 0; c < 3; ++c) px[((size_t)y * w + x) * 3 + c] = v;
+            for (int c = 0; c < 3; ++c)
+                px[((size_t)y * w + x) * 3 + c] = v;
         }
     const char *names[] = {"R", "G", "B"};
     ts_image img = {w, h, 3, names, px};
@@ -268,7 +288,8 @@ static void test_environment_map(void **state)
     double top = 0, bottom = 0;
     for (int y = 0; y < img.height; ++y)
         for (int x = 0; x < img.width; ++x)
-            *(y < img.height / 2 ? &top : &bottom) += img.pixels[((size_t)y * img.width + x) * img.channels];
+            *(y < img.height / 2 ? &top : &bottom) +=
+                img.pixels[((size_t)y * img.width + x) * img.channels];
     image_free(&img);
     assert_true(top > 3 * bottom);
 }

@@ -1,7 +1,8 @@
-/* test_rib.c — the RIB loader (host/scene/rib/rib*.c), the basis conversion (host/scene/rib/basis.c) and scene
- * growth (host/scene/scene.c). Host only: never skips. Every test asserts numbers: transformed
- * control points, surface points compared with a direct evaluation of the original basis,
- * patch counts, and the exact "file:line:col: error:" prefix of each scene error. */
+/* test_rib.c — the RIB loader (host/scene/rib/rib*.c), the basis conversion
+ * (host/scene/rib/basis.c) and scene growth (host/scene/scene.c). Host only: never skips. Every
+ * test asserts numbers: transformed control points, surface points compared with a direct
+ * evaluation of the original basis, patch counts, and the exact "file:line:col: error:" prefix of
+ * each scene error. */
 #include "scene/rib/basis.h"
 #include "scene/rib/rib.h"
 #include "scene/scene.h"
@@ -19,7 +20,6 @@
 #include "test_support.h"
 
 /* ---- helpers -------------------------------------------------------------------------- */
-
 
 /* Parses text that must fail with `code` and a message that is exactly `msg`, or starts
  * with it when msg ends in "...". The scene must be left empty. */
@@ -149,7 +149,8 @@ static void test_translate_then_rotate(void **state)
 {
     (void)state;
     ts_scene s;
-    test_parse_rib_ok("WorldBegin\nTranslate 1 2 3\nRotate 90 0 0 1\n" BILINEAR_UNIT "WorldEnd\n", &s);
+    test_parse_rib_ok("WorldBegin\nTranslate 1 2 3\nRotate 90 0 0 1\n" BILINEAR_UNIT "WorldEnd\n",
+                      &s);
     assert_int_equal(s.patch_count, 1);
     assert_vec(&s.cp[0], 1, 3, 3, 1e-6);   /* (1,0,0) -> (0,1,0) -> +(1,2,3) */
     assert_vec(&s.cp[3], 0, 2, 3, 1e-6);   /* (0,1,0) -> (-1,0,0) -> ... */
@@ -194,10 +195,10 @@ static void test_scale_and_matrices(void **state)
     scene_free(&s);
     /* RIB matrices are for row vectors: the translation is in elements 12..14. */
     test_parse_rib_ok("WorldBegin\nTranslate 100 0 0\n"
-             "ConcatTransform [1 0 0 0  0 1 0 0  0 0 1 0  5 6 7 1]\n" BILINEAR_UNIT
-             "Transform [2 0 0 0  0 2 0 0  0 0 2 0  0 0 1 1]\n" BILINEAR_UNIT
-             "Identity\n" BILINEAR_UNIT "WorldEnd\n",
-             &s);
+                      "ConcatTransform [1 0 0 0  0 1 0 0  0 0 1 0  5 6 7 1]\n" BILINEAR_UNIT
+                      "Transform [2 0 0 0  0 2 0 0  0 0 2 0  0 0 1 1]\n" BILINEAR_UNIT
+                      "Identity\n" BILINEAR_UNIT "WorldEnd\n",
+                      &s);
     assert_int_equal(s.patch_count, 3);
     assert_vec(&s.cp[0], 106, 6, 7, 1e-6);
     assert_vec(&s.cp[16], 2, 0, 1, 1e-6);
@@ -211,8 +212,8 @@ static void test_world_to_camera(void **state)
     (void)state;
     ts_scene s;
     test_parse_rib_ok("Projection \"perspective\" \"fov\" [45]\nTranslate 0 0 10\nRotate 90 0 1 0\n"
-             "WorldBegin\nTranslate 1 0 0\n" BILINEAR_UNIT "WorldEnd\n",
-             &s);
+                      "WorldBegin\nTranslate 1 0 0\n" BILINEAR_UNIT "WorldEnd\n",
+                      &s);
     const double *m = s.camera.world_to_camera;
     double p[3], q[3] = {1, 0, 0};
     mat_apply(m, q, p);
@@ -250,12 +251,13 @@ static void test_blocks_restore_state(void **state)
 {
     (void)state;
     ts_scene s;
-    test_parse_rib_ok("WorldBegin\nColor [0.5 0.25 0.125]\n"
-             "AttributeBegin\nColor 1 0 0\nTranslate 5 0 0\nBasis \"b-spline\" 1 \"b-spline\" "
-             "1\n" BILINEAR_UNIT "AttributeEnd\n" BILINEAR_UNIT
-             "TransformBegin\nColor [0 1 0]\nTranslate 0 7 0\n" BILINEAR_UNIT
-             "TransformEnd\n" BILINEAR_UNIT "WorldEnd\n",
-             &s);
+    test_parse_rib_ok(
+        "WorldBegin\nColor [0.5 0.25 0.125]\n"
+        "AttributeBegin\nColor 1 0 0\nTranslate 5 0 0\nBasis \"b-spline\" 1 \"b-spline\" "
+        "1\n" BILINEAR_UNIT "AttributeEnd\n" BILINEAR_UNIT
+        "TransformBegin\nColor [0 1 0]\nTranslate 0 7 0\n" BILINEAR_UNIT
+        "TransformEnd\n" BILINEAR_UNIT "WorldEnd\n",
+        &s);
     assert_int_equal(s.patch_count, 4);
     assert_vec(&s.cp[0], 6, 0, 0, 1e-6);
     assert_true(s.attr[0].cs_r == 1.0f && s.attr[0].cs_g == 0.0f && s.attr[0].cs_b == 0.0f);
@@ -268,9 +270,9 @@ static void test_blocks_restore_state(void **state)
     scene_free(&s);
     /* AttributeEnd restores the basis: this grid must come through unchanged (Bézier). */
     test_parse_rib_ok("AttributeBegin\nBasis \"catmull-rom\" 1 \"catmull-rom\" 1\nAttributeEnd\n"
-             "Patch \"bicubic\" \"P\" [0 0 0 1 0 0 2 0 0 3 0 0  0 1 0 1 1 1 2 1 0 3 1 0\n"
-             "0 2 0 1 2 0 2 2 5 3 2 0  0 3 0 1 3 0 2 3 0 3 3 9]\n",
-             &s);
+                      "Patch \"bicubic\" \"P\" [0 0 0 1 0 0 2 0 0 3 0 0  0 1 0 1 1 1 2 1 0 3 1 0\n"
+                      "0 2 0 1 2 0 2 2 5 3 2 0  0 3 0 1 3 0 2 3 0 3 3 9]\n",
+                      &s);
     assert_vec(&s.cp[5], 1, 1, 1, 0);
     assert_vec(&s.cp[10], 2, 2, 5, 0);
     assert_vec(&s.cp[15], 3, 3, 9, 0);
@@ -386,8 +388,8 @@ static void test_arrays_comments_escapes(void **state)
     /* Arrays across lines with comments inside; "\120" is an octal 'P', "bi\154inear" an
      * octal 'l'; a backslash-newline continues a string. */
     test_parse_rib_ok("# header comment\nWorldBegin # trailing\nPatch \"bi\\154in\\\near\" # c\n"
-             "  \"\\120\" [ 1 0 0 # first point\n   0 1 0\n\n 0 0 1\n 2 3 4 ] WorldEnd",
-             &s);
+                      "  \"\\120\" [ 1 0 0 # first point\n   0 1 0\n\n 0 0 1\n 2 3 4 ] WorldEnd",
+                      &s);
     assert_int_equal(s.patch_count, 1);
     assert_vec(&s.cp[15], 2, 3, 4, 0);
     scene_free(&s);
@@ -413,11 +415,12 @@ static void test_lights(void **state)
 {
     (void)state;
     ts_scene s;
-    test_parse_rib_ok("WorldBegin\nTranslate 1 2 3\nLightSource \"distantlight\" 1\n"
-             "LightSource \"distantlight\" \"key\" \"intensity\" 2 \"lightcolor\" [1 0.5 0.25]\n"
-             "  \"point from\" [0 0 0] \"point to\" [1 0 0]\n"
-             "LightSource \"distantlight\" \"from\" [0 5 0] \"to\" [0 0 0]\nWorldEnd\n",
-             &s);
+    test_parse_rib_ok(
+        "WorldBegin\nTranslate 1 2 3\nLightSource \"distantlight\" 1\n"
+        "LightSource \"distantlight\" \"key\" \"intensity\" 2 \"lightcolor\" [1 0.5 0.25]\n"
+        "  \"point from\" [0 0 0] \"point to\" [1 0 0]\n"
+        "LightSource \"distantlight\" \"from\" [0 5 0] \"to\" [0 0 0]\nWorldEnd\n",
+        &s);
     assert_int_equal(s.light_count, 3);
     assert_dvec(s.lights[0].from, 1, 2, 3, 0);
     assert_dvec(s.lights[0].to, 1, 2, 4, 0);
@@ -430,8 +433,8 @@ static void test_lights(void **state)
     scene_free(&s);
     /* Before WorldBegin a light is in camera space and is moved to world space. */
     test_parse_rib_ok("LightSource \"distantlight\" 1 \"from\" [0 0 0] \"to\" [0 0 1]\n"
-             "Translate 0 0 5\nRotate 90 0 1 0\nWorldBegin\nWorldEnd\n",
-             &s);
+                      "Translate 0 0 5\nRotate 90 0 1 0\nWorldBegin\nWorldEnd\n",
+                      &s);
     assert_dvec(s.lights[0].from, 5, 0, 0, 1e-12); /* camera origin in world space */
     assert_dvec(s.lights[0].to, 4, 0, 0, 1e-12);
     scene_free(&s);
@@ -446,7 +449,8 @@ static void test_lights(void **state)
  * NAN skips a bound. */
 static void assert_box(ts_box b, float lx, float ly, float lz, float hx, float hy, float hz)
 {
-    const float got[6] = {b.lo_x, b.lo_y, b.lo_z, b.hi_x, b.hi_y, b.hi_z}, want[6] = {lx, ly, lz, hx, hy, hz};
+    const float got[6] = {b.lo_x, b.lo_y, b.lo_z, b.hi_x, b.hi_y, b.hi_z},
+                want[6] = {lx, ly, lz, hx, hy, hz};
     float mag = 1.0f;
     for (int i = 0; i < 6; ++i)
         if (!isnan(want[i])) mag = fmaxf(mag, fabsf(want[i]));
@@ -454,7 +458,8 @@ static void assert_box(ts_box b, float lx, float ly, float lz, float hx, float h
         if (isnan(want[i])) continue;
         float grown = i < 3 ? want[i] - got[i] : got[i] - want[i];
         if (!(grown >= 0.0f && grown < 1e-5f * mag))
-            fail_msg("box bound %d is %.9g, expected %.9g (grown by less than 1e-5)", i, got[i], want[i]);
+            fail_msg("box bound %d is %.9g, expected %.9g (grown by less than 1e-5)", i, got[i],
+                     want[i]);
     }
 }
 
@@ -515,7 +520,8 @@ static void test_one_patch_file(void **state)
     ts_error e;
     memset(&s, 0, sizeof s);
     memset(&e, 0, sizeof e);
-    if (rib_load(test_source_path("scene/one_patch.rib"), &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    if (rib_load(test_source_path("scene/one_patch.rib"), &s, 1, &e) != TS_OK)
+        fail_msg("%s", e.msg);
     assert_int_equal(s.patch_count, 1);
     assert_int_equal(s.light_count, 1);
     assert_framed(&s, 1.0);
@@ -596,7 +602,8 @@ static const struct {
      "t.rib:1:52: error: Patch: parameter \"N\" needs 12 values, got 3"},
     {"Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1 0 0 1 0 0 0 0 0 1]",
      "t.rib:1:52: error: Patch: normal 2 of \"N\" is zero"},
-    {"Scale 1 0 1\nPatch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1 0 0 1 0 0 1 0 0 1]",
+    {"Scale 1 0 1\nPatch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1 0 0 1 0 0 1 0 0 "
+     "1]",
      "t.rib:2:1: error: Patch: the current transformation is singular; \"N\" needs an "
      "invertible one"},
     {"PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 0 0 1 0 1 "
@@ -623,7 +630,8 @@ static const struct {
      "t.rib:2:1: error: MotionEnd: the motion block at 1:1 has 0 samples for 2 times"},
     {"WorldBegin\nMotionBegin [0 1]\nTranslate 1 0 0\n",
      "t.rib:2:1: error: MotionBegin is never closed (missing MotionEnd)"},
-    {"MotionBegin [0 0.5 1]", "t.rib:1:13: error: MotionBegin: exactly 2 times are supported, got 3"},
+    {"MotionBegin [0 0.5 1]",
+     "t.rib:1:13: error: MotionBegin: exactly 2 times are supported, got 3"},
     {"MotionBegin [1 0]", "t.rib:1:13: error: MotionBegin: the times must increase, got 1 0"},
     {"MotionBegin", "t.rib:1:1: error: MotionBegin expects 2 numbers, got 0"},
     {"MotionBegin [0 1]\nTranslate 0 0 1\nTranslate 0 0 2\nMotionEnd\nWorldBegin",
@@ -750,8 +758,8 @@ static void xform_apply(const ts_scene *s, uint32_t p, const ts_vec4 *w, double 
         out[i] = (double)r[i][0] * w->x + (double)r[i][1] * w->y + (double)r[i][2] * w->z + r[i][3];
 }
 
-static void assert_disp(const ts_patch_attr *a, uint32_t kind, float amp, float freq,
-                        uint32_t oct, float lac, float gain)
+static void assert_disp(const ts_patch_attr *a, uint32_t kind, float amp, float freq, uint32_t oct,
+                        float lac, float gain)
 {
     assert_int_equal(a->disp_kind, kind);
     if (kind == TS_DISP_NONE) return;
@@ -768,16 +776,16 @@ static void test_displacement(void **state)
 {
     (void)state;
     ts_scene s;
-    test_parse_rib_ok("WorldBegin\n"
-             "Displacement \"fbm\" \"float amplitude\" [0.2] \"frequency\" [3] \"octaves\" 5.4\n"
-             "  \"uniform float lacunarity\" [2.5] \"gain\" 0.4\n"
-             "Scale 2 2 2\nTranslate 1 0 0\n" BILINEAR_UNIT
-             "AttributeBegin\nDisplacement \"ridged\" \"amplitude\" 0.05\n" BILINEAR_UNIT
-             "Displacement \"null\"\n" BILINEAR_UNIT "AttributeEnd\n" BILINEAR_UNIT
-             "Displacement \"\"\n" BILINEAR_UNIT
-             "Translate 0 0 1\nDisplacement \"fbm\"\n" BILINEAR_UNIT
-             "Displacement \"ridged\" \"amplitude\" [0]\n" BILINEAR_UNIT "WorldEnd\n",
-             &s);
+    test_parse_rib_ok(
+        "WorldBegin\n"
+        "Displacement \"fbm\" \"float amplitude\" [0.2] \"frequency\" [3] \"octaves\" 5.4\n"
+        "  \"uniform float lacunarity\" [2.5] \"gain\" 0.4\n"
+        "Scale 2 2 2\nTranslate 1 0 0\n" BILINEAR_UNIT
+        "AttributeBegin\nDisplacement \"ridged\" \"amplitude\" 0.05\n" BILINEAR_UNIT
+        "Displacement \"null\"\n" BILINEAR_UNIT "AttributeEnd\n" BILINEAR_UNIT
+        "Displacement \"\"\n" BILINEAR_UNIT "Translate 0 0 1\nDisplacement \"fbm\"\n" BILINEAR_UNIT
+        "Displacement \"ridged\" \"amplitude\" [0]\n" BILINEAR_UNIT "WorldEnd\n",
+        &s);
     assert_int_equal(s.patch_count, 7);
     assert_disp(&s.attr[0], TS_DISP_FBM, 0.2f, 3.0f, 5, 2.5f, 0.4f);
     assert_disp(&s.attr[1], TS_DISP_RIDGED, 0.05f, 1.0f, 4, 2.0f, 0.5f); /* defaults */
@@ -814,8 +822,8 @@ static void test_displacement(void **state)
     /* Before WorldBegin the CTM ends in camera space: the transform (and the points) are
      * moved to world space at WorldBegin. */
     test_parse_rib_ok("Rotate 90 0 0 1\nDisplacement \"fbm\"\n" BILINEAR_UNIT
-             "Identity\nTranslate 0 0 5\nRotate 90 0 1 0\nWorldBegin\nWorldEnd\n",
-             &s);
+                      "Identity\nTranslate 0 0 5\nRotate 90 0 1 0\nWorldBegin\nWorldEnd\n",
+                      &s);
     static const double obj[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {2, 3, 4}};
     static const int cpk[4] = {0, 3, 12, 15};
     for (int c = 0; c < 4; c++) {
@@ -836,13 +844,15 @@ static void test_explicit_normals(void **state)
     /* Rotate (written first) acts after Scale: n' = R S^-1 n. (1,1,0) -> (0.5,1,0) ->
      * (-1,0.5,0). The second patch shares corners with the first and has no "N": it is
      * averaged on its own and does not change the first's. */
-    test_parse_rib_ok("WorldBegin\nRotate 90 0 0 1\nScale 2 1 1\n"
-             "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 1] \"N\" [1 1 0  0 0 3  1 0 0  0 1 0]\n"
-             "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 1]\n"
-             "Patch \"bicubic\" \"P\" [0 0 0 1 0 0 2 0 0 3 0 0  0 1 0 1 1 0 2 1 0 3 1 0\n"
-             "  0 2 0 1 2 0 2 2 0 3 2 0  0 3 0 1 3 0 2 3 0 3 3 0] \"varying normal N\" [0 0 1 0 0 1 1 0 1 0 0 -1]\n"
-             "WorldEnd\n",
-             &s);
+    test_parse_rib_ok(
+        "WorldBegin\nRotate 90 0 0 1\nScale 2 1 1\n"
+        "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 1] \"N\" [1 1 0  0 0 3  1 0 0  0 1 0]\n"
+        "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 1]\n"
+        "Patch \"bicubic\" \"P\" [0 0 0 1 0 0 2 0 0 3 0 0  0 1 0 1 1 0 2 1 0 3 1 0\n"
+        "  0 2 0 1 2 0 2 2 0 3 2 0  0 3 0 1 3 0 2 3 0 3 3 0] \"varying normal N\" [0 0 1 0 0 1 1 0 "
+        "1 0 0 -1]\n"
+        "WorldEnd\n",
+        &s);
     assert_int_equal(s.patch_count, 3);
     assert_vec(&s.corner_n[0], -2 * a, a, 0, 1e-7);
     assert_vec(&s.corner_n[1], 0, 0, 1, 1e-7);
@@ -885,8 +895,8 @@ static void test_mesh_normals(void **state)
     (void)state;
     /* Bilinear 4 x 4 nonperiodic: 3 x 3 patches, 4 x 4 normals. */
     mesh_normals("PatchMesh \"bilinear\" 4 \"nonperiodic\" 4 \"nonperiodic\"", 16, 16,
-                 (const int[]){0, 1, 4, 5, 1, 2, 5, 6, 2, 3, 6, 7, 4, 5, 8, 9, 5, 6, 9, 10, 6, 7,
-                               10, 11, 8, 9, 12, 13, 9, 10, 13, 14, 10, 11, 14, 15},
+                 (const int[]){0, 1,  4, 5, 1,  2,  5, 6, 2,  3,  6, 7,  4,  5,  8,  9,  5,  6,
+                               9, 10, 6, 7, 10, 11, 8, 9, 12, 13, 9, 10, 13, 14, 10, 11, 14, 15},
                  9);
     /* Bilinear periodic in u: 4 patches per row, the last wraps to column 0. */
     mesh_normals("PatchMesh \"bilinear\" 4 \"periodic\" 2 \"nonperiodic\"", 8, 8,
@@ -915,11 +925,12 @@ static void test_motion(void **state)
 {
     (void)state;
     ts_scene s;
-    test_parse_rib_ok("WorldBegin\n" BILINEAR_UNIT "MotionBegin [0 1]\n"
-             "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1 0 0 1 0 0 1 0 0 1]\n"
-             "Patch \"bilinear\" \"P\" [0 0 1 1 0 1 0 1 1 1 1 2]\nMotionEnd\n" BILINEAR_UNIT
-             "WorldEnd\n",
-             &s);
+    test_parse_rib_ok(
+        "WorldBegin\n" BILINEAR_UNIT "MotionBegin [0 1]\n"
+        "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1 0 0 1 0 0 1 0 0 1]\n"
+        "Patch \"bilinear\" \"P\" [0 0 1 1 0 1 0 1 1 1 1 2]\nMotionEnd\n" BILINEAR_UNIT
+        "WorldEnd\n",
+        &s);
     assert_int_equal(s.patch_count, 3);
     assert_non_null(s.cp1);
     assert_int_equal(s.attr[0].flags, 0);
@@ -935,28 +946,29 @@ static void test_motion(void **state)
     assert_box(b, NAN, NAN, 0.0f, NAN, NAN, 2.0f);
     scene_free(&s);
     /* A moving CTM: every patch under it moves; blocks save and restore both samples. */
-    test_parse_rib_ok("WorldBegin\nAttributeBegin\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 5 0 0\n"
-             "MotionEnd\n" BILINEAR_UNIT "TransformBegin\nScale 1 1 2\n" BILINEAR_UNIT
-             "TransformEnd\n" BILINEAR_UNIT "AttributeEnd\n" BILINEAR_UNIT
-             "MotionBegin [2.5 7]\nRotate 0 0 0 1\nRotate 90 0 0 1\nMotionEnd\n" BILINEAR_UNIT
-             "MotionBegin [0 1]\nConcatTransform [1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1]\n"
-             "ConcatTransform [1 0 0 0 0 1 0 0 0 0 1 0 0 0 3 1]\nMotionEnd\n" BILINEAR_UNIT
-             "MotionBegin [0 1]\nTransform [1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1]\n"
-             "Transform [2 0 0 0 0 2 0 0 0 0 2 0 0 0 0 1]\nMotionEnd\n"
-             "MotionBegin [0 1]\n" BILINEAR_UNIT "Patch \"bilinear\" \"P\" [0 0 0 0 0 0 0 0 0 1 1 1]\n"
-             "MotionEnd\nMotionBegin [0 1]\nScale 1 1 1\nScale 1 1 1\nMotionEnd\n" BILINEAR_UNIT
-             "Identity\n" BILINEAR_UNIT "WorldEnd\n",
-             &s);
+    test_parse_rib_ok(
+        "WorldBegin\nAttributeBegin\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 5 0 0\n"
+        "MotionEnd\n" BILINEAR_UNIT "TransformBegin\nScale 1 1 2\n" BILINEAR_UNIT
+        "TransformEnd\n" BILINEAR_UNIT "AttributeEnd\n" BILINEAR_UNIT
+        "MotionBegin [2.5 7]\nRotate 0 0 0 1\nRotate 90 0 0 1\nMotionEnd\n" BILINEAR_UNIT
+        "MotionBegin [0 1]\nConcatTransform [1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1]\n"
+        "ConcatTransform [1 0 0 0 0 1 0 0 0 0 1 0 0 0 3 1]\nMotionEnd\n" BILINEAR_UNIT
+        "MotionBegin [0 1]\nTransform [1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1]\n"
+        "Transform [2 0 0 0 0 2 0 0 0 0 2 0 0 0 0 1]\nMotionEnd\n"
+        "MotionBegin [0 1]\n" BILINEAR_UNIT "Patch \"bilinear\" \"P\" [0 0 0 0 0 0 0 0 0 1 1 1]\n"
+        "MotionEnd\nMotionBegin [0 1]\nScale 1 1 1\nScale 1 1 1\nMotionEnd\n" BILINEAR_UNIT
+        "Identity\n" BILINEAR_UNIT "WorldEnd\n",
+        &s);
     assert_int_equal(s.patch_count, 9);
     static const uint32_t flags[9] = {1, 1, 1, 0, 1, 1, 1, 1, 0};
     for (int p = 0; p < 9; p++)
         assert_int_equal(s.attr[p].flags, flags[p]);
     assert_vec(&s.cp[15], 2, 3, 4, 0);
     assert_vec(&s.cp1[15], 7, 3, 4, 0);
-    assert_vec(&s.cp[16 + 15], 2, 3, 8, 0);   /* TransformBegin: Scale on both samples */
+    assert_vec(&s.cp[16 + 15], 2, 3, 8, 0); /* TransformBegin: Scale on both samples */
     assert_vec(&s.cp1[16 + 15], 7, 3, 8, 0);
-    assert_vec(&s.cp1[32 + 15], 7, 3, 4, 0);  /* TransformEnd restored the moving CTM */
-    assert_vec(&s.cp1[48 + 15], 2, 3, 4, 0);  /* AttributeEnd: static again */
+    assert_vec(&s.cp1[32 + 15], 7, 3, 4, 0);   /* TransformEnd restored the moving CTM */
+    assert_vec(&s.cp1[48 + 15], 2, 3, 4, 0);   /* AttributeEnd: static again */
     assert_vec(&s.cp[64 + 15], 2, 3, 4, 1e-6); /* [2.5 7]: the first time is shutter open */
     assert_vec(&s.cp1[64 + 15], -3, 2, 4, 1e-6);
     assert_vec(&s.cp[80 + 15], 2, 3, 4, 1e-6);   /* the moving Rotate composed with ... */
@@ -970,8 +982,8 @@ static void test_motion(void **state)
     scene_free(&s);
     /* A displaced patch under a moving CTM: the transform is the CTM's at shutter open. */
     test_parse_rib_ok("MotionBegin [0 1]\nTranslate 1 0 0\nTranslate 9 0 0\nMotionEnd\n"
-             "Displacement \"fbm\"\n" BILINEAR_UNIT,
-             &s);
+                      "Displacement \"fbm\"\n" BILINEAR_UNIT,
+                      &s);
     const ts_xform *x = &s.xform[s.attr[0].xform];
     assert_true(x->r0[3] == -1.0f && x->r0[0] == 1.0f);
     scene_free(&s);

@@ -1,8 +1,8 @@
 /* test_rib_archive.c — the RIB requests real files write beyond the basic subset
- * (host/scene/rib/rib_options.c, host/scene/rib/rib_archive.c, primitive variables in host/scene/rib/rib_geom.c):
- * PixelSamples, Clipping, Shutter, CropWindow, "Cs"/"N" of every storage class, ReadArchive
- * and Procedural (DelayedReadArchive, DynamicLoad "mesh" and "forest"). Every error path
- * asserts its exact "file:line:col: error:" message. Host only: never skips. */
+ * (host/scene/rib/rib_options.c, host/scene/rib/rib_archive.c, primitive variables in
+ * host/scene/rib/rib_geom.c): PixelSamples, Clipping, Shutter, CropWindow, "Cs"/"N" of every
+ * storage class, ReadArchive and Procedural (DelayedReadArchive, DynamicLoad "mesh" and "forest").
+ * Every error path asserts its exact "file:line:col: error:" message. Host only: never skips. */
 #include "scene/rib/rib.h"
 #include "scene/scene.h"
 #include "test_support.h"
@@ -15,7 +15,6 @@
 #include <unistd.h>
 
 /* ---- helpers -------------------------------------------------------------------------- */
-
 
 /* The message must be exactly msg, or start with it when msg ends in "...". */
 static void assert_msg(const char *got, const char *msg)
@@ -63,8 +62,8 @@ static void assert_cs(const ts_scene *s, uint32_t p, double r, double g, double 
 {
     const ts_patch_attr *a = &s->attr[p];
     if (fabs(a->cs_r - r) > 1e-6 || fabs(a->cs_g - g) > 1e-6 || fabs(a->cs_b - b) > 1e-6)
-        fail_msg("patch %u: colour (%g %g %g), want (%g %g %g)", p, a->cs_r, a->cs_g, a->cs_b, r,
-                 g, b);
+        fail_msg("patch %u: colour (%g %g %g), want (%g %g %g)", p, a->cs_r, a->cs_g, a->cs_b, r, g,
+                 b);
 }
 
 static void assert_n(const ts_scene *s, size_t k, double x, double y, double z)
@@ -116,7 +115,8 @@ static void test_clipping_shutter_crop(void **state)
     assert_true(s.camera.crop[0] == 0.0 && s.camera.crop[1] == 1.0);
     assert_true(s.camera.crop[2] == 0.0 && s.camera.crop[3] == 1.0);
     scene_free(&s);
-    test_parse_rib_ok("Clipping 0.1 1000\nShutter 0 0.5\nCropWindow 0.25 0.75 0 0.5\nWorldBegin\nWorldEnd\n", &s);
+    test_parse_rib_ok(
+        "Clipping 0.1 1000\nShutter 0 0.5\nCropWindow 0.25 0.75 0 0.5\nWorldBegin\nWorldEnd\n", &s);
     assert_true(s.camera.clip_near == 0.1 && s.camera.clip_far == 1000.0);
     assert_true(s.camera.shutter[0] == 0.0 && s.camera.shutter[1] == 0.5);
     assert_true(s.camera.crop[0] == 0.25 && s.camera.crop[1] == 0.75);
@@ -137,22 +137,22 @@ static void test_clipping_shutter_crop(void **state)
                                             "WorldBegin");
     /* Each stored-but-unused option warns once; Option and Attribute once per name. */
     int rc;
-    const char *out = test_rib_warnings("Clipping 0.1 10\nClipping 0.2 10\nShutter 0 1\nShutter 0 1\n"
-                                  "CropWindow 0 1 0 1\nOption \"limits\" \"bucketsize\" [16 16]\n"
-                                  "Option \"searchpath\" \"shader\" \"x\"\nWorldBegin\n"
-                                  "Attribute \"identifier\" \"name\" \"a\"\n"
-                                  "Attribute \"dice\" \"binary\" [1]\nWorldEnd\n",
-                                  &rc);
+    const char *out =
+        test_rib_warnings("Clipping 0.1 10\nClipping 0.2 10\nShutter 0 1\nShutter 0 1\n"
+                          "CropWindow 0 1 0 1\nOption \"limits\" \"bucketsize\" [16 16]\n"
+                          "Option \"searchpath\" \"shader\" \"x\"\nWorldBegin\n"
+                          "Attribute \"identifier\" \"name\" \"a\"\n"
+                          "Attribute \"dice\" \"binary\" [1]\nWorldEnd\n",
+                          &rc);
     assert_int_equal(rc, TS_OK);
-    assert_string_equal(out,
-                        "w.rib:1:1: warning: Clipping is stored but not applied (rays are not "
-                        "clipped)\n"
-                        "w.rib:3:1: warning: Shutter is stored but not applied (motion blocks "
-                        "always span the whole shutter)\n"
-                        "w.rib:5:1: warning: CropWindow is stored but not applied (the whole "
-                        "image is rendered)\n"
-                        "w.rib:6:1: warning: Option is ignored\n"
-                        "w.rib:9:1: warning: Attribute is ignored\n");
+    assert_string_equal(out, "w.rib:1:1: warning: Clipping is stored but not applied (rays are not "
+                             "clipped)\n"
+                             "w.rib:3:1: warning: Shutter is stored but not applied (motion blocks "
+                             "always span the whole shutter)\n"
+                             "w.rib:5:1: warning: CropWindow is stored but not applied (the whole "
+                             "image is rendered)\n"
+                             "w.rib:6:1: warning: Option is ignored\n"
+                             "w.rib:9:1: warning: Attribute is ignored\n");
 }
 
 /* ---- primitive variables ------------------------------------------------------------- */
@@ -162,14 +162,15 @@ static void test_cs_classes(void **state)
     (void)state;
     ts_scene s;
     /* Patch: constant, uniform, varying (average of the corners), facevarying, vertex. */
-    test_parse_rib_ok("Color [0.1 0.2 0.3]\n"
-             "Patch \"bilinear\" " UNIT_P "\n"
-             "Patch \"bilinear\" " UNIT_P " \"constant color Cs\" [1 0.5 0.25]\n"
-             "Patch \"bilinear\" " UNIT_P " \"uniform color Cs\" [0.5 0.25 1]\n"
-             "Patch \"bilinear\" " UNIT_P " \"Cs\" [1 0 0  0 1 0  0 0 1  1 1 1]\n"
-             "Patch \"bilinear\" " UNIT_P " \"facevarying color Cs\" [1 0 0 1 0 0 0 0 0 0 0 0]\n"
-             "Patch \"bilinear\" " UNIT_P " \"vertex color Cs\" [0 0 0 0 0 0 0 0 1 0 0 1]\n",
-             &s);
+    test_parse_rib_ok(
+        "Color [0.1 0.2 0.3]\n"
+        "Patch \"bilinear\" " UNIT_P "\n"
+        "Patch \"bilinear\" " UNIT_P " \"constant color Cs\" [1 0.5 0.25]\n"
+        "Patch \"bilinear\" " UNIT_P " \"uniform color Cs\" [0.5 0.25 1]\n"
+        "Patch \"bilinear\" " UNIT_P " \"Cs\" [1 0 0  0 1 0  0 0 1  1 1 1]\n"
+        "Patch \"bilinear\" " UNIT_P " \"facevarying color Cs\" [1 0 0 1 0 0 0 0 0 0 0 0]\n"
+        "Patch \"bilinear\" " UNIT_P " \"vertex color Cs\" [0 0 0 0 0 0 0 0 1 0 0 1]\n",
+        &s);
     assert_int_equal(s.patch_count, 6);
     assert_cs(&s, 0, 0.1, 0.2, 0.3); /* the current Color */
     assert_cs(&s, 1, 1, 0.5, 0.25);
@@ -196,11 +197,12 @@ static void test_cs_classes(void **state)
     scene_free(&s);
     /* PatchMesh: a bilinear 3 x 2 grid of vertices is 2 x 1 patches; varying colours are per
      * grid corner, uniform per patch. */
-    test_parse_rib_ok("PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 0 "
-             "0 1 0 1 1 0 2 1 0] \"Cs\" [1 0 0 0 0 0 0 0 1 1 0 0 0 0 0 0 0 1]\n"
-             "PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 0 "
-             "0 1 0 1 1 0 2 1 0] \"uniform color Cs\" [0 1 0 0 0 1]\n",
-             &s);
+    test_parse_rib_ok(
+        "PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 0 "
+        "0 1 0 1 1 0 2 1 0] \"Cs\" [1 0 0 0 0 0 0 0 1 1 0 0 0 0 0 0 0 1]\n"
+        "PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 0 "
+        "0 1 0 1 1 0 2 1 0] \"uniform color Cs\" [0 1 0 0 0 1]\n",
+        &s);
     assert_int_equal(s.patch_count, 4);
     assert_cs(&s, 0, 0.5, 0, 0);
     assert_cs(&s, 1, 0, 0, 0.5);
@@ -212,10 +214,11 @@ static void test_cs_classes(void **state)
                  "t.rib:1:53: error: Patch: parameter \"Cs\" needs 12 values, got 3");
     expect_error("Patch \"bilinear\" " UNIT_P " \"uniform color Cs\" [1 0 0 1 0 0]",
                  "t.rib:1:67: error: Patch: parameter \"Cs\" (uniform) needs 3 values, got 6");
-    expect_error("PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 "
-                 "0 0 1 0 1 1 0 2 1 0] \"facevarying color Cs\" [1 0 0]",
-                 "t.rib:1:119: error: PatchMesh: parameter \"Cs\" (facevarying) needs 24 "
-                 "values, got 3");
+    expect_error(
+        "PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 "
+        "0 0 1 0 1 1 0 2 1 0] \"facevarying color Cs\" [1 0 0]",
+        "t.rib:1:119: error: PatchMesh: parameter \"Cs\" (facevarying) needs 24 "
+        "values, got 3");
     expect_error("Patch \"bilinear\" " UNIT_P " \"Cs\" \"red\"",
                  "t.rib:1:53: error: Patch: parameter \"Cs\" needs numbers");
 }
@@ -224,11 +227,12 @@ static void test_n_classes_and_st(void **state)
 {
     (void)state;
     ts_scene s;
-    test_parse_rib_ok("Patch \"bilinear\" " UNIT_P " \"uniform normal N\" [0 0 -2]\n"
-             "Patch \"bilinear\" " UNIT_P " \"constant normal N\" [1 0 1]\n"
-             "Patch \"bilinear\" " UNIT_P " \"vertex normal N\" [0 0 1 0 1 1 1 0 1 1 1 1]\n"
-             "Patch \"bilinear\" " UNIT_P " \"st\" [0 0 1 0 0 1 1 1] \"varying float s\" [0 1 0 1]\n",
-             &s);
+    test_parse_rib_ok(
+        "Patch \"bilinear\" " UNIT_P " \"uniform normal N\" [0 0 -2]\n"
+        "Patch \"bilinear\" " UNIT_P " \"constant normal N\" [1 0 1]\n"
+        "Patch \"bilinear\" " UNIT_P " \"vertex normal N\" [0 0 1 0 1 1 1 0 1 1 1 1]\n"
+        "Patch \"bilinear\" " UNIT_P " \"st\" [0 0 1 0 0 1 1 1] \"varying float s\" [0 1 0 1]\n",
+        &s);
     assert_int_equal(s.patch_count, 4);
     for (int c = 0; c < 4; c++) {
         assert_n(&s, (size_t)c, 0, 0, -1);
@@ -243,9 +247,10 @@ static void test_n_classes_and_st(void **state)
                  "t.rib:1:67: error: Patch: normal 0 of \"N\" is zero");
     /* Variables other than "P", "N", "Cs", "st" are accepted with one warning each. */
     int rc;
-    const char *out = test_rib_warnings("Patch \"bilinear\" " UNIT_P " \"varying float s\" [0 1 0 1]\n"
-                                  "Patch \"bilinear\" " UNIT_P " \"varying float s\" [0 1 0 1]\n",
-                                  &rc);
+    const char *out =
+        test_rib_warnings("Patch \"bilinear\" " UNIT_P " \"varying float s\" [0 1 0 1]\n"
+                          "Patch \"bilinear\" " UNIT_P " \"varying float s\" [0 1 0 1]\n",
+                          &rc);
     assert_int_equal(rc, TS_OK);
     assert_string_equal(out, "w.rib:1:48: warning: Patch parameter \"s\" is ignored\n");
     /* NuPatch stays a clear error. */
@@ -268,7 +273,8 @@ static void test_read_archive(void **state)
     write_file(dir, "main.rib",
                "Format 64 32 1\nWorldBegin\nReadArchive \"sub/a.rib\"\n"
                "Patch \"bilinear\" " UNIT_P "\nWorldEnd\n");
-    write_file(dir, "sub/a.rib", "Color [0 1 0]\nPatch \"bilinear\" " UNIT_P "\nReadArchive \"b.rib\"\n");
+    write_file(dir, "sub/a.rib",
+               "Color [0 1 0]\nPatch \"bilinear\" " UNIT_P "\nReadArchive \"b.rib\"\n");
     write_file(dir, "sub/b.rib", "# b\nTranslate 0 0 5\nPatch \"bilinear\" " UNIT_P "\n");
     snprintf(path, sizeof path, "%s/main.rib", dir);
     ts_scene s;
@@ -278,8 +284,8 @@ static void test_read_archive(void **state)
     if (rib_load(path, &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
     assert_int_equal(s.patch_count, 3);
     assert_cs(&s, 0, 0, 1, 0);
-    assert_true(s.cp[16].z == 5.0f);       /* b.rib's Translate */
-    assert_true(s.cp[32].z == 5.0f);       /* ... still in effect after the archive */
+    assert_true(s.cp[16].z == 5.0f); /* b.rib's Translate */
+    assert_true(s.cp[32].z == 5.0f); /* ... still in effect after the archive */
     assert_cs(&s, 2, 0, 1, 0);
     assert_int_equal(s.camera.width, 64);
     scene_free(&s);
@@ -316,7 +322,8 @@ static void test_read_archive(void **state)
              "or directory",
              dir, dir);
     expect_file_error(path, want);
-    expect_error("ReadArchive 3", "t.rib:1:13: error: ReadArchive: expected a file name (a string)");
+    expect_error("ReadArchive 3",
+                 "t.rib:1:13: error: ReadArchive: expected a file name (a string)");
     expect_error("ReadArchive \"a\" \"b\"", "t.rib:1:17: error: too many arguments to ReadArchive");
     expect_error("MotionBegin [0 1]\nReadArchive \"a.rib\"",
                  "t.rib:2:1: error: ReadArchive is not allowed in the motion block at 1:1 (only "
@@ -371,15 +378,18 @@ static void test_procedural(void **state)
     scene_free(&s);
 
     /* Error paths. */
-    write_file(dir, "bad.rib", "WorldBegin\nProcedural \"DynamicLoad\" [\"mesh\" \"m/none.obj\"] "
-                               "[0 1 0 1 0 1]\n");
+    write_file(dir, "bad.rib",
+               "WorldBegin\nProcedural \"DynamicLoad\" [\"mesh\" \"m/none.obj\"] "
+               "[0 1 0 1 0 1]\n");
     snprintf(path, sizeof path, "%s/bad.rib", dir);
-    snprintf(want, sizeof want,
-             "%s/bad.rib:2:26: error: Procedural \"mesh\": %s/m/none.obj: No such file or directory",
-             dir, dir);
+    snprintf(
+        want, sizeof want,
+        "%s/bad.rib:2:26: error: Procedural \"mesh\": %s/m/none.obj: No such file or directory",
+        dir, dir);
     expect_file_error(path, want);
     write_file(dir, "m/junk.obj", "this is not a mesh\n");
-    write_file(dir, "bad.rib", "Procedural \"DynamicLoad\" [\"mesh\" \"m/junk.obj\"] [0 1 0 1 0 1]\n");
+    write_file(dir, "bad.rib",
+               "Procedural \"DynamicLoad\" [\"mesh\" \"m/junk.obj\"] [0 1 0 1 0 1]\n");
     snprintf(want, sizeof want, "%s/bad.rib:1:26: error: Procedural \"mesh\": %s/m/junk.obj: ...",
              dir, dir);
     expect_file_error(path, want);
@@ -392,12 +402,14 @@ static void test_procedural(void **state)
                  "t.rib:1:26: error: Procedural \"forest\": detail needs an integer");
     expect_error("Procedural \"DynamicLoad\" [\"forest\" \"trees\"] [0 1 0 1 0 1]",
                  "t.rib:1:26: error: Procedural \"forest\": expected key=value, got \"trees\"");
-    expect_error("Procedural \"DynamicLoad\" [\"teapot\"] [0 1 0 1 0 1]",
-                 "t.rib:1:26: error: Procedural \"DynamicLoad\": unknown generator \"teapot\" (mesh "
-                 "or forest)");
-    expect_error("Procedural \"DynamicLoad\" [\"mesh\"] [0 1 0 1 0 1]",
-                 "t.rib:1:26: error: Procedural \"DynamicLoad\": [\"mesh\" \"file\"] takes one file "
-                 "name");
+    expect_error(
+        "Procedural \"DynamicLoad\" [\"teapot\"] [0 1 0 1 0 1]",
+        "t.rib:1:26: error: Procedural \"DynamicLoad\": unknown generator \"teapot\" (mesh "
+        "or forest)");
+    expect_error(
+        "Procedural \"DynamicLoad\" [\"mesh\"] [0 1 0 1 0 1]",
+        "t.rib:1:26: error: Procedural \"DynamicLoad\": [\"mesh\" \"file\"] takes one file "
+        "name");
     expect_error("Procedural \"DynamicLoad\" [\"forest\" \"trees=1\"] [0 1 0 1]",
                  "t.rib:1:47: error: Procedural: expected a bound [xmin xmax ymin ymax zmin zmax]");
     expect_error("Procedural \"DynamicLoad\" [\"forest\" \"trees=1\"]",
@@ -421,12 +433,9 @@ static void test_procedural(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_pixel_samples),
-        cmocka_unit_test(test_clipping_shutter_crop),
-        cmocka_unit_test(test_cs_classes),
-        cmocka_unit_test(test_n_classes_and_st),
-        cmocka_unit_test(test_read_archive),
-        cmocka_unit_test(test_procedural),
+        cmocka_unit_test(test_pixel_samples), cmocka_unit_test(test_clipping_shutter_crop),
+        cmocka_unit_test(test_cs_classes),    cmocka_unit_test(test_n_classes_and_st),
+        cmocka_unit_test(test_read_archive),  cmocka_unit_test(test_procedural),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -149,9 +149,9 @@ static void test_explicit_and_degenerate(void **state)
     ts_error e = {0};
     double g[16][3], n[4][3] = {{0, 0, 2}, {0, 3, 0}, {4, 0, 0}, {1, 1, 0}};
     wavy_grid(g, 0.0);
-    assert_int_equal(scene_add_patch_ex(&s, (const double(*)[3])g, NULL,
-                                        (const double(*)[3])n, NULL, &e),
-                     TS_OK);
+    assert_int_equal(
+        scene_add_patch_ex(&s, (const double(*)[3])g, NULL, (const double(*)[3])n, NULL, &e),
+        TS_OK);
     /* The same grid without normals, sharing every corner with the first. */
     assert_int_equal(scene_add_patch(&s, (const double(*)[3])g, NULL, &e), TS_OK);
     /* Two faces of a pyramid with its apex (0, 0, 1), each a bicubic patch whose row v = 0
@@ -191,9 +191,9 @@ static void test_explicit_and_degenerate(void **state)
         assert_vec(&s.corner_n[apex[k]], 0, -M_SQRT1_2, -M_SQRT1_2, 1e-6);
     /* A zero normal is refused. */
     double z[4][3] = {{0, 0, 1}, {0, 0, 0}, {0, 0, 1}, {0, 0, 1}};
-    assert_int_equal(scene_add_patch_ex(&s, (const double(*)[3])g, NULL, (const double(*)[3])z,
-                                        NULL, &e),
-                     TS_E_SCENE);
+    assert_int_equal(
+        scene_add_patch_ex(&s, (const double(*)[3])g, NULL, (const double(*)[3])z, NULL, &e),
+        TS_E_SCENE);
     assert_string_equal(e.msg, "scene: corner normal 1 of patch 4 has zero length");
     assert_int_equal(s.patch_count, 4);
     scene_free(&s);
@@ -259,9 +259,16 @@ static void check_displaced_box(uint32_t kind, int moving)
     const double w2o[16] = {0.5, 0, 0, 0.25, 0, 0.5, 0, -1, 0, 0, 0.5, 0.125, 0, 0, 0, 1};
     uint32_t xf;
     assert_int_equal(scene_add_xform(&s, w2o, &xf, &e), TS_OK);
-    ts_patch_attr a = {.cs_r = 1, .cs_g = 1, .cs_b = 1, .disp_kind = kind, .disp_octaves = 5,
-                       .disp_amplitude = 0.3f, .disp_frequency = 3.0f, .disp_lacunarity = 2.0f,
-                       .disp_gain = 0.5f, .xform = xf};
+    ts_patch_attr a = {.cs_r = 1,
+                       .cs_g = 1,
+                       .cs_b = 1,
+                       .disp_kind = kind,
+                       .disp_octaves = 5,
+                       .disp_amplitude = 0.3f,
+                       .disp_frequency = 3.0f,
+                       .disp_lacunarity = 2.0f,
+                       .disp_gain = 0.5f,
+                       .xform = xf};
     assert_int_equal(scene_add_patch_ex(&s, (const double(*)[3])g0,
                                         moving ? (const double(*)[3])g1 : NULL, NULL, &a, &e),
                      TS_OK);
@@ -319,9 +326,9 @@ static void test_box_moving(void **state)
     wavy_grid(g1, -4.0);
     assert_int_equal(scene_add_patch(&s, (const double(*)[3])g0, NULL, &e), TS_OK);
     assert_null(s.cp1);
-    assert_int_equal(scene_add_patch_ex(&s, (const double(*)[3])g0, (const double(*)[3])g1, NULL,
-                                        NULL, &e),
-                     TS_OK);
+    assert_int_equal(
+        scene_add_patch_ex(&s, (const double(*)[3])g0, (const double(*)[3])g1, NULL, NULL, &e),
+        TS_OK);
     assert_non_null(s.cp1);
     for (int k = 0; k < 100; k++) /* growth keeps cp1 in step */
         assert_int_equal(scene_add_patch(&s, (const double(*)[3])g1, NULL, &e), TS_OK);
@@ -357,7 +364,8 @@ static void check_trees_in_patch_boxes(const char *scene, uint32_t stride)
     for (uint32_t p = 0; p < s.patch_count; p += stride) {
         ts_box b = scene_patch_box(&s, p);
         for (uint32_t m = 0; m <= 4; ++m) {
-            uint32_t n = (1u << m) + 1u, ng = quadtree_group_count(m), times = dice_build_ref_times(&s, p);
+            uint32_t n = (1u << m) + 1u, ng = quadtree_group_count(m),
+                     times = dice_build_ref_times(&s, p);
             ts_vec4 *grid = malloc(times * n * n * sizeof *grid);
             ts_box4 *groups = malloc(times * ng * sizeof *groups);
             assert_true(grid && groups);
@@ -375,7 +383,8 @@ static void check_trees_in_patch_boxes(const char *scene, uint32_t stride)
             for (uint32_t v = 0; v < times * n * n; ++v) /* and so does every vertex */
                 if (grid[v].x < b.lo_x || grid[v].y < b.lo_y || grid[v].z < b.lo_z ||
                     grid[v].x > b.hi_x || grid[v].y > b.hi_y || grid[v].z > b.hi_z)
-                    fail_msg("%s patch %u, m = %u: vertex %u outside the patch box", scene, p, m, v);
+                    fail_msg("%s patch %u, m = %u: vertex %u outside the patch box", scene, p, m,
+                             v);
             free(grid);
             free(groups);
         }

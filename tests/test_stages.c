@@ -18,7 +18,8 @@ static void test_docs_name_the_stages_in_order(void **state)
         if (sscanf(line, "| `%63[a-z_]` |", name) != 1) continue;
         if (next >= TS_STAGE_COUNT) fail_msg("docs/stages.md lists an extra stage %s", name);
         if (strcmp(name, ts_stage_names[next]) != 0)
-            fail_msg("docs/stages.md row %d is %s, host/base/stages.h says %s", next + 1, name, ts_stage_names[next]);
+            fail_msg("docs/stages.md row %d is %s, host/base/stages.h says %s", next + 1, name,
+                     ts_stage_names[next]);
         ++next;
     }
     fclose(f);
@@ -30,8 +31,10 @@ static void test_each_stage_has_a_kernel_file_or_host_file(void **state)
     /* Device stages live in kernels/<stage>.cl; sort is the host's radix sort. */
     for (int i = 0; i < TS_STAGE_COUNT; ++i) {
         char rel[128];
-        if (strcmp(ts_stage_names[i], "sort") == 0) snprintf(rel, sizeof rel, "host/pipeline/sort.c");
-        else snprintf(rel, sizeof rel, "kernels/%s.cl", ts_stage_names[i]);
+        if (strcmp(ts_stage_names[i], "sort") == 0)
+            snprintf(rel, sizeof rel, "host/pipeline/sort.c");
+        else
+            snprintf(rel, sizeof rel, "kernels/%s.cl", ts_stage_names[i]);
         FILE *f = fopen(test_source_path(rel), "r");
         if (!f) fail_msg("stage %s has no %s", ts_stage_names[i], rel);
         fclose(f);

@@ -30,7 +30,8 @@ static const char *write_texture(const char *name, int w, int h, int channels,
     float *px = malloc((size_t)w * h * channels * sizeof *px);
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++)
-            for (int c = 0; c < channels; c++) px[((size_t)y * w + x) * channels + c] = f(x, y, c, &seed);
+            for (int c = 0; c < channels; c++)
+                px[((size_t)y * w + x) * channels + c] = f(x, y, c, &seed);
     ts_image img = {w, h, channels, NULL, px};
     ts_error e = {0};
     const char *path = test_path_in(dir, name);
@@ -100,9 +101,12 @@ static void test_pyramid(void **state)
                 float lo = INFINITY, hi = -INFINITY;
                 for (uint32_t yy = y << k; yy < ((y + 1) << k) && yy < (uint32_t)h; yy++)
                     for (uint32_t xx = x << k; xx < ((x + 1) << k) && xx < (uint32_t)w; xx++)
-                        lo = fminf(lo, img.pixels[yy * w + xx]), hi = fmaxf(hi, img.pixels[yy * w + xx]);
+                        lo = fminf(lo, img.pixels[yy * w + xx]),
+                        hi = fmaxf(hi, img.pixels[yy * w + xx]);
                 ts_vec4 v = tex_texel(scene_tex_ctx(&s), t, k, x, y);
-                if (v.x != lo || v.y != hi) fail_msg("level %u texel (%u %u): %g %g, want %g %g", k, x, y, v.x, v.y, lo, hi);
+                if (v.x != lo || v.y != hi)
+                    fail_msg("level %u texel (%u %u): %g %g, want %g %g", k, x, y, v.x, v.y, lo,
+                             hi);
             }
     ts_interval g = scene_texture_range(&s, id);
     assert_true(g.lo == gmin && g.hi == gmax);
@@ -140,7 +144,8 @@ static void test_range_conservative(void **state)
         float size = powf(10.0f, test_uniform(&seed, -4.0f, 0.3f));
         float s0 = test_uniform(&seed, -3.0f, 3.0f), t0 = test_uniform(&seed, -3.0f, 3.0f);
         if (r % 10 == 0) s0 += 1000.0f; /* large coordinates */
-        float s1 = s0 + size * test_uniform(&seed, 0.0f, 1.0f), t1 = t0 + size * test_uniform(&seed, 0.0f, 1.0f);
+        float s1 = s0 + size * test_uniform(&seed, 0.0f, 1.0f),
+              t1 = t0 + size * test_uniform(&seed, 0.0f, 1.0f);
         ts_interval b = tex_range(c, id, s0, t0, s1, t1);
         assert_true(b.lo >= g.lo - 1e-5f && b.hi <= g.hi + 1e-5f);
         if (b.hi - b.lo < 0.5f * (g.hi - g.lo)) tight++;
@@ -150,7 +155,8 @@ static void test_range_conservative(void **state)
             float ss = s0 + a * (s1 - s0), tt = t0 + d * (t1 - t0);
             float v = tex_bilinear(c, id, ss, tt).x;
             if (!(v >= b.lo && v <= b.hi))
-                fail_msg("rect [%.9g %.9g] x [%.9g %.9g]: lookup at (%.9g %.9g) = %.9g outside [%.9g %.9g]",
+                fail_msg("rect [%.9g %.9g] x [%.9g %.9g]: lookup at (%.9g %.9g) = %.9g outside "
+                         "[%.9g %.9g]",
                          s0, s1, t0, t1, ss, tt, v, b.lo, b.hi);
         }
     }
@@ -167,7 +173,8 @@ static void test_range_conservative(void **state)
         float s0 = test_uniform(&seed, 0.05f, 0.8f), t0 = test_uniform(&seed, 0.1f, 0.9f);
         ts_interval b = tex_range(c, id, s0, t0, s0 + size, t0 + 0.01f);
         float cols = size * 200.0f + 2.0f;
-        if (!(b.hi - b.lo <= 4.0f * cols + 1.0f)) fail_msg("range %g for %g columns", b.hi - b.lo, cols);
+        if (!(b.hi - b.lo <= 4.0f * cols + 1.0f))
+            fail_msg("range %g for %g columns", b.hi - b.lo, cols);
         assert_true(b.lo <= s0 * 200.0f && b.hi >= (s0 + size) * 200.0f - 1.0f);
     }
     scene_free(&s);
@@ -180,7 +187,8 @@ static void expect_rib_error(const char *text, const char *want)
     ts_scene s;
     ts_error e;
     assert_int_not_equal(test_parse_rib(text, &s, &e), TS_OK);
-    if (strncmp(e.msg, want, strlen(want)) != 0) fail_msg("got \"%s\", want \"%s...\"", e.msg, want);
+    if (strncmp(e.msg, want, strlen(want)) != 0)
+        fail_msg("got \"%s\", want \"%s...\"", e.msg, want);
 }
 
 #define PLANE "Patch \"bilinear\" \"P\" [-1 -1 0 1 -1 0 -1 1 0 1 1 0]"
@@ -192,7 +200,8 @@ static void test_rib_requests(void **state)
     char text[16384];
     /* Displacement "texture" and Surface texturename with "st": attributes with their ids. */
     snprintf(text, sizeof text,
-             "WorldBegin\nDisplacement \"texture\" \"string texturename\" [\"%s\"] \"float amplitude\" [0.5] "
+             "WorldBegin\nDisplacement \"texture\" \"string texturename\" [\"%s\"] \"float "
+             "amplitude\" [0.5] "
              "\"float offset\" [0.25]\nSurface \"plastic\" \"string texturename\" \"%s\"\n" PLANE
              " \"varying float[2] st\" [0 0 2 0 0 3 2 3]\nAttributeBegin\nDisplacement \"null\"\n"
              "Surface \"matte\"\n" PLANE "\nAttributeEnd\n" PLANE "\nWorldEnd\n",
@@ -274,7 +283,8 @@ static void write_scene(const char *name, const char *attrs, double z)
 static float channel_at(const ts_image *img, const char *name, int x, int y)
 {
     for (int c = 0; c < img->channels; c++)
-        if (strcmp(img->channel_names[c], name) == 0) return img->pixels[((size_t)y * img->width + x) * img->channels + c];
+        if (strcmp(img->channel_names[c], name) == 0)
+            return img->pixels[((size_t)y * img->width + x) * img->channels + c];
     fail_msg("no channel %s", name);
     return 0;
 }
@@ -286,8 +296,10 @@ static void test_render_colour(void **state)
 {
     (void)state;
     write_texture("q.exr", 64, 64, 3, quadrant_texel, 0u);
-    write_scene("colour.rib", "Color [0.5 1 1]\nSurface \"matte\" \"Kd\" 0.8 \"texturename\" \"q.exr\"", 0.0);
-    test_tessera_ok(dir, "render '%s' -o '%s' --quiet", test_path_in(dir, "colour.rib"), test_path_in(dir, "colour.exr"));
+    write_scene("colour.rib",
+                "Color [0.5 1 1]\nSurface \"matte\" \"Kd\" 0.8 \"texturename\" \"q.exr\"", 0.0);
+    test_tessera_ok(dir, "render '%s' -o '%s' --quiet", test_path_in(dir, "colour.rib"),
+                    test_path_in(dir, "colour.exr"));
     ts_image img;
     test_read_image(test_path_in(dir, "colour.exr"), &img);
     /* The patch spans +-1 at distance 5 with 40 degrees across 64 pixels: +-17.6 pixels
@@ -308,7 +320,8 @@ static void test_render_colour(void **state)
      * albedo: the mean radiance over the middle of the blue quadrant. */
     double sum = 0;
     for (int y = 19; y < 28; y++)
-        for (int x = 19; x < 28; x++) sum += channel_at(&img, "B", x, y);
+        for (int x = 19; x < 28; x++)
+            sum += channel_at(&img, "B", x, y);
     assert_float_equal(sum / 81.0, 0.8, 0.15);
     assert_true(channel_at(&img, "R", 23, 23) == 0.0f);
     image_free(&img);
@@ -320,8 +333,10 @@ static void test_render_constant_displacement(void **state)
 {
     (void)state;
     write_texture("c.exr", 5, 3, 1, constant_texel, 0u);
-    write_scene("disp.rib",
-                "Displacement \"texture\" \"texturename\" \"c.exr\" \"amplitude\" 0.4 \"offset\" 0.25", 0.0);
+    write_scene(
+        "disp.rib",
+        "Displacement \"texture\" \"texturename\" \"c.exr\" \"amplitude\" 0.4 \"offset\" 0.25",
+        0.0);
     write_scene("moved.rib", "", 0.2);
     write_scene("flat.rib", "", 0.0);
     const char *names[3] = {"disp", "moved", "flat"};
@@ -330,8 +345,9 @@ static void test_render_constant_displacement(void **state)
         char rib[64], exr[64];
         snprintf(rib, sizeof rib, "%s.rib", names[k]);
         snprintf(exr, sizeof exr, "%s.exr", names[k]);
-        test_tessera_ok(dir, "render '%s' -o '%s' --spp 1 --quiet --stats '%s'", test_path_in(dir, rib),
-                        test_path_in(dir, exr), test_path_in(dir, "s.json"));
+        test_tessera_ok(dir, "render '%s' -o '%s' --spp 1 --quiet --stats '%s'",
+                        test_path_in(dir, rib), test_path_in(dir, exr),
+                        test_path_in(dir, "s.json"));
         test_read_image(test_path_in(dir, exr), &img[k]);
     }
     int covered = 0;
@@ -345,13 +361,15 @@ static void test_render_constant_displacement(void **state)
                 fail_msg("pixel (%d %d): Z %g, moved plane %g, flat %g", x, y, zd, zm, zf);
         }
     assert_true(covered > 900);
-    for (int k = 0; k < 3; k++) image_free(&img[k]);
+    for (int k = 0; k < 3; k++)
+        image_free(&img[k]);
 }
 
 static float wave_texel(int x, int y, int c, uint32_t *seed)
 {
     (void)seed;
-    return 0.5f + 0.25f * sinf(0.11f * (float)x + (float)c) * cosf(0.07f * (float)y) + 0.2f * sinf(0.031f * (float)(x + y));
+    return 0.5f + 0.25f * sinf(0.11f * (float)x + (float)c) * cosf(0.07f * (float)y) +
+           0.2f * sinf(0.031f * (float)(x + y));
 }
 
 /* Paging: with --memory 16 the tile pool (2 MiB, 128 tiles, raised to what the most
@@ -365,17 +383,20 @@ static void test_render_paged(void **state)
     write_texture("c512.exr", 512, 512, 3, wave_texel, 0u);
     FILE *f = fopen(test_path_in(dir, "paged.rib"), "w");
     assert_non_null(f);
-    fprintf(f, "Format 64 36 1\nProjection \"perspective\" \"fov\" [30]\n"
-               "LightSource \"distantlight\" 1 \"intensity\" [2] \"from\" [1.5 1 -0.4] \"to\" [0 0 0]\n"
-               "Translate 0 0 8.5\nRotate -130 1 0 0\nRotate 25 0 0 1\nWorldBegin\n"
-               "Surface \"matte\" \"texturename\" \"c512.exr\"\n"
-               "Displacement \"texture\" \"texturename\" \"h512.exr\" \"amplitude\" 0.2\n"
-               "PatchMesh \"bilinear\" 5 \"nonperiodic\" 5 \"nonperiodic\" \"P\" [");
+    fprintf(
+        f, "Format 64 36 1\nProjection \"perspective\" \"fov\" [30]\n"
+           "LightSource \"distantlight\" 1 \"intensity\" [2] \"from\" [1.5 1 -0.4] \"to\" [0 0 0]\n"
+           "Translate 0 0 8.5\nRotate -130 1 0 0\nRotate 25 0 0 1\nWorldBegin\n"
+           "Surface \"matte\" \"texturename\" \"c512.exr\"\n"
+           "Displacement \"texture\" \"texturename\" \"h512.exr\" \"amplitude\" 0.2\n"
+           "PatchMesh \"bilinear\" 5 \"nonperiodic\" 5 \"nonperiodic\" \"P\" [");
     for (int j = 0; j < 5; j++)
-        for (int i = 0; i < 5; i++) fprintf(f, " %d %d 0", i - 2, j - 2);
+        for (int i = 0; i < 5; i++)
+            fprintf(f, " %d %d 0", i - 2, j - 2);
     fprintf(f, "] \"st\" [");
     for (int j = 0; j < 5; j++)
-        for (int i = 0; i < 5; i++) fprintf(f, " %g %g", 0.5 * i, 2 - 0.5 * j);
+        for (int i = 0; i < 5; i++)
+            fprintf(f, " %g %g", 0.5 * i, 2 - 0.5 * j);
     fprintf(f, "]\nWorldEnd\n");
     fclose(f);
     const char *mem[2] = {"256", "16"};
@@ -386,7 +407,8 @@ static void test_render_paged(void **state)
         snprintf(exr, sizeof exr, "paged%d.exr", k);
         snprintf(json, sizeof json, "paged%d.json", k);
         test_tessera_ok(dir, "render '%s' -o '%s' --spp 1 --memory %s --quiet --stats '%s'",
-                        test_path_in(dir, "paged.rib"), test_path_in(dir, exr), mem[k], test_path_in(dir, json));
+                        test_path_in(dir, "paged.rib"), test_path_in(dir, exr), mem[k],
+                        test_path_in(dir, json));
         test_read_image(test_path_in(dir, exr), &img[k]);
         const char *js = test_path_in(dir, json);
         pool[k] = test_stats_number(js, "counters.texture_pool_tiles");
@@ -400,17 +422,19 @@ static void test_render_paged(void **state)
     assert_true(pool[0] == 602 && up[0] == 602); /* all resident, uploaded once */
     assert_true(pool[1] < 602 && pool[1] >= 128);
     assert_true(up[1] > 0 && bytes[1] == up[1] * 32 * 32 * 16);
-    assert_int_equal(img[0].width * img[0].height * img[0].channels, img[1].width * img[1].height * img[1].channels);
+    assert_int_equal(img[0].width * img[0].height * img[0].channels,
+                     img[1].width * img[1].height * img[1].channels);
     size_t n = (size_t)img[0].width * img[0].height * img[0].channels;
     int lit = 0;
     for (size_t i = 0; i < n; i++) {
         if (memcmp(&img[0].pixels[i], &img[1].pixels[i], sizeof(float)) != 0)
-            fail_msg("value %zu (channel %s): %g resident, %g paged", i, img[0].channel_names[i % img[0].channels],
-                     img[0].pixels[i], img[1].pixels[i]);
+            fail_msg("value %zu (channel %s): %g resident, %g paged", i,
+                     img[0].channel_names[i % img[0].channels], img[0].pixels[i], img[1].pixels[i]);
         lit += img[0].pixels[i] > 0.0f && isfinite(img[0].pixels[i]);
     }
     assert_true(lit > 1000);
-    for (int k = 0; k < 2; k++) image_free(&img[k]);
+    for (int k = 0; k < 2; k++)
+        image_free(&img[k]);
 }
 
 static int setup(void **state)

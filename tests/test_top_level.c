@@ -43,11 +43,14 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
     uint32_t entry[RAYS], active[RAYS];
     uint32_t seed = 99u + n_per_ray;
     for (int r = 0; r < RAYS; ++r) {
-        org[r] = (ts_vec4){test_uniform(&seed, -12, 12), test_uniform(&seed, -12, 12), test_uniform(&seed, -12, 12), 0};
-        float dx = test_uniform(&seed, -1, 1), dy = test_uniform(&seed, -1, 1), dz = test_uniform(&seed, -1, 1);
+        org[r] = (ts_vec4){test_uniform(&seed, -12, 12), test_uniform(&seed, -12, 12),
+                           test_uniform(&seed, -12, 12), 0};
+        float dx = test_uniform(&seed, -1, 1), dy = test_uniform(&seed, -1, 1),
+              dz = test_uniform(&seed, -1, 1);
         if (r % 17 == 0) dy = 0.0f; /* axis-parallel components take the 0 * inf path */
         dir[r] = (ts_vec4){dx, dy, dz, 0};
-        hit[r] = (ts_hit){finite_tmax ? test_uniform(&seed, 1, 20) : TS_NO_HIT, 0, 0, TS_INVALID, TS_INVALID};
+        hit[r] = (ts_hit){finite_tmax ? test_uniform(&seed, 1, 20) : TS_NO_HIT, 0, 0, TS_INVALID,
+                          TS_INVALID};
         entry[r] = TS_ENTRY_START;
         active[r] = (uint32_t)r;
     }
@@ -63,7 +66,8 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
     int done = 0;
     for (int it = 0; it < 1000 && !done; ++it) {
         if (pipeline_top_level(&p, RAYS, n_per_ray, &err)) fail_msg("%s", err.msg);
-        clEnqueueReadBuffer(q, p.pairs[0], CL_TRUE, 0, (size_t)RAYS * n_per_ray * sizeof *pairs, pairs, 0, NULL, NULL);
+        clEnqueueReadBuffer(q, p.pairs[0], CL_TRUE, 0, (size_t)RAYS * n_per_ray * sizeof *pairs,
+                            pairs, 0, NULL, NULL);
         clEnqueueReadBuffer(q, p.count, CL_TRUE, 0, sizeof count, count, 0, NULL, NULL);
         clEnqueueReadBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL);
         done = 1;
@@ -80,13 +84,16 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
                 if (seen[(size_t)r * PATCHES + pr.leaf]++)
                     fail_msg("ray %d emitted patch %u twice (N=%u)", r, pr.leaf, n_per_ray);
             }
-            if (entry[r] != TS_INVALID) done = 0;
-            else if (count[r] == 0) continue;
+            if (entry[r] != TS_INVALID)
+                done = 0;
+            else if (count[r] == 0)
+                continue;
         }
     }
     assert_true(done);
     for (int r = 0; r < RAYS; ++r) {
-        float ix = safe_reciprocal(dir[r].x), iy = safe_reciprocal(dir[r].y), iz = safe_reciprocal(dir[r].z);
+        float ix = safe_reciprocal(dir[r].x), iy = safe_reciprocal(dir[r].y),
+              iz = safe_reciprocal(dir[r].z);
         for (uint32_t b = 0; b < PATCHES; ++b) {
             ts_box x = scene_patch_box(s, b);
             int want = box_enter(org[r].x, org[r].y, org[r].z, ix, iy, iz, x.lo_x, x.lo_y, x.lo_z,
@@ -109,7 +116,8 @@ static void test_every_box_once(void **state)
     random_patches(&s, 7u);
     const uint32_t ns[3] = {1, 3, 100};
     for (int i = 0; i < 3; ++i)
-        for (int finite = 0; finite < 2; ++finite) run_case(&cl, &s, ns[i], finite);
+        for (int finite = 0; finite < 2; ++finite)
+            run_case(&cl, &s, ns[i], finite);
     scene_free(&s);
     dev_close(&cl);
 }

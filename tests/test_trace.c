@@ -21,7 +21,8 @@ typedef struct traced {
     ts_stats stats;
 } traced;
 
-static void trace_teapot(ts_device *cl, const ts_scene *s, const ts_pipeline_plan *plan, traced *out)
+static void trace_teapot(ts_device *cl, const ts_scene *s, const ts_pipeline_plan *plan,
+                         traced *out)
 {
     ts_error err = {0};
     memset(&out->stats, 0, sizeof out->stats);
@@ -46,9 +47,10 @@ static void brute_force(const ts_scene *s, const traced *t, float *tbest, uint32
     ts_vec4 *grid = malloc((size_t)s->patch_count * n * n * sizeof *grid);
     for (uint32_t p = 0; p < s->patch_count; ++p)
         for (uint32_t v = 0; v < n * n; ++v)
-            grid[p * n * n + v] = patch_vertex(&s->cp[p * 16], &s->cp[p * 16], &s->corner_n[p * 4], &s->attr[p],
-                                               &s->xform[s->attr[p].xform], scene_tex_ctx(s), ldexpf((float)(v % n), -M),
-                                               ldexpf((float)(v / n), -M));
+            grid[p * n * n + v] =
+                patch_vertex(&s->cp[p * 16], &s->cp[p * 16], &s->corner_n[p * 4], &s->attr[p],
+                             &s->xform[s->attr[p].xform], scene_tex_ctx(s),
+                             ldexpf((float)(v % n), -M), ldexpf((float)(v / n), -M));
     for (int r = 0; r < W * H; ++r) {
         ts_vec4 o = t->org[r], d = t->dir[r];
         ts_ray_shear sh = ray_shear(d.x, d.y, d.z);
@@ -58,7 +60,8 @@ static void brute_force(const ts_scene *s, const traced *t, float *tbest, uint32
             const ts_vec4 *g = &grid[p * n * n];
             for (uint32_t j = 0; j + 1 < n; ++j)
                 for (uint32_t i = 0; i + 1 < n; ++i) {
-                    ts_vec4 v00 = g[j * n + i], v10 = g[j * n + i + 1], v01 = g[(j + 1) * n + i], v11 = g[(j + 1) * n + i + 1];
+                    ts_vec4 v00 = g[j * n + i], v10 = g[j * n + i + 1], v01 = g[(j + 1) * n + i],
+                            v11 = g[(j + 1) * n + i + 1];
                     float h = triangle_hit(&sh, o.x, o.y, o.z, v00, v10, v11, o.w, best, &b1, &b2);
                     if (h >= 0) best = h, bp = p;
                     h = triangle_hit(&sh, o.x, o.y, o.z, v00, v11, v01, o.w, best, &b1, &b2);
@@ -95,7 +98,9 @@ static void test_teapot_matches_brute_force(void **state)
     int hits = 0, agree = 0;
     for (int r = 0; r < W * H; ++r) {
         int got = t.hit[r].patch != TS_INVALID, want = pb[r] != TS_INVALID;
-        if (got != want) fail_msg("ray %d: two-level %s, brute force %s", r, got ? "hit" : "miss", want ? "hit" : "miss");
+        if (got != want)
+            fail_msg("ray %d: two-level %s, brute force %s", r, got ? "hit" : "miss",
+                     want ? "hit" : "miss");
         if (!want) continue;
         ++hits;
         if (fabsf(t.hit[r].t - tb[r]) <= 1e-4f * tb[r]) ++agree;

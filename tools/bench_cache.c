@@ -492,8 +492,7 @@ static int bench_check(bench_result *r)
     r->check_caches_monotone = c[2].dicings <= c[1].dicings && c[1].dicings <= c[0].dicings;
     r->check_same_hits = r->hits_cache == r->hits_reorder;
     if (!r->check_reorder_le_cache10)
-        fprintf(stderr,
-                "bench_cache: note: %s: reordering dices more than a 10-entry cache here\n",
+        fprintf(stderr, "bench_cache: note: %s: reordering dices more than a 10-entry cache here\n",
                 r->scene);
     if (!r->check_caches_monotone)
         fprintf(stderr, "bench_cache: CHECK FAILED: %s: larger caches dice more\n", r->scene);

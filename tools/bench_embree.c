@@ -139,7 +139,8 @@ static void *trace_thread(void *arg)
 
 /* Traces r with `threads` pthreads, each a contiguous share; returns the wall seconds or
  * -1 on an error. */
-static double embree_trace(ts_embree_ref *ref, const ts_ray_set *r, ts_hit *hit, int threads, ts_error *err)
+static double embree_trace(ts_embree_ref *ref, const ts_ray_set *r, ts_hit *hit, int threads,
+                           ts_error *err)
 {
     trace_job jobs[2];
     pthread_t tid[2];
@@ -154,7 +155,8 @@ static double embree_trace(ts_embree_ref *ref, const ts_ray_set *r, ts_hit *hit,
         }
     }
     trace_thread(&jobs[0]);
-    for (int i = 1; i < threads; ++i) pthread_join(tid[i], NULL);
+    for (int i = 1; i < threads; ++i)
+        pthread_join(tid[i], NULL);
     double t = bench_now() - t0;
     for (int i = 0; i < threads; ++i)
         if (jobs[i].rc) {
@@ -170,7 +172,8 @@ static void add_kind(cJSON *parent, const char *name, uint32_t rays_n, uint32_t 
     cJSON *o = cJSON_AddObjectToObject(parent, name);
     cJSON_AddNumberToObject(o, "rays", rays_n);
     cJSON_AddNumberToObject(o, "hits", hits);
-    for (int i = 0; i < n; ++i) cJSON_AddNumberToObject(o, keys[i], values[i]);
+    for (int i = 0; i < n; ++i)
+        cJSON_AddNumberToObject(o, keys[i], values[i]);
 }
 
 static int write_json(const char *path, cJSON *root)
@@ -185,7 +188,8 @@ static int child_embree(const ts_scene *s, uint32_t m, const char *dir, int runs
                         ts_error *err)
 {
     ts_ray_set eye = {0}, bounce = {0};
-    if (ray_set_load(path_in(dir, "eye.rays"), &eye)) return ts_error_set(err, TS_E_IO, "no eye rays");
+    if (ray_set_load(path_in(dir, "eye.rays"), &eye))
+        return ts_error_set(err, TS_E_IO, "no eye rays");
     uint64_t rss_before = rss_now();
     ts_hit *eye_hit = malloc((eye.count ? eye.count : 1) * sizeof *eye_hit), *bounce_hit = NULL;
     double tess[MAX_RUNS], build[MAX_RUNS], te[2][MAX_RUNS], tb[2][MAX_RUNS];
@@ -202,15 +206,19 @@ static int child_embree(const ts_scene *s, uint32_t m, const char *dir, int runs
         if (!rc && run == 0) {
             rc = ray_set_bounce(s, m, seed, &eye, eye_hit, &bounce, err);
             if (!rc) rc = ray_set_save(path_in(dir, "bounce.rays"), &bounce) ? TS_E_IO : TS_OK;
-            if (!rc && !(bounce_hit = malloc((bounce.count ? bounce.count : 1) * sizeof *bounce_hit)))
+            if (!rc &&
+                !(bounce_hit = malloc((bounce.count ? bounce.count : 1) * sizeof *bounce_hit)))
                 rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
         }
         for (int th = 0; th < 2 && !rc; ++th)
-            if ((tb[th][run] = embree_trace(ref, &bounce, bounce_hit, th + 1, err)) < 0) rc = err->code;
+            if ((tb[th][run] = embree_trace(ref, &bounce, bounce_hit, th + 1, err)) < 0)
+                rc = err->code;
         embree_ref_destroy(ref);
     }
-    if (!rc && (ray_set_write_file(path_in(dir, "embree_eye.hits"), eye_hit, eye.count * sizeof(ts_hit), NULL, 0) ||
-                ray_set_write_file(path_in(dir, "embree_bounce.hits"), bounce_hit, bounce.count * sizeof(ts_hit), NULL, 0)))
+    if (!rc && (ray_set_write_file(path_in(dir, "embree_eye.hits"), eye_hit,
+                                   eye.count * sizeof(ts_hit), NULL, 0) ||
+                ray_set_write_file(path_in(dir, "embree_bounce.hits"), bounce_hit,
+                                   bounce.count * sizeof(ts_hit), NULL, 0)))
         rc = ts_error_set(err, TS_E_IO, "cannot write the hits");
     if (!rc) {
         cJSON *root = cJSON_CreateObject();
@@ -227,8 +235,10 @@ static int child_embree(const ts_scene *s, uint32_t m, const char *dir, int runs
         double e[2] = {bench_median(te[0], runs), bench_median(te[1], runs)};
         double b[2] = {bench_median(tb[0], runs), bench_median(tb[1], runs)};
         add_kind(root, "eye", eye.count, ray_set_count_hits(eye_hit, eye.count), keys, e, 2);
-        add_kind(root, "bounce", bounce.count, ray_set_count_hits(bounce_hit, bounce.count), keys, b, 2);
-        if (write_json(path_in(dir, "embree.json"), root)) rc = ts_error_set(err, TS_E_IO, "cannot write json");
+        add_kind(root, "bounce", bounce.count, ray_set_count_hits(bounce_hit, bounce.count), keys,
+                 b, 2);
+        if (write_json(path_in(dir, "embree.json"), root))
+            rc = ts_error_set(err, TS_E_IO, "cannot write json");
         cJSON_Delete(root);
     }
     free(eye_hit), free(bounce_hit);
@@ -244,8 +254,8 @@ static int tessera_trace(ts_pipeline *p, ts_stats *stats, const ts_ray_set *r, t
                          double *stage_s, double *wall_s, uint64_t *iterations,
                          double per_stage[TS_STAGE_COUNT], ts_error *err)
 {
-    static const ts_stage traced[] = {TS_STAGE_top_level, TS_STAGE_sort, TS_STAGE_dice,
-                                      TS_STAGE_build, TS_STAGE_bottom_level, TS_STAGE_resolve};
+    static const ts_stage traced[] = {TS_STAGE_top_level, TS_STAGE_sort,         TS_STAGE_dice,
+                                      TS_STAGE_build,     TS_STAGE_bottom_level, TS_STAGE_resolve};
     cl_command_queue q = p->cl->queue;
     uint32_t cap = p->plan.ray_capacity;
     uint32_t *idx = malloc((size_t)cap * sizeof *idx), *entry = calloc(cap, sizeof *entry);
@@ -265,13 +275,26 @@ static int tessera_trace(ts_pipeline *p, ts_stats *stats, const ts_ray_set *r, t
     for (uint32_t first = 0; first < r->count && !rc; first += cap) {
         uint32_t n = r->count - first < cap ? r->count - first : cap;
         cl_uint zero = 0;
-        cl_int e = clEnqueueWriteBuffer(q, p->ray_org, CL_FALSE, 0, n * sizeof(ts_vec4), r->org + first, 0, NULL, NULL);
-        if (!e) e = clEnqueueWriteBuffer(q, p->ray_dir, CL_FALSE, 0, n * sizeof(ts_vec4), r->dir + first, 0, NULL, NULL);
-        if (!e) e = clEnqueueWriteBuffer(q, p->ray_hit, CL_FALSE, 0, n * sizeof(ts_hit), clear, 0, NULL, NULL);
-        if (!e) e = clEnqueueWriteBuffer(q, p->ray_entry, CL_FALSE, 0, n * sizeof(uint32_t), entry, 0, NULL, NULL);
-        if (!e) e = clEnqueueWriteBuffer(q, p->ray_pixel, CL_FALSE, 0, n * sizeof(uint32_t), idx, 0, NULL, NULL);
-        if (!e) e = clEnqueueFillBuffer(q, p->ray_flags, &zero, sizeof zero, 0, n * sizeof(cl_uint), 0, NULL, NULL);
-        if (!e) e = clEnqueueWriteBuffer(q, p->active, CL_TRUE, 0, n * sizeof(uint32_t), idx, 0, NULL, NULL);
+        cl_int e = clEnqueueWriteBuffer(q, p->ray_org, CL_FALSE, 0, n * sizeof(ts_vec4),
+                                        r->org + first, 0, NULL, NULL);
+        if (!e)
+            e = clEnqueueWriteBuffer(q, p->ray_dir, CL_FALSE, 0, n * sizeof(ts_vec4),
+                                     r->dir + first, 0, NULL, NULL);
+        if (!e)
+            e = clEnqueueWriteBuffer(q, p->ray_hit, CL_FALSE, 0, n * sizeof(ts_hit), clear, 0, NULL,
+                                     NULL);
+        if (!e)
+            e = clEnqueueWriteBuffer(q, p->ray_entry, CL_FALSE, 0, n * sizeof(uint32_t), entry, 0,
+                                     NULL, NULL);
+        if (!e)
+            e = clEnqueueWriteBuffer(q, p->ray_pixel, CL_FALSE, 0, n * sizeof(uint32_t), idx, 0,
+                                     NULL, NULL);
+        if (!e)
+            e = clEnqueueFillBuffer(q, p->ray_flags, &zero, sizeof zero, 0, n * sizeof(cl_uint), 0,
+                                    NULL, NULL);
+        if (!e)
+            e = clEnqueueWriteBuffer(q, p->active, CL_TRUE, 0, n * sizeof(uint32_t), idx, 0, NULL,
+                                     NULL);
         if (e) {
             rc = ts_error_set(err, TS_E_DEVICE, "writing the rays: OpenCL error %d", e);
             break;
@@ -280,13 +303,16 @@ static int tessera_trace(ts_pipeline *p, ts_stats *stats, const ts_ray_set *r, t
         rc = pipeline_trace(p, n, err);
         if (!rc) rc = dev_finish(p->cl, stats, err);
         *wall_s += bench_now() - t0;
-        if (!rc && (e = clEnqueueReadBuffer(q, p->ray_hit, CL_TRUE, 0, n * sizeof(ts_hit), hit + first, 0, NULL, NULL)))
+        if (!rc && (e = clEnqueueReadBuffer(q, p->ray_hit, CL_TRUE, 0, n * sizeof(ts_hit),
+                                            hit + first, 0, NULL, NULL)))
             rc = ts_error_set(err, TS_E_DEVICE, "reading the hits: OpenCL error %d", e);
     }
     *stage_s = 0;
-    for (size_t i = 0; i < sizeof traced / sizeof *traced; ++i) *stage_s += stats->stage_seconds[traced[i]];
+    for (size_t i = 0; i < sizeof traced / sizeof *traced; ++i)
+        *stage_s += stats->stage_seconds[traced[i]];
     *iterations = stats->counters[TS_COUNTER_iterations];
-    for (int i = 0; i < TS_STAGE_COUNT; ++i) per_stage[i] = stats->stage_seconds[i];
+    for (int i = 0; i < TS_STAGE_COUNT; ++i)
+        per_stage[i] = stats->stage_seconds[i];
     free(idx), free(entry), free(clear);
     return rc;
 }
@@ -294,7 +320,8 @@ static int tessera_trace(ts_pipeline *p, ts_stats *stats, const ts_ray_set *r, t
 /* Device bytes of the plan: arenas, rays and pairs, and the scene's patch data. */
 static double plan_bytes(const ts_pipeline_plan *plan, const ts_scene *s)
 {
-    double arenas = (double)plan->vert_capacity * sizeof(ts_vec4) + (double)plan->group_capacity * sizeof(ts_box4);
+    double arenas = (double)plan->vert_capacity * sizeof(ts_vec4) +
+                    (double)plan->group_capacity * sizeof(ts_box4);
     double ray_bytes = (double)plan->ray_capacity * TS_BYTES_PER_RAY;
     double patch = (double)s->patch_count * (2 * 16 * sizeof(ts_vec4) + 4 * sizeof(ts_vec4) +
                                              sizeof(ts_patch_attr) + sizeof(ts_vec4));
@@ -305,9 +332,11 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
                          uint32_t seed, ts_error *err)
 {
     ts_ray_set r[2] = {{0}, {0}};
-    if (ray_set_load(path_in(dir, "eye.rays"), &r[0])) return ts_error_set(err, TS_E_IO, "no eye rays");
+    if (ray_set_load(path_in(dir, "eye.rays"), &r[0]))
+        return ts_error_set(err, TS_E_IO, "no eye rays");
     int have_bounce = access(path_in(dir, "bounce.rays"), R_OK) == 0;
-    if (have_bounce && ray_set_load(path_in(dir, "bounce.rays"), &r[1])) return ts_error_set(err, TS_E_IO, "bad bounce rays");
+    if (have_bounce && ray_set_load(path_in(dir, "bounce.rays"), &r[1]))
+        return ts_error_set(err, TS_E_IO, "bad bounce rays");
     ts_device cl;
     ts_device_options opt = {.device_index = -1};
     if (dev_open(&cl, &opt, err)) return err->code;
@@ -319,7 +348,8 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
     ts_pipeline p;
     int rc = pipeline_plan((uint64_t)memory_mb << 20, most, m, cl.info.max_alloc, &plan, err);
     if (!rc && plan.max_lod < m)
-        rc = ts_error_set(err, TS_E_USAGE, "--memory %d MB holds patches up to m = %u only", memory_mb, plan.max_lod);
+        rc = ts_error_set(err, TS_E_USAGE, "--memory %d MB holds patches up to m = %u only",
+                          memory_mb, plan.max_lod);
     if (!rc) rc = pipeline_create(&p, &cl, s, &plan, most, &stats, err);
     if (rc) {
         dev_close(&cl);
@@ -344,11 +374,14 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
             for (int run = 0; run < runs && !rc; ++run) {
                 rc = tessera_trace(&p, &stats, &r[kind], hit[mode][kind], &stage[mode][kind][run],
                                    &wall[mode][kind][run], &iters[mode][kind], each, err);
-                for (int i = 0; i < TS_STAGE_COUNT; ++i) per_stage[mode][kind][i][run] = each[i];
+                for (int i = 0; i < TS_STAGE_COUNT; ++i)
+                    per_stage[mode][kind][i][run] = each[i];
             }
         }
-    if (!rc && (ray_set_write_file(path_in(dir, "tessera_eye.hits"), hit[0][0], r[0].count * sizeof(ts_hit), NULL, 0) ||
-                ray_set_write_file(path_in(dir, "tessera_bounce.hits"), hit[0][1], r[1].count * sizeof(ts_hit), NULL, 0)))
+    if (!rc && (ray_set_write_file(path_in(dir, "tessera_eye.hits"), hit[0][0],
+                                   r[0].count * sizeof(ts_hit), NULL, 0) ||
+                ray_set_write_file(path_in(dir, "tessera_bounce.hits"), hit[0][1],
+                                   r[1].count * sizeof(ts_hit), NULL, 0)))
         rc = ts_error_set(err, TS_E_IO, "cannot write the hits");
     if (!rc) {
         cJSON *root = cJSON_CreateObject();
@@ -358,23 +391,29 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
         cJSON_AddNumberToObject(root, "wave_rays", plan.ray_capacity);
         cJSON_AddNumberToObject(root, "rss_before_bytes", (double)rss_before);
         cJSON_AddNumberToObject(root, "peak_rss_bytes", (double)rss_peak());
-        static const char *const modes[2] = {"triangles", "boxes"}, *const kinds[2] = {"eye", "bounce"};
+        static const char *const modes[2] = {"triangles", "boxes"}, *const kinds[2] = {"eye",
+                                                                                       "bounce"};
         const char *keys[3] = {"trace_seconds", "wall_seconds", "iterations"};
         for (int mode = 0; mode < 2; ++mode) {
             cJSON *o = cJSON_AddObjectToObject(root, modes[mode]);
             for (int kind = 0; kind < 2; ++kind) {
-                double v[3] = {bench_median(stage[mode][kind], runs), bench_median(wall[mode][kind], runs),
-                               (double)iters[mode][kind]};
-                add_kind(o, kinds[kind], r[kind].count, ray_set_count_hits(hit[mode][kind], r[kind].count), keys, v, 3);
-                cJSON *st = cJSON_AddObjectToObject(cJSON_GetObjectItemCaseSensitive(o, kinds[kind]), "stage_seconds");
+                double v[3] = {bench_median(stage[mode][kind], runs),
+                               bench_median(wall[mode][kind], runs), (double)iters[mode][kind]};
+                add_kind(o, kinds[kind], r[kind].count,
+                         ray_set_count_hits(hit[mode][kind], r[kind].count), keys, v, 3);
+                cJSON *st = cJSON_AddObjectToObject(
+                    cJSON_GetObjectItemCaseSensitive(o, kinds[kind]), "stage_seconds");
                 for (int i = TS_STAGE_top_level; i <= TS_STAGE_resolve; ++i)
-                    cJSON_AddNumberToObject(st, ts_stage_names[i], bench_median(per_stage[mode][kind][i], runs));
+                    cJSON_AddNumberToObject(st, ts_stage_names[i],
+                                            bench_median(per_stage[mode][kind][i], runs));
             }
         }
-        if (write_json(path_in(dir, "tessera.json"), root)) rc = ts_error_set(err, TS_E_IO, "cannot write json");
+        if (write_json(path_in(dir, "tessera.json"), root))
+            rc = ts_error_set(err, TS_E_IO, "cannot write json");
         cJSON_Delete(root);
     }
-    for (int i = 0; i < 4; ++i) free(hit[i / 2][i % 2]);
+    for (int i = 0; i < 4; ++i)
+        free(hit[i / 2][i % 2]);
     pipeline_destroy(&p);
     stats_free(&stats);
     dev_close(&cl);
@@ -393,8 +432,10 @@ static int run_child(const char *what, const bench_case *c, const config *cfg, c
     snprintf(runs, sizeof runs, "%d", cfg->runs);
     snprintf(mem, sizeof mem, "%d", cfg->memory_mb);
     snprintf(seed, sizeof seed, "%u", cfg->seed);
-    char *argv[] = {"bench_embree", "--child", (char *)what, "--scene", (char *)c->scene, "--lod", lod,
-                    "--runs", runs, "--memory", mem, "--seed", seed, "--keep", (char *)dir, NULL};
+    char *argv[] = {
+        "bench_embree", "--child", (char *)what, "--scene", (char *)c->scene, "--lod", lod,
+        "--runs",       runs,      "--memory",   mem,       "--seed",         seed,    "--keep",
+        (char *)dir,    NULL};
     fflush(NULL);
     pid_t pid = fork();
     if (pid < 0) return -1;
@@ -406,7 +447,8 @@ static int run_child(const char *what, const bench_case *c, const config *cfg, c
     if (waitpid(pid, &status, 0) != pid) return -1;
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
         fprintf(stderr, "bench_embree: the %s child failed (%s %d)\n", what,
-                WIFEXITED(status) ? "exit" : "signal", WIFEXITED(status) ? WEXITSTATUS(status) : WTERMSIG(status));
+                WIFEXITED(status) ? "exit" : "signal",
+                WIFEXITED(status) ? WEXITSTATUS(status) : WTERMSIG(status));
         return -1;
     }
     return 0;
@@ -462,7 +504,8 @@ static const char *mib(double bytes, char *buf)
 static void print_rates(const cJSON *e, const cJSON *t, const uint32_t counts[2])
 {
     static const char *const kinds[2] = {"eye", "bounce"};
-    printf("%-7s %-26s %10s %9s %10s %12s\n", "rays", "tracer", "count", "hits", "seconds", "M rays/s");
+    printf("%-7s %-26s %10s %9s %10s %12s\n", "rays", "tracer", "count", "hits", "seconds",
+           "M rays/s");
     for (int k = 0; k < 2; ++k) {
         if (e) {
             const cJSON *x = cJSON_GetObjectItemCaseSensitive(e, kinds[k]);
@@ -480,8 +523,9 @@ static void print_rates(const cJSON *e, const cJSON *t, const uint32_t counts[2]
                    md ? "tessera boxes (stages)" : "tessera triangles (stages)", counts[k],
                    num(x, "hits", NULL, NULL), num(x, "trace_seconds", NULL, NULL),
                    1e-6 * num(x, "rays_per_second", NULL, NULL));
-            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k], md ? "tessera boxes (wall)" : "tessera triangles (wall)",
-                   counts[k], num(x, "hits", NULL, NULL), num(x, "wall_seconds", NULL, NULL),
+            printf("%-7s %-26s %10u %9.0f %10.4f %12.4g\n", kinds[k],
+                   md ? "tessera boxes (wall)" : "tessera triangles (wall)", counts[k],
+                   num(x, "hits", NULL, NULL), num(x, "wall_seconds", NULL, NULL),
                    1e-6 * num(x, "rays_per_second_wall", NULL, NULL));
         }
     }
@@ -494,44 +538,65 @@ static int compare(cJSON *o, const cJSON *e, const cJSON *t, const uint32_t coun
                    double peak_base, const char *dir)
 {
     static const char *const kinds[2] = {"eye", "bounce"};
-    double peak_e = num(e, "peak_rss_bytes", NULL, NULL), peak_t = num(t, "peak_rss_bytes", NULL, NULL);
+    double peak_e = num(e, "peak_rss_bytes", NULL, NULL),
+           peak_t = num(t, "peak_rss_bytes", NULL, NULL);
     int rc = 0;
-    cJSON *ag = cJSON_AddObjectToObject(o, "agreement"), *ratios = cJSON_AddObjectToObject(o, "ratios");
+    cJSON *ag = cJSON_AddObjectToObject(o, "agreement"),
+          *ratios = cJSON_AddObjectToObject(o, "ratios");
     for (int k = 0; k < 2; ++k) {
-        ts_hit *ha = ray_set_load_hits(path_in(dir, k ? "embree_bounce.hits" : "embree_eye.hits"), counts[k]);
-        ts_hit *hb = ray_set_load_hits(path_in(dir, k ? "tessera_bounce.hits" : "tessera_eye.hits"), counts[k]);
-        if (!ha || !hb) rc = -1;
-        else cJSON_AddItemToObject(ag, kinds[k], agreement(ha, hb, counts[k]));
+        ts_hit *ha = ray_set_load_hits(path_in(dir, k ? "embree_bounce.hits" : "embree_eye.hits"),
+                                       counts[k]);
+        ts_hit *hb = ray_set_load_hits(path_in(dir, k ? "tessera_bounce.hits" : "tessera_eye.hits"),
+                                       counts[k]);
+        if (!ha || !hb)
+            rc = -1;
+        else
+            cJSON_AddItemToObject(ag, kinds[k], agreement(ha, hb, counts[k]));
         free(ha), free(hb);
         if (rc) break;
         const cJSON *ex = cJSON_GetObjectItemCaseSensitive(e, kinds[k]);
-        const cJSON *tx = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(t, "triangles"), kinds[k]);
-        const cJSON *bx = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(t, "boxes"), kinds[k]);
-        double t_tri = num(tx, "rays_per_second", NULL, NULL), t_box = num(bx, "rays_per_second", NULL, NULL);
+        const cJSON *tx = cJSON_GetObjectItemCaseSensitive(
+            cJSON_GetObjectItemCaseSensitive(t, "triangles"), kinds[k]);
+        const cJSON *bx = cJSON_GetObjectItemCaseSensitive(
+            cJSON_GetObjectItemCaseSensitive(t, "boxes"), kinds[k]);
+        double t_tri = num(tx, "rays_per_second", NULL, NULL),
+               t_box = num(bx, "rays_per_second", NULL, NULL);
         cJSON *r = cJSON_AddObjectToObject(ratios, kinds[k]);
         /* How many times Embree's rays/s is Tessera's. */
-        cJSON_AddNumberToObject(r, "embree_1thread_over_tessera_triangles", t_tri > 0 ? num(ex, "rays_per_second_1thread", NULL, NULL) / t_tri : 0);
-        cJSON_AddNumberToObject(r, "embree_2threads_over_tessera_triangles", t_tri > 0 ? num(ex, "rays_per_second_2threads", NULL, NULL) / t_tri : 0);
-        cJSON_AddNumberToObject(r, "embree_2threads_over_tessera_boxes", t_box > 0 ? num(ex, "rays_per_second_2threads", NULL, NULL) / t_box : 0);
+        cJSON_AddNumberToObject(r, "embree_1thread_over_tessera_triangles",
+                                t_tri > 0 ? num(ex, "rays_per_second_1thread", NULL, NULL) / t_tri
+                                          : 0);
+        cJSON_AddNumberToObject(r, "embree_2threads_over_tessera_triangles",
+                                t_tri > 0 ? num(ex, "rays_per_second_2threads", NULL, NULL) / t_tri
+                                          : 0);
+        cJSON_AddNumberToObject(r, "embree_2threads_over_tessera_boxes",
+                                t_box > 0 ? num(ex, "rays_per_second_2threads", NULL, NULL) / t_box
+                                          : 0);
     }
     /* A frame: Embree's tessellation + build + both traces (2 threads) against Tessera's
      * trace stages for both (it dices as it goes). */
     double ef = num(e, "tessellate_seconds", NULL, NULL) + num(e, "build_seconds", NULL, NULL) +
-                num(e, "eye", "seconds_2threads", NULL) + num(e, "bounce", "seconds_2threads", NULL);
-    double tf = num(t, "triangles", "eye", "trace_seconds") + num(t, "triangles", "bounce", "trace_seconds");
-    double bf = num(t, "boxes", "eye", "trace_seconds") + num(t, "boxes", "bounce", "trace_seconds");
+                num(e, "eye", "seconds_2threads", NULL) +
+                num(e, "bounce", "seconds_2threads", NULL);
+    double tf = num(t, "triangles", "eye", "trace_seconds") +
+                num(t, "triangles", "bounce", "trace_seconds");
+    double bf =
+        num(t, "boxes", "eye", "trace_seconds") + num(t, "boxes", "bounce", "trace_seconds");
     cJSON_AddNumberToObject(ratios, "frame_embree_seconds", ef);
     cJSON_AddNumberToObject(ratios, "frame_tessera_triangles_seconds", tf);
     cJSON_AddNumberToObject(ratios, "frame_tessera_boxes_seconds", bf);
     cJSON_AddNumberToObject(ratios, "frame_tessera_triangles_over_embree", ef > 0 ? tf / ef : 0);
-    cJSON_AddNumberToObject(ratios, "peak_rss_embree_over_tessera", peak_t > 0 ? peak_e / peak_t : 0);
+    cJSON_AddNumberToObject(ratios, "peak_rss_embree_over_tessera",
+                            peak_t > 0 ? peak_e / peak_t : 0);
     double pe = peak_e - peak_base, pt = peak_t - peak_base;
-    cJSON_AddNumberToObject(ratios, "peak_rss_above_baseline_embree_over_tessera", pt > 0 ? pe / pt : 0);
+    cJSON_AddNumberToObject(ratios, "peak_rss_above_baseline_embree_over_tessera",
+                            pt > 0 ? pe / pt : 0);
     for (int k = 0; k < 2 && !rc; ++k) {
         const cJSON *x = cJSON_GetObjectItemCaseSensitive(ag, kinds[k]);
-        printf("agreement %-6s: %u rays, hit/miss mismatches %.0f, both hit %.0f, same patch and t %.0f\n",
-               kinds[k], counts[k], num(x, "hit_miss_mismatches", NULL, NULL), num(x, "both_hit", NULL, NULL),
-               num(x, "same_patch_and_t", NULL, NULL));
+        printf("agreement %-6s: %u rays, hit/miss mismatches %.0f, both hit %.0f, same patch and t "
+               "%.0f\n",
+               kinds[k], counts[k], num(x, "hit_miss_mismatches", NULL, NULL),
+               num(x, "both_hit", NULL, NULL), num(x, "same_patch_and_t", NULL, NULL));
     }
     printf("ratios: Embree 2 threads / Tessera triangles rays/s: eye %.2f, bounce %.2f; "
            "frame (Embree incl. build) Tessera/Embree time %.2f; peak RSS Embree/Tessera %.2f\n",
@@ -554,7 +619,8 @@ static int run_case(const bench_case *c, const config *cfg, const char *dir, cJS
         return -1;
     }
     ts_ray_set eye = {0};
-    if (ray_set_eye(&s, c->width, c->height, cfg->seed, &eye, &err) || ray_set_save(path_in(dir, "eye.rays"), &eye)) {
+    if (ray_set_eye(&s, c->width, c->height, cfg->seed, &eye, &err) ||
+        ray_set_save(path_in(dir, "eye.rays"), &eye)) {
         fprintf(stderr, "bench_embree: %s\n", err.msg);
         scene_free(&s);
         return -1;
@@ -606,11 +672,14 @@ static int run_case(const bench_case *c, const config *cfg, const char *dir, cJS
     char b1[32], b2[32], b3[32];
     if (e) {
         double tri = num(e, "triangles", NULL, NULL);
-        cJSON_AddNumberToObject(e, "bytes_per_triangle", tri > 0 ? num(e, "bytes_after_build", NULL, NULL) / tri : 0);
-        cJSON_AddNumberToObject(e, "peak_rss_bytes_per_triangle", tri > 0 ? (peak_e - peak_base) / tri : 0);
+        cJSON_AddNumberToObject(e, "bytes_per_triangle",
+                                tri > 0 ? num(e, "bytes_after_build", NULL, NULL) / tri : 0);
+        cJSON_AddNumberToObject(e, "peak_rss_bytes_per_triangle",
+                                tri > 0 ? (peak_e - peak_base) / tri : 0);
         for (int k = 0; k < 2; ++k) {
             cJSON *x = cJSON_GetObjectItemCaseSensitive(e, kinds[k]);
-            double s1 = num(x, "seconds_1thread", NULL, NULL), s2 = num(x, "seconds_2threads", NULL, NULL);
+            double s1 = num(x, "seconds_1thread", NULL, NULL),
+                   s2 = num(x, "seconds_2threads", NULL, NULL);
             cJSON_AddNumberToObject(x, "rays_per_second_1thread", s1 > 0 ? counts[k] / s1 : 0);
             cJSON_AddNumberToObject(x, "rays_per_second_2threads", s2 > 0 ? counts[k] / s2 : 0);
         }
@@ -618,23 +687,27 @@ static int run_case(const bench_case *c, const config *cfg, const char *dir, cJS
         printf("embree: %.4g triangles; tessellate %.3f s, BVH build %.3f s (Embree threads); "
                "Embree bytes %s MiB after build (peak %s MiB), %.1f B/triangle; peak RSS %s MiB\n",
                tri, num(e, "tessellate_seconds", NULL, NULL), num(e, "build_seconds", NULL, NULL),
-               mib(num(e, "bytes_after_build", NULL, NULL), b1), mib(num(e, "bytes_peak", NULL, NULL), b2),
-               num(e, "bytes_per_triangle", NULL, NULL), mib(peak_e, b3));
+               mib(num(e, "bytes_after_build", NULL, NULL), b1),
+               mib(num(e, "bytes_peak", NULL, NULL), b2), num(e, "bytes_per_triangle", NULL, NULL),
+               mib(peak_e, b3));
     }
     if (t) {
         static const char *const modes[2] = {"triangles", "boxes"};
         for (int md = 0; md < 2; ++md)
             for (int k = 0; k < 2; ++k) {
-                cJSON *x = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(t, modes[md]), kinds[k]);
-                double st = num(x, "trace_seconds", NULL, NULL), w = num(x, "wall_seconds", NULL, NULL);
+                cJSON *x = cJSON_GetObjectItemCaseSensitive(
+                    cJSON_GetObjectItemCaseSensitive(t, modes[md]), kinds[k]);
+                double st = num(x, "trace_seconds", NULL, NULL),
+                       w = num(x, "wall_seconds", NULL, NULL);
                 cJSON_AddNumberToObject(x, "rays_per_second", st > 0 ? counts[k] / st : 0);
                 cJSON_AddNumberToObject(x, "rays_per_second_wall", w > 0 ? counts[k] / w : 0);
             }
         cJSON_AddItemToObject(o, "tessera", t);
-        printf("tessera: --memory %d MB, device buffers %s MiB (plan), wave %g rays; peak RSS %s MiB "
-               "(baseline without a tracer %s MiB)\n",
-               cfg->memory_mb, mib(num(t, "device_buffer_bytes", NULL, NULL), b1),
-               num(t, "wave_rays", NULL, NULL), mib(peak_t, b2), mib(peak_base, b3));
+        printf(
+            "tessera: --memory %d MB, device buffers %s MiB (plan), wave %g rays; peak RSS %s MiB "
+            "(baseline without a tracer %s MiB)\n",
+            cfg->memory_mb, mib(num(t, "device_buffer_bytes", NULL, NULL), b1),
+            num(t, "wave_rays", NULL, NULL), mib(peak_t, b2), mib(peak_base, b3));
     }
     print_rates(e, t, counts);
     int rc = e && t ? compare(o, e, t, counts, peak_base, dir) : 0;
@@ -672,7 +745,8 @@ static void scaling(cJSON *root, const config *cfg)
                                                  : (peak[1] - base) / tri[1];
     double fixed = peak[1] - slope * tri[1];
     double gib24 = 24.0 * 1073741824.0, budget = (double)cfg->memory_mb * 1048576.0;
-    double fit24 = slope > 0 ? (gib24 - fixed) / slope : 0, fit_budget = slope > 0 ? (budget - fixed) / slope : 0;
+    double fit24 = slope > 0 ? (gib24 - fixed) / slope : 0,
+           fit_budget = slope > 0 ? (budget - fixed) / slope : 0;
     cJSON_AddNumberToObject(s, "embree_peak_rss_bytes_per_triangle", slope);
     cJSON_AddNumberToObject(s, "embree_fixed_bytes", fixed);
     cJSON_AddNumberToObject(s, "embree_monitor_peak_bytes_per_triangle", monitor);
@@ -680,18 +754,21 @@ static void scaling(cJSON *root, const config *cfg)
     cJSON_AddNumberToObject(s, "embree_max_triangles_budget", fit_budget > 0 ? fit_budget : 0);
     cJSON_AddNumberToObject(s, "budget_bytes", budget);
     cJSON_AddNumberToObject(s, "tessera_max_peak_rss_bytes", tess_peak);
-    printf("\nlargest scene: Embree peak RSS grows %.1f B per triangle (Embree's own peak %.1f B), fixed "
-           "%.0f MiB: 24 GiB holds %.3g triangles (%.3g micro-quads), --memory %d MB %.3g; Tessera's "
-           "peak RSS stayed <= %.0f MiB at every m above\n",
-           slope, monitor, fixed / 1048576.0, fit24, fit24 / 2, cfg->memory_mb, fit_budget > 0 ? fit_budget : 0,
-           tess_peak / 1048576.0);
+    printf(
+        "\nlargest scene: Embree peak RSS grows %.1f B per triangle (Embree's own peak %.1f B), "
+        "fixed "
+        "%.0f MiB: 24 GiB holds %.3g triangles (%.3g micro-quads), --memory %d MB %.3g; Tessera's "
+        "peak RSS stayed <= %.0f MiB at every m above\n",
+        slope, monitor, fixed / 1048576.0, fit24, fit24 / 2, cfg->memory_mb,
+        fit_budget > 0 ? fit_budget : 0, tess_peak / 1048576.0);
 }
 
 static void usage(void)
 {
-    fprintf(stderr, "usage: bench_embree [--size tiny|small|full] [--scene PATH] [--lod M]... [--res WxH]\n"
-                    "                    [--runs R] [--memory MB] [--seed S] [--only embree|tessera]\n"
-                    "                    [--json PATH] [--keep DIR]\n");
+    fprintf(stderr,
+            "usage: bench_embree [--size tiny|small|full] [--scene PATH] [--lod M]... [--res WxH]\n"
+            "                    [--runs R] [--memory MB] [--seed S] [--only embree|tessera]\n"
+            "                    [--json PATH] [--keep DIR]\n");
 }
 
 static int set_size(config *c, const char *size)
@@ -702,13 +779,15 @@ static int set_size(config *c, const char *size)
         c->case_count = 1;
         c->runs = 1;
     } else if (!strcmp(size, "small")) {
-        for (uint32_t m = 6; m <= 8; ++m) c->cases[m - 6] = (bench_case){"scene/teapot_displaced.rib", m, 640, 360, 1};
+        for (uint32_t m = 6; m <= 8; ++m)
+            c->cases[m - 6] = (bench_case){"scene/teapot_displaced.rib", m, 640, 360, 1};
         c->case_count = 3;
         c->runs = 3;
     } else if (!strcmp(size, "full")) {
         /* m = 10: 67 M triangles, ~7.5 GiB for Embree; forest-100 at m = 6 would be 917 M
          * triangles, ~100 GiB for Embree: Tessera alone (~15 minutes). */
-        for (uint32_t m = 6; m <= 10; ++m) c->cases[m - 6] = (bench_case){"scene/teapot_displaced.rib", m, 1280, 720, 1};
+        for (uint32_t m = 6; m <= 10; ++m)
+            c->cases[m - 6] = (bench_case){"scene/teapot_displaced.rib", m, 1280, 720, 1};
         c->cases[5] = (bench_case){"scene/forest-100.rib", 6, 320, 128, 0};
         c->case_count = 6;
         c->runs = 3;
@@ -725,7 +804,19 @@ int main(int argc, char **argv)
     const char *child = NULL, *scene = NULL, *size = "tiny";
     uint32_t lods[MAX_CASES], lod_count = 0, w = 0, h = 0;
     int runs = 0, c;
-    enum { O_SIZE = 256, O_SCENE, O_LOD, O_RES, O_RUNS, O_MEM, O_SEED, O_ONLY, O_JSON, O_KEEP, O_CHILD };
+    enum {
+        O_SIZE = 256,
+        O_SCENE,
+        O_LOD,
+        O_RES,
+        O_RUNS,
+        O_MEM,
+        O_SEED,
+        O_ONLY,
+        O_JSON,
+        O_KEEP,
+        O_CHILD
+    };
     static const struct option opts[] = {
         {"size", required_argument, 0, O_SIZE},   {"scene", required_argument, 0, O_SCENE},
         {"lod", required_argument, 0, O_LOD},     {"res", required_argument, 0, O_RES},
@@ -737,12 +828,17 @@ int main(int argc, char **argv)
         char *end = NULL;
         long v = 0;
         switch (c) {
-        case O_SIZE: size = optarg; break;
-        case O_SCENE: scene = optarg; break;
+        case O_SIZE:
+            size = optarg;
+            break;
+        case O_SCENE:
+            scene = optarg;
+            break;
         case O_LOD:
             v = strtol(optarg, &end, 10);
             if (*end || v < 0 || v > TS_LOD_LIMIT || lod_count == MAX_CASES) {
-                fprintf(stderr, "bench_embree: --lod %s: 0..%d, at most %d\n", optarg, TS_LOD_LIMIT, MAX_CASES);
+                fprintf(stderr, "bench_embree: --lod %s: 0..%d, at most %d\n", optarg, TS_LOD_LIMIT,
+                        MAX_CASES);
                 return 1;
             }
             lods[lod_count++] = (uint32_t)v;
@@ -767,12 +863,24 @@ int main(int argc, char **argv)
                 return 1;
             }
             break;
-        case O_SEED: cfg.seed = (uint32_t)strtoul(optarg, NULL, 10); break;
-        case O_ONLY: cfg.only = optarg; break;
-        case O_JSON: cfg.json_path = optarg; break;
-        case O_KEEP: cfg.keep_dir = optarg; break;
-        case O_CHILD: child = optarg; break;
-        default: usage(); return 1;
+        case O_SEED:
+            cfg.seed = (uint32_t)strtoul(optarg, NULL, 10);
+            break;
+        case O_ONLY:
+            cfg.only = optarg;
+            break;
+        case O_JSON:
+            cfg.json_path = optarg;
+            break;
+        case O_KEEP:
+            cfg.keep_dir = optarg;
+            break;
+        case O_CHILD:
+            child = optarg;
+            break;
+        default:
+            usage();
+            return 1;
         }
     }
     if (optind != argc || set_size(&cfg, size) ||
@@ -790,7 +898,8 @@ int main(int argc, char **argv)
         ts_error err = {0};
         memset(&s, 0, sizeof s);
         int rc = scene_load(scene, &s, 1, &err);
-        if (!rc && !strcmp(child, "embree")) rc = child_embree(&s, lods[0], cfg.keep_dir, cfg.runs, cfg.seed, &err);
+        if (!rc && !strcmp(child, "embree"))
+            rc = child_embree(&s, lods[0], cfg.keep_dir, cfg.runs, cfg.seed, &err);
         else if (!rc && !strcmp(child, "tessera"))
             rc = child_tessera(&s, lods[0], cfg.keep_dir, cfg.runs, cfg.memory_mb, cfg.seed, &err);
         else if (!rc && !strcmp(child, "baseline")) {
@@ -823,7 +932,8 @@ int main(int argc, char **argv)
     int n = dev_list(&list, &err);
     free(list);
     if (n <= 0 && (!cfg.only || strcmp(cfg.only, "embree"))) {
-        fprintf(stderr, "bench_embree: no OpenCL device%s%s: skipping\n", n < 0 ? ": " : "", n < 0 ? err.msg : "");
+        fprintf(stderr, "bench_embree: no OpenCL device%s%s: skipping\n", n < 0 ? ": " : "",
+                n < 0 ? err.msg : "");
         return 77;
     }
     char tmp[] = "/tmp/bench_embree.XXXXXX";
@@ -841,18 +951,22 @@ int main(int argc, char **argv)
     cJSON_AddNumberToObject(root, "runs", cfg.runs);
     cJSON_AddNumberToObject(root, "memory_mb", cfg.memory_mb);
     cJSON_AddNumberToObject(root, "seed", cfg.seed);
-    cJSON_AddStringToObject(root, "embree_trace", "rtcIntersect1 per ray; 1 thread and 2 pthreads (half the rays each)");
+    cJSON_AddStringToObject(root, "embree_trace",
+                            "rtcIntersect1 per ray; 1 thread and 2 pthreads (half the rays each)");
     cJSON *cases = cJSON_AddArrayToObject(root, "cases");
     int rc = 0;
-    for (int i = 0; i < cfg.case_count && !rc; ++i) rc = run_case(&cfg.cases[i], &cfg, dir, cases);
+    for (int i = 0; i < cfg.case_count && !rc; ++i)
+        rc = run_case(&cfg.cases[i], &cfg, dir, cases);
     if (!rc) scaling(root, &cfg);
     if (!rc && cfg.json_path && write_json(cfg.json_path, root)) rc = -1;
     cJSON_Delete(root);
     if (!cfg.keep_dir) {
-        static const char *const files[] = {"baseline.json", "eye.rays", "bounce.rays", "embree.json", "tessera.json",
-                                            "embree_eye.hits", "embree_bounce.hits", "tessera_eye.hits",
-                                            "tessera_bounce.hits"};
-        for (size_t i = 0; i < sizeof files / sizeof *files; ++i) remove(path_in(dir, files[i]));
+        static const char *const files[] = {
+            "baseline.json",      "eye.rays",         "bounce.rays",
+            "embree.json",        "tessera.json",     "embree_eye.hits",
+            "embree_bounce.hits", "tessera_eye.hits", "tessera_bounce.hits"};
+        for (size_t i = 0; i < sizeof files / sizeof *files; ++i)
+            remove(path_in(dir, files[i]));
         rmdir(dir);
     }
     return rc ? 1 : 0;

@@ -56,8 +56,11 @@ static void bench_defaults(bench_options *o)
 /* --size: tiny (seconds, the ctest smoke test), small (the docs' figures), full. */
 static int bench_size(const char *name, bench_options *o)
 {
-    static const struct { const char *name; uint32_t pairs; int repeat; } sizes[] = {
-        {"tiny", 1u << 14, 3}, {"small", 1u << 20, 15}, {"full", 1u << 23, 15}};
+    static const struct {
+        const char *name;
+        uint32_t pairs;
+        int repeat;
+    } sizes[] = {{"tiny", 1u << 14, 3}, {"small", 1u << 20, 15}, {"full", 1u << 23, 15}};
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++)
         if (strcmp(name, sizes[i].name) == 0) {
             o->pairs = sizes[i].pairs;
@@ -71,9 +74,12 @@ static int bench_size(const char *name, bench_options *o)
 static int bench_parse(int argc, char **argv, bench_options *o)
 {
     static const struct option longopts[] = {
-        {"pairs", required_argument, NULL, 'n'},   {"repeat", required_argument, NULL, 'r'},
-        {"threads", required_argument, NULL, 't'}, {"json", required_argument, NULL, 'j'},
-        {"size", required_argument, NULL, 's'},    {"help", no_argument, NULL, 'h'},
+        {"pairs", required_argument, NULL, 'n'},
+        {"repeat", required_argument, NULL, 'r'},
+        {"threads", required_argument, NULL, 't'},
+        {"json", required_argument, NULL, 'j'},
+        {"size", required_argument, NULL, 's'},
+        {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
     int c;
@@ -129,7 +135,8 @@ static int bench_verify(const ts_pair *input, uint32_t n, const ts_pair *sorted,
                         const ts_segment *segs, uint32_t nseg, uint32_t key_range)
 {
     uint32_t expect = 0;
-    for (uint32_t i = 0; i < n; i++) expect += input[i].leaf != TS_INVALID;
+    for (uint32_t i = 0; i < n; i++)
+        expect += input[i].leaf != TS_INVALID;
     if (valid != expect) return 0;
     /* Each output pair is an input pair (its window names it, the leaf matches); windows
      * strictly increase within a leaf, so none repeats; with the count right, every valid
@@ -194,8 +201,7 @@ static int bench_run_case(radix_sorter *s, const bench_options *o, bench_buffers
         seg_s[r] = t3 - t2;
     }
     if (err->code == TS_OK && !out->verified)
-        ts_error_set(err, TS_E_INTERNAL, "key range %u: the sorted output is wrong",
-                     key_range);
+        ts_error_set(err, TS_E_INTERNAL, "key range %u: the sorted output is wrong", key_range);
     if (err->code == TS_OK) {
         out->sort_s = bench_median(sort_s, o->repeat); /* sorts sort_s: [0] is the minimum */
         out->sort_min_s = sort_s[0];

@@ -6,7 +6,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-static double fade(double t) { return t * t * t * (t * (t * 6 - 15) + 10); }
+static double fade(double t)
+{
+    return t * t * t * (t * (t * 6 - 15) + 10);
+}
 
 int main(int argc, char **argv)
 {

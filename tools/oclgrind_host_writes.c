@@ -43,12 +43,12 @@
 
 typedef cl_int (*clEnqueueWriteBuffer_fn)(cl_command_queue, cl_mem, cl_bool, size_t, size_t,
                                           const void *, cl_uint, const cl_event *, cl_event *);
-typedef cl_int (*clEnqueueReadBuffer_fn)(cl_command_queue, cl_mem, cl_bool, size_t, size_t,
-                                         void *, cl_uint, const cl_event *, cl_event *);
+typedef cl_int (*clEnqueueReadBuffer_fn)(cl_command_queue, cl_mem, cl_bool, size_t, size_t, void *,
+                                         cl_uint, const cl_event *, cl_event *);
 typedef cl_int (*clEnqueueFillBuffer_fn)(cl_command_queue, cl_mem, const void *, size_t, size_t,
                                          size_t, cl_uint, const cl_event *, cl_event *);
-typedef cl_int (*clEnqueueCopyBuffer_fn)(cl_command_queue, cl_mem, cl_mem, size_t, size_t,
-                                         size_t, cl_uint, const cl_event *, cl_event *);
+typedef cl_int (*clEnqueueCopyBuffer_fn)(cl_command_queue, cl_mem, cl_mem, size_t, size_t, size_t,
+                                         cl_uint, const cl_event *, cl_event *);
 typedef void *(*clEnqueueMapBuffer_fn)(cl_command_queue, cl_mem, cl_bool, cl_map_flags, size_t,
                                        size_t, cl_uint, const cl_event *, cl_event *, cl_int *);
 typedef cl_int (*clEnqueueUnmapMemObject_fn)(cl_command_queue, cl_mem, void *, cl_uint,
@@ -63,8 +63,8 @@ typedef cl_int (*clEnqueueNDRangeKernel_fn)(cl_command_queue, cl_kernel, cl_uint
                                             const cl_event *, cl_event *);
 typedef cl_int (*clGetProgramInfo_fn)(cl_program, cl_program_info, size_t, void *, size_t *);
 typedef cl_int (*clGetKernelInfo_fn)(cl_kernel, cl_kernel_info, size_t, void *, size_t *);
-typedef cl_int (*clGetCommandQueueInfo_fn)(cl_command_queue, cl_command_queue_info, size_t,
-                                           void *, size_t *);
+typedef cl_int (*clGetCommandQueueInfo_fn)(cl_command_queue, cl_command_queue_info, size_t, void *,
+                                           size_t *);
 typedef cl_int (*clGetDeviceInfo_fn)(cl_device_id, cl_device_info, size_t, void *, size_t *);
 
 static void *next_symbol(const char *name)
@@ -130,8 +130,8 @@ cl_int clEnqueueCopyBuffer(cl_command_queue q, cl_mem src, cl_mem dst, size_t sr
 }
 
 void *clEnqueueMapBuffer(cl_command_queue q, cl_mem buf, cl_bool blocking, cl_map_flags flags,
-                         size_t offset, size_t size, cl_uint n, const cl_event *wait,
-                         cl_event *ev, cl_int *rc)
+                         size_t offset, size_t size, cl_uint n, const cl_event *wait, cl_event *ev,
+                         cl_int *rc)
 {
     void *p = NEXT(clEnqueueMapBuffer)(q, buf, blocking, flags, offset, size, n, wait, ev, rc);
     if (p && (flags & (CL_MAP_WRITE | CL_MAP_WRITE_INVALIDATE_REGION))) {
@@ -191,8 +191,8 @@ cl_int clBuildProgram(cl_program prog, cl_uint ndev, const cl_device_id *devs, c
     if (rc == CL_SUCCESS &&
         NEXT(clGetProgramInfo)(prog, CL_PROGRAM_KERNEL_NAMES, 0, NULL, &size) == CL_SUCCESS) {
         char *names = calloc(size + 1, 1);
-        if (names && NEXT(clGetProgramInfo)(prog, CL_PROGRAM_KERNEL_NAMES, size, names, NULL) ==
-                         CL_SUCCESS)
+        if (names &&
+            NEXT(clGetProgramInfo)(prog, CL_PROGRAM_KERNEL_NAMES, size, names, NULL) == CL_SUCCESS)
             log_line("program", names, "");
         free(names);
     }
@@ -224,8 +224,8 @@ cl_int clReleaseMemObject(cl_mem mem)
     cl_mem parent = NULL;
     if (NEXT(clGetMemObjectInfo)(mem, CL_MEM_TYPE, sizeof type, &type, NULL) == CL_SUCCESS &&
         type == CL_MEM_OBJECT_BUFFER &&
-        NEXT(clGetMemObjectInfo)(mem, CL_MEM_ASSOCIATED_MEMOBJECT, sizeof parent, &parent,
-                                 NULL) == CL_SUCCESS &&
+        NEXT(clGetMemObjectInfo)(mem, CL_MEM_ASSOCIATED_MEMOBJECT, sizeof parent, &parent, NULL) ==
+            CL_SUCCESS &&
         parent == NULL &&
         NEXT(clGetMemObjectInfo)(mem, CL_MEM_REFERENCE_COUNT, sizeof refs, &refs, NULL) ==
             CL_SUCCESS &&

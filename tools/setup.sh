@@ -10,7 +10,8 @@ packages=(
   cmake ninja-build gcc g++ pkg-config
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo
   libopenimageio-dev libcjson-dev libcmocka-dev
-  oclgrind clang libclang-rt-14-dev # checks: tools/check_kernels.sh, tools/fuzz.sh (libFuzzer runtime)
+  oclgrind clang libclang-rt-14-dev clang-format # checks: tools/check_kernels.sh, tools/fuzz.sh
+                                                   # (libFuzzer runtime), tools/check_format.sh
   libembree-dev
   libassimp-dev assimp-testmodels
   python3 librsvg2-bin # benchmarks (tools/bench, tools/bench_*.py); tools/profile --png (rsvg-convert)

@@ -68,11 +68,13 @@ static int cmd_devices(void)
     if (n == 0) printf("no OpenCL devices found (install pocl-opencl-icd for the CPU)\n");
     for (int i = 0; i < n; ++i) {
         const ts_device_info *d = &list[i];
-        const char *type = d->type & CL_DEVICE_TYPE_GPU ? "GPU"
-                           : d->type & CL_DEVICE_TYPE_CPU ? "CPU"
-                           : d->type & CL_DEVICE_TYPE_ACCELERATOR ? "accelerator" : "other";
+        const char *type = d->type & CL_DEVICE_TYPE_GPU           ? "GPU"
+                           : d->type & CL_DEVICE_TYPE_CPU         ? "CPU"
+                           : d->type & CL_DEVICE_TYPE_ACCELERATOR ? "accelerator"
+                                                                  : "other";
         printf("%d: %s [%s, %s]\n   platform %s, driver %s\n"
-               "   %u compute units, global memory %llu MB (max buffer %llu MB), local memory %llu KB\n",
+               "   %u compute units, global memory %llu MB (max buffer %llu MB), local memory %llu "
+               "KB\n",
                i, d->name, type, d->version, d->platform_name, d->driver, d->compute_units,
                (unsigned long long)(d->global_mem >> 20), (unsigned long long)(d->max_alloc >> 20),
                (unsigned long long)(d->local_mem >> 10));
@@ -81,20 +83,46 @@ static int cmd_devices(void)
     return 0;
 }
 
-enum { OPT_RES = 256, OPT_LOD, OPT_INTERSECT, OPT_SAMPLING, OPT_LEAF_MODE, OPT_LEAF_SIZE, OPT_SPP, OPT_DEPTH, OPT_SEED, OPT_DEVICE, OPT_MAX_LOD, OPT_MEMORY,
-       OPT_STATS, OPT_QUIET, OPT_KERNEL_DIR, OPT_NO_CACHE, OPT_HELP, OPT_RESUME };
+enum {
+    OPT_RES = 256,
+    OPT_LOD,
+    OPT_INTERSECT,
+    OPT_SAMPLING,
+    OPT_LEAF_MODE,
+    OPT_LEAF_SIZE,
+    OPT_SPP,
+    OPT_DEPTH,
+    OPT_SEED,
+    OPT_DEVICE,
+    OPT_MAX_LOD,
+    OPT_MEMORY,
+    OPT_STATS,
+    OPT_QUIET,
+    OPT_KERNEL_DIR,
+    OPT_NO_CACHE,
+    OPT_HELP,
+    OPT_RESUME
+};
 
 static const struct option render_options[] = {
-    {"output", required_argument, 0, 'o'},   {"res", required_argument, 0, OPT_RES},
-    {"spp", required_argument, 0, OPT_SPP},  {"depth", required_argument, 0, OPT_DEPTH},
-    {"seed", required_argument, 0, OPT_SEED}, {"device", required_argument, 0, OPT_DEVICE},
-    {"max-lod", required_argument, 0, OPT_MAX_LOD}, {"memory", required_argument, 0, OPT_MEMORY},
-    {"lod", required_argument, 0, OPT_LOD}, {"intersect", required_argument, 0, OPT_INTERSECT},
+    {"output", required_argument, 0, 'o'},
+    {"res", required_argument, 0, OPT_RES},
+    {"spp", required_argument, 0, OPT_SPP},
+    {"depth", required_argument, 0, OPT_DEPTH},
+    {"seed", required_argument, 0, OPT_SEED},
+    {"device", required_argument, 0, OPT_DEVICE},
+    {"max-lod", required_argument, 0, OPT_MAX_LOD},
+    {"memory", required_argument, 0, OPT_MEMORY},
+    {"lod", required_argument, 0, OPT_LOD},
+    {"intersect", required_argument, 0, OPT_INTERSECT},
     {"sampling", required_argument, 0, OPT_SAMPLING},
-    {"leaf-mode", required_argument, 0, OPT_LEAF_MODE}, {"leaf-size", required_argument, 0, OPT_LEAF_SIZE},
-    {"stats", required_argument, 0, OPT_STATS}, {"quiet", no_argument, 0, OPT_QUIET},
+    {"leaf-mode", required_argument, 0, OPT_LEAF_MODE},
+    {"leaf-size", required_argument, 0, OPT_LEAF_SIZE},
+    {"stats", required_argument, 0, OPT_STATS},
+    {"quiet", no_argument, 0, OPT_QUIET},
     {"kernel-dir", required_argument, 0, OPT_KERNEL_DIR},
-    {"no-kernel-cache", no_argument, 0, OPT_NO_CACHE}, {"help", no_argument, 0, OPT_HELP},
+    {"no-kernel-cache", no_argument, 0, OPT_NO_CACHE},
+    {"help", no_argument, 0, OPT_HELP},
     {"resume", no_argument, 0, OPT_RESUME},
     {0, 0, 0, 0},
 };
@@ -106,7 +134,9 @@ static int parse_render_args(int argc, char **argv, ts_render_options *o)
     opterr = 0;
     while (!bad && (c = getopt_long(argc, argv, "o:", render_options, NULL)) != -1) {
         switch (c) {
-        case 'o': o->output_path = optarg; break;
+        case 'o':
+            o->output_path = optarg;
+            break;
         case OPT_RES:
             bad = sscanf(optarg, "%dx%d", &o->width, &o->height) != 2 || o->width < 1 ||
                   o->height < 1 || o->width > 65536 || o->height > 65536;
@@ -119,35 +149,67 @@ static int parse_render_args(int argc, char **argv, ts_render_options *o)
             bad = parse_int(optarg, 1, 4, &o->leaf_size) || o->leaf_size == 3;
             break;
         case OPT_SAMPLING:
-            o->sampling = !strcmp(optarg, "mis") ? (int)TS_SAMPLING_MIS
+            o->sampling = !strcmp(optarg, "mis")     ? (int)TS_SAMPLING_MIS
                           : !strcmp(optarg, "light") ? (int)TS_SAMPLING_LIGHT
-                          : !strcmp(optarg, "bsdf") ? (int)TS_SAMPLING_BSDF : -1;
+                          : !strcmp(optarg, "bsdf")  ? (int)TS_SAMPLING_BSDF
+                                                     : -1;
             bad = o->sampling < 0;
             break;
-        case OPT_SPP: bad = parse_int(optarg, 1, 1 << 16, &o->spp); break;
-        case OPT_DEPTH: bad = parse_int(optarg, 0, 64, &o->depth); break;
-        case OPT_SEED: bad = parse_int(optarg, 0, 0x7fffffff, &v); o->seed = (unsigned)v; break;
-        case OPT_DEVICE: bad = parse_int(optarg, 0, 1 << 20, &o->cl.device_index); break;
-        case OPT_MAX_LOD: bad = parse_int(optarg, 0, TS_LOD_LIMIT, &o->max_lod); break;
-        case OPT_LOD: bad = parse_int(optarg, 0, TS_LOD_LIMIT, &o->fixed_lod); break;
+        case OPT_SPP:
+            bad = parse_int(optarg, 1, 1 << 16, &o->spp);
+            break;
+        case OPT_DEPTH:
+            bad = parse_int(optarg, 0, 64, &o->depth);
+            break;
+        case OPT_SEED:
+            bad = parse_int(optarg, 0, 0x7fffffff, &v);
+            o->seed = (unsigned)v;
+            break;
+        case OPT_DEVICE:
+            bad = parse_int(optarg, 0, 1 << 20, &o->cl.device_index);
+            break;
+        case OPT_MAX_LOD:
+            bad = parse_int(optarg, 0, TS_LOD_LIMIT, &o->max_lod);
+            break;
+        case OPT_LOD:
+            bad = parse_int(optarg, 0, TS_LOD_LIMIT, &o->fixed_lod);
+            break;
         case OPT_INTERSECT:
             bad = strcmp(optarg, "boxes") != 0 && strcmp(optarg, "triangles") != 0;
             o->exact = strcmp(optarg, "triangles") == 0;
             break;
-        case OPT_MEMORY: bad = parse_int(optarg, 1, 1 << 24, &o->memory_mb); break;
-        case OPT_STATS: o->stats_path = optarg; break;
-        case OPT_QUIET: o->quiet = 1; break;
-        case OPT_RESUME: o->resume = 1; break;
-        case OPT_KERNEL_DIR: o->cl.kernel_dir = optarg; break;
-        case OPT_NO_CACHE: o->cl.no_cache = 1; break;
-        case OPT_HELP: fputs(usage_text, stdout); exit(0);
+        case OPT_MEMORY:
+            bad = parse_int(optarg, 1, 1 << 24, &o->memory_mb);
+            break;
+        case OPT_STATS:
+            o->stats_path = optarg;
+            break;
+        case OPT_QUIET:
+            o->quiet = 1;
+            break;
+        case OPT_RESUME:
+            o->resume = 1;
+            break;
+        case OPT_KERNEL_DIR:
+            o->cl.kernel_dir = optarg;
+            break;
+        case OPT_NO_CACHE:
+            o->cl.no_cache = 1;
+            break;
+        case OPT_HELP:
+            fputs(usage_text, stdout);
+            exit(0);
         case '?':
-            if (optopt) fprintf(stderr, "tessera: option -%c needs a value or is unknown\n", optopt);
-            else fprintf(stderr, "tessera: unknown option %s (see tessera --help)\n", argv[optind - 1]);
+            if (optopt)
+                fprintf(stderr, "tessera: option -%c needs a value or is unknown\n", optopt);
+            else
+                fprintf(stderr, "tessera: unknown option %s (see tessera --help)\n",
+                        argv[optind - 1]);
             return 1;
         }
         if (bad) {
-            fprintf(stderr, "tessera: bad value '%s' for %s\n", optarg, argv[optind - 2 >= 0 ? optind - 2 : 0]);
+            fprintf(stderr, "tessera: bad value '%s' for %s\n", optarg,
+                    argv[optind - 2 >= 0 ? optind - 2 : 0]);
             return 1;
         }
     }
@@ -190,7 +252,7 @@ static int cmd_render(int argc, char **argv)
                 result.signal == SIGINT ? "SIGINT" : "SIGTERM", result.samples_done,
                 result.samples_total, o.output_path,
                 ext && strcmp(ext, ".exr") == 0 ? "continue with --resume"
-                                                 : "a partial PNG cannot be resumed: use .exr");
+                                                : "a partial PNG cannot be resumed: use .exr");
         stats_free(&stats);
         return TS_EXIT_INTERRUPTED;
     }

@@ -8,25 +8,25 @@
 typedef struct ts_render_options {
     const char *scene_path;
     const char *output_path;
-    const char *stats_path;  /* NULL: no --stats */
-    int width, height;       /* 0: from the scene's Format, else 640x480 */
-    int spp;                 /* samples per pixel; 0: the scene's PixelSamples, else 1 */
-    int depth;               /* path depth (primary rays only for now; kept for the contract) */
+    const char *stats_path; /* NULL: no --stats */
+    int width, height;      /* 0: from the scene's Format, else 640x480 */
+    int spp;                /* samples per pixel; 0: the scene's PixelSamples, else 1 */
+    int depth;              /* path depth (primary rays only for now; kept for the contract) */
     unsigned seed;
-    int max_lod;             /* the finest m: (2^m)^2 micro-quads per patch */
-    int fixed_lod;           /* -1: m per patch from the frame's ray density; else this m */
-    int exact;               /* 1: intersect micro-triangles; 0: leaf boxes (hole-free) */
-    int sampling;            /* TS_SAMPLING_*: light and BSDF sampling by MIS, or one alone */
-    int leaf_group;          /* 1: work-group-wide leaf intersection; 0: per ray */
-    int leaf_size;           /* leaves of leaf_size x leaf_size micro-quads: 1, 2 or 4 */
-    int memory_mb;           /* budget for rays, pairs and patch slots */
+    int max_lod;    /* the finest m: (2^m)^2 micro-quads per patch */
+    int fixed_lod;  /* -1: m per patch from the frame's ray density; else this m */
+    int exact;      /* 1: intersect micro-triangles; 0: leaf boxes (hole-free) */
+    int sampling;   /* TS_SAMPLING_*: light and BSDF sampling by MIS, or one alone */
+    int leaf_group; /* 1: work-group-wide leaf intersection; 0: per ray */
+    int leaf_size;  /* leaves of leaf_size x leaf_size micro-quads: 1, 2 or 4 */
+    int memory_mb;  /* budget for rays, pairs and patch slots */
     int quiet;
-    int resume;              /* 1: continue the partial EXR at output_path (--resume) */
+    int resume; /* 1: continue the partial EXR at output_path (--resume) */
     ts_device_options cl;
 } ts_render_options;
 
-/* Defaults: spp from the scene (else 1), depth 3, seed 0, max_lod 10, ray-driven LOD, leaf boxes as geometry,
- * memory 1024 MB, device from TESSERA_DEVICE. */
+/* Defaults: spp from the scene (else 1), depth 3, seed 0, max_lod 10, ray-driven LOD, leaf boxes as
+ * geometry, memory 1024 MB, device from TESSERA_DEVICE. */
 void render_options_defaults(ts_render_options *o);
 
 #endif

@@ -32,7 +32,8 @@ static int mat4_invert(const double m[16], double out[16])
 {
     double a[4][8];
     for (int r = 0; r < 4; ++r)
-        for (int c = 0; c < 8; ++c) a[r][c] = c < 4 ? m[r * 4 + c] : (c - 4 == r);
+        for (int c = 0; c < 8; ++c)
+            a[r][c] = c < 4 ? m[r * 4 + c] : (c - 4 == r);
     for (int c = 0; c < 4; ++c) {
         int piv = c;
         for (int r = c + 1; r < 4; ++r)
@@ -44,22 +45,26 @@ static int mat4_invert(const double m[16], double out[16])
             a[piv][k] = t;
         }
         double inv = 1.0 / a[c][c];
-        for (int k = 0; k < 8; ++k) a[c][k] *= inv;
+        for (int k = 0; k < 8; ++k)
+            a[c][k] *= inv;
         for (int r = 0; r < 4; ++r) {
             if (r == c) continue;
             double f = a[r][c];
-            for (int k = 0; k < 8; ++k) a[r][k] -= f * a[c][k];
+            for (int k = 0; k < 8; ++k)
+                a[r][k] -= f * a[c][k];
         }
     }
     for (int r = 0; r < 4; ++r)
-        for (int c = 0; c < 4; ++c) out[r * 4 + c] = a[r][c + 4];
+        for (int c = 0; c < 4; ++c)
+            out[r * 4 + c] = a[r][c + 4];
     return 1;
 }
 
 /* Linear part of row-major m applied to (x, y, z), written as float[4] with w = 0. */
 static void mat4_apply_dir(const double m[16], double x, double y, double z, float out[4])
 {
-    for (int r = 0; r < 3; ++r) out[r] = (float)(m[r * 4 + 0] * x + m[r * 4 + 1] * y + m[r * 4 + 2] * z);
+    for (int r = 0; r < 3; ++r)
+        out[r] = (float)(m[r * 4 + 0] * x + m[r * 4 + 1] * y + m[r * 4 + 2] * z);
     out[3] = 0.0f;
 }
 
@@ -75,7 +80,8 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
     double t = tan(0.5 * cam->fov_deg * M_PI / 180.0);
     double aspect = (double)width / (double)height;
     double hx = aspect >= 1.0 ? aspect * t : t, hy = aspect >= 1.0 ? t : t / aspect;
-    for (int r = 0; r < 3; ++r) out->origin[r] = (float)inv[r * 4 + 3];
+    for (int r = 0; r < 3; ++r)
+        out->origin[r] = (float)inv[r * 4 + 3];
     mat4_apply_dir(inv, hx, 0, 0, out->right);
     mat4_apply_dir(inv, 0, hy, 0, out->up);
     mat4_apply_dir(inv, 0, 0, 1, out->forward);
@@ -125,12 +131,14 @@ static int film_transfer(ts_pipeline *p, ts_film_state *s, int upload, ts_error 
     cl_mem dev[3] = {p->accum, p->aov_film, p->albedo_film};
     ts_vec4 *host[3] = {s->accum, s->aov, s->albedo};
     for (int i = 0; i < 3; ++i) {
-        cl_int rc = upload ? clEnqueueWriteBuffer(p->cl->queue, dev[i], CL_TRUE, 0, bytes, host[i], 0, NULL, NULL)
-                           : clEnqueueReadBuffer(p->cl->queue, dev[i], CL_TRUE, 0, bytes, host[i], 0, NULL, NULL);
+        cl_int rc = upload ? clEnqueueWriteBuffer(p->cl->queue, dev[i], CL_TRUE, 0, bytes, host[i],
+                                                  0, NULL, NULL)
+                           : clEnqueueReadBuffer(p->cl->queue, dev[i], CL_TRUE, 0, bytes, host[i],
+                                                 0, NULL, NULL);
         if (rc != CL_SUCCESS)
-            return ts_error_set(err, TS_E_DEVICE, "%s in %s (copying the image %s the device)",
-                                dev_error_name(rc), upload ? "clEnqueueWriteBuffer" : "clEnqueueReadBuffer",
-                                upload ? "to" : "from");
+            return ts_error_set(
+                err, TS_E_DEVICE, "%s in %s (copying the image %s the device)", dev_error_name(rc),
+                upload ? "clEnqueueWriteBuffer" : "clEnqueueReadBuffer", upload ? "to" : "from");
     }
     return TS_OK;
 }
@@ -153,24 +161,37 @@ static int write_output(const ts_render_options *o, ts_pipeline *p, int width, i
     int rc = TS_OK;
     if (!acc || !aov || !alb || !px) rc = ts_error_set(err, TS_E_MEMORY, "out of memory (image)");
     cl_command_queue q = p->cl->queue;
-    if (!rc && (clEnqueueReadBuffer(q, p->accum, CL_TRUE, 0, npix * sizeof *acc, acc, 0, NULL, NULL) ||
-                clEnqueueReadBuffer(q, p->aov_film, CL_TRUE, 0, npix * sizeof *aov, aov, 0, NULL, NULL) ||
-                clEnqueueReadBuffer(q, p->albedo_film, CL_TRUE, 0, npix * sizeof *alb, alb, 0, NULL, NULL)))
+    if (!rc &&
+        (clEnqueueReadBuffer(q, p->accum, CL_TRUE, 0, npix * sizeof *acc, acc, 0, NULL, NULL) ||
+         clEnqueueReadBuffer(q, p->aov_film, CL_TRUE, 0, npix * sizeof *aov, aov, 0, NULL, NULL) ||
+         clEnqueueReadBuffer(q, p->albedo_film, CL_TRUE, 0, npix * sizeof *alb, alb, 0, NULL,
+                             NULL)))
         rc = ts_error_set(err, TS_E_DEVICE, "reading the image back from the device failed");
     const char *ext = strrchr(o->output_path, '.');
     int exr = ext && strcmp(ext, ".exr") == 0;
     int nch = exr ? (partial ? 14 : 10) : 3;
     for (size_t i = 0; !rc && i < npix; ++i) {
         float inv = acc[i].w > 0 ? 1.0f / acc[i].w : 0.0f;
-        float v[14] = {acc[i].x * inv, acc[i].y * inv, acc[i].z * inv, aov[i].w,
-                       aov[i].x, aov[i].y, aov[i].z, alb[i].x, alb[i].y, alb[i].z,
-                       acc[i].x, acc[i].y, acc[i].z, acc[i].w};
+        float v[14] = {acc[i].x * inv, acc[i].y * inv, acc[i].z * inv, aov[i].w, aov[i].x,
+                       aov[i].y,       aov[i].z,       alb[i].x,       alb[i].y, alb[i].z,
+                       acc[i].x,       acc[i].y,       acc[i].z,       acc[i].w};
         if (aov[i].w == 0.0f && acc[i].w == 0.0f) v[3] = INFINITY; /* never sampled */
         memcpy(&px[i * nch], v, nch * sizeof(float));
     }
     if (!rc && exr) {
-        const char *names[] = {"R", "G", "B", "Z", "N.x", "N.y", "N.z", "albedo.R", "albedo.G", "albedo.B",
-                               partial_channels[0], partial_channels[1], partial_channels[2],
+        const char *names[] = {"R",
+                               "G",
+                               "B",
+                               "Z",
+                               "N.x",
+                               "N.y",
+                               "N.z",
+                               "albedo.R",
+                               "albedo.G",
+                               "albedo.B",
+                               partial_channels[0],
+                               partial_channels[1],
+                               partial_channels[2],
                                partial_channels[3]};
         ts_image img = {width, height, nch, names, px};
         /* samples_done < 2^32 (the kernels index samples with 32 bits): stored as its
@@ -214,11 +235,13 @@ static int render_lod(ts_pipeline *p, ts_camera_params cam, uint64_t total, ts_e
 /* Traces one wave of paths from the eye: eye rays, then each bounce's rays (BSDF and
  * shadow rays together, Hanika §3.5: rays grouped by generation) until none is left or the
  * depth is reached. */
-static int render_paths(const ts_render_options *o, ts_pipeline *p, uint32_t first,
-                        uint32_t n, ts_error *err)
+static int render_paths(const ts_render_options *o, ts_pipeline *p, uint32_t first, uint32_t n,
+                        ts_error *err)
 {
-    ts_shade_params sp = {.light_count = p->light_count, .depth = (uint32_t)o->depth,
-                          .sampling = (uint32_t)o->sampling, .seed = o->seed,
+    ts_shade_params sp = {.light_count = p->light_count,
+                          .depth = (uint32_t)o->depth,
+                          .sampling = (uint32_t)o->sampling,
+                          .seed = o->seed,
                           .light_prob = 0.5f};
     uint32_t rays = n, paths = n;
     p->stats->counters[TS_COUNTER_rays] += n;
@@ -272,7 +295,8 @@ static void stop_handlers_restore(void)
 static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
 {
     const unsigned char *b = data;
-    for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 0x100000001b3ull;
+    for (size_t i = 0; i < n; ++i)
+        h = (h ^ b[i]) * 0x100000001b3ull;
     return h;
 }
 
@@ -287,7 +311,8 @@ static int32_t lod_hash(const ts_pipeline *p, const ts_render_options *o)
 {
     uint64_t h = 0xcbf29ce484222325ull;
     if (o->fixed_lod >= 0) {
-        uint32_t m = (uint32_t)o->fixed_lod < p->plan.max_lod ? (uint32_t)o->fixed_lod : p->plan.max_lod;
+        uint32_t m =
+            (uint32_t)o->fixed_lod < p->plan.max_lod ? (uint32_t)o->fixed_lod : p->plan.max_lod;
         return fold32(fnv1a(h, &m, sizeof m));
     }
     return fold32(fnv1a(h, p->patch_lod, p->scene->patch_count));
@@ -304,10 +329,12 @@ static int job_hash(const ts_render_options *o, const ts_scene *s, const ts_came
     if (!f) return ts_error_set(err, TS_E_IO, "%s: %s", o->scene_path, strerror(errno));
     unsigned char buf[65536];
     size_t n;
-    while ((n = fread(buf, 1, sizeof buf, f)) > 0) h = fnv1a(h, buf, n);
+    while ((n = fread(buf, 1, sizeof buf, f)) > 0)
+        h = fnv1a(h, buf, n);
     fclose(f);
-    int32_t opts[] = {(int32_t)cam->width, (int32_t)cam->height, o->spp, o->depth,
-                      (int32_t)o->seed, o->sampling, o->max_lod, o->fixed_lod, o->exact};
+    int32_t opts[] = {
+        (int32_t)cam->width, (int32_t)cam->height, o->spp,       o->depth, (int32_t)o->seed,
+        o->sampling,         o->max_lod,           o->fixed_lod, o->exact};
     h = fnv1a(h, opts, sizeof opts);
     h = fnv1a(h, cam, sizeof *cam);
     h = fnv1a(h, &s->patch_count, sizeof s->patch_count);
@@ -321,10 +348,12 @@ static int job_hash(const ts_render_options *o, const ts_scene *s, const ts_came
     }
     if (s->texture_count) { /* texel contents, not file names */
         h = fnv1a(h, s->textures, (size_t)s->texture_count * sizeof(ts_texture));
-        h = fnv1a(h, s->tex_pool, (size_t)s->tex_tile_count * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4));
+        h = fnv1a(h, s->tex_pool,
+                  (size_t)s->tex_tile_count * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4));
     }
     if (s->xform) h = fnv1a(h, s->xform, (size_t)s->xform_count * sizeof(ts_xform));
-    for (uint32_t i = 0; i < s->light_count; ++i) h = fnv1a(h, &s->lights[i], sizeof s->lights[i]);
+    for (uint32_t i = 0; i < s->light_count; ++i)
+        h = fnv1a(h, &s->lights[i], sizeof s->lights[i]);
     double dome[4] = {s->dome.present, s->dome.intensity, s->dome.color[0], s->dome.color[1]};
     h = fnv1a(h, dome, sizeof dome);
     h = fnv1a(h, &s->dome.color[2], sizeof s->dome.color[2]);
@@ -351,7 +380,9 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
     uint64_t total = job->total, start = job->samples_done;
     uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
     p->mode = (ts_trace_mode){(uint32_t)o->spp, o->fixed_lod, o->exact, o->leaf_group,
-                              o->leaf_size == 4 ? 2u : o->leaf_size == 2 ? 1u : 0u};
+                              o->leaf_size == 4   ? 2u
+                              : o->leaf_size == 2 ? 1u
+                                                  : 0u};
     if (o->fixed_lod < 0 && render_lod(p, cam, total, err)) return err->code;
     int32_t lod = lod_hash(p, o);
     job->lod_mismatch = job->check_lod && lod != job->lod;
@@ -377,7 +408,8 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
         job->samples_done = first + n;
         if (!o->quiet) {
             double dt = stats_now() - t0, done = (double)(first + n - start);
-            double rays = (double)(p->stats->counters[TS_COUNTER_rays] + p->stats->counters[TS_COUNTER_shadow_rays]);
+            double rays = (double)(p->stats->counters[TS_COUNTER_rays] +
+                                   p->stats->counters[TS_COUNTER_shadow_rays]);
             fprintf(stderr, "\rtessera: %llu / %llu samples, %.2f Mrays/s, ETA %.0f s   ",
                     (unsigned long long)(first + n), (unsigned long long)total,
                     dt > 0 ? rays / dt / 1e6 : 0.0, dt * (double)(total - first - n) / done);
@@ -396,57 +428,81 @@ static int resume_load(const ts_render_options *o, int width, int height, ts_job
     const char *path = o->output_path;
     struct stat st;
     if (stat(path, &st) != 0 && errno == ENOENT) {
-        if (!o->quiet) fprintf(stderr, "tessera: %s does not exist yet: rendering from the start\n", path);
+        if (!o->quiet)
+            fprintf(stderr, "tessera: %s does not exist yet: rendering from the start\n", path);
         return TS_OK;
     }
     ts_error e = {0};
     ts_image img;
     if (image_read(path, &img, &e)) {
-        ts_error_set(err, TS_E_IO, "%s (cannot resume from it; render without --resume to start again)", e.msg);
+        ts_error_set(err, TS_E_IO,
+                     "%s (cannot resume from it; render without --resume to start again)", e.msg);
         ts_error_clear(&e);
         return err->code;
     }
-    static const char *keys[] = {"tessera:samples_done", "tessera:spp", "tessera:seed", "tessera:job",
-                                 "tessera:lod", "tessera:max_lod"};
+    static const char *keys[] = {"tessera:samples_done", "tessera:spp", "tessera:seed",
+                                 "tessera:job",          "tessera:lod", "tessera:max_lod"};
     int v[6] = {0};
     int rc = TS_OK;
     for (int k = 0; k < 6 && !rc; ++k)
         if (image_read_meta_int(path, keys[k], &v[k], &e))
-            rc = ts_error_set(err, TS_E_USAGE,
-                              "%s: cannot resume: it has no \"%s\" metadata (not from tessera render, "
-                              "or from an older version); render without --resume", path, keys[k]);
+            rc = ts_error_set(
+                err, TS_E_USAGE,
+                "%s: cannot resume: it has no \"%s\" metadata (not from tessera render, "
+                "or from an older version); render without --resume",
+                path, keys[k]);
     ts_error_clear(&e);
     uint64_t done = (uint32_t)v[0];
     if (!rc && (img.width != width || img.height != height))
-        rc = ts_error_set(err, TS_E_USAGE, "%s: cannot resume: it is %dx%d but this command renders "
+        rc = ts_error_set(err, TS_E_USAGE,
+                          "%s: cannot resume: it is %dx%d but this command renders "
                           "%dx%d (use the original command, or render without --resume)",
                           path, img.width, img.height, width, height);
     if (!rc && v[1] != o->spp)
-        rc = ts_error_set(err, TS_E_USAGE, "%s: cannot resume: it was rendered with --spp %d, this "
-                          "command has --spp %d (use the original command, or render without --resume)",
-                          path, v[1], o->spp);
+        rc = ts_error_set(
+            err, TS_E_USAGE,
+            "%s: cannot resume: it was rendered with --spp %d, this "
+            "command has --spp %d (use the original command, or render without --resume)",
+            path, v[1], o->spp);
     if (!rc && (unsigned)v[2] != o->seed)
-        rc = ts_error_set(err, TS_E_USAGE, "%s: cannot resume: it was rendered with --seed %d, this "
-                          "command has --seed %u (use the original command, or render without --resume)",
-                          path, v[2], o->seed);
+        rc = ts_error_set(
+            err, TS_E_USAGE,
+            "%s: cannot resume: it was rendered with --seed %d, this "
+            "command has --seed %u (use the original command, or render without --resume)",
+            path, v[2], o->seed);
     if (!rc && v[3] != job->hash)
-        rc = ts_error_set(err, TS_E_USAGE, "%s: cannot resume: it was rendered from another scene "
-                          "or with other --depth, --sampling, --max-lod, --lod or --intersect options "
-                          "(use the original command, or render without --resume)", path);
+        rc = ts_error_set(
+            err, TS_E_USAGE,
+            "%s: cannot resume: it was rendered from another scene "
+            "or with other --depth, --sampling, --max-lod, --lod or --intersect options "
+            "(use the original command, or render without --resume)",
+            path);
     if (!rc && done > job->total)
-        rc = ts_error_set(err, TS_E_USAGE, "%s: cannot resume: it claims %llu samples of %llu", path,
-                          (unsigned long long)done, (unsigned long long)job->total);
+        rc = ts_error_set(err, TS_E_USAGE, "%s: cannot resume: it claims %llu samples of %llu",
+                          path, (unsigned long long)done, (unsigned long long)job->total);
     if (!rc && done == job->total) *complete = 1;
     int idx[14];
-    static const char *names[14] = {"R", "G", "B", "Z", "N.x", "N.y", "N.z", "albedo.R", "albedo.G",
-                                    "albedo.B", "tessera.sum.R", "tessera.sum.G", "tessera.sum.B",
+    static const char *names[14] = {"R",
+                                    "G",
+                                    "B",
+                                    "Z",
+                                    "N.x",
+                                    "N.y",
+                                    "N.z",
+                                    "albedo.R",
+                                    "albedo.G",
+                                    "albedo.B",
+                                    "tessera.sum.R",
+                                    "tessera.sum.G",
+                                    "tessera.sum.B",
                                     "tessera.count"};
     for (int c = 0; c < 14 && !rc && !*complete; ++c) {
         idx[c] = -1;
         for (int k = 0; k < img.channels; ++k)
             if (strcmp(img.channel_names[k], names[c]) == 0) idx[c] = k;
         if (idx[c] < 0)
-            rc = ts_error_set(err, TS_E_USAGE, "%s: cannot resume: it has no \"%s\" channel", path, names[c]);
+            rc = ts_error_set(err, TS_E_USAGE, "%s: cannot resume: it has no \"%s\" channel", path,
+                              names[c]);
     }
     size_t npix = (size_t)width * height;
     if (!rc && !*complete) rc = film_state_alloc(state, npix, err);
@@ -478,15 +534,15 @@ static int resume_load(const ts_render_options *o, int width, int height, ts_job
 /* The smallest budget a retry after an out-of-memory error tries. */
 #define TS_MEMORY_FLOOR_MB 16
 
-int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *result,
-               ts_error *err)
+int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *result, ts_error *err)
 {
     double t0 = stats_now();
     memset(result, 0, sizeof *result);
     if (check_output_path(o->output_path, err)) return err->code;
     const char *ext = strrchr(o->output_path, '.');
     if (o->resume && strcmp(ext, ".exr") != 0)
-        return ts_error_set(err, TS_E_USAGE, "--resume needs an .exr output (a PNG cannot hold "
+        return ts_error_set(err, TS_E_USAGE,
+                            "--resume needs an .exr output (a PNG cannot hold "
                             "the sums of the samples)");
     ts_scene scene;
     memset(&scene, 0, sizeof scene);
@@ -522,7 +578,8 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
     }
     if (!rc) rc = dev_open(&cl, &o->cl, err);
     if (!rc) {
-        snprintf(stats->device, sizeof stats->device, "%.120s (%.120s)", cl.info.name, cl.info.platform_name);
+        snprintf(stats->device, sizeof stats->device, "%.120s (%.120s)", cl.info.name,
+                 cl.info.platform_name);
         stats->kernel_build_seconds = cl.build_seconds;
         stats->kernel_cache_hit = cl.cache_hit;
     }
@@ -536,19 +593,22 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
         rc = pipeline_plan(budget << 20, rays, (uint32_t)o->max_lod, cl.info.max_alloc, &plan, err);
         if (rc && oom.code) { /* a retry's budget that holds nothing: the memory error stands */
             ts_error_clear(err);
-            rc = ts_error_set(err, TS_E_DEVICE, "%s: the device could not provide %llu MB, and "
+            rc = ts_error_set(err, TS_E_DEVICE,
+                              "%s: the device could not provide %llu MB, and "
                               "%llu MB cannot hold the render; lower --max-lod or --res, or free "
-                              "device memory", oom.msg, (unsigned long long)budget * 2,
-                              (unsigned long long)budget);
+                              "device memory",
+                              oom.msg, (unsigned long long)budget * 2, (unsigned long long)budget);
             break;
         }
         if (!rc && !o->quiet && plan.max_lod < noted_lod)
-            fprintf(stderr, "tessera: %s%llu MB holds patches up to m = %u; dicing at most "
-                            "that finely (raise --memory for --max-lod %d)\n",
+            fprintf(stderr,
+                    "tessera: %s%llu MB holds patches up to m = %u; dicing at most "
+                    "that finely (raise --memory for --max-lod %d)\n",
                     budget == first_budget ? "--memory " : "", (unsigned long long)budget,
                     plan.max_lod, o->max_lod);
         if (!rc) noted_lod = plan.max_lod;
-        if (!rc) rc = pipeline_create(&pipe, &cl, &scene, &plan, (uint32_t)(width * height), stats, err);
+        if (!rc)
+            rc = pipeline_create(&pipe, &cl, &scene, &plan, (uint32_t)(width * height), stats, err);
         if (!rc && state.accum) rc = film_transfer(&pipe, &state, 1, err);
         if (!rc) rc = dev_finish(&cl, stats, err); /* the buffers' first use */
         uint64_t before = job.samples_done;
@@ -566,22 +626,27 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
         }
         if (!kept || budget / 2 < TS_MEMORY_FLOOR_MB) {
             if (!kept)
-                rc = ts_error_set(err, TS_E_DEVICE, "%s: the device ran out of memory after %llu "
+                rc = ts_error_set(err, TS_E_DEVICE,
+                                  "%s: the device ran out of memory after %llu "
                                   "samples; render again with a lower --memory or --max-lod",
                                   oom.msg, (unsigned long long)job.samples_done);
             else if (budget == first_budget)
-                rc = ts_error_set(err, TS_E_DEVICE, "%s: the device could not provide %llu MB; "
-                                  "lower --memory or --max-lod, or free device memory", oom.msg,
-                                  (unsigned long long)budget);
+                rc = ts_error_set(err, TS_E_DEVICE,
+                                  "%s: the device could not provide %llu MB; "
+                                  "lower --memory or --max-lod, or free device memory",
+                                  oom.msg, (unsigned long long)budget);
             else
-                rc = ts_error_set(err, TS_E_DEVICE, "%s: the device could not provide even %llu MB "
+                rc = ts_error_set(err, TS_E_DEVICE,
+                                  "%s: the device could not provide even %llu MB "
                                   "(retried down from %llu MB); lower --max-lod or --res, or free "
-                                  "device memory", oom.msg, (unsigned long long)budget,
+                                  "device memory",
+                                  oom.msg, (unsigned long long)budget,
                                   (unsigned long long)first_budget);
             break;
         }
         if (!o->quiet)
-            fprintf(stderr, "tessera: the device could not provide %llu MB (%s); retrying with %llu MB\n",
+            fprintf(stderr,
+                    "tessera: the device could not provide %llu MB (%s); retrying with %llu MB\n",
                     (unsigned long long)budget, oom.msg, (unsigned long long)(budget / 2));
         pipeline_destroy(&pipe);
         budget /= 2;
@@ -591,10 +656,11 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
         /* Samples finished before the retry, at levels of detail the smaller budget cannot
          * reproduce: the image would mix them. */
         ts_error_clear(err);
-        rc = ts_error_set(err, TS_E_DEVICE, "%s: the device ran out of memory after %llu samples, "
+        rc = ts_error_set(err, TS_E_DEVICE,
+                          "%s: the device ran out of memory after %llu samples, "
                           "and the budget that fits dices at other levels of detail; render again "
-                          "with a lower --memory or --max-lod", oom.msg,
-                          (unsigned long long)job.samples_done);
+                          "with a lower --memory or --max-lod",
+                          oom.msg, (unsigned long long)job.samples_done);
     }
     if (!rc) {
         double tw = stats_now();

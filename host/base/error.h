@@ -6,9 +6,9 @@
 #include <stddef.h>
 
 typedef struct ts_error {
-    int code;        /* 0 = no error; else a TS_E* value */
-    char msg[2048];  /* one line, no trailing newline; scene errors start with file:line:col */
-    char *detail;    /* optional multi-line detail (a kernel build log); owned, may be NULL */
+    int code;       /* 0 = no error; else a TS_E* value */
+    char msg[2048]; /* one line, no trailing newline; scene errors start with file:line:col */
+    char *detail;   /* optional multi-line detail (a kernel build log); owned, may be NULL */
 } ts_error;
 
 enum {

@@ -19,7 +19,8 @@ _Static_assert(offsetof(ts_patch_attr, st) == 96, "st after the texture fields")
 _Static_assert(sizeof(ts_texture) == 80, "ts_texture is 80 bytes");
 _Static_assert(sizeof(ts_light) == 64, "ts_light is 64 bytes");
 _Static_assert(sizeof(ts_emitter) == 16, "ts_emitter is 16 bytes");
-_Static_assert(offsetof(ts_patch_attr, disp_amplitude) == 24, "displacement after colour, flags, kind, octaves");
+_Static_assert(offsetof(ts_patch_attr, disp_amplitude) == 24,
+               "displacement after colour, flags, kind, octaves");
 _Static_assert(sizeof(ts_xform) == 48, "ts_xform is 48 bytes");
 _Static_assert(sizeof(ts_box4) == 96, "ts_box4 is 96 bytes");
 _Static_assert(sizeof(ts_camera_params) == 96, "ts_camera_params is 96 bytes");
@@ -27,4 +28,7 @@ _Static_assert(offsetof(ts_camera_params, width) == 64, "width after four float[
 _Static_assert(sizeof(ts_shade_params) == 32, "ts_shade_params is 32 bytes");
 
 /* Keeps the translation unit non-empty for strict compilers. */
-int ts_layout_checked(void) { return 1; }
+int ts_layout_checked(void)
+{
+    return 1;
+}

@@ -4,6 +4,7 @@
 #ifndef TS_STAGES_H
 #define TS_STAGES_H
 
+/* clang-format off */
 #define TS_STAGES(X)                                                                        \
     X(camera, "generate the wave's rays")                                                   \
     X(lod, "count the frame's eye rays per patch box, choose m per patch")                   \
@@ -15,6 +16,7 @@
     X(resolve, "closest hit per ray, retire finished rays")                                 \
     X(shade, "shade hits, write colour and AOVs per ray")                                   \
     X(film, "accumulate samples into the image, write it")
+/* clang-format on */
 
 typedef enum ts_stage {
 #define TS_STAGE_ENUM(name, what) TS_STAGE_##name,

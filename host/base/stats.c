@@ -66,7 +66,8 @@ static cJSON *stats_to_json(const ts_stats *s)
         cJSON_AddNumberToObject(counters, ts_counter_names[i], (double)s->counters[i]);
     cJSON_AddNumberToObject(root, "leaf_utilisation",
                             s->counters[TS_COUNTER_leaf_slots]
-                                ? (double)s->counters[TS_COUNTER_leaf_tests] / (double)s->counters[TS_COUNTER_leaf_slots]
+                                ? (double)s->counters[TS_COUNTER_leaf_tests] /
+                                      (double)s->counters[TS_COUNTER_leaf_slots]
                                 : 0.0);
     cJSON *hist = cJSON_AddArrayToObject(root, "lod_histogram");
     for (int m = 0; m <= TS_LOD_LIMIT; ++m)
@@ -109,7 +110,8 @@ void stats_print_table(const ts_stats *s, void *file)
 {
     FILE *f = file;
     double total = 0;
-    for (int i = 0; i < TS_STAGE_COUNT; ++i) total += s->stage_seconds[i];
+    for (int i = 0; i < TS_STAGE_COUNT; ++i)
+        total += s->stage_seconds[i];
     fprintf(f, "%-14s %10s %7s\n", "stage", "seconds", "share");
     for (int i = 0; i < TS_STAGE_COUNT; ++i)
         fprintf(f, "%-14s %10.4f %6.1f%%\n", ts_stage_names[i], s->stage_seconds[i],

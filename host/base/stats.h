@@ -10,6 +10,7 @@
 
 #include <stdint.h>
 
+/* clang-format off */
 #define TS_COUNTERS(X)                                                                      \
     X(rays, "rays traced (all waves)")                                                      \
     X(shadow_rays, "shadow rays traced")                                                    \
@@ -25,6 +26,7 @@
     X(texture_bytes_uploaded, "bytes of those tiles")                                      \
     X(texture_pool_tiles, "tiles the device pool holds (every tile unless --memory pages)") \
     X(texture_tiles, "tiles of every texture level in the scene")
+/* clang-format on */
 
 typedef enum ts_counter {
 #define TS_COUNTER_ENUM(name, what) TS_COUNTER_##name,

@@ -11,6 +11,7 @@
 
 cl_int ts_dev_inject_alloc_error = 0;
 
+/* clang-format off */
 #define TS_CL_ERRORS(X)                                                                     \
     X(CL_SUCCESS) X(CL_DEVICE_NOT_FOUND) X(CL_DEVICE_NOT_AVAILABLE)                         \
     X(CL_COMPILER_NOT_AVAILABLE) X(CL_MEM_OBJECT_ALLOCATION_FAILURE) X(CL_OUT_OF_RESOURCES) \
@@ -33,12 +34,13 @@ cl_int ts_dev_inject_alloc_error = 0;
     X(CL_INVALID_BUFFER_SIZE) X(CL_INVALID_MIP_LEVEL) X(CL_INVALID_GLOBAL_WORK_SIZE)        \
     X(CL_INVALID_PROPERTY) X(CL_INVALID_IMAGE_DESCRIPTOR) X(CL_INVALID_COMPILER_OPTIONS)    \
     X(CL_INVALID_LINKER_OPTIONS) X(CL_INVALID_DEVICE_PARTITION_COUNT)
+/* clang-format on */
 
 const char *dev_error_name(cl_int code)
 {
     switch (code) {
-#define TS_CL_ERROR_CASE(name)                                                              \
-    case name:                                                                              \
+#define TS_CL_ERROR_CASE(name)                                                                     \
+    case name:                                                                                     \
         return #name;
         TS_CL_ERRORS(TS_CL_ERROR_CASE)
 #undef TS_CL_ERROR_CASE
@@ -64,8 +66,7 @@ static void device_query(ts_device_info *d, ts_error *err)
                     &d->compute_units, NULL);
     clGetDeviceInfo(d->device, CL_DEVICE_GLOBAL_MEM_SIZE, sizeof d->global_mem, &d->global_mem,
                     NULL);
-    clGetDeviceInfo(d->device, CL_DEVICE_LOCAL_MEM_SIZE, sizeof d->local_mem, &d->local_mem,
-                    NULL);
+    clGetDeviceInfo(d->device, CL_DEVICE_LOCAL_MEM_SIZE, sizeof d->local_mem, &d->local_mem, NULL);
     clGetDeviceInfo(d->device, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof d->max_alloc, &d->max_alloc,
                     NULL);
     /* Deprecated in OpenCL 2.0 but answered by every 1.2 driver we target. */
@@ -92,8 +93,7 @@ int dev_list(ts_device_info **out, ts_error *err)
     ts_device_info *list = NULL;
     for (cl_uint p = 0; p < np; ++p) {
         cl_uint nd = 0;
-        if (clGetDeviceIDs(platforms[p], CL_DEVICE_TYPE_ALL, 0, NULL, &nd) != CL_SUCCESS)
-            continue;
+        if (clGetDeviceIDs(platforms[p], CL_DEVICE_TYPE_ALL, 0, NULL, &nd) != CL_SUCCESS) continue;
         cl_device_id devs[64];
         if (nd > 64) nd = 64;
         clGetDeviceIDs(platforms[p], CL_DEVICE_TYPE_ALL, nd, devs, NULL);
@@ -123,7 +123,8 @@ int dev_list(ts_device_info **out, ts_error *err)
 static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
 {
     const unsigned char *p = data;
-    for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ull;
+    for (size_t i = 0; i < n; ++i)
+        h = (h ^ p[i]) * 0x100000001b3ull;
     return h;
 }
 
@@ -133,9 +134,12 @@ static int cache_path(const ts_device_options *opt, uint64_t key, char *out, siz
     char buf[4096];
     if (!dir || !*dir) {
         const char *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
-        if (xdg && *xdg) snprintf(buf, sizeof buf, "%s/tessera", xdg);
-        else if (home && *home) snprintf(buf, sizeof buf, "%s/.cache/tessera", home);
-        else return -1;
+        if (xdg && *xdg)
+            snprintf(buf, sizeof buf, "%s/tessera", xdg);
+        else if (home && *home)
+            snprintf(buf, sizeof buf, "%s/.cache/tessera", home);
+        else
+            return -1;
         dir = buf;
     }
     /* mkdir -p of the last two levels is enough for ~/.cache/tessera. */
@@ -244,8 +248,8 @@ static cl_program program_from_cache(ts_device *cl, const char *path)
     if (!bin) return NULL;
     const unsigned char *bins[1] = {bin};
     cl_int status = 0, rc = 0;
-    cl_program prog = clCreateProgramWithBinary(cl->context, 1, &cl->info.device, &size, bins,
-                                                &status, &rc);
+    cl_program prog =
+        clCreateProgramWithBinary(cl->context, 1, &cl->info.device, &size, bins, &status, &rc);
     free(bin);
     if (rc != CL_SUCCESS || status != CL_SUCCESS) return NULL;
     if (clBuildProgram(prog, 1, &cl->info.device, cl->build_options, NULL, NULL) != CL_SUCCESS) {
@@ -262,8 +266,8 @@ static int program_open(ts_device *cl, const ts_device_options *opt, ts_error *e
     char *src = kernel_source_program(opt->kernel_dir, err);
     if (!src) return err->code;
     uint64_t key = 0xcbf29ce484222325ull;
-    const char *parts[] = {cl->info.platform_name, cl->info.name, cl->info.version,
-                           cl->info.driver, cl->build_options, src};
+    const char *parts[] = {cl->info.platform_name, cl->info.name,     cl->info.version,
+                           cl->info.driver,        cl->build_options, src};
     for (size_t i = 0; i < sizeof parts / sizeof *parts; ++i)
         key = fnv1a(key, parts[i], strlen(parts[i]) + 1);
     char path[4200];
@@ -326,7 +330,8 @@ int dev_open(ts_device *cl, const ts_device_options *opt, ts_error *err)
 
 void dev_close(ts_device *cl)
 {
-    for (size_t i = 0; i < cl->pending_count; ++i) clReleaseEvent(cl->pending[i].event);
+    for (size_t i = 0; i < cl->pending_count; ++i)
+        clReleaseEvent(cl->pending[i].event);
     free(cl->pending);
     if (cl->program) clReleaseProgram(cl->program);
     if (cl->queue) clReleaseCommandQueue(cl->queue);
@@ -398,13 +403,13 @@ int dev_set_args(cl_kernel k, ts_error *err, ...)
 }
 
 int dev_launch(ts_device *cl, cl_kernel k, ts_stage stage, size_t global, size_t local,
-              ts_error *err)
+               ts_error *err)
 {
     return dev_launch_range(cl, k, stage, 0, global, local, err);
 }
 
 int dev_launch_range(ts_device *cl, cl_kernel k, ts_stage stage, size_t offset, size_t global,
-                    size_t local, ts_error *err)
+                     size_t local, ts_error *err)
 {
     if (global == 0) return TS_OK;
     size_t rounded = (global + local - 1) / local * local;
@@ -438,7 +443,8 @@ int dev_finish(ts_device *cl, ts_stats *stats, ts_error *err)
         cl_event ev = cl->pending[i].event;
         clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof start, &start, NULL);
         clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof end, &end, NULL);
-        if (stats && end > start) stats->stage_seconds[cl->pending[i].stage] += 1e-9 * (double)(end - start);
+        if (stats && end > start)
+            stats->stage_seconds[cl->pending[i].stage] += 1e-9 * (double)(end - start);
         clReleaseEvent(ev);
     }
     cl->pending_count = 0;

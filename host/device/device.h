@@ -16,12 +16,12 @@ const char *dev_error_name(cl_int code);
 
 /* Checks an OpenCL call; on failure fills err with the error name, the call and the place,
  * and returns TS_E_DEVICE from the enclosing function (STYLE.md 10). */
-#define CL_CHECK(call, err)                                                                 \
-    do {                                                                                    \
-        cl_int cl_check_rc_ = (call);                                                       \
-        if (cl_check_rc_ != CL_SUCCESS)                                                     \
-            return ts_error_set((err), TS_E_DEVICE, "%s in %s (%s:%d)",                     \
-                                dev_error_name(cl_check_rc_), #call, __FILE__, __LINE__);    \
+#define CL_CHECK(call, err)                                                                        \
+    do {                                                                                           \
+        cl_int cl_check_rc_ = (call);                                                              \
+        if (cl_check_rc_ != CL_SUCCESS)                                                            \
+            return ts_error_set((err), TS_E_DEVICE, "%s in %s (%s:%d)",                            \
+                                dev_error_name(cl_check_rc_), #call, __FILE__, __LINE__);          \
     } while (0)
 
 /* One OpenCL device as `tessera devices` lists it. */
@@ -71,8 +71,8 @@ typedef struct ts_device {
 typedef struct ts_device_options {
     int device_index;       /* -1: TESSERA_DEVICE, else 0 */
     const char *kernel_dir; /* NULL: embedded kernels */
-    const char *cache_dir;  /* NULL: $TESSERA_CACHE_DIR, $XDG_CACHE_HOME/tessera, ~/.cache/tessera */
-    int no_cache;           /* 1: never read or write the binary cache */
+    const char *cache_dir; /* NULL: $TESSERA_CACHE_DIR, $XDG_CACHE_HOME/tessera, ~/.cache/tessera */
+    int no_cache;          /* 1: never read or write the binary cache */
 } ts_device_options;
 
 /* Opens the device, builds (or loads from the cache) the program. */
@@ -89,11 +89,11 @@ int dev_set_args(cl_kernel k, ts_error *err, ...);
 /* The launch wrapper: enqueues `k` over `global` items (rounded up to a multiple of
  * `local`; the kernels guard their range) and records a profiling event for `stage`. */
 int dev_launch(ts_device *cl, cl_kernel k, ts_stage stage, size_t global, size_t local,
-              ts_error *err);
+               ts_error *err);
 /* The same over items [offset, offset + global) (global rounded up; get_global_id counts
  * from offset). */
 int dev_launch_range(ts_device *cl, cl_kernel k, ts_stage stage, size_t offset, size_t global,
-                    size_t local, ts_error *err);
+                     size_t local, ts_error *err);
 /* Waits for the queue and adds every pending launch's (end - start) to stats. */
 int dev_finish(ts_device *cl, ts_stats *stats, ts_error *err);
 

@@ -16,7 +16,8 @@ static int sbuf_add(sbuf *b, const char *s, size_t n)
 {
     if (b->len + n + 1 > b->cap) {
         size_t cap = b->cap ? b->cap : 4096;
-        while (cap < b->len + n + 1) cap *= 2;
+        while (cap < b->len + n + 1)
+            cap *= 2;
         char *p = realloc(b->p, cap);
         if (!p) return -1;
         b->p = p;
@@ -78,13 +79,16 @@ static int inline_file(inliner *in, const char *rel, int depth, ts_error *err);
 static int parse_include(const char *line, size_t len, char *name, size_t cap)
 {
     const char *p = line, *end = line + len;
-    while (p < end && (*p == ' ' || *p == '\t')) ++p;
+    while (p < end && (*p == ' ' || *p == '\t'))
+        ++p;
     if (p == end || *p != '#') return 0;
     ++p;
-    while (p < end && (*p == ' ' || *p == '\t')) ++p;
+    while (p < end && (*p == ' ' || *p == '\t'))
+        ++p;
     if ((size_t)(end - p) < 7 || strncmp(p, "include", 7) != 0) return 0;
     p += 7;
-    while (p < end && (*p == ' ' || *p == '\t')) ++p;
+    while (p < end && (*p == ' ' || *p == '\t'))
+        ++p;
     if (p == end || *p != '"') return 0;
     const char *q = memchr(p + 1, '"', (size_t)(end - p - 1));
     if (!q || (size_t)(q - p - 1) >= cap) return 0;
@@ -179,9 +183,12 @@ char *kernel_source_program(const char *kernel_dir, ts_error *err)
     /* Kernels must round exactly like the host references (no contraction into FMA). */
     const char *prologue = "#pragma OPENCL FP_CONTRACT OFF\n";
     int rc = sbuf_add(&in.out, prologue, strlen(prologue)) ? TS_E_MEMORY : TS_OK;
-    for (int i = 0; i < n && rc == TS_OK; ++i) rc = inline_file(&in, names[i], 0, err);
-    for (int i = 0; i < n; ++i) free(names[i]);
-    for (int i = 0; i < in.seen_count; ++i) free((char *)in.seen[i]);
+    for (int i = 0; i < n && rc == TS_OK; ++i)
+        rc = inline_file(&in, names[i], 0, err);
+    for (int i = 0; i < n; ++i)
+        free(names[i]);
+    for (int i = 0; i < in.seen_count; ++i)
+        free((char *)in.seen[i]);
     if (rc != TS_OK) {
         if (rc == TS_E_MEMORY) ts_error_set(err, TS_E_MEMORY, "out of memory");
         free(in.out.p);

@@ -21,8 +21,8 @@ void pipeline_plan_arenas(ts_pipeline_plan *plan, uint32_t patches, uint32_t m)
     plan->max_lod = m;
 }
 
-int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
-                  uint64_t max_alloc, ts_pipeline_plan *plan, ts_error *err)
+int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod, uint64_t max_alloc,
+                  ts_pipeline_plan *plan, ts_error *err)
 {
     if (max_lod > TS_LOD_LIMIT)
         return ts_error_set(err, TS_E_USAGE, "--max-lod %u is above the limit %d", max_lod,
@@ -31,7 +31,8 @@ int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
      * proportion one patch needs, with room for at least one moving patch at max_lod. */
     uint64_t arena = memory_bytes / 4;
     uint32_t m = max_lod;
-    while (m > 0 && 2 * slot_bytes(m) > arena) --m;
+    while (m > 0 && 2 * slot_bytes(m) > arena)
+        --m;
     if (2 * slot_bytes(m) > arena)
         return ts_error_set(err, TS_E_USAGE, "--memory %llu MB leaves no room for a patch",
                             (unsigned long long)(memory_bytes >> 20));
@@ -41,7 +42,8 @@ int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
     if (vert_bytes > max_alloc) patches = max_alloc / (quadtree_vertex_count(m) * sizeof(ts_vec4));
     if (group_bytes > max_alloc) patches = max_alloc / (quadtree_group_count(m) * sizeof(ts_box4));
     if (patches < 2)
-        return ts_error_set(err, TS_E_USAGE, "the device's largest buffer cannot hold a patch at m = %u", m);
+        return ts_error_set(err, TS_E_USAGE,
+                            "the device's largest buffer cannot hold a patch at m = %u", m);
     uint64_t vcap = patches * quadtree_vertex_count(m), gcap = patches * quadtree_group_count(m);
     plan->vert_capacity = vcap > UINT32_MAX ? UINT32_MAX : (uint32_t)vcap;
     plan->group_capacity = gcap > UINT32_MAX ? UINT32_MAX : (uint32_t)gcap;
@@ -67,11 +69,11 @@ static int create_kernels(ts_pipeline *p, ts_error *err)
         cl_kernel *k;
         const char *name;
     } list[] = {
-        {&p->k_camera, "camera_generate"},   {&p->k_top_level, "top_level_collect"},
+        {&p->k_camera, "camera_generate"},  {&p->k_top_level, "top_level_collect"},
         {&p->k_lod, "lod_count"},           {&p->k_bottom_group, "bottom_level_group"},
-        {&p->k_dice, "dice_grid"},           {&p->k_build_leaves, "build_leaves"},
-        {&p->k_build_level, "build_level"},  {&p->k_bottom_level, "bottom_level_trace"},
-        {&p->k_resolve, "resolve_closest"},  {&p->k_shade, "shade_path"},
+        {&p->k_dice, "dice_grid"},          {&p->k_build_leaves, "build_leaves"},
+        {&p->k_build_level, "build_level"}, {&p->k_bottom_level, "bottom_level_trace"},
+        {&p->k_resolve, "resolve_closest"}, {&p->k_shade, "shade_path"},
         {&p->k_film, "film_accumulate"},
     };
     for (size_t i = 0; i < sizeof list / sizeof *list; ++i)
@@ -125,13 +127,14 @@ static int env_load(const char *path, env_map *e, ts_error *err)
             e->conditional[(size_t)y * w + x] = (float)row;
         }
         for (uint32_t x = 0; x < w; ++x) /* cumulative within the row, ending at 1 */
-            e->conditional[(size_t)y * w + x] = row > 0 ? (float)(e->conditional[(size_t)y * w + x] / row)
-                                                        : (float)(x + 1) / w;
+            e->conditional[(size_t)y * w + x] =
+                row > 0 ? (float)(e->conditional[(size_t)y * w + x] / row) : (float)(x + 1) / w;
         e->conditional[(size_t)y * w + w - 1] = 1.0f;
         total += row;
         e->marginal[y] = (float)total;
     }
-    for (uint32_t y = 0; y < h; ++y) e->marginal[y] = total > 0 ? (float)(e->marginal[y] / total) : (float)(y + 1) / h;
+    for (uint32_t y = 0; y < h; ++y)
+        e->marginal[y] = total > 0 ? (float)(e->marginal[y] / total) : (float)(y + 1) / h;
     e->marginal[h - 1] = 1.0f;
     e->width = w, e->height = h;
     image_free(&img);
@@ -164,9 +167,12 @@ static int build_lights(ts_pipeline *p, ts_patch_attr *attr, ts_light *lights, t
         lights[nl++] = l;
     }
     if (s->dome.present) {
-        ts_light l = {.type = TS_LIGHT_DOME, .cos_max = 1.0f, .map_width = env->width,
+        ts_light l = {.type = TS_LIGHT_DOME,
+                      .cos_max = 1.0f,
+                      .map_width = env->width,
                       .map_height = env->height};
-        for (int k = 0; k < 3; ++k) l.radiance[k] = (float)(s->dome.intensity * s->dome.color[k]);
+        for (int k = 0; k < 3; ++k)
+            l.radiance[k] = (float)(s->dome.intensity * s->dome.color[k]);
         lights[nl++] = l;
     }
     for (uint32_t i = 0; i < s->patch_count; ++i)
@@ -240,7 +246,8 @@ static int create_patch_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *e
             free(flat);
             return ts_error_set(err, TS_E_MEMORY, "out of memory");
         }
-        for (size_t i = 0; i < n * 4; ++i) normals[i].z = 1.0f;
+        for (size_t i = 0; i < n * 4; ++i)
+            normals[i].z = 1.0f;
         cn = normals;
     }
     const ts_xform identity = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
@@ -256,9 +263,11 @@ static int create_patch_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *e
         {&p->attr, n * sizeof(ts_patch_attr), attr},
         {&p->lights, (p->light_count ? p->light_count : 1) * sizeof(ts_light), lights},
         {&p->emitters, (emitter_count ? emitter_count : 1) * sizeof(ts_emitter), emitters},
-        {&p->env_texels, (env.width ? (size_t)env.width * env.height : 1) * sizeof(ts_vec4), env.texels},
+        {&p->env_texels, (env.width ? (size_t)env.width * env.height : 1) * sizeof(ts_vec4),
+         env.texels},
         {&p->env_marginal, (env.width ? env.height : 1) * sizeof(float), env.marginal},
-        {&p->env_conditional, (env.width ? (size_t)env.width * env.height : 1) * sizeof(float), env.conditional},
+        {&p->env_conditional, (env.width ? (size_t)env.width * env.height : 1) * sizeof(float),
+         env.conditional},
         {&p->xform, (s->xform_count ? s->xform_count : 1) * sizeof(ts_xform),
          s->xform_count ? (const void *)s->xform : (const void *)&identity},
         {&p->flatness, n * sizeof(ts_vec4), flat},
@@ -283,8 +292,11 @@ static int create_patch_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *e
     /* Texture tiles: a pool of tex.slots tiles and the page table (tex_cache.h). */
     if (tex_cache_create(&p->tex, s, p->plan.tex_pool_bytes, err)) return err->code;
     size_t slots = p->tex.slots ? p->tex.slots : 1, pages = p->tex.pages ? p->tex.pages : 1;
-    p->tex_pool = dev_buffer_create(p->cl, CL_MEM_READ_ONLY, slots * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4), NULL, err);
-    p->tex_pages = p->tex_pool ? dev_buffer_create(p->cl, CL_MEM_READ_ONLY, pages * sizeof(uint32_t), NULL, err) : NULL;
+    p->tex_pool = dev_buffer_create(p->cl, CL_MEM_READ_ONLY,
+                                    slots * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4), NULL, err);
+    p->tex_pages = p->tex_pool ? dev_buffer_create(p->cl, CL_MEM_READ_ONLY,
+                                                   pages * sizeof(uint32_t), NULL, err)
+                               : NULL;
     if (!p->tex_pages) return err->code;
     return tex_cache_upload_initial(&p->tex, p->cl, p->tex_pool, p->tex_pages, s, p->stats, err);
 }
@@ -305,9 +317,9 @@ static int create_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *err)
         TS_RAY_FIELDS(TS_RAY_ALLOC)
 #undef TS_RAY_ALLOC
 #define TS_PATH_ALLOC(type, name, what) {&p->path_##name, CL_MEM_READ_WRITE, rays * sizeof(type)},
-        TS_PATH_FIELDS(TS_PATH_ALLOC)
+            TS_PATH_FIELDS(TS_PATH_ALLOC)
 #undef TS_PATH_ALLOC
-        {&p->active, host_rw, rays * sizeof(uint32_t)},
+                {&p->active, host_rw, rays * sizeof(uint32_t)},
         {&p->wave_paths, host_rw, rays * sizeof(uint32_t)},
         {&p->count, CL_MEM_READ_WRITE, rays * sizeof(uint32_t)},
         {&p->alive, host_rw, rays * sizeof(uint32_t)},
@@ -335,20 +347,26 @@ static int create_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *err)
     ts_vec4 zero = {0, 0, 0, 0};
     cl_uint zero_u = 0;
     CL_CHECK(clEnqueueFillBuffer(cl->queue, p->accum, &zero, sizeof zero, 0,
-                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL), err);
+                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL),
+             err);
     CL_CHECK(clEnqueueFillBuffer(cl->queue, p->aov_film, &zero, sizeof zero, 0,
-                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL), err);
+                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL),
+             err);
     CL_CHECK(clEnqueueFillBuffer(cl->queue, p->albedo_film, &zero, sizeof zero, 0,
-                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL), err);
+                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL),
+             err);
     CL_CHECK(clEnqueueFillBuffer(cl->queue, p->lod_counts, &zero_u, sizeof zero_u, 0,
-                                 n * sizeof(uint32_t), 0, NULL, NULL), err);
+                                 n * sizeof(uint32_t), 0, NULL, NULL),
+             err);
     CL_CHECK(clEnqueueFillBuffer(cl->queue, p->utilisation, &zero_u, sizeof zero_u, 0,
-                                 2 * sizeof(uint32_t), 0, NULL, NULL), err);
+                                 2 * sizeof(uint32_t), 0, NULL, NULL),
+             err);
     return TS_OK;
 }
 
-int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene, const ts_pipeline_plan *plan,
-                    uint32_t pixel_count, ts_stats *stats, ts_error *err)
+int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
+                    const ts_pipeline_plan *plan, uint32_t pixel_count, ts_stats *stats,
+                    ts_error *err)
 {
     memset(p, 0, sizeof *p);
     p->cl = cl;
@@ -368,7 +386,8 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene, const 
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     }
     memset(p->patch_lod, (int)plan->max_lod, n);
-    for (uint32_t i = 0; i < scene->patch_count; ++i) boxes[i] = scene_patch_box(scene, i);
+    for (uint32_t i = 0; i < scene->patch_count; ++i)
+        boxes[i] = scene_patch_box(scene, i);
     /* The patch boxes: the top-level BVH's leaves, build's clamp (patch_box) and the
      * secondary-ray offset (flatness w). */
     int rc = qbvh_build(&p->qbvh, boxes, scene->patch_count, err);
@@ -385,30 +404,58 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene, const 
                 return ts_error_set(err, TS_E_MEMORY, "out of memory (%zu MiB of sort buffers)",
                                     2 * bytes >> 20);
     }
-    stats->counters[TS_COUNTER_micropolygons_potential] =
-        (uint64_t)scene->patch_count << (2u * plan->max_lod);
+    stats->counters[TS_COUNTER_micropolygons_potential] = (uint64_t)scene->patch_count
+                                                          << (2u * plan->max_lod);
     return TS_OK;
 }
 
 void pipeline_destroy(ts_pipeline *p)
 {
-    cl_kernel ks[] = {p->k_camera, p->k_lod, p->k_top_level, p->k_dice, p->k_build_leaves,
-                      p->k_build_level, p->k_bottom_level, p->k_bottom_group, p->k_resolve,
-                      p->k_shade, p->k_film};
+    cl_kernel ks[] = {p->k_camera,       p->k_lod,         p->k_top_level,    p->k_dice,
+                      p->k_build_leaves, p->k_build_level, p->k_bottom_level, p->k_bottom_group,
+                      p->k_resolve,      p->k_shade,       p->k_film};
     for (size_t i = 0; i < sizeof ks / sizeof *ks; ++i)
         if (ks[i]) clReleaseKernel(ks[i]);
-    cl_mem ms[] = {p->qbvh_nodes, p->cp, p->cp1, p->corner_n, p->attr, p->xform, p->flatness, p->patch_box,
-                   p->lod_counts, p->utilisation, p->lights, p->emitters, p->env_texels, p->env_marginal,
-                   p->env_conditional, p->textures, p->tex_pages, p->tex_pool,
+    cl_mem ms[] = {p->qbvh_nodes,
+                   p->cp,
+                   p->cp1,
+                   p->corner_n,
+                   p->attr,
+                   p->xform,
+                   p->flatness,
+                   p->patch_box,
+                   p->lod_counts,
+                   p->utilisation,
+                   p->lights,
+                   p->emitters,
+                   p->env_texels,
+                   p->env_marginal,
+                   p->env_conditional,
+                   p->textures,
+                   p->tex_pages,
+                   p->tex_pool,
 #define TS_PATH_RELEASE(type, name, what) p->path_##name,
                    TS_PATH_FIELDS(TS_PATH_RELEASE)
 #undef TS_PATH_RELEASE
-                   p->wave_paths, p->albedo, p->albedo_film,
+                       p->wave_paths,
+                   p->albedo,
+                   p->albedo_film,
 #define TS_RAY_RELEASE(type, name, what) p->ray_##name,
                    TS_RAY_FIELDS(TS_RAY_RELEASE)
 #undef TS_RAY_RELEASE
-                   p->active, p->count, p->alive, p->pairs[0], p->pairs[1], p->pair_hit,
-                   p->segments, p->trees, p->grid, p->groups, p->radiance, p->aov, p->accum,
+                       p->active,
+                   p->count,
+                   p->alive,
+                   p->pairs[0],
+                   p->pairs[1],
+                   p->pair_hit,
+                   p->segments,
+                   p->trees,
+                   p->grid,
+                   p->groups,
+                   p->radiance,
+                   p->aov,
+                   p->accum,
                    p->aov_film};
     for (size_t i = 0; i < sizeof ms / sizeof *ms; ++i)
         if (ms[i]) clReleaseMemObject(ms[i]);
@@ -430,8 +477,9 @@ int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 {
     ts_camera_params c = *cam;
     if (dev_set_args(p->k_camera, err, ARG(c), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
-                    ARG(p->ray_entry), ARG(p->ray_pixel), ARG(p->ray_flags), ARG(p->active),
-                    ARG(p->wave_paths), ARG(p->path_throughput), ARG(p->path_mis), ARG(p->radiance), (size_t)0))
+                     ARG(p->ray_entry), ARG(p->ray_pixel), ARG(p->ray_flags), ARG(p->active),
+                     ARG(p->wave_paths), ARG(p->path_throughput), ARG(p->path_mis),
+                     ARG(p->radiance), (size_t)0))
         return err->code;
     return dev_launch(p->cl, p->k_camera, TS_STAGE_camera, c.ray_count, TS_LOCAL_SIZE, err);
 }
@@ -439,7 +487,7 @@ int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 {
     if (dev_set_args(p->k_lod, err, ARG(p->qbvh_nodes), ARG(ray_count), ARG(p->ray_org),
-                    ARG(p->ray_dir), ARG(p->lod_counts), (size_t)0))
+                     ARG(p->ray_dir), ARG(p->lod_counts), (size_t)0))
         return err->code;
     return dev_launch(p->cl, p->k_lod, TS_STAGE_lod, ray_count, TS_LOCAL_SIZE, err);
 }
@@ -461,7 +509,8 @@ int pipeline_lod_finish(ts_pipeline *p, ts_error *err)
     for (uint32_t i = 0; rc == CL_SUCCESS && i < n; ++i) {
         /* Smallest m with 4^m >= R / spp (Hanika §3.3), at most max_lod. */
         uint32_t m = 0;
-        while (m < p->plan.max_lod && ((uint64_t)1 << (2 * m)) * p->mode.spp < counts[i]) ++m;
+        while (m < p->plan.max_lod && ((uint64_t)1 << (2 * m)) * p->mode.spp < counts[i])
+            ++m;
         p->patch_lod[i] = (uint8_t)m;
     }
     free(counts);

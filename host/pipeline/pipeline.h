@@ -23,10 +23,12 @@
 
 /* Bytes of device memory one ray costs: its SoA fields, active/count/alive, radiance and
  * aov, and TS_PAIRS_PER_RAY pairs (two sort buffers + a hit record each). */
-#define TS_BYTES_PER_RAY                                                                    \
-    (16u + 16u + 20u + 4u + 4u + 4u /* ray fields */ + 4u + 4u + 4u + 4u /* active, count,  \
-    alive, wave_paths */ + 3u * 16u /* path fields */ + 16u + 16u + 16u /* radiance, aov,     \
-    albedo */ + TS_PAIRS_PER_RAY * (8u + 8u + 20u))
+#define TS_BYTES_PER_RAY                                                                           \
+    (16u + 16u + 20u + 4u + 4u + 4u /* ray fields */ + 4u + 4u + 4u + 4u /* active, count,         \
+    alive, wave_paths */                                                                           \
+     + 3u * 16u /* path fields */ + 16u + 16u + 16u                      /* radiance, aov,         \
+     albedo */                                                                     \
+     + TS_PAIRS_PER_RAY * (8u + 8u + 20u))
 
 typedef struct ts_pipeline_plan {
     uint32_t ray_capacity;   /* rays per wave */
@@ -42,20 +44,20 @@ typedef struct ts_pipeline_plan {
  * waves of at most `rays_wanted`, within the device's single-allocation limit. If the
  * arenas cannot hold one moving patch at max_lod, max_lod is lowered until they can (the
  * caller reports it: plan->max_lod < max_lod). Returns TS_E_USAGE when nothing fits. */
-int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
-                  uint64_t max_alloc, ts_pipeline_plan *plan, ts_error *err);
+int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod, uint64_t max_alloc,
+                  ts_pipeline_plan *plan, ts_error *err);
 
 /* Arena sizes that hold `patches` moving patches at LOD m, for tests. */
 void pipeline_plan_arenas(ts_pipeline_plan *plan, uint32_t patches, uint32_t m);
 
 /* How the bottom level picks the LOD and what it intersects (DESIGN.md §2-3). */
 typedef struct ts_trace_mode {
-    uint32_t spp;  /* samples per pixel, for the LOD rule 4^m >= R / spp */
-    int fixed_lod; /* >= 0: every patch at this m (cross-checks); -1: per patch from the lod
-                      stage's counts (pipeline_lod_*) */
-    int exact;     /* 1: micro-triangles (cross-checks at fixed m); 0: leaf boxes as
-                      geometry, hole-free across LODs (Hanika §3.3) */
-    int leaf_group; /* 1: work-group-wide leaf intersection (PantaRay Fig. 8); 0: per ray */
+    uint32_t spp;    /* samples per pixel, for the LOD rule 4^m >= R / spp */
+    int fixed_lod;   /* >= 0: every patch at this m (cross-checks); -1: per patch from the lod
+                        stage's counts (pipeline_lod_*) */
+    int exact;       /* 1: micro-triangles (cross-checks at fixed m); 0: leaf boxes as
+                        geometry, hole-free across LODs (Hanika §3.3) */
+    int leaf_group;  /* 1: work-group-wide leaf intersection (PantaRay Fig. 8); 0: per ray */
     uint32_t leaf_b; /* leaves are blocks of 2^leaf_b x 2^leaf_b micro-quads (0..2) */
 } ts_trace_mode;
 
@@ -83,8 +85,8 @@ typedef struct ts_pipeline {
     ts_batch *batches;         /* one per patch at most */
     uint32_t batch_count;
     uint8_t *patch_lod; /* m of each patch for this frame (lod stage); max_lod until counted */
-    cl_kernel k_camera, k_lod, k_top_level, k_dice, k_build_leaves, k_build_level,
-        k_bottom_level, k_bottom_group, k_resolve, k_shade, k_film;
+    cl_kernel k_camera, k_lod, k_top_level, k_dice, k_build_leaves, k_build_level, k_bottom_level,
+        k_bottom_group, k_resolve, k_shade, k_film;
     cl_mem utilisation; /* 2 uints: micro-quad tests, work-item slots (bottom_level) */
     cl_mem qbvh_nodes, cp, cp1, corner_n, attr, xform, flatness, lod_counts, lights, emitters;
     cl_mem patch_box; /* scene_patch_box of every patch: build clamps leaf boxes to it */
@@ -104,8 +106,9 @@ typedef struct ts_pipeline {
 } ts_pipeline;
 
 /* Creates buffers and kernels for `scene` on `cl` with an image of pixel_count pixels. */
-int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene, const ts_pipeline_plan *plan,
-                    uint32_t pixel_count, ts_stats *stats, ts_error *err);
+int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
+                    const ts_pipeline_plan *plan, uint32_t pixel_count, ts_stats *stats,
+                    ts_error *err);
 void pipeline_destroy(ts_pipeline *p);
 
 /* camera: generates rays (and paths) first_sample .. first_sample + ray_count; lists them

@@ -9,7 +9,7 @@
 /* Binary build node: leaf when count == 1. */
 typedef struct bnode {
     ts_box box;
-    int32_t left, right; /* children (binary node indices), -1 for a leaf */
+    int32_t left, right;   /* children (binary node indices), -1 for a leaf */
     uint32_t first, count; /* range in the index array */
     uint32_t axis;
 } bnode;
@@ -62,7 +62,8 @@ static int sah_split(const builder *b, uint32_t first, uint32_t count, uint32_t 
         if (!(hi[a] > lo[a])) continue;
         ts_box bin_box[SAH_BINS];
         uint32_t bin_n[SAH_BINS] = {0};
-        for (int k = 0; k < SAH_BINS; ++k) bin_box[k] = box_empty();
+        for (int k = 0; k < SAH_BINS; ++k)
+            bin_box[k] = box_empty();
         float scale = SAH_BINS / (hi[a] - lo[a]);
         for (uint32_t i = first; i < first + count; ++i) {
             int k = (int)((b->centroid[3 * b->index[i] + a] - lo[a]) * scale);
@@ -100,7 +101,8 @@ static int32_t build_binary(builder *b, uint32_t first, uint32_t count)
     int32_t id = (int32_t)b->node_count++;
     bnode *nd = &b->nodes[id];
     nd->box = box_empty();
-    for (uint32_t i = first; i < first + count; ++i) box_grow(&nd->box, &b->boxes[b->index[i]]);
+    for (uint32_t i = first; i < first + count; ++i)
+        box_grow(&nd->box, &b->boxes[b->index[i]]);
     nd->first = first;
     nd->count = count;
     nd->left = nd->right = -1;
@@ -112,7 +114,8 @@ static int32_t build_binary(builder *b, uint32_t first, uint32_t count)
         /* Partition: centroids below pos go left (the lower side along axis). */
         uint32_t i = first, j = first + count;
         while (i < j) {
-            if (b->centroid[3 * b->index[i] + axis] < pos) ++i;
+            if (b->centroid[3 * b->index[i] + axis] < pos)
+                ++i;
             else {
                 uint32_t t = b->index[i];
                 b->index[i] = b->index[--j];

@@ -17,8 +17,8 @@ static void mark_page(ts_tex_cache *c, uint32_t page)
 /* Marks the tiles of levels 0..last of texture id holding the texels tex_range or a
  * bilinear lookup reads for any (s, t) in [s0, s1] x [t0, t1] (one texel of padding on
  * each side over tex_span's, for the rounding of st at the points inside). */
-static void mark_rect(ts_tex_cache *c, const ts_scene *s, uint32_t id, float s0, float t0,
-                      float s1, float t1, uint32_t last, uint32_t *count)
+static void mark_rect(ts_tex_cache *c, const ts_scene *s, uint32_t id, float s0, float t0, float s1,
+                      float t1, uint32_t last, uint32_t *count)
 {
     const ts_texture *t = &s->textures[id];
     ts_i32 ax = 0, bx = 0, ay = 0, by = 0;
@@ -33,9 +33,11 @@ static void mark_rect(ts_tex_cache *c, const ts_scene *s, uint32_t id, float s0,
         int ny = tex_level_ranges(!part_y, ay, by, t->height, k, ry);
         uint32_t tiles_x = tex_tiles_x(t, k);
         for (int q = 0; q < ny; q++)
-            for (uint32_t ty = ry[2 * q] >> TS_TEX_TILE_LOG2; ty <= ry[2 * q + 1] >> TS_TEX_TILE_LOG2; ty++)
+            for (uint32_t ty = ry[2 * q] >> TS_TEX_TILE_LOG2;
+                 ty <= ry[2 * q + 1] >> TS_TEX_TILE_LOG2; ty++)
                 for (int r = 0; r < nx; r++)
-                    for (uint32_t tx = rx[2 * r] >> TS_TEX_TILE_LOG2; tx <= rx[2 * r + 1] >> TS_TEX_TILE_LOG2; tx++)
+                    for (uint32_t tx = rx[2 * r] >> TS_TEX_TILE_LOG2;
+                         tx <= rx[2 * r + 1] >> TS_TEX_TILE_LOG2; tx++)
                         if (count)
                             ++*count; /* counting only: an upper bound (no deduplication) */
                         else
@@ -52,7 +54,8 @@ static void st_box(const ts_patch_attr *a, float u0, float v0, float u1, float v
     for (int k = 0; k < 4; k++) {
         float st[2];
         tex_patch_st(a, uv[k][0], uv[k][1], &st[0], &st[1]);
-        for (int d = 0; d < 2; d++) lo[d] = fminf(lo[d], st[d]), hi[d] = fmaxf(hi[d], st[d]);
+        for (int d = 0; d < 2; d++)
+            lo[d] = fminf(lo[d], st[d]), hi[d] = fmaxf(hi[d], st[d]);
     }
 }
 
@@ -68,8 +71,10 @@ void tex_cache_mark_patch(ts_tex_cache *c, const ts_scene *s, uint32_t p)
     if (a->disp_kind != TS_DISP_TEXTURE && !(a->flags & TS_PATCH_COLOR_TEX)) return;
     float lo[2], hi[2];
     st_box(a, 0.0f, 0.0f, 1.0f, 1.0f, lo, hi);
-    if (a->disp_kind == TS_DISP_TEXTURE) mark_rect(c, s, a->disp_tex, lo[0], lo[1], hi[0], hi[1], TS_TEX_MAX_LEVELS, NULL);
-    if (a->flags & TS_PATCH_COLOR_TEX) mark_rect(c, s, a->color_tex, lo[0], lo[1], hi[0], hi[1], 0u, NULL);
+    if (a->disp_kind == TS_DISP_TEXTURE)
+        mark_rect(c, s, a->disp_tex, lo[0], lo[1], hi[0], hi[1], TS_TEX_MAX_LEVELS, NULL);
+    if (a->flags & TS_PATCH_COLOR_TEX)
+        mark_rect(c, s, a->color_tex, lo[0], lo[1], hi[0], hi[1], 0u, NULL);
 }
 
 uint32_t tex_cache_mark_hit(ts_tex_cache *c, const ts_scene *s, uint32_t p, float u0, float v0,
@@ -94,7 +99,8 @@ int tex_cache_create(ts_tex_cache *c, const ts_scene *s, uint64_t pool_bytes, ts
     size_t np = c->pages ? c->pages : 1, npatch = s->patch_count ? s->patch_count : 1;
     c->page_mark = calloc(np, sizeof *c->page_mark);
     c->patch_tiles = calloc(npatch, sizeof *c->patch_tiles);
-    if (!c->page_mark || !c->patch_tiles) return ts_error_set(err, TS_E_MEMORY, "out of memory for the texture cache");
+    if (!c->page_mark || !c->patch_tiles)
+        return ts_error_set(err, TS_E_MEMORY, "out of memory for the texture cache");
     for (uint32_t p = 0; p < s->patch_count && c->pages; p++) {
         tex_cache_begin(c);
         tex_cache_mark_patch(c, s, p);
@@ -104,7 +110,8 @@ int tex_cache_create(ts_tex_cache *c, const ts_scene *s, uint64_t pool_bytes, ts
     uint64_t budget = pool_bytes / TILE_BYTES;
     c->slots = pool_bytes == 0 || budget >= c->pages ? c->pages : (uint32_t)budget;
     /* One patch always fits, with room for the rounding of a hit's st box (tex_cache.h). */
-    if (c->slots < c->max_patch_tiles + TS_TEX_CACHE_SLACK) c->slots = c->max_patch_tiles + TS_TEX_CACHE_SLACK;
+    if (c->slots < c->max_patch_tiles + TS_TEX_CACHE_SLACK)
+        c->slots = c->max_patch_tiles + TS_TEX_CACHE_SLACK;
     if (c->slots > c->pages) c->slots = c->pages;
     c->paged = c->slots < c->pages;
     size_t ns = c->slots ? c->slots : 1;
@@ -113,8 +120,10 @@ int tex_cache_create(ts_tex_cache *c, const ts_scene *s, uint64_t pool_bytes, ts
     c->slot_stamp = calloc(ns, sizeof *c->slot_stamp);
     if (!c->page_slot || !c->slot_page || !c->slot_stamp)
         return ts_error_set(err, TS_E_MEMORY, "out of memory for the texture cache");
-    for (uint32_t i = 0; i < np; i++) c->page_slot[i] = c->paged || i >= c->pages ? TS_INVALID : i;
-    for (uint32_t i = 0; i < ns; i++) c->slot_page[i] = c->paged || i >= c->pages ? TS_INVALID : i;
+    for (uint32_t i = 0; i < np; i++)
+        c->page_slot[i] = c->paged || i >= c->pages ? TS_INVALID : i;
+    for (uint32_t i = 0; i < ns; i++)
+        c->slot_page[i] = c->paged || i >= c->pages ? TS_INVALID : i;
     return TS_OK;
 }
 
@@ -138,8 +147,8 @@ int tex_cache_upload_initial(ts_tex_cache *c, ts_device *cl, cl_mem pool, cl_mem
         stats->counters[TS_COUNTER_texture_tiles_uploaded] += c->pages;
         stats->counters[TS_COUNTER_texture_bytes_uploaded] += (uint64_t)c->pages * TILE_BYTES;
     }
-    CL_CHECK(clEnqueueWriteBuffer(cl->queue, page_table, CL_TRUE, 0, (size_t)c->pages * sizeof(uint32_t),
-                                  c->page_slot, 0, NULL, NULL),
+    CL_CHECK(clEnqueueWriteBuffer(cl->queue, page_table, CL_TRUE, 0,
+                                  (size_t)c->pages * sizeof(uint32_t), c->page_slot, 0, NULL, NULL),
              err);
     return TS_OK;
 }
@@ -149,7 +158,8 @@ int tex_cache_commit(ts_tex_cache *c, ts_device *cl, cl_mem pool, cl_mem page_ta
 {
     if (!c->paged || c->marked == 0) return TS_OK;
     if (c->marked > c->slots)
-        return ts_error_set(err, TS_E_INTERNAL, "texture request of %u tiles for a pool of %u", c->marked, c->slots);
+        return ts_error_set(err, TS_E_INTERNAL, "texture request of %u tiles for a pool of %u",
+                            c->marked, c->slots);
     /* Marked pages already resident stay; their slots are this request's. */
     for (uint32_t i = 0; i < c->slots; i++)
         if (c->slot_page[i] != TS_INVALID && c->page_mark[c->slot_page[i]] == c->request)
@@ -169,22 +179,25 @@ int tex_cache_commit(ts_tex_cache *c, ts_device *cl, cl_mem pool, cl_mem page_ta
             }
             if (best == TS_INVALID || c->slot_stamp[i] < c->slot_stamp[best]) best = i;
         }
-        if (best == TS_INVALID) return ts_error_set(err, TS_E_INTERNAL, "texture pool: no slot left");
+        if (best == TS_INVALID)
+            return ts_error_set(err, TS_E_INTERNAL, "texture pool: no slot left");
         hand = best + 1;
         if (c->slot_page[best] != TS_INVALID) c->page_slot[c->slot_page[best]] = TS_INVALID;
         c->slot_page[best] = page;
         c->slot_stamp[best] = c->request;
         c->page_slot[page] = best;
-        CL_CHECK(clEnqueueWriteBuffer(cl->queue, pool, CL_TRUE, (size_t)best * TILE_BYTES, TILE_BYTES,
-                                      s->tex_pool + (size_t)page * TILE_TEXELS, 0, NULL, NULL),
+        CL_CHECK(clEnqueueWriteBuffer(cl->queue, pool, CL_TRUE, (size_t)best * TILE_BYTES,
+                                      TILE_BYTES, s->tex_pool + (size_t)page * TILE_TEXELS, 0, NULL,
+                                      NULL),
                  err);
         stats->counters[TS_COUNTER_texture_tiles_uploaded] += 1;
         stats->counters[TS_COUNTER_texture_bytes_uploaded] += TILE_BYTES;
         moved = 1;
     }
     if (moved)
-        CL_CHECK(clEnqueueWriteBuffer(cl->queue, page_table, CL_TRUE, 0, (size_t)c->pages * sizeof(uint32_t),
-                                      c->page_slot, 0, NULL, NULL),
+        CL_CHECK(clEnqueueWriteBuffer(cl->queue, page_table, CL_TRUE, 0,
+                                      (size_t)c->pages * sizeof(uint32_t), c->page_slot, 0, NULL,
+                                      NULL),
                  err);
     return TS_OK;
 }

@@ -22,15 +22,15 @@
 #define TS_TEX_CACHE_SLACK 16u
 
 typedef struct ts_tex_cache {
-    uint32_t pages;       /* tiles in the scene: entries of the page table */
-    uint32_t slots;       /* tiles the device pool holds */
-    int paged;            /* slots < pages: tiles move in and out */
-    uint32_t *page_slot;  /* host copy of the page table */
-    uint32_t *slot_page;  /* the page each slot holds, TS_INVALID when free */
-    uint64_t *slot_stamp; /* request that last used the slot (LRU) */
-    uint64_t *page_mark;  /* request that last marked the page */
-    uint64_t request;     /* current request number (starts at 1) */
-    uint32_t marked;      /* pages marked by the current request */
+    uint32_t pages;        /* tiles in the scene: entries of the page table */
+    uint32_t slots;        /* tiles the device pool holds */
+    int paged;             /* slots < pages: tiles move in and out */
+    uint32_t *page_slot;   /* host copy of the page table */
+    uint32_t *slot_page;   /* the page each slot holds, TS_INVALID when free */
+    uint64_t *slot_stamp;  /* request that last used the slot (LRU) */
+    uint64_t *page_mark;   /* request that last marked the page */
+    uint64_t request;      /* current request number (starts at 1) */
+    uint32_t marked;       /* pages marked by the current request */
     uint32_t *patch_tiles; /* per patch: an upper bound of the pages one request for it marks */
     uint32_t max_patch_tiles;
 } ts_tex_cache;

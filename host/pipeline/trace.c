@@ -15,12 +15,11 @@
 
 #define ARG(x) sizeof(x), &(x)
 
-static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray,
-                           ts_error *err)
+static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err)
 {
     if (dev_set_args(p->k_top_level, err, ARG(p->qbvh_nodes), ARG(p->active), ARG(active_count),
-                    ARG(n_per_ray), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
-                    ARG(p->ray_entry), ARG(p->pairs[0]), ARG(p->count), (size_t)0))
+                     ARG(n_per_ray), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
+                     ARG(p->ray_entry), ARG(p->pairs[0]), ARG(p->count), (size_t)0))
         return err->code;
     if (dev_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
         return err->code;
@@ -34,8 +33,9 @@ static void assign_lods(ts_pipeline *p, uint32_t segs)
     int fixed = p->mode.fixed_lod;
     for (uint32_t i = 0; i < segs; ++i) {
         ts_segment *s = &p->segments_host[i];
-        s->lod = fixed >= 0 ? ((uint32_t)fixed < p->plan.max_lod ? (uint32_t)fixed : p->plan.max_lod)
-                            : p->patch_lod[s->patch];
+        s->lod = fixed >= 0
+                     ? ((uint32_t)fixed < p->plan.max_lod ? (uint32_t)fixed : p->plan.max_lod)
+                     : p->patch_lod[s->patch];
     }
 }
 
@@ -52,7 +52,8 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
         s->flags = a->flags & TS_PATCH_MOVING;
         s->pad = 0;
         uint32_t times = s->flags ? 2u : 1u;
-        uint32_t nv = times * quadtree_vertex_count(s->lod), ng = times * quadtree_group_count(s->lod);
+        uint32_t nv = times * quadtree_vertex_count(s->lod),
+                 ng = times * quadtree_group_count(s->lod);
         /* Texture tiles: the batch's patches' needs add up to at most the pool (an over-count
          * where they share tiles; each alone fits, tex_cache_create sized the pool so). */
         uint32_t nt = p->tex.paged ? p->tex.patch_tiles[s->patch] : 0u;
@@ -66,18 +67,23 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
         s->group_first = gused;
         vused += nv, gused += ng, tused += nt;
         b->seg_count++;
-        for (uint32_t t = 0; t < times; ++t) p->trees_host[ntrees++] = (i << 1) | t, b->tree_count++;
+        for (uint32_t t = 0; t < times; ++t)
+            p->trees_host[ntrees++] = (i << 1) | t, b->tree_count++;
     }
     /* Counting sort of each batch's trees by decreasing m (stable). */
     for (uint32_t k = 0; k < p->batch_count; ++k) {
         ts_batch *bk = &p->batches[k];
         uint32_t *list = &p->trees_host[bk->tree_first], count[TS_LOD_LIMIT + 1] = {0};
-        uint32_t tmp[2 * 64], *scratch = bk->tree_count <= 128 ? tmp : malloc(bk->tree_count * sizeof *scratch);
+        uint32_t tmp[2 * 64],
+            *scratch = bk->tree_count <= 128 ? tmp : malloc(bk->tree_count * sizeof *scratch);
         if (!scratch) continue; /* unsorted: build_level then visits idle trees, still correct */
-        for (uint32_t t = 0; t < bk->tree_count; ++t) count[p->segments_host[TS_TREE_SEGMENT(list[t])].lod]++;
+        for (uint32_t t = 0; t < bk->tree_count; ++t)
+            count[p->segments_host[TS_TREE_SEGMENT(list[t])].lod]++;
         uint32_t start[TS_LOD_LIMIT + 1], at = 0;
-        for (int m = TS_LOD_LIMIT; m >= 0; --m) start[m] = at, at += count[m];
-        for (uint32_t t = 0; t < bk->tree_count; ++t) scratch[start[p->segments_host[TS_TREE_SEGMENT(list[t])].lod]++] = list[t];
+        for (int m = TS_LOD_LIMIT; m >= 0; --m)
+            start[m] = at, at += count[m];
+        for (uint32_t t = 0; t < bk->tree_count; ++t)
+            scratch[start[p->segments_host[TS_TREE_SEGMENT(list[t])].lod]++] = list[t];
         memcpy(list, scratch, bk->tree_count * sizeof *list);
         if (scratch != tmp) free(scratch);
     }
@@ -98,7 +104,8 @@ static int sort_via_copy(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, ui
     int rc = radix_sort_pairs(p->sorter, a, b, n, p->scene->patch_count, &sorted, valid, err);
     if (rc) return rc;
     *segs = sort_segments(sorted, *valid, p->segments_host, p->scene->patch_count);
-    if (*segs == UINT32_MAX) return ts_error_set(err, TS_E_INTERNAL, "sort: more segments than patches");
+    if (*segs == UINT32_MAX)
+        return ts_error_set(err, TS_E_INTERNAL, "sort: more segments than patches");
     if (*valid)
         CL_CHECK(clEnqueueWriteBuffer(q, p->pairs[0], CL_TRUE, 0, (size_t)*valid * sizeof(ts_pair),
                                       sorted, 0, NULL, NULL),
@@ -155,7 +162,8 @@ static int stage_sort(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint3
         CL_CHECK(clEnqueueWriteBuffer(q, p->segments, CL_TRUE, 0, segs * sizeof(ts_segment),
                                       p->segments_host, 0, NULL, NULL),
                  err);
-        uint32_t trees = p->batches[p->batch_count - 1].tree_first + p->batches[p->batch_count - 1].tree_count;
+        uint32_t trees =
+            p->batches[p->batch_count - 1].tree_first + p->batches[p->batch_count - 1].tree_count;
         CL_CHECK(clEnqueueWriteBuffer(q, p->trees, CL_TRUE, 0, trees * sizeof(uint32_t),
                                       p->trees_host, 0, NULL, NULL),
                  err);
@@ -177,7 +185,8 @@ static uint32_t tree_run(const ts_pipeline *p, const ts_batch *b, uint32_t t, ui
 {
     uint32_t run = 0;
     *m = tree_lod(p, b, t);
-    while (t + run < b->tree_count && tree_lod(p, b, t + run) == *m) ++run;
+    while (t + run < b->tree_count && tree_lod(p, b, t + run) == *m)
+        ++run;
     return run;
 }
 
@@ -199,17 +208,18 @@ static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
         uint32_t m, run = tree_run(p, b, t, &m);
         uint32_t first = b->tree_first + t;
         if (dev_set_args(p->k_dice, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
-                        ARG(p->segments), ARG(p->cp), ARG(p->cp1), ARG(p->corner_n), ARG(p->attr),
-                        ARG(p->xform), ARG(p->textures), ARG(p->tex_pages), ARG(p->tex_pool),
-                        ARG(p->grid), (size_t)0) ||
+                         ARG(p->segments), ARG(p->cp), ARG(p->cp1), ARG(p->corner_n), ARG(p->attr),
+                         ARG(p->xform), ARG(p->textures), ARG(p->tex_pages), ARG(p->tex_pool),
+                         ARG(p->grid), (size_t)0) ||
             dev_launch(p->cl, p->k_dice, TS_STAGE_dice, (size_t)run * quadtree_vertex_count(m),
-                      TS_LOCAL_SIZE, err))
+                       TS_LOCAL_SIZE, err))
             return err->code;
         t += run;
     }
     for (uint32_t i = b->seg_first; i < b->seg_first + b->seg_count; ++i) {
         p->stats->counters[TS_COUNTER_patches_diced] += 1;
-        p->stats->counters[TS_COUNTER_micropolygons_created] += 1ull << (2u * p->segments_host[i].lod);
+        p->stats->counters[TS_COUNTER_micropolygons_created] += 1ull
+                                                                << (2u * p->segments_host[i].lod);
         p->stats->lod_histogram[p->segments_host[i].lod] += 1;
     }
     return TS_OK;
@@ -224,21 +234,22 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
         if (t == 0) top = m;
         uint32_t first = b->tree_first + t;
         if (dev_set_args(p->k_build_leaves, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
-                        ARG(p->segments), ARG(p->grid), ARG(p->corner_n), ARG(p->attr),
-                        ARG(p->xform), ARG(p->flatness), ARG(p->patch_box), ARG(p->textures),
-                        ARG(p->tex_pages), ARG(p->tex_pool), ARG(p->groups), (size_t)0) ||
+                         ARG(p->segments), ARG(p->grid), ARG(p->corner_n), ARG(p->attr),
+                         ARG(p->xform), ARG(p->flatness), ARG(p->patch_box), ARG(p->textures),
+                         ARG(p->tex_pages), ARG(p->tex_pool), ARG(p->groups), (size_t)0) ||
             dev_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
-                      TS_LOCAL_SIZE, err))
+                       TS_LOCAL_SIZE, err))
             return err->code;
         t += run;
     }
     for (uint32_t level = top; level-- > 0;) {
         uint32_t deeper = 0; /* trees with m > level: a prefix of the list */
-        while (deeper < b->tree_count && tree_lod(p, b, deeper) > level) ++deeper;
+        while (deeper < b->tree_count && tree_lod(p, b, deeper) > level)
+            ++deeper;
         if (dev_set_args(p->k_build_level, err, ARG(p->trees), ARG(b->tree_first), ARG(deeper),
-                        ARG(level), ARG(p->segments), ARG(p->groups), (size_t)0) ||
+                         ARG(level), ARG(p->segments), ARG(p->groups), (size_t)0) ||
             dev_launch(p->cl, p->k_build_level, TS_STAGE_build, (size_t)deeper << (2u * level),
-                      TS_LOCAL_SIZE, err))
+                       TS_LOCAL_SIZE, err))
             return err->code;
     }
     return TS_OK;
@@ -253,10 +264,10 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
     uint32_t leaf_b = p->mode.leaf_b;
     cl_kernel k = p->mode.leaf_group ? p->k_bottom_group : p->k_bottom_level;
     if (dev_set_args(k, err, ARG(p->pairs[sorted_buffer]), ARG(pair_first), ARG(pair_count),
-                    ARG(p->segments), ARG(first), ARG(count), ARG(n_per_ray), ARG(exact),
-                    ARG(leaf_b), ARG(p->active), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
-                    ARG(p->ray_flags), ARG(p->grid), ARG(p->groups), ARG(p->pair_hit),
-                    ARG(p->utilisation), (size_t)0))
+                     ARG(p->segments), ARG(first), ARG(count), ARG(n_per_ray), ARG(exact),
+                     ARG(leaf_b), ARG(p->active), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
+                     ARG(p->ray_flags), ARG(p->grid), ARG(p->groups), ARG(p->pair_hit),
+                     ARG(p->utilisation), (size_t)0))
         return err->code;
     return dev_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
 }
@@ -267,8 +278,8 @@ static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_r
                          uint32_t *still_active, ts_error *err)
 {
     if (dev_set_args(p->k_resolve, err, ARG(p->active), ARG(active_count), ARG(n_per_ray),
-                    ARG(p->count), ARG(p->pair_hit), ARG(p->ray_hit), ARG(p->ray_entry),
-                    ARG(p->ray_flags), ARG(p->alive), (size_t)0) ||
+                     ARG(p->count), ARG(p->pair_hit), ARG(p->ray_hit), ARG(p->ray_entry),
+                     ARG(p->ray_flags), ARG(p->alive), (size_t)0) ||
         dev_launch(p->cl, p->k_resolve, TS_STAGE_resolve, active_count, TS_LOCAL_SIZE, err) ||
         dev_finish(p->cl, p->stats, err))
         return err->code;
@@ -278,8 +289,8 @@ static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_r
     cl_int rc0, rc1;
     uint32_t *act = clEnqueueMapBuffer(q, p->active, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes,
                                        0, NULL, NULL, &rc0);
-    uint32_t *alive = clEnqueueMapBuffer(q, p->alive, CL_TRUE, CL_MAP_READ, 0, bytes, 0, NULL,
-                                         NULL, &rc1);
+    uint32_t *alive =
+        clEnqueueMapBuffer(q, p->alive, CL_TRUE, CL_MAP_READ, 0, bytes, 0, NULL, NULL, &rc1);
     CL_CHECK(rc0, err);
     CL_CHECK(rc1, err);
     uint32_t n = 0;
@@ -290,11 +301,14 @@ static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_r
     *still_active = n;
     /* Leaf utilisation of this iteration's bottom_level launches (32-bit counters, reset). */
     cl_uint util[2] = {0, 0};
-    CL_CHECK(clEnqueueReadBuffer(q, p->utilisation, CL_TRUE, 0, sizeof util, util, 0, NULL, NULL), err);
+    CL_CHECK(clEnqueueReadBuffer(q, p->utilisation, CL_TRUE, 0, sizeof util, util, 0, NULL, NULL),
+             err);
     p->stats->counters[TS_COUNTER_leaf_tests] += util[0];
     p->stats->counters[TS_COUNTER_leaf_slots] += util[1];
     cl_uint zero = 0;
-    CL_CHECK(clEnqueueFillBuffer(q, p->utilisation, &zero, sizeof zero, 0, sizeof util, 0, NULL, NULL), err);
+    CL_CHECK(
+        clEnqueueFillBuffer(q, p->utilisation, &zero, sizeof zero, 0, sizeof util, 0, NULL, NULL),
+        err);
     p->stats->stage_seconds[TS_STAGE_resolve] += stats_now() - t0;
     return TS_OK;
 }
@@ -308,12 +322,14 @@ int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
 {
     plan_batches(p, count); /* the caller set each segment's LOD */
     if (p->batch_count != 1)
-        return ts_error_set(err, TS_E_INTERNAL, "pipeline_dice_build: the segments do not fit one batch");
+        return ts_error_set(err, TS_E_INTERNAL,
+                            "pipeline_dice_build: the segments do not fit one batch");
     CL_CHECK(clEnqueueWriteBuffer(p->cl->queue, p->segments, CL_TRUE, 0, count * sizeof(ts_segment),
                                   p->segments_host, 0, NULL, NULL),
              err);
     CL_CHECK(clEnqueueWriteBuffer(p->cl->queue, p->trees, CL_TRUE, 0,
-                                  p->batches[0].tree_count * sizeof(uint32_t), p->trees_host, 0, NULL, NULL),
+                                  p->batches[0].tree_count * sizeof(uint32_t), p->trees_host, 0,
+                                  NULL, NULL),
              err);
     if (stage_dice(p, &p->batches[0], err) || stage_build(p, &p->batches[0], err)) return err->code;
     return dev_finish(p->cl, p->stats, err);
@@ -363,7 +379,8 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 static int launch_shade_range(ts_pipeline *p, uint32_t first, uint32_t end, ts_error *err)
 {
     CL_CHECK(clSetKernelArg(p->k_shade, 5, sizeof end, &end), err);
-    return dev_launch_range(p->cl, p->k_shade, TS_STAGE_shade, first, end - first, TS_LOCAL_SIZE, err);
+    return dev_launch_range(p->cl, p->k_shade, TS_STAGE_shade, first, end - first, TS_LOCAL_SIZE,
+                            err);
 }
 
 /* A path of the wave list and the patch its ray hit (UINT32_MAX: none or untextured). */
@@ -388,19 +405,24 @@ static int cmp_shade_key(const void *a, const void *b)
  * are put back in path order afterwards for the next wave. */
 static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count, ts_error *err)
 {
-    if (!p->tex.paged) return dev_launch(p->cl, p->k_shade, TS_STAGE_shade, path_count, TS_LOCAL_SIZE, err);
+    if (!p->tex.paged)
+        return dev_launch(p->cl, p->k_shade, TS_STAGE_shade, path_count, TS_LOCAL_SIZE, err);
     cl_command_queue q = p->cl->queue;
     uint32_t *paths = malloc((size_t)path_count * sizeof *paths);
     uint32_t *sorted = malloc((size_t)path_count * sizeof *sorted);
     shade_key *keys = malloc((size_t)path_count * sizeof *keys);
     ts_hit *hits = malloc((size_t)wave_size * sizeof *hits);
-    int rc = paths && sorted && keys && hits ? TS_OK : ts_error_set(err, TS_E_MEMORY, "out of memory");
+    int rc =
+        paths && sorted && keys && hits ? TS_OK : ts_error_set(err, TS_E_MEMORY, "out of memory");
     cl_int r0 = CL_SUCCESS, r1 = CL_SUCCESS;
     if (rc == TS_OK) {
-        r0 = clEnqueueReadBuffer(q, p->wave_paths, CL_TRUE, 0, (size_t)path_count * sizeof *paths, paths, 0, NULL, NULL);
-        r1 = clEnqueueReadBuffer(q, p->ray_hit, CL_TRUE, 0, (size_t)wave_size * sizeof *hits, hits, 0, NULL, NULL);
+        r0 = clEnqueueReadBuffer(q, p->wave_paths, CL_TRUE, 0, (size_t)path_count * sizeof *paths,
+                                 paths, 0, NULL, NULL);
+        r1 = clEnqueueReadBuffer(q, p->ray_hit, CL_TRUE, 0, (size_t)wave_size * sizeof *hits, hits,
+                                 0, NULL, NULL);
         if (r0 != CL_SUCCESS || r1 != CL_SUCCESS)
-            rc = ts_error_set(err, TS_E_DEVICE, "%s reading the wave's hits", dev_error_name(r0 != CL_SUCCESS ? r0 : r1));
+            rc = ts_error_set(err, TS_E_DEVICE, "%s reading the wave's hits",
+                              dev_error_name(r0 != CL_SUCCESS ? r0 : r1));
     }
     ts_tex_cache *c = &p->tex;
     if (rc == TS_OK) {
@@ -410,9 +432,12 @@ static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count,
             keys[k] = (shade_key){patch, k};
         }
         qsort(keys, path_count, sizeof *keys, cmp_shade_key);
-        for (uint32_t k = 0; k < path_count; ++k) sorted[k] = paths[keys[k].k];
-        r0 = clEnqueueWriteBuffer(q, p->wave_paths, CL_TRUE, 0, (size_t)path_count * sizeof *sorted, sorted, 0, NULL, NULL);
-        if (r0 != CL_SUCCESS) rc = ts_error_set(err, TS_E_DEVICE, "%s writing the shade order", dev_error_name(r0));
+        for (uint32_t k = 0; k < path_count; ++k)
+            sorted[k] = paths[keys[k].k];
+        r0 = clEnqueueWriteBuffer(q, p->wave_paths, CL_TRUE, 0, (size_t)path_count * sizeof *sorted,
+                                  sorted, 0, NULL, NULL);
+        if (r0 != CL_SUCCESS)
+            rc = ts_error_set(err, TS_E_DEVICE, "%s writing the shade order", dev_error_name(r0));
     }
     uint32_t start = 0;
     tex_cache_begin(c);
@@ -420,7 +445,8 @@ static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count,
         if (keys[k].patch == UINT32_MAX) continue;
         ts_hit h = hits[sorted[k]];
         float hw = 0.5f * ldexpf(1.0f, -(int)TS_PRIM_LOD(h.prim));
-        float u0 = fmaxf(h.u - hw, 0.0f), v0 = fmaxf(h.v - hw, 0.0f), u1 = fminf(h.u + hw, 1.0f), v1 = fminf(h.v + hw, 1.0f);
+        float u0 = fmaxf(h.u - hw, 0.0f), v0 = fmaxf(h.v - hw, 0.0f), u1 = fminf(h.u + hw, 1.0f),
+              v1 = fminf(h.v + hw, 1.0f);
         if (c->marked + tex_cache_mark_hit(c, p->scene, h.patch, u0, v0, u1, v1, 1) > c->slots) {
             rc = tex_cache_commit(c, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
             if (rc == TS_OK) rc = launch_shade_range(p, start, k, err);
@@ -429,16 +455,22 @@ static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count,
         }
         tex_cache_mark_hit(c, p->scene, h.patch, u0, v0, u1, v1, 0);
     }
-    if (rc == TS_OK) rc = tex_cache_commit(c, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
+    if (rc == TS_OK)
+        rc = tex_cache_commit(c, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
     if (rc == TS_OK) rc = launch_shade_range(p, start, path_count, err);
     if (rc == TS_OK) { /* back to path order: the list, and alive[k] (written per list slot) */
         size_t bytes = (size_t)path_count * sizeof(uint32_t);
         r0 = clEnqueueReadBuffer(q, p->alive, CL_TRUE, 0, bytes, sorted, 0, NULL, NULL);
-        for (uint32_t k = 0; r0 == CL_SUCCESS && k < path_count; ++k) keys[k].patch = sorted[k];
-        for (uint32_t k = 0; r0 == CL_SUCCESS && k < path_count; ++k) sorted[keys[k].k] = keys[k].patch;
-        if (r0 == CL_SUCCESS) r0 = clEnqueueWriteBuffer(q, p->alive, CL_TRUE, 0, bytes, sorted, 0, NULL, NULL);
-        if (r0 == CL_SUCCESS) r0 = clEnqueueWriteBuffer(q, p->wave_paths, CL_TRUE, 0, bytes, paths, 0, NULL, NULL);
-        if (r0 != CL_SUCCESS) rc = ts_error_set(err, TS_E_DEVICE, "%s restoring the path order", dev_error_name(r0));
+        for (uint32_t k = 0; r0 == CL_SUCCESS && k < path_count; ++k)
+            keys[k].patch = sorted[k];
+        for (uint32_t k = 0; r0 == CL_SUCCESS && k < path_count; ++k)
+            sorted[keys[k].k] = keys[k].patch;
+        if (r0 == CL_SUCCESS)
+            r0 = clEnqueueWriteBuffer(q, p->alive, CL_TRUE, 0, bytes, sorted, 0, NULL, NULL);
+        if (r0 == CL_SUCCESS)
+            r0 = clEnqueueWriteBuffer(q, p->wave_paths, CL_TRUE, 0, bytes, paths, 0, NULL, NULL);
+        if (r0 != CL_SUCCESS)
+            rc = ts_error_set(err, TS_E_DEVICE, "%s restoring the path order", dev_error_name(r0));
     }
     free(paths), free(sorted), free(keys), free(hits);
     return rc;
@@ -452,14 +484,14 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
     *next_paths = *next_rays = *shadow_rays = 0;
     if (path_count == 0) return TS_OK;
     if (dev_set_args(p->k_shade, err, ARG(s), ARG(first_sample), ARG(p->pixel_count),
-                    ARG(wave_size), ARG(p->wave_paths), ARG(path_count), ARG(p->ray_org), ARG(p->ray_dir),
-                    ARG(p->ray_hit), ARG(p->ray_entry), ARG(p->ray_flags), ARG(p->ray_pixel),
-                    ARG(p->path_throughput), ARG(p->path_mis), ARG(p->path_pending),
-                    ARG(p->radiance), ARG(p->aov), ARG(p->albedo), ARG(p->cp), ARG(p->corner_n),
-                    ARG(p->attr), ARG(p->xform), ARG(p->lights), ARG(p->emitters),
-                    ARG(p->env_texels), ARG(p->env_marginal), ARG(p->env_conditional),
-                    ARG(p->flatness), ARG(p->textures), ARG(p->tex_pages), ARG(p->tex_pool),
-                    ARG(p->alive), (size_t)0) ||
+                     ARG(wave_size), ARG(p->wave_paths), ARG(path_count), ARG(p->ray_org),
+                     ARG(p->ray_dir), ARG(p->ray_hit), ARG(p->ray_entry), ARG(p->ray_flags),
+                     ARG(p->ray_pixel), ARG(p->path_throughput), ARG(p->path_mis),
+                     ARG(p->path_pending), ARG(p->radiance), ARG(p->aov), ARG(p->albedo),
+                     ARG(p->cp), ARG(p->corner_n), ARG(p->attr), ARG(p->xform), ARG(p->lights),
+                     ARG(p->emitters), ARG(p->env_texels), ARG(p->env_marginal),
+                     ARG(p->env_conditional), ARG(p->flatness), ARG(p->textures), ARG(p->tex_pages),
+                     ARG(p->tex_pool), ARG(p->alive), (size_t)0) ||
         launch_shade(p, wave_size, path_count, err) || dev_finish(p->cl, p->stats, err))
         return err->code;
     /* The next wave: the paths that go on and their rays, in path order. */
@@ -469,9 +501,10 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
     cl_int rc0, rc1, rc2;
     uint32_t *paths = clEnqueueMapBuffer(q, p->wave_paths, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0,
                                          bytes, 0, NULL, NULL, &rc0);
-    uint32_t *alive = clEnqueueMapBuffer(q, p->alive, CL_TRUE, CL_MAP_READ, 0, bytes, 0, NULL, NULL, &rc1);
-    uint32_t *next = clEnqueueMapBuffer(q, p->active, CL_TRUE, CL_MAP_WRITE, 0, 2 * bytes, 0, NULL,
-                                        NULL, &rc2);
+    uint32_t *alive =
+        clEnqueueMapBuffer(q, p->alive, CL_TRUE, CL_MAP_READ, 0, bytes, 0, NULL, NULL, &rc1);
+    uint32_t *next =
+        clEnqueueMapBuffer(q, p->active, CL_TRUE, CL_MAP_WRITE, 0, 2 * bytes, 0, NULL, NULL, &rc2);
     CL_CHECK(rc0, err);
     CL_CHECK(rc1, err);
     CL_CHECK(rc2, err);
@@ -496,8 +529,8 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
 int pipeline_film(ts_pipeline *p, uint32_t first_sample, uint32_t ray_count, ts_error *err)
 {
     if (dev_set_args(p->k_film, err, ARG(first_sample), ARG(ray_count), ARG(p->pixel_count),
-                    ARG(p->radiance), ARG(p->aov), ARG(p->albedo), ARG(p->accum), ARG(p->aov_film),
-                    ARG(p->albedo_film), (size_t)0) ||
+                     ARG(p->radiance), ARG(p->aov), ARG(p->albedo), ARG(p->accum), ARG(p->aov_film),
+                     ARG(p->albedo_film), (size_t)0) ||
         dev_launch(p->cl, p->k_film, TS_STAGE_film, p->pixel_count, TS_LOCAL_SIZE, err))
         return err->code;
     return dev_finish(p->cl, p->stats, err);

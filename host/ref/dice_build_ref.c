@@ -64,8 +64,8 @@ static void grow(ts_box *b, float ex, float ey, float ez)
 
 /* Leaf k of the tree of time `time` (build_leaves for one work-item). */
 static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t k,
-                       const ts_vec4 *cn, const ts_patch_attr *a, const ts_xform *x,
-                       ts_tex_ctx tex, ts_vec4 e)
+                       const ts_vec4 *cn, const ts_patch_attr *a, const ts_xform *x, ts_tex_ctx tex,
+                       ts_vec4 e)
 {
     uint32_t n = (1u << m) + 1u, nv = n * n, i = morton_i(k), j = morton_j(k);
     float h = ldexpf(1.0f, -(int)m);

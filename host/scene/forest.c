@@ -30,10 +30,10 @@
 #include <string.h>
 
 #define FOREST_PI 3.14159265358979323846
-#define FOREST_SPACING 7.0    /* between neighbouring trees */
-#define FOREST_MARGIN 20.0    /* terrain beyond the outermost trees */
+#define FOREST_SPACING 7.0       /* between neighbouring trees */
+#define FOREST_MARGIN 20.0       /* terrain beyond the outermost trees */
 #define FOREST_TERRAIN_PATCH 4.0 /* terrain patch size */
-#define FOREST_SINK 0.5       /* trunk bases start below the ground */
+#define FOREST_SINK 0.5          /* trunk bases start below the ground */
 
 /* ---- random numbers: a counter-based hash ---------------------------------------------- */
 
@@ -118,9 +118,9 @@ static v3 v3_rotate(v3 v, v3 k, double a)
 typedef struct forest_out {
     ts_scene *s;
     ts_error *err;
-    double m[16];  /* object to world */
-    double nm[9];  /* normal matrix: inverse transpose of m's linear part */
-    double scale;  /* |det|^(1/3): object units to world units, for amplitudes */
+    double m[16]; /* object to world */
+    double nm[9]; /* normal matrix: inverse transpose of m's linear part */
+    double scale; /* |det|^(1/3): object units to world units, for amplitudes */
     uint32_t xform;
     ts_patch_attr base;
 } forest_out;
@@ -144,8 +144,7 @@ static int out_patch(forest_out *o, const v3 cp[16], const v3 n[4], const ts_pat
         for (int r = 0; r < 3; r++)
             wn[c][r] = o->nm[r * 3] * q[0] + o->nm[r * 3 + 1] * q[1] + o->nm[r * 3 + 2] * q[2];
     }
-    return scene_add_patch_ex(o->s, (const double(*)[3])w, NULL, (const double(*)[3])wn, a,
-                              o->err);
+    return scene_add_patch_ex(o->s, (const double(*)[3])w, NULL, (const double(*)[3])wn, a, o->err);
 }
 
 static ts_patch_attr attr_make(const forest_out *o, double r, double g, double b)
@@ -226,7 +225,15 @@ static int terrain_emit(forest_out *o, const terrain *t, double side, int n, uin
 
 /* ---- the L-system ------------------------------------------------------------------------- */
 
-enum { SYM_A = 'A', SYM_F = 'F', SYM_PUSH = '[', SYM_POP = ']', SYM_PITCH = '&', SYM_ROLL = '/', SYM_LEAF = 'L' };
+enum {
+    SYM_A = 'A',
+    SYM_F = 'F',
+    SYM_PUSH = '[',
+    SYM_POP = ']',
+    SYM_PITCH = '&',
+    SYM_ROLL = '/',
+    SYM_LEAF = 'L'
+};
 
 /* A module: A(order, a = length, b = radius, n = segments so far), F(a = length,
  * b = start radius, c = end radius), & / (a = degrees), L(a = size). */
@@ -315,7 +322,8 @@ static int lsys_leaves(const lstr *in, lstr *out, frng *r, const tree_shape *t)
             bad |= lstr_push(out, mod(SYM_PUSH, 0, 0, 0, 0, 0));
             bad |= lstr_push(out, mod(SYM_ROLL, 0, 0, phi0 + i * 360.0 / t->leaves_per_tip, 0, 0));
             bad |= lstr_push(out, mod(SYM_PITCH, 0, 0, frng_range(r, 25.0, 70.0), 0, 0));
-            bad |= lstr_push(out, mod(SYM_LEAF, 0, 0, t->leaf_size * frng_range(r, 0.8, 1.2), 0, 0));
+            bad |=
+                lstr_push(out, mod(SYM_LEAF, 0, 0, t->leaf_size * frng_range(r, 0.8, 1.2), 0, 0));
             bad |= lstr_push(out, mod(SYM_POP, 0, 0, 0, 0, 0));
         }
     }
@@ -407,7 +415,8 @@ static int turtle_leaf(tree_ctx *c, const turtle *t, double size)
     for (int j = 0; j < 4; j++)
         for (int i = 0; i < 4; i++) {
             double x = across[i] * w * width[j] * 2.0;
-            double y = (fabs(across[i]) > 0.3 ? cup : 0.0) * width[j] - droop * (j / 3.0) * (j / 3.0);
+            double y =
+                (fabs(across[i]) > 0.3 ? cup : 0.0) * width[j] - droop * (j / 3.0) * (j / 3.0);
             cp[j * 4 + i] = v3_add(t->pos, v3_add(v3_scale(t->h, size * j / 3.0),
                                                   v3_add(v3_scale(t->l, x), v3_scale(t->u, y))));
         }
@@ -433,8 +442,12 @@ static int turtle_run(tree_ctx *c, const lstr *s, turtle start)
     for (size_t k = 0; k < s->len && rc == TS_OK; k++) {
         const lmod *m = &s->m[k];
         switch (m->sym) {
-        case SYM_F: rc = turtle_segment(c, &t, m); break;
-        case SYM_PUSH: stack[depth++] = t; break;
+        case SYM_F:
+            rc = turtle_segment(c, &t, m);
+            break;
+        case SYM_PUSH:
+            stack[depth++] = t;
+            break;
         case SYM_POP:
             if (depth) t = stack[--depth];
             break;
@@ -447,8 +460,11 @@ static int turtle_run(tree_ctx *c, const lstr *s, turtle start)
             t.l = v3_rotate(t.l, t.h, m->a * deg);
             t.u = v3_rotate(t.u, t.h, m->a * deg);
             break;
-        case SYM_LEAF: rc = turtle_leaf(c, &t, m->a); break;
-        default: break;
+        case SYM_LEAF:
+            rc = turtle_leaf(c, &t, m->a);
+            break;
+        default:
+            break;
         }
     }
     free(stack);
@@ -456,8 +472,8 @@ static int turtle_run(tree_ctx *c, const lstr *s, turtle start)
 }
 
 /* One tree at (x, z): its shape, derivation and interpretation from stream (seed, i). */
-static int tree_emit(forest_out *o, const forest_params *fp, int index, v3 base,
-                     uint64_t *bark, uint64_t *leaves)
+static int tree_emit(forest_out *o, const forest_params *fp, int index, v3 base, uint64_t *bark,
+                     uint64_t *leaves)
 {
     frng r = frng_make(fp->seed, 0x1000000ull + (uint64_t)index);
     double scale = frng_range(&r, 0.85, 1.15);
@@ -529,8 +545,8 @@ int forest_parse_params(const char *text, forest_params *fp, char *why, size_t w
             p++;
         size_t klen = (size_t)(p - key);
         if (*p != '=') {
-            snprintf(why, why_size, "expected key=value, got \"%.*s\"", (int)(klen > 32 ? 32 : klen),
-                     key);
+            snprintf(why, why_size, "expected key=value, got \"%.*s\"",
+                     (int)(klen > 32 ? 32 : klen), key);
             return -1;
         }
         p++;
@@ -556,7 +572,8 @@ int forest_parse_params(const char *text, forest_params *fp, char *why, size_t w
             fp->seed = (uint32_t)v;
         } else if (klen == 6 && strncmp(key, "detail", 6) == 0) {
             if (v < 0 || v > FOREST_MAX_DETAIL) {
-                snprintf(why, why_size, "detail must be in [0, %d], got %lld", FOREST_MAX_DETAIL, v);
+                snprintf(why, why_size, "detail must be in [0, %d], got %lld", FOREST_MAX_DETAIL,
+                         v);
                 return -1;
             }
             fp->detail = (int)v;

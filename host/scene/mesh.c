@@ -202,8 +202,8 @@ static int emit_face(mesh_ctx *c, const unsigned *idx, unsigned n)
             r += col[idx[k]].r, g += col[idx[k]].g, b += col[idx[k]].b;
         a.cs_r = (float)(r / n), a.cs_g = (float)(g / n), a.cs_b = (float)(b / n);
     }
-    int rc = scene_add_patch_ex(c->s, (const double(*)[3])cp, NULL, (const double(*)[3])cn, &a,
-                                c->err);
+    int rc =
+        scene_add_patch_ex(c->s, (const double(*)[3])cp, NULL, (const double(*)[3])cn, &a, c->err);
     if (rc == TS_OK) c->emitted++;
     return rc;
 }
@@ -291,8 +291,9 @@ static int transform_mesh(mesh_ctx *c, const double m[16], const double nm[9])
     for (unsigned v = 0; v < me->mNumVertices; v++) {
         const double q[3] = {me->mVertices[v].x, me->mVertices[v].y, me->mVertices[v].z};
         for (int r = 0; r < 3; r++) {
-            double x = (m[r * 4] * q[0] + m[r * 4 + 1] * q[1] + m[r * 4 + 2] * q[2] + m[r * 4 + 3]) /
-                       m[15];
+            double x =
+                (m[r * 4] * q[0] + m[r * 4 + 1] * q[1] + m[r * 4 + 2] * q[2] + m[r * 4 + 3]) /
+                m[15];
             if (!(fabs(x) <= FLT_MAX))
                 return ts_error_set(c->err, TS_E_SCENE,
                                     "%s: vertex %u leaves the float range after the transform",
@@ -331,7 +332,9 @@ int mesh_load(const char *path, const double object_to_world[16], const ts_patch
     const struct aiScene *sc =
         aiImportFile(path, aiProcess_JoinIdenticalVertices | aiProcess_GenSmoothNormals |
                                aiProcess_PreTransformVertices | aiProcess_ValidateDataStructure);
-    if (!sc) return ts_error_set(err, TS_E_SCENE, "%s: cannot read the mesh: %s", path, aiGetErrorString());
+    if (!sc)
+        return ts_error_set(err, TS_E_SCENE, "%s: cannot read the mesh: %s", path,
+                            aiGetErrorString());
     mesh_ctx c = {.path = path, .s = s, .err = err};
     c.attr = *attr;
     int rc = TS_OK;

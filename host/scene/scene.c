@@ -167,10 +167,18 @@ static int scene_ensure_identity(ts_scene *s, ts_error *err)
 int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16][3],
                        const double normals[4][3], const ts_patch_attr *attr, ts_error *err)
 {
-    ts_patch_attr a = {.cs_r = 1.0f, .cs_g = 1.0f, .cs_b = 1.0f, .disp_kind = TS_DISP_NONE,
-                       .disp_octaves = 1u, .disp_lacunarity = 2.0f, .disp_gain = 0.5f,
-                       .xform = 0u, .material = TS_MAT_MATTE, .kd = 1.0f,
-                       .emitter = TS_INVALID, .st = {0, 0, 1, 0, 0, 1, 1, 1}};
+    ts_patch_attr a = {.cs_r = 1.0f,
+                       .cs_g = 1.0f,
+                       .cs_b = 1.0f,
+                       .disp_kind = TS_DISP_NONE,
+                       .disp_octaves = 1u,
+                       .disp_lacunarity = 2.0f,
+                       .disp_gain = 0.5f,
+                       .xform = 0u,
+                       .material = TS_MAT_MATTE,
+                       .kd = 1.0f,
+                       .emitter = TS_INVALID,
+                       .st = {0, 0, 1, 0, 0, 1, 1, 1}};
     if (attr) a = *attr;
     a.flags = cp1 ? (a.flags | TS_PATCH_MOVING) : (a.flags & ~TS_PATCH_MOVING);
     int rc = scene_ensure_identity(s, err);
@@ -190,7 +198,8 @@ int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16]
                               normals[c][2] * normals[c][2]);
             if (!(len > 0.0) || !isfinite(len))
                 return ts_error_set(err, TS_E_SCENE, "scene: corner normal %d of patch %u has %s",
-                                    c, s->patch_count, len > 0.0 ? "no finite length" : "zero length");
+                                    c, s->patch_count,
+                                    len > 0.0 ? "no finite length" : "zero length");
             for (int d = 0; d < 3; d++)
                 nn[c][d] = normals[c][d] / len;
         }
@@ -225,8 +234,7 @@ static int scene_xform_equal(const ts_xform *a, const ts_xform *b)
     return 1;
 }
 
-int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *index,
-                    ts_error *err)
+int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *index, ts_error *err)
 {
     const double *m = world_to_object;
     if (!(m[12] == 0.0 && m[13] == 0.0 && m[14] == 0.0 && m[15] != 0.0 && isfinite(m[15])))
@@ -316,9 +324,9 @@ static int scene_average_normals(ts_scene *s, ts_error *err)
     while (slots < 2 * pending)
         slots *= 2;
     uint32_t *table = malloc(slots * sizeof *table);
-    uint32_t *id = malloc(corners * sizeof *id);          /* corner -> unique position */
-    scene_key *keys = malloc(pending * sizeof *keys);     /* unique positions */
-    double(*sum)[3] = malloc(pending * sizeof *sum);      /* sums of unit normals */
+    uint32_t *id = malloc(corners * sizeof *id);      /* corner -> unique position */
+    scene_key *keys = malloc(pending * sizeof *keys); /* unique positions */
+    double(*sum)[3] = malloc(pending * sizeof *sum);  /* sums of unit normals */
     int rc = TS_OK;
     if (!table || !id || !keys || !sum) {
         rc = ts_error_set(err, TS_E_MEMORY, "scene: out of memory for corner normals");
@@ -429,19 +437,22 @@ ts_box scene_patch_box(const ts_scene *s, uint32_t p)
     ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     if (!s || p >= s->patch_count) return b; /* empty: lo > hi */
     scene_box_points(&b, s->cp + (size_t)p * 16u);
-    if (s->cp1 && (s->attr[p].flags & TS_PATCH_MOVING)) scene_box_points(&b, s->cp1 + (size_t)p * 16u);
+    if (s->cp1 && (s->attr[p].flags & TS_PATCH_MOVING))
+        scene_box_points(&b, s->cp1 + (size_t)p * 16u);
     /* The displacement normal interpolates unit corner normals: each of its components is
      * at most 1 in magnitude, so d * n moves a point by at most |d| per axis. Rounded
      * outwards so the float box stays conservative. */
     float g = displace_bound(&s->attr[p]);
     if (s->attr[p].disp_kind == TS_DISP_TEXTURE) {
-        ts_interval d = displace_texture_interval(&s->attr[p], scene_tex_ctx(s), 0.0f, 0.0f, 1.0f, 1.0f);
+        ts_interval d =
+            displace_texture_interval(&s->attr[p], scene_tex_ctx(s), 0.0f, 0.0f, 1.0f, 1.0f);
         g = fmaxf(fabsf(d.lo), fabsf(d.hi));
     }
     /* A few ulps of |P| as well: the diced vertices are rounded, and build clamps every leaf
      * box to this box (build.cl), so it must hold them. */
-    float mag = fmaxf(fmaxf(fmaxf(fabsf(b.lo_x), fabsf(b.hi_x)), fmaxf(fabsf(b.lo_y), fabsf(b.hi_y))),
-                      fmaxf(fabsf(b.lo_z), fabsf(b.hi_z)));
+    float mag =
+        fmaxf(fmaxf(fmaxf(fabsf(b.lo_x), fabsf(b.hi_x)), fmaxf(fabsf(b.lo_y), fabsf(b.hi_y))),
+              fmaxf(fabsf(b.lo_z), fabsf(b.hi_z)));
     g += 1e-6f * (mag + g);
     if (g > 0.0f) {
         b.lo_x = nextafterf(b.lo_x - g, -INFINITY);

@@ -83,8 +83,7 @@ typedef struct ts_scene {
 
 /* Appends one Bézier patch (16 world-space points, u fastest). Returns TS_OK or
  * TS_E_MEMORY. */
-int scene_add_patch(ts_scene *s, const double cp[16][3], const ts_patch_attr *attr,
-                    ts_error *err);
+int scene_add_patch(ts_scene *s, const double cp[16][3], const ts_patch_attr *attr, ts_error *err);
 /* The general form: cp1 (points at time 1) NULL for a static patch, else the patch moves
  * (sets TS_PATCH_MOVING); normals (corner displacement normals in the corner order above,
  * world space, any length) NULL to have scene_finalize average them. */
@@ -92,8 +91,7 @@ int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16]
                        const double normals[4][3], const ts_patch_attr *attr, ts_error *err);
 /* Adds a world-to-object transform (row-major 4x4, affine) and returns its index for
  * ts_patch_attr.xform; an identical transform already added is reused. */
-int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *index,
-                    ts_error *err);
+int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *index, ts_error *err);
 /* Completes a loaded scene: corner normals for patches without explicit ones (the
  * geometric normal of each patch at each corner, averaged over all patches whose corner
  * has exactly the same position, then normalised; where a patch's derivatives vanish at a
@@ -114,8 +112,7 @@ void scene_free(ts_scene *s);
  * channel, with its min-max pyramid) or TS_TEX_RGB (grey for one or two channels, else the
  * first three) and returns its index; a file already read as that kind is reused.
  * Non-finite texels are an error (TS_E_IO "PATH: ..."), as is a side over 32768. */
-int scene_add_texture(ts_scene *s, const char *path, uint32_t kind, uint32_t *index,
-                      ts_error *err);
+int scene_add_texture(ts_scene *s, const char *path, uint32_t kind, uint32_t *index, ts_error *err);
 /* The textures as lib/texture.h reads them on the host (every tile resident). */
 ts_tex_ctx scene_tex_ctx(const ts_scene *s);
 /* The range of texture `index`'s first channel (its coarsest min-max level), TS_TEX_MINMAX. */

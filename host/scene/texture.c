@@ -53,7 +53,8 @@ static void texture_tile(ts_scene *s, const ts_vec4 *level, uint32_t w, uint32_t
             memset(tile, 0, (size_t)TS_TEX_TILE * TS_TEX_TILE * sizeof *tile);
             for (uint32_t y = 0; y < TS_TEX_TILE && j * TS_TEX_TILE + y < h; y++)
                 for (uint32_t x = 0; x < TS_TEX_TILE && i * TS_TEX_TILE + x < w; x++)
-                    tile[y * TS_TEX_TILE + x] = level[(size_t)(j * TS_TEX_TILE + y) * w + i * TS_TEX_TILE + x];
+                    tile[y * TS_TEX_TILE + x] =
+                        level[(size_t)(j * TS_TEX_TILE + y) * w + i * TS_TEX_TILE + x];
             s->tex_pages[slot] = slot;
         }
 }
@@ -77,8 +78,7 @@ static int texture_reserve(ts_scene *s, uint32_t tiles, const char *path, ts_err
     return TS_OK;
 }
 
-int scene_add_texture(ts_scene *s, const char *path, uint32_t kind, uint32_t *index,
-                      ts_error *err)
+int scene_add_texture(ts_scene *s, const char *path, uint32_t kind, uint32_t *index, ts_error *err)
 {
     for (uint32_t i = 0; i < s->texture_count; i++)
         if (s->textures[i].kind == kind && strcmp(s->tex_source[i], path) == 0) {
@@ -88,23 +88,28 @@ int scene_add_texture(ts_scene *s, const char *path, uint32_t kind, uint32_t *in
     ts_image img;
     if (image_read(path, &img, err)) return err->code;
     uint32_t w = (uint32_t)img.width, h = (uint32_t)img.height, ch = (uint32_t)img.channels;
-    if (w < 1u || h < 1u || w > (1u << (TS_TEX_MAX_LEVELS - 1u)) || h > (1u << (TS_TEX_MAX_LEVELS - 1u))) {
+    if (w < 1u || h < 1u || w > (1u << (TS_TEX_MAX_LEVELS - 1u)) ||
+        h > (1u << (TS_TEX_MAX_LEVELS - 1u))) {
         image_free(&img);
         return ts_error_set(err, TS_E_IO, "%s: texture of %u x %u texels (1 to %u a side)", path, w,
                             h, 1u << (TS_TEX_MAX_LEVELS - 1u));
     }
     ts_texture t = {.width = w, .height = h, .levels = 1u, .kind = kind};
     if (kind == TS_TEX_MINMAX)
-        while (tex_dim(w, t.levels - 1u) > 1u || tex_dim(h, t.levels - 1u) > 1u) t.levels++;
+        while (tex_dim(w, t.levels - 1u) > 1u || tex_dim(h, t.levels - 1u) > 1u)
+            t.levels++;
     uint32_t tiles = 0;
     for (uint32_t k = 0; k < t.levels; k++) {
         t.level_page[k] = s->tex_tile_count + tiles;
-        tiles += ((tex_dim(w, k) + TS_TEX_TILE - 1u) / TS_TEX_TILE) * ((tex_dim(h, k) + TS_TEX_TILE - 1u) / TS_TEX_TILE);
+        tiles += ((tex_dim(w, k) + TS_TEX_TILE - 1u) / TS_TEX_TILE) *
+                 ((tex_dim(h, k) + TS_TEX_TILE - 1u) / TS_TEX_TILE);
     }
     char *source = malloc(strlen(path) + 1);
-    ts_vec4 *cur = malloc((size_t)w * h * sizeof *cur), *next = malloc((size_t)w * h * sizeof *next);
-    int rc = source && cur && next ? texture_reserve(s, tiles, path, err)
-                                   : ts_error_set(err, TS_E_MEMORY, "%s: out of memory for the texture", path);
+    ts_vec4 *cur = malloc((size_t)w * h * sizeof *cur),
+            *next = malloc((size_t)w * h * sizeof *next);
+    int rc = source && cur && next
+                 ? texture_reserve(s, tiles, path, err)
+                 : ts_error_set(err, TS_E_MEMORY, "%s: out of memory for the texture", path);
     for (size_t i = 0; rc == TS_OK && i < (size_t)w * h; i++) {
         const float *px = img.pixels + i * ch;
         float r = px[0], g = ch >= 3 ? px[1] : r, b = ch >= 3 ? px[2] : r;

@@ -33,8 +33,7 @@ TS_INLINE void bezier_basis_deriv(float t, float d[4])
 
 /* Sum over the grid with weights bu[i] * bv[j]; fixed operation order (no FMA, see
  * FP_CONTRACT) so host and device agree. */
-TS_INLINE ts_vec4 bezier_combine(TS_CONST_GLOBAL ts_vec4 *cp, const float bu[4],
-                                 const float bv[4])
+TS_INLINE ts_vec4 bezier_combine(TS_CONST_GLOBAL ts_vec4 *cp, const float bu[4], const float bv[4])
 {
     ts_vec4 r = {0.0f, 0.0f, 0.0f, 0.0f};
     for (int j = 0; j < 4; ++j) {

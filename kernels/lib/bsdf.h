@@ -27,10 +27,22 @@ TS_INLINE ts_v3 v3(float x, float y, float z)
     ts_v3 r = {x, y, z};
     return r;
 }
-TS_INLINE float v3_dot(ts_v3 a, ts_v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-TS_INLINE ts_v3 v3_scale(ts_v3 a, float s) { return v3(a.x * s, a.y * s, a.z * s); }
-TS_INLINE ts_v3 v3_add(ts_v3 a, ts_v3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
-TS_INLINE ts_v3 v3_sub(ts_v3 a, ts_v3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+TS_INLINE float v3_dot(ts_v3 a, ts_v3 b)
+{
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+TS_INLINE ts_v3 v3_scale(ts_v3 a, float s)
+{
+    return v3(a.x * s, a.y * s, a.z * s);
+}
+TS_INLINE ts_v3 v3_add(ts_v3 a, ts_v3 b)
+{
+    return v3(a.x + b.x, a.y + b.y, a.z + b.z);
+}
+TS_INLINE ts_v3 v3_sub(ts_v3 a, ts_v3 b)
+{
+    return v3(a.x - b.x, a.y - b.y, a.z - b.z);
+}
 TS_INLINE ts_v3 v3_cross(ts_v3 a, ts_v3 b)
 {
     return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
@@ -102,7 +114,8 @@ TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], t
     if (a->material == TS_MAT_PLASTIC) {
         ts_v3 h = v3_normalize(v3_add(wo, wi));
         float ch = v3_dot(n, h), d = ggx_d(ch, a->roughness);
-        float spec = a->ks * d * ggx_g1(co, a->roughness) * ggx_g1(ci, a->roughness) / (4.0f * co * ci);
+        float spec =
+            a->ks * d * ggx_g1(co, a->roughness) * ggx_g1(ci, a->roughness) / (4.0f * co * ci);
         f[0] += spec, f[1] += spec, f[2] += spec;
         float oh = v3_dot(wo, h);
         if (oh > 0.0f) pdf += ps * d * ch / (4.0f * oh);
@@ -112,8 +125,8 @@ TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], t
 
 /* Samples wi from (u0, u1, u2); returns its pdf (0 when the sample is below the surface),
  * with f(wo, wi) in f[]. */
-TS_INLINE float bsdf_sample(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], ts_v3 n,
-                            ts_v3 wo, float u0, float u1, float u2, ts_v3 *wi, float f[3])
+TS_INLINE float bsdf_sample(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], ts_v3 n, ts_v3 wo,
+                            float u0, float u1, float u2, ts_v3 *wi, float f[3])
 {
     float ps = plastic_spec_prob(a);
     if (u0 < ps) {

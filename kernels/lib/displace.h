@@ -20,7 +20,9 @@
 
 TS_INLINE ts_u32 displace_octaves(TS_CONST_GLOBAL ts_patch_attr *a)
 {
-    return a->disp_octaves < 1u ? 1u : a->disp_octaves > TS_DISP_MAX_OCTAVES ? TS_DISP_MAX_OCTAVES : a->disp_octaves;
+    return a->disp_octaves < 1u                    ? 1u
+           : a->disp_octaves > TS_DISP_MAX_OCTAVES ? TS_DISP_MAX_OCTAVES
+                                                   : a->disp_octaves;
 }
 
 /* 1 for the noise functions (fbm, ridged). */
@@ -50,8 +52,8 @@ TS_INLINE float displace_value(TS_CONST_GLOBAL ts_patch_attr *a, TS_CONST_GLOBAL
 
 /* An interval holding d(P) for every P in the world box [lo, hi]. */
 TS_INLINE ts_interval displace_interval(TS_CONST_GLOBAL ts_patch_attr *a,
-                                        TS_CONST_GLOBAL ts_xform *x, float lx, float ly,
-                                        float lz, float hx, float hy, float hz)
+                                        TS_CONST_GLOBAL ts_xform *x, float lx, float ly, float lz,
+                                        float hx, float hy, float hz)
 {
     ts_interval zero = {0.0f, 0.0f};
     if (!displace_is_noise(a)) return zero;
@@ -102,7 +104,8 @@ TS_INLINE float displace_bound(TS_CONST_GLOBAL ts_patch_attr *a)
 {
     if (!displace_is_noise(a)) return 0.0f;
     /* ridged: 1 - 2|n| lies in [1 - 2 NOISE_BOUND, 1]. */
-    float per = a->disp_kind == TS_DISP_RIDGED ? fmax(1.0f, 2.0f * NOISE_BOUND - 1.0f) : NOISE_BOUND;
+    float per =
+        a->disp_kind == TS_DISP_RIDGED ? fmax(1.0f, 2.0f * NOISE_BOUND - 1.0f) : NOISE_BOUND;
     float w = 1.0f, sum = 0.0f;
     ts_u32 n = displace_octaves(a);
     for (ts_u32 o = 0; o < n; ++o) {
@@ -131,12 +134,16 @@ TS_INLINE ts_interval displace_texture_interval(TS_CONST_GLOBAL ts_patch_attr *a
     tex_patch_st(a, u1, v0, &s[1], &t[1]);
     tex_patch_st(a, u0, v1, &s[2], &t[2]);
     tex_patch_st(a, u1, v1, &s[3], &t[3]);
-    float s0 = fmin(fmin(s[0], s[1]), fmin(s[2], s[3])), s1 = fmax(fmax(s[0], s[1]), fmax(s[2], s[3]));
-    float t0 = fmin(fmin(t[0], t[1]), fmin(t[2], t[3])), t1 = fmax(fmax(t[0], t[1]), fmax(t[2], t[3]));
+    float s0 = fmin(fmin(s[0], s[1]), fmin(s[2], s[3])),
+          s1 = fmax(fmax(s[0], s[1]), fmax(s[2], s[3]));
+    float t0 = fmin(fmin(t[0], t[1]), fmin(t[2], t[3])),
+          t1 = fmax(fmax(t[0], t[1]), fmax(t[2], t[3]));
     ts_interval r = tex_range(tex, a->disp_tex, s0, t0, s1, t1);
-    float d0 = a->disp_amplitude * (r.lo - a->disp_offset), d1 = a->disp_amplitude * (r.hi - a->disp_offset);
+    float d0 = a->disp_amplitude * (r.lo - a->disp_offset),
+          d1 = a->disp_amplitude * (r.hi - a->disp_offset);
     /* Rounding of texel - offset and of the product: a few ulps of the operands. */
-    float slack = 4e-7f * fabs(a->disp_amplitude) * (fmax(fabs(r.lo), fabs(r.hi)) + fabs(a->disp_offset));
+    float slack =
+        4e-7f * fabs(a->disp_amplitude) * (fmax(fabs(r.lo), fabs(r.hi)) + fabs(a->disp_offset));
     ts_interval d = {fmin(d0, d1) - slack, fmax(d0, d1) + slack};
     return d;
 }

@@ -20,9 +20,9 @@
  * safe_reciprocal. Returns the entry distance, or -1 for a miss. tfar is widened by
  * 1 + 2*gamma(3) (Ize 2013, "Robust BVH ray traversal") so rounding never culls a box the
  * ray touches. */
-TS_INLINE float box_enter(float ox, float oy, float oz, float ix, float iy, float iz,
-                          float lox, float loy, float loz, float hix, float hiy, float hiz,
-                          float tmin, float tmax)
+TS_INLINE float box_enter(float ox, float oy, float oz, float ix, float iy, float iz, float lox,
+                          float loy, float loz, float hix, float hiy, float hiz, float tmin,
+                          float tmax)
 {
     float tx0 = (lox - ox) * ix, tx1 = (hix - ox) * ix;
     float ty0 = (loy - oy) * iy, ty1 = (hiy - oy) * iy;
@@ -80,9 +80,9 @@ TS_INLINE ts_ray_shear ray_shear(float dx, float dy, float dz)
  * (kx, ky, kz) (ray_shear). Returns t in (tmin, tmax) and the barycentrics (b1, b2) of the
  * second and third vertex, or -1 for a miss. Double-sided. An edge or vertex hit counts
  * for every triangle sharing it, so no ray passes between two triangles of a grid. */
-TS_INLINE float triangle_hit_permuted(const ts_ray_shear *s, float ax, float ay, float az,
-                                      float bx, float by, float bz, float cx, float cy, float cz,
-                                      float tmin, float tmax, float *b1_out, float *b2_out)
+TS_INLINE float triangle_hit_permuted(const ts_ray_shear *s, float ax, float ay, float az, float bx,
+                                      float by, float bz, float cx, float cy, float cz, float tmin,
+                                      float tmax, float *b1_out, float *b2_out)
 {
     ax = ax - s->sx * az;
     ay = ay - s->sy * az;

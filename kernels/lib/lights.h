@@ -18,12 +18,12 @@
 #include "lib/shared_types.h"
 
 typedef struct ts_light_sample {
-    ts_v3 dir;      /* towards the light, unit */
-    float dist;     /* to the sampled point; TS_NO_HIT for lights at infinity */
-    float le[3];    /* radiance arriving (or irradiance, for a delta light) */
-    float pdf;      /* solid angle, with the light choice; 0 = failed sample */
-    int delta;      /* a delta light: no BSDF sample can find it */
-    ts_u32 patch;   /* area: the sampled patch (its own boxes must not shadow the ray) */
+    ts_v3 dir;    /* towards the light, unit */
+    float dist;   /* to the sampled point; TS_NO_HIT for lights at infinity */
+    float le[3];  /* radiance arriving (or irradiance, for a delta light) */
+    float pdf;    /* solid angle, with the light choice; 0 = failed sample */
+    int delta;    /* a delta light: no BSDF sample can find it */
+    ts_u32 patch; /* area: the sampled patch (its own boxes must not shadow the ray) */
 } ts_light_sample;
 
 /* The environment map of a dome light: texels (rgb), the marginal CDF over rows (H) and the
@@ -40,8 +40,10 @@ TS_INLINE ts_u32 cdf_find(TS_CONST_GLOBAL float *cdf, ts_u32 n, float u)
     ts_u32 lo = 0, hi = n - 1u;
     while (lo < hi) {
         ts_u32 mid = (lo + hi) / 2u;
-        if (u < cdf[mid]) hi = mid;
-        else lo = mid + 1u;
+        if (u < cdf[mid])
+            hi = mid;
+        else
+            lo = mid + 1u;
     }
     return lo;
 }
@@ -94,8 +96,10 @@ TS_INLINE ts_u32 emitter_pick(TS_CONST_GLOBAL ts_emitter *e, ts_u32 n, float u)
     ts_u32 lo = 0, hi = n - 1u;
     while (lo < hi) {
         ts_u32 mid = (lo + hi) / 2u;
-        if (u < e[mid].cdf) hi = mid;
-        else lo = mid + 1u;
+        if (u < e[mid].cdf)
+            hi = mid;
+        else
+            lo = mid + 1u;
     }
     return lo;
 }
@@ -164,7 +168,8 @@ TS_INLINE void light_escape(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count
         if (l->type == TS_LIGHT_DOME && l->map_width) {
             float p;
             ts_vec4 t = env.texels[env_lookup(l, env, dir, &p)];
-            le[0] += l->radiance[0] * t.x, le[1] += l->radiance[1] * t.y, le[2] += l->radiance[2] * t.z;
+            le[0] += l->radiance[0] * t.x, le[1] += l->radiance[1] * t.y,
+                le[2] += l->radiance[2] * t.z;
             *pdf += choose * p;
         } else if (l->type == TS_LIGHT_DOME) {
             le[0] += l->radiance[0], le[1] += l->radiance[1], le[2] += l->radiance[2];

@@ -32,7 +32,8 @@ TS_INLINE float noise_fade(float t)
 /* Gradient index 0..11 of lattice point (x, y, z). */
 TS_INLINE ts_u32 noise_hash(ts_i32 x, ts_i32 y, ts_i32 z)
 {
-    ts_u32 h = rng_mix((ts_u32)x * 0x8da6b343u ^ rng_mix((ts_u32)y * 0xd8163841u ^ rng_mix((ts_u32)z * 0xcb1ab31fu)));
+    ts_u32 h = rng_mix((ts_u32)x * 0x8da6b343u ^
+                       rng_mix((ts_u32)y * 0xd8163841u ^ rng_mix((ts_u32)z * 0xcb1ab31fu)));
     return h % 12u;
 }
 
@@ -119,7 +120,8 @@ TS_INLINE ts_interval noise3_interval(float lx, float ly, float lz, float hx, fl
     if (fabs(cx0) > 1e6f || fabs(cy0) > 1e6f || fabs(cz0) > 1e6f) return full;
     ts_interval r = {INFINITY, -INFINITY};
     for (int k = 0; k < 8; ++k) {
-        float cx = cx0 + (float)(k & 1), cy = cy0 + (float)((k >> 1) & 1), cz = cz0 + (float)(k >> 2);
+        float cx = cx0 + (float)(k & 1), cy = cy0 + (float)((k >> 1) & 1),
+              cz = cz0 + (float)(k >> 2);
         if (cx > cx1 || cy > cy1 || cz > cz1) continue;
         /* The part of the box inside cell (cx, cy, cz). */
         ts_interval s = noise3_cell_interval((ts_i32)cx, (ts_i32)cy, (ts_i32)cz, fmax(lx, cx),

@@ -86,8 +86,10 @@ TS_INLINE ts_vec4 patch_shading_normal(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLO
     float h = 0.5f * ldexp(1.0f, -(int)m);
     float u0 = fmax(u - h, 0.0f), u1 = fmin(u + h, 1.0f);
     float v0 = fmax(v - h, 0.0f), v1 = fmin(v + h, 1.0f);
-    ts_vec4 pu0 = patch_vertex(cp, cp, n, a, x, tex, u0, v), pu1 = patch_vertex(cp, cp, n, a, x, tex, u1, v);
-    ts_vec4 pv0 = patch_vertex(cp, cp, n, a, x, tex, u, v0), pv1 = patch_vertex(cp, cp, n, a, x, tex, u, v1);
+    ts_vec4 pu0 = patch_vertex(cp, cp, n, a, x, tex, u0, v),
+            pu1 = patch_vertex(cp, cp, n, a, x, tex, u1, v);
+    ts_vec4 pv0 = patch_vertex(cp, cp, n, a, x, tex, u, v0),
+            pv1 = patch_vertex(cp, cp, n, a, x, tex, u, v1);
     ts_v3 du = v3(pu1.x - pu0.x, pu1.y - pu0.y, pu1.z - pu0.z);
     ts_v3 dv = v3(pv1.x - pv0.x, pv1.y - pv0.y, pv1.z - pv0.z);
     ts_v3 c = v3_cross(du, dv);

@@ -31,7 +31,8 @@ TS_INLINE void qbvh_ascend(TS_CONST_GLOBAL ts_qbvh_node *nodes, ts_u32 *node, ts
     *node = (ts_u32)nodes[*node].parent;
     child_order(nodes[*node].axes, dx, dy, dz, order);
     ts_u32 p = 0u;
-    while (order[p] != slot) ++p;
+    while (order[p] != slot)
+        ++p;
     *pos = p + 1u;
 }
 

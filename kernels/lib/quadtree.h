@@ -56,7 +56,13 @@ TS_INLINE ts_u32 morton_compact(ts_u32 x)
 }
 
 /* Micro-quad column i (u) and row j (v) of Morton index k. */
-TS_INLINE ts_u32 morton_i(ts_u32 k) { return morton_compact(k); }
-TS_INLINE ts_u32 morton_j(ts_u32 k) { return morton_compact(k >> 1); }
+TS_INLINE ts_u32 morton_i(ts_u32 k)
+{
+    return morton_compact(k);
+}
+TS_INLINE ts_u32 morton_j(ts_u32 k)
+{
+    return morton_compact(k >> 1);
+}
 
 #endif

@@ -1,8 +1,8 @@
 /* shared_types.h — every struct and constant the host and the kernels exchange.
  *
- * Included by the C11 host (the .c files under host/) and by every OpenCL C 1.2 kernel. Rules (STYLE.md 1-2):
- * fixed-width scalars only, vectors as named float fields (never float3: 12 bytes on the
- * host, 16 on the device), explicit padding, no bool/size_t/pointers. Sizes and offsets are
+ * Included by the C11 host (the .c files under host/) and by every OpenCL C 1.2 kernel. Rules
+ * (STYLE.md 1-2): fixed-width scalars only, vectors as named float fields (never float3: 12 bytes
+ * on the host, 16 on the device), explicit padding, no bool/size_t/pointers. Sizes and offsets are
  * checked with _Static_assert in host/base/layout_check.c and against the device by
  * tests/test_layout.c, which runs a kernel writing sizeof/offsetof back.
  */
@@ -101,7 +101,7 @@ typedef struct ts_segment {
  * host lists a batch's trees by decreasing m, so the trees deeper than a level are a
  * prefix of the list (one launch per level, no idle work-items). */
 #define TS_TREE_SEGMENT(t) ((t) >> 1)
-#define TS_TREE_TIME(t) ((t) & 1u)
+#define TS_TREE_TIME(t) ((t)&1u)
 
 /* Closest hit of one ray against one patch (bottom_level), or of the ray overall
  * (resolve). t = TS_NO_HIT when nothing was hit. prim = TS_PRIM(m, index): the LOD the
@@ -109,7 +109,7 @@ typedef struct ts_segment {
  * (2 * quad, box mode) hit, quad = j * 2^m + i. u, v: patch parameters at the hit. 20 bytes. */
 #define TS_PRIM(m, index) (((m) << 24) | (index))
 #define TS_PRIM_LOD(prim) ((prim) >> 24)
-#define TS_PRIM_INDEX(prim) ((prim) & 0xffffffu)
+#define TS_PRIM_INDEX(prim) ((prim)&0xffffffu)
 typedef struct ts_hit {
     float t, u, v;
     ts_u32 patch, prim;
@@ -118,12 +118,12 @@ typedef struct ts_hit {
 /* Displacement functions (DESIGN.md §2, RIB `Displacement "name" ...`). Each bounds its
  * value by a conservative interval (lib/displace.h). */
 #define TS_DISP_NONE 0u
-#define TS_DISP_FBM 1u    /* fractal Brownian motion of gradient noise, object space */
-#define TS_DISP_RIDGED 2u /* ridged fBm: sum of gain^o * (1 - 2|noise|) */
+#define TS_DISP_FBM 1u     /* fractal Brownian motion of gradient noise, object space */
+#define TS_DISP_RIDGED 2u  /* ridged fBm: sum of gain^o * (1 - 2|noise|) */
 #define TS_DISP_TEXTURE 3u /* amplitude * (texel - offset): an image texture at the patch's st */
 
 /* ts_patch_attr.flags */
-#define TS_PATCH_MOVING 1u /* has a second time sample (scene cp1), Hanika §3.4 */
+#define TS_PATCH_MOVING 1u    /* has a second time sample (scene cp1), Hanika §3.4 */
 #define TS_PATCH_COLOR_TEX 2u /* Cs is multiplied by texture color_tex at the hit's st */
 
 /* Materials (RIB Surface), with the patch colour Cs. */
@@ -142,26 +142,26 @@ typedef struct ts_hit {
 typedef struct ts_patch_attr {
     float cs_r, cs_g, cs_b;
     ts_u32 flags;
-    ts_u32 disp_kind;      /* TS_DISP_* */
-    ts_u32 disp_octaves;   /* >= 1 */
-    float disp_amplitude;  /* world units */
-    float disp_frequency;  /* of the first octave, per object-space unit */
-    float disp_lacunarity; /* frequency ratio between octaves (default 2) */
-    float disp_gain;       /* amplitude ratio between octaves (default 0.5) */
-    ts_u32 xform;          /* index of the patch's world-to-object transform */
-    ts_u32 material;       /* TS_MAT_* */
+    ts_u32 disp_kind;        /* TS_DISP_* */
+    ts_u32 disp_octaves;     /* >= 1 */
+    float disp_amplitude;    /* world units */
+    float disp_frequency;    /* of the first octave, per object-space unit */
+    float disp_lacunarity;   /* frequency ratio between octaves (default 2) */
+    float disp_gain;         /* amplitude ratio between octaves (default 0.5) */
+    ts_u32 xform;            /* index of the patch's world-to-object transform */
+    ts_u32 material;         /* TS_MAT_* */
     float kd, ks, roughness; /* diffuse and specular weights, GGX alpha */
-    ts_u32 emitter;        /* index in the emitter table, TS_INVALID if it does not emit */
-    float le_r, le_g, le_b; /* emitted radiance */
-    ts_u32 color_tex;      /* texture multiplying Cs when flags has TS_PATCH_COLOR_TEX */
-    ts_u32 disp_tex;       /* TS_DISP_TEXTURE: the displacement texture */
-    float disp_offset;     /* TS_DISP_TEXTURE: texel value of zero displacement */
+    ts_u32 emitter;          /* index in the emitter table, TS_INVALID if it does not emit */
+    float le_r, le_g, le_b;  /* emitted radiance */
+    ts_u32 color_tex;        /* texture multiplying Cs when flags has TS_PATCH_COLOR_TEX */
+    ts_u32 disp_tex;         /* TS_DISP_TEXTURE: the displacement texture */
+    float disp_offset;       /* TS_DISP_TEXTURE: texel value of zero displacement */
     ts_u32 pad[2];
-    float st[8];           /* (s, t) at the four corners, in corner order */
+    float st[8]; /* (s, t) at the four corners, in corner order */
 } ts_patch_attr;
 
 /* Lights (DESIGN.md §3). One light is chosen uniformly per light sample. */
-#define TS_LIGHT_DISTANT 0u /* the sun: a cone of directions around dir (a delta if cos_max = 1) */
+#define TS_LIGHT_DISTANT 0u /* the sun: a cone of directions around dir (delta: cos_max = 1) */
 #define TS_LIGHT_DOME 1u    /* uniform sky radiance from every direction */
 #define TS_LIGHT_AREA 2u    /* every emissive patch, chosen by area (the emitter table) */
 
@@ -254,6 +254,7 @@ typedef struct ts_shade_params {
 
 /* Ray state as SoA: one buffer per field, generated from this one list (STYLE.md 7).
  * X(type, name, comment). */
+/* clang-format off */
 #define TS_RAY_FIELDS(X)                                                                    \
     X(ts_vec4, org, "origin xyz, w = tmin")                                                 \
     X(ts_vec4, dir, "unit direction xyz, w = time in [0,1)")                                \
@@ -261,18 +262,22 @@ typedef struct ts_shade_params {
     X(ts_u32, entry, "top-level resume state, TS_ENTRY_START or (node << 3 | pos)")         \
     X(ts_u32, pixel, "pixel index y * width + x")                                           \
     X(ts_u32, flags, "TS_RAY_SHADOW for shadow rays")
+/* clang-format on */
 
 /* Path state as SoA, one entry per path of the wave (path i traces ray i). */
+/* clang-format off */
 #define TS_PATH_FIELDS(X)                                                                   \
     X(ts_vec4, throughput, "rgb: the path's weight up to its last vertex")                 \
     X(ts_vec4, mis, "x: (1-q) p_bsdf of the last BSDF sample, y: q there, for the MIS weight "\
                     "of emission found by the next ray; zw unused")                         \
     X(ts_vec4, pending, "rgb: the light sample's contribution, added if its shadow ray is "  \
                         "unoccluded")
+/* clang-format on */
 
 /* Every (struct, field) whose offset the host and the device must agree on; the struct's
  * size is checked with it. host/base/layout_check.c asserts the sizes at compile time;
  * kernels/layout.cl writes sizeof/offsetof of each entry back for tests/test_layout.c. */
+/* clang-format off */
 #define TS_LAYOUT_FIELDS(X)                                                                 \
     X(ts_vec4, w) X(ts_box, hi_z) X(ts_box4, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
@@ -283,5 +288,6 @@ typedef struct ts_shade_params {
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \
     X(ts_patch_attr, disp_offset) X(ts_patch_attr, st) X(ts_texture, kind)                    \
     X(ts_texture, level_page)
+/* clang-format on */
 
 #endif

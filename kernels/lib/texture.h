@@ -42,7 +42,8 @@ TS_INLINE ts_u32 tex_page(TS_CONST_GLOBAL ts_texture *t, ts_u32 k, ts_u32 x, ts_
 }
 
 /* Texel (x, y) of level k (in range); NaN when its tile is not resident. */
-TS_INLINE ts_vec4 tex_texel(ts_tex_ctx c, TS_CONST_GLOBAL ts_texture *t, ts_u32 k, ts_u32 x, ts_u32 y)
+TS_INLINE ts_vec4 tex_texel(ts_tex_ctx c, TS_CONST_GLOBAL ts_texture *t, ts_u32 k, ts_u32 x,
+                            ts_u32 y)
 {
     ts_u32 slot = c.pages[tex_page(t, k, x, y)];
     if (slot == TS_INVALID) {
@@ -81,7 +82,8 @@ TS_INLINE ts_vec4 tex_bilinear(ts_tex_ctx c, ts_u32 id, float s, float t)
     ts_u32 j0 = tex_wrap((ts_i32)y0, tx->height), j1 = tex_wrap((ts_i32)y0 + 1, tx->height);
     ts_vec4 a = tex_texel(c, tx, 0u, i0, j0), b = tex_texel(c, tx, 0u, i1, j0);
     ts_vec4 d = tex_texel(c, tx, 0u, i0, j1), e = tex_texel(c, tx, 0u, i1, j1);
-    float w00 = (1.0f - fx) * (1.0f - fy), w10 = fx * (1.0f - fy), w01 = (1.0f - fx) * fy, w11 = fx * fy;
+    float w00 = (1.0f - fx) * (1.0f - fy), w10 = fx * (1.0f - fy), w01 = (1.0f - fx) * fy,
+          w11 = fx * fy;
     ts_vec4 r = {w00 * a.x + w10 * b.x + w01 * d.x + w11 * e.x,
                  w00 * a.y + w10 * b.y + w01 * d.y + w11 * e.y,
                  w00 * a.z + w10 * b.z + w01 * d.z + w11 * e.z, 0.0f};
@@ -98,8 +100,8 @@ TS_INLINE void tex_patch_st(TS_CONST_GLOBAL ts_patch_attr *a, float u, float v, 
 
 /* The surface colour at (u, v): Cs, times the colour texture at the point's st when the
  * patch has one (TS_PATCH_COLOR_TEX). */
-TS_INLINE void tex_surface_colour(TS_CONST_GLOBAL ts_patch_attr *a, ts_tex_ctx tex, float u, float v,
-                                  float cs[3])
+TS_INLINE void tex_surface_colour(TS_CONST_GLOBAL ts_patch_attr *a, ts_tex_ctx tex, float u,
+                                  float v, float cs[3])
 {
     cs[0] = a->cs_r, cs[1] = a->cs_g, cs[2] = a->cs_b;
     if (!(a->flags & TS_PATCH_COLOR_TEX)) return;
@@ -115,7 +117,8 @@ TS_INLINE void tex_surface_colour(TS_CONST_GLOBAL ts_patch_attr *a, ts_tex_ctx t
  * dice evaluates (tex_patch_st, tex_frac, the products with n). */
 TS_INLINE int tex_span(float lo, float hi, ts_u32 n, ts_i32 *a, ts_i32 *b)
 {
-    if (!(hi - lo < 1.0f) || !(fabs(lo) < TS_TEX_COORD_MAX) || !(fabs(hi) < TS_TEX_COORD_MAX)) return 0;
+    if (!(hi - lo < 1.0f) || !(fabs(lo) < TS_TEX_COORD_MAX) || !(fabs(hi) < TS_TEX_COORD_MAX))
+        return 0;
     float base = floor(lo), fn = (float)n;
     float margin = 1e-3f + 4e-6f * fn * (fmax(fabs(lo), fabs(hi)) + 1.0f);
     *a = (ts_i32)floor((lo - base) * fn - 0.5f - margin);
@@ -153,10 +156,10 @@ TS_INLINE ts_interval tex_range(ts_tex_ctx c, ts_u32 id, float s0, float t0, flo
     /* The finest level at which each partial span covers at most 2 texels per wrapped
      * range and each whole axis at most 4 texels. */
     ts_u32 k = 0u, top = tx->levels - 1u;
-    while (k < top && ((part_x && (ts_u32)(bx - ax) >= (1u << k)) ||
-                       (part_y && (ts_u32)(by - ay) >= (1u << k)) ||
-                       (!part_x && tex_dim(tx->width, k) > 4u) ||
-                       (!part_y && tex_dim(tx->height, k) > 4u)))
+    while (k < top &&
+           ((part_x && (ts_u32)(bx - ax) >= (1u << k)) ||
+            (part_y && (ts_u32)(by - ay) >= (1u << k)) || (!part_x && tex_dim(tx->width, k) > 4u) ||
+            (!part_y && tex_dim(tx->height, k) > 4u)))
         ++k;
     ts_u32 rx[4], ry[4];
     int nx = tex_level_ranges(!part_x, ax, bx, tx->width, k, rx);

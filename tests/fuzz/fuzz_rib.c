@@ -26,8 +26,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             abort();
         }
         if (err.code != rc || err.msg[0] == '\0') {
-            fprintf(stderr, "fuzz_rib: failed parse returned %d, err.code %d, message \"%s\"\n",
-                    rc, err.code, err.msg);
+            fprintf(stderr, "fuzz_rib: failed parse returned %d, err.code %d, message \"%s\"\n", rc,
+                    err.code, err.msg);
             abort();
         }
     }

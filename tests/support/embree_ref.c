@@ -35,13 +35,20 @@ static double now_seconds(void)
 static const char *rtc_error_name(enum RTCError code)
 {
     switch (code) {
-    case RTC_ERROR_NONE: return "no error";
-    case RTC_ERROR_UNKNOWN: return "unknown error";
-    case RTC_ERROR_INVALID_ARGUMENT: return "invalid argument";
-    case RTC_ERROR_INVALID_OPERATION: return "invalid operation";
-    case RTC_ERROR_OUT_OF_MEMORY: return "out of memory";
-    case RTC_ERROR_UNSUPPORTED_CPU: return "unsupported CPU";
-    case RTC_ERROR_CANCELLED: return "cancelled";
+    case RTC_ERROR_NONE:
+        return "no error";
+    case RTC_ERROR_UNKNOWN:
+        return "unknown error";
+    case RTC_ERROR_INVALID_ARGUMENT:
+        return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION:
+        return "invalid operation";
+    case RTC_ERROR_OUT_OF_MEMORY:
+        return "out of memory";
+    case RTC_ERROR_UNSUPPORTED_CPU:
+        return "unsupported CPU";
+    case RTC_ERROR_CANCELLED:
+        return "cancelled";
     }
     return "error";
 }
@@ -60,7 +67,8 @@ static bool on_memory(void *user, ssize_t bytes, bool post)
     ts_embree_ref *r = user;
     long long now = atomic_fetch_add(&r->bytes, (long long)bytes) + (long long)bytes;
     long long peak = atomic_load(&r->peak);
-    while (now > peak && !atomic_compare_exchange_weak(&r->peak, &peak, now)) {}
+    while (now > peak && !atomic_compare_exchange_weak(&r->peak, &peak, now)) {
+    }
     return true;
 }
 
@@ -80,7 +88,8 @@ ts_vec4 embree_ref_vertex(const ts_scene *s, uint32_t p, uint32_t m, uint32_t i,
     const ts_patch_attr *a = &s->attr[p];
     const ts_vec4 *n = s->corner_n ? &s->corner_n[(size_t)p * 4u] : NULL;
     const ts_xform *x = s->xform ? &s->xform[a->xform] : NULL;
-    ts_vec4 v = patch_vertex(cp, cp0, n, a, x, scene_tex_ctx(s), ldexpf((float)i, -(int)m), ldexpf((float)j, -(int)m));
+    ts_vec4 v = patch_vertex(cp, cp0, n, a, x, scene_tex_ctx(s), ldexpf((float)i, -(int)m),
+                             ldexpf((float)j, -(int)m));
     v.w = 1.0f;
     return v;
 }
@@ -109,7 +118,8 @@ static int add_patch(ts_embree_ref *r, const ts_scene *s, uint32_t p, uint32_t m
             break;
         }
         for (uint32_t j = 0; j < n; ++j)
-            for (uint32_t i = 0; i < n; ++i) vb[j * n + i] = embree_ref_vertex(s, p, m, i, j, time);
+            for (uint32_t i = 0; i < n; ++i)
+                vb[j * n + i] = embree_ref_vertex(s, p, m, i, j, time);
     }
     if (!ib) {
         rtcReleaseGeometry(g);
@@ -136,7 +146,8 @@ int embree_ref_create(ts_embree_ref **out, const ts_scene *s, uint32_t m,
 {
     *out = NULL;
     ts_embree_options o = opt ? *opt : TS_EMBREE_DEFAULTS;
-    if (m > TS_LOD_LIMIT) return ts_error_set(err, TS_E_USAGE, "embree: m = %u > %u", m, TS_LOD_LIMIT);
+    if (m > TS_LOD_LIMIT)
+        return ts_error_set(err, TS_E_USAGE, "embree: m = %u > %u", m, TS_LOD_LIMIT);
     ts_embree_ref *r = calloc(1, sizeof *r);
     if (!r) return ts_error_set(err, TS_E_MEMORY, "embree: out of memory");
     atomic_init(&r->bytes, 0);
@@ -155,7 +166,8 @@ int embree_ref_create(ts_embree_ref **out, const ts_scene *s, uint32_t m,
     double t0 = now_seconds();
     r->scene = rtcNewScene(r->device);
     if (!r->scene) {
-        if (!check(r, "rtcNewScene", err)) ts_error_set(err, TS_E_INTERNAL, "embree: rtcNewScene failed");
+        if (!check(r, "rtcNewScene", err))
+            ts_error_set(err, TS_E_INTERNAL, "embree: rtcNewScene failed");
         embree_ref_destroy(r);
         return err->code;
     }

@@ -3,10 +3,10 @@
  * bottom level (same vertices: embree_ref_vertex; same split: micro-quad (i, j) gives
  * triangles (v00, v10, v11) and (v00, v11, v01)), one Embree triangle mesh per patch with
  * geomID = patch index and primID = the bottom level's micro-triangle index
- * 2 * (j * 2^m + i) + (0 | 1) (returned as ts_hit.prim = TS_PRIM(m, primID)). A moving patch (Hanika §3.4) gets its grids at both
- * time samples, interpolated linearly at the ray's time (dir.w) by Embree. Embree is a
- * dependency of the tests and benchmarks only, never of the renderer; none of its types
- * appear here. */
+ * 2 * (j * 2^m + i) + (0 | 1) (returned as ts_hit.prim = TS_PRIM(m, primID)). A moving patch
+ * (Hanika §3.4) gets its grids at both time samples, interpolated linearly at the ray's time
+ * (dir.w) by Embree. Embree is a dependency of the tests and benchmarks only, never of the
+ * renderer; none of its types appear here. */
 #ifndef TS_EMBREE_REF_H
 #define TS_EMBREE_REF_H
 
@@ -27,13 +27,13 @@ typedef struct ts_embree_options {
  * its memory monitor reports them (rtcSetDeviceMemoryMonitorFunction): geometry buffers and
  * the BVH. */
 typedef struct ts_embree_info {
-    uint32_t lod;                  /* m */
-    uint64_t triangles, vertices;  /* over all patches (vertices: both time samples) */
-    double tessellate_seconds;     /* host dicing and filling Embree's buffers */
-    double build_seconds;          /* rtcCommitScene: the BVH build, wall clock */
-    int64_t bytes_before_build;    /* held after the buffers are filled, before the build */
-    int64_t bytes_peak;            /* the most held at any time up to the end of the build */
-    int64_t bytes_after_build;     /* held once the scene is committed (buffers + BVH) */
+    uint32_t lod;                 /* m */
+    uint64_t triangles, vertices; /* over all patches (vertices: both time samples) */
+    double tessellate_seconds;    /* host dicing and filling Embree's buffers */
+    double build_seconds;         /* rtcCommitScene: the BVH build, wall clock */
+    int64_t bytes_before_build;   /* held after the buffers are filled, before the build */
+    int64_t bytes_peak;           /* the most held at any time up to the end of the build */
+    int64_t bytes_after_build;    /* held once the scene is committed (buffers + BVH) */
 } ts_embree_info;
 
 typedef struct ts_embree_ref ts_embree_ref;

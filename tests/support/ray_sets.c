@@ -32,8 +32,10 @@ void *ray_set_read_file(const char *path, size_t *size)
         data = NULL;
     }
     if (f) fclose(f);
-    if (!data) fprintf(stderr, "ray_sets: cannot read %s\n", path);
-    else ((char *)data)[n] = '\0', *size = (size_t)n;
+    if (!data)
+        fprintf(stderr, "ray_sets: cannot read %s\n", path);
+    else
+        ((char *)data)[n] = '\0', *size = (size_t)n;
     return data;
 }
 
@@ -101,13 +103,15 @@ ts_hit *ray_set_load_hits(const char *path, uint32_t count)
 uint32_t ray_set_count_hits(const ts_hit *h, uint32_t n)
 {
     uint32_t k = 0;
-    for (uint32_t i = 0; i < n; ++i) k += h[i].patch != TS_INVALID;
+    for (uint32_t i = 0; i < n; ++i)
+        k += h[i].patch != TS_INVALID;
     return k;
 }
 
 /* The camera kernel's eye rays (kernels/camera.cl) at 1 spp: pixel centres, time from the
  * RNG. */
-int ray_set_eye(const ts_scene *s, uint32_t w, uint32_t h, uint32_t seed, ts_ray_set *r, ts_error *err)
+int ray_set_eye(const ts_scene *s, uint32_t w, uint32_t h, uint32_t seed, ts_ray_set *r,
+                ts_error *err)
 {
     ts_camera_params p;
     if (render_camera_params(&s->camera, (int)w, (int)h, &p, err)) return err->code;
@@ -143,7 +147,7 @@ ts_vec4 ray_set_normal(const ts_scene *s, uint32_t patch, float u, float v, uint
 
 /* One generation of diffuse bounce rays from the hits of `eye` (see the top of the file). */
 int ray_set_bounce(const ts_scene *s, uint32_t m, uint32_t seed, const ts_ray_set *eye,
-                       const ts_hit *hit, ts_ray_set *out, ts_error *err)
+                   const ts_hit *hit, ts_ray_set *out, ts_error *err)
 {
     if (ray_set_alloc(out, eye->count)) return ts_error_set(err, TS_E_MEMORY, "out of memory");
     uint32_t n = 0;
@@ -160,7 +164,8 @@ int ray_set_bounce(const ts_scene *s, uint32_t m, uint32_t seed, const ts_ray_se
         float l = fmaxf(b.hi_x - b.lo_x, fmaxf(b.hi_y - b.lo_y, b.hi_z - b.lo_z));
         float eps = l * ldexpf(1.0f, -(int)m);
         uint32_t pix = eye->pixel[k];
-        ts_v3 wi = sample_cosine(nn, rng_uniform(pix, 0, 1, 5, seed), rng_uniform(pix, 0, 1, 6, seed));
+        ts_v3 wi =
+            sample_cosine(nn, rng_uniform(pix, 0, 1, 5, seed), rng_uniform(pix, 0, 1, 6, seed));
         if (!(v3_dot(nn, wi) > 0.0f)) continue;
         out->org[n] = (ts_vec4){p.x + eps * nn.x, p.y + eps * nn.y, p.z + eps * nn.z, 0.0f};
         out->dir[n] = (ts_vec4){wi.x, wi.y, wi.z, d4.w};
@@ -170,4 +175,3 @@ int ray_set_bounce(const ts_scene *s, uint32_t m, uint32_t seed, const ts_ray_se
     out->count = n;
     return TS_OK;
 }
-

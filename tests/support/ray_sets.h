@@ -33,7 +33,8 @@ uint32_t ray_set_count_hits(const ts_hit *h, uint32_t n);
 
 /* The camera kernel's eye rays (kernels/camera.cl) at w x h, 1 spp: through the pixel
  * centres, time rng_uniform(pixel, 0, 0, 2, seed). */
-int ray_set_eye(const ts_scene *s, uint32_t w, uint32_t h, uint32_t seed, ts_ray_set *r, ts_error *err);
+int ray_set_eye(const ts_scene *s, uint32_t w, uint32_t h, uint32_t seed, ts_ray_set *r,
+                ts_error *err);
 /* The shade kernel's shading normal (lib/patch.h patch_shading_normal) at (u, v) of `patch`
  * diced at m: the Bézier normal, or for a displaced patch the central difference over one
  * micro-quad. */

@@ -113,7 +113,8 @@ int test_run_tessera(const char *dir, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(args, sizeof args, fmt, ap);
     va_end(ap);
-    snprintf(cmd, sizeof cmd, "'%s' %s 2>'%s/stderr.txt' >/dev/null", test_tessera_binary(), args, dir);
+    snprintf(cmd, sizeof cmd, "'%s' %s 2>'%s/stderr.txt' >/dev/null", test_tessera_binary(), args,
+             dir);
     int st = system(cmd);
     return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
@@ -128,7 +129,8 @@ static void sphere_point(int f, double s, double t, double r, double out[3])
     c[(axis + 1) % 3] = sign * s;
     c[(axis + 2) % 3] = t;
     double len = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-    for (int k = 0; k < 3; ++k) out[k] = r * c[k] / len;
+    for (int k = 0; k < 3; ++k)
+        out[k] = r * c[k] / len;
 }
 
 void test_write_sphere_patches(void *file, int k, double r)
@@ -153,7 +155,8 @@ void test_write_sphere_patches(void *file, int k, double r)
                         for (int q = 0; q < 4; ++q)
                             for (int p = 0; p < 4; ++p)
                                 for (int c = 0; c < 3; ++c)
-                                    cp[j][i][c] += to_bezier[j][q] * to_bezier[i][p] * sample[q][p][c];
+                                    cp[j][i][c] +=
+                                        to_bezier[j][q] * to_bezier[i][p] * sample[q][p][c];
                 fprintf(f, "Patch \"bicubic\" \"P\" [");
                 for (int j = 0; j < 4; ++j)
                     for (int i = 0; i < 4; ++i)
@@ -184,7 +187,8 @@ double test_stats_number(const char *json_path, const char *key)
     while (v && *p) {
         size_t len = strcspn(p, ".");
         snprintf(part, sizeof part, "%.*s", (int)len, p);
-        v = cJSON_IsArray(v) ? cJSON_GetArrayItem(v, atoi(part)) : cJSON_GetObjectItemCaseSensitive(v, part);
+        v = cJSON_IsArray(v) ? cJSON_GetArrayItem(v, atoi(part))
+                             : cJSON_GetObjectItemCaseSensitive(v, part);
         p += len + (p[len] == '.');
     }
     if (!cJSON_IsNumber(v)) fail_msg("%s: no number at %s", json_path, key);

@@ -60,7 +60,7 @@ void test_read_image(const char *path, struct ts_image *img);
 void test_assert_same_pixels(const char *path_a, const char *path_b);
 /* The main() of a test that runs `tessera` or opens a device: exits 77 (skipped) when the
  * machine has no OpenCL device, else runs the group. */
-#define TEST_RUN_WITH_DEVICE(tests, setup)                                                  \
+#define TEST_RUN_WITH_DEVICE(tests, setup)                                                         \
     (test_has_device() ? cmocka_run_group_tests(tests, setup, NULL) : TS_TEST_SKIP)
 int test_has_device(void);
 /* Deterministic uniform floats in [lo, hi). */

@@ -228,18 +228,21 @@ int rib_req_procedural(rib_parser *p)
         return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
     }
     if (strcmp(kind, "DelayedReadArchive") == 0) {
-        rc = data->count == 1 ? rib_include_file(p, a0, &where)
-                              : rib_error_at(p, where.line, where.col,
-                                             "Procedural \"DelayedReadArchive\" takes one file name");
+        rc = data->count == 1
+                 ? rib_include_file(p, a0, &where)
+                 : rib_error_at(p, where.line, where.col,
+                                "Procedural \"DelayedReadArchive\" takes one file name");
     } else if (strcmp(kind, "DynamicLoad") == 0) {
         int mesh = strcmp(a0, "mesh") == 0, forest = strcmp(a0, "forest") == 0;
         if (!mesh && !forest)
-            rc = rib_error_at(p, where.line, where.col,
-                              "Procedural \"DynamicLoad\": unknown generator \"%s\" (mesh or forest)",
-                              rib_printable(a0, shown));
+            rc = rib_error_at(
+                p, where.line, where.col,
+                "Procedural \"DynamicLoad\": unknown generator \"%s\" (mesh or forest)",
+                rib_printable(a0, shown));
         else if (mesh && data->count != 2)
-            rc = rib_error_at(p, where.line, where.col,
-                              "Procedural \"DynamicLoad\": [\"mesh\" \"file\"] takes one file name");
+            rc =
+                rib_error_at(p, where.line, where.col,
+                             "Procedural \"DynamicLoad\": [\"mesh\" \"file\"] takes one file name");
         else if (forest && data->count > 2)
             rc = rib_error_at(p, where.line, where.col,
                               "Procedural \"DynamicLoad\": [\"forest\" \"parameters\"] takes one "

@@ -32,8 +32,8 @@ static int geom_check_state(rib_parser *p)
 }
 
 /* Moves 16 object-space points by m into w; fails naming the "P" values at line:col. */
-static int geom_points(rib_parser *p, int line, int col, const double m[16],
-                       const double g[16][3], double w[16][3])
+static int geom_points(rib_parser *p, int line, int col, const double m[16], const double g[16][3],
+                       double w[16][3])
 {
     for (int k = 0; k < 16; k++)
         if (!rib_mat_point(m, g[k], w[k]))
@@ -201,11 +201,16 @@ static size_t geom_class_count(const geom_grid *g, int cls)
     size_t patches = (size_t)g->cu * (size_t)g->cv;
     size_t nuv = (size_t)(g->uper ? g->cu : g->cu + 1), nvv = (size_t)(g->vper ? g->cv : g->cv + 1);
     switch (cls) {
-    case GEOM_CONSTANT: return 1;
-    case GEOM_UNIFORM: return patches;
-    case GEOM_VARYING: return nuv * nvv;
-    case GEOM_VERTEX: return (size_t)g->nu * (size_t)g->nv;
-    default: return 4 * patches;
+    case GEOM_CONSTANT:
+        return 1;
+    case GEOM_UNIFORM:
+        return patches;
+    case GEOM_VARYING:
+        return nuv * nvv;
+    case GEOM_VERTEX:
+        return (size_t)g->nu * (size_t)g->nv;
+    default:
+        return 4 * patches;
     }
 }
 
@@ -218,7 +223,8 @@ static int geom_class_of(const char *decl, int dflt)
         while (e < n && decl[e] != ' ')
             e++;
         for (int c = 0; c < GEOM_CLASSES; c++)
-            if (e - s == strlen(geom_class_names[c]) && strncmp(decl + s, geom_class_names[c], e - s) == 0)
+            if (e - s == strlen(geom_class_names[c]) &&
+                strncmp(decl + s, geom_class_names[c], e - s) == 0)
                 return c;
         if (e - s == 10 && strncmp(decl + s, "facevertex", 10) == 0) return GEOM_FACEVARYING;
         s = e + 1;
@@ -236,10 +242,9 @@ static int geom_read_var(rib_parser *p, const rib_param *prm, const geom_grid *g
     char shown[RIB_PRINT_MAX];
     if (cls != GEOM_VARYING && (val->kind == RIB_ARG_NUMBER || val->kind == RIB_ARG_NUMBERS) &&
         val->count != 3 * count)
-        return rib_error_at(p, val->line, val->col,
-                            "%s: parameter \"%s\" (%s) needs %zu values, got %zu", p->req,
-                            rib_printable(prm->name, shown), geom_class_names[cls], 3 * count,
-                            val->count);
+        return rib_error_at(
+            p, val->line, val->col, "%s: parameter \"%s\" (%s) needs %zu values, got %zu", p->req,
+            rib_printable(prm->name, shown), geom_class_names[cls], 3 * count, val->count);
     int rc = rib_param_numbers(p, prm, 3 * count, &v, NULL);
     if (rc != TS_OK) return rc;
     int is_n = strcmp(prm->name, "N") == 0;
@@ -611,7 +616,8 @@ int rib_req_light_source(rib_parser *p)
                             "LightSource: distantlight \"from\" and \"to\" are the same point");
     if (!(l.angle >= 0.0 && l.angle < 180.0))
         return rib_error_at(p, p->req_line, p->req_col,
-                            "LightSource: distantlight \"angle\" %g is outside [0, 180) degrees", l.angle);
+                            "LightSource: distantlight \"angle\" %g is outside [0, 180) degrees",
+                            l.angle);
     memcpy(l.from, from, sizeof from);
     memcpy(l.to, to, sizeof to);
     return scene_add_light(p->scene, &l, p->err);

@@ -83,20 +83,20 @@ typedef struct rib_frame {
  * type or two transformations of one kind, applied at MotionEnd. */
 typedef struct rib_motion {
     int active;
-    int line, col;                  /* of MotionBegin */
-    int count;                      /* samples read so far (0..2) */
-    char first[RIB_MAX_NAME + 1];   /* request name of the first sample */
+    int line, col;                /* of MotionBegin */
+    int count;                    /* samples read so far (0..2) */
+    char first[RIB_MAX_NAME + 1]; /* request name of the first sample */
     int first_line, first_col;
-    double m[2][16];                /* transformation samples */
-    int replace;                    /* Transform (replaces the CTM) rather than a concat */
-    int bicubic;                    /* patch samples: type of the first */
-    double g[2][16][3];             /* patch samples: object-space Bézier points */
+    double m[2][16];    /* transformation samples */
+    int replace;        /* Transform (replaces the CTM) rather than a concat */
+    int bicubic;        /* patch samples: type of the first */
+    double g[2][16][3]; /* patch samples: object-space Bézier points */
     int has_n;
-    double n[4][3];                 /* "N" of the first patch sample, object space */
+    double n[4][3]; /* "N" of the first patch sample, object space */
     int has_cs;
-    double cs[3];                   /* "Cs" of the first patch sample (its average) */
+    double cs[3]; /* "Cs" of the first patch sample (its average) */
     int has_st;
-    double st[4][2];                /* "st" of the first patch sample at its corners */
+    double st[4][2];                  /* "st" of the first patch sample at its corners */
     int p_line, p_col, n_line, n_col; /* of the first sample's "P" and "N" values */
 } rib_motion;
 
@@ -119,14 +119,14 @@ typedef struct rib_parser {
     char *chars;
     size_t nchars, chars_cap;
     /* Graphics state. */
-    double ctm[16]; /* object to world in the world block, object to camera before it */
+    double ctm[16];  /* object to world in the world block, object to camera before it */
     double ctm1[16]; /* the CTM at shutter close; equal to ctm unless ctm_moving */
     int ctm_moving;
     double color[3];
     ts_basis ubasis, vbasis;
     rib_disp disp;
-    rib_surface surface;  /* Surface: material of the following patches */
-    double emission[3];   /* AreaLightSource: radiance the following patches emit */
+    rib_surface surface; /* Surface: material of the following patches */
+    double emission[3];  /* AreaLightSource: radiance the following patches emit */
     rib_motion motion;
     /* The last world-to-object transform added for a displaced patch, by its CTM. */
     double xf_ctm[16];

@@ -45,8 +45,8 @@ int rib_req_clipping(rib_parser *p)
     int rc = options_numbers(p, 2, v);
     if (rc != TS_OK) return rc;
     if (!(v[0] > 0.0 && v[1] > v[0]))
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "Clipping: need 0 < near < far, got %g %g", v[0], v[1]);
+        return rib_error_at(p, p->req_line, p->req_col, "Clipping: need 0 < near < far, got %g %g",
+                            v[0], v[1]);
     p->scene->camera.clip_near = v[0];
     p->scene->camera.clip_far = v[1];
     rib_warn_once(p, p->req_line, p->req_col,

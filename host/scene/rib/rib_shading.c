@@ -17,7 +17,8 @@ static int shading_params(rib_parser *p, size_t first, const char *const *names,
         int rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
         size_t k = 0;
-        while (k < n && strcmp(prm.name, names[k]) != 0) k++;
+        while (k < n && strcmp(prm.name, names[k]) != 0)
+            k++;
         if (skip && strcmp(prm.name, skip) == 0) continue;
         if (k == n) {
             rib_warn_param(p, &prm);
@@ -61,7 +62,8 @@ int rib_req_surface(rib_parser *p)
     int rc = rib_string_arg(p, 0, "a surface shader name", &name);
     if (rc != TS_OK) return rc;
     rib_surface s = {TS_MAT_MATTE, 1.0, 0.0, 0.1, 0, 0};
-    if (strcmp(name, "plastic") == 0) s = (rib_surface){TS_MAT_PLASTIC, 0.5, 0.5, 0.1, 0, 0};
+    if (strcmp(name, "plastic") == 0)
+        s = (rib_surface){TS_MAT_PLASTIC, 0.5, 0.5, 0.1, 0, 0};
     else if (strcmp(name, "matte") != 0) {
         char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
         snprintf(what, sizeof what, "Surface \"%s\" renders as matte (matte, plastic)",
@@ -74,7 +76,8 @@ int rib_req_surface(rib_parser *p)
     rc = shading_params(p, 1, names, counts, out, s.material == TS_MAT_PLASTIC ? 3 : 1,
                         "texturename");
     if (rc != TS_OK) return rc;
-    if (!(s.kd >= 0 && s.ks >= 0 && s.kd + s.ks <= 1.0 + 1e-6 && s.roughness > 0 && s.roughness <= 1))
+    if (!(s.kd >= 0 && s.ks >= 0 && s.kd + s.ks <= 1.0 + 1e-6 && s.roughness > 0 &&
+          s.roughness <= 1))
         return rib_error_at(p, p->req_line, p->req_col,
                             "Surface \"%s\": need Kd, Ks >= 0 with Kd + Ks <= 1 (energy "
                             "conservation) and 0 < roughness <= 1",
@@ -113,7 +116,8 @@ int rib_req_area_light_source(rib_parser *p)
     if (rc != TS_OK) return rc;
     if (!(intensity >= 0))
         return rib_error_at(p, p->req_line, p->req_col, "AreaLightSource: intensity must be >= 0");
-    for (int k = 0; k < 3; ++k) p->emission[k] = intensity * color[k];
+    for (int k = 0; k < 3; ++k)
+        p->emission[k] = intensity * color[k];
     return TS_OK;
 }
 
@@ -135,7 +139,8 @@ int rib_dome_light(rib_parser *p, size_t first)
         char *path = rib_resolve(p, name);
         if (!path || strlen(path) >= sizeof d.mapname) {
             free(path);
-            return rib_error_at(p, prm.key->line, prm.key->col, "domelight \"mapname\": path too long");
+            return rib_error_at(p, prm.key->line, prm.key->col,
+                                "domelight \"mapname\": path too long");
         }
         strcpy(d.mapname, path);
         free(path);

@@ -365,7 +365,8 @@ static int rib_camera_attrs_to_world(rib_parser *p, const double w2c[16])
 static int rib_camera_items_to_world(rib_parser *p, const double cam_to_world[16])
 {
     ts_scene *s = p->scene;
-    size_t first = (size_t)p->first_patch * 16u, n = (size_t)(s->patch_count - p->first_patch) * 16u;
+    size_t first = (size_t)p->first_patch * 16u,
+           n = (size_t)(s->patch_count - p->first_patch) * 16u;
     int rc = TS_OK; /* (no pointer arithmetic on the arrays while there are no patches) */
     if (n > 0) rc = rib_camera_points_to_world(p, s->cp + first, n, cam_to_world);
     if (rc == TS_OK && n > 0 && s->cp1)
@@ -584,8 +585,8 @@ int rib_req_displacement(rib_parser *p)
         rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
         /* Which parameters each function takes: noise 0-4, texture 0, 5, 6. */
-        static const char *const known[] = {"amplitude", "frequency", "octaves", "lacunarity",
-                                            "gain", "offset", "texturename"};
+        static const char *const known[] = {"amplitude", "frequency", "octaves",    "lacunarity",
+                                            "gain",      "offset",    "texturename"};
         size_t k = 0;
         while (k < 7 && strcmp(prm.name, known[k]) != 0)
             k++;
@@ -605,10 +606,11 @@ int rib_req_displacement(rib_parser *p)
         int ok = fabs(x) <= FLT_MAX;
         const char *need = "a finite number";
         if (k == 1 || k == 3) ok = ok && x > 0.0, need = "positive";
-        if (k == 2) ok = x >= 0.5 && x < (double)TS_DISP_MAX_OCTAVES + 0.5, need = "between 1 and 16";
+        if (k == 2)
+            ok = x >= 0.5 && x < (double)TS_DISP_MAX_OCTAVES + 0.5, need = "between 1 and 16";
         if (!ok)
-            return rib_error_at(p, prm.val->line, prm.val->col, "Displacement: %s must be %s, got %g",
-                                known[k], need, x);
+            return rib_error_at(p, prm.val->line, prm.val->col,
+                                "Displacement: %s must be %s, got %g", known[k], need, x);
         if (k == 0) d.amplitude = x;
         if (k == 1) d.frequency = x;
         if (k == 2) d.octaves = (uint32_t)floor(x + 0.5);
@@ -627,8 +629,8 @@ int rib_req_displacement(rib_parser *p)
 /* ---- motion blocks (docs/rib.md) --------------------------------------------------- */
 
 /* Requests a motion block may hold: one kind per block, two samples. */
-static const char *const rib_motion_kinds[] = {"Patch", "Translate", "Rotate", "Scale",
-                                               "ConcatTransform", "Transform"};
+static const char *const rib_motion_kinds[] = {"Patch", "Translate",       "Rotate",
+                                               "Scale", "ConcatTransform", "Transform"};
 
 int rib_motion_check(rib_parser *p)
 {
