@@ -361,14 +361,6 @@ static int job_hash(const ts_render_options *o, const ts_scene *s, const ts_came
     return TS_OK;
 }
 
-/* An OpenCL error that means the device ran out of memory. */
-static int is_out_of_memory(const ts_error *err)
-{
-    return err->code == TS_E_DEVICE &&
-           (strncmp(err->msg, "CL_MEM_OBJECT_ALLOCATION_FAILURE", 32) == 0 ||
-            strncmp(err->msg, "CL_OUT_OF_RESOURCES", 19) == 0);
-}
-
 /* Runs the waves: each is a run of global sample indices [first, first + rays). The lod
  * stage counts the whole frame's eye rays even when the film already holds samples
  * [0, job->samples_done) (--resume, a retry): it is deterministic, so it gives the levels
@@ -613,7 +605,7 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
         if (!rc) rc = dev_finish(&cl, stats, err); /* the buffers' first use */
         uint64_t before = job.samples_done;
         if (!rc) rc = render_waves(o, &pipe, cam, &job, err);
-        if (!rc || !is_out_of_memory(err)) break;
+        if (!rc || !dev_is_out_of_memory(err)) break;
         /* Out of device memory: keep the finished waves, retry with half the budget. */
         ts_error_clear(&oom);
         ts_error_set(&oom, err->code, "%s", err->msg);

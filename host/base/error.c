@@ -15,6 +15,18 @@ int ts_error_set(ts_error *err, int code, const char *fmt, ...)
     return code;
 }
 
+int ts_error_set_status(ts_error *err, int code, int status, const char *fmt, ...)
+{
+    if (!err || err->code != 0) return code;
+    err->code = code;
+    err->status = status;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(err->msg, sizeof err->msg, fmt, ap);
+    va_end(ap);
+    return code;
+}
+
 void ts_error_set_detail(ts_error *err, char *detail)
 {
     if (!err) {
@@ -31,5 +43,6 @@ void ts_error_clear(ts_error *err)
     free(err->detail);
     err->detail = NULL;
     err->code = 0;
+    err->status = 0;
     err->msg[0] = '\0';
 }

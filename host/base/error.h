@@ -9,6 +9,7 @@ typedef struct ts_error {
     int code;       /* 0 = no error; else a TS_E* value */
     char msg[2048]; /* one line, no trailing newline; scene errors start with file:line:col */
     char *detail;   /* optional multi-line detail (a kernel build log); owned, may be NULL */
+    int status;     /* TS_E_DEVICE: the failed call's status (an OpenCL cl_int), else 0 */
 } ts_error;
 
 enum {
@@ -25,6 +26,10 @@ enum {
  * caller may add nothing that hides the root cause. */
 int ts_error_set(ts_error *err, int code, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
+/* As ts_error_set, and records `status` (the failed call's own code) when this call is the
+ * one that sets err: callers decide by the status, never by matching message text. */
+int ts_error_set_status(ts_error *err, int code, int status, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
 /* Takes ownership of a malloc'd detail text (for example a build log). */
 void ts_error_set_detail(ts_error *err, char *detail);
 void ts_error_clear(ts_error *err);

@@ -235,8 +235,9 @@ static int program_build(ts_device *cl, cl_program prog, const char *src, ts_err
         }
         line += len + (line[len] == '\n');
     }
-    ts_error_set(err, TS_E_DEVICE, "%s in clBuildProgram: the kernels failed to build on %s%s",
-                 dev_error_name(rc), cl->info.name, first);
+    ts_error_set_status(err, TS_E_DEVICE, rc,
+                        "%s in clBuildProgram: the kernels failed to build on %s%s",
+                        dev_error_name(rc), cl->info.name, first);
     ts_error_set_detail(err, log);
     return TS_E_DEVICE;
 }
@@ -280,8 +281,7 @@ static int program_open(ts_device *cl, const ts_device_options *opt, ts_error *e
         cl->program = clCreateProgramWithSource(cl->context, 1, srcs, NULL, &rc);
         if (rc != CL_SUCCESS) {
             free(src);
-            return ts_error_set(err, TS_E_DEVICE, "%s in clCreateProgramWithSource",
-                                dev_error_name(rc));
+            return dev_fail(err, rc, "clCreateProgramWithSource");
         }
         if (program_build(cl, cl->program, src, err)) {
             free(src);
@@ -344,7 +344,7 @@ cl_kernel dev_kernel_create(ts_device *cl, const char *name, ts_error *err)
     cl_int rc;
     cl_kernel k = clCreateKernel(cl->program, name, &rc);
     if (rc != CL_SUCCESS) {
-        ts_error_set(err, TS_E_DEVICE, "%s in clCreateKernel(%s)", dev_error_name(rc), name);
+        dev_fail(err, rc, "clCreateKernel(%s)", name);
         return NULL;
     }
     return k;
@@ -375,7 +375,7 @@ cl_mem dev_buffer_create(ts_device *cl, cl_mem_flags flags, size_t size, void *h
     }
     if (rc == CL_SUCCESS) m = clCreateBuffer(cl->context, flags, size ? size : 1, host, &rc);
     if (rc != CL_SUCCESS) {
-        ts_error_set(err, TS_E_DEVICE, "%s in clCreateBuffer(%zu bytes)", dev_error_name(rc), size);
+        dev_fail(err, rc, "clCreateBuffer(%zu bytes)", size);
         return NULL;
     }
     return m;
@@ -394,8 +394,7 @@ int dev_set_args(cl_kernel k, ts_error *err, ...)
             va_end(ap);
             char name[128] = "?";
             clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);
-            return ts_error_set(err, TS_E_DEVICE, "%s in clSetKernelArg(%s, %u)",
-                                dev_error_name(rc), name, i);
+            return dev_fail(err, rc, "clSetKernelArg(%s, %u)", name, i);
         }
     }
     va_end(ap);
@@ -428,8 +427,7 @@ int dev_launch_range(ts_device *cl, cl_kernel k, ts_stage stage, size_t offset, 
     if (rc != CL_SUCCESS) {
         char name[128] = "?";
         clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);
-        return ts_error_set(err, TS_E_DEVICE, "%s in clEnqueueNDRangeKernel(%s, %zu items)",
-                            dev_error_name(rc), name, rounded);
+        return dev_fail(err, rc, "clEnqueueNDRangeKernel(%s, %zu items)", name, rounded);
     }
     cl->pending[cl->pending_count++] = (ts_kernel_event){ev, stage};
     return TS_OK;
@@ -449,4 +447,67 @@ int dev_finish(ts_device *cl, ts_stats *stats, ts_error *err)
     }
     cl->pending_count = 0;
     return TS_OK;
+}
+
+int dev_fail(ts_error *err, cl_int rc, const char *fmt, ...)
+{
+    char what[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(what, sizeof what, fmt, ap);
+    va_end(ap);
+    return ts_error_set_status(err, TS_E_DEVICE, rc, "%s in %s", dev_error_name(rc), what);
+}
+
+int dev_is_out_of_memory(const ts_error *err)
+{
+    return err->code == TS_E_DEVICE &&
+           (err->status == CL_MEM_OBJECT_ALLOCATION_FAILURE || err->status == CL_OUT_OF_RESOURCES ||
+            err->status == CL_OUT_OF_HOST_MEMORY);
+}
+
+int dev_read(ts_device *cl, cl_mem m, size_t offset, size_t bytes, void *host, const char *what,
+             ts_error *err)
+{
+    if (bytes == 0) return TS_OK;
+    cl_int rc = clEnqueueReadBuffer(cl->queue, m, CL_TRUE, offset, bytes, host, 0, NULL, NULL);
+    return rc == CL_SUCCESS ? TS_OK : dev_fail(err, rc, "clEnqueueReadBuffer (reading %s)", what);
+}
+
+int dev_write(ts_device *cl, cl_mem m, size_t offset, size_t bytes, const void *host,
+              const char *what, ts_error *err)
+{
+    if (bytes == 0) return TS_OK;
+    cl_int rc = clEnqueueWriteBuffer(cl->queue, m, CL_TRUE, offset, bytes, host, 0, NULL, NULL);
+    return rc == CL_SUCCESS ? TS_OK : dev_fail(err, rc, "clEnqueueWriteBuffer (writing %s)", what);
+}
+
+int dev_fill(ts_device *cl, cl_mem m, const void *pattern, size_t pattern_size, size_t offset,
+             size_t bytes, const char *what, ts_error *err)
+{
+    if (bytes == 0) return TS_OK;
+    cl_int rc =
+        clEnqueueFillBuffer(cl->queue, m, pattern, pattern_size, offset, bytes, 0, NULL, NULL);
+    return rc == CL_SUCCESS ? TS_OK : dev_fail(err, rc, "clEnqueueFillBuffer (clearing %s)", what);
+}
+
+void *dev_map(ts_device *cl, cl_mem m, cl_map_flags flags, size_t offset, size_t bytes,
+              const char *what, ts_error *err)
+{
+    cl_int rc = CL_SUCCESS;
+    void *ptr = clEnqueueMapBuffer(cl->queue, m, CL_TRUE, flags, offset, bytes ? bytes : 1, 0, NULL,
+                                   NULL, &rc);
+    if (rc != CL_SUCCESS || !ptr) {
+        dev_fail(err, rc != CL_SUCCESS ? rc : CL_MAP_FAILURE, "clEnqueueMapBuffer (mapping %s)",
+                 what);
+        return NULL;
+    }
+    return ptr;
+}
+
+int dev_unmap(ts_device *cl, cl_mem m, void *ptr, const char *what, ts_error *err)
+{
+    cl_int rc = clEnqueueUnmapMemObject(cl->queue, m, ptr, 0, NULL, NULL);
+    return rc == CL_SUCCESS ? TS_OK
+                            : dev_fail(err, rc, "clEnqueueUnmapMemObject (unmapping %s)", what);
 }

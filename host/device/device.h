@@ -20,9 +20,18 @@ const char *dev_error_name(cl_int code);
     do {                                                                                           \
         cl_int cl_check_rc_ = (call);                                                              \
         if (cl_check_rc_ != CL_SUCCESS)                                                            \
-            return ts_error_set((err), TS_E_DEVICE, "%s in %s (%s:%d)",                            \
-                                dev_error_name(cl_check_rc_), #call, __FILE__, __LINE__);          \
+            return ts_error_set_status((err), TS_E_DEVICE, cl_check_rc_, "%s in %s (%s:%d)",       \
+                                       dev_error_name(cl_check_rc_), #call, __FILE__, __LINE__);   \
     } while (0)
+
+/* Fills err with TS_E_DEVICE, status rc and "NAME in <what>" (what: printf format); returns
+ * TS_E_DEVICE. For OpenCL calls the helpers below do not wrap. */
+int dev_fail(ts_error *err, cl_int rc, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+
+/* 1 when err is a device error that means memory ran out (CL_MEM_OBJECT_ALLOCATION_FAILURE,
+ * CL_OUT_OF_RESOURCES, CL_OUT_OF_HOST_MEMORY): a smaller budget may succeed. Decided by
+ * the status the failing call returned, never by the message. */
+int dev_is_out_of_memory(const ts_error *err);
 
 /* One OpenCL device as `tessera devices` lists it. */
 typedef struct ts_device_info {
@@ -94,6 +103,22 @@ int dev_launch(ts_device *cl, cl_kernel k, ts_stage stage, size_t global, size_t
  * from offset). */
 int dev_launch_range(ts_device *cl, cl_kernel k, ts_stage stage, size_t offset, size_t global,
                      size_t local, ts_error *err);
+/* Blocking transfers on the device's queue; `what` names the data in the error message
+ * ("NAME in clEnqueueReadBuffer (reading <what>)"). */
+int dev_read(ts_device *cl, cl_mem m, size_t offset, size_t bytes, void *host, const char *what,
+             ts_error *err);
+int dev_write(ts_device *cl, cl_mem m, size_t offset, size_t bytes, const void *host,
+              const char *what, ts_error *err);
+/* Fills bytes [offset, offset + bytes) with copies of the pattern (not blocking: ordered by
+ * the in-order queue before any later command). */
+int dev_fill(ts_device *cl, cl_mem m, const void *pattern, size_t pattern_size, size_t offset,
+             size_t bytes, const char *what, ts_error *err);
+/* Maps bytes [offset, offset + bytes) of m (blocking); NULL with err set on failure. Every
+ * successful map is undone by dev_unmap before the next launch that uses m. */
+void *dev_map(ts_device *cl, cl_mem m, cl_map_flags flags, size_t offset, size_t bytes,
+              const char *what, ts_error *err);
+int dev_unmap(ts_device *cl, cl_mem m, void *ptr, const char *what, ts_error *err);
+
 /* Waits for the queue and adds every pending launch's (end - start) to stats. */
 int dev_finish(ts_device *cl, ts_stats *stats, ts_error *err);
 
