@@ -1,4 +1,6 @@
 #include "app/render.h"
+#include "base/hash.h"
+#include "base/mat4.h"
 #include "image/image.h"
 #include "pipeline/pipeline.h"
 #include "scene/rib/rib.h"
@@ -26,45 +28,13 @@ void render_options_defaults(ts_render_options *o)
     o->cl.device_index = -1;
 }
 
-/* Inverts a row-major 4x4 matrix (Gauss-Jordan with partial pivoting). Returns 0 if
- * singular. */
-static int mat4_invert(const double m[16], double out[16])
+/* Linear part of m applied to (x, y, z), as float[4] with w = 0. */
+static void camera_axis(const double m[16], double x, double y, double z, float out[4])
 {
-    double a[4][8];
-    for (int r = 0; r < 4; ++r)
-        for (int c = 0; c < 8; ++c)
-            a[r][c] = c < 4 ? m[r * 4 + c] : (c - 4 == r);
-    for (int c = 0; c < 4; ++c) {
-        int piv = c;
-        for (int r = c + 1; r < 4; ++r)
-            if (fabs(a[r][c]) > fabs(a[piv][c])) piv = r;
-        if (fabs(a[piv][c]) < 1e-300) return 0;
-        for (int k = 0; k < 8; ++k) {
-            double t = a[c][k];
-            a[c][k] = a[piv][k];
-            a[piv][k] = t;
-        }
-        double inv = 1.0 / a[c][c];
-        for (int k = 0; k < 8; ++k)
-            a[c][k] *= inv;
-        for (int r = 0; r < 4; ++r) {
-            if (r == c) continue;
-            double f = a[r][c];
-            for (int k = 0; k < 8; ++k)
-                a[r][k] -= f * a[c][k];
-        }
-    }
-    for (int r = 0; r < 4; ++r)
-        for (int c = 0; c < 4; ++c)
-            out[r * 4 + c] = a[r][c + 4];
-    return 1;
-}
-
-/* Linear part of row-major m applied to (x, y, z), written as float[4] with w = 0. */
-static void mat4_apply_dir(const double m[16], double x, double y, double z, float out[4])
-{
-    for (int r = 0; r < 3; ++r)
-        out[r] = (float)(m[r * 4 + 0] * x + m[r * 4 + 1] * y + m[r * 4 + 2] * z);
+    double d[3] = {x, y, z}, r[3];
+    mat4_dir(m, d, r);
+    for (int k = 0; k < 3; ++k)
+        out[k] = (float)r[k];
     out[3] = 0.0f;
 }
 
@@ -82,9 +52,9 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
     double hx = aspect >= 1.0 ? aspect * t : t, hy = aspect >= 1.0 ? t : t / aspect;
     for (int r = 0; r < 3; ++r)
         out->origin[r] = (float)inv[r * 4 + 3];
-    mat4_apply_dir(inv, hx, 0, 0, out->right);
-    mat4_apply_dir(inv, 0, hy, 0, out->up);
-    mat4_apply_dir(inv, 0, 0, 1, out->forward);
+    camera_axis(inv, hx, 0, 0, out->right);
+    camera_axis(inv, 0, hy, 0, out->up);
+    camera_axis(inv, 0, 0, 1, out->forward);
     out->width = (uint32_t)width;
     out->height = (uint32_t)height;
     return TS_OK;
@@ -291,15 +261,6 @@ static void stop_handlers_restore(void)
     stop_handlers_installed = 0;
 }
 
-/* 64-bit FNV-1a. */
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *b = data;
-    for (size_t i = 0; i < n; ++i)
-        h = (h ^ b[i]) * 0x100000001b3ull;
-    return h;
-}
-
 static int32_t fold32(uint64_t h)
 {
     return (int32_t)(uint32_t)(h ^ (h >> 32));
@@ -309,13 +270,13 @@ static int32_t fold32(uint64_t h)
  * --lod (clamped to the plan like trace.c does). */
 static int32_t lod_hash(const ts_pipeline *p, const ts_render_options *o)
 {
-    uint64_t h = 0xcbf29ce484222325ull;
+    uint64_t h = TS_FNV1A_INIT;
     if (o->fixed_lod >= 0) {
         uint32_t m =
             (uint32_t)o->fixed_lod < p->plan.max_lod ? (uint32_t)o->fixed_lod : p->plan.max_lod;
-        return fold32(fnv1a(h, &m, sizeof m));
+        return fold32(ts_fnv1a(h, &m, sizeof m));
     }
-    return fold32(fnv1a(h, p->patch_lod, p->scene->patch_count));
+    return fold32(ts_fnv1a(h, p->patch_lod, p->scene->patch_count));
 }
 
 /* The job: a hash of the scene file's bytes, the geometry it loaded (archives included),
@@ -324,39 +285,39 @@ static int32_t lod_hash(const ts_pipeline *p, const ts_render_options *o)
 static int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_params *cam,
                     int32_t *out, ts_error *err)
 {
-    uint64_t h = 0xcbf29ce484222325ull;
+    uint64_t h = TS_FNV1A_INIT;
     FILE *f = fopen(o->scene_path, "rb");
     if (!f) return ts_error_set(err, TS_E_IO, "%s: %s", o->scene_path, strerror(errno));
     unsigned char buf[65536];
     size_t n;
     while ((n = fread(buf, 1, sizeof buf, f)) > 0)
-        h = fnv1a(h, buf, n);
+        h = ts_fnv1a(h, buf, n);
     fclose(f);
     int32_t opts[] = {
         (int32_t)cam->width, (int32_t)cam->height, o->spp,       o->depth, (int32_t)o->seed,
         o->sampling,         o->max_lod,           o->fixed_lod, o->exact};
-    h = fnv1a(h, opts, sizeof opts);
-    h = fnv1a(h, cam, sizeof *cam);
-    h = fnv1a(h, &s->patch_count, sizeof s->patch_count);
-    h = fnv1a(h, s->cp, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
-    if (s->cp1) h = fnv1a(h, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
-    if (s->corner_n) h = fnv1a(h, s->corner_n, (size_t)s->patch_count * 4 * sizeof(ts_vec4));
+    h = ts_fnv1a(h, opts, sizeof opts);
+    h = ts_fnv1a(h, cam, sizeof *cam);
+    h = ts_fnv1a(h, &s->patch_count, sizeof s->patch_count);
+    h = ts_fnv1a(h, s->cp, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
+    if (s->cp1) h = ts_fnv1a(h, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
+    if (s->corner_n) h = ts_fnv1a(h, s->corner_n, (size_t)s->patch_count * 4 * sizeof(ts_vec4));
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         ts_patch_attr a = s->attr[i];
         a.pad[0] = a.pad[1] = 0;
-        h = fnv1a(h, &a, sizeof a);
+        h = ts_fnv1a(h, &a, sizeof a);
     }
     if (s->texture_count) { /* texel contents, not file names */
-        h = fnv1a(h, s->textures, (size_t)s->texture_count * sizeof(ts_texture));
-        h = fnv1a(h, s->tex_pool,
-                  (size_t)s->tex_tile_count * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4));
+        h = ts_fnv1a(h, s->textures, (size_t)s->texture_count * sizeof(ts_texture));
+        h = ts_fnv1a(h, s->tex_pool,
+                     (size_t)s->tex_tile_count * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4));
     }
-    if (s->xform) h = fnv1a(h, s->xform, (size_t)s->xform_count * sizeof(ts_xform));
+    if (s->xform) h = ts_fnv1a(h, s->xform, (size_t)s->xform_count * sizeof(ts_xform));
     for (uint32_t i = 0; i < s->light_count; ++i)
-        h = fnv1a(h, &s->lights[i], sizeof s->lights[i]);
+        h = ts_fnv1a(h, &s->lights[i], sizeof s->lights[i]);
     double dome[4] = {s->dome.present, s->dome.intensity, s->dome.color[0], s->dome.color[1]};
-    h = fnv1a(h, dome, sizeof dome);
-    h = fnv1a(h, &s->dome.color[2], sizeof s->dome.color[2]);
+    h = ts_fnv1a(h, dome, sizeof dome);
+    h = ts_fnv1a(h, &s->dome.color[2], sizeof s->dome.color[2]);
     *out = fold32(h);
     return TS_OK;
 }

@@ -1,4 +1,5 @@
 #include "device/device.h"
+#include "base/hash.h"
 #include "device/kernel_source.h"
 
 #include <errno.h>
@@ -117,15 +118,6 @@ int dev_list(ts_device_info **out, ts_error *err)
     }
     *out = list;
     return count;
-}
-
-/* 64-bit FNV-1a, for the binary cache key. */
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; ++i)
-        h = (h ^ p[i]) * 0x100000001b3ull;
-    return h;
 }
 
 static int cache_path(const ts_device_options *opt, uint64_t key, char *out, size_t cap)
@@ -266,11 +258,11 @@ static int program_open(ts_device *cl, const ts_device_options *opt, ts_error *e
     dev_build_options(cl);
     char *src = kernel_source_program(opt->kernel_dir, err);
     if (!src) return err->code;
-    uint64_t key = 0xcbf29ce484222325ull;
+    uint64_t key = TS_FNV1A_INIT;
     const char *parts[] = {cl->info.platform_name, cl->info.name,     cl->info.version,
                            cl->info.driver,        cl->build_options, src};
     for (size_t i = 0; i < sizeof parts / sizeof *parts; ++i)
-        key = fnv1a(key, parts[i], strlen(parts[i]) + 1);
+        key = ts_fnv1a(key, parts[i], strlen(parts[i]) + 1);
     char path[4200];
     int use_cache = !opt->no_cache && cache_path(opt, key, path, sizeof path) == 0;
     if (use_cache && (cl->program = program_from_cache(cl, path))) {

@@ -472,8 +472,8 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     p->scene = scene;
     p->err = err;
     p->quiet = quiet;
-    rib_mat_identity(p->ctm);
-    rib_mat_identity(p->ctm1);
+    mat4_identity(p->ctm);
+    mat4_identity(p->ctm1);
     p->disp = (rib_disp){TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0};
     p->color[0] = p->color[1] = p->color[2] = 1.0;
     p->surface = (rib_surface){TS_MAT_MATTE, 1.0, 0.0, 0.1, 0, 0};
@@ -482,7 +482,7 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     p->phase = RIB_BEFORE_WORLD;
     p->first_patch = scene->patch_count;
     p->first_light = scene->light_count;
-    rib_mat_identity(scene->camera.world_to_camera);
+    mat4_identity(scene->camera.world_to_camera);
     scene->camera.fov_deg = 90.0;
     scene->camera.width = scene->camera.height = 0;
     scene->camera.has_format = 0;

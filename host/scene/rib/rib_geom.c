@@ -23,7 +23,7 @@ static int geom_check_state(rib_parser *p)
 {
     if (p->phase == RIB_AFTER_WORLD)
         return rib_error_at(p, p->req_line, p->req_col, "%s after WorldEnd", p->req);
-    if (!rib_mat_is_affine(p->ctm) || !rib_mat_is_affine(p->ctm1))
+    if (!mat4_is_affine(p->ctm) || !mat4_is_affine(p->ctm1))
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s: the current transformation is projective; patches and lights "
                             "need an affine one",
@@ -36,7 +36,7 @@ static int geom_points(rib_parser *p, int line, int col, const double m[16], con
                        double w[16][3])
 {
     for (int k = 0; k < 16; k++)
-        if (!rib_mat_point(m, g[k], w[k]))
+        if (!mat4_point(m, g[k], w[k]))
             return rib_error_at(p, line, col,
                                 "%s: control point %d leaves the float range after the "
                                 "current transformation",
@@ -103,7 +103,7 @@ int rib_geom_procedural_attr(rib_parser *p, ts_patch_attr *attr)
     *attr = geom_attr(p, NULL, NULL);
     double inv[16];
     if (attr->disp_kind == TS_DISP_NONE || attr->disp_kind == TS_DISP_TEXTURE) return TS_OK;
-    if (!rib_mat_invert(p->ctm, inv))
+    if (!mat4_invert(p->ctm, inv))
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s: the current transformation is singular; Displacement needs an "
                             "invertible one",
@@ -129,7 +129,7 @@ static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
     if (rc != TS_OK) return rc;
     ts_patch_attr attr = geom_attr(p, cs, st);
     int noise = attr.disp_kind == TS_DISP_FBM || attr.disp_kind == TS_DISP_RIDGED;
-    if ((noise || n) && !rib_mat_invert(p->ctm, inv))
+    if ((noise || n) && !mat4_invert(p->ctm, inv))
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s: the current transformation is singular; %s needs an "
                             "invertible one",
@@ -140,7 +140,7 @@ static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
     }
     if (n)
         for (int c = 0; c < 4; c++) {
-            rib_mat_normal(inv, n[c], wn[c]);
+            mat4_normal(inv, n[c], wn[c]);
             double len = sqrt(wn[c][0] * wn[c][0] + wn[c][1] * wn[c][1] + wn[c][2] * wn[c][2]);
             if (!(len > 0.0) || !isfinite(len))
                 return rib_error_at(p, nline, ncol,
@@ -607,7 +607,7 @@ int rib_req_light_source(rib_parser *p)
     rc = geom_distant_params(p, first, &l);
     if (rc != TS_OK) return rc;
     double from[3], to[3];
-    if (!rib_mat_point(p->ctm, l.from, from) || !rib_mat_point(p->ctm, l.to, to))
+    if (!mat4_point(p->ctm, l.from, from) || !mat4_point(p->ctm, l.to, to))
         return rib_error_at(p, p->req_line, p->req_col,
                             "LightSource: from/to leave the float range after the current "
                             "transformation");

@@ -12,6 +12,7 @@
 #ifndef TS_RIB_INTERNAL_H
 #define TS_RIB_INTERNAL_H
 
+#include "base/mat4.h"
 #include "scene/rib/basis.h"
 #include "base/error.h"
 #include "scene/rib/rib_lex.h"
@@ -177,21 +178,6 @@ int rib_param_numbers(rib_parser *p, const rib_param *prm, size_t n, const doubl
                       size_t *count);
 /* Warns once that a parameter of the current request is ignored. */
 void rib_warn_param(rib_parser *p, const rib_param *prm);
-
-/* ---- rib_state.c: matrices ---- */
-
-void rib_mat_identity(double m[16]);
-/* ctm = ctm · t: t acts on points first (RI Spec §4.3). */
-void rib_mat_concat(double ctm[16], const double t[16]);
-/* Bottom row (0 0 0 w), w != 0: the maps under which Bézier patches stay polynomial. */
-int rib_mat_is_affine(const double m[16]);
-/* Maps a point by an affine m; 0 when the result is not a finite float. */
-int rib_mat_point(const double m[16], const double p[3], double out[3]);
-/* Gauss-Jordan inverse; 0 when m is singular or not finite. */
-int rib_mat_invert(const double m[16], double inv[16]);
-/* Maps a normal by the inverse transpose of the linear part of the affine map whose
- * inverse is inv (n' = (L^-1)^T n, inv normalised to w = 1); not renormalised. */
-void rib_mat_normal(const double inv[16], const double n[3], double out[3]);
 
 /* ---- rib_state.c: motion blocks ---- */
 

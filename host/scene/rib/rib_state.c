@@ -4,120 +4,14 @@
  * blocks. See rib_internal.h for the matrix convention. */
 #include "scene/rib/rib_internal.h"
 
+#include "base/mat4.h"
+
 #include "lib/displace.h"
 
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* ---- matrices (row-major, column vectors) ---------------------------------------- */
-
-void rib_mat_identity(double m[16])
-{
-    for (int k = 0; k < 16; k++)
-        m[k] = (k % 5 == 0) ? 1.0 : 0.0;
-}
-
-/* ctm = ctm · t, so t acts on points first: RI Spec §4.3, "the new transformation is
- * applied to points before the old current transformation". */
-void rib_mat_concat(double ctm[16], const double t[16])
-{
-    double r[16];
-    for (int i = 0; i < 4; i++)
-        for (int j = 0; j < 4; j++) {
-            double s = 0.0;
-            for (int k = 0; k < 4; k++)
-                s += ctm[i * 4 + k] * t[k * 4 + j];
-            r[i * 4 + j] = s;
-        }
-    memcpy(ctm, r, sizeof r);
-}
-
-/* Rotate deg (degrees) about (x, y, z), RI Spec §4.3 RiRotate. RenderMan spaces are
- * left-handed, so a positive angle turns clockwise seen from the positive end of the axis
- * looking at the origin (the left-hand rule). Written in coordinates that is the ordinary
- * axis-angle (Rodrigues) matrix, the same numbers as pbrt's Rotate: only the picture of
- * "clockwise" depends on handedness, not the matrix. Rotate 90 0 0 1 takes +x to +y,
- * Rotate 90 1 0 0 takes +y to +z, Rotate 90 0 1 0 takes +z to +x. Returns 0 for a
- * zero-length axis. */
-static int rib_mat_rotate(double deg, double x, double y, double z, double m[16])
-{
-    double len = sqrt(x * x + y * y + z * z);
-    if (!(len > 0.0) || !isfinite(len)) return 0;
-    x /= len, y /= len, z /= len;
-    double rad = deg * (3.14159265358979323846 / 180.0);
-    double c = cos(rad), s = sin(rad), t = 1.0 - c;
-    /* clang-format off */
-    const double r[16] = {x * x * t + c,     x * y * t - z * s, x * z * t + y * s, 0,
-                          x * y * t + z * s, y * y * t + c,     y * z * t - x * s, 0,
-                          x * z * t - y * s, y * z * t + x * s, z * z * t + c,     0,
-                          0,                 0,                 0,                 1};
-    /* clang-format on */
-    memcpy(m, r, sizeof r);
-    return 1;
-}
-
-/* Gauss-Jordan with partial pivoting. Returns 0 when m is singular or not finite. */
-int rib_mat_invert(const double m[16], double inv[16])
-{
-    double a[4][8];
-    for (int i = 0; i < 4; i++)
-        for (int j = 0; j < 8; j++)
-            a[i][j] = j < 4 ? m[i * 4 + j] : (j - 4 == i);
-    for (int c = 0; c < 4; c++) {
-        int piv = c;
-        for (int r = c + 1; r < 4; r++)
-            if (fabs(a[r][c]) > fabs(a[piv][c])) piv = r;
-        if (!(fabs(a[piv][c]) > 1e-300) || !isfinite(a[piv][c])) return 0;
-        for (int j = 0; j < 8; j++) {
-            double tmp = a[c][j];
-            a[c][j] = a[piv][j];
-            a[piv][j] = tmp;
-        }
-        double d = a[c][c];
-        for (int j = 0; j < 8; j++)
-            a[c][j] /= d;
-        for (int r = 0; r < 4; r++) {
-            if (r == c) continue;
-            double f = a[r][c];
-            for (int j = 0; j < 8; j++)
-                a[r][j] -= f * a[c][j];
-        }
-    }
-    for (int i = 0; i < 16; i++)
-        inv[i] = a[i / 4][4 + i % 4];
-    for (int i = 0; i < 16; i++)
-        if (!isfinite(inv[i])) return 0;
-    return 1;
-}
-
-/* Affine up to the scale of w: bottom row (0 0 0 w), w != 0. Patches stay polynomial only
- * under affine maps. */
-int rib_mat_is_affine(const double m[16])
-{
-    return m[12] == 0.0 && m[13] == 0.0 && m[14] == 0.0 && m[15] != 0.0 && isfinite(m[15]);
-}
-
-/* Maps a point by an affine m. Returns 0 when the result is not a finite float. */
-int rib_mat_point(const double m[16], const double p[3], double out[3])
-{
-    for (int i = 0; i < 3; i++) {
-        double v =
-            (m[i * 4] * p[0] + m[i * 4 + 1] * p[1] + m[i * 4 + 2] * p[2] + m[i * 4 + 3]) / m[15];
-        if (!(fabs(v) <= FLT_MAX)) return 0;
-        out[i] = v;
-    }
-    return 1;
-}
-
-/* n' = (L^-1)^T n with L^-1 the linear part of inv / inv[15]: column i of inv is row i of
- * its transpose. */
-void rib_mat_normal(const double inv[16], const double n[3], double out[3])
-{
-    for (int i = 0; i < 3; i++)
-        out[i] = (inv[i] * n[0] + inv[4 + i] * n[1] + inv[8 + i] * n[2]) / inv[15];
-}
 
 /* ---- transformations (RI Spec §4.3) ---------------------------------------------- */
 
@@ -137,9 +31,9 @@ static int rib_apply_transform(rib_parser *p, const double m[16], int replace)
         memcpy(p->ctm1, m, sizeof p->ctm1);
         p->ctm_moving = 0;
     } else {
-        rib_mat_concat(p->ctm, m);
+        mat4_concat(p->ctm, m);
         if (p->ctm_moving)
-            rib_mat_concat(p->ctm1, m);
+            mat4_concat(p->ctm1, m);
         else
             memcpy(p->ctm1, p->ctm, sizeof p->ctm1);
     }
@@ -151,7 +45,7 @@ int rib_req_identity(rib_parser *p)
     double id[16];
     int rc = rib_no_more(p, 0);
     if (rc != TS_OK) return rc;
-    rib_mat_identity(id);
+    mat4_identity(id);
     return rib_apply_transform(p, id, 1);
 }
 
@@ -162,7 +56,7 @@ int rib_req_translate(rib_parser *p)
     int rc = rib_numbers(p, &i, 3, v);
     if (rc == TS_OK) rc = rib_no_more(p, i);
     if (rc != TS_OK) return rc;
-    rib_mat_identity(t);
+    mat4_identity(t);
     t[3] = v[0], t[7] = v[1], t[11] = v[2];
     return rib_apply_transform(p, t, 0);
 }
@@ -174,7 +68,7 @@ int rib_req_scale(rib_parser *p)
     int rc = rib_numbers(p, &i, 3, v);
     if (rc == TS_OK) rc = rib_no_more(p, i);
     if (rc != TS_OK) return rc;
-    rib_mat_identity(t);
+    mat4_identity(t);
     t[0] = v[0], t[5] = v[1], t[10] = v[2];
     return rib_apply_transform(p, t, 0);
 }
@@ -186,7 +80,7 @@ int rib_req_rotate(rib_parser *p)
     int rc = rib_numbers(p, &i, 4, v);
     if (rc == TS_OK) rc = rib_no_more(p, i);
     if (rc != TS_OK) return rc;
-    if (!rib_mat_rotate(v[0], v[1], v[2], v[3], t))
+    if (!mat4_rotate(v[0], v[1], v[2], v[3], t))
         return rib_error_at(p, p->req_line, p->req_col, "Rotate about a zero-length axis");
     return rib_apply_transform(p, t, 0);
 }
@@ -308,7 +202,7 @@ static int rib_camera_points_to_world(rib_parser *p, ts_vec4 *c, size_t n,
 {
     for (size_t k = 0; k < n; k++) {
         double a[3] = {c[k].x, c[k].y, c[k].z}, b[3];
-        if (!rib_mat_point(cam_to_world, a, b))
+        if (!mat4_point(cam_to_world, a, b))
             return rib_error_at(p, p->req_line, p->req_col,
                                 "a patch before WorldBegin leaves the float range");
         c[k].x = (float)b[0], c[k].y = (float)b[1], c[k].z = (float)b[2];
@@ -376,7 +270,7 @@ static int rib_camera_items_to_world(rib_parser *p, const double cam_to_world[16
     for (uint32_t l = p->first_light; l < s->light_count; l++) {
         ts_distant_light *d = &s->lights[l];
         double from[3], to[3];
-        if (!rib_mat_point(cam_to_world, d->from, from) || !rib_mat_point(cam_to_world, d->to, to))
+        if (!mat4_point(cam_to_world, d->from, from) || !mat4_point(cam_to_world, d->to, to))
             return rib_error_at(p, p->req_line, p->req_col,
                                 "a light before WorldBegin leaves the float range");
         memcpy(d->from, from, sizeof from);
@@ -401,17 +295,17 @@ int rib_req_world_begin(rib_parser *p)
         return rib_error_at(p, p->req_line, p->req_col,
                             "a moving camera transform is not supported (MotionBegin before "
                             "WorldBegin)");
-    if (!rib_mat_is_affine(p->ctm))
+    if (!mat4_is_affine(p->ctm))
         return rib_error_at(p, p->req_line, p->req_col, "the camera transform is projective");
-    if (!rib_mat_invert(p->ctm, inv))
+    if (!mat4_invert(p->ctm, inv))
         return rib_error_at(p, p->req_line, p->req_col, "the camera transform is singular");
     rc = rib_camera_items_to_world(p, inv);
     if (rc == TS_OK) rc = rib_push(p, RIB_FRAME_WORLD);
     if (rc != TS_OK) return rc;
     for (int k = 0; k < 16; k++)
         p->scene->camera.world_to_camera[k] = p->ctm[k] / p->ctm[15];
-    rib_mat_identity(p->ctm);
-    rib_mat_identity(p->ctm1);
+    mat4_identity(p->ctm);
+    mat4_identity(p->ctm1);
     p->xf_valid = 0;
     p->phase = RIB_IN_WORLD;
     return TS_OK;
@@ -489,12 +383,12 @@ int rib_req_projection(rib_parser *p)
         p->scene->camera.fov_deg = v[0];
     }
     double id[16];
-    rib_mat_identity(id);
+    mat4_identity(id);
     if (memcmp(id, p->ctm, sizeof id) != 0)
         rib_warn_once(p, p->req_line, p->req_col,
                       "transformations before Projection are discarded");
-    rib_mat_identity(p->ctm);
-    rib_mat_identity(p->ctm1);
+    mat4_identity(p->ctm);
+    mat4_identity(p->ctm1);
     p->ctm_moving = 0;
     return TS_OK;
 }
@@ -702,8 +596,8 @@ int rib_req_motion_end(rib_parser *p)
         memcpy(p->ctm, m->m[0], sizeof p->ctm);
         memcpy(p->ctm1, m->m[1], sizeof p->ctm1);
     } else {
-        rib_mat_concat(p->ctm, m->m[0]);
-        rib_mat_concat(p->ctm1, m->m[1]);
+        mat4_concat(p->ctm, m->m[0]);
+        mat4_concat(p->ctm1, m->m[1]);
     }
     p->ctm_moving = memcmp(p->ctm, p->ctm1, sizeof p->ctm) != 0;
     return TS_OK;
