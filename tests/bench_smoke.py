@@ -7,7 +7,7 @@ checked for being positive and consistent, never against a target. Exit 77 (skip
 test needs an OpenCL device and `tessera devices` finds none.
 
     bench_smoke.py TEST --source DIR --build DIR
-    TEST: profile, render, stages, leaf, sort, scene_load, bench
+    TEST: profile, render, stages, leaf, sort, scene_load, bench, export
 """
 import argparse
 import importlib.machinery
@@ -312,8 +312,57 @@ def test_bench(ctx):
         check(r.returncode == 2 and "unknown benchmark" in r.stderr, "unknown benchmark accepted")
 
 
+def test_export(ctx):
+    """bench_export (the scene for peer renderers) and bench_cycles.py's image maths; host
+    only: neither needs a device nor bpy."""
+    exe = os.path.join(ctx.build, "bench_export")
+    r = run([exe, os.path.join(ctx.source, "scene", "teapot_displaced.rib"), "--res", "64x36", "--grid", "2"])
+    s = json.loads(r.stdout)
+    check(len(s["patches"]) == 32 and s["grid"] == 2 and not s["moving"], "32 static patches, grid 2")
+    cam = s["camera"]
+    check(cam["fov_deg"] == 32 and (cam["width"], cam["height"]) == (64, 36), "camera fov and size")
+    close(math.hypot(*cam["forward"]), 1.0, 1e-6, "forward is a unit vector")
+    close(math.hypot(*cam["right"]) / math.hypot(*cam["up"]), 64 / 36, 1e-5, "right / up = aspect")
+    d = s["lights"]["distant"]
+    check(len(d) == 1 and d[0]["angle_deg"] == 2, "one 2-degree sun")
+    for got, want in zip(d[0]["irradiance"], (2.5, 2.375, 2.125)):
+        close(got, want, 1e-9, "sun irradiance = intensity * lightcolor")
+    for got, want in zip(s["lights"]["dome_radiance"], (0.28, 0.315, 0.35)):
+        close(got, want, 1e-6, "dome radiance")
+    for p in s["patches"]:
+        check(len(p["points"]) == 27 and len(p["normals"]) == 27, "3 x 3 points and normals")
+        for k in range(9):
+            n = p["normals"][3 * k:3 * k + 3]
+            close(math.hypot(*n), 1.0, 1e-5, "unit normals")
+        check(p["displacement"] == "fbm" and p["octaves"] == 6, "fbm displacement, 6 octaves")
+        close(p["amplitude"], 0.03, 1e-6, "amplitude")
+    bad = run([exe, os.path.join(ctx.source, "scene", "none.rib")], ok=False)
+    check(bad.returncode == 1 and "none.rib" in bad.stderr, "a missing scene is an error naming it")
+    # The noise measure of bench_cycles.py: two images differing by +-d in a known pattern.
+    spec = importlib.util.spec_from_file_location("bench_cycles", os.path.join(ctx.source, "tools", "bench_cycles.py"))
+    bc = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bc)
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-export-") as tmp:
+        w, h = 20, 10
+        a = [bytes([100] * (3 * w)) for _ in range(h)]
+        b = [bytes([100 + (6 if (x + y) % 2 else -6) for x in range(w) for _ in range(3)]) for y in range(h)]
+        pa, pb, pf = (os.path.join(tmp, n) for n in ("a.png", "b.png", "f.png"))
+        bc.png_write(pa, w, h, a)
+        bc.png_write(pb, w, h, b)
+        body, whole = bc.noise_levels(pa, pb, [0.0, 0.0, 0.5, 1.0])
+        close(whole, 6 / math.sqrt(2), 1e-9, "noise = std(I0 - I1) / sqrt(2)")
+        close(body, 6 / math.sqrt(2), 1e-9, "noise in a region")
+        bc.flip_png(pb, pf)
+        _, _, fl = bc.png_read(pf)
+        _, _, orig = bc.png_read(pb)
+        check(all(fl[y][3 * x:3 * x + 3] == orig[y][3 * (w - 1 - x):3 * (w - x)] for y in range(h) for x in range(w)),
+              "flip_png mirrors rows")
+        close(bc.mean_level(pa, [0, 0, 1, 1]), 100.0, 1e-12, "mean level")
+
+
 TESTS = {"profile": test_profile, "render": test_render, "stages": test_stages, "leaf": test_leaf,
-         "sort": test_sort, "scene_load": test_scene_load, "bench": test_bench}
+         "sort": test_sort, "scene_load": test_scene_load, "bench": test_bench,
+         "export": test_export}
 
 
 def main():
