@@ -1,0 +1,86 @@
+/* patch_cache.h — which diced and built patches the device arenas hold (DESIGN.md §1, issue
+ * 13: "dice once when it fits, reorder when it doesn't").
+ *
+ * The arenas (the grid buffer of ts_vec4 vertices and the group buffer of ts_box4 tree
+ * nodes, pipeline.h) are divided into blocks, one pair per resident patch: its (2^m+1)^2
+ * vertices and its quadtree_group_count(m) sibling groups, twice for a moving patch. A patch
+ * stays resident across iterations, waves and sample passes until its space is needed, so
+ * when the frame's working set fits every patch is diced once per frame; when it does not,
+ * the wavefront reordering bounds the memory (Hanika §3) and the cache only removes repeats.
+ *
+ * Eviction: a patch the current batch uses is pinned (the sort lists every patch an
+ * iteration needs before anything is diced); among the rest the least recently used goes
+ * first. Free space is kept per arena as a sorted list of blocks, first fit, coalesced on
+ * release; when no block fits, unpinned patches are evicted in LRU order until one does.
+ *
+ * The cache is host bookkeeping only: it never touches OpenCL. The dicing result of a patch
+ * does not depend on where it is placed, so the image does not depend on the cache. */
+#ifndef TS_PATCH_CACHE_H
+#define TS_PATCH_CACHE_H
+
+#include "base/error.h"
+
+#include <stdint.h>
+
+/* A free block [first, first + count) of one arena. */
+typedef struct ts_cache_block {
+    uint32_t first, count;
+} ts_cache_block;
+
+typedef struct ts_cache_arena {
+    ts_cache_block *free; /* sorted by first, never adjacent (coalesced) */
+    uint32_t free_count, free_capacity;
+    uint32_t capacity; /* entries (vertices or sibling groups) */
+    uint32_t used;
+} ts_cache_arena;
+
+/* A resident patch. */
+typedef struct ts_cache_entry {
+    uint32_t vert_first, vert_count;
+    uint32_t group_first, group_count;
+    uint64_t last_use; /* the batch clock when it was last pinned */
+    uint8_t lod;       /* m it was diced at */
+    uint8_t times;     /* 1, or 2 for a moving patch */
+    uint8_t resident;
+    uint8_t pinned;
+} ts_cache_entry;
+
+typedef struct ts_patch_cache {
+    ts_cache_arena verts, groups;
+    ts_cache_entry *entry; /* one per patch */
+    uint32_t patch_count;
+    uint32_t *resident_list; /* patches holding space, for eviction scans */
+    uint32_t resident_count;
+    uint64_t clock; /* counts batches: the LRU time */
+    /* Counters for --stats (summed over the frame). */
+    uint64_t hits, misses, evictions;
+} ts_patch_cache;
+
+/* An empty cache for patch_count patches over arenas of vert_capacity vertices and
+ * group_capacity sibling groups. */
+int patch_cache_create(ts_patch_cache *c, uint32_t patch_count, uint32_t vert_capacity,
+                       uint32_t group_capacity, ts_error *err);
+void patch_cache_free(ts_patch_cache *c);
+/* Forgets every resident patch (the levels of detail changed): all space is free again. */
+void patch_cache_clear(ts_patch_cache *c);
+
+/* The outcome of patch_cache_acquire. */
+typedef enum ts_cache_result {
+    TS_CACHE_HIT,  /* resident at this m: no dicing needed */
+    TS_CACHE_MISS, /* space reserved at *vert_first / *group_first: dice it there */
+    TS_CACHE_FULL, /* no space even after evicting every unpinned patch: end the batch */
+} ts_cache_result;
+
+/* Makes patch p (diced at m, `times` time samples) usable by the current batch and pins it.
+ * Sets its places in the arenas on a hit or a miss. A patch resident at another m is
+ * released first. On TS_CACHE_FULL nothing changes but evictions made while trying. */
+ts_cache_result patch_cache_acquire(ts_patch_cache *c, uint32_t p, uint32_t m, uint32_t times,
+                                    uint32_t *vert_first, uint32_t *group_first);
+/* Unpins every patch: the batch's launches are enqueued and the next batch may evict. */
+void patch_cache_end_batch(ts_patch_cache *c);
+
+/* Vertices and sibling groups one patch at m with `times` samples needs. */
+uint32_t patch_cache_vert_count(uint32_t m, uint32_t times);
+uint32_t patch_cache_group_count(uint32_t m, uint32_t times);
+
+#endif

@@ -1,0 +1,204 @@
+/* test_patch_cache.c — the resident set of diced patches (host/pipeline/patch_cache.c).
+ * Host only; never skips. Asserts: a working set that fits is placed once and then only hit;
+ * eviction is least recently used among unpinned patches and never touches a pinned one;
+ * a patch at another m is placed again; under a random workload every resident patch's
+ * blocks lie inside the arenas and overlap no other, the free lists and the used counts
+ * account for every entry, and TS_CACHE_FULL only happens when every resident patch is
+ * pinned. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "pipeline/patch_cache.h"
+
+static uint64_t rng_next(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+static void test_sizes(void **state)
+{
+    assert_int_equal(patch_cache_vert_count(0, 1), 4);
+    assert_int_equal(patch_cache_vert_count(3, 1), 81);
+    assert_int_equal(patch_cache_vert_count(3, 2), 162);
+    assert_int_equal(patch_cache_group_count(0, 1), 1);
+    assert_int_equal(patch_cache_group_count(2, 1), 1 + 1 + 4);
+    assert_int_equal(patch_cache_group_count(2, 2), 12);
+}
+
+/* Everything fits: one miss per patch, then hits at the same places, no eviction. */
+static void test_working_set_fits(void **state)
+{
+    ts_patch_cache c;
+    ts_error err = {0};
+    uint32_t n = 20, m = 3;
+    assert_int_equal(patch_cache_create(&c, n, n * patch_cache_vert_count(m, 2),
+                                        n * patch_cache_group_count(m, 2), &err),
+                     TS_OK);
+    uint32_t vf[20], gf[20];
+    for (int pass = 0; pass < 5; ++pass) {
+        for (uint32_t p = 0; p < n; ++p) {
+            uint32_t v, g, times = 1 + (p & 1);
+            ts_cache_result r = patch_cache_acquire(&c, p, m, times, &v, &g);
+            assert_int_equal(r, pass == 0 ? TS_CACHE_MISS : TS_CACHE_HIT);
+            if (pass == 0) vf[p] = v, gf[p] = g;
+            assert_int_equal(v, vf[p]);
+            assert_int_equal(g, gf[p]);
+        }
+        patch_cache_end_batch(&c);
+    }
+    assert_int_equal(c.misses, n);
+    assert_int_equal(c.hits, 4 * n);
+    assert_int_equal(c.evictions, 0);
+    patch_cache_clear(&c);
+    assert_int_equal(c.verts.used, 0);
+    assert_int_equal(c.resident_count, 0);
+    uint32_t v, g;
+    assert_int_equal(patch_cache_acquire(&c, 0, m, 1, &v, &g), TS_CACHE_MISS);
+    patch_cache_free(&c);
+}
+
+/* Room for three patches: the fourth evicts the least recently used unpinned one. */
+static void test_lru_and_pinning(void **state)
+{
+    ts_patch_cache c;
+    ts_error err = {0};
+    uint32_t m = 2, v, g;
+    assert_int_equal(patch_cache_create(&c, 10, 3 * patch_cache_vert_count(m, 1),
+                                        3 * patch_cache_group_count(m, 1), &err),
+                     TS_OK);
+    for (uint32_t p = 0; p < 3; ++p) { /* 0, 1, 2 in separate batches: 0 is the oldest */
+        assert_int_equal(patch_cache_acquire(&c, p, m, 1, &v, &g), TS_CACHE_MISS);
+        patch_cache_end_batch(&c);
+    }
+    assert_int_equal(patch_cache_acquire(&c, 0, m, 1, &v, &g), TS_CACHE_HIT); /* 1 is oldest now */
+    patch_cache_end_batch(&c);
+    assert_int_equal(patch_cache_acquire(&c, 3, m, 1, &v, &g), TS_CACHE_MISS);
+    assert_int_equal(c.evictions, 1);
+    assert_false(c.entry[1].resident);
+    assert_true(c.entry[0].resident && c.entry[2].resident && c.entry[3].resident);
+    /* In one batch: 3 is pinned; 0 and 2 are pinned by acquiring them; a fifth does not fit. */
+    assert_int_equal(patch_cache_acquire(&c, 0, m, 1, &v, &g), TS_CACHE_HIT);
+    assert_int_equal(patch_cache_acquire(&c, 2, m, 1, &v, &g), TS_CACHE_HIT);
+    assert_int_equal(patch_cache_acquire(&c, 4, m, 1, &v, &g), TS_CACHE_FULL);
+    assert_true(c.entry[0].resident && c.entry[2].resident && c.entry[3].resident);
+    patch_cache_end_batch(&c);
+    assert_int_equal(patch_cache_acquire(&c, 4, m, 1, &v, &g), TS_CACHE_MISS);
+    /* Another m for a resident patch: placed again. */
+    assert_int_equal(patch_cache_acquire(&c, 4, m - 1, 1, &v, &g), TS_CACHE_MISS);
+    assert_int_equal(c.entry[4].lod, m - 1);
+    /* Larger than an arena: never fits. */
+    assert_int_equal(patch_cache_acquire(&c, 5, m + 2, 1, &v, &g), TS_CACHE_FULL);
+    patch_cache_free(&c);
+}
+
+/* Every resident block inside its arena, no two overlapping, free + used = capacity. */
+static void check_invariants(const ts_patch_cache *c)
+{
+    uint8_t *vmap = calloc(c->verts.capacity + 1, 1), *gmap = calloc(c->groups.capacity + 1, 1);
+    assert_non_null(vmap);
+    assert_non_null(gmap);
+    uint64_t vused = 0, gused = 0;
+    for (uint32_t k = 0; k < c->resident_count; ++k) {
+        const ts_cache_entry *e = &c->entry[c->resident_list[k]];
+        assert_true(e->resident);
+        assert_true((uint64_t)e->vert_first + e->vert_count <= c->verts.capacity);
+        assert_true((uint64_t)e->group_first + e->group_count <= c->groups.capacity);
+        for (uint32_t i = 0; i < e->vert_count; ++i)
+            assert_int_equal(vmap[e->vert_first + i]++, 0);
+        for (uint32_t i = 0; i < e->group_count; ++i)
+            assert_int_equal(gmap[e->group_first + i]++, 0);
+        vused += e->vert_count, gused += e->group_count;
+    }
+    assert_int_equal(vused, c->verts.used);
+    assert_int_equal(gused, c->groups.used);
+    const ts_cache_arena *arenas[2] = {&c->verts, &c->groups};
+    uint8_t *maps[2] = {vmap, gmap};
+    for (int a = 0; a < 2; ++a) {
+        uint64_t free_total = 0;
+        for (uint32_t i = 0; i < arenas[a]->free_count; ++i) {
+            const ts_cache_block *b = &arenas[a]->free[i];
+            assert_true(b->count > 0);
+            if (i > 0) /* sorted and coalesced */
+                assert_true(arenas[a]->free[i - 1].first + arenas[a]->free[i - 1].count < b->first);
+            for (uint32_t j = 0; j < b->count; ++j)
+                assert_int_equal(maps[a][b->first + j], 0);
+            free_total += b->count;
+        }
+        assert_int_equal(free_total + (a ? gused : vused), arenas[a]->capacity);
+    }
+    free(vmap), free(gmap);
+}
+
+static void test_random_workload(void **state)
+{
+    uint64_t seed = 12345, fulls = 0, evictions = 0;
+    for (int trial = 0; trial < 20; ++trial) {
+        ts_patch_cache c;
+        ts_error err = {0};
+        uint32_t n = 50 + (uint32_t)(rng_next(&seed) % 200);
+        uint32_t vcap = 200 + (uint32_t)(rng_next(&seed) % 20000);
+        uint32_t gcap = 50 + (uint32_t)(rng_next(&seed) % 8000);
+        assert_int_equal(patch_cache_create(&c, n, vcap, gcap, &err), TS_OK);
+        uint8_t *lod = malloc(n);
+        for (uint32_t p = 0; p < n; ++p)
+            lod[p] = (uint8_t)(rng_next(&seed) % 6);
+        uint64_t misses = 0, hits = 0;
+        for (int batch = 0; batch < 300; ++batch) {
+            uint32_t want = 1 + (uint32_t)(rng_next(&seed) % 12);
+            for (uint32_t k = 0; k < want; ++k) {
+                uint32_t p = (uint32_t)(rng_next(&seed) % n), v, g;
+                if (rng_next(&seed) % 50 == 0) lod[p] = (uint8_t)(rng_next(&seed) % 6);
+                uint32_t times = 1 + (p % 3 == 0);
+                int was =
+                    c.entry[p].resident && c.entry[p].lod == lod[p] && c.entry[p].times == times;
+                ts_cache_result r = patch_cache_acquire(&c, p, lod[p], times, &v, &g);
+                int too_big = patch_cache_vert_count(lod[p], times) > vcap ||
+                              patch_cache_group_count(lod[p], times) > gcap;
+                if (too_big) {
+                    assert_int_equal(r, TS_CACHE_FULL); /* can never fit */
+                    continue;
+                }
+                if (r == TS_CACHE_FULL) {
+                    for (uint32_t i = 0; i < c.resident_count; ++i) /* nothing left to evict */
+                        assert_true(c.entry[c.resident_list[i]].pinned);
+                    ++fulls;
+                    break; /* the caller ends the batch here */
+                }
+                assert_int_equal(r, was ? TS_CACHE_HIT : TS_CACHE_MISS);
+                r == TS_CACHE_HIT ? ++hits : ++misses;
+                assert_true(c.entry[p].pinned);
+                assert_int_equal(c.entry[p].vert_first, v);
+                assert_int_equal(c.entry[p].group_first, g);
+                check_invariants(&c);
+            }
+            patch_cache_end_batch(&c);
+        }
+        assert_int_equal(c.hits, hits);
+        assert_int_equal(c.misses, misses);
+        evictions += c.evictions;
+        free(lod);
+        patch_cache_free(&c);
+    }
+    assert_true(fulls > 0);     /* the workload reached full batches */
+    assert_true(evictions > 0); /* and evicted */
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_sizes),
+        cmocka_unit_test(test_working_set_fits),
+        cmocka_unit_test(test_lru_and_pinning),
+        cmocka_unit_test(test_random_workload),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
