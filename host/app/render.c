@@ -530,6 +530,8 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
         return TS_OK;
     }
     if (!rc) rc = dev_open(&cl, &o->cl, err);
+    if (!rc && !o->quiet && cl.cache_note[0])
+        fprintf(stderr, "tessera: warning: %s\n", cl.cache_note);
     if (!rc) {
         snprintf(stats->device, sizeof stats->device, "%.120s (%.120s)", cl.info.name,
                  cl.info.platform_name);

@@ -9,6 +9,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <fcntl.h>
 
 cl_int ts_dev_inject_alloc_error = 0;
 
@@ -147,21 +148,75 @@ static int cache_path(const ts_device_options *opt, uint64_t key, char *out, siz
     return 0;
 }
 
-static unsigned char *read_all(const char *path, size_t *size)
+/* A cache entry (docs/building.md "the binary cache"): a 32-byte header, then the program
+ * binary. The driver is never handed bytes that were not verified: a file cut short by a
+ * crash or a full disk, or damaged later, fails the length or checksum test and the
+ * program is built from source again (and the entry rewritten). */
+#define TS_CACHE_MAGIC "TSKCACHE" /* 8 bytes */
+#define TS_CACHE_VERSION 1u
+#define TS_CACHE_MAX_BYTES ((uint64_t)1 << 30) /* larger is not one of ours */
+
+typedef struct cache_header {
+    char magic[8];
+    uint32_t version, reserved;
+    uint64_t length;   /* bytes of the binary after the header */
+    uint64_t checksum; /* ts_fnv1a of those bytes */
+} cache_header;
+
+/* Reads a cache entry and checks it. Returns the binary (malloc'd) or NULL with *why set to
+ * what was wrong ("" when there is no entry at all). Only regular files are read. */
+static unsigned char *cache_read(const char *path, size_t *size, const char **why)
 {
+    *why = "";
+    *size = 0;
+    struct stat st;
+    if (stat(path, &st) != 0) return NULL; /* no entry yet */
+    if (!S_ISREG(st.st_mode)) return *why = "not a regular file", NULL;
+    if ((uint64_t)st.st_size < sizeof(cache_header)) return *why = "shorter than its header", NULL;
     FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *p = n > 0 ? malloc((size_t)n) : NULL;
-    if (p && fread(p, 1, (size_t)n, f) != (size_t)n) {
-        free(p);
-        p = NULL;
-    }
+    if (!f) return *why = "unreadable", NULL;
+    cache_header h;
+    unsigned char *bin = NULL;
+    if (fread(&h, sizeof h, 1, f) != 1)
+        *why = "unreadable";
+    else if (memcmp(h.magic, TS_CACHE_MAGIC, 8) != 0 || h.version != TS_CACHE_VERSION)
+        *why = "not a tessera kernel-cache entry of this version";
+    else if (h.length == 0 || h.length > TS_CACHE_MAX_BYTES ||
+             (uint64_t)st.st_size != sizeof h + h.length)
+        *why = "truncated or extended (its length does not match its header)";
+    else if (!(bin = malloc((size_t)h.length)))
+        *why = "too large to read";
+    else if (fread(bin, 1, (size_t)h.length, f) != (size_t)h.length)
+        *why = "unreadable";
+    else if (ts_fnv1a(TS_FNV1A_INIT, bin, (size_t)h.length) != h.checksum)
+        *why = "damaged (its checksum does not match)";
     fclose(f);
-    *size = p ? (size_t)n : 0;
-    return p;
+    if (**why) {
+        free(bin);
+        return NULL;
+    }
+    *size = (size_t)h.length;
+    return bin;
+}
+
+/* Writes the entry to a temporary in the same directory, fsyncs it and renames it into
+ * place: a reader sees the old entry, no entry or the whole new one. Failures are silent
+ * (the cache is an optimisation). */
+static void cache_write(const char *path, const unsigned char *bin, size_t size)
+{
+    cache_header h;
+    memcpy(h.magic, TS_CACHE_MAGIC, 8);
+    h.version = TS_CACHE_VERSION, h.reserved = 0;
+    h.length = size;
+    h.checksum = ts_fnv1a(TS_FNV1A_INIT, bin, size);
+    char tmp[4300];
+    snprintf(tmp, sizeof tmp, "%s.tmp-%ld", path, (long)getpid());
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) return;
+    int ok = write(fd, &h, sizeof h) == (ssize_t)sizeof h &&
+             write(fd, bin, size) == (ssize_t)size && fsync(fd) == 0;
+    if (close(fd) != 0) ok = 0;
+    if (!ok || rename(tmp, path) != 0) unlink(tmp);
 }
 
 static void cache_store(cl_program prog, const char *path)
@@ -173,14 +228,8 @@ static void cache_store(cl_program prog, const char *path)
     unsigned char *bin = malloc(size);
     if (!bin) return;
     unsigned char *bins[1] = {bin};
-    if (clGetProgramInfo(prog, CL_PROGRAM_BINARIES, sizeof bins, bins, NULL) == CL_SUCCESS) {
-        char tmp[4300];
-        snprintf(tmp, sizeof tmp, "%s.tmp-%ld", path, (long)getpid());
-        FILE *f = fopen(tmp, "wb");
-        int ok = f && fwrite(bin, 1, size, f) == size;
-        if (f && fclose(f) != 0) ok = 0;
-        if (!ok || rename(tmp, path) != 0) remove(tmp);
-    }
+    if (clGetProgramInfo(prog, CL_PROGRAM_BINARIES, sizeof bins, bins, NULL) == CL_SUCCESS)
+        cache_write(path, bin, size);
     free(bin);
 }
 
@@ -234,22 +283,36 @@ static int program_build(ts_device *cl, cl_program prog, const char *src, ts_err
     return TS_E_DEVICE;
 }
 
+/* The program from a verified cache entry, or NULL: no entry, or a damaged or foreign one
+ * (then cl->cache_note says why, for the one warning the caller prints). */
 static cl_program program_from_cache(ts_device *cl, const char *path)
 {
     size_t size = 0;
-    unsigned char *bin = read_all(path, &size);
-    if (!bin) return NULL;
+    const char *why = "";
+    unsigned char *bin = cache_read(path, &size, &why);
+    if (!bin) {
+        if (*why)
+            snprintf(cl->cache_note, sizeof cl->cache_note,
+                     "kernel cache entry %s is %s: rebuilding the kernels from source", path, why);
+        return NULL;
+    }
     const unsigned char *bins[1] = {bin};
     cl_int status = 0, rc = 0;
     cl_program prog =
         clCreateProgramWithBinary(cl->context, 1, &cl->info.device, &size, bins, &status, &rc);
     free(bin);
-    if (rc != CL_SUCCESS || status != CL_SUCCESS) return NULL;
-    if (clBuildProgram(prog, 1, &cl->info.device, cl->build_options, NULL, NULL) != CL_SUCCESS) {
-        clReleaseProgram(prog);
-        return NULL; /* a stale or foreign binary: rebuild from source */
-    }
-    return prog;
+    if (rc == CL_SUCCESS && status == CL_SUCCESS &&
+        clBuildProgram(prog, 1, &cl->info.device, cl->build_options, NULL, NULL) == CL_SUCCESS)
+        return prog;
+    if (prog) clReleaseProgram(prog);
+    snprintf(cl->cache_note, sizeof cl->cache_note,
+             "kernel cache entry %s was not accepted by the driver (%s): rebuilding the kernels "
+             "from source",
+             path,
+             dev_error_name(rc != CL_SUCCESS       ? rc
+                            : status != CL_SUCCESS ? status
+                                                   : CL_BUILD_PROGRAM_FAILURE));
+    return NULL;
 }
 
 static int program_open(ts_device *cl, const ts_device_options *opt, ts_error *err)

@@ -75,6 +75,10 @@ typedef struct ts_device {
     double build_seconds;
     int cache_hit;
     char build_options[128]; /* dev_build_options() for this device */
+    /* Non-empty when the binary cache held a damaged or foreign entry for this program: what
+     * was wrong (the program was built from source and the entry rewritten). The caller
+     * prints it once as a warning. */
+    char cache_note[4400];
 } ts_device;
 
 typedef struct ts_device_options {
