@@ -18,6 +18,7 @@
 
 extern "C" {
 #include "base/error.h"
+#include "base/file.h"
 #include "image/image.h"
 #include "image/tonemap.h"
 }
@@ -276,6 +277,8 @@ int open_input(const char *path, std::unique_ptr<ImageInput> &in, ts_error *err)
 {
     if (access(path, R_OK) != 0)
         return io_fail(err, path, std::string("cannot read: ") + strerror(errno));
+    /* Only regular files: OIIO spins forever on /dev/zero and blocks on a FIFO. */
+    if (ts_file_check_regular(path, err)) return err->code;
     in = ImageInput::open(path);
     if (!in) return io_fail(err, path, "cannot read: " + OIIO::geterror());
     return TS_OK;

@@ -18,6 +18,8 @@
  */
 #include "scene/mesh.h"
 
+#include "base/file.h"
+
 #include <assimp/cimport.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -320,8 +322,8 @@ static int transform_mesh(mesh_ctx *c, const double m[16], const double nm[9])
 int mesh_load(const char *path, const double object_to_world[16], const ts_patch_attr *attr,
               ts_scene *s, ts_error *err)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) return ts_error_set(err, TS_E_IO, "%s: %s", path, strerror(errno));
+    FILE *f = ts_file_open_regular(path, err); /* a FIFO or device would hang Assimp */
+    if (!f) return err->code;
     fclose(f);
     double nm[9];
     const double *m = object_to_world;

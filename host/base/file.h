@@ -1,0 +1,22 @@
+/* file.h — opening input files safely: only regular files are read. A FIFO would block the
+ * open forever, /dev/zero would grow a buffer until memory runs out, a directory cannot be
+ * parsed (issue 15, item 7); each is refused at once with a message naming the path and
+ * what it is. */
+#ifndef TS_FILE_H
+#define TS_FILE_H
+
+#include "base/error.h"
+
+#include <stdio.h>
+
+/* TS_OK when path names a regular file (following symbolic links); else TS_E_IO with
+ * "PATH: <strerror>" or "PATH: not a regular file (a FIFO)" (directory, character device,
+ * block device, socket). */
+int ts_file_check_regular(const char *path, ts_error *err);
+
+/* Opens a regular file for reading ("rb") without ever blocking on a FIFO (the file is
+ * opened non-blocking, checked with fstat, then made blocking). NULL with err set as
+ * ts_file_check_regular says. */
+FILE *ts_file_open_regular(const char *path, ts_error *err);
+
+#endif
