@@ -7,7 +7,7 @@ checked for being positive and consistent, never against a target. Exit 77 (skip
 test needs an OpenCL device and `tessera devices` finds none.
 
     bench_smoke.py TEST --source DIR --build DIR
-    TEST: profile, render, stages, leaf, sort, scene_load, bench, export
+    TEST: profile, render, stages, leaf, sort, scene_load, bench, export, noise
 """
 import argparse
 import importlib.machinery
@@ -360,9 +360,27 @@ def test_export(ctx):
         close(bc.mean_level(pa, [0, 0, 1, 1]), 100.0, 1e-12, "mean level")
 
 
+def test_noise(ctx):
+    require_device(ctx)
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-noise-") as tmp:
+        js = os.path.join(tmp, "n.json")
+        run([sys.executable, os.path.join(ctx.source, "tools", "bench_noise.py"), "--size", "tiny",
+             "--binary", ctx.tessera, "--cache", os.path.join(tmp, "cache"), "--json", js])
+        r = load(js)
+        check(len(r["results"]) == 1 and r["results"][0]["ref_spp"] == 64, "one scene, 64-spp reference")
+        rows = r["results"][0]["rows"]
+        check([row["spp"] for row in rows] == [1, 4], "spp 1 and 4")
+        for row in rows:
+            check(row["rmse"] > 0 and row["noise_image"] > 0 and row["seconds"] > 0, "positive figures")
+        # Four times the samples: the error falls (by about half; here only its direction is
+        # asserted, 64x36 pixels are few).
+        check(rows[1]["rmse"] < rows[0]["rmse"] and rows[1]["noise_image"] < rows[0]["noise_image"],
+              f"no convergence: {rows}")
+
+
 TESTS = {"profile": test_profile, "render": test_render, "stages": test_stages, "leaf": test_leaf,
          "sort": test_sort, "scene_load": test_scene_load, "bench": test_bench,
-         "export": test_export}
+         "export": test_export, "noise": test_noise}
 
 
 def main():

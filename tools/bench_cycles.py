@@ -428,11 +428,13 @@ def main():
     ap.add_argument("--tessera", default=os.path.join(ROOT, "build", "tessera"))
     ap.add_argument("--export", default=os.path.join(ROOT, "build", "bench_export"))
     ap.add_argument("--scene", action="append", help="RIB scenes (default: teapot, teapot_displaced)")
-    ap.add_argument("--res", default="1280x720")
-    ap.add_argument("--spp", type=int, default=16)
+    ap.add_argument("--size", choices=["tiny", "small", "full"], default="small",
+                    help="tiny: 160x90, 4 spp, 2 runs; small: 1280x720, 16 spp, 3 runs; full: 5 runs")
+    ap.add_argument("--res", default=None)
+    ap.add_argument("--spp", type=int, default=None)
     ap.add_argument("--depth", type=int, default=3)
     ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--runs", type=int, default=3, help="runs per renderer (>= 2 for noise)")
+    ap.add_argument("--runs", type=int, default=None, help="runs per renderer (>= 2 for noise)")
     ap.add_argument("--grid", type=int, default=16, help="Cycles base mesh: N x N quads per patch")
     ap.add_argument("--dicing-rate", type=float, default=1.0, help="Cycles adaptive subdivision, pixels")
     ap.add_argument("--region", default=DEFAULT_REGION, help="x0,y0,x1,y1 fractions for the body noise")
@@ -445,6 +447,10 @@ def main():
     ap.add_argument("--worker-out", help=argparse.SUPPRESS)
     ap.add_argument("--seed", type=int, default=0, help=argparse.SUPPRESS)
     a = ap.parse_args()
+    size = {"tiny": ("160x90", 4, 2), "small": ("1280x720", 16, 3), "full": ("1280x720", 16, 5)}[a.size]
+    a.res = a.res or size[0]
+    a.spp = a.spp or size[1]
+    a.runs = a.runs or size[2]
     if a.worker_scene:
         return cycles_worker(a)
     probe = subprocess.run([a.python, "-c", "import bpy"], capture_output=True)
