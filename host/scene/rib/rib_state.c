@@ -1,7 +1,7 @@
 /* rib_state.c — the RIB graphics state: the current transformation (RI Spec 3.2 §4.3) with
  * its two time samples, Attribute/Transform/World blocks, camera options (Format,
  * Projection), the Color, Basis and Displacement attributes and MotionBegin/MotionEnd
- * blocks. See rib_internal.h for the matrix convention. */
+ * blocks. See rib_parser.h for the matrix convention. */
 #include "scene/rib/rib_internal.h"
 
 #include "base/mat4.h"
