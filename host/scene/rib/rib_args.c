@@ -1,9 +1,11 @@
 /* rib_args.c — the arguments of one RIB request and the messages about them: reads the
  * tokens after a request name into the parser's pools (numbers, strings and one-level
  * [arrays], bounded by RIB_MAX_*), and gives the handlers typed access to them: n numbers
- * bare or as one array, integers, strings, and "name" value parameter lists with inline
- * declarations (RI Spec 3.2 §5.1). Every message names file:line:col of the token at fault.
- * The handlers call this file; it calls none of them (rib_internal.h has the map). */
+ * bare or as one array, integers, strings, "name" value parameter lists with inline
+ * declarations (RI Spec 3.2 §5.1), and file names relative to the file being read with the
+ * textures they name (Displacement, Surface, domelight and the archives share those). Every
+ * message names file:line:col of the token at fault. The handlers call this file; it calls
+ * none of them (rib_internal.h has the map). */
 #include "scene/rib/rib_args.h"
 
 #include <math.h>
@@ -294,4 +296,38 @@ void rib_warn_param(rib_parser *p, const rib_param *prm)
     snprintf(what, sizeof what, "%s parameter \"%s\" is ignored", p->req,
              rib_printable(prm->name, shown));
     rib_warn_once(p, prm->key->line, prm->key->col, what);
+}
+
+/* ---- file names ------------------------------------------------------------------ */
+
+char *rib_resolve(const rib_parser *p, const char *name)
+{
+    const char *file = p->lx.file, *slash = strrchr(file, '/');
+    size_t dir = (name[0] == '/' || !slash) ? 0 : (size_t)(slash - file) + 1;
+    size_t n = strlen(name);
+    char *out = malloc(dir + n + 1);
+    if (!out) return NULL;
+    memcpy(out, file, dir);
+    memcpy(out + dir, name, n + 1);
+    return out;
+}
+
+int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, uint32_t *index)
+{
+    const char *name;
+    int rc = rib_string_arg(p, i, "a texture file name", &name);
+    if (rc != TS_OK) return rc;
+    char *path = rib_resolve(p, name);
+    if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    ts_error e = {0};
+    rc = scene_add_texture(p->scene, path, kind, index, &e);
+    free(path);
+    if (rc == TS_E_MEMORY) return ts_error_set(p->err, rc, "%s", e.msg);
+    if (rc != TS_OK) {
+        char shown[RIB_PRINT_MAX];
+        rc = rib_error_at(p, p->args[i].line, p->args[i].col, "%s: cannot read texture \"%s\": %s",
+                          p->req, rib_printable(name, shown), e.msg);
+    }
+    ts_error_clear(&e);
+    return rc;
 }

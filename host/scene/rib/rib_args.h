@@ -2,7 +2,8 @@
  * that name the file, line and column; the arguments of the current request, read from
  * the tokens into the parser's pools (RI Spec 3.2 Appendix C.2: numbers, strings and
  * [arrays] up to the next request name) and read back as numbers, integers, strings and
- * "name" value parameter lists (§5.1: inline declarations). It calls only the lexer,
+ * "name" value parameter lists (§5.1: inline declarations); file names relative to the
+ * file being read, and the textures they name. It calls only the lexer and the scene,
  * never a handler.
  */
 #ifndef TS_RIB_ARGS_H
@@ -11,6 +12,7 @@
 #include "scene/rib/rib_parser.h"
 
 #include <stddef.h>
+#include <stdint.h>
 
 /* ---- messages ---- */
 
@@ -62,5 +64,14 @@ int rib_param_numbers(rib_parser *p, const rib_param *prm, size_t n, const doubl
                       size_t *count);
 /* Warns once that a parameter of the current request is ignored. */
 void rib_warn_param(rib_parser *p, const rib_param *prm);
+
+/* ---- file names ---- */
+
+/* `name` relative to the directory of the file being read (absolute names as they are);
+ * a malloc'd path or NULL. */
+char *rib_resolve(const rib_parser *p, const char *name);
+/* Reads the texture named by string argument args[i] (relative to the RIB file) as kind
+ * TS_TEX_* into the scene; an unreadable file is an error at that argument naming it. */
+int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, uint32_t *index);
 
 #endif

@@ -2,16 +2,16 @@
  * others; private to them.
  *   rib_lex.c      tokens (rib_lex.h)
  *   rib_parser.h   the state of one parse: bounds, argument pools, graphics state
- *   rib_args.c     messages, a request's arguments and parameter lists (rib_args.h)
+ *   rib_args.c     messages, a request's arguments, parameter lists, file names (rib_args.h)
  *   rib.c          rib_load, rib_parse_string, the request loop and its dispatch table
  *   rib_state.c    transformations, blocks, Format, Projection, Color, Basis, Displacement,
  *                  motion blocks
  *   rib_geom.c     Patch, PatchMesh and LightSource "distantlight" into the scene
- *   rib_shading.c  Surface, AreaLightSource, LightSource "domelight", textures
+ *   rib_shading.c  Surface, AreaLightSource, LightSource "domelight"
  *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow
- *   rib_archive.c  ReadArchive, Procedural, file names
+ *   rib_archive.c  ReadArchive, Procedural
  *   basis.c        change of basis to Bézier (basis.h)
- * rib.c and every handler file call rib_args.c, which calls only rib_lex.c.
+ * rib.c and every handler file call rib_args.c, which calls only rib_lex.c and the scene.
  */
 #ifndef TS_RIB_INTERNAL_H
 #define TS_RIB_INTERNAL_H
@@ -54,14 +54,6 @@ int rib_req_motion_end(rib_parser *p);
 int rib_req_patch(rib_parser *p);
 int rib_req_patch_mesh(rib_parser *p);
 int rib_req_light_source(rib_parser *p);
-
-/* `name` relative to the directory of the file being read (absolute names as they are);
- * a malloc'd path or NULL (rib_archive.c). */
-char *rib_resolve(const rib_parser *p, const char *name);
-/* Reads the texture named by string argument args[i] (relative to the RIB file) as kind
- * TS_TEX_* into the scene; an unreadable file is an error at that argument naming it
- * (rib_shading.c). */
-int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, uint32_t *index);
 
 /* ---- rib_shading.c: Surface, AreaLightSource, LightSource "domelight" ---- */
 
