@@ -156,9 +156,6 @@ static int rib_dispatch(rib_parser *p)
 
 /* ---- driver ------------------------------------------------------------------------ */
 
-static const char *const rib_frame_end[] = {"AttributeEnd", "TransformEnd", "WorldEnd"};
-static const char *const rib_frame_name[] = {"AttributeBegin", "TransformBegin", "WorldBegin"};
-
 int rib_run_requests(rib_parser *p)
 {
     rib_token t;
@@ -182,15 +179,7 @@ int rib_run_requests(rib_parser *p)
 static int rib_run(rib_parser *p)
 {
     int rc = rib_run_requests(p);
-    if (rc == TS_OK && p->motion.active)
-        rc = rib_error_at(p, p->motion.line, p->motion.col,
-                          "MotionBegin is never closed (missing MotionEnd)");
-    if (rc == TS_OK && p->depth > 0) {
-        const rib_frame *f = &p->stack[p->depth - 1];
-        rc = rib_error_at(p, f->line, f->col, "%s is never closed (missing %s)",
-                          rib_frame_name[f->kind], rib_frame_end[f->kind]);
-    }
-    return rc;
+    return rc == TS_OK ? rib_check_closed(p) : rc;
 }
 
 static void rib_parser_init(rib_parser *p, const char *name, const char *text, size_t len,
