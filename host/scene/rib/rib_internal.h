@@ -23,7 +23,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* ---- rib_state.c: motion blocks, open blocks ---- */
+/* ---- rib_state.c: motion blocks, open blocks, the world phase ---- */
 
 /* Called for every request inside an open motion block (MotionEnd excepted): fails for
  * requests a motion block may not hold, a third sample, or a kind that differs from the
@@ -32,6 +32,8 @@ int rib_motion_check(rib_parser *p);
 /* At the end of the top-level file (not of an archive, whose blocks may stay open): fails
  * on an open motion block, else on the innermost open Attribute/Transform/World block. */
 int rib_check_closed(rib_parser *p);
+/* Fails unless the current request comes before WorldBegin (camera and image options). */
+int rib_before_world(rib_parser *p);
 
 /* ---- request handlers: all read p->args, return TS_OK or an error code ---- */
 

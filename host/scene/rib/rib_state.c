@@ -340,7 +340,7 @@ int rib_req_world_end(rib_parser *p)
 
 /* ---- camera options and attributes ---------------------------------------------- */
 
-static int rib_before_world(rib_parser *p)
+int rib_before_world(rib_parser *p)
 {
     if (p->phase == RIB_BEFORE_WORLD) return TS_OK;
     return rib_error_at(p, p->req_line, p->req_col, "%s must come before WorldBegin", p->req);
