@@ -8,7 +8,6 @@
 #include "base/mat4.h"
 #include "scene/rib/rib_internal.h"
 
-#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -233,31 +232,13 @@ int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *s
 
 int rib_load(const char *path, ts_scene *scene, int quiet, ts_error *err)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) return ts_error_set(err, TS_E_IO, "%s: %s", path, strerror(errno));
-    char *buf = NULL;
-    size_t len = 0, cap = 0;
-    for (;;) {
-        if (len == cap) {
-            size_t c = cap ? cap * 2 : 65536;
-            char *b = realloc(buf, c);
-            if (!b) {
-                free(buf);
-                fclose(f);
-                return ts_error_set(err, TS_E_MEMORY, "%s: out of memory", path);
-            }
-            buf = b;
-            cap = c;
-        }
-        size_t got = fread(buf + len, 1, cap - len, f);
-        len += got;
-        if (got == 0) break;
-    }
-    int read_failed = ferror(f);
-    int saved = errno;
-    fclose(f);
-    int rc = read_failed ? ts_error_set(err, TS_E_IO, "%s: %s", path, strerror(saved))
-                         : rib_parse_string(path, buf, len, scene, quiet, err);
-    free(buf);
+    char *text;
+    size_t len;
+    int errnum;
+    int rc = rib_read_file(path, &text, &len, &errnum);
+    if (rc == TS_E_MEMORY) return ts_error_set(err, rc, "%s: out of memory", path);
+    if (rc != TS_OK) return ts_error_set(err, rc, "%s: %s", path, strerror(errnum));
+    rc = rib_parse_string(path, text, len, scene, quiet, err);
+    free(text);
     return rc;
 }
