@@ -1,17 +1,34 @@
 /* rib_internal.h — the parts of the RIB reader (host/scene/rib/) and what each offers the
- * others; private to them.
- *   rib_lex.c      tokens (rib_lex.h)
- *   rib_parser.h   the state of one parse: bounds, argument pools, graphics state
- *   rib_args.c     messages, a request's arguments, parameter lists, file names (rib_args.h)
+ * others; private to them. The headers under it: rib_args.h (the helpers every handler
+ * uses), which includes rib_parser.h (the state of one parse: bounds, argument pools,
+ * graphics state), and rib_lex.h and basis.h.
+ *
  *   rib.c          rib_load, rib_parse_string, the request loop and its dispatch table
  *   rib_state.c    transformations, blocks, Format, Projection, Color, Basis, Displacement,
  *                  motion blocks
  *   rib_geom.c     Patch, PatchMesh and LightSource "distantlight" into the scene
  *   rib_shading.c  Surface, AreaLightSource, LightSource "domelight"
  *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow
- *   rib_archive.c  ReadArchive, Procedural
- *   basis.c        change of basis to Bézier (basis.h)
- * rib.c and every handler file call rib_args.c, which calls only rib_lex.c and the scene.
+ *   rib_archive.c  ReadArchive, Procedural; reading a whole file
+ *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
+ *   rib_lex.c      tokens
+ *   basis.c        change of basis to Bézier
+ *
+ * Who calls whom (A -> B: A calls functions of B):
+ *   rib.c         -> every handler file (the dispatch table; rib_motion_check and
+ *                    rib_check_closed in rib_state.c, rib_read_file and rib_archive_free in
+ *                    rib_archive.c)
+ *   rib_archive.c -> rib.c (rib_run_requests: an archive's requests), rib_geom.c (the
+ *                    attributes of procedural geometry)
+ *   rib_state.c   -> rib_geom.c (MotionEnd of a block of Patch samples)
+ *   rib_options.c -> rib_state.c (rib_before_world)
+ *   rib_geom.c    -> rib_shading.c (LightSource "domelight")
+ *   rib_shading.c -> no other handler
+ *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
+ *                    handler. rib.c and rib_archive.c also start lexers; rib.c, rib_state.c
+ *                    and rib_geom.c use basis.c.
+ * The one cycle is rib.c -> rib_archive.c -> rib.c: ReadArchive and DelayedReadArchive read
+ * the archive's requests through the same loop, nested at most RIB_MAX_INCLUDE deep.
  */
 #ifndef TS_RIB_INTERNAL_H
 #define TS_RIB_INTERNAL_H
@@ -21,21 +38,16 @@
 #include "scene/scene.h"
 
 #include <stddef.h>
-#include <stdint.h>
 
-/* ---- rib_state.c: motion blocks, open blocks, the world phase ---- */
+/* Request handlers (int rib_req_*(rib_parser *p)) read p->args and return TS_OK or an
+ * error code with p->err set. */
 
-/* Called for every request inside an open motion block (MotionEnd excepted): fails for
- * requests a motion block may not hold, a third sample, or a kind that differs from the
- * first sample's. */
-int rib_motion_check(rib_parser *p);
-/* At the end of the top-level file (not of an archive, whose blocks may stay open): fails
- * on an open motion block, else on the innermost open Attribute/Transform/World block. */
-int rib_check_closed(rib_parser *p);
-/* Fails unless the current request comes before WorldBegin (camera and image options). */
-int rib_before_world(rib_parser *p);
+/* ---- rib.c: the request loop, also run on the text of an archive ---- */
 
-/* ---- request handlers: all read p->args, return TS_OK or an error code ---- */
+/* Reads and dispatches requests from p->lx until its end of file. */
+int rib_run_requests(rib_parser *p);
+
+/* ---- rib_state.c: transformations, blocks, camera options, attributes, motion ---- */
 
 int rib_req_identity(rib_parser *p);
 int rib_req_translate(rib_parser *p);
@@ -56,9 +68,27 @@ int rib_req_basis(rib_parser *p);
 int rib_req_displacement(rib_parser *p);
 int rib_req_motion_begin(rib_parser *p);
 int rib_req_motion_end(rib_parser *p);
+/* Called for every request inside an open motion block (MotionEnd excepted): fails for
+ * requests a motion block may not hold, a third sample, or a kind that differs from the
+ * first sample's. */
+int rib_motion_check(rib_parser *p);
+/* At the end of the top-level file (not of an archive, whose blocks may stay open): fails
+ * on an open motion block, else on the innermost open Attribute/Transform/World block. */
+int rib_check_closed(rib_parser *p);
+/* Fails unless the current request comes before WorldBegin (camera and image options). */
+int rib_before_world(rib_parser *p);
+
+/* ---- rib_geom.c: Patch, PatchMesh, LightSource ---- */
+
 int rib_req_patch(rib_parser *p);
 int rib_req_patch_mesh(rib_parser *p);
 int rib_req_light_source(rib_parser *p);
+/* Emits the moving patch of a completed motion block (MotionEnd). */
+int rib_geom_motion_patch(rib_parser *p);
+/* The attributes in effect (colour, displacement with its world-to-object transform,
+ * surface, emission) for patches a procedural adds; fails where geometry may not stand
+ * (after WorldEnd, a projective or, for displacement, singular CTM). */
+int rib_geom_procedural_attr(rib_parser *p, ts_patch_attr *attr);
 
 /* ---- rib_shading.c: Surface, AreaLightSource, LightSource "domelight" ---- */
 
@@ -66,17 +96,6 @@ int rib_req_surface(rib_parser *p);
 int rib_req_area_light_source(rib_parser *p);
 /* LightSource "domelight": params from index `first`. */
 int rib_dome_light(rib_parser *p, size_t first);
-/* rib_geom.c: emits the moving patch of a completed motion block (MotionEnd). */
-int rib_geom_motion_patch(rib_parser *p);
-/* rib_geom.c: the attributes in effect (colour, displacement with its world-to-object
- * transform, surface, emission) for patches a procedural adds; fails where geometry may
- * not stand (after WorldEnd, a projective or, for displacement, singular CTM). */
-int rib_geom_procedural_attr(rib_parser *p, ts_patch_attr *attr);
-
-/* ---- rib.c: the request loop, also run on the text of an archive ---- */
-
-/* Reads and dispatches requests from p->lx until its end of file. */
-int rib_run_requests(rib_parser *p);
 
 /* ---- rib_options.c: PixelSamples, Clipping, Shutter, CropWindow ---- */
 
