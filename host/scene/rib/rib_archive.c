@@ -71,20 +71,6 @@ int rib_read_file(const char *path, char **text, size_t *len, int *errnum)
     return TS_OK;
 }
 
-/* `name` relative to the directory of the file being read (absolute names as they are).
- * Returns a malloc'd path or NULL. */
-char *rib_resolve(const rib_parser *p, const char *name)
-{
-    const char *file = p->lx.file, *slash = strrchr(file, '/');
-    size_t dir = (name[0] == '/' || !slash) ? 0 : (size_t)(slash - file) + 1;
-    size_t n = strlen(name);
-    char *out = malloc(dir + n + 1);
-    if (!out) return NULL;
-    memcpy(out, file, dir);
-    memcpy(out + dir, name, n + 1);
-    return out;
-}
-
 /* Reads the RIB file `name` (argument `at` of the current request) in place. */
 static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
 {

@@ -11,6 +11,8 @@
  */
 #include "scene/rib/rib_internal.h"
 
+#include "base/mat4.h"
+
 #include <float.h>
 #include <math.h>
 #include <stddef.h>

@@ -7,17 +7,11 @@
 #include <float.h>
 #include <math.h>
 
-static int options_before_world(rib_parser *p)
-{
-    if (p->phase == RIB_BEFORE_WORLD) return TS_OK;
-    return rib_error_at(p, p->req_line, p->req_col, "%s must come before WorldBegin", p->req);
-}
-
 /* n numbers, then nothing. */
 static int options_numbers(rib_parser *p, size_t n, double *v)
 {
     size_t i = 0;
-    int rc = options_before_world(p);
+    int rc = rib_before_world(p);
     if (rc == TS_OK) rc = rib_numbers(p, &i, n, v);
     if (rc == TS_OK) rc = rib_no_more(p, i);
     return rc;

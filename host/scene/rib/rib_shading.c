@@ -32,26 +32,6 @@ static int shading_params(rib_parser *p, size_t first, const char *const *names,
     return TS_OK;
 }
 
-int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, uint32_t *index)
-{
-    const char *name;
-    int rc = rib_string_arg(p, i, "a texture file name", &name);
-    if (rc != TS_OK) return rc;
-    char *path = rib_resolve(p, name);
-    if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
-    ts_error e = {0};
-    rc = scene_add_texture(p->scene, path, kind, index, &e);
-    free(path);
-    if (rc == TS_E_MEMORY) return ts_error_set(p->err, rc, "%s", e.msg);
-    if (rc != TS_OK) {
-        char shown[RIB_PRINT_MAX];
-        rc = rib_error_at(p, p->args[i].line, p->args[i].col, "%s: cannot read texture \"%s\": %s",
-                          p->req, rib_printable(name, shown), e.msg);
-    }
-    ts_error_clear(&e);
-    return rc;
-}
-
 /* Surface "matte" "float Kd" [k] | "plastic" "float Kd" [..] "float Ks" [..]
  * "float roughness" [..], either with "string texturename" ["file"]: Cs times the file's
  * colour at the point's st. Defaults as RenderMan's shaders: matte Kd 1; plastic Kd 0.5,

@@ -1,7 +1,7 @@
 /* rib_state.c — the RIB graphics state: the current transformation (RI Spec 3.2 §4.3) with
  * its two time samples, Attribute/Transform/World blocks, camera options (Format,
  * Projection), the Color, Basis and Displacement attributes and MotionBegin/MotionEnd
- * blocks. See rib_internal.h for the matrix convention. */
+ * blocks. See rib_parser.h for the matrix convention. */
 #include "scene/rib/rib_internal.h"
 
 #include "base/mat4.h"
@@ -116,7 +116,14 @@ int rib_req_transform(rib_parser *p)
 
 /* ---- blocks: AttributeBegin/End, TransformBegin/End, WorldBegin/End ---------------- */
 
-static const char *const rib_frame_begin[] = {"AttributeBegin", "TransformBegin", "WorldBegin"};
+/* The requests that open and close each rib_frame_kind. */
+static const struct {
+    const char *begin, *end;
+} rib_frame_names[] = {
+    [RIB_FRAME_ATTRIBUTE] = {"AttributeBegin", "AttributeEnd"},
+    [RIB_FRAME_TRANSFORM] = {"TransformBegin", "TransformEnd"},
+    [RIB_FRAME_WORLD] = {"WorldBegin", "WorldEnd"},
+};
 
 static int rib_push(rib_parser *p, rib_frame_kind kind)
 {
@@ -156,10 +163,10 @@ static int rib_pop(rib_parser *p, rib_frame_kind kind)
     const rib_frame *top = p->depth ? &p->stack[p->depth - 1] : NULL;
     if (!top || (top->kind == RIB_FRAME_WORLD && kind != RIB_FRAME_WORLD))
         return rib_error_at(p, p->req_line, p->req_col, "%s without a matching %s", p->req,
-                            rib_frame_begin[kind]);
+                            rib_frame_names[kind].begin);
     if (top->kind != kind)
         return rib_error_at(p, p->req_line, p->req_col, "%s does not match the %s at %d:%d", p->req,
-                            rib_frame_begin[top->kind], top->line, top->col);
+                            rib_frame_names[top->kind].begin, top->line, top->col);
     memcpy(p->ctm, top->ctm, sizeof p->ctm);
     memcpy(p->ctm1, top->ctm1, sizeof p->ctm1);
     p->ctm_moving = top->ctm_moving;
@@ -194,6 +201,17 @@ int rib_req_attribute_end(rib_parser *p)
 int rib_req_transform_end(rib_parser *p)
 {
     return rib_pop(p, RIB_FRAME_TRANSFORM);
+}
+
+int rib_check_closed(rib_parser *p)
+{
+    if (p->motion.active)
+        return rib_error_at(p, p->motion.line, p->motion.col,
+                            "MotionBegin is never closed (missing MotionEnd)");
+    if (p->depth == 0) return TS_OK;
+    const rib_frame *f = &p->stack[p->depth - 1];
+    return rib_error_at(p, f->line, f->col, "%s is never closed (missing %s)",
+                        rib_frame_names[f->kind].begin, rib_frame_names[f->kind].end);
 }
 
 /* Moves n control points from camera to world space. */
@@ -322,7 +340,7 @@ int rib_req_world_end(rib_parser *p)
 
 /* ---- camera options and attributes ---------------------------------------------- */
 
-static int rib_before_world(rib_parser *p)
+int rib_before_world(rib_parser *p)
 {
     if (p->phase == RIB_BEFORE_WORLD) return TS_OK;
     return rib_error_at(p, p->req_line, p->req_col, "%s must come before WorldBegin", p->req);

@@ -1,0 +1,77 @@
+/* rib_args.h — what every request handler of the RIB reader uses (rib_args.c): messages
+ * that name the file, line and column; the arguments of the current request, read from
+ * the tokens into the parser's pools (RI Spec 3.2 Appendix C.2: numbers, strings and
+ * [arrays] up to the next request name) and read back as numbers, integers, strings and
+ * "name" value parameter lists (§5.1: inline declarations); file names relative to the
+ * file being read, and the textures they name. It calls only the lexer and the scene,
+ * never a handler.
+ */
+#ifndef TS_RIB_ARGS_H
+#define TS_RIB_ARGS_H
+
+#include "scene/rib/rib_parser.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* ---- messages ---- */
+
+/* Sets TS_E_SCENE "file:line:col: error: <fmt>" and returns TS_E_SCENE. */
+int rib_error_at(rib_parser *p, int line, int col, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+/* Prints "file:line:col: warning: <what>" once per distinct text unless quiet. */
+void rib_warn_once(rib_parser *p, int line, int col, const char *what);
+/* s with control and non-ASCII bytes as '?', cut to RIB_PRINT_MAX - 1 bytes ("..."):
+ * for echoing file strings in one-line messages. Returns buf. */
+const char *rib_printable(const char *s, char buf[RIB_PRINT_MAX]);
+
+/* ---- reading a request's arguments ---- */
+
+/* Reads the arguments after a request name into p->args (and their values into p->nums,
+ * p->strs, p->chars), up to the next name or the end of the file, which is left in *next.
+ * The pools are reused by every request: what a handler keeps past the next request it
+ * copies. */
+int rib_read_args(rib_parser *p, rib_token *next);
+/* Frees the argument pools. */
+void rib_args_free(rib_parser *p);
+
+/* ---- positional arguments ---- */
+
+const char *rib_arg_str(const rib_parser *p, const rib_arg *a, size_t k);
+const double *rib_arg_nums(const rib_parser *p, const rib_arg *a);
+/* n numbers at args[*i], as n bare numbers or one [n] array; advances *i past them. */
+int rib_numbers(rib_parser *p, size_t *i, size_t n, double *out);
+/* Fails when arguments are left from index i on. */
+int rib_no_more(rib_parser *p, size_t i);
+/* An integer in [1, max] at args[*i]; advances *i. */
+int rib_integer(rib_parser *p, size_t *i, const char *what, double max, int *out);
+/* A string (or a one-string array) at args[i]. */
+int rib_string_arg(rib_parser *p, size_t i, const char *what, const char **out);
+
+/* ---- parameter lists ---- */
+
+/* One "name" value pair of a parameter list; an inline declaration ("float fov",
+ * "uniform color lightcolor") is reduced to its last word. */
+typedef struct rib_param {
+    const char *name;
+    const rib_arg *key, *val;
+} rib_param;
+
+/* The pair at args[i], args[i + 1]. */
+int rib_param_at(rib_parser *p, size_t i, rib_param *out);
+/* The numbers of a parameter value: exactly n of them unless n == 0. */
+int rib_param_numbers(rib_parser *p, const rib_param *prm, size_t n, const double **out,
+                      size_t *count);
+/* Warns once that a parameter of the current request is ignored. */
+void rib_warn_param(rib_parser *p, const rib_param *prm);
+
+/* ---- file names ---- */
+
+/* `name` relative to the directory of the file being read (absolute names as they are);
+ * a malloc'd path or NULL. */
+char *rib_resolve(const rib_parser *p, const char *name);
+/* Reads the texture named by string argument args[i] (relative to the RIB file) as kind
+ * TS_TEX_* into the scene; an unreadable file is an error at that argument naming it. */
+int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, uint32_t *index);
+
+#endif

@@ -1,0 +1,142 @@
+/* rib_parser.h — the state of one RIB parse, shared by every part of the RIB reader and
+ * private to it: the bounds on what a file may ask for, the current request's arguments
+ * (filled and read by rib_args.c) and the graphics state the handlers keep (rib_state.c
+ * and the others; rib_internal.h says which file does what).
+ *
+ * Matrices are row-major 4x4 doubles acting on column vectors (p' = M p), as in scene.h.
+ * RIB writes matrices for row vectors (p' = p M, translation in elements 12..14), so a RIB
+ * [16] array is transposed on input.
+ */
+#ifndef TS_RIB_PARSER_H
+#define TS_RIB_PARSER_H
+
+#include "base/error.h"
+#include "scene/rib/basis.h"
+#include "scene/rib/rib_lex.h"
+#include "scene/scene.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* Bounds that keep a hostile file from exhausting memory or stack. */
+#define RIB_MAX_VALUES (1u << 24) /* numbers or strings in one request */
+#define RIB_MAX_ARGS (1u << 16)   /* arguments of one request */
+#define RIB_MAX_CHARS (1u << 26)  /* string bytes in one request */
+#define RIB_MAX_DEPTH 1024        /* nested Attribute/Transform blocks */
+#define RIB_MAX_WARNED 64         /* distinct warnings remembered */
+#define RIB_WARN_KEY 160          /* bytes of one remembered warning */
+#define RIB_PRINT_MAX 48          /* bytes of a file string echoed in a message */
+#define RIB_MAX_INCLUDE 16        /* nested ReadArchive / DelayedReadArchive files */
+
+typedef enum rib_arg_kind {
+    RIB_ARG_NUMBER,
+    RIB_ARG_STRING,
+    RIB_ARG_NUMBERS, /* [ numbers ], also the empty array [] */
+    RIB_ARG_STRINGS, /* [ "strings" ] */
+} rib_arg_kind;
+
+/* One argument of a request. first indexes nums (numbers) or strs (strings). */
+typedef struct rib_arg {
+    rib_arg_kind kind;
+    int line, col;
+    size_t first, count;
+} rib_arg;
+
+typedef enum rib_frame_kind {
+    RIB_FRAME_ATTRIBUTE,
+    RIB_FRAME_TRANSFORM,
+    RIB_FRAME_WORLD,
+} rib_frame_kind;
+
+/* The Displacement attribute (docs/rib.md). kind TS_DISP_NONE: off. */
+typedef struct rib_disp {
+    uint32_t kind, octaves;
+    double amplitude, frequency, lacunarity, gain;
+    uint32_t tex;  /* "texture": the scene texture (TS_TEX_MINMAX) */
+    double offset; /* "texture": texel value of zero displacement */
+} rib_disp;
+
+/* The current Surface (rib_shading.c). */
+typedef struct rib_surface {
+    uint32_t material; /* TS_MAT_* */
+    double kd, ks, roughness;
+    int textured; /* "texturename": Cs is multiplied by scene texture tex (TS_TEX_RGB) */
+    uint32_t tex;
+} rib_surface;
+
+/* What AttributeBegin / TransformBegin / WorldBegin saved. */
+typedef struct rib_frame {
+    rib_frame_kind kind;
+    int line, col;
+    double ctm[16], ctm1[16];
+    int ctm_moving;
+    double color[3];
+    ts_basis ubasis, vbasis;
+    rib_disp disp;
+    rib_surface surface;
+    double emission[3];
+} rib_frame;
+
+/* An open MotionBegin [t0 t1] block: its two samples, either two Patch requests of one
+ * type or two transformations of one kind, applied at MotionEnd. */
+typedef struct rib_motion {
+    int active;
+    int line, col;                /* of MotionBegin */
+    int count;                    /* samples read so far (0..2) */
+    char first[RIB_MAX_NAME + 1]; /* request name of the first sample */
+    int first_line, first_col;
+    double m[2][16];    /* transformation samples */
+    int replace;        /* Transform (replaces the CTM) rather than a concat */
+    int bicubic;        /* patch samples: type of the first */
+    double g[2][16][3]; /* patch samples: object-space Bézier points */
+    int has_n;
+    double n[4][3]; /* "N" of the first patch sample, object space */
+    int has_cs;
+    double cs[3]; /* "Cs" of the first patch sample (its average) */
+    int has_st;
+    double st[4][2];                  /* "st" of the first patch sample at its corners */
+    int p_line, p_col, n_line, n_col; /* of the first sample's "P" and "N" values */
+} rib_motion;
+
+typedef enum rib_world_phase { RIB_BEFORE_WORLD, RIB_IN_WORLD, RIB_AFTER_WORLD } rib_world_phase;
+
+typedef struct rib_parser {
+    rib_lexer lx;
+    ts_scene *scene;
+    ts_error *err;
+    int quiet;
+    /* The request being handled and its arguments (pools reset per request). */
+    char req[RIB_MAX_NAME + 1];
+    int req_line, req_col;
+    rib_arg *args;
+    size_t nargs, args_cap;
+    double *nums;
+    size_t nnums, nums_cap;
+    size_t *strs; /* offsets into chars */
+    size_t nstrs, strs_cap;
+    char *chars;
+    size_t nchars, chars_cap;
+    /* Graphics state. */
+    double ctm[16];  /* object to world in the world block, object to camera before it */
+    double ctm1[16]; /* the CTM at shutter close; equal to ctm unless ctm_moving */
+    int ctm_moving;
+    double color[3];
+    ts_basis ubasis, vbasis;
+    rib_disp disp;
+    rib_surface surface; /* Surface: material of the following patches */
+    double emission[3];  /* AreaLightSource: radiance the following patches emit */
+    rib_motion motion;
+    /* The last world-to-object transform added for a displaced patch, by its CTM. */
+    double xf_ctm[16];
+    uint32_t xf_index;
+    int xf_valid;
+    rib_frame *stack;
+    size_t depth, stack_cap;
+    rib_world_phase phase;
+    uint32_t first_patch, first_light; /* what this parse added: may need camera->world */
+    char warned[RIB_MAX_WARNED][RIB_WARN_KEY];
+    int nwarned;
+    struct rib_include *inc; /* rib_archive.c: the archives being read, NULL before any */
+} rib_parser;
+
+#endif
