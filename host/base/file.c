@@ -2,6 +2,7 @@
 #include "base/file.h"
 
 #include <errno.h>
+#include <stdlib.h>
 #include <fcntl.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -52,4 +53,50 @@ FILE *ts_file_open_regular(const char *path, ts_error *err)
         close(fd);
     }
     return f;
+}
+
+int ts_file_read_all(const char *path, char **text, size_t *len, char *why, size_t why_cap)
+{
+    *text = NULL, *len = 0;
+    ts_error e = {0};
+    FILE *f = ts_file_open_regular(path, &e);
+    if (!f) {
+        /* e.msg is "PATH: reason": keep the reason. */
+        size_t plen = strlen(path);
+        const char *reason =
+            strncmp(e.msg, path, plen) == 0 && e.msg[plen] == ':' ? e.msg + plen + 2 : e.msg;
+        snprintf(why, why_cap, "%s", reason);
+        ts_error_clear(&e);
+        return TS_E_IO;
+    }
+    char *buf = NULL;
+    size_t n = 0, cap = 0;
+    int rc = TS_OK;
+    for (;;) {
+        if (n + 1 >= cap) {
+            size_t c = cap ? cap * 2 : 65536;
+            char *b = realloc(buf, c);
+            if (!b) {
+                snprintf(why, why_cap, "out of memory");
+                rc = TS_E_MEMORY;
+                break;
+            }
+            buf = b, cap = c;
+        }
+        size_t got = fread(buf + n, 1, cap - n - 1, f);
+        n += got;
+        if (got == 0) break;
+    }
+    if (rc == TS_OK && ferror(f)) {
+        snprintf(why, why_cap, "%s", strerror(errno));
+        rc = TS_E_IO;
+    }
+    fclose(f);
+    if (rc != TS_OK) {
+        free(buf);
+        return rc;
+    }
+    buf[n] = '\0';
+    *text = buf, *len = n;
+    return TS_OK;
 }

@@ -19,4 +19,9 @@ int ts_file_check_regular(const char *path, ts_error *err);
  * ts_file_check_regular says. */
 FILE *ts_file_open_regular(const char *path, ts_error *err);
 
+/* Reads a whole regular file into a malloc'd buffer (*text, *len; a NUL follows the last
+ * byte, not counted). On failure returns TS_E_IO or TS_E_MEMORY and writes the reason
+ * (strerror's text, "not a regular file (a FIFO)", "out of memory") to why[0..why_cap). */
+int ts_file_read_all(const char *path, char **text, size_t *len, char *why, size_t why_cap);
+
 #endif

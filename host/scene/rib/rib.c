@@ -8,6 +8,8 @@
 #include "base/mat4.h"
 #include "scene/rib/rib_internal.h"
 
+#include "base/file.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -234,10 +236,9 @@ int rib_load(const char *path, ts_scene *scene, int quiet, ts_error *err)
 {
     char *text;
     size_t len;
-    int errnum;
-    int rc = rib_read_file(path, &text, &len, &errnum);
-    if (rc == TS_E_MEMORY) return ts_error_set(err, rc, "%s: out of memory", path);
-    if (rc != TS_OK) return ts_error_set(err, rc, "%s: %s", path, strerror(errnum));
+    char why[256];
+    int rc = ts_file_read_all(path, &text, &len, why, sizeof why);
+    if (rc != TS_OK) return ts_error_set(err, rc, "%s: %s", path, why);
     rc = rib_parse_string(path, text, len, scene, quiet, err);
     free(text);
     return rc;

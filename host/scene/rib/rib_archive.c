@@ -6,6 +6,8 @@
  * includes itself, directly or not, is an error. docs/rib.md has the details. */
 #include "scene/rib/rib_internal.h"
 
+#include "base/file.h"
+
 #include "scene/forest.h"
 #include "scene/mesh.h"
 
@@ -31,46 +33,6 @@ void rib_archive_free(rib_parser *p)
     p->inc = NULL;
 }
 
-int rib_read_file(const char *path, char **text, size_t *len, int *errnum)
-{
-    *text = NULL;
-    *len = 0;
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        *errnum = errno;
-        return TS_E_IO;
-    }
-    char *buf = NULL;
-    size_t n = 0, cap = 0;
-    for (;;) {
-        if (n == cap) {
-            size_t c = cap ? cap * 2 : 65536;
-            char *b = realloc(buf, c);
-            if (!b) {
-                free(buf);
-                fclose(f);
-                *errnum = ENOMEM;
-                return TS_E_MEMORY;
-            }
-            buf = b;
-            cap = c;
-        }
-        size_t got = fread(buf + n, 1, cap - n, f);
-        n += got;
-        if (got == 0) break;
-    }
-    int bad = ferror(f);
-    *errnum = errno;
-    fclose(f);
-    if (bad) {
-        free(buf);
-        return TS_E_IO;
-    }
-    *text = buf;
-    *len = n;
-    return TS_OK;
-}
-
 /* Reads the RIB file `name` (argument `at` of the current request) in place. */
 static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
 {
@@ -88,11 +50,11 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
     if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
     char *text;
     size_t len;
-    int errnum;
-    int rc = rib_read_file(path, &text, &len, &errnum);
+    char why[256];
+    int rc = ts_file_read_all(path, &text, &len, why, sizeof why);
     if (rc != TS_OK) {
         rc = rib_error_at(p, at->line, at->col, "%s: cannot read \"%s\": %s", p->req,
-                          rib_printable(path, shown), strerror(errnum));
+                          rib_printable(path, shown), why);
         free(path);
         return rc;
     }

@@ -16,7 +16,7 @@
  *
  * Who calls whom (A -> B: A calls functions of B):
  *   rib.c         -> every handler file (the dispatch table; rib_motion_check and
- *                    rib_check_closed in rib_state.c, rib_read_file and rib_archive_free in
+ *                    rib_check_closed in rib_state.c, rib_archive_free in
  *                    rib_archive.c)
  *   rib_archive.c -> rib.c (rib_run_requests: an archive's requests), rib_geom.c (the
  *                    attributes of procedural geometry)
@@ -110,7 +110,5 @@ int rib_req_read_archive(rib_parser *p);
 int rib_req_procedural(rib_parser *p);
 /* Frees p->inc. */
 void rib_archive_free(rib_parser *p);
-/* Reads a whole file into a malloc'd buffer; TS_E_IO or TS_E_MEMORY with *errnum set. */
-int rib_read_file(const char *path, char **text, size_t *len, int *errnum);
 
 #endif
