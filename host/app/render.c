@@ -13,21 +13,6 @@
 #include <string.h>
 #include <sys/stat.h>
 
-void render_options_defaults(ts_render_options *o)
-{
-    memset(o, 0, sizeof *o);
-    o->spp = 0; /* the scene's PixelSamples, else 1 */
-    o->depth = 3;
-    o->seed = 0;
-    o->max_lod = 10;
-    o->fixed_lod = -1;
-    o->exact = 0;
-    o->leaf_group = 0;
-    o->leaf_size = 1;
-    o->memory_mb = 1024;
-    o->cl.device_index = -1;
-}
-
 /* Linear part of m applied to (x, y, z), as float[4] with w = 0. */
 static void camera_axis(const double m[16], double x, double y, double z, float out[4])
 {
