@@ -1,5 +1,5 @@
 #include "app/render.h"
-#include "base/hash.h"
+#include "app/resume.h"
 #include "base/mat4.h"
 #include "image/image.h"
 #include "pipeline/pipeline.h"
@@ -45,63 +45,25 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
     return TS_OK;
 }
 
-/* What identifies a render and how far it got; stored as EXR metadata for --resume. */
-typedef struct ts_job {
-    uint64_t total;        /* width * height * spp global samples */
-    uint64_t samples_done; /* the film holds samples [0, samples_done) */
-    int32_t hash;          /* the scene and the options that change the image */
-    int32_t lod;           /* the per-patch levels of detail of the frame (lod stage) */
-    int check_lod;         /* 1: lod is that of the samples already in the film */
-    uint32_t max_lod;      /* the plan's finest m when lod was taken */
-    int lod_mismatch;      /* set by render_waves when the check failed */
-} ts_job;
-
-/* Host copies of the films (accum, aov_film, albedo_film: pixel_count ts_vec4 each). */
-typedef struct ts_film_state {
-    ts_vec4 *accum, *aov, *albedo;
-} ts_film_state;
-
-static void film_state_free(ts_film_state *s)
+/* One pixel's channels (ts_exr_channel order) from its accum, aov_film and albedo_film. */
+static void output_pixel(ts_vec4 acc, ts_vec4 aov, ts_vec4 alb, float v[TS_EXR_PARTIAL_CHANNELS])
 {
-    free(s->accum), free(s->aov), free(s->albedo);
-    memset(s, 0, sizeof *s);
+    float inv = acc.w > 0 ? 1.0f / acc.w : 0.0f;
+    v[TS_EXR_R] = acc.x * inv;
+    v[TS_EXR_G] = acc.y * inv;
+    v[TS_EXR_B] = acc.z * inv;
+    v[TS_EXR_Z] = aov.w == 0.0f && acc.w == 0.0f ? INFINITY : aov.w; /* never sampled */
+    v[TS_EXR_N_X] = aov.x;
+    v[TS_EXR_N_Y] = aov.y;
+    v[TS_EXR_N_Z] = aov.z;
+    v[TS_EXR_ALBEDO_R] = alb.x;
+    v[TS_EXR_ALBEDO_G] = alb.y;
+    v[TS_EXR_ALBEDO_B] = alb.z;
+    v[TS_EXR_SUM_R] = acc.x;
+    v[TS_EXR_SUM_G] = acc.y;
+    v[TS_EXR_SUM_B] = acc.z;
+    v[TS_EXR_COUNT] = acc.w;
 }
-
-static int film_state_alloc(ts_film_state *s, size_t npix, ts_error *err)
-{
-    s->accum = calloc(npix, sizeof(ts_vec4));
-    s->aov = calloc(npix, sizeof(ts_vec4));
-    s->albedo = calloc(npix, sizeof(ts_vec4));
-    if (!s->accum || !s->aov || !s->albedo) {
-        film_state_free(s);
-        return ts_error_set(err, TS_E_MEMORY, "out of memory (film)");
-    }
-    return TS_OK;
-}
-
-/* Copies the films to the device (upload) or from it, blocking. */
-static int film_transfer(ts_pipeline *p, ts_film_state *s, int upload, ts_error *err)
-{
-    size_t bytes = (size_t)p->pixel_count * sizeof(ts_vec4);
-    cl_mem dev[3] = {p->accum, p->aov_film, p->albedo_film};
-    ts_vec4 *host[3] = {s->accum, s->aov, s->albedo};
-    for (int i = 0; i < 3; ++i) {
-        cl_int rc = upload ? clEnqueueWriteBuffer(p->cl->queue, dev[i], CL_TRUE, 0, bytes, host[i],
-                                                  0, NULL, NULL)
-                           : clEnqueueReadBuffer(p->cl->queue, dev[i], CL_TRUE, 0, bytes, host[i],
-                                                 0, NULL, NULL);
-        if (rc != CL_SUCCESS)
-            return ts_error_set(
-                err, TS_E_DEVICE, "%s in %s (copying the image %s the device)", dev_error_name(rc),
-                upload ? "clEnqueueWriteBuffer" : "clEnqueueReadBuffer", upload ? "to" : "from");
-    }
-    return TS_OK;
-}
-
-/* Extra EXR channels of a partial image: the raw per-pixel sums and sample counts, which
- * --resume loads back into the film (the means R, G, B cannot give the sums bit for bit). */
-static const char *const partial_channels[4] = {"tessera.sum.R", "tessera.sum.G", "tessera.sum.B",
-                                                "tessera.count"};
 
 /* Reads the film back and writes the image (EXR with AOVs, or tone-mapped PNG). An EXR of
  * an unfinished render (job->samples_done < job->total) also gets the partial channels. */
@@ -112,7 +74,7 @@ static int write_output(const ts_render_options *o, ts_pipeline *p, int width, i
     int partial = job->samples_done < job->total;
     ts_vec4 *acc = malloc(npix * sizeof *acc), *aov = malloc(npix * sizeof *aov);
     ts_vec4 *alb = malloc(npix * sizeof *alb);
-    float *px = malloc(npix * 14 * sizeof *px);
+    float *px = malloc(npix * TS_EXR_PARTIAL_CHANNELS * sizeof *px);
     int rc = TS_OK;
     if (!acc || !aov || !alb || !px) rc = ts_error_set(err, TS_E_MEMORY, "out of memory (image)");
     cl_command_queue q = p->cl->queue;
@@ -124,39 +86,22 @@ static int write_output(const ts_render_options *o, ts_pipeline *p, int width, i
         rc = ts_error_set(err, TS_E_DEVICE, "reading the image back from the device failed");
     const char *ext = strrchr(o->output_path, '.');
     int exr = ext && strcmp(ext, ".exr") == 0;
-    int nch = exr ? (partial ? 14 : 10) : 3;
+    int nch = !exr ? 3 : partial ? TS_EXR_PARTIAL_CHANNELS : TS_EXR_COMPLETE_CHANNELS;
     for (size_t i = 0; !rc && i < npix; ++i) {
-        float inv = acc[i].w > 0 ? 1.0f / acc[i].w : 0.0f;
-        float v[14] = {acc[i].x * inv, acc[i].y * inv, acc[i].z * inv, aov[i].w, aov[i].x,
-                       aov[i].y,       aov[i].z,       alb[i].x,       alb[i].y, alb[i].z,
-                       acc[i].x,       acc[i].y,       acc[i].z,       acc[i].w};
-        if (aov[i].w == 0.0f && acc[i].w == 0.0f) v[3] = INFINITY; /* never sampled */
-        memcpy(&px[i * nch], v, nch * sizeof(float));
+        float v[TS_EXR_PARTIAL_CHANNELS];
+        output_pixel(acc[i], aov[i], alb[i], v);
+        memcpy(&px[i * nch], v, nch * sizeof(float)); /* PNG: R, G, B */
     }
     if (!rc && exr) {
-        const char *names[] = {"R",
-                               "G",
-                               "B",
-                               "Z",
-                               "N.x",
-                               "N.y",
-                               "N.z",
-                               "albedo.R",
-                               "albedo.G",
-                               "albedo.B",
-                               partial_channels[0],
-                               partial_channels[1],
-                               partial_channels[2],
-                               partial_channels[3]};
-        ts_image img = {width, height, nch, names, px};
-        /* samples_done < 2^32 (the kernels index samples with 32 bits): stored as its
-         * 32-bit pattern in an int attribute. */
-        ts_image_meta meta[] = {{"tessera:spp", o->spp},
-                                {"tessera:max_lod", (int)p->plan.max_lod},
-                                {"tessera:samples_done", (int)(uint32_t)job->samples_done},
-                                {"tessera:seed", (int)o->seed},
-                                {"tessera:job", job->hash},
-                                {"tessera:lod", job->lod}};
+        /* image_write_exr only reads the names. */
+        ts_image img = {width, height, nch, (const char **)ts_exr_channel_names, px};
+        ts_image_meta meta[] = {
+            {ts_exr_meta_keys[TS_EXR_META_spp], o->spp},
+            {ts_exr_meta_keys[TS_EXR_META_max_lod], (int)p->plan.max_lod},
+            {ts_exr_meta_keys[TS_EXR_META_samples_done], (int)(uint32_t)job->samples_done},
+            {ts_exr_meta_keys[TS_EXR_META_seed], (int)o->seed},
+            {ts_exr_meta_keys[TS_EXR_META_job], job->hash},
+            {ts_exr_meta_keys[TS_EXR_META_lod], job->lod}};
         rc = image_write_exr(o->output_path, &img, meta, (int)(sizeof meta / sizeof *meta), err);
     } else if (!rc) {
         rc = image_write_png(o->output_path, width, height, px, err);
@@ -246,67 +191,6 @@ static void stop_handlers_restore(void)
     stop_handlers_installed = 0;
 }
 
-static int32_t fold32(uint64_t h)
-{
-    return (int32_t)(uint32_t)(h ^ (h >> 32));
-}
-
-/* The levels of detail the frame's patches are diced at: what the lod stage decided, or
- * --lod (clamped to the plan like trace.c does). */
-static int32_t lod_hash(const ts_pipeline *p, const ts_render_options *o)
-{
-    uint64_t h = TS_FNV1A_INIT;
-    if (o->fixed_lod >= 0) {
-        uint32_t m =
-            (uint32_t)o->fixed_lod < p->plan.max_lod ? (uint32_t)o->fixed_lod : p->plan.max_lod;
-        return fold32(ts_fnv1a(h, &m, sizeof m));
-    }
-    return fold32(ts_fnv1a(h, p->patch_lod, p->scene->patch_count));
-}
-
-/* The job: a hash of the scene file's bytes, the geometry it loaded (archives included),
- * the camera and every option that changes the image (not --memory: the image does not
- * depend on it, and the lod check covers the one way it could). */
-static int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_params *cam,
-                    int32_t *out, ts_error *err)
-{
-    uint64_t h = TS_FNV1A_INIT;
-    FILE *f = fopen(o->scene_path, "rb");
-    if (!f) return ts_error_set(err, TS_E_IO, "%s: %s", o->scene_path, strerror(errno));
-    unsigned char buf[65536];
-    size_t n;
-    while ((n = fread(buf, 1, sizeof buf, f)) > 0)
-        h = ts_fnv1a(h, buf, n);
-    fclose(f);
-    int32_t opts[] = {
-        (int32_t)cam->width, (int32_t)cam->height, o->spp,       o->depth, (int32_t)o->seed,
-        o->sampling,         o->max_lod,           o->fixed_lod, o->exact};
-    h = ts_fnv1a(h, opts, sizeof opts);
-    h = ts_fnv1a(h, cam, sizeof *cam);
-    h = ts_fnv1a(h, &s->patch_count, sizeof s->patch_count);
-    h = ts_fnv1a(h, s->cp, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
-    if (s->cp1) h = ts_fnv1a(h, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
-    if (s->corner_n) h = ts_fnv1a(h, s->corner_n, (size_t)s->patch_count * 4 * sizeof(ts_vec4));
-    for (uint32_t i = 0; i < s->patch_count; ++i) {
-        ts_patch_attr a = s->attr[i];
-        a.pad[0] = a.pad[1] = 0;
-        h = ts_fnv1a(h, &a, sizeof a);
-    }
-    if (s->texture_count) { /* texel contents, not file names */
-        h = ts_fnv1a(h, s->textures, (size_t)s->texture_count * sizeof(ts_texture));
-        h = ts_fnv1a(h, s->tex_pool,
-                     (size_t)s->tex_tile_count * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4));
-    }
-    if (s->xform) h = ts_fnv1a(h, s->xform, (size_t)s->xform_count * sizeof(ts_xform));
-    for (uint32_t i = 0; i < s->light_count; ++i)
-        h = ts_fnv1a(h, &s->lights[i], sizeof s->lights[i]);
-    double dome[4] = {s->dome.present, s->dome.intensity, s->dome.color[0], s->dome.color[1]};
-    h = ts_fnv1a(h, dome, sizeof dome);
-    h = ts_fnv1a(h, &s->dome.color[2], sizeof s->dome.color[2]);
-    *out = fold32(h);
-    return TS_OK;
-}
-
 /* Runs the waves: each is a run of global sample indices [first, first + rays). The lod
  * stage counts the whole frame's eye rays even when the film already holds samples
  * [0, job->samples_done) (--resume, a retry): it is deterministic, so it gives the levels
@@ -322,7 +206,7 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
                               : o->leaf_size == 2 ? 1u
                                                   : 0u};
     if (o->fixed_lod < 0 && render_lod(p, cam, total, err)) return err->code;
-    int32_t lod = lod_hash(p, o);
+    int32_t lod = job_lod_hash(p, o);
     job->lod_mismatch = job->check_lod && lod != job->lod;
     if (job->lod_mismatch)
         return ts_error_set(err, TS_E_USAGE,
@@ -356,117 +240,6 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
     }
     if (!o->quiet) fputc('\n', stderr);
     return TS_OK;
-}
-
-/* --resume: loads the partial EXR at output_path into state and job (samples_done, lod).
- * No file: state stays empty (render from the start). A complete image: *complete = 1. */
-static int resume_load(const ts_render_options *o, int width, int height, ts_job *job,
-                       ts_film_state *state, int *complete, ts_error *err)
-{
-    const char *path = o->output_path;
-    struct stat st;
-    if (stat(path, &st) != 0 && errno == ENOENT) {
-        if (!o->quiet)
-            fprintf(stderr, "tessera: %s does not exist yet: rendering from the start\n", path);
-        return TS_OK;
-    }
-    ts_error e = {0};
-    ts_image img;
-    if (image_read(path, &img, &e)) {
-        ts_error_set(err, TS_E_IO,
-                     "%s (cannot resume from it; render without --resume to start again)", e.msg);
-        ts_error_clear(&e);
-        return err->code;
-    }
-    static const char *keys[] = {"tessera:samples_done", "tessera:spp", "tessera:seed",
-                                 "tessera:job",          "tessera:lod", "tessera:max_lod"};
-    int v[6] = {0};
-    int rc = TS_OK;
-    for (int k = 0; k < 6 && !rc; ++k)
-        if (image_read_meta_int(path, keys[k], &v[k], &e))
-            rc = ts_error_set(
-                err, TS_E_USAGE,
-                "%s: cannot resume: it has no \"%s\" metadata (not from tessera render, "
-                "or from an older version); render without --resume",
-                path, keys[k]);
-    ts_error_clear(&e);
-    uint64_t done = (uint32_t)v[0];
-    if (!rc && (img.width != width || img.height != height))
-        rc = ts_error_set(err, TS_E_USAGE,
-                          "%s: cannot resume: it is %dx%d but this command renders "
-                          "%dx%d (use the original command, or render without --resume)",
-                          path, img.width, img.height, width, height);
-    if (!rc && v[1] != o->spp)
-        rc = ts_error_set(
-            err, TS_E_USAGE,
-            "%s: cannot resume: it was rendered with --spp %d, this "
-            "command has --spp %d (use the original command, or render without --resume)",
-            path, v[1], o->spp);
-    if (!rc && (unsigned)v[2] != o->seed)
-        rc = ts_error_set(
-            err, TS_E_USAGE,
-            "%s: cannot resume: it was rendered with --seed %d, this "
-            "command has --seed %u (use the original command, or render without --resume)",
-            path, v[2], o->seed);
-    if (!rc && v[3] != job->hash)
-        rc = ts_error_set(
-            err, TS_E_USAGE,
-            "%s: cannot resume: it was rendered from another scene "
-            "or with other --depth, --sampling, --max-lod, --lod or --intersect options "
-            "(use the original command, or render without --resume)",
-            path);
-    if (!rc && done > job->total)
-        rc = ts_error_set(err, TS_E_USAGE, "%s: cannot resume: it claims %llu samples of %llu",
-                          path, (unsigned long long)done, (unsigned long long)job->total);
-    if (!rc && done == job->total) *complete = 1;
-    int idx[14];
-    static const char *names[14] = {"R",
-                                    "G",
-                                    "B",
-                                    "Z",
-                                    "N.x",
-                                    "N.y",
-                                    "N.z",
-                                    "albedo.R",
-                                    "albedo.G",
-                                    "albedo.B",
-                                    "tessera.sum.R",
-                                    "tessera.sum.G",
-                                    "tessera.sum.B",
-                                    "tessera.count"};
-    for (int c = 0; c < 14 && !rc && !*complete; ++c) {
-        idx[c] = -1;
-        for (int k = 0; k < img.channels; ++k)
-            if (strcmp(img.channel_names[k], names[c]) == 0) idx[c] = k;
-        if (idx[c] < 0)
-            rc = ts_error_set(err, TS_E_USAGE, "%s: cannot resume: it has no \"%s\" channel", path,
-                              names[c]);
-    }
-    size_t npix = (size_t)width * height;
-    if (!rc && !*complete) rc = film_state_alloc(state, npix, err);
-    for (size_t i = 0; !rc && !*complete && i < npix; ++i) {
-        const float *px = &img.pixels[i * (size_t)img.channels];
-        float count = px[idx[13]];
-        /* The film holds sample 0's AOVs once the pixel has a sample, else zeros (which
-         * write_output turned into Z = +inf). */
-        state->accum[i] = (ts_vec4){px[idx[10]], px[idx[11]], px[idx[12]], count};
-        if (count > 0) {
-            state->aov[i] = (ts_vec4){px[idx[4]], px[idx[5]], px[idx[6]], px[idx[3]]};
-            state->albedo[i] = (ts_vec4){px[idx[7]], px[idx[8]], px[idx[9]], 0.0f};
-        }
-    }
-    image_free(&img);
-    if (!rc && !*complete) {
-        job->samples_done = done;
-        job->lod = v[4];
-        job->max_lod = (uint32_t)v[5];
-        job->check_lod = 1;
-        if (!o->quiet)
-            fprintf(stderr, "tessera: resuming %s at sample %llu of %llu\n", path,
-                    (unsigned long long)done, (unsigned long long)job->total);
-    }
-    if (rc) film_state_free(state);
-    return rc;
 }
 
 /* The smallest budget a retry after an out-of-memory error tries. */
@@ -547,7 +320,7 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
         if (!rc) noted_lod = plan.max_lod;
         if (!rc)
             rc = pipeline_create(&pipe, &cl, &scene, &plan, (uint32_t)(width * height), stats, err);
-        if (!rc && state.accum) rc = film_transfer(&pipe, &state, 1, err);
+        if (!rc && state.accum) rc = film_state_transfer(&pipe, &state, 1, err);
         if (!rc) rc = dev_finish(&cl, stats, err); /* the buffers' first use */
         uint64_t before = job.samples_done;
         if (!rc) rc = render_waves(o, &pipe, cam, &job, err);
@@ -559,7 +332,7 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
         int kept = 1;
         if (job.samples_done > before) {
             if (!state.accum) kept = film_state_alloc(&state, (size_t)width * height, err) == TS_OK;
-            if (kept) kept = film_transfer(&pipe, &state, 0, err) == TS_OK;
+            if (kept) kept = film_state_transfer(&pipe, &state, 0, err) == TS_OK;
             ts_error_clear(err);
         }
         if (!kept || budget / 2 < TS_MEMORY_FLOOR_MB) {
