@@ -1,3 +1,6 @@
+/* render.c — `tessera render`: load the scene, set up the camera and the job, take back
+ * what --resume finds, open the device, then plan, create and trace the frame in waves of
+ * samples (again with half the memory when the device runs out), and write the image. */
 #include "app/render.h"
 #include "app/output.h"
 #include "app/resume.h"
@@ -115,21 +118,14 @@ static void stop_handlers_restore(void)
     stop_handlers_installed = 0;
 }
 
-/* Runs the waves: each is a run of global sample indices [first, first + rays). The lod
- * stage counts the whole frame's eye rays even when the film already holds samples
- * [0, job->samples_done) (--resume, a retry): it is deterministic, so it gives the levels
- * of detail those samples were traced with, which job->check_lod verifies. Stops early
- * (job->samples_done < job->total) when a stop signal came. */
-static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
-                        ts_job *job, ts_error *err)
+/* The frame's levels of detail: the lod stage counts the whole frame's eye rays even when
+ * the film already holds samples [0, job->samples_done) (--resume, a retry): it is
+ * deterministic, so it gives the levels of detail those samples were traced with, which
+ * job->check_lod verifies against job->lod. The first time, job->lod is recorded. */
+static int render_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
+                            ts_job *job, ts_error *err)
 {
-    uint64_t total = job->total, start = job->samples_done;
-    uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
-    p->mode = (ts_trace_mode){(uint32_t)o->spp, o->fixed_lod, o->exact, o->leaf_group,
-                              o->leaf_size == 4   ? 2u
-                              : o->leaf_size == 2 ? 1u
-                                                  : 0u};
-    if (o->fixed_lod < 0 && render_lod(p, cam, total, err)) return err->code;
+    if (o->fixed_lod < 0 && render_lod(p, cam, job->total, err)) return err->code;
     int32_t lod = job_lod_hash(p, o);
     job->lod_mismatch = job->check_lod && lod != job->lod;
     if (job->lod_mismatch)
@@ -141,6 +137,22 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
     job->lod = lod;
     job->max_lod = p->plan.max_lod;
     job->check_lod = 1;
+    return TS_OK;
+}
+
+/* Runs the waves: each is a run of global sample indices [first, first + rays), from
+ * job->samples_done on. Stops early (job->samples_done < job->total) when a stop signal
+ * came. */
+static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
+                        ts_job *job, ts_error *err)
+{
+    uint64_t total = job->total, start = job->samples_done;
+    uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
+    p->mode = (ts_trace_mode){(uint32_t)o->spp, o->fixed_lod, o->exact, o->leaf_group,
+                              o->leaf_size == 4   ? 2u
+                              : o->leaf_size == 2 ? 1u
+                                                  : 0u};
+    if (render_frame_lod(o, p, cam, job, err)) return err->code;
     stop_handlers_install();
     double t0 = stats_now();
     for (uint64_t first = start; first < total; first += per_wave) {
@@ -166,123 +178,179 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
     return TS_OK;
 }
 
+/* Everything one render holds: zeroed by render_init, filled step by step by render_run,
+ * freed by render_free whatever step failed. */
+typedef struct ts_render {
+    ts_render_options opt; /* the command's options, spp resolved from the scene */
+    ts_stats *stats;
+    int width, height; /* pixels */
+    ts_scene scene;
+    ts_camera_params cam;
+    ts_job job;
+    ts_film_state state; /* samples the device's films lack: resumed, or kept over a retry */
+    ts_device cl;
+    ts_pipeline pipe;
+} ts_render;
+
+static void render_init(ts_render *r, const ts_render_options *o, ts_stats *stats)
+{
+    memset(r, 0, sizeof *r);
+    r->opt = *o;
+    r->stats = stats;
+}
+
+static void render_free(ts_render *r)
+{
+    film_state_free(&r->state);
+    pipeline_destroy(&r->pipe);
+    dev_close(&r->cl);
+    scene_free(&r->scene);
+}
+
+/* The scene, and what it decides that the command line left open: samples per pixel
+ * (--spp, else the scene's PixelSamples, else 1) and the image size (--res, else the
+ * scene's Format, else 640x480). */
+static int render_load_scene(ts_render *r, ts_error *err)
+{
+    ts_render_options *o = &r->opt;
+    if (scene_load(o->scene_path, &r->scene, o->quiet, err)) return err->code;
+    const ts_camera *c = &r->scene.camera;
+    if (o->spp <= 0) o->spp = c->spp > 0 ? c->spp : 1;
+    r->width = o->width ? o->width : c->has_format ? c->width : 640;
+    r->height = o->height ? o->height : c->has_format ? c->height : 480;
+    return TS_OK;
+}
+
+/* The camera kernel's parameters and the job: its width * height * spp samples and the
+ * hash that --resume checks. */
+static int render_start_job(ts_render *r, ts_error *err)
+{
+    if (render_camera_params(&r->scene.camera, r->width, r->height, &r->cam, err)) return err->code;
+    r->cam.spp = (uint32_t)r->opt.spp;
+    r->cam.seed = r->opt.seed;
+    r->job.total = (uint64_t)r->width * r->height * (uint64_t)r->opt.spp;
+    return job_hash(&r->opt, &r->scene, &r->cam, &r->job.hash, err);
+}
+
+static int render_open_device(ts_render *r, ts_error *err)
+{
+    if (dev_open(&r->cl, &r->opt.cl, err)) return err->code;
+    snprintf(r->stats->device, sizeof r->stats->device, "%.120s (%.120s)", r->cl.info.name,
+             r->cl.info.platform_name);
+    r->stats->kernel_build_seconds = r->cl.build_seconds;
+    r->stats->kernel_cache_hit = r->cl.cache_hit;
+    return TS_OK;
+}
+
 /* The smallest budget a retry after an out-of-memory error tries. */
 #define TS_MEMORY_FLOOR_MB 16
 
-int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *result, ts_error *err)
+/* The memory budget over the attempts of one render. */
+typedef struct ts_budget {
+    uint64_t mb, first_mb; /* this attempt's budget and --memory, in MB */
+    uint32_t noted_lod;    /* the finest m the user knows the render dices at */
+    ts_error oom;          /* the last out-of-memory error; code 0 before the first */
+} ts_budget;
+
+/* The memory plan for b->mb, with a note when it dices less finely than the user knows.
+ * A retry's budget that holds nothing fails with the out-of-memory error that led to it. */
+static int render_plan(ts_render *r, ts_budget *b, ts_pipeline_plan *plan, ts_error *err)
 {
-    double t0 = stats_now();
-    memset(result, 0, sizeof *result);
-    if (output_check(o, err)) return err->code;
-    ts_scene scene;
-    memset(&scene, 0, sizeof scene);
-    ts_device cl;
-    memset(&cl, 0, sizeof cl);
-    ts_pipeline pipe;
-    memset(&pipe, 0, sizeof pipe);
-    ts_film_state state = {0};
-    ts_job job = {0};
-    int complete = 0;
-    int rc = scene_load(o->scene_path, &scene, o->quiet, err);
-    /* Samples per pixel: --spp, else the scene's PixelSamples, else 1. */
-    ts_render_options effective = *o;
-    if (effective.spp <= 0) effective.spp = !rc && scene.camera.spp > 0 ? scene.camera.spp : 1;
-    o = &effective;
-    int width = o->width ? o->width : scene.camera.has_format ? scene.camera.width : 640;
-    int height = o->height ? o->height : scene.camera.has_format ? scene.camera.height : 480;
-    ts_camera_params cam;
-    ts_pipeline_plan plan;
-    if (!rc) rc = render_camera_params(&scene.camera, width, height, &cam, err);
-    if (!rc) {
-        cam.spp = (uint32_t)o->spp;
-        cam.seed = o->seed;
-        job.total = (uint64_t)width * height * (uint64_t)o->spp;
-        rc = job_hash(o, &scene, &cam, &job.hash, err);
-    }
-    if (!rc && o->resume) rc = resume_load(o, width, height, &job, &state, &complete, err);
-    if (!rc && complete) {
-        result->outcome = TS_RENDER_UP_TO_DATE;
-        result->samples_done = result->samples_total = job.total;
-        scene_free(&scene);
-        return TS_OK;
-    }
-    if (!rc) rc = dev_open(&cl, &o->cl, err);
-    if (!rc) {
-        snprintf(stats->device, sizeof stats->device, "%.120s (%.120s)", cl.info.name,
-                 cl.info.platform_name);
-        stats->kernel_build_seconds = cl.build_seconds;
-        stats->kernel_cache_hit = cl.cache_hit;
-    }
-    /* Plan, create, render; when the device runs out of memory, halve the budget and go
-     * on from the samples finished so far (kept in `state`). */
-    uint64_t rays = 2 * (uint64_t)width * height * (uint64_t)o->spp; /* + shadow slots */
-    uint64_t budget = (uint64_t)o->memory_mb, first_budget = budget;
-    uint32_t noted_lod = (uint32_t)o->max_lod;
-    ts_error oom = {0}; /* the last out-of-memory error, while retrying */
-    while (!rc) {
-        rc = pipeline_plan(budget << 20, rays, (uint32_t)o->max_lod, cl.info.max_alloc, &plan, err);
-        if (rc && oom.code) { /* a retry's budget that holds nothing: the memory error stands */
-            ts_error_clear(err);
-            rc = ts_error_set(err, TS_E_DEVICE,
-                              "%s: the device could not provide %llu MB, and "
-                              "%llu MB cannot hold the render; lower --max-lod or --res, or free "
-                              "device memory",
-                              oom.msg, (unsigned long long)budget * 2, (unsigned long long)budget);
-            break;
-        }
-        if (!rc && !o->quiet && plan.max_lod < noted_lod)
-            fprintf(stderr,
-                    "tessera: %s%llu MB holds patches up to m = %u; dicing at most "
-                    "that finely (raise --memory for --max-lod %d)\n",
-                    budget == first_budget ? "--memory " : "", (unsigned long long)budget,
-                    plan.max_lod, o->max_lod);
-        if (!rc) noted_lod = plan.max_lod;
-        if (!rc)
-            rc = pipeline_create(&pipe, &cl, &scene, &plan, (uint32_t)(width * height), stats, err);
-        if (!rc && state.accum) rc = film_state_transfer(&pipe, &state, 1, err);
-        if (!rc) rc = dev_finish(&cl, stats, err); /* the buffers' first use */
-        uint64_t before = job.samples_done;
-        if (!rc) rc = render_waves(o, &pipe, cam, &job, err);
-        if (!rc || !dev_is_out_of_memory(err)) break;
-        /* Out of device memory: keep the finished waves, retry with half the budget. */
-        ts_error_clear(&oom);
-        ts_error_set(&oom, err->code, "%s", err->msg);
+    const ts_render_options *o = &r->opt;
+    uint64_t rays = 2 * (uint64_t)r->width * r->height * (uint64_t)o->spp; /* + shadow slots */
+    if (pipeline_plan(b->mb << 20, rays, (uint32_t)o->max_lod, r->cl.info.max_alloc, plan, err)) {
+        if (!b->oom.code) return err->code;
         ts_error_clear(err);
-        int kept = 1;
-        if (job.samples_done > before) {
-            if (!state.accum) kept = film_state_alloc(&state, (size_t)width * height, err) == TS_OK;
-            if (kept) kept = film_state_transfer(&pipe, &state, 0, err) == TS_OK;
-            ts_error_clear(err);
-        }
-        if (!kept || budget / 2 < TS_MEMORY_FLOOR_MB) {
-            if (!kept)
-                rc = ts_error_set(err, TS_E_DEVICE,
-                                  "%s: the device ran out of memory after %llu "
-                                  "samples; render again with a lower --memory or --max-lod",
-                                  oom.msg, (unsigned long long)job.samples_done);
-            else if (budget == first_budget)
-                rc = ts_error_set(err, TS_E_DEVICE,
-                                  "%s: the device could not provide %llu MB; "
-                                  "lower --memory or --max-lod, or free device memory",
-                                  oom.msg, (unsigned long long)budget);
-            else
-                rc = ts_error_set(err, TS_E_DEVICE,
-                                  "%s: the device could not provide even %llu MB "
-                                  "(retried down from %llu MB); lower --max-lod or --res, or free "
-                                  "device memory",
-                                  oom.msg, (unsigned long long)budget,
-                                  (unsigned long long)first_budget);
+        return ts_error_set(err, TS_E_DEVICE,
+                            "%s: the device could not provide %llu MB, and "
+                            "%llu MB cannot hold the render; lower --max-lod or --res, or free "
+                            "device memory",
+                            b->oom.msg, (unsigned long long)b->mb * 2, (unsigned long long)b->mb);
+    }
+    if (!o->quiet && plan->max_lod < b->noted_lod)
+        fprintf(stderr,
+                "tessera: %s%llu MB holds patches up to m = %u; dicing at most "
+                "that finely (raise --memory for --max-lod %d)\n",
+                b->mb == b->first_mb ? "--memory " : "", (unsigned long long)b->mb, plan->max_lod,
+                o->max_lod);
+    b->noted_lod = plan->max_lod;
+    return TS_OK;
+}
+
+/* One attempt at budget b->mb: plan, create the pipeline, give its films the samples
+ * already finished, trace the rest. */
+static int render_attempt(ts_render *r, ts_budget *b, ts_error *err)
+{
+    ts_pipeline_plan plan;
+    if (render_plan(r, b, &plan, err) ||
+        pipeline_create(&r->pipe, &r->cl, &r->scene, &plan, (uint32_t)(r->width * r->height),
+                        r->stats, err) ||
+        (r->state.accum && film_state_transfer(&r->pipe, &r->state, 1, err)) ||
+        dev_finish(&r->cl, r->stats, err)) /* the buffers' first use */
+        return err->code;
+    return render_waves(&r->opt, &r->pipe, r->cam, &r->job, err);
+}
+
+/* After an attempt that started at sample `before` ran out of memory: copies the samples it
+ * finished into r->state, since its films go with its pipeline. 0 when that failed. */
+static int render_keep_samples(ts_render *r, uint64_t before)
+{
+    if (r->job.samples_done <= before) return 1;
+    ts_error e = {0};
+    int kept = (r->state.accum || !film_state_alloc(&r->state, (size_t)r->width * r->height, &e)) &&
+               !film_state_transfer(&r->pipe, &r->state, 0, &e);
+    ts_error_clear(&e);
+    return kept;
+}
+
+/* The error that ends a render out of memory: samples lost, or no smaller budget to try. */
+static int render_give_up(const ts_render *r, const ts_budget *b, int kept, ts_error *err)
+{
+    if (!kept)
+        return ts_error_set(err, TS_E_DEVICE,
+                            "%s: the device ran out of memory after %llu "
+                            "samples; render again with a lower --memory or --max-lod",
+                            b->oom.msg, (unsigned long long)r->job.samples_done);
+    if (b->mb == b->first_mb)
+        return ts_error_set(err, TS_E_DEVICE,
+                            "%s: the device could not provide %llu MB; "
+                            "lower --memory or --max-lod, or free device memory",
+                            b->oom.msg, (unsigned long long)b->mb);
+    return ts_error_set(err, TS_E_DEVICE,
+                        "%s: the device could not provide even %llu MB "
+                        "(retried down from %llu MB); lower --max-lod or --res, or free "
+                        "device memory",
+                        b->oom.msg, (unsigned long long)b->mb, (unsigned long long)b->first_mb);
+}
+
+/* Plan, create, render; when the device runs out of memory (dev_is_out_of_memory), keep
+ * the finished samples, halve the budget and go on from them, down to TS_MEMORY_FLOOR_MB. */
+static int render_with_retry(ts_render *r, ts_error *err)
+{
+    ts_budget b = {.mb = (uint64_t)r->opt.memory_mb,
+                   .first_mb = (uint64_t)r->opt.memory_mb,
+                   .noted_lod = (uint32_t)r->opt.max_lod};
+    int rc;
+    for (;;) {
+        uint64_t before = r->job.samples_done;
+        rc = render_attempt(r, &b, err);
+        if (!rc || !dev_is_out_of_memory(err)) break;
+        ts_error_clear(&b.oom);
+        ts_error_set(&b.oom, err->code, "%s", err->msg);
+        ts_error_clear(err);
+        int kept = render_keep_samples(r, before);
+        if (!kept || b.mb / 2 < TS_MEMORY_FLOOR_MB) {
+            rc = render_give_up(r, &b, kept, err);
             break;
         }
-        if (!o->quiet)
+        if (!r->opt.quiet)
             fprintf(stderr,
                     "tessera: the device could not provide %llu MB (%s); retrying with %llu MB\n",
-                    (unsigned long long)budget, oom.msg, (unsigned long long)(budget / 2));
-        pipeline_destroy(&pipe);
-        budget /= 2;
-        rc = TS_OK;
+                    (unsigned long long)b.mb, b.oom.msg, (unsigned long long)(b.mb / 2));
+        pipeline_destroy(&r->pipe);
+        b.mb /= 2;
     }
-    if (rc && job.lod_mismatch && oom.code) {
+    if (rc && r->job.lod_mismatch && b.oom.code) {
         /* Samples finished before the retry, at levels of detail the smaller budget cannot
          * reproduce: the image would mix them. */
         ts_error_clear(err);
@@ -290,24 +358,52 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
                           "%s: the device ran out of memory after %llu samples, "
                           "and the budget that fits dices at other levels of detail; render again "
                           "with a lower --memory or --max-lod",
-                          oom.msg, (unsigned long long)job.samples_done);
+                          b.oom.msg, (unsigned long long)r->job.samples_done);
     }
-    if (!rc) {
-        double tw = stats_now();
-        rc = output_write(o, &pipe, width, height, &job, err);
-        stats->stage_seconds[TS_STAGE_film] += stats_now() - tw;
+    return rc;
+}
+
+/* The image file, timed as part of the film stage. */
+static int render_write(ts_render *r, ts_error *err)
+{
+    double t0 = stats_now();
+    int rc = output_write(&r->opt, &r->pipe, r->width, r->height, &r->job, err);
+    r->stats->stage_seconds[TS_STAGE_film] += stats_now() - t0;
+    return rc;
+}
+
+/* How the render ended, for main() to report. */
+static void render_result(const ts_render *r, int up_to_date, ts_render_result *out)
+{
+    out->samples_total = r->job.total;
+    if (up_to_date) {
+        out->outcome = TS_RENDER_UP_TO_DATE;
+        out->samples_done = r->job.total;
+        return;
     }
-    if (!rc) {
-        result->outcome = job.samples_done < job.total ? TS_RENDER_INTERRUPTED : TS_RENDER_COMPLETE;
-        result->samples_done = job.samples_done;
-        result->samples_total = job.total;
-        result->signal = stop_signal;
-    }
-    stop_handlers_restore();
-    film_state_free(&state);
-    pipeline_destroy(&pipe);
-    dev_close(&cl);
-    scene_free(&scene);
+    out->outcome = r->job.samples_done < r->job.total ? TS_RENDER_INTERRUPTED : TS_RENDER_COMPLETE;
+    out->samples_done = r->job.samples_done;
+    out->signal = stop_signal;
+}
+
+int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *result, ts_error *err)
+{
+    double t0 = stats_now();
+    memset(result, 0, sizeof *result);
+    if (output_check(o, err)) return err->code;
+    ts_render r;
+    render_init(&r, o, stats);
+    int up_to_date = 0;
+    int rc = render_load_scene(&r, err);
+    if (!rc) rc = render_start_job(&r, err);
+    if (!rc && o->resume)
+        rc = resume_load(&r.opt, r.width, r.height, &r.job, &r.state, &up_to_date, err);
+    if (!rc && !up_to_date) rc = render_open_device(&r, err);
+    if (!rc && !up_to_date) rc = render_with_retry(&r, err);
+    if (!rc && !up_to_date) rc = render_write(&r, err);
+    if (!rc) render_result(&r, up_to_date, result);
+    stop_handlers_restore(); /* after the write: a signal until then only stops the waves */
+    render_free(&r);
     stats->wall_seconds = stats_now() - t0;
     return rc;
 }
