@@ -73,7 +73,7 @@ typedef struct ts_job {
     int32_t lod;           /* the per-patch levels of detail of the frame (lod stage) */
     int check_lod;         /* 1: lod is that of the samples already in the film */
     uint32_t max_lod;      /* the plan's finest m when lod was taken */
-    int lod_mismatch;      /* set by render_waves when the check failed */
+    int lod_mismatch;      /* 1: check_lod was set and this run's lod hash differed */
 } ts_job;
 
 /* The job hash: the scene file's bytes, the geometry it loaded (archives included), the
