@@ -29,4 +29,10 @@ typedef struct ts_render_options {
  * geometry, memory 1024 MB, device from TESSERA_DEVICE. */
 void render_options_defaults(ts_render_options *o);
 
+/* Reads `render`'s arguments (argv[0] is "render") over the defaults in o with getopt_long;
+ * o keeps pointers into argv. Returns TS_OK, or TS_E_USAGE with the message main() prints
+ * (an unknown option, a bad value, not exactly one scene file). --help stops the parsing
+ * with *help = 1: the caller prints the usage. */
+int render_options_parse(int argc, char **argv, ts_render_options *o, int *help, ts_error *err);
+
 #endif

@@ -1,0 +1,168 @@
+/* options.c — `tessera render`'s options: the defaults, set in one place (STYLE.md 16), and
+ * the command line read into them with getopt_long. Nothing here prints or exits: a bad
+ * argument comes back as a TS_E_USAGE message, which main() prints. */
+#include "app/options.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void render_options_defaults(ts_render_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->spp = 0; /* the scene's PixelSamples, else 1 */
+    o->depth = 3;
+    o->seed = 0;
+    o->max_lod = 10;
+    o->fixed_lod = -1;
+    o->exact = 0;
+    o->leaf_group = 0;
+    o->leaf_size = 1;
+    o->memory_mb = 1024;
+    o->cl.device_index = -1;
+}
+
+/* Parses a positive int in [lo, hi]; returns 0 on success. */
+static int parse_int(const char *s, int lo, int hi, int *out)
+{
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (errno || end == s || *end || v < lo || v > hi) return -1;
+    *out = (int)v;
+    return 0;
+}
+
+enum {
+    OPT_RES = 256,
+    OPT_LOD,
+    OPT_INTERSECT,
+    OPT_SAMPLING,
+    OPT_LEAF_MODE,
+    OPT_LEAF_SIZE,
+    OPT_SPP,
+    OPT_DEPTH,
+    OPT_SEED,
+    OPT_DEVICE,
+    OPT_MAX_LOD,
+    OPT_MEMORY,
+    OPT_STATS,
+    OPT_QUIET,
+    OPT_KERNEL_DIR,
+    OPT_NO_CACHE,
+    OPT_HELP,
+    OPT_RESUME
+};
+
+static const struct option render_long_options[] = {
+    {"output", required_argument, 0, 'o'},
+    {"res", required_argument, 0, OPT_RES},
+    {"spp", required_argument, 0, OPT_SPP},
+    {"depth", required_argument, 0, OPT_DEPTH},
+    {"seed", required_argument, 0, OPT_SEED},
+    {"device", required_argument, 0, OPT_DEVICE},
+    {"max-lod", required_argument, 0, OPT_MAX_LOD},
+    {"memory", required_argument, 0, OPT_MEMORY},
+    {"lod", required_argument, 0, OPT_LOD},
+    {"intersect", required_argument, 0, OPT_INTERSECT},
+    {"sampling", required_argument, 0, OPT_SAMPLING},
+    {"leaf-mode", required_argument, 0, OPT_LEAF_MODE},
+    {"leaf-size", required_argument, 0, OPT_LEAF_SIZE},
+    {"stats", required_argument, 0, OPT_STATS},
+    {"quiet", no_argument, 0, OPT_QUIET},
+    {"kernel-dir", required_argument, 0, OPT_KERNEL_DIR},
+    {"no-kernel-cache", no_argument, 0, OPT_NO_CACHE},
+    {"help", no_argument, 0, OPT_HELP},
+    {"resume", no_argument, 0, OPT_RESUME},
+    {0, 0, 0, 0},
+};
+
+/* Applies one option c with argument arg (NULL for flags) to o; returns 1 for a bad value. */
+static int apply_option(int c, const char *arg, ts_render_options *o)
+{
+    int v;
+    switch (c) {
+    case 'o':
+        o->output_path = arg;
+        return 0;
+    case OPT_RES:
+        return sscanf(arg, "%dx%d", &o->width, &o->height) != 2 || o->width < 1 || o->height < 1 ||
+               o->width > 65536 || o->height > 65536;
+    case OPT_LEAF_MODE:
+        o->leaf_group = strcmp(arg, "group") == 0;
+        return strcmp(arg, "ray") != 0 && strcmp(arg, "group") != 0;
+    case OPT_LEAF_SIZE:
+        return parse_int(arg, 1, 4, &o->leaf_size) || o->leaf_size == 3;
+    case OPT_SAMPLING:
+        o->sampling = !strcmp(arg, "mis")     ? (int)TS_SAMPLING_MIS
+                      : !strcmp(arg, "light") ? (int)TS_SAMPLING_LIGHT
+                      : !strcmp(arg, "bsdf")  ? (int)TS_SAMPLING_BSDF
+                                              : -1;
+        return o->sampling < 0;
+    case OPT_SPP:
+        return parse_int(arg, 1, 1 << 16, &o->spp);
+    case OPT_DEPTH:
+        return parse_int(arg, 0, 64, &o->depth);
+    case OPT_SEED:
+        if (parse_int(arg, 0, 0x7fffffff, &v)) return 1;
+        o->seed = (unsigned)v;
+        return 0;
+    case OPT_DEVICE:
+        return parse_int(arg, 0, 1 << 20, &o->cl.device_index);
+    case OPT_MAX_LOD:
+        return parse_int(arg, 0, TS_LOD_LIMIT, &o->max_lod);
+    case OPT_LOD:
+        return parse_int(arg, 0, TS_LOD_LIMIT, &o->fixed_lod);
+    case OPT_INTERSECT:
+        o->exact = strcmp(arg, "triangles") == 0;
+        return strcmp(arg, "boxes") != 0 && strcmp(arg, "triangles") != 0;
+    case OPT_MEMORY:
+        return parse_int(arg, 1, 1 << 24, &o->memory_mb);
+    case OPT_STATS:
+        o->stats_path = arg;
+        return 0;
+    case OPT_QUIET:
+        o->quiet = 1;
+        return 0;
+    case OPT_RESUME:
+        o->resume = 1;
+        return 0;
+    case OPT_KERNEL_DIR:
+        o->cl.kernel_dir = arg;
+        return 0;
+    case OPT_NO_CACHE:
+        o->cl.no_cache = 1;
+        return 0;
+    }
+    return 0;
+}
+
+int render_options_parse(int argc, char **argv, ts_render_options *o, int *help, ts_error *err)
+{
+    int c;
+    *help = 0;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, "o:", render_long_options, NULL)) != -1) {
+        if (c == OPT_HELP) {
+            *help = 1;
+            return TS_OK;
+        }
+        if (c == '?') {
+            if (optopt)
+                return ts_error_set(err, TS_E_USAGE, "option -%c needs a value or is unknown",
+                                    optopt);
+            return ts_error_set(err, TS_E_USAGE, "unknown option %s (see tessera --help)",
+                                argv[optind - 1]);
+        }
+        if (apply_option(c, optarg, o))
+            return ts_error_set(err, TS_E_USAGE, "bad value '%s' for %s", optarg,
+                                argv[optind - 2 >= 0 ? optind - 2 : 0]);
+    }
+    if (optind != argc - 1)
+        return ts_error_set(err, TS_E_USAGE,
+                            "render takes exactly one scene file (see tessera --help)");
+    o->scene_path = argv[optind];
+    return TS_OK;
+}

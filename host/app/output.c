@@ -1,0 +1,84 @@
+/* output.c — the image `tessera render` writes (output.h): every channel of
+ * ts_exr_channel computed per pixel from the three films, then an EXR or a PNG. */
+#include "app/output.h"
+#include "image/image.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+int output_check(const ts_render_options *o, ts_error *err)
+{
+    const char *path = o->output_path, *ext = path ? strrchr(path, '.') : NULL;
+    if (!path) return ts_error_set(err, TS_E_USAGE, "no output file: give -o OUT.png or OUT.exr");
+    if (!ext || (strcmp(ext, ".exr") != 0 && strcmp(ext, ".png") != 0))
+        return ts_error_set(err, TS_E_USAGE, "%s: the output must end in .exr or .png", path);
+    if (o->resume && strcmp(ext, ".exr") != 0)
+        return ts_error_set(err, TS_E_USAGE,
+                            "--resume needs an .exr output (a PNG cannot hold "
+                            "the sums of the samples)");
+    return TS_OK;
+}
+
+/* One pixel's channels (ts_exr_channel order) from its accum, aov_film and albedo_film. */
+static void output_pixel(ts_vec4 acc, ts_vec4 aov, ts_vec4 alb, float v[TS_EXR_PARTIAL_CHANNELS])
+{
+    float inv = acc.w > 0 ? 1.0f / acc.w : 0.0f;
+    v[TS_EXR_R] = acc.x * inv;
+    v[TS_EXR_G] = acc.y * inv;
+    v[TS_EXR_B] = acc.z * inv;
+    v[TS_EXR_Z] = aov.w == 0.0f && acc.w == 0.0f ? INFINITY : aov.w; /* never sampled */
+    v[TS_EXR_N_X] = aov.x;
+    v[TS_EXR_N_Y] = aov.y;
+    v[TS_EXR_N_Z] = aov.z;
+    v[TS_EXR_ALBEDO_R] = alb.x;
+    v[TS_EXR_ALBEDO_G] = alb.y;
+    v[TS_EXR_ALBEDO_B] = alb.z;
+    v[TS_EXR_SUM_R] = acc.x;
+    v[TS_EXR_SUM_G] = acc.y;
+    v[TS_EXR_SUM_B] = acc.z;
+    v[TS_EXR_COUNT] = acc.w;
+}
+
+int output_write(const ts_render_options *o, ts_pipeline *p, int width, int height,
+                 const ts_job *job, ts_error *err)
+{
+    size_t npix = (size_t)width * height;
+    int partial = job->samples_done < job->total;
+    ts_vec4 *acc = malloc(npix * sizeof *acc), *aov = malloc(npix * sizeof *aov);
+    ts_vec4 *alb = malloc(npix * sizeof *alb);
+    float *px = malloc(npix * TS_EXR_PARTIAL_CHANNELS * sizeof *px);
+    int rc = TS_OK;
+    if (!acc || !aov || !alb || !px) rc = ts_error_set(err, TS_E_MEMORY, "out of memory (image)");
+    cl_command_queue q = p->cl->queue;
+    if (!rc &&
+        (clEnqueueReadBuffer(q, p->accum, CL_TRUE, 0, npix * sizeof *acc, acc, 0, NULL, NULL) ||
+         clEnqueueReadBuffer(q, p->aov_film, CL_TRUE, 0, npix * sizeof *aov, aov, 0, NULL, NULL) ||
+         clEnqueueReadBuffer(q, p->albedo_film, CL_TRUE, 0, npix * sizeof *alb, alb, 0, NULL,
+                             NULL)))
+        rc = ts_error_set(err, TS_E_DEVICE, "reading the image back from the device failed");
+    const char *ext = strrchr(o->output_path, '.');
+    int exr = ext && strcmp(ext, ".exr") == 0;
+    int nch = !exr ? 3 : partial ? TS_EXR_PARTIAL_CHANNELS : TS_EXR_COMPLETE_CHANNELS;
+    for (size_t i = 0; !rc && i < npix; ++i) {
+        float v[TS_EXR_PARTIAL_CHANNELS];
+        output_pixel(acc[i], aov[i], alb[i], v);
+        memcpy(&px[i * nch], v, nch * sizeof(float)); /* PNG: R, G, B */
+    }
+    if (!rc && exr) {
+        /* image_write_exr only reads the names. */
+        ts_image img = {width, height, nch, (const char **)ts_exr_channel_names, px};
+        ts_image_meta meta[] = {
+            {ts_exr_meta_keys[TS_EXR_META_spp], o->spp},
+            {ts_exr_meta_keys[TS_EXR_META_max_lod], (int)p->plan.max_lod},
+            {ts_exr_meta_keys[TS_EXR_META_samples_done], (int)(uint32_t)job->samples_done},
+            {ts_exr_meta_keys[TS_EXR_META_seed], (int)o->seed},
+            {ts_exr_meta_keys[TS_EXR_META_job], job->hash},
+            {ts_exr_meta_keys[TS_EXR_META_lod], job->lod}};
+        rc = image_write_exr(o->output_path, &img, meta, (int)(sizeof meta / sizeof *meta), err);
+    } else if (!rc) {
+        rc = image_write_png(o->output_path, width, height, px, err);
+    }
+    free(acc), free(aov), free(alb), free(px);
+    return rc;
+}

@@ -1,0 +1,22 @@
+/* output.h — the image `tessera render` writes to -o: the path checked before anything
+ * runs, then the film read back into an EXR (float RGB, AOVs, and what --resume needs;
+ * channels and metadata in resume.h) or a tone-mapped PNG. */
+#ifndef TS_OUTPUT_H
+#define TS_OUTPUT_H
+
+#include "app/options.h"
+#include "app/resume.h"
+#include "pipeline/pipeline.h"
+
+/* The output path: given, ending in .exr or .png, and .exr for --resume (a PNG cannot
+ * hold the sums of the samples). TS_E_USAGE otherwise. */
+int output_check(const ts_render_options *o, ts_error *err);
+
+/* Reads p's films back and writes o->output_path, width x height, atomically (image.h).
+ * An EXR of an unfinished render (job->samples_done < job->total) gets all
+ * TS_EXR_PARTIAL_CHANNELS, a finished one TS_EXR_COMPLETE_CHANNELS; both get the
+ * TS_EXR_METAS from o, p's plan and job. */
+int output_write(const ts_render_options *o, ts_pipeline *p, int width, int height,
+                 const ts_job *job, ts_error *err);
+
+#endif

@@ -1,0 +1,241 @@
+/* resume.c — the job and lod hashes that identify a render, the host copy of the films,
+ * and --resume: an unfinished render's EXR read back into them (resume.h). */
+#include "app/resume.h"
+#include "base/hash.h"
+#include "image/image.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+const char *const ts_exr_channel_names[TS_EXR_PARTIAL_CHANNELS] = {
+#define TS_EXR_CHANNEL_NAME(id, name) name,
+    TS_EXR_CHANNELS(TS_EXR_CHANNEL_NAME)
+#undef TS_EXR_CHANNEL_NAME
+};
+
+const char *const ts_exr_meta_keys[TS_EXR_META_COUNT] = {
+#define TS_EXR_META_KEY(id, key) key,
+    TS_EXR_METAS(TS_EXR_META_KEY)
+#undef TS_EXR_META_KEY
+};
+
+static int32_t fold32(uint64_t h)
+{
+    return (int32_t)(uint32_t)(h ^ (h >> 32));
+}
+
+int32_t job_lod_hash(const ts_pipeline *p, const ts_render_options *o)
+{
+    uint64_t h = TS_FNV1A_INIT;
+    if (o->fixed_lod >= 0) {
+        uint32_t m =
+            (uint32_t)o->fixed_lod < p->plan.max_lod ? (uint32_t)o->fixed_lod : p->plan.max_lod;
+        return fold32(ts_fnv1a(h, &m, sizeof m));
+    }
+    return fold32(ts_fnv1a(h, p->patch_lod, p->scene->patch_count));
+}
+
+int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_params *cam,
+             int32_t *out, ts_error *err)
+{
+    uint64_t h = TS_FNV1A_INIT;
+    FILE *f = fopen(o->scene_path, "rb");
+    if (!f) return ts_error_set(err, TS_E_IO, "%s: %s", o->scene_path, strerror(errno));
+    unsigned char buf[65536];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, f)) > 0)
+        h = ts_fnv1a(h, buf, n);
+    fclose(f);
+    int32_t opts[] = {
+        (int32_t)cam->width, (int32_t)cam->height, o->spp,       o->depth, (int32_t)o->seed,
+        o->sampling,         o->max_lod,           o->fixed_lod, o->exact};
+    h = ts_fnv1a(h, opts, sizeof opts);
+    h = ts_fnv1a(h, cam, sizeof *cam);
+    h = ts_fnv1a(h, &s->patch_count, sizeof s->patch_count);
+    h = ts_fnv1a(h, s->cp, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
+    if (s->cp1) h = ts_fnv1a(h, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
+    if (s->corner_n) h = ts_fnv1a(h, s->corner_n, (size_t)s->patch_count * 4 * sizeof(ts_vec4));
+    for (uint32_t i = 0; i < s->patch_count; ++i) {
+        ts_patch_attr a = s->attr[i];
+        a.pad[0] = a.pad[1] = 0;
+        h = ts_fnv1a(h, &a, sizeof a);
+    }
+    if (s->texture_count) { /* texel contents, not file names */
+        h = ts_fnv1a(h, s->textures, (size_t)s->texture_count * sizeof(ts_texture));
+        h = ts_fnv1a(h, s->tex_pool,
+                     (size_t)s->tex_tile_count * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4));
+    }
+    if (s->xform) h = ts_fnv1a(h, s->xform, (size_t)s->xform_count * sizeof(ts_xform));
+    for (uint32_t i = 0; i < s->light_count; ++i)
+        h = ts_fnv1a(h, &s->lights[i], sizeof s->lights[i]);
+    double dome[4] = {s->dome.present, s->dome.intensity, s->dome.color[0], s->dome.color[1]};
+    h = ts_fnv1a(h, dome, sizeof dome);
+    h = ts_fnv1a(h, &s->dome.color[2], sizeof s->dome.color[2]);
+    *out = fold32(h);
+    return TS_OK;
+}
+
+void film_state_free(ts_film_state *s)
+{
+    free(s->accum), free(s->aov), free(s->albedo);
+    memset(s, 0, sizeof *s);
+}
+
+int film_state_alloc(ts_film_state *s, size_t npix, ts_error *err)
+{
+    s->accum = calloc(npix, sizeof(ts_vec4));
+    s->aov = calloc(npix, sizeof(ts_vec4));
+    s->albedo = calloc(npix, sizeof(ts_vec4));
+    if (!s->accum || !s->aov || !s->albedo) {
+        film_state_free(s);
+        return ts_error_set(err, TS_E_MEMORY, "out of memory (film)");
+    }
+    return TS_OK;
+}
+
+int film_state_transfer(ts_pipeline *p, ts_film_state *s, int upload, ts_error *err)
+{
+    size_t bytes = (size_t)p->pixel_count * sizeof(ts_vec4);
+    cl_mem dev[3] = {p->accum, p->aov_film, p->albedo_film};
+    ts_vec4 *host[3] = {s->accum, s->aov, s->albedo};
+    for (int i = 0; i < 3; ++i) {
+        cl_int rc = upload ? clEnqueueWriteBuffer(p->cl->queue, dev[i], CL_TRUE, 0, bytes, host[i],
+                                                  0, NULL, NULL)
+                           : clEnqueueReadBuffer(p->cl->queue, dev[i], CL_TRUE, 0, bytes, host[i],
+                                                 0, NULL, NULL);
+        if (rc != CL_SUCCESS)
+            return ts_error_set(
+                err, TS_E_DEVICE, "%s in %s (copying the image %s the device)", dev_error_name(rc),
+                upload ? "clEnqueueWriteBuffer" : "clEnqueueReadBuffer", upload ? "to" : "from");
+    }
+    return TS_OK;
+}
+
+/* Reads every ts_exr_meta_keys item of path into v; fails naming the first one missing. */
+static int resume_read_meta(const char *path, int v[TS_EXR_META_COUNT], ts_error *err)
+{
+    ts_error e = {0};
+    int rc = TS_OK;
+    for (int k = 0; k < TS_EXR_META_COUNT && !rc; ++k)
+        if (image_read_meta_int(path, ts_exr_meta_keys[k], &v[k], &e))
+            rc = ts_error_set(
+                err, TS_E_USAGE,
+                "%s: cannot resume: it has no \"%s\" metadata (not from tessera render, "
+                "or from an older version); render without --resume",
+                path, ts_exr_meta_keys[k]);
+    ts_error_clear(&e);
+    return rc;
+}
+
+/* The image img with metadata v was made by this command: same size, --spp, --seed and job
+ * hash, and no more samples than the job has. */
+static int resume_check_job(const ts_render_options *o, int width, int height, const ts_image *img,
+                            const int v[TS_EXR_META_COUNT], const ts_job *job, ts_error *err)
+{
+    const char *path = o->output_path;
+    uint64_t done = (uint32_t)v[TS_EXR_META_samples_done];
+    if (img->width != width || img->height != height)
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: cannot resume: it is %dx%d but this command renders "
+                            "%dx%d (use the original command, or render without --resume)",
+                            path, img->width, img->height, width, height);
+    if (v[TS_EXR_META_spp] != o->spp)
+        return ts_error_set(
+            err, TS_E_USAGE,
+            "%s: cannot resume: it was rendered with --spp %d, this "
+            "command has --spp %d (use the original command, or render without --resume)",
+            path, v[TS_EXR_META_spp], o->spp);
+    if ((unsigned)v[TS_EXR_META_seed] != o->seed)
+        return ts_error_set(
+            err, TS_E_USAGE,
+            "%s: cannot resume: it was rendered with --seed %d, this "
+            "command has --seed %u (use the original command, or render without --resume)",
+            path, v[TS_EXR_META_seed], o->seed);
+    if (v[TS_EXR_META_job] != job->hash)
+        return ts_error_set(
+            err, TS_E_USAGE,
+            "%s: cannot resume: it was rendered from another scene "
+            "or with other --depth, --sampling, --max-lod, --lod or --intersect options "
+            "(use the original command, or render without --resume)",
+            path);
+    if (done > job->total)
+        return ts_error_set(err, TS_E_USAGE, "%s: cannot resume: it claims %llu samples of %llu",
+                            path, (unsigned long long)done, (unsigned long long)job->total);
+    return TS_OK;
+}
+
+/* Finds every ts_exr_channel of a partial image in img: idx[c] is its position. */
+static int resume_find_channels(const char *path, const ts_image *img,
+                                int idx[TS_EXR_PARTIAL_CHANNELS], ts_error *err)
+{
+    for (int c = 0; c < TS_EXR_PARTIAL_CHANNELS; ++c) {
+        idx[c] = -1;
+        for (int k = 0; k < img->channels; ++k)
+            if (strcmp(img->channel_names[k], ts_exr_channel_names[c]) == 0) idx[c] = k;
+        if (idx[c] < 0)
+            return ts_error_set(err, TS_E_USAGE, "%s: cannot resume: it has no \"%s\" channel",
+                                path, ts_exr_channel_names[c]);
+    }
+    return TS_OK;
+}
+
+/* The films as the render left them: the sums and counts, and sample 0's AOVs where the
+ * pixel has a sample, else zeros (which output_write turned into Z = +inf). */
+static void resume_fill_films(const ts_image *img, const int idx[TS_EXR_PARTIAL_CHANNELS],
+                              ts_film_state *state)
+{
+    size_t npix = (size_t)img->width * img->height;
+    for (size_t i = 0; i < npix; ++i) {
+        const float *px = &img->pixels[i * (size_t)img->channels];
+        float count = px[idx[TS_EXR_COUNT]];
+        state->accum[i] =
+            (ts_vec4){px[idx[TS_EXR_SUM_R]], px[idx[TS_EXR_SUM_G]], px[idx[TS_EXR_SUM_B]], count};
+        if (count > 0) {
+            state->aov[i] = (ts_vec4){px[idx[TS_EXR_N_X]], px[idx[TS_EXR_N_Y]], px[idx[TS_EXR_N_Z]],
+                                      px[idx[TS_EXR_Z]]};
+            state->albedo[i] = (ts_vec4){px[idx[TS_EXR_ALBEDO_R]], px[idx[TS_EXR_ALBEDO_G]],
+                                         px[idx[TS_EXR_ALBEDO_B]], 0.0f};
+        }
+    }
+}
+
+int resume_load(const ts_render_options *o, int width, int height, ts_job *job,
+                ts_film_state *state, int *complete, ts_error *err)
+{
+    const char *path = o->output_path;
+    struct stat st;
+    if (stat(path, &st) != 0 && errno == ENOENT) {
+        if (!o->quiet)
+            fprintf(stderr, "tessera: %s does not exist yet: rendering from the start\n", path);
+        return TS_OK;
+    }
+    ts_image img;
+    ts_error e = {0};
+    if (image_read(path, &img, &e)) {
+        ts_error_set(err, TS_E_IO,
+                     "%s (cannot resume from it; render without --resume to start again)", e.msg);
+        ts_error_clear(&e);
+        return err->code;
+    }
+    int v[TS_EXR_META_COUNT] = {0}, idx[TS_EXR_PARTIAL_CHANNELS];
+    int rc = resume_read_meta(path, v, err);
+    if (!rc) rc = resume_check_job(o, width, height, &img, v, job, err);
+    if (!rc && (uint32_t)v[TS_EXR_META_samples_done] == job->total) *complete = 1;
+    if (!rc && !*complete) rc = resume_find_channels(path, &img, idx, err);
+    if (!rc && !*complete) rc = film_state_alloc(state, (size_t)width * height, err);
+    if (!rc && !*complete) {
+        resume_fill_films(&img, idx, state);
+        job->samples_done = (uint32_t)v[TS_EXR_META_samples_done];
+        job->lod = v[TS_EXR_META_lod];
+        job->max_lod = (uint32_t)v[TS_EXR_META_max_lod];
+        job->check_lod = 1;
+        if (!o->quiet)
+            fprintf(stderr, "tessera: resuming %s at sample %llu of %llu\n", path,
+                    (unsigned long long)job->samples_done, (unsigned long long)job->total);
+    }
+    image_free(&img);
+    return rc;
+}
