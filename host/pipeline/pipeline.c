@@ -471,23 +471,22 @@ void pipeline_destroy(ts_pipeline *p)
     memset(p, 0, sizeof *p);
 }
 
-#define ARG(x) sizeof(x), &(x)
-
 int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 {
     ts_camera_params c = *cam;
-    if (dev_set_args(p->k_camera, err, ARG(c), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
-                     ARG(p->ray_entry), ARG(p->ray_pixel), ARG(p->ray_flags), ARG(p->active),
-                     ARG(p->wave_paths), ARG(p->path_throughput), ARG(p->path_mis),
-                     ARG(p->radiance), (size_t)0))
+    if (dev_set_args(p->k_camera, err, DEV_ARG(c), DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir),
+                     DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry), DEV_ARG(p->ray_pixel),
+                     DEV_ARG(p->ray_flags), DEV_ARG(p->active), DEV_ARG(p->wave_paths),
+                     DEV_ARG(p->path_throughput), DEV_ARG(p->path_mis), DEV_ARG(p->radiance),
+                     (size_t)0))
         return err->code;
     return dev_launch(p->cl, p->k_camera, TS_STAGE_camera, c.ray_count, TS_LOCAL_SIZE, err);
 }
 
 int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 {
-    if (dev_set_args(p->k_lod, err, ARG(p->qbvh_nodes), ARG(ray_count), ARG(p->ray_org),
-                     ARG(p->ray_dir), ARG(p->lod_counts), (size_t)0))
+    if (dev_set_args(p->k_lod, err, DEV_ARG(p->qbvh_nodes), DEV_ARG(ray_count), DEV_ARG(p->ray_org),
+                     DEV_ARG(p->ray_dir), DEV_ARG(p->lod_counts), (size_t)0))
         return err->code;
     return dev_launch(p->cl, p->k_lod, TS_STAGE_lod, ray_count, TS_LOCAL_SIZE, err);
 }

@@ -13,13 +13,12 @@
 
 #include <string.h>
 
-#define ARG(x) sizeof(x), &(x)
-
 static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err)
 {
-    if (dev_set_args(p->k_top_level, err, ARG(p->qbvh_nodes), ARG(p->active), ARG(active_count),
-                     ARG(n_per_ray), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
-                     ARG(p->ray_entry), ARG(p->pairs[0]), ARG(p->count), (size_t)0))
+    if (dev_set_args(p->k_top_level, err, DEV_ARG(p->qbvh_nodes), DEV_ARG(p->active),
+                     DEV_ARG(active_count), DEV_ARG(n_per_ray), DEV_ARG(p->ray_org),
+                     DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry),
+                     DEV_ARG(p->pairs[0]), DEV_ARG(p->count), (size_t)0))
         return err->code;
     if (dev_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
         return err->code;
@@ -207,10 +206,11 @@ static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
     for (uint32_t t = 0; t < b->tree_count;) {
         uint32_t m, run = tree_run(p, b, t, &m);
         uint32_t first = b->tree_first + t;
-        if (dev_set_args(p->k_dice, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
-                         ARG(p->segments), ARG(p->cp), ARG(p->cp1), ARG(p->corner_n), ARG(p->attr),
-                         ARG(p->xform), ARG(p->textures), ARG(p->tex_pages), ARG(p->tex_pool),
-                         ARG(p->grid), (size_t)0) ||
+        if (dev_set_args(p->k_dice, err, DEV_ARG(p->trees), DEV_ARG(first), DEV_ARG(run),
+                         DEV_ARG(m), DEV_ARG(p->segments), DEV_ARG(p->cp), DEV_ARG(p->cp1),
+                         DEV_ARG(p->corner_n), DEV_ARG(p->attr), DEV_ARG(p->xform),
+                         DEV_ARG(p->textures), DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool),
+                         DEV_ARG(p->grid), (size_t)0) ||
             dev_launch(p->cl, p->k_dice, TS_STAGE_dice, (size_t)run * quadtree_vertex_count(m),
                        TS_LOCAL_SIZE, err))
             return err->code;
@@ -233,10 +233,11 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
         uint32_t m, run = tree_run(p, b, t, &m);
         if (t == 0) top = m;
         uint32_t first = b->tree_first + t;
-        if (dev_set_args(p->k_build_leaves, err, ARG(p->trees), ARG(first), ARG(run), ARG(m),
-                         ARG(p->segments), ARG(p->grid), ARG(p->corner_n), ARG(p->attr),
-                         ARG(p->xform), ARG(p->flatness), ARG(p->patch_box), ARG(p->textures),
-                         ARG(p->tex_pages), ARG(p->tex_pool), ARG(p->groups), (size_t)0) ||
+        if (dev_set_args(p->k_build_leaves, err, DEV_ARG(p->trees), DEV_ARG(first), DEV_ARG(run),
+                         DEV_ARG(m), DEV_ARG(p->segments), DEV_ARG(p->grid), DEV_ARG(p->corner_n),
+                         DEV_ARG(p->attr), DEV_ARG(p->xform), DEV_ARG(p->flatness),
+                         DEV_ARG(p->patch_box), DEV_ARG(p->textures), DEV_ARG(p->tex_pages),
+                         DEV_ARG(p->tex_pool), DEV_ARG(p->groups), (size_t)0) ||
             dev_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
                        TS_LOCAL_SIZE, err))
             return err->code;
@@ -246,8 +247,9 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
         uint32_t deeper = 0; /* trees with m > level: a prefix of the list */
         while (deeper < b->tree_count && tree_lod(p, b, deeper) > level)
             ++deeper;
-        if (dev_set_args(p->k_build_level, err, ARG(p->trees), ARG(b->tree_first), ARG(deeper),
-                         ARG(level), ARG(p->segments), ARG(p->groups), (size_t)0) ||
+        if (dev_set_args(p->k_build_level, err, DEV_ARG(p->trees), DEV_ARG(b->tree_first),
+                         DEV_ARG(deeper), DEV_ARG(level), DEV_ARG(p->segments), DEV_ARG(p->groups),
+                         (size_t)0) ||
             dev_launch(p->cl, p->k_build_level, TS_STAGE_build, (size_t)deeper << (2u * level),
                        TS_LOCAL_SIZE, err))
             return err->code;
@@ -263,11 +265,12 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
     uint32_t pair_first = s[first].begin, pair_count = s[first + count - 1].end - pair_first;
     uint32_t leaf_b = p->mode.leaf_b;
     cl_kernel k = p->mode.leaf_group ? p->k_bottom_group : p->k_bottom_level;
-    if (dev_set_args(k, err, ARG(p->pairs[sorted_buffer]), ARG(pair_first), ARG(pair_count),
-                     ARG(p->segments), ARG(first), ARG(count), ARG(n_per_ray), ARG(exact),
-                     ARG(leaf_b), ARG(p->active), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
-                     ARG(p->ray_flags), ARG(p->grid), ARG(p->groups), ARG(p->pair_hit),
-                     ARG(p->utilisation), (size_t)0))
+    if (dev_set_args(k, err, DEV_ARG(p->pairs[sorted_buffer]), DEV_ARG(pair_first),
+                     DEV_ARG(pair_count), DEV_ARG(p->segments), DEV_ARG(first), DEV_ARG(count),
+                     DEV_ARG(n_per_ray), DEV_ARG(exact), DEV_ARG(leaf_b), DEV_ARG(p->active),
+                     DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit),
+                     DEV_ARG(p->ray_flags), DEV_ARG(p->grid), DEV_ARG(p->groups),
+                     DEV_ARG(p->pair_hit), DEV_ARG(p->utilisation), (size_t)0))
         return err->code;
     return dev_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
 }
@@ -277,9 +280,10 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
 static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray,
                          uint32_t *still_active, ts_error *err)
 {
-    if (dev_set_args(p->k_resolve, err, ARG(p->active), ARG(active_count), ARG(n_per_ray),
-                     ARG(p->count), ARG(p->pair_hit), ARG(p->ray_hit), ARG(p->ray_entry),
-                     ARG(p->ray_flags), ARG(p->alive), (size_t)0) ||
+    if (dev_set_args(p->k_resolve, err, DEV_ARG(p->active), DEV_ARG(active_count),
+                     DEV_ARG(n_per_ray), DEV_ARG(p->count), DEV_ARG(p->pair_hit),
+                     DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry), DEV_ARG(p->ray_flags),
+                     DEV_ARG(p->alive), (size_t)0) ||
         dev_launch(p->cl, p->k_resolve, TS_STAGE_resolve, active_count, TS_LOCAL_SIZE, err) ||
         dev_finish(p->cl, p->stats, err))
         return err->code;
@@ -483,15 +487,16 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
     ts_shade_params s = *sp;
     *next_paths = *next_rays = *shadow_rays = 0;
     if (path_count == 0) return TS_OK;
-    if (dev_set_args(p->k_shade, err, ARG(s), ARG(first_sample), ARG(p->pixel_count),
-                     ARG(wave_size), ARG(p->wave_paths), ARG(path_count), ARG(p->ray_org),
-                     ARG(p->ray_dir), ARG(p->ray_hit), ARG(p->ray_entry), ARG(p->ray_flags),
-                     ARG(p->ray_pixel), ARG(p->path_throughput), ARG(p->path_mis),
-                     ARG(p->path_pending), ARG(p->radiance), ARG(p->aov), ARG(p->albedo),
-                     ARG(p->cp), ARG(p->corner_n), ARG(p->attr), ARG(p->xform), ARG(p->lights),
-                     ARG(p->emitters), ARG(p->env_texels), ARG(p->env_marginal),
-                     ARG(p->env_conditional), ARG(p->flatness), ARG(p->textures), ARG(p->tex_pages),
-                     ARG(p->tex_pool), ARG(p->alive), (size_t)0) ||
+    if (dev_set_args(p->k_shade, err, DEV_ARG(s), DEV_ARG(first_sample), DEV_ARG(p->pixel_count),
+                     DEV_ARG(wave_size), DEV_ARG(p->wave_paths), DEV_ARG(path_count),
+                     DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit),
+                     DEV_ARG(p->ray_entry), DEV_ARG(p->ray_flags), DEV_ARG(p->ray_pixel),
+                     DEV_ARG(p->path_throughput), DEV_ARG(p->path_mis), DEV_ARG(p->path_pending),
+                     DEV_ARG(p->radiance), DEV_ARG(p->aov), DEV_ARG(p->albedo), DEV_ARG(p->cp),
+                     DEV_ARG(p->corner_n), DEV_ARG(p->attr), DEV_ARG(p->xform), DEV_ARG(p->lights),
+                     DEV_ARG(p->emitters), DEV_ARG(p->env_texels), DEV_ARG(p->env_marginal),
+                     DEV_ARG(p->env_conditional), DEV_ARG(p->flatness), DEV_ARG(p->textures),
+                     DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(p->alive), (size_t)0) ||
         launch_shade(p, wave_size, path_count, err) || dev_finish(p->cl, p->stats, err))
         return err->code;
     /* The next wave: the paths that go on and their rays, in path order. */
@@ -528,9 +533,10 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
 
 int pipeline_film(ts_pipeline *p, uint32_t first_sample, uint32_t ray_count, ts_error *err)
 {
-    if (dev_set_args(p->k_film, err, ARG(first_sample), ARG(ray_count), ARG(p->pixel_count),
-                     ARG(p->radiance), ARG(p->aov), ARG(p->albedo), ARG(p->accum), ARG(p->aov_film),
-                     ARG(p->albedo_film), (size_t)0) ||
+    if (dev_set_args(p->k_film, err, DEV_ARG(first_sample), DEV_ARG(ray_count),
+                     DEV_ARG(p->pixel_count), DEV_ARG(p->radiance), DEV_ARG(p->aov),
+                     DEV_ARG(p->albedo), DEV_ARG(p->accum), DEV_ARG(p->aov_film),
+                     DEV_ARG(p->albedo_film), (size_t)0) ||
         dev_launch(p->cl, p->k_film, TS_STAGE_film, p->pixel_count, TS_LOCAL_SIZE, err))
         return err->code;
     return dev_finish(p->cl, p->stats, err);
