@@ -344,23 +344,17 @@ static int create_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *err)
         if (!*list[i].m) return err->code;
     }
     /* The film starts black and "nothing hit"; the LOD counts at zero. */
-    ts_vec4 zero = {0, 0, 0, 0};
-    cl_uint zero_u = 0;
-    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->accum, &zero, sizeof zero, 0,
-                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL),
-             err);
-    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->aov_film, &zero, sizeof zero, 0,
-                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL),
-             err);
-    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->albedo_film, &zero, sizeof zero, 0,
-                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL),
-             err);
-    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->lod_counts, &zero_u, sizeof zero_u, 0,
-                                 n * sizeof(uint32_t), 0, NULL, NULL),
-             err);
-    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->utilisation, &zero_u, sizeof zero_u, 0,
-                                 2 * sizeof(uint32_t), 0, NULL, NULL),
-             err);
+    const ts_vec4 zero = {0, 0, 0, 0};
+    const cl_uint zero_u = 0;
+    size_t film_bytes = (size_t)p->pixel_count * sizeof(ts_vec4);
+    if (dev_fill(cl, p->accum, &zero, sizeof zero, 0, film_bytes, "the film", err) ||
+        dev_fill(cl, p->aov_film, &zero, sizeof zero, 0, film_bytes, "the AOV film", err) ||
+        dev_fill(cl, p->albedo_film, &zero, sizeof zero, 0, film_bytes, "the albedo film", err) ||
+        dev_fill(cl, p->lod_counts, &zero_u, sizeof zero_u, 0, n * sizeof(uint32_t),
+                 "the LOD counts", err) ||
+        dev_fill(cl, p->utilisation, &zero_u, sizeof zero_u, 0, 2 * sizeof(uint32_t),
+                 "the leaf utilisation", err))
+        return err->code;
     return TS_OK;
 }
 
@@ -498,14 +492,14 @@ int pipeline_lod_finish(ts_pipeline *p, ts_error *err)
     if (dev_finish(p->cl, p->stats, err)) return err->code;
     double t0 = stats_now();
     uint32_t *counts = malloc(n * sizeof *counts);
-    if (!counts) return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    cl_int rc = clEnqueueReadBuffer(p->cl->queue, p->lod_counts, CL_TRUE, 0, n * sizeof *counts,
-                                    counts, 0, NULL, NULL);
-    cl_uint zero = 0;
-    if (rc == CL_SUCCESS)
-        rc = clEnqueueFillBuffer(p->cl->queue, p->lod_counts, &zero, sizeof zero, 0,
-                                 n * sizeof *counts, 0, NULL, NULL);
-    for (uint32_t i = 0; rc == CL_SUCCESS && i < n; ++i) {
+    const cl_uint zero = 0;
+    int rc = counts ? TS_OK : ts_error_set(err, TS_E_MEMORY, "out of memory");
+    if (rc == TS_OK &&
+        (dev_read(p->cl, p->lod_counts, 0, n * sizeof *counts, counts, "the LOD counts", err) ||
+         dev_fill(p->cl, p->lod_counts, &zero, sizeof zero, 0, n * sizeof *counts, "the LOD counts",
+                  err)))
+        rc = err->code;
+    for (uint32_t i = 0; rc == TS_OK && i < n; ++i) {
         /* Smallest m with 4^m >= R / spp (Hanika §3.3), at most max_lod. */
         uint32_t m = 0;
         while (m < p->plan.max_lod && ((uint64_t)1 << (2 * m)) * p->mode.spp < counts[i])
@@ -514,7 +508,5 @@ int pipeline_lod_finish(ts_pipeline *p, ts_error *err)
     }
     free(counts);
     p->stats->stage_seconds[TS_STAGE_lod] += stats_now() - t0;
-    if (rc != CL_SUCCESS)
-        return ts_error_set(err, TS_E_DEVICE, "%s reading the LOD counts", dev_error_name(rc));
-    return TS_OK;
+    return rc;
 }

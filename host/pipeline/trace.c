@@ -94,23 +94,18 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
 static int sort_via_copy(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint32_t *valid,
                          uint32_t *segs, ts_error *err)
 {
-    cl_command_queue q = p->cl->queue;
     ts_pair *a = p->sort_host[0], *b = p->sort_host[1];
-    CL_CHECK(clEnqueueReadBuffer(q, p->pairs[0], CL_TRUE, 0, (size_t)n * sizeof(ts_pair), a, 0,
-                                 NULL, NULL),
-             err);
     const ts_pair *sorted = NULL;
-    int rc = radix_sort_pairs(p->sorter, a, b, n, p->scene->patch_count, &sorted, valid, err);
-    if (rc) return rc;
+    if (dev_read(p->cl, p->pairs[0], 0, (size_t)n * sizeof(ts_pair), a, "the candidate pairs",
+                 err) ||
+        radix_sort_pairs(p->sorter, a, b, n, p->scene->patch_count, &sorted, valid, err))
+        return err->code;
     *segs = sort_segments(sorted, *valid, p->segments_host, p->scene->patch_count);
     if (*segs == UINT32_MAX)
         return ts_error_set(err, TS_E_INTERNAL, "sort: more segments than patches");
-    if (*valid)
-        CL_CHECK(clEnqueueWriteBuffer(q, p->pairs[0], CL_TRUE, 0, (size_t)*valid * sizeof(ts_pair),
-                                      sorted, 0, NULL, NULL),
-                 err);
     *sorted_buffer = 0;
-    return TS_OK;
+    return dev_write(p->cl, p->pairs[0], 0, (size_t)*valid * sizeof(ts_pair), sorted,
+                     "the sorted pairs", err);
 }
 
 /* Sorts the candidate windows on the host through mapped buffers (zero copy on CPU
@@ -118,17 +113,15 @@ static int sort_via_copy(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, ui
 static int sort_mapped(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint32_t *valid,
                        uint32_t *segment_count, ts_error *err)
 {
-    cl_command_queue q = p->cl->queue;
-    cl_int rc0, rc1;
+    const cl_map_flags rw = CL_MAP_READ | CL_MAP_WRITE;
     size_t bytes = (size_t)n * sizeof(ts_pair);
-    ts_pair *a = clEnqueueMapBuffer(q, p->pairs[0], CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes,
-                                    0, NULL, NULL, &rc0);
-    ts_pair *b = clEnqueueMapBuffer(q, p->pairs[1], CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes,
-                                    0, NULL, NULL, &rc1);
-    CL_CHECK(rc0, err);
-    CL_CHECK(rc1, err);
+    ts_pair *a = dev_map(p->cl, p->pairs[0], rw, 0, bytes, "the candidate pairs", err);
+    ts_pair *b =
+        a ? dev_map(p->cl, p->pairs[1], rw, 0, bytes, "the second pair buffer", err) : NULL;
     const ts_pair *sorted = NULL;
-    int rc = radix_sort_pairs(p->sorter, a, b, n, p->scene->patch_count, &sorted, valid, err);
+    int rc = b ? TS_OK : err->code;
+    if (rc == TS_OK)
+        rc = radix_sort_pairs(p->sorter, a, b, n, p->scene->patch_count, &sorted, valid, err);
     uint32_t segs = 0;
     if (rc == TS_OK) {
         segs = sort_segments(sorted, *valid, p->segments_host, p->scene->patch_count);
@@ -136,10 +129,25 @@ static int sort_mapped(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint
             rc = ts_error_set(err, TS_E_INTERNAL, "sort: more segments than patches");
     }
     *sorted_buffer = sorted == b ? 1u : 0u;
-    CL_CHECK(clEnqueueUnmapMemObject(q, p->pairs[0], a, 0, NULL, NULL), err);
-    CL_CHECK(clEnqueueUnmapMemObject(q, p->pairs[1], b, 0, NULL, NULL), err);
+    /* Every map is undone; err keeps the first failure. */
+    if (a && dev_unmap(p->cl, p->pairs[0], a, "the candidate pairs", err)) rc = err->code;
+    if (b && dev_unmap(p->cl, p->pairs[1], b, "the second pair buffer", err)) rc = err->code;
     *segment_count = segs;
     return rc;
+}
+
+/* Writes the segment table (segs entries) and the batches' tree lists for the kernels. */
+static int upload_batches(ts_pipeline *p, uint32_t segs, ts_error *err)
+{
+    if (segs == 0) return TS_OK;
+    const ts_batch *last = &p->batches[p->batch_count - 1];
+    uint32_t trees = last->tree_first + last->tree_count;
+    if (dev_write(p->cl, p->segments, 0, segs * sizeof(ts_segment), p->segments_host,
+                  "the segments", err) ||
+        dev_write(p->cl, p->trees, 0, trees * sizeof(uint32_t), p->trees_host, "the tree lists",
+                  err))
+        return err->code;
+    return TS_OK;
 }
 
 /* Sorts the candidate windows on the host (radix_sort.c), by mapping the buffers or, on
@@ -150,26 +158,17 @@ static int stage_sort(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint3
                       uint32_t *segment_count, ts_error *err)
 {
     double t0 = stats_now();
-    cl_command_queue q = p->cl->queue;
     uint32_t segs = 0;
     int rc = p->sort_host[0] ? sort_via_copy(p, n, sorted_buffer, valid, &segs, err)
                              : sort_mapped(p, n, sorted_buffer, valid, &segs, err);
-    if (rc) return rc;
-    assign_lods(p, segs);
-    plan_batches(p, segs);
-    if (segs) {
-        CL_CHECK(clEnqueueWriteBuffer(q, p->segments, CL_TRUE, 0, segs * sizeof(ts_segment),
-                                      p->segments_host, 0, NULL, NULL),
-                 err);
-        uint32_t trees =
-            p->batches[p->batch_count - 1].tree_first + p->batches[p->batch_count - 1].tree_count;
-        CL_CHECK(clEnqueueWriteBuffer(q, p->trees, CL_TRUE, 0, trees * sizeof(uint32_t),
-                                      p->trees_host, 0, NULL, NULL),
-                 err);
+    if (rc == TS_OK) {
+        assign_lods(p, segs);
+        plan_batches(p, segs);
+        rc = upload_batches(p, segs, err);
     }
     *segment_count = segs;
     p->stats->stage_seconds[TS_STAGE_sort] += stats_now() - t0;
-    return TS_OK;
+    return rc;
 }
 
 /* The LOD of tree t of batch b. */
@@ -275,6 +274,27 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
     return dev_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
 }
 
+/* Keeps the rays of active[0..active_count) whose alive flag is set, in order; returns
+ * their count through *still_active. */
+static int compact_active(ts_pipeline *p, uint32_t active_count, uint32_t *still_active,
+                          ts_error *err)
+{
+    size_t bytes = (size_t)active_count * sizeof(uint32_t);
+    uint32_t *act =
+        dev_map(p->cl, p->active, CL_MAP_READ | CL_MAP_WRITE, 0, bytes, "the active rays", err);
+    uint32_t *alive =
+        act ? dev_map(p->cl, p->alive, CL_MAP_READ, 0, bytes, "the alive flags", err) : NULL;
+    int rc = alive ? TS_OK : err->code;
+    uint32_t n = 0;
+    for (uint32_t i = 0; rc == TS_OK && i < active_count; ++i)
+        if (alive[i]) act[n++] = act[i];
+    /* Every map is undone; err keeps the first failure. */
+    if (act && dev_unmap(p->cl, p->active, act, "the active rays", err)) rc = err->code;
+    if (alive && dev_unmap(p->cl, p->alive, alive, "the alive flags", err)) rc = err->code;
+    *still_active = n;
+    return rc;
+}
+
 /* Folds candidate hits into each ray's closest hit, then compacts the active list on the
  * host (kept in order, so results never depend on timing). Returns the new active count. */
 static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray,
@@ -288,33 +308,18 @@ static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_r
         dev_finish(p->cl, p->stats, err))
         return err->code;
     double t0 = stats_now();
-    cl_command_queue q = p->cl->queue;
-    size_t bytes = (size_t)active_count * sizeof(uint32_t);
-    cl_int rc0, rc1;
-    uint32_t *act = clEnqueueMapBuffer(q, p->active, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes,
-                                       0, NULL, NULL, &rc0);
-    uint32_t *alive =
-        clEnqueueMapBuffer(q, p->alive, CL_TRUE, CL_MAP_READ, 0, bytes, 0, NULL, NULL, &rc1);
-    CL_CHECK(rc0, err);
-    CL_CHECK(rc1, err);
-    uint32_t n = 0;
-    for (uint32_t i = 0; i < active_count; ++i)
-        if (alive[i]) act[n++] = act[i];
-    CL_CHECK(clEnqueueUnmapMemObject(q, p->active, act, 0, NULL, NULL), err);
-    CL_CHECK(clEnqueueUnmapMemObject(q, p->alive, alive, 0, NULL, NULL), err);
-    *still_active = n;
+    int rc = compact_active(p, active_count, still_active, err);
     /* Leaf utilisation of this iteration's bottom_level launches (32-bit counters, reset). */
-    cl_uint util[2] = {0, 0};
-    CL_CHECK(clEnqueueReadBuffer(q, p->utilisation, CL_TRUE, 0, sizeof util, util, 0, NULL, NULL),
-             err);
+    cl_uint util[2] = {0, 0}, zero = 0;
+    if (rc == TS_OK &&
+        (dev_read(p->cl, p->utilisation, 0, sizeof util, util, "the leaf utilisation", err) ||
+         dev_fill(p->cl, p->utilisation, &zero, sizeof zero, 0, sizeof util, "the leaf utilisation",
+                  err)))
+        rc = err->code;
     p->stats->counters[TS_COUNTER_leaf_tests] += util[0];
     p->stats->counters[TS_COUNTER_leaf_slots] += util[1];
-    cl_uint zero = 0;
-    CL_CHECK(
-        clEnqueueFillBuffer(q, p->utilisation, &zero, sizeof zero, 0, sizeof util, 0, NULL, NULL),
-        err);
     p->stats->stage_seconds[TS_STAGE_resolve] += stats_now() - t0;
-    return TS_OK;
+    return rc;
 }
 
 int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err)
@@ -328,14 +333,9 @@ int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
     if (p->batch_count != 1)
         return ts_error_set(err, TS_E_INTERNAL,
                             "pipeline_dice_build: the segments do not fit one batch");
-    CL_CHECK(clEnqueueWriteBuffer(p->cl->queue, p->segments, CL_TRUE, 0, count * sizeof(ts_segment),
-                                  p->segments_host, 0, NULL, NULL),
-             err);
-    CL_CHECK(clEnqueueWriteBuffer(p->cl->queue, p->trees, CL_TRUE, 0,
-                                  p->batches[0].tree_count * sizeof(uint32_t), p->trees_host, 0,
-                                  NULL, NULL),
-             err);
-    if (stage_dice(p, &p->batches[0], err) || stage_build(p, &p->batches[0], err)) return err->code;
+    if (upload_batches(p, count, err) || stage_dice(p, &p->batches[0], err) ||
+        stage_build(p, &p->batches[0], err))
+        return err->code;
     return dev_finish(p->cl, p->stats, err);
 }
 
@@ -376,168 +376,4 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
         if (stage_resolve(p, active, n_per_ray, &active, err)) return err->code;
     }
     return TS_OK;
-}
-
-/* Launches shade over paths [first, end): its path_count argument (index 5) is the end, so
- * the work-items the rounding adds past the chunk do nothing. */
-static int launch_shade_range(ts_pipeline *p, uint32_t first, uint32_t end, ts_error *err)
-{
-    CL_CHECK(clSetKernelArg(p->k_shade, 5, sizeof end, &end), err);
-    return dev_launch_range(p->cl, p->k_shade, TS_STAGE_shade, first, end - first, TS_LOCAL_SIZE,
-                            err);
-}
-
-/* A path of the wave list and the patch its ray hit (UINT32_MAX: none or untextured). */
-typedef struct shade_key {
-    uint32_t patch, k;
-} shade_key;
-
-static int cmp_shade_key(const void *a, const void *b)
-{
-    const shade_key *x = a, *y = b;
-    if (x->patch != y->patch) return x->patch < y->patch ? -1 : 1;
-    return (x->k > y->k) - (x->k < y->k);
-}
-
-/* Launches shade over paths [0, path_count). With paged textures, the paths go in chunks
- * whose hits' tiles fit the pool together: each hit needs level 0 of its patch's textures
- * over the micro-quad around it (the shading normal's differences and the colour lookup).
- * The path list is shaded sorted by hit patch, so that a chunk holds the hits of a few
- * patches and their tiles, not a sweep over the image that touches every tile (Pharr et
- * al. 1997: schedule work by the data it needs); shade's results go to each path's own
- * slots (but alive[k], per list slot), so the order changes no bit; the list and alive
- * are put back in path order afterwards for the next wave. */
-static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count, ts_error *err)
-{
-    if (!p->tex.paged)
-        return dev_launch(p->cl, p->k_shade, TS_STAGE_shade, path_count, TS_LOCAL_SIZE, err);
-    cl_command_queue q = p->cl->queue;
-    uint32_t *paths = malloc((size_t)path_count * sizeof *paths);
-    uint32_t *sorted = malloc((size_t)path_count * sizeof *sorted);
-    shade_key *keys = malloc((size_t)path_count * sizeof *keys);
-    ts_hit *hits = malloc((size_t)wave_size * sizeof *hits);
-    int rc =
-        paths && sorted && keys && hits ? TS_OK : ts_error_set(err, TS_E_MEMORY, "out of memory");
-    cl_int r0 = CL_SUCCESS, r1 = CL_SUCCESS;
-    if (rc == TS_OK) {
-        r0 = clEnqueueReadBuffer(q, p->wave_paths, CL_TRUE, 0, (size_t)path_count * sizeof *paths,
-                                 paths, 0, NULL, NULL);
-        r1 = clEnqueueReadBuffer(q, p->ray_hit, CL_TRUE, 0, (size_t)wave_size * sizeof *hits, hits,
-                                 0, NULL, NULL);
-        if (r0 != CL_SUCCESS || r1 != CL_SUCCESS)
-            rc = ts_error_set(err, TS_E_DEVICE, "%s reading the wave's hits",
-                              dev_error_name(r0 != CL_SUCCESS ? r0 : r1));
-    }
-    ts_tex_cache *c = &p->tex;
-    if (rc == TS_OK) {
-        for (uint32_t k = 0; k < path_count; ++k) {
-            uint32_t patch = paths[k] < wave_size ? hits[paths[k]].patch : TS_INVALID;
-            if (patch >= p->scene->patch_count || c->patch_tiles[patch] == 0) patch = UINT32_MAX;
-            keys[k] = (shade_key){patch, k};
-        }
-        qsort(keys, path_count, sizeof *keys, cmp_shade_key);
-        for (uint32_t k = 0; k < path_count; ++k)
-            sorted[k] = paths[keys[k].k];
-        r0 = clEnqueueWriteBuffer(q, p->wave_paths, CL_TRUE, 0, (size_t)path_count * sizeof *sorted,
-                                  sorted, 0, NULL, NULL);
-        if (r0 != CL_SUCCESS)
-            rc = ts_error_set(err, TS_E_DEVICE, "%s writing the shade order", dev_error_name(r0));
-    }
-    uint32_t start = 0;
-    tex_cache_begin(c);
-    for (uint32_t k = 0; rc == TS_OK && k < path_count; ++k) {
-        if (keys[k].patch == UINT32_MAX) continue;
-        ts_hit h = hits[sorted[k]];
-        float hw = 0.5f * ldexpf(1.0f, -(int)TS_PRIM_LOD(h.prim));
-        float u0 = fmaxf(h.u - hw, 0.0f), v0 = fmaxf(h.v - hw, 0.0f), u1 = fminf(h.u + hw, 1.0f),
-              v1 = fminf(h.v + hw, 1.0f);
-        if (c->marked + tex_cache_mark_hit(c, p->scene, h.patch, u0, v0, u1, v1, 1) > c->slots) {
-            rc = tex_cache_commit(c, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
-            if (rc == TS_OK) rc = launch_shade_range(p, start, k, err);
-            tex_cache_begin(c);
-            start = k;
-        }
-        tex_cache_mark_hit(c, p->scene, h.patch, u0, v0, u1, v1, 0);
-    }
-    if (rc == TS_OK)
-        rc = tex_cache_commit(c, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
-    if (rc == TS_OK) rc = launch_shade_range(p, start, path_count, err);
-    if (rc == TS_OK) { /* back to path order: the list, and alive[k] (written per list slot) */
-        size_t bytes = (size_t)path_count * sizeof(uint32_t);
-        r0 = clEnqueueReadBuffer(q, p->alive, CL_TRUE, 0, bytes, sorted, 0, NULL, NULL);
-        for (uint32_t k = 0; r0 == CL_SUCCESS && k < path_count; ++k)
-            keys[k].patch = sorted[k];
-        for (uint32_t k = 0; r0 == CL_SUCCESS && k < path_count; ++k)
-            sorted[keys[k].k] = keys[k].patch;
-        if (r0 == CL_SUCCESS)
-            r0 = clEnqueueWriteBuffer(q, p->alive, CL_TRUE, 0, bytes, sorted, 0, NULL, NULL);
-        if (r0 == CL_SUCCESS)
-            r0 = clEnqueueWriteBuffer(q, p->wave_paths, CL_TRUE, 0, bytes, paths, 0, NULL, NULL);
-        if (r0 != CL_SUCCESS)
-            rc = ts_error_set(err, TS_E_DEVICE, "%s restoring the path order", dev_error_name(r0));
-    }
-    free(paths), free(sorted), free(keys), free(hits);
-    return rc;
-}
-
-int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sample,
-                   uint32_t wave_size, uint32_t path_count, uint32_t *next_paths,
-                   uint32_t *next_rays, uint32_t *shadow_rays, ts_error *err)
-{
-    ts_shade_params s = *sp;
-    *next_paths = *next_rays = *shadow_rays = 0;
-    if (path_count == 0) return TS_OK;
-    if (dev_set_args(p->k_shade, err, DEV_ARG(s), DEV_ARG(first_sample), DEV_ARG(p->pixel_count),
-                     DEV_ARG(wave_size), DEV_ARG(p->wave_paths), DEV_ARG(path_count),
-                     DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit),
-                     DEV_ARG(p->ray_entry), DEV_ARG(p->ray_flags), DEV_ARG(p->ray_pixel),
-                     DEV_ARG(p->path_throughput), DEV_ARG(p->path_mis), DEV_ARG(p->path_pending),
-                     DEV_ARG(p->radiance), DEV_ARG(p->aov), DEV_ARG(p->albedo), DEV_ARG(p->cp),
-                     DEV_ARG(p->corner_n), DEV_ARG(p->attr), DEV_ARG(p->xform), DEV_ARG(p->lights),
-                     DEV_ARG(p->emitters), DEV_ARG(p->env_texels), DEV_ARG(p->env_marginal),
-                     DEV_ARG(p->env_conditional), DEV_ARG(p->flatness), DEV_ARG(p->textures),
-                     DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(p->alive), (size_t)0) ||
-        launch_shade(p, wave_size, path_count, err) || dev_finish(p->cl, p->stats, err))
-        return err->code;
-    /* The next wave: the paths that go on and their rays, in path order. */
-    double t0 = stats_now();
-    cl_command_queue q = p->cl->queue;
-    size_t bytes = (size_t)path_count * sizeof(uint32_t);
-    cl_int rc0, rc1, rc2;
-    uint32_t *paths = clEnqueueMapBuffer(q, p->wave_paths, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0,
-                                         bytes, 0, NULL, NULL, &rc0);
-    uint32_t *alive =
-        clEnqueueMapBuffer(q, p->alive, CL_TRUE, CL_MAP_READ, 0, bytes, 0, NULL, NULL, &rc1);
-    uint32_t *next =
-        clEnqueueMapBuffer(q, p->active, CL_TRUE, CL_MAP_WRITE, 0, 2 * bytes, 0, NULL, NULL, &rc2);
-    CL_CHECK(rc0, err);
-    CL_CHECK(rc1, err);
-    CL_CHECK(rc2, err);
-    uint32_t np = 0, nr = 0, shadows = 0;
-    for (uint32_t k = 0; k < path_count; ++k) {
-        uint32_t path = paths[k], bits = alive[k];
-        if (!bits) continue;
-        paths[np++] = path; /* np <= k: compacting in place */
-        if (bits & 1u) next[nr++] = path;
-        if (bits & 2u) next[nr++] = wave_size + path, ++shadows;
-    }
-    CL_CHECK(clEnqueueUnmapMemObject(q, p->wave_paths, paths, 0, NULL, NULL), err);
-    CL_CHECK(clEnqueueUnmapMemObject(q, p->alive, alive, 0, NULL, NULL), err);
-    CL_CHECK(clEnqueueUnmapMemObject(q, p->active, next, 0, NULL, NULL), err);
-    *next_paths = np;
-    *next_rays = nr;
-    *shadow_rays = shadows;
-    p->stats->stage_seconds[TS_STAGE_shade] += stats_now() - t0;
-    return TS_OK;
-}
-
-int pipeline_film(ts_pipeline *p, uint32_t first_sample, uint32_t ray_count, ts_error *err)
-{
-    if (dev_set_args(p->k_film, err, DEV_ARG(first_sample), DEV_ARG(ray_count),
-                     DEV_ARG(p->pixel_count), DEV_ARG(p->radiance), DEV_ARG(p->aov),
-                     DEV_ARG(p->albedo), DEV_ARG(p->accum), DEV_ARG(p->aov_film),
-                     DEV_ARG(p->albedo_film), (size_t)0) ||
-        dev_launch(p->cl, p->k_film, TS_STAGE_film, p->pixel_count, TS_LOCAL_SIZE, err))
-        return err->code;
-    return dev_finish(p->cl, p->stats, err);
 }
