@@ -1,5 +1,5 @@
 #include "pipeline/pipeline.h"
-#include "image/image.h"
+#include "pipeline/lights.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
 
@@ -81,127 +81,6 @@ static int create_kernels(ts_pipeline *p, ts_error *err)
     return TS_OK;
 }
 
-/* Area of patch p's undisplaced surface at time 0: |dP/du x dP/dv| on an 8 x 8 midpoint
- * grid. */
-static float patch_area(const ts_scene *s, uint32_t p)
-{
-    double a = 0;
-    for (int j = 0; j < 8; ++j)
-        for (int i = 0; i < 8; ++i) {
-            ts_vec4 n = bezier_cross_derivs(&s->cp[p * 16], (i + 0.5f) / 8, (j + 0.5f) / 8);
-            a += sqrt((double)n.x * n.x + (double)n.y * n.y + (double)n.z * n.z) / 64.0;
-        }
-    return (float)a;
-}
-
-/* The dome's environment map for the kernels (lib/lights.h): texels, and the CDFs that
- * sample it by luminance times sin(theta). Without a map: one unused element each. */
-typedef struct env_map {
-    ts_vec4 *texels;
-    float *marginal, *conditional;
-    uint32_t width, height;
-} env_map;
-
-static int env_load(const char *path, env_map *e, ts_error *err)
-{
-    memset(e, 0, sizeof *e);
-    ts_image img;
-    if (image_read(path, &img, err)) return err->code;
-    uint32_t w = (uint32_t)img.width, h = (uint32_t)img.height;
-    e->texels = malloc((size_t)w * h * sizeof *e->texels);
-    e->marginal = malloc(h * sizeof *e->marginal);
-    e->conditional = malloc((size_t)w * h * sizeof *e->conditional);
-    if (!e->texels || !e->marginal || !e->conditional) {
-        image_free(&img);
-        return ts_error_set(err, TS_E_MEMORY, "%s: out of memory for the environment map", path);
-    }
-    double total = 0;
-    for (uint32_t y = 0; y < h; ++y) {
-        double row = 0, s = sin(M_PI * (y + 0.5) / h);
-        for (uint32_t x = 0; x < w; ++x) {
-            const float *px = &img.pixels[((size_t)y * w + x) * img.channels];
-            float r = px[0], g = img.channels > 2 ? px[1] : r, b = img.channels > 2 ? px[2] : r;
-            if (!(r >= 0 && g >= 0 && b >= 0 && r < 1e30f && g < 1e30f && b < 1e30f)) r = g = b = 0;
-            e->texels[(size_t)y * w + x] = (ts_vec4){r, g, b, 0};
-            row += (0.2126 * r + 0.7152 * g + 0.0722 * b) * s;
-            e->conditional[(size_t)y * w + x] = (float)row;
-        }
-        for (uint32_t x = 0; x < w; ++x) /* cumulative within the row, ending at 1 */
-            e->conditional[(size_t)y * w + x] =
-                row > 0 ? (float)(e->conditional[(size_t)y * w + x] / row) : (float)(x + 1) / w;
-        e->conditional[(size_t)y * w + w - 1] = 1.0f;
-        total += row;
-        e->marginal[y] = (float)total;
-    }
-    for (uint32_t y = 0; y < h; ++y)
-        e->marginal[y] = total > 0 ? (float)(e->marginal[y] / total) : (float)(y + 1) / h;
-    e->marginal[h - 1] = 1.0f;
-    e->width = w, e->height = h;
-    image_free(&img);
-    return TS_OK;
-}
-
-/* The lights as the kernels read them (lib/lights.h): every distant light, the dome, and
- * one area light over all emissive patches, which are listed in an emitter table chosen by
- * power (area times brightest channel). attr gets each emitter's index. */
-static int build_lights(ts_pipeline *p, ts_patch_attr *attr, ts_light *lights, ts_emitter **em,
-                        uint32_t *emitter_count, const env_map *env, ts_error *err)
-{
-    const ts_scene *s = p->scene;
-    uint32_t nl = 0, ne = 0;
-    for (uint32_t i = 0; i < s->light_count; ++i) {
-        const ts_distant_light *d = &s->lights[i];
-        ts_light l = {.type = TS_LIGHT_DISTANT, .cos_max = 1.0f};
-        double dir[3] = {d->from[0] - d->to[0], d->from[1] - d->to[1], d->from[2] - d->to[2]};
-        double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
-        double half = 0.5 * d->angle * M_PI / 180.0, e_scale = 1.0;
-        if (half > 0) { /* radiance L with L * pi sin^2(half) = E, uniform in the cone */
-            l.cos_max = (float)cos(half);
-            l.solid_angle = (float)(2 * M_PI * (1 - cos(half)));
-            e_scale = 1.0 / (M_PI * sin(half) * sin(half));
-        }
-        for (int k = 0; k < 3; ++k) {
-            l.dir[k] = (float)(dir[k] / len);
-            l.radiance[k] = (float)(d->intensity * d->color[k] * e_scale);
-        }
-        lights[nl++] = l;
-    }
-    if (s->dome.present) {
-        ts_light l = {.type = TS_LIGHT_DOME,
-                      .cos_max = 1.0f,
-                      .map_width = env->width,
-                      .map_height = env->height};
-        for (int k = 0; k < 3; ++k)
-            l.radiance[k] = (float)(s->dome.intensity * s->dome.color[k]);
-        lights[nl++] = l;
-    }
-    for (uint32_t i = 0; i < s->patch_count; ++i)
-        ne += attr[i].le_r > 0 || attr[i].le_g > 0 || attr[i].le_b > 0;
-    *em = calloc(ne ? ne : 1, sizeof **em);
-    if (!*em) return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    double total = 0;
-    ne = 0;
-    for (uint32_t i = 0; i < s->patch_count; ++i) {
-        attr[i].emitter = TS_INVALID;
-        float le = fmaxf(attr[i].le_r, fmaxf(attr[i].le_g, attr[i].le_b));
-        if (!(le > 0)) continue;
-        float area = patch_area(s, i);
-        (*em)[ne] = (ts_emitter){i, 0, area * le, area};
-        total += area * le;
-        attr[i].emitter = ne++;
-    }
-    double acc = 0;
-    for (uint32_t k = 0; k < ne; ++k) {
-        (*em)[k].prob = total > 0 ? (float)((*em)[k].prob / total) : 0.0f;
-        acc += (*em)[k].prob;
-        (*em)[k].cdf = k + 1 == ne ? 1.0f : (float)acc;
-    }
-    if (ne) lights[nl++] = (ts_light){.type = TS_LIGHT_AREA, .emitter_count = ne, .cos_max = 1.0f};
-    *emitter_count = ne;
-    p->light_count = nl;
-    return TS_OK;
-}
-
 /* Patch data as the kernels read it: the scene's arrays, or defaults where the scene has
  * none (no motion: cp1 = cp; no transforms: the identity; no normals: +z). boxes: each
  * patch's scene_patch_box, computed once by pipeline_create. */
@@ -212,27 +91,22 @@ static int create_patch_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *e
     const cl_mem_flags ro_copy = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
     ts_vec4 *flat = calloc(n, sizeof *flat), *normals = NULL;
     ts_patch_attr *attr = calloc(n, sizeof *attr);
-    ts_light lights[66];
-    ts_emitter *emitters = NULL;
-    uint32_t emitter_count = 0;
-    env_map env = {0};
-    if (s->dome.present && s->dome.mapname[0] && env_load(s->dome.mapname, &env, err)) {
-        free(env.texels), free(env.marginal), free(env.conditional), free(flat), free(attr);
+    ts_light_table lt = {0};
+    ts_env_map env = {0};
+    if (s->dome.present && s->dome.mapname[0] && env_map_load(s->dome.mapname, &env, err)) {
+        free(flat), free(attr);
         return err->code;
     }
     if (!flat || !attr) {
-        free(flat), free(attr);
+        free(flat), free(attr), env_map_free(&env);
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     }
-    if (s->light_count > 64) {
-        free(flat), free(attr);
-        return ts_error_set(err, TS_E_SCENE, "%u distant lights: at most 64", s->light_count);
-    }
     memcpy(attr, s->attr, s->patch_count * sizeof *attr);
-    if (build_lights(p, attr, lights, &emitters, &emitter_count, &env, err)) {
-        free(flat), free(attr);
+    if (lights_build(s, &env, attr, &lt, err)) {
+        free(flat), free(attr), env_map_free(&env), lights_free(&lt);
         return err->code;
     }
+    p->light_count = lt.light_count;
     /* w: the longest side of the patch's box, for the secondary-ray offset l / 2^m. */
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         flat[i] = patch_flatness(&s->cp[i * 16], s->cp1 ? &s->cp1[i * 16] : &s->cp[i * 16], 0);
@@ -243,7 +117,7 @@ static int create_patch_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *e
     if (!cn) {
         normals = calloc(n * 4, sizeof *normals);
         if (!normals) {
-            free(flat);
+            free(flat), free(attr), env_map_free(&env), lights_free(&lt);
             return ts_error_set(err, TS_E_MEMORY, "out of memory");
         }
         for (size_t i = 0; i < n * 4; ++i)
@@ -261,8 +135,8 @@ static int create_patch_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *e
         {&p->cp1, n * 16 * sizeof(ts_vec4), s->cp1 ? s->cp1 : s->cp},
         {&p->corner_n, n * 4 * sizeof(ts_vec4), cn},
         {&p->attr, n * sizeof(ts_patch_attr), attr},
-        {&p->lights, (p->light_count ? p->light_count : 1) * sizeof(ts_light), lights},
-        {&p->emitters, (emitter_count ? emitter_count : 1) * sizeof(ts_emitter), emitters},
+        {&p->lights, (lt.light_count ? lt.light_count : 1) * sizeof(ts_light), lt.lights},
+        {&p->emitters, (lt.emitter_count ? lt.emitter_count : 1) * sizeof(ts_emitter), lt.emitters},
         {&p->env_texels, (env.width ? (size_t)env.width * env.height : 1) * sizeof(ts_vec4),
          env.texels},
         {&p->env_marginal, (env.width ? env.height : 1) * sizeof(float), env.marginal},
@@ -286,8 +160,8 @@ static int create_patch_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *e
     free(flat);
     free(normals);
     free(attr);
-    free(emitters);
-    free(env.texels), free(env.marginal), free(env.conditional);
+    lights_free(&lt);
+    env_map_free(&env);
     if (rc != TS_OK) return rc;
     /* Texture tiles: a pool of tex.slots tiles and the page table (tex_cache.h). */
     if (tex_cache_create(&p->tex, s, p->plan.tex_pool_bytes, err)) return err->code;
