@@ -18,7 +18,7 @@ static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per
     if (dev_set_args(p->k_top_level, err, DEV_ARG(p->qbvh_nodes), DEV_ARG(p->active),
                      DEV_ARG(active_count), DEV_ARG(n_per_ray), DEV_ARG(p->ray_org),
                      DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry),
-                     DEV_ARG(p->pairs[0]), DEV_ARG(p->count), (size_t)0))
+                     DEV_ARG(p->pairs), DEV_ARG(p->count), (size_t)0))
         return err->code;
     if (dev_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
         return err->code;
@@ -89,22 +89,21 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
 }
 
 /* Discrete devices: reads the window into host memory, sorts it there and writes back
- * only the valid pairs, sorted, into pairs[0]: one window read and one write of the valid
+ * only the valid pairs, sorted, into pairs: one window read and one write of the valid
  * part over the bus instead of reading and writing both mapped buffers whole. */
 static int sort_via_copy(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint32_t *valid,
                          uint32_t *segs, ts_error *err)
 {
     ts_pair *a = p->sort_host[0], *b = p->sort_host[1];
     const ts_pair *sorted = NULL;
-    if (dev_read(p->cl, p->pairs[0], 0, (size_t)n * sizeof(ts_pair), a, "the candidate pairs",
-                 err) ||
+    if (dev_read(p->cl, p->pairs, 0, (size_t)n * sizeof(ts_pair), a, "the candidate pairs", err) ||
         radix_sort_pairs(p->sorter, a, b, n, p->scene->patch_count, &sorted, valid, err))
         return err->code;
     *segs = sort_segments(sorted, *valid, p->segments_host, p->scene->patch_count);
     if (*segs == UINT32_MAX)
         return ts_error_set(err, TS_E_INTERNAL, "sort: more segments than patches");
     *sorted_buffer = 0;
-    return dev_write(p->cl, p->pairs[0], 0, (size_t)*valid * sizeof(ts_pair), sorted,
+    return dev_write(p->cl, p->pairs, 0, (size_t)*valid * sizeof(ts_pair), sorted,
                      "the sorted pairs", err);
 }
 
@@ -115,9 +114,9 @@ static int sort_mapped(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint
 {
     const cl_map_flags rw = CL_MAP_READ | CL_MAP_WRITE;
     size_t bytes = (size_t)n * sizeof(ts_pair);
-    ts_pair *a = dev_map(p->cl, p->pairs[0], rw, 0, bytes, "the candidate pairs", err);
+    ts_pair *a = dev_map(p->cl, p->pairs, rw, 0, bytes, "the candidate pairs", err);
     ts_pair *b =
-        a ? dev_map(p->cl, p->pairs[1], rw, 0, bytes, "the second pair buffer", err) : NULL;
+        a ? dev_map(p->cl, p->pairs_scratch, rw, 0, bytes, "the second pair buffer", err) : NULL;
     const ts_pair *sorted = NULL;
     int rc = b ? TS_OK : err->code;
     if (rc == TS_OK)
@@ -130,8 +129,8 @@ static int sort_mapped(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint
     }
     *sorted_buffer = sorted == b ? 1u : 0u;
     /* Every map is undone; err keeps the first failure. */
-    if (a && dev_unmap(p->cl, p->pairs[0], a, "the candidate pairs", err)) rc = err->code;
-    if (b && dev_unmap(p->cl, p->pairs[1], b, "the second pair buffer", err)) rc = err->code;
+    if (a && dev_unmap(p->cl, p->pairs, a, "the candidate pairs", err)) rc = err->code;
+    if (b && dev_unmap(p->cl, p->pairs_scratch, b, "the second pair buffer", err)) rc = err->code;
     *segment_count = segs;
     return rc;
 }
@@ -151,9 +150,9 @@ static int upload_batches(ts_pipeline *p, uint32_t segs, ts_error *err)
 }
 
 /* Sorts the candidate windows on the host (radix_sort.c), by mapping the buffers or, on
- * discrete devices, by copying (pipeline.h sort_host). Sets *sorted_buffer (0 or 1: which
- * pairs buffer holds the result), and the segment table; returns the segment count through
- * *segment_count. */
+ * discrete devices, by copying (pipeline.h sort_host). Sets *sorted_buffer (which buffer
+ * holds the result: 0 pairs, 1 pairs_scratch), and the segment table; returns the segment count
+ * through *segment_count. */
 static int stage_sort(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint32_t *valid,
                       uint32_t *segment_count, ts_error *err)
 {
@@ -264,12 +263,13 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
     uint32_t pair_first = s[first].begin, pair_count = s[first + count - 1].end - pair_first;
     uint32_t leaf_b = p->mode.leaf_b;
     cl_kernel k = p->mode.leaf_group ? p->k_bottom_group : p->k_bottom_level;
-    if (dev_set_args(k, err, DEV_ARG(p->pairs[sorted_buffer]), DEV_ARG(pair_first),
-                     DEV_ARG(pair_count), DEV_ARG(p->segments), DEV_ARG(first), DEV_ARG(count),
-                     DEV_ARG(n_per_ray), DEV_ARG(exact), DEV_ARG(leaf_b), DEV_ARG(p->active),
-                     DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit),
-                     DEV_ARG(p->ray_flags), DEV_ARG(p->grid), DEV_ARG(p->groups),
-                     DEV_ARG(p->pair_hit), DEV_ARG(p->utilisation), (size_t)0))
+    cl_mem pairs = sorted_buffer ? p->pairs_scratch : p->pairs;
+    if (dev_set_args(k, err, DEV_ARG(pairs), DEV_ARG(pair_first), DEV_ARG(pair_count),
+                     DEV_ARG(p->segments), DEV_ARG(first), DEV_ARG(count), DEV_ARG(n_per_ray),
+                     DEV_ARG(exact), DEV_ARG(leaf_b), DEV_ARG(p->active), DEV_ARG(p->ray_org),
+                     DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_flags),
+                     DEV_ARG(p->grid), DEV_ARG(p->groups), DEV_ARG(p->pair_hit),
+                     DEV_ARG(p->utilisation), (size_t)0))
         return err->code;
     return dev_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
 }
