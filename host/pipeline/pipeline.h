@@ -21,14 +21,13 @@
 /* Work-group size of every launch: one size, so PoCL compiles each kernel once. */
 #define TS_LOCAL_SIZE ((size_t)TS_GROUP_SIZE)
 
-/* Bytes of device memory one ray costs: its SoA fields, active/count/alive, radiance and
- * aov, and TS_PAIRS_PER_RAY pairs (two sort buffers + a hit record each). */
+/* Bytes of device memory one ray costs: an entry of every ray and path field, of active,
+ * count, alive and wave_paths, of radiance, aov and albedo, and TS_PAIRS_PER_RAY candidates
+ * (pairs, pairs_scratch, pair_hit; TS_PIPELINE_BUFFERS). */
+#define TS_FIELD_BYTES(type, name, what) +sizeof(type)
 #define TS_BYTES_PER_RAY                                                                           \
-    (16u + 16u + 20u + 4u + 4u + 4u /* ray fields */ + 4u + 4u + 4u + 4u /* active, count,         \
-    alive, wave_paths */                                                                           \
-     + 3u * 16u /* path fields */ + 16u + 16u + 16u                      /* radiance, aov,         \
-     albedo */                                                                     \
-     + TS_PAIRS_PER_RAY * (8u + 8u + 20u))
+    (0 TS_RAY_FIELDS(TS_FIELD_BYTES) TS_PATH_FIELDS(TS_FIELD_BYTES) + 4 * sizeof(ts_u32) +         \
+     3 * sizeof(ts_vec4) + TS_PAIRS_PER_RAY * (2 * sizeof(ts_pair) + sizeof(ts_hit)))
 
 typedef struct ts_pipeline_plan {
     uint32_t ray_capacity;   /* rays per wave */

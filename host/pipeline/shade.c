@@ -133,7 +133,7 @@ static int launch_shade(ts_pipeline *p, uint32_t wave_size, uint32_t path_count,
     return rc;
 }
 
-/* The next wave from alive[k] of list slot k (bit 0: a BSDF ray, bit 1: a shadow ray):
+/* The next wave from alive[k] of list slot k (its TS_PATH_TRACED_* bits):
  * compacts wave_paths in place to the paths that go on and lists their rays in active,
  * in path order. */
 static int list_next_wave(ts_pipeline *p, uint32_t wave_size, uint32_t path_count,
@@ -154,8 +154,8 @@ static int list_next_wave(ts_pipeline *p, uint32_t wave_size, uint32_t path_coun
         uint32_t path = paths[k], bits = alive[k];
         if (!bits) continue;
         paths[np++] = path; /* np <= k: compacting in place */
-        if (bits & 1u) next[nr++] = path;
-        if (bits & 2u) next[nr++] = wave_size + path, ++shadows;
+        if (bits & TS_PATH_TRACED_BSDF) next[nr++] = path;
+        if (bits & TS_PATH_TRACED_SHADOW) next[nr++] = wave_size + path, ++shadows;
     }
     /* Every map is undone; err keeps the first failure. */
     if (paths && dev_unmap(cl, p->wave_paths, paths, "the wave's paths", err)) rc = err->code;
@@ -176,12 +176,13 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
                      DEV_ARG(wave_size), DEV_ARG(p->wave_paths), DEV_ARG(path_count),
                      DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit),
                      DEV_ARG(p->ray_entry), DEV_ARG(p->ray_flags), DEV_ARG(p->ray_pixel),
-                     DEV_ARG(p->path_throughput), DEV_ARG(p->path_mis), DEV_ARG(p->path_pending),
-                     DEV_ARG(p->radiance), DEV_ARG(p->aov), DEV_ARG(p->albedo), DEV_ARG(p->cp),
-                     DEV_ARG(p->corner_n), DEV_ARG(p->attr), DEV_ARG(p->xform), DEV_ARG(p->lights),
-                     DEV_ARG(p->emitters), DEV_ARG(p->env_texels), DEV_ARG(p->env_marginal),
-                     DEV_ARG(p->env_conditional), DEV_ARG(p->flatness), DEV_ARG(p->textures),
-                     DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(p->alive), (size_t)0) ||
+                     DEV_ARG(p->path_throughput), DEV_ARG(p->path_mis), DEV_ARG(p->path_state),
+                     DEV_ARG(p->path_pending), DEV_ARG(p->radiance), DEV_ARG(p->aov),
+                     DEV_ARG(p->albedo), DEV_ARG(p->cp), DEV_ARG(p->corner_n), DEV_ARG(p->attr),
+                     DEV_ARG(p->xform), DEV_ARG(p->lights), DEV_ARG(p->emitters),
+                     DEV_ARG(p->env_texels), DEV_ARG(p->env_marginal), DEV_ARG(p->env_conditional),
+                     DEV_ARG(p->flatness), DEV_ARG(p->textures), DEV_ARG(p->tex_pages),
+                     DEV_ARG(p->tex_pool), DEV_ARG(p->alive), (size_t)0) ||
         launch_shade(p, wave_size, path_count, err) || dev_finish(p->cl, p->stats, err))
         return err->code;
     double t0 = stats_now();
