@@ -1,7 +1,8 @@
 /* camera.cl — stage `camera`: generates one wave of eye rays.
  * Reads:  ts_camera_params (by value).
  * Writes: per ray org, dir (w = time in [0,1)), hit (cleared), entry (TS_ENTRY_START), pixel,
- *         flags (0); active[i] = paths[i] = i; a fresh path state (throughput 1, radiance 0).
+ *         flags (0); active[i] = paths[i] = i; a fresh path state (throughput 1, radiance 0,
+ *         its eye-ray slot traced, emission it finds weighted 1).
  * Ray g = first_sample + i covers pixel g % (width*height), sample g / (width*height), so a
  * wave is a run of whole sample passes and the film can sum samples in a fixed order.
  * RenderMan screen: x right, y up; raster y grows downwards. One sample per pixel goes
@@ -12,8 +13,8 @@
 __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __global ts_vec4 *dir,
                               __global ts_hit *hit, __global uint *entry, __global uint *pixel,
                               __global uint *flags, __global uint *active, __global uint *paths,
-                              __global ts_vec4 *throughput, __global ts_vec4 *mis,
-                              __global ts_vec4 *radiance)
+                              __global ts_vec4 *throughput, __global float *mis,
+                              __global uint *state, __global ts_vec4 *radiance)
 {
     uint i = get_global_id(0);
     if (i >= p.ray_count) return;
@@ -42,8 +43,9 @@ __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __globa
     active[i] = i;
     paths[i] = i;
     /* A new path: weight 1, nothing gathered, MIS weight 1 for what the eye ray finds, its
-     * BSDF-ray slot traced (mis.z bit 0). */
+     * BSDF-ray slot traced. */
     throughput[i] = (ts_vec4){1.0f, 1.0f, 1.0f, 0.0f};
-    mis[i] = (ts_vec4){1.0f, 0.0f, 1.0f, 0.0f};
+    mis[i] = 1.0f;
+    state[i] = TS_PATH_STATE(TS_PATH_TRACED_BSDF, TS_MIS_ONE);
     radiance[i] = (ts_vec4){0.0f, 0.0f, 0.0f, 0.0f};
 }

@@ -1,25 +1,79 @@
 /* shade.cl — stage `shade` (Hanika §3.5, §4): one path-tracing step for every path that
- * traced a ray in this wave. Path i owns two ray slots: i for its BSDF ray and
- * wave_size + i for its shadow ray; path state mis.z says which of the two it traced.
- * Reads:  the wave's paths (paths[0..path_count)), their rays (dir, hit, flags), path state
- *         (throughput, mis, pending), patch data, lights, emitters, textures (colour at the
- *         hit's st, displacement for the normal; every tile resident).
- * Writes: radiance (accumulated per path: one work-item per path, so no races), aov
- *         (normal, Z) and albedo at the eye hit, the path's next rays into its two slots,
- *         path state, alive[k]: bit 0 a BSDF ray is next, bit 1 a shadow ray.
- * A shadow ray that reached its light unoccluded adds its light sample. A camera or BSDF
- * ray adds what it found (sky or sun on a miss, emission on a hit), weighted for MIS.
- * Then, below the depth: next-event estimation (a light sample and its shadow ray) and a
- * BSDF sample to continue, combined by the balance heuristic (Veach 1995): the light
- * sample weighs p_l / (p_l + p_b), emission found by the BSDF ray p_b / (p_b + p_l).
- * From the second bounce on, Russian roulette ends paths with probability
- * 1 - min(1, max(throughput)). --sampling light or bsdf keeps one strategy at weight 1.
- * Random numbers: rng_uniform(pixel, sample, bounce + 1, dimension). */
+ * traced a ray in this wave, split as Cycles' shade_surface.h is:
+ *   shade_shadow_result  a shadow ray that reached its light unoccluded adds its light sample;
+ *   shade_escape         a camera or BSDF ray that hit nothing adds sky and sun;
+ *   shade_emission       one that hit an emissive patch adds its emission;
+ *   shade_direct_light   below the depth: next-event estimation, a light sample and its
+ *                        shadow ray;
+ *   shade_bsdf_bounce    below the depth: a BSDF sample continues the path, ended from the
+ *                        second bounce on by Russian roulette with probability
+ *                        1 - min(1, max(throughput)).
+ * Path i owns two ray slots: i for its BSDF ray and wave_size + i for its shadow ray; its
+ * state's TS_PATH_TRACED_* bits say which of the two it traced.
+ * Reads:  the wave's paths (paths[0..path_count)), their rays (org, dir, hit), path state
+ *         (throughput, mis, state, pending), patch data, lights, emitters, the dome's map,
+ *         textures (colour at the hit's st, displacement for the normal; every tile the
+ *         chunk needs resident, host/pipeline/shade.c).
+ * Writes: radiance (accumulated per path), aov (normal, Z) and albedo at the eye hit, the
+ *         path's next rays into its two slots (org, dir, hit, entry, flags), path state,
+ *         alive[k] (per list slot k): the TS_PATH_TRACED_* bits of the rays it traces next.
+ * Invariants: one work-item per path, which writes only its own slots (and alive[k]), so
+ *         no races and the result does not depend on the order of the list; a path whose
+ *         state traces nothing, or that ends here, keeps its state and gets alive[k] = 0.
+ * MIS (Veach 1995, balance heuristic): the light sample weighs p_l / (p_l + p_b), emission
+ * found by a BSDF ray p_b / (p_b + p_l), with p_b the pdf of the sample that made the ray
+ * (path field mis) and the weighting chosen when it was made (state's TS_MIS_* mode):
+ * --sampling light or bsdf keeps one strategy at weight 1.
+ * Random numbers: rng_uniform(pixel, sample, bounce + 1, dimension): dimension 0 Russian
+ * roulette, 1 the light, 2-4 the light sample, 5-7 the BSDF sample. */
 #include "lib/shared_types.h"
 #include "lib/bsdf.h"
 #include "lib/lights.h"
 #include "lib/patch.h"
 #include "lib/rng.h"
+
+/* One path's step: its slots, the keys of its random numbers and its weight so far. */
+typedef struct shade_step {
+    uint i, wave_size;        /* ray slot i, shadow-ray slot wave_size + i */
+    uint pix, sample, bounce; /* rng keys; bounce 0: the eye rays' hits */
+    uint seed;
+    float tp[3]; /* throughput up to this vertex */
+} shade_step;
+
+inline float step_rng(const shade_step *s, uint dimension)
+{
+    return rng_uniform(s->pix, s->sample, s->bounce + 1u, dimension, s->seed);
+}
+
+/* The scene's lights as shade samples them (lib/lights.h). */
+typedef struct shade_lights {
+    __global const ts_light *lights;
+    uint count;
+    ts_env env;
+    __global const ts_emitter *emitters;
+    __global const ts_vec4 *cp;
+    __global const ts_patch_attr *attr;
+} shade_lights;
+
+/* A path vertex on a patch. */
+typedef struct shade_vertex {
+    ts_v3 p;     /* the hit point */
+    ts_v3 n;     /* shading normal, on wo's side */
+    ts_v3 wo;    /* towards the previous vertex */
+    float cs[3]; /* surface colour at the hit (lib/texture.h tex_surface_colour) */
+    __global const ts_patch_attr *a;
+    float eps;  /* next rays' offset along n: l / 2^m (Hanika §3.3) */
+    float time; /* the ray's time, kept by the next rays (Hanika §3.4) */
+} shade_vertex;
+
+/* The ray buffers (TS_RAY_FIELDS) the next rays go to. */
+typedef struct shade_rays {
+    __global ts_vec4 *org;
+    __global ts_vec4 *dir;
+    __global ts_hit *hit;
+    __global uint *entry;
+    __global uint *flags;
+} shade_rays;
 
 inline void add_rgb(__global ts_vec4 *acc, const float t[3], const float l[3], float w)
 {
@@ -28,31 +82,135 @@ inline void add_rgb(__global ts_vec4 *acc, const float t[3], const float l[3], f
     *acc = a;
 }
 
-/* Writes the path's next ray: from p, offset by eps along n, towards dir, up to tmax. */
-inline void emit_ray(uint i, ts_v3 p, ts_v3 n, float eps, ts_v3 dir, float time, float tmax,
-                     uint flags, __global ts_vec4 *org, __global ts_vec4 *dirs,
-                     __global ts_hit *hit, __global uint *entry, __global uint *ray_flags)
+/* Writes ray slot i: from the vertex, offset by eps along n, towards dir, up to tmax. */
+inline void emit_ray(shade_rays r, uint i, const shade_vertex *v, ts_v3 dir, float tmax, uint flags)
 {
-    org[i] = (ts_vec4){p.x + eps * n.x, p.y + eps * n.y, p.z + eps * n.z, 0.0f};
-    dirs[i] = (ts_vec4){dir.x, dir.y, dir.z, time};
-    hit[i] = (ts_hit){tmax, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
-    entry[i] = TS_ENTRY_START;
-    ray_flags[i] = flags;
+    ts_v3 p = v->p, n = v->n;
+    float eps = v->eps;
+    r.org[i] = (ts_vec4){p.x + eps * n.x, p.y + eps * n.y, p.z + eps * n.z, 0.0f};
+    r.dir[i] = (ts_vec4){dir.x, dir.y, dir.z, v->time};
+    r.hit[i] = (ts_hit){tmax, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
+    r.entry[i] = TS_ENTRY_START;
+    r.flags[i] = flags;
 }
 
-/* MIS weight of emission found by a BSDF ray (mis = (p_b, mode)): mode 0 = weight 1 (eye
- * rays, --sampling bsdf), 1 = balance heuristic against light pdf pl, 2 = 0 (--sampling
- * light: light sampling alone accounts for it). */
-inline float emission_weight(ts_vec4 mis, float pl)
+/* MIS weight of emission found by a BSDF ray made with pdf pb under `mode`, against light
+ * sampling's pdf pl of the same direction. */
+inline float emission_weight(float pb, uint mode, float pl)
 {
-    return mis.y == 0.0f ? 1.0f : mis.y == 2.0f ? 0.0f : mis.x / (mis.x + pl);
+    return mode == TS_MIS_ONE ? 1.0f : mode == TS_MIS_ZERO ? 0.0f : pb / (pb + pl);
+}
+
+/* The light sample waiting in pending is added when its shadow ray hit nothing. */
+inline void shade_shadow_result(ts_hit shadow, ts_vec4 pe, __global ts_vec4 *radiance)
+{
+    if (shadow.patch != TS_INVALID) return;
+    ts_vec4 r = *radiance;
+    *radiance = (ts_vec4){r.x + pe.x, r.y + pe.y, r.z + pe.z, r.w};
+}
+
+/* A ray that hit nothing: sky and sun in direction d, MIS-weighted. */
+inline void shade_escape(const shade_lights *L, ts_v3 d, const shade_step *s, float pb, uint mode,
+                         __global ts_vec4 *radiance)
+{
+    float le[3], pl;
+    light_escape(L->lights, L->count, L->env, d, le, &pl);
+    add_rgb(radiance, s->tp, le, emission_weight(pb, mode, pl));
+}
+
+/* The vertex where ray d (from o, at time) hit patch h.patch: position, shading normal
+ * towards the ray's origin, colour. */
+inline shade_vertex shade_vertex_at(ts_hit h, ts_vec4 o4, ts_v3 d, float time,
+                                    __global const ts_vec4 *cp, __global const ts_vec4 *corner_n,
+                                    __global const ts_patch_attr *attr,
+                                    __global const ts_xform *xform, ts_tex_ctx tex)
+{
+    shade_vertex v;
+    v.a = attr + h.patch;
+    __global const ts_vec4 *c = cp + (size_t)h.patch * 16u;
+    ts_vec4 n4 = patch_shading_normal(c, corner_n + (size_t)h.patch * 4u, v.a, xform + v.a->xform,
+                                      tex, h.u, h.v, TS_PRIM_LOD(h.prim));
+    tex_surface_colour(v.a, tex, h.u, h.v, v.cs);
+    v.n = v3(n4.x, n4.y, n4.z), v.wo = v3_scale(d, -1.0f);
+    if (v3_dot(v.n, v.wo) < 0.0f) v.n = v3_scale(v.n, -1.0f);
+    v.p = v3(o4.x + h.t * d.x, o4.y + h.t * d.y, o4.z + h.t * d.z);
+    v.eps = 0.0f;
+    v.time = time;
+    return v;
+}
+
+/* The hit patch's emission (both sides), MIS-weighted against sampling it as an area
+ * light from the previous vertex. */
+inline void shade_emission(const shade_lights *L, const shade_vertex *v, ts_hit h, ts_v3 d,
+                           const shade_step *s, float pb, uint mode, __global ts_vec4 *radiance)
+{
+    __global const ts_patch_attr *a = v->a;
+    if (!(a->le_r > 0.0f || a->le_g > 0.0f || a->le_b > 0.0f)) return;
+    float e[3] = {a->le_r, a->le_g, a->le_b};
+    float pl = light_pdf_area(L->lights, L->count, L->emitters, L->cp, a->emitter, h.patch, h.u,
+                              h.v, d, h.t);
+    add_rgb(radiance, s->tp, e, emission_weight(pb, mode, pl));
+}
+
+/* Next-event estimation: samples a light (chosen uniformly) and, when it lights the
+ * vertex, stores its contribution in *pending and writes the shadow ray into slot
+ * wave_size + i, stopping short of an area light's point and ignoring that patch. Returns
+ * TS_PATH_TRACED_SHADOW when it wrote one. */
+inline uint shade_direct_light(ts_shade_params sp, const shade_lights *L, const shade_vertex *v,
+                               const shade_step *s, __global ts_vec4 *pending, shade_rays r)
+{
+    if (L->count == 0u || sp.sampling == TS_SAMPLING_BSDF) return 0u;
+    uint li = min((uint)(step_rng(s, 1u) * (float)L->count), L->count - 1u);
+    ts_light_sample ls = light_sample(L->lights, L->count, li, L->env, L->emitters, L->cp, L->attr,
+                                      v->p, step_rng(s, 2u), step_rng(s, 3u), step_rng(s, 4u));
+    float f[3] = {0.0f, 0.0f, 0.0f};
+    float pb = ls.pdf > 0.0f ? bsdf_eval(v->a, v->cs, v->n, v->wo, ls.dir, f) : 0.0f;
+    float cosl = ls.pdf > 0.0f ? v3_dot(v->n, ls.dir) : 0.0f;
+    if (!(cosl > 0.0f && (f[0] > 0.0f || f[1] > 0.0f || f[2] > 0.0f))) return 0u;
+    float denom = ls.delta || sp.sampling == TS_SAMPLING_LIGHT ? ls.pdf : ls.pdf + pb;
+    float w = cosl / denom;
+    const float *tp = s->tp;
+    *pending = (ts_vec4){tp[0] * f[0] * ls.le[0] * w, tp[1] * f[1] * ls.le[1] * w,
+                         tp[2] * f[2] * ls.le[2] * w, 0.0f};
+    float tmax = ls.dist < TS_NO_HIT ? ls.dist * (1.0f - 1e-4f) : TS_NO_HIT;
+    uint target = ls.patch == TS_INVALID ? 0u : (ls.patch + 1u) << 1;
+    emit_ray(r, s->wave_size + s->i, v, ls.dir, tmax, TS_RAY_SHADOW | target);
+    return TS_PATH_TRACED_SHADOW;
+}
+
+/* Samples the BSDF for the path's next ray; from the second bounce on the path survives
+ * Russian roulette with probability min(1, max(new throughput)) and is reweighted by it.
+ * When it goes on: writes its throughput, the sample's pdf (mis) and *mode for the
+ * emission the ray finds, the ray into slot i, and returns TS_PATH_TRACED_BSDF. */
+inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const shade_step *s,
+                              __global ts_vec4 *throughput, __global float *mis, uint *mode,
+                              shade_rays r)
+{
+    ts_v3 wi;
+    float f[3];
+    float pb = bsdf_sample(v->a, v->cs, v->n, v->wo, step_rng(s, 5u), step_rng(s, 6u),
+                           step_rng(s, 7u), &wi, f);
+    float cosi = v3_dot(v->n, wi);
+    if (!(pb > 0.0f && cosi > 0.0f)) return 0u;
+    float w = cosi / pb;
+    const float *tp = s->tp;
+    float nt[3] = {tp[0] * f[0] * w, tp[1] * f[1] * w, tp[2] * f[2] * w};
+    float survive = s->bounce >= 1u ? fmin(1.0f, fmax(nt[0], fmax(nt[1], nt[2]))) : 1.0f;
+    if (!(step_rng(s, 0u) < survive)) return 0u;
+    *throughput = (ts_vec4){nt[0] / survive, nt[1] / survive, nt[2] / survive, 0.0f};
+    *mode = sp.light_count == 0u || sp.sampling == TS_SAMPLING_BSDF ? TS_MIS_ONE
+            : sp.sampling == TS_SAMPLING_LIGHT                      ? TS_MIS_ZERO
+                                                                    : TS_MIS_BALANCE;
+    emit_ray(r, s->i, v, wi, TS_NO_HIT, 0u);
+    *mis = pb;
+    return TS_PATH_TRACED_BSDF;
 }
 
 __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count, uint wave_size,
                          __global const uint *paths, uint path_count, __global ts_vec4 *org,
                          __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
                          __global uint *ray_flags, __global const uint *pixel,
-                         __global ts_vec4 *throughput, __global ts_vec4 *mis,
+                         __global ts_vec4 *throughput, __global float *mis, __global uint *state,
                          __global ts_vec4 *pending, __global ts_vec4 *radiance,
                          __global ts_vec4 *aov, __global ts_vec4 *albedo,
                          __global const ts_vec4 *cp, __global const ts_vec4 *corner_n,
@@ -65,94 +223,49 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
 {
     uint k = get_global_id(0);
     if (k >= path_count) return;
-    uint i = paths[k], traced = (uint)mis[i].z;
-    ts_env env = {env_texels, env_marginal, env_conditional};
-    ts_tex_ctx tex = {textures, tex_pages, tex_pool};
+    uint i = paths[k], st = state[i];
     alive[k] = 0u;
-    if ((traced & 2u) && hit[wave_size + i].patch == TS_INVALID) { /* the light was visible */
-        ts_vec4 pe = pending[i], r = radiance[i];
-        radiance[i] = (ts_vec4){r.x + pe.x, r.y + pe.y, r.z + pe.z, r.w};
-    }
-    if (!(traced & 1u)) return;
+    if (st & TS_PATH_TRACED_SHADOW)
+        shade_shadow_result(hit[wave_size + i], pending[i], &radiance[i]);
+    if (!(st & TS_PATH_TRACED_BSDF)) return;
+    shade_lights L = {.lights = lights,
+                      .count = sp.light_count,
+                      .env = {env_texels, env_marginal, env_conditional},
+                      .emitters = emitters,
+                      .cp = cp,
+                      .attr = attr};
+    ts_tex_ctx tex = {textures, tex_pages, tex_pool};
+    shade_rays rays = {org, dir, hit, entry, ray_flags};
     ts_hit h = hit[i];
-    ts_vec4 d4 = dir[i], o4 = org[i], t4 = throughput[i], m4 = mis[i];
+    ts_vec4 d4 = dir[i], o4 = org[i], t4 = throughput[i];
     ts_v3 d = v3(d4.x, d4.y, d4.z);
-    float tp[3] = {t4.x, t4.y, t4.z}, le[3];
-    uint pix = pixel[i], sample = (first_sample + i) / pixel_count, b = sp.bounce;
-    if (h.patch == TS_INVALID) { /* sky and sun */
-        float pl;
-        light_escape(lights, sp.light_count, env, d, le, &pl);
-        add_rgb(&radiance[i], tp, le, emission_weight(m4, pl));
-        if (b == 0u)
+    float pb = mis[i];
+    uint mode = TS_PATH_MIS(st);
+    shade_step s = {.i = i,
+                    .wave_size = wave_size,
+                    .pix = pixel[i],
+                    .sample = (first_sample + i) / pixel_count,
+                    .bounce = sp.bounce,
+                    .seed = sp.seed,
+                    .tp = {t4.x, t4.y, t4.z}};
+    if (h.patch == TS_INVALID) {
+        shade_escape(&L, d, &s, pb, mode, &radiance[i]);
+        if (s.bounce == 0u)
             aov[i] = (ts_vec4){0.0f, 0.0f, 0.0f, INFINITY}, albedo[i] = (ts_vec4){0, 0, 0, 0};
         return;
     }
-    __global const ts_patch_attr *a = attr + h.patch;
-    __global const ts_vec4 *c = cp + (size_t)h.patch * 16u;
-    ts_vec4 n4 = patch_shading_normal(c, corner_n + (size_t)h.patch * 4u, a, xform + a->xform, tex,
-                                      h.u, h.v, TS_PRIM_LOD(h.prim));
-    float cs[3];
-    tex_surface_colour(a, tex, h.u, h.v, cs);
-    ts_v3 n = v3(n4.x, n4.y, n4.z), wo = v3_scale(d, -1.0f);
-    if (v3_dot(n, wo) < 0.0f) n = v3_scale(n, -1.0f);
-    ts_v3 p = v3(o4.x + h.t * d.x, o4.y + h.t * d.y, o4.z + h.t * d.z);
-    if (b == 0u) {
-        aov[i] = (ts_vec4){n.x, n.y, n.z, h.t};
-        albedo[i] = (ts_vec4){a->kd * cs[0], a->kd * cs[1], a->kd * cs[2], 0.0f};
+    shade_vertex v = shade_vertex_at(h, o4, d, d4.w, cp, corner_n, attr, xform, tex);
+    if (s.bounce == 0u) {
+        __global const ts_patch_attr *a = v.a;
+        aov[i] = (ts_vec4){v.n.x, v.n.y, v.n.z, h.t};
+        albedo[i] = (ts_vec4){a->kd * v.cs[0], a->kd * v.cs[1], a->kd * v.cs[2], 0.0f};
     }
-    if (a->le_r > 0.0f || a->le_g > 0.0f || a->le_b > 0.0f) {
-        float e[3] = {a->le_r, a->le_g, a->le_b};
-        float pl = light_pdf_area(lights, sp.light_count, emitters, cp, a->emitter, h.patch, h.u,
-                                  h.v, d, h.t);
-        add_rgb(&radiance[i], tp, e, emission_weight(m4, pl));
-    }
-    if (b >= sp.depth) return;
-    /* Offset for the next rays: epsilon = l / 2^m, l the longest side of the patch's box
-     * (Hanika §3.3); the flatness record's w holds l. */
-    float eps = flatness[h.patch].w * ldexp(1.0f, -(int)TS_PRIM_LOD(h.prim)), f[3];
-    uint out = 0u;
-    if (sp.light_count > 0u && sp.sampling != TS_SAMPLING_BSDF) { /* next-event estimation */
-        uint li = min((uint)(rng_uniform(pix, sample, b + 1u, 1u, sp.seed) * (float)sp.light_count),
-                      sp.light_count - 1u);
-        ts_light_sample ls = light_sample(lights, sp.light_count, li, env, emitters, cp, attr, p,
-                                          rng_uniform(pix, sample, b + 1u, 2u, sp.seed),
-                                          rng_uniform(pix, sample, b + 1u, 3u, sp.seed),
-                                          rng_uniform(pix, sample, b + 1u, 4u, sp.seed));
-        float pb = ls.pdf > 0.0f ? bsdf_eval(a, cs, n, wo, ls.dir, f) : 0.0f;
-        float cosl = ls.pdf > 0.0f ? v3_dot(n, ls.dir) : 0.0f;
-        if (cosl > 0.0f && (f[0] > 0.0f || f[1] > 0.0f || f[2] > 0.0f)) {
-            float denom = ls.delta || sp.sampling == TS_SAMPLING_LIGHT ? ls.pdf : ls.pdf + pb;
-            float s = cosl / denom;
-            pending[i] = (ts_vec4){tp[0] * f[0] * ls.le[0] * s, tp[1] * f[1] * ls.le[1] * s,
-                                   tp[2] * f[2] * ls.le[2] * s, 0.0f};
-            /* A shadow ray stops short of an area light's point and ignores that patch. */
-            float tmax = ls.dist < TS_NO_HIT ? ls.dist * (1.0f - 1e-4f) : TS_NO_HIT;
-            uint target = ls.patch == TS_INVALID ? 0u : (ls.patch + 1u) << 1;
-            emit_ray(wave_size + i, p, n, eps, ls.dir, d4.w, tmax, TS_RAY_SHADOW | target, org, dir,
-                     hit, entry, ray_flags);
-            out |= 2u;
-        }
-    }
-    ts_v3 wi;
-    float pb = bsdf_sample(a, cs, n, wo, rng_uniform(pix, sample, b + 1u, 5u, sp.seed),
-                           rng_uniform(pix, sample, b + 1u, 6u, sp.seed),
-                           rng_uniform(pix, sample, b + 1u, 7u, sp.seed), &wi, f);
-    float cosi = v3_dot(n, wi);
-    if (pb > 0.0f && cosi > 0.0f) {
-        float s = cosi / pb;
-        float nt[3] = {tp[0] * f[0] * s, tp[1] * f[1] * s, tp[2] * f[2] * s};
-        float survive = b >= 1u ? fmin(1.0f, fmax(nt[0], fmax(nt[1], nt[2]))) : 1.0f;
-        if (rng_uniform(pix, sample, b + 1u, 0u, sp.seed) < survive) {
-            throughput[i] = (ts_vec4){nt[0] / survive, nt[1] / survive, nt[2] / survive, 0.0f};
-            float mode = sp.light_count == 0u || sp.sampling == TS_SAMPLING_BSDF ? 0.0f
-                         : sp.sampling == TS_SAMPLING_LIGHT                      ? 2.0f
-                                                                                 : 1.0f;
-            emit_ray(i, p, n, eps, wi, d4.w, TS_NO_HIT, 0u, org, dir, hit, entry, ray_flags);
-            mis[i] = (ts_vec4){pb, mode, 0.0f, 0.0f};
-            out |= 1u;
-        }
-    }
-    ts_vec4 m = mis[i];
-    mis[i] = (ts_vec4){m.x, m.y, (float)out, 0.0f};
+    shade_emission(&L, &v, h, d, &s, pb, mode, &radiance[i]);
+    if (s.bounce >= sp.depth) return;
+    /* l: the longest side of the patch's box, in the flatness record's w. */
+    v.eps = flatness[h.patch].w * ldexp(1.0f, -(int)TS_PRIM_LOD(h.prim));
+    uint out = shade_direct_light(sp, &L, &v, &s, &pending[i], rays);
+    out |= shade_bsdf_bounce(sp, &v, &s, &throughput[i], &mis[i], &mode, rays);
+    state[i] = TS_PATH_STATE(out, mode);
     alive[k] = out;
 }

@@ -113,7 +113,7 @@ static void check_scene(int displaced, int moving)
             pairs[q * R + r] = (ts_pair){q, r * P + q};
     }
     if (pipeline_dice_build(&p, P, &err)) fail_msg("%s", err.msg);
-    write_buffer(&cl, p.pairs[0], sizeof pairs, pairs);
+    write_buffer(&cl, p.pairs, sizeof pairs, pairs);
     size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4),
            nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
     ts_vec4 *grid = malloc(gbytes), *hgrid = malloc(gbytes);

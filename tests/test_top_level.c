@@ -66,8 +66,8 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
     int done = 0;
     for (int it = 0; it < 1000 && !done; ++it) {
         if (pipeline_top_level(&p, RAYS, n_per_ray, &err)) fail_msg("%s", err.msg);
-        clEnqueueReadBuffer(q, p.pairs[0], CL_TRUE, 0, (size_t)RAYS * n_per_ray * sizeof *pairs,
-                            pairs, 0, NULL, NULL);
+        clEnqueueReadBuffer(q, p.pairs, CL_TRUE, 0, (size_t)RAYS * n_per_ray * sizeof *pairs, pairs,
+                            0, NULL, NULL);
         clEnqueueReadBuffer(q, p.count, CL_TRUE, 0, sizeof count, count, 0, NULL, NULL);
         clEnqueueReadBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL);
         done = 1;

@@ -229,7 +229,7 @@ static int bench_prepare(const bench_options *o, bench_setup *s, ts_error *err)
     }
     if (pipeline_dice_build(&s->p, np, err)) return err->code;
     cl_command_queue qu = s->cl.queue;
-    CL_CHECK(clEnqueueWriteBuffer(qu, s->p.pairs[0], CL_TRUE, 0, n * sizeof *s->pairs, s->pairs, 0,
+    CL_CHECK(clEnqueueWriteBuffer(qu, s->p.pairs, CL_TRUE, 0, n * sizeof *s->pairs, s->pairs, 0,
                                   NULL, NULL),
              err);
     CL_CHECK(clEnqueueWriteBuffer(qu, s->p.active, CL_TRUE, 0, n * sizeof *s->active, s->active, 0,

@@ -436,24 +436,28 @@ cl_mem dev_buffer_create(ts_device *cl, cl_mem_flags flags, size_t size, void *h
     return m;
 }
 
+int dev_set_arg(cl_kernel k, cl_uint index, size_t size, const void *value, ts_error *err)
+{
+    cl_int rc = clSetKernelArg(k, index, size, value);
+    if (rc == CL_SUCCESS) return TS_OK;
+    char name[128] = "?";
+    clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);
+    return dev_fail(err, rc, "clSetKernelArg(%s, %u)", name, index);
+}
+
 int dev_set_args(cl_kernel k, ts_error *err, ...)
 {
     va_list ap;
     va_start(ap, err);
-    for (cl_uint i = 0;; ++i) {
+    int rc = TS_OK;
+    for (cl_uint i = 0; rc == TS_OK; ++i) {
         size_t size = va_arg(ap, size_t);
         if (size == 0) break;
         const void *value = va_arg(ap, const void *);
-        cl_int rc = clSetKernelArg(k, i, size, value);
-        if (rc != CL_SUCCESS) {
-            va_end(ap);
-            char name[128] = "?";
-            clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);
-            return dev_fail(err, rc, "clSetKernelArg(%s, %u)", name, i);
-        }
+        rc = dev_set_arg(k, i, size, value, err);
     }
     va_end(ap);
-    return TS_OK;
+    return rc;
 }
 
 int dev_launch(ts_device *cl, cl_kernel k, ts_stage stage, size_t global, size_t local,

@@ -96,8 +96,12 @@ cl_kernel dev_kernel_create(ts_device *cl, const char *name, ts_error *err);
 /* clCreateBuffer with the error named; size 0 is rounded up to 1 byte. */
 cl_mem dev_buffer_create(ts_device *cl, cl_mem_flags flags, size_t size, void *host, ts_error *err);
 
-/* Sets arguments in order from (size, pointer) pairs; ends at size 0. */
+/* Sets arguments in order from (size, pointer) pairs; ends at size 0. DEV_ARG(x) is the
+ * pair of an lvalue: dev_set_args(k, err, DEV_ARG(a), DEV_ARG(b), (size_t)0). */
 int dev_set_args(cl_kernel k, ts_error *err, ...);
+#define DEV_ARG(x) sizeof(x), &(x)
+/* Sets argument `index` alone (a launch that changes one argument of those already set). */
+int dev_set_arg(cl_kernel k, cl_uint index, size_t size, const void *value, ts_error *err);
 
 /* The launch wrapper: enqueues `k` over `global` items (rounded up to a multiple of
  * `local`; the kernels guard their range) and records a profiling event for `stage`. */

@@ -1,5 +1,5 @@
 #include "pipeline/pipeline.h"
-#include "image/image.h"
+#include "pipeline/lights.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
 
@@ -65,302 +65,198 @@ int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
 
 static int create_kernels(ts_pipeline *p, ts_error *err)
 {
-    struct {
+    const struct {
         cl_kernel *k;
         const char *name;
     } list[] = {
-        {&p->k_camera, "camera_generate"},  {&p->k_top_level, "top_level_collect"},
-        {&p->k_lod, "lod_count"},           {&p->k_bottom_group, "bottom_level_group"},
-        {&p->k_dice, "dice_grid"},          {&p->k_build_leaves, "build_leaves"},
-        {&p->k_build_level, "build_level"}, {&p->k_bottom_level, "bottom_level_trace"},
-        {&p->k_resolve, "resolve_closest"}, {&p->k_shade, "shade_path"},
-        {&p->k_film, "film_accumulate"},
+#define TS_KERNEL_ENTRY(field, name) {&p->field, name},
+        TS_PIPELINE_KERNELS(TS_KERNEL_ENTRY)
+#undef TS_KERNEL_ENTRY
     };
     for (size_t i = 0; i < sizeof list / sizeof *list; ++i)
         if (!(*list[i].k = dev_kernel_create(p->cl, list[i].name, err))) return err->code;
     return TS_OK;
 }
 
-/* Area of patch p's undisplaced surface at time 0: |dP/du x dP/dv| on an 8 x 8 midpoint
- * grid. */
-static float patch_area(const ts_scene *s, uint32_t p)
+/* The scene's data as the kernels read it (TS_PIPELINE_BUFFERS' contents column reads it as
+ * u.NAME): the scene's arrays, or defaults where it has none (no motion: cp1 = cp; no
+ * transforms: the identity; no normals: +z; NULL: zeros), and what the host derives. */
+typedef struct scene_uploads {
+    const void *nodes, *cp, *cp1, *corner_n, *xform, *boxes, *textures;
+    ts_patch_attr *attr;   /* the scene's, with each patch's emitter index (lights_build) */
+    ts_vec4 *flatness;     /* patch_flatness; w: the longest side of the patch's box */
+    ts_vec4 *normals;      /* +z corner normals when the scene has none */
+    ts_light_table lights; /* lights.h */
+    ts_env_map env;        /* the dome's map; 0 x 0 without one */
+} scene_uploads;
+
+static void scene_uploads_free(scene_uploads *u)
 {
-    double a = 0;
-    for (int j = 0; j < 8; ++j)
-        for (int i = 0; i < 8; ++i) {
-            ts_vec4 n = bezier_cross_derivs(&s->cp[p * 16], (i + 0.5f) / 8, (j + 0.5f) / 8);
-            a += sqrt((double)n.x * n.x + (double)n.y * n.y + (double)n.z * n.z) / 64.0;
-        }
-    return (float)a;
+    free(u->attr);
+    free(u->flatness);
+    free(u->normals);
+    lights_free(&u->lights);
+    env_map_free(&u->env);
+    memset(u, 0, sizeof *u);
 }
 
-/* The dome's environment map for the kernels (lib/lights.h): texels, and the CDFs that
- * sample it by luminance times sin(theta). Without a map: one unused element each. */
-typedef struct env_map {
-    ts_vec4 *texels;
-    float *marginal, *conditional;
-    uint32_t width, height;
-} env_map;
-
-static int env_load(const char *path, env_map *e, ts_error *err)
+/* Fills *u for p's scene; boxes: each patch's scene_patch_box. The caller frees *u with
+ * scene_uploads_free, also after a failure. */
+static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_uploads *u,
+                              ts_error *err)
 {
-    memset(e, 0, sizeof *e);
-    ts_image img;
-    if (image_read(path, &img, err)) return err->code;
-    uint32_t w = (uint32_t)img.width, h = (uint32_t)img.height;
-    e->texels = malloc((size_t)w * h * sizeof *e->texels);
-    e->marginal = malloc(h * sizeof *e->marginal);
-    e->conditional = malloc((size_t)w * h * sizeof *e->conditional);
-    if (!e->texels || !e->marginal || !e->conditional) {
-        image_free(&img);
-        return ts_error_set(err, TS_E_MEMORY, "%s: out of memory for the environment map", path);
+    static const ts_xform identity = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
+    const ts_scene *s = p->scene;
+    size_t n = s->patch_count ? s->patch_count : 1;
+    memset(u, 0, sizeof *u);
+    u->nodes = p->qbvh.nodes;
+    u->cp = s->cp;
+    u->cp1 = s->cp1 ? s->cp1 : s->cp;
+    u->xform = s->xform_count ? (const void *)s->xform : (const void *)&identity;
+    u->boxes = s->patch_count ? boxes : NULL;
+    u->textures = s->textures;
+    u->attr = calloc(n, sizeof *u->attr);
+    u->flatness = calloc(n, sizeof *u->flatness);
+    u->normals = s->corner_n ? NULL : calloc(n * 4, sizeof *u->normals);
+    u->corner_n = s->corner_n ? (const void *)s->corner_n : (const void *)u->normals;
+    if (!u->attr || !u->flatness || !u->corner_n)
+        return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    for (size_t i = 0; u->normals && i < n * 4; ++i)
+        u->normals[i].z = 1.0f;
+    if (s->patch_count) memcpy(u->attr, s->attr, s->patch_count * sizeof *u->attr);
+    /* w: the longest side of the patch's box, for the secondary-ray offset l / 2^m. */
+    for (uint32_t i = 0; i < s->patch_count; ++i) {
+        const ts_vec4 *c0 = &s->cp[i * 16], *c1 = s->cp1 ? &s->cp1[i * 16] : c0;
+        u->flatness[i] = patch_flatness(c0, c1, 0);
+        ts_box b = boxes[i];
+        u->flatness[i].w = fmaxf(b.hi_x - b.lo_x, fmaxf(b.hi_y - b.lo_y, b.hi_z - b.lo_z));
     }
-    double total = 0;
-    for (uint32_t y = 0; y < h; ++y) {
-        double row = 0, s = sin(M_PI * (y + 0.5) / h);
-        for (uint32_t x = 0; x < w; ++x) {
-            const float *px = &img.pixels[((size_t)y * w + x) * img.channels];
-            float r = px[0], g = img.channels > 2 ? px[1] : r, b = img.channels > 2 ? px[2] : r;
-            if (!(r >= 0 && g >= 0 && b >= 0 && r < 1e30f && g < 1e30f && b < 1e30f)) r = g = b = 0;
-            e->texels[(size_t)y * w + x] = (ts_vec4){r, g, b, 0};
-            row += (0.2126 * r + 0.7152 * g + 0.0722 * b) * s;
-            e->conditional[(size_t)y * w + x] = (float)row;
-        }
-        for (uint32_t x = 0; x < w; ++x) /* cumulative within the row, ending at 1 */
-            e->conditional[(size_t)y * w + x] =
-                row > 0 ? (float)(e->conditional[(size_t)y * w + x] / row) : (float)(x + 1) / w;
-        e->conditional[(size_t)y * w + w - 1] = 1.0f;
-        total += row;
-        e->marginal[y] = (float)total;
-    }
-    for (uint32_t y = 0; y < h; ++y)
-        e->marginal[y] = total > 0 ? (float)(e->marginal[y] / total) : (float)(y + 1) / h;
-    e->marginal[h - 1] = 1.0f;
-    e->width = w, e->height = h;
-    image_free(&img);
-    return TS_OK;
+    if (s->dome.present && s->dome.mapname[0] && env_map_load(s->dome.mapname, &u->env, err))
+        return err->code;
+    return lights_build(s, &u->env, u->attr, &u->lights, err);
 }
 
-/* The lights as the kernels read them (lib/lights.h): every distant light, the dome, and
- * one area light over all emissive patches, which are listed in an emitter table chosen by
- * power (area times brightest channel). attr gets each emitter's index. */
-static int build_lights(ts_pipeline *p, ts_patch_attr *attr, ts_light *lights, ts_emitter **em,
-                        uint32_t *emitter_count, const env_map *env, ts_error *err)
+/* Element counts of the buffers (TS_PIPELINE_BUFFERS' count column reads them as c.NAME).
+ * What the scene lacks counts 1. */
+typedef struct buffer_counts {
+    size_t rays, pairs, pixels;                    /* the plan, the image */
+    size_t patches, nodes, xforms, textures;       /* the scene */
+    size_t lights, emitters, env_texels, env_rows; /* lights.h */
+    size_t tex_texels, tex_pages;                  /* tile pool, page table */
+    size_t verts, groups;                          /* the arenas */
+} buffer_counts;
+
+static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads *u)
 {
     const ts_scene *s = p->scene;
-    uint32_t nl = 0, ne = 0;
-    for (uint32_t i = 0; i < s->light_count; ++i) {
-        const ts_distant_light *d = &s->lights[i];
-        ts_light l = {.type = TS_LIGHT_DISTANT, .cos_max = 1.0f};
-        double dir[3] = {d->from[0] - d->to[0], d->from[1] - d->to[1], d->from[2] - d->to[2]};
-        double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
-        double half = 0.5 * d->angle * M_PI / 180.0, e_scale = 1.0;
-        if (half > 0) { /* radiance L with L * pi sin^2(half) = E, uniform in the cone */
-            l.cos_max = (float)cos(half);
-            l.solid_angle = (float)(2 * M_PI * (1 - cos(half)));
-            e_scale = 1.0 / (M_PI * sin(half) * sin(half));
-        }
-        for (int k = 0; k < 3; ++k) {
-            l.dir[k] = (float)(dir[k] / len);
-            l.radiance[k] = (float)(d->intensity * d->color[k] * e_scale);
-        }
-        lights[nl++] = l;
+    const ts_env_map *e = &u->env;
+    return (buffer_counts){
+        .rays = p->plan.ray_capacity,
+        .pairs = p->plan.pair_capacity,
+        .pixels = p->pixel_count,
+        .patches = s->patch_count ? s->patch_count : 1,
+        .nodes = p->qbvh.node_count,
+        .xforms = s->xform_count ? s->xform_count : 1,
+        .textures = s->texture_count ? s->texture_count : 1,
+        .lights = u->lights.light_count ? u->lights.light_count : 1,
+        .emitters = u->lights.emitter_count ? u->lights.emitter_count : 1,
+        .env_texels = e->width ? (size_t)e->width * e->height : 1,
+        .env_rows = e->width ? e->height : 1,
+        .tex_texels = (size_t)(p->tex.slots ? p->tex.slots : 1) * TS_TEX_TILE * TS_TEX_TILE,
+        .tex_pages = p->tex.pages ? p->tex.pages : 1,
+        .verts = p->plan.vert_capacity,
+        .groups = p->plan.group_capacity,
+    };
+}
+
+/* Makes every buffer: the ray and path fields (one entry per ray of the wave), then
+ * TS_PIPELINE_BUFFERS, the scene's uploaded from *uploads. */
+static int create_buffers(ts_pipeline *p, const buffer_counts *counts, const scene_uploads *uploads,
+                          ts_error *err)
+{
+    const buffer_counts c = *counts;
+    const scene_uploads u = *uploads;
+    const struct {
+        cl_mem *m;
+        cl_mem_flags flags;
+        size_t bytes;
+        const void *contents;
+    } list[] = {
+    /* clang-format off */
+#define TS_RAY_ENTRY(type, name, what)                                                             \
+        {&p->ray_##name, CL_MEM_READ_WRITE, c.rays * sizeof(type), NULL},
+        TS_RAY_FIELDS(TS_RAY_ENTRY)
+#undef TS_RAY_ENTRY
+#define TS_PATH_ENTRY(type, name, what)                                                            \
+        {&p->path_##name, CL_MEM_READ_WRITE, c.rays * sizeof(type), NULL},
+        TS_PATH_FIELDS(TS_PATH_ENTRY)
+#undef TS_PATH_ENTRY
+#define TS_BUFFER_ENTRY(field, flags, type, count, contents)                                       \
+        {&p->field, flags, (count) * sizeof(type), contents},
+        TS_PIPELINE_BUFFERS(TS_BUFFER_ENTRY)
+#undef TS_BUFFER_ENTRY
+        /* clang-format on */
+    };
+    /* What the scene lacks is one zeroed element; the largest is a patch's 16 control
+     * points (256 bytes). */
+    static const ts_vec4 zeros[16];
+    for (size_t i = 0; i < sizeof list / sizeof *list; ++i) {
+        const void *host = list[i].contents ? list[i].contents : zeros;
+        if (!(list[i].flags & CL_MEM_COPY_HOST_PTR)) host = NULL;
+        *list[i].m = dev_buffer_create(p->cl, list[i].flags, list[i].bytes, (void *)host, err);
+        if (!*list[i].m) return err->code;
     }
-    if (s->dome.present) {
-        ts_light l = {.type = TS_LIGHT_DOME,
-                      .cos_max = 1.0f,
-                      .map_width = env->width,
-                      .map_height = env->height};
-        for (int k = 0; k < 3; ++k)
-            l.radiance[k] = (float)(s->dome.intensity * s->dome.color[k]);
-        lights[nl++] = l;
-    }
-    for (uint32_t i = 0; i < s->patch_count; ++i)
-        ne += attr[i].le_r > 0 || attr[i].le_g > 0 || attr[i].le_b > 0;
-    *em = calloc(ne ? ne : 1, sizeof **em);
-    if (!*em) return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    double total = 0;
-    ne = 0;
-    for (uint32_t i = 0; i < s->patch_count; ++i) {
-        attr[i].emitter = TS_INVALID;
-        float le = fmaxf(attr[i].le_r, fmaxf(attr[i].le_g, attr[i].le_b));
-        if (!(le > 0)) continue;
-        float area = patch_area(s, i);
-        (*em)[ne] = (ts_emitter){i, 0, area * le, area};
-        total += area * le;
-        attr[i].emitter = ne++;
-    }
-    double acc = 0;
-    for (uint32_t k = 0; k < ne; ++k) {
-        (*em)[k].prob = total > 0 ? (float)((*em)[k].prob / total) : 0.0f;
-        acc += (*em)[k].prob;
-        (*em)[k].cdf = k + 1 == ne ? 1.0f : (float)acc;
-    }
-    if (ne) lights[nl++] = (ts_light){.type = TS_LIGHT_AREA, .emitter_count = ne, .cos_max = 1.0f};
-    *emitter_count = ne;
-    p->light_count = nl;
     return TS_OK;
 }
 
-/* Patch data as the kernels read it: the scene's arrays, or defaults where the scene has
- * none (no motion: cp1 = cp; no transforms: the identity; no normals: +z). boxes: each
- * patch's scene_patch_box, computed once by pipeline_create. */
-static int create_patch_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *err)
+/* The film starts black and "nothing hit"; the LOD counts and leaf utilisation at zero. */
+static int clear_buffers(ts_pipeline *p, const buffer_counts *c, ts_error *err)
+{
+    const ts_vec4 zero = {0, 0, 0, 0};
+    const cl_uint zero_u = 0;
+    size_t film = c->pixels * sizeof(ts_vec4);
+    if (dev_fill(p->cl, p->accum, &zero, sizeof zero, 0, film, "the film", err) ||
+        dev_fill(p->cl, p->aov_film, &zero, sizeof zero, 0, film, "the AOV film", err) ||
+        dev_fill(p->cl, p->albedo_film, &zero, sizeof zero, 0, film, "the albedo film", err) ||
+        dev_fill(p->cl, p->lod_counts, &zero_u, sizeof zero_u, 0, c->patches * sizeof(cl_uint),
+                 "the LOD counts", err) ||
+        dev_fill(p->cl, p->utilisation, &zero_u, sizeof zero_u, 0, 2 * sizeof(cl_uint),
+                 "the leaf utilisation", err))
+        return err->code;
+    return TS_OK;
+}
+
+/* Discrete devices: the host copies of the two pair buffers that sort works on
+ * (pipeline.h sort_host). TESSERA_SORT_VIA_COPY=1|0 overrides the choice (tests run both
+ * paths on PoCL). */
+static int create_sort_copies(ts_pipeline *p, ts_error *err)
+{
+    const char *via_copy = getenv("TESSERA_SORT_VIA_COPY");
+    if (!(via_copy && *via_copy ? strcmp(via_copy, "0") != 0 : !p->cl->info.host_unified))
+        return TS_OK;
+    size_t bytes = ((size_t)p->plan.pair_capacity * sizeof(ts_pair) + 4095) & ~(size_t)4095;
+    for (int i = 0; i < 2; ++i)
+        if (!(p->sort_host[i] = aligned_alloc(4096, bytes)))
+            return ts_error_set(err, TS_E_MEMORY, "out of memory (%zu MiB of sort buffers)",
+                                2 * bytes >> 20);
+    return TS_OK;
+}
+
+/* The host's per-patch tables and each patch's box (*boxes, freed by the caller). */
+static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
 {
     const ts_scene *s = p->scene;
     size_t n = s->patch_count ? s->patch_count : 1;
-    const cl_mem_flags ro_copy = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
-    ts_vec4 *flat = calloc(n, sizeof *flat), *normals = NULL;
-    ts_patch_attr *attr = calloc(n, sizeof *attr);
-    ts_light lights[66];
-    ts_emitter *emitters = NULL;
-    uint32_t emitter_count = 0;
-    env_map env = {0};
-    if (s->dome.present && s->dome.mapname[0] && env_load(s->dome.mapname, &env, err)) {
-        free(env.texels), free(env.marginal), free(env.conditional), free(flat), free(attr);
-        return err->code;
-    }
-    if (!flat || !attr) {
-        free(flat), free(attr);
+    *boxes = malloc(n * sizeof **boxes);
+    p->segments_host = malloc(n * sizeof *p->segments_host);
+    p->trees_host = malloc(2 * n * sizeof *p->trees_host);
+    p->batches = malloc(n * sizeof *p->batches);
+    p->patch_lod = malloc(n);
+    if (!*boxes || !p->segments_host || !p->trees_host || !p->batches || !p->patch_lod)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    }
-    if (s->light_count > 64) {
-        free(flat), free(attr);
-        return ts_error_set(err, TS_E_SCENE, "%u distant lights: at most 64", s->light_count);
-    }
-    memcpy(attr, s->attr, s->patch_count * sizeof *attr);
-    if (build_lights(p, attr, lights, &emitters, &emitter_count, &env, err)) {
-        free(flat), free(attr);
-        return err->code;
-    }
-    /* w: the longest side of the patch's box, for the secondary-ray offset l / 2^m. */
-    for (uint32_t i = 0; i < s->patch_count; ++i) {
-        flat[i] = patch_flatness(&s->cp[i * 16], s->cp1 ? &s->cp1[i * 16] : &s->cp[i * 16], 0);
-        ts_box b = boxes[i];
-        flat[i].w = fmaxf(b.hi_x - b.lo_x, fmaxf(b.hi_y - b.lo_y, b.hi_z - b.lo_z));
-    }
-    const ts_vec4 *cn = s->corner_n;
-    if (!cn) {
-        normals = calloc(n * 4, sizeof *normals);
-        if (!normals) {
-            free(flat);
-            return ts_error_set(err, TS_E_MEMORY, "out of memory");
-        }
-        for (size_t i = 0; i < n * 4; ++i)
-            normals[i].z = 1.0f;
-        cn = normals;
-    }
-    const ts_xform identity = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
-    struct {
-        cl_mem *m;
-        size_t size;
-        const void *host;
-    } list[] = {
-        {&p->qbvh_nodes, p->qbvh.node_count * sizeof(ts_qbvh_node), p->qbvh.nodes},
-        {&p->cp, n * 16 * sizeof(ts_vec4), s->cp},
-        {&p->cp1, n * 16 * sizeof(ts_vec4), s->cp1 ? s->cp1 : s->cp},
-        {&p->corner_n, n * 4 * sizeof(ts_vec4), cn},
-        {&p->attr, n * sizeof(ts_patch_attr), attr},
-        {&p->lights, (p->light_count ? p->light_count : 1) * sizeof(ts_light), lights},
-        {&p->emitters, (emitter_count ? emitter_count : 1) * sizeof(ts_emitter), emitters},
-        {&p->env_texels, (env.width ? (size_t)env.width * env.height : 1) * sizeof(ts_vec4),
-         env.texels},
-        {&p->env_marginal, (env.width ? env.height : 1) * sizeof(float), env.marginal},
-        {&p->env_conditional, (env.width ? (size_t)env.width * env.height : 1) * sizeof(float),
-         env.conditional},
-        {&p->xform, (s->xform_count ? s->xform_count : 1) * sizeof(ts_xform),
-         s->xform_count ? (const void *)s->xform : (const void *)&identity},
-        {&p->flatness, n * sizeof(ts_vec4), flat},
-        {&p->patch_box, n * sizeof(ts_box), s->patch_count ? boxes : NULL},
-        {&p->textures, (s->texture_count ? s->texture_count : 1) * sizeof(ts_texture), s->textures},
-    };
-    int rc = TS_OK;
-    for (size_t i = 0; i < sizeof list / sizeof *list && rc == TS_OK; ++i) {
-        /* What the scene lacks (no patch, no map) is one unused zeroed element, so no buffer
-         * has size 0; the largest such element is a patch's 16 control points. */
-        static const ts_vec4 zeros[16];
-        const void *host = list[i].host ? list[i].host : zeros;
-        *list[i].m = dev_buffer_create(p->cl, ro_copy, list[i].size, (void *)host, err);
-        if (!*list[i].m) rc = err->code;
-    }
-    free(flat);
-    free(normals);
-    free(attr);
-    free(emitters);
-    free(env.texels), free(env.marginal), free(env.conditional);
-    if (rc != TS_OK) return rc;
-    /* Texture tiles: a pool of tex.slots tiles and the page table (tex_cache.h). */
-    if (tex_cache_create(&p->tex, s, p->plan.tex_pool_bytes, err)) return err->code;
-    size_t slots = p->tex.slots ? p->tex.slots : 1, pages = p->tex.pages ? p->tex.pages : 1;
-    p->tex_pool = dev_buffer_create(p->cl, CL_MEM_READ_ONLY,
-                                    slots * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4), NULL, err);
-    p->tex_pages = p->tex_pool ? dev_buffer_create(p->cl, CL_MEM_READ_ONLY,
-                                                   pages * sizeof(uint32_t), NULL, err)
-                               : NULL;
-    if (!p->tex_pages) return err->code;
-    return tex_cache_upload_initial(&p->tex, p->cl, p->tex_pool, p->tex_pages, s, p->stats, err);
-}
-
-static int create_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *err)
-{
-    ts_device *cl = p->cl;
-    size_t rays = p->plan.ray_capacity, pairs = p->plan.pair_capacity;
-    size_t n = p->scene->patch_count ? p->scene->patch_count : 1;
-    const cl_mem_flags host_rw = CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR;
-    if (create_patch_buffers(p, boxes, err)) return err->code;
-    struct {
-        cl_mem *m;
-        cl_mem_flags flags;
-        size_t size;
-    } list[] = {
-#define TS_RAY_ALLOC(type, name, what) {&p->ray_##name, CL_MEM_READ_WRITE, rays * sizeof(type)},
-        TS_RAY_FIELDS(TS_RAY_ALLOC)
-#undef TS_RAY_ALLOC
-#define TS_PATH_ALLOC(type, name, what) {&p->path_##name, CL_MEM_READ_WRITE, rays * sizeof(type)},
-            TS_PATH_FIELDS(TS_PATH_ALLOC)
-#undef TS_PATH_ALLOC
-                {&p->active, host_rw, rays * sizeof(uint32_t)},
-        {&p->wave_paths, host_rw, rays * sizeof(uint32_t)},
-        {&p->count, CL_MEM_READ_WRITE, rays * sizeof(uint32_t)},
-        {&p->alive, host_rw, rays * sizeof(uint32_t)},
-        {&p->pairs[0], host_rw, pairs * sizeof(ts_pair)},
-        {&p->pairs[1], host_rw, pairs * sizeof(ts_pair)},
-        {&p->pair_hit, CL_MEM_READ_WRITE, pairs * sizeof(ts_hit)},
-        {&p->segments, CL_MEM_READ_ONLY, n * sizeof(ts_segment)},
-        {&p->trees, CL_MEM_READ_ONLY, 2 * n * sizeof(uint32_t)},
-        {&p->lod_counts, CL_MEM_READ_WRITE, n * sizeof(uint32_t)},
-        {&p->utilisation, CL_MEM_READ_WRITE, 2 * sizeof(uint32_t)},
-        {&p->grid, CL_MEM_READ_WRITE, (size_t)p->plan.vert_capacity * sizeof(ts_vec4)},
-        {&p->groups, CL_MEM_READ_WRITE, (size_t)p->plan.group_capacity * sizeof(ts_box4)},
-        {&p->radiance, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4)},
-        {&p->aov, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4)},
-        {&p->albedo, CL_MEM_READ_WRITE, rays * sizeof(ts_vec4)},
-        {&p->albedo_film, host_rw, (size_t)p->pixel_count * sizeof(ts_vec4)},
-        {&p->accum, host_rw, (size_t)p->pixel_count * sizeof(ts_vec4)},
-        {&p->aov_film, host_rw, (size_t)p->pixel_count * sizeof(ts_vec4)},
-    };
-    for (size_t i = 0; i < sizeof list / sizeof *list; ++i) {
-        *list[i].m = dev_buffer_create(cl, list[i].flags, list[i].size, NULL, err);
-        if (!*list[i].m) return err->code;
-    }
-    /* The film starts black and "nothing hit"; the LOD counts at zero. */
-    ts_vec4 zero = {0, 0, 0, 0};
-    cl_uint zero_u = 0;
-    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->accum, &zero, sizeof zero, 0,
-                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL),
-             err);
-    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->aov_film, &zero, sizeof zero, 0,
-                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL),
-             err);
-    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->albedo_film, &zero, sizeof zero, 0,
-                                 (size_t)p->pixel_count * sizeof(ts_vec4), 0, NULL, NULL),
-             err);
-    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->lod_counts, &zero_u, sizeof zero_u, 0,
-                                 n * sizeof(uint32_t), 0, NULL, NULL),
-             err);
-    CL_CHECK(clEnqueueFillBuffer(cl->queue, p->utilisation, &zero_u, sizeof zero_u, 0,
-                                 2 * sizeof(uint32_t), 0, NULL, NULL),
-             err);
+    memset(p->patch_lod, (int)p->plan.max_lod, n);
+    for (uint32_t i = 0; i < s->patch_count; ++i)
+        (*boxes)[i] = scene_patch_box(s, i);
     return TS_OK;
 }
 
@@ -375,34 +271,28 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     p->plan = *plan;
     p->pixel_count = pixel_count;
     p->mode = (ts_trace_mode){1u, (int)plan->max_lod, 1, 0, 0u};
-    size_t n = scene->patch_count ? scene->patch_count : 1;
-    ts_box *boxes = malloc(n * sizeof *boxes);
-    p->segments_host = malloc(n * sizeof *p->segments_host);
-    p->trees_host = malloc(2 * n * sizeof *p->trees_host);
-    p->batches = malloc(n * sizeof *p->batches);
-    p->patch_lod = malloc(n);
-    if (!boxes || !p->segments_host || !p->trees_host || !p->batches || !p->patch_lod) {
-        free(boxes);
-        return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    }
-    memset(p->patch_lod, (int)plan->max_lod, n);
-    for (uint32_t i = 0; i < scene->patch_count; ++i)
-        boxes[i] = scene_patch_box(scene, i);
     /* The patch boxes: the top-level BVH's leaves, build's clamp (patch_box) and the
      * secondary-ray offset (flatness w). */
-    int rc = qbvh_build(&p->qbvh, boxes, scene->patch_count, err);
+    ts_box *boxes = NULL;
+    scene_uploads u = {0};
+    int rc = create_host_tables(p, &boxes, err);
+    if (rc == TS_OK) rc = qbvh_build(&p->qbvh, boxes, scene->patch_count, err);
     if (rc == TS_OK && !(p->sorter = radix_sorter_create(0, err))) rc = err->code;
-    if (rc == TS_OK && (create_kernels(p, err) || create_buffers(p, boxes, err))) rc = err->code;
+    if (rc == TS_OK) rc = create_kernels(p, err);
+    if (rc == TS_OK) rc = scene_uploads_make(p, boxes, &u, err);
+    if (rc == TS_OK) rc = tex_cache_create(&p->tex, scene, plan->tex_pool_bytes, err);
+    buffer_counts c = buffer_counts_of(p, &u);
+    if (rc == TS_OK) rc = create_buffers(p, &c, &u, err);
+    p->light_count = u.lights.light_count;
+    scene_uploads_free(&u);
     free(boxes);
-    if (rc) return rc;
-    /* TESSERA_SORT_VIA_COPY=1|0 overrides the choice (tests run both paths on PoCL). */
-    const char *via_copy = getenv("TESSERA_SORT_VIA_COPY");
-    if (via_copy && *via_copy ? strcmp(via_copy, "0") != 0 : !cl->info.host_unified) {
-        size_t bytes = ((size_t)plan->pair_capacity * sizeof(ts_pair) + 4095) & ~(size_t)4095;
-        for (int i = 0; i < 2; ++i)
-            if (!(p->sort_host[i] = aligned_alloc(4096, bytes)))
-                return ts_error_set(err, TS_E_MEMORY, "out of memory (%zu MiB of sort buffers)",
-                                    2 * bytes >> 20);
+    if (rc == TS_OK)
+        rc = tex_cache_upload_initial(&p->tex, cl, p->tex_pool, p->tex_pages, scene, stats, err);
+    if (rc == TS_OK) rc = clear_buffers(p, &c, err);
+    if (rc == TS_OK) rc = create_sort_copies(p, err);
+    if (rc != TS_OK) {
+        pipeline_destroy(p);
+        return rc;
     }
     stats->counters[TS_COUNTER_micropolygons_potential] = (uint64_t)scene->patch_count
                                                           << (2u * plan->max_lod);
@@ -411,54 +301,28 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
 
 void pipeline_destroy(ts_pipeline *p)
 {
-    cl_kernel ks[] = {p->k_camera,       p->k_lod,         p->k_top_level,    p->k_dice,
-                      p->k_build_leaves, p->k_build_level, p->k_bottom_level, p->k_bottom_group,
-                      p->k_resolve,      p->k_shade,       p->k_film};
-    for (size_t i = 0; i < sizeof ks / sizeof *ks; ++i)
-        if (ks[i]) clReleaseKernel(ks[i]);
-    cl_mem ms[] = {p->qbvh_nodes,
-                   p->cp,
-                   p->cp1,
-                   p->corner_n,
-                   p->attr,
-                   p->xform,
-                   p->flatness,
-                   p->patch_box,
-                   p->lod_counts,
-                   p->utilisation,
-                   p->lights,
-                   p->emitters,
-                   p->env_texels,
-                   p->env_marginal,
-                   p->env_conditional,
-                   p->textures,
-                   p->tex_pages,
-                   p->tex_pool,
-#define TS_PATH_RELEASE(type, name, what) p->path_##name,
-                   TS_PATH_FIELDS(TS_PATH_RELEASE)
-#undef TS_PATH_RELEASE
-                       p->wave_paths,
-                   p->albedo,
-                   p->albedo_film,
-#define TS_RAY_RELEASE(type, name, what) p->ray_##name,
-                   TS_RAY_FIELDS(TS_RAY_RELEASE)
-#undef TS_RAY_RELEASE
-                       p->active,
-                   p->count,
-                   p->alive,
-                   p->pairs[0],
-                   p->pairs[1],
-                   p->pair_hit,
-                   p->segments,
-                   p->trees,
-                   p->grid,
-                   p->groups,
-                   p->radiance,
-                   p->aov,
-                   p->accum,
-                   p->aov_film};
-    for (size_t i = 0; i < sizeof ms / sizeof *ms; ++i)
-        if (ms[i]) clReleaseMemObject(ms[i]);
+    const cl_kernel kernels[] = {
+#define TS_KERNEL_HANDLE(field, name) p->field,
+        TS_PIPELINE_KERNELS(TS_KERNEL_HANDLE)
+#undef TS_KERNEL_HANDLE
+    };
+    for (size_t i = 0; i < sizeof kernels / sizeof *kernels; ++i)
+        if (kernels[i]) clReleaseKernel(kernels[i]);
+    const cl_mem buffers[] = {
+    /* clang-format off */
+#define TS_RAY_HANDLE(type, name, what) p->ray_##name,
+        TS_RAY_FIELDS(TS_RAY_HANDLE)
+#undef TS_RAY_HANDLE
+#define TS_PATH_HANDLE(type, name, what) p->path_##name,
+        TS_PATH_FIELDS(TS_PATH_HANDLE)
+#undef TS_PATH_HANDLE
+#define TS_BUFFER_HANDLE(field, flags, type, count, contents) p->field,
+        TS_PIPELINE_BUFFERS(TS_BUFFER_HANDLE)
+#undef TS_BUFFER_HANDLE
+        /* clang-format on */
+    };
+    for (size_t i = 0; i < sizeof buffers / sizeof *buffers; ++i)
+        if (buffers[i]) clReleaseMemObject(buffers[i]);
     if (p->sorter) radix_sorter_destroy(p->sorter);
     free(p->sort_host[0]);
     free(p->sort_host[1]);
@@ -471,23 +335,22 @@ void pipeline_destroy(ts_pipeline *p)
     memset(p, 0, sizeof *p);
 }
 
-#define ARG(x) sizeof(x), &(x)
-
 int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 {
     ts_camera_params c = *cam;
-    if (dev_set_args(p->k_camera, err, ARG(c), ARG(p->ray_org), ARG(p->ray_dir), ARG(p->ray_hit),
-                     ARG(p->ray_entry), ARG(p->ray_pixel), ARG(p->ray_flags), ARG(p->active),
-                     ARG(p->wave_paths), ARG(p->path_throughput), ARG(p->path_mis),
-                     ARG(p->radiance), (size_t)0))
+    if (dev_set_args(p->k_camera, err, DEV_ARG(c), DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir),
+                     DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry), DEV_ARG(p->ray_pixel),
+                     DEV_ARG(p->ray_flags), DEV_ARG(p->active), DEV_ARG(p->wave_paths),
+                     DEV_ARG(p->path_throughput), DEV_ARG(p->path_mis), DEV_ARG(p->path_state),
+                     DEV_ARG(p->radiance), (size_t)0))
         return err->code;
     return dev_launch(p->cl, p->k_camera, TS_STAGE_camera, c.ray_count, TS_LOCAL_SIZE, err);
 }
 
 int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 {
-    if (dev_set_args(p->k_lod, err, ARG(p->qbvh_nodes), ARG(ray_count), ARG(p->ray_org),
-                     ARG(p->ray_dir), ARG(p->lod_counts), (size_t)0))
+    if (dev_set_args(p->k_lod, err, DEV_ARG(p->qbvh_nodes), DEV_ARG(ray_count), DEV_ARG(p->ray_org),
+                     DEV_ARG(p->ray_dir), DEV_ARG(p->lod_counts), (size_t)0))
         return err->code;
     return dev_launch(p->cl, p->k_lod, TS_STAGE_lod, ray_count, TS_LOCAL_SIZE, err);
 }
@@ -499,14 +362,14 @@ int pipeline_lod_finish(ts_pipeline *p, ts_error *err)
     if (dev_finish(p->cl, p->stats, err)) return err->code;
     double t0 = stats_now();
     uint32_t *counts = malloc(n * sizeof *counts);
-    if (!counts) return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    cl_int rc = clEnqueueReadBuffer(p->cl->queue, p->lod_counts, CL_TRUE, 0, n * sizeof *counts,
-                                    counts, 0, NULL, NULL);
-    cl_uint zero = 0;
-    if (rc == CL_SUCCESS)
-        rc = clEnqueueFillBuffer(p->cl->queue, p->lod_counts, &zero, sizeof zero, 0,
-                                 n * sizeof *counts, 0, NULL, NULL);
-    for (uint32_t i = 0; rc == CL_SUCCESS && i < n; ++i) {
+    const cl_uint zero = 0;
+    int rc = counts ? TS_OK : ts_error_set(err, TS_E_MEMORY, "out of memory");
+    if (rc == TS_OK &&
+        (dev_read(p->cl, p->lod_counts, 0, n * sizeof *counts, counts, "the LOD counts", err) ||
+         dev_fill(p->cl, p->lod_counts, &zero, sizeof zero, 0, n * sizeof *counts, "the LOD counts",
+                  err)))
+        rc = err->code;
+    for (uint32_t i = 0; rc == TS_OK && i < n; ++i) {
         /* Smallest m with 4^m >= R / spp (Hanika §3.3), at most max_lod. */
         uint32_t m = 0;
         while (m < p->plan.max_lod && ((uint64_t)1 << (2 * m)) * p->mode.spp < counts[i])
@@ -515,7 +378,5 @@ int pipeline_lod_finish(ts_pipeline *p, ts_error *err)
     }
     free(counts);
     p->stats->stage_seconds[TS_STAGE_lod] += stats_now() - t0;
-    if (rc != CL_SUCCESS)
-        return ts_error_set(err, TS_E_DEVICE, "%s reading the LOD counts", dev_error_name(rc));
-    return TS_OK;
+    return rc;
 }

@@ -21,14 +21,13 @@
 /* Work-group size of every launch: one size, so PoCL compiles each kernel once. */
 #define TS_LOCAL_SIZE ((size_t)TS_GROUP_SIZE)
 
-/* Bytes of device memory one ray costs: its SoA fields, active/count/alive, radiance and
- * aov, and TS_PAIRS_PER_RAY pairs (two sort buffers + a hit record each). */
+/* Bytes of device memory one ray costs: an entry of every ray and path field, of active,
+ * count, alive and wave_paths, of radiance, aov and albedo, and TS_PAIRS_PER_RAY candidates
+ * (pairs, pairs_scratch, pair_hit; TS_PIPELINE_BUFFERS). */
+#define TS_FIELD_BYTES(type, name, what) +sizeof(type)
 #define TS_BYTES_PER_RAY                                                                           \
-    (16u + 16u + 20u + 4u + 4u + 4u /* ray fields */ + 4u + 4u + 4u + 4u /* active, count,         \
-    alive, wave_paths */                                                                           \
-     + 3u * 16u /* path fields */ + 16u + 16u + 16u                      /* radiance, aov,         \
-     albedo */                                                                     \
-     + TS_PAIRS_PER_RAY * (8u + 8u + 20u))
+    (0 TS_RAY_FIELDS(TS_FIELD_BYTES) TS_PATH_FIELDS(TS_FIELD_BYTES) + 4 * sizeof(ts_u32) +         \
+     3 * sizeof(ts_vec4) + TS_PAIRS_PER_RAY * (2 * sizeof(ts_pair) + sizeof(ts_hit)))
 
 typedef struct ts_pipeline_plan {
     uint32_t ray_capacity;   /* rays per wave */
@@ -61,6 +60,93 @@ typedef struct ts_trace_mode {
     uint32_t leaf_b; /* leaves are blocks of 2^leaf_b x 2^leaf_b micro-quads (0..2) */
 } ts_trace_mode;
 
+/* The pipeline's kernels, X(field, kernel function name): pipeline_create makes each,
+ * pipeline_destroy releases them. */
+/* clang-format off */
+#define TS_PIPELINE_KERNELS(X)                                                                  \
+    X(k_camera, "camera_generate")                                                              \
+    X(k_lod, "lod_count")                                                                       \
+    X(k_top_level, "top_level_collect")                                                         \
+    X(k_dice, "dice_grid")                                                                      \
+    X(k_build_leaves, "build_leaves")                                                           \
+    X(k_build_level, "build_level")                                                             \
+    X(k_bottom_level, "bottom_level_trace")                                                     \
+    X(k_bottom_group, "bottom_level_group")                                                     \
+    X(k_resolve, "resolve_closest")                                                             \
+    X(k_shade, "shade_path")                                                                    \
+    X(k_film, "film_accumulate")
+/* clang-format on */
+
+/* Flags of the buffer list besides CL_MEM_READ_ONLY and CL_MEM_READ_WRITE: the scene's data,
+ * read only and uploaded at creation; buffers the host maps or transfers every iteration. */
+#define TS_MEM_SCENE (CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR)
+#define TS_MEM_HOST_RW (CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR)
+
+/* The pipeline's buffers besides the ray and path fields (TS_RAY_FIELDS, TS_PATH_FIELDS):
+ * X(field, flags, element type, count, contents). count (elements) and contents (what a
+ * TS_MEM_SCENE buffer starts with; NULL: zeros) are expressions over pipeline.c's
+ * buffer_counts c and scene_uploads u; what the scene lacks is one unused element, so no
+ * buffer has size 0. pipeline_create makes every buffer, pipeline_destroy releases them.
+ *   qbvh_nodes: the top-level BVH (qbvh.h); cp, cp1: control points at times 0 and 1 (cp1 =
+ *     cp for a static scene); corner_n: displacement normals (+z if the scene has none);
+ *     attr: with each patch's emitter index; xform: world to object (the identity if none);
+ *     flatness: patch_flatness, w = the longest side of the patch's box (secondary-ray
+ *     offset l / 2^m); patch_box: scene_patch_box (build clamps leaf boxes to it); lights,
+ *     emitters, env_*: lights.h; textures, tex_pool, tex_pages: descriptors, the tile pool
+ *     and its page table (tex_cache.h).
+ *   lod_counts: eye rays entering each patch box (lod); segments, trees: the sorted
+ *     segments and the batches' tree lists; grid, groups: the vertex and group arenas;
+ *     utilisation: bottom_level's micro-quad tests and work-item slots.
+ *   active: the rays being traced; count: candidates per active ray; alive: what goes on
+ *     after resolve and shade; wave_paths: the paths being shaded; radiance: per path; aov,
+ *     albedo: at the eye hit.
+ *   pairs: top_level's candidates, sorted by sort; pairs_scratch: the radix sort's other
+ *     buffer (it may end there); pair_hit: bottom_level's hit per candidate.
+ *   accum, aov_film, albedo_film: the film (sums per pixel). */
+/* clang-format off */
+#define TS_PIPELINE_BUFFERS(X)                                                                  \
+    /* The scene, read only, uploaded at creation (Hanika §4: only these grow with it). */      \
+    X(qbvh_nodes,      TS_MEM_SCENE,      ts_qbvh_node,  c.nodes,        u.nodes)               \
+    X(cp,              TS_MEM_SCENE,      ts_vec4,       16 * c.patches, u.cp)                  \
+    X(cp1,             TS_MEM_SCENE,      ts_vec4,       16 * c.patches, u.cp1)                 \
+    X(corner_n,        TS_MEM_SCENE,      ts_vec4,       4 * c.patches,  u.corner_n)            \
+    X(attr,            TS_MEM_SCENE,      ts_patch_attr, c.patches,      u.attr)                \
+    X(xform,           TS_MEM_SCENE,      ts_xform,      c.xforms,       u.xform)               \
+    X(flatness,        TS_MEM_SCENE,      ts_vec4,       c.patches,      u.flatness)            \
+    X(patch_box,       TS_MEM_SCENE,      ts_box,        c.patches,      u.boxes)               \
+    X(lights,          TS_MEM_SCENE,      ts_light,      c.lights,       u.lights.lights)       \
+    X(emitters,        TS_MEM_SCENE,      ts_emitter,    c.emitters,     u.lights.emitters)     \
+    X(env_texels,      TS_MEM_SCENE,      ts_vec4,       c.env_texels,   u.env.texels)          \
+    X(env_marginal,    TS_MEM_SCENE,      float,         c.env_rows,     u.env.marginal)        \
+    X(env_conditional, TS_MEM_SCENE,      float,         c.env_texels,   u.env.conditional)     \
+    X(textures,        TS_MEM_SCENE,      ts_texture,    c.textures,     u.textures)            \
+    X(tex_pool,        CL_MEM_READ_ONLY,  ts_vec4,       c.tex_texels,   NULL)                  \
+    X(tex_pages,       CL_MEM_READ_ONLY,  ts_u32,        c.tex_pages,    NULL)                  \
+    /* Per patch, and the batch being diced. */                                                 \
+    X(lod_counts,      CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \
+    X(segments,        CL_MEM_READ_ONLY,  ts_segment,    c.patches,      NULL)                  \
+    X(trees,           CL_MEM_READ_ONLY,  ts_u32,        2 * c.patches,  NULL)                  \
+    X(grid,            CL_MEM_READ_WRITE, ts_vec4,       c.verts,        NULL)                  \
+    X(groups,          CL_MEM_READ_WRITE, ts_box4,       c.groups,       NULL)                  \
+    X(utilisation,     CL_MEM_READ_WRITE, ts_u32,        2,              NULL)                  \
+    /* Per ray or path of a wave (beside the ray and path fields). */                           \
+    X(active,          TS_MEM_HOST_RW,    ts_u32,        c.rays,         NULL)                  \
+    X(count,           CL_MEM_READ_WRITE, ts_u32,        c.rays,         NULL)                  \
+    X(alive,           TS_MEM_HOST_RW,    ts_u32,        c.rays,         NULL)                  \
+    X(wave_paths,      TS_MEM_HOST_RW,    ts_u32,        c.rays,         NULL)                  \
+    X(radiance,        CL_MEM_READ_WRITE, ts_vec4,       c.rays,         NULL)                  \
+    X(aov,             CL_MEM_READ_WRITE, ts_vec4,       c.rays,         NULL)                  \
+    X(albedo,          CL_MEM_READ_WRITE, ts_vec4,       c.rays,         NULL)                  \
+    /* Per (leaf, ray) candidate of an iteration. */                                            \
+    X(pairs,           TS_MEM_HOST_RW,    ts_pair,       c.pairs,        NULL)                  \
+    X(pairs_scratch,   TS_MEM_HOST_RW,    ts_pair,       c.pairs,        NULL)                  \
+    X(pair_hit,        CL_MEM_READ_WRITE, ts_hit,        c.pairs,        NULL)                  \
+    /* Per pixel: the film. */                                                                  \
+    X(accum,           TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
+    X(aov_film,        TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
+    X(albedo_film,     TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)
+/* clang-format on */
+
 /* A run of segments diced together: they fit the arenas at once. */
 typedef struct ts_batch {
     uint32_t seg_first, seg_count;
@@ -69,7 +155,10 @@ typedef struct ts_batch {
 
 typedef struct ts_pipeline {
     ts_device *cl;
-    ts_trace_mode mode; /* set by pipeline_create to {1, max_lod, 1}; callers may change it */
+    /* Set by pipeline_create to {spp 1, fixed_lod max_lod, exact 1, leaf_group 0, leaf_b 0}
+     * (every patch at max_lod, micro-triangles: the cross-checks' mode); callers may
+     * change it (render.c sets it from the options). */
+    ts_trace_mode mode;
     const ts_scene *scene;
     ts_stats *stats;
     ts_pipeline_plan plan;
@@ -84,28 +173,27 @@ typedef struct ts_pipeline {
     uint32_t *trees_host;      /* two per patch at most */
     ts_batch *batches;         /* one per patch at most */
     uint32_t batch_count;
-    uint8_t *patch_lod; /* m of each patch for this frame (lod stage); max_lod until counted */
-    cl_kernel k_camera, k_lod, k_top_level, k_dice, k_build_leaves, k_build_level, k_bottom_level,
-        k_bottom_group, k_resolve, k_shade, k_film;
-    cl_mem utilisation; /* 2 uints: micro-quad tests, work-item slots (bottom_level) */
-    cl_mem qbvh_nodes, cp, cp1, corner_n, attr, xform, flatness, lod_counts, lights, emitters;
-    cl_mem patch_box; /* scene_patch_box of every patch: build clamps leaf boxes to it */
-    cl_mem env_texels, env_marginal, env_conditional; /* the dome's map (1 element if none) */
-    cl_mem textures, tex_pages, tex_pool; /* image textures (scene.h), 1 element if none */
-    ts_tex_cache tex;                     /* which tiles tex_pool holds (tex_cache.h) */
-    uint32_t light_count;
+    uint8_t *patch_lod;   /* m of each patch for this frame (lod stage); max_lod until counted */
+    ts_tex_cache tex;     /* which tiles tex_pool holds (tex_cache.h) */
+    uint32_t light_count; /* entries of the lights buffer (lights.h) */
+    uint32_t wave;
+#define TS_KERNEL_FIELD(field, name) cl_kernel field;
+    TS_PIPELINE_KERNELS(TS_KERNEL_FIELD)
+#undef TS_KERNEL_FIELD
+#define TS_BUFFER_FIELD(field, flags, type, count, contents) cl_mem field;
+    TS_PIPELINE_BUFFERS(TS_BUFFER_FIELD)
+#undef TS_BUFFER_FIELD
 #define TS_RAY_BUFFER(type, name, what) cl_mem ray_##name;
     TS_RAY_FIELDS(TS_RAY_BUFFER)
 #undef TS_RAY_BUFFER
 #define TS_PATH_BUFFER(type, name, what) cl_mem path_##name;
     TS_PATH_FIELDS(TS_PATH_BUFFER)
 #undef TS_PATH_BUFFER
-    cl_mem active, count, alive, wave_paths, pairs[2], pair_hit, segments, trees, grid, groups;
-    cl_mem radiance, aov, albedo, accum, aov_film, albedo_film;
-    uint32_t wave;
 } ts_pipeline;
 
-/* Creates buffers and kernels for `scene` on `cl` with an image of pixel_count pixels. */
+/* Creates buffers and kernels for `scene` on `cl` with an image of pixel_count pixels: the
+ * scene's data uploaded, the film and the LOD counts cleared. On failure everything made so
+ * far is released and *p zeroed (pipeline_destroy on it does nothing). */
 int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
                     const ts_pipeline_plan *plan, uint32_t pixel_count, ts_stats *stats,
                     ts_error *err);
@@ -130,7 +218,7 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err);
 int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err);
 int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err);
 /* bottom_level (p->mode's kernel, exact and leaf_b) over the batch pipeline_dice_build made:
- * the pairs in pairs[0] from segments_host[0].begin to the last segment's end, sorted by
+ * the pairs in `pairs` from segments_host[0].begin to the last segment's end, sorted by
  * segment, rays named by active[window / n_per_ray]; waits. Hits go to pair_hit[window]. */
 int pipeline_bottom_level(ts_pipeline *p, uint32_t n_per_ray, ts_error *err);
 /* shade: one path-tracing step for the paths wave_paths[0..path_count) of a wave of

@@ -141,16 +141,14 @@ int tex_cache_upload_initial(ts_tex_cache *c, ts_device *cl, cl_mem pool, cl_mem
     stats->counters[TS_COUNTER_texture_tiles] = c->pages;
     if (c->pages == 0) return TS_OK;
     if (!c->paged) {
-        CL_CHECK(clEnqueueWriteBuffer(cl->queue, pool, CL_TRUE, 0, (size_t)c->pages * TILE_BYTES,
-                                      s->tex_pool, 0, NULL, NULL),
-                 err);
+        if (dev_write(cl, pool, 0, (size_t)c->pages * TILE_BYTES, s->tex_pool, "the texture tiles",
+                      err))
+            return err->code;
         stats->counters[TS_COUNTER_texture_tiles_uploaded] += c->pages;
         stats->counters[TS_COUNTER_texture_bytes_uploaded] += (uint64_t)c->pages * TILE_BYTES;
     }
-    CL_CHECK(clEnqueueWriteBuffer(cl->queue, page_table, CL_TRUE, 0,
-                                  (size_t)c->pages * sizeof(uint32_t), c->page_slot, 0, NULL, NULL),
-             err);
-    return TS_OK;
+    return dev_write(cl, page_table, 0, (size_t)c->pages * sizeof(uint32_t), c->page_slot,
+                     "the texture page table", err);
 }
 
 int tex_cache_commit(ts_tex_cache *c, ts_device *cl, cl_mem pool, cl_mem page_table,
@@ -186,18 +184,14 @@ int tex_cache_commit(ts_tex_cache *c, ts_device *cl, cl_mem pool, cl_mem page_ta
         c->slot_page[best] = page;
         c->slot_stamp[best] = c->request;
         c->page_slot[page] = best;
-        CL_CHECK(clEnqueueWriteBuffer(cl->queue, pool, CL_TRUE, (size_t)best * TILE_BYTES,
-                                      TILE_BYTES, s->tex_pool + (size_t)page * TILE_TEXELS, 0, NULL,
-                                      NULL),
-                 err);
+        if (dev_write(cl, pool, (size_t)best * TILE_BYTES, TILE_BYTES,
+                      s->tex_pool + (size_t)page * TILE_TEXELS, "a texture tile", err))
+            return err->code;
         stats->counters[TS_COUNTER_texture_tiles_uploaded] += 1;
         stats->counters[TS_COUNTER_texture_bytes_uploaded] += TILE_BYTES;
         moved = 1;
     }
-    if (moved)
-        CL_CHECK(clEnqueueWriteBuffer(cl->queue, page_table, CL_TRUE, 0,
-                                      (size_t)c->pages * sizeof(uint32_t), c->page_slot, 0, NULL,
-                                      NULL),
-                 err);
-    return TS_OK;
+    if (!moved) return TS_OK;
+    return dev_write(cl, page_table, 0, (size_t)c->pages * sizeof(uint32_t), c->page_slot,
+                     "the texture page table", err);
 }

@@ -231,7 +231,7 @@ typedef struct ts_camera_params {
 } ts_camera_params;
 
 /* Light sampling vs BSDF sampling at each path vertex (ts_shade_params.sampling). */
-#define TS_SAMPLING_MIS 0u   /* one of the two by Russian roulette, combined by MIS */
+#define TS_SAMPLING_MIS 0u   /* both at every vertex, combined by MIS (balance heuristic) */
 #define TS_SAMPLING_LIGHT 1u /* light sampling only (next-event estimation) */
 #define TS_SAMPLING_BSDF 2u  /* BSDF sampling only */
 
@@ -264,12 +264,25 @@ typedef struct ts_shade_params {
     X(ts_u32, flags, "TS_RAY_SHADOW for shadow rays")
 /* clang-format on */
 
-/* Path state as SoA, one entry per path of the wave (path i traces ray i). */
+/* Path field `state`: bits 0-1 say which of the path's two ray slots it traced this wave
+ * (the same bits shade writes to alive[] for the next wave), bits 2-3 how emission found by
+ * its BSDF ray is weighted for MIS (kernels/shade.cl). */
+#define TS_PATH_TRACED_BSDF 1u   /* ray slot i: the eye or BSDF ray */
+#define TS_PATH_TRACED_SHADOW 2u /* ray slot wave_size + i: the shadow ray of a light sample */
+#define TS_MIS_ONE 0u            /* weight 1: eye rays, --sampling bsdf, a scene without lights */
+#define TS_MIS_BALANCE 1u        /* p_b / (p_b + p_light), the balance heuristic */
+#define TS_MIS_ZERO 2u           /* --sampling light: light sampling alone counts emission */
+#define TS_PATH_STATE(traced, mis_mode) ((traced) | ((mis_mode) << 2))
+#define TS_PATH_MIS(state) ((state) >> 2)
+
+/* Path state as SoA, one entry per path of the wave (path i traces ray i), generated from
+ * this list like the ray fields. X(type, name, comment). */
 /* clang-format off */
 #define TS_PATH_FIELDS(X)                                                                   \
     X(ts_vec4, throughput, "rgb: the path's weight up to its last vertex")                 \
-    X(ts_vec4, mis, "x: (1-q) p_bsdf of the last BSDF sample, y: q there, for the MIS weight "\
-                    "of emission found by the next ray; zw unused")                         \
+    X(float, mis, "solid-angle pdf p_b of the BSDF sample that made the path's ray (1 for " \
+                  "the eye ray), for the MIS weight of the emission that ray finds")        \
+    X(ts_u32, state, "TS_PATH_STATE(TS_PATH_TRACED_* bits, TS_MIS_* mode of that weight)") \
     X(ts_vec4, pending, "rgb: the light sample's contribution, added if its shadow ray is "  \
                         "unoccluded")
 /* clang-format on */

@@ -1,0 +1,171 @@
+/* lights.c — the light list, the emitter table and the environment map's CDFs (lights.h),
+ * from the scene, in plain C. Sums run in double and are stored as float; the last entry
+ * of every CDF is set to exactly 1 so that a sample u < 1 always finds an entry
+ * (lib/lights.h cdf_find). */
+#include "pipeline/lights.h"
+#include "lib/bezier.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+void env_map_free(ts_env_map *e)
+{
+    free(e->texels);
+    free(e->marginal);
+    free(e->conditional);
+    memset(e, 0, sizeof *e);
+}
+
+/* Row y's texels from the image and their CDF, cumulative and normalised to end at 1
+ * (uniform when the row has no weight); returns the row's total weight, luminance times
+ * sin(theta) of the row's centre. */
+static double env_row(const ts_image *img, uint32_t y, ts_env_map *e)
+{
+    uint32_t w = e->width, h = e->height;
+    double row = 0, s = sin(M_PI * (y + 0.5) / h);
+    for (uint32_t x = 0; x < w; ++x) {
+        const float *px = &img->pixels[((size_t)y * w + x) * img->channels];
+        float r = px[0], g = img->channels > 2 ? px[1] : r, b = img->channels > 2 ? px[2] : r;
+        if (!(r >= 0 && g >= 0 && b >= 0 && r < 1e30f && g < 1e30f && b < 1e30f)) r = g = b = 0;
+        e->texels[(size_t)y * w + x] = (ts_vec4){r, g, b, 0};
+        row += (0.2126 * r + 0.7152 * g + 0.0722 * b) * s;
+        e->conditional[(size_t)y * w + x] = (float)row;
+    }
+    for (uint32_t x = 0; x < w; ++x) /* cumulative within the row, ending at 1 */
+        e->conditional[(size_t)y * w + x] =
+            row > 0 ? (float)(e->conditional[(size_t)y * w + x] / row) : (float)(x + 1) / w;
+    e->conditional[(size_t)y * w + w - 1] = 1.0f;
+    return row;
+}
+
+int env_map_from_image(const ts_image *img, ts_env_map *e, ts_error *err)
+{
+    memset(e, 0, sizeof *e);
+    uint32_t w = (uint32_t)img->width, h = (uint32_t)img->height;
+    e->texels = malloc((size_t)w * h * sizeof *e->texels);
+    e->marginal = malloc(h * sizeof *e->marginal);
+    e->conditional = malloc((size_t)w * h * sizeof *e->conditional);
+    if (!e->texels || !e->marginal || !e->conditional) {
+        env_map_free(e);
+        return ts_error_set(err, TS_E_MEMORY, "out of memory for the environment map (%u x %u)", w,
+                            h);
+    }
+    e->width = w, e->height = h;
+    double total = 0;
+    for (uint32_t y = 0; y < h; ++y) {
+        total += env_row(img, y, e);
+        e->marginal[y] = (float)total;
+    }
+    for (uint32_t y = 0; y < h; ++y)
+        e->marginal[y] = total > 0 ? (float)(e->marginal[y] / total) : (float)(y + 1) / h;
+    e->marginal[h - 1] = 1.0f;
+    return TS_OK;
+}
+
+int env_map_load(const char *path, ts_env_map *e, ts_error *err)
+{
+    memset(e, 0, sizeof *e);
+    ts_image img;
+    if (image_read(path, &img, err)) return err->code;
+    int rc = env_map_from_image(&img, e, err);
+    image_free(&img);
+    return rc;
+}
+
+/* Area of patch p's undisplaced surface at time 0: |dP/du x dP/dv| on an 8 x 8 midpoint
+ * grid, world units^2. */
+static float patch_area(const ts_scene *s, uint32_t p)
+{
+    double a = 0;
+    for (int j = 0; j < 8; ++j)
+        for (int i = 0; i < 8; ++i) {
+            ts_vec4 n = bezier_cross_derivs(&s->cp[p * 16], (i + 0.5f) / 8, (j + 0.5f) / 8);
+            a += sqrt((double)n.x * n.x + (double)n.y * n.y + (double)n.z * n.z) / 64.0;
+        }
+    return (float)a;
+}
+
+/* A distant light: a delta light of irradiance E, or for angle a > 0 a cone of half angle
+ * a / 2 with radiance L, L pi sin^2(a / 2) = E, uniform in the cone. */
+static ts_light distant_light(const ts_distant_light *d)
+{
+    ts_light l = {.type = TS_LIGHT_DISTANT, .cos_max = 1.0f};
+    double dir[3] = {d->from[0] - d->to[0], d->from[1] - d->to[1], d->from[2] - d->to[2]};
+    double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+    double half = 0.5 * d->angle * M_PI / 180.0, e_scale = 1.0;
+    if (half > 0) {
+        l.cos_max = (float)cos(half);
+        l.solid_angle = (float)(2 * M_PI * (1 - cos(half)));
+        e_scale = 1.0 / (M_PI * sin(half) * sin(half));
+    }
+    for (int k = 0; k < 3; ++k) {
+        l.dir[k] = (float)(dir[k] / len);
+        l.radiance[k] = (float)(d->intensity * d->color[k] * e_scale);
+    }
+    return l;
+}
+
+/* The emitter table: every patch with some le > 0, chosen by power (area times brightest
+ * channel); attr[i].emitter names patch i's entry. */
+static int build_emitters(const ts_scene *s, ts_patch_attr *attr, ts_light_table *t, ts_error *err)
+{
+    uint32_t ne = 0;
+    for (uint32_t i = 0; i < s->patch_count; ++i)
+        ne += attr[i].le_r > 0 || attr[i].le_g > 0 || attr[i].le_b > 0;
+    ts_emitter *em = calloc(ne ? ne : 1, sizeof *em);
+    if (!em) return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    double total = 0;
+    ne = 0;
+    for (uint32_t i = 0; i < s->patch_count; ++i) {
+        attr[i].emitter = TS_INVALID;
+        float le = fmaxf(attr[i].le_r, fmaxf(attr[i].le_g, attr[i].le_b));
+        if (!(le > 0)) continue;
+        float area = patch_area(s, i);
+        em[ne] = (ts_emitter){i, 0, area * le, area}; /* prob: the power until normalised */
+        total += area * le;
+        attr[i].emitter = ne++;
+    }
+    double acc = 0;
+    for (uint32_t k = 0; k < ne; ++k) {
+        em[k].prob = total > 0 ? (float)(em[k].prob / total) : 0.0f;
+        acc += em[k].prob;
+        em[k].cdf = k + 1 == ne ? 1.0f : (float)acc;
+    }
+    t->emitters = em;
+    t->emitter_count = ne;
+    return TS_OK;
+}
+
+int lights_build(const ts_scene *s, const ts_env_map *env, ts_patch_attr *attr, ts_light_table *t,
+                 ts_error *err)
+{
+    memset(t, 0, sizeof *t);
+    if (s->light_count > TS_MAX_DISTANT_LIGHTS)
+        return ts_error_set(err, TS_E_SCENE, "%u distant lights: at most %u", s->light_count,
+                            TS_MAX_DISTANT_LIGHTS);
+    uint32_t nl = 0;
+    for (uint32_t i = 0; i < s->light_count; ++i)
+        t->lights[nl++] = distant_light(&s->lights[i]);
+    if (s->dome.present) {
+        ts_light l = {.type = TS_LIGHT_DOME,
+                      .cos_max = 1.0f,
+                      .map_width = env ? env->width : 0u,
+                      .map_height = env ? env->height : 0u};
+        for (int k = 0; k < 3; ++k)
+            l.radiance[k] = (float)(s->dome.intensity * s->dome.color[k]);
+        t->lights[nl++] = l;
+    }
+    if (build_emitters(s, attr, t, err)) return err->code;
+    if (t->emitter_count)
+        t->lights[nl++] =
+            (ts_light){.type = TS_LIGHT_AREA, .emitter_count = t->emitter_count, .cos_max = 1.0f};
+    t->light_count = nl;
+    return TS_OK;
+}
+
+void lights_free(ts_light_table *t)
+{
+    free(t->emitters);
+    memset(t, 0, sizeof *t);
+}

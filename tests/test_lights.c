@@ -1,0 +1,395 @@
+/* test_lights.c — the light tables of host/pipeline/lights.c, as the shade kernel samples
+ * them (kernels/lib/lights.h): emitter probabilities by power that sum to 1 with a CDF
+ * ending at exactly 1, distant lights as cones of the right radiance and solid angle, and
+ * the environment map's marginal and conditional CDFs. Host only: never skips. */
+#include "pipeline/lights.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <setjmp.h>
+#include <cmocka.h>
+#include "test_support.h"
+
+static void assert_near(double got, double want, double tol, const char *what)
+{
+    if (!(fabs(got - want) <= tol))
+        fail_msg("%s: got %.9g, want %.9g (tol %g)", what, got, want, tol);
+}
+
+/* Patch p of cp: the flat rectangle [x0, x0 + sx] x [0, sy] at z = 0 as a Bézier patch
+ * whose control points are evenly spaced, so dP/du = (sx, 0, 0), dP/dv = (0, sy, 0) and
+ * its area is sx * sy. */
+static void flat_patch(ts_vec4 *cp, uint32_t p, float x0, float sx, float sy)
+{
+    for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i)
+            cp[p * 16 + j * 4 + i] = (ts_vec4){x0 + sx * i / 3.0f, sy * j / 3.0f, 0.0f, 1.0f};
+}
+
+/* Checks an emitter table: probabilities sum to 1, the CDF is non-decreasing, follows the
+ * running sum and ends at exactly 1. */
+static void assert_emitter_cdf(const ts_light_table *t)
+{
+    double sum = 0;
+    for (uint32_t k = 0; k < t->emitter_count; ++k) {
+        sum += t->emitters[k].prob;
+        if (k > 0) assert_true(t->emitters[k].cdf >= t->emitters[k - 1].cdf);
+        assert_near(t->emitters[k].cdf, sum, 1e-6, "cdf = running sum of prob");
+    }
+    assert_near(sum, 1.0, 1e-6, "sum of emitter probabilities");
+    assert_true(t->emitters[t->emitter_count - 1].cdf == 1.0f);
+}
+
+static void test_emitters_by_power(void **state)
+{
+    (void)state;
+    ts_vec4 cp[3 * 16];
+    ts_patch_attr attr[3];
+    memset(attr, 0, sizeof attr);
+    attr[0].le_r = attr[0].le_g = attr[0].le_b = 1.0f;
+    attr[2].le_g = 2.0f, attr[2].le_b = 0.5f;
+    flat_patch(cp, 0, 0.0f, 1.0f, 1.0f); /* area 1, power 1 */
+    flat_patch(cp, 1, 2.0f, 3.0f, 3.0f); /* does not emit */
+    flat_patch(cp, 2, 6.0f, 2.0f, 1.0f); /* area 2, brightest channel 2: power 4 */
+    ts_scene s = {.patch_count = 3, .cp = cp, .attr = attr};
+    ts_light_table t;
+    ts_error err = {0};
+    assert_int_equal(lights_build(&s, NULL, attr, &t, &err), TS_OK);
+    assert_int_equal(t.light_count, 1);
+    assert_int_equal(t.lights[0].type, TS_LIGHT_AREA);
+    assert_int_equal(t.lights[0].emitter_count, 2);
+    assert_int_equal(t.emitter_count, 2);
+    assert_int_equal(attr[0].emitter, 0);
+    assert_int_equal(attr[1].emitter, TS_INVALID);
+    assert_int_equal(attr[2].emitter, 1);
+    assert_int_equal(t.emitters[0].patch, 0);
+    assert_int_equal(t.emitters[1].patch, 2);
+    assert_near(t.emitters[0].area, 1.0, 1e-6, "area of the unit square");
+    assert_near(t.emitters[1].area, 2.0, 1e-6, "area of the 2 x 1 rectangle");
+    assert_near(t.emitters[0].prob, 0.2, 1e-6, "prob of power 1 of 5");
+    assert_near(t.emitters[1].prob, 0.8, 1e-6, "prob of power 4 of 5");
+    assert_emitter_cdf(&t);
+    lights_free(&t);
+}
+
+static void test_many_emitters_cdf_ends_at_one(void **state)
+{
+    (void)state;
+    enum { N = 37 };
+    static ts_vec4 cp[N * 16];
+    ts_patch_attr attr[N];
+    memset(attr, 0, sizeof attr);
+    uint32_t seed = 12345;
+    for (uint32_t p = 0; p < N; ++p) {
+        seed = seed * 1664525u + 1013904223u;
+        float size = 0.1f + (float)(seed >> 8) / 16777216.0f;
+        flat_patch(cp, p, 3.0f * p, size, 0.7f * size);
+        attr[p].le_r = (float)(p % 5) * 0.3f; /* every fifth patch does not emit */
+        attr[p].le_b = (float)(p % 5) * 0.1f;
+    }
+    ts_scene s = {.patch_count = N, .cp = cp, .attr = attr};
+    ts_light_table t;
+    ts_error err = {0};
+    assert_int_equal(lights_build(&s, NULL, attr, &t, &err), TS_OK);
+    assert_int_equal(t.emitter_count, N - (N + 4) / 5);
+    assert_emitter_cdf(&t);
+    for (uint32_t k = 0; k < t.emitter_count; ++k) {
+        uint32_t p = t.emitters[k].patch;
+        assert_int_equal(attr[p].emitter, k);
+        double want = t.emitters[k].area * attr[p].le_r /
+                      (t.emitters[0].area * attr[t.emitters[0].patch].le_r);
+        assert_near(t.emitters[k].prob / t.emitters[0].prob, want, 1e-5 * want,
+                    "prob ratio = power ratio");
+    }
+    lights_free(&t);
+}
+
+/* 41 emitters of equal power: each prob is the float nearest 1/41, and their running sum
+ * misses 1 by more than float rounding hides; the table's last cdf is 1 all the same. */
+static void test_equal_emitters_cdf_ends_at_one(void **state)
+{
+    (void)state;
+    enum { N = 41 };
+    static ts_vec4 cp[N * 16];
+    ts_patch_attr attr[N];
+    memset(attr, 0, sizeof attr);
+    double sum = 0;
+    for (uint32_t p = 0; p < N; ++p) {
+        flat_patch(cp, p, 0.0f, 1.0f, 1.0f);
+        attr[p].le_g = 1.0f;
+    }
+    ts_scene s = {.patch_count = N, .cp = cp, .attr = attr};
+    ts_light_table t;
+    ts_error err = {0};
+    assert_int_equal(lights_build(&s, NULL, attr, &t, &err), TS_OK);
+    assert_int_equal(t.emitter_count, N);
+    for (uint32_t k = 0; k < N; ++k) {
+        assert_true(t.emitters[k].prob == (float)(1.0 / N));
+        sum += t.emitters[k].prob;
+    }
+    assert_true((float)sum != 1.0f); /* what the last entry would be without the fix-up */
+    assert_emitter_cdf(&t);
+    lights_free(&t);
+}
+
+static void test_no_emitter(void **state)
+{
+    (void)state;
+    ts_scene s = {0};
+    ts_light_table t;
+    ts_error err = {0};
+    assert_int_equal(lights_build(&s, NULL, NULL, &t, &err), TS_OK);
+    assert_int_equal(t.light_count, 0);
+    assert_int_equal(t.emitter_count, 0);
+    assert_non_null(t.emitters); /* one zeroed entry, uploaded as is */
+    lights_free(&t);
+}
+
+static void test_distant_lights_and_dome(void **state)
+{
+    (void)state;
+    const double a = 2.0, h = 0.5 * a * M_PI / 180.0; /* angular diameter, half angle */
+    ts_distant_light d[2] = {
+        {{-1, 1, -1}, {0, 0, 0}, 2.5, {1, 0.95, 0.85}, a},
+        {{0, 0, 5}, {0, 0, 1}, 3.0, {1, 1, 1}, 0.0},
+    };
+    ts_scene s = {.lights = d, .light_count = 2};
+    s.dome = (ts_dome_light){.present = 1, .intensity = 0.35, .color = {0.8, 0.9, 1}};
+    ts_env_map env = {.width = 32, .height = 16};
+    ts_light_table t;
+    ts_error err = {0};
+    assert_int_equal(lights_build(&s, &env, NULL, &t, &err), TS_OK);
+    assert_int_equal(t.light_count, 3);
+    /* The sun: a cone of half angle a / 2 towards from - to. */
+    const ts_light *sun = &t.lights[0];
+    assert_int_equal(sun->type, TS_LIGHT_DISTANT);
+    double r3 = 1.0 / sqrt(3.0);
+    assert_near(sun->dir[0], -r3, 1e-7, "sun dir x");
+    assert_near(sun->dir[1], r3, 1e-7, "sun dir y");
+    assert_near(sun->dir[2], -r3, 1e-7, "sun dir z");
+    assert_near(sun->cos_max, cos(h), 1e-7, "cos of the half angle");
+    assert_near(sun->solid_angle, 2 * M_PI * (1 - cos(h)), 1e-6 * 2 * M_PI * (1 - cos(h)),
+                "solid angle 2 pi (1 - cos(a/2))");
+    for (int k = 0; k < 3; ++k) {
+        double e = 2.5 * d[0].color[k], l = e / (M_PI * sin(h) * sin(h));
+        assert_near(sun->radiance[k], l, 1e-6 * l, "radiance E / (pi sin^2(a/2))");
+        /* The cone gives the irradiance E at normal incidence: L pi sin^2(a/2) = E. */
+        assert_near(sun->radiance[k] * M_PI * sin(h) * sin(h), e, 1e-6 * e, "irradiance");
+    }
+    /* Angle 0: a delta light of irradiance E along +z. */
+    const ts_light *delta = &t.lights[1];
+    assert_int_equal(delta->type, TS_LIGHT_DISTANT);
+    assert_true(delta->cos_max == 1.0f && delta->solid_angle == 0.0f);
+    assert_true(delta->dir[0] == 0.0f && delta->dir[1] == 0.0f && delta->dir[2] == 1.0f);
+    for (int k = 0; k < 3; ++k)
+        assert_near(delta->radiance[k], 3.0, 1e-7, "delta light irradiance");
+    /* The dome last, with its map's size. */
+    const ts_light *dome = &t.lights[2];
+    assert_int_equal(dome->type, TS_LIGHT_DOME);
+    assert_int_equal(dome->map_width, 32);
+    assert_int_equal(dome->map_height, 16);
+    for (int k = 0; k < 3; ++k)
+        assert_near(dome->radiance[k], 0.35 * s.dome.color[k], 1e-7, "dome radiance");
+    lights_free(&t);
+}
+
+static void test_too_many_distant_lights(void **state)
+{
+    (void)state;
+    ts_distant_light d[TS_MAX_DISTANT_LIGHTS + 1];
+    for (uint32_t i = 0; i <= TS_MAX_DISTANT_LIGHTS; ++i)
+        d[i] = (ts_distant_light){{0, 0, 1}, {0, 0, 0}, 1, {1, 1, 1}, 0};
+    ts_scene s = {.lights = d, .light_count = TS_MAX_DISTANT_LIGHTS};
+    ts_light_table t;
+    ts_error err = {0};
+    assert_int_equal(lights_build(&s, NULL, NULL, &t, &err), TS_OK);
+    assert_int_equal(t.light_count, TS_MAX_DISTANT_LIGHTS);
+    lights_free(&t);
+    s.light_count = TS_MAX_DISTANT_LIGHTS + 1;
+    assert_int_equal(lights_build(&s, NULL, NULL, &t, &err), TS_E_SCENE);
+    assert_non_null(strstr(err.msg, "at most 64"));
+    lights_free(&t);
+}
+
+/* An image of w x h with `channels` channels, every value v. */
+static float *fill_image(ts_image *img, int w, int h, int channels, float v)
+{
+    float *px = malloc((size_t)w * h * channels * sizeof *px);
+    assert_non_null(px);
+    for (size_t i = 0; i < (size_t)w * h * channels; ++i)
+        px[i] = v;
+    *img = (ts_image){w, h, channels, NULL, px};
+    return px;
+}
+
+/* Every CDF of the map is non-decreasing and ends at exactly 1. */
+static void assert_env_cdfs(const ts_env_map *e)
+{
+    for (uint32_t y = 0; y < e->height; ++y) {
+        const float *row = e->conditional + (size_t)y * e->width;
+        for (uint32_t x = 1; x < e->width; ++x)
+            assert_true(row[x] >= row[x - 1]);
+        assert_true(row[e->width - 1] == 1.0f);
+        if (y > 0) assert_true(e->marginal[y] >= e->marginal[y - 1]);
+    }
+    assert_true(e->marginal[e->height - 1] == 1.0f);
+}
+
+static void test_env_constant_map_is_uniform(void **state)
+{
+    (void)state;
+    enum { W = 128, H = 64 };
+    ts_image img;
+    float *px = fill_image(&img, W, H, 3, 2.0f);
+    ts_env_map e;
+    ts_error err = {0};
+    assert_int_equal(env_map_from_image(&img, &e, &err), TS_OK);
+    assert_int_equal(e.width, W);
+    assert_int_equal(e.height, H);
+    assert_env_cdfs(&e);
+    assert_true(e.texels[5].x == 2.0f && e.texels[5].y == 2.0f && e.texels[5].z == 2.0f);
+    /* Within a row: uniform over the columns. */
+    for (uint32_t y = 0; y < H; y += 7)
+        for (uint32_t x = 0; x < W; ++x)
+            assert_near(e.conditional[(size_t)y * W + x], (x + 1.0) / W, 1e-6, "conditional");
+    /* Over rows: by sin(theta), which is uniform over the sphere. */
+    double total = 0, acc = 0;
+    for (uint32_t y = 0; y < H; ++y)
+        total += sin(M_PI * (y + 0.5) / H);
+    for (uint32_t y = 0; y < H; ++y) {
+        acc += sin(M_PI * (y + 0.5) / H);
+        assert_near(e.marginal[y], acc / total, 1e-6, "marginal");
+    }
+    /* So the density of every direction (lib/lights.h env_lookup: p(texel) W H /
+     * (2 pi^2 sin theta)) is the uniform sphere's 1 / 4 pi, up to the midpoint rule's
+     * error in the sum of sin(theta) (pi^2 / 24 H^2). */
+    for (uint32_t y = 0; y < H; y += 9) {
+        double pr = e.marginal[y] - (y ? e.marginal[y - 1] : 0.0f);
+        double pc = e.conditional[(size_t)y * W];
+        double pdf = pr * pc * W * H / (2 * M_PI * M_PI * sin(M_PI * (y + 0.5) / H));
+        assert_near(pdf, 1 / (4 * M_PI), 1e-3 / (4 * M_PI), "density of a constant map");
+    }
+    env_map_free(&e);
+    free(px);
+}
+
+static void test_env_bright_texel_owns_the_jump(void **state)
+{
+    (void)state;
+    enum { W = 16, H = 8, BX = 5, BY = 3 };
+    ts_image img;
+    float *px = fill_image(&img, W, H, 3, 0.0f);
+    for (int c = 0; c < 3; ++c)
+        px[((size_t)BY * W + BX) * 3 + c] = 10.0f;
+    ts_env_map e;
+    ts_error err = {0};
+    assert_int_equal(env_map_from_image(&img, &e, &err), TS_OK);
+    assert_env_cdfs(&e);
+    /* The marginal is 0 before the bright row and 1 from it on (to float rounding of the
+     * running sum): all of its jump is in that row. */
+    for (uint32_t y = 0; y < H; ++y)
+        if (y < BY)
+            assert_true(e.marginal[y] == 0.0f);
+        else
+            assert_near(e.marginal[y], 1.0, 1e-7, "marginal from the bright row on");
+    /* In that row, all of the conditional's jump is at the bright column. */
+    for (uint32_t x = 0; x < W; ++x)
+        if (x < BX)
+            assert_true(e.conditional[BY * W + x] == 0.0f);
+        else
+            assert_near(e.conditional[BY * W + x], 1.0, 1e-7, "conditional from the column on");
+    /* Rows without weight are uniform (never sampled, but still valid CDFs). */
+    for (uint32_t x = 0; x < W; ++x)
+        assert_near(e.conditional[0 * W + x], (x + 1.0) / W, 1e-7, "black row");
+    env_map_free(&e);
+    free(px);
+}
+
+static void test_env_black_and_invalid_texels(void **state)
+{
+    (void)state;
+    enum { W = 8, H = 4 };
+    ts_image img;
+    float *px = fill_image(&img, W, H, 1, 0.0f); /* one channel: grey */
+    px[1 * W + 2] = NAN;
+    px[2 * W + 3] = -1.0f;
+    px[3 * W + 4] = INFINITY;
+    ts_env_map e;
+    ts_error err = {0};
+    assert_int_equal(env_map_from_image(&img, &e, &err), TS_OK);
+    assert_env_cdfs(&e);
+    /* Invalid texels are black, so the map has no weight: uniform CDFs everywhere. */
+    assert_true(e.texels[1 * W + 2].x == 0.0f && e.texels[2 * W + 3].y == 0.0f &&
+                e.texels[3 * W + 4].z == 0.0f);
+    for (uint32_t y = 0; y < H; ++y)
+        assert_near(e.marginal[y], (y + 1.0) / H, 1e-7, "uniform marginal");
+    env_map_free(&e);
+    /* Grey from the one channel. */
+    px[0] = 0.5f;
+    assert_int_equal(env_map_from_image(&img, &e, &err), TS_OK);
+    assert_true(e.texels[0].x == 0.5f && e.texels[0].y == 0.5f && e.texels[0].z == 0.5f);
+    assert_near(e.marginal[0], 1.0, 1e-7, "marginal of the one lit row");
+    assert_near(e.conditional[0], 1.0, 1e-7, "conditional of the one lit texel");
+    env_map_free(&e);
+    free(px);
+}
+
+/* Random maps of 16 sizes: every CDF ends at exactly 1 (where the normalised running sums
+ * alone would often end a float below it), and each row's share of the marginal is its
+ * luminance times sin(theta). */
+static void test_env_random_maps_cdfs_end_at_one(void **state)
+{
+    (void)state;
+    uint32_t seed = 99;
+    for (int w = 5; w < 21; ++w) {
+        int h = 3 + w % 7;
+        ts_image img;
+        float *px = fill_image(&img, w, h, 3, 0.0f);
+        for (size_t i = 0; i < (size_t)w * h * 3; ++i) {
+            seed = seed * 1664525u + 1013904223u;
+            px[i] = (float)(seed >> 8) / 16777216.0f * 3.7f;
+        }
+        ts_env_map e;
+        ts_error err = {0};
+        assert_int_equal(env_map_from_image(&img, &e, &err), TS_OK);
+        assert_env_cdfs(&e);
+        double row[16], total = 0;
+        for (int y = 0; y < h; ++y) {
+            row[y] = 0;
+            for (int x = 0; x < w; ++x) {
+                const float *t = &px[((size_t)y * w + x) * 3];
+                row[y] += 0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2];
+            }
+            row[y] *= sin(M_PI * (y + 0.5) / h);
+            total += row[y];
+        }
+        for (int y = 0; y < h; ++y) {
+            double pr = e.marginal[y] - (y ? e.marginal[y - 1] : 0.0f);
+            assert_near(pr, row[y] / total, 1e-6, "row probability");
+        }
+        env_map_free(&e);
+        free(px);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_emitters_by_power),
+        cmocka_unit_test(test_many_emitters_cdf_ends_at_one),
+        cmocka_unit_test(test_equal_emitters_cdf_ends_at_one),
+        cmocka_unit_test(test_no_emitter),
+        cmocka_unit_test(test_distant_lights_and_dome),
+        cmocka_unit_test(test_too_many_distant_lights),
+        cmocka_unit_test(test_env_constant_map_is_uniform),
+        cmocka_unit_test(test_env_bright_texel_owns_the_jump),
+        cmocka_unit_test(test_env_black_and_invalid_texels),
+        cmocka_unit_test(test_env_random_maps_cdfs_end_at_one),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
