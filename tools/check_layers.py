@@ -1,6 +1,9 @@
 #!/usr/bin/env python3
 """check_layers.py -- host/ includes only point down the layers (docs/building.md "Layers").
 
+It also checks that docs/building.md's source-layout table names every .c/.cpp file of each
+host/ folder in that folder's row.
+
 Every host source names what it includes by layer: #include "pipeline/pipeline.h". A file in
 host/<layer>/ may include its own layer, the layers listed for it below, and the shared
 kernel headers (lib/...); anything else, and any quoted include without a layer, is an
@@ -71,6 +74,30 @@ def check(root):
     return problems
 
 
+def check_docs(root):
+    """Every .c/.cpp file of host/<folder>/ is named in docs/building.md's row for that folder."""
+    path = os.path.join(root, "docs", "building.md")
+    if not os.path.exists(path):
+        return []
+    rows = {}
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            m = re.match(r"\| `host/([a-z/]+)/` \|(.*)", line)
+            if m:
+                rows[m.group(1)] = m.group(2)
+    problems = []
+    host = os.path.join(root, "host")
+    for dirpath, _, names in sorted(os.walk(host)):
+        folder = os.path.relpath(dirpath, host)
+        for name in sorted(n for n in names if n.endswith((".c", ".cpp"))):
+            if folder not in rows:
+                problems.append(f"docs/building.md: no layout row for host/{folder}/ (holds {name})")
+                break
+            if f"`{name}`" not in rows[folder]:
+                problems.append(f"docs/building.md: the host/{folder}/ row does not name {name}")
+    return problems
+
+
 def self_test(root):
     with tempfile.TemporaryDirectory() as tmp:
         shutil.copytree(os.path.join(root, "host"), os.path.join(tmp, "host"))
@@ -97,11 +124,11 @@ def main():
     a = ap.parse_args()
     if a.self_test:
         return self_test(a.root)
-    problems = check(a.root)
+    problems = check(a.root) + check_docs(a.root)
     for p in problems:
         print(p, file=sys.stderr)
     if problems:
-        print(f"check_layers: {len(problems)} include(s) against the layers", file=sys.stderr)
+        print(f"check_layers: {len(problems)} problem(s): includes against the layers or an out-of-date layout table", file=sys.stderr)
         return 1
     return 0
 
