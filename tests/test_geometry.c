@@ -3,7 +3,8 @@
  *   160-degree lens, so ray density and therefore m vary widely between neighbours: with leaf
  *   boxes as geometry (Hanika §3.3) no ray escapes;
  * - the memory budget changes nothing: two very different --memory values give bitwise
- *   identical images;
+ *   identical images; neither does the patch cache, which dices every patch once when the
+ *   frame's patches fit and evicts when they do not;
  * - bounded memory: a scene of more than 10^10 potential micro-polygons renders in < 2 GiB;
  * - motion blur (§3.4): a moving patch's image equals the average of the patch rendered
  *   static at many times, within a tolerance derived from the sample count. */
@@ -101,6 +102,38 @@ static void test_sort_by_copy_matches_mapped_sort(void **state)
     }
     unsetenv("TESSERA_SORT_VIA_COPY");
     test_assert_same_pixels(path("mapped.exr"), path("copied.exr"));
+}
+
+/* The patch cache (issue 13): the displaced teapot's 32 patches are diced once per frame
+ * when they fit the arenas (the rest are hits), again and again when a small budget makes
+ * the cache evict, and once per batch with the cache off; all three images are the same
+ * bits. */
+static void test_patch_cache_dices_once_and_changes_no_bit(void **state)
+{
+    char args[16384];
+    const char *common = "--res 192x108 --spp 2 --max-lod 6 --quiet";
+    const char *runs[3][3] = {{"fits.exr", "fits.json", "--memory 512"},
+                              {"evicts.exr", "evicts.json", "--memory 12"},
+                              {"off.exr", "off.json", "--memory 512"}};
+    for (int i = 0; i < 3; ++i) {
+        if (i == 2) setenv("TESSERA_PATCH_CACHE", "0", 1);
+        snprintf(args, sizeof args, "render '%s' -o '%s' --stats '%s' %s %s",
+                 test_source_path("scene/teapot_displaced.rib"), path(runs[i][0]), path(runs[i][1]),
+                 runs[i][2], common);
+        render_ok(args);
+    }
+    unsetenv("TESSERA_PATCH_CACHE");
+    test_assert_same_pixels(path("fits.exr"), path("evicts.exr"));
+    test_assert_same_pixels(path("fits.exr"), path("off.exr"));
+    double diced = test_stats_number(path("fits.json"), "counters.patches_diced");
+    double hits = test_stats_number(path("fits.json"), "counters.patch_cache_hits");
+    assert_true(diced == 32.0);     /* every patch once */
+    assert_true(hits >= 2 * diced); /* four waves: the later three hit */
+    assert_true(test_stats_number(path("fits.json"), "counters.patch_cache_evictions") == 0.0);
+    assert_true(test_stats_number(path("evicts.json"), "counters.patch_cache_evictions") > 0.0);
+    assert_true(test_stats_number(path("evicts.json"), "counters.patches_diced") > diced);
+    assert_true(test_stats_number(path("off.json"), "counters.patch_cache_hits") == 0.0);
+    assert_true(test_stats_number(path("off.json"), "counters.patches_diced") > 3 * diced);
 }
 
 static void test_ten_billion_potential_micropolygons_in_fixed_memory(void **state)
@@ -203,6 +236,7 @@ int main(void)
         cmocka_unit_test(test_displaced_sphere_is_hole_free_from_inside),
         cmocka_unit_test(test_memory_budget_does_not_change_the_image),
         cmocka_unit_test(test_sort_by_copy_matches_mapped_sort),
+        cmocka_unit_test(test_patch_cache_dices_once_and_changes_no_bit),
         cmocka_unit_test(test_ten_billion_potential_micropolygons_in_fixed_memory),
         cmocka_unit_test(test_motion_blur_is_the_time_average),
     };

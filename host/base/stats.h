@@ -15,7 +15,7 @@
     X(rays, "rays traced (all waves)")                                                      \
     X(shadow_rays, "shadow rays traced")                                                    \
     X(pairs, "(leaf, ray) candidates produced by top_level")                                \
-    X(patches_diced, "patch segments diced")                                                \
+    X(patches_diced, "patch segments diced (patch cache misses)")                           \
     X(micropolygons_created, "micro-quads diced, summed over all dicings")                  \
     X(micropolygons_potential, "micro-quads of every patch at max LOD")                     \
     X(iterations, "top_level/sort/dice/bottom_level iterations")                            \
@@ -25,7 +25,11 @@
     X(texture_tiles_uploaded, "texture tiles (32 x 32 texels) copied to the device pool")   \
     X(texture_bytes_uploaded, "bytes of those tiles")                                      \
     X(texture_pool_tiles, "tiles the device pool holds (every tile unless --memory pages)") \
-    X(texture_tiles, "tiles of every texture level in the scene")
+    X(texture_tiles, "tiles of every texture level in the scene")                           \
+    X(patch_cache_hits, "segments whose patch was already diced and resident")              \
+    X(patch_cache_misses, "segments diced into the cache (= patches_diced)")                \
+    X(patch_cache_evictions, "resident patches evicted to make room")                      \
+    X(patch_cache_bytes, "bytes of the vertex and tree arenas the cache manages")
 /* clang-format on */
 
 typedef enum ts_counter {

@@ -290,12 +290,20 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
         rc = tex_cache_upload_initial(&p->tex, cl, p->tex_pool, p->tex_pages, scene, stats, err);
     if (rc == TS_OK) rc = clear_buffers(p, &c, err);
     if (rc == TS_OK) rc = create_sort_copies(p, err);
+    if (rc == TS_OK)
+        rc = patch_cache_create(&p->cache, scene->patch_count, plan->vert_capacity,
+                                plan->group_capacity, err);
+    const char *cache_env = getenv("TESSERA_PATCH_CACHE");
+    p->cache_off = cache_env && strcmp(cache_env, "0") == 0;
     if (rc != TS_OK) {
         pipeline_destroy(p);
         return rc;
     }
     stats->counters[TS_COUNTER_micropolygons_potential] = (uint64_t)scene->patch_count
                                                           << (2u * plan->max_lod);
+    stats->counters[TS_COUNTER_patch_cache_bytes] =
+        (uint64_t)plan->vert_capacity * sizeof(ts_vec4) +
+        (uint64_t)plan->group_capacity * sizeof(ts_box4);
     return TS_OK;
 }
 
@@ -327,6 +335,7 @@ void pipeline_destroy(ts_pipeline *p)
     free(p->sort_host[0]);
     free(p->sort_host[1]);
     tex_cache_free(&p->tex);
+    patch_cache_free(&p->cache);
     free(p->segments_host);
     free(p->trees_host);
     free(p->batches);
@@ -377,6 +386,7 @@ int pipeline_lod_finish(ts_pipeline *p, ts_error *err)
         p->patch_lod[i] = (uint8_t)m;
     }
     free(counts);
+    patch_cache_clear(&p->cache); /* diced at the levels of detail counted before */
     p->stats->stage_seconds[TS_STAGE_lod] += stats_now() - t0;
     return rc;
 }

@@ -7,6 +7,7 @@
 #define TS_PIPELINE_H
 
 #include "device/device.h"
+#include "pipeline/patch_cache.h"
 #include "pipeline/qbvh.h"
 #include "pipeline/sort.h"
 #include "scene/scene.h"
@@ -147,10 +148,12 @@ typedef struct ts_trace_mode {
     X(albedo_film,     TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)
 /* clang-format on */
 
-/* A run of segments diced together: they fit the arenas at once. */
+/* A run of segments traced together: all of them resident in the arenas at once (the patch
+ * cache pinned them); its trees are those of the segments that were not resident and are
+ * diced and built first. */
 typedef struct ts_batch {
     uint32_t seg_first, seg_count;
-    uint32_t tree_first, tree_count; /* in the tree list, by decreasing m */
+    uint32_t tree_first, tree_count; /* the misses' trees, in the tree list, by decreasing m */
 } ts_batch;
 
 typedef struct ts_pipeline {
@@ -173,7 +176,13 @@ typedef struct ts_pipeline {
     uint32_t *trees_host;      /* two per patch at most */
     ts_batch *batches;         /* one per patch at most */
     uint32_t batch_count;
-    uint8_t *patch_lod;   /* m of each patch for this frame (lod stage); max_lod until counted */
+    uint8_t *patch_lod; /* m of each patch for this frame (lod stage); max_lod until counted */
+    /* Which diced patches the grid and groups arenas hold, kept across iterations, waves and
+     * sample passes (patch_cache.h); cleared when the levels of detail change. With
+     * cache_off (TESSERA_PATCH_CACHE=0, for checks) it is cleared before every batch, so
+     * every segment is diced again as before the cache. */
+    ts_patch_cache cache;
+    int cache_off;
     ts_tex_cache tex;     /* which tiles tex_pool holds (tex_cache.h) */
     uint32_t light_count; /* entries of the lights buffer (lights.h) */
     uint32_t wave;

@@ -38,54 +38,88 @@ static void assign_lods(ts_pipeline *p, uint32_t segs)
     }
 }
 
-/* Gives each segment (its LOD set) its arena place and cuts the segments into batches
- * that fit the arenas; lists each batch's trees (segment, time) by decreasing m. */
+/* Starts batch k at segment i (its trees from the list's current end). */
+static ts_batch *batch_open(ts_pipeline *p, uint32_t i, uint32_t ntrees)
+{
+    ts_batch *b = &p->batches[p->batch_count++];
+    *b = (ts_batch){i, 0, ntrees, 0};
+    return b;
+}
+
+/* Sorts batch b's trees by decreasing m (a stable counting sort), so that the trees deeper
+ * than a level are a prefix of the list (stage_build). */
+static void batch_sort_trees(ts_pipeline *p, ts_batch *b)
+{
+    uint32_t *list = &p->trees_host[b->tree_first], count[TS_LOD_LIMIT + 1] = {0};
+    uint32_t tmp[2 * 64],
+        *scratch = b->tree_count <= 128 ? tmp : malloc(b->tree_count * sizeof *scratch);
+    if (!scratch) return; /* unsorted: build_level then visits idle trees, still correct */
+    for (uint32_t t = 0; t < b->tree_count; ++t)
+        count[p->segments_host[TS_TREE_SEGMENT(list[t])].lod]++;
+    uint32_t start[TS_LOD_LIMIT + 1], at = 0;
+    for (int m = TS_LOD_LIMIT; m >= 0; --m)
+        start[m] = at, at += count[m];
+    for (uint32_t t = 0; t < b->tree_count; ++t)
+        scratch[start[p->segments_host[TS_TREE_SEGMENT(list[t])].lod]++] = list[t];
+    memcpy(list, scratch, b->tree_count * sizeof *list);
+    if (scratch != tmp) free(scratch);
+}
+
+/* Gives each segment (its LOD set) its place in the arenas through the patch cache and
+ * cuts the segments into batches whose patches are resident together: a segment whose
+ * patch is resident at its m is a hit (traced, not diced); a miss gets space (the cache
+ * evicts unpinned patches, least recently used first) and its trees go on the batch's list
+ * to be diced and built; when even evicting everything unpinned leaves no room, the batch
+ * ends there. Batches run in order on the in-order queue, so a later batch may overwrite
+ * space an earlier one used only after that one's bottom_level. Paged textures also end a
+ * batch when its misses' tiles would not fit the pool together. */
 static void plan_batches(ts_pipeline *p, uint32_t segs)
 {
-    uint32_t vused = 0, gused = 0, tused = 0, ntrees = 0;
+    uint32_t tused = 0, ntrees = 0;
+    uint64_t hits = 0, misses = 0, evicted = p->cache.evictions;
     p->batch_count = 0;
     ts_batch *b = NULL;
+    if (p->cache_off) patch_cache_clear(&p->cache);
     for (uint32_t i = 0; i < segs; ++i) {
         ts_segment *s = &p->segments_host[i];
         const ts_patch_attr *a = &p->scene->attr[s->patch];
         s->flags = a->flags & TS_PATCH_MOVING;
         s->pad = 0;
         uint32_t times = s->flags ? 2u : 1u;
-        uint32_t nv = times * quadtree_vertex_count(s->lod),
-                 ng = times * quadtree_group_count(s->lod);
-        /* Texture tiles: the batch's patches' needs add up to at most the pool (an over-count
+        /* Texture tiles: the batch's misses' needs add up to at most the pool (an over-count
          * where they share tiles; each alone fits, tex_cache_create sized the pool so). */
         uint32_t nt = p->tex.paged ? p->tex.patch_tiles[s->patch] : 0u;
-        if (!b || vused + nv > p->plan.vert_capacity || gused + ng > p->plan.group_capacity ||
-            tused + nt > p->tex.slots) {
-            b = &p->batches[p->batch_count++];
-            *b = (ts_batch){i, 0, ntrees, 0};
-            vused = gused = tused = 0;
+        if (b && tused + nt > p->tex.slots &&
+            !(p->cache.entry[s->patch].resident && p->cache.entry[s->patch].lod == s->lod)) {
+            patch_cache_end_batch(&p->cache);
+            b = NULL;
         }
-        s->vert_first = vused;
-        s->group_first = gused;
-        vused += nv, gused += ng, tused += nt;
+        if (!b) b = batch_open(p, i, ntrees), tused = 0;
+        ts_cache_result r = patch_cache_acquire(&p->cache, s->patch, s->lod, times, &s->vert_first,
+                                                &s->group_first);
+        if (r == TS_CACHE_FULL) { /* the batch is as full as it gets: start the next */
+            patch_cache_end_batch(&p->cache);
+            if (p->cache_off) patch_cache_clear(&p->cache);
+            b = batch_open(p, i, ntrees), tused = 0;
+            r = patch_cache_acquire(&p->cache, s->patch, s->lod, times, &s->vert_first,
+                                    &s->group_first); /* the plan holds any one patch */
+        }
         b->seg_count++;
+        if (r == TS_CACHE_HIT) {
+            ++hits;
+            continue;
+        }
+        ++misses;
+        tused += nt;
         for (uint32_t t = 0; t < times; ++t)
             p->trees_host[ntrees++] = (i << 1) | t, b->tree_count++;
     }
-    /* Counting sort of each batch's trees by decreasing m (stable). */
-    for (uint32_t k = 0; k < p->batch_count; ++k) {
-        ts_batch *bk = &p->batches[k];
-        uint32_t *list = &p->trees_host[bk->tree_first], count[TS_LOD_LIMIT + 1] = {0};
-        uint32_t tmp[2 * 64],
-            *scratch = bk->tree_count <= 128 ? tmp : malloc(bk->tree_count * sizeof *scratch);
-        if (!scratch) continue; /* unsorted: build_level then visits idle trees, still correct */
-        for (uint32_t t = 0; t < bk->tree_count; ++t)
-            count[p->segments_host[TS_TREE_SEGMENT(list[t])].lod]++;
-        uint32_t start[TS_LOD_LIMIT + 1], at = 0;
-        for (int m = TS_LOD_LIMIT; m >= 0; --m)
-            start[m] = at, at += count[m];
-        for (uint32_t t = 0; t < bk->tree_count; ++t)
-            scratch[start[p->segments_host[TS_TREE_SEGMENT(list[t])].lod]++] = list[t];
-        memcpy(list, scratch, bk->tree_count * sizeof *list);
-        if (scratch != tmp) free(scratch);
-    }
+    patch_cache_end_batch(&p->cache);
+    for (uint32_t k = 0; k < p->batch_count; ++k)
+        batch_sort_trees(p, &p->batches[k]);
+    p->stats->counters[TS_COUNTER_patch_cache_hits] += hits;
+    p->stats->counters[TS_COUNTER_patch_cache_misses] += misses;
+    p->stats->counters[TS_COUNTER_patch_cache_evictions] += p->cache.evictions - evicted;
 }
 
 /* Discrete devices: reads the window into host memory, sorts it there and writes back
@@ -140,7 +174,7 @@ static int upload_batches(ts_pipeline *p, uint32_t segs, ts_error *err)
 {
     if (segs == 0) return TS_OK;
     const ts_batch *last = &p->batches[p->batch_count - 1];
-    uint32_t trees = last->tree_first + last->tree_count;
+    uint32_t trees = last->tree_first + last->tree_count; /* 0 when every segment hit */
     if (dev_write(p->cl, p->segments, 0, segs * sizeof(ts_segment), p->segments_host,
                   "the segments", err) ||
         dev_write(p->cl, p->trees, 0, trees * sizeof(uint32_t), p->trees_host, "the tree lists",
@@ -192,8 +226,10 @@ static int batch_textures(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
     if (!p->tex.paged) return TS_OK;
     tex_cache_begin(&p->tex);
-    for (uint32_t i = b->seg_first; i < b->seg_first + b->seg_count; ++i)
-        tex_cache_mark_patch(&p->tex, p->scene, p->segments_host[i].patch);
+    for (uint32_t t = 0; t < b->tree_count; ++t) /* the patches diced: the misses */
+        tex_cache_mark_patch(
+            &p->tex, p->scene,
+            p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])].patch);
     return tex_cache_commit(&p->tex, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
 }
 
@@ -214,11 +250,12 @@ static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
             return err->code;
         t += run;
     }
-    for (uint32_t i = b->seg_first; i < b->seg_first + b->seg_count; ++i) {
+    for (uint32_t t = 0; t < b->tree_count; ++t) {
+        uint32_t tree = p->trees_host[b->tree_first + t], lod = tree_lod(p, b, t);
+        if (TS_TREE_TIME(tree) != 0u) continue; /* one dicing per patch, not per time */
         p->stats->counters[TS_COUNTER_patches_diced] += 1;
-        p->stats->counters[TS_COUNTER_micropolygons_created] += 1ull
-                                                                << (2u * p->segments_host[i].lod);
-        p->stats->lod_histogram[p->segments_host[i].lod] += 1;
+        p->stats->counters[TS_COUNTER_micropolygons_created] += 1ull << (2u * lod);
+        p->stats->lod_histogram[lod] += 1;
     }
     return TS_OK;
 }
@@ -329,7 +366,8 @@ int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray
 
 int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
 {
-    plan_batches(p, count); /* the caller set each segment's LOD */
+    patch_cache_clear(&p->cache); /* dice every segment, whatever was resident */
+    plan_batches(p, count);       /* the caller set each segment's LOD */
     if (p->batch_count != 1)
         return ts_error_set(err, TS_E_INTERNAL,
                             "pipeline_dice_build: the segments do not fit one batch");
