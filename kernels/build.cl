@@ -51,13 +51,13 @@ inline void box_add(ts_box *b, float x, float y, float z)
 
 /* Box of the undisplaced corners (vertex - d * normal) of micro-quad (i, j) of grid g. */
 inline ts_box base_box(__global const ts_vec4 *g, uint n, uint i, uint j,
-                       __global const ts_vec4 *cn, float h)
+                       __global const ts_vec4 *cn, __global const ts_vec4 *mn, float h)
 {
     ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (uint c = 0; c < 4u; ++c) {
         uint ci = i + (c & 1u), cj = j + (c >> 1);
         ts_vec4 p = g[cj * n + ci];
-        ts_vec4 dn = displace_normal(cn, (float)ci * h, (float)cj * h);
+        ts_vec4 dn = displace_normal(cn, mn, (float)ci * h, (float)cj * h);
         box_add(&b, p.x - p.w * dn.x, p.y - p.w * dn.y, p.z - p.w * dn.z);
     }
     return b;
@@ -84,11 +84,11 @@ inline float2 interval_mul(float lo, float hi, float a, float b)
 
 __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tree_count, uint m,
                            __global const ts_segment *segments, __global const ts_vec4 *grid,
-                           __global const ts_vec4 *corner_n, __global const ts_patch_attr *attr,
-                           __global const ts_xform *xform, __global const ts_vec4 *flatness,
-                           __global const ts_box *patch_box, __global const ts_texture *textures,
-                           __global const uint *tex_pages, __global const ts_vec4 *tex_pool,
-                           __global ts_box4 *groups)
+                           __global const ts_vec4 *corner_n, __global const ts_vec4 *mid_n,
+                           __global const ts_patch_attr *attr, __global const ts_xform *xform,
+                           __global const ts_vec4 *flatness, __global const ts_box *patch_box,
+                           __global const ts_texture *textures, __global const uint *tex_pages,
+                           __global const ts_vec4 *tex_pool, __global ts_box4 *groups)
 {
     uint nl = 1u << (2u * m), gid = get_global_id(0);
     uint t = gid / nl, k = gid % nl;
@@ -99,8 +99,9 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     uint i = morton_i(k), j = morton_j(k);
     float h = ldexp(1.0f, -(int)m);
     __global const ts_vec4 *cn = corner_n + (size_t)seg.patch * 4u;
+    __global const ts_vec4 *mn = mid_n + (size_t)seg.patch * 5u;
     __global const ts_vec4 *g = grid + (size_t)seg.vert_first + time * nv;
-    ts_box b = base_box(g, n, i, j, cn, h);
+    ts_box b = base_box(g, n, i, j, cn, mn, h);
     ts_vec4 e = flatness[seg.patch];
     float s = ldexp(1.0f, -2 * (int)m);
     /* Flatness, plus a few ulps for the rounding of the vertices and of vertex - d * n. */
@@ -118,18 +119,16 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         } else {
             ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
             if (time == 1u) {
-                b0 = base_box(grid + seg.vert_first, n, i, j, cn, h);
+                b0 = base_box(grid + seg.vert_first, n, i, j, cn, mn, h);
                 b0.lo_x -= ex, b0.hi_x += ex, b0.lo_y -= ey, b0.hi_y += ey, b0.lo_z -= ez,
                     b0.hi_z += ez;
             }
             d = displace_interval(a, xform + a->xform, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y,
                                   b0.hi_z);
         }
-        ts_box nb = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
-        for (uint c = 0; c < 4u; ++c) {
-            ts_vec4 dn = displace_normal(cn, (float)(i + (c & 1u)) * h, (float)(j + (c >> 1)) * h);
-            box_add(&nb, dn.x, dn.y, dn.z);
-        }
+        /* The displacement direction over the micro-quad's whole parameter square. */
+        ts_box nb = displace_normal_box(cn, mn, (float)i * h, (float)j * h, (float)(i + 1u) * h,
+                                        (float)(j + 1u) * h);
         float2 ox = interval_mul(d.lo, d.hi, nb.lo_x, nb.hi_x);
         float2 oy = interval_mul(d.lo, d.hi, nb.lo_y, nb.hi_y);
         float2 oz = interval_mul(d.lo, d.hi, nb.lo_z, nb.hi_z);

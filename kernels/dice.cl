@@ -15,9 +15,10 @@
 __kernel void dice_grid(__global const uint *trees, uint tree_first, uint tree_count, uint m,
                         __global const ts_segment *segments, __global const ts_vec4 *cp0,
                         __global const ts_vec4 *cp1, __global const ts_vec4 *corner_n,
-                        __global const ts_patch_attr *attr, __global const ts_xform *xform,
-                        __global const ts_texture *textures, __global const uint *tex_pages,
-                        __global const ts_vec4 *tex_pool, __global ts_vec4 *grid)
+                        __global const ts_vec4 *mid_n, __global const ts_patch_attr *attr,
+                        __global const ts_xform *xform, __global const ts_texture *textures,
+                        __global const uint *tex_pages, __global const ts_vec4 *tex_pool,
+                        __global ts_vec4 *grid)
 {
     uint nv = quadtree_vertex_count(m);
     uint gid = get_global_id(0);
@@ -33,5 +34,6 @@ __kernel void dice_grid(__global const uint *trees, uint tree_first, uint tree_c
     float u = ldexp((float)(v % n), -(int)m);
     float w = ldexp((float)(v / n), -(int)m);
     grid[(size_t)seg.vert_first + time * nv + v] =
-        patch_vertex(c, c0, corner_n + (size_t)seg.patch * 4u, a, xform + a->xform, tex, u, w);
+        patch_vertex(c, c0, corner_n + (size_t)seg.patch * 4u, mid_n + (size_t)seg.patch * 5u, a,
+                     xform + a->xform, tex, u, w);
 }

@@ -122,14 +122,16 @@ inline void shade_escape(const shade_lights *L, ts_v3 d, const shade_step *s, fl
  * towards the ray's origin, colour. */
 inline shade_vertex shade_vertex_at(ts_hit h, ts_vec4 o4, ts_v3 d, float time,
                                     __global const ts_vec4 *cp, __global const ts_vec4 *corner_n,
+                                    __global const ts_vec4 *mid_n,
                                     __global const ts_patch_attr *attr,
                                     __global const ts_xform *xform, ts_tex_ctx tex)
 {
     shade_vertex v;
     v.a = attr + h.patch;
     __global const ts_vec4 *c = cp + (size_t)h.patch * 16u;
-    ts_vec4 n4 = patch_shading_normal(c, corner_n + (size_t)h.patch * 4u, v.a, xform + v.a->xform,
-                                      tex, h.u, h.v, TS_PRIM_LOD(h.prim));
+    ts_vec4 n4 =
+        patch_shading_normal(c, corner_n + (size_t)h.patch * 4u, mid_n + (size_t)h.patch * 5u, v.a,
+                             xform + v.a->xform, tex, h.u, h.v, TS_PRIM_LOD(h.prim));
     tex_surface_colour(v.a, tex, h.u, h.v, v.cs);
     v.n = v3(n4.x, n4.y, n4.z), v.wo = v3_scale(d, -1.0f);
     if (v3_dot(v.n, v.wo) < 0.0f) v.n = v3_scale(v.n, -1.0f);
@@ -214,12 +216,13 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
                          __global ts_vec4 *pending, __global ts_vec4 *radiance,
                          __global ts_vec4 *aov, __global ts_vec4 *albedo,
                          __global const ts_vec4 *cp, __global const ts_vec4 *corner_n,
-                         __global const ts_patch_attr *attr, __global const ts_xform *xform,
-                         __global const ts_light *lights, __global const ts_emitter *emitters,
-                         __global const ts_vec4 *env_texels, __global const float *env_marginal,
-                         __global const float *env_conditional, __global const ts_vec4 *flatness,
-                         __global const ts_texture *textures, __global const uint *tex_pages,
-                         __global const ts_vec4 *tex_pool, __global uint *alive)
+                         __global const ts_vec4 *mid_n, __global const ts_patch_attr *attr,
+                         __global const ts_xform *xform, __global const ts_light *lights,
+                         __global const ts_emitter *emitters, __global const ts_vec4 *env_texels,
+                         __global const float *env_marginal, __global const float *env_conditional,
+                         __global const ts_vec4 *flatness, __global const ts_texture *textures,
+                         __global const uint *tex_pages, __global const ts_vec4 *tex_pool,
+                         __global uint *alive)
 {
     uint k = get_global_id(0);
     if (k >= path_count) return;
@@ -254,7 +257,7 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
             aov[i] = (ts_vec4){0.0f, 0.0f, 0.0f, INFINITY}, albedo[i] = (ts_vec4){0, 0, 0, 0};
         return;
     }
-    shade_vertex v = shade_vertex_at(h, o4, d, d4.w, cp, corner_n, attr, xform, tex);
+    shade_vertex v = shade_vertex_at(h, o4, d, d4.w, cp, corner_n, mid_n, attr, xform, tex);
     if (s.bounce == 0u) {
         __global const ts_patch_attr *a = v.a;
         aov[i] = (ts_vec4){v.n.x, v.n.y, v.n.z, h.t};

@@ -84,7 +84,7 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
                           const ts_box4 *nodes, uint32_t *seed)
 {
     uint32_t pi = seg->patch;
-    const ts_vec4 *cp = &s->cp[pi * 16], *cn = &s->corner_n[pi * 4];
+    const ts_vec4 *cp = &s->cp[pi * 16], *cn = &s->corner_n[pi * 4], *mn = &s->mid_n[pi * 5];
     const ts_patch_attr *a = &s->attr[pi];
     const ts_xform *x = &s->xform[a->xform];
     uint32_t m = seg->lod, n = (1u << m) + 1u;
@@ -94,12 +94,12 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
         for (uint32_t i = 0; i < n; ++i) {
             ts_vec4 g = grid[j * n + i];
             float u = ldexpf((float)i, -(int)m), v = ldexpf((float)j, -(int)m);
-            ts_vec4 same = patch_vertex(cp, cp, cn, a, x, scene_tex_ctx(s), u, v);
+            ts_vec4 same = patch_vertex(cp, cp, cn, mn, a, x, scene_tex_ctx(s), u, v);
             if (memcmp(&g, &same, sizeof g) != 0)
                 fail_msg("patch %u m %u vertex (%u,%u): device (%a %a %a %a) host (%a %a %a %a)",
                          pi, m, i, j, g.x, g.y, g.z, g.w, same.x, same.y, same.z, same.w);
             /* The undisplaced point against an independent evaluation. */
-            ts_vec4 dn = displace_normal(cn, u, v);
+            ts_vec4 dn = displace_normal(cn, mn, u, v);
             double r[3];
             reference_point(cp, u, v, r);
             assert_true(fabs(g.x - g.w * dn.x - r[0]) <= tol &&
@@ -123,7 +123,7 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
         for (int q = 0; q < points; ++q) {
             float u = ((float)i + test_uniform(seed, 0, 1)) * ldexpf(1.0f, -(int)m);
             float v = ((float)j + test_uniform(seed, 0, 1)) * ldexpf(1.0f, -(int)m);
-            ts_vec4 p = patch_vertex(cp, cp, cn, a, x, scene_tex_ctx(s), u, v);
+            ts_vec4 p = patch_vertex(cp, cp, cn, mn, a, x, scene_tex_ctx(s), u, v);
             if (!box_contains(b, p))
                 fail_msg("patch %u m %u leaf %u: surface point (%g, %g) outside its box", pi, m, k,
                          u, v);

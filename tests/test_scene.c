@@ -1,4 +1,6 @@
-/* test_scene.c — the scene model (host/scene/scene.c): corner displacement normals from
+/* test_scene.c — the scene model (host/scene/scene.c): the displacement direction (a unit
+ * vector from nine shared normals: handle and spout displaced like the body, shared edges
+ * displaced identically), corner displacement normals from
  * scene_finalize, world-to-object transforms, moving patches and scene_patch_box, which
  * must hold the displaced surface (lib/bezier.h, lib/displace.h) over the whole shutter.
  * Host only: never skips. */
@@ -10,6 +12,7 @@
 
 #include "lib/bezier.h"
 #include "lib/displace.h"
+#include "lib/patch.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -55,6 +58,97 @@ static void wavy_grid(double g[16][3], double dx)
             g[j * 4 + i][1] = j;
             g[j * 4 + i][2] = ((i + j) % 2) ? 0.5 : -0.25;
         }
+}
+
+/* ---- the displacement direction (issue 13, item 6) ---------------------------------- */
+
+/* Patch p's displaced vertex at (u, v). */
+static ts_vec4 displaced(const ts_scene *s, uint32_t p, float u, float v)
+{
+    const ts_vec4 *cp = &s->cp[p * 16];
+    return patch_vertex(cp, cp, &s->corner_n[p * 4], &s->mid_n[p * 5], &s->attr[p],
+                        &s->xform[s->attr[p].xform], scene_tex_ctx(s), u, v);
+}
+
+/* The displaced teapot: the direction is a unit vector everywhere, so the handle (patches
+ * 12-15) and the spout (16-19) move as far from their undisplaced surface as the body
+ * (4-11): the RMS displacement of every handle and spout patch is within a factor of 2 of
+ * the body's mean. (With the bilinear blend of four corner normals it vanished in the middle
+ * of those half-tube patches.) */
+static void test_teapot_handle_and_spout_displaced_like_the_body(void **state)
+{
+    ts_scene s;
+    memset(&s, 0, sizeof s);
+    ts_error e = {0};
+    assert_int_equal(scene_load(test_source_path("scene/teapot_displaced.rib"), &s, 1, &e), TS_OK);
+    assert_int_equal(s.patch_count, 32);
+    double rms[32], body = 0;
+    for (uint32_t p = 0; p < 32; p++) {
+        double sum = 0;
+        int n = 0;
+        for (int j = 0; j <= 32; j++)
+            for (int i = 0; i <= 32; i++) {
+                float u = i / 32.0f, v = j / 32.0f;
+                ts_vec4 q = displaced(&s, p, u, v), b = bezier_eval(&s.cp[p * 16], u, v);
+                double dx = q.x - b.x, dy = q.y - b.y, dz = q.z - b.z;
+                sum += dx * dx + dy * dy + dz * dz, n++;
+                /* |q - b| = |d|: a unit direction */
+                assert_true(fabs(sqrt(dx * dx + dy * dy + dz * dz) - fabs(q.w)) < 1e-5);
+            }
+        rms[p] = sqrt(sum / n);
+        if (p >= 4 && p < 12) body += rms[p] / 8;
+    }
+    for (uint32_t p = 12; p < 20; p++)
+        if (!(rms[p] > body / 2 && rms[p] < body * 2))
+            fail_msg("patch %u: RMS displacement %g, the body's %g", p, rms[p], body);
+    scene_free(&s);
+}
+
+/* Neighbours share the displaced edge exactly: for every pair of teapot patches with the
+ * same boundary curve (in either direction), the displaced vertices along it at m = 5 are
+ * bitwise equal, so no crack opens between them. */
+static void test_displaced_edges_are_shared_exactly(void **state)
+{
+    ts_scene s;
+    memset(&s, 0, sizeof s);
+    ts_error e = {0};
+    assert_int_equal(scene_load(test_source_path("scene/teapot_displaced.rib"), &s, 1, &e), TS_OK);
+    static const int edge_cp[4][4] = {
+        {0, 1, 2, 3}, {0, 4, 8, 12}, {3, 7, 11, 15}, {12, 13, 14, 15}};
+    const int n = 32;
+    int pairs = 0;
+    for (uint32_t p = 0; p < s.patch_count; p++)
+        for (uint32_t q = p + 1; q < s.patch_count; q++)
+            for (int a = 0; a < 4; a++)
+                for (int b = 0; b < 4; b++)
+                    for (int rev = 0; rev < 2; rev++) {
+                        int same = 1;
+                        for (int k = 0; k < 4 && same; k++) {
+                            const ts_vec4 *x = &s.cp[p * 16 + edge_cp[a][k]];
+                            const ts_vec4 *y = &s.cp[q * 16 + edge_cp[b][rev ? 3 - k : k]];
+                            same = x->x == y->x && x->y == y->y && x->z == y->z;
+                        }
+                        if (!same) continue;
+                        const ts_vec4 *c0 = &s.cp[p * 16 + edge_cp[a][0]];
+                        const ts_vec4 *c3 = &s.cp[p * 16 + edge_cp[a][3]];
+                        if (c0->x == c3->x && c0->y == c3->y && c0->z == c3->z)
+                            continue; /* a pole */
+                        pairs++;
+                        for (int i = 0; i <= n; i++) {
+                            float t = (float)i / n, t2 = rev ? 1.0f - t : t;
+                            float pu = a == 1 ? 0.0f : a == 2 ? 1.0f : t;
+                            float pv = a == 0 ? 0.0f : a == 3 ? 1.0f : t;
+                            float qu = b == 1 ? 0.0f : b == 2 ? 1.0f : t2;
+                            float qv = b == 0 ? 0.0f : b == 3 ? 1.0f : t2;
+                            ts_vec4 x = displaced(&s, p, pu, pv), y = displaced(&s, q, qu, qv);
+                            if (x.x != y.x || x.y != y.y || x.z != y.z)
+                                fail_msg("patches %u and %u: the shared edge differs at %d/%d by "
+                                         "(%g %g %g)",
+                                         p, q, i, n, x.x - y.x, x.y - y.y, x.z - y.z);
+                        }
+                    }
+    assert_true(pairs >= 40); /* the teapot's 32 patches share many edges */
+    scene_free(&s);
 }
 
 /* ---- corner normals ------------------------------------------------------------------- */
@@ -288,7 +382,7 @@ static void check_displaced_box(uint32_t kind, int moving)
         if (k < 4) u = (float)(k & 1), v = (float)(k >> 1);
         ts_vec4 p0 = bezier_eval(&s.cp[0], u, v);
         float d = displace_value(&s.attr[0], &s.xform[s.attr[0].xform], p0.x, p0.y, p0.z);
-        ts_vec4 n = displace_normal(&s.corner_n[0], u, v);
+        ts_vec4 n = displace_normal(&s.corner_n[0], &s.mid_n[0], u, v);
         dmin = fminf(dmin, d), dmax = fmaxf(dmax, d);
         ts_vec4 q0 = {p0.x + d * n.x, p0.y + d * n.y, p0.z + d * n.z, 0};
         if (!in_box(&b, q0.x, q0.y, q0.z))
@@ -406,6 +500,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_teapot_corner_normals),
+        cmocka_unit_test(test_teapot_handle_and_spout_displaced_like_the_body),
+        cmocka_unit_test(test_displaced_edges_are_shared_exactly),
         cmocka_unit_test(test_average_across_crease),
         cmocka_unit_test(test_explicit_and_degenerate),
         cmocka_unit_test(test_xform_dedupe),

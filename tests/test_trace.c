@@ -48,8 +48,8 @@ static void brute_force(const ts_scene *s, const traced *t, float *tbest, uint32
     for (uint32_t p = 0; p < s->patch_count; ++p)
         for (uint32_t v = 0; v < n * n; ++v)
             grid[p * n * n + v] =
-                patch_vertex(&s->cp[p * 16], &s->cp[p * 16], &s->corner_n[p * 4], &s->attr[p],
-                             &s->xform[s->attr[p].xform], scene_tex_ctx(s),
+                patch_vertex(&s->cp[p * 16], &s->cp[p * 16], &s->corner_n[p * 4], &s->mid_n[p * 5],
+                             &s->attr[p], &s->xform[s->attr[p].xform], scene_tex_ctx(s),
                              ldexpf((float)(v % n), -M), ldexpf((float)(v / n), -M));
     for (int r = 0; r < W * H; ++r) {
         ts_vec4 o = t->org[r], d = t->dir[r];

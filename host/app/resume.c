@@ -58,6 +58,7 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
     h = ts_fnv1a(h, s->cp, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
     if (s->cp1) h = ts_fnv1a(h, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
     if (s->corner_n) h = ts_fnv1a(h, s->corner_n, (size_t)s->patch_count * 4 * sizeof(ts_vec4));
+    if (s->mid_n) h = ts_fnv1a(h, s->mid_n, (size_t)s->patch_count * 5 * sizeof(ts_vec4));
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         ts_patch_attr a = s->attr[i];
         a.pad[0] = a.pad[1] = 0;

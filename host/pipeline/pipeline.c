@@ -82,7 +82,7 @@ static int create_kernels(ts_pipeline *p, ts_error *err)
  * u.NAME): the scene's arrays, or defaults where it has none (no motion: cp1 = cp; no
  * transforms: the identity; no normals: +z; NULL: zeros), and what the host derives. */
 typedef struct scene_uploads {
-    const void *nodes, *cp, *cp1, *corner_n, *xform, *boxes, *textures;
+    const void *nodes, *cp, *cp1, *corner_n, *mid_n, *xform, *boxes, *textures;
     ts_patch_attr *attr;   /* the scene's, with each patch's emitter index (lights_build) */
     ts_vec4 *flatness;     /* patch_flatness; w: the longest side of the patch's box */
     ts_vec4 *normals;      /* +z corner normals when the scene has none */
@@ -117,11 +117,15 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
     u->textures = s->textures;
     u->attr = calloc(n, sizeof *u->attr);
     u->flatness = calloc(n, sizeof *u->flatness);
-    u->normals = s->corner_n ? NULL : calloc(n * 4, sizeof *u->normals);
-    u->corner_n = s->corner_n ? (const void *)s->corner_n : (const void *)u->normals;
+    /* A scene without normals (hand-built in tests): +z at all nine nodes. */
+    int given = s->corner_n && s->mid_n;
+    u->normals = given ? NULL : calloc(n * 9, sizeof *u->normals);
+    u->corner_n = given ? (const void *)s->corner_n : (const void *)u->normals;
+    u->mid_n =
+        given ? (const void *)s->mid_n : (const void *)(u->normals ? u->normals + 4 * n : NULL);
     if (!u->attr || !u->flatness || !u->corner_n)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    for (size_t i = 0; u->normals && i < n * 4; ++i)
+    for (size_t i = 0; u->normals && i < n * 9; ++i)
         u->normals[i].z = 1.0f;
     if (s->patch_count) memcpy(u->attr, s->attr, s->patch_count * sizeof *u->attr);
     /* w: the longest side of the patch's box, for the secondary-ray offset l / 2^m. */

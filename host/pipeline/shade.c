@@ -178,8 +178,8 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
                      DEV_ARG(p->ray_entry), DEV_ARG(p->ray_flags), DEV_ARG(p->ray_pixel),
                      DEV_ARG(p->path_throughput), DEV_ARG(p->path_mis), DEV_ARG(p->path_state),
                      DEV_ARG(p->path_pending), DEV_ARG(p->radiance), DEV_ARG(p->aov),
-                     DEV_ARG(p->albedo), DEV_ARG(p->cp), DEV_ARG(p->corner_n), DEV_ARG(p->attr),
-                     DEV_ARG(p->xform), DEV_ARG(p->lights), DEV_ARG(p->emitters),
+                     DEV_ARG(p->albedo), DEV_ARG(p->cp), DEV_ARG(p->corner_n), DEV_ARG(p->mid_n),
+                     DEV_ARG(p->attr), DEV_ARG(p->xform), DEV_ARG(p->lights), DEV_ARG(p->emitters),
                      DEV_ARG(p->env_texels), DEV_ARG(p->env_marginal), DEV_ARG(p->env_conditional),
                      DEV_ARG(p->flatness), DEV_ARG(p->textures), DEV_ARG(p->tex_pages),
                      DEV_ARG(p->tex_pool), DEV_ARG(p->alive), (size_t)0) ||

@@ -8,7 +8,8 @@
 #include <math.h>
 
 static const ts_xform identity_xform = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
-static const ts_vec4 up_normals[4] = {{0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}};
+static const ts_vec4 up_normals[5] = {
+    {0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}};
 
 uint32_t dice_build_ref_times(const ts_scene *s, uint32_t p)
 {
@@ -38,13 +39,13 @@ static void box_add(ts_box *b, float x, float y, float z)
 
 /* Box of the undisplaced corners of micro-quad (i, j) of grid g (build.cl's base_box). */
 static ts_box base_box(const ts_vec4 *g, uint32_t n, uint32_t i, uint32_t j, const ts_vec4 *cn,
-                       float h)
+                       const ts_vec4 *mn, float h)
 {
     ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (uint32_t c = 0; c < 4u; ++c) {
         uint32_t ci = i + (c & 1u), cj = j + (c >> 1);
         ts_vec4 p = g[cj * n + ci];
-        ts_vec4 dn = displace_normal(cn, (float)ci * h, (float)cj * h);
+        ts_vec4 dn = displace_normal(cn, mn, (float)ci * h, (float)cj * h);
         box_add(&b, p.x - p.w * dn.x, p.y - p.w * dn.y, p.z - p.w * dn.z);
     }
     return b;
@@ -64,12 +65,12 @@ static void grow(ts_box *b, float ex, float ey, float ez)
 
 /* Leaf k of the tree of time `time` (build_leaves for one work-item). */
 static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t k,
-                       const ts_vec4 *cn, const ts_patch_attr *a, const ts_xform *x, ts_tex_ctx tex,
-                       ts_vec4 e)
+                       const ts_vec4 *cn, const ts_vec4 *mn, const ts_patch_attr *a,
+                       const ts_xform *x, ts_tex_ctx tex, ts_vec4 e)
 {
     uint32_t n = (1u << m) + 1u, nv = n * n, i = morton_i(k), j = morton_j(k);
     float h = ldexpf(1.0f, -(int)m);
-    ts_box b = base_box(grid + time * nv, n, i, j, cn, h);
+    ts_box b = base_box(grid + time * nv, n, i, j, cn, mn, h);
     float s = ldexpf(1.0f, -2 * (int)m);
     float mag =
         fmaxf(fmaxf(fabsf(b.lo_x), fabsf(b.hi_x)),
@@ -84,16 +85,13 @@ static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t 
     } else {
         ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
         if (time == 1u) {
-            b0 = base_box(grid, n, i, j, cn, h);
+            b0 = base_box(grid, n, i, j, cn, mn, h);
             grow(&b0, ex, ey, ez);
         }
         d = displace_interval(a, x, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
     }
-    ts_box nb = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
-    for (uint32_t c = 0; c < 4u; ++c) {
-        ts_vec4 dn = displace_normal(cn, (float)(i + (c & 1u)) * h, (float)(j + (c >> 1)) * h);
-        box_add(&nb, dn.x, dn.y, dn.z);
-    }
+    ts_box nb = displace_normal_box(cn, mn, (float)i * h, (float)j * h, (float)(i + 1u) * h,
+                                    (float)(j + 1u) * h);
     float ox0, ox1, oy0, oy1, oz0, oz1;
     interval_mul(d.lo, d.hi, nb.lo_x, nb.hi_x, &ox0, &ox1);
     interval_mul(d.lo, d.hi, nb.lo_y, nb.hi_y, &oy0, &oy1);
@@ -117,6 +115,7 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid, ts
 {
     uint32_t times = dice_build_ref_times(s, p), n = (1u << m) + 1u, nv = n * n;
     const ts_vec4 *c0 = &s->cp[p * 16u], *cn = s->corner_n ? &s->corner_n[p * 4u] : up_normals;
+    const ts_vec4 *mn = s->mid_n ? &s->mid_n[p * 5u] : up_normals;
     const ts_patch_attr *a = &s->attr[p];
     const ts_xform *x = s->xform_count ? &s->xform[a->xform] : &identity_xform;
     ts_vec4 e = patch_flatness(c0, s->cp1 ? &s->cp1[p * 16u] : c0, 0);
@@ -125,14 +124,15 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid, ts
     for (uint32_t t = 0; t < times; ++t) {
         const ts_vec4 *c = t ? &s->cp1[p * 16u] : c0;
         for (uint32_t v = 0; v < nv; ++v)
-            grid[t * nv + v] = patch_vertex(c, c0, cn, a, x, tex, ldexpf((float)(v % n), -(int)m),
-                                            ldexpf((float)(v / n), -(int)m));
+            grid[t * nv + v] =
+                patch_vertex(c, c0, cn, mn, a, x, tex, ldexpf((float)(v % n), -(int)m),
+                             ldexpf((float)(v / n), -(int)m));
     }
     uint32_t ng = quadtree_group_count(m);
     for (uint32_t t = 0; t < times; ++t) {
         ts_box4 *tree = groups + t * ng;
         for (uint32_t k = 0; k < (1u << (2u * m)); ++k)
-            node_store(tree, m, k, leaf_clamp(leaf_box(grid, t, m, k, cn, a, x, tex, e), pb));
+            node_store(tree, m, k, leaf_clamp(leaf_box(grid, t, m, k, cn, mn, a, x, tex, e), pb));
         for (uint32_t level = m; level-- > 0;) /* bottom-up min-max reduction */
             for (uint32_t k = 0; k < (1u << (2u * level)); ++k) {
                 const ts_box4 *c = tree + quadtree_group_offset(level + 1u) + k;

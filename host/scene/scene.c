@@ -46,6 +46,9 @@ static int scene_reserve_patch(ts_scene *s, ts_error *err)
     ts_vec4 *n = realloc(s->corner_n, (size_t)cap * 4u * sizeof *n);
     if (!n) goto fail;
     s->corner_n = n;
+    ts_vec4 *mid = realloc(s->mid_n, (size_t)cap * 5u * sizeof *mid);
+    if (!mid) goto fail;
+    s->mid_n = mid;
     ts_patch_attr *attr = realloc(s->attr, (size_t)cap * sizeof *attr);
     if (!attr) goto fail;
     s->attr = attr;
@@ -137,6 +140,69 @@ static int scene_corner_normal(const ts_vec4 *cp, int c, double n[3])
     return 0;
 }
 
+/* The parameters of midpoint normal k (0..4) and the direction a step goes inwards. */
+static const double scene_mid_uv[5][4] = {
+    {0.5, 0.0, 0.0, 1.0},  /* v = 0 edge: step towards +v */
+    {0.0, 0.5, 1.0, 0.0},  /* u = 0 edge */
+    {1.0, 0.5, -1.0, 0.0}, /* u = 1 edge */
+    {0.5, 1.0, 0.0, -1.0}, /* v = 1 edge */
+    {0.5, 0.5, 0.5, 0.5},  /* centre: any small step */
+};
+
+/* The unit geometric normal of the patch at midpoint k, with the limit from inside where
+ * the derivatives vanish (a collapsed edge) as in scene_corner_normal. 0 (n = 0) when
+ * degenerate all the way in. */
+static int scene_mid_normal(const ts_vec4 *cp, int k, double n[3])
+{
+    static const double steps[] = {0.0, 1e-7, 1e-5, 1e-3, 1e-2, 0.1};
+    double ext = 0.0;
+    for (int i = 1; i < 16; i++) {
+        ext = fmax(ext, fabs((double)cp[i].x - cp[0].x));
+        ext = fmax(ext, fabs((double)cp[i].y - cp[0].y));
+        ext = fmax(ext, fabs((double)cp[i].z - cp[0].z));
+    }
+    double tiny = 1e-14 * ext * ext;
+    const double *m = scene_mid_uv[k];
+    for (size_t i = 0; i < sizeof steps / sizeof steps[0]; i++) {
+        scene_cross_derivs(cp, m[0] + steps[i] * m[2], m[1] + steps[i] * m[3], n);
+        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        if (len > tiny && len > 0.0 && isfinite(len)) {
+            n[0] /= len, n[1] /= len, n[2] /= len;
+            return 1;
+        }
+    }
+    n[0] = n[1] = n[2] = 0.0;
+    return 0;
+}
+
+/* The corners (0..3) at the ends of midpoint k's edge (k < 4). */
+static const int scene_mid_corners[4][2] = {{0, 1}, {0, 2}, {1, 3}, {2, 3}};
+
+/* Writes patch p's midpoint normals: from its explicit corner normals (the normalised sum
+ * of the edge's two corners, of all four for the centre; final, w = SCENE_N_GIVEN), or its
+ * own geometric normals (provisional, w = SCENE_N_PENDING; scene_finalize shares them). */
+static void scene_mid_normals(ts_scene *s, uint32_t p, int explicit_corners)
+{
+    const ts_vec4 *c = &s->corner_n[(size_t)p * 4u];
+    for (int k = 0; k < 5; k++) {
+        double n[3] = {0, 0, 0};
+        int ok = 0;
+        if (explicit_corners) {
+            for (int e = 0; e < 4; e++)
+                if (k == 4 || e == scene_mid_corners[k][0] || e == scene_mid_corners[k][1])
+                    n[0] += c[e].x, n[1] += c[e].y, n[2] += c[e].z;
+            double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            ok = len > 1e-3;
+            if (ok) n[0] /= len, n[1] /= len, n[2] /= len;
+        }
+        if (!ok) scene_mid_normal(s->cp + (size_t)p * 16u, k, n);
+        if (n[0] == 0.0 && n[1] == 0.0 && n[2] == 0.0) n[2] = 1.0;
+        ts_vec4 *o = &s->mid_n[(size_t)p * 5u + (size_t)k];
+        o->x = (float)n[0], o->y = (float)n[1], o->z = (float)n[2];
+        o->w = explicit_corners ? SCENE_N_GIVEN : SCENE_N_PENDING;
+    }
+}
+
 /* Writes the provisional corner normals of patch p (its own, w = SCENE_N_PENDING). */
 static void scene_own_normals(ts_scene *s, uint32_t p)
 {
@@ -221,6 +287,7 @@ int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16]
     } else {
         scene_own_normals(s, p);
     }
+    scene_mid_normals(s, p, normals != NULL);
     s->patch_count = p + 1u;
     return TS_OK;
 }
@@ -380,6 +447,106 @@ done:
     return rc;
 }
 
+/* An edge as a hash key: its four boundary control points, in the order that puts the
+ * lexicographically smaller end first, so both patches sharing the edge (in either
+ * direction) make the same key. -0 and +0 are the same. */
+typedef struct scene_edge_key {
+    uint32_t w[12];
+} scene_edge_key;
+
+static const int scene_edge_cp[4][4] = {
+    {0, 1, 2, 3}, {0, 4, 8, 12}, {3, 7, 11, 15}, {12, 13, 14, 15}};
+
+static scene_edge_key scene_edge_key_of(const ts_vec4 *cp, int k)
+{
+    uint32_t a[12];
+    for (int i = 0; i < 4; i++) {
+        const ts_vec4 *c = &cp[scene_edge_cp[k][i]];
+        a[3 * i] = scene_bits(c->x), a[3 * i + 1] = scene_bits(c->y),
+              a[3 * i + 2] = scene_bits(c->z);
+    }
+    int reverse = memcmp(&a[9], &a[0], 3 * sizeof *a) < 0;
+    scene_edge_key key;
+    for (int i = 0; i < 4; i++)
+        memcpy(&key.w[3 * i], &a[3 * (reverse ? 3 - i : i)], 3 * sizeof *a);
+    return key;
+}
+
+static uint32_t scene_edge_hash(const scene_edge_key *k)
+{
+    uint32_t h = 2166136261u;
+    for (int i = 0; i < 12; i++) {
+        h = (h ^ k->w[i]) * 16777619u;
+        h ^= h >> 15;
+    }
+    return h;
+}
+
+/* Replaces every pending edge-midpoint normal by the renormalised sum of the unit normals
+ * of all pending midpoints on the same boundary curve (the displacement direction along a
+ * shared edge is then the same on both sides: no crack opens); the centres keep the patch's
+ * own normal. A sum that nearly cancels keeps the patch's own. */
+static int scene_average_mid_normals(ts_scene *s, ts_error *err)
+{
+    size_t edges = (size_t)s->patch_count * 4u, slots = 16;
+    while (slots < 2 * edges)
+        slots *= 2;
+    uint32_t *table = malloc(slots * sizeof *table), *id = malloc(edges * sizeof *id);
+    scene_edge_key *keys = malloc(edges * sizeof *keys);
+    double(*sum)[3] = malloc(edges * sizeof *sum);
+    int rc = TS_OK;
+    if (edges && (!table || !id || !keys || !sum)) {
+        rc = ts_error_set(err, TS_E_MEMORY, "scene: out of memory for edge normals");
+        goto done;
+    }
+    if (edges) memset(table, 0xff, slots * sizeof *table);
+    uint32_t unique = 0;
+    for (uint32_t p = 0; p < s->patch_count; p++)
+        for (int k = 0; k < 4; k++) {
+            size_t e = (size_t)p * 4u + (size_t)k;
+            ts_vec4 *o = &s->mid_n[(size_t)p * 5u + (size_t)k];
+            id[e] = UINT32_MAX;
+            if (o->w == SCENE_N_GIVEN) continue;
+            double n[3];
+            scene_mid_normal(s->cp + (size_t)p * 16u, k, n); /* from the current points */
+            o->x = (float)n[0], o->y = (float)n[1], o->z = (float)n[2];
+            scene_edge_key key = scene_edge_key_of(s->cp + (size_t)p * 16u, k);
+            size_t h = scene_edge_hash(&key) & (slots - 1);
+            while (table[h] != UINT32_MAX && memcmp(&keys[table[h]], &key, sizeof key) != 0)
+                h = (h + 1) & (slots - 1);
+            if (table[h] == UINT32_MAX) {
+                table[h] = unique;
+                keys[unique] = key;
+                sum[unique][0] = sum[unique][1] = sum[unique][2] = 0.0;
+                unique++;
+            }
+            id[e] = table[h];
+            for (int d = 0; d < 3; d++)
+                sum[id[e]][d] += n[d];
+        }
+    for (uint32_t p = 0; p < s->patch_count; p++)
+        for (int k = 0; k < 5; k++) {
+            ts_vec4 *o = &s->mid_n[(size_t)p * 5u + (size_t)k];
+            if (o->w == SCENE_N_GIVEN) continue;
+            if (k == 4) { /* the centre: the patch's own, from the current points */
+                double n[3];
+                scene_mid_normal(s->cp + (size_t)p * 16u, 4, n);
+                o->x = (float)n[0], o->y = (float)n[1], o->z = (float)n[2];
+            } else {
+                const double *a = sum[id[(size_t)p * 4u + (size_t)k]];
+                double len = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+                if (len > 1e-3)
+                    o->x = (float)(a[0] / len), o->y = (float)(a[1] / len),
+                    o->z = (float)(a[2] / len);
+            }
+            if (o->x == 0.0f && o->y == 0.0f && o->z == 0.0f) o->z = 1.0f;
+            o->w = SCENE_N_GIVEN;
+        }
+done:
+    free(table), free(id), free(keys), free(sum);
+    return rc;
+}
+
 int scene_finalize(ts_scene *s, ts_error *err)
 {
     int rc = scene_ensure_identity(s, err);
@@ -398,7 +565,8 @@ int scene_finalize(ts_scene *s, ts_error *err)
             if (!(s->attr[p].flags & TS_PATCH_MOVING))
                 memcpy(s->cp1 + (size_t)p * 16u, s->cp + (size_t)p * 16u, 16u * sizeof *s->cp);
     }
-    return scene_average_normals(s, err);
+    rc = scene_average_normals(s, err);
+    return rc == TS_OK ? scene_average_mid_normals(s, err) : rc;
 }
 
 /* ---- lights, boxes, free --------------------------------------------------------- */
@@ -471,6 +639,7 @@ void scene_free(ts_scene *s)
     free(s->cp);
     free(s->cp1);
     free(s->corner_n);
+    free(s->mid_n);
     free(s->attr);
     free(s->xform);
     free(s->lights);

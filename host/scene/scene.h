@@ -60,6 +60,15 @@ typedef struct ts_scene {
      * (1,1), unit length, w = 0 (DESIGN.md §2). From a varying "N" when the scene gives one,
      * else set by scene_finalize to the average over every patch sharing the corner. */
     ts_vec4 *corner_n;
+    /* patch_count * 5 more displacement normals, unit length: at the edge midpoints
+     * (u, v) = (1/2, 0), (0, 1/2), (1, 1/2), (1/2, 1) and the centre (1/2, 1/2). With the
+     * corners they are the nine nodes the displacement direction is interpolated between
+     * (lib/displace.h displace_normal, DESIGN.md §2): an edge's midpoint normal is shared
+     * by every patch with that boundary curve (the average of their unit normals there)
+     * unless the patch has explicit corner normals, when it is the normalised sum of the
+     * edge's two corner normals; the centre is the patch's own normal. Set by
+     * scene_finalize like corner_n (provisionally the patch's own normals until then). */
+    ts_vec4 *mid_n;
     ts_patch_attr *attr; /* patch_count entries */
     /* World-to-object transforms referenced by attr.xform (noise is evaluated in object
      * space); xform[0] is the identity. */

@@ -11,13 +11,15 @@
 #include <math.h>
 #endif
 
-/* Cubic Bernstein basis at t: (1-t)^3, 3t(1-t)^2, 3t^2(1-t), t^3. */
+/* Cubic Bernstein basis at t: (1-t)^3, 3t(1-t)^2, 3t^2(1-t), t^3, rounded so that the basis
+ * at 1 - t is exactly this one reversed wherever 1 - (1 - t) == t (the grid's parameters
+ * k / 2^m): b[1] and b[2] share the product t (1-t). */
 TS_INLINE void bezier_basis(float t, float b[4])
 {
-    float s = 1.0f - t;
+    float s = 1.0f - t, ts = 3.0f * (t * s);
     b[0] = s * s * s;
-    b[1] = 3.0f * t * s * s;
-    b[2] = 3.0f * t * t * s;
+    b[1] = ts * s;
+    b[2] = ts * t;
     b[3] = t * t * t;
 }
 
@@ -31,23 +33,31 @@ TS_INLINE void bezier_basis_deriv(float t, float d[4])
     d[3] = 3.0f * t * t;
 }
 
+/* (b0 x0 + b3 x3) + (b1 x1 + b2 x2): the same bits for the sequence read backwards with the
+ * basis reversed (IEEE addition commutes), so a curve evaluated from either end agrees. */
+TS_INLINE float bezier_sum4(const float b[4], float x0, float x1, float x2, float x3)
+{
+    return (b[0] * x0 + b[3] * x3) + (b[1] * x1 + b[2] * x2);
+}
+
 /* Sum over the grid with weights bu[i] * bv[j]; fixed operation order (no FMA, see
- * FP_CONTRACT) so host and device agree. */
+ * FP_CONTRACT) so host and device agree. Rows first, then the rows' sums along v, each with
+ * bezier_sum4: on an edge of the patch (bu or bv = (1, 0, 0, 0) or its reverse) the result
+ * is exactly that boundary curve's sum, the same for both patches sharing the curve,
+ * whichever way each of them runs along it, so neighbours' vertices on their common edge
+ * are bitwise equal (tests/test_scene.c). */
 TS_INLINE ts_vec4 bezier_combine(TS_CONST_GLOBAL ts_vec4 *cp, const float bu[4], const float bv[4])
 {
-    ts_vec4 r = {0.0f, 0.0f, 0.0f, 0.0f};
+    float rx[4], ry[4], rz[4];
     for (int j = 0; j < 4; ++j) {
-        float rx = 0.0f, ry = 0.0f, rz = 0.0f;
-        for (int i = 0; i < 4; ++i) {
-            ts_vec4 c = cp[j * 4 + i];
-            rx += bu[i] * c.x;
-            ry += bu[i] * c.y;
-            rz += bu[i] * c.z;
-        }
-        r.x += bv[j] * rx;
-        r.y += bv[j] * ry;
-        r.z += bv[j] * rz;
+        TS_CONST_GLOBAL ts_vec4 *c = cp + j * 4;
+        rx[j] = bezier_sum4(bu, c[0].x, c[1].x, c[2].x, c[3].x);
+        ry[j] = bezier_sum4(bu, c[0].y, c[1].y, c[2].y, c[3].y);
+        rz[j] = bezier_sum4(bu, c[0].z, c[1].z, c[2].z, c[3].z);
     }
+    ts_vec4 r = {bezier_sum4(bv, rx[0], rx[1], rx[2], rx[3]),
+                 bezier_sum4(bv, ry[0], ry[1], ry[2], ry[3]),
+                 bezier_sum4(bv, rz[0], rz[1], rz[2], rz[3]), 0.0f};
     return r;
 }
 

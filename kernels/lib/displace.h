@@ -148,16 +148,116 @@ TS_INLINE ts_interval displace_texture_interval(TS_CONST_GLOBAL ts_patch_attr *a
     return d;
 }
 
-/* The displacement normal at (u, v): the bilinear interpolation of the four corner normals
- * n[0..3] at (0,0), (1,0), (0,1), (1,1). Not renormalised (so its range over a parameter
- * rectangle is the box of its values at the rectangle's corners); adjacent patches sharing
- * an edge share its two corner normals and so displace the edge identically. */
-TS_INLINE ts_vec4 displace_normal(TS_CONST_GLOBAL ts_vec4 *n, float u, float v)
+/* The displacement direction (DESIGN.md §2, issue 13): a unit vector interpolated between
+ * nine normals of the patch, its corners n[0..3] at (0,0), (1,0), (0,1), (1,1) and mid[0..4]
+ * at the edge midpoints (1/2,0), (0,1/2), (1,1/2), (1/2,1) and the centre, by the
+ * biquadratic through those nodes, then normalised. Four corners alone (a bilinear blend)
+ * vanish in the middle of a patch that spans half a tube, where its corner normals point in
+ * opposite directions: the handle and spout of the teapot came out nearly undisplaced.
+ * Along an edge the direction depends only on that edge's two corner normals and its
+ * midpoint normal, which neighbours share (scene.h), and it is evaluated so that either
+ * side, in either direction, rounds the same at the grid's parameters: the two end terms
+ * first (a commutative sum), then the middle one. So displaced neighbours meet without a
+ * crack. A sum that vanishes (never for nodes within 90 degrees of their neighbours) gives
+ * +z; displace_normal_box bounds every case. */
+
+/* Weights of the quadratic through t = 0, 1/2, 1: q(t) = w[0] a + w[1] m + w[2] b. */
+TS_INLINE void displace_quad_weights(float t, float w[3])
 {
-    float w00 = (1.0f - u) * (1.0f - v), w10 = u * (1.0f - v), w01 = (1.0f - u) * v, w11 = u * v;
-    ts_vec4 r = {w00 * n[0].x + w10 * n[1].x + w01 * n[2].x + w11 * n[3].x,
-                 w00 * n[0].y + w10 * n[1].y + w01 * n[2].y + w11 * n[3].y,
-                 w00 * n[0].z + w10 * n[1].z + w01 * n[2].z + w11 * n[3].z, 0.0f};
+    w[0] = (1.0f - t) * (1.0f - 2.0f * t);
+    w[1] = 4.0f * t * (1.0f - t);
+    w[2] = t * (2.0f * t - 1.0f);
+}
+
+/* (w0 a + w2 b) + w1 m, componentwise. */
+TS_INLINE ts_vec4 displace_quad(const float w[3], ts_vec4 a, ts_vec4 m, ts_vec4 b)
+{
+    ts_vec4 r = {(w[0] * a.x + w[2] * b.x) + w[1] * m.x, (w[0] * a.y + w[2] * b.y) + w[1] * m.y,
+                 (w[0] * a.z + w[2] * b.z) + w[1] * m.z, 0.0f};
+    return r;
+}
+
+TS_INLINE ts_vec4 displace_normal(TS_CONST_GLOBAL ts_vec4 *n, TS_CONST_GLOBAL ts_vec4 *mid, float u,
+                                  float v)
+{
+    float wu[3], wv[3];
+    displace_quad_weights(u, wu);
+    displace_quad_weights(v, wv);
+    ts_vec4 r0 = displace_quad(wu, n[0], mid[0], n[1]);     /* the v = 0 edge */
+    ts_vec4 r1 = displace_quad(wu, mid[1], mid[4], mid[2]); /* v = 1/2 */
+    ts_vec4 r2 = displace_quad(wu, n[2], mid[3], n[3]);     /* the v = 1 edge */
+    ts_vec4 s = displace_quad(wv, r0, r1, r2);
+    float len = sqrt(s.x * s.x + s.y * s.y + s.z * s.z);
+    ts_vec4 up = {0.0f, 0.0f, 1.0f, 0.0f};
+    if (!(len > 1e-12f)) return up;
+    ts_vec4 r = {s.x / len, s.y / len, s.z / len, 0.0f};
+    return r;
+}
+
+/* The three Bernstein control points, over [t0, t1], of the quadratic through a, m, b at
+ * t = 0, 1/2, 1 (its Bernstein form over [0, 1] is a, 2m - (a + b) / 2, b; over [t0, t1]
+ * the points are q(t0), the blossom at (t0, t1), q(t1)). */
+TS_INLINE void displace_quad_restrict(ts_vec4 a, ts_vec4 m, ts_vec4 b, float t0, float t1,
+                                      ts_vec4 out[3])
+{
+    ts_vec4 c = {2.0f * m.x - 0.5f * (a.x + b.x), 2.0f * m.y - 0.5f * (a.y + b.y),
+                 2.0f * m.z - 0.5f * (a.z + b.z), 0.0f};
+    float s0 = 1.0f - t0, s1 = 1.0f - t1;
+    float w[3][3] = {{s0 * s0, 2.0f * t0 * s0, t0 * t0},
+                     {s0 * s1, s0 * t1 + t0 * s1, t0 * t1},
+                     {s1 * s1, 2.0f * t1 * s1, t1 * t1}};
+    for (int k = 0; k < 3; ++k) {
+        out[k].x = w[k][0] * a.x + w[k][1] * c.x + w[k][2] * b.x;
+        out[k].y = w[k][0] * a.y + w[k][1] * c.y + w[k][2] * b.y;
+        out[k].z = w[k][0] * a.z + w[k][1] * c.z + w[k][2] * b.z;
+        out[k].w = 0.0f;
+    }
+}
+
+/* [lo, hi] / r for r in [rmin, rmax], 0 < rmin: the range of one component of v / |v|. */
+TS_INLINE void displace_div_range(float lo, float hi, float rmin, float rmax, float *a, float *b)
+{
+    *a = lo >= 0.0f ? lo / rmax : lo / rmin;
+    *b = hi <= 0.0f ? hi / rmax : hi / rmin;
+    *a = fmax(*a, -1.0f), *b = fmin(*b, 1.0f);
+}
+
+/* A box holding displace_normal(n, mid, u, v) for every (u, v) in [u0, u1] x [v0, v1]: the
+ * unnormalised biquadratic over the rectangle lies in the hull of its 9 Bernstein points
+ * there (rows restricted in u, then the columns in v); normalising divides by a length in
+ * [distance of that box from 0, its farthest corner]; a box around 0 gives [-1, 1]^3. */
+TS_INLINE ts_box displace_normal_box(TS_CONST_GLOBAL ts_vec4 *n, TS_CONST_GLOBAL ts_vec4 *mid,
+                                     float u0, float v0, float u1, float v1)
+{
+    ts_vec4 rows[3][3], col[3];
+    displace_quad_restrict(n[0], mid[0], n[1], u0, u1, rows[0]);
+    displace_quad_restrict(mid[1], mid[4], mid[2], u0, u1, rows[1]);
+    displace_quad_restrict(n[2], mid[3], n[3], u0, u1, rows[2]);
+    ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    for (int k = 0; k < 3; ++k) {
+        displace_quad_restrict(rows[0][k], rows[1][k], rows[2][k], v0, v1, col);
+        for (int j = 0; j < 3; ++j) {
+            b.lo_x = fmin(b.lo_x, col[j].x), b.hi_x = fmax(b.hi_x, col[j].x);
+            b.lo_y = fmin(b.lo_y, col[j].y), b.hi_y = fmax(b.hi_y, col[j].y);
+            b.lo_z = fmin(b.lo_z, col[j].z), b.hi_z = fmax(b.hi_z, col[j].z);
+        }
+    }
+    /* Rounding of the conversions (a few ulps of components at most ~3 in size). */
+    const float e = 4e-6f;
+    b.lo_x -= e, b.lo_y -= e, b.lo_z -= e, b.hi_x += e, b.hi_y += e, b.hi_z += e;
+    float dx = fmax(fmax(b.lo_x, -b.hi_x), 0.0f), dy = fmax(fmax(b.lo_y, -b.hi_y), 0.0f),
+          dz = fmax(fmax(b.lo_z, -b.hi_z), 0.0f);
+    float rmin = sqrt(dx * dx + dy * dy + dz * dz);
+    ts_box all = {-1.0f, -1.0f, -1.0f, 1.0f, 1.0f, 1.0f};
+    if (!(rmin > 1e-6f)) return all;
+    float fx = fmax(-b.lo_x, b.hi_x), fy = fmax(-b.lo_y, b.hi_y), fz = fmax(-b.lo_z, b.hi_z);
+    float rmax = sqrt(fx * fx + fy * fy + fz * fz);
+    ts_box r;
+    displace_div_range(b.lo_x, b.hi_x, rmin, rmax, &r.lo_x, &r.hi_x);
+    displace_div_range(b.lo_y, b.hi_y, rmin, rmax, &r.lo_y, &r.hi_y);
+    displace_div_range(b.lo_z, b.hi_z, rmin, rmax, &r.lo_z, &r.hi_z);
+    /* The division and the float normalisation of displace_normal: a few ulps. */
+    r.lo_x -= e, r.lo_y -= e, r.lo_z -= e, r.hi_x += e, r.hi_y += e, r.hi_z += e;
     return r;
 }
 

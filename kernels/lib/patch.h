@@ -11,12 +11,14 @@
 #include "lib/shared_types.h"
 
 /* The vertex at (u, v) of patch cp (16 control points of the time sample being diced),
- * with corner normals n (4) and attributes a, transform x, textures tex. xyz = displaced
- * position, w = the displacement d. The noise is evaluated at the undisplaced point of
- * time 0 (cp0), so the pattern moves with a moving patch; a texture at the st of (u, v). */
+ * with displacement normals n (4 corners) and mid (5, scene.h mid_n) and attributes a, transform x,
+ * textures tex. xyz = displaced position, w = the displacement d. The noise is evaluated at the
+ * undisplaced point of time 0 (cp0), so the pattern moves with a moving patch; a texture at the st
+ * of (u, v). */
 TS_INLINE ts_vec4 patch_vertex(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLOBAL ts_vec4 *cp0,
-                               TS_CONST_GLOBAL ts_vec4 *n, TS_CONST_GLOBAL ts_patch_attr *a,
-                               TS_CONST_GLOBAL ts_xform *x, ts_tex_ctx tex, float u, float v)
+                               TS_CONST_GLOBAL ts_vec4 *n, TS_CONST_GLOBAL ts_vec4 *mid,
+                               TS_CONST_GLOBAL ts_patch_attr *a, TS_CONST_GLOBAL ts_xform *x,
+                               ts_tex_ctx tex, float u, float v)
 {
     ts_vec4 p = bezier_eval(cp, u, v);
     if (a->disp_kind == TS_DISP_NONE) {
@@ -30,7 +32,7 @@ TS_INLINE ts_vec4 patch_vertex(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLOBAL ts_v
         ts_vec4 p0 = cp0 == cp ? p : bezier_eval(cp0, u, v);
         d = displace_value(a, x, p0.x, p0.y, p0.z);
     }
-    ts_vec4 dn = displace_normal(n, u, v);
+    ts_vec4 dn = displace_normal(n, mid, u, v);
     ts_vec4 r = {p.x + d * dn.x, p.y + d * dn.y, p.z + d * dn.z, d};
     return r;
 }
@@ -78,6 +80,7 @@ TS_INLINE ts_vec4 patch_flatness(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLOBAL ts
  * displaced surface's normal by central differences over one micro-quad (Hanika §3.2),
  * falling back to the Bézier normal at a degenerate corner. */
 TS_INLINE ts_vec4 patch_shading_normal(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLOBAL ts_vec4 *n,
+                                       TS_CONST_GLOBAL ts_vec4 *mid,
                                        TS_CONST_GLOBAL ts_patch_attr *a,
                                        TS_CONST_GLOBAL ts_xform *x, ts_tex_ctx tex, float u,
                                        float v, ts_u32 m)
@@ -86,10 +89,10 @@ TS_INLINE ts_vec4 patch_shading_normal(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLO
     float h = 0.5f * ldexp(1.0f, -(int)m);
     float u0 = fmax(u - h, 0.0f), u1 = fmin(u + h, 1.0f);
     float v0 = fmax(v - h, 0.0f), v1 = fmin(v + h, 1.0f);
-    ts_vec4 pu0 = patch_vertex(cp, cp, n, a, x, tex, u0, v),
-            pu1 = patch_vertex(cp, cp, n, a, x, tex, u1, v);
-    ts_vec4 pv0 = patch_vertex(cp, cp, n, a, x, tex, u, v0),
-            pv1 = patch_vertex(cp, cp, n, a, x, tex, u, v1);
+    ts_vec4 pu0 = patch_vertex(cp, cp, n, mid, a, x, tex, u0, v),
+            pu1 = patch_vertex(cp, cp, n, mid, a, x, tex, u1, v);
+    ts_vec4 pv0 = patch_vertex(cp, cp, n, mid, a, x, tex, u, v0),
+            pv1 = patch_vertex(cp, cp, n, mid, a, x, tex, u, v1);
     ts_v3 du = v3(pu1.x - pu0.x, pu1.y - pu0.y, pu1.z - pu0.z);
     ts_v3 dv = v3(pv1.x - pv0.x, pv1.y - pv0.y, pv1.z - pv0.z);
     ts_v3 c = v3_cross(du, dv);

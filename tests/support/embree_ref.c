@@ -87,8 +87,9 @@ ts_vec4 embree_ref_vertex(const ts_scene *s, uint32_t p, uint32_t m, uint32_t i,
     const ts_vec4 *cp = time && s->cp1 ? &s->cp1[(size_t)p * 16u] : cp0;
     const ts_patch_attr *a = &s->attr[p];
     const ts_vec4 *n = s->corner_n ? &s->corner_n[(size_t)p * 4u] : NULL;
+    const ts_vec4 *mid = s->mid_n ? &s->mid_n[(size_t)p * 5u] : NULL;
     const ts_xform *x = s->xform ? &s->xform[a->xform] : NULL;
-    ts_vec4 v = patch_vertex(cp, cp0, n, a, x, scene_tex_ctx(s), ldexpf((float)i, -(int)m),
+    ts_vec4 v = patch_vertex(cp, cp0, n, mid, a, x, scene_tex_ctx(s), ldexpf((float)i, -(int)m),
                              ldexpf((float)j, -(int)m));
     v.w = 1.0f;
     return v;

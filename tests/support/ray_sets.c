@@ -138,11 +138,13 @@ ts_vec4 ray_set_normal(const ts_scene *s, uint32_t patch, float u, float v, uint
 {
     const ts_vec4 *cp = &s->cp[(size_t)patch * 16u];
     const ts_patch_attr *a = &s->attr[patch];
-    static const ts_vec4 up[4] = {{0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}};
+    static const ts_vec4 up[5] = {
+        {0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}, {0, 0, 1, 0}};
     const ts_vec4 *n = s->corner_n ? &s->corner_n[(size_t)patch * 4u] : up;
+    const ts_vec4 *mid = s->mid_n ? &s->mid_n[(size_t)patch * 5u] : up;
     static const ts_xform identity = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
     const ts_xform *x = s->xform ? &s->xform[a->xform] : &identity;
-    return patch_shading_normal(cp, n, a, x, scene_tex_ctx(s), u, v, m);
+    return patch_shading_normal(cp, n, mid, a, x, scene_tex_ctx(s), u, v, m);
 }
 
 /* One generation of diffuse bounce rays from the hits of `eye` (see the top of the file). */

@@ -228,14 +228,17 @@ static int rib_camera_points_to_world(rib_parser *p, ts_vec4 *c, size_t n,
     return TS_OK;
 }
 
-/* The corner normals and world-to-object transforms of patches read before WorldBegin:
+/* The corner and midpoint normals and world-to-object transforms of patches read before WorldBegin:
  * normals by the inverse transpose of camera_to_world (the transpose of world_to_camera's
  * linear part), renormalised; camera-to-object transforms X become X · world_to_camera. */
 static int rib_camera_attrs_to_world(rib_parser *p, const double w2c[16])
 {
     ts_scene *s = p->scene;
-    for (size_t k = (size_t)p->first_patch * 4u; k < (size_t)s->patch_count * 4u; k++) {
-        ts_vec4 *c = &s->corner_n[k];
+    size_t corners = (size_t)s->patch_count * 4u, first = (size_t)p->first_patch * 4u;
+    size_t mids = (size_t)s->patch_count * 5u, first_mid = (size_t)p->first_patch * 5u;
+    for (size_t k = first; k < corners + (mids - first_mid); k++) {
+        /* The corner normals, then the midpoint normals (scene.h mid_n). */
+        ts_vec4 *c = k < corners ? &s->corner_n[k] : &s->mid_n[first_mid + (k - corners)];
         double a[3] = {c->x, c->y, c->z}, b[3];
         for (int i = 0; i < 3; i++)
             b[i] = (w2c[i] * a[0] + w2c[4 + i] * a[1] + w2c[8 + i] * a[2]) / w2c[15];
