@@ -9,6 +9,8 @@
  *     ray's entry into the box, (u, v) the square's centre.
  *   1: the two micro-triangles of each micro-quad (split along (i,j)-(i+1,j+1)), with the
  *     watertight test of lib/intersect.h; for cross-checks at a fixed m.
+ *   The patch a secondary ray leaves (ray_from = patch + 1) is always its micro-triangles,
+ *   with hits nearer than org.w ignored (the origin-patch rule, bl_pair).
  * Motion (§3.4): a moving segment has a tree and a grid per time sample; boxes and vertices
  * are interpolated linearly at the ray's time.
  * Sibling boxes are tested four at a time (SoA groups, lib/quadtree.h). Stack: at most 3
@@ -145,14 +147,15 @@ typedef struct bl_trav {
     float root_raw;       /* the root's raw entry, for a root that is itself the block */
 } bl_trav;
 
-inline bl_ray bl_ray_make(ts_vec4 o, ts_vec4 d)
+/* tmin: 0, or org.w for the patch the ray leaves (the self distance, see bl_pair). */
+inline bl_ray bl_ray_make(ts_vec4 o, ts_vec4 d, float tmin)
 {
     bl_ray r;
     r.o4 = (float4)(o.x, o.y, o.z, 0.0f);
     r.inv = (float4)(safe_reciprocal(d.x), safe_reciprocal(d.y), safe_reciprocal(d.z), d.w);
     r.sh = ray_shear(d.x, d.y, d.z);
     r.perm = (uint4)((uint)r.sh.kx, (uint)r.sh.ky, (uint)r.sh.kz, 3u);
-    r.tmin = o.w;
+    r.tmin = tmin;
     return r;
 }
 
@@ -265,16 +268,25 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
                    __global const ts_segment *segments, uint seg_first, uint seg_count,
                    uint n_per_ray, __global const uint *active, __global const ts_vec4 *org,
                    __global const ts_vec4 *dir, __global const ts_hit *hit,
-                   __global const uint *ray_flags, __global const ts_vec4 *grid,
-                   __global const ts_box4 *groups, bl_ray *r, bl_patch *pt, ts_hit *best,
-                   uint *window)
+                   __global const uint *ray_flags, __global const uint *ray_from,
+                   __global const ts_vec4 *grid, __global const ts_box4 *groups, bl_ray *r,
+                   bl_patch *pt, ts_hit *best, uint *window, uint *exact)
 {
     ts_pair pr = pairs[pair_first + gid];
     __global const ts_segment *batch = segments + seg_first;
     ts_segment seg = batch[segment_of(batch, seg_count, pair_first + gid)];
     uint ray = active[pr.window / n_per_ray], flags = ray_flags[ray];
     *window = pr.window;
-    *r = bl_ray_make(org[ray], dir[ray]);
+    ts_vec4 o = org[ray];
+    /* The origin-patch rule (issue 13): a secondary ray meets the patch it leaves as that
+     * patch's micro-triangles, watertight within the patch, whatever the mode: its leaf
+     * boxes, grown to bound every finer dicing, surround the ray's origin and would stop it
+     * at once (4x more bounce hits than the true surface on the displaced teapot). Hits
+     * there nearer than org.w (one micro-quad) are ignored. Other patches are leaf boxes in
+     * box mode, which keeps neighbours at different levels of detail hole-free. */
+    int leaving = ray_from[ray] == seg.patch + 1u;
+    *exact = *exact || leaving;
+    *r = bl_ray_make(o, dir[ray], leaving ? o.w : 0.0f);
     *pt = bl_patch_make(seg, grid, groups);
     *best = (ts_hit){hit[ray].t, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
     return !((flags & TS_RAY_SHADOW) && (flags >> 1) == seg.patch + 1u);
@@ -285,30 +297,30 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
                                  uint seg_count, uint n_per_ray, uint exact, uint leaf_b,
                                  __global const uint *active, __global const ts_vec4 *org,
                                  __global const ts_vec4 *dir, __global const ts_hit *hit,
-                                 __global const uint *ray_flags, __global const ts_vec4 *grid,
-                                 __global const ts_box4 *groups, __global ts_hit *pair_hit,
-                                 __global uint *utilisation)
+                                 __global const uint *ray_flags, __global const uint *ray_from,
+                                 __global const ts_vec4 *grid, __global const ts_box4 *groups,
+                                 __global ts_hit *pair_hit, __global uint *utilisation)
 {
     uint gid = get_global_id(0), tests = 0;
     if (gid < pair_count) {
         bl_ray r;
         bl_patch pt;
         ts_hit best;
-        uint window;
+        uint window, ex = exact;
         if (bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active, org,
-                    dir, hit, ray_flags, grid, groups, &r, &pt, &best, &window)) {
+                    dir, hit, ray_flags, ray_from, grid, groups, &r, &pt, &best, &window, &ex)) {
             uint b = min(leaf_b, pt.m), L = pt.m - b, nq = 1u << (2u * b);
             bl_trav s;
             bl_trav_start(&s, &r, &pt, best.t);
             float te, raw;
             for (int k; (k = bl_next_block(&s, &r, &pt, L, best.t, &te, &raw)) >= 0;) {
-                if (!exact && b == 0u) { /* the block is one leaf box, already tested */
+                if (!ex && b == 0u) { /* the block is one leaf box, already tested */
                     if (raw >= r.tmin) leaf_box(pt.m, (uint)k, te, &best, pt.patch);
                     ++tests;
                     continue;
                 }
                 for (uint q = 0; q < nq; ++q, ++tests)
-                    quad_test(&r, &pt, ((uint)k << (2u * b)) + q, exact, &best);
+                    quad_test(&r, &pt, ((uint)k << (2u * b)) + q, ex, &best);
             }
         }
         if (best.patch == TS_INVALID) best.t = TS_NO_HIT;
@@ -327,18 +339,17 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
     }
 }
 
-__kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void
-bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_count,
-                   __global const ts_segment *segments, uint seg_first, uint seg_count,
-                   uint n_per_ray, uint exact, uint leaf_b, __global const uint *active,
-                   __global const ts_vec4 *org, __global const ts_vec4 *dir,
-                   __global const ts_hit *hit, __global const uint *ray_flags,
-                   __global const ts_vec4 *grid, __global const ts_box4 *groups,
-                   __global ts_hit *pair_hit, __global uint *utilisation)
+__kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_group(
+    __global const ts_pair *pairs, uint pair_first, uint pair_count,
+    __global const ts_segment *segments, uint seg_first, uint seg_count, uint n_per_ray, uint exact,
+    uint leaf_b, __global const uint *active, __global const ts_vec4 *org,
+    __global const ts_vec4 *dir, __global const ts_hit *hit, __global const uint *ray_flags,
+    __global const uint *ray_from, __global const ts_vec4 *grid, __global const ts_box4 *groups,
+    __global ts_hit *pair_hit, __global uint *utilisation)
 {
     /* The owners' rays and blocks, and one result slot per task (PantaRay Fig. 8). */
     __local float4 l_o4[BL_WG], l_inv[BL_WG], l_shear[BL_WG];
-    __local uint4 l_meta[BL_WG]; /* m | moving << 8 | b << 16, patch, vert, group */
+    __local uint4 l_meta[BL_WG]; /* m | moving << 8 | exact << 9 | b << 16, patch, vert, group */
     __local uint l_block[BL_WG], l_perm[BL_WG], l_first[BL_WG + 1];
     __local ts_hit l_res[BL_WG * BL_MAX_BLOCK];
     uint lid = get_local_id(0), gid = get_global_id(0);
@@ -346,10 +357,11 @@ bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_cou
     bl_patch pt;
     ts_hit best;
     bl_trav s;
-    uint window = 0, b = 0, L = 0, done = 1, count = 0, useful = 0, slots = 0;
+    uint window = 0, b = 0, L = 0, done = 1, count = 0, useful = 0, slots = 0, ex = exact;
     if (gid < pair_count) {
-        done = !bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active,
-                        org, dir, hit, ray_flags, grid, groups, &r, &pt, &best, &window);
+        done =
+            !bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active, org,
+                     dir, hit, ray_flags, ray_from, grid, groups, &r, &pt, &best, &window, &ex);
         b = min(leaf_b, pt.m), L = pt.m - b;
         if (!done) bl_trav_start(&s, &r, &pt, best.t);
     }
@@ -365,7 +377,7 @@ bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_cou
             l_shear[lid] = (float4)(r.sh.sx, r.sh.sy, r.sh.sz, best.t);
             l_perm[lid] = (uint)r.sh.kx | ((uint)r.sh.ky << 2) | ((uint)r.sh.kz << 4);
             l_meta[lid] =
-                (uint4)(pt.m | ((pt.g1 != 0) << 8) | (b << 16), pt.patch,
+                (uint4)(pt.m | ((pt.g1 != 0) << 8) | (ex << 9) | (b << 16), pt.patch,
                         (uint)(pt.g0 - (__global const float4 *)grid), (uint)(pt.t0 - groups));
             l_block[lid] = (uint)k;
         }
@@ -408,7 +420,8 @@ bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_cou
             tp.t1 = (meta.x >> 8) & 1u ? tp.t0 + quadtree_group_count(tp.m) : 0;
             uint tb = meta.x >> 16;
             ts_hit h = {l_shear[lo].w, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
-            quad_test(&tr, &tp, (l_block[lo] << (2u * tb)) + (j - l_first[lo]), exact, &h);
+            quad_test(&tr, &tp, (l_block[lo] << (2u * tb)) + (j - l_first[lo]), (meta.x >> 9) & 1u,
+                      &h);
             l_res[j] = h;
         }
         barrier(CLK_LOCAL_MEM_FENCE);

@@ -12,9 +12,9 @@
 
 __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __global ts_vec4 *dir,
                               __global ts_hit *hit, __global uint *entry, __global uint *pixel,
-                              __global uint *flags, __global uint *active, __global uint *paths,
-                              __global ts_vec4 *throughput, __global float *mis,
-                              __global uint *state, __global ts_vec4 *radiance)
+                              __global uint *flags, __global uint *from, __global uint *active,
+                              __global uint *paths, __global ts_vec4 *throughput,
+                              __global float *mis, __global uint *state, __global ts_vec4 *radiance)
 {
     uint i = get_global_id(0);
     if (i >= p.ray_count) return;
@@ -40,6 +40,7 @@ __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __globa
     entry[i] = TS_ENTRY_START;
     pixel[i] = pix;
     flags[i] = 0u;
+    from[i] = 0u;
     active[i] = i;
     paths[i] = i;
     /* A new path: weight 1, nothing gathered, MIS weight 1 for what the eye ray finds, its

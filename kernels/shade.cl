@@ -63,6 +63,8 @@ typedef struct shade_vertex {
     float cs[3]; /* surface colour at the hit (lib/texture.h tex_surface_colour) */
     __global const ts_patch_attr *a;
     float eps;  /* next rays' offset along n: l / 2^m (Hanika §3.3) */
+    float self; /* next rays ignore hits on this patch nearer than this (bottom_level) */
+    uint patch; /* the patch hit */
     float time; /* the ray's time, kept by the next rays (Hanika §3.4) */
 } shade_vertex;
 
@@ -73,6 +75,7 @@ typedef struct shade_rays {
     __global ts_hit *hit;
     __global uint *entry;
     __global uint *flags;
+    __global uint *from;
 } shade_rays;
 
 inline void add_rgb(__global ts_vec4 *acc, const float t[3], const float l[3], float w)
@@ -87,11 +90,12 @@ inline void emit_ray(shade_rays r, uint i, const shade_vertex *v, ts_v3 dir, flo
 {
     ts_v3 p = v->p, n = v->n;
     float eps = v->eps;
-    r.org[i] = (ts_vec4){p.x + eps * n.x, p.y + eps * n.y, p.z + eps * n.z, 0.0f};
+    r.org[i] = (ts_vec4){p.x + eps * n.x, p.y + eps * n.y, p.z + eps * n.z, v->self};
     r.dir[i] = (ts_vec4){dir.x, dir.y, dir.z, v->time};
     r.hit[i] = (ts_hit){tmax, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
     r.entry[i] = TS_ENTRY_START;
     r.flags[i] = flags;
+    r.from[i] = v->patch + 1u;
 }
 
 /* MIS weight of emission found by a BSDF ray made with pdf pb under `mode`, against light
@@ -137,6 +141,8 @@ inline shade_vertex shade_vertex_at(ts_hit h, ts_vec4 o4, ts_v3 d, float time,
     if (v3_dot(v.n, v.wo) < 0.0f) v.n = v3_scale(v.n, -1.0f);
     v.p = v3(o4.x + h.t * d.x, o4.y + h.t * d.y, o4.z + h.t * d.z);
     v.eps = 0.0f;
+    v.self = 0.0f;
+    v.patch = h.patch;
     v.time = time;
     return v;
 }
@@ -211,18 +217,18 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
 __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count, uint wave_size,
                          __global const uint *paths, uint path_count, __global ts_vec4 *org,
                          __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
-                         __global uint *ray_flags, __global const uint *pixel,
-                         __global ts_vec4 *throughput, __global float *mis, __global uint *state,
-                         __global ts_vec4 *pending, __global ts_vec4 *radiance,
-                         __global ts_vec4 *aov, __global ts_vec4 *albedo,
-                         __global const ts_vec4 *cp, __global const ts_vec4 *corner_n,
-                         __global const ts_vec4 *mid_n, __global const ts_patch_attr *attr,
-                         __global const ts_xform *xform, __global const ts_light *lights,
-                         __global const ts_emitter *emitters, __global const ts_vec4 *env_texels,
-                         __global const float *env_marginal, __global const float *env_conditional,
-                         __global const ts_vec4 *flatness, __global const ts_texture *textures,
-                         __global const uint *tex_pages, __global const ts_vec4 *tex_pool,
-                         __global uint *alive)
+                         __global uint *ray_flags, __global uint *ray_from,
+                         __global const uint *pixel, __global ts_vec4 *throughput,
+                         __global float *mis, __global uint *state, __global ts_vec4 *pending,
+                         __global ts_vec4 *radiance, __global ts_vec4 *aov,
+                         __global ts_vec4 *albedo, __global const ts_vec4 *cp,
+                         __global const ts_vec4 *corner_n, __global const ts_vec4 *mid_n,
+                         __global const ts_patch_attr *attr, __global const ts_xform *xform,
+                         __global const ts_light *lights, __global const ts_emitter *emitters,
+                         __global const ts_vec4 *env_texels, __global const float *env_marginal,
+                         __global const float *env_conditional, __global const ts_vec4 *flatness,
+                         __global const ts_texture *textures, __global const uint *tex_pages,
+                         __global const ts_vec4 *tex_pool, __global uint *alive)
 {
     uint k = get_global_id(0);
     if (k >= path_count) return;
@@ -238,7 +244,7 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
                       .cp = cp,
                       .attr = attr};
     ts_tex_ctx tex = {textures, tex_pages, tex_pool};
-    shade_rays rays = {org, dir, hit, entry, ray_flags};
+    shade_rays rays = {org, dir, hit, entry, ray_flags, ray_from};
     ts_hit h = hit[i];
     ts_vec4 d4 = dir[i], o4 = org[i], t4 = throughput[i];
     ts_v3 d = v3(d4.x, d4.y, d4.z);
@@ -267,6 +273,9 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     if (s.bounce >= sp.depth) return;
     /* l: the longest side of the patch's box, in the flatness record's w. */
     v.eps = flatness[h.patch].w * ldexp(1.0f, -(int)TS_PRIM_LOD(h.prim));
+    /* Hits on this patch nearer than one micro-quad (eps) are below the level of detail's
+     * resolution (bottom_level.cl's origin-patch rule intersects it as micro-triangles). */
+    v.self = v.eps;
     uint out = shade_direct_light(sp, &L, &v, &s, &pending[i], rays);
     out |= shade_bsdf_bounce(sp, &v, &s, &throughput[i], &mis[i], &mode, rays);
     state[i] = TS_PATH_STATE(out, mode);

@@ -32,7 +32,7 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
             uint c = order[pos++];
             __global const ts_qbvh_node *q = &nodes[node];
             float te = box_enter(o.x, o.y, o.z, ix, iy, iz, q->lo_x[c], q->lo_y[c], q->lo_z[c],
-                                 q->hi_x[c], q->hi_y[c], q->hi_z[c], o.w, tmax);
+                                 q->hi_x[c], q->hi_y[c], q->hi_z[c], 0.0f, tmax);
             int child = q->child[c];
             if (te < 0.0f || child == TS_CHILD_EMPTY) continue;
             if (child >= 0) {

@@ -64,7 +64,7 @@ static void write_buffer(ts_device *cl, cl_mem m, size_t bytes, const void *host
 /* The rays of the frame at 4 spp (jittered, with times), then some given a tmin > 0 and some
  * a finite tmax around the teapot's depth; written back to the device. */
 static void make_rays(ts_device *cl, ts_pipeline *p, const ts_scene *s, ts_vec4 *org, ts_vec4 *dir,
-                      ts_hit *hit, uint32_t *flags, uint32_t *active)
+                      ts_hit *hit, uint32_t *flags, uint32_t *from, uint32_t *active)
 {
     ts_error err = {0};
     ts_camera_params cam;
@@ -80,9 +80,13 @@ static void make_rays(ts_device *cl, ts_pipeline *p, const ts_scene *s, ts_vec4 
     read_buffer(cl, p->active, R * sizeof *active, active);
     uint32_t seed = 99u;
     for (int i = 0; i < R; ++i) {
-        if (i % 5 == 2) org[i].w = test_uniform(&seed, 7.5f, 10.5f); /* inside the teapot's depth */
+        /* Leaving patch (i / 5) % P: hits on it nearer than org.w are ignored there only. */
+        from[i] = i % 5 == 2 || i % 5 == 3 ? (uint32_t)(i / 5) % P + 1u : 0u;
+        if (i % 5 == 2 || i % 5 == 4)
+            org[i].w = test_uniform(&seed, 7.5f, 10.5f); /* teapot depth */
         if (i % 3 == 1) hit[i].t = test_uniform(&seed, 6.0f, 12.0f);
     }
+    write_buffer(cl, p->ray_from, R * sizeof *from, from);
     write_buffer(cl, p->ray_org, R * sizeof *org, org);
     write_buffer(cl, p->ray_hit, R * sizeof *hit, hit);
 }
@@ -102,8 +106,8 @@ static void check_scene(int displaced, int moving)
     if (pipeline_create(&p, &cl, &s, &plan, R, &stats, &err)) fail_msg("%s", err.msg);
     static ts_vec4 org[R], dir[R];
     static ts_hit hit[R], dev[R * P], ref[R * P];
-    static uint32_t flags[R], active[R];
-    make_rays(&cl, &p, &s, org, dir, hit, flags, active);
+    static uint32_t flags[R], from[R], active[R];
+    make_rays(&cl, &p, &s, org, dir, hit, flags, from, active);
     /* Patch q at m = q % 6, its pairs [q R, (q + 1) R): every ray, window = ray * P + q. */
     static ts_pair pairs[R * P];
     for (uint32_t q = 0; q < P; ++q) {
@@ -135,8 +139,8 @@ static void check_scene(int displaced, int moving)
                    times * quadtree_group_count(sg->lod) * sizeof *groups))
             fail_msg("patch %u m %u: the host build reference differs from build", q, sg->lod);
     }
-    bl_ref_batch b = {pairs, 0,   R * P, p.segments_host, 0,    P,     P, 0, 0, active,
-                      org,   dir, hit,   flags,           grid, groups};
+    bl_ref_batch b = {pairs, 0,   R * P, p.segments_host, 0,    P,    P,     0, 0, active,
+                      org,   dir, hit,   flags,           from, grid, groups};
     uint64_t hits_boxes = 0, hits_exact = 0;
     for (int group = 0; group < 2; ++group)
         for (int exact = 0; exact < 2; ++exact)

@@ -130,7 +130,8 @@ static void read_back(ts_pipeline *p, rays *r)
 static void compare(const char *name, teapot *tp, rays *r, int min_hits)
 {
     ts_error err = {0};
-    if (embree_ref_trace(tp->ref, r->org, r->dir, RAYS, r->ref, &err)) fail_msg("%s", err.msg);
+    if (embree_ref_trace(tp->ref, r->org, r->dir, NULL, RAYS, r->ref, &err))
+        fail_msg("%s", err.msg);
     int miss_disagree = 0, both = 0, same_patch = 0, t_close = 0, agree = 0, same_prim = 0;
     double worst = 0.0; /* largest |t - t_embree| / t_embree where the patch agrees */
     for (int k = 0; k < RAYS; ++k) {
@@ -241,6 +242,9 @@ static void incoherent_rays(ts_device *cl, teapot *tp, const char *name)
      * read whatever the buffer held. */
     cl_uint zero = 0;
     assert_int_equal(clEnqueueFillBuffer(q, p.ray_flags, &zero, sizeof zero, 0,
+                                         sizeof(cl_uint) * RAYS, 0, NULL, NULL),
+                     CL_SUCCESS);
+    assert_int_equal(clEnqueueFillBuffer(q, p.ray_from, &zero, sizeof zero, 0,
                                          sizeof(cl_uint) * RAYS, 0, NULL, NULL),
                      CL_SUCCESS);
     assert_int_equal(

@@ -132,8 +132,8 @@ typedef struct trace_job {
 static void *trace_thread(void *arg)
 {
     trace_job *j = arg;
-    j->rc = embree_ref_trace(j->ref, j->r->org + j->first, j->r->dir + j->first, j->count,
-                             j->hit + j->first, &j->err);
+    j->rc = embree_ref_trace(j->ref, j->r->org + j->first, j->r->dir + j->first,
+                             j->r->from + j->first, j->count, j->hit + j->first, &j->err);
     return NULL;
 }
 
@@ -256,56 +256,20 @@ static int tessera_trace(ts_pipeline *p, ts_stats *stats, const ts_ray_set *r, t
 {
     static const ts_stage traced[] = {TS_STAGE_top_level, TS_STAGE_sort,         TS_STAGE_dice,
                                       TS_STAGE_build,     TS_STAGE_bottom_level, TS_STAGE_resolve};
-    cl_command_queue q = p->cl->queue;
     uint32_t cap = p->plan.ray_capacity;
-    uint32_t *idx = malloc((size_t)cap * sizeof *idx), *entry = calloc(cap, sizeof *entry);
-    ts_hit *clear = malloc((size_t)cap * sizeof *clear);
-    if (!idx || !entry || !clear) {
-        free(idx), free(entry), free(clear);
-        return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    }
-    for (uint32_t i = 0; i < cap; ++i) {
-        idx[i] = i;
-        clear[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
-    }
     stats_free(stats);
     memset(stats, 0, sizeof *stats);
     *wall_s = 0;
     int rc = TS_OK;
     for (uint32_t first = 0; first < r->count && !rc; first += cap) {
         uint32_t n = r->count - first < cap ? r->count - first : cap;
-        cl_uint zero = 0;
-        cl_int e = clEnqueueWriteBuffer(q, p->ray_org, CL_FALSE, 0, n * sizeof(ts_vec4),
-                                        r->org + first, 0, NULL, NULL);
-        if (!e)
-            e = clEnqueueWriteBuffer(q, p->ray_dir, CL_FALSE, 0, n * sizeof(ts_vec4),
-                                     r->dir + first, 0, NULL, NULL);
-        if (!e)
-            e = clEnqueueWriteBuffer(q, p->ray_hit, CL_FALSE, 0, n * sizeof(ts_hit), clear, 0, NULL,
-                                     NULL);
-        if (!e)
-            e = clEnqueueWriteBuffer(q, p->ray_entry, CL_FALSE, 0, n * sizeof(uint32_t), entry, 0,
-                                     NULL, NULL);
-        if (!e)
-            e = clEnqueueWriteBuffer(q, p->ray_pixel, CL_FALSE, 0, n * sizeof(uint32_t), idx, 0,
-                                     NULL, NULL);
-        if (!e)
-            e = clEnqueueFillBuffer(q, p->ray_flags, &zero, sizeof zero, 0, n * sizeof(cl_uint), 0,
-                                    NULL, NULL);
-        if (!e)
-            e = clEnqueueWriteBuffer(q, p->active, CL_TRUE, 0, n * sizeof(uint32_t), idx, 0, NULL,
-                                     NULL);
-        if (e) {
-            rc = ts_error_set(err, TS_E_DEVICE, "writing the rays: OpenCL error %d", e);
-            break;
-        }
+        if ((rc = ray_set_upload(p, r, first, n, err))) break;
         double t0 = bench_now();
         rc = pipeline_trace(p, n, err);
         if (!rc) rc = dev_finish(p->cl, stats, err);
         *wall_s += bench_now() - t0;
-        if (!rc && (e = clEnqueueReadBuffer(q, p->ray_hit, CL_TRUE, 0, n * sizeof(ts_hit),
-                                            hit + first, 0, NULL, NULL)))
-            rc = ts_error_set(err, TS_E_DEVICE, "reading the hits: OpenCL error %d", e);
+        if (!rc)
+            rc = dev_read(p->cl, p->ray_hit, 0, n * sizeof(ts_hit), hit + first, "the hits", err);
     }
     *stage_s = 0;
     for (size_t i = 0; i < sizeof traced / sizeof *traced; ++i)
@@ -313,7 +277,6 @@ static int tessera_trace(ts_pipeline *p, ts_stats *stats, const ts_ray_set *r, t
     *iterations = stats->counters[TS_COUNTER_iterations];
     for (int i = 0; i < TS_STAGE_COUNT; ++i)
         per_stage[i] = stats->stage_seconds[i];
-    free(idx), free(entry), free(clear);
     return rc;
 }
 

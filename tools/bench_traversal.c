@@ -244,6 +244,10 @@ static int bench_prepare(const bench_options *o, bench_setup *s, ts_error *err)
     CL_CHECK(clEnqueueWriteBuffer(qu, s->p.ray_hit, CL_TRUE, 0, rays * sizeof *s->hit, s->hit, 0,
                                   NULL, NULL),
              err);
+    /* Eye rays: no patch left, flags 0 (s->flags is all zeros). */
+    CL_CHECK(clEnqueueWriteBuffer(qu, s->p.ray_from, CL_TRUE, 0, rays * sizeof *s->flags, s->flags,
+                                  0, NULL, NULL),
+             err);
     CL_CHECK(clEnqueueWriteBuffer(qu, s->p.ray_flags, CL_TRUE, 0, rays * sizeof *s->flags, s->flags,
                                   0, NULL, NULL),
              err);
@@ -284,6 +288,7 @@ static int bench_mode_run(const bench_options *o, bench_setup *s, bench_mode *m,
                       0,        s->active,
                       s->org,   s->dir,
                       s->hit,   s->flags,
+                      s->flags, /* ray_from: all 0 */
                       s->grid,  s->groups};
     uint64_t bad = 0;
     for (int r = -1; r < o->repeat && !bad; ++r) {

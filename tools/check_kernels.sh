@@ -38,7 +38,7 @@ cd "$(dirname "$0")/.."
 src=$PWD
 build=$(cd "${1:-${BUILD_DIR:-build}}" 2>/dev/null && pwd) || { echo "check_kernels: no build directory ${1:-${BUILD_DIR:-build}} (run tools/setup.sh)" >&2; exit 1; }
 timeout_s=${CHECK_KERNELS_TIMEOUT:-120}
-SLOW_TESTS="test_trace test_embree test_leaf_modes test_bottom_level"
+SLOW_TESTS="test_trace test_embree test_leaf_modes test_bottom_level test_box_vs_triangles test_kernel_cache"
 
 if ! command -v oclgrind >/dev/null; then
   echo "check_kernels: oclgrind is not installed (apt-get install oclgrind): skipping"

@@ -250,7 +250,12 @@ uint64_t bottom_level_ref_pairs(const bl_ref_batch *b, uint32_t first, uint32_t 
         if (!((flags & TS_RAY_SHADOW) && (flags >> 1) == seg->patch + 1u)) {
             bl_ref_patch pt = bottom_level_ref_patch(seg, b->grid, b->groups);
             uint32_t n = 0;
-            h = bottom_level_ref_trace(b->org[ray], b->dir[ray], b->hit[ray].t, &pt, (int)b->exact,
+            /* bottom_level.cl bl_pair: the patch a ray leaves is micro-triangles, with org.w
+             * its tmin; org.w is 0 elsewhere. */
+            ts_vec4 o = b->org[ray];
+            int leaving = b->ray_from[ray] == seg->patch + 1u;
+            if (!leaving) o.w = 0.0f;
+            h = bottom_level_ref_trace(o, b->dir[ray], b->hit[ray].t, &pt, (int)b->exact || leaving,
                                        b->leaf_b, &n);
             tests += n;
         }

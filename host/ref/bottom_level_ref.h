@@ -45,6 +45,7 @@ typedef struct bl_ref_batch {
     const ts_vec4 *org, *dir;
     const ts_hit *hit; /* hit[ray].t is the pair's tmax */
     const uint32_t *ray_flags;
+    const uint32_t *ray_from; /* the patch each ray leaves + 1: org.w is its tmin there only */
     const ts_vec4 *grid;
     const ts_box4 *groups;
 } bl_ref_batch;

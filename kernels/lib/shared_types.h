@@ -256,12 +256,13 @@ typedef struct ts_shade_params {
  * X(type, name, comment). */
 /* clang-format off */
 #define TS_RAY_FIELDS(X)                                                                    \
-    X(ts_vec4, org, "origin xyz, w = tmin")                                                 \
+    X(ts_vec4, org, "origin xyz, w = how near hits on the patch the ray leaves are ignored")\
     X(ts_vec4, dir, "unit direction xyz, w = time in [0,1)")                                \
     X(ts_hit, hit, "closest hit so far; hit.t is the traversal tmax")                      \
     X(ts_u32, entry, "top-level resume state, TS_ENTRY_START or (node << 3 | pos)")         \
     X(ts_u32, pixel, "pixel index y * width + x")                                           \
-    X(ts_u32, flags, "TS_RAY_SHADOW for shadow rays")
+    X(ts_u32, flags, "TS_RAY_SHADOW for shadow rays")                                       \
+    X(ts_u32, from, "the patch the ray leaves + 1; 0 for eye rays")
 /* clang-format on */
 
 /* Path field `state`: bits 0-1 say which of the path's two ray slots it traced this wave

@@ -172,7 +172,8 @@ int embree_ref_create(ts_embree_ref **out, const ts_scene *s, uint32_t m,
         embree_ref_destroy(r);
         return err->code;
     }
-    rtcSetSceneFlags(r->scene, o.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
+    rtcSetSceneFlags(r->scene, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION |
+                                   (o.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE));
     static const enum RTCBuildQuality quality[3] = {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_MEDIUM,
                                                     RTC_BUILD_QUALITY_HIGH};
     rtcSetSceneBuildQuality(r->scene, quality[o.quality < 0 ? 0 : o.quality > 2 ? 2 : o.quality]);
@@ -210,25 +211,51 @@ const ts_embree_info *embree_ref_info(const ts_embree_ref *r)
     return &r->info;
 }
 
-int embree_ref_trace(ts_embree_ref *r, const ts_vec4 *org, const ts_vec4 *dir, uint32_t count,
-                     ts_hit *hit, ts_error *err)
+/* The intersection context of one ray: which patch it leaves and how near its hits there
+ * are ignored. */
+typedef struct self_context {
+    struct RTCIntersectContext ctx; /* first: Embree passes &ctx to the filter */
+    uint32_t from;                  /* patch + 1, 0: none */
+    float self;
+} self_context;
+
+static void self_filter(const struct RTCFilterFunctionNArguments *args)
+{
+    const self_context *c = (const self_context *)args->context;
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (args->valid[i] != -1) continue;
+        /* SOA layouts of rtcore_ray.h (its accessors are C++ only): RTCHitN is Ng_x, Ng_y,
+         * Ng_z, u, v, primID, geomID, ...; RTCRayN is org_x, org_y, org_z, tnear, dir_x,
+         * dir_y, dir_z, time, tfar, ...; each an array of N. */
+        unsigned geom = ((const unsigned *)args->hit)[6 * args->N + i];
+        float t = ((const float *)args->ray)[8 * args->N + i];
+        if (c->from && geom == c->from - 1u && t < c->self) args->valid[i] = 0;
+    }
+}
+
+int embree_ref_trace(ts_embree_ref *r, const ts_vec4 *org, const ts_vec4 *dir, const uint32_t *from,
+                     uint32_t count, ts_hit *hit, ts_error *err)
 {
     float scale = ldexpf(1.0f, -(int)r->info.lod);
     uint32_t q = 1u << r->info.lod;
-    struct RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
+    self_context sc;
+    rtcInitIntersectContext(&sc.ctx);
+    sc.ctx.filter = self_filter;
+    struct RTCIntersectContext *ctx = &sc.ctx;
     for (uint32_t k = 0; k < count; ++k) {
+        sc.from = from ? from[k] : 0u;
+        sc.self = org[k].w;
         struct RTCRayHit rh;
         memset(&rh, 0, sizeof rh);
         rh.ray.org_x = org[k].x, rh.ray.org_y = org[k].y, rh.ray.org_z = org[k].z;
         rh.ray.dir_x = dir[k].x, rh.ray.dir_y = dir[k].y, rh.ray.dir_z = dir[k].z;
-        rh.ray.tnear = org[k].w;
+        rh.ray.tnear = 0.0f;
         rh.ray.tfar = INFINITY;
         rh.ray.time = dir[k].w;
         rh.ray.mask = 0xffffffffu;
         rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
         rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
-        rtcIntersect1(r->scene, &ctx, &rh);
+        rtcIntersect1(r->scene, ctx, &rh);
         ts_hit h = {TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
         if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
             /* Barycentrics (b1, b2) weigh the triangle's second and third vertex. */

@@ -47,11 +47,13 @@ void embree_ref_destroy(ts_embree_ref *r);
 const ts_embree_info *embree_ref_info(const ts_embree_ref *r);
 
 /* Closest hit of each of `count` rays: origin org[i].xyz, direction dir[i].xyz (unit, as the
- * ray buffers hold them), tnear = org[i].w, tfar = infinity, time = dir[i].w. hit[i] gets
+ * ray buffers hold them), tnear = 0, tfar = infinity, time = dir[i].w; with from (NULL:
+ * none) hits on patch from[i] - 1 nearer than org[i].w are ignored, as bottom_level does
+ * for the patch a ray leaves (an Embree context filter). hit[i] gets
  * t, the patch parameters (u, v) of the hit point (as bottom_level computes them), patch and
  * prim = TS_PRIM(m, micro-triangle); t = TS_NO_HIT and patch = prim = TS_INVALID on a miss. */
-int embree_ref_trace(ts_embree_ref *r, const ts_vec4 *org, const ts_vec4 *dir, uint32_t count,
-                     ts_hit *hit, ts_error *err);
+int embree_ref_trace(ts_embree_ref *r, const ts_vec4 *org, const ts_vec4 *dir, const uint32_t *from,
+                     uint32_t count, ts_hit *hit, ts_error *err);
 
 /* Diced vertex (i, j) of patch p at m and time sample `time` (0: scene cp, 1: cp1 of a
  * moving patch): lib/patch.h patch_vertex at u = i * 2^-m, v = j * 2^-m exactly, as the

@@ -1,5 +1,6 @@
 /* ray_sets.c — eye and bounce rays shared by two tracers, and their files (ray_sets.h). */
 #include "ray_sets.h"
+#include "pipeline/pipeline.h"
 #include "lib/bsdf.h"
 #include "lib/patch.h"
 #include "lib/rng.h"
@@ -41,7 +42,7 @@ void *ray_set_read_file(const char *path, size_t *size)
 
 void ray_set_free(ts_ray_set *r)
 {
-    free(r->org), free(r->dir), free(r->pixel);
+    free(r->org), free(r->dir), free(r->pixel), free(r->from);
     memset(r, 0, sizeof *r);
 }
 
@@ -51,19 +52,21 @@ int ray_set_alloc(ts_ray_set *r, uint32_t n)
     r->org = malloc((n ? n : 1) * sizeof *r->org);
     r->dir = malloc((n ? n : 1) * sizeof *r->dir);
     r->pixel = malloc((n ? n : 1) * sizeof *r->pixel);
-    return r->org && r->dir && r->pixel ? 0 : -1;
+    r->from = calloc(n ? n : 1, sizeof *r->from);
+    return r->org && r->dir && r->pixel && r->from ? 0 : -1;
 }
 
 int ray_set_save(const char *path, const ts_ray_set *r)
 {
     size_t n = r->count;
-    size_t bytes = 4 + 2 * n * sizeof(ts_vec4) + n * 4;
+    size_t bytes = 4 + 2 * n * sizeof(ts_vec4) + n * 8;
     unsigned char *buf = malloc(bytes);
     if (!buf) return -1;
     memcpy(buf, &r->count, 4);
     memcpy(buf + 4, r->org, n * sizeof(ts_vec4));
     memcpy(buf + 4 + n * sizeof(ts_vec4), r->dir, n * sizeof(ts_vec4));
     memcpy(buf + 4 + 2 * n * sizeof(ts_vec4), r->pixel, n * 4);
+    memcpy(buf + 4 + 2 * n * sizeof(ts_vec4) + n * 4, r->from, n * 4);
     int rc = ray_set_write_file(path, buf, bytes, NULL, 0);
     free(buf);
     return rc;
@@ -76,7 +79,7 @@ int ray_set_load(const char *path, ts_ray_set *r)
     if (!buf) return -1;
     uint32_t n = 0;
     if (size >= 4) memcpy(&n, buf, 4);
-    if (size != 4 + 2 * (size_t)n * sizeof(ts_vec4) + (size_t)n * 4 || ray_set_alloc(r, n)) {
+    if (size != 4 + 2 * (size_t)n * sizeof(ts_vec4) + (size_t)n * 8 || ray_set_alloc(r, n)) {
         fprintf(stderr, "ray_sets: %s: not a ray file\n", path);
         free(buf);
         return -1;
@@ -84,6 +87,7 @@ int ray_set_load(const char *path, ts_ray_set *r)
     memcpy(r->org, buf + 4, (size_t)n * sizeof(ts_vec4));
     memcpy(r->dir, buf + 4 + (size_t)n * sizeof(ts_vec4), (size_t)n * sizeof(ts_vec4));
     memcpy(r->pixel, buf + 4 + 2 * (size_t)n * sizeof(ts_vec4), (size_t)n * 4);
+    memcpy(r->from, buf + 4 + 2 * (size_t)n * sizeof(ts_vec4) + (size_t)n * 4, (size_t)n * 4);
     free(buf);
     return 0;
 }
@@ -169,11 +173,50 @@ int ray_set_bounce(const ts_scene *s, uint32_t m, uint32_t seed, const ts_ray_se
         ts_v3 wi =
             sample_cosine(nn, rng_uniform(pix, 0, 1, 5, seed), rng_uniform(pix, 0, 1, 6, seed));
         if (!(v3_dot(nn, wi) > 0.0f)) continue;
-        out->org[n] = (ts_vec4){p.x + eps * nn.x, p.y + eps * nn.y, p.z + eps * nn.z, 0.0f};
+        /* As shade.cl: offset eps along the normal, hits on the patch left ignored nearer
+         * than eps. */
+        out->org[n] = (ts_vec4){p.x + eps * nn.x, p.y + eps * nn.y, p.z + eps * nn.z, eps};
+        out->from[n] = h->patch + 1u;
         out->dir[n] = (ts_vec4){wi.x, wi.y, wi.z, d4.w};
         out->pixel[n] = pix;
         ++n;
     }
     out->count = n;
+    return TS_OK;
+}
+
+int ray_set_upload(ts_pipeline *p, const ts_ray_set *r, uint32_t first, uint32_t n, ts_error *err)
+{
+    uint32_t *idx = malloc((n ? n : 1) * sizeof *idx), *zero = calloc(n ? n : 1, sizeof *zero);
+    ts_hit *clear = malloc((n ? n : 1) * sizeof *clear);
+    int rc = idx && zero && clear ? TS_OK : ts_error_set(err, TS_E_MEMORY, "out of memory");
+    for (uint32_t i = 0; rc == TS_OK && i < n; ++i) {
+        idx[i] = i;
+        clear[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
+    }
+    ts_device *d = p->cl;
+    if (rc == TS_OK &&
+        (dev_write(d, p->ray_org, 0, n * sizeof(ts_vec4), r->org + first, "origins", err) ||
+         dev_write(d, p->ray_dir, 0, n * sizeof(ts_vec4), r->dir + first, "directions", err) ||
+         dev_write(d, p->ray_from, 0, n * sizeof(uint32_t), r->from + first, "from", err) ||
+         dev_write(d, p->ray_hit, 0, n * sizeof(ts_hit), clear, "hits", err) ||
+         dev_write(d, p->ray_entry, 0, n * sizeof(uint32_t), zero, "entries", err) ||
+         dev_write(d, p->ray_flags, 0, n * sizeof(uint32_t), zero, "flags", err) ||
+         dev_write(d, p->ray_pixel, 0, n * sizeof(uint32_t), idx, "pixels", err) ||
+         dev_write(d, p->active, 0, n * sizeof(uint32_t), idx, "the active list", err)))
+        rc = err->code;
+    free(idx), free(zero), free(clear);
+    return rc;
+}
+
+int ray_set_trace(ts_pipeline *p, const ts_ray_set *r, ts_hit *hit, ts_error *err)
+{
+    uint32_t cap = p->plan.ray_capacity;
+    for (uint32_t first = 0; first < r->count; first += cap) {
+        uint32_t n = r->count - first < cap ? r->count - first : cap;
+        if (ray_set_upload(p, r, first, n, err) || pipeline_trace(p, n, err) ||
+            dev_read(p->cl, p->ray_hit, 0, n * sizeof(ts_hit), hit + first, "the hits", err))
+            return err->code;
+    }
     return TS_OK;
 }

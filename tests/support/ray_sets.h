@@ -17,12 +17,15 @@ typedef struct ts_ray_set {
     uint32_t count;
     ts_vec4 *org, *dir;
     uint32_t *pixel;
+    uint32_t *from; /* the patch a ray leaves + 1 (0 for eye rays): hits on it nearer than
+                       org.w are ignored (bottom_level.cl bl_pair; embree_ref_trace) */
 } ts_ray_set;
 
 /* Arrays for n rays (count = n); -1 when out of memory. */
 int ray_set_alloc(ts_ray_set *r, uint32_t n);
 void ray_set_free(ts_ray_set *r);
-/* A file: count (4 bytes), count origins, count directions (16 bytes each), count pixels.
+/* A file: count (4 bytes), count origins, count directions (16 bytes each), count pixels,
+ * count `from` patches (4 bytes each).
  * 0, or -1 with a message on stderr. */
 int ray_set_save(const char *path, const ts_ray_set *r);
 int ray_set_load(const char *path, ts_ray_set *r);
@@ -45,6 +48,16 @@ ts_vec4 ray_set_normal(const ts_scene *s, uint32_t patch, float u, float v, uint
  * it (l the longest side of the patch's box, Hanika §3.3), tnear 0, the eye ray's time. */
 int ray_set_bounce(const ts_scene *s, uint32_t m, uint32_t seed, const ts_ray_set *eye,
                    const ts_hit *hit, ts_ray_set *out, ts_error *err);
+
+/* Writes rays [first, first + n) of r into the pipeline's ray buffers as rays 0..n-1 (n at
+ * most the plan's ray_capacity): origin, direction, from, a cleared hit, a fresh top-level
+ * entry, flags 0, pixel = index, and lists them in active, ready for pipeline_trace. */
+struct ts_pipeline;
+int ray_set_upload(struct ts_pipeline *p, const ts_ray_set *r, uint32_t first, uint32_t n,
+                   ts_error *err);
+/* Traces every ray of r through p (in waves of the plan's ray capacity) and reads the
+ * closest hits back into hit[0..r->count). */
+int ray_set_trace(struct ts_pipeline *p, const ts_ray_set *r, ts_hit *hit, ts_error *err);
 
 /* Whole files: a (and b when bn > 0) written; read with a terminating NUL added. 0 / data,
  * or -1 / NULL with a message on stderr. */
