@@ -6,9 +6,10 @@
  * Ray g = first_sample + i covers pixel g % (width*height), sample g / (width*height), so a
  * wave is a run of whole sample passes and the film can sum samples in a fixed order.
  * RenderMan screen: x right, y up; raster y grows downwards. One sample per pixel goes
- * through the pixel centre; more are jittered by the counter-based RNG (lib/rng.h). */
+ * through the pixel centre; more are jittered by the sampler's camera set (lib/sampler.h:
+ * dimensions 0 and 1 the position in the pixel, 2 the time). */
 #include "lib/shared_types.h"
-#include "lib/rng.h"
+#include "lib/sampler.h"
 
 __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __global ts_vec4 *dir,
                               __global ts_hit *hit, __global uint *entry, __global uint *pixel,
@@ -24,8 +25,8 @@ __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __globa
     uint x = pix % p.width, y = pix / p.width;
     float jx = 0.5f, jy = 0.5f;
     if (p.spp > 1) {
-        jx = rng_uniform(pix, sample, 0, 0, p.seed);
-        jy = rng_uniform(pix, sample, 0, 1, p.seed);
+        jx = sampler_value(pix, sample, TS_SET_CAMERA, 0u, p.seed, sampler_mask(p.spp));
+        jy = sampler_value(pix, sample, TS_SET_CAMERA, 1u, p.seed, sampler_mask(p.spp));
     }
     float sx = 2.0f * ((float)x + jx) / (float)p.width - 1.0f;
     float sy = 1.0f - 2.0f * ((float)y + jy) / (float)p.height;
@@ -35,7 +36,8 @@ __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __globa
     float inv = 1.0f / sqrt(dx * dx + dy * dy + dz * dz);
     org[i] = (ts_vec4){p.origin[0], p.origin[1], p.origin[2], 0.0f};
     /* Time in [0, 1) for motion blur (Hanika §3.4): a dimension of the same RNG. */
-    dir[i] = (ts_vec4){dx * inv, dy * inv, dz * inv, rng_uniform(pix, sample, 0, 2, p.seed)};
+    dir[i] = (ts_vec4){dx * inv, dy * inv, dz * inv,
+                       sampler_value(pix, sample, TS_SET_CAMERA, 2u, p.seed, sampler_mask(p.spp))};
     hit[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
     entry[i] = TS_ENTRY_START;
     pixel[i] = pix;

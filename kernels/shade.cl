@@ -24,31 +24,41 @@
  * found by a BSDF ray p_b / (p_b + p_l), with p_b the pdf of the sample that made the ray
  * (path field mis) and the weighting chosen when it was made (state's TS_MIS_* mode):
  * --sampling light or bsdf keeps one strategy at weight 1.
- * Random numbers: rng_uniform(pixel, sample, bounce + 1, dimension): dimension 0 Russian
- * roulette, 1 the light, 2-4 the light sample, 5-7 the BSDF sample. */
+ * Lights: one chosen per vertex by weight (lib/lights.h light_select); a uniform dome is
+ * left to BSDF rays unless --sampling light.
+ * Sample values: Owen-scrambled Sobol sets (lib/sampler.h), keyed by (pixel, sample): at
+ * vertex b, set TS_SET_LIGHT(b) = the light's choice and the point on it, TS_SET_BSDF(b) =
+ * the lobe, the direction and Russian roulette. */
 #include "lib/shared_types.h"
 #include "lib/bsdf.h"
 #include "lib/lights.h"
 #include "lib/patch.h"
-#include "lib/rng.h"
+#include "lib/sampler.h"
 
-/* One path's step: its slots, the keys of its random numbers and its weight so far. */
+/* One path's step: its slots, the keys of its sample values and its weight so far. */
 typedef struct shade_step {
     uint i, wave_size;        /* ray slot i, shadow-ray slot wave_size + i */
-    uint pix, sample, bounce; /* rng keys; bounce 0: the eye rays' hits */
-    uint seed;
-    float tp[3]; /* throughput up to this vertex */
+    uint pix, sample, bounce; /* sampler keys; bounce 0: the eye rays' hits */
+    uint seed, mask;          /* mask: lib/sampler.h sampler_mask(spp) */
+    float tp[3];              /* throughput up to this vertex */
 } shade_step;
 
-inline float step_rng(const shade_step *s, uint dimension)
+/* Value d (0..3) of this vertex's light set (choice, then the point on the light) or BSDF
+ * set (lobe, two for the direction, Russian roulette): lib/sampler.h. */
+inline float step_light(const shade_step *s, uint d)
 {
-    return rng_uniform(s->pix, s->sample, s->bounce + 1u, dimension, s->seed);
+    return sampler_value(s->pix, s->sample, TS_SET_LIGHT(s->bounce), d, s->seed, s->mask);
+}
+
+inline float step_bsdf(const shade_step *s, uint d)
+{
+    return sampler_value(s->pix, s->sample, TS_SET_BSDF(s->bounce), d, s->seed, s->mask);
 }
 
 /* The scene's lights as shade samples them (lib/lights.h). */
 typedef struct shade_lights {
     __global const ts_light *lights;
-    uint count;
+    uint count, sampling;
     ts_env env;
     __global const ts_emitter *emitters;
     __global const ts_vec4 *cp;
@@ -118,7 +128,7 @@ inline void shade_escape(const shade_lights *L, ts_v3 d, const shade_step *s, fl
                          __global ts_vec4 *radiance)
 {
     float le[3], pl;
-    light_escape(L->lights, L->count, L->env, d, le, &pl);
+    light_escape(L->lights, L->count, L->sampling, L->env, d, le, &pl);
     add_rgb(radiance, s->tp, le, emission_weight(pb, mode, pl));
 }
 
@@ -155,8 +165,8 @@ inline void shade_emission(const shade_lights *L, const shade_vertex *v, ts_hit 
     __global const ts_patch_attr *a = v->a;
     if (!(a->le_r > 0.0f || a->le_g > 0.0f || a->le_b > 0.0f)) return;
     float e[3] = {a->le_r, a->le_g, a->le_b};
-    float pl = light_pdf_area(L->lights, L->count, L->emitters, L->cp, a->emitter, h.patch, h.u,
-                              h.v, d, h.t);
+    float pl = light_pdf_area(L->lights, L->count, L->sampling, L->emitters, L->cp, a->emitter,
+                              h.patch, h.u, h.v, d, h.t);
     add_rgb(radiance, s->tp, e, emission_weight(pb, mode, pl));
 }
 
@@ -168,9 +178,12 @@ inline uint shade_direct_light(ts_shade_params sp, const shade_lights *L, const 
                                const shade_step *s, __global ts_vec4 *pending, shade_rays r)
 {
     if (L->count == 0u || sp.sampling == TS_SAMPLING_BSDF) return 0u;
-    uint li = min((uint)(step_rng(s, 1u) * (float)L->count), L->count - 1u);
-    ts_light_sample ls = light_sample(L->lights, L->count, li, L->env, L->emitters, L->cp, L->attr,
-                                      v->p, step_rng(s, 2u), step_rng(s, 3u), step_rng(s, 4u));
+    float choose;
+    uint li = light_select(L->lights, L->count, L->sampling, step_light(s, 0u), &choose);
+    if (li >= L->count) return 0u; /* no light takes part (a uniform dome only, say) */
+    ts_light_sample ls =
+        light_sample(L->lights, li, choose, L->env, L->emitters, L->cp, L->attr, v->p, v->n,
+                     step_light(s, 1u), step_light(s, 2u), step_light(s, 3u));
     float f[3] = {0.0f, 0.0f, 0.0f};
     float pb = ls.pdf > 0.0f ? bsdf_eval(v->a, v->cs, v->n, v->wo, ls.dir, f) : 0.0f;
     float cosl = ls.pdf > 0.0f ? v3_dot(v->n, ls.dir) : 0.0f;
@@ -196,15 +209,15 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
 {
     ts_v3 wi;
     float f[3];
-    float pb = bsdf_sample(v->a, v->cs, v->n, v->wo, step_rng(s, 5u), step_rng(s, 6u),
-                           step_rng(s, 7u), &wi, f);
+    float pb = bsdf_sample(v->a, v->cs, v->n, v->wo, step_bsdf(s, 0u), step_bsdf(s, 1u),
+                           step_bsdf(s, 2u), &wi, f);
     float cosi = v3_dot(v->n, wi);
     if (!(pb > 0.0f && cosi > 0.0f)) return 0u;
     float w = cosi / pb;
     const float *tp = s->tp;
     float nt[3] = {tp[0] * f[0] * w, tp[1] * f[1] * w, tp[2] * f[2] * w};
     float survive = s->bounce >= 1u ? fmin(1.0f, fmax(nt[0], fmax(nt[1], nt[2]))) : 1.0f;
-    if (!(step_rng(s, 0u) < survive)) return 0u;
+    if (!(step_bsdf(s, 3u) < survive)) return 0u;
     *throughput = (ts_vec4){nt[0] / survive, nt[1] / survive, nt[2] / survive, 0.0f};
     *mode = sp.light_count == 0u || sp.sampling == TS_SAMPLING_BSDF ? TS_MIS_ONE
             : sp.sampling == TS_SAMPLING_LIGHT                      ? TS_MIS_ZERO
@@ -239,6 +252,7 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     if (!(st & TS_PATH_TRACED_BSDF)) return;
     shade_lights L = {.lights = lights,
                       .count = sp.light_count,
+                      .sampling = sp.sampling,
                       .env = {env_texels, env_marginal, env_conditional},
                       .emitters = emitters,
                       .cp = cp,
@@ -256,6 +270,7 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
                     .sample = (first_sample + i) / pixel_count,
                     .bounce = sp.bounce,
                     .seed = sp.seed,
+                    .mask = sampler_mask(sp.spp),
                     .tp = {t4.x, t4.y, t4.z}};
     if (h.patch == TS_INVALID) {
         shade_escape(&L, d, &s, pb, mode, &radiance[i]);

@@ -3,6 +3,7 @@
  * ending at exactly 1, distant lights as cones of the right radiance and solid angle, and
  * the environment map's marginal and conditional CDFs. Host only: never skips. */
 #include "pipeline/lights.h"
+#include "lib/lights.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -198,6 +199,68 @@ static void test_distant_lights_and_dome(void **state)
     lights_free(&t);
 }
 
+/* Light selection (lib/lights.h, issue 14): the probabilities of the lights that take part
+ * sum to 1, a uniform dome takes part only under --sampling light, the weights are the
+ * lights' luminance contributions (a sun E / pi, the dome L), and light_select picks each
+ * light as often as light_select_prob says (stratified u: within 2 / N). */
+static void test_light_selection(void **state)
+{
+    (void)state;
+    ts_vec4 cp[16];
+    ts_patch_attr attr[1];
+    memset(attr, 0, sizeof attr);
+    attr[0].le_r = attr[0].le_g = attr[0].le_b = 4.0f;
+    flat_patch(cp, 0, 0.0f, 1.0f, 1.0f);
+    ts_distant_light d[2] = {
+        {{-1, 1, -1}, {0, 0, 0}, 2.5, {1, 0.95, 0.85}, 2.0},
+        {{0, 0, 5}, {0, 0, 1}, 1.0, {1, 1, 1}, 0.0},
+    };
+    ts_scene s = {.patch_count = 1, .cp = cp, .attr = attr, .lights = d, .light_count = 2};
+    s.dome = (ts_dome_light){.present = 1, .intensity = 0.35, .color = {1, 1, 1}};
+    ts_light_table t;
+    ts_error err = {0};
+    assert_int_equal(lights_build(&s, NULL, attr, &t, &err), TS_OK);
+    assert_int_equal(t.light_count, 4); /* 2 suns, the dome, the area light */
+    double lum = 0.2126 * 1 + 0.7152 * 0.95 + 0.0722 * 0.85;
+    assert_near(t.lights[0].weight, 2.5 * lum / M_PI, 1e-6, "sun weight E / pi");
+    assert_near(t.lights[1].weight, 1.0 / M_PI, 1e-6, "delta sun weight E / pi");
+    assert_near(t.lights[2].weight, 0.35, 1e-6, "dome weight L");
+    assert_true(t.lights[3].weight > 0.0f);
+    const ts_u32 modes[2] = {TS_SAMPLING_MIS, TS_SAMPLING_LIGHT};
+    enum { N = 100000 };
+    for (int m = 0; m < 2; ++m) {
+        double sum = 0;
+        for (ts_u32 i = 0; i < t.light_count; ++i)
+            sum += light_select_prob(t.lights, t.light_count, modes[m], i);
+        assert_near(sum, 1.0, 1e-6, "selection probabilities sum to 1");
+        float dome = light_select_prob(t.lights, t.light_count, modes[m], 2);
+        assert_true(m == 0 ? dome == 0.0f : dome > 0.0f);
+        uint32_t count[4] = {0, 0, 0, 0};
+        for (int k = 0; k < N; ++k) {
+            float prob;
+            ts_u32 li = light_select(t.lights, t.light_count, modes[m], (k + 0.5f) / N, &prob);
+            assert_true(li < t.light_count);
+            assert_near(prob, light_select_prob(t.lights, t.light_count, modes[m], li), 1e-7,
+                        "the probability returned is the light's");
+            count[li]++;
+        }
+        for (ts_u32 i = 0; i < t.light_count; ++i)
+            assert_near((double)count[i] / N,
+                        light_select_prob(t.lights, t.light_count, modes[m], i), 2.0 / N + 1e-5,
+                        "chosen as often as its probability");
+    }
+    /* No light takes part (a uniform dome alone, MIS): nothing is chosen. */
+    ts_scene dome_only = {0};
+    dome_only.dome = s.dome;
+    lights_free(&t);
+    assert_int_equal(lights_build(&dome_only, NULL, NULL, &t, &err), TS_OK);
+    float prob = 1.0f;
+    assert_int_equal(light_select(t.lights, t.light_count, TS_SAMPLING_MIS, 0.5f, &prob),
+                     t.light_count);
+    assert_true(prob == 0.0f);
+    lights_free(&t);
+}
+
 static void test_too_many_distant_lights(void **state)
 {
     (void)state;
@@ -385,6 +448,7 @@ int main(void)
         cmocka_unit_test(test_equal_emitters_cdf_ends_at_one),
         cmocka_unit_test(test_no_emitter),
         cmocka_unit_test(test_distant_lights_and_dome),
+        cmocka_unit_test(test_light_selection),
         cmocka_unit_test(test_too_many_distant_lights),
         cmocka_unit_test(test_env_constant_map_is_uniform),
         cmocka_unit_test(test_env_bright_texel_owns_the_jump),

@@ -2,7 +2,8 @@
  * - furnace: a closed white matte object (Kd 1, Color 1) under a uniform domelight of
  *   radiance 1 reflects radiance 1 everywhere, seen from outside; also when displaced
  *   (non-convex: interreflections);
- * - a diffuse plane under a sun at angle theta has radiance Kd E cos(theta) / pi;
+ * - a diffuse plane under a sun at angle theta has radiance Kd E cos(theta) / pi, and under
+ *   a uniform dome Kd L in every sample (cosine-weighted dome sampling);
  * - light sampling, BSDF sampling and their MIS combination converge to the same mean;
  * - the same command gives the same bits, whatever --memory or the thread count;
  * - shadow rays are counted apart. Tolerances come from the sample counts. */
@@ -89,6 +90,40 @@ static void test_furnace(void **state)
 static void test_furnace_displaced(void **state)
 {
     check_furnace(1);
+}
+
+/* A matte plane under a uniform dome of radiance L and nothing else: its radiance is Kd L
+ * (irradiance pi L). The dome is sampled cosine-weighted about the normal (light sampling)
+ * or found by cosine-weighted BSDF rays (MIS: a uniform dome is left to them), so every
+ * sample is Kd L exactly: each pixel must equal it to rounding, in both modes (uniform
+ * sphere sampling, as before issue 14, was off by up to 100% per sample). */
+static void test_plane_under_a_uniform_dome(void **state)
+{
+    const double l = 0.6, kd = 0.7;
+    FILE *f = fopen(path("dome.rib"), "w");
+    assert_non_null(f);
+    fprintf(f,
+            "Format 32 32 1\nProjection \"perspective\" \"fov\" [30]\nTranslate 0 0 5\n"
+            "WorldBegin\nLightSource \"domelight\" 1 \"float intensity\" [%g]\n"
+            "Color [1 1 1]\nSurface \"matte\" \"float Kd\" [%g]\n"
+            "Patch \"bilinear\" \"P\" [-5 -5 0  5 -5 0  -5 5 0  5 5 0]\nWorldEnd\n",
+            l, kd);
+    fclose(f);
+    const char *modes[2] = {"--sampling light", "--sampling mis"};
+    for (int m = 0; m < 2; ++m) {
+        char args[256];
+        snprintf(args, sizeof args, "--spp 4 --depth 1 %s", modes[m]);
+        render("dome.rib", "dome.exr", args);
+        ts_image img;
+        load("dome.exr", &img);
+        for (int i = 0; i < img.width * img.height; ++i)
+            for (int c = 0; c < 3; ++c) {
+                float v = img.pixels[i * img.channels + c];
+                if (fabs(v - kd * l) > kd * l * 1e-5)
+                    fail_msg("%s: pixel %d: %g, want Kd L = %g", modes[m], i, v, kd * l);
+            }
+        image_free(&img);
+    }
 }
 
 static void test_plane_under_the_sun(void **state)
@@ -220,14 +255,19 @@ static void test_same_bits_whatever_memory_and_threads(void **state)
 
 static void test_shadow_rays_are_counted(void **state)
 {
+    /* Under a uniform dome alone, light sampling traces shadow rays; MIS traces none (the
+     * dome is left to BSDF rays, lib/lights.h). */
     write_furnace("count.rib", 0);
     char args[4400];
-    snprintf(args, sizeof args, "--spp 2 --stats '%s'", path("count.json"));
+    snprintf(args, sizeof args, "--spp 2 --sampling light --stats '%s'", path("count.json"));
     render("count.rib", "c.exr", args);
     double rays = test_stats_number(path("count.json"), "counters.rays");
     double shadow = test_stats_number(path("count.json"), "counters.shadow_rays");
     assert_true(rays >= 64 * 64 * 2);
     assert_true(shadow > 0 && shadow <= rays);
+    snprintf(args, sizeof args, "--spp 2 --stats '%s'", path("count.json"));
+    render("count.rib", "c.exr", args);
+    assert_true(test_stats_number(path("count.json"), "counters.shadow_rays") == 0.0);
 }
 
 /* A lat-long map of w x h: constant 1, or black with a bright patch around the direction
@@ -303,6 +343,7 @@ int main(void)
         cmocka_unit_test(test_light_bsdf_and_mis_agree),
         cmocka_unit_test(test_same_bits_whatever_memory_and_threads),
         cmocka_unit_test(test_shadow_rays_are_counted),
+        cmocka_unit_test(test_plane_under_a_uniform_dome),
         cmocka_unit_test(test_environment_map),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);

@@ -69,7 +69,7 @@ static int render_paths(const ts_render_options *o, ts_pipeline *p, uint32_t fir
                           .depth = (uint32_t)o->depth,
                           .sampling = (uint32_t)o->sampling,
                           .seed = o->seed,
-                          .light_prob = 0.5f};
+                          .spp = (uint32_t)o->spp};
     uint32_t rays = n, paths = n;
     p->stats->counters[TS_COUNTER_rays] += n;
     for (uint32_t b = 0; rays > 0; ++b) {

@@ -86,8 +86,15 @@ static float patch_area(const ts_scene *s, uint32_t p)
     return (float)a;
 }
 
+/* Rec. 709 luminance. */
+static double luminance(const float c[3])
+{
+    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+}
+
 /* A distant light: a delta light of irradiance E, or for angle a > 0 a cone of half angle
- * a / 2 with radiance L, L pi sin^2(a / 2) = E, uniform in the cone. */
+ * a / 2 with radiance L, L pi sin^2(a / 2) = E, uniform in the cone. Its weight: the
+ * radiance it gives a white matte point facing it, E / pi (luminance). */
 static ts_light distant_light(const ts_distant_light *d)
 {
     ts_light l = {.type = TS_LIGHT_DISTANT, .cos_max = 1.0f};
@@ -99,11 +106,53 @@ static ts_light distant_light(const ts_distant_light *d)
         l.solid_angle = (float)(2 * M_PI * (1 - cos(half)));
         e_scale = 1.0 / (M_PI * sin(half) * sin(half));
     }
+    float e[3];
     for (int k = 0; k < 3; ++k) {
         l.dir[k] = (float)(dir[k] / len);
         l.radiance[k] = (float)(d->intensity * d->color[k] * e_scale);
+        e[k] = (float)(d->intensity * d->color[k]);
     }
+    l.weight = (float)(luminance(e) / M_PI);
     return l;
+}
+
+/* The average radiance of a lat-long map over the sphere (texels weighted by sin(theta)). */
+static double env_mean_luminance(const ts_env_map *env)
+{
+    double sum = 0, weight = 0;
+    for (uint32_t y = 0; y < env->height; ++y) {
+        double s = sin(M_PI * (y + 0.5) / env->height);
+        for (uint32_t x = 0; x < env->width; ++x) {
+            const ts_vec4 *t = &env->texels[(size_t)y * env->width + x];
+            float c[3] = {t->x, t->y, t->z};
+            sum += luminance(c) * s, weight += s;
+        }
+    }
+    return weight > 0 ? sum / weight : 0.0;
+}
+
+/* The area light's weight: its emitters' luminous power over pi d^2, d a typical distance
+ * to the points it lights (half the diagonal of the scene's patch boxes, or the square root
+ * of the emitting area if larger). A guess: it only steers how often the light is chosen. */
+static float area_weight(const ts_scene *s, const ts_patch_attr *attr, const ts_light_table *t)
+{
+    double power = 0, area = 0;
+    for (uint32_t k = 0; k < t->emitter_count; ++k) {
+        const ts_patch_attr *a = &attr[t->emitters[k].patch];
+        float le[3] = {a->le_r, a->le_g, a->le_b};
+        power += luminance(le) * t->emitters[k].area, area += t->emitters[k].area;
+    }
+    ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t p = 0; p < s->patch_count; ++p) {
+        ts_box q = scene_patch_box(s, p);
+        b.lo_x = fminf(b.lo_x, q.lo_x), b.lo_y = fminf(b.lo_y, q.lo_y),
+        b.lo_z = fminf(b.lo_z, q.lo_z);
+        b.hi_x = fmaxf(b.hi_x, q.hi_x), b.hi_y = fmaxf(b.hi_y, q.hi_y),
+        b.hi_z = fmaxf(b.hi_z, q.hi_z);
+    }
+    double dx = b.hi_x - b.lo_x, dy = b.hi_y - b.lo_y, dz = b.hi_z - b.lo_z;
+    double d = fmax(0.5 * sqrt(dx * dx + dy * dy + dz * dz), sqrt(area));
+    return d > 0 && isfinite(d) ? (float)(power / (M_PI * d * d)) : (float)power;
 }
 
 /* The emitter table: every patch with some le > 0, chosen by power (area times brightest
@@ -154,12 +203,17 @@ int lights_build(const ts_scene *s, const ts_env_map *env, ts_patch_attr *attr, 
                       .map_height = env ? env->height : 0u};
         for (int k = 0; k < 3; ++k)
             l.radiance[k] = (float)(s->dome.intensity * s->dome.color[k]);
+        /* A matte point under the dome gets its radiance L times the albedo. */
+        l.weight = (float)(luminance(l.radiance) *
+                           (env && env->width && env->texels ? env_mean_luminance(env) : 1.0));
         t->lights[nl++] = l;
     }
     if (build_emitters(s, attr, t, err)) return err->code;
     if (t->emitter_count)
-        t->lights[nl++] =
-            (ts_light){.type = TS_LIGHT_AREA, .emitter_count = t->emitter_count, .cos_max = 1.0f};
+        t->lights[nl++] = (ts_light){.type = TS_LIGHT_AREA,
+                                     .emitter_count = t->emitter_count,
+                                     .cos_max = 1.0f,
+                                     .weight = area_weight(s, attr, t)};
     t->light_count = nl;
     return TS_OK;
 }

@@ -38,9 +38,11 @@ int env_map_from_image(const ts_image *img, ts_env_map *e, ts_error *err);
 int env_map_load(const char *path, ts_env_map *e, ts_error *err);
 void env_map_free(ts_env_map *e);
 
-/* The lights of a scene as the kernels read them. One light is chosen uniformly per light
- * sample (lib/lights.h), so the order is part of the image: distant lights in scene order,
- * then the dome, then the area light. */
+/* The lights of a scene as the kernels read them. One light is chosen per light sample with
+ * probability proportional to its weight (lib/lights.h light_select), scanning the list in
+ * order, so the order is part of the image: distant lights in scene order, then the dome,
+ * then the area light. Weights: distant E / pi, dome L (times the map's mean luminance),
+ * area light the emitters' power / (pi d^2) for a typical distance d (luminances). */
 typedef struct ts_light_table {
     ts_light lights[TS_MAX_LIGHTS];
     uint32_t light_count;

@@ -1,14 +1,20 @@
 /* lights.h — sampling the scene's lights for next-event estimation and their pdfs for
- * multiple importance sampling (DESIGN.md §3). One light is chosen uniformly among
- * light_count; the pdfs below include that choice. Solid-angle pdfs throughout.
+ * multiple importance sampling (DESIGN.md §3). Solid-angle pdfs throughout; every pdf
+ * includes the light's selection probability.
+ *   selection: one light per light sample, with probability weight / (the sum of the
+ *     weights of the lights that take part); host/pipeline/lights.c sets the weights. A
+ *     uniform dome takes part only under --sampling light (light_sampled): with BSDF
+ *     sampling in play a BSDF sample finds it as well as a light sample would, so its
+ *     radiance comes from BSDF rays alone (weight 1) and the light samples go to the
+ *     lights that need them (the sun).
  *   distant (sun): a cone of half angle acos(cos_max) around dir, uniform in solid angle,
  *     radiance = E / solid angle; a delta light when cos_max = 1 (irradiance E).
  *   dome: radiance L, uniform or times a lat-long map (z up: row 0 looks along +z, column
  *     x spans phi in [2 pi x / W, 2 pi (x + 1) / W) from +x towards +y); a uniform dome is
- *     sampled uniformly over the sphere (pdf 1 / 4 pi), a mapped one by texel luminance times
- *     sin(theta) through a marginal CDF over rows and a conditional CDF within each row
- *     (pdf = p(texel) W H / (2 pi^2 sin theta)).
- *   area: an emissive patch chosen by area (the emitter table), (u, v) uniform on its
+ *     sampled cosine-weighted about the shading normal (pdf cos / pi: no sample goes below
+ *     the surface), a mapped one by texel luminance times sin(theta) through a marginal CDF
+ *     over rows and a conditional CDF within each row (pdf = p(texel) W H / (2 pi^2 sin theta)).
+ *   area: an emissive patch chosen by power (the emitter table), (u, v) uniform on its
  *     undisplaced surface; pdf = prob * dist^2 / (|dP/du x dP/dv| |cos_light|). */
 #ifndef TS_LIGHTS_H
 #define TS_LIGHTS_H
@@ -104,16 +110,61 @@ TS_INLINE ts_u32 emitter_pick(TS_CONST_GLOBAL ts_emitter *e, ts_u32 n, float u)
     return lo;
 }
 
-/* Samples light `li` as seen from point p. */
-TS_INLINE ts_light_sample light_sample(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count,
-                                       ts_u32 li, ts_env env, TS_CONST_GLOBAL ts_emitter *emitters,
+/* 1 when light l takes part in light sampling under `sampling` (TS_SAMPLING_*). */
+TS_INLINE int light_sampled(TS_CONST_GLOBAL ts_light *l, ts_u32 sampling)
+{
+    int uniform_dome = l->type == TS_LIGHT_DOME && l->map_width == 0u;
+    return l->weight > 0.0f && !(uniform_dome && sampling != TS_SAMPLING_LIGHT);
+}
+
+/* The sum of the weights of the lights that take part. */
+TS_INLINE float light_total(TS_CONST_GLOBAL ts_light *lights, ts_u32 count, ts_u32 sampling)
+{
+    float total = 0.0f;
+    for (ts_u32 i = 0; i < count; ++i)
+        if (light_sampled(&lights[i], sampling)) total += lights[i].weight;
+    return total;
+}
+
+/* The probability that light li is chosen. */
+TS_INLINE float light_select_prob(TS_CONST_GLOBAL ts_light *lights, ts_u32 count, ts_u32 sampling,
+                                  ts_u32 li)
+{
+    float total = light_total(lights, count, sampling);
+    return li < count && total > 0.0f && light_sampled(&lights[li], sampling)
+               ? lights[li].weight / total
+               : 0.0f;
+}
+
+/* Chooses a light with probability weight / total from u in [0, 1): the first whose
+ * cumulative weight exceeds u * total (the last taking part when rounding leaves none).
+ * *prob gets its probability; returns count when no light takes part. */
+TS_INLINE ts_u32 light_select(TS_CONST_GLOBAL ts_light *lights, ts_u32 count, ts_u32 sampling,
+                              float u, float *prob)
+{
+    float total = light_total(lights, count, sampling), target = u * total, acc = 0.0f;
+    ts_u32 chosen = count;
+    *prob = 0.0f;
+    for (ts_u32 i = 0; i < count; ++i) {
+        if (!light_sampled(&lights[i], sampling)) continue;
+        chosen = i;
+        acc += lights[i].weight;
+        if (target < acc) break;
+    }
+    if (chosen < count) *prob = lights[chosen].weight / total;
+    return chosen;
+}
+
+/* Samples light `li`, chosen with probability `choose`, as seen from point p with shading
+ * normal n. */
+TS_INLINE ts_light_sample light_sample(TS_CONST_GLOBAL ts_light *lights, ts_u32 li, float choose,
+                                       ts_env env, TS_CONST_GLOBAL ts_emitter *emitters,
                                        TS_CONST_GLOBAL ts_vec4 *cp,
-                                       TS_CONST_GLOBAL ts_patch_attr *attr, ts_v3 p, float u1,
-                                       float u2, float u3)
+                                       TS_CONST_GLOBAL ts_patch_attr *attr, ts_v3 p, ts_v3 n,
+                                       float u1, float u2, float u3)
 {
     ts_light_sample s;
     TS_CONST_GLOBAL ts_light *l = &lights[li];
-    float choose = 1.0f / (float)light_count;
     s.dist = TS_NO_HIT, s.delta = 0, s.patch = TS_INVALID, s.pdf = 0.0f;
     s.le[0] = l->radiance[0], s.le[1] = l->radiance[1], s.le[2] = l->radiance[2];
     if (l->type == TS_LIGHT_DISTANT) {
@@ -129,9 +180,10 @@ TS_INLINE ts_light_sample light_sample(TS_CONST_GLOBAL ts_light *lights, ts_u32 
         ts_vec4 t = env.texels[env_lookup(l, env, s.dir, &pdf)];
         s.le[0] *= t.x, s.le[1] *= t.y, s.le[2] *= t.z;
         s.pdf = choose * pdf;
-    } else if (l->type == TS_LIGHT_DOME) {
-        float z = 1.0f - 2.0f * u1, r = sqrt(fmax(0.0f, 1.0f - z * z)), phi = 2.0f * TS_PI * u2;
-        s.dir = v3(r * cos(phi), r * sin(phi), z), s.pdf = choose / (4.0f * TS_PI);
+    } else if (l->type == TS_LIGHT_DOME) { /* uniform: cosine-weighted about n */
+        s.dir = sample_cosine(n, u1, u2);
+        float c = v3_dot(n, s.dir);
+        s.pdf = c > 0.0f ? choose * c / TS_PI : 0.0f;
     } else {
         ts_u32 k = emitter_pick(emitters, l->emitter_count, u1);
         TS_CONST_GLOBAL ts_emitter *e = &emitters[k];
@@ -156,15 +208,18 @@ TS_INLINE ts_light_sample light_sample(TS_CONST_GLOBAL ts_light *lights, ts_u32 
 }
 
 /* Radiance arriving along dir from the lights at infinity (a ray that hit nothing), with
- * the pdf with which light sampling would have chosen that direction. */
-TS_INLINE void light_escape(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count, ts_env env,
-                            ts_v3 dir, float le[3], float *pdf)
+ * the pdf with which light sampling (under `sampling`) would have chosen that direction. A
+ * uniform dome adds no pdf: it is light-sampled only under --sampling light, where emission
+ * found by BSDF rays has weight 0 anyway. */
+TS_INLINE void light_escape(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count, ts_u32 sampling,
+                            ts_env env, ts_v3 dir, float le[3], float *pdf)
 {
     le[0] = le[1] = le[2] = 0.0f;
     *pdf = 0.0f;
-    float choose = 1.0f / (float)(light_count ? light_count : 1u);
+    float total = light_total(lights, light_count, sampling);
     for (ts_u32 i = 0; i < light_count; ++i) {
         TS_CONST_GLOBAL ts_light *l = &lights[i];
+        float choose = total > 0.0f && light_sampled(l, sampling) ? l->weight / total : 0.0f;
         if (l->type == TS_LIGHT_DOME && l->map_width) {
             float p;
             ts_vec4 t = env.texels[env_lookup(l, env, dir, &p)];
@@ -173,7 +228,6 @@ TS_INLINE void light_escape(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count
             *pdf += choose * p;
         } else if (l->type == TS_LIGHT_DOME) {
             le[0] += l->radiance[0], le[1] += l->radiance[1], le[2] += l->radiance[2];
-            *pdf += choose / (4.0f * TS_PI);
         } else if (l->type == TS_LIGHT_DISTANT && l->cos_max < 1.0f &&
                    dir.x * l->dir[0] + dir.y * l->dir[1] + dir.z * l->dir[2] >= l->cos_max) {
             le[0] += l->radiance[0], le[1] += l->radiance[1], le[2] += l->radiance[2];
@@ -185,15 +239,20 @@ TS_INLINE void light_escape(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count
 /* The pdf with which light sampling picks point (u, v) of emissive patch `patch` seen along
  * unit dir at distance t (for the MIS weight of emission found by a BSDF sample). */
 TS_INLINE float light_pdf_area(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count,
-                               TS_CONST_GLOBAL ts_emitter *emitters, TS_CONST_GLOBAL ts_vec4 *cp,
-                               ts_u32 emitter, ts_u32 patch, float u, float v, ts_v3 dir, float t)
+                               ts_u32 sampling, TS_CONST_GLOBAL ts_emitter *emitters,
+                               TS_CONST_GLOBAL ts_vec4 *cp, ts_u32 emitter, ts_u32 patch, float u,
+                               float v, ts_v3 dir, float t)
 {
     if (emitter == TS_INVALID || light_count == 0u) return 0.0f;
+    ts_u32 area = 0u; /* the area light: the list's last entry */
+    while (area < light_count && lights[area].type != TS_LIGHT_AREA)
+        ++area;
+    float choose = light_select_prob(lights, light_count, sampling, area);
     ts_vec4 nn = bezier_cross_derivs(cp + (size_t)patch * 16u, u, v);
     float jac = sqrt(nn.x * nn.x + nn.y * nn.y + nn.z * nn.z);
     float cl = fabs(nn.x * dir.x + nn.y * dir.y + nn.z * dir.z) / (jac > 0.0f ? jac : 1.0f);
     if (!(jac > 0.0f) || !(cl > 1e-6f)) return 0.0f;
-    return emitters[emitter].prob * t * t / (jac * cl) / (float)light_count;
+    return choose * emitters[emitter].prob * t * t / (jac * cl);
 }
 
 #endif

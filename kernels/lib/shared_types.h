@@ -160,7 +160,9 @@ typedef struct ts_patch_attr {
     float st[8]; /* (s, t) at the four corners, in corner order */
 } ts_patch_attr;
 
-/* Lights (DESIGN.md §3). One light is chosen uniformly per light sample. */
+/* Lights (DESIGN.md §3). One light is chosen per light sample, with probability proportional
+ * to its weight (lib/lights.h light_select); a uniform dome takes part only when BSDF
+ * sampling cannot find it (--sampling light). */
 #define TS_LIGHT_DISTANT 0u /* the sun: a cone of directions around dir (delta: cos_max = 1) */
 #define TS_LIGHT_DOME 1u    /* uniform sky radiance from every direction */
 #define TS_LIGHT_AREA 2u    /* every emissive patch, chosen by area (the emitter table) */
@@ -175,7 +177,9 @@ typedef struct ts_light {
     float radiance[4];    /* distant: radiance in the cone, or irradiance E for a delta; dome: L
                              (times the map's texel when it has one) */
     ts_u32 map_width, map_height; /* dome: its lat-long map, 0 x 0 for a uniform sky */
-    ts_u32 pad[2];
+    float weight; /* how much light it brings to a white matte point facing it, unoccluded (its
+                     luminance): the light-selection weight (host/pipeline/lights.c) */
+    ts_u32 pad;
 } ts_light;
 
 /* An emissive patch for light sampling: chosen with probability prob (by area), then
@@ -243,7 +247,7 @@ typedef struct ts_shade_params {
                         collects emission */
     ts_u32 sampling; /* TS_SAMPLING_* */
     ts_u32 seed;
-    float light_prob; /* probability of a light sample at a vertex in MIS mode */
+    ts_u32 spp; /* samples per pixel: the sampler's index mask (lib/sampler.h) */
     ts_u32 pad[2];
 } ts_shade_params;
 
@@ -298,7 +302,7 @@ typedef struct ts_shade_params {
     X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
     X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count)      \
-    X(ts_shade_params, light_prob) X(ts_light, dir) X(ts_light, radiance) X(ts_emitter, area) \
+    X(ts_shade_params, spp) X(ts_light, dir) X(ts_light, radiance) X(ts_light, weight) X(ts_emitter, area) \
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \
     X(ts_patch_attr, disp_offset) X(ts_patch_attr, st) X(ts_texture, kind)                    \
     X(ts_texture, level_page)
