@@ -558,7 +558,7 @@ static const struct {
     {"\nNuPatch 4 4 [0 0 0 0 1 1 1 1]",
      "t.rib:2:1: error: NuPatch is not supported: NURBS patches cannot be loaded ..."},
     {"Frobnicate 1", "t.rib:1:1: error: unknown request Frobnicate"},
-    {"Sphere 1 -1 1 360", "t.rib:1:1: error: Sphere is not supported"},
+    {"Blobby 1 [8]", "t.rib:1:1: error: Blobby is not supported"},
     {"Translate 1 2", "t.rib:1:1: error: Translate expects 3 numbers, got 2"},
     {"Translate 1 2 3 4", "t.rib:1:17: error: too many arguments to Translate"},
     {"Rotate 10 0 0 0", "t.rib:1:1: error: Rotate about a zero-length axis"},

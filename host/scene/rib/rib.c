@@ -7,6 +7,7 @@
 
 #include "base/mat4.h"
 #include "scene/rib/rib_internal.h"
+#include "scene/rib/rib_prims.h"
 
 #include "base/file.h"
 
@@ -50,6 +51,14 @@ static const struct {
     {"Translate", rib_req_translate},
     {"WorldBegin", rib_req_world_begin},
     {"WorldEnd", rib_req_world_end},
+    /* Surfaces turned into Bézier patches (rib_prims.h). */
+    {"Cone", rib_req_cone},
+    {"Cylinder", rib_req_cylinder},
+    {"Disk", rib_req_disk},
+    {"Hyperboloid", rib_req_hyperboloid},
+    {"Paraboloid", rib_req_paraboloid},
+    {"Sphere", rib_req_sphere},
+    {"Torus", rib_req_torus},
 };
 
 /* Accepted with a warning: they change neither geometry nor camera placement. */
@@ -97,17 +106,12 @@ static const char *const rib_ignored[] = {
 static const char *const rib_unsupported[] = {
     "ArchiveRecord",
     "Blobby",
-    "Cone",
     "CoordSysTransform",
     "Curves",
-    "Cylinder",
-    "Disk",
     "GeneralPolygon",
-    "Hyperboloid",
     "ObjectBegin",
     "ObjectEnd",
     "ObjectInstance",
-    "Paraboloid",
     "Perspective",
     "Points",
     "PointsGeneralPolygons",
@@ -116,9 +120,7 @@ static const char *const rib_unsupported[] = {
     "Skew",
     "SolidBegin",
     "SolidEnd",
-    "Sphere",
     "SubdivisionMesh",
-    "Torus",
     "TrimCurve",
 };
 
