@@ -55,8 +55,12 @@ static const struct {
     {"Cone", rib_req_cone},
     {"Cylinder", rib_req_cylinder},
     {"Disk", rib_req_disk},
+    {"GeneralPolygon", rib_req_general_polygon},
     {"Hyperboloid", rib_req_hyperboloid},
     {"Paraboloid", rib_req_paraboloid},
+    {"PointsGeneralPolygons", rib_req_points_general_polygons},
+    {"PointsPolygons", rib_req_points_polygons},
+    {"Polygon", rib_req_polygon},
     {"Sphere", rib_req_sphere},
     {"Torus", rib_req_torus},
 };
@@ -104,24 +108,9 @@ static const char *const rib_ignored[] = {
 /* Known RenderMan requests this loader cannot honour: ignoring them would misplace or
  * drop geometry, so they are errors. */
 static const char *const rib_unsupported[] = {
-    "ArchiveRecord",
-    "Blobby",
-    "CoordSysTransform",
-    "Curves",
-    "GeneralPolygon",
-    "ObjectBegin",
-    "ObjectEnd",
-    "ObjectInstance",
-    "Perspective",
-    "Points",
-    "PointsGeneralPolygons",
-    "PointsPolygons",
-    "Polygon",
-    "Skew",
-    "SolidBegin",
-    "SolidEnd",
-    "SubdivisionMesh",
-    "TrimCurve",
+    "ArchiveRecord", "Blobby",         "CoordSysTransform", "Curves",    "ObjectBegin",
+    "ObjectEnd",     "ObjectInstance", "Perspective",       "Points",    "Skew",
+    "SolidBegin",    "SolidEnd",       "SubdivisionMesh",   "TrimCurve",
 };
 
 static int rib_in_list(const char *name, const char *const *list, size_t n)

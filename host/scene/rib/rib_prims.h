@@ -3,6 +3,8 @@
  *
  *   rib_quadric.c  Sphere, Cone, Cylinder, Hyperboloid, Paraboloid, Disk, Torus
  *                  (geometry: scene/quadric.c)
+ *   rib_poly.c     Polygon, GeneralPolygon, PointsPolygons, PointsGeneralPolygons
+ *                  (geometry: scene/polygon.c, the PN patches meshes use)
  *   rib_primvar.c  primitive variables by storage class (RI Spec 3.2 §5.1) and integer
  *                  arrays, for all of them
  *
@@ -26,6 +28,10 @@ int rib_req_hyperboloid(rib_parser *p);
 int rib_req_paraboloid(rib_parser *p);
 int rib_req_disk(rib_parser *p);
 int rib_req_torus(rib_parser *p);
+int rib_req_polygon(rib_parser *p);
+int rib_req_general_polygon(rib_parser *p);
+int rib_req_points_polygons(rib_parser *p);
+int rib_req_points_general_polygons(rib_parser *p);
 
 /* ---- rib_primvar.c: primitive variables ---- */
 
