@@ -57,6 +57,7 @@ static const struct {
     {"Disk", rib_req_disk},
     {"GeneralPolygon", rib_req_general_polygon},
     {"Hyperboloid", rib_req_hyperboloid},
+    {"NuPatch", rib_req_nu_patch},
     {"Paraboloid", rib_req_paraboloid},
     {"PointsGeneralPolygons", rib_req_points_general_polygons},
     {"PointsPolygons", rib_req_points_polygons},
@@ -137,10 +138,6 @@ static int rib_dispatch(rib_parser *p)
         rib_warn_once(p, p->req_line, p->req_col, what);
         return TS_OK;
     }
-    if (strcmp(p->req, "NuPatch") == 0)
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "NuPatch is not supported: NURBS patches cannot be loaded "
-                            "(use Patch or PatchMesh)");
     if (rib_in_list(p->req, rib_unsupported, RIB_COUNT(rib_unsupported)))
         return rib_error_at(p, p->req_line, p->req_col, "%s is not supported", p->req);
     return rib_error_at(p, p->req_line, p->req_col, "unknown request %s", p->req);

@@ -5,6 +5,7 @@
  *                  (geometry: scene/quadric.c)
  *   rib_poly.c     Polygon, GeneralPolygon, PointsPolygons, PointsGeneralPolygons
  *                  (geometry: scene/polygon.c, the PN patches meshes use)
+ *   rib_nurbs.c    NuPatch (geometry: scene/nurbs.c)
  *   rib_primvar.c  primitive variables by storage class (RI Spec 3.2 §5.1) and integer
  *                  arrays, for all of them
  *
@@ -32,6 +33,7 @@ int rib_req_polygon(rib_parser *p);
 int rib_req_general_polygon(rib_parser *p);
 int rib_req_points_polygons(rib_parser *p);
 int rib_req_points_general_polygons(rib_parser *p);
+int rib_req_nu_patch(rib_parser *p);
 
 /* ---- rib_primvar.c: primitive variables ---- */
 
@@ -66,6 +68,8 @@ typedef struct rib_pvars {
 #define RIB_PV_N 4u
 #define RIB_PV_CS 8u
 #define RIB_PV_ST 16u
+/* With this bit, variables other than "P" and "Pw" may not be of class vertex. */
+#define RIB_PV_NO_VERTEX 32u
 
 /* Reads the parameter list from args[first]: each variable must have, for its class (by an
  * inline declaration, varying when none; "P" and "Pw" are always vertex), exactly

@@ -56,14 +56,17 @@ static void rib_class_list(const size_t counts[RIB_CLASSES], char *buf, size_t n
 
 /* Reads one variable of `dim` numbers per value. */
 static int rib_pvar_read(rib_parser *p, const rib_param *prm, const size_t counts[RIB_CLASSES],
-                         int dim, rib_pvar *out)
+                         int dim, int no_vertex, rib_pvar *out)
 {
     char shown[RIB_PRINT_MAX], classes[64];
     int position = strcmp(prm->name, "P") == 0 || strcmp(prm->name, "Pw") == 0;
     rib_class cls = position ? RIB_VERTEX : rib_class_of(rib_arg_str(p, prm->key, 0), RIB_VARYING);
     size_t count = counts[cls];
-    if (count == 0) {
-        rib_class_list(counts, classes, sizeof classes);
+    if (count == 0 || (!position && no_vertex && cls == RIB_VERTEX)) {
+        size_t allowed[RIB_CLASSES];
+        memcpy(allowed, counts, sizeof allowed);
+        if (no_vertex) allowed[RIB_VERTEX] = 0;
+        rib_class_list(allowed, classes, sizeof classes);
         return rib_error_at(p, prm->key->line, prm->key->col,
                             "%s: \"%s\" of class %s is not supported (%s)", p->req,
                             rib_printable(prm->name, shown), rib_class_names[cls], classes);
@@ -120,7 +123,7 @@ int rib_pvars_read(rib_parser *p, size_t first, const size_t counts[RIB_CLASSES]
             rib_warn_param(p, &prm);
             continue;
         }
-        rc = rib_pvar_read(p, &prm, counts, known[k].dim,
+        rc = rib_pvar_read(p, &prm, counts, known[k].dim, (accept & RIB_PV_NO_VERTEX) != 0,
                            (rib_pvar *)((char *)out + known[k].offset));
         if (rc != TS_OK) return rc;
     }
