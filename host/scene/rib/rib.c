@@ -63,6 +63,7 @@ static const struct {
     {"PointsPolygons", rib_req_points_polygons},
     {"Polygon", rib_req_polygon},
     {"Sphere", rib_req_sphere},
+    {"SubdivisionMesh", rib_req_subdivision_mesh},
     {"Torus", rib_req_torus},
 };
 
@@ -108,11 +109,24 @@ static const char *const rib_ignored[] = {
 
 /* Known RenderMan requests this loader cannot honour: ignoring them would misplace or
  * drop geometry, so they are errors. */
+/* One name a line (clang-format off), so that changes to the list stay local. */
+/* clang-format off */
 static const char *const rib_unsupported[] = {
-    "ArchiveRecord", "Blobby",         "CoordSysTransform", "Curves",    "ObjectBegin",
-    "ObjectEnd",     "ObjectInstance", "Perspective",       "Points",    "Skew",
-    "SolidBegin",    "SolidEnd",       "SubdivisionMesh",   "TrimCurve",
+    "ArchiveRecord",
+    "Blobby",
+    "CoordSysTransform",
+    "Curves",
+    "ObjectBegin",
+    "ObjectEnd",
+    "ObjectInstance",
+    "Perspective",
+    "Points",
+    "Skew",
+    "SolidBegin",
+    "SolidEnd",
+    "TrimCurve",
 };
+/* clang-format on */
 
 static int rib_in_list(const char *name, const char *const *list, size_t n)
 {

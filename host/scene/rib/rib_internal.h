@@ -7,9 +7,9 @@
  *   rib_state.c    transformations, blocks, Format, Projection, Color, Basis, Displacement,
  *                  motion blocks
  *   rib_geom.c     Patch, PatchMesh and LightSource "distantlight" into the scene
- *   rib_quadric.c, rib_poly.c, rib_nurbs.c, rib_primvar.c: quadrics, polygons, NuPatch
- *                  and their primitive variables (rib_prims.h; they call rib_geom.c's
- *                  rib_geom_emit)
+ *   rib_quadric.c, rib_poly.c, rib_nurbs.c, rib_subdiv.c, rib_primvar.c: quadrics,
+ *                  polygons, NuPatch, SubdivisionMesh and their primitive variables
+ *                  (rib_prims.h; they call rib_geom.c's rib_geom_emit)
  *   rib_shading.c  Surface, AreaLightSource, LightSource "domelight"
  *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file

@@ -6,6 +6,7 @@
  *   rib_poly.c     Polygon, GeneralPolygon, PointsPolygons, PointsGeneralPolygons
  *                  (geometry: scene/polygon.c, the PN patches meshes use)
  *   rib_nurbs.c    NuPatch (geometry: scene/nurbs.c)
+ *   rib_subdiv.c   SubdivisionMesh (geometry: scene/subdiv.c)
  *   rib_primvar.c  primitive variables by storage class (RI Spec 3.2 §5.1) and integer
  *                  arrays, for all of them
  *
@@ -34,6 +35,7 @@ int rib_req_general_polygon(rib_parser *p);
 int rib_req_points_polygons(rib_parser *p);
 int rib_req_points_general_polygons(rib_parser *p);
 int rib_req_nu_patch(rib_parser *p);
+int rib_req_subdivision_mesh(rib_parser *p);
 
 /* ---- rib_primvar.c: primitive variables ---- */
 
