@@ -214,6 +214,7 @@ static void test_patch_counts(void **state)
         {"Hyperboloid 1 0 0 1 1 1 360", 4},
         {"Paraboloid 1 0 1 360", 4},
         {"Sphere 0 -1 1 360", 0},           /* zero radius: nothing (with a warning) */
+        {"Sphere 0 -0 1 360", 0},           /* z / r = 0 / 0 once gave NaN angles (the fuzzer) */
         {"Sphere 1 -1 1 0", 0},             /* no sweep */
         {"Cylinder 1 1 1 360", 0},          /* no height */
         {"Hyperboloid 0 0 0 0 0 1 360", 0}, /* a line on the axis */

@@ -71,11 +71,11 @@ static void quadric_arc(double a, double b, double out[4][2])
     out[3][0] = cb, out[3][1] = sb;
 }
 
-/* The number of pieces of at most 90 degrees for a sweep of `deg` degrees. */
+/* The number of pieces of at most 90 degrees for a sweep of `deg` degrees (at most 360). */
 static int quadric_pieces(double deg)
 {
-    int n = (int)ceil(fabs(deg) / 90.0 - 1e-12);
-    return n < 1 ? 1 : n > QUADRIC_MAX_PIECES ? QUADRIC_MAX_PIECES : n;
+    double n = ceil(fabs(deg) / 90.0 - 1e-12);
+    return !(n >= 1.0) ? 1 : n > QUADRIC_MAX_PIECES ? QUADRIC_MAX_PIECES : (int)n;
 }
 
 static double quadric_clamp_sweep(double deg)
@@ -210,7 +210,9 @@ static int quadric_profile_make(const ts_quadric *q, quadric_profile *pr, char *
     double *a = pr->a;
     switch (q->kind) {
     case QUADRIC_SPHERE: {
-        double r = a[0], lo = quadric_sphere_phi(a[1], r), hi = quadric_sphere_phi(a[2], r);
+        double r = a[0];
+        if (r == 0.0) break; /* no surface: pieces stays 0 */
+        double lo = quadric_sphere_phi(a[1], r), hi = quadric_sphere_phi(a[2], r);
         a[1] = lo, a[2] = hi;
         quadric_circle_pieces(pr, 0.0, r, lo, hi);
         break;
