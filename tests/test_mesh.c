@@ -6,6 +6,7 @@
  * model from Debian's assimp-testmodels (that part is skipped, with a message, only when the
  * package is not installed). Host only. */
 #include "scene/mesh.h"
+#include "scene/polygon.h"
 #include "scene/scene.h"
 #include "scene/scene_load.h"
 #include "test_support.h"
@@ -160,7 +161,7 @@ static void test_pn_formulas(void **state)
             memcpy(n[k], p[k], sizeof n[k]);
             unit(n[k]);
         }
-        mesh_pn_quad((const double(*)[3])p, (const double(*)[3])n, cp);
+        poly_pn_quad((const double(*)[3])p, (const double(*)[3])n, cp);
         static const int corner_cp[4] = {0, 3, 12, 15};
         static const int corner_vertex[4] = {0, 1, 3, 2}; /* (0,0) (1,0) (0,1) (1,1) */
         for (int c = 0; c < 4; c++) {
@@ -172,7 +173,7 @@ static void test_pn_formulas(void **state)
                 fail_msg("quad corner %d: Bezier normal not parallel to the vertex normal", c);
         }
         /* The triangle p0 p1 p2: corners (0,1) and (1,1) collapse onto p2. */
-        mesh_pn_triangle((const double(*)[3])p, (const double(*)[3])n, cp);
+        poly_pn_triangle((const double(*)[3])p, (const double(*)[3])n, cp);
         static const int tri_vertex[4] = {0, 1, 2, 2};
         for (int c = 0; c < 4; c++) {
             double bn[3];
@@ -189,7 +190,7 @@ static void test_pn_formulas(void **state)
     double p[4][3] = {{0, 0, 0}, {2, 0.5, 0}, {2.5, 2.5, 0}, {0.5, 2, 0}}, n[4][3], cp[16][3];
     for (int k = 0; k < 4; k++)
         n[k][0] = 0, n[k][1] = 0, n[k][2] = 1;
-    mesh_pn_quad((const double(*)[3])p, (const double(*)[3])n, cp);
+    poly_pn_quad((const double(*)[3])p, (const double(*)[3])n, cp);
     for (int j = 0; j < 4; j++)
         for (int i = 0; i < 4; i++)
             for (int k = 0; k < 3; k++) {
@@ -216,7 +217,7 @@ static void test_pn_triangle_exact(void **state)
             n[k][2] += 2.0;
             unit(n[k]);
         }
-        mesh_pn_triangle((const double(*)[3])p, (const double(*)[3])n, cp);
+        poly_pn_triangle((const double(*)[3])p, (const double(*)[3])n, cp);
         /* b[i][j] with k = 3 - i - j: i counts p0, j counts p1. */
         double b[4][4][3];
         for (int d = 0; d < 3; d++) {

@@ -253,10 +253,11 @@ static void test_n_classes_and_st(void **state)
                           &rc);
     assert_int_equal(rc, TS_OK);
     assert_string_equal(out, "w.rib:1:48: warning: Patch parameter \"s\" is ignored\n");
-    /* NuPatch stays a clear error. */
-    expect_error("NuPatch 4 4 [0 0 0 0 1 1 1 1] 0 1 4 4 [0 0 0 0 1 1 1 1] 0 1 \"Pw\" []",
-                 "t.rib:1:1: error: NuPatch is not supported: NURBS patches cannot be loaded "
-                 "(use Patch or PatchMesh)");
+    /* NuPatch "Pw": weights must be positive. */
+    expect_error("NuPatch 2 2 [0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"Pw\" [0 0 0 1  1 0 0 1  0 1 0 0  1 "
+                 "1 0 1]",
+                 "t.rib:1:1: error: NuPatch: the weight of control point 2 is 0 (weights must be "
+                 "positive)");
 }
 
 /* ---- ReadArchive and Procedural ------------------------------------------------------- */

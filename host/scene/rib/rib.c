@@ -7,6 +7,7 @@
 
 #include "base/mat4.h"
 #include "scene/rib/rib_internal.h"
+#include "scene/rib/rib_prims.h"
 
 #include "base/file.h"
 
@@ -50,6 +51,20 @@ static const struct {
     {"Translate", rib_req_translate},
     {"WorldBegin", rib_req_world_begin},
     {"WorldEnd", rib_req_world_end},
+    /* Surfaces turned into Bézier patches (rib_prims.h). */
+    {"Cone", rib_req_cone},
+    {"Cylinder", rib_req_cylinder},
+    {"Disk", rib_req_disk},
+    {"GeneralPolygon", rib_req_general_polygon},
+    {"Hyperboloid", rib_req_hyperboloid},
+    {"NuPatch", rib_req_nu_patch},
+    {"Paraboloid", rib_req_paraboloid},
+    {"PointsGeneralPolygons", rib_req_points_general_polygons},
+    {"PointsPolygons", rib_req_points_polygons},
+    {"Polygon", rib_req_polygon},
+    {"Sphere", rib_req_sphere},
+    {"SubdivisionMesh", rib_req_subdivision_mesh},
+    {"Torus", rib_req_torus},
 };
 
 /* Accepted with a warning: they change neither geometry nor camera placement. */
@@ -94,33 +109,24 @@ static const char *const rib_ignored[] = {
 
 /* Known RenderMan requests this loader cannot honour: ignoring them would misplace or
  * drop geometry, so they are errors. */
+/* One name a line (clang-format off), so that changes to the list stay local. */
+/* clang-format off */
 static const char *const rib_unsupported[] = {
     "ArchiveRecord",
     "Blobby",
-    "Cone",
     "CoordSysTransform",
     "Curves",
-    "Cylinder",
-    "Disk",
-    "GeneralPolygon",
-    "Hyperboloid",
     "ObjectBegin",
     "ObjectEnd",
     "ObjectInstance",
-    "Paraboloid",
     "Perspective",
     "Points",
-    "PointsGeneralPolygons",
-    "PointsPolygons",
-    "Polygon",
     "Skew",
     "SolidBegin",
     "SolidEnd",
-    "Sphere",
-    "SubdivisionMesh",
-    "Torus",
     "TrimCurve",
 };
+/* clang-format on */
 
 static int rib_in_list(const char *name, const char *const *list, size_t n)
 {
@@ -146,10 +152,6 @@ static int rib_dispatch(rib_parser *p)
         rib_warn_once(p, p->req_line, p->req_col, what);
         return TS_OK;
     }
-    if (strcmp(p->req, "NuPatch") == 0)
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "NuPatch is not supported: NURBS patches cannot be loaded "
-                            "(use Patch or PatchMesh)");
     if (rib_in_list(p->req, rib_unsupported, RIB_COUNT(rib_unsupported)))
         return rib_error_at(p, p->req_line, p->req_col, "%s is not supported", p->req);
     return rib_error_at(p, p->req_line, p->req_col, "unknown request %s", p->req);

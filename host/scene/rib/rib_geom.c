@@ -154,6 +154,23 @@ static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
                               n ? (const double(*)[3])wn : NULL, &attr, p->err);
 }
 
+int rib_geom_check(rib_parser *p)
+{
+    return geom_check_state(p);
+}
+
+int rib_geom_emit(rib_parser *p, int line, int col, const double g[16][3], const double n[4][3],
+                  const double *cs, const double st[4][2])
+{
+    double inv[16];
+    if (n && !mat4_invert(p->ctm, inv))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s: the current transformation is singular; the surface's normals "
+                            "need an invertible one",
+                            p->req);
+    return geom_emit(p, line, col, g, NULL, n, line, col, cs, st);
+}
+
 /* Degree elevation of the bilinear patch with corners c00, c10, c01, c11 (u fastest) to a
  * bicubic Bézier: for a (bi)linear map the Bézier points are its values at the Greville
  * abscissae (i/3, j/3), so the surface is unchanged. */

@@ -7,6 +7,9 @@
  *   rib_state.c    transformations, blocks, Format, Projection, Color, Basis, Displacement,
  *                  motion blocks
  *   rib_geom.c     Patch, PatchMesh and LightSource "distantlight" into the scene
+ *   rib_quadric.c, rib_poly.c, rib_nurbs.c, rib_subdiv.c, rib_primvar.c: quadrics,
+ *                  polygons, NuPatch, SubdivisionMesh and their primitive variables
+ *                  (rib_prims.h; they call rib_geom.c's rib_geom_emit)
  *   rib_shading.c  Surface, AreaLightSource, LightSource "domelight"
  *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
@@ -89,6 +92,15 @@ int rib_geom_motion_patch(rib_parser *p);
  * surface, emission) for patches a procedural adds; fails where geometry may not stand
  * (after WorldEnd, a projective or, for displacement, singular CTM). */
 int rib_geom_procedural_attr(rib_parser *p, ts_patch_attr *attr);
+/* Fails where geometry may not stand: after WorldEnd, under a projective CTM. */
+int rib_geom_check(rib_parser *p);
+/* Appends one object-space Bézier patch g (16 points, u fastest) as Patch does: moved by
+ * the CTM (both samples when it moves), with the current attributes, object-space corner
+ * normals n (NULL: scene_finalize averages them), colour cs (NULL: the current Color) and
+ * corner texture coordinates st (NULL: the corners' (u, v)). (line, col): the position
+ * values, for messages. */
+int rib_geom_emit(rib_parser *p, int line, int col, const double g[16][3], const double n[4][3],
+                  const double *cs, const double st[4][2]);
 
 /* ---- rib_shading.c: Surface, AreaLightSource, LightSource "domelight" ---- */
 
