@@ -568,7 +568,9 @@ static const struct {
     {"Color [1 \"a\" 1]", "t.rib:1:10: error: array mixes numbers and strings"},
     {"Color 1 1 1 ]", "t.rib:1:13: error: ']' without '['"},
     {"1 2 3", "t.rib:1:1: error: expected a request name, found a number"},
-    {"Color \x81", "t.rib:1:7: error: unexpected byte 0x81 (binary RIB is not supported)"},
+    {"Color \x81",
+     "t.rib:1:7: error: binary RIB is not supported (byte 0x81 starts a binary token; "
+     "convert the file to ASCII RIB)"},
     {"Display \"a\\q\"", "t.rib:1:12: error: unknown escape sequence '\\q'"},
     {"Basis \"nurbs\" 1 \"bezier\" 3", "t.rib:1:7: error: unknown basis ..."},
     {"PatchMesh \"bicubic\" 5 \"nonperiodic\" 4 \"nonperiodic\" \"P\" [0]",

@@ -12,10 +12,12 @@
 #define SCENE_AUTO_WIDTH 960
 #define SCENE_AUTO_HEIGHT 540
 
+/* ".rib", or ".rib.gz" (gzip RIB; rib_load inflates gzip by content whatever the name). */
 static int has_rib_extension(const char *path)
 {
     size_t n = strlen(path);
-    return n >= 4 && strcasecmp(path + n - 4, ".rib") == 0;
+    return (n >= 4 && strcasecmp(path + n - 4, ".rib") == 0) ||
+           (n >= 7 && strcasecmp(path + n - 7, ".rib.gz") == 0);
 }
 
 static void normalize(double v[3])

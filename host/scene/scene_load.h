@@ -7,7 +7,7 @@
 #include "base/error.h"
 #include "scene/scene.h"
 
-/* Loads path into the zeroed scene s. A name ending in ".rib" (any case) is read with
+/* Loads path into the zeroed scene s. A name ending in ".rib" or ".rib.gz" (any case) is read with
  * rib_load; anything else is a mesh (mesh_load, identity transform, a light grey colour, no
  * displacement), then framed: the camera looks at the centre of the bounding sphere of the
  * patches' control points from a three-quarter view above (y up, from the +z side turned

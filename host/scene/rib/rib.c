@@ -7,6 +7,7 @@
 
 #include "base/mat4.h"
 #include "scene/rib/rib_internal.h"
+#include "scene/rib/rib_text.h"
 
 #include "base/file.h"
 
@@ -215,19 +216,27 @@ int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *s
                      ts_error *err)
 {
     if (!scene) return ts_error_set(err, TS_E_INTERNAL, "rib_parse_string: no scene");
+    rib_text t;
+    int rc = rib_text_open(&t, name ? name : "<string>", text, len, err);
+    if (rc != TS_OK) {
+        scene_free(scene);
+        return rc;
+    }
     rib_parser *p = calloc(1, sizeof *p);
     if (!p) {
+        rib_text_free(&t);
         scene_free(scene);
         return ts_error_set(err, TS_E_MEMORY, "%s: out of memory", name ? name : "<string>");
     }
-    rib_parser_init(p, name, text, len, scene, quiet, err);
-    int rc = rib_run(p);
+    rib_parser_init(p, name, t.text, t.len, scene, quiet, err);
+    rc = rib_run(p);
     if (rc == TS_OK) rc = scene_finalize(scene, err);
     rib_lex_free(&p->lx);
     rib_archive_free(p);
     rib_args_free(p);
     free(p->stack);
     free(p);
+    rib_text_free(&t);
     if (rc != TS_OK) scene_free(scene);
     return rc;
 }

@@ -5,6 +5,7 @@
  * the directory of the file that holds the request. Nesting is bounded and a file that
  * includes itself, directly or not, is an error. docs/rib.md has the details. */
 #include "scene/rib/rib_internal.h"
+#include "scene/rib/rib_text.h"
 
 #include "base/file.h"
 
@@ -72,12 +73,17 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
         free(path);
         return rc;
     }
+    rib_text t; /* a gzip archive (.rib.gz or not) is inflated here */
+    rc = rib_text_open(&t, path, text, len, p->err);
     inc->real[++inc->depth] = real;
     rib_lexer saved = p->lx;
-    rib_lex_init(&p->lx, path, text, len, p->err);
-    rc = rib_run_requests(p);
-    rib_lex_free(&p->lx);
-    p->lx = saved;
+    if (rc == TS_OK) {
+        rib_lex_init(&p->lx, path, t.text, t.len, p->err);
+        rc = rib_run_requests(p);
+        rib_lex_free(&p->lx);
+        p->lx = saved;
+    }
+    rib_text_free(&t);
     free(inc->real[inc->depth]);
     inc->real[inc->depth--] = NULL;
     free(text);

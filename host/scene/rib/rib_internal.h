@@ -12,6 +12,7 @@
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
  *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
  *   rib_lex.c      tokens
+ *   rib_text.c     a file's bytes for the lexer: gzip inflated, a byte order mark skipped
  *   basis.c        change of basis to Bézier
  *
  * Who calls whom (A -> B: A calls functions of B):
@@ -25,10 +26,10 @@
  *   rib_geom.c    -> rib_shading.c (LightSource "domelight")
  *   rib_shading.c -> no other handler
  *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
- *                    handler. rib.c and rib_archive.c also start lexers; rib.c, rib_state.c
- *                    and rib_geom.c use basis.c.
- * The one cycle is rib.c -> rib_archive.c -> rib.c: ReadArchive and DelayedReadArchive read
- * the archive's requests through the same loop, nested at most RIB_MAX_INCLUDE deep.
+ *                    handler. rib.c and rib_archive.c also start lexers (on rib_text.c's bytes);
+ * rib.c, rib_state.c and rib_geom.c use basis.c. The one cycle is rib.c -> rib_archive.c -> rib.c:
+ * ReadArchive and DelayedReadArchive read the archive's requests through the same loop, nested at
+ * most RIB_MAX_INCLUDE deep.
  */
 #ifndef TS_RIB_INTERNAL_H
 #define TS_RIB_INTERNAL_H

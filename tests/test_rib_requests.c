@@ -1,0 +1,272 @@
+/* test_rib_requests.c — the RIB reader on files as others write them (issues 15 and 16): CR,
+ * LF and CR LF line endings, a UTF-8 byte order mark, gzip by content, binary RIB named in
+ * its error. Host only: never skips. Every test asserts numbers or exact messages. */
+#include "scene/rib/rib.h"
+#include "scene/scene.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <zlib.h>
+#include <setjmp.h>
+#include <cmocka.h>
+#include "test_support.h"
+
+/* ---- helpers -------------------------------------------------------------------------- */
+
+#define UNIT_QUAD "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n"
+
+/* Parses len bytes named "t.rib"; the scene is zeroed first. */
+static int parse_bytes(const char *text, size_t len, ts_scene *s, ts_error *e)
+{
+    memset(s, 0, sizeof *s);
+    memset(e, 0, sizeof *e);
+    return rib_parse_string("t.rib", text, len, s, 1, e);
+}
+
+/* len bytes must fail with exactly msg; the scene is left empty. */
+static void expect_bytes_error(const char *text, size_t len, const char *msg)
+{
+    ts_scene s;
+    ts_error e;
+    assert_int_equal(parse_bytes(text, len, &s, &e), TS_E_SCENE);
+    if (strcmp(e.msg, msg) != 0) fail_msg("got \"%s\", want \"%s\"", e.msg, msg);
+    assert_int_equal(s.patch_count, 0);
+    ts_error_clear(&e);
+}
+
+/* The two scenes hold the same patches, bit for bit. */
+static void assert_same_patches(const ts_scene *a, const ts_scene *b)
+{
+    assert_int_equal(a->patch_count, b->patch_count);
+    assert_memory_equal(a->cp, b->cp, (size_t)a->patch_count * 16 * sizeof(ts_vec4));
+    assert_memory_equal(a->corner_n, b->corner_n, (size_t)a->patch_count * 4 * sizeof(ts_vec4));
+}
+
+/* The whole of a file into a malloc'd buffer. */
+static char *read_file(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *buf = malloc((size_t)n + 1);
+    assert_non_null(buf);
+    assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
+    fclose(f);
+    *len = (size_t)n;
+    return buf;
+}
+
+/* text (len bytes) gzip-compressed by zlib into a malloc'd buffer. */
+static unsigned char *gzip_bytes(const char *text, size_t len, size_t *out_len)
+{
+    z_stream zs;
+    memset(&zs, 0, sizeof zs);
+    assert_int_equal(deflateInit2(&zs, 9, Z_DEFLATED, 16 + MAX_WBITS, 8, Z_DEFAULT_STRATEGY), Z_OK);
+    size_t cap = deflateBound(&zs, (uLong)len) + 64;
+    unsigned char *out = malloc(cap);
+    assert_non_null(out);
+    zs.next_in = (Bytef *)text;
+    zs.avail_in = (uInt)len;
+    zs.next_out = out;
+    zs.avail_out = (uInt)cap;
+    assert_int_equal(deflate(&zs, Z_FINISH), Z_STREAM_END);
+    *out_len = cap - zs.avail_out;
+    deflateEnd(&zs);
+    return out;
+}
+
+static void write_bytes(const char *path, const void *data, size_t len)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(data, 1, len, f), len);
+    fclose(f);
+}
+
+/* ---- line endings and the byte order mark (issue 15 item 3) ---------------------------- */
+
+/* text with every "\n" replaced by `eol`. */
+static char *with_line_ends(const char *text, const char *eol)
+{
+    size_t n = strlen(text), k = strlen(eol), o = 0;
+    char *out = malloc(n * k + 1);
+    assert_non_null(out);
+    for (size_t i = 0; i < n; i++) {
+        if (text[i] == '\n') {
+            memcpy(out + o, eol, k);
+            o += k;
+        } else {
+            out[o++] = text[i];
+        }
+    }
+    out[o] = '\0';
+    return out;
+}
+
+/* LF, CR LF and a lone CR read alike: same patches, comments end at the line end, and an
+ * error names the same line and column in all three. */
+static void test_line_endings(void **state)
+{
+    (void)state;
+    const char *text =
+        "# a comment: Translate 9 9 9\nWorldBegin\n# another\nTranslate 1 2 3\n" UNIT_QUAD
+        "Color [1 0 0] # the colour\n" UNIT_QUAD "WorldEnd\n";
+    const char *bad = "WorldBegin\n# comment\n  Translate 1 2\nWorldEnd\n";
+    const char *eols[] = {"\n", "\r\n", "\r"};
+    ts_scene ref;
+    test_parse_rib_ok(text, &ref);
+    assert_int_equal(ref.patch_count, 2);
+    assert_true(ref.cp[0].x == 1.0f && ref.cp[0].y == 2.0f && ref.cp[0].z == 3.0f);
+    assert_true(ref.attr[1].cs_g == 0.0f);
+    for (int k = 0; k < 3; k++) {
+        char *t = with_line_ends(text, eols[k]);
+        ts_scene s;
+        ts_error e;
+        if (parse_bytes(t, strlen(t), &s, &e) != TS_OK) fail_msg("%s", e.msg);
+        assert_same_patches(&ref, &s);
+        scene_free(&s);
+        free(t);
+        t = with_line_ends(bad, eols[k]);
+        expect_bytes_error(t, strlen(t), "t.rib:3:3: error: Translate expects 3 numbers, got 2");
+        free(t);
+    }
+    scene_free(&ref);
+}
+
+/* A UTF-8 byte order mark at the start is skipped; one anywhere else is not a token. */
+static void test_byte_order_mark(void **state)
+{
+    (void)state;
+    const char bom_text[] = "\xef\xbb\xbfWorldBegin\n" UNIT_QUAD "WorldEnd\n";
+    ts_scene s;
+    ts_error e;
+    if (parse_bytes(bom_text, sizeof bom_text - 1, &s, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_int_equal(s.patch_count, 1);
+    scene_free(&s);
+    const char bom_error[] = "\xef\xbb\xbf  Frobnicate\n";
+    expect_bytes_error(bom_error, sizeof bom_error - 1,
+                       "t.rib:1:3: error: unknown request Frobnicate");
+    const char late[] = "WorldBegin\n\xef\xbb\xbfWorldEnd\n";
+    expect_bytes_error(late, sizeof late - 1,
+                       "t.rib:2:1: error: binary RIB is not supported (byte 0xef starts a "
+                       "binary token; convert the file to ASCII RIB)");
+}
+
+/* Binary RIB is named at its first binary token, after any ASCII header. */
+static void test_binary_rib_named(void **state)
+{
+    (void)state;
+    const char bin[] = "##RenderMan RIB\nversion 3.03\n\x81\x02\x03";
+    expect_bytes_error(bin, sizeof bin - 1,
+                       "t.rib:3:1: error: binary RIB is not supported (byte 0x81 starts a "
+                       "binary token; convert the file to ASCII RIB)");
+    /* Bytes above 0x7f inside strings and comments are text. */
+    const char utf8[] = "# caf\xc3\xa9\nDisplay \"caf\xc3\xa9.tif\" \"file\" \"rgb\"\n"
+                        "WorldBegin\n" UNIT_QUAD "WorldEnd\n";
+    ts_scene s;
+    ts_error e;
+    if (parse_bytes(utf8, sizeof utf8 - 1, &s, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_int_equal(s.patch_count, 1);
+    scene_free(&s);
+}
+
+/* ---- gzip by content (issue 16 item 3) ------------------------------------------------- */
+
+/* The teapot scene gzip-compressed loads to the same patches as the plain file, as a string,
+ * as a file named .rib, and through ReadArchive of a .rib.gz; several members one after
+ * another read as their concatenation. */
+static void test_gzip(void **state)
+{
+    (void)state;
+    size_t len, zlen;
+    char *plain = read_file(test_source_path("scene/teapot.rib"), &len);
+    unsigned char *z = gzip_bytes(plain, len, &zlen);
+    assert_true(zlen < len / 2);
+    ts_scene ref, s;
+    ts_error e;
+    if (parse_bytes(plain, len, &ref, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_int_equal(ref.patch_count, 32);
+    if (parse_bytes((const char *)z, zlen, &s, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_same_patches(&ref, &s);
+    scene_free(&s);
+
+    const char *dir = test_scratch_dir();
+    char path[4200], top[4200];
+    snprintf(path, sizeof path, "%s/teapot.rib", dir); /* gzip, though named .rib */
+    write_bytes(path, z, zlen);
+    memset(&s, 0, sizeof s);
+    if (rib_load(path, &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_same_patches(&ref, &s);
+    scene_free(&s);
+
+    /* The world block of the teapot as an archive, in two gzip members. */
+    const char *world = strstr(plain, "WorldBegin");
+    assert_non_null(world);
+    size_t head = (size_t)(world - plain), half = (len - head) / 2, z1, z2;
+    unsigned char *m1 = gzip_bytes(world, half, &z1),
+                  *m2 = gzip_bytes(world + half, len - head - half, &z2);
+    unsigned char *both = malloc(z1 + z2);
+    assert_non_null(both);
+    memcpy(both, m1, z1);
+    memcpy(both + z1, m2, z2);
+    snprintf(path, sizeof path, "%s/world.rib.gz", dir);
+    write_bytes(path, both, z1 + z2);
+    snprintf(top, sizeof top, "%s/top.rib", dir);
+    FILE *f = fopen(top, "wb");
+    assert_non_null(f);
+    fwrite(plain, 1, head, f);
+    fputs("ReadArchive \"world.rib.gz\"\n", f);
+    fclose(f);
+    memset(&s, 0, sizeof s);
+    if (rib_load(top, &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_same_patches(&ref, &s);
+    scene_free(&s);
+    scene_free(&ref);
+    free(both), free(m1), free(m2), free(z), free(plain);
+}
+
+/* Damaged gzip data is one clear error naming gzip, at 1:1 of the file that holds it. */
+static void test_gzip_errors(void **state)
+{
+    (void)state;
+    const char *text = "WorldBegin\n" UNIT_QUAD "WorldEnd\n";
+    size_t zlen;
+    unsigned char *z = gzip_bytes(text, strlen(text), &zlen);
+    expect_bytes_error((const char *)z, zlen - 12,
+                       "t.rib:1:1: error: gzip: the compressed data ends early (a truncated file)");
+    unsigned char *bad = malloc(zlen + 4);
+    assert_non_null(bad);
+    memcpy(bad, z, zlen);
+    bad[12] ^= 0xff; /* inside the deflate stream */
+    ts_scene s;
+    ts_error e;
+    assert_int_equal(parse_bytes((const char *)bad, zlen, &s, &e), TS_E_SCENE);
+    assert_true(strncmp(e.msg, "t.rib:1:1: error: gzip: ", 24) == 0);
+    ts_error_clear(&e);
+    memcpy(bad, z, zlen);
+    memcpy(bad + zlen, "junk", 4);
+    expect_bytes_error((const char *)bad, zlen + 4,
+                       "t.rib:1:1: error: gzip: data that is not gzip follows the compressed "
+                       "data");
+    /* What the gzip data holds is read like any RIB: errors name its lines. */
+    const char *wrong = "WorldBegin\n\nTranslate 1\n";
+    free(z);
+    z = gzip_bytes(wrong, strlen(wrong), &zlen);
+    expect_bytes_error((const char *)z, zlen,
+                       "t.rib:3:1: error: Translate expects 3 numbers, got 1");
+    free(z);
+    free(bad);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_line_endings),     cmocka_unit_test(test_byte_order_mark),
+        cmocka_unit_test(test_binary_rib_named), cmocka_unit_test(test_gzip),
+        cmocka_unit_test(test_gzip_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
