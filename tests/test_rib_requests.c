@@ -7,6 +7,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <zlib.h>
 #include <setjmp.h>
 #include <cmocka.h>
@@ -84,6 +86,48 @@ static void write_bytes(const char *path, const void *data, size_t len)
     assert_non_null(f);
     assert_int_equal(fwrite(data, 1, len, f), len);
     fclose(f);
+}
+
+static void write_text(const char *path, const char *text)
+{
+    write_bytes(path, text, strlen(text));
+}
+
+/* rib_load_frame of path with stderr captured (warnings, not quiet) into a static buffer. */
+static const char *load_capturing(const char *path, int frame, ts_scene *s, ts_error *e, int *rc)
+{
+    static char out[4096];
+    FILE *tmp = tmpfile();
+    assert_non_null(tmp);
+    fflush(stderr);
+    int saved = dup(fileno(stderr));
+    assert_true(saved >= 0 && dup2(fileno(tmp), fileno(stderr)) >= 0);
+    memset(s, 0, sizeof *s);
+    memset(e, 0, sizeof *e);
+    *rc = rib_load_frame(path, frame, s, 0, e);
+    fflush(stderr);
+    dup2(saved, fileno(stderr));
+    close(saved);
+    rewind(tmp);
+    size_t got = fread(out, 1, sizeof out - 1, tmp);
+    out[got] = '\0';
+    fclose(tmp);
+    return out;
+}
+
+/* rib_load_frame of path must fail with exactly msg (with the path in front of ":"). */
+static void expect_load_error(const char *path, int frame, const char *msg)
+{
+    ts_scene s;
+    ts_error e;
+    int rc;
+    load_capturing(path, frame, &s, &e, &rc);
+    assert_int_equal(rc, TS_E_SCENE);
+    char want[4400];
+    snprintf(want, sizeof want, "%s:%s", path, msg);
+    if (strcmp(e.msg, want) != 0) fail_msg("got \"%s\", want \"%s\"", e.msg, want);
+    assert_int_equal(s.patch_count, 0);
+    ts_error_clear(&e);
 }
 
 /* ---- line endings and the byte order mark (issue 15 item 3) ---------------------------- */
@@ -261,12 +305,186 @@ static void test_gzip_errors(void **state)
     free(bad);
 }
 
+/* ---- FrameBegin/FrameEnd and --frame (issue 16 item 3) ------------------------------- */
+
+/* Frame k has Format 10k x 10k and k patches; options before the first frame are shared. */
+static const char *const frames_text =
+    "PixelSamples 2 3\n"
+    "FrameBegin 1\nFormat 10 10 1\nWorldBegin\n" UNIT_QUAD "WorldEnd\nFrameEnd\n"
+    "FrameBegin 2\nFormat 20 20 1\nWorldBegin\n" UNIT_QUAD UNIT_QUAD "WorldEnd\nFrameEnd\n"
+    "FrameBegin 3\n  Format 30 30 1\n  WorldBegin\n  Frobnicate 1\n" UNIT_QUAD UNIT_QUAD UNIT_QUAD
+    "  WorldEnd\nFrameEnd\n";
+
+/* One frame is read: the first by default, or the one asked for; the others' requests are
+ * not run (frame 3 has an unknown request, which fails only frame 3). */
+static void test_frames(void **state)
+{
+    (void)state;
+    char path[4200];
+    snprintf(path, sizeof path, "%s/anim.rib", test_scratch_dir());
+    write_text(path, frames_text);
+    const int frame[] = {-1, 1, 2};
+    const uint32_t patches[] = {1, 1, 2};
+    for (int k = 0; k < 3; k++) {
+        ts_scene s;
+        ts_error e;
+        int rc;
+        load_capturing(path, frame[k], &s, &e, &rc);
+        if (rc != TS_OK) fail_msg("frame %d: %s", frame[k], e.msg);
+        assert_int_equal(s.patch_count, patches[k]);
+        assert_int_equal(s.camera.width, 10 * (int)patches[k]);
+        assert_int_equal(s.camera.spp, 6);
+        scene_free(&s);
+    }
+    ts_scene s;
+    ts_error e;
+    int rc;
+    load_capturing(path, 3, &s, &e, &rc);
+    assert_int_equal(rc, TS_E_SCENE);
+    assert_non_null(strstr(e.msg, ":18:3: error: unknown request Frobnicate"));
+    ts_error_clear(&e);
+    expect_load_error(path, 7, "24:1: error: no frame 7: the file's frames are 1, 2, 3");
+    /* Without frames, only the default may be asked for. */
+    snprintf(path, sizeof path, "%s/still.rib", test_scratch_dir());
+    write_text(path, "WorldBegin\n" UNIT_QUAD "WorldEnd\n");
+    expect_load_error(path, 2,
+                      "4:1: error: no frame 2: the file has no FrameBegin (render it without "
+                      "--frame)");
+    /* rib_parse_string reads the first frame too. */
+    test_parse_rib_ok(frames_text, &s);
+    assert_int_equal(s.patch_count, 1);
+    scene_free(&s);
+}
+
+static void test_frame_errors(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *text, *msg;
+    } cases[] = {
+        {"FrameBegin 1\nFrameBegin 2\n",
+         "t.rib:2:1: error: FrameBegin inside the frame 1 at 1:1 (missing FrameEnd)"},
+        {"FrameEnd\n", "t.rib:1:1: error: FrameEnd without FrameBegin"},
+        {"FrameBegin 1\nWorldBegin\nWorldEnd\n",
+         "t.rib:1:1: error: FrameBegin is never closed (missing FrameEnd)"},
+        {"WorldBegin\nFrameBegin 1\n",
+         "t.rib:2:1: error: FrameBegin inside the block opened at 1:1 (a frame holds its world "
+         "block, not the other way round)"},
+        {"FrameBegin 1\nWorldBegin\nFrameEnd\n",
+         "t.rib:2:1: error: WorldBegin is never closed (missing WorldEnd)"},
+        {"FrameBegin 1.5\n",
+         "t.rib:1:12: error: FrameBegin: the frame number must be an integer, got 1.5"},
+        {"WorldBegin\nWorldEnd\nFrameBegin 1\nFrameEnd\n",
+         "t.rib:3:1: error: FrameBegin after the world block at 1:1, which no frame holds"},
+        /* Skipped frames are still read as tokens: a lexical error anywhere is an error. */
+        {"FrameBegin 1\nFrameEnd\nFrameBegin 2\nColor [1 2\n",
+         "t.rib:4:7: error: unterminated array ('[' without ']' before the end of file)"},
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++)
+        expect_bytes_error(cases[k].text, strlen(cases[k].text), cases[k].msg);
+}
+
+/* ---- a file that makes no scene (issue 15 item 3) ------------------------------------- */
+
+/* No world block, an empty one, comments only, a CR-only file whose world block was cut: one
+ * clear error each; a scene without light loads with one warning. */
+static void test_scene_checks(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    static const struct {
+        const char *name, *text, *msg;
+    } cases[] = {
+        {"empty.rib", "",
+         "1:1: error: the file ends without a world block (WorldBegin ... "
+         "WorldEnd) and holds no geometry: nothing to render"},
+        {"comments.rib", "##RenderMan RIB\n# nothing\n",
+         "3:1: error: the file ends without a world block (WorldBegin ... WorldEnd) and holds "
+         "no geometry: nothing to render"},
+        {"options.rib", "Format 64 48 1\rProjection \"perspective\"\r",
+         "3:1: error: the file ends without a world block (WorldBegin ... WorldEnd) and holds "
+         "no geometry: nothing to render"},
+        {"world.rib", "Format 64 48 1\n\n  WorldBegin\n  Color 1 0 0\nWorldEnd\n",
+         "3:3: error: the world block holds no geometry: nothing to render"},
+        {"frame.rib", "FrameBegin 4\nWorldBegin\nWorldEnd\nFrameEnd\n",
+         "2:1: error: the world block of the frame read holds no geometry: nothing to render"},
+    };
+    char path[4200];
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        snprintf(path, sizeof path, "%s/%s", dir, cases[k].name);
+        write_text(path, cases[k].text);
+        expect_load_error(path, -1, cases[k].msg);
+    }
+    snprintf(path, sizeof path, "%s/dark.rib", dir);
+    write_text(path, "WorldBegin\n" UNIT_QUAD "WorldEnd\n");
+    ts_scene s;
+    ts_error e;
+    int rc;
+    const char *out = load_capturing(path, -1, &s, &e, &rc);
+    assert_int_equal(rc, TS_OK);
+    char want[4400];
+    snprintf(want, sizeof want,
+             "%s:1:1: warning: the scene has no light Tessera renders (LightSource "
+             "\"distantlight\" or \"domelight\", AreaLightSource, Surface \"constant\"): the "
+             "image will be black\n",
+             path);
+    assert_string_equal(out, want);
+    scene_free(&s);
+    /* An area light is light. */
+    write_text(path, "WorldBegin\nAreaLightSource \"arealight\" 1\n" UNIT_QUAD "WorldEnd\n");
+    out = load_capturing(path, -1, &s, &e, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "");
+    scene_free(&s);
+}
+
+/* `tessera render` of a file that makes no scene fails before any work: exit status 1, one
+ * line naming the file and the reason, and the output that was there is left as it was. */
+static void test_render_refuses_empty_scene(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    char scene[4200], out[4200];
+    snprintf(scene, sizeof scene, "%s/cut.rib", dir);
+    snprintf(out, sizeof out, "%s/out.png", dir);
+    write_text(scene, "Format 64 48 1\rProjection \"perspective\"\rTranslate 0 0 5\r");
+    write_text(out, "an existing image");
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s'", scene, out), 1);
+    size_t n;
+    char *err = read_file(test_path_in(dir, "stderr.txt"), &n);
+    err[n] = '\0';
+    char want[4400];
+    snprintf(want, sizeof want,
+             "tessera: %s:4:1: error: the file ends without a world block (WorldBegin ... "
+             "WorldEnd) and holds no geometry: nothing to render\n",
+             scene);
+    assert_string_equal(err, want);
+    free(err);
+    char *kept = read_file(out, &n);
+    assert_int_equal(n, strlen("an existing image"));
+    assert_memory_equal(kept, "an existing image", n);
+    free(kept);
+    /* --frame names a frame the file lacks: the same. */
+    write_text(scene, frames_text);
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' --frame 9", scene, out), 1);
+    err = read_file(test_path_in(dir, "stderr.txt"), &n);
+    err[n] = '\0';
+    assert_non_null(strstr(err, "error: no frame 9: the file's frames are 1, 2, 3\n"));
+    free(err);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_line_endings),     cmocka_unit_test(test_byte_order_mark),
-        cmocka_unit_test(test_binary_rib_named), cmocka_unit_test(test_gzip),
+        cmocka_unit_test(test_line_endings),
+        cmocka_unit_test(test_byte_order_mark),
+        cmocka_unit_test(test_binary_rib_named),
+        cmocka_unit_test(test_gzip),
         cmocka_unit_test(test_gzip_errors),
+        cmocka_unit_test(test_frames),
+        cmocka_unit_test(test_frame_errors),
+        cmocka_unit_test(test_scene_checks),
+        cmocka_unit_test(test_render_refuses_empty_scene),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

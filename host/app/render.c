@@ -207,13 +207,13 @@ static void render_free(ts_render *r)
     scene_free(&r->scene);
 }
 
-/* The scene, and what it decides that the command line left open: samples per pixel
- * (--spp, else the scene's PixelSamples, else 1) and the image size (--res, else the
- * scene's Format, else 640x480). */
+/* The scene (its --frame, for a RIB animation), and what it decides that the command line
+ * left open: samples per pixel (--spp, else the scene's PixelSamples, else 1) and the image
+ * size (--res, else the scene's Format, else 640x480). */
 static int render_load_scene(ts_render *r, ts_error *err)
 {
     ts_render_options *o = &r->opt;
-    if (scene_load(o->scene_path, &r->scene, o->quiet, err)) return err->code;
+    if (scene_load_frame(o->scene_path, o->frame, &r->scene, o->quiet, err)) return err->code;
     const ts_camera *c = &r->scene.camera;
     if (o->spp <= 0) o->spp = c->spp > 0 ? c->spp : 1;
     r->width = o->width ? o->width : c->has_format ? c->width : 640;

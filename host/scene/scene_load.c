@@ -95,7 +95,15 @@ void scene_frame_auto(ts_scene *s)
 
 int scene_load(const char *path, ts_scene *s, int quiet, ts_error *err)
 {
-    if (has_rib_extension(path)) return rib_load(path, s, quiet, err);
+    return scene_load_frame(path, -1, s, quiet, err);
+}
+
+int scene_load_frame(const char *path, int frame, ts_scene *s, int quiet, ts_error *err)
+{
+    if (has_rib_extension(path)) return rib_load_frame(path, frame, s, quiet, err);
+    if (frame >= 0)
+        return ts_error_set(err, TS_E_USAGE, "--frame %d: %s is a mesh, which has no frames", frame,
+                            path);
     double id[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     ts_patch_attr attr;
     memset(&attr, 0, sizeof attr);

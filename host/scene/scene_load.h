@@ -18,6 +18,10 @@
  * failure. */
 int scene_load(const char *path, ts_scene *s, int quiet, ts_error *err);
 
+/* scene_load of one frame of a RIB animation (rib_load_frame: FrameBegin `frame`, or the
+ * first for frame < 0); a mesh has no frames (TS_E_USAGE for frame >= 0). */
+int scene_load_frame(const char *path, int frame, ts_scene *s, int quiet, ts_error *err);
+
 /* The automatic camera and light described above, for the patches already in s (used by
  * scene_load for meshes). Does nothing to an empty scene. */
 void scene_frame_auto(ts_scene *s);

@@ -31,6 +31,8 @@ static const struct {
     {"CropWindow", rib_req_crop_window},
     {"Displacement", rib_req_displacement},
     {"Format", rib_req_format},
+    {"FrameBegin", rib_req_frame_begin},
+    {"FrameEnd", rib_req_frame_end},
     {"Identity", rib_req_identity},
     {"LightSource", rib_req_light_source},
     {"MotionBegin", rib_req_motion_begin},
@@ -70,8 +72,6 @@ static const char *const rib_ignored[] = {
     "Exposure",
     "Exterior",
     "FrameAspectRatio",
-    "FrameBegin",
-    "FrameEnd",
     "GeometricApproximation",
     "Hider",
     "Illuminate",
@@ -134,6 +134,7 @@ static int rib_in_list(const char *name, const char *const *list, size_t n)
 
 static int rib_dispatch(rib_parser *p)
 {
+    if (rib_frames_skip(p)) return TS_OK; /* a frame that is not rendered */
     if (p->motion.active && strcmp(p->req, "MotionEnd") != 0) {
         int rc = rib_motion_check(p);
         if (rc != TS_OK) return rc;
@@ -177,11 +178,15 @@ int rib_run_requests(rib_parser *p)
     return rc;
 }
 
-/* The whole file: its requests, then every block must be closed. */
+/* The whole file: its requests, then every block must be closed, the frame asked for must
+ * have been read, and a file read as a scene must make one. */
 static int rib_run(rib_parser *p)
 {
     int rc = rib_run_requests(p);
-    return rc == TS_OK ? rib_check_closed(p) : rc;
+    if (rc == TS_OK) rc = rib_frames_finish(p);
+    if (rc == TS_OK) rc = rib_check_closed(p);
+    if (rc == TS_OK && p->whole_scene) rc = rib_scene_check(p);
+    return rc;
 }
 
 static void rib_parser_init(rib_parser *p, const char *name, const char *text, size_t len,
@@ -212,8 +217,10 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     scene->camera.crop[1] = scene->camera.crop[3] = 1.0;
 }
 
-int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *scene, int quiet,
-                     ts_error *err)
+/* rib_parse_string, with the frame to read (-1: the first) and whether the text must make a
+ * whole scene (rib_load). */
+static int rib_parse(const char *name, const char *text, size_t len, int frame, int whole_scene,
+                     ts_scene *scene, int quiet, ts_error *err)
 {
     if (!scene) return ts_error_set(err, TS_E_INTERNAL, "rib_parse_string: no scene");
     rib_text t;
@@ -229,6 +236,8 @@ int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *s
         return ts_error_set(err, TS_E_MEMORY, "%s: out of memory", name ? name : "<string>");
     }
     rib_parser_init(p, name, t.text, t.len, scene, quiet, err);
+    p->frames.wanted = frame < 0 ? -1 : frame;
+    p->whole_scene = whole_scene;
     rc = rib_run(p);
     if (rc == TS_OK) rc = scene_finalize(scene, err);
     rib_lex_free(&p->lx);
@@ -241,14 +250,25 @@ int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *s
     return rc;
 }
 
-int rib_load(const char *path, ts_scene *scene, int quiet, ts_error *err)
+int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *scene, int quiet,
+                     ts_error *err)
+{
+    return rib_parse(name, text, len, -1, 0, scene, quiet, err);
+}
+
+int rib_load_frame(const char *path, int frame, ts_scene *scene, int quiet, ts_error *err)
 {
     char *text;
     size_t len;
     char why[256];
     int rc = ts_file_read_all(path, &text, &len, why, sizeof why);
     if (rc != TS_OK) return ts_error_set(err, rc, "%s: %s", path, why);
-    rc = rib_parse_string(path, text, len, scene, quiet, err);
+    rc = rib_parse(path, text, len, frame, 1, scene, quiet, err);
     free(text);
     return rc;
+}
+
+int rib_load(const char *path, ts_scene *scene, int quiet, ts_error *err)
+{
+    return rib_load_frame(path, -1, scene, quiet, err);
 }

@@ -10,6 +10,7 @@
  *   rib_shading.c  Surface, AreaLightSource, LightSource "domelight"
  *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
+ *   rib_frames.c   FrameBegin/FrameEnd (the frame read), the checks on a whole scene
  *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
  *   rib_lex.c      tokens
  *   rib_text.c     a file's bytes for the lexer: gzip inflated, a byte order mark skipped
@@ -18,7 +19,9 @@
  * Who calls whom (A -> B: A calls functions of B):
  *   rib.c         -> every handler file (the dispatch table; rib_motion_check and
  *                    rib_check_closed in rib_state.c, rib_archive_free in
- *                    rib_archive.c)
+ *                    rib_archive.c, rib_frames_skip/finish and rib_scene_check in
+ *                    rib_frames.c)
+ *   rib_frames.c  -> rib_state.c (rib_check_closed at FrameEnd)
  *   rib_archive.c -> rib.c (rib_run_requests: an archive's requests), rib_geom.c (the
  *                    attributes of procedural geometry)
  *   rib_state.c   -> rib_geom.c (MotionEnd of a block of Patch samples)
@@ -104,6 +107,20 @@ int rib_req_pixel_samples(rib_parser *p);
 int rib_req_clipping(rib_parser *p);
 int rib_req_shutter(rib_parser *p);
 int rib_req_crop_window(rib_parser *p);
+
+/* ---- rib_frames.c: FrameBegin/FrameEnd, the checks on a whole scene ---- */
+
+int rib_req_frame_begin(rib_parser *p);
+int rib_req_frame_end(rib_parser *p);
+/* Whether the current request lies in a frame that is not read (or after the one read):
+ * it is then not dispatched. FrameBegin and FrameEnd are always dispatched. */
+int rib_frames_skip(const rib_parser *p);
+/* At the end of the top-level file: fails on an open FrameBegin, or when the frame asked
+ * for (p->frames.wanted) is not in the file, listing those that are. */
+int rib_frames_finish(rib_parser *p);
+/* At the end of a file read as a whole scene (rib_load): fails when there is no geometry
+ * (naming a missing world block); warns when nothing gives light. */
+int rib_scene_check(rib_parser *p);
 
 /* ---- rib_archive.c: ReadArchive, Procedural ---- */
 

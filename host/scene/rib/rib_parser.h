@@ -100,6 +100,19 @@ typedef struct rib_motion {
 
 typedef enum rib_world_phase { RIB_BEFORE_WORLD, RIB_IN_WORLD, RIB_AFTER_WORLD } rib_world_phase;
 
+#define RIB_MAX_FRAMES_LISTED 16 /* frame numbers a "no frame N" message lists */
+
+/* FrameBegin/FrameEnd blocks (rib_frames.c): one of them is read, the others skipped. */
+typedef struct rib_frame_choice {
+    int wanted;            /* the FrameBegin number to read; -1: the first frame */
+    int open;              /* inside FrameBegin ... FrameEnd */
+    int reading;           /* the open frame is the one read */
+    int done;              /* the frame read has ended: the rest of the file is skipped */
+    int line, col, number; /* of the open FrameBegin */
+    int count;             /* FrameBegin blocks seen */
+    int numbers[RIB_MAX_FRAMES_LISTED]; /* the numbers of the first ones, for messages */
+} rib_frame_choice;
+
 typedef struct rib_parser {
     rib_lexer lx;
     ts_scene *scene;
@@ -137,6 +150,9 @@ typedef struct rib_parser {
     char warned[RIB_MAX_WARNED][RIB_WARN_KEY];
     int nwarned;
     struct rib_include *inc; /* rib_archive.c: the archives being read, NULL before any */
+    rib_frame_choice frames;
+    int world_line, world_col; /* of the WorldBegin read, 0 before it */
+    int whole_scene; /* rib_load: the file must make a scene (rib_frames.c rib_scene_check) */
 } rib_parser;
 
 #endif

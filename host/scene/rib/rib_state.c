@@ -326,6 +326,8 @@ int rib_req_world_begin(rib_parser *p)
     mat4_identity(p->ctm1);
     p->xf_valid = 0;
     p->phase = RIB_IN_WORLD;
+    p->world_line = p->req_line;
+    p->world_col = p->req_col;
     return TS_OK;
 }
 
