@@ -400,8 +400,9 @@ static void test_arrays_comments_escapes(void **state)
     assert_int_equal(s.patch_count, 1);
     scene_free(&s);
     /* \n \t \\ \" decode: the projection name comes back in the message. */
-    expect_error("Projection \"x\\ty\\\\z\\\"w\\n\"", TS_E_SCENE,
-                 "t.rib:1:12: error: unknown projection \"x?y\\z\"w?\"");
+    expect_error(
+        "Projection \"x\\ty\\\\z\\\"w\\n\"", TS_E_SCENE,
+        "t.rib:1:12: error: unknown projection \"x?y\\z\"w?\" (perspective or orthographic)");
     /* Numbers: signs, leading dots, exponents. */
     test_parse_rib_ok("Patch \"bilinear\" \"P\" [+1 -.5 1e1  2.5E-1 0. -0  1 1 1  0 0 0]\n", &s);
     assert_vec(&s.cp[0], 1, -0.5, 10, 0);
@@ -551,8 +552,6 @@ static const struct {
     {"Color [1 0 0\nWorldBegin",
      "t.rib:1:7: error: unterminated array ('[' without ']' before WorldBegin at 2:1)"},
     {"  WorldEnd\n", "t.rib:1:3: error: WorldEnd without WorldBegin"},
-    {"Projection \"orthographic\"",
-     "t.rib:1:12: error: Projection \"orthographic\" is not supported yet (only \"perspective\")"},
     {"Patch \"bicubic\" \"Pw\" [0]",
      "t.rib:1:17: error: Patch: rational patches (\"Pw\") are not supported; give \"P\""},
     {"\nNuPatch 4 4 [0 0 0 0 1 1 1 1]",

@@ -1,9 +1,12 @@
 /* test_rib_requests.c — the RIB reader on files as others write them (issues 15 and 16): CR,
  * LF and CR LF line endings, a UTF-8 byte order mark, gzip by content, binary RIB named in
  * its error. Host only: never skips. Every test asserts numbers or exact messages. */
+#include "app/render.h"
+#include "base/mat4.h"
 #include "scene/rib/rib.h"
 #include "scene/scene.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -473,6 +476,174 @@ static void test_render_refuses_empty_scene(void **state)
     free(err);
 }
 
+/* ---- Format, ScreenWindow, Projection "orthographic", Exposure (issue 16 item 3) ------ */
+
+static void test_format_defaults(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *text;
+        int w, h;
+    } cases[] = {{"Format 320 240 -1\n", 320, 240},
+                 {"Format -1 -1 -1\n", 640, 480},
+                 {"Format [800 -1 1]\n", 800, 480},
+                 {"Format 0 200 0\n", 640, 200}};
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        ts_scene s;
+        test_parse_rib_ok(cases[k].text, &s);
+        assert_int_equal(s.camera.width, cases[k].w);
+        assert_int_equal(s.camera.height, cases[k].h);
+        assert_int_equal(s.camera.has_format, 1);
+        scene_free(&s);
+    }
+    const char *bad = "Format 320 240.5 1\n";
+    expect_bytes_error(bad, strlen(bad),
+                       "t.rib:1:12: error: Format: yresolution must be an integer in [1, 65536] "
+                       "(or -1: the default), got 240.5");
+    const char *big = "Format 70000 10 1\n";
+    expect_bytes_error(big, strlen(big),
+                       "t.rib:1:8: error: Format: xresolution must be an integer in [1, 65536] "
+                       "(or -1: the default), got 70000");
+}
+
+static void test_camera_requests(void **state)
+{
+    (void)state;
+    ts_scene s;
+    test_parse_rib_ok("Projection \"orthographic\"\nScreenWindow -2 2 -1.5 1.5\nExposure 1.5 2.2\n"
+                      "WorldBegin\nWorldEnd\n",
+                      &s);
+    assert_int_equal(s.camera.projection, TS_PROJECTION_ORTHOGRAPHIC);
+    assert_int_equal(s.camera.has_screen, 1);
+    assert_true(s.camera.screen[0] == -2 && s.camera.screen[1] == 2 && s.camera.screen[2] == -1.5 &&
+                s.camera.screen[3] == 1.5);
+    assert_int_equal(s.camera.has_exposure, 1);
+    assert_true(s.camera.exposure_gain == 1.5 && s.camera.exposure_gamma == 2.2);
+    scene_free(&s);
+    /* Exposure 1 1 is no exposure at all (the image is left bit for bit as it was). */
+    test_parse_rib_ok("Exposure 1 1\n", &s);
+    assert_int_equal(s.camera.has_exposure, 0);
+    assert_int_equal(s.camera.projection, TS_PROJECTION_PERSPECTIVE);
+    scene_free(&s);
+    static const struct {
+        const char *text, *msg;
+    } cases[] = {
+        {"ScreenWindow 1 -1 -1 1",
+         "t.rib:1:1: error: ScreenWindow: need left < right and bottom < top, got 1 -1 -1 1"},
+        {"ScreenWindow -1 1 -1", "t.rib:1:1: error: ScreenWindow expects 4 numbers, got 3"},
+        {"WorldBegin\nScreenWindow -1 1 -1 1", "t.rib:2:1: error: ScreenWindow must come before "
+                                               "WorldBegin"},
+        {"Exposure 1 0", "t.rib:1:1: error: Exposure: need gain >= 0 and gamma > 0, got 1 0"},
+        {"Exposure -1 2", "t.rib:1:1: error: Exposure: need gain >= 0 and gamma > 0, got -1 2"},
+        {"Projection \"fisheye\"",
+         "t.rib:1:12: error: unknown projection \"fisheye\" (perspective or orthographic)"},
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++)
+        expect_bytes_error(cases[k].text, strlen(cases[k].text), cases[k].msg);
+    int rc;
+    const char *out = test_rib_warnings("Projection \"orthographic\" \"fov\" [30]\n", &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:1:27: warning: Projection parameter \"fov\" is ignored\n");
+    out = test_rib_warnings("GeometricRepresentation \"points\"\n", &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:1:1: warning: GeometricRepresentation is ignored\n");
+}
+
+/* The camera kernel's ray through the centre of pixel (x, y), as kernels/camera.cl makes it
+ * from ts_camera_params (one sample per pixel: no jitter). */
+static void kernel_ray(const ts_camera_params *p, int x, int y, double org[3], double dir[3])
+{
+    float sx = 2.0f * ((float)x + 0.5f) / (float)p->width - 1.0f;
+    float sy = 1.0f - 2.0f * ((float)y + 0.5f) / (float)p->height;
+    float d[3], o[3];
+    for (int k = 0; k < 3; k++) {
+        o[k] = p->origin[k];
+        if (p->projection == TS_PROJECTION_ORTHOGRAPHIC) {
+            o[k] += sx * p->right[k] + sy * p->up[k];
+            d[k] = p->forward[k];
+        } else {
+            d[k] = sx * p->right[k] + sy * p->up[k] + p->forward[k];
+        }
+    }
+    float inv = 1.0f / sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int k = 0; k < 3; k++)
+        org[k] = o[k], dir[k] = d[k] * inv;
+}
+
+/* The ray through the centre of pixel (x, y) straight from the RenderMan definitions: the
+ * screen point lerps the window (raster y down), perspective looks from the camera origin
+ * through (sx tan(fov/2), sy tan(fov/2), 1), orthographic along +z from (sx, sy, 0); then to
+ * world space. */
+static void spec_ray(const ts_camera *c, int w, int h, int x, int y, double org[3], double dir[3])
+{
+    double a = (double)w / h, win[4] = {-a, a, -1, 1};
+    if (a < 1) win[0] = -1, win[1] = 1, win[2] = -1 / a, win[3] = 1 / a;
+    if (c->has_screen) memcpy(win, c->screen, sizeof win);
+    double sx = win[0] + (win[1] - win[0]) * (x + 0.5) / w;
+    double sy = win[3] - (win[3] - win[2]) * (y + 0.5) / h;
+    double o[3] = {0, 0, 0}, d[3] = {0, 0, 1}, inv[16];
+    if (c->projection == TS_PROJECTION_ORTHOGRAPHIC) {
+        o[0] = sx, o[1] = sy;
+    } else {
+        double t = tan(c->fov_deg * M_PI / 360.0);
+        d[0] = sx * t, d[1] = sy * t;
+    }
+    assert_true(mat4_invert(c->world_to_camera, inv));
+    assert_true(mat4_point(inv, o, org));
+    mat4_dir(inv, d, dir);
+    double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+    for (int k = 0; k < 3; k++)
+        dir[k] /= len;
+}
+
+/* render_camera_params with the kernel's arithmetic gives the rays of the definition, for
+ * perspective and orthographic cameras with and without a ScreenWindow; without one the
+ * perspective parameters are those of before (forward = the camera's unit z axis). */
+static void test_camera_rays(void **state)
+{
+    (void)state;
+    static const char *const heads[] = {
+        "Projection \"perspective\" \"fov\" [35]\n",
+        "Projection \"perspective\" \"fov\" [35]\nScreenWindow -0.5 1.5 -0.25 0.75\n",
+        "Projection \"orthographic\"\n",
+        "Projection \"orthographic\"\nScreenWindow -3 1 2 4\n",
+    };
+    const char *camera =
+        "Translate 0.5 -1 7\nRotate 30 1 0.5 0\nScale 2 2 2\nWorldBegin\nWorldEnd\n";
+    const int sizes[2][2] = {{64, 36}, {30, 50}};
+    for (int k = 0; k < 4; k++)
+        for (int z = 0; z < 2; z++) {
+            char text[512];
+            snprintf(text, sizeof text, "%s%s", heads[k], camera);
+            ts_scene s;
+            test_parse_rib_ok(text, &s);
+            ts_camera_params p;
+            ts_error e = {0};
+            int w = sizes[z][0], h = sizes[z][1];
+            if (render_camera_params(&s.camera, w, h, &p, &e) != TS_OK) fail_msg("%s", e.msg);
+            for (int y = 0; y < h; y += 7)
+                for (int x = 0; x < w; x += 5) {
+                    double ko[3], kd[3], so[3], sd[3];
+                    kernel_ray(&p, x, y, ko, kd);
+                    spec_ray(&s.camera, w, h, x, y, so, sd);
+                    for (int d = 0; d < 3; d++)
+                        if (fabs(ko[d] - so[d]) > 1e-5 || fabs(kd[d] - sd[d]) > 1e-6)
+                            fail_msg("case %d size %d pixel (%d %d): kernel (%g %g %g)->(%g %g "
+                                     "%g), spec (%g %g %g)->(%g %g %g)",
+                                     k, z, x, y, ko[0], ko[1], ko[2], kd[0], kd[1], kd[2], so[0],
+                                     so[1], so[2], sd[0], sd[1], sd[2]);
+                }
+            if (k == 0) { /* the default window: forward is the unit camera z axis */
+                double inv[16], zc[3] = {0, 0, 1}, zw[3];
+                assert_true(mat4_invert(s.camera.world_to_camera, inv));
+                mat4_dir(inv, zc, zw);
+                for (int d = 0; d < 3; d++)
+                    assert_true(p.forward[d] == (float)zw[d]);
+            }
+            scene_free(&s);
+        }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -485,6 +656,9 @@ int main(void)
         cmocka_unit_test(test_frame_errors),
         cmocka_unit_test(test_scene_checks),
         cmocka_unit_test(test_render_refuses_empty_scene),
+        cmocka_unit_test(test_format_defaults),
+        cmocka_unit_test(test_camera_requests),
+        cmocka_unit_test(test_camera_rays),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -30,6 +30,7 @@ static const struct {
     {"ConcatTransform", rib_req_concat_transform},
     {"CropWindow", rib_req_crop_window},
     {"Displacement", rib_req_displacement},
+    {"Exposure", rib_req_exposure},
     {"Format", rib_req_format},
     {"FrameBegin", rib_req_frame_begin},
     {"FrameEnd", rib_req_frame_end},
@@ -45,6 +46,7 @@ static const struct {
     {"ReadArchive", rib_req_read_archive},
     {"Rotate", rib_req_rotate},
     {"Scale", rib_req_scale},
+    {"ScreenWindow", rib_req_screen_window},
     {"Shutter", rib_req_shutter},
     {"Surface", rib_req_surface},
     {"Transform", rib_req_transform},
@@ -69,10 +71,10 @@ static const char *const rib_ignored[] = {
     "DetailRange",
     "Display",
     "DisplayChannel",
-    "Exposure",
     "Exterior",
     "FrameAspectRatio",
     "GeometricApproximation",
+    "GeometricRepresentation",
     "Hider",
     "Illuminate",
     "Imager",
@@ -86,7 +88,6 @@ static const char *const rib_ignored[] = {
     "Quantize",
     "RelativeDetail",
     "ReverseOrientation",
-    "ScreenWindow",
     "ShadingInterpolation",
     "ShadingRate",
     "Sides",
@@ -215,6 +216,9 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     scene->camera.shutter[0] = scene->camera.shutter[1] = 0.0;
     scene->camera.crop[0] = scene->camera.crop[2] = 0.0;
     scene->camera.crop[1] = scene->camera.crop[3] = 1.0;
+    scene->camera.projection = TS_PROJECTION_PERSPECTIVE;
+    scene->camera.has_screen = 0;
+    scene->camera.has_exposure = 0;
 }
 
 /* rib_parse_string, with the frame to read (-1: the first) and whether the text must make a

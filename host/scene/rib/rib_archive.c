@@ -188,11 +188,12 @@ int rib_req_procedural(rib_parser *p)
                                 "Procedural \"DelayedReadArchive\" takes one file name");
     } else if (strcmp(kind, "DynamicLoad") == 0) {
         int mesh = strcmp(a0, "mesh") == 0, forest = strcmp(a0, "forest") == 0;
-        if (!mesh && !forest)
-            rc = rib_error_at(
-                p, where.line, where.col,
-                "Procedural \"DynamicLoad\": unknown generator \"%s\" (mesh or forest)",
-                rib_printable(a0, shown));
+        if (!mesh && !forest) /* anything else names a plug-in (RI Spec 3.2 §5.7) */
+            rc = rib_error_at(p, where.line, where.col,
+                              "Procedural \"DynamicLoad\": \"%s\" is a DSO procedural (compiled "
+                              "plug-in code), which Tessera cannot run (built-in generators: "
+                              "mesh, forest)",
+                              rib_printable(a0, shown));
         else if (mesh && data->count != 2)
             rc =
                 rib_error_at(p, where.line, where.col,

@@ -8,7 +8,7 @@
  *                  motion blocks
  *   rib_geom.c     Patch, PatchMesh and LightSource "distantlight" into the scene
  *   rib_shading.c  Surface, AreaLightSource, LightSource "domelight"
- *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow
+ *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
  *   rib_frames.c   FrameBegin/FrameEnd (the frame read), the checks on a whole scene
  *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
@@ -101,12 +101,14 @@ int rib_req_area_light_source(rib_parser *p);
 /* LightSource "domelight": params from index `first`. */
 int rib_dome_light(rib_parser *p, size_t first);
 
-/* ---- rib_options.c: PixelSamples, Clipping, Shutter, CropWindow ---- */
+/* ---- rib_options.c: PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure ---- */
 
 int rib_req_pixel_samples(rib_parser *p);
 int rib_req_clipping(rib_parser *p);
 int rib_req_shutter(rib_parser *p);
 int rib_req_crop_window(rib_parser *p);
+int rib_req_screen_window(rib_parser *p);
+int rib_req_exposure(rib_parser *p);
 
 /* ---- rib_frames.c: FrameBegin/FrameEnd, the checks on a whole scene ---- */
 

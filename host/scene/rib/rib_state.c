@@ -348,21 +348,38 @@ int rib_before_world(rib_parser *p)
     return rib_error_at(p, p->req_line, p->req_col, "%s must come before WorldBegin", p->req);
 }
 
+/* One resolution of Format: nonpositive means the default (RI Spec §4.1.1: "the display
+ * device's"; here 640 x 480), else an integer in [1, 65536]. */
+static int rib_format_size(rib_parser *p, size_t i, const char *what, double v, int dflt, int *out)
+{
+    if (v <= 0.0) {
+        *out = dflt;
+        return TS_OK;
+    }
+    if (!(v <= 65536.0 && v == floor(v)))
+        return rib_error_at(p, p->args[i].line, p->args[i].col,
+                            "Format: %s must be an integer in [1, 65536] (or -1: the default), "
+                            "got %g",
+                            what, v);
+    *out = (int)v;
+    return TS_OK;
+}
+
+/* Format xresolution yresolution pixelaspectratio; a nonpositive value (RIB files write -1)
+ * takes the default: 640, 480, 1. */
 int rib_req_format(rib_parser *p)
 {
     size_t i = 0;
     int w, h;
-    double aspect;
+    double v[3];
     int rc = rib_before_world(p);
-    if (rc == TS_OK) rc = rib_integer(p, &i, "xresolution", 65536, &w);
-    if (rc == TS_OK) rc = rib_integer(p, &i, "yresolution", 65536, &h);
-    if (rc == TS_OK) rc = rib_numbers(p, &i, 1, &aspect);
+    if (rc == TS_OK) rc = rib_numbers(p, &i, 3, v);
     if (rc == TS_OK) rc = rib_no_more(p, i);
+    size_t at = i == 1 ? 0 : 1; /* the yresolution's argument: [x y a] is one */
+    if (rc == TS_OK) rc = rib_format_size(p, 0, "xresolution", v[0], 640, &w);
+    if (rc == TS_OK) rc = rib_format_size(p, at, "yresolution", v[1], 480, &h);
     if (rc != TS_OK) return rc;
-    if (!(aspect > 0.0))
-        return rib_error_at(p, p->args[i - 1].line, p->args[i - 1].col,
-                            "Format: the pixel aspect ratio must be positive, got %g", aspect);
-    if (aspect != 1.0)
+    if (v[2] > 0.0 && v[2] != 1.0)
         rib_warn_once(p, p->req_line, p->req_col, "Format pixel aspect ratio is ignored");
     p->scene->camera.width = w;
     p->scene->camera.height = h;
@@ -371,27 +388,27 @@ int rib_req_format(rib_parser *p)
 }
 
 /* Projection "perspective" ["fov" f]: fov is the full angle across the shorter image axis.
- * Like RiProjection, it restarts the CTM at the identity (RI Spec §4.1.1). */
+ * Projection "orthographic": parallel rays, the screen window in camera-space units. Like
+ * RiProjection, it restarts the CTM at the identity (RI Spec §4.1.1). */
 int rib_req_projection(rib_parser *p)
 {
     const char *name;
     int rc = rib_before_world(p);
     if (rc == TS_OK) rc = rib_string_arg(p, 0, "a projection name", &name);
     if (rc != TS_OK) return rc;
-    if (strcmp(name, "orthographic") == 0)
-        return rib_error_at(
-            p, p->args[0].line, p->args[0].col,
-            "Projection \"orthographic\" is not supported yet (only \"perspective\")");
     char shown[RIB_PRINT_MAX];
-    if (strcmp(name, "perspective") != 0)
-        return rib_error_at(p, p->args[0].line, p->args[0].col, "unknown projection \"%s\"",
+    int ortho = strcmp(name, "orthographic") == 0;
+    if (!ortho && strcmp(name, "perspective") != 0)
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "unknown projection \"%s\" (perspective or orthographic)",
                             rib_printable(name, shown));
+    p->scene->camera.projection = ortho ? TS_PROJECTION_ORTHOGRAPHIC : TS_PROJECTION_PERSPECTIVE;
     for (size_t i = 1; i < p->nargs; i += 2) {
         rib_param prm;
         const double *v;
         rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
-        if (strcmp(prm.name, "fov") != 0) {
+        if (ortho || strcmp(prm.name, "fov") != 0) {
             rib_warn_param(p, &prm);
             continue;
         }
