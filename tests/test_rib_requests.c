@@ -644,6 +644,68 @@ static void test_camera_rays(void **state)
         }
 }
 
+/* ---- Opacity, Geometry "teapot" (issue 16 item 3) -------------------------------------- */
+
+/* Opacity 0 0 0 leaves geometry out (its attribute block restores opacity); partial opacity
+ * renders opaque with one warning. */
+static void test_opacity(void **state)
+{
+    (void)state;
+    ts_scene s;
+    test_parse_rib_ok("WorldBegin\nAttributeBegin\nOpacity [0 0 0]\n" UNIT_QUAD
+                      "Geometry \"teapot\"\nMotionBegin [0 1]\n" UNIT_QUAD UNIT_QUAD
+                      "MotionEnd\nAttributeEnd\n" UNIT_QUAD "Opacity 0 0 0\nAttributeBegin\n"
+                      "Opacity 1 1 1\n" UNIT_QUAD "AttributeEnd\n" UNIT_QUAD "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.patch_count, 2);
+    scene_free(&s);
+    int rc;
+    const char *out =
+        test_rib_warnings("WorldBegin\nOpacity 0.5 0.5 0.5\n" UNIT_QUAD "Opacity [1 0 1]\n"
+                          "WorldEnd\n",
+                          &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:2:1: warning: Opacity between 0 and 1 renders opaque (only "
+                             "Opacity 0 0 0, fully transparent, is honoured: that geometry is "
+                             "left out)\n");
+    const char *bad = "Opacity -1 0 0";
+    expect_bytes_error(bad, strlen(bad), "t.rib:1:1: error: Opacity: -1 is outside [0, 1]");
+}
+
+/* Geometry "teapot" is the 32 patches of scene/teapot.rib (both from shared/data/teapot.txt:
+ * one embedded, one written as RIB), moved by the CTM, with the current attributes. */
+static void test_geometry_teapot(void **state)
+{
+    (void)state;
+    ts_scene ref, s;
+    ts_error e = {0};
+    memset(&ref, 0, sizeof ref);
+    if (rib_load(test_source_path("scene/teapot.rib"), &ref, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    test_parse_rib_ok("WorldBegin\nGeometry \"teapot\"\nWorldEnd\n", &s);
+    assert_same_patches(&ref, &s);
+    scene_free(&s);
+    test_parse_rib_ok("WorldBegin\nColor 0.25 0.5 1\nTranslate 1 -2 0.5\nScale 2 2 2\n"
+                      "Geometry \"teapot\"\nWorldEnd\n",
+                      &s);
+    assert_int_equal(s.patch_count, 32);
+    for (size_t k = 0; k < 32 * 16; k++) {
+        const ts_vec4 *a = &ref.cp[k], *b = &s.cp[k];
+        if (fabsf(b->x - (2 * a->x + 1)) > 1e-6f || fabsf(b->y - (2 * a->y - 2)) > 1e-6f ||
+            fabsf(b->z - (2 * a->z + 0.5f)) > 1e-6f)
+            fail_msg("control point %zu: (%g %g %g) from (%g %g %g)", k, b->x, b->y, b->z, a->x,
+                     a->y, a->z);
+    }
+    assert_true(s.attr[31].cs_r == 0.25f && s.attr[31].cs_b == 1.0f);
+    scene_free(&s);
+    scene_free(&ref);
+    const char *bad = "WorldBegin\nGeometry \"bunny\"\n";
+    expect_bytes_error(bad, strlen(bad), "t.rib:2:10: error: unknown Geometry \"bunny\" (teapot)");
+    int rc;
+    const char *out = test_rib_warnings("Geometry \"teapot\" \"float size\" [2]\n", &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:1:19: warning: Geometry parameter \"size\" is ignored\n");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -659,6 +721,8 @@ int main(void)
         cmocka_unit_test(test_format_defaults),
         cmocka_unit_test(test_camera_requests),
         cmocka_unit_test(test_camera_rays),
+        cmocka_unit_test(test_opacity),
+        cmocka_unit_test(test_geometry_teapot),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -32,12 +32,14 @@ static const struct {
     {"Displacement", rib_req_displacement},
     {"Exposure", rib_req_exposure},
     {"Format", rib_req_format},
+    {"Geometry", rib_req_geometry},
     {"FrameBegin", rib_req_frame_begin},
     {"FrameEnd", rib_req_frame_end},
     {"Identity", rib_req_identity},
     {"LightSource", rib_req_light_source},
     {"MotionBegin", rib_req_motion_begin},
     {"MotionEnd", rib_req_motion_end},
+    {"Opacity", rib_req_opacity},
     {"Patch", rib_req_patch},
     {"PatchMesh", rib_req_patch_mesh},
     {"PixelSamples", rib_req_pixel_samples},
@@ -80,7 +82,6 @@ static const char *const rib_ignored[] = {
     "Imager",
     "Interior",
     "Matte",
-    "Opacity",
     "Option",
     "Orientation",
     "PixelFilter",
@@ -201,6 +202,7 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     mat4_identity(p->ctm1);
     p->disp = (rib_disp){TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0};
     p->color[0] = p->color[1] = p->color[2] = 1.0;
+    p->opacity[0] = p->opacity[1] = p->opacity[2] = 1.0;
     p->surface = (rib_surface){TS_MAT_MATTE, 1.0, 0.0, 0.1, 0, 0};
     p->ubasis = basis_bezier;
     p->vbasis = basis_bezier;

@@ -205,6 +205,8 @@ int rib_req_procedural(rib_parser *p)
         else if (p->ctm_moving)
             rc = rib_error_at(p, p->req_line, p->req_col,
                               "Procedural under a moving transformation is not supported");
+        else if (rib_geom_transparent(p))
+            rc = TS_OK; /* Opacity 0 0 0: the generated geometry would not be there */
         else
             rc = mesh ? rib_proc_mesh(p, a1, &where) : rib_proc_forest(p, a1 ? a1 : "", &where);
     } else if (strcmp(kind, "RunProgram") == 0) {

@@ -7,10 +7,11 @@
  *   rib_state.c    transformations, blocks, Format, Projection, Color, Basis, Displacement,
  *                  motion blocks
  *   rib_geom.c     Patch, PatchMesh and LightSource "distantlight" into the scene
- *   rib_shading.c  Surface, AreaLightSource, LightSource "domelight"
+ *   rib_shading.c  Surface, AreaLightSource, Opacity, LightSource "domelight"
  *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
  *   rib_frames.c   FrameBegin/FrameEnd (the frame read), the checks on a whole scene
+ *   rib_builtin.c  Geometry "teapot" (its patches in teapot_data.c, generated)
  *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
  *   rib_lex.c      tokens
  *   rib_text.c     a file's bytes for the lexer: gzip inflated, a byte order mark skipped
@@ -22,6 +23,8 @@
  *                    rib_archive.c, rib_frames_skip/finish and rib_scene_check in
  *                    rib_frames.c)
  *   rib_frames.c  -> rib_state.c (rib_check_closed at FrameEnd)
+ *   rib_builtin.c -> rib_geom.c (rib_geom_bezier)
+ *   rib_archive.c -> rib_geom.c also for rib_geom_transparent (procedurals under Opacity 0)
  *   rib_archive.c -> rib.c (rib_run_requests: an archive's requests), rib_geom.c (the
  *                    attributes of procedural geometry)
  *   rib_state.c   -> rib_geom.c (MotionEnd of a block of Patch samples)
@@ -93,11 +96,17 @@ int rib_geom_motion_patch(rib_parser *p);
  * surface, emission) for patches a procedural adds; fails where geometry may not stand
  * (after WorldEnd, a projective or, for displacement, singular CTM). */
 int rib_geom_procedural_attr(rib_parser *p, ts_patch_attr *attr);
+/* Whether the current Opacity is 0 0 0: geometry is then not added (rib_shading.c). */
+int rib_geom_transparent(const rib_parser *p);
+/* Adds one bicubic Bézier patch given by 16 object-space points (u fastest), whatever the
+ * current Basis, with the current transformation and attributes, as Patch does. */
+int rib_geom_bezier(rib_parser *p, const double g[16][3]);
 
-/* ---- rib_shading.c: Surface, AreaLightSource, LightSource "domelight" ---- */
+/* ---- rib_shading.c: Surface, AreaLightSource, Opacity, LightSource "domelight" ---- */
 
 int rib_req_surface(rib_parser *p);
 int rib_req_area_light_source(rib_parser *p);
+int rib_req_opacity(rib_parser *p);
 /* LightSource "domelight": params from index `first`. */
 int rib_dome_light(rib_parser *p, size_t first);
 
@@ -109,6 +118,14 @@ int rib_req_shutter(rib_parser *p);
 int rib_req_crop_window(rib_parser *p);
 int rib_req_screen_window(rib_parser *p);
 int rib_req_exposure(rib_parser *p);
+
+/* ---- rib_builtin.c and teapot_data.c: Geometry "teapot" ---- */
+
+int rib_req_geometry(rib_parser *p);
+#define RIB_TEAPOT_VERTICES 306
+#define RIB_TEAPOT_PATCHES 32
+extern const double rib_teapot_vertices[RIB_TEAPOT_VERTICES][3];
+extern const unsigned short rib_teapot_patches[RIB_TEAPOT_PATCHES][16];
 
 /* ---- rib_frames.c: FrameBegin/FrameEnd, the checks on a whole scene ---- */
 

@@ -75,6 +75,7 @@ typedef struct rib_frame {
     rib_disp disp;
     rib_surface surface;
     double emission[3];
+    double opacity[3];
 } rib_frame;
 
 /* An open MotionBegin [t0 t1] block: its two samples, either two Patch requests of one
@@ -138,6 +139,7 @@ typedef struct rib_parser {
     rib_disp disp;
     rib_surface surface; /* Surface: material of the following patches */
     double emission[3];  /* AreaLightSource: radiance the following patches emit */
+    double opacity[3];   /* Opacity: 0 0 0 makes the following geometry absent */
     rib_motion motion;
     /* The last world-to-object transform added for a displaced patch, by its CTM. */
     double xf_ctm[16];

@@ -1,8 +1,10 @@
 /* rib_shading.c — the RIB requests that say how surfaces look and what lights them:
  * Surface "matte" / "plastic" (with the current Color as Cs), AreaLightSource "arealight"
- * (the following patches emit), LightSource "domelight" (a uniform sky). DESIGN.md §3. */
+ * (the following patches emit), Opacity (fully transparent or opaque), LightSource
+ * "domelight" (a uniform sky). DESIGN.md §3. */
 #include "scene/rib/rib_internal.h"
 
+#include <float.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -98,6 +100,33 @@ int rib_req_area_light_source(rib_parser *p)
         return rib_error_at(p, p->req_line, p->req_col, "AreaLightSource: intensity must be >= 0");
     for (int k = 0; k < 3; ++k)
         p->emission[k] = intensity * color[k];
+    return TS_OK;
+}
+
+/* Opacity [r g b] or r g b (RI Spec §4.2.2): 0 0 0 makes the following geometry fully
+ * transparent, which is the same as absent (no hits, no shadows); 1 1 1 is opaque. Tessera
+ * has no partial transparency: anything between renders opaque, with one warning. Values
+ * above 1 count as 1; negative ones are an error. */
+int rib_req_opacity(rib_parser *p)
+{
+    double o[3];
+    size_t i = 0;
+    int rc = rib_numbers(p, &i, 3, o);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    if (rc != TS_OK) return rc;
+    int partial = 0;
+    for (int k = 0; k < 3; k++) {
+        if (!(o[k] >= 0.0 && o[k] <= FLT_MAX))
+            return rib_error_at(p, p->req_line, p->req_col, "Opacity: %g is outside [0, 1]", o[k]);
+        if (o[k] > 1.0) o[k] = 1.0;
+        partial |= o[k] > 0.0 && o[k] < 1.0;
+    }
+    int transparent = o[0] == 0.0 && o[1] == 0.0 && o[2] == 0.0;
+    if (!transparent && (partial || o[0] == 0.0 || o[1] == 0.0 || o[2] == 0.0))
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "Opacity between 0 and 1 renders opaque (only Opacity 0 0 0, fully "
+                      "transparent, is honoured: that geometry is left out)");
+    memcpy(p->opacity, o, sizeof o);
     return TS_OK;
 }
 

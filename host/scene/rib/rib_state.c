@@ -150,12 +150,13 @@ static int rib_push(rib_parser *p, rib_frame_kind kind)
     f->disp = p->disp;
     f->surface = p->surface;
     memcpy(f->emission, p->emission, sizeof f->emission);
+    memcpy(f->opacity, p->opacity, sizeof f->opacity);
     return TS_OK;
 }
 
 /* Pops the innermost block, which must be of `kind`. TransformEnd restores the CTM (both
- * time samples) only; AttributeEnd and WorldEnd also restore colour, bases and
- * displacement. */
+ * time samples) only; AttributeEnd and WorldEnd also restore colour, bases, displacement,
+ * surface, emission and opacity. */
 static int rib_pop(rib_parser *p, rib_frame_kind kind)
 {
     int rc = rib_no_more(p, 0);
@@ -177,6 +178,7 @@ static int rib_pop(rib_parser *p, rib_frame_kind kind)
         p->disp = top->disp;
         p->surface = top->surface;
         memcpy(p->emission, top->emission, sizeof p->emission);
+        memcpy(p->opacity, top->opacity, sizeof p->opacity);
     }
     p->depth--;
     return TS_OK;
