@@ -580,8 +580,6 @@ static const struct {
     {"Projection \"perspective\" \"fov\" [180]",
      "t.rib:1:32: error: fov must be between 0 and 180 degrees, got 180"},
     /* Displacement */
-    {"Displacement \"dented\" \"Km\" 1",
-     "t.rib:1:14: error: unknown displacement \"dented\" (fbm, ridged, texture or null)"},
     {"Displacement \"fbm\" \"octaves\" 17",
      "t.rib:1:30: error: Displacement: octaves must be between 1 and 16, got 17"},
     {"Displacement \"ridged\" \"float octaves\" [0.4]",

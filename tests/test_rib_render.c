@@ -2,7 +2,9 @@
  * known in closed form:
  * - Projection "orthographic" with a ScreenWindow: a square facing the camera covers exactly
  *   the pixels whose centres fall on it, all at the same depth;
- * - Exposure gain gamma: each colour is (gain c)^(1/gamma) of the same render without it.
+ * - Exposure gain gamma: each colour is (gain c)^(1/gamma) of the same render without it;
+ * - Surface "metal" under a uniform dome reflects at most Cs, tinted by Cs;
+ * - Surface "constant" is its colour, with no light in the scene.
  * Needs an OpenCL device (skipped, 77, without one). */
 #include "test_support.h"
 #include "image/image.h"
@@ -116,11 +118,77 @@ static void test_exposure(void **state)
     image_free(&b);
 }
 
+/* Surface "metal" on a convex sphere under a uniform dome of radiance 1: every path leaves
+ * after one reflection, so a pixel is the GGX lobe's albedo times Cs — at most Cs (no energy
+ * is made) and tinted by Cs channel for channel. */
+static void test_metal_furnace(void **state)
+{
+    (void)state;
+    FILE *f = fopen(path("metal.rib"), "w");
+    assert_non_null(f);
+    fprintf(f,
+            "Format 32 32 1\nProjection \"perspective\" \"fov\" [40]\n"
+            "Translate 0 0 4\nWorldBegin\nLightSource \"domelight\" 1 \"float intensity\" [1]\n"
+            "Color [1 0.5 0.25]\nSurface \"metal\" \"float Ks\" [1] \"float roughness\" [0.3]\n");
+    test_write_sphere_patches(f, 2, 1.0);
+    fputs("WorldEnd\n", f);
+    fclose(f);
+    render("metal.rib", "metal.exr", "--spp 16");
+    ts_image img;
+    test_read_image(path("metal.exr"), &img);
+    double sum = 0;
+    int hits = 0;
+    for (int i = 0; i < img.width * img.height; i++) {
+        /* The sphere's outline is at 0.71 of the half-height (1 / sqrt(4^2 - 1) / tan 20°):
+         * pixels well inside it have no sample of the dome behind. */
+        double sx = (i % 32 + 0.5) / 16 - 1, sy = (i / 32 + 0.5) / 16 - 1;
+        if (sx * sx + sy * sy > 0.6 * 0.6) continue;
+        assert_true(isfinite(channel(&img, i, "Z")));
+        float r = channel(&img, i, "R"), g = channel(&img, i, "G"), b = channel(&img, i, "B");
+        if (fabsf(g - 0.5f * r) > 1e-5f * (1 + r) || fabsf(b - 0.25f * r) > 1e-5f * (1 + r))
+            fail_msg("pixel %d: (%g %g %g), want r : g : b = 1 : 0.5 : 0.25", i, r, g, b);
+        sum += r, hits++;
+    }
+    assert_true(hits > 250);
+    /* The mean over 250+ pixels of 16 samples: a rough GGX lobe without multiple scattering
+     * keeps most of the energy, and never more than all of it. */
+    if (!(sum / hits > 0.6 && sum / hits < 1.0)) fail_msg("mean red %g", sum / hits);
+    image_free(&img);
+}
+
+/* Surface "constant": the surface's colour, lit by nothing (here there is no light at all). */
+static void test_constant(void **state)
+{
+    (void)state;
+    write_scene("constant.rib",
+                "Format 16 16 1\nProjection \"perspective\" \"fov\" [40]\nTranslate 0 0 3\n"
+                "WorldBegin\nColor [0.3 0.6 0.9]\nSurface \"constant\"\n"
+                "Patch \"bilinear\" \"P\" [-1 -1 0  1 -1 0  -1 1 0  1 1 0]\nWorldEnd\n");
+    render("constant.rib", "constant.exr", "--spp 2");
+    ts_image img;
+    test_read_image(path("constant.exr"), &img);
+    int hits = 0;
+    for (int i = 0; i < img.width * img.height; i++) {
+        /* The square spans +-0.92 of the screen: pixels 2..13 lie wholly on it. */
+        if (i % 16 < 2 || i % 16 > 13 || i / 16 < 2 || i / 16 > 13) continue;
+        hits++;
+        if (fabsf(channel(&img, i, "R") - 0.3f) > 1e-6f ||
+            fabsf(channel(&img, i, "G") - 0.6f) > 1e-6f ||
+            fabsf(channel(&img, i, "B") - 0.9f) > 1e-6f)
+            fail_msg("pixel %d: (%g %g %g), want (0.3 0.6 0.9)", i, channel(&img, i, "R"),
+                     channel(&img, i, "G"), channel(&img, i, "B"));
+    }
+    assert_true(hits > 100);
+    image_free(&img);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_orthographic_window),
         cmocka_unit_test(test_exposure),
+        cmocka_unit_test(test_metal_furnace),
+        cmocka_unit_test(test_constant),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -706,6 +706,102 @@ static void test_geometry_teapot(void **state)
     assert_string_equal(out, "w.rib:1:19: warning: Geometry parameter \"size\" is ignored\n");
 }
 
+/* ---- surface and displacement shaders (issue 16 item 4) -------------------------------- */
+
+/* The material, weights and emission of the one patch that `surface` gives. */
+static ts_patch_attr surface_attr(const char *surface)
+{
+    char text[1024];
+    snprintf(text, sizeof text, "WorldBegin\nColor 0.8 0.4 0.2\n%s\n" UNIT_QUAD "WorldEnd\n",
+             surface);
+    ts_scene s;
+    test_parse_rib_ok(text, &s);
+    assert_int_equal(s.patch_count, 1);
+    ts_patch_attr a = s.attr[0];
+    scene_free(&s);
+    return a;
+}
+
+static void test_standard_surfaces(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *surface;
+        uint32_t material;
+        float kd, ks, roughness, le;
+    } cases[] = {
+        {"Surface \"matte\"", TS_MAT_MATTE, 1.0f, 0.0f, 0.1f, 0.0f},
+        {"Surface \"matte\" \"Kd\" 0.5", TS_MAT_MATTE, 0.5f, 0.0f, 0.1f, 0.0f},
+        {"Surface \"plastic\"", TS_MAT_PLASTIC, 0.5f, 0.5f, 0.1f, 0.0f},
+        {"Surface \"paintedplastic\" \"Ks\" [0.3] \"roughness\" 0.2", TS_MAT_PLASTIC, 0.5f, 0.3f,
+         0.2f, 0.0f},
+        {"Surface \"metal\"", TS_MAT_METAL, 0.0f, 1.0f, 0.1f, 0.0f},
+        {"Surface \"metal\" \"Ks\" 0.7 \"roughness\" 0.3", TS_MAT_METAL, 0.0f, 0.7f, 0.3f, 0.0f},
+        {"Surface \"shinymetal\" \"Kr\" 1 \"texturename\" \"env.tx\"", TS_MAT_METAL, 0.0f, 1.0f,
+         0.1f, 0.0f},
+        {"Surface \"constant\"", TS_MAT_MATTE, 0.0f, 0.0f, 0.1f, 0.8f},
+        /* Kd + Ks > 1: scaled to sum 1; roughness 0: clamped to 0.01. */
+        {"Surface \"plastic\" \"Kd\" 0.8 \"Ks\" 1 \"roughness\" 0", TS_MAT_PLASTIC, 0.8f / 1.8f,
+         1.0f / 1.8f, 0.01f, 0.0f},
+        {"Surface \"metal\" \"Ks\" 2", TS_MAT_METAL, 0.0f, 1.0f, 0.1f, 0.0f},
+        /* Unknown: matte with its defaults, parameters unread. */
+        {"Surface \"wood\" \"Kd\" 0.2", TS_MAT_MATTE, 1.0f, 0.0f, 0.1f, 0.0f},
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        ts_patch_attr a = surface_attr(cases[k].surface);
+        if (a.material != cases[k].material || fabsf(a.kd - cases[k].kd) > 1e-6f ||
+            fabsf(a.ks - cases[k].ks) > 1e-6f || fabsf(a.roughness - cases[k].roughness) > 1e-6f ||
+            fabsf(a.le_r - cases[k].le) > 1e-6f)
+            fail_msg("%s: material %u Kd %g Ks %g roughness %g Le %g", cases[k].surface, a.material,
+                     a.kd, a.ks, a.roughness, a.le_r);
+    }
+    /* constant emits its colour, "Cs" of the patch included, and reflects nothing. */
+    ts_patch_attr c = surface_attr("Surface \"constant\"");
+    assert_true(c.le_r == 0.8f && c.le_g == 0.4f && c.le_b == 0.2f && c.kd == 0.0f);
+    ts_scene s;
+    test_parse_rib_ok("WorldBegin\nSurface \"constant\"\nPatch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 "
+                      "0 1 1 0] \"constant color Cs\" [0 1 0.5]\nWorldEnd\n",
+                      &s);
+    assert_true(s.attr[0].le_r == 0.0f && s.attr[0].le_g == 1.0f && s.attr[0].le_b == 0.5f);
+    scene_free(&s);
+    const char *bad = "Surface \"plastic\" \"Kd\" -1";
+    expect_bytes_error(bad, strlen(bad),
+                       "t.rib:1:1: error: Surface \"plastic\": Kd and Ks must be >= 0 and finite, "
+                       "got -1 0.5");
+}
+
+/* Each fallback says so once: unknown surface and displacement shaders alike. */
+static void test_shader_warnings(void **state)
+{
+    (void)state;
+    int rc;
+    const char *out = test_rib_warnings(
+        "Surface \"wood\" \"Kd\" 1 \"grain\" 3\nSurface \"wood\"\n"
+        "Displacement \"dented\" \"Km\" 1\nDisplacement \"dented\"\n"
+        "Surface \"plastic\" \"Kd\" 0.8 \"Ks\" 0.5\nSurface \"metal\" \"roughness\" 0\n"
+        "Surface \"shinymetal\" \"texturename\" \"env.tx\"\n",
+        &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out,
+                        "w.rib:1:1: warning: Surface \"wood\" is unknown: it renders as matte "
+                        "(matte, plastic, paintedplastic, metal, shinymetal, constant)\n"
+                        "w.rib:3:14: warning: Displacement \"dented\" is unknown: no displacement "
+                        "(fbm, ridged, texture or null)\n"
+                        "w.rib:5:1: warning: Surface \"plastic\": Kd + Ks above 1 is scaled down "
+                        "to 1 (energy conservation)\n"
+                        "w.rib:6:1: warning: Surface \"metal\": roughness outside [0.01, 1] is "
+                        "clamped to it (no perfect mirrors)\n"
+                        "w.rib:7:22: warning: Surface \"shinymetal\": the reflection map "
+                        "\"texturename\" is ignored (the path tracer reflects the scene itself)\n");
+    /* An unknown displacement turns displacement off. */
+    ts_scene s;
+    test_parse_rib_ok("WorldBegin\nDisplacement \"fbm\" \"amplitude\" 0.1\nDisplacement "
+                      "\"dented\"\n" UNIT_QUAD "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.attr[0].disp_kind, TS_DISP_NONE);
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -723,6 +819,8 @@ int main(void)
         cmocka_unit_test(test_camera_rays),
         cmocka_unit_test(test_opacity),
         cmocka_unit_test(test_geometry_teapot),
+        cmocka_unit_test(test_standard_surfaces),
+        cmocka_unit_test(test_shader_warnings),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

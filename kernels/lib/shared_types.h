@@ -129,6 +129,7 @@ typedef struct ts_hit {
 /* Materials (RIB Surface), with the patch colour Cs. */
 #define TS_MAT_MATTE 0u   /* Lambertian, albedo Kd * Cs */
 #define TS_MAT_PLASTIC 1u /* Kd * Cs / pi plus a GGX lobe of albedo <= Ks, alpha = roughness */
+#define TS_MAT_METAL 2u   /* a GGX lobe of albedo <= Ks * Cs (coloured), alpha = roughness; no Kd */
 
 /* Per-patch attributes from the scene, 128 bytes.
  * Displacement d(P) moves a surface point along its displacement normal (the bilinear

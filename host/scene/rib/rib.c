@@ -203,7 +203,7 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     p->disp = (rib_disp){TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0};
     p->color[0] = p->color[1] = p->color[2] = 1.0;
     p->opacity[0] = p->opacity[1] = p->opacity[2] = 1.0;
-    p->surface = (rib_surface){TS_MAT_MATTE, 1.0, 0.0, 0.1, 0, 0};
+    p->surface = (rib_surface){TS_MAT_MATTE, 1.0, 0.0, 0.1, 0, 0, 0};
     p->ubasis = basis_bezier;
     p->vbasis = basis_bezier;
     p->phase = RIB_BEFORE_WORLD;

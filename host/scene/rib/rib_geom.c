@@ -92,6 +92,8 @@ static ts_patch_attr geom_attr(const rib_parser *p, const double *cs, const doub
                           .disp_offset = (float)p->disp.offset,
                           .st = {0, 0, 1, 0, 0, 1, 1, 1}};
     if (p->surface.textured) attr.flags |= TS_PATCH_COLOR_TEX;
+    if (p->surface.constant) /* Surface "constant": Ci = Cs, as an emitter of radiance Cs */
+        attr.le_r += (float)cs[0], attr.le_g += (float)cs[1], attr.le_b += (float)cs[2];
     if (st)
         for (int c = 0; c < 4; c++)
             attr.st[2 * c] = (float)st[c][0], attr.st[2 * c + 1] = (float)st[c][1];

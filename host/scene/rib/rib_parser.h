@@ -62,6 +62,7 @@ typedef struct rib_surface {
     double kd, ks, roughness;
     int textured; /* "texturename": Cs is multiplied by scene texture tex (TS_TEX_RGB) */
     uint32_t tex;
+    int constant; /* Surface "constant": the patch emits its colour Cs and reflects nothing */
 } rib_surface;
 
 /* What AttributeBegin / TransformBegin / WorldBegin saved. */

@@ -10,6 +10,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -507,10 +508,17 @@ int rib_req_displacement(rib_parser *p)
         d.kind = TS_DISP_RIDGED;
     else if (strcmp(name, "texture") == 0)
         d.kind = TS_DISP_TEXTURE;
-    else if (!off)
-        return rib_error_at(p, p->args[0].line, p->args[0].col,
-                            "unknown displacement \"%s\" (fbm, ridged, texture or null)",
-                            rib_printable(name, shown));
+    else if (!off) {
+        /* A shader Tessera does not have (a custom .sl name): like an unknown Surface, one
+         * warning and the fallback, here no displacement; its parameters are its own. */
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "Displacement \"%s\" is unknown: no displacement (fbm, ridged, texture or null)",
+                 rib_printable(name, shown));
+        rib_warn_once(p, p->args[0].line, p->args[0].col, what);
+        p->disp = d;
+        return TS_OK;
+    }
     int tex = d.kind == TS_DISP_TEXTURE;
     for (size_t i = 1; i < p->nargs; i += 2) {
         rib_param prm;
