@@ -30,6 +30,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 /* ---- small vector helpers ------------------------------------------------------------ */
 
@@ -154,8 +155,31 @@ static void polygon_normal(const mesh_ctx *c, const unsigned *idx, unsigned n, d
     }
 }
 
+/* A face of a mesh without normals: flat, as the file describes it (issue 16 item 5: a cube
+ * stays a cube). The bilinear patch through its corners (a triangle's third corner taken
+ * twice, so its v = 1 edge collapses as in mesh_pn_triangle), degree-elevated to an equal
+ * bicubic: planar faces stay planar, every edge is the straight segment between its two
+ * vertices, so faces meet without a gap. No corner normals: scene_finalize averages them
+ * over the faces sharing the corner, so displacement does not tear the hard edges open. */
+static int emit_flat_face(mesh_ctx *c, const unsigned *idx, unsigned n, ts_patch_attr *a)
+{
+    const double *q00 = c->pos[idx[0]], *q10 = c->pos[idx[1]], *q11 = c->pos[idx[2]];
+    const double *q01 = n == 4 ? c->pos[idx[3]] : q11;
+    double cp[16][3];
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++)
+            for (int d = 0; d < 3; d++)
+                cp[j * 4 + i][d] = ((3 - i) * (3 - j) * q00[d] + i * (3 - j) * q10[d] +
+                                    (3 - i) * j * q01[d] + i * j * q11[d]) /
+                                   9.0;
+    int rc = scene_add_patch_ex(c->s, (const double(*)[3])cp, NULL, NULL, a, c->err);
+    if (rc == TS_OK) c->emitted++;
+    return rc;
+}
+
 /* Emits the triangle (n = 3) or quad (n = 4) with vertex indices idx. A vertex whose
- * normal is unusable takes the face's normal; a face of zero area is skipped. */
+ * normal is unusable takes the face's normal; a face of zero area is skipped; a mesh
+ * without normals gives flat faces. */
 static int emit_face(mesh_ctx *c, const unsigned *idx, unsigned n)
 {
     double fn[3];
@@ -171,6 +195,15 @@ static int emit_face(mesh_ctx *c, const unsigned *idx, unsigned n)
         c->skipped++;
         return TS_OK;
     }
+    ts_patch_attr a = c->attr;
+    const struct aiColor4D *col = c->mesh->mColors[0];
+    if (col) {
+        double r = 0, g = 0, b = 0;
+        for (unsigned k = 0; k < n; k++)
+            r += col[idx[k]].r, g += col[idx[k]].g, b += col[idx[k]].b;
+        a.cs_r = (float)(r / n), a.cs_g = (float)(g / n), a.cs_b = (float)(b / n);
+    }
+    if (!c->mesh->mNormals) return emit_flat_face(c, idx, n, &a);
     double p[4][3], nn[4][3];
     for (unsigned k = 0; k < n; k++) {
         memcpy(p[k], c->pos[idx[k]], sizeof p[k]);
@@ -195,14 +228,6 @@ static int emit_face(mesh_ctx *c, const unsigned *idx, unsigned n)
         memcpy(cn[1], nn[1], sizeof cn[0]);
         memcpy(cn[2], nn[2], sizeof cn[0]);
         memcpy(cn[3], nn[2], sizeof cn[0]);
-    }
-    ts_patch_attr a = c->attr;
-    const struct aiColor4D *col = c->mesh->mColors[0];
-    if (col) {
-        double r = 0, g = 0, b = 0;
-        for (unsigned k = 0; k < n; k++)
-            r += col[idx[k]].r, g += col[idx[k]].g, b += col[idx[k]].b;
-        a.cs_r = (float)(r / n), a.cs_g = (float)(g / n), a.cs_b = (float)(b / n);
     }
     int rc =
         scene_add_patch_ex(c->s, (const double(*)[3])cp, NULL, (const double(*)[3])cn, &a, c->err);
@@ -319,8 +344,42 @@ static int transform_mesh(mesh_ctx *c, const double m[16], const double nm[9])
 
 /* ---- loading ------------------------------------------------------------------------- */
 
+/* Formats whose convention is z up (CAD, 3D printing, 3ds Max, Blender); the others (OBJ,
+ * PLY, glTF, Collada after Assimp's own conversion, ...) are taken as y up. */
+static const char *const mesh_z_up_formats[] = {"stl", "3ds", "blend", "3mf", "amf", "dxf", "ifc"};
+
+/* The file's up axis: Assimp's "UpAxis" (0, 1, 2) and "UpAxisSign" metadata where the format
+ * records them (FBX), else the format's convention by the file name's extension. */
+static void mesh_up_axis(const char *path, const struct aiScene *sc, double up[3])
+{
+    int axis = -1, sign = 1;
+    const struct aiMetadata *md = sc->mMetaData;
+    for (unsigned k = 0; md && k < md->mNumProperties; k++) {
+        if (md->mValues[k].mType != AI_INT32 || !md->mValues[k].mData) continue;
+        int32_t v;
+        memcpy(&v, md->mValues[k].mData, sizeof v);
+        if (strcmp(md->mKeys[k].data, "UpAxis") == 0 && v >= 0 && v <= 2) axis = v;
+        if (strcmp(md->mKeys[k].data, "UpAxisSign") == 0 && (v == 1 || v == -1)) sign = v;
+    }
+    if (axis < 0) {
+        const char *dot = strrchr(path, '.');
+        axis = 1;
+        for (size_t k = 0; dot && k < sizeof mesh_z_up_formats / sizeof mesh_z_up_formats[0]; k++)
+            if (strcasecmp(dot + 1, mesh_z_up_formats[k]) == 0) axis = 2;
+        sign = 1;
+    }
+    up[0] = up[1] = up[2] = 0.0;
+    up[axis] = sign;
+}
+
 int mesh_load(const char *path, const double object_to_world[16], const ts_patch_attr *attr,
               ts_scene *s, ts_error *err)
+{
+    return mesh_load_ex(path, object_to_world, attr, s, NULL, err);
+}
+
+int mesh_load_ex(const char *path, const double object_to_world[16], const ts_patch_attr *attr,
+                 ts_scene *s, double up[3], ts_error *err)
 {
     FILE *f = ts_file_open_regular(path, err); /* a FIFO or device would hang Assimp */
     if (!f) return err->code;
@@ -330,13 +389,15 @@ int mesh_load(const char *path, const double object_to_world[16], const ts_patch
     if (!(m[12] == 0.0 && m[13] == 0.0 && m[14] == 0.0 && m[15] != 0.0) || !normal_matrix(m, nm))
         return ts_error_set(err, TS_E_SCENE, "%s: the mesh transform must be affine and invertible",
                             path);
-    /* No aiProcess_Triangulate: quads stay quads. */
+    /* No aiProcess_Triangulate: quads stay quads. No generated normals: a mesh without them
+     * has flat faces (emit_flat_face). */
     const struct aiScene *sc =
-        aiImportFile(path, aiProcess_JoinIdenticalVertices | aiProcess_GenSmoothNormals |
-                               aiProcess_PreTransformVertices | aiProcess_ValidateDataStructure);
+        aiImportFile(path, aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
+                               aiProcess_ValidateDataStructure);
     if (!sc)
         return ts_error_set(err, TS_E_SCENE, "%s: cannot read the mesh: %s", path,
                             aiGetErrorString());
+    if (up) mesh_up_axis(path, sc, up);
     mesh_ctx c = {.path = path, .s = s, .err = err};
     c.attr = *attr;
     int rc = TS_OK;
