@@ -802,6 +802,46 @@ static void test_shader_warnings(void **state)
     scene_free(&s);
 }
 
+/* ---- what the corpus needed: exporter float noise, unknown area lights ------------------ */
+
+/* mtor and Maya write affine matrices with float noise where the projective column holds 0:
+ * such a camera is affine; a truly projective one is still refused. */
+static void test_matrix_noise(void **state)
+{
+    (void)state;
+    ts_scene s;
+    test_parse_rib_ok("ConcatTransform [0.692143 0.161604 0.703436 -4.76745e-009 -7.1284e-010 "
+                      "0.974612 -0.223903 -6.76273e-018 0.72176 -0.154973 -0.674571 -4.97145e-009 "
+                      "4.31253e-008 3.03732e-008 4.76251 1]\nWorldBegin\n" UNIT_QUAD "WorldEnd\n",
+                      &s);
+    const double *m = s.camera.world_to_camera;
+    assert_true(m[12] == 0.0 && m[13] == 0.0 && m[14] == 0.0 && m[15] == 1.0);
+    assert_true(fabs(m[11] - 4.76251) < 1e-12); /* the translation is kept */
+    scene_free(&s);
+    const char *bad = "ConcatTransform [1 0 0 0.001  0 1 0 0  0 0 1 0  0 0 5 1]\nWorldBegin\n";
+    expect_bytes_error(bad, strlen(bad), "t.rib:2:1: error: the camera transform is projective");
+}
+
+static void test_unknown_area_light(void **state)
+{
+    (void)state;
+    int rc;
+    const char *out = test_rib_warnings(
+        "WorldBegin\nAttributeBegin\nAreaLightSource \"arealight\" 1 "
+        "\"intensity\" 2\nAreaLightSource \"uberlight\" 2\n" UNIT_QUAD "AttributeEnd\nWorldEnd\n",
+        &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:4:17: warning: AreaLightSource \"uberlight\" is unknown: the "
+                             "following geometry does not emit (arealight)\n");
+    ts_scene s;
+    test_parse_rib_ok(
+        "WorldBegin\nAreaLightSource \"arealight\" 1\nAreaLightSource \"uberlight\" 2\n" UNIT_QUAD
+        "WorldEnd\n",
+        &s);
+    assert_true(s.attr[0].le_r == 0.0f && s.attr[0].le_g == 0.0f && s.attr[0].le_b == 0.0f);
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -821,6 +861,8 @@ int main(void)
         cmocka_unit_test(test_geometry_teapot),
         cmocka_unit_test(test_standard_surfaces),
         cmocka_unit_test(test_shader_warnings),
+        cmocka_unit_test(test_matrix_noise),
+        cmocka_unit_test(test_unknown_area_light),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -146,10 +146,15 @@ int rib_req_area_light_source(rib_parser *p)
     const char *name;
     int rc = rib_string_arg(p, 0, "an area light shader name", &name);
     if (rc != TS_OK) return rc;
-    if (strcmp(name, "arealight") != 0) {
-        char shown[RIB_PRINT_MAX];
-        return rib_error_at(p, p->args[0].line, p->args[0].col,
-                            "unknown area light \"%s\" (arealight)", rib_printable(name, shown));
+    if (strcmp(name, "arealight") != 0) { /* like other unknown shaders: warned, left out */
+        char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+        snprintf(what, sizeof what,
+                 "AreaLightSource \"%s\" is unknown: the following geometry does not emit "
+                 "(arealight)",
+                 rib_printable(name, shown));
+        rib_warn_once(p, p->args[0].line, p->args[0].col, what);
+        p->emission[0] = p->emission[1] = p->emission[2] = 0.0;
+        return TS_OK;
     }
     size_t first = (p->nargs % 2 == 0) ? 2 : 1; /* a handle makes the count even */
     double intensity = 1.0, color[3] = {1, 1, 1};

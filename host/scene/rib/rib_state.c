@@ -86,7 +86,10 @@ int rib_req_rotate(rib_parser *p)
     return rib_apply_transform(p, t, 0);
 }
 
-/* A RIB [16] matrix (row vectors) as a column-vector matrix: its transpose. */
+/* A RIB [16] matrix (row vectors) as a column-vector matrix: its transpose. Exporters
+ * write affine matrices through float arithmetic, leaving noise such as -4.8e-09 where the
+ * projective column holds 0 (mtor, Maya): entries there below 1e-6 of the matrix's largest
+ * are taken as the 0 they stand for, so the matrix stays affine. */
 static int rib_matrix(rib_parser *p, double m[16])
 {
     double r[16];
@@ -94,8 +97,13 @@ static int rib_matrix(rib_parser *p, double m[16])
     int rc = rib_numbers(p, &i, 16, r);
     if (rc == TS_OK) rc = rib_no_more(p, i);
     if (rc != TS_OK) return rc;
-    for (int k = 0; k < 16; k++)
+    double big = 0.0;
+    for (int k = 0; k < 16; k++) {
         m[k] = r[(k % 4) * 4 + k / 4];
+        if (k < 12 || k == 15) big = fmax(big, fabs(m[k]));
+    }
+    for (int k = 12; k < 15; k++)
+        if (fabs(m[k]) <= 1e-6 * big) m[k] = 0.0;
     return TS_OK;
 }
 
