@@ -4,7 +4,8 @@
  *   the pixels whose centres fall on it, all at the same depth;
  * - Exposure gain gamma: each colour is (gain c)^(1/gamma) of the same render without it;
  * - Surface "metal" under a uniform dome reflects at most Cs, tinted by Cs;
- * - Surface "constant" is its colour, with no light in the scene.
+ * - Surface "constant" is its colour, with no light in the scene;
+ * - the public RIB files of tests/rib-corpus/ render, one of them to a known motion blur.
  * Needs an OpenCL device (skipped, 77, without one). */
 #include "test_support.h"
 #include "image/image.h"
@@ -182,13 +183,51 @@ static void test_constant(void **state)
     image_free(&img);
 }
 
+/* The public RIB files of tests/rib-corpus/ render (exit status 0, an image of the size
+ * asked for); in mb_noise_test.rib a constant-white patch moves across an orthographic
+ * window during the shutter, covering screen x for the part x of it, so each column's
+ * brightness is its x (motion blur, orthographic ScreenWindow and constant together). */
+static void test_corpus_renders(void **state)
+{
+    (void)state;
+    static const char *const files[] = {
+        "aqsis/tools/displays/exr/tst.rib",
+        "aqsis/tools/displays/xpm/teapotgeom.rib",
+        "aqsis/prototypes/newcore/scenes/tenpatch.rib",
+        "aqsis/prototypes/newcore/scenes/simpledeformation.rib",
+        "aqsis/examples/features/textures/sticky.rib",
+    };
+    char rel[256];
+    for (size_t k = 0; k < sizeof files / sizeof files[0]; k++) {
+        snprintf(rel, sizeof rel, "tests/rib-corpus/%s", files[k]);
+        test_tessera_ok(dir, "render '%s' -o '%s' --quiet --res 24x18 --spp 1 --max-lod 2",
+                        test_source_path(rel), path("corpus.exr"));
+        ts_image img;
+        test_read_image(path("corpus.exr"), &img);
+        assert_true(img.width == 24 && img.height == 18);
+        image_free(&img);
+    }
+    snprintf(rel, sizeof rel, "tests/rib-corpus/aqsis/prototypes/newcore/scenes/mb_noise_test.rib");
+    test_tessera_ok(dir, "render '%s' -o '%s' --quiet --res 32x8 --spp 64 --max-lod 2",
+                    test_source_path(rel), path("blur.exr"));
+    ts_image img;
+    test_read_image(path("blur.exr"), &img);
+    for (int x = 0; x < 32; x++) {
+        double sum = 0;
+        for (int y = 0; y < 8; y++)
+            sum += channel(&img, y * 32 + x, "G");
+        double want = (x + 0.5) / 32; /* 512 samples a column: 5 sigma <= 0.11 */
+        if (fabs(sum / 8 - want) > 0.12) fail_msg("column %d: %g, want %g", x, sum / 8, want);
+    }
+    image_free(&img);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_orthographic_window),
-        cmocka_unit_test(test_exposure),
-        cmocka_unit_test(test_metal_furnace),
-        cmocka_unit_test(test_constant),
+        cmocka_unit_test(test_orthographic_window), cmocka_unit_test(test_exposure),
+        cmocka_unit_test(test_metal_furnace),       cmocka_unit_test(test_constant),
+        cmocka_unit_test(test_corpus_renders),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }
