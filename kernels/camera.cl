@@ -5,9 +5,10 @@
  *         its eye-ray slot traced, emission it finds weighted 1).
  * Ray g = first_sample + i covers pixel g % (width*height), sample g / (width*height), so a
  * wave is a run of whole sample passes and the film can sum samples in a fixed order.
- * RenderMan screen: x right, y up; raster y grows downwards. One sample per pixel goes
- * through the pixel centre; more are jittered by the sampler's camera set (lib/sampler.h:
- * dimensions 0 and 1 the position in the pixel, 2 the time). */
+ * RenderMan screen: x right, y up; raster y grows downwards; a perspective or an orthographic
+ * projection (ts_camera_params in lib/shared_types.h). One sample per pixel goes through the
+ * pixel centre; more are jittered by the sampler's camera set (lib/sampler.h: dimensions 0
+ * and 1 the position in the pixel, 2 the time). */
 #include "lib/shared_types.h"
 #include "lib/sampler.h"
 
@@ -30,12 +31,22 @@ __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __globa
     }
     float sx = 2.0f * ((float)x + jx) / (float)p.width - 1.0f;
     float sy = 1.0f - 2.0f * ((float)y + jy) / (float)p.height;
-    float dx = sx * p.right[0] + sy * p.up[0] + p.forward[0];
-    float dy = sx * p.right[1] + sy * p.up[1] + p.forward[1];
-    float dz = sx * p.right[2] + sy * p.up[2] + p.forward[2];
+    float dx, dy, dz;
+    ts_vec4 o = {p.origin[0], p.origin[1], p.origin[2], 0.0f};
+    if (p.projection == TS_PROJECTION_ORTHOGRAPHIC) {
+        /* Parallel rays along forward, from the screen point (RIB Projection "orthographic"). */
+        o.x += sx * p.right[0] + sy * p.up[0];
+        o.y += sx * p.right[1] + sy * p.up[1];
+        o.z += sx * p.right[2] + sy * p.up[2];
+        dx = p.forward[0], dy = p.forward[1], dz = p.forward[2];
+    } else {
+        dx = sx * p.right[0] + sy * p.up[0] + p.forward[0];
+        dy = sx * p.right[1] + sy * p.up[1] + p.forward[1];
+        dz = sx * p.right[2] + sy * p.up[2] + p.forward[2];
+    }
     float inv = 1.0f / sqrt(dx * dx + dy * dy + dz * dz);
-    org[i] = (ts_vec4){p.origin[0], p.origin[1], p.origin[2], 0.0f};
-    /* Time in [0, 1) for motion blur (Hanika §3.4): a dimension of the same RNG. */
+    org[i] = o;
+    /* Time in [0, 1) for motion blur (Hanika §3.4): the camera set's third dimension. */
     dir[i] = (ts_vec4){dx * inv, dy * inv, dz * inv,
                        sampler_value(pix, sample, TS_SET_CAMERA, 2u, p.seed, sampler_mask(p.spp))};
     hit[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};

@@ -545,12 +545,161 @@ static void test_real_model(void **state)
     scene_free(&s);
 }
 
+/* ---- meshes without normals; the up axis (issue 16 item 5) ----------------------------- */
+
+/* A cube without normals stays a cube: six flat patches on its faces, each edge shared
+ * exactly by two of them; the corner displacement normals (averaged by scene_finalize over
+ * the faces meeting there) point along the diagonals, so displacement does not tear the
+ * edges open, while each face's own normal is its axis (hard edges when shaded). */
+static void test_flat_faces_without_normals(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    char path[4096];
+    snprintf(path, sizeof path, "%s/bare_cube.obj", dir);
+    write_file(path,
+               "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\n"
+               "v -1 1 1\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n");
+    const double id[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    ts_patch_attr a = grey();
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    if (mesh_load(path, id, &a, &s, &e) != TS_OK || scene_finalize(&s, &e) != TS_OK)
+        fail_msg("%s", e.msg);
+    assert_int_equal(s.patch_count, 6);
+    int axes_seen = 0;
+    for (uint32_t p = 0; p < 6; p++) {
+        double cp[16][3];
+        scene_patch(&s, p, cp);
+        int axis = -1;
+        for (int d = 0; d < 3 && axis < 0; d++) {
+            int flat = 1;
+            for (int k = 0; k < 16; k++)
+                flat &= fabs(cp[k][d] - cp[0][d]) < 1e-12 && fabs(fabs(cp[k][d]) - 1) < 1e-12;
+            if (flat) axis = d;
+        }
+        if (axis < 0) fail_msg("patch %u is not on a face of the cube", p);
+        axes_seen |= 1 << (axis * 2 + (cp[0][axis] > 0));
+        double n[3];
+        assert_true(corner_normal((const double(*)[3])cp, 0, n));
+        assert_true(fabs(fabs(n[axis]) - 1) < 1e-12);
+        for (int c = 0; c < 4; c++) {
+            const ts_vec4 *cn = &s.corner_n[p * 4 + (uint32_t)c];
+            double want = 1 / sqrt(3.0);
+            if (fabs(fabs(cn->x) - want) > 1e-6 || fabs(fabs(cn->y) - want) > 1e-6 ||
+                fabs(fabs(cn->z) - want) > 1e-6)
+                fail_msg("patch %u corner %d: normal (%g %g %g), want a diagonal", p, c, cn->x,
+                         cn->y, cn->z);
+        }
+    }
+    assert_int_equal(axes_seen, 63); /* all six faces */
+    static const int edges[4][4] = {{0, 1, 2, 3}, {3, 7, 11, 15}, {15, 14, 13, 12}, {12, 8, 4, 0}};
+    int matched = 0;
+    for (uint32_t p = 0; p < 6; p++)
+        for (uint32_t q = 0; q < 6; q++)
+            for (int a1 = 0; a1 < 4 && p != q; a1++)
+                for (int a2 = 0; a2 < 4; a2++) {
+                    int same = 1;
+                    for (int k = 0; k < 4 && same; k++) {
+                        const ts_vec4 *x = &s.cp[p * 16 + (uint32_t)edges[a1][k]];
+                        const ts_vec4 *y = &s.cp[q * 16 + (uint32_t)edges[a2][3 - k]];
+                        same = x->x == y->x && x->y == y->y && x->z == y->z;
+                    }
+                    matched += same;
+                }
+    assert_int_equal(matched, 24);
+    scene_free(&s);
+}
+
+/* The camera's up (row 1 of world_to_camera) and forward (row 2) in world space. */
+static void camera_rows(const ts_scene *s, double up[3], double fwd[3])
+{
+    const double *m = s->camera.world_to_camera;
+    for (int d = 0; d < 3; d++)
+        up[d] = m[4 + d], fwd[d] = m[8 + d];
+}
+
+/* Loads path with scene_load and checks the up axis mesh_load_ex reports and that the
+ * automatic camera stands on it: its up vector leans 25 degrees back from the model's up
+ * (cos 25 = 0.906), and it looks down. */
+static void expect_up(const char *path, int axis, double sign)
+{
+    const double id[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    ts_patch_attr a = grey();
+    ts_scene s;
+    ts_error e;
+    double up[3], cu[3], cf[3];
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    if (mesh_load_ex(path, id, &a, &s, up, &e) != TS_OK) fail_msg("%s", e.msg);
+    for (int d = 0; d < 3; d++)
+        assert_true(up[d] == (d == axis ? sign : 0.0));
+    scene_free(&s);
+    if (scene_load(path, &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    camera_rows(&s, cu, cf);
+    if (fabs(cu[axis] * sign - cos(25 * M_PI / 180)) > 1e-9 ||
+        fabs(cf[axis] * sign + sin(25 * M_PI / 180)) > 1e-9)
+        fail_msg("%s: camera up (%g %g %g), forward (%g %g %g)", path, cu[0], cu[1], cu[2], cf[0],
+                 cf[1], cf[2]);
+    scene_free(&s);
+}
+
+static void test_up_axis(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    char path[4096];
+    /* STL (3D printing, z up by convention): a 1 x 3 upright rectangle. */
+    snprintf(path, sizeof path, "%s/upright.stl", dir);
+    write_file(path,
+               "solid u\nfacet normal 0 -1 0\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+               "vertex 1 0 3\nendloop\nendfacet\nfacet normal 0 -1 0\nouter loop\nvertex 0 0 0\n"
+               "vertex 1 0 3\nvertex 0 0 3\nendloop\nendfacet\nendsolid u\n");
+    expect_up(path, 2, 1.0);
+    /* OBJ: y up. */
+    snprintf(path, sizeof path, "%s/cube.obj", dir);
+    write_file(path, cube_obj);
+    expect_up(path, 1, 1.0);
+    /* FBX says: an ASCII test model as it is (y up), then with "UpAxis" 2 and sign -1. */
+    const char *fbx = "/usr/share/assimp/models/FBX/close_to_identity_transforms.fbx";
+    FILE *f = fopen(fbx, "rb");
+    if (!f) {
+        printf("skipped the FBX part: %s is missing (apt-get install assimp-testmodels)\n", fbx);
+        return;
+    }
+    static char text[1 << 18];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[n] = '\0';
+    snprintf(path, sizeof path, "%s/y.fbx", dir);
+    write_file(path, text);
+    expect_up(path, 1, 1.0);
+    char *axis = strstr(text, "\"UpAxis\", \"int\", \"Integer\", \"\",1");
+    char *sign = strstr(text, "\"UpAxisSign\", \"int\", \"Integer\", \"\",1");
+    assert_non_null(axis);
+    assert_non_null(sign);
+    axis[strlen("\"UpAxis\", \"int\", \"Integer\", \"\",")] = '2';
+    size_t at = strlen("\"UpAxisSign\", \"int\", \"Integer\", \"\","); /* "1" -> "-1" */
+    memmove(sign + at + 1, sign + at, strlen(sign + at) + 1);
+    sign[at] = '-';
+    snprintf(path, sizeof path, "%s/z.fbx", dir);
+    write_file(path, text);
+    expect_up(path, 2, -1.0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_pn_formulas),        cmocka_unit_test(test_pn_triangle_exact),
-        cmocka_unit_test(test_obj_file),           cmocka_unit_test(test_errors),
-        cmocka_unit_test(test_scene_load_framing), cmocka_unit_test(test_real_model),
+        cmocka_unit_test(test_pn_formulas),
+        cmocka_unit_test(test_pn_triangle_exact),
+        cmocka_unit_test(test_obj_file),
+        cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_scene_load_framing),
+        cmocka_unit_test(test_real_model),
+        cmocka_unit_test(test_flat_faces_without_normals),
+        cmocka_unit_test(test_up_axis),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

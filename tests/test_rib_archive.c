@@ -403,10 +403,10 @@ static void test_procedural(void **state)
                  "t.rib:1:26: error: Procedural \"forest\": detail needs an integer");
     expect_error("Procedural \"DynamicLoad\" [\"forest\" \"trees\"] [0 1 0 1 0 1]",
                  "t.rib:1:26: error: Procedural \"forest\": expected key=value, got \"trees\"");
-    expect_error(
-        "Procedural \"DynamicLoad\" [\"teapot\"] [0 1 0 1 0 1]",
-        "t.rib:1:26: error: Procedural \"DynamicLoad\": unknown generator \"teapot\" (mesh "
-        "or forest)");
+    expect_error("Procedural \"DynamicLoad\" [\"sphere.so\" \"1\"] [0 1 0 1 0 1]",
+                 "t.rib:1:26: error: Procedural \"DynamicLoad\": \"sphere.so\" is a DSO "
+                 "procedural (compiled plug-in code), which Tessera cannot run (built-in "
+                 "generators: mesh, forest)");
     expect_error(
         "Procedural \"DynamicLoad\" [\"mesh\"] [0 1 0 1 0 1]",
         "t.rib:1:26: error: Procedural \"DynamicLoad\": [\"mesh\" \"file\"] takes one file "

@@ -40,6 +40,8 @@ static const char *usage_text =
     "      --stats FILE      write per-stage timings and counters as JSON\n"
     "      --quiet           no progress or timings on stderr\n"
     "      --resume          continue the interrupted render in OUT.exr (same command)\n"
+    "      --frame N         the frame of a RIB animation to render: FrameBegin N\n"
+    "                        (default: the first)\n"
     "      --kernel-dir DIR  build kernels from DIR instead of the embedded copy\n"
     "      --no-kernel-cache neither read nor write the kernel binary cache\n";
 

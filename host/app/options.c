@@ -22,6 +22,7 @@ void render_options_defaults(ts_render_options *o)
     o->leaf_size = 1;
     o->memory_mb = 1024;
     o->cl.device_index = -1;
+    o->frame = -1;
 }
 
 /* Parses a positive int in [lo, hi]; returns 0 on success. */
@@ -53,7 +54,8 @@ enum {
     OPT_KERNEL_DIR,
     OPT_NO_CACHE,
     OPT_HELP,
-    OPT_RESUME
+    OPT_RESUME,
+    OPT_FRAME
 };
 
 static const struct option render_long_options[] = {
@@ -76,6 +78,7 @@ static const struct option render_long_options[] = {
     {"no-kernel-cache", no_argument, 0, OPT_NO_CACHE},
     {"help", no_argument, 0, OPT_HELP},
     {"resume", no_argument, 0, OPT_RESUME},
+    {"frame", required_argument, 0, OPT_FRAME},
     {0, 0, 0, 0},
 };
 
@@ -129,6 +132,8 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
     case OPT_RESUME:
         o->resume = 1;
         return 0;
+    case OPT_FRAME:
+        return parse_int(arg, 0, 0x7fffffff, &o->frame);
     case OPT_KERNEL_DIR:
         o->cl.kernel_dir = arg;
         return 0;

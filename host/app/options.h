@@ -22,6 +22,7 @@ typedef struct ts_render_options {
     int memory_mb;  /* budget for rays, pairs and patch slots */
     int quiet;
     int resume; /* 1: continue the partial EXR at output_path (--resume) */
+    int frame;  /* the RIB frame to render (FrameBegin number); -1: the first */
     ts_device_options cl;
 } ts_render_options;
 

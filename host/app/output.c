@@ -40,8 +40,19 @@ static void output_pixel(ts_vec4 acc, ts_vec4 aov, ts_vec4 alb, float v[TS_EXR_P
     v[TS_EXR_COUNT] = acc.w;
 }
 
-int output_write(const ts_render_options *o, ts_pipeline *p, int width, int height,
-                 const ts_job *job, ts_error *err)
+/* RIB Exposure: the colour channels c become (gain c)^(1 / gamma) (RI Spec §4.1.3); the
+ * sums and counts --resume reads stay as they are. */
+static void output_exposure(const ts_camera *cam, float v[TS_EXR_PARTIAL_CHANNELS])
+{
+    if (!cam->has_exposure) return;
+    for (int k = TS_EXR_R; k <= TS_EXR_B; k++) {
+        double c = cam->exposure_gain * (double)v[k];
+        v[k] = c > 0.0 ? (float)pow(c, 1.0 / cam->exposure_gamma) : 0.0f;
+    }
+}
+
+int output_write(const ts_render_options *o, ts_pipeline *p, const ts_camera *cam, int width,
+                 int height, const ts_job *job, ts_error *err)
 {
     size_t npix = (size_t)width * height;
     int partial = job->samples_done < job->total;
@@ -63,6 +74,7 @@ int output_write(const ts_render_options *o, ts_pipeline *p, int width, int heig
     for (size_t i = 0; !rc && i < npix; ++i) {
         float v[TS_EXR_PARTIAL_CHANNELS];
         output_pixel(acc[i], aov[i], alb[i], v);
+        output_exposure(cam, v);
         memcpy(&px[i * nch], v, nch * sizeof(float)); /* PNG: R, G, B */
     }
     if (!rc && exr) {

@@ -15,8 +15,9 @@ int output_check(const ts_render_options *o, ts_error *err);
 /* Reads p's films back and writes o->output_path, width x height, atomically (image.h).
  * An EXR of an unfinished render (job->samples_done < job->total) gets all
  * TS_EXR_PARTIAL_CHANNELS, a finished one TS_EXR_COMPLETE_CHANNELS; both get the
- * TS_EXR_METAS from o, p's plan and job. */
-int output_write(const ts_render_options *o, ts_pipeline *p, int width, int height,
-                 const ts_job *job, ts_error *err);
+ * TS_EXR_METAS from o, p's plan and job. The scene camera's Exposure, if any, applies to
+ * R, G, B (of the EXR and the PNG); the sums and counts are the film's. */
+int output_write(const ts_render_options *o, ts_pipeline *p, const ts_camera *cam, int width,
+                 int height, const ts_job *job, ts_error *err);
 
 #endif

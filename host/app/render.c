@@ -29,20 +29,35 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
 {
     memset(out, 0, sizeof *out);
     double inv[16];
+    int ortho = cam->projection == TS_PROJECTION_ORTHOGRAPHIC;
     if (!mat4_invert(cam->world_to_camera, inv))
         return ts_error_set(err, TS_E_SCENE, "the camera transform is singular");
-    if (!(cam->fov_deg > 0.0 && cam->fov_deg < 180.0))
+    if (!ortho && !(cam->fov_deg > 0.0 && cam->fov_deg < 180.0))
         return ts_error_set(err, TS_E_SCENE, "fov %g is outside (0, 180) degrees", cam->fov_deg);
-    double t = tan(0.5 * cam->fov_deg * M_PI / 180.0);
+    /* Screen units in camera space: tan(fov / 2) on the plane z = 1, or 1 (orthographic). */
+    double t = ortho ? 1.0 : tan(0.5 * cam->fov_deg * M_PI / 180.0);
     double aspect = (double)width / (double)height;
     double hx = aspect >= 1.0 ? aspect * t : t, hy = aspect >= 1.0 ? t : t / aspect;
+    double cx = 0.0, cy = 0.0; /* the window's centre */
+    if (cam->has_screen) {
+        const double *w = cam->screen; /* left right bottom top */
+        hx = 0.5 * (w[1] - w[0]) * t, hy = 0.5 * (w[3] - w[2]) * t;
+        cx = 0.5 * (w[0] + w[1]) * t, cy = 0.5 * (w[2] + w[3]) * t;
+    }
+    double eye[3] = {cx, cy, 0.0}, at[3]; /* orthographic rays start on the window at z = 0 */
+    if (ortho && !mat4_point(inv, eye, at))
+        return ts_error_set(err, TS_E_SCENE, "the camera transform is singular");
     for (int r = 0; r < 3; ++r)
-        out->origin[r] = (float)inv[r * 4 + 3];
+        out->origin[r] = ortho ? (float)at[r] : (float)inv[r * 4 + 3];
     camera_axis(inv, hx, 0, 0, out->right);
     camera_axis(inv, 0, hy, 0, out->up);
-    camera_axis(inv, 0, 0, 1, out->forward);
+    if (ortho)
+        camera_axis(inv, 0, 0, 1, out->forward);
+    else
+        camera_axis(inv, cx, cy, 1, out->forward); /* (0, 0, 1) for the default window */
     out->width = (uint32_t)width;
     out->height = (uint32_t)height;
+    out->projection = ortho ? TS_PROJECTION_ORTHOGRAPHIC : TS_PROJECTION_PERSPECTIVE;
     return TS_OK;
 }
 
@@ -207,13 +222,13 @@ static void render_free(ts_render *r)
     scene_free(&r->scene);
 }
 
-/* The scene, and what it decides that the command line left open: samples per pixel
- * (--spp, else the scene's PixelSamples, else 1) and the image size (--res, else the
- * scene's Format, else 640x480). */
+/* The scene (its --frame, for a RIB animation), and what it decides that the command line
+ * left open: samples per pixel (--spp, else the scene's PixelSamples, else 1) and the image
+ * size (--res, else the scene's Format, else 640x480). */
 static int render_load_scene(ts_render *r, ts_error *err)
 {
     ts_render_options *o = &r->opt;
-    if (scene_load(o->scene_path, &r->scene, o->quiet, err)) return err->code;
+    if (scene_load_frame(o->scene_path, o->frame, &r->scene, o->quiet, err)) return err->code;
     const ts_camera *c = &r->scene.camera;
     if (o->spp <= 0) o->spp = c->spp > 0 ? c->spp : 1;
     r->width = o->width ? o->width : c->has_format ? c->width : 640;
@@ -369,7 +384,7 @@ static int render_with_retry(ts_render *r, ts_error *err)
 static int render_write(ts_render *r, ts_error *err)
 {
     double t0 = stats_now();
-    int rc = output_write(&r->opt, &r->pipe, r->width, r->height, &r->job, err);
+    int rc = output_write(&r->opt, &r->pipe, &r->scene.camera, r->width, r->height, &r->job, err);
     r->stats->stage_seconds[TS_STAGE_film] += stats_now() - t0;
     return rc;
 }

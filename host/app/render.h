@@ -7,9 +7,11 @@
 #include "scene/scene.h"
 #include "base/stats.h"
 
-/* The camera kernel's parameters for an image of width x height (RenderMan perspective:
- * screen window [-a,a]x[-1,1] for aspect a >= 1, else [-1,1]x[-1/a,1/a]; fov spans the
- * shorter axis). Fails on a singular camera transform or a fov outside (0, 180). */
+/* The camera kernel's parameters for an image of width x height (RenderMan: the screen
+ * window is cam->screen, else [-a,a]x[-1,1] for aspect a >= 1, else [-1,1]x[-1/a,1/a];
+ * perspective screen units are tan(fov / 2), so fov spans the shorter axis of the default
+ * window; orthographic ones are camera-space units). Fails on a singular camera transform
+ * or, for perspective, a fov outside (0, 180). */
 int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_params *out,
                          ts_error *err);
 

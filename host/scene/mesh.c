@@ -16,6 +16,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 /* ---- faces --------------------------------------------------------------------------- */
 
@@ -50,13 +51,17 @@ static int mesh_emit(void *ctx, const double cp[16][3], const double cn[4][3],
         }
         a.cs_r = (float)(r / n), a.cs_g = (float)(g / n), a.cs_b = (float)(b / n);
     }
-    int rc = scene_add_patch_ex(c->s, cp, NULL, cn, &a, c->err);
+    /* A mesh without normals: flat faces (their PN patches with the face's normal are
+     * planar), and no corner normals, so scene_finalize averages them over the faces
+     * meeting at each corner and displacement does not tear the hard edges open
+     * (issue 16 item 5: a cube stays a cube). */
+    int rc = scene_add_patch_ex(c->s, cp, NULL, c->mesh->mNormals ? cn : NULL, &a, c->err);
     if (rc == TS_OK) c->emitted++;
     return rc;
 }
 
 /* The face with vertex indices idx[0..n) as patches; its vertices without a usable normal
- * take the face's. */
+ * take the face's (every vertex of a mesh without normals: flat faces). */
 static int mesh_face(mesh_ctx *c, const unsigned *idx, unsigned n)
 {
     if (n > c->face_cap) {
@@ -128,8 +133,42 @@ static int transform_mesh(mesh_ctx *c, const double m[16], const double nm[9])
 
 /* ---- loading ------------------------------------------------------------------------- */
 
+/* Formats whose convention is z up (CAD, 3D printing, 3ds Max, Blender); the others (OBJ,
+ * PLY, glTF, Collada after Assimp's own conversion, ...) are taken as y up. */
+static const char *const mesh_z_up_formats[] = {"stl", "3ds", "blend", "3mf", "amf", "dxf", "ifc"};
+
+/* The file's up axis: Assimp's "UpAxis" (0, 1, 2) and "UpAxisSign" metadata where the format
+ * records them (FBX), else the format's convention by the file name's extension. */
+static void mesh_up_axis(const char *path, const struct aiScene *sc, double up[3])
+{
+    int axis = -1, sign = 1;
+    const struct aiMetadata *md = sc->mMetaData;
+    for (unsigned k = 0; md && k < md->mNumProperties; k++) {
+        if (md->mValues[k].mType != AI_INT32 || !md->mValues[k].mData) continue;
+        int32_t v;
+        memcpy(&v, md->mValues[k].mData, sizeof v);
+        if (strcmp(md->mKeys[k].data, "UpAxis") == 0 && v >= 0 && v <= 2) axis = v;
+        if (strcmp(md->mKeys[k].data, "UpAxisSign") == 0 && (v == 1 || v == -1)) sign = v;
+    }
+    if (axis < 0) {
+        const char *dot = strrchr(path, '.');
+        axis = 1;
+        for (size_t k = 0; dot && k < sizeof mesh_z_up_formats / sizeof mesh_z_up_formats[0]; k++)
+            if (strcasecmp(dot + 1, mesh_z_up_formats[k]) == 0) axis = 2;
+        sign = 1;
+    }
+    up[0] = up[1] = up[2] = 0.0;
+    up[axis] = sign;
+}
+
 int mesh_load(const char *path, const double object_to_world[16], const ts_patch_attr *attr,
               ts_scene *s, ts_error *err)
+{
+    return mesh_load_ex(path, object_to_world, attr, s, NULL, err);
+}
+
+int mesh_load_ex(const char *path, const double object_to_world[16], const ts_patch_attr *attr,
+                 ts_scene *s, double up[3], ts_error *err)
 {
     FILE *f = ts_file_open_regular(path, err); /* a FIFO or device would hang Assimp */
     if (!f) return err->code;
@@ -139,13 +178,15 @@ int mesh_load(const char *path, const double object_to_world[16], const ts_patch
     if (!(m[12] == 0.0 && m[13] == 0.0 && m[14] == 0.0 && m[15] != 0.0) || !normal_matrix(m, nm))
         return ts_error_set(err, TS_E_SCENE, "%s: the mesh transform must be affine and invertible",
                             path);
-    /* No aiProcess_Triangulate: quads stay quads. */
+    /* No aiProcess_Triangulate: quads stay quads. No generated normals: a mesh without them
+     * has flat faces (mesh_emit). */
     const struct aiScene *sc =
-        aiImportFile(path, aiProcess_JoinIdenticalVertices | aiProcess_GenSmoothNormals |
-                               aiProcess_PreTransformVertices | aiProcess_ValidateDataStructure);
+        aiImportFile(path, aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
+                               aiProcess_ValidateDataStructure);
     if (!sc)
         return ts_error_set(err, TS_E_SCENE, "%s: cannot read the mesh: %s", path,
                             aiGetErrorString());
+    if (up) mesh_up_axis(path, sc, up);
     mesh_ctx c = {.path = path, .s = s, .err = err};
     c.attr = *attr;
     int rc = TS_OK;

@@ -17,15 +17,22 @@
 #include "scene/scene.h"
 
 /* Reads the mesh file at path with Assimp (node transforms baked in, identical vertices
- * joined, smooth normals generated where the file has none) and appends one patch per
- * triangle or quad to s, moved by object_to_world (row-major, column vectors, affine;
- * normals by its inverse transpose). attr gives colour and displacement (its xform must
- * already be in s); a mesh with vertex colours gives each patch the average of its corner
- * colours instead. Faces with fewer than three vertices (points, lines) and faces of zero
+ * joined) and appends one patch per triangle or quad to s (flat faces for a mesh without
+ * normals, so its hard edges stay hard: a cube stays a cube), moved by object_to_world (row-major,
+ * column vectors, affine; normals by its inverse transpose). attr gives colour and displacement
+ * (its xform must already be in s); a mesh with vertex colours gives each patch the average of its
+ * corner colours instead. Faces with fewer than three vertices (points, lines) and faces of zero
  * area are skipped. Errors: TS_E_IO (cannot read the file), TS_E_SCENE ("path: ..." when
  * Assimp cannot parse it or it holds no polygons), TS_E_MEMORY. Does not call
  * scene_finalize. */
 int mesh_load(const char *path, const double object_to_world[16], const ts_patch_attr *attr,
               ts_scene *s, ts_error *err);
+
+/* mesh_load that also says which way is up in the file (object space): up[] gets +x, +y,
+ * +z or their opposites, from Assimp's "UpAxis"/"UpAxisSign" metadata where the format has
+ * it (FBX), else by the format's convention: +z for STL, 3DS, Blender, 3MF, AMF, DXF and
+ * IFC files, +y for the others. up may be NULL. */
+int mesh_load_ex(const char *path, const double object_to_world[16], const ts_patch_attr *attr,
+                 ts_scene *s, double up[3], ts_error *err);
 
 #endif

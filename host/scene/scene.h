@@ -26,6 +26,18 @@ typedef struct ts_camera {
     double clip_near, clip_far;
     double shutter[2];
     double crop[4];
+    /* Projection: TS_PROJECTION_PERSPECTIVE (0, with fov_deg) or TS_PROJECTION_ORTHOGRAPHIC
+     * (lib/shared_types.h). */
+    uint32_t projection;
+    /* ScreenWindow left right bottom top when has_screen; else the RenderMan default
+     * [-a, a] x [-1, 1] for image aspect a >= 1, [-1, 1] x [-1/a, 1/a] below. Screen units
+     * are camera-space units for orthographic, tan(fov / 2) for perspective. */
+    int has_screen;
+    double screen[4];
+    /* Exposure gain gamma when has_exposure: each output colour c becomes
+     * (gain * c)^(1 / gamma); else the image is left as it is. */
+    int has_exposure;
+    double exposure_gain, exposure_gamma;
 } ts_camera;
 
 /* A distant light (LightSource "distantlight"): light travels from `from` to `to`; the sun

@@ -12,10 +12,12 @@
 #define SCENE_AUTO_WIDTH 960
 #define SCENE_AUTO_HEIGHT 540
 
+/* ".rib", or ".rib.gz" (gzip RIB; rib_load inflates gzip by content whatever the name). */
 static int has_rib_extension(const char *path)
 {
     size_t n = strlen(path);
-    return n >= 4 && strcasecmp(path + n - 4, ".rib") == 0;
+    return (n >= 4 && strcasecmp(path + n - 4, ".rib") == 0) ||
+           (n >= 7 && strcasecmp(path + n - 7, ".rib.gz") == 0);
 }
 
 static void normalize(double v[3])
@@ -25,6 +27,12 @@ static void normalize(double v[3])
 }
 
 void scene_frame_auto(ts_scene *s)
+{
+    static const double y_up[3] = {0.0, 1.0, 0.0};
+    scene_frame_auto_up(s, y_up);
+}
+
+void scene_frame_auto_up(ts_scene *s, const double up_axis[3])
 {
     if (s->patch_count == 0) return;
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -44,9 +52,20 @@ void scene_frame_auto(ts_scene *s)
     if (!(r > 0.0)) r = 1.0;
     const double deg = 3.14159265358979323846 / 180.0;
     double az = 35.0 * deg, el = 25.0 * deg;
-    double dir[3] = {sin(az) * cos(el), sin(el), cos(az) * cos(el)}; /* centre -> eye */
+    /* The view of a y-up model (from +z, turned towards +x, raised), turned with the model
+     * when its up axis is another: the frame (x0, up, z0) is right-handed, x0 = +x unless up
+     * is along x. For y up it is the identity, so these are the y-up numbers exactly. */
+    const double *wup = up_axis;
+    double x0[3] = {1.0, 0.0, 0.0}, z0[3];
+    if (fabs(wup[0]) > 0.5) x0[0] = 0.0, x0[1] = -wup[0];
+    z0[0] = x0[1] * wup[2] - x0[2] * wup[1];
+    z0[1] = x0[2] * wup[0] - x0[0] * wup[2];
+    z0[2] = x0[0] * wup[1] - x0[1] * wup[0];
+    double dir[3]; /* centre -> eye */
+    for (int d = 0; d < 3; d++)
+        dir[d] = sin(az) * cos(el) * x0[d] + sin(el) * wup[d] + cos(az) * cos(el) * z0[d];
     double dist = r / sin(0.5 * SCENE_AUTO_FOV * deg);
-    double eye[3], f[3], right[3], up[3], wup[3] = {0, 1, 0};
+    double eye[3], f[3], right[3], up[3];
     for (int d = 0; d < 3; d++)
         eye[d] = c[d] + dist * dir[d], f[d] = -dir[d];
     /* RenderMan camera space: x right, y up, z forward. Mesh formats (OBJ, glTF, ...) are
@@ -93,7 +112,15 @@ void scene_frame_auto(ts_scene *s)
 
 int scene_load(const char *path, ts_scene *s, int quiet, ts_error *err)
 {
-    if (has_rib_extension(path)) return rib_load(path, s, quiet, err);
+    return scene_load_frame(path, -1, s, quiet, err);
+}
+
+int scene_load_frame(const char *path, int frame, ts_scene *s, int quiet, ts_error *err)
+{
+    if (has_rib_extension(path)) return rib_load_frame(path, frame, s, quiet, err);
+    if (frame >= 0)
+        return ts_error_set(err, TS_E_USAGE, "--frame %d: %s is a mesh, which has no frames", frame,
+                            path);
     double id[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     ts_patch_attr attr;
     memset(&attr, 0, sizeof attr);
@@ -106,12 +133,13 @@ int scene_load(const char *path, ts_scene *s, int quiet, ts_error *err)
     attr.material = TS_MAT_MATTE;
     attr.kd = 1.0f;
     attr.emitter = TS_INVALID;
-    int rc = mesh_load(path, id, &attr, s, err);
+    double up[3];
+    int rc = mesh_load_ex(path, id, &attr, s, up, err);
     if (rc == TS_OK) rc = scene_finalize(s, err);
     if (rc != TS_OK) {
         scene_free(s);
         return rc;
     }
-    scene_frame_auto(s);
+    scene_frame_auto_up(s, up);
     return TS_OK;
 }

@@ -1,12 +1,16 @@
 /* bsdf.h — the materials of DESIGN.md §3, their sampling and pdfs, shared by the shade
- * kernel and the host tests. Directions are unit vectors in world space; n is the unit
- * shading normal on the side of wo (the direction back along the incoming ray).
+ * kernel and the host tests (tests/test_bsdf.c). Directions are unit vectors in world
+ * space; n is the unit shading normal on the side of wo (the direction back along the
+ * incoming ray).
  *   matte:   f = Kd Cs / pi, sampled by cosine.
  *   plastic: f = Kd Cs / pi + Ks D(h) G(wo, wi) / (4 cos_o cos_i), GGX D with alpha =
  *            roughness and the separable Smith G (Walter et al. 2007). Energy-conserving for
  *            Kd + Ks <= 1 (the parser enforces it): the GGX lobe without Fresnel reflects at
  *            most Ks. Sampled by choosing the lobe with probability Ks / (Kd + Ks), then the
- *            cosine or D(h) cos(theta_h). */
+ *            cosine or D(h) cos(theta_h).
+ *   metal:   f = Ks Cs D(h) G(wo, wi) / (4 cos_o cos_i): the plastic's GGX lobe tinted by the
+ *            surface colour, no diffuse part (RenderMan's metal: Cs Ks specular()); albedo at
+ *            most Ks Cs. Always sampled by D(h) cos(theta_h). */
 #ifndef TS_BSDF_H
 #define TS_BSDF_H
 
@@ -98,6 +102,12 @@ TS_INLINE float plastic_spec_prob(TS_CONST_GLOBAL ts_patch_attr *a)
     return a->material == TS_MAT_PLASTIC && s > 0.0f ? a->ks / s : 0.0f;
 }
 
+/* Probability that bsdf_sample takes the GGX lobe: plastic as above, metal 1, matte 0. */
+TS_INLINE float bsdf_spec_prob(TS_CONST_GLOBAL ts_patch_attr *a)
+{
+    return a->material == TS_MAT_METAL ? 1.0f : plastic_spec_prob(a);
+}
+
 /* f(wo, wi) (rgb in r[]) and the pdf of sampling wi with bsdf_sample; cs: the surface
  * colour at the point (Cs, times the colour texture if any; lib/texture.h
  * tex_surface_colour). */
@@ -107,16 +117,20 @@ TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], t
     float ci = v3_dot(n, wi), co = v3_dot(n, wo);
     f[0] = f[1] = f[2] = 0.0f;
     if (ci <= 0.0f || co <= 0.0f) return 0.0f;
-    float kd = a->kd / TS_PI;
+    int metal = a->material == TS_MAT_METAL;
+    float kd = metal ? 0.0f : a->kd / TS_PI;
     f[0] = kd * cs[0], f[1] = kd * cs[1], f[2] = kd * cs[2];
-    float ps = plastic_spec_prob(a);
+    float ps = bsdf_spec_prob(a);
     float pdf = (1.0f - ps) * ci / TS_PI;
-    if (a->material == TS_MAT_PLASTIC) {
+    if (a->material == TS_MAT_PLASTIC || metal) {
         ts_v3 h = v3_normalize(v3_add(wo, wi));
         float ch = v3_dot(n, h), d = ggx_d(ch, a->roughness);
         float spec =
             a->ks * d * ggx_g1(co, a->roughness) * ggx_g1(ci, a->roughness) / (4.0f * co * ci);
-        f[0] += spec, f[1] += spec, f[2] += spec;
+        if (metal)
+            f[0] += spec * cs[0], f[1] += spec * cs[1], f[2] += spec * cs[2];
+        else
+            f[0] += spec, f[1] += spec, f[2] += spec;
         float oh = v3_dot(wo, h);
         if (oh > 0.0f) pdf += ps * d * ch / (4.0f * oh);
     }
@@ -128,7 +142,7 @@ TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], t
 TS_INLINE float bsdf_sample(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], ts_v3 n, ts_v3 wo,
                             float u0, float u1, float u2, ts_v3 *wi, float f[3])
 {
-    float ps = plastic_spec_prob(a);
+    float ps = bsdf_spec_prob(a);
     if (u0 < ps) {
         /* GGX: tan^2(theta_h) = alpha^2 u1 / (1 - u1). */
         float alpha = a->roughness, t2 = alpha * alpha * u1 / fmax(1.0f - u1, 1e-7f);

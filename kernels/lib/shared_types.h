@@ -129,6 +129,7 @@ typedef struct ts_hit {
 /* Materials (RIB Surface), with the patch colour Cs. */
 #define TS_MAT_MATTE 0u   /* Lambertian, albedo Kd * Cs */
 #define TS_MAT_PLASTIC 1u /* Kd * Cs / pi plus a GGX lobe of albedo <= Ks, alpha = roughness */
+#define TS_MAT_METAL 2u   /* a GGX lobe of albedo <= Ks * Cs (coloured), alpha = roughness; no Kd */
 
 /* Per-patch attributes from the scene, 128 bytes.
  * Displacement d(P) moves a surface point along its displacement normal (the bilinear
@@ -219,9 +220,15 @@ typedef struct ts_texture {
     ts_u32 level_page[TS_TEX_MAX_LEVELS];
 } ts_texture;
 
+/* Projections of the camera (ts_camera_params.projection, RIB Projection). */
+#define TS_PROJECTION_PERSPECTIVE 0u
+#define TS_PROJECTION_ORTHOGRAPHIC 1u
+
 /* Everything the camera kernel needs, in world space. 96 bytes.
- * Ray through raster point (px, py): screen (sx, sy) = window lerp, direction =
- * sx * right + sy * up + forward (RenderMan: x right, y up, looking down +z). */
+ * Ray through raster point (px, py): screen (sx, sy) in [-1, 1]^2, y up. Perspective:
+ * from origin, direction sx * right + sy * up + forward (RenderMan: x right, y up, looking
+ * down +z; forward holds the screen window's centre). Orthographic: from origin + sx *
+ * right + sy * up, direction forward (unit). */
 typedef struct ts_camera_params {
     float origin[4];  /* eye position, w unused */
     float right[4];   /* camera x axis in world space, scaled by the screen half-width */
@@ -231,7 +238,8 @@ typedef struct ts_camera_params {
     ts_u32 spp, seed;
     ts_u32 first_sample; /* global index of the first ray of this wave */
     ts_u32 ray_count;    /* rays in this wave */
-    ts_u32 pad[2];
+    ts_u32 projection;   /* TS_PROJECTION_* */
+    ts_u32 pad;
 } ts_camera_params;
 
 /* Light sampling vs BSDF sampling at each path vertex (ts_shade_params.sampling). */
@@ -301,7 +309,7 @@ typedef struct ts_shade_params {
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
     X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
-    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count)      \
+    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection)      \
     X(ts_shade_params, spp) X(ts_light, dir) X(ts_light, radiance) X(ts_light, weight) X(ts_emitter, area) \
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \
     X(ts_patch_attr, disp_offset) X(ts_patch_attr, st) X(ts_texture, kind)                    \

@@ -8,6 +8,7 @@
 #include "base/mat4.h"
 #include "scene/rib/rib_internal.h"
 #include "scene/rib/rib_prims.h"
+#include "scene/rib/rib_text.h"
 
 #include "base/file.h"
 
@@ -30,11 +31,16 @@ static const struct {
     {"ConcatTransform", rib_req_concat_transform},
     {"CropWindow", rib_req_crop_window},
     {"Displacement", rib_req_displacement},
+    {"Exposure", rib_req_exposure},
     {"Format", rib_req_format},
+    {"FrameBegin", rib_req_frame_begin},
+    {"FrameEnd", rib_req_frame_end},
+    {"Geometry", rib_req_geometry},
     {"Identity", rib_req_identity},
     {"LightSource", rib_req_light_source},
     {"MotionBegin", rib_req_motion_begin},
     {"MotionEnd", rib_req_motion_end},
+    {"Opacity", rib_req_opacity},
     {"Patch", rib_req_patch},
     {"PatchMesh", rib_req_patch_mesh},
     {"PixelSamples", rib_req_pixel_samples},
@@ -43,6 +49,7 @@ static const struct {
     {"ReadArchive", rib_req_read_archive},
     {"Rotate", rib_req_rotate},
     {"Scale", rib_req_scale},
+    {"ScreenWindow", rib_req_screen_window},
     {"Shutter", rib_req_shutter},
     {"Surface", rib_req_surface},
     {"Transform", rib_req_transform},
@@ -81,18 +88,15 @@ static const char *const rib_ignored[] = {
     "DetailRange",
     "Display",
     "DisplayChannel",
-    "Exposure",
     "Exterior",
     "FrameAspectRatio",
-    "FrameBegin",
-    "FrameEnd",
     "GeometricApproximation",
+    "GeometricRepresentation",
     "Hider",
     "Illuminate",
     "Imager",
     "Interior",
     "Matte",
-    "Opacity",
     "Option",
     "Orientation",
     "PixelFilter",
@@ -100,7 +104,6 @@ static const char *const rib_ignored[] = {
     "Quantize",
     "RelativeDetail",
     "ReverseOrientation",
-    "ScreenWindow",
     "ShadingInterpolation",
     "ShadingRate",
     "Sides",
@@ -139,6 +142,7 @@ static int rib_in_list(const char *name, const char *const *list, size_t n)
 
 static int rib_dispatch(rib_parser *p)
 {
+    if (rib_frames_skip(p)) return TS_OK; /* a frame that is not rendered */
     if (p->motion.active && strcmp(p->req, "MotionEnd") != 0) {
         int rc = rib_motion_check(p);
         if (rc != TS_OK) return rc;
@@ -178,11 +182,15 @@ int rib_run_requests(rib_parser *p)
     return rc;
 }
 
-/* The whole file: its requests, then every block must be closed. */
+/* The whole file: its requests, then every block must be closed, the frame asked for must
+ * have been read, and a file read as a scene must make one. */
 static int rib_run(rib_parser *p)
 {
     int rc = rib_run_requests(p);
-    return rc == TS_OK ? rib_check_closed(p) : rc;
+    if (rc == TS_OK) rc = rib_frames_finish(p);
+    if (rc == TS_OK) rc = rib_check_closed(p);
+    if (rc == TS_OK && p->whole_scene) rc = rib_scene_check(p);
+    return rc;
 }
 
 static void rib_parser_init(rib_parser *p, const char *name, const char *text, size_t len,
@@ -196,7 +204,8 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     mat4_identity(p->ctm1);
     p->disp = (rib_disp){TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0};
     p->color[0] = p->color[1] = p->color[2] = 1.0;
-    p->surface = (rib_surface){TS_MAT_MATTE, 1.0, 0.0, 0.1, 0, 0};
+    p->opacity[0] = p->opacity[1] = p->opacity[2] = 1.0;
+    p->surface = (rib_surface){TS_MAT_MATTE, 1.0, 0.0, 0.1, 0, 0, 0};
     p->ubasis = basis_bezier;
     p->vbasis = basis_bezier;
     p->phase = RIB_BEFORE_WORLD;
@@ -211,37 +220,63 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     scene->camera.shutter[0] = scene->camera.shutter[1] = 0.0;
     scene->camera.crop[0] = scene->camera.crop[2] = 0.0;
     scene->camera.crop[1] = scene->camera.crop[3] = 1.0;
+    scene->camera.projection = TS_PROJECTION_PERSPECTIVE;
+    scene->camera.has_screen = 0;
+    scene->camera.has_exposure = 0;
 }
 
-int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *scene, int quiet,
-                     ts_error *err)
+/* rib_parse_string, with the frame to read (-1: the first) and whether the text must make a
+ * whole scene (rib_load). */
+static int rib_parse(const char *name, const char *text, size_t len, int frame, int whole_scene,
+                     ts_scene *scene, int quiet, ts_error *err)
 {
     if (!scene) return ts_error_set(err, TS_E_INTERNAL, "rib_parse_string: no scene");
+    rib_text t;
+    int rc = rib_text_open(&t, name ? name : "<string>", text, len, err);
+    if (rc != TS_OK) {
+        scene_free(scene);
+        return rc;
+    }
     rib_parser *p = calloc(1, sizeof *p);
     if (!p) {
+        rib_text_free(&t);
         scene_free(scene);
         return ts_error_set(err, TS_E_MEMORY, "%s: out of memory", name ? name : "<string>");
     }
-    rib_parser_init(p, name, text, len, scene, quiet, err);
-    int rc = rib_run(p);
+    rib_parser_init(p, name, t.text, t.len, scene, quiet, err);
+    p->frames.wanted = frame < 0 ? -1 : frame;
+    p->whole_scene = whole_scene;
+    rc = rib_run(p);
     if (rc == TS_OK) rc = scene_finalize(scene, err);
     rib_lex_free(&p->lx);
     rib_archive_free(p);
     rib_args_free(p);
     free(p->stack);
     free(p);
+    rib_text_free(&t);
     if (rc != TS_OK) scene_free(scene);
     return rc;
 }
 
-int rib_load(const char *path, ts_scene *scene, int quiet, ts_error *err)
+int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *scene, int quiet,
+                     ts_error *err)
+{
+    return rib_parse(name, text, len, -1, 0, scene, quiet, err);
+}
+
+int rib_load_frame(const char *path, int frame, ts_scene *scene, int quiet, ts_error *err)
 {
     char *text;
     size_t len;
     char why[256];
     int rc = ts_file_read_all(path, &text, &len, why, sizeof why);
     if (rc != TS_OK) return ts_error_set(err, rc, "%s: %s", path, why);
-    rc = rib_parse_string(path, text, len, scene, quiet, err);
+    rc = rib_parse(path, text, len, frame, 1, scene, quiet, err);
     free(text);
     return rc;
+}
+
+int rib_load(const char *path, ts_scene *scene, int quiet, ts_error *err)
+{
+    return rib_load_frame(path, -1, scene, quiet, err);
 }

@@ -22,9 +22,17 @@
  * stderr, one per request name, unless quiet. */
 int rib_load(const char *path, ts_scene *scene, int quiet, ts_error *err);
 
+/* rib_load of one frame of an animation: the FrameBegin block numbered `frame` (the others
+ * are skipped), or the first one for frame < 0. Fails (TS_E_SCENE) when the file has no such
+ * frame, naming those it has. rib_load is rib_load_frame(path, -1, ...). As a whole scene,
+ * the file (or frame) must hold a world block with geometry: an error otherwise; a scene
+ * with nothing that gives light gets a warning. */
+int rib_load_frame(const char *path, int frame, ts_scene *scene, int quiet, ts_error *err);
+
 /* Parses len bytes of RIB text (no NUL terminator needed); `name` is used in messages.
  * Safe on arbitrary bytes: never reads outside [text, text + len), bounds nesting depth,
- * token and array sizes, and frees everything on failure. Same contract as rib_load. */
+ * token and array sizes, and frees everything on failure. Same contract as rib_load, except
+ * that the text need not make a whole scene (no world block or geometry is no error). */
 int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *scene, int quiet,
                      ts_error *err);
 

@@ -5,6 +5,7 @@
  * the directory of the file that holds the request. Nesting is bounded and a file that
  * includes itself, directly or not, is an error. docs/rib.md has the details. */
 #include "scene/rib/rib_internal.h"
+#include "scene/rib/rib_text.h"
 
 #include "base/file.h"
 
@@ -72,12 +73,17 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
         free(path);
         return rc;
     }
+    rib_text t; /* a gzip archive (.rib.gz or not) is inflated here */
+    rc = rib_text_open(&t, path, text, len, p->err);
     inc->real[++inc->depth] = real;
     rib_lexer saved = p->lx;
-    rib_lex_init(&p->lx, path, text, len, p->err);
-    rc = rib_run_requests(p);
-    rib_lex_free(&p->lx);
-    p->lx = saved;
+    if (rc == TS_OK) {
+        rib_lex_init(&p->lx, path, t.text, t.len, p->err);
+        rc = rib_run_requests(p);
+        rib_lex_free(&p->lx);
+        p->lx = saved;
+    }
+    rib_text_free(&t);
     free(inc->real[inc->depth]);
     inc->real[inc->depth--] = NULL;
     free(text);
@@ -182,11 +188,12 @@ int rib_req_procedural(rib_parser *p)
                                 "Procedural \"DelayedReadArchive\" takes one file name");
     } else if (strcmp(kind, "DynamicLoad") == 0) {
         int mesh = strcmp(a0, "mesh") == 0, forest = strcmp(a0, "forest") == 0;
-        if (!mesh && !forest)
-            rc = rib_error_at(
-                p, where.line, where.col,
-                "Procedural \"DynamicLoad\": unknown generator \"%s\" (mesh or forest)",
-                rib_printable(a0, shown));
+        if (!mesh && !forest) /* anything else names a plug-in (RI Spec 3.2 §5.7) */
+            rc = rib_error_at(p, where.line, where.col,
+                              "Procedural \"DynamicLoad\": \"%s\" is a DSO procedural (compiled "
+                              "plug-in code), which Tessera cannot run (built-in generators: "
+                              "mesh, forest)",
+                              rib_printable(a0, shown));
         else if (mesh && data->count != 2)
             rc =
                 rib_error_at(p, where.line, where.col,
@@ -198,6 +205,8 @@ int rib_req_procedural(rib_parser *p)
         else if (p->ctm_moving)
             rc = rib_error_at(p, p->req_line, p->req_col,
                               "Procedural under a moving transformation is not supported");
+        else if (rib_geom_transparent(p))
+            rc = TS_OK; /* Opacity 0 0 0: the generated geometry would not be there */
         else
             rc = mesh ? rib_proc_mesh(p, a1, &where) : rib_proc_forest(p, a1 ? a1 : "", &where);
     } else if (strcmp(kind, "RunProgram") == 0) {

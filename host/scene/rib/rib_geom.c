@@ -92,6 +92,8 @@ static ts_patch_attr geom_attr(const rib_parser *p, const double *cs, const doub
                           .disp_offset = (float)p->disp.offset,
                           .st = {0, 0, 1, 0, 0, 1, 1, 1}};
     if (p->surface.textured) attr.flags |= TS_PATCH_COLOR_TEX;
+    if (p->surface.constant) /* Surface "constant": Ci = Cs, as an emitter of radiance Cs */
+        attr.le_r += (float)cs[0], attr.le_g += (float)cs[1], attr.le_b += (float)cs[2];
     if (st)
         for (int c = 0; c < 4; c++)
             attr.st[2 * c] = (float)st[c][0], attr.st[2 * c + 1] = (float)st[c][1];
@@ -126,6 +128,7 @@ static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
 {
     double w0[16][3], w1[16][3], wn[4][3], inv[16];
     int moving = g1 != NULL || p->ctm_moving;
+    if (rib_geom_transparent(p)) return TS_OK; /* Opacity 0 0 0: not geometry */
     int rc = geom_points(p, line, col, p->ctm, g0, w0);
     if (rc == TS_OK && moving) rc = geom_points(p, line, col, p->ctm1, g1 ? g1 : g0, w1);
     if (rc != TS_OK) return rc;
@@ -640,4 +643,16 @@ int rib_req_light_source(rib_parser *p)
     memcpy(l.from, from, sizeof from);
     memcpy(l.to, to, sizeof to);
     return scene_add_light(p->scene, &l, p->err);
+}
+
+int rib_geom_transparent(const rib_parser *p)
+{
+    return p->opacity[0] == 0.0 && p->opacity[1] == 0.0 && p->opacity[2] == 0.0;
+}
+
+int rib_geom_bezier(rib_parser *p, const double g[16][3])
+{
+    int rc = geom_check_state(p);
+    if (rc != TS_OK) return rc;
+    return geom_emit(p, p->req_line, p->req_col, g, NULL, NULL, 0, 0, NULL, NULL);
 }

@@ -10,17 +10,24 @@
  *   rib_quadric.c, rib_poly.c, rib_nurbs.c, rib_subdiv.c, rib_primvar.c: quadrics,
  *                  polygons, NuPatch, SubdivisionMesh and their primitive variables
  *                  (rib_prims.h; they call rib_geom.c's rib_geom_emit)
- *   rib_shading.c  Surface, AreaLightSource, LightSource "domelight"
- *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow
+ *   rib_shading.c  Surface, AreaLightSource, Opacity, LightSource "domelight"
+ *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
+ *   rib_frames.c   FrameBegin/FrameEnd (the frame read), the checks on a whole scene
+ *   rib_builtin.c  Geometry "teapot" (its patches in teapot_data.c, generated)
  *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
  *   rib_lex.c      tokens
+ *   rib_text.c     a file's bytes for the lexer: gzip inflated, a byte order mark skipped
  *   basis.c        change of basis to Bézier
  *
  * Who calls whom (A -> B: A calls functions of B):
  *   rib.c         -> every handler file (the dispatch table; rib_motion_check and
  *                    rib_check_closed in rib_state.c, rib_archive_free in
- *                    rib_archive.c)
+ *                    rib_archive.c, rib_frames_skip/finish and rib_scene_check in
+ *                    rib_frames.c)
+ *   rib_frames.c  -> rib_state.c (rib_check_closed at FrameEnd)
+ *   rib_builtin.c -> rib_geom.c (rib_geom_bezier)
+ *   rib_archive.c -> rib_geom.c also for rib_geom_transparent (procedurals under Opacity 0)
  *   rib_archive.c -> rib.c (rib_run_requests: an archive's requests), rib_geom.c (the
  *                    attributes of procedural geometry)
  *   rib_state.c   -> rib_geom.c (MotionEnd of a block of Patch samples)
@@ -28,10 +35,10 @@
  *   rib_geom.c    -> rib_shading.c (LightSource "domelight")
  *   rib_shading.c -> no other handler
  *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
- *                    handler. rib.c and rib_archive.c also start lexers; rib.c, rib_state.c
- *                    and rib_geom.c use basis.c.
- * The one cycle is rib.c -> rib_archive.c -> rib.c: ReadArchive and DelayedReadArchive read
- * the archive's requests through the same loop, nested at most RIB_MAX_INCLUDE deep.
+ *                    handler. rib.c and rib_archive.c also start lexers (on rib_text.c's bytes);
+ * rib.c, rib_state.c and rib_geom.c use basis.c. The one cycle is rib.c -> rib_archive.c -> rib.c:
+ * ReadArchive and DelayedReadArchive read the archive's requests through the same loop, nested at
+ * most RIB_MAX_INCLUDE deep.
  */
 #ifndef TS_RIB_INTERNAL_H
 #define TS_RIB_INTERNAL_H
@@ -101,20 +108,50 @@ int rib_geom_check(rib_parser *p);
  * values, for messages. */
 int rib_geom_emit(rib_parser *p, int line, int col, const double g[16][3], const double n[4][3],
                   const double *cs, const double st[4][2]);
+/* Whether the current Opacity is 0 0 0: geometry is then not added (rib_shading.c). */
+int rib_geom_transparent(const rib_parser *p);
+/* Adds one bicubic Bézier patch given by 16 object-space points (u fastest), whatever the
+ * current Basis, with the current transformation and attributes, as Patch does. */
+int rib_geom_bezier(rib_parser *p, const double g[16][3]);
 
-/* ---- rib_shading.c: Surface, AreaLightSource, LightSource "domelight" ---- */
+/* ---- rib_shading.c: Surface, AreaLightSource, Opacity, LightSource "domelight" ---- */
 
 int rib_req_surface(rib_parser *p);
 int rib_req_area_light_source(rib_parser *p);
+int rib_req_opacity(rib_parser *p);
 /* LightSource "domelight": params from index `first`. */
 int rib_dome_light(rib_parser *p, size_t first);
 
-/* ---- rib_options.c: PixelSamples, Clipping, Shutter, CropWindow ---- */
+/* ---- rib_options.c: PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure ---- */
 
 int rib_req_pixel_samples(rib_parser *p);
 int rib_req_clipping(rib_parser *p);
 int rib_req_shutter(rib_parser *p);
 int rib_req_crop_window(rib_parser *p);
+int rib_req_screen_window(rib_parser *p);
+int rib_req_exposure(rib_parser *p);
+
+/* ---- rib_builtin.c and teapot_data.c: Geometry "teapot" ---- */
+
+int rib_req_geometry(rib_parser *p);
+#define RIB_TEAPOT_VERTICES 306
+#define RIB_TEAPOT_PATCHES 32
+extern const double rib_teapot_vertices[RIB_TEAPOT_VERTICES][3];
+extern const unsigned short rib_teapot_patches[RIB_TEAPOT_PATCHES][16];
+
+/* ---- rib_frames.c: FrameBegin/FrameEnd, the checks on a whole scene ---- */
+
+int rib_req_frame_begin(rib_parser *p);
+int rib_req_frame_end(rib_parser *p);
+/* Whether the current request lies in a frame that is not read (or after the one read):
+ * it is then not dispatched. FrameBegin and FrameEnd are always dispatched. */
+int rib_frames_skip(const rib_parser *p);
+/* At the end of the top-level file: fails on an open FrameBegin, or when the frame asked
+ * for (p->frames.wanted) is not in the file, listing those that are. */
+int rib_frames_finish(rib_parser *p);
+/* At the end of a file read as a whole scene (rib_load): fails when there is no geometry
+ * (naming a missing world block); warns when nothing gives light. */
+int rib_scene_check(rib_parser *p);
 
 /* ---- rib_archive.c: ReadArchive, Procedural ---- */
 

@@ -38,16 +38,18 @@ static int lex_peek(const rib_lexer *lx)
     return lx->pos < lx->len ? (unsigned char)lx->text[lx->pos] : -1;
 }
 
+/* A line ends at LF, at CR LF and at a lone CR (classic Mac OS files): all three count as
+ * one line end, so positions in messages are right whatever wrote the file. */
 static void lex_advance(rib_lexer *lx)
 {
     if (lx->pos >= lx->len) return;
-    if (lx->text[lx->pos] == '\n') {
+    char c = lx->text[lx->pos++];
+    if (c == '\n' || (c == '\r' && (lx->pos >= lx->len || lx->text[lx->pos] != '\n'))) {
         lx->line++;
         lx->col = 1;
     } else {
         lx->col++;
     }
-    lx->pos++;
 }
 
 static int lex_is_space(int c)
@@ -94,8 +96,8 @@ static void lex_skip_space_and_comments(rib_lexer *lx)
         int c = lex_peek(lx);
         if (lex_is_space(c)) {
             lex_advance(lx);
-        } else if (c == '#') {
-            while (lex_peek(lx) >= 0 && lex_peek(lx) != '\n')
+        } else if (c == '#') { /* to the end of the line: LF, CR LF or CR */
+            while (lex_peek(lx) >= 0 && lex_peek(lx) != '\n' && lex_peek(lx) != '\r')
                 lex_advance(lx);
         } else {
             return;
@@ -229,12 +231,18 @@ static int lex_name(rib_lexer *lx, rib_token *tok)
     return TS_OK;
 }
 
+/* A byte that starts no token. Bytes 0x80-0xff are how binary RIB (RI Spec 3.2 Appendix
+ * C.3) encodes its tokens, so such a byte names binary RIB; gzip data never gets here
+ * (rib_text.c inflates it first) and a UTF-8 byte order mark at the start is skipped. */
 static int lex_bad_byte(rib_lexer *lx, const rib_token *tok, int c)
 {
-    char what[48];
-    if (c >= 0x80)
-        snprintf(what, sizeof what, "byte 0x%02x (binary RIB is not supported)", c);
-    else if (c >= 0x20 && c < 0x7f)
+    char what[96];
+    if (c >= 0x80) {
+        snprintf(what, sizeof what,
+                 "(byte 0x%02x starts a binary token; convert the file to ASCII RIB)", c);
+        return lex_error(lx, tok->line, tok->col, "binary RIB is not supported ", what);
+    }
+    if (c >= 0x20 && c < 0x7f)
         snprintf(what, sizeof what, "character '%c'", c);
     else
         snprintf(what, sizeof what, "byte 0x%02x", c);

@@ -1,11 +1,13 @@
 /* rib_options.c — camera and image options that real RIB files give before WorldBegin:
- * PixelSamples (sets the default samples per pixel), Clipping, Shutter and CropWindow
- * (read, checked and stored in ts_camera; the renderer does not apply them yet, which
- * each says once in a warning). docs/rib.md has the rules. */
+ * PixelSamples (sets the default samples per pixel), ScreenWindow (the camera kernel's
+ * window), Exposure (gain and gamma applied to the image written), Clipping, Shutter and
+ * CropWindow (read, checked and stored in ts_camera; the renderer does not apply them yet,
+ * which each says once in a warning). docs/rib.md has the rules. */
 #include "scene/rib/rib_internal.h"
 
 #include <float.h>
 #include <math.h>
+#include <string.h>
 
 /* n numbers, then nothing. */
 static int options_numbers(rib_parser *p, size_t n, double *v)
@@ -80,5 +82,42 @@ int rib_req_crop_window(rib_parser *p)
         p->scene->camera.crop[k] = v[k];
     rib_warn_once(p, p->req_line, p->req_col,
                   "CropWindow is stored but not applied (the whole image is rendered)");
+    return TS_OK;
+}
+
+/* ScreenWindow left right bottom top (RI Spec §4.1.1): the part of the screen plane the
+ * image shows; left < right, bottom < top. */
+int rib_req_screen_window(rib_parser *p)
+{
+    double v[4];
+    int rc = options_numbers(p, 4, v);
+    if (rc != TS_OK) return rc;
+    for (int k = 0; k < 4; k++)
+        if (!(fabs(v[k]) <= FLT_MAX))
+            return rib_error_at(p, p->req_line, p->req_col, "ScreenWindow: %g is out of range",
+                                v[k]);
+    if (!(v[0] < v[1] && v[2] < v[3]))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "ScreenWindow: need left < right and bottom < top, got %g %g %g %g",
+                            v[0], v[1], v[2], v[3]);
+    memcpy(p->scene->camera.screen, v, sizeof v);
+    p->scene->camera.has_screen = 1;
+    return TS_OK;
+}
+
+/* Exposure gain gamma (RI Spec §4.1.3): the image's colours c become (gain c)^(1/gamma)
+ * when it is written (app/output.c); gain >= 0, gamma > 0. An option: it may come before
+ * WorldBegin only. */
+int rib_req_exposure(rib_parser *p)
+{
+    double v[2];
+    int rc = options_numbers(p, 2, v);
+    if (rc != TS_OK) return rc;
+    if (!(v[0] >= 0.0 && v[0] <= FLT_MAX && v[1] > 0.0 && v[1] <= FLT_MAX))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Exposure: need gain >= 0 and gamma > 0, got %g %g", v[0], v[1]);
+    p->scene->camera.has_exposure = v[0] != 1.0 || v[1] != 1.0;
+    p->scene->camera.exposure_gain = v[0];
+    p->scene->camera.exposure_gamma = v[1];
     return TS_OK;
 }

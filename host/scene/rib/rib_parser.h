@@ -62,6 +62,7 @@ typedef struct rib_surface {
     double kd, ks, roughness;
     int textured; /* "texturename": Cs is multiplied by scene texture tex (TS_TEX_RGB) */
     uint32_t tex;
+    int constant; /* Surface "constant": the patch emits its colour Cs and reflects nothing */
 } rib_surface;
 
 /* What AttributeBegin / TransformBegin / WorldBegin saved. */
@@ -75,6 +76,7 @@ typedef struct rib_frame {
     rib_disp disp;
     rib_surface surface;
     double emission[3];
+    double opacity[3];
 } rib_frame;
 
 /* An open MotionBegin [t0 t1] block: its two samples, either two Patch requests of one
@@ -99,6 +101,19 @@ typedef struct rib_motion {
 } rib_motion;
 
 typedef enum rib_world_phase { RIB_BEFORE_WORLD, RIB_IN_WORLD, RIB_AFTER_WORLD } rib_world_phase;
+
+#define RIB_MAX_FRAMES_LISTED 16 /* frame numbers a "no frame N" message lists */
+
+/* FrameBegin/FrameEnd blocks (rib_frames.c): one of them is read, the others skipped. */
+typedef struct rib_frame_choice {
+    int wanted;            /* the FrameBegin number to read; -1: the first frame */
+    int open;              /* inside FrameBegin ... FrameEnd */
+    int reading;           /* the open frame is the one read */
+    int done;              /* the frame read has ended: the rest of the file is skipped */
+    int line, col, number; /* of the open FrameBegin */
+    int count;             /* FrameBegin blocks seen */
+    int numbers[RIB_MAX_FRAMES_LISTED]; /* the numbers of the first ones, for messages */
+} rib_frame_choice;
 
 typedef struct rib_parser {
     rib_lexer lx;
@@ -125,6 +140,7 @@ typedef struct rib_parser {
     rib_disp disp;
     rib_surface surface; /* Surface: material of the following patches */
     double emission[3];  /* AreaLightSource: radiance the following patches emit */
+    double opacity[3];   /* Opacity: 0 0 0 makes the following geometry absent */
     rib_motion motion;
     /* The last world-to-object transform added for a displaced patch, by its CTM. */
     double xf_ctm[16];
@@ -137,6 +153,9 @@ typedef struct rib_parser {
     char warned[RIB_MAX_WARNED][RIB_WARN_KEY];
     int nwarned;
     struct rib_include *inc; /* rib_archive.c: the archives being read, NULL before any */
+    rib_frame_choice frames;
+    int world_line, world_col; /* of the WorldBegin read, 0 before it */
+    int whole_scene; /* rib_load: the file must make a scene (rib_frames.c rib_scene_check) */
 } rib_parser;
 
 #endif

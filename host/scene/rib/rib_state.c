@@ -10,6 +10,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -85,7 +86,10 @@ int rib_req_rotate(rib_parser *p)
     return rib_apply_transform(p, t, 0);
 }
 
-/* A RIB [16] matrix (row vectors) as a column-vector matrix: its transpose. */
+/* A RIB [16] matrix (row vectors) as a column-vector matrix: its transpose. Exporters
+ * write affine matrices through float arithmetic, leaving noise such as -4.8e-09 where the
+ * projective column holds 0 (mtor, Maya): entries there below 1e-6 of the matrix's largest
+ * are taken as the 0 they stand for, so the matrix stays affine. */
 static int rib_matrix(rib_parser *p, double m[16])
 {
     double r[16];
@@ -93,8 +97,13 @@ static int rib_matrix(rib_parser *p, double m[16])
     int rc = rib_numbers(p, &i, 16, r);
     if (rc == TS_OK) rc = rib_no_more(p, i);
     if (rc != TS_OK) return rc;
-    for (int k = 0; k < 16; k++)
+    double big = 0.0;
+    for (int k = 0; k < 16; k++) {
         m[k] = r[(k % 4) * 4 + k / 4];
+        if (k < 12 || k == 15) big = fmax(big, fabs(m[k]));
+    }
+    for (int k = 12; k < 15; k++)
+        if (fabs(m[k]) <= 1e-6 * big) m[k] = 0.0;
     return TS_OK;
 }
 
@@ -150,12 +159,13 @@ static int rib_push(rib_parser *p, rib_frame_kind kind)
     f->disp = p->disp;
     f->surface = p->surface;
     memcpy(f->emission, p->emission, sizeof f->emission);
+    memcpy(f->opacity, p->opacity, sizeof f->opacity);
     return TS_OK;
 }
 
 /* Pops the innermost block, which must be of `kind`. TransformEnd restores the CTM (both
- * time samples) only; AttributeEnd and WorldEnd also restore colour, bases and
- * displacement. */
+ * time samples) only; AttributeEnd and WorldEnd also restore colour, bases, displacement,
+ * surface, emission and opacity. */
 static int rib_pop(rib_parser *p, rib_frame_kind kind)
 {
     int rc = rib_no_more(p, 0);
@@ -177,6 +187,7 @@ static int rib_pop(rib_parser *p, rib_frame_kind kind)
         p->disp = top->disp;
         p->surface = top->surface;
         memcpy(p->emission, top->emission, sizeof p->emission);
+        memcpy(p->opacity, top->opacity, sizeof p->opacity);
     }
     p->depth--;
     return TS_OK;
@@ -329,6 +340,8 @@ int rib_req_world_begin(rib_parser *p)
     mat4_identity(p->ctm1);
     p->xf_valid = 0;
     p->phase = RIB_IN_WORLD;
+    p->world_line = p->req_line;
+    p->world_col = p->req_col;
     return TS_OK;
 }
 
@@ -349,21 +362,38 @@ int rib_before_world(rib_parser *p)
     return rib_error_at(p, p->req_line, p->req_col, "%s must come before WorldBegin", p->req);
 }
 
+/* One resolution of Format: nonpositive means the default (RI Spec §4.1.1: "the display
+ * device's"; here 640 x 480), else an integer in [1, 65536]. */
+static int rib_format_size(rib_parser *p, size_t i, const char *what, double v, int dflt, int *out)
+{
+    if (v <= 0.0) {
+        *out = dflt;
+        return TS_OK;
+    }
+    if (!(v <= 65536.0 && v == floor(v)))
+        return rib_error_at(p, p->args[i].line, p->args[i].col,
+                            "Format: %s must be an integer in [1, 65536] (or -1: the default), "
+                            "got %g",
+                            what, v);
+    *out = (int)v;
+    return TS_OK;
+}
+
+/* Format xresolution yresolution pixelaspectratio; a nonpositive value (RIB files write -1)
+ * takes the default: 640, 480, 1. */
 int rib_req_format(rib_parser *p)
 {
     size_t i = 0;
     int w, h;
-    double aspect;
+    double v[3];
     int rc = rib_before_world(p);
-    if (rc == TS_OK) rc = rib_integer(p, &i, "xresolution", 65536, &w);
-    if (rc == TS_OK) rc = rib_integer(p, &i, "yresolution", 65536, &h);
-    if (rc == TS_OK) rc = rib_numbers(p, &i, 1, &aspect);
+    if (rc == TS_OK) rc = rib_numbers(p, &i, 3, v);
     if (rc == TS_OK) rc = rib_no_more(p, i);
+    size_t at = i == 1 ? 0 : 1; /* the yresolution's argument: [x y a] is one */
+    if (rc == TS_OK) rc = rib_format_size(p, 0, "xresolution", v[0], 640, &w);
+    if (rc == TS_OK) rc = rib_format_size(p, at, "yresolution", v[1], 480, &h);
     if (rc != TS_OK) return rc;
-    if (!(aspect > 0.0))
-        return rib_error_at(p, p->args[i - 1].line, p->args[i - 1].col,
-                            "Format: the pixel aspect ratio must be positive, got %g", aspect);
-    if (aspect != 1.0)
+    if (v[2] > 0.0 && v[2] != 1.0)
         rib_warn_once(p, p->req_line, p->req_col, "Format pixel aspect ratio is ignored");
     p->scene->camera.width = w;
     p->scene->camera.height = h;
@@ -372,27 +402,27 @@ int rib_req_format(rib_parser *p)
 }
 
 /* Projection "perspective" ["fov" f]: fov is the full angle across the shorter image axis.
- * Like RiProjection, it restarts the CTM at the identity (RI Spec §4.1.1). */
+ * Projection "orthographic": parallel rays, the screen window in camera-space units. Like
+ * RiProjection, it restarts the CTM at the identity (RI Spec §4.1.1). */
 int rib_req_projection(rib_parser *p)
 {
     const char *name;
     int rc = rib_before_world(p);
     if (rc == TS_OK) rc = rib_string_arg(p, 0, "a projection name", &name);
     if (rc != TS_OK) return rc;
-    if (strcmp(name, "orthographic") == 0)
-        return rib_error_at(
-            p, p->args[0].line, p->args[0].col,
-            "Projection \"orthographic\" is not supported yet (only \"perspective\")");
     char shown[RIB_PRINT_MAX];
-    if (strcmp(name, "perspective") != 0)
-        return rib_error_at(p, p->args[0].line, p->args[0].col, "unknown projection \"%s\"",
+    int ortho = strcmp(name, "orthographic") == 0;
+    if (!ortho && strcmp(name, "perspective") != 0)
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "unknown projection \"%s\" (perspective or orthographic)",
                             rib_printable(name, shown));
+    p->scene->camera.projection = ortho ? TS_PROJECTION_ORTHOGRAPHIC : TS_PROJECTION_PERSPECTIVE;
     for (size_t i = 1; i < p->nargs; i += 2) {
         rib_param prm;
         const double *v;
         rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
-        if (strcmp(prm.name, "fov") != 0) {
+        if (ortho || strcmp(prm.name, "fov") != 0) {
             rib_warn_param(p, &prm);
             continue;
         }
@@ -489,10 +519,17 @@ int rib_req_displacement(rib_parser *p)
         d.kind = TS_DISP_RIDGED;
     else if (strcmp(name, "texture") == 0)
         d.kind = TS_DISP_TEXTURE;
-    else if (!off)
-        return rib_error_at(p, p->args[0].line, p->args[0].col,
-                            "unknown displacement \"%s\" (fbm, ridged, texture or null)",
-                            rib_printable(name, shown));
+    else if (!off) {
+        /* A shader Tessera does not have (a custom .sl name): like an unknown Surface, one
+         * warning and the fallback, here no displacement; its parameters are its own. */
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "Displacement \"%s\" is unknown: no displacement (fbm, ridged, texture or null)",
+                 rib_printable(name, shown));
+        rib_warn_once(p, p->args[0].line, p->args[0].col, what);
+        p->disp = d;
+        return TS_OK;
+    }
     int tex = d.kind == TS_DISP_TEXTURE;
     for (size_t i = 1; i < p->nargs; i += 2) {
         rib_param prm;

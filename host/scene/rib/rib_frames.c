@@ -1,0 +1,132 @@
+/* rib_frames.c — FrameBegin/FrameEnd (RI Spec 3.2 §4.1.1) and the checks on a file as a whole
+ * scene. An animation writes one FrameBegin n ... FrameEnd block per frame, each with its own
+ * options, camera and world; Tessera renders one of them (`tessera render --frame n`, by
+ * default the first) and reads the requests of the others only as tokens: they are never
+ * dispatched. Requests before the first FrameBegin (shared options) are read; everything
+ * after the chosen frame's FrameEnd is skipped. At the end of a file that must make a scene
+ * (rib_load), a file without a world block or geometry is an error and one without light a
+ * warning (issue 15 item 3: such files used to render a black image over the output). */
+#include "scene/rib/rib_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+int rib_frames_skip(const rib_parser *p)
+{
+    const rib_frame_choice *f = &p->frames;
+    if (strcmp(p->req, "FrameBegin") == 0 || strcmp(p->req, "FrameEnd") == 0) return 0;
+    return f->done || (f->open && !f->reading);
+}
+
+/* FrameBegin n: n an integer. Frames may not nest, nor open inside another block. */
+int rib_req_frame_begin(rib_parser *p)
+{
+    rib_frame_choice *f = &p->frames;
+    double v;
+    size_t i = 0;
+    int rc = rib_numbers(p, &i, 1, &v);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    if (rc != TS_OK) return rc;
+    if (!(v == floor(v) && fabs(v) < 2147483648.0))
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "FrameBegin: the frame number must be an integer, got %g", v);
+    if (f->open)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "FrameBegin inside the frame %d at %d:%d (missing FrameEnd)", f->number,
+                            f->line, f->col);
+    if (p->depth > 0 || p->motion.active) {
+        int line = p->depth ? p->stack[p->depth - 1].line : p->motion.line;
+        int col = p->depth ? p->stack[p->depth - 1].col : p->motion.col;
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "FrameBegin inside the block opened at %d:%d (a frame holds its world "
+                            "block, not the other way round)",
+                            line, col);
+    }
+    if (!f->done && p->phase == RIB_AFTER_WORLD)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "FrameBegin after the world block at %d:%d, which no frame holds",
+                            p->world_line, p->world_col);
+    if (f->count < RIB_MAX_FRAMES_LISTED) f->numbers[f->count] = (int)v;
+    f->count++;
+    f->open = 1;
+    f->line = p->req_line;
+    f->col = p->req_col;
+    f->number = (int)v;
+    f->reading = !f->done && (f->wanted < 0 || f->wanted == f->number);
+    return TS_OK;
+}
+
+/* FrameEnd: the frame read must have closed its blocks; then the rest of the file is
+ * skipped. */
+int rib_req_frame_end(rib_parser *p)
+{
+    rib_frame_choice *f = &p->frames;
+    int rc = rib_no_more(p, 0);
+    if (rc != TS_OK) return rc;
+    if (!f->open) return rib_error_at(p, p->req_line, p->req_col, "FrameEnd without FrameBegin");
+    if (f->reading) {
+        rc = rib_check_closed(p);
+        if (rc != TS_OK) return rc;
+        f->done = 1;
+        f->reading = 0;
+    }
+    f->open = 0;
+    return TS_OK;
+}
+
+/* "1, 2, 3" (the first RIB_MAX_FRAMES_LISTED, then "... (N frames)"). */
+static void rib_frames_list(const rib_frame_choice *f, char *buf, size_t cap)
+{
+    size_t n = 0;
+    int shown = f->count < RIB_MAX_FRAMES_LISTED ? f->count : RIB_MAX_FRAMES_LISTED;
+    buf[0] = '\0';
+    for (int k = 0; k < shown && n < cap; k++)
+        n += (size_t)snprintf(buf + n, cap - n, "%s%d", k ? ", " : "", f->numbers[k]);
+    if (f->count > shown && n < cap) snprintf(buf + n, cap - n, ", ... (%d frames)", f->count);
+}
+
+int rib_frames_finish(rib_parser *p)
+{
+    rib_frame_choice *f = &p->frames;
+    if (f->open)
+        return rib_error_at(p, f->line, f->col, "FrameBegin is never closed (missing FrameEnd)");
+    if (f->wanted < 0 || f->done) return TS_OK;
+    if (f->count == 0)
+        return rib_error_at(p, p->lx.line, p->lx.col,
+                            "no frame %d: the file has no FrameBegin (render it without --frame)",
+                            f->wanted);
+    char list[512];
+    rib_frames_list(f, list, sizeof list);
+    return rib_error_at(p, p->lx.line, p->lx.col, "no frame %d: the file's frames are %s",
+                        f->wanted, list);
+}
+
+/* Whether anything in the scene gives light: a light, a dome, an emissive patch. */
+static int rib_scene_has_light(const ts_scene *s)
+{
+    if (s->light_count > 0 || s->dome.present) return 1;
+    for (uint32_t q = 0; q < s->patch_count; q++)
+        if (s->attr[q].le_r > 0.0f || s->attr[q].le_g > 0.0f || s->attr[q].le_b > 0.0f) return 1;
+    return 0;
+}
+
+int rib_scene_check(rib_parser *p)
+{
+    const ts_scene *s = p->scene;
+    const char *frame = p->frames.count ? " of the frame read" : "";
+    if (s->patch_count == 0 && p->world_line == 0)
+        return rib_error_at(p, p->lx.line, p->lx.col,
+                            "the file ends without a world block%s (WorldBegin ... WorldEnd) and "
+                            "holds no geometry: nothing to render",
+                            frame);
+    if (s->patch_count == 0)
+        return rib_error_at(p, p->world_line, p->world_col,
+                            "the world block%s holds no geometry: nothing to render", frame);
+    if (!rib_scene_has_light(s))
+        rib_warn_once(p, p->world_line ? p->world_line : 1, p->world_col ? p->world_col : 1,
+                      "the scene has no light Tessera renders (LightSource \"distantlight\" or "
+                      "\"domelight\", AreaLightSource, Surface \"constant\"): the image will be "
+                      "black");
+    return TS_OK;
+}

@@ -1,0 +1,166 @@
+/* test_bsdf.c — the materials of kernels/lib/bsdf.h (matte, plastic, metal) on the host, the
+ * same code the shade kernel runs. For each material and several view angles:
+ * - energy: the albedo E[f cos_i / pdf] over bsdf_sample's directions is at most 1 for a
+ *   white surface (Kd Cs for matte exactly), and metal's is tinted by Cs channel for channel;
+ * - the pdf integrates to what the sampler delivers: over bins of the hemisphere, the
+ *   fraction of bsdf_sample's directions in a bin matches the integral of bsdf_eval's pdf
+ *   over it (estimated by uniform directions), and at normal incidence the whole integral
+ *   is 1 for the cosine and the smooth GGX lobes (rough ones lose samples below the
+ *   horizon, which the bins count);
+ * - bsdf_sample's pdf and f are bsdf_eval's for the direction it returns.
+ * Tolerances are 5 standard errors of the estimates. Host only: never skips. */
+#include "lib/bsdf.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <setjmp.h>
+#include <cmocka.h>
+#include "test_support.h"
+
+#define N_SAMPLES 200000
+#define N_UNIFORM 400000
+#define THETA_BINS 6
+#define PHI_BINS 4
+
+static ts_patch_attr material(uint32_t kind, float kd, float ks, float roughness)
+{
+    ts_patch_attr a;
+    memset(&a, 0, sizeof a);
+    a.material = kind;
+    a.kd = kd;
+    a.ks = ks;
+    a.roughness = roughness;
+    a.emitter = TS_INVALID;
+    return a;
+}
+
+/* The bin of direction w (local frame, z = the normal); -1 below the horizon. */
+static int bin_of(ts_v3 w)
+{
+    if (w.z <= 0.0f) return -1;
+    int t = (int)(acosf(fminf(w.z, 1.0f)) / (0.5f * TS_PI) * THETA_BINS);
+    float phi = atan2f(w.y, w.x) + TS_PI;
+    int p = (int)(phi / (2.0f * TS_PI) * PHI_BINS);
+    t = t < THETA_BINS ? t : THETA_BINS - 1;
+    p = p < PHI_BINS ? p : PHI_BINS - 1;
+    return t * PHI_BINS + p;
+}
+
+typedef struct check {
+    const char *name;
+    ts_patch_attr a;
+    float cs[3];
+} check;
+
+/* Energy and sampling for one material seen at cos(theta_o) = co. */
+static void check_material(const check *c, float co)
+{
+    ts_v3 n = v3(0, 0, 1), wo = v3(sqrtf(1.0f - co * co), 0.0f, co);
+    uint32_t seed = 12345u;
+    double albedo[3] = {0, 0, 0}, sq[3] = {0, 0, 0}, freq[THETA_BINS * PHI_BINS] = {0};
+    for (int k = 0; k < N_SAMPLES; k++) {
+        float u0 = test_uniform(&seed, 0, 1), u1 = test_uniform(&seed, 0, 1),
+              u2 = test_uniform(&seed, 0, 1);
+        ts_v3 wi;
+        float f[3], fe[3];
+        float pdf = bsdf_sample(&c->a, c->cs, n, wo, u0, u1, u2, &wi, f);
+        if (!(pdf > 0.0f)) continue;
+        float pe = bsdf_eval(&c->a, c->cs, n, wo, wi, fe);
+        assert_true(pe == pdf && fe[0] == f[0] && fe[1] == f[1] && fe[2] == f[2]);
+        for (int ch = 0; ch < 3; ch++) {
+            double w = f[ch] * v3_dot(n, wi) / pdf;
+            albedo[ch] += w, sq[ch] += w * w;
+        }
+        int b = bin_of(wi);
+        if (b >= 0) freq[b] += 1.0;
+    }
+    for (int ch = 0; ch < 3; ch++) {
+        double mean = albedo[ch] / N_SAMPLES, var = sq[ch] / N_SAMPLES - mean * mean;
+        double tol = 5.0 * sqrt(fmax(var, 0.0) / N_SAMPLES) + 1e-6;
+        if (mean > c->cs[ch] + tol)
+            fail_msg("%s at cos %g: albedo %g in channel %d exceeds Cs %g (tol %g)", c->name, co,
+                     mean, ch, c->cs[ch], tol);
+        if (c->a.material == TS_MAT_MATTE && fabs(mean - c->a.kd * c->cs[ch]) > tol)
+            fail_msg("%s: albedo %g, want Kd Cs = %g", c->name, mean, c->a.kd * c->cs[ch]);
+        if (c->a.material == TS_MAT_METAL && ch > 0 &&
+            fabs(albedo[ch] / albedo[0] - c->cs[ch] / c->cs[0]) > 1e-4)
+            fail_msg("%s: channel %d / channel 0 = %g, want Cs ratio %g", c->name, ch,
+                     albedo[ch] / albedo[0], c->cs[ch] / c->cs[0]);
+    }
+    /* The pdf's integral over each bin, by uniform directions on the hemisphere (density
+     * 1 / 2 pi), against the fraction of samples that fell there. */
+    double mass[THETA_BINS * PHI_BINS] = {0}, msq[THETA_BINS * PHI_BINS] = {0}, total = 0,
+                             total_sq = 0;
+    for (int k = 0; k < N_UNIFORM; k++) {
+        float z = test_uniform(&seed, 0, 1), phi = test_uniform(&seed, 0, 2.0f * TS_PI);
+        float r = sqrtf(fmaxf(0.0f, 1.0f - z * z));
+        ts_v3 wi = v3(r * cosf(phi), r * sinf(phi), z);
+        float f[3];
+        double v = 2.0 * TS_PI * bsdf_eval(&c->a, c->cs, n, wo, wi, f);
+        int b = bin_of(wi);
+        if (b < 0) continue;
+        mass[b] += v, msq[b] += v * v, total += v, total_sq += v * v;
+    }
+    for (int b = 0; b < THETA_BINS * PHI_BINS; b++) {
+        double m = mass[b] / N_UNIFORM, vm = msq[b] / N_UNIFORM - m * m;
+        double fq = freq[b] / N_SAMPLES;
+        double tol =
+            5.0 * (sqrt(fmax(vm, 0.0) / N_UNIFORM) + sqrt(fq * (1 - fq) / N_SAMPLES)) + 2e-4;
+        if (fabs(m - fq) > tol)
+            fail_msg("%s at cos %g, bin %d: pdf integral %g, sampled fraction %g (tol %g)", c->name,
+                     co, b, m, fq, tol);
+    }
+    /* Rough GGX lobes send part of their samples below the horizon (pdf 0 there, counted
+     * by the bins above); a smooth one, and the cosine lobe, stay above at normal
+     * incidence, so their pdf integrates to 1 over the hemisphere. */
+    double mean = total / N_UNIFORM;
+    double tol = 5.0 * sqrt(fmax(total_sq / N_UNIFORM - mean * mean, 0.0) / N_UNIFORM) + 0.01;
+    if (co == 1.0f && c->a.roughness <= 0.1f && fabs(mean - 1.0) > tol)
+        fail_msg("%s: the pdf integrates to %g over the hemisphere at normal incidence (tol %g)",
+                 c->name, mean, tol);
+}
+
+static void test_materials(void **state)
+{
+    (void)state;
+    const check checks[] = {
+        {"matte", material(TS_MAT_MATTE, 0.8f, 0.0f, 0.1f), {1, 0.5f, 0.25f}},
+        {"plastic", material(TS_MAT_PLASTIC, 0.5f, 0.5f, 0.1f), {1, 1, 1}},
+        {"rough plastic", material(TS_MAT_PLASTIC, 0.3f, 0.7f, 0.6f), {1, 1, 1}},
+        {"metal", material(TS_MAT_METAL, 0.0f, 1.0f, 0.1f), {1, 0.5f, 0.25f}},
+        {"rough metal", material(TS_MAT_METAL, 0.0f, 1.0f, 0.7f), {1, 1, 1}},
+        {"smooth metal", material(TS_MAT_METAL, 0.0f, 0.9f, 0.02f), {0.9f, 0.8f, 0.3f}},
+        /* Metal ignores Kd: a stray one must not add a diffuse part. */
+        {"metal with Kd", material(TS_MAT_METAL, 0.7f, 1.0f, 0.3f), {1, 1, 1}},
+    };
+    const float cos_o[] = {1.0f, 0.7f, 0.3f, 0.1f};
+    for (size_t k = 0; k < sizeof checks / sizeof checks[0]; k++)
+        for (size_t j = 0; j < sizeof cos_o / sizeof cos_o[0]; j++)
+            check_material(&checks[k], cos_o[j]);
+}
+
+/* Metal without Kd has no diffuse part: below the specular lobe (wi far from the mirror
+ * direction) f vanishes with D, unlike plastic's Kd Cs / pi. */
+static void test_metal_has_no_diffuse(void **state)
+{
+    (void)state;
+    ts_patch_attr m = material(TS_MAT_METAL, 0.7f, 1.0f, 0.05f);
+    ts_patch_attr p = material(TS_MAT_PLASTIC, 0.5f, 0.5f, 0.05f);
+    const float cs[3] = {1, 1, 1};
+    ts_v3 n = v3(0, 0, 1), wo = v3(0, 0, 1), wi = v3_normalize(v3(1, 0, 0.2f));
+    float f[3];
+    float pdf = bsdf_eval(&m, cs, n, wo, wi, f);
+    assert_true(f[0] < 0.01f && pdf < 0.05f);
+    bsdf_eval(&p, cs, n, wo, wi, f);
+    assert_true(fabsf(f[0] - 0.5f / TS_PI) < 0.01f);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_materials),
+        cmocka_unit_test(test_metal_has_no_diffuse),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
