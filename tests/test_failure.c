@@ -205,6 +205,28 @@ static void test_launch_failure_mid_render_is_retried(void **state)
     assert_same_image(ref, "launch.exr");
 }
 
+/* A launch that fails in the first wave, before any sample is in the film: the smaller
+ * budget dices at other levels of detail (m = 7 at 16 MB, m = 8 at 32 MB), which is no
+ * reason to refuse it, since no sample was traced at the old ones. The image is the one
+ * --memory 16 makes. */
+static void test_launch_failure_in_the_first_wave_is_retried(void **state)
+{
+    (void)state;
+    const char *scene = test_source_path("scene/one_patch.rib");
+    setenv("TESSERA_FAIL_LAUNCH", "10", 1);
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' --res 256x256 --memory 32", scene,
+                              in_dir("first_wave.exr"));
+    unsetenv("TESSERA_FAIL_LAUNCH");
+    const char *err = stderr_text();
+    if (rc != 0) fail_msg("exit status %d:\n%s", rc, err);
+    const char *retry = strstr(err, "retrying with 16 MB"), *progress = strstr(err, " samples, ");
+    if (!retry || (progress && progress < retry))
+        fail_msg("no retry before the first finished wave:\n%s", err);
+    test_tessera_ok(dir, "render '%s' -o '%s' --res 256x256 --memory 16 --quiet", scene,
+                    in_dir("at16.exr"));
+    test_assert_same_pixels(in_dir("at16.exr"), in_dir("first_wave.exr"));
+}
+
 static void test_sigterm_writes_the_finished_samples(void **state)
 {
     (void)state;
@@ -319,6 +341,7 @@ int main(void)
         cmocka_unit_test(test_alloc_failure_is_retried),
         cmocka_unit_test(test_alloc_failure_gives_up),
         cmocka_unit_test(test_launch_failure_mid_render_is_retried),
+        cmocka_unit_test(test_launch_failure_in_the_first_wave_is_retried),
         cmocka_unit_test(test_sigterm_writes_the_finished_samples),
         cmocka_unit_test(test_resume_matches_the_uninterrupted_render),
         cmocka_unit_test(test_kernel_build_failure_names_file_and_line),

@@ -341,6 +341,9 @@ static int render_with_retry(ts_render *r, ts_error *err)
         ts_error_set(&b.oom, err->code, "%s", err->msg);
         ts_error_clear(err);
         int kept = render_keep_samples(r, before);
+        /* With no sample in the film yet, the smaller budget may dice at other levels of
+         * detail: there is nothing for them to disagree with. */
+        if (r->job.samples_done == 0) r->job.check_lod = 0;
         if (!kept || b.mb / 2 < TS_MEMORY_FLOOR_MB) {
             rc = render_give_up(r, &b, kept, err);
             break;
