@@ -325,7 +325,15 @@ static int render_give_up(const ts_render *r, const ts_budget *b, int kept, ts_e
                         b->oom.msg, (unsigned long long)b->mb, (unsigned long long)b->first_mb);
 }
 
-/* Plan, create, render; when the device runs out of memory (dev_is_out_of_memory), keep
+/* Memory ran out, on the device (dev_is_out_of_memory) or on the host (the sort's host
+ * buffers and the device's own allocations on CPU devices grow with the budget too): a
+ * smaller budget may fit. */
+static int render_out_of_memory(const ts_error *err)
+{
+    return dev_is_out_of_memory(err) || err->code == TS_E_MEMORY;
+}
+
+/* Plan, create, render; when memory runs out (render_out_of_memory), keep
  * the finished samples, halve the budget and go on from them, down to TS_MEMORY_FLOOR_MB. */
 static int render_with_retry(ts_render *r, ts_error *err)
 {
@@ -336,7 +344,7 @@ static int render_with_retry(ts_render *r, ts_error *err)
     for (;;) {
         uint64_t before = r->job.samples_done;
         rc = render_attempt(r, &b, err);
-        if (!rc || !dev_is_out_of_memory(err)) break;
+        if (!rc || !render_out_of_memory(err)) break;
         ts_error_clear(&b.oom);
         ts_error_set(&b.oom, err->code, "%s", err->msg);
         ts_error_clear(err);

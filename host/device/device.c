@@ -428,6 +428,11 @@ cl_mem dev_buffer_create(ts_device *cl, cl_mem_flags flags, size_t size, void *h
         --fail_alloc_left;
         rc = CL_MEM_OBJECT_ALLOCATION_FAILURE;
     }
+    /* On devices that share host memory (PoCL's CPU device), a buffer without host data
+     * is otherwise allocated at its first use, inside an enqueue that cannot report the
+     * failure (PoCL 3.1 asserts, exit 134, issue 15). CL_MEM_ALLOC_HOST_PTR makes
+     * clCreateBuffer allocate it, where running out is an error we can retry. */
+    if (!host && cl->info.host_unified) flags |= CL_MEM_ALLOC_HOST_PTR;
     if (rc == CL_SUCCESS) m = clCreateBuffer(cl->context, flags, size ? size : 1, host, &rc);
     if (rc != CL_SUCCESS) {
         dev_fail(err, rc, "clCreateBuffer(%zu bytes)", size);
