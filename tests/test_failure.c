@@ -1,9 +1,9 @@
 /* test_failure.c — failures as a user meets them (docs/errors.md): the device running out
  * of memory (injected with TESSERA_FAIL_ALLOC / TESSERA_FAIL_LAUNCH) is retried with a
- * smaller budget or ends in one clear line; SIGTERM during a render writes the finished
- * samples and exits 3; --resume continues such an image to exactly the bits of an
- * uninterrupted render and refuses one made by another command; a kernel that does not
- * compile names kernels/FILE.cl:LINE. */
+ * smaller budget, ends with the finished samples written, or ends in one clear line;
+ * SIGTERM during a render writes the finished samples and exits 3; --resume continues such
+ * an image to exactly the bits of an uninterrupted render and refuses one made by another
+ * command; a kernel that does not compile names kernels/FILE.cl:LINE. */
 #include "test_support.h"
 #include "image/image.h"
 
@@ -227,6 +227,30 @@ static void test_launch_failure_in_the_first_wave_is_retried(void **state)
     test_assert_same_pixels(in_dir("at16.exr"), in_dir("first_wave.exr"));
 }
 
+/* Memory runs out at the smallest budget after waves were finished: they are written as a
+ * resumable partial EXR (exit status 3), and --resume completes it to the bits of the
+ * uninterrupted render. */
+static void test_out_of_memory_at_the_floor_writes_the_finished_samples(void **state)
+{
+    (void)state;
+    const char *ref = reference(), *scene = test_source_path("scene/teapot.rib");
+    setenv("TESSERA_FAIL_LAUNCH", "300", 1);
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS, scene, in_dir("floor.exr"));
+    unsetenv("TESSERA_FAIL_LAUNCH");
+    if (rc != 3) fail_msg("exit status %d:\n%s", rc, stderr_text());
+    expect_in_stderr("tessera: CL_OUT_OF_RESOURCES in clEnqueueNDRangeKernel(");
+    expect_in_stderr("the device could not provide 16 MB");
+    expect_in_stderr(" samples finished to ");
+    expect_in_stderr("(continue with --resume once more memory is free)");
+    assert_no_temporary();
+    unsigned done = (unsigned)meta_int("floor.exr", "tessera:samples_done");
+    assert_true(done > 0 && done < TOTAL);
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
+                                      scene, in_dir("floor.exr")),
+                     0);
+    assert_same_image(ref, "floor.exr");
+}
+
 static void test_sigterm_writes_the_finished_samples(void **state)
 {
     (void)state;
@@ -342,6 +366,7 @@ int main(void)
         cmocka_unit_test(test_alloc_failure_gives_up),
         cmocka_unit_test(test_launch_failure_mid_render_is_retried),
         cmocka_unit_test(test_launch_failure_in_the_first_wave_is_retried),
+        cmocka_unit_test(test_out_of_memory_at_the_floor_writes_the_finished_samples),
         cmocka_unit_test(test_sigterm_writes_the_finished_samples),
         cmocka_unit_test(test_resume_matches_the_uninterrupted_render),
         cmocka_unit_test(test_kernel_build_failure_names_file_and_line),

@@ -8,8 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Exit statuses (docs/errors.md): 0 done, 1 error, 3 interrupted by SIGINT or SIGTERM with
- * the finished samples written. */
+/* Exit statuses (docs/errors.md): 0 done, 1 error, 3 stopped early with the finished samples
+ * written (SIGINT or SIGTERM, or memory ran out at the smallest budget). */
 #define TS_EXIT_INTERRUPTED 3
 
 static const char *usage_text =
@@ -85,13 +85,19 @@ static int report_outcome(const ts_render_options *o, const ts_stats *stats,
                 o->output_path, result->samples_total);
         return 0;
     }
+    const char *ext = strrchr(o->output_path, '.');
+    const char *how = ext && strcmp(ext, ".exr") == 0 ? "continue with --resume"
+                                                      : "a partial PNG cannot be resumed: use .exr";
     if (result->outcome == TS_RENDER_INTERRUPTED) {
-        const char *ext = strrchr(o->output_path, '.');
         fprintf(stderr, "tessera: interrupted by %s after %llu of %llu samples; wrote %s (%s)\n",
                 result->signal == SIGINT ? "SIGINT" : "SIGTERM", result->samples_done,
-                result->samples_total, o->output_path,
-                ext && strcmp(ext, ".exr") == 0 ? "continue with --resume"
-                                                : "a partial PNG cannot be resumed: use .exr");
+                result->samples_total, o->output_path, how);
+        return TS_EXIT_INTERRUPTED;
+    }
+    if (result->outcome == TS_RENDER_OUT_OF_MEMORY) {
+        fprintf(stderr, "tessera: %s; wrote the %llu of %llu samples finished to %s (%s%s)\n",
+                result->reason, result->samples_done, result->samples_total, o->output_path, how,
+                ext && strcmp(ext, ".exr") == 0 ? " once more memory is free" : "");
         return TS_EXIT_INTERRUPTED;
     }
     if (!o->quiet) {

@@ -40,45 +40,36 @@ static void output_pixel(ts_vec4 acc, ts_vec4 aov, ts_vec4 alb, float v[TS_EXR_P
     v[TS_EXR_COUNT] = acc.w;
 }
 
-int output_write(const ts_render_options *o, ts_pipeline *p, int width, int height,
+int output_write(const ts_render_options *o, const ts_film_state *films, int width, int height,
                  const ts_job *job, ts_error *err)
 {
     size_t npix = (size_t)width * height;
     int partial = job->samples_done < job->total;
-    ts_vec4 *acc = malloc(npix * sizeof *acc), *aov = malloc(npix * sizeof *aov);
-    ts_vec4 *alb = malloc(npix * sizeof *alb);
-    float *px = malloc(npix * TS_EXR_PARTIAL_CHANNELS * sizeof *px);
-    int rc = TS_OK;
-    if (!acc || !aov || !alb || !px) rc = ts_error_set(err, TS_E_MEMORY, "out of memory (image)");
-    cl_command_queue q = p->cl->queue;
-    if (!rc &&
-        (clEnqueueReadBuffer(q, p->accum, CL_TRUE, 0, npix * sizeof *acc, acc, 0, NULL, NULL) ||
-         clEnqueueReadBuffer(q, p->aov_film, CL_TRUE, 0, npix * sizeof *aov, aov, 0, NULL, NULL) ||
-         clEnqueueReadBuffer(q, p->albedo_film, CL_TRUE, 0, npix * sizeof *alb, alb, 0, NULL,
-                             NULL)))
-        rc = ts_error_set(err, TS_E_DEVICE, "reading the image back from the device failed");
     const char *ext = strrchr(o->output_path, '.');
     int exr = ext && strcmp(ext, ".exr") == 0;
     int nch = !exr ? 3 : partial ? TS_EXR_PARTIAL_CHANNELS : TS_EXR_COMPLETE_CHANNELS;
-    for (size_t i = 0; !rc && i < npix; ++i) {
+    float *px = malloc(npix * (size_t)nch * sizeof *px);
+    if (!px) return ts_error_set(err, TS_E_MEMORY, "out of memory (image)");
+    for (size_t i = 0; i < npix; ++i) {
         float v[TS_EXR_PARTIAL_CHANNELS];
-        output_pixel(acc[i], aov[i], alb[i], v);
+        output_pixel(films->accum[i], films->aov[i], films->albedo[i], v);
         memcpy(&px[i * nch], v, nch * sizeof(float)); /* PNG: R, G, B */
     }
-    if (!rc && exr) {
+    int rc;
+    if (exr) {
         /* image_write_exr only reads the names. */
         ts_image img = {width, height, nch, (const char **)ts_exr_channel_names, px};
         ts_image_meta meta[] = {
             {ts_exr_meta_keys[TS_EXR_META_spp], o->spp},
-            {ts_exr_meta_keys[TS_EXR_META_max_lod], (int)p->plan.max_lod},
+            {ts_exr_meta_keys[TS_EXR_META_max_lod], (int)job->max_lod},
             {ts_exr_meta_keys[TS_EXR_META_samples_done], (int)(uint32_t)job->samples_done},
             {ts_exr_meta_keys[TS_EXR_META_seed], (int)o->seed},
             {ts_exr_meta_keys[TS_EXR_META_job], job->hash},
             {ts_exr_meta_keys[TS_EXR_META_lod], job->lod}};
         rc = image_write_exr(o->output_path, &img, meta, (int)(sizeof meta / sizeof *meta), err);
-    } else if (!rc) {
+    } else {
         rc = image_write_png(o->output_path, width, height, px, err);
     }
-    free(acc), free(aov), free(alb), free(px);
+    free(px);
     return rc;
 }

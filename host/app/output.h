@@ -1,6 +1,6 @@
 /* output.h — the image `tessera render` writes to -o: the path checked before anything
- * runs, then the film read back into an EXR (float RGB, AOVs, and what --resume needs;
- * channels and metadata in resume.h) or a tone-mapped PNG. */
+ * runs, then the films (their host copy) written as an EXR (float RGB, AOVs, and what
+ * --resume needs; channels and metadata in resume.h) or a tone-mapped PNG. */
 #ifndef TS_OUTPUT_H
 #define TS_OUTPUT_H
 
@@ -12,11 +12,11 @@
  * hold the sums of the samples). TS_E_USAGE otherwise. */
 int output_check(const ts_render_options *o, ts_error *err);
 
-/* Reads p's films back and writes o->output_path, width x height, atomically (image.h).
- * An EXR of an unfinished render (job->samples_done < job->total) gets all
+/* Writes o->output_path, width x height, atomically (image.h), from the host copy of the
+ * films (resume.h). An EXR of an unfinished render (job->samples_done < job->total) gets all
  * TS_EXR_PARTIAL_CHANNELS, a finished one TS_EXR_COMPLETE_CHANNELS; both get the
- * TS_EXR_METAS from o, p's plan and job. */
-int output_write(const ts_render_options *o, ts_pipeline *p, int width, int height,
+ * TS_EXR_METAS from o and job (job->max_lod: the finest m of the samples in the films). */
+int output_write(const ts_render_options *o, const ts_film_state *films, int width, int height,
                  const ts_job *job, ts_error *err);
 
 #endif

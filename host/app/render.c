@@ -187,9 +187,14 @@ typedef struct ts_render {
     ts_scene scene;
     ts_camera_params cam;
     ts_job job;
-    ts_film_state state; /* samples the device's films lack: resumed, or kept over a retry */
+    /* The host copy of the films: the samples [0, job.samples_done) the device's films lack
+     * (resumed, or kept over a retry), and the image render_write writes. */
+    ts_film_state state;
     ts_device cl;
     ts_pipeline pipe;
+    /* Set when memory ran out at the smallest budget with samples finished: why. The
+     * finished samples (in state) are written as a partial image. */
+    ts_error stopped;
 } ts_render;
 
 static void render_init(ts_render *r, const ts_render_options *o, ts_stats *stats)
@@ -201,6 +206,7 @@ static void render_init(ts_render *r, const ts_render_options *o, ts_stats *stat
 
 static void render_free(ts_render *r)
 {
+    ts_error_clear(&r->stopped);
     film_state_free(&r->state);
     pipeline_destroy(&r->pipe);
     dev_close(&r->cl);
@@ -287,20 +293,20 @@ static int render_attempt(ts_render *r, ts_budget *b, ts_error *err)
     if (render_plan(r, b, &plan, err) ||
         pipeline_create(&r->pipe, &r->cl, &r->scene, &plan, (uint32_t)(r->width * r->height),
                         r->stats, err) ||
-        (r->state.accum && film_state_transfer(&r->pipe, &r->state, 1, err)) ||
+        (r->job.samples_done > 0 && film_state_transfer(&r->pipe, &r->state, 1, err)) ||
         dev_finish(&r->cl, r->stats, err)) /* the buffers' first use */
         return err->code;
     return render_waves(&r->opt, &r->pipe, r->cam, &r->job, err);
 }
 
 /* After an attempt that started at sample `before` ran out of memory: copies the samples it
- * finished into r->state, since its films go with its pipeline. 0 when that failed. */
+ * finished into r->state (allocated before the first attempt, when memory was there), since
+ * its films go with its pipeline. 0 when that failed. */
 static int render_keep_samples(ts_render *r, uint64_t before)
 {
     if (r->job.samples_done <= before) return 1;
     ts_error e = {0};
-    int kept = (r->state.accum || !film_state_alloc(&r->state, (size_t)r->width * r->height, &e)) &&
-               !film_state_transfer(&r->pipe, &r->state, 0, &e);
+    int kept = !film_state_transfer(&r->pipe, &r->state, 0, &e);
     ts_error_clear(&e);
     return kept;
 }
@@ -333,14 +339,17 @@ static int render_out_of_memory(const ts_error *err)
     return dev_is_out_of_memory(err) || err->code == TS_E_MEMORY;
 }
 
-/* Plan, create, render; when memory runs out (render_out_of_memory), keep
- * the finished samples, halve the budget and go on from them, down to TS_MEMORY_FLOOR_MB. */
+/* Plan, create, render; when memory runs out (render_out_of_memory), keep the finished
+ * samples, halve the budget and go on from them, down to TS_MEMORY_FLOOR_MB. When no budget
+ * is left (or the one that fits dices at other levels of detail than the samples already
+ * traced), the finished samples are kept for render_write in r->state and the reason in
+ * r->stopped; only when there are none does the render fail. */
 static int render_with_retry(ts_render *r, ts_error *err)
 {
     ts_budget b = {.mb = (uint64_t)r->opt.memory_mb,
                    .first_mb = (uint64_t)r->opt.memory_mb,
                    .noted_lod = (uint32_t)r->opt.max_lod};
-    int rc;
+    int rc, kept = 1, gave_up = 0;
     for (;;) {
         uint64_t before = r->job.samples_done;
         rc = render_attempt(r, &b, err);
@@ -348,12 +357,13 @@ static int render_with_retry(ts_render *r, ts_error *err)
         ts_error_clear(&b.oom);
         ts_error_set(&b.oom, err->code, "%s", err->msg);
         ts_error_clear(err);
-        int kept = render_keep_samples(r, before);
+        kept = render_keep_samples(r, before);
         /* With no sample in the film yet, the smaller budget may dice at other levels of
          * detail: there is nothing for them to disagree with. */
         if (r->job.samples_done == 0) r->job.check_lod = 0;
         if (!kept || b.mb / 2 < TS_MEMORY_FLOOR_MB) {
             rc = render_give_up(r, &b, kept, err);
+            gave_up = 1;
             break;
         }
         if (!r->opt.quiet)
@@ -372,15 +382,27 @@ static int render_with_retry(ts_render *r, ts_error *err)
                           "and the budget that fits dices at other levels of detail; render again "
                           "with a lower --memory or --max-lod",
                           b.oom.msg, (unsigned long long)r->job.samples_done);
+        gave_up = 1;
+    }
+    if (rc && gave_up && kept && r->job.samples_done > 0) {
+        ts_error_set(&r->stopped, err->code, "%s", err->msg);
+        ts_error_clear(err);
+        rc = TS_OK;
     }
     return rc;
 }
 
-/* The image file, timed as part of the film stage. */
+/* The image file, timed as part of the film stage. The films are copied to the host and the
+ * pipeline released first, so that the budget's memory is free again while the image is
+ * encoded (under a memory limit the encoder would otherwise fail). After memory ran out at
+ * the smallest budget (r->stopped), r->state already holds the finished samples. */
 static int render_write(ts_render *r, ts_error *err)
 {
     double t0 = stats_now();
-    int rc = output_write(&r->opt, &r->pipe, r->width, r->height, &r->job, err);
+    int rc = TS_OK;
+    if (!r->stopped.code) rc = film_state_transfer(&r->pipe, &r->state, 0, err);
+    pipeline_destroy(&r->pipe);
+    if (!rc) rc = output_write(&r->opt, &r->state, r->width, r->height, &r->job, err);
     r->stats->stage_seconds[TS_STAGE_film] += stats_now() - t0;
     return rc;
 }
@@ -394,9 +416,12 @@ static void render_result(const ts_render *r, int up_to_date, ts_render_result *
         out->samples_done = r->job.total;
         return;
     }
-    out->outcome = r->job.samples_done < r->job.total ? TS_RENDER_INTERRUPTED : TS_RENDER_COMPLETE;
+    out->outcome = r->stopped.code                      ? TS_RENDER_OUT_OF_MEMORY
+                   : r->job.samples_done < r->job.total ? TS_RENDER_INTERRUPTED
+                                                        : TS_RENDER_COMPLETE;
     out->samples_done = r->job.samples_done;
     out->signal = stop_signal;
+    snprintf(out->reason, sizeof out->reason, "%s", r->stopped.msg);
 }
 
 int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *result, ts_error *err)
@@ -411,6 +436,10 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
     if (!rc) rc = render_start_job(&r, err);
     if (!rc && o->resume)
         rc = resume_load(&r.opt, r.width, r.height, &r.job, &r.state, &up_to_date, err);
+    /* The host copy of the films (48 bytes a pixel) before the device takes its budget: the
+     * retry and the image write need it when memory is scarcest. --resume made it. */
+    if (!rc && !up_to_date && !r.state.accum)
+        rc = film_state_alloc(&r.state, (size_t)r.width * r.height, err);
     if (!rc && !up_to_date) rc = render_open_device(&r, err);
     if (!rc && !up_to_date) rc = render_with_retry(&r, err);
     if (!rc && !up_to_date) rc = render_write(&r, err);
