@@ -124,6 +124,9 @@ static void test_render_exr_and_stats(void **state)
     assert_true(cJSON_IsString(cJSON_GetObjectItemCaseSensitive(j, "device")));
     assert_true(number(j, "wall_seconds") > 0);
     assert_true(number(j, "peak_rss_bytes") > 0);
+    /* The default budget (app/budget.h): at most its cap, at least the floor. */
+    assert_true(number(j, "memory_budget_bytes") >= 16 << 20);
+    assert_true(number(j, "memory_budget_bytes") <= 1024 << 20);
     const cJSON *stages = cJSON_GetObjectItemCaseSensitive(j, "stages");
     for (int i = 0; i < TS_STAGE_COUNT; ++i)
         assert_true(number(stages, ts_stage_names[i]) >= 0);

@@ -159,7 +159,7 @@ static void test_alloc_failure_is_retried(void **state)
 {
     (void)state;
     setenv("TESSERA_FAIL_ALLOC", "1", 1);
-    int rc = test_run_tessera(dir, "render '%s' -o '%s' --res 64x36 --max-lod 4",
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' --res 64x36 --max-lod 4 --memory 1024",
                               test_source_path("scene/teapot.rib"), in_dir("retried.png"));
     unsetenv("TESSERA_FAIL_ALLOC");
     assert_int_equal(rc, 0);

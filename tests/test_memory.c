@@ -78,6 +78,37 @@ static void test_render_finishes_under_ulimit_v(void **state)
     }
 }
 
+/* The default budget is sized to the address space left (app/budget.h): under ulimit -v
+ * 1.3 GB it starts below 1024 MB at a budget that fits, so no retry is needed, and the
+ * header and --stats give the same number; --memory overrides it. */
+static void test_default_budget_follows_the_limit(void **state)
+{
+    (void)state;
+#if defined(__SANITIZE_ADDRESS__)
+    skip();
+#endif
+    char extra[8800], json[4300];
+    snprintf(json, sizeof json, "%s/budget.json", dir);
+    snprintf(extra, sizeof extra, "--stats '%s'", json);
+    int rc = render_limited(1300000, "budget.exr", extra);
+    const char *err = stderr_text();
+    if (rc != 0) fail_msg("exit status %d:\n%s", rc, err);
+    const char *header = strstr(err, "tessera: 640x360, 1 spp, memory budget ");
+    unsigned long long mb = 0;
+    if (!header || sscanf(header, "tessera: 640x360, 1 spp, memory budget %llu MB", &mb) != 1 ||
+        !strstr(header, " MB (RLIMIT_AS: "))
+        fail_msg("no header naming RLIMIT_AS:\n%s", err);
+    if (strstr(err, "retrying")) fail_msg("the default budget did not fit:\n%s", err);
+    assert_true(mb >= 16 && mb < 1024);
+    assert_true(test_stats_number(json, "memory_budget_bytes") == (double)(mb << 20));
+
+    snprintf(extra, sizeof extra, "--stats '%s' --memory 64", json);
+    assert_int_equal(render_limited(4000000, "budget64.exr", extra), 0);
+    if (!strstr(stderr_text(), "memory budget 64 MB (--memory)"))
+        fail_msg("no --memory header:\n%s", stderr_text());
+    assert_true(test_stats_number(json, "memory_budget_bytes") == 64.0 * (1 << 20));
+}
+
 static int setup(void **state)
 {
     (void)state;
@@ -89,6 +120,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_render_finishes_under_ulimit_v),
+        cmocka_unit_test(test_default_budget_follows_the_limit),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

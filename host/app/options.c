@@ -20,7 +20,7 @@ void render_options_defaults(ts_render_options *o)
     o->exact = 0;
     o->leaf_group = 0;
     o->leaf_size = 1;
-    o->memory_mb = 1024;
+    o->memory_mb = 0; /* app/budget.h: sized to the device and the process's limits */
     o->cl.device_index = -1;
 }
 

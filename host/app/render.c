@@ -2,6 +2,7 @@
  * what --resume finds, open the device, then plan, create and trace the frame in waves of
  * samples (again with half the memory when the device runs out), and write the image. */
 #include "app/render.h"
+#include "app/budget.h"
 #include "app/output.h"
 #include "app/resume.h"
 #include "base/mat4.h"
@@ -250,12 +251,9 @@ static int render_open_device(ts_render *r, ts_error *err)
     return TS_OK;
 }
 
-/* The smallest budget a retry after an out-of-memory error tries. */
-#define TS_MEMORY_FLOOR_MB 16
-
 /* The memory budget over the attempts of one render. */
 typedef struct ts_budget {
-    uint64_t mb, first_mb; /* this attempt's budget and --memory, in MB */
+    uint64_t mb, first_mb; /* this attempt's budget and the first one's, in MB */
     uint32_t noted_lod;    /* the finest m the user knows the render dices at */
     ts_error oom;          /* the last out-of-memory error; code 0 before the first */
 } ts_budget;
@@ -279,8 +277,8 @@ static int render_plan(ts_render *r, ts_budget *b, ts_pipeline_plan *plan, ts_er
         fprintf(stderr,
                 "tessera: %s%llu MB holds patches up to m = %u; dicing at most "
                 "that finely (raise --memory for --max-lod %d)\n",
-                b->mb == b->first_mb ? "--memory " : "", (unsigned long long)b->mb, plan->max_lod,
-                o->max_lod);
+                b->mb == b->first_mb && o->memory_mb ? "--memory " : "", (unsigned long long)b->mb,
+                plan->max_lod, o->max_lod);
     b->noted_lod = plan->max_lod;
     return TS_OK;
 }
@@ -290,6 +288,7 @@ static int render_plan(ts_render *r, ts_budget *b, ts_pipeline_plan *plan, ts_er
 static int render_attempt(ts_render *r, ts_budget *b, ts_error *err)
 {
     ts_pipeline_plan plan;
+    r->stats->memory_budget_bytes = b->mb << 20;
     if (render_plan(r, b, &plan, err) ||
         pipeline_create(&r->pipe, &r->cl, &r->scene, &plan, (uint32_t)(r->width * r->height),
                         r->stats, err) ||
@@ -331,6 +330,24 @@ static int render_give_up(const ts_render *r, const ts_budget *b, int kept, ts_e
                         b->oom.msg, (unsigned long long)b->mb, (unsigned long long)b->first_mb);
 }
 
+/* The first attempt's budget: --memory, else budget_default for this device, scene and
+ * image under the process's limits. Announced in the progress header. */
+static void render_choose_budget(const ts_render *r, ts_budget_choice *c)
+{
+    if (r->opt.memory_mb > 0) {
+        c->mb = (uint64_t)r->opt.memory_mb;
+        snprintf(c->why, sizeof c->why, "--memory");
+    } else {
+        ts_memory_room room;
+        ts_memory_room_query(NULL, &room);
+        uint64_t pixels = (uint64_t)r->width * (uint64_t)r->height;
+        budget_default(&r->cl.info, budget_fixed_bytes(&r->scene, pixels), &room, c);
+    }
+    if (!r->opt.quiet)
+        fprintf(stderr, "tessera: %dx%d, %d spp, memory budget %llu MB (%s)\n", r->width, r->height,
+                r->opt.spp, (unsigned long long)c->mb, c->why);
+}
+
 /* Memory ran out, on the device (dev_is_out_of_memory) or on the host (the sort's host
  * buffers and the device's own allocations on CPU devices grow with the budget too): a
  * smaller budget may fit. */
@@ -346,9 +363,9 @@ static int render_out_of_memory(const ts_error *err)
  * r->stopped; only when there are none does the render fail. */
 static int render_with_retry(ts_render *r, ts_error *err)
 {
-    ts_budget b = {.mb = (uint64_t)r->opt.memory_mb,
-                   .first_mb = (uint64_t)r->opt.memory_mb,
-                   .noted_lod = (uint32_t)r->opt.max_lod};
+    ts_budget_choice choice;
+    render_choose_budget(r, &choice);
+    ts_budget b = {.mb = choice.mb, .first_mb = choice.mb, .noted_lod = (uint32_t)r->opt.max_lod};
     int rc, kept = 1, gave_up = 0;
     for (;;) {
         uint64_t before = r->job.samples_done;

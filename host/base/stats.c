@@ -58,6 +58,7 @@ static cJSON *stats_to_json(const ts_stats *s)
     cJSON_AddNumberToObject(root, "peak_rss_bytes", (double)stats_peak_rss_bytes());
     cJSON_AddNumberToObject(root, "kernel_build_seconds", s->kernel_build_seconds);
     cJSON_AddBoolToObject(root, "kernel_cache_hit", s->kernel_cache_hit);
+    cJSON_AddNumberToObject(root, "memory_budget_bytes", (double)s->memory_budget_bytes);
     cJSON *stages = cJSON_AddObjectToObject(root, "stages");
     for (int i = 0; i < TS_STAGE_COUNT; ++i)
         cJSON_AddNumberToObject(stages, ts_stage_names[i], s->stage_seconds[i]);

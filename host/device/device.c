@@ -1,5 +1,6 @@
 #include "device/device.h"
 #include "base/hash.h"
+#include "base/memory.h"
 #include "device/kernel_source.h"
 
 #include <errno.h>
@@ -362,6 +363,14 @@ int dev_open(ts_device *cl, const ts_device_options *opt, ts_error *err)
     }
     if (n == 0) {
         free(list);
+        /* A driver that cannot map its compiler under `ulimit -v` reports no platform. */
+        uint64_t as = ts_memory_address_space_limit();
+        if (as != UINT64_MAX)
+            return ts_error_set(err, TS_E_DEVICE,
+                                "no OpenCL device found; the address space is limited to %llu MB "
+                                "(ulimit -v), which may be too little for the OpenCL driver to "
+                                "start: raise the limit (or install pocl-opencl-icd for the CPU)",
+                                (unsigned long long)(as >> 20));
         return ts_error_set(err, TS_E_DEVICE,
                             "no OpenCL device found (install pocl-opencl-icd for the CPU)");
     }
