@@ -168,12 +168,93 @@ static void test_png_is_written_atomically(void **state)
     assert_int_not_equal(system(cmd), 0);
 }
 
+static void write_text(const char *name, const char *text)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+/* The file dir/name still holds exactly `text`. */
+static void assert_text(const char *name, const char *text)
+{
+    char path[4200], buf[1 << 14];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    size_t n = fread(buf, 1, sizeof buf - 1, f);
+    fclose(f);
+    buf[n] = '\0';
+    if (strcmp(buf, text) != 0) fail_msg("%s was changed", name);
+}
+
+/* Output paths are checked against each other, the scene and its textures, and for a
+ * directory that takes the file, before anything renders (issue 15, item 4): one line, exit
+ * status 1, every file as it was (expect_error: no progress header, so no render started). */
+static void test_paths_are_checked_before_rendering(void **state)
+{
+    (void)state;
+    char args[16384], scene[4200];
+    /* one_patch.rib coloured by a texture t.png beside it. */
+    FILE *src = fopen(test_source_path("scene/one_patch.rib"), "r");
+    static char text[1 << 14];
+    size_t n = src ? fread(text, 1, sizeof text - 1, src) : 0;
+    if (src) fclose(src);
+    text[n] = '\0';
+    char *color = strstr(text, "Color [0.7 0.7 0.75]\n");
+    assert_non_null(color);
+    static char rib[1 << 14];
+    snprintf(rib, sizeof rib, "%.*sSurface \"matte\" \"string texturename\" [\"t.png\"]\n%s",
+             (int)(color - text), text, color);
+    write_text("scene.rib", rib);
+    snprintf(scene, sizeof scene, "%s/scene.rib", dir);
+    float px[4 * 4 * 3];
+    for (int i = 0; i < 4 * 4 * 3; ++i)
+        px[i] = (float)(i % 7) / 7.0f;
+    char tex[4200];
+    snprintf(tex, sizeof tex, "%s/t.png", dir);
+    ts_error err = {0};
+    assert_int_equal(image_write_png(tex, 4, 4, px, &err), TS_OK);
+    write_text("old.exr", "the old image");
+
+    snprintf(args, sizeof args, "render '%s' -o '%s/old.exr' --res 8x8 --stats '%s/./old.exr'",
+             scene, dir, dir);
+    expect_error(args, "--stats and -o name the same file");
+    snprintf(args, sizeof args, "render '%s' -o '%s/old.exr' --res 8x8 --stats '%s'", scene, dir,
+             scene);
+    expect_error(args, "--stats names the scene file");
+    assert_text("scene.rib", rib);
+    snprintf(args, sizeof args, "render '%s' -o '%s/old.exr' --res 8x8 --stats '%s/no/s.json'",
+             scene, dir, dir);
+    expect_error(args, "no/s.json: cannot write there: ");
+    snprintf(args, sizeof args, "render '%s' -o '%s/no/x.png' --res 8x8", scene, dir);
+    expect_error(args, "no/x.png: cannot write there: ");
+    snprintf(args, sizeof args, "render '%s' -o '%s/old.exr' --res 8x8 --stats '%s'", scene, dir,
+             tex);
+    expect_error(args, "--stats names a texture the scene reads");
+    snprintf(args, sizeof args, "render '%s' -o '%s' --res 8x8", scene, tex);
+    expect_error(args, "-o names a texture the scene reads");
+    assert_text("old.exr", "the old image");
+    ts_image img;
+    assert_int_equal(image_read(tex, &img, &err), TS_OK); /* the texture is intact */
+    assert_int_equal(img.width, 4);
+    image_free(&img);
+    /* The same scene with other paths renders. */
+    snprintf(args, sizeof args,
+             "render '%s' -o '%s/new.png' --res 8x8 --stats '%s/s2.json' --quiet", scene, dir, dir);
+    assert_int_equal(run(args), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_render_exr_and_stats),
         cmocka_unit_test(test_png_is_written_atomically),
+        cmocka_unit_test(test_paths_are_checked_before_rendering),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

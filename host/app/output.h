@@ -8,9 +8,15 @@
 #include "app/resume.h"
 #include "pipeline/pipeline.h"
 
-/* The output path: given, ending in .exr or .png, and .exr for --resume (a PNG cannot
- * hold the sums of the samples). TS_E_USAGE otherwise. */
+/* The output paths, before any work: -o given, ending in .exr or .png, and .exr for
+ * --resume (a PNG cannot hold the sums of the samples); -o and --stats writable (their
+ * directories exist and take new files: TS_E_IO), not the same file, and neither the scene
+ * file (TS_E_USAGE). */
 int output_check(const ts_render_options *o, ts_error *err);
+
+/* After the scene is loaded, before the render: neither -o nor --stats names a file the
+ * scene read (its textures, its environment map). TS_E_USAGE otherwise. */
+int output_check_inputs(const ts_render_options *o, const ts_scene *scene, ts_error *err);
 
 /* Writes o->output_path, width x height, atomically (image.h), from the host copy of the
  * films (resume.h). An EXR of an unfinished render (job->samples_done < job->total) gets all

@@ -450,6 +450,7 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
     render_init(&r, o, stats);
     int up_to_date = 0;
     int rc = render_load_scene(&r, err);
+    if (!rc) rc = output_check_inputs(o, &r.scene, err);
     if (!rc) rc = render_start_job(&r, err);
     if (!rc && o->resume)
         rc = resume_load(&r.opt, r.width, r.height, &r.job, &r.state, &up_to_date, err);

@@ -1,7 +1,8 @@
-/* file.c — regular-file checks for inputs (base/file.h). */
+/* file.c — regular-file checks for inputs, and where outputs may go (base/file.h). */
 #include "base/file.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <stdlib.h>
 #include <fcntl.h>
 #include <string.h>
@@ -98,5 +99,49 @@ int ts_file_read_all(const char *path, char **text, size_t *len, char *why, size
     }
     buf[n] = '\0';
     *text = buf, *len = n;
+    return TS_OK;
+}
+
+/* The directory part of path ("." when it has none) into dir[0..cap), and its last
+ * component. */
+static const char *file_split(const char *path, char *dir, size_t cap)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash) {
+        snprintf(dir, cap, ".");
+        return path;
+    }
+    snprintf(dir, cap, "%.*s", slash == path ? 1 : (int)(slash - path), path);
+    return slash + 1;
+}
+
+int ts_file_same(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    int ea = stat(a, &sa) == 0, eb = stat(b, &sb) == 0;
+    if (ea && eb) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    if (ea != eb) return 0; /* one exists, the other does not */
+    char da[PATH_MAX], db[PATH_MAX], ra[PATH_MAX], rb[PATH_MAX];
+    const char *na = file_split(a, da, sizeof da), *nb = file_split(b, db, sizeof db);
+    if (!realpath(da, ra) || !realpath(db, rb)) return 0;
+    return strcmp(ra, rb) == 0 && strcmp(na, nb) == 0;
+}
+
+int ts_file_check_writable(const char *path, ts_error *err)
+{
+    char dir[PATH_MAX];
+    file_split(path, dir, sizeof dir);
+    struct stat st;
+    if (stat(dir, &st) != 0)
+        return ts_error_set(err, TS_E_IO, "%s: cannot write there: %s: %s", path, dir,
+                            strerror(errno));
+    if (!S_ISDIR(st.st_mode))
+        return ts_error_set(err, TS_E_IO, "%s: cannot write there: %s is not a directory", path,
+                            dir);
+    if (access(dir, W_OK | X_OK) != 0)
+        return ts_error_set(err, TS_E_IO, "%s: cannot write there: %s: %s", path, dir,
+                            strerror(errno));
+    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
+        return ts_error_set(err, TS_E_IO, "%s: cannot write there: it is a directory", path);
     return TS_OK;
 }
