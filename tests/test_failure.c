@@ -1,9 +1,10 @@
 /* test_failure.c — failures as a user meets them (docs/errors.md): the device running out
  * of memory (injected with TESSERA_FAIL_ALLOC / TESSERA_FAIL_LAUNCH) is retried with a
  * smaller budget, ends with the finished samples written, or ends in one clear line;
- * SIGTERM during a render writes the finished samples and exits 3; --resume continues such
- * an image to exactly the bits of an uninterrupted render and refuses one made by another
- * command; a kernel that does not compile names kernels/FILE.cl:LINE. */
+ * SIGTERM or SIGHUP during a render writes the finished samples and exits 3, a closed
+ * stderr pipe does not stop it; --resume continues such an image to exactly the bits of an
+ * uninterrupted render and refuses one made by another command; a kernel that does not
+ * compile names kernels/FILE.cl:LINE. */
 #include "test_support.h"
 #include "image/image.h"
 
@@ -79,8 +80,8 @@ static void assert_no_temporary(void)
 
 /* Starts `tessera render teapot -o OUT RENDER_ARGS [extra]` in the background with stderr
  * to dir/NAME.stderr; waits for its first progress line (a wave is finished), sends
- * SIGTERM and returns the exit status. */
-static int render_and_interrupt(const char *out, const char *extra)
+ * signal `sig` and returns the exit status. */
+static int render_and_signal(const char *out, const char *extra, int sig)
 {
     char errpath[4300];
     snprintf(errpath, sizeof errpath, "%s.stderr", in_dir(out));
@@ -107,12 +108,17 @@ static int render_and_interrupt(const char *out, const char *extra)
     }
     if (!progressed) kill(pid, SIGKILL);
     assert_true(progressed);
-    kill(pid, SIGTERM);
+    kill(pid, sig);
     assert_int_equal(waitpid(pid, &status, 0), pid);
     if (!WIFEXITED(status)) fail_msg("the render died by signal %d", WTERMSIG(status));
     snprintf(errpath, sizeof errpath, "cp '%s.stderr' '%s'", in_dir(out), in_dir("stderr.txt"));
     assert_int_equal(system(errpath), 0);
     return WEXITSTATUS(status);
+}
+
+static int render_and_interrupt(const char *out, const char *extra)
+{
+    return render_and_signal(out, extra, SIGTERM);
 }
 
 /* The uninterrupted render, made once. */
@@ -279,6 +285,58 @@ static void test_sigterm_writes_the_finished_samples(void **state)
     image_free(&img);
 }
 
+/* SIGHUP (the terminal or the ssh session went away) stops the render like SIGINT: the
+ * finished samples are written, resumable, and --resume completes them. */
+static void test_sighup_writes_the_finished_samples(void **state)
+{
+    (void)state;
+    const char *ref = reference();
+    assert_int_equal(render_and_signal("hup.exr", NULL, SIGHUP), 3);
+    expect_in_stderr("interrupted by SIGHUP after ");
+    unsigned done = (unsigned)meta_int("hup.exr", "tessera:samples_done");
+    assert_true(done > 0 && done < TOTAL);
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
+                                      test_source_path("scene/teapot.rib"), in_dir("hup.exr")),
+                     0);
+    assert_same_image(ref, "hup.exr");
+}
+
+/* stderr into a pipe that is closed after 100 bytes (`tessera ... 2>&1 | head -c 100`): the
+ * render must not die of SIGPIPE; progress stops and the image is written. */
+static void test_closed_stderr_pipe_does_not_kill_the_render(void **state)
+{
+    (void)state;
+    int fds[2];
+    assert_int_equal(pipe(fds), 0);
+    const char *bin = test_tessera_binary(), *scene = test_source_path("scene/teapot.rib");
+    char outpath[4200];
+    snprintf(outpath, sizeof outpath, "%s", in_dir("piped.exr"));
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        close(fds[0]);
+        dup2(fds[1], 1), dup2(fds[1], 2);
+        execl(bin, bin, "render", scene, "-o", outpath, "--res", RES, "--spp", SPP, "--memory",
+              MEMORY, (char *)NULL);
+        _exit(127);
+    }
+    close(fds[1]);
+    char buf[100];
+    size_t got = 0;
+    while (got < sizeof buf) {
+        ssize_t n = read(fds[0], buf + got, sizeof buf - got);
+        if (n <= 0) break;
+        got += (size_t)n;
+    }
+    close(fds[0]); /* what head -c 100 does */
+    assert_true(got == sizeof buf);
+    int status = 0;
+    assert_int_equal(waitpid(pid, &status, 0), pid);
+    if (!WIFEXITED(status)) fail_msg("the render died by signal %d", WTERMSIG(status));
+    assert_int_equal(WEXITSTATUS(status), 0);
+    assert_same_image(reference(), "piped.exr");
+}
+
 static void test_resume_matches_the_uninterrupted_render(void **state)
 {
     (void)state;
@@ -369,6 +427,8 @@ int main(void)
         cmocka_unit_test(test_out_of_memory_at_the_floor_writes_the_finished_samples),
         cmocka_unit_test(test_sigterm_writes_the_finished_samples),
         cmocka_unit_test(test_resume_matches_the_uninterrupted_render),
+        cmocka_unit_test(test_sighup_writes_the_finished_samples),
+        cmocka_unit_test(test_closed_stderr_pipe_does_not_kill_the_render),
         cmocka_unit_test(test_kernel_build_failure_names_file_and_line),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);

@@ -9,7 +9,7 @@
 #include <string.h>
 
 /* Exit statuses (docs/errors.md): 0 done, 1 error, 3 stopped early with the finished samples
- * written (SIGINT or SIGTERM, or memory ran out at the smallest budget). */
+ * written (SIGINT, SIGTERM or SIGHUP, or memory ran out at the smallest budget). */
 #define TS_EXIT_INTERRUPTED 3
 
 static const char *usage_text =
@@ -91,8 +91,10 @@ static int report_outcome(const ts_render_options *o, const ts_stats *stats,
                                                       : "a partial PNG cannot be resumed: use .exr";
     if (result->outcome == TS_RENDER_INTERRUPTED) {
         fprintf(stderr, "tessera: interrupted by %s after %llu of %llu samples; wrote %s (%s)\n",
-                result->signal == SIGINT ? "SIGINT" : "SIGTERM", result->samples_done,
-                result->samples_total, o->output_path, how);
+                result->signal == SIGINT   ? "SIGINT"
+                : result->signal == SIGHUP ? "SIGHUP"
+                                           : "SIGTERM",
+                result->samples_done, result->samples_total, o->output_path, how);
         return TS_EXIT_INTERRUPTED;
     }
     if (result->outcome == TS_RENDER_OUT_OF_MEMORY) {
@@ -132,6 +134,10 @@ static int cmd_render(int argc, char **argv)
 
 int main(int argc, char **argv)
 {
+    /* A closed stdout or stderr (`tessera render ... 2>&1 | head`) must not kill a render
+     * and lose its samples: writes to it fail with EPIPE instead, and the progress line
+     * stops (render.c). */
+    signal(SIGPIPE, SIG_IGN);
     if (argc < 2 || strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
         fputs(usage_text, argc < 2 ? stderr : stdout);
         return argc < 2 ? 1 : 0;

@@ -86,11 +86,14 @@ static int render_paths(const ts_render_options *o, ts_pipeline *p, uint32_t fir
     return pipeline_film(p, first, n, err);
 }
 
-/* SIGINT and SIGTERM while samples are traced: the handler only records the signal; the
- * wave loop stops at the next wave boundary and the finished samples are written. */
+/* SIGINT, SIGTERM and SIGHUP (a closed terminal or ssh session) while samples are traced:
+ * the handler only records the signal; the wave loop stops at the next wave boundary and
+ * the finished samples are written. */
+static const int stop_signals[] = {SIGINT, SIGTERM, SIGHUP};
+#define TS_STOP_SIGNALS (sizeof stop_signals / sizeof *stop_signals)
 static volatile sig_atomic_t stop_signal;
 static int stop_handlers_installed;
-static struct sigaction stop_old_int, stop_old_term;
+static struct sigaction stop_old[TS_STOP_SIGNALS];
 
 static void on_stop_signal(int sig)
 {
@@ -106,16 +109,16 @@ static void stop_handlers_install(void)
     sigemptyset(&sa.sa_mask);
     sa.sa_flags = SA_RESTART;
     stop_signal = 0;
-    sigaction(SIGINT, &sa, &stop_old_int);
-    sigaction(SIGTERM, &sa, &stop_old_term);
+    for (size_t i = 0; i < TS_STOP_SIGNALS; ++i)
+        sigaction(stop_signals[i], &sa, &stop_old[i]);
     stop_handlers_installed = 1;
 }
 
 static void stop_handlers_restore(void)
 {
     if (!stop_handlers_installed) return;
-    sigaction(SIGINT, &stop_old_int, NULL);
-    sigaction(SIGTERM, &stop_old_term, NULL);
+    for (size_t i = 0; i < TS_STOP_SIGNALS; ++i)
+        sigaction(stop_signals[i], &stop_old[i], NULL);
     stop_handlers_installed = 0;
 }
 
@@ -165,7 +168,9 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
             return err->code;
         }
         job->samples_done = first + n;
-        if (!o->quiet) {
+        /* Progress stops for good once stderr fails (a closed pipe: EPIPE, SIGPIPE being
+         * ignored by main); the render goes on. */
+        if (!o->quiet && !ferror(stderr)) {
             double dt = stats_now() - t0, done = (double)(first + n - start);
             double rays = (double)(p->stats->counters[TS_COUNTER_rays] +
                                    p->stats->counters[TS_COUNTER_shadow_rays]);
@@ -175,7 +180,7 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
         }
         if (stop_signal) break;
     }
-    if (!o->quiet) fputc('\n', stderr);
+    if (!o->quiet && !ferror(stderr)) fputc('\n', stderr);
     return TS_OK;
 }
 
