@@ -248,6 +248,40 @@ static void test_paths_are_checked_before_rendering(void **state)
     assert_int_equal(run(args), 0);
 }
 
+/* Sizes are computed in 64 bits (issue 15, item 6): an image whose samples the kernels'
+ * 32-bit index cannot hold is refused before anything is set up, with the limit in the
+ * message; one whose film exceeds the device's largest buffer, before any buffer. */
+static void test_huge_resolution_is_refused(void **state)
+{
+    (void)state;
+    char args[16384];
+    const char *scene = test_source_path("scene/one_patch.rib");
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 65536x65536 --spp 1", scene,
+             dir);
+    expect_error(args, "--res 65536x65536 at --spp 1 is 4294967296 samples; at most 4294967295");
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 40000x30000 --spp 4", scene,
+             dir);
+    expect_error(args, "is 4800000000 samples; at most 4294967295 (2^32 - 1)");
+    /* The default device's largest buffer, from `tessera devices` (opening the device here
+     * would put this whole program under Oclgrind in check_kernels). */
+    char cmd[4400], line[512];
+    snprintf(cmd, sizeof cmd, "'%s' devices", test_tessera_binary());
+    FILE *p = popen(cmd, "r");
+    unsigned long long max_alloc_mb = 0;
+    while (p && fgets(line, sizeof line, p) && !max_alloc_mb) {
+        const char *at = strstr(line, "(max buffer ");
+        if (at) max_alloc_mb = strtoull(at + 12, NULL, 10);
+    }
+    if (p) pclose(p);
+    assert_true(max_alloc_mb > 0);
+    if (max_alloc_mb < 65535) {
+        snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 65536x65535 --spp 1", scene,
+                 dir);
+        expect_error(args, "65536x65535 needs film buffers of 65535 MB; the device's largest "
+                           "buffer is ");
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -255,6 +289,7 @@ int main(void)
         cmocka_unit_test(test_render_exr_and_stats),
         cmocka_unit_test(test_png_is_written_atomically),
         cmocka_unit_test(test_paths_are_checked_before_rendering),
+        cmocka_unit_test(test_huge_resolution_is_refused),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -219,6 +219,31 @@ static void render_free(ts_render *r)
     scene_free(&r->scene);
 }
 
+/* The most samples an image may have: the kernels index them (and the film its pixels)
+ * with 32 bits. */
+#define TS_SAMPLE_LIMIT UINT32_MAX
+
+/* The image size and sample count, in 64 bits: width * height * spp must fit the kernels'
+ * 32-bit sample index (a 65536x65536 image used to overflow into a 0-pixel film). res and
+ * spp name where the numbers came from (--res or the scene's Format, --spp or its
+ * PixelSamples). */
+static int render_check_size(const ts_render *r, const char *res, const char *spp, ts_error *err)
+{
+    const ts_render_options *o = &r->opt;
+    uint64_t samples = (uint64_t)r->width * (uint64_t)r->height * (uint64_t)o->spp;
+    if (r->width < 1 || r->height < 1)
+        return ts_error_set(err, TS_E_USAGE, "%s %dx%d is not an image size", res, r->width,
+                            r->height);
+    if (samples > TS_SAMPLE_LIMIT)
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s %dx%d at %s %d is %llu samples; at most %llu (2^32 - 1) fit one "
+                            "image (the kernels index samples with 32 bits): lower the resolution "
+                            "or the samples per pixel",
+                            res, r->width, r->height, spp, o->spp, (unsigned long long)samples,
+                            (unsigned long long)TS_SAMPLE_LIMIT);
+    return TS_OK;
+}
+
 /* The scene, and what it decides that the command line left open: samples per pixel
  * (--spp, else the scene's PixelSamples, else 1) and the image size (--res, else the
  * scene's Format, else 640x480). */
@@ -227,10 +252,12 @@ static int render_load_scene(ts_render *r, ts_error *err)
     ts_render_options *o = &r->opt;
     if (scene_load(o->scene_path, &r->scene, o->quiet, err)) return err->code;
     const ts_camera *c = &r->scene.camera;
+    const char *spp = o->spp > 0 ? "--spp" : c->spp > 0 ? "PixelSamples" : "spp";
+    const char *res = o->width ? "--res" : c->has_format ? "Format" : "size";
     if (o->spp <= 0) o->spp = c->spp > 0 ? c->spp : 1;
     r->width = o->width ? o->width : c->has_format ? c->width : 640;
     r->height = o->height ? o->height : c->has_format ? c->height : 480;
-    return TS_OK;
+    return render_check_size(r, res, spp, err);
 }
 
 /* The camera kernel's parameters and the job: its width * height * spp samples and the
@@ -253,6 +280,14 @@ static int render_open_device(ts_render *r, ts_error *err)
              r->cl.info.platform_name);
     r->stats->kernel_build_seconds = r->cl.build_seconds;
     r->stats->kernel_cache_hit = r->cl.cache_hit;
+    /* Each film (16 bytes a pixel) is one buffer, outside the budget. */
+    uint64_t film = (uint64_t)r->width * (uint64_t)r->height * sizeof(ts_vec4);
+    if (film > r->cl.info.max_alloc)
+        return ts_error_set(err, TS_E_USAGE,
+                            "%dx%d needs film buffers of %llu MB; the device's largest buffer is "
+                            "%llu MB (CL_DEVICE_MAX_MEM_ALLOC_SIZE): lower the resolution",
+                            r->width, r->height, (unsigned long long)(film >> 20),
+                            (unsigned long long)(r->cl.info.max_alloc >> 20));
     return TS_OK;
 }
 
@@ -295,8 +330,8 @@ static int render_attempt(ts_render *r, ts_budget *b, ts_error *err)
     ts_pipeline_plan plan;
     r->stats->memory_budget_bytes = b->mb << 20;
     if (render_plan(r, b, &plan, err) ||
-        pipeline_create(&r->pipe, &r->cl, &r->scene, &plan, (uint32_t)(r->width * r->height),
-                        r->stats, err) ||
+        pipeline_create(&r->pipe, &r->cl, &r->scene, &plan,
+                        (uint32_t)((uint64_t)r->width * r->height), r->stats, err) ||
         (r->job.samples_done > 0 && film_state_transfer(&r->pipe, &r->state, 1, err)) ||
         dev_finish(&r->cl, r->stats, err)) /* the buffers' first use */
         return err->code;
@@ -459,11 +494,11 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
     if (!rc) rc = render_start_job(&r, err);
     if (!rc && o->resume)
         rc = resume_load(&r.opt, r.width, r.height, &r.job, &r.state, &up_to_date, err);
+    if (!rc && !up_to_date) rc = render_open_device(&r, err);
     /* The host copy of the films (48 bytes a pixel) before the device takes its budget: the
      * retry and the image write need it when memory is scarcest. --resume made it. */
     if (!rc && !up_to_date && !r.state.accum)
         rc = film_state_alloc(&r.state, (size_t)r.width * r.height, err);
-    if (!rc && !up_to_date) rc = render_open_device(&r, err);
     if (!rc && !up_to_date) rc = render_with_retry(&r, err);
     if (!rc && !up_to_date) rc = render_write(&r, err);
     if (!rc) render_result(&r, up_to_date, result);

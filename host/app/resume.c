@@ -91,7 +91,9 @@ int film_state_alloc(ts_film_state *s, size_t npix, ts_error *err)
     s->albedo = calloc(npix, sizeof(ts_vec4));
     if (!s->accum || !s->aov || !s->albedo) {
         film_state_free(s);
-        return ts_error_set(err, TS_E_MEMORY, "out of memory (film)");
+        return ts_error_set(err, TS_E_MEMORY,
+                            "out of memory for the host copy of the films (%zu pixels, %zu MB)",
+                            npix, 3 * npix * sizeof(ts_vec4) >> 20);
     }
     return TS_OK;
 }
