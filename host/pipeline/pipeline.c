@@ -228,7 +228,7 @@ static int create_patch_buffers(ts_pipeline *p, const ts_box *boxes, ts_error *e
         free(flat), free(attr);
         return ts_error_set(err, TS_E_SCENE, "%u distant lights: at most 64", s->light_count);
     }
-    memcpy(attr, s->attr, s->patch_count * sizeof *attr);
+    if (s->patch_count) memcpy(attr, s->attr, s->patch_count * sizeof *attr); /* attr: NULL if 0 */
     if (build_lights(p, attr, lights, &emitters, &emitter_count, &env, err)) {
         free(flat), free(attr);
         return err->code;
