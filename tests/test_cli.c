@@ -37,7 +37,7 @@ static void read_stderr(char *buf, size_t cap)
 
 static int exists(const char *name)
 {
-    char path[4200];
+    char path[4400];
     snprintf(path, sizeof path, "%s/%s", dir, name);
     struct stat st;
     return stat(path, &st) == 0;
@@ -157,11 +157,32 @@ static void test_render_exr_and_stats(void **state)
 
 static void test_png_is_written_atomically(void **state)
 {
-    char args[8192];
+    char args[16384];
+    /* A temporary left by a render that was killed while writing t.png (its process gone). */
+    pid_t dead = fork();
+    assert_true(dead >= 0);
+    if (dead == 0) _exit(0);
+    waitpid(dead, NULL, 0);
+    char stale[4400];
+    snprintf(stale, sizeof stale, "%s/.t.png.tmp-%ld-0", dir, (long)dead);
+    FILE *f = fopen(stale, "w");
+    assert_non_null(f);
+    fclose(f);
     snprintf(args, sizeof args, "render '%s' -o '%s/t.png' --res 32x18 --max-lod 3 --quiet",
              test_source_path("scene/teapot.rib"), dir);
     assert_int_equal(run(args), 0);
     assert_true(exists("t.png"));
+    /* Names of 249 characters (NAME_MAX is 255): their temporaries are cut to fit. */
+    static char name[256];
+    memset(name, 'n', 245);
+    snprintf(args, sizeof args,
+             "render '%s' -o '%s/%.245s.png' --stats '%s/%.245s.jsn' --res 8x8 --max-lod 3 --quiet",
+             test_source_path("scene/teapot.rib"), dir, name, dir, name);
+    assert_int_equal(run(args), 0);
+    snprintf(name + 245, sizeof name - 245, ".png");
+    assert_true(exists(name));
+    snprintf(name + 245, sizeof name - 245, ".jsn");
+    assert_true(exists(name));
     /* No temporary is left beside it. */
     char cmd[8400];
     snprintf(cmd, sizeof cmd, "ls -a '%s' | grep -q tmp", dir);

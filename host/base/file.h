@@ -35,4 +35,16 @@ int ts_file_same(const char *a, const char *b);
  * itself a directory. Else TS_E_IO "PATH: cannot write there: <reason>". */
 int ts_file_check_writable(const char *path, ts_error *err);
 
+/* The temporary an output is written to before it is renamed over path (image.h, stats.h):
+ * ".BASE.tmp-PID-N" in path's directory, BASE being path's last component, cut short when
+ * the whole name would pass the directory's NAME_MAX (a 249-character output name is legal,
+ * its temporary must be too). Fails (-1) only when out[0..cap) is too small. */
+int ts_file_temp_name(const char *path, long pid, unsigned n, char *out, size_t cap);
+
+/* Removes the temporaries of path (ts_file_temp_name's names, any N) whose process no
+ * longer runs: what a SIGKILL, a crash or a power cut during a write left behind. Files of
+ * a live process, of other outputs and of other programs are never touched. Returns how
+ * many were removed. */
+int ts_file_remove_stale_temps(const char *path);
+
 #endif
