@@ -285,6 +285,48 @@ static void test_sigterm_writes_the_finished_samples(void **state)
     image_free(&img);
 }
 
+/* Rewrites the partial EXR dir/name with its pixels and metadata, "tessera:samples_done"
+ * moved by `shift` and the count of pixel `pixel` moved by `count_shift`. */
+static void edit_partial(const char *name, int shift, int pixel, float count_shift)
+{
+    static const char *keys[] = {"tessera:samples_done", "tessera:spp", "tessera:seed",
+                                 "tessera:job",          "tessera:lod", "tessera:max_lod"};
+    ts_image_meta meta[6];
+    for (int k = 0; k < 6; ++k)
+        meta[k] = (ts_image_meta){keys[k], meta_int(name, keys[k])};
+    meta[0].value += shift;
+    ts_image img;
+    ts_error err = {0};
+    if (image_read(in_dir(name), &img, &err)) fail_msg("%s", err.msg);
+    assert_int_equal(img.channels, 14);
+    img.pixels[(size_t)pixel * 14 + 13] += count_shift; /* tessera.count */
+    if (image_write_exr(in_dir(name), &img, meta, 6, &err)) fail_msg("%s", err.msg);
+    image_free(&img);
+}
+
+/* --resume checks "tessera:samples_done" against the count channel pixel by pixel: a file
+ * edited by hand (or damaged) is refused instead of counting samples twice. */
+static void test_resume_refuses_counts_that_disagree(void **state)
+{
+    (void)state;
+    const char *scene = test_source_path("scene/teapot.rib");
+    assert_int_equal(render_and_interrupt("edited.exr", NULL), 3);
+    int done = meta_int("edited.exr", "tessera:samples_done");
+    edit_partial("edited.exr", 1000, 0, 0.0f);
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
+                                      scene, in_dir("edited.exr")),
+                     1);
+    expect_in_stderr("edited.exr: cannot resume: pixel (");
+    expect_in_stderr("(a damaged or edited file)");
+    assert_int_equal(meta_int("edited.exr", "tessera:samples_done"), done + 1000); /* untouched */
+    /* The metadata restored, one pixel's count raised: refused at that pixel. */
+    edit_partial("edited.exr", -1000, 321 + 320 * 7, 1.0f);
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
+                                      scene, in_dir("edited.exr")),
+                     1);
+    expect_in_stderr("cannot resume: pixel (1, 8) holds ");
+}
+
 /* SIGHUP (the terminal or the ssh session went away) stops the render like SIGINT: the
  * finished samples are written, resumable, and --resume completes them. */
 static void test_sighup_writes_the_finished_samples(void **state)
@@ -428,6 +470,7 @@ int main(void)
         cmocka_unit_test(test_sigterm_writes_the_finished_samples),
         cmocka_unit_test(test_resume_matches_the_uninterrupted_render),
         cmocka_unit_test(test_sighup_writes_the_finished_samples),
+        cmocka_unit_test(test_resume_refuses_counts_that_disagree),
         cmocka_unit_test(test_closed_stderr_pipe_does_not_kill_the_render),
         cmocka_unit_test(test_kernel_build_failure_names_file_and_line),
     };
