@@ -50,9 +50,11 @@ static void expect_error(const char *args, const char *needle)
     read_stderr(err, sizeof err);
     if (!strstr(err, needle))
         fail_msg("stderr of `tessera %s` lacks \"%s\":\n%s", args, needle, err);
-    /* One line: the message and its newline, nothing else. */
+    /* One line: the message and its newline, nothing else, and no control byte in it. */
     assert_non_null(strchr(err, '\n'));
     assert_true(strchr(err, '\n')[1] == '\0');
+    for (const unsigned char *c = (const unsigned char *)err; *c != '\n'; ++c)
+        if (*c < 0x20 || *c == 0x7f) fail_msg("byte 0x%02x in the message:\n%s", *c, err);
     assert_false(exists("out.png"));
 }
 
@@ -65,7 +67,7 @@ static int setup(void **state)
 
 static void test_bad_input(void **state)
 {
-    char args[8192], bad[4200];
+    char args[16384], bad[4200];
     snprintf(bad, sizeof bad, "%s/bad.rib", dir);
     FILE *f = fopen(bad, "w");
     fputs("WorldBegin\nPatch \"bicubic\" \"P\" [0 0 0\n", f); /* unterminated array */
@@ -81,6 +83,25 @@ static void test_bad_input(void **state)
              test_source_path("scene/teapot.rib"), dir);
     expect_error(args, "unknown option --bogus");
     expect_error("frobnicate", "unknown command");
+    /* Messages of issue 15, item 8. */
+    const char *teapot = test_source_path("scene/teapot.rib");
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --spp", teapot, dir);
+    expect_error(args, "option --spp needs a value");
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --quiet=1", teapot, dir);
+    expect_error(args, "option --quiet takes no value");
+    snprintf(args, sizeof args, "render '%s' -o '%s/.png'", teapot, dir);
+    expect_error(args, "/.png: the output needs a name before .png");
+    assert_false(exists(".png"));
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 32x24junk", teapot, dir);
+    expect_error(args, "bad value '32x24junk' for --res");
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res=32x", teapot, dir);
+    expect_error(args, "bad value '32x' for --res");
+    setenv("TESSERA_DEVICE", "abc", 1);
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 8x8", teapot, dir);
+    expect_error(args, "TESSERA_DEVICE=abc is not a device index");
+    unsetenv("TESSERA_DEVICE");
+    snprintf(args, sizeof args, "render '%s/new\nline.rib' -o '%s/out.png'", dir, dir);
+    expect_error(args, "new\\nline.rib: No such file or directory");
 }
 
 static double number(const cJSON *o, const char *key)

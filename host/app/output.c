@@ -11,9 +11,12 @@
 int output_check(const ts_render_options *o, ts_error *err)
 {
     const char *path = o->output_path, *ext = path ? strrchr(path, '.') : NULL;
-    if (!path) return ts_error_set(err, TS_E_USAGE, "no output file: give -o OUT.png or OUT.exr");
+    if (!path || !*path)
+        return ts_error_set(err, TS_E_USAGE, "no output file: give -o OUT.png or OUT.exr");
     if (!ext || (strcmp(ext, ".exr") != 0 && strcmp(ext, ".png") != 0))
         return ts_error_set(err, TS_E_USAGE, "%s: the output must end in .exr or .png", path);
+    if (ext == path || ext[-1] == '/') /* "-o .png": a hidden file with no name */
+        return ts_error_set(err, TS_E_USAGE, "%s: the output needs a name before %s", path, ext);
     if (o->resume && strcmp(ext, ".exr") != 0)
         return ts_error_set(err, TS_E_USAGE,
                             "--resume needs an .exr output (a PNG cannot hold "

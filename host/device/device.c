@@ -359,7 +359,16 @@ int dev_open(ts_device *cl, const ts_device_options *opt, ts_error *err)
     int index = opt->device_index;
     if (index < 0) {
         const char *env = getenv("TESSERA_DEVICE");
-        index = env && *env ? atoi(env) : 0;
+        char *end = NULL;
+        long v = env && *env ? strtol(env, &end, 10) : 0;
+        if (env && *env && (*end || v < 0 || v > (1 << 20) || !(*env >= '0' && *env <= '9'))) {
+            free(list);
+            return ts_error_set(err, TS_E_USAGE,
+                                "TESSERA_DEVICE=%s is not a device index (a number from tessera "
+                                "devices)",
+                                env);
+        }
+        index = (int)v;
     }
     if (n == 0) {
         free(list);
