@@ -58,6 +58,9 @@ typedef struct ts_stats {
     double wall_seconds;
     double kernel_build_seconds;
     int kernel_cache_hit;
+    /* The memory budget of the attempt that finished the render: the chosen one (--memory
+     * or the default, app/budget.h), halved per out-of-memory retry. */
+    uint64_t memory_budget_bytes;
 } ts_stats;
 
 extern const char *const ts_counter_names[TS_COUNTER_COUNT];
