@@ -5,6 +5,7 @@
 #include "app/budget.h"
 #include "app/output.h"
 #include "app/resume.h"
+#include "app/waves.h"
 #include "base/mat4.h"
 #include "pipeline/pipeline.h"
 #include "scene/scene_load.h"
@@ -62,45 +63,6 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
     return TS_OK;
 }
 
-/* The lod stage: all eye rays of the frame, wave by wave, counted per patch box. */
-static int render_lod(ts_pipeline *p, ts_camera_params cam, uint64_t total, ts_error *err)
-{
-    uint32_t per_wave = p->plan.ray_capacity;
-    for (uint64_t first = 0; first < total; first += per_wave) {
-        uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
-        cam.first_sample = (uint32_t)first;
-        cam.ray_count = n;
-        if (pipeline_camera(p, &cam, err) || pipeline_lod_count(p, n, err)) return err->code;
-    }
-    return pipeline_lod_finish(p, err);
-}
-
-/* Traces one wave of paths from the eye: eye rays, then each bounce's rays (BSDF and
- * shadow rays together, Hanika §3.5: rays grouped by generation) until none is left or the
- * depth is reached. */
-static int render_paths(const ts_render_options *o, ts_pipeline *p, uint32_t first, uint32_t n,
-                        ts_error *err)
-{
-    ts_shade_params sp = {.light_count = p->light_count,
-                          .depth = (uint32_t)o->depth,
-                          .sampling = (uint32_t)o->sampling,
-                          .seed = o->seed,
-                          .spp = (uint32_t)o->spp};
-    uint32_t rays = n, paths = n;
-    p->stats->counters[TS_COUNTER_rays] += n;
-    for (uint32_t b = 0; rays > 0; ++b) {
-        uint32_t shadows;
-        sp.bounce = b;
-        p->wave = b;
-        if (pipeline_trace(p, rays, err) ||
-            pipeline_shade(p, &sp, first, n, paths, &paths, &rays, &shadows, err))
-            return err->code;
-        p->stats->counters[TS_COUNTER_rays] += rays - shadows;
-        p->stats->counters[TS_COUNTER_shadow_rays] += shadows;
-    }
-    return pipeline_film(p, first, n, err);
-}
-
 /* SIGINT, SIGTERM and SIGHUP (a closed terminal or ssh session) while samples are traced:
  * the handler only records the signal; the wave loop stops at the next wave boundary and
  * the finished samples are written. */
@@ -137,28 +99,6 @@ static void stop_handlers_restore(void)
     stop_handlers_installed = 0;
 }
 
-/* The frame's levels of detail: the lod stage counts the whole frame's eye rays even when
- * the film already holds samples [0, job->samples_done) (--resume, a retry): it is
- * deterministic, so it gives the levels of detail those samples were traced with, which
- * job->check_lod verifies against job->lod. The first time, job->lod is recorded. */
-static int render_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
-                            ts_job *job, ts_error *err)
-{
-    if (o->fixed_lod < 0 && render_lod(p, cam, job->total, err)) return err->code;
-    int32_t lod = job_lod_hash(p, o);
-    job->lod_mismatch = job->check_lod && lod != job->lod;
-    if (job->lod_mismatch)
-        return ts_error_set(err, TS_E_USAGE,
-                            "%s: cannot resume: this run dices patches at other levels of detail "
-                            "than the samples already in the image (patches up to m = %u then, "
-                            "m = %u now): resume with the --memory the render was started with",
-                            o->output_path, job->max_lod, p->plan.max_lod);
-    job->lod = lod;
-    job->max_lod = p->plan.max_lod;
-    job->check_lod = 1;
-    return TS_OK;
-}
-
 /* Runs the waves: each is a run of global sample indices [first, first + rays), from
  * job->samples_done on. Stops early (job->samples_done < job->total) when a stop signal
  * came. */
@@ -167,18 +107,16 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
 {
     uint64_t total = job->total, start = job->samples_done;
     uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
-    p->mode = (ts_trace_mode){(uint32_t)o->spp, o->fixed_lod, o->exact, o->leaf_group,
-                              o->leaf_size == 4   ? 2u
-                              : o->leaf_size == 2 ? 1u
-                                                  : 0u};
-    if (render_frame_lod(o, p, cam, job, err)) return err->code;
+    p->mode = waves_trace_mode(o);
+    if (waves_frame_lod(o, p, cam, job, err)) return err->code;
     stop_handlers_install();
     double t0 = stats_now();
     for (uint64_t first = start; first < total; first += per_wave) {
         uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
         cam.first_sample = (uint32_t)first;
         cam.ray_count = n;
-        if (pipeline_camera(p, &cam, err) || render_paths(o, p, (uint32_t)first, n, err)) {
+        if (pipeline_camera(p, &cam, err) || waves_trace_paths(o, p, (uint32_t)first, n, err) ||
+            pipeline_film(p, (uint32_t)first, n, err)) {
             if (!o->quiet && first > start) fputc('\n', stderr); /* end the progress line */
             return err->code;
         }
