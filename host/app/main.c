@@ -25,8 +25,9 @@ static const char *usage_text =
     "      --depth D         path depth: bounces after the eye ray, 0..64 (default 3;\n"
     "                        0: eye rays only, lights seen directly)\n"
     "      --seed S          random seed (default 0)\n"
-    "      --device I        OpenCL device index from `tessera devices` (default:\n"
-    "                        $TESSERA_DEVICE, else 0)\n"
+    "      --device I|I,J|all OpenCL devices from `tessera devices`: one index, a list,\n"
+    "                        or every device; several share the frame and give the\n"
+    "                        image of the first alone (default: $TESSERA_DEVICE, else 0)\n"
     "      --max-lod M       the finest level of detail: (2^M)^2 micro-quads per patch,\n"
     "                        0..10 (default 10)\n"
     "      --lod M           dice every patch at m = M instead of by ray density\n"
@@ -124,6 +125,11 @@ static int report_outcome(const ts_render_options *o, const ts_stats *stats,
             result->signal == SIGINT   ? "SIGINT"
             : result->signal == SIGHUP ? "SIGHUP"
                                        : "SIGTERM",
+            result->samples_done, result->samples_total, o->output_path, how);
+        return TS_EXIT_INTERRUPTED;
+    }
+    if (result->outcome == TS_RENDER_DEVICES_FAILED) {
+        say("%s; wrote the %llu of %llu samples finished to %s (%s)", result->reason,
             result->samples_done, result->samples_total, o->output_path, how);
         return TS_EXIT_INTERRUPTED;
     }

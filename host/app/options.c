@@ -127,8 +127,11 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
         if (parse_int(arg, 0, 0x7fffffff, &v)) return 1;
         o->seed = (unsigned)v;
         return 0;
-    case OPT_DEVICE:
-        return parse_int(arg, 0, 1 << 20, &o->cl.device_index);
+    case OPT_DEVICE: {
+        int list[TS_DEVICE_MAX], n;
+        o->cl.device_list = arg; /* app/render.c resolves it (dev_select) */
+        return dev_parse_list(arg, list, &n);
+    }
     case OPT_MAX_LOD:
         return parse_int(arg, 0, TS_LOD_LIMIT, &o->max_lod);
     case OPT_LOD:

@@ -6,6 +6,7 @@
 #include "app/output.h"
 #include "app/resume.h"
 #include "app/waves.h"
+#include "app/workers.h"
 #include "base/mat4.h"
 #include "pipeline/pipeline.h"
 #include "scene/scene_load.h"
@@ -91,6 +92,11 @@ static void stop_handlers_install(void)
     stop_handlers_installed = 1;
 }
 
+int render_stop_signal(void)
+{
+    return stop_signal;
+}
+
 static void stop_handlers_restore(void)
 {
     if (!stop_handlers_installed) return;
@@ -149,6 +155,10 @@ typedef struct ts_render {
     /* The host copy of the films: the samples [0, job.samples_done) the device's films lack
      * (resumed, or kept over a retry), and the image render_write writes. */
     ts_film_state state;
+    /* The devices --device names (dev_select): one renders alone (cl, pipe); several share
+     * the frame (workers.h), merging into state (films_on_host). */
+    int devices[TS_DEVICE_MAX], device_count;
+    int films_on_host;
     ts_device cl;
     ts_pipeline pipe;
     /* Set when memory ran out at the smallest budget with samples finished: why. The
@@ -402,6 +412,60 @@ static int render_with_retry(ts_render *r, ts_error *err)
     return rc;
 }
 
+/* The devices --device (or TESSERA_DEVICE) names: one (the device of render_open_device),
+ * or several (render_on_devices). Without any OpenCL device, dev_open says so. */
+static int render_select_devices(ts_render *r, ts_error *err)
+{
+    ts_device_info *list = NULL;
+    int n = dev_list(&list, err);
+    free(list);
+    if (n < 0) return err->code;
+    r->device_count = 1;
+    if (n == 0) return TS_OK;
+    if (dev_select(&r->opt.cl, n, r->devices, &r->device_count, err)) return err->code;
+    r->opt.cl.device_index = r->devices[0];
+    return TS_OK;
+}
+
+/* The frame on several devices (workers.h): their units merged into r->state. When every
+ * device failed after samples were merged, they are kept for render_write (r->stopped says
+ * why); with none merged the render fails with the last device's error. */
+static int render_on_devices(ts_render *r, ts_error *err)
+{
+    ts_frame f = {.opt = &r->opt,
+                  .scene = &r->scene,
+                  .cam = r->cam,
+                  .pixel_count = (uint32_t)((uint64_t)r->width * r->height),
+                  .job = &r->job,
+                  .budget_share = 1};
+    uint64_t start = r->job.samples_done;
+    units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples, &f.window);
+    if (!r->opt.quiet)
+        fprintf(stderr, "tessera: %dx%d, %d spp on %d devices, in units of %llu samples\n",
+                r->width, r->height, r->opt.spp, r->device_count,
+                (unsigned long long)f.unit_samples);
+    r->films_on_host = 1;
+    stop_handlers_install();
+    ts_frame_end end;
+    int rc = workers_render(&f, &r->state, r->devices, r->device_count, NULL, r->stats, &end, err);
+    if (rc) {
+        ts_error_clear(&end.failure);
+        return rc;
+    }
+    r->job.samples_done = end.samples_done;
+    if (end.all_failed && end.samples_done == start) {
+        rc = ts_error_set_status(err, end.failure.code ? end.failure.code : TS_E_DEVICE,
+                                 end.failure.status, "%s",
+                                 end.failure.code ? end.failure.msg : "every device failed");
+    } else if (end.all_failed) {
+        ts_error_set(&r->stopped, end.failure.code ? end.failure.code : TS_E_DEVICE,
+                     "every device failed, the last one with: %s",
+                     end.failure.code ? end.failure.msg : "an unknown error");
+    }
+    ts_error_clear(&end.failure);
+    return rc;
+}
+
 /* The image file, timed as part of the film stage. The films are copied to the host and the
  * pipeline released first, so that the budget's memory is free again while the image is
  * encoded (under a memory limit the encoder would otherwise fail). After memory ran out at
@@ -410,7 +474,8 @@ static int render_write(ts_render *r, ts_error *err)
 {
     double t0 = stats_now();
     int rc = TS_OK;
-    if (!r->stopped.code) rc = film_state_transfer(&r->pipe, &r->state, 0, err);
+    if (!r->stopped.code && !r->films_on_host)
+        rc = film_state_transfer(&r->pipe, &r->state, 0, err);
     pipeline_destroy(&r->pipe);
     if (!rc)
         rc = output_write(&r->opt, &r->state, &r->scene.camera, r->width, r->height, &r->job, err);
@@ -427,7 +492,8 @@ static void render_result(const ts_render *r, int up_to_date, ts_render_result *
         out->samples_done = r->job.total;
         return;
     }
-    out->outcome = r->stopped.code                      ? TS_RENDER_OUT_OF_MEMORY
+    out->outcome = r->stopped.code && r->films_on_host  ? TS_RENDER_DEVICES_FAILED
+                   : r->stopped.code                    ? TS_RENDER_OUT_OF_MEMORY
                    : r->job.samples_done < r->job.total ? TS_RENDER_INTERRUPTED
                                                         : TS_RENDER_COMPLETE;
     out->samples_done = r->job.samples_done;
@@ -448,12 +514,14 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
     if (!rc) rc = render_start_job(&r, err);
     if (!rc && o->resume)
         rc = resume_load(&r.opt, r.width, r.height, &r.job, &r.state, &up_to_date, err);
-    if (!rc && !up_to_date) rc = render_open_device(&r, err);
+    if (!rc && !up_to_date) rc = render_select_devices(&r, err);
+    if (!rc && !up_to_date && r.device_count == 1) rc = render_open_device(&r, err);
     /* The host copy of the films (48 bytes a pixel) before the device takes its budget: the
      * retry and the image write need it when memory is scarcest. --resume made it. */
     if (!rc && !up_to_date && !r.state.accum)
         rc = film_state_alloc(&r.state, (size_t)r.width * r.height, err);
-    if (!rc && !up_to_date) rc = render_with_retry(&r, err);
+    if (!rc && !up_to_date)
+        rc = r.device_count == 1 ? render_with_retry(&r, err) : render_on_devices(&r, err);
     if (!rc && !up_to_date) rc = render_write(&r, err);
     if (!rc) render_result(&r, up_to_date, result);
     stop_handlers_restore(); /* after the write: a signal until then only stops the waves */

@@ -23,13 +23,16 @@ typedef enum ts_render_outcome {
     /* memory ran out at the smallest budget: the samples finished so far are written, and
      * reason says what failed */
     TS_RENDER_OUT_OF_MEMORY,
+    /* every device of a render on several failed: the samples merged so far are written,
+     * and reason says what failed last */
+    TS_RENDER_DEVICES_FAILED,
 } ts_render_outcome;
 
 typedef struct ts_render_result {
     ts_render_outcome outcome;
     unsigned long long samples_done, samples_total; /* global sample indices */
     int signal;                                     /* the signal that interrupted it */
-    char reason[2048];                              /* TS_RENDER_OUT_OF_MEMORY: the error */
+    char reason[2048]; /* TS_RENDER_OUT_OF_MEMORY, TS_RENDER_DEVICES_FAILED: the error */
 } ts_render_result;
 
 /* Renders options->scene_path to options->output_path. Fills stats and result.
@@ -42,5 +45,8 @@ typedef struct ts_render_result {
  * written (TS_RENDER_OUT_OF_MEMORY) instead of lost. */
 int render_run(const ts_render_options *options, ts_stats *stats, ts_render_result *result,
                ts_error *err);
+
+/* The stop signal (SIGINT, SIGTERM, SIGHUP) that came while samples were traced, or 0. */
+int render_stop_signal(void);
 
 #endif
