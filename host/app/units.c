@@ -168,6 +168,11 @@ int board_take(ts_board *b, ts_unit *u)
 void board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
 {
     pthread_mutex_lock(&b->lock);
+    if (b->frozen) {
+        unit_result_free(r);
+        pthread_mutex_unlock(&b->lock);
+        return;
+    }
     uint32_t slot = u->index % b->window;
     b->state[slot] = UNIT_FINISHED;
     b->results[slot] = *r;
@@ -200,6 +205,14 @@ void board_close(ts_board *b)
 {
     pthread_mutex_lock(&b->lock);
     b->closed = 1;
+    pthread_cond_broadcast(&b->changed);
+    pthread_mutex_unlock(&b->lock);
+}
+
+void board_freeze(ts_board *b)
+{
+    pthread_mutex_lock(&b->lock);
+    b->closed = b->frozen = 1;
     pthread_cond_broadcast(&b->changed);
     pthread_mutex_unlock(&b->lock);
 }

@@ -74,6 +74,7 @@ typedef struct ts_board {
     uint64_t samples_finished, rays; /* units finished (merged or waiting), for progress */
     double merge_seconds;            /* spent in units_merge */
     int closed;                      /* board_close: nothing more is handed out */
+    int frozen;                      /* board_freeze: nothing more is merged either */
 } ts_board;
 
 /* The board of samples [start, total) of an image of pixel_count pixels, merging into film
@@ -97,6 +98,9 @@ void board_give_back(ts_board *b, const ts_unit *u);
 /* Hands out nothing more (a stop signal, a failure): board_take returns 0 from now on;
  * units being traced may still be finished and merged. */
 void board_close(ts_board *b);
+/* Closes the board and merges nothing more: the films stay as they are (units finished
+ * from now on are dropped), so they can be written while devices end their waves. */
+void board_freeze(ts_board *b);
 /* 1 when every unit is merged. */
 int board_finished(ts_board *b);
 /* The samples merged: the films hold [0, samples_done). */

@@ -326,6 +326,7 @@ static void *worker_main(void *arg)
         w->reported = lod_failed;
         g->alive--;
     }
+    g->running--;
     pthread_mutex_unlock(&g->lock);
     return NULL;
 }
@@ -350,13 +351,14 @@ int workers_start(ts_workers *g, ts_unit_source src, int makes_lod, ts_error *er
 {
     g->src = src;
     g->makes_lod = makes_lod;
-    g->alive = g->count;
+    g->alive = g->running = g->count;
     for (uint32_t i = 0; i < g->count; ++i) {
         ts_worker *w = &g->w[i];
         w->slow_ms = worker_slow_ms(w->index);
         if (pthread_create(&w->thread, NULL, worker_main, w) != 0) {
             pthread_mutex_lock(&g->lock);
-            g->alive--;
+            g->alive -= g->count - i;
+            g->running -= g->count - i;
             pthread_mutex_unlock(&g->lock);
             if (i == 0 && makes_lod) lod_publish(g, 0, NULL, NULL);
             return ts_error_set(err, TS_E_MEMORY, "cannot start a thread for device %d", w->index);
@@ -390,6 +392,22 @@ uint32_t workers_alive(ts_workers *g)
     uint32_t n = g->alive;
     pthread_mutex_unlock(&g->lock);
     return n;
+}
+
+uint32_t workers_running(ts_workers *g)
+{
+    pthread_mutex_lock(&g->lock);
+    uint32_t n = g->running;
+    pthread_mutex_unlock(&g->lock);
+    return n;
+}
+
+int workers_lod_state(ts_workers *g)
+{
+    pthread_mutex_lock(&g->lock);
+    int state = g->lod_state;
+    pthread_mutex_unlock(&g->lock);
+    return state;
 }
 
 void workers_report(ts_workers *g, ts_error *last)
@@ -434,6 +452,7 @@ int workers_stats(ts_workers *g, ts_stats *stats, ts_error *err)
         d->memory_budget_bytes = w->stats.memory_budget_bytes;
         memcpy(d->stage_seconds, w->stats.stage_seconds, sizeof d->stage_seconds);
         d->failed = w->failed;
+        if (w->failed) snprintf(d->error, sizeof d->error, "%.500s", w->err.msg);
         if (stats_add_device(stats, d, err)) return err->code;
         size_t used = strlen(stats->device);
         snprintf(stats->device + used, sizeof stats->device - used, "%s%s", used ? " + " : "",
@@ -485,7 +504,12 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
     uint64_t shown = 0;
     int rc = TS_OK, lod_state;
     while (!board_finished(b)) {
-        if (render_stop_signal()) break;
+        if (render_stop_signal()) {
+            board_freeze(b);
+            if (service && service->on_stop)
+                service->on_stop(service->stop_ctx, board_samples_done(b));
+            break;
+        }
         workers_report(g, &end->failure);
         pthread_mutex_lock(&g->lock);
         lod_state = g->lod_state;
@@ -494,7 +518,7 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
             rc = ts_error_set_status(err, g->fatal.code, g->fatal.status, "%s", g->fatal.msg);
             break;
         }
-        int elsewhere = service ? service->poll(service->ctx, b, g, err) : 0;
+        int elsewhere = service && service->poll ? service->poll(service->ctx, b, g, err) : 0;
         if (elsewhere < 0) {
             rc = err->code;
             break;
@@ -507,7 +531,7 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
             frame_progress(b, t0, &shown);
             printed = stats_now();
         }
-        board_wait(b, service ? service->interval : 0.25);
+        board_wait(b, service && service->poll ? service->interval : 0.25);
     }
     board_close(b);
     workers_join(g);
@@ -534,6 +558,8 @@ int workers_render(const ts_frame *frame, ts_film_state *film, const int *indice
                         frame->unit_samples, frame->window, err);
     if (!rc) rc = workers_start(&g, board_source(&b), 1, err);
     if (!rc) rc = frame_wait(&g, &b, service, end, err);
+    if (rc && b.state) board_close(&b); /* threads started before a failure end */
+    if (rc && g.w && workers_lod_state(&g) == 0) lod_publish(&g, 0, NULL, NULL);
     workers_join(&g);
     if (b.state) {
         end->samples_done = board_samples_done(&b);

@@ -46,8 +46,9 @@ typedef struct ts_workers {
     int makes_lod, lod_state;
     uint32_t max_lod;
     uint8_t *patch_lod;
-    ts_error fatal; /* why the lod failed */
-    uint32_t alive; /* threads still rendering or able to */
+    ts_error fatal;   /* why the lod failed */
+    uint32_t alive;   /* threads still rendering or able to */
+    uint32_t running; /* threads that have not ended */
     int started;
 } ts_workers;
 
@@ -67,8 +68,12 @@ void workers_lod_set(ts_workers *g, uint32_t max_lod, const uint8_t *patch_lod);
 /* Waits for the lod (device 0's): 1 ready (*max_lod, *patch_lod valid until workers_close),
  * 0 failed (g->fatal says why). */
 int workers_lod_wait(ts_workers *g, uint32_t *max_lod, const uint8_t **patch_lod);
-/* Threads that have not failed. */
+/* Threads that have not failed; threads that have not ended (a thread ends when its source
+ * has no unit left for it, or when it fails). */
 uint32_t workers_alive(ts_workers *g);
+uint32_t workers_running(ts_workers *g);
+/* The frame's levels of detail: 0 not yet, 1 ready, -1 failed (does not wait). */
+int workers_lod_state(ts_workers *g);
 /* Prints (unless quiet) a warning for each device that failed since the last call, and
  * copies the last such error into *last (when not NULL). */
 void workers_report(ts_workers *g, ts_error *last);
@@ -86,12 +91,17 @@ typedef struct ts_frame_end {
     ts_error failure;
 } ts_frame_end;
 
-/* A service the waiting loop of workers_render runs (ranks.c: MPI messages). poll returns
- * how many devices elsewhere may still take units (0: none), or -1 with err set. */
+/* What the waiting loop of workers_render does besides waiting. poll (ranks.c: MPI
+ * messages; NULL: none) returns how many devices elsewhere may still take units (0: none),
+ * or -1 with err set. on_stop (NULL: none) is called once on a stop signal, with the films
+ * frozen at samples [0, samples_done), before the devices end their waves: rank 0 of an
+ * MPI render writes the image there, since mpirun may kill it soon after its SIGTERM. */
 typedef struct ts_frame_service {
     void *ctx;
     int (*poll)(void *ctx, ts_board *b, ts_workers *g, ts_error *err);
     double interval; /* seconds between polls */
+    void (*on_stop)(void *stop_ctx, uint64_t samples_done);
+    void *stop_ctx;
 } ts_frame_service;
 
 /* Renders samples [frame->job->samples_done, total) of the frame on the devices

@@ -121,6 +121,7 @@ static void stats_devices_json(cJSON *root, const ts_stats *s)
                                     d->frame_seconds > 0 ? d->busy_seconds / d->frame_seconds : 0);
             cJSON_AddNumberToObject(o, "memory_budget_bytes", (double)d->memory_budget_bytes);
             cJSON_AddBoolToObject(o, "failed", d->failed);
+            if (d->failed) cJSON_AddStringToObject(o, "error", d->error);
             cJSON_AddItemToArray(devs, o);
         }
     }

@@ -61,8 +61,9 @@ typedef struct ts_device_stats {
                              for the frame's levels of detail (the lod stage) */
     double busy_seconds;  /* tracing units and reading their results back */
     double frame_seconds; /* from the start of the device's thread to the frame's end */
-    int32_t failed;       /* 1: it stopped early with an error (a warning said why) */
+    int32_t failed;       /* 1: it stopped early with an error: */
     int32_t pad;
+    char error[512]; /* why it stopped ("" when it did not) */
 } ts_device_stats;
 
 /* One process of an MPI render, for rank 0's --stats "ranks". */
