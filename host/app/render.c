@@ -92,9 +92,19 @@ static void stop_handlers_install(void)
     stop_handlers_installed = 1;
 }
 
+static void stop_handlers_restore(void);
+
 int render_stop_signal(void)
 {
     return stop_signal;
+}
+
+void render_stop_handlers(int install)
+{
+    if (install)
+        stop_handlers_install();
+    else
+        stop_handlers_restore();
 }
 
 static void stop_handlers_restore(void)
@@ -159,6 +169,14 @@ typedef struct ts_render {
      * the frame (workers.h), merging into state (films_on_host). */
     int devices[TS_DEVICE_MAX], device_count;
     int films_on_host;
+    /* Rank 0 of several MPI ranks (NULL: alone): the units' size and window it told them. */
+    ts_ranks *ranks;
+    /* The image was written when the stop signal came (render_write_early): written is 1,
+     * and early holds its error, if any. */
+    int written;
+    ts_error early;
+    uint64_t unit_samples;
+    uint32_t window;
     ts_device cl;
     ts_pipeline pipe;
     /* Set when memory ran out at the smallest budget with samples finished: why. The
@@ -175,6 +193,7 @@ static void render_init(ts_render *r, const ts_render_options *o, ts_stats *stat
 
 static void render_free(ts_render *r)
 {
+    ts_error_clear(&r->early);
     ts_error_clear(&r->stopped);
     film_state_free(&r->state);
     pipeline_destroy(&r->pipe);
@@ -427,6 +446,19 @@ static int render_select_devices(ts_render *r, ts_error *err)
     return TS_OK;
 }
 
+static int render_write(ts_render *r, ts_error *err);
+
+/* A stop signal during a render on several devices or ranks: the merged samples
+ * [0, samples_done) are written at once, while the devices end their waves (under mpirun
+ * a SIGTERM may be followed by SIGKILL within a second, ranks.h). */
+static void render_write_early(void *ctx, uint64_t samples_done)
+{
+    ts_render *r = ctx;
+    r->job.samples_done = samples_done;
+    r->written = 1;
+    render_write(r, &r->early);
+}
+
 /* The frame on several devices (workers.h): their units merged into r->state. When every
  * device failed after samples were merged, they are kept for render_write (r->stopped says
  * why); with none merged the render fails with the last device's error. */
@@ -437,17 +469,36 @@ static int render_on_devices(ts_render *r, ts_error *err)
                   .cam = r->cam,
                   .pixel_count = (uint32_t)((uint64_t)r->width * r->height),
                   .job = &r->job,
-                  .budget_share = 1};
+                  .budget_share = r->ranks ? (uint32_t)r->ranks->node_ranks : 1u};
     uint64_t start = r->job.samples_done;
-    units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples, &f.window);
-    if (!r->opt.quiet)
+    if (r->ranks)
+        f.unit_samples = r->unit_samples, f.window = r->window;
+    else
+        units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples, &f.window);
+    if (!r->opt.quiet && r->ranks)
+        fprintf(
+            stderr,
+            "tessera: %dx%d, %d spp on %d ranks (%d devices on rank 0), in units of %llu samples\n",
+            r->width, r->height, r->opt.spp, r->ranks->size, r->device_count,
+            (unsigned long long)f.unit_samples);
+    else if (!r->opt.quiet)
         fprintf(stderr, "tessera: %dx%d, %d spp on %d devices, in units of %llu samples\n",
                 r->width, r->height, r->opt.spp, r->device_count,
                 (unsigned long long)f.unit_samples);
     r->films_on_host = 1;
     stop_handlers_install();
     ts_frame_end end;
-    int rc = workers_render(&f, &r->state, r->devices, r->device_count, NULL, r->stats, &end, err);
+    ts_frame_service service = {0};
+#ifdef TESSERA_HAVE_MPI
+    if (r->ranks) service = ranks_service(r->ranks, r->stats);
+#endif
+    service.on_stop = render_write_early;
+    service.stop_ctx = r;
+    int rc =
+        workers_render(&f, &r->state, r->devices, r->device_count, &service, r->stats, &end, err);
+#ifdef TESSERA_HAVE_MPI
+    if (!rc && r->ranks && !render_stop_signal()) rc = ranks_finish(r->ranks, r->stats, err);
+#endif
     if (rc) {
         ts_error_clear(&end.failure);
         return rc;
@@ -465,6 +516,30 @@ static int render_on_devices(ts_render *r, ts_error *err)
     ts_error_clear(&end.failure);
     return rc;
 }
+
+#ifdef TESSERA_HAVE_MPI
+/* Rank 0 of several: tells the other ranks how the frame starts (its size, samples, the
+ * units, the camera and the scene), or, when this rank failed (rc) or has nothing to do,
+ * that there is no frame. Returns rc, else the broadcast's own status. */
+static int render_tell_ranks(ts_render *r, int rc, int up_to_date, ts_error *err)
+{
+    ts_rank_start s;
+    memset(&s, 0, sizeof s);
+    s.status = rc || up_to_date;
+    s.scene_load = r->opt.mpi_scene_load;
+    if (!s.status) {
+        s.width = r->width, s.height = r->height, s.spp = r->opt.spp;
+        s.job_hash = r->job.hash;
+        s.total = r->job.total, s.start = r->job.samples_done;
+        units_plan(s.total - s.start, (uint32_t)(r->ranks->size * r->device_count),
+                   &r->unit_samples, &r->window);
+        s.unit_samples = r->unit_samples;
+        s.cam = r->cam;
+    }
+    int told = ranks_start(r->ranks, &s, &r->scene, err);
+    return rc ? rc : told;
+}
+#endif
 
 /* The image file, timed as part of the film stage. The films are copied to the host and the
  * pipeline released first, so that the budget's memory is free again while the image is
@@ -501,28 +576,35 @@ static void render_result(const ts_render *r, int up_to_date, ts_render_result *
     snprintf(out->reason, sizeof out->reason, "%s", r->stopped.msg);
 }
 
-int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *result, ts_error *err)
+int render_run(const ts_render_options *o, ts_ranks *ranks, ts_stats *stats,
+               ts_render_result *result, ts_error *err)
 {
     double t0 = stats_now();
     memset(result, 0, sizeof *result);
-    if (output_check(o, err)) return err->code;
     ts_render r;
     render_init(&r, o, stats);
+    r.ranks = ranks && ranks->size > 1 ? ranks : NULL;
     int up_to_date = 0;
-    int rc = render_load_scene(&r, err);
+    int rc = output_check(o, err);
+    if (!rc) rc = render_load_scene(&r, err);
+    if (r.ranks) r.ranks->scene_seconds = stats_now() - t0;
     if (!rc) rc = output_check_inputs(o, &r.scene, err);
     if (!rc) rc = render_start_job(&r, err);
     if (!rc && o->resume)
         rc = resume_load(&r.opt, r.width, r.height, &r.job, &r.state, &up_to_date, err);
     if (!rc && !up_to_date) rc = render_select_devices(&r, err);
-    if (!rc && !up_to_date && r.device_count == 1) rc = render_open_device(&r, err);
+#ifdef TESSERA_HAVE_MPI
+    if (r.ranks) rc = render_tell_ranks(&r, rc, up_to_date, err);
+#endif
+    int alone = r.device_count == 1 && !r.ranks;
+    if (!rc && !up_to_date && alone) rc = render_open_device(&r, err);
     /* The host copy of the films (48 bytes a pixel) before the device takes its budget: the
      * retry and the image write need it when memory is scarcest. --resume made it. */
     if (!rc && !up_to_date && !r.state.accum)
         rc = film_state_alloc(&r.state, (size_t)r.width * r.height, err);
-    if (!rc && !up_to_date)
-        rc = r.device_count == 1 ? render_with_retry(&r, err) : render_on_devices(&r, err);
-    if (!rc && !up_to_date) rc = render_write(&r, err);
+    if (!rc && !up_to_date) rc = alone ? render_with_retry(&r, err) : render_on_devices(&r, err);
+    if (!rc && !up_to_date && !r.written) rc = render_write(&r, err);
+    if (!rc && r.early.code) rc = ts_error_set(err, r.early.code, "%s", r.early.msg);
     if (!rc) render_result(&r, up_to_date, result);
     stop_handlers_restore(); /* after the write: a signal until then only stops the waves */
     render_free(&r);

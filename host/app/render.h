@@ -4,6 +4,7 @@
 #define TS_RENDER_H
 
 #include "app/options.h"
+#include "app/ranks.h"
 #include "scene/scene.h"
 #include "base/stats.h"
 
@@ -43,10 +44,16 @@ typedef struct ts_render_result {
  * When the device cannot provide a buffer, the budget is halved and the render planned
  * again, down to 16 MB; when even that fails after samples were finished, they are
  * written (TS_RENDER_OUT_OF_MEMORY) instead of lost. */
-int render_run(const ts_render_options *options, ts_stats *stats, ts_render_result *result,
-               ts_error *err);
+/* ranks: this process among the MPI ranks (rank 0 of several: it leads the frame, ranks.h);
+ * NULL or one rank: alone. */
+int render_run(const ts_render_options *options, ts_ranks *ranks, ts_stats *stats,
+               ts_render_result *result, ts_error *err);
 
 /* The stop signal (SIGINT, SIGTERM, SIGHUP) that came while samples were traced, or 0. */
 int render_stop_signal(void);
+/* Installs (1) or restores (0) the handlers that make SIGINT, SIGTERM and SIGHUP only
+ * record the signal for render_stop_signal (render_run installs them around the waves; the
+ * MPI ranks other than 0 around their render). */
+void render_stop_handlers(int install);
 
 #endif
