@@ -7,7 +7,7 @@ checked for being positive and consistent, never against a target. Exit 77 (skip
 test needs an OpenCL device and `tessera devices` finds none.
 
     bench_smoke.py TEST --source DIR --build DIR
-    TEST: profile, render, stages, leaf, sort, scene_load, bench, export, noise
+    TEST: profile, render, stages, leaf, sort, scene_load, bench, export, noise, lod
 """
 import argparse
 import importlib.machinery
@@ -378,7 +378,23 @@ def test_noise(ctx):
               f"no convergence: {rows}")
 
 
-TESTS = {"profile": test_profile, "render": test_render, "stages": test_stages, "leaf": test_leaf,
+def test_lod(ctx):
+    require_device(ctx)
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-lod-") as tmp:
+        js = os.path.join(tmp, "l.json")
+        run([sys.executable, os.path.join(ctx.source, "tools", "bench_lod.py"), "--size", "tiny",
+             "--binary", ctx.tessera, "--cache", os.path.join(tmp, "cache"), "--json", js])
+        r = load(js)
+        check(len(r["results"]) == 1, "one scene")
+        res = r["results"][0]
+        rows = {row["rule"]: row for row in res["rows"]}
+        check(sorted(rows) == ["crossed", "seen", "visible"], f"three rules: {sorted(rows)}")
+        for row in rows.values():
+            check(row["diced"] > 0 and row["micropolygons"] >= row["diced"] and row["rmse"] > 0, "positive figures")
+        check(res["noise_floor"] > 0, "a noise floor")
+
+
+TESTS = {"lod": test_lod, "profile": test_profile, "render": test_render, "stages": test_stages, "leaf": test_leaf,
          "sort": test_sort, "scene_load": test_scene_load, "bench": test_bench,
          "export": test_export, "noise": test_noise}
 

@@ -62,19 +62,6 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
     return TS_OK;
 }
 
-/* The lod stage: all eye rays of the frame, wave by wave, counted per patch box. */
-static int render_lod(ts_pipeline *p, ts_camera_params cam, uint64_t total, ts_error *err)
-{
-    uint32_t per_wave = p->plan.ray_capacity;
-    for (uint64_t first = 0; first < total; first += per_wave) {
-        uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
-        cam.first_sample = (uint32_t)first;
-        cam.ray_count = n;
-        if (pipeline_camera(p, &cam, err) || pipeline_lod_count(p, n, err)) return err->code;
-    }
-    return pipeline_lod_finish(p, err);
-}
-
 /* Traces one wave of paths from the eye: eye rays, then each bounce's rays (BSDF and
  * shadow rays together, Hanika §3.5: rays grouped by generation) until none is left or the
  * depth is reached. */
@@ -144,7 +131,14 @@ static void stop_handlers_restore(void)
 static int render_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
                             ts_job *job, ts_error *err)
 {
-    if (o->fixed_lod < 0 && render_lod(p, cam, job->total, err)) return err->code;
+    /* TESSERA_LOD_RULE=visible|seen: the rules measured against the default in
+     * docs/benchmarks.md, for experiments. */
+    const char *name = getenv("TESSERA_LOD_RULE");
+    ts_lod_rule rule = TS_LOD_RULE_CROSSED;
+    if (name && *name && pipeline_lod_rule_parse(name, &rule))
+        return ts_error_set(err, TS_E_USAGE,
+                            "TESSERA_LOD_RULE=%s: expected crossed, visible or seen", name);
+    if (o->fixed_lod < 0 && pipeline_lod(p, &cam, rule, err)) return err->code;
     int32_t lod = job_lod_hash(p, o);
     job->lod_mismatch = job->check_lod && lod != job->lod;
     if (job->lod_mismatch)

@@ -46,6 +46,7 @@ typedef struct ts_iteration {
     uint32_t n_per_ray;
     uint64_t pairs;
     uint32_t segments;
+    uint32_t lod; /* 1: traced by the lod stage (pipeline_lod), not by a wave of paths */
 } ts_iteration;
 
 typedef struct ts_stats {
