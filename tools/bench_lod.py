@@ -21,7 +21,6 @@ the part of every rmse that is noise, not level of detail.
 Reference images are kept in --cache (default out/lod-cache/), keyed by the binary's checksum.
 """
 import argparse
-import hashlib
 import importlib.util
 import json
 import math
@@ -40,19 +39,12 @@ SIZES = {  # (scene, resolution, spp, reference lod or None: no reference) per s
 }
 
 
-def png_tools():
-    spec = importlib.util.spec_from_file_location("bench_cycles", os.path.join(ROOT, "tools", "bench_cycles.py"))
+def bench_noise():
+    """tools/bench_noise.py as a module: its PNG reader, RMSE and file checksum."""
+    spec = importlib.util.spec_from_file_location("bench_noise", os.path.join(ROOT, "tools", "bench_noise.py"))
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
-
-
-def file_hash(path):
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()[:16]
 
 
 def render(a, scene, res, spp, out, seed, rule=None, lod=None, stats=None):
@@ -70,18 +62,6 @@ def render(a, scene, res, spp, out, seed, rule=None, lod=None, stats=None):
     return time.monotonic() - t0
 
 
-def rmse(png, path_a, path_b):
-    w, h, ra = png.png_read(path_a)
-    w2, h2, rb = png.png_read(path_b)
-    if (w, h) != (w2, h2):
-        raise SystemExit("bench_lod: images differ in size")
-    ss = 0
-    for y in range(h):
-        a, b = ra[y], rb[y]
-        ss += sum((a[i] - b[i]) ** 2 for i in range(3 * w))
-    return math.sqrt(ss / (3 * w * h))
-
-
 def fmt(v):
     return "-" if v is None else f"{v:.3f}"
 
@@ -93,9 +73,10 @@ def main():
     ap.add_argument("--cache", default=os.path.join(ROOT, "out", "lod-cache"))
     ap.add_argument("--json", default=None)
     a = ap.parse_args()
-    png = png_tools()
+    noise = bench_noise()
+    png = noise.load_png_tools()
     os.makedirs(a.cache, exist_ok=True)
-    tag = file_hash(a.binary)
+    tag = noise.file_hash(a.binary)
     results = []
     with tempfile.TemporaryDirectory(prefix="tessera-bench-lod-") as tmp:
         for name, res, spp, ref_lod in SIZES[a.size]:
@@ -112,13 +93,13 @@ def main():
                 with open(stats) as f:
                     c = json.load(f)["counters"]
                 row = {"rule": rule, "diced": c["patches_diced"], "micropolygons": c["micropolygons_created"],
-                       "rmse": rmse(png, ref, out) if ref else None, "seconds": seconds}
+                       "rmse": noise.rmse_levels(png, ref, out) if ref else None, "seconds": seconds}
                 rows.append(row)
                 print(f"  {name} {rule}: {row['diced']} dicings, {row['micropolygons']} micro-polygons, "
                       f"rmse {fmt(row['rmse'])}, {seconds:.1f} s", file=sys.stderr)
             other = os.path.join(tmp, f"{name}-crossed-seed1.png")
             render(a, scene, res, spp, other, 1, rule="crossed")
-            floor = rmse(png, os.path.join(tmp, f"{name}-crossed.png"), other) / math.sqrt(2)
+            floor = noise.rmse_levels(png, os.path.join(tmp, f"{name}-crossed.png"), other) / math.sqrt(2)
             results.append({"scene": f"scene/{name}.rib", "res": res, "spp": spp, "ref_lod": ref_lod,
                             "noise_floor": floor, "rows": rows})
     print("| scene | rule | dicings | micro-polygons | RMSE vs reference (levels) | noise floor (levels) | seconds |")
