@@ -33,8 +33,8 @@ static void test_every_ray_misses(void **state)
     if (render_camera_params(&s.camera, W, H, &cam, &err)) fail_msg("%s", err.msg);
     cam.spp = 1;
     cam.ray_count = W * H;
-    if (pipeline_camera(&p, &cam, &err) || pipeline_lod_count(&p, W * H, &err) ||
-        pipeline_lod_finish(&p, &err) || pipeline_trace(&p, W * H, &err))
+    if (pipeline_camera(&p, &cam, &err) || pipeline_lod_count(&p, W * H, 0, &err) ||
+        pipeline_lod_finish(&p, TS_LOD_RULE_CROSSED, 0, &err) || pipeline_trace(&p, W * H, &err))
         fail_msg("%s", err.msg);
     static ts_hit hit[W * H];
     if (dev_read(&cl, p.ray_hit, 0, sizeof hit, hit, "hits", &err)) fail_msg("%s", err.msg);

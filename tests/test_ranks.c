@@ -187,8 +187,10 @@ int main(void)
     };
     (void)test_ranks_without_mpi_are_refused;
     if (system("mpirun --version >/dev/null 2>&1") != 0) {
-        fprintf(stderr, "mpirun is not installed (Debian: openmpi-bin)\n");
-        return 1; /* built with MPI: its launcher belongs to the machine */
+        /* The library without its launcher (libopenmpi-dev without openmpi-bin): nothing
+         * here can start ranks. */
+        fprintf(stderr, "mpirun is not installed (Debian: openmpi-bin): skipped\n");
+        return TS_TEST_SKIP;
     }
 #else
     const struct CMUnitTest tests[] = {

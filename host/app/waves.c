@@ -2,6 +2,8 @@
  * (waves.h). */
 #include "app/waves.h"
 
+#include <stdlib.h>
+
 ts_trace_mode waves_trace_mode(const ts_render_options *o)
 {
     return (ts_trace_mode){(uint32_t)o->spp, o->fixed_lod, o->exact, o->leaf_group,
@@ -10,23 +12,17 @@ ts_trace_mode waves_trace_mode(const ts_render_options *o)
                                                : 0u};
 }
 
-/* The lod stage: all eye rays of the frame, wave by wave, counted per patch box. */
-static int waves_lod(ts_pipeline *p, ts_camera_params cam, uint64_t total, ts_error *err)
-{
-    uint32_t per_wave = p->plan.ray_capacity;
-    for (uint64_t first = 0; first < total; first += per_wave) {
-        uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
-        cam.first_sample = (uint32_t)first;
-        cam.ray_count = n;
-        if (pipeline_camera(p, &cam, err) || pipeline_lod_count(p, n, err)) return err->code;
-    }
-    return pipeline_lod_finish(p, err);
-}
-
 int waves_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam, ts_job *job,
                     ts_error *err)
 {
-    if (o->fixed_lod < 0 && waves_lod(p, cam, job->total, err)) return err->code;
+    /* TESSERA_LOD_RULE=visible|seen: the rules measured against the default in
+     * docs/benchmarks.md, for experiments. */
+    const char *name = getenv("TESSERA_LOD_RULE");
+    ts_lod_rule rule = TS_LOD_RULE_CROSSED;
+    if (name && *name && pipeline_lod_rule_parse(name, &rule))
+        return ts_error_set(err, TS_E_USAGE,
+                            "TESSERA_LOD_RULE=%s: expected crossed, visible or seen", name);
+    if (o->fixed_lod < 0 && pipeline_lod(p, &cam, rule, err)) return err->code;
     int32_t lod = job_lod_hash(p, o);
     job->lod_mismatch = job->check_lod && lod != job->lod;
     if (job->lod_mismatch)

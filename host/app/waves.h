@@ -13,9 +13,10 @@
  * --leaf-size. */
 ts_trace_mode waves_trace_mode(const ts_render_options *o);
 
-/* The frame's levels of detail into p->patch_lod: the lod stage counts the whole frame's eye
- * rays (job->total of them) even when the film already holds samples [0,
- * job->samples_done) (--resume, a retry): it is deterministic, so it gives the levels of
+/* The frame's levels of detail into p->patch_lod: the lod stage (pipeline_lod, by the rule
+ * TESSERA_LOD_RULE names, crossed by default) counts the frame's first sample pass even when
+ * the film already holds samples [0, job->samples_done) (--resume, a retry): it is
+ * deterministic, so it gives the levels of
  * detail those samples were traced with, which job->check_lod verifies against job->lod
  * (TS_E_USAGE and job->lod_mismatch when they differ). Then job->lod, job->max_lod and
  * job->check_lod are recorded. With --lod nothing is counted. */

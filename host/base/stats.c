@@ -173,6 +173,7 @@ static cJSON *stats_to_json(const ts_stats *s)
         cJSON_AddNumberToObject(o, "n_per_ray", it->n_per_ray);
         cJSON_AddNumberToObject(o, "pairs", (double)it->pairs);
         cJSON_AddNumberToObject(o, "segments", it->segments);
+        if (it->lod) cJSON_AddBoolToObject(o, "lod", 1);
         cJSON_AddItemToArray(its, o);
     }
     stats_devices_json(root, s);

@@ -46,6 +46,7 @@ typedef struct ts_iteration {
     uint32_t n_per_ray;
     uint64_t pairs;
     uint32_t segments;
+    uint32_t lod; /* 1: traced by the lod stage (pipeline_lod), not by a wave of paths */
 } ts_iteration;
 
 /* One device of a render on several (app/workers.c), for --stats "devices". Plain bytes
