@@ -91,7 +91,8 @@ static void test_two_devices_give_the_one_device_image(void **state)
     }
 }
 
-/* Units of 777 samples cut passes and cross from one pass into the next: same bits. */
+/* Units of 777 samples cut passes and cross from one pass into the next: same bits; so do
+ * the levels of detail of TESSERA_LOD_RULE=seen. */
 static void test_odd_units_give_the_same_image(void **state)
 {
     (void)state;
@@ -101,6 +102,13 @@ static void test_odd_units_give_the_same_image(void **state)
     render("scene/teapot_displaced.rib", "odd2.exr", pair, args);
     unsetenv("TESSERA_UNIT_SAMPLES");
     test_assert_same_pixels(in_dir("odd1.exr"), in_dir("odd2.exr"));
+    /* The seen rule traces the first pass in the lod stage (app/waves.c on the first
+     * device); the others take its levels: same bits as one device under that rule. */
+    setenv("TESSERA_LOD_RULE", "seen", 1);
+    render("scene/teapot_displaced.rib", "seen1.exr", first, args);
+    render("scene/teapot_displaced.rib", "seen2.exr", pair, args);
+    unsetenv("TESSERA_LOD_RULE");
+    test_assert_same_pixels(in_dir("seen1.exr"), in_dir("seen2.exr"));
 }
 
 /* Device k of the pair slowed by 150 ms a wave: the other takes most units, and the image is

@@ -4,7 +4,8 @@
  * loaded by every rank (--mpi-scene load); rank 0's --stats has one "ranks" entry per rank
  * and every device of every rank under "devices"; a rank killed in mid-frame (SIGKILL,
  * TESSERA_KILL_RANK) leaves a resumable EXR that --resume, alone or under mpirun, finishes to
- * the same bits. Built without MPI, these are skipped and the test checks instead that a
+ * the same bits; a rank whose device cannot build the kernels is left out with a warning.
+ * Built without MPI, these are skipped and the test checks instead that a
  * process started by mpirun as one of several ranks refuses to render. */
 #include "test_support.h"
 #include "image/image.h"
@@ -119,6 +120,39 @@ static void test_ranks_that_load_the_scene(void **state)
     expect_in_stderr("bad value 'files' for --mpi-scene");
 }
 
+/* Rank 1's device fails to build the kernels (TESSERA_FAIL_BUILD in that rank's environment
+ * alone: mpirun's second app context runs it through env): rank 0 warns, naming the rank and
+ * its error, and renders the frame itself, the one-process image. */
+static void test_a_rank_whose_devices_fail_is_left_out(void **state)
+{
+    (void)state;
+    const char *scene = test_source_path("scene/teapot.rib");
+    test_tessera_ok(dir, "render '%s' -o '%s' " ARGS " --quiet", scene, in_dir("one_f.exr"));
+    char cmd[16384];
+    snprintf(cmd, sizeof cmd,
+             "mpirun --oversubscribe -np 1 '%s' render '%s' -o '%s' " ARGS
+             " --stats '%s' : -np 1 env TESSERA_FAIL_BUILD=- '%s' render '%s' -o '%s' " ARGS
+             " 2>'%s' >/dev/null",
+             test_tessera_binary(), scene, in_dir("failed.exr"), in_dir("failed.json"),
+             test_tessera_binary(), scene, in_dir("failed.exr"), in_dir("stderr.txt"));
+    int st = system(cmd);
+    if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) fail_msg("mpirun: %d\n%s", st, stderr_text());
+    expect_in_stderr("tessera: warning: rank 1 (");
+    expect_in_stderr("CL_BUILD_PROGRAM_FAILURE");
+    test_assert_same_pixels(in_dir("one_f.exr"), in_dir("failed.exr"));
+    cJSON *root = test_read_json(in_dir("failed.json"));
+    cJSON *ranks = cJSON_GetObjectItemCaseSensitive(root, "ranks");
+    assert_int_equal(cJSON_GetArraySize(ranks), 2);
+    cJSON *one = cJSON_GetArrayItem(ranks, 1);
+    assert_true(number(one, "rank") == 1 && number(one, "devices") == 0);
+    assert_true(number(one, "samples") == 0);
+    cJSON *why = cJSON_GetObjectItemCaseSensitive(one, "error");
+    assert_true(cJSON_IsString(why) && strstr(why->valuestring, "CL_BUILD_PROGRAM_FAILURE"));
+    assert_null(cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(ranks, 0), "error"));
+    assert_true(number(cJSON_GetArrayItem(ranks, 0), "samples") == 96.0 * 54 * 4);
+    cJSON_Delete(root);
+}
+
 /* Rank 1 dies (SIGKILL) after sending two units: mpirun sends the others SIGTERM, rank 0
  * writes the merged prefix; --resume alone and under mpirun finish it to the same bits. */
 static void test_a_rank_that_dies_leaves_a_resumable_image(void **state)
@@ -192,6 +226,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_ranks_give_the_one_process_image),
         cmocka_unit_test(test_ranks_that_load_the_scene),
+        cmocka_unit_test(test_a_rank_whose_devices_fail_is_left_out),
         cmocka_unit_test(test_a_rank_that_dies_leaves_a_resumable_image),
     };
     (void)test_ranks_without_mpi_are_refused;

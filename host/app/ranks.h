@@ -37,6 +37,7 @@ typedef struct ts_ranks {
     double t0, scene_seconds;
     struct ranks_peer *peers; /* rank 0: what each other rank asked for and said */
     int lod_sent;
+    int quiet;       /* rank 0: --quiet (no warnings about the other ranks) */
     ts_stats *stats; /* rank 0: where the others' stats go */
 } ts_ranks;
 

@@ -248,6 +248,7 @@ static int take_bye(ts_ranks *r, ts_board *b, int from, const void *data, int by
     while (p->out_count > 0)
         board_give_back(b, &p->out[--p->out_count]);
     head.error[sizeof head.error - 1] = '\0';
+    head.rank.host[sizeof head.rank.host - 1] = head.rank.error[sizeof head.rank.error - 1] = '\0';
     if (head.failed && !quiet)
         fprintf(stderr, "\ntessera: warning: rank %d (%s) stopped: %s\n", from, head.rank.host,
                 head.error);
@@ -329,7 +330,7 @@ static int service_poll(void *ctx, ts_board *b, ts_workers *g, ts_error *err)
 {
     ts_ranks *r = ctx;
     if (!r->lod_sent && workers_lod_state(g) != 0 && send_lod(r, g, err)) return -1;
-    if (serve(r, b, g->frame.opt->quiet, err)) return -1;
+    if (serve(r, b, r->quiet, err)) return -1;
     return ranks_active(r);
 }
 
@@ -355,7 +356,7 @@ int ranks_finish(ts_ranks *r, ts_stats *stats, ts_error *err)
     if (board_init(&done, NULL, 1, 0, 0, 1, 1, err)) return err->code;
     int rc = TS_OK;
     while (!rc && ranks_active(r) > 0) {
-        rc = serve(r, &done, 1, err);
+        rc = serve(r, &done, r->quiet, err);
         if (!rc && render_stop_signal()) break;
         sleep_seconds(RANKS_POLL_SECONDS);
     }
@@ -653,6 +654,7 @@ static int follow_bye(ts_ranks *r, ts_workers *g, const ts_error *why, ts_error 
     head.device_count = s.device_count;
     head.failed = why && why->code;
     if (head.failed) snprintf(head.error, sizeof head.error, "%.1000s", why->msg);
+    if (head.failed) snprintf(head.rank.error, sizeof head.rank.error, "%.500s", why->msg);
     size_t bytes = sizeof head + s.device_count * sizeof(ts_device_stats);
     char *msg = malloc(bytes);
     if (!rc && !msg) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");

@@ -527,6 +527,7 @@ static int render_tell_ranks(ts_render *r, int rc, int up_to_date, ts_error *err
     memset(&s, 0, sizeof s);
     s.status = rc || up_to_date;
     s.scene_load = r->opt.mpi_scene_load;
+    r->ranks->quiet = r->opt.quiet;
     if (!s.status) {
         s.width = r->width, s.height = r->height, s.spp = r->opt.spp;
         s.job_hash = r->job.hash;

@@ -137,6 +137,7 @@ static void stats_devices_json(cJSON *root, const ts_stats *s)
             cJSON_AddNumberToObject(o, "samples", (double)r->samples);
             cJSON_AddNumberToObject(o, "seconds", r->seconds);
             cJSON_AddNumberToObject(o, "scene_seconds", r->scene_seconds);
+            if (r->error[0]) cJSON_AddStringToObject(o, "error", r->error);
             cJSON_AddItemToArray(ranks, o);
         }
     }

@@ -75,6 +75,7 @@ typedef struct ts_rank_stats {
     uint64_t units, samples;
     double seconds;       /* the rank's render, from the scene to its last unit */
     double scene_seconds; /* getting the scene: loading the files, or receiving rank 0's */
+    char error[512];      /* why it rendered nothing ("" when it rendered) */
 } ts_rank_stats;
 
 typedef struct ts_stats {
