@@ -3,8 +3,9 @@
  * (leaf, window) pairs, front to back.
  * Reads:  nodes, active[0..active_count), org, dir, hit.t (tmax: closest hit so far),
  *         entry (where the ray stopped last iteration).
- * Writes: pairs[i*n_per_ray .. +n_per_ray) (unused entries: leaf = TS_INVALID), count[i],
- *         entry (TS_INVALID once the traversal is finished).
+ * Writes: pairs[i*n_per_ray .. +count[i]) and count[i] (the rest of the window is left
+ *         as it was: sort reads only the first count[i], radix_sort_windows), entry
+ *         (TS_INVALID once the traversal is finished).
  * Invariant: the child order of a node depends only on the signs of the ray direction on
  * the node's split axes, so (node, position) is enough to resume, and across all
  * iterations every leaf box the ray meets within tmax is emitted exactly once. */
@@ -52,8 +53,6 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
             qbvh_ascend(nodes, &node, &pos, order, d.x, d.y, d.z);
         }
     }
-    for (uint k = n; k < n_per_ray; ++k)
-        pairs[i * n_per_ray + k] = (ts_pair){TS_INVALID, i * n_per_ray + k};
     count[i] = n;
     entry[ray] = state;
 }
