@@ -5,7 +5,8 @@
  * - Exposure gain gamma: each colour is (gain c)^(1/gamma) of the same render without it;
  * - Surface "metal" under a uniform dome reflects at most Cs, tinted by Cs;
  * - Surface "constant" is its colour, with no light in the scene;
- * - the public RIB files of tests/rib-corpus/ render, one of them to a known motion blur.
+ * - the public RIB files of tests/rib-corpus/ render, one of them to a known motion blur,
+ *   one lit by its pointlights alone.
  * Needs an OpenCL device (skipped, 77, without one). */
 #include "test_support.h"
 #include "image/image.h"
@@ -205,6 +206,12 @@ static void test_corpus_renders(void **state)
         ts_image img;
         test_read_image(path("corpus.exr"), &img);
         assert_true(img.width == 24 && img.height == 18);
+        if (k == 1) { /* teapotgeom.rib: lit by its pointlights only */
+            double sum = 0;
+            for (int i = 0; i < img.width * img.height; i++)
+                sum += img.pixels[(size_t)i * img.channels];
+            assert_true(sum > 0.5);
+        }
         image_free(&img);
     }
     snprintf(rel, sizeof rel, "tests/rib-corpus/aqsis/prototypes/newcore/scenes/mb_noise_test.rib");

@@ -6,11 +6,12 @@
  *   rib.c          rib_load, rib_parse_string, the request loop and its dispatch table
  *   rib_state.c    transformations, blocks, Format, Projection, Color, Basis, Displacement,
  *                  motion blocks
- *   rib_geom.c     Patch, PatchMesh and LightSource "distantlight" into the scene
+ *   rib_geom.c     Patch and PatchMesh into the scene
+ *   rib_light.c    LightSource (distant, point, spot, ambient, dome lights)
  *   rib_quadric.c, rib_poly.c, rib_nurbs.c, rib_subdiv.c, rib_primvar.c: quadrics,
  *                  polygons, NuPatch, SubdivisionMesh and their primitive variables
  *                  (rib_prims.h; they call rib_geom.c's rib_geom_emit)
- *   rib_shading.c  Surface, AreaLightSource, Opacity, LightSource "domelight"
+ *   rib_shading.c  Surface, AreaLightSource, Opacity
  *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
  *   rib_frames.c   FrameBegin/FrameEnd (the frame read), the checks on a whole scene
@@ -32,8 +33,8 @@
  *                    attributes of procedural geometry)
  *   rib_state.c   -> rib_geom.c (MotionEnd of a block of Patch samples)
  *   rib_options.c -> rib_state.c (rib_before_world)
- *   rib_geom.c    -> rib_shading.c (LightSource "domelight")
- *   rib_shading.c -> no other handler
+ *   rib_light.c   -> rib_geom.c (rib_geom_check: where lights may stand)
+ *   rib_geom.c, rib_shading.c -> no other handler
  *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
  *                    handler. rib.c and rib_archive.c also start lexers (on rib_text.c's bytes);
  * rib.c, rib_state.c and rib_geom.c use basis.c. The one cycle is rib.c -> rib_archive.c -> rib.c:
@@ -88,11 +89,10 @@ int rib_check_closed(rib_parser *p);
 /* Fails unless the current request comes before WorldBegin (camera and image options). */
 int rib_before_world(rib_parser *p);
 
-/* ---- rib_geom.c: Patch, PatchMesh, LightSource ---- */
+/* ---- rib_geom.c: Patch, PatchMesh ---- */
 
 int rib_req_patch(rib_parser *p);
 int rib_req_patch_mesh(rib_parser *p);
-int rib_req_light_source(rib_parser *p);
 /* Emits the moving patch of a completed motion block (MotionEnd). */
 int rib_geom_motion_patch(rib_parser *p);
 /* The attributes in effect (colour, displacement with its world-to-object transform,
@@ -114,13 +114,15 @@ int rib_geom_transparent(const rib_parser *p);
  * current Basis, with the current transformation and attributes, as Patch does. */
 int rib_geom_bezier(rib_parser *p, const double g[16][3]);
 
-/* ---- rib_shading.c: Surface, AreaLightSource, Opacity, LightSource "domelight" ---- */
+/* ---- rib_shading.c: Surface, AreaLightSource, Opacity ---- */
 
 int rib_req_surface(rib_parser *p);
 int rib_req_area_light_source(rib_parser *p);
 int rib_req_opacity(rib_parser *p);
-/* LightSource "domelight": params from index `first`. */
-int rib_dome_light(rib_parser *p, size_t first);
+
+/* ---- rib_light.c: LightSource ---- */
+
+int rib_req_light_source(rib_parser *p);
 
 /* ---- rib_options.c: PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure ---- */
 

@@ -300,7 +300,7 @@ static int rib_camera_items_to_world(rib_parser *p, const double cam_to_world[16
     if (rc == TS_OK) rc = rib_camera_attrs_to_world(p, p->ctm);
     if (rc != TS_OK) return rc;
     for (uint32_t l = p->first_light; l < s->light_count; l++) {
-        ts_distant_light *d = &s->lights[l];
+        ts_scene_light *d = &s->lights[l];
         double from[3], to[3];
         if (!mat4_point(cam_to_world, d->from, from) || !mat4_point(cam_to_world, d->to, to))
             return rib_error_at(p, p->req_line, p->req_col,
