@@ -29,6 +29,8 @@ static const corpus_file corpus[] = {
     {"aqsis/prototypes/newcore/scenes/mb_noise_test.rib", 1, 0, 256, 256,
      TS_PROJECTION_ORTHOGRAPHIC},
     {"aqsis/examples/features/textures/sticky.rib", 3, 1, 480, 360, TS_PROJECTION_PERSPECTIVE},
+    {"aqsis/examples/features/objectinstance/singlepolygon.rib", 12, 1, 480, 360,
+     TS_PROJECTION_PERSPECTIVE},
 };
 
 static void test_corpus_loads(void **state)
