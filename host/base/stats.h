@@ -46,6 +46,7 @@ typedef struct ts_iteration {
     uint32_t n_per_ray;
     uint64_t pairs;
     uint32_t segments;
+    uint32_t lod; /* 1: traced by the lod stage (pipeline_lod), not by a wave of paths */
 } ts_iteration;
 
 typedef struct ts_stats {
@@ -58,6 +59,9 @@ typedef struct ts_stats {
     double wall_seconds;
     double kernel_build_seconds;
     int kernel_cache_hit;
+    /* The memory budget of the attempt that finished the render: the chosen one (--memory
+     * or the default, app/budget.h), halved per out-of-memory retry. */
+    uint64_t memory_budget_bytes;
 } ts_stats;
 
 extern const char *const ts_counter_names[TS_COUNTER_COUNT];
