@@ -288,6 +288,14 @@ static void test_paths_are_checked_before_rendering(void **state)
     snprintf(args, sizeof args,
              "render '%s' -o '%s/new.png' --res 8x8 --stats '%s/s2.json' --quiet", scene, dir, dir);
     assert_int_equal(run(args), 0);
+    /* A RIB archive the scene reads is an input too (so is a mesh). */
+    write_text("inner.rib", "Sphere 1 -1 1 360\n");
+    write_text("outer.rib", "Format 8 8 1\nWorldBegin\nLightSource \"distantlight\" 1\nReadArchive "
+                            "\"inner.rib\"\nWorldEnd\n");
+    snprintf(args, sizeof args, "render '%s/outer.rib' -o '%s/o.png' --stats '%s/inner.rib'", dir,
+             dir, dir);
+    expect_error(args, "inner.rib: --stats names a file the scene reads");
+    assert_text("inner.rib", "Sphere 1 -1 1 360\n");
 }
 
 /* Sizes are computed in 64 bits (issue 15, item 6): an image whose samples the kernels'

@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """tools/bench_lod.py — which level-of-detail rule to dice by (issue 13, item 3).
 
-For each scene, renders a reference with every patch diced at --ref-lod (finer than any
-rule picks at this size; seed 1000), then the image under each rule of the lod stage
+For each scene, renders a reference with every patch diced at a fixed --lod (finer than
+any rule picks at this size; seed 1000; none for forest-100, whose reference would take an
+hour here), then the image under each rule of the lod stage
 (TESSERA_LOD_RULE: crossed = every eye-ray crossing of a patch's box, the default;
 visible = only crossings before each ray's closest hit, m = max(m_visible, m_crossed - 2);
 seen = m_crossed for a patch some eye ray reaches, m_crossed - 2 for one none does) with
@@ -20,7 +21,6 @@ the part of every rmse that is noise, not level of detail.
 Reference images are kept in --cache (default out/lod-cache/), keyed by the binary's checksum.
 """
 import argparse
-import hashlib
 import importlib.util
 import json
 import math
@@ -32,26 +32,19 @@ import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RULES = ["crossed", "visible", "seen"]
-SIZES = {  # (scene, resolution, spp, reference lod) per scene
+SIZES = {  # (scene, resolution, spp, reference lod or None: no reference) per scene
     "tiny": [("forest-1", "96x64", 4, 5)],
-    "small": [("forest-1", "320x200", 64, 6), ("forest-100", "960x384", 1, 6)],
-    "full": [("forest-1", "640x400", 64, 7), ("forest-100", "1920x768", 1, 7)],
+    "small": [("forest-1", "320x200", 64, 6), ("forest-100", "960x384", 1, None)],
+    "full": [("forest-1", "640x400", 64, 7), ("forest-100", "1920x768", 1, None)],
 }
 
 
-def png_tools():
-    spec = importlib.util.spec_from_file_location("bench_cycles", os.path.join(ROOT, "tools", "bench_cycles.py"))
+def bench_noise():
+    """tools/bench_noise.py as a module: its PNG reader, RMSE and file checksum."""
+    spec = importlib.util.spec_from_file_location("bench_noise", os.path.join(ROOT, "tools", "bench_noise.py"))
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
-
-
-def file_hash(path):
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()[:16]
 
 
 def render(a, scene, res, spp, out, seed, rule=None, lod=None, stats=None):
@@ -69,16 +62,8 @@ def render(a, scene, res, spp, out, seed, rule=None, lod=None, stats=None):
     return time.monotonic() - t0
 
 
-def rmse(png, path_a, path_b):
-    w, h, ra = png.png_read(path_a)
-    w2, h2, rb = png.png_read(path_b)
-    if (w, h) != (w2, h2):
-        raise SystemExit("bench_lod: images differ in size")
-    ss = 0
-    for y in range(h):
-        a, b = ra[y], rb[y]
-        ss += sum((a[i] - b[i]) ** 2 for i in range(3 * w))
-    return math.sqrt(ss / (3 * w * h))
+def fmt(v):
+    return "-" if v is None else f"{v:.3f}"
 
 
 def main():
@@ -88,15 +73,16 @@ def main():
     ap.add_argument("--cache", default=os.path.join(ROOT, "out", "lod-cache"))
     ap.add_argument("--json", default=None)
     a = ap.parse_args()
-    png = png_tools()
+    noise = bench_noise()
+    png = noise.load_png_tools()
     os.makedirs(a.cache, exist_ok=True)
-    tag = file_hash(a.binary)
+    tag = noise.file_hash(a.binary)
     results = []
     with tempfile.TemporaryDirectory(prefix="tessera-bench-lod-") as tmp:
         for name, res, spp, ref_lod in SIZES[a.size]:
             scene = os.path.join(ROOT, "scene", name + ".rib")
-            ref = os.path.join(a.cache, f"{name}-{res}-{spp}-lod{ref_lod}-{tag}.png")
-            if not os.path.exists(ref):
+            ref = os.path.join(a.cache, f"{name}-{res}-{spp}-lod{ref_lod}-{tag}.png") if ref_lod else None
+            if ref and not os.path.exists(ref):
                 print(f"  {name}: reference at --lod {ref_lod} ...", file=sys.stderr)
                 render(a, scene, res, spp, ref + ".tmp.png", 1000, lod=ref_lod)
                 os.replace(ref + ".tmp.png", ref)
@@ -107,13 +93,13 @@ def main():
                 with open(stats) as f:
                     c = json.load(f)["counters"]
                 row = {"rule": rule, "diced": c["patches_diced"], "micropolygons": c["micropolygons_created"],
-                       "rmse": rmse(png, ref, out), "seconds": seconds}
+                       "rmse": noise.rmse_levels(png, ref, out) if ref else None, "seconds": seconds}
                 rows.append(row)
                 print(f"  {name} {rule}: {row['diced']} dicings, {row['micropolygons']} micro-polygons, "
-                      f"rmse {row['rmse']:.3f}, {seconds:.1f} s", file=sys.stderr)
+                      f"rmse {fmt(row['rmse'])}, {seconds:.1f} s", file=sys.stderr)
             other = os.path.join(tmp, f"{name}-crossed-seed1.png")
             render(a, scene, res, spp, other, 1, rule="crossed")
-            floor = rmse(png, os.path.join(tmp, f"{name}-crossed.png"), other) / math.sqrt(2)
+            floor = noise.rmse_levels(png, os.path.join(tmp, f"{name}-crossed.png"), other) / math.sqrt(2)
             results.append({"scene": f"scene/{name}.rib", "res": res, "spp": spp, "ref_lod": ref_lod,
                             "noise_floor": floor, "rows": rows})
     print("| scene | rule | dicings | micro-polygons | RMSE vs reference (levels) | noise floor (levels) | seconds |")
@@ -121,7 +107,7 @@ def main():
     for r in results:
         for row in r["rows"]:
             print(f"| {r['scene']} {r['res']}x{r['spp']} | {row['rule']} | {row['diced']} | {row['micropolygons']} | "
-                  f"{row['rmse']:.3f} | {r['noise_floor']:.3f} | {row['seconds']:.1f} |")
+                  f"{fmt(row['rmse'])} | {r['noise_floor']:.3f} | {row['seconds']:.1f} |")
     if a.json:
         os.makedirs(os.path.dirname(os.path.abspath(a.json)), exist_ok=True)
         with open(a.json, "w") as f:

@@ -59,6 +59,8 @@ int output_check_inputs(const ts_render_options *o, const ts_scene *scene, ts_er
 {
     for (uint32_t i = 0; i < scene->texture_count; ++i)
         if (output_check_input(o, scene->tex_source[i], "a texture", err)) return err->code;
+    for (uint32_t i = 0; i < scene->input_count; ++i)
+        if (output_check_input(o, scene->input_source[i], "a file", err)) return err->code;
     if (scene->dome.present && scene->dome.mapname[0] &&
         output_check_input(o, scene->dome.mapname, "the environment map", err))
         return err->code;

@@ -571,7 +571,7 @@ int scene_finalize(ts_scene *s, ts_error *err)
 
 /* ---- lights, boxes, free --------------------------------------------------------- */
 
-int scene_add_light(ts_scene *s, const ts_distant_light *light, ts_error *err)
+int scene_add_light(ts_scene *s, const ts_scene_light *light, ts_error *err)
 {
     uint32_t n = s->light_count;
     int full = (n == 0) || (n >= SCENE_FIRST_LIGHTS && (n & (n - 1u)) == 0);
@@ -579,7 +579,7 @@ int scene_add_light(ts_scene *s, const ts_distant_light *light, ts_error *err)
         if (n > UINT32_MAX / 2)
             return ts_error_set(err, TS_E_MEMORY, "scene: more than %u lights", n);
         uint32_t cap = n ? n * 2u : SCENE_FIRST_LIGHTS;
-        ts_distant_light *l = realloc(s->lights, (size_t)cap * sizeof *l);
+        ts_scene_light *l = realloc(s->lights, (size_t)cap * sizeof *l);
         if (!l) return ts_error_set(err, TS_E_MEMORY, "scene: out of memory for %u lights", cap);
         s->lights = l;
     }
@@ -633,6 +633,17 @@ ts_box scene_patch_box(const ts_scene *s, uint32_t p)
     return b;
 }
 
+int scene_add_input(ts_scene *s, const char *path, ts_error *err)
+{
+    char **grown = realloc(s->input_source, (s->input_count + 1) * sizeof *grown);
+    if (!grown) return ts_error_set(err, TS_E_MEMORY, "out of memory (scene inputs)");
+    s->input_source = grown;
+    if (!(grown[s->input_count] = strdup(path)))
+        return ts_error_set(err, TS_E_MEMORY, "out of memory (scene inputs)");
+    s->input_count++;
+    return TS_OK;
+}
+
 void scene_free(ts_scene *s)
 {
     if (!s) return;
@@ -646,6 +657,9 @@ void scene_free(ts_scene *s)
     for (uint32_t i = 0; i < s->texture_count; i++)
         free(s->tex_source[i]);
     free(s->tex_source);
+    for (uint32_t i = 0; i < s->input_count; i++)
+        free(s->input_source[i]);
+    free(s->input_source);
     free(s->textures);
     free(s->tex_pool);
     free(s->tex_pages);
