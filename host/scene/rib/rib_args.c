@@ -33,7 +33,7 @@ void rib_warn_once(rib_parser *p, int line, int col, const char *what)
     for (int i = 0; i < p->nwarned; i++)
         if (strncmp(p->warned[i], what, RIB_WARN_KEY - 1) == 0) return;
     if (p->nwarned < RIB_MAX_WARNED) snprintf(p->warned[p->nwarned++], RIB_WARN_KEY, "%s", what);
-    fprintf(stderr, "%s:%d:%d: warning: %s\n", p->lx.file, line, col, what);
+    ts_print_line("%s:%d:%d: warning: %s", p->lx.file, line, col, what);
 }
 
 const char *rib_printable(const char *s, char buf[RIB_PRINT_MAX])
