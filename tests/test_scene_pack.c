@@ -39,7 +39,7 @@ static void assert_same_scene(const ts_scene *a, const ts_scene *b)
     assert_memory_equal(&a->camera, &b->camera, sizeof a->camera);
     assert_int_equal(a->light_count, b->light_count);
     if (a->light_count)
-        assert_memory_equal(a->lights, b->lights, a->light_count * sizeof(ts_distant_light));
+        assert_memory_equal(a->lights, b->lights, a->light_count * sizeof(ts_scene_light));
     assert_memory_equal(&a->dome, &b->dome, sizeof a->dome);
     for (uint32_t i = 0; i < a->patch_count; ++i) {
         ts_box x = scene_patch_box(a, i), y = scene_patch_box(b, i);

@@ -17,6 +17,7 @@
 #     every stage);
 #   - the same teapot with --leaf-mode group --leaf-size 2 (the work-group leaf kernel);
 #   - scene/textured.rib at 8x6, --max-lod 2 (image textures: displacement and colour);
+#   - scene/lights.rib at 8x6, --max-lod 1 (point, spot and ambient lights in shade);
 #   - every test program whose source calls test_open_device() (the kernel unit tests),
 #     except SLOW_TESTS (whole-renderer comparisons, minutes under Oclgrind; the renders
 #     above run the same kernels).
@@ -110,6 +111,9 @@ run render_leaf_group "$build/tessera" render scene/teapot.rib --res 16x9 --spp 
 # shading normal) and colour (shade) through the page table and tile pool.
 run render_textured "$build/tessera" render scene/textured.rib --res 8x6 --spp 1 --max-lod 2 \
   --memory 4 -o "$work/textured.exr" --no-kernel-cache --quiet
+# Point, spot and ambient lights (light_sample, light_escape's eye rays) in shade.
+run render_lights "$build/tessera" render scene/lights.rib --res 8x6 --spp 2 --max-lod 1 \
+  --memory 4 -o "$work/lights.exr" --no-kernel-cache --quiet
 for f in tests/test_*.c; do
   t=$(basename "$f" .c)
   grep -q 'test_open_device' "$f" || continue

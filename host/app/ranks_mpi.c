@@ -249,9 +249,11 @@ static int take_bye(ts_ranks *r, ts_board *b, int from, const void *data, int by
         board_give_back(b, &p->out[--p->out_count]);
     head.error[sizeof head.error - 1] = '\0';
     head.rank.host[sizeof head.rank.host - 1] = head.rank.error[sizeof head.rank.error - 1] = '\0';
-    if (head.failed && !quiet)
-        fprintf(stderr, "\ntessera: warning: rank %d (%s) stopped: %s\n", from, head.rank.host,
-                head.error);
+    if (head.failed && !quiet) {
+        fputc('\n', stderr); /* end the progress line */
+        ts_print_line("tessera: warning: rank %d (%s) stopped: %s", from, head.rank.host,
+                      head.error);
+    }
     ts_stats s;
     memset(&s, 0, sizeof s);
     memcpy(s.stage_seconds, head.stage_seconds, sizeof s.stage_seconds);
@@ -264,9 +266,11 @@ static int take_bye(ts_ranks *r, ts_board *b, int from, const void *data, int by
         ts_device_stats d;
         memcpy(&d, (const char *)data + sizeof head + i * sizeof d, sizeof d);
         d.name[sizeof d.name - 1] = d.error[sizeof d.error - 1] = '\0';
-        if (d.failed && !quiet)
-            fprintf(stderr, "\ntessera: warning: rank %d (%s): device %d (%s) stopped: %s\n", from,
-                    head.rank.host, d.index, d.name, d.error);
+        if (d.failed && !quiet) {
+            fputc('\n', stderr); /* end the progress line */
+            ts_print_line("tessera: warning: rank %d (%s): device %d (%s) stopped: %s", from,
+                          head.rank.host, d.index, d.name, d.error);
+        }
         if (stats_add_device(r->stats, &d, err)) return err->code;
         r->stats->memory_budget_bytes += d.memory_budget_bytes;
     }

@@ -57,8 +57,8 @@ static void worker_budget(ts_worker *w, uint32_t share)
     w->mb = c.mb;
     w->noted_lod = (uint32_t)f->opt->max_lod;
     if (!f->opt->quiet)
-        fprintf(stderr, "tessera: device %d: %s (%s), memory budget %llu MB (%s)\n", w->index,
-                w->cl.info.name, w->cl.info.platform_name, (unsigned long long)c.mb, c.why);
+        ts_print_line("tessera: device %d: %s (%s), memory budget %llu MB (%s)", w->index,
+                      w->cl.info.name, w->cl.info.platform_name, (unsigned long long)c.mb, c.why);
 }
 
 int workers_open(ts_workers *g, const ts_frame *frame, const int *indices, int count, ts_error *err)
@@ -78,16 +78,16 @@ int workers_open(ts_workers *g, const ts_frame *frame, const int *indices, int c
         ts_error e = {0};
         if (dev_open(&w->cl, &dopt, &e)) {
             if (!frame->opt->quiet)
-                fprintf(stderr,
-                        "tessera: warning: device %d cannot render: %s; the other devices go on "
-                        "without it (render with --device %d alone for the details)\n",
-                        indices[i], e.msg, indices[i]);
+                ts_print_line(
+                    "tessera: warning: device %d cannot render: %s; the other devices go on "
+                    "without it (render with --device %d alone for the details)",
+                    indices[i], e.msg, indices[i]);
             if (!first.code) ts_error_set(&first, e.code, "%s", e.msg);
             ts_error_clear(&e);
             continue;
         }
         if (!frame->opt->quiet && w->cl.cache_note[0])
-            fprintf(stderr, "tessera: warning: %s\n", w->cl.cache_note);
+            ts_print_line("tessera: warning: %s", w->cl.cache_note);
         w->g = g;
         w->slot = g->count++;
         w->index = indices[i];
@@ -125,8 +125,9 @@ static int worker_pipeline(ts_worker *w, ts_error *err)
             return err->code;
         plan.sort_threads = w->g->sort_threads;
         if (!f->opt->quiet && plan.max_lod < w->noted_lod)
-            fprintf(stderr, "tessera: %s: %llu MB holds patches up to m = %u\n",
-                    worker_name(w, name, sizeof name), (unsigned long long)w->mb, plan.max_lod);
+            ts_print_line("tessera: %s: %llu MB holds patches up to m = %u",
+                          worker_name(w, name, sizeof name), (unsigned long long)w->mb,
+                          plan.max_lod);
         w->noted_lod = plan.max_lod;
         w->stats.memory_budget_bytes = w->mb << 20;
         if (!pipeline_create(&w->pipe, &w->cl, f->scene, &plan, f->pixel_count, &w->stats, err) &&
@@ -140,9 +141,9 @@ static int worker_pipeline(ts_worker *w, ts_error *err)
             w->mb / 2 < TS_MEMORY_FLOOR_MB)
             return err->code;
         if (!f->opt->quiet)
-            fprintf(stderr, "tessera: %s could not provide %llu MB (%s); retrying with %llu MB\n",
-                    worker_name(w, name, sizeof name), (unsigned long long)w->mb, err->msg,
-                    (unsigned long long)(w->mb / 2));
+            ts_print_line("tessera: %s could not provide %llu MB (%s); retrying with %llu MB",
+                          worker_name(w, name, sizeof name), (unsigned long long)w->mb, err->msg,
+                          (unsigned long long)(w->mb / 2));
         ts_error_clear(err);
         w->mb /= 2;
     }
@@ -264,9 +265,9 @@ static int worker_shrink(ts_worker *w, ts_error *err)
     char name[300];
     if (w->mb / 2 < TS_MEMORY_FLOOR_MB) return err->code;
     if (!w->g->frame.opt->quiet)
-        fprintf(stderr, "tessera: %s could not provide %llu MB (%s); retrying with %llu MB\n",
-                worker_name(w, name, sizeof name), (unsigned long long)w->mb, err->msg,
-                (unsigned long long)(w->mb / 2));
+        ts_print_line("tessera: %s could not provide %llu MB (%s); retrying with %llu MB",
+                      worker_name(w, name, sizeof name), (unsigned long long)w->mb, err->msg,
+                      (unsigned long long)(w->mb / 2));
     ts_error_clear(err);
     pipeline_destroy(&w->pipe);
     w->has_pipe = 0;
@@ -418,9 +419,11 @@ void workers_report(ts_workers *g, ts_error *last)
         ts_worker *w = &g->w[i];
         if (!w->failed || w->reported) continue;
         w->reported = 1;
-        if (!g->frame.opt->quiet)
-            fprintf(stderr, "\ntessera: warning: %s stopped: %s; the other devices go on\n",
-                    worker_name(w, name, sizeof name), w->err.msg);
+        if (!g->frame.opt->quiet) {
+            fputc('\n', stderr); /* end the progress line */
+            ts_print_line("tessera: warning: %s stopped: %s; the other devices go on",
+                          worker_name(w, name, sizeof name), w->err.msg);
+        }
         if (last) {
             ts_error_clear(last);
             ts_error_set_status(last, w->err.code, w->err.status, "%s", w->err.msg);

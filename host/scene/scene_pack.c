@@ -25,7 +25,7 @@ enum {
     SEC_TEX_POOL, /* tex_tile_count tiles of TS_TEX_TILE^2 ts_vec4 */
     SEC_TEX_PAGES,
     SEC_CAMERA, /* ts_camera */
-    SEC_LIGHTS, /* light_count ts_distant_light */
+    SEC_LIGHTS, /* light_count ts_scene_light */
     SEC_DOME,   /* ts_dome_light */
     SEC_COUNT
 };
@@ -66,8 +66,7 @@ static int pack_sections(const ts_scene *s, uint32_t counts[6], char **names,
     sec[SEC_TEX_PAGES] =
         (pack_section){s->tex_pages, (uint64_t)s->tex_tile_count * sizeof(uint32_t)};
     sec[SEC_CAMERA] = (pack_section){&s->camera, sizeof s->camera};
-    sec[SEC_LIGHTS] =
-        (pack_section){s->lights, (uint64_t)s->light_count * sizeof(ts_distant_light)};
+    sec[SEC_LIGHTS] = (pack_section){s->lights, (uint64_t)s->light_count * sizeof(ts_scene_light)};
     sec[SEC_DOME] = (pack_section){&s->dome, sizeof s->dome};
     return TS_OK;
 }
@@ -176,7 +175,7 @@ int scene_unpack(const void *block, size_t size, ts_scene *s, ts_error *err)
     if (!rc)
         rc = copy_section(&sec[SEC_TEX_PAGES], c[3] * sizeof(uint32_t), (void **)&s->tex_pages);
     if (!rc)
-        rc = copy_section(&sec[SEC_LIGHTS], c[4] * sizeof(ts_distant_light), (void **)&s->lights);
+        rc = copy_section(&sec[SEC_LIGHTS], c[4] * sizeof(ts_scene_light), (void **)&s->lights);
     if (!rc) {
         memcpy(&s->camera, sec[SEC_CAMERA].data, sizeof s->camera);
         memcpy(&s->dome, sec[SEC_DOME].data, sizeof s->dome);
