@@ -1,7 +1,8 @@
 /* test_scene_pack.c — a scene packed into one block and unpacked (host/scene/scene_pack.c,
  * what rank 0 of an MPI render broadcasts) is the scene loaded, array for array: the
  * textured scene (textures, tiles, source names), a moving patch with transforms and
- * explicit normals, the teapot (lights, dome); a block cut short, with another magic or a
+ * explicit normals, the teapot (lights, dome), point and spot lights, object instances; a
+ * block cut short, with another magic or a
  * length that points past its end is refused and leaves the scene zeroed. Host only. */
 #include "test_support.h"
 #include "scene/scene_load.h"
@@ -63,7 +64,8 @@ static void round_trip(ts_scene *s)
 static void test_scenes_survive_the_round_trip(void **state)
 {
     (void)state;
-    const char *files[] = {"scene/textured.rib", "scene/teapot.rib", "scene/teapot_displaced.rib"};
+    const char *files[] = {"scene/textured.rib", "scene/teapot.rib", "scene/teapot_displaced.rib",
+                           "scene/lights.rib", "scene/instances.rib"};
     for (size_t i = 0; i < sizeof files / sizeof *files; ++i) {
         ts_scene s;
         memset(&s, 0, sizeof s);
