@@ -2,8 +2,8 @@
  * what rank 0 of an MPI render broadcasts) is the scene loaded, array for array: the
  * textured scene (textures, tiles, source names), a moving patch with transforms and
  * explicit normals, the teapot (lights, dome), point and spot lights, object instances; a
- * block cut short, with another magic or a
- * length that points past its end is refused and leaves the scene zeroed. Host only. */
+ * block cut short, with another magic or a length that points past its end is refused and
+ * leaves the scene zeroed. Host only. */
 #include "test_support.h"
 #include "scene/scene_load.h"
 #include "scene/scene_pack.h"
