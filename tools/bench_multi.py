@@ -43,6 +43,8 @@ CONFIGS = [
     ("2proc_pthread", "pthread", 2, ["--device", "0"]),
 ]
 MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
+if os.environ.get("ASAN_OPTIONS"):  # a sanitizer build (tools/test_sanitize.sh): as test_ranks
+    MPI_ENV["ASAN_OPTIONS"] = os.environ["ASAN_OPTIONS"] + ":fast_unwind_on_malloc=0"
 
 
 def cpu_of_children():
