@@ -344,8 +344,7 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
                      DEV_ARG(exact), DEV_ARG(leaf_b), DEV_ARG(p->active), DEV_ARG(p->ray_org),
                      DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_flags),
                      DEV_ARG(p->ray_from), DEV_ARG(p->grid), DEV_ARG(p->groups),
-                     DEV_ARG(p->pair_hit), DEV_ARG(p->utilisation), DEV_ARG(group_base),
-                     (size_t)0))
+                     DEV_ARG(p->pair_hit), DEV_ARG(p->utilisation), DEV_ARG(group_base), (size_t)0))
         return err->code;
     return dev_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
 }
