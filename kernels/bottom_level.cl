@@ -234,6 +234,8 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
         float tc[4], tr[4];
         uint id[4];
         uint nc = 0;
+        /* unrolled: the four children's tests stay in registers (no order change) */
+#pragma unroll
         for (uint q = 0; q < 4u; ++q) {
             if (e[q] < 0.0f) continue;
             uint at = nc++;
