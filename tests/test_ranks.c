@@ -17,8 +17,11 @@
 #include <unistd.h>
 
 static char dir[4096];
-/* Put before mpirun in a shell command: the environment its ranks need (setup). */
-static char mpi_env[4200];
+/* Put before mpirun in a shell command: the environment its ranks need (setup), and a time
+ * limit, so that a frame that never ends fails this test with its stderr instead of
+ * holding the suite until ctest's own timeout. */
+static char mpi_env[4300];
+#define MPIRUN_LIMIT_S 240
 
 static const char *in_dir(const char *name)
 {
@@ -56,7 +59,9 @@ static int mpirun(int n, const char *fmt, ...)
     snprintf(cmd, sizeof cmd, "%smpirun --oversubscribe -np %d '%s' %s 2>'%s' >/dev/null", mpi_env,
              n, test_tessera_binary(), args, in_dir("stderr.txt"));
     int st = system(cmd);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    int rc = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    if (rc == 124) fail_msg("mpirun -np %d ran past %d s:\n%s", n, MPIRUN_LIMIT_S, stderr_text());
+    return rc;
 }
 
 static void mpirun_ok(int n, const char *scene, const char *out, const char *extra)
@@ -215,7 +220,11 @@ static int setup(void **state)
      * (tools/lsan.supp). Only the commands under mpirun get it (mpi_env; the ranks inherit
      * mpirun's environment): it slows every allocation. */
     const char *asan = getenv("ASAN_OPTIONS");
-    if (asan) snprintf(mpi_env, sizeof mpi_env, "ASAN_OPTIONS='%s:fast_unwind_on_malloc=0' ", asan);
+    int k = 0;
+    if (asan)
+        k = snprintf(mpi_env, sizeof mpi_env, "ASAN_OPTIONS='%s:fast_unwind_on_malloc=0' ", asan);
+    if (k < 0 || (size_t)k >= sizeof mpi_env / 2) k = 0;
+    snprintf(mpi_env + k, sizeof mpi_env - (size_t)k, "timeout -k 10 %d ", MPIRUN_LIMIT_S);
     return 0;
 }
 
