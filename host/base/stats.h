@@ -29,7 +29,8 @@
     X(patch_cache_hits, "segments whose patch was already diced and resident")              \
     X(patch_cache_misses, "segments diced into the cache (= patches_diced)")                \
     X(patch_cache_evictions, "resident patches evicted to make room")                      \
-    X(patch_cache_bytes, "bytes of the vertex and tree arenas the cache manages")
+    X(patch_cache_bytes, "bytes of the vertex and tree arenas the cache manages")        \
+    X(bake_points, "points baked (tessera bake; their rays are counted in rays)")
 /* clang-format on */
 
 typedef enum ts_counter {
@@ -48,6 +49,13 @@ typedef struct ts_iteration {
     uint32_t segments;
 } ts_iteration;
 
+/* What `tessera bake` adds (the "bake" object of --stats, written when points were baked):
+ * the waves' wall time and the shape of each point's projection. */
+typedef struct ts_bake_summary {
+    double seconds; /* from the first wave's start to the last wave's end */
+    uint32_t bands, rays_per_point;
+} ts_bake_summary;
+
 typedef struct ts_stats {
     double stage_seconds[TS_STAGE_COUNT];
     uint64_t counters[TS_COUNTER_COUNT];
@@ -58,6 +66,7 @@ typedef struct ts_stats {
     double wall_seconds;
     double kernel_build_seconds;
     int kernel_cache_hit;
+    ts_bake_summary bake;
 } ts_stats;
 
 extern const char *const ts_counter_names[TS_COUNTER_COUNT];

@@ -188,6 +188,9 @@ typedef struct ts_pipeline {
     ts_tex_cache tex;     /* which tiles tex_pool holds (tex_cache.h) */
     uint32_t light_count; /* entries of the lights buffer (lights.h) */
     uint32_t wave;
+    /* Stages only some commands run, with their own kernels and buffers, made on demand
+     * (bake.h: `tessera bake`) and released by pipeline_destroy; NULL otherwise. */
+    struct ts_bake_stage *bake;
 #define TS_KERNEL_FIELD(field, name) cl_kernel field;
     TS_PIPELINE_KERNELS(TS_KERNEL_FIELD)
 #undef TS_KERNEL_FIELD
