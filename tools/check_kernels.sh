@@ -17,6 +17,7 @@
 #     every stage);
 #   - the same teapot with --leaf-mode group --leaf-size 2 (the work-group leaf kernel);
 #   - scene/textured.rib at 8x6, --max-lod 2 (image textures: displacement and colour);
+#   - `tessera bake` of the teapot and of textured.rib (tiles paged) at tiny sizes;
 #   - every test program whose source calls test_open_device() (the kernel unit tests),
 #     except SLOW_TESTS (whole-renderer comparisons, minutes under Oclgrind; the renders
 #     above run the same kernels).
@@ -110,6 +111,13 @@ run render_leaf_group "$build/tessera" render scene/teapot.rib --res 16x9 --spp 
 # shading normal) and colour (shade) through the page table and tile pool.
 run render_textured "$build/tessera" render scene/textured.rib --res 8x6 --spp 1 --max-lod 2 \
   --memory 4 -o "$work/textured.exr" --no-kernel-cache --quiet
+# The bake (kernels/bake.cl: points, rays, SH projection) through the pipeline, every patch
+# at m = 1, two rays per point; textured.rib's tiles are paged at 4 MB (bake_points in
+# ranges).
+run bake_teapot "$build/tessera" bake scene/teapot.rib --lod 1 --rays 2 \
+  --memory 4 -o "$work/bake.exr" --no-kernel-cache --quiet
+run bake_textured "$build/tessera" bake scene/textured.rib --res 8x6 --rays 4 --max-lod 2 \
+  --memory 4 -o "$work/bake_textured.exr" --no-kernel-cache --quiet
 for f in tests/test_*.c; do
   t=$(basename "$f" .c)
   grep -q 'test_open_device' "$f" || continue
