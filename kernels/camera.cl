@@ -25,9 +25,10 @@ __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __globa
     uint pix = g % npix, sample = g / npix;
     uint x = pix % p.width, y = pix / p.width;
     float jx = 0.5f, jy = 0.5f;
+    ts_sampler_set cs = sampler_set(pix, sample, TS_SET_CAMERA, p.seed, sampler_mask(p.spp));
     if (p.spp > 1) {
-        jx = sampler_value(pix, sample, TS_SET_CAMERA, 0u, p.seed, sampler_mask(p.spp));
-        jy = sampler_value(pix, sample, TS_SET_CAMERA, 1u, p.seed, sampler_mask(p.spp));
+        jx = sampler_set_value(cs, 0u);
+        jy = sampler_set_value(cs, 1u);
     }
     float sx = 2.0f * ((float)x + jx) / (float)p.width - 1.0f;
     float sy = 1.0f - 2.0f * ((float)y + jy) / (float)p.height;
@@ -47,8 +48,7 @@ __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __globa
     float inv = 1.0f / sqrt(dx * dx + dy * dy + dz * dz);
     org[i] = o;
     /* Time in [0, 1) for motion blur (Hanika §3.4): the camera set's third dimension. */
-    dir[i] = (ts_vec4){dx * inv, dy * inv, dz * inv,
-                       sampler_value(pix, sample, TS_SET_CAMERA, 2u, p.seed, sampler_mask(p.spp))};
+    dir[i] = (ts_vec4){dx * inv, dy * inv, dz * inv, sampler_set_value(cs, 2u)};
     hit[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
     entry[i] = TS_ENTRY_START;
     pixel[i] = pix;

@@ -43,16 +43,16 @@ typedef struct shade_step {
     float tp[3];              /* throughput up to this vertex */
 } shade_step;
 
-/* Value d (0..3) of this vertex's light set (choice, then the point on the light) or BSDF
- * set (lobe, two for the direction, Russian roulette): lib/sampler.h. */
-inline float step_light(const shade_step *s, uint d)
+/* This vertex's light set (the choice, then the point on the light) or BSDF set (lobe, two
+ * for the direction, Russian roulette): lib/sampler.h. */
+inline ts_sampler_set step_light_set(const shade_step *s)
 {
-    return sampler_value(s->pix, s->sample, TS_SET_LIGHT(s->bounce), d, s->seed, s->mask);
+    return sampler_set(s->pix, s->sample, TS_SET_LIGHT(s->bounce), s->seed, s->mask);
 }
 
-inline float step_bsdf(const shade_step *s, uint d)
+inline ts_sampler_set step_bsdf_set(const shade_step *s)
 {
-    return sampler_value(s->pix, s->sample, TS_SET_BSDF(s->bounce), d, s->seed, s->mask);
+    return sampler_set(s->pix, s->sample, TS_SET_BSDF(s->bounce), s->seed, s->mask);
 }
 
 /* The scene's lights as shade samples them (lib/lights.h). */
@@ -179,11 +179,12 @@ inline uint shade_direct_light(ts_shade_params sp, const shade_lights *L, const 
 {
     if (L->count == 0u || sp.sampling == TS_SAMPLING_BSDF) return 0u;
     float choose;
-    uint li = light_select(L->lights, L->count, L->sampling, step_light(s, 0u), &choose);
+    ts_sampler_set u = step_light_set(s);
+    uint li = light_select(L->lights, L->count, L->sampling, sampler_set_value(u, 0u), &choose);
     if (li >= L->count) return 0u; /* no light takes part (a uniform dome only, say) */
     ts_light_sample ls =
         light_sample(L->lights, li, choose, L->env, L->emitters, L->cp, L->attr, v->p, v->n,
-                     step_light(s, 1u), step_light(s, 2u), step_light(s, 3u));
+                     sampler_set_value(u, 1u), sampler_set_value(u, 2u), sampler_set_value(u, 3u));
     float f[3] = {0.0f, 0.0f, 0.0f};
     float pb = ls.pdf > 0.0f ? bsdf_eval(v->a, v->cs, v->n, v->wo, ls.dir, f) : 0.0f;
     float cosl = ls.pdf > 0.0f ? v3_dot(v->n, ls.dir) : 0.0f;
@@ -209,15 +210,16 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
 {
     ts_v3 wi;
     float f[3];
-    float pb = bsdf_sample(v->a, v->cs, v->n, v->wo, step_bsdf(s, 0u), step_bsdf(s, 1u),
-                           step_bsdf(s, 2u), &wi, f);
+    ts_sampler_set u = step_bsdf_set(s);
+    float pb = bsdf_sample(v->a, v->cs, v->n, v->wo, sampler_set_value(u, 0u),
+                           sampler_set_value(u, 1u), sampler_set_value(u, 2u), &wi, f);
     float cosi = v3_dot(v->n, wi);
     if (!(pb > 0.0f && cosi > 0.0f)) return 0u;
     float w = cosi / pb;
     const float *tp = s->tp;
     float nt[3] = {tp[0] * f[0] * w, tp[1] * f[1] * w, tp[2] * f[2] * w};
     float survive = s->bounce >= 1u ? fmin(1.0f, fmax(nt[0], fmax(nt[1], nt[2]))) : 1.0f;
-    if (!(step_bsdf(s, 3u) < survive)) return 0u;
+    if (!(sampler_set_value(u, 3u) < survive)) return 0u;
     *throughput = (ts_vec4){nt[0] / survive, nt[1] / survive, nt[2] / survive, 0.0f};
     *mode = sp.light_count == 0u || sp.sampling == TS_SAMPLING_BSDF ? TS_MIS_ONE
             : sp.sampling == TS_SAMPLING_LIGHT                      ? TS_MIS_ZERO

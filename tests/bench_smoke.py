@@ -7,7 +7,7 @@ checked for being positive and consistent, never against a target. Exit 77 (skip
 test needs an OpenCL device and `tessera devices` finds none.
 
     bench_smoke.py TEST --source DIR --build DIR
-    TEST: profile, render, stages, leaf, sort, scene_load, bench, export, noise
+    TEST: profile, render, stages, leaf, sort, scene_load, bench, export, noise, lod, bounds
 """
 import argparse
 import importlib.machinery
@@ -378,9 +378,78 @@ def test_noise(ctx):
               f"no convergence: {rows}")
 
 
-TESTS = {"profile": test_profile, "render": test_render, "stages": test_stages, "leaf": test_leaf,
+def test_lod(ctx):
+    require_device(ctx)
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-lod-") as tmp:
+        js = os.path.join(tmp, "l.json")
+        run([sys.executable, os.path.join(ctx.source, "tools", "bench_lod.py"), "--size", "tiny",
+             "--binary", ctx.tessera, "--cache", os.path.join(tmp, "cache"), "--json", js])
+        r = load(js)
+        check(len(r["results"]) == 1, "one scene")
+        res = r["results"][0]
+        rows = {row["rule"]: row for row in res["rows"]}
+        check(sorted(rows) == ["crossed", "seen", "visible"], f"three rules: {sorted(rows)}")
+        for row in rows.values():
+            check(row["diced"] > 0 and row["micropolygons"] >= row["diced"] and row["rmse"] > 0, "positive figures")
+        check(res["noise_floor"] > 0, "a noise floor")
+
+
+BOUND_METHODS = ["ia", "ia_parent1", "ia_parent2", "ia_sub2", "ia_sub4", "lipschitz", "ia_lipschitz",
+                 "lipschitz_sampled", "curvature_sampled"]
+
+
+def test_bounds(ctx):
+    """bench_bounds (issue 13 item 4): host only. Every bound claimed conservative holds on
+    every sampled point; IA is the tightest of those that cost at most one IA evaluation
+    per leaf, and the sub-square IAs, which cost more, are tighter. Numbers, never timings."""
+    exe = os.path.join(ctx.build, "bench_bounds")
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-bounds-") as tmp:
+        js = os.path.join(tmp, "b.json")
+        run([exe, "--size", "tiny", "--scene", os.path.join(ctx.source, "scene", "teapot_displaced.rib"),
+             "--json", js])
+        r = load(js)
+        check(r["benchmark"] == "bounds" and r["size"] == "tiny" and r["patches"] == 8, "size tiny")
+        g = r["gradient_bound"]
+        check(g["proven"] >= g["sampled"] > 0, f"proven gradient bound {g['proven']} below the sampled sup")
+        close(g["proven"], math.sqrt(sum(c * c for c in g["proven_per_axis"])), 1e-5, "gradient norm")
+        check([x["m"] for x in r["results"]] == [6], "m = 6")
+        res = r["results"][0]
+        check(res["leaves"] == 8 * 16 and res["points"] == res["leaves"] * 81, "leaves and points")
+        check(res["leaves_zero_range"] < res["leaves"] and res["leaf_box_ns"] > 0, "leaves measured")
+        ms = {x["name"]: x for x in res["methods"]}
+        check([x["name"] for x in res["methods"]] == BOUND_METHODS, f"methods {list(ms)}")
+        ia = ms["ia"]
+        for x in res["methods"]:
+            for k in ("range_ratio_mean", "range_ratio_median", "box_extent_ratio_median",
+                      "box_volume_ratio_median", "range_violations", "box_violations",
+                      "ia_calls_per_leaf", "ns_per_leaf", "cost_ratio_to_ia"):
+                check(k in x, f"{x['name']}: no {k}")
+            check(x["conservative_on_samples"] == (x["range_violations"] == x["box_violations"] == 0),
+                  f"{x['name']}: conservative_on_samples")
+            check(x["ns_per_leaf"] > 0, f"{x['name']}: cost")
+            close(x["cost_ratio_to_ia"], x["ns_per_leaf"] / ia["ns_per_leaf"], 1e-9, f"{x['name']} cost ratio")
+            if x["claimed_conservative"]:
+                check(x["range_violations"] == 0 and x["box_violations"] == 0,
+                      f"{x['name']} is claimed conservative but missed {x['range_violations']} "
+                      f"sampled displacements and {x['box_violations']} sampled points")
+                check(x["range_ratio_median"] >= 1 and x["box_extent_ratio_median"] >= 1,
+                      f"{x['name']}: a conservative bound narrower than the sampled range")
+        check(not ms["lipschitz_sampled"]["claimed_conservative"] and
+              not ms["curvature_sampled"]["claimed_conservative"], "sampled constants claimed as proofs")
+        cheap = [x for x in res["methods"] if x["claimed_conservative"] and x["ia_calls_per_leaf"] <= 1]
+        for x in cheap:
+            check(x["range_ratio_median"] >= ia["range_ratio_median"],
+                  f"{x['name']} is tighter than ia at no more IA work: {x['range_ratio_median']}")
+        check(ms["ia_lipschitz"]["range_ratio_mean"] <= ia["range_ratio_mean"], "an intersection grew")
+        med = [ms[n]["range_ratio_median"] for n in ("ia_parent2", "ia_parent1", "ia", "ia_sub2", "ia_sub4")]
+        check(med == sorted(med, reverse=True), f"IA over coarser squares is not looser: {med}")
+        bad = run([exe, "--size", "huge"], ok=False)
+        check(bad.returncode != 0 and "tiny, small or full" in bad.stderr, "--size huge accepted")
+
+
+TESTS = {"lod": test_lod, "profile": test_profile, "render": test_render, "stages": test_stages, "leaf": test_leaf,
          "sort": test_sort, "scene_load": test_scene_load, "bench": test_bench,
-         "export": test_export, "noise": test_noise}
+         "export": test_export, "noise": test_noise, "bounds": test_bounds}
 
 
 def main():

@@ -37,7 +37,7 @@ static void read_stderr(char *buf, size_t cap)
 
 static int exists(const char *name)
 {
-    char path[4200];
+    char path[4400];
     snprintf(path, sizeof path, "%s/%s", dir, name);
     struct stat st;
     return stat(path, &st) == 0;
@@ -50,9 +50,11 @@ static void expect_error(const char *args, const char *needle)
     read_stderr(err, sizeof err);
     if (!strstr(err, needle))
         fail_msg("stderr of `tessera %s` lacks \"%s\":\n%s", args, needle, err);
-    /* One line: the message and its newline, nothing else. */
+    /* One line: the message and its newline, nothing else, and no control byte in it. */
     assert_non_null(strchr(err, '\n'));
     assert_true(strchr(err, '\n')[1] == '\0');
+    for (const unsigned char *c = (const unsigned char *)err; *c != '\n'; ++c)
+        if (*c < 0x20 || *c == 0x7f) fail_msg("byte 0x%02x in the message:\n%s", *c, err);
     assert_false(exists("out.png"));
 }
 
@@ -65,7 +67,7 @@ static int setup(void **state)
 
 static void test_bad_input(void **state)
 {
-    char args[8192], bad[4200];
+    char args[16384], bad[4200];
     snprintf(bad, sizeof bad, "%s/bad.rib", dir);
     FILE *f = fopen(bad, "w");
     fputs("WorldBegin\nPatch \"bicubic\" \"P\" [0 0 0\n", f); /* unterminated array */
@@ -81,6 +83,25 @@ static void test_bad_input(void **state)
              test_source_path("scene/teapot.rib"), dir);
     expect_error(args, "unknown option --bogus");
     expect_error("frobnicate", "unknown command");
+    /* Messages of issue 15, item 8. */
+    const char *teapot = test_source_path("scene/teapot.rib");
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --spp", teapot, dir);
+    expect_error(args, "option --spp needs a value");
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --quiet=1", teapot, dir);
+    expect_error(args, "option --quiet takes no value");
+    snprintf(args, sizeof args, "render '%s' -o '%s/.png'", teapot, dir);
+    expect_error(args, "/.png: the output needs a name before .png");
+    assert_false(exists(".png"));
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 32x24junk", teapot, dir);
+    expect_error(args, "bad value '32x24junk' for --res");
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res=32x", teapot, dir);
+    expect_error(args, "bad value '32x' for --res");
+    setenv("TESSERA_DEVICE", "abc", 1);
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 8x8", teapot, dir);
+    expect_error(args, "TESSERA_DEVICE=abc is not a device index");
+    unsetenv("TESSERA_DEVICE");
+    snprintf(args, sizeof args, "render '%s/new\nline.rib' -o '%s/out.png'", dir, dir);
+    expect_error(args, "new\\nline.rib: No such file or directory");
 }
 
 static double number(const cJSON *o, const char *key)
@@ -124,6 +145,9 @@ static void test_render_exr_and_stats(void **state)
     assert_true(cJSON_IsString(cJSON_GetObjectItemCaseSensitive(j, "device")));
     assert_true(number(j, "wall_seconds") > 0);
     assert_true(number(j, "peak_rss_bytes") > 0);
+    /* The default budget (app/budget.h): at most its cap, at least the floor. */
+    assert_true(number(j, "memory_budget_bytes") >= 16 << 20);
+    assert_true(number(j, "memory_budget_bytes") <= 1024 << 20);
     const cJSON *stages = cJSON_GetObjectItemCaseSensitive(j, "stages");
     for (int i = 0; i < TS_STAGE_COUNT; ++i)
         assert_true(number(stages, ts_stage_names[i]) >= 0);
@@ -154,15 +178,158 @@ static void test_render_exr_and_stats(void **state)
 
 static void test_png_is_written_atomically(void **state)
 {
-    char args[8192];
+    char args[16384];
+    /* A temporary left by a render that was killed while writing t.png (its process gone). */
+    pid_t dead = fork();
+    assert_true(dead >= 0);
+    if (dead == 0) _exit(0);
+    waitpid(dead, NULL, 0);
+    char stale[4400];
+    snprintf(stale, sizeof stale, "%s/.t.png.tmp-%ld-0", dir, (long)dead);
+    FILE *f = fopen(stale, "w");
+    assert_non_null(f);
+    fclose(f);
     snprintf(args, sizeof args, "render '%s' -o '%s/t.png' --res 32x18 --max-lod 3 --quiet",
              test_source_path("scene/teapot.rib"), dir);
     assert_int_equal(run(args), 0);
     assert_true(exists("t.png"));
+    /* Names of 249 characters (NAME_MAX is 255): their temporaries are cut to fit. */
+    static char name[256];
+    memset(name, 'n', 245);
+    snprintf(args, sizeof args,
+             "render '%s' -o '%s/%.245s.png' --stats '%s/%.245s.jsn' --res 8x8 --max-lod 3 --quiet",
+             test_source_path("scene/teapot.rib"), dir, name, dir, name);
+    assert_int_equal(run(args), 0);
+    snprintf(name + 245, sizeof name - 245, ".png");
+    assert_true(exists(name));
+    snprintf(name + 245, sizeof name - 245, ".jsn");
+    assert_true(exists(name));
     /* No temporary is left beside it. */
     char cmd[8400];
     snprintf(cmd, sizeof cmd, "ls -a '%s' | grep -q tmp", dir);
     assert_int_not_equal(system(cmd), 0);
+}
+
+static void write_text(const char *name, const char *text)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+/* The file dir/name still holds exactly `text`. */
+static void assert_text(const char *name, const char *text)
+{
+    char path[4200], buf[1 << 14];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    size_t n = fread(buf, 1, sizeof buf - 1, f);
+    fclose(f);
+    buf[n] = '\0';
+    if (strcmp(buf, text) != 0) fail_msg("%s was changed", name);
+}
+
+/* Output paths are checked against each other, the scene and its textures, and for a
+ * directory that takes the file, before anything renders (issue 15, item 4): one line, exit
+ * status 1, every file as it was (expect_error: no progress header, so no render started). */
+static void test_paths_are_checked_before_rendering(void **state)
+{
+    (void)state;
+    char args[16384], scene[4200];
+    /* one_patch.rib coloured by a texture t.png beside it. */
+    FILE *src = fopen(test_source_path("scene/one_patch.rib"), "r");
+    static char text[1 << 14];
+    size_t n = src ? fread(text, 1, sizeof text - 1, src) : 0;
+    if (src) fclose(src);
+    text[n] = '\0';
+    char *color = strstr(text, "Color [0.7 0.7 0.75]\n");
+    assert_non_null(color);
+    static char rib[1 << 14];
+    snprintf(rib, sizeof rib, "%.*sSurface \"matte\" \"string texturename\" [\"t.png\"]\n%s",
+             (int)(color - text), text, color);
+    write_text("scene.rib", rib);
+    snprintf(scene, sizeof scene, "%s/scene.rib", dir);
+    float px[4 * 4 * 3];
+    for (int i = 0; i < 4 * 4 * 3; ++i)
+        px[i] = (float)(i % 7) / 7.0f;
+    char tex[4200];
+    snprintf(tex, sizeof tex, "%s/t.png", dir);
+    ts_error err = {0};
+    assert_int_equal(image_write_png(tex, 4, 4, px, &err), TS_OK);
+    write_text("old.exr", "the old image");
+
+    snprintf(args, sizeof args, "render '%s' -o '%s/old.exr' --res 8x8 --stats '%s/./old.exr'",
+             scene, dir, dir);
+    expect_error(args, "--stats and -o name the same file");
+    snprintf(args, sizeof args, "render '%s' -o '%s/old.exr' --res 8x8 --stats '%s'", scene, dir,
+             scene);
+    expect_error(args, "--stats names the scene file");
+    assert_text("scene.rib", rib);
+    snprintf(args, sizeof args, "render '%s' -o '%s/old.exr' --res 8x8 --stats '%s/no/s.json'",
+             scene, dir, dir);
+    expect_error(args, "no/s.json: cannot write there: ");
+    snprintf(args, sizeof args, "render '%s' -o '%s/no/x.png' --res 8x8", scene, dir);
+    expect_error(args, "no/x.png: cannot write there: ");
+    snprintf(args, sizeof args, "render '%s' -o '%s/old.exr' --res 8x8 --stats '%s'", scene, dir,
+             tex);
+    expect_error(args, "--stats names a texture the scene reads");
+    snprintf(args, sizeof args, "render '%s' -o '%s' --res 8x8", scene, tex);
+    expect_error(args, "-o names a texture the scene reads");
+    assert_text("old.exr", "the old image");
+    ts_image img;
+    assert_int_equal(image_read(tex, &img, &err), TS_OK); /* the texture is intact */
+    assert_int_equal(img.width, 4);
+    image_free(&img);
+    /* The same scene with other paths renders. */
+    snprintf(args, sizeof args,
+             "render '%s' -o '%s/new.png' --res 8x8 --stats '%s/s2.json' --quiet", scene, dir, dir);
+    assert_int_equal(run(args), 0);
+    /* A RIB archive the scene reads is an input too (so is a mesh). */
+    write_text("inner.rib", "Sphere 1 -1 1 360\n");
+    write_text("outer.rib", "Format 8 8 1\nWorldBegin\nLightSource \"distantlight\" 1\nReadArchive "
+                            "\"inner.rib\"\nWorldEnd\n");
+    snprintf(args, sizeof args, "render '%s/outer.rib' -o '%s/o.png' --stats '%s/inner.rib'", dir,
+             dir, dir);
+    expect_error(args, "inner.rib: --stats names a file the scene reads");
+    assert_text("inner.rib", "Sphere 1 -1 1 360\n");
+}
+
+/* Sizes are computed in 64 bits (issue 15, item 6): an image whose samples the kernels'
+ * 32-bit index cannot hold is refused before anything is set up, with the limit in the
+ * message; one whose film exceeds the device's largest buffer, before any buffer. */
+static void test_huge_resolution_is_refused(void **state)
+{
+    (void)state;
+    char args[16384];
+    const char *scene = test_source_path("scene/one_patch.rib");
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 65536x65536 --spp 1", scene,
+             dir);
+    expect_error(args, "--res 65536x65536 at --spp 1 is 4294967296 samples; at most 4294967295");
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 40000x30000 --spp 4", scene,
+             dir);
+    expect_error(args, "is 4800000000 samples; at most 4294967295 (2^32 - 1)");
+    /* The default device's largest buffer, from `tessera devices` (opening the device here
+     * would put this whole program under Oclgrind in check_kernels). */
+    char cmd[4400], line[512];
+    snprintf(cmd, sizeof cmd, "'%s' devices", test_tessera_binary());
+    FILE *p = popen(cmd, "r");
+    unsigned long long max_alloc_mb = 0;
+    while (p && fgets(line, sizeof line, p) && !max_alloc_mb) {
+        const char *at = strstr(line, "(max buffer ");
+        if (at) max_alloc_mb = strtoull(at + 12, NULL, 10);
+    }
+    if (p) pclose(p);
+    assert_true(max_alloc_mb > 0);
+    if (max_alloc_mb < 65535) {
+        snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 65536x65535 --spp 1", scene,
+                 dir);
+        expect_error(args, "65536x65535 needs film buffers of 65535 MB; the device's largest "
+                           "buffer is ");
+    }
 }
 
 int main(void)
@@ -171,6 +338,8 @@ int main(void)
         cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_render_exr_and_stats),
         cmocka_unit_test(test_png_is_written_atomically),
+        cmocka_unit_test(test_paths_are_checked_before_rendering),
+        cmocka_unit_test(test_huge_resolution_is_refused),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -1,7 +1,8 @@
 /* test_failure.c — failures as a user meets them (docs/errors.md): the device running out
  * of memory (injected with TESSERA_FAIL_ALLOC / TESSERA_FAIL_LAUNCH) is retried with a
- * smaller budget or ends in one clear line; SIGTERM during a render writes the finished
- * samples and exits 3; --resume continues such an image to exactly the bits of an
+ * smaller budget, ends with the finished samples written, or ends in one clear line;
+ * SIGTERM or SIGHUP during a render writes the finished samples and exits 3, a closed
+ * stderr pipe does not stop it; --resume continues such an image to exactly the bits of an
  * uninterrupted render and refuses one made by another command; a kernel that does not
  * compile names kernels/FILE.cl:LINE. */
 #include "test_support.h"
@@ -79,8 +80,8 @@ static void assert_no_temporary(void)
 
 /* Starts `tessera render teapot -o OUT RENDER_ARGS [extra]` in the background with stderr
  * to dir/NAME.stderr; waits for its first progress line (a wave is finished), sends
- * SIGTERM and returns the exit status. */
-static int render_and_interrupt(const char *out, const char *extra)
+ * signal `sig` and returns the exit status. */
+static int render_and_signal(const char *out, const char *extra, int sig)
 {
     char errpath[4300];
     snprintf(errpath, sizeof errpath, "%s.stderr", in_dir(out));
@@ -107,12 +108,17 @@ static int render_and_interrupt(const char *out, const char *extra)
     }
     if (!progressed) kill(pid, SIGKILL);
     assert_true(progressed);
-    kill(pid, SIGTERM);
+    kill(pid, sig);
     assert_int_equal(waitpid(pid, &status, 0), pid);
     if (!WIFEXITED(status)) fail_msg("the render died by signal %d", WTERMSIG(status));
     snprintf(errpath, sizeof errpath, "cp '%s.stderr' '%s'", in_dir(out), in_dir("stderr.txt"));
     assert_int_equal(system(errpath), 0);
     return WEXITSTATUS(status);
+}
+
+static int render_and_interrupt(const char *out, const char *extra)
+{
+    return render_and_signal(out, extra, SIGTERM);
 }
 
 /* The uninterrupted render, made once. */
@@ -159,7 +165,7 @@ static void test_alloc_failure_is_retried(void **state)
 {
     (void)state;
     setenv("TESSERA_FAIL_ALLOC", "1", 1);
-    int rc = test_run_tessera(dir, "render '%s' -o '%s' --res 64x36 --max-lod 4",
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' --res 64x36 --max-lod 4 --memory 1024",
                               test_source_path("scene/teapot.rib"), in_dir("retried.png"));
     unsetenv("TESSERA_FAIL_ALLOC");
     assert_int_equal(rc, 0);
@@ -205,6 +211,52 @@ static void test_launch_failure_mid_render_is_retried(void **state)
     assert_same_image(ref, "launch.exr");
 }
 
+/* A launch that fails in the first wave, before any sample is in the film: the smaller
+ * budget dices at other levels of detail (m = 7 at 16 MB, m = 8 at 32 MB), which is no
+ * reason to refuse it, since no sample was traced at the old ones. The image is the one
+ * --memory 16 makes. */
+static void test_launch_failure_in_the_first_wave_is_retried(void **state)
+{
+    (void)state;
+    const char *scene = test_source_path("scene/one_patch.rib");
+    setenv("TESSERA_FAIL_LAUNCH", "10", 1);
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' --res 256x256 --memory 32", scene,
+                              in_dir("first_wave.exr"));
+    unsetenv("TESSERA_FAIL_LAUNCH");
+    const char *err = stderr_text();
+    if (rc != 0) fail_msg("exit status %d:\n%s", rc, err);
+    const char *retry = strstr(err, "retrying with 16 MB"), *progress = strstr(err, " samples, ");
+    if (!retry || (progress && progress < retry))
+        fail_msg("no retry before the first finished wave:\n%s", err);
+    test_tessera_ok(dir, "render '%s' -o '%s' --res 256x256 --memory 16 --quiet", scene,
+                    in_dir("at16.exr"));
+    test_assert_same_pixels(in_dir("at16.exr"), in_dir("first_wave.exr"));
+}
+
+/* Memory runs out at the smallest budget after waves were finished: they are written as a
+ * resumable partial EXR (exit status 3), and --resume completes it to the bits of the
+ * uninterrupted render. */
+static void test_out_of_memory_at_the_floor_writes_the_finished_samples(void **state)
+{
+    (void)state;
+    const char *ref = reference(), *scene = test_source_path("scene/teapot.rib");
+    setenv("TESSERA_FAIL_LAUNCH", "300", 1);
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS, scene, in_dir("floor.exr"));
+    unsetenv("TESSERA_FAIL_LAUNCH");
+    if (rc != 3) fail_msg("exit status %d:\n%s", rc, stderr_text());
+    expect_in_stderr("tessera: CL_OUT_OF_RESOURCES in clEnqueueNDRangeKernel(");
+    expect_in_stderr("the device could not provide 16 MB");
+    expect_in_stderr(" samples finished to ");
+    expect_in_stderr("(continue with --resume once more memory is free)");
+    assert_no_temporary();
+    unsigned done = (unsigned)meta_int("floor.exr", "tessera:samples_done");
+    assert_true(done > 0 && done < TOTAL);
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
+                                      scene, in_dir("floor.exr")),
+                     0);
+    assert_same_image(ref, "floor.exr");
+}
+
 static void test_sigterm_writes_the_finished_samples(void **state)
 {
     (void)state;
@@ -231,6 +283,100 @@ static void test_sigterm_writes_the_finished_samples(void **state)
     }
     assert_true(counted == (double)done);
     image_free(&img);
+}
+
+/* Rewrites the partial EXR dir/name with its pixels and metadata, "tessera:samples_done"
+ * moved by `shift` and the count of pixel `pixel` moved by `count_shift`. */
+static void edit_partial(const char *name, int shift, int pixel, float count_shift)
+{
+    static const char *keys[] = {"tessera:samples_done", "tessera:spp", "tessera:seed",
+                                 "tessera:job",          "tessera:lod", "tessera:max_lod"};
+    ts_image_meta meta[6];
+    for (int k = 0; k < 6; ++k)
+        meta[k] = (ts_image_meta){keys[k], meta_int(name, keys[k])};
+    meta[0].value += shift;
+    ts_image img;
+    ts_error err = {0};
+    if (image_read(in_dir(name), &img, &err)) fail_msg("%s", err.msg);
+    assert_int_equal(img.channels, 14);
+    img.pixels[(size_t)pixel * 14 + 13] += count_shift; /* tessera.count */
+    if (image_write_exr(in_dir(name), &img, meta, 6, &err)) fail_msg("%s", err.msg);
+    image_free(&img);
+}
+
+/* --resume checks "tessera:samples_done" against the count channel pixel by pixel: a file
+ * edited by hand (or damaged) is refused instead of counting samples twice. */
+static void test_resume_refuses_counts_that_disagree(void **state)
+{
+    (void)state;
+    const char *scene = test_source_path("scene/teapot.rib");
+    assert_int_equal(render_and_interrupt("edited.exr", NULL), 3);
+    int done = meta_int("edited.exr", "tessera:samples_done");
+    edit_partial("edited.exr", 1000, 0, 0.0f);
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
+                                      scene, in_dir("edited.exr")),
+                     1);
+    expect_in_stderr("edited.exr: cannot resume: pixel (");
+    expect_in_stderr("(a damaged or edited file)");
+    assert_int_equal(meta_int("edited.exr", "tessera:samples_done"), done + 1000); /* untouched */
+    /* The metadata restored, one pixel's count raised: refused at that pixel. */
+    edit_partial("edited.exr", -1000, 321 + 320 * 7, 1.0f);
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
+                                      scene, in_dir("edited.exr")),
+                     1);
+    expect_in_stderr("cannot resume: pixel (1, 8) holds ");
+}
+
+/* SIGHUP (the terminal or the ssh session went away) stops the render like SIGINT: the
+ * finished samples are written, resumable, and --resume completes them. */
+static void test_sighup_writes_the_finished_samples(void **state)
+{
+    (void)state;
+    const char *ref = reference();
+    assert_int_equal(render_and_signal("hup.exr", NULL, SIGHUP), 3);
+    expect_in_stderr("interrupted by SIGHUP after ");
+    unsigned done = (unsigned)meta_int("hup.exr", "tessera:samples_done");
+    assert_true(done > 0 && done < TOTAL);
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
+                                      test_source_path("scene/teapot.rib"), in_dir("hup.exr")),
+                     0);
+    assert_same_image(ref, "hup.exr");
+}
+
+/* stderr into a pipe that is closed after 100 bytes (`tessera ... 2>&1 | head -c 100`): the
+ * render must not die of SIGPIPE; progress stops and the image is written. */
+static void test_closed_stderr_pipe_does_not_kill_the_render(void **state)
+{
+    (void)state;
+    int fds[2];
+    assert_int_equal(pipe(fds), 0);
+    const char *bin = test_tessera_binary(), *scene = test_source_path("scene/teapot.rib");
+    char outpath[4200];
+    snprintf(outpath, sizeof outpath, "%s", in_dir("piped.exr"));
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        close(fds[0]);
+        dup2(fds[1], 1), dup2(fds[1], 2);
+        execl(bin, bin, "render", scene, "-o", outpath, "--res", RES, "--spp", SPP, "--memory",
+              MEMORY, (char *)NULL);
+        _exit(127);
+    }
+    close(fds[1]);
+    char buf[100];
+    size_t got = 0;
+    while (got < sizeof buf) {
+        ssize_t n = read(fds[0], buf + got, sizeof buf - got);
+        if (n <= 0) break;
+        got += (size_t)n;
+    }
+    close(fds[0]); /* what head -c 100 does */
+    assert_true(got == sizeof buf);
+    int status = 0;
+    assert_int_equal(waitpid(pid, &status, 0), pid);
+    if (!WIFEXITED(status)) fail_msg("the render died by signal %d", WTERMSIG(status));
+    assert_int_equal(WEXITSTATUS(status), 0);
+    assert_same_image(reference(), "piped.exr");
 }
 
 static void test_resume_matches_the_uninterrupted_render(void **state)
@@ -319,8 +465,13 @@ int main(void)
         cmocka_unit_test(test_alloc_failure_is_retried),
         cmocka_unit_test(test_alloc_failure_gives_up),
         cmocka_unit_test(test_launch_failure_mid_render_is_retried),
+        cmocka_unit_test(test_launch_failure_in_the_first_wave_is_retried),
+        cmocka_unit_test(test_out_of_memory_at_the_floor_writes_the_finished_samples),
         cmocka_unit_test(test_sigterm_writes_the_finished_samples),
         cmocka_unit_test(test_resume_matches_the_uninterrupted_render),
+        cmocka_unit_test(test_sighup_writes_the_finished_samples),
+        cmocka_unit_test(test_resume_refuses_counts_that_disagree),
+        cmocka_unit_test(test_closed_stderr_pipe_does_not_kill_the_render),
         cmocka_unit_test(test_kernel_build_failure_names_file_and_line),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);

@@ -6,6 +6,9 @@
  *   identical images; neither does the patch cache, which dices every patch once when the
  *   frame's patches fit and evicts when they do not;
  * - bounded memory: a scene of more than 10^10 potential micro-polygons renders in < 2 GiB;
+ * - the lod rules (issue 13, item 3): a patch wholly hidden behind another is diced two
+ *   levels coarser under TESSERA_LOD_RULE=seen and =visible than under the default, and that
+ *   changes no pixel;
  * - motion blur (§3.4): a moving patch's image equals the average of the patch rendered
  *   static at many times, within a tolerance derived from the sample count. */
 #include "test_support.h"
@@ -15,6 +18,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 static char dir[4096];
 
@@ -136,6 +140,69 @@ static void test_patch_cache_dices_once_and_changes_no_bit(void **state)
     assert_true(test_stats_number(path("off.json"), "counters.patches_diced") > 3 * diced);
 }
 
+/* The lowest level any dicing of the render used (lod_histogram). */
+static int lowest_level(const char *json)
+{
+    char key[64];
+    for (int m = 0; m <= 10; ++m) {
+        snprintf(key, sizeof key, "lod_histogram.%d", m);
+        if (test_stats_number(json, key) > 0) return m;
+    }
+    fail_msg("%s: no dicing", json);
+    return -1;
+}
+
+static void test_hidden_patch_is_diced_coarser_under_the_seen_rules(void **state)
+{
+    (void)state;
+    /* A flat square facing the camera, and behind it a smaller one that it hides wholly;
+     * lit from the camera's side, so the hidden one casts no shadow on anything seen. */
+    FILE *f = fopen(path("hidden.rib"), "w");
+    assert_non_null(f);
+    fputs("Format 96 96 1\nProjection \"perspective\" \"fov\" [40]\n"
+          "LightSource \"distantlight\" 1 \"from\" [0 0 0] \"to\" [0 0 1]\n"
+          "Translate 0 0 4\nWorldBegin\n"
+          "Patch \"bilinear\" \"P\" [-1 -1 0  1 -1 0  -1 1 0  1 1 0]\n"
+          "Patch \"bilinear\" \"P\" [-0.8 -0.8 2  0.8 -0.8 2  -0.8 0.8 2  0.8 0.8 2]\n"
+          "WorldEnd\n",
+          f);
+    fclose(f);
+    const char *rules[] = {"crossed", "seen", "visible"};
+    char name[64], json[64];
+    for (int i = 0; i < 3; ++i) {
+        setenv("TESSERA_LOD_RULE", rules[i], 1);
+        snprintf(name, sizeof name, "hidden_%s.exr", rules[i]);
+        snprintf(json, sizeof json, "hidden_%s.json", rules[i]);
+        char out[4200], stats[4200];
+        snprintf(out, sizeof out, "%s", path(name));
+        snprintf(stats, sizeof stats, "%s", path(json));
+        test_tessera_ok(dir, "render '%s' -o '%s' --spp 2 --max-lod 8 --stats '%s' --quiet",
+                        path("hidden.rib"), out, stats);
+    }
+    unsetenv("TESSERA_LOD_RULE");
+    /* Under the default both squares are diced at the levels their box crossings give: the
+     * hidden one's box is crossed by every ray that meets it, so it is not coarse. */
+    int crossed = lowest_level(path("hidden_crossed.json"));
+    assert_true(crossed >= 3);
+    assert_int_equal(lowest_level(path("hidden_seen.json")), crossed - 2);
+    assert_int_equal(lowest_level(path("hidden_visible.json")), crossed - 2);
+    test_assert_same_pixels(path("hidden_crossed.exr"), path("hidden_seen.exr"));
+    test_assert_same_pixels(path("hidden_crossed.exr"), path("hidden_visible.exr"));
+
+    setenv("TESSERA_LOD_RULE", "nearest", 1);
+    int rc =
+        test_run_tessera(dir, "render '%s' -o '%s' --quiet", path("hidden.rib"), path("bad.exr"));
+    unsetenv("TESSERA_LOD_RULE");
+    assert_int_not_equal(rc, 0);
+    FILE *e = fopen(path("stderr.txt"), "r");
+    assert_non_null(e);
+    char line[512] = "";
+    if (!fgets(line, sizeof line, e)) line[0] = 0;
+    fclose(e);
+    assert_non_null(strstr(line, "TESSERA_LOD_RULE=nearest: expected crossed, visible or seen"));
+    assert_int_equal(access(path("bad.exr"), F_OK), -1);
+}
+
 static void test_ten_billion_potential_micropolygons_in_fixed_memory(void **state)
 {
     /* A 100 x 100 field of displaced patches: 10^4 patches at m = 10 is 1.05 * 10^10
@@ -237,6 +304,7 @@ int main(void)
         cmocka_unit_test(test_memory_budget_does_not_change_the_image),
         cmocka_unit_test(test_sort_by_copy_matches_mapped_sort),
         cmocka_unit_test(test_patch_cache_dices_once_and_changes_no_bit),
+        cmocka_unit_test(test_hidden_patch_is_diced_coarser_under_the_seen_rules),
         cmocka_unit_test(test_ten_billion_potential_micropolygons_in_fixed_memory),
         cmocka_unit_test(test_motion_blur_is_the_time_average),
     };

@@ -389,41 +389,39 @@ static void test_primitive_variables(void **state)
     scene_free(&s);
 }
 
-static void expect_error(const char *text, const char *msg)
-{
-    ts_scene s;
-    ts_error e;
-    assert_int_equal(test_parse_rib(text, &s, &e), TS_E_SCENE);
-    if (strcmp(e.msg, msg) != 0) fail_msg("got \"%s\", want \"%s\"", e.msg, msg);
-    assert_int_equal(s.patch_count, 0);
-}
-
 static void test_errors(void **state)
 {
     (void)state;
-    expect_error("NuPatch 5 5 [0 0 0 0 0 1 1 1 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" ["
-                 "0 0 0 1 0 0 2 0 0 3 0 0 4 0 0 0 1 0 1 1 0 2 1 0 3 1 0 4 1 0]",
-                 "t.rib:1:1: error: NuPatch: uorder 5 is not supported (at most 4, cubic)");
-    expect_error("NuPatch 2 1 [0 1 2] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]",
-                 "t.rib:1:1: error: NuPatch: uorder 1 is not supported (at least 2: order 1 is a "
-                 "step function)");
-    expect_error("NuPatch 2 3 [0 0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]",
-                 "t.rib:1:1: error: NuPatch: nu = 2 control points are fewer than the uorder 3");
-    expect_error("NuPatch 2 2 [0 1 0 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]",
-                 "t.rib:1:1: error: NuPatch: uknot 2 (0) is less than the one before (1)");
-    expect_error("NuPatch 2 2 [0 0 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]",
-                 "t.rib:1:13: error: NuPatch: uknot needs nu + uorder = 4 values, got 3");
-    expect_error("NuPatch 2 2 [0 0 1 1] 2 3 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]",
-                 "t.rib:1:1: error: NuPatch: umin 2 and umax 3 leave no part of the valid range "
-                 "[0, 1]");
-    expect_error("NuPatch 2 2 [0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0]",
-                 "t.rib:1:49: error: NuPatch: parameter \"P\" (vertex) needs 12 values, got 9");
-    expect_error("NuPatch 2 2 [0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1",
-                 "t.rib:1:1: error: NuPatch: missing \"P\" or \"Pw\"");
-    expect_error("NuPatch 2 2 [0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] "
-                 "\"vertex color Cs\" [1 1 1 1 1 1 1 1 1 1 1 1]",
-                 "t.rib:1:75: error: NuPatch: \"Cs\" of class vertex is not supported (constant, "
-                 "uniform or varying)");
+    test_parse_rib_error("NuPatch 5 5 [0 0 0 0 0 1 1 1 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" ["
+                         "0 0 0 1 0 0 2 0 0 3 0 0 4 0 0 0 1 0 1 1 0 2 1 0 3 1 0 4 1 0]",
+                         "t.rib:1:1: error: NuPatch: uorder 5 is not supported (at most 4, cubic)");
+    test_parse_rib_error(
+        "NuPatch 2 1 [0 1 2] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]",
+        "t.rib:1:1: error: NuPatch: uorder 1 is not supported (at least 2: order 1 is a "
+        "step function)");
+    test_parse_rib_error(
+        "NuPatch 2 3 [0 0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]",
+        "t.rib:1:1: error: NuPatch: nu = 2 control points are fewer than the uorder 3");
+    test_parse_rib_error(
+        "NuPatch 2 2 [0 1 0 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]",
+        "t.rib:1:1: error: NuPatch: uknot 2 (0) is less than the one before (1)");
+    test_parse_rib_error(
+        "NuPatch 2 2 [0 0 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]",
+        "t.rib:1:13: error: NuPatch: uknot needs nu + uorder = 4 values, got 3");
+    test_parse_rib_error(
+        "NuPatch 2 2 [0 0 1 1] 2 3 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]",
+        "t.rib:1:1: error: NuPatch: umin 2 and umax 3 leave no part of the valid range "
+        "[0, 1]");
+    test_parse_rib_error(
+        "NuPatch 2 2 [0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0]",
+        "t.rib:1:49: error: NuPatch: parameter \"P\" (vertex) needs 12 values, got 9");
+    test_parse_rib_error("NuPatch 2 2 [0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1",
+                         "t.rib:1:1: error: NuPatch: missing \"P\" or \"Pw\"");
+    test_parse_rib_error(
+        "NuPatch 2 2 [0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] "
+        "\"vertex color Cs\" [1 1 1 1 1 1 1 1 1 1 1 1]",
+        "t.rib:1:75: error: NuPatch: \"Cs\" of class vertex is not supported (constant, "
+        "uniform or varying)");
 }
 
 int main(void)

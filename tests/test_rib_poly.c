@@ -316,39 +316,36 @@ static void test_primitive_variables(void **state)
     scene_free(&s);
 }
 
-static void expect_error(const char *text, const char *msg)
-{
-    ts_scene s;
-    ts_error e;
-    assert_int_equal(test_parse_rib(text, &s, &e), TS_E_SCENE);
-    if (strcmp(e.msg, msg) != 0) fail_msg("got \"%s\", want \"%s\"", e.msg, msg);
-    assert_int_equal(s.patch_count, 0);
-}
-
 static void test_errors(void **state)
 {
     (void)state;
-    expect_error("Polygon \"Cs\" [1 0 0]", "t.rib:1:1: error: Polygon: missing \"P\"");
-    expect_error("Polygon \"P\" [0 0 0 1 0 0]", "t.rib:1:1: error: Polygon: 2 points (at least 3)");
-    expect_error(
+    test_parse_rib_error("Polygon \"Cs\" [1 0 0]", "t.rib:1:1: error: Polygon: missing \"P\"");
+    test_parse_rib_error("Polygon \"P\" [0 0 0 1 0 0]",
+                         "t.rib:1:1: error: Polygon: 2 points (at least 3)");
+    test_parse_rib_error(
         "PointsPolygons [3 3] [0 1 2 0 2] \"P\" [0 0 0 1 0 0 0 1 0]",
         "t.rib:1:16: error: PointsPolygons: the nvertices add up to 6, but vertices has 5");
-    expect_error("PointsPolygons [3] [0 1 3] \"P\" [0 0 0 1 0 0 0 1 0]",
-                 "t.rib:1:20: error: PointsPolygons: vertex 2 is point 3, but \"P\" has 3 points");
-    expect_error("PointsPolygons [2] [0 1] \"P\" [0 0 0 1 0 0]",
-                 "t.rib:1:16: error: PointsPolygons: nvertices 0 is 2 (at least 3)");
-    expect_error("PointsPolygons [3.5] [0 1 2] \"P\" [0 0 0 1 0 0 0 1 0]",
-                 "t.rib:1:16: error: PointsPolygons: nvertices: value 0 is 3.5, not an integer in "
-                 "[0, 16777216]");
-    expect_error("GeneralPolygon [4 3] \"P\" [0 0 0 1 0 0 1 1 0 0 1 0]",
-                 "t.rib:1:16: error: GeneralPolygon: the nvertices add up to 7, but \"P\" has 4");
-    expect_error("Polygon \"P\" [0 0 0 1 0 0 0 1 0] \"N\" [0 0 1 0 0 0 0 0 1]",
-                 "t.rib:1:37: error: Polygon: normal 1 of \"N\" is zero");
-    expect_error("PointsGeneralPolygons [1 1] [3] [0 1 2] \"P\" [0 0 0 1 0 0 0 1 0]",
-                 "t.rib:1:23: error: PointsGeneralPolygons: the nloops add up to 2, but nvertices "
-                 "has 1");
-    expect_error("Polygon \"P\" [0 0 0 1 0 0 0 1 0] \"uniform color Cs\" [1 0 0 1 0 0]",
-                 "t.rib:1:52: error: Polygon: parameter \"Cs\" (uniform) needs 3 values, got 6");
+    test_parse_rib_error(
+        "PointsPolygons [3] [0 1 3] \"P\" [0 0 0 1 0 0 0 1 0]",
+        "t.rib:1:20: error: PointsPolygons: vertex 2 is point 3, but \"P\" has 3 points");
+    test_parse_rib_error("PointsPolygons [2] [0 1] \"P\" [0 0 0 1 0 0]",
+                         "t.rib:1:16: error: PointsPolygons: nvertices 0 is 2 (at least 3)");
+    test_parse_rib_error(
+        "PointsPolygons [3.5] [0 1 2] \"P\" [0 0 0 1 0 0 0 1 0]",
+        "t.rib:1:16: error: PointsPolygons: nvertices: value 0 is 3.5, not an integer in "
+        "[0, 16777216]");
+    test_parse_rib_error(
+        "GeneralPolygon [4 3] \"P\" [0 0 0 1 0 0 1 1 0 0 1 0]",
+        "t.rib:1:16: error: GeneralPolygon: the nvertices add up to 7, but \"P\" has 4");
+    test_parse_rib_error("Polygon \"P\" [0 0 0 1 0 0 0 1 0] \"N\" [0 0 1 0 0 0 0 0 1]",
+                         "t.rib:1:37: error: Polygon: normal 1 of \"N\" is zero");
+    test_parse_rib_error(
+        "PointsGeneralPolygons [1 1] [3] [0 1 2] \"P\" [0 0 0 1 0 0 0 1 0]",
+        "t.rib:1:23: error: PointsGeneralPolygons: the nloops add up to 2, but nvertices "
+        "has 1");
+    test_parse_rib_error(
+        "Polygon \"P\" [0 0 0 1 0 0 0 1 0] \"uniform color Cs\" [1 0 0 1 0 0]",
+        "t.rib:1:52: error: Polygon: parameter \"Cs\" (uniform) needs 3 values, got 6");
 }
 
 int main(void)

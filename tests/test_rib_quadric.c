@@ -399,33 +399,27 @@ static void test_primitive_variables(void **state)
     scene_free(&s);
 }
 
-static void expect_error(const char *text, const char *msg)
-{
-    ts_scene s;
-    ts_error e;
-    assert_int_equal(test_parse_rib(text, &s, &e), TS_E_SCENE);
-    if (strcmp(e.msg, msg) != 0) fail_msg("got \"%s\", want \"%s\"", e.msg, msg);
-    assert_int_equal(s.patch_count, 0);
-}
-
 static void test_errors(void **state)
 {
     (void)state;
-    expect_error("Sphere 1 -1", "t.rib:1:1: error: Sphere expects 4 numbers, got 2");
-    expect_error("Torus [1 2 3 4 5 6]", "t.rib:1:7: error: Torus expects 5 numbers, got 6");
-    expect_error("Cone 1 \"x\" 1", "t.rib:1:8: error: Cone expects 3 numbers, got 1");
-    expect_error("Paraboloid 1 -1 1 360",
-                 "t.rib:1:1: error: Paraboloid: zmin -1 and zmax 1 lie on opposite sides of 0 "
-                 "(the paraboloid z = zmax (r / rmax)^2 has no points there)");
-    expect_error("Sphere 1 -1 1 360 \"Cs\" [1 0 0 0 1 0]",
-                 "t.rib:1:24: error: Sphere: parameter \"Cs\" (varying) needs 12 values, got 6");
-    expect_error("WorldBegin\nWorldEnd\nDisk 0 1 360", "t.rib:3:1: error: Disk after WorldEnd");
-    expect_error("Scale 1 1 0\nSphere 1 -1 1 360",
-                 "t.rib:2:1: error: Sphere: the current transformation is singular; the "
-                 "surface's normals need an invertible one");
-    expect_error("MotionBegin [0 1]\nSphere 1 -1 1 360\n",
-                 "t.rib:2:1: error: Sphere is not allowed in the motion block at 1:1 (only "
-                 "Patch, Translate, Rotate, Scale, ConcatTransform or Transform)");
+    test_parse_rib_error("Sphere 1 -1", "t.rib:1:1: error: Sphere expects 4 numbers, got 2");
+    test_parse_rib_error("Torus [1 2 3 4 5 6]", "t.rib:1:7: error: Torus expects 5 numbers, got 6");
+    test_parse_rib_error("Cone 1 \"x\" 1", "t.rib:1:8: error: Cone expects 3 numbers, got 1");
+    test_parse_rib_error(
+        "Paraboloid 1 -1 1 360",
+        "t.rib:1:1: error: Paraboloid: zmin -1 and zmax 1 lie on opposite sides of 0 "
+        "(the paraboloid z = zmax (r / rmax)^2 has no points there)");
+    test_parse_rib_error(
+        "Sphere 1 -1 1 360 \"Cs\" [1 0 0 0 1 0]",
+        "t.rib:1:24: error: Sphere: parameter \"Cs\" (varying) needs 12 values, got 6");
+    test_parse_rib_error("WorldBegin\nWorldEnd\nDisk 0 1 360",
+                         "t.rib:3:1: error: Disk after WorldEnd");
+    test_parse_rib_error("Scale 1 1 0\nSphere 1 -1 1 360",
+                         "t.rib:2:1: error: Sphere: the current transformation is singular; the "
+                         "surface's normals need an invertible one");
+    test_parse_rib_error("MotionBegin [0 1]\nSphere 1 -1 1 360\n",
+                         "t.rib:2:1: error: Sphere is not allowed in the motion block at 1:1 (only "
+                         "Patch, Translate, Rotate, Scale, ConcatTransform or Transform)");
 }
 
 int main(void)

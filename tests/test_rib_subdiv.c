@@ -509,46 +509,42 @@ static void test_primitive_variables(void **state)
     scene_free(&s);
 }
 
-static void expect_error(const char *text, const char *msg)
-{
-    ts_scene s;
-    ts_error e;
-    assert_int_equal(test_parse_rib(text, &s, &e), TS_E_SCENE);
-    if (strcmp(e.msg, msg) != 0) fail_msg("got \"%s\", want \"%s\"", e.msg, msg);
-    assert_int_equal(s.patch_count, 0);
-}
-
 static void test_errors_and_warnings(void **state)
 {
     (void)state;
-    expect_error("SubdivisionMesh \"loop\" [3] [0 1 2] \"P\" [0 0 0 1 0 0 0 1 0]",
-                 "t.rib:1:17: error: SubdivisionMesh: scheme \"loop\" is not supported "
-                 "(catmull-clark)");
-    expect_error("SubdivisionMesh \"catmull-clark\" [3 3] [0 1 2 0 1 3] "
-                 "\"P\" [0 0 0 1 0 0 0 1 0 1 1 0]",
-                 "t.rib:1:1: error: SubdivisionMesh: edge 0-1 is used twice in the same "
-                 "direction (faces 0 and 1): the mesh is not manifold or its faces are not "
-                 "consistently oriented");
-    expect_error("SubdivisionMesh \"catmull-clark\" [3 3] [0 1 2 0 3 4] "
-                 "\"P\" [0 0 0 1 0 0 0 1 0 -1 0 0 0 -1 0]",
-                 "t.rib:1:1: error: SubdivisionMesh: vertex 0 has faces that form more than one "
-                 "fan (not manifold)");
-    expect_error("SubdivisionMesh \"catmull-clark\" [4] [0 1 1 2] \"P\" [0 0 0 1 0 0 0 1 0]",
-                 "t.rib:1:1: error: SubdivisionMesh: face 0 uses vertex 1 twice");
-    expect_error("SubdivisionMesh \"catmull-clark\" [3] [0 1 3] \"P\" [0 0 0 1 0 0 0 1 0]",
-                 "t.rib:1:37: error: SubdivisionMesh: vertex 2 is point 3, but \"P\" has 3 "
-                 "points");
-    expect_error("SubdivisionMesh \"catmull-clark\" [2] [0 1] \"P\" [0 0 0 1 0 0]",
-                 "t.rib:1:33: error: SubdivisionMesh: nvertices: value 0 is 2, not an integer in "
-                 "[3, 16777216]");
-    expect_error("SubdivisionMesh \"catmull-clark\" [3] [0 1 2] [\"crease\"] [2 1] [0 1 2] [1] "
-                 "\"P\" [0 0 0 1 0 0 0 1 0]",
-                 "t.rib:1:56: error: SubdivisionMesh: nargs asks for 2 integers and 1 floats, "
-                 "intargs has 3 and floatargs 1");
-    expect_error("SubdivisionMesh \"catmull-clark\" [3] [0 1 2] [\"hole\"] [1 0] [4] [] "
-                 "\"P\" [0 0 0 1 0 0 0 1 0]",
-                 "t.rib:1:45: error: SubdivisionMesh: tag \"hole\": integer 4 is out of range [0, "
-                 "1)");
+    test_parse_rib_error("SubdivisionMesh \"loop\" [3] [0 1 2] \"P\" [0 0 0 1 0 0 0 1 0]",
+                         "t.rib:1:17: error: SubdivisionMesh: scheme \"loop\" is not supported "
+                         "(catmull-clark)");
+    test_parse_rib_error("SubdivisionMesh \"catmull-clark\" [3 3] [0 1 2 0 1 3] "
+                         "\"P\" [0 0 0 1 0 0 0 1 0 1 1 0]",
+                         "t.rib:1:1: error: SubdivisionMesh: edge 0-1 is used twice in the same "
+                         "direction (faces 0 and 1): the mesh is not manifold or its faces are not "
+                         "consistently oriented");
+    test_parse_rib_error(
+        "SubdivisionMesh \"catmull-clark\" [3 3] [0 1 2 0 3 4] "
+        "\"P\" [0 0 0 1 0 0 0 1 0 -1 0 0 0 -1 0]",
+        "t.rib:1:1: error: SubdivisionMesh: vertex 0 has faces that form more than one "
+        "fan (not manifold)");
+    test_parse_rib_error(
+        "SubdivisionMesh \"catmull-clark\" [4] [0 1 1 2] \"P\" [0 0 0 1 0 0 0 1 0]",
+        "t.rib:1:1: error: SubdivisionMesh: face 0 uses vertex 1 twice");
+    test_parse_rib_error("SubdivisionMesh \"catmull-clark\" [3] [0 1 3] \"P\" [0 0 0 1 0 0 0 1 0]",
+                         "t.rib:1:37: error: SubdivisionMesh: vertex 2 is point 3, but \"P\" has 3 "
+                         "points");
+    test_parse_rib_error(
+        "SubdivisionMesh \"catmull-clark\" [2] [0 1] \"P\" [0 0 0 1 0 0]",
+        "t.rib:1:33: error: SubdivisionMesh: nvertices: value 0 is 2, not an integer in "
+        "[3, 16777216]");
+    test_parse_rib_error(
+        "SubdivisionMesh \"catmull-clark\" [3] [0 1 2] [\"crease\"] [2 1] [0 1 2] [1] "
+        "\"P\" [0 0 0 1 0 0 0 1 0]",
+        "t.rib:1:56: error: SubdivisionMesh: nargs asks for 2 integers and 1 floats, "
+        "intargs has 3 and floatargs 1");
+    test_parse_rib_error(
+        "SubdivisionMesh \"catmull-clark\" [3] [0 1 2] [\"hole\"] [1 0] [4] [] "
+        "\"P\" [0 0 0 1 0 0 0 1 0]",
+        "t.rib:1:45: error: SubdivisionMesh: tag \"hole\": integer 4 is out of range [0, "
+        "1)");
     int rc;
     const char *w = test_rib_warnings(
         "SubdivisionMesh \"catmull-clark\" [4] [0 1 2 3] [\"crease\" \"vertexedit\" \"crease\"] "

@@ -259,12 +259,9 @@ static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s,
     uint32_t per = plan.ray_capacity;
     cam.spp = (uint32_t)o->spp;
     p.mode = (ts_trace_mode){(uint32_t)o->spp, -1, 0, 0, 0u};
-    for (uint64_t first = 0; !rc && first < total; first += per) { /* the lod stage */
-        cam.first_sample = (uint32_t)first;
-        cam.ray_count = (uint32_t)(total - first < per ? total - first : per);
-        rc = pipeline_camera(&p, &cam, err) || pipeline_lod_count(&p, cam.ray_count, err);
-    }
-    if (!rc) rc = pipeline_lod_finish(&p, err);
+    if (!rc)
+        rc =
+            pipeline_lod(&p, &cam, TS_LOD_RULE_CROSSED, err); /* the lod stage, as tessera render */
     res->waves = 0;
     for (uint64_t first = 0; !rc && first < total; first += per, res->waves++) {
         cam.first_sample = (uint32_t)first;

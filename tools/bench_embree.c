@@ -335,6 +335,10 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
             hit[mode][kind] = malloc((r[kind].count ? r[kind].count : 1) * sizeof(ts_hit));
             if (!hit[mode][kind]) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
             for (int run = 0; run < runs && !rc; ++run) {
+                /* Every eye run is a new frame: its patches are diced and built again (the
+                 * patch cache keeps them for the frame's bounce rays, as in tessera render,
+                 * not across frames), as Embree tessellates and builds in every run. */
+                if (kind == 0) patch_cache_clear(&p.cache);
                 rc = tessera_trace(&p, &stats, &r[kind], hit[mode][kind], &stage[mode][kind][run],
                                    &wall[mode][kind][run], &iters[mode][kind], each, err);
                 for (int i = 0; i < TS_STAGE_COUNT; ++i)

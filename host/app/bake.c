@@ -4,7 +4,9 @@
  * in waves through the pipeline (pipeline/bake.h) and write the EXR (bake_file.h). */
 #include "app/bake.h"
 #include "app/bake_file.h"
+#include "app/budget.h"
 #include "app/interrupt.h"
+#include "app/output.h"
 #include "app/render.h"
 #include "base/hash.h"
 #include "pipeline/bake.h"
@@ -27,6 +29,7 @@ typedef struct ts_bake {
     ts_camera_params cam;
     ts_device cl;
     ts_pipeline pipe;
+    uint64_t mb;      /* the memory budget: --memory, else budget_default's */
     uint32_t max_lod; /* the plan's finest m */
     uint32_t *lod;    /* each patch's m */
     ts_bake_image img;
@@ -53,7 +56,13 @@ static int bake_load(ts_bake *b, ts_error *err)
     if (!o->output_path) return ts_error_set(err, TS_E_USAGE, "no output file: give -o OUT.exr");
     if (!ext || strcmp(ext, ".exr") != 0)
         return ts_error_set(err, TS_E_USAGE, "%s: a bake is written as .exr", o->output_path);
-    if (scene_load_frame(o->scene_path, o->frame, &b->scene, o->quiet, err)) return err->code;
+    if (ext == o->output_path || ext[-1] == '/') /* "-o .exr": a hidden file with no name */
+        return ts_error_set(err, TS_E_USAGE, "%s: the output needs a name before .exr",
+                            o->output_path);
+    if (output_check_paths(o->output_path, o->stats_path, o->scene_path, err) ||
+        scene_load_frame(o->scene_path, o->frame, &b->scene, o->quiet, err) ||
+        output_check_inputs_paths(o->output_path, o->stats_path, &b->scene, err))
+        return err->code;
     if (b->scene.patch_count == 0)
         return ts_error_set(err, TS_E_USAGE, "%s: no patches to bake", o->scene_path);
     const ts_camera *c = &b->scene.camera;
@@ -74,6 +83,21 @@ static int bake_open_device(ts_bake *b, ts_error *err)
              b->cl.info.platform_name);
     b->stats->kernel_build_seconds = b->cl.build_seconds;
     b->stats->kernel_cache_hit = b->cl.cache_hit;
+    ts_budget_choice c;
+    if (b->opt.memory_mb > 0) {
+        c.mb = (uint64_t)b->opt.memory_mb;
+        snprintf(c.why, sizeof c.why, "--memory");
+    } else { /* as render's default (budget.h); the bake holds no films but the footprint's */
+        ts_memory_room room;
+        ts_memory_room_query(NULL, &room);
+        uint64_t pixels = (uint64_t)b->width * (uint64_t)b->height;
+        budget_default(&b->cl.info, budget_fixed_bytes(&b->scene, pixels), &room, &c);
+    }
+    b->mb = c.mb;
+    b->stats->memory_budget_bytes = c.mb << 20;
+    if (!b->opt.quiet)
+        fprintf(stderr, "tessera: bake, memory budget %llu MB (%s)\n", (unsigned long long)c.mb,
+                c.why);
     return TS_OK;
 }
 
@@ -81,7 +105,7 @@ static int bake_open_device(ts_bake *b, ts_error *err)
 static int bake_pipeline(ts_bake *b, uint64_t rays, ts_error *err)
 {
     ts_pipeline_plan plan;
-    if (pipeline_plan((uint64_t)b->opt.memory_mb << 20, rays, (uint32_t)b->opt.max_lod,
+    if (pipeline_plan(b->mb << 20, rays, (uint32_t)b->opt.max_lod,
                       b->cl.info.max_alloc, &plan, err) ||
         pipeline_create(&b->pipe, &b->cl, &b->scene, &plan, 1, b->stats, err) ||
         dev_finish(&b->cl, b->stats, err))
@@ -90,28 +114,20 @@ static int bake_pipeline(ts_bake *b, uint64_t rays, ts_error *err)
     b->pipe.mode = (ts_trace_mode){1u, -1, b->opt.exact, 0, 0u};
     if (!b->opt.quiet && plan.max_lod < (uint32_t)b->opt.max_lod && b->opt.fixed_lod != 0)
         fprintf(stderr,
-                "tessera: --memory %d MB holds patches up to m = %u; baking at most that "
-                "finely\n",
-                b->opt.memory_mb, plan.max_lod);
+                "tessera: the memory budget of %llu MB holds patches up to m = %u; baking at "
+                "most that finely\n",
+                (unsigned long long)b->mb, plan.max_lod);
     return TS_OK;
 }
 
-/* The render's lod stage over the camera's width x height pixels, one ray each: patch p at
- * the smallest m with 4^m >= the pixels whose rays cross its box. Leaves them in patch_lod. */
+/* The render's lod stage (its default rule, TS_LOD_RULE_CROSSED) over the camera's width x
+ * height pixels, one ray each: patch p at the smallest m with 4^m >= the pixels whose rays
+ * cross its box. Leaves them in patch_lod. */
 static int bake_footprint(ts_bake *b, ts_error *err)
 {
     uint64_t total = (uint64_t)b->width * b->height;
     if (bake_pipeline(b, total, err)) return err->code;
-    ts_pipeline *p = &b->pipe;
-    ts_camera_params cam = b->cam;
-    for (uint64_t first = 0; first < total; first += p->plan.ray_capacity) {
-        uint64_t left = total - first;
-        cam.first_sample = (uint32_t)first;
-        cam.ray_count = (uint32_t)(left < p->plan.ray_capacity ? left : p->plan.ray_capacity);
-        if (pipeline_camera(p, &cam, err) || pipeline_lod_count(p, cam.ray_count, err))
-            return err->code;
-    }
-    return pipeline_lod_finish(p, err);
+    return pipeline_lod(&b->pipe, &b->cam, TS_LOD_RULE_CROSSED, err);
 }
 
 /* Each patch's m: the footprint's (or --lod), raised to hold --points, at most the plan's. */
@@ -121,7 +137,7 @@ static int bake_levels(ts_bake *b, ts_error *err)
     if (b->opt.fixed_lod < 0 && bake_footprint(b, err)) return err->code;
     if (b->opt.fixed_lod >= 0) {
         ts_pipeline_plan plan; /* only for its max_lod: the same budget dices the same */
-        if (pipeline_plan((uint64_t)b->opt.memory_mb << 20, 1u << 20, (uint32_t)b->opt.max_lod,
+        if (pipeline_plan(b->mb << 20, 1u << 20, (uint32_t)b->opt.max_lod,
                           b->cl.info.max_alloc, &plan, err))
             return err->code;
         b->max_lod = plan.max_lod;

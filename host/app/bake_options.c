@@ -17,7 +17,7 @@ void bake_options_defaults(ts_bake_options *o)
     o->fixed_lod = -1;
     o->min_points = 4;
     o->max_lod = 10;
-    o->memory_mb = 1024;
+    o->memory_mb = 0; /* app/budget.h: sized to the device and the process's limits */
     o->cl.device_index = -1;
     o->frame = -1;
 }

@@ -6,12 +6,13 @@
 #include "app/render.h"
 
 #include <signal.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-/* Exit statuses (docs/errors.md): 0 done, 1 error, 3 interrupted by SIGINT or SIGTERM with
- * the finished samples written. */
+/* Exit statuses (docs/errors.md): 0 done, 1 error, 3 stopped early with the finished samples
+ * written (SIGINT, SIGTERM or SIGHUP, or memory ran out at the smallest budget). */
 #define TS_EXIT_INTERRUPTED 3
 
 static const char *usage_text =
@@ -39,13 +40,13 @@ static const char *usage_text =
     "      --leaf-size N     leaves of N x N micro-quads: 1 (default), 2 or 4\n"
     "      --sampling KIND   mis: light and BSDF sampling combined (default); light or\n"
     "                        bsdf: one alone (for checking the estimators)\n"
-    "      --memory MB       budget for rays, candidates and diced patches (default 1024)\n"
+    "      --memory MB       budget for rays, candidates and diced patches (default: sized\n"
+    "                        to the device and the process's memory limits, at most 1024)\n"
     "      --stats FILE      write per-stage timings and counters as JSON\n"
     "      --quiet           no progress or timings on stderr\n"
     "      --resume          continue the interrupted render in OUT.exr (same command)\n"
     "      --frame N         the frame of a RIB animation to render: FrameBegin N\n"
     "                        (default: the first)\n"
-
     "      --kernel-dir DIR  build kernels from DIR instead of the embedded copy\n"
     "      --no-kernel-cache neither read nor write the kernel binary cache\n"
     "bake options (spherical-harmonics occlusion at the vertices of every patch diced at m,\n"
@@ -61,10 +62,37 @@ static const char *usage_text =
     "      --front           the hemisphere about the patch's own normal, not the side the\n"
     "                        camera sees\n";
 
+/* Prints "tessera: " and the formatted text as one line on stderr: control characters
+ * (a newline in a file name would split the line a script reads) are written as \n, \t,
+ * \r or \xNN. */
+static void say(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+static void say(const char *fmt, ...)
+{
+    char text[4096];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    fputs("tessera: ", stderr);
+    for (const unsigned char *c = (const unsigned char *)text; *c; ++c) {
+        if (*c == '\n')
+            fputs("\\n", stderr);
+        else if (*c == '\t')
+            fputs("\\t", stderr);
+        else if (*c == '\r')
+            fputs("\\r", stderr);
+        else if (*c < 0x20 || *c == 0x7f)
+            fprintf(stderr, "\\x%02x", *c);
+        else
+            fputc(*c, stderr);
+    }
+    fputc('\n', stderr);
+}
+
 /* Prints err (and its detail, a build log) and gives the exit status of a failure. */
 static int report_error(ts_error *err)
 {
-    fprintf(stderr, "tessera: %s\n", err->msg);
+    say("%s", err->msg);
     if (err->detail) fprintf(stderr, "%s\n", err->detail);
     ts_error_clear(err);
     return 1;
@@ -99,21 +127,29 @@ static int report_outcome(const ts_render_options *o, const ts_stats *stats,
                           const ts_render_result *result)
 {
     if (result->outcome == TS_RENDER_UP_TO_DATE) {
-        fprintf(stderr, "tessera: %s is already complete (%llu samples): nothing to do\n",
-                o->output_path, result->samples_total);
+        say("%s is already complete (%llu samples): nothing to do", o->output_path,
+            result->samples_total);
         return 0;
     }
+    const char *ext = strrchr(o->output_path, '.');
+    const char *how = ext && strcmp(ext, ".exr") == 0 ? "continue with --resume"
+                                                      : "a partial PNG cannot be resumed: use .exr";
     if (result->outcome == TS_RENDER_INTERRUPTED) {
-        const char *ext = strrchr(o->output_path, '.');
-        fprintf(stderr, "tessera: interrupted by %s after %llu of %llu samples; wrote %s (%s)\n",
-                result->signal == SIGINT ? "SIGINT" : "SIGTERM", result->samples_done,
-                result->samples_total, o->output_path,
-                ext && strcmp(ext, ".exr") == 0 ? "continue with --resume"
-                                                : "a partial PNG cannot be resumed: use .exr");
+        say("interrupted by %s after %llu of %llu samples; wrote %s (%s)",
+            result->signal == SIGINT   ? "SIGINT"
+            : result->signal == SIGHUP ? "SIGHUP"
+                                       : "SIGTERM",
+            result->samples_done, result->samples_total, o->output_path, how);
+        return TS_EXIT_INTERRUPTED;
+    }
+    if (result->outcome == TS_RENDER_OUT_OF_MEMORY) {
+        say("%s; wrote the %llu of %llu samples finished to %s (%s%s)", result->reason,
+            result->samples_done, result->samples_total, o->output_path, how,
+            ext && strcmp(ext, ".exr") == 0 ? " once more memory is free" : "");
         return TS_EXIT_INTERRUPTED;
     }
     if (!o->quiet) {
-        fprintf(stderr, "tessera: wrote %s on %s\n", o->output_path, stats->device);
+        say("wrote %s on %s", o->output_path, stats->device);
         stats_print_table(stats, stderr);
     }
     return 0;
@@ -145,22 +181,19 @@ static int cmd_render(int argc, char **argv)
 static int report_bake(const ts_bake_options *o, const ts_stats *stats, const ts_bake_result *r)
 {
     if (r->outcome == TS_BAKE_UP_TO_DATE) {
-        fprintf(stderr, "tessera: %s is already complete (%llu points): nothing to do\n",
-                o->output_path, (unsigned long long)r->points_total);
+        say("%s is already complete (%llu points): nothing to do", o->output_path,
+            (unsigned long long)r->points_total);
         return 0;
     }
     if (r->outcome == TS_BAKE_INTERRUPTED) {
-        fprintf(stderr,
-                "tessera: interrupted by %s after %llu of %llu points; wrote %s (continue with "
-                "--resume)\n",
-                r->signal == SIGINT ? "SIGINT" : "SIGTERM", (unsigned long long)r->points_done,
-                (unsigned long long)r->points_total, o->output_path);
+        say("interrupted by %s after %llu of %llu points; wrote %s (continue with --resume)",
+            r->signal == SIGINT ? "SIGINT" : "SIGTERM", (unsigned long long)r->points_done,
+            (unsigned long long)r->points_total, o->output_path);
         return TS_EXIT_INTERRUPTED;
     }
     if (!o->quiet) {
-        fprintf(stderr, "tessera: baked %llu points (%llu rays) into %s on %s\n",
-                (unsigned long long)r->points_total, (unsigned long long)r->rays, o->output_path,
-                stats->device);
+        say("baked %llu points (%llu rays) into %s on %s", (unsigned long long)r->points_total,
+            (unsigned long long)r->rays, o->output_path, stats->device);
         stats_print_table(stats, stderr);
     }
     return 0;
@@ -190,6 +223,10 @@ static int cmd_bake(int argc, char **argv)
 
 int main(int argc, char **argv)
 {
+    /* A closed stdout or stderr (`tessera render ... 2>&1 | head`) must not kill a render
+     * and lose its samples: writes to it fail with EPIPE instead, and the progress line
+     * stops (render.c). */
+    signal(SIGPIPE, SIG_IGN);
     if (argc < 2 || strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
         fputs(usage_text, argc < 2 ? stderr : stdout);
         return argc < 2 ? 1 : 0;
@@ -197,6 +234,6 @@ int main(int argc, char **argv)
     if (strcmp(argv[1], "devices") == 0) return cmd_devices();
     if (strcmp(argv[1], "render") == 0) return cmd_render(argc - 1, argv + 1);
     if (strcmp(argv[1], "bake") == 0) return cmd_bake(argc - 1, argv + 1);
-    fprintf(stderr, "tessera: unknown command '%s' (commands: devices, render, bake)\n", argv[1]);
+    say("unknown command '%s' (commands: devices, render, bake)", argv[1]);
     return 1;
 }

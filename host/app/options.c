@@ -20,7 +20,7 @@ void render_options_defaults(ts_render_options *o)
     o->exact = 0;
     o->leaf_group = 0;
     o->leaf_size = 1;
-    o->memory_mb = 1024;
+    o->memory_mb = 0; /* app/budget.h: sized to the device and the process's limits */
     o->cl.device_index = -1;
     o->frame = -1;
 }
@@ -33,6 +33,22 @@ static int parse_int(const char *s, int lo, int hi, int *out)
     long v = strtol(s, &end, 10);
     if (errno || end == s || *end || v < lo || v > hi) return -1;
     *out = (int)v;
+    return 0;
+}
+
+/* Parses "WxH" (two positive ints, nothing around them) into w and h; 0 on success. */
+static int parse_res(const char *s, int *w, int *h)
+{
+    char *end;
+    errno = 0;
+    long a = strtol(s, &end, 10);
+    if (errno || end == s || *end != 'x' || a < 1 || a > 65536) return -1;
+    const char *second = end + 1;
+    long b = strtol(second, &end, 10);
+    if (errno || end == second || *end || b < 1 || b > 65536 || *second == '+' || *second == '-' ||
+        *s == '+' || *s == '-' || *s == ' ' || *second == ' ')
+        return -1;
+    *w = (int)a, *h = (int)b;
     return 0;
 }
 
@@ -91,8 +107,7 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
         o->output_path = arg;
         return 0;
     case OPT_RES:
-        return sscanf(arg, "%dx%d", &o->width, &o->height) != 2 || o->width < 1 || o->height < 1 ||
-               o->width > 65536 || o->height > 65536;
+        return parse_res(arg, &o->width, &o->height);
     case OPT_LEAF_MODE:
         o->leaf_group = strcmp(arg, "group") == 0;
         return strcmp(arg, "ray") != 0 && strcmp(arg, "group") != 0;
@@ -144,26 +159,41 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
     return 0;
 }
 
+/* The message for what getopt_long refused: c is ':' for an option without its value
+ * (argv[optind - 1] is the option as typed), '?' for an unknown one (optopt: its character
+ * for a short option, 0 for a long one) or a flag given a value (optopt: the flag's value,
+ * above 255). optopt is printed as a character only when it is a printable one. */
+static int option_error(int c, char **argv, ts_error *err)
+{
+    if (c == ':')
+        return ts_error_set(err, TS_E_USAGE, "option %s needs a value (see tessera --help)",
+                            argv[optind - 1]);
+    for (const struct option *l = render_long_options; optopt > 255 && l->name; ++l)
+        if (l->val == optopt) /* "--quiet=3" */
+            return ts_error_set(err, TS_E_USAGE, "option --%s takes no value (see tessera --help)",
+                                l->name);
+    if (optopt > 32 && optopt < 127)
+        return ts_error_set(err, TS_E_USAGE, "unknown option -%c (see tessera --help)", optopt);
+    return ts_error_set(err, TS_E_USAGE, "unknown option %s (see tessera --help)",
+                        argv[optind - 1]);
+}
+
 int render_options_parse(int argc, char **argv, ts_render_options *o, int *help, ts_error *err)
 {
-    int c;
+    int c, index = -1;
     *help = 0;
     opterr = 0;
-    while ((c = getopt_long(argc, argv, "o:", render_long_options, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":o:", render_long_options, &index)) != -1) {
         if (c == OPT_HELP) {
             *help = 1;
             return TS_OK;
         }
-        if (c == '?') {
-            if (optopt)
-                return ts_error_set(err, TS_E_USAGE, "option -%c needs a value or is unknown",
-                                    optopt);
-            return ts_error_set(err, TS_E_USAGE, "unknown option %s (see tessera --help)",
-                                argv[optind - 1]);
-        }
+        if (c == '?' || c == ':') return option_error(c, argv, err);
         if (apply_option(c, optarg, o))
-            return ts_error_set(err, TS_E_USAGE, "bad value '%s' for %s", optarg,
-                                argv[optind - 2 >= 0 ? optind - 2 : 0]);
+            return ts_error_set(err, TS_E_USAGE, "bad value '%s' for %s%s", optarg,
+                                index >= 0 ? "--" : "-o",
+                                index >= 0 ? render_long_options[index].name : "");
+        index = -1; /* getopt_long sets it for long options only */
     }
     if (optind != argc - 1)
         return ts_error_set(err, TS_E_USAGE,

@@ -19,7 +19,7 @@ typedef struct ts_render_options {
     int sampling;   /* TS_SAMPLING_*: light and BSDF sampling by MIS, or one alone */
     int leaf_group; /* 1: work-group-wide leaf intersection; 0: per ray */
     int leaf_size;  /* leaves of leaf_size x leaf_size micro-quads: 1, 2 or 4 */
-    int memory_mb;  /* budget for rays, pairs and patch slots */
+    int memory_mb;  /* budget for rays, pairs and patch slots; 0: budget_default */
     int quiet;
     int resume; /* 1: continue the partial EXR at output_path (--resume) */
     int frame;  /* the RIB frame to render (FrameBegin number); -1: the first */
@@ -27,7 +27,7 @@ typedef struct ts_render_options {
 } ts_render_options;
 
 /* Defaults: spp from the scene (else 1), depth 3, seed 0, max_lod 10, ray-driven LOD, leaf boxes as
- * geometry, memory 1024 MB, device from TESSERA_DEVICE. */
+ * geometry, memory sized by budget_default (app/budget.h), device from TESSERA_DEVICE. */
 void render_options_defaults(ts_render_options *o);
 
 /* Reads `render`'s arguments (argv[0] is "render") over the defaults in o with getopt_long;

@@ -1,6 +1,7 @@
 /* output.c — the image `tessera render` writes (output.h): every channel of
  * ts_exr_channel computed per pixel from the three films, then an EXR or a PNG. */
 #include "app/output.h"
+#include "base/file.h"
 #include "image/image.h"
 
 #include <math.h>
@@ -10,13 +11,70 @@
 int output_check(const ts_render_options *o, ts_error *err)
 {
     const char *path = o->output_path, *ext = path ? strrchr(path, '.') : NULL;
-    if (!path) return ts_error_set(err, TS_E_USAGE, "no output file: give -o OUT.png or OUT.exr");
+    if (!path || !*path)
+        return ts_error_set(err, TS_E_USAGE, "no output file: give -o OUT.png or OUT.exr");
     if (!ext || (strcmp(ext, ".exr") != 0 && strcmp(ext, ".png") != 0))
         return ts_error_set(err, TS_E_USAGE, "%s: the output must end in .exr or .png", path);
+    if (ext == path || ext[-1] == '/') /* "-o .png": a hidden file with no name */
+        return ts_error_set(err, TS_E_USAGE, "%s: the output needs a name before %s", path, ext);
     if (o->resume && strcmp(ext, ".exr") != 0)
         return ts_error_set(err, TS_E_USAGE,
                             "--resume needs an .exr output (a PNG cannot hold "
                             "the sums of the samples)");
+    return output_check_paths(path, o->stats_path, o->scene_path, err);
+}
+
+int output_check_paths(const char *path, const char *stats, const char *scene_path,
+                       ts_error *err)
+{
+    if (ts_file_check_writable(path, err) || (stats && ts_file_check_writable(stats, err)))
+        return err->code;
+    if (stats && ts_file_same(stats, path))
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: --stats and -o name the same file (the JSON would replace the "
+                            "image)",
+                            stats);
+    if (ts_file_same(path, scene_path))
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: -o names the scene file (it would be overwritten)", path);
+    if (stats && ts_file_same(stats, scene_path))
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: --stats names the scene file (it would be overwritten)", stats);
+    return TS_OK;
+}
+
+/* Fails when the output or the stats file is input, a file the scene read. */
+static int output_check_input(const char *output_path, const char *stats_path, const char *input,
+                              const char *what, ts_error *err)
+{
+    if (ts_file_same(output_path, input))
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: -o names %s the scene reads (it would be "
+                            "overwritten)",
+                            output_path, what);
+    if (stats_path && ts_file_same(stats_path, input))
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: --stats names %s the scene reads (it would be "
+                            "overwritten)",
+                            stats_path, what);
+    return TS_OK;
+}
+
+int output_check_inputs(const ts_render_options *o, const ts_scene *scene, ts_error *err)
+{
+    return output_check_inputs_paths(o->output_path, o->stats_path, scene, err);
+}
+
+int output_check_inputs_paths(const char *out, const char *stats, const ts_scene *scene,
+                              ts_error *err)
+{
+    for (uint32_t i = 0; i < scene->texture_count; ++i)
+        if (output_check_input(out, stats, scene->tex_source[i], "a texture", err)) return err->code;
+    for (uint32_t i = 0; i < scene->input_count; ++i)
+        if (output_check_input(out, stats, scene->input_source[i], "a file", err)) return err->code;
+    if (scene->dome.present && scene->dome.mapname[0] &&
+        output_check_input(out, stats, scene->dome.mapname, "the environment map", err))
+        return err->code;
     return TS_OK;
 }
 
@@ -51,46 +109,37 @@ static void output_exposure(const ts_camera *cam, float v[TS_EXR_PARTIAL_CHANNEL
     }
 }
 
-int output_write(const ts_render_options *o, ts_pipeline *p, const ts_camera *cam, int width,
-                 int height, const ts_job *job, ts_error *err)
+int output_write(const ts_render_options *o, const ts_film_state *films, const ts_camera *cam,
+                 int width, int height, const ts_job *job, ts_error *err)
 {
     size_t npix = (size_t)width * height;
     int partial = job->samples_done < job->total;
-    ts_vec4 *acc = malloc(npix * sizeof *acc), *aov = malloc(npix * sizeof *aov);
-    ts_vec4 *alb = malloc(npix * sizeof *alb);
-    float *px = malloc(npix * TS_EXR_PARTIAL_CHANNELS * sizeof *px);
-    int rc = TS_OK;
-    if (!acc || !aov || !alb || !px) rc = ts_error_set(err, TS_E_MEMORY, "out of memory (image)");
-    cl_command_queue q = p->cl->queue;
-    if (!rc &&
-        (clEnqueueReadBuffer(q, p->accum, CL_TRUE, 0, npix * sizeof *acc, acc, 0, NULL, NULL) ||
-         clEnqueueReadBuffer(q, p->aov_film, CL_TRUE, 0, npix * sizeof *aov, aov, 0, NULL, NULL) ||
-         clEnqueueReadBuffer(q, p->albedo_film, CL_TRUE, 0, npix * sizeof *alb, alb, 0, NULL,
-                             NULL)))
-        rc = ts_error_set(err, TS_E_DEVICE, "reading the image back from the device failed");
     const char *ext = strrchr(o->output_path, '.');
     int exr = ext && strcmp(ext, ".exr") == 0;
     int nch = !exr ? 3 : partial ? TS_EXR_PARTIAL_CHANNELS : TS_EXR_COMPLETE_CHANNELS;
-    for (size_t i = 0; !rc && i < npix; ++i) {
+    float *px = malloc(npix * (size_t)nch * sizeof *px);
+    if (!px) return ts_error_set(err, TS_E_MEMORY, "out of memory (image)");
+    for (size_t i = 0; i < npix; ++i) {
         float v[TS_EXR_PARTIAL_CHANNELS];
-        output_pixel(acc[i], aov[i], alb[i], v);
+        output_pixel(films->accum[i], films->aov[i], films->albedo[i], v);
         output_exposure(cam, v);
         memcpy(&px[i * nch], v, nch * sizeof(float)); /* PNG: R, G, B */
     }
-    if (!rc && exr) {
+    int rc;
+    if (exr) {
         /* image_write_exr only reads the names. */
         ts_image img = {width, height, nch, (const char **)ts_exr_channel_names, px};
         ts_image_meta meta[] = {
             {ts_exr_meta_keys[TS_EXR_META_spp], o->spp},
-            {ts_exr_meta_keys[TS_EXR_META_max_lod], (int)p->plan.max_lod},
+            {ts_exr_meta_keys[TS_EXR_META_max_lod], (int)job->max_lod},
             {ts_exr_meta_keys[TS_EXR_META_samples_done], (int)(uint32_t)job->samples_done},
             {ts_exr_meta_keys[TS_EXR_META_seed], (int)o->seed},
             {ts_exr_meta_keys[TS_EXR_META_job], job->hash},
             {ts_exr_meta_keys[TS_EXR_META_lod], job->lod}};
         rc = image_write_exr(o->output_path, &img, meta, (int)(sizeof meta / sizeof *meta), err);
-    } else if (!rc) {
+    } else {
         rc = image_write_png(o->output_path, width, height, px, err);
     }
-    free(acc), free(aov), free(alb), free(px);
+    free(px);
     return rc;
 }

@@ -1,6 +1,6 @@
 /* output.h — the image `tessera render` writes to -o: the path checked before anything
- * runs, then the film read back into an EXR (float RGB, AOVs, and what --resume needs;
- * channels and metadata in resume.h) or a tone-mapped PNG. */
+ * runs, then the films (their host copy) written as an EXR (float RGB, AOVs, and what
+ * --resume needs; channels and metadata in resume.h) or a tone-mapped PNG. */
 #ifndef TS_OUTPUT_H
 #define TS_OUTPUT_H
 
@@ -8,16 +8,30 @@
 #include "app/resume.h"
 #include "pipeline/pipeline.h"
 
-/* The output path: given, ending in .exr or .png, and .exr for --resume (a PNG cannot
- * hold the sums of the samples). TS_E_USAGE otherwise. */
+/* The output paths, before any work: -o given, ending in .exr or .png, and .exr for
+ * --resume (a PNG cannot hold the sums of the samples); -o and --stats writable (their
+ * directories exist and take new files: TS_E_IO), not the same file, and neither the scene
+ * file (TS_E_USAGE). */
 int output_check(const ts_render_options *o, ts_error *err);
+/* The part of output_check that any command writing an output and a --stats file makes
+ * (`tessera bake` too): writable, not the same file, not the scene file. stats may be NULL. */
+int output_check_paths(const char *output_path, const char *stats_path, const char *scene_path,
+                       ts_error *err);
 
-/* Reads p's films back and writes o->output_path, width x height, atomically (image.h).
- * An EXR of an unfinished render (job->samples_done < job->total) gets all
+/* After the scene is loaded, before the render: neither -o nor --stats names a file the
+ * scene read (its textures, its environment map). TS_E_USAGE otherwise. */
+int output_check_inputs(const ts_render_options *o, const ts_scene *scene, ts_error *err);
+/* The same for any command's output and --stats paths (stats may be NULL). */
+int output_check_inputs_paths(const char *output_path, const char *stats_path,
+                              const ts_scene *scene, ts_error *err);
+
+/* Writes o->output_path, width x height, atomically (image.h), from the host copy of the
+ * films (resume.h). An EXR of an unfinished render (job->samples_done < job->total) gets all
  * TS_EXR_PARTIAL_CHANNELS, a finished one TS_EXR_COMPLETE_CHANNELS; both get the
- * TS_EXR_METAS from o, p's plan and job. The scene camera's Exposure, if any, applies to
- * R, G, B (of the EXR and the PNG); the sums and counts are the film's. */
-int output_write(const ts_render_options *o, ts_pipeline *p, const ts_camera *cam, int width,
-                 int height, const ts_job *job, ts_error *err);
+ * TS_EXR_METAS from o and job (job->max_lod: the finest m of the samples in the films). The
+ * scene camera's Exposure, if any, applies to R, G, B (of the EXR and the PNG); the sums and
+ * counts are the film's. */
+int output_write(const ts_render_options *o, const ts_film_state *films, const ts_camera *cam,
+                 int width, int height, const ts_job *job, ts_error *err);
 
 #endif

@@ -2,6 +2,7 @@
  * what --resume finds, open the device, then plan, create and trace the frame in waves of
  * samples (again with half the memory when the device runs out), and write the image. */
 #include "app/render.h"
+#include "app/budget.h"
 #include "app/output.h"
 #include "app/resume.h"
 #include "base/mat4.h"
@@ -61,19 +62,6 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
     return TS_OK;
 }
 
-/* The lod stage: all eye rays of the frame, wave by wave, counted per patch box. */
-static int render_lod(ts_pipeline *p, ts_camera_params cam, uint64_t total, ts_error *err)
-{
-    uint32_t per_wave = p->plan.ray_capacity;
-    for (uint64_t first = 0; first < total; first += per_wave) {
-        uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
-        cam.first_sample = (uint32_t)first;
-        cam.ray_count = n;
-        if (pipeline_camera(p, &cam, err) || pipeline_lod_count(p, n, err)) return err->code;
-    }
-    return pipeline_lod_finish(p, err);
-}
-
 /* Traces one wave of paths from the eye: eye rays, then each bounce's rays (BSDF and
  * shadow rays together, Hanika §3.5: rays grouped by generation) until none is left or the
  * depth is reached. */
@@ -100,11 +88,14 @@ static int render_paths(const ts_render_options *o, ts_pipeline *p, uint32_t fir
     return pipeline_film(p, first, n, err);
 }
 
-/* SIGINT and SIGTERM while samples are traced: the handler only records the signal; the
- * wave loop stops at the next wave boundary and the finished samples are written. */
+/* SIGINT, SIGTERM and SIGHUP (a closed terminal or ssh session) while samples are traced:
+ * the handler only records the signal; the wave loop stops at the next wave boundary and
+ * the finished samples are written. */
+static const int stop_signals[] = {SIGINT, SIGTERM, SIGHUP};
+#define TS_STOP_SIGNALS (sizeof stop_signals / sizeof *stop_signals)
 static volatile sig_atomic_t stop_signal;
 static int stop_handlers_installed;
-static struct sigaction stop_old_int, stop_old_term;
+static struct sigaction stop_old[TS_STOP_SIGNALS];
 
 static void on_stop_signal(int sig)
 {
@@ -120,16 +111,16 @@ static void stop_handlers_install(void)
     sigemptyset(&sa.sa_mask);
     sa.sa_flags = SA_RESTART;
     stop_signal = 0;
-    sigaction(SIGINT, &sa, &stop_old_int);
-    sigaction(SIGTERM, &sa, &stop_old_term);
+    for (size_t i = 0; i < TS_STOP_SIGNALS; ++i)
+        sigaction(stop_signals[i], &sa, &stop_old[i]);
     stop_handlers_installed = 1;
 }
 
 static void stop_handlers_restore(void)
 {
     if (!stop_handlers_installed) return;
-    sigaction(SIGINT, &stop_old_int, NULL);
-    sigaction(SIGTERM, &stop_old_term, NULL);
+    for (size_t i = 0; i < TS_STOP_SIGNALS; ++i)
+        sigaction(stop_signals[i], &stop_old[i], NULL);
     stop_handlers_installed = 0;
 }
 
@@ -140,7 +131,14 @@ static void stop_handlers_restore(void)
 static int render_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
                             ts_job *job, ts_error *err)
 {
-    if (o->fixed_lod < 0 && render_lod(p, cam, job->total, err)) return err->code;
+    /* TESSERA_LOD_RULE=visible|seen: the rules measured against the default in
+     * docs/benchmarks.md, for experiments. */
+    const char *name = getenv("TESSERA_LOD_RULE");
+    ts_lod_rule rule = TS_LOD_RULE_CROSSED;
+    if (name && *name && pipeline_lod_rule_parse(name, &rule))
+        return ts_error_set(err, TS_E_USAGE,
+                            "TESSERA_LOD_RULE=%s: expected crossed, visible or seen", name);
+    if (o->fixed_lod < 0 && pipeline_lod(p, &cam, rule, err)) return err->code;
     int32_t lod = job_lod_hash(p, o);
     job->lod_mismatch = job->check_lod && lod != job->lod;
     if (job->lod_mismatch)
@@ -179,7 +177,9 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
             return err->code;
         }
         job->samples_done = first + n;
-        if (!o->quiet) {
+        /* Progress stops for good once stderr fails (a closed pipe: EPIPE, SIGPIPE being
+         * ignored by main); the render goes on. */
+        if (!o->quiet && !ferror(stderr)) {
             double dt = stats_now() - t0, done = (double)(first + n - start);
             double rays = (double)(p->stats->counters[TS_COUNTER_rays] +
                                    p->stats->counters[TS_COUNTER_shadow_rays]);
@@ -189,7 +189,7 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
         }
         if (stop_signal) break;
     }
-    if (!o->quiet) fputc('\n', stderr);
+    if (!o->quiet && !ferror(stderr)) fputc('\n', stderr);
     return TS_OK;
 }
 
@@ -202,9 +202,14 @@ typedef struct ts_render {
     ts_scene scene;
     ts_camera_params cam;
     ts_job job;
-    ts_film_state state; /* samples the device's films lack: resumed, or kept over a retry */
+    /* The host copy of the films: the samples [0, job.samples_done) the device's films lack
+     * (resumed, or kept over a retry), and the image render_write writes. */
+    ts_film_state state;
     ts_device cl;
     ts_pipeline pipe;
+    /* Set when memory ran out at the smallest budget with samples finished: why. The
+     * finished samples (in state) are written as a partial image. */
+    ts_error stopped;
 } ts_render;
 
 static void render_init(ts_render *r, const ts_render_options *o, ts_stats *stats)
@@ -216,10 +221,36 @@ static void render_init(ts_render *r, const ts_render_options *o, ts_stats *stat
 
 static void render_free(ts_render *r)
 {
+    ts_error_clear(&r->stopped);
     film_state_free(&r->state);
     pipeline_destroy(&r->pipe);
     dev_close(&r->cl);
     scene_free(&r->scene);
+}
+
+/* The most samples an image may have: the kernels index them (and the film its pixels)
+ * with 32 bits. */
+#define TS_SAMPLE_LIMIT UINT32_MAX
+
+/* The image size and sample count, in 64 bits: width * height * spp must fit the kernels'
+ * 32-bit sample index (a 65536x65536 image used to overflow into a 0-pixel film). res and
+ * spp name where the numbers came from (--res or the scene's Format, --spp or its
+ * PixelSamples). */
+static int render_check_size(const ts_render *r, const char *res, const char *spp, ts_error *err)
+{
+    const ts_render_options *o = &r->opt;
+    uint64_t samples = (uint64_t)r->width * (uint64_t)r->height * (uint64_t)o->spp;
+    if (r->width < 1 || r->height < 1)
+        return ts_error_set(err, TS_E_USAGE, "%s %dx%d is not an image size", res, r->width,
+                            r->height);
+    if (samples > TS_SAMPLE_LIMIT)
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s %dx%d at %s %d is %llu samples; at most %llu (2^32 - 1) fit one "
+                            "image (the kernels index samples with 32 bits): lower the resolution "
+                            "or the samples per pixel",
+                            res, r->width, r->height, spp, o->spp, (unsigned long long)samples,
+                            (unsigned long long)TS_SAMPLE_LIMIT);
+    return TS_OK;
 }
 
 /* The scene (its --frame, for a RIB animation), and what it decides that the command line
@@ -230,10 +261,12 @@ static int render_load_scene(ts_render *r, ts_error *err)
     ts_render_options *o = &r->opt;
     if (scene_load_frame(o->scene_path, o->frame, &r->scene, o->quiet, err)) return err->code;
     const ts_camera *c = &r->scene.camera;
+    const char *spp = o->spp > 0 ? "--spp" : c->spp > 0 ? "PixelSamples" : "spp";
+    const char *res = o->width ? "--res" : c->has_format ? "Format" : "size";
     if (o->spp <= 0) o->spp = c->spp > 0 ? c->spp : 1;
     r->width = o->width ? o->width : c->has_format ? c->width : 640;
     r->height = o->height ? o->height : c->has_format ? c->height : 480;
-    return TS_OK;
+    return render_check_size(r, res, spp, err);
 }
 
 /* The camera kernel's parameters and the job: its width * height * spp samples and the
@@ -256,15 +289,20 @@ static int render_open_device(ts_render *r, ts_error *err)
              r->cl.info.platform_name);
     r->stats->kernel_build_seconds = r->cl.build_seconds;
     r->stats->kernel_cache_hit = r->cl.cache_hit;
+    /* Each film (16 bytes a pixel) is one buffer, outside the budget. */
+    uint64_t film = (uint64_t)r->width * (uint64_t)r->height * sizeof(ts_vec4);
+    if (film > r->cl.info.max_alloc)
+        return ts_error_set(err, TS_E_USAGE,
+                            "%dx%d needs film buffers of %llu MB; the device's largest buffer is "
+                            "%llu MB (CL_DEVICE_MAX_MEM_ALLOC_SIZE): lower the resolution",
+                            r->width, r->height, (unsigned long long)(film >> 20),
+                            (unsigned long long)(r->cl.info.max_alloc >> 20));
     return TS_OK;
 }
 
-/* The smallest budget a retry after an out-of-memory error tries. */
-#define TS_MEMORY_FLOOR_MB 16
-
 /* The memory budget over the attempts of one render. */
 typedef struct ts_budget {
-    uint64_t mb, first_mb; /* this attempt's budget and --memory, in MB */
+    uint64_t mb, first_mb; /* this attempt's budget and the first one's, in MB */
     uint32_t noted_lod;    /* the finest m the user knows the render dices at */
     ts_error oom;          /* the last out-of-memory error; code 0 before the first */
 } ts_budget;
@@ -288,8 +326,8 @@ static int render_plan(ts_render *r, ts_budget *b, ts_pipeline_plan *plan, ts_er
         fprintf(stderr,
                 "tessera: %s%llu MB holds patches up to m = %u; dicing at most "
                 "that finely (raise --memory for --max-lod %d)\n",
-                b->mb == b->first_mb ? "--memory " : "", (unsigned long long)b->mb, plan->max_lod,
-                o->max_lod);
+                b->mb == b->first_mb && o->memory_mb ? "--memory " : "", (unsigned long long)b->mb,
+                plan->max_lod, o->max_lod);
     b->noted_lod = plan->max_lod;
     return TS_OK;
 }
@@ -299,23 +337,24 @@ static int render_plan(ts_render *r, ts_budget *b, ts_pipeline_plan *plan, ts_er
 static int render_attempt(ts_render *r, ts_budget *b, ts_error *err)
 {
     ts_pipeline_plan plan;
+    r->stats->memory_budget_bytes = b->mb << 20;
     if (render_plan(r, b, &plan, err) ||
-        pipeline_create(&r->pipe, &r->cl, &r->scene, &plan, (uint32_t)(r->width * r->height),
-                        r->stats, err) ||
-        (r->state.accum && film_state_transfer(&r->pipe, &r->state, 1, err)) ||
+        pipeline_create(&r->pipe, &r->cl, &r->scene, &plan,
+                        (uint32_t)((uint64_t)r->width * r->height), r->stats, err) ||
+        (r->job.samples_done > 0 && film_state_transfer(&r->pipe, &r->state, 1, err)) ||
         dev_finish(&r->cl, r->stats, err)) /* the buffers' first use */
         return err->code;
     return render_waves(&r->opt, &r->pipe, r->cam, &r->job, err);
 }
 
 /* After an attempt that started at sample `before` ran out of memory: copies the samples it
- * finished into r->state, since its films go with its pipeline. 0 when that failed. */
+ * finished into r->state (allocated before the first attempt, when memory was there), since
+ * its films go with its pipeline. 0 when that failed. */
 static int render_keep_samples(ts_render *r, uint64_t before)
 {
     if (r->job.samples_done <= before) return 1;
     ts_error e = {0};
-    int kept = (r->state.accum || !film_state_alloc(&r->state, (size_t)r->width * r->height, &e)) &&
-               !film_state_transfer(&r->pipe, &r->state, 0, &e);
+    int kept = !film_state_transfer(&r->pipe, &r->state, 0, &e);
     ts_error_clear(&e);
     return kept;
 }
@@ -340,24 +379,57 @@ static int render_give_up(const ts_render *r, const ts_budget *b, int kept, ts_e
                         b->oom.msg, (unsigned long long)b->mb, (unsigned long long)b->first_mb);
 }
 
-/* Plan, create, render; when the device runs out of memory (dev_is_out_of_memory), keep
- * the finished samples, halve the budget and go on from them, down to TS_MEMORY_FLOOR_MB. */
+/* The first attempt's budget: --memory, else budget_default for this device, scene and
+ * image under the process's limits. Announced in the progress header. */
+static void render_choose_budget(const ts_render *r, ts_budget_choice *c)
+{
+    if (r->opt.memory_mb > 0) {
+        c->mb = (uint64_t)r->opt.memory_mb;
+        snprintf(c->why, sizeof c->why, "--memory");
+    } else {
+        ts_memory_room room;
+        ts_memory_room_query(NULL, &room);
+        uint64_t pixels = (uint64_t)r->width * (uint64_t)r->height;
+        budget_default(&r->cl.info, budget_fixed_bytes(&r->scene, pixels), &room, c);
+    }
+    if (!r->opt.quiet)
+        fprintf(stderr, "tessera: %dx%d, %d spp, memory budget %llu MB (%s)\n", r->width, r->height,
+                r->opt.spp, (unsigned long long)c->mb, c->why);
+}
+
+/* Memory ran out, on the device (dev_is_out_of_memory) or on the host (the sort's host
+ * buffers and the device's own allocations on CPU devices grow with the budget too): a
+ * smaller budget may fit. */
+static int render_out_of_memory(const ts_error *err)
+{
+    return dev_is_out_of_memory(err) || err->code == TS_E_MEMORY;
+}
+
+/* Plan, create, render; when memory runs out (render_out_of_memory), keep the finished
+ * samples, halve the budget and go on from them, down to TS_MEMORY_FLOOR_MB. When no budget
+ * is left (or the one that fits dices at other levels of detail than the samples already
+ * traced), the finished samples are kept for render_write in r->state and the reason in
+ * r->stopped; only when there are none does the render fail. */
 static int render_with_retry(ts_render *r, ts_error *err)
 {
-    ts_budget b = {.mb = (uint64_t)r->opt.memory_mb,
-                   .first_mb = (uint64_t)r->opt.memory_mb,
-                   .noted_lod = (uint32_t)r->opt.max_lod};
-    int rc;
+    ts_budget_choice choice;
+    render_choose_budget(r, &choice);
+    ts_budget b = {.mb = choice.mb, .first_mb = choice.mb, .noted_lod = (uint32_t)r->opt.max_lod};
+    int rc, kept = 1, gave_up = 0;
     for (;;) {
         uint64_t before = r->job.samples_done;
         rc = render_attempt(r, &b, err);
-        if (!rc || !dev_is_out_of_memory(err)) break;
+        if (!rc || !render_out_of_memory(err)) break;
         ts_error_clear(&b.oom);
         ts_error_set(&b.oom, err->code, "%s", err->msg);
         ts_error_clear(err);
-        int kept = render_keep_samples(r, before);
+        kept = render_keep_samples(r, before);
+        /* With no sample in the film yet, the smaller budget may dice at other levels of
+         * detail: there is nothing for them to disagree with. */
+        if (r->job.samples_done == 0) r->job.check_lod = 0;
         if (!kept || b.mb / 2 < TS_MEMORY_FLOOR_MB) {
             rc = render_give_up(r, &b, kept, err);
+            gave_up = 1;
             break;
         }
         if (!r->opt.quiet)
@@ -376,15 +448,28 @@ static int render_with_retry(ts_render *r, ts_error *err)
                           "and the budget that fits dices at other levels of detail; render again "
                           "with a lower --memory or --max-lod",
                           b.oom.msg, (unsigned long long)r->job.samples_done);
+        gave_up = 1;
+    }
+    if (rc && gave_up && kept && r->job.samples_done > 0) {
+        ts_error_set(&r->stopped, err->code, "%s", err->msg);
+        ts_error_clear(err);
+        rc = TS_OK;
     }
     return rc;
 }
 
-/* The image file, timed as part of the film stage. */
+/* The image file, timed as part of the film stage. The films are copied to the host and the
+ * pipeline released first, so that the budget's memory is free again while the image is
+ * encoded (under a memory limit the encoder would otherwise fail). After memory ran out at
+ * the smallest budget (r->stopped), r->state already holds the finished samples. */
 static int render_write(ts_render *r, ts_error *err)
 {
     double t0 = stats_now();
-    int rc = output_write(&r->opt, &r->pipe, &r->scene.camera, r->width, r->height, &r->job, err);
+    int rc = TS_OK;
+    if (!r->stopped.code) rc = film_state_transfer(&r->pipe, &r->state, 0, err);
+    pipeline_destroy(&r->pipe);
+    if (!rc)
+        rc = output_write(&r->opt, &r->state, &r->scene.camera, r->width, r->height, &r->job, err);
     r->stats->stage_seconds[TS_STAGE_film] += stats_now() - t0;
     return rc;
 }
@@ -398,9 +483,12 @@ static void render_result(const ts_render *r, int up_to_date, ts_render_result *
         out->samples_done = r->job.total;
         return;
     }
-    out->outcome = r->job.samples_done < r->job.total ? TS_RENDER_INTERRUPTED : TS_RENDER_COMPLETE;
+    out->outcome = r->stopped.code                      ? TS_RENDER_OUT_OF_MEMORY
+                   : r->job.samples_done < r->job.total ? TS_RENDER_INTERRUPTED
+                                                        : TS_RENDER_COMPLETE;
     out->samples_done = r->job.samples_done;
     out->signal = stop_signal;
+    snprintf(out->reason, sizeof out->reason, "%s", r->stopped.msg);
 }
 
 int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *result, ts_error *err)
@@ -412,10 +500,15 @@ int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *re
     render_init(&r, o, stats);
     int up_to_date = 0;
     int rc = render_load_scene(&r, err);
+    if (!rc) rc = output_check_inputs(o, &r.scene, err);
     if (!rc) rc = render_start_job(&r, err);
     if (!rc && o->resume)
         rc = resume_load(&r.opt, r.width, r.height, &r.job, &r.state, &up_to_date, err);
     if (!rc && !up_to_date) rc = render_open_device(&r, err);
+    /* The host copy of the films (48 bytes a pixel) before the device takes its budget: the
+     * retry and the image write need it when memory is scarcest. --resume made it. */
+    if (!rc && !up_to_date && !r.state.accum)
+        rc = film_state_alloc(&r.state, (size_t)r.width * r.height, err);
     if (!rc && !up_to_date) rc = render_with_retry(&r, err);
     if (!rc && !up_to_date) rc = render_write(&r, err);
     if (!rc) render_result(&r, up_to_date, result);

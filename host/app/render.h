@@ -18,23 +18,28 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
 /* How a render that did not fail ended. */
 typedef enum ts_render_outcome {
     TS_RENDER_COMPLETE,    /* every sample traced; the image is written */
-    TS_RENDER_INTERRUPTED, /* SIGINT or SIGTERM: the samples finished so far are written */
+    TS_RENDER_INTERRUPTED, /* SIGINT, SIGTERM or SIGHUP: the samples finished so far are written */
     TS_RENDER_UP_TO_DATE,  /* --resume of an image that is already complete: nothing done */
+    /* memory ran out at the smallest budget: the samples finished so far are written, and
+     * reason says what failed */
+    TS_RENDER_OUT_OF_MEMORY,
 } ts_render_outcome;
 
 typedef struct ts_render_result {
     ts_render_outcome outcome;
     unsigned long long samples_done, samples_total; /* global sample indices */
     int signal;                                     /* the signal that interrupted it */
+    char reason[2048];                              /* TS_RENDER_OUT_OF_MEMORY: the error */
 } ts_render_result;
 
 /* Renders options->scene_path to options->output_path. Fills stats and result.
- * While samples are traced, SIGINT and SIGTERM only set a flag: the render stops after the
- * current wave and writes what is finished (an EXR also holds what --resume needs, see
- * docs/rendering.md); before that they have their usual effect. With options->resume the
+ * While samples are traced, SIGINT, SIGTERM and SIGHUP only set a flag: the render stops
+ * after the current wave and writes what is finished (an EXR also holds what --resume
+ * needs, see docs/rendering.md); before that they have their usual effect. With options->resume the
  * render continues from the partial EXR at output_path (or starts when there is none).
  * When the device cannot provide a buffer, the budget is halved and the render planned
- * again, down to 16 MB. */
+ * again, down to 16 MB; when even that fails after samples were finished, they are
+ * written (TS_RENDER_OUT_OF_MEMORY) instead of lost. */
 int render_run(const ts_render_options *options, ts_stats *stats, ts_render_result *result,
                ts_error *err);
 

@@ -92,7 +92,9 @@ int film_state_alloc(ts_film_state *s, size_t npix, ts_error *err)
     s->albedo = calloc(npix, sizeof(ts_vec4));
     if (!s->accum || !s->aov || !s->albedo) {
         film_state_free(s);
-        return ts_error_set(err, TS_E_MEMORY, "out of memory (film)");
+        return ts_error_set(err, TS_E_MEMORY,
+                            "out of memory for the host copy of the films (%zu pixels, %zu MB)",
+                            npix, 3 * npix * sizeof(ts_vec4) >> 20);
     }
     return TS_OK;
 }
@@ -183,6 +185,29 @@ static int resume_find_channels(const char *path, const ts_image *img,
     return TS_OK;
 }
 
+/* The count channel agrees with samples_done, pixel by pixel: global sample g goes to pixel
+ * g mod P (P = width * height), so pixel i holds done / P samples, one more when
+ * i < done mod P. A hand-edited or damaged file that disagrees would otherwise be resumed
+ * and count samples twice (or never). Counts are whole floats below 2^24, exact. */
+static int resume_check_counts(const char *path, const ts_image *img, int count_channel,
+                               uint64_t done, ts_error *err)
+{
+    uint64_t npix = (uint64_t)img->width * (uint64_t)img->height;
+    for (uint64_t i = 0; i < npix; ++i) {
+        float count = img->pixels[i * (uint64_t)img->channels + (uint64_t)count_channel];
+        uint64_t want = done / npix + (i < done % npix);
+        if (count != (float)want)
+            return ts_error_set(err, TS_E_USAGE,
+                                "%s: cannot resume: pixel (%llu, %llu) holds %g samples where "
+                                "\"tessera:samples_done\" %llu means %llu (a damaged or edited "
+                                "file); render without --resume",
+                                path, (unsigned long long)(i % (uint64_t)img->width),
+                                (unsigned long long)(i / (uint64_t)img->width), (double)count,
+                                (unsigned long long)done, (unsigned long long)want);
+    }
+    return TS_OK;
+}
+
 /* The films as the render left them: the sums and counts, and sample 0's AOVs where the
  * pixel has a sample, else zeros (which output_write turned into Z = +inf). */
 static void resume_fill_films(const ts_image *img, const int idx[TS_EXR_PARTIAL_CHANNELS],
@@ -226,6 +251,9 @@ int resume_load(const ts_render_options *o, int width, int height, ts_job *job,
     if (!rc) rc = resume_check_job(o, width, height, &img, v, job, err);
     if (!rc && (uint32_t)v[TS_EXR_META_samples_done] == job->total) *complete = 1;
     if (!rc && !*complete) rc = resume_find_channels(path, &img, idx, err);
+    if (!rc && !*complete)
+        rc = resume_check_counts(path, &img, idx[TS_EXR_COUNT],
+                                 (uint32_t)v[TS_EXR_META_samples_done], err);
     if (!rc && !*complete) rc = film_state_alloc(state, (size_t)width * height, err);
     if (!rc && !*complete) {
         resume_fill_films(&img, idx, state);

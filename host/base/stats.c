@@ -1,6 +1,9 @@
 #include "base/stats.h"
+#include "base/file.h"
 
 #include <cjson/cJSON.h>
+#include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <sys/resource.h>
@@ -58,6 +61,7 @@ static cJSON *stats_to_json(const ts_stats *s)
     cJSON_AddNumberToObject(root, "peak_rss_bytes", (double)stats_peak_rss_bytes());
     cJSON_AddNumberToObject(root, "kernel_build_seconds", s->kernel_build_seconds);
     cJSON_AddBoolToObject(root, "kernel_cache_hit", s->kernel_cache_hit);
+    cJSON_AddNumberToObject(root, "memory_budget_bytes", (double)s->memory_budget_bytes);
     cJSON *stages = cJSON_AddObjectToObject(root, "stages");
     for (int i = 0; i < TS_STAGE_COUNT; ++i)
         cJSON_AddNumberToObject(stages, ts_stage_names[i], s->stage_seconds[i]);
@@ -95,6 +99,7 @@ static cJSON *stats_to_json(const ts_stats *s)
         cJSON_AddNumberToObject(o, "n_per_ray", it->n_per_ray);
         cJSON_AddNumberToObject(o, "pairs", (double)it->pairs);
         cJSON_AddNumberToObject(o, "segments", it->segments);
+        if (it->lod) cJSON_AddBoolToObject(o, "lod", 1);
         cJSON_AddItemToArray(its, o);
     }
     return root;
@@ -106,14 +111,22 @@ int stats_write_json(const ts_stats *s, const char *path, ts_error *err)
     char *text = root ? cJSON_Print(root) : NULL;
     cJSON_Delete(root);
     if (!text) return ts_error_set(err, TS_E_MEMORY, "out of memory (stats JSON)");
-    char tmp[4096];
-    snprintf(tmp, sizeof tmp, "%s.tmp-%ld", path, (long)getpid());
-    FILE *f = fopen(tmp, "wb");
+    /* A hidden temporary beside the target, as images are written (base/file.h). */
+    char tmp[8192];
+    ts_file_remove_stale_temps(path);
+    int fd = -1;
+    for (unsigned n = 0; fd < 0 && n < 100; ++n) {
+        if (ts_file_temp_name(path, (long)getpid(), n, tmp, sizeof tmp) != 0) break;
+        fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (fd < 0 && errno != EEXIST) break;
+    }
+    FILE *f = fd >= 0 ? fdopen(fd, "wb") : NULL;
+    if (fd >= 0 && !f) close(fd);
     int ok = f && fputs(text, f) >= 0 && fputc('\n', f) != EOF;
     if (f && fclose(f) != 0) ok = 0;
     free(text);
     if (!ok || rename(tmp, path) != 0) {
-        remove(tmp);
+        if (fd >= 0) remove(tmp);
         return ts_error_set(err, TS_E_IO, "%s: cannot write stats", path);
     }
     return TS_OK;

@@ -47,6 +47,7 @@ typedef struct ts_iteration {
     uint32_t n_per_ray;
     uint64_t pairs;
     uint32_t segments;
+    uint32_t lod; /* 1: traced by the lod stage (pipeline_lod), not by a wave of paths */
 } ts_iteration;
 
 /* What `tessera bake` adds (the "bake" object of --stats, written when points were baked):
@@ -66,6 +67,9 @@ typedef struct ts_stats {
     double wall_seconds;
     double kernel_build_seconds;
     int kernel_cache_hit;
+    /* The memory budget of the attempt that finished the render: the chosen one (--memory
+     * or the default, app/budget.h), halved per out-of-memory retry. */
+    uint64_t memory_budget_bytes;
     ts_bake_summary bake;
 } ts_stats;
 

@@ -1,5 +1,6 @@
 #include "device/device.h"
 #include "base/hash.h"
+#include "base/memory.h"
 #include "device/kernel_source.h"
 
 #include <errno.h>
@@ -358,10 +359,27 @@ int dev_open(ts_device *cl, const ts_device_options *opt, ts_error *err)
     int index = opt->device_index;
     if (index < 0) {
         const char *env = getenv("TESSERA_DEVICE");
-        index = env && *env ? atoi(env) : 0;
+        char *end = NULL;
+        long v = env && *env ? strtol(env, &end, 10) : 0;
+        if (env && *env && (*end || v < 0 || v > (1 << 20) || !(*env >= '0' && *env <= '9'))) {
+            free(list);
+            return ts_error_set(err, TS_E_USAGE,
+                                "TESSERA_DEVICE=%s is not a device index (a number from tessera "
+                                "devices)",
+                                env);
+        }
+        index = (int)v;
     }
     if (n == 0) {
         free(list);
+        /* A driver that cannot map its compiler under `ulimit -v` reports no platform. */
+        uint64_t as = ts_memory_address_space_limit();
+        if (as != UINT64_MAX)
+            return ts_error_set(err, TS_E_DEVICE,
+                                "no OpenCL device found; the address space is limited to %llu MB "
+                                "(ulimit -v), which may be too little for the OpenCL driver to "
+                                "start: raise the limit (or install pocl-opencl-icd for the CPU)",
+                                (unsigned long long)(as >> 20));
         return ts_error_set(err, TS_E_DEVICE,
                             "no OpenCL device found (install pocl-opencl-icd for the CPU)");
     }
@@ -428,6 +446,11 @@ cl_mem dev_buffer_create(ts_device *cl, cl_mem_flags flags, size_t size, void *h
         --fail_alloc_left;
         rc = CL_MEM_OBJECT_ALLOCATION_FAILURE;
     }
+    /* On devices that share host memory (PoCL's CPU device), a buffer without host data
+     * is otherwise allocated at its first use, inside an enqueue that cannot report the
+     * failure (PoCL 3.1 asserts, exit 134, issue 15). CL_MEM_ALLOC_HOST_PTR makes
+     * clCreateBuffer allocate it, where running out is an error we can retry. */
+    if (!host && cl->info.host_unified) flags |= CL_MEM_ALLOC_HOST_PTR;
     if (rc == CL_SUCCESS) m = clCreateBuffer(cl->context, flags, size ? size : 1, host, &rc);
     if (rc != CL_SUCCESS) {
         dev_fail(err, rc, "clCreateBuffer(%zu bytes)", size);

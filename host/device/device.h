@@ -93,7 +93,9 @@ int dev_open(ts_device *cl, const ts_device_options *opt, ts_error *err);
 void dev_close(ts_device *cl);
 
 cl_kernel dev_kernel_create(ts_device *cl, const char *name, ts_error *err);
-/* clCreateBuffer with the error named; size 0 is rounded up to 1 byte. */
+/* clCreateBuffer with the error named; size 0 is rounded up to 1 byte. On devices with
+ * host-unified memory the memory is allocated here (CL_MEM_ALLOC_HOST_PTR), so running out
+ * fails this call (CL_OUT_OF_HOST_MEMORY) rather than a later enqueue. */
 cl_mem dev_buffer_create(ts_device *cl, cl_mem_flags flags, size_t size, void *host, ts_error *err);
 
 /* Sets arguments in order from (size, pointer) pairs; ends at size 0. DEV_ARG(x) is the

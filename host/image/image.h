@@ -3,10 +3,11 @@
  * inside extern "C"; no exception crosses it).
  *
  * Writes are atomic: the image goes to a hidden temporary next to the target
- * (".NAME.tmp-PID-N"), which is renamed over the target only after a successful close.
- * On failure the temporary is removed and the target is left as it was (absent or the
- * old file). Every failure is TS_E_IO with "PATH: reason" (TS_E_MEMORY if allocation
- * fails), reported through ts_error. */
+ * (".NAME.tmp-PID-N", NAME cut to fit NAME_MAX: ts_file_temp_name), which is renamed over
+ * the target only after a successful close. On failure the temporary is removed and the
+ * target is left as it was (absent or the old file); temporaries of the same target left
+ * by a process that no longer runs (killed while writing) are removed before writing. Every failure
+ * is TS_E_IO with "PATH: reason" (TS_E_MEMORY if allocation fails), reported through ts_error. */
 #ifndef TS_IMAGE_H
 #define TS_IMAGE_H
 

@@ -70,8 +70,10 @@ int require_extension(const char *path, const char *ext, ts_error *err)
     return io_fail(err, path, "unsupported output format \"" + got + "\" (expected " + ext + ")");
 }
 
-/* A hidden temporary next to the target, ".BASE.tmp-PID-N", created with O_EXCL and the
- * caller's umask; unlinked on destruction unless commit() renamed it over the target. */
+/* A hidden temporary next to the target, ".BASE.tmp-PID-N" (ts_file_temp_name: BASE cut
+ * short to fit NAME_MAX), created with O_EXCL and the caller's umask; unlinked on
+ * destruction unless commit() renamed it over the target. Stale temporaries of the same
+ * target, left by a process that was killed while writing, are removed first. */
 class temp_file
 {
   public:
@@ -93,21 +95,20 @@ class temp_file
 int temp_file::create(const char *path, ts_error *err)
 {
     static std::atomic<unsigned> counter{0};
-    const char *slash = strrchr(path, '/');
-    std::string dir(path, slash ? slash + 1 - path : 0);
-    std::string base = slash ? slash + 1 : path;
+    ts_file_remove_stale_temps(path); /* left by a render killed while it wrote */
     int last_errno = 0;
     for (int attempt = 0; attempt < 100; attempt++) {
-        std::string cand =
-            dir + "." + base + ".tmp-" + std::to_string(getpid()) + "-" + std::to_string(counter++);
-        int fd = open(cand.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        char cand[8192];
+        if (ts_file_temp_name(path, (long)getpid(), counter++, cand, sizeof cand) != 0)
+            return io_fail(err, path, "the path is too long");
+        int fd = open(cand, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
         if (fd >= 0) {
             close(fd); /* OIIO reopens it by name */
             name = cand;
             return TS_OK;
         }
         last_errno = errno;
-        if (errno != EEXIST) break; /* a stale temporary of a dead process: try the next */
+        if (errno != EEXIST) break; /* a temporary of a live process: try the next */
     }
     return io_fail(err, path,
                    std::string("cannot create a temporary file beside it: ") +

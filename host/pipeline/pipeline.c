@@ -362,15 +362,26 @@ int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
     return dev_launch(p->cl, p->k_camera, TS_STAGE_camera, c.ray_count, TS_LOCAL_SIZE, err);
 }
 
-int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, ts_error *err)
+int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, int before_hit, ts_error *err)
 {
+    uint32_t use_hit = before_hit != 0;
     if (dev_set_args(p->k_lod, err, DEV_ARG(p->qbvh_nodes), DEV_ARG(ray_count), DEV_ARG(p->ray_org),
-                     DEV_ARG(p->ray_dir), DEV_ARG(p->lod_counts), (size_t)0))
+                     DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(use_hit),
+                     DEV_ARG(p->lod_counts), (size_t)0))
         return err->code;
     return dev_launch(p->cl, p->k_lod, TS_STAGE_lod, ray_count, TS_LOCAL_SIZE, err);
 }
 
-int pipeline_lod_finish(ts_pipeline *p, ts_error *err)
+/* The smallest m with 4^m >= count, at most max_lod. */
+static uint32_t lod_of_count(uint32_t count, uint32_t max_lod)
+{
+    uint32_t m = 0;
+    while (m < max_lod && ((uint64_t)1 << (2 * m)) < count)
+        ++m;
+    return m;
+}
+
+int pipeline_lod_finish(ts_pipeline *p, ts_lod_rule rule, int before_hit, ts_error *err)
 {
     uint32_t n = p->scene->patch_count;
     if (n == 0) return TS_OK;
@@ -385,14 +396,54 @@ int pipeline_lod_finish(ts_pipeline *p, ts_error *err)
                   err)))
         rc = err->code;
     for (uint32_t i = 0; rc == TS_OK && i < n; ++i) {
-        /* Smallest m with 4^m >= R / spp (Hanika §3.3), at most max_lod. */
-        uint32_t m = 0;
-        while (m < p->plan.max_lod && ((uint64_t)1 << (2 * m)) * p->mode.spp < counts[i])
-            ++m;
+        uint32_t m = lod_of_count(counts[i], p->plan.max_lod);
+        if (before_hit) { /* p->patch_lod holds m from every crossing */
+            uint32_t crossed = p->patch_lod[i];
+            uint32_t coarser =
+                crossed > TS_LOD_HIDDEN_COARSER ? crossed - TS_LOD_HIDDEN_COARSER : 0u;
+            if (rule == TS_LOD_RULE_SEEN)
+                m = counts[i] > 0 ? crossed : coarser;
+            else
+                m = m > coarser ? m : coarser;
+        }
         p->patch_lod[i] = (uint8_t)m;
     }
     free(counts);
-    patch_cache_clear(&p->cache); /* diced at the levels of detail counted before */
+    /* The patch cache keeps its patches: each is keyed by its m, so one whose level changed
+     * is simply diced again when a segment asks for it. */
     p->stats->stage_seconds[TS_STAGE_lod] += stats_now() - t0;
     return rc;
+}
+
+int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, ts_error *err)
+{
+    ts_camera_params c = *cam;
+    uint32_t pixels = c.width * c.height, per_wave = p->plan.ray_capacity;
+    int rc = TS_OK;
+    p->wave = 0;
+    for (int pass = 0; rc == TS_OK && pass < (rule == TS_LOD_RULE_CROSSED ? 1 : 2); ++pass) {
+        p->in_lod = 1;
+        for (uint32_t first = 0; rc == TS_OK && first < pixels; first += per_wave) {
+            uint32_t n = pixels - first < per_wave ? pixels - first : per_wave;
+            c.first_sample = first;
+            c.ray_count = n;
+            if (pipeline_camera(p, &c, err) || (pass && pipeline_trace(p, n, err)) ||
+                pipeline_lod_count(p, n, pass, err))
+                rc = err->code;
+        }
+        p->in_lod = 0;
+        if (rc == TS_OK && pipeline_lod_finish(p, rule, pass, err)) rc = err->code;
+    }
+    return rc;
+}
+
+int pipeline_lod_rule_parse(const char *name, ts_lod_rule *rule)
+{
+    static const char *const names[] = {"crossed", "visible", "seen"};
+    for (int i = 0; i < 3; ++i)
+        if (strcmp(name, names[i]) == 0) {
+            *rule = (ts_lod_rule)i;
+            return 0;
+        }
+    return -1;
 }

@@ -187,7 +187,8 @@ typedef struct ts_pipeline {
     int cache_off;
     ts_tex_cache tex;     /* which tiles tex_pool holds (tex_cache.h) */
     uint32_t light_count; /* entries of the lights buffer (lights.h) */
-    uint32_t wave;
+    uint32_t wave;        /* the wave of paths being traced (stats iterations) */
+    uint32_t in_lod;      /* 1 while pipeline_lod traces its pass (stats iterations) */
     /* Stages only some commands run, with their own kernels and buffers, made on demand
      * (bake.h: `tessera bake`) and released by pipeline_destroy; NULL otherwise. */
     struct ts_bake_stage *bake;
@@ -217,11 +218,38 @@ void pipeline_destroy(ts_pipeline *p);
  * in active and wave_paths. A wave holds at most ray_capacity / 2 paths: each path also
  * owns a shadow-ray slot. */
 int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err);
-/* lod: pipeline_lod_count adds the wave's rays (from pipeline_camera) to the per-patch
- * counts; pipeline_lod_finish turns the counts into patch_lod (4^m >= R / spp, clamped to
- * [0, max_lod]) and clears them. */
-int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, ts_error *err);
-int pipeline_lod_finish(ts_pipeline *p, ts_error *err);
+/* How the lod stage picks each patch's m (pipeline_lod; docs/benchmarks.md "LOD rules"
+ * has the measurement behind the default). */
+typedef enum ts_lod_rule {
+    /* Every crossing: the smallest m with 4^m >= the number of first-pass eye rays whose
+     * traversal enters the patch's box, occluded or not (Hanika §3.3: R / spp). The default. */
+    TS_LOD_RULE_CROSSED,
+    /* Only crossings before each ray's closest hit: m = max(m_visible, m_crossed - 2). Fewer
+     * micro-polygons, but a patch partly hidden gets fewer than one per pixel it shows. */
+    TS_LOD_RULE_VISIBLE,
+    /* m_crossed for a patch some eye ray reaches before its closest hit, m_crossed - 2 for
+     * one no eye ray does (seen only by shadow and bounce rays). */
+    TS_LOD_RULE_SEEN,
+} ts_lod_rule;
+
+/* How many levels coarser the visible and seen rules dice a patch hidden from the eye at
+ * the most (like Cycles' offscreen dicing scale; 4^2 = 16 times fewer micro-polygons). */
+#define TS_LOD_HIDDEN_COARSER 2u
+
+/* lod: pipeline_lod_count adds the wave's rays (from pipeline_camera; when before_hit
+ * traced, so ray_hit holds their closest hits, and only box entries before it count) to
+ * the per-patch counts; pipeline_lod_finish turns them into patch_lod by `rule` (after the
+ * first count, before_hit = 0: m_crossed, clamped to [0, max_lod]) and clears them. */
+int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, int before_hit, ts_error *err);
+int pipeline_lod_finish(ts_pipeline *p, ts_lod_rule rule, int before_hit, ts_error *err);
+/* The whole lod stage over the frame's first sample pass (cam: the frame's camera; one ray
+ * per pixel), wave by wave: every crossing, then, for the visible and seen rules, the pass
+ * traced at those levels and counted again before the hits. Deterministic: the levels do
+ * not depend on the waves. */
+int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, ts_error *err);
+/* "crossed", "visible" or "seen" (TESSERA_LOD_RULE); -1 for another name. */
+int pipeline_lod_rule_parse(const char *name, ts_lod_rule *rule);
+
 /* The two-level loop over the rays listed in active[0..ray_count) (camera lists them all):
  * returns when every ray's closest hit is known (or, for a shadow ray, any hit). */
 int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err);

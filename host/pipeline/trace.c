@@ -408,7 +408,7 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
                 stage_bottom_level(p, sorted_buffer, b, n_per_ray, err))
                 return err->code;
         }
-        ts_iteration rec = {p->wave, it, active, n_per_ray, valid, segs};
+        ts_iteration rec = {p->wave, it, active, n_per_ray, valid, segs, p->in_lod};
         if (stats_add_iteration(p->stats, &rec, err)) return err->code;
         p->stats->counters[TS_COUNTER_pairs] += valid;
         p->stats->counters[TS_COUNTER_iterations] += 1;

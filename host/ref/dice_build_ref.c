@@ -63,33 +63,36 @@ static void grow(ts_box *b, float ex, float ey, float ez)
     b->lo_x -= ex, b->hi_x += ex, b->lo_y -= ey, b->hi_y += ey, b->lo_z -= ez, b->hi_z += ez;
 }
 
-/* Leaf k of the tree of time `time` (build_leaves for one work-item). */
+/* Leaf k of the tree of time `time` (build_leaves for one work-item), before the clamp. */
 static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t k,
-                       const ts_vec4 *cn, const ts_vec4 *mn, const ts_patch_attr *a,
-                       const ts_xform *x, ts_tex_ctx tex, ts_vec4 e)
+                       const dice_build_ref_patch *q, const ts_interval *d_given, ts_box *domain)
 {
     uint32_t n = (1u << m) + 1u, nv = n * n, i = morton_i(k), j = morton_j(k);
     float h = ldexpf(1.0f, -(int)m);
+    const ts_vec4 *cn = q->cn, *mn = q->mn;
     ts_box b = base_box(grid + time * nv, n, i, j, cn, mn, h);
     float s = ldexpf(1.0f, -2 * (int)m);
     float mag =
         fmaxf(fmaxf(fabsf(b.lo_x), fabsf(b.hi_x)),
               fmaxf(fmaxf(fabsf(b.lo_y), fabsf(b.hi_y)), fmaxf(fabsf(b.lo_z), fabsf(b.hi_z))));
+    ts_vec4 e = q->e;
     float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
     grow(&b, ex, ey, ez);
-    if (a->disp_kind == TS_DISP_NONE) return b;
-    ts_interval d;
-    if (a->disp_kind == TS_DISP_TEXTURE) {
-        d = displace_texture_interval(a, tex, (float)i * h, (float)j * h, (float)(i + 1u) * h,
-                                      (float)(j + 1u) * h);
-    } else {
-        ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
-        if (time == 1u) {
-            b0 = base_box(grid, n, i, j, cn, mn, h);
-            grow(&b0, ex, ey, ez);
-        }
-        d = displace_interval(a, x, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
+    ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
+    if (time == 1u && (domain || (!d_given && q->a->disp_kind != TS_DISP_TEXTURE))) {
+        b0 = base_box(grid, n, i, j, cn, mn, h);
+        grow(&b0, ex, ey, ez);
     }
+    if (domain) *domain = b0;
+    if (q->a->disp_kind == TS_DISP_NONE) return b;
+    ts_interval d;
+    if (d_given)
+        d = *d_given;
+    else if (q->a->disp_kind == TS_DISP_TEXTURE)
+        d = displace_texture_interval(q->a, q->tex, (float)i * h, (float)j * h, (float)(i + 1u) * h,
+                                      (float)(j + 1u) * h);
+    else
+        d = displace_interval(q->a, q->x, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
     ts_box nb = displace_normal_box(cn, mn, (float)i * h, (float)j * h, (float)(i + 1u) * h,
                                     (float)(j + 1u) * h);
     float ox0, ox1, oy0, oy1, oz0, oz1;
@@ -111,28 +114,50 @@ static ts_box leaf_clamp(ts_box b, ts_box p)
     return b;
 }
 
-void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid, ts_box4 *groups)
+dice_build_ref_patch dice_build_ref_patch_of(const ts_scene *s, uint32_t p)
+{
+    dice_build_ref_patch q;
+    q.cp0 = &s->cp[p * 16u];
+    q.cp1 = dice_build_ref_times(s, p) == 2u ? &s->cp1[p * 16u] : q.cp0;
+    q.cn = s->corner_n ? &s->corner_n[p * 4u] : up_normals;
+    q.mn = s->mid_n ? &s->mid_n[p * 5u] : up_normals;
+    q.a = &s->attr[p];
+    q.x = s->xform_count ? &s->xform[q.a->xform] : &identity_xform;
+    q.e = patch_flatness(q.cp0, s->cp1 ? &s->cp1[p * 16u] : q.cp0, 0);
+    q.tex = scene_tex_ctx(s);
+    q.pb = scene_patch_box(s, p);
+    return q;
+}
+
+ts_box dice_build_ref_leaf(const dice_build_ref_patch *q, const ts_vec4 *grid, uint32_t time,
+                           uint32_t m, uint32_t k, const ts_interval *d, ts_box *domain)
+{
+    return leaf_clamp(leaf_box(grid, time, m, k, q, d, domain), q->pb);
+}
+
+void dice_build_ref_grid(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid)
 {
     uint32_t times = dice_build_ref_times(s, p), n = (1u << m) + 1u, nv = n * n;
-    const ts_vec4 *c0 = &s->cp[p * 16u], *cn = s->corner_n ? &s->corner_n[p * 4u] : up_normals;
-    const ts_vec4 *mn = s->mid_n ? &s->mid_n[p * 5u] : up_normals;
-    const ts_patch_attr *a = &s->attr[p];
-    const ts_xform *x = s->xform_count ? &s->xform[a->xform] : &identity_xform;
-    ts_vec4 e = patch_flatness(c0, s->cp1 ? &s->cp1[p * 16u] : c0, 0);
-    ts_tex_ctx tex = scene_tex_ctx(s); /* every tile resident */
-    ts_box pb = scene_patch_box(s, p);
+    dice_build_ref_patch q = dice_build_ref_patch_of(s, p);
     for (uint32_t t = 0; t < times; ++t) {
-        const ts_vec4 *c = t ? &s->cp1[p * 16u] : c0;
+        const ts_vec4 *c = t ? q.cp1 : q.cp0;
         for (uint32_t v = 0; v < nv; ++v)
             grid[t * nv + v] =
-                patch_vertex(c, c0, cn, mn, a, x, tex, ldexpf((float)(v % n), -(int)m),
+                patch_vertex(c, q.cp0, q.cn, q.mn, q.a, q.x, q.tex, ldexpf((float)(v % n), -(int)m),
                              ldexpf((float)(v / n), -(int)m));
     }
+}
+
+void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid, ts_box4 *groups)
+{
+    uint32_t times = dice_build_ref_times(s, p);
+    dice_build_ref_patch q = dice_build_ref_patch_of(s, p);
+    dice_build_ref_grid(s, p, m, grid);
     uint32_t ng = quadtree_group_count(m);
     for (uint32_t t = 0; t < times; ++t) {
         ts_box4 *tree = groups + t * ng;
         for (uint32_t k = 0; k < (1u << (2u * m)); ++k)
-            node_store(tree, m, k, leaf_clamp(leaf_box(grid, t, m, k, cn, mn, a, x, tex, e), pb));
+            node_store(tree, m, k, dice_build_ref_leaf(&q, grid, t, m, k, NULL, NULL));
         for (uint32_t level = m; level-- > 0;) /* bottom-up min-max reduction */
             for (uint32_t k = 0; k < (1u << (2u * level)); ++k) {
                 const ts_box4 *c = tree + quadtree_group_offset(level + 1u) + k;

@@ -173,6 +173,7 @@ int mesh_load_ex(const char *path, const double object_to_world[16], const ts_pa
     FILE *f = ts_file_open_regular(path, err); /* a FIFO or device would hang Assimp */
     if (!f) return err->code;
     fclose(f);
+    if (scene_add_input(s, path, err)) return err->code;
     double nm[9];
     const double *m = object_to_world;
     if (!(m[12] == 0.0 && m[13] == 0.0 && m[14] == 0.0 && m[15] != 0.0) || !normal_matrix(m, nm))

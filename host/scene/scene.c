@@ -633,6 +633,17 @@ ts_box scene_patch_box(const ts_scene *s, uint32_t p)
     return b;
 }
 
+int scene_add_input(ts_scene *s, const char *path, ts_error *err)
+{
+    char **grown = realloc(s->input_source, (s->input_count + 1) * sizeof *grown);
+    if (!grown) return ts_error_set(err, TS_E_MEMORY, "out of memory (scene inputs)");
+    s->input_source = grown;
+    if (!(grown[s->input_count] = strdup(path)))
+        return ts_error_set(err, TS_E_MEMORY, "out of memory (scene inputs)");
+    s->input_count++;
+    return TS_OK;
+}
+
 void scene_free(ts_scene *s)
 {
     if (!s) return;
@@ -646,6 +657,9 @@ void scene_free(ts_scene *s)
     for (uint32_t i = 0; i < s->texture_count; i++)
         free(s->tex_source[i]);
     free(s->tex_source);
+    for (uint32_t i = 0; i < s->input_count; i++)
+        free(s->input_source[i]);
+    free(s->input_source);
     free(s->textures);
     free(s->tex_pool);
     free(s->tex_pages);

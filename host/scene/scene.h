@@ -96,6 +96,10 @@ typedef struct ts_scene {
     ts_vec4 *tex_pool;
     uint32_t *tex_pages;
     uint32_t tex_tile_count;
+    /* Every other file the scene was read from (RIB archives, meshes; textures are in
+     * tex_source): outputs must not name one (host/app/output.c). */
+    char **input_source;
+    uint32_t input_count;
     ts_camera camera;
     ts_distant_light *lights;
     uint32_t light_count;
@@ -133,6 +137,8 @@ void scene_free(ts_scene *s);
  * channel, with its min-max pyramid) or TS_TEX_RGB (grey for one or two channels, else the
  * first three) and returns its index; a file already read as that kind is reused.
  * Non-finite texels are an error (TS_E_IO "PATH: ..."), as is a side over 32768. */
+/* Records path as a file the scene was read from (input_source). */
+int scene_add_input(ts_scene *s, const char *path, ts_error *err);
 int scene_add_texture(ts_scene *s, const char *path, uint32_t kind, uint32_t *index, ts_error *err);
 /* The textures as lib/texture.h reads them on the host (every tile resident). */
 ts_tex_ctx scene_tex_ctx(const ts_scene *s);

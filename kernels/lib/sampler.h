@@ -105,20 +105,43 @@ TS_INLINE ts_u32 sampler_mask(ts_u32 spp)
     return m - 1u;
 }
 
-/* Value d (0..3) of set `set` for (pixel, sample) as 32 bits. */
+/* One set of one (pixel, sample): its scramble seed and its shuffled Sobol index, computed
+ * once for the set's four values. */
+typedef struct ts_sampler_set {
+    ts_u32 k, index;
+} ts_sampler_set;
+
+TS_INLINE ts_sampler_set sampler_set(ts_u32 pixel, ts_u32 sample, ts_u32 set, ts_u32 seed,
+                                     ts_u32 mask)
+{
+    ts_sampler_set s;
+    s.k = rng_mix(rng_mix(rng_mix(seed ^ 0x2545f491u) ^ pixel) ^ (set * 0x9e3779b9u));
+    s.index = sampler_owen(sample, s.k) & mask;
+    return s;
+}
+
+/* Value d (0..3) of a set as 32 bits, and in [0, 1) (the top 24 bits). */
+TS_INLINE ts_u32 sampler_set_bits(ts_sampler_set s, ts_u32 d)
+{
+    return sampler_owen(sampler_sobol(s.index, d), rng_mix(s.k ^ (d + 1u) * 0x68e31da4u));
+}
+
+TS_INLINE float sampler_set_value(ts_sampler_set s, ts_u32 d)
+{
+    return (float)(sampler_set_bits(s, d) >> 8) * (1.0f / 16777216.0f);
+}
+
+/* Value d (0..3) of set `set` for (pixel, sample) as 32 bits; the same in [0, 1). */
 TS_INLINE ts_u32 sampler_bits(ts_u32 pixel, ts_u32 sample, ts_u32 set, ts_u32 d, ts_u32 seed,
                               ts_u32 mask)
 {
-    ts_u32 k = rng_mix(rng_mix(rng_mix(seed ^ 0x2545f491u) ^ pixel) ^ (set * 0x9e3779b9u));
-    ts_u32 index = sampler_owen(sample, k) & mask;
-    return sampler_owen(sampler_sobol(index, d), rng_mix(k ^ (d + 1u) * 0x68e31da4u));
+    return sampler_set_bits(sampler_set(pixel, sample, set, seed, mask), d);
 }
 
-/* The same in [0, 1): the top 24 bits. */
 TS_INLINE float sampler_value(ts_u32 pixel, ts_u32 sample, ts_u32 set, ts_u32 d, ts_u32 seed,
                               ts_u32 mask)
 {
-    return (float)(sampler_bits(pixel, sample, set, d, seed, mask) >> 8) * (1.0f / 16777216.0f);
+    return sampler_set_value(sampler_set(pixel, sample, set, seed, mask), d);
 }
 
 #endif

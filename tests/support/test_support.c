@@ -43,6 +43,15 @@ void test_parse_rib_ok(const char *text, ts_scene *s)
     if (test_parse_rib(text, s, &e) != TS_OK) fail_msg("unexpected error: %s", e.msg);
 }
 
+void test_parse_rib_error(const char *text, const char *msg)
+{
+    ts_scene s;
+    ts_error e;
+    assert_int_equal(test_parse_rib(text, &s, &e), TS_E_SCENE);
+    if (strcmp(e.msg, msg) != 0) fail_msg("got \"%s\", want \"%s\"", e.msg, msg);
+    assert_int_equal(s.patch_count, 0);
+}
+
 const char *test_rib_warnings(const char *text, int *rc)
 {
     static char out[4096];

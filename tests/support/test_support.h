@@ -22,6 +22,8 @@ struct ts_scene;
 int test_parse_rib(const char *text, struct ts_scene *s, ts_error *e);
 /* The same for text that must load: fails the test with the loader's message otherwise. */
 void test_parse_rib_ok(const char *text, struct ts_scene *s);
+/* The same for text that must fail: TS_E_SCENE, exactly the message `msg`, no patch kept. */
+void test_parse_rib_error(const char *text, const char *msg);
 
 /* Parses RIB text as file "w.rib" into a scratch scene (freed) with stderr captured; sets
  * *rc to rib_parse_string's status and returns what it printed (warnings), a static buffer. */

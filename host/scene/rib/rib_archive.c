@@ -73,8 +73,9 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
         free(path);
         return rc;
     }
-    rib_text t; /* a gzip archive (.rib.gz or not) is inflated here */
-    rc = rib_text_open(&t, path, text, len, p->err);
+    rib_text t = {0}; /* a gzip archive (.rib.gz or not) is inflated here */
+    rc = scene_add_input(p->scene, path, p->err);
+    if (rc == TS_OK) rc = rib_text_open(&t, path, text, len, p->err);
     inc->real[++inc->depth] = real;
     rib_lexer saved = p->lx;
     if (rc == TS_OK) {

@@ -1,0 +1,41 @@
+/* budget.h — the memory budget of `tessera render` (docs/rendering.md "The memory budget"):
+ * --memory when given, else a default sized from what the device and the process may
+ * still use, so that a render under a memory limit starts at a budget that fits instead of
+ * halving its way down from a fixed 1024 MB. */
+#ifndef TS_BUDGET_H
+#define TS_BUDGET_H
+
+#include "base/memory.h"
+#include "device/device.h"
+#include "scene/scene.h"
+
+/* The default's cap: beyond it waves and the patch cache rarely gain, and memory use stays
+ * what renders have always had. */
+#define TS_BUDGET_CAP_MB 1024u
+/* The smallest budget: the default never goes below it, and an out-of-memory retry stops
+ * there. */
+#define TS_MEMORY_FLOOR_MB 16u
+
+typedef struct ts_budget_choice {
+    uint64_t mb;   /* the budget for rays, candidates and patch slots, in MB */
+    char why[192]; /* what set it, for the progress header: "--memory", "the default's cap
+                      of 1024 MB", "RLIMIT_AS: 612 MB of 1000 MB left", ... */
+} ts_budget_choice;
+
+/* Bytes the device holds for a render beside the budget: the three films (16 bytes a pixel
+ * each) and the scene's patch data (control points at both times, corner normals,
+ * attributes, flatness, boxes, the top-level BVH, the per-patch lists). */
+uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count);
+
+/* The default budget: the smallest of TS_BUDGET_CAP_MB; half of what the device's global
+ * memory leaves beside the fixed bytes, less the texture pool's eighth on top (x 8/9); four
+ * times the device's largest buffer (the patch arenas are a quarter of the budget, in
+ * single buffers); and, on a device that shares host memory, the same half of the room
+ * the process's limits leave (room, from ts_memory_room_query, minus the fixed bytes).
+ * The other half stays free for what the budget does not count: the driver's threads and
+ * compiler, the image encoder, other users of the device. Never below
+ * TS_MEMORY_FLOOR_MB. */
+void budget_default(const ts_device_info *dev, uint64_t fixed_bytes, const ts_memory_room *room,
+                    ts_budget_choice *out);
+
+#endif

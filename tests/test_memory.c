@@ -1,0 +1,126 @@
+/* test_memory.c — `tessera render` under a memory limit (issue 15, item 2): with the
+ * address space capped by `ulimit -v` at levels where PoCL used to abort (exit 134 at the
+ * first launch, at 0.9-1.1 GB for this render) or the image write failed (exit 1 at 1.3 GB),
+ * the render finishes: allocation failures come back from clCreateBuffer, the budget
+ * shrinks, and the image is encoded after the device's buffers are released.
+ *
+ * PoCL's worker threads each reserve address space (a stack and a malloc arena), so the
+ * test fixes their number (POCL_MAX_PTHREAD_COUNT=2) to make the levels mean the same on
+ * every machine. Skipped under AddressSanitizer, whose shadow memory cannot live under a
+ * cap on the address space. */
+#include "test_support.h"
+#include "image/image.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+
+static char dir[4096];
+
+static const char *stderr_text(void)
+{
+    static char buf[1 << 16];
+    char path[4200];
+    snprintf(path, sizeof path, "%s/stderr.txt", dir);
+    FILE *f = fopen(path, "r");
+    size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
+    buf[n] = '\0';
+    if (f) fclose(f);
+    return buf;
+}
+
+/* Renders the teapot at 640x360, 1 spp to dir/out under `ulimit -v kib` (in the shell that
+ * execs tessera, so the test itself is not limited); returns the exit status, or 128 + the
+ * signal that killed it. */
+static int render_limited(long kib, const char *out, const char *extra)
+{
+    char cmd[16384];
+    snprintf(cmd, sizeof cmd,
+             "ulimit -v %ld && POCL_MAX_PTHREAD_COUNT=2 exec '%s' render '%s' -o '%s/%s' "
+             "--res 640x360 --spp 1 %s 2>'%s/stderr.txt' >/dev/null",
+             kib, test_tessera_binary(), test_source_path("scene/teapot.rib"), dir, out, extra,
+             dir);
+    int st = system(cmd);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+/* dir/name is a complete 640x360 render: all ten channels, every sample. */
+static void assert_complete(const char *name)
+{
+    char path[4300];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    ts_image img;
+    test_read_image(path, &img);
+    assert_int_equal(img.width, 640);
+    assert_int_equal(img.height, 360);
+    assert_int_equal(img.channels, 10);
+    image_free(&img);
+    int done = 0;
+    ts_error err = {0};
+    if (image_read_meta_int(path, "tessera:samples_done", &done, &err)) fail_msg("%s", err.msg);
+    assert_int_equal(done, 640 * 360);
+}
+
+static void test_render_finishes_under_ulimit_v(void **state)
+{
+    (void)state;
+#if defined(__SANITIZE_ADDRESS__)
+    skip();
+#endif
+    const long levels[] = {1000000, 1300000}; /* KiB */
+    for (size_t i = 0; i < sizeof levels / sizeof *levels; ++i) {
+        char name[64];
+        snprintf(name, sizeof name, "v%ld.exr", levels[i]);
+        int rc = render_limited(levels[i], name, "");
+        if (rc != 0) fail_msg("ulimit -v %ld: exit status %d:\n%s", levels[i], rc, stderr_text());
+        assert_complete(name);
+    }
+}
+
+/* The default budget is sized to the address space left (app/budget.h): under ulimit -v
+ * 1.3 GB it starts below 1024 MB at a budget that fits, so no retry is needed, and the
+ * header and --stats give the same number; --memory overrides it. */
+static void test_default_budget_follows_the_limit(void **state)
+{
+    (void)state;
+#if defined(__SANITIZE_ADDRESS__)
+    skip();
+#endif
+    char extra[8800], json[4300];
+    snprintf(json, sizeof json, "%s/budget.json", dir);
+    snprintf(extra, sizeof extra, "--stats '%s'", json);
+    int rc = render_limited(1300000, "budget.exr", extra);
+    const char *err = stderr_text();
+    if (rc != 0) fail_msg("exit status %d:\n%s", rc, err);
+    const char *header = strstr(err, "tessera: 640x360, 1 spp, memory budget ");
+    unsigned long long mb = 0;
+    if (!header || sscanf(header, "tessera: 640x360, 1 spp, memory budget %llu MB", &mb) != 1 ||
+        !strstr(header, " MB (RLIMIT_AS: "))
+        fail_msg("no header naming RLIMIT_AS:\n%s", err);
+    if (strstr(err, "retrying")) fail_msg("the default budget did not fit:\n%s", err);
+    assert_true(mb >= 16 && mb < 1024);
+    assert_true(test_stats_number(json, "memory_budget_bytes") == (double)(mb << 20));
+
+    snprintf(extra, sizeof extra, "--stats '%s' --memory 64", json);
+    assert_int_equal(render_limited(4000000, "budget64.exr", extra), 0);
+    if (!strstr(stderr_text(), "memory budget 64 MB (--memory)"))
+        fail_msg("no --memory header:\n%s", stderr_text());
+    assert_true(test_stats_number(json, "memory_budget_bytes") == 64.0 * (1 << 20));
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "%s", test_scratch_dir());
+    return 0;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_render_finishes_under_ulimit_v),
+        cmocka_unit_test(test_default_budget_follows_the_limit),
+    };
+    return TEST_RUN_WITH_DEVICE(tests, setup);
+}
