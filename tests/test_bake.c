@@ -573,6 +573,12 @@ static void test_errors(void **state)
     assert_non_null(strstr(read_text(path("stderr.txt")), "raise --memory or lower --rays"));
     assert_int_equal(test_run_tessera(dir, "bake -o '%s'", path("x.exr")), 1);
     assert_non_null(strstr(read_text(path("stderr.txt")), "exactly one scene file"));
+    /* --stats naming the scene would overwrite it: refused before anything runs. */
+    write_scene("keep.rib", plane_world);
+    assert_int_equal(test_run_tessera(dir, "bake '%s' -o '%s' --stats '%s'", path("keep.rib"),
+                                      path("x.exr"), path("keep.rib")),
+                     1);
+    assert_non_null(strstr(read_text(path("stderr.txt")), "--stats names the scene file"));
     assert_int_equal(access(path("x.exr"), F_OK), -1); /* nothing written */
 }
 

@@ -105,8 +105,8 @@ static int bake_open_device(ts_bake *b, ts_error *err)
 static int bake_pipeline(ts_bake *b, uint64_t rays, ts_error *err)
 {
     ts_pipeline_plan plan;
-    if (pipeline_plan(b->mb << 20, rays, (uint32_t)b->opt.max_lod,
-                      b->cl.info.max_alloc, &plan, err) ||
+    if (pipeline_plan(b->mb << 20, rays, (uint32_t)b->opt.max_lod, b->cl.info.max_alloc, &plan,
+                      err) ||
         pipeline_create(&b->pipe, &b->cl, &b->scene, &plan, 1, b->stats, err) ||
         dev_finish(&b->cl, b->stats, err))
         return err->code;
@@ -137,8 +137,8 @@ static int bake_levels(ts_bake *b, ts_error *err)
     if (b->opt.fixed_lod < 0 && bake_footprint(b, err)) return err->code;
     if (b->opt.fixed_lod >= 0) {
         ts_pipeline_plan plan; /* only for its max_lod: the same budget dices the same */
-        if (pipeline_plan(b->mb << 20, 1u << 20, (uint32_t)b->opt.max_lod,
-                          b->cl.info.max_alloc, &plan, err))
+        if (pipeline_plan(b->mb << 20, 1u << 20, (uint32_t)b->opt.max_lod, b->cl.info.max_alloc,
+                          &plan, err))
             return err->code;
         b->max_lod = plan.max_lod;
     }

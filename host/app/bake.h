@@ -22,7 +22,7 @@ typedef struct ts_bake_options {
     int max_lod;            /* the finest m (default 10) */
     int flags;              /* TS_BAKE_COSINE (--cosine), _SPHERE (--sphere), _FRONT (--front) */
     unsigned seed;
-    int exact; /* --intersect triangles */
+    int exact;     /* --intersect triangles */
     int memory_mb; /* --memory; 0: the default budget (budget.h), as render's */
     int quiet;
     int resume;

@@ -24,8 +24,7 @@ int output_check(const ts_render_options *o, ts_error *err)
     return output_check_paths(path, o->stats_path, o->scene_path, err);
 }
 
-int output_check_paths(const char *path, const char *stats, const char *scene_path,
-                       ts_error *err)
+int output_check_paths(const char *path, const char *stats, const char *scene_path, ts_error *err)
 {
     if (ts_file_check_writable(path, err) || (stats && ts_file_check_writable(stats, err)))
         return err->code;
@@ -69,7 +68,8 @@ int output_check_inputs_paths(const char *out, const char *stats, const ts_scene
                               ts_error *err)
 {
     for (uint32_t i = 0; i < scene->texture_count; ++i)
-        if (output_check_input(out, stats, scene->tex_source[i], "a texture", err)) return err->code;
+        if (output_check_input(out, stats, scene->tex_source[i], "a texture", err))
+            return err->code;
     for (uint32_t i = 0; i < scene->input_count; ++i)
         if (output_check_input(out, stats, scene->input_source[i], "a file", err)) return err->code;
     if (scene->dome.present && scene->dome.mapname[0] &&
