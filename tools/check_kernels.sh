@@ -17,7 +17,8 @@
 #     every stage);
 #   - the same teapot with --leaf-mode group --leaf-size 2 (the work-group leaf kernel);
 #   - scene/textured.rib at 8x6, --max-lod 2 (image textures: displacement and colour);
-#   - `tessera bake` of the teapot and of textured.rib (tiles paged) at tiny sizes;
+#   - `tessera bake` of the teapot and of textured.rib (tiles paged) at tiny sizes (the
+#     bake kernels; test_bake_kernels traces waves of the teapot, minutes under Oclgrind);
 #   - every test program whose source calls test_open_device() (the kernel unit tests),
 #     except SLOW_TESTS (whole-renderer comparisons, minutes under Oclgrind; the renders
 #     above run the same kernels).
@@ -39,7 +40,7 @@ cd "$(dirname "$0")/.."
 src=$PWD
 build=$(cd "${1:-${BUILD_DIR:-build}}" 2>/dev/null && pwd) || { echo "check_kernels: no build directory ${1:-${BUILD_DIR:-build}} (run tools/setup.sh)" >&2; exit 1; }
 timeout_s=${CHECK_KERNELS_TIMEOUT:-120}
-SLOW_TESTS="test_trace test_embree test_leaf_modes test_bottom_level test_box_vs_triangles test_kernel_cache"
+SLOW_TESTS="test_trace test_embree test_leaf_modes test_bottom_level test_box_vs_triangles test_kernel_cache test_bake_kernels"
 
 if ! command -v oclgrind >/dev/null; then
   echo "check_kernels: oclgrind is not installed (apt-get install oclgrind): skipping"
