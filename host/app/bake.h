@@ -49,7 +49,7 @@ typedef struct ts_bake_result {
 } ts_bake_result;
 
 /* Bakes options->scene_path into options->output_path; fills stats (bake_points, rays,
- * stages, the "bake" summary) and result. While points are baked, SIGINT and SIGTERM stop
+ * stages, the "bake" summary) and result. While points are baked, SIGINT, SIGTERM and SIGHUP stop
  * the bake after the current wave and write what is finished; --resume continues it. */
 int bake_run(const ts_bake_options *options, ts_stats *stats, ts_bake_result *result,
              ts_error *err);

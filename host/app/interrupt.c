@@ -7,7 +7,7 @@
 
 static volatile sig_atomic_t received;
 static int installed;
-static struct sigaction old_int, old_term;
+static struct sigaction old_int, old_term, old_hup;
 
 static void on_signal(int sig)
 {
@@ -25,6 +25,7 @@ void interrupt_install(void)
     received = 0;
     sigaction(SIGINT, &sa, &old_int);
     sigaction(SIGTERM, &sa, &old_term);
+    sigaction(SIGHUP, &sa, &old_hup); /* a closed terminal or ssh session, as render */
     installed = 1;
 }
 
@@ -33,6 +34,7 @@ void interrupt_restore(void)
     if (!installed) return;
     sigaction(SIGINT, &old_int, NULL);
     sigaction(SIGTERM, &old_term, NULL);
+    sigaction(SIGHUP, &old_hup, NULL);
     installed = 0;
 }
 

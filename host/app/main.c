@@ -187,8 +187,11 @@ static int report_bake(const ts_bake_options *o, const ts_stats *stats, const ts
     }
     if (r->outcome == TS_BAKE_INTERRUPTED) {
         say("interrupted by %s after %llu of %llu points; wrote %s (continue with --resume)",
-            r->signal == SIGINT ? "SIGINT" : "SIGTERM", (unsigned long long)r->points_done,
-            (unsigned long long)r->points_total, o->output_path);
+            r->signal == SIGINT   ? "SIGINT"
+            : r->signal == SIGHUP ? "SIGHUP"
+                                  : "SIGTERM",
+            (unsigned long long)r->points_done, (unsigned long long)r->points_total,
+            o->output_path);
         return TS_EXIT_INTERRUPTED;
     }
     if (!o->quiet) {
