@@ -292,14 +292,13 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
     return !((flags & TS_RAY_SHADOW) && (flags >> 1) == seg.patch + 1u);
 }
 
-__kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first, uint pair_count,
-                                 __global const ts_segment *segments, uint seg_first,
-                                 uint seg_count, uint n_per_ray, uint exact, uint leaf_b,
-                                 __global const uint *active, __global const ts_vec4 *org,
-                                 __global const ts_vec4 *dir, __global const ts_hit *hit,
-                                 __global const uint *ray_flags, __global const uint *ray_from,
-                                 __global const ts_vec4 *grid, __global const ts_box4 *groups,
-                                 __global ts_hit *pair_hit, __global uint *utilisation)
+__kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_trace(
+    __global const ts_pair *pairs, uint pair_first, uint pair_count,
+    __global const ts_segment *segments, uint seg_first, uint seg_count, uint n_per_ray, uint exact,
+    uint leaf_b, __global const uint *active, __global const ts_vec4 *org,
+    __global const ts_vec4 *dir, __global const ts_hit *hit, __global const uint *ray_flags,
+    __global const uint *ray_from, __global const ts_vec4 *grid, __global const ts_box4 *groups,
+    __global ts_hit *pair_hit, __global uint *utilisation)
 {
     uint gid = get_global_id(0), tests = 0;
     if (gid < pair_count) {
@@ -326,16 +325,21 @@ __kernel void bottom_level_trace(__global const ts_pair *pairs, uint pair_first,
         if (best.patch == TS_INVALID) best.t = TS_NO_HIT;
         pair_hit[window] = best;
     }
-    /* Utilisation of a work-group in lockstep: its tests over (size x the longest loop). */
-    __local uint l_sum, l_max;
-    if (get_local_id(0) == 0u) l_sum = 0u, l_max = 0u;
+    /* Utilisation of a work-group in lockstep: its tests over (size x the longest loop).
+     * Summed by one work-item from local memory: on PoCL's CPU device a local atomic is a
+     * compare-and-swap loop, and two per work-item cost more than this loop. */
+    __local uint l_tests[BL_WG];
+    uint lid = get_local_id(0), size = get_local_size(0);
+    l_tests[lid] = tests;
     barrier(CLK_LOCAL_MEM_FENCE);
-    atomic_add(&l_sum, tests);
-    atomic_max(&l_max, tests);
-    barrier(CLK_LOCAL_MEM_FENCE);
-    if (get_local_id(0) == 0u && l_max > 0u) {
-        atomic_add(&utilisation[0], l_sum);
-        atomic_add(&utilisation[1], l_max * (uint)get_local_size(0));
+    if (lid == 0u) {
+        uint sum = 0u, most = 0u;
+        for (uint i = 0; i < size; ++i)
+            sum += l_tests[i], most = max(most, l_tests[i]);
+        if (most > 0u) {
+            atomic_add(&utilisation[0], sum);
+            atomic_add(&utilisation[1], most * size);
+        }
     }
 }
 

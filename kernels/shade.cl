@@ -128,7 +128,7 @@ inline void shade_escape(const shade_lights *L, ts_v3 d, const shade_step *s, fl
                          __global ts_vec4 *radiance)
 {
     float le[3], pl;
-    light_escape(L->lights, L->count, L->sampling, L->env, d, le, &pl);
+    light_escape(L->lights, L->count, L->sampling, L->env, d, s->bounce == 0u, le, &pl);
     add_rgb(radiance, s->tp, le, emission_weight(pb, mode, pl));
 }
 

@@ -301,6 +301,31 @@ static void test_paths_are_checked_before_rendering(void **state)
 /* Sizes are computed in 64 bits (issue 15, item 6): an image whose samples the kernels'
  * 32-bit index cannot hold is refused before anything is set up, with the limit in the
  * message; one whose film exceeds the device's largest buffer, before any buffer. */
+/* A warning names a file whose name holds a newline: it stays one line on stderr, the
+ * newline written as \\n (issue 15, item 8), like the errors above. */
+static void test_warning_lines_escape_control_characters(void **state)
+{
+    char scene[4200], args[16384];
+    snprintf(scene, sizeof scene, "%s/warn\nname.rib", dir);
+    FILE *f = fopen(scene, "w");
+    assert_non_null(f);
+    /* No light: the scene loads with a warning and renders black. */
+    fputs("Format 8 8 1\nWorldBegin\nPatch \"bilinear\" \"P\" [-1 -1 5  1 -1 5  -1 1 5  1 1 5]\n"
+          "WorldEnd\n",
+          f);
+    fclose(f);
+    snprintf(args, sizeof args, "render '%s' -o '%s/warn.png' --spp 1 --max-lod 2", scene, dir);
+    assert_int_equal(run(args), 0);
+    char err[8192];
+    read_stderr(err, sizeof err);
+    if (!strstr(err, "warn\\nname.rib:") || !strstr(err, "warning: the scene has no light"))
+        fail_msg("stderr lacks the escaped warning:\n%s", err);
+    /* No line starts with the part of the name after its newline. */
+    for (const char *line = err; line; line = strchr(line, '\n'), line = line ? line + 1 : NULL)
+        if (strncmp(line, "name.rib", 8) == 0) fail_msg("a warning split in two lines:\n%s", err);
+    remove(scene);
+}
+
 static void test_huge_resolution_is_refused(void **state)
 {
     (void)state;
@@ -340,6 +365,7 @@ int main(void)
         cmocka_unit_test(test_png_is_written_atomically),
         cmocka_unit_test(test_paths_are_checked_before_rendering),
         cmocka_unit_test(test_huge_resolution_is_refused),
+        cmocka_unit_test(test_warning_lines_escape_control_characters),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

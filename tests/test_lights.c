@@ -155,9 +155,13 @@ static void test_distant_lights_and_dome(void **state)
 {
     (void)state;
     const double a = 2.0, h = 0.5 * a * M_PI / 180.0; /* angular diameter, half angle */
-    ts_distant_light d[2] = {
-        {{-1, 1, -1}, {0, 0, 0}, 2.5, {1, 0.95, 0.85}, a},
-        {{0, 0, 5}, {0, 0, 1}, 3.0, {1, 1, 1}, 0.0},
+    ts_scene_light d[2] = {
+        {.from = {-1, 1, -1},
+         .to = {0, 0, 0},
+         .intensity = 2.5,
+         .color = {1, 0.95, 0.85},
+         .angle = a},
+        {.from = {0, 0, 5}, .to = {0, 0, 1}, .intensity = 3.0, .color = {1, 1, 1}, .angle = 0.0},
     };
     ts_scene s = {.lights = d, .light_count = 2};
     s.dome = (ts_dome_light){.present = 1, .intensity = 0.35, .color = {0.8, 0.9, 1}};
@@ -200,9 +204,10 @@ static void test_distant_lights_and_dome(void **state)
 }
 
 /* Light selection (lib/lights.h, issue 14): the probabilities of the lights that take part
- * sum to 1, a uniform dome takes part only under --sampling light, the weights are the
- * lights' luminance contributions (a sun E / pi, the dome L), and light_select picks each
- * light as often as light_select_prob says (stratified u: within 2 / N). */
+ * sum to 1, a uniform dome (and the ambient one) takes part only under --sampling light, the
+ * weights are the lights' luminance contributions (a sun E / pi, a point light I / (pi d^2),
+ * the dome L), and light_select picks each light as often as light_select_prob says
+ * (stratified u: within 2 / N), with every kind of light in the list. */
 static void test_light_selection(void **state)
 {
     (void)state;
@@ -211,21 +216,47 @@ static void test_light_selection(void **state)
     memset(attr, 0, sizeof attr);
     attr[0].le_r = attr[0].le_g = attr[0].le_b = 4.0f;
     flat_patch(cp, 0, 0.0f, 1.0f, 1.0f);
-    ts_distant_light d[2] = {
-        {{-1, 1, -1}, {0, 0, 0}, 2.5, {1, 0.95, 0.85}, 2.0},
-        {{0, 0, 5}, {0, 0, 1}, 1.0, {1, 1, 1}, 0.0},
+    ts_scene_light d[5] = {
+        {.from = {-1, 1, -1},
+         .to = {0, 0, 0},
+         .intensity = 2.5,
+         .color = {1, 0.95, 0.85},
+         .angle = 2.0},
+        {.from = {0, 0, 5}, .to = {0, 0, 1}, .intensity = 1.0, .color = {1, 1, 1}, .angle = 0.0},
+        {.from = {0.5, 0.5, 2},
+         .intensity = 3,
+         .color = {1, 1, 1},
+         .kind = SCENE_LIGHT_POINT,
+         .falloff = 2,
+         .falloff_dist = 1},
+        {.from = {0, 0, 3},
+         .to = {0, 0, 0},
+         .intensity = 5,
+         .color = {1, 1, 1},
+         .kind = SCENE_LIGHT_SPOT,
+         .cone_angle = 0.4,
+         .cone_delta = 0.1,
+         .beam = 2,
+         .falloff = 2,
+         .falloff_dist = 1},
+        {.intensity = 0.1, .color = {1, 1, 1}, .kind = SCENE_LIGHT_AMBIENT},
     };
-    ts_scene s = {.patch_count = 1, .cp = cp, .attr = attr, .lights = d, .light_count = 2};
+    ts_scene s = {.patch_count = 1, .cp = cp, .attr = attr, .lights = d, .light_count = 5};
     s.dome = (ts_dome_light){.present = 1, .intensity = 0.35, .color = {1, 1, 1}};
     ts_light_table t;
     ts_error err = {0};
     assert_int_equal(lights_build(&s, NULL, attr, &t, &err), TS_OK);
-    assert_int_equal(t.light_count, 4); /* 2 suns, the dome, the area light */
+    /* 2 suns, the point and spot lights, the dome, the ambient dome, the area light */
+    assert_int_equal(t.light_count, 7);
     double lum = 0.2126 * 1 + 0.7152 * 0.95 + 0.0722 * 0.85;
     assert_near(t.lights[0].weight, 2.5 * lum / M_PI, 1e-6, "sun weight E / pi");
     assert_near(t.lights[1].weight, 1.0 / M_PI, 1e-6, "delta sun weight E / pi");
-    assert_near(t.lights[2].weight, 0.35, 1e-6, "dome weight L");
-    assert_true(t.lights[3].weight > 0.0f);
+    /* The point light 2 from the box's centre (0.5, 0.5, 0); the spot 3. */
+    assert_near(t.lights[2].weight, 3.0 / (M_PI * 4), 1e-5, "point weight I / (pi d^2)");
+    assert_near(t.lights[3].weight, 5.0 / (M_PI * (9 + 0.5)), 1e-5, "spot weight I / (pi d^2)");
+    assert_near(t.lights[4].weight, 0.35, 1e-6, "dome weight L");
+    assert_near(t.lights[5].weight, 0.1, 1e-6, "ambient weight L");
+    assert_true(t.lights[6].weight > 0.0f);
     const ts_u32 modes[2] = {TS_SAMPLING_MIS, TS_SAMPLING_LIGHT};
     enum { N = 100000 };
     for (int m = 0; m < 2; ++m) {
@@ -233,9 +264,11 @@ static void test_light_selection(void **state)
         for (ts_u32 i = 0; i < t.light_count; ++i)
             sum += light_select_prob(t.lights, t.light_count, modes[m], i);
         assert_near(sum, 1.0, 1e-6, "selection probabilities sum to 1");
-        float dome = light_select_prob(t.lights, t.light_count, modes[m], 2);
-        assert_true(m == 0 ? dome == 0.0f : dome > 0.0f);
-        uint32_t count[4] = {0, 0, 0, 0};
+        for (ts_u32 i = 4; i <= 5; ++i) { /* the uniform domes */
+            float dome = light_select_prob(t.lights, t.light_count, modes[m], i);
+            assert_true(m == 0 ? dome == 0.0f : dome > 0.0f);
+        }
+        uint32_t count[7] = {0, 0, 0, 0, 0, 0, 0};
         for (int k = 0; k < N; ++k) {
             float prob;
             ts_u32 li = light_select(t.lights, t.light_count, modes[m], (k + 0.5f) / N, &prob);
@@ -261,21 +294,209 @@ static void test_light_selection(void **state)
     lights_free(&t);
 }
 
-static void test_too_many_distant_lights(void **state)
+static void test_too_many_lights(void **state)
 {
     (void)state;
-    ts_distant_light d[TS_MAX_DISTANT_LIGHTS + 1];
-    for (uint32_t i = 0; i <= TS_MAX_DISTANT_LIGHTS; ++i)
-        d[i] = (ts_distant_light){{0, 0, 1}, {0, 0, 0}, 1, {1, 1, 1}, 0};
-    ts_scene s = {.lights = d, .light_count = TS_MAX_DISTANT_LIGHTS};
+    ts_scene_light d[TS_MAX_SCENE_LIGHTS + 2];
+    for (uint32_t i = 0; i <= TS_MAX_SCENE_LIGHTS; ++i)
+        d[i] = (ts_scene_light){
+            .from = {0, 0, 1}, .to = {0, 0, 0}, .intensity = 1, .color = {1, 1, 1}, .angle = 0};
+    d[TS_MAX_SCENE_LIGHTS + 1] = (ts_scene_light){.intensity = 1, .kind = SCENE_LIGHT_AMBIENT};
+    ts_scene s = {.lights = d, .light_count = TS_MAX_SCENE_LIGHTS};
     ts_light_table t;
     ts_error err = {0};
     assert_int_equal(lights_build(&s, NULL, NULL, &t, &err), TS_OK);
-    assert_int_equal(t.light_count, TS_MAX_DISTANT_LIGHTS);
+    assert_int_equal(t.light_count, TS_MAX_SCENE_LIGHTS);
     lights_free(&t);
-    s.light_count = TS_MAX_DISTANT_LIGHTS + 1;
+    s.light_count = TS_MAX_SCENE_LIGHTS + 1;
     assert_int_equal(lights_build(&s, NULL, NULL, &t, &err), TS_E_SCENE);
-    assert_non_null(strstr(err.msg, "at most 64"));
+    assert_string_equal(err.msg, "257 distant, point and spot lights: at most 256");
+    lights_free(&t);
+    /* Ambient lights do not count: they add up into one dome. */
+    d[TS_MAX_SCENE_LIGHTS] = d[TS_MAX_SCENE_LIGHTS + 1];
+    s.light_count = TS_MAX_SCENE_LIGHTS + 2;
+    assert_int_equal(lights_build(&s, NULL, NULL, &t, &err), TS_OK);
+    assert_int_equal(t.light_count, TS_MAX_SCENE_LIGHTS + 1);
+    lights_free(&t);
+}
+
+/* RenderMan's spotlight.sl, in double: what a spot light at the origin with unit axis `axis`
+ * gives at point q (irradiance on a surface facing it, per unit intensity). */
+static double spotlight_sl(const double axis[3], double cone, double delta, double beam,
+                           const double q[3])
+{
+    double d2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2], d = sqrt(d2);
+    double c = (q[0] * axis[0] + q[1] * axis[1] + q[2] * axis[2]) / d;
+    if (c < cos(cone)) return 0.0; /* illuminate(from, A, coneangle) */
+    double a = cos(cone), b = cos(cone - delta), t = (c - a) / (b - a);
+    double smooth = c >= b ? 1.0 : t * t * (3 - 2 * t);
+    return pow(c, beam) / d2 * smooth;
+}
+
+/* Point and spot lights (RenderMan's pointlight and spotlight): the table keeps position,
+ * intensity, axis and cone; light_sample gives a delta sample towards the light whose value
+ * is I / d^2 (times the spot's beam and smoothstep edge, 0 outside the cone) to within float
+ * rounding of the formula evaluated in double; the weight is I falloff(d) / pi at the typical
+ * distance (the light's distance to the scene's box centre, or half its diagonal). */
+static void test_point_and_spot_lights(void **state)
+{
+    (void)state;
+    ts_vec4 cp[16];
+    ts_patch_attr attr[1];
+    memset(attr, 0, sizeof attr);
+    flat_patch(cp, 0, -1.0f, 2.0f, 2.0f); /* [-1, 1] x [0, 2] at z = 0: half diagonal sqrt 2 */
+    const double cone = 0.5, delta = 0.15, beam = 2.0;
+    ts_scene_light d[2] = {
+        {.from = {0.5, 1, 3},
+         .intensity = 6,
+         .color = {1, 0.5, 0.25},
+         .kind = SCENE_LIGHT_POINT,
+         .falloff = 2,
+         .falloff_dist = 1},
+        {.from = {0, 1, 40},
+         .to = {0, 1.5, 37},
+         .intensity = 900,
+         .color = {1, 1, 1},
+         .kind = SCENE_LIGHT_SPOT,
+         .cone_angle = cone,
+         .cone_delta = delta,
+         .beam = beam,
+         .falloff = 2,
+         .falloff_dist = 1},
+    };
+    ts_scene s = {.patch_count = 1, .cp = cp, .attr = attr, .lights = d, .light_count = 2};
+    ts_light_table t;
+    ts_error err = {0};
+    assert_int_equal(lights_build(&s, NULL, attr, &t, &err), TS_OK);
+    assert_int_equal(t.light_count, 2);
+    const ts_light *pt = &t.lights[0], *sp = &t.lights[1];
+    assert_int_equal(pt->type, TS_LIGHT_POINT);
+    assert_int_equal(sp->type, TS_LIGHT_SPOT);
+    assert_true(pt->pos[0] == 0.5f && pt->pos[1] == 1.0f && pt->pos[2] == 3.0f);
+    assert_true(pt->radiance[0] == 6.0f && pt->radiance[1] == 3.0f && pt->radiance[2] == 1.5f);
+    double len = sqrt(0.25 + 9.0);
+    assert_near(sp->dir[1], 0.5 / len, 1e-7, "spot axis y");
+    assert_near(sp->dir[2], -3.0 / len, 1e-7, "spot axis z");
+    assert_near(sp->cos_max, cos(cone), 1e-7, "cos(coneangle)");
+    assert_near(sp->cos_inner, cos(cone - delta), 1e-7, "cos(coneangle - conedeltaangle)");
+    /* Weights: the point light sits near the box (box centre (0, 1, 0) at distance sqrt(9.25)
+     * > sqrt 2), the spot 40 away. */
+    double box_margin = 1e-4; /* scene_patch_box grows the box by a few ulps */
+    double lum = 0.2126 * 1 + 0.7152 * 0.5 + 0.0722 * 0.25;
+    assert_near(pt->weight, 6 * lum / (M_PI * 9.25), box_margin, "point weight I / (pi d^2)");
+    assert_near(sp->weight, 900 / (M_PI * 1600), box_margin, "spot weight I / (pi d^2)");
+    /* Samples from points on and off the plane, inside, on the edge of and outside the cone. */
+    /* Two points inside the spot's full cone (0.35 rad), three on its soft edge, three
+     * outside (behind the spot too). */
+    const double pts[][3] = {{0, 1, 0},    {0.3, 2, 0.1}, {0, -12, 0}, {20, 1, 0},
+                             {-15, -3, 0}, {-25, 0, 0},   {30, 30, 1}, {0, 1, 45}};
+    double axis[3] = {0, 0.5 / len, -3.0 / len};
+    int inside = 0, edge = 0, outside = 0;
+    for (size_t k = 0; k < sizeof pts / sizeof pts[0]; ++k) {
+        ts_v3 p = v3((float)pts[k][0], (float)pts[k][1], (float)pts[k][2]), n = v3(0, 0, 1);
+        ts_light_sample ls = light_sample(t.lights, 0, 0.25f, (ts_env){0}, t.emitters, cp, attr, p,
+                                          n, 0.3f, 0.6f, 0.9f);
+        double to[3] = {0.5 - pts[k][0], 1 - pts[k][1], 3 - pts[k][2]};
+        double d2 = to[0] * to[0] + to[1] * to[1] + to[2] * to[2];
+        assert_true(ls.delta && ls.pdf == 0.25f && ls.patch == TS_INVALID);
+        assert_near(ls.dist, sqrt(d2), 1e-6 * sqrt(d2), "distance to the point light");
+        assert_near(ls.dir.x, to[0] / sqrt(d2), 1e-6, "direction to the point light");
+        for (int c = 0; c < 3; ++c)
+            assert_near(ls.le[c], 6 * d[0].color[c] / d2, 1e-6 * 6 / d2, "point: I / d^2");
+        ls = light_sample(t.lights, 1, 0.5f, (ts_env){0}, t.emitters, cp, attr, p, n, 0.3f, 0.6f,
+                          0.9f);
+        double q[3] = {pts[k][0] - 0, pts[k][1] - 1, pts[k][2] - 40};
+        double want = 900 * spotlight_sl(axis, cone, delta, beam, q);
+        double c = (q[0] * axis[0] + q[1] * axis[1] + q[2] * axis[2]) /
+                   sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+        inside += c > cos(cone - delta), outside += c < cos(cone);
+        edge += c <= cos(cone - delta) && c >= cos(cone);
+        if (want == 0.0) {
+            assert_true(ls.pdf == 0.0f); /* no light sample outside the cone */
+            continue;
+        }
+        assert_true(ls.delta && ls.pdf == 0.5f);
+        /* float cosines: the smoothstep's slope ~ 1 / (cos(cone - delta) - cos(cone)) */
+        assert_near(ls.le[0], want, 2e-5 * want / (cos(cone - delta) - cos(cone)),
+                    "spot: I cos^beam smoothstep / d^2");
+    }
+    assert_true(inside == 2 && edge == 3 && outside == 3);
+    lights_free(&t);
+}
+
+/* A falloff other than 1 / d^2 (uberlight): (d0 / max(d, dmin))^k, and none at all (k = 0). */
+static void test_light_falloff(void **state)
+{
+    (void)state;
+    ts_scene_light d[2] = {
+        {.from = {0, 0, 0},
+         .intensity = 2,
+         .color = {1, 1, 1},
+         .kind = SCENE_LIGHT_POINT,
+         .falloff = 1,
+         .falloff_dist = 3,
+         .falloff_min = 3},
+        {.from = {0, 0, 0},
+         .intensity = 2,
+         .color = {1, 1, 1},
+         .kind = SCENE_LIGHT_POINT,
+         .falloff = 0,
+         .falloff_dist = 1},
+    };
+    ts_scene s = {.lights = d, .light_count = 2};
+    ts_light_table t;
+    ts_error err = {0};
+    assert_int_equal(lights_build(&s, NULL, NULL, &t, &err), TS_OK);
+    const float dist[] = {0.5f, 3.0f, 12.0f};
+    for (int k = 0; k < 3; ++k) {
+        ts_v3 p = v3(0, dist[k], 0);
+        ts_light_sample a = light_sample(t.lights, 0, 1.0f, (ts_env){0}, t.emitters, NULL, NULL, p,
+                                         v3(0, -1, 0), 0, 0, 0);
+        ts_light_sample b = light_sample(t.lights, 1, 1.0f, (ts_env){0}, t.emitters, NULL, NULL, p,
+                                         v3(0, -1, 0), 0, 0, 0);
+        assert_near(a.le[0], 2 * 3 / fmax(dist[k], 3), 1e-6, "linear falloff, held near");
+        assert_near(b.le[0], 2, 1e-7, "no falloff");
+    }
+    lights_free(&t);
+}
+
+/* Ambient lights add up into one uniform dome, after the domelight, that eye rays do not see
+ * (light_escape with eye = 1) and every other ray does; its weight is L. */
+static void test_ambient_lights(void **state)
+{
+    (void)state;
+    ts_scene_light d[3] = {
+        {.intensity = 0.2, .color = {1, 1, 1}, .kind = SCENE_LIGHT_AMBIENT},
+        {.from = {0, 0, 1}, .to = {0, 0, 0}, .intensity = 1, .color = {1, 1, 1}},
+        {.intensity = 0.5, .color = {0.2, 0.4, 0.6}, .kind = SCENE_LIGHT_AMBIENT},
+    };
+    ts_scene s = {.lights = d, .light_count = 3};
+    s.dome = (ts_dome_light){.present = 1, .intensity = 0.1, .color = {1, 1, 1}};
+    ts_light_table t;
+    ts_error err = {0};
+    assert_int_equal(lights_build(&s, NULL, NULL, &t, &err), TS_OK);
+    assert_int_equal(t.light_count, 3); /* the sun, the dome, the ambient dome */
+    const ts_light *amb = &t.lights[2];
+    assert_int_equal(amb->type, TS_LIGHT_DOME);
+    assert_int_equal(amb->flags, TS_LIGHT_NOT_SEEN);
+    assert_int_equal(amb->map_width, 0);
+    const double want[3] = {0.3, 0.4, 0.5};
+    for (int k = 0; k < 3; ++k)
+        assert_near(amb->radiance[k], want[k], 1e-7, "ambient radiance: the sum");
+    assert_near(amb->weight, 0.2126 * 0.3 + 0.7152 * 0.4 + 0.0722 * 0.5, 1e-7, "weight L");
+    assert_int_equal(t.lights[1].flags, 0u);
+    float le[3], pdf;
+    light_escape(t.lights, t.light_count, TS_SAMPLING_MIS, (ts_env){0}, v3(0, 1, 0), 1, le, &pdf);
+    assert_near(le[0], 0.1, 1e-7, "an eye ray sees the dome only");
+    light_escape(t.lights, t.light_count, TS_SAMPLING_MIS, (ts_env){0}, v3(0, 1, 0), 0, le, &pdf);
+    assert_near(le[0], 0.4, 1e-7, "a bounce ray sees the dome and the ambient light");
+    assert_near(le[2], 0.6, 1e-7, "a bounce ray sees the dome and the ambient light");
+    /* Under --sampling light both uniform domes take part, with the sun: probabilities sum
+     * to 1. */
+    double sum = 0;
+    for (ts_u32 i = 0; i < t.light_count; ++i)
+        sum += light_select_prob(t.lights, t.light_count, TS_SAMPLING_LIGHT, i);
+    assert_near(sum, 1.0, 1e-6, "selection probabilities sum to 1");
     lights_free(&t);
 }
 
@@ -449,7 +670,10 @@ int main(void)
         cmocka_unit_test(test_no_emitter),
         cmocka_unit_test(test_distant_lights_and_dome),
         cmocka_unit_test(test_light_selection),
-        cmocka_unit_test(test_too_many_distant_lights),
+        cmocka_unit_test(test_too_many_lights),
+        cmocka_unit_test(test_point_and_spot_lights),
+        cmocka_unit_test(test_light_falloff),
+        cmocka_unit_test(test_ambient_lights),
         cmocka_unit_test(test_env_constant_map_is_uniform),
         cmocka_unit_test(test_env_bright_texel_owns_the_jump),
         cmocka_unit_test(test_env_black_and_invalid_texels),

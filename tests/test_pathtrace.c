@@ -6,7 +6,12 @@
  *   a uniform dome Kd L in every sample (cosine-weighted dome sampling);
  * - light sampling, BSDF sampling and their MIS combination converge to the same mean;
  * - the same command gives the same bits, whatever --memory or the thread count;
- * - shadow rays are counted apart. Tolerances come from the sample counts. */
+ * - shadow rays are counted apart;
+ * - a plane under RenderMan's pointlight and spotlight has radiance Kd / pi times their
+ *   irradiance I cos / d^2 (times the spot's beam and edge) in every pixel; with a sun and
+ *   ambient light too, chosen one per vertex by weight, the image mean is the sum;
+ * - ambientlight lights surfaces like a uniform dome (Kd L) and leaves the background black.
+ * Tolerances come from the sample counts. */
 #include "test_support.h"
 #include "image/image.h"
 
@@ -334,6 +339,155 @@ static void test_environment_map(void **state)
     assert_true(top > 3 * bottom);
 }
 
+/* The local-light scenes: an orthographic camera looking down +z at the plane z = 0 (the
+ * screen window [-4, 4]^2 over 64 x 64 pixels, world = camera space but for the camera 10
+ * back), a matte plane of Kd 0.7 over [-h, h]^2, and `lights` (RIB text). */
+static void write_light_plane(const char *name, double h, const char *lights)
+{
+    FILE *f = fopen(path(name), "w");
+    assert_non_null(f);
+    fprintf(f,
+            "Format 64 64 1\nProjection \"orthographic\"\nScreenWindow -4 4 -4 4\n"
+            "Translate 0 0 10\nWorldBegin\n%sColor [1 1 1]\nSurface \"matte\" \"Kd\" [0.7]\n"
+            "Patch \"bilinear\" \"P\" [%g %g 0  %g %g 0  %g %g 0  %g %g 0]\nWorldEnd\n",
+            lights, -h, -h, h, -h, -h, h, h, h);
+    fclose(f);
+}
+
+/* The plane's point at the centre of pixel (x, y) (the camera sample when spp = 1). */
+static void pixel_point(int x, int y, double q[3])
+{
+    q[0] = -4 + 8 * (x + 0.5) / 64, q[1] = 4 - 8 * (y + 0.5) / 64, q[2] = 0;
+}
+
+/* Irradiance on the plane (normal -z, towards the lights at z < 0) at q from RenderMan's
+ * spotlight at `from` towards `to` (spotlight.sl in double), or its pointlight when
+ * cone <= 0. */
+static double local_irradiance(const double from[3], const double to[3], double intensity,
+                               double cone, double delta, double beam, const double q[3])
+{
+    double l[3] = {from[0] - q[0], from[1] - q[1], from[2] - q[2]};
+    double d2 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2], d = sqrt(d2);
+    double e = intensity / d2 * (-l[2] / d); /* cos at the surface */
+    if (cone <= 0) return e;
+    double a[3] = {to[0] - from[0], to[1] - from[1], to[2] - from[2]};
+    double al = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    double c = -(l[0] * a[0] + l[1] * a[1] + l[2] * a[2]) / (d * al);
+    double lo = cos(cone), hi = cos(cone - delta), t = (c - lo) / (hi - lo);
+    if (c < lo) return 0.0;
+    return e * pow(c, beam) * (c >= hi ? 1.0 : t * t * (3 - 2 * t));
+}
+
+/* Every pixel of a plane lit by one point or spot light is Kd / pi times its irradiance: a
+ * delta light is sampled exactly, so only float rounding separates them (1 spp: the pixel
+ * centre). The spot's image must hold pixels in its full cone, on its soft edge and
+ * outside. */
+static void test_point_and_spot_on_a_plane(void **state)
+{
+    const double kd = 0.7, from[2][3] = {{1, -0.5, -3}, {0.5, 0.5, -4}}, to[3] = {0, 0, 0};
+    const char *rib[2] = {
+        "LightSource \"pointlight\" 1 \"intensity\" [9] \"from\" [1 -0.5 -3]\n",
+        "LightSource \"spotlight\" 1 \"intensity\" [40] \"from\" [0.5 0.5 -4] \"to\" [0 0 0] "
+        "\"coneangle\" [0.4] \"conedeltaangle\" [0.1] \"beamdistribution\" [2]\n"};
+    for (int spot = 0; spot < 2; ++spot) {
+        write_light_plane("local.rib", 5, rib[spot]);
+        render("local.rib", "local.exr", "--spp 1 --depth 1");
+        ts_image img;
+        load("local.exr", &img);
+        int inside = 0, edge = 0, dark = 0;
+        for (int y = 0; y < 64; ++y)
+            for (int x = 0; x < 64; ++x) {
+                double q[3];
+                pixel_point(x, y, q);
+                double e = local_irradiance(from[spot], to, spot ? 40 : 9, spot ? 0.4 : 0, 0.1, 2,
+                                            q),
+                       full = local_irradiance(from[spot], to, spot ? 40 : 9, spot ? 0.4 : 0, 0.0,
+                                               2, q);
+                double want = kd * e / M_PI, v = img.pixels[((size_t)y * 64 + x) * img.channels];
+                if (fabs(v - want) > 2e-4 * want + 1e-7)
+                    fail_msg("%s: pixel (%d, %d): %.7g, want %.7g", spot ? "spot" : "point", x, y,
+                             v, want);
+                inside += e > 0 && e == full, edge += e > 0 && e < full, dark += e == 0;
+            }
+        image_free(&img);
+        if (spot) assert_true(inside > 200 && edge > 200 && dark > 1000);
+    }
+}
+
+/* A sun, a point light, a spot and an ambient light together: one light is chosen per
+ * vertex by weight (the ambient one is left to BSDF rays), so pixels are noisy, but the image
+ * mean is Kd / pi times the sum of the irradiances plus Kd L, within 5 sigma of the mean's
+ * variance estimated from two seeds (32 spp each). */
+static void test_mixed_lights_mean(void **state)
+{
+    const double kd = 0.7, theta = 40 * M_PI / 180, sun = 1.5, amb = 0.2;
+    const double pf[3] = {-1.5, 1, -2.5}, sf[3] = {1, 0, -4}, st[3] = {1.5, -0.5, 0},
+                 none[3] = {0, 0, 0};
+    char lights[1024];
+    snprintf(lights, sizeof lights,
+             "LightSource \"distantlight\" 1 \"intensity\" [%g] \"from\" [0 %.17g %.17g] "
+             "\"to\" [0 0 0]\n"
+             "LightSource \"pointlight\" 2 \"intensity\" [6] \"from\" [-1.5 1 -2.5]\n"
+             "LightSource \"spotlight\" 3 \"intensity\" [30] \"from\" [1 0 -4] \"to\" [1.5 -0.5 "
+             "0] \"coneangle\" [0.5] \"conedeltaangle\" [0.2]\n"
+             "LightSource \"ambientlight\" 4 \"intensity\" [%g]\n",
+             sun, -sin(theta), -cos(theta), amb);
+    write_light_plane("mix.rib", 5, lights);
+    render("mix.rib", "a.exr", "--spp 32 --seed 1");
+    render("mix.rib", "b.exr", "--spp 32 --seed 2");
+    double mean, var, want = 0;
+    mean_and_var("a.exr", "b.exr", &mean, &var);
+    for (int y = 0; y < 64; ++y)
+        for (int x = 0; x < 64; ++x) {
+            double q[3];
+            pixel_point(x, y, q);
+            double e = sun * cos(theta) + local_irradiance(pf, none, 6, 0, 0, 0, q) +
+                       local_irradiance(sf, st, 30, 0.5, 0.2, 2, q);
+            want += (kd * e / M_PI + kd * amb) / (64 * 64);
+        }
+    assert_true(var > 0); /* the choice of light is random */
+    if (fabs(mean - want) > 5 * sqrt(var))
+        fail_msg("image mean %.6f, want %.6f +- %.6f (5 sigma)", mean, want, 5 * sqrt(var));
+}
+
+/* ambientlight lights a matte plane like a uniform dome of radiance L (Kd L in every sample,
+ * with light or MIS sampling) but eye rays do not see it: the background stays black, or
+ * shows only the domelight. */
+static void test_ambient_light(void **state)
+{
+    const double kd = 0.7, amb = 0.3, dome = 0.2;
+    const char *modes[2] = {"--spp 4 --depth 1 --sampling light", "--spp 4 --depth 1"};
+    for (int with_dome = 0; with_dome < 2; ++with_dome) {
+        char lights[256];
+        snprintf(lights, sizeof lights, "LightSource \"ambientlight\" 1 \"intensity\" [%g]\n%s",
+                 amb, with_dome ? "LightSource \"domelight\" 2 \"intensity\" [0.2]\n" : "");
+        write_light_plane("amb.rib", 2, lights);
+        for (int m = 0; m < 2; ++m) {
+            render("amb.rib", "amb.exr", modes[m]);
+            ts_image img;
+            load("amb.exr", &img);
+            int plane = 0, sky = 0;
+            for (int y = 0; y < 64; ++y)
+                for (int x = 0; x < 64; ++x) {
+                    const float *px = &img.pixels[((size_t)y * 64 + x) * img.channels];
+                    double q[3], want;
+                    pixel_point(x, y, q);
+                    if (fabs(q[0]) < 1.9 && fabs(q[1]) < 1.9)
+                        want = kd * (amb + (with_dome ? dome : 0)), ++plane;
+                    else if (fabs(q[0]) > 2.1 || fabs(q[1]) > 2.1)
+                        want = with_dome ? dome : 0.0, ++sky;
+                    else
+                        continue; /* pixels the plane's edge crosses */
+                    if (fabs(px[0] - want) > 1e-5 * want + 1e-7)
+                        fail_msg("%s, %s: pixel (%d, %d): %g, want %g", modes[m],
+                                 with_dome ? "with a dome" : "alone", x, y, px[0], want);
+                }
+            image_free(&img);
+            assert_true(plane == 900 && sky > 2900);
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -345,6 +499,9 @@ int main(void)
         cmocka_unit_test(test_shadow_rays_are_counted),
         cmocka_unit_test(test_plane_under_a_uniform_dome),
         cmocka_unit_test(test_environment_map),
+        cmocka_unit_test(test_point_and_spot_on_a_plane),
+        cmocka_unit_test(test_mixed_lights_mean),
+        cmocka_unit_test(test_ambient_light),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

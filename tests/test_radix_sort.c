@@ -7,7 +7,9 @@
  * and 3 threads. Tiny inputs use grain 1, so they are cut into up to RADIX_MAX_CHUNKS chunks
  * (the 2^20 ones into 32 by the default grain). Every result is compared pair by pair with
  * the reference, stability is asserted on its own (equal leaves keep input order), and the
- * segments are checked against the sorted pairs.
+ * segments are checked against the sorted pairs. radix_sort_windows (windows read only up
+ * to their counts) is checked against the same reference on the windows filled up with
+ * TS_INVALID.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -263,6 +265,74 @@ static void test_ray_windows(void **state)
     free(expect);
 }
 
+/* radix_sort_windows against radix_sort_pairs' contract: windows of which only the first
+ * counts[w] are read give the reference order of the same windows filled up with TS_INVALID.
+ * The unused tail of every window holds garbage leaves (>= key_limit, or TS_INVALID) that
+ * must never be read; key ranges of 0 to 3 passes, one chunk and many, 1 to 3 threads. */
+static void test_sort_windows(void **state)
+{
+    fixture *fx = *state;
+    const uint32_t windows = 30000, width = 11, n = windows * width;
+    const uint32_t ranges[] = {1, 32, 256, 5000, 1u << 20};
+    ts_pair *in = malloc(n * sizeof *in), *filled = malloc(n * sizeof *filled);
+    ts_pair *expect = malloc(n * sizeof *expect), *pairs = malloc(n * sizeof *pairs);
+    ts_pair *scratch = malloc(n * sizeof *scratch);
+    uint32_t *counts = malloc(windows * sizeof *counts);
+    assert_true(in && filled && expect && pairs && scratch && counts);
+    for (size_t r = 0; r < sizeof ranges / sizeof *ranges; r++) {
+        uint64_t st = 11 + r;
+        for (uint32_t w = 0; w < windows; w++) {
+            /* mostly short windows, as on the teapot demo; some empty, some full */
+            uint64_t x = rng_next(&st);
+            counts[w] = x % 4u == 0u ? 0u : x % 7u == 0u ? width : (uint32_t)(x >> 40) % 3u;
+            for (uint32_t k = 0; k < width; k++) {
+                uint32_t i = w * width + k, used = k < counts[w];
+                uint32_t garbage = (k & 1u) ? TS_INVALID : ranges[r] + (uint32_t)(x >> 50);
+                in[i] = (ts_pair){used ? (uint32_t)(rng_next(&st) % ranges[r]) : garbage, i};
+                filled[i] = (ts_pair){used ? in[i].leaf : TS_INVALID, i};
+            }
+        }
+        uint32_t m = reference_sort(filled, n, expect);
+        for (int t = 0; t < THREAD_CASES; t++)
+            for (int g = 0; g < 2; g++) { /* 60 chunks, then one */
+                radix_sorter_set_grain(fx->sorters[t], g == 0 ? 500u : RADIX_DEFAULT_GRAIN);
+                memcpy(pairs, in, n * sizeof *pairs);
+                const ts_pair *sorted = NULL;
+                uint32_t valid = UINT32_MAX;
+                ts_error err = {0};
+                assert_int_equal(radix_sort_windows(fx->sorters[t], pairs, scratch, counts, windows,
+                                                    width, ranges[r], &sorted, &valid, &err),
+                                 TS_OK);
+                assert_true(sorted == pairs || sorted == scratch);
+                assert_int_equal(valid, m);
+                if (m > 0) assert_memory_equal(sorted, expect, (size_t)m * sizeof *sorted);
+                check_segments(sorted, m);
+            }
+    }
+    /* a counted leaf >= key_limit is reported by its pair index, as radix_sort_pairs does */
+    memcpy(pairs, in, n * sizeof *pairs);
+    uint32_t w = 0;
+    while (counts[w] == 0)
+        ++w;
+    pairs[w * width].leaf = 1u << 20;
+    const ts_pair *sorted = NULL;
+    uint32_t valid = 0;
+    ts_error err = {0};
+    char want[64];
+    snprintf(want, sizeof want, "pair %u has leaf %u", w * width, 1u << 20);
+    assert_int_equal(radix_sort_windows(fx->sorters[1], pairs, scratch, counts, windows, width,
+                                        1u << 20, &sorted, &valid, &err),
+                     TS_E_INTERNAL);
+    assert_non_null(strstr(err.msg, want));
+    assert_null(sorted);
+    free(in);
+    free(filled);
+    free(expect);
+    free(pairs);
+    free(scratch);
+    free(counts);
+}
+
 /* A pass whose digit is equal for every pair is skipped; the result stays right, and with
  * nothing to move at all it stays in `pairs`. */
 static void test_skipped_passes(void **state)
@@ -417,6 +487,7 @@ int main(void)
         cmocka_unit_test(test_size_1m),
         cmocka_unit_test(test_scrambled_windows),
         cmocka_unit_test(test_ray_windows),
+        cmocka_unit_test(test_sort_windows),
         cmocka_unit_test(test_skipped_passes),
         cmocka_unit_test(test_leaf_out_of_range),
         cmocka_unit_test(test_pool_reuse),

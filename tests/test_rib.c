@@ -1009,7 +1009,8 @@ static void test_scene_growth_and_box(void **state)
     ts_box empty = scene_patch_box(&s, 1000);
     assert_true(empty.lo_x > empty.hi_x);
     for (int k = 0; k < 100; k++) {
-        ts_distant_light l = {{k, 0, 0}, {0, 0, 1}, 1, {1, 1, 1}, 0};
+        ts_scene_light l = {
+            .from = {k, 0, 0}, .to = {0, 0, 1}, .intensity = 1, .color = {1, 1, 1}, .angle = 0};
         assert_int_equal(scene_add_light(&s, &l, &e), TS_OK);
     }
     assert_int_equal(s.light_count, 100);

@@ -6,6 +6,7 @@
 #include "scene/rib/rib.h"
 #include "scene/scene.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 #include <setjmp.h>
@@ -21,13 +22,15 @@ typedef struct corpus_file {
 
 static const corpus_file corpus[] = {
     {"aqsis/tools/displays/exr/tst.rib", 32, 0, 720, 486, TS_PROJECTION_PERSPECTIVE},
-    {"aqsis/tools/displays/xpm/teapotgeom.rib", 32, 0, 0, 0, TS_PROJECTION_PERSPECTIVE},
+    {"aqsis/tools/displays/xpm/teapotgeom.rib", 32, 3, 0, 0, TS_PROJECTION_PERSPECTIVE},
     {"aqsis/prototypes/newcore/scenes/tenpatch.rib", 10, 0, 1024, 1024, TS_PROJECTION_ORTHOGRAPHIC},
     {"aqsis/prototypes/newcore/scenes/simpledeformation.rib", 2, 0, 1024, 1024,
      TS_PROJECTION_PERSPECTIVE},
     {"aqsis/prototypes/newcore/scenes/mb_noise_test.rib", 1, 0, 256, 256,
      TS_PROJECTION_ORTHOGRAPHIC},
-    {"aqsis/examples/features/textures/sticky.rib", 3, 0, 480, 360, TS_PROJECTION_PERSPECTIVE},
+    {"aqsis/examples/features/textures/sticky.rib", 3, 1, 480, 360, TS_PROJECTION_PERSPECTIVE},
+    {"aqsis/examples/features/objectinstance/singlepolygon.rib", 12, 1, 480, 360,
+     TS_PROJECTION_PERSPECTIVE},
 };
 
 static void test_corpus_loads(void **state)
@@ -70,6 +73,31 @@ static void test_corpus_details(void **state)
     scene_free(&s);
 }
 
+/* teapotgeom.rib (a 3ds Max export) lights its teapot with three pointlights, each placed
+ * by a ConcatTransform in a TransformBegin block at the origin of its space. */
+static void test_corpus_point_lights(void **state)
+{
+    (void)state;
+    ts_scene s;
+    ts_error e = {0};
+    memset(&s, 0, sizeof s);
+    if (rib_load(test_source_path("tests/rib-corpus/aqsis/tools/displays/xpm/teapotgeom.rib"), &s,
+                 1, &e) != TS_OK)
+        fail_msg("%s", e.msg);
+    const double want[3][4] = {{204.187, -437.336, 53.0255, 150000},
+                               {-320.159, -429.109, -87.5622, 100000},
+                               {121.927, 4.77862, 516.121, 100000}};
+    for (int k = 0; k < 3; k++) {
+        const ts_scene_light *l = &s.lights[k];
+        assert_int_equal(l->kind, SCENE_LIGHT_POINT);
+        for (int c = 0; c < 3; c++)
+            if (!(fabs(l->from[c] - want[k][c]) < 1e-9))
+                fail_msg("light %d: from[%d] %g", k, c, l->from[c]);
+        assert_true(l->intensity == want[k][3]);
+    }
+    scene_free(&s);
+}
+
 /* scene/teapots.rib, the scene written to show issue 16's requests: frame 1 (the default)
  * and frame 2 hold the same world, the floor and four of the five teapots (the fifth is
  * fully transparent), in perspective through a ScreenWindow with Exposure, and from above
@@ -106,6 +134,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_corpus_loads),
         cmocka_unit_test(test_corpus_details),
+        cmocka_unit_test(test_corpus_point_lights),
         cmocka_unit_test(test_feature_scene),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -5,7 +5,9 @@
  * - Exposure gain gamma: each colour is (gain c)^(1/gamma) of the same render without it;
  * - Surface "metal" under a uniform dome reflects at most Cs, tinted by Cs;
  * - Surface "constant" is its colour, with no light in the scene;
- * - the public RIB files of tests/rib-corpus/ render, one of them to a known motion blur.
+ * - the public RIB files of tests/rib-corpus/ render, one of them to a known motion blur,
+ *   one lit by its pointlights alone;
+ * - an object instanced three times renders bit for bit like its requests written out.
  * Needs an OpenCL device (skipped, 77, without one). */
 #include "test_support.h"
 #include "image/image.h"
@@ -196,6 +198,7 @@ static void test_corpus_renders(void **state)
         "aqsis/prototypes/newcore/scenes/tenpatch.rib",
         "aqsis/prototypes/newcore/scenes/simpledeformation.rib",
         "aqsis/examples/features/textures/sticky.rib",
+        "aqsis/examples/features/objectinstance/singlepolygon.rib",
     };
     char rel[256];
     for (size_t k = 0; k < sizeof files / sizeof files[0]; k++) {
@@ -205,6 +208,12 @@ static void test_corpus_renders(void **state)
         ts_image img;
         test_read_image(path("corpus.exr"), &img);
         assert_true(img.width == 24 && img.height == 18);
+        if (k == 1) { /* teapotgeom.rib: lit by its pointlights only */
+            double sum = 0;
+            for (int i = 0; i < img.width * img.height; i++)
+                sum += img.pixels[(size_t)i * img.channels];
+            assert_true(sum > 0.5);
+        }
         image_free(&img);
     }
     snprintf(rel, sizeof rel, "tests/rib-corpus/aqsis/prototypes/newcore/scenes/mb_noise_test.rib");
@@ -222,12 +231,53 @@ static void test_corpus_renders(void **state)
     image_free(&img);
 }
 
+/* ObjectInstance copies its object: the image of an object instanced three times (different
+ * transformations, colours and surfaces, one displaced) is bit for bit the image of the same
+ * requests written out in full at each instance. */
+static void test_object_instances_render(void **state)
+{
+    (void)state;
+    static const char head[] =
+        "Format 48 32 1\nProjection \"perspective\" \"fov\" [40]\nTranslate 0 -0.5 9\n"
+        "Rotate -100 1 0 0\nWorldBegin\nLightSource \"distantlight\" 1 \"from\" [1 -2 3] "
+        "\"to\" [0 0 0]\nLightSource \"pointlight\" 2 \"intensity\" [20] \"from\" [0 -3 3]\n"
+        "Patch \"bilinear\" \"P\" [-6 -6 0  6 -6 0  -6 6 0  6 6 0]\n";
+    static const char body[] = "Sphere 0.6 -0.6 0.6 360\nTranslate 0 0 0.6\nScale 0.3 0.3 0.3\n"
+                               "Displacement \"fbm\" \"amplitude\" [0.1]\nGeometry \"teapot\"\n";
+    static const char *const place[3] = {"Translate -2.5 0 0.6\nColor [0.8 0.2 0.2]\n",
+                                         "Translate 0 0 0.6\nRotate 40 0 0 1\nSurface \"metal\"\n",
+                                         "Translate 2.5 0 0.6\nScale 1.2 1.2 1.2\n"};
+    char inst[4096], full[4096];
+    int a = snprintf(inst, sizeof inst, "%sObjectBegin \"thing\"\n%sObjectEnd\n", head, body);
+    int b = snprintf(full, sizeof full, "%s", head);
+    for (int k = 0; k < 3; k++) {
+        a += snprintf(inst + a, sizeof inst - a,
+                      "AttributeBegin\n%sObjectInstance \"thing\"\nAttributeEnd\n", place[k]);
+        b += snprintf(full + b, sizeof full - b, "AttributeBegin\n%s%sAttributeEnd\n", place[k],
+                      body);
+    }
+    snprintf(inst + a, sizeof inst - a, "WorldEnd\n");
+    snprintf(full + b, sizeof full - b, "WorldEnd\n");
+    write_scene("inst.rib", inst);
+    write_scene("full.rib", full);
+    render("inst.rib", "inst.exr", "--spp 4 --max-lod 4");
+    render("full.rib", "full.exr", "--spp 4 --max-lod 4");
+    test_assert_same_pixels(path("inst.exr"), path("full.exr"));
+    ts_image img; /* and it is an image of something: the three objects are lit */
+    test_read_image(path("inst.exr"), &img);
+    double sum = 0;
+    for (int i = 0; i < img.width * img.height; i++)
+        sum += img.pixels[(size_t)i * img.channels];
+    image_free(&img);
+    assert_true(sum > 1.0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_orthographic_window), cmocka_unit_test(test_exposure),
         cmocka_unit_test(test_metal_furnace),       cmocka_unit_test(test_constant),
-        cmocka_unit_test(test_corpus_renders),
+        cmocka_unit_test(test_corpus_renders),      cmocka_unit_test(test_object_instances_render),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -425,20 +425,26 @@ static void test_scene_checks(void **state)
     int rc;
     const char *out = load_capturing(path, -1, &s, &e, &rc);
     assert_int_equal(rc, TS_OK);
-    char want[4400];
+    char want[4608];
     snprintf(want, sizeof want,
              "%s:1:1: warning: the scene has no light Tessera renders (LightSource "
-             "\"distantlight\" or \"domelight\", AreaLightSource, Surface \"constant\"): the "
-             "image will be black\n",
+             "\"distantlight\", \"pointlight\", \"spotlight\", \"ambientlight\" or "
+             "\"domelight\", AreaLightSource, Surface \"constant\"): the image will be black\n",
              path);
     assert_string_equal(out, want);
     scene_free(&s);
-    /* An area light is light. */
-    write_text(path, "WorldBegin\nAreaLightSource \"arealight\" 1\n" UNIT_QUAD "WorldEnd\n");
-    out = load_capturing(path, -1, &s, &e, &rc);
-    assert_int_equal(rc, TS_OK);
-    assert_string_equal(out, "");
-    scene_free(&s);
+    /* An area light is light, and so are point, spot and ambient lights. */
+    const char *lit[] = {"AreaLightSource \"arealight\" 1\n", "LightSource \"pointlight\" 1\n",
+                         "LightSource \"spotlight\" 1\n", "LightSource \"ambientlight\" 1\n"};
+    for (size_t k = 0; k < sizeof lit / sizeof lit[0]; k++) {
+        char text[256];
+        snprintf(text, sizeof text, "WorldBegin\n%s" UNIT_QUAD "WorldEnd\n", lit[k]);
+        write_text(path, text);
+        out = load_capturing(path, -1, &s, &e, &rc);
+        assert_int_equal(rc, TS_OK);
+        assert_string_equal(out, "");
+        scene_free(&s);
+    }
 }
 
 /* `tessera render` of a file that makes no scene fails before any work: exit status 1, one

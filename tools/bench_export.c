@@ -13,7 +13,8 @@
  *            undisplaced Bézier surface (u fastest), its corner displacement normals, the
  *            material (Cs * Kd albedo, Ks, roughness, kind) and the displacement function
  *            with its parameters (only the noise functions; textures are not exported).
- * Static scenes only (time-0 points). */
+ * Static scenes only (time-0 points), lit by distant lights and the dome only (a point, spot or
+ * ambient light is an error). */
 #include "app/render.h"
 #include "lib/bezier.h"
 #include "scene/scene_load.h"
@@ -51,7 +52,7 @@ static cJSON *export_lights(const ts_scene *s)
 {
     cJSON *l = cJSON_CreateObject(), *distant = cJSON_AddArrayToObject(l, "distant");
     for (uint32_t i = 0; i < s->light_count; ++i) {
-        const ts_distant_light *d = &s->lights[i];
+        const ts_scene_light *d = &s->lights[i];
         double dir[3] = {d->from[0] - d->to[0], d->from[1] - d->to[1], d->from[2] - d->to[2]};
         double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
         double e[3];
@@ -160,6 +161,15 @@ int main(int argc, char **argv)
         fprintf(stderr, "bench_export: %s\n", err.msg);
         return 1;
     }
+    for (uint32_t i = 0; i < s.light_count; ++i)
+        if (s.lights[i].kind != SCENE_LIGHT_DISTANT) { /* bench_cycles.py builds suns only */
+            fprintf(stderr,
+                    "bench_export: %s: light %u is a point, spot or ambient light, which "
+                    "the export does not hold (distant lights and the dome)\n",
+                    path, i);
+            scene_free(&s);
+            return 1;
+        }
     cJSON *root = cJSON_CreateObject(), *cam = export_camera(&s, width, height, &err);
     int rc = 0;
     if (!cam) {

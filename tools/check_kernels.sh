@@ -17,6 +17,7 @@
 #     every stage);
 #   - the same teapot with --leaf-mode group --leaf-size 2 (the work-group leaf kernel);
 #   - scene/textured.rib at 8x6, --max-lod 2 (image textures: displacement and colour);
+#   - scene/lights.rib at 8x6, --max-lod 1 (point, spot and ambient lights in shade);
 #   - `tessera bake` of the teapot and of textured.rib (tiles paged) at tiny sizes (the
 #     bake kernels; test_bake_kernels traces waves of the teapot, minutes under Oclgrind);
 #   - every test program whose source calls test_open_device() (the kernel unit tests),
@@ -112,6 +113,9 @@ run render_leaf_group "$build/tessera" render scene/teapot.rib --res 16x9 --spp 
 # shading normal) and colour (shade) through the page table and tile pool.
 run render_textured "$build/tessera" render scene/textured.rib --res 8x6 --spp 1 --max-lod 2 \
   --memory 4 -o "$work/textured.exr" --no-kernel-cache --quiet
+# Point, spot and ambient lights (light_sample, light_escape's eye rays) in shade.
+run render_lights "$build/tessera" render scene/lights.rib --res 8x6 --spp 2 --max-lod 1 \
+  --memory 4 -o "$work/lights.exr" --no-kernel-cache --quiet
 # The bake (kernels/bake.cl: points, rays, SH projection) through the pipeline, every patch
 # at m = 1, two rays per point; textured.rib's tiles are paged at 4 MB (bake_points in
 # ranges).

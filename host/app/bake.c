@@ -78,7 +78,7 @@ static int bake_open_device(ts_bake *b, ts_error *err)
 {
     if (dev_open(&b->cl, &b->opt.cl, err)) return err->code;
     if (!b->opt.quiet && b->cl.cache_note[0])
-        fprintf(stderr, "tessera: warning: %s\n", b->cl.cache_note);
+        ts_print_line("tessera: warning: %s", b->cl.cache_note);
     snprintf(b->stats->device, sizeof b->stats->device, "%.120s (%.120s)", b->cl.info.name,
              b->cl.info.platform_name);
     b->stats->kernel_build_seconds = b->cl.build_seconds;
@@ -96,8 +96,7 @@ static int bake_open_device(ts_bake *b, ts_error *err)
     b->mb = c.mb;
     b->stats->memory_budget_bytes = c.mb << 20;
     if (!b->opt.quiet)
-        fprintf(stderr, "tessera: bake, memory budget %llu MB (%s)\n", (unsigned long long)c.mb,
-                c.why);
+        ts_print_line("tessera: bake, memory budget %llu MB (%s)", (unsigned long long)c.mb, c.why);
     return TS_OK;
 }
 
@@ -113,10 +112,9 @@ static int bake_pipeline(ts_bake *b, uint64_t rays, ts_error *err)
     b->max_lod = plan.max_lod;
     b->pipe.mode = (ts_trace_mode){1u, -1, b->opt.exact, 0, 0u};
     if (!b->opt.quiet && plan.max_lod < (uint32_t)b->opt.max_lod && b->opt.fixed_lod != 0)
-        fprintf(stderr,
-                "tessera: the memory budget of %llu MB holds patches up to m = %u; baking at "
-                "most that finely\n",
-                (unsigned long long)b->mb, plan.max_lod);
+        ts_print_line("tessera: the memory budget of %llu MB holds patches up to m = %u; "
+                      "baking at most that finely",
+                      (unsigned long long)b->mb, plan.max_lod);
     return TS_OK;
 }
 
@@ -187,15 +185,15 @@ static int bake_resume(ts_bake *b, int *complete, ts_error *err)
     struct stat st;
     if (stat(b->opt.output_path, &st) != 0 && errno == ENOENT) {
         if (!b->opt.quiet)
-            fprintf(stderr, "tessera: %s does not exist yet: baking from the start\n",
-                    b->opt.output_path);
+            ts_print_line("tessera: %s does not exist yet: baking from the start",
+                          b->opt.output_path);
         return TS_OK;
     }
     if (bake_image_resume(&b->img, b->opt.output_path, &b->meta, &b->done, err)) return err->code;
     *complete = b->done == b->meta.points;
     if (!b->opt.quiet && !*complete)
-        fprintf(stderr, "tessera: resuming %s at point %u of %u\n", b->opt.output_path, b->done,
-                b->meta.points);
+        ts_print_line("tessera: resuming %s at point %u of %u", b->opt.output_path, b->done,
+                      b->meta.points);
     return TS_OK;
 }
 

@@ -62,9 +62,8 @@ static const char *usage_text =
     "      --front           the hemisphere about the patch's own normal, not the side the\n"
     "                        camera sees\n";
 
-/* Prints "tessera: " and the formatted text as one line on stderr: control characters
- * (a newline in a file name would split the line a script reads) are written as \n, \t,
- * \r or \xNN. */
+/* Prints "tessera: " and the formatted text as one line on stderr (ts_print_line: control
+ * characters escaped). */
 static void say(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 static void say(const char *fmt, ...)
 {
@@ -73,20 +72,7 @@ static void say(const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(text, sizeof text, fmt, ap);
     va_end(ap);
-    fputs("tessera: ", stderr);
-    for (const unsigned char *c = (const unsigned char *)text; *c; ++c) {
-        if (*c == '\n')
-            fputs("\\n", stderr);
-        else if (*c == '\t')
-            fputs("\\t", stderr);
-        else if (*c == '\r')
-            fputs("\\r", stderr);
-        else if (*c < 0x20 || *c == 0x7f)
-            fprintf(stderr, "\\x%02x", *c);
-        else
-            fputc(*c, stderr);
-    }
-    fputc('\n', stderr);
+    ts_print_line("tessera: %s", text);
 }
 
 /* Prints err (and its detail, a build log) and gives the exit status of a failure. */

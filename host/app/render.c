@@ -284,7 +284,7 @@ static int render_open_device(ts_render *r, ts_error *err)
 {
     if (dev_open(&r->cl, &r->opt.cl, err)) return err->code;
     if (!r->opt.quiet && r->cl.cache_note[0])
-        fprintf(stderr, "tessera: warning: %s\n", r->cl.cache_note);
+        ts_print_line("tessera: warning: %s", r->cl.cache_note);
     snprintf(r->stats->device, sizeof r->stats->device, "%.120s (%.120s)", r->cl.info.name,
              r->cl.info.platform_name);
     r->stats->kernel_build_seconds = r->cl.build_seconds;
@@ -323,11 +323,10 @@ static int render_plan(ts_render *r, ts_budget *b, ts_pipeline_plan *plan, ts_er
                             b->oom.msg, (unsigned long long)b->mb * 2, (unsigned long long)b->mb);
     }
     if (!o->quiet && plan->max_lod < b->noted_lod)
-        fprintf(stderr,
-                "tessera: %s%llu MB holds patches up to m = %u; dicing at most "
-                "that finely (raise --memory for --max-lod %d)\n",
-                b->mb == b->first_mb && o->memory_mb ? "--memory " : "", (unsigned long long)b->mb,
-                plan->max_lod, o->max_lod);
+        ts_print_line("tessera: %s%llu MB holds patches up to m = %u; dicing at most "
+                      "that finely (raise --memory for --max-lod %d)",
+                      b->mb == b->first_mb && o->memory_mb ? "--memory " : "",
+                      (unsigned long long)b->mb, plan->max_lod, o->max_lod);
     b->noted_lod = plan->max_lod;
     return TS_OK;
 }
@@ -393,8 +392,8 @@ static void render_choose_budget(const ts_render *r, ts_budget_choice *c)
         budget_default(&r->cl.info, budget_fixed_bytes(&r->scene, pixels), &room, c);
     }
     if (!r->opt.quiet)
-        fprintf(stderr, "tessera: %dx%d, %d spp, memory budget %llu MB (%s)\n", r->width, r->height,
-                r->opt.spp, (unsigned long long)c->mb, c->why);
+        ts_print_line("tessera: %dx%d, %d spp, memory budget %llu MB (%s)", r->width, r->height,
+                      r->opt.spp, (unsigned long long)c->mb, c->why);
 }
 
 /* Memory ran out, on the device (dev_is_out_of_memory) or on the host (the sort's host
@@ -433,9 +432,9 @@ static int render_with_retry(ts_render *r, ts_error *err)
             break;
         }
         if (!r->opt.quiet)
-            fprintf(stderr,
-                    "tessera: the device could not provide %llu MB (%s); retrying with %llu MB\n",
-                    (unsigned long long)b.mb, b.oom.msg, (unsigned long long)(b.mb / 2));
+            ts_print_line(
+                "tessera: the device could not provide %llu MB (%s); retrying with %llu MB",
+                (unsigned long long)b.mb, b.oom.msg, (unsigned long long)(b.mb / 2));
         pipeline_destroy(&r->pipe);
         b.mb /= 2;
     }

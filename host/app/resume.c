@@ -235,7 +235,7 @@ int resume_load(const ts_render_options *o, int width, int height, ts_job *job,
     struct stat st;
     if (stat(path, &st) != 0 && errno == ENOENT) {
         if (!o->quiet)
-            fprintf(stderr, "tessera: %s does not exist yet: rendering from the start\n", path);
+            ts_print_line("tessera: %s does not exist yet: rendering from the start", path);
         return TS_OK;
     }
     ts_image img;
@@ -262,8 +262,8 @@ int resume_load(const ts_render_options *o, int width, int height, ts_job *job,
         job->max_lod = (uint32_t)v[TS_EXR_META_max_lod];
         job->check_lod = 1;
         if (!o->quiet)
-            fprintf(stderr, "tessera: resuming %s at sample %llu of %llu\n", path,
-                    (unsigned long long)job->samples_done, (unsigned long long)job->total);
+            ts_print_line("tessera: resuming %s at sample %llu of %llu", path,
+                          (unsigned long long)job->samples_done, (unsigned long long)job->total);
     }
     image_free(&img);
     return rc;

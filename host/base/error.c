@@ -46,3 +46,25 @@ void ts_error_clear(ts_error *err)
     err->status = 0;
     err->msg[0] = '\0';
 }
+
+void ts_print_line(const char *fmt, ...)
+{
+    char text[4096];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    for (const unsigned char *c = (const unsigned char *)text; *c; ++c) {
+        if (*c == '\n')
+            fputs("\\n", stderr);
+        else if (*c == '\t')
+            fputs("\\t", stderr);
+        else if (*c == '\r')
+            fputs("\\r", stderr);
+        else if (*c < 0x20 || *c == 0x7f)
+            fprintf(stderr, "\\x%02x", *c);
+        else
+            fputc(*c, stderr);
+    }
+    fputc('\n', stderr);
+}

@@ -34,4 +34,9 @@ int ts_error_set_status(ts_error *err, int code, int status, const char *fmt, ..
 void ts_error_set_detail(ts_error *err, char *detail);
 void ts_error_clear(ts_error *err);
 
+/* Writes the formatted text to stderr as one line: control characters (a newline in a file
+ * name would split the line a script reads) become \n, \t, \r or \xNN, then one newline.
+ * Every message Tessera prints (errors, warnings, notes) goes through it. */
+void ts_print_line(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+
 #endif

@@ -17,7 +17,8 @@ _Static_assert(offsetof(ts_hit, patch) == 12, "ts_hit.patch after t, u, v");
 _Static_assert(sizeof(ts_patch_attr) == 128, "ts_patch_attr is 128 bytes");
 _Static_assert(offsetof(ts_patch_attr, st) == 96, "st after the texture fields");
 _Static_assert(sizeof(ts_texture) == 80, "ts_texture is 80 bytes");
-_Static_assert(sizeof(ts_light) == 64, "ts_light is 64 bytes");
+_Static_assert(sizeof(ts_light) == 112, "ts_light is 112 bytes");
+_Static_assert(offsetof(ts_light, pos) == 64, "pos after the 64 bytes of distant and dome");
 _Static_assert(sizeof(ts_emitter) == 16, "ts_emitter is 16 bytes");
 _Static_assert(offsetof(ts_patch_attr, disp_amplitude) == 24,
                "displacement after colour, flags, kind, octaves");

@@ -95,7 +95,7 @@ static double luminance(const float c[3])
 /* A distant light: a delta light of irradiance E, or for angle a > 0 a cone of half angle
  * a / 2 with radiance L, L pi sin^2(a / 2) = E, uniform in the cone. Its weight: the
  * radiance it gives a white matte point facing it, E / pi (luminance). */
-static ts_light distant_light(const ts_distant_light *d)
+static ts_light distant_light(const ts_scene_light *d)
 {
     ts_light l = {.type = TS_LIGHT_DISTANT, .cos_max = 1.0f};
     double dir[3] = {d->from[0] - d->to[0], d->from[1] - d->to[1], d->from[2] - d->to[2]};
@@ -131,17 +131,9 @@ static double env_mean_luminance(const ts_env_map *env)
     return weight > 0 ? sum / weight : 0.0;
 }
 
-/* The area light's weight: its emitters' luminous power over pi d^2, d a typical distance
- * to the points it lights (half the diagonal of the scene's patch boxes, or the square root
- * of the emitting area if larger). A guess: it only steers how often the light is chosen. */
-static float area_weight(const ts_scene *s, const ts_patch_attr *attr, const ts_light_table *t)
+/* The box of the scene's patches (scene_patch_box), for typical distances. */
+static ts_box scene_box(const ts_scene *s)
 {
-    double power = 0, area = 0;
-    for (uint32_t k = 0; k < t->emitter_count; ++k) {
-        const ts_patch_attr *a = &attr[t->emitters[k].patch];
-        float le[3] = {a->le_r, a->le_g, a->le_b};
-        power += luminance(le) * t->emitters[k].area, area += t->emitters[k].area;
-    }
     ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (uint32_t p = 0; p < s->patch_count; ++p) {
         ts_box q = scene_patch_box(s, p);
@@ -150,9 +142,70 @@ static float area_weight(const ts_scene *s, const ts_patch_attr *attr, const ts_
         b.hi_x = fmaxf(b.hi_x, q.hi_x), b.hi_y = fmaxf(b.hi_y, q.hi_y),
         b.hi_z = fmaxf(b.hi_z, q.hi_z);
     }
+    return b;
+}
+
+/* Half the diagonal of box b (infinite or NaN when it is empty). */
+static double box_half_diagonal(ts_box b)
+{
     double dx = b.hi_x - b.lo_x, dy = b.hi_y - b.lo_y, dz = b.hi_z - b.lo_z;
-    double d = fmax(0.5 * sqrt(dx * dx + dy * dy + dz * dz), sqrt(area));
+    return 0.5 * sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+/* The area light's weight: its emitters' luminous power over pi d^2, d a typical distance
+ * to the points it lights (half the diagonal of the scene's patch boxes, or the square root
+ * of the emitting area if larger). A guess: it only steers how often the light is chosen. */
+static float area_weight(const ts_patch_attr *attr, const ts_light_table *t, ts_box b)
+{
+    double power = 0, area = 0;
+    for (uint32_t k = 0; k < t->emitter_count; ++k) {
+        const ts_patch_attr *a = &attr[t->emitters[k].patch];
+        float le[3] = {a->le_r, a->le_g, a->le_b};
+        power += luminance(le) * t->emitters[k].area, area += t->emitters[k].area;
+    }
+    double d = fmax(box_half_diagonal(b), sqrt(area));
     return d > 0 && isfinite(d) ? (float)(power / (M_PI * d * d)) : (float)power;
+}
+
+/* A point or spot light (scene.h ts_scene_light): at `from`, radiance field intensity *
+ * color times its falloff; a spot's axis from `from` towards `to`, cos_max = cos(cone),
+ * cos_inner = cos(cone - delta). Its weight: the radiance its unit-beam peak gives a white
+ * matte point facing it at a typical distance d, the light's distance to the centre of the
+ * scene's box b or half its diagonal if larger (points on the far side of the scene, or
+ * around a light inside it): I falloff(d) / pi. A guess, like the area light's. */
+static ts_light point_light(const ts_scene_light *src, ts_box b)
+{
+    ts_light l = {.type = src->kind == SCENE_LIGHT_SPOT ? TS_LIGHT_SPOT : TS_LIGHT_POINT,
+                  .cos_max = -1.0f,
+                  .cos_inner = -1.0f,
+                  .beam = (float)src->beam,
+                  .falloff = (float)src->falloff,
+                  .falloff_dist = (float)src->falloff_dist,
+                  .falloff_min = (float)src->falloff_min};
+    double axis[3] = {src->to[0] - src->from[0], src->to[1] - src->from[1],
+                      src->to[2] - src->from[2]};
+    double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+    double c[3] = {0.5 * ((double)b.lo_x + b.hi_x), 0.5 * ((double)b.lo_y + b.hi_y),
+                   0.5 * ((double)b.lo_z + b.hi_z)};
+    double dc = 0, e[3];
+    for (int k = 0; k < 3; ++k) {
+        l.pos[k] = (float)src->from[k];
+        l.dir[k] = len > 0 ? (float)(axis[k] / len) : 0.0f;
+        l.radiance[k] = (float)(src->intensity * src->color[k]);
+        dc += (src->from[k] - c[k]) * (src->from[k] - c[k]);
+    }
+    if (l.type == TS_LIGHT_SPOT) {
+        l.cos_max = (float)cos(src->cone_angle);
+        l.cos_inner = (float)cos(src->cone_angle - src->cone_delta);
+    }
+    double d = fmax(sqrt(dc), box_half_diagonal(b));
+    if (!(d > 0 && isfinite(d))) d = 1.0; /* no patches: any distance */
+    double r = src->falloff_dist / fmax(d, src->falloff_min);
+    double atten = src->falloff == 0 ? 1.0 : pow(r, src->falloff);
+    for (int k = 0; k < 3; ++k)
+        e[k] = src->intensity * src->color[k] * atten;
+    l.weight = (float)((0.2126 * e[0] + 0.7152 * e[1] + 0.0722 * e[2]) / M_PI);
+    return l;
 }
 
 /* The emitter table: every patch with some le > 0, chosen by power (area times brightest
@@ -186,16 +239,48 @@ static int build_emitters(const ts_scene *s, ts_patch_attr *attr, ts_light_table
     return TS_OK;
 }
 
+/* The ambient lights added up into *l, one uniform dome that eye rays do not see (a matte
+ * point under it gets its radiance L times the albedo: weight L); 0 when there is none. */
+static int ambient_light(const ts_scene *s, ts_light *l)
+{
+    *l = (ts_light){.type = TS_LIGHT_DOME, .cos_max = 1.0f, .flags = TS_LIGHT_NOT_SEEN};
+    double L[3] = {0, 0, 0};
+    int any = 0;
+    for (uint32_t i = 0; i < s->light_count; ++i)
+        if (s->lights[i].kind == SCENE_LIGHT_AMBIENT) {
+            any = 1;
+            for (int k = 0; k < 3; ++k)
+                L[k] += s->lights[i].intensity * s->lights[i].color[k];
+        }
+    for (int k = 0; k < 3; ++k)
+        l->radiance[k] = (float)L[k];
+    l->weight = (float)luminance(l->radiance);
+    return any;
+}
+
 int lights_build(const ts_scene *s, const ts_env_map *env, ts_patch_attr *attr, ts_light_table *t,
                  ts_error *err)
 {
     memset(t, 0, sizeof *t);
-    if (s->light_count > TS_MAX_DISTANT_LIGHTS)
-        return ts_error_set(err, TS_E_SCENE, "%u distant lights: at most %u", s->light_count,
-                            TS_MAX_DISTANT_LIGHTS);
-    uint32_t nl = 0;
+    uint32_t n = 0;
     for (uint32_t i = 0; i < s->light_count; ++i)
-        t->lights[nl++] = distant_light(&s->lights[i]);
+        n += s->lights[i].kind != SCENE_LIGHT_AMBIENT;
+    if (n > TS_MAX_SCENE_LIGHTS)
+        return ts_error_set(err, TS_E_SCENE, "%u distant, point and spot lights: at most %u", n,
+                            TS_MAX_SCENE_LIGHTS);
+    int local = 0; /* point or spot lights: their weights need the scene's box */
+    for (uint32_t i = 0; i < s->light_count; ++i)
+        local |= s->lights[i].kind == SCENE_LIGHT_POINT || s->lights[i].kind == SCENE_LIGHT_SPOT;
+    if (build_emitters(s, attr, t, err)) return err->code;
+    ts_box box = local || t->emitter_count ? scene_box(s) : (ts_box){0, 0, 0, 0, 0, 0};
+    uint32_t nl = 0;
+    for (uint32_t i = 0; i < s->light_count; ++i) {
+        const ts_scene_light *src = &s->lights[i];
+        if (src->kind == SCENE_LIGHT_DISTANT)
+            t->lights[nl++] = distant_light(src);
+        else if (src->kind == SCENE_LIGHT_POINT || src->kind == SCENE_LIGHT_SPOT)
+            t->lights[nl++] = point_light(src, box);
+    }
     if (s->dome.present) {
         ts_light l = {.type = TS_LIGHT_DOME,
                       .cos_max = 1.0f,
@@ -208,12 +293,13 @@ int lights_build(const ts_scene *s, const ts_env_map *env, ts_patch_attr *attr, 
                            (env && env->width && env->texels ? env_mean_luminance(env) : 1.0));
         t->lights[nl++] = l;
     }
-    if (build_emitters(s, attr, t, err)) return err->code;
+    ts_light ambient;
+    if (ambient_light(s, &ambient)) t->lights[nl++] = ambient;
     if (t->emitter_count)
         t->lights[nl++] = (ts_light){.type = TS_LIGHT_AREA,
                                      .emitter_count = t->emitter_count,
                                      .cos_max = 1.0f,
-                                     .weight = area_weight(s, attr, t)};
+                                     .weight = area_weight(attr, t, box)};
     t->light_count = nl;
     return TS_OK;
 }

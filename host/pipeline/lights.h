@@ -1,6 +1,7 @@
 /* lights.h — the light tables the shade kernel samples (kernels/lib/lights.h), built from
  * the scene on the host in plain C, without OpenCL (DESIGN.md §3): the ts_light list (every
- * distant light, the dome, one area light over all emissive patches), the area light's
+ * distant, point and spot light, the dome, the ambient lights as one dome, one area light over
+ * all emissive patches), the area light's
  * emitter table, and the dome's environment map with the CDFs that sample it by luminance
  * times sin(theta). pipeline_create uploads them; tests/test_lights.c checks the numbers. */
 #ifndef TS_PIPELINE_LIGHTS_H
@@ -13,10 +14,11 @@
 
 #include <stdint.h>
 
-/* A scene may have at most this many distant lights (lights_build fails with TS_E_SCENE
- * beyond it); the light list adds the dome and the area light. */
-#define TS_MAX_DISTANT_LIGHTS 64u
-#define TS_MAX_LIGHTS (TS_MAX_DISTANT_LIGHTS + 2u)
+/* A scene may have at most this many distant, point and spot lights (lights_build fails with
+ * TS_E_SCENE beyond it; its ambient lights add up into one); the light list adds the dome,
+ * the ambient dome and the area light. light_select scans the list at every path vertex. */
+#define TS_MAX_SCENE_LIGHTS 256u
+#define TS_MAX_LIGHTS (TS_MAX_SCENE_LIGHTS + 3u)
 
 /* A dome's lat-long map as the kernels read it (lib/lights.h env_lookup / env_sample):
  * row 0 looks along +z; sampled by a marginal CDF over rows and a conditional CDF within
@@ -40,9 +42,12 @@ void env_map_free(ts_env_map *e);
 
 /* The lights of a scene as the kernels read them. One light is chosen per light sample with
  * probability proportional to its weight (lib/lights.h light_select), scanning the list in
- * order, so the order is part of the image: distant lights in scene order, then the dome,
- * then the area light. Weights: distant E / pi, dome L (times the map's mean luminance),
- * area light the emitters' power / (pi d^2) for a typical distance d (luminances). */
+ * order, so the order is part of the image: distant, point and spot lights in scene order,
+ * then the dome, then the ambient lights as one uniform dome eye rays do not see, then the
+ * area light. Weights (luminances): distant E / pi, point and spot I falloff(d) / pi for a
+ * typical distance d (the light's distance to the centre of the scene's box, or half its
+ * diagonal if larger), dome L (times the map's mean luminance), ambient L, area light the
+ * emitters' power / (pi d^2) for a typical distance d (half the box's diagonal). */
 typedef struct ts_light_table {
     ts_light lights[TS_MAX_LIGHTS];
     uint32_t light_count;
@@ -55,11 +60,12 @@ typedef struct ts_light_table {
 
 /* Builds the light table of scene s. A distant light of angular diameter a > 0 becomes a
  * cone of half angle a / 2: radiance E / (pi sin^2(a / 2)), solid angle 2 pi (1 - cos(a / 2));
- * a = 0 is a delta light of irradiance E = intensity * color. The dome has radiance
+ * a = 0 is a delta light of irradiance E = intensity * color. Point and spot lights keep
+ * intensity * color, their falloff and cone (shared_types.h ts_light). The dome has radiance
  * intensity * color and env's size (NULL: uniform). attr (s->patch_count entries, the
  * caller's copy of s->attr) gets each patch's emitter index, TS_INVALID where it does not
- * emit. TS_E_SCENE with more than TS_MAX_DISTANT_LIGHTS distant lights. Free with
- * lights_free (also after a failure). */
+ * emit. TS_E_SCENE with more than TS_MAX_SCENE_LIGHTS distant, point and spot lights. Free
+ * with lights_free (also after a failure). */
 int lights_build(const ts_scene *s, const ts_env_map *env, ts_patch_attr *attr, ts_light_table *t,
                  ts_error *err);
 void lights_free(ts_light_table *t);

@@ -244,6 +244,8 @@ static int create_sort_copies(ts_pipeline *p, ts_error *err)
         if (!(p->sort_host[i] = aligned_alloc(4096, bytes)))
             return ts_error_set(err, TS_E_MEMORY, "out of memory (%zu MiB of sort buffers)",
                                 2 * bytes >> 20);
+    if (!(p->sort_counts = malloc((size_t)p->plan.ray_capacity * sizeof *p->sort_counts + 4)))
+        return ts_error_set(err, TS_E_MEMORY, "out of memory (sort counts)");
     return TS_OK;
 }
 
@@ -340,6 +342,7 @@ void pipeline_destroy(ts_pipeline *p)
     if (p->sorter) radix_sorter_destroy(p->sorter);
     free(p->sort_host[0]);
     free(p->sort_host[1]);
+    free(p->sort_counts);
     tex_cache_free(&p->tex);
     patch_cache_free(&p->cache);
     free(p->segments_host);

@@ -172,8 +172,10 @@ typedef struct ts_pipeline {
     radix_sorter *sorter;
     /* Discrete devices: host copies of the two pair buffers, so sort reads the window once
      * and writes back only the valid pairs instead of mapping both buffers (NULL on devices
-     * that share host memory, where the mapped buffers are sorted in place). */
+     * that share host memory, where the mapped buffers are sorted in place), and of the
+     * windows' pair counts (ray_capacity entries). */
     ts_pair *sort_host[2];
+    uint32_t *sort_counts;
     ts_segment *segments_host; /* one per patch at most */
     uint32_t *trees_host;      /* two per patch at most */
     ts_batch *batches;         /* one per patch at most */

@@ -1,7 +1,8 @@
 /* radix_sort.c — the `sort` stage: stable LSD radix sort of (leaf, window) pairs by leaf.
  *
  * Reads:  the pair array top_level wrote (mapped, zero copy on CPU devices): n pairs, 8 bytes
- *         each, leaf < key_limit or TS_INVALID.
+ *         each, leaf < key_limit or TS_INVALID; or (radix_sort_windows) n windows of `width`
+ *         pairs of which the first counts[w] are used, the rest never read.
  * Writes: the valid pairs, stably sorted by leaf, into pairs or scratch; then segments.
  * Invariants: equal leaves keep their input order (each pass is stable: the input is cut
  *         into contiguous chunks, and chunk c's bucket d starts after bucket d of every
@@ -62,13 +63,15 @@ typedef struct radix_pass_input {
 /* One call's work. The caller writes the parameters under the pool lock before it publishes
  * the generation; tasks write the per-pass fields, ordered by the phase counters. */
 typedef struct radix_job {
-    ts_pair *buf[2];    /* [0] = pairs, [1] = scratch */
-    uint32_t n;         /* input pairs */
-    uint32_t key_limit; /* valid leaves are < key_limit */
-    uint32_t passes;    /* max(1, radix_sort_pass_count(key_limit)) */
-    uint32_t mask;      /* first-pass digit mask: 0xff, or 0 when the pass only compacts */
-    uint32_t chunks;    /* chunks per pass, 1 .. RADIX_MAX_CHUNKS */
-    uint32_t tasks;     /* passes * (2 * chunks + 1) */
+    ts_pair *buf[2];        /* [0] = pairs, [1] = scratch */
+    uint32_t n;             /* input pairs (windowed: windows) */
+    const uint32_t *counts; /* windowed input: valid pairs per window, NULL for flat input */
+    uint32_t width;         /* windowed input: pairs per window */
+    uint32_t key_limit;     /* valid leaves are < key_limit */
+    uint32_t passes;        /* max(1, radix_sort_pass_count(key_limit)) */
+    uint32_t mask;          /* first-pass digit mask: 0xff, or 0 when the pass only compacts */
+    uint32_t chunks;        /* chunks per pass, 1 .. RADIX_MAX_CHUNKS */
+    uint32_t tasks;         /* passes * (2 * chunks + 1) */
     radix_pass_input in[RADIX_MAX_PASSES + 1]; /* in[passes]: where the result is */
     bool skip[RADIX_MAX_PASSES];               /* the pass would move nothing */
     bool bad;                                  /* a leaf >= key_limit: nothing was moved */
@@ -186,6 +189,40 @@ static void radix_scatter(const ts_pair *src, ts_pair *dst, uint32_t begin, uint
     }
 }
 
+/* First pass over windows (radix_sort_windows): window w holds counts[w] valid pairs at
+ * src[w * width ..]; the rest of it is never read, so top_level need not fill it. Counts
+ * digits as radix_count_first does (no pair is invalid here). */
+static void radix_count_windows(const ts_pair *src, const uint32_t *counts, uint32_t width,
+                                uint32_t begin, uint32_t end, uint32_t mask, uint32_t key_limit,
+                                uint32_t *row)
+{
+    memset(row, 0, RADIX_ROW_USED * sizeof *row);
+    uint32_t max_key = 0, any_valid = 0;
+    for (uint32_t w = begin; w < end; w++) {
+        const ts_pair *win = src + (size_t)w * width;
+        for (uint32_t k = 0, c = counts[w]; k < c; k++) {
+            uint32_t key = win[k].leaf;
+            max_key = key > max_key ? key : max_key;
+            row[key & mask]++;
+        }
+        any_valid |= counts[w];
+    }
+    row[RADIX_BAD_SLOT] = any_valid && max_key >= key_limit;
+}
+
+/* Scatter of the first pass over windows: the valid pairs, in window order, to their
+ * buckets (the same order radix_scatter_first gives the filled windows). */
+static void radix_scatter_windows(const ts_pair *src, const uint32_t *counts, uint32_t width,
+                                  ts_pair *dst, uint32_t begin, uint32_t end, uint32_t mask,
+                                  uint32_t off[RADIX_OFF_SLOTS])
+{
+    for (uint32_t w = begin; w < end; w++) {
+        const ts_pair *win = src + (size_t)w * width;
+        for (uint32_t k = 0, c = counts[w]; k < c; k++)
+            dst[off[win[k].leaf & mask]++] = win[k];
+    }
+}
+
 static uint32_t *radix_row(radix_sorter *s, uint32_t chunk)
 {
     return s->rows + (size_t)chunk * RADIX_HIST_STRIDE;
@@ -197,7 +234,10 @@ static void radix_count_task(radix_sorter *s, uint32_t p, uint32_t chunk)
     const ts_pair *src = job->buf[job->in[p].buf];
     uint32_t begin, end;
     radix_chunk(job->in[p].m, chunk, job->chunks, &begin, &end);
-    if (p == 0)
+    if (p == 0 && job->counts)
+        radix_count_windows(src, job->counts, job->width, begin, end, job->mask, job->key_limit,
+                            radix_row(s, chunk));
+    else if (p == 0)
         radix_count_first(src, begin, end, job->mask, job->key_limit, radix_row(s, chunk));
     else
         radix_count(src, begin, end, RADIX_DIGIT_BITS * p, radix_row(s, chunk));
@@ -217,8 +257,14 @@ static void radix_prefix_task(radix_sorter *s, uint32_t p)
             total[d] += row[d];
         bad |= row[RADIX_BAD_SLOT] != 0;
     }
-    for (int d = 0; d <= RADIX_BUCKETS; d++)
-        trivial |= (total[d] == m);
+    if (p == 0 && job->counts) { /* m counts windows; the pass compacts, so it always runs */
+        m = 0;
+        for (int d = 0; d < RADIX_BUCKETS; d++)
+            m += total[d];
+    } else {
+        for (int d = 0; d <= RADIX_BUCKETS; d++)
+            trivial |= (total[d] == m);
+    }
     if (bad) job->bad = true; /* later passes see m = 0 and skip */
     job->skip[p] = trivial || bad;
     job->in[p + 1].buf = job->in[p].buf ^ (job->skip[p] ? 0u : 1u);
@@ -246,7 +292,9 @@ static void radix_scatter_task(radix_sorter *s, uint32_t p, uint32_t chunk)
     uint32_t begin, end, off[RADIX_OFF_SLOTS];
     radix_chunk(job->in[p].m, chunk, job->chunks, &begin, &end);
     memcpy(off, radix_row(s, chunk), sizeof off);
-    if (p == 0)
+    if (p == 0 && job->counts)
+        radix_scatter_windows(src, job->counts, job->width, dst, begin, end, job->mask, off);
+    else if (p == 0)
         radix_scatter_first(src, dst, begin, end, job->mask, off);
     else
         radix_scatter(src, dst, begin, end, RADIX_DIGIT_BITS * p, off);
@@ -437,20 +485,26 @@ static uint32_t radix_chunk_count(const radix_sorter *s, uint32_t n)
     return chunks < RADIX_MAX_CHUNKS ? chunks : RADIX_MAX_CHUNKS;
 }
 
-/* Error path only: names the first pair whose leaf breaks the key_limit contract. */
-static int radix_report_bad(const ts_pair *pairs, uint32_t n, uint32_t key_limit, ts_error *err)
+/* Error path only: names the first pair whose leaf breaks the key_limit contract (pair i of
+ * window w: counts NULL means flat input, one pair per window, TS_INVALID ones skipped). */
+static int radix_report_bad(const ts_pair *pairs, const uint32_t *counts, uint32_t width,
+                            uint32_t n, uint32_t key_limit, ts_error *err)
 {
-    for (uint32_t i = 0; i < n; i++)
-        if (pairs[i].leaf != TS_INVALID && pairs[i].leaf >= key_limit)
-            return ts_error_set(err, TS_E_INTERNAL,
-                                "sort: pair %u has leaf %u >= key_limit %u (window %u)", i,
-                                pairs[i].leaf, key_limit, pairs[i].window);
+    for (uint32_t w = 0; w < n; w++)
+        for (uint32_t k = 0, c = counts ? counts[w] : 1u; k < c; k++) {
+            ts_pair pr = pairs[(size_t)w * width + k];
+            if (pr.leaf != TS_INVALID && pr.leaf >= key_limit)
+                return ts_error_set(err, TS_E_INTERNAL,
+                                    "sort: pair %zu has leaf %u >= key_limit %u (window %u)",
+                                    (size_t)w * width + k, pr.leaf, key_limit, pr.window);
+        }
     return ts_error_set(err, TS_E_INTERNAL, "sort: a leaf is >= key_limit %u", key_limit);
 }
 
-int radix_sort_pairs(radix_sorter *s, ts_pair *pairs, ts_pair *scratch, uint32_t n,
-                     uint32_t key_limit, const ts_pair **sorted, uint32_t *valid_count,
-                     ts_error *err)
+/* radix_sort_pairs (counts NULL, width 1) and radix_sort_windows: n inputs, pairs or windows. */
+static int radix_sort_run(radix_sorter *s, ts_pair *pairs, ts_pair *scratch, uint32_t n,
+                          const uint32_t *counts, uint32_t width, uint32_t key_limit,
+                          const ts_pair **sorted, uint32_t *valid_count, ts_error *err)
 {
     if (!sorted || !valid_count)
         return ts_error_set(err, TS_E_INTERNAL, "sort: NULL result pointer");
@@ -467,6 +521,8 @@ int radix_sort_pairs(radix_sorter *s, ts_pair *pairs, ts_pair *scratch, uint32_t
     radix_job params = {
         .buf = {pairs, scratch},
         .n = n,
+        .counts = counts,
+        .width = width,
         .key_limit = key_limit,
         .passes = passes > 0 ? passes : 1,
         .mask = passes > 0 ? 0xffu : 0u,
@@ -476,10 +532,27 @@ int radix_sort_pairs(radix_sorter *s, ts_pair *pairs, ts_pair *scratch, uint32_t
     };
     radix_dispatch(s, &params);
     const radix_job *job = &s->job;
-    if (job->bad) return radix_report_bad(pairs, n, key_limit, err);
+    if (job->bad) return radix_report_bad(pairs, counts, width, n, key_limit, err);
     *sorted = job->buf[job->in[job->passes].buf];
     *valid_count = job->in[job->passes].m;
     return TS_OK;
+}
+
+int radix_sort_pairs(radix_sorter *s, ts_pair *pairs, ts_pair *scratch, uint32_t n,
+                     uint32_t key_limit, const ts_pair **sorted, uint32_t *valid_count,
+                     ts_error *err)
+{
+    return radix_sort_run(s, pairs, scratch, n, NULL, 1u, key_limit, sorted, valid_count, err);
+}
+
+int radix_sort_windows(radix_sorter *s, ts_pair *pairs, ts_pair *scratch, const uint32_t *counts,
+                       uint32_t windows, uint32_t width, uint32_t key_limit, const ts_pair **sorted,
+                       uint32_t *valid_count, ts_error *err)
+{
+    if (windows > 0 && (!counts || width == 0))
+        return ts_error_set(err, TS_E_INTERNAL, "sort: windows without counts or width");
+    return radix_sort_run(s, pairs, scratch, windows, counts, width, key_limit, sorted, valid_count,
+                          err);
 }
 
 uint32_t sort_segments(const ts_pair *sorted, uint32_t n, ts_segment *out, uint32_t capacity)

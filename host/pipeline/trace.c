@@ -122,16 +122,22 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
     p->stats->counters[TS_COUNTER_patch_cache_evictions] += p->cache.evictions - evicted;
 }
 
-/* Discrete devices: reads the window into host memory, sorts it there and writes back
- * only the valid pairs, sorted, into pairs: one window read and one write of the valid
- * part over the bus instead of reading and writing both mapped buffers whole. */
-static int sort_via_copy(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint32_t *valid,
-                         uint32_t *segs, ts_error *err)
+/* Discrete devices: reads the windows' counts and the windows into host memory, sorts them
+ * there and writes back only the valid pairs, sorted, into pairs: one window read and one
+ * write of the valid part over the bus instead of reading and writing both mapped buffers
+ * whole. */
+static int sort_via_copy(ts_pipeline *p, uint32_t windows, uint32_t width, uint32_t *sorted_buffer,
+                         uint32_t *valid, uint32_t *segs, ts_error *err)
 {
     ts_pair *a = p->sort_host[0], *b = p->sort_host[1];
+    uint32_t *counts = p->sort_counts;
     const ts_pair *sorted = NULL;
-    if (dev_read(p->cl, p->pairs, 0, (size_t)n * sizeof(ts_pair), a, "the candidate pairs", err) ||
-        radix_sort_pairs(p->sorter, a, b, n, p->scene->patch_count, &sorted, valid, err))
+    if (dev_read(p->cl, p->count, 0, (size_t)windows * sizeof *counts, counts, "the pair counts",
+                 err) ||
+        dev_read(p->cl, p->pairs, 0, (size_t)windows * width * sizeof(ts_pair), a,
+                 "the candidate pairs", err) ||
+        radix_sort_windows(p->sorter, a, b, counts, windows, width, p->scene->patch_count, &sorted,
+                           valid, err))
         return err->code;
     *segs = sort_segments(sorted, *valid, p->segments_host, p->scene->patch_count);
     if (*segs == UINT32_MAX)
@@ -142,19 +148,22 @@ static int sort_via_copy(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, ui
 }
 
 /* Sorts the candidate windows on the host through mapped buffers (zero copy on CPU
- * devices). */
-static int sort_mapped(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint32_t *valid,
-                       uint32_t *segment_count, ts_error *err)
+ * devices); only each window's first count[i] pairs are read. */
+static int sort_mapped(ts_pipeline *p, uint32_t windows, uint32_t width, uint32_t *sorted_buffer,
+                       uint32_t *valid, uint32_t *segment_count, ts_error *err)
 {
     const cl_map_flags rw = CL_MAP_READ | CL_MAP_WRITE;
-    size_t bytes = (size_t)n * sizeof(ts_pair);
-    ts_pair *a = dev_map(p->cl, p->pairs, rw, 0, bytes, "the candidate pairs", err);
+    size_t bytes = (size_t)windows * width * sizeof(ts_pair);
+    uint32_t *counts =
+        dev_map(p->cl, p->count, CL_MAP_READ, 0, windows * sizeof *counts, "the pair counts", err);
+    ts_pair *a = counts ? dev_map(p->cl, p->pairs, rw, 0, bytes, "the candidate pairs", err) : NULL;
     ts_pair *b =
         a ? dev_map(p->cl, p->pairs_scratch, rw, 0, bytes, "the second pair buffer", err) : NULL;
     const ts_pair *sorted = NULL;
     int rc = b ? TS_OK : err->code;
     if (rc == TS_OK)
-        rc = radix_sort_pairs(p->sorter, a, b, n, p->scene->patch_count, &sorted, valid, err);
+        rc = radix_sort_windows(p->sorter, a, b, counts, windows, width, p->scene->patch_count,
+                                &sorted, valid, err);
     uint32_t segs = 0;
     if (rc == TS_OK) {
         segs = sort_segments(sorted, *valid, p->segments_host, p->scene->patch_count);
@@ -163,6 +172,7 @@ static int sort_mapped(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint
     }
     *sorted_buffer = sorted == b ? 1u : 0u;
     /* Every map is undone; err keeps the first failure. */
+    if (counts && dev_unmap(p->cl, p->count, counts, "the pair counts", err)) rc = err->code;
     if (a && dev_unmap(p->cl, p->pairs, a, "the candidate pairs", err)) rc = err->code;
     if (b && dev_unmap(p->cl, p->pairs_scratch, b, "the second pair buffer", err)) rc = err->code;
     *segment_count = segs;
@@ -187,13 +197,13 @@ static int upload_batches(ts_pipeline *p, uint32_t segs, ts_error *err)
  * discrete devices, by copying (pipeline.h sort_host). Sets *sorted_buffer (which buffer
  * holds the result: 0 pairs, 1 pairs_scratch), and the segment table; returns the segment count
  * through *segment_count. */
-static int stage_sort(ts_pipeline *p, uint32_t n, uint32_t *sorted_buffer, uint32_t *valid,
-                      uint32_t *segment_count, ts_error *err)
+static int stage_sort(ts_pipeline *p, uint32_t windows, uint32_t width, uint32_t *sorted_buffer,
+                      uint32_t *valid, uint32_t *segment_count, ts_error *err)
 {
     double t0 = stats_now();
     uint32_t segs = 0;
-    int rc = p->sort_host[0] ? sort_via_copy(p, n, sorted_buffer, valid, &segs, err)
-                             : sort_mapped(p, n, sorted_buffer, valid, &segs, err);
+    int rc = p->sort_host[0] ? sort_via_copy(p, windows, width, sorted_buffer, valid, &segs, err)
+                             : sort_mapped(p, windows, width, sorted_buffer, valid, &segs, err);
     if (rc == TS_OK) {
         assign_lods(p, segs);
         plan_batches(p, segs);
@@ -400,7 +410,7 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
         uint32_t n_per_ray = pairs_per_ray(p->plan.pair_capacity, active);
         uint32_t sorted_buffer = 0, valid = 0, segs = 0;
         if (stage_top_level(p, active, n_per_ray, err) ||
-            stage_sort(p, active * n_per_ray, &sorted_buffer, &valid, &segs, err))
+            stage_sort(p, active, n_per_ray, &sorted_buffer, &valid, &segs, err))
             return err->code;
         for (uint32_t k = 0; k < (segs ? p->batch_count : 0); ++k) {
             const ts_batch *b = &p->batches[k];

@@ -571,7 +571,7 @@ int scene_finalize(ts_scene *s, ts_error *err)
 
 /* ---- lights, boxes, free --------------------------------------------------------- */
 
-int scene_add_light(ts_scene *s, const ts_distant_light *light, ts_error *err)
+int scene_add_light(ts_scene *s, const ts_scene_light *light, ts_error *err)
 {
     uint32_t n = s->light_count;
     int full = (n == 0) || (n >= SCENE_FIRST_LIGHTS && (n & (n - 1u)) == 0);
@@ -579,7 +579,7 @@ int scene_add_light(ts_scene *s, const ts_distant_light *light, ts_error *err)
         if (n > UINT32_MAX / 2)
             return ts_error_set(err, TS_E_MEMORY, "scene: more than %u lights", n);
         uint32_t cap = n ? n * 2u : SCENE_FIRST_LIGHTS;
-        ts_distant_light *l = realloc(s->lights, (size_t)cap * sizeof *l);
+        ts_scene_light *l = realloc(s->lights, (size_t)cap * sizeof *l);
         if (!l) return ts_error_set(err, TS_E_MEMORY, "scene: out of memory for %u lights", cap);
         s->lights = l;
     }

@@ -40,15 +40,37 @@ typedef struct ts_camera {
     double exposure_gain, exposure_gamma;
 } ts_camera;
 
-/* A distant light (LightSource "distantlight"): light travels from `from` to `to`; the sun
- * when angle (its angular diameter, degrees) > 0. intensity * color is the irradiance it
- * gives a surface facing it. */
-typedef struct ts_distant_light {
+/* The kinds of ts_scene_light. */
+typedef enum ts_scene_light_kind {
+    SCENE_LIGHT_DISTANT = 0,
+    SCENE_LIGHT_POINT = 1,
+    SCENE_LIGHT_SPOT = 2,
+    SCENE_LIGHT_AMBIENT = 3,
+} ts_scene_light_kind;
+
+/* A light of the scene (RIB LightSource, RI Spec 3.2 Appendix A), points in world space:
+ *   distant: light travels from `from` to `to`; intensity * color is the irradiance it gives
+ *     a surface facing it; the sun when angle (its angular diameter, degrees) > 0.
+ *   point: at `from`; the irradiance on a surface facing it at distance d is intensity *
+ *     color * (falloff_dist / max(d, falloff_min))^falloff (RenderMan's pointlight: falloff
+ *     2, falloff_dist 1, falloff_min 0, i.e. 1 / d^2).
+ *   spot: a point light at `from` shining towards `to`, times cos^beam(a)
+ *     smoothstep(cos(cone_angle), cos(cone_angle - cone_delta), cos(a)) at the angle a from
+ *     its axis, nothing beyond cone_angle (radians; RenderMan's spotlight).
+ *   ambient: a uniform light from every direction of radiance intensity * color that eye
+ *     rays do not see (RenderMan's ambientlight, as a dome; from/to unused).
+ * Fields after `angle` are zero for a distant light, so {from, to, intensity, color, angle}
+ * initialises one. No implicit padding (the struct is hashed). */
+typedef struct ts_scene_light {
     double from[3], to[3];
     double intensity;
     double color[3];
     double angle;
-} ts_distant_light;
+    uint32_t kind; /* ts_scene_light_kind */
+    uint32_t pad;
+    double cone_angle, cone_delta, beam;
+    double falloff, falloff_dist, falloff_min;
+} ts_scene_light;
 
 /* A uniform sky (LightSource "domelight"): radiance intensity * color from every direction. */
 typedef struct ts_dome_light {
@@ -101,7 +123,7 @@ typedef struct ts_scene {
     char **input_source;
     uint32_t input_count;
     ts_camera camera;
-    ts_distant_light *lights;
+    ts_scene_light *lights; /* distant, point, spot and ambient lights, in scene order */
     uint32_t light_count;
     ts_dome_light dome;
 } ts_scene;
@@ -123,8 +145,8 @@ int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *ind
  * corner the limit from inside the patch is used), and cp1 copies for static patches when
  * any patch moves. Loaders call it once at the end. */
 int scene_finalize(ts_scene *s, ts_error *err);
-/* Appends a distant light. */
-int scene_add_light(ts_scene *s, const ts_distant_light *light, ts_error *err);
+/* Appends a light. */
+int scene_add_light(ts_scene *s, const ts_scene_light *light, ts_error *err);
 /* Conservative world-space box of patch p over the whole shutter interval: the box of its
  * control points at both times (convex hull property of Bézier patches, Hanika §3.3) grown
  * by the largest displacement the patch's function can produce (displace_bound in

@@ -92,7 +92,7 @@ void scene_frame_auto_up(ts_scene *s, const double up_axis[3])
     if (s->light_count == 0) {
         /* From the upper left of the view, a little from the camera's side: camera-space
          * direction (-1, 1, -1) towards the light. */
-        ts_distant_light l;
+        ts_scene_light l;
         memset(&l, 0, sizeof l);
         l.intensity = 2.5;
         l.color[0] = 1.0, l.color[1] = 0.95, l.color[2] = 0.85;

@@ -15,7 +15,10 @@
  *     the surface), a mapped one by texel luminance times sin(theta) through a marginal CDF
  *     over rows and a conditional CDF within each row (pdf = p(texel) W H / (2 pi^2 sin theta)).
  *   area: an emissive patch chosen by power (the emitter table), (u, v) uniform on its
- *     undisplaced surface; pdf = prob * dist^2 / (|dP/du x dP/dv| |cos_light|). */
+ *     undisplaced surface; pdf = prob * dist^2 / (|dP/du x dP/dv| |cos_light|).
+ *   point, spot (RenderMan's pointlight and spotlight): delta lights like the delta sun (no
+ *     BSDF sample finds them; pdf = the choice), irradiance I falloff(d) on a surface facing
+ *     them, times the spot's cone and beam (light_point_atten, shared_types.h ts_light). */
 #ifndef TS_LIGHTS_H
 #define TS_LIGHTS_H
 
@@ -96,6 +99,31 @@ TS_INLINE ts_v3 sample_cone(ts_v3 d, float cos_max, float u1, float u2)
     return local_to_world(v3(s * cos(phi), s * sin(phi), c), d);
 }
 
+/* RenderMan's smoothstep(a, b, x) (RI Spec 3.2 §15.2): 0 below a, 1 from b on, the cubic
+ * 3t^2 - 2t^3 of t = (x - a) / (b - a) between; a step at a when b <= a. */
+TS_INLINE float light_smoothstep(float a, float b, float x)
+{
+    if (x < a) return 0.0f;
+    if (!(b > a) || x >= b) return 1.0f;
+    float t = (x - a) / (b - a);
+    return t * t * (3.0f - 2.0f * t);
+}
+
+/* What a point or spot light l gives at distance d along unit direction w from the light,
+ * as a factor of its radiance field (I): the distance falloff, and for a spot
+ * cos^beam(a) smoothstep(cos_max, cos_inner, cos(a)), 0 outside the cone (cos(a) < cos_max),
+ * cos(a) = w . axis (spotlight.sl; the beam factor takes cos(a) below 0 as 0). */
+TS_INLINE float light_point_atten(TS_CONST_GLOBAL ts_light *l, float d, ts_v3 w)
+{
+    float r = l->falloff_dist / fmax(d, l->falloff_min);
+    float a = l->falloff == 2.0f ? r * r : l->falloff == 0.0f ? 1.0f : pow(r, l->falloff);
+    if (l->type != TS_LIGHT_SPOT) return a;
+    float c = w.x * l->dir[0] + w.y * l->dir[1] + w.z * l->dir[2];
+    if (c < l->cos_max) return 0.0f;
+    float beam = l->beam == 0.0f ? 1.0f : pow(fmax(c, 0.0f), l->beam);
+    return a * beam * light_smoothstep(l->cos_max, l->cos_inner, c);
+}
+
 /* The emitter whose cdf range holds u (binary search). */
 TS_INLINE ts_u32 emitter_pick(TS_CONST_GLOBAL ts_emitter *e, ts_u32 n, float u)
 {
@@ -174,6 +202,16 @@ TS_INLINE ts_light_sample light_sample(TS_CONST_GLOBAL ts_light *lights, ts_u32 
         } else {
             s.dir = sample_cone(d, l->cos_max, u1, u2), s.pdf = choose / l->solid_angle;
         }
+    } else if (l->type == TS_LIGHT_POINT || l->type == TS_LIGHT_SPOT) {
+        ts_v3 to = v3(l->pos[0] - p.x, l->pos[1] - p.y, l->pos[2] - p.z);
+        float d2 = v3_dot(to, to);
+        if (!(d2 > 0.0f)) return s;
+        s.dist = sqrt(d2);
+        s.dir = v3_scale(to, 1.0f / s.dist);
+        float a = light_point_atten(l, s.dist, v3_scale(s.dir, -1.0f));
+        if (!(a > 0.0f)) return s; /* outside a spot's cone */
+        s.le[0] *= a, s.le[1] *= a, s.le[2] *= a;
+        s.delta = 1, s.pdf = choose;
     } else if (l->type == TS_LIGHT_DOME && l->map_width) {
         float pdf;
         s.dir = env_sample(l, env, u1, u2);
@@ -210,9 +248,10 @@ TS_INLINE ts_light_sample light_sample(TS_CONST_GLOBAL ts_light *lights, ts_u32 
 /* Radiance arriving along dir from the lights at infinity (a ray that hit nothing), with
  * the pdf with which light sampling (under `sampling`) would have chosen that direction. A
  * uniform dome adds no pdf: it is light-sampled only under --sampling light, where emission
- * found by BSDF rays has weight 0 anyway. */
+ * found by BSDF rays has weight 0 anyway. eye: the ray is an eye ray, which does not see
+ * domes flagged TS_LIGHT_NOT_SEEN (RIB ambientlight lights surfaces, not the background). */
 TS_INLINE void light_escape(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count, ts_u32 sampling,
-                            ts_env env, ts_v3 dir, float le[3], float *pdf)
+                            ts_env env, ts_v3 dir, int eye, float le[3], float *pdf)
 {
     le[0] = le[1] = le[2] = 0.0f;
     *pdf = 0.0f;
@@ -226,7 +265,7 @@ TS_INLINE void light_escape(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count
             le[0] += l->radiance[0] * t.x, le[1] += l->radiance[1] * t.y,
                 le[2] += l->radiance[2] * t.z;
             *pdf += choose * p;
-        } else if (l->type == TS_LIGHT_DOME) {
+        } else if (l->type == TS_LIGHT_DOME && !(eye && (l->flags & TS_LIGHT_NOT_SEEN))) {
             le[0] += l->radiance[0], le[1] += l->radiance[1], le[2] += l->radiance[2];
         } else if (l->type == TS_LIGHT_DISTANT && l->cos_max < 1.0f &&
                    dir.x * l->dir[0] + dir.y * l->dir[1] + dir.z * l->dir[2] >= l->cos_max) {

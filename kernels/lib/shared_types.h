@@ -167,20 +167,39 @@ typedef struct ts_patch_attr {
 #define TS_LIGHT_DISTANT 0u /* the sun: a cone of directions around dir (delta: cos_max = 1) */
 #define TS_LIGHT_DOME 1u    /* uniform sky radiance from every direction */
 #define TS_LIGHT_AREA 2u    /* every emissive patch, chosen by area (the emitter table) */
+#define TS_LIGHT_POINT 3u   /* RenderMan pointlight: a delta light at pos, I falloff(d) */
+#define TS_LIGHT_SPOT 4u    /* RenderMan spotlight: a point light times its cone and beam */
 
-/* 64 bytes. */
+/* ts_light.flags */
+#define TS_LIGHT_NOT_SEEN 1u /* eye rays that miss do not see this dome (RIB ambientlight) */
+
+/* 112 bytes. Point and spot lights (RI Spec 3.2 Appendix A, pointlight and spotlight): the
+ * irradiance on a surface facing the light at distance d is radiance * falloff(d), falloff(d)
+ * = (falloff_dist / max(d, falloff_min))^falloff (1 / d^2 for RenderMan's lights), times for
+ * a spot cos^beam(a) smoothstep(cos_max, cos_inner, cos(a)), a the angle between the axis and
+ * the direction from the light, and nothing where cos(a) < cos_max. */
 typedef struct ts_light {
     ts_u32 type;
     ts_u32 emitter_count; /* area: entries of the emitter table */
-    float cos_max;        /* distant: cosine of the cone's half angle; 1 = delta */
+    float cos_max;        /* distant: cosine of the cone's half angle, 1 = delta; spot:
+                             cos(coneangle) */
     float solid_angle;    /* distant: of the cone (0 for a delta) */
-    float dir[4];         /* distant: unit vector towards the light */
+    float dir[4];         /* distant: unit vector towards the light; spot: the unit axis, away
+                             from the light */
     float radiance[4];    /* distant: radiance in the cone, or irradiance E for a delta; dome: L
-                             (times the map's texel when it has one) */
+                             (times the map's texel when it has one); point, spot: intensity *
+                             lightcolor, the irradiance where falloff(d) = 1 */
     ts_u32 map_width, map_height; /* dome: its lat-long map, 0 x 0 for a uniform sky */
-    float weight; /* how much light it brings to a white matte point facing it, unoccluded (its
-                     luminance): the light-selection weight (host/pipeline/lights.c) */
-    ts_u32 pad;
+    float weight;    /* how much light it brings to a white matte point facing it, unoccluded (its
+                        luminance): the light-selection weight (host/pipeline/lights.c) */
+    ts_u32 flags;    /* TS_LIGHT_NOT_SEEN */
+    float pos[4];    /* point, spot: the position, world space; w unused */
+    float cos_inner; /* spot: cos(coneangle - conedeltaangle): full strength inside */
+    float beam;      /* spot: beamdistribution, the exponent of cos(a) */
+    float falloff;   /* point, spot: the exponent of the distance falloff (2: 1 / d^2) */
+    float falloff_dist; /* point, spot: the distance where falloff(d) = 1 */
+    float falloff_min;  /* point, spot: nearer than this the falloff stays at its value there */
+    ts_u32 pad[3];
 } ts_light;
 
 /* An emissive patch for light sampling: chosen with probability prob (by area), then
@@ -335,6 +354,7 @@ typedef struct ts_bake_params {
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
     X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection)      \
     X(ts_shade_params, spp) X(ts_light, dir) X(ts_light, radiance) X(ts_light, weight) X(ts_emitter, area) \
+    X(ts_light, flags) X(ts_light, pos) X(ts_light, cos_inner) X(ts_light, falloff_min)             \
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \
     X(ts_patch_attr, disp_offset) X(ts_patch_attr, st) X(ts_texture, kind)                    \
     X(ts_texture, level_page) X(ts_bake_params, orthographic) X(ts_bake_params, eye)

@@ -1,7 +1,9 @@
 /* rib.c — the RIB reader's entry points and request loop: reads each request name and its
  * arguments (rib_args.c) and hands them to its handler through the dispatch table
- * (rib_state.c, rib_geom.c, rib_shading.c, rib_options.c, rib_archive.c). Requests the
- * renderer does not need are accepted with one warning per name; others are scene errors.
+ * (rib_state.c, rib_geom.c, rib_shading.c, rib_light.c, rib_options.c, rib_archive.c,
+ * rib_object.c, ...). Requests the renderer does not need are accepted with one warning per
+ * name; others are scene errors. Inside ObjectBegin ... ObjectEnd requests are recorded
+ * (rib_object.c), not run.
  * The subset is listed in docs/rib.md. */
 #include "scene/rib/rib.h"
 
@@ -40,6 +42,9 @@ static const struct {
     {"LightSource", rib_req_light_source},
     {"MotionBegin", rib_req_motion_begin},
     {"MotionEnd", rib_req_motion_end},
+    {"ObjectBegin", rib_req_object_begin},
+    {"ObjectEnd", rib_req_object_end},
+    {"ObjectInstance", rib_req_object_instance},
     {"Opacity", rib_req_opacity},
     {"Patch", rib_req_patch},
     {"PatchMesh", rib_req_patch_mesh},
@@ -119,9 +124,6 @@ static const char *const rib_unsupported[] = {
     "Blobby",
     "CoordSysTransform",
     "Curves",
-    "ObjectBegin",
-    "ObjectEnd",
-    "ObjectInstance",
     "Perspective",
     "Points",
     "Skew",
@@ -140,15 +142,38 @@ static int rib_in_list(const char *name, const char *const *list, size_t n)
 
 #define RIB_COUNT(a) (sizeof(a) / sizeof((a)[0]))
 
-static int rib_dispatch(rib_parser *p)
+/* The handler of the current request, or NULL. */
+static int (*rib_handler(const rib_parser *p))(rib_parser *)
+{
+    for (size_t i = 0; i < RIB_COUNT(rib_handlers); i++)
+        if (strcmp(p->req, rib_handlers[i].name) == 0) return rib_handlers[i].fn;
+    return NULL;
+}
+
+/* TS_OK for a request the reader runs or ignores, else its error (not supported, unknown). */
+static int rib_known(rib_parser *p)
+{
+    if (rib_handler(p) || strcmp(p->req, "version") == 0 ||
+        rib_in_list(p->req, rib_ignored, RIB_COUNT(rib_ignored)))
+        return TS_OK;
+    if (rib_in_list(p->req, rib_unsupported, RIB_COUNT(rib_unsupported)))
+        return rib_error_at(p, p->req_line, p->req_col, "%s is not supported", p->req);
+    return rib_error_at(p, p->req_line, p->req_col, "unknown request %s", p->req);
+}
+
+int rib_dispatch_request(rib_parser *p)
 {
     if (rib_frames_skip(p)) return TS_OK; /* a frame that is not rendered */
+    if (rib_object_recording(p)) {        /* an object's definition: kept, not run */
+        int rc = rib_known(p);
+        return rc == TS_OK ? rib_object_record(p) : rc;
+    }
     if (p->motion.active && strcmp(p->req, "MotionEnd") != 0) {
         int rc = rib_motion_check(p);
         if (rc != TS_OK) return rc;
     }
-    for (size_t i = 0; i < RIB_COUNT(rib_handlers); i++)
-        if (strcmp(p->req, rib_handlers[i].name) == 0) return rib_handlers[i].fn(p);
+    int (*fn)(rib_parser *) = rib_handler(p);
+    if (fn) return fn(p);
     if (strcmp(p->req, "version") == 0) return TS_OK; /* RIB header line */
     if (rib_in_list(p->req, rib_ignored, RIB_COUNT(rib_ignored))) {
         char what[RIB_WARN_KEY];
@@ -156,9 +181,7 @@ static int rib_dispatch(rib_parser *p)
         rib_warn_once(p, p->req_line, p->req_col, what);
         return TS_OK;
     }
-    if (rib_in_list(p->req, rib_unsupported, RIB_COUNT(rib_unsupported)))
-        return rib_error_at(p, p->req_line, p->req_col, "%s is not supported", p->req);
-    return rib_error_at(p, p->req_line, p->req_col, "unknown request %s", p->req);
+    return rib_known(p);
 }
 
 /* ---- driver ------------------------------------------------------------------------ */
@@ -177,9 +200,9 @@ int rib_run_requests(rib_parser *p)
         p->req_line = t.line;
         p->req_col = t.col;
         rc = rib_read_args(p, &t);
-        if (rc == TS_OK) rc = rib_dispatch(p);
+        if (rc == TS_OK) rc = rib_dispatch_request(p);
     }
-    return rc;
+    return rc == TS_OK ? rib_object_check_file_end(p) : rc;
 }
 
 /* The whole file: its requests, then every block must be closed, the frame asked for must
@@ -250,6 +273,7 @@ static int rib_parse(const char *name, const char *text, size_t len, int frame, 
     if (rc == TS_OK) rc = scene_finalize(scene, err);
     rib_lex_free(&p->lx);
     rib_archive_free(p);
+    rib_object_free(p);
     rib_args_free(p);
     free(p->stack);
     free(p);

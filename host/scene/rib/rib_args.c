@@ -33,7 +33,7 @@ void rib_warn_once(rib_parser *p, int line, int col, const char *what)
     for (int i = 0; i < p->nwarned; i++)
         if (strncmp(p->warned[i], what, RIB_WARN_KEY - 1) == 0) return;
     if (p->nwarned < RIB_MAX_WARNED) snprintf(p->warned[p->nwarned++], RIB_WARN_KEY, "%s", what);
-    fprintf(stderr, "%s:%d:%d: warning: %s\n", p->lx.file, line, col, what);
+    ts_print_line("%s:%d:%d: warning: %s", p->lx.file, line, col, what);
 }
 
 const char *rib_printable(const char *s, char buf[RIB_PRINT_MAX])
@@ -178,6 +178,59 @@ void rib_args_free(rib_parser *p)
     p->args = NULL, p->nums = NULL, p->strs = NULL, p->chars = NULL;
     p->nargs = p->args_cap = p->nnums = p->nums_cap = 0;
     p->nstrs = p->strs_cap = p->nchars = p->chars_cap = 0;
+}
+
+/* ---- saved requests ---------------------------------------------------------------- */
+
+int rib_args_save(rib_parser *p, rib_saved_request *out)
+{
+    memset(out, 0, sizeof *out);
+    /* nums, strs and args are 8-byte aligned at 8-byte multiples; chars last. */
+    size_t b_nums = p->nnums * sizeof(double), b_strs = p->nstrs * sizeof(size_t),
+           b_args = p->nargs * sizeof(rib_arg);
+    char *block = malloc(b_nums + b_strs + b_args + p->nchars + 1);
+    if (!block) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    out->nums = (double *)block;
+    out->strs = (size_t *)(block + b_nums);
+    out->args = (rib_arg *)(block + b_nums + b_strs);
+    out->chars = block + b_nums + b_strs + b_args;
+    if (p->nnums) memcpy(out->nums, p->nums, b_nums);
+    if (p->nstrs) memcpy(out->strs, p->strs, b_strs);
+    if (p->nargs) memcpy(out->args, p->args, b_args);
+    if (p->nchars) memcpy(out->chars, p->chars, p->nchars);
+    memcpy(out->name, p->req, sizeof out->name);
+    out->line = p->req_line, out->col = p->req_col;
+    out->nargs = p->nargs, out->nnums = p->nnums, out->nstrs = p->nstrs, out->nchars = p->nchars;
+    return TS_OK;
+}
+
+int rib_args_restore(rib_parser *p, const rib_saved_request *r)
+{
+    /* At least one element each: rib_reserve hands back the pool as it is when it is big
+     * enough, which is NULL for a pool never used. */
+    rib_arg *a = rib_reserve(p, p->args, &p->args_cap, r->nargs + 1, sizeof *a);
+    if (a) p->args = a;
+    double *n = a ? rib_reserve(p, p->nums, &p->nums_cap, r->nnums + 1, sizeof *n) : NULL;
+    if (n) p->nums = n;
+    size_t *s = n ? rib_reserve(p, p->strs, &p->strs_cap, r->nstrs + 1, sizeof *s) : NULL;
+    if (s) p->strs = s;
+    char *c = s ? rib_reserve(p, p->chars, &p->chars_cap, r->nchars + 1, 1) : NULL;
+    if (!c) return TS_E_MEMORY; /* err set by rib_reserve */
+    p->chars = c;
+    if (r->nargs) memcpy(p->args, r->args, r->nargs * sizeof *a);
+    if (r->nnums) memcpy(p->nums, r->nums, r->nnums * sizeof *n);
+    if (r->nstrs) memcpy(p->strs, r->strs, r->nstrs * sizeof *s);
+    if (r->nchars) memcpy(p->chars, r->chars, r->nchars);
+    p->nargs = r->nargs, p->nnums = r->nnums, p->nstrs = r->nstrs, p->nchars = r->nchars;
+    memcpy(p->req, r->name, sizeof p->req);
+    p->req_line = r->line, p->req_col = r->col;
+    return TS_OK;
+}
+
+void rib_saved_request_free(rib_saved_request *r)
+{
+    free(r->nums); /* the block */
+    memset(r, 0, sizeof *r);
 }
 
 /* ---- positional arguments ---------------------------------------------------------- */

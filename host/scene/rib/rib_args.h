@@ -35,6 +35,26 @@ int rib_read_args(rib_parser *p, rib_token *next);
 /* Frees the argument pools. */
 void rib_args_free(rib_parser *p);
 
+/* A request with its arguments copied out of the pools: ObjectBegin records the requests of
+ * an object's definition (rib_object.c) and ObjectInstance puts them back. One allocation
+ * holds the four arrays. */
+typedef struct rib_saved_request {
+    char name[RIB_MAX_NAME + 1];
+    int line, col;
+    size_t nargs, nnums, nstrs, nchars;
+    rib_arg *args;
+    double *nums;
+    size_t *strs;
+    char *chars;
+} rib_saved_request;
+
+/* Copies the current request (p->req, its position and its arguments) into *out. */
+int rib_args_save(rib_parser *p, rib_saved_request *out);
+/* Makes *r the current request again, its arguments in the pools as rib_read_args left
+ * them. */
+int rib_args_restore(rib_parser *p, const rib_saved_request *r);
+void rib_saved_request_free(rib_saved_request *r);
+
 /* ---- positional arguments ---- */
 
 const char *rib_arg_str(const rib_parser *p, const rib_arg *a, size_t k);

@@ -125,8 +125,8 @@ int rib_scene_check(rib_parser *p)
                             "the world block%s holds no geometry: nothing to render", frame);
     if (!rib_scene_has_light(s))
         rib_warn_once(p, p->world_line ? p->world_line : 1, p->world_col ? p->world_col : 1,
-                      "the scene has no light Tessera renders (LightSource \"distantlight\" or "
-                      "\"domelight\", AreaLightSource, Surface \"constant\"): the image will be "
-                      "black");
+                      "the scene has no light Tessera renders (LightSource \"distantlight\", "
+                      "\"pointlight\", \"spotlight\", \"ambientlight\" or \"domelight\", "
+                      "AreaLightSource, Surface \"constant\"): the image will be black");
     return TS_OK;
 }

@@ -1,6 +1,5 @@
-/* rib_geom.c — RIB geometry and lights into the scene: Patch and PatchMesh (RI Spec 3.2
- * §5.3) become world-space bicubic Bézier patches, LightSource "distantlight" becomes a
- * ts_distant_light.
+/* rib_geom.c — RIB geometry into the scene: Patch and PatchMesh (RI Spec 3.2 §5.3) become
+ * world-space bicubic Bézier patches.
  *
  * Every patch is converted when it is read: bicubic grids from the current u/v bases with
  * basis_grid_to_bezier, bilinear ones by exact degree elevation, then its control points
@@ -565,84 +564,6 @@ int rib_req_patch_mesh(rib_parser *p)
                            vars.Cs.v ? cs : NULL, vars.st.v ? (const double(*)[2])st : NULL);
         }
     return rc;
-}
-
-/* The parameters of "distantlight" (RI Spec §9.1.1): intensity, lightcolor, from, to,
- * with or without inline types. */
-static int geom_distant_params(rib_parser *p, size_t first, ts_distant_light *l)
-{
-    static const struct {
-        const char *name;
-        size_t n;
-        size_t offset;
-    } known[] = {
-        {"intensity", 1, offsetof(ts_distant_light, intensity)},
-        {"lightcolor", 3, offsetof(ts_distant_light, color)},
-        {"from", 3, offsetof(ts_distant_light, from)},
-        {"to", 3, offsetof(ts_distant_light, to)},
-        {"angle", 1, offsetof(ts_distant_light, angle)},
-    };
-    for (size_t i = first; i < p->nargs; i += 2) {
-        rib_param prm;
-        int rc = rib_param_at(p, i, &prm);
-        if (rc != TS_OK) return rc;
-        size_t k = 0;
-        while (k < 5 && strcmp(prm.name, known[k].name) != 0)
-            k++;
-        if (k == 5) {
-            rib_warn_param(p, &prm);
-            continue;
-        }
-        const double *v;
-        rc = rib_param_numbers(p, &prm, known[k].n, &v, NULL);
-        if (rc != TS_OK) return rc;
-        memcpy((char *)l + known[k].offset, v, known[k].n * sizeof(double));
-    }
-    return TS_OK;
-}
-
-/* LightSource "distantlight" [handle] params. The handle (a number or a string) is
- * optional and unused. from/to are points in the current space, moved by the CTM; before
- * WorldBegin that is camera space and rib_state.c moves them to world at WorldBegin. */
-int rib_req_light_source(rib_parser *p)
-{
-    const char *shader;
-    int rc = rib_string_arg(p, 0, "a light shader name", &shader);
-    if (rc == TS_OK) rc = geom_check_state(p);
-    if (rc != TS_OK) return rc;
-    size_t first = (p->nargs % 2 == 0) ? 2 : 1; /* a handle makes the count even */
-    if (first == 2 && p->args[1].kind != RIB_ARG_NUMBER && p->args[1].kind != RIB_ARG_STRING)
-        return rib_error_at(p, p->args[1].line, p->args[1].col,
-                            "LightSource: the light handle must be a number or a string");
-    if (strcmp(shader, "domelight") == 0) return rib_dome_light(p, first);
-    if (strcmp(shader, "distantlight") != 0) {
-        char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
-        snprintf(what, sizeof what, "LightSource \"%s\" is ignored (distantlight, domelight)",
-                 rib_printable(shader, shown));
-        rib_warn_once(p, p->req_line, p->req_col, what);
-        return TS_OK;
-    }
-    if (p->ctm_moving)
-        rib_warn_once(p, p->req_line, p->req_col,
-                      "LightSource under a moving transformation is placed at shutter open");
-    ts_distant_light l = {{0, 0, 0}, {0, 0, 1}, 1.0, {1, 1, 1}, 0.0};
-    rc = geom_distant_params(p, first, &l);
-    if (rc != TS_OK) return rc;
-    double from[3], to[3];
-    if (!mat4_point(p->ctm, l.from, from) || !mat4_point(p->ctm, l.to, to))
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "LightSource: from/to leave the float range after the current "
-                            "transformation");
-    if (from[0] == to[0] && from[1] == to[1] && from[2] == to[2])
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "LightSource: distantlight \"from\" and \"to\" are the same point");
-    if (!(l.angle >= 0.0 && l.angle < 180.0))
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "LightSource: distantlight \"angle\" %g is outside [0, 180) degrees",
-                            l.angle);
-    memcpy(l.from, from, sizeof from);
-    memcpy(l.to, to, sizeof to);
-    return scene_add_light(p->scene, &l, p->err);
 }
 
 int rib_geom_transparent(const rib_parser *p)

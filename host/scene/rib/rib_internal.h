@@ -6,13 +6,16 @@
  *   rib.c          rib_load, rib_parse_string, the request loop and its dispatch table
  *   rib_state.c    transformations, blocks, Format, Projection, Color, Basis, Displacement,
  *                  motion blocks
- *   rib_geom.c     Patch, PatchMesh and LightSource "distantlight" into the scene
+ *   rib_geom.c     Patch and PatchMesh into the scene
+ *   rib_light.c    LightSource (distant, point, spot, ambient, dome lights)
  *   rib_quadric.c, rib_poly.c, rib_nurbs.c, rib_subdiv.c, rib_primvar.c: quadrics,
  *                  polygons, NuPatch, SubdivisionMesh and their primitive variables
  *                  (rib_prims.h; they call rib_geom.c's rib_geom_emit)
- *   rib_shading.c  Surface, AreaLightSource, Opacity, LightSource "domelight"
+ *   rib_shading.c  Surface, AreaLightSource, Opacity
  *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
+ *   rib_object.c   ObjectBegin, ObjectEnd, ObjectInstance (definitions recorded, instances
+ *                  run them again: copies)
  *   rib_frames.c   FrameBegin/FrameEnd (the frame read), the checks on a whole scene
  *   rib_builtin.c  Geometry "teapot" (its patches in teapot_data.c, generated)
  *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
@@ -21,7 +24,9 @@
  *   basis.c        change of basis to Bézier
  *
  * Who calls whom (A -> B: A calls functions of B):
- *   rib.c         -> every handler file (the dispatch table; rib_motion_check and
+ *   rib.c         -> every handler file (the dispatch table; rib_object_record while an
+ *                    object is recorded, rib_object_check_file_end at each file's end;
+ *                    rib_motion_check and
  *                    rib_check_closed in rib_state.c, rib_archive_free in
  *                    rib_archive.c, rib_frames_skip/finish and rib_scene_check in
  *                    rib_frames.c)
@@ -30,15 +35,18 @@
  *   rib_archive.c -> rib_geom.c also for rib_geom_transparent (procedurals under Opacity 0)
  *   rib_archive.c -> rib.c (rib_run_requests: an archive's requests), rib_geom.c (the
  *                    attributes of procedural geometry)
+ *   rib_object.c  -> rib.c (rib_dispatch_request: an instance's requests), rib_state.c (the
+ *                    instance's attribute block), rib_geom.c (where instances may stand)
  *   rib_state.c   -> rib_geom.c (MotionEnd of a block of Patch samples)
  *   rib_options.c -> rib_state.c (rib_before_world)
- *   rib_geom.c    -> rib_shading.c (LightSource "domelight")
- *   rib_shading.c -> no other handler
+ *   rib_light.c   -> rib_geom.c (rib_geom_check: where lights may stand)
+ *   rib_geom.c, rib_shading.c -> no other handler
  *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
  *                    handler. rib.c and rib_archive.c also start lexers (on rib_text.c's bytes);
- * rib.c, rib_state.c and rib_geom.c use basis.c. The one cycle is rib.c -> rib_archive.c -> rib.c:
+ * rib.c, rib_state.c and rib_geom.c use basis.c. The cycles are rib.c -> rib_archive.c -> rib.c:
  * ReadArchive and DelayedReadArchive read the archive's requests through the same loop, nested at
- * most RIB_MAX_INCLUDE deep.
+ * most RIB_MAX_INCLUDE deep; and rib.c -> rib_object.c -> rib.c: ObjectInstance dispatches the
+ * requests of its object, which may not hold another ObjectInstance (one level).
  */
 #ifndef TS_RIB_INTERNAL_H
 #define TS_RIB_INTERNAL_H
@@ -56,6 +64,8 @@
 
 /* Reads and dispatches requests from p->lx until its end of file. */
 int rib_run_requests(rib_parser *p);
+/* Runs the current request (p->req with its arguments in the pools) as the loop does. */
+int rib_dispatch_request(rib_parser *p);
 
 /* ---- rib_state.c: transformations, blocks, camera options, attributes, motion ---- */
 
@@ -87,12 +97,15 @@ int rib_motion_check(rib_parser *p);
 int rib_check_closed(rib_parser *p);
 /* Fails unless the current request comes before WorldBegin (camera and image options). */
 int rib_before_world(rib_parser *p);
+/* Saves the attributes as AttributeBegin does (an ObjectInstance's block), at the current
+ * request's position, and restores them as AttributeEnd does, whatever its arguments. */
+int rib_attributes_push(rib_parser *p);
+int rib_attributes_pop(rib_parser *p);
 
-/* ---- rib_geom.c: Patch, PatchMesh, LightSource ---- */
+/* ---- rib_geom.c: Patch, PatchMesh ---- */
 
 int rib_req_patch(rib_parser *p);
 int rib_req_patch_mesh(rib_parser *p);
-int rib_req_light_source(rib_parser *p);
 /* Emits the moving patch of a completed motion block (MotionEnd). */
 int rib_geom_motion_patch(rib_parser *p);
 /* The attributes in effect (colour, displacement with its world-to-object transform,
@@ -114,13 +127,15 @@ int rib_geom_transparent(const rib_parser *p);
  * current Basis, with the current transformation and attributes, as Patch does. */
 int rib_geom_bezier(rib_parser *p, const double g[16][3]);
 
-/* ---- rib_shading.c: Surface, AreaLightSource, Opacity, LightSource "domelight" ---- */
+/* ---- rib_shading.c: Surface, AreaLightSource, Opacity ---- */
 
 int rib_req_surface(rib_parser *p);
 int rib_req_area_light_source(rib_parser *p);
 int rib_req_opacity(rib_parser *p);
-/* LightSource "domelight": params from index `first`. */
-int rib_dome_light(rib_parser *p, size_t first);
+
+/* ---- rib_light.c: LightSource ---- */
+
+int rib_req_light_source(rib_parser *p);
 
 /* ---- rib_options.c: PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure ---- */
 
@@ -159,5 +174,22 @@ int rib_req_read_archive(rib_parser *p);
 int rib_req_procedural(rib_parser *p);
 /* Frees p->inc. */
 void rib_archive_free(rib_parser *p);
+
+/* ---- rib_object.c: ObjectBegin, ObjectEnd, ObjectInstance ---- */
+
+int rib_req_object_begin(rib_parser *p);
+int rib_req_object_end(rib_parser *p);
+int rib_req_object_instance(rib_parser *p);
+/* Whether an object's definition is being recorded: rib.c then hands every request (known
+ * ones only) to rib_object_record instead of running it. */
+int rib_object_recording(const rib_parser *p);
+/* Records the current request in the definition, or ends it at ObjectEnd; fails on
+ * requests a definition may not hold. */
+int rib_object_record(rib_parser *p);
+/* At the end of each file (p->lx still reading it): fails when an object begun in it is
+ * still open. */
+int rib_object_check_file_end(rib_parser *p);
+/* Frees p->objects. */
+void rib_object_free(rib_parser *p);
 
 #endif

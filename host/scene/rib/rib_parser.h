@@ -27,6 +27,10 @@
 #define RIB_WARN_KEY 160          /* bytes of one remembered warning */
 #define RIB_PRINT_MAX 48          /* bytes of a file string echoed in a message */
 #define RIB_MAX_INCLUDE 16        /* nested ReadArchive / DelayedReadArchive files */
+/* Patches that ObjectInstance may add to a scene, all instances together: each instance is
+ * a copy (about 0.5 KB a patch on the host), and a few bytes of RIB can instance an object
+ * many times, so the copies are bounded (rib_object.c). */
+#define RIB_MAX_INSTANCED_PATCHES (1u << 20)
 
 typedef enum rib_arg_kind {
     RIB_ARG_NUMBER,
@@ -152,7 +156,8 @@ typedef struct rib_parser {
     uint32_t first_patch, first_light; /* what this parse added: may need camera->world */
     char warned[RIB_MAX_WARNED][RIB_WARN_KEY];
     int nwarned;
-    struct rib_include *inc; /* rib_archive.c: the archives being read, NULL before any */
+    struct rib_include *inc;     /* rib_archive.c: the archives being read, NULL before any */
+    struct rib_objects *objects; /* rib_object.c: ObjectBegin definitions, NULL before any */
     rib_frame_choice frames;
     int world_line, world_col; /* of the WorldBegin read, 0 before it */
     int whole_scene; /* rib_load: the file must make a scene (rib_frames.c rib_scene_check) */

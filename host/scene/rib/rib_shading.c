@@ -1,14 +1,13 @@
 /* rib_shading.c — the RIB requests that say how surfaces look and what lights them:
  * Surface (RenderMan's matte, plastic, paintedplastic, metal, shinymetal and constant, with
  * the current Color as Cs), AreaLightSource "arealight" (the following patches emit),
- * Opacity (fully transparent or opaque), LightSource "domelight" (a uniform sky).
+ * Opacity (fully transparent or opaque).
  * DESIGN.md §3. */
 #include "scene/rib/rib_internal.h"
 
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 /* Reads parameters named in `names` (one number each, or three for colours) into `out`;
@@ -194,40 +193,5 @@ int rib_req_opacity(rib_parser *p)
                       "Opacity between 0 and 1 renders opaque (only Opacity 0 0 0, fully "
                       "transparent, is honoured: that geometry is left out)");
     memcpy(p->opacity, o, sizeof o);
-    return TS_OK;
-}
-
-/* LightSource "domelight" handle "float intensity" [i] "color lightcolor" [r g b]
- * ["string mapname" ["sky.exr"]]: a sky of radiance i * color, times the lat-long map's
- * texel in each direction when it has one (the path is relative to the RIB file; the image
- * is read when the render starts). */
-int rib_dome_light(rib_parser *p, size_t first)
-{
-    ts_dome_light d = {1, 1.0, {1, 1, 1}, ""};
-    for (size_t i = first; i < p->nargs; i += 2) {
-        rib_param prm;
-        int rc = rib_param_at(p, i, &prm);
-        if (rc != TS_OK) return rc;
-        if (strcmp(prm.name, "mapname") != 0) continue;
-        const char *name;
-        rc = rib_string_arg(p, i + 1, "a map name", &name);
-        if (rc != TS_OK) return rc;
-        char *path = rib_resolve(p, name);
-        if (!path || strlen(path) >= sizeof d.mapname) {
-            free(path);
-            return rib_error_at(p, prm.key->line, prm.key->col,
-                                "domelight \"mapname\": path too long");
-        }
-        strcpy(d.mapname, path);
-        free(path);
-    }
-    static const char *const names[] = {"intensity", "lightcolor"};
-    static const size_t counts[] = {1, 3};
-    double *out[] = {&d.intensity, d.color};
-    int rc = shading_params(p, first, names, counts, out, 2, "mapname");
-    if (rc != TS_OK) return rc;
-    if (p->scene->dome.present)
-        return rib_error_at(p, p->req_line, p->req_col, "only one domelight per scene");
-    p->scene->dome = d;
     return TS_OK;
 }

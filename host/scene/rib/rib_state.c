@@ -163,20 +163,12 @@ static int rib_push(rib_parser *p, rib_frame_kind kind)
     return TS_OK;
 }
 
-/* Pops the innermost block, which must be of `kind`. TransformEnd restores the CTM (both
- * time samples) only; AttributeEnd and WorldEnd also restore colour, bases, displacement,
- * surface, emission and opacity. */
-static int rib_pop(rib_parser *p, rib_frame_kind kind)
+/* Restores the state the innermost block (of `kind`) saved and drops it: TransformEnd
+ * restores the CTM (both time samples) only; AttributeEnd and WorldEnd also restore colour,
+ * bases, displacement, surface, emission and opacity. */
+static void rib_restore(rib_parser *p, rib_frame_kind kind)
 {
-    int rc = rib_no_more(p, 0);
-    if (rc != TS_OK) return rc;
-    const rib_frame *top = p->depth ? &p->stack[p->depth - 1] : NULL;
-    if (!top || (top->kind == RIB_FRAME_WORLD && kind != RIB_FRAME_WORLD))
-        return rib_error_at(p, p->req_line, p->req_col, "%s without a matching %s", p->req,
-                            rib_frame_names[kind].begin);
-    if (top->kind != kind)
-        return rib_error_at(p, p->req_line, p->req_col, "%s does not match the %s at %d:%d", p->req,
-                            rib_frame_names[top->kind].begin, top->line, top->col);
+    const rib_frame *top = &p->stack[p->depth - 1];
     memcpy(p->ctm, top->ctm, sizeof p->ctm);
     memcpy(p->ctm1, top->ctm1, sizeof p->ctm1);
     p->ctm_moving = top->ctm_moving;
@@ -190,6 +182,35 @@ static int rib_pop(rib_parser *p, rib_frame_kind kind)
         memcpy(p->opacity, top->opacity, sizeof p->opacity);
     }
     p->depth--;
+}
+
+/* Pops the innermost block, which must be of `kind`. */
+static int rib_pop(rib_parser *p, rib_frame_kind kind)
+{
+    int rc = rib_no_more(p, 0);
+    if (rc != TS_OK) return rc;
+    const rib_frame *top = p->depth ? &p->stack[p->depth - 1] : NULL;
+    if (!top || (top->kind == RIB_FRAME_WORLD && kind != RIB_FRAME_WORLD))
+        return rib_error_at(p, p->req_line, p->req_col, "%s without a matching %s", p->req,
+                            rib_frame_names[kind].begin);
+    if (top->kind != kind)
+        return rib_error_at(p, p->req_line, p->req_col, "%s does not match the %s at %d:%d", p->req,
+                            rib_frame_names[top->kind].begin, top->line, top->col);
+    rib_restore(p, kind);
+    return TS_OK;
+}
+
+int rib_attributes_push(rib_parser *p)
+{
+    return rib_push(p, RIB_FRAME_ATTRIBUTE);
+}
+
+int rib_attributes_pop(rib_parser *p)
+{
+    if (p->depth == 0 || p->stack[p->depth - 1].kind != RIB_FRAME_ATTRIBUTE)
+        return ts_error_set(p->err, TS_E_INTERNAL,
+                            "%s: an instance's attribute block is not on top", p->lx.file);
+    rib_restore(p, RIB_FRAME_ATTRIBUTE);
     return TS_OK;
 }
 
@@ -300,7 +321,7 @@ static int rib_camera_items_to_world(rib_parser *p, const double cam_to_world[16
     if (rc == TS_OK) rc = rib_camera_attrs_to_world(p, p->ctm);
     if (rc != TS_OK) return rc;
     for (uint32_t l = p->first_light; l < s->light_count; l++) {
-        ts_distant_light *d = &s->lights[l];
+        ts_scene_light *d = &s->lights[l];
         double from[3], to[3];
         if (!mat4_point(cam_to_world, d->from, from) || !mat4_point(cam_to_world, d->to, to))
             return rib_error_at(p, p->req_line, p->req_col,
