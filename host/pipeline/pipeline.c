@@ -149,6 +149,7 @@ typedef struct buffer_counts {
     size_t lights, emitters, env_texels, env_rows; /* lights.h */
     size_t tex_texels, tex_pages;                  /* tile pool, page table */
     size_t verts, groups;                          /* the arenas */
+    size_t util_groups;                            /* bottom_level's work-groups */
 } buffer_counts;
 
 static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads *u)
@@ -171,6 +172,7 @@ static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads 
         .tex_pages = p->tex.pages ? p->tex.pages : 1,
         .verts = p->plan.vert_capacity,
         .groups = p->plan.group_capacity,
+        .util_groups = p->util_groups,
     };
 }
 
@@ -225,9 +227,10 @@ static int clear_buffers(ts_pipeline *p, const buffer_counts *c, ts_error *err)
         dev_fill(p->cl, p->albedo_film, &zero, sizeof zero, 0, film, "the albedo film", err) ||
         dev_fill(p->cl, p->lod_counts, &zero_u, sizeof zero_u, 0, c->patches * sizeof(cl_uint),
                  "the LOD counts", err) ||
-        dev_fill(p->cl, p->utilisation, &zero_u, sizeof zero_u, 0, 2 * sizeof(cl_uint),
-                 "the leaf utilisation", err))
+        dev_fill(p->cl, p->utilisation, &zero_u, sizeof zero_u, 0,
+                 2 * c->util_groups * sizeof(cl_uint), "the leaf utilisation", err))
         return err->code;
+    p->util_used = 0;
     return TS_OK;
 }
 
@@ -278,6 +281,10 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     p->plan = *plan;
     p->pixel_count = pixel_count;
     p->mode = (ts_trace_mode){1u, (int)plan->max_lod, 1, 0, 0u};
+    /* One bottom_level launch of every pair, plus one part-filled work-group per batch for
+     * many batches (trace.c folds the counters early when an iteration needs more). 8 bytes
+     * per 64 pairs: 1/64 of the pair buffers, left out of TS_BYTES_PER_RAY. */
+    p->util_groups = plan->pair_capacity / TS_GROUP_SIZE + 256u;
     /* The patch boxes: the top-level BVH's leaves, build's clamp (patch_box) and the
      * secondary-ray offset (flatness w). */
     ts_box *boxes = NULL;

@@ -98,7 +98,8 @@ typedef struct ts_trace_mode {
  *     and its page table (tex_cache.h).
  *   lod_counts: eye rays entering each patch box (lod); segments, trees: the sorted
  *     segments and the batches' tree lists; grid, groups: the vertex and group arenas;
- *     utilisation: bottom_level's micro-quad tests and work-item slots.
+ *     utilisation: bottom_level's micro-quad tests and work-item slots, two words per
+ *     work-group of the iteration's launches (util_groups of them; trace.c folds them).
  *   active: the rays being traced; count: candidates per active ray; alive: what goes on
  *     after resolve and shade; wave_paths: the paths being shaded; radiance: per path; aov,
  *     albedo: at the eye hit.
@@ -131,7 +132,7 @@ typedef struct ts_trace_mode {
     X(trees,           CL_MEM_READ_ONLY,  ts_u32,        2 * c.patches,  NULL)                  \
     X(grid,            CL_MEM_READ_WRITE, ts_vec4,       c.verts,        NULL)                  \
     X(groups,          CL_MEM_READ_WRITE, ts_box4,       c.groups,       NULL)                  \
-    X(utilisation,     CL_MEM_READ_WRITE, ts_u32,        2,              NULL)                  \
+    X(utilisation,     CL_MEM_READ_WRITE, ts_u32,        2 * c.util_groups, NULL)               \
     /* Per ray or path of a wave (beside the ray and path fields). */                           \
     X(active,          TS_MEM_HOST_RW,    ts_u32,        c.rays,         NULL)                  \
     X(count,           CL_MEM_READ_WRITE, ts_u32,        c.rays,         NULL)                  \
@@ -180,6 +181,9 @@ typedef struct ts_pipeline {
     uint32_t *trees_host;      /* two per patch at most */
     ts_batch *batches;         /* one per patch at most */
     uint32_t batch_count;
+    /* Work-group entries of `utilisation`: how many there are, and how many this
+     * iteration's bottom_level launches have used (folded into the stats by resolve). */
+    uint32_t util_groups, util_used;
     uint8_t *patch_lod; /* m of each patch for this frame (lod stage); max_lod until counted */
     /* Which diced patches the grid and groups arenas hold, kept across iterations, waves and
      * sample passes (patch_cache.h); cleared when the levels of detail change. With

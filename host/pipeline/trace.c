@@ -303,6 +303,28 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
     return TS_OK;
 }
 
+/* Adds the leaf counters of the work-groups since the last fold (entries [0, util_used) of
+ * `utilisation`: micro-quad tests, and work-item slots in units of TS_GROUP_SIZE) to the
+ * stats and zeroes them. Reading waits for the launches that wrote them. */
+static int fold_utilisation(ts_pipeline *p, ts_error *err)
+{
+    if (p->util_used == 0) return TS_OK;
+    size_t bytes = (size_t)p->util_used * 2u * sizeof(cl_uint);
+    cl_uint *u = dev_map(p->cl, p->utilisation, CL_MAP_READ, 0, bytes, "the leaf utilisation", err);
+    if (!u) return err->code;
+    uint64_t tests = 0, slots = 0;
+    for (uint32_t g = 0; g < p->util_used; ++g)
+        tests += u[2u * g], slots += u[2u * g + 1u];
+    const cl_uint zero = 0;
+    if (dev_unmap(p->cl, p->utilisation, u, "the leaf utilisation", err) ||
+        dev_fill(p->cl, p->utilisation, &zero, sizeof zero, 0, bytes, "the leaf utilisation", err))
+        return err->code;
+    p->stats->counters[TS_COUNTER_leaf_tests] += tests;
+    p->stats->counters[TS_COUNTER_leaf_slots] += slots * TS_GROUP_SIZE;
+    p->util_used = 0;
+    return TS_OK;
+}
+
 static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_batch *b,
                               uint32_t n_per_ray, ts_error *err)
 {
@@ -312,12 +334,17 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
     uint32_t leaf_b = p->mode.leaf_b;
     cl_kernel k = p->mode.leaf_group ? p->k_bottom_group : p->k_bottom_level;
     cl_mem pairs = sorted_buffer ? p->pairs_scratch : p->pairs;
+    /* Each work-group counts its leaf tests in its own entry of `utilisation`. */
+    uint32_t groups = (pair_count + TS_GROUP_SIZE - 1u) / TS_GROUP_SIZE;
+    if (p->util_used + groups > p->util_groups && fold_utilisation(p, err)) return err->code;
+    uint32_t group_base = p->util_used;
+    p->util_used += groups;
     if (dev_set_args(k, err, DEV_ARG(pairs), DEV_ARG(pair_first), DEV_ARG(pair_count),
                      DEV_ARG(p->segments), DEV_ARG(first), DEV_ARG(count), DEV_ARG(n_per_ray),
                      DEV_ARG(exact), DEV_ARG(leaf_b), DEV_ARG(p->active), DEV_ARG(p->ray_org),
                      DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_flags),
                      DEV_ARG(p->ray_from), DEV_ARG(p->grid), DEV_ARG(p->groups),
-                     DEV_ARG(p->pair_hit), DEV_ARG(p->utilisation), (size_t)0))
+                     DEV_ARG(p->pair_hit), DEV_ARG(p->utilisation), DEV_ARG(group_base), (size_t)0))
         return err->code;
     return dev_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
 }
@@ -357,15 +384,8 @@ static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_r
         return err->code;
     double t0 = stats_now();
     int rc = compact_active(p, active_count, still_active, err);
-    /* Leaf utilisation of this iteration's bottom_level launches (32-bit counters, reset). */
-    cl_uint util[2] = {0, 0}, zero = 0;
-    if (rc == TS_OK &&
-        (dev_read(p->cl, p->utilisation, 0, sizeof util, util, "the leaf utilisation", err) ||
-         dev_fill(p->cl, p->utilisation, &zero, sizeof zero, 0, sizeof util, "the leaf utilisation",
-                  err)))
-        rc = err->code;
-    p->stats->counters[TS_COUNTER_leaf_tests] += util[0];
-    p->stats->counters[TS_COUNTER_leaf_slots] += util[1];
+    /* Leaf utilisation of this iteration's bottom_level launches. */
+    if (rc == TS_OK && fold_utilisation(p, err)) rc = err->code;
     p->stats->stage_seconds[TS_STAGE_resolve] += stats_now() - t0;
     return rc;
 }
