@@ -7,7 +7,7 @@ checked for being positive and consistent, never against a target. Exit 77 (skip
 test needs an OpenCL device and `tessera devices` finds none.
 
     bench_smoke.py TEST --source DIR --build DIR
-    TEST: profile, render, stages, leaf, sort, scene_load, bench, export, noise, lod, bounds
+    TEST: profile, render, stages, leaf, sort, scene_load, bench, export, noise, lod, bounds, multi
 """
 import argparse
 import importlib.machinery
@@ -16,6 +16,7 @@ import json
 import math
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -378,6 +379,36 @@ def test_noise(ctx):
               f"no convergence: {rows}")
 
 
+def test_multi(ctx):
+    require_device(ctx)
+    mpi = shutil.which("mpirun") is not None  # without it: the one-process configurations
+    with tempfile.TemporaryDirectory(prefix="tessera-smoke-multi-") as tmp:
+        js = os.path.join(tmp, "m.json")
+        run([sys.executable, os.path.join(ctx.source, "tools", "bench_multi.py"), "--size", "tiny",
+             "--binary", ctx.tessera, "--json", js])
+        r = load(js)
+        check(r["size"] == "tiny" and r["runs"] == 1 and len(r["scenes"]) == 1, "size/runs/scenes")
+        by = {c["config"]: c for c in r["scenes"][0]["configs"]}
+        want = ["1dev", "2dev", "1pthread"] + (["2proc", "2proc_pthread"] if mpi else [])
+        check(sorted(by) == sorted(want), f"configurations {sorted(by)}")
+        close(by["1dev"]["speedup_vs_1dev"], 1.0, 1e-12, "1dev's own speed-up")
+        for name, c in by.items():
+            check(c["wall_seconds_median"] > 0 and c["speedup_vs_1dev"] > 0, f"{name}: timings")
+            check(c["identical_to_1dev"] in (True, None), f"{name}: not the 1dev image")
+            close(c["speedup_vs_1dev"], by["1dev"]["wall_seconds_median"] / c["wall_seconds_median"],
+                  1e-9, f"{name}: speed-up")
+            check(c["cpu_seconds_median"] > 0, f"{name}: CPU seconds")
+            close(c["cpu_ratio_vs_1dev"], c["cpu_seconds_median"] / by["1dev"]["cpu_seconds_median"],
+                  1e-9, f"{name}: CPU ratio")
+        check(len(by["2dev"]["devices"]) == 2 and {d["rank"] for d in by["2dev"]["devices"]} == {0},
+              "2dev: two devices of rank 0")
+        procs = by["2proc"]["devices"] if mpi else []
+        check(not mpi or sorted(d["rank"] for d in procs) == [0, 1], "2proc: a device per rank")
+        for d in by["2dev"]["devices"] + procs:
+            check(0 <= d["busy_fraction"] <= 1 and d["units"] >= 0, f"device {d}")
+        check(sum(d["units"] for d in by["2dev"]["devices"]) >= 1, "2dev: no unit")
+
+
 def test_lod(ctx):
     require_device(ctx)
     with tempfile.TemporaryDirectory(prefix="tessera-smoke-lod-") as tmp:
@@ -449,7 +480,8 @@ def test_bounds(ctx):
 
 TESTS = {"lod": test_lod, "profile": test_profile, "render": test_render, "stages": test_stages, "leaf": test_leaf,
          "sort": test_sort, "scene_load": test_scene_load, "bench": test_bench,
-         "export": test_export, "noise": test_noise, "bounds": test_bounds}
+         "export": test_export, "noise": test_noise, "bounds": test_bounds,
+         "multi": test_multi}
 
 
 def main():

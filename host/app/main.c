@@ -28,8 +28,9 @@ static const char *usage_text =
     "      --depth D         path depth: bounces after the eye ray, 0..64 (default 3;\n"
     "                        0: eye rays only, lights seen directly)\n"
     "      --seed S          random seed (default 0)\n"
-    "      --device I        OpenCL device index from `tessera devices` (default:\n"
-    "                        $TESSERA_DEVICE, else 0)\n"
+    "      --device I|I,J|all OpenCL devices from `tessera devices`: one index, a list,\n"
+    "                        or every device; several share the frame and give the\n"
+    "                        image of the first alone (default: $TESSERA_DEVICE, else 0)\n"
     "      --max-lod M       the finest level of detail: (2^M)^2 micro-quads per patch,\n"
     "                        0..10 (default 10)\n"
     "      --lod M           dice every patch at m = M instead of by ray density\n"
@@ -47,6 +48,8 @@ static const char *usage_text =
     "      --resume          continue the interrupted render in OUT.exr (same command)\n"
     "      --frame N         the frame of a RIB animation to render: FrameBegin N\n"
     "                        (default: the first)\n"
+    "      --mpi-scene HOW   under mpirun: broadcast (default): rank 0 loads the scene\n"
+    "                        and sends it; load: every rank loads the same files\n"
     "      --kernel-dir DIR  build kernels from DIR instead of the embedded copy\n"
     "      --no-kernel-cache neither read nor write the kernel binary cache\n"
     "bake options (spherical-harmonics occlusion at the vertices of every patch diced at m,\n"
@@ -128,6 +131,11 @@ static int report_outcome(const ts_render_options *o, const ts_stats *stats,
             result->samples_done, result->samples_total, o->output_path, how);
         return TS_EXIT_INTERRUPTED;
     }
+    if (result->outcome == TS_RENDER_DEVICES_FAILED) {
+        say("%s; wrote the %llu of %llu samples finished to %s (%s)", result->reason,
+            result->samples_done, result->samples_total, o->output_path, how);
+        return TS_EXIT_INTERRUPTED;
+    }
     if (result->outcome == TS_RENDER_OUT_OF_MEMORY) {
         say("%s; wrote the %llu of %llu samples finished to %s (%s%s)", result->reason,
             result->samples_done, result->samples_total, o->output_path, how,
@@ -141,25 +149,46 @@ static int report_outcome(const ts_render_options *o, const ts_stats *stats,
     return 0;
 }
 
+/* `tessera render`. Under mpirun with several ranks (app/ranks.h) rank 0 renders and
+ * reports; the other ranks follow it and say nothing but their own failures (an option
+ * error, the same on every rank, is printed by rank 0 alone). */
 static int cmd_render(int argc, char **argv)
 {
     ts_render_options o;
     render_options_defaults(&o);
     ts_error err = {0};
-    int help;
-    if (render_options_parse(argc, argv, &o, &help, &err)) return report_error(&err);
+    ts_ranks ranks;
+    if (ranks_init(&argc, &argv, &ranks, &err)) return report_error(&err);
+    int help, status;
+    if (render_options_parse(argc, argv, &o, &help, &err)) {
+        status = ranks.rank == 0 ? report_error(&err) : (ts_error_clear(&err), 1);
+        ranks_finalize(&ranks, status);
+        return status;
+    }
     if (help) {
-        fputs(usage_text, stdout);
+        if (ranks.rank == 0) fputs(usage_text, stdout);
+        ranks_finalize(&ranks, 0);
         return 0;
     }
+#ifdef TESSERA_HAVE_MPI
+    if (ranks.rank > 0) {
+        int rc = ranks_follow(&ranks, &o, &err);
+        if (rc && !render_stop_signal()) say("rank %d (%s): %s", ranks.rank, ranks.host, err.msg);
+        status = rc ? 1 : 0;
+        ts_error_clear(&err);
+        ranks_finalize(&ranks, status);
+        return status;
+    }
+#endif
     ts_stats stats;
     memset(&stats, 0, sizeof stats);
     ts_render_result result;
-    int rc = render_run(&o, &stats, &result, &err);
+    int rc = render_run(&o, &ranks, &stats, &result, &err);
     if (!rc && o.stats_path && result.outcome != TS_RENDER_UP_TO_DATE)
         rc = stats_write_json(&stats, o.stats_path, &err);
-    int status = rc ? report_error(&err) : report_outcome(&o, &stats, &result);
+    status = rc ? report_error(&err) : report_outcome(&o, &stats, &result);
     stats_free(&stats);
+    ranks_finalize(&ranks, status);
     return status;
 }
 

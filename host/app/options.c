@@ -71,7 +71,8 @@ enum {
     OPT_NO_CACHE,
     OPT_HELP,
     OPT_RESUME,
-    OPT_FRAME
+    OPT_FRAME,
+    OPT_MPI_SCENE
 };
 
 static const struct option render_long_options[] = {
@@ -95,6 +96,7 @@ static const struct option render_long_options[] = {
     {"help", no_argument, 0, OPT_HELP},
     {"resume", no_argument, 0, OPT_RESUME},
     {"frame", required_argument, 0, OPT_FRAME},
+    {"mpi-scene", required_argument, 0, OPT_MPI_SCENE},
     {0, 0, 0, 0},
 };
 
@@ -127,8 +129,11 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
         if (parse_int(arg, 0, 0x7fffffff, &v)) return 1;
         o->seed = (unsigned)v;
         return 0;
-    case OPT_DEVICE:
-        return parse_int(arg, 0, 1 << 20, &o->cl.device_index);
+    case OPT_DEVICE: {
+        int list[TS_DEVICE_MAX], n;
+        o->cl.device_list = arg; /* app/render.c resolves it (dev_select) */
+        return dev_parse_list(arg, list, &n);
+    }
     case OPT_MAX_LOD:
         return parse_int(arg, 0, TS_LOD_LIMIT, &o->max_lod);
     case OPT_LOD:
@@ -149,6 +154,9 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
         return 0;
     case OPT_FRAME:
         return parse_int(arg, 0, 0x7fffffff, &o->frame);
+    case OPT_MPI_SCENE:
+        o->mpi_scene_load = strcmp(arg, "load") == 0;
+        return strcmp(arg, "load") != 0 && strcmp(arg, "broadcast") != 0;
     case OPT_KERNEL_DIR:
         o->cl.kernel_dir = arg;
         return 0;

@@ -5,6 +5,8 @@
 #include "app/budget.h"
 #include "app/output.h"
 #include "app/resume.h"
+#include "app/waves.h"
+#include "app/workers.h"
 #include "base/mat4.h"
 #include "pipeline/pipeline.h"
 #include "scene/scene_load.h"
@@ -62,32 +64,6 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
     return TS_OK;
 }
 
-/* Traces one wave of paths from the eye: eye rays, then each bounce's rays (BSDF and
- * shadow rays together, Hanika §3.5: rays grouped by generation) until none is left or the
- * depth is reached. */
-static int render_paths(const ts_render_options *o, ts_pipeline *p, uint32_t first, uint32_t n,
-                        ts_error *err)
-{
-    ts_shade_params sp = {.light_count = p->light_count,
-                          .depth = (uint32_t)o->depth,
-                          .sampling = (uint32_t)o->sampling,
-                          .seed = o->seed,
-                          .spp = (uint32_t)o->spp};
-    uint32_t rays = n, paths = n;
-    p->stats->counters[TS_COUNTER_rays] += n;
-    for (uint32_t b = 0; rays > 0; ++b) {
-        uint32_t shadows;
-        sp.bounce = b;
-        p->wave = b;
-        if (pipeline_trace(p, rays, err) ||
-            pipeline_shade(p, &sp, first, n, paths, &paths, &rays, &shadows, err))
-            return err->code;
-        p->stats->counters[TS_COUNTER_rays] += rays - shadows;
-        p->stats->counters[TS_COUNTER_shadow_rays] += shadows;
-    }
-    return pipeline_film(p, first, n, err);
-}
-
 /* SIGINT, SIGTERM and SIGHUP (a closed terminal or ssh session) while samples are traced:
  * the handler only records the signal; the wave loop stops at the next wave boundary and
  * the finished samples are written. */
@@ -116,41 +92,27 @@ static void stop_handlers_install(void)
     stop_handlers_installed = 1;
 }
 
+static void stop_handlers_restore(void);
+
+int render_stop_signal(void)
+{
+    return stop_signal;
+}
+
+void render_stop_handlers(int install)
+{
+    if (install)
+        stop_handlers_install();
+    else
+        stop_handlers_restore();
+}
+
 static void stop_handlers_restore(void)
 {
     if (!stop_handlers_installed) return;
     for (size_t i = 0; i < TS_STOP_SIGNALS; ++i)
         sigaction(stop_signals[i], &stop_old[i], NULL);
     stop_handlers_installed = 0;
-}
-
-/* The frame's levels of detail: the lod stage counts the whole frame's eye rays even when
- * the film already holds samples [0, job->samples_done) (--resume, a retry): it is
- * deterministic, so it gives the levels of detail those samples were traced with, which
- * job->check_lod verifies against job->lod. The first time, job->lod is recorded. */
-static int render_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
-                            ts_job *job, ts_error *err)
-{
-    /* TESSERA_LOD_RULE=visible|seen: the rules measured against the default in
-     * docs/benchmarks.md, for experiments. */
-    const char *name = getenv("TESSERA_LOD_RULE");
-    ts_lod_rule rule = TS_LOD_RULE_CROSSED;
-    if (name && *name && pipeline_lod_rule_parse(name, &rule))
-        return ts_error_set(err, TS_E_USAGE,
-                            "TESSERA_LOD_RULE=%s: expected crossed, visible or seen", name);
-    if (o->fixed_lod < 0 && pipeline_lod(p, &cam, rule, err)) return err->code;
-    int32_t lod = job_lod_hash(p, o);
-    job->lod_mismatch = job->check_lod && lod != job->lod;
-    if (job->lod_mismatch)
-        return ts_error_set(err, TS_E_USAGE,
-                            "%s: cannot resume: this run dices patches at other levels of detail "
-                            "than the samples already in the image (patches up to m = %u then, "
-                            "m = %u now): resume with the --memory the render was started with",
-                            o->output_path, job->max_lod, p->plan.max_lod);
-    job->lod = lod;
-    job->max_lod = p->plan.max_lod;
-    job->check_lod = 1;
-    return TS_OK;
 }
 
 /* Runs the waves: each is a run of global sample indices [first, first + rays), from
@@ -161,18 +123,16 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
 {
     uint64_t total = job->total, start = job->samples_done;
     uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
-    p->mode = (ts_trace_mode){(uint32_t)o->spp, o->fixed_lod, o->exact, o->leaf_group,
-                              o->leaf_size == 4   ? 2u
-                              : o->leaf_size == 2 ? 1u
-                                                  : 0u};
-    if (render_frame_lod(o, p, cam, job, err)) return err->code;
+    p->mode = waves_trace_mode(o);
+    if (waves_frame_lod(o, p, cam, job, err)) return err->code;
     stop_handlers_install();
     double t0 = stats_now();
     for (uint64_t first = start; first < total; first += per_wave) {
         uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
         cam.first_sample = (uint32_t)first;
         cam.ray_count = n;
-        if (pipeline_camera(p, &cam, err) || render_paths(o, p, (uint32_t)first, n, err)) {
+        if (pipeline_camera(p, &cam, err) || waves_trace_paths(o, p, (uint32_t)first, n, err) ||
+            pipeline_film(p, (uint32_t)first, n, err)) {
             if (!o->quiet && first > start) fputc('\n', stderr); /* end the progress line */
             return err->code;
         }
@@ -205,6 +165,18 @@ typedef struct ts_render {
     /* The host copy of the films: the samples [0, job.samples_done) the device's films lack
      * (resumed, or kept over a retry), and the image render_write writes. */
     ts_film_state state;
+    /* The devices --device names (dev_select): one renders alone (cl, pipe); several share
+     * the frame (workers.h), merging into state (films_on_host). */
+    int devices[TS_DEVICE_MAX], device_count;
+    int films_on_host;
+    /* Rank 0 of several MPI ranks (NULL: alone): the units' size and window it told them. */
+    ts_ranks *ranks;
+    /* The image was written when the stop signal came (render_write_early): written is 1,
+     * and early holds its error, if any. */
+    int written;
+    ts_error early;
+    uint64_t unit_samples;
+    uint32_t window;
     ts_device cl;
     ts_pipeline pipe;
     /* Set when memory ran out at the smallest budget with samples finished: why. The
@@ -221,6 +193,7 @@ static void render_init(ts_render *r, const ts_render_options *o, ts_stats *stat
 
 static void render_free(ts_render *r)
 {
+    ts_error_clear(&r->early);
     ts_error_clear(&r->stopped);
     film_state_free(&r->state);
     pipeline_destroy(&r->pipe);
@@ -457,6 +430,115 @@ static int render_with_retry(ts_render *r, ts_error *err)
     return rc;
 }
 
+/* The devices --device (or TESSERA_DEVICE) names: one (the device of render_open_device),
+ * or several (render_on_devices). Without any OpenCL device, dev_open says so. */
+static int render_select_devices(ts_render *r, ts_error *err)
+{
+    ts_device_info *list = NULL;
+    int n = dev_list(&list, err);
+    free(list);
+    if (n < 0) return err->code;
+    r->device_count = 1;
+    if (n == 0) return TS_OK;
+    if (dev_select(&r->opt.cl, n, r->devices, &r->device_count, err)) return err->code;
+    r->opt.cl.device_index = r->devices[0];
+    return TS_OK;
+}
+
+static int render_write(ts_render *r, ts_error *err);
+
+/* A stop signal during a render on several devices or ranks: the merged samples
+ * [0, samples_done) are written at once, while the devices end their waves (under mpirun
+ * a SIGTERM may be followed by SIGKILL within a second, ranks.h). */
+static void render_write_early(void *ctx, uint64_t samples_done)
+{
+    ts_render *r = ctx;
+    r->job.samples_done = samples_done;
+    r->written = 1;
+    render_write(r, &r->early);
+}
+
+/* The frame on several devices (workers.h): their units merged into r->state. When every
+ * device failed after samples were merged, they are kept for render_write (r->stopped says
+ * why); with none merged the render fails with the last device's error. */
+static int render_on_devices(ts_render *r, ts_error *err)
+{
+    ts_frame f = {.opt = &r->opt,
+                  .scene = &r->scene,
+                  .cam = r->cam,
+                  .pixel_count = (uint32_t)((uint64_t)r->width * r->height),
+                  .job = &r->job,
+                  .budget_share = r->ranks ? (uint32_t)r->ranks->node_ranks : 1u};
+    uint64_t start = r->job.samples_done;
+    if (r->ranks)
+        f.unit_samples = r->unit_samples, f.window = r->window;
+    else
+        units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples, &f.window);
+    if (!r->opt.quiet && r->ranks)
+        ts_print_line(
+            "tessera: %dx%d, %d spp on %d ranks (%d devices on rank 0), in units of %llu samples",
+            r->width, r->height, r->opt.spp, r->ranks->size, r->device_count,
+            (unsigned long long)f.unit_samples);
+    else if (!r->opt.quiet)
+        ts_print_line("tessera: %dx%d, %d spp on %d devices, in units of %llu samples", r->width,
+                      r->height, r->opt.spp, r->device_count, (unsigned long long)f.unit_samples);
+    r->films_on_host = 1;
+    stop_handlers_install();
+    ts_frame_end end;
+    ts_frame_service service = {0};
+#ifdef TESSERA_HAVE_MPI
+    if (r->ranks) service = ranks_service(r->ranks, r->stats);
+#endif
+    service.on_stop = render_write_early;
+    service.stop_ctx = r;
+    int rc =
+        workers_render(&f, &r->state, r->devices, r->device_count, &service, r->stats, &end, err);
+#ifdef TESSERA_HAVE_MPI
+    if (!rc && r->ranks && !render_stop_signal()) rc = ranks_finish(r->ranks, r->stats, err);
+#endif
+    if (rc) {
+        ts_error_clear(&end.failure);
+        return rc;
+    }
+    r->job.samples_done = end.samples_done;
+    if (end.all_failed && end.samples_done == start) {
+        rc = ts_error_set_status(err, end.failure.code ? end.failure.code : TS_E_DEVICE,
+                                 end.failure.status, "%s",
+                                 end.failure.code ? end.failure.msg : "every device failed");
+    } else if (end.all_failed) {
+        ts_error_set(&r->stopped, end.failure.code ? end.failure.code : TS_E_DEVICE,
+                     "every device failed, the last one with: %s",
+                     end.failure.code ? end.failure.msg : "an unknown error");
+    }
+    ts_error_clear(&end.failure);
+    return rc;
+}
+
+#ifdef TESSERA_HAVE_MPI
+/* Rank 0 of several: tells the other ranks how the frame starts (its size, samples, the
+ * units, the camera and the scene), or, when this rank failed (rc) or has nothing to do,
+ * that there is no frame. Returns rc, else the broadcast's own status. */
+static int render_tell_ranks(ts_render *r, int rc, int up_to_date, ts_error *err)
+{
+    ts_rank_start s;
+    memset(&s, 0, sizeof s);
+    s.status = rc || up_to_date;
+    s.scene_load = r->opt.mpi_scene_load;
+    r->ranks->quiet = r->opt.quiet;
+    if (!s.status) {
+        s.width = r->width, s.height = r->height, s.spp = r->opt.spp;
+        s.job_hash = r->job.hash;
+        s.total = r->job.total, s.start = r->job.samples_done;
+        units_plan(s.total - s.start, (uint32_t)(r->ranks->size * r->device_count),
+                   &r->unit_samples, &r->window);
+        s.unit_samples = r->unit_samples;
+        s.cam = r->cam;
+    }
+    int told = ranks_start(r->ranks, &s, &r->scene, err);
+    return rc ? rc : told;
+}
+#endif
+
 /* The image file, timed as part of the film stage. The films are copied to the host and the
  * pipeline released first, so that the budget's memory is free again while the image is
  * encoded (under a memory limit the encoder would otherwise fail). After memory ran out at
@@ -465,7 +547,8 @@ static int render_write(ts_render *r, ts_error *err)
 {
     double t0 = stats_now();
     int rc = TS_OK;
-    if (!r->stopped.code) rc = film_state_transfer(&r->pipe, &r->state, 0, err);
+    if (!r->stopped.code && !r->films_on_host)
+        rc = film_state_transfer(&r->pipe, &r->state, 0, err);
     pipeline_destroy(&r->pipe);
     if (!rc)
         rc = output_write(&r->opt, &r->state, &r->scene.camera, r->width, r->height, &r->job, err);
@@ -482,7 +565,8 @@ static void render_result(const ts_render *r, int up_to_date, ts_render_result *
         out->samples_done = r->job.total;
         return;
     }
-    out->outcome = r->stopped.code                      ? TS_RENDER_OUT_OF_MEMORY
+    out->outcome = r->stopped.code && r->films_on_host  ? TS_RENDER_DEVICES_FAILED
+                   : r->stopped.code                    ? TS_RENDER_OUT_OF_MEMORY
                    : r->job.samples_done < r->job.total ? TS_RENDER_INTERRUPTED
                                                         : TS_RENDER_COMPLETE;
     out->samples_done = r->job.samples_done;
@@ -490,26 +574,35 @@ static void render_result(const ts_render *r, int up_to_date, ts_render_result *
     snprintf(out->reason, sizeof out->reason, "%s", r->stopped.msg);
 }
 
-int render_run(const ts_render_options *o, ts_stats *stats, ts_render_result *result, ts_error *err)
+int render_run(const ts_render_options *o, ts_ranks *ranks, ts_stats *stats,
+               ts_render_result *result, ts_error *err)
 {
     double t0 = stats_now();
     memset(result, 0, sizeof *result);
-    if (output_check(o, err)) return err->code;
     ts_render r;
     render_init(&r, o, stats);
+    r.ranks = ranks && ranks->size > 1 ? ranks : NULL;
     int up_to_date = 0;
-    int rc = render_load_scene(&r, err);
+    int rc = output_check(o, err);
+    if (!rc) rc = render_load_scene(&r, err);
+    if (r.ranks) r.ranks->scene_seconds = stats_now() - t0;
     if (!rc) rc = output_check_inputs(o, &r.scene, err);
     if (!rc) rc = render_start_job(&r, err);
     if (!rc && o->resume)
         rc = resume_load(&r.opt, r.width, r.height, &r.job, &r.state, &up_to_date, err);
-    if (!rc && !up_to_date) rc = render_open_device(&r, err);
+    if (!rc && !up_to_date) rc = render_select_devices(&r, err);
+#ifdef TESSERA_HAVE_MPI
+    if (r.ranks) rc = render_tell_ranks(&r, rc, up_to_date, err);
+#endif
+    int alone = r.device_count == 1 && !r.ranks;
+    if (!rc && !up_to_date && alone) rc = render_open_device(&r, err);
     /* The host copy of the films (48 bytes a pixel) before the device takes its budget: the
      * retry and the image write need it when memory is scarcest. --resume made it. */
     if (!rc && !up_to_date && !r.state.accum)
         rc = film_state_alloc(&r.state, (size_t)r.width * r.height, err);
-    if (!rc && !up_to_date) rc = render_with_retry(&r, err);
-    if (!rc && !up_to_date) rc = render_write(&r, err);
+    if (!rc && !up_to_date) rc = alone ? render_with_retry(&r, err) : render_on_devices(&r, err);
+    if (!rc && !up_to_date && !r.written) rc = render_write(&r, err);
+    if (!rc && r.early.code) rc = ts_error_set(err, r.early.code, "%s", r.early.msg);
     if (!rc) render_result(&r, up_to_date, result);
     stop_handlers_restore(); /* after the write: a signal until then only stops the waves */
     render_free(&r);

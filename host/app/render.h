@@ -4,6 +4,7 @@
 #define TS_RENDER_H
 
 #include "app/options.h"
+#include "app/ranks.h"
 #include "scene/scene.h"
 #include "base/stats.h"
 
@@ -23,13 +24,16 @@ typedef enum ts_render_outcome {
     /* memory ran out at the smallest budget: the samples finished so far are written, and
      * reason says what failed */
     TS_RENDER_OUT_OF_MEMORY,
+    /* every device of a render on several failed: the samples merged so far are written,
+     * and reason says what failed last */
+    TS_RENDER_DEVICES_FAILED,
 } ts_render_outcome;
 
 typedef struct ts_render_result {
     ts_render_outcome outcome;
     unsigned long long samples_done, samples_total; /* global sample indices */
     int signal;                                     /* the signal that interrupted it */
-    char reason[2048];                              /* TS_RENDER_OUT_OF_MEMORY: the error */
+    char reason[2048]; /* TS_RENDER_OUT_OF_MEMORY, TS_RENDER_DEVICES_FAILED: the error */
 } ts_render_result;
 
 /* Renders options->scene_path to options->output_path. Fills stats and result.
@@ -40,7 +44,16 @@ typedef struct ts_render_result {
  * When the device cannot provide a buffer, the budget is halved and the render planned
  * again, down to 16 MB; when even that fails after samples were finished, they are
  * written (TS_RENDER_OUT_OF_MEMORY) instead of lost. */
-int render_run(const ts_render_options *options, ts_stats *stats, ts_render_result *result,
-               ts_error *err);
+/* ranks: this process among the MPI ranks (rank 0 of several: it leads the frame, ranks.h);
+ * NULL or one rank: alone. */
+int render_run(const ts_render_options *options, ts_ranks *ranks, ts_stats *stats,
+               ts_render_result *result, ts_error *err);
+
+/* The stop signal (SIGINT, SIGTERM, SIGHUP) that came while samples were traced, or 0. */
+int render_stop_signal(void);
+/* Installs (1) or restores (0) the handlers that make SIGINT, SIGTERM and SIGHUP only
+ * record the signal for render_stop_signal (render_run installs them around the waves; the
+ * MPI ranks other than 0 around their render). */
+void render_stop_handlers(int install);
 
 #endif

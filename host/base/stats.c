@@ -46,11 +46,101 @@ int stats_add_iteration(ts_stats *s, const ts_iteration *it, ts_error *err)
     return TS_OK;
 }
 
+int stats_add_device(ts_stats *s, const ts_device_stats *d, ts_error *err)
+{
+    ts_device_stats *p = realloc(s->devices, (s->device_count + 1) * sizeof *p);
+    if (!p) return ts_error_set(err, TS_E_MEMORY, "out of memory (device stats)");
+    s->devices = p;
+    s->devices[s->device_count++] = *d;
+    return TS_OK;
+}
+
+int stats_add_rank(ts_stats *s, const ts_rank_stats *r, ts_error *err)
+{
+    ts_rank_stats *p = realloc(s->ranks, (s->rank_count + 1) * sizeof *p);
+    if (!p) return ts_error_set(err, TS_E_MEMORY, "out of memory (rank stats)");
+    s->ranks = p;
+    s->ranks[s->rank_count++] = *r;
+    return TS_OK;
+}
+
+int stats_merge(ts_stats *s, const ts_stats *d, ts_error *err)
+{
+    for (int i = 0; i < TS_STAGE_COUNT; ++i)
+        s->stage_seconds[i] += d->stage_seconds[i];
+    for (int i = 0; i < TS_COUNTER_COUNT; ++i) {
+        /* Properties of the scene, the same on every device; the rest adds up. */
+        if (i == TS_COUNTER_micropolygons_potential || i == TS_COUNTER_texture_tiles)
+            s->counters[i] = d->counters[i] > s->counters[i] ? d->counters[i] : s->counters[i];
+        else
+            s->counters[i] += d->counters[i];
+    }
+    for (int m = 0; m <= TS_LOD_LIMIT; ++m)
+        s->lod_histogram[m] += d->lod_histogram[m];
+    s->kernel_build_seconds += d->kernel_build_seconds;
+    for (uint32_t i = 0; i < d->iteration_count; ++i)
+        if (stats_add_iteration(s, &d->iterations[i], err)) return err->code;
+    return TS_OK;
+}
+
 uint64_t stats_peak_rss_bytes(void)
 {
     struct rusage ru;
     if (getrusage(RUSAGE_SELF, &ru) != 0) return 0;
     return (uint64_t)ru.ru_maxrss * 1024u; /* Linux reports kilobytes */
+}
+
+static cJSON *stages_json(const double seconds[TS_STAGE_COUNT])
+{
+    cJSON *stages = cJSON_CreateObject();
+    for (int i = 0; i < TS_STAGE_COUNT; ++i)
+        cJSON_AddNumberToObject(stages, ts_stage_names[i], seconds[i]);
+    return stages;
+}
+
+/* "devices" and "ranks" of a render on several (DESIGN.md §4, docs/profiling.md). */
+static void stats_devices_json(cJSON *root, const ts_stats *s)
+{
+    if (s->device_count) {
+        cJSON_AddNumberToObject(root, "unit_samples", (double)s->unit_samples);
+        cJSON *devs = cJSON_AddArrayToObject(root, "devices");
+        for (uint32_t i = 0; i < s->device_count; ++i) {
+            const ts_device_stats *d = &s->devices[i];
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddStringToObject(o, "name", d->name);
+            cJSON_AddNumberToObject(o, "index", d->index);
+            cJSON_AddNumberToObject(o, "rank", d->rank);
+            cJSON_AddNumberToObject(o, "units", (double)d->units);
+            cJSON_AddNumberToObject(o, "samples", (double)d->samples);
+            cJSON_AddNumberToObject(o, "rays", (double)d->rays);
+            cJSON_AddItemToObject(o, "stages", stages_json(d->stage_seconds));
+            cJSON_AddNumberToObject(o, "setup_seconds", d->setup_seconds);
+            cJSON_AddNumberToObject(o, "busy_seconds", d->busy_seconds);
+            cJSON_AddNumberToObject(o, "frame_seconds", d->frame_seconds);
+            cJSON_AddNumberToObject(o, "busy_fraction",
+                                    d->frame_seconds > 0 ? d->busy_seconds / d->frame_seconds : 0);
+            cJSON_AddNumberToObject(o, "memory_budget_bytes", (double)d->memory_budget_bytes);
+            cJSON_AddBoolToObject(o, "failed", d->failed);
+            if (d->failed) cJSON_AddStringToObject(o, "error", d->error);
+            cJSON_AddItemToArray(devs, o);
+        }
+    }
+    if (s->rank_count) {
+        cJSON *ranks = cJSON_AddArrayToObject(root, "ranks");
+        for (uint32_t i = 0; i < s->rank_count; ++i) {
+            const ts_rank_stats *r = &s->ranks[i];
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddNumberToObject(o, "rank", r->rank);
+            cJSON_AddStringToObject(o, "host", r->host);
+            cJSON_AddNumberToObject(o, "devices", r->devices);
+            cJSON_AddNumberToObject(o, "units", (double)r->units);
+            cJSON_AddNumberToObject(o, "samples", (double)r->samples);
+            cJSON_AddNumberToObject(o, "seconds", r->seconds);
+            cJSON_AddNumberToObject(o, "scene_seconds", r->scene_seconds);
+            if (r->error[0]) cJSON_AddStringToObject(o, "error", r->error);
+            cJSON_AddItemToArray(ranks, o);
+        }
+    }
 }
 
 static cJSON *stats_to_json(const ts_stats *s)
@@ -62,9 +152,7 @@ static cJSON *stats_to_json(const ts_stats *s)
     cJSON_AddNumberToObject(root, "kernel_build_seconds", s->kernel_build_seconds);
     cJSON_AddBoolToObject(root, "kernel_cache_hit", s->kernel_cache_hit);
     cJSON_AddNumberToObject(root, "memory_budget_bytes", (double)s->memory_budget_bytes);
-    cJSON *stages = cJSON_AddObjectToObject(root, "stages");
-    for (int i = 0; i < TS_STAGE_COUNT; ++i)
-        cJSON_AddNumberToObject(stages, ts_stage_names[i], s->stage_seconds[i]);
+    cJSON_AddItemToObject(root, "stages", stages_json(s->stage_seconds));
     cJSON *counters = cJSON_AddObjectToObject(root, "counters");
     for (int i = 0; i < TS_COUNTER_COUNT; ++i)
         cJSON_AddNumberToObject(counters, ts_counter_names[i], (double)s->counters[i]);
@@ -102,6 +190,7 @@ static cJSON *stats_to_json(const ts_stats *s)
         if (it->lod) cJSON_AddBoolToObject(o, "lod", 1);
         cJSON_AddItemToArray(its, o);
     }
+    stats_devices_json(root, s);
     return root;
 }
 
@@ -157,4 +246,10 @@ void stats_free(ts_stats *s)
     free(s->iterations);
     s->iterations = NULL;
     s->iteration_count = s->iteration_capacity = 0;
+    free(s->devices);
+    s->devices = NULL;
+    s->device_count = 0;
+    free(s->ranks);
+    s->ranks = NULL;
+    s->rank_count = 0;
 }

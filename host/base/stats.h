@@ -50,6 +50,34 @@ typedef struct ts_iteration {
     uint32_t lod; /* 1: traced by the lod stage (pipeline_lod), not by a wave of paths */
 } ts_iteration;
 
+/* One device of a render on several (app/workers.c), for --stats "devices". Plain bytes
+ * and fixed sizes: the ranks of an MPI render send theirs to rank 0 as they are. */
+typedef struct ts_device_stats {
+    char name[256];
+    int32_t index;                 /* in `tessera devices` of its machine */
+    int32_t rank;                  /* MPI rank; 0 without MPI */
+    uint64_t units, samples, rays; /* rays: with the shadow rays */
+    uint64_t memory_budget_bytes;  /* of the pipeline that finished */
+    double stage_seconds[TS_STAGE_COUNT];
+    double setup_seconds; /* making the pipeline (the scene copied to the device) and waiting
+                             for the frame's levels of detail (the lod stage) */
+    double busy_seconds;  /* tracing units and reading their results back */
+    double frame_seconds; /* from the start of the device's thread to the frame's end */
+    int32_t failed;       /* 1: it stopped early with an error: */
+    int32_t pad;
+    char error[512]; /* why it stopped ("" when it did not) */
+} ts_device_stats;
+
+/* One process of an MPI render, for rank 0's --stats "ranks". */
+typedef struct ts_rank_stats {
+    char host[256];
+    int32_t rank;
+    uint32_t devices; /* devices that rendered */
+    uint64_t units, samples;
+    double seconds;       /* the rank's render, from the scene to its last unit */
+    double scene_seconds; /* getting the scene: loading the files, or receiving rank 0's */
+    char error[512];      /* why it rendered nothing ("" when it rendered) */
+} ts_rank_stats;
 /* What `tessera bake` adds (the "bake" object of --stats, written when points were baked):
  * the waves' wall time and the shape of each point's projection. */
 typedef struct ts_bake_summary {
@@ -70,6 +98,13 @@ typedef struct ts_stats {
     /* The memory budget of the attempt that finished the render: the chosen one (--memory
      * or the default, app/budget.h), halved per out-of-memory retry. */
     uint64_t memory_budget_bytes;
+    /* A render on several devices or ranks: each device, each rank, and the unit size
+     * (app/units.h); none (0) on one device. */
+    ts_device_stats *devices;
+    uint32_t device_count;
+    uint32_t rank_count;
+    ts_rank_stats *ranks;
+    uint64_t unit_samples;
     ts_bake_summary bake;
 } ts_stats;
 
@@ -78,6 +113,12 @@ extern const char *const ts_counter_names[TS_COUNTER_COUNT];
 /* Seconds on CLOCK_MONOTONIC. */
 double stats_now(void);
 int stats_add_iteration(ts_stats *s, const ts_iteration *it, ts_error *err);
+/* Appends a copy of *d (of *r) to s->devices (s->ranks). */
+int stats_add_device(ts_stats *s, const ts_device_stats *d, ts_error *err);
+int stats_add_rank(ts_stats *s, const ts_rank_stats *r, ts_error *err);
+/* Adds what one device measured (its stages, counters, lod histogram, iterations and
+ * kernel build time) into the frame's stats s. */
+int stats_merge(ts_stats *s, const ts_stats *device, ts_error *err);
 /* Peak resident set size of this process in bytes (getrusage). */
 uint64_t stats_peak_rss_bytes(void);
 /* Writes the JSON document atomically (temporary file, then rename). */

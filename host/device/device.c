@@ -11,6 +11,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include <fcntl.h>
+#include <pthread.h>
+#include <stdatomic.h>
 
 cl_int ts_dev_inject_alloc_error = 0;
 
@@ -237,14 +239,23 @@ static void cache_store(cl_program prog, const char *path)
 /* OpenCL C 1.2, and IEEE division and square root where the device offers them: OpenCL
  * lets single-precision x / y be off by 2.5 ulp and sqrt by 3 (NVIDIA's are), which would
  * break the bitwise agreement of the kernels with their plain-C references (and between
- * devices) through 1 / d in every slab test. */
-static void dev_build_options(ts_device *cl)
+ * devices) through 1 / d in every slab test.
+ * slot > 0 (several devices in one process) adds -DTS_DEVICE_SLOT=slot, which no kernel
+ * reads: PoCL 3.1 keeps the work-group functions it loaded in one table for all its
+ * devices, keyed by the kernel's hash, and releases an entry by hash and local size alone,
+ * so two devices running the same kernel at once (with different grid sizes) decrement each
+ * other's counts and abort ("pocl_release_dlhandle_cache: Assertion `found->ref_count > 0'
+ * failed"). A different program text per device gives each its own hashes. */
+static void dev_build_options(ts_device *cl, int slot)
 {
     cl_device_fp_config fp = 0;
     clGetDeviceInfo(cl->info.device, CL_DEVICE_SINGLE_FP_CONFIG, sizeof fp, &fp, NULL);
-    snprintf(cl->build_options, sizeof cl->build_options, "-cl-std=CL1.2%s",
+    char define[32] = "";
+    if (slot > 0) snprintf(define, sizeof define, " -DTS_DEVICE_SLOT=%d", slot);
+    snprintf(cl->build_options, sizeof cl->build_options, "-cl-std=CL1.2%s%s",
              fp & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT ? " -cl-fp32-correctly-rounded-divide-sqrt"
-                                                      : "");
+                                                      : "",
+             define);
 }
 
 /* Builds `prog` from the program text `src`; on failure returns TS_E_DEVICE with the full
@@ -316,10 +327,69 @@ static cl_program program_from_cache(ts_device *cl, const char *path)
     return NULL;
 }
 
+/* Testing aids from the environment (docs/errors.md): TESSERA_FAIL_ALLOC=N makes the first
+ * N buffer creations fail with CL_MEM_OBJECT_ALLOCATION_FAILURE; TESSERA_FAIL_LAUNCH=K
+ * makes the K-th kernel launch (counting from 1) fail with CL_OUT_OF_RESOURCES;
+ * TESSERA_FAIL_LAUNCH_DEVICE=NAME counts only launches on devices whose name contains
+ * NAME; TESSERA_FAIL_BUILD=NAME fails the program build on such devices. Read once. The counters
+ * are atomic: several devices launch from their own threads (app/workers.c). */
+static long env_count(const char *name)
+{
+    const char *e = getenv(name);
+    long v = e && *e ? strtol(e, NULL, 10) : 0;
+    return v > 0 ? v : 0;
+}
+
+static pthread_once_t fail_once = PTHREAD_ONCE_INIT;
+static _Atomic long fail_alloc_left, launch_count;
+static long fail_launch_at;
+static const char *fail_launch_device, *fail_build_device;
+
+static void fail_init(void)
+{
+    atomic_store(&fail_alloc_left, env_count("TESSERA_FAIL_ALLOC"));
+    fail_launch_at = env_count("TESSERA_FAIL_LAUNCH");
+    const char *d = getenv("TESSERA_FAIL_LAUNCH_DEVICE");
+    fail_launch_device = d && *d ? d : NULL;
+    d = getenv("TESSERA_FAIL_BUILD");
+    fail_build_device = d && *d ? d : NULL;
+}
+
+/* 1 when the program build on cl is to fail (TESSERA_FAIL_BUILD). */
+static int fail_build_now(const ts_device *cl)
+{
+    pthread_once(&fail_once, fail_init);
+    return fail_build_device && strstr(cl->info.name, fail_build_device);
+}
+
+/* 1 when this buffer creation is to fail (TESSERA_FAIL_ALLOC). */
+static int fail_alloc_now(void)
+{
+    pthread_once(&fail_once, fail_init);
+    long left = atomic_load(&fail_alloc_left);
+    while (left > 0 && !atomic_compare_exchange_weak(&fail_alloc_left, &left, left - 1))
+        ;
+    return left > 0;
+}
+
+/* 1 when this launch on cl is to fail (TESSERA_FAIL_LAUNCH, TESSERA_FAIL_LAUNCH_DEVICE). */
+static int fail_launch_now(const ts_device *cl)
+{
+    pthread_once(&fail_once, fail_init);
+    if (!fail_launch_at || (fail_launch_device && !strstr(cl->info.name, fail_launch_device)))
+        return 0;
+    return atomic_fetch_add(&launch_count, 1) + 1 == fail_launch_at;
+}
+
 static int program_open(ts_device *cl, const ts_device_options *opt, ts_error *err)
 {
     double t0 = stats_now();
-    dev_build_options(cl);
+    dev_build_options(cl, opt->slot);
+    if (fail_build_now(cl))
+        return ts_error_set_status(err, TS_E_DEVICE, CL_BUILD_PROGRAM_FAILURE,
+                                   "CL_BUILD_PROGRAM_FAILURE in clBuildProgram: the kernels "
+                                   "failed to build on %s (injected by TESSERA_FAIL_BUILD)",
+                                   cl->info.name);
     char *src = kernel_source_program(opt->kernel_dir, err);
     if (!src) return err->code;
     uint64_t key = TS_FNV1A_INIT;
@@ -350,26 +420,66 @@ static int program_open(ts_device *cl, const ts_device_options *opt, ts_error *e
     return TS_OK;
 }
 
+int dev_parse_list(const char *spec, int out[TS_DEVICE_MAX], int *count)
+{
+    *count = 0;
+    if (!spec) return -1;
+    if (strcmp(spec, "all") == 0) return 0;
+    for (const char *s = spec;;) {
+        if (!(*s >= '0' && *s <= '9') || *count == TS_DEVICE_MAX) return -1;
+        char *end;
+        errno = 0;
+        long v = strtol(s, &end, 10);
+        if (errno || v > (1 << 20)) return -1;
+        for (int k = 0; k < *count; ++k)
+            if (out[k] == (int)v) return -1; /* each device once */
+        out[(*count)++] = (int)v;
+        if (*end == '\0') return 0;
+        if (*end != ',') return -1;
+        s = end + 1;
+    }
+}
+
+int dev_select(const ts_device_options *opt, int n, int out[TS_DEVICE_MAX], int *count,
+               ts_error *err)
+{
+    const char *spec = opt->device_list, *from = "--device ";
+    if (!spec) {
+        const char *env = getenv("TESSERA_DEVICE");
+        spec = env && *env ? env : "0";
+        from = env && *env ? "TESSERA_DEVICE=" : "";
+        if (env && *env && dev_parse_list(env, out, count))
+            return ts_error_set(err, TS_E_USAGE,
+                                "TESSERA_DEVICE=%s is not a device index (a number from tessera "
+                                "devices), a list of them (0,2) or all",
+                                env);
+    }
+    if (dev_parse_list(spec, out, count))
+        return ts_error_set(err, TS_E_USAGE, "bad value '%s' for --device", spec);
+    if (*count == 0) /* all */
+        for (int i = 0; i < n && i < TS_DEVICE_MAX; ++i)
+            out[(*count)++] = i;
+    for (int k = 0; k < *count; ++k)
+        if (out[k] >= n) {
+            if (*count == 1)
+                return ts_error_set(err, TS_E_USAGE,
+                                    "unknown device index %d: there are %d devices (see tessera "
+                                    "devices)",
+                                    out[k], n);
+            return ts_error_set(err, TS_E_USAGE,
+                                "unknown device index %d in %s%s: there are %d devices (see "
+                                "tessera devices)",
+                                out[k], from, spec, n);
+        }
+    return TS_OK;
+}
+
 int dev_open(ts_device *cl, const ts_device_options *opt, ts_error *err)
 {
     memset(cl, 0, sizeof *cl);
     ts_device_info *list = NULL;
     int n = dev_list(&list, err);
     if (n < 0) return err->code;
-    int index = opt->device_index;
-    if (index < 0) {
-        const char *env = getenv("TESSERA_DEVICE");
-        char *end = NULL;
-        long v = env && *env ? strtol(env, &end, 10) : 0;
-        if (env && *env && (*end || v < 0 || v > (1 << 20) || !(*env >= '0' && *env <= '9'))) {
-            free(list);
-            return ts_error_set(err, TS_E_USAGE,
-                                "TESSERA_DEVICE=%s is not a device index (a number from tessera "
-                                "devices)",
-                                env);
-        }
-        index = (int)v;
-    }
     if (n == 0) {
         free(list);
         /* A driver that cannot map its compiler under `ulimit -v` reports no platform. */
@@ -383,7 +493,15 @@ int dev_open(ts_device *cl, const ts_device_options *opt, ts_error *err)
         return ts_error_set(err, TS_E_DEVICE,
                             "no OpenCL device found (install pocl-opencl-icd for the CPU)");
     }
-    if (index < 0 || index >= n) {
+    int index = opt->device_index, chosen[TS_DEVICE_MAX], count = 0;
+    if (index < 0) {
+        if (dev_select(opt, n, chosen, &count, err)) {
+            free(list);
+            return err->code;
+        }
+        index = chosen[0];
+    }
+    if (index >= n) {
         free(list);
         return ts_error_set(err, TS_E_USAGE,
                             "unknown device index %d: there are %d devices (see tessera devices)",
@@ -423,29 +541,11 @@ cl_kernel dev_kernel_create(ts_device *cl, const char *name, ts_error *err)
     return k;
 }
 
-/* Testing aids from the environment (docs/errors.md): TESSERA_FAIL_ALLOC=N makes the first
- * N buffer creations fail with CL_MEM_OBJECT_ALLOCATION_FAILURE; TESSERA_FAIL_LAUNCH=K
- * makes the K-th kernel launch (counting from 1) fail with CL_OUT_OF_RESOURCES. Read once. */
-static long env_count(const char *name, long *cache)
-{
-    if (*cache < 0) {
-        const char *e = getenv(name);
-        long v = e && *e ? strtol(e, NULL, 10) : 0;
-        *cache = v > 0 ? v : 0;
-    }
-    return *cache;
-}
-
-static long fail_alloc_left = -1, fail_launch_at = -1, launch_count;
-
 cl_mem dev_buffer_create(ts_device *cl, cl_mem_flags flags, size_t size, void *host, ts_error *err)
 {
     cl_int rc = ts_dev_inject_alloc_error;
     cl_mem m = NULL;
-    if (rc == CL_SUCCESS && env_count("TESSERA_FAIL_ALLOC", &fail_alloc_left) > 0) {
-        --fail_alloc_left;
-        rc = CL_MEM_OBJECT_ALLOCATION_FAILURE;
-    }
+    if (rc == CL_SUCCESS && fail_alloc_now()) rc = CL_MEM_OBJECT_ALLOCATION_FAILURE;
     /* On devices that share host memory (PoCL's CPU device), a buffer without host data
      * is otherwise allocated at its first use, inside an enqueue that cannot report the
      * failure (PoCL 3.1 asserts, exit 134, issue 15). CL_MEM_ALLOC_HOST_PTR makes
@@ -503,7 +603,7 @@ int dev_launch_range(ts_device *cl, cl_kernel k, ts_stage stage, size_t offset, 
     }
     cl_event ev;
     cl_int rc = CL_OUT_OF_RESOURCES;
-    if (++launch_count != env_count("TESSERA_FAIL_LAUNCH", &fail_launch_at))
+    if (!fail_launch_now(cl))
         rc = clEnqueueNDRangeKernel(cl->queue, k, 1, offset ? &offset : NULL, &rounded, &local, 0,
                                     NULL, &ev);
     if (rc != CL_SUCCESS) {

@@ -82,13 +82,34 @@ typedef struct ts_device {
 } ts_device;
 
 typedef struct ts_device_options {
-    int device_index;       /* -1: TESSERA_DEVICE, else 0 */
-    const char *kernel_dir; /* NULL: embedded kernels */
+    int device_index;        /* >= 0: this device; -1: the first of device_list */
+    const char *device_list; /* --device: "I", "I,J,..." or "all"; NULL: $TESSERA_DEVICE,
+                                else "0" (dev_select) */
+    const char *kernel_dir;  /* NULL: embedded kernels */
     const char *cache_dir; /* NULL: $TESSERA_CACHE_DIR, $XDG_CACHE_HOME/tessera, ~/.cache/tessera */
     int no_cache;          /* 1: never read or write the binary cache */
+    /* > 0: the program of the slot-th device of a process that renders on several is built
+     * with -DTS_DEVICE_SLOT=slot (dev_build_options says why). */
+    int slot;
 } ts_device_options;
 
-/* Opens the device, builds (or loads from the cache) the program. */
+/* The most devices one process renders with (--device all takes the first ones). */
+#define TS_DEVICE_MAX 16
+
+/* Parses a device list: "I" (one index), "I,J,..." (indices 0..2^20 in the order given, each
+ * once, at most TS_DEVICE_MAX) or "all" (*count = 0: every device). Returns 0, or -1 for
+ * anything else (nothing around the numbers, no empty item, no repeat). */
+int dev_parse_list(const char *spec, int out[TS_DEVICE_MAX], int *count);
+
+/* The devices a render uses, of the n that dev_list finds: opt->device_list, else
+ * $TESSERA_DEVICE, else device 0; "all" is every device (the first TS_DEVICE_MAX). Fills
+ * out[0..*count) in the order given. TS_E_USAGE for an index out of range or a
+ * TESSERA_DEVICE that is not a list, naming it. */
+int dev_select(const ts_device_options *opt, int n, int out[TS_DEVICE_MAX], int *count,
+               ts_error *err);
+
+/* Opens the device (opt->device_index, else the first that dev_select names), builds (or
+ * loads from the cache) the program. */
 int dev_open(ts_device *cl, const ts_device_options *opt, ts_error *err);
 void dev_close(ts_device *cl);
 

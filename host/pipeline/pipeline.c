@@ -61,6 +61,7 @@ int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
     plan->ray_capacity = (uint32_t)rays;
     plan->pair_capacity = (uint32_t)rays * TS_PAIRS_PER_RAY;
     plan->tex_pool_bytes = memory_bytes / 8;
+    plan->sort_threads = 0;
     return TS_OK;
 }
 
@@ -291,7 +292,8 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     scene_uploads u = {0};
     int rc = create_host_tables(p, &boxes, err);
     if (rc == TS_OK) rc = qbvh_build(&p->qbvh, boxes, scene->patch_count, err);
-    if (rc == TS_OK && !(p->sorter = radix_sorter_create(0, err))) rc = err->code;
+    if (rc == TS_OK && !(p->sorter = radix_sorter_create((int)plan->sort_threads, err)))
+        rc = err->code;
     if (rc == TS_OK) rc = create_kernels(p, err);
     if (rc == TS_OK) rc = scene_uploads_make(p, boxes, &u, err);
     if (rc == TS_OK) rc = tex_cache_create(&p->tex, scene, plan->tex_pool_bytes, err);

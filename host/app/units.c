@@ -1,0 +1,283 @@
+/* units.c — units of work, their results, and the board that hands them out and merges them
+ * in order (units.h). */
+#include "app/units.h"
+#include "base/stats.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+/* A unit's state on the board, in its window slot. */
+enum { UNIT_NONE, UNIT_OUT, UNIT_FINISHED, UNIT_GIVEN_BACK };
+
+/* Bounds of units_plan. */
+#define UNITS_PER_WORKER 8u
+#define UNIT_MIN_SAMPLES 4096u
+#define UNIT_MAX_SAMPLES (1u << 20)
+#define UNITS_RESULT_BYTES ((uint64_t)256 << 20)
+
+int unit_result_alloc(ts_unit_result *r, const ts_unit *u, uint32_t pixel_count, ts_error *err)
+{
+    memset(r, 0, sizeof *r);
+    r->aov_count = u->first < pixel_count ? pixel_count - u->first : 0;
+    if (r->aov_count > u->count) r->aov_count = u->count;
+    size_t n = (size_t)u->count + 2 * (size_t)r->aov_count;
+    r->radiance = malloc((n ? n : 1) * sizeof(ts_vec4));
+    if (!r->radiance)
+        return ts_error_set(err, TS_E_MEMORY, "out of memory for the results of %llu samples",
+                            (unsigned long long)u->count);
+    if (r->aov_count) {
+        r->aov = r->radiance + u->count;
+        r->albedo = r->aov + r->aov_count;
+    }
+    return TS_OK;
+}
+
+void unit_result_free(ts_unit_result *r)
+{
+    free(r->radiance);
+    memset(r, 0, sizeof *r);
+}
+
+void units_merge(ts_film_state *film, uint32_t pixel_count, const ts_unit *u,
+                 const ts_unit_result *r)
+{
+    uint32_t p = (uint32_t)(u->first % pixel_count);
+    for (uint64_t k = 0; k < u->count; ++k) {
+        /* kernels/film.cl: acc = accum[p]; acc.x += r.x; ... acc.w += 1.0f */
+        ts_vec4 acc = film->accum[p], s = r->radiance[k];
+        acc.x += s.x;
+        acc.y += s.y;
+        acc.z += s.z;
+        acc.w += 1.0f;
+        film->accum[p] = acc;
+        if (k < r->aov_count) film->aov[p] = r->aov[k], film->albedo[p] = r->albedo[k];
+        if (++p == pixel_count) p = 0;
+    }
+}
+
+void units_plan(uint64_t samples, uint32_t workers, uint64_t *unit_samples, uint32_t *window)
+{
+    if (workers < 1) workers = 1;
+    uint64_t u = (samples + UNITS_PER_WORKER * workers - 1) / (UNITS_PER_WORKER * workers);
+    if (u < UNIT_MIN_SAMPLES) u = UNIT_MIN_SAMPLES;
+    if (u > UNIT_MAX_SAMPLES) u = UNIT_MAX_SAMPLES;
+    u = (u + 63) / 64 * 64;
+    const char *env = getenv("TESSERA_UNIT_SAMPLES");
+    if (env && *env) {
+        char *end;
+        errno = 0;
+        unsigned long long v = strtoull(env, &end, 10);
+        if (!errno && !*end && v > 0 && v <= UNIT_MAX_SAMPLES) u = v;
+    }
+    *unit_samples = u;
+    uint64_t w = 4 * (uint64_t)workers, fit = UNITS_RESULT_BYTES / (u * sizeof(ts_vec4));
+    if (w < 8) w = 8;
+    if (w > fit) w = fit > 2 * (uint64_t)workers ? fit : 2 * (uint64_t)workers;
+    *window = (uint32_t)w;
+}
+
+int board_init(ts_board *b, ts_film_state *film, uint32_t pixel_count, uint64_t start,
+               uint64_t total, uint64_t unit_samples, uint32_t window, ts_error *err)
+{
+    memset(b, 0, sizeof *b);
+    b->film = film;
+    b->pixel_count = pixel_count;
+    b->start = start;
+    b->total = total;
+    b->unit_samples = unit_samples ? unit_samples : 1;
+    uint64_t units = total > start ? (total - start + b->unit_samples - 1) / b->unit_samples : 0;
+    if (units > UINT32_MAX)
+        return ts_error_set(err, TS_E_USAGE, "%llu units of %llu samples are too many",
+                            (unsigned long long)units, (unsigned long long)b->unit_samples);
+    b->unit_count = (uint32_t)units;
+    b->window = window ? window : 1;
+    b->state = calloc(b->window, 1);
+    b->results = calloc(b->window, sizeof *b->results);
+    if (!b->state || !b->results) {
+        free(b->state), free(b->results);
+        memset(b, 0, sizeof *b);
+        return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    }
+    pthread_mutex_init(&b->lock, NULL);
+    pthread_cond_init(&b->changed, NULL);
+    return TS_OK;
+}
+
+void board_free(ts_board *b)
+{
+    if (!b->state) return;
+    for (uint32_t i = 0; i < b->window; ++i)
+        unit_result_free(&b->results[i]);
+    free(b->state);
+    free(b->results);
+    pthread_mutex_destroy(&b->lock);
+    pthread_cond_destroy(&b->changed);
+    memset(b, 0, sizeof *b);
+}
+
+static ts_unit board_unit(const ts_board *b, uint32_t i)
+{
+    uint64_t first = b->start + (uint64_t)i * b->unit_samples;
+    uint64_t count = b->total - first < b->unit_samples ? b->total - first : b->unit_samples;
+    return (ts_unit){i, 0, first, count};
+}
+
+/* board_try_take with the lock held. */
+static int take_locked(ts_board *b, ts_unit *u)
+{
+    if (b->closed) return -1;
+    int out = 0;
+    for (uint32_t i = b->merged; i < b->next; ++i) {
+        uint8_t *s = &b->state[i % b->window];
+        if (*s == UNIT_GIVEN_BACK) {
+            *s = UNIT_OUT;
+            *u = board_unit(b, i);
+            return 1;
+        }
+        out |= *s == UNIT_OUT;
+    }
+    if (b->next < b->unit_count && b->next - b->merged < b->window) {
+        b->state[b->next % b->window] = UNIT_OUT;
+        *u = board_unit(b, b->next++);
+        return 1;
+    }
+    /* Units still out may be given back; only when none is can nothing more come. */
+    return b->next < b->unit_count || out ? 0 : -1;
+}
+
+int board_try_take(ts_board *b, ts_unit *u)
+{
+    pthread_mutex_lock(&b->lock);
+    int rc = take_locked(b, u);
+    pthread_mutex_unlock(&b->lock);
+    return rc;
+}
+
+int board_take(ts_board *b, ts_unit *u)
+{
+    pthread_mutex_lock(&b->lock);
+    int rc;
+    while ((rc = take_locked(b, u)) == 0)
+        pthread_cond_wait(&b->changed, &b->lock);
+    pthread_mutex_unlock(&b->lock);
+    return rc > 0;
+}
+
+void board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
+{
+    pthread_mutex_lock(&b->lock);
+    if (b->frozen) {
+        unit_result_free(r);
+        pthread_mutex_unlock(&b->lock);
+        return;
+    }
+    uint32_t slot = u->index % b->window;
+    b->state[slot] = UNIT_FINISHED;
+    b->results[slot] = *r;
+    memset(r, 0, sizeof *r);
+    b->samples_finished += u->count;
+    b->rays += b->results[slot].rays;
+    double t0 = stats_now();
+    while (b->merged < b->unit_count && b->state[b->merged % b->window] == UNIT_FINISHED) {
+        uint32_t s = b->merged % b->window;
+        ts_unit m = board_unit(b, b->merged);
+        units_merge(b->film, b->pixel_count, &m, &b->results[s]);
+        unit_result_free(&b->results[s]);
+        b->state[s] = UNIT_NONE;
+        b->merged++;
+    }
+    b->merge_seconds += stats_now() - t0;
+    pthread_cond_broadcast(&b->changed);
+    pthread_mutex_unlock(&b->lock);
+}
+
+void board_give_back(ts_board *b, const ts_unit *u)
+{
+    pthread_mutex_lock(&b->lock);
+    b->state[u->index % b->window] = UNIT_GIVEN_BACK;
+    pthread_cond_broadcast(&b->changed);
+    pthread_mutex_unlock(&b->lock);
+}
+
+void board_close(ts_board *b)
+{
+    pthread_mutex_lock(&b->lock);
+    b->closed = 1;
+    pthread_cond_broadcast(&b->changed);
+    pthread_mutex_unlock(&b->lock);
+}
+
+void board_freeze(ts_board *b)
+{
+    pthread_mutex_lock(&b->lock);
+    b->closed = b->frozen = 1;
+    pthread_cond_broadcast(&b->changed);
+    pthread_mutex_unlock(&b->lock);
+}
+
+int board_finished(ts_board *b)
+{
+    pthread_mutex_lock(&b->lock);
+    int done = b->merged == b->unit_count;
+    pthread_mutex_unlock(&b->lock);
+    return done;
+}
+
+uint64_t board_samples_done(ts_board *b)
+{
+    pthread_mutex_lock(&b->lock);
+    uint64_t end = b->start + (uint64_t)b->merged * b->unit_samples;
+    pthread_mutex_unlock(&b->lock);
+    return end < b->total ? end : b->total;
+}
+
+void board_progress(ts_board *b, uint64_t *samples_finished, uint64_t *rays)
+{
+    pthread_mutex_lock(&b->lock);
+    *samples_finished = b->samples_finished;
+    *rays = b->rays;
+    pthread_mutex_unlock(&b->lock);
+}
+
+void board_wait(ts_board *b, double seconds)
+{
+    struct timespec until;
+    clock_gettime(CLOCK_REALTIME, &until);
+    long ns = until.tv_nsec + (long)(seconds * 1e9);
+    until.tv_sec += ns / 1000000000L;
+    until.tv_nsec = ns % 1000000000L;
+    pthread_mutex_lock(&b->lock);
+    pthread_cond_timedwait(&b->changed, &b->lock, &until);
+    pthread_mutex_unlock(&b->lock);
+}
+
+static int source_take(void *ctx, ts_unit *u)
+{
+    return board_take(ctx, u);
+}
+
+static void source_done(void *ctx, const ts_unit *u, ts_unit_result *r)
+{
+    board_done(ctx, u, r);
+}
+
+static void source_give_back(void *ctx, const ts_unit *u)
+{
+    board_give_back(ctx, u);
+}
+
+static int source_closed(void *ctx)
+{
+    ts_board *b = ctx;
+    pthread_mutex_lock(&b->lock);
+    int closed = b->closed;
+    pthread_mutex_unlock(&b->lock);
+    return closed;
+}
+
+ts_unit_source board_source(ts_board *b)
+{
+    return (ts_unit_source){b, source_take, source_done, source_give_back, source_closed};
+}

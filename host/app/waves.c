@@ -1,0 +1,61 @@
+/* waves.c — the lod stage over a frame and the paths of one wave, on one device's pipeline
+ * (waves.h). */
+#include "app/waves.h"
+
+#include <stdlib.h>
+
+ts_trace_mode waves_trace_mode(const ts_render_options *o)
+{
+    return (ts_trace_mode){(uint32_t)o->spp, o->fixed_lod, o->exact, o->leaf_group,
+                           o->leaf_size == 4   ? 2u
+                           : o->leaf_size == 2 ? 1u
+                                               : 0u};
+}
+
+int waves_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam, ts_job *job,
+                    ts_error *err)
+{
+    /* TESSERA_LOD_RULE=visible|seen: the rules measured against the default in
+     * docs/benchmarks.md, for experiments. */
+    const char *name = getenv("TESSERA_LOD_RULE");
+    ts_lod_rule rule = TS_LOD_RULE_CROSSED;
+    if (name && *name && pipeline_lod_rule_parse(name, &rule))
+        return ts_error_set(err, TS_E_USAGE,
+                            "TESSERA_LOD_RULE=%s: expected crossed, visible or seen", name);
+    if (o->fixed_lod < 0 && pipeline_lod(p, &cam, rule, err)) return err->code;
+    int32_t lod = job_lod_hash(p, o);
+    job->lod_mismatch = job->check_lod && lod != job->lod;
+    if (job->lod_mismatch)
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: cannot resume: this run dices patches at other levels of detail "
+                            "than the samples already in the image (patches up to m = %u then, "
+                            "m = %u now): resume with the --memory the render was started with",
+                            o->output_path, job->max_lod, p->plan.max_lod);
+    job->lod = lod;
+    job->max_lod = p->plan.max_lod;
+    job->check_lod = 1;
+    return TS_OK;
+}
+
+int waves_trace_paths(const ts_render_options *o, ts_pipeline *p, uint32_t first, uint32_t n,
+                      ts_error *err)
+{
+    ts_shade_params sp = {.light_count = p->light_count,
+                          .depth = (uint32_t)o->depth,
+                          .sampling = (uint32_t)o->sampling,
+                          .seed = o->seed,
+                          .spp = (uint32_t)o->spp};
+    uint32_t rays = n, paths = n;
+    p->stats->counters[TS_COUNTER_rays] += n;
+    for (uint32_t b = 0; rays > 0; ++b) {
+        uint32_t shadows;
+        sp.bounce = b;
+        p->wave = b;
+        if (pipeline_trace(p, rays, err) ||
+            pipeline_shade(p, &sp, first, n, paths, &paths, &rays, &shadows, err))
+            return err->code;
+        p->stats->counters[TS_COUNTER_rays] += rays - shadows;
+        p->stats->counters[TS_COUNTER_shadow_rays] += shadows;
+    }
+    return TS_OK;
+}

@@ -1,0 +1,34 @@
+/* waves.h — what one device's pipeline does for a frame, used by the one-device render
+ * (render.c) and by each device of a render on several (workers.c): the lod stage over
+ * the frame's eye rays, and the paths of one wave of samples (docs/rendering.md "Paths and
+ * waves"). */
+#ifndef TS_WAVES_H
+#define TS_WAVES_H
+
+#include "app/options.h"
+#include "app/resume.h"
+#include "pipeline/pipeline.h"
+
+/* The trace mode the options ask for (p->mode): spp, --lod, --intersect, --leaf-mode,
+ * --leaf-size. */
+ts_trace_mode waves_trace_mode(const ts_render_options *o);
+
+/* The frame's levels of detail into p->patch_lod: the lod stage (pipeline_lod, by the rule
+ * TESSERA_LOD_RULE names, crossed by default) counts the frame's first sample pass even when
+ * the film already holds samples [0, job->samples_done) (--resume, a retry): it is
+ * deterministic, so it gives the levels of
+ * detail those samples were traced with, which job->check_lod verifies against job->lod
+ * (TS_E_USAGE and job->lod_mismatch when they differ). Then job->lod, job->max_lod and
+ * job->check_lod are recorded. With --lod nothing is counted. */
+int waves_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam, ts_job *job,
+                    ts_error *err);
+
+/* Traces one wave of paths from the eye: the camera's rays of samples [first, first + n)
+ * (pipeline_camera made them), then each bounce's rays (BSDF and shadow rays together,
+ * Hanika §3.5: rays grouped by generation) until none is left or the depth is reached.
+ * The radiance of path i (sample first + i) is then in p->radiance[i], the AOVs of its
+ * first hit in p->aov[i] and p->albedo[i]; nothing is added to the film. */
+int waves_trace_paths(const ts_render_options *o, ts_pipeline *p, uint32_t first, uint32_t n,
+                      ts_error *err);
+
+#endif

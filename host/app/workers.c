@@ -1,0 +1,576 @@
+/* workers.c — one frame on several devices of one process, a host thread each (workers.h). */
+#include "app/workers.h"
+#include "app/budget.h"
+#include "app/render.h"
+#include "app/waves.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+struct ts_worker {
+    ts_workers *g;
+    uint32_t slot; /* in g->w; slot 0 makes the lod */
+    int index;     /* in `tessera devices` */
+    ts_device cl;
+    ts_pipeline pipe;
+    int has_pipe;
+    ts_stats stats; /* this device's stages and counters */
+    uint64_t mb;    /* this pipeline's budget */
+    uint32_t noted_lod;
+    pthread_t thread;
+    int started;
+    long slow_ms; /* TESSERA_SLOW_DEVICE: a pause after each wave (tests) */
+    ts_device_stats out;
+    int failed, reported; /* failed: err says why; reported: workers_report said so */
+    ts_error err;
+};
+
+/* "device I (NAME)" for messages. */
+static const char *worker_name(const ts_worker *w, char *buf, size_t cap)
+{
+    snprintf(buf, cap, "device %d (%s)", w->index, w->cl.info.name);
+    return buf;
+}
+
+/* The memory budget of w's device: --memory, else budget_default from its own memory and,
+ * when it shares host memory, its share of the room the process has (share devices use
+ * it). Unless quiet, the device and its budget on one line. */
+static void worker_budget(ts_worker *w, uint32_t share)
+{
+    const ts_frame *f = &w->g->frame;
+    ts_budget_choice c;
+    if (f->opt->memory_mb > 0) {
+        c.mb = (uint64_t)f->opt->memory_mb;
+        snprintf(c.why, sizeof c.why, "--memory");
+    } else {
+        ts_memory_room room;
+        ts_memory_room_query(NULL, &room);
+        if (room.bytes != UINT64_MAX && share > 1) room.bytes /= share;
+        budget_default(&w->cl.info, budget_fixed_bytes(f->scene, f->pixel_count), &room, &c);
+        size_t n = strlen(c.why), which = strlen(room.which);
+        if (share > 1 && w->cl.info.host_unified && which && strncmp(c.why, room.which, which) == 0)
+            snprintf(c.why + n, sizeof c.why - n, ", shared by %u devices", share);
+    }
+    w->mb = c.mb;
+    w->noted_lod = (uint32_t)f->opt->max_lod;
+    if (!f->opt->quiet)
+        ts_print_line("tessera: device %d: %s (%s), memory budget %llu MB (%s)", w->index,
+                      w->cl.info.name, w->cl.info.platform_name, (unsigned long long)c.mb, c.why);
+}
+
+int workers_open(ts_workers *g, const ts_frame *frame, const int *indices, int count, ts_error *err)
+{
+    memset(g, 0, sizeof *g);
+    g->frame = *frame;
+    g->w = calloc((size_t)count, sizeof *g->w);
+    if (!g->w) return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    pthread_mutex_init(&g->lock, NULL);
+    pthread_cond_init(&g->lod_cond, NULL);
+    ts_error first = {0};
+    for (int i = 0; i < count; ++i) {
+        ts_worker *w = &g->w[g->count];
+        ts_device_options dopt = frame->opt->cl;
+        dopt.device_index = indices[i];
+        dopt.slot = (int)g->count;
+        ts_error e = {0};
+        if (dev_open(&w->cl, &dopt, &e)) {
+            if (!frame->opt->quiet)
+                ts_print_line(
+                    "tessera: warning: device %d cannot render: %s; the other devices go on "
+                    "without it (render with --device %d alone for the details)",
+                    indices[i], e.msg, indices[i]);
+            if (!first.code) ts_error_set(&first, e.code, "%s", e.msg);
+            ts_error_clear(&e);
+            continue;
+        }
+        if (!frame->opt->quiet && w->cl.cache_note[0])
+            ts_print_line("tessera: warning: %s", w->cl.cache_note);
+        w->g = g;
+        w->slot = g->count++;
+        w->index = indices[i];
+    }
+    if (g->count == 0) {
+        ts_error_set(err, first.code ? first.code : TS_E_DEVICE, "%s",
+                     first.code ? first.msg : "no device could be opened");
+        ts_error_clear(&first);
+        return err->code;
+    }
+    ts_error_clear(&first);
+    uint32_t unified = 0;
+    for (uint32_t i = 0; i < g->count; ++i)
+        unified += g->w[i].cl.info.host_unified ? 1u : 0u;
+    for (uint32_t i = 0; i < g->count; ++i)
+        worker_budget(&g->w[i], (g->w[i].cl.info.host_unified ? unified : 1u) *
+                                    (frame->budget_share ? frame->budget_share : 1u));
+    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    g->sort_threads = cpus > (long)g->count ? (uint32_t)(cpus / (long)g->count) : 1u;
+    return TS_OK;
+}
+
+/* Creates w's pipeline at budget w->mb, halving it when memory runs out (down to
+ * TS_MEMORY_FLOOR_MB), with a note each time. Waves of at most one unit: each path also owns
+ * a shadow-ray slot. */
+static int worker_pipeline(ts_worker *w, ts_error *err)
+{
+    const ts_frame *f = &w->g->frame;
+    char name[300];
+    for (;;) {
+        ts_pipeline_plan plan;
+        uint64_t rays = 2 * f->unit_samples;
+        if (pipeline_plan(w->mb << 20, rays, (uint32_t)f->opt->max_lod, w->cl.info.max_alloc, &plan,
+                          err))
+            return err->code;
+        plan.sort_threads = w->g->sort_threads;
+        if (!f->opt->quiet && plan.max_lod < w->noted_lod)
+            ts_print_line("tessera: %s: %llu MB holds patches up to m = %u",
+                          worker_name(w, name, sizeof name), (unsigned long long)w->mb,
+                          plan.max_lod);
+        w->noted_lod = plan.max_lod;
+        w->stats.memory_budget_bytes = w->mb << 20;
+        if (!pipeline_create(&w->pipe, &w->cl, f->scene, &plan, f->pixel_count, &w->stats, err) &&
+            !dev_finish(&w->cl, &w->stats, err)) {
+            w->has_pipe = 1;
+            w->pipe.mode = waves_trace_mode(f->opt);
+            return TS_OK;
+        }
+        pipeline_destroy(&w->pipe);
+        if (!(dev_is_out_of_memory(err) || err->code == TS_E_MEMORY) ||
+            w->mb / 2 < TS_MEMORY_FLOOR_MB)
+            return err->code;
+        if (!f->opt->quiet)
+            ts_print_line("tessera: %s could not provide %llu MB (%s); retrying with %llu MB",
+                          worker_name(w, name, sizeof name), (unsigned long long)w->mb, err->msg,
+                          (unsigned long long)(w->mb / 2));
+        ts_error_clear(err);
+        w->mb /= 2;
+    }
+}
+
+/* Publishes the frame's levels of detail (patch_lod: patch_count entries, copied), or
+ * their failure (patch_lod NULL; why, when known, becomes g->fatal), which ends every
+ * thread waiting for them. */
+static void lod_publish(ts_workers *g, uint32_t max_lod, const uint8_t *patch_lod,
+                        const ts_error *why)
+{
+    size_t n = g->frame.scene->patch_count ? g->frame.scene->patch_count : 1;
+    pthread_mutex_lock(&g->lock);
+    if (patch_lod && (g->patch_lod = malloc(n))) {
+        memcpy(g->patch_lod, patch_lod, n);
+        g->max_lod = max_lod;
+        g->lod_state = 1;
+    } else {
+        if (!g->fatal.code && why && why->code)
+            ts_error_set_status(&g->fatal, why->code, why->status, "%s", why->msg);
+        else if (!g->fatal.code)
+            ts_error_set(&g->fatal, patch_lod ? TS_E_MEMORY : TS_E_INTERNAL, "%s",
+                         patch_lod ? "out of memory" : "the frame's levels of detail are missing");
+        g->lod_state = -1;
+    }
+    pthread_cond_broadcast(&g->lod_cond);
+    pthread_mutex_unlock(&g->lock);
+}
+
+/* Device 0: runs the lod stage and publishes the frame's levels of detail. */
+static int worker_make_lod(ts_worker *w, ts_error *err)
+{
+    const ts_frame *f = &w->g->frame;
+    int rc = waves_frame_lod(f->opt, &w->pipe, f->cam, f->job, err);
+    lod_publish(w->g, w->pipe.plan.max_lod, rc ? NULL : w->pipe.patch_lod, err);
+    return rc ? rc : w->g->lod_state > 0 ? TS_OK : TS_E_MEMORY;
+}
+
+/* Waits for the frame's levels of detail and gives them to w's pipeline: they must fit its
+ * arenas (a device whose budget holds coarser patches than device 0's cannot take part). */
+static int worker_take_lod(ts_worker *w, int *lod_failed, ts_error *err)
+{
+    ts_workers *g = w->g;
+    pthread_mutex_lock(&g->lock);
+    while (g->lod_state == 0)
+        pthread_cond_wait(&g->lod_cond, &g->lock);
+    pthread_mutex_unlock(&g->lock);
+    *lod_failed = g->lod_state < 0;
+    if (*lod_failed) return TS_E_INTERNAL;
+    ts_pipeline *p = &w->pipe;
+    char name[300];
+    if (p->plan.max_lod < g->max_lod)
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: %llu MB holds patches up to m = %u and the frame dices up to m = "
+                            "%u (device %d's budget): raise --memory",
+                            worker_name(w, name, sizeof name), (unsigned long long)w->mb,
+                            p->plan.max_lod, g->max_lod, g->w[0].index);
+    p->plan.max_lod = g->max_lod;
+    w->stats.counters[TS_COUNTER_micropolygons_potential] = (uint64_t)g->frame.scene->patch_count
+                                                            << (2u * g->max_lod);
+    memcpy(p->patch_lod, g->patch_lod, g->frame.scene->patch_count);
+    patch_cache_clear(&p->cache);
+    return TS_OK;
+}
+
+/* Reads the wave's results (n samples from `first`) into the unit's: radiance, and the
+ * AOVs of the samples of pass 0. Timed as `film`. */
+static int worker_read_wave(ts_worker *w, const ts_unit *u, uint64_t first, uint32_t n,
+                            ts_unit_result *r, ts_error *err)
+{
+    ts_pipeline *p = &w->pipe;
+    double t0 = stats_now();
+    uint64_t at = first - u->first;
+    uint64_t aov = at < r->aov_count ? r->aov_count - at : 0;
+    if (aov > n) aov = n;
+    int rc = dev_read(&w->cl, p->radiance, 0, (size_t)n * sizeof(ts_vec4), r->radiance + at,
+                      "the radiance of a unit", err);
+    if (!rc && aov)
+        rc = dev_read(&w->cl, p->aov, 0, (size_t)aov * sizeof(ts_vec4), r->aov + at,
+                      "the AOVs of a unit", err) ||
+             dev_read(&w->cl, p->albedo, 0, (size_t)aov * sizeof(ts_vec4), r->albedo + at,
+                      "the albedo of a unit", err);
+    w->stats.stage_seconds[TS_STAGE_film] += stats_now() - t0;
+    return rc ? err->code : TS_OK;
+}
+
+/* Traces unit u in waves into r. *stopped: the source closed between two waves (the unit
+ * is not finished). */
+static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, int *stopped,
+                             ts_error *err)
+{
+    ts_workers *g = w->g;
+    ts_pipeline *p = &w->pipe;
+    ts_camera_params cam = g->frame.cam;
+    uint32_t per_wave = p->plan.ray_capacity / 2;
+    uint64_t rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays];
+    *stopped = 0;
+    for (uint64_t first = u->first; first < u->first + u->count; first += per_wave) {
+        if (g->src.closed(g->src.ctx)) return *stopped = 1, TS_OK;
+        uint64_t left = u->first + u->count - first;
+        uint32_t n = (uint32_t)(left < per_wave ? left : per_wave);
+        cam.first_sample = (uint32_t)first;
+        cam.ray_count = n;
+        if (pipeline_camera(p, &cam, err) ||
+            waves_trace_paths(g->frame.opt, p, (uint32_t)first, n, err) ||
+            worker_read_wave(w, u, first, n, r, err))
+            return err->code;
+        if (w->slow_ms)
+            nanosleep(&(struct timespec){w->slow_ms / 1000, w->slow_ms % 1000 * 1000000}, NULL);
+    }
+    r->rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays] - rays;
+    return TS_OK;
+}
+
+/* After memory ran out in a unit: the pipeline again at half the budget, with the frame's
+ * levels of detail. */
+static int worker_shrink(ts_worker *w, ts_error *err)
+{
+    char name[300];
+    if (w->mb / 2 < TS_MEMORY_FLOOR_MB) return err->code;
+    if (!w->g->frame.opt->quiet)
+        ts_print_line("tessera: %s could not provide %llu MB (%s); retrying with %llu MB",
+                      worker_name(w, name, sizeof name), (unsigned long long)w->mb, err->msg,
+                      (unsigned long long)(w->mb / 2));
+    ts_error_clear(err);
+    pipeline_destroy(&w->pipe);
+    w->has_pipe = 0;
+    w->mb /= 2;
+    int lod_failed;
+    if (worker_pipeline(w, err)) return err->code;
+    return worker_take_lod(w, &lod_failed, err);
+}
+
+/* Takes units until none is left: traces each and hands it back, or gives it back when
+ * the source closed in the middle or the device failed. */
+static int worker_units(ts_worker *w, ts_error *err)
+{
+    ts_unit_source *src = &w->g->src;
+    uint32_t pixels = w->g->frame.pixel_count;
+    ts_unit u;
+    while (src->take(src->ctx, &u)) {
+        double t0 = stats_now();
+        ts_unit_result r;
+        int stopped = 0, rc = unit_result_alloc(&r, &u, pixels, err);
+        if (!rc) rc = worker_trace_unit(w, &u, &r, &stopped, err);
+        if (rc || stopped) {
+            unit_result_free(&r);
+            src->give_back(src->ctx, &u);
+            if (stopped) return TS_OK;
+            if (!(dev_is_out_of_memory(err) || err->code == TS_E_MEMORY) || worker_shrink(w, err))
+                return err->code;
+            continue;
+        }
+        w->out.busy_seconds += stats_now() - t0;
+        w->out.units++;
+        w->out.samples += u.count;
+        src->done(src->ctx, &u, &r);
+    }
+    return TS_OK;
+}
+
+static void *worker_main(void *arg)
+{
+    ts_worker *w = arg;
+    ts_workers *g = w->g;
+    double t0 = stats_now();
+    int lod_failed = 0, makes_lod = w->slot == 0 && g->makes_lod;
+    int rc = worker_pipeline(w, &w->err);
+    if (makes_lod && rc) /* device 0's failure is the frame's: the lod is its */
+        lod_publish(g, 0, NULL, &w->err), lod_failed = 1;
+    else if (makes_lod)
+        lod_failed = (rc = worker_make_lod(w, &w->err)) != TS_OK;
+    else if (!rc)
+        rc = worker_take_lod(w, &lod_failed, &w->err);
+    w->out.setup_seconds = stats_now() - t0;
+    if (!rc) rc = worker_units(w, &w->err);
+    w->out.frame_seconds = stats_now() - t0;
+    pthread_mutex_lock(&g->lock);
+    if (rc) { /* a failed lod is reported once, as the render's error */
+        w->failed = !lod_failed;
+        w->reported = lod_failed;
+        g->alive--;
+    }
+    g->running--;
+    pthread_mutex_unlock(&g->lock);
+    return NULL;
+}
+
+/* TESSERA_SLOW_DEVICE="I:MS[,J:MS...]" (a testing aid, docs/errors.md): device I pauses MS
+ * milliseconds after each wave. */
+static long worker_slow_ms(int index)
+{
+    const char *s = getenv("TESSERA_SLOW_DEVICE");
+    while (s && *s) {
+        int i = -1;
+        long ms = 0;
+        if (sscanf(s, "%d:%ld", &i, &ms) != 2) return 0;
+        if (i == index && ms > 0) return ms;
+        s = strchr(s, ',');
+        s = s ? s + 1 : NULL;
+    }
+    return 0;
+}
+
+int workers_start(ts_workers *g, ts_unit_source src, int makes_lod, ts_error *err)
+{
+    g->src = src;
+    g->makes_lod = makes_lod;
+    g->alive = g->running = g->count;
+    for (uint32_t i = 0; i < g->count; ++i) {
+        ts_worker *w = &g->w[i];
+        w->slow_ms = worker_slow_ms(w->index);
+        if (pthread_create(&w->thread, NULL, worker_main, w) != 0) {
+            pthread_mutex_lock(&g->lock);
+            g->alive -= g->count - i;
+            g->running -= g->count - i;
+            pthread_mutex_unlock(&g->lock);
+            if (i == 0 && makes_lod) lod_publish(g, 0, NULL, NULL);
+            return ts_error_set(err, TS_E_MEMORY, "cannot start a thread for device %d", w->index);
+        }
+        w->started = 1;
+    }
+    g->started = 1;
+    return TS_OK;
+}
+
+void workers_lod_set(ts_workers *g, uint32_t max_lod, const uint8_t *patch_lod)
+{
+    lod_publish(g, max_lod, patch_lod, NULL);
+}
+
+int workers_lod_wait(ts_workers *g, uint32_t *max_lod, const uint8_t **patch_lod)
+{
+    pthread_mutex_lock(&g->lock);
+    while (g->lod_state == 0)
+        pthread_cond_wait(&g->lod_cond, &g->lock);
+    int ok = g->lod_state > 0;
+    *max_lod = g->max_lod;
+    *patch_lod = g->patch_lod;
+    pthread_mutex_unlock(&g->lock);
+    return ok;
+}
+
+uint32_t workers_alive(ts_workers *g)
+{
+    pthread_mutex_lock(&g->lock);
+    uint32_t n = g->alive;
+    pthread_mutex_unlock(&g->lock);
+    return n;
+}
+
+uint32_t workers_running(ts_workers *g)
+{
+    pthread_mutex_lock(&g->lock);
+    uint32_t n = g->running;
+    pthread_mutex_unlock(&g->lock);
+    return n;
+}
+
+int workers_lod_state(ts_workers *g)
+{
+    pthread_mutex_lock(&g->lock);
+    int state = g->lod_state;
+    pthread_mutex_unlock(&g->lock);
+    return state;
+}
+
+void workers_report(ts_workers *g, ts_error *last)
+{
+    char name[300];
+    pthread_mutex_lock(&g->lock);
+    for (uint32_t i = 0; i < g->count; ++i) {
+        ts_worker *w = &g->w[i];
+        if (!w->failed || w->reported) continue;
+        w->reported = 1;
+        if (!g->frame.opt->quiet) {
+            fputc('\n', stderr); /* end the progress line */
+            ts_print_line("tessera: warning: %s stopped: %s; the other devices go on",
+                          worker_name(w, name, sizeof name), w->err.msg);
+        }
+        if (last) {
+            ts_error_clear(last);
+            ts_error_set_status(last, w->err.code, w->err.status, "%s", w->err.msg);
+        }
+    }
+    pthread_mutex_unlock(&g->lock);
+}
+
+void workers_join(ts_workers *g)
+{
+    for (uint32_t i = 0; i < g->count; ++i)
+        if (g->w[i].started) pthread_join(g->w[i].thread, NULL), g->w[i].started = 0;
+}
+
+int workers_stats(ts_workers *g, ts_stats *stats, ts_error *err)
+{
+    for (uint32_t i = 0; i < g->count; ++i) {
+        ts_worker *w = &g->w[i];
+        w->stats.kernel_build_seconds = w->cl.build_seconds;
+        if (stats_merge(stats, &w->stats, err)) return err->code;
+        stats->kernel_cache_hit = (i == 0 || stats->kernel_cache_hit) && w->cl.cache_hit;
+        stats->memory_budget_bytes += w->stats.memory_budget_bytes;
+        ts_device_stats *d = &w->out;
+        snprintf(d->name, sizeof d->name, "%.120s (%.120s)", w->cl.info.name,
+                 w->cl.info.platform_name);
+        d->index = w->index;
+        d->rank = g->frame.rank;
+        d->rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays];
+        d->memory_budget_bytes = w->stats.memory_budget_bytes;
+        memcpy(d->stage_seconds, w->stats.stage_seconds, sizeof d->stage_seconds);
+        d->failed = w->failed;
+        if (w->failed) snprintf(d->error, sizeof d->error, "%.500s", w->err.msg);
+        if (stats_add_device(stats, d, err)) return err->code;
+        size_t used = strlen(stats->device);
+        snprintf(stats->device + used, sizeof stats->device - used, "%s%s", used ? " + " : "",
+                 w->cl.info.name);
+    }
+    return TS_OK;
+}
+
+void workers_close(ts_workers *g)
+{
+    if (!g->w) return;
+    workers_join(g);
+    for (uint32_t i = 0; i < g->count; ++i) {
+        ts_worker *w = &g->w[i];
+        if (w->has_pipe) pipeline_destroy(&w->pipe);
+        dev_close(&w->cl);
+        stats_free(&w->stats);
+        ts_error_clear(&w->err);
+    }
+    free(g->w);
+    free(g->patch_lod);
+    ts_error_clear(&g->fatal);
+    pthread_mutex_destroy(&g->lock);
+    pthread_cond_destroy(&g->lod_cond);
+    memset(g, 0, sizeof *g);
+}
+
+/* The progress line: samples of the units finished (merged or not), rays per second, ETA;
+ * printed when that count moved since *shown. */
+static void frame_progress(ts_board *b, double t0, uint64_t *shown)
+{
+    uint64_t finished, rays;
+    board_progress(b, &finished, &rays);
+    if (finished == *shown) return;
+    *shown = finished;
+    double dt = stats_now() - t0, left = (double)(b->total - b->start - finished);
+    fprintf(stderr, "\rtessera: %llu / %llu samples, %.2f Mrays/s, ETA %.0f s   ",
+            (unsigned long long)(b->start + finished), (unsigned long long)b->total,
+            dt > 0 ? (double)rays / dt / 1e6 : 0.0, finished ? dt * left / (double)finished : 0.0);
+}
+
+/* Waits for the frame: until every unit is merged, a stop signal closes the board, the lod
+ * fails (the render's error), or no device is left (end->all_failed). */
+static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *service,
+                      ts_frame_end *end, ts_error *err)
+{
+    const ts_frame *f = &g->frame;
+    double t0 = stats_now(), printed = 0;
+    uint64_t shown = 0;
+    int rc = TS_OK, lod_state;
+    while (!board_finished(b)) {
+        if (render_stop_signal()) {
+            board_freeze(b);
+            if (service && service->on_stop)
+                service->on_stop(service->stop_ctx, board_samples_done(b));
+            break;
+        }
+        workers_report(g, &end->failure);
+        pthread_mutex_lock(&g->lock);
+        lod_state = g->lod_state;
+        pthread_mutex_unlock(&g->lock);
+        if (lod_state < 0) {
+            rc = ts_error_set_status(err, g->fatal.code, g->fatal.status, "%s", g->fatal.msg);
+            break;
+        }
+        int elsewhere = service && service->poll ? service->poll(service->ctx, b, g, err) : 0;
+        if (elsewhere < 0) {
+            rc = err->code;
+            break;
+        }
+        if (workers_alive(g) == 0 && elsewhere == 0) {
+            end->all_failed = 1;
+            break;
+        }
+        if (!f->opt->quiet && !ferror(stderr) && stats_now() - printed > 0.5) {
+            frame_progress(b, t0, &shown);
+            printed = stats_now();
+        }
+        board_wait(b, service && service->poll ? service->interval : 0.25);
+    }
+    board_close(b);
+    workers_join(g);
+    workers_report(g, &end->failure);
+    if (!f->opt->quiet && !ferror(stderr)) {
+        frame_progress(b, t0, &shown);
+        if (shown) fputc('\n', stderr);
+    }
+    return rc;
+}
+
+int workers_render(const ts_frame *frame, ts_film_state *film, const int *indices, int count,
+                   const ts_frame_service *service, ts_stats *stats, ts_frame_end *end,
+                   ts_error *err)
+{
+    memset(end, 0, sizeof *end);
+    ts_job *job = frame->job;
+    ts_workers g;
+    ts_board b;
+    memset(&b, 0, sizeof b);
+    int rc = workers_open(&g, frame, indices, count, err);
+    if (!rc)
+        rc = board_init(&b, film, frame->pixel_count, job->samples_done, job->total,
+                        frame->unit_samples, frame->window, err);
+    if (!rc) rc = workers_start(&g, board_source(&b), 1, err);
+    if (!rc) rc = frame_wait(&g, &b, service, end, err);
+    if (rc && b.state) board_close(&b); /* threads started before a failure end */
+    if (rc && g.w && workers_lod_state(&g) == 0) lod_publish(&g, 0, NULL, NULL);
+    workers_join(&g);
+    if (b.state) {
+        end->samples_done = board_samples_done(&b);
+        stats->stage_seconds[TS_STAGE_film] += b.merge_seconds;
+    }
+    stats->unit_samples = frame->unit_samples;
+    if (!rc) rc = workers_stats(&g, stats, err);
+    board_free(&b);
+    workers_close(&g);
+    return rc;
+}

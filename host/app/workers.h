@@ -1,0 +1,116 @@
+/* workers.h — one frame on several devices of one process (--device I,J,... or all;
+ * docs/rendering.md "Several devices and processes"): each device has its own context,
+ * queue and program (opened here, one after the other), its own memory budget sized from
+ * its own memory, its own pipeline and a host thread of its own, which pulls units
+ * (units.h) from a shared source, traces them and hands back their samples. The first device
+ * runs the lod stage for the frame and every other device takes its levels of detail, so all
+ * dice alike; the board merges the units in order, so the image is that of the first device
+ * alone, bit for bit, on devices that compute alike (the same driver and kind of device). */
+#ifndef TS_WORKERS_H
+#define TS_WORKERS_H
+
+#include "app/options.h"
+#include "app/resume.h"
+#include "app/units.h"
+#include "pipeline/pipeline.h"
+
+#include <pthread.h>
+
+/* What every device of the frame needs to know. */
+typedef struct ts_frame {
+    const ts_render_options *opt; /* spp resolved */
+    const ts_scene *scene;
+    ts_camera_params cam; /* spp and seed set */
+    uint32_t pixel_count;
+    uint64_t unit_samples; /* units_plan: the units' size */
+    uint32_t window;       /* and how many may wait for the merge */
+    ts_job *job;           /* the lod device checks and records the lod hash in it */
+    int rank;              /* MPI rank (0 without MPI), for the stats */
+    uint32_t budget_share; /* devices sharing the host's memory with this process's ones
+                              (several ranks on one machine): each takes a share of it */
+} ts_frame;
+
+typedef struct ts_worker ts_worker;
+
+/* The devices of one process and their threads. */
+typedef struct ts_workers {
+    ts_frame frame;
+    ts_unit_source src;
+    uint32_t count; /* devices open */
+    ts_worker *w;
+    uint32_t sort_threads; /* each pipeline's share of the CPUs for the host sort */
+    pthread_mutex_t lock;
+    pthread_cond_t lod_cond;
+    /* The frame's levels of detail: made by device 0 when makes_lod, else given by
+     * workers_lod_set (ranks.c); lod_state 0 until then, 1 ready, -1 failed (fatal). */
+    int makes_lod, lod_state;
+    uint32_t max_lod;
+    uint8_t *patch_lod;
+    ts_error fatal;   /* why the lod failed */
+    uint32_t alive;   /* threads still rendering or able to */
+    uint32_t running; /* threads that have not ended */
+    int started;
+} ts_workers;
+
+/* Opens the devices indices[0..count) (dev_select's order) one after the other with
+ * their programs; a device that fails is left out with a warning naming it (unless none
+ * opens: then its error). Chooses each device's budget (--memory, else budget_default
+ * from its own memory, the host's memory shared among the devices that use it) and,
+ * unless quiet, says so. */
+int workers_open(ts_workers *g, const ts_frame *frame, const int *indices, int count,
+                 ts_error *err);
+/* Starts a thread per device taking units from src. makes_lod: device 0 runs the lod
+ * stage (and checks frame->job's lod hash); else workers_lod_set gives the levels. */
+int workers_start(ts_workers *g, ts_unit_source src, int makes_lod, ts_error *err);
+/* The frame's levels of detail from elsewhere (rank 0): max_lod and patch_lod (patch_count
+ * entries, copied); patch_lod NULL: failed (the threads end). */
+void workers_lod_set(ts_workers *g, uint32_t max_lod, const uint8_t *patch_lod);
+/* Waits for the lod (device 0's): 1 ready (*max_lod, *patch_lod valid until workers_close),
+ * 0 failed (g->fatal says why). */
+int workers_lod_wait(ts_workers *g, uint32_t *max_lod, const uint8_t **patch_lod);
+/* Threads that have not failed; threads that have not ended (a thread ends when its source
+ * has no unit left for it, or when it fails). */
+uint32_t workers_alive(ts_workers *g);
+uint32_t workers_running(ts_workers *g);
+/* The frame's levels of detail: 0 not yet, 1 ready, -1 failed (does not wait). */
+int workers_lod_state(ts_workers *g);
+/* Prints (unless quiet) a warning for each device that failed since the last call, and
+ * copies the last such error into *last (when not NULL). */
+void workers_report(ts_workers *g, ts_error *last);
+void workers_join(ts_workers *g);
+/* Adds each device's stages, counters and lod histogram into stats, and its entry to
+ * stats->devices. */
+int workers_stats(ts_workers *g, ts_stats *stats, ts_error *err);
+/* Joins the threads and releases the pipelines and the devices. */
+void workers_close(ts_workers *g);
+
+/* How the frame ended on several devices. */
+typedef struct ts_frame_end {
+    uint64_t samples_done; /* the films hold [0, samples_done) */
+    int all_failed;        /* every device failed before the end: failure says why */
+    ts_error failure;
+} ts_frame_end;
+
+/* What the waiting loop of workers_render does besides waiting. poll (ranks.c: MPI
+ * messages; NULL: none) returns how many devices elsewhere may still take units (0: none),
+ * or -1 with err set. on_stop (NULL: none) is called once on a stop signal, with the films
+ * frozen at samples [0, samples_done), before the devices end their waves: rank 0 of an
+ * MPI render writes the image there, since mpirun may kill it soon after its SIGTERM. */
+typedef struct ts_frame_service {
+    void *ctx;
+    int (*poll)(void *ctx, ts_board *b, ts_workers *g, ts_error *err);
+    double interval; /* seconds between polls */
+    void (*on_stop)(void *stop_ctx, uint64_t samples_done);
+    void *stop_ctx;
+} ts_frame_service;
+
+/* Renders samples [frame->job->samples_done, total) of the frame on the devices
+ * indices[0..count) into film (which holds the samples before), with progress on stderr
+ * (unless quiet). A stop signal (render_stop_signal) closes the board: each device ends at
+ * its current wave and the merged prefix is kept. When every device fails, the merged
+ * prefix is kept and end->all_failed says so. service may be NULL. */
+int workers_render(const ts_frame *frame, ts_film_state *film, const int *indices, int count,
+                   const ts_frame_service *service, ts_stats *stats, ts_frame_end *end,
+                   ts_error *err);
+
+#endif

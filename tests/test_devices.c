@@ -1,0 +1,333 @@
+/* test_devices.c — one frame on several devices of one process (host/app/workers.c), on two
+ * PoCL devices (POCL_DEVICES="pthread pthread", set here): the image equals the one-device
+ * image bit for bit (every channel) on the teapot, the displaced teapot and the textured
+ * scene, also with units that cut passes at odd places; with one device slowed
+ * (TESSERA_SLOW_DEVICE) the split shifts towards the other and the image stays the same; an
+ * interrupted render resumes to the same bits; --stats has one "devices" entry per device;
+ * bad input: an unknown device in a list, a repeated one, a device that fails to build (the
+ * other goes on), a device that runs out of memory mid-frame (it retries smaller), every
+ * device failing. Skipped (77) without PoCL's two devices. */
+#include "test_support.h"
+#include "image/image.h"
+
+#include <cjson/cJSON.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+static char dir[4096];
+/* The two PoCL pthread devices' indices, as "I,J", and the first alone. */
+static char pair[32], first[16];
+
+static const char *in_dir(const char *name)
+{
+    return test_path_in(dir, name);
+}
+
+static const char *stderr_text(void)
+{
+    static char buf[1 << 16];
+    FILE *f = fopen(in_dir("stderr.txt"), "r");
+    size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
+    buf[n] = '\0';
+    if (f) fclose(f);
+    return buf;
+}
+
+static void expect_in_stderr(const char *needle)
+{
+    if (!strstr(stderr_text(), needle)) fail_msg("stderr lacks \"%s\":\n%s", needle, stderr_text());
+}
+
+/* Renders scene (relative to the source tree) to dir/out with the devices `devices` and
+ * the extra arguments; fails the test unless it exits 0. */
+static void render(const char *scene, const char *out, const char *devices, const char *extra)
+{
+    test_tessera_ok(dir, "render '%s' -o '%s' --device %s %s", test_source_path(scene), in_dir(out),
+                    devices, extra);
+}
+
+/* The devices entry of a --stats file, device k. */
+static double device_number(cJSON *root, int k, const char *key)
+{
+    cJSON *devs = cJSON_GetObjectItemCaseSensitive(root, "devices");
+    cJSON *d = cJSON_GetArrayItem(devs, k);
+    cJSON *v = d ? cJSON_GetObjectItemCaseSensitive(d, key) : NULL;
+    if (!cJSON_IsNumber(v)) fail_msg("stats: devices[%d].%s is missing", k, key);
+    return v->valuedouble;
+}
+
+static const char *const scenes[] = {"scene/teapot.rib", "scene/teapot_displaced.rib",
+                                     "scene/textured.rib"};
+
+/* Two devices give the one-device image, every channel bit for bit, on three scenes; the
+ * stats name both devices and account for every sample. */
+static void test_two_devices_give_the_one_device_image(void **state)
+{
+    (void)state;
+    const char *args = "--res 96x54 --spp 4 --max-lod 6 --quiet";
+    for (size_t i = 0; i < sizeof scenes / sizeof *scenes; ++i) {
+        render(scenes[i], "one.exr", first, args);
+        char extra[256];
+        snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("two.json"));
+        render(scenes[i], "two.exr", pair, extra);
+        test_assert_same_pixels(in_dir("one.exr"), in_dir("two.exr"));
+        cJSON *root = test_read_json(in_dir("two.json"));
+        cJSON *devs = cJSON_GetObjectItemCaseSensitive(root, "devices");
+        assert_int_equal(cJSON_GetArraySize(devs), 2);
+        double samples = device_number(root, 0, "samples") + device_number(root, 1, "samples");
+        assert_true(samples == 96.0 * 54 * 4);
+        for (int k = 0; k < 2; ++k) {
+            double busy = device_number(root, k, "busy_fraction");
+            assert_true(device_number(root, k, "units") >= 1);
+            assert_true(busy > 0.0 && busy <= 1.0);
+            assert_true(device_number(root, k, "rays") >= device_number(root, k, "samples"));
+        }
+        cJSON_Delete(root);
+    }
+}
+
+/* Units of 777 samples cut passes and cross from one pass into the next: same bits; so do
+ * the levels of detail of TESSERA_LOD_RULE=seen. */
+static void test_odd_units_give_the_same_image(void **state)
+{
+    (void)state;
+    const char *args = "--res 64x36 --spp 3 --max-lod 6 --quiet";
+    render("scene/teapot_displaced.rib", "odd1.exr", first, args);
+    setenv("TESSERA_UNIT_SAMPLES", "777", 1);
+    render("scene/teapot_displaced.rib", "odd2.exr", pair, args);
+    unsetenv("TESSERA_UNIT_SAMPLES");
+    test_assert_same_pixels(in_dir("odd1.exr"), in_dir("odd2.exr"));
+    /* The seen rule traces the first pass in the lod stage (app/waves.c on the first
+     * device); the others take its levels: same bits as one device under that rule. */
+    setenv("TESSERA_LOD_RULE", "seen", 1);
+    render("scene/teapot_displaced.rib", "seen1.exr", first, args);
+    render("scene/teapot_displaced.rib", "seen2.exr", pair, args);
+    unsetenv("TESSERA_LOD_RULE");
+    test_assert_same_pixels(in_dir("seen1.exr"), in_dir("seen2.exr"));
+}
+
+/* Device k of the pair slowed by 150 ms a wave: the other takes most units, and the image is
+ * the same. */
+static void slowed(int k, const char *out, const char *json)
+{
+    char slow[64], extra[256];
+    int index = atoi(k == 0 ? pair : strchr(pair, ',') + 1);
+    snprintf(slow, sizeof slow, "%d:150", index);
+    setenv("TESSERA_SLOW_DEVICE", slow, 1);
+    snprintf(extra, sizeof extra, "--res 96x54 --spp 8 --max-lod 6 --quiet --stats '%s'",
+             in_dir(json));
+    render("scene/teapot.rib", out, pair, extra);
+    unsetenv("TESSERA_SLOW_DEVICE");
+}
+
+static void test_a_slow_device_takes_fewer_units(void **state)
+{
+    (void)state;
+    render("scene/teapot.rib", "fast.exr", first, "--res 96x54 --spp 8 --max-lod 6 --quiet");
+    for (int k = 0; k < 2; ++k) {
+        slowed(k, "slow.exr", "slow.json");
+        cJSON *root = test_read_json(in_dir("slow.json"));
+        double mine = device_number(root, k, "units"), other = device_number(root, 1 - k, "units");
+        if (!(other > 2 * mine))
+            fail_msg("device %d (slowed) took %g units, the other %g", k, mine, other);
+        cJSON_Delete(root);
+        test_assert_same_pixels(in_dir("fast.exr"), in_dir("slow.exr"));
+    }
+}
+
+/* SIGTERM in the middle of a two-device render: the merged prefix is written (exit 3) and
+ * --resume, on two devices or one, finishes it to the uninterrupted image. */
+static void test_interrupted_two_device_render_resumes(void **state)
+{
+    (void)state;
+    const char *scene = test_source_path("scene/teapot.rib");
+    const char *args = "--res 96x54 --spp 8 --max-lod 6";
+    render("scene/teapot.rib", "whole.exr", first, "--res 96x54 --spp 8 --max-lod 6 --quiet");
+    for (int resume_on_two = 0; resume_on_two < 2; ++resume_on_two) {
+        char slow[64];
+        snprintf(slow, sizeof slow, "%d:40,%d:40", atoi(pair), atoi(strchr(pair, ',') + 1));
+        setenv("TESSERA_SLOW_DEVICE", slow, 1); /* a render of a few seconds */
+        setenv("TESSERA_UNIT_SAMPLES", "1024", 1);
+        char cmd[8192];
+        snprintf(cmd, sizeof cmd, "'%s' render '%s' -o '%s' --device %s %s 2>'%s' & echo $! > '%s'",
+                 test_tessera_binary(), scene, in_dir("cut.exr"), pair, args, in_dir("stderr.txt"),
+                 in_dir("pid"));
+        assert_int_equal(system(cmd), 0);
+        unsetenv("TESSERA_SLOW_DEVICE");
+        unsetenv("TESSERA_UNIT_SAMPLES");
+        FILE *f = fopen(in_dir("pid"), "r");
+        int pid = 0;
+        assert_true(f && fscanf(f, "%d", &pid) == 1);
+        fclose(f);
+        int progressed = 0;                             /* a unit finished */
+        for (int i = 0; i < 6000 && !progressed; ++i) { /* up to 60 s */
+            progressed = strstr(stderr_text(), " samples, ") != NULL;
+            if (!progressed) nanosleep(&(struct timespec){0, 10000000}, NULL);
+        }
+        assert_true(progressed);
+        kill(pid, SIGTERM);
+        for (int i = 0; i < 6000 && kill(pid, 0) == 0; ++i)
+            nanosleep(&(struct timespec){0, 10000000}, NULL);
+        expect_in_stderr("interrupted by SIGTERM after ");
+        int done = -1;
+        ts_error err = {0};
+        if (image_read_meta_int(in_dir("cut.exr"), "tessera:samples_done", &done, &err))
+            fail_msg("%s", err.msg);
+        assert_true(done > 0 && done < 96 * 54 * 8);
+        test_tessera_ok(dir, "render '%s' -o '%s' --device %s %s --resume --quiet", scene,
+                        in_dir("cut.exr"), resume_on_two ? pair : first, args);
+        test_assert_same_pixels(in_dir("whole.exr"), in_dir("cut.exr"));
+    }
+}
+
+static void expect_error(const char *devices, const char *needle)
+{
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' --device %s --res 16x16",
+                              test_source_path("scene/teapot.rib"), in_dir("bad.png"), devices);
+    assert_int_equal(rc, 1);
+    expect_in_stderr(needle);
+}
+
+static void test_bad_device_lists(void **state)
+{
+    (void)state;
+    char list[64];
+    snprintf(list, sizeof list, "%s,41", pair);
+    expect_error(list, "unknown device index 41 in --device ");
+    expect_error("0,0", "bad value '0,0' for --device");
+    expect_error("0,", "bad value '0,' for --device");
+    expect_error("1,x", "bad value '1,x' for --device");
+    setenv("TESSERA_DEVICE", "0,41", 1);
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' --res 16x16",
+                              test_source_path("scene/teapot.rib"), in_dir("bad.png"));
+    unsetenv("TESSERA_DEVICE");
+    assert_int_equal(rc, 1);
+    expect_in_stderr("unknown device index 41 in TESSERA_DEVICE=0,41");
+}
+
+/* The index of the device whose name starts with `prefix` under POCL_DEVICES=pocl (from
+ * `tessera devices`: PoCL may not be the only platform), as text. */
+static const char *index_of(const char *pocl, const char *prefix)
+{
+    static char out[2][16];
+    static int next;
+    char cmd[4400], line[512];
+    snprintf(cmd, sizeof cmd, "POCL_DEVICES='%s' '%s' devices", pocl, test_tessera_binary());
+    FILE *f = popen(cmd, "r");
+    char *o = out[next++ % 2];
+    *o = '\0';
+    while (f && fgets(line, sizeof line, f)) {
+        char *colon = strchr(line, ':');
+        if (colon && line[0] >= '0' && line[0] <= '9' &&
+            strncmp(colon + 2, prefix, strlen(prefix)) == 0 && !*o)
+            snprintf(o, 16, "%d", atoi(line));
+    }
+    if (f) pclose(f);
+    if (!*o) fail_msg("no %s device under POCL_DEVICES=%s", prefix, pocl);
+    return o;
+}
+
+/* POCL_DEVICES="pthread basic": the basic device fails to build (TESSERA_FAIL_BUILD), the
+ * pthread one renders the frame alone with a warning naming the other; when both fail, the
+ * render fails with the build error. */
+static void test_a_device_that_fails_to_build_is_left_out(void **state)
+{
+    (void)state;
+    const char *pt = index_of("pthread basic", "pthread-"),
+               *basic = index_of("pthread basic", "basic-");
+    char both[40], warning[80];
+    snprintf(both, sizeof both, "%s,%s", pt, basic);
+    snprintf(warning, sizeof warning, "warning: device %s cannot render: CL_BUILD_PROGRAM_FAILURE",
+             basic);
+    setenv("POCL_DEVICES", "pthread basic", 1);
+    const char *args = "--res 64x36 --spp 2 --max-lod 6";
+    render("scene/teapot.rib", "alone.exr", pt, "--res 64x36 --spp 2 --max-lod 6 --quiet");
+    setenv("TESSERA_FAIL_BUILD", "basic", 1);
+    render("scene/teapot.rib", "left_out.exr", both, args);
+    expect_in_stderr(warning);
+    expect_in_stderr("the other devices go on without it");
+    test_assert_same_pixels(in_dir("alone.exr"), in_dir("left_out.exr"));
+    setenv("TESSERA_FAIL_BUILD", "-", 1); /* every PoCL device name has a '-' */
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' --device all %s",
+                              test_source_path("scene/teapot.rib"), in_dir("none.exr"), args);
+    assert_int_equal(rc, 1);
+    expect_in_stderr("tessera: CL_BUILD_PROGRAM_FAILURE in clBuildProgram");
+    assert_int_equal(access(in_dir("none.exr"), F_OK), -1);
+    unsetenv("TESSERA_FAIL_BUILD");
+    setenv("POCL_DEVICES", "pthread pthread", 1);
+}
+
+/* A launch on the basic device fails mid-frame (CL_OUT_OF_RESOURCES): that device gives its
+ * unit back, makes its pipeline again at half the budget and goes on; same image. */
+static void test_a_device_out_of_memory_mid_frame_retries(void **state)
+{
+    (void)state;
+    const char *pt = index_of("pthread basic", "pthread-"),
+               *basic = index_of("pthread basic", "basic-");
+    char both[40], note[80];
+    snprintf(both, sizeof both, "%s,%s", pt, basic);
+    snprintf(note, sizeof note, "tessera: device %s (basic-", basic);
+    setenv("POCL_DEVICES", "pthread basic", 1);
+    const char *args = "--res 64x36 --spp 4 --max-lod 6 --memory 64";
+    render("scene/teapot.rib", "ref_oom.exr", pt, "--res 64x36 --spp 4 --max-lod 6 --quiet");
+    setenv("TESSERA_FAIL_LAUNCH", "5", 1); /* in the basic device's first unit */
+    setenv("TESSERA_FAIL_LAUNCH_DEVICE", "basic", 1);
+    setenv("TESSERA_UNIT_SAMPLES", "1024", 1);
+    render("scene/teapot.rib", "oom.exr", both, args);
+    unsetenv("TESSERA_FAIL_LAUNCH");
+    unsetenv("TESSERA_FAIL_LAUNCH_DEVICE");
+    unsetenv("TESSERA_UNIT_SAMPLES");
+    setenv("POCL_DEVICES", "pthread pthread", 1);
+    expect_in_stderr(note);
+    expect_in_stderr("could not provide 64 MB (CL_OUT_OF_RESOURCES");
+    expect_in_stderr("retrying with 32 MB");
+    test_assert_same_pixels(in_dir("ref_oom.exr"), in_dir("oom.exr"));
+}
+
+/* The indices of the two pthread devices PoCL exposes: PoCL may not be the first platform. */
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "%s", test_scratch_dir());
+    ts_device_info *list = NULL;
+    ts_error err = {0};
+    int n = dev_list(&list, &err), found = 0;
+    for (int i = 0; i < n && found < 2; ++i)
+        if (strncmp(list[i].name, "pthread-", 8) == 0) {
+            size_t used = strlen(pair);
+            snprintf(pair + used, sizeof pair - used, "%s%d", found ? "," : "", i);
+            if (!found) snprintf(first, sizeof first, "%d", i);
+            ++found;
+        }
+    free(list);
+    return found == 2 ? 0 : -1;
+}
+
+int main(void)
+{
+    /* Before PoCL starts in this process (dev_list): two CPU devices. */
+    setenv("POCL_DEVICES", "pthread pthread", 1);
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_two_devices_give_the_one_device_image),
+        cmocka_unit_test(test_odd_units_give_the_same_image),
+        cmocka_unit_test(test_a_slow_device_takes_fewer_units),
+        cmocka_unit_test(test_interrupted_two_device_render_resumes),
+        cmocka_unit_test(test_bad_device_lists),
+        cmocka_unit_test(test_a_device_that_fails_to_build_is_left_out),
+        cmocka_unit_test(test_a_device_out_of_memory_mid_frame_retries),
+    };
+    if (!test_has_device()) return TS_TEST_SKIP;
+    ts_device_info *list = NULL;
+    ts_error err = {0};
+    int n = dev_list(&list, &err), pthreads = 0;
+    for (int i = 0; i < n; ++i)
+        pthreads += strncmp(list[i].name, "pthread-", 8) == 0;
+    free(list);
+    if (pthreads < 2) return TS_TEST_SKIP; /* not PoCL */
+    return cmocka_run_group_tests(tests, setup, NULL);
+}
