@@ -229,6 +229,39 @@ static void test_exr_meta(void **state)
     ts_error_clear(&err);
 }
 
+/* String metadata beside the integers: written, read back whole or cut to the buffer; an
+ * integer is not a string; an incomplete item fails the write. */
+static void test_exr_text_meta(void **state)
+{
+    scratch *s = *state;
+    char buf0[256];
+    float px[3] = {0.25f, 0.5f, 1.0f};
+    ts_image img = {1, 1, 3, NULL, px};
+    ts_image_meta meta[] = {{"tessera:bake_bands", 3}};
+    ts_image_text text[] = {{"tessera:sh_convention", "Y_00 = 1/(2 sqrt(pi))"}};
+    ts_error err = {0};
+    const char *path = scratch_path(buf0, s, "text.exr");
+    assert_int_equal(image_write_exr_text(path, &img, meta, 1, text, 1, &err), TS_OK);
+    char got[64];
+    assert_int_equal(image_read_meta_string(path, "tessera:sh_convention", got, sizeof got, &err),
+                     TS_OK);
+    assert_string_equal(got, "Y_00 = 1/(2 sqrt(pi))");
+    assert_int_equal(image_read_meta_string(path, "tessera:sh_convention", got, 5, &err), TS_OK);
+    assert_string_equal(got, "Y_00");
+    int v = 0;
+    assert_int_equal(image_read_meta_int(path, "tessera:bake_bands", &v, &err), TS_OK);
+    assert_int_equal(v, 3);
+    assert_int_equal(image_read_meta_string(path, "tessera:bake_bands", got, sizeof got, &err),
+                     TS_E_IO);
+    assert_non_null(strstr(err.msg, "no string metadata"));
+    ts_error_clear(&err);
+    ts_image_text bad[] = {{"tessera:x", NULL}};
+    assert_int_equal(image_write_exr_text(path, &img, NULL, 0, bad, 1, &err), TS_E_IO);
+    ts_error_clear(&err);
+    /* The failed write left the first file as it was. */
+    assert_int_equal(image_read_meta_int(path, "tessera:bake_bands", &v, &err), TS_OK);
+}
+
 /* ---- PNG ---- */
 
 static void test_png_round_trip(void **state)
@@ -351,6 +384,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_exr_round_trip, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_channel_order, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_meta, scratch_setup, scratch_teardown),
+        cmocka_unit_test_setup_teardown(test_exr_text_meta, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_png_round_trip, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_write_into_missing_dir, scratch_setup,
                                         scratch_teardown),

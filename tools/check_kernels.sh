@@ -18,6 +18,8 @@
 #   - the same teapot with --leaf-mode group --leaf-size 2 (the work-group leaf kernel);
 #   - scene/textured.rib at 8x6, --max-lod 2 (image textures: displacement and colour);
 #   - scene/lights.rib at 8x6, --max-lod 1 (point, spot and ambient lights in shade);
+#   - `tessera bake` of the teapot and of textured.rib (tiles paged) at tiny sizes (the
+#     bake kernels; test_bake_kernels traces waves of the teapot, minutes under Oclgrind);
 #   - every test program whose source calls test_open_device() (the kernel unit tests),
 #     except SLOW_TESTS (whole-renderer comparisons, minutes under Oclgrind; the renders
 #     above run the same kernels).
@@ -39,7 +41,7 @@ cd "$(dirname "$0")/.."
 src=$PWD
 build=$(cd "${1:-${BUILD_DIR:-build}}" 2>/dev/null && pwd) || { echo "check_kernels: no build directory ${1:-${BUILD_DIR:-build}} (run tools/setup.sh)" >&2; exit 1; }
 timeout_s=${CHECK_KERNELS_TIMEOUT:-120}
-SLOW_TESTS="test_trace test_embree test_leaf_modes test_bottom_level test_box_vs_triangles test_kernel_cache"
+SLOW_TESTS="test_trace test_embree test_leaf_modes test_bottom_level test_box_vs_triangles test_kernel_cache test_bake_kernels"
 
 if ! command -v oclgrind >/dev/null; then
   echo "check_kernels: oclgrind is not installed (apt-get install oclgrind): skipping"
@@ -114,6 +116,13 @@ run render_textured "$build/tessera" render scene/textured.rib --res 8x6 --spp 1
 # Point, spot and ambient lights (light_sample, light_escape's eye rays) in shade.
 run render_lights "$build/tessera" render scene/lights.rib --res 8x6 --spp 2 --max-lod 1 \
   --memory 4 -o "$work/lights.exr" --no-kernel-cache --quiet
+# The bake (kernels/bake.cl: points, rays, SH projection) through the pipeline, every patch
+# at m = 1, two rays per point; textured.rib's tiles are paged at 4 MB (bake_points in
+# ranges).
+run bake_teapot "$build/tessera" bake scene/teapot.rib --lod 1 --rays 2 \
+  --memory 4 -o "$work/bake.exr" --no-kernel-cache --quiet
+run bake_textured "$build/tessera" bake scene/textured.rib --res 8x6 --rays 4 --max-lod 2 \
+  --memory 4 -o "$work/bake_textured.exr" --no-kernel-cache --quiet
 for f in tests/test_*.c; do
   t=$(basename "$f" .c)
   grep -q 'test_open_device' "$f" || continue

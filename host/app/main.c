@@ -1,6 +1,8 @@
-/* main.c — the `tessera` command: `devices` lists OpenCL devices, `render` renders a scene.
+/* main.c — the `tessera` command: `devices` lists OpenCL devices, `render` renders a scene,
+ * `bake` bakes its spherical-harmonics occlusion (docs/bake.md).
  * The only place that prints errors and chooses the exit status (STYLE.md 10). */
 #include "device/device.h"
+#include "app/bake.h"
 #include "app/render.h"
 
 #include <signal.h>
@@ -16,6 +18,7 @@
 static const char *usage_text =
     "usage: tessera devices\n"
     "       tessera render SCENE.rib|MODEL -o OUT.{png,exr} [options]\n"
+    "       tessera bake SCENE.rib|MODEL -o OUT.exr [bake options]\n"
     "       (MODEL: any mesh Assimp reads, framed by an automatic camera)\n"
     "options:\n"
     "  -o, --output FILE     image to write: .png (tone-mapped sRGB) or .exr (float RGB,\n"
@@ -48,7 +51,20 @@ static const char *usage_text =
     "      --mpi-scene HOW   under mpirun: broadcast (default): rank 0 loads the scene\n"
     "                        and sends it; load: every rank loads the same files\n"
     "      --kernel-dir DIR  build kernels from DIR instead of the embedded copy\n"
-    "      --no-kernel-cache neither read nor write the kernel binary cache\n";
+    "      --no-kernel-cache neither read nor write the kernel binary cache\n"
+    "bake options (spherical-harmonics occlusion at the vertices of every patch diced at m,\n"
+    "docs/bake.md; also -o --memory --max-lod --res --seed --intersect --frame --stats\n"
+    "--quiet --resume --kernel-dir --no-kernel-cache as for render, and --device I: one\n"
+    "device):\n"
+    "      --bands B         SH bands, 1..4: B^2 coefficients sh0.. per point (default 3)\n"
+    "      --rays N          rays per point (default 512)\n"
+    "      --lod M           points at every patch's vertices diced at m = M (default: m from\n"
+    "                        the camera's pixel footprint, as render's level of detail)\n"
+    "      --points K        at least K points per patch (default 4: its corners)\n"
+    "      --cosine          project V times max(0, N.w) (cosine-weighted directions)\n"
+    "      --sphere          directions uniform over the sphere, not the hemisphere\n"
+    "      --front           the hemisphere about the patch's own normal, not the side the\n"
+    "                        camera sees\n";
 
 /* Prints "tessera: " and the formatted text as one line on stderr (ts_print_line: control
  * characters escaped). */
@@ -177,6 +193,53 @@ static int cmd_render(int argc, char **argv)
     return status;
 }
 
+/* What a bake that did not fail tells the user, and its exit status. */
+static int report_bake(const ts_bake_options *o, const ts_stats *stats, const ts_bake_result *r)
+{
+    if (r->outcome == TS_BAKE_UP_TO_DATE) {
+        say("%s is already complete (%llu points): nothing to do", o->output_path,
+            (unsigned long long)r->points_total);
+        return 0;
+    }
+    if (r->outcome == TS_BAKE_INTERRUPTED) {
+        say("interrupted by %s after %llu of %llu points; wrote %s (continue with --resume)",
+            r->signal == SIGINT   ? "SIGINT"
+            : r->signal == SIGHUP ? "SIGHUP"
+                                  : "SIGTERM",
+            (unsigned long long)r->points_done, (unsigned long long)r->points_total,
+            o->output_path);
+        return TS_EXIT_INTERRUPTED;
+    }
+    if (!o->quiet) {
+        say("baked %llu points (%llu rays) into %s on %s", (unsigned long long)r->points_total,
+            (unsigned long long)r->rays, o->output_path, stats->device);
+        stats_print_table(stats, stderr);
+    }
+    return 0;
+}
+
+static int cmd_bake(int argc, char **argv)
+{
+    ts_bake_options o;
+    bake_options_defaults(&o);
+    ts_error err = {0};
+    int help;
+    if (bake_options_parse(argc, argv, &o, &help, &err)) return report_error(&err);
+    if (help) {
+        fputs(usage_text, stdout);
+        return 0;
+    }
+    ts_stats stats;
+    memset(&stats, 0, sizeof stats);
+    ts_bake_result result;
+    int rc = bake_run(&o, &stats, &result, &err);
+    if (!rc && o.stats_path && result.outcome != TS_BAKE_UP_TO_DATE)
+        rc = stats_write_json(&stats, o.stats_path, &err);
+    int status = rc ? report_error(&err) : report_bake(&o, &stats, &result);
+    stats_free(&stats);
+    return status;
+}
+
 int main(int argc, char **argv)
 {
     /* A closed stdout or stderr (`tessera render ... 2>&1 | head`) must not kill a render
@@ -189,6 +252,7 @@ int main(int argc, char **argv)
     }
     if (strcmp(argv[1], "devices") == 0) return cmd_devices();
     if (strcmp(argv[1], "render") == 0) return cmd_render(argc - 1, argv + 1);
-    say("unknown command '%s' (commands: devices, render)", argv[1]);
+    if (strcmp(argv[1], "bake") == 0) return cmd_bake(argc - 1, argv + 1);
+    say("unknown command '%s' (commands: devices, render, bake)", argv[1]);
     return 1;
 }

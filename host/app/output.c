@@ -21,7 +21,11 @@ int output_check(const ts_render_options *o, ts_error *err)
         return ts_error_set(err, TS_E_USAGE,
                             "--resume needs an .exr output (a PNG cannot hold "
                             "the sums of the samples)");
-    const char *stats = o->stats_path;
+    return output_check_paths(path, o->stats_path, o->scene_path, err);
+}
+
+int output_check_paths(const char *path, const char *stats, const char *scene_path, ts_error *err)
+{
     if (ts_file_check_writable(path, err) || (stats && ts_file_check_writable(stats, err)))
         return err->code;
     if (stats && ts_file_same(stats, path))
@@ -29,40 +33,47 @@ int output_check(const ts_render_options *o, ts_error *err)
                             "%s: --stats and -o name the same file (the JSON would replace the "
                             "image)",
                             stats);
-    if (ts_file_same(path, o->scene_path))
+    if (ts_file_same(path, scene_path))
         return ts_error_set(err, TS_E_USAGE,
                             "%s: -o names the scene file (it would be overwritten)", path);
-    if (stats && ts_file_same(stats, o->scene_path))
+    if (stats && ts_file_same(stats, scene_path))
         return ts_error_set(err, TS_E_USAGE,
                             "%s: --stats names the scene file (it would be overwritten)", stats);
     return TS_OK;
 }
 
 /* Fails when the output or the stats file is input, a file the scene read. */
-static int output_check_input(const ts_render_options *o, const char *input, const char *what,
-                              ts_error *err)
+static int output_check_input(const char *output_path, const char *stats_path, const char *input,
+                              const char *what, ts_error *err)
 {
-    if (ts_file_same(o->output_path, input))
+    if (ts_file_same(output_path, input))
         return ts_error_set(err, TS_E_USAGE,
                             "%s: -o names %s the scene reads (it would be "
                             "overwritten)",
-                            o->output_path, what);
-    if (o->stats_path && ts_file_same(o->stats_path, input))
+                            output_path, what);
+    if (stats_path && ts_file_same(stats_path, input))
         return ts_error_set(err, TS_E_USAGE,
                             "%s: --stats names %s the scene reads (it would be "
                             "overwritten)",
-                            o->stats_path, what);
+                            stats_path, what);
     return TS_OK;
 }
 
 int output_check_inputs(const ts_render_options *o, const ts_scene *scene, ts_error *err)
 {
+    return output_check_inputs_paths(o->output_path, o->stats_path, scene, err);
+}
+
+int output_check_inputs_paths(const char *out, const char *stats, const ts_scene *scene,
+                              ts_error *err)
+{
     for (uint32_t i = 0; i < scene->texture_count; ++i)
-        if (output_check_input(o, scene->tex_source[i], "a texture", err)) return err->code;
+        if (output_check_input(out, stats, scene->tex_source[i], "a texture", err))
+            return err->code;
     for (uint32_t i = 0; i < scene->input_count; ++i)
-        if (output_check_input(o, scene->input_source[i], "a file", err)) return err->code;
+        if (output_check_input(out, stats, scene->input_source[i], "a file", err)) return err->code;
     if (scene->dome.present && scene->dome.mapname[0] &&
-        output_check_input(o, scene->dome.mapname, "the environment map", err))
+        output_check_input(out, stats, scene->dome.mapname, "the environment map", err))
         return err->code;
     return TS_OK;
 }

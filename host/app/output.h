@@ -13,10 +13,17 @@
  * directories exist and take new files: TS_E_IO), not the same file, and neither the scene
  * file (TS_E_USAGE). */
 int output_check(const ts_render_options *o, ts_error *err);
+/* The part of output_check that any command writing an output and a --stats file makes
+ * (`tessera bake` too): writable, not the same file, not the scene file. stats may be NULL. */
+int output_check_paths(const char *output_path, const char *stats_path, const char *scene_path,
+                       ts_error *err);
 
 /* After the scene is loaded, before the render: neither -o nor --stats names a file the
  * scene read (its textures, its environment map). TS_E_USAGE otherwise. */
 int output_check_inputs(const ts_render_options *o, const ts_scene *scene, ts_error *err);
+/* The same for any command's output and --stats paths (stats may be NULL). */
+int output_check_inputs_paths(const char *output_path, const char *stats_path,
+                              const ts_scene *scene, ts_error *err);
 
 /* Writes o->output_path, width x height, atomically (image.h), from the host copy of the
  * films (resume.h). An EXR of an unfinished render (job->samples_done < job->total) gets all

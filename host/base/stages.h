@@ -8,6 +8,7 @@
 #define TS_STAGES(X)                                                                        \
     X(camera, "generate the wave's rays")                                                   \
     X(lod, "count the frame's eye rays per patch box, choose m per patch")                   \
+    X(bake, "bake points and their rays; SH projection of the rays' visibility")             \
     X(top_level, "traverse the top-level QBVH, append (leaf, ray) candidates")              \
     X(sort, "radix sort the candidates by leaf, cut per-patch segments")                    \
     X(dice, "evaluate the (2^m+1)^2 displaced vertices of each patch segment")             \

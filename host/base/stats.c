@@ -161,6 +161,19 @@ static cJSON *stats_to_json(const ts_stats *s)
                                 ? (double)s->counters[TS_COUNTER_leaf_tests] /
                                       (double)s->counters[TS_COUNTER_leaf_slots]
                                 : 0.0);
+    if (s->counters[TS_COUNTER_bake_points]) {
+        /* points and rays per second over the waves' wall time (dicing included) */
+        double points = (double)s->counters[TS_COUNTER_bake_points];
+        double rays = (double)s->counters[TS_COUNTER_rays], t = s->bake.seconds;
+        cJSON *bake = cJSON_AddObjectToObject(root, "bake");
+        cJSON_AddNumberToObject(bake, "points", points);
+        cJSON_AddNumberToObject(bake, "rays", rays);
+        cJSON_AddNumberToObject(bake, "rays_per_point", s->bake.rays_per_point);
+        cJSON_AddNumberToObject(bake, "bands", s->bake.bands);
+        cJSON_AddNumberToObject(bake, "seconds", t);
+        cJSON_AddNumberToObject(bake, "points_per_second", t > 0 ? points / t : 0.0);
+        cJSON_AddNumberToObject(bake, "rays_per_second", t > 0 ? rays / t : 0.0);
+    }
     cJSON *hist = cJSON_AddArrayToObject(root, "lod_histogram");
     for (int m = 0; m <= TS_LOD_LIMIT; ++m)
         cJSON_AddItemToArray(hist, cJSON_CreateNumber((double)s->lod_histogram[m]));
@@ -222,6 +235,10 @@ void stats_print_table(const ts_stats *s, void *file)
             s->wall_seconds, s->kernel_build_seconds, s->kernel_cache_hit ? ", cached" : "");
     for (int i = 0; i < TS_COUNTER_COUNT; ++i)
         fprintf(f, "%-24s %llu\n", ts_counter_names[i], (unsigned long long)s->counters[i]);
+    if (s->counters[TS_COUNTER_bake_points] && s->bake.seconds > 0)
+        fprintf(f, "bake: %.0f points/s, %.3f M rays/s over %.3f s of waves\n",
+                (double)s->counters[TS_COUNTER_bake_points] / s->bake.seconds,
+                (double)s->counters[TS_COUNTER_rays] / s->bake.seconds / 1e6, s->bake.seconds);
 }
 
 void stats_free(ts_stats *s)

@@ -29,7 +29,8 @@
     X(patch_cache_hits, "segments whose patch was already diced and resident")              \
     X(patch_cache_misses, "segments diced into the cache (= patches_diced)")                \
     X(patch_cache_evictions, "resident patches evicted to make room")                      \
-    X(patch_cache_bytes, "bytes of the vertex and tree arenas the cache manages")
+    X(patch_cache_bytes, "bytes of the vertex and tree arenas the cache manages")        \
+    X(bake_points, "points baked (tessera bake; their rays are counted in rays)")
 /* clang-format on */
 
 typedef enum ts_counter {
@@ -77,6 +78,12 @@ typedef struct ts_rank_stats {
     double scene_seconds; /* getting the scene: loading the files, or receiving rank 0's */
     char error[512];      /* why it rendered nothing ("" when it rendered) */
 } ts_rank_stats;
+/* What `tessera bake` adds (the "bake" object of --stats, written when points were baked):
+ * the waves' wall time and the shape of each point's projection. */
+typedef struct ts_bake_summary {
+    double seconds; /* from the first wave's start to the last wave's end */
+    uint32_t bands, rays_per_point;
+} ts_bake_summary;
 
 typedef struct ts_stats {
     double stage_seconds[TS_STAGE_COUNT];
@@ -98,6 +105,7 @@ typedef struct ts_stats {
     uint32_t rank_count;
     ts_rank_stats *ranks;
     uint64_t unit_samples;
+    ts_bake_summary bake;
 } ts_stats;
 
 extern const char *const ts_counter_names[TS_COUNTER_COUNT];

@@ -37,6 +37,16 @@ typedef struct ts_image_meta {
 int image_write_exr(const char *path, const ts_image *img, const ts_image_meta *meta,
                     int meta_count, ts_error *err);
 
+/* One string metadata item, stored as an EXR string attribute. */
+typedef struct ts_image_text {
+    const char *key;
+    const char *text;
+} ts_image_text;
+
+/* image_write_exr with text_count string attributes besides the integer ones. */
+int image_write_exr_text(const char *path, const ts_image *img, const ts_image_meta *meta,
+                         int meta_count, const ts_image_text *text, int text_count, ts_error *err);
+
 /* Writes 8-bit sRGB PNG from rgb_linear (3 floats per pixel, rows top to bottom),
  * tone-mapped by tonemap_srgb8. path must end in ".png". Returns TS_OK or the code. */
 int image_write_png(const char *path, int width, int height, const float *rgb_linear,
@@ -51,6 +61,11 @@ int image_read(const char *path, ts_image *out, ts_error *err);
 /* Reads the integer metadata item `key` into *value; a missing or non-integer item is
  * TS_E_IO "PATH: no integer metadata \"KEY\"". */
 int image_read_meta_int(const char *path, const char *key, int *value, ts_error *err);
+
+/* Reads the string metadata item `key` into buf (size bytes, NUL-terminated, cut short if
+ * longer); a missing or non-string item is TS_E_IO "PATH: no string metadata \"KEY\"". */
+int image_read_meta_string(const char *path, const char *key, char *buf, size_t size,
+                           ts_error *err);
 
 /* Frees what image_read allocated and zeroes *img. Only for images from image_read;
  * NULL and zeroed images are fine. */

@@ -3,6 +3,7 @@
  * through ts_error, so nothing C++ crosses into the C host. */
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstdlib>
@@ -179,7 +180,7 @@ int check_names(const char *path, const ts_image *img, ts_error *err)
 }
 
 int write_exr(const char *path, const ts_image *img, const ts_image_meta *meta, int meta_count,
-              ts_error *err)
+              const ts_image_text *text, int text_count, ts_error *err)
 {
     int rc = require_extension(path, ".exr", err);
     if (!rc && !img) rc = io_fail(err, path, "no image given");
@@ -195,6 +196,11 @@ int write_exr(const char *path, const ts_image *img, const ts_image_meta *meta, 
         if (!meta || !meta[i].key || !*meta[i].key)
             return io_fail(err, path, "metadata item " + std::to_string(i) + " has no key");
         spec.attribute(meta[i].key, meta[i].value);
+    }
+    for (int i = 0; i < text_count; i++) {
+        if (!text || !text[i].key || !*text[i].key || !text[i].text)
+            return io_fail(err, path, "text metadata item " + std::to_string(i) + " is incomplete");
+        spec.attribute(text[i].key, text[i].text);
     }
     /* EXR sorts channels by name on disk; record ours so image_read can restore it. */
     std::vector<OIIO::ustring> order(spec.channelnames.begin(), spec.channelnames.end());
@@ -329,12 +335,35 @@ int read_meta_int(const char *path, const char *key, int *value, ts_error *err)
     return TS_OK;
 }
 
+int read_meta_string(const char *path, const char *key, char *buf, size_t size, ts_error *err)
+{
+    if (!key || !buf || size == 0) return io_fail(err, path, "no metadata key or buffer given");
+    std::unique_ptr<ImageInput> in;
+    int rc = open_input(path, in, err);
+    if (rc) return rc;
+    const OIIO::ParamValue *p = in->spec().find_attribute(key, OIIO::TypeString);
+    if (!p) return io_fail(err, path, std::string("no string metadata \"") + key + "\"");
+    std::string v = p->get_string();
+    size_t n = std::min(v.size(), size - 1);
+    memcpy(buf, v.data(), n);
+    buf[n] = '\0';
+    return TS_OK;
+}
+
 } // namespace
 
 extern "C" int image_write_exr(const char *path, const ts_image *img, const ts_image_meta *meta,
                                int meta_count, ts_error *err)
 {
-    return guarded(path, err, [&] { return write_exr(path, img, meta, meta_count, err); });
+    return guarded(path, err, [&] { return write_exr(path, img, meta, meta_count, NULL, 0, err); });
+}
+
+extern "C" int image_write_exr_text(const char *path, const ts_image *img,
+                                    const ts_image_meta *meta, int meta_count,
+                                    const ts_image_text *text, int text_count, ts_error *err)
+{
+    return guarded(path, err,
+                   [&] { return write_exr(path, img, meta, meta_count, text, text_count, err); });
 }
 
 extern "C" int image_write_png(const char *path, int width, int height, const float *rgb_linear,
@@ -354,6 +383,12 @@ extern "C" int image_read(const char *path, ts_image *out, ts_error *err)
 extern "C" int image_read_meta_int(const char *path, const char *key, int *value, ts_error *err)
 {
     return guarded(path, err, [&] { return read_meta_int(path, key, value, err); });
+}
+
+extern "C" int image_read_meta_string(const char *path, const char *key, char *buf, size_t size,
+                                      ts_error *err)
+{
+    return guarded(path, err, [&] { return read_meta_string(path, key, buf, size, err); });
 }
 
 extern "C" void image_free(ts_image *img)

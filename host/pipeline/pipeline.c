@@ -1,4 +1,5 @@
 #include "pipeline/pipeline.h"
+#include "pipeline/bake.h"
 #include "pipeline/lights.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
@@ -346,6 +347,7 @@ void pipeline_destroy(ts_pipeline *p)
     };
     for (size_t i = 0; i < sizeof buffers / sizeof *buffers; ++i)
         if (buffers[i]) clReleaseMemObject(buffers[i]);
+    bake_stage_destroy(p->bake);
     if (p->sorter) radix_sorter_destroy(p->sorter);
     free(p->sort_host[0]);
     free(p->sort_host[1]);

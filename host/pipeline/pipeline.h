@@ -197,6 +197,9 @@ typedef struct ts_pipeline {
     uint32_t light_count; /* entries of the lights buffer (lights.h) */
     uint32_t wave;        /* the wave of paths being traced (stats iterations) */
     uint32_t in_lod;      /* 1 while pipeline_lod traces its pass (stats iterations) */
+    /* Stages only some commands run, with their own kernels and buffers, made on demand
+     * (bake.h: `tessera bake`) and released by pipeline_destroy; NULL otherwise. */
+    struct ts_bake_stage *bake;
 #define TS_KERNEL_FIELD(field, name) cl_kernel field;
     TS_PIPELINE_KERNELS(TS_KERNEL_FIELD)
 #undef TS_KERNEL_FIELD

@@ -278,6 +278,30 @@ typedef struct ts_shade_params {
     ts_u32 pad[2];
 } ts_shade_params;
 
+/* The bake (`tessera bake`, kernels/bake.cl, docs/bake.md): ts_bake_params.flags. */
+#define TS_BAKE_COSINE 1u /* V times max(0, n . w); directions cosine-weighted about n */
+#define TS_BAKE_SPHERE                                                                             \
+    2u /* directions uniform over the whole sphere (below the surface: V = 0,                      \
+          not traced) instead of the hemisphere about n */
+#define TS_BAKE_FRONT                                                                              \
+    4u /* n is the patch's own normal (dP/du x dP/dv), not turned towards                          \
+          the camera */
+
+/* One wave of bake points: points [first_point, first_point + point_count) of the global
+ * point list (patches in order, each patch's (2^m+1)^2 vertices row by row), each with
+ * `rays` rays. 48 bytes. */
+typedef struct ts_bake_params {
+    ts_u32 first_point;
+    ts_u32 point_count;
+    ts_u32 rays;  /* N rays per point */
+    ts_u32 bands; /* B = 1..4: B^2 coefficients per point (lib/sh.h) */
+    ts_u32 flags; /* TS_BAKE_* */
+    ts_u32 seed;
+    ts_u32 patch_count;
+    ts_u32 orthographic; /* 1: eye[0..2] is the camera's forward direction */
+    float eye[4];        /* the camera position (perspective), w unused */
+} ts_bake_params;
+
 /* Per-ray flags (ray field `flags`). */
 #define TS_RAY_SHADOW 1u /* any hit below tmax ends the ray: it only answers "occluded?" */
 
@@ -333,7 +357,7 @@ typedef struct ts_shade_params {
     X(ts_light, flags) X(ts_light, pos) X(ts_light, cos_inner) X(ts_light, falloff_min)             \
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \
     X(ts_patch_attr, disp_offset) X(ts_patch_attr, st) X(ts_texture, kind)                    \
-    X(ts_texture, level_page)
+    X(ts_texture, level_page) X(ts_bake_params, orthographic) X(ts_bake_params, eye)
 /* clang-format on */
 
 #endif
