@@ -567,6 +567,14 @@ static void test_errors(void **state)
     assert_non_null(strstr(read_text(path("stderr.txt")), "a bake is written as .exr"));
     assert_int_equal(test_run_tessera(dir, "bake '%s' -o '%s' --bands 5", scene, path("x.exr")), 1);
     assert_non_null(strstr(read_text(path("stderr.txt")), "bad value '5' for --bands"));
+    /* The values and messages of `render` (issue 15, item 8): the same parsers. */
+    assert_int_equal(
+        test_run_tessera(dir, "bake '%s' -o '%s' --res 32x24junk", scene, path("x.exr")), 1);
+    assert_non_null(strstr(read_text(path("stderr.txt")), "bad value '32x24junk' for --res"));
+    assert_int_equal(test_run_tessera(dir, "bake '%s' -o '%s' --rays", scene, path("x.exr")), 1);
+    assert_non_null(strstr(read_text(path("stderr.txt")), "option --rays needs a value"));
+    assert_int_equal(test_run_tessera(dir, "bake '%s' -o '%s' --quiet=1", scene, path("x.exr")), 1);
+    assert_non_null(strstr(read_text(path("stderr.txt")), "option --quiet takes no value"));
     assert_int_equal(
         test_run_tessera(dir, "bake '%s' -o '%s' --rays 60000 --memory 8", scene, path("x.exr")),
         1);

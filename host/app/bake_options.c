@@ -1,6 +1,7 @@
 /* bake_options.c — `tessera bake`'s options: the defaults, set in one place (STYLE.md 16),
  * and the command line read into them with getopt_long. Nothing here prints or exits. */
 #include "app/bake.h"
+#include "app/options.h"
 #include "lib/sh.h"
 
 #include <errno.h>
@@ -20,16 +21,6 @@ void bake_options_defaults(ts_bake_options *o)
     o->memory_mb = 0; /* app/budget.h: sized to the device and the process's limits */
     o->cl.device_index = -1;
     o->frame = -1;
-}
-
-static int parse_int(const char *s, long lo, long hi, int *out)
-{
-    char *end;
-    errno = 0;
-    long v = strtol(s, &end, 10);
-    if (errno || end == s || *end || v < lo || v > hi) return -1;
-    *out = (int)v;
-    return 0;
 }
 
 enum {
@@ -89,18 +80,17 @@ static int apply_option(int c, const char *arg, ts_bake_options *o)
         o->output_path = arg;
         return 0;
     case OPT_BANDS:
-        return parse_int(arg, 1, TS_SH_MAX_BANDS, &o->bands);
+        return options_parse_int(arg, 1, TS_SH_MAX_BANDS, &o->bands);
     case OPT_RAYS:
-        return parse_int(arg, 1, 1 << 16, &o->rays);
+        return options_parse_int(arg, 1, 1 << 16, &o->rays);
     case OPT_LOD:
-        return parse_int(arg, 0, TS_LOD_LIMIT, &o->fixed_lod);
+        return options_parse_int(arg, 0, TS_LOD_LIMIT, &o->fixed_lod);
     case OPT_POINTS:
-        return parse_int(arg, 1, 1 << 21, &o->min_points);
+        return options_parse_int(arg, 1, 1 << 21, &o->min_points);
     case OPT_MAX_LOD:
-        return parse_int(arg, 0, TS_LOD_LIMIT, &o->max_lod);
+        return options_parse_int(arg, 0, TS_LOD_LIMIT, &o->max_lod);
     case OPT_RES:
-        return sscanf(arg, "%dx%d", &o->width, &o->height) != 2 || o->width < 1 || o->height < 1 ||
-               o->width > 65536 || o->height > 65536;
+        return options_parse_res(arg, &o->width, &o->height);
     case OPT_COSINE:
         o->flags |= TS_BAKE_COSINE;
         return 0;
@@ -111,16 +101,16 @@ static int apply_option(int c, const char *arg, ts_bake_options *o)
         o->flags |= TS_BAKE_FRONT;
         return 0;
     case OPT_SEED:
-        if (parse_int(arg, 0, 0x7fffffff, &v)) return 1;
+        if (options_parse_int(arg, 0, 0x7fffffff, &v)) return 1;
         o->seed = (unsigned)v;
         return 0;
     case OPT_INTERSECT:
         o->exact = strcmp(arg, "triangles") == 0;
         return strcmp(arg, "boxes") != 0 && strcmp(arg, "triangles") != 0;
     case OPT_DEVICE:
-        return parse_int(arg, 0, 1 << 20, &o->cl.device_index);
+        return options_parse_int(arg, 0, 1 << 20, &o->cl.device_index);
     case OPT_MEMORY:
-        return parse_int(arg, 1, 1 << 24, &o->memory_mb);
+        return options_parse_int(arg, 1, 1 << 24, &o->memory_mb);
     case OPT_STATS:
         o->stats_path = arg;
         return 0;
@@ -131,7 +121,7 @@ static int apply_option(int c, const char *arg, ts_bake_options *o)
         o->resume = 1;
         return 0;
     case OPT_FRAME:
-        return parse_int(arg, 0, 0x7fffffff, &o->frame);
+        return options_parse_int(arg, 0, 0x7fffffff, &o->frame);
     case OPT_KERNEL_DIR:
         o->cl.kernel_dir = arg;
         return 0;
@@ -144,25 +134,21 @@ static int apply_option(int c, const char *arg, ts_bake_options *o)
 
 int bake_options_parse(int argc, char **argv, ts_bake_options *o, int *help, ts_error *err)
 {
-    int c;
+    int c, index = -1;
     *help = 0;
     opterr = 0;
     optind = 1;
-    while ((c = getopt_long(argc, argv, "o:", bake_long_options, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":o:", bake_long_options, &index)) != -1) {
         if (c == OPT_HELP) {
             *help = 1;
             return TS_OK;
         }
-        if (c == '?') {
-            if (optopt)
-                return ts_error_set(err, TS_E_USAGE, "option -%c needs a value or is unknown",
-                                    optopt);
-            return ts_error_set(err, TS_E_USAGE, "unknown option %s (see tessera --help)",
-                                argv[optind - 1]);
-        }
+        if (c == '?' || c == ':') return options_error(c, argv, bake_long_options, err);
         if (apply_option(c, optarg, o))
-            return ts_error_set(err, TS_E_USAGE, "bad value '%s' for %s", optarg,
-                                argv[optind - 2 >= 0 ? optind - 2 : 0]);
+            return ts_error_set(err, TS_E_USAGE, "bad value '%s' for %s%s", optarg,
+                                index >= 0 ? "--" : "-o",
+                                index >= 0 ? bake_long_options[index].name : "");
+        index = -1;
     }
     if (optind != argc - 1)
         return ts_error_set(err, TS_E_USAGE,

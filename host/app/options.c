@@ -25,8 +25,7 @@ void render_options_defaults(ts_render_options *o)
     o->frame = -1;
 }
 
-/* Parses a positive int in [lo, hi]; returns 0 on success. */
-static int parse_int(const char *s, int lo, int hi, int *out)
+int options_parse_int(const char *s, int lo, int hi, int *out)
 {
     char *end;
     errno = 0;
@@ -36,8 +35,7 @@ static int parse_int(const char *s, int lo, int hi, int *out)
     return 0;
 }
 
-/* Parses "WxH" (two positive ints, nothing around them) into w and h; 0 on success. */
-static int parse_res(const char *s, int *w, int *h)
+int options_parse_res(const char *s, int *w, int *h)
 {
     char *end;
     errno = 0;
@@ -109,12 +107,12 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
         o->output_path = arg;
         return 0;
     case OPT_RES:
-        return parse_res(arg, &o->width, &o->height);
+        return options_parse_res(arg, &o->width, &o->height);
     case OPT_LEAF_MODE:
         o->leaf_group = strcmp(arg, "group") == 0;
         return strcmp(arg, "ray") != 0 && strcmp(arg, "group") != 0;
     case OPT_LEAF_SIZE:
-        return parse_int(arg, 1, 4, &o->leaf_size) || o->leaf_size == 3;
+        return options_parse_int(arg, 1, 4, &o->leaf_size) || o->leaf_size == 3;
     case OPT_SAMPLING:
         o->sampling = !strcmp(arg, "mis")     ? (int)TS_SAMPLING_MIS
                       : !strcmp(arg, "light") ? (int)TS_SAMPLING_LIGHT
@@ -122,11 +120,11 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
                                               : -1;
         return o->sampling < 0;
     case OPT_SPP:
-        return parse_int(arg, 1, 1 << 16, &o->spp);
+        return options_parse_int(arg, 1, 1 << 16, &o->spp);
     case OPT_DEPTH:
-        return parse_int(arg, 0, 64, &o->depth);
+        return options_parse_int(arg, 0, 64, &o->depth);
     case OPT_SEED:
-        if (parse_int(arg, 0, 0x7fffffff, &v)) return 1;
+        if (options_parse_int(arg, 0, 0x7fffffff, &v)) return 1;
         o->seed = (unsigned)v;
         return 0;
     case OPT_DEVICE: {
@@ -135,14 +133,14 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
         return dev_parse_list(arg, list, &n);
     }
     case OPT_MAX_LOD:
-        return parse_int(arg, 0, TS_LOD_LIMIT, &o->max_lod);
+        return options_parse_int(arg, 0, TS_LOD_LIMIT, &o->max_lod);
     case OPT_LOD:
-        return parse_int(arg, 0, TS_LOD_LIMIT, &o->fixed_lod);
+        return options_parse_int(arg, 0, TS_LOD_LIMIT, &o->fixed_lod);
     case OPT_INTERSECT:
         o->exact = strcmp(arg, "triangles") == 0;
         return strcmp(arg, "boxes") != 0 && strcmp(arg, "triangles") != 0;
     case OPT_MEMORY:
-        return parse_int(arg, 1, 1 << 24, &o->memory_mb);
+        return options_parse_int(arg, 1, 1 << 24, &o->memory_mb);
     case OPT_STATS:
         o->stats_path = arg;
         return 0;
@@ -153,7 +151,7 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
         o->resume = 1;
         return 0;
     case OPT_FRAME:
-        return parse_int(arg, 0, 0x7fffffff, &o->frame);
+        return options_parse_int(arg, 0, 0x7fffffff, &o->frame);
     case OPT_MPI_SCENE:
         o->mpi_scene_load = strcmp(arg, "load") == 0;
         return strcmp(arg, "load") != 0 && strcmp(arg, "broadcast") != 0;
@@ -167,16 +165,16 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
     return 0;
 }
 
-/* The message for what getopt_long refused: c is ':' for an option without its value
- * (argv[optind - 1] is the option as typed), '?' for an unknown one (optopt: its character
- * for a short option, 0 for a long one) or a flag given a value (optopt: the flag's value,
- * above 255). optopt is printed as a character only when it is a printable one. */
-static int option_error(int c, char **argv, ts_error *err)
+/* c is ':' for an option without its value (argv[optind - 1] is the option as typed), '?'
+ * for an unknown one (optopt: its character for a short option, 0 for a long one) or a flag
+ * given a value (optopt: the flag's value, above 255). optopt is printed as a character only
+ * when it is a printable one. */
+int options_error(int c, char **argv, const struct option *longopts, ts_error *err)
 {
     if (c == ':')
         return ts_error_set(err, TS_E_USAGE, "option %s needs a value (see tessera --help)",
                             argv[optind - 1]);
-    for (const struct option *l = render_long_options; optopt > 255 && l->name; ++l)
+    for (const struct option *l = longopts; optopt > 255 && l->name; ++l)
         if (l->val == optopt) /* "--quiet=3" */
             return ts_error_set(err, TS_E_USAGE, "option --%s takes no value (see tessera --help)",
                                 l->name);
@@ -196,7 +194,7 @@ int render_options_parse(int argc, char **argv, ts_render_options *o, int *help,
             *help = 1;
             return TS_OK;
         }
-        if (c == '?' || c == ':') return option_error(c, argv, err);
+        if (c == '?' || c == ':') return options_error(c, argv, render_long_options, err);
         if (apply_option(c, optarg, o))
             return ts_error_set(err, TS_E_USAGE, "bad value '%s' for %s%s", optarg,
                                 index >= 0 ? "--" : "-o",

@@ -38,4 +38,15 @@ void render_options_defaults(ts_render_options *o);
  * with *help = 1: the caller prints the usage. */
 int render_options_parse(int argc, char **argv, ts_render_options *o, int *help, ts_error *err);
 
+/* Shared by every subcommand's parser (render, bake), so that they accept and refuse values
+ * alike. options_parse_int: a decimal int in [lo, hi], nothing around it; options_parse_res:
+ * "WxH", each in 1..65536, nothing around them. Both return 0 on success. */
+struct option;
+int options_parse_int(const char *s, int lo, int hi, int *out);
+int options_parse_res(const char *s, int *w, int *h);
+/* The message for what getopt_long (optstring starting with ':') refused: c is ':' for an
+ * option without its value, '?' for an unknown option or a flag given a value; `longopts`
+ * names the flags. Returns TS_E_USAGE. */
+int options_error(int c, char **argv, const struct option *longopts, ts_error *err);
+
 #endif
