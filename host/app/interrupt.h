@@ -1,4 +1,4 @@
-/* interrupt.h — SIGINT, SIGTERM and SIGHUP during a long command (`tessera bake`): while installed,
+/* interrupt.h — SIGINT, SIGTERM and SIGHUP during a long command (render, bake): while installed,
  * the handler only records the signal; the command polls interrupt_signal() at a point where
  * what is finished can be written, stops there, and main() exits with status 3
  * (docs/errors.md). Outside install .. restore the signals have their usual effect. */

@@ -3,6 +3,7 @@
  * samples (again with half the memory when the device runs out), and write the image. */
 #include "app/render.h"
 #include "app/budget.h"
+#include "app/interrupt.h"
 #include "app/output.h"
 #include "app/resume.h"
 #include "app/waves.h"
@@ -65,54 +66,19 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
 }
 
 /* SIGINT, SIGTERM and SIGHUP (a closed terminal or ssh session) while samples are traced:
- * the handler only records the signal; the wave loop stops at the next wave boundary and
- * the finished samples are written. */
-static const int stop_signals[] = {SIGINT, SIGTERM, SIGHUP};
-#define TS_STOP_SIGNALS (sizeof stop_signals / sizeof *stop_signals)
-static volatile sig_atomic_t stop_signal;
-static int stop_handlers_installed;
-static struct sigaction stop_old[TS_STOP_SIGNALS];
-
-static void on_stop_signal(int sig)
-{
-    stop_signal = sig;
-}
-
-static void stop_handlers_install(void)
-{
-    if (stop_handlers_installed) return;
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_stop_signal;
-    sigemptyset(&sa.sa_mask);
-    sa.sa_flags = SA_RESTART;
-    stop_signal = 0;
-    for (size_t i = 0; i < TS_STOP_SIGNALS; ++i)
-        sigaction(stop_signals[i], &sa, &stop_old[i]);
-    stop_handlers_installed = 1;
-}
-
-static void stop_handlers_restore(void);
-
+ * app/interrupt.h records the signal; the wave loop stops at the next wave boundary and the
+ * finished samples are written. */
 int render_stop_signal(void)
 {
-    return stop_signal;
+    return interrupt_signal();
 }
 
 void render_stop_handlers(int install)
 {
     if (install)
-        stop_handlers_install();
+        interrupt_install();
     else
-        stop_handlers_restore();
-}
-
-static void stop_handlers_restore(void)
-{
-    if (!stop_handlers_installed) return;
-    for (size_t i = 0; i < TS_STOP_SIGNALS; ++i)
-        sigaction(stop_signals[i], &stop_old[i], NULL);
-    stop_handlers_installed = 0;
+        interrupt_restore();
 }
 
 /* Runs the waves: each is a run of global sample indices [first, first + rays), from
@@ -125,7 +91,7 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
     uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
     p->mode = waves_trace_mode(o);
     if (waves_frame_lod(o, p, cam, job, err)) return err->code;
-    stop_handlers_install();
+    interrupt_install();
     double t0 = stats_now();
     for (uint64_t first = start; first < total; first += per_wave) {
         uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
@@ -147,7 +113,7 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
                     (unsigned long long)(first + n), (unsigned long long)total,
                     dt > 0 ? rays / dt / 1e6 : 0.0, dt * (double)(total - first - n) / done);
         }
-        if (stop_signal) break;
+        if (interrupt_signal()) break;
     }
     if (!o->quiet && !ferror(stderr)) fputc('\n', stderr);
     return TS_OK;
@@ -483,7 +449,7 @@ static int render_on_devices(ts_render *r, ts_error *err)
         ts_print_line("tessera: %dx%d, %d spp on %d devices, in units of %llu samples", r->width,
                       r->height, r->opt.spp, r->device_count, (unsigned long long)f.unit_samples);
     r->films_on_host = 1;
-    stop_handlers_install();
+    interrupt_install();
     ts_frame_end end;
     ts_frame_service service = {0};
 #ifdef TESSERA_HAVE_MPI
@@ -570,7 +536,7 @@ static void render_result(const ts_render *r, int up_to_date, ts_render_result *
                    : r->job.samples_done < r->job.total ? TS_RENDER_INTERRUPTED
                                                         : TS_RENDER_COMPLETE;
     out->samples_done = r->job.samples_done;
-    out->signal = stop_signal;
+    out->signal = interrupt_signal();
     snprintf(out->reason, sizeof out->reason, "%s", r->stopped.msg);
 }
 
@@ -604,7 +570,7 @@ int render_run(const ts_render_options *o, ts_ranks *ranks, ts_stats *stats,
     if (!rc && !up_to_date && !r.written) rc = render_write(&r, err);
     if (!rc && r.early.code) rc = ts_error_set(err, r.early.code, "%s", r.early.msg);
     if (!rc) render_result(&r, up_to_date, result);
-    stop_handlers_restore(); /* after the write: a signal until then only stops the waves */
+    interrupt_restore(); /* after the write: a signal until then only stops the waves */
     render_free(&r);
     stats->wall_seconds = stats_now() - t0;
     return rc;
