@@ -28,21 +28,6 @@ static const char *in_dir(const char *name)
     return test_path_in(dir, name);
 }
 
-static const char *stderr_text(void)
-{
-    static char buf[1 << 16];
-    FILE *f = fopen(in_dir("stderr.txt"), "r");
-    size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
-    buf[n] = '\0';
-    if (f) fclose(f);
-    return buf;
-}
-
-static void expect_in_stderr(const char *needle)
-{
-    if (!strstr(stderr_text(), needle)) fail_msg("stderr lacks \"%s\":\n%s", needle, stderr_text());
-}
-
 /* Renders scene (relative to the source tree) to dir/out with the devices `devices` and
  * the extra arguments; fails the test unless it exits 0. */
 static void render(const char *scene, const char *out, const char *devices, const char *extra)
@@ -166,14 +151,14 @@ static void test_interrupted_two_device_render_resumes(void **state)
         fclose(f);
         int progressed = 0;                             /* a unit finished */
         for (int i = 0; i < 6000 && !progressed; ++i) { /* up to 60 s */
-            progressed = strstr(stderr_text(), " samples, ") != NULL;
+            progressed = strstr(test_stderr_of(dir), " samples, ") != NULL;
             if (!progressed) nanosleep(&(struct timespec){0, 10000000}, NULL);
         }
         assert_true(progressed);
         kill(pid, SIGTERM);
         for (int i = 0; i < 6000 && kill(pid, 0) == 0; ++i)
             nanosleep(&(struct timespec){0, 10000000}, NULL);
-        expect_in_stderr("interrupted by SIGTERM after ");
+        test_expect_in_stderr(dir, "interrupted by SIGTERM after ");
         int done = -1;
         ts_error err = {0};
         if (image_read_meta_int(in_dir("cut.exr"), "tessera:samples_done", &done, &err))
@@ -190,7 +175,7 @@ static void expect_error(const char *devices, const char *needle)
     int rc = test_run_tessera(dir, "render '%s' -o '%s' --device %s --res 16x16",
                               test_source_path("scene/teapot.rib"), in_dir("bad.png"), devices);
     assert_int_equal(rc, 1);
-    expect_in_stderr(needle);
+    test_expect_in_stderr(dir, needle);
 }
 
 static void test_bad_device_lists(void **state)
@@ -207,7 +192,7 @@ static void test_bad_device_lists(void **state)
                               test_source_path("scene/teapot.rib"), in_dir("bad.png"));
     unsetenv("TESSERA_DEVICE");
     assert_int_equal(rc, 1);
-    expect_in_stderr("unknown device index 41 in TESSERA_DEVICE=0,41");
+    test_expect_in_stderr(dir, "unknown device index 41 in TESSERA_DEVICE=0,41");
 }
 
 /* The index of the device whose name starts with `prefix` under POCL_DEVICES=pocl (from
@@ -249,14 +234,14 @@ static void test_a_device_that_fails_to_build_is_left_out(void **state)
     render("scene/teapot.rib", "alone.exr", pt, "--res 64x36 --spp 2 --max-lod 6 --quiet");
     setenv("TESSERA_FAIL_BUILD", "basic", 1);
     render("scene/teapot.rib", "left_out.exr", both, args);
-    expect_in_stderr(warning);
-    expect_in_stderr("the other devices go on without it");
+    test_expect_in_stderr(dir, warning);
+    test_expect_in_stderr(dir, "the other devices go on without it");
     test_assert_same_pixels(in_dir("alone.exr"), in_dir("left_out.exr"));
     setenv("TESSERA_FAIL_BUILD", "-", 1); /* every PoCL device name has a '-' */
     int rc = test_run_tessera(dir, "render '%s' -o '%s' --device all %s",
                               test_source_path("scene/teapot.rib"), in_dir("none.exr"), args);
     assert_int_equal(rc, 1);
-    expect_in_stderr("tessera: CL_BUILD_PROGRAM_FAILURE in clBuildProgram");
+    test_expect_in_stderr(dir, "tessera: CL_BUILD_PROGRAM_FAILURE in clBuildProgram");
     assert_int_equal(access(in_dir("none.exr"), F_OK), -1);
     unsetenv("TESSERA_FAIL_BUILD");
     setenv("POCL_DEVICES", "pthread pthread", 1);
@@ -283,9 +268,9 @@ static void test_a_device_out_of_memory_mid_frame_retries(void **state)
     unsetenv("TESSERA_FAIL_LAUNCH_DEVICE");
     unsetenv("TESSERA_UNIT_SAMPLES");
     setenv("POCL_DEVICES", "pthread pthread", 1);
-    expect_in_stderr(note);
-    expect_in_stderr("could not provide 64 MB (CL_OUT_OF_RESOURCES");
-    expect_in_stderr("retrying with 32 MB");
+    test_expect_in_stderr(dir, note);
+    test_expect_in_stderr(dir, "could not provide 64 MB (CL_OUT_OF_RESOURCES");
+    test_expect_in_stderr(dir, "retrying with 32 MB");
     test_assert_same_pixels(in_dir("ref_oom.exr"), in_dir("oom.exr"));
 }
 

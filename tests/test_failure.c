@@ -52,17 +52,6 @@ static char *read_text(const char *path)
     return buf;
 }
 
-static const char *stderr_text(void)
-{
-    return read_text(in_dir("stderr.txt"));
-}
-
-static void expect_in_stderr(const char *needle)
-{
-    const char *err = stderr_text();
-    if (!strstr(err, needle)) fail_msg("stderr lacks \"%s\":\n%s", needle, err);
-}
-
 static int meta_int(const char *name, const char *key)
 {
     int v = -1;
@@ -169,8 +158,8 @@ static void test_alloc_failure_is_retried(void **state)
                               test_source_path("scene/teapot.rib"), in_dir("retried.png"));
     unsetenv("TESSERA_FAIL_ALLOC");
     assert_int_equal(rc, 0);
-    expect_in_stderr("the device could not provide 1024 MB");
-    expect_in_stderr("retrying with 512 MB");
+    test_expect_in_stderr(dir, "the device could not provide 1024 MB");
+    test_expect_in_stderr(dir, "retrying with 512 MB");
     assert_true(exists("retried.png"));
 }
 
@@ -182,7 +171,7 @@ static void test_alloc_failure_gives_up(void **state)
                               test_source_path("scene/teapot.rib"), in_dir("never.png"));
     unsetenv("TESSERA_FAIL_ALLOC");
     assert_int_equal(rc, 1);
-    const char *err = stderr_text();
+    const char *err = test_stderr_of(dir);
     /* One line naming the OpenCL error and what to do. */
     if (!strstr(err, "tessera: CL_MEM_OBJECT_ALLOCATION_FAILURE") || !strstr(err, "--max-lod"))
         fail_msg("unexpected message:\n%s", err);
@@ -203,7 +192,7 @@ static void test_launch_failure_mid_render_is_retried(void **state)
                               test_source_path("scene/teapot.rib"), in_dir("launch.exr"));
     unsetenv("TESSERA_FAIL_LAUNCH");
     assert_int_equal(rc, 0);
-    const char *err = stderr_text(), *retry = strstr(err, "retrying with 16 MB");
+    const char *err = test_stderr_of(dir), *retry = strstr(err, "retrying with 16 MB");
     if (!retry || !strstr(err, "CL_OUT_OF_RESOURCES")) fail_msg("no retry:\n%s", err);
     const char *progress = strstr(err, " samples, ");
     if (!progress || progress > retry)
@@ -223,7 +212,7 @@ static void test_launch_failure_in_the_first_wave_is_retried(void **state)
     int rc = test_run_tessera(dir, "render '%s' -o '%s' --res 256x256 --memory 32", scene,
                               in_dir("first_wave.exr"));
     unsetenv("TESSERA_FAIL_LAUNCH");
-    const char *err = stderr_text();
+    const char *err = test_stderr_of(dir);
     if (rc != 0) fail_msg("exit status %d:\n%s", rc, err);
     const char *retry = strstr(err, "retrying with 16 MB"), *progress = strstr(err, " samples, ");
     if (!retry || (progress && progress < retry))
@@ -243,11 +232,11 @@ static void test_out_of_memory_at_the_floor_writes_the_finished_samples(void **s
     setenv("TESSERA_FAIL_LAUNCH", "300", 1);
     int rc = test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS, scene, in_dir("floor.exr"));
     unsetenv("TESSERA_FAIL_LAUNCH");
-    if (rc != 3) fail_msg("exit status %d:\n%s", rc, stderr_text());
-    expect_in_stderr("tessera: CL_OUT_OF_RESOURCES in clEnqueueNDRangeKernel(");
-    expect_in_stderr("the device could not provide 16 MB");
-    expect_in_stderr(" samples finished to ");
-    expect_in_stderr("(continue with --resume once more memory is free)");
+    if (rc != 3) fail_msg("exit status %d:\n%s", rc, test_stderr_of(dir));
+    test_expect_in_stderr(dir, "tessera: CL_OUT_OF_RESOURCES in clEnqueueNDRangeKernel(");
+    test_expect_in_stderr(dir, "the device could not provide 16 MB");
+    test_expect_in_stderr(dir, " samples finished to ");
+    test_expect_in_stderr(dir, "(continue with --resume once more memory is free)");
     assert_no_temporary();
     unsigned done = (unsigned)meta_int("floor.exr", "tessera:samples_done");
     assert_true(done > 0 && done < TOTAL);
@@ -261,7 +250,7 @@ static void test_sigterm_writes_the_finished_samples(void **state)
 {
     (void)state;
     assert_int_equal(render_and_interrupt("partial.exr", NULL), 3);
-    expect_in_stderr("interrupted by SIGTERM after ");
+    test_expect_in_stderr(dir, "interrupted by SIGTERM after ");
     assert_true(exists("partial.exr"));
     assert_no_temporary();
     unsigned done = (unsigned)meta_int("partial.exr", "tessera:samples_done");
@@ -316,15 +305,15 @@ static void test_resume_refuses_counts_that_disagree(void **state)
     assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
                                       scene, in_dir("edited.exr")),
                      1);
-    expect_in_stderr("edited.exr: cannot resume: pixel (");
-    expect_in_stderr("(a damaged or edited file)");
+    test_expect_in_stderr(dir, "edited.exr: cannot resume: pixel (");
+    test_expect_in_stderr(dir, "(a damaged or edited file)");
     assert_int_equal(meta_int("edited.exr", "tessera:samples_done"), done + 1000); /* untouched */
     /* The metadata restored, one pixel's count raised: refused at that pixel. */
     edit_partial("edited.exr", -1000, 321 + 320 * 7, 1.0f);
     assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
                                       scene, in_dir("edited.exr")),
                      1);
-    expect_in_stderr("cannot resume: pixel (1, 8) holds ");
+    test_expect_in_stderr(dir, "cannot resume: pixel (1, 8) holds ");
 }
 
 /* SIGHUP (the terminal or the ssh session went away) stops the render like SIGINT: the
@@ -334,7 +323,7 @@ static void test_sighup_writes_the_finished_samples(void **state)
     (void)state;
     const char *ref = reference();
     assert_int_equal(render_and_signal("hup.exr", NULL, SIGHUP), 3);
-    expect_in_stderr("interrupted by SIGHUP after ");
+    test_expect_in_stderr(dir, "interrupted by SIGHUP after ");
     unsigned done = (unsigned)meta_int("hup.exr", "tessera:samples_done");
     assert_true(done > 0 && done < TOTAL);
     assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
@@ -390,18 +379,19 @@ static void test_resume_matches_the_uninterrupted_render(void **state)
         test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --seed 1 --resume --quiet",
                          scene, in_dir("resumed.exr")),
         1);
-    expect_in_stderr("cannot resume: it was rendered with --seed 0, this command has --seed 1");
+    test_expect_in_stderr(
+        dir, "cannot resume: it was rendered with --seed 0, this command has --seed 1");
     assert_int_equal(meta_int("resumed.exr", "tessera:samples_done"), done);
     assert_int_equal(
         test_run_tessera(dir, "render '%s' -o '%s' --res 160x90 --spp " SPP " --resume --quiet",
                          scene, in_dir("resumed.exr")),
         1);
-    expect_in_stderr("cannot resume: it is 320x180 but this command renders 160x90");
+    test_expect_in_stderr(dir, "cannot resume: it is 320x180 but this command renders 160x90");
     /* The same command: continues from the finished samples to the same bits. */
     assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume", scene,
                                       in_dir("resumed.exr")),
                      0);
-    expect_in_stderr("resuming");
+    test_expect_in_stderr(dir, "resuming");
     assert_int_equal(meta_int("resumed.exr", "tessera:samples_done"), (int)TOTAL);
     assert_same_image(ref, "resumed.exr");
     assert_no_temporary();
@@ -409,7 +399,7 @@ static void test_resume_matches_the_uninterrupted_render(void **state)
     assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
                                       scene, in_dir("resumed.exr")),
                      0);
-    expect_in_stderr("already complete");
+    test_expect_in_stderr(dir, "already complete");
 }
 
 static void test_kernel_build_failure_names_file_and_line(void **state)
@@ -445,10 +435,10 @@ static void test_kernel_build_failure_names_file_and_line(void **state)
         test_run_tessera(dir, "render '%s' -o '%s' --res 32x18 --kernel-dir '%s' --no-kernel-cache",
                          test_source_path("scene/teapot.rib"), in_dir("k.png"), in_dir("kernels")),
         1);
-    expect_in_stderr("tessera: CL_BUILD_PROGRAM_FAILURE in clBuildProgram");
+    test_expect_in_stderr(dir, "tessera: CL_BUILD_PROGRAM_FAILURE in clBuildProgram");
     char where[64];
     snprintf(where, sizeof where, "kernels/film.cl:%d:", broken);
-    expect_in_stderr(where);
+    test_expect_in_stderr(dir, where);
     assert_false(exists("k.png"));
 }
 

@@ -18,18 +18,6 @@
 
 static char dir[4096];
 
-static const char *stderr_text(void)
-{
-    static char buf[1 << 16];
-    char path[4200];
-    snprintf(path, sizeof path, "%s/stderr.txt", dir);
-    FILE *f = fopen(path, "r");
-    size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
-    buf[n] = '\0';
-    if (f) fclose(f);
-    return buf;
-}
-
 /* Renders the teapot at 640x360, 1 spp to dir/out under `ulimit -v kib` (in the shell that
  * execs tessera, so the test itself is not limited); returns the exit status, or 128 + the
  * signal that killed it. */
@@ -73,7 +61,8 @@ static void test_render_finishes_under_ulimit_v(void **state)
         char name[64];
         snprintf(name, sizeof name, "v%ld.exr", levels[i]);
         int rc = render_limited(levels[i], name, "");
-        if (rc != 0) fail_msg("ulimit -v %ld: exit status %d:\n%s", levels[i], rc, stderr_text());
+        if (rc != 0)
+            fail_msg("ulimit -v %ld: exit status %d:\n%s", levels[i], rc, test_stderr_of(dir));
         assert_complete(name);
     }
 }
@@ -91,7 +80,7 @@ static void test_default_budget_follows_the_limit(void **state)
     snprintf(json, sizeof json, "%s/budget.json", dir);
     snprintf(extra, sizeof extra, "--stats '%s'", json);
     int rc = render_limited(1300000, "budget.exr", extra);
-    const char *err = stderr_text();
+    const char *err = test_stderr_of(dir);
     if (rc != 0) fail_msg("exit status %d:\n%s", rc, err);
     const char *header = strstr(err, "tessera: 640x360, 1 spp, memory budget ");
     unsigned long long mb = 0;
@@ -104,8 +93,8 @@ static void test_default_budget_follows_the_limit(void **state)
 
     snprintf(extra, sizeof extra, "--stats '%s' --memory 64", json);
     assert_int_equal(render_limited(4000000, "budget64.exr", extra), 0);
-    if (!strstr(stderr_text(), "memory budget 64 MB (--memory)"))
-        fail_msg("no --memory header:\n%s", stderr_text());
+    if (!strstr(test_stderr_of(dir), "memory budget 64 MB (--memory)"))
+        fail_msg("no --memory header:\n%s", test_stderr_of(dir));
     assert_true(test_stats_number(json, "memory_budget_bytes") == 64.0 * (1 << 20));
 }
 

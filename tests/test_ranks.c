@@ -28,21 +28,6 @@ static const char *in_dir(const char *name)
     return test_path_in(dir, name);
 }
 
-static const char *stderr_text(void)
-{
-    static char buf[1 << 16];
-    FILE *f = fopen(in_dir("stderr.txt"), "r");
-    size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
-    buf[n] = '\0';
-    if (f) fclose(f);
-    return buf;
-}
-
-static void expect_in_stderr(const char *needle)
-{
-    if (!strstr(stderr_text(), needle)) fail_msg("stderr lacks \"%s\":\n%s", needle, stderr_text());
-}
-
 #define ARGS "--res 96x54 --spp 4 --max-lod 6"
 
 #ifdef TESSERA_HAVE_MPI
@@ -60,7 +45,8 @@ static int mpirun(int n, const char *fmt, ...)
              n, test_tessera_binary(), args, in_dir("stderr.txt"));
     int st = system(cmd);
     int rc = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    if (rc == 124) fail_msg("mpirun -np %d ran past %d s:\n%s", n, MPIRUN_LIMIT_S, stderr_text());
+    if (rc == 124)
+        fail_msg("mpirun -np %d ran past %d s:\n%s", n, MPIRUN_LIMIT_S, test_stderr_of(dir));
     return rc;
 }
 
@@ -68,7 +54,7 @@ static void mpirun_ok(int n, const char *scene, const char *out, const char *ext
 {
     int rc =
         mpirun(n, "render '%s' -o '%s' " ARGS " %s", test_source_path(scene), in_dir(out), extra);
-    if (rc != 0) fail_msg("mpirun -np %d exited %d:\n%s", n, rc, stderr_text());
+    if (rc != 0) fail_msg("mpirun -np %d exited %d:\n%s", n, rc, test_stderr_of(dir));
 }
 
 static double number(cJSON *o, const char *key)
@@ -124,7 +110,7 @@ static void test_ranks_that_load_the_scene(void **state)
     int rc = mpirun(2, "render '%s' -o '%s' " ARGS " --mpi-scene files",
                     test_source_path("scene/teapot.rib"), in_dir("x.exr"));
     assert_true(rc != 0);
-    expect_in_stderr("bad value 'files' for --mpi-scene");
+    test_expect_in_stderr(dir, "bad value 'files' for --mpi-scene");
 }
 
 /* Rank 1's device fails to build the kernels (TESSERA_FAIL_BUILD in that rank's environment
@@ -143,9 +129,9 @@ static void test_a_rank_whose_devices_fail_is_left_out(void **state)
              mpi_env, test_tessera_binary(), scene, in_dir("failed.exr"), in_dir("failed.json"),
              test_tessera_binary(), scene, in_dir("failed.exr"), in_dir("stderr.txt"));
     int st = system(cmd);
-    if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) fail_msg("mpirun: %d\n%s", st, stderr_text());
-    expect_in_stderr("tessera: warning: rank 1 (");
-    expect_in_stderr("CL_BUILD_PROGRAM_FAILURE");
+    if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) fail_msg("mpirun: %d\n%s", st, test_stderr_of(dir));
+    test_expect_in_stderr(dir, "tessera: warning: rank 1 (");
+    test_expect_in_stderr(dir, "CL_BUILD_PROGRAM_FAILURE");
     test_assert_same_pixels(in_dir("one_f.exr"), in_dir("failed.exr"));
     cJSON *root = test_read_json(in_dir("failed.json"));
     cJSON *ranks = cJSON_GetObjectItemCaseSensitive(root, "ranks");
@@ -176,11 +162,11 @@ static void test_a_rank_that_dies_leaves_a_resumable_image(void **state)
         unsetenv("TESSERA_SLOW_DEVICE");
         unsetenv("TESSERA_UNIT_SAMPLES");
         assert_true(rc != 0); /* mpirun reports the killed rank */
-        expect_in_stderr("tessera: interrupted by SIGTERM after ");
+        test_expect_in_stderr(dir, "tessera: interrupted by SIGTERM after ");
         int done = -1;
         ts_error err = {0};
         if (image_read_meta_int(in_dir("cut.exr"), "tessera:samples_done", &done, &err))
-            fail_msg("%s\n%s", err.msg, stderr_text());
+            fail_msg("%s\n%s", err.msg, test_stderr_of(dir));
         assert_true(done >= 0 && done < 96 * 54 * 4);
         if (resume_under_mpirun)
             rc = mpirun(2, "render '%s' -o '%s' " ARGS " --resume --quiet", scene,
@@ -188,7 +174,7 @@ static void test_a_rank_that_dies_leaves_a_resumable_image(void **state)
         else
             rc = test_run_tessera(dir, "render '%s' -o '%s' " ARGS " --resume --quiet", scene,
                                   in_dir("cut.exr"));
-        if (rc != 0) fail_msg("--resume exited %d:\n%s", rc, stderr_text());
+        if (rc != 0) fail_msg("--resume exited %d:\n%s", rc, test_stderr_of(dir));
         test_assert_same_pixels(in_dir("whole.exr"), in_dir("cut.exr"));
     }
 }
@@ -204,7 +190,8 @@ static void test_ranks_without_mpi_are_refused(void **state)
                               test_source_path("scene/teapot.rib"), in_dir("nompi.png"));
     unsetenv("OMPI_COMM_WORLD_SIZE");
     assert_int_equal(rc, 1);
-    expect_in_stderr("started by mpirun as one of 2 ranks, but this tessera was built without MPI");
+    test_expect_in_stderr(
+        dir, "started by mpirun as one of 2 ranks, but this tessera was built without MPI");
     assert_int_equal(access(in_dir("nompi.png"), F_OK), -1);
 }
 

@@ -33,16 +33,6 @@ static void write_text(const char *name, const char *text)
     fclose(f);
 }
 
-static const char *stderr_text(void)
-{
-    static char buf[1 << 14];
-    FILE *f = fopen(in_dir("stderr.txt"), "r");
-    size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
-    buf[n] = '\0';
-    if (f) fclose(f);
-    return buf;
-}
-
 /* Renders scene (a path) and expects exit status 1 with one line holding `path` and "not a
  * regular file (what)", and no image. */
 static void expect_refused(const char *scene, const char *path, const char *what)
@@ -53,7 +43,7 @@ static void expect_refused(const char *scene, const char *path, const char *what
              test_tessera_binary(), scene, in_dir("out.png"), in_dir("stderr.txt"));
     int st = system(cmd);
     int rc = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    const char *err = stderr_text();
+    const char *err = test_stderr_of(dir);
     if (rc != 1) fail_msg("render %s: exit status %d (124: it hung):\n%s", scene, rc, err);
     char needle[4400];
     snprintf(needle, sizeof needle, "%s: not a regular file (%s)", path, what);

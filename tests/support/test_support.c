@@ -215,6 +215,22 @@ const char *test_path_in(const char *dir, const char *name)
     return p;
 }
 
+const char *test_stderr_of(const char *dir)
+{
+    static char buf[1 << 16];
+    FILE *f = fopen(test_path_in(dir, "stderr.txt"), "r");
+    size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
+    buf[n] = '\0';
+    if (f) fclose(f);
+    return buf;
+}
+
+void test_expect_in_stderr(const char *dir, const char *needle)
+{
+    const char *err = test_stderr_of(dir);
+    if (!strstr(err, needle)) fail_msg("stderr lacks \"%s\":\n%s", needle, err);
+}
+
 void test_tessera_ok(const char *dir, const char *fmt, ...)
 {
     char args[8192];

@@ -50,6 +50,11 @@ double test_stats_number(const char *json_path, const char *key);
 struct cJSON *test_read_json(const char *path);
 /* `dir/name` (static storage, four in rotation). */
 const char *test_path_in(const char *dir, const char *name);
+/* What the last test_run_tessera in dir wrote to stderr (dir/stderr.txt; "" if none), in
+ * static storage of 64 KiB (longer text is cut). */
+const char *test_stderr_of(const char *dir);
+/* Fails the test, printing that stderr, unless it contains needle. */
+void test_expect_in_stderr(const char *dir, const char *needle);
 /* Runs `tessera ARGS` (printf-style) with test_run_tessera; on a non-zero exit prints its
  * stderr and fails the test. */
 void test_tessera_ok(const char *dir, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
