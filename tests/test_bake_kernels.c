@@ -128,6 +128,7 @@ static void run_case(ts_device *cl, const ts_scene *s, const bake_case *c, uint3
     /* The teapot occludes itself: blocked and escaping rays were both compared. */
     if (blocked == 0) fail_msg("case of %u rays, flags %u: no ray was blocked", c->rays, c->flags);
     pipeline_destroy(&p);
+    stats_free(&stats); /* the iterations log pipeline_trace appended to */
     free(lod), free(first);
 }
 
