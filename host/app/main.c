@@ -3,6 +3,7 @@
  * The only place that prints errors and chooses the exit status (STYLE.md 10). */
 #include "device/device.h"
 #include "app/bake.h"
+#include "app/interrupt.h"
 #include "app/render.h"
 
 #include <signal.h>
@@ -174,7 +175,7 @@ static int cmd_render(int argc, char **argv)
 #ifdef TESSERA_HAVE_MPI
     if (ranks.rank > 0) {
         int rc = ranks_follow(&ranks, &o, &err);
-        if (rc && !render_stop_signal()) say("rank %d (%s): %s", ranks.rank, ranks.host, err.msg);
+        if (rc && !interrupt_signal()) say("rank %d (%s): %s", ranks.rank, ranks.host, err.msg);
         status = rc ? 1 : 0;
         ts_error_clear(&err);
         ranks_finalize(&ranks, status);

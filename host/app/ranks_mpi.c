@@ -2,6 +2,7 @@
  * service (the lod, units for the other ranks, their results and stats) and the other
  * ranks' whole render. Built only with the MPI feature (CMakeLists.txt: TESSERA_MPI). */
 #include "app/ranks.h"
+#include "app/interrupt.h"
 #include "app/render.h"
 #include "app/resume.h"
 #include "device/device.h"
@@ -361,7 +362,7 @@ int ranks_finish(ts_ranks *r, ts_stats *stats, ts_error *err)
     int rc = TS_OK;
     while (!rc && ranks_active(r) > 0) {
         rc = serve(r, &done, r->quiet, err);
-        if (!rc && render_stop_signal()) break;
+        if (!rc && interrupt_signal()) break;
         sleep_seconds(RANKS_POLL_SECONDS);
     }
     board_free(&done);
@@ -583,7 +584,7 @@ static int follow_lod(ts_workers *g, uint32_t patch_count, int *stopped, ts_erro
             free(data);
             return ts_error_set(err, TS_E_INTERNAL, "MPI: message %d before the lod", tag);
         }
-        if ((*stopped = render_stop_signal() != 0)) return TS_OK;
+        if ((*stopped = interrupt_signal() != 0)) return TS_OK;
         sleep_seconds(RANKS_POLL_SECONDS);
     }
 }
@@ -617,7 +618,7 @@ static int follow_units(ts_workers *g, relay *q, int *stopped, ts_error *err)
     uint32_t requested = 0;
     int rc = TS_OK;
     while (!rc && workers_running(g) > 0) {
-        if ((*stopped = render_stop_signal() != 0)) break;
+        if ((*stopped = interrupt_signal() != 0)) break;
         rc = send_items(relay_drain(q), err);
         pthread_mutex_lock(&q->lock);
         uint32_t queued = q->queued, no_more = (uint32_t)q->no_more;
@@ -705,12 +706,12 @@ int ranks_follow(ts_ranks *r, ts_render_options *o, ts_error *err)
     ts_error why = {0};
     int skip = 0, stopped = 0;
     o->quiet = 1; /* rank 0 speaks for every rank */
-    render_stop_handlers(1);
+    interrupt_install();
     int rc = follow_start(r, o, &start, &scene, &skip, &why, err);
     if (rc || skip) {
         ts_error_clear(&why);
         scene_free(&scene);
-        render_stop_handlers(0);
+        interrupt_restore();
         return rc;
     }
     ts_frame f = {.opt = o,
@@ -750,6 +751,6 @@ int ranks_follow(ts_ranks *r, ts_render_options *o, ts_error *err)
     pthread_mutex_destroy(&q.lock);
     pthread_cond_destroy(&q.changed);
     scene_free(&scene);
-    render_stop_handlers(0);
+    interrupt_restore();
     return rc;
 }

@@ -67,19 +67,8 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
 
 /* SIGINT, SIGTERM and SIGHUP (a closed terminal or ssh session) while samples are traced:
  * app/interrupt.h records the signal; the wave loop stops at the next wave boundary and the
- * finished samples are written. */
-int render_stop_signal(void)
-{
-    return interrupt_signal();
-}
-
-void render_stop_handlers(int install)
-{
-    if (install)
-        interrupt_install();
-    else
-        interrupt_restore();
-}
+ * finished samples are written. render_run installs the handlers around the waves, the MPI
+ * ranks other than 0 around their render. */
 
 /* Runs the waves: each is a run of global sample indices [first, first + rays), from
  * job->samples_done on. Stops early (job->samples_done < job->total) when a stop signal
@@ -460,7 +449,7 @@ static int render_on_devices(ts_render *r, ts_error *err)
     int rc =
         workers_render(&f, &r->state, r->devices, r->device_count, &service, r->stats, &end, err);
 #ifdef TESSERA_HAVE_MPI
-    if (!rc && r->ranks && !render_stop_signal()) rc = ranks_finish(r->ranks, r->stats, err);
+    if (!rc && r->ranks && !interrupt_signal()) rc = ranks_finish(r->ranks, r->stats, err);
 #endif
     if (rc) {
         ts_error_clear(&end.failure);

@@ -49,11 +49,4 @@ typedef struct ts_render_result {
 int render_run(const ts_render_options *options, ts_ranks *ranks, ts_stats *stats,
                ts_render_result *result, ts_error *err);
 
-/* The stop signal (SIGINT, SIGTERM, SIGHUP) that came while samples were traced, or 0. */
-int render_stop_signal(void);
-/* Installs (1) or restores (0) the handlers that make SIGINT, SIGTERM and SIGHUP only
- * record the signal for render_stop_signal (render_run installs them around the waves; the
- * MPI ranks other than 0 around their render). */
-void render_stop_handlers(int install);
-
 #endif

@@ -1,5 +1,6 @@
 /* workers.c — one frame on several devices of one process, a host thread each (workers.h). */
 #include "app/workers.h"
+#include "app/interrupt.h"
 #include "app/budget.h"
 #include "app/render.h"
 #include "app/waves.h"
@@ -507,7 +508,7 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
     uint64_t shown = 0;
     int rc = TS_OK, lod_state;
     while (!board_finished(b)) {
-        if (render_stop_signal()) {
+        if (interrupt_signal()) {
             board_freeze(b);
             if (service && service->on_stop)
                 service->on_stop(service->stop_ctx, board_samples_done(b));

@@ -106,8 +106,8 @@ typedef struct ts_frame_service {
 
 /* Renders samples [frame->job->samples_done, total) of the frame on the devices
  * indices[0..count) into film (which holds the samples before), with progress on stderr
- * (unless quiet). A stop signal (render_stop_signal) closes the board: each device ends at
- * its current wave and the merged prefix is kept. When every device fails, the merged
+ * (unless quiet). A stop signal (interrupt_signal, app/interrupt.h) closes the board: each device
+ * ends at its current wave and the merged prefix is kept. When every device fails, the merged
  * prefix is kept and end->all_failed says so. service may be NULL. */
 int workers_render(const ts_frame *frame, ts_film_state *film, const int *indices, int count,
                    const ts_frame_service *service, ts_stats *stats, ts_frame_end *end,
