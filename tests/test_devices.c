@@ -76,8 +76,8 @@ static void test_two_devices_give_the_one_device_image(void **state)
     }
 }
 
-/* Units of 777 samples cut passes and cross from one pass into the next: same bits; so do
- * the levels of detail of TESSERA_LOD_RULE=seen. */
+/* Units of 777 samples cut passes and cross from one pass into the next, in pass order and
+ * in bands of rows: same bits; so do the levels of detail of TESSERA_LOD_RULE=seen. */
 static void test_odd_units_give_the_same_image(void **state)
 {
     (void)state;
@@ -85,8 +85,17 @@ static void test_odd_units_give_the_same_image(void **state)
     render("scene/teapot_displaced.rib", "odd1.exr", first, args);
     setenv("TESSERA_UNIT_SAMPLES", "777", 1);
     render("scene/teapot_displaced.rib", "odd2.exr", pair, args);
+    /* Bands of one row and of five (kernels/lib/sample_order.h), units cutting across them:
+     * the same bits. */
+    setenv("TESSERA_SAMPLE_BAND_ROWS", "1", 1);
+    render("scene/teapot_displaced.rib", "band1.exr", pair, args);
+    setenv("TESSERA_SAMPLE_BAND_ROWS", "5", 1);
+    render("scene/teapot_displaced.rib", "band5.exr", pair, args);
+    unsetenv("TESSERA_SAMPLE_BAND_ROWS");
     unsetenv("TESSERA_UNIT_SAMPLES");
     test_assert_same_pixels(in_dir("odd1.exr"), in_dir("odd2.exr"));
+    test_assert_same_pixels(in_dir("odd1.exr"), in_dir("band1.exr"));
+    test_assert_same_pixels(in_dir("odd1.exr"), in_dir("band5.exr"));
     /* The seen rule traces the first pass in the lod stage (app/waves.c on the first
      * device); the others take its levels: same bits as one device under that rule. */
     setenv("TESSERA_LOD_RULE", "seen", 1);
