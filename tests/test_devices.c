@@ -269,6 +269,13 @@ static void test_a_device_out_of_memory_mid_frame_retries(void **state)
     setenv("POCL_DEVICES", "pthread basic", 1);
     const char *args = "--res 64x36 --spp 4 --max-lod 6 --memory 64";
     render("scene/teapot.rib", "ref_oom.exr", pt, "--res 64x36 --spp 4 --max-lod 6 --quiet");
+    /* The basic device's kernels compiled beforehand, and the pthread device slowed after
+     * each wave, so that the basic one takes units whatever the kernel cache held (its first
+     * compile takes seconds, in which the other could trace every unit). */
+    render("scene/teapot.rib", "basic_warm.exr", basic, "--res 16x16 --max-lod 6 --quiet");
+    char slow[32];
+    snprintf(slow, sizeof slow, "%s:100", pt);
+    setenv("TESSERA_SLOW_DEVICE", slow, 1);
     setenv("TESSERA_FAIL_LAUNCH", "5", 1); /* in the basic device's first unit */
     setenv("TESSERA_FAIL_LAUNCH_DEVICE", "basic", 1);
     setenv("TESSERA_UNIT_SAMPLES", "1024", 1);
@@ -276,6 +283,7 @@ static void test_a_device_out_of_memory_mid_frame_retries(void **state)
     unsetenv("TESSERA_FAIL_LAUNCH");
     unsetenv("TESSERA_FAIL_LAUNCH_DEVICE");
     unsetenv("TESSERA_UNIT_SAMPLES");
+    unsetenv("TESSERA_SLOW_DEVICE");
     setenv("POCL_DEVICES", "pthread pthread", 1);
     test_expect_in_stderr(dir, note);
     test_expect_in_stderr(dir, "could not provide 64 MB (CL_OUT_OF_RESOURCES");
