@@ -33,6 +33,7 @@
 #include "lib/bsdf.h"
 #include "lib/lights.h"
 #include "lib/patch.h"
+#include "lib/sample_order.h"
 #include "lib/sampler.h"
 
 /* One path's step: its slots, the keys of its sample values and its weight so far. */
@@ -229,6 +230,14 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
     return TS_PATH_TRACED_BSDF;
 }
 
+/* The sample (of its pixel) that the frame's k-th sample is. */
+static uint shade_sample(uint k, uint pixel_count, ts_shade_params sp)
+{
+    uint pixel, sample;
+    sample_order_at(k, pixel_count, sp.spp, sp.band, &pixel, &sample);
+    return sample;
+}
+
 __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count, uint wave_size,
                          __global const uint *paths, uint path_count, __global ts_vec4 *org,
                          __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
@@ -269,7 +278,7 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     shade_step s = {.i = i,
                     .wave_size = wave_size,
                     .pix = pixel[i],
-                    .sample = (first_sample + i) / pixel_count,
+                    .sample = shade_sample(first_sample + i, pixel_count, sp),
                     .bounce = sp.bounce,
                     .seed = sp.seed,
                     .mask = sampler_mask(sp.spp),

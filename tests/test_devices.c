@@ -76,8 +76,8 @@ static void test_two_devices_give_the_one_device_image(void **state)
     }
 }
 
-/* Units of 777 samples cut passes and cross from one pass into the next: same bits; so do
- * the levels of detail of TESSERA_LOD_RULE=seen. */
+/* Units of 777 samples cut passes and cross from one pass into the next, in pass order and
+ * in bands of rows: same bits; so do the levels of detail of TESSERA_LOD_RULE=seen. */
 static void test_odd_units_give_the_same_image(void **state)
 {
     (void)state;
@@ -85,8 +85,17 @@ static void test_odd_units_give_the_same_image(void **state)
     render("scene/teapot_displaced.rib", "odd1.exr", first, args);
     setenv("TESSERA_UNIT_SAMPLES", "777", 1);
     render("scene/teapot_displaced.rib", "odd2.exr", pair, args);
+    /* Bands of one row and of five (kernels/lib/sample_order.h), units cutting across them:
+     * the same bits. */
+    setenv("TESSERA_SAMPLE_BAND_ROWS", "1", 1);
+    render("scene/teapot_displaced.rib", "band1.exr", pair, args);
+    setenv("TESSERA_SAMPLE_BAND_ROWS", "5", 1);
+    render("scene/teapot_displaced.rib", "band5.exr", pair, args);
+    unsetenv("TESSERA_SAMPLE_BAND_ROWS");
     unsetenv("TESSERA_UNIT_SAMPLES");
     test_assert_same_pixels(in_dir("odd1.exr"), in_dir("odd2.exr"));
+    test_assert_same_pixels(in_dir("odd1.exr"), in_dir("band1.exr"));
+    test_assert_same_pixels(in_dir("odd1.exr"), in_dir("band5.exr"));
     /* The seen rule traces the first pass in the lod stage (app/waves.c on the first
      * device); the others take its levels: same bits as one device under that rule. */
     setenv("TESSERA_LOD_RULE", "seen", 1);
@@ -260,6 +269,13 @@ static void test_a_device_out_of_memory_mid_frame_retries(void **state)
     setenv("POCL_DEVICES", "pthread basic", 1);
     const char *args = "--res 64x36 --spp 4 --max-lod 6 --memory 64";
     render("scene/teapot.rib", "ref_oom.exr", pt, "--res 64x36 --spp 4 --max-lod 6 --quiet");
+    /* The basic device's kernels compiled beforehand, and the pthread device slowed after
+     * each wave, so that the basic one takes units whatever the kernel cache held (its first
+     * compile takes seconds, in which the other could trace every unit). */
+    render("scene/teapot.rib", "basic_warm.exr", basic, "--res 16x16 --max-lod 6 --quiet");
+    char slow[32];
+    snprintf(slow, sizeof slow, "%s:100", pt);
+    setenv("TESSERA_SLOW_DEVICE", slow, 1);
     setenv("TESSERA_FAIL_LAUNCH", "5", 1); /* in the basic device's first unit */
     setenv("TESSERA_FAIL_LAUNCH_DEVICE", "basic", 1);
     setenv("TESSERA_UNIT_SAMPLES", "1024", 1);
@@ -267,6 +283,7 @@ static void test_a_device_out_of_memory_mid_frame_retries(void **state)
     unsetenv("TESSERA_FAIL_LAUNCH");
     unsetenv("TESSERA_FAIL_LAUNCH_DEVICE");
     unsetenv("TESSERA_UNIT_SAMPLES");
+    unsetenv("TESSERA_SLOW_DEVICE");
     setenv("POCL_DEVICES", "pthread pthread", 1);
     test_expect_in_stderr(dir, note);
     test_expect_in_stderr(dir, "could not provide 64 MB (CL_OUT_OF_RESOURCES");

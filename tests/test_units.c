@@ -1,10 +1,14 @@
-/* test_units.c — the units of a render on several devices (host/app/units.c), host only:
- * merging units in order gives the sums kernels/film.cl makes (a C copy of its loop, wave by
- * wave) bit for bit, whatever the unit size and whatever order threads finish them in, with
- * units given back and taken again; the window bounds what waits for the merge; a closed
- * board hands out nothing; units_plan's sizes. The radiance values span 12 orders of
- * magnitude, so any other order of the additions changes bits (asserted too). */
+/* test_units.c — the units of a render on several devices (host/app/units.c) and the frame's
+ * sample order (kernels/lib/sample_order.h), host only: the order visits every (pixel,
+ * sample) once, in sample order per pixel, for bands of any size; merging units in order
+ * gives the sums kernels/film.cl makes (a C copy of its loop, wave by wave) and a plain
+ * per-pixel sum in sample order, bit for bit, whatever the unit size, the bands and the
+ * order threads finish them in, with units given back and taken again; the window bounds
+ * what waits for the merge; a closed board hands out nothing; units_plan's and
+ * sample_order_band's sizes. The radiance values span 12 orders of magnitude, so any other
+ * order of the additions changes bits (asserted too). */
 #include "app/units.h"
+#include "lib/sample_order.h"
 
 #include <setjmp.h>
 #include <stdarg.h>
@@ -22,7 +26,25 @@
 #define SPP 9
 #define TOTAL ((uint64_t)P * SPP)
 
+/* Sample s of pixel p: radiance[s * P + p] (and its AOVs), whatever the order. */
 static ts_vec4 radiance[TOTAL], aov[TOTAL], albedo[TOTAL];
+
+/* Bands the tests try: one (pass after pass), one row, three rows, rows that do not divide
+ * the image, and a band of part of a row. */
+static const uint32_t bands[] = {0, W, 3 * W, 4 * W, 5};
+
+static ts_sample_order order_of(uint32_t band)
+{
+    return (ts_sample_order){P, SPP, band};
+}
+
+/* The index into radiance[] of the order's k-th sample. */
+static uint64_t value_at(const ts_sample_order *o, uint64_t k)
+{
+    uint32_t p, s;
+    sample_order_at((uint32_t)k, o->pixels, o->spp, o->band, &p, &s);
+    return (uint64_t)s * P + p;
+}
 
 static uint64_t rng_next(uint64_t *state)
 {
@@ -60,27 +82,90 @@ static void film_alloc(ts_film_state *f)
     assert_int_equal(film_state_alloc(f, P, &err), TS_OK);
 }
 
-/* kernels/film.cl's loop in C: waves of `wave` samples from `start` on, each pixel's
- * samples added in order. */
-static void film_reference(ts_film_state *f, uint64_t start, uint64_t wave)
+/* Each pixel's samples added in sample order, AOVs from sample 0: what every order, wave
+ * size and unit size must give. */
+static void film_plain(ts_film_state *f)
+{
+    for (uint32_t p = 0; p < P; ++p) {
+        ts_vec4 acc = {0, 0, 0, 0};
+        for (uint32_t s = 0; s < SPP; ++s) {
+            ts_vec4 r = radiance[(uint64_t)s * P + p];
+            acc.x += r.x;
+            acc.y += r.y;
+            acc.z += r.z;
+            acc.w += 1.0f;
+        }
+        f->accum[p] = acc, f->aov[p] = aov[p], f->albedo[p] = albedo[p];
+    }
+}
+
+/* kernels/film.cl's loop in C: waves of `wave` samples of the order o from `start` on, each
+ * pixel's samples in the wave added in order. */
+static void film_reference(ts_film_state *f, const ts_sample_order *o, uint64_t start,
+                           uint64_t wave)
 {
     for (uint64_t first = start; first < TOTAL; first += wave) {
         uint64_t last = first + wave < TOTAL ? first + wave : TOTAL;
         for (uint32_t p = 0; p < P; ++p) {
-            uint64_t s = first / P;
-            if (s * P + p < first) ++s;
+            uint32_t k0 = sample_order_index(p, 0, P, SPP, o->band);
+            uint32_t n = sample_order_index(p, 1, P, SPP, o->band) - k0;
+            uint32_t s = sample_order_count(p, (uint32_t)first, P, SPP, o->band);
             ts_vec4 acc = f->accum[p];
-            for (uint64_t g = s * P + p; g < last; g += P) {
-                ts_vec4 r = radiance[g];
+            for (uint64_t k = k0 + (uint64_t)s * n; s < SPP && k < last; ++s, k += n) {
+                ts_vec4 r = radiance[value_at(o, k)];
                 acc.x += r.x;
                 acc.y += r.y;
                 acc.z += r.z;
                 acc.w += 1.0f;
-                if (g < P) f->aov[p] = aov[g], f->albedo[p] = albedo[g];
+                if (s == 0) f->aov[p] = aov[value_at(o, k)], f->albedo[p] = albedo[value_at(o, k)];
             }
             f->accum[p] = acc;
         }
     }
+}
+
+/* The order visits every (pixel, sample) once, each pixel's samples in increasing order;
+ * sample_order_index inverts sample_order_at and sample_order_count counts a prefix; the
+ * runs of samples 0 are exactly the samples 0. */
+static void test_sample_order_is_a_permutation(void **state)
+{
+    (void)state;
+    static uint8_t seen[TOTAL];
+    for (size_t b = 0; b < sizeof bands / sizeof *bands; ++b) {
+        ts_sample_order o = order_of(bands[b]);
+        memset(seen, 0, sizeof seen);
+        uint32_t last[P];
+        for (uint32_t p = 0; p < P; ++p)
+            last[p] = UINT32_MAX;
+        uint32_t counts[P] = {0};
+        uint64_t zeros = 0;
+        for (uint32_t k = 0; k < TOTAL; ++k) {
+            uint32_t p, s;
+            sample_order_at(k, P, SPP, o.band, &p, &s);
+            assert_true(p < P && s < SPP);
+            assert_int_equal(seen[(uint64_t)s * P + p]++, 0);
+            assert_true(last[p] == UINT32_MAX ? s == 0 : s == last[p] + 1);
+            last[p] = s;
+            assert_int_equal(sample_order_index(p, s, P, SPP, o.band), k);
+            counts[p]++;
+            zeros += s == 0;
+            assert_int_equal(sample_order_zero_count(&o, k, 1), s == 0);
+            if (k % 13 == 0) /* the prefix [0, k + 1) */
+                for (uint32_t q = 0; q < P; ++q)
+                    assert_int_equal(sample_order_count(q, k + 1, P, SPP, o.band), counts[q]);
+        }
+        assert_int_equal(zeros, P);
+        assert_int_equal(sample_order_zero_count(&o, 0, TOTAL), P);
+        assert_int_equal(sample_order_zero_count(&o, 17, TOTAL - 40),
+                         sample_order_zero_count(&o, 0, TOTAL) -
+                             sample_order_zero_count(&o, 0, 17) -
+                             sample_order_zero_count(&o, TOTAL - 23, 23));
+    }
+    /* Bands from a sample budget: whole rows, one band when they would hold the image. */
+    assert_int_equal(sample_order_band(W, H, SPP, (uint64_t)W * SPP * 3 + 5), 3 * W);
+    assert_int_equal(sample_order_band(W, H, SPP, 1), W);
+    assert_int_equal(sample_order_band(W, H, SPP, TOTAL), 0);
+    assert_int_equal(sample_order_band(W, H, SPP, TOTAL - 1), (H - 1) * W);
 }
 
 static void assert_same_films(const ts_film_state *a, const ts_film_state *b)
@@ -90,58 +175,74 @@ static void assert_same_films(const ts_film_state *a, const ts_film_state *b)
     assert_memory_equal(a->albedo, b->albedo, P * sizeof(ts_vec4));
 }
 
-/* A unit's result as a device hands it back: its samples' radiance and pass-0 AOVs. */
-static void trace(const ts_unit *u, ts_unit_result *r)
+/* A unit's result as a device hands it back: its samples' radiance and the AOVs of the
+ * samples 0 among them. */
+static void trace(const ts_sample_order *o, const ts_unit *u, ts_unit_result *r)
 {
     ts_error err = {0};
-    assert_int_equal(unit_result_alloc(r, u, P, &err), TS_OK);
-    memcpy(r->radiance, &radiance[u->first], u->count * sizeof(ts_vec4));
-    if (r->aov_count) {
-        memcpy(r->aov, &aov[u->first], r->aov_count * sizeof(ts_vec4));
-        memcpy(r->albedo, &albedo[u->first], r->aov_count * sizeof(ts_vec4));
+    assert_int_equal(unit_result_alloc(r, u, o, &err), TS_OK);
+    uint64_t j = 0;
+    for (uint64_t k = 0; k < u->count; ++k) {
+        uint64_t v = value_at(o, u->first + k);
+        r->radiance[k] = radiance[v];
+        if (v < P) { /* sample 0 */
+            assert_true(j < r->aov_count);
+            r->aov[j] = aov[v], r->albedo[j] = albedo[v], ++j;
+        }
     }
+    assert_int_equal(j, r->aov_count);
     r->rays = u->count;
 }
 
-/* Units of every size, merged in order, give film.cl's sums for any wave size. */
+/* Units of every size, merged in order, give film.cl's sums for any wave size and any
+ * bands, and those are the plain per-pixel sums. */
 static void test_merge_in_order_is_the_film(void **state)
 {
     (void)state;
-    ts_film_state ref, f;
-    film_alloc(&ref);
-    film_reference(&ref, 0, 1000);
-    const uint64_t sizes[] = {1, 7, P - 1, P, P + 5, 3 * P, TOTAL};
-    for (size_t k = 0; k < sizeof sizes / sizeof *sizes; ++k) {
-        film_alloc(&f);
-        for (uint64_t first = 0, i = 0; first < TOTAL; first += sizes[k], ++i) {
-            ts_unit u = {(uint32_t)i, 0, first,
-                         TOTAL - first < sizes[k] ? TOTAL - first : sizes[k]};
-            ts_unit_result r;
-            trace(&u, &r);
-            units_merge(&f, P, &u, &r);
-            unit_result_free(&r);
+    ts_film_state plain, ref, f;
+    film_alloc(&plain);
+    film_plain(&plain);
+    for (size_t b = 0; b < sizeof bands / sizeof *bands; ++b) {
+        ts_sample_order o = order_of(bands[b]);
+        const uint64_t waves[] = {1, 64, 1000, TOTAL};
+        for (size_t w = 0; w < sizeof waves / sizeof *waves; ++w) {
+            film_alloc(&ref);
+            film_reference(&ref, &o, 0, waves[w]);
+            assert_same_films(&plain, &ref);
+            film_state_free(&ref);
         }
-        assert_same_films(&ref, &f);
-        film_state_free(&f);
+        const uint64_t sizes[] = {1, 7, P - 1, P, P + 5, 3 * P, TOTAL};
+        for (size_t k = 0; k < sizeof sizes / sizeof *sizes; ++k) {
+            film_alloc(&f);
+            for (uint64_t first = 0, i = 0; first < TOTAL; first += sizes[k], ++i) {
+                ts_unit u = {(uint32_t)i, 0, first,
+                             TOTAL - first < sizes[k] ? TOTAL - first : sizes[k]};
+                ts_unit_result r;
+                trace(&o, &u, &r);
+                units_merge(&f, &o, &u, &r);
+                unit_result_free(&r);
+            }
+            assert_same_films(&plain, &f);
+            film_state_free(&f);
+        }
     }
     /* Another order of the same additions (odd passes summed apart, then added) differs:
      * the values are such that order shows. */
-    film_alloc(&f);
     size_t differ = 0;
     for (uint32_t p = 0; p < P; ++p) {
         float even = 0.0f, odd = 0.0f;
         for (uint32_t s = 0; s < SPP; ++s)
             *(s % 2 ? &odd : &even) += radiance[(uint64_t)s * P + p].x;
-        differ += even + odd != ref.accum[p].x;
+        differ += even + odd != plain.accum[p].x;
     }
     assert_true(differ > P / 10);
-    film_state_free(&f);
-    film_state_free(&ref);
+    film_state_free(&plain);
 }
 
 /* Threads that take units, finish them in random order and sometimes give them back. */
 typedef struct taker {
     ts_board *b;
+    const ts_sample_order *o;
     uint64_t seed;
     uint32_t units, given_back;
     uint32_t max_ahead; /* the most units out beyond the merged ones, as seen */
@@ -164,56 +265,59 @@ static void *taker_main(void *arg)
             continue;
         }
         ts_unit_result res;
-        trace(&u, &res);
+        trace(t->o, &u, &res);
         board_done(t->b, &u, &res);
         t->units++;
     }
     return NULL;
 }
 
-/* Four threads sharing a board from a resumed start: the films are film.cl's, every unit is
- * merged once, the window holds. */
+/* Four threads sharing a board from a resumed start, in pass order and in bands of three
+ * rows: the films are the plain sums, every unit is merged once, the window holds. */
 static void test_board_merges_out_of_order_finishes(void **state)
 {
     (void)state;
     const uint64_t start = 2 * P + 13; /* a resumed render: the films hold [0, start) */
     ts_film_state ref, f;
     film_alloc(&ref);
-    film_reference(&ref, 0, 500);
-    film_alloc(&f);
-    for (uint64_t g = 0; g < start; ++g) {
-        ts_unit u = {0, 0, g, 1};
-        ts_unit_result r;
-        trace(&u, &r);
-        units_merge(&f, P, &u, &r);
-        unit_result_free(&r);
+    film_plain(&ref);
+    for (uint32_t band = 0; band <= 3 * W; band += 3 * W) {
+        ts_sample_order o = order_of(band);
+        film_alloc(&f);
+        for (uint64_t g = 0; g < start; ++g) {
+            ts_unit u = {0, 0, g, 1};
+            ts_unit_result r;
+            trace(&o, &u, &r);
+            units_merge(&f, &o, &u, &r);
+            unit_result_free(&r);
+        }
+        ts_board b;
+        ts_error err = {0};
+        assert_int_equal(board_init(&b, &f, &o, start, TOTAL, 29, 5, &err), TS_OK);
+        taker t[4];
+        pthread_t th[4];
+        for (int i = 0; i < 4; ++i) {
+            t[i] = (taker){&b, &o, 1000u + (uint64_t)i + band, 0, 0, 0};
+            assert_int_equal(pthread_create(&th[i], NULL, taker_main, &t[i]), 0);
+        }
+        uint32_t units = 0, given_back = 0;
+        for (int i = 0; i < 4; ++i) {
+            pthread_join(th[i], NULL);
+            units += t[i].units, given_back += t[i].given_back;
+            assert_true(t[i].max_ahead <= 5);
+        }
+        assert_true(board_finished(&b));
+        assert_int_equal(units, b.unit_count);
+        assert_int_equal(b.unit_count, (TOTAL - start + 28) / 29);
+        assert_true(given_back > 0);
+        assert_int_equal(board_samples_done(&b), TOTAL);
+        assert_int_equal(b.samples_finished, TOTAL - start);
+        assert_same_films(&ref, &f);
+        ts_unit u;
+        assert_int_equal(board_try_take(&b, &u), -1);
+        board_free(&b);
+        film_state_free(&f);
     }
-    ts_board b;
-    ts_error err = {0};
-    assert_int_equal(board_init(&b, &f, P, start, TOTAL, 29, 5, &err), TS_OK);
-    taker t[4];
-    pthread_t th[4];
-    for (int i = 0; i < 4; ++i) {
-        t[i] = (taker){&b, 1000u + (uint64_t)i, 0, 0, 0};
-        assert_int_equal(pthread_create(&th[i], NULL, taker_main, &t[i]), 0);
-    }
-    uint32_t units = 0, given_back = 0;
-    for (int i = 0; i < 4; ++i) {
-        pthread_join(th[i], NULL);
-        units += t[i].units, given_back += t[i].given_back;
-        assert_true(t[i].max_ahead <= 5);
-    }
-    assert_true(board_finished(&b));
-    assert_int_equal(units, b.unit_count);
-    assert_int_equal(b.unit_count, (TOTAL - start + 28) / 29);
-    assert_true(given_back > 0);
-    assert_int_equal(board_samples_done(&b), TOTAL);
-    assert_int_equal(b.samples_finished, TOTAL - start);
-    assert_same_films(&ref, &f);
-    ts_unit u;
-    assert_int_equal(board_try_take(&b, &u), -1);
-    board_free(&b);
-    film_state_free(&f);
     film_state_free(&ref);
 }
 
@@ -226,7 +330,8 @@ static void test_board_window_and_close(void **state)
     film_alloc(&f);
     ts_board b;
     ts_error err = {0};
-    assert_int_equal(board_init(&b, &f, P, 0, 10 * 100, 100, 3, &err), TS_OK);
+    ts_sample_order o = order_of(0);
+    assert_int_equal(board_init(&b, &f, &o, 0, 10 * 100, 100, 3, &err), TS_OK);
     ts_unit u[4];
     for (int i = 0; i < 3; ++i) {
         assert_int_equal(board_try_take(&b, &u[i]), 1);
@@ -235,20 +340,20 @@ static void test_board_window_and_close(void **state)
     }
     assert_int_equal(board_try_take(&b, &u[3]), 0); /* the window of 3 is full */
     ts_unit_result r;
-    trace(&u[1], &r);
+    trace(&o, &u[1], &r);
     board_done(&b, &u[1], &r);                      /* waits for unit 0 */
     assert_int_equal(board_try_take(&b, &u[3]), 0); /* still full: 0 is not merged */
     assert_int_equal(board_samples_done(&b), 0);
     board_give_back(&b, &u[0]);
     assert_int_equal(board_try_take(&b, &u[3]), 1);
     assert_int_equal(u[3].index, 0); /* the given-back unit first */
-    trace(&u[3], &r);
+    trace(&o, &u[3], &r);
     board_done(&b, &u[3], &r);
     assert_int_equal(board_samples_done(&b), 200); /* units 0 and 1 merged */
     board_close(&b);
     assert_int_equal(board_try_take(&b, &u[0]), -1);
     assert_int_equal(board_take(&b, &u[0]), 0);
-    trace(&u[2], &r);
+    trace(&o, &u[2], &r);
     board_done(&b, &u[2], &r); /* a unit out when the board closed */
     assert_int_equal(board_samples_done(&b), 300);
     assert_false(board_finished(&b));
@@ -283,6 +388,7 @@ static void test_units_plan(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_sample_order_is_a_permutation),
         cmocka_unit_test(test_merge_in_order_is_the_film),
         cmocka_unit_test(test_board_merges_out_of_order_finishes),
         cmocka_unit_test(test_board_window_and_close),

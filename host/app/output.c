@@ -135,7 +135,8 @@ int output_write(const ts_render_options *o, const ts_film_state *films, const t
             {ts_exr_meta_keys[TS_EXR_META_samples_done], (int)(uint32_t)job->samples_done},
             {ts_exr_meta_keys[TS_EXR_META_seed], (int)o->seed},
             {ts_exr_meta_keys[TS_EXR_META_job], job->hash},
-            {ts_exr_meta_keys[TS_EXR_META_lod], job->lod}};
+            {ts_exr_meta_keys[TS_EXR_META_lod], job->lod},
+            {TS_EXR_META_BAND, (int)job->band}};
         rc = image_write_exr(o->output_path, &img, meta, (int)(sizeof meta / sizeof *meta), err);
     } else {
         rc = image_write_png(o->output_path, width, height, px, err);

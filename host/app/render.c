@@ -70,24 +70,34 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
  * finished samples are written. render_run installs the handlers around the waves, the MPI
  * ranks other than 0 around their render. */
 
-/* Runs the waves: each is a run of global sample indices [first, first + rays), from
- * job->samples_done on. Stops early (job->samples_done < job->total) when a stop signal
- * came. */
+/* Runs the waves: each is a run of the frame's samples [first, first + rays) in its sample
+ * order, from job->samples_done on. After the lod stage the arenas grow to hold the frame's
+ * patches as far as *grow allows (budget_grow_arenas; NULL: they stay). Stops early
+ * (job->samples_done < job->total) when a stop signal came. */
 static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
-                        ts_job *job, ts_error *err)
+                        ts_job *job, const ts_budget_choice *grow, ts_error *err)
 {
     uint64_t total = job->total, start = job->samples_done;
     uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
+    /* Bands of about a wave each, unless the samples already traced (--resume, a retry)
+     * were in an order of their own. */
+    if (!job->has_band) job->band = sample_order_band(cam.width, cam.height, cam.spp, per_wave);
+    job->has_band = 1;
+    cam.band = job->band;
     p->mode = waves_trace_mode(o);
     if (waves_frame_lod(o, p, cam, job, err)) return err->code;
+    if (grow) {
+        p->stats->memory_budget_bytes += budget_grow_arenas(p, grow, o->quiet, err);
+        if (err->code) return err->code;
+    }
     interrupt_install();
     double t0 = stats_now();
     for (uint64_t first = start; first < total; first += per_wave) {
         uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
         cam.first_sample = (uint32_t)first;
         cam.ray_count = n;
-        if (pipeline_camera(p, &cam, err) || waves_trace_paths(o, p, (uint32_t)first, n, err) ||
-            pipeline_film(p, (uint32_t)first, n, err)) {
+        if (pipeline_camera(p, &cam, err) || waves_trace_paths(o, p, &cam, err) ||
+            pipeline_film(p, &cam, err)) {
             if (!o->quiet && first > start) fputc('\n', stderr); /* end the progress line */
             return err->code;
         }
@@ -231,6 +241,7 @@ static int render_open_device(ts_render *r, ts_error *err)
 /* The memory budget over the attempts of one render. */
 typedef struct ts_budget {
     uint64_t mb, first_mb; /* this attempt's budget and the first one's, in MB */
+    ts_budget_choice grow; /* how far the arenas may grow; room_mb == mb: they stay */
     uint32_t noted_lod;    /* the finest m the user knows the render dices at */
     ts_error oom;          /* the last out-of-memory error; code 0 before the first */
 } ts_budget;
@@ -271,7 +282,9 @@ static int render_attempt(ts_render *r, ts_budget *b, ts_error *err)
         (r->job.samples_done > 0 && film_state_transfer(&r->pipe, &r->state, 1, err)) ||
         dev_finish(&r->cl, r->stats, err)) /* the buffers' first use */
         return err->code;
-    return render_waves(&r->opt, &r->pipe, r->cam, &r->job, err);
+    b->grow.mb = b->mb;
+    return render_waves(&r->opt, &r->pipe, r->cam, &r->job,
+                        b->grow.room_mb > b->mb ? &b->grow : NULL, err);
 }
 
 /* After an attempt that started at sample `before` ran out of memory: copies the samples it
@@ -311,7 +324,7 @@ static int render_give_up(const ts_render *r, const ts_budget *b, int kept, ts_e
 static void render_choose_budget(const ts_render *r, ts_budget_choice *c)
 {
     if (r->opt.memory_mb > 0) {
-        c->mb = (uint64_t)r->opt.memory_mb;
+        c->mb = c->room_mb = (uint64_t)r->opt.memory_mb;
         snprintf(c->why, sizeof c->why, "--memory");
     } else {
         ts_memory_room room;
@@ -341,7 +354,10 @@ static int render_with_retry(ts_render *r, ts_error *err)
 {
     ts_budget_choice choice;
     render_choose_budget(r, &choice);
-    ts_budget b = {.mb = choice.mb, .first_mb = choice.mb, .noted_lod = (uint32_t)r->opt.max_lod};
+    ts_budget b = {.mb = choice.mb,
+                   .first_mb = choice.mb,
+                   .noted_lod = (uint32_t)r->opt.max_lod,
+                   .grow = choice};
     int rc, kept = 1, gave_up = 0;
     for (;;) {
         uint64_t before = r->job.samples_done;
@@ -365,6 +381,7 @@ static int render_with_retry(ts_render *r, ts_error *err)
                 (unsigned long long)b.mb, b.oom.msg, (unsigned long long)(b.mb / 2));
         pipeline_destroy(&r->pipe);
         b.mb /= 2;
+        b.grow.room_mb = 0; /* memory ran out: the arenas keep the smaller budget's share */
     }
     if (rc && r->job.lod_mismatch && b.oom.code) {
         /* Samples finished before the retry, at levels of detail the smaller budget cannot
@@ -383,6 +400,17 @@ static int render_with_retry(ts_render *r, ts_error *err)
         rc = TS_OK;
     }
     return rc;
+}
+
+/* The frame's sample order (kernels/lib/sample_order.h) for several devices or ranks: bands
+ * of about a unit each, unless the samples already traced (--resume) had an order of their
+ * own. */
+static void render_choose_band(ts_render *r, uint64_t unit_samples)
+{
+    if (!r->job.has_band)
+        r->job.band = sample_order_band(r->cam.width, r->cam.height, r->cam.spp, unit_samples);
+    r->job.has_band = 1;
+    r->cam.band = r->job.band;
 }
 
 /* The devices --device (or TESSERA_DEVICE) names: one (the device of render_open_device),
@@ -429,6 +457,8 @@ static int render_on_devices(ts_render *r, ts_error *err)
         f.unit_samples = r->unit_samples, f.window = r->window;
     else
         units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples, &f.window);
+    render_choose_band(r, f.unit_samples);
+    f.cam = r->cam;
     if (!r->opt.quiet && r->ranks)
         ts_print_line(
             "tessera: %dx%d, %d spp on %d ranks (%d devices on rank 0), in units of %llu samples",
@@ -487,6 +517,7 @@ static int render_tell_ranks(ts_render *r, int rc, int up_to_date, ts_error *err
         units_plan(s.total - s.start, (uint32_t)(r->ranks->size * r->device_count),
                    &r->unit_samples, &r->window);
         s.unit_samples = r->unit_samples;
+        render_choose_band(r, r->unit_samples);
         s.cam = r->cam;
     }
     int told = ranks_start(r->ranks, &s, &r->scene, err);

@@ -3,6 +3,7 @@
 #include "app/resume.h"
 #include "base/hash.h"
 #include "image/image.h"
+#include "lib/sample_order.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -53,7 +54,9 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
         (int32_t)cam->width, (int32_t)cam->height, o->spp,       o->depth, (int32_t)o->seed,
         o->sampling,         o->max_lod,           o->fixed_lod, o->exact};
     h = ts_fnv1a(h, opts, sizeof opts);
-    h = ts_fnv1a(h, cam, sizeof *cam);
+    ts_camera_params c = *cam; /* the order's bands and the wave do not change the image */
+    c.band = c.first_sample = c.ray_count = 0;
+    h = ts_fnv1a(h, &c, sizeof c);
     h = ts_fnv1a(h, &s->patch_count, sizeof s->patch_count);
     h = ts_fnv1a(h, s->cp, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
     if (s->cp1) h = ts_fnv1a(h, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
@@ -185,17 +188,17 @@ static int resume_find_channels(const char *path, const ts_image *img,
     return TS_OK;
 }
 
-/* The count channel agrees with samples_done, pixel by pixel: global sample g goes to pixel
- * g mod P (P = width * height), so pixel i holds done / P samples, one more when
- * i < done mod P. A hand-edited or damaged file that disagrees would otherwise be resumed
- * and count samples twice (or never). Counts are whole floats below 2^24, exact. */
+/* The count channel agrees with samples_done, pixel by pixel: the first `done` samples of the
+ * order (spp a pixel, bands of `band` pixels) give pixel i sample_order_count of them. A
+ * hand-edited or damaged file that disagrees would otherwise be resumed and count samples
+ * twice (or never). Counts are whole floats below 2^24, exact. */
 static int resume_check_counts(const char *path, const ts_image *img, int count_channel,
-                               uint64_t done, ts_error *err)
+                               uint64_t done, uint32_t spp, uint32_t band, ts_error *err)
 {
     uint64_t npix = (uint64_t)img->width * (uint64_t)img->height;
     for (uint64_t i = 0; i < npix; ++i) {
         float count = img->pixels[i * (uint64_t)img->channels + (uint64_t)count_channel];
-        uint64_t want = done / npix + (i < done % npix);
+        uint64_t want = sample_order_count((uint32_t)i, (uint32_t)done, (uint32_t)npix, spp, band);
         if (count != (float)want)
             return ts_error_set(err, TS_E_USAGE,
                                 "%s: cannot resume: pixel (%llu, %llu) holds %g samples where "
@@ -251,13 +254,27 @@ int resume_load(const ts_render_options *o, int width, int height, ts_job *job,
     if (!rc) rc = resume_check_job(o, width, height, &img, v, job, err);
     if (!rc && (uint32_t)v[TS_EXR_META_samples_done] == job->total) *complete = 1;
     if (!rc && !*complete) rc = resume_find_channels(path, &img, idx, err);
+    /* Without the band: an image from before the order had bands, pass after pass. */
+    int band = 0;
+    if (!rc && image_read_meta_int(path, TS_EXR_META_BAND, &band, &e)) {
+        ts_error_clear(&e);
+        band = 0;
+    }
+    if (!rc && !*complete && (band < 0 || (uint64_t)band > (uint64_t)width * (uint64_t)height))
+        rc = ts_error_set(err, TS_E_USAGE,
+                          "%s: cannot resume: its \"%s\" metadata %d is not a band of its %dx%d "
+                          "pixels (a damaged or edited file); render without --resume",
+                          path, TS_EXR_META_BAND, band, width, height);
     if (!rc && !*complete)
         rc = resume_check_counts(path, &img, idx[TS_EXR_COUNT],
-                                 (uint32_t)v[TS_EXR_META_samples_done], err);
+                                 (uint32_t)v[TS_EXR_META_samples_done], (uint32_t)o->spp,
+                                 (uint32_t)band, err);
     if (!rc && !*complete) rc = film_state_alloc(state, (size_t)width * height, err);
     if (!rc && !*complete) {
         resume_fill_films(&img, idx, state);
         job->samples_done = (uint32_t)v[TS_EXR_META_samples_done];
+        job->band = (uint32_t)band;
+        job->has_band = 1;
         job->lod = v[TS_EXR_META_lod];
         job->max_lod = (uint32_t)v[TS_EXR_META_max_lod];
         job->check_lod = 1;

@@ -65,10 +65,16 @@ typedef enum ts_exr_meta {
 
 extern const char *const ts_exr_meta_keys[TS_EXR_META_COUNT];
 
+/* The sample order's band (ts_job.band), written with the others; an image without it is
+ * from before the order had bands: one band, pass after pass. */
+#define TS_EXR_META_BAND "tessera:band"
+
 /* What identifies a render and how far it got; stored as EXR metadata for --resume. */
 typedef struct ts_job {
     uint64_t total;        /* width * height * spp global samples */
-    uint64_t samples_done; /* the film holds samples [0, samples_done) */
+    uint64_t samples_done; /* the film holds samples [0, samples_done) of the order */
+    uint32_t band;         /* the order's pixels a band (lib/sample_order.h); 0: one band */
+    int has_band;          /* 1: band is set (by the first wave, or by --resume) */
     int32_t hash;          /* the scene and the options that change the image */
     int32_t lod;           /* the per-patch levels of detail of the frame (lod stage) */
     int check_lod;         /* 1: lod is that of the samples already in the film */

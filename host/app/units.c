@@ -2,6 +2,7 @@
  * in order (units.h). */
 #include "app/units.h"
 #include "base/stats.h"
+#include "lib/sample_order.h"
 
 #include <errno.h>
 #include <stdlib.h>
@@ -17,11 +18,55 @@ enum { UNIT_NONE, UNIT_OUT, UNIT_FINISHED, UNIT_GIVEN_BACK };
 #define UNIT_MAX_SAMPLES (1u << 20)
 #define UNITS_RESULT_BYTES ((uint64_t)256 << 20)
 
-int unit_result_alloc(ts_unit_result *r, const ts_unit *u, uint32_t pixel_count, ts_error *err)
+ts_sample_order sample_order_of(const ts_camera_params *cam)
+{
+    return (ts_sample_order){cam->width * cam->height, cam->spp ? cam->spp : 1u, cam->band};
+}
+
+uint32_t sample_order_band(uint32_t width, uint32_t height, uint32_t spp, uint64_t band_samples)
+{
+    uint64_t row = (uint64_t)width * (spp ? spp : 1u), rows = band_samples / row;
+    const char *env = getenv("TESSERA_SAMPLE_BAND_ROWS");
+    if (env && *env) {
+        char *end;
+        errno = 0;
+        unsigned long long v = strtoull(env, &end, 10);
+        if (!errno && !*end) rows = v ? v : height;
+    }
+    if (rows < 1) rows = 1;
+    return rows >= height ? 0u : (uint32_t)rows * width;
+}
+
+int sample_order_zero_run(const ts_sample_order *o, uint64_t first, uint64_t count, uint64_t *k0,
+                          uint64_t *k1)
+{
+    uint64_t band = o->band && o->band < o->pixels ? o->band : o->pixels;
+    uint64_t end = first + count, span = band * o->spp; /* samples of a whole band */
+    for (uint64_t b = first / span; b * band < o->pixels; ++b) {
+        uint64_t base = b * band, n = o->pixels - base < band ? o->pixels - base : band;
+        uint64_t z0 = base * o->spp, z1 = z0 + n; /* the band's samples 0 */
+        if (z0 >= end) return 0;
+        if (z1 > first) {
+            *k0 = z0 > first ? z0 : first;
+            *k1 = z1 < end ? z1 : end;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+uint64_t sample_order_zero_count(const ts_sample_order *o, uint64_t first, uint64_t count)
+{
+    uint64_t n = 0, k0, k1, end = first + count;
+    for (uint64_t k = first; k < end && sample_order_zero_run(o, k, end - k, &k0, &k1); k = k1)
+        n += k1 - k0;
+    return n;
+}
+
+int unit_result_alloc(ts_unit_result *r, const ts_unit *u, const ts_sample_order *o, ts_error *err)
 {
     memset(r, 0, sizeof *r);
-    r->aov_count = u->first < pixel_count ? pixel_count - u->first : 0;
-    if (r->aov_count > u->count) r->aov_count = u->count;
+    r->aov_count = sample_order_zero_count(o, u->first, u->count);
     size_t n = (size_t)u->count + 2 * (size_t)r->aov_count;
     r->radiance = malloc((n ? n : 1) * sizeof(ts_vec4));
     if (!r->radiance)
@@ -40,11 +85,13 @@ void unit_result_free(ts_unit_result *r)
     memset(r, 0, sizeof *r);
 }
 
-void units_merge(ts_film_state *film, uint32_t pixel_count, const ts_unit *u,
+void units_merge(ts_film_state *film, const ts_sample_order *o, const ts_unit *u,
                  const ts_unit_result *r)
 {
-    uint32_t p = (uint32_t)(u->first % pixel_count);
+    uint64_t j = 0;
     for (uint64_t k = 0; k < u->count; ++k) {
+        uint32_t p, sample;
+        sample_order_at((uint32_t)(u->first + k), o->pixels, o->spp, o->band, &p, &sample);
         /* kernels/film.cl: acc = accum[p]; acc.x += r.x; ... acc.w += 1.0f */
         ts_vec4 acc = film->accum[p], s = r->radiance[k];
         acc.x += s.x;
@@ -52,8 +99,8 @@ void units_merge(ts_film_state *film, uint32_t pixel_count, const ts_unit *u,
         acc.z += s.z;
         acc.w += 1.0f;
         film->accum[p] = acc;
-        if (k < r->aov_count) film->aov[p] = r->aov[k], film->albedo[p] = r->albedo[k];
-        if (++p == pixel_count) p = 0;
+        if (sample == 0 && j < r->aov_count)
+            film->aov[p] = r->aov[j], film->albedo[p] = r->albedo[j], ++j;
     }
 }
 
@@ -78,12 +125,12 @@ void units_plan(uint64_t samples, uint32_t workers, uint64_t *unit_samples, uint
     *window = (uint32_t)w;
 }
 
-int board_init(ts_board *b, ts_film_state *film, uint32_t pixel_count, uint64_t start,
+int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint64_t start,
                uint64_t total, uint64_t unit_samples, uint32_t window, ts_error *err)
 {
     memset(b, 0, sizeof *b);
     b->film = film;
-    b->pixel_count = pixel_count;
+    b->order = *o;
     b->start = start;
     b->total = total;
     b->unit_samples = unit_samples ? unit_samples : 1;
@@ -183,7 +230,7 @@ void board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
     while (b->merged < b->unit_count && b->state[b->merged % b->window] == UNIT_FINISHED) {
         uint32_t s = b->merged % b->window;
         ts_unit m = board_unit(b, b->merged);
-        units_merge(b->film, b->pixel_count, &m, &b->results[s]);
+        units_merge(b->film, &b->order, &m, &b->results[s]);
         unit_result_free(&b->results[s]);
         b->state[s] = UNIT_NONE;
         b->merged++;

@@ -2,22 +2,46 @@
  * share one frame, and the board that hands them out and merges what they traced
  * (docs/rendering.md "Several devices and processes").
  *
- * A unit is a run of consecutive global sample indices [first, first + count): a whole
- * sample pass, several, or a tile of one (global sample g is pixel g mod P, sample g / P).
- * A device traces it in waves like any run of samples and hands back each sample's
- * radiance (and, for the samples of pass 0, the AOVs), not a film. The board adds them into
+ * A unit is a run of consecutive samples [first, first + count) in the frame's sample order
+ * (kernels/lib/sample_order.h: bands of rows, each band's samples one after another). A
+ * device traces it in waves like any run of samples and hands back each sample's radiance
+ * (and, for the samples 0 of their pixels, the AOVs), not a film. The board adds them into
  * the host films in unit order, sample by sample, with the arithmetic of kernels/film.cl
  * (accum[p] += radiance in float, w += 1), so every pixel's sum is that of a one-device
  * render bit for bit, whichever device traced which unit and whenever it finished. What is
  * merged is always a prefix [start, samples_done) of the frame's samples: what --resume
- * continues, in the format it always had. */
+ * continues. */
 #ifndef TS_UNITS_H
 #define TS_UNITS_H
 
 #include "app/resume.h"
+#include "lib/shared_types.h"
 
 #include <pthread.h>
 #include <stdint.h>
+
+/* The frame's sample order (kernels/lib/sample_order.h): its pixels, samples a pixel and
+ * pixels a band (0: one band). */
+typedef struct ts_sample_order {
+    uint32_t pixels, spp, band;
+} ts_sample_order;
+
+/* The order of the frame a camera's parameters describe. */
+ts_sample_order sample_order_of(const ts_camera_params *cam);
+
+/* The bands for an image of width x height pixels at spp samples a pixel, about
+ * `band_samples` samples each: whole rows, at least one; 0 (one band) when a band would
+ * hold the whole image. TESSERA_SAMPLE_BAND_ROWS=N sets the rows (a testing aid: the image
+ * does not depend on it; 0 gives one band, pass after pass). */
+uint32_t sample_order_band(uint32_t width, uint32_t height, uint32_t spp, uint64_t band_samples);
+
+/* The samples 0 of their pixels among the samples [first, first + count) of the order o:
+ * the next run of them at or after `first`, [*k0, *k1) clipped to the range. 0 when there is
+ * none. */
+int sample_order_zero_run(const ts_sample_order *o, uint64_t first, uint64_t count, uint64_t *k0,
+                          uint64_t *k1);
+/* How many samples 0 of their pixels [first, first + count) holds. */
+uint64_t sample_order_zero_count(const ts_sample_order *o, uint64_t first, uint64_t count);
 
 typedef struct ts_unit {
     uint32_t index; /* units are numbered from 0 in sample order */
@@ -25,25 +49,25 @@ typedef struct ts_unit {
     uint64_t first, count; /* global samples [first, first + count) */
 } ts_unit;
 
-/* What a device traced for a unit: radiance[k] of sample first + k (count entries); for the
- * samples of pass 0 (first < P) aov[k] and albedo[k] of the first aov_count of them
- * (aov_count = min(count, P - first), else 0 and NULL); the rays traced, for the progress
- * line. One allocation (radiance owns it). */
+/* What a device traced for a unit: radiance[k] of sample first + k (count entries); aov[j]
+ * and albedo[j] of the j-th of its samples that are the samples 0 of their pixels
+ * (aov_count = sample_order_zero_count of the unit, else 0 and NULL); the rays traced, for
+ * the progress line. One allocation (radiance owns it). */
 typedef struct ts_unit_result {
     ts_vec4 *radiance, *aov, *albedo;
     uint64_t aov_count;
     uint64_t rays;
 } ts_unit_result;
 
-/* Allocates the result of unit u of an image of pixel_count pixels (16 bytes a sample, 32
- * more for each sample of pass 0). TS_E_MEMORY when it cannot. */
-int unit_result_alloc(ts_unit_result *r, const ts_unit *u, uint32_t pixel_count, ts_error *err);
+/* Allocates the result of unit u of a frame of order o (16 bytes a sample, 32 more for each
+ * sample 0 of a pixel). TS_E_MEMORY when it cannot. */
+int unit_result_alloc(ts_unit_result *r, const ts_unit *u, const ts_sample_order *o, ts_error *err);
 void unit_result_free(ts_unit_result *r);
 
-/* Adds unit u's samples into the films, in sample order: film->accum[g mod P] += radiance
- * (x, y, z, and w += 1), film->aov and film->albedo of pass 0 set: film_accumulate's
- * arithmetic. The units of a pixel must come in sample order. */
-void units_merge(ts_film_state *film, uint32_t pixel_count, const ts_unit *u,
+/* Adds unit u's samples into the films, in order: film->accum[p] += radiance of sample k
+ * (x, y, z, and w += 1) for k's pixel p, film->aov and film->albedo set from samples 0:
+ * film_accumulate's arithmetic. The units must come in order. */
+void units_merge(ts_film_state *film, const ts_sample_order *o, const ts_unit *u,
                  const ts_unit_result *r);
 
 /* The size of the units for `samples` samples shared by `workers` devices: about eight
@@ -62,7 +86,7 @@ typedef struct ts_board {
     pthread_mutex_t lock;
     pthread_cond_t changed; /* a unit was merged, given back or finished, or the board closed */
     ts_film_state *film;
-    uint32_t pixel_count;
+    ts_sample_order order;
     uint64_t start, total, unit_samples;
     uint32_t unit_count, window;
     uint32_t next;   /* the first unit never handed out */
@@ -77,9 +101,9 @@ typedef struct ts_board {
     int frozen;                      /* board_freeze: nothing more is merged either */
 } ts_board;
 
-/* The board of samples [start, total) of an image of pixel_count pixels, merging into film
- * (which holds the samples [0, start) already). TS_E_MEMORY when it cannot. */
-int board_init(ts_board *b, ts_film_state *film, uint32_t pixel_count, uint64_t start,
+/* The board of samples [start, total) of a frame of order o, merging into film (which holds
+ * the samples [0, start) already). TS_E_MEMORY when it cannot. */
+int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint64_t start,
                uint64_t total, uint64_t unit_samples, uint32_t window, ts_error *err);
 void board_free(ts_board *b);
 

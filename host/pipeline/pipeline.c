@@ -430,6 +430,7 @@ int pipeline_lod_finish(ts_pipeline *p, ts_lod_rule rule, int before_hit, ts_err
 int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, ts_error *err)
 {
     ts_camera_params c = *cam;
+    c.band = 0; /* samples [0, pixels) are the first sample pass, whatever the frame's order */
     uint32_t pixels = c.width * c.height, per_wave = p->plan.ray_capacity;
     int rc = TS_OK;
     p->wave = 0;
@@ -447,6 +448,58 @@ int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, 
         if (rc == TS_OK && pipeline_lod_finish(p, rule, pass, err)) rc = err->code;
     }
     return rc;
+}
+
+void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups)
+{
+    int fixed = p->mode.fixed_lod;
+    *verts = *groups = 0;
+    for (uint32_t i = 0; i < p->scene->patch_count; ++i) {
+        uint32_t m = fixed >= 0
+                         ? ((uint32_t)fixed < p->plan.max_lod ? (uint32_t)fixed : p->plan.max_lod)
+                         : p->patch_lod[i]; /* trace.c assign_lods */
+        uint64_t times = p->scene->attr[i].flags & TS_PATCH_MOVING ? 2u : 1u;
+        *verts += times * quadtree_vertex_count(m);
+        *groups += times * quadtree_group_count(m);
+    }
+}
+
+int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_error *err)
+{
+    uint64_t max_alloc = p->cl->info.max_alloc;
+    if (verts > UINT32_MAX || groups > UINT32_MAX || verts * sizeof(ts_vec4) > max_alloc ||
+        groups * sizeof(ts_box4) > max_alloc)
+        return ts_error_set(err, TS_E_USAGE,
+                            "the arenas would exceed the device's largest buffer, %llu MB",
+                            (unsigned long long)(max_alloc >> 20));
+    if (dev_finish(p->cl, p->stats, err)) return err->code; /* nothing uses the old ones */
+    cl_mem grid = dev_buffer_create(p->cl, CL_MEM_READ_WRITE, verts * sizeof(ts_vec4), NULL, err);
+    if (!grid) return err->code;
+    cl_mem tree = dev_buffer_create(p->cl, CL_MEM_READ_WRITE, groups * sizeof(ts_box4), NULL, err);
+    if (!tree) {
+        clReleaseMemObject(grid);
+        return err->code;
+    }
+    ts_patch_cache cache;
+    if (patch_cache_create(&cache, p->scene->patch_count, (uint32_t)verts, (uint32_t)groups, err)) {
+        clReleaseMemObject(grid);
+        clReleaseMemObject(tree);
+        return err->code;
+    }
+    clReleaseMemObject(p->grid);
+    clReleaseMemObject(p->groups);
+    p->grid = grid;
+    p->groups = tree;
+    /* The cache's counters go on over the frame. */
+    cache.hits = p->cache.hits, cache.misses = p->cache.misses;
+    cache.evictions = p->cache.evictions;
+    patch_cache_free(&p->cache);
+    p->cache = cache;
+    p->plan.vert_capacity = (uint32_t)verts;
+    p->plan.group_capacity = (uint32_t)groups;
+    p->stats->counters[TS_COUNTER_patch_cache_bytes] =
+        verts * sizeof(ts_vec4) + groups * sizeof(ts_box4);
+    return TS_OK;
 }
 
 int pipeline_lod_rule_parse(const char *name, ts_lod_rule *rule)

@@ -255,6 +255,15 @@ int pipeline_lod_finish(ts_pipeline *p, ts_lod_rule rule, int before_hit, ts_err
  * traced at those levels and counted again before the hits. Deterministic: the levels do
  * not depend on the waves. */
 int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, ts_error *err);
+
+/* The arena entries the frame's patches take when every one is resident at once: vertices
+ * and sibling groups at the level each is diced at (--lod's, else the lod stage's), twice
+ * for a moving patch. */
+void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups);
+/* New arenas of verts vertices and groups sibling groups (each within the device's largest
+ * buffer), replacing the old ones, and an empty patch cache over them. When they cannot be
+ * had the old ones stay, with the error in *err. */
+int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_error *err);
 /* "crossed", "visible" or "seen" (TESSERA_LOD_RULE); -1 for another name. */
 int pipeline_lod_rule_parse(const char *name, ts_lod_rule *rule);
 
@@ -277,7 +286,8 @@ int pipeline_bottom_level(ts_pipeline *p, uint32_t n_per_ray, ts_error *err);
 int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sample,
                    uint32_t wave_size, uint32_t path_count, uint32_t *next_paths,
                    uint32_t *next_rays, uint32_t *shadow_rays, ts_error *err);
-/* film: adds the wave's ray_count finished paths to the image. */
-int pipeline_film(ts_pipeline *p, uint32_t first_sample, uint32_t ray_count, ts_error *err);
+/* film: adds the wave's finished paths (the samples cam->first_sample .. + cam->ray_count of
+ * the frame's order, cam->spp and cam->band) to the image. */
+int pipeline_film(ts_pipeline *p, const ts_camera_params *cam, ts_error *err);
 
 #endif

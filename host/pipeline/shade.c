@@ -191,12 +191,12 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
     return rc;
 }
 
-int pipeline_film(ts_pipeline *p, uint32_t first_sample, uint32_t ray_count, ts_error *err)
+int pipeline_film(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 {
-    if (dev_set_args(p->k_film, err, DEV_ARG(first_sample), DEV_ARG(ray_count),
-                     DEV_ARG(p->pixel_count), DEV_ARG(p->radiance), DEV_ARG(p->aov),
-                     DEV_ARG(p->albedo), DEV_ARG(p->accum), DEV_ARG(p->aov_film),
-                     DEV_ARG(p->albedo_film), (size_t)0) ||
+    if (dev_set_args(p->k_film, err, DEV_ARG(cam->first_sample), DEV_ARG(cam->ray_count),
+                     DEV_ARG(p->pixel_count), DEV_ARG(cam->spp), DEV_ARG(cam->band),
+                     DEV_ARG(p->radiance), DEV_ARG(p->aov), DEV_ARG(p->albedo), DEV_ARG(p->accum),
+                     DEV_ARG(p->aov_film), DEV_ARG(p->albedo_film), (size_t)0) ||
         dev_launch(p->cl, p->k_film, TS_STAGE_film, p->pixel_count, TS_LOCAL_SIZE, err))
         return err->code;
     return dev_finish(p->cl, p->stats, err);

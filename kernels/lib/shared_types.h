@@ -255,10 +255,10 @@ typedef struct ts_camera_params {
     float forward[4]; /* camera z axis (unit) */
     ts_u32 width, height;
     ts_u32 spp, seed;
-    ts_u32 first_sample; /* global index of the first ray of this wave */
+    ts_u32 first_sample; /* index of the wave's first sample in the frame's order */
     ts_u32 ray_count;    /* rays in this wave */
     ts_u32 projection;   /* TS_PROJECTION_* */
-    ts_u32 pad;
+    ts_u32 band;         /* pixels a band of the sample order (lib/sample_order.h); 0: one */
 } ts_camera_params;
 
 /* Light sampling vs BSDF sampling at each path vertex (ts_shade_params.sampling). */
@@ -274,8 +274,9 @@ typedef struct ts_shade_params {
                         collects emission */
     ts_u32 sampling; /* TS_SAMPLING_* */
     ts_u32 seed;
-    ts_u32 spp; /* samples per pixel: the sampler's index mask (lib/sampler.h) */
-    ts_u32 pad[2];
+    ts_u32 spp;  /* samples per pixel: the sampler's index mask (lib/sampler.h) */
+    ts_u32 band; /* pixels a band of the sample order (lib/sample_order.h); 0: one */
+    ts_u32 pad;
 } ts_shade_params;
 
 /* The bake (`tessera bake`, kernels/bake.cl, docs/bake.md): ts_bake_params.flags. */
@@ -352,8 +353,8 @@ typedef struct ts_bake_params {
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
     X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
-    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection)      \
-    X(ts_shade_params, spp) X(ts_light, dir) X(ts_light, radiance) X(ts_light, weight) X(ts_emitter, area) \
+    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection) X(ts_camera_params, band)      \
+    X(ts_shade_params, spp) X(ts_shade_params, band) X(ts_light, dir) X(ts_light, radiance) X(ts_light, weight) X(ts_emitter, area) \
     X(ts_light, flags) X(ts_light, pos) X(ts_light, cos_inner) X(ts_light, falloff_min)             \
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \
     X(ts_patch_attr, disp_offset) X(ts_patch_attr, st) X(ts_texture, kind)                    \
