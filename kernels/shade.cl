@@ -26,6 +26,12 @@
  * --sampling light or bsdf keeps one strategy at weight 1.
  * Lights: one chosen per vertex by weight (lib/lights.h light_select); a uniform dome is
  * left to BSDF rays unless --sampling light.
+ * Relighting (render --occlusion, rp.bands > 0; lib/relight.h, docs/bake.md): at the eye
+ * ray's hit (bounce 0) the domes' light comes from the baked occlusion instead of rays:
+ * shade_relit adds Kd Cs / pi times the irradiance E(n) of the domes through the baked
+ * visibility; that vertex's light sample and the domes its BSDF ray finds leave the domes out
+ * (TS_LIGHTS_NO_DOMES; the ray carries TS_PATH_RELIT). Other lights, and every later vertex,
+ * are path traced as without it.
  * Sample values: Owen-scrambled Sobol sets (lib/sampler.h), keyed by (pixel, sample): at
  * vertex b, set TS_SET_LIGHT(b) = the light's choice and the point on it, TS_SET_BSDF(b) =
  * the lobe, the direction and Russian roulette. */
@@ -33,6 +39,7 @@
 #include "lib/bsdf.h"
 #include "lib/lights.h"
 #include "lib/patch.h"
+#include "lib/relight.h"
 #include "lib/sampler.h"
 
 /* One path's step: its slots, the keys of its sample values and its weight so far. */
@@ -170,6 +177,30 @@ inline void shade_emission(const shade_lights *L, const shade_vertex *v, ts_hit 
     add_rgb(radiance, s->tp, e, emission_weight(pb, mode, pl));
 }
 
+/* The baked occlusion (render --occlusion) as shade reads it: lib/relight.h. */
+typedef struct shade_relight {
+    ts_relight_params rp;
+    __global const ts_u32 *patch; /* 2 words a patch: first point, m */
+    __global const float *coeffs; /* B^2 a point */
+    __global const ts_vec4 *light;
+} shade_relight;
+
+/* The domes' light at the relit vertex: the diffuse lobe Kd Cs / pi times the irradiance
+ * the baked occlusion gives at the hit's (u, v) for the shading normal (glossy lobes get no
+ * dome light there: the file holds visibility, not a view-dependent transfer). */
+inline void shade_relit(const shade_relight *R, const shade_vertex *v, ts_hit h,
+                        const shade_step *s, __global ts_vec4 *radiance)
+{
+    __global const ts_patch_attr *a = v->a;
+    float kd = a->material == TS_MAT_METAL ? 0.0f : a->kd / TS_PI;
+    if (!(kd > 0.0f) || h.patch >= R->rp.patch_count) return;
+    float c[TS_SH_MAX_COEFFS], e[3];
+    relight_coeffs(R->patch, R->coeffs, R->rp.bands * R->rp.bands, h.patch, h.u, h.v, c);
+    relight_irradiance(R->rp, R->light, c, v->n, e);
+    float le[3] = {kd * v->cs[0] * e[0], kd * v->cs[1] * e[1], kd * v->cs[2] * e[2]};
+    add_rgb(radiance, s->tp, le, 1.0f);
+}
+
 /* Next-event estimation: samples a light (chosen uniformly) and, when it lights the
  * vertex, stores its contribution in *pending and writes the shadow ray into slot
  * wave_size + i, stopping short of an area light's point and ignoring that patch. Returns
@@ -229,21 +260,22 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
     return TS_PATH_TRACED_BSDF;
 }
 
-__kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count, uint wave_size,
-                         __global const uint *paths, uint path_count, __global ts_vec4 *org,
-                         __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
-                         __global uint *ray_flags, __global uint *ray_from,
-                         __global const uint *pixel, __global ts_vec4 *throughput,
-                         __global float *mis, __global uint *state, __global ts_vec4 *pending,
-                         __global ts_vec4 *radiance, __global ts_vec4 *aov,
-                         __global ts_vec4 *albedo, __global const ts_vec4 *cp,
-                         __global const ts_vec4 *corner_n, __global const ts_vec4 *mid_n,
-                         __global const ts_patch_attr *attr, __global const ts_xform *xform,
-                         __global const ts_light *lights, __global const ts_emitter *emitters,
-                         __global const ts_vec4 *env_texels, __global const float *env_marginal,
-                         __global const float *env_conditional, __global const ts_vec4 *flatness,
-                         __global const ts_texture *textures, __global const uint *tex_pages,
-                         __global const ts_vec4 *tex_pool, __global uint *alive)
+__kernel void
+shade_path(ts_shade_params sp, uint first_sample, uint pixel_count, uint wave_size,
+           __global const uint *paths, uint path_count, __global ts_vec4 *org,
+           __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
+           __global uint *ray_flags, __global uint *ray_from, __global const uint *pixel,
+           __global ts_vec4 *throughput, __global float *mis, __global uint *state,
+           __global ts_vec4 *pending, __global ts_vec4 *radiance, __global ts_vec4 *aov,
+           __global ts_vec4 *albedo, __global const ts_vec4 *cp, __global const ts_vec4 *corner_n,
+           __global const ts_vec4 *mid_n, __global const ts_patch_attr *attr,
+           __global const ts_xform *xform, __global const ts_light *lights,
+           __global const ts_emitter *emitters, __global const ts_vec4 *env_texels,
+           __global const float *env_marginal, __global const float *env_conditional,
+           __global const ts_vec4 *flatness, __global const ts_texture *textures,
+           __global const uint *tex_pages, __global const ts_vec4 *tex_pool, __global uint *alive,
+           ts_relight_params rp, __global const uint *relight_patch,
+           __global const float *relight_coeffs, __global const ts_vec4 *relight_light)
 {
     uint k = get_global_id(0);
     if (k >= path_count) return;
@@ -252,9 +284,11 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     if (st & TS_PATH_TRACED_SHADOW)
         shade_shadow_result(hit[wave_size + i], pending[i], &radiance[i]);
     if (!(st & TS_PATH_TRACED_BSDF)) return;
+    /* A ray from the relit vertex finds no dome: its light was counted there. */
+    uint no_domes = st & TS_PATH_RELIT ? TS_LIGHTS_NO_DOMES : 0u;
     shade_lights L = {.lights = lights,
                       .count = sp.light_count,
-                      .sampling = sp.sampling,
+                      .sampling = sp.sampling | no_domes,
                       .env = {env_texels, env_marginal, env_conditional},
                       .emitters = emitters,
                       .cp = cp,
@@ -293,8 +327,14 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     /* Hits on this patch nearer than one micro-quad (eps) are below the level of detail's
      * resolution (bottom_level.cl's origin-patch rule intersects it as micro-triangles). */
     v.self = v.eps;
+    uint relit = rp.bands > 0u && s.bounce == 0u ? TS_PATH_RELIT : 0u;
+    if (relit) {
+        shade_relight R = {rp, relight_patch, relight_coeffs, relight_light};
+        shade_relit(&R, &v, h, &s, &radiance[i]);
+    }
+    L.sampling = sp.sampling | (relit ? TS_LIGHTS_NO_DOMES : 0u);
     uint out = shade_direct_light(sp, &L, &v, &s, &pending[i], rays);
     out |= shade_bsdf_bounce(sp, &v, &s, &throughput[i], &mis[i], &mode, rays);
-    state[i] = TS_PATH_STATE(out, mode);
+    state[i] = TS_PATH_STATE(out, mode) | relit;
     alive[k] = out;
 }
