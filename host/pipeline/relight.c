@@ -78,21 +78,36 @@ typedef struct map_cell {
     double ly[TS_SH_MAX_COEFFS][3];
 } map_cell;
 
-/* The map summed into at most TS_RELIGHT_CELLS_W x TS_RELIGHT_CELLS_H cells (*count). */
+/* The map summed into TS_RELIGHT_CELLS_W x TS_RELIGHT_CELLS_H cells of equal angles (*count):
+ * each cell gets every texel it overlaps, weighted by the exact solid angle of the overlap
+ * (a rectangle in phi and cos theta), so no texel's light is lost or counted twice whatever
+ * the map's size; the cell's direction is the solid-angle-weighted mean of the overlaps'
+ * centres. */
 static map_cell *map_cells(const ts_light *dome, const ts_env_map *env, uint32_t nc,
                            uint32_t *count)
 {
-    uint32_t cw = env->width < TS_RELIGHT_CELLS_W ? env->width : TS_RELIGHT_CELLS_W;
-    uint32_t ch = env->height < TS_RELIGHT_CELLS_H ? env->height : TS_RELIGHT_CELLS_H;
+    uint32_t cw = TS_RELIGHT_CELLS_W, ch = TS_RELIGHT_CELLS_H, w = env->width, h = env->height;
     map_cell *cells = calloc((size_t)cw * ch, sizeof *cells);
     if (!cells) return NULL;
     for (uint32_t cy = 0; cy < ch; ++cy)
         for (uint32_t cx = 0; cx < cw; ++cx) {
             map_cell *c = &cells[cy * cw + cx];
             double flux[3] = {0, 0, 0}, mean[3] = {0, 0, 0};
-            for (uint32_t y = cy * env->height / ch; y < (cy + 1) * env->height / ch; ++y)
-                for (uint32_t x = cx * env->width / cw; x < (cx + 1) * env->width / cw; ++x) {
-                    double d[3], rgb[3], da = texel_at(dome, env, x, y, d, rgb);
+            /* the cell in map texels: [x0, x1) x [y0, y1) */
+            double x0 = (double)cx * w / cw, x1 = (double)(cx + 1) * w / cw;
+            double y0 = (double)cy * h / ch, y1 = (double)(cy + 1) * h / ch;
+            for (uint32_t ty = (uint32_t)y0; ty < h && ty < y1; ++ty)
+                for (uint32_t tx = (uint32_t)x0; tx < w && tx < x1; ++tx) {
+                    double a0 = fmax(x0, tx), a1 = fmin(x1, tx + 1.0);
+                    double b0 = fmax(y0, ty), b1 = fmin(y1, ty + 1.0);
+                    if (!(a1 > a0 && b1 > b0)) continue;
+                    double t0 = M_PI * b0 / h, t1 = M_PI * b1 / h, tc = 0.5 * (t0 + t1);
+                    double pc = M_PI * (a0 + a1) / w;
+                    double da = 2.0 * M_PI * (a1 - a0) / w * (cos(t0) - cos(t1));
+                    const ts_vec4 *t = &env->texels[(size_t)ty * w + tx];
+                    double d[3] = {sin(tc) * cos(pc), sin(tc) * sin(pc), cos(tc)};
+                    double rgb[3] = {dome->radiance[0] * t->x, dome->radiance[1] * t->y,
+                                     dome->radiance[2] * t->z};
                     for (int k = 0; k < 3; ++k)
                         flux[k] += rgb[k] * da, mean[k] += d[k] * da;
                 }
