@@ -182,6 +182,7 @@ typedef struct shade_relight {
     ts_relight_params rp;
     __global const ts_u32 *patch; /* 2 words a patch: first point, m */
     __global const float *coeffs; /* B^2 a point */
+    __global const float *normal; /* 3 a point: the N its hemisphere is about */
     __global const ts_vec4 *light;
 } shade_relight;
 
@@ -195,7 +196,8 @@ inline void shade_relit(const shade_relight *R, const shade_vertex *v, ts_hit h,
     float kd = a->material == TS_MAT_METAL ? 0.0f : a->kd / TS_PI;
     if (!(kd > 0.0f) || h.patch >= R->rp.patch_count) return;
     float c[TS_SH_MAX_COEFFS], e[3];
-    relight_coeffs(R->patch, R->coeffs, R->rp.bands * R->rp.bands, h.patch, h.u, h.v, c);
+    relight_coeffs(R->patch, R->coeffs, R->normal, R->rp.bands * R->rp.bands, h.patch, h.u, h.v,
+                   v->n, c);
     relight_irradiance(R->rp, R->light, c, v->n, e);
     float le[3] = {kd * v->cs[0] * e[0], kd * v->cs[1] * e[1], kd * v->cs[2] * e[2]};
     add_rgb(radiance, s->tp, le, 1.0f);
@@ -260,22 +262,24 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
     return TS_PATH_TRACED_BSDF;
 }
 
-__kernel void
-shade_path(ts_shade_params sp, uint first_sample, uint pixel_count, uint wave_size,
-           __global const uint *paths, uint path_count, __global ts_vec4 *org,
-           __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
-           __global uint *ray_flags, __global uint *ray_from, __global const uint *pixel,
-           __global ts_vec4 *throughput, __global float *mis, __global uint *state,
-           __global ts_vec4 *pending, __global ts_vec4 *radiance, __global ts_vec4 *aov,
-           __global ts_vec4 *albedo, __global const ts_vec4 *cp, __global const ts_vec4 *corner_n,
-           __global const ts_vec4 *mid_n, __global const ts_patch_attr *attr,
-           __global const ts_xform *xform, __global const ts_light *lights,
-           __global const ts_emitter *emitters, __global const ts_vec4 *env_texels,
-           __global const float *env_marginal, __global const float *env_conditional,
-           __global const ts_vec4 *flatness, __global const ts_texture *textures,
-           __global const uint *tex_pages, __global const ts_vec4 *tex_pool, __global uint *alive,
-           ts_relight_params rp, __global const uint *relight_patch,
-           __global const float *relight_coeffs, __global const ts_vec4 *relight_light)
+__kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count, uint wave_size,
+                         __global const uint *paths, uint path_count, __global ts_vec4 *org,
+                         __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
+                         __global uint *ray_flags, __global uint *ray_from,
+                         __global const uint *pixel, __global ts_vec4 *throughput,
+                         __global float *mis, __global uint *state, __global ts_vec4 *pending,
+                         __global ts_vec4 *radiance, __global ts_vec4 *aov,
+                         __global ts_vec4 *albedo, __global const ts_vec4 *cp,
+                         __global const ts_vec4 *corner_n, __global const ts_vec4 *mid_n,
+                         __global const ts_patch_attr *attr, __global const ts_xform *xform,
+                         __global const ts_light *lights, __global const ts_emitter *emitters,
+                         __global const ts_vec4 *env_texels, __global const float *env_marginal,
+                         __global const float *env_conditional, __global const ts_vec4 *flatness,
+                         __global const ts_texture *textures, __global const uint *tex_pages,
+                         __global const ts_vec4 *tex_pool, __global uint *alive,
+                         ts_relight_params rp, __global const uint *relight_patch,
+                         __global const float *relight_coeffs, __global const float *relight_normal,
+                         __global const ts_vec4 *relight_light)
 {
     uint k = get_global_id(0);
     if (k >= path_count) return;
@@ -329,7 +333,7 @@ shade_path(ts_shade_params sp, uint first_sample, uint pixel_count, uint wave_si
     v.self = v.eps;
     uint relit = rp.bands > 0u && s.bounce == 0u ? TS_PATH_RELIT : 0u;
     if (relit) {
-        shade_relight R = {rp, relight_patch, relight_coeffs, relight_light};
+        shade_relight R = {rp, relight_patch, relight_coeffs, relight_normal, relight_light};
         shade_relit(&R, &v, h, &s, &radiance[i]);
     }
     L.sampling = sp.sampling | (relit ? TS_LIGHTS_NO_DOMES : 0u);

@@ -86,9 +86,21 @@ static void random_occlusion(const ts_scene *s, uint32_t bands, uint32_t cosine,
     }
     size_t n = (size_t)o->point_count * bands * bands;
     o->coeffs = malloc(n * sizeof *o->coeffs);
-    assert_non_null(o->coeffs);
+    o->normal = malloc((size_t)o->point_count * 3 * sizeof *o->normal);
+    assert_true(o->coeffs && o->normal);
     for (size_t k = 0; k < n; ++k)
         o->coeffs[k] = test_uniform(rng, -1.0f, 1.0f);
+    /* random unit normals: some points face the shading normal, some do not */
+    for (uint32_t k = 0; k < o->point_count; ++k) {
+        float v[3], len;
+        do {
+            for (int c = 0; c < 3; ++c)
+                v[c] = test_uniform(rng, -1.0f, 1.0f);
+            len = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        } while (!(len > 0.1f && len <= 1.0f));
+        for (int c = 0; c < 3; ++c)
+            o->normal[3 * k + c] = v[c] / len;
+    }
 }
 
 static void read_vec4(ts_pipeline *p, cl_mem m, uint32_t n, ts_vec4 *out)
@@ -146,7 +158,7 @@ static uint32_t check_case(ts_device *cl, ts_scene *s, const ts_occlusion *o)
         if (hits[i].patch == TS_INVALID) continue;
         ++hit_count;
         double c[16], e[3], scale, nn[3] = {aov[i].x, aov[i].y, aov[i].z};
-        relight_ref_coeffs(o, hits[i].patch, hits[i].u, hits[i].v, c);
+        relight_ref_coeffs(o, hits[i].patch, hits[i].u, hits[i].v, nn, c);
         relight_ref_irradiance(&p.relight, light, c, nn, e, &scale);
         const double albedo[3] = {alb[i].x, alb[i].y, alb[i].z},
                      got[3] = {rad[i].x, rad[i].y, rad[i].z};

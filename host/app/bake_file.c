@@ -470,6 +470,8 @@ static int occlusion_fill(const char *path, const ts_image *in, const int *idx, 
         if (ok) slot = o->patch[2 * p] + (uint32_t)y * (n + 1u) + (uint32_t)x, ok = !seen[slot];
         for (uint32_t c = 0; ok && c < nc; ++c)
             ok = isfinite(px[idx[c]]);
+        for (uint32_t c = 0; ok && c < 3; ++c)
+            ok = isfinite(px[idx[nc + TS_BAKE_CH_NX + c]]);
         if (!ok) {
             rc = ts_error_set(err, TS_E_USAGE,
                               "%s: pixel (%zu, %zu) is not a baked vertex of patch %u's grid "
@@ -480,6 +482,8 @@ static int occlusion_fill(const char *path, const ts_image *in, const int *idx, 
         seen[slot] = 1;
         for (uint32_t c = 0; c < nc; ++c)
             o->coeffs[(size_t)slot * nc + c] = px[idx[c]];
+        for (uint32_t c = 0; c < 3; ++c)
+            o->normal[(size_t)slot * 3 + c] = px[idx[nc + TS_BAKE_CH_NX + c]];
     }
     free(seen);
     return rc;
@@ -504,7 +508,8 @@ int bake_occlusion_load(const char *path, const ts_scene *s, const char *scene_p
         out->point_count = m.points;
         out->patch = malloc(2 * (size_t)(m.patches ? m.patches : 1) * sizeof *out->patch);
         out->coeffs = malloc((size_t)(m.points ? m.points : 1) * nc * sizeof *out->coeffs);
-        if (!out->patch || !out->coeffs)
+        out->normal = malloc((size_t)(m.points ? m.points : 1) * 3 * sizeof *out->normal);
+        if (!out->patch || !out->coeffs || !out->normal)
             rc = ts_error_set(err, TS_E_MEMORY, "out of memory (%s)", path);
     }
     if (!rc) rc = occlusion_count(path, &in, idx, nc, &m, out, err);

@@ -14,7 +14,7 @@ uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count)
                          2 * sizeof(uint32_t) /* trees */ + sizeof(uint32_t) /* lod counts */;
     const ts_occlusion *o = scene->occlusion; /* --occlusion's points and tables (relight.h) */
     uint64_t occlusion =
-        o ? (uint64_t)o->point_count * o->bands * o->bands * sizeof(float) +
+        o ? (uint64_t)o->point_count * (o->bands * o->bands + 3) * sizeof(float) +
                 (uint64_t)o->patch_count * 2 * sizeof(uint32_t) +
                 (TS_RELIGHT_TABLE_FIRST +
                  (uint64_t)TS_RELIGHT_TABLE_W * TS_RELIGHT_TABLE_H * TS_SH_MAX_COEFFS) *

@@ -82,6 +82,7 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
         h = ts_fnv1a(h, occ->patch, 2 * (size_t)occ->patch_count * sizeof *occ->patch);
         h = ts_fnv1a(h, occ->coeffs,
                      (size_t)occ->point_count * occ->bands * occ->bands * sizeof *occ->coeffs);
+        h = ts_fnv1a(h, occ->normal, (size_t)occ->point_count * 3 * sizeof *occ->normal);
     }
     *out = fold32(h);
     return TS_OK;

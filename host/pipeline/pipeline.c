@@ -92,7 +92,7 @@ typedef struct scene_uploads {
     ts_light_table lights;     /* lights.h */
     ts_env_map env;            /* the dome's map; 0 x 0 without one */
     ts_relight_tables relight; /* relight.h */
-    const void *relight_patch, *relight_coeffs; /* the scene's occlusion, NULL: none */
+    const void *relight_patch, *relight_coeffs, *relight_normal; /* the scene's occlusion */
 } scene_uploads;
 
 static void scene_uploads_free(scene_uploads *u)
@@ -145,20 +145,21 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
         return err->code;
     if (lights_build(s, &u->env, u->attr, &u->lights, err)) return err->code;
     if (s->occlusion)
-        u->relight_patch = s->occlusion->patch, u->relight_coeffs = s->occlusion->coeffs;
+        u->relight_patch = s->occlusion->patch, u->relight_coeffs = s->occlusion->coeffs,
+        u->relight_normal = s->occlusion->normal;
     return relight_tables_build(s->occlusion, &u->lights, &u->env, &u->relight, err);
 }
 
 /* Element counts of the buffers (TS_PIPELINE_BUFFERS' count column reads them as c.NAME).
  * What the scene lacks counts 1. */
 typedef struct buffer_counts {
-    size_t rays, pairs, pixels;                          /* the plan, the image */
-    size_t patches, nodes, xforms, textures;             /* the scene */
-    size_t lights, emitters, env_texels, env_rows;       /* lights.h */
-    size_t tex_texels, tex_pages;                        /* tile pool, page table */
-    size_t verts, groups;                                /* the arenas */
-    size_t util_groups;                                  /* bottom_level's work-groups */
-    size_t relight_patch, relight_coeffs, relight_light; /* relight.h */
+    size_t rays, pairs, pixels;                    /* the plan, the image */
+    size_t patches, nodes, xforms, textures;       /* the scene */
+    size_t lights, emitters, env_texels, env_rows; /* lights.h */
+    size_t tex_texels, tex_pages;                  /* tile pool, page table */
+    size_t verts, groups;                          /* the arenas */
+    size_t util_groups;                            /* bottom_level's work-groups */
+    size_t relight_patch, relight_coeffs, relight_normal, relight_light; /* relight.h */
 } buffer_counts;
 
 static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads *u)
@@ -185,6 +186,7 @@ static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads 
         .util_groups = p->util_groups,
         .relight_patch = o ? 2 * (size_t)o->patch_count : 1,
         .relight_coeffs = o ? (size_t)o->point_count * o->bands * o->bands : 1,
+        .relight_normal = o ? (size_t)o->point_count * 3 : 1,
         .relight_light = u->relight.light_count ? u->relight.light_count : 1,
     };
 }

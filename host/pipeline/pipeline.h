@@ -98,7 +98,7 @@ typedef struct ts_trace_mode {
  *     offset l / 2^m); patch_box: scene_patch_box (build clamps leaf boxes to it); lights,
  *     emitters, env_*: lights.h; textures, tex_pool, tex_pages: descriptors, the tile pool
  *     and its page table (tex_cache.h); relight_*: the baked occlusion of
- *     `render --occlusion` (scene.h ts_occlusion: its patch table and coefficients) and
+ *     `render --occlusion` (scene.h ts_occlusion: its patch table, coefficients and normals) and
  *     relight.h's light tables, one zeroed element each without one.
  *   lod_counts: eye rays entering each patch box (lod); segments, trees: the sorted
  *     segments and the batches' tree lists; grid, groups: the vertex and group arenas;
@@ -132,6 +132,7 @@ typedef struct ts_trace_mode {
     X(tex_pages,       CL_MEM_READ_ONLY,  ts_u32,        c.tex_pages,    NULL)                  \
     X(relight_patch,   TS_MEM_SCENE,      ts_u32,        c.relight_patch, u.relight_patch)      \
     X(relight_coeffs,  TS_MEM_SCENE,      float,         c.relight_coeffs, u.relight_coeffs)    \
+    X(relight_normal,  TS_MEM_SCENE,      float,         c.relight_normal, u.relight_normal)    \
     X(relight_light,   TS_MEM_SCENE,      ts_vec4,       c.relight_light, u.relight.light)      \
     /* Per patch, and the batch being diced. */                                                 \
     X(lod_counts,      CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \

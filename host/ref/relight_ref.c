@@ -4,21 +4,30 @@
 
 #include <math.h>
 
-void relight_ref_coeffs(const ts_occlusion *o, uint32_t p, double u, double v, double *out)
+void relight_ref_coeffs(const ts_occlusion *o, uint32_t p, double u, double v, const double n[3],
+                        double *out)
 {
     uint32_t nc = o->bands * o->bands, first = o->patch[2 * p], m = o->patch[2 * p + 1];
     uint32_t side = (1u << m) + 1u;
     double x = fmin(fmax(u, 0.0), 1.0) * (side - 1), y = fmin(fmax(v, 0.0), 1.0) * (side - 1);
     double i0 = fmin(floor(x), side - 2.0), j0 = fmin(floor(y), side - 2.0);
-    double fx = x - i0, fy = y - j0;
+    double fx = x - i0, fy = y - j0, w[4], kept = 0.0;
+    uint32_t point[4];
+    int faces[4];
+    for (int q = 0; q < 4; ++q) {
+        int di = q & 1, dj = q >> 1;
+        point[q] = first + ((uint32_t)j0 + dj) * side + (uint32_t)i0 + di;
+        w[q] = (di ? fx : 1.0 - fx) * (dj ? fy : 1.0 - fy);
+        const float *nq = &o->normal[(size_t)point[q] * 3];
+        faces[q] = nq[0] * n[0] + nq[1] * n[1] + nq[2] * n[2] > 0.0;
+        kept += faces[q] ? w[q] : 0.0;
+    }
     for (uint32_t k = 0; k < nc; ++k) {
         double s = 0.0;
-        for (int dj = 0; dj < 2; ++dj)
-            for (int di = 0; di < 2; ++di) {
-                uint32_t point = first + ((uint32_t)j0 + dj) * side + (uint32_t)i0 + di;
-                double w = (di ? fx : 1.0 - fx) * (dj ? fy : 1.0 - fy);
-                s += w * o->coeffs[(size_t)point * nc + k];
-            }
+        for (int q = 0; q < 4; ++q) {
+            double wq = kept > 0.0 ? (faces[q] ? w[q] / kept : 0.0) : w[q];
+            s += wq * o->coeffs[(size_t)point[q] * nc + k];
+        }
         out[k] = s;
     }
 }

@@ -11,8 +11,11 @@
 
 #include <stdint.h>
 
-/* The B^2 coefficients of occlusion o at (u, v) of patch p into out[]. */
-void relight_ref_coeffs(const ts_occlusion *o, uint32_t p, double u, double v, double *out);
+/* The B^2 coefficients of occlusion o at (u, v) of patch p for shading normal n into out[]:
+ * the grid points around (u, v) whose normal faces n, bilinear weights renormalised (all
+ * four when none does). */
+void relight_ref_coeffs(const ts_occlusion *o, uint32_t p, double u, double v, const double n[3],
+                        double *out);
 
 /* The domes' irradiance e[3] at a point with coefficients c[] and unit shading normal n
  * under parameters rp and the light buffer `light` (shared_types.h ts_relight_params).

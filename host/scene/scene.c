@@ -649,6 +649,7 @@ void occlusion_free(ts_occlusion *o)
     if (!o) return;
     free(o->patch);
     free(o->coeffs);
+    free(o->normal);
     memset(o, 0, sizeof *o);
 }
 

@@ -91,6 +91,7 @@ typedef struct ts_occlusion {
     uint32_t patch_count, point_count;
     uint32_t *patch; /* 2 * patch_count words */
     float *coeffs;   /* point_count * B^2 */
+    float *normal;   /* point_count * 3: the unit N each point's hemisphere is about */
 } ts_occlusion;
 
 void occlusion_free(ts_occlusion *o);

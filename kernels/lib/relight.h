@@ -5,9 +5,9 @@
  * test_relight_kernels.c compares them).
  *   the points: patch p's (2^m + 1)^2 baked vertices, point (i, j) at (u, v) = (i, j) / 2^m;
  *     patch table entry 2p = the first point of p, 2p + 1 = m; coefficients B^2 floats a
- *     point (lib/sh.h order);
+ *     point (lib/sh.h order); normals 3 floats a point (the bake's N);
  *   at a hit (u, v) the B^2 coefficients are interpolated bilinearly between the four
- *     points around it (relight_coeffs);
+ *     points around it, those whose baked normal faces the shading normal (relight_coeffs);
  *   the irradiance from the domes, E(n) = integral of L(w) V(w) max(0, n . w) dw with V
  *     the band-limited visibility the coefficients describe (relight_irradiance):
  *     - a file baked with --cosine holds T_j = integral of V max(0, N . w) Y_j (Sloan et al.
@@ -32,10 +32,14 @@ TS_INLINE ts_u32 relight_band(ts_u32 j)
     return j < 1u ? 0u : j < 4u ? 1u : j < 9u ? 2u : 3u;
 }
 
-/* The nc coefficients at (u, v) of `patch` into out[0 .. nc): bilinear between the grid
- * points (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1) around (u, v) 2^m. */
+/* The nc coefficients at (u, v) of `patch` for shading normal n into out[0 .. nc): bilinear
+ * between the grid points (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1) around (u, v) 2^m,
+ * leaving out the points whose baked normal faces away from n (N . n <= 0: the hemisphere of
+ * the surface's other side, a vertex behind a silhouette whose normal the bake turned towards
+ * the camera) and renormalising the others' weights; all four when every one faces away. */
 TS_INLINE void relight_coeffs(TS_CONST_GLOBAL ts_u32 *patch_tab, TS_CONST_GLOBAL float *coeffs,
-                              ts_u32 nc, ts_u32 patch, float u, float v, float *out)
+                              TS_CONST_GLOBAL float *normal, ts_u32 nc, ts_u32 patch, float u,
+                              float v, ts_v3 sn, float *out)
 {
     ts_u32 first = patch_tab[2u * patch], m = patch_tab[2u * patch + 1u], n = 1u << m;
     float x = fmin(fmax(u, 0.0f), 1.0f) * (float)n, y = fmin(fmax(v, 0.0f), 1.0f) * (float)n;
@@ -43,13 +47,22 @@ TS_INLINE void relight_coeffs(TS_CONST_GLOBAL ts_u32 *patch_tab, TS_CONST_GLOBAL
     i = i < n ? i : n - 1u;
     j = j < n ? j : n - 1u;
     float fx = x - (float)i, fy = y - (float)j;
-    TS_CONST_GLOBAL float *c00 = coeffs + ((size_t)first + (size_t)j * (n + 1u) + i) * nc;
-    TS_CONST_GLOBAL float *c01 = c00 + (size_t)(n + 1u) * nc;
-    for (ts_u32 k = 0; k < nc; ++k) {
-        float a = (1.0f - fx) * c00[k] + fx * c00[nc + k];
-        float b = (1.0f - fx) * c01[k] + fx * c01[nc + k];
-        out[k] = (1.0f - fy) * a + fy * b;
+    size_t p00 = (size_t)first + (size_t)j * (n + 1u) + i, row = n + 1u;
+    size_t pt[4] = {p00, p00 + 1u, p00 + row, p00 + row + 1u};
+    float w[4] = {(1.0f - fx) * (1.0f - fy), fx * (1.0f - fy), (1.0f - fx) * fy, fx * fy};
+    float kept = 0.0f;
+    for (int q = 0; q < 4; ++q) {
+        TS_CONST_GLOBAL float *nq = normal + pt[q] * 3u;
+        if (nq[0] * sn.x + nq[1] * sn.y + nq[2] * sn.z > 0.0f) kept += w[q];
     }
+    for (int q = 0; q < 4; ++q) {
+        TS_CONST_GLOBAL float *nq = normal + pt[q] * 3u;
+        int faces = nq[0] * sn.x + nq[1] * sn.y + nq[2] * sn.z > 0.0f;
+        w[q] = kept > 0.0f ? (faces ? w[q] / kept : 0.0f) : w[q];
+    }
+    for (ts_u32 k = 0; k < nc; ++k)
+        out[k] = w[0] * coeffs[pt[0] * nc + k] + w[1] * coeffs[pt[1] * nc + k] +
+                 w[2] * coeffs[pt[2] * nc + k] + w[3] * coeffs[pt[3] * nc + k];
 }
 
 /* Adds sum_j c_j G_j(n) of the mapped dome's table to e[0..3): bilinear between the four
