@@ -17,7 +17,8 @@
  *     reports (measured: see there);
  *   - bad files: missing, baked from another scene (patch count), from other geometry (the
  *     same patch count), not a bake: exit status 1, one line naming the file, no output;
- *   - the same command twice gives the same bits. */
+ *   - the same command twice gives the same bits, and two devices (--device 0,1) the bits of
+ *     one. */
 #include "test_support.h"
 #include "image/image.h"
 
@@ -296,10 +297,15 @@ static void test_same_bits(void **state)
     write_groove_scene("groove.rib", 2.0);
     test_tessera_ok(dir, "bake '%s' -o '%s' --quiet --lod 2 --rays 64 --bands 4",
                     path("groove.rib"), path("det.exr"));
+    /* two PoCL devices, as tests/test_devices.c: each device's pipeline uploads the bake */
+    setenv("POCL_DEVICES", "pthread pthread", 1);
     for (int k = 0; k < 2; ++k)
-        test_tessera_ok(dir, "render '%s' -o '%s' --quiet --spp 4 --occlusion '%s'",
+        test_tessera_ok(dir, "render '%s' -o '%s' --quiet --spp 4 --device 0 --occlusion '%s'",
                         path("groove.rib"), path(k ? "det_b.exr" : "det_a.exr"), path("det.exr"));
     test_assert_same_pixels(path("det_a.exr"), path("det_b.exr"));
+    test_tessera_ok(dir, "render '%s' -o '%s' --quiet --spp 4 --device 0,1 --occlusion '%s'",
+                    path("groove.rib"), path("det_two.exr"), path("det.exr"));
+    test_assert_same_pixels(path("det_a.exr"), path("det_two.exr"));
 }
 
 int main(void)

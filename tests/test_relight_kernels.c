@@ -276,7 +276,6 @@ static void test_table_vs_direct_integration(void **state)
             double c[16];
             for (uint32_t j = 0; j < bands * bands; ++j)
                 c[j] = 2.0 * M_PI * il[j < 1 ? 0 : j < 4 ? 1 : j < 9 ? 2 : 3] * ys[j];
-            map_only.bands = bands;
             /* the table holds 16 entries a normal; the reference reads bands^2 of them */
             ts_relight_params rp = map_only;
             rp.bands = 4;

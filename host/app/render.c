@@ -213,6 +213,13 @@ static int render_load_occlusion(ts_render *r, ts_error *err)
     if (bake_occlusion_load(o->occlusion_path, &r->scene, o->scene_path, &r->occlusion, err))
         return err->code;
     r->scene.occlusion = &r->occlusion;
+    int domes = r->scene.dome.present;
+    for (uint32_t i = 0; i < r->scene.light_count; ++i)
+        domes |= r->scene.lights[i].kind == SCENE_LIGHT_AMBIENT;
+    if (!domes && !o->quiet)
+        ts_print_line("tessera: warning: %s has no domelight or ambientlight: --occlusion "
+                      "changes nothing",
+                      o->scene_path);
     return TS_OK;
 }
 
