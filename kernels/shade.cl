@@ -13,7 +13,9 @@
  * Reads:  the wave's paths (paths[0..path_count)), their rays (org, dir, hit), path state
  *         (throughput, mis, state, pending), patch data, lights, emitters, the dome's map,
  *         textures (colour at the hit's st, displacement for the normal; every tile the
- *         chunk needs resident, host/pipeline/shade.c).
+ *         chunk needs resident, host/pipeline/shade.c); with --occlusion the baked points
+ *         (relight_patch, relight_coeffs, relight_normal) and the domes' tables
+ *         (relight_light, host/pipeline/relight.c).
  * Writes: radiance (accumulated per path), aov (normal, Z) and albedo at the eye hit, the
  *         path's next rays into its two slots (org, dir, hit, entry, flags), path state,
  *         alive[k] (per list slot k): the TS_PATH_TRACED_* bits of the rays it traces next.
