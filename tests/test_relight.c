@@ -5,8 +5,8 @@
  *     uniform dome to cosine-sampled BSDF rays: f cos / pdf L = 1), so the relit image must
  *     give 1 within the bake's Monte-Carlo error, per pixel: E / pi = (2 / N) sum_k K(w_k . n)
  *     over the N hemisphere rays with K(t) = sum_l A_l (2l + 1) / (4 pi) P_l(t) (the addition
- *     theorem), per-ray standard deviation sigma = sqrt(4 int_0^1 K^2 dt - 1) (0.87 for 3
- *     bands); the tolerance is 5 sigma / sqrt(N) (N = 256: 0.27) per pixel — the bilinear
+ *     theorem), per-ray standard deviation sigma = sqrt(4 int_0^1 K^2 dt - 1) (0.56 for 3
+ *     bands); the tolerance is 5 sigma / sqrt(N) (N = 256: 0.18) per pixel — the bilinear
  *     mix of four points has at most one point's variance — and 5 sigma / sqrt(N M) plus 1%
  *     (the baked hemispheres' normals differ from the shading normal by a few degrees) for
  *     the mean over the M hit pixels;
