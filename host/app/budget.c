@@ -2,6 +2,8 @@
 #include "app/budget.h"
 #include "base/error.h"
 #include "pipeline/qbvh.h"
+#include "pipeline/relight.h"
+#include "lib/sh.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -12,7 +14,15 @@ uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count)
                          + sizeof(ts_patch_attr) + sizeof(ts_vec4) /* flatness */ + sizeof(ts_box) +
                          sizeof(ts_qbvh_node) /* at most one node a patch */ + sizeof(ts_segment) +
                          2 * sizeof(uint32_t) /* trees */ + sizeof(uint32_t) /* lod counts */;
-    return 3 * sizeof(ts_vec4) * pixel_count + per_patch * scene->patch_count;
+    const ts_occlusion *o = scene->occlusion; /* --occlusion's points and tables (relight.h) */
+    uint64_t occlusion =
+        o ? (uint64_t)o->point_count * (o->bands * o->bands + 3) * sizeof(float) +
+                (uint64_t)o->patch_count * 2 * sizeof(uint32_t) +
+                (TS_RELIGHT_TABLE_FIRST +
+                 (uint64_t)TS_RELIGHT_TABLE_W * TS_RELIGHT_TABLE_H * TS_SH_MAX_COEFFS) *
+                    sizeof(ts_vec4)
+          : 0;
+    return 3 * sizeof(ts_vec4) * pixel_count + per_patch * scene->patch_count + occlusion;
 }
 
 /* Half of what `total` leaves beside `fixed`, less the texture pool's eighth on top, in MB. */

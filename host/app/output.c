@@ -61,6 +61,15 @@ static int output_check_input(const char *output_path, const char *stats_path, c
 
 int output_check_inputs(const ts_render_options *o, const ts_scene *scene, ts_error *err)
 {
+    const char *occ = o->occlusion_path;
+    if (occ && ts_file_same(o->output_path, occ))
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: -o names the --occlusion file (it would be overwritten)",
+                            o->output_path);
+    if (occ && o->stats_path && ts_file_same(o->stats_path, occ))
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: --stats names the --occlusion file (it would be overwritten)",
+                            o->stats_path);
     return output_check_inputs_paths(o->output_path, o->stats_path, scene, err);
 }
 

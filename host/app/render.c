@@ -2,6 +2,7 @@
  * what --resume finds, open the device, then plan, create and trace the frame in waves of
  * samples (again with half the memory when the device runs out), and write the image. */
 #include "app/render.h"
+#include "app/bake_file.h"
 #include "app/budget.h"
 #include "app/interrupt.h"
 #include "app/output.h"
@@ -125,6 +126,7 @@ typedef struct ts_render {
     ts_stats *stats;
     int width, height; /* pixels */
     ts_scene scene;
+    ts_occlusion occlusion; /* --occlusion's bake, attached to scene.occlusion */
     ts_camera_params cam;
     ts_job job;
     /* The host copy of the films: the samples [0, job.samples_done) the device's films lack
@@ -164,6 +166,7 @@ static void render_free(ts_render *r)
     pipeline_destroy(&r->pipe);
     dev_close(&r->cl);
     scene_free(&r->scene);
+    occlusion_free(&r->occlusion);
 }
 
 /* The most samples an image may have: the kernels index them (and the film its pixels)
@@ -205,6 +208,29 @@ static int render_load_scene(ts_render *r, ts_error *err)
     r->width = o->width ? o->width : c->has_format ? c->width : 640;
     r->height = o->height ? o->height : c->has_format ? c->height : 480;
     return render_check_size(r, res, spp, err);
+}
+
+/* --occlusion: the bake to relight with, checked against the scene and attached to it (so
+ * every device's pipeline uploads it). One process: the MPI ranks would receive the scene
+ * without it. */
+static int render_load_occlusion(ts_render *r, ts_error *err)
+{
+    const ts_render_options *o = &r->opt;
+    if (r->ranks)
+        return ts_error_set(err, TS_E_USAGE,
+                            "--occlusion renders in one process: run it without mpirun "
+                            "(several devices of one process may share it: --device)");
+    if (bake_occlusion_load(o->occlusion_path, &r->scene, o->scene_path, &r->occlusion, err))
+        return err->code;
+    r->scene.occlusion = &r->occlusion;
+    int domes = r->scene.dome.present;
+    for (uint32_t i = 0; i < r->scene.light_count; ++i)
+        domes |= r->scene.lights[i].kind == SCENE_LIGHT_AMBIENT;
+    if (!domes && !o->quiet)
+        ts_print_line("tessera: warning: %s has no domelight or ambientlight: --occlusion "
+                      "changes nothing",
+                      o->scene_path);
+    return TS_OK;
 }
 
 /* The camera kernel's parameters and the job: its width * height * spp samples and the
@@ -573,6 +599,7 @@ int render_run(const ts_render_options *o, ts_ranks *ranks, ts_stats *stats,
     if (!rc) rc = render_load_scene(&r, err);
     if (r.ranks) r.ranks->scene_seconds = stats_now() - t0;
     if (!rc) rc = output_check_inputs(o, &r.scene, err);
+    if (!rc && o->occlusion_path) rc = render_load_occlusion(&r, err);
     if (!rc) rc = render_start_job(&r, err);
     if (!rc && o->resume)
         rc = resume_load(&r.opt, r.width, r.height, &r.job, &r.state, &up_to_date, err);

@@ -78,6 +78,15 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
     double dome[4] = {s->dome.present, s->dome.intensity, s->dome.color[0], s->dome.color[1]};
     h = ts_fnv1a(h, dome, sizeof dome);
     h = ts_fnv1a(h, &s->dome.color[2], sizeof s->dome.color[2]);
+    const ts_occlusion *occ = s->occlusion; /* --occlusion: the baked coefficients relit with */
+    if (occ) {
+        const uint32_t head[] = {occ->bands, occ->cosine, occ->patch_count, occ->point_count};
+        h = ts_fnv1a(h, head, sizeof head);
+        h = ts_fnv1a(h, occ->patch, 2 * (size_t)occ->patch_count * sizeof *occ->patch);
+        h = ts_fnv1a(h, occ->coeffs,
+                     (size_t)occ->point_count * occ->bands * occ->bands * sizeof *occ->coeffs);
+        h = ts_fnv1a(h, occ->normal, (size_t)occ->point_count * 3 * sizeof *occ->normal);
+    }
     *out = fold32(h);
     return TS_OK;
 }

@@ -29,6 +29,8 @@ _Static_assert(offsetof(ts_camera_params, width) == 64, "width after four float[
 _Static_assert(sizeof(ts_shade_params) == 32, "ts_shade_params is 32 bytes");
 _Static_assert(sizeof(ts_bake_params) == 48, "ts_bake_params is 48 bytes");
 _Static_assert(offsetof(ts_bake_params, eye) == 32, "eye after eight words");
+_Static_assert(sizeof(ts_relight_params) == 48, "ts_relight_params is 48 bytes");
+_Static_assert(offsetof(ts_relight_params, uniform) == 16, "uniform after four words");
 
 /* Keeps the translation unit non-empty for strict compilers. */
 int ts_layout_checked(void)

@@ -1,6 +1,7 @@
 #include "pipeline/pipeline.h"
 #include "pipeline/bake.h"
 #include "pipeline/lights.h"
+#include "pipeline/relight.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
 
@@ -85,11 +86,13 @@ static int create_kernels(ts_pipeline *p, ts_error *err)
  * transforms: the identity; no normals: +z; NULL: zeros), and what the host derives. */
 typedef struct scene_uploads {
     const void *nodes, *cp, *cp1, *corner_n, *mid_n, *xform, *boxes, *textures;
-    ts_patch_attr *attr;   /* the scene's, with each patch's emitter index (lights_build) */
-    ts_vec4 *flatness;     /* patch_flatness; w: the longest side of the patch's box */
-    ts_vec4 *normals;      /* +z corner normals when the scene has none */
-    ts_light_table lights; /* lights.h */
-    ts_env_map env;        /* the dome's map; 0 x 0 without one */
+    ts_patch_attr *attr;       /* the scene's, with each patch's emitter index (lights_build) */
+    ts_vec4 *flatness;         /* patch_flatness; w: the longest side of the patch's box */
+    ts_vec4 *normals;          /* +z corner normals when the scene has none */
+    ts_light_table lights;     /* lights.h */
+    ts_env_map env;            /* the dome's map; 0 x 0 without one */
+    ts_relight_tables relight; /* relight.h */
+    const void *relight_patch, *relight_coeffs, *relight_normal; /* the scene's occlusion */
 } scene_uploads;
 
 static void scene_uploads_free(scene_uploads *u)
@@ -99,6 +102,7 @@ static void scene_uploads_free(scene_uploads *u)
     free(u->normals);
     lights_free(&u->lights);
     env_map_free(&u->env);
+    relight_tables_free(&u->relight);
     memset(u, 0, sizeof *u);
 }
 
@@ -139,7 +143,11 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
     }
     if (s->dome.present && s->dome.mapname[0] && env_map_load(s->dome.mapname, &u->env, err))
         return err->code;
-    return lights_build(s, &u->env, u->attr, &u->lights, err);
+    if (lights_build(s, &u->env, u->attr, &u->lights, err)) return err->code;
+    if (s->occlusion)
+        u->relight_patch = s->occlusion->patch, u->relight_coeffs = s->occlusion->coeffs,
+        u->relight_normal = s->occlusion->normal;
+    return relight_tables_build(s->occlusion, &u->lights, &u->env, &u->relight, err);
 }
 
 /* Element counts of the buffers (TS_PIPELINE_BUFFERS' count column reads them as c.NAME).
@@ -151,12 +159,14 @@ typedef struct buffer_counts {
     size_t tex_texels, tex_pages;                  /* tile pool, page table */
     size_t verts, groups;                          /* the arenas */
     size_t util_groups;                            /* bottom_level's work-groups */
+    size_t relight_patch, relight_coeffs, relight_normal, relight_light; /* relight.h */
 } buffer_counts;
 
 static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads *u)
 {
     const ts_scene *s = p->scene;
     const ts_env_map *e = &u->env;
+    const ts_occlusion *o = s->occlusion;
     return (buffer_counts){
         .rays = p->plan.ray_capacity,
         .pairs = p->plan.pair_capacity,
@@ -174,6 +184,10 @@ static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads 
         .verts = p->plan.vert_capacity,
         .groups = p->plan.group_capacity,
         .util_groups = p->util_groups,
+        .relight_patch = o ? 2 * (size_t)o->patch_count : 1,
+        .relight_coeffs = o ? (size_t)o->point_count * o->bands * o->bands : 1,
+        .relight_normal = o ? (size_t)o->point_count * 3 : 1,
+        .relight_light = u->relight.light_count ? u->relight.light_count : 1,
     };
 }
 
@@ -300,6 +314,7 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     buffer_counts c = buffer_counts_of(p, &u);
     if (rc == TS_OK) rc = create_buffers(p, &c, &u, err);
     p->light_count = u.lights.light_count;
+    p->relight = u.relight.params;
     scene_uploads_free(&u);
     free(boxes);
     if (rc == TS_OK)

@@ -97,7 +97,9 @@ typedef struct ts_trace_mode {
  *     flatness: patch_flatness, w = the longest side of the patch's box (secondary-ray
  *     offset l / 2^m); patch_box: scene_patch_box (build clamps leaf boxes to it); lights,
  *     emitters, env_*: lights.h; textures, tex_pool, tex_pages: descriptors, the tile pool
- *     and its page table (tex_cache.h).
+ *     and its page table (tex_cache.h); relight_*: the baked occlusion of
+ *     `render --occlusion` (scene.h ts_occlusion: its patch table, coefficients and normals) and
+ *     relight.h's light tables, one zeroed element each without one.
  *   lod_counts: eye rays entering each patch box (lod); segments, trees: the sorted
  *     segments and the batches' tree lists; grid, groups: the vertex and group arenas;
  *     utilisation: bottom_level's micro-quad tests and work-item slots, two words per
@@ -128,6 +130,10 @@ typedef struct ts_trace_mode {
     X(textures,        TS_MEM_SCENE,      ts_texture,    c.textures,     u.textures)            \
     X(tex_pool,        CL_MEM_READ_ONLY,  ts_vec4,       c.tex_texels,   NULL)                  \
     X(tex_pages,       CL_MEM_READ_ONLY,  ts_u32,        c.tex_pages,    NULL)                  \
+    X(relight_patch,   TS_MEM_SCENE,      ts_u32,        c.relight_patch, u.relight_patch)      \
+    X(relight_coeffs,  TS_MEM_SCENE,      float,         c.relight_coeffs, u.relight_coeffs)    \
+    X(relight_normal,  TS_MEM_SCENE,      float,         c.relight_normal, u.relight_normal)    \
+    X(relight_light,   TS_MEM_SCENE,      ts_vec4,       c.relight_light, u.relight.light)      \
     /* Per patch, and the batch being diced. */                                                 \
     X(lod_counts,      CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \
     X(segments,        CL_MEM_READ_ONLY,  ts_segment,    c.patches,      NULL)                  \
@@ -195,8 +201,10 @@ typedef struct ts_pipeline {
     int cache_off;
     ts_tex_cache tex;     /* which tiles tex_pool holds (tex_cache.h) */
     uint32_t light_count; /* entries of the lights buffer (lights.h) */
-    uint32_t wave;        /* the wave of paths being traced (stats iterations) */
-    uint32_t in_lod;      /* 1 while pipeline_lod traces its pass (stats iterations) */
+    /* Relighting with the scene's baked occlusion (relight.h; bands 0: none). */
+    ts_relight_params relight;
+    uint32_t wave;   /* the wave of paths being traced (stats iterations) */
+    uint32_t in_lod; /* 1 while pipeline_lod traces its pass (stats iterations) */
     /* Stages only some commands run, with their own kernels and buffers, made on demand
      * (bake.h: `tessera bake`) and released by pipeline_destroy; NULL otherwise. */
     struct ts_bake_stage *bake;

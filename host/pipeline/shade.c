@@ -182,7 +182,9 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
                      DEV_ARG(p->mid_n), DEV_ARG(p->attr), DEV_ARG(p->xform), DEV_ARG(p->lights),
                      DEV_ARG(p->emitters), DEV_ARG(p->env_texels), DEV_ARG(p->env_marginal),
                      DEV_ARG(p->env_conditional), DEV_ARG(p->flatness), DEV_ARG(p->textures),
-                     DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(p->alive), (size_t)0) ||
+                     DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(p->alive),
+                     DEV_ARG(p->relight), DEV_ARG(p->relight_patch), DEV_ARG(p->relight_coeffs),
+                     DEV_ARG(p->relight_normal), DEV_ARG(p->relight_light), (size_t)0) ||
         launch_shade(p, wave_size, path_count, err) || dev_finish(p->cl, p->stats, err))
         return err->code;
     double t0 = stats_now();
