@@ -1,12 +1,13 @@
-/* test_units.c — the units of a render on several devices (host/app/units.c) and the frame's
- * sample order (kernels/lib/sample_order.h), host only: the order visits every (pixel,
- * sample) once, in sample order per pixel, for bands of any size; merging units in order
+/* test_units.c — the units of a render on several devices (host/app/units.c, done.c) and
+ * the frame's sample order (kernels/lib/sample_order.h), host only: the order visits every
+ * (pixel, sample) once, in sample order per pixel, for bands of any size; merging units
  * gives the sums kernels/film.cl makes (a C copy of its loop, wave by wave) and a plain
- * per-pixel sum in sample order, bit for bit, whatever the unit size, the bands and the
- * order threads finish them in, with units given back and taken again; the window bounds
- * what waits for the merge; a closed board hands out nothing; units_plan's and
- * sample_order_band's sizes. The radiance values span 12 orders of magnitude, so any other
- * order of the additions changes bits (asserted too). */
+ * per-pixel sum in sample order, bit for bit, whatever the unit size and the bands; the
+ * board's units (one a band, none sharing a pixel) merged as threads finish them, in any
+ * order, given back and taken again, from an empty film, a prefix or runs past a gap, give
+ * the same bits and record the runs the film holds; take, give back, close, freeze;
+ * units_plan's and sample_order_band's sizes. The radiance values span 12 orders of
+ * magnitude, so any other order of the additions changes bits (asserted too). */
 #include "app/units.h"
 #include "lib/sample_order.h"
 
@@ -245,7 +246,6 @@ typedef struct taker {
     const ts_sample_order *o;
     uint64_t seed;
     uint32_t units, given_back;
-    uint32_t max_ahead; /* the most units out beyond the merged ones, as seen */
 } taker;
 
 static void *taker_main(void *arg)
@@ -253,10 +253,6 @@ static void *taker_main(void *arg)
     taker *t = arg;
     ts_unit u;
     while (board_take(t->b, &u)) {
-        pthread_mutex_lock(&t->b->lock);
-        uint32_t ahead = t->b->next - t->b->merged;
-        pthread_mutex_unlock(&t->b->lock);
-        if (ahead > t->max_ahead) t->max_ahead = ahead;
         uint64_t r = rng_next(&t->seed);
         nanosleep(&(struct timespec){0, (long)(r % 200000)}, NULL);
         if (r % 7 == 0) {
@@ -272,90 +268,166 @@ static void *taker_main(void *arg)
     return NULL;
 }
 
-/* Four threads sharing a board from a resumed start, in pass order and in bands of three
- * rows: the films are the plain sums, every unit is merged once, the window holds. */
-static void test_board_merges_out_of_order_finishes(void **state)
+/* The film holding `held` (each run merged as a unit would be). */
+static void film_holding(ts_film_state *f, const ts_sample_order *o, const ts_done *held)
+{
+    film_alloc(f);
+    for (uint32_t i = 0; i < held->count; ++i) {
+        ts_unit u = {0, 0, held->r[i].first, held->r[i].end - held->r[i].first};
+        ts_unit_result r;
+        trace(o, &u, &r);
+        units_merge(f, o, &u, &r);
+        unit_result_free(&r);
+    }
+}
+
+/* The units of what a film lacks: one a band, each inside its band, no two with a pixel in
+ * common, together exactly the samples not held. */
+static void assert_units_partition(const ts_sample_order *o, const ts_done *held)
+{
+    ts_unit *u;
+    uint32_t n;
+    ts_error err = {0};
+    assert_int_equal(units_list(o, TOTAL, held, &u, &n, &err), TS_OK);
+    static uint8_t covered[TOTAL], owner_set[P];
+    static uint32_t owner[P];
+    memset(covered, 0, sizeof covered);
+    memset(owner_set, 0, sizeof owner_set);
+    for (uint32_t i = 0; i < held->count; ++i)
+        for (uint64_t k = held->r[i].first; k < held->r[i].end; ++k)
+            covered[k] = 1;
+    for (uint32_t i = 0; i < n; ++i) {
+        assert_int_equal(u[i].index, i);
+        for (uint64_t k = u[i].first; k < u[i].first + u[i].count; ++k) {
+            assert_int_equal(covered[k]++, 0);
+            uint32_t p, smp;
+            sample_order_at((uint32_t)k, P, SPP, o->band, &p, &smp);
+            if (owner_set[p]) assert_int_equal(owner[p], i); /* no pixel in two units */
+            owner_set[p] = 1, owner[p] = i;
+        }
+    }
+    for (uint64_t k = 0; k < TOTAL; ++k)
+        assert_int_equal(covered[k], 1);
+    free(u);
+}
+
+/* Four threads sharing a board: units merged as they finish, in any order, give the plain
+ * sums bit for bit, from a film that held nothing, a prefix ending inside a band, or a
+ * prefix and two later bands (what an interrupted several-device render leaves); every
+ * unit is merged once and the board records what the film holds. */
+static void test_board_merges_in_any_order(void **state)
 {
     (void)state;
-    const uint64_t start = 2 * P + 13; /* a resumed render: the films hold [0, start) */
     ts_film_state ref, f;
     film_alloc(&ref);
     film_plain(&ref);
     for (uint32_t band = 0; band <= 3 * W; band += 3 * W) {
         ts_sample_order o = order_of(band);
-        film_alloc(&f);
-        for (uint64_t g = 0; g < start; ++g) {
-            ts_unit u = {0, 0, g, 1};
-            ts_unit_result r;
-            trace(&o, &u, &r);
-            units_merge(&f, &o, &u, &r);
-            unit_result_free(&r);
+        uint64_t span = (band ? band : P) * (uint64_t)SPP;
+        for (int start = 0; start < 3; ++start) {
+            ts_done held = {0};
+            ts_error err = {0};
+            if (start >= 1) assert_int_equal(done_add(&held, 0, span / 2 + 13, &err), TS_OK);
+            if (start == 2 && band) {
+                assert_int_equal(done_add(&held, 2 * span, 3 * span, &err), TS_OK);
+                assert_int_equal(done_add(&held, 3 * span, 3 * span + 40, &err), TS_OK);
+            }
+            assert_units_partition(&o, &held);
+            film_holding(&f, &o, &held);
+            ts_board b;
+            assert_int_equal(board_init(&b, &f, &o, TOTAL, &held, &err), TS_OK);
+            assert_int_equal(b.start, done_samples(&held));
+            taker t[4];
+            pthread_t th[4];
+            for (int i = 0; i < 4; ++i) {
+                t[i] = (taker){&b, &o, 1000u + (uint64_t)i + band + (uint64_t)start, 0, 0};
+                assert_int_equal(pthread_create(&th[i], NULL, taker_main, &t[i]), 0);
+            }
+            uint32_t units = 0;
+            for (int i = 0; i < 4; ++i) {
+                pthread_join(th[i], NULL);
+                units += t[i].units;
+            }
+            assert_true(board_finished(&b));
+            assert_int_equal(units, b.unit_count);
+            assert_int_equal(board_samples_done(&b), TOTAL);
+            ts_done all = {0};
+            assert_int_equal(board_held(&b, &all, &err), TS_OK);
+            assert_int_equal(all.count, 1);
+            assert_true(all.r[0].first == 0 && all.r[0].end == TOTAL);
+            done_free(&all);
+            assert_same_films(&ref, &f);
+            ts_unit u;
+            assert_int_equal(board_try_take(&b, &u), -1);
+            board_free(&b);
+            film_state_free(&f);
+            done_free(&held);
         }
-        ts_board b;
-        ts_error err = {0};
-        assert_int_equal(board_init(&b, &f, &o, start, TOTAL, 29, 5, &err), TS_OK);
-        taker t[4];
-        pthread_t th[4];
-        for (int i = 0; i < 4; ++i) {
-            t[i] = (taker){&b, &o, 1000u + (uint64_t)i + band, 0, 0, 0};
-            assert_int_equal(pthread_create(&th[i], NULL, taker_main, &t[i]), 0);
-        }
-        uint32_t units = 0, given_back = 0;
-        for (int i = 0; i < 4; ++i) {
-            pthread_join(th[i], NULL);
-            units += t[i].units, given_back += t[i].given_back;
-            assert_true(t[i].max_ahead <= 5);
-        }
-        assert_true(board_finished(&b));
-        assert_int_equal(units, b.unit_count);
-        assert_int_equal(b.unit_count, (TOTAL - start + 28) / 29);
-        assert_true(given_back > 0);
-        assert_int_equal(board_samples_done(&b), TOTAL);
-        assert_int_equal(b.samples_finished, TOTAL - start);
-        assert_same_films(&ref, &f);
-        ts_unit u;
-        assert_int_equal(board_try_take(&b, &u), -1);
-        board_free(&b);
-        film_state_free(&f);
     }
     film_state_free(&ref);
 }
 
-/* try_take: 0 while the window is full or units are out, -1 when nothing can come; a
- * closed board hands out nothing, but still merges what finishes. */
-static void test_board_window_and_close(void **state)
+/* try_take hands units out in order, a given-back one first, 0 while units are out, -1 when
+ * nothing can come; units merge as they finish, out of order, and the board records the
+ * runs the films hold; a closed board hands out nothing but still merges, a frozen one
+ * merges nothing more. */
+static void test_board_take_give_back_close(void **state)
 {
     (void)state;
     ts_film_state f;
     film_alloc(&f);
     ts_board b;
     ts_error err = {0};
-    ts_sample_order o = order_of(0);
-    assert_int_equal(board_init(&b, &f, &o, 0, 10 * 100, 100, 3, &err), TS_OK);
-    ts_unit u[4];
-    for (int i = 0; i < 3; ++i) {
+    ts_sample_order o = order_of(W); /* one row a band: 11 units of W * SPP samples */
+    const uint64_t span = (uint64_t)W * SPP;
+    assert_int_equal(board_init(&b, &f, &o, TOTAL, NULL, &err), TS_OK);
+    assert_int_equal(b.unit_count, H);
+    ts_unit u[H + 1];
+    for (int i = 0; i < H; ++i) {
         assert_int_equal(board_try_take(&b, &u[i]), 1);
         assert_int_equal(u[i].index, (uint32_t)i);
-        assert_int_equal(u[i].first, 100u * (uint64_t)i);
+        assert_int_equal(u[i].first, span * (uint64_t)i);
+        assert_int_equal(u[i].count, span);
     }
-    assert_int_equal(board_try_take(&b, &u[3]), 0); /* the window of 3 is full */
+    assert_int_equal(board_try_take(&b, &u[H]), 0); /* all out */
     ts_unit_result r;
     trace(&o, &u[1], &r);
-    board_done(&b, &u[1], &r);                      /* waits for unit 0 */
-    assert_int_equal(board_try_take(&b, &u[3]), 0); /* still full: 0 is not merged */
-    assert_int_equal(board_samples_done(&b), 0);
+    board_done(&b, &u[1], &r); /* merged at once, before unit 0 */
+    assert_int_equal(board_samples_done(&b), span);
+    ts_done held = {0};
+    assert_int_equal(board_held(&b, &held, &err), TS_OK);
+    assert_true(held.count == 1 && held.r[0].first == span && held.r[0].end == 2 * span);
+    done_free(&held);
     board_give_back(&b, &u[0]);
-    assert_int_equal(board_try_take(&b, &u[3]), 1);
-    assert_int_equal(u[3].index, 0); /* the given-back unit first */
-    trace(&o, &u[3], &r);
-    board_done(&b, &u[3], &r);
-    assert_int_equal(board_samples_done(&b), 200); /* units 0 and 1 merged */
+    assert_int_equal(board_try_take(&b, &u[H]), 1);
+    assert_int_equal(u[H].index, 0); /* the given-back unit first */
+    trace(&o, &u[H], &r);
+    board_done(&b, &u[H], &r);
+    assert_int_equal(board_samples_done(&b), 2 * span);
     board_close(&b);
     assert_int_equal(board_try_take(&b, &u[0]), -1);
     assert_int_equal(board_take(&b, &u[0]), 0);
-    trace(&o, &u[2], &r);
-    board_done(&b, &u[2], &r); /* a unit out when the board closed */
-    assert_int_equal(board_samples_done(&b), 300);
+    trace(&o, &u[5], &r);
+    board_done(&b, &u[5], &r); /* a unit out when the board closed */
+    assert_int_equal(board_samples_done(&b), 3 * span);
+    assert_int_equal(board_held(&b, &held, &err), TS_OK);
+    assert_int_equal(held.count, 2);
+    assert_true(held.r[1].first == 5 * span && held.r[1].end == 6 * span);
+    char text[128];
+    assert_true(done_format(&held, text, sizeof text));
+    ts_done back = {0};
+    assert_int_equal(done_parse(text, &o, TOTAL, &back, &err), TS_OK);
+    assert_int_equal(back.count, 2);
+    assert_int_equal(done_samples(&back), 3 * span);
+    /* A run starting inside a band is no such file's. */
+    done_free(&back);
+    assert_int_equal(done_parse("0-10 40-50", &o, TOTAL, &back, &err), TS_E_USAGE);
+    ts_error_clear(&err);
+    done_free(&held);
+    board_freeze(&b);
+    trace(&o, &u[7], &r);
+    board_done(&b, &u[7], &r); /* dropped */
+    assert_int_equal(board_samples_done(&b), 3 * span);
     assert_false(board_finished(&b));
     board_free(&b);
     film_state_free(&f);
@@ -365,22 +437,16 @@ static void test_units_plan(void **state)
 {
     (void)state;
     uint64_t u;
-    uint32_t w;
-    units_plan(640 * 360 * 16, 2, &u, &w);
+    units_plan(640 * 360 * 16, 2, &u);
     assert_int_equal(u, 230400); /* 3686400 / 16, a multiple of 64 */
-    assert_int_equal(w, 8);
-    units_plan(1000, 2, &u, &w);
+    units_plan(1000, 2, &u);
     assert_int_equal(u, 4096);
-    units_plan((uint64_t)1 << 32, 1, &u, &w);
+    units_plan((uint64_t)1 << 32, 1, &u);
     assert_int_equal(u, 1u << 20);
-    assert_int_equal(w, 8);
-    units_plan((uint64_t)1 << 32, 8, &u, &w);
-    assert_int_equal(w, 16); /* 32 would hold 512 MB of results: 256 MB of them */
-    units_plan(1 << 24, 3, &u, &w);
+    units_plan(1 << 24, 3, &u);
     assert_int_equal(u % 64, 0);
-    assert_int_equal(w, 12);
     setenv("TESSERA_UNIT_SAMPLES", "77", 1);
-    units_plan(1 << 24, 3, &u, &w);
+    units_plan(1 << 24, 3, &u);
     unsetenv("TESSERA_UNIT_SAMPLES");
     assert_int_equal(u, 77);
 }
@@ -390,8 +456,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sample_order_is_a_permutation),
         cmocka_unit_test(test_merge_in_order_is_the_film),
-        cmocka_unit_test(test_board_merges_out_of_order_finishes),
-        cmocka_unit_test(test_board_window_and_close),
+        cmocka_unit_test(test_board_merges_in_any_order),
+        cmocka_unit_test(test_board_take_give_back_close),
         cmocka_unit_test(test_units_plan),
     };
     return cmocka_run_group_tests(tests, setup, NULL);

@@ -146,7 +146,19 @@ int output_write(const ts_render_options *o, const ts_film_state *films, const t
             {ts_exr_meta_keys[TS_EXR_META_job], job->hash},
             {ts_exr_meta_keys[TS_EXR_META_lod], job->lod},
             {TS_EXR_META_BAND, (int)job->band}};
-        rc = image_write_exr(o->output_path, &img, meta, (int)(sizeof meta / sizeof *meta), err);
+        /* Samples merged past a gap (several devices or ranks stopped): which ones. */
+        char *done = NULL;
+        size_t size = 64 + 48 * (size_t)job->done.count;
+        if (partial && !done_is_prefix(&job->done) && !(done = malloc(size)))
+            rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
+        else if (done && !done_format(&job->done, done, size))
+            rc = ts_error_set(err, TS_E_INTERNAL, "the runs of finished samples do not fit");
+        else {
+            ts_image_text text = {TS_EXR_META_DONE, done};
+            rc = image_write_exr_text(o->output_path, &img, meta, (int)(sizeof meta / sizeof *meta),
+                                      &text, done ? 1 : 0, err);
+        }
+        free(done);
     } else {
         rc = image_write_png(o->output_path, width, height, px, err);
     }

@@ -136,14 +136,13 @@ typedef struct ts_render {
      * the frame (workers.h), merging into state (films_on_host). */
     int devices[TS_DEVICE_MAX], device_count;
     int films_on_host;
-    /* Rank 0 of several MPI ranks (NULL: alone): the units' size and window it told them. */
+    /* Rank 0 of several MPI ranks (NULL: alone): the units' size it told them. */
     ts_ranks *ranks;
     /* The image was written when the stop signal came (render_write_early): written is 1,
      * and early holds its error, if any. */
     int written;
     ts_error early;
     uint64_t unit_samples;
-    uint32_t window;
     ts_device cl;
     ts_pipeline pipe;
     /* Set when memory ran out at the smallest budget with samples finished: why. The
@@ -163,6 +162,7 @@ static void render_free(ts_render *r)
     ts_error_clear(&r->early);
     ts_error_clear(&r->stopped);
     film_state_free(&r->state);
+    done_free(&r->job.done);
     pipeline_destroy(&r->pipe);
     dev_close(&r->cl);
     scene_free(&r->scene);
@@ -480,9 +480,9 @@ static int render_on_devices(ts_render *r, ts_error *err)
                   .budget_share = r->ranks ? (uint32_t)r->ranks->node_ranks : 1u};
     uint64_t start = r->job.samples_done;
     if (r->ranks)
-        f.unit_samples = r->unit_samples, f.window = r->window;
+        f.unit_samples = r->unit_samples;
     else
-        units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples, &f.window);
+        units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples);
     render_choose_band(r, f.unit_samples);
     f.cam = r->cam;
     if (!r->opt.quiet && r->ranks)
@@ -541,7 +541,7 @@ static int render_tell_ranks(ts_render *r, int rc, int up_to_date, ts_error *err
         s.job_hash = r->job.hash;
         s.total = r->job.total, s.start = r->job.samples_done;
         units_plan(s.total - s.start, (uint32_t)(r->ranks->size * r->device_count),
-                   &r->unit_samples, &r->window);
+                   &r->unit_samples);
         s.unit_samples = r->unit_samples;
         render_choose_band(r, r->unit_samples);
         s.cam = r->cam;
@@ -607,7 +607,10 @@ int render_run(const ts_render_options *o, ts_ranks *ranks, ts_stats *stats,
 #ifdef TESSERA_HAVE_MPI
     if (r.ranks) rc = render_tell_ranks(&r, rc, up_to_date, err);
 #endif
-    int alone = r.device_count == 1 && !r.ranks;
+    /* One device traces from the first sample the film lacks on: when --resume found an
+     * image whose samples are not such a prefix (units of several devices or ranks merged
+     * past a gap), the units the film lacks go through the board, one device or several. */
+    int alone = r.device_count == 1 && !r.ranks && done_is_prefix(&r.job.done);
     if (!rc && !up_to_date && alone) rc = render_open_device(&r, err);
     /* The host copy of the films (48 bytes a pixel) before the device takes its budget: the
      * retry and the image write need it when memory is scarcest. --resume made it. */

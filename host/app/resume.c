@@ -91,6 +91,14 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
     return TS_OK;
 }
 
+int job_held(const ts_job *job, ts_done *held, ts_error *err)
+{
+    if (job->done.count == 0) return done_add(held, 0, job->samples_done, err);
+    for (uint32_t i = 0; i < job->done.count; ++i)
+        if (done_add(held, job->done.r[i].first, job->done.r[i].end, err)) return err->code;
+    return TS_OK;
+}
+
 void film_state_free(ts_film_state *s)
 {
     free(s->accum), free(s->aov), free(s->albedo);
@@ -197,17 +205,18 @@ static int resume_find_channels(const char *path, const ts_image *img,
     return TS_OK;
 }
 
-/* The count channel agrees with samples_done, pixel by pixel: the first `done` samples of the
- * order (spp a pixel, bands of `band` pixels) give pixel i sample_order_count of them. A
+/* The count channel agrees with the samples the image holds (held: tessera:done, else the
+ * first tessera:samples_done of the order), pixel by pixel (done_pixel_count). A
  * hand-edited or damaged file that disagrees would otherwise be resumed and count samples
  * twice (or never). Counts are whole floats below 2^24, exact. */
 static int resume_check_counts(const char *path, const ts_image *img, int count_channel,
-                               uint64_t done, uint32_t spp, uint32_t band, ts_error *err)
+                               const ts_done *held, const ts_sample_order *order, uint64_t done,
+                               ts_error *err)
 {
     uint64_t npix = (uint64_t)img->width * (uint64_t)img->height;
     for (uint64_t i = 0; i < npix; ++i) {
         float count = img->pixels[i * (uint64_t)img->channels + (uint64_t)count_channel];
-        uint64_t want = sample_order_count((uint32_t)i, (uint32_t)done, (uint32_t)npix, spp, band);
+        uint64_t want = done_pixel_count(held, order, (uint32_t)i);
         if (count != (float)want)
             return ts_error_set(err, TS_E_USAGE,
                                 "%s: cannot resume: pixel (%llu, %llu) holds %g samples where "
@@ -218,6 +227,29 @@ static int resume_check_counts(const char *path, const ts_image *img, int count_
                                 (unsigned long long)done, (unsigned long long)want);
     }
     return TS_OK;
+}
+
+/* The runs of samples the image at path holds: its "tessera:done" (checked against
+ * samples_done), else [0, samples_done). */
+static int resume_held(const char *path, const ts_sample_order *order, uint64_t total,
+                       uint64_t samples_done, ts_done *held, ts_error *err)
+{
+    size_t size = (size_t)1 << 20;
+    char *text = malloc(size);
+    if (!text) return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    ts_error e = {0};
+    int rc = TS_OK;
+    if (image_read_meta_string(path, TS_EXR_META_DONE, text, size, &e) != TS_OK)
+        rc = done_add(held, 0, samples_done, err); /* a prefix */
+    else if (done_parse(text, order, total, held, &e) || done_samples(held) != samples_done)
+        rc = ts_error_set(err, TS_E_USAGE,
+                          "%s: cannot resume: its \"%s\" metadata does not give the %llu "
+                          "samples of \"tessera:samples_done\" (a damaged or edited file); "
+                          "render without --resume",
+                          path, TS_EXR_META_DONE, (unsigned long long)samples_done);
+    ts_error_clear(&e);
+    free(text);
+    return rc;
 }
 
 /* The films as the render left them: the sums and counts, and sample 0's AOVs where the
@@ -274,16 +306,19 @@ int resume_load(const ts_render_options *o, int width, int height, ts_job *job,
                           "%s: cannot resume: its \"%s\" metadata %d is not a band of its %dx%d "
                           "pixels (a damaged or edited file); render without --resume",
                           path, TS_EXR_META_BAND, band, width, height);
+    ts_sample_order order = {(uint32_t)width * (uint32_t)height, (uint32_t)o->spp, (uint32_t)band};
+    ts_done held = {0};
+    uint64_t done = (uint32_t)v[TS_EXR_META_samples_done];
+    if (!rc && !*complete) rc = resume_held(path, &order, job->total, done, &held, err);
     if (!rc && !*complete)
-        rc = resume_check_counts(path, &img, idx[TS_EXR_COUNT],
-                                 (uint32_t)v[TS_EXR_META_samples_done], (uint32_t)o->spp,
-                                 (uint32_t)band, err);
+        rc = resume_check_counts(path, &img, idx[TS_EXR_COUNT], &held, &order, done, err);
     if (!rc && !*complete) rc = film_state_alloc(state, (size_t)width * height, err);
     if (!rc && !*complete) {
         resume_fill_films(&img, idx, state);
         job->samples_done = (uint32_t)v[TS_EXR_META_samples_done];
         job->band = (uint32_t)band;
         job->has_band = 1;
+        if (!done_is_prefix(&held)) job->done = held, memset(&held, 0, sizeof held);
         job->lod = v[TS_EXR_META_lod];
         job->max_lod = (uint32_t)v[TS_EXR_META_max_lod];
         job->check_lod = 1;
@@ -291,6 +326,7 @@ int resume_load(const ts_render_options *o, int width, int height, ts_job *job,
             ts_print_line("tessera: resuming %s at sample %llu of %llu", path,
                           (unsigned long long)job->samples_done, (unsigned long long)job->total);
     }
+    done_free(&held);
     image_free(&img);
     return rc;
 }

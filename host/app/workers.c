@@ -494,6 +494,16 @@ void workers_close(ts_workers *g)
     memset(g, 0, sizeof *g);
 }
 
+/* The job's record of the samples the films hold, from the board. */
+static int job_from_board(ts_job *job, ts_board *b, ts_error *err)
+{
+    done_free(&job->done);
+    if (board_held(b, &job->done, err)) return err->code;
+    job->samples_done = done_samples(&job->done);
+    if (done_is_prefix(&job->done)) done_free(&job->done);
+    return TS_OK;
+}
+
 /* The progress line: samples of the units finished (merged or not), rays per second, ETA;
  * printed when that count moved since *shown. */
 static void frame_progress(ts_board *b, double t0, uint64_t *shown)
@@ -520,6 +530,10 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
     while (!board_finished(b)) {
         if (interrupt_signal()) {
             board_freeze(b);
+            if (job_from_board(f->job, b, err)) {
+                rc = err->code;
+                break;
+            }
             if (service && service->on_stop)
                 service->on_stop(service->stop_ctx, board_samples_done(b));
             break;
@@ -567,10 +581,10 @@ int workers_render(const ts_frame *frame, ts_film_state *film, const int *indice
     ts_board b;
     memset(&b, 0, sizeof b);
     ts_sample_order order = sample_order_of(&frame->cam);
+    ts_done held = {0};
     int rc = workers_open(&g, frame, indices, count, err);
-    if (!rc)
-        rc = board_init(&b, film, &order, job->samples_done, job->total, frame->unit_samples,
-                        frame->window, err);
+    if (!rc) rc = job_held(job, &held, err) || board_init(&b, film, &order, job->total, &held, err);
+    done_free(&held);
     if (!rc) rc = workers_start(&g, board_source(&b), 1, err);
     if (!rc) rc = frame_wait(&g, &b, service, end, err);
     if (rc && b.state) board_close(&b); /* threads started before a failure end */
@@ -578,6 +592,7 @@ int workers_render(const ts_frame *frame, ts_film_state *film, const int *indice
     workers_join(&g);
     if (b.state) {
         end->samples_done = board_samples_done(&b);
+        if (!rc) rc = job_from_board(job, &b, err);
         stats->stage_seconds[TS_STAGE_film] += b.merge_seconds;
     }
     stats->unit_samples = frame->unit_samples;
