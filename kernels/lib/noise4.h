@@ -83,6 +83,47 @@ inline float4 displace_value_x4(__global const ts_patch_attr *a, __global const 
     return a->disp_amplitude * sum;
 }
 
+/* displace_value at one world point, eight octaves at a time in the lanes of a float8 and
+ * added in octave order (dice.cl). */
+inline float displace_value_octaves(__global const ts_patch_attr *a, __global const ts_xform *x,
+                                    float px, float py, float pz)
+{
+    float ox = x->r0[0] * px + x->r0[1] * py + x->r0[2] * pz + x->r0[3];
+    float oy = x->r1[0] * px + x->r1[1] * py + x->r1[2] * pz + x->r1[3];
+    float oz = x->r2[0] * px + x->r2[1] * py + x->r2[2] * pz + x->r2[3];
+    uint n = displace_octaves(a);
+    float f[TS_DISP_MAX_OCTAVES + 8], w[TS_DISP_MAX_OCTAVES + 8];
+    f[0] = a->disp_frequency, w[0] = 1.0f;
+    for (uint o = 0; o + 1u < n; ++o) /* the scalar loop's running products */
+        f[o + 1] = f[o] * a->disp_lacunarity, w[o + 1] = w[o] * a->disp_gain;
+    for (uint o = n; o < ((n + 7u) & ~7u); ++o) /* spare lanes: the last octave again */
+        f[o] = f[n - 1u];
+    float sum = 0.0f, v[8];
+    int ridged = a->disp_kind == TS_DISP_RIDGED;
+    for (uint o = 0; o < n; o += 8u) {
+        float8 fo = vload8(0, f + o);
+        vstore8(noise3_x8(ox * fo, oy * fo, oz * fo), 0, v);
+        for (uint l = 0; l < 8u && o + l < n; ++l)
+            sum += ridged ? w[o + l] * (1.0f - 2.0f * fabs(v[l])) : w[o + l] * v[l];
+    }
+    return a->disp_amplitude * sum;
+}
+
+/* patch_vertex (lib/patch.h), the same bits, with displace_value_octaves (dice.cl). */
+inline ts_vec4 patch_vertex_x8(__global const ts_vec4 *cp, __global const ts_vec4 *cp0,
+                               __global const ts_vec4 *n, __global const ts_vec4 *mid,
+                               __global const ts_patch_attr *a, __global const ts_xform *x,
+                               ts_tex_ctx tex, float u, float v)
+{
+    if (!displace_is_noise(a)) return patch_vertex(cp, cp0, n, mid, a, x, tex, u, v);
+    ts_vec4 p = bezier_eval(cp, u, v);
+    ts_vec4 p0 = cp0 == cp ? p : bezier_eval(cp0, u, v);
+    float d = displace_value_octaves(a, x, p0.x, p0.y, p0.z);
+    ts_vec4 dn = displace_normal(n, mid, u, v);
+    ts_vec4 r = {p.x + d * dn.x, p.y + d * dn.y, p.z + d * dn.z, d};
+    return r;
+}
+
 /* patch_shading_normal (lib/patch.h), the same bits: the four points of its central
  * differences displaced together where the displacement is noise. */
 inline ts_vec4 patch_shading_normal_x4(__global const ts_vec4 *cp, __global const ts_vec4 *n,
