@@ -40,6 +40,7 @@
 #include "lib/shared_types.h"
 #include "lib/bsdf.h"
 #include "lib/lights.h"
+#include "lib/noise4.h"
 #include "lib/patch.h"
 #include "lib/relight.h"
 #include "lib/sample_order.h"
@@ -154,8 +155,8 @@ inline shade_vertex shade_vertex_at(ts_hit h, ts_vec4 o4, ts_v3 d, float time,
     v.a = attr + h.patch;
     __global const ts_vec4 *c = cp + (size_t)h.patch * 16u;
     ts_vec4 n4 =
-        patch_shading_normal(c, corner_n + (size_t)h.patch * 4u, mid_n + (size_t)h.patch * 5u, v.a,
-                             xform + v.a->xform, tex, h.u, h.v, TS_PRIM_LOD(h.prim));
+        patch_shading_normal_x4(c, corner_n + (size_t)h.patch * 4u, mid_n + (size_t)h.patch * 5u,
+                                v.a, xform + v.a->xform, tex, h.u, h.v, TS_PRIM_LOD(h.prim));
     tex_surface_colour(v.a, tex, h.u, h.v, v.cs);
     v.n = v3(n4.x, n4.y, n4.z), v.wo = v3_scale(d, -1.0f);
     if (v3_dot(v.n, v.wo) < 0.0f) v.n = v3_scale(v.n, -1.0f);

@@ -187,15 +187,19 @@ static int lowest_level(const char *json)
 static void test_hidden_patch_is_diced_coarser_under_the_seen_rules(void **state)
 {
     (void)state;
-    /* A flat square facing the camera, and behind it a smaller one that it hides wholly;
-     * lit from the camera's side, so the hidden one casts no shadow on anything seen. */
+    /* A flat square facing the camera, and 0.2 behind it a smaller one that it hides wholly;
+     * lit from the camera's side, so the hidden one casts no shadow on anything seen. The
+     * hidden one lies left of the front one's centre (x 0..1 against -1..3) and their depths
+     * differ less than that, so the top level splits them on x and a ray that crosses both
+     * (rightwards) gets the hidden one as its first candidate: it is diced. (A hidden patch
+     * that came second would never be: the first candidate's hit culls it, trace.c.) */
     FILE *f = fopen(path("hidden.rib"), "w");
     assert_non_null(f);
     fputs("Format 96 96 1\nProjection \"perspective\" \"fov\" [40]\n"
           "LightSource \"distantlight\" 1 \"from\" [0 0 0] \"to\" [0 0 1]\n"
           "Translate 0 0 4\nWorldBegin\n"
-          "Patch \"bilinear\" \"P\" [-1 -1 0  1 -1 0  -1 1 0  1 1 0]\n"
-          "Patch \"bilinear\" \"P\" [-0.8 -0.8 2  0.8 -0.8 2  -0.8 0.8 2  0.8 0.8 2]\n"
+          "Patch \"bilinear\" \"P\" [-1 -1 0  3 -1 0  -1 1 0  3 1 0]\n"
+          "Patch \"bilinear\" \"P\" [0 -0.8 0.2  1 -0.8 0.2  0 0.8 0.2  1 0.8 0.2]\n"
           "WorldEnd\n",
           f);
     fclose(f);

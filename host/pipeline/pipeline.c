@@ -63,6 +63,7 @@ int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
     plan->pair_capacity = (uint32_t)rays * TS_PAIRS_PER_RAY;
     plan->tex_pool_bytes = memory_bytes / 8;
     plan->sort_threads = 0;
+    plan->first_n = 0;
     return TS_OK;
 }
 

@@ -39,6 +39,9 @@ typedef struct ts_pipeline_plan {
     uint64_t tex_pool_bytes; /* texture tile pool (tex_cache.h); 0: every tile resident */
     uint32_t sort_threads;   /* threads of the host sort (sort.h); 0: every online CPU. Several
                                 devices in one process share the CPUs (app/workers.c) */
+    uint32_t first_n;        /* candidates per ray in a wave's first iteration, doubled each
+                                iteration up to pair_capacity / R (trace.c pairs_per_ray);
+                                0: 1. Changes no hit, only the work (tests compare them) */
 } ts_pipeline_plan;
 
 /* Splits a budget of `memory_bytes` between the patch arenas (a quarter) and rays, and sets
