@@ -29,10 +29,10 @@ typedef struct ts_bake {
     ts_camera_params cam;
     ts_device cl;
     ts_pipeline pipe;
-    uint64_t mb;      /* the memory budget: --memory, else budget_default's */
+    uint64_t mb;           /* the memory budget: --memory, else budget_default's */
     ts_budget_choice grow; /* how far the arenas may grow to hold the patches once */
-    uint32_t max_lod; /* the plan's finest m */
-    uint32_t *lod;    /* each patch's m */
+    uint32_t max_lod;      /* the plan's finest m */
+    uint32_t *lod;         /* each patch's m */
     ts_bake_image img;
     ts_bake_meta meta;
     uint32_t done; /* points [0, done) are in img */
