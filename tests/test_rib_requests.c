@@ -429,9 +429,29 @@ static void test_scene_checks(void **state)
     snprintf(want, sizeof want,
              "%s:1:1: warning: the scene has no light Tessera renders (LightSource "
              "\"distantlight\", \"pointlight\", \"spotlight\", \"ambientlight\" or "
-             "\"domelight\", AreaLightSource, Surface \"constant\"): the image will be black\n",
+             "\"domelight\", AreaLightSource, Surface \"constant\"): it is lit by a headlight "
+             "at the camera, as RenderMan's default surface shows a scene without lights\n",
              path);
     assert_string_equal(out, want);
+    /* The headlight: a point light at the eye (here the world origin), no distance falloff,
+     * irradiance pi (a white matte surface facing it reflects radiance 1). */
+    assert_int_equal(s.light_count, 1);
+    assert_int_equal(s.lights[0].kind, SCENE_LIGHT_POINT);
+    assert_true(s.lights[0].falloff == 0.0 && s.lights[0].intensity == M_PI);
+    assert_true(s.lights[0].from[0] == 0.0 && s.lights[0].from[1] == 0.0 &&
+                s.lights[0].from[2] == 0.0);
+    scene_free(&s);
+    /* With a camera transform and an orthographic projection: a distant light along the
+     * view, from the eye at world (0, 0, -5) towards +z. */
+    write_text(path,
+               "Projection \"orthographic\"\nTranslate 0 0 5\nWorldBegin\n" UNIT_QUAD "WorldEnd\n");
+    out = load_capturing(path, -1, &s, &e, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_int_equal(s.light_count, 1);
+    assert_int_equal(s.lights[0].kind, SCENE_LIGHT_DISTANT);
+    assert_true(fabs(s.lights[0].from[2] + 5.0) < 1e-12 && fabs(s.lights[0].to[2] + 4.0) < 1e-12);
+    assert_true(s.lights[0].from[0] == s.lights[0].to[0] &&
+                s.lights[0].from[1] == s.lights[0].to[1]);
     scene_free(&s);
     /* An area light is light, and so are point, spot and ambient lights. */
     const char *lit[] = {"AreaLightSource \"arealight\" 1\n", "LightSource \"pointlight\" 1\n",

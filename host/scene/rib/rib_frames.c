@@ -4,9 +4,12 @@
  * default the first) and reads the requests of the others only as tokens: they are never
  * dispatched. Requests before the first FrameBegin (shared options) are read; everything
  * after the chosen frame's FrameEnd is skipped. At the end of a file that must make a scene
- * (rib_load), a file without a world block or geometry is an error and one without light a
- * warning (issue 15 item 3: such files used to render a black image over the output). */
+ * (rib_load), a file without a world block or geometry is an error (issue 15 item 3: such files
+ * used to render a black image over the output), and one without light gets a headlight at the
+ * camera, with a warning. */
 #include "scene/rib/rib_internal.h"
+
+#include "base/mat4.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -111,6 +114,33 @@ static int rib_scene_has_light(const ts_scene *s)
     return 0;
 }
 
+/* A scene without light gets a headlight at the camera: a point light at the eye with no
+ * distance falloff (a distant light along the view for an orthographic camera), of
+ * irradiance pi on a surface facing it, so that a white matte surface facing the camera
+ * reflects radiance 1 and one seen at the angle a reflects cos(a). RenderMan shows such
+ * scenes through its default surface shader (defaultsurface: a facing ratio, no light
+ * needed); the headlight is its path-traced counterpart (docs/rib.md). */
+static int rib_add_headlight(rib_parser *p)
+{
+    ts_scene *s = p->scene;
+    double c2w[16];
+    if (!mat4_invert(s->camera.world_to_camera, c2w))
+        return ts_error_set(p->err, TS_E_INTERNAL, "%s: the camera transform is singular",
+                            p->lx.file);
+    const double eye[3] = {0, 0, 0}, ahead[3] = {0, 0, 1};
+    ts_scene_light l = {.intensity = M_PI, .color = {1, 1, 1}};
+    if (!mat4_point(c2w, eye, l.from) || !mat4_point(c2w, ahead, l.to))
+        return ts_error_set(p->err, TS_E_INTERNAL, "%s: the camera leaves the float range",
+                            p->lx.file);
+    if (s->camera.projection == TS_PROJECTION_ORTHOGRAPHIC) {
+        l.kind = SCENE_LIGHT_DISTANT;
+    } else {
+        l.kind = SCENE_LIGHT_POINT;
+        l.falloff = 0.0, l.falloff_dist = 1.0, l.falloff_min = 0.0;
+    }
+    return scene_add_light(s, &l, p->err);
+}
+
 int rib_scene_check(rib_parser *p)
 {
     const ts_scene *s = p->scene;
@@ -123,10 +153,11 @@ int rib_scene_check(rib_parser *p)
     if (s->patch_count == 0)
         return rib_error_at(p, p->world_line, p->world_col,
                             "the world block%s holds no geometry: nothing to render", frame);
-    if (!rib_scene_has_light(s))
-        rib_warn_once(p, p->world_line ? p->world_line : 1, p->world_col ? p->world_col : 1,
-                      "the scene has no light Tessera renders (LightSource \"distantlight\", "
-                      "\"pointlight\", \"spotlight\", \"ambientlight\" or \"domelight\", "
-                      "AreaLightSource, Surface \"constant\"): the image will be black");
-    return TS_OK;
+    if (rib_scene_has_light(s)) return TS_OK;
+    rib_warn_once(p, p->world_line ? p->world_line : 1, p->world_col ? p->world_col : 1,
+                  "the scene has no light Tessera renders (LightSource \"distantlight\", "
+                  "\"pointlight\", \"spotlight\", \"ambientlight\" or \"domelight\", "
+                  "AreaLightSource, Surface \"constant\"): it is lit by a headlight at the "
+                  "camera, as RenderMan's default surface shows a scene without lights");
+    return rib_add_headlight(p);
 }
