@@ -359,6 +359,67 @@ static void test_frames(void **state)
     scene_free(&s);
 }
 
+/* A shadow-map pass (a frame whose Display writes a depth map: type "zfile" or "shadow", or
+ * mode "z") read by default is left for the next frame, its options and transformations
+ * undone; a Display between frames belongs to the frame after it; --frame still reads the
+ * pass; a file of passes only is read from its first frame. */
+static void test_depth_pass_frames(void **state)
+{
+    (void)state;
+    char path[4200];
+    snprintf(path, sizeof path, "%s/passes.rib", test_scratch_dir());
+    write_text(path, "Format 8 8 1\n"
+                     "FrameBegin 1\nDisplay \"s.z\" \"zfile\" \"z\"\nFormat 10 10 1\n"
+                     "Projection \"orthographic\"\nTranslate 0 0 9\n"
+                     "WorldBegin\n" UNIT_QUAD "WorldEnd\nFrameEnd\n"
+                     "MakeShadow \"s.z\" \"s.shd\"\n"
+                     "Display \"t.shd\" \"shadow\" \"z\"\n"
+                     "FrameBegin 2\nWorldBegin\n" UNIT_QUAD "WorldEnd\nFrameEnd\n"
+                     "Display \"u.tif\" \"file\" \"rgb\"\n"
+                     "FrameBegin 3\nDisplay \"+u.z\" \"zfile\" \"z\"\nProjection "
+                     "\"perspective\" \"fov\" 40\nWorldBegin\n" UNIT_QUAD UNIT_QUAD
+                     "WorldEnd\nFrameEnd\n");
+    ts_scene s;
+    ts_error e;
+    int rc;
+    const char *out = load_capturing(path, -1, &s, &e, &rc);
+    if (rc != TS_OK) fail_msg("%s", e.msg);
+    assert_int_equal(s.patch_count, 2); /* frame 3 */
+    assert_int_equal(s.camera.width, 8);
+    assert_int_equal(s.camera.projection, TS_PROJECTION_PERSPECTIVE);
+    assert_true(s.camera.fov_deg == 40.0 && s.camera.world_to_camera[11] == 0.0);
+    char want[2][4608];
+    snprintf(want[0], sizeof want[0],
+             "%s:3:1: warning: frame 1 renders a depth map (Display \"zfile\" \"z\"), a "
+             "shadow-map pass Tessera does not need: the next frame is read (--frame 1 reads it)",
+             path);
+    snprintf(want[1], sizeof want[1],
+             "%s:13:1: warning: frame 2 renders a depth map (Display \"shadow\" \"z\"), a "
+             "shadow-map pass Tessera does not need: the next frame is read (--frame 2 reads it)",
+             path);
+    assert_non_null(strstr(out, want[0]));
+    assert_non_null(strstr(out, want[1]));
+    assert_non_null(strstr(out, "warning: MakeShadow is ignored"));
+    scene_free(&s);
+    load_capturing(path, 1, &s, &e, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_int_equal(s.patch_count, 1);
+    assert_int_equal(s.camera.width, 10);
+    assert_int_equal(s.camera.projection, TS_PROJECTION_ORTHOGRAPHIC);
+    scene_free(&s);
+    /* Passes only: the first frame, as before. */
+    write_text(path,
+               "FrameBegin 1\nDisplay \"s.z\" \"zfile\" \"z\"\nFormat 10 10 1\n"
+               "WorldBegin\n" UNIT_QUAD "WorldEnd\nFrameEnd\n"
+               "FrameBegin 2\nDisplay \"s.z\" \"shadow\" \"z\"\nWorldBegin\n" UNIT_QUAD UNIT_QUAD
+               "WorldEnd\nFrameEnd\n");
+    load_capturing(path, -1, &s, &e, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_int_equal(s.patch_count, 1);
+    assert_int_equal(s.camera.width, 10);
+    scene_free(&s);
+}
+
 static void test_frame_errors(void **state)
 {
     (void)state;
@@ -878,6 +939,7 @@ int main(void)
         cmocka_unit_test(test_gzip_errors),
         cmocka_unit_test(test_frames),
         cmocka_unit_test(test_frame_errors),
+        cmocka_unit_test(test_depth_pass_frames),
         cmocka_unit_test(test_scene_checks),
         cmocka_unit_test(test_render_refuses_empty_scene),
         cmocka_unit_test(test_format_defaults),

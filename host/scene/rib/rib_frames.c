@@ -22,6 +22,95 @@ int rib_frames_skip(const rib_parser *p)
     return f->done || (f->open && !f->reading);
 }
 
+/* What the frame being read starts from (rib_frame_start), at its FrameBegin. */
+static void rib_frame_save(rib_parser *p)
+{
+    rib_frame_start *st = &p->frames.start;
+    rib_frame *a = &st->attrs;
+    memcpy(a->ctm, p->ctm, sizeof a->ctm);
+    memcpy(a->ctm1, p->ctm1, sizeof a->ctm1);
+    a->ctm_moving = p->ctm_moving;
+    memcpy(a->color, p->color, sizeof a->color);
+    a->ubasis = p->ubasis, a->vbasis = p->vbasis;
+    a->disp = p->disp;
+    a->surface = p->surface;
+    memcpy(a->emission, p->emission, sizeof a->emission);
+    memcpy(a->opacity, p->opacity, sizeof a->opacity);
+    st->camera = p->scene->camera;
+    st->patch_count = p->scene->patch_count;
+    st->light_count = p->scene->light_count;
+    st->dome = p->scene->dome.present;
+}
+
+/* Back to the start of the frame being read, which is then skipped like a frame not chosen.
+ * Only while the frame has added nothing to the scene and stands before its world block with
+ * no block open: returns 0 (and changes nothing) otherwise. */
+static int rib_frame_leave(rib_parser *p)
+{
+    rib_frame_choice *f = &p->frames;
+    const rib_frame_start *st = &f->start;
+    const ts_scene *s = p->scene;
+    if (p->phase != RIB_BEFORE_WORLD || p->depth > 0 || p->motion.active ||
+        s->patch_count != st->patch_count || s->light_count != st->light_count ||
+        s->dome.present != st->dome)
+        return 0;
+    const rib_frame *a = &st->attrs;
+    memcpy(p->ctm, a->ctm, sizeof p->ctm);
+    memcpy(p->ctm1, a->ctm1, sizeof p->ctm1);
+    p->ctm_moving = a->ctm_moving;
+    memcpy(p->color, a->color, sizeof p->color);
+    p->ubasis = a->ubasis, p->vbasis = a->vbasis;
+    p->disp = a->disp;
+    p->surface = a->surface;
+    memcpy(p->emission, a->emission, sizeof p->emission);
+    memcpy(p->opacity, a->opacity, sizeof p->opacity);
+    p->scene->camera = st->camera;
+    f->reading = 0;
+    f->depth_skipped++;
+    return 1;
+}
+
+/* The warning for frame f->number left as a depth-map pass. */
+static void rib_frame_warn_depth(rib_parser *p, const char *type, const char *mode)
+{
+    char shown[2][RIB_PRINT_MAX], what[RIB_WARN_KEY];
+    snprintf(what, sizeof what,
+             "frame %d renders a depth map (Display \"%s\" \"%s\"), a shadow-map pass Tessera "
+             "does not need: the next frame is read (--frame %d reads it)",
+             p->frames.number, rib_printable(type, shown[0]), rib_printable(mode, shown[1]),
+             p->frames.number);
+    rib_warn_once(p, p->req_line, p->req_col, what);
+}
+
+/* Display name type mode: an image Tessera does not write (it writes the -o file), so it is
+ * ignored with a warning; but a frame read by default whose primary Display (a name without
+ * "+") writes a depth map (type "shadow" or "zfile", or mode "z") is a shadow-map pass, which
+ * a renderer that traces its shadows does not need: the frame is skipped and the next one
+ * read. Files write such passes before the frame they render. A Display outside frames
+ * (between them) is the option of the frames that follow. */
+int rib_req_display(rib_parser *p)
+{
+    rib_warn_once(p, p->req_line, p->req_col, "Display is ignored");
+    rib_frame_choice *f = &p->frames;
+    if (p->nargs < 3) return TS_OK;
+    for (size_t i = 0; i < 3; i++)
+        if (p->args[i].kind != RIB_ARG_STRING) return TS_OK; /* not Tessera's to check */
+    const char *name = rib_arg_str(p, &p->args[0], 0), *type = rib_arg_str(p, &p->args[1], 0),
+               *mode = rib_arg_str(p, &p->args[2], 0);
+    if (name[0] == '+') return TS_OK;
+    int depth = strcmp(type, "shadow") == 0 || strcmp(type, "zfile") == 0 || strcmp(mode, "z") == 0;
+    if (!f->open) {
+        f->depth_between = depth;
+        rib_printable(type, f->between_type);
+        rib_printable(mode, f->between_mode);
+        return TS_OK;
+    }
+    if (!f->reading || f->wanted >= 0 || f->keep_depth || !depth || !rib_frame_leave(p))
+        return TS_OK;
+    rib_frame_warn_depth(p, type, mode);
+    return TS_OK;
+}
+
 /* FrameBegin n: n an integer. Frames may not nest, nor open inside another block. */
 int rib_req_frame_begin(rib_parser *p)
 {
@@ -57,6 +146,12 @@ int rib_req_frame_begin(rib_parser *p)
     f->col = p->req_col;
     f->number = (int)v;
     f->reading = !f->done && (f->wanted < 0 || f->wanted == f->number);
+    if (f->reading) rib_frame_save(p);
+    if (f->reading && f->wanted < 0 && !f->keep_depth && f->depth_between) {
+        f->reading = 0; /* the Display before the frame writes a depth map */
+        f->depth_skipped++;
+        rib_frame_warn_depth(p, f->between_type, f->between_mode);
+    }
     return TS_OK;
 }
 

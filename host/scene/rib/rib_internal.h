@@ -158,6 +158,9 @@ extern const unsigned short rib_teapot_patches[RIB_TEAPOT_PATCHES][16];
 
 int rib_req_frame_begin(rib_parser *p);
 int rib_req_frame_end(rib_parser *p);
+/* Display: ignored with a warning, except that a frame read by default whose image is a
+ * depth map (a shadow-map pass) is left for the next frame. */
+int rib_req_display(rib_parser *p);
 /* Whether the current request lies in a frame that is not read (or after the one read):
  * it is then not dispatched. FrameBegin and FrameEnd are always dispatched. */
 int rib_frames_skip(const rib_parser *p);

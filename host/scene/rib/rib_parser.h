@@ -108,9 +108,23 @@ typedef enum rib_world_phase { RIB_BEFORE_WORLD, RIB_IN_WORLD, RIB_AFTER_WORLD }
 
 #define RIB_MAX_FRAMES_LISTED 16 /* frame numbers a "no frame N" message lists */
 
+/* What a frame read by default had at its FrameBegin, to go back to when its Display shows
+ * it to be a depth-map pass (rib_frames.c). */
+typedef struct rib_frame_start {
+    rib_frame attrs; /* the CTM and attributes, as a block saves them */
+    ts_camera camera;
+    uint32_t patch_count, light_count;
+    int dome;
+} rib_frame_start;
+
 /* FrameBegin/FrameEnd blocks (rib_frames.c): one of them is read, the others skipped. */
 typedef struct rib_frame_choice {
-    int wanted;            /* the FrameBegin number to read; -1: the first frame */
+    int wanted;        /* the FrameBegin number to read; -1: the first frame */
+    int keep_depth;    /* wanted -1: read the first frame even if it is a depth-map pass */
+    int depth_skipped; /* depth-map passes left for a later frame (wanted -1) */
+    int depth_between; /* the last primary Display outside frames writes a depth map: */
+    char between_type[RIB_PRINT_MAX], between_mode[RIB_PRINT_MAX]; /* its type and mode */
+    rib_frame_start start;                                         /* of the frame being read */
     int open;              /* inside FrameBegin ... FrameEnd */
     int reading;           /* the open frame is the one read */
     int done;              /* the frame read has ended: the rest of the file is skipped */
