@@ -31,6 +31,8 @@ static const struct {
     {"Clipping", rib_req_clipping},
     {"Color", rib_req_color},
     {"ConcatTransform", rib_req_concat_transform},
+    {"CoordSysTransform", rib_req_coord_sys_transform},
+    {"CoordinateSystem", rib_req_coordinate_system},
     {"CropWindow", rib_req_crop_window},
     {"Displacement", rib_req_displacement},
     {"Display", rib_req_display},
@@ -87,7 +89,6 @@ static const char *const rib_ignored[] = {
     "Bound",
     "ClippingPlane",
     "ColorSamples",
-    "CoordinateSystem",
     "Declare",
     "DepthOfField",
     "Detail",
@@ -127,7 +128,6 @@ static const char *const rib_ignored[] = {
 static const char *const rib_unsupported[] = {
     "ArchiveRecord",
     "Blobby",
-    "CoordSysTransform",
     "Curves",
     "Perspective",
     "Points",
@@ -271,6 +271,7 @@ static int rib_parse_once(const char *name, const rib_text *t, int frame, int ke
     rib_lex_free(&p->lx);
     rib_archive_free(p);
     rib_object_free(p);
+    rib_coordsys_free(p);
     rib_args_free(p);
     free(p->stack);
     free(p);

@@ -16,7 +16,9 @@
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
  *   rib_object.c   ObjectBegin, ObjectEnd, ObjectInstance (definitions recorded, instances
  *                  run them again: copies)
- *   rib_frames.c   FrameBegin/FrameEnd (the frame read), the checks on a whole scene
+ *   rib_frames.c   FrameBegin/FrameEnd (the frame read, shadow-map passes left), Display,
+ *                  the checks on a whole scene
+ *   rib_coordsys.c CoordinateSystem, CoordSysTransform (named coordinate systems)
  *   rib_builtin.c  Geometry "teapot" (its patches in teapot_data.c, generated)
  *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
  *   rib_lex.c      tokens
@@ -153,6 +155,13 @@ int rib_req_geometry(rib_parser *p);
 #define RIB_TEAPOT_PATCHES 32
 extern const double rib_teapot_vertices[RIB_TEAPOT_VERTICES][3];
 extern const unsigned short rib_teapot_patches[RIB_TEAPOT_PATCHES][16];
+
+/* ---- rib_coordsys.c: CoordinateSystem, CoordSysTransform ---- */
+
+int rib_req_coordinate_system(rib_parser *p);
+int rib_req_coord_sys_transform(rib_parser *p);
+/* Frees p->coordsys. */
+void rib_coordsys_free(rib_parser *p);
 
 /* ---- rib_frames.c: FrameBegin/FrameEnd, the checks on a whole scene ---- */
 

@@ -170,8 +170,9 @@ typedef struct rib_parser {
     uint32_t first_patch, first_light; /* what this parse added: may need camera->world */
     char warned[RIB_MAX_WARNED][RIB_WARN_KEY];
     int nwarned;
-    struct rib_include *inc;     /* rib_archive.c: the archives being read, NULL before any */
-    struct rib_objects *objects; /* rib_object.c: ObjectBegin definitions, NULL before any */
+    struct rib_include *inc;           /* rib_archive.c: the archives being read, NULL before any */
+    struct rib_objects *objects;       /* rib_object.c: ObjectBegin definitions, NULL before any */
+    struct rib_coordsystems *coordsys; /* rib_coordsys.c: CoordinateSystem names, or NULL */
     rib_frame_choice frames;
     int world_line, world_col; /* of the WorldBegin read, 0 before it */
     int whole_scene; /* rib_load: the file must make a scene (rib_frames.c rib_scene_check) */
