@@ -735,6 +735,41 @@ static void test_camera_rays(void **state)
 
 /* Opacity 0 0 0 leaves geometry out (its attribute block restores opacity); partial opacity
  * renders opaque with one warning. */
+/* A motion block around the camera transformation: the camera moves. ts_camera keeps both
+ * world_to_camera samples and render_camera_params both sets of vectors, the second those of
+ * a static camera at shutter close; a static camera leaves them zero. */
+static void test_moving_camera_params(void **state)
+{
+    (void)state;
+    ts_scene s;
+    ts_error e = {0};
+    const char *text = "Projection \"perspective\" \"fov\" [40]\nRotate 10 0 1 0\n"
+                       "MotionBegin [0 1]\nTranslate 0 0 5\nTranslate 1 0 5\nMotionEnd\n"
+                       "WorldBegin\n" UNIT_QUAD "WorldEnd\n";
+    test_parse_rib_ok(text, &s);
+    assert_int_equal(s.camera.moving, 1);
+    ts_camera_params moving, still;
+    assert_int_equal(render_camera_params(&s.camera, 64, 48, &moving, &e), TS_OK);
+    assert_int_equal(moving.moving, 1);
+    scene_free(&s);
+    test_parse_rib_ok("Projection \"perspective\" \"fov\" [40]\nRotate 10 0 1 0\n"
+                      "Translate 1 0 5\nWorldBegin\n" UNIT_QUAD "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.camera.moving, 0);
+    assert_int_equal(render_camera_params(&s.camera, 64, 48, &still, &e), TS_OK);
+    assert_int_equal(still.moving, 0);
+    for (int k = 0; k < 4; k++) {
+        assert_true(moving.origin1[k] == still.origin[k] && moving.right1[k] == still.right[k]);
+        assert_true(moving.up1[k] == still.up[k] && moving.forward1[k] == still.forward[k]);
+        assert_true(still.origin1[k] == 0.0f && still.forward1[k] == 0.0f);
+    }
+    /* The eye: (0 0 -5) at shutter open, (-1 0 -5) at close (the rotation turns only the
+     * axes: it acts after the translations). */
+    assert_true(fabsf(moving.origin[0]) < 1e-6f && fabsf(moving.origin[2] + 5.0f) < 1e-5f);
+    assert_true(fabsf(moving.origin1[0] + 1.0f) < 1e-6f && fabsf(moving.origin1[2] + 5.0f) < 1e-5f);
+    scene_free(&s);
+}
+
 static void test_opacity(void **state)
 {
     (void)state;
@@ -932,25 +967,16 @@ static void test_unknown_area_light(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_line_endings),
-        cmocka_unit_test(test_byte_order_mark),
-        cmocka_unit_test(test_binary_rib_named),
-        cmocka_unit_test(test_gzip),
-        cmocka_unit_test(test_gzip_errors),
-        cmocka_unit_test(test_frames),
-        cmocka_unit_test(test_frame_errors),
-        cmocka_unit_test(test_depth_pass_frames),
-        cmocka_unit_test(test_scene_checks),
-        cmocka_unit_test(test_render_refuses_empty_scene),
-        cmocka_unit_test(test_format_defaults),
-        cmocka_unit_test(test_camera_requests),
-        cmocka_unit_test(test_camera_rays),
-        cmocka_unit_test(test_opacity),
-        cmocka_unit_test(test_geometry_teapot),
-        cmocka_unit_test(test_standard_surfaces),
-        cmocka_unit_test(test_shader_warnings),
-        cmocka_unit_test(test_matrix_noise),
-        cmocka_unit_test(test_unknown_area_light),
+        cmocka_unit_test(test_line_endings),      cmocka_unit_test(test_byte_order_mark),
+        cmocka_unit_test(test_binary_rib_named),  cmocka_unit_test(test_gzip),
+        cmocka_unit_test(test_gzip_errors),       cmocka_unit_test(test_frames),
+        cmocka_unit_test(test_frame_errors),      cmocka_unit_test(test_depth_pass_frames),
+        cmocka_unit_test(test_scene_checks),      cmocka_unit_test(test_render_refuses_empty_scene),
+        cmocka_unit_test(test_format_defaults),   cmocka_unit_test(test_camera_requests),
+        cmocka_unit_test(test_camera_rays),       cmocka_unit_test(test_moving_camera_params),
+        cmocka_unit_test(test_opacity),           cmocka_unit_test(test_geometry_teapot),
+        cmocka_unit_test(test_standard_surfaces), cmocka_unit_test(test_shader_warnings),
+        cmocka_unit_test(test_matrix_noise),      cmocka_unit_test(test_unknown_area_light),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -5,6 +5,7 @@
 #include "image/image.h"
 
 #include <errno.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -53,7 +54,11 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
         (int32_t)cam->width, (int32_t)cam->height, o->spp,       o->depth, (int32_t)o->seed,
         o->sampling,         o->max_lod,           o->fixed_lod, o->exact};
     h = ts_fnv1a(h, opts, sizeof opts);
-    h = ts_fnv1a(h, cam, sizeof *cam);
+    /* The static camera's bytes as they were before moving cameras (so that files written
+     * then still resume), and the shutter-close vectors of a moving one. */
+    h = ts_fnv1a(h, cam, offsetof(ts_camera_params, origin1));
+    if (cam->moving)
+        h = ts_fnv1a(h, cam->origin1, sizeof *cam - offsetof(ts_camera_params, origin1));
     h = ts_fnv1a(h, &s->patch_count, sizeof s->patch_count);
     h = ts_fnv1a(h, s->cp, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
     if (s->cp1) h = ts_fnv1a(h, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));

@@ -14,8 +14,13 @@
  * x right, y up, looking down +z; fov is the full angle of the shorter image axis). */
 typedef struct ts_camera {
     double world_to_camera[16]; /* row-major 4x4, column vectors: p_cam = M * p_world */
-    double fov_deg;             /* Projection "perspective" "fov"; default 90 */
-    int width, height;          /* Format; 0 when the scene sets none */
+    /* A moving camera (RIB: a motion block before WorldBegin): world_to_camera is at shutter
+     * open, world_to_camera1 at shutter close, and rays of time t see the camera in between
+     * (ts_camera_params). world_to_camera1 is unused when moving is 0. */
+    int moving;
+    double world_to_camera1[16];
+    double fov_deg;    /* Projection "perspective" "fov"; default 90 */
+    int width, height; /* Format; 0 when the scene sets none */
     int has_format;
     /* PixelSamples xs ys: xs * ys samples per pixel; 0 when the scene sets none. The
      * command line's --spp overrides it. */

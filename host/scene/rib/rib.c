@@ -240,6 +240,7 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     p->first_patch = scene->patch_count;
     p->first_light = scene->light_count;
     mat4_identity(scene->camera.world_to_camera);
+    scene->camera.moving = 0;
     scene->camera.fov_deg = 90.0;
     scene->camera.width = scene->camera.height = 0;
     scene->camera.has_format = 0;

@@ -343,22 +343,23 @@ int rib_req_world_begin(rib_parser *p)
     if (p->phase == RIB_AFTER_WORLD)
         return rib_error_at(p, p->req_line, p->req_col,
                             "a second WorldBegin: only one world block per file is supported");
-    double inv[16];
-    if (p->ctm_moving)
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "a moving camera transform is not supported (MotionBegin before "
-                            "WorldBegin)");
-    if (!mat4_is_affine(p->ctm))
+    double inv[16], inv1[16];
+    if (!mat4_is_affine(p->ctm) || (p->ctm_moving && !mat4_is_affine(p->ctm1)))
         return rib_error_at(p, p->req_line, p->req_col, "the camera transform is projective");
-    if (!mat4_invert(p->ctm, inv))
+    if (!mat4_invert(p->ctm, inv) || (p->ctm_moving && !mat4_invert(p->ctm1, inv1)))
         return rib_error_at(p, p->req_line, p->req_col, "the camera transform is singular");
     rc = rib_camera_items_to_world(p, inv);
     if (rc == TS_OK) rc = rib_push(p, RIB_FRAME_WORLD);
     if (rc != TS_OK) return rc;
-    for (int k = 0; k < 16; k++)
-        p->scene->camera.world_to_camera[k] = p->ctm[k] / p->ctm[15];
+    ts_camera *cam = &p->scene->camera;
+    for (int k = 0; k < 16; k++) {
+        cam->world_to_camera[k] = p->ctm[k] / p->ctm[15];
+        cam->world_to_camera1[k] = p->ctm1[k] / p->ctm1[15];
+    }
+    cam->moving = p->ctm_moving; /* a motion block before WorldBegin: the camera moves */
     mat4_identity(p->ctm);
     mat4_identity(p->ctm1);
+    p->ctm_moving = 0;
     p->xf_valid = 0;
     p->phase = RIB_IN_WORLD;
     p->world_line = p->req_line;
