@@ -612,8 +612,9 @@ static const struct {
     {"MotionBegin [0 1]\nMotionBegin [0 1]",
      "t.rib:2:1: error: MotionBegin inside the motion block at 1:1"},
     {"MotionBegin [0 1]\nColor 1 0 0",
-     "t.rib:2:1: error: Color is not allowed in the motion block at 1:1 (only Patch, Translate, "
-     "Rotate, Scale, ConcatTransform or Transform)"},
+     "t.rib:2:1: error: Color is not allowed in the motion block at 1:1 (only Patch, PatchMesh, "
+     "SubdivisionMesh, NuPatch, polygons, quadrics, Translate, Rotate, Scale, ConcatTransform "
+     "or Transform)"},
     {"MotionBegin [0 1]\nAttributeBegin",
      "t.rib:2:1: error: AttributeBegin is not allowed in the motion block at 1:1 ..."},
     {"MotionBegin [0 1]\nTranslate 1 0 0\n  Rotate 90 0 0 1\nMotionEnd",

@@ -89,8 +89,8 @@ static void test_errors(void **state)
                          "(a string)");
     test_parse_rib_error("WorldBegin\nMotionBegin [0 1]\nCoordSysTransform \"world\"\n",
                          "t.rib:3:1: error: CoordSysTransform is not allowed in the motion block "
-                         "at 2:1 (only Patch, Translate, Rotate, Scale, ConcatTransform or "
-                         "Transform)");
+                         "at 2:1 (only Patch, PatchMesh, SubdivisionMesh, NuPatch, polygons, "
+                         "quadrics, Translate, Rotate, Scale, ConcatTransform or Transform)");
 }
 
 int main(void)

@@ -141,6 +141,9 @@ int scene_add_patch(ts_scene *s, const double cp[16][3], const ts_patch_attr *at
  * world space, any length) NULL to have scene_finalize average them. */
 int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16][3],
                        const double normals[4][3], const ts_patch_attr *attr, ts_error *err);
+/* Makes patch p move: cp1 (world space) becomes its control points at shutter close. Its
+ * corner normals stay those of shutter open. */
+int scene_set_patch_motion(ts_scene *s, uint32_t p, const double cp1[16][3], ts_error *err);
 /* Adds a world-to-object transform (row-major 4x4, affine) and returns its index for
  * ts_patch_attr.xform; an identical transform already added is reused. */
 int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *index, ts_error *err);

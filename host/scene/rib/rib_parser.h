@@ -102,6 +102,12 @@ typedef struct rib_motion {
     int has_st;
     double st[4][2];                  /* "st" of the first patch sample at its corners */
     int p_line, p_col, n_line, n_col; /* of the first sample's "P" and "N" values */
+    /* Two samples of a surface request other than Patch (PatchMesh, SubdivisionMesh, ...,
+     * rib_state.c rib_motion_deforms): the first adds its patches from first_patch on, `made`
+     * of them; the second gives each of them, in the same order, its points at shutter close
+     * (rib_geom.c geom_emit), `set` so far. sample: which of the two is being read. */
+    int deform, sample;
+    uint32_t first_patch, made, set;
 } rib_motion;
 
 typedef enum rib_world_phase { RIB_BEFORE_WORLD, RIB_IN_WORLD, RIB_AFTER_WORLD } rib_world_phase;

@@ -72,6 +72,12 @@ static int poly_face_emit(poly_emit_ctx *c, size_t loop0, unsigned loops, unsign
 {
     const poly_mesh *m = c->m;
     const rib_pvars *vars = c->vars;
+    if (c->p->motion.active && (loops > 1 || count > 4)) /* rib_state.c rib_motion_deforms */
+        return rib_error_at(c->p, c->p->req_line, c->p->req_col,
+                            "%s in a motion block: polygon %zu has %s; only triangles and quads "
+                            "without holes move (the two samples could be triangulated "
+                            "differently)",
+                            c->p->req, c->face, loops > 1 ? "holes" : "more than 4 vertices");
     for (unsigned l = 0; l < loops; l++)
         loop_len[l] = (unsigned)m->nverts[loop0 + l];
     for (unsigned k = 0; k < count; k++) {

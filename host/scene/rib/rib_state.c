@@ -606,6 +606,17 @@ int rib_req_displacement(rib_parser *p)
 static const char *const rib_motion_kinds[] = {"Patch", "Translate",       "Rotate",
                                                "Scale", "ConcatTransform", "Transform"};
 
+/* Surface requests whose two samples in a motion block deform one surface: the first sample
+ * adds its patches, the second moves each of them at shutter close (rib_geom.c geom_emit).
+ * Both samples must make the same patches: the same topology and counts. */
+/* clang-format off */
+static const char *const rib_motion_deforms[] = {
+    "PatchMesh", "SubdivisionMesh", "NuPatch", "Polygon", "GeneralPolygon", "PointsPolygons",
+    "PointsGeneralPolygons", "Sphere", "Cone", "Cylinder", "Disk", "Hyperboloid", "Paraboloid",
+    "Torus",
+};
+/* clang-format on */
+
 int rib_motion_check(rib_parser *p)
 {
     rib_motion *m = &p->motion;
@@ -613,11 +624,15 @@ int rib_motion_check(rib_parser *p)
         return rib_error_at(p, p->req_line, p->req_col,
                             "MotionBegin inside the motion block at %d:%d", m->line, m->col);
     size_t k = 0, n = sizeof rib_motion_kinds / sizeof rib_motion_kinds[0];
+    size_t d = 0, nd = sizeof rib_motion_deforms / sizeof rib_motion_deforms[0];
     while (k < n && strcmp(p->req, rib_motion_kinds[k]) != 0)
         k++;
-    if (k == n)
+    while (k == n && d < nd && strcmp(p->req, rib_motion_deforms[d]) != 0)
+        d++;
+    if (k == n && d == nd)
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s is not allowed in the motion block at %d:%d (only Patch, "
+                            "PatchMesh, SubdivisionMesh, NuPatch, polygons, quadrics, "
                             "Translate, Rotate, Scale, ConcatTransform or Transform)",
                             p->req, m->line, m->col);
     if (m->count >= 2)
@@ -632,6 +647,12 @@ int rib_motion_check(rib_parser *p)
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s does not match the %s at %d:%d in the motion block", p->req,
                             m->first, m->first_line, m->first_col);
+    }
+    if (k == n) { /* a deforming surface: its handler runs as sample m->count */
+        m->deform = 1;
+        m->sample = m->count++;
+        if (m->sample == 0) m->first_patch = p->scene->patch_count;
+        if (m->sample == 1) m->made = p->scene->patch_count - m->first_patch, m->set = 0;
     }
     return TS_OK;
 }
@@ -672,6 +693,14 @@ int rib_req_motion_end(rib_parser *p)
                             m->line, m->col, m->count, m->count == 1 ? "" : "s");
     m->active = 0;
     if (strcmp(m->first, "Patch") == 0) return rib_geom_motion_patch(p);
+    if (m->deform) {
+        if (m->set != m->made)
+            return rib_error_at(p, m->first_line, m->first_col,
+                                "MotionEnd: the second %s of the motion block at %d:%d makes %u "
+                                "patches, the first %u (the samples must have the same topology)",
+                                m->first, m->line, m->col, m->set, m->made);
+        return TS_OK;
+    }
     if (m->replace) {
         memcpy(p->ctm, m->m[0], sizeof p->ctm);
         memcpy(p->ctm1, m->m[1], sizeof p->ctm1);
