@@ -613,7 +613,8 @@ static const struct {
      "t.rib:2:1: error: MotionBegin inside the motion block at 1:1"},
     {"MotionBegin [0 1]\nColor 1 0 0",
      "t.rib:2:1: error: Color is not allowed in the motion block at 1:1 (only Patch, PatchMesh, "
-     "SubdivisionMesh, NuPatch, polygons, quadrics, Translate, Rotate, Scale, ConcatTransform "
+     "SubdivisionMesh, NuPatch, polygons, quadrics, Points, Curves, Translate, Rotate, Scale, "
+     "ConcatTransform "
      "or Transform)"},
     {"MotionBegin [0 1]\nAttributeBegin",
      "t.rib:2:1: error: AttributeBegin is not allowed in the motion block at 1:1 ..."},

@@ -87,10 +87,11 @@ static void test_errors(void **state)
     test_parse_rib_error("CoordinateSystem 3\n",
                          "t.rib:1:18: error: CoordinateSystem: expected a coordinate system name "
                          "(a string)");
-    test_parse_rib_error("WorldBegin\nMotionBegin [0 1]\nCoordSysTransform \"world\"\n",
-                         "t.rib:3:1: error: CoordSysTransform is not allowed in the motion block "
-                         "at 2:1 (only Patch, PatchMesh, SubdivisionMesh, NuPatch, polygons, "
-                         "quadrics, Translate, Rotate, Scale, ConcatTransform or Transform)");
+    test_parse_rib_error(
+        "WorldBegin\nMotionBegin [0 1]\nCoordSysTransform \"world\"\n",
+        "t.rib:3:1: error: CoordSysTransform is not allowed in the motion block "
+        "at 2:1 (only Patch, PatchMesh, SubdivisionMesh, NuPatch, polygons, "
+        "quadrics, Points, Curves, Translate, Rotate, Scale, ConcatTransform or Transform)");
 }
 
 int main(void)

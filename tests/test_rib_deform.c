@@ -136,10 +136,11 @@ static void test_errors(void **state)
     test_parse_rib_error("WorldBegin\nMotionBegin [0 1]\nSphere 1 -1 1 360\nCone 1 1 360\n",
                          "t.rib:4:1: error: Cone does not match the Sphere at 3:1 in the motion "
                          "block");
-    test_parse_rib_error("WorldBegin\nMotionBegin [0 1]\nColor 1 0 0\n",
-                         "t.rib:3:1: error: Color is not allowed in the motion block at 2:1 (only "
-                         "Patch, PatchMesh, SubdivisionMesh, NuPatch, polygons, quadrics, "
-                         "Translate, Rotate, Scale, ConcatTransform or Transform)");
+    test_parse_rib_error(
+        "WorldBegin\nMotionBegin [0 1]\nColor 1 0 0\n",
+        "t.rib:3:1: error: Color is not allowed in the motion block at 2:1 (only "
+        "Patch, PatchMesh, SubdivisionMesh, NuPatch, polygons, quadrics, Points, Curves, "
+        "Translate, Rotate, Scale, ConcatTransform or Transform)");
 }
 
 int main(void)

@@ -17,8 +17,7 @@
 static const char *const rib_class_names[RIB_CLASSES] = {"constant", "uniform", "varying", "vertex",
                                                          "facevarying"};
 
-/* The class named in an inline declaration, else `dflt`. */
-static rib_class rib_class_of(const char *decl, rib_class dflt)
+rib_class rib_class_of(const char *decl, rib_class dflt)
 {
     size_t n = strlen(decl);
     for (size_t s = 0; s < n;) {

@@ -613,7 +613,7 @@ static const char *const rib_motion_kinds[] = {"Patch", "Translate",       "Rota
 static const char *const rib_motion_deforms[] = {
     "PatchMesh", "SubdivisionMesh", "NuPatch", "Polygon", "GeneralPolygon", "PointsPolygons",
     "PointsGeneralPolygons", "Sphere", "Cone", "Cylinder", "Disk", "Hyperboloid", "Paraboloid",
-    "Torus",
+    "Torus", "Points", "Curves",
 };
 /* clang-format on */
 
@@ -632,8 +632,8 @@ int rib_motion_check(rib_parser *p)
     if (k == n && d == nd)
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s is not allowed in the motion block at %d:%d (only Patch, "
-                            "PatchMesh, SubdivisionMesh, NuPatch, polygons, quadrics, "
-                            "Translate, Rotate, Scale, ConcatTransform or Transform)",
+                            "PatchMesh, SubdivisionMesh, NuPatch, polygons, quadrics, Points, "
+                            "Curves, Translate, Rotate, Scale, ConcatTransform or Transform)",
                             p->req, m->line, m->col);
     if (m->count >= 2)
         return rib_error_at(p, p->req_line, p->req_col,
