@@ -35,6 +35,14 @@ static void test_points(void **state)
             if (fabs(d - radius[q / 8]) > 1e-6) fail_msg("patch %u: %g from its point", q, d);
         }
     scene_free(&s);
+    /* One colour per point; an empty Points (a particle system's empty frame) adds nothing. */
+    test_parse_rib_ok("WorldBegin\nPoints \"P\" [0 0 5  1 0 5] \"Cs\" [1 0 0  0 0 1]\n"
+                      "Points \"P\" []\nWorldEnd\n",
+                      &s);
+    assert_int_equal(s.patch_count, 16);
+    assert_true(s.attr[0].cs_r == 1.0f && s.attr[0].cs_b == 0.0f);
+    assert_true(s.attr[8].cs_r == 0.0f && s.attr[8].cs_b == 1.0f);
+    scene_free(&s);
 }
 
 /* The camera at the world origin looking down +z (no camera transformation). */

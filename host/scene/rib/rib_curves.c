@@ -34,15 +34,16 @@ typedef struct curves_vars {
     const double *P, *width, *cs;
     size_t np;       /* points in "P" */
     double constant; /* constantwidth, or 1 */
-    int cs_uniform;  /* "Cs" has one colour per curve (Points: per point is not read) */
+    int cs_each;     /* "Cs" has one colour per curve (uniform) or per point (Points) */
     int line, col;   /* of the "P" values */
 } curves_vars;
 
 /* Reads "P" (3 numbers each), "width" (varying or vertex: `nwidth` values), "constantwidth"
- * and "Cs" (constant, or uniform with `nuniform` values) from args[first]; others are ignored
- * with a warning. np_want: the points "P" must hold (0: any multiple of 3). */
+ * and "Cs" (constant, or `neach` values: uniform for curves, varying or vertex for points)
+ * from args[first]; others are ignored with a warning. np_want: the points "P" must hold
+ * (0: any multiple of 3). points: the request is Points. */
 static int curves_read_vars(rib_parser *p, size_t first, size_t np_want, size_t nwidth,
-                            size_t nuniform, curves_vars *out)
+                            size_t neach, int points, curves_vars *out)
 {
     memset(out, 0, sizeof *out);
     out->constant = 1.0;
@@ -55,7 +56,7 @@ static int curves_read_vars(rib_parser *p, size_t first, size_t np_want, size_t 
         rib_class cls = rib_class_of(rib_arg_str(p, prm.key, 0), RIB_VARYING);
         if (strcmp(prm.name, "P") == 0) {
             rc = rib_param_numbers(p, &prm, np_want * 3, &v, &n);
-            if (rc == TS_OK && (n == 0 || n % 3 != 0))
+            if (rc == TS_OK && n % 3 != 0)
                 return rib_error_at(p, prm.val->line, prm.val->col,
                                     "%s: \"P\" needs 3 numbers per point, got %zu", p->req, n);
             out->P = v, out->np = n / 3, out->line = prm.val->line, out->col = prm.val->col;
@@ -66,9 +67,10 @@ static int curves_read_vars(rib_parser *p, size_t first, size_t np_want, size_t 
                    (strcmp(prm.name, "width") == 0 && cls == RIB_CONSTANT)) {
             rc = rib_param_numbers(p, &prm, 1, &v, NULL);
             if (rc == TS_OK) out->constant = v[0];
-        } else if (strcmp(prm.name, "Cs") == 0 && (cls == RIB_CONSTANT || cls == RIB_UNIFORM)) {
-            out->cs_uniform = cls == RIB_UNIFORM;
-            rc = rib_param_numbers(p, &prm, out->cs_uniform ? 3 * nuniform : 3, &v, NULL);
+        } else if (strcmp(prm.name, "Cs") == 0 &&
+                   (cls == RIB_CONSTANT || (points ? cls != RIB_UNIFORM : cls == RIB_UNIFORM))) {
+            out->cs_each = cls != RIB_CONSTANT;
+            rc = rib_param_numbers(p, &prm, out->cs_each ? 3 * neach : 3, &v, NULL);
             out->cs = v;
         } else {
             rib_warn_param(p, &prm);
@@ -76,6 +78,7 @@ static int curves_read_vars(rib_parser *p, size_t first, size_t np_want, size_t 
         if (rc != TS_OK) return rc;
     }
     if (!out->P) return rib_error_at(p, p->req_line, p->req_col, "%s: missing \"P\"", p->req);
+    if (out->np == 0) return TS_OK; /* Points "P" [] (a particle system's empty frame) */
     size_t nw = out->width ? nwidth : 1;
     for (size_t k = 0; k < nw; k++) {
         double w = out->width ? out->width[k] : out->constant;
@@ -109,15 +112,19 @@ static int points_emit(void *ctx, const double cp[16][3], const double n[4][3],
     return rib_geom_emit(c->p, c->line, c->col, (const double(*)[3])g, n, c->cs, uv);
 }
 
-/* Points "P" [...] ["width" [one per point]] ["constantwidth" [w]] ["Cs" constant]: one
- * sphere of diameter width around each point. A zero width adds nothing. */
+/* Points "P" [...] ["width" [one per point]] ["constantwidth" [w]] ["Cs" constant, or one
+ * per point]: one sphere of diameter width around each point. A zero width adds nothing. */
 int rib_req_points(rib_parser *p)
 {
     curves_vars v;
     size_t np = rib_pvars_count(p, 0, "P", 3);
     int rc = rib_geom_check(p);
-    if (rc == TS_OK) rc = curves_read_vars(p, 0, np, np ? np : 1, 1, &v);
+    if (rc == TS_OK) rc = curves_read_vars(p, 0, np, np, np, 1, &v);
     if (rc != TS_OK) return rc;
+    if (v.np == 0) { /* "P" [] (a particle system's empty frame): nothing to draw */
+        rib_warn_once(p, p->req_line, p->req_col, "Points without points is skipped");
+        return TS_OK;
+    }
     int fixed = p->motion.active; /* the two samples must make the same patches */
     size_t per = fixed ? 16 : 8;
     if (v.np > CURVES_MAX_PATCHES / per)
@@ -128,7 +135,8 @@ int rib_req_points(rib_parser *p)
     for (size_t k = 0; rc == TS_OK && k < v.np; k++) {
         double r = 0.5 * (v.width ? v.width[k] : v.constant);
         ts_quadric q = {QUADRIC_SPHERE, {r, -r, r, 360.0}, fixed};
-        points_ctx c = {p, v.P + 3 * k, v.cs, v.line, v.col};
+        const double *cs = v.cs ? v.cs + (v.cs_each ? 3 * k : 0) : NULL;
+        points_ctx c = {p, v.P + 3 * k, cs, v.line, v.col};
         char why[128];
         int count;
         rc = quadric_patches(&q, points_emit, &c, &count, why, sizeof why);
@@ -243,7 +251,7 @@ static int curves_one(rib_parser *p, const curves_req *c, const curves_vars *v, 
 {
     size_t n = (size_t)c->nvert[curve], segs = curves_segments(c, n);
     size_t nvary = c->periodic ? segs : segs + 1;
-    const double *cs = v->cs ? v->cs + (v->cs_uniform ? 3 * curve : 0) : NULL;
+    const double *cs = v->cs ? v->cs + (v->cs_each ? 3 * curve : 0) : NULL;
     for (size_t s = 0; s < segs; s++) {
         double b[4][3];
         if (c->cubic) {
@@ -310,7 +318,7 @@ int rib_req_curves(rib_parser *p)
                             "Curves: %zu segments would make more than %u patches", segs,
                             CURVES_MAX_PATCHES);
     curves_vars v;
-    rc = curves_read_vars(p, 3, nv, nvary, c.ncurves, &v);
+    rc = curves_read_vars(p, 3, nv, nvary, c.ncurves, 0, &v);
     if (rc == TS_OK) rc = curves_camera(p, &c);
     size_t v0 = 0, wv0 = 0;
     for (size_t k = 0; rc == TS_OK && k < c.ncurves; k++) {

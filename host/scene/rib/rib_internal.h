@@ -8,9 +8,10 @@
  *                  motion blocks
  *   rib_geom.c     Patch and PatchMesh into the scene
  *   rib_light.c    LightSource (distant, point, spot, ambient, dome lights)
- *   rib_quadric.c, rib_poly.c, rib_nurbs.c, rib_subdiv.c, rib_primvar.c: quadrics,
- *                  polygons, NuPatch, SubdivisionMesh and their primitive variables
- *                  (rib_prims.h; they call rib_geom.c's rib_geom_emit)
+ *   rib_quadric.c, rib_poly.c, rib_nurbs.c, rib_subdiv.c, rib_curves.c, rib_primvar.c:
+ *                  quadrics, polygons, NuPatch, SubdivisionMesh, Points and Curves and their
+ *                  primitive variables (rib_prims.h; they call rib_geom.c's rib_geom_emit,
+ *                  which also takes the second sample of a deforming surface)
  *   rib_shading.c  Surface, AreaLightSource, Opacity
  *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
@@ -42,7 +43,7 @@
  *   rib_state.c   -> rib_geom.c (MotionEnd of a block of Patch samples)
  *   rib_options.c -> rib_state.c (rib_before_world)
  *   rib_light.c   -> rib_geom.c (rib_geom_check: where lights may stand)
- *   rib_geom.c, rib_shading.c -> no other handler
+ *   rib_geom.c, rib_shading.c, rib_coordsys.c -> no other handler
  *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
  *                    handler. rib.c and rib_archive.c also start lexers (on rib_text.c's bytes);
  * rib.c, rib_state.c and rib_geom.c use basis.c. The cycles are rib.c -> rib_archive.c -> rib.c:
