@@ -75,6 +75,9 @@ typedef struct rib_pvars {
 #define RIB_PV_ST 16u
 /* With this bit, variables other than "P" and "Pw" may not be of class vertex. */
 #define RIB_PV_NO_VERTEX 32u
+/* With this bit, "N" may hold zero normals (one warning): polygons give such vertices the
+ * polygon's own normal, as meshes do. */
+#define RIB_PV_ZERO_N 64u
 
 /* Reads the parameter list from args[first]: each variable must have, for its class (by an
  * inline declaration, varying when none; "P" and "Pw" are always vertex), exactly
