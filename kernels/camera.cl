@@ -3,13 +3,15 @@
  * Writes: per ray org, dir (w = time in [0,1)), hit (cleared), entry (TS_ENTRY_START), pixel,
  *         flags (0); active[i] = paths[i] = i; a fresh path state (throughput 1, radiance 0,
  *         its eye-ray slot traced, emission it finds weighted 1).
- * Ray g = first_sample + i covers pixel g % (width*height), sample g / (width*height), so a
- * wave is a run of whole sample passes and the film can sum samples in a fixed order.
+ * Ray i is the frame's sample first_sample + i in the sample order (lib/sample_order.h:
+ * bands of p.band pixels, each band's samples one after another), so a wave is a run of
+ * the frame's samples and the film can sum each pixel's samples in sample order.
  * RenderMan screen: x right, y up; raster y grows downwards; a perspective or an orthographic
  * projection (ts_camera_params in lib/shared_types.h). One sample per pixel goes through the
  * pixel centre; more are jittered by the sampler's camera set (lib/sampler.h: dimensions 0
  * and 1 the position in the pixel, 2 the time). */
 #include "lib/shared_types.h"
+#include "lib/sample_order.h"
 #include "lib/sampler.h"
 
 /* A moving camera at time t: each of its vectors interpolated linearly between shutter open
@@ -34,8 +36,8 @@ __kernel void camera_generate(ts_camera_params cam, __global ts_vec4 *org, __glo
     ts_camera_params p = cam;
     if (i >= p.ray_count) return;
     uint npix = p.width * p.height;
-    uint g = p.first_sample + i;
-    uint pix = g % npix, sample = g / npix;
+    uint pix, sample;
+    sample_order_at(p.first_sample + i, npix, p.spp, p.band, &pix, &sample);
     uint x = pix % p.width, y = pix / p.width;
     float jx = 0.5f, jy = 0.5f;
     ts_sampler_set cs = sampler_set(pix, sample, TS_SET_CAMERA, p.seed, sampler_mask(p.spp));

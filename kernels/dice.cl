@@ -9,6 +9,7 @@
  *         point from it).
  * Parameters are i * 2^-m exactly (ldexp), so the host references dice the same points. */
 #include "lib/shared_types.h"
+#include "lib/noise4.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
 
@@ -34,6 +35,6 @@ __kernel void dice_grid(__global const uint *trees, uint tree_first, uint tree_c
     float u = ldexp((float)(v % n), -(int)m);
     float w = ldexp((float)(v / n), -(int)m);
     grid[(size_t)seg.vert_first + time * nv + v] =
-        patch_vertex(c, c0, corner_n + (size_t)seg.patch * 4u, mid_n + (size_t)seg.patch * 5u, a,
-                     xform + a->xform, tex, u, w);
+        patch_vertex_x8(c, c0, corner_n + (size_t)seg.patch * 4u, mid_n + (size_t)seg.patch * 5u, a,
+                        xform + a->xform, tex, u, w);
 }

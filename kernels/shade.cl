@@ -13,7 +13,9 @@
  * Reads:  the wave's paths (paths[0..path_count)), their rays (org, dir, hit), path state
  *         (throughput, mis, state, pending), patch data, lights, emitters, the dome's map,
  *         textures (colour at the hit's st, displacement for the normal; every tile the
- *         chunk needs resident, host/pipeline/shade.c).
+ *         chunk needs resident, host/pipeline/shade.c); with --occlusion the baked points
+ *         (relight_patch, relight_coeffs, relight_normal) and the domes' tables
+ *         (relight_light, host/pipeline/relight.c).
  * Writes: radiance (accumulated per path), aov (normal, Z) and albedo at the eye hit, the
  *         path's next rays into its two slots (org, dir, hit, entry, flags), path state,
  *         alive[k] (per list slot k): the TS_PATH_TRACED_* bits of the rays it traces next.
@@ -26,13 +28,22 @@
  * --sampling light or bsdf keeps one strategy at weight 1.
  * Lights: one chosen per vertex by weight (lib/lights.h light_select); a uniform dome is
  * left to BSDF rays unless --sampling light.
+ * Relighting (render --occlusion, rp.bands > 0; lib/relight.h, docs/bake.md): at the eye
+ * ray's hit (bounce 0) the domes' light comes from the baked occlusion instead of rays:
+ * shade_relit adds Kd Cs / pi times the irradiance E(n) of the domes through the baked
+ * visibility; that vertex's light sample and the domes its BSDF ray finds leave the domes out
+ * (TS_LIGHTS_NO_DOMES; the ray carries TS_PATH_RELIT). Other lights, and every later vertex,
+ * are path traced as without it.
  * Sample values: Owen-scrambled Sobol sets (lib/sampler.h), keyed by (pixel, sample): at
  * vertex b, set TS_SET_LIGHT(b) = the light's choice and the point on it, TS_SET_BSDF(b) =
  * the lobe, the direction and Russian roulette. */
 #include "lib/shared_types.h"
 #include "lib/bsdf.h"
 #include "lib/lights.h"
+#include "lib/noise4.h"
 #include "lib/patch.h"
+#include "lib/relight.h"
+#include "lib/sample_order.h"
 #include "lib/sampler.h"
 
 /* One path's step: its slots, the keys of its sample values and its weight so far. */
@@ -144,8 +155,8 @@ inline shade_vertex shade_vertex_at(ts_hit h, ts_vec4 o4, ts_v3 d, float time,
     v.a = attr + h.patch;
     __global const ts_vec4 *c = cp + (size_t)h.patch * 16u;
     ts_vec4 n4 =
-        patch_shading_normal(c, corner_n + (size_t)h.patch * 4u, mid_n + (size_t)h.patch * 5u, v.a,
-                             xform + v.a->xform, tex, h.u, h.v, TS_PRIM_LOD(h.prim));
+        patch_shading_normal_x4(c, corner_n + (size_t)h.patch * 4u, mid_n + (size_t)h.patch * 5u,
+                                v.a, xform + v.a->xform, tex, h.u, h.v, TS_PRIM_LOD(h.prim));
     tex_surface_colour(v.a, tex, h.u, h.v, v.cs);
     v.n = v3(n4.x, n4.y, n4.z), v.wo = v3_scale(d, -1.0f);
     if (v3_dot(v.n, v.wo) < 0.0f) v.n = v3_scale(v.n, -1.0f);
@@ -168,6 +179,32 @@ inline void shade_emission(const shade_lights *L, const shade_vertex *v, ts_hit 
     float pl = light_pdf_area(L->lights, L->count, L->sampling, L->emitters, L->cp, a->emitter,
                               h.patch, h.u, h.v, d, h.t);
     add_rgb(radiance, s->tp, e, emission_weight(pb, mode, pl));
+}
+
+/* The baked occlusion (render --occlusion) as shade reads it: lib/relight.h. */
+typedef struct shade_relight {
+    ts_relight_params rp;
+    __global const ts_u32 *patch; /* 2 words a patch: first point, m */
+    __global const float *coeffs; /* B^2 a point */
+    __global const float *normal; /* 3 a point: the N its hemisphere is about */
+    __global const ts_vec4 *light;
+} shade_relight;
+
+/* The domes' light at the relit vertex: the diffuse lobe Kd Cs / pi times the irradiance
+ * the baked occlusion gives at the hit's (u, v) for the shading normal (glossy lobes get no
+ * dome light there: the file holds visibility, not a view-dependent transfer). */
+inline void shade_relit(const shade_relight *R, const shade_vertex *v, ts_hit h,
+                        const shade_step *s, __global ts_vec4 *radiance)
+{
+    __global const ts_patch_attr *a = v->a;
+    float kd = a->material == TS_MAT_METAL ? 0.0f : a->kd / TS_PI;
+    if (!(kd > 0.0f) || h.patch >= R->rp.patch_count) return;
+    float c[TS_SH_MAX_COEFFS], e[3];
+    relight_coeffs(R->patch, R->coeffs, R->normal, R->rp.bands * R->rp.bands, h.patch, h.u, h.v,
+                   v->n, c);
+    relight_irradiance(R->rp, R->light, c, v->n, e);
+    float le[3] = {kd * v->cs[0] * e[0], kd * v->cs[1] * e[1], kd * v->cs[2] * e[2]};
+    add_rgb(radiance, s->tp, le, 1.0f);
 }
 
 /* Next-event estimation: samples a light (chosen uniformly) and, when it lights the
@@ -229,6 +266,14 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
     return TS_PATH_TRACED_BSDF;
 }
 
+/* The sample (of its pixel) that the frame's k-th sample is. */
+static uint shade_sample(uint k, uint pixel_count, ts_shade_params sp)
+{
+    uint pixel, sample;
+    sample_order_at(k, pixel_count, sp.spp, sp.band, &pixel, &sample);
+    return sample;
+}
+
 __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count, uint wave_size,
                          __global const uint *paths, uint path_count, __global ts_vec4 *org,
                          __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
@@ -243,7 +288,10 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
                          __global const ts_vec4 *env_texels, __global const float *env_marginal,
                          __global const float *env_conditional, __global const ts_vec4 *flatness,
                          __global const ts_texture *textures, __global const uint *tex_pages,
-                         __global const ts_vec4 *tex_pool, __global uint *alive)
+                         __global const ts_vec4 *tex_pool, __global uint *alive,
+                         ts_relight_params rp, __global const uint *relight_patch,
+                         __global const float *relight_coeffs, __global const float *relight_normal,
+                         __global const ts_vec4 *relight_light)
 {
     uint k = get_global_id(0);
     if (k >= path_count) return;
@@ -252,9 +300,11 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     if (st & TS_PATH_TRACED_SHADOW)
         shade_shadow_result(hit[wave_size + i], pending[i], &radiance[i]);
     if (!(st & TS_PATH_TRACED_BSDF)) return;
+    /* A ray from the relit vertex finds no dome: its light was counted there. */
+    uint no_domes = st & TS_PATH_RELIT ? TS_LIGHTS_NO_DOMES : 0u;
     shade_lights L = {.lights = lights,
                       .count = sp.light_count,
-                      .sampling = sp.sampling,
+                      .sampling = sp.sampling | no_domes,
                       .env = {env_texels, env_marginal, env_conditional},
                       .emitters = emitters,
                       .cp = cp,
@@ -269,7 +319,7 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     shade_step s = {.i = i,
                     .wave_size = wave_size,
                     .pix = pixel[i],
-                    .sample = (first_sample + i) / pixel_count,
+                    .sample = shade_sample(first_sample + i, pixel_count, sp),
                     .bounce = sp.bounce,
                     .seed = sp.seed,
                     .mask = sampler_mask(sp.spp),
@@ -293,8 +343,14 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     /* Hits on this patch nearer than one micro-quad (eps) are below the level of detail's
      * resolution (bottom_level.cl's origin-patch rule intersects it as micro-triangles). */
     v.self = v.eps;
+    uint relit = rp.bands > 0u && s.bounce == 0u ? TS_PATH_RELIT : 0u;
+    if (relit) {
+        shade_relight R = {rp, relight_patch, relight_coeffs, relight_normal, relight_light};
+        shade_relit(&R, &v, h, &s, &radiance[i]);
+    }
+    L.sampling = sp.sampling | (relit ? TS_LIGHTS_NO_DOMES : 0u);
     uint out = shade_direct_light(sp, &L, &v, &s, &pending[i], rays);
     out |= shade_bsdf_bounce(sp, &v, &s, &throughput[i], &mis[i], &mode, rays);
-    state[i] = TS_PATH_STATE(out, mode);
+    state[i] = TS_PATH_STATE(out, mode) | relit;
     alive[k] = out;
 }

@@ -459,6 +459,19 @@ static void test_same_bits_whatever_memory_and_threads(void **state)
     assert_int_equal(system(cmd), 0);
     test_assert_same_pixels(path("d1.exr"), path("d2.exr"));
     test_assert_same_pixels(path("d1.exr"), path("d3.exr"));
+    /* A default budget whose arenas cannot hold the patches (its cap lowered to 16 MB: 4 MB
+     * of arenas, the teapot's patches at m = 6 need 6 MB): they grow to hold them, each is
+     * diced once, and the bits are those of a budget they fit. */
+    const char *lod6 = "--lod 6 --rays 4 --quiet";
+    test_tessera_ok(dir, "bake '%s' -o '%s' %s --memory 512", scene, path("g1.exr"), lod6);
+    setenv("TESSERA_BUDGET_CAP_MB", "16", 1);
+    test_tessera_ok(dir, "bake '%s' -o '%s' %s --stats '%s'", scene, path("g2.exr"), lod6,
+                    path("g2.json"));
+    unsetenv("TESSERA_BUDGET_CAP_MB");
+    test_assert_same_pixels(path("g1.exr"), path("g2.exr"));
+    assert_true(test_stats_number(path("g2.json"), "counters.patches_diced") == 32.0);
+    assert_true(test_stats_number(path("g2.json"), "counters.patch_cache_evictions") == 0.0);
+    assert_true(test_stats_number(path("g2.json"), "counters.patch_cache_bytes") > 5.0 * 1048576);
     /* Another seed, other bits. */
     test_tessera_ok(dir, "bake '%s' -o '%s' %s --seed 3", scene, path("d4.exr"), args);
     ts_image x, y;

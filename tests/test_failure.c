@@ -187,7 +187,9 @@ static void test_launch_failure_mid_render_is_retried(void **state)
 {
     (void)state;
     const char *ref = reference();
-    setenv("TESSERA_FAIL_LAUNCH", "300", 1);
+    /* The 800th launch comes after two of the five waves (the two-level loop's iterations
+     * each launch top_level, bottom_level per batch and resolve; trace.c). */
+    setenv("TESSERA_FAIL_LAUNCH", "800", 1);
     int rc = test_run_tessera(dir, "render '%s' -o '%s' --res " RES " --spp " SPP " --memory 32",
                               test_source_path("scene/teapot.rib"), in_dir("launch.exr"));
     unsetenv("TESSERA_FAIL_LAUNCH");
@@ -279,9 +281,10 @@ static void test_sigterm_writes_the_finished_samples(void **state)
 static void edit_partial(const char *name, int shift, int pixel, float count_shift)
 {
     static const char *keys[] = {"tessera:samples_done", "tessera:spp", "tessera:seed",
-                                 "tessera:job",          "tessera:lod", "tessera:max_lod"};
-    ts_image_meta meta[6];
-    for (int k = 0; k < 6; ++k)
+                                 "tessera:job",          "tessera:lod", "tessera:max_lod",
+                                 "tessera:band"};
+    ts_image_meta meta[7];
+    for (int k = 0; k < 7; ++k)
         meta[k] = (ts_image_meta){keys[k], meta_int(name, keys[k])};
     meta[0].value += shift;
     ts_image img;
@@ -289,7 +292,7 @@ static void edit_partial(const char *name, int shift, int pixel, float count_shi
     if (image_read(in_dir(name), &img, &err)) fail_msg("%s", err.msg);
     assert_int_equal(img.channels, 14);
     img.pixels[(size_t)pixel * 14 + 13] += count_shift; /* tessera.count */
-    if (image_write_exr(in_dir(name), &img, meta, 6, &err)) fail_msg("%s", err.msg);
+    if (image_write_exr(in_dir(name), &img, meta, 7, &err)) fail_msg("%s", err.msg);
     image_free(&img);
 }
 
@@ -314,6 +317,31 @@ static void test_resume_refuses_counts_that_disagree(void **state)
                                       scene, in_dir("edited.exr")),
                      1);
     test_expect_in_stderr(dir, "cannot resume: pixel (1, 8) holds ");
+}
+
+/* The samples are traced in bands of rows (kernels/lib/sample_order.h), about a wave each:
+ * --memory 16 makes them a few rows. The partial EXR records the band, and --resume
+ * continues in the file's order whatever this run would choose (TESSERA_SAMPLE_BAND_ROWS=0:
+ * one band), to the bits of the uninterrupted render; so does a render in one band from the
+ * start. */
+static void test_resume_continues_in_the_files_sample_order(void **state)
+{
+    (void)state;
+    const char *ref = reference(), *scene = test_source_path("scene/teapot.rib");
+    assert_int_equal(render_and_interrupt("bands.exr", NULL), 3);
+    int band = meta_int("bands.exr", "tessera:band");
+    assert_true(band > 0 && band < 320 * 180 && band % 320 == 0);
+    setenv("TESSERA_SAMPLE_BAND_ROWS", "0", 1);
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet", scene,
+                              in_dir("bands.exr"));
+    int rc_one = test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --quiet", scene,
+                                  in_dir("one_band.exr"));
+    unsetenv("TESSERA_SAMPLE_BAND_ROWS");
+    assert_int_equal(rc, 0);
+    assert_int_equal(rc_one, 0);
+    assert_int_equal(meta_int("one_band.exr", "tessera:band"), 0);
+    assert_same_image(ref, "bands.exr");
+    assert_same_image(ref, "one_band.exr");
 }
 
 /* SIGHUP (the terminal or the ssh session went away) stops the render like SIGINT: the
@@ -461,6 +489,7 @@ int main(void)
         cmocka_unit_test(test_resume_matches_the_uninterrupted_render),
         cmocka_unit_test(test_sighup_writes_the_finished_samples),
         cmocka_unit_test(test_resume_refuses_counts_that_disagree),
+        cmocka_unit_test(test_resume_continues_in_the_files_sample_order),
         cmocka_unit_test(test_closed_stderr_pipe_does_not_kill_the_render),
         cmocka_unit_test(test_kernel_build_failure_names_file_and_line),
     };

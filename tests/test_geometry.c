@@ -140,6 +140,38 @@ static void test_patch_cache_dices_once_and_changes_no_bit(void **state)
     assert_true(test_stats_number(path("off.json"), "counters.patches_diced") > 3 * diced);
 }
 
+/* A default budget whose arenas are too small for the frame's patches (its cap lowered to
+ * 16 MB: 4 MB of arenas, where the displaced teapot's patches need 5.8 MB at 320x180):
+ * after the lod stage the arenas grow to hold them all, each is diced once, nothing is
+ * evicted, and the image is that of a budget they fit; --memory 16 does not grow and
+ * evicts. */
+static void test_arenas_grow_to_the_frames_patches(void **state)
+{
+    char args[16384];
+    const char *common = "--res 320x180 --spp 1 --max-lod 6";
+    const char *runs[3][3] = {{"big.exr", "big.json", "--memory 512 --quiet"},
+                              {"grows.exr", "grows.json", ""},
+                              {"fixed.exr", "fixed.json", "--memory 16 --quiet"}};
+    setenv("TESSERA_BUDGET_CAP_MB", "16", 1);
+    for (int i = 0; i < 3; ++i) {
+        snprintf(args, sizeof args, "render '%s' -o '%s' --stats '%s' %s %s",
+                 test_source_path("scene/teapot_displaced.rib"), path(runs[i][0]), path(runs[i][1]),
+                 runs[i][2], common);
+        render_ok(args);
+        if (i == 1) test_expect_in_stderr(dir, "the patch cache grows from 3 to 5 MB");
+    }
+    unsetenv("TESSERA_BUDGET_CAP_MB");
+    test_assert_same_pixels(path("big.exr"), path("grows.exr"));
+    test_assert_same_pixels(path("big.exr"), path("fixed.exr"));
+    assert_true(test_stats_number(path("grows.json"), "counters.patches_diced") == 32.0);
+    assert_true(test_stats_number(path("grows.json"), "counters.patch_cache_evictions") == 0.0);
+    assert_true(test_stats_number(path("grows.json"), "memory_budget_bytes") > 16.0 * 1048576);
+    assert_true(test_stats_number(path("grows.json"), "counters.patch_cache_bytes") >
+                5.0 * 1048576);
+    assert_true(test_stats_number(path("fixed.json"), "memory_budget_bytes") == 16.0 * 1048576);
+    assert_true(test_stats_number(path("fixed.json"), "counters.patch_cache_evictions") > 0.0);
+}
+
 /* The lowest level any dicing of the render used (lod_histogram). */
 static int lowest_level(const char *json)
 {
@@ -155,15 +187,19 @@ static int lowest_level(const char *json)
 static void test_hidden_patch_is_diced_coarser_under_the_seen_rules(void **state)
 {
     (void)state;
-    /* A flat square facing the camera, and behind it a smaller one that it hides wholly;
-     * lit from the camera's side, so the hidden one casts no shadow on anything seen. */
+    /* A flat square facing the camera, and 0.2 behind it a smaller one that it hides wholly;
+     * lit from the camera's side, so the hidden one casts no shadow on anything seen. The
+     * hidden one lies left of the front one's centre (x 0..1 against -1..3) and their depths
+     * differ less than that, so the top level splits them on x and a ray that crosses both
+     * (rightwards) gets the hidden one as its first candidate: it is diced. (A hidden patch
+     * that came second would never be: the first candidate's hit culls it, trace.c.) */
     FILE *f = fopen(path("hidden.rib"), "w");
     assert_non_null(f);
     fputs("Format 96 96 1\nProjection \"perspective\" \"fov\" [40]\n"
           "LightSource \"distantlight\" 1 \"from\" [0 0 0] \"to\" [0 0 1]\n"
           "Translate 0 0 4\nWorldBegin\n"
-          "Patch \"bilinear\" \"P\" [-1 -1 0  1 -1 0  -1 1 0  1 1 0]\n"
-          "Patch \"bilinear\" \"P\" [-0.8 -0.8 2  0.8 -0.8 2  -0.8 0.8 2  0.8 0.8 2]\n"
+          "Patch \"bilinear\" \"P\" [-1 -1 0  3 -1 0  -1 1 0  3 1 0]\n"
+          "Patch \"bilinear\" \"P\" [0 -0.8 0.2  1 -0.8 0.2  0 0.8 0.2  1 0.8 0.2]\n"
           "WorldEnd\n",
           f);
     fclose(f);
@@ -304,6 +340,7 @@ int main(void)
         cmocka_unit_test(test_memory_budget_does_not_change_the_image),
         cmocka_unit_test(test_sort_by_copy_matches_mapped_sort),
         cmocka_unit_test(test_patch_cache_dices_once_and_changes_no_bit),
+        cmocka_unit_test(test_arenas_grow_to_the_frames_patches),
         cmocka_unit_test(test_hidden_patch_is_diced_coarser_under_the_seen_rules),
         cmocka_unit_test(test_ten_billion_potential_micropolygons_in_fixed_memory),
         cmocka_unit_test(test_motion_blur_is_the_time_average),

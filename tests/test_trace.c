@@ -121,15 +121,18 @@ static void test_budget_does_not_change_hits(void **state)
     ts_scene s;
     load_teapot(&s);
     static traced a, b;
-    ts_pipeline_plan roomy = {.ray_capacity = W * H, .pair_capacity = W * H * 8};
+    /* Roomy: 8 candidates per ray from the first iteration on (Hanika's N = capacity / R);
+     * tight: one at first and doubling, as by default (trace.c pairs_per_ray). */
+    ts_pipeline_plan roomy = {.ray_capacity = W * H, .pair_capacity = W * H * 8, .first_n = 8};
     ts_pipeline_plan tight = {.ray_capacity = W * H, .pair_capacity = W * H};
     pipeline_plan_arenas(&roomy, 32, M);
     pipeline_plan_arenas(&tight, 1, M); /* one moving patch's room: two static patches a batch */
     trace_teapot(&cl, &s, &roomy, &a);
     trace_teapot(&cl, &s, &tight, &b);
     assert_memory_equal(a.hit, b.hit, sizeof a.hit);
-    /* N = 1 at first forces more iterations; the log records R and N for each. */
+    /* Fewer candidates per ray need more iterations; the log records R and N for each. */
     assert_true(b.stats.counters[TS_COUNTER_iterations] > a.stats.counters[TS_COUNTER_iterations]);
+    assert_int_equal(a.stats.iterations[0].n_per_ray, 8);
     assert_int_equal(b.stats.iterations[0].n_per_ray, 1);
     assert_int_equal(b.stats.iterations[0].active_rays, W * H);
     for (uint32_t i = 1; i < b.stats.iteration_count; ++i)

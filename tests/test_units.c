@@ -1,10 +1,15 @@
-/* test_units.c — the units of a render on several devices (host/app/units.c), host only:
- * merging units in order gives the sums kernels/film.cl makes (a C copy of its loop, wave by
- * wave) bit for bit, whatever the unit size and whatever order threads finish them in, with
- * units given back and taken again; the window bounds what waits for the merge; a closed
- * board hands out nothing; units_plan's sizes. The radiance values span 12 orders of
+/* test_units.c — the units of a render on several devices (host/app/units.c, done.c) and
+ * the frame's sample order (kernels/lib/sample_order.h), host only: the order visits every
+ * (pixel, sample) once, in sample order per pixel, for bands of any size; merging units
+ * gives the sums kernels/film.cl makes (a C copy of its loop, wave by wave) and a plain
+ * per-pixel sum in sample order, bit for bit, whatever the unit size and the bands; the
+ * board's units (one a band, none sharing a pixel) merged as threads finish them, in any
+ * order, given back and taken again, from an empty film, a prefix or runs past a gap, give
+ * the same bits and record the runs the film holds; take, give back, close, freeze;
+ * units_plan's and sample_order_band's sizes. The radiance values span 12 orders of
  * magnitude, so any other order of the additions changes bits (asserted too). */
 #include "app/units.h"
+#include "lib/sample_order.h"
 
 #include <setjmp.h>
 #include <stdarg.h>
@@ -22,7 +27,25 @@
 #define SPP 9
 #define TOTAL ((uint64_t)P * SPP)
 
+/* Sample s of pixel p: radiance[s * P + p] (and its AOVs), whatever the order. */
 static ts_vec4 radiance[TOTAL], aov[TOTAL], albedo[TOTAL];
+
+/* Bands the tests try: one (pass after pass), one row, three rows, rows that do not divide
+ * the image, and a band of part of a row. */
+static const uint32_t bands[] = {0, W, 3 * W, 4 * W, 5};
+
+static ts_sample_order order_of(uint32_t band)
+{
+    return (ts_sample_order){P, SPP, band};
+}
+
+/* The index into radiance[] of the order's k-th sample. */
+static uint64_t value_at(const ts_sample_order *o, uint64_t k)
+{
+    uint32_t p, s;
+    sample_order_at((uint32_t)k, o->pixels, o->spp, o->band, &p, &s);
+    return (uint64_t)s * P + p;
+}
 
 static uint64_t rng_next(uint64_t *state)
 {
@@ -60,27 +83,90 @@ static void film_alloc(ts_film_state *f)
     assert_int_equal(film_state_alloc(f, P, &err), TS_OK);
 }
 
-/* kernels/film.cl's loop in C: waves of `wave` samples from `start` on, each pixel's
- * samples added in order. */
-static void film_reference(ts_film_state *f, uint64_t start, uint64_t wave)
+/* Each pixel's samples added in sample order, AOVs from sample 0: what every order, wave
+ * size and unit size must give. */
+static void film_plain(ts_film_state *f)
+{
+    for (uint32_t p = 0; p < P; ++p) {
+        ts_vec4 acc = {0, 0, 0, 0};
+        for (uint32_t s = 0; s < SPP; ++s) {
+            ts_vec4 r = radiance[(uint64_t)s * P + p];
+            acc.x += r.x;
+            acc.y += r.y;
+            acc.z += r.z;
+            acc.w += 1.0f;
+        }
+        f->accum[p] = acc, f->aov[p] = aov[p], f->albedo[p] = albedo[p];
+    }
+}
+
+/* kernels/film.cl's loop in C: waves of `wave` samples of the order o from `start` on, each
+ * pixel's samples in the wave added in order. */
+static void film_reference(ts_film_state *f, const ts_sample_order *o, uint64_t start,
+                           uint64_t wave)
 {
     for (uint64_t first = start; first < TOTAL; first += wave) {
         uint64_t last = first + wave < TOTAL ? first + wave : TOTAL;
         for (uint32_t p = 0; p < P; ++p) {
-            uint64_t s = first / P;
-            if (s * P + p < first) ++s;
+            uint32_t k0 = sample_order_index(p, 0, P, SPP, o->band);
+            uint32_t n = sample_order_index(p, 1, P, SPP, o->band) - k0;
+            uint32_t s = sample_order_count(p, (uint32_t)first, P, SPP, o->band);
             ts_vec4 acc = f->accum[p];
-            for (uint64_t g = s * P + p; g < last; g += P) {
-                ts_vec4 r = radiance[g];
+            for (uint64_t k = k0 + (uint64_t)s * n; s < SPP && k < last; ++s, k += n) {
+                ts_vec4 r = radiance[value_at(o, k)];
                 acc.x += r.x;
                 acc.y += r.y;
                 acc.z += r.z;
                 acc.w += 1.0f;
-                if (g < P) f->aov[p] = aov[g], f->albedo[p] = albedo[g];
+                if (s == 0) f->aov[p] = aov[value_at(o, k)], f->albedo[p] = albedo[value_at(o, k)];
             }
             f->accum[p] = acc;
         }
     }
+}
+
+/* The order visits every (pixel, sample) once, each pixel's samples in increasing order;
+ * sample_order_index inverts sample_order_at and sample_order_count counts a prefix; the
+ * runs of samples 0 are exactly the samples 0. */
+static void test_sample_order_is_a_permutation(void **state)
+{
+    (void)state;
+    static uint8_t seen[TOTAL];
+    for (size_t b = 0; b < sizeof bands / sizeof *bands; ++b) {
+        ts_sample_order o = order_of(bands[b]);
+        memset(seen, 0, sizeof seen);
+        uint32_t last[P];
+        for (uint32_t p = 0; p < P; ++p)
+            last[p] = UINT32_MAX;
+        uint32_t counts[P] = {0};
+        uint64_t zeros = 0;
+        for (uint32_t k = 0; k < TOTAL; ++k) {
+            uint32_t p, s;
+            sample_order_at(k, P, SPP, o.band, &p, &s);
+            assert_true(p < P && s < SPP);
+            assert_int_equal(seen[(uint64_t)s * P + p]++, 0);
+            assert_true(last[p] == UINT32_MAX ? s == 0 : s == last[p] + 1);
+            last[p] = s;
+            assert_int_equal(sample_order_index(p, s, P, SPP, o.band), k);
+            counts[p]++;
+            zeros += s == 0;
+            assert_int_equal(sample_order_zero_count(&o, k, 1), s == 0);
+            if (k % 13 == 0) /* the prefix [0, k + 1) */
+                for (uint32_t q = 0; q < P; ++q)
+                    assert_int_equal(sample_order_count(q, k + 1, P, SPP, o.band), counts[q]);
+        }
+        assert_int_equal(zeros, P);
+        assert_int_equal(sample_order_zero_count(&o, 0, TOTAL), P);
+        assert_int_equal(sample_order_zero_count(&o, 17, TOTAL - 40),
+                         sample_order_zero_count(&o, 0, TOTAL) -
+                             sample_order_zero_count(&o, 0, 17) -
+                             sample_order_zero_count(&o, TOTAL - 23, 23));
+    }
+    /* Bands from a sample budget: whole rows, one band when they would hold the image. */
+    assert_int_equal(sample_order_band(W, H, SPP, (uint64_t)W * SPP * 3 + 5), 3 * W);
+    assert_int_equal(sample_order_band(W, H, SPP, 1), W);
+    assert_int_equal(sample_order_band(W, H, SPP, TOTAL), 0);
+    assert_int_equal(sample_order_band(W, H, SPP, TOTAL - 1), (H - 1) * W);
 }
 
 static void assert_same_films(const ts_film_state *a, const ts_film_state *b)
@@ -90,61 +176,76 @@ static void assert_same_films(const ts_film_state *a, const ts_film_state *b)
     assert_memory_equal(a->albedo, b->albedo, P * sizeof(ts_vec4));
 }
 
-/* A unit's result as a device hands it back: its samples' radiance and pass-0 AOVs. */
-static void trace(const ts_unit *u, ts_unit_result *r)
+/* A unit's result as a device hands it back: its samples' radiance and the AOVs of the
+ * samples 0 among them. */
+static void trace(const ts_sample_order *o, const ts_unit *u, ts_unit_result *r)
 {
     ts_error err = {0};
-    assert_int_equal(unit_result_alloc(r, u, P, &err), TS_OK);
-    memcpy(r->radiance, &radiance[u->first], u->count * sizeof(ts_vec4));
-    if (r->aov_count) {
-        memcpy(r->aov, &aov[u->first], r->aov_count * sizeof(ts_vec4));
-        memcpy(r->albedo, &albedo[u->first], r->aov_count * sizeof(ts_vec4));
+    assert_int_equal(unit_result_alloc(r, u, o, &err), TS_OK);
+    uint64_t j = 0;
+    for (uint64_t k = 0; k < u->count; ++k) {
+        uint64_t v = value_at(o, u->first + k);
+        r->radiance[k] = radiance[v];
+        if (v < P) { /* sample 0 */
+            assert_true(j < r->aov_count);
+            r->aov[j] = aov[v], r->albedo[j] = albedo[v], ++j;
+        }
     }
+    assert_int_equal(j, r->aov_count);
     r->rays = u->count;
 }
 
-/* Units of every size, merged in order, give film.cl's sums for any wave size. */
+/* Units of every size, merged in order, give film.cl's sums for any wave size and any
+ * bands, and those are the plain per-pixel sums. */
 static void test_merge_in_order_is_the_film(void **state)
 {
     (void)state;
-    ts_film_state ref, f;
-    film_alloc(&ref);
-    film_reference(&ref, 0, 1000);
-    const uint64_t sizes[] = {1, 7, P - 1, P, P + 5, 3 * P, TOTAL};
-    for (size_t k = 0; k < sizeof sizes / sizeof *sizes; ++k) {
-        film_alloc(&f);
-        for (uint64_t first = 0, i = 0; first < TOTAL; first += sizes[k], ++i) {
-            ts_unit u = {(uint32_t)i, 0, first,
-                         TOTAL - first < sizes[k] ? TOTAL - first : sizes[k]};
-            ts_unit_result r;
-            trace(&u, &r);
-            units_merge(&f, P, &u, &r);
-            unit_result_free(&r);
+    ts_film_state plain, ref, f;
+    film_alloc(&plain);
+    film_plain(&plain);
+    for (size_t b = 0; b < sizeof bands / sizeof *bands; ++b) {
+        ts_sample_order o = order_of(bands[b]);
+        const uint64_t waves[] = {1, 64, 1000, TOTAL};
+        for (size_t w = 0; w < sizeof waves / sizeof *waves; ++w) {
+            film_alloc(&ref);
+            film_reference(&ref, &o, 0, waves[w]);
+            assert_same_films(&plain, &ref);
+            film_state_free(&ref);
         }
-        assert_same_films(&ref, &f);
-        film_state_free(&f);
+        const uint64_t sizes[] = {1, 7, P - 1, P, P + 5, 3 * P, TOTAL};
+        for (size_t k = 0; k < sizeof sizes / sizeof *sizes; ++k) {
+            film_alloc(&f);
+            for (uint64_t first = 0, i = 0; first < TOTAL; first += sizes[k], ++i) {
+                ts_unit u = {(uint32_t)i, 0, first,
+                             TOTAL - first < sizes[k] ? TOTAL - first : sizes[k]};
+                ts_unit_result r;
+                trace(&o, &u, &r);
+                units_merge(&f, &o, &u, &r);
+                unit_result_free(&r);
+            }
+            assert_same_films(&plain, &f);
+            film_state_free(&f);
+        }
     }
     /* Another order of the same additions (odd passes summed apart, then added) differs:
      * the values are such that order shows. */
-    film_alloc(&f);
     size_t differ = 0;
     for (uint32_t p = 0; p < P; ++p) {
         float even = 0.0f, odd = 0.0f;
         for (uint32_t s = 0; s < SPP; ++s)
             *(s % 2 ? &odd : &even) += radiance[(uint64_t)s * P + p].x;
-        differ += even + odd != ref.accum[p].x;
+        differ += even + odd != plain.accum[p].x;
     }
     assert_true(differ > P / 10);
-    film_state_free(&f);
-    film_state_free(&ref);
+    film_state_free(&plain);
 }
 
 /* Threads that take units, finish them in random order and sometimes give them back. */
 typedef struct taker {
     ts_board *b;
+    const ts_sample_order *o;
     uint64_t seed;
     uint32_t units, given_back;
-    uint32_t max_ahead; /* the most units out beyond the merged ones, as seen */
 } taker;
 
 static void *taker_main(void *arg)
@@ -152,10 +253,6 @@ static void *taker_main(void *arg)
     taker *t = arg;
     ts_unit u;
     while (board_take(t->b, &u)) {
-        pthread_mutex_lock(&t->b->lock);
-        uint32_t ahead = t->b->next - t->b->merged;
-        pthread_mutex_unlock(&t->b->lock);
-        if (ahead > t->max_ahead) t->max_ahead = ahead;
         uint64_t r = rng_next(&t->seed);
         nanosleep(&(struct timespec){0, (long)(r % 200000)}, NULL);
         if (r % 7 == 0) {
@@ -164,93 +261,173 @@ static void *taker_main(void *arg)
             continue;
         }
         ts_unit_result res;
-        trace(&u, &res);
+        trace(t->o, &u, &res);
         board_done(t->b, &u, &res);
         t->units++;
     }
     return NULL;
 }
 
-/* Four threads sharing a board from a resumed start: the films are film.cl's, every unit is
- * merged once, the window holds. */
-static void test_board_merges_out_of_order_finishes(void **state)
+/* The film holding `held` (each run merged as a unit would be). */
+static void film_holding(ts_film_state *f, const ts_sample_order *o, const ts_done *held)
 {
-    (void)state;
-    const uint64_t start = 2 * P + 13; /* a resumed render: the films hold [0, start) */
-    ts_film_state ref, f;
-    film_alloc(&ref);
-    film_reference(&ref, 0, 500);
-    film_alloc(&f);
-    for (uint64_t g = 0; g < start; ++g) {
-        ts_unit u = {0, 0, g, 1};
+    film_alloc(f);
+    for (uint32_t i = 0; i < held->count; ++i) {
+        ts_unit u = {0, 0, held->r[i].first, held->r[i].end - held->r[i].first};
         ts_unit_result r;
-        trace(&u, &r);
-        units_merge(&f, P, &u, &r);
+        trace(o, &u, &r);
+        units_merge(f, o, &u, &r);
         unit_result_free(&r);
     }
-    ts_board b;
+}
+
+/* The units of what a film lacks: one a band, each inside its band, no two with a pixel in
+ * common, together exactly the samples not held. */
+static void assert_units_partition(const ts_sample_order *o, const ts_done *held)
+{
+    ts_unit *u;
+    uint32_t n;
     ts_error err = {0};
-    assert_int_equal(board_init(&b, &f, P, start, TOTAL, 29, 5, &err), TS_OK);
-    taker t[4];
-    pthread_t th[4];
-    for (int i = 0; i < 4; ++i) {
-        t[i] = (taker){&b, 1000u + (uint64_t)i, 0, 0, 0};
-        assert_int_equal(pthread_create(&th[i], NULL, taker_main, &t[i]), 0);
+    assert_int_equal(units_list(o, TOTAL, held, &u, &n, &err), TS_OK);
+    static uint8_t covered[TOTAL], owner_set[P];
+    static uint32_t owner[P];
+    memset(covered, 0, sizeof covered);
+    memset(owner_set, 0, sizeof owner_set);
+    for (uint32_t i = 0; i < held->count; ++i)
+        for (uint64_t k = held->r[i].first; k < held->r[i].end; ++k)
+            covered[k] = 1;
+    for (uint32_t i = 0; i < n; ++i) {
+        assert_int_equal(u[i].index, i);
+        for (uint64_t k = u[i].first; k < u[i].first + u[i].count; ++k) {
+            assert_int_equal(covered[k]++, 0);
+            uint32_t p, smp;
+            sample_order_at((uint32_t)k, P, SPP, o->band, &p, &smp);
+            if (owner_set[p]) assert_int_equal(owner[p], i); /* no pixel in two units */
+            owner_set[p] = 1, owner[p] = i;
+        }
     }
-    uint32_t units = 0, given_back = 0;
-    for (int i = 0; i < 4; ++i) {
-        pthread_join(th[i], NULL);
-        units += t[i].units, given_back += t[i].given_back;
-        assert_true(t[i].max_ahead <= 5);
+    for (uint64_t k = 0; k < TOTAL; ++k)
+        assert_int_equal(covered[k], 1);
+    free(u);
+}
+
+/* Four threads sharing a board: units merged as they finish, in any order, give the plain
+ * sums bit for bit, from a film that held nothing, a prefix ending inside a band, or a
+ * prefix and two later bands (what an interrupted several-device render leaves); every
+ * unit is merged once and the board records what the film holds. */
+static void test_board_merges_in_any_order(void **state)
+{
+    (void)state;
+    ts_film_state ref, f;
+    film_alloc(&ref);
+    film_plain(&ref);
+    for (uint32_t band = 0; band <= 3 * W; band += 3 * W) {
+        ts_sample_order o = order_of(band);
+        uint64_t span = (band ? band : P) * (uint64_t)SPP;
+        for (int start = 0; start < 3; ++start) {
+            ts_done held = {0};
+            ts_error err = {0};
+            if (start >= 1) assert_int_equal(done_add(&held, 0, span / 2 + 13, &err), TS_OK);
+            if (start == 2 && band) {
+                assert_int_equal(done_add(&held, 2 * span, 3 * span, &err), TS_OK);
+                assert_int_equal(done_add(&held, 3 * span, 3 * span + 40, &err), TS_OK);
+            }
+            assert_units_partition(&o, &held);
+            film_holding(&f, &o, &held);
+            ts_board b;
+            assert_int_equal(board_init(&b, &f, &o, TOTAL, &held, &err), TS_OK);
+            assert_int_equal(b.start, done_samples(&held));
+            taker t[4];
+            pthread_t th[4];
+            for (int i = 0; i < 4; ++i) {
+                t[i] = (taker){&b, &o, 1000u + (uint64_t)i + band + (uint64_t)start, 0, 0};
+                assert_int_equal(pthread_create(&th[i], NULL, taker_main, &t[i]), 0);
+            }
+            uint32_t units = 0;
+            for (int i = 0; i < 4; ++i) {
+                pthread_join(th[i], NULL);
+                units += t[i].units;
+            }
+            assert_true(board_finished(&b));
+            assert_int_equal(units, b.unit_count);
+            assert_int_equal(board_samples_done(&b), TOTAL);
+            ts_done all = {0};
+            assert_int_equal(board_held(&b, &all, &err), TS_OK);
+            assert_int_equal(all.count, 1);
+            assert_true(all.r[0].first == 0 && all.r[0].end == TOTAL);
+            done_free(&all);
+            assert_same_films(&ref, &f);
+            ts_unit u;
+            assert_int_equal(board_try_take(&b, &u), -1);
+            board_free(&b);
+            film_state_free(&f);
+            done_free(&held);
+        }
     }
-    assert_true(board_finished(&b));
-    assert_int_equal(units, b.unit_count);
-    assert_int_equal(b.unit_count, (TOTAL - start + 28) / 29);
-    assert_true(given_back > 0);
-    assert_int_equal(board_samples_done(&b), TOTAL);
-    assert_int_equal(b.samples_finished, TOTAL - start);
-    assert_same_films(&ref, &f);
-    ts_unit u;
-    assert_int_equal(board_try_take(&b, &u), -1);
-    board_free(&b);
-    film_state_free(&f);
     film_state_free(&ref);
 }
 
-/* try_take: 0 while the window is full or units are out, -1 when nothing can come; a
- * closed board hands out nothing, but still merges what finishes. */
-static void test_board_window_and_close(void **state)
+/* try_take hands units out in order, a given-back one first, 0 while units are out, -1 when
+ * nothing can come; units merge as they finish, out of order, and the board records the
+ * runs the films hold; a closed board hands out nothing but still merges, a frozen one
+ * merges nothing more. */
+static void test_board_take_give_back_close(void **state)
 {
     (void)state;
     ts_film_state f;
     film_alloc(&f);
     ts_board b;
     ts_error err = {0};
-    assert_int_equal(board_init(&b, &f, P, 0, 10 * 100, 100, 3, &err), TS_OK);
-    ts_unit u[4];
-    for (int i = 0; i < 3; ++i) {
+    ts_sample_order o = order_of(W); /* one row a band: 11 units of W * SPP samples */
+    const uint64_t span = (uint64_t)W * SPP;
+    assert_int_equal(board_init(&b, &f, &o, TOTAL, NULL, &err), TS_OK);
+    assert_int_equal(b.unit_count, H);
+    ts_unit u[H + 1];
+    for (int i = 0; i < H; ++i) {
         assert_int_equal(board_try_take(&b, &u[i]), 1);
         assert_int_equal(u[i].index, (uint32_t)i);
-        assert_int_equal(u[i].first, 100u * (uint64_t)i);
+        assert_int_equal(u[i].first, span * (uint64_t)i);
+        assert_int_equal(u[i].count, span);
     }
-    assert_int_equal(board_try_take(&b, &u[3]), 0); /* the window of 3 is full */
+    assert_int_equal(board_try_take(&b, &u[H]), 0); /* all out */
     ts_unit_result r;
-    trace(&u[1], &r);
-    board_done(&b, &u[1], &r);                      /* waits for unit 0 */
-    assert_int_equal(board_try_take(&b, &u[3]), 0); /* still full: 0 is not merged */
-    assert_int_equal(board_samples_done(&b), 0);
+    trace(&o, &u[1], &r);
+    board_done(&b, &u[1], &r); /* merged at once, before unit 0 */
+    assert_int_equal(board_samples_done(&b), span);
+    ts_done held = {0};
+    assert_int_equal(board_held(&b, &held, &err), TS_OK);
+    assert_true(held.count == 1 && held.r[0].first == span && held.r[0].end == 2 * span);
+    done_free(&held);
     board_give_back(&b, &u[0]);
-    assert_int_equal(board_try_take(&b, &u[3]), 1);
-    assert_int_equal(u[3].index, 0); /* the given-back unit first */
-    trace(&u[3], &r);
-    board_done(&b, &u[3], &r);
-    assert_int_equal(board_samples_done(&b), 200); /* units 0 and 1 merged */
+    assert_int_equal(board_try_take(&b, &u[H]), 1);
+    assert_int_equal(u[H].index, 0); /* the given-back unit first */
+    trace(&o, &u[H], &r);
+    board_done(&b, &u[H], &r);
+    assert_int_equal(board_samples_done(&b), 2 * span);
     board_close(&b);
     assert_int_equal(board_try_take(&b, &u[0]), -1);
     assert_int_equal(board_take(&b, &u[0]), 0);
-    trace(&u[2], &r);
-    board_done(&b, &u[2], &r); /* a unit out when the board closed */
-    assert_int_equal(board_samples_done(&b), 300);
+    trace(&o, &u[5], &r);
+    board_done(&b, &u[5], &r); /* a unit out when the board closed */
+    assert_int_equal(board_samples_done(&b), 3 * span);
+    assert_int_equal(board_held(&b, &held, &err), TS_OK);
+    assert_int_equal(held.count, 2);
+    assert_true(held.r[1].first == 5 * span && held.r[1].end == 6 * span);
+    char text[128];
+    assert_true(done_format(&held, text, sizeof text));
+    ts_done back = {0};
+    assert_int_equal(done_parse(text, &o, TOTAL, &back, &err), TS_OK);
+    assert_int_equal(back.count, 2);
+    assert_int_equal(done_samples(&back), 3 * span);
+    /* A run starting inside a band is no such file's. */
+    done_free(&back);
+    assert_int_equal(done_parse("0-10 40-50", &o, TOTAL, &back, &err), TS_E_USAGE);
+    ts_error_clear(&err);
+    done_free(&held);
+    board_freeze(&b);
+    trace(&o, &u[7], &r);
+    board_done(&b, &u[7], &r); /* dropped */
+    assert_int_equal(board_samples_done(&b), 3 * span);
     assert_false(board_finished(&b));
     board_free(&b);
     film_state_free(&f);
@@ -260,22 +437,16 @@ static void test_units_plan(void **state)
 {
     (void)state;
     uint64_t u;
-    uint32_t w;
-    units_plan(640 * 360 * 16, 2, &u, &w);
+    units_plan(640 * 360 * 16, 2, &u);
     assert_int_equal(u, 230400); /* 3686400 / 16, a multiple of 64 */
-    assert_int_equal(w, 8);
-    units_plan(1000, 2, &u, &w);
+    units_plan(1000, 2, &u);
     assert_int_equal(u, 4096);
-    units_plan((uint64_t)1 << 32, 1, &u, &w);
+    units_plan((uint64_t)1 << 32, 1, &u);
     assert_int_equal(u, 1u << 20);
-    assert_int_equal(w, 8);
-    units_plan((uint64_t)1 << 32, 8, &u, &w);
-    assert_int_equal(w, 16); /* 32 would hold 512 MB of results: 256 MB of them */
-    units_plan(1 << 24, 3, &u, &w);
+    units_plan(1 << 24, 3, &u);
     assert_int_equal(u % 64, 0);
-    assert_int_equal(w, 12);
     setenv("TESSERA_UNIT_SAMPLES", "77", 1);
-    units_plan(1 << 24, 3, &u, &w);
+    units_plan(1 << 24, 3, &u);
     unsetenv("TESSERA_UNIT_SAMPLES");
     assert_int_equal(u, 77);
 }
@@ -283,9 +454,10 @@ static void test_units_plan(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_sample_order_is_a_permutation),
         cmocka_unit_test(test_merge_in_order_is_the_film),
-        cmocka_unit_test(test_board_merges_out_of_order_finishes),
-        cmocka_unit_test(test_board_window_and_close),
+        cmocka_unit_test(test_board_merges_in_any_order),
+        cmocka_unit_test(test_board_take_give_back_close),
         cmocka_unit_test(test_units_plan),
     };
     return cmocka_run_group_tests(tests, setup, NULL);

@@ -3,9 +3,12 @@
  *
  * reordering: Tessera's wavefront loop (host/pipeline/trace.c) traces the frame's eye rays in waves
  *   of the plan's ray capacity (--memory; `tessera render` makes its waves half that, as
- *   each path also owns a shadow-ray slot); the count is its `patches_diced` counter. The
+ *   each path also owns a shadow-ray slot), in its sample order (bands of rows of about a
+ *   wave, kernels/lib/sample_order.h); the count is its `patches_diced` counter. The
  *   lod stage first sets each patch's m from the frame's ray counts (4^m >= R / spp), as
- *   `tessera render` does.
+ *   `tessera render` does; without --memory the arenas then grow to the frame's patches
+ *   where the machine has room, as `tessera render`'s default budget does
+ *   (budget_grow_arenas), and with --memory they stay a quarter of it.
  * cache C (10, 100, 1000 diced patches, LRU): the same rays (read back from the device) are
  *   traced one at a time in the original order — scanline order of pixels, each pixel's
  *   samples in turn — by a plain-C tracer: exact front-to-back traversal of the same patch
@@ -39,7 +42,10 @@
 #include "lib/intersect.h"
 #include "lib/quadtree.h"
 #include "pipeline/pipeline.h"
+#include "app/budget.h"
 #include "app/render.h"
+#include "app/units.h"
+#include "lib/sample_order.h"
 #include "scene/rib/rib.h"
 
 #include <cjson/cJSON.h>
@@ -56,6 +62,7 @@ typedef struct bench_options {
     const char *scenes[4];
     int scene_count, width, height, spp, memory_mb, memo_mb;
     int pass_order; /* 0: scanline, each pixel's samples in turn; 1: sample pass by pass */
+    int grow;       /* no --memory: the arenas grow to the frame's patches, as render's do */
 } bench_options;
 
 /* One LRU cache of diced patches: a doubly linked list over `cap` slots, most recent first. */
@@ -69,7 +76,8 @@ typedef struct lru {
 
 typedef struct bench_result {
     const char *scene;
-    uint32_t patches, max_lod, waves;
+    uint32_t patches, max_lod, waves, band_rows;
+    uint64_t arena_bytes; /* the patch arenas after the lod stage (grown, without --memory) */
     uint64_t rays, reorder_dicings, reorder_micropolygons, reorder_iterations, reorder_pairs;
     uint64_t lookups, hits_reorder, hits_cache, hit_t_equal, host_dicings;
     uint64_t t_reorder_nearer, t_cache_nearer; /* both hit, at different distances */
@@ -150,7 +158,7 @@ static int bench_parse(int argc, char **argv, bench_options *o)
         {"json", required_argument, NULL, 'j'},   {"order", required_argument, NULL, 'o'},
         {"help", no_argument, NULL, 'h'},         {NULL, 0, NULL, 0},
     };
-    *o = (bench_options){.size = "small", .memory_mb = 1024, .memo_mb = 2048};
+    *o = (bench_options){.size = "small", .memory_mb = 1024, .memo_mb = 2048, .grow = 1};
     int c, w = 0, h = 0, spp = 0;
     while ((c = getopt_long(argc, argv, "s:S:r:p:m:M:j:o:h", longopts, NULL)) != -1) {
         switch (c) {
@@ -175,6 +183,7 @@ static int bench_parse(int argc, char **argv, bench_options *o)
             break;
         case 'm':
             o->memory_mb = atoi(optarg);
+            o->grow = 0;
             break;
         case 'M':
             o->memo_mb = atoi(optarg);
@@ -258,10 +267,30 @@ static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s,
     double t0 = stats_now();
     uint32_t per = plan.ray_capacity;
     cam.spp = (uint32_t)o->spp;
+    /* The sample order of tessera render: bands of about a wave (kernels/lib/sample_order.h). */
+    cam.band = sample_order_band(cam.width, cam.height, cam.spp, per);
+    ts_sample_order order = sample_order_of(&cam);
+    res->band_rows = cam.band ? cam.band / cam.width : cam.height;
     p.mode = (ts_trace_mode){(uint32_t)o->spp, -1, 0, 0, 0u};
     if (!rc)
         rc =
             pipeline_lod(&p, &cam, TS_LOD_RULE_CROSSED, err); /* the lod stage, as tessera render */
+    /* The default budget's arenas grow to the frame's patches, as tessera render's do. */
+    if (!rc && o->grow) {
+        ts_budget_choice c;
+        ts_memory_room room;
+        ts_memory_room_query(NULL, &room);
+        budget_default(&cl->info, budget_fixed_bytes(s, (uint64_t)o->width * o->height), &room, &c);
+        c.mb = (uint64_t)o->memory_mb;
+        if (c.room_mb < c.mb) c.room_mb = c.mb;
+        budget_grow_arenas(&p, &c, 1, err);
+        rc = err->code;
+    }
+    res->arena_bytes = (uint64_t)p.plan.vert_capacity * sizeof(ts_vec4) +
+                       (uint64_t)p.plan.group_capacity * sizeof(ts_box4);
+    ts_vec4 *org = malloc(per * sizeof *org), *dir = malloc(per * sizeof *dir);
+    ts_hit *hit = malloc(per * sizeof *hit);
+    if (!rc && (!org || !dir || !hit)) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
     res->waves = 0;
     for (uint64_t first = 0; !rc && first < total; first += per, res->waves++) {
         cam.first_sample = (uint32_t)first;
@@ -269,16 +298,24 @@ static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s,
         uint32_t n = cam.ray_count;
         if ((rc = pipeline_camera(&p, &cam, err) || pipeline_trace(&p, n, err))) break;
         cl_command_queue q = cl->queue;
-        cl_int e = clEnqueueReadBuffer(q, p.ray_org, CL_TRUE, 0, n * sizeof(ts_vec4),
-                                       f->org + first, 0, NULL, NULL);
+        cl_int e =
+            clEnqueueReadBuffer(q, p.ray_org, CL_TRUE, 0, n * sizeof(ts_vec4), org, 0, NULL, NULL);
         if (!e)
-            e = clEnqueueReadBuffer(q, p.ray_dir, CL_TRUE, 0, n * sizeof(ts_vec4), f->dir + first,
-                                    0, NULL, NULL);
+            e = clEnqueueReadBuffer(q, p.ray_dir, CL_TRUE, 0, n * sizeof(ts_vec4), dir, 0, NULL,
+                                    NULL);
         if (!e)
-            e = clEnqueueReadBuffer(q, p.ray_hit, CL_TRUE, 0, n * sizeof(ts_hit), f->hit + first, 0,
-                                    NULL, NULL);
+            e = clEnqueueReadBuffer(q, p.ray_hit, CL_TRUE, 0, n * sizeof(ts_hit), hit, 0, NULL,
+                                    NULL);
         if (e) rc = ts_error_set(err, TS_E_DEVICE, "%s reading the rays back", dev_error_name(e));
+        /* f holds the rays by pass index: sample * P + pixel. */
+        for (uint32_t i = 0; !rc && i < n; ++i) {
+            uint32_t px, sample;
+            sample_order_at((uint32_t)first + i, order.pixels, order.spp, order.band, &px, &sample);
+            uint64_t g = (uint64_t)sample * order.pixels + px;
+            f->org[g] = org[i], f->dir[g] = dir[i], f->hit[g] = hit[i];
+        }
     }
+    free(org), free(dir), free(hit);
     res->reorder_seconds = stats_now() - t0;
     if (!rc) {
         memcpy(f->lod, p.patch_lod, s->patch_count);
@@ -503,11 +540,13 @@ static int bench_check(bench_result *r)
 
 static void bench_print(const bench_options *o, const bench_result *r)
 {
-    printf("%s: %u patches, %dx%d x %d spp = %llu eye rays, --memory %d MB: %u waves, %llu "
-           "iterations, "
-           "max m %u; caches see the rays %s\n",
+    printf("%s: %u patches, %dx%d x %d spp = %llu eye rays, %s %d MB (%llu MB of patch "
+           "arenas): %u waves in bands of %u rows, %llu iterations, max m %u; caches see the "
+           "rays %s\n",
            r->scene, r->patches, o->width, o->height, o->spp, (unsigned long long)r->rays,
-           o->memory_mb, r->waves, (unsigned long long)r->reorder_iterations, r->max_lod,
+           o->grow ? "default budget" : "--memory", o->memory_mb,
+           (unsigned long long)(r->arena_bytes >> 20), r->waves, r->band_rows,
+           (unsigned long long)r->reorder_iterations, r->max_lod,
            o->pass_order ? "sample pass by pass"
                          : "in scanline order, each pixel's samples in turn");
     printf("  %-12s %12s %16s %14s\n", "method", "dicings", "micro-polygons", "vs cache 1000");
@@ -540,6 +579,7 @@ static int bench_json(const bench_options *o, const bench_result *rs, int n, con
     cJSON_AddNumberToObject(root, "height", o->height);
     cJSON_AddNumberToObject(root, "spp", o->spp);
     cJSON_AddNumberToObject(root, "memory_mb", o->memory_mb);
+    cJSON_AddBoolToObject(root, "arenas_grow", o->grow);
     cJSON_AddStringToObject(root, "ray_order", o->pass_order ? "pass" : "pixel");
     cJSON *arr = cJSON_AddArrayToObject(root, "scenes");
     for (int i = 0; i < n; ++i) {
@@ -553,6 +593,8 @@ static int bench_json(const bench_options *o, const bench_result *rs, int n, con
         cJSON_AddNumberToObject(ro, "dicings", (double)r->reorder_dicings);
         cJSON_AddNumberToObject(ro, "micropolygons", (double)r->reorder_micropolygons);
         cJSON_AddNumberToObject(ro, "waves", r->waves);
+        cJSON_AddNumberToObject(ro, "band_rows", r->band_rows);
+        cJSON_AddNumberToObject(ro, "arena_bytes", (double)r->arena_bytes);
         cJSON_AddNumberToObject(ro, "iterations", (double)r->reorder_iterations);
         cJSON_AddNumberToObject(ro, "pairs", (double)r->reorder_pairs);
         cJSON_AddNumberToObject(ro, "hits", (double)r->hits_reorder);

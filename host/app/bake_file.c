@@ -378,3 +378,143 @@ int32_t bake_geometry_hash(const ts_scene *s)
     }
     return (int32_t)(uint32_t)(h ^ (h >> 32));
 }
+
+/* The metadata of a bake for relighting scene s (scene_path): complete, of s's patches and
+ * geometry. */
+static int occlusion_check_meta(const char *path, const ts_bake_meta *m, const ts_scene *s,
+                                const char *scene_path, ts_error *err)
+{
+    if (m->done < m->points)
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: an interrupted bake (%u of %u points baked): finish it with "
+                            "tessera bake --resume before relighting with it",
+                            path, m->done, m->points);
+    if (m->patches != s->patch_count)
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: baked from a scene of %u patches, but %s has %u: bake this "
+                            "scene for --occlusion",
+                            path, m->patches, scene_path, s->patch_count);
+    if (m->geometry != bake_geometry_hash(s))
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: baked from other geometry than %s (tessera:geometry differs: "
+                            "patches, normals or displacement changed): bake this scene for "
+                            "--occlusion",
+                            path, scene_path);
+    return TS_OK;
+}
+
+/* m with (2^m + 1)^2 = count, or -1. */
+static int grid_lod(uint32_t count)
+{
+    for (int m = 0; m <= TS_LOD_LIMIT; ++m) {
+        uint32_t n = (1u << m) + 1u;
+        if (n * n == count) return m;
+    }
+    return -1;
+}
+
+/* Pass 1: each patch's m from its number of points (a pixel whose patch channel is NaN is no
+ * point), and the patch table's first points. */
+static int occlusion_count(const char *path, const ts_image *in, const int *idx, uint32_t nc,
+                           const ts_bake_meta *m, ts_occlusion *o, ts_error *err)
+{
+    uint32_t *count = calloc(m->patches ? m->patches : 1, sizeof *count);
+    if (!count) return ts_error_set(err, TS_E_MEMORY, "out of memory (%s)", path);
+    int rc = TS_OK;
+    size_t pixels = (size_t)in->width * in->height;
+    for (size_t k = 0; !rc && k < pixels; ++k) {
+        float pf = in->pixels[k * in->channels + idx[nc + TS_BAKE_CH_PATCH]];
+        if (isnan(pf)) continue;
+        if (!(pf >= 0.0f && pf < (float)m->patches && pf == floorf(pf)))
+            rc = ts_error_set(err, TS_E_USAGE,
+                              "%s: pixel (%zu, %zu) names patch %g, not one of the %u baked", path,
+                              k % (size_t)in->width, k / (size_t)in->width, pf, m->patches);
+        else
+            ++count[(uint32_t)pf];
+    }
+    uint32_t first = 0;
+    for (uint32_t p = 0; !rc && p < m->patches; ++p) {
+        int lod = grid_lod(count[p]);
+        if (lod < 0)
+            rc = ts_error_set(err, TS_E_USAGE,
+                              "%s: patch %u has %u points, not the (2^m + 1)^2 of a grid", path, p,
+                              count[p]);
+        o->patch[2 * p] = first, o->patch[2 * p + 1] = (uint32_t)lod;
+        first += count[p];
+    }
+    if (!rc && first != m->points)
+        rc =
+            ts_error_set(err, TS_E_USAGE, "%s: it holds %u points, its tessera:bake_points says %u",
+                         path, first, m->points);
+    free(count);
+    return rc;
+}
+
+/* Pass 2: every point's coefficients into its place, each grid point once, all finite. */
+static int occlusion_fill(const char *path, const ts_image *in, const int *idx, uint32_t nc,
+                          ts_occlusion *o, ts_error *err)
+{
+    uint8_t *seen = calloc(o->point_count ? o->point_count : 1, 1);
+    if (!seen) return ts_error_set(err, TS_E_MEMORY, "out of memory (%s)", path);
+    int rc = TS_OK;
+    size_t pixels = (size_t)in->width * in->height;
+    for (size_t k = 0; !rc && k < pixels; ++k) {
+        const float *px = &in->pixels[k * in->channels];
+        float pf = px[idx[nc + TS_BAKE_CH_PATCH]];
+        if (isnan(pf)) continue;
+        uint32_t p = (uint32_t)pf, m = o->patch[2 * p + 1], n = 1u << m;
+        float x = px[idx[nc + TS_BAKE_CH_U]] * (float)n, y = px[idx[nc + TS_BAKE_CH_V]] * (float)n;
+        uint32_t slot = 0;
+        int ok = x >= 0.0f && y >= 0.0f && x <= (float)n && y <= (float)n && x == floorf(x) &&
+                 y == floorf(y);
+        if (ok) slot = o->patch[2 * p] + (uint32_t)y * (n + 1u) + (uint32_t)x, ok = !seen[slot];
+        for (uint32_t c = 0; ok && c < nc; ++c)
+            ok = isfinite(px[idx[c]]);
+        for (uint32_t c = 0; ok && c < 3; ++c)
+            ok = isfinite(px[idx[nc + TS_BAKE_CH_NX + c]]);
+        if (!ok) {
+            rc = ts_error_set(err, TS_E_USAGE,
+                              "%s: pixel (%zu, %zu) is not a baked vertex of patch %u's grid "
+                              "(u, v, a repeated point or a coefficient that is not finite)",
+                              path, k % (size_t)in->width, k / (size_t)in->width, p);
+            break;
+        }
+        seen[slot] = 1;
+        for (uint32_t c = 0; c < nc; ++c)
+            o->coeffs[(size_t)slot * nc + c] = px[idx[c]];
+        for (uint32_t c = 0; c < 3; ++c)
+            o->normal[(size_t)slot * 3 + c] = px[idx[nc + TS_BAKE_CH_NX + c]];
+    }
+    free(seen);
+    return rc;
+}
+
+int bake_occlusion_load(const char *path, const ts_scene *s, const char *scene_path,
+                        ts_occlusion *out, ts_error *err)
+{
+    memset(out, 0, sizeof *out);
+    ts_image in;
+    ts_bake_meta m;
+    if (read_bake(path, &in, &m, " (--occlusion reads the EXR that tessera bake writes)", err))
+        return err->code;
+    uint32_t nc = (uint32_t)(m.bands * m.bands);
+    int idx[TS_SH_MAX_COEFFS + TS_BAKE_CH_FIXED];
+    int rc = occlusion_check_meta(path, &m, s, scene_path, err);
+    if (!rc) rc = find_channels(path, &in, nc, idx, err);
+    if (!rc) {
+        out->bands = (uint32_t)m.bands;
+        out->cosine = !!(m.flags & TS_BAKE_COSINE);
+        out->patch_count = m.patches;
+        out->point_count = m.points;
+        out->patch = malloc(2 * (size_t)(m.patches ? m.patches : 1) * sizeof *out->patch);
+        out->coeffs = malloc((size_t)(m.points ? m.points : 1) * nc * sizeof *out->coeffs);
+        out->normal = malloc((size_t)(m.points ? m.points : 1) * 3 * sizeof *out->normal);
+        if (!out->patch || !out->coeffs || !out->normal)
+            rc = ts_error_set(err, TS_E_MEMORY, "out of memory (%s)", path);
+    }
+    if (!rc) rc = occlusion_count(path, &in, idx, nc, &m, out, err);
+    if (!rc) rc = occlusion_fill(path, &in, idx, nc, out, err);
+    image_free(&in);
+    if (rc) occlusion_free(out);
+    return rc;
+}

@@ -87,6 +87,15 @@ int bake_image_write(const ts_bake_image *img, const char *path, const ts_bake_m
 int bake_image_resume(ts_bake_image *img, const char *path, const ts_bake_meta *meta,
                       uint32_t *done, ts_error *err);
 
+/* Reads the bake at path for relighting scene s (`render --occlusion`; scene_path names s in
+ * messages): a complete bake (tessera:bake_done = tessera:bake_points) of s's patch count and
+ * geometry (bake_geometry_hash), every patch a full (2^m + 1)^2 grid of points with finite
+ * coefficients and normals, found by their patch, u and v channels (not by the shelf rule). TS_E_IO
+ * when the file cannot be read, TS_E_USAGE naming the file and what does not fit; *out is freed and
+ * zeroed on failure. Free with occlusion_free. */
+int bake_occlusion_load(const char *path, const ts_scene *s, const char *scene_path,
+                        ts_occlusion *out, ts_error *err);
+
 /* A hash of what the bake's visibility depends on in the scene: the patches, their
  * displacement (functions, parameters, transforms, textures) and normals; not materials or
  * lights. */

@@ -1,8 +1,12 @@
 /* budget.c — the default memory budget (budget.h). */
 #include "app/budget.h"
+#include "base/error.h"
 #include "pipeline/qbvh.h"
+#include "pipeline/relight.h"
+#include "lib/sh.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 
 uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count)
 {
@@ -10,7 +14,15 @@ uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count)
                          + sizeof(ts_patch_attr) + sizeof(ts_vec4) /* flatness */ + sizeof(ts_box) +
                          sizeof(ts_qbvh_node) /* at most one node a patch */ + sizeof(ts_segment) +
                          2 * sizeof(uint32_t) /* trees */ + sizeof(uint32_t) /* lod counts */;
-    return 3 * sizeof(ts_vec4) * pixel_count + per_patch * scene->patch_count;
+    const ts_occlusion *o = scene->occlusion; /* --occlusion's points and tables (relight.h) */
+    uint64_t occlusion =
+        o ? (uint64_t)o->point_count * (o->bands * o->bands + 3) * sizeof(float) +
+                (uint64_t)o->patch_count * 2 * sizeof(uint32_t) +
+                (TS_RELIGHT_TABLE_FIRST +
+                 (uint64_t)TS_RELIGHT_TABLE_W * TS_RELIGHT_TABLE_H * TS_SH_MAX_COEFFS) *
+                    sizeof(ts_vec4)
+          : 0;
+    return 3 * sizeof(ts_vec4) * pixel_count + per_patch * scene->patch_count + occlusion;
 }
 
 /* Half of what `total` leaves beside `fixed`, less the texture pool's eighth on top, in MB. */
@@ -23,8 +35,15 @@ static uint64_t half_room_mb(uint64_t total, uint64_t fixed)
 void budget_default(const ts_device_info *dev, uint64_t fixed_bytes, const ts_memory_room *room,
                     ts_budget_choice *out)
 {
-    out->mb = TS_BUDGET_CAP_MB;
-    snprintf(out->why, sizeof out->why, "the default's cap of %u MB", TS_BUDGET_CAP_MB);
+    unsigned cap = TS_BUDGET_CAP_MB;
+    const char *env = getenv("TESSERA_BUDGET_CAP_MB"); /* a testing aid */
+    if (env && *env) {
+        char *end;
+        unsigned long v = strtoul(env, &end, 10);
+        if (!*end && v >= TS_MEMORY_FLOOR_MB && v <= TS_BUDGET_CAP_MB) cap = (unsigned)v;
+    }
+    out->mb = cap;
+    snprintf(out->why, sizeof out->why, "the default's cap of %u MB", cap);
     uint64_t mb = half_room_mb(dev->global_mem, fixed_bytes);
     if (mb < out->mb) {
         out->mb = mb;
@@ -51,4 +70,49 @@ void budget_default(const ts_device_info *dev, uint64_t fixed_bytes, const ts_me
         }
     }
     if (out->mb < TS_MEMORY_FLOOR_MB) out->mb = TS_MEMORY_FLOOR_MB;
+    /* The room beside the cap: the device's and the process's halves (the largest buffer
+     * limits each arena by itself, in budget_grow_arenas). */
+    out->room_mb = half_room_mb(dev->global_mem, fixed_bytes);
+    if (dev->host_unified && room->bytes != UINT64_MAX) {
+        mb = half_room_mb(room->bytes, fixed_bytes);
+        if (mb < out->room_mb) out->room_mb = mb;
+    }
+    if (out->room_mb < out->mb) out->room_mb = out->mb;
+}
+
+uint64_t budget_grow_arenas(ts_pipeline *p, const ts_budget_choice *choice, int quiet,
+                            ts_error *err)
+{
+    uint64_t verts, groups;
+    pipeline_arena_need(p, &verts, &groups);
+    uint64_t have = (uint64_t)p->plan.vert_capacity * sizeof(ts_vec4) +
+                    (uint64_t)p->plan.group_capacity * sizeof(ts_box4);
+    uint64_t need = verts * sizeof(ts_vec4) + groups * sizeof(ts_box4);
+    if (choice->room_mb <= choice->mb || need <= have) return 0;
+    uint64_t extra = (choice->room_mb - choice->mb) << 20;
+    if (need - have > extra) {
+        if (!quiet)
+            ts_print_line("tessera: the frame's patches need %llu MB at their levels of detail, "
+                          "more than the %llu MB there is room for: patches are diced again "
+                          "when they return (--memory sets the budget)",
+                          (unsigned long long)(need >> 20),
+                          (unsigned long long)((have + extra) >> 20));
+        return 0;
+    }
+    if (pipeline_grow_arenas(p, verts, groups, err)) { /* the old arenas are kept */
+        if (!quiet)
+            ts_print_line("tessera: note: the patch cache stays at %llu MB (%s)",
+                          (unsigned long long)(have >> 20), err->msg);
+        ts_error_clear(err);
+        return 0;
+    }
+    uint64_t now = (uint64_t)p->plan.vert_capacity * sizeof(ts_vec4) +
+                   (uint64_t)p->plan.group_capacity * sizeof(ts_box4);
+    if (!quiet)
+        ts_print_line("tessera: the frame's patches need %llu MB at their levels of detail: "
+                      "the patch cache grows from %llu to %llu MB to dice each once "
+                      "(--memory sets the budget)",
+                      (unsigned long long)(need >> 20), (unsigned long long)(have >> 20),
+                      (unsigned long long)(now >> 20));
+    return now - have;
 }

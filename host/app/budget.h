@@ -7,19 +7,24 @@
 
 #include "base/memory.h"
 #include "device/device.h"
+#include "pipeline/pipeline.h"
 #include "scene/scene.h"
 
-/* The default's cap: beyond it waves and the patch cache rarely gain, and memory use stays
- * what renders have always had. */
+/* The default's cap: beyond it waves rarely gain (the patch cache grows past it when the
+ * frame's patches need it, budget_grow_arenas). TESSERA_BUDGET_CAP_MB lowers it (a testing
+ * aid: the image does not depend on it). */
 #define TS_BUDGET_CAP_MB 1024u
 /* The smallest budget: the default never goes below it, and an out-of-memory retry stops
  * there. */
 #define TS_MEMORY_FLOOR_MB 16u
 
 typedef struct ts_budget_choice {
-    uint64_t mb;   /* the budget for rays, candidates and patch slots, in MB */
-    char why[192]; /* what set it, for the progress header: "--memory", "the default's cap
-                      of 1024 MB", "RLIMIT_AS: 612 MB of 1000 MB left", ... */
+    uint64_t mb;      /* the budget for rays, candidates and patch slots, in MB */
+    uint64_t room_mb; /* what the device and the process's limits allow, the cap aside: how
+                         far the patch cache may grow to hold the frame's patches
+                         (budget_grow_arenas); mb with --memory */
+    char why[192];    /* what set it, for the progress header: "--memory", "the default's cap
+                         of 1024 MB", "RLIMIT_AS: 612 MB of 1000 MB left", ... */
 } ts_budget_choice;
 
 /* Bytes the device holds for a render beside the budget: the three films (16 bytes a pixel
@@ -37,5 +42,15 @@ uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count);
  * TS_MEMORY_FLOOR_MB. */
 void budget_default(const ts_device_info *dev, uint64_t fixed_bytes, const ts_memory_room *room,
                     ts_budget_choice *out);
+
+/* Dice once when it fits (issue 13): after the lod stage, when the frame's patches at their
+ * levels of detail (pipeline_arena_need) need more than the arenas a default budget gave,
+ * the arenas grow to hold them all, as far as choice->room_mb allows beside the rest of the
+ * budget, so that each patch is diced once per frame instead of again in every wave. With
+ * --memory (choice->room_mb == choice->mb) nothing changes. The image does not depend on
+ * it. Returns the arena bytes added (0: none), after a note on stderr unless quiet;
+ * TS_E_* in *err only when the pipeline is left unusable. */
+uint64_t budget_grow_arenas(ts_pipeline *p, const ts_budget_choice *choice, int quiet,
+                            ts_error *err);
 
 #endif

@@ -70,7 +70,8 @@ enum {
     OPT_HELP,
     OPT_RESUME,
     OPT_FRAME,
-    OPT_MPI_SCENE
+    OPT_MPI_SCENE,
+    OPT_OCCLUSION
 };
 
 static const struct option render_long_options[] = {
@@ -95,6 +96,7 @@ static const struct option render_long_options[] = {
     {"resume", no_argument, 0, OPT_RESUME},
     {"frame", required_argument, 0, OPT_FRAME},
     {"mpi-scene", required_argument, 0, OPT_MPI_SCENE},
+    {"occlusion", required_argument, 0, OPT_OCCLUSION},
     {0, 0, 0, 0},
 };
 
@@ -155,6 +157,9 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
     case OPT_MPI_SCENE:
         o->mpi_scene_load = strcmp(arg, "load") == 0;
         return strcmp(arg, "load") != 0 && strcmp(arg, "broadcast") != 0;
+    case OPT_OCCLUSION:
+        o->occlusion_path = arg;
+        return 0;
     case OPT_KERNEL_DIR:
         o->cl.kernel_dir = arg;
         return 0;

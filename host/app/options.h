@@ -21,10 +21,12 @@ typedef struct ts_render_options {
     int leaf_size;  /* leaves of leaf_size x leaf_size micro-quads: 1, 2 or 4 */
     int memory_mb;  /* budget for rays, pairs and patch slots; 0: budget_default */
     int quiet;
-    int resume;         /* 1: continue the partial EXR at output_path (--resume) */
-    int frame;          /* the RIB frame to render (FrameBegin number); -1: the first */
-    int mpi_scene_load; /* --mpi-scene load: every MPI rank loads the scene files; 0
-                           (broadcast): rank 0 sends the scene it loaded (app/ranks.h) */
+    int resume;                 /* 1: continue the partial EXR at output_path (--resume) */
+    int frame;                  /* the RIB frame to render (FrameBegin number); -1: the first */
+    const char *occlusion_path; /* --occlusion: relight with this bake (docs/bake.md); NULL:
+                                   none */
+    int mpi_scene_load;         /* --mpi-scene load: every MPI rank loads the scene files; 0
+                                   (broadcast): rank 0 sends the scene it loaded (app/ranks.h) */
     ts_device_options cl;
 } ts_render_options;
 

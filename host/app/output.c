@@ -61,6 +61,15 @@ static int output_check_input(const char *output_path, const char *stats_path, c
 
 int output_check_inputs(const ts_render_options *o, const ts_scene *scene, ts_error *err)
 {
+    const char *occ = o->occlusion_path;
+    if (occ && ts_file_same(o->output_path, occ))
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: -o names the --occlusion file (it would be overwritten)",
+                            o->output_path);
+    if (occ && o->stats_path && ts_file_same(o->stats_path, occ))
+        return ts_error_set(err, TS_E_USAGE,
+                            "%s: --stats names the --occlusion file (it would be overwritten)",
+                            o->stats_path);
     return output_check_inputs_paths(o->output_path, o->stats_path, scene, err);
 }
 
@@ -135,8 +144,21 @@ int output_write(const ts_render_options *o, const ts_film_state *films, const t
             {ts_exr_meta_keys[TS_EXR_META_samples_done], (int)(uint32_t)job->samples_done},
             {ts_exr_meta_keys[TS_EXR_META_seed], (int)o->seed},
             {ts_exr_meta_keys[TS_EXR_META_job], job->hash},
-            {ts_exr_meta_keys[TS_EXR_META_lod], job->lod}};
-        rc = image_write_exr(o->output_path, &img, meta, (int)(sizeof meta / sizeof *meta), err);
+            {ts_exr_meta_keys[TS_EXR_META_lod], job->lod},
+            {TS_EXR_META_BAND, (int)job->band}};
+        /* Samples merged past a gap (several devices or ranks stopped): which ones. */
+        char *done = NULL;
+        size_t size = 64 + 48 * (size_t)job->done.count;
+        if (partial && !done_is_prefix(&job->done) && !(done = malloc(size)))
+            rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
+        else if (done && !done_format(&job->done, done, size))
+            rc = ts_error_set(err, TS_E_INTERNAL, "the runs of finished samples do not fit");
+        else {
+            ts_image_text text = {TS_EXR_META_DONE, done};
+            rc = image_write_exr_text(o->output_path, &img, meta, (int)(sizeof meta / sizeof *meta),
+                                      &text, done ? 1 : 0, err);
+        }
+        free(done);
     } else {
         rc = image_write_png(o->output_path, width, height, px, err);
     }

@@ -220,7 +220,7 @@ static int take_result(ranks_peer *p, ts_board *b, const void *data, int bytes, 
     if ((size_t)bytes < sizeof head) return ts_error_set(err, TS_E_INTERNAL, "MPI: a short result");
     memcpy(&head, data, sizeof head);
     ts_unit_result res;
-    if (unit_result_alloc(&res, &head.unit, b->pixel_count, err)) return err->code;
+    if (unit_result_alloc(&res, &head.unit, &b->order, err)) return err->code;
     size_t payload = (size_t)(head.unit.count + 2 * res.aov_count) * sizeof(ts_vec4);
     if (res.aov_count != head.aov_count || (size_t)bytes != sizeof head + payload) {
         unit_result_free(&res);
@@ -358,7 +358,8 @@ int ranks_finish(ts_ranks *r, ts_stats *stats, ts_error *err)
      * answers them. */
     ts_board done;
     memset(&done, 0, sizeof done);
-    if (board_init(&done, NULL, 1, 0, 0, 1, 1, err)) return err->code;
+    ts_sample_order one = {1, 1, 0};
+    if (board_init(&done, NULL, &one, 0, NULL, err)) return err->code;
     int rc = TS_OK;
     while (!rc && ranks_active(r) > 0) {
         rc = serve(r, &done, r->quiet, err);

@@ -2,6 +2,7 @@
  * what --resume finds, open the device, then plan, create and trace the frame in waves of
  * samples (again with half the memory when the device runs out), and write the image. */
 #include "app/render.h"
+#include "app/bake_file.h"
 #include "app/budget.h"
 #include "app/interrupt.h"
 #include "app/output.h"
@@ -88,24 +89,34 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
  * finished samples are written. render_run installs the handlers around the waves, the MPI
  * ranks other than 0 around their render. */
 
-/* Runs the waves: each is a run of global sample indices [first, first + rays), from
- * job->samples_done on. Stops early (job->samples_done < job->total) when a stop signal
- * came. */
+/* Runs the waves: each is a run of the frame's samples [first, first + rays) in its sample
+ * order, from job->samples_done on. After the lod stage the arenas grow to hold the frame's
+ * patches as far as *grow allows (budget_grow_arenas; NULL: they stay). Stops early
+ * (job->samples_done < job->total) when a stop signal came. */
 static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
-                        ts_job *job, ts_error *err)
+                        ts_job *job, const ts_budget_choice *grow, ts_error *err)
 {
     uint64_t total = job->total, start = job->samples_done;
     uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
+    /* Bands of about a wave each, unless the samples already traced (--resume, a retry)
+     * were in an order of their own. */
+    if (!job->has_band) job->band = sample_order_band(cam.width, cam.height, cam.spp, per_wave);
+    job->has_band = 1;
+    cam.band = job->band;
     p->mode = waves_trace_mode(o);
     if (waves_frame_lod(o, p, cam, job, err)) return err->code;
+    if (grow) {
+        p->stats->memory_budget_bytes += budget_grow_arenas(p, grow, o->quiet, err);
+        if (err->code) return err->code;
+    }
     interrupt_install();
     double t0 = stats_now();
     for (uint64_t first = start; first < total; first += per_wave) {
         uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
         cam.first_sample = (uint32_t)first;
         cam.ray_count = n;
-        if (pipeline_camera(p, &cam, err) || waves_trace_paths(o, p, (uint32_t)first, n, err) ||
-            pipeline_film(p, (uint32_t)first, n, err)) {
+        if (pipeline_camera(p, &cam, err) || waves_trace_paths(o, p, &cam, err) ||
+            pipeline_film(p, &cam, err)) {
             if (!o->quiet && first > start) fputc('\n', stderr); /* end the progress line */
             return err->code;
         }
@@ -133,6 +144,7 @@ typedef struct ts_render {
     ts_stats *stats;
     int width, height; /* pixels */
     ts_scene scene;
+    ts_occlusion occlusion; /* --occlusion's bake, attached to scene.occlusion */
     ts_camera_params cam;
     ts_job job;
     /* The host copy of the films: the samples [0, job.samples_done) the device's films lack
@@ -142,14 +154,13 @@ typedef struct ts_render {
      * the frame (workers.h), merging into state (films_on_host). */
     int devices[TS_DEVICE_MAX], device_count;
     int films_on_host;
-    /* Rank 0 of several MPI ranks (NULL: alone): the units' size and window it told them. */
+    /* Rank 0 of several MPI ranks (NULL: alone): the units' size it told them. */
     ts_ranks *ranks;
     /* The image was written when the stop signal came (render_write_early): written is 1,
      * and early holds its error, if any. */
     int written;
     ts_error early;
     uint64_t unit_samples;
-    uint32_t window;
     ts_device cl;
     ts_pipeline pipe;
     /* Set when memory ran out at the smallest budget with samples finished: why. The
@@ -169,9 +180,11 @@ static void render_free(ts_render *r)
     ts_error_clear(&r->early);
     ts_error_clear(&r->stopped);
     film_state_free(&r->state);
+    done_free(&r->job.done);
     pipeline_destroy(&r->pipe);
     dev_close(&r->cl);
     scene_free(&r->scene);
+    occlusion_free(&r->occlusion);
 }
 
 /* The most samples an image may have: the kernels index them (and the film its pixels)
@@ -215,6 +228,29 @@ static int render_load_scene(ts_render *r, ts_error *err)
     return render_check_size(r, res, spp, err);
 }
 
+/* --occlusion: the bake to relight with, checked against the scene and attached to it (so
+ * every device's pipeline uploads it). One process: the MPI ranks would receive the scene
+ * without it. */
+static int render_load_occlusion(ts_render *r, ts_error *err)
+{
+    const ts_render_options *o = &r->opt;
+    if (r->ranks)
+        return ts_error_set(err, TS_E_USAGE,
+                            "--occlusion renders in one process: run it without mpirun "
+                            "(several devices of one process may share it: --device)");
+    if (bake_occlusion_load(o->occlusion_path, &r->scene, o->scene_path, &r->occlusion, err))
+        return err->code;
+    r->scene.occlusion = &r->occlusion;
+    int domes = r->scene.dome.present;
+    for (uint32_t i = 0; i < r->scene.light_count; ++i)
+        domes |= r->scene.lights[i].kind == SCENE_LIGHT_AMBIENT;
+    if (!domes && !o->quiet)
+        ts_print_line("tessera: warning: %s has no domelight or ambientlight: --occlusion "
+                      "changes nothing",
+                      o->scene_path);
+    return TS_OK;
+}
+
 /* The camera kernel's parameters and the job: its width * height * spp samples and the
  * hash that --resume checks. */
 static int render_start_job(ts_render *r, ts_error *err)
@@ -249,6 +285,7 @@ static int render_open_device(ts_render *r, ts_error *err)
 /* The memory budget over the attempts of one render. */
 typedef struct ts_budget {
     uint64_t mb, first_mb; /* this attempt's budget and the first one's, in MB */
+    ts_budget_choice grow; /* how far the arenas may grow; room_mb == mb: they stay */
     uint32_t noted_lod;    /* the finest m the user knows the render dices at */
     ts_error oom;          /* the last out-of-memory error; code 0 before the first */
 } ts_budget;
@@ -289,7 +326,9 @@ static int render_attempt(ts_render *r, ts_budget *b, ts_error *err)
         (r->job.samples_done > 0 && film_state_transfer(&r->pipe, &r->state, 1, err)) ||
         dev_finish(&r->cl, r->stats, err)) /* the buffers' first use */
         return err->code;
-    return render_waves(&r->opt, &r->pipe, r->cam, &r->job, err);
+    b->grow.mb = b->mb;
+    return render_waves(&r->opt, &r->pipe, r->cam, &r->job,
+                        b->grow.room_mb > b->mb ? &b->grow : NULL, err);
 }
 
 /* After an attempt that started at sample `before` ran out of memory: copies the samples it
@@ -329,7 +368,7 @@ static int render_give_up(const ts_render *r, const ts_budget *b, int kept, ts_e
 static void render_choose_budget(const ts_render *r, ts_budget_choice *c)
 {
     if (r->opt.memory_mb > 0) {
-        c->mb = (uint64_t)r->opt.memory_mb;
+        c->mb = c->room_mb = (uint64_t)r->opt.memory_mb;
         snprintf(c->why, sizeof c->why, "--memory");
     } else {
         ts_memory_room room;
@@ -359,7 +398,10 @@ static int render_with_retry(ts_render *r, ts_error *err)
 {
     ts_budget_choice choice;
     render_choose_budget(r, &choice);
-    ts_budget b = {.mb = choice.mb, .first_mb = choice.mb, .noted_lod = (uint32_t)r->opt.max_lod};
+    ts_budget b = {.mb = choice.mb,
+                   .first_mb = choice.mb,
+                   .noted_lod = (uint32_t)r->opt.max_lod,
+                   .grow = choice};
     int rc, kept = 1, gave_up = 0;
     for (;;) {
         uint64_t before = r->job.samples_done;
@@ -383,6 +425,7 @@ static int render_with_retry(ts_render *r, ts_error *err)
                 (unsigned long long)b.mb, b.oom.msg, (unsigned long long)(b.mb / 2));
         pipeline_destroy(&r->pipe);
         b.mb /= 2;
+        b.grow.room_mb = 0; /* memory ran out: the arenas keep the smaller budget's share */
     }
     if (rc && r->job.lod_mismatch && b.oom.code) {
         /* Samples finished before the retry, at levels of detail the smaller budget cannot
@@ -401,6 +444,17 @@ static int render_with_retry(ts_render *r, ts_error *err)
         rc = TS_OK;
     }
     return rc;
+}
+
+/* The frame's sample order (kernels/lib/sample_order.h) for several devices or ranks: bands
+ * of about a unit each, unless the samples already traced (--resume) had an order of their
+ * own. */
+static void render_choose_band(ts_render *r, uint64_t unit_samples)
+{
+    if (!r->job.has_band)
+        r->job.band = sample_order_band(r->cam.width, r->cam.height, r->cam.spp, unit_samples);
+    r->job.has_band = 1;
+    r->cam.band = r->job.band;
 }
 
 /* The devices --device (or TESSERA_DEVICE) names: one (the device of render_open_device),
@@ -444,9 +498,11 @@ static int render_on_devices(ts_render *r, ts_error *err)
                   .budget_share = r->ranks ? (uint32_t)r->ranks->node_ranks : 1u};
     uint64_t start = r->job.samples_done;
     if (r->ranks)
-        f.unit_samples = r->unit_samples, f.window = r->window;
+        f.unit_samples = r->unit_samples;
     else
-        units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples, &f.window);
+        units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples);
+    render_choose_band(r, f.unit_samples);
+    f.cam = r->cam;
     if (!r->opt.quiet && r->ranks)
         ts_print_line(
             "tessera: %dx%d, %d spp on %d ranks (%d devices on rank 0), in units of %llu samples",
@@ -503,8 +559,9 @@ static int render_tell_ranks(ts_render *r, int rc, int up_to_date, ts_error *err
         s.job_hash = r->job.hash;
         s.total = r->job.total, s.start = r->job.samples_done;
         units_plan(s.total - s.start, (uint32_t)(r->ranks->size * r->device_count),
-                   &r->unit_samples, &r->window);
+                   &r->unit_samples);
         s.unit_samples = r->unit_samples;
+        render_choose_band(r, r->unit_samples);
         s.cam = r->cam;
     }
     int told = ranks_start(r->ranks, &s, &r->scene, err);
@@ -560,6 +617,7 @@ int render_run(const ts_render_options *o, ts_ranks *ranks, ts_stats *stats,
     if (!rc) rc = render_load_scene(&r, err);
     if (r.ranks) r.ranks->scene_seconds = stats_now() - t0;
     if (!rc) rc = output_check_inputs(o, &r.scene, err);
+    if (!rc && o->occlusion_path) rc = render_load_occlusion(&r, err);
     if (!rc) rc = render_start_job(&r, err);
     if (!rc && o->resume)
         rc = resume_load(&r.opt, r.width, r.height, &r.job, &r.state, &up_to_date, err);
@@ -567,7 +625,10 @@ int render_run(const ts_render_options *o, ts_ranks *ranks, ts_stats *stats,
 #ifdef TESSERA_HAVE_MPI
     if (r.ranks) rc = render_tell_ranks(&r, rc, up_to_date, err);
 #endif
-    int alone = r.device_count == 1 && !r.ranks;
+    /* One device traces from the first sample the film lacks on: when --resume found an
+     * image whose samples are not such a prefix (units of several devices or ranks merged
+     * past a gap), the units the film lacks go through the board, one device or several. */
+    int alone = r.device_count == 1 && !r.ranks && done_is_prefix(&r.job.done);
     if (!rc && !up_to_date && alone) rc = render_open_device(&r, err);
     /* The host copy of the films (48 bytes a pixel) before the device takes its budget: the
      * retry and the image write need it when memory is scarcest. --resume made it. */

@@ -3,6 +3,7 @@
 #include "app/resume.h"
 #include "base/hash.h"
 #include "image/image.h"
+#include "lib/sample_order.h"
 
 #include <errno.h>
 #include <stddef.h>
@@ -54,11 +55,12 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
         (int32_t)cam->width, (int32_t)cam->height, o->spp,       o->depth, (int32_t)o->seed,
         o->sampling,         o->max_lod,           o->fixed_lod, o->exact};
     h = ts_fnv1a(h, opts, sizeof opts);
-    /* The static camera's bytes as they were before moving cameras (so that files written
-     * then still resume), and the shutter-close vectors of a moving one. */
-    h = ts_fnv1a(h, cam, offsetof(ts_camera_params, origin1));
-    if (cam->moving)
-        h = ts_fnv1a(h, cam->origin1, sizeof *cam - offsetof(ts_camera_params, origin1));
+    ts_camera_params c = *cam; /* the order's bands and the wave do not change the image */
+    c.band = c.first_sample = c.ray_count = 0;
+    /* A static camera's bytes as they were before moving cameras (so that files written then
+     * still resume), and the shutter-close vectors of a moving one. */
+    h = ts_fnv1a(h, &c, offsetof(ts_camera_params, moving));
+    if (c.moving) h = ts_fnv1a(h, &c.moving, sizeof c - offsetof(ts_camera_params, moving));
     h = ts_fnv1a(h, &s->patch_count, sizeof s->patch_count);
     h = ts_fnv1a(h, s->cp, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
     if (s->cp1) h = ts_fnv1a(h, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
@@ -80,7 +82,24 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
     double dome[4] = {s->dome.present, s->dome.intensity, s->dome.color[0], s->dome.color[1]};
     h = ts_fnv1a(h, dome, sizeof dome);
     h = ts_fnv1a(h, &s->dome.color[2], sizeof s->dome.color[2]);
+    const ts_occlusion *occ = s->occlusion; /* --occlusion: the baked coefficients relit with */
+    if (occ) {
+        const uint32_t head[] = {occ->bands, occ->cosine, occ->patch_count, occ->point_count};
+        h = ts_fnv1a(h, head, sizeof head);
+        h = ts_fnv1a(h, occ->patch, 2 * (size_t)occ->patch_count * sizeof *occ->patch);
+        h = ts_fnv1a(h, occ->coeffs,
+                     (size_t)occ->point_count * occ->bands * occ->bands * sizeof *occ->coeffs);
+        h = ts_fnv1a(h, occ->normal, (size_t)occ->point_count * 3 * sizeof *occ->normal);
+    }
     *out = fold32(h);
+    return TS_OK;
+}
+
+int job_held(const ts_job *job, ts_done *held, ts_error *err)
+{
+    if (job->done.count == 0) return done_add(held, 0, job->samples_done, err);
+    for (uint32_t i = 0; i < job->done.count; ++i)
+        if (done_add(held, job->done.r[i].first, job->done.r[i].end, err)) return err->code;
     return TS_OK;
 }
 
@@ -190,17 +209,18 @@ static int resume_find_channels(const char *path, const ts_image *img,
     return TS_OK;
 }
 
-/* The count channel agrees with samples_done, pixel by pixel: global sample g goes to pixel
- * g mod P (P = width * height), so pixel i holds done / P samples, one more when
- * i < done mod P. A hand-edited or damaged file that disagrees would otherwise be resumed
- * and count samples twice (or never). Counts are whole floats below 2^24, exact. */
+/* The count channel agrees with the samples the image holds (held: tessera:done, else the
+ * first tessera:samples_done of the order), pixel by pixel (done_pixel_count). A
+ * hand-edited or damaged file that disagrees would otherwise be resumed and count samples
+ * twice (or never). Counts are whole floats below 2^24, exact. */
 static int resume_check_counts(const char *path, const ts_image *img, int count_channel,
-                               uint64_t done, ts_error *err)
+                               const ts_done *held, const ts_sample_order *order, uint64_t done,
+                               ts_error *err)
 {
     uint64_t npix = (uint64_t)img->width * (uint64_t)img->height;
     for (uint64_t i = 0; i < npix; ++i) {
         float count = img->pixels[i * (uint64_t)img->channels + (uint64_t)count_channel];
-        uint64_t want = done / npix + (i < done % npix);
+        uint64_t want = done_pixel_count(held, order, (uint32_t)i);
         if (count != (float)want)
             return ts_error_set(err, TS_E_USAGE,
                                 "%s: cannot resume: pixel (%llu, %llu) holds %g samples where "
@@ -211,6 +231,29 @@ static int resume_check_counts(const char *path, const ts_image *img, int count_
                                 (unsigned long long)done, (unsigned long long)want);
     }
     return TS_OK;
+}
+
+/* The runs of samples the image at path holds: its "tessera:done" (checked against
+ * samples_done), else [0, samples_done). */
+static int resume_held(const char *path, const ts_sample_order *order, uint64_t total,
+                       uint64_t samples_done, ts_done *held, ts_error *err)
+{
+    size_t size = (size_t)1 << 20;
+    char *text = malloc(size);
+    if (!text) return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    ts_error e = {0};
+    int rc = TS_OK;
+    if (image_read_meta_string(path, TS_EXR_META_DONE, text, size, &e) != TS_OK)
+        rc = done_add(held, 0, samples_done, err); /* a prefix */
+    else if (done_parse(text, order, total, held, &e) || done_samples(held) != samples_done)
+        rc = ts_error_set(err, TS_E_USAGE,
+                          "%s: cannot resume: its \"%s\" metadata does not give the %llu "
+                          "samples of \"tessera:samples_done\" (a damaged or edited file); "
+                          "render without --resume",
+                          path, TS_EXR_META_DONE, (unsigned long long)samples_done);
+    ts_error_clear(&e);
+    free(text);
+    return rc;
 }
 
 /* The films as the render left them: the sums and counts, and sample 0's AOVs where the
@@ -256,13 +299,30 @@ int resume_load(const ts_render_options *o, int width, int height, ts_job *job,
     if (!rc) rc = resume_check_job(o, width, height, &img, v, job, err);
     if (!rc && (uint32_t)v[TS_EXR_META_samples_done] == job->total) *complete = 1;
     if (!rc && !*complete) rc = resume_find_channels(path, &img, idx, err);
+    /* Without the band: an image from before the order had bands, pass after pass. */
+    int band = 0;
+    if (!rc && image_read_meta_int(path, TS_EXR_META_BAND, &band, &e)) {
+        ts_error_clear(&e);
+        band = 0;
+    }
+    if (!rc && !*complete && (band < 0 || (uint64_t)band > (uint64_t)width * (uint64_t)height))
+        rc = ts_error_set(err, TS_E_USAGE,
+                          "%s: cannot resume: its \"%s\" metadata %d is not a band of its %dx%d "
+                          "pixels (a damaged or edited file); render without --resume",
+                          path, TS_EXR_META_BAND, band, width, height);
+    ts_sample_order order = {(uint32_t)width * (uint32_t)height, (uint32_t)o->spp, (uint32_t)band};
+    ts_done held = {0};
+    uint64_t done = (uint32_t)v[TS_EXR_META_samples_done];
+    if (!rc && !*complete) rc = resume_held(path, &order, job->total, done, &held, err);
     if (!rc && !*complete)
-        rc = resume_check_counts(path, &img, idx[TS_EXR_COUNT],
-                                 (uint32_t)v[TS_EXR_META_samples_done], err);
+        rc = resume_check_counts(path, &img, idx[TS_EXR_COUNT], &held, &order, done, err);
     if (!rc && !*complete) rc = film_state_alloc(state, (size_t)width * height, err);
     if (!rc && !*complete) {
         resume_fill_films(&img, idx, state);
         job->samples_done = (uint32_t)v[TS_EXR_META_samples_done];
+        job->band = (uint32_t)band;
+        job->has_band = 1;
+        if (!done_is_prefix(&held)) job->done = held, memset(&held, 0, sizeof held);
         job->lod = v[TS_EXR_META_lod];
         job->max_lod = (uint32_t)v[TS_EXR_META_max_lod];
         job->check_lod = 1;
@@ -270,6 +330,7 @@ int resume_load(const ts_render_options *o, int width, int height, ts_job *job,
             ts_print_line("tessera: resuming %s at sample %llu of %llu", path,
                           (unsigned long long)job->samples_done, (unsigned long long)job->total);
     }
+    done_free(&held);
     image_free(&img);
     return rc;
 }

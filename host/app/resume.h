@@ -5,6 +5,7 @@
 #ifndef TS_RESUME_H
 #define TS_RESUME_H
 
+#include "app/done.h"
 #include "app/options.h"
 #include "pipeline/pipeline.h"
 #include "scene/scene.h"
@@ -65,10 +66,23 @@ typedef enum ts_exr_meta {
 
 extern const char *const ts_exr_meta_keys[TS_EXR_META_COUNT];
 
+/* The sample order's band (ts_job.band), written with the others; an image without it is
+ * from before the order had bands: one band, pass after pass. */
+#define TS_EXR_META_BAND "tessera:band"
+/* A string: the runs of the order's samples an unfinished image holds ("first-end ...",
+ * done.h), written when they are not the prefix [0, tessera:samples_done) (several devices
+ * or ranks stopped with units merged past one not finished). */
+#define TS_EXR_META_DONE "tessera:done"
+
 /* What identifies a render and how far it got; stored as EXR metadata for --resume. */
 typedef struct ts_job {
     uint64_t total;        /* width * height * spp global samples */
-    uint64_t samples_done; /* the film holds samples [0, samples_done) */
+    uint64_t samples_done; /* how many samples the film holds: [0, samples_done) of the
+                              order, unless done says otherwise */
+    ts_done done;          /* which, when they are not such a prefix (several devices or
+                              ranks stopped with later units merged); empty: the prefix */
+    uint32_t band;         /* the order's pixels a band (lib/sample_order.h); 0: one band */
+    int has_band;          /* 1: band is set (by the first wave, or by --resume) */
     int32_t hash;          /* the scene and the options that change the image */
     int32_t lod;           /* the per-patch levels of detail of the frame (lod stage) */
     int check_lod;         /* 1: lod is that of the samples already in the film */
@@ -86,6 +100,10 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
 /* The lod hash: the levels of detail the frame's patches are diced at, as the lod stage
  * left them in p->patch_lod, or --lod (clamped to the plan like trace.c does). */
 int32_t job_lod_hash(const ts_pipeline *p, const ts_render_options *o);
+
+/* The samples the film of job holds, into *held (empty before): job->done, or the prefix
+ * [0, job->samples_done). TS_E_MEMORY when it cannot. */
+int job_held(const ts_job *job, ts_done *held, ts_error *err);
 
 /* Host copies of the films (accum, aov_film, albedo_film: pixel_count ts_vec4 each): the
  * samples a resumed image holds, or those finished before an out-of-memory retry. All

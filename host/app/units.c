@@ -2,26 +2,62 @@
  * in order (units.h). */
 #include "app/units.h"
 #include "base/stats.h"
+#include "lib/sample_order.h"
 
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
-/* A unit's state on the board, in its window slot. */
-enum { UNIT_NONE, UNIT_OUT, UNIT_FINISHED, UNIT_GIVEN_BACK };
-
 /* Bounds of units_plan. */
 #define UNITS_PER_WORKER 8u
 #define UNIT_MIN_SAMPLES 4096u
 #define UNIT_MAX_SAMPLES (1u << 20)
-#define UNITS_RESULT_BYTES ((uint64_t)256 << 20)
 
-int unit_result_alloc(ts_unit_result *r, const ts_unit *u, uint32_t pixel_count, ts_error *err)
+uint32_t sample_order_band(uint32_t width, uint32_t height, uint32_t spp, uint64_t band_samples)
+{
+    uint64_t row = (uint64_t)width * (spp ? spp : 1u), rows = band_samples / row;
+    const char *env = getenv("TESSERA_SAMPLE_BAND_ROWS");
+    if (env && *env) {
+        char *end;
+        errno = 0;
+        unsigned long long v = strtoull(env, &end, 10);
+        if (!errno && !*end) rows = v ? v : height;
+    }
+    if (rows < 1) rows = 1;
+    return rows >= height ? 0u : (uint32_t)rows * width;
+}
+
+int sample_order_zero_run(const ts_sample_order *o, uint64_t first, uint64_t count, uint64_t *k0,
+                          uint64_t *k1)
+{
+    uint64_t band = o->band && o->band < o->pixels ? o->band : o->pixels;
+    uint64_t end = first + count, span = band * o->spp; /* samples of a whole band */
+    for (uint64_t b = first / span; b * band < o->pixels; ++b) {
+        uint64_t base = b * band, n = o->pixels - base < band ? o->pixels - base : band;
+        uint64_t z0 = base * o->spp, z1 = z0 + n; /* the band's samples 0 */
+        if (z0 >= end) return 0;
+        if (z1 > first) {
+            *k0 = z0 > first ? z0 : first;
+            *k1 = z1 < end ? z1 : end;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+uint64_t sample_order_zero_count(const ts_sample_order *o, uint64_t first, uint64_t count)
+{
+    uint64_t n = 0, k0, k1, end = first + count;
+    for (uint64_t k = first; k < end && sample_order_zero_run(o, k, end - k, &k0, &k1); k = k1)
+        n += k1 - k0;
+    return n;
+}
+
+int unit_result_alloc(ts_unit_result *r, const ts_unit *u, const ts_sample_order *o, ts_error *err)
 {
     memset(r, 0, sizeof *r);
-    r->aov_count = u->first < pixel_count ? pixel_count - u->first : 0;
-    if (r->aov_count > u->count) r->aov_count = u->count;
+    r->aov_count = sample_order_zero_count(o, u->first, u->count);
     size_t n = (size_t)u->count + 2 * (size_t)r->aov_count;
     r->radiance = malloc((n ? n : 1) * sizeof(ts_vec4));
     if (!r->radiance)
@@ -40,11 +76,13 @@ void unit_result_free(ts_unit_result *r)
     memset(r, 0, sizeof *r);
 }
 
-void units_merge(ts_film_state *film, uint32_t pixel_count, const ts_unit *u,
+void units_merge(ts_film_state *film, const ts_sample_order *o, const ts_unit *u,
                  const ts_unit_result *r)
 {
-    uint32_t p = (uint32_t)(u->first % pixel_count);
+    uint64_t j = 0;
     for (uint64_t k = 0; k < u->count; ++k) {
+        uint32_t p, sample;
+        sample_order_at((uint32_t)(u->first + k), o->pixels, o->spp, o->band, &p, &sample);
         /* kernels/film.cl: acc = accum[p]; acc.x += r.x; ... acc.w += 1.0f */
         ts_vec4 acc = film->accum[p], s = r->radiance[k];
         acc.x += s.x;
@@ -52,12 +90,12 @@ void units_merge(ts_film_state *film, uint32_t pixel_count, const ts_unit *u,
         acc.z += s.z;
         acc.w += 1.0f;
         film->accum[p] = acc;
-        if (k < r->aov_count) film->aov[p] = r->aov[k], film->albedo[p] = r->albedo[k];
-        if (++p == pixel_count) p = 0;
+        if (sample == 0 && j < r->aov_count)
+            film->aov[p] = r->aov[j], film->albedo[p] = r->albedo[j], ++j;
     }
 }
 
-void units_plan(uint64_t samples, uint32_t workers, uint64_t *unit_samples, uint32_t *window)
+void units_plan(uint64_t samples, uint32_t workers, uint64_t *unit_samples)
 {
     if (workers < 1) workers = 1;
     uint64_t u = (samples + UNITS_PER_WORKER * workers - 1) / (UNITS_PER_WORKER * workers);
@@ -72,56 +110,69 @@ void units_plan(uint64_t samples, uint32_t workers, uint64_t *unit_samples, uint
         if (!errno && !*end && v > 0 && v <= UNIT_MAX_SAMPLES) u = v;
     }
     *unit_samples = u;
-    uint64_t w = 4 * (uint64_t)workers, fit = UNITS_RESULT_BYTES / (u * sizeof(ts_vec4));
-    if (w < 8) w = 8;
-    if (w > fit) w = fit > 2 * (uint64_t)workers ? fit : 2 * (uint64_t)workers;
-    *window = (uint32_t)w;
 }
 
-int board_init(ts_board *b, ts_film_state *film, uint32_t pixel_count, uint64_t start,
-               uint64_t total, uint64_t unit_samples, uint32_t window, ts_error *err)
+int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, ts_unit **units,
+               uint32_t *count, ts_error *err)
+{
+    *units = NULL, *count = 0;
+    uint64_t band = o->band && o->band < o->pixels ? o->band : o->pixels;
+    uint64_t span = band * o->spp, bands = (total + span - 1) / span;
+    if (bands > UINT32_MAX) return ts_error_set(err, TS_E_USAGE, "too many bands");
+    ts_unit *u = malloc((bands ? bands : 1) * sizeof *u);
+    if (!u) return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    uint32_t n = 0, i = 0;
+    for (uint64_t b = 0; b < bands; ++b) {
+        uint64_t first = b * span, end = first + span < total ? first + span : total;
+        /* What d holds of the band is a prefix of it (done.h): the unit is the rest. */
+        while (i < d->count && d->r[i].end <= first)
+            ++i;
+        if (i < d->count && d->r[i].first <= first) first = d->r[i].end < end ? d->r[i].end : end;
+        if (first < end) u[n] = (ts_unit){n, 0, first, end - first}, ++n;
+    }
+    *units = u, *count = n;
+    return TS_OK;
+}
+
+/* A unit's state on the board. */
+enum { UNIT_NONE, UNIT_OUT, UNIT_MERGED, UNIT_GIVEN_BACK };
+
+int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint64_t total,
+               const ts_done *held, ts_error *err)
 {
     memset(b, 0, sizeof *b);
     b->film = film;
-    b->pixel_count = pixel_count;
-    b->start = start;
+    b->order = *o;
     b->total = total;
-    b->unit_samples = unit_samples ? unit_samples : 1;
-    uint64_t units = total > start ? (total - start + b->unit_samples - 1) / b->unit_samples : 0;
-    if (units > UINT32_MAX)
-        return ts_error_set(err, TS_E_USAGE, "%llu units of %llu samples are too many",
-                            (unsigned long long)units, (unsigned long long)b->unit_samples);
-    b->unit_count = (uint32_t)units;
-    b->window = window ? window : 1;
-    b->state = calloc(b->window, 1);
-    b->results = calloc(b->window, sizeof *b->results);
-    if (!b->state || !b->results) {
-        free(b->state), free(b->results);
-        memset(b, 0, sizeof *b);
-        return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    ts_done none = {0};
+    if (!held) held = &none;
+    for (uint32_t i = 0; i < held->count; ++i)
+        if (done_add(&b->done, held->r[i].first, held->r[i].end, err)) goto fail;
+    b->start = done_samples(held);
+    if (units_list(o, total, held, &b->units, &b->unit_count, err)) goto fail;
+    if (!(b->state = calloc(b->unit_count ? b->unit_count : 1, 1))) {
+        ts_error_set(err, TS_E_MEMORY, "out of memory");
+        goto fail;
     }
     pthread_mutex_init(&b->lock, NULL);
     pthread_cond_init(&b->changed, NULL);
     return TS_OK;
+fail:
+    free(b->units);
+    done_free(&b->done);
+    memset(b, 0, sizeof *b);
+    return err->code;
 }
 
 void board_free(ts_board *b)
 {
     if (!b->state) return;
-    for (uint32_t i = 0; i < b->window; ++i)
-        unit_result_free(&b->results[i]);
     free(b->state);
-    free(b->results);
+    free(b->units);
+    done_free(&b->done);
     pthread_mutex_destroy(&b->lock);
     pthread_cond_destroy(&b->changed);
     memset(b, 0, sizeof *b);
-}
-
-static ts_unit board_unit(const ts_board *b, uint32_t i)
-{
-    uint64_t first = b->start + (uint64_t)i * b->unit_samples;
-    uint64_t count = b->total - first < b->unit_samples ? b->total - first : b->unit_samples;
-    return (ts_unit){i, 0, first, count};
 }
 
 /* board_try_take with the lock held. */
@@ -129,22 +180,21 @@ static int take_locked(ts_board *b, ts_unit *u)
 {
     if (b->closed) return -1;
     int out = 0;
-    for (uint32_t i = b->merged; i < b->next; ++i) {
-        uint8_t *s = &b->state[i % b->window];
-        if (*s == UNIT_GIVEN_BACK) {
-            *s = UNIT_OUT;
-            *u = board_unit(b, i);
+    for (uint32_t i = 0; i < b->next; ++i) {
+        if (b->state[i] == UNIT_GIVEN_BACK) {
+            b->state[i] = UNIT_OUT;
+            *u = b->units[i];
             return 1;
         }
-        out |= *s == UNIT_OUT;
+        out |= b->state[i] == UNIT_OUT;
     }
-    if (b->next < b->unit_count && b->next - b->merged < b->window) {
-        b->state[b->next % b->window] = UNIT_OUT;
-        *u = board_unit(b, b->next++);
+    if (b->next < b->unit_count) {
+        b->state[b->next] = UNIT_OUT;
+        *u = b->units[b->next++];
         return 1;
     }
     /* Units still out may be given back; only when none is can nothing more come. */
-    return b->next < b->unit_count || out ? 0 : -1;
+    return out ? 0 : -1;
 }
 
 int board_try_take(ts_board *b, ts_unit *u)
@@ -168,27 +218,28 @@ int board_take(ts_board *b, ts_unit *u)
 void board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
 {
     pthread_mutex_lock(&b->lock);
-    if (b->frozen) {
+    ts_error err = {0};
+    /* The unit's run joins the held samples first: when that cannot grow (out of memory),
+     * the unit is handed out again rather than merged unrecorded. */
+    if (u->index >= b->unit_count) { /* not this board's */
         unit_result_free(r);
         pthread_mutex_unlock(&b->lock);
         return;
     }
-    uint32_t slot = u->index % b->window;
-    b->state[slot] = UNIT_FINISHED;
-    b->results[slot] = *r;
-    memset(r, 0, sizeof *r);
-    b->samples_finished += u->count;
-    b->rays += b->results[slot].rays;
-    double t0 = stats_now();
-    while (b->merged < b->unit_count && b->state[b->merged % b->window] == UNIT_FINISHED) {
-        uint32_t s = b->merged % b->window;
-        ts_unit m = board_unit(b, b->merged);
-        units_merge(b->film, b->pixel_count, &m, &b->results[s]);
-        unit_result_free(&b->results[s]);
-        b->state[s] = UNIT_NONE;
+    if (!b->frozen && b->state[u->index] == UNIT_OUT &&
+        done_add(&b->done, u->first, u->first + u->count, &err) == TS_OK) {
+        double t0 = stats_now();
+        units_merge(b->film, &b->order, u, r);
+        b->merge_seconds += stats_now() - t0;
+        b->state[u->index] = UNIT_MERGED;
         b->merged++;
+        b->samples_finished += u->count;
+        b->rays += r->rays;
+    } else if (!b->frozen && b->state[u->index] == UNIT_OUT) {
+        b->state[u->index] = UNIT_GIVEN_BACK;
     }
-    b->merge_seconds += stats_now() - t0;
+    ts_error_clear(&err);
+    unit_result_free(r);
     pthread_cond_broadcast(&b->changed);
     pthread_mutex_unlock(&b->lock);
 }
@@ -196,7 +247,8 @@ void board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
 void board_give_back(ts_board *b, const ts_unit *u)
 {
     pthread_mutex_lock(&b->lock);
-    b->state[u->index % b->window] = UNIT_GIVEN_BACK;
+    if (u->index < b->unit_count && b->state[u->index] == UNIT_OUT)
+        b->state[u->index] = UNIT_GIVEN_BACK;
     pthread_cond_broadcast(&b->changed);
     pthread_mutex_unlock(&b->lock);
 }
@@ -228,9 +280,19 @@ int board_finished(ts_board *b)
 uint64_t board_samples_done(ts_board *b)
 {
     pthread_mutex_lock(&b->lock);
-    uint64_t end = b->start + (uint64_t)b->merged * b->unit_samples;
+    uint64_t n = done_samples(&b->done);
     pthread_mutex_unlock(&b->lock);
-    return end < b->total ? end : b->total;
+    return n;
+}
+
+int board_held(ts_board *b, ts_done *held, ts_error *err)
+{
+    pthread_mutex_lock(&b->lock);
+    int rc = TS_OK;
+    for (uint32_t i = 0; i < b->done.count && !rc; ++i)
+        rc = done_add(held, b->done.r[i].first, b->done.r[i].end, err);
+    pthread_mutex_unlock(&b->lock);
+    return rc;
 }
 
 void board_progress(ts_board *b, uint64_t *samples_finished, uint64_t *rays)

@@ -2,22 +2,38 @@
  * share one frame, and the board that hands them out and merges what they traced
  * (docs/rendering.md "Several devices and processes").
  *
- * A unit is a run of consecutive global sample indices [first, first + count): a whole
- * sample pass, several, or a tile of one (global sample g is pixel g mod P, sample g / P).
- * A device traces it in waves like any run of samples and hands back each sample's
- * radiance (and, for the samples of pass 0, the AOVs), not a film. The board adds them into
- * the host films in unit order, sample by sample, with the arithmetic of kernels/film.cl
- * (accum[p] += radiance in float, w += 1), so every pixel's sum is that of a one-device
- * render bit for bit, whichever device traced which unit and whenever it finished. What is
- * merged is always a prefix [start, samples_done) of the frame's samples: what --resume
- * continues, in the format it always had. */
+ * A unit is a band of the frame's sample order (kernels/lib/sample_order.h: bands of rows,
+ * each band's samples one after another), or what a resumed image lacks of one: a run
+ * [first, first + count) of the order. A device traces it in waves like any run of samples
+ * and hands back each sample's radiance (and, for the samples 0 of their pixels, the AOVs),
+ * not a film. The board adds each unit into the host films as it finishes, sample by sample,
+ * with the arithmetic of kernels/film.cl (accum[p] += radiance in float, w += 1): no pixel
+ * has samples in two units, so every pixel's sum is that of a one-device render bit for
+ * bit, whichever device traced which unit and whenever it finished. What the films hold is
+ * recorded as runs of the order (done.h), which --resume continues. */
 #ifndef TS_UNITS_H
 #define TS_UNITS_H
 
+#include "app/done.h"
 #include "app/resume.h"
+#include "lib/shared_types.h"
 
 #include <pthread.h>
 #include <stdint.h>
+
+/* The bands for an image of width x height pixels at spp samples a pixel, about
+ * `band_samples` samples each: whole rows, at least one; 0 (one band) when a band would
+ * hold the whole image. TESSERA_SAMPLE_BAND_ROWS=N sets the rows (a testing aid: the image
+ * does not depend on it; 0 gives one band, pass after pass). */
+uint32_t sample_order_band(uint32_t width, uint32_t height, uint32_t spp, uint64_t band_samples);
+
+/* The samples 0 of their pixels among the samples [first, first + count) of the order o:
+ * the next run of them at or after `first`, [*k0, *k1) clipped to the range. 0 when there is
+ * none. */
+int sample_order_zero_run(const ts_sample_order *o, uint64_t first, uint64_t count, uint64_t *k0,
+                          uint64_t *k1);
+/* How many samples 0 of their pixels [first, first + count) holds. */
+uint64_t sample_order_zero_count(const ts_sample_order *o, uint64_t first, uint64_t count);
 
 typedef struct ts_unit {
     uint32_t index; /* units are numbered from 0 in sample order */
@@ -25,73 +41,76 @@ typedef struct ts_unit {
     uint64_t first, count; /* global samples [first, first + count) */
 } ts_unit;
 
-/* What a device traced for a unit: radiance[k] of sample first + k (count entries); for the
- * samples of pass 0 (first < P) aov[k] and albedo[k] of the first aov_count of them
- * (aov_count = min(count, P - first), else 0 and NULL); the rays traced, for the progress
- * line. One allocation (radiance owns it). */
+/* What a device traced for a unit: radiance[k] of sample first + k (count entries); aov[j]
+ * and albedo[j] of the j-th of its samples that are the samples 0 of their pixels
+ * (aov_count = sample_order_zero_count of the unit, else 0 and NULL); the rays traced, for
+ * the progress line. One allocation (radiance owns it). */
 typedef struct ts_unit_result {
     ts_vec4 *radiance, *aov, *albedo;
     uint64_t aov_count;
     uint64_t rays;
 } ts_unit_result;
 
-/* Allocates the result of unit u of an image of pixel_count pixels (16 bytes a sample, 32
- * more for each sample of pass 0). TS_E_MEMORY when it cannot. */
-int unit_result_alloc(ts_unit_result *r, const ts_unit *u, uint32_t pixel_count, ts_error *err);
+/* Allocates the result of unit u of a frame of order o (16 bytes a sample, 32 more for each
+ * sample 0 of a pixel). TS_E_MEMORY when it cannot. */
+int unit_result_alloc(ts_unit_result *r, const ts_unit *u, const ts_sample_order *o, ts_error *err);
 void unit_result_free(ts_unit_result *r);
 
-/* Adds unit u's samples into the films, in sample order: film->accum[g mod P] += radiance
- * (x, y, z, and w += 1), film->aov and film->albedo of pass 0 set: film_accumulate's
- * arithmetic. The units of a pixel must come in sample order. */
-void units_merge(ts_film_state *film, uint32_t pixel_count, const ts_unit *u,
+/* Adds unit u's samples into the films, in order: film->accum[p] += radiance of sample k
+ * (x, y, z, and w += 1) for k's pixel p, film->aov and film->albedo set from samples 0:
+ * film_accumulate's arithmetic. The units must come in order. */
+void units_merge(ts_film_state *film, const ts_sample_order *o, const ts_unit *u,
                  const ts_unit_result *r);
 
 /* The size of the units for `samples` samples shared by `workers` devices: about eight
  * units a device, so that a fast device takes more than a slow one and the last units end
  * together, at least 4096 samples (a wave too small fills no device) and at most 2^20 (16 MB
  * of radiance), in multiples of 64 (a work-group); TESSERA_UNIT_SAMPLES=N sets it (a testing
- * aid: the image does not depend on it). *window: how many units may be handed out beyond
- * the first one not yet merged (their results wait in memory for it): four a device, at
- * least 8, within 256 MB of results. */
-void units_plan(uint64_t samples, uint32_t workers, uint64_t *unit_samples, uint32_t *window);
+ * aid: the image does not depend on it). The frame's bands are made about this size
+ * (sample_order_band) and each unit is a band (units_list). */
+void units_plan(uint64_t samples, uint32_t workers, uint64_t *unit_samples);
 
-/* The units of samples [start, total), handed out in order, merged in order. Thread-safe:
- * each device's thread takes and returns units; the thread that finishes the unit the merge
- * waits for merges it and every finished unit after it. */
+/* The units of the samples of [0, total) that d lacks: one a band (each band's run),
+ * so that no two units share a pixel. *units is malloc'd (NULL and 0 when nothing is left). */
+int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, ts_unit **units,
+               uint32_t *count, ts_error *err);
+
+/* The units of a frame's samples that the film lacks, handed out in order (given-back ones
+ * first) and merged into the film as they finish: no two units share a pixel, so the order
+ * of the merges changes no bit. Thread-safe: each device's thread takes and returns
+ * units. */
 typedef struct ts_board {
     pthread_mutex_t lock;
-    pthread_cond_t changed; /* a unit was merged, given back or finished, or the board closed */
+    pthread_cond_t changed; /* a unit was merged or given back, or the board closed */
     ts_film_state *film;
-    uint32_t pixel_count;
-    uint64_t start, total, unit_samples;
-    uint32_t unit_count, window;
+    ts_sample_order order;
+    uint64_t total, start; /* the frame's samples; those the films held at the start */
+    ts_unit *units;
+    uint32_t unit_count;
     uint32_t next;   /* the first unit never handed out */
-    uint32_t merged; /* units [0, merged) are in the films */
-    /* Per unit of the window [merged, merged + window), at index % window: its state and,
-     * once finished, its result. */
-    uint8_t *state;
-    ts_unit_result *results;
-    uint64_t samples_finished, rays; /* units finished (merged or waiting), for progress */
+    uint32_t merged; /* how many units are in the films */
+    uint8_t *state;  /* per unit */
+    ts_done done;    /* the samples the films hold: what they held, and the merged units */
+    uint64_t samples_finished, rays; /* units merged, for progress */
     double merge_seconds;            /* spent in units_merge */
     int closed;                      /* board_close: nothing more is handed out */
     int frozen;                      /* board_freeze: nothing more is merged either */
 } ts_board;
 
-/* The board of samples [start, total) of an image of pixel_count pixels, merging into film
- * (which holds the samples [0, start) already). TS_E_MEMORY when it cannot. */
-int board_init(ts_board *b, ts_film_state *film, uint32_t pixel_count, uint64_t start,
-               uint64_t total, uint64_t unit_samples, uint32_t window, ts_error *err);
+/* The board of a frame of `total` samples in order o, merging into film, which holds the
+ * samples `held` (copied; NULL: none). TS_E_MEMORY when it cannot. */
+int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint64_t total,
+               const ts_done *held, ts_error *err);
 void board_free(ts_board *b);
 
-/* The next unit to trace into *u: a unit given back first, else the next in order. Waits
- * while the window is full. Returns 1, or 0 when there is none left to hand out (every unit
- * is out or finished) or the board is closed. */
+/* The next unit to trace into *u: a unit given back first, else the next in order. Returns
+ * 1, or 0 when there is none left to hand out (every unit is out or merged) or the board is
+ * closed. Waits while units are out that may yet be given back. */
 int board_take(ts_board *b, ts_unit *u);
-/* The same without waiting: 1 a unit, 0 none now (the window is full or every unit is out),
- * -1 none ever again (all handed out and finished, or closed). */
+/* The same without waiting: 1 a unit, 0 none now (every unit is out), -1 none ever again
+ * (all handed out and merged, or closed). */
 int board_try_take(ts_board *b, ts_unit *u);
-/* Unit u is traced: the board takes *r (and frees it once merged) and merges every finished
- * unit from the first unmerged one on. */
+/* Unit u is traced: merged into the films at once, and *r freed. */
 void board_done(ts_board *b, const ts_unit *u, ts_unit_result *r);
 /* Unit u was not traced (its device failed or stopped): it is handed out again first. */
 void board_give_back(ts_board *b, const ts_unit *u);
@@ -103,10 +122,11 @@ void board_close(ts_board *b);
 void board_freeze(ts_board *b);
 /* 1 when every unit is merged. */
 int board_finished(ts_board *b);
-/* The samples merged: the films hold [0, samples_done). */
+/* The samples the films hold, and (when held is not NULL) which: a copy into *held (empty
+ * before). TS_E_MEMORY in *err when the copy cannot be made. */
 uint64_t board_samples_done(ts_board *b);
-/* Samples of the units finished so far (merged or waiting for the merge) and their rays,
- * for the progress line. */
+int board_held(ts_board *b, ts_done *held, ts_error *err);
+/* Samples of the units merged so far (this run's) and their rays, for the progress line. */
 void board_progress(ts_board *b, uint64_t *samples_finished, uint64_t *rays);
 /* Waits up to `seconds` for the board to change. */
 void board_wait(ts_board *b, double seconds);

@@ -37,14 +37,16 @@ int waves_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params
     return TS_OK;
 }
 
-int waves_trace_paths(const ts_render_options *o, ts_pipeline *p, uint32_t first, uint32_t n,
+int waves_trace_paths(const ts_render_options *o, ts_pipeline *p, const ts_camera_params *cam,
                       ts_error *err)
 {
     ts_shade_params sp = {.light_count = p->light_count,
                           .depth = (uint32_t)o->depth,
                           .sampling = (uint32_t)o->sampling,
                           .seed = o->seed,
-                          .spp = (uint32_t)o->spp};
+                          .spp = (uint32_t)o->spp,
+                          .band = cam->band};
+    uint32_t first = cam->first_sample, n = cam->ray_count;
     uint32_t rays = n, paths = n;
     p->stats->counters[TS_COUNTER_rays] += n;
     for (uint32_t b = 0; rays > 0; ++b) {

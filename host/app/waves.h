@@ -23,12 +23,13 @@ ts_trace_mode waves_trace_mode(const ts_render_options *o);
 int waves_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam, ts_job *job,
                     ts_error *err);
 
-/* Traces one wave of paths from the eye: the camera's rays of samples [first, first + n)
- * (pipeline_camera made them), then each bounce's rays (BSDF and shadow rays together,
- * Hanika §3.5: rays grouped by generation) until none is left or the depth is reached.
- * The radiance of path i (sample first + i) is then in p->radiance[i], the AOVs of its
- * first hit in p->aov[i] and p->albedo[i]; nothing is added to the film. */
-int waves_trace_paths(const ts_render_options *o, ts_pipeline *p, uint32_t first, uint32_t n,
+/* Traces one wave of paths from the eye: the camera's rays of the samples [first, first + n)
+ * of the frame's order (cam->first_sample, cam->ray_count, cam->band; pipeline_camera made
+ * them), then each bounce's rays (BSDF and shadow rays together, Hanika §3.5: rays grouped
+ * by generation) until none is left or the depth is reached. The radiance of path i
+ * (sample first + i) is then in p->radiance[i], the AOVs of its first hit in p->aov[i] and
+ * p->albedo[i]; nothing is added to the film. */
+int waves_trace_paths(const ts_render_options *o, ts_pipeline *p, const ts_camera_params *cam,
                       ts_error *err);
 
 #endif

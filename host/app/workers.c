@@ -18,8 +18,9 @@ struct ts_worker {
     ts_device cl;
     ts_pipeline pipe;
     int has_pipe;
-    ts_stats stats; /* this device's stages and counters */
-    uint64_t mb;    /* this pipeline's budget */
+    ts_stats stats;        /* this device's stages and counters */
+    uint64_t mb;           /* this pipeline's budget */
+    ts_budget_choice grow; /* how far its arenas may grow (budget_grow_arenas) */
     uint32_t noted_lod;
     pthread_t thread;
     int started;
@@ -44,7 +45,7 @@ static void worker_budget(ts_worker *w, uint32_t share)
     const ts_frame *f = &w->g->frame;
     ts_budget_choice c;
     if (f->opt->memory_mb > 0) {
-        c.mb = (uint64_t)f->opt->memory_mb;
+        c.mb = c.room_mb = (uint64_t)f->opt->memory_mb;
         snprintf(c.why, sizeof c.why, "--memory");
     } else {
         ts_memory_room room;
@@ -56,6 +57,7 @@ static void worker_budget(ts_worker *w, uint32_t share)
             snprintf(c.why + n, sizeof c.why - n, ", shared by %u devices", share);
     }
     w->mb = c.mb;
+    w->grow = c;
     w->noted_lod = (uint32_t)f->opt->max_lod;
     if (!f->opt->quiet)
         ts_print_line("tessera: device %d: %s (%s), memory budget %llu MB (%s)", w->index,
@@ -211,22 +213,24 @@ static int worker_take_lod(ts_worker *w, int *lod_failed, ts_error *err)
 }
 
 /* Reads the wave's results (n samples from `first`) into the unit's: radiance, and the
- * AOVs of the samples of pass 0. Timed as `film`. */
+ * AOVs of the samples that are their pixels' samples 0 (in runs, sample_order_zero_run).
+ * Timed as `film`. */
 static int worker_read_wave(ts_worker *w, const ts_unit *u, uint64_t first, uint32_t n,
                             ts_unit_result *r, ts_error *err)
 {
     ts_pipeline *p = &w->pipe;
     double t0 = stats_now();
-    uint64_t at = first - u->first;
-    uint64_t aov = at < r->aov_count ? r->aov_count - at : 0;
-    if (aov > n) aov = n;
+    ts_sample_order o = sample_order_of(&w->g->frame.cam);
+    uint64_t at = first - u->first, end = first + n, k0, k1;
+    uint64_t j = sample_order_zero_count(&o, u->first, at); /* the unit's AOVs before it */
     int rc = dev_read(&w->cl, p->radiance, 0, (size_t)n * sizeof(ts_vec4), r->radiance + at,
                       "the radiance of a unit", err);
-    if (!rc && aov)
-        rc = dev_read(&w->cl, p->aov, 0, (size_t)aov * sizeof(ts_vec4), r->aov + at,
-                      "the AOVs of a unit", err) ||
-             dev_read(&w->cl, p->albedo, 0, (size_t)aov * sizeof(ts_vec4), r->albedo + at,
-                      "the albedo of a unit", err);
+    for (uint64_t k = first; !rc && k < end && sample_order_zero_run(&o, k, end - k, &k0, &k1);
+         k = k1, j += k1 - k0) {
+        size_t off = (size_t)(k0 - first) * sizeof(ts_vec4), bytes = (k1 - k0) * sizeof(ts_vec4);
+        rc = dev_read(&w->cl, p->aov, off, bytes, r->aov + j, "the AOVs of a unit", err) ||
+             dev_read(&w->cl, p->albedo, off, bytes, r->albedo + j, "the albedo of a unit", err);
+    }
     w->stats.stage_seconds[TS_STAGE_film] += stats_now() - t0;
     return rc ? err->code : TS_OK;
 }
@@ -248,8 +252,7 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
         uint32_t n = (uint32_t)(left < per_wave ? left : per_wave);
         cam.first_sample = (uint32_t)first;
         cam.ray_count = n;
-        if (pipeline_camera(p, &cam, err) ||
-            waves_trace_paths(g->frame.opt, p, (uint32_t)first, n, err) ||
+        if (pipeline_camera(p, &cam, err) || waves_trace_paths(g->frame.opt, p, &cam, err) ||
             worker_read_wave(w, u, first, n, r, err))
             return err->code;
         if (w->slow_ms)
@@ -273,6 +276,7 @@ static int worker_shrink(ts_worker *w, ts_error *err)
     pipeline_destroy(&w->pipe);
     w->has_pipe = 0;
     w->mb /= 2;
+    w->grow.room_mb = 0; /* memory ran out: the arenas keep the smaller budget's share */
     int lod_failed;
     if (worker_pipeline(w, err)) return err->code;
     return worker_take_lod(w, &lod_failed, err);
@@ -283,12 +287,12 @@ static int worker_shrink(ts_worker *w, ts_error *err)
 static int worker_units(ts_worker *w, ts_error *err)
 {
     ts_unit_source *src = &w->g->src;
-    uint32_t pixels = w->g->frame.pixel_count;
+    ts_sample_order order = sample_order_of(&w->g->frame.cam);
     ts_unit u;
     while (src->take(src->ctx, &u)) {
         double t0 = stats_now();
         ts_unit_result r;
-        int stopped = 0, rc = unit_result_alloc(&r, &u, pixels, err);
+        int stopped = 0, rc = unit_result_alloc(&r, &u, &order, err);
         if (!rc) rc = worker_trace_unit(w, &u, &r, &stopped, err);
         if (rc || stopped) {
             unit_result_free(&r);
@@ -319,6 +323,12 @@ static void *worker_main(void *arg)
         lod_failed = (rc = worker_make_lod(w, &w->err)) != TS_OK;
     else if (!rc)
         rc = worker_take_lod(w, &lod_failed, &w->err);
+    if (!rc && w->grow.room_mb > w->mb) { /* the frame's patches, once each, if they fit */
+        w->grow.mb = w->mb;
+        w->stats.memory_budget_bytes +=
+            budget_grow_arenas(&w->pipe, &w->grow, g->frame.opt->quiet, &w->err);
+        rc = w->err.code;
+    }
     w->out.setup_seconds = stats_now() - t0;
     if (!rc) rc = worker_units(w, &w->err);
     w->out.frame_seconds = stats_now() - t0;
@@ -484,6 +494,16 @@ void workers_close(ts_workers *g)
     memset(g, 0, sizeof *g);
 }
 
+/* The job's record of the samples the films hold, from the board. */
+static int job_from_board(ts_job *job, ts_board *b, ts_error *err)
+{
+    done_free(&job->done);
+    if (board_held(b, &job->done, err)) return err->code;
+    job->samples_done = done_samples(&job->done);
+    if (done_is_prefix(&job->done)) done_free(&job->done);
+    return TS_OK;
+}
+
 /* The progress line: samples of the units finished (merged or not), rays per second, ETA;
  * printed when that count moved since *shown. */
 static void frame_progress(ts_board *b, double t0, uint64_t *shown)
@@ -510,6 +530,10 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
     while (!board_finished(b)) {
         if (interrupt_signal()) {
             board_freeze(b);
+            if (job_from_board(f->job, b, err)) {
+                rc = err->code;
+                break;
+            }
             if (service && service->on_stop)
                 service->on_stop(service->stop_ctx, board_samples_done(b));
             break;
@@ -556,10 +580,11 @@ int workers_render(const ts_frame *frame, ts_film_state *film, const int *indice
     ts_workers g;
     ts_board b;
     memset(&b, 0, sizeof b);
+    ts_sample_order order = sample_order_of(&frame->cam);
+    ts_done held = {0};
     int rc = workers_open(&g, frame, indices, count, err);
-    if (!rc)
-        rc = board_init(&b, film, frame->pixel_count, job->samples_done, job->total,
-                        frame->unit_samples, frame->window, err);
+    if (!rc) rc = job_held(job, &held, err) || board_init(&b, film, &order, job->total, &held, err);
+    done_free(&held);
     if (!rc) rc = workers_start(&g, board_source(&b), 1, err);
     if (!rc) rc = frame_wait(&g, &b, service, end, err);
     if (rc && b.state) board_close(&b); /* threads started before a failure end */
@@ -567,6 +592,7 @@ int workers_render(const ts_frame *frame, ts_film_state *film, const int *indice
     workers_join(&g);
     if (b.state) {
         end->samples_done = board_samples_done(&b);
+        if (!rc) rc = job_from_board(job, &b, err);
         stats->stage_seconds[TS_STAGE_film] += b.merge_seconds;
     }
     stats->unit_samples = frame->unit_samples;

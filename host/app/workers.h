@@ -22,8 +22,7 @@ typedef struct ts_frame {
     const ts_scene *scene;
     ts_camera_params cam; /* spp and seed set */
     uint32_t pixel_count;
-    uint64_t unit_samples; /* units_plan: the units' size */
-    uint32_t window;       /* and how many may wait for the merge */
+    uint64_t unit_samples; /* units_plan: the units' size (the bands' samples) */
     ts_job *job;           /* the lod device checks and records the lod hash in it */
     int rank;              /* MPI rank (0 without MPI), for the stats */
     uint32_t budget_share; /* devices sharing the host's memory with this process's ones
@@ -86,7 +85,7 @@ void workers_close(ts_workers *g);
 
 /* How the frame ended on several devices. */
 typedef struct ts_frame_end {
-    uint64_t samples_done; /* the films hold [0, samples_done) */
+    uint64_t samples_done; /* the films hold that many samples (which: the job's done) */
     int all_failed;        /* every device failed before the end: failure says why */
     ts_error failure;
 } ts_frame_end;

@@ -1,6 +1,7 @@
 #include "pipeline/pipeline.h"
 #include "pipeline/bake.h"
 #include "pipeline/lights.h"
+#include "pipeline/relight.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
 
@@ -62,6 +63,7 @@ int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
     plan->pair_capacity = (uint32_t)rays * TS_PAIRS_PER_RAY;
     plan->tex_pool_bytes = memory_bytes / 8;
     plan->sort_threads = 0;
+    plan->first_n = 0;
     return TS_OK;
 }
 
@@ -85,11 +87,13 @@ static int create_kernels(ts_pipeline *p, ts_error *err)
  * transforms: the identity; no normals: +z; NULL: zeros), and what the host derives. */
 typedef struct scene_uploads {
     const void *nodes, *cp, *cp1, *corner_n, *mid_n, *xform, *boxes, *textures;
-    ts_patch_attr *attr;   /* the scene's, with each patch's emitter index (lights_build) */
-    ts_vec4 *flatness;     /* patch_flatness; w: the longest side of the patch's box */
-    ts_vec4 *normals;      /* +z corner normals when the scene has none */
-    ts_light_table lights; /* lights.h */
-    ts_env_map env;        /* the dome's map; 0 x 0 without one */
+    ts_patch_attr *attr;       /* the scene's, with each patch's emitter index (lights_build) */
+    ts_vec4 *flatness;         /* patch_flatness; w: the longest side of the patch's box */
+    ts_vec4 *normals;          /* +z corner normals when the scene has none */
+    ts_light_table lights;     /* lights.h */
+    ts_env_map env;            /* the dome's map; 0 x 0 without one */
+    ts_relight_tables relight; /* relight.h */
+    const void *relight_patch, *relight_coeffs, *relight_normal; /* the scene's occlusion */
 } scene_uploads;
 
 static void scene_uploads_free(scene_uploads *u)
@@ -99,6 +103,7 @@ static void scene_uploads_free(scene_uploads *u)
     free(u->normals);
     lights_free(&u->lights);
     env_map_free(&u->env);
+    relight_tables_free(&u->relight);
     memset(u, 0, sizeof *u);
 }
 
@@ -139,7 +144,11 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
     }
     if (s->dome.present && s->dome.mapname[0] && env_map_load(s->dome.mapname, &u->env, err))
         return err->code;
-    return lights_build(s, &u->env, u->attr, &u->lights, err);
+    if (lights_build(s, &u->env, u->attr, &u->lights, err)) return err->code;
+    if (s->occlusion)
+        u->relight_patch = s->occlusion->patch, u->relight_coeffs = s->occlusion->coeffs,
+        u->relight_normal = s->occlusion->normal;
+    return relight_tables_build(s->occlusion, &u->lights, &u->env, &u->relight, err);
 }
 
 /* Element counts of the buffers (TS_PIPELINE_BUFFERS' count column reads them as c.NAME).
@@ -151,12 +160,14 @@ typedef struct buffer_counts {
     size_t tex_texels, tex_pages;                  /* tile pool, page table */
     size_t verts, groups;                          /* the arenas */
     size_t util_groups;                            /* bottom_level's work-groups */
+    size_t relight_patch, relight_coeffs, relight_normal, relight_light; /* relight.h */
 } buffer_counts;
 
 static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads *u)
 {
     const ts_scene *s = p->scene;
     const ts_env_map *e = &u->env;
+    const ts_occlusion *o = s->occlusion;
     return (buffer_counts){
         .rays = p->plan.ray_capacity,
         .pairs = p->plan.pair_capacity,
@@ -174,6 +185,10 @@ static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads 
         .verts = p->plan.vert_capacity,
         .groups = p->plan.group_capacity,
         .util_groups = p->util_groups,
+        .relight_patch = o ? 2 * (size_t)o->patch_count : 1,
+        .relight_coeffs = o ? (size_t)o->point_count * o->bands * o->bands : 1,
+        .relight_normal = o ? (size_t)o->point_count * 3 : 1,
+        .relight_light = u->relight.light_count ? u->relight.light_count : 1,
     };
 }
 
@@ -300,6 +315,7 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     buffer_counts c = buffer_counts_of(p, &u);
     if (rc == TS_OK) rc = create_buffers(p, &c, &u, err);
     p->light_count = u.lights.light_count;
+    p->relight = u.relight.params;
     scene_uploads_free(&u);
     free(boxes);
     if (rc == TS_OK)
@@ -430,6 +446,7 @@ int pipeline_lod_finish(ts_pipeline *p, ts_lod_rule rule, int before_hit, ts_err
 int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, ts_error *err)
 {
     ts_camera_params c = *cam;
+    c.band = 0; /* samples [0, pixels) are the first sample pass, whatever the frame's order */
     uint32_t pixels = c.width * c.height, per_wave = p->plan.ray_capacity;
     int rc = TS_OK;
     p->wave = 0;
@@ -447,6 +464,58 @@ int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, 
         if (rc == TS_OK && pipeline_lod_finish(p, rule, pass, err)) rc = err->code;
     }
     return rc;
+}
+
+void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups)
+{
+    int fixed = p->mode.fixed_lod;
+    *verts = *groups = 0;
+    for (uint32_t i = 0; i < p->scene->patch_count; ++i) {
+        uint32_t m = fixed >= 0
+                         ? ((uint32_t)fixed < p->plan.max_lod ? (uint32_t)fixed : p->plan.max_lod)
+                         : p->patch_lod[i]; /* trace.c assign_lods */
+        uint64_t times = p->scene->attr[i].flags & TS_PATCH_MOVING ? 2u : 1u;
+        *verts += times * quadtree_vertex_count(m);
+        *groups += times * quadtree_group_count(m);
+    }
+}
+
+int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_error *err)
+{
+    uint64_t max_alloc = p->cl->info.max_alloc;
+    if (verts > UINT32_MAX || groups > UINT32_MAX || verts * sizeof(ts_vec4) > max_alloc ||
+        groups * sizeof(ts_box4) > max_alloc)
+        return ts_error_set(err, TS_E_USAGE,
+                            "the arenas would exceed the device's largest buffer, %llu MB",
+                            (unsigned long long)(max_alloc >> 20));
+    if (dev_finish(p->cl, p->stats, err)) return err->code; /* nothing uses the old ones */
+    cl_mem grid = dev_buffer_create(p->cl, CL_MEM_READ_WRITE, verts * sizeof(ts_vec4), NULL, err);
+    if (!grid) return err->code;
+    cl_mem tree = dev_buffer_create(p->cl, CL_MEM_READ_WRITE, groups * sizeof(ts_box4), NULL, err);
+    if (!tree) {
+        clReleaseMemObject(grid);
+        return err->code;
+    }
+    ts_patch_cache cache;
+    if (patch_cache_create(&cache, p->scene->patch_count, (uint32_t)verts, (uint32_t)groups, err)) {
+        clReleaseMemObject(grid);
+        clReleaseMemObject(tree);
+        return err->code;
+    }
+    clReleaseMemObject(p->grid);
+    clReleaseMemObject(p->groups);
+    p->grid = grid;
+    p->groups = tree;
+    /* The cache's counters go on over the frame. */
+    cache.hits = p->cache.hits, cache.misses = p->cache.misses;
+    cache.evictions = p->cache.evictions;
+    patch_cache_free(&p->cache);
+    p->cache = cache;
+    p->plan.vert_capacity = (uint32_t)verts;
+    p->plan.group_capacity = (uint32_t)groups;
+    p->stats->counters[TS_COUNTER_patch_cache_bytes] =
+        verts * sizeof(ts_vec4) + groups * sizeof(ts_box4);
+    return TS_OK;
 }
 
 int pipeline_lod_rule_parse(const char *name, ts_lod_rule *rule)

@@ -39,6 +39,9 @@ typedef struct ts_pipeline_plan {
     uint64_t tex_pool_bytes; /* texture tile pool (tex_cache.h); 0: every tile resident */
     uint32_t sort_threads;   /* threads of the host sort (sort.h); 0: every online CPU. Several
                                 devices in one process share the CPUs (app/workers.c) */
+    uint32_t first_n;        /* candidates per ray in a wave's first iteration, doubled each
+                                iteration up to pair_capacity / R (trace.c pairs_per_ray);
+                                0: 1. Changes no hit, only the work (tests compare them) */
 } ts_pipeline_plan;
 
 /* Splits a budget of `memory_bytes` between the patch arenas (a quarter) and rays, and sets
@@ -97,7 +100,9 @@ typedef struct ts_trace_mode {
  *     flatness: patch_flatness, w = the longest side of the patch's box (secondary-ray
  *     offset l / 2^m); patch_box: scene_patch_box (build clamps leaf boxes to it); lights,
  *     emitters, env_*: lights.h; textures, tex_pool, tex_pages: descriptors, the tile pool
- *     and its page table (tex_cache.h).
+ *     and its page table (tex_cache.h); relight_*: the baked occlusion of
+ *     `render --occlusion` (scene.h ts_occlusion: its patch table, coefficients and normals) and
+ *     relight.h's light tables, one zeroed element each without one.
  *   lod_counts: eye rays entering each patch box (lod); segments, trees: the sorted
  *     segments and the batches' tree lists; grid, groups: the vertex and group arenas;
  *     utilisation: bottom_level's micro-quad tests and work-item slots, two words per
@@ -128,6 +133,10 @@ typedef struct ts_trace_mode {
     X(textures,        TS_MEM_SCENE,      ts_texture,    c.textures,     u.textures)            \
     X(tex_pool,        CL_MEM_READ_ONLY,  ts_vec4,       c.tex_texels,   NULL)                  \
     X(tex_pages,       CL_MEM_READ_ONLY,  ts_u32,        c.tex_pages,    NULL)                  \
+    X(relight_patch,   TS_MEM_SCENE,      ts_u32,        c.relight_patch, u.relight_patch)      \
+    X(relight_coeffs,  TS_MEM_SCENE,      float,         c.relight_coeffs, u.relight_coeffs)    \
+    X(relight_normal,  TS_MEM_SCENE,      float,         c.relight_normal, u.relight_normal)    \
+    X(relight_light,   TS_MEM_SCENE,      ts_vec4,       c.relight_light, u.relight.light)      \
     /* Per patch, and the batch being diced. */                                                 \
     X(lod_counts,      CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \
     X(segments,        CL_MEM_READ_ONLY,  ts_segment,    c.patches,      NULL)                  \
@@ -195,8 +204,10 @@ typedef struct ts_pipeline {
     int cache_off;
     ts_tex_cache tex;     /* which tiles tex_pool holds (tex_cache.h) */
     uint32_t light_count; /* entries of the lights buffer (lights.h) */
-    uint32_t wave;        /* the wave of paths being traced (stats iterations) */
-    uint32_t in_lod;      /* 1 while pipeline_lod traces its pass (stats iterations) */
+    /* Relighting with the scene's baked occlusion (relight.h; bands 0: none). */
+    ts_relight_params relight;
+    uint32_t wave;   /* the wave of paths being traced (stats iterations) */
+    uint32_t in_lod; /* 1 while pipeline_lod traces its pass (stats iterations) */
     /* Stages only some commands run, with their own kernels and buffers, made on demand
      * (bake.h: `tessera bake`) and released by pipeline_destroy; NULL otherwise. */
     struct ts_bake_stage *bake;
@@ -255,6 +266,15 @@ int pipeline_lod_finish(ts_pipeline *p, ts_lod_rule rule, int before_hit, ts_err
  * traced at those levels and counted again before the hits. Deterministic: the levels do
  * not depend on the waves. */
 int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, ts_error *err);
+
+/* The arena entries the frame's patches take when every one is resident at once: vertices
+ * and sibling groups at the level each is diced at (--lod's, else the lod stage's), twice
+ * for a moving patch. */
+void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups);
+/* New arenas of verts vertices and groups sibling groups (each within the device's largest
+ * buffer), replacing the old ones, and an empty patch cache over them. When they cannot be
+ * had the old ones stay, with the error in *err. */
+int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_error *err);
 /* "crossed", "visible" or "seen" (TESSERA_LOD_RULE); -1 for another name. */
 int pipeline_lod_rule_parse(const char *name, ts_lod_rule *rule);
 
@@ -277,7 +297,8 @@ int pipeline_bottom_level(ts_pipeline *p, uint32_t n_per_ray, ts_error *err);
 int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sample,
                    uint32_t wave_size, uint32_t path_count, uint32_t *next_paths,
                    uint32_t *next_rays, uint32_t *shadow_rays, ts_error *err);
-/* film: adds the wave's ray_count finished paths to the image. */
-int pipeline_film(ts_pipeline *p, uint32_t first_sample, uint32_t ray_count, ts_error *err);
+/* film: adds the wave's finished paths (the samples cam->first_sample .. + cam->ray_count of
+ * the frame's order, cam->spp and cam->band) to the image. */
+int pipeline_film(ts_pipeline *p, const ts_camera_params *cam, ts_error *err);
 
 #endif

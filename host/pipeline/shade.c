@@ -182,7 +182,9 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
                      DEV_ARG(p->mid_n), DEV_ARG(p->attr), DEV_ARG(p->xform), DEV_ARG(p->lights),
                      DEV_ARG(p->emitters), DEV_ARG(p->env_texels), DEV_ARG(p->env_marginal),
                      DEV_ARG(p->env_conditional), DEV_ARG(p->flatness), DEV_ARG(p->textures),
-                     DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(p->alive), (size_t)0) ||
+                     DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(p->alive),
+                     DEV_ARG(p->relight), DEV_ARG(p->relight_patch), DEV_ARG(p->relight_coeffs),
+                     DEV_ARG(p->relight_normal), DEV_ARG(p->relight_light), (size_t)0) ||
         launch_shade(p, wave_size, path_count, err) || dev_finish(p->cl, p->stats, err))
         return err->code;
     double t0 = stats_now();
@@ -191,12 +193,12 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
     return rc;
 }
 
-int pipeline_film(ts_pipeline *p, uint32_t first_sample, uint32_t ray_count, ts_error *err)
+int pipeline_film(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 {
-    if (dev_set_args(p->k_film, err, DEV_ARG(first_sample), DEV_ARG(ray_count),
-                     DEV_ARG(p->pixel_count), DEV_ARG(p->radiance), DEV_ARG(p->aov),
-                     DEV_ARG(p->albedo), DEV_ARG(p->accum), DEV_ARG(p->aov_film),
-                     DEV_ARG(p->albedo_film), (size_t)0) ||
+    if (dev_set_args(p->k_film, err, DEV_ARG(cam->first_sample), DEV_ARG(cam->ray_count),
+                     DEV_ARG(p->pixel_count), DEV_ARG(cam->spp), DEV_ARG(cam->band),
+                     DEV_ARG(p->radiance), DEV_ARG(p->aov), DEV_ARG(p->albedo), DEV_ARG(p->accum),
+                     DEV_ARG(p->aov_film), DEV_ARG(p->albedo_film), (size_t)0) ||
         dev_launch(p->cl, p->k_film, TS_STAGE_film, p->pixel_count, TS_LOCAL_SIZE, err))
         return err->code;
     return dev_finish(p->cl, p->stats, err);

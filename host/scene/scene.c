@@ -656,6 +656,15 @@ int scene_add_input(ts_scene *s, const char *path, ts_error *err)
     return TS_OK;
 }
 
+void occlusion_free(ts_occlusion *o)
+{
+    if (!o) return;
+    free(o->patch);
+    free(o->coeffs);
+    free(o->normal);
+    memset(o, 0, sizeof *o);
+}
+
 void scene_free(ts_scene *s)
 {
     if (!s) return;

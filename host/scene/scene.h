@@ -85,6 +85,22 @@ typedef struct ts_dome_light {
     char mapname[4096]; /* a lat-long environment map (any OpenImageIO format), "" for none */
 } ts_dome_light;
 
+/* A baked spherical-harmonics occlusion for relighting (`tessera render --occlusion`,
+ * docs/bake.md "Relighting"; read by app/bake_file.h bake_occlusion_load): patch p's
+ * (2^m + 1)^2 points, point (i, j) at (u, v) = (i, j) / 2^m being point patch[2p] + j (2^m + 1)
+ * + i, m = patch[2p + 1]; B^2 coefficients a point, lib/sh.h's order (kernels/lib/relight.h
+ * reads them). */
+typedef struct ts_occlusion {
+    uint32_t bands;  /* B, 1..4 */
+    uint32_t cosine; /* 1: the coefficients project V max(0, N . w) (bake --cosine) */
+    uint32_t patch_count, point_count;
+    uint32_t *patch; /* 2 * patch_count words */
+    float *coeffs;   /* point_count * B^2 */
+    float *normal;   /* point_count * 3: the unit N each point's hemisphere is about */
+} ts_occlusion;
+
+void occlusion_free(ts_occlusion *o);
+
 typedef struct ts_scene {
     uint32_t patch_count;
     uint32_t patch_capacity;
@@ -131,6 +147,9 @@ typedef struct ts_scene {
     ts_scene_light *lights; /* distant, point, spot and ambient lights, in scene order */
     uint32_t light_count;
     ts_dome_light dome;
+    /* The baked occlusion `render --occlusion` relights with (NULL: none); not the scene's:
+     * whoever attaches it frees it, scene_free does not. */
+    const ts_occlusion *occlusion;
 } ts_scene;
 
 /* Appends one Bézier patch (16 world-space points, u fastest). Returns TS_OK or

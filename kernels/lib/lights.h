@@ -138,11 +138,13 @@ TS_INLINE ts_u32 emitter_pick(TS_CONST_GLOBAL ts_emitter *e, ts_u32 n, float u)
     return lo;
 }
 
-/* 1 when light l takes part in light sampling under `sampling` (TS_SAMPLING_*). */
+/* 1 when light l takes part in light sampling under `sampling` (TS_SAMPLING_*, with
+ * TS_LIGHTS_NO_DOMES: no dome does). */
 TS_INLINE int light_sampled(TS_CONST_GLOBAL ts_light *l, ts_u32 sampling)
 {
     int uniform_dome = l->type == TS_LIGHT_DOME && l->map_width == 0u;
-    return l->weight > 0.0f && !(uniform_dome && sampling != TS_SAMPLING_LIGHT);
+    if (l->type == TS_LIGHT_DOME && (sampling & TS_LIGHTS_NO_DOMES)) return 0;
+    return l->weight > 0.0f && !(uniform_dome && TS_SAMPLING_MODE(sampling) != TS_SAMPLING_LIGHT);
 }
 
 /* The sum of the weights of the lights that take part. */
@@ -249,7 +251,8 @@ TS_INLINE ts_light_sample light_sample(TS_CONST_GLOBAL ts_light *lights, ts_u32 
  * the pdf with which light sampling (under `sampling`) would have chosen that direction. A
  * uniform dome adds no pdf: it is light-sampled only under --sampling light, where emission
  * found by BSDF rays has weight 0 anyway. eye: the ray is an eye ray, which does not see
- * domes flagged TS_LIGHT_NOT_SEEN (RIB ambientlight lights surfaces, not the background). */
+ * domes flagged TS_LIGHT_NOT_SEEN (RIB ambientlight lights surfaces, not the background).
+ * With TS_LIGHTS_NO_DOMES in sampling no dome adds anything (the ray left a relit vertex). */
 TS_INLINE void light_escape(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count, ts_u32 sampling,
                             ts_env env, ts_v3 dir, int eye, float le[3], float *pdf)
 {
@@ -259,6 +262,7 @@ TS_INLINE void light_escape(TS_CONST_GLOBAL ts_light *lights, ts_u32 light_count
     for (ts_u32 i = 0; i < light_count; ++i) {
         TS_CONST_GLOBAL ts_light *l = &lights[i];
         float choose = total > 0.0f && light_sampled(l, sampling) ? l->weight / total : 0.0f;
+        if (l->type == TS_LIGHT_DOME && (sampling & TS_LIGHTS_NO_DOMES)) continue;
         if (l->type == TS_LIGHT_DOME && l->map_width) {
             float p;
             ts_vec4 t = env.texels[env_lookup(l, env, dir, &p)];

@@ -243,7 +243,7 @@ typedef struct ts_texture {
 #define TS_PROJECTION_PERSPECTIVE 0u
 #define TS_PROJECTION_ORTHOGRAPHIC 1u
 
-/* Everything the camera kernel needs, in world space. 160 bytes.
+/* Everything the camera kernel needs, in world space. 176 bytes.
  * Ray through raster point (px, py): screen (sx, sy) in [-1, 1]^2, y up. Perspective:
  * from origin, direction sx * right + sy * up + forward (RenderMan: x right, y up, looking
  * down +z; forward holds the screen window's centre). Orthographic: from origin + sx *
@@ -258,10 +258,12 @@ typedef struct ts_camera_params {
     float forward[4]; /* camera z axis (unit) */
     ts_u32 width, height;
     ts_u32 spp, seed;
-    ts_u32 first_sample; /* global index of the first ray of this wave */
+    ts_u32 first_sample; /* index of the wave's first sample in the frame's order */
     ts_u32 ray_count;    /* rays in this wave */
     ts_u32 projection;   /* TS_PROJECTION_* */
+    ts_u32 band;         /* pixels a band of the sample order (lib/sample_order.h); 0: one */
     ts_u32 moving;       /* 1: the camera moves (origin1 ... forward1 at shutter close) */
+    ts_u32 pad[3];
     float origin1[4], right1[4], up1[4], forward1[4]; /* at shutter close; 0 when static */
 } ts_camera_params;
 
@@ -278,8 +280,9 @@ typedef struct ts_shade_params {
                         collects emission */
     ts_u32 sampling; /* TS_SAMPLING_* */
     ts_u32 seed;
-    ts_u32 spp; /* samples per pixel: the sampler's index mask (lib/sampler.h) */
-    ts_u32 pad[2];
+    ts_u32 spp;  /* samples per pixel: the sampler's index mask (lib/sampler.h) */
+    ts_u32 band; /* pixels a band of the sample order (lib/sample_order.h); 0: one */
+    ts_u32 pad;
 } ts_shade_params;
 
 /* The bake (`tessera bake`, kernels/bake.cl, docs/bake.md): ts_bake_params.flags. */
@@ -305,6 +308,32 @@ typedef struct ts_bake_params {
     ts_u32 orthographic; /* 1: eye[0..2] is the camera's forward direction */
     float eye[4];        /* the camera position (perspective), w unused */
 } ts_bake_params;
+
+/* Relighting with a baked occlusion (`render --occlusion`, lib/relight.h, docs/bake.md
+ * "Relighting"): the shade kernel's parameters. bands = 0: no relighting. 48 bytes.
+ * The light buffer the kernel reads with them: entries [0, 16) hold the SH projection of
+ * every dome's radiance, L_j = integral of L(w) Y_j(w) over the sphere (rgb; used when
+ * cosine = 1); entries [16, 16 + table_w table_h B^2) the mapped dome's
+ * G_j(n) = integral of L(w) Y_j(w) max(0, n . w) at table_w x table_h normals, lat-long like
+ * the dome's map (row r at theta = pi (r + 1/2) / table_h, column c at phi = 2 pi (c + 1/2) /
+ * table_w), B^2 entries per normal (used when cosine = 0; table_w = 0 without a map). */
+typedef struct ts_relight_params {
+    ts_u32 bands;   /* B of the file, 0..4 */
+    ts_u32 cosine;  /* 1: the file's coefficients project V max(0, N . w) (bake --cosine) */
+    ts_u32 table_w; /* the G table's normals, 0 when no dome has a map */
+    ts_u32 table_h;
+    float uniform[4];   /* rgb: the uniform domes' radiance, summed (used when cosine = 0) */
+    ts_u32 patch_count; /* entries of the patch table (2 words each) */
+    ts_u32 pad[3];
+} ts_relight_params;
+/* Entries of the light buffer before the G table. */
+#define TS_RELIGHT_TABLE_FIRST 16u
+
+/* Or'ed into the `sampling` argument of lib/lights.h (TS_SAMPLING_* in the low bits): domes
+ * take no part, neither light-sampled nor found by escaping rays, at a vertex whose
+ * environment light comes from the baked occlusion instead (shade.cl, --occlusion). */
+#define TS_LIGHTS_NO_DOMES 0x100u
+#define TS_SAMPLING_MODE(sampling) ((sampling)&0xffu)
 
 /* Per-ray flags (ray field `flags`). */
 #define TS_RAY_SHADOW 1u /* any hit below tmax ends the ray: it only answers "occluded?" */
@@ -333,7 +362,10 @@ typedef struct ts_bake_params {
 #define TS_MIS_BALANCE 1u        /* p_b / (p_b + p_light), the balance heuristic */
 #define TS_MIS_ZERO 2u           /* --sampling light: light sampling alone counts emission */
 #define TS_PATH_STATE(traced, mis_mode) ((traced) | ((mis_mode) << 2))
-#define TS_PATH_MIS(state) ((state) >> 2)
+#define TS_PATH_MIS(state) (((state) >> 2) & 3u)
+/* Bit 4: the path's BSDF ray leaves a vertex relit by the baked occlusion (--occlusion), so
+ * the domes it finds were counted there already (shade.cl). */
+#define TS_PATH_RELIT 16u
 
 /* Path state as SoA, one entry per path of the wave (path i traces ray i), generated from
  * this list like the ray fields. X(type, name, comment). */
@@ -356,12 +388,13 @@ typedef struct ts_bake_params {
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
     X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
-    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection) X(ts_camera_params, forward1)      \
-    X(ts_shade_params, spp) X(ts_light, dir) X(ts_light, radiance) X(ts_light, weight) X(ts_emitter, area) \
+    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection) X(ts_camera_params, band) X(ts_camera_params, forward1)      \
+    X(ts_shade_params, spp) X(ts_shade_params, band) X(ts_light, dir) X(ts_light, radiance) X(ts_light, weight) X(ts_emitter, area) \
     X(ts_light, flags) X(ts_light, pos) X(ts_light, cos_inner) X(ts_light, falloff_min)             \
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \
     X(ts_patch_attr, disp_offset) X(ts_patch_attr, st) X(ts_texture, kind)                    \
-    X(ts_texture, level_page) X(ts_bake_params, orthographic) X(ts_bake_params, eye)
+    X(ts_texture, level_page) X(ts_bake_params, orthographic) X(ts_bake_params, eye)          \
+    X(ts_relight_params, uniform) X(ts_relight_params, patch_count) X(ts_relight_params, pad)
 /* clang-format on */
 
 #endif

@@ -1,0 +1,164 @@
+/* noise4.h — kernels only: the fBm of lib/displace.h with several noise evaluations in the
+ * lanes of a float8 (noise3_x8). shade.cl's displaced shading normal evaluates its four
+ * surface points together, a point per lane and two octaves in the two halves; dice.cl
+ * evaluates a vertex's octaves together, one per lane. The scalar fBm was 15% (shade) and 4%
+ * (dice) of a teapot_displaced render. Every lane runs the operations of the scalar noise3 /
+ * displace_value / patch_vertex in their order, and the octaves are added in octave order
+ * (kernels are built with FP_CONTRACT OFF), so the results have the same bits as
+ * patch_shading_normal and patch_vertex, which stay the host's references: test_dice_build
+ * and test_bottom_level compare the diced grids bit for bit; the shading normal is checked
+ * by rendering (the golden images, test_pathtrace). */
+#ifndef TS_NOISE4_H
+#define TS_NOISE4_H
+
+#include "lib/patch.h"
+
+inline uint8 noise_mix8(uint8 x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
+/* noise3 at eight points (x.s0, y.s0, z.s0) .. (x.s7, y.s7, z.s7). */
+inline float8 noise3_x8(float8 x, float8 y, float8 z)
+{
+    float8 fx0 = floor(x), fy0 = floor(y), fz0 = floor(z);
+    int8 ix = convert_int8(fx0), iy = convert_int8(fy0), iz = convert_int8(fz0);
+    float8 fx = x - fx0, fy = y - fy0, fz = z - fz0;
+    /* The lattice hash of noise_hash, its inner words shared by the corners with equal z
+     * (and y): the same values, fewer mixes. */
+    uint8 hz[2], hy[4];
+    for (int dz = 0; dz < 2; ++dz)
+        hz[dz] = noise_mix8(as_uint8(iz + dz) * 0xcb1ab31fu);
+    for (int k = 0; k < 4; ++k)
+        hy[k] = noise_mix8(as_uint8(iy + (k & 1)) * 0xd8163841u ^ hz[k >> 1]);
+    float8 c[8];
+#pragma unroll
+    for (int k = 0; k < 8; ++k) {
+        int dx = k & 1, dy = (k >> 1) & 1, dz = k >> 2;
+        uint8 h = noise_mix8(as_uint8(ix + dx) * 0x8da6b343u ^ hy[(dz << 1) | dy]) % 12u;
+        /* noise_gradient: two components are +-1, one is 0. */
+        int8 neg_a = as_int8(h & 1u) != 0, neg_b = as_int8(h & 2u) != 0;
+        float8 a = select((float8)(1.0f), (float8)(-1.0f), neg_a);
+        float8 b = select((float8)(1.0f), (float8)(-1.0f), neg_b);
+        uint8 axis = h >> 2;
+        int8 ax0 = as_int8(axis) == 0, ax2 = as_int8(axis) == 2;
+        float8 gx = select(a, (float8)(0.0f), ax2);
+        float8 gy = select(select((float8)(0.0f), a, ax2), b, ax0);
+        float8 gz = select(b, (float8)(0.0f), ax0);
+        c[k] = gx * (fx - (float)dx) + gy * (fy - (float)dy) + gz * (fz - (float)dz);
+    }
+    float8 u = fx * fx * fx * (fx * (fx * 6.0f - 15.0f) + 10.0f);
+    float8 v = fy * fy * fy * (fy * (fy * 6.0f - 15.0f) + 10.0f);
+    float8 w = fz * fz * fz * (fz * (fz * 6.0f - 15.0f) + 10.0f);
+    float8 x00 = c[0] + u * (c[1] - c[0]), x10 = c[2] + u * (c[3] - c[2]);
+    float8 x01 = c[4] + u * (c[5] - c[4]), x11 = c[6] + u * (c[7] - c[6]);
+    float8 y0 = x00 + v * (x10 - x00), y1 = x01 + v * (x11 - x01);
+    return y0 + w * (y1 - y0);
+}
+
+/* displace_value at four world points (a noise function: the caller checked); two octaves
+ * at a time, one in each half of a float8, added in octave order. */
+inline float4 displace_value_x4(__global const ts_patch_attr *a, __global const ts_xform *x,
+                                float4 px, float4 py, float4 pz)
+{
+    float4 ox = x->r0[0] * px + x->r0[1] * py + x->r0[2] * pz + x->r0[3];
+    float4 oy = x->r1[0] * px + x->r1[1] * py + x->r1[2] * pz + x->r1[3];
+    float4 oz = x->r2[0] * px + x->r2[1] * py + x->r2[2] * pz + x->r2[3];
+    float f[TS_DISP_MAX_OCTAVES + 1], w[TS_DISP_MAX_OCTAVES + 1];
+    uint n = displace_octaves(a);
+    f[0] = a->disp_frequency, w[0] = 1.0f;
+    for (uint o = 0; o < n; ++o) /* the scalar loop's running products */
+        f[o + 1] = f[o] * a->disp_lacunarity, w[o + 1] = w[o] * a->disp_gain;
+    float4 sum = (float4)(0.0f);
+    int ridged = a->disp_kind == TS_DISP_RIDGED;
+    for (uint o = 0; o < n; o += 2) {
+        float f1 = o + 1u < n ? f[o + 1] : f[o]; /* n odd: the last octave twice, added once */
+        float8 v = noise3_x8((float8)(ox * f[o], ox * f1), (float8)(oy * f[o], oy * f1),
+                             (float8)(oz * f[o], oz * f1));
+        sum += ridged ? w[o] * (1.0f - 2.0f * fabs(v.lo)) : w[o] * v.lo;
+        if (o + 1u < n) sum += ridged ? w[o + 1] * (1.0f - 2.0f * fabs(v.hi)) : w[o + 1] * v.hi;
+    }
+    return a->disp_amplitude * sum;
+}
+
+/* displace_value at one world point, eight octaves at a time in the lanes of a float8 and
+ * added in octave order (dice.cl). */
+inline float displace_value_octaves(__global const ts_patch_attr *a, __global const ts_xform *x,
+                                    float px, float py, float pz)
+{
+    float ox = x->r0[0] * px + x->r0[1] * py + x->r0[2] * pz + x->r0[3];
+    float oy = x->r1[0] * px + x->r1[1] * py + x->r1[2] * pz + x->r1[3];
+    float oz = x->r2[0] * px + x->r2[1] * py + x->r2[2] * pz + x->r2[3];
+    uint n = displace_octaves(a);
+    float f[TS_DISP_MAX_OCTAVES + 8], w[TS_DISP_MAX_OCTAVES + 8];
+    f[0] = a->disp_frequency, w[0] = 1.0f;
+    for (uint o = 0; o + 1u < n; ++o) /* the scalar loop's running products */
+        f[o + 1] = f[o] * a->disp_lacunarity, w[o + 1] = w[o] * a->disp_gain;
+    for (uint o = n; o < ((n + 7u) & ~7u); ++o) /* spare lanes: the last octave again */
+        f[o] = f[n - 1u];
+    float sum = 0.0f, v[8];
+    int ridged = a->disp_kind == TS_DISP_RIDGED;
+    for (uint o = 0; o < n; o += 8u) {
+        float8 fo = vload8(0, f + o);
+        vstore8(noise3_x8(ox * fo, oy * fo, oz * fo), 0, v);
+        for (uint l = 0; l < 8u && o + l < n; ++l)
+            sum += ridged ? w[o + l] * (1.0f - 2.0f * fabs(v[l])) : w[o + l] * v[l];
+    }
+    return a->disp_amplitude * sum;
+}
+
+/* patch_vertex (lib/patch.h), the same bits, with displace_value_octaves (dice.cl). */
+inline ts_vec4 patch_vertex_x8(__global const ts_vec4 *cp, __global const ts_vec4 *cp0,
+                               __global const ts_vec4 *n, __global const ts_vec4 *mid,
+                               __global const ts_patch_attr *a, __global const ts_xform *x,
+                               ts_tex_ctx tex, float u, float v)
+{
+    if (!displace_is_noise(a)) return patch_vertex(cp, cp0, n, mid, a, x, tex, u, v);
+    ts_vec4 p = bezier_eval(cp, u, v);
+    ts_vec4 p0 = cp0 == cp ? p : bezier_eval(cp0, u, v);
+    float d = displace_value_octaves(a, x, p0.x, p0.y, p0.z);
+    ts_vec4 dn = displace_normal(n, mid, u, v);
+    ts_vec4 r = {p.x + d * dn.x, p.y + d * dn.y, p.z + d * dn.z, d};
+    return r;
+}
+
+/* patch_shading_normal (lib/patch.h), the same bits: the four points of its central
+ * differences displaced together where the displacement is noise. */
+inline ts_vec4 patch_shading_normal_x4(__global const ts_vec4 *cp, __global const ts_vec4 *n,
+                                       __global const ts_vec4 *mid, __global const ts_patch_attr *a,
+                                       __global const ts_xform *x, ts_tex_ctx tex, float u, float v,
+                                       uint m)
+{
+    if (!displace_is_noise(a)) return patch_shading_normal(cp, n, mid, a, x, tex, u, v, m);
+    float h = 0.5f * ldexp(1.0f, -(int)m);
+    float u0 = fmax(u - h, 0.0f), u1 = fmin(u + h, 1.0f);
+    float v0 = fmax(v - h, 0.0f), v1 = fmin(v + h, 1.0f);
+    float pu[4] = {u0, u1, u, u}, pv[4] = {v, v, v0, v1};
+    ts_vec4 p[4];
+    for (int k = 0; k < 4; ++k)
+        p[k] = bezier_eval(cp, pu[k], pv[k]);
+    float4 d = displace_value_x4(a, x, (float4)(p[0].x, p[1].x, p[2].x, p[3].x),
+                                 (float4)(p[0].y, p[1].y, p[2].y, p[3].y),
+                                 (float4)(p[0].z, p[1].z, p[2].z, p[3].z));
+    float dk[4] = {d.s0, d.s1, d.s2, d.s3};
+    ts_vec4 q[4]; /* patch_vertex's displaced points */
+    for (int k = 0; k < 4; ++k) {
+        ts_vec4 dn = displace_normal(n, mid, pu[k], pv[k]);
+        q[k] =
+            (ts_vec4){p[k].x + dk[k] * dn.x, p[k].y + dk[k] * dn.y, p[k].z + dk[k] * dn.z, dk[k]};
+    }
+    ts_v3 du = v3(q[1].x - q[0].x, q[1].y - q[0].y, q[1].z - q[0].z);
+    ts_v3 dv = v3(q[3].x - q[2].x, q[3].y - q[2].y, q[3].z - q[2].z);
+    ts_v3 c = v3_cross(du, dv);
+    float len = sqrt(v3_dot(c, c));
+    if (!(len > 0.0f)) return bezier_normal(cp, u, v);
+    ts_vec4 r = {c.x / len, c.y / len, c.z / len, 0.0f};
+    return r;
+}
+
+#endif

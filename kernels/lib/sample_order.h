@@ -1,0 +1,58 @@
+/* sample_order.h — the order in which a frame's samples are traced (docs/rendering.md
+ * "Sample order"). Shared by the kernels (camera, shade, film) and the host (units, resume).
+ *
+ * A frame has P pixels and S samples a pixel: P * S samples, numbered k = 0 .. P * S - 1 in
+ * the order they are traced (waves, units and --resume count in k). The image is cut into
+ * bands of B consecutive pixels (whole rows; B >= P, or 0: one band, the whole image). Band
+ * b holds pixels [b B, b B + n_b), n_b = min(B, P - b B), and the samples
+ * [b B S, (b B + n_b) S), sample after sample:
+ *
+ *     k = b B S + s n_b + (p - b B)      for pixel p of band b and sample s < S.
+ *
+ * With one band this is pass after pass (k = s P + p). Smaller bands finish every sample of
+ * a few rows before the next rows start, so that consecutive waves need the same patches
+ * and the patch cache keeps them (Hanika §3.6's argument for coherent batches, PantaRay's
+ * batches in screen order): when the frame's patches do not fit the cache, pass-major order
+ * dices every visible patch again in every pass.
+ *
+ * A pixel's samples come in sample order whatever B is, and the film adds them in that
+ * order, so the image does not depend on B bit for bit. */
+#ifndef TS_SAMPLE_ORDER_H
+#define TS_SAMPLE_ORDER_H
+
+#include "lib/shared_types.h"
+
+/* The pixel (*pixel) and its sample (*sample) of the frame's k-th sample: npix pixels, spp
+ * samples a pixel, bands of band pixels (0: one band). */
+TS_INLINE void sample_order_at(ts_u32 k, ts_u32 npix, ts_u32 spp, ts_u32 band, ts_u32 *pixel,
+                               ts_u32 *sample)
+{
+    if (band == 0u || band > npix) band = npix;
+    ts_u32 b = k / band / spp; /* band * spp <= npix * spp fits: the frame's sample count */
+    ts_u32 base = b * band, n = npix - base < band ? npix - base : band;
+    ts_u32 r = k - base * spp;
+    *sample = r / n;
+    *pixel = base + r % n;
+}
+
+/* The inverse: the index k of sample `sample` of pixel `pixel`. */
+TS_INLINE ts_u32 sample_order_index(ts_u32 pixel, ts_u32 sample, ts_u32 npix, ts_u32 spp,
+                                    ts_u32 band)
+{
+    if (band == 0u || band > npix) band = npix;
+    ts_u32 base = pixel / band * band, n = npix - base < band ? npix - base : band;
+    return base * spp + sample * n + (pixel - base);
+}
+
+/* How many of pixel's samples are among the first `done` of the frame (done <= npix * spp). */
+TS_INLINE ts_u32 sample_order_count(ts_u32 pixel, ts_u32 done, ts_u32 npix, ts_u32 spp, ts_u32 band)
+{
+    if (band == 0u || band > npix) band = npix;
+    ts_u32 base = pixel / band * band, n = npix - base < band ? npix - base : band;
+    ts_u32 first = base * spp + (pixel - base); /* its sample 0 */
+    if (done <= first) return 0u;
+    ts_u32 c = (done - first - 1u) / n + 1u;
+    return c < spp ? c : spp;
+}
+
+#endif
