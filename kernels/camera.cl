@@ -1,5 +1,5 @@
 /* camera.cl — stage `camera`: generates one wave of eye rays.
- * Reads:  ts_camera_params (by value).
+ * Reads:  ts_camera_params (by value); a moving camera is interpolated to each ray's time.
  * Writes: per ray org, dir (w = time in [0,1)), hit (cleared), entry (TS_ENTRY_START), pixel,
  *         flags (0); active[i] = paths[i] = i; a fresh path state (throughput 1, radiance 0,
  *         its eye-ray slot traced, emission it finds weighted 1).
@@ -14,13 +14,26 @@
 #include "lib/sample_order.h"
 #include "lib/sampler.h"
 
-__kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __global ts_vec4 *dir,
+/* A moving camera at time t: each of its vectors interpolated linearly between shutter open
+ * and close (ts_camera_params). */
+static void camera_at_time(ts_camera_params *c, float t)
+{
+    for (int k = 0; k < 3; k++) {
+        c->origin[k] = (1.0f - t) * c->origin[k] + t * c->origin1[k];
+        c->right[k] = (1.0f - t) * c->right[k] + t * c->right1[k];
+        c->up[k] = (1.0f - t) * c->up[k] + t * c->up1[k];
+        c->forward[k] = (1.0f - t) * c->forward[k] + t * c->forward1[k];
+    }
+}
+
+__kernel void camera_generate(ts_camera_params cam, __global ts_vec4 *org, __global ts_vec4 *dir,
                               __global ts_hit *hit, __global uint *entry, __global uint *pixel,
                               __global uint *flags, __global uint *from, __global uint *active,
                               __global uint *paths, __global ts_vec4 *throughput,
                               __global float *mis, __global uint *state, __global ts_vec4 *radiance)
 {
     uint i = get_global_id(0);
+    ts_camera_params p = cam;
     if (i >= p.ray_count) return;
     uint npix = p.width * p.height;
     uint pix, sample;
@@ -32,6 +45,9 @@ __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __globa
         jx = sampler_set_value(cs, 0u);
         jy = sampler_set_value(cs, 1u);
     }
+    /* Time in [0, 1) for motion blur (Hanika §3.4): the camera set's third dimension. */
+    float time = sampler_set_value(cs, 2u);
+    if (p.moving) camera_at_time(&p, time);
     float sx = 2.0f * ((float)x + jx) / (float)p.width - 1.0f;
     float sy = 1.0f - 2.0f * ((float)y + jy) / (float)p.height;
     float dx, dy, dz;
@@ -49,8 +65,7 @@ __kernel void camera_generate(ts_camera_params p, __global ts_vec4 *org, __globa
     }
     float inv = 1.0f / sqrt(dx * dx + dy * dy + dz * dz);
     org[i] = o;
-    /* Time in [0, 1) for motion blur (Hanika §3.4): the camera set's third dimension. */
-    dir[i] = (ts_vec4){dx * inv, dy * inv, dz * inv, sampler_set_value(cs, 2u)};
+    dir[i] = (ts_vec4){dx * inv, dy * inv, dz * inv, time};
     hit[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
     entry[i] = TS_ENTRY_START;
     pixel[i] = pix;

@@ -328,7 +328,9 @@ static void test_read_archive(void **state)
     expect_error("ReadArchive \"a\" \"b\"", "t.rib:1:17: error: too many arguments to ReadArchive");
     expect_error("MotionBegin [0 1]\nReadArchive \"a.rib\"",
                  "t.rib:2:1: error: ReadArchive is not allowed in the motion block at 1:1 (only "
-                 "Patch, Translate, Rotate, Scale, ConcatTransform or Transform)");
+                 "Patch, PatchMesh, SubdivisionMesh, NuPatch, polygons, quadrics, Points, Curves, "
+                 "Translate, "
+                 "Rotate, Scale, ConcatTransform or Transform)");
 
     /* Depth: a chain of 20 distinct files stops at 16. */
     for (int k = 0; k < 20; k++) {

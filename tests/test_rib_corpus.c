@@ -20,11 +20,13 @@ typedef struct corpus_file {
     uint32_t projection;
 } corpus_file;
 
+/* lights: the file's, or 1 for the headlight a file without light gets (tst.rib, tenpatch.rib,
+ * simpledeformation.rib). */
 static const corpus_file corpus[] = {
-    {"aqsis/tools/displays/exr/tst.rib", 32, 0, 720, 486, TS_PROJECTION_PERSPECTIVE},
+    {"aqsis/tools/displays/exr/tst.rib", 32, 1, 720, 486, TS_PROJECTION_PERSPECTIVE},
     {"aqsis/tools/displays/xpm/teapotgeom.rib", 32, 3, 0, 0, TS_PROJECTION_PERSPECTIVE},
-    {"aqsis/prototypes/newcore/scenes/tenpatch.rib", 10, 0, 1024, 1024, TS_PROJECTION_ORTHOGRAPHIC},
-    {"aqsis/prototypes/newcore/scenes/simpledeformation.rib", 2, 0, 1024, 1024,
+    {"aqsis/prototypes/newcore/scenes/tenpatch.rib", 10, 1, 1024, 1024, TS_PROJECTION_ORTHOGRAPHIC},
+    {"aqsis/prototypes/newcore/scenes/simpledeformation.rib", 2, 1, 1024, 1024,
      TS_PROJECTION_PERSPECTIVE},
     {"aqsis/prototypes/newcore/scenes/mb_noise_test.rib", 1, 0, 256, 256,
      TS_PROJECTION_ORTHOGRAPHIC},

@@ -194,9 +194,11 @@ static void test_object_errors(void **state)
                  "t.rib:5:1)");
     expect_error(OBJ "WorldBegin\nWorldEnd\nObjectInstance 1\n",
                  "t.rib:6:1: error: ObjectInstance after WorldEnd");
-    expect_error(OBJ "MotionBegin [0 1]\nObjectInstance 1\n",
-                 "t.rib:5:1: error: ObjectInstance is not allowed in the motion block at 4:1 "
-                 "(only Patch, Translate, Rotate, Scale, ConcatTransform or Transform)");
+    expect_error(
+        OBJ "MotionBegin [0 1]\nObjectInstance 1\n",
+        "t.rib:5:1: error: ObjectInstance is not allowed in the motion block at 4:1 "
+        "(only Patch, PatchMesh, SubdivisionMesh, NuPatch, polygons, quadrics, Points, Curves, "
+        "Translate, Rotate, Scale, ConcatTransform or Transform)");
 }
 
 /* An object begun in an archive must end there. */

@@ -337,8 +337,6 @@ static void test_errors(void **state)
     test_parse_rib_error(
         "GeneralPolygon [4 3] \"P\" [0 0 0 1 0 0 1 1 0 0 1 0]",
         "t.rib:1:16: error: GeneralPolygon: the nvertices add up to 7, but \"P\" has 4");
-    test_parse_rib_error("Polygon \"P\" [0 0 0 1 0 0 0 1 0] \"N\" [0 0 1 0 0 0 0 0 1]",
-                         "t.rib:1:37: error: Polygon: normal 1 of \"N\" is zero");
     test_parse_rib_error(
         "PointsGeneralPolygons [1 1] [3] [0 1 2] \"P\" [0 0 0 1 0 0 0 1 0]",
         "t.rib:1:23: error: PointsGeneralPolygons: the nloops add up to 2, but nvertices "
@@ -348,12 +346,35 @@ static void test_errors(void **state)
         "t.rib:1:52: error: Polygon: parameter \"Cs\" (uniform) needs 3 values, got 6");
 }
 
+/* A zero normal in "N" (exporters write them) takes its polygon's normal, as a mesh vertex
+ * without a usable normal does, with one warning. */
+static void test_zero_normal(void **state)
+{
+    (void)state;
+    int rc;
+    const char *out =
+        test_rib_warnings("Polygon \"P\" [0 0 0 1 0 0 0 1 0] \"N\" [0 0 1 0 0 0 0 0 1]\n", &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:1:37: warning: Polygon: zero normals in \"N\" take their "
+                             "polygon's normal\n");
+    ts_scene s;
+    test_parse_rib_ok("Polygon \"P\" [0 0 0 1 0 0 0 1 0] \"N\" [0 0 1 0 0 0 0 0 1]\n", &s);
+    assert_int_equal(s.patch_count, 1);
+    for (int c = 0; c < 4; c++)
+        assert_true(s.corner_n[c].x == 0.0f && s.corner_n[c].y == 0.0f && s.corner_n[c].z == 1.0f);
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_cube_stays_a_cube),   cmocka_unit_test(test_quad_with_normals),
-        cmocka_unit_test(test_holes_and_concave),   cmocka_unit_test(test_random_holes),
-        cmocka_unit_test(test_primitive_variables), cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_cube_stays_a_cube),
+        cmocka_unit_test(test_zero_normal),
+        cmocka_unit_test(test_quad_with_normals),
+        cmocka_unit_test(test_holes_and_concave),
+        cmocka_unit_test(test_random_holes),
+        cmocka_unit_test(test_primitive_variables),
+        cmocka_unit_test(test_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -417,9 +417,10 @@ static void test_errors(void **state)
     test_parse_rib_error("Scale 1 1 0\nSphere 1 -1 1 360",
                          "t.rib:2:1: error: Sphere: the current transformation is singular; the "
                          "surface's normals need an invertible one");
-    test_parse_rib_error("MotionBegin [0 1]\nSphere 1 -1 1 360\n",
-                         "t.rib:2:1: error: Sphere is not allowed in the motion block at 1:1 (only "
-                         "Patch, Translate, Rotate, Scale, ConcatTransform or Transform)");
+    /* In a motion block a quadric deforms (test_rib_deform.c): it needs its second sample. */
+    test_parse_rib_error("MotionBegin [0 1]\nSphere 1 -1 1 360\nMotionEnd\n",
+                         "t.rib:3:1: error: MotionEnd: the motion block at 1:1 has 1 sample for 2 "
+                         "times");
 }
 
 int main(void)

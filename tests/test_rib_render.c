@@ -7,7 +7,8 @@
  * - Surface "constant" is its colour, with no light in the scene;
  * - the public RIB files of tests/rib-corpus/ render, one of them to a known motion blur,
  *   one lit by its pointlights alone;
- * - an object instanced three times renders bit for bit like its requests written out.
+ * - an object instanced three times renders bit for bit like its requests written out;
+ * - a moving camera blurs a static patch as the patch moving the other way would be.
  * Needs an OpenCL device (skipped, 77, without one). */
 #include "test_support.h"
 #include "image/image.h"
@@ -231,6 +232,41 @@ static void test_corpus_renders(void **state)
     image_free(&img);
 }
 
+/* A moving camera (MotionBegin around the camera transformation): a static constant-white
+ * patch covering world x in [1, 2], an orthographic window over screen x in [0, 1], the camera
+ * moving from x = 0 to x = 1 during the shutter. Screen x = s sees world x = s + t at time t,
+ * the patch for t >= 1 - s: each column's brightness is its s, the mirror of mb_noise_test.rib's
+ * moving patch. At shutter open alone (the first sample twice) the window sees none of it. */
+static void test_moving_camera(void **state)
+{
+    (void)state;
+    const char *head = "Format 32 8 1\nProjection \"orthographic\"\n"
+                       "ScreenWindow 0 1 -0.125 0.125\nMotionBegin [0 1]\n";
+    const char *world = "MotionEnd\nWorldBegin\nSurface \"constant\"\n"
+                        "Patch \"bilinear\" \"P\" [1 -1 0  2 -1 0  1 1 0  2 1 0]\nWorldEnd\n";
+    char text[1024];
+    snprintf(text, sizeof text, "%sTranslate 0 0 5\nTranslate -1 0 5\n%s", head, world);
+    write_scene("camblur.rib", text);
+    render("camblur.rib", "camblur.exr", "--spp 64 --max-lod 2");
+    ts_image img;
+    test_read_image(path("camblur.exr"), &img);
+    for (int x = 0; x < 32; x++) {
+        double sum = 0;
+        for (int y = 0; y < 8; y++)
+            sum += channel(&img, y * 32 + x, "G");
+        double want = (x + 0.5) / 32; /* 512 samples a column: 5 sigma <= 0.11 */
+        if (fabs(sum / 8 - want) > 0.12) fail_msg("column %d: %g, want %g", x, sum / 8, want);
+    }
+    image_free(&img);
+    snprintf(text, sizeof text, "%sTranslate 0 0 5\nTranslate 0 0 5\n%s", head, world);
+    write_scene("camstill.rib", text);
+    render("camstill.rib", "camstill.exr", "--spp 4 --max-lod 2");
+    test_read_image(path("camstill.exr"), &img);
+    for (int i = 0; i < 32 * 8; i++)
+        if (channel(&img, i, "G") != 0.0f) fail_msg("pixel %d: %g", i, channel(&img, i, "G"));
+    image_free(&img);
+}
+
 /* ObjectInstance copies its object: the image of an object instanced three times (different
  * transformations, colours and surfaces, one displaced) is bit for bit the image of the same
  * requests written out in full at each instance. */
@@ -278,6 +314,7 @@ int main(void)
         cmocka_unit_test(test_orthographic_window), cmocka_unit_test(test_exposure),
         cmocka_unit_test(test_metal_furnace),       cmocka_unit_test(test_constant),
         cmocka_unit_test(test_corpus_renders),      cmocka_unit_test(test_object_instances_render),
+        cmocka_unit_test(test_moving_camera),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

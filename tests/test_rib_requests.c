@@ -359,6 +359,67 @@ static void test_frames(void **state)
     scene_free(&s);
 }
 
+/* A shadow-map pass (a frame whose Display writes a depth map: type "zfile" or "shadow", or
+ * mode "z") read by default is left for the next frame, its options and transformations
+ * undone; a Display between frames belongs to the frame after it; --frame still reads the
+ * pass; a file of passes only is read from its first frame. */
+static void test_depth_pass_frames(void **state)
+{
+    (void)state;
+    char path[4200];
+    snprintf(path, sizeof path, "%s/passes.rib", test_scratch_dir());
+    write_text(path, "Format 8 8 1\n"
+                     "FrameBegin 1\nDisplay \"s.z\" \"zfile\" \"z\"\nFormat 10 10 1\n"
+                     "Projection \"orthographic\"\nTranslate 0 0 9\n"
+                     "WorldBegin\n" UNIT_QUAD "WorldEnd\nFrameEnd\n"
+                     "MakeShadow \"s.z\" \"s.shd\"\n"
+                     "Display \"t.shd\" \"shadow\" \"z\"\n"
+                     "FrameBegin 2\nWorldBegin\n" UNIT_QUAD "WorldEnd\nFrameEnd\n"
+                     "Display \"u.tif\" \"file\" \"rgb\"\n"
+                     "FrameBegin 3\nDisplay \"+u.z\" \"zfile\" \"z\"\nProjection "
+                     "\"perspective\" \"fov\" 40\nWorldBegin\n" UNIT_QUAD UNIT_QUAD
+                     "WorldEnd\nFrameEnd\n");
+    ts_scene s;
+    ts_error e;
+    int rc;
+    const char *out = load_capturing(path, -1, &s, &e, &rc);
+    if (rc != TS_OK) fail_msg("%s", e.msg);
+    assert_int_equal(s.patch_count, 2); /* frame 3 */
+    assert_int_equal(s.camera.width, 8);
+    assert_int_equal(s.camera.projection, TS_PROJECTION_PERSPECTIVE);
+    assert_true(s.camera.fov_deg == 40.0 && s.camera.world_to_camera[11] == 0.0);
+    char want[2][4608];
+    snprintf(want[0], sizeof want[0],
+             "%s:3:1: warning: frame 1 renders a depth map (Display \"zfile\" \"z\"), a "
+             "shadow-map pass Tessera does not need: the next frame is read (--frame 1 reads it)",
+             path);
+    snprintf(want[1], sizeof want[1],
+             "%s:13:1: warning: frame 2 renders a depth map (Display \"shadow\" \"z\"), a "
+             "shadow-map pass Tessera does not need: the next frame is read (--frame 2 reads it)",
+             path);
+    assert_non_null(strstr(out, want[0]));
+    assert_non_null(strstr(out, want[1]));
+    assert_non_null(strstr(out, "warning: MakeShadow is ignored"));
+    scene_free(&s);
+    load_capturing(path, 1, &s, &e, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_int_equal(s.patch_count, 1);
+    assert_int_equal(s.camera.width, 10);
+    assert_int_equal(s.camera.projection, TS_PROJECTION_ORTHOGRAPHIC);
+    scene_free(&s);
+    /* Passes only: the first frame, as before. */
+    write_text(path,
+               "FrameBegin 1\nDisplay \"s.z\" \"zfile\" \"z\"\nFormat 10 10 1\n"
+               "WorldBegin\n" UNIT_QUAD "WorldEnd\nFrameEnd\n"
+               "FrameBegin 2\nDisplay \"s.z\" \"shadow\" \"z\"\nWorldBegin\n" UNIT_QUAD UNIT_QUAD
+               "WorldEnd\nFrameEnd\n");
+    load_capturing(path, -1, &s, &e, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_int_equal(s.patch_count, 1);
+    assert_int_equal(s.camera.width, 10);
+    scene_free(&s);
+}
+
 static void test_frame_errors(void **state)
 {
     (void)state;
@@ -429,9 +490,29 @@ static void test_scene_checks(void **state)
     snprintf(want, sizeof want,
              "%s:1:1: warning: the scene has no light Tessera renders (LightSource "
              "\"distantlight\", \"pointlight\", \"spotlight\", \"ambientlight\" or "
-             "\"domelight\", AreaLightSource, Surface \"constant\"): the image will be black\n",
+             "\"domelight\", AreaLightSource, Surface \"constant\"): it is lit by a headlight "
+             "at the camera, as RenderMan's default surface shows a scene without lights\n",
              path);
     assert_string_equal(out, want);
+    /* The headlight: a point light at the eye (here the world origin), no distance falloff,
+     * irradiance pi (a white matte surface facing it reflects radiance 1). */
+    assert_int_equal(s.light_count, 1);
+    assert_int_equal(s.lights[0].kind, SCENE_LIGHT_POINT);
+    assert_true(s.lights[0].falloff == 0.0 && s.lights[0].intensity == M_PI);
+    assert_true(s.lights[0].from[0] == 0.0 && s.lights[0].from[1] == 0.0 &&
+                s.lights[0].from[2] == 0.0);
+    scene_free(&s);
+    /* With a camera transform and an orthographic projection: a distant light along the
+     * view, from the eye at world (0, 0, -5) towards +z. */
+    write_text(path,
+               "Projection \"orthographic\"\nTranslate 0 0 5\nWorldBegin\n" UNIT_QUAD "WorldEnd\n");
+    out = load_capturing(path, -1, &s, &e, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_int_equal(s.light_count, 1);
+    assert_int_equal(s.lights[0].kind, SCENE_LIGHT_DISTANT);
+    assert_true(fabs(s.lights[0].from[2] + 5.0) < 1e-12 && fabs(s.lights[0].to[2] + 4.0) < 1e-12);
+    assert_true(s.lights[0].from[0] == s.lights[0].to[0] &&
+                s.lights[0].from[1] == s.lights[0].to[1]);
     scene_free(&s);
     /* An area light is light, and so are point, spot and ambient lights. */
     const char *lit[] = {"AreaLightSource \"arealight\" 1\n", "LightSource \"pointlight\" 1\n",
@@ -654,6 +735,41 @@ static void test_camera_rays(void **state)
 
 /* Opacity 0 0 0 leaves geometry out (its attribute block restores opacity); partial opacity
  * renders opaque with one warning. */
+/* A motion block around the camera transformation: the camera moves. ts_camera keeps both
+ * world_to_camera samples and render_camera_params both sets of vectors, the second those of
+ * a static camera at shutter close; a static camera leaves them zero. */
+static void test_moving_camera_params(void **state)
+{
+    (void)state;
+    ts_scene s;
+    ts_error e = {0};
+    const char *text = "Projection \"perspective\" \"fov\" [40]\nRotate 10 0 1 0\n"
+                       "MotionBegin [0 1]\nTranslate 0 0 5\nTranslate 1 0 5\nMotionEnd\n"
+                       "WorldBegin\n" UNIT_QUAD "WorldEnd\n";
+    test_parse_rib_ok(text, &s);
+    assert_int_equal(s.camera.moving, 1);
+    ts_camera_params moving, still;
+    assert_int_equal(render_camera_params(&s.camera, 64, 48, &moving, &e), TS_OK);
+    assert_int_equal(moving.moving, 1);
+    scene_free(&s);
+    test_parse_rib_ok("Projection \"perspective\" \"fov\" [40]\nRotate 10 0 1 0\n"
+                      "Translate 1 0 5\nWorldBegin\n" UNIT_QUAD "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.camera.moving, 0);
+    assert_int_equal(render_camera_params(&s.camera, 64, 48, &still, &e), TS_OK);
+    assert_int_equal(still.moving, 0);
+    for (int k = 0; k < 4; k++) {
+        assert_true(moving.origin1[k] == still.origin[k] && moving.right1[k] == still.right[k]);
+        assert_true(moving.up1[k] == still.up[k] && moving.forward1[k] == still.forward[k]);
+        assert_true(still.origin1[k] == 0.0f && still.forward1[k] == 0.0f);
+    }
+    /* The eye: (0 0 -5) at shutter open, (-1 0 -5) at close (the rotation turns only the
+     * axes: it acts after the translations). */
+    assert_true(fabsf(moving.origin[0]) < 1e-6f && fabsf(moving.origin[2] + 5.0f) < 1e-5f);
+    assert_true(fabsf(moving.origin1[0] + 1.0f) < 1e-6f && fabsf(moving.origin1[2] + 5.0f) < 1e-5f);
+    scene_free(&s);
+}
+
 static void test_opacity(void **state)
 {
     (void)state;
@@ -851,24 +967,16 @@ static void test_unknown_area_light(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_line_endings),
-        cmocka_unit_test(test_byte_order_mark),
-        cmocka_unit_test(test_binary_rib_named),
-        cmocka_unit_test(test_gzip),
-        cmocka_unit_test(test_gzip_errors),
-        cmocka_unit_test(test_frames),
-        cmocka_unit_test(test_frame_errors),
-        cmocka_unit_test(test_scene_checks),
-        cmocka_unit_test(test_render_refuses_empty_scene),
-        cmocka_unit_test(test_format_defaults),
-        cmocka_unit_test(test_camera_requests),
-        cmocka_unit_test(test_camera_rays),
-        cmocka_unit_test(test_opacity),
-        cmocka_unit_test(test_geometry_teapot),
-        cmocka_unit_test(test_standard_surfaces),
-        cmocka_unit_test(test_shader_warnings),
-        cmocka_unit_test(test_matrix_noise),
-        cmocka_unit_test(test_unknown_area_light),
+        cmocka_unit_test(test_line_endings),      cmocka_unit_test(test_byte_order_mark),
+        cmocka_unit_test(test_binary_rib_named),  cmocka_unit_test(test_gzip),
+        cmocka_unit_test(test_gzip_errors),       cmocka_unit_test(test_frames),
+        cmocka_unit_test(test_frame_errors),      cmocka_unit_test(test_depth_pass_frames),
+        cmocka_unit_test(test_scene_checks),      cmocka_unit_test(test_render_refuses_empty_scene),
+        cmocka_unit_test(test_format_defaults),   cmocka_unit_test(test_camera_requests),
+        cmocka_unit_test(test_camera_rays),       cmocka_unit_test(test_moving_camera_params),
+        cmocka_unit_test(test_opacity),           cmocka_unit_test(test_geometry_teapot),
+        cmocka_unit_test(test_standard_surfaces), cmocka_unit_test(test_shader_warnings),
+        cmocka_unit_test(test_matrix_noise),      cmocka_unit_test(test_unknown_area_light),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

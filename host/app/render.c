@@ -29,14 +29,34 @@ static void camera_axis(const double m[16], double x, double y, double z, float 
     out[3] = 0.0f;
 }
 
+/* The eye and the scaled axes (ts_camera_params) of the camera whose world_to_camera is w2c:
+ * the screen window's half-sizes hx, hy and centre cx, cy in camera-space units. */
+static int camera_vectors(const double w2c[16], int ortho, double hx, double hy, double cx,
+                          double cy, float origin[4], float right[4], float up[4], float forward[4],
+                          ts_error *err)
+{
+    double inv[16];
+    if (!mat4_invert(w2c, inv))
+        return ts_error_set(err, TS_E_SCENE, "the camera transform is singular");
+    double eye[3] = {cx, cy, 0.0}, at[3]; /* orthographic rays start on the window at z = 0 */
+    if (ortho && !mat4_point(inv, eye, at))
+        return ts_error_set(err, TS_E_SCENE, "the camera transform is singular");
+    for (int r = 0; r < 3; ++r)
+        origin[r] = ortho ? (float)at[r] : (float)inv[r * 4 + 3];
+    camera_axis(inv, hx, 0, 0, right);
+    camera_axis(inv, 0, hy, 0, up);
+    if (ortho)
+        camera_axis(inv, 0, 0, 1, forward);
+    else
+        camera_axis(inv, cx, cy, 1, forward); /* (0, 0, 1) for the default window */
+    return TS_OK;
+}
+
 int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_params *out,
                          ts_error *err)
 {
     memset(out, 0, sizeof *out);
-    double inv[16];
     int ortho = cam->projection == TS_PROJECTION_ORTHOGRAPHIC;
-    if (!mat4_invert(cam->world_to_camera, inv))
-        return ts_error_set(err, TS_E_SCENE, "the camera transform is singular");
     if (!ortho && !(cam->fov_deg > 0.0 && cam->fov_deg < 180.0))
         return ts_error_set(err, TS_E_SCENE, "fov %g is outside (0, 180) degrees", cam->fov_deg);
     /* Screen units in camera space: tan(fov / 2) on the plane z = 1, or 1 (orthographic). */
@@ -49,17 +69,15 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
         hx = 0.5 * (w[1] - w[0]) * t, hy = 0.5 * (w[3] - w[2]) * t;
         cx = 0.5 * (w[0] + w[1]) * t, cy = 0.5 * (w[2] + w[3]) * t;
     }
-    double eye[3] = {cx, cy, 0.0}, at[3]; /* orthographic rays start on the window at z = 0 */
-    if (ortho && !mat4_point(inv, eye, at))
-        return ts_error_set(err, TS_E_SCENE, "the camera transform is singular");
-    for (int r = 0; r < 3; ++r)
-        out->origin[r] = ortho ? (float)at[r] : (float)inv[r * 4 + 3];
-    camera_axis(inv, hx, 0, 0, out->right);
-    camera_axis(inv, 0, hy, 0, out->up);
-    if (ortho)
-        camera_axis(inv, 0, 0, 1, out->forward);
-    else
-        camera_axis(inv, cx, cy, 1, out->forward); /* (0, 0, 1) for the default window */
+    if (camera_vectors(cam->world_to_camera, ortho, hx, hy, cx, cy, out->origin, out->right,
+                       out->up, out->forward, err))
+        return err->code;
+    if (cam->moving) {
+        if (camera_vectors(cam->world_to_camera1, ortho, hx, hy, cx, cy, out->origin1, out->right1,
+                           out->up1, out->forward1, err))
+            return err->code;
+        out->moving = 1;
+    }
     out->width = (uint32_t)width;
     out->height = (uint32_t)height;
     out->projection = ortho ? TS_PROJECTION_ORTHOGRAPHIC : TS_PROJECTION_PERSPECTIVE;

@@ -6,6 +6,7 @@
 #include "lib/sample_order.h"
 
 #include <errno.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -56,7 +57,10 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
     h = ts_fnv1a(h, opts, sizeof opts);
     ts_camera_params c = *cam; /* the order's bands and the wave do not change the image */
     c.band = c.first_sample = c.ray_count = 0;
-    h = ts_fnv1a(h, &c, sizeof c);
+    /* A static camera's bytes as they were before moving cameras (so that files written then
+     * still resume), and the shutter-close vectors of a moving one. */
+    h = ts_fnv1a(h, &c, offsetof(ts_camera_params, moving));
+    if (c.moving) h = ts_fnv1a(h, &c.moving, sizeof c - offsetof(ts_camera_params, moving));
     h = ts_fnv1a(h, &s->patch_count, sizeof s->patch_count);
     h = ts_fnv1a(h, s->cp, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
     if (s->cp1) h = ts_fnv1a(h, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));

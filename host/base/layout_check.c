@@ -24,8 +24,10 @@ _Static_assert(offsetof(ts_patch_attr, disp_amplitude) == 24,
                "displacement after colour, flags, kind, octaves");
 _Static_assert(sizeof(ts_xform) == 48, "ts_xform is 48 bytes");
 _Static_assert(sizeof(ts_box4) == 96, "ts_box4 is 96 bytes");
-_Static_assert(sizeof(ts_camera_params) == 96, "ts_camera_params is 96 bytes");
+_Static_assert(sizeof(ts_camera_params) == 176, "ts_camera_params is 176 bytes");
 _Static_assert(offsetof(ts_camera_params, width) == 64, "width after four float[4]");
+_Static_assert(offsetof(ts_camera_params, moving) == 96, "moving after the 96 bytes");
+_Static_assert(offsetof(ts_camera_params, origin1) == 112, "shutter close after moving, pad");
 _Static_assert(sizeof(ts_shade_params) == 32, "ts_shade_params is 32 bytes");
 _Static_assert(sizeof(ts_bake_params) == 48, "ts_bake_params is 48 bytes");
 _Static_assert(offsetof(ts_bake_params, eye) == 32, "eye after eight words");

@@ -71,9 +71,11 @@ static void quadric_arc(double a, double b, double out[4][2])
     out[3][0] = cb, out[3][1] = sb;
 }
 
-/* The number of pieces of at most 90 degrees for a sweep of `deg` degrees (at most 360). */
-static int quadric_pieces(double deg)
+/* The number of pieces of at most 90 degrees for a sweep of `deg` degrees (at most 360):
+ * as few as it needs, or always QUADRIC_MAX_PIECES (ts_quadric.fixed_pieces). */
+static int quadric_pieces(double deg, int fixed)
 {
+    if (fixed) return QUADRIC_MAX_PIECES;
     double n = ceil(fabs(deg) / 90.0 - 1e-12);
     return !(n >= 1.0) ? 1 : n > QUADRIC_MAX_PIECES ? QUADRIC_MAX_PIECES : (int)n;
 }
@@ -161,9 +163,10 @@ static void quadric_line_piece(const quadric_profile *pr, double q[4][3])
 
 /* Circle profiles (sphere, torus): pieces of at most 90 degrees of the circle of radius r
  * around (cx, 0) in the xz plane, phi from lo to hi. Shared piece ends come from one array. */
-static void quadric_circle_pieces(quadric_profile *pr, double cx, double r, double lo, double hi)
+static void quadric_circle_pieces(quadric_profile *pr, double cx, double r, double lo, double hi,
+                                  int fixed)
 {
-    int n = quadric_pieces(hi - lo);
+    int n = quadric_pieces(hi - lo, fixed);
     double ends[QUADRIC_MAX_PIECES + 1];
     for (int j = 0; j <= n; j++)
         ends[j] = j == n ? hi : lo + j * (hi - lo) / n;
@@ -214,12 +217,12 @@ static int quadric_profile_make(const ts_quadric *q, quadric_profile *pr, char *
         if (r == 0.0) break; /* no surface: pieces stays 0 */
         double lo = quadric_sphere_phi(a[1], r), hi = quadric_sphere_phi(a[2], r);
         a[1] = lo, a[2] = hi;
-        quadric_circle_pieces(pr, 0.0, r, lo, hi);
+        quadric_circle_pieces(pr, 0.0, r, lo, hi, q->fixed_pieces);
         break;
     }
     case QUADRIC_TORUS:
         a[3] = a[2] + quadric_clamp_sweep(a[3] - a[2]);
-        quadric_circle_pieces(pr, a[0], a[1], a[2], a[3]);
+        quadric_circle_pieces(pr, a[0], a[1], a[2], a[3], q->fixed_pieces);
         break;
     case QUADRIC_PARABOLOID:
         if (a[2] != 0.0 && a[1] / a[2] < 0.0) {
@@ -310,7 +313,7 @@ int quadric_patches(const ts_quadric *q, quadric_patch_fn fn, void *ctx, int *co
     const double sweep = quadric_clamp_sweep(q->arg[quadric_arg_count(q->kind) - 1]);
     const double scale = quadric_scale(&pr);
     if (quadric_degenerate(&pr, sweep, scale)) return TS_OK;
-    const int nu = quadric_pieces(sweep), nv = pr.pieces;
+    const int nu = quadric_pieces(sweep, q->fixed_pieces), nv = pr.pieces;
     double ends[QUADRIC_MAX_PIECES + 1];
     for (int i = 0; i <= nu; i++)
         ends[i] = i == nu ? sweep : i * sweep / nu;

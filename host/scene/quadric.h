@@ -45,6 +45,10 @@ typedef enum ts_quadric_kind {
 typedef struct ts_quadric {
     ts_quadric_kind kind;
     double arg[7];
+    /* 0: the sweep and a circle profile in as few pieces of at most 90 degrees as they need;
+     * 1: always in 4 equal pieces each, so that the patches' number does not depend on the
+     * angles (the two samples of a quadric in a motion block must make the same patches). */
+    int fixed_pieces;
 } ts_quadric;
 
 /* The request name and its number of arguments (4, 3, 4, 7, 4, 3, 5). */

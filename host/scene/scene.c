@@ -221,6 +221,18 @@ int scene_add_patch(ts_scene *s, const double cp[16][3], const ts_patch_attr *at
     return scene_add_patch_ex(s, cp, NULL, NULL, attr, err);
 }
 
+int scene_set_patch_motion(ts_scene *s, uint32_t p, const double cp1[16][3], ts_error *err)
+{
+    if (p >= s->patch_count)
+        return ts_error_set(err, TS_E_INTERNAL, "scene: no patch %u to move", p);
+    int rc = scene_start_motion(s, err);
+    if (rc != TS_OK) return rc;
+    if (!scene_points(s->cp1 + (size_t)p * 16u, cp1))
+        return ts_error_set(err, TS_E_SCENE, "scene: patch %u leaves the float range", p);
+    s->attr[p].flags |= TS_PATCH_MOVING;
+    return TS_OK;
+}
+
 /* The identity transform as xform[0], if there is none yet. */
 static int scene_ensure_identity(ts_scene *s, ts_error *err)
 {

@@ -14,8 +14,13 @@
  * x right, y up, looking down +z; fov is the full angle of the shorter image axis). */
 typedef struct ts_camera {
     double world_to_camera[16]; /* row-major 4x4, column vectors: p_cam = M * p_world */
-    double fov_deg;             /* Projection "perspective" "fov"; default 90 */
-    int width, height;          /* Format; 0 when the scene sets none */
+    /* A moving camera (RIB: a motion block before WorldBegin): world_to_camera is at shutter
+     * open, world_to_camera1 at shutter close, and rays of time t see the camera in between
+     * (ts_camera_params). world_to_camera1 is unused when moving is 0. */
+    int moving;
+    double world_to_camera1[16];
+    double fov_deg;    /* Projection "perspective" "fov"; default 90 */
+    int width, height; /* Format; 0 when the scene sets none */
     int has_format;
     /* PixelSamples xs ys: xs * ys samples per pixel; 0 when the scene sets none. The
      * command line's --spp overrides it. */
@@ -155,6 +160,9 @@ int scene_add_patch(ts_scene *s, const double cp[16][3], const ts_patch_attr *at
  * world space, any length) NULL to have scene_finalize average them. */
 int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16][3],
                        const double normals[4][3], const ts_patch_attr *attr, ts_error *err);
+/* Makes patch p move: cp1 (world space) becomes its control points at shutter close. Its
+ * corner normals stay those of shutter open. */
+int scene_set_patch_motion(ts_scene *s, uint32_t p, const double cp1[16][3], ts_error *err);
 /* Adds a world-to-object transform (row-major 4x4, affine) and returns its index for
  * ts_patch_attr.xform; an identical transform already added is reused. */
 int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *index, ts_error *err);

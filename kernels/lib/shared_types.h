@@ -243,11 +243,14 @@ typedef struct ts_texture {
 #define TS_PROJECTION_PERSPECTIVE 0u
 #define TS_PROJECTION_ORTHOGRAPHIC 1u
 
-/* Everything the camera kernel needs, in world space. 96 bytes.
+/* Everything the camera kernel needs, in world space. 176 bytes.
  * Ray through raster point (px, py): screen (sx, sy) in [-1, 1]^2, y up. Perspective:
  * from origin, direction sx * right + sy * up + forward (RenderMan: x right, y up, looking
  * down +z; forward holds the screen window's centre). Orthographic: from origin + sx *
- * right + sy * up, direction forward (unit). */
+ * right + sy * up, direction forward (unit). A moving camera (RIB MotionBegin around the
+ * camera transformation) has the same four vectors at shutter close in origin1 ... forward1:
+ * a ray of time t uses (1 - t) v + t v1 for each, as if the camera's matrix were interpolated
+ * linearly, the way moving patches interpolate their points (Hanika §3.4). */
 typedef struct ts_camera_params {
     float origin[4];  /* eye position, w unused */
     float right[4];   /* camera x axis in world space, scaled by the screen half-width */
@@ -259,6 +262,9 @@ typedef struct ts_camera_params {
     ts_u32 ray_count;    /* rays in this wave */
     ts_u32 projection;   /* TS_PROJECTION_* */
     ts_u32 band;         /* pixels a band of the sample order (lib/sample_order.h); 0: one */
+    ts_u32 moving;       /* 1: the camera moves (origin1 ... forward1 at shutter close) */
+    ts_u32 pad[3];
+    float origin1[4], right1[4], up1[4], forward1[4]; /* at shutter close; 0 when static */
 } ts_camera_params;
 
 /* Light sampling vs BSDF sampling at each path vertex (ts_shade_params.sampling). */
@@ -382,7 +388,7 @@ typedef struct ts_relight_params {
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
     X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
-    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection) X(ts_camera_params, band)      \
+    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection) X(ts_camera_params, band) X(ts_camera_params, forward1)      \
     X(ts_shade_params, spp) X(ts_shade_params, band) X(ts_light, dir) X(ts_light, radiance) X(ts_light, weight) X(ts_emitter, area) \
     X(ts_light, flags) X(ts_light, pos) X(ts_light, cos_inner) X(ts_light, falloff_min)             \
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \

@@ -124,12 +124,20 @@ int ray_set_eye(const ts_scene *s, uint32_t w, uint32_t h, uint32_t seed, ts_ray
         uint32_t x = pix % w, y = pix / w;
         float sx = 2.0f * ((float)x + 0.5f) / (float)w - 1.0f;
         float sy = 1.0f - 2.0f * ((float)y + 0.5f) / (float)h;
-        float dx = sx * p.right[0] + sy * p.up[0] + p.forward[0];
-        float dy = sx * p.right[1] + sy * p.up[1] + p.forward[1];
-        float dz = sx * p.right[2] + sy * p.up[2] + p.forward[2];
+        float time = rng_uniform(pix, 0, 0, 2, seed);
+        ts_camera_params c = p;
+        for (int k = 0; k < 3 && p.moving; k++) { /* camera.cl camera_at_time */
+            c.origin[k] = (1.0f - time) * p.origin[k] + time * p.origin1[k];
+            c.right[k] = (1.0f - time) * p.right[k] + time * p.right1[k];
+            c.up[k] = (1.0f - time) * p.up[k] + time * p.up1[k];
+            c.forward[k] = (1.0f - time) * p.forward[k] + time * p.forward1[k];
+        }
+        float dx = sx * c.right[0] + sy * c.up[0] + c.forward[0];
+        float dy = sx * c.right[1] + sy * c.up[1] + c.forward[1];
+        float dz = sx * c.right[2] + sy * c.up[2] + c.forward[2];
         float inv = 1.0f / sqrtf(dx * dx + dy * dy + dz * dz);
-        r->org[pix] = (ts_vec4){p.origin[0], p.origin[1], p.origin[2], 0.0f};
-        r->dir[pix] = (ts_vec4){dx * inv, dy * inv, dz * inv, rng_uniform(pix, 0, 0, 2, seed)};
+        r->org[pix] = (ts_vec4){c.origin[0], c.origin[1], c.origin[2], 0.0f};
+        r->dir[pix] = (ts_vec4){dx * inv, dy * inv, dz * inv, time};
         r->pixel[pix] = pix;
     }
     return TS_OK;

@@ -31,8 +31,11 @@ static const struct {
     {"Clipping", rib_req_clipping},
     {"Color", rib_req_color},
     {"ConcatTransform", rib_req_concat_transform},
+    {"CoordSysTransform", rib_req_coord_sys_transform},
+    {"CoordinateSystem", rib_req_coordinate_system},
     {"CropWindow", rib_req_crop_window},
     {"Displacement", rib_req_displacement},
+    {"Display", rib_req_display},
     {"Exposure", rib_req_exposure},
     {"Format", rib_req_format},
     {"FrameBegin", rib_req_frame_begin},
@@ -65,12 +68,14 @@ static const struct {
     {"WorldEnd", rib_req_world_end},
     /* Surfaces turned into Bézier patches (rib_prims.h). */
     {"Cone", rib_req_cone},
+    {"Curves", rib_req_curves},
     {"Cylinder", rib_req_cylinder},
     {"Disk", rib_req_disk},
     {"GeneralPolygon", rib_req_general_polygon},
     {"Hyperboloid", rib_req_hyperboloid},
     {"NuPatch", rib_req_nu_patch},
     {"Paraboloid", rib_req_paraboloid},
+    {"Points", rib_req_points},
     {"PointsGeneralPolygons", rib_req_points_general_polygons},
     {"PointsPolygons", rib_req_points_polygons},
     {"Polygon", rib_req_polygon},
@@ -86,12 +91,10 @@ static const char *const rib_ignored[] = {
     "Bound",
     "ClippingPlane",
     "ColorSamples",
-    "CoordinateSystem",
     "Declare",
     "DepthOfField",
     "Detail",
     "DetailRange",
-    "Display",
     "DisplayChannel",
     "Exterior",
     "FrameAspectRatio",
@@ -101,6 +104,11 @@ static const char *const rib_ignored[] = {
     "Illuminate",
     "Imager",
     "Interior",
+    "MakeBump",
+    "MakeCubeFaceEnvironment",
+    "MakeLatLongEnvironment",
+    "MakeShadow",
+    "MakeTexture",
     "Matte",
     "Option",
     "Orientation",
@@ -122,10 +130,7 @@ static const char *const rib_ignored[] = {
 static const char *const rib_unsupported[] = {
     "ArchiveRecord",
     "Blobby",
-    "CoordSysTransform",
-    "Curves",
     "Perspective",
-    "Points",
     "Skew",
     "SolidBegin",
     "SolidEnd",
@@ -235,6 +240,7 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     p->first_patch = scene->patch_count;
     p->first_light = scene->light_count;
     mat4_identity(scene->camera.world_to_camera);
+    scene->camera.moving = 0;
     scene->camera.fov_deg = 90.0;
     scene->camera.width = scene->camera.height = 0;
     scene->camera.has_format = 0;
@@ -248,8 +254,35 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     scene->camera.has_exposure = 0;
 }
 
+/* One parse of the text (rib_parse); *depth_skipped: whether frames were left as depth-map
+ * passes (rib_frames.c rib_req_display). */
+static int rib_parse_once(const char *name, const rib_text *t, int frame, int keep_depth,
+                          int whole_scene, ts_scene *scene, int quiet, ts_error *err,
+                          int *depth_skipped)
+{
+    rib_parser *p = calloc(1, sizeof *p);
+    if (!p) return ts_error_set(err, TS_E_MEMORY, "%s: out of memory", name ? name : "<string>");
+    rib_parser_init(p, name, t->text, t->len, scene, quiet, err);
+    p->frames.wanted = frame < 0 ? -1 : frame;
+    p->frames.keep_depth = keep_depth;
+    p->whole_scene = whole_scene;
+    int rc = rib_run(p);
+    if (rc == TS_OK) rc = scene_finalize(scene, err);
+    *depth_skipped = p->frames.depth_skipped > 0;
+    rib_lex_free(&p->lx);
+    rib_archive_free(p);
+    rib_object_free(p);
+    rib_coordsys_free(p);
+    rib_args_free(p);
+    free(p->stack);
+    free(p);
+    return rc;
+}
+
 /* rib_parse_string, with the frame to read (-1: the first) and whether the text must make a
- * whole scene (rib_load). */
+ * whole scene (rib_load). Read by default, frames that render a depth map are left for the
+ * next; if what follows them does not make a scene, the text is read again from its first
+ * frame. */
 static int rib_parse(const char *name, const char *text, size_t len, int frame, int whole_scene,
                      ts_scene *scene, int quiet, ts_error *err)
 {
@@ -260,23 +293,13 @@ static int rib_parse(const char *name, const char *text, size_t len, int frame, 
         scene_free(scene);
         return rc;
     }
-    rib_parser *p = calloc(1, sizeof *p);
-    if (!p) {
-        rib_text_free(&t);
+    int depth_skipped = 0;
+    rc = rib_parse_once(name, &t, frame, 0, whole_scene, scene, quiet, err, &depth_skipped);
+    if (rc != TS_OK && depth_skipped && rc != TS_E_MEMORY) {
         scene_free(scene);
-        return ts_error_set(err, TS_E_MEMORY, "%s: out of memory", name ? name : "<string>");
+        ts_error_clear(err);
+        rc = rib_parse_once(name, &t, frame, 1, whole_scene, scene, quiet, err, &depth_skipped);
     }
-    rib_parser_init(p, name, t.text, t.len, scene, quiet, err);
-    p->frames.wanted = frame < 0 ? -1 : frame;
-    p->whole_scene = whole_scene;
-    rc = rib_run(p);
-    if (rc == TS_OK) rc = scene_finalize(scene, err);
-    rib_lex_free(&p->lx);
-    rib_archive_free(p);
-    rib_object_free(p);
-    rib_args_free(p);
-    free(p->stack);
-    free(p);
     rib_text_free(&t);
     if (rc != TS_OK) scene_free(scene);
     return rc;

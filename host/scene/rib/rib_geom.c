@@ -128,6 +128,19 @@ static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
     double w0[16][3], w1[16][3], wn[4][3], inv[16];
     int moving = g1 != NULL || p->ctm_moving;
     if (rib_geom_transparent(p)) return TS_OK; /* Opacity 0 0 0: not geometry */
+    rib_motion *m = &p->motion;
+    if (m->active && m->deform && m->sample == 1) { /* shutter close of a patch already made */
+        if (m->set == m->made)
+            return rib_error_at(p, p->req_line, p->req_col,
+                                "%s: the second sample makes more patches than the first at "
+                                "%d:%d, %u (the samples must have the same topology)",
+                                p->req, m->first_line, m->first_col, m->made);
+        int rc = geom_points(p, line, col, p->ctm1, g0, w1);
+        if (rc == TS_OK)
+            rc = scene_set_patch_motion(p->scene, m->first_patch + m->set++, (const double(*)[3])w1,
+                                        p->err);
+        return rc;
+    }
     int rc = geom_points(p, line, col, p->ctm, g0, w0);
     if (rc == TS_OK && moving) rc = geom_points(p, line, col, p->ctm1, g1 ? g1 : g0, w1);
     if (rc != TS_OK) return rc;

@@ -8,15 +8,18 @@
  *                  motion blocks
  *   rib_geom.c     Patch and PatchMesh into the scene
  *   rib_light.c    LightSource (distant, point, spot, ambient, dome lights)
- *   rib_quadric.c, rib_poly.c, rib_nurbs.c, rib_subdiv.c, rib_primvar.c: quadrics,
- *                  polygons, NuPatch, SubdivisionMesh and their primitive variables
- *                  (rib_prims.h; they call rib_geom.c's rib_geom_emit)
+ *   rib_quadric.c, rib_poly.c, rib_nurbs.c, rib_subdiv.c, rib_curves.c, rib_primvar.c:
+ *                  quadrics, polygons, NuPatch, SubdivisionMesh, Points and Curves and their
+ *                  primitive variables (rib_prims.h; they call rib_geom.c's rib_geom_emit,
+ *                  which also takes the second sample of a deforming surface)
  *   rib_shading.c  Surface, AreaLightSource, Opacity
  *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
  *   rib_object.c   ObjectBegin, ObjectEnd, ObjectInstance (definitions recorded, instances
  *                  run them again: copies)
- *   rib_frames.c   FrameBegin/FrameEnd (the frame read), the checks on a whole scene
+ *   rib_frames.c   FrameBegin/FrameEnd (the frame read, shadow-map passes left), Display,
+ *                  the checks on a whole scene
+ *   rib_coordsys.c CoordinateSystem, CoordSysTransform (named coordinate systems)
  *   rib_builtin.c  Geometry "teapot" (its patches in teapot_data.c, generated)
  *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
  *   rib_lex.c      tokens
@@ -40,7 +43,7 @@
  *   rib_state.c   -> rib_geom.c (MotionEnd of a block of Patch samples)
  *   rib_options.c -> rib_state.c (rib_before_world)
  *   rib_light.c   -> rib_geom.c (rib_geom_check: where lights may stand)
- *   rib_geom.c, rib_shading.c -> no other handler
+ *   rib_geom.c, rib_shading.c, rib_coordsys.c -> no other handler
  *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
  *                    handler. rib.c and rib_archive.c also start lexers (on rib_text.c's bytes);
  * rib.c, rib_state.c and rib_geom.c use basis.c. The cycles are rib.c -> rib_archive.c -> rib.c:
@@ -154,10 +157,20 @@ int rib_req_geometry(rib_parser *p);
 extern const double rib_teapot_vertices[RIB_TEAPOT_VERTICES][3];
 extern const unsigned short rib_teapot_patches[RIB_TEAPOT_PATCHES][16];
 
+/* ---- rib_coordsys.c: CoordinateSystem, CoordSysTransform ---- */
+
+int rib_req_coordinate_system(rib_parser *p);
+int rib_req_coord_sys_transform(rib_parser *p);
+/* Frees p->coordsys. */
+void rib_coordsys_free(rib_parser *p);
+
 /* ---- rib_frames.c: FrameBegin/FrameEnd, the checks on a whole scene ---- */
 
 int rib_req_frame_begin(rib_parser *p);
 int rib_req_frame_end(rib_parser *p);
+/* Display: ignored with a warning, except that a frame read by default whose image is a
+ * depth map (a shadow-map pass) is left for the next frame. */
+int rib_req_display(rib_parser *p);
 /* Whether the current request lies in a frame that is not read (or after the one read):
  * it is then not dispatched. FrameBegin and FrameEnd are always dispatched. */
 int rib_frames_skip(const rib_parser *p);

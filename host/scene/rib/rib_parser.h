@@ -102,15 +102,35 @@ typedef struct rib_motion {
     int has_st;
     double st[4][2];                  /* "st" of the first patch sample at its corners */
     int p_line, p_col, n_line, n_col; /* of the first sample's "P" and "N" values */
+    /* Two samples of a surface request other than Patch (PatchMesh, SubdivisionMesh, ...,
+     * rib_state.c rib_motion_deforms): the first adds its patches from first_patch on, `made`
+     * of them; the second gives each of them, in the same order, its points at shutter close
+     * (rib_geom.c geom_emit), `set` so far. sample: which of the two is being read. */
+    int deform, sample;
+    uint32_t first_patch, made, set;
 } rib_motion;
 
 typedef enum rib_world_phase { RIB_BEFORE_WORLD, RIB_IN_WORLD, RIB_AFTER_WORLD } rib_world_phase;
 
 #define RIB_MAX_FRAMES_LISTED 16 /* frame numbers a "no frame N" message lists */
 
+/* What a frame read by default had at its FrameBegin, to go back to when its Display shows
+ * it to be a depth-map pass (rib_frames.c). */
+typedef struct rib_frame_start {
+    rib_frame attrs; /* the CTM and attributes, as a block saves them */
+    ts_camera camera;
+    uint32_t patch_count, light_count;
+    int dome;
+} rib_frame_start;
+
 /* FrameBegin/FrameEnd blocks (rib_frames.c): one of them is read, the others skipped. */
 typedef struct rib_frame_choice {
-    int wanted;            /* the FrameBegin number to read; -1: the first frame */
+    int wanted;        /* the FrameBegin number to read; -1: the first frame */
+    int keep_depth;    /* wanted -1: read the first frame even if it is a depth-map pass */
+    int depth_skipped; /* depth-map passes left for a later frame (wanted -1) */
+    int depth_between; /* the last primary Display outside frames writes a depth map: */
+    char between_type[RIB_PRINT_MAX], between_mode[RIB_PRINT_MAX]; /* its type and mode */
+    rib_frame_start start;                                         /* of the frame being read */
     int open;              /* inside FrameBegin ... FrameEnd */
     int reading;           /* the open frame is the one read */
     int done;              /* the frame read has ended: the rest of the file is skipped */
@@ -156,8 +176,9 @@ typedef struct rib_parser {
     uint32_t first_patch, first_light; /* what this parse added: may need camera->world */
     char warned[RIB_MAX_WARNED][RIB_WARN_KEY];
     int nwarned;
-    struct rib_include *inc;     /* rib_archive.c: the archives being read, NULL before any */
-    struct rib_objects *objects; /* rib_object.c: ObjectBegin definitions, NULL before any */
+    struct rib_include *inc;           /* rib_archive.c: the archives being read, NULL before any */
+    struct rib_objects *objects;       /* rib_object.c: ObjectBegin definitions, NULL before any */
+    struct rib_coordsystems *coordsys; /* rib_coordsys.c: CoordinateSystem names, or NULL */
     rib_frame_choice frames;
     int world_line, world_col; /* of the WorldBegin read, 0 before it */
     int whole_scene; /* rib_load: the file must make a scene (rib_frames.c rib_scene_check) */

@@ -72,6 +72,12 @@ static int poly_face_emit(poly_emit_ctx *c, size_t loop0, unsigned loops, unsign
 {
     const poly_mesh *m = c->m;
     const rib_pvars *vars = c->vars;
+    if (c->p->motion.active && (loops > 1 || count > 4)) /* rib_state.c rib_motion_deforms */
+        return rib_error_at(c->p, c->p->req_line, c->p->req_col,
+                            "%s in a motion block: polygon %zu has %s; only triangles and quads "
+                            "without holes move (the two samples could be triangulated "
+                            "differently)",
+                            c->p->req, c->face, loops > 1 ? "holes" : "more than 4 vertices");
     for (unsigned l = 0; l < loops; l++)
         loop_len[l] = (unsigned)m->nverts[loop0 + l];
     for (unsigned k = 0; k < count; k++) {
@@ -80,8 +86,8 @@ static int poly_face_emit(poly_emit_ctx *c, size_t loop0, unsigned loops, unsign
         if (!vars->N.v) continue;
         const double *n = rib_pvar_at(&vars->N, c->face, pt, fv);
         double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        for (int d = 0; d < 3; d++)
-            nrm[k][d] = n[d] / len;
+        for (int d = 0; d < 3; d++) /* a zero normal stays zero: poly_patches takes the polygon's */
+            nrm[k][d] = len > 0.0 ? n[d] / len : 0.0;
     }
     poly_face f = {(const double(*)[3])pos, vars->N.v ? (const double(*)[3])nrm : NULL, loop_len,
                    loops, count};
@@ -93,7 +99,8 @@ static int poly_mesh_emit(rib_parser *p, poly_mesh *m, size_t first)
 {
     size_t counts[RIB_CLASSES] = {1, m->nfaces, m->npoints, m->npoints, m->nfv};
     rib_pvars vars;
-    int rc = rib_pvars_read(p, first, counts, RIB_PV_P | RIB_PV_N | RIB_PV_CS | RIB_PV_ST, &vars);
+    int rc = rib_pvars_read(p, first, counts,
+                            RIB_PV_P | RIB_PV_N | RIB_PV_CS | RIB_PV_ST | RIB_PV_ZERO_N, &vars);
     if (rc != TS_OK) return rc;
     size_t maxn = 0, maxl = 1, loop = 0, fv = 0;
     for (size_t f = 0; f < m->nfaces; f++) { /* the largest polygon, for the scratch arrays */

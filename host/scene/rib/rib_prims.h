@@ -7,6 +7,7 @@
  *                  (geometry: scene/polygon.c, the PN patches meshes use)
  *   rib_nurbs.c    NuPatch (geometry: scene/nurbs.c)
  *   rib_subdiv.c   SubdivisionMesh (geometry: scene/subdiv.c)
+ *   rib_curves.c   Points (spheres: scene/quadric.c), Curves (ribbons facing the camera)
  *   rib_primvar.c  primitive variables by storage class (RI Spec 3.2 §5.1) and integer
  *                  arrays, for all of them
  *
@@ -36,6 +37,8 @@ int rib_req_points_polygons(rib_parser *p);
 int rib_req_points_general_polygons(rib_parser *p);
 int rib_req_nu_patch(rib_parser *p);
 int rib_req_subdivision_mesh(rib_parser *p);
+int rib_req_points(rib_parser *p);
+int rib_req_curves(rib_parser *p);
 
 /* ---- rib_primvar.c: primitive variables ---- */
 
@@ -72,6 +75,9 @@ typedef struct rib_pvars {
 #define RIB_PV_ST 16u
 /* With this bit, variables other than "P" and "Pw" may not be of class vertex. */
 #define RIB_PV_NO_VERTEX 32u
+/* With this bit, "N" may hold zero normals (one warning): polygons give such vertices the
+ * polygon's own normal, as meshes do. */
+#define RIB_PV_ZERO_N 64u
 
 /* Reads the parameter list from args[first]: each variable must have, for its class (by an
  * inline declaration, varying when none; "P" and "Pw" are always vertex), exactly
@@ -81,6 +87,9 @@ typedef struct rib_pvars {
  * accepted) is required when `accept` has it. */
 int rib_pvars_read(rib_parser *p, size_t first, const size_t counts[RIB_CLASSES], unsigned accept,
                    rib_pvars *out);
+
+/* The class named in an inline declaration ("uniform color Cs"), else `dflt`. */
+rib_class rib_class_of(const char *decl, rib_class dflt);
 
 /* The number of values of parameter `name` in the list from args[first] (0 when absent),
  * for requests whose vertex count follows from "P" (Polygon). */

@@ -17,8 +17,7 @@
 static const char *const rib_class_names[RIB_CLASSES] = {"constant", "uniform", "varying", "vertex",
                                                          "facevarying"};
 
-/* The class named in an inline declaration, else `dflt`. */
-static rib_class rib_class_of(const char *decl, rib_class dflt)
+rib_class rib_class_of(const char *decl, rib_class dflt)
 {
     size_t n = strlen(decl);
     for (size_t s = 0; s < n;) {
@@ -56,7 +55,7 @@ static void rib_class_list(const size_t counts[RIB_CLASSES], char *buf, size_t n
 
 /* Reads one variable of `dim` numbers per value. */
 static int rib_pvar_read(rib_parser *p, const rib_param *prm, const size_t counts[RIB_CLASSES],
-                         int dim, int no_vertex, rib_pvar *out)
+                         int dim, int no_vertex, int zero_n, rib_pvar *out)
 {
     char shown[RIB_PRINT_MAX], classes[64];
     int position = strcmp(prm->name, "P") == 0 || strcmp(prm->name, "Pw") == 0;
@@ -88,9 +87,15 @@ static int rib_pvar_read(rib_parser *p, const rib_param *prm, const size_t count
                 return rib_error_at(p, val->line, val->col,
                                     "%s: value %zu of \"%s\" is out of range", p->req, k,
                                     rib_printable(prm->name, shown));
-        if (is_n && x[0] == 0.0 && x[1] == 0.0 && x[2] == 0.0)
-            return rib_error_at(p, val->line, val->col, "%s: normal %zu of \"N\" is zero", p->req,
-                                k);
+        if (is_n && x[0] == 0.0 && x[1] == 0.0 && x[2] == 0.0) {
+            if (!zero_n)
+                return rib_error_at(p, val->line, val->col, "%s: normal %zu of \"N\" is zero",
+                                    p->req, k);
+            char what[RIB_WARN_KEY];
+            snprintf(what, sizeof what, "%s: zero normals in \"N\" take their polygon's normal",
+                     p->req); /* one warning, whichever normals they are */
+            rib_warn_once(p, val->line, val->col, what);
+        }
     }
     *out = (rib_pvar){v, cls, dim, count, val->line, val->col};
     return TS_OK;
@@ -124,6 +129,7 @@ int rib_pvars_read(rib_parser *p, size_t first, const size_t counts[RIB_CLASSES]
             continue;
         }
         rc = rib_pvar_read(p, &prm, counts, known[k].dim, (accept & RIB_PV_NO_VERTEX) != 0,
+                           (accept & RIB_PV_ZERO_N) != 0,
                            (rib_pvar *)((char *)out + known[k].offset));
         if (rc != TS_OK) return rc;
     }

@@ -90,7 +90,8 @@ static int quadric_emit(void *ctx, const double cp[16][3], const double n[4][3],
 static int quadric_request(rib_parser *p, ts_quadric_kind kind)
 {
     static const size_t counts[RIB_CLASSES] = {1, 1, 4, 4, 4};
-    ts_quadric q = {kind, {0}};
+    /* In a motion block the two samples must make the same patches, whatever their angles. */
+    ts_quadric q = {kind, {0}, p->motion.active};
     size_t i = 0;
     rib_pvars vars;
     int rc = rib_geom_check(p);

@@ -343,22 +343,23 @@ int rib_req_world_begin(rib_parser *p)
     if (p->phase == RIB_AFTER_WORLD)
         return rib_error_at(p, p->req_line, p->req_col,
                             "a second WorldBegin: only one world block per file is supported");
-    double inv[16];
-    if (p->ctm_moving)
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "a moving camera transform is not supported (MotionBegin before "
-                            "WorldBegin)");
-    if (!mat4_is_affine(p->ctm))
+    double inv[16], inv1[16];
+    if (!mat4_is_affine(p->ctm) || (p->ctm_moving && !mat4_is_affine(p->ctm1)))
         return rib_error_at(p, p->req_line, p->req_col, "the camera transform is projective");
-    if (!mat4_invert(p->ctm, inv))
+    if (!mat4_invert(p->ctm, inv) || (p->ctm_moving && !mat4_invert(p->ctm1, inv1)))
         return rib_error_at(p, p->req_line, p->req_col, "the camera transform is singular");
     rc = rib_camera_items_to_world(p, inv);
     if (rc == TS_OK) rc = rib_push(p, RIB_FRAME_WORLD);
     if (rc != TS_OK) return rc;
-    for (int k = 0; k < 16; k++)
-        p->scene->camera.world_to_camera[k] = p->ctm[k] / p->ctm[15];
+    ts_camera *cam = &p->scene->camera;
+    for (int k = 0; k < 16; k++) {
+        cam->world_to_camera[k] = p->ctm[k] / p->ctm[15];
+        cam->world_to_camera1[k] = p->ctm1[k] / p->ctm1[15];
+    }
+    cam->moving = p->ctm_moving; /* a motion block before WorldBegin: the camera moves */
     mat4_identity(p->ctm);
     mat4_identity(p->ctm1);
+    p->ctm_moving = 0;
     p->xf_valid = 0;
     p->phase = RIB_IN_WORLD;
     p->world_line = p->req_line;
@@ -605,6 +606,17 @@ int rib_req_displacement(rib_parser *p)
 static const char *const rib_motion_kinds[] = {"Patch", "Translate",       "Rotate",
                                                "Scale", "ConcatTransform", "Transform"};
 
+/* Surface requests whose two samples in a motion block deform one surface: the first sample
+ * adds its patches, the second moves each of them at shutter close (rib_geom.c geom_emit).
+ * Both samples must make the same patches: the same topology and counts. */
+/* clang-format off */
+static const char *const rib_motion_deforms[] = {
+    "PatchMesh", "SubdivisionMesh", "NuPatch", "Polygon", "GeneralPolygon", "PointsPolygons",
+    "PointsGeneralPolygons", "Sphere", "Cone", "Cylinder", "Disk", "Hyperboloid", "Paraboloid",
+    "Torus", "Points", "Curves",
+};
+/* clang-format on */
+
 int rib_motion_check(rib_parser *p)
 {
     rib_motion *m = &p->motion;
@@ -612,12 +624,16 @@ int rib_motion_check(rib_parser *p)
         return rib_error_at(p, p->req_line, p->req_col,
                             "MotionBegin inside the motion block at %d:%d", m->line, m->col);
     size_t k = 0, n = sizeof rib_motion_kinds / sizeof rib_motion_kinds[0];
+    size_t d = 0, nd = sizeof rib_motion_deforms / sizeof rib_motion_deforms[0];
     while (k < n && strcmp(p->req, rib_motion_kinds[k]) != 0)
         k++;
-    if (k == n)
+    while (k == n && d < nd && strcmp(p->req, rib_motion_deforms[d]) != 0)
+        d++;
+    if (k == n && d == nd)
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s is not allowed in the motion block at %d:%d (only Patch, "
-                            "Translate, Rotate, Scale, ConcatTransform or Transform)",
+                            "PatchMesh, SubdivisionMesh, NuPatch, polygons, quadrics, Points, "
+                            "Curves, Translate, Rotate, Scale, ConcatTransform or Transform)",
                             p->req, m->line, m->col);
     if (m->count >= 2)
         return rib_error_at(p, p->req_line, p->req_col,
@@ -631,6 +647,12 @@ int rib_motion_check(rib_parser *p)
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s does not match the %s at %d:%d in the motion block", p->req,
                             m->first, m->first_line, m->first_col);
+    }
+    if (k == n) { /* a deforming surface: its handler runs as sample m->count */
+        m->deform = 1;
+        m->sample = m->count++;
+        if (m->sample == 0) m->first_patch = p->scene->patch_count;
+        if (m->sample == 1) m->made = p->scene->patch_count - m->first_patch, m->set = 0;
     }
     return TS_OK;
 }
@@ -671,6 +693,14 @@ int rib_req_motion_end(rib_parser *p)
                             m->line, m->col, m->count, m->count == 1 ? "" : "s");
     m->active = 0;
     if (strcmp(m->first, "Patch") == 0) return rib_geom_motion_patch(p);
+    if (m->deform) {
+        if (m->set != m->made)
+            return rib_error_at(p, m->first_line, m->first_col,
+                                "MotionEnd: the second %s of the motion block at %d:%d makes %u "
+                                "patches, the first %u (the samples must have the same topology)",
+                                m->first, m->line, m->col, m->set, m->made);
+        return TS_OK;
+    }
     if (m->replace) {
         memcpy(p->ctm, m->m[0], sizeof p->ctm);
         memcpy(p->ctm1, m->m[1], sizeof p->ctm1);
