@@ -15,11 +15,7 @@
 
 inline uint8 noise_mix8(uint8 x)
 {
-    x ^= x >> 16;
-    x *= 0x7feb352du;
-    x ^= x >> 15;
-    x *= 0x846ca68bu;
-    x ^= x >> 16;
+    TS_LOWBIAS32(x); /* lib/rng.h's rng_mix, lane by lane */
     return x;
 }
 
@@ -152,13 +148,7 @@ inline ts_vec4 patch_shading_normal_x4(__global const ts_vec4 *cp, __global cons
         q[k] =
             (ts_vec4){p[k].x + dk[k] * dn.x, p[k].y + dk[k] * dn.y, p[k].z + dk[k] * dn.z, dk[k]};
     }
-    ts_v3 du = v3(q[1].x - q[0].x, q[1].y - q[0].y, q[1].z - q[0].z);
-    ts_v3 dv = v3(q[3].x - q[2].x, q[3].y - q[2].y, q[3].z - q[2].z);
-    ts_v3 c = v3_cross(du, dv);
-    float len = sqrt(v3_dot(c, c));
-    if (!(len > 0.0f)) return bezier_normal(cp, u, v);
-    ts_vec4 r = {c.x / len, c.y / len, c.z / len, 0.0f};
-    return r;
+    return patch_normal_of_differences(cp, u, v, q[0], q[1], q[2], q[3]);
 }
 
 #endif

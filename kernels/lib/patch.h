@@ -75,6 +75,21 @@ TS_INLINE ts_vec4 patch_flatness(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLOBAL ts
     return r;
 }
 
+/* The unit normal of the surface whose points pu0, pu1 (along u) and pv0, pv1 (along v)
+ * were evaluated about (u, v): the cross product of the differences, or the Bézier normal
+ * where it vanishes. */
+TS_INLINE ts_vec4 patch_normal_of_differences(TS_CONST_GLOBAL ts_vec4 *cp, float u, float v,
+                                              ts_vec4 pu0, ts_vec4 pu1, ts_vec4 pv0, ts_vec4 pv1)
+{
+    ts_v3 du = v3(pu1.x - pu0.x, pu1.y - pu0.y, pu1.z - pu0.z);
+    ts_v3 dv = v3(pv1.x - pv0.x, pv1.y - pv0.y, pv1.z - pv0.z);
+    ts_v3 c = v3_cross(du, dv);
+    float len = sqrt(v3_dot(c, c));
+    if (!(len > 0.0f)) return bezier_normal(cp, u, v);
+    ts_vec4 r = {c.x / len, c.y / len, c.z / len, 0.0f};
+    return r;
+}
+
 /* The shading normal at (u, v) of patch cp diced at LOD m (shade.cl; the Embree
  * benchmark's bounce rays on the host): the Bézier normal without displacement, else the
  * displaced surface's normal by central differences over one micro-quad (Hanika §3.2),
@@ -93,13 +108,7 @@ TS_INLINE ts_vec4 patch_shading_normal(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLO
             pu1 = patch_vertex(cp, cp, n, mid, a, x, tex, u1, v);
     ts_vec4 pv0 = patch_vertex(cp, cp, n, mid, a, x, tex, u, v0),
             pv1 = patch_vertex(cp, cp, n, mid, a, x, tex, u, v1);
-    ts_v3 du = v3(pu1.x - pu0.x, pu1.y - pu0.y, pu1.z - pu0.z);
-    ts_v3 dv = v3(pv1.x - pv0.x, pv1.y - pv0.y, pv1.z - pv0.z);
-    ts_v3 c = v3_cross(du, dv);
-    float len = sqrt(v3_dot(c, c));
-    if (!(len > 0.0f)) return bezier_normal(cp, u, v);
-    ts_vec4 r = {c.x / len, c.y / len, c.z / len, 0.0f};
-    return r;
+    return patch_normal_of_differences(cp, u, v, pu0, pu1, pv0, pv1);
 }
 
 #endif

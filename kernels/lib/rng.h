@@ -7,13 +7,14 @@
 
 #include "lib/shared_types.h"
 
+/* The lowbias32 steps on the lvalue x: a ts_u32, or in kernels a vector of them
+ * (lib/noise4.h). */
+#define TS_LOWBIAS32(x)                                                                            \
+    ((x) ^= (x) >> 16, (x) *= 0x7feb352du, (x) ^= (x) >> 15, (x) *= 0x846ca68bu, (x) ^= (x) >> 16)
+
 TS_INLINE ts_u32 rng_mix(ts_u32 x)
 {
-    x ^= x >> 16;
-    x *= 0x7feb352du;
-    x ^= x >> 15;
-    x *= 0x846ca68bu;
-    x ^= x >> 16;
+    TS_LOWBIAS32(x);
     return x;
 }
 
