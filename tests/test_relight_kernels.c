@@ -178,19 +178,25 @@ static uint32_t check_case(ts_device *cl, ts_scene *s, const ts_occlusion *o)
     return hit_count;
 }
 
+/* write_scene's random scene from *rng, loaded into *s (in a fresh scratch directory). */
+static void load_random_scene(uint32_t *rng, ts_scene *s)
+{
+    dir = test_scratch_dir();
+    char path[4096];
+    write_scene(rng, path, sizeof path);
+    memset(s, 0, sizeof *s);
+    ts_error err = {0};
+    if (scene_load(path, s, 1, &err)) fail_msg("%s", err.msg);
+}
+
 static void test_shade_relit_vs_reference(void **state)
 {
     (void)state;
     ts_device cl;
     test_open_device(&cl);
-    dir = test_scratch_dir();
     uint32_t rng = 4242u;
-    char path[4096];
-    write_scene(&rng, path, sizeof path);
     ts_scene s;
-    memset(&s, 0, sizeof s);
-    ts_error err = {0};
-    if (scene_load(path, &s, 1, &err)) fail_msg("%s", err.msg);
+    load_random_scene(&rng, &s);
     const uint32_t cases[][2] = {{3, 0}, {4, 0}, {1, 0}, {2, 1}, {4, 1}};
     for (size_t k = 0; k < sizeof cases / sizeof *cases; ++k) {
         ts_occlusion o;
@@ -235,14 +241,10 @@ static void direct_g(const ts_light *dome, const ts_env_map *env, const double n
 static void test_table_vs_direct_integration(void **state)
 {
     (void)state;
-    dir = test_scratch_dir();
     uint32_t rng = 99u;
-    char path[4096];
-    write_scene(&rng, path, sizeof path);
     ts_scene s;
-    memset(&s, 0, sizeof s);
     ts_error err = {0};
-    if (scene_load(path, &s, 1, &err)) fail_msg("%s", err.msg);
+    load_random_scene(&rng, &s);
     ts_env_map env;
     ts_light_table lights;
     ts_patch_attr *attr = calloc(s.patch_count, sizeof *attr);
