@@ -281,13 +281,10 @@ static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s,
         ts_memory_room room;
         ts_memory_room_query(NULL, &room);
         budget_default(&cl->info, budget_fixed_bytes(s, (uint64_t)o->width * o->height), &room, &c);
-        c.mb = (uint64_t)o->memory_mb;
-        if (c.room_mb < c.mb) c.room_mb = c.mb;
-        budget_grow_arenas(&p, &c, 1, err);
-        rc = err->code;
+        st.memory_budget_bytes = (uint64_t)o->memory_mb << 20; /* what the plan was made for */
+        rc = budget_grow_arenas(&p, c.room_mb, 1, err);
     }
-    res->arena_bytes = (uint64_t)p.plan.vert_capacity * sizeof(ts_vec4) +
-                       (uint64_t)p.plan.group_capacity * sizeof(ts_box4);
+    res->arena_bytes = pipeline_arena_bytes(&p.plan);
     ts_vec4 *org = malloc(per * sizeof *org), *dir = malloc(per * sizeof *dir);
     ts_hit *hit = malloc(per * sizeof *hit);
     if (!rc && (!org || !dir || !hit)) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");

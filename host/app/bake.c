@@ -29,10 +29,10 @@ typedef struct ts_bake {
     ts_camera_params cam;
     ts_device cl;
     ts_pipeline pipe;
-    uint64_t mb;           /* the memory budget: --memory, else budget_default's */
-    ts_budget_choice grow; /* how far the arenas may grow to hold the patches once */
-    uint32_t max_lod;      /* the plan's finest m */
-    uint32_t *lod;         /* each patch's m */
+    uint64_t mb;      /* the memory budget: --memory, else budget_default's */
+    uint64_t room_mb; /* how far the arenas may grow to hold the patches once */
+    uint32_t max_lod; /* the plan's finest m */
+    uint32_t *lod;    /* each patch's m */
     ts_bake_image img;
     ts_bake_meta meta;
     uint32_t done; /* points [0, done) are in img */
@@ -86,8 +86,7 @@ static int bake_open_device(ts_bake *b, ts_error *err)
     b->stats->kernel_cache_hit = b->cl.cache_hit;
     ts_budget_choice c;
     if (b->opt.memory_mb > 0) {
-        c.mb = c.room_mb = (uint64_t)b->opt.memory_mb;
-        snprintf(c.why, sizeof c.why, "--memory");
+        budget_fixed((uint64_t)b->opt.memory_mb, &c);
     } else { /* as render's default (budget.h); the bake holds no films but the footprint's */
         ts_memory_room room;
         ts_memory_room_query(NULL, &room);
@@ -95,7 +94,7 @@ static int bake_open_device(ts_bake *b, ts_error *err)
         budget_default(&b->cl.info, budget_fixed_bytes(&b->scene, pixels), &room, &c);
     }
     b->mb = c.mb;
-    b->grow = c;
+    b->room_mb = c.room_mb;
     b->stats->memory_budget_bytes = c.mb << 20;
     if (!b->opt.quiet)
         ts_print_line("tessera: bake, memory budget %llu MB (%s)", (unsigned long long)c.mb, c.why);
@@ -217,11 +216,7 @@ static int bake_prepare(ts_bake *b, ts_error *err)
     if (bake_stage_create(&b->pipe, &setup, err)) return err->code;
     /* Dice once when it fits, as a render's default budget does (budget_grow_arenas): a
      * bake's rays reach most of the scene in every wave. */
-    if (b->grow.room_mb > b->mb) {
-        b->grow.mb = b->mb;
-        b->stats->memory_budget_bytes += budget_grow_arenas(&b->pipe, &b->grow, o->quiet, err);
-        if (err->code) return err->code;
-    }
+    if (budget_grow_arenas(&b->pipe, b->room_mb, o->quiet, err)) return err->code;
     size_t n = b->pipe.bake->points_per_wave;
     b->coeffs = malloc(n * (size_t)o->bands * o->bands * sizeof *b->coeffs);
     b->pos = malloc(n * sizeof *b->pos);

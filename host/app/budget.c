@@ -80,16 +80,22 @@ void budget_default(const ts_device_info *dev, uint64_t fixed_bytes, const ts_me
     if (out->room_mb < out->mb) out->room_mb = out->mb;
 }
 
-uint64_t budget_grow_arenas(ts_pipeline *p, const ts_budget_choice *choice, int quiet,
-                            ts_error *err)
+void budget_fixed(uint64_t mb, ts_budget_choice *out)
 {
+    out->mb = out->room_mb = mb;
+    snprintf(out->why, sizeof out->why, "--memory");
+}
+
+int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int quiet, ts_error *err)
+{
+    uint64_t mb = p->stats->memory_budget_bytes >> 20;
+    if (room_mb <= mb) return TS_OK;
     uint64_t verts, groups;
     pipeline_arena_need(p, &verts, &groups);
-    uint64_t have = (uint64_t)p->plan.vert_capacity * sizeof(ts_vec4) +
-                    (uint64_t)p->plan.group_capacity * sizeof(ts_box4);
+    uint64_t have = pipeline_arena_bytes(&p->plan);
     uint64_t need = verts * sizeof(ts_vec4) + groups * sizeof(ts_box4);
-    if (choice->room_mb <= choice->mb || need <= have) return 0;
-    uint64_t extra = (choice->room_mb - choice->mb) << 20;
+    if (need <= have) return TS_OK;
+    uint64_t extra = (room_mb - mb) << 20;
     if (need - have > extra) {
         if (!quiet)
             ts_print_line("tessera: the frame's patches need %llu MB at their levels of detail, "
@@ -97,22 +103,22 @@ uint64_t budget_grow_arenas(ts_pipeline *p, const ts_budget_choice *choice, int 
                           "when they return (--memory sets the budget)",
                           (unsigned long long)(need >> 20),
                           (unsigned long long)((have + extra) >> 20));
-        return 0;
+        return TS_OK;
     }
     if (pipeline_grow_arenas(p, verts, groups, err)) { /* the old arenas are kept */
         if (!quiet)
             ts_print_line("tessera: note: the patch cache stays at %llu MB (%s)",
                           (unsigned long long)(have >> 20), err->msg);
         ts_error_clear(err);
-        return 0;
+        return TS_OK;
     }
-    uint64_t now = (uint64_t)p->plan.vert_capacity * sizeof(ts_vec4) +
-                   (uint64_t)p->plan.group_capacity * sizeof(ts_box4);
+    uint64_t now = pipeline_arena_bytes(&p->plan);
     if (!quiet)
         ts_print_line("tessera: the frame's patches need %llu MB at their levels of detail: "
                       "the patch cache grows from %llu to %llu MB to dice each once "
                       "(--memory sets the budget)",
                       (unsigned long long)(need >> 20), (unsigned long long)(have >> 20),
                       (unsigned long long)(now >> 20));
-    return now - have;
+    p->stats->memory_budget_bytes += now - have;
+    return TS_OK;
 }

@@ -43,14 +43,17 @@ uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count);
 void budget_default(const ts_device_info *dev, uint64_t fixed_bytes, const ts_memory_room *room,
                     ts_budget_choice *out);
 
+/* --memory MB: the budget, which never grows (room_mb = mb). */
+void budget_fixed(uint64_t mb, ts_budget_choice *out);
+
 /* Dice once when it fits (issue 13): after the lod stage, when the frame's patches at their
- * levels of detail (pipeline_arena_need) need more than the arenas a default budget gave,
- * the arenas grow to hold them all, as far as choice->room_mb allows beside the rest of the
- * budget, so that each patch is diced once per frame instead of again in every wave. With
- * --memory (choice->room_mb == choice->mb) nothing changes. The image does not depend on
- * it. Returns the arena bytes added (0: none), after a note on stderr unless quiet;
- * TS_E_* in *err only when the pipeline is left unusable. */
-uint64_t budget_grow_arenas(ts_pipeline *p, const ts_budget_choice *choice, int quiet,
-                            ts_error *err);
+ * levels of detail (pipeline_arena_need) need more than the arenas p's budget gave (the
+ * budget --stats records, p->stats->memory_budget_bytes), the arenas grow to hold them all,
+ * as far as room_mb (ts_budget_choice.room_mb) allows beside the rest of that budget, and the
+ * growth is added to memory_budget_bytes; so that each patch is diced once per frame instead
+ * of again in every wave. room_mb no larger than the budget (--memory, or after an
+ * out-of-memory retry) changes nothing. The image does not depend on it. Notes on stderr
+ * unless quiet; TS_E_* in *err only when the pipeline is left unusable. */
+int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int quiet, ts_error *err);
 
 #endif

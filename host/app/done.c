@@ -78,13 +78,54 @@ int done_format(const ts_done *d, char *buf, size_t size)
     return 1;
 }
 
-/* The band of sample k, as [*first, *end) of the order. */
-static void band_of(const ts_sample_order *o, uint64_t k, uint64_t *first, uint64_t *end)
+uint32_t sample_order_band(uint32_t width, uint32_t height, uint32_t spp, uint64_t band_samples)
 {
-    uint64_t band = o->band && o->band < o->pixels ? o->band : o->pixels;
-    uint64_t b = k / (band * o->spp), base = b * band;
+    uint64_t row = (uint64_t)width * (spp ? spp : 1u), rows = band_samples / row;
+    const char *env = getenv("TESSERA_SAMPLE_BAND_ROWS");
+    if (env && *env) {
+        char *end;
+        errno = 0;
+        unsigned long long v = strtoull(env, &end, 10);
+        if (!errno && !*end) rows = v ? v : height;
+    }
+    if (rows < 1) rows = 1;
+    return rows >= height ? 0u : (uint32_t)rows * width;
+}
+
+int sample_order_band_runs(const ts_sample_order *o, uint64_t b, uint64_t *first, uint64_t *end,
+                           uint64_t *zero_end)
+{
+    uint64_t band = sample_order_band_pixels(o);
+    uint64_t base = b * band;
+    if (base >= o->pixels) return 0;
     uint64_t n = o->pixels - base < band ? o->pixels - base : band;
-    *first = base * o->spp, *end = (base + n) * o->spp;
+    *first = base * o->spp, *end = (base + n) * o->spp, *zero_end = *first + n;
+    return 1;
+}
+
+int sample_order_zero_run(const ts_sample_order *o, uint64_t first, uint64_t count, uint64_t *k0,
+                          uint64_t *k1)
+{
+    uint64_t band = sample_order_band_pixels(o);
+    uint64_t end = first + count, z0, z1, band_end;
+    for (uint64_t b = first / (band * o->spp); sample_order_band_runs(o, b, &z0, &band_end, &z1);
+         ++b) {
+        if (z0 >= end) return 0;
+        if (z1 > first) {
+            *k0 = z0 > first ? z0 : first;
+            *k1 = z1 < end ? z1 : end;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+uint64_t sample_order_zero_count(const ts_sample_order *o, uint64_t first, uint64_t count)
+{
+    uint64_t n = 0, k0, k1, end = first + count;
+    for (uint64_t k = first; k < end && sample_order_zero_run(o, k, end - k, &k0, &k1); k = k1)
+        n += k1 - k0;
+    return n;
 }
 
 int done_parse(const char *text, const ts_sample_order *o, uint64_t total, ts_done *d,
@@ -104,9 +145,8 @@ int done_parse(const char *text, const ts_sample_order *o, uint64_t total, ts_do
         /* The band rule: every run starts where a band starts; then each band holds a
          * prefix of its samples (a run ending inside a band is followed by none before the
          * next band). */
-        uint64_t bf, be;
-        band_of(o, a, &bf, &be);
-        if (a != bf) goto bad;
+        uint64_t band = sample_order_band_pixels(o), bf, be, bz;
+        if (!sample_order_band_runs(o, a / (band * o->spp), &bf, &be, &bz) || a != bf) goto bad;
         if (done_add(d, a, b, err)) return err->code;
         last = b;
         s = *e2 ? e2 + 1 : e2;

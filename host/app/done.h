@@ -19,6 +19,32 @@ typedef struct ts_sample_order {
 /* The order of the frame a camera's parameters describe. */
 ts_sample_order sample_order_of(const ts_camera_params *cam);
 
+/* The bands for an image of width x height pixels at spp samples a pixel, about
+ * `band_samples` samples each: whole rows, at least one; 0 (one band) when a band would
+ * hold the whole image. TESSERA_SAMPLE_BAND_ROWS=N sets the rows (a testing aid: the image
+ * does not depend on it; 0 gives one band, pass after pass). */
+uint32_t sample_order_band(uint32_t width, uint32_t height, uint32_t spp, uint64_t band_samples);
+
+/* The samples 0 of their pixels among the samples [first, first + count) of the order o:
+ * the next run of them at or after `first`, [*k0, *k1) clipped to the range. 0 when there is
+ * none. */
+int sample_order_zero_run(const ts_sample_order *o, uint64_t first, uint64_t count, uint64_t *k0,
+                          uint64_t *k1);
+/* How many samples 0 of their pixels [first, first + count) holds. */
+uint64_t sample_order_zero_count(const ts_sample_order *o, uint64_t first, uint64_t count);
+
+/* The pixels of a whole band of o (its band, or every pixel for one band). */
+static inline uint64_t sample_order_band_pixels(const ts_sample_order *o)
+{
+    return o->band && o->band < o->pixels ? o->band : o->pixels;
+}
+
+/* Band b of the order o: its samples [*first, *end) and its samples 0 [*first, *zero_end)
+ * (the band's pixels are the n = *zero_end - *first from pixel *first / spp). 0 when the
+ * frame has no band b. */
+int sample_order_band_runs(const ts_sample_order *o, uint64_t b, uint64_t *first, uint64_t *end,
+                           uint64_t *zero_end);
+
 /* A run of the frame's samples [first, end) in its order. */
 typedef struct ts_sample_range {
     uint64_t first, end;

@@ -91,24 +91,17 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
 
 /* Runs the waves: each is a run of the frame's samples [first, first + rays) in its sample
  * order, from job->samples_done on. After the lod stage the arenas grow to hold the frame's
- * patches as far as *grow allows (budget_grow_arenas; NULL: they stay). Stops early
+ * patches as far as room_mb allows (budget_grow_arenas). Stops early
  * (job->samples_done < job->total) when a stop signal came. */
 static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
-                        ts_job *job, const ts_budget_choice *grow, ts_error *err)
+                        ts_job *job, uint64_t room_mb, ts_error *err)
 {
     uint64_t total = job->total, start = job->samples_done;
     uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
-    /* Bands of about a wave each, unless the samples already traced (--resume, a retry)
-     * were in an order of their own. */
-    if (!job->has_band) job->band = sample_order_band(cam.width, cam.height, cam.spp, per_wave);
-    job->has_band = 1;
-    cam.band = job->band;
+    job_choose_band(job, &cam, per_wave);         /* bands of about a wave each */
     p->mode = waves_trace_mode(o);
     if (waves_frame_lod(o, p, cam, job, err)) return err->code;
-    if (grow) {
-        p->stats->memory_budget_bytes += budget_grow_arenas(p, grow, o->quiet, err);
-        if (err->code) return err->code;
-    }
+    if (budget_grow_arenas(p, room_mb, o->quiet, err)) return err->code;
     interrupt_install();
     double t0 = stats_now();
     for (uint64_t first = start; first < total; first += per_wave) {
@@ -285,7 +278,7 @@ static int render_open_device(ts_render *r, ts_error *err)
 /* The memory budget over the attempts of one render. */
 typedef struct ts_budget {
     uint64_t mb, first_mb; /* this attempt's budget and the first one's, in MB */
-    ts_budget_choice grow; /* how far the arenas may grow; room_mb == mb: they stay */
+    uint64_t room_mb;      /* how far the arenas may grow (budget_grow_arenas) */
     uint32_t noted_lod;    /* the finest m the user knows the render dices at */
     ts_error oom;          /* the last out-of-memory error; code 0 before the first */
 } ts_budget;
@@ -326,9 +319,7 @@ static int render_attempt(ts_render *r, ts_budget *b, ts_error *err)
         (r->job.samples_done > 0 && film_state_transfer(&r->pipe, &r->state, 1, err)) ||
         dev_finish(&r->cl, r->stats, err)) /* the buffers' first use */
         return err->code;
-    b->grow.mb = b->mb;
-    return render_waves(&r->opt, &r->pipe, r->cam, &r->job,
-                        b->grow.room_mb > b->mb ? &b->grow : NULL, err);
+    return render_waves(&r->opt, &r->pipe, r->cam, &r->job, b->room_mb, err);
 }
 
 /* After an attempt that started at sample `before` ran out of memory: copies the samples it
@@ -368,8 +359,7 @@ static int render_give_up(const ts_render *r, const ts_budget *b, int kept, ts_e
 static void render_choose_budget(const ts_render *r, ts_budget_choice *c)
 {
     if (r->opt.memory_mb > 0) {
-        c->mb = c->room_mb = (uint64_t)r->opt.memory_mb;
-        snprintf(c->why, sizeof c->why, "--memory");
+        budget_fixed((uint64_t)r->opt.memory_mb, c);
     } else {
         ts_memory_room room;
         ts_memory_room_query(NULL, &room);
@@ -401,7 +391,7 @@ static int render_with_retry(ts_render *r, ts_error *err)
     ts_budget b = {.mb = choice.mb,
                    .first_mb = choice.mb,
                    .noted_lod = (uint32_t)r->opt.max_lod,
-                   .grow = choice};
+                   .room_mb = choice.room_mb};
     int rc, kept = 1, gave_up = 0;
     for (;;) {
         uint64_t before = r->job.samples_done;
@@ -425,7 +415,7 @@ static int render_with_retry(ts_render *r, ts_error *err)
                 (unsigned long long)b.mb, b.oom.msg, (unsigned long long)(b.mb / 2));
         pipeline_destroy(&r->pipe);
         b.mb /= 2;
-        b.grow.room_mb = 0; /* memory ran out: the arenas keep the smaller budget's share */
+        b.room_mb = 0; /* memory ran out: the arenas keep the smaller budget's share */
     }
     if (rc && r->job.lod_mismatch && b.oom.code) {
         /* Samples finished before the retry, at levels of detail the smaller budget cannot
@@ -444,17 +434,6 @@ static int render_with_retry(ts_render *r, ts_error *err)
         rc = TS_OK;
     }
     return rc;
-}
-
-/* The frame's sample order (kernels/lib/sample_order.h) for several devices or ranks: bands
- * of about a unit each, unless the samples already traced (--resume) had an order of their
- * own. */
-static void render_choose_band(ts_render *r, uint64_t unit_samples)
-{
-    if (!r->job.has_band)
-        r->job.band = sample_order_band(r->cam.width, r->cam.height, r->cam.spp, unit_samples);
-    r->job.has_band = 1;
-    r->cam.band = r->job.band;
 }
 
 /* The devices --device (or TESSERA_DEVICE) names: one (the device of render_open_device),
@@ -501,7 +480,7 @@ static int render_on_devices(ts_render *r, ts_error *err)
         f.unit_samples = r->unit_samples;
     else
         units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples);
-    render_choose_band(r, f.unit_samples);
+    job_choose_band(&r->job, &r->cam, f.unit_samples); /* a unit a band */
     f.cam = r->cam;
     if (!r->opt.quiet && r->ranks)
         ts_print_line(
@@ -561,7 +540,7 @@ static int render_tell_ranks(ts_render *r, int rc, int up_to_date, ts_error *err
         units_plan(s.total - s.start, (uint32_t)(r->ranks->size * r->device_count),
                    &r->unit_samples);
         s.unit_samples = r->unit_samples;
-        render_choose_band(r, r->unit_samples);
+        job_choose_band(&r->job, &r->cam, r->unit_samples);
         s.cam = r->cam;
     }
     int told = ranks_start(r->ranks, &s, &r->scene, err);

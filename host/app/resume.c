@@ -95,6 +95,14 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
     return TS_OK;
 }
 
+void job_choose_band(ts_job *job, ts_camera_params *cam, uint64_t band_samples)
+{
+    if (!job->has_band)
+        job->band = sample_order_band(cam->width, cam->height, cam->spp, band_samples);
+    job->has_band = 1;
+    cam->band = job->band;
+}
+
 int job_held(const ts_job *job, ts_done *held, ts_error *err)
 {
     if (job->done.count == 0) return done_add(held, 0, job->samples_done, err);

@@ -14,46 +14,6 @@
 #define UNIT_MIN_SAMPLES 4096u
 #define UNIT_MAX_SAMPLES (1u << 20)
 
-uint32_t sample_order_band(uint32_t width, uint32_t height, uint32_t spp, uint64_t band_samples)
-{
-    uint64_t row = (uint64_t)width * (spp ? spp : 1u), rows = band_samples / row;
-    const char *env = getenv("TESSERA_SAMPLE_BAND_ROWS");
-    if (env && *env) {
-        char *end;
-        errno = 0;
-        unsigned long long v = strtoull(env, &end, 10);
-        if (!errno && !*end) rows = v ? v : height;
-    }
-    if (rows < 1) rows = 1;
-    return rows >= height ? 0u : (uint32_t)rows * width;
-}
-
-int sample_order_zero_run(const ts_sample_order *o, uint64_t first, uint64_t count, uint64_t *k0,
-                          uint64_t *k1)
-{
-    uint64_t band = o->band && o->band < o->pixels ? o->band : o->pixels;
-    uint64_t end = first + count, span = band * o->spp; /* samples of a whole band */
-    for (uint64_t b = first / span; b * band < o->pixels; ++b) {
-        uint64_t base = b * band, n = o->pixels - base < band ? o->pixels - base : band;
-        uint64_t z0 = base * o->spp, z1 = z0 + n; /* the band's samples 0 */
-        if (z0 >= end) return 0;
-        if (z1 > first) {
-            *k0 = z0 > first ? z0 : first;
-            *k1 = z1 < end ? z1 : end;
-            return 1;
-        }
-    }
-    return 0;
-}
-
-uint64_t sample_order_zero_count(const ts_sample_order *o, uint64_t first, uint64_t count)
-{
-    uint64_t n = 0, k0, k1, end = first + count;
-    for (uint64_t k = first; k < end && sample_order_zero_run(o, k, end - k, &k0, &k1); k = k1)
-        n += k1 - k0;
-    return n;
-}
-
 int unit_result_alloc(ts_unit_result *r, const ts_unit *u, const ts_sample_order *o, ts_error *err)
 {
     memset(r, 0, sizeof *r);
@@ -116,14 +76,14 @@ int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, ts_un
                uint32_t *count, ts_error *err)
 {
     *units = NULL, *count = 0;
-    uint64_t band = o->band && o->band < o->pixels ? o->band : o->pixels;
-    uint64_t span = band * o->spp, bands = (total + span - 1) / span;
+    uint64_t band = sample_order_band_pixels(o);
+    uint64_t bands = (o->pixels + band - 1) / band, first, end, zero_end;
     if (bands > UINT32_MAX) return ts_error_set(err, TS_E_USAGE, "too many bands");
     ts_unit *u = malloc((bands ? bands : 1) * sizeof *u);
     if (!u) return ts_error_set(err, TS_E_MEMORY, "out of memory");
     uint32_t n = 0, i = 0;
-    for (uint64_t b = 0; b < bands; ++b) {
-        uint64_t first = b * span, end = first + span < total ? first + span : total;
+    for (uint64_t b = 0; sample_order_band_runs(o, b, &first, &end, &zero_end); ++b) {
+        if (end > total) end = total;
         /* What d holds of the band is a prefix of it (done.h): the unit is the rest. */
         while (i < d->count && d->r[i].end <= first)
             ++i;

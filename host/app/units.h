@@ -21,20 +21,6 @@
 #include <pthread.h>
 #include <stdint.h>
 
-/* The bands for an image of width x height pixels at spp samples a pixel, about
- * `band_samples` samples each: whole rows, at least one; 0 (one band) when a band would
- * hold the whole image. TESSERA_SAMPLE_BAND_ROWS=N sets the rows (a testing aid: the image
- * does not depend on it; 0 gives one band, pass after pass). */
-uint32_t sample_order_band(uint32_t width, uint32_t height, uint32_t spp, uint64_t band_samples);
-
-/* The samples 0 of their pixels among the samples [first, first + count) of the order o:
- * the next run of them at or after `first`, [*k0, *k1) clipped to the range. 0 when there is
- * none. */
-int sample_order_zero_run(const ts_sample_order *o, uint64_t first, uint64_t count, uint64_t *k0,
-                          uint64_t *k1);
-/* How many samples 0 of their pixels [first, first + count) holds. */
-uint64_t sample_order_zero_count(const ts_sample_order *o, uint64_t first, uint64_t count);
-
 typedef struct ts_unit {
     uint32_t index; /* units are numbered from 0 in sample order */
     uint32_t pad;

@@ -18,9 +18,9 @@ struct ts_worker {
     ts_device cl;
     ts_pipeline pipe;
     int has_pipe;
-    ts_stats stats;        /* this device's stages and counters */
-    uint64_t mb;           /* this pipeline's budget */
-    ts_budget_choice grow; /* how far its arenas may grow (budget_grow_arenas) */
+    ts_stats stats;   /* this device's stages and counters */
+    uint64_t mb;      /* this pipeline's budget */
+    uint64_t room_mb; /* how far its arenas may grow (budget_grow_arenas) */
     uint32_t noted_lod;
     pthread_t thread;
     int started;
@@ -45,8 +45,7 @@ static void worker_budget(ts_worker *w, uint32_t share)
     const ts_frame *f = &w->g->frame;
     ts_budget_choice c;
     if (f->opt->memory_mb > 0) {
-        c.mb = c.room_mb = (uint64_t)f->opt->memory_mb;
-        snprintf(c.why, sizeof c.why, "--memory");
+        budget_fixed((uint64_t)f->opt->memory_mb, &c);
     } else {
         ts_memory_room room;
         ts_memory_room_query(NULL, &room);
@@ -57,7 +56,7 @@ static void worker_budget(ts_worker *w, uint32_t share)
             snprintf(c.why + n, sizeof c.why - n, ", shared by %u devices", share);
     }
     w->mb = c.mb;
-    w->grow = c;
+    w->room_mb = c.room_mb;
     w->noted_lod = (uint32_t)f->opt->max_lod;
     if (!f->opt->quiet)
         ts_print_line("tessera: device %d: %s (%s), memory budget %llu MB (%s)", w->index,
@@ -276,7 +275,7 @@ static int worker_shrink(ts_worker *w, ts_error *err)
     pipeline_destroy(&w->pipe);
     w->has_pipe = 0;
     w->mb /= 2;
-    w->grow.room_mb = 0; /* memory ran out: the arenas keep the smaller budget's share */
+    w->room_mb = 0; /* memory ran out: the arenas keep the smaller budget's share */
     int lod_failed;
     if (worker_pipeline(w, err)) return err->code;
     return worker_take_lod(w, &lod_failed, err);
@@ -323,12 +322,8 @@ static void *worker_main(void *arg)
         lod_failed = (rc = worker_make_lod(w, &w->err)) != TS_OK;
     else if (!rc)
         rc = worker_take_lod(w, &lod_failed, &w->err);
-    if (!rc && w->grow.room_mb > w->mb) { /* the frame's patches, once each, if they fit */
-        w->grow.mb = w->mb;
-        w->stats.memory_budget_bytes +=
-            budget_grow_arenas(&w->pipe, &w->grow, g->frame.opt->quiet, &w->err);
-        rc = w->err.code;
-    }
+    if (!rc) /* the frame's patches, once each, if they fit */
+        rc = budget_grow_arenas(&w->pipe, w->room_mb, g->frame.opt->quiet, &w->err);
     w->out.setup_seconds = stats_now() - t0;
     if (!rc) rc = worker_units(w, &w->err);
     w->out.frame_seconds = stats_now() - t0;

@@ -333,9 +333,7 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     }
     stats->counters[TS_COUNTER_micropolygons_potential] = (uint64_t)scene->patch_count
                                                           << (2u * plan->max_lod);
-    stats->counters[TS_COUNTER_patch_cache_bytes] =
-        (uint64_t)plan->vert_capacity * sizeof(ts_vec4) +
-        (uint64_t)plan->group_capacity * sizeof(ts_box4);
+    stats->counters[TS_COUNTER_patch_cache_bytes] = pipeline_arena_bytes(plan);
     return TS_OK;
 }
 
@@ -466,14 +464,24 @@ int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, 
     return rc;
 }
 
-void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups)
+uint32_t pipeline_patch_lod(const ts_pipeline *p, uint32_t patch)
 {
     int fixed = p->mode.fixed_lod;
+    if (fixed < 0) return p->patch_lod[patch];
+    return (uint32_t)fixed < p->plan.max_lod ? (uint32_t)fixed : p->plan.max_lod;
+}
+
+uint64_t pipeline_arena_bytes(const ts_pipeline_plan *plan)
+{
+    return (uint64_t)plan->vert_capacity * sizeof(ts_vec4) +
+           (uint64_t)plan->group_capacity * sizeof(ts_box4);
+}
+
+void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups)
+{
     *verts = *groups = 0;
     for (uint32_t i = 0; i < p->scene->patch_count; ++i) {
-        uint32_t m = fixed >= 0
-                         ? ((uint32_t)fixed < p->plan.max_lod ? (uint32_t)fixed : p->plan.max_lod)
-                         : p->patch_lod[i]; /* trace.c assign_lods */
+        uint32_t m = pipeline_patch_lod(p, i);
         uint64_t times = p->scene->attr[i].flags & TS_PATCH_MOVING ? 2u : 1u;
         *verts += times * quadtree_vertex_count(m);
         *groups += times * quadtree_group_count(m);
@@ -513,8 +521,7 @@ int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_err
     p->cache = cache;
     p->plan.vert_capacity = (uint32_t)verts;
     p->plan.group_capacity = (uint32_t)groups;
-    p->stats->counters[TS_COUNTER_patch_cache_bytes] =
-        verts * sizeof(ts_vec4) + groups * sizeof(ts_box4);
+    p->stats->counters[TS_COUNTER_patch_cache_bytes] = pipeline_arena_bytes(&p->plan);
     return TS_OK;
 }
 

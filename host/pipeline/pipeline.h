@@ -271,6 +271,11 @@ int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, 
  * and sibling groups at the level each is diced at (--lod's, else the lod stage's), twice
  * for a moving patch. */
 void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups);
+/* The level patch `patch` is diced at: --lod's (p->mode.fixed_lod, clamped to the plan's
+ * max_lod), else the lod stage's p->patch_lod. */
+uint32_t pipeline_patch_lod(const ts_pipeline *p, uint32_t patch);
+/* The bytes of plan's two arenas (vertices and sibling groups). */
+uint64_t pipeline_arena_bytes(const ts_pipeline_plan *plan);
 /* New arenas of verts vertices and groups sibling groups (each within the device's largest
  * buffer), replacing the old ones, and an empty patch cache over them. When they cannot be
  * had the old ones stay, with the error in *err. */

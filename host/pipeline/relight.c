@@ -30,19 +30,20 @@ static const ts_light *mapped_dome(const ts_light_table *t)
     return NULL;
 }
 
-/* Texel (x, y) of the map: its centre's direction, its solid angle and its radiance (the
- * dome's radiance times the texel, as lib/lights.h light_escape gives it). */
-static double texel_at(const ts_light *dome, const ts_env_map *env, uint32_t x, uint32_t y,
-                       double dir[3], double rgb[3])
+/* The part [a0, a1) x [b0, b1) of the map (in texels, within texel (tx, ty)): its centre's
+ * direction, its radiance (the dome's radiance times the texel, as lib/lights.h light_escape
+ * gives it) and, returned, its exact solid angle (a rectangle in phi and cos theta). */
+static double map_rect(const ts_light *dome, const ts_env_map *env, uint32_t tx, uint32_t ty,
+                       double a0, double a1, double b0, double b1, double dir[3], double rgb[3])
 {
     uint32_t w = env->width, h = env->height;
-    double t0 = M_PI * y / h, t1 = M_PI * (y + 1) / h, tc = M_PI * (y + 0.5) / h;
-    double pc = 2.0 * M_PI * (x + 0.5) / w;
+    double t0 = M_PI * b0 / h, t1 = M_PI * b1 / h, tc = 0.5 * (t0 + t1);
+    double pc = M_PI * (a0 + a1) / w;
     dir[0] = sin(tc) * cos(pc), dir[1] = sin(tc) * sin(pc), dir[2] = cos(tc);
-    const ts_vec4 *t = &env->texels[(size_t)y * w + x];
+    const ts_vec4 *t = &env->texels[(size_t)ty * w + tx];
     rgb[0] = dome->radiance[0] * t->x, rgb[1] = dome->radiance[1] * t->y,
     rgb[2] = dome->radiance[2] * t->z;
-    return 2.0 * M_PI / w * (cos(t0) - cos(t1));
+    return 2.0 * M_PI * (a1 - a0) / w * (cos(t0) - cos(t1));
 }
 
 /* L_j of every dome into light[0 .. nc): the uniform domes' 4 pi L Y_00 at j = 0, the map
@@ -60,7 +61,7 @@ static void project_domes(const ts_light_table *t, const ts_env_map *env, uint32
     const ts_light *dome = mapped_dome(t);
     for (uint32_t y = 0; dome && y < env->height; ++y)
         for (uint32_t x = 0; x < env->width; ++x) {
-            double d[3], rgb[3], da = texel_at(dome, env, x, y, d, rgb);
+            double d[3], rgb[3], da = map_rect(dome, env, x, y, x, x + 1.0, y, y + 1.0, d, rgb);
             float ys[TS_SH_MAX_COEFFS];
             sh_eval((float)d[0], (float)d[1], (float)d[2], TS_SH_MAX_BANDS, ys);
             for (uint32_t j = 0; j < nc; ++j)
@@ -101,13 +102,7 @@ static map_cell *map_cells(const ts_light *dome, const ts_env_map *env, uint32_t
                     double a0 = fmax(x0, tx), a1 = fmin(x1, tx + 1.0);
                     double b0 = fmax(y0, ty), b1 = fmin(y1, ty + 1.0);
                     if (!(a1 > a0 && b1 > b0)) continue;
-                    double t0 = M_PI * b0 / h, t1 = M_PI * b1 / h, tc = 0.5 * (t0 + t1);
-                    double pc = M_PI * (a0 + a1) / w;
-                    double da = 2.0 * M_PI * (a1 - a0) / w * (cos(t0) - cos(t1));
-                    const ts_vec4 *t = &env->texels[(size_t)ty * w + tx];
-                    double d[3] = {sin(tc) * cos(pc), sin(tc) * sin(pc), cos(tc)};
-                    double rgb[3] = {dome->radiance[0] * t->x, dome->radiance[1] * t->y,
-                                     dome->radiance[2] * t->z};
+                    double d[3], rgb[3], da = map_rect(dome, env, tx, ty, a0, a1, b0, b1, d, rgb);
                     for (int k = 0; k < 3; ++k)
                         flux[k] += rgb[k] * da, mean[k] += d[k] * da;
                 }

@@ -25,17 +25,11 @@ static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per
     return dev_finish(p->cl, p->stats, err);
 }
 
-/* Gives each segment its LOD: --lod's, clamped to max_lod, or its patch's from the lod
- * stage. */
+/* Gives each segment its patch's LOD (pipeline_patch_lod). */
 static void assign_lods(ts_pipeline *p, uint32_t segs)
 {
-    int fixed = p->mode.fixed_lod;
-    for (uint32_t i = 0; i < segs; ++i) {
-        ts_segment *s = &p->segments_host[i];
-        s->lod = fixed >= 0
-                     ? ((uint32_t)fixed < p->plan.max_lod ? (uint32_t)fixed : p->plan.max_lod)
-                     : p->patch_lod[s->patch];
-    }
+    for (uint32_t i = 0; i < segs; ++i)
+        p->segments_host[i].lod = pipeline_patch_lod(p, p->segments_host[i].patch);
 }
 
 /* Starts batch k at segment i (its trees from the list's current end). */
