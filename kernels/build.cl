@@ -161,3 +161,25 @@ __kernel void build_level(__global const uint *trees, uint tree_first, uint tree
     box.hi_z = fmax(fmax(c->hi_z[0], c->hi_z[1]), fmax(c->hi_z[2], c->hi_z[3]));
     node_store(base, level, k, box);
 }
+
+/* build_cull (one launch per batch, after build_level): copies levels 1 and 2 of each static
+ * tree of the batch, TS_CULL_GROUPS groups from its group 1, to its patch's entry of cull,
+ * and sets cull_levels[patch] to how many of the two levels top_level may cull by
+ * (quadtree_cull_levels; groups of levels it may not are left as they were and never read).
+ * A moving patch keeps 0 (top_level then never culls it). The host resets an entry whose
+ * patch's m or leaf size changed (trace.c cull_reset_stale). One work-item per group. */
+__kernel void build_cull(__global const uint *trees, uint tree_first, uint tree_count, uint leaf_b,
+                         __global const ts_segment *segments, __global const ts_box4 *groups,
+                         __global ts_box4 *cull, __global uint *cull_levels)
+{
+    uint gid = get_global_id(0);
+    uint t = gid / TS_CULL_GROUPS, g = gid % TS_CULL_GROUPS;
+    if (t >= tree_count) return;
+    uint tree = trees[tree_first + t];
+    ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
+    if (TS_TREE_TIME(tree) != 0u || (seg.flags & TS_PATCH_MOVING) != 0u) return;
+    uint levels = quadtree_cull_levels(seg.lod, leaf_b);
+    if (g == 0u) cull_levels[seg.patch] = levels;
+    if (g + 1u < quadtree_group_count(levels))
+        cull[(size_t)seg.patch * TS_CULL_GROUPS + g] = groups[(size_t)seg.group_first + 1u + g];
+}

@@ -76,6 +76,7 @@ typedef struct ts_trace_mode {
     X(k_dice, "dice_grid")                                                                      \
     X(k_build_leaves, "build_leaves")                                                           \
     X(k_build_level, "build_level")                                                             \
+    X(k_build_cull, "build_cull")                                                               \
     X(k_bottom_level, "bottom_level_trace")                                                     \
     X(k_bottom_group, "bottom_level_group")                                                     \
     X(k_resolve, "resolve_closest")                                                             \
@@ -106,7 +107,9 @@ typedef struct ts_trace_mode {
  *   lod_counts: eye rays entering each patch box (lod); segments, trees: the sorted
  *     segments and the batches' tree lists; grid, groups: the vertex and group arenas;
  *     utilisation: bottom_level's micro-quad tests and work-item slots, two words per
- *     work-group of the iteration's launches (util_groups of them; trace.c folds them).
+ *     work-group of the iteration's launches (util_groups of them; trace.c folds them);
+ *     cull, cull_levels: levels 1 and 2 of each built patch's tree and how many of them
+ *     top_level culls candidates by (TS_CULL_GROUPS; build.cl build_cull).
  *   active: the rays being traced; count: candidates per active ray; alive: what goes on
  *     after resolve and shade; wave_paths: the paths being shaded; radiance: per path; aov,
  *     albedo: at the eye hit.
@@ -144,6 +147,8 @@ typedef struct ts_trace_mode {
     X(grid,            CL_MEM_READ_WRITE, ts_vec4,       c.verts,        NULL)                  \
     X(groups,          CL_MEM_READ_WRITE, ts_box4,       c.groups,       NULL)                  \
     X(utilisation,     CL_MEM_READ_WRITE, ts_u32,        2 * c.util_groups, NULL)               \
+    X(cull,            CL_MEM_READ_WRITE, ts_box4,       TS_CULL_GROUPS * c.patches, NULL)      \
+    X(cull_levels,     CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \
     /* Per ray or path of a wave (beside the ray and path fields). */                           \
     X(active,          TS_MEM_HOST_RW,    ts_u32,        c.rays,         NULL)                  \
     X(count,           CL_MEM_READ_WRITE, ts_u32,        c.rays,         NULL)                  \
@@ -196,6 +201,9 @@ typedef struct ts_pipeline {
      * iteration's bottom_level launches have used (folded into the stats by resolve). */
     uint32_t util_groups, util_used;
     uint8_t *patch_lod; /* m of each patch for this frame (lod stage); max_lod until counted */
+    /* What each patch's entry of cull was built for (trace.c cull_key: its m and leaf size;
+     * 0: none), so that an entry is reset when its patch's m or the leaf size changes. */
+    uint16_t *cull_key;
     /* Which diced patches the grid and groups arenas hold, kept across iterations, waves and
      * sample passes (patch_cache.h); cleared when the levels of detail change. With
      * cache_off (TESSERA_PATCH_CACHE=0, for checks) it is cleared before every batch, so
