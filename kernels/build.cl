@@ -7,7 +7,8 @@
  *     undisplaced part: box of the four undisplaced corners (vertex - d * normal) grown by
  *       the flatness bound E0 * 4^-m (lib/patch.h patch_flatness),
  *     displacement part: [d] x [N] per axis, [d] by interval arithmetic on the noise over
- *       the time-0 undisplaced box (lib/displace.h), [N] the box of the bilinear
+ *       the time-0 undisplaced box (lib/displace.h; its cells eight at a time in float8
+ *       lanes, lib/noise4.h displace_interval_x8, the same bits), [N] the box of the bilinear
  *       displacement normal over the square (its values at the four corners).
  * build_level (one launch per level l, deepest first): node k of level l of every tree with
  *   m > l (a prefix of the batch's tree list, which is sorted by decreasing m) gets the union
@@ -21,6 +22,7 @@
  * of its children (tests/test_dice_build.c, tests/test_bounds.c). */
 #include "lib/shared_types.h"
 #include "lib/displace.h"
+#include "lib/noise4.h"
 #include "lib/quadtree.h"
 
 /* Stores box b as node k of level l. */
@@ -123,8 +125,10 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                 b0.lo_x -= ex, b0.hi_x += ex, b0.lo_y -= ey, b0.hi_y += ey, b0.lo_z -= ez,
                     b0.hi_z += ez;
             }
-            d = displace_interval(a, xform + a->xform, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y,
-                                  b0.hi_z);
+            d = displace_is_noise(a) ? displace_interval_x8(a, xform + a->xform, b0.lo_x, b0.lo_y,
+                                                            b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z)
+                                     : displace_interval(a, xform + a->xform, b0.lo_x, b0.lo_y,
+                                                         b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
         }
         /* The displacement direction over the micro-quad's whole parameter square. */
         ts_box nb = displace_normal_box(cn, mn, (float)i * h, (float)j * h, (float)(i + 1u) * h,
