@@ -27,9 +27,10 @@
     X(texture_pool_tiles, "tiles the device pool holds (every tile unless --memory pages)") \
     X(texture_tiles, "tiles of every texture level in the scene")                           \
     X(patch_cache_hits, "segments whose patch was already diced and resident")              \
-    X(patch_cache_misses, "segments diced into the cache (= patches_diced)")                \
+    X(patch_cache_misses, "segments placed into the cache (= patches_diced + patches_shared)") \
     X(patch_cache_evictions, "resident patches evicted to make room")                      \
     X(patch_cache_bytes, "bytes of the vertex and tree arenas the cache manages")        \
+    X(patches_shared, "misses filled from another device's dicing (patch_share.h)")       \
     X(bake_points, "points baked (tessera bake; their rays are counted in rays)")
 /* clang-format on */
 
