@@ -346,6 +346,16 @@ static void test_two_devices_share_built_patches(void **state)
     assert_true(counter("share2.json", "patches_diced") +
                     counter("share2.json", "patches_shared") ==
                 counter("share2.json", "patch_cache_misses"));
+    cJSON *root = test_read_json(in_dir("share2.json")); /* the devices' own counters */
+    double own_diced = 0, own_shared = 0;
+    for (int k = 0; k < 2; ++k) {
+        own_diced += device_number(root, k, "patches_diced");
+        own_shared += device_number(root, k, "patches_shared");
+        assert_true(device_number(root, k, "share_wait_seconds") >= 0.0);
+    }
+    cJSON_Delete(root);
+    assert_true(own_diced == diced);
+    assert_true(own_shared == counter("share2.json", "patches_shared"));
     setenv("TESSERA_PATCH_SHARE", "0", 1);
     snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share0.json"));
     render("scene/teapot_displaced.rib", "share0.exr", pair, extra);

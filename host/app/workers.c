@@ -313,6 +313,7 @@ static int worker_shrink(ts_worker *w, ts_error *err)
                       worker_name(w, name, sizeof name), (unsigned long long)w->mb, err->msg,
                       (unsigned long long)(w->mb / 2));
     ts_error_clear(err);
+    w->out.share_wait_seconds += w->pipe.share_wait_seconds;
     pipeline_destroy(&w->pipe);
     w->has_pipe = 0;
     w->mb /= 2;
@@ -502,6 +503,10 @@ int workers_stats(ts_workers *g, ts_stats *stats, ts_error *err)
         d->rank = g->frame.rank;
         d->rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays];
         d->memory_budget_bytes = w->stats.memory_budget_bytes;
+        d->patches_diced = w->stats.counters[TS_COUNTER_patches_diced];
+        d->patches_shared = w->stats.counters[TS_COUNTER_patches_shared];
+        if (w->has_pipe) d->share_wait_seconds += w->pipe.share_wait_seconds;
+        w->pipe.share_wait_seconds = 0;
         memcpy(d->stage_seconds, w->stats.stage_seconds, sizeof d->stage_seconds);
         d->failed = w->failed;
         if (w->failed) snprintf(d->error, sizeof d->error, "%.500s", w->err.msg);

@@ -64,7 +64,11 @@ typedef struct ts_device_stats {
                              for the frame's levels of detail (the lod stage) */
     double busy_seconds;  /* tracing units and reading their results back */
     double frame_seconds; /* from the start of the device's thread to the frame's end */
-    int32_t failed;       /* 1: it stopped early with an error: */
+    /* Built patches shared with the other devices (pipeline/patch_share.h): misses diced
+     * here, misses taken from the store, seconds spent waiting for another device's claims. */
+    uint64_t patches_diced, patches_shared;
+    double share_wait_seconds;
+    int32_t failed; /* 1: it stopped early with an error: */
     int32_t pad;
     char error[512]; /* why it stopped ("" when it did not) */
 } ts_device_stats;

@@ -208,8 +208,9 @@ typedef struct ts_pipeline {
      * detail are known), and its slot there; NULL: every miss is diced here. */
     ts_patch_share *share;
     uint32_t share_owner;
-    ts_tex_cache tex;     /* which tiles tex_pool holds (tex_cache.h) */
-    uint32_t light_count; /* entries of the lights buffer (lights.h) */
+    double share_wait_seconds; /* waiting for other devices' claims (monotonic clock) */
+    ts_tex_cache tex;          /* which tiles tex_pool holds (tex_cache.h) */
+    uint32_t light_count;      /* entries of the lights buffer (lights.h) */
     /* Relighting with the scene's baked occlusion (relight.h; bands 0: none). */
     ts_relight_params relight;
     uint32_t wave;   /* the wave of paths being traced (stats iterations) */

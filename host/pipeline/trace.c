@@ -428,8 +428,11 @@ static int batch_make_shared(ts_pipeline *p, const ts_batch *b, uint8_t *kind, v
         uint32_t i = TS_TREE_SEGMENT(list[t]), k = i - b->seg_first;
         if (TS_TREE_TIME(list[t]) != 0u) continue;
         const void *got = data[k];
-        if (kind[k] == TS_TAKE_WAIT &&
-            !patch_share_wait(p->share, p->segments_host[i].patch, &got)) {
+        double t0 = stats_now();
+        int ready =
+            kind[k] != TS_TAKE_WAIT || patch_share_wait(p->share, p->segments_host[i].patch, &got);
+        p->share_wait_seconds += stats_now() - t0;
+        if (!ready) {
             kind[k] = TS_TAKE_LOCAL; /* abandoned by a failed device: diced here below */
             continue;
         }
