@@ -633,19 +633,36 @@ int blobby_polygonize(const ts_blobby *b, const double *leaf_cs, blobby_mesh *m,
         if (b->leaf[i].code != 1000) smallest = fmin(smallest, b->leaf[i].size);
     double h = smallest / BLOBBY_CELLS_PER_RADIUS;
     h = fmin(fmax(h, longest / BLOBBY_MAX_CELLS), longest / BLOBBY_MIN_CELLS);
+    int rc = bins_make(b, &c.e.bins);
+    /* Leaf evaluations per field value: the leaves of a bin on average, and every leaf's
+     * value cleared for a general program. The grid is coarsened until sampling it costs at
+     * most BLOBBY_MAX_WORK of them, so that no file makes reading it take minutes. */
+    const leaf_bins *g = &c.e.bins;
+    double per_eval = 1.0;
+    if (rc == 0) {
+        size_t nb = (size_t)g->n[0] * g->n[1] * g->n[2];
+        per_eval += (double)g->start[nb] / (double)nb + (b->sum_only ? 0.0 : (double)b->nleaf);
+    }
+    for (;;) {
+        double points = 1.0;
+        for (int j = 0; j < 3; j++)
+            points *= ceil((b->hi[j] - b->lo[j]) / h) + 3.0;
+        if (points * per_eval <= BLOBBY_MAX_WORK) break;
+        h *= 1.25;
+    }
     c.h = h;
+    m->coarse = h > 1.5 * smallest; /* under 2 cells across the smallest blob's radius */
     for (int j = 0; j < 3; j++) {
         c.n[j] = (size_t)ceil((b->hi[j] - b->lo[j]) / h) + 3; /* a border point each side */
         c.origin[j] = 0.5 * (b->lo[j] + b->hi[j]) - 0.5 * (double)(c.n[j] - 1) * h;
     }
     m->cell = h;
     size_t points = c.n[0] * c.n[1] * c.n[2], cubes = (c.n[0] - 1) * (c.n[1] - 1) * (c.n[2] - 1);
-    c.val = malloc(points * sizeof *c.val);
-    c.vert = calloc(cubes, sizeof *c.vert);
+    c.val = rc == 0 ? malloc(points * sizeof *c.val) : NULL;
+    c.vert = rc == 0 ? calloc(cubes, sizeof *c.vert) : NULL;
     c.e.leaf_vals = malloc((b->nleaf + 1) * sizeof *c.e.leaf_vals);
     c.e.vals = malloc(b->nop * sizeof *c.e.vals);
-    int rc = c.val && c.vert && c.e.leaf_vals && c.e.vals ? 0 : -1;
-    if (rc == 0) rc = bins_make(b, &c.e.bins);
+    if (rc == 0 && !(c.val && c.vert && c.e.leaf_vals && c.e.vals)) rc = -1;
     for (size_t z = 0; rc == 0 && z < c.n[2]; z++) /* the field; the border stays outside */
         for (size_t y = 0; y < c.n[1]; y++)
             for (size_t x = 0; x < c.n[0]; x++) {

@@ -29,7 +29,8 @@
  * the vertices of the four cubes around it, so neighbouring quads share their edges (closed,
  * no cracks) and, unlike marching cubes or tetrahedra, there are no sliver triangles. The
  * cell size follows the smallest leaf: BLOBBY_CELLS_PER_RADIUS cells across a lone blob's
- * radius, and between BLOBBY_MIN_CELLS and BLOBBY_MAX_CELLS cells along the longest side. */
+ * radius, and between BLOBBY_MIN_CELLS and BLOBBY_MAX_CELLS cells along the longest side,
+ * coarser where sampling would cost more than BLOBBY_MAX_WORK leaf evaluations. */
 #ifndef TS_BLOBBY_H
 #define TS_BLOBBY_H
 
@@ -39,6 +40,8 @@
 #define BLOBBY_CELLS_PER_RADIUS 2.0
 #define BLOBBY_MIN_CELLS 8
 #define BLOBBY_MAX_CELLS 160
+/* Leaf evaluations sampling the grid may take: beyond it the grid is coarsened. */
+#define BLOBBY_MAX_WORK 2e8
 
 typedef struct blobby_op {
     int code;          /* the opcode */
@@ -87,6 +90,8 @@ typedef struct blobby_mesh {
     unsigned (*quad)[4];
     size_t nquad;
     double cell; /* the grid's cell size */
+    int coarse;  /* the cell is over 1.5 x the smallest blob's surface radius: the grid's limits
+                    made it coarse, and the smallest blobs may be lost */
 } blobby_mesh;
 
 /* Polygonizes b into *m. leaf_cs (NULL, or 3 numbers per leaf) gives each vertex the leaves'

@@ -16,6 +16,7 @@
 #include "scene/rib/rib_args.h"
 #include "scene/rib/rib_internal.h"
 
+#include <stdio.h>
 #include <string.h>
 
 typedef struct blobby_emit_ctx {
@@ -88,6 +89,14 @@ int rib_req_blobby(rib_parser *p)
         return rib_error_at(p, p->req_line, p->req_col, "Blobby: %s", why);
     }
     blobby_free(&b);
+    if (m.coarse) {
+        char what[160];
+        snprintf(what, sizeof what,
+                 "Blobby: polygonized on cells of %.3g, coarser than its smallest blobs (the grid "
+                 "is limited): small blobs may be lost",
+                 m.cell);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
     blobby_emit_ctx c = {p, &m, NULL, cs, p->req_line, p->req_col};
     for (size_t t = 0; rc == TS_OK && t < m.nquad; t++) {
         double pos[4][3], nrm[4][3];
