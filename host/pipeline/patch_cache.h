@@ -54,6 +54,7 @@ typedef struct ts_patch_cache {
     uint64_t clock; /* counts batches: the LRU time */
     /* Counters for --stats (summed over the frame). */
     uint64_t hits, misses, evictions;
+    uint64_t peak_bytes; /* the most bytes of both arenas resident patches held at once */
 } ts_patch_cache;
 
 /* An empty cache for patch_count patches over arenas of vert_capacity vertices and
