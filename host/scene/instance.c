@@ -46,7 +46,7 @@ static int share_rigid(const double a[12])
             double d = 0.0;
             for (int k = 0; k < 3; k++)
                 d += a[k * 4 + i] * a[k * 4 + j];
-            if (fabs(d - (i == j ? 1.0 : 0.0)) > SHARE_TOL) return 0;
+            if (!(fabs(d - (i == j ? 1.0 : 0.0)) <= SHARE_TOL)) return 0; /* NaN too */
         }
     return 1;
 }
