@@ -14,7 +14,9 @@
  *   standard errors of the copies' block mean (the spread of the block's pixels / 16): the
  *   renders use the same random numbers, so what differs is where rounding or the
  *   orientation of leaf boxes (box mode: the master's axes, turned) decides a ray;
- * - a moving object instanced twice, and its copies, render alike in the same sense.
+ * - a moving object instanced twice, and its copies, render alike in the same sense;
+ * - two devices give the one-device image bit for bit (the levels device 0 picks, one m per
+ *   master, reach the other).
  * The image checks need an OpenCL device (skipped, 77, without one). */
 #include "test_support.h"
 #include "image/image.h"
@@ -322,6 +324,22 @@ static void test_moving_instances_render(void **state)
     free(full);
 }
 
+/* Two devices (PoCL's pthread device twice) render the instanced scene's bits. */
+static void test_two_devices_same_bits(void **state)
+{
+    (void)state;
+    char *text = read_source("scene/instances_displaced.rib");
+    write_scene("inst.rib", text);
+    free(text);
+    setenv("POCL_DEVICES", "pthread pthread", 1);
+    test_tessera_ok(dir, "render '%s' -o '%s' --quiet --res 96x54 --spp 2", path("inst.rib"),
+                    path("one.exr"));
+    test_tessera_ok(dir, "render '%s' -o '%s' --quiet --res 96x54 --spp 2 --device 0,1",
+                    path("inst.rib"), path("two.exr"));
+    unsetenv("POCL_DEVICES");
+    test_assert_same_pixels(path("one.exr"), path("two.exr"));
+}
+
 int main(void)
 {
     const struct CMUnitTest host[] = {
@@ -332,6 +350,7 @@ int main(void)
     const struct CMUnitTest device[] = {
         cmocka_unit_test(test_displaced_instances_render),
         cmocka_unit_test(test_moving_instances_render),
+        cmocka_unit_test(test_two_devices_same_bits),
     };
     int rd = TEST_RUN_WITH_DEVICE(device, setup);
     return rc ? rc : rd;
