@@ -67,6 +67,7 @@ static const struct {
     {"WorldBegin", rib_req_world_begin},
     {"WorldEnd", rib_req_world_end},
     /* Surfaces turned into Bézier patches (rib_prims.h). */
+    {"Blobby", rib_req_blobby},
     {"Cone", rib_req_cone},
     {"Curves", rib_req_curves},
     {"Cylinder", rib_req_cylinder},
@@ -129,7 +130,6 @@ static const char *const rib_ignored[] = {
 /* clang-format off */
 static const char *const rib_unsupported[] = {
     "ArchiveRecord",
-    "Blobby",
     "Perspective",
     "Skew",
     "SolidBegin",
