@@ -58,6 +58,8 @@ static const struct {
     {"Rotate", rib_req_rotate},
     {"Scale", rib_req_scale},
     {"ScreenWindow", rib_req_screen_window},
+    {"SolidBegin", rib_req_solid_begin},
+    {"SolidEnd", rib_req_solid_end},
     {"Shutter", rib_req_shutter},
     {"Surface", rib_req_surface},
     {"Transform", rib_req_transform},
@@ -132,8 +134,6 @@ static const char *const rib_unsupported[] = {
     "ArchiveRecord",
     "Perspective",
     "Skew",
-    "SolidBegin",
-    "SolidEnd",
     "TrimCurve",
 };
 /* clang-format on */
