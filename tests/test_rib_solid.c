@@ -23,8 +23,7 @@ static void assert_same_patches(const ts_scene *s, const ts_scene *t)
                     s->attr[q].cs_b == t->attr[q].cs_b);
 }
 
-#define TWO_SPHERES                                                                                \
-    "Sphere 1 -1 1 360\nTranslate 0.5 0 0\nColor [0 1 0]\nSphere 1 -1 1 360\n"
+#define TWO_SPHERES "Sphere 1 -1 1 360\nTranslate 0.5 0 0\nColor [0 1 0]\nSphere 1 -1 1 360\n"
 
 static void test_union_is_its_surfaces(void **state)
 {
