@@ -13,12 +13,12 @@
  *   m > l (a prefix of the batch's tree list, which is sorted by decreasing m) gets the union
  *   of its four children — the bottom-up min-max reduction. The root group's lanes 1-3 are
  *   left empty.
- * Reads: trees, segments, grid (w = d), corner normals, attributes, transforms, flatness,
- *        patch boxes (every leaf box is clamped to its patch's top-level box),
- *        textures (the min-max tiles under the leaves' st rectangles must be resident).
- * Writes: groups[group_first + time * quadtree_group_count(m) ...].
- * Invariants: every vertex of a micro-quad lies in its leaf box; every inner box is the union
- * of its children (tests/test_dice_build.c, tests/test_bounds.c). */
+ * Reads: trees, segments (the patch built is each segment's shape), grid (w = d), corner normals,
+ * attributes, transforms, flatness, patch boxes (every leaf box is clamped to its patch's top-level
+ * box), textures (the min-max tiles under the leaves' st rectangles must be resident). Writes:
+ * groups[group_first + time * quadtree_group_count(m) ...]. Invariants: every vertex of a
+ * micro-quad lies in its leaf box; every inner box is the union of its children
+ * (tests/test_dice_build.c, tests/test_bounds.c). */
 #include "lib/shared_types.h"
 #include "lib/displace.h"
 #include "lib/quadtree.h"
@@ -98,18 +98,19 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     uint time = TS_TREE_TIME(tree), n = (1u << m) + 1u, nv = n * n;
     uint i = morton_i(k), j = morton_j(k);
     float h = ldexp(1.0f, -(int)m);
-    __global const ts_vec4 *cn = corner_n + (size_t)seg.patch * 4u;
-    __global const ts_vec4 *mn = mid_n + (size_t)seg.patch * 5u;
+    /* The segment's shape: the patch diced (itself, or the master an instance shares). */
+    __global const ts_vec4 *cn = corner_n + (size_t)seg.shape * 4u;
+    __global const ts_vec4 *mn = mid_n + (size_t)seg.shape * 5u;
     __global const ts_vec4 *g = grid + (size_t)seg.vert_first + time * nv;
     ts_box b = base_box(g, n, i, j, cn, mn, h);
-    ts_vec4 e = flatness[seg.patch];
+    ts_vec4 e = flatness[seg.shape];
     float s = ldexp(1.0f, -2 * (int)m);
     /* Flatness, plus a few ulps for the rounding of the vertices and of vertex - d * n. */
     float mag = fmax(fmax(fabs(b.lo_x), fabs(b.hi_x)),
                      fmax(fmax(fabs(b.lo_y), fabs(b.hi_y)), fmax(fabs(b.lo_z), fabs(b.hi_z))));
     float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
     b.lo_x -= ex, b.hi_x += ex, b.lo_y -= ey, b.hi_y += ey, b.lo_z -= ez, b.hi_z += ez;
-    __global const ts_patch_attr *a = attr + seg.patch;
+    __global const ts_patch_attr *a = attr + seg.shape;
     if (a->disp_kind != TS_DISP_NONE) {
         ts_interval d;
         if (a->disp_kind == TS_DISP_TEXTURE) {
@@ -137,7 +138,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         b.lo_y += oy.x - slack, b.hi_y += oy.y + slack;
         b.lo_z += oz.x - slack, b.hi_z += oz.y + slack;
     }
-    b = leaf_clamp(b, patch_box[seg.patch]);
+    b = leaf_clamp(b, patch_box[seg.shape]);
     node_store(groups + (size_t)seg.group_first + time * quadtree_group_count(m), m, k, b);
 }
 

@@ -605,6 +605,12 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
         }
         board_wait(b, service && service->poll ? service->interval : 0.25);
     }
+    /* One more poll once the frame is merged: a frame this process's devices finished
+     * before any poll saw its levels of detail (a short --resume) must still send them to
+     * the other ranks, which wait for them before they ask for units. */
+    if (rc == TS_OK && board_finished(b) && service && service->poll &&
+        service->poll(service->ctx, b, g, err) < 0)
+        rc = err->code;
     board_close(b);
     workers_join(g);
     workers_report(g, &end->failure);

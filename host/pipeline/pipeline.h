@@ -100,16 +100,16 @@ typedef struct ts_trace_mode {
  *     attr: with each patch's emitter index; xform: world to object (the identity if none);
  *     flatness: patch_flatness, w = the longest side of the patch's box (secondary-ray
  *     offset l / 2^m); patch_box: scene_patch_box (build clamps leaf boxes to it); lights,
- *     emitters, env_*: lights.h; textures, tex_pool, tex_pages: descriptors, the tile pool
- *     and its page table (tex_cache.h); relight_*: the baked occlusion of
- *     `render --occlusion` (scene.h ts_occlusion: its patch table, coefficients and normals) and
- *     relight.h's light tables, one zeroed element each without one.
- *   lod_counts: eye rays entering each patch box (lod); segments, trees: the sorted
- *     segments and the batches' tree lists; grid, groups: the vertex and group arenas;
- *     utilisation: bottom_level's micro-quad tests and work-item slots, two words per
- *     work-group of the iteration's launches (util_groups of them; trace.c folds them).
- *   active: the rays being traced; count: candidates per active ray; alive: what goes on
- *     after resolve and shade; wave_paths: the paths being shaded; radiance: per path; aov,
+ *     emitters, env_*: lights.h; instance, inst_xform: scene.h's instancing tables (one
+ *     zeroed element each when no instance shares its master's dicing); textures, tex_pool,
+ * tex_pages: descriptors, the tile pool and its page table (tex_cache.h); relight_*: the baked
+ * occlusion of `render --occlusion` (scene.h ts_occlusion: its patch table, coefficients and
+ * normals) and relight.h's light tables, one zeroed element each without one. lod_counts: eye rays
+ * entering each patch box (lod); segments, trees: the sorted segments and the batches' tree lists;
+ * grid, groups: the vertex and group arenas; utilisation: bottom_level's micro-quad tests and
+ * work-item slots, two words per work-group of the iteration's launches (util_groups of them;
+ * trace.c folds them). active: the rays being traced; count: candidates per active ray; alive: what
+ * goes on after resolve and shade; wave_paths: the paths being shaded; radiance: per path; aov,
  *     albedo: at the eye hit.
  *   pairs: top_level's candidates, sorted by sort; pairs_scratch: the radix sort's other
  *     buffer (it may end there); pair_hit: bottom_level's hit per candidate.
@@ -126,6 +126,8 @@ typedef struct ts_trace_mode {
     X(xform,           TS_MEM_SCENE,      ts_xform,      c.xforms,       u.xform)               \
     X(flatness,        TS_MEM_SCENE,      ts_vec4,       c.patches,      u.flatness)            \
     X(patch_box,       TS_MEM_SCENE,      ts_box,        c.patches,      u.boxes)               \
+    X(instance,        TS_MEM_SCENE,      ts_u32,        c.instances,    u.instance)            \
+    X(inst_xform,      TS_MEM_SCENE,      ts_xform,      c.inst_xforms,  u.inst_xform)          \
     X(lights,          TS_MEM_SCENE,      ts_light,      c.lights,       u.lights.lights)       \
     X(emitters,        TS_MEM_SCENE,      ts_emitter,    c.emitters,     u.lights.emitters)     \
     X(env_texels,      TS_MEM_SCENE,      ts_vec4,       c.env_texels,   u.env.texels)          \
@@ -276,7 +278,7 @@ int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, 
 
 /* The arena entries the frame's patches take when every one is resident at once: vertices
  * and sibling groups at the level each is diced at (--lod's, else the lod stage's), twice
- * for a moving patch. */
+ * for a moving patch; an instance that shares its master's dicing takes none of its own. */
 void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups);
 /* The level patch `patch` is diced at: --lod's (p->mode.fixed_lod, clamped to the plan's
  * max_lod), else the lod stage's p->patch_lod. */

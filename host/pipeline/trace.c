@@ -59,6 +59,17 @@ static void batch_sort_trees(ts_pipeline *p, ts_batch *b)
     if (scratch != tmp) free(scratch);
 }
 
+/* The patch whose dicing segment s uses (its shape): an instance patch shares its master's
+ * (scene.h instancing) when both are at the same m this frame (pipeline_lod_finish gives a
+ * master and its instances one m; a fixed --lod gives every patch one), else it is diced
+ * as itself, as a copy. Sets s->shape. */
+static uint32_t segment_shape(const ts_pipeline *p, ts_segment *s)
+{
+    uint32_t q = scene_shape(p->scene, s->patch);
+    if (q != s->patch && pipeline_patch_lod(p, q) != s->lod) q = s->patch;
+    return s->shape = q;
+}
+
 /* Gives each segment (its LOD set) its place in the arenas through the patch cache and
  * cuts the segments into batches whose patches are resident together: a segment whose
  * patch is resident at its m is a hit (traced, not diced); a miss gets space (the cache
@@ -77,25 +88,24 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
     for (uint32_t i = 0; i < segs; ++i) {
         ts_segment *s = &p->segments_host[i];
         const ts_patch_attr *a = &p->scene->attr[s->patch];
-        s->flags = a->flags & TS_PATCH_MOVING;
-        s->pad = 0;
-        uint32_t times = s->flags ? 2u : 1u;
+        s->flags = a->flags & TS_PATCH_MOVING; /* a shape moves as its instances do */
+        uint32_t q = segment_shape(p, s), times = s->flags ? 2u : 1u;
         /* Texture tiles: the batch's misses' needs add up to at most the pool (an over-count
          * where they share tiles; each alone fits, tex_cache_create sized the pool so). */
-        uint32_t nt = p->tex.paged ? p->tex.patch_tiles[s->patch] : 0u;
+        uint32_t nt = p->tex.paged ? p->tex.patch_tiles[q] : 0u;
         if (b && tused + nt > p->tex.slots &&
-            !(p->cache.entry[s->patch].resident && p->cache.entry[s->patch].lod == s->lod)) {
+            !(p->cache.entry[q].resident && p->cache.entry[q].lod == s->lod)) {
             patch_cache_end_batch(&p->cache);
             b = NULL;
         }
         if (!b) b = batch_open(p, i, ntrees), tused = 0;
-        ts_cache_result r = patch_cache_acquire(&p->cache, s->patch, s->lod, times, &s->vert_first,
-                                                &s->group_first);
+        ts_cache_result r =
+            patch_cache_acquire(&p->cache, q, s->lod, times, &s->vert_first, &s->group_first);
         if (r == TS_CACHE_FULL) { /* the batch is as full as it gets: start the next */
             patch_cache_end_batch(&p->cache);
             if (p->cache_off) patch_cache_clear(&p->cache);
             b = batch_open(p, i, ntrees), tused = 0;
-            r = patch_cache_acquire(&p->cache, s->patch, s->lod, times, &s->vert_first,
+            r = patch_cache_acquire(&p->cache, q, s->lod, times, &s->vert_first,
                                     &s->group_first); /* the plan holds any one patch */
         }
         b->seg_count++;
@@ -114,6 +124,8 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
     p->stats->counters[TS_COUNTER_patch_cache_hits] += hits;
     p->stats->counters[TS_COUNTER_patch_cache_misses] += misses;
     p->stats->counters[TS_COUNTER_patch_cache_evictions] += p->cache.evictions - evicted;
+    uint64_t *peak = &p->stats->counters[TS_COUNTER_patch_cache_peak_bytes];
+    if (p->cache.peak_bytes > *peak) *peak = p->cache.peak_bytes;
 }
 
 /* Discrete devices: reads the windows' counts and the windows into host memory, sorts them
@@ -233,7 +245,7 @@ static int batch_textures(ts_pipeline *p, const ts_batch *b, ts_error *err)
     for (uint32_t t = 0; t < b->tree_count; ++t) /* the patches diced: the misses */
         tex_cache_mark_patch(
             &p->tex, p->scene,
-            p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])].patch);
+            p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])].shape);
     return tex_cache_commit(&p->tex, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
 }
 
@@ -379,7 +391,7 @@ static int share_round(ts_pipeline *p, const ts_batch *b, uint8_t *kind, void **
         if (TS_TREE_TIME(list[t]) != 0u || kind[k] != SHARE_OPEN) continue;
         uint32_t times = s->flags ? 2u : 1u;
         uint64_t bytes = patch_share_bytes(s->lod, times);
-        kind[k] = (uint8_t)patch_share_take(p->share, s->patch, s->lod, times, bytes,
+        kind[k] = (uint8_t)patch_share_take(p->share, s->shape, s->lod, times, bytes,
                                             p->share_owner, &data[k]);
         if (kind[k] == TS_TAKE_MINE) claimed += bytes, ++mine;
     }
@@ -395,9 +407,9 @@ static int share_round(ts_pipeline *p, const ts_batch *b, uint8_t *kind, void **
         uint32_t i = TS_TREE_SEGMENT(list[t]), k = i - b->seg_first;
         if (TS_TREE_TIME(list[t]) == 0u && kind[k] == TS_TAKE_MINE) {
             if (rc)
-                patch_share_abandon(p->share, p->segments_host[i].patch);
+                patch_share_abandon(p->share, p->segments_host[i].shape);
             else
-                patch_share_publish(p->share, p->segments_host[i].patch);
+                patch_share_publish(p->share, p->segments_host[i].shape);
         }
         if (TS_TREE_TIME(list[t]) == 0u) kind[k] = SHARE_DONE;
     }
@@ -430,7 +442,7 @@ static int batch_make_shared(ts_pipeline *p, const ts_batch *b, uint8_t *kind, v
         const void *got = data[k];
         double t0 = stats_now();
         int ready =
-            kind[k] != TS_TAKE_WAIT || patch_share_wait(p->share, p->segments_host[i].patch, &got);
+            kind[k] != TS_TAKE_WAIT || patch_share_wait(p->share, p->segments_host[i].shape, &got);
         p->share_wait_seconds += stats_now() - t0;
         if (!ready) {
             kind[k] = TS_TAKE_LOCAL; /* abandoned by a failed device: diced here below */
@@ -502,7 +514,8 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
                      DEV_ARG(exact), DEV_ARG(leaf_b), DEV_ARG(p->active), DEV_ARG(p->ray_org),
                      DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_flags),
                      DEV_ARG(p->ray_from), DEV_ARG(p->grid), DEV_ARG(p->groups),
-                     DEV_ARG(p->pair_hit), DEV_ARG(p->utilisation), DEV_ARG(group_base), (size_t)0))
+                     DEV_ARG(p->instance), DEV_ARG(p->inst_xform), DEV_ARG(p->pair_hit),
+                     DEV_ARG(p->utilisation), DEV_ARG(group_base), (size_t)0))
         return err->code;
     return dev_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
 }
