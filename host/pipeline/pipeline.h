@@ -8,6 +8,7 @@
 
 #include "device/device.h"
 #include "pipeline/patch_cache.h"
+#include "pipeline/patch_share.h"
 #include "pipeline/qbvh.h"
 #include "pipeline/sort.h"
 #include "scene/scene.h"
@@ -204,8 +205,14 @@ typedef struct ts_pipeline {
      * every segment is diced again as before the cache. */
     ts_patch_cache cache;
     int cache_off;
-    ts_tex_cache tex;     /* which tiles tex_pool holds (tex_cache.h) */
-    uint32_t light_count; /* entries of the lights buffer (lights.h) */
+    /* The store this device shares built patches through with the devices of its process
+     * that compute alike (patch_share.h; app/workers.c sets it once the frame's levels of
+     * detail are known), and its slot there; NULL: every miss is diced here. */
+    ts_patch_share *share;
+    uint32_t share_owner;
+    double share_wait_seconds; /* waiting for other devices' claims (monotonic clock) */
+    ts_tex_cache tex;          /* which tiles tex_pool holds (tex_cache.h) */
+    uint32_t light_count;      /* entries of the lights buffer (lights.h) */
     /* Relighting with the scene's baked occlusion (relight.h; bands 0: none). */
     ts_relight_params relight;
     uint32_t wave;   /* the wave of paths being traced (stats iterations) */

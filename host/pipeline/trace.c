@@ -309,6 +309,170 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
     return TS_OK;
 }
 
+/* ---- dice and build with patches shared between devices (patch_share.h) --------------- */
+
+/* Moves the trees of [first, first + count) of the list whose segment's kind (kind[segment -
+ * seg_first]) is in `front` before the others, both parts in their order (so each stays
+ * sorted by decreasing m); returns the front's size. tmp holds count entries. */
+static uint32_t trees_partition(ts_pipeline *p, const ts_batch *b, uint32_t first, uint32_t count,
+                                const uint8_t *kind, unsigned front, uint32_t *tmp)
+{
+    uint32_t *list = &p->trees_host[first], n = 0, back = 0;
+    for (uint32_t t = 0; t < count; ++t)
+        if (front >> kind[TS_TREE_SEGMENT(list[t]) - b->seg_first] & 1u)
+            list[n++] = list[t];
+        else
+            tmp[back++] = list[t];
+    memcpy(list + n, tmp, back * sizeof *list);
+    return n;
+}
+
+/* Dices and builds the trees [first, first + count) of batch b's list, after writing that
+ * range of the list to the device again (trees_partition reordered it). */
+static int trees_make(ts_pipeline *p, const ts_batch *b, uint32_t first, uint32_t count,
+                      ts_error *err)
+{
+    if (count == 0) return TS_OK;
+    ts_batch view = *b;
+    view.tree_first = first, view.tree_count = count;
+    if (dev_write(p->cl, p->trees, first * sizeof(uint32_t), count * sizeof(uint32_t),
+                  &p->trees_host[first], "the tree lists", err) ||
+        stage_dice(p, &view, err) || stage_build(p, &view, err))
+        return err->code;
+    return TS_OK;
+}
+
+/* Copies segment i's blocks between the arenas and host memory at data (vertices, then
+ * sibling groups): to the host (read) or from it. Not blocking (dev_finish completes it). */
+static int segment_blocks(ts_pipeline *p, uint32_t i, void *data, int read, ts_error *err)
+{
+    const ts_segment *s = &p->segments_host[i];
+    uint32_t times = s->flags ? 2u : 1u;
+    size_t vb = (size_t)patch_cache_vert_count(s->lod, times) * sizeof(ts_vec4);
+    size_t gb = (size_t)patch_cache_group_count(s->lod, times) * sizeof(ts_box4);
+    size_t vo = (size_t)s->vert_first * sizeof(ts_vec4),
+           go = (size_t)s->group_first * sizeof(ts_box4);
+    char *d = data;
+    if (read)
+        return dev_read_async(p->cl, p->grid, vo, vb, d, "a patch's grid", err) ||
+                       dev_read_async(p->cl, p->groups, go, gb, d + vb, "a patch's tree", err)
+                   ? err->code
+                   : TS_OK;
+    return dev_write_async(p->cl, p->grid, vo, vb, d, "a shared patch's grid", err) ||
+                   dev_write_async(p->cl, p->groups, go, gb, d + vb, "a shared patch's tree", err)
+               ? err->code
+               : TS_OK;
+}
+
+/* Kinds of a batch's misses besides ts_share_take's: not looked up yet, and diced here in an
+ * earlier round (published when it was a claim). */
+enum { SHARE_OPEN = 4, SHARE_DONE = 5 };
+
+/* One round of batch_make_shared: claims open misses, in the list's order, until the claims
+ * reach 1/devices of the open misses' bytes (at least one), so that devices meeting the same
+ * patches at once split them; dices and builds this round's claims and the misses the store
+ * has no room for (trees [*done, ...) reordered, *done advanced past them), reads the claims'
+ * blocks back and publishes them, or abandons them on an error. */
+static int share_round(ts_pipeline *p, const ts_batch *b, uint8_t *kind, void **data, uint32_t *tmp,
+                       uint32_t *done, ts_error *err)
+{
+    const unsigned dice = 1u << TS_TAKE_MINE | 1u << TS_TAKE_LOCAL;
+    uint32_t *list = p->trees_host, end = b->tree_first + b->tree_count, mine = 0;
+    uint64_t open = 0, claimed = 0;
+    for (uint32_t t = *done; t < end; ++t) {
+        const ts_segment *s = &p->segments_host[TS_TREE_SEGMENT(list[t])];
+        if (TS_TREE_TIME(list[t]) == 0u &&
+            kind[TS_TREE_SEGMENT(list[t]) - b->seg_first] == SHARE_OPEN)
+            open += patch_share_bytes(s->lod, s->flags ? 2u : 1u);
+    }
+    for (uint32_t t = *done; t < end && claimed * p->share->devices < open; ++t) {
+        uint32_t i = TS_TREE_SEGMENT(list[t]), k = i - b->seg_first;
+        const ts_segment *s = &p->segments_host[i];
+        if (TS_TREE_TIME(list[t]) != 0u || kind[k] != SHARE_OPEN) continue;
+        uint32_t times = s->flags ? 2u : 1u;
+        uint64_t bytes = patch_share_bytes(s->lod, times);
+        kind[k] = (uint8_t)patch_share_take(p->share, s->shape, s->lod, times, bytes,
+                                            p->share_owner, &data[k]);
+        if (kind[k] == TS_TAKE_MINE) claimed += bytes, ++mine;
+    }
+    uint32_t n = trees_partition(p, b, *done, end - *done, kind, dice, tmp);
+    int rc = trees_make(p, b, *done, n, err);
+    for (uint32_t t = *done; !rc && mine && t < *done + n; ++t) { /* the claims' blocks */
+        uint32_t i = TS_TREE_SEGMENT(list[t]);
+        if (TS_TREE_TIME(list[t]) == 0u && kind[i - b->seg_first] == TS_TAKE_MINE)
+            rc = segment_blocks(p, i, data[i - b->seg_first], 1, err);
+    }
+    if (!rc && mine) rc = dev_finish(p->cl, p->stats, err);
+    for (uint32_t t = *done; t < *done + n; ++t) {
+        uint32_t i = TS_TREE_SEGMENT(list[t]), k = i - b->seg_first;
+        if (TS_TREE_TIME(list[t]) == 0u && kind[k] == TS_TAKE_MINE) {
+            if (rc)
+                patch_share_abandon(p->share, p->segments_host[i].shape);
+            else
+                patch_share_publish(p->share, p->segments_host[i].shape);
+        }
+        if (TS_TREE_TIME(list[t]) == 0u) kind[k] = SHARE_DONE;
+    }
+    *done += n;
+    return rc;
+}
+
+/* Batch b's misses through the store: each is taken from it (published by another device),
+ * waited for (claimed by another), or diced and built here (claimed here in one of the
+ * rounds, then published; or, without room in the store, kept here alone). Every claim is
+ * published, or abandoned on an error, before the first wait (patch_share.h: no deadlock).
+ * kind and data: one entry per segment of b; tmp: tree_count entries. */
+static int batch_make_shared(ts_pipeline *p, const ts_batch *b, uint8_t *kind, void **data,
+                             uint32_t *tmp, ts_error *err)
+{
+    const unsigned dice = 1u << TS_TAKE_MINE | 1u << TS_TAKE_LOCAL;
+    uint32_t *list = p->trees_host, end = b->tree_first + b->tree_count, done = b->tree_first;
+    uint32_t shared = 0;
+    memset(kind, SHARE_OPEN, b->seg_count);
+    int rc = TS_OK, open = 1;
+    while (!rc && open) {
+        rc = share_round(p, b, kind, data, tmp, &done, err);
+        open = 0;
+        for (uint32_t t = done; t < end && !open; ++t)
+            open = kind[TS_TREE_SEGMENT(list[t]) - b->seg_first] == SHARE_OPEN;
+    }
+    for (uint32_t t = done; !rc && t < end; ++t) { /* the others' blocks */
+        uint32_t i = TS_TREE_SEGMENT(list[t]), k = i - b->seg_first;
+        if (TS_TREE_TIME(list[t]) != 0u) continue;
+        const void *got = data[k];
+        double t0 = stats_now();
+        int ready =
+            kind[k] != TS_TAKE_WAIT || patch_share_wait(p->share, p->segments_host[i].shape, &got);
+        p->share_wait_seconds += stats_now() - t0;
+        if (!ready) {
+            kind[k] = TS_TAKE_LOCAL; /* abandoned by a failed device: diced here below */
+            continue;
+        }
+        rc = segment_blocks(p, i, (void *)got, 0, err);
+        ++shared;
+    }
+    if (!rc)
+        rc = trees_make(p, b, done, trees_partition(p, b, done, end - done, kind, dice, tmp), err);
+    p->stats->counters[TS_COUNTER_patches_shared] += shared;
+    return rc;
+}
+
+/* dice then build for batch b's misses: on this device alone, or through the store when it
+ * shares patches with others. */
+static int batch_make(ts_pipeline *p, const ts_batch *b, ts_error *err)
+{
+    if (!p->share || b->tree_count == 0)
+        return stage_dice(p, b, err) || stage_build(p, b, err) ? err->code : TS_OK;
+    uint8_t *kind = calloc(b->seg_count, 1);
+    void **data = calloc(b->seg_count, sizeof *data);
+    uint32_t *tmp = malloc(b->tree_count * sizeof *tmp);
+    int rc = kind && data && tmp
+                 ? batch_make_shared(p, b, kind, data, tmp, err)
+                 : ts_error_set(err, TS_E_MEMORY, "out of memory (a batch's shares)");
+    free(kind), free(data), free(tmp);
+    return rc;
+}
+
 /* Adds the leaf counters of the work-groups since the last fold (entries [0, util_used) of
  * `utilisation`: micro-quad tests, and work-item slots in units of TS_GROUP_SIZE) to the
  * stats and zeroes them. Reading waits for the launches that wrote them. */
@@ -453,8 +617,7 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
             return err->code;
         for (uint32_t k = 0; k < (segs ? p->batch_count : 0); ++k) {
             const ts_batch *b = &p->batches[k];
-            if (stage_dice(p, b, err) || stage_build(p, b, err) ||
-                stage_bottom_level(p, sorted_buffer, b, n_per_ray, err))
+            if (batch_make(p, b, err) || stage_bottom_level(p, sorted_buffer, b, n_per_ray, err))
                 return err->code;
         }
         ts_iteration rec = {p->wave, it, active, n_per_ray, valid, segs, p->in_lod};
