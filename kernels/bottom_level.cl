@@ -11,6 +11,10 @@
  *     watertight test of lib/intersect.h; for cross-checks at a fixed m.
  *   The patch a secondary ray leaves (ray_from = patch + 1) is always its micro-triangles,
  *   with hits nearer than org.w ignored (the origin-patch rule, bl_pair).
+ * Instances (ObjectInstance, host/scene/instance.c): a segment whose shape is not its patch
+ *   traverses its master's grid and tree with the ray moved into the master's frame by the
+ *   patch's transform, inst_xform[instance[patch]] (lib/instance.h: t is unchanged); the hit
+ *   keeps the segment's own patch, so shading sees the instance.
  * Motion (§3.4): a moving segment has a tree and a grid per time sample; boxes and vertices
  * are interpolated linearly at the ray's time.
  * Sibling boxes are tested four at a time (SoA groups, lib/quadtree.h). Stack: at most 3
@@ -28,6 +32,7 @@
  * block, micro-quad (Morton), triangle. Both count leaf-stage utilisation: micro-quad tests
  * over work-item slots (a work-group in lockstep for the per-ray kernel). */
 #include "lib/shared_types.h"
+#include "lib/instance.h"
 #include "lib/intersect.h"
 #include "lib/quadtree.h"
 
@@ -271,7 +276,8 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
                    uint n_per_ray, __global const uint *active, __global const ts_vec4 *org,
                    __global const ts_vec4 *dir, __global const ts_hit *hit,
                    __global const uint *ray_flags, __global const uint *ray_from,
-                   __global const ts_vec4 *grid, __global const ts_box4 *groups, bl_ray *r,
+                   __global const ts_vec4 *grid, __global const ts_box4 *groups,
+                   __global const uint *instance, __global const ts_xform *inst_xform, bl_ray *r,
                    bl_patch *pt, ts_hit *best, uint *window, uint *exact)
 {
     ts_pair pr = pairs[pair_first + gid];
@@ -279,7 +285,8 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
     ts_segment seg = batch[segment_of(batch, seg_count, pair_first + gid)];
     uint ray = active[pr.window / n_per_ray], flags = ray_flags[ray];
     *window = pr.window;
-    ts_vec4 o = org[ray];
+    ts_vec4 o = org[ray], d = dir[ray];
+    if (seg.shape != seg.patch) instance_ray(inst_xform + instance[seg.patch], &o, &d);
     /* The origin-patch rule (issue 13): a secondary ray meets the patch it leaves as that
      * patch's micro-triangles, watertight within the patch, whatever the mode: its leaf
      * boxes, grown to bound every finer dicing, surround the ray's origin and would stop it
@@ -288,7 +295,7 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
      * box mode, which keeps neighbours at different levels of detail hole-free. */
     int leaving = ray_from[ray] == seg.patch + 1u;
     *exact = *exact || leaving;
-    *r = bl_ray_make(o, dir[ray], leaving ? o.w : 0.0f);
+    *r = bl_ray_make(o, d, leaving ? o.w : 0.0f);
     *pt = bl_patch_make(seg, grid, groups);
     *best = (ts_hit){hit[ray].t, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
     return !((flags & TS_RAY_SHADOW) && (flags >> 1) == seg.patch + 1u);
@@ -300,7 +307,8 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_tr
     uint leaf_b, __global const uint *active, __global const ts_vec4 *org,
     __global const ts_vec4 *dir, __global const ts_hit *hit, __global const uint *ray_flags,
     __global const uint *ray_from, __global const ts_vec4 *grid, __global const ts_box4 *groups,
-    __global ts_hit *pair_hit, __global uint *utilisation, uint group_base)
+    __global const uint *instance, __global const ts_xform *inst_xform, __global ts_hit *pair_hit,
+    __global uint *utilisation, uint group_base)
 {
     uint gid = get_global_id(0), tests = 0;
     if (gid < pair_count) {
@@ -309,7 +317,8 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_tr
         ts_hit best;
         uint window, ex = exact;
         if (bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active, org,
-                    dir, hit, ray_flags, ray_from, grid, groups, &r, &pt, &best, &window, &ex)) {
+                    dir, hit, ray_flags, ray_from, grid, groups, instance, inst_xform, &r, &pt,
+                    &best, &window, &ex)) {
             uint b = min(leaf_b, pt.m), L = pt.m - b, nq = 1u << (2u * b);
             bl_trav s;
             bl_trav_start(&s, &r, &pt, best.t);
@@ -346,7 +355,8 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_gr
     uint leaf_b, __global const uint *active, __global const ts_vec4 *org,
     __global const ts_vec4 *dir, __global const ts_hit *hit, __global const uint *ray_flags,
     __global const uint *ray_from, __global const ts_vec4 *grid, __global const ts_box4 *groups,
-    __global ts_hit *pair_hit, __global uint *utilisation, uint group_base)
+    __global const uint *instance, __global const ts_xform *inst_xform, __global ts_hit *pair_hit,
+    __global uint *utilisation, uint group_base)
 {
     /* The owners' rays and blocks, and one result slot per task (PantaRay Fig. 8). */
     __local float4 l_o4[BL_WG], l_inv[BL_WG], l_shear[BL_WG];
@@ -360,9 +370,9 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_gr
     bl_trav s;
     uint window = 0, b = 0, L = 0, done = 1, count = 0, useful = 0, slots = 0, ex = exact;
     if (gid < pair_count) {
-        done =
-            !bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active, org,
-                     dir, hit, ray_flags, ray_from, grid, groups, &r, &pt, &best, &window, &ex);
+        done = !bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active,
+                        org, dir, hit, ray_flags, ray_from, grid, groups, instance, inst_xform, &r,
+                        &pt, &best, &window, &ex);
         b = min(leaf_b, pt.m), L = pt.m - b;
         if (!done) bl_trav_start(&s, &r, &pt, best.t);
     }

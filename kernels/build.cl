@@ -14,12 +14,12 @@
  *   m > l (a prefix of the batch's tree list, which is sorted by decreasing m) gets the union
  *   of its four children — the bottom-up min-max reduction. The root group's lanes 1-3 are
  *   left empty.
- * Reads: trees, segments, grid (w = d), corner normals, attributes, transforms, flatness,
- *        patch boxes (every leaf box is clamped to its patch's top-level box),
- *        textures (the min-max tiles under the leaves' st rectangles must be resident).
- * Writes: groups[group_first + time * quadtree_group_count(m) ...].
- * Invariants: every vertex of a micro-quad lies in its leaf box; every inner box is the union
- * of its children (tests/test_dice_build.c, tests/test_bounds.c). */
+ * Reads: trees, segments (the patch built is each segment's shape), grid (w = d), corner normals,
+ * attributes, transforms, flatness, patch boxes (every leaf box is clamped to its patch's top-level
+ * box), textures (the min-max tiles under the leaves' st rectangles must be resident). Writes:
+ * groups[group_first + time * quadtree_group_count(m) ...]. Invariants: every vertex of a
+ * micro-quad lies in its leaf box; every inner box is the union of its children
+ * (tests/test_dice_build.c, tests/test_bounds.c). */
 #include "lib/shared_types.h"
 #include "lib/displace.h"
 #include "lib/noise4.h"
@@ -100,18 +100,19 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     uint time = TS_TREE_TIME(tree), n = (1u << m) + 1u, nv = n * n;
     uint i = morton_i(k), j = morton_j(k);
     float h = ldexp(1.0f, -(int)m);
-    __global const ts_vec4 *cn = corner_n + (size_t)seg.patch * 4u;
-    __global const ts_vec4 *mn = mid_n + (size_t)seg.patch * 5u;
+    /* The segment's shape: the patch diced (itself, or the master an instance shares). */
+    __global const ts_vec4 *cn = corner_n + (size_t)seg.shape * 4u;
+    __global const ts_vec4 *mn = mid_n + (size_t)seg.shape * 5u;
     __global const ts_vec4 *g = grid + (size_t)seg.vert_first + time * nv;
     ts_box b = base_box(g, n, i, j, cn, mn, h);
-    ts_vec4 e = flatness[seg.patch];
+    ts_vec4 e = flatness[seg.shape];
     float s = ldexp(1.0f, -2 * (int)m);
     /* Flatness, plus a few ulps for the rounding of the vertices and of vertex - d * n. */
     float mag = fmax(fmax(fabs(b.lo_x), fabs(b.hi_x)),
                      fmax(fmax(fabs(b.lo_y), fabs(b.hi_y)), fmax(fabs(b.lo_z), fabs(b.hi_z))));
     float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
     b.lo_x -= ex, b.hi_x += ex, b.lo_y -= ey, b.hi_y += ey, b.lo_z -= ez, b.hi_z += ez;
-    __global const ts_patch_attr *a = attr + seg.patch;
+    __global const ts_patch_attr *a = attr + seg.shape;
     if (a->disp_kind != TS_DISP_NONE) {
         ts_interval d;
         if (a->disp_kind == TS_DISP_TEXTURE) {
@@ -141,7 +142,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         b.lo_y += oy.x - slack, b.hi_y += oy.y + slack;
         b.lo_z += oz.x - slack, b.hi_z += oz.y + slack;
     }
-    b = leaf_clamp(b, patch_box[seg.patch]);
+    b = leaf_clamp(b, patch_box[seg.shape]);
     node_store(groups + (size_t)seg.group_first + time * quadtree_group_count(m), m, k, b);
 }
 
@@ -170,8 +171,10 @@ __kernel void build_level(__global const uint *trees, uint tree_first, uint tree
  * tree of the batch, TS_CULL_GROUPS groups from its group 1, to its patch's entry of cull,
  * and sets cull_levels[patch] to how many of the two levels top_level may cull by
  * (quadtree_cull_levels; groups of levels it may not are left as they were and never read).
- * A moving patch keeps 0 (top_level then never culls it). The host resets an entry whose
- * patch's m or leaf size changed (trace.c cull_reset_stale). One work-item per group. */
+ * A moving patch keeps 0 (top_level then never culls it), and so does an instance patch
+ * diced as its master's shape (seg.shape != seg.patch: the tree is in the master's frame, not
+ * the instance's). The host resets an entry whose patch's m or leaf size changed (trace.c
+ * cull_reset_stale). One work-item per group. */
 __kernel void build_cull(__global const uint *trees, uint tree_first, uint tree_count, uint leaf_b,
                          __global const ts_segment *segments, __global const ts_box4 *groups,
                          __global ts_box4 *cull, __global uint *cull_levels)
@@ -181,7 +184,8 @@ __kernel void build_cull(__global const uint *trees, uint tree_first, uint tree_
     if (t >= tree_count) return;
     uint tree = trees[tree_first + t];
     ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
-    if (TS_TREE_TIME(tree) != 0u || (seg.flags & TS_PATCH_MOVING) != 0u) return;
+    if (TS_TREE_TIME(tree) != 0u || (seg.flags & TS_PATCH_MOVING) != 0u || seg.shape != seg.patch)
+        return;
     uint levels = quadtree_cull_levels(seg.lod, leaf_b);
     if (g == 0u) cull_levels[seg.patch] = levels;
     if (g + 1u < quadtree_group_count(levels))

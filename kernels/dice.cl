@@ -1,7 +1,7 @@
 /* dice.cl — stage `dice` (Hanika §3.2): evaluates the (2^m+1)^2 displaced vertices of each
  * tree of a batch into the vertex arena.
  * Reads:  trees[tree_first .. tree_first + tree_count) — all of LOD m (the host launches once
- *         per m present), segments (patch, vert_first), control points at both times, corner
+ *         per m present), segments (shape, vert_first), control points at both times, corner
  *         normals, attributes, transforms, textures (descriptors, page table, tile pool:
  *         the level-0 tiles under the batch's st rectangles must be resident).
  * Writes: grid[vert_first + time * (2^m+1)^2 + j * (2^m+1) + i] = patch_vertex(i 2^-m, j 2^-m):
@@ -29,12 +29,13 @@ __kernel void dice_grid(__global const uint *trees, uint tree_first, uint tree_c
     ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
     uint time = TS_TREE_TIME(tree), n = (1u << m) + 1u;
     ts_tex_ctx tex = {textures, tex_pages, tex_pool};
-    __global const ts_vec4 *c0 = cp0 + (size_t)seg.patch * 16u;
-    __global const ts_vec4 *c = time ? cp1 + (size_t)seg.patch * 16u : c0;
-    __global const ts_patch_attr *a = attr + seg.patch;
+    /* The patch diced is the segment's shape: itself, or the master it shares (instances). */
+    __global const ts_vec4 *c0 = cp0 + (size_t)seg.shape * 16u;
+    __global const ts_vec4 *c = time ? cp1 + (size_t)seg.shape * 16u : c0;
+    __global const ts_patch_attr *a = attr + seg.shape;
     float u = ldexp((float)(v % n), -(int)m);
     float w = ldexp((float)(v / n), -(int)m);
     grid[(size_t)seg.vert_first + time * nv + v] =
-        patch_vertex_x8(c, c0, corner_n + (size_t)seg.patch * 4u, mid_n + (size_t)seg.patch * 5u, a,
+        patch_vertex_x8(c, c0, corner_n + (size_t)seg.shape * 4u, mid_n + (size_t)seg.shape * 5u, a,
                         xform + a->xform, tex, u, w);
 }

@@ -7,7 +7,9 @@
  * micro-quads a side, and both kernels (per ray, work-group). Rays carry jittered
  * directions, random times, and some a tmin > 0 or a finite tmax, so culling, the
  * inside-the-box rule and motion interpolation are covered. Scenes: the teapot, a displaced
- * (fbm) teapot, and the displaced teapot moving over the shutter. */
+ * (fbm) teapot, and the displaced teapot moving over the shutter; and the displaced teapot
+ * as an object instanced twice (ObjectInstance, the second turned), whose second instance's
+ * segments trace the first's dicing through the ray moved into its frame (lib/instance.h). */
 #include "test_support.h"
 #include "ref/bottom_level_ref.h"
 #include "ref/dice_build_ref.h"
@@ -139,8 +141,9 @@ static void check_scene(int displaced, int moving)
                    times * quadtree_group_count(sg->lod) * sizeof *groups))
             fail_msg("patch %u m %u: the host build reference differs from build", q, sg->lod);
     }
-    bl_ref_batch b = {pairs, 0,   R * P, p.segments_host, 0,    P,    P,     0, 0, active,
-                      org,   dir, hit,   flags,           from, grid, groups};
+    bl_ref_batch b = {
+        pairs, 0,   R * P, p.segments_host, 0,    P,    P,      0,          0,           active,
+        org,   dir, hit,   flags,           from, grid, groups, s.instance, s.inst_xform};
     uint64_t hits_boxes = 0, hits_exact = 0;
     for (int group = 0; group < 2; ++group)
         for (int exact = 0; exact < 2; ++exact)
@@ -173,6 +176,117 @@ static void check_scene(int displaced, int moving)
     dev_close(&cl);
 }
 
+/* The displaced teapot as object 1, instanced twice: the second instance's 32 patches
+ * share the first's dicing. */
+static void load_instanced(ts_scene *s)
+{
+    FILE *f = fopen(test_source_path("scene/teapot.rib"), "rb");
+    assert_non_null(f);
+    static char text[1 << 20];
+    size_t n = fread(text, 1, sizeof text - 1000, f);
+    fclose(f);
+    text[n] = '\0';
+    char *wb = strstr(text, "WorldBegin\n"), *we = strstr(text, "WorldEnd");
+    assert_true(wb && we);
+    static const char head[] = "ObjectBegin 1\nDisplacement \"fbm\" \"float amplitude\" [0.05] "
+                               "\"float frequency\" [3] \"float octaves\" [3]\n";
+    static const char tail[] =
+        "ObjectEnd\nAttributeBegin\nTranslate -0.8 0.3 0\nObjectInstance 1\nAttributeEnd\n"
+        "AttributeBegin\nTranslate 1.2 -0.2 0.3\nRotate 35 0.2 0.1 1\nObjectInstance 1\n"
+        "AttributeEnd\nWorldEnd\n";
+    size_t at = (size_t)(wb - text) + strlen("WorldBegin\n"), end = (size_t)(we - text);
+    memmove(text + at + strlen(head), text + at, end - at);
+    memcpy(text + at, head, strlen(head));
+    end += strlen(head);
+    memcpy(text + end, tail, sizeof tail);
+    memset(s, 0, sizeof *s);
+    ts_error err = {0};
+    if (rib_parse_string("teapot.rib", text, strlen(text), s, 1, &err)) fail_msg("%s", err.msg);
+    assert_int_equal(s->patch_count, 2 * P);
+    assert_non_null(s->shape);
+}
+
+/* Instances: every (ray, patch) pair of both instances, the kernels against the reference;
+ * the second instance's segments use the first's grids and trees. */
+static void test_instances(void **state)
+{
+    (void)state;
+    enum { Q = 2 * P };
+    ts_device cl;
+    test_open_device(&cl);
+    ts_scene s;
+    load_instanced(&s);
+    ts_stats stats;
+    memset(&stats, 0, sizeof stats);
+    ts_error err = {0};
+    ts_pipeline_plan plan = {.ray_capacity = R, .pair_capacity = R * Q};
+    pipeline_plan_arenas(&plan, Q, M);
+    ts_pipeline p;
+    if (pipeline_create(&p, &cl, &s, &plan, R, &stats, &err)) fail_msg("%s", err.msg);
+    static ts_vec4 org[R], dir[R];
+    static ts_hit hit[R], dev[R * Q], ref[R * Q];
+    static uint32_t flags[R], from[R], active[R];
+    make_rays(&cl, &p, &s, org, dir, hit, flags, from, active);
+    for (int i = 3; i < R; i += 5) /* some leave a patch of the second instance */
+        from[i] += P;
+    write_buffer(&cl, p.ray_from, R * sizeof *from, from);
+    static ts_pair pairs[R * Q];
+    p.mode.fixed_lod = -1; /* each master and its instance at m = (q mod 32) mod 6 */
+    for (uint32_t q = 0; q < Q; ++q) {
+        p.patch_lod[q] = (uint8_t)((q % P) % (M + 1));
+        p.segments_host[q] =
+            (ts_segment){.patch = q, .begin = q * R, .end = (q + 1) * R, .lod = p.patch_lod[q]};
+        for (uint32_t r = 0; r < R; ++r)
+            pairs[q * R + r] = (ts_pair){q, r * Q + q};
+    }
+    if (pipeline_dice_build(&p, Q, &err)) fail_msg("%s", err.msg);
+    uint64_t diced = stats.counters[TS_COUNTER_patches_diced];
+    assert_int_equal(diced, P); /* the masters only */
+    write_buffer(&cl, p.pairs, sizeof pairs, pairs);
+    size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4),
+           nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
+    ts_vec4 *grid = malloc(gbytes), *hgrid = malloc(gbytes);
+    ts_box4 *groups = malloc(nbytes), *hgroups = malloc(nbytes);
+    assert_true(grid && hgrid && groups && hgroups);
+    read_buffer(&cl, p.grid, gbytes, grid);
+    read_buffer(&cl, p.groups, nbytes, groups);
+    for (uint32_t q = 0; q < Q; ++q) { /* each segment holds its shape's dicing */
+        const ts_segment *sg = &p.segments_host[q];
+        assert_int_equal(sg->shape, q % P);
+        dice_build_ref(&s, sg->shape, sg->lod, hgrid, hgroups);
+        if (memcmp(hgrid, grid + sg->vert_first, quadtree_vertex_count(sg->lod) * sizeof *grid) ||
+            memcmp(hgroups, groups + sg->group_first,
+                   quadtree_group_count(sg->lod) * sizeof *groups))
+            fail_msg("segment %u: not the dicing of patch %u", q, sg->shape);
+    }
+    bl_ref_batch b = {
+        pairs, 0,   R * Q, p.segments_host, 0,    Q,    Q,      0,          0,           active,
+        org,   dir, hit,   flags,           from, grid, groups, s.instance, s.inst_xform};
+    uint64_t hits[2] = {0, 0};
+    for (int group = 0; group < 2; ++group)
+        for (int exact = 0; exact < 2; ++exact) {
+            p.mode.exact = exact, p.mode.leaf_b = 1, p.mode.leaf_group = group;
+            if (pipeline_bottom_level(&p, Q, &err)) fail_msg("%s", err.msg);
+            read_buffer(&cl, p.pair_hit, sizeof dev, dev);
+            b.exact = (uint32_t)exact, b.leaf_b = 1;
+            bottom_level_ref_pairs(&b, 0, R * Q, ref);
+            for (uint32_t w = 0; w < R * Q; ++w) {
+                if (memcmp(&dev[w], &ref[w], sizeof dev[w]))
+                    fail_msg("%s kernel, %s, ray %u patch %u: device (%a %u) C (%a %u)",
+                             group ? "group" : "per-ray", exact ? "triangles" : "boxes", w / Q,
+                             w % Q, dev[w].t, dev[w].patch, ref[w].t, ref[w].patch);
+                hits[w % Q >= P] += ref[w].patch != TS_INVALID;
+            }
+        }
+    /* Both instances are hit, the second through the first's dicing, under their own ids. */
+    assert_true(hits[0] > (uint64_t)R && hits[1] > (uint64_t)R);
+    free(grid), free(hgrid), free(groups), free(hgroups);
+    pipeline_destroy(&p);
+    stats_free(&stats);
+    scene_free(&s);
+    dev_close(&cl);
+}
+
 static void test_teapot(void **state)
 {
     check_scene(0, 0);
@@ -192,6 +306,7 @@ int main(void)
         cmocka_unit_test(test_teapot),
         cmocka_unit_test(test_displaced_teapot),
         cmocka_unit_test(test_moving_displaced_teapot),
+        cmocka_unit_test(test_instances),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -157,6 +157,7 @@ static void test_render_exr_and_stats(void **state)
     assert_true(number(c, "shadow_rays") > 0 && number(c, "shadow_rays") <= 3 * 64 * 36);
     assert_true(number(c, "pairs") >= hits);
     assert_true(number(c, "patches_diced") >= 1);
+    assert_true(number(c, "patches_shared") == 0); /* one device: nothing to share with */
     assert_int_equal((long)number(c, "micropolygons_potential"), 32L * 256);
     /* Ray-driven LOD: each dicing makes 4^m micro-quads with m <= --max-lod 4. */
     assert_true(number(c, "micropolygons_created") >= number(c, "patches_diced"));

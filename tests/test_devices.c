@@ -4,6 +4,8 @@
  * scene, also with units that cut passes at odd places; with one device slowed
  * (TESSERA_SLOW_DEVICE) the split shifts towards the other and the image stays the same; an
  * interrupted render resumes to the same bits; --stats has one "devices" entry per device;
+ * the devices share built patches (each diced once over both, same bits, also when the
+ * arenas evict and when a device fails holding claims);
  * bad input: an unknown device in a list, a repeated one, a device that fails to build (the
  * other goes on), a device that runs out of memory mid-frame (it retries smaller), every
  * device failing. Skipped (77) without PoCL's two devices. */
@@ -313,6 +315,83 @@ static void test_a_device_out_of_memory_mid_frame_retries(void **state)
     test_assert_same_pixels(in_dir("ref_oom.exr"), in_dir("oom.exr"));
 }
 
+/* A counter of a --stats file. */
+static double counter(const char *json, const char *name)
+{
+    char key[128];
+    snprintf(key, sizeof key, "counters.%s", name);
+    return test_stats_number(in_dir(json), key);
+}
+
+/* Built patches shared between the two devices (host/pipeline/patch_share.h): the image is
+ * the one-device image bit for bit; with every patch fitting the arenas, each is diced once
+ * over both devices (as many dicings as one device makes) and every other miss is filled from
+ * the store; TESSERA_PATCH_SHARE=0 shares nothing and dices more. A budget whose arenas
+ * evict (--memory 16 at 320x180) still shares, with the same bits. */
+static void test_two_devices_share_built_patches(void **state)
+{
+    (void)state;
+    char extra[512];
+    const char *args = "--res 160x90 --spp 4 --max-lod 6 --memory 256 --quiet";
+    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share1.json"));
+    render("scene/teapot_displaced.rib", "share1.exr", first, extra);
+    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share2.json"));
+    render("scene/teapot_displaced.rib", "share2.exr", pair, extra);
+    test_assert_same_pixels(in_dir("share1.exr"), in_dir("share2.exr"));
+    double diced = counter("share1.json", "patches_diced");
+    assert_true(diced == 32.0);
+    assert_true(counter("share1.json", "patches_shared") == 0.0);
+    assert_true(counter("share2.json", "patches_diced") == diced);
+    assert_true(counter("share2.json", "patches_shared") > 0.0);
+    assert_true(counter("share2.json", "patches_diced") +
+                    counter("share2.json", "patches_shared") ==
+                counter("share2.json", "patch_cache_misses"));
+    cJSON *root = test_read_json(in_dir("share2.json")); /* the devices' own counters */
+    double own_diced = 0, own_shared = 0;
+    for (int k = 0; k < 2; ++k) {
+        own_diced += device_number(root, k, "patches_diced");
+        own_shared += device_number(root, k, "patches_shared");
+        assert_true(device_number(root, k, "share_wait_seconds") >= 0.0);
+    }
+    cJSON_Delete(root);
+    assert_true(own_diced == diced);
+    assert_true(own_shared == counter("share2.json", "patches_shared"));
+    setenv("TESSERA_PATCH_SHARE", "0", 1);
+    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share0.json"));
+    render("scene/teapot_displaced.rib", "share0.exr", pair, extra);
+    unsetenv("TESSERA_PATCH_SHARE");
+    test_assert_same_pixels(in_dir("share1.exr"), in_dir("share0.exr"));
+    assert_true(counter("share0.json", "patches_shared") == 0.0);
+    assert_true(counter("share0.json", "patches_diced") > diced);
+    /* Arenas that evict: batches of several per iteration, the store full before the end. */
+    const char *tight = "--res 320x180 --spp 2 --max-lod 6 --memory 16 --quiet";
+    render("scene/teapot_displaced.rib", "tight1.exr", first, tight);
+    snprintf(extra, sizeof extra, "%s --stats '%s'", tight, in_dir("tight2.json"));
+    render("scene/teapot_displaced.rib", "tight2.exr", pair, extra);
+    test_assert_same_pixels(in_dir("tight1.exr"), in_dir("tight2.exr"));
+    assert_true(counter("tight2.json", "patch_cache_evictions") > 0.0);
+    assert_true(counter("tight2.json", "patches_shared") > 0.0);
+}
+
+/* A device that fails while it holds claims (the K-th launch of the process fails, in the
+ * first batches' dice and build for these K): it abandons them, the other device dices
+ * what it waited for, the failed one retries at half its budget; same bits, no hang. */
+static void test_a_device_failing_with_claims_abandons_them(void **state)
+{
+    (void)state;
+    const char *args = "--res 96x54 --spp 4 --max-lod 6 --memory 64";
+    render("scene/teapot_displaced.rib", "claims_ref.exr", first,
+           "--res 96x54 --spp 4 --max-lod 6 --quiet");
+    const char *at[] = {"8", "11", "14", "17"};
+    for (size_t i = 0; i < sizeof at / sizeof *at; ++i) {
+        setenv("TESSERA_FAIL_LAUNCH", at[i], 1);
+        render("scene/teapot_displaced.rib", "claims.exr", pair, args);
+        unsetenv("TESSERA_FAIL_LAUNCH");
+        test_expect_in_stderr(dir, "retrying with 32 MB");
+        test_assert_same_pixels(in_dir("claims_ref.exr"), in_dir("claims.exr"));
+    }
+}
+
 /* The indices of the two pthread devices PoCL exposes: PoCL may not be the first platform. */
 static int setup(void **state)
 {
@@ -338,6 +417,8 @@ int main(void)
     setenv("POCL_DEVICES", "pthread pthread", 1);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_devices_give_the_one_device_image),
+        cmocka_unit_test(test_two_devices_share_built_patches),
+        cmocka_unit_test(test_a_device_failing_with_claims_abandons_them),
         cmocka_unit_test(test_odd_units_give_the_same_image),
         cmocka_unit_test(test_a_slow_device_takes_fewer_units),
         cmocka_unit_test(test_interrupted_two_device_render_resumes),

@@ -7,7 +7,9 @@
  * - Surface "constant" is its colour, with no light in the scene;
  * - the public RIB files of tests/rib-corpus/ render, one of them to a known motion blur,
  *   one lit by its pointlights alone;
- * - an object instanced three times renders bit for bit like its requests written out;
+ * - an object instanced three times, each a copy (no instance is a rigid move of the first,
+ *   so none shares its dicing), renders bit for bit like its requests written out
+ *   (instances that share: tests/test_instance.c);
  * - a moving camera blurs a static patch as the patch moving the other way would be.
  * Needs an OpenCL device (skipped, 77, without one). */
 #include "test_support.h"
@@ -268,8 +270,9 @@ static void test_moving_camera(void **state)
     image_free(&img);
 }
 
-/* ObjectInstance copies its object: the image of an object instanced three times (different
- * transformations, colours and surfaces, one displaced) is bit for bit the image of the same
+/* An instance that cannot share its master's dicing is a copy of its object: the image of an
+ * object instanced three times (different transformations, scaled so that none is a rigid move
+ * of the first, colours and surfaces, one displaced) is bit for bit the image of the same
  * requests written out in full at each instance. */
 static void test_object_instances_render(void **state)
 {
@@ -282,7 +285,8 @@ static void test_object_instances_render(void **state)
     static const char body[] = "Sphere 0.6 -0.6 0.6 360\nTranslate 0 0 0.6\nScale 0.3 0.3 0.3\n"
                                "Displacement \"fbm\" \"amplitude\" [0.1]\nGeometry \"teapot\"\n";
     static const char *const place[3] = {"Translate -2.5 0 0.6\nColor [0.8 0.2 0.2]\n",
-                                         "Translate 0 0 0.6\nRotate 40 0 0 1\nSurface \"metal\"\n",
+                                         "Translate 0 0 0.6\nRotate 40 0 0 1\nScale 0.9 0.9 0.9\n"
+                                         "Surface \"metal\"\n",
                                          "Translate 2.5 0 0.6\nScale 1.2 1.2 1.2\n"};
     char inst[4096], full[4096];
     int a = snprintf(inst, sizeof inst, "%sObjectBegin \"thing\"\n%sObjectEnd\n", head, body);

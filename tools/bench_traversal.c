@@ -289,7 +289,8 @@ static int bench_mode_run(const bench_options *o, bench_setup *s, bench_mode *m,
                       s->org,   s->dir,
                       s->hit,   s->flags,
                       s->flags, /* ray_from: all 0 */
-                      s->grid,  s->groups};
+                      s->grid,  s->groups,
+                      NULL,     NULL}; /* no instances */
     uint64_t bad = 0;
     for (int r = -1; r < o->repeat && !bad; ++r) {
         double k0 = s->stats.stage_seconds[TS_STAGE_bottom_level], c0 = bench_cpu(),

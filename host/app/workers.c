@@ -25,6 +25,7 @@ struct ts_worker {
     pthread_t thread;
     int started;
     long slow_ms; /* TESSERA_SLOW_DEVICE: a pause after each wave (tests) */
+    int shares;   /* computes like device 0: shares built patches through g->share */
     ts_device_stats out;
     int failed, reported; /* failed: err says why; reported: workers_report said so */
     ts_error err;
@@ -61,6 +62,34 @@ static void worker_budget(ts_worker *w, uint32_t share)
     if (!f->opt->quiet)
         ts_print_line("tessera: device %d: %s (%s), memory budget %llu MB (%s)", w->index,
                       w->cl.info.name, w->cl.info.platform_name, (unsigned long long)c.mb, c.why);
+}
+
+/* Whether devices a and b compute alike: the same platform, device name, version and
+ * driver, so that dicing gives the same bits on both (DESIGN.md §4: several devices give the
+ * one-device image). */
+static int devices_alike(const ts_device_info *a, const ts_device_info *b)
+{
+    return a->type == b->type && strcmp(a->platform_name, b->platform_name) == 0 &&
+           strcmp(a->name, b->name) == 0 && strcmp(a->version, b->version) == 0 &&
+           strcmp(a->driver, b->driver) == 0;
+}
+
+/* The store of built patches, when at least two devices compute like device 0 and
+ * TESSERA_PATCH_SHARE is not "0" (a switch for checks and benchmarks). */
+static int workers_share_open(ts_workers *g, ts_error *err)
+{
+    uint32_t alike = 0;
+    for (uint32_t i = 0; i < g->count; ++i)
+        alike += g->w[i].shares = devices_alike(&g->w[0].cl.info, &g->w[i].cl.info);
+    const char *env = getenv("TESSERA_PATCH_SHARE");
+    if (alike < 2 || (env && strcmp(env, "0") == 0)) {
+        for (uint32_t i = 0; i < g->count; ++i)
+            g->w[i].shares = 0;
+        return TS_OK;
+    }
+    if (patch_share_create(&g->share, g->frame.scene->patch_count, alike, err)) return err->code;
+    g->sharing = 1;
+    return TS_OK;
 }
 
 int workers_open(ts_workers *g, const ts_frame *frame, const int *indices, int count, ts_error *err)
@@ -107,6 +136,7 @@ int workers_open(ts_workers *g, const ts_frame *frame, const int *indices, int c
     for (uint32_t i = 0; i < g->count; ++i)
         worker_budget(&g->w[i], (g->w[i].cl.info.host_unified ? unified : 1u) *
                                     (frame->budget_share ? frame->budget_share : 1u));
+    if (workers_share_open(g, err)) return err->code;
     long cpus = sysconf(_SC_NPROCESSORS_ONLN);
     g->sort_threads = cpus > (long)g->count ? (uint32_t)(cpus / (long)g->count) : 1u;
     return TS_OK;
@@ -261,6 +291,17 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
     return TS_OK;
 }
 
+/* Once w's pipeline has the frame's levels of detail and its arenas: shares built patches
+ * through the store (when w computes like device 0), which may hold as many bytes as the
+ * largest arenas of the sharing devices. */
+static void worker_share(ts_worker *w)
+{
+    if (!w->shares || !w->g->sharing) return;
+    w->pipe.share = &w->g->share;
+    w->pipe.share_owner = w->slot;
+    patch_share_allow(&w->g->share, pipeline_arena_bytes(&w->pipe.plan));
+}
+
 /* After memory ran out in a unit: the pipeline again at half the budget, with the frame's
  * levels of detail. */
 static int worker_shrink(ts_worker *w, ts_error *err)
@@ -272,13 +313,15 @@ static int worker_shrink(ts_worker *w, ts_error *err)
                       worker_name(w, name, sizeof name), (unsigned long long)w->mb, err->msg,
                       (unsigned long long)(w->mb / 2));
     ts_error_clear(err);
+    w->out.share_wait_seconds += w->pipe.share_wait_seconds;
     pipeline_destroy(&w->pipe);
     w->has_pipe = 0;
     w->mb /= 2;
     w->room_mb = 0; /* memory ran out: the arenas keep the smaller budget's share */
     int lod_failed;
-    if (worker_pipeline(w, err)) return err->code;
-    return worker_take_lod(w, &lod_failed, err);
+    if (worker_pipeline(w, err) || worker_take_lod(w, &lod_failed, err)) return err->code;
+    worker_share(w);
+    return TS_OK;
 }
 
 /* Takes units until none is left: traces each and hands it back, or gives it back when
@@ -324,6 +367,7 @@ static void *worker_main(void *arg)
         rc = worker_take_lod(w, &lod_failed, &w->err);
     if (!rc) /* the frame's patches, once each, if they fit */
         rc = budget_grow_arenas(&w->pipe, w->room_mb, g->frame.opt->quiet, &w->err);
+    if (!rc) worker_share(w);
     w->out.setup_seconds = stats_now() - t0;
     if (!rc) rc = worker_units(w, &w->err);
     w->out.frame_seconds = stats_now() - t0;
@@ -459,6 +503,10 @@ int workers_stats(ts_workers *g, ts_stats *stats, ts_error *err)
         d->rank = g->frame.rank;
         d->rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays];
         d->memory_budget_bytes = w->stats.memory_budget_bytes;
+        d->patches_diced = w->stats.counters[TS_COUNTER_patches_diced];
+        d->patches_shared = w->stats.counters[TS_COUNTER_patches_shared];
+        if (w->has_pipe) d->share_wait_seconds += w->pipe.share_wait_seconds;
+        w->pipe.share_wait_seconds = 0;
         memcpy(d->stage_seconds, w->stats.stage_seconds, sizeof d->stage_seconds);
         d->failed = w->failed;
         if (w->failed) snprintf(d->error, sizeof d->error, "%.500s", w->err.msg);
@@ -482,6 +530,7 @@ void workers_close(ts_workers *g)
         ts_error_clear(&w->err);
     }
     free(g->w);
+    if (g->sharing) patch_share_free(&g->share);
     free(g->patch_lod);
     ts_error_clear(&g->fatal);
     pthread_mutex_destroy(&g->lock);
@@ -556,6 +605,12 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
         }
         board_wait(b, service && service->poll ? service->interval : 0.25);
     }
+    /* One more poll once the frame is merged: a frame this process's devices finished
+     * before any poll saw its levels of detail (a short --resume) must still send them to
+     * the other ranks, which wait for them before they ask for units. */
+    if (rc == TS_OK && board_finished(b) && service && service->poll &&
+        service->poll(service->ctx, b, g, err) < 0)
+        rc = err->code;
     board_close(b);
     workers_join(g);
     workers_report(g, &end->failure);

@@ -45,7 +45,12 @@ typedef struct ts_workers {
     int makes_lod, lod_state;
     uint32_t max_lod;
     uint8_t *patch_lod;
-    ts_error fatal;   /* why the lod failed */
+    ts_error fatal; /* why the lod failed */
+    /* Built patches shared between the devices that compute like device 0 (patch_share.h;
+     * docs/rendering.md "Shared patches"); sharing 0: none (one such device, or
+     * TESSERA_PATCH_SHARE=0). */
+    ts_patch_share share;
+    int sharing;
     uint32_t alive;   /* threads still rendering or able to */
     uint32_t running; /* threads that have not ended */
     int started;

@@ -120,6 +120,9 @@ static void stats_devices_json(cJSON *root, const ts_stats *s)
             cJSON_AddNumberToObject(o, "busy_fraction",
                                     d->frame_seconds > 0 ? d->busy_seconds / d->frame_seconds : 0);
             cJSON_AddNumberToObject(o, "memory_budget_bytes", (double)d->memory_budget_bytes);
+            cJSON_AddNumberToObject(o, "patches_diced", (double)d->patches_diced);
+            cJSON_AddNumberToObject(o, "patches_shared", (double)d->patches_shared);
+            cJSON_AddNumberToObject(o, "share_wait_seconds", d->share_wait_seconds);
             cJSON_AddBoolToObject(o, "failed", d->failed);
             if (d->failed) cJSON_AddStringToObject(o, "error", d->error);
             cJSON_AddItemToArray(devs, o);

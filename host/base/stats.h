@@ -27,9 +27,11 @@
     X(texture_pool_tiles, "tiles the device pool holds (every tile unless --memory pages)") \
     X(texture_tiles, "tiles of every texture level in the scene")                           \
     X(patch_cache_hits, "segments whose patch was already diced and resident")              \
-    X(patch_cache_misses, "segments diced into the cache (= patches_diced)")                \
+    X(patch_cache_misses, "segments placed into the cache (= patches_diced + patches_shared)") \
     X(patch_cache_evictions, "resident patches evicted to make room")                      \
     X(patch_cache_bytes, "bytes of the vertex and tree arenas the cache manages")        \
+    X(patch_cache_peak_bytes, "most arena bytes resident patches held at once")          \
+    X(patches_shared, "misses filled from another device's dicing (patch_share.h)")       \
     X(bake_points, "points baked (tessera bake; their rays are counted in rays)")
 /* clang-format on */
 
@@ -63,7 +65,11 @@ typedef struct ts_device_stats {
                              for the frame's levels of detail (the lod stage) */
     double busy_seconds;  /* tracing units and reading their results back */
     double frame_seconds; /* from the start of the device's thread to the frame's end */
-    int32_t failed;       /* 1: it stopped early with an error: */
+    /* Built patches shared with the other devices (pipeline/patch_share.h): misses diced
+     * here, misses taken from the store, seconds spent waiting for another device's claims. */
+    uint64_t patches_diced, patches_shared;
+    double share_wait_seconds;
+    int32_t failed; /* 1: it stopped early with an error: */
     int32_t pad;
     char error[512]; /* why it stopped ("" when it did not) */
 } ts_device_stats;

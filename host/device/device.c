@@ -664,6 +664,22 @@ int dev_write(ts_device *cl, cl_mem m, size_t offset, size_t bytes, const void *
     return rc == CL_SUCCESS ? TS_OK : dev_fail(err, rc, "clEnqueueWriteBuffer (writing %s)", what);
 }
 
+int dev_read_async(ts_device *cl, cl_mem m, size_t offset, size_t bytes, void *host,
+                   const char *what, ts_error *err)
+{
+    if (bytes == 0) return TS_OK;
+    cl_int rc = clEnqueueReadBuffer(cl->queue, m, CL_FALSE, offset, bytes, host, 0, NULL, NULL);
+    return rc == CL_SUCCESS ? TS_OK : dev_fail(err, rc, "clEnqueueReadBuffer (reading %s)", what);
+}
+
+int dev_write_async(ts_device *cl, cl_mem m, size_t offset, size_t bytes, const void *host,
+                    const char *what, ts_error *err)
+{
+    if (bytes == 0) return TS_OK;
+    cl_int rc = clEnqueueWriteBuffer(cl->queue, m, CL_FALSE, offset, bytes, host, 0, NULL, NULL);
+    return rc == CL_SUCCESS ? TS_OK : dev_fail(err, rc, "clEnqueueWriteBuffer (writing %s)", what);
+}
+
 int dev_fill(ts_device *cl, cl_mem m, const void *pattern, size_t pattern_size, size_t offset,
              size_t bytes, const char *what, ts_error *err)
 {

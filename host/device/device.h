@@ -140,6 +140,12 @@ int dev_read(ts_device *cl, cl_mem m, size_t offset, size_t bytes, void *host, c
              ts_error *err);
 int dev_write(ts_device *cl, cl_mem m, size_t offset, size_t bytes, const void *host,
               const char *what, ts_error *err);
+/* The same, not blocking: ordered by the in-order queue, done by the next dev_finish (or
+ * blocking call). The host memory must stay as it is (write) or unread (read) until then. */
+int dev_read_async(ts_device *cl, cl_mem m, size_t offset, size_t bytes, void *host,
+                   const char *what, ts_error *err);
+int dev_write_async(ts_device *cl, cl_mem m, size_t offset, size_t bytes, const void *host,
+                    const char *what, ts_error *err);
 /* Fills bytes [offset, offset + bytes) with copies of the pattern (not blocking: ordered by
  * the in-order queue before any later command). */
 int dev_fill(ts_device *cl, cl_mem m, const void *pattern, size_t pattern_size, size_t offset,

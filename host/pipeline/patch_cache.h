@@ -13,6 +13,9 @@
  * first. Free space is kept per arena as a sorted list of blocks, first fit, coalesced on
  * release; when no block fits, unpinned patches are evicted in LRU order until one does.
  *
+ * Entries are indexed by the patch diced: a segment's shape (ts_segment.shape), so every
+ * instance that shares its master's dicing finds the master's entry (trace.c).
+ *
  * The cache is host bookkeeping only: it never touches OpenCL. The dicing result of a patch
  * does not depend on where it is placed, so the image does not depend on the cache. */
 #ifndef TS_PATCH_CACHE_H
@@ -54,6 +57,7 @@ typedef struct ts_patch_cache {
     uint64_t clock; /* counts batches: the LRU time */
     /* Counters for --stats (summed over the frame). */
     uint64_t hits, misses, evictions;
+    uint64_t peak_bytes; /* the most bytes of both arenas resident patches held at once */
 } ts_patch_cache;
 
 /* An empty cache for patch_count patches over arenas of vert_capacity vertices and

@@ -87,6 +87,7 @@ static int create_kernels(ts_pipeline *p, ts_error *err)
  * transforms: the identity; no normals: +z; NULL: zeros), and what the host derives. */
 typedef struct scene_uploads {
     const void *nodes, *cp, *cp1, *corner_n, *mid_n, *xform, *boxes, *textures;
+    const void *instance, *inst_xform; /* scene.h instancing, NULL when nothing is shared */
     ts_patch_attr *attr;       /* the scene's, with each patch's emitter index (lights_build) */
     ts_vec4 *flatness;         /* patch_flatness; w: the longest side of the patch's box */
     ts_vec4 *normals;          /* +z corner normals when the scene has none */
@@ -122,6 +123,8 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
     u->xform = s->xform_count ? (const void *)s->xform : (const void *)&identity;
     u->boxes = s->patch_count ? boxes : NULL;
     u->textures = s->textures;
+    u->instance = s->instance;
+    u->inst_xform = s->inst_xform;
     u->attr = calloc(n, sizeof *u->attr);
     u->flatness = calloc(n, sizeof *u->flatness);
     /* A scene without normals (hand-built in tests): +z at all nine nodes. */
@@ -156,6 +159,7 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
 typedef struct buffer_counts {
     size_t rays, pairs, pixels;                    /* the plan, the image */
     size_t patches, nodes, xforms, textures;       /* the scene */
+    size_t instances, inst_xforms;                 /* its instancing tables */
     size_t lights, emitters, env_texels, env_rows; /* lights.h */
     size_t tex_texels, tex_pages;                  /* tile pool, page table */
     size_t verts, groups;                          /* the arenas */
@@ -175,6 +179,8 @@ static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads 
         .patches = s->patch_count ? s->patch_count : 1,
         .nodes = p->qbvh.node_count,
         .xforms = s->xform_count ? s->xform_count : 1,
+        .instances = s->instance ? s->patch_count : 1,
+        .inst_xforms = s->inst_xform_count ? s->inst_xform_count : 1,
         .textures = s->texture_count ? s->texture_count : 1,
         .lights = u->lights.light_count ? u->lights.light_count : 1,
         .emitters = u->lights.emitter_count ? u->lights.emitter_count : 1,
@@ -412,6 +418,22 @@ static uint32_t lod_of_count(uint32_t count, uint32_t max_lod)
     return m;
 }
 
+/* One m for a master and the instances that share its dicing (scene.h instancing): the
+ * finest any of them asks for, so the master is diced once per frame for all of them. An
+ * instance may thus be diced finer than its copy would be: the only way its image differs
+ * from the copy's beyond rounding (docs/rib.md "Objects"). */
+static void lod_share(ts_pipeline *p)
+{
+    const ts_scene *s = p->scene;
+    if (!s->shape) return;
+    for (uint32_t i = 0; i < s->patch_count; ++i) {
+        uint32_t q = s->shape[i];
+        if (p->patch_lod[i] > p->patch_lod[q]) p->patch_lod[q] = p->patch_lod[i];
+    }
+    for (uint32_t i = 0; i < s->patch_count; ++i)
+        p->patch_lod[i] = p->patch_lod[s->shape[i]];
+}
+
 int pipeline_lod_finish(ts_pipeline *p, ts_lod_rule rule, int before_hit, ts_error *err)
 {
     uint32_t n = p->scene->patch_count;
@@ -440,6 +462,7 @@ int pipeline_lod_finish(ts_pipeline *p, ts_lod_rule rule, int before_hit, ts_err
         p->patch_lod[i] = (uint8_t)m;
     }
     free(counts);
+    if (rc == TS_OK) lod_share(p);
     /* The patch cache keeps its patches: each is keyed by its m, so one whose level changed
      * is simply diced again when a segment asks for it. */
     p->stats->stage_seconds[TS_STAGE_lod] += stats_now() - t0;
@@ -486,7 +509,8 @@ void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups
 {
     *verts = *groups = 0;
     for (uint32_t i = 0; i < p->scene->patch_count; ++i) {
-        uint32_t m = pipeline_patch_lod(p, i);
+        uint32_t m = pipeline_patch_lod(p, i), q = scene_shape(p->scene, i);
+        if (q != i && pipeline_patch_lod(p, q) == m) continue; /* diced as its master */
         uint64_t times = p->scene->attr[i].flags & TS_PATCH_MOVING ? 2u : 1u;
         *verts += times * quadtree_vertex_count(m);
         *groups += times * quadtree_group_count(m);
@@ -522,6 +546,7 @@ int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_err
     /* The cache's counters go on over the frame. */
     cache.hits = p->cache.hits, cache.misses = p->cache.misses;
     cache.evictions = p->cache.evictions;
+    cache.peak_bytes = p->cache.peak_bytes;
     patch_cache_free(&p->cache);
     p->cache = cache;
     p->plan.vert_capacity = (uint32_t)verts;

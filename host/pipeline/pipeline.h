@@ -8,6 +8,7 @@
 
 #include "device/device.h"
 #include "pipeline/patch_cache.h"
+#include "pipeline/patch_share.h"
 #include "pipeline/qbvh.h"
 #include "pipeline/sort.h"
 #include "scene/scene.h"
@@ -100,10 +101,12 @@ typedef struct ts_trace_mode {
  *     attr: with each patch's emitter index; xform: world to object (the identity if none);
  *     flatness: patch_flatness, w = the longest side of the patch's box (secondary-ray
  *     offset l / 2^m); patch_box: scene_patch_box (build clamps leaf boxes to it); lights,
- *     emitters, env_*: lights.h; textures, tex_pool, tex_pages: descriptors, the tile pool
- *     and its page table (tex_cache.h); relight_*: the baked occlusion of
- *     `render --occlusion` (scene.h ts_occlusion: its patch table, coefficients and normals) and
- *     relight.h's light tables, one zeroed element each without one.
+ *     emitters, env_*: lights.h; instance, inst_xform: scene.h's instancing tables (one
+ *     zeroed element each when no instance shares its master's dicing); textures, tex_pool,
+ *     tex_pages: descriptors, the tile pool and its page table (tex_cache.h); relight_*: the
+ *     baked occlusion of `render --occlusion` (scene.h ts_occlusion: its patch table,
+ *     coefficients and normals) and relight.h's light tables, one zeroed element each without
+ *     one.
  *   lod_counts: eye rays entering each patch box (lod); segments, trees: the sorted
  *     segments and the batches' tree lists; grid, groups: the vertex and group arenas;
  *     utilisation: bottom_level's micro-quad tests and work-item slots, two words per
@@ -128,6 +131,8 @@ typedef struct ts_trace_mode {
     X(xform,           TS_MEM_SCENE,      ts_xform,      c.xforms,       u.xform)               \
     X(flatness,        TS_MEM_SCENE,      ts_vec4,       c.patches,      u.flatness)            \
     X(patch_box,       TS_MEM_SCENE,      ts_box,        c.patches,      u.boxes)               \
+    X(instance,        TS_MEM_SCENE,      ts_u32,        c.instances,    u.instance)            \
+    X(inst_xform,      TS_MEM_SCENE,      ts_xform,      c.inst_xforms,  u.inst_xform)          \
     X(lights,          TS_MEM_SCENE,      ts_light,      c.lights,       u.lights.lights)       \
     X(emitters,        TS_MEM_SCENE,      ts_emitter,    c.emitters,     u.lights.emitters)     \
     X(env_texels,      TS_MEM_SCENE,      ts_vec4,       c.env_texels,   u.env.texels)          \
@@ -210,8 +215,14 @@ typedef struct ts_pipeline {
      * every segment is diced again as before the cache. */
     ts_patch_cache cache;
     int cache_off;
-    ts_tex_cache tex;     /* which tiles tex_pool holds (tex_cache.h) */
-    uint32_t light_count; /* entries of the lights buffer (lights.h) */
+    /* The store this device shares built patches through with the devices of its process
+     * that compute alike (patch_share.h; app/workers.c sets it once the frame's levels of
+     * detail are known), and its slot there; NULL: every miss is diced here. */
+    ts_patch_share *share;
+    uint32_t share_owner;
+    double share_wait_seconds; /* waiting for other devices' claims (monotonic clock) */
+    ts_tex_cache tex;          /* which tiles tex_pool holds (tex_cache.h) */
+    uint32_t light_count;      /* entries of the lights buffer (lights.h) */
     /* Relighting with the scene's baked occlusion (relight.h; bands 0: none). */
     ts_relight_params relight;
     uint32_t wave;   /* the wave of paths being traced (stats iterations) */
@@ -277,7 +288,7 @@ int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, 
 
 /* The arena entries the frame's patches take when every one is resident at once: vertices
  * and sibling groups at the level each is diced at (--lod's, else the lod stage's), twice
- * for a moving patch. */
+ * for a moving patch; an instance that shares its master's dicing takes none of its own. */
 void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups);
 /* The level patch `patch` is diced at: --lod's (p->mode.fixed_lod, clamped to the plan's
  * max_lod), else the lod stage's p->patch_lod. */

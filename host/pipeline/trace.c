@@ -60,6 +60,17 @@ static void batch_sort_trees(ts_pipeline *p, ts_batch *b)
     if (scratch != tmp) free(scratch);
 }
 
+/* The patch whose dicing segment s uses (its shape): an instance patch shares its master's
+ * (scene.h instancing) when both are at the same m this frame (pipeline_lod_finish gives a
+ * master and its instances one m; a fixed --lod gives every patch one), else it is diced
+ * as itself, as a copy. Sets s->shape. */
+static uint32_t segment_shape(const ts_pipeline *p, ts_segment *s)
+{
+    uint32_t q = scene_shape(p->scene, s->patch);
+    if (q != s->patch && pipeline_patch_lod(p, q) != s->lod) q = s->patch;
+    return s->shape = q;
+}
+
 /* Gives each segment (its LOD set) its place in the arenas through the patch cache and
  * cuts the segments into batches whose patches are resident together: a segment whose
  * patch is resident at its m is a hit (traced, not diced); a miss gets space (the cache
@@ -78,25 +89,24 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
     for (uint32_t i = 0; i < segs; ++i) {
         ts_segment *s = &p->segments_host[i];
         const ts_patch_attr *a = &p->scene->attr[s->patch];
-        s->flags = a->flags & TS_PATCH_MOVING;
-        s->pad = 0;
-        uint32_t times = s->flags ? 2u : 1u;
+        s->flags = a->flags & TS_PATCH_MOVING; /* a shape moves as its instances do */
+        uint32_t q = segment_shape(p, s), times = s->flags ? 2u : 1u;
         /* Texture tiles: the batch's misses' needs add up to at most the pool (an over-count
          * where they share tiles; each alone fits, tex_cache_create sized the pool so). */
-        uint32_t nt = p->tex.paged ? p->tex.patch_tiles[s->patch] : 0u;
+        uint32_t nt = p->tex.paged ? p->tex.patch_tiles[q] : 0u;
         if (b && tused + nt > p->tex.slots &&
-            !(p->cache.entry[s->patch].resident && p->cache.entry[s->patch].lod == s->lod)) {
+            !(p->cache.entry[q].resident && p->cache.entry[q].lod == s->lod)) {
             patch_cache_end_batch(&p->cache);
             b = NULL;
         }
         if (!b) b = batch_open(p, i, ntrees), tused = 0;
-        ts_cache_result r = patch_cache_acquire(&p->cache, s->patch, s->lod, times, &s->vert_first,
-                                                &s->group_first);
+        ts_cache_result r =
+            patch_cache_acquire(&p->cache, q, s->lod, times, &s->vert_first, &s->group_first);
         if (r == TS_CACHE_FULL) { /* the batch is as full as it gets: start the next */
             patch_cache_end_batch(&p->cache);
             if (p->cache_off) patch_cache_clear(&p->cache);
             b = batch_open(p, i, ntrees), tused = 0;
-            r = patch_cache_acquire(&p->cache, s->patch, s->lod, times, &s->vert_first,
+            r = patch_cache_acquire(&p->cache, q, s->lod, times, &s->vert_first,
                                     &s->group_first); /* the plan holds any one patch */
         }
         b->seg_count++;
@@ -115,6 +125,8 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
     p->stats->counters[TS_COUNTER_patch_cache_hits] += hits;
     p->stats->counters[TS_COUNTER_patch_cache_misses] += misses;
     p->stats->counters[TS_COUNTER_patch_cache_evictions] += p->cache.evictions - evicted;
+    uint64_t *peak = &p->stats->counters[TS_COUNTER_patch_cache_peak_bytes];
+    if (p->cache.peak_bytes > *peak) *peak = p->cache.peak_bytes;
 }
 
 /* Discrete devices: reads the windows' counts and the windows into host memory, sorts them
@@ -234,7 +246,7 @@ static int batch_textures(ts_pipeline *p, const ts_batch *b, ts_error *err)
     for (uint32_t t = 0; t < b->tree_count; ++t) /* the patches diced: the misses */
         tex_cache_mark_patch(
             &p->tex, p->scene,
-            p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])].patch);
+            p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])].shape);
     return tex_cache_commit(&p->tex, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
 }
 
@@ -286,7 +298,8 @@ static int stage_build_cull(ts_pipeline *p, const ts_batch *b, ts_error *err)
         return err->code;
     for (uint32_t t = 0; t < b->tree_count; ++t) {
         const ts_segment *s = &p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])];
-        if (!(s->flags & TS_PATCH_MOVING)) p->cull_key[s->patch] = cull_key(s->lod, leaf_b);
+        if (!(s->flags & TS_PATCH_MOVING) && s->shape == s->patch)
+            p->cull_key[s->patch] = cull_key(s->lod, leaf_b);
     }
     return TS_OK;
 }
@@ -342,6 +355,177 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
     return stage_build_cull(p, b, err);
 }
 
+/* ---- dice and build with patches shared between devices (patch_share.h) --------------- */
+
+/* Moves the trees of [first, first + count) of the list whose segment's kind (kind[segment -
+ * seg_first]) is in `front` before the others, both parts in their order (so each stays
+ * sorted by decreasing m); returns the front's size. tmp holds count entries. */
+static uint32_t trees_partition(ts_pipeline *p, const ts_batch *b, uint32_t first, uint32_t count,
+                                const uint8_t *kind, unsigned front, uint32_t *tmp)
+{
+    uint32_t *list = &p->trees_host[first], n = 0, back = 0;
+    for (uint32_t t = 0; t < count; ++t)
+        if (front >> kind[TS_TREE_SEGMENT(list[t]) - b->seg_first] & 1u)
+            list[n++] = list[t];
+        else
+            tmp[back++] = list[t];
+    memcpy(list + n, tmp, back * sizeof *list);
+    return n;
+}
+
+/* Dices and builds the trees [first, first + count) of batch b's list, after writing that
+ * range of the list to the device again (trees_partition reordered it). */
+static int trees_make(ts_pipeline *p, const ts_batch *b, uint32_t first, uint32_t count,
+                      ts_error *err)
+{
+    if (count == 0) return TS_OK;
+    ts_batch view = *b;
+    view.tree_first = first, view.tree_count = count;
+    if (dev_write(p->cl, p->trees, first * sizeof(uint32_t), count * sizeof(uint32_t),
+                  &p->trees_host[first], "the tree lists", err) ||
+        stage_dice(p, &view, err) || stage_build(p, &view, err))
+        return err->code;
+    return TS_OK;
+}
+
+/* Copies segment i's blocks between the arenas and host memory at data (vertices, then
+ * sibling groups): to the host (read) or from it. Not blocking (dev_finish completes it). */
+static int segment_blocks(ts_pipeline *p, uint32_t i, void *data, int read, ts_error *err)
+{
+    const ts_segment *s = &p->segments_host[i];
+    uint32_t times = s->flags ? 2u : 1u;
+    size_t vb = (size_t)patch_cache_vert_count(s->lod, times) * sizeof(ts_vec4);
+    size_t gb = (size_t)patch_cache_group_count(s->lod, times) * sizeof(ts_box4);
+    size_t vo = (size_t)s->vert_first * sizeof(ts_vec4),
+           go = (size_t)s->group_first * sizeof(ts_box4);
+    char *d = data;
+    if (read)
+        return dev_read_async(p->cl, p->grid, vo, vb, d, "a patch's grid", err) ||
+                       dev_read_async(p->cl, p->groups, go, gb, d + vb, "a patch's tree", err)
+                   ? err->code
+                   : TS_OK;
+    return dev_write_async(p->cl, p->grid, vo, vb, d, "a shared patch's grid", err) ||
+                   dev_write_async(p->cl, p->groups, go, gb, d + vb, "a shared patch's tree", err)
+               ? err->code
+               : TS_OK;
+}
+
+/* Kinds of a batch's misses besides ts_share_take's: not looked up yet, and diced here in an
+ * earlier round (published when it was a claim). */
+enum { SHARE_OPEN = 4, SHARE_DONE = 5 };
+
+/* One round of batch_make_shared: claims open misses, in the list's order, until the claims
+ * reach 1/devices of the open misses' bytes (at least one), so that devices meeting the same
+ * patches at once split them; dices and builds this round's claims and the misses the store
+ * has no room for (trees [*done, ...) reordered, *done advanced past them), reads the claims'
+ * blocks back and publishes them, or abandons them on an error. */
+static int share_round(ts_pipeline *p, const ts_batch *b, uint8_t *kind, void **data, uint32_t *tmp,
+                       uint32_t *done, ts_error *err)
+{
+    const unsigned dice = 1u << TS_TAKE_MINE | 1u << TS_TAKE_LOCAL;
+    uint32_t *list = p->trees_host, end = b->tree_first + b->tree_count, mine = 0;
+    uint64_t open = 0, claimed = 0;
+    for (uint32_t t = *done; t < end; ++t) {
+        const ts_segment *s = &p->segments_host[TS_TREE_SEGMENT(list[t])];
+        if (TS_TREE_TIME(list[t]) == 0u &&
+            kind[TS_TREE_SEGMENT(list[t]) - b->seg_first] == SHARE_OPEN)
+            open += patch_share_bytes(s->lod, s->flags ? 2u : 1u);
+    }
+    for (uint32_t t = *done; t < end && claimed * p->share->devices < open; ++t) {
+        uint32_t i = TS_TREE_SEGMENT(list[t]), k = i - b->seg_first;
+        const ts_segment *s = &p->segments_host[i];
+        if (TS_TREE_TIME(list[t]) != 0u || kind[k] != SHARE_OPEN) continue;
+        uint32_t times = s->flags ? 2u : 1u;
+        uint64_t bytes = patch_share_bytes(s->lod, times);
+        kind[k] = (uint8_t)patch_share_take(p->share, s->shape, s->lod, times, bytes,
+                                            p->share_owner, &data[k]);
+        if (kind[k] == TS_TAKE_MINE) claimed += bytes, ++mine;
+    }
+    uint32_t n = trees_partition(p, b, *done, end - *done, kind, dice, tmp);
+    int rc = trees_make(p, b, *done, n, err);
+    for (uint32_t t = *done; !rc && mine && t < *done + n; ++t) { /* the claims' blocks */
+        uint32_t i = TS_TREE_SEGMENT(list[t]);
+        if (TS_TREE_TIME(list[t]) == 0u && kind[i - b->seg_first] == TS_TAKE_MINE)
+            rc = segment_blocks(p, i, data[i - b->seg_first], 1, err);
+    }
+    if (!rc && mine) rc = dev_finish(p->cl, p->stats, err);
+    for (uint32_t t = *done; t < *done + n; ++t) {
+        uint32_t i = TS_TREE_SEGMENT(list[t]), k = i - b->seg_first;
+        if (TS_TREE_TIME(list[t]) == 0u && kind[k] == TS_TAKE_MINE) {
+            if (rc)
+                patch_share_abandon(p->share, p->segments_host[i].shape);
+            else
+                patch_share_publish(p->share, p->segments_host[i].shape);
+        }
+        if (TS_TREE_TIME(list[t]) == 0u) kind[k] = SHARE_DONE;
+    }
+    *done += n;
+    return rc;
+}
+
+/* Batch b's misses through the store: each is taken from it (published by another device),
+ * waited for (claimed by another), or diced and built here (claimed here in one of the
+ * rounds, then published; or, without room in the store, kept here alone). Every claim is
+ * published, or abandoned on an error, before the first wait (patch_share.h: no deadlock).
+ * kind and data: one entry per segment of b; tmp: tree_count entries. */
+static int batch_make_shared(ts_pipeline *p, const ts_batch *b, uint8_t *kind, void **data,
+                             uint32_t *tmp, ts_error *err)
+{
+    const unsigned dice = 1u << TS_TAKE_MINE | 1u << TS_TAKE_LOCAL;
+    uint32_t *list = p->trees_host, end = b->tree_first + b->tree_count, done = b->tree_first;
+    uint32_t shared = 0;
+    memset(kind, SHARE_OPEN, b->seg_count);
+    int rc = TS_OK, open = 1;
+    while (!rc && open) {
+        rc = share_round(p, b, kind, data, tmp, &done, err);
+        open = 0;
+        for (uint32_t t = done; t < end && !open; ++t)
+            open = kind[TS_TREE_SEGMENT(list[t]) - b->seg_first] == SHARE_OPEN;
+    }
+    for (uint32_t t = done; !rc && t < end; ++t) { /* the others' blocks */
+        uint32_t i = TS_TREE_SEGMENT(list[t]), k = i - b->seg_first;
+        if (TS_TREE_TIME(list[t]) != 0u) continue;
+        const void *got = data[k];
+        double t0 = stats_now();
+        int ready =
+            kind[k] != TS_TAKE_WAIT || patch_share_wait(p->share, p->segments_host[i].shape, &got);
+        p->share_wait_seconds += stats_now() - t0;
+        if (!ready) {
+            kind[k] = TS_TAKE_LOCAL; /* abandoned by a failed device: diced here below */
+            continue;
+        }
+        rc = segment_blocks(p, i, (void *)got, 0, err);
+        ++shared;
+    }
+    if (!rc)
+        rc = trees_make(p, b, done, trees_partition(p, b, done, end - done, kind, dice, tmp), err);
+    p->stats->counters[TS_COUNTER_patches_shared] += shared;
+    return rc;
+}
+
+/* dice then build for batch b's misses: on this device alone, or through the store when it
+ * shares patches with others. */
+static int batch_make(ts_pipeline *p, const ts_batch *b, ts_error *err)
+{
+    if (!p->share || b->tree_count == 0)
+        return stage_dice(p, b, err) || stage_build(p, b, err) ? err->code : TS_OK;
+    uint8_t *kind = calloc(b->seg_count, 1);
+    void **data = calloc(b->seg_count, sizeof *data);
+    uint32_t *tmp = malloc(b->tree_count * sizeof *tmp);
+    int rc = kind && data && tmp
+                 ? batch_make_shared(p, b, kind, data, tmp, err)
+                 : ts_error_set(err, TS_E_MEMORY, "out of memory (a batch's shares)");
+    /* The culling copy of every tree of the batch, those from the store included: the list
+     * is written whole again first (batch_make_shared reordered parts of it). */
+    if (!rc && (dev_write(p->cl, p->trees, (size_t)b->tree_first * sizeof(uint32_t),
+                          (size_t)b->tree_count * sizeof(uint32_t), &p->trees_host[b->tree_first],
+                          "the tree lists", err) ||
+                stage_build_cull(p, b, err)))
+        rc = err->code;
+    free(kind), free(data), free(tmp);
+    return rc;
+}
+
 /* Adds the leaf counters of the work-groups since the last fold (entries [0, util_used) of
  * `utilisation`: micro-quad tests, and work-item slots in units of TS_GROUP_SIZE) to the
  * stats and zeroes them. Reading waits for the launches that wrote them. */
@@ -383,7 +567,8 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
                      DEV_ARG(exact), DEV_ARG(leaf_b), DEV_ARG(p->active), DEV_ARG(p->ray_org),
                      DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_flags),
                      DEV_ARG(p->ray_from), DEV_ARG(p->grid), DEV_ARG(p->groups),
-                     DEV_ARG(p->pair_hit), DEV_ARG(p->utilisation), DEV_ARG(group_base), (size_t)0))
+                     DEV_ARG(p->instance), DEV_ARG(p->inst_xform), DEV_ARG(p->pair_hit),
+                     DEV_ARG(p->utilisation), DEV_ARG(group_base), (size_t)0))
         return err->code;
     return dev_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
 }
@@ -486,8 +671,7 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
             return err->code;
         for (uint32_t k = 0; k < (segs ? p->batch_count : 0); ++k) {
             const ts_batch *b = &p->batches[k];
-            if (stage_dice(p, b, err) || stage_build(p, b, err) ||
-                stage_bottom_level(p, sorted_buffer, b, n_per_ray, err))
+            if (batch_make(p, b, err) || stage_bottom_level(p, sorted_buffer, b, n_per_ray, err))
                 return err->code;
         }
         ts_iteration rec = {p->wave, it, active, n_per_ray, valid, segs, p->in_lod};

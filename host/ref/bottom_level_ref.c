@@ -4,6 +4,7 @@
  * order; tessera_fp compiles it without contraction into fused multiply-adds, as the kernels
  * are (FP_CONTRACT OFF), so every distance rounds the same. */
 #include "ref/bottom_level_ref.h"
+#include "lib/instance.h"
 #include "lib/intersect.h"
 #include "lib/quadtree.h"
 
@@ -252,10 +253,12 @@ uint64_t bottom_level_ref_pairs(const bl_ref_batch *b, uint32_t first, uint32_t 
             uint32_t n = 0;
             /* bottom_level.cl bl_pair: the patch a ray leaves is micro-triangles, with org.w
              * its tmin; org.w is 0 elsewhere. */
-            ts_vec4 o = b->org[ray];
+            ts_vec4 o = b->org[ray], d = b->dir[ray];
+            if (seg->shape != seg->patch) /* an instance: the master's frame */
+                instance_ray(b->inst_xform + b->instance[seg->patch], &o, &d);
             int leaving = b->ray_from[ray] == seg->patch + 1u;
             if (!leaving) o.w = 0.0f;
-            h = bottom_level_ref_trace(o, b->dir[ray], b->hit[ray].t, &pt, (int)b->exact || leaving,
+            h = bottom_level_ref_trace(o, d, b->hit[ray].t, &pt, (int)b->exact || leaving,
                                        b->leaf_b, &n);
             tests += n;
         }

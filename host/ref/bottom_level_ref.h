@@ -48,6 +48,10 @@ typedef struct bl_ref_batch {
     const uint32_t *ray_from; /* the patch each ray leaves + 1: org.w is its tmin there only */
     const ts_vec4 *grid;
     const ts_box4 *groups;
+    /* Instances (segments whose shape is not their patch): the ray goes into the master's
+     * frame by inst_xform[instance[patch]] (lib/instance.h). NULL when no segment has one. */
+    const uint32_t *instance;
+    const ts_xform *inst_xform;
 } bl_ref_batch;
 
 /* Pairs first .. first + count - 1 of the batch (0-based within it): pair_hit[window] gets

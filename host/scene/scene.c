@@ -578,7 +578,8 @@ int scene_finalize(ts_scene *s, ts_error *err)
                 memcpy(s->cp1 + (size_t)p * 16u, s->cp + (size_t)p * 16u, 16u * sizeof *s->cp);
     }
     rc = scene_average_normals(s, err);
-    return rc == TS_OK ? scene_average_mid_normals(s, err) : rc;
+    if (rc == TS_OK) rc = scene_average_mid_normals(s, err);
+    return rc == TS_OK ? scene_share_instances(s, err) : rc;
 }
 
 /* ---- lights, boxes, free --------------------------------------------------------- */
@@ -674,6 +675,10 @@ void scene_free(ts_scene *s)
     free(s->mid_n);
     free(s->attr);
     free(s->xform);
+    free(s->inst_runs);
+    free(s->shape);
+    free(s->instance);
+    free(s->inst_xform);
     free(s->lights);
     for (uint32_t i = 0; i < s->texture_count; i++)
         free(s->tex_source[i]);

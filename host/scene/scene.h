@@ -101,6 +101,16 @@ typedef struct ts_occlusion {
 
 void occlusion_free(ts_occlusion *o);
 
+/* A run of patches an ObjectInstance added that repeat, patch for patch, the run of the
+ * object's first instance: patch first + k is master_first + k placed by the affine map
+ * a (world of the master's instance -> world of this one, row-major 3x4 of a 4x4 acting on
+ * column vectors, time 0). Recorded by the RIB reader (rib_object.c), turned into shared
+ * dicing by scene_finalize (host/scene/instance.c). */
+typedef struct ts_instance_run {
+    uint32_t first, master_first, count;
+    double to_master[12]; /* the inverse of a: this instance's world -> the master's */
+} ts_instance_run;
+
 typedef struct ts_scene {
     uint32_t patch_count;
     uint32_t patch_capacity;
@@ -129,6 +139,18 @@ typedef struct ts_scene {
      * space); xform[0] is the identity. */
     ts_xform *xform;
     uint32_t xform_count, xform_capacity;
+    /* Instancing (ObjectInstance, host/scene/instance.c, docs/rib.md "Objects"): candidate
+     * runs from the reader, then after scene_finalize, when some instance patch shares the
+     * dicing of its master (NULL otherwise, and every patch is diced as itself):
+     * shape[p] the patch whose diced grid and tree p uses (p itself when p is not shared), and
+     * instance[p] the index in inst_xform of the map from p's world to its master's (rigid;
+     * TS_INVALID when p is not shared). */
+    ts_instance_run *inst_runs;
+    uint32_t inst_run_count, inst_run_capacity;
+    uint32_t *shape;
+    uint32_t *instance;
+    ts_xform *inst_xform;
+    uint32_t inst_xform_count;
     /* Image textures (lib/texture.h, host/scene/texture.c), referenced by attr.disp_tex and
      * attr.color_tex: texture_count descriptors, every tile of every level in tex_pool
      * (tex_tile_count tiles of TS_TEX_TILE^2 texels) and the identity page table
@@ -172,6 +194,20 @@ int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *ind
  * corner the limit from inside the patch is used), and cp1 copies for static patches when
  * any patch moves. Loaders call it once at the end. */
 int scene_finalize(ts_scene *s, ts_error *err);
+/* Records a run of instance patches (rib_object.c); see ts_instance_run. */
+int scene_add_instance_run(ts_scene *s, const ts_instance_run *run, ts_error *err);
+/* Turns the recorded runs into shared dicing (host/scene/instance.c): patch p of a run
+ * shares its master's dicing when the map to the master is rigid (orthonormal linear part)
+ * and takes the master's control points (both times), displacement normals and
+ * displacement attributes to p's within float rounding; other patches stay copies. Sets
+ * shape, instance and inst_xform (all NULL when nothing is shared) and frees the runs.
+ * scene_finalize calls it last. */
+int scene_share_instances(ts_scene *s, ts_error *err);
+/* The patch whose dicing patch p uses: p, or its master. */
+static inline uint32_t scene_shape(const ts_scene *s, uint32_t p)
+{
+    return s->shape ? s->shape[p] : p;
+}
 /* Appends a light. */
 int scene_add_light(ts_scene *s, const ts_scene_light *light, ts_error *err);
 /* Conservative world-space box of patch p over the whole shutter interval: the box of its

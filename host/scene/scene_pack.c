@@ -8,7 +8,7 @@
 #include <string.h>
 
 #define PACK_MAGIC "TSSCENE1"
-#define PACK_VERSION 1u
+#define PACK_VERSION 2u
 
 /* The sections: (pointer, bytes) in a fixed order; NULL with 0 bytes for what the scene
  * lacks. Strings (texture sources) are one section of NUL-separated names. */
@@ -24,9 +24,12 @@ enum {
     SEC_SOURCES,  /* texture_count NUL-terminated file names */
     SEC_TEX_POOL, /* tex_tile_count tiles of TS_TEX_TILE^2 ts_vec4 */
     SEC_TEX_PAGES,
-    SEC_CAMERA, /* ts_camera */
-    SEC_LIGHTS, /* light_count ts_scene_light */
-    SEC_DOME,   /* ts_dome_light */
+    SEC_CAMERA,     /* ts_camera */
+    SEC_LIGHTS,     /* light_count ts_scene_light */
+    SEC_DOME,       /* ts_dome_light */
+    SEC_SHAPE,      /* patch_count uint32 (scene.h instancing), or nothing */
+    SEC_INSTANCE,   /* patch_count uint32, or nothing */
+    SEC_INST_XFORM, /* inst_xform_count ts_xform */
     SEC_COUNT
 };
 
@@ -68,6 +71,11 @@ static int pack_sections(const ts_scene *s, uint32_t counts[6], char **names,
     sec[SEC_CAMERA] = (pack_section){&s->camera, sizeof s->camera};
     sec[SEC_LIGHTS] = (pack_section){s->lights, (uint64_t)s->light_count * sizeof(ts_scene_light)};
     sec[SEC_DOME] = (pack_section){&s->dome, sizeof s->dome};
+    uint64_t shared = s->shape ? n * sizeof(uint32_t) : 0;
+    sec[SEC_SHAPE] = (pack_section){s->shape, shared};
+    sec[SEC_INSTANCE] = (pack_section){s->instance, shared};
+    sec[SEC_INST_XFORM] =
+        (pack_section){s->inst_xform, (uint64_t)s->inst_xform_count * sizeof(ts_xform)};
     return TS_OK;
 }
 
@@ -130,6 +138,26 @@ static int copy_section(const pack_section *sec, uint64_t bytes, void **out)
     return 0;
 }
 
+/* The instancing tables (scene.h): absent, or a shape and an instance per patch that name
+ * patches and transforms that exist. */
+static int unpack_instances(const pack_section sec[SEC_COUNT], ts_scene *s)
+{
+    uint64_t shared = sec[SEC_SHAPE].bytes ? (uint64_t)s->patch_count * sizeof(uint32_t) : 0;
+    if (sec[SEC_INST_XFORM].bytes % sizeof(ts_xform)) return -1;
+    uint64_t xforms = sec[SEC_INST_XFORM].bytes / sizeof(ts_xform);
+    int rc = copy_section(&sec[SEC_SHAPE], shared, (void **)&s->shape);
+    if (!rc) rc = copy_section(&sec[SEC_INSTANCE], shared, (void **)&s->instance);
+    if (!rc)
+        rc = copy_section(&sec[SEC_INST_XFORM], sec[SEC_INST_XFORM].bytes, (void **)&s->inst_xform);
+    if (rc) return rc;
+    s->inst_xform_count = (uint32_t)xforms;
+    for (uint32_t p = 0; s->shape && p < s->patch_count; ++p)
+        if (s->shape[p] >= s->patch_count ||
+            (s->shape[p] != p && (uint64_t)s->instance[p] >= xforms))
+            return -1;
+    return 0;
+}
+
 /* The texture sources: count NUL-terminated names filling the section. */
 static int unpack_sources(const pack_section *sec, uint32_t count, ts_scene *s)
 {
@@ -176,6 +204,7 @@ int scene_unpack(const void *block, size_t size, ts_scene *s, ts_error *err)
         rc = copy_section(&sec[SEC_TEX_PAGES], c[3] * sizeof(uint32_t), (void **)&s->tex_pages);
     if (!rc)
         rc = copy_section(&sec[SEC_LIGHTS], c[4] * sizeof(ts_scene_light), (void **)&s->lights);
+    if (!rc) rc = unpack_instances(sec, s);
     if (!rc) {
         memcpy(&s->camera, sec[SEC_CAMERA].data, sizeof s->camera);
         memcpy(&s->dome, sec[SEC_DOME].data, sizeof s->dome);

@@ -93,7 +93,10 @@ typedef struct ts_pair {
 
 /* The pairs of one patch after sort: [begin, end) in the sorted pair array, and where
  * the patch is diced in the batch's arenas (patch slots of variable size, DESIGN.md §1).
- * A moving patch has two grids and two trees, time 0 then time 1. 32 bytes. */
+ * A moving patch has two grids and two trees, time 0 then time 1. shape: the patch whose
+ * grid and tree these are, diced from its control points: `patch` itself, or the master
+ * patch an instance shares its dicing with (ObjectInstance, host/scene/instance.c), whose
+ * frame bottom_level moves the ray into by the instance's transform. 32 bytes. */
 typedef struct ts_segment {
     ts_u32 patch;
     ts_u32 begin, end;
@@ -101,7 +104,7 @@ typedef struct ts_segment {
     ts_u32 vert_first;  /* first vertex of its grid(s) in the vertex arena */
     ts_u32 group_first; /* first sibling group of its tree(s) in the group arena */
     ts_u32 flags;       /* TS_PATCH_MOVING: two time samples */
-    ts_u32 pad;
+    ts_u32 shape;       /* the patch diced: patch, or the master an instance shares */
 } ts_segment;
 
 /* One tree of a batch for the dice and build kernels: (segment index << 1) | time. The
@@ -393,7 +396,7 @@ typedef struct ts_relight_params {
 #define TS_LAYOUT_FIELDS(X)                                                                 \
     X(ts_vec4, w) X(ts_box, hi_z) X(ts_box4, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
-    X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_hit, patch)               \
+    X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_segment, shape) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
     X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection) X(ts_camera_params, band) X(ts_camera_params, forward1)      \
     X(ts_shade_params, spp) X(ts_shade_params, band) X(ts_light, dir) X(ts_light, radiance) X(ts_light, weight) X(ts_emitter, area) \

@@ -58,6 +58,8 @@ static const struct {
     {"Rotate", rib_req_rotate},
     {"Scale", rib_req_scale},
     {"ScreenWindow", rib_req_screen_window},
+    {"SolidBegin", rib_req_solid_begin},
+    {"SolidEnd", rib_req_solid_end},
     {"Shutter", rib_req_shutter},
     {"Surface", rib_req_surface},
     {"Transform", rib_req_transform},
@@ -67,6 +69,7 @@ static const struct {
     {"WorldBegin", rib_req_world_begin},
     {"WorldEnd", rib_req_world_end},
     /* Surfaces turned into Bézier patches (rib_prims.h). */
+    {"Blobby", rib_req_blobby},
     {"Cone", rib_req_cone},
     {"Curves", rib_req_curves},
     {"Cylinder", rib_req_cylinder},
@@ -129,11 +132,8 @@ static const char *const rib_ignored[] = {
 /* clang-format off */
 static const char *const rib_unsupported[] = {
     "ArchiveRecord",
-    "Blobby",
     "Perspective",
     "Skew",
-    "SolidBegin",
-    "SolidEnd",
     "TrimCurve",
 };
 /* clang-format on */

@@ -24,6 +24,12 @@ static int geom_check_state(rib_parser *p)
 {
     if (p->phase == RIB_AFTER_WORLD)
         return rib_error_at(p, p->req_line, p->req_col, "%s after WorldEnd", p->req);
+    const rib_frame *solid = rib_innermost_solid(p);
+    if (solid && solid->solid != RIB_SOLID_PRIMITIVE)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s directly inside the solid begun at %d:%d, which combines solids "
+                            "(surfaces go in SolidBegin \"primitive\" blocks, RI Spec 3.2 §5.9)",
+                            p->req, solid->line, solid->col);
     if (!mat4_is_affine(p->ctm) || !mat4_is_affine(p->ctm1))
         return rib_error_at(p, p->req_line, p->req_col,
                             "%s: the current transformation is projective; patches and lights "

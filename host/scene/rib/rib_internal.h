@@ -84,6 +84,10 @@ int rib_req_transform_begin(rib_parser *p);
 int rib_req_transform_end(rib_parser *p);
 int rib_req_world_begin(rib_parser *p);
 int rib_req_world_end(rib_parser *p);
+int rib_req_solid_begin(rib_parser *p);
+int rib_req_solid_end(rib_parser *p);
+/* The innermost open SolidBegin block, or NULL. */
+const rib_frame *rib_innermost_solid(const rib_parser *p);
 int rib_req_format(rib_parser *p);
 int rib_req_projection(rib_parser *p);
 int rib_req_color(rib_parser *p);

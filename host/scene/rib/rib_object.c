@@ -5,13 +5,15 @@
  * object inherits the current set of attributes"), its own transformations are relative to
  * them, and its own attribute changes end with it.
  *
- * Instances are copies, not shared: every instance adds its own patches to the scene, so an
- * instance is exactly the geometry its requests make written out in its place, bit for bit,
- * and memory grows with the instances. (The pipeline has one patch per scene entry: the
- * level of detail, the patch cache and shading all index patches; sharing patches between
- * instances in the top-level BVH would need per-instance transforms through every stage.)
- * The patches that instances add are bounded by RIB_MAX_INSTANCED_PATCHES (a few bytes of RIB
- * can instance a large object many times).
+ * Every instance adds its own patches to the scene, exactly the geometry its requests make
+ * written out in its place, bit for bit (its top-level leaves, attributes and shading are an
+ * ordinary patch's). What instances share is the dicing: each instance in the world block
+ * that adds as many patches as the object's first one is recorded as a run of patches
+ * repeating that first instance's, with the rigid map between the two instances' CTMs
+ * (scene.h ts_instance_run); scene_finalize (host/scene/instance.c) checks each patch and
+ * lets those that match be diced once, as their master, for every instance. The patches
+ * that instances add are bounded by RIB_MAX_INSTANCED_PATCHES (a few bytes of RIB can
+ * instance a large object many times).
  *
  * A definition holds geometry, transformations, attributes and motion blocks: requests are
  * checked when they are recorded (unknown ones, objects inside objects, world and frame
@@ -19,6 +21,7 @@
  * at each instance. An object does not span files: it ends in the file it begins in. A
  * handle is a number or a string; defining a handle again replaces the object. */
 #include "scene/rib/rib_internal.h"
+#include "base/mat4.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -33,6 +36,11 @@ typedef struct rib_object {
     int line, col; /* of its ObjectBegin */
     rib_saved_request *reqs;
     size_t count, cap;
+    /* Its first instance in the world block, the master of the later ones (instance.c):
+     * its first patch, how many it added, and the CTM it stood under (time 0). */
+    int has_master;
+    uint32_t master_first, master_count;
+    double master_ctm[16];
 } rib_object;
 
 struct rib_objects {
@@ -278,6 +286,29 @@ static int object_run(rib_parser *p, const rib_object *o, uint64_t budget, int *
     return rc;
 }
 
+/* Records the patches [first, patch_count) that an instance of o under ctm added: the first
+ * instance in the world block becomes o's master; a later one that added as many patches is
+ * a run repeating the master's (scene.h ts_instance_run). Instances before WorldBegin are
+ * moved to world space afterwards and stay copies. */
+static int object_record_run(rib_parser *p, rib_object *o, uint32_t first, const double ctm[16])
+{
+    uint32_t added = p->scene->patch_count - first;
+    if (p->phase != RIB_IN_WORLD || added == 0) return TS_OK;
+    if (!o->has_master) {
+        o->has_master = 1, o->master_first = first, o->master_count = added;
+        memcpy(o->master_ctm, ctm, sizeof o->master_ctm);
+        return TS_OK;
+    }
+    double inv[16], m[16];
+    if (added != o->master_count || !mat4_invert(ctm, inv)) return TS_OK;
+    memcpy(m, o->master_ctm, sizeof m);
+    mat4_concat(m, inv); /* this instance's world -> the object -> the master's world */
+    ts_instance_run run = {.first = first, .master_first = o->master_first, .count = added};
+    for (int k = 0; k < 12; k++)
+        run.to_master[k] = m[k] / m[15];
+    return scene_add_instance_run(p->scene, &run, p->err);
+}
+
 /* ObjectInstance handle: the object's requests, inside an implicit attribute block. */
 int rib_req_object_instance(rib_parser *p)
 {
@@ -287,7 +318,7 @@ int rib_req_object_instance(rib_parser *p)
     int rc = object_not_running(p);
     if (rc == TS_OK) rc = object_handle(p, &key, shown);
     if (rc != TS_OK) return rc;
-    const rib_object *o = object_find(p->objects, &key);
+    rib_object *o = object_find(p->objects, &key);
     if (!o)
         return rib_error_at(p, p->req_line, p->req_col,
                             "ObjectInstance: object %s is not defined (ObjectBegin %s ... "
@@ -299,10 +330,14 @@ int rib_req_object_instance(rib_parser *p)
     int line = p->req_line, col = p->req_col, over = 0;
     const char *file = p->lx.file;
     uint64_t budget = object_budget();
+    uint32_t first = p->scene->patch_count;
+    double ctm[16];
+    memcpy(ctm, p->ctm, sizeof ctm);
     p->objects->running = 1;
     memcpy(p->objects->running_shown, shown, sizeof shown);
     rc = object_run(p, o, budget, &over);
     p->objects->running = 0;
+    if (rc == TS_OK) rc = object_record_run(p, o, first, ctm);
     if (rc == TS_OK) return rib_attributes_pop(p);
     if (over && p->err->code == TS_OK)
         return rib_error_at(p, line, col,

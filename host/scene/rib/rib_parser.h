@@ -50,7 +50,16 @@ typedef enum rib_frame_kind {
     RIB_FRAME_ATTRIBUTE,
     RIB_FRAME_TRANSFORM,
     RIB_FRAME_WORLD,
+    RIB_FRAME_SOLID, /* SolidBegin: saves what AttributeBegin saves, as Aqsis does */
 } rib_frame_kind;
+
+/* SolidBegin's operations (RI Spec 3.2 §5.9), in the order of rib_solid_ops. */
+typedef enum rib_solid_op {
+    RIB_SOLID_PRIMITIVE,
+    RIB_SOLID_UNION,
+    RIB_SOLID_INTERSECTION,
+    RIB_SOLID_DIFFERENCE,
+} rib_solid_op;
 
 /* The Displacement attribute (docs/rib.md). kind TS_DISP_NONE: off. */
 typedef struct rib_disp {
@@ -81,6 +90,7 @@ typedef struct rib_frame {
     rib_surface surface;
     double emission[3];
     double opacity[3];
+    rib_solid_op solid; /* RIB_FRAME_SOLID: its operation */
 } rib_frame;
 
 /* An open MotionBegin [t0 t1] block: its two samples, either two Patch requests of one

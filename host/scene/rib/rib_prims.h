@@ -8,6 +8,7 @@
  *   rib_nurbs.c    NuPatch (geometry: scene/nurbs.c)
  *   rib_subdiv.c   SubdivisionMesh (geometry: scene/subdiv.c)
  *   rib_curves.c   Points (spheres: scene/quadric.c), Curves (ribbons facing the camera)
+ *   rib_blobby.c   Blobby (geometry: scene/blobby.c, then scene/polygon.c's PN triangles)
  *   rib_primvar.c  primitive variables by storage class (RI Spec 3.2 §5.1) and integer
  *                  arrays, for all of them
  *
@@ -39,6 +40,7 @@ int rib_req_nu_patch(rib_parser *p);
 int rib_req_subdivision_mesh(rib_parser *p);
 int rib_req_points(rib_parser *p);
 int rib_req_curves(rib_parser *p);
+int rib_req_blobby(rib_parser *p);
 
 /* ---- rib_primvar.c: primitive variables ---- */
 

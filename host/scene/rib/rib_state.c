@@ -132,6 +132,7 @@ static const struct {
     [RIB_FRAME_ATTRIBUTE] = {"AttributeBegin", "AttributeEnd"},
     [RIB_FRAME_TRANSFORM] = {"TransformBegin", "TransformEnd"},
     [RIB_FRAME_WORLD] = {"WorldBegin", "WorldEnd"},
+    [RIB_FRAME_SOLID] = {"SolidBegin", "SolidEnd"},
 };
 
 static int rib_push(rib_parser *p, rib_frame_kind kind)
@@ -233,6 +234,66 @@ int rib_req_attribute_end(rib_parser *p)
 int rib_req_transform_end(rib_parser *p)
 {
     return rib_pop(p, RIB_FRAME_TRANSFORM);
+}
+
+/* ---- solids (RI Spec 3.2 §5.9) ------------------------------------------------------ */
+
+static const char *const rib_solid_ops[] = {"primitive", "union", "intersection", "difference"};
+
+const rib_frame *rib_innermost_solid(const rib_parser *p)
+{
+    for (size_t i = p->depth; i-- > 0;)
+        if (p->stack[i].kind == RIB_FRAME_SOLID) return &p->stack[i];
+    return NULL;
+}
+
+/* SolidBegin "primitive" | "union" | "intersection" | "difference": a block like
+ * AttributeBegin. The surfaces of every solid are drawn as they are. For "primitive" and
+ * "union" of closed opaque solids seen from outside that is the exact image: the first
+ * surface a ray from outside meets bounds the union. "intersection" and "difference" would
+ * need set operations along each ray, which Tessera does not do: as the RI Spec allows when
+ * the optional Solid Modeling capability is missing, their solids are drawn as surfaces,
+ * with a warning. */
+int rib_req_solid_begin(rib_parser *p)
+{
+    const char *op;
+    char shown[RIB_PRINT_MAX];
+    int rc = rib_string_arg(p, 0, "an operation", &op);
+    if (rc == TS_OK) rc = rib_no_more(p, 1);
+    if (rc != TS_OK) return rc;
+    if (p->phase != RIB_IN_WORLD)
+        return rib_error_at(p, p->req_line, p->req_col, "SolidBegin outside the world block");
+    size_t k = 0;
+    while (k < 4 && strcmp(op, rib_solid_ops[k]) != 0)
+        ++k;
+    if (k == 4)
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "SolidBegin: unknown operation \"%s\" (primitive, union, "
+                            "intersection or difference)",
+                            rib_printable(op, shown));
+    const rib_frame *in = rib_innermost_solid(p);
+    if (in && in->solid == RIB_SOLID_PRIMITIVE)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "SolidBegin inside the \"primitive\" solid begun at %d:%d (a primitive "
+                            "solid holds surfaces, not other solids)",
+                            in->line, in->col);
+    if (k >= RIB_SOLID_INTERSECTION)
+        rib_warn_once(p, p->req_line, p->req_col,
+                      k == RIB_SOLID_INTERSECTION
+                          ? "SolidBegin \"intersection\": set operations are not implemented; its "
+                            "solids are drawn whole, as surfaces (RI Spec 3.2 §5.9, without the "
+                            "optional Solid Modeling capability)"
+                          : "SolidBegin \"difference\": set operations are not implemented; its "
+                            "solids are drawn whole, as surfaces (RI Spec 3.2 §5.9, without the "
+                            "optional Solid Modeling capability)");
+    rc = rib_push(p, RIB_FRAME_SOLID);
+    if (rc == TS_OK) p->stack[p->depth - 1].solid = (rib_solid_op)k;
+    return rc;
+}
+
+int rib_req_solid_end(rib_parser *p)
+{
+    return rib_pop(p, RIB_FRAME_SOLID);
 }
 
 int rib_check_closed(rib_parser *p)
