@@ -7,7 +7,8 @@
  *     undisplaced part: box of the four undisplaced corners (vertex - d * normal) grown by
  *       the flatness bound E0 * 4^-m (lib/patch.h patch_flatness),
  *     displacement part: [d] x [N] per axis, [d] by interval arithmetic on the noise over
- *       the time-0 undisplaced box (lib/displace.h), [N] the box of the bilinear
+ *       the time-0 undisplaced box (lib/displace.h; its cells eight at a time in float8
+ *       lanes, lib/noise4.h displace_interval_x8, the same bits), [N] the box of the bilinear
  *       displacement normal over the square (its values at the four corners).
  * build_level (one launch per level l, deepest first): node k of level l of every tree with
  *   m > l (a prefix of the batch's tree list, which is sorted by decreasing m) gets the union
@@ -21,6 +22,7 @@
  * (tests/test_dice_build.c, tests/test_bounds.c). */
 #include "lib/shared_types.h"
 #include "lib/displace.h"
+#include "lib/noise4.h"
 #include "lib/quadtree.h"
 
 /* Stores box b as node k of level l. */
@@ -124,8 +126,10 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                 b0.lo_x -= ex, b0.hi_x += ex, b0.lo_y -= ey, b0.hi_y += ey, b0.lo_z -= ez,
                     b0.hi_z += ez;
             }
-            d = displace_interval(a, xform + a->xform, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y,
-                                  b0.hi_z);
+            d = displace_is_noise(a) ? displace_interval_x8(a, xform + a->xform, b0.lo_x, b0.lo_y,
+                                                            b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z)
+                                     : displace_interval(a, xform + a->xform, b0.lo_x, b0.lo_y,
+                                                         b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
         }
         /* The displacement direction over the micro-quad's whole parameter square. */
         ts_box nb = displace_normal_box(cn, mn, (float)i * h, (float)j * h, (float)(i + 1u) * h,
@@ -161,4 +165,29 @@ __kernel void build_level(__global const uint *trees, uint tree_first, uint tree
     box.hi_y = fmax(fmax(c->hi_y[0], c->hi_y[1]), fmax(c->hi_y[2], c->hi_y[3]));
     box.hi_z = fmax(fmax(c->hi_z[0], c->hi_z[1]), fmax(c->hi_z[2], c->hi_z[3]));
     node_store(base, level, k, box);
+}
+
+/* build_cull (one launch per batch, after build_level): copies levels 1 and 2 of each static
+ * tree of the batch, TS_CULL_GROUPS groups from its group 1, to its patch's entry of cull,
+ * and sets cull_levels[patch] to how many of the two levels top_level may cull by
+ * (quadtree_cull_levels; groups of levels it may not are left as they were and never read).
+ * A moving patch keeps 0 (top_level then never culls it), and so does an instance patch
+ * diced as its master's shape (seg.shape != seg.patch: the tree is in the master's frame, not
+ * the instance's). The host resets an entry whose patch's m or leaf size changed (trace.c
+ * cull_reset_stale). One work-item per group. */
+__kernel void build_cull(__global const uint *trees, uint tree_first, uint tree_count, uint leaf_b,
+                         __global const ts_segment *segments, __global const ts_box4 *groups,
+                         __global ts_box4 *cull, __global uint *cull_levels)
+{
+    uint gid = get_global_id(0);
+    uint t = gid / TS_CULL_GROUPS, g = gid % TS_CULL_GROUPS;
+    if (t >= tree_count) return;
+    uint tree = trees[tree_first + t];
+    ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
+    if (TS_TREE_TIME(tree) != 0u || (seg.flags & TS_PATCH_MOVING) != 0u || seg.shape != seg.patch)
+        return;
+    uint levels = quadtree_cull_levels(seg.lod, leaf_b);
+    if (g == 0u) cull_levels[seg.patch] = levels;
+    if (g + 1u < quadtree_group_count(levels))
+        cull[(size_t)seg.patch * TS_CULL_GROUPS + g] = groups[(size_t)seg.group_first + 1u + g];
 }

@@ -1,7 +1,9 @@
 /* top_level.cl — stage `top_level` (Hanika §3.1, Fig. 2): each active ray resumes its
  * ordered traversal of the top-level QBVH and appends up to n_per_ray candidate
  * (leaf, window) pairs, front to back.
- * Reads:  nodes, active[0..active_count), org, dir, hit.t (tmax: closest hit so far),
+ * Reads:  nodes, cull and cull_levels (the upper levels of built patches' quad-trees:
+ *         candidates that cannot reach a leaf are left out, cull_enter), active[0..active_count),
+ *         org, dir, hit.t (tmax: closest hit so far),
  *         entry (where the ray stopped last iteration).
  * Writes: pairs[i*n_per_ray .. +count[i]) and count[i] (the rest of the window is left
  *         as it was: sort reads only the first count[i], radix_sort_windows), entry
@@ -13,14 +15,15 @@
 #include "lib/intersect.h"
 #include "lib/qbvh.h"
 
-/* Which of node q's four children the ray enters within [0, tmax]: bit c for child c. The
- * slab test of box_enter (lib/intersect.h), lane by lane with the same operations, on all
- * four boxes at once; tmax is fixed for the launch, so testing a node's children when the
- * ray reaches the node decides exactly what testing each one in turn would. */
-inline uint qbvh_children_hit(__global const ts_qbvh_node *q, float4 o, float4 inv, float tmax)
+/* Which of four boxes (SoA: lo_x[4] .. hi_z[4], as ts_qbvh_node and ts_box4 begin) the ray
+ * enters within [0, tmax]: bit c for box c. The slab test of box_enter (lib/intersect.h), lane
+ * by lane with the same operations, on all four boxes at once; tmax is fixed for the launch,
+ * so testing a node's children when the ray reaches the node decides exactly what testing
+ * each one in turn would. */
+inline uint box4_hits(__global const float *b, float4 o, float4 inv, float tmax)
 {
-    float4 lx = vload4(0, q->lo_x), ly = vload4(0, q->lo_y), lz = vload4(0, q->lo_z);
-    float4 hx = vload4(0, q->hi_x), hy = vload4(0, q->hi_y), hz = vload4(0, q->hi_z);
+    float4 lx = vload4(0, b), ly = vload4(1, b), lz = vload4(2, b);
+    float4 hx = vload4(3, b), hy = vload4(4, b), hz = vload4(5, b);
     float4 tx0 = (lx - o.x) * inv.x, tx1 = (hx - o.x) * inv.x;
     float4 ty0 = (ly - o.y) * inv.y, ty1 = (hy - o.y) * inv.y;
     float4 tz0 = (lz - o.z) * inv.z, tz1 = (hz - o.z) * inv.z;
@@ -33,7 +36,29 @@ inline uint qbvh_children_hit(__global const ts_qbvh_node *q, float4 o, float4 i
     return (uint)(hit.x & 1) | (uint)(hit.y & 2) | (uint)(hit.z & 4) | (uint)(hit.w & 8);
 }
 
-__kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global const uint *active,
+inline uint qbvh_children_hit(__global const ts_qbvh_node *q, float4 o, float4 inv, float tmax)
+{
+    return box4_hits(q->lo_x, o, inv, tmax);
+}
+
+/* Whether the ray, within [0, tmax], enters a box of level 2 of a built patch's quad-tree
+ * under a level-1 box it enters (levels 2; levels 1: a level-1 box; 0: the patch is not
+ * built yet, always). bottom_level reaches a leaf only through boxes of both levels that it
+ * enters within [tmin, tmax'] (tmin >= 0, tmax' <= tmax; group_enter: the same slab
+ * operations), so a candidate that fails here finds no hit there and is left out: the hits
+ * and their order do not change, only the pairs (TS_CULL_GROUPS). */
+inline int cull_enter(__global const ts_box4 *c, uint levels, float4 o, float4 inv, float tmax)
+{
+    if (levels == 0u) return 1;
+    uint h = box4_hits(c->lo_x, o, inv, tmax);
+    if (levels == 1u || h == 0u) return h != 0u;
+    for (uint q = 0; q < 4u; ++q)
+        if (((h >> q) & 1u) && box4_hits(c[1u + q].lo_x, o, inv, tmax) != 0u) return 1;
+    return 0;
+}
+
+__kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global const ts_box4 *cull,
+                                __global const uint *cull_levels, __global const uint *active,
                                 uint active_count, uint n_per_ray, __global const ts_vec4 *org,
                                 __global const ts_vec4 *dir, __global const ts_hit *hit,
                                 __global uint *entry, __global ts_pair *pairs, __global uint *count)
@@ -64,7 +89,10 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
                 hits = qbvh_children_hit(&nodes[node], o4, inv, tmax);
                 continue;
             }
-            pairs[i * n_per_ray + n] = (ts_pair){(uint)~child, i * n_per_ray + n};
+            uint leaf = (uint)~child;
+            if (!cull_enter(cull + (size_t)leaf * TS_CULL_GROUPS, cull_levels[leaf], o4, inv, tmax))
+                continue;
+            pairs[i * n_per_ray + n] = (ts_pair){leaf, i * n_per_ray + n};
             if (++n == n_per_ray) {
                 state = (node << 3) | pos;
                 break;

@@ -249,6 +249,8 @@ static int clear_buffers(ts_pipeline *p, const buffer_counts *c, ts_error *err)
         dev_fill(p->cl, p->albedo_film, &zero, sizeof zero, 0, film, "the albedo film", err) ||
         dev_fill(p->cl, p->lod_counts, &zero_u, sizeof zero_u, 0, c->patches * sizeof(cl_uint),
                  "the LOD counts", err) ||
+        dev_fill(p->cl, p->cull_levels, &zero_u, sizeof zero_u, 0, c->patches * sizeof(cl_uint),
+                 "the culling levels", err) ||
         dev_fill(p->cl, p->utilisation, &zero_u, sizeof zero_u, 0,
                  2 * c->util_groups * sizeof(cl_uint), "the leaf utilisation", err))
         return err->code;
@@ -284,7 +286,9 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     p->trees_host = malloc(2 * n * sizeof *p->trees_host);
     p->batches = malloc(n * sizeof *p->batches);
     p->patch_lod = malloc(n);
-    if (!*boxes || !p->segments_host || !p->trees_host || !p->batches || !p->patch_lod)
+    p->cull_key = calloc(n, sizeof *p->cull_key);
+    if (!*boxes || !p->segments_host || !p->trees_host || !p->batches || !p->patch_lod ||
+        !p->cull_key)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     memset(p->patch_lod, (int)p->plan.max_lod, n);
     for (uint32_t i = 0; i < s->patch_count; ++i)
@@ -378,6 +382,7 @@ void pipeline_destroy(ts_pipeline *p)
     free(p->trees_host);
     free(p->batches);
     free(p->patch_lod);
+    free(p->cull_key);
     qbvh_free(&p->qbvh);
     memset(p, 0, sizeof *p);
 }

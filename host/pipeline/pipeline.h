@@ -77,6 +77,7 @@ typedef struct ts_trace_mode {
     X(k_dice, "dice_grid")                                                                      \
     X(k_build_leaves, "build_leaves")                                                           \
     X(k_build_level, "build_level")                                                             \
+    X(k_build_cull, "build_cull")                                                               \
     X(k_bottom_level, "bottom_level_trace")                                                     \
     X(k_bottom_group, "bottom_level_group")                                                     \
     X(k_resolve, "resolve_closest")                                                             \
@@ -102,14 +103,18 @@ typedef struct ts_trace_mode {
  *     offset l / 2^m); patch_box: scene_patch_box (build clamps leaf boxes to it); lights,
  *     emitters, env_*: lights.h; instance, inst_xform: scene.h's instancing tables (one
  *     zeroed element each when no instance shares its master's dicing); textures, tex_pool,
- * tex_pages: descriptors, the tile pool and its page table (tex_cache.h); relight_*: the baked
- * occlusion of `render --occlusion` (scene.h ts_occlusion: its patch table, coefficients and
- * normals) and relight.h's light tables, one zeroed element each without one. lod_counts: eye rays
- * entering each patch box (lod); segments, trees: the sorted segments and the batches' tree lists;
- * grid, groups: the vertex and group arenas; utilisation: bottom_level's micro-quad tests and
- * work-item slots, two words per work-group of the iteration's launches (util_groups of them;
- * trace.c folds them). active: the rays being traced; count: candidates per active ray; alive: what
- * goes on after resolve and shade; wave_paths: the paths being shaded; radiance: per path; aov,
+ *     tex_pages: descriptors, the tile pool and its page table (tex_cache.h); relight_*: the
+ *     baked occlusion of `render --occlusion` (scene.h ts_occlusion: its patch table,
+ *     coefficients and normals) and relight.h's light tables, one zeroed element each without
+ *     one.
+ *   lod_counts: eye rays entering each patch box (lod); segments, trees: the sorted
+ *     segments and the batches' tree lists; grid, groups: the vertex and group arenas;
+ *     utilisation: bottom_level's micro-quad tests and work-item slots, two words per
+ *     work-group of the iteration's launches (util_groups of them; trace.c folds them);
+ *     cull, cull_levels: levels 1 and 2 of each built patch's tree and how many of them
+ *     top_level culls candidates by (TS_CULL_GROUPS; build.cl build_cull).
+ *   active: the rays being traced; count: candidates per active ray; alive: what goes on
+ *     after resolve and shade; wave_paths: the paths being shaded; radiance: per path; aov,
  *     albedo: at the eye hit.
  *   pairs: top_level's candidates, sorted by sort; pairs_scratch: the radix sort's other
  *     buffer (it may end there); pair_hit: bottom_level's hit per candidate.
@@ -147,6 +152,8 @@ typedef struct ts_trace_mode {
     X(grid,            CL_MEM_READ_WRITE, ts_vec4,       c.verts,        NULL)                  \
     X(groups,          CL_MEM_READ_WRITE, ts_box4,       c.groups,       NULL)                  \
     X(utilisation,     CL_MEM_READ_WRITE, ts_u32,        2 * c.util_groups, NULL)               \
+    X(cull,            CL_MEM_READ_WRITE, ts_box4,       TS_CULL_GROUPS * c.patches, NULL)      \
+    X(cull_levels,     CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \
     /* Per ray or path of a wave (beside the ray and path fields). */                           \
     X(active,          TS_MEM_HOST_RW,    ts_u32,        c.rays,         NULL)                  \
     X(count,           CL_MEM_READ_WRITE, ts_u32,        c.rays,         NULL)                  \
@@ -199,6 +206,9 @@ typedef struct ts_pipeline {
      * iteration's bottom_level launches have used (folded into the stats by resolve). */
     uint32_t util_groups, util_used;
     uint8_t *patch_lod; /* m of each patch for this frame (lod stage); max_lod until counted */
+    /* What each patch's entry of cull was built for (trace.c cull_key: its m and leaf size;
+     * 0: none), so that an entry is reset when its patch's m or the leaf size changes. */
+    uint16_t *cull_key;
     /* Which diced patches the grid and groups arenas hold, kept across iterations, waves and
      * sample passes (patch_cache.h); cleared when the levels of detail change. With
      * cache_off (TESSERA_PATCH_CACHE=0, for checks) it is cleared before every batch, so

@@ -15,10 +15,11 @@
 
 static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err)
 {
-    if (dev_set_args(p->k_top_level, err, DEV_ARG(p->qbvh_nodes), DEV_ARG(p->active),
-                     DEV_ARG(active_count), DEV_ARG(n_per_ray), DEV_ARG(p->ray_org),
-                     DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry),
-                     DEV_ARG(p->pairs), DEV_ARG(p->count), (size_t)0))
+    if (dev_set_args(p->k_top_level, err, DEV_ARG(p->qbvh_nodes), DEV_ARG(p->cull),
+                     DEV_ARG(p->cull_levels), DEV_ARG(p->active), DEV_ARG(active_count),
+                     DEV_ARG(n_per_ray), DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir),
+                     DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry), DEV_ARG(p->pairs),
+                     DEV_ARG(p->count), (size_t)0))
         return err->code;
     if (dev_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
         return err->code;
@@ -276,7 +277,52 @@ static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
     return TS_OK;
 }
 
-/* Leaves per LOD run, then one launch per level over the trees deeper than it. */
+/* What an entry of cull holds: levels 1 and 2 of a tree of depth m traced in blocks of
+ * 2^leaf_b x 2^leaf_b (0: nothing). */
+static uint16_t cull_key(uint32_t m, uint32_t leaf_b)
+{
+    return (uint16_t)(0x8000u | (leaf_b << 8) | m);
+}
+
+/* Copies levels 1 and 2 of the batch's static trees into cull for top_level (build.cl
+ * build_cull), and notes what each entry was built for. */
+static int stage_build_cull(ts_pipeline *p, const ts_batch *b, ts_error *err)
+{
+    if (b->tree_count == 0) return TS_OK;
+    uint32_t leaf_b = p->mode.leaf_b;
+    if (dev_set_args(p->k_build_cull, err, DEV_ARG(p->trees), DEV_ARG(b->tree_first),
+                     DEV_ARG(b->tree_count), DEV_ARG(leaf_b), DEV_ARG(p->segments),
+                     DEV_ARG(p->groups), DEV_ARG(p->cull), DEV_ARG(p->cull_levels), (size_t)0) ||
+        dev_launch(p->cl, p->k_build_cull, TS_STAGE_build, (size_t)b->tree_count * TS_CULL_GROUPS,
+                   TS_LOCAL_SIZE, err))
+        return err->code;
+    for (uint32_t t = 0; t < b->tree_count; ++t) {
+        const ts_segment *s = &p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])];
+        if (!(s->flags & TS_PATCH_MOVING) && s->shape == s->patch)
+            p->cull_key[s->patch] = cull_key(s->lod, leaf_b);
+    }
+    return TS_OK;
+}
+
+/* Before a trace: an entry of cull built for another m or leaf size than the patch has now
+ * (the lod stage, bake or a test changed them) is switched off until the patch is built
+ * again; a stale entry could cull candidates that hit. */
+static int cull_reset_stale(ts_pipeline *p, ts_error *err)
+{
+    const cl_uint off = 0;
+    for (uint32_t i = 0; i < p->scene->patch_count; ++i) {
+        if (!p->cull_key[i] || p->cull_key[i] == cull_key(pipeline_patch_lod(p, i), p->mode.leaf_b))
+            continue;
+        if (dev_write(p->cl, p->cull_levels, i * sizeof off, sizeof off, &off, "the culling levels",
+                      err))
+            return err->code;
+        p->cull_key[i] = 0;
+    }
+    return TS_OK;
+}
+
+/* Leaves per LOD run, then one launch per level over the trees deeper than it, then the
+ * culling copy. */
 static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
     uint32_t top = 0;
@@ -306,7 +352,7 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
                        TS_LOCAL_SIZE, err))
             return err->code;
     }
-    return TS_OK;
+    return stage_build_cull(p, b, err);
 }
 
 /* ---- dice and build with patches shared between devices (patch_share.h) --------------- */
@@ -469,6 +515,13 @@ static int batch_make(ts_pipeline *p, const ts_batch *b, ts_error *err)
     int rc = kind && data && tmp
                  ? batch_make_shared(p, b, kind, data, tmp, err)
                  : ts_error_set(err, TS_E_MEMORY, "out of memory (a batch's shares)");
+    /* The culling copy of every tree of the batch, those from the store included: the list
+     * is written whole again first (batch_make_shared reordered parts of it). */
+    if (!rc && (dev_write(p->cl, p->trees, (size_t)b->tree_first * sizeof(uint32_t),
+                          (size_t)b->tree_count * sizeof(uint32_t), &p->trees_host[b->tree_first],
+                          "the tree lists", err) ||
+                stage_build_cull(p, b, err)))
+        rc = err->code;
     free(kind), free(data), free(tmp);
     return rc;
 }
@@ -609,6 +662,7 @@ static uint32_t pairs_per_ray(uint32_t capacity, uint32_t active, uint32_t first
 int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 {
     uint32_t active = ray_count;
+    if (cull_reset_stale(p, err)) return err->code;
     for (uint32_t it = 0; active > 0; ++it) {
         uint32_t n_per_ray = pairs_per_ray(p->plan.pair_capacity, active, p->plan.first_n, it);
         uint32_t sorted_buffer = 0, valid = 0, segs = 0;

@@ -151,4 +151,164 @@ inline ts_vec4 patch_shading_normal_x4(__global const ts_vec4 *cp, __global cons
     return patch_normal_of_differences(cp, u, v, q[0], q[1], q[2], q[3]);
 }
 
+/* interval_lerp (lib/noise.h) in eight lanes. */
+inline void interval_lerp_x8(float8 alo, float8 ahi, float8 blo, float8 bhi, float8 t0, float8 t1,
+                             float8 *rlo, float8 *rhi)
+{
+    float8 l0 = alo + t0 * (blo - alo), l1 = alo + t1 * (blo - alo);
+    float8 h0 = ahi + t0 * (bhi - ahi), h1 = ahi + t1 * (bhi - ahi);
+    *rlo = fmin(l0, l1), *rhi = fmax(h0, h1);
+}
+
+/* noise3_cell_interval (lib/noise.h) in eight lanes: lane l bounds the noise over the box
+ * [l, h] inside the lattice cell with corner c (floats holding integers, as noise3_interval
+ * passes them), with the scalar operations in their order, so each lane has its bits. */
+inline void noise3_cell_interval_x8(float8 cx, float8 cy, float8 cz, float8 lx, float8 ly,
+                                    float8 lz, float8 hx, float8 hy, float8 hz, float8 *rlo,
+                                    float8 *rhi)
+{
+    int8 ix = convert_int8(cx), iy = convert_int8(cy), iz = convert_int8(cz);
+    float8 ax = lx - cx, ay = ly - cy, az = lz - cz;
+    float8 bx = hx - cx, by = hy - cy, bz = hz - cz;
+    uint8 hz8[2], hy8[4]; /* noise_hash's inner words, shared as in noise3_x8 */
+    for (int dz = 0; dz < 2; ++dz)
+        hz8[dz] = noise_mix8(as_uint8(iz + dz) * 0xcb1ab31fu);
+    for (int k = 0; k < 4; ++k)
+        hy8[k] = noise_mix8(as_uint8(iy + (k & 1)) * 0xd8163841u ^ hz8[k >> 1]);
+    float8 clo[8], chi[8];
+#pragma unroll
+    for (int k = 0; k < 8; ++k) {
+        int dx = k & 1, dy = (k >> 1) & 1, dz = k >> 2;
+        uint8 h = noise_mix8(as_uint8(ix + dx) * 0x8da6b343u ^ hy8[(dz << 1) | dy]) % 12u;
+        int8 neg_a = as_int8(h & 1u) != 0, neg_b = as_int8(h & 2u) != 0;
+        float8 a = select((float8)(1.0f), (float8)(-1.0f), neg_a);
+        float8 b = select((float8)(1.0f), (float8)(-1.0f), neg_b);
+        uint8 axis = h >> 2;
+        int8 ax0 = as_int8(axis) == 0, ax2 = as_int8(axis) == 2;
+        float8 gx = select(a, (float8)(0.0f), ax2);
+        float8 gy = select(select((float8)(0.0f), a, ax2), b, ax0);
+        float8 gz = select(b, (float8)(0.0f), ax0);
+        float8 px = gx * (ax - (float)dx), qx = gx * (bx - (float)dx);
+        float8 py = gy * (ay - (float)dy), qy = gy * (by - (float)dy);
+        float8 pz = gz * (az - (float)dz), qz = gz * (bz - (float)dz);
+        clo[k] = fmin(px, qx) + fmin(py, qy) + fmin(pz, qz);
+        chi[k] = fmax(px, qx) + fmax(py, qy) + fmax(pz, qz);
+    }
+    float8 u0 = ax * ax * ax * (ax * (ax * 6.0f - 15.0f) + 10.0f);
+    float8 u1 = bx * bx * bx * (bx * (bx * 6.0f - 15.0f) + 10.0f);
+    float8 v0 = ay * ay * ay * (ay * (ay * 6.0f - 15.0f) + 10.0f);
+    float8 v1 = by * by * by * (by * (by * 6.0f - 15.0f) + 10.0f);
+    float8 w0 = az * az * az * (az * (az * 6.0f - 15.0f) + 10.0f);
+    float8 w1 = bz * bz * bz * (bz * (bz * 6.0f - 15.0f) + 10.0f);
+    float8 x00l, x00h, x10l, x10h, x01l, x01h, x11l, x11h, y0l, y0h, y1l, y1h;
+    interval_lerp_x8(clo[0], chi[0], clo[1], chi[1], u0, u1, &x00l, &x00h);
+    interval_lerp_x8(clo[2], chi[2], clo[3], chi[3], u0, u1, &x10l, &x10h);
+    interval_lerp_x8(clo[4], chi[4], clo[5], chi[5], u0, u1, &x01l, &x01h);
+    interval_lerp_x8(clo[6], chi[6], clo[7], chi[7], u0, u1, &x11l, &x11h);
+    interval_lerp_x8(x00l, x00h, x10l, x10h, v0, v1, &y0l, &y0h);
+    interval_lerp_x8(x01l, x01h, x11l, x11h, v0, v1, &y1l, &y1h);
+    interval_lerp_x8(y0l, y0h, y1l, y1h, w0, w1, rlo, rhi);
+}
+
+/* The (octave, cell) tasks of displace_interval_x8 waiting for a float8 evaluation: the
+ * cell's corner and the part of the octave's box inside it. */
+typedef struct noise_tasks {
+    float c[3][8], l[3][8], h[3][8];
+    uint octave[8], n;
+} noise_tasks;
+
+/* Evaluates the waiting tasks (spare lanes repeat task 0 and are not read) and folds each
+ * into its octave's interval in task order: the scalar loop's fmin / fmax sequence. */
+inline void noise_tasks_run(noise_tasks *t, float *lo, float *hi)
+{
+    if (t->n == 0u) return;
+    for (uint k = t->n; k < 8u; ++k)
+        for (int a = 0; a < 3; ++a)
+            t->c[a][k] = t->c[a][0], t->l[a][k] = t->l[a][0], t->h[a][k] = t->h[a][0];
+    float8 rlo, rhi;
+    noise3_cell_interval_x8(vload8(0, t->c[0]), vload8(0, t->c[1]), vload8(0, t->c[2]),
+                            vload8(0, t->l[0]), vload8(0, t->l[1]), vload8(0, t->l[2]),
+                            vload8(0, t->h[0]), vload8(0, t->h[1]), vload8(0, t->h[2]), &rlo, &rhi);
+    float rl[8], rh[8];
+    vstore8(rlo, 0, rl);
+    vstore8(rhi, 0, rh);
+    for (uint k = 0; k < t->n; ++k) {
+        uint o = t->octave[k];
+        lo[o] = fmin(lo[o], rl[k]), hi[o] = fmax(hi[o], rh[k]);
+    }
+    t->n = 0u;
+}
+
+/* displace_interval (lib/displace.h), the same bits, for the noise functions (the caller
+ * checked): noise3_interval's cells of every octave are evaluated eight at a time, a cell per
+ * lane (build.cl; each leaf's six octaves cover about a dozen cells), then folded and summed
+ * in the scalar order. displace_interval stays the host's reference: test_dice_build compares
+ * the built trees bit for bit. */
+inline ts_interval displace_interval_x8(__global const ts_patch_attr *a, __global const ts_xform *x,
+                                        float lx, float ly, float lz, float hx, float hy, float hz)
+{
+    float olo[3], ohi[3];
+    __global const float *rows[3] = {x->r0, x->r1, x->r2};
+    for (int r = 0; r < 3; ++r) {
+        float l = rows[r][3], h = rows[r][3];
+        float e0 = rows[r][0] * lx, e1 = rows[r][0] * hx;
+        l += fmin(e0, e1), h += fmax(e0, e1);
+        e0 = rows[r][1] * ly, e1 = rows[r][1] * hy;
+        l += fmin(e0, e1), h += fmax(e0, e1);
+        e0 = rows[r][2] * lz, e1 = rows[r][2] * hz;
+        l += fmin(e0, e1), h += fmax(e0, e1);
+        float slack = 1e-6f * (fabs(l) + fabs(h)); /* rounding of the point transform */
+        olo[r] = l - slack, ohi[r] = h + slack;
+    }
+    float f = a->disp_frequency, vlo[TS_DISP_MAX_OCTAVES], vhi[TS_DISP_MAX_OCTAVES];
+    int full[TS_DISP_MAX_OCTAVES]; /* the octave's box spans too many cells: the global bound */
+    uint n = displace_octaves(a);
+    noise_tasks t;
+    t.n = 0u;
+    for (uint o = 0; o < n; ++o) { /* noise3_interval's cells, as tasks */
+        float bl[3], bh[3], c0[3], c1[3];
+        for (int r = 0; r < 3; ++r) {
+            bl[r] = fmin(olo[r] * f, ohi[r] * f), bh[r] = fmax(olo[r] * f, ohi[r] * f);
+            c0[r] = floor(bl[r]), c1[r] = floor(bh[r]);
+        }
+        f *= a->disp_lacunarity;
+        full[o] = 1;
+        if (!(c1[0] - c0[0] <= 1.0f && c1[1] - c0[1] <= 1.0f && c1[2] - c0[2] <= 1.0f)) continue;
+        if (fabs(c0[0]) > 1e6f || fabs(c0[1]) > 1e6f || fabs(c0[2]) > 1e6f) continue;
+        full[o] = 0, vlo[o] = INFINITY, vhi[o] = -INFINITY;
+        for (int k = 0; k < 8; ++k) {
+            float c[3] = {c0[0] + (float)(k & 1), c0[1] + (float)((k >> 1) & 1),
+                          c0[2] + (float)(k >> 2)};
+            if (c[0] > c1[0] || c[1] > c1[1] || c[2] > c1[2]) continue;
+            for (int r = 0; r < 3; ++r)
+                t.c[r][t.n] = c[r], t.l[r][t.n] = fmax(bl[r], c[r]),
+                t.h[r][t.n] = fmin(bh[r], c[r] + 1.0f);
+            t.octave[t.n++] = o;
+            if (t.n == 8u) noise_tasks_run(&t, vlo, vhi);
+        }
+    }
+    noise_tasks_run(&t, vlo, vhi);
+    float w = 1.0f;
+    ts_interval sum = {0.0f, 0.0f};
+    for (uint o = 0; o < n; ++o) {
+        ts_interval v = {-NOISE_BOUND, NOISE_BOUND};
+        if (!full[o]) /* noise3_interval's widening for the point evaluation's rounding */
+            v.lo = fmax(vlo[o] - 1e-5f, -NOISE_BOUND), v.hi = fmin(vhi[o] + 1e-5f, NOISE_BOUND);
+        if (a->disp_kind == TS_DISP_RIDGED) { /* 1 - 2|v| */
+            float alo = v.lo >= 0.0f ? v.lo : v.hi <= 0.0f ? -v.hi : 0.0f;
+            float ahi = fmax(fabs(v.lo), fabs(v.hi));
+            v.lo = 1.0f - 2.0f * ahi;
+            v.hi = 1.0f - 2.0f * alo;
+        }
+        float p0 = w * v.lo, p1 = w * v.hi;
+        sum.lo += fmin(p0, p1);
+        sum.hi += fmax(p0, p1);
+        w *= a->disp_gain;
+    }
+    float d0 = a->disp_amplitude * sum.lo, d1 = a->disp_amplitude * sum.hi;
+    float slack = 1e-5f * fabs(a->disp_amplitude) * (float)n; /* summation rounding */
+    ts_interval r = {fmin(d0, d1) - slack, fmax(d0, d1) + slack};
+    return r;
+}
+
 #endif

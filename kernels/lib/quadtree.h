@@ -37,6 +37,16 @@ TS_INLINE ts_box quadtree_box(TS_CONST_GLOBAL ts_box4 *groups, ts_u32 l, ts_u32 
     return b;
 }
 
+/* How many of levels 1 and 2 of a tree of depth m, traced in blocks of 2^b x 2^b
+ * micro-quads, top_level may cull by (TS_CULL_GROUPS): bottom_level tests a level's boxes
+ * on every path to a leaf only down to the block level m - b (below it, a block's
+ * micro-quads are intersected without their ancestors' boxes). */
+TS_INLINE ts_u32 quadtree_cull_levels(ts_u32 m, ts_u32 b)
+{
+    ts_u32 blocks = m - (b < m ? b : m);
+    return blocks < 2u ? blocks : 2u;
+}
+
 /* Grid vertices of a patch diced at m: (2^m + 1)^2. */
 TS_INLINE ts_u32 quadtree_vertex_count(ts_u32 m)
 {

@@ -59,6 +59,13 @@ typedef struct ts_box4 {
     float hi_x[4], hi_y[4], hi_z[4];
 } ts_box4;
 
+/* Top-level culling by a built patch's upper quad-tree levels (top_level.cl, build.cl
+ * build_cull): TS_CULL_GROUPS sibling groups per patch, its tree's level 1 (group 0) and
+ * level 2 (group 1 + c: the children of level-1 node c), copied from the tree when it is
+ * built; a candidate whose ray enters none of them within [0, tmax] could not reach a leaf,
+ * so it is not emitted. 480 bytes per patch. */
+#define TS_CULL_GROUPS 5u
+
 /* One node of the top-level 4-wide BVH (Hanika §3.1, Dammertz et al. 2008), 128 bytes.
  * child[i] >= 0: inner node index; child[i] < 0 and != TS_CHILD_EMPTY: a leaf holding
  * patch ~child[i]; TS_CHILD_EMPTY: no child (its box is empty).
