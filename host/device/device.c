@@ -648,36 +648,41 @@ int dev_is_out_of_memory(const ts_error *err)
             err->status == CL_OUT_OF_HOST_MEMORY);
 }
 
+/* One read or write of bytes at offset between m and host, blocking or not. */
+static int dev_transfer(ts_device *cl, cl_mem m, int write, cl_bool blocking, size_t offset,
+                        size_t bytes, void *host, const char *what, ts_error *err)
+{
+    if (bytes == 0) return TS_OK;
+    cl_int rc =
+        write ? clEnqueueWriteBuffer(cl->queue, m, blocking, offset, bytes, host, 0, NULL, NULL)
+              : clEnqueueReadBuffer(cl->queue, m, blocking, offset, bytes, host, 0, NULL, NULL);
+    if (rc == CL_SUCCESS) return TS_OK;
+    return write ? dev_fail(err, rc, "clEnqueueWriteBuffer (writing %s)", what)
+                 : dev_fail(err, rc, "clEnqueueReadBuffer (reading %s)", what);
+}
+
 int dev_read(ts_device *cl, cl_mem m, size_t offset, size_t bytes, void *host, const char *what,
              ts_error *err)
 {
-    if (bytes == 0) return TS_OK;
-    cl_int rc = clEnqueueReadBuffer(cl->queue, m, CL_TRUE, offset, bytes, host, 0, NULL, NULL);
-    return rc == CL_SUCCESS ? TS_OK : dev_fail(err, rc, "clEnqueueReadBuffer (reading %s)", what);
+    return dev_transfer(cl, m, 0, CL_TRUE, offset, bytes, host, what, err);
 }
 
 int dev_write(ts_device *cl, cl_mem m, size_t offset, size_t bytes, const void *host,
               const char *what, ts_error *err)
 {
-    if (bytes == 0) return TS_OK;
-    cl_int rc = clEnqueueWriteBuffer(cl->queue, m, CL_TRUE, offset, bytes, host, 0, NULL, NULL);
-    return rc == CL_SUCCESS ? TS_OK : dev_fail(err, rc, "clEnqueueWriteBuffer (writing %s)", what);
+    return dev_transfer(cl, m, 1, CL_TRUE, offset, bytes, (void *)host, what, err);
 }
 
 int dev_read_async(ts_device *cl, cl_mem m, size_t offset, size_t bytes, void *host,
                    const char *what, ts_error *err)
 {
-    if (bytes == 0) return TS_OK;
-    cl_int rc = clEnqueueReadBuffer(cl->queue, m, CL_FALSE, offset, bytes, host, 0, NULL, NULL);
-    return rc == CL_SUCCESS ? TS_OK : dev_fail(err, rc, "clEnqueueReadBuffer (reading %s)", what);
+    return dev_transfer(cl, m, 0, CL_FALSE, offset, bytes, host, what, err);
 }
 
 int dev_write_async(ts_device *cl, cl_mem m, size_t offset, size_t bytes, const void *host,
                     const char *what, ts_error *err)
 {
-    if (bytes == 0) return TS_OK;
-    cl_int rc = clEnqueueWriteBuffer(cl->queue, m, CL_FALSE, offset, bytes, host, 0, NULL, NULL);
-    return rc == CL_SUCCESS ? TS_OK : dev_fail(err, rc, "clEnqueueWriteBuffer (writing %s)", what);
+    return dev_transfer(cl, m, 1, CL_FALSE, offset, bytes, (void *)host, what, err);
 }
 
 int dev_fill(ts_device *cl, cl_mem m, const void *pattern, size_t pattern_size, size_t offset,

@@ -50,15 +50,11 @@ TS_INLINE float displace_value(TS_CONST_GLOBAL ts_patch_attr *a, TS_CONST_GLOBAL
     return a->disp_amplitude * sum;
 }
 
-/* An interval holding d(P) for every P in the world box [lo, hi]. */
-TS_INLINE ts_interval displace_interval(TS_CONST_GLOBAL ts_patch_attr *a,
-                                        TS_CONST_GLOBAL ts_xform *x, float lx, float ly, float lz,
-                                        float hx, float hy, float hz)
+/* The box in object space holding the world box [l, h] moved by x: an affine map's range over
+ * a box, row by row, widened by the rounding of the point transform. */
+TS_INLINE void displace_object_box(TS_CONST_GLOBAL ts_xform *x, float lx, float ly, float lz,
+                                   float hx, float hy, float hz, float olo[3], float ohi[3])
 {
-    ts_interval zero = {0.0f, 0.0f};
-    if (!displace_is_noise(a)) return zero;
-    /* The box in object space: an affine map's range over a box, row by row. */
-    float olo[3], ohi[3];
     TS_CONST_GLOBAL float *rows[3] = {x->r0, x->r1, x->r2};
     for (int r = 0; r < 3; ++r) {
         float l = rows[r][3], h = rows[r][3];
@@ -71,6 +67,17 @@ TS_INLINE ts_interval displace_interval(TS_CONST_GLOBAL ts_patch_attr *a,
         float slack = 1e-6f * (fabs(l) + fabs(h)); /* rounding of the point transform */
         olo[r] = l - slack, ohi[r] = h + slack;
     }
+}
+
+/* An interval holding d(P) for every P in the world box [lo, hi]. */
+TS_INLINE ts_interval displace_interval(TS_CONST_GLOBAL ts_patch_attr *a,
+                                        TS_CONST_GLOBAL ts_xform *x, float lx, float ly, float lz,
+                                        float hx, float hy, float hz)
+{
+    ts_interval zero = {0.0f, 0.0f};
+    if (!displace_is_noise(a)) return zero;
+    float olo[3], ohi[3];
+    displace_object_box(x, lx, ly, lz, hx, hy, hz, olo, ohi);
     float f = a->disp_frequency, w = 1.0f;
     ts_interval sum = zero;
     ts_u32 n = displace_octaves(a);

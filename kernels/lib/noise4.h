@@ -19,34 +19,44 @@ inline uint8 noise_mix8(uint8 x)
     return x;
 }
 
+/* noise_gradient at the eight corners k (x bit 1, y bit 2, z bit 4) of the lattice cells at
+ * (ix, iy, iz), lane by lane: two components are +-1, one is 0. The lattice hash of
+ * noise_hash, its inner words shared by the corners with equal z (and y): the same values,
+ * fewer mixes. */
+inline void noise_gradients_x8(int8 ix, int8 iy, int8 iz, float8 gx[8], float8 gy[8], float8 gz[8])
+{
+    uint8 hz[2], hy[4];
+    for (int dz = 0; dz < 2; ++dz)
+        hz[dz] = noise_mix8(as_uint8(iz + dz) * 0xcb1ab31fu);
+    for (int k = 0; k < 4; ++k)
+        hy[k] = noise_mix8(as_uint8(iy + (k & 1)) * 0xd8163841u ^ hz[k >> 1]);
+#pragma unroll
+    for (int k = 0; k < 8; ++k) {
+        int dx = k & 1, dy = (k >> 1) & 1, dz = k >> 2;
+        uint8 h = noise_mix8(as_uint8(ix + dx) * 0x8da6b343u ^ hy[(dz << 1) | dy]) % 12u;
+        int8 neg_a = as_int8(h & 1u) != 0, neg_b = as_int8(h & 2u) != 0;
+        float8 a = select((float8)(1.0f), (float8)(-1.0f), neg_a);
+        float8 b = select((float8)(1.0f), (float8)(-1.0f), neg_b);
+        uint8 axis = h >> 2;
+        int8 ax0 = as_int8(axis) == 0, ax2 = as_int8(axis) == 2;
+        gx[k] = select(a, (float8)(0.0f), ax2);
+        gy[k] = select(select((float8)(0.0f), a, ax2), b, ax0);
+        gz[k] = select(b, (float8)(0.0f), ax0);
+    }
+}
+
 /* noise3 at eight points (x.s0, y.s0, z.s0) .. (x.s7, y.s7, z.s7). */
 inline float8 noise3_x8(float8 x, float8 y, float8 z)
 {
     float8 fx0 = floor(x), fy0 = floor(y), fz0 = floor(z);
     int8 ix = convert_int8(fx0), iy = convert_int8(fy0), iz = convert_int8(fz0);
     float8 fx = x - fx0, fy = y - fy0, fz = z - fz0;
-    /* The lattice hash of noise_hash, its inner words shared by the corners with equal z
-     * (and y): the same values, fewer mixes. */
-    uint8 hz[2], hy[4];
-    for (int dz = 0; dz < 2; ++dz)
-        hz[dz] = noise_mix8(as_uint8(iz + dz) * 0xcb1ab31fu);
-    for (int k = 0; k < 4; ++k)
-        hy[k] = noise_mix8(as_uint8(iy + (k & 1)) * 0xd8163841u ^ hz[k >> 1]);
-    float8 c[8];
+    float8 gx[8], gy[8], gz[8], c[8];
+    noise_gradients_x8(ix, iy, iz, gx, gy, gz);
 #pragma unroll
     for (int k = 0; k < 8; ++k) {
         int dx = k & 1, dy = (k >> 1) & 1, dz = k >> 2;
-        uint8 h = noise_mix8(as_uint8(ix + dx) * 0x8da6b343u ^ hy[(dz << 1) | dy]) % 12u;
-        /* noise_gradient: two components are +-1, one is 0. */
-        int8 neg_a = as_int8(h & 1u) != 0, neg_b = as_int8(h & 2u) != 0;
-        float8 a = select((float8)(1.0f), (float8)(-1.0f), neg_a);
-        float8 b = select((float8)(1.0f), (float8)(-1.0f), neg_b);
-        uint8 axis = h >> 2;
-        int8 ax0 = as_int8(axis) == 0, ax2 = as_int8(axis) == 2;
-        float8 gx = select(a, (float8)(0.0f), ax2);
-        float8 gy = select(select((float8)(0.0f), a, ax2), b, ax0);
-        float8 gz = select(b, (float8)(0.0f), ax0);
-        c[k] = gx * (fx - (float)dx) + gy * (fy - (float)dy) + gz * (fz - (float)dz);
+        c[k] = gx[k] * (fx - (float)dx) + gy[k] * (fy - (float)dy) + gz[k] * (fz - (float)dz);
     }
     float8 u = fx * fx * fx * (fx * (fx * 6.0f - 15.0f) + 10.0f);
     float8 v = fy * fy * fy * (fy * (fy * 6.0f - 15.0f) + 10.0f);
@@ -170,27 +180,14 @@ inline void noise3_cell_interval_x8(float8 cx, float8 cy, float8 cz, float8 lx, 
     int8 ix = convert_int8(cx), iy = convert_int8(cy), iz = convert_int8(cz);
     float8 ax = lx - cx, ay = ly - cy, az = lz - cz;
     float8 bx = hx - cx, by = hy - cy, bz = hz - cz;
-    uint8 hz8[2], hy8[4]; /* noise_hash's inner words, shared as in noise3_x8 */
-    for (int dz = 0; dz < 2; ++dz)
-        hz8[dz] = noise_mix8(as_uint8(iz + dz) * 0xcb1ab31fu);
-    for (int k = 0; k < 4; ++k)
-        hy8[k] = noise_mix8(as_uint8(iy + (k & 1)) * 0xd8163841u ^ hz8[k >> 1]);
-    float8 clo[8], chi[8];
+    float8 gx[8], gy[8], gz[8], clo[8], chi[8];
+    noise_gradients_x8(ix, iy, iz, gx, gy, gz);
 #pragma unroll
     for (int k = 0; k < 8; ++k) {
         int dx = k & 1, dy = (k >> 1) & 1, dz = k >> 2;
-        uint8 h = noise_mix8(as_uint8(ix + dx) * 0x8da6b343u ^ hy8[(dz << 1) | dy]) % 12u;
-        int8 neg_a = as_int8(h & 1u) != 0, neg_b = as_int8(h & 2u) != 0;
-        float8 a = select((float8)(1.0f), (float8)(-1.0f), neg_a);
-        float8 b = select((float8)(1.0f), (float8)(-1.0f), neg_b);
-        uint8 axis = h >> 2;
-        int8 ax0 = as_int8(axis) == 0, ax2 = as_int8(axis) == 2;
-        float8 gx = select(a, (float8)(0.0f), ax2);
-        float8 gy = select(select((float8)(0.0f), a, ax2), b, ax0);
-        float8 gz = select(b, (float8)(0.0f), ax0);
-        float8 px = gx * (ax - (float)dx), qx = gx * (bx - (float)dx);
-        float8 py = gy * (ay - (float)dy), qy = gy * (by - (float)dy);
-        float8 pz = gz * (az - (float)dz), qz = gz * (bz - (float)dz);
+        float8 px = gx[k] * (ax - (float)dx), qx = gx[k] * (bx - (float)dx);
+        float8 py = gy[k] * (ay - (float)dy), qy = gy[k] * (by - (float)dy);
+        float8 pz = gz[k] * (az - (float)dz), qz = gz[k] * (bz - (float)dz);
         clo[k] = fmin(px, qx) + fmin(py, qy) + fmin(pz, qz);
         chi[k] = fmax(px, qx) + fmax(py, qy) + fmax(pz, qz);
     }
@@ -248,18 +245,7 @@ inline ts_interval displace_interval_x8(__global const ts_patch_attr *a, __globa
                                         float lx, float ly, float lz, float hx, float hy, float hz)
 {
     float olo[3], ohi[3];
-    __global const float *rows[3] = {x->r0, x->r1, x->r2};
-    for (int r = 0; r < 3; ++r) {
-        float l = rows[r][3], h = rows[r][3];
-        float e0 = rows[r][0] * lx, e1 = rows[r][0] * hx;
-        l += fmin(e0, e1), h += fmax(e0, e1);
-        e0 = rows[r][1] * ly, e1 = rows[r][1] * hy;
-        l += fmin(e0, e1), h += fmax(e0, e1);
-        e0 = rows[r][2] * lz, e1 = rows[r][2] * hz;
-        l += fmin(e0, e1), h += fmax(e0, e1);
-        float slack = 1e-6f * (fabs(l) + fabs(h)); /* rounding of the point transform */
-        olo[r] = l - slack, ohi[r] = h + slack;
-    }
+    displace_object_box(x, lx, ly, lz, hx, hy, hz, olo, ohi);
     float f = a->disp_frequency, vlo[TS_DISP_MAX_OCTAVES], vhi[TS_DISP_MAX_OCTAVES];
     int full[TS_DISP_MAX_OCTAVES]; /* the octave's box spans too many cells: the global bound */
     uint n = displace_octaves(a);
