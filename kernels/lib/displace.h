@@ -69,6 +69,33 @@ TS_INLINE void displace_object_box(TS_CONST_GLOBAL ts_xform *x, float lx, float 
     }
 }
 
+/* Adds octave interval v at weight w to *sum (ridged octaves as 1 - 2|v|); w >= 0 while
+ * gain >= 0, a negative gain flips the ends. */
+TS_INLINE void displace_interval_add(TS_CONST_GLOBAL ts_patch_attr *a, ts_interval v, float w,
+                                     ts_interval *sum)
+{
+    if (a->disp_kind == TS_DISP_RIDGED) { /* 1 - 2|v| */
+        float alo = v.lo >= 0.0f ? v.lo : v.hi <= 0.0f ? -v.hi : 0.0f;
+        float ahi = fmax(fabs(v.lo), fabs(v.hi));
+        v.lo = 1.0f - 2.0f * ahi;
+        v.hi = 1.0f - 2.0f * alo;
+    }
+    float p0 = w * v.lo, p1 = w * v.hi;
+    sum->lo += fmin(p0, p1);
+    sum->hi += fmax(p0, p1);
+}
+
+/* The displacement interval of the octave sum `sum` of n octaves: times the amplitude,
+ * widened by the summation's rounding. */
+TS_INLINE ts_interval displace_interval_end(TS_CONST_GLOBAL ts_patch_attr *a, ts_interval sum,
+                                            ts_u32 n)
+{
+    float d0 = a->disp_amplitude * sum.lo, d1 = a->disp_amplitude * sum.hi;
+    float slack = 1e-5f * fabs(a->disp_amplitude) * (float)n; /* summation rounding */
+    ts_interval r = {fmin(d0, d1) - slack, fmax(d0, d1) + slack};
+    return r;
+}
+
 /* An interval holding d(P) for every P in the world box [lo, hi]. */
 TS_INLINE ts_interval displace_interval(TS_CONST_GLOBAL ts_patch_attr *a,
                                         TS_CONST_GLOBAL ts_xform *x, float lx, float ly, float lz,
@@ -85,24 +112,11 @@ TS_INLINE ts_interval displace_interval(TS_CONST_GLOBAL ts_patch_attr *a,
         float f0 = fmin(olo[0] * f, ohi[0] * f), f1 = fmax(olo[0] * f, ohi[0] * f);
         float g0 = fmin(olo[1] * f, ohi[1] * f), g1 = fmax(olo[1] * f, ohi[1] * f);
         float h0 = fmin(olo[2] * f, ohi[2] * f), h1 = fmax(olo[2] * f, ohi[2] * f);
-        ts_interval v = noise3_interval(f0, g0, h0, f1, g1, h1);
-        if (a->disp_kind == TS_DISP_RIDGED) { /* 1 - 2|v| */
-            float alo = v.lo >= 0.0f ? v.lo : v.hi <= 0.0f ? -v.hi : 0.0f;
-            float ahi = fmax(fabs(v.lo), fabs(v.hi));
-            v.lo = 1.0f - 2.0f * ahi;
-            v.hi = 1.0f - 2.0f * alo;
-        }
-        /* w >= 0 while gain >= 0; a negative gain flips the ends. */
-        float p0 = w * v.lo, p1 = w * v.hi;
-        sum.lo += fmin(p0, p1);
-        sum.hi += fmax(p0, p1);
+        displace_interval_add(a, noise3_interval(f0, g0, h0, f1, g1, h1), w, &sum);
         f *= a->disp_lacunarity;
         w *= a->disp_gain;
     }
-    float d0 = a->disp_amplitude * sum.lo, d1 = a->disp_amplitude * sum.hi;
-    float slack = 1e-5f * fabs(a->disp_amplitude) * (float)n; /* summation rounding */
-    ts_interval r = {fmin(d0, d1) - slack, fmax(d0, d1) + slack};
-    return r;
+    return displace_interval_end(a, sum, n);
 }
 
 /* max |d(P)| over all P: the global noise bound through the octave sum (0 unless a noise

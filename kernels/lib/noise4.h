@@ -280,21 +280,10 @@ inline ts_interval displace_interval_x8(__global const ts_patch_attr *a, __globa
         ts_interval v = {-NOISE_BOUND, NOISE_BOUND};
         if (!full[o]) /* noise3_interval's widening for the point evaluation's rounding */
             v.lo = fmax(vlo[o] - 1e-5f, -NOISE_BOUND), v.hi = fmin(vhi[o] + 1e-5f, NOISE_BOUND);
-        if (a->disp_kind == TS_DISP_RIDGED) { /* 1 - 2|v| */
-            float alo = v.lo >= 0.0f ? v.lo : v.hi <= 0.0f ? -v.hi : 0.0f;
-            float ahi = fmax(fabs(v.lo), fabs(v.hi));
-            v.lo = 1.0f - 2.0f * ahi;
-            v.hi = 1.0f - 2.0f * alo;
-        }
-        float p0 = w * v.lo, p1 = w * v.hi;
-        sum.lo += fmin(p0, p1);
-        sum.hi += fmax(p0, p1);
+        displace_interval_add(a, v, w, &sum);
         w *= a->disp_gain;
     }
-    float d0 = a->disp_amplitude * sum.lo, d1 = a->disp_amplitude * sum.hi;
-    float slack = 1e-5f * fabs(a->disp_amplitude) * (float)n; /* summation rounding */
-    ts_interval r = {fmin(d0, d1) - slack, fmax(d0, d1) + slack};
-    return r;
+    return displace_interval_end(a, sum, n);
 }
 
 #endif
