@@ -283,6 +283,7 @@ static void test_scene_file(void **state)
 {
     (void)state;
     ts_scene s;
+    memset(&s, 0, sizeof s); /* scene_load fills a zeroed scene */
     ts_error err = {0};
     if (scene_load(test_source_path("scene/blobby.rib"), &s, 1, &err)) fail_msg("%s", err.msg);
     assert_true(s.patch_count > 1000);
