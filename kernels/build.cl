@@ -171,10 +171,11 @@ __kernel void build_level(__global const uint *trees, uint tree_first, uint tree
  * tree of the batch, TS_CULL_GROUPS groups from its group 1, to its patch's entry of cull,
  * and sets cull_levels[patch] to how many of the two levels top_level may cull by
  * (quadtree_cull_levels; groups of levels it may not are left as they were and never read).
- * A moving patch keeps 0 (top_level then never culls it), and so does an instance patch
- * diced as its master's shape (seg.shape != seg.patch: the tree is in the master's frame, not
- * the instance's). The host resets an entry whose patch's m or leaf size changed (trace.c
- * cull_reset_stale). One work-item per group. */
+ * A moving patch keeps 0 (top_level then never culls it). The entry written is the
+ * segment's shape's: an instance's segment dices its master, whose tree is in the master's
+ * frame, so it serves the master's candidates and never the instance's (whose entry stays 0).
+ * The host resets an entry whose patch's m or leaf size changed (trace.c cull_reset_stale).
+ * One work-item per group. */
 __kernel void build_cull(__global const uint *trees, uint tree_first, uint tree_count, uint leaf_b,
                          __global const ts_segment *segments, __global const ts_box4 *groups,
                          __global ts_box4 *cull, __global uint *cull_levels)
@@ -184,10 +185,9 @@ __kernel void build_cull(__global const uint *trees, uint tree_first, uint tree_
     if (t >= tree_count) return;
     uint tree = trees[tree_first + t];
     ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
-    if (TS_TREE_TIME(tree) != 0u || (seg.flags & TS_PATCH_MOVING) != 0u || seg.shape != seg.patch)
-        return;
+    if (TS_TREE_TIME(tree) != 0u || (seg.flags & TS_PATCH_MOVING) != 0u) return;
     uint levels = quadtree_cull_levels(seg.lod, leaf_b);
-    if (g == 0u) cull_levels[seg.patch] = levels;
+    if (g == 0u) cull_levels[seg.shape] = levels;
     if (g + 1u < quadtree_group_count(levels))
-        cull[(size_t)seg.patch * TS_CULL_GROUPS + g] = groups[(size_t)seg.group_first + 1u + g];
+        cull[(size_t)seg.shape * TS_CULL_GROUPS + g] = groups[(size_t)seg.group_first + 1u + g];
 }

@@ -287,6 +287,57 @@ static void test_instances(void **state)
     dev_close(&cl);
 }
 
+/* The culling copy (build.cl build_cull) of a batch that dices only instance patches: each
+ * segment dices its master's shape, so the entry written is the master's (its tree is in the
+ * master's frame) and the instance's stays 0, never culled by boxes of another frame. */
+static void test_instance_cull(void **state)
+{
+    (void)state;
+    ts_device cl;
+    test_open_device(&cl);
+    ts_scene s;
+    load_instanced(&s);
+    ts_stats stats;
+    memset(&stats, 0, sizeof stats);
+    ts_error err = {0};
+    ts_pipeline_plan plan = {.ray_capacity = R, .pair_capacity = R * P};
+    pipeline_plan_arenas(&plan, 2 * P, M);
+    ts_pipeline p;
+    if (pipeline_create(&p, &cl, &s, &plan, R, &stats, &err)) fail_msg("%s", err.msg);
+    p.mode.fixed_lod = -1;
+    p.mode.leaf_b = 1;
+    for (uint32_t q = 0; q < 2 * P; ++q)
+        p.patch_lod[q] = (uint8_t)((q % P) % (M + 1));
+    for (uint32_t k = 0; k < P; ++k) /* the second instance's patches only */
+        p.segments_host[k] =
+            (ts_segment){.patch = P + k, .begin = k, .end = k + 1, .lod = p.patch_lod[P + k]};
+    if (pipeline_dice_build(&p, P, &err)) fail_msg("%s", err.msg);
+    static cl_uint levels[2 * P];
+    static ts_box4 cull[2 * P * TS_CULL_GROUPS];
+    size_t gbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
+    ts_box4 *groups = malloc(gbytes);
+    assert_non_null(groups);
+    read_buffer(&cl, p.cull_levels, sizeof levels, levels);
+    read_buffer(&cl, p.cull, sizeof cull, cull);
+    read_buffer(&cl, p.groups, gbytes, groups);
+    for (uint32_t k = 0; k < P; ++k) {
+        const ts_segment *sg = &p.segments_host[k];
+        assert_int_equal(sg->shape, k);
+        if (levels[P + k] != 0) fail_msg("instance patch %u has a culling entry", P + k);
+        uint32_t want = quadtree_cull_levels(sg->lod, 1);
+        if (levels[k] != want)
+            fail_msg("master %u: %u culling levels, want %u", k, levels[k], want);
+        uint32_t n = quadtree_group_count(want) - 1u; /* the groups below the root */
+        if (memcmp(&cull[k * TS_CULL_GROUPS], groups + sg->group_first + 1, n * sizeof *groups))
+            fail_msg("master %u: the culling boxes are not its tree's", k);
+    }
+    free(groups);
+    pipeline_destroy(&p);
+    stats_free(&stats);
+    scene_free(&s);
+    dev_close(&cl);
+}
+
 static void test_teapot(void **state)
 {
     check_scene(0, 0);
@@ -307,6 +358,7 @@ int main(void)
         cmocka_unit_test(test_displaced_teapot),
         cmocka_unit_test(test_moving_displaced_teapot),
         cmocka_unit_test(test_instances),
+        cmocka_unit_test(test_instance_cull),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -298,8 +298,7 @@ static int stage_build_cull(ts_pipeline *p, const ts_batch *b, ts_error *err)
         return err->code;
     for (uint32_t t = 0; t < b->tree_count; ++t) {
         const ts_segment *s = &p->segments_host[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t])];
-        if (!(s->flags & TS_PATCH_MOVING) && s->shape == s->patch)
-            p->cull_key[s->patch] = cull_key(s->lod, leaf_b);
+        if (!(s->flags & TS_PATCH_MOVING)) p->cull_key[s->shape] = cull_key(s->lod, leaf_b);
     }
     return TS_OK;
 }
