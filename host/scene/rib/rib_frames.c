@@ -26,16 +26,7 @@ int rib_frames_skip(const rib_parser *p)
 static void rib_frame_save(rib_parser *p)
 {
     rib_frame_start *st = &p->frames.start;
-    rib_frame *a = &st->attrs;
-    memcpy(a->ctm, p->ctm, sizeof a->ctm);
-    memcpy(a->ctm1, p->ctm1, sizeof a->ctm1);
-    a->ctm_moving = p->ctm_moving;
-    memcpy(a->color, p->color, sizeof a->color);
-    a->ubasis = p->ubasis, a->vbasis = p->vbasis;
-    a->disp = p->disp;
-    a->surface = p->surface;
-    memcpy(a->emission, p->emission, sizeof a->emission);
-    memcpy(a->opacity, p->opacity, sizeof a->opacity);
+    rib_state_save(p, &st->attrs);
     st->camera = p->scene->camera;
     st->patch_count = p->scene->patch_count;
     st->light_count = p->scene->light_count;
@@ -54,16 +45,7 @@ static int rib_frame_leave(rib_parser *p)
         s->patch_count != st->patch_count || s->light_count != st->light_count ||
         s->dome.present != st->dome)
         return 0;
-    const rib_frame *a = &st->attrs;
-    memcpy(p->ctm, a->ctm, sizeof p->ctm);
-    memcpy(p->ctm1, a->ctm1, sizeof p->ctm1);
-    p->ctm_moving = a->ctm_moving;
-    memcpy(p->color, a->color, sizeof p->color);
-    p->ubasis = a->ubasis, p->vbasis = a->vbasis;
-    p->disp = a->disp;
-    p->surface = a->surface;
-    memcpy(p->emission, a->emission, sizeof p->emission);
-    memcpy(p->opacity, a->opacity, sizeof p->opacity);
+    rib_state_restore(p, &st->attrs, 1);
     p->scene->camera = st->camera;
     f->reading = 0;
     f->depth_skipped++;

@@ -84,6 +84,10 @@ int rib_req_transform_begin(rib_parser *p);
 int rib_req_transform_end(rib_parser *p);
 int rib_req_world_begin(rib_parser *p);
 int rib_req_world_end(rib_parser *p);
+/* The graphics state a block saves (CTM at both times, colour, bases, displacement, surface,
+ * emission, opacity) into f, and back from f: the CTM only unless `attributes`. */
+void rib_state_save(const rib_parser *p, rib_frame *f);
+void rib_state_restore(rib_parser *p, const rib_frame *f, int attributes);
 int rib_req_solid_begin(rib_parser *p);
 int rib_req_solid_end(rib_parser *p);
 /* The innermost open SolidBegin block, or NULL. */

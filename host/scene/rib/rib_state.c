@@ -135,6 +135,35 @@ static const struct {
     [RIB_FRAME_SOLID] = {"SolidBegin", "SolidEnd"},
 };
 
+void rib_state_save(const rib_parser *p, rib_frame *f)
+{
+    memcpy(f->ctm, p->ctm, sizeof f->ctm);
+    memcpy(f->ctm1, p->ctm1, sizeof f->ctm1);
+    f->ctm_moving = p->ctm_moving;
+    memcpy(f->color, p->color, sizeof f->color);
+    f->ubasis = p->ubasis;
+    f->vbasis = p->vbasis;
+    f->disp = p->disp;
+    f->surface = p->surface;
+    memcpy(f->emission, p->emission, sizeof f->emission);
+    memcpy(f->opacity, p->opacity, sizeof f->opacity);
+}
+
+void rib_state_restore(rib_parser *p, const rib_frame *f, int attributes)
+{
+    memcpy(p->ctm, f->ctm, sizeof p->ctm);
+    memcpy(p->ctm1, f->ctm1, sizeof p->ctm1);
+    p->ctm_moving = f->ctm_moving;
+    if (!attributes) return;
+    memcpy(p->color, f->color, sizeof p->color);
+    p->ubasis = f->ubasis;
+    p->vbasis = f->vbasis;
+    p->disp = f->disp;
+    p->surface = f->surface;
+    memcpy(p->emission, f->emission, sizeof p->emission);
+    memcpy(p->opacity, f->opacity, sizeof p->opacity);
+}
+
 static int rib_push(rib_parser *p, rib_frame_kind kind)
 {
     if (p->depth >= RIB_MAX_DEPTH)
@@ -151,16 +180,7 @@ static int rib_push(rib_parser *p, rib_frame_kind kind)
     f->kind = kind;
     f->line = p->req_line;
     f->col = p->req_col;
-    memcpy(f->ctm, p->ctm, sizeof f->ctm);
-    memcpy(f->ctm1, p->ctm1, sizeof f->ctm1);
-    f->ctm_moving = p->ctm_moving;
-    memcpy(f->color, p->color, sizeof f->color);
-    f->ubasis = p->ubasis;
-    f->vbasis = p->vbasis;
-    f->disp = p->disp;
-    f->surface = p->surface;
-    memcpy(f->emission, p->emission, sizeof f->emission);
-    memcpy(f->opacity, p->opacity, sizeof f->opacity);
+    rib_state_save(p, f);
     return TS_OK;
 }
 
@@ -169,19 +189,7 @@ static int rib_push(rib_parser *p, rib_frame_kind kind)
  * bases, displacement, surface, emission and opacity. */
 static void rib_restore(rib_parser *p, rib_frame_kind kind)
 {
-    const rib_frame *top = &p->stack[p->depth - 1];
-    memcpy(p->ctm, top->ctm, sizeof p->ctm);
-    memcpy(p->ctm1, top->ctm1, sizeof p->ctm1);
-    p->ctm_moving = top->ctm_moving;
-    if (kind != RIB_FRAME_TRANSFORM) {
-        memcpy(p->color, top->color, sizeof p->color);
-        p->ubasis = top->ubasis;
-        p->vbasis = top->vbasis;
-        p->disp = top->disp;
-        p->surface = top->surface;
-        memcpy(p->emission, top->emission, sizeof p->emission);
-        memcpy(p->opacity, top->opacity, sizeof p->opacity);
-    }
+    rib_state_restore(p, &p->stack[p->depth - 1], kind != RIB_FRAME_TRANSFORM);
     p->depth--;
 }
 
