@@ -44,10 +44,7 @@ static const char *path(const char *name)
 
 static void write_scene(const char *name, const char *text)
 {
-    FILE *f = fopen(path(name), "w");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
+    test_write_text(path(name), text);
 }
 
 /* The whole text of a file of the source tree (malloc'd). */

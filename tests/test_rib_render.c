@@ -36,10 +36,7 @@ static const char *path(const char *name)
 
 static void write_scene(const char *name, const char *text)
 {
-    FILE *f = fopen(path(name), "w");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
+    test_write_text(path(name), text);
 }
 
 static void render(const char *scene, const char *out, const char *extra)

@@ -274,3 +274,11 @@ int test_has_device(void)
     free(list);
     return n > 0;
 }
+
+void test_write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    assert_int_equal(fclose(f), 0);
+}

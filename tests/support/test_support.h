@@ -42,6 +42,8 @@ int test_run_tessera(const char *dir, const char *fmt, ...) __attribute__((forma
  * six faces are each split into k x k bicubic patches interpolating the sphere at thirds,
  * so neighbouring patches share their boundary control points exactly. */
 void test_write_sphere_patches(void *file, int k, double r);
+/* Writes text to the file at path (created or truncated); fails the test if it cannot. */
+void test_write_text(const char *path, const char *text);
 /* Reads a number from a --stats JSON file: `path` like "counters.rays" or
  * "lod_histogram.3"; fails the test if absent. */
 double test_stats_number(const char *json_path, const char *key);
