@@ -14,16 +14,20 @@
 #include "lib/sample_order.h"
 #include "lib/sampler.h"
 
-/* A moving camera at time t: each of its vectors interpolated linearly between shutter open
- * and close (ts_camera_params). */
-static void camera_at_time(ts_camera_params *c, float t)
+/* Vector k (0 origin, 1 right, 2 up, 3 forward) of the camera at time t: interpolated
+ * linearly between shutter open and close when it moves (ts_camera_params). */
+inline float3 camera_vector(const ts_camera_params *c, uint k, float t)
 {
-    for (int k = 0; k < 3; k++) {
-        c->origin[k] = (1.0f - t) * c->origin[k] + t * c->origin1[k];
-        c->right[k] = (1.0f - t) * c->right[k] + t * c->right1[k];
-        c->up[k] = (1.0f - t) * c->up[k] + t * c->up1[k];
-        c->forward[k] = (1.0f - t) * c->forward[k] + t * c->forward1[k];
+    const float *a = k == 0u ? c->origin : k == 1u ? c->right : k == 2u ? c->up : c->forward;
+    float3 v = (float3)(a[0], a[1], a[2]);
+    if (c->moving) {
+        const float *b = k == 0u   ? c->origin1
+                         : k == 1u ? c->right1
+                         : k == 2u ? c->up1
+                                   : c->forward1;
+        v = (1.0f - t) * v + t * (float3)(b[0], b[1], b[2]);
     }
+    return v;
 }
 
 __kernel void camera_generate(ts_camera_params cam, __global ts_vec4 *org, __global ts_vec4 *dir,
@@ -33,36 +37,33 @@ __kernel void camera_generate(ts_camera_params cam, __global ts_vec4 *org, __glo
                               __global float *mis, __global uint *state, __global ts_vec4 *radiance)
 {
     uint i = get_global_id(0);
-    ts_camera_params p = cam;
-    if (i >= p.ray_count) return;
-    uint npix = p.width * p.height;
+    if (i >= cam.ray_count) return;
+    uint npix = cam.width * cam.height;
     uint pix, sample;
-    sample_order_at(p.first_sample + i, npix, p.spp, p.band, &pix, &sample);
-    uint x = pix % p.width, y = pix / p.width;
+    sample_order_at(cam.first_sample + i, npix, cam.spp, cam.band, &pix, &sample);
+    uint x = pix % cam.width, y = pix / cam.width;
     float jx = 0.5f, jy = 0.5f;
-    ts_sampler_set cs = sampler_set(pix, sample, TS_SET_CAMERA, p.seed, sampler_mask(p.spp));
-    if (p.spp > 1) {
+    ts_sampler_set cs = sampler_set(pix, sample, TS_SET_CAMERA, cam.seed, sampler_mask(cam.spp));
+    if (cam.spp > 1) {
         jx = sampler_set_value(cs, 0u);
         jy = sampler_set_value(cs, 1u);
     }
     /* Time in [0, 1) for motion blur (Hanika §3.4): the camera set's third dimension. */
     float time = sampler_set_value(cs, 2u);
-    if (p.moving) camera_at_time(&p, time);
-    float sx = 2.0f * ((float)x + jx) / (float)p.width - 1.0f;
-    float sy = 1.0f - 2.0f * ((float)y + jy) / (float)p.height;
-    float dx, dy, dz;
-    ts_vec4 o = {p.origin[0], p.origin[1], p.origin[2], 0.0f};
-    if (p.projection == TS_PROJECTION_ORTHOGRAPHIC) {
+    float3 eye = camera_vector(&cam, 0u, time), right = camera_vector(&cam, 1u, time);
+    float3 up = camera_vector(&cam, 2u, time), forward = camera_vector(&cam, 3u, time);
+    float sx = 2.0f * ((float)x + jx) / (float)cam.width - 1.0f;
+    float sy = 1.0f - 2.0f * ((float)y + jy) / (float)cam.height;
+    float3 d;
+    if (cam.projection == TS_PROJECTION_ORTHOGRAPHIC) {
         /* Parallel rays along forward, from the screen point (RIB Projection "orthographic"). */
-        o.x += sx * p.right[0] + sy * p.up[0];
-        o.y += sx * p.right[1] + sy * p.up[1];
-        o.z += sx * p.right[2] + sy * p.up[2];
-        dx = p.forward[0], dy = p.forward[1], dz = p.forward[2];
+        eye += sx * right + sy * up;
+        d = forward;
     } else {
-        dx = sx * p.right[0] + sy * p.up[0] + p.forward[0];
-        dy = sx * p.right[1] + sy * p.up[1] + p.forward[1];
-        dz = sx * p.right[2] + sy * p.up[2] + p.forward[2];
+        d = sx * right + sy * up + forward;
     }
+    ts_vec4 o = {eye.x, eye.y, eye.z, 0.0f};
+    float dx = d.x, dy = d.y, dz = d.z;
     float inv = 1.0f / sqrt(dx * dx + dy * dy + dz * dz);
     org[i] = o;
     dir[i] = (ts_vec4){dx * inv, dy * inv, dz * inv, time};

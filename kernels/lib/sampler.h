@@ -90,9 +90,10 @@ TS_INLINE ts_u32 sampler_owen(ts_u32 v, ts_u32 seed)
 TS_INLINE ts_u32 sampler_sobol(ts_u32 index, ts_u32 d)
 {
     if (d == 0u) return sampler_reverse_bits(index);
+    /* A fixed trip count and no branch, so the compiler can run work-items in SIMD lanes. */
     ts_u32 x = 0u;
-    for (ts_u32 k = 0u; index != 0u; ++k, index >>= 1)
-        if (index & 1u) x ^= ts_sobol_dirs[d - 1u][k];
+    for (ts_u32 k = 0u; k < 32u; ++k)
+        x ^= ts_sobol_dirs[d - 1u][k] & (0u - ((index >> k) & 1u));
     return x;
 }
 
