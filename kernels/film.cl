@@ -5,18 +5,20 @@
  *         fixed summation order: the image does not depend on how samples were split into
  *         waves, nor on the order's bands); aov_film[pixel] and albedo_film[pixel] = the aov
  *         and albedo of sample 0.
- * One work-item per pixel, so no two items write the same pixel. */
+ * One work-item per pixel of [pixel_first, pixel_end), the bands the wave's samples fall in
+ * (sample_order_pixels; no other pixel has a sample in it), so no two items write the same
+ * pixel. */
 #include "lib/shared_types.h"
 #include "lib/sample_order.h"
 
 __kernel void film_accumulate(uint first_sample, uint ray_count, uint pixel_count, uint spp,
-                              uint band, __global const ts_vec4 *radiance,
-                              __global const ts_vec4 *aov, __global const ts_vec4 *albedo,
-                              __global ts_vec4 *accum, __global ts_vec4 *aov_film,
-                              __global ts_vec4 *albedo_film)
+                              uint band, uint pixel_first, uint pixel_end,
+                              __global const ts_vec4 *radiance, __global const ts_vec4 *aov,
+                              __global const ts_vec4 *albedo, __global ts_vec4 *accum,
+                              __global ts_vec4 *aov_film, __global ts_vec4 *albedo_film)
 {
-    uint p = get_global_id(0);
-    if (p >= pixel_count) return;
+    uint p = pixel_first + get_global_id(0);
+    if (p >= pixel_end) return;
     uint first = first_sample, last = first_sample + ray_count; /* [first, last) */
     /* The pixel's samples s < spp are k = k0 + s * n (lib/sample_order.h). */
     uint k0 = sample_order_index(p, 0u, pixel_count, spp, band);

@@ -327,7 +327,8 @@ static double counter(const char *json, const char *name)
  * the one-device image bit for bit; with every patch fitting the arenas, each is diced once
  * over both devices (as many dicings as one device makes) and every other miss is filled from
  * the store; TESSERA_PATCH_SHARE=0 shares nothing and dices more. A budget whose arenas
- * evict (--memory 16 at 320x180) still shares, with the same bits. */
+ * evict (--memory 16 at --lod 7: the patches need 24 MB, the arenas get at most 12) still
+ * shares, with the same bits. */
 static void test_two_devices_share_built_patches(void **state)
 {
     (void)state;
@@ -364,7 +365,7 @@ static void test_two_devices_share_built_patches(void **state)
     assert_true(counter("share0.json", "patches_shared") == 0.0);
     assert_true(counter("share0.json", "patches_diced") > diced);
     /* Arenas that evict: batches of several per iteration, the store full before the end. */
-    const char *tight = "--res 320x180 --spp 2 --max-lod 6 --memory 16 --quiet";
+    const char *tight = "--res 160x90 --spp 2 --lod 7 --memory 16 --quiet";
     render("scene/teapot_displaced.rib", "tight1.exr", first, tight);
     snprintf(extra, sizeof extra, "%s --stats '%s'", tight, in_dir("tight2.json"));
     render("scene/teapot_displaced.rib", "tight2.exr", pair, extra);

@@ -187,9 +187,9 @@ static void test_launch_failure_mid_render_is_retried(void **state)
 {
     (void)state;
     const char *ref = reference();
-    /* The 800th launch comes after two of the five waves (the two-level loop's iterations
+    /* The 150th launch comes after two of the nine waves (the two-level loop's iterations
      * each launch top_level, bottom_level per batch and resolve; trace.c). */
-    setenv("TESSERA_FAIL_LAUNCH", "800", 1);
+    setenv("TESSERA_FAIL_LAUNCH", "150", 1);
     int rc = test_run_tessera(dir, "render '%s' -o '%s' --res " RES " --spp " SPP " --memory 32",
                               test_source_path("scene/teapot.rib"), in_dir("launch.exr"));
     unsetenv("TESSERA_FAIL_LAUNCH");

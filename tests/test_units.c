@@ -101,13 +101,16 @@ static void film_plain(ts_film_state *f)
 }
 
 /* kernels/film.cl's loop in C: waves of `wave` samples of the order o from `start` on, each
- * pixel's samples in the wave added in order. */
+ * pixel of the wave's bands (sample_order_pixels, the pixels film.cl's launch covers) with
+ * its samples in the wave added in order. */
 static void film_reference(ts_film_state *f, const ts_sample_order *o, uint64_t start,
                            uint64_t wave)
 {
     for (uint64_t first = start; first < TOTAL; first += wave) {
         uint64_t last = first + wave < TOTAL ? first + wave : TOTAL;
-        for (uint32_t p = 0; p < P; ++p) {
+        uint32_t p0, p1;
+        sample_order_pixels((uint32_t)first, (uint32_t)(last - first), P, SPP, o->band, &p0, &p1);
+        for (uint32_t p = p0; p < p1; ++p) {
             uint32_t k0 = sample_order_index(p, 0, P, SPP, o->band);
             uint32_t n = sample_order_index(p, 1, P, SPP, o->band) - k0;
             uint32_t s = sample_order_count(p, (uint32_t)first, P, SPP, o->band);
@@ -127,7 +130,8 @@ static void film_reference(ts_film_state *f, const ts_sample_order *o, uint64_t 
 
 /* The order visits every (pixel, sample) once, each pixel's samples in increasing order;
  * sample_order_index inverts sample_order_at and sample_order_count counts a prefix; the
- * runs of samples 0 are exactly the samples 0. */
+ * runs of samples 0 are exactly the samples 0; sample_order_pixels holds the pixel of every
+ * sample of a window, and no more than the whole bands the window touches. */
 static void test_sample_order_is_a_permutation(void **state)
 {
     (void)state;
@@ -156,6 +160,24 @@ static void test_sample_order_is_a_permutation(void **state)
                     assert_int_equal(sample_order_count(q, k + 1, P, SPP, o.band), counts[q]);
         }
         assert_int_equal(zeros, P);
+        uint32_t band = o.band && o.band < P ? o.band : P;
+        for (uint32_t k = 0; k < TOTAL; k += 7)
+            for (uint32_t count = 1; k + count <= TOTAL; count = count * 3 + 1) {
+                uint32_t p0, p1, p, s;
+                sample_order_pixels(k, count, P, SPP, o.band, &p0, &p1);
+                assert_true(p0 < p1 && p1 <= P);
+                assert_int_equal(p0 % band, 0);
+                assert_true(p1 == P || p1 % band == 0);
+                for (uint32_t j = k; j < k + count; ++j) {
+                    sample_order_at(j, P, SPP, o.band, &p, &s);
+                    assert_true(p >= p0 && p < p1);
+                }
+                /* The first and last samples' bands, and every band between. */
+                sample_order_at(k, P, SPP, o.band, &p, &s);
+                assert_int_equal(p0, p / band * band);
+                sample_order_at(k + count - 1, P, SPP, o.band, &p, &s);
+                assert_int_equal(p1, p / band * band + band < P ? p / band * band + band : P);
+            }
         assert_int_equal(sample_order_zero_count(&o, 0, TOTAL), P);
         assert_int_equal(sample_order_zero_count(&o, 17, TOTAL - 40),
                          sample_order_zero_count(&o, 0, TOTAL) -

@@ -282,7 +282,7 @@ static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s,
         ts_memory_room_query(NULL, &room);
         budget_default(&cl->info, budget_fixed_bytes(s, (uint64_t)o->width * o->height), &room, &c);
         st.memory_budget_bytes = (uint64_t)o->memory_mb << 20; /* what the plan was made for */
-        rc = budget_grow_arenas(&p, c.room_mb, 1, err);
+        rc = budget_grow_arenas(&p, c.room_mb, 0, 1, err);
     }
     res->arena_bytes = pipeline_arena_bytes(&p.plan);
     ts_vec4 *org = malloc(per * sizeof *org), *dir = malloc(per * sizeof *dir);

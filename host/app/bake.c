@@ -216,7 +216,7 @@ static int bake_prepare(ts_bake *b, ts_error *err)
     if (bake_stage_create(&b->pipe, &setup, err)) return err->code;
     /* Dice once when it fits, as a render's default budget does (budget_grow_arenas): a
      * bake's rays reach most of the scene in every wave. */
-    if (budget_grow_arenas(&b->pipe, b->room_mb, o->quiet, err)) return err->code;
+    if (budget_grow_arenas(&b->pipe, b->room_mb, 0, o->quiet, err)) return err->code;
     size_t n = b->pipe.bake->points_per_wave;
     b->coeffs = malloc(n * (size_t)o->bands * o->bands * sizeof *b->coeffs);
     b->pos = malloc(n * sizeof *b->pos);

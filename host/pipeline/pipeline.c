@@ -238,6 +238,37 @@ static int create_buffers(ts_pipeline *p, const buffer_counts *counts, const sce
     return TS_OK;
 }
 
+/* Releases the buffers whose size follows the rays of a wave (the ray and path fields,
+ * TS_PIPELINE_WAVE_BUFFERS) and makes them again for the plan's ray_capacity and
+ * pair_capacity, with no contents. */
+static int remake_wave_buffers(ts_pipeline *p, ts_error *err)
+{
+    const buffer_counts c = {.rays = p->plan.ray_capacity, .pairs = p->plan.pair_capacity};
+    const struct {
+        cl_mem *m;
+        cl_mem_flags flags;
+        size_t bytes;
+    } list[] = {
+    /* clang-format off */
+#define TS_RAY_ENTRY(type, name, what) {&p->ray_##name, CL_MEM_READ_WRITE, c.rays * sizeof(type)},
+        TS_RAY_FIELDS(TS_RAY_ENTRY)
+#undef TS_RAY_ENTRY
+#define TS_PATH_ENTRY(type, name, what) {&p->path_##name, CL_MEM_READ_WRITE, c.rays * sizeof(type)},
+        TS_PATH_FIELDS(TS_PATH_ENTRY)
+#undef TS_PATH_ENTRY
+#define TS_BUFFER_ENTRY(field, flags, type, count, contents) {&p->field, flags, (count) * sizeof(type)},
+        TS_PIPELINE_WAVE_BUFFERS(TS_BUFFER_ENTRY)
+#undef TS_BUFFER_ENTRY
+        /* clang-format on */
+    };
+    for (size_t i = 0; i < sizeof list / sizeof *list; ++i)
+        if (*list[i].m) clReleaseMemObject(*list[i].m), *list[i].m = NULL;
+    for (size_t i = 0; i < sizeof list / sizeof *list; ++i)
+        if (!(*list[i].m = dev_buffer_create(p->cl, list[i].flags, list[i].bytes, NULL, err)))
+            return err->code;
+    return TS_OK;
+}
+
 /* The film starts black and "nothing hit"; the LOD counts and leaf utilisation at zero. */
 static int clear_buffers(ts_pipeline *p, const buffer_counts *c, ts_error *err)
 {
@@ -552,6 +583,22 @@ int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_err
     p->plan.vert_capacity = (uint32_t)verts;
     p->plan.group_capacity = (uint32_t)groups;
     p->stats->counters[TS_COUNTER_patch_cache_bytes] = pipeline_arena_bytes(&p->plan);
+    return TS_OK;
+}
+
+int pipeline_resize_rays(ts_pipeline *p, uint32_t rays, ts_error *err)
+{
+    if (rays < TS_LOCAL_SIZE || rays > (1u << 25))
+        return ts_error_set(err, TS_E_INTERNAL, "waves of %u rays", rays);
+    if (dev_finish(p->cl, p->stats, err)) return err->code; /* nothing uses the old ones */
+    for (int i = 0; i < 2; ++i)
+        free(p->sort_host[i]), p->sort_host[i] = NULL;
+    free(p->sort_counts), p->sort_counts = NULL;
+    p->plan.ray_capacity = rays;
+    p->plan.pair_capacity = rays * TS_PAIRS_PER_RAY;
+    /* The utilisation counters keep their buffer: trace.c folds them early when an
+     * iteration needs more work-groups than util_groups. */
+    if (remake_wave_buffers(p, err) || create_sort_copies(p, err)) return err->code;
     return TS_OK;
 }
 

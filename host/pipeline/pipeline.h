@@ -154,6 +154,14 @@ typedef struct ts_trace_mode {
     X(utilisation,     CL_MEM_READ_WRITE, ts_u32,        2 * c.util_groups, NULL)               \
     X(cull,            CL_MEM_READ_WRITE, ts_box4,       TS_CULL_GROUPS * c.patches, NULL)      \
     X(cull_levels,     CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \
+    /* Per pixel: the film. */                                                                  \
+    X(accum,           TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
+    X(aov_film,        TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
+    X(albedo_film,     TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
+    TS_PIPELINE_WAVE_BUFFERS(X)
+/* The buffers of TS_PIPELINE_BUFFERS whose size follows the rays of a wave (the plan's
+ * ray_capacity and pair_capacity), made again by pipeline_resize_rays. */
+#define TS_PIPELINE_WAVE_BUFFERS(X)                                                             \
     /* Per ray or path of a wave (beside the ray and path fields). */                           \
     X(active,          TS_MEM_HOST_RW,    ts_u32,        c.rays,         NULL)                  \
     X(count,           CL_MEM_READ_WRITE, ts_u32,        c.rays,         NULL)                  \
@@ -165,11 +173,7 @@ typedef struct ts_trace_mode {
     /* Per (leaf, ray) candidate of an iteration. */                                            \
     X(pairs,           TS_MEM_HOST_RW,    ts_pair,       c.pairs,        NULL)                  \
     X(pairs_scratch,   TS_MEM_HOST_RW,    ts_pair,       c.pairs,        NULL)                  \
-    X(pair_hit,        CL_MEM_READ_WRITE, ts_hit,        c.pairs,        NULL)                  \
-    /* Per pixel: the film. */                                                                  \
-    X(accum,           TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
-    X(aov_film,        TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
-    X(albedo_film,     TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)
+    X(pair_hit,        CL_MEM_READ_WRITE, ts_hit,        c.pairs,        NULL)
 /* clang-format on */
 
 /* A run of segments traced together: all of them resident in the arenas at once (the patch
@@ -299,6 +303,12 @@ uint64_t pipeline_arena_bytes(const ts_pipeline_plan *plan);
  * buffer), replacing the old ones, and an empty patch cache over them. When they cannot be
  * had the old ones stay, with the error in *err. */
 int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_error *err);
+/* Waves of `rays` rays from now on: every buffer sized by the plan's ray_capacity and
+ * pair_capacity (the ray and path fields, TS_PIPELINE_WAVE_BUFFERS, the sort's host copies)
+ * is released and made again at the new size; nothing in them is kept, so it is called
+ * between waves. rays in [TS_LOCAL_SIZE, 2^25]. The image does not depend on it. On failure
+ * the pipeline has no wave buffers and only pipeline_destroy may follow. */
+int pipeline_resize_rays(ts_pipeline *p, uint32_t rays, ts_error *err);
 /* "crossed", "visible" or "seen" (TESSERA_LOD_RULE); -1 for another name. */
 int pipeline_lod_rule_parse(const char *name, ts_lod_rule *rule);
 

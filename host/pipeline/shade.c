@@ -6,6 +6,7 @@
  * Kernels are timed by their profiling events (dev_launch / dev_finish); the host's list
  * making by the monotonic clock, under `shade`. */
 #include "pipeline/pipeline.h"
+#include "lib/sample_order.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -195,11 +196,15 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
 
 int pipeline_film(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 {
+    if (cam->ray_count == 0) return TS_OK;
+    cl_uint px0, px1; /* the pixels the wave's samples fall in */
+    sample_order_pixels(cam->first_sample, cam->ray_count, p->pixel_count, cam->spp, cam->band,
+                        &px0, &px1);
     if (dev_set_args(p->k_film, err, DEV_ARG(cam->first_sample), DEV_ARG(cam->ray_count),
-                     DEV_ARG(p->pixel_count), DEV_ARG(cam->spp), DEV_ARG(cam->band),
-                     DEV_ARG(p->radiance), DEV_ARG(p->aov), DEV_ARG(p->albedo), DEV_ARG(p->accum),
-                     DEV_ARG(p->aov_film), DEV_ARG(p->albedo_film), (size_t)0) ||
-        dev_launch(p->cl, p->k_film, TS_STAGE_film, p->pixel_count, TS_LOCAL_SIZE, err))
+                     DEV_ARG(p->pixel_count), DEV_ARG(cam->spp), DEV_ARG(cam->band), DEV_ARG(px0),
+                     DEV_ARG(px1), DEV_ARG(p->radiance), DEV_ARG(p->aov), DEV_ARG(p->albedo),
+                     DEV_ARG(p->accum), DEV_ARG(p->aov_film), DEV_ARG(p->albedo_film), (size_t)0) ||
+        dev_launch(p->cl, p->k_film, TS_STAGE_film, px1 - px0, TS_LOCAL_SIZE, err))
         return err->code;
     return dev_finish(p->cl, p->stats, err);
 }

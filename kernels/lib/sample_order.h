@@ -35,6 +35,18 @@ TS_INLINE void sample_order_at(ts_u32 k, ts_u32 npix, ts_u32 spp, ts_u32 band, t
     *pixel = base + r % n;
 }
 
+/* Pixels [*first, *end) hold every pixel with a sample among the frame's samples
+ * [k, k + count), count >= 1: the bands those samples fall in (the whole image with one
+ * band). */
+TS_INLINE void sample_order_pixels(ts_u32 k, ts_u32 count, ts_u32 npix, ts_u32 spp, ts_u32 band,
+                                   ts_u32 *first, ts_u32 *end)
+{
+    if (band == 0u || band > npix) band = npix;
+    ts_u32 b0 = k / band / spp, b1 = (k + count - 1u) / band / spp;
+    *first = b0 * band;
+    *end = npix - b1 * band <= band ? npix : (b1 + 1u) * band;
+}
+
 /* The inverse: the index k of sample `sample` of pixel `pixel`. */
 TS_INLINE ts_u32 sample_order_index(ts_u32 pixel, ts_u32 sample, ts_u32 npix, ts_u32 spp,
                                     ts_u32 band)
