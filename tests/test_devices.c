@@ -327,7 +327,8 @@ static double counter(const char *json, const char *name)
  * the one-device image bit for bit; with every patch fitting the arenas, each is diced once
  * over both devices (as many dicings as one device makes) and every other miss is filled from
  * the store; TESSERA_PATCH_SHARE=0 shares nothing and dices more. A budget whose arenas
- * evict (--memory 16 at --lod 7: the patches need 24 MB, the arenas get at most 12) still
+ * evict (--memory 16 at --lod 7: the patches need 24 MB, more than the budget's trade
+ * gives the arenas, so they keep the plan's quarter) still
  * shares, with the same bits. */
 static void test_two_devices_share_built_patches(void **state)
 {

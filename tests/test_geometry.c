@@ -110,7 +110,8 @@ static void test_sort_by_copy_matches_mapped_sort(void **state)
 
 /* The patch cache (issue 13): the displaced teapot's 32 patches are diced once per frame
  * when they fit the arenas (the rest are hits), again and again when a small budget makes
- * the cache evict (at --lod 7 they need 24 MB; --memory 12 gives the arenas at most 9), and
+ * the cache evict (at --lod 7 they need 24 MB, more than three quarters of --memory 12, so
+ * the plan's quarter stays; budget.h), and
  * once per batch with the cache off; all three images are the same bits. */
 static void test_patch_cache_dices_once_and_changes_no_bit(void **state)
 {

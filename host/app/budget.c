@@ -86,27 +86,26 @@ void budget_fixed(uint64_t mb, ts_budget_choice *out)
     snprintf(out->why, sizeof out->why, "--memory");
 }
 
-/* The arenas within the budget (budget_grow_arenas' trade): the patch cache takes up to
- * TS_TRADE_ARENA_PART of what the plan gave the arenas and the waves together, enough for
- * `need` bytes if that is less; the waves keep the rest. Returns 1 when it traded, with the
- * note printed unless quiet; 0 when the arenas could not grow that way. */
+/* The arenas within the budget (budget_grow_arenas' trade): when the frame's patches fit in
+ * TS_TRADE_ARENA_PART of what the plan gave the arenas and the waves together, the patch
+ * cache takes what they need and the waves keep the rest. Not when they do not fit: then
+ * the patches are diced again in every wave whatever the cache holds, and fewer rays a wave
+ * means more waves to dice them in (forest-100 at --memory 512: 684 k dicings with the
+ * arenas at three quarters against 566 k with the plan's quarter; docs/benchmarks.md).
+ * Returns 1 when it traded, with the note printed unless quiet; 0 when it did not. */
 static int trade_rays(ts_pipeline *p, uint64_t verts, uint64_t groups, int quiet, ts_error *err)
 {
     uint64_t have = pipeline_arena_bytes(&p->plan);
     uint64_t need = verts * sizeof(ts_vec4) + groups * sizeof(ts_box4);
     uint64_t rays_bytes = (uint64_t)p->plan.ray_capacity * TS_BYTES_PER_RAY;
     uint64_t total = have + rays_bytes;
-    uint64_t arena = total / TS_TRADE_ARENA_DIV * TS_TRADE_ARENA_PART;
-    if (arena > need) arena = need;
-    if (arena <= have) return 0;
+    if (need > total / TS_TRADE_ARENA_DIV * TS_TRADE_ARENA_PART) return 0;
+    uint64_t arena = need;
     uint64_t rays = (total - arena) / TS_BYTES_PER_RAY;
     if (rays > p->plan.ray_capacity) rays = p->plan.ray_capacity;
     if (rays < TS_LOCAL_SIZE) return 0;
-    /* Vertices and groups in the proportion the frame's patches take them; never fewer
-     * than the plan's (which hold a moving patch at max_lod). */
-    double part = (double)arena / (double)need;
-    uint64_t v = arena < need ? (uint64_t)((double)verts * part) : verts;
-    uint64_t g = arena < need ? (uint64_t)((double)groups * part) : groups;
+    /* Never fewer entries than the plan's (which hold a moving patch at max_lod). */
+    uint64_t v = verts, g = groups;
     if (v < p->plan.vert_capacity) v = p->plan.vert_capacity;
     if (g < p->plan.group_capacity) g = p->plan.group_capacity;
     uint32_t old_rays = p->plan.ray_capacity;
@@ -122,11 +121,10 @@ static int trade_rays(ts_pipeline *p, uint64_t verts, uint64_t groups, int quiet
     if (!quiet)
         ts_print_line("tessera: the frame's patches need %llu MB at their levels of detail: "
                       "the patch cache takes %llu MB of the %llu MB budget instead of %llu MB, "
-                      "waves %u rays instead of %u%s (--memory sets the budget)",
+                      "waves %u rays instead of %u (--memory sets the budget)",
                       (unsigned long long)(need >> 20), (unsigned long long)(now >> 20),
                       (unsigned long long)(p->stats->memory_budget_bytes >> 20),
-                      (unsigned long long)(have >> 20), p->plan.ray_capacity, old_rays,
-                      now < need ? "; patches are diced again when they return" : "");
+                      (unsigned long long)(have >> 20), p->plan.ray_capacity, old_rays);
     return 1;
 }
 

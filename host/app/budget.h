@@ -53,12 +53,14 @@ void budget_fixed(uint64_t mb, ts_budget_choice *out);
  * growth is added to memory_budget_bytes; so that each patch is diced once per frame instead
  * of again in every wave. When there is not that room (--memory, room_mb no larger than the
  * budget, or not enough of it) and `trade` is set, the budget is split again instead (Hanika
- * §4's trade of rays per wave against patch memory): the arenas take what the frame's patches
- * need, up to TS_TRADE_ARENA_PART / TS_TRADE_ARENA_DIV of what the plan gave the arenas and
- * the waves together, and the waves the rest (pipeline_resize_rays), so the budget's total
- * stays. `trade` only between waves, and only where nothing was sized by the rays of a wave
- * (a bake's points per wave are). The image does not depend on any of it. Notes on stderr
- * unless quiet; TS_E_* in *err only when the pipeline is left unusable. */
+ * §4's trade of rays per wave against patch memory) when the frame's patches fit in
+ * TS_TRADE_ARENA_PART / TS_TRADE_ARENA_DIV of what the plan gave the arenas and the waves
+ * together: the arenas take what they need and the waves the rest (pipeline_resize_rays),
+ * so the budget's total stays. When they do not fit even so, the plan's split stays: rays
+ * per wave then bound how often the patches are diced again. `trade` only between waves, and only
+ * where nothing was sized by the rays of a wave (a bake's points per wave are). The image does not
+ * depend on any of it. Notes on stderr unless quiet; TS_E_* in *err only when the pipeline is left
+ * unusable. */
 #define TS_TRADE_ARENA_PART 3u
 #define TS_TRADE_ARENA_DIV 4u
 int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, ts_error *err);
