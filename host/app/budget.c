@@ -86,6 +86,19 @@ void budget_fixed(uint64_t mb, ts_budget_choice *out)
     snprintf(out->why, sizeof out->why, "--memory");
 }
 
+/* New arenas of verts and groups entries (pipeline_grow_arenas); when they cannot be had
+ * the old ones stay, a note says why unless quiet, and 0 is returned. 1: grown. */
+static int arenas_grow(ts_pipeline *p, uint64_t verts, uint64_t groups, int quiet, ts_error *err)
+{
+    uint64_t have = pipeline_arena_bytes(&p->plan);
+    if (!pipeline_grow_arenas(p, verts, groups, err)) return 1;
+    if (!quiet)
+        ts_print_line("tessera: note: the patch cache stays at %llu MB (%s)",
+                      (unsigned long long)(have >> 20), err->msg);
+    ts_error_clear(err);
+    return 0;
+}
+
 /* The arenas within the budget (budget_grow_arenas' trade): when the frame's patches fit in
  * TS_TRADE_ARENA_PART of what the plan gave the arenas and the waves together, the patch
  * cache takes what they need and the waves keep the rest. Not when they do not fit: then
@@ -110,13 +123,7 @@ static int trade_rays(ts_pipeline *p, uint64_t verts, uint64_t groups, int quiet
     if (g < p->plan.group_capacity) g = p->plan.group_capacity;
     uint32_t old_rays = p->plan.ray_capacity;
     if (pipeline_resize_rays(p, (uint32_t)rays, err)) return -1;
-    if (pipeline_grow_arenas(p, v, g, err)) { /* the old arenas are kept */
-        if (!quiet)
-            ts_print_line("tessera: note: the patch cache stays at %llu MB (%s)",
-                          (unsigned long long)(have >> 20), err->msg);
-        ts_error_clear(err);
-        return 1;
-    }
+    if (!arenas_grow(p, v, g, quiet, err)) return 1; /* smaller waves, the old arenas */
     uint64_t now = pipeline_arena_bytes(&p->plan);
     if (!quiet)
         ts_print_line("tessera: the frame's patches need %llu MB at their levels of detail: "
@@ -148,13 +155,7 @@ int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, t
                           (unsigned long long)((have + extra) >> 20));
         return TS_OK;
     }
-    if (pipeline_grow_arenas(p, verts, groups, err)) { /* the old arenas are kept */
-        if (!quiet)
-            ts_print_line("tessera: note: the patch cache stays at %llu MB (%s)",
-                          (unsigned long long)(have >> 20), err->msg);
-        ts_error_clear(err);
-        return TS_OK;
-    }
+    if (!arenas_grow(p, verts, groups, quiet, err)) return TS_OK;
     uint64_t now = pipeline_arena_bytes(&p->plan);
     if (!quiet)
         ts_print_line("tessera: the frame's patches need %llu MB at their levels of detail: "
