@@ -460,7 +460,7 @@ static void test_units_plan(void **state)
     (void)state;
     uint64_t u;
     units_plan(640 * 360 * 16, 2, &u);
-    assert_int_equal(u, 230400); /* 3686400 / 16, a multiple of 64 */
+    assert_int_equal(u, 57600); /* 3686400 / 64, a multiple of 64 */
     units_plan(1000, 2, &u);
     assert_int_equal(u, 4096);
     units_plan((uint64_t)1 << 32, 1, &u);

@@ -10,7 +10,7 @@
 #include <time.h>
 
 /* Bounds of units_plan. */
-#define UNITS_PER_WORKER 8u
+#define UNITS_PER_WORKER 32u
 #define UNIT_MIN_SAMPLES 4096u
 #define UNIT_MAX_SAMPLES (1u << 20)
 

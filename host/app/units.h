@@ -48,12 +48,14 @@ void unit_result_free(ts_unit_result *r);
 void units_merge(ts_film_state *film, const ts_sample_order *o, const ts_unit *u,
                  const ts_unit_result *r);
 
-/* The size of the units for `samples` samples shared by `workers` devices: about eight
- * units a device, so that a fast device takes more than a slow one and the last units end
- * together, at least 4096 samples (a wave too small fills no device) and at most 2^20 (16 MB
- * of radiance), in multiples of 64 (a work-group); TESSERA_UNIT_SAMPLES=N sets it (a testing
- * aid: the image does not depend on it). The frame's bands are made about this size
- * (sample_order_band) and each unit is a band (units_list). */
+/* The size of the units for `samples` samples shared by `workers` devices: about 32 units
+ * a device, so that a fast device takes more than a slow one and the last units end
+ * together (8 a device left one device idle for most of a unit at the end of a forest-1
+ * frame, and smaller bands keep each wave's patches closer together; docs/benchmarks.md), at least
+ * 4096 samples (a wave too small fills no device) and at most 2^20 (16 MB of radiance), in
+ * multiples of 64 (a work-group); TESSERA_UNIT_SAMPLES=N sets it (a testing aid: the image does not
+ * depend on it). The frame's bands are made about this size (sample_order_band) and each unit is a
+ * band (units_list). */
 void units_plan(uint64_t samples, uint32_t workers, uint64_t *unit_samples);
 
 /* The units of the samples of [0, total) that d lacks: one a band (each band's run),
