@@ -415,7 +415,7 @@ static int render_with_retry(ts_render *r, ts_error *err)
                 (unsigned long long)b.mb, b.oom.msg, (unsigned long long)(b.mb / 2));
         pipeline_destroy(&r->pipe);
         b.mb /= 2;
-        b.room_mb = 0; /* memory ran out: the arenas keep the smaller budget's share */
+        b.room_mb = 0; /* memory ran out: the arenas stay within the smaller budget */
     }
     if (rc && r->job.lod_mismatch && b.oom.code) {
         /* Samples finished before the retry, at levels of detail the smaller budget cannot

@@ -317,7 +317,7 @@ static int worker_shrink(ts_worker *w, ts_error *err)
     pipeline_destroy(&w->pipe);
     w->has_pipe = 0;
     w->mb /= 2;
-    w->room_mb = 0; /* memory ran out: the arenas keep the smaller budget's share */
+    w->room_mb = 0; /* memory ran out: the arenas stay within the smaller budget */
     int lod_failed;
     if (worker_pipeline(w, err) || worker_take_lod(w, &lod_failed, err)) return err->code;
     worker_share(w);
