@@ -18,6 +18,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <climits>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -68,7 +69,8 @@ template <class F> int guarded(const char *path, ts_error *err, F body)
 
 int check_size(const char *path, long width, long height, int channels, ts_error *err)
 {
-    if (width <= 0 || height <= 0 || channels <= 0 || channels > MAX_CHANNELS)
+    if (width <= 0 || height <= 0 || width > INT_MAX || height > INT_MAX || channels <= 0 ||
+        channels > MAX_CHANNELS)
         return exr_fail(err, path,
                         "invalid image size " + std::to_string(width) + "x" +
                             std::to_string(height) + "x" + std::to_string(channels));
