@@ -104,6 +104,29 @@ static void test_bad_input(void **state)
     expect_error(args, "new\\nline.rib: No such file or directory");
 }
 
+/* Renders write EXR and PNG without the OpenImageIO module (image.c): with the module's
+ * path pointing nowhere they still succeed, and only a texture in another format (the
+ * textured scene's PPM and PGM) needs it, failing at once with the reason and the path. */
+static void test_images_without_the_module(void **state)
+{
+    char args[16384];
+    const char *teapot = test_source_path("scene/teapot.rib");
+    setenv("TESSERA_IMAGE_MODULE", "/nonexistent/libtessera_image.so", 1);
+    const char *outs[] = {"plain.exr", "plain.png"};
+    for (int i = 0; i < 2; i++) {
+        snprintf(args, sizeof args, "render '%s' -o '%s/%s' --res 16x9 --spp 1 --quiet", teapot,
+                 dir, outs[i]);
+        assert_int_equal(run(args), 0);
+        assert_true(exists(outs[i]));
+    }
+    snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 16x9 --spp 1",
+             test_source_path("scene/textured.rib"), dir);
+    expect_error(args, "cobbles_");
+    expect_error(args, "cannot load the image module libtessera_image.so "
+                       "(/nonexistent/libtessera_image.so: cannot open shared object file");
+    unsetenv("TESSERA_IMAGE_MODULE");
+}
+
 static double number(const cJSON *o, const char *key)
 {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
@@ -367,6 +390,7 @@ int main(void)
         cmocka_unit_test(test_paths_are_checked_before_rendering),
         cmocka_unit_test(test_huge_resolution_is_refused),
         cmocka_unit_test(test_warning_lines_escape_control_characters),
+        cmocka_unit_test(test_images_without_the_module), /* last: it sets the environment */
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -1,4 +1,5 @@
-/* test_image.c — image I/O through OpenImageIO (host/image/image.h) and the sRGB tone map
+/* test_image.c — image I/O (host/image/image.h: OpenEXR, libpng, and OpenImageIO for other
+ * formats) and the sRGB tone map
  * (host/image/tonemap.h): bit-exact EXR round trips, PNG values, metadata, and the atomic-write
  * guarantees (no partial file, no stray temporary, an existing target untouched). */
 #include <setjmp.h>
@@ -262,6 +263,46 @@ static void test_exr_text_meta(void **state)
     assert_int_equal(image_read_meta_int(path, "tessera:bake_bands", &v, &err), TS_OK);
 }
 
+/* 1 when a shared object whose path contains name is mapped into this process. */
+static int library_mapped(const char *name)
+{
+    FILE *f = fopen("/proc/self/maps", "r");
+    char line[4096];
+    int found = 0;
+    while (f && !found && fgets(line, sizeof line, f))
+        found = strstr(line, name) != NULL;
+    if (f) fclose(f);
+    return found;
+}
+
+/* EXR in and out and PNG out go through OpenEXR and libpng: a process that only writes its
+ * image and reads EXR never maps OpenImageIO (whose ~260 libraries cost a process start
+ * 0.17 s or more). Runs before any test here reads a PNG. */
+static void test_exr_and_png_output_need_no_openimageio(void **state)
+{
+    scratch *s = *state;
+    char buf0[256], buf1[256];
+    float px[6] = {0.25f, 0.5f, 1.0f, 2.0f, 0.0f, 0.125f};
+    ts_image img = {2, 1, 3, NULL, px};
+    ts_error err = {0};
+    const char *exr = scratch_path(buf0, s, "a.exr"), *png = scratch_path(buf1, s, "a.png");
+    assert_int_equal(image_write_exr(exr, &img, NULL, 0, &err), TS_OK);
+    assert_int_equal(image_write_png(png, 2, 1, px, &err), TS_OK);
+    ts_image back;
+    assert_int_equal(image_read(exr, &back, &err), TS_OK);
+    image_free(&back);
+    int v;
+    assert_int_equal(image_read_meta_int(exr, "tessera:spp", &v, &err), TS_E_IO);
+    ts_error_clear(&err);
+    assert_true(library_mapped("libOpenEXR"));
+    assert_false(library_mapped("libOpenImageIO"));
+    /* Reading the PNG back is another format: the module comes in for it. */
+    assert_int_equal(image_read(png, &back, &err), TS_OK);
+    image_free(&back);
+    assert_true(library_mapped("libtessera_image"));
+    assert_true(library_mapped("libOpenImageIO"));
+}
+
 /* ---- PNG ---- */
 
 static void test_png_round_trip(void **state)
@@ -381,6 +422,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_tonemap_values),
+        cmocka_unit_test_setup_teardown(test_exr_and_png_output_need_no_openimageio, scratch_setup,
+                                        scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_round_trip, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_channel_order, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_meta, scratch_setup, scratch_teardown),

@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 packages=(
   cmake ninja-build gcc g++ pkg-config
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo
-  libopenimageio-dev libcjson-dev libcmocka-dev
+  libopenimageio-dev libopenexr-dev libpng-dev libcjson-dev libcmocka-dev
   zlib1g-dev # gzip RIB (host/scene/rib/rib_text.c)
   libopenmpi-dev openmpi-bin # several processes under mpirun (host/app/ranks_mpi.c, optional)
   oclgrind clang libclang-rt-14-dev clang-format # checks: tools/check_kernels.sh, tools/fuzz.sh

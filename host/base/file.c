@@ -209,3 +209,43 @@ int ts_file_remove_stale_temps(const char *path)
     closedir(d);
     return removed;
 }
+
+int ts_file_temp_create(const char *path, char *tmp, size_t cap, ts_error *err)
+{
+    static _Atomic unsigned counter;  /* distinct names for the threads of one process */
+    ts_file_remove_stale_temps(path); /* left by a process killed while it wrote */
+    int last_errno = 0;
+    for (int attempt = 0; attempt < 100; attempt++) {
+        if (ts_file_temp_name(path, (long)getpid(), counter++, tmp, cap) != 0)
+            return ts_error_set(err, TS_E_IO, "%s: the path is too long", path);
+        int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (fd >= 0) {
+            close(fd); /* the writer reopens it by name */
+            return TS_OK;
+        }
+        last_errno = errno;
+        if (errno != EEXIST) break; /* a temporary of a live process: try the next */
+    }
+    tmp[0] = '\0';
+    return ts_error_set(err, TS_E_IO, "%s: cannot create a temporary file beside it: %s", path,
+                        strerror(last_errno));
+}
+
+int ts_file_temp_commit(const char *tmp, const char *path, ts_error *err)
+{
+    int fd = open(tmp, O_RDONLY | O_CLOEXEC);
+    if (fd < 0 || fsync(fd) != 0) {
+        int e = errno;
+        if (fd >= 0) close(fd);
+        unlink(tmp);
+        return ts_error_set(err, TS_E_IO, "%s: cannot sync temporary file: %s", path, strerror(e));
+    }
+    close(fd);
+    if (rename(tmp, path) != 0) {
+        int e = errno;
+        unlink(tmp);
+        return ts_error_set(err, TS_E_IO, "%s: cannot rename temporary file over it: %s", path,
+                            strerror(e));
+    }
+    return TS_OK;
+}

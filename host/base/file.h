@@ -47,4 +47,15 @@ int ts_file_temp_name(const char *path, long pid, unsigned n, char *out, size_t 
  * many were removed. */
 int ts_file_remove_stale_temps(const char *path);
 
+/* Creates (O_EXCL, the caller's umask) an empty temporary for path (ts_file_temp_name, the
+ * first free N), after removing stale ones; its name goes to tmp[0..cap) for a writer that
+ * opens files by name. TS_E_IO "PATH: cannot create a temporary file beside it: <reason>"
+ * (or "PATH: the path is too long"). */
+int ts_file_temp_create(const char *path, char *tmp, size_t cap, ts_error *err);
+
+/* Makes a finished temporary the file at path: fsync, then rename over path, so that a
+ * crash cannot leave a truncated file under the target's name. On failure the temporary is
+ * removed, path is left as it was and err is TS_E_IO "PATH: cannot ...". */
+int ts_file_temp_commit(const char *tmp, const char *path, ts_error *err);
+
 #endif

@@ -1,6 +1,8 @@
-/* image.h — image files in and out through OpenImageIO, behind a C-only interface
- * (implemented in image_oiio.cpp, the project's one C++ file, which includes this header
- * inside extern "C"; no exception crosses it).
+/* image.h — image files in and out behind a C-only interface (image.c): EXR read and
+ * written with the OpenEXR library (image_exr.cpp), PNG written with libpng (image_png.c),
+ * every other format read through OpenImageIO (image_oiio.cpp), a module opened on the
+ * first such read (image_module.h); if it cannot be loaded, that read fails with TS_E_IO
+ * "PATH: cannot load the image module ...". No C++ exception crosses the interface.
  *
  * Writes are atomic: the image goes to a hidden temporary next to the target
  * (".NAME.tmp-PID-N", NAME cut to fit NAME_MAX: ts_file_temp_name), which is renamed over
@@ -47,15 +49,15 @@ typedef struct ts_image_text {
 int image_write_exr_text(const char *path, const ts_image *img, const ts_image_meta *meta,
                          int meta_count, const ts_image_text *text, int text_count, ts_error *err);
 
-/* Writes 8-bit sRGB PNG from rgb_linear (3 floats per pixel, rows top to bottom),
- * tone-mapped by tonemap_srgb8. path must end in ".png". Returns TS_OK or the code. */
+/* Writes 8-bit sRGB PNG (with the sRGB chunk) from rgb_linear (3 floats per pixel, rows top to
+ * bottom), tone-mapped by tonemap_srgb8. path must end in ".png". Returns TS_OK or the code. */
 int image_write_png(const char *path, int width, int height, const float *rgb_linear,
                     ts_error *err);
 
 /* Reads the first subimage of any format OIIO knows, all channels converted to float
  * (8-bit PNG values come back as v / 255). Channel order is the one written by
- * image_write_exr where recorded, else OIIO's (R, G, B, A, Z first). On success *out owns
- * its pixels and names: release them with image_free. On failure *out is zeroed. */
+ * image_write_exr where recorded, else OIIO's (by layer; R, G, B, A, Z first in each). On success
+ * *out owns its pixels and names: release them with image_free. On failure *out is zeroed. */
 int image_read(const char *path, ts_image *out, ts_error *err);
 
 /* Reads the integer metadata item `key` into *value; a missing or non-integer item is

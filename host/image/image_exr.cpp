@@ -1,0 +1,336 @@
+/* image_exr.cpp — EXR files through the OpenEXR 3 library (image_exr.h). Like the
+ * OpenImageIO module (image_oiio.cpp, STYLE.md 11) every entry point is extern "C" and
+ * catches every exception, reporting it through ts_error; nothing C++ crosses into the host.
+ *
+ * Files written: scanline, ZIP-compressed, 32-bit float channels, integer and string
+ * attributes, and "tessera:channel_order" (a string vector) because EXR stores channels
+ * sorted by name; the files OpenImageIO wrote before (the same layout and attributes) read
+ * back the same. Files read: any single-part scanline or tiled EXR, every channel converted
+ * to float. */
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfIntAttribute.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStringAttribute.h>
+#include <OpenEXR/ImfStringVectorAttribute.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <climits>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <new>
+#include <string>
+#include <vector>
+
+#include <strings.h>
+#include <unistd.h>
+
+extern "C" {
+#include "base/error.h"
+#include "base/file.h"
+#include "image/image_exr.h"
+}
+
+namespace
+{
+
+const char *const ORDER_ATTR = "tessera:channel_order"; /* string vector, one per channel */
+const int MAX_CHANNELS = 1024;
+
+int exr_fail(ts_error *err, const char *path, std::string why)
+{
+    /* Library messages may span lines; ts_error holds one. */
+    for (char &c : why)
+        if (c == '\n' || c == '\r') c = ' ';
+    while (!why.empty() && why.back() == ' ')
+        why.pop_back();
+    return ts_error_set(err, TS_E_IO, "%s: %s", path, why.c_str());
+}
+
+/* Runs body, turning any exception into a ts_error: the C boundary of this file. */
+template <class F> int guarded(const char *path, ts_error *err, F body)
+{
+    if (!path) return ts_error_set(err, TS_E_IO, "(null path): no file name given");
+    try {
+        return body();
+    } catch (const std::bad_alloc &) {
+        return ts_error_set(err, TS_E_MEMORY, "%s: out of memory", path);
+    } catch (const std::exception &e) {
+        return exr_fail(err, path, std::string("OpenEXR: ") + e.what());
+    } catch (...) {
+        return exr_fail(err, path, "unknown exception in OpenEXR");
+    }
+}
+
+int check_size(const char *path, long width, long height, int channels, ts_error *err)
+{
+    if (width <= 0 || height <= 0 || width > INT_MAX || height > INT_MAX || channels <= 0 ||
+        channels > MAX_CHANNELS)
+        return exr_fail(err, path,
+                        "invalid image size " + std::to_string(width) + "x" +
+                            std::to_string(height) + "x" + std::to_string(channels));
+    return TS_OK;
+}
+
+/* The names of img's channels: its own (present, non-empty, distinct: EXR keys channels by
+ * name), or OpenImageIO's defaults when it has none (Y for one channel; else R, G, B, A,
+ * channel4, channel5, ...), which the files written before this writer used. */
+int channel_names(const char *path, const ts_image *img, std::vector<std::string> &names,
+                  ts_error *err)
+{
+    for (int c = 0; c < img->channels; c++) {
+        if (!img->channel_names) {
+            static const char *const rgba[] = {"R", "G", "B", "A"};
+            names.push_back(img->channels == 1 ? std::string("Y")
+                            : c < 4            ? std::string(rgba[c])
+                                               : "channel" + std::to_string(c));
+            continue;
+        }
+        const char *n = img->channel_names[c];
+        if (!n || !*n) return exr_fail(err, path, "channel " + std::to_string(c) + " has no name");
+        for (int d = 0; d < c; d++)
+            if (names[d] == n)
+                return exr_fail(err, path, std::string("duplicate channel name \"") + n + "\"");
+        names.push_back(n);
+    }
+    return TS_OK;
+}
+
+/* The header: size, ZIP, float channels, the metadata and the channel order. */
+int make_header(const char *path, const ts_image *img, const std::vector<std::string> &names,
+                const ts_image_meta *meta, int meta_count, const ts_image_text *text,
+                int text_count, Imf::Header &h, ts_error *err)
+{
+    h = Imf::Header(img->width, img->height);
+    h.compression() = Imf::ZIP_COMPRESSION;
+    for (const std::string &n : names)
+        h.channels().insert(n, Imf::Channel(Imf::FLOAT));
+    for (int i = 0; i < meta_count; i++) {
+        if (!meta || !meta[i].key || !*meta[i].key)
+            return exr_fail(err, path, "metadata item " + std::to_string(i) + " has no key");
+        h.insert(meta[i].key, Imf::IntAttribute(meta[i].value));
+    }
+    for (int i = 0; i < text_count; i++) {
+        if (!text || !text[i].key || !*text[i].key || !text[i].text)
+            return exr_fail(err, path,
+                            "text metadata item " + std::to_string(i) + " is incomplete");
+        h.insert(text[i].key, Imf::StringAttribute(text[i].text));
+    }
+    h.insert(ORDER_ATTR, Imf::StringVectorAttribute(names));
+    return TS_OK;
+}
+
+/* Writes the pixels into the temporary tmp (the header already made). */
+void write_pixels(const char *tmp, const Imf::Header &h, const ts_image *img,
+                  const std::vector<std::string> &names)
+{
+    size_t xs = sizeof(float) * (size_t)img->channels, ys = xs * (size_t)img->width;
+    Imf::FrameBuffer fb;
+    for (int c = 0; c < img->channels; c++)
+        fb.insert(names[c], Imf::Slice(Imf::FLOAT, (char *)(img->pixels + c), xs, ys));
+    Imf::OutputFile out(tmp, h);
+    out.setFrameBuffer(fb);
+    out.writePixels(img->height);
+}
+
+int write_exr(const char *path, const ts_image *img, const ts_image_meta *meta, int meta_count,
+              const ts_image_text *text, int text_count, ts_error *err)
+{
+    if (!img) return exr_fail(err, path, "no image given");
+    int rc = check_size(path, img->width, img->height, img->channels, err);
+    if (!rc && !img->pixels) rc = exr_fail(err, path, "no pixel data");
+    std::vector<std::string> names;
+    if (!rc) rc = channel_names(path, img, names, err);
+    Imf::Header h;
+    if (!rc) rc = make_header(path, img, names, meta, meta_count, text, text_count, h, err);
+    char tmp[8192];
+    if (!rc) rc = ts_file_temp_create(path, tmp, sizeof tmp, err);
+    if (rc) return rc;
+    try {
+        write_pixels(tmp, h, img, names);
+    } catch (...) {
+        unlink(tmp);
+        throw; /* guarded reports it */
+    }
+    return ts_file_temp_commit(tmp, path, err);
+}
+
+/* Where OpenImageIO put a channel when a file carries no recorded order (the files other
+ * tools wrote: environment maps, textures): by layer (the name up to its last '.'), then
+ * R, G, B, A, Z of that layer in that order, then the others in the file's (name) order. */
+int channel_rank(const std::string &name)
+{
+    size_t dot = name.rfind('.');
+    std::string leaf = dot == std::string::npos ? name : name.substr(dot + 1);
+    static const char *const special[][2] = {
+        {"R", "red"}, {"G", "green"}, {"B", "blue"}, {"A", "alpha"}, {"Z", "depth"}};
+    for (int k = 0; k < 5; k++)
+        if (strcasecmp(leaf.c_str(), special[k][0]) == 0 ||
+            strcasecmp(leaf.c_str(), special[k][1]) == 0)
+            return k;
+    return 5;
+}
+
+std::string channel_layer(const std::string &name)
+{
+    size_t dot = name.rfind('.');
+    return dot == std::string::npos ? std::string() : name.substr(0, dot);
+}
+
+/* The file's channels in the order to return them: the recorded order when it names
+ * exactly the file's channels, else channel_rank's. */
+std::vector<std::string> read_order(const Imf::Header &h)
+{
+    std::vector<std::string> file;
+    for (Imf::ChannelList::ConstIterator i = h.channels().begin(); i != h.channels().end(); ++i)
+        file.push_back(i.name());
+    const Imf::StringVectorAttribute *rec =
+        h.findTypedAttribute<Imf::StringVectorAttribute>(ORDER_ATTR);
+    if (rec) {
+        std::vector<std::string> want = rec->value(), a = want, b = file;
+        std::sort(a.begin(), a.end());
+        std::sort(b.begin(), b.end());
+        if (a == b && std::adjacent_find(a.begin(), a.end()) == a.end()) return want;
+    }
+    std::stable_sort(file.begin(), file.end(), [](const std::string &x, const std::string &y) {
+        std::string lx = channel_layer(x), ly = channel_layer(y);
+        if (lx != ly) return lx < ly;
+        return channel_rank(x) < channel_rank(y);
+    });
+    return file;
+}
+
+/* One malloc'd block: n + 1 pointers (NULL-terminated) then the names, so that a single
+ * free() releases it. NULL if allocation fails. */
+const char **names_alloc(const std::vector<std::string> &names)
+{
+    size_t n = names.size(), bytes = (n + 1) * sizeof(char *);
+    for (const std::string &s : names)
+        bytes += s.size() + 1;
+    char **out = static_cast<char **>(malloc(bytes));
+    if (!out) return nullptr;
+    char *text = reinterpret_cast<char *>(out + n + 1);
+    for (size_t k = 0; k < n; k++) {
+        memcpy(text, names[k].c_str(), names[k].size() + 1);
+        out[k] = text;
+        text += names[k].size() + 1;
+    }
+    out[n] = nullptr;
+    return const_cast<const char **>(out);
+}
+
+/* Opens path for reading. The library's own message for a missing file is less plain than
+ * errno's, so files that cannot be opened at all report strerror. */
+std::unique_ptr<Imf::InputFile> open_input(const char *path, ts_error *err)
+{
+    if (access(path, R_OK) != 0) {
+        exr_fail(err, path, std::string("cannot read: ") + strerror(errno));
+        return nullptr;
+    }
+    if (ts_file_check_regular(path, err)) return nullptr;
+    return std::unique_ptr<Imf::InputFile>(new Imf::InputFile(path));
+}
+
+int read_exr(const char *path, ts_image *out, ts_error *err)
+{
+    std::unique_ptr<Imf::InputFile> in = open_input(path, err);
+    if (!in) return err->code;
+    const Imf::Header &h = in->header();
+    const Imath::Box2i dw = h.dataWindow();
+    long width = (long)dw.max.x - dw.min.x + 1, height = (long)dw.max.y - dw.min.y + 1;
+    std::vector<std::string> names = read_order(h);
+    int rc = check_size(path, width, height, (int)names.size(), err);
+    if (rc) return rc;
+    for (const std::string &n : names) {
+        const Imf::Channel &c = h.channels()[n];
+        if (c.xSampling != 1 || c.ySampling != 1)
+            return exr_fail(err, path, "channel \"" + n + "\" is subsampled (not supported)");
+    }
+    size_t nc = names.size(), pixel_count = (size_t)width * (size_t)height;
+    std::unique_ptr<float, decltype(&free)> px(
+        static_cast<float *>(malloc(pixel_count * nc * sizeof(float))), &free);
+    if (!px) return ts_error_set(err, TS_E_MEMORY, "%s: out of memory for pixels", path);
+    /* Slices address pixel (x, y) of the data window at base + x * xs + y * ys. */
+    size_t xs = sizeof(float) * nc, ys = xs * (size_t)width;
+    char *origin = (char *)px.get() - (ptrdiff_t)dw.min.x * (ptrdiff_t)xs -
+                   (ptrdiff_t)dw.min.y * (ptrdiff_t)ys;
+    Imf::FrameBuffer fb;
+    for (size_t c = 0; c < nc; c++)
+        fb.insert(names[c], Imf::Slice(Imf::FLOAT, origin + c * sizeof(float), xs, ys));
+    in->setFrameBuffer(fb);
+    in->readPixels(dw.min.y, dw.max.y);
+    const char **cn = names_alloc(names);
+    if (!cn) return ts_error_set(err, TS_E_MEMORY, "%s: out of memory for names", path);
+    out->width = (int)width;
+    out->height = (int)height;
+    out->channels = (int)nc;
+    out->channel_names = cn;
+    out->pixels = px.release();
+    return TS_OK;
+}
+
+int read_meta_int(const char *path, const char *key, int *value, ts_error *err)
+{
+    if (!key || !value) return exr_fail(err, path, "no metadata key or destination given");
+    std::unique_ptr<Imf::InputFile> in = open_input(path, err);
+    if (!in) return err->code;
+    const Imf::IntAttribute *a = in->header().findTypedAttribute<Imf::IntAttribute>(key);
+    if (!a) return exr_fail(err, path, std::string("no integer metadata \"") + key + "\"");
+    *value = a->value();
+    return TS_OK;
+}
+
+int read_meta_string(const char *path, const char *key, char *buf, size_t size, ts_error *err)
+{
+    if (!key || !buf || size == 0) return exr_fail(err, path, "no metadata key or buffer given");
+    std::unique_ptr<Imf::InputFile> in = open_input(path, err);
+    if (!in) return err->code;
+    const Imf::StringAttribute *a = in->header().findTypedAttribute<Imf::StringAttribute>(key);
+    if (!a) return exr_fail(err, path, std::string("no string metadata \"") + key + "\"");
+    const std::string &v = a->value();
+    size_t n = std::min(v.size(), size - 1);
+    memcpy(buf, v.data(), n);
+    buf[n] = '\0';
+    return TS_OK;
+}
+
+} // namespace
+
+extern "C" int image_exr_check_magic(const char *path)
+{
+    unsigned char magic[4] = {0};
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    size_t n = fread(magic, 1, 4, f);
+    fclose(f);
+    return n == 4 && magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01;
+}
+
+extern "C" int image_exr_write(const char *path, const ts_image *img, const ts_image_meta *meta,
+                               int meta_count, const ts_image_text *text, int text_count,
+                               ts_error *err)
+{
+    return guarded(path, err,
+                   [&] { return write_exr(path, img, meta, meta_count, text, text_count, err); });
+}
+
+extern "C" int image_exr_read(const char *path, ts_image *out, ts_error *err)
+{
+    return guarded(path, err, [&] { return read_exr(path, out, err); });
+}
+
+extern "C" int image_exr_read_meta_int(const char *path, const char *key, int *value, ts_error *err)
+{
+    return guarded(path, err, [&] { return read_meta_int(path, key, value, err); });
+}
+
+extern "C" int image_exr_read_meta_string(const char *path, const char *key, char *buf, size_t size,
+                                          ts_error *err)
+{
+    return guarded(path, err, [&] { return read_meta_string(path, key, buf, size, err); });
+}
