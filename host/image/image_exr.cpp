@@ -15,6 +15,7 @@
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <OpenEXR/ImfStringVectorAttribute.h>
+#include <OpenEXR/ImfThreading.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -23,6 +24,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <memory>
+#include <mutex>
 #include <new>
 #include <string>
 #include <vector>
@@ -52,11 +54,25 @@ int exr_fail(ts_error *err, const char *path, std::string why)
     return ts_error_set(err, TS_E_IO, "%s: %s", path, why.c_str());
 }
 
+/* OpenEXR compresses and decompresses the lines of a file on its global thread pool, which
+ * is empty until set: one thread a processor, as OpenImageIO set it (a 1920x768 image of 10
+ * float channels took 0.85 s to write on one thread, 0.49 s on two). Images are written
+ * after the devices finish, so the threads take no processor from a render. */
+void exr_threads(void)
+{
+    static std::once_flag once;
+    std::call_once(once, [] {
+        long n = sysconf(_SC_NPROCESSORS_ONLN);
+        Imf::setGlobalThreadCount(n > 1 ? (int)std::min(n, 64L) : 0);
+    });
+}
+
 /* Runs body, turning any exception into a ts_error: the C boundary of this file. */
 template <class F> int guarded(const char *path, ts_error *err, F body)
 {
     if (!path) return ts_error_set(err, TS_E_IO, "(null path): no file name given");
     try {
+        exr_threads();
         return body();
     } catch (const std::bad_alloc &) {
         return ts_error_set(err, TS_E_MEMORY, "%s: out of memory", path);
