@@ -324,10 +324,12 @@ static double counter(const char *json, const char *name)
 }
 
 /* Built patches shared between the two devices (host/pipeline/patch_share.h): the image is
- * the one-device image bit for bit; with every patch fitting the arenas, each is diced once
- * over both devices (as many dicings as one device makes) and every other miss is filled from
- * the store; TESSERA_PATCH_SHARE=0 shares nothing and dices more. A budget whose arenas
- * evict (--memory 16 at --lod 7: the patches need 24 MB, more than the budget's trade
+ * the one-device image bit for bit; with every patch fitting the arenas and every claim waited
+ * for (TESSERA_SHARE_WAIT=1), each is diced once over both devices (as many dicings as one
+ * device makes) and every other miss is filled from the store; by default a small patch
+ * still being built by the other device is diced again instead (trace.c share_await): at
+ * most once more, the same bits; TESSERA_PATCH_SHARE=0 shares nothing and dices more. A budget
+ * whose arenas evict (--memory 16 at --lod 7: the patches need 24 MB, more than the budget's trade
  * gives the arenas, so they keep the plan's quarter) still
  * shares, with the same bits. */
 static void test_two_devices_share_built_patches(void **state)
@@ -337,8 +339,17 @@ static void test_two_devices_share_built_patches(void **state)
     const char *args = "--res 160x90 --spp 4 --max-lod 6 --memory 256 --quiet";
     snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share1.json"));
     render("scene/teapot_displaced.rib", "share1.exr", first, extra);
+    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share3.json"));
+    render("scene/teapot_displaced.rib", "share3.exr", pair, extra); /* the default */
+    test_assert_same_pixels(in_dir("share1.exr"), in_dir("share3.exr"));
+    double diced3 = counter("share3.json", "patches_diced");
+    assert_true(diced3 >= 32.0 && diced3 <= 64.0);
+    assert_true(diced3 + counter("share3.json", "patches_shared") ==
+                counter("share3.json", "patch_cache_misses"));
+    setenv("TESSERA_SHARE_WAIT", "1", 1);
     snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share2.json"));
     render("scene/teapot_displaced.rib", "share2.exr", pair, extra);
+    unsetenv("TESSERA_SHARE_WAIT");
     test_assert_same_pixels(in_dir("share1.exr"), in_dir("share2.exr"));
     double diced = counter("share1.json", "patches_diced");
     assert_true(diced == 32.0);

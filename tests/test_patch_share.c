@@ -50,9 +50,15 @@ static void test_claim_publish_read(void **state)
     assert_int_equal(patch_share_take(&s, 1, 2, 1, bytes, 1, &d1), TS_TAKE_WAIT);
     assert_null(d1);
     assert_int_equal(patch_share_take(&s, 1, 2, 1, bytes, 0, &d1), TS_TAKE_LOCAL); /* its own */
+    const void *got = d0;
+    assert_int_equal(patch_share_poll(&s, 1, &got), -1); /* claimed: still being built */
+    assert_null(got);
+    assert_int_equal(patch_share_poll(&s, 2, &got), 0); /* absent */
     memset(d0, 0xab, bytes);
     patch_share_publish(&s, 1);
-    const void *got = NULL;
+    assert_int_equal(patch_share_poll(&s, 1, &got), 1);
+    assert_ptr_equal(got, d0);
+    got = NULL;
     assert_int_equal(patch_share_wait(&s, 1, &got), 1);
     assert_ptr_equal(got, d0);
     assert_int_equal(patch_share_take(&s, 1, 2, 1, bytes, 1, &d1), TS_TAKE_READY);

@@ -109,3 +109,13 @@ int patch_share_wait(ts_patch_share *s, uint32_t p, const void **data)
     pthread_mutex_unlock(&s->lock);
     return ready;
 }
+
+int patch_share_poll(ts_patch_share *s, uint32_t p, const void **data)
+{
+    pthread_mutex_lock(&s->lock);
+    ts_share_entry *e = &s->entry[p];
+    int state = e->state == TS_SHARE_CLAIMED ? -1 : e->state == TS_SHARE_READY ? 1 : 0;
+    *data = state > 0 ? e->data : NULL;
+    pthread_mutex_unlock(&s->lock);
+    return state;
+}

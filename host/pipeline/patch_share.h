@@ -11,7 +11,9 @@
  *
  * Claims: the first device to miss a patch claims it (patch_share_take returns
  * TS_TAKE_MINE with room reserved), dices and builds it, reads the blocks back and
- * publishes them; a device that misses a claimed patch waits for it (patch_share_wait).
+ * publishes them; a device that misses a claimed patch waits for it (patch_share_wait), or,
+ * when the patch is small and not ready (patch_share_poll), dices it itself (trace.c
+ * share_await).
  * A device claims a batch's misses in rounds of 1/devices of their bytes (host/pipeline/
  * trace.c share_round), so that devices that meet the same patches at once, as the first
  * units of a frame do, split the dicing instead of one waiting for the other.
@@ -94,5 +96,9 @@ int patch_share_wait(ts_patch_share *s, uint32_t p, const void **data);
 
 /* The bytes of one patch's blocks at m with `times` samples (vertices and sibling groups). */
 uint64_t patch_share_bytes(uint32_t m, uint32_t times);
+
+/* Without waiting: 1 and *data when p is published, -1 while another device still builds
+ * it, 0 when it is absent (abandoned). */
+int patch_share_poll(ts_patch_share *s, uint32_t p, const void **data);
 
 #endif

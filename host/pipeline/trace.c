@@ -462,11 +462,35 @@ static int share_round(ts_pipeline *p, const ts_batch *b, uint8_t *kind, void **
     return rc;
 }
 
+/* A patch of m <= TS_SHARE_DICE_OWN_LOD (at most 4,096 micro-quads) that another device
+ * claimed but has not published yet is diced here instead of waited for: two one-thread
+ * devices on forest-1 1920x768x4 (1,178 patches, m 0-7) waited 0.6 s of a 6.3 s frame for
+ * such claims; dicing them again cost 3.5% more dicings and made the frame 5% shorter.
+ * Larger patches are worth the wait (teapot_displaced, m 6-8: dicing them all again cost
+ * 4% more CPU and saved nothing). docs/benchmarks.md "Not waiting for small patches". */
+#define TS_SHARE_DICE_OWN_LOD 6u
+
+/* Whether to take patch `shape` (m = lod) claimed by another device: 1 with *got once it is
+ * published (waiting for it when it is large), 0 to dice it here (small and not ready yet,
+ * or abandoned). TESSERA_SHARE_WAIT=1 waits for every claim (exact dice-once counts). */
+static int share_await(ts_pipeline *p, uint32_t shape, uint32_t lod, const void **got)
+{
+    static _Atomic int wait_all = -1; /* read once: the environment does not change mid-frame */
+    if (wait_all < 0) {
+        const char *e = getenv("TESSERA_SHARE_WAIT");
+        wait_all = e && strcmp(e, "1") == 0;
+    }
+    int st = patch_share_poll(p->share, shape, got);
+    if (st >= 0) return st;
+    if (!wait_all && lod <= TS_SHARE_DICE_OWN_LOD) return 0;
+    return patch_share_wait(p->share, shape, got);
+}
+
 /* Batch b's misses through the store: each is taken from it (published by another device),
- * waited for (claimed by another), or diced and built here (claimed here in one of the
- * rounds, then published; or, without room in the store, kept here alone). Every claim is
- * published, or abandoned on an error, before the first wait (patch_share.h: no deadlock).
- * kind and data: one entry per segment of b; tmp: tree_count entries. */
+ * waited for (claimed by another; or diced here when small, share_await), or diced and built here
+ * (claimed here in one of the rounds, then published; or, without room in the store, kept here
+ * alone). Every claim is published, or abandoned on an error, before the first wait (patch_share.h:
+ * no deadlock). kind and data: one entry per segment of b; tmp: tree_count entries. */
 static int batch_make_shared(ts_pipeline *p, const ts_batch *b, uint8_t *kind, void **data,
                              uint32_t *tmp, ts_error *err)
 {
@@ -486,11 +510,11 @@ static int batch_make_shared(ts_pipeline *p, const ts_batch *b, uint8_t *kind, v
         if (TS_TREE_TIME(list[t]) != 0u) continue;
         const void *got = data[k];
         double t0 = stats_now();
-        int ready =
-            kind[k] != TS_TAKE_WAIT || patch_share_wait(p->share, p->segments_host[i].shape, &got);
+        int ready = kind[k] != TS_TAKE_WAIT ||
+                    share_await(p, p->segments_host[i].shape, p->segments_host[i].lod, &got);
         p->share_wait_seconds += stats_now() - t0;
         if (!ready) {
-            kind[k] = TS_TAKE_LOCAL; /* abandoned by a failed device: diced here below */
+            kind[k] = TS_TAKE_LOCAL; /* small, or abandoned by a failed device: diced here */
             continue;
         }
         rc = segment_blocks(p, i, (void *)got, 0, err);
