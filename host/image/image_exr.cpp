@@ -38,21 +38,13 @@ extern "C" {
 #include "image/image_exr.h"
 }
 
+#include "image/image_guard.h"
+
 namespace
 {
 
 const char *const ORDER_ATTR = "tessera:channel_order"; /* string vector, one per channel */
 const int MAX_CHANNELS = 1024;
-
-int exr_fail(ts_error *err, const char *path, std::string why)
-{
-    /* Library messages may span lines; ts_error holds one. */
-    for (char &c : why)
-        if (c == '\n' || c == '\r') c = ' ';
-    while (!why.empty() && why.back() == ' ')
-        why.pop_back();
-    return ts_error_set(err, TS_E_IO, "%s: %s", path, why.c_str());
-}
 
 /* OpenEXR compresses and decompresses the lines of a file on its global thread pool, which
  * is empty until set: one thread a processor, as OpenImageIO set it (a 1920x768 image of 10
@@ -67,29 +59,22 @@ void exr_threads(void)
     });
 }
 
-/* Runs body, turning any exception into a ts_error: the C boundary of this file. */
+/* The C boundary (image_guard.h), naming this file's library; the thread pool set first. */
 template <class F> int guarded(const char *path, ts_error *err, F body)
 {
-    if (!path) return ts_error_set(err, TS_E_IO, "(null path): no file name given");
-    try {
+    return image_guarded("OpenEXR", path, err, [&] {
         exr_threads();
         return body();
-    } catch (const std::bad_alloc &) {
-        return ts_error_set(err, TS_E_MEMORY, "%s: out of memory", path);
-    } catch (const std::exception &e) {
-        return exr_fail(err, path, std::string("OpenEXR: ") + e.what());
-    } catch (...) {
-        return exr_fail(err, path, "unknown exception in OpenEXR");
-    }
+    });
 }
 
 int check_size(const char *path, long width, long height, int channels, ts_error *err)
 {
     if (width <= 0 || height <= 0 || width > INT_MAX || height > INT_MAX || channels <= 0 ||
         channels > MAX_CHANNELS)
-        return exr_fail(err, path,
-                        "invalid image size " + std::to_string(width) + "x" +
-                            std::to_string(height) + "x" + std::to_string(channels));
+        return image_fail(err, path,
+                          "invalid image size " + std::to_string(width) + "x" +
+                              std::to_string(height) + "x" + std::to_string(channels));
     return TS_OK;
 }
 
@@ -108,10 +93,11 @@ int channel_names(const char *path, const ts_image *img, std::vector<std::string
             continue;
         }
         const char *n = img->channel_names[c];
-        if (!n || !*n) return exr_fail(err, path, "channel " + std::to_string(c) + " has no name");
+        if (!n || !*n)
+            return image_fail(err, path, "channel " + std::to_string(c) + " has no name");
         for (int d = 0; d < c; d++)
             if (names[d] == n)
-                return exr_fail(err, path, std::string("duplicate channel name \"") + n + "\"");
+                return image_fail(err, path, std::string("duplicate channel name \"") + n + "\"");
         names.push_back(n);
     }
     return TS_OK;
@@ -128,13 +114,13 @@ int make_header(const char *path, const ts_image *img, const std::vector<std::st
         h.channels().insert(n, Imf::Channel(Imf::FLOAT));
     for (int i = 0; i < meta_count; i++) {
         if (!meta || !meta[i].key || !*meta[i].key)
-            return exr_fail(err, path, "metadata item " + std::to_string(i) + " has no key");
+            return image_fail(err, path, "metadata item " + std::to_string(i) + " has no key");
         h.insert(meta[i].key, Imf::IntAttribute(meta[i].value));
     }
     for (int i = 0; i < text_count; i++) {
         if (!text || !text[i].key || !*text[i].key || !text[i].text)
-            return exr_fail(err, path,
-                            "text metadata item " + std::to_string(i) + " is incomplete");
+            return image_fail(err, path,
+                              "text metadata item " + std::to_string(i) + " is incomplete");
         h.insert(text[i].key, Imf::StringAttribute(text[i].text));
     }
     h.insert(ORDER_ATTR, Imf::StringVectorAttribute(names));
@@ -157,9 +143,9 @@ void write_pixels(const char *tmp, const Imf::Header &h, const ts_image *img,
 int write_exr(const char *path, const ts_image *img, const ts_image_meta *meta, int meta_count,
               const ts_image_text *text, int text_count, ts_error *err)
 {
-    if (!img) return exr_fail(err, path, "no image given");
+    if (!img) return image_fail(err, path, "no image given");
     int rc = check_size(path, img->width, img->height, img->channels, err);
-    if (!rc && !img->pixels) rc = exr_fail(err, path, "no pixel data");
+    if (!rc && !img->pixels) rc = image_fail(err, path, "no pixel data");
     std::vector<std::string> names;
     if (!rc) rc = channel_names(path, img, names, err);
     Imf::Header h;
@@ -245,7 +231,7 @@ const char **names_alloc(const std::vector<std::string> &names)
 std::unique_ptr<Imf::InputFile> open_input(const char *path, ts_error *err)
 {
     if (access(path, R_OK) != 0) {
-        exr_fail(err, path, std::string("cannot read: ") + strerror(errno));
+        image_fail(err, path, std::string("cannot read: ") + strerror(errno));
         return nullptr;
     }
     if (ts_file_check_regular(path, err)) return nullptr;
@@ -265,7 +251,7 @@ int read_exr(const char *path, ts_image *out, ts_error *err)
     for (const std::string &n : names) {
         const Imf::Channel &c = h.channels()[n];
         if (c.xSampling != 1 || c.ySampling != 1)
-            return exr_fail(err, path, "channel \"" + n + "\" is subsampled (not supported)");
+            return image_fail(err, path, "channel \"" + n + "\" is subsampled (not supported)");
     }
     size_t nc = names.size(), pixel_count = (size_t)width * (size_t)height;
     std::unique_ptr<float, decltype(&free)> px(
@@ -292,22 +278,22 @@ int read_exr(const char *path, ts_image *out, ts_error *err)
 
 int read_meta_int(const char *path, const char *key, int *value, ts_error *err)
 {
-    if (!key || !value) return exr_fail(err, path, "no metadata key or destination given");
+    if (!key || !value) return image_fail(err, path, "no metadata key or destination given");
     std::unique_ptr<Imf::InputFile> in = open_input(path, err);
     if (!in) return err->code;
     const Imf::IntAttribute *a = in->header().findTypedAttribute<Imf::IntAttribute>(key);
-    if (!a) return exr_fail(err, path, std::string("no integer metadata \"") + key + "\"");
+    if (!a) return image_fail(err, path, std::string("no integer metadata \"") + key + "\"");
     *value = a->value();
     return TS_OK;
 }
 
 int read_meta_string(const char *path, const char *key, char *buf, size_t size, ts_error *err)
 {
-    if (!key || !buf || size == 0) return exr_fail(err, path, "no metadata key or buffer given");
+    if (!key || !buf || size == 0) return image_fail(err, path, "no metadata key or buffer given");
     std::unique_ptr<Imf::InputFile> in = open_input(path, err);
     if (!in) return err->code;
     const Imf::StringAttribute *a = in->header().findTypedAttribute<Imf::StringAttribute>(key);
-    if (!a) return exr_fail(err, path, std::string("no string metadata \"") + key + "\"");
+    if (!a) return image_fail(err, path, std::string("no string metadata \"") + key + "\"");
     const std::string &v = a->value();
     size_t n = std::min(v.size(), size - 1);
     memcpy(buf, v.data(), n);

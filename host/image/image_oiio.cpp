@@ -26,6 +26,8 @@ extern "C" {
 #include "image/image_module.h"
 }
 
+#include "image/image_guard.h"
+
 namespace
 {
 
@@ -36,37 +38,18 @@ using OIIO::TypeDesc;
 const char *const ORDER_ATTR = "tessera:channel_order"; /* string[channels] */
 const int MAX_CHANNELS = 1024;
 
-int io_fail(ts_error *err, const char *path, std::string why)
-{
-    /* OIIO messages may span lines; ts_error holds one. */
-    for (char &c : why)
-        if (c == '\n' || c == '\r') c = ' ';
-    while (!why.empty() && why.back() == ' ')
-        why.pop_back();
-    return ts_error_set(err, TS_E_IO, "%s: %s", path, why.c_str());
-}
-
-/* Runs body, turning any exception into a ts_error: the C boundary of this file. */
+/* The C boundary (image_guard.h), naming this file's library. */
 template <class F> int guarded(const char *path, ts_error *err, F body)
 {
-    if (!path) return ts_error_set(err, TS_E_IO, "(null path): no file name given");
-    try {
-        return body();
-    } catch (const std::bad_alloc &) {
-        return ts_error_set(err, TS_E_MEMORY, "%s: out of memory", path);
-    } catch (const std::exception &e) {
-        return io_fail(err, path, std::string("OpenImageIO exception: ") + e.what());
-    } catch (...) {
-        return io_fail(err, path, "unknown exception in OpenImageIO");
-    }
+    return image_guarded("OpenImageIO", path, err, body);
 }
 
 int check_size(const char *path, int width, int height, int channels, ts_error *err)
 {
     if (width <= 0 || height <= 0 || channels <= 0 || channels > MAX_CHANNELS)
-        return io_fail(err, path,
-                       "invalid image size " + std::to_string(width) + "x" +
-                           std::to_string(height) + "x" + std::to_string(channels));
+        return image_fail(err, path,
+                          "invalid image size " + std::to_string(width) + "x" +
+                              std::to_string(height) + "x" + std::to_string(channels));
     return TS_OK;
 }
 
@@ -131,11 +114,11 @@ void permute_channels(float *px, size_t pixel_count, const std::vector<int> &per
 int open_input(const char *path, std::unique_ptr<ImageInput> &in, ts_error *err)
 {
     if (access(path, R_OK) != 0)
-        return io_fail(err, path, std::string("cannot read: ") + strerror(errno));
+        return image_fail(err, path, std::string("cannot read: ") + strerror(errno));
     /* Only regular files: OIIO spins forever on /dev/zero and blocks on a FIFO. */
     if (ts_file_check_regular(path, err)) return err->code;
     in = ImageInput::open(path);
-    if (!in) return io_fail(err, path, "cannot read: " + OIIO::geterror());
+    if (!in) return image_fail(err, path, "cannot read: " + OIIO::geterror());
     return TS_OK;
 }
 
@@ -146,7 +129,7 @@ int read_image(const char *path, ts_image *out, ts_error *err)
     if (rc) return rc;
     const ImageSpec &spec = in->spec();
     if (spec.deep || spec.depth > 1)
-        return io_fail(err, path, "deep and volume images are not supported");
+        return image_fail(err, path, "deep and volume images are not supported");
     rc = check_size(path, spec.width, spec.height, spec.nchannels, err);
     if (rc) return rc;
     size_t pixel_count = (size_t)spec.width * (size_t)spec.height;
@@ -154,7 +137,7 @@ int read_image(const char *path, ts_image *out, ts_error *err)
         static_cast<float *>(malloc(pixel_count * spec.nchannels * sizeof(float))), &free);
     if (!px) return ts_error_set(err, TS_E_MEMORY, "%s: out of memory for pixels", path);
     if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, px.get()))
-        return io_fail(err, path, "cannot read pixels: " + in->geterror());
+        return image_fail(err, path, "cannot read pixels: " + in->geterror());
     std::vector<int> perm = channel_order(spec);
     for (int k = 0; k < spec.nchannels; k++)
         if (perm[k] != k) {
@@ -173,24 +156,24 @@ int read_image(const char *path, ts_image *out, ts_error *err)
 
 int read_meta_int(const char *path, const char *key, int *value, ts_error *err)
 {
-    if (!key || !value) return io_fail(err, path, "no metadata key or destination given");
+    if (!key || !value) return image_fail(err, path, "no metadata key or destination given");
     std::unique_ptr<ImageInput> in;
     int rc = open_input(path, in, err);
     if (rc) return rc;
     const OIIO::ParamValue *p = in->spec().find_attribute(key, OIIO::TypeInt);
-    if (!p) return io_fail(err, path, std::string("no integer metadata \"") + key + "\"");
+    if (!p) return image_fail(err, path, std::string("no integer metadata \"") + key + "\"");
     *value = p->get_int();
     return TS_OK;
 }
 
 int read_meta_string(const char *path, const char *key, char *buf, size_t size, ts_error *err)
 {
-    if (!key || !buf || size == 0) return io_fail(err, path, "no metadata key or buffer given");
+    if (!key || !buf || size == 0) return image_fail(err, path, "no metadata key or buffer given");
     std::unique_ptr<ImageInput> in;
     int rc = open_input(path, in, err);
     if (rc) return rc;
     const OIIO::ParamValue *p = in->spec().find_attribute(key, OIIO::TypeString);
-    if (!p) return io_fail(err, path, std::string("no string metadata \"") + key + "\"");
+    if (!p) return image_fail(err, path, std::string("no string metadata \"") + key + "\"");
     std::string v = p->get_string();
     size_t n = std::min(v.size(), size - 1);
     memcpy(buf, v.data(), n);
