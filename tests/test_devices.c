@@ -38,6 +38,16 @@ static void render(const char *scene, const char *out, const char *devices, cons
                     devices, extra);
 }
 
+/* The seconds of stage `stage` in device k's entry of a --stats file. */
+static double device_stage(cJSON *root, int k, const char *stage)
+{
+    cJSON *d = cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(root, "devices"), k);
+    cJSON *v =
+        cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(d, "stages"), stage);
+    if (!cJSON_IsNumber(v)) fail_msg("stats: devices[%d].stages.%s is missing", k, stage);
+    return v->valuedouble;
+}
+
 /* The devices entry of a --stats file, device k. */
 static double device_number(cJSON *root, int k, const char *key)
 {
@@ -52,7 +62,8 @@ static const char *const scenes[] = {"scene/teapot.rib", "scene/teapot_displaced
                                      "scene/textured.rib"};
 
 /* Two devices give the one-device image, every channel bit for bit, on three scenes; the
- * stats name both devices and account for every sample. */
+ * stats name both devices and account for every sample; both count a part of the lod pass
+ * (app/workers.c), whose sums give the one-device levels of detail. */
 static void test_two_devices_give_the_one_device_image(void **state)
 {
     (void)state;
@@ -73,9 +84,30 @@ static void test_two_devices_give_the_one_device_image(void **state)
             assert_true(device_number(root, k, "units") >= 1);
             assert_true(busy > 0.0 && busy <= 1.0);
             assert_true(device_number(root, k, "rays") >= device_number(root, k, "samples"));
+            assert_true(device_stage(root, k, "lod") > 0.0);
         }
         cJSON_Delete(root);
     }
+}
+
+/* A device that cannot count its part of the lod pass (TESSERA_FAIL_LOD_PART=1: it gives its
+ * part up, as one whose launches fail would) leaves it to device 0: the same image, and
+ * device 1 counted nothing. */
+static void test_an_abandoned_lod_part_is_counted_by_device_0(void **state)
+{
+    (void)state;
+    const char *args = "--res 96x54 --spp 2 --max-lod 6 --quiet";
+    render("scene/teapot_displaced.rib", "lod1.exr", first, args);
+    char extra[256];
+    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("lod2.json"));
+    setenv("TESSERA_FAIL_LOD_PART", "1", 1);
+    render("scene/teapot_displaced.rib", "lod2.exr", pair, extra);
+    unsetenv("TESSERA_FAIL_LOD_PART");
+    test_assert_same_pixels(in_dir("lod1.exr"), in_dir("lod2.exr"));
+    cJSON *root = test_read_json(in_dir("lod2.json"));
+    assert_true(device_stage(root, 0, "lod") > 0.0);
+    assert_true(device_stage(root, 1, "lod") == 0.0);
+    cJSON_Delete(root);
 }
 
 /* Units of 777 samples cut passes and cross from one pass into the next, in pass order and
@@ -430,6 +462,7 @@ int main(void)
     setenv("POCL_DEVICES", "pthread pthread", 1);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_devices_give_the_one_device_image),
+        cmocka_unit_test(test_an_abandoned_lod_part_is_counted_by_device_0),
         cmocka_unit_test(test_two_devices_share_built_patches),
         cmocka_unit_test(test_a_device_failing_with_claims_abandons_them),
         cmocka_unit_test(test_odd_units_give_the_same_image),

@@ -12,17 +12,29 @@ ts_trace_mode waves_trace_mode(const ts_render_options *o)
                                                : 0u};
 }
 
-int waves_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam, ts_job *job,
-                    ts_error *err)
+int waves_lod_rule(ts_lod_rule *rule, ts_error *err)
 {
     /* TESSERA_LOD_RULE=visible|seen: the rules measured against the default in
      * docs/benchmarks.md, for experiments. */
     const char *name = getenv("TESSERA_LOD_RULE");
-    ts_lod_rule rule = TS_LOD_RULE_CROSSED;
-    if (name && *name && pipeline_lod_rule_parse(name, &rule))
+    *rule = TS_LOD_RULE_CROSSED;
+    if (name && *name && pipeline_lod_rule_parse(name, rule))
         return ts_error_set(err, TS_E_USAGE,
                             "TESSERA_LOD_RULE=%s: expected crossed, visible or seen", name);
+    return TS_OK;
+}
+
+int waves_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam, ts_job *job,
+                    ts_error *err)
+{
+    ts_lod_rule rule;
+    if (waves_lod_rule(&rule, err)) return err->code;
     if (o->fixed_lod < 0 && pipeline_lod(p, &cam, rule, err)) return err->code;
+    return waves_lod_record(o, p, job, err);
+}
+
+int waves_lod_record(const ts_render_options *o, ts_pipeline *p, ts_job *job, ts_error *err)
+{
     int32_t lod = job_lod_hash(p, o);
     job->lod_mismatch = job->check_lod && lod != job->lod;
     if (job->lod_mismatch)

@@ -22,6 +22,11 @@ ts_trace_mode waves_trace_mode(const ts_render_options *o);
  * job->check_lod are recorded. With --lod nothing is counted. */
 int waves_frame_lod(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam, ts_job *job,
                     ts_error *err);
+/* The rule TESSERA_LOD_RULE names (crossed when unset); TS_E_USAGE for another name. */
+int waves_lod_rule(ts_lod_rule *rule, ts_error *err);
+/* waves_frame_lod's second half, once p->patch_lod holds the frame's levels (made here or
+ * over several devices, app/workers.c): the resume check and the job's record. */
+int waves_lod_record(const ts_render_options *o, ts_pipeline *p, ts_job *job, ts_error *err);
 
 /* Traces one wave of paths from the eye: the camera's rays of the samples [first, first + n)
  * of the frame's order (cam->first_sample, cam->ray_count, cam->band; pipeline_camera made

@@ -14,6 +14,7 @@
 struct ts_worker {
     ts_workers *g;
     uint32_t slot; /* in g->w; slot 0 makes the lod */
+    int lod_part;  /* the part of the lod pass this device counts (g->lod_parts), or -1 */
     int index;     /* in `tessera devices` */
     ts_device cl;
     ts_pipeline pipe;
@@ -205,11 +206,62 @@ static void lod_publish(ts_workers *g, uint32_t max_lod, const uint8_t *patch_lo
     pthread_mutex_unlock(&g->lock);
 }
 
-/* Device 0: runs the lod stage and publishes the frame's levels of detail. */
+/* Counts part k of the lod pass on w's device (counts left in its buffer). */
+static int lod_count_part(ts_worker *w, uint32_t k, ts_error *err)
+{
+    const ts_frame *f = &w->g->frame;
+    uint64_t pixels = (uint64_t)f->cam.width * f->cam.height, parts = w->g->lod_parts;
+    return pipeline_lod_count_pixels(&w->pipe, &f->cam, (uint32_t)(pixels * k / parts),
+                                     (uint32_t)(pixels * (k + 1) / parts), err);
+}
+
+/* A device other than 0 with a part of the lod pass: counts it and adds its counts to
+ * g->lod_more, or marks the part abandoned (pipeline_ok 0, or the count failed: err says
+ * why) so that device 0 counts it. Never waits for another device. */
+static void worker_count_lod_part(ts_worker *w, int pipeline_ok, ts_error *err)
+{
+    ts_workers *g = w->g;
+    uint32_t n = g->frame.scene->patch_count;
+    /* TESSERA_FAIL_LOD_PART=1 (a testing aid, docs/errors.md): every part abandoned. */
+    const char *fail = getenv("TESSERA_FAIL_LOD_PART");
+    int give_up = fail && strcmp(fail, "1") == 0;
+    uint32_t *counts = pipeline_ok && !give_up ? malloc((n ? n : 1u) * sizeof *counts) : NULL;
+    int ok = counts && !lod_count_part(w, (uint32_t)w->lod_part, err) &&
+             !pipeline_lod_take_counts(&w->pipe, counts, err);
+    pthread_mutex_lock(&g->lock);
+    for (uint32_t i = 0; ok && i < n; ++i)
+        g->lod_more[i] += counts[i];
+    g->lod_part[w->lod_part] = ok ? 1 : -1;
+    pthread_cond_broadcast(&g->lod_cond);
+    pthread_mutex_unlock(&g->lock);
+    free(counts);
+}
+
+/* Device 0's part of a split lod pass: its own pixels, then, once every other part is
+ * added or abandoned, the abandoned ones; the levels from the sum. */
+static int lod_split_levels(ts_worker *w, ts_error *err)
+{
+    ts_workers *g = w->g;
+    if (lod_count_part(w, 0, err)) return err->code;
+    for (uint32_t k = 1; k < g->lod_parts; ++k) {
+        pthread_mutex_lock(&g->lock);
+        while (g->lod_part[k] == 0)
+            pthread_cond_wait(&g->lod_cond, &g->lock);
+        int abandoned = g->lod_part[k] < 0;
+        pthread_mutex_unlock(&g->lock);
+        if (abandoned && lod_count_part(w, k, err)) return err->code;
+    }
+    return pipeline_lod_finish_with(&w->pipe, TS_LOD_RULE_CROSSED, 0, g->lod_more, err);
+}
+
+/* Device 0: runs the lod stage (alone, or its part of it and the sum of the parts) and
+ * publishes the frame's levels of detail. */
 static int worker_make_lod(ts_worker *w, ts_error *err)
 {
     const ts_frame *f = &w->g->frame;
-    int rc = waves_frame_lod(f->opt, &w->pipe, f->cam, f->job, err);
+    int rc = w->g->lod_parts > 1
+                 ? lod_split_levels(w, err) || waves_lod_record(f->opt, &w->pipe, f->job, err)
+                 : waves_frame_lod(f->opt, &w->pipe, f->cam, f->job, err);
     lod_publish(w->g, w->pipe.plan.max_lod, rc ? NULL : w->pipe.patch_lod, err);
     return rc ? rc : w->g->lod_state > 0 ? TS_OK : TS_E_MEMORY;
 }
@@ -359,6 +411,8 @@ static void *worker_main(void *arg)
     double t0 = stats_now();
     int lod_failed = 0, makes_lod = w->slot == 0 && g->makes_lod;
     int rc = worker_pipeline(w, &w->err);
+    if (w->lod_part > 0) worker_count_lod_part(w, rc == TS_OK, &w->err);
+    if (w->lod_part > 0 && w->err.code) rc = w->err.code;
     if (makes_lod && rc) /* device 0's failure is the frame's: the lod is its */
         lod_publish(g, 0, NULL, &w->err), lod_failed = 1;
     else if (makes_lod)
@@ -398,10 +452,41 @@ static long worker_slow_ms(int index)
     return 0;
 }
 
+/* Splits the lod pass over device 0 and the devices that compute like it (they count the
+ * same crossings), when device 0 makes the lod by the crossed rule and the frame has no
+ * fixed --lod; else (or without memory for the sums) device 0 counts every pixel. */
+static void workers_lod_split(ts_workers *g)
+{
+    ts_lod_rule rule;
+    ts_error e = {0};
+    g->lod_parts = 1;
+    for (uint32_t i = 0; i < g->count; ++i)
+        g->w[i].lod_part = i == 0 ? 0 : -1;
+    if (!g->makes_lod || g->frame.opt->fixed_lod >= 0 || waves_lod_rule(&rule, &e) ||
+        rule != TS_LOD_RULE_CROSSED)
+        return;
+    uint32_t parts = 1;
+    for (uint32_t i = 1; i < g->count; ++i)
+        parts += devices_alike(&g->w[0].cl.info, &g->w[i].cl.info) ? 1u : 0u;
+    if (parts < 2) return;
+    uint32_t n = g->frame.scene->patch_count;
+    g->lod_more = calloc(n ? n : 1u, sizeof *g->lod_more);
+    g->lod_part = calloc(parts, 1);
+    if (!g->lod_more || !g->lod_part) {
+        free(g->lod_more), free(g->lod_part);
+        g->lod_more = NULL, g->lod_part = NULL;
+        return;
+    }
+    g->lod_parts = parts;
+    for (uint32_t i = 1, k = 1; i < g->count; ++i)
+        if (devices_alike(&g->w[0].cl.info, &g->w[i].cl.info)) g->w[i].lod_part = (int)k++;
+}
+
 int workers_start(ts_workers *g, ts_unit_source src, int makes_lod, ts_error *err)
 {
     g->src = src;
     g->makes_lod = makes_lod;
+    workers_lod_split(g);
     g->alive = g->running = g->count;
     for (uint32_t i = 0; i < g->count; ++i) {
         ts_worker *w = &g->w[i];
@@ -410,6 +495,9 @@ int workers_start(ts_workers *g, ts_unit_source src, int makes_lod, ts_error *er
             pthread_mutex_lock(&g->lock);
             g->alive -= g->count - i;
             g->running -= g->count - i;
+            for (uint32_t j = i; j < g->count; ++j) /* their lod parts: device 0 counts them */
+                if (g->w[j].lod_part > 0) g->lod_part[g->w[j].lod_part] = -1;
+            pthread_cond_broadcast(&g->lod_cond);
             pthread_mutex_unlock(&g->lock);
             if (i == 0 && makes_lod) lod_publish(g, 0, NULL, NULL);
             return ts_error_set(err, TS_E_MEMORY, "cannot start a thread for device %d", w->index);
@@ -532,6 +620,8 @@ void workers_close(ts_workers *g)
     free(g->w);
     if (g->sharing) patch_share_free(&g->share);
     free(g->patch_lod);
+    free(g->lod_more);
+    free(g->lod_part);
     ts_error_clear(&g->fatal);
     pthread_mutex_destroy(&g->lock);
     pthread_cond_destroy(&g->lod_cond);

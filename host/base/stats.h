@@ -61,8 +61,9 @@ typedef struct ts_device_stats {
     uint64_t units, samples, rays; /* rays: with the shadow rays */
     uint64_t memory_budget_bytes;  /* of the pipeline that finished */
     double stage_seconds[TS_STAGE_COUNT];
-    double setup_seconds; /* making the pipeline (the scene copied to the device) and waiting
-                             for the frame's levels of detail (the lod stage) */
+    double setup_seconds; /* making the pipeline (the scene copied to the device), counting
+                             its part of the lod pass and waiting for the frame's levels of
+                             detail */
     double busy_seconds;  /* tracing units and reading their results back */
     double frame_seconds; /* from the start of the device's thread to the frame's end */
     /* Built patches shared with the other devices (pipeline/patch_share.h): misses diced

@@ -465,20 +465,36 @@ static void lod_share(ts_pipeline *p)
         p->patch_lod[i] = p->patch_lod[s->shape[i]];
 }
 
+int pipeline_lod_take_counts(ts_pipeline *p, uint32_t *counts, ts_error *err)
+{
+    uint32_t n = p->scene->patch_count;
+    const cl_uint zero = 0;
+    if (n == 0) return TS_OK;
+    if (dev_finish(p->cl, p->stats, err) ||
+        dev_read(p->cl, p->lod_counts, 0, n * sizeof *counts, counts, "the LOD counts", err) ||
+        dev_fill(p->cl, p->lod_counts, &zero, sizeof zero, 0, n * sizeof *counts, "the LOD counts",
+                 err))
+        return err->code;
+    return TS_OK;
+}
+
 int pipeline_lod_finish(ts_pipeline *p, ts_lod_rule rule, int before_hit, ts_error *err)
+{
+    return pipeline_lod_finish_with(p, rule, before_hit, NULL, err);
+}
+
+int pipeline_lod_finish_with(ts_pipeline *p, ts_lod_rule rule, int before_hit, const uint32_t *more,
+                             ts_error *err)
 {
     uint32_t n = p->scene->patch_count;
     if (n == 0) return TS_OK;
     if (dev_finish(p->cl, p->stats, err)) return err->code;
     double t0 = stats_now();
     uint32_t *counts = malloc(n * sizeof *counts);
-    const cl_uint zero = 0;
     int rc = counts ? TS_OK : ts_error_set(err, TS_E_MEMORY, "out of memory");
-    if (rc == TS_OK &&
-        (dev_read(p->cl, p->lod_counts, 0, n * sizeof *counts, counts, "the LOD counts", err) ||
-         dev_fill(p->cl, p->lod_counts, &zero, sizeof zero, 0, n * sizeof *counts, "the LOD counts",
-                  err)))
-        rc = err->code;
+    if (rc == TS_OK) rc = pipeline_lod_take_counts(p, counts, err);
+    for (uint32_t i = 0; rc == TS_OK && more && i < n; ++i)
+        counts[i] += more[i]; /* integer sums: the same in any order */
     for (uint32_t i = 0; rc == TS_OK && i < n; ++i) {
         uint32_t m = lod_of_count(counts[i], p->plan.max_lod);
         if (before_hit) { /* p->patch_lod holds m from every crossing */
@@ -500,24 +516,41 @@ int pipeline_lod_finish(ts_pipeline *p, ts_lod_rule rule, int before_hit, ts_err
     return rc;
 }
 
-int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, ts_error *err)
+/* Counts the first sample pass's pixels [begin, end) (one ray each), wave by wave; pass 1
+ * traces them first and counts only the entries before their hits. */
+static int lod_count_pixels(ts_pipeline *p, const ts_camera_params *cam, uint32_t begin,
+                            uint32_t end, int pass, ts_error *err)
 {
     ts_camera_params c = *cam;
     c.band = 0; /* samples [0, pixels) are the first sample pass, whatever the frame's order */
-    uint32_t pixels = c.width * c.height, per_wave = p->plan.ray_capacity;
+    uint32_t per_wave = p->plan.ray_capacity;
     int rc = TS_OK;
     p->wave = 0;
+    p->in_lod = 1;
+    for (uint32_t first = begin; rc == TS_OK && first < end; first += per_wave) {
+        uint32_t n = end - first < per_wave ? end - first : per_wave;
+        c.first_sample = first;
+        c.ray_count = n;
+        if (pipeline_camera(p, &c, err) || (pass && pipeline_trace(p, n, err)) ||
+            pipeline_lod_count(p, n, pass, err))
+            rc = err->code;
+    }
+    p->in_lod = 0;
+    return rc;
+}
+
+int pipeline_lod_count_pixels(ts_pipeline *p, const ts_camera_params *cam, uint32_t begin,
+                              uint32_t end, ts_error *err)
+{
+    return lod_count_pixels(p, cam, begin, end, 0, err);
+}
+
+int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, ts_error *err)
+{
+    uint32_t pixels = cam->width * cam->height;
+    int rc = TS_OK;
     for (int pass = 0; rc == TS_OK && pass < (rule == TS_LOD_RULE_CROSSED ? 1 : 2); ++pass) {
-        p->in_lod = 1;
-        for (uint32_t first = 0; rc == TS_OK && first < pixels; first += per_wave) {
-            uint32_t n = pixels - first < per_wave ? pixels - first : per_wave;
-            c.first_sample = first;
-            c.ray_count = n;
-            if (pipeline_camera(p, &c, err) || (pass && pipeline_trace(p, n, err)) ||
-                pipeline_lod_count(p, n, pass, err))
-                rc = err->code;
-        }
-        p->in_lod = 0;
+        rc = lod_count_pixels(p, cam, 0, pixels, pass, err);
         if (rc == TS_OK && pipeline_lod_finish(p, rule, pass, err)) rc = err->code;
     }
     return rc;

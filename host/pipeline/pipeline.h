@@ -284,6 +284,17 @@ typedef enum ts_lod_rule {
  * first count, before_hit = 0: m_crossed, clamped to [0, max_lod]) and clears them. */
 int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, int before_hit, ts_error *err);
 int pipeline_lod_finish(ts_pipeline *p, ts_lod_rule rule, int before_hit, ts_error *err);
+/* pipeline_lod_finish with `more` (patch_count counts, or NULL) added to this device's:
+ * the counts other devices made over other pixels of the same pass (app/workers.c). */
+int pipeline_lod_finish_with(ts_pipeline *p, ts_lod_rule rule, int before_hit, const uint32_t *more,
+                             ts_error *err);
+/* Reads this device's counts into counts (patch_count entries) and clears them. */
+int pipeline_lod_take_counts(ts_pipeline *p, uint32_t *counts, ts_error *err);
+/* The crossed rule's counts over pixels [begin, end) of the first sample pass only (one
+ * ray each, wave by wave), left in this device's counts: the frame's counts are the sums
+ * over any split of the pixels into ranges. */
+int pipeline_lod_count_pixels(ts_pipeline *p, const ts_camera_params *cam, uint32_t begin,
+                              uint32_t end, ts_error *err);
 /* The whole lod stage over the frame's first sample pass (cam: the frame's camera; one ray
  * per pixel), wave by wave: every crossing, then, for the visible and seen rules, the pass
  * traced at those levels and counted again before the hits. Deterministic: the levels do
