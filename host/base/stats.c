@@ -205,22 +205,16 @@ int stats_write_json(const ts_stats *s, const char *path, ts_error *err)
     if (!text) return ts_error_set(err, TS_E_MEMORY, "out of memory (stats JSON)");
     /* A hidden temporary beside the target, as images are written (base/file.h). */
     char tmp[8192];
-    ts_file_remove_stale_temps(path);
-    int fd = -1;
-    for (unsigned n = 0; fd < 0 && n < 100; ++n) {
-        if (ts_file_temp_name(path, (long)getpid(), n, tmp, sizeof tmp) != 0) break;
-        fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (fd < 0 && errno != EEXIST) break;
-    }
-    FILE *f = fd >= 0 ? fdopen(fd, "wb") : NULL;
-    if (fd >= 0 && !f) close(fd);
+    ts_error why = {0};
+    int rc = ts_file_temp_create(path, tmp, sizeof tmp, &why);
+    FILE *f = rc ? NULL : fopen(tmp, "wb");
     int ok = f && fputs(text, f) >= 0 && fputc('\n', f) != EOF;
     if (f && fclose(f) != 0) ok = 0;
     free(text);
-    if (!ok || rename(tmp, path) != 0) {
-        if (fd >= 0) remove(tmp);
-        return ts_error_set(err, TS_E_IO, "%s: cannot write stats", path);
-    }
+    if (!rc && !ok) remove(tmp);
+    if (ok) rc = ts_file_temp_commit(tmp, path, &why);
+    ts_error_clear(&why);
+    if (!ok || rc) return ts_error_set(err, TS_E_IO, "%s: cannot write stats", path);
     return TS_OK;
 }
 

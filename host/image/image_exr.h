@@ -15,7 +15,8 @@ int image_exr_check_magic(const char *path);
 int image_exr_write(const char *path, const ts_image *img, const ts_image_meta *meta,
                     int meta_count, const ts_image_text *text, int text_count, ts_error *err);
 
-/* image_read, image_read_meta_int and image_read_meta_string for an EXR file. */
+/* image_read, image_read_meta_int and image_read_meta_string for an EXR file, once image.c
+ * checked that path is a readable regular file (they do not check it again). */
 int image_exr_read(const char *path, ts_image *out, ts_error *err);
 int image_exr_read_meta_int(const char *path, const char *key, int *value, ts_error *err);
 int image_exr_read_meta_string(const char *path, const char *key, char *buf, size_t size,
