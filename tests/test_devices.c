@@ -2,7 +2,8 @@
  * PoCL devices (POCL_DEVICES="pthread pthread", set here): the image equals the one-device
  * image bit for bit (every channel) on the teapot, the displaced teapot and the textured
  * scene, also with units that cut passes at odd places; with one device slowed
- * (TESSERA_SLOW_DEVICE) the split shifts towards the other and the image stays the same; an
+ * (TESSERA_SLOW_DEVICE) the split shifts towards the other and the image stays the same, and
+ * the slow device's last unit is backed up by the fast one (merged once, the same bits); an
  * interrupted render resumes to the same bits; --stats has one "devices" entry per device;
  * the devices share built patches (each diced once over both, same bits, also when the
  * arenas evict and when a device fails holding claims);
@@ -168,6 +169,35 @@ static void test_a_slow_device_takes_fewer_units(void **state)
     }
 }
 
+/* The first device 100 ms a wave, the second 3 s: when no unit is left, the first traces a
+ * backup of the one the second holds (units.h); the backup is merged, the slow copy dropped
+ * (stopped in its pause), every sample merged once, and the image is the same. */
+static void test_a_slow_devices_last_unit_is_backed_up(void **state)
+{
+    (void)state;
+    const char *args = "--res 96x54 --spp 8 --max-lod 6 --quiet";
+    render("scene/teapot.rib", "alone.exr", first, args);
+    char slow[64], extra[256];
+    snprintf(slow, sizeof slow, "%d:100,%d:3000", atoi(pair), atoi(strchr(pair, ',') + 1));
+    setenv("TESSERA_SLOW_DEVICE", slow, 1);
+    setenv("TESSERA_UNIT_SAMPLES", "1024", 1);
+    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("backup.json"));
+    render("scene/teapot.rib", "backup.exr", pair, extra);
+    unsetenv("TESSERA_SLOW_DEVICE");
+    unsetenv("TESSERA_UNIT_SAMPLES");
+    cJSON *root = test_read_json(in_dir("backup.json"));
+    if (!(device_number(root, 0, "backup_units") >= 1 &&
+          device_number(root, 1, "dropped_units") >= 1))
+        fail_msg("no backup: device 0 took %g backups, device 1 dropped %g units (%g merged)",
+                 device_number(root, 0, "backup_units"), device_number(root, 1, "dropped_units"),
+                 device_number(root, 1, "units"));
+    assert_true(device_number(root, 1, "backup_units") == 0);
+    assert_true(device_number(root, 0, "samples") + device_number(root, 1, "samples") ==
+                96.0 * 54 * 8);
+    cJSON_Delete(root);
+    test_assert_same_pixels(in_dir("alone.exr"), in_dir("backup.exr"));
+}
+
 /* The most samples a progress line of dir's stderr reports ("tessera: N / M samples"). */
 static long progress_samples(void)
 {
@@ -302,7 +332,7 @@ static void test_a_device_that_fails_to_build_is_left_out(void **state)
     test_expect_in_stderr(dir, warning);
     test_expect_in_stderr(dir, "the other devices go on without it");
     test_assert_same_pixels(in_dir("alone.exr"), in_dir("left_out.exr"));
-    setenv("TESSERA_FAIL_BUILD", "-", 1); /* every PoCL device name has a '-' */
+    setenv("TESSERA_FAIL_BUILD", "*", 1); /* every device */
     int rc = test_run_tessera(dir, "render '%s' -o '%s' --device all %s",
                               test_source_path("scene/teapot.rib"), in_dir("none.exr"), args);
     assert_int_equal(rc, 1);
@@ -467,6 +497,7 @@ int main(void)
         cmocka_unit_test(test_a_device_failing_with_claims_abandons_them),
         cmocka_unit_test(test_odd_units_give_the_same_image),
         cmocka_unit_test(test_a_slow_device_takes_fewer_units),
+        cmocka_unit_test(test_a_slow_devices_last_unit_is_backed_up),
         cmocka_unit_test(test_interrupted_two_device_render_resumes),
         cmocka_unit_test(test_bad_device_lists),
         cmocka_unit_test(test_a_device_that_fails_to_build_is_left_out),

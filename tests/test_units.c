@@ -6,11 +6,14 @@
  * board's units (one a band, none sharing a pixel) merged as threads finish them, in any
  * order, given back and taken again, from an empty film, a prefix or runs past a gap, give
  * the same bits and record the runs the film holds; take, give back, close, freeze;
- * units_plan's and sample_order_band's sizes. The radiance values span 12 orders of
- * magnitude, so any other order of the additions changes bits (asserted too). */
+ * backup units of a slow device's (merged once, whichever copy ends first; none of a device
+ * no slower, or with TESSERA_BACKUP_UNITS=0); units_plan's and sample_order_band's sizes. The
+ * radiance values span 12 orders of magnitude, so any other order of the additions changes bits
+ * (asserted too). */
 #include "app/units.h"
 #include "lib/sample_order.h"
 
+#include <pthread.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -238,8 +241,9 @@ static void test_merge_in_order_is_the_film(void **state)
         for (size_t k = 0; k < sizeof sizes / sizeof *sizes; ++k) {
             film_alloc(&f);
             for (uint64_t first = 0, i = 0; first < TOTAL; first += sizes[k], ++i) {
-                ts_unit u = {(uint32_t)i, 0, first,
-                             TOTAL - first < sizes[k] ? TOTAL - first : sizes[k]};
+                ts_unit u = {.index = (uint32_t)i,
+                             .first = first,
+                             .count = TOTAL - first < sizes[k] ? TOTAL - first : sizes[k]};
                 ts_unit_result r;
                 trace(&o, &u, &r);
                 units_merge(&f, &o, &u, &r);
@@ -295,7 +299,7 @@ static void film_holding(ts_film_state *f, const ts_sample_order *o, const ts_do
 {
     film_alloc(f);
     for (uint32_t i = 0; i < held->count; ++i) {
-        ts_unit u = {0, 0, held->r[i].first, held->r[i].end - held->r[i].first};
+        ts_unit u = {.first = held->r[i].first, .count = held->r[i].end - held->r[i].first};
         ts_unit_result r;
         trace(o, &u, &r);
         units_merge(f, o, &u, &r);
@@ -455,6 +459,144 @@ static void test_board_take_give_back_close(void **state)
     film_state_free(&f);
 }
 
+static void sleep_ms(long ms)
+{
+    nanosleep(&(struct timespec){ms / 1000, ms % 1000 * 1000000L}, NULL);
+}
+
+/* Backup units (units.h): a device that finished its units is handed a copy of the unit a
+ * slow device still holds; whichever copy ends first is merged, the other dropped, and the
+ * films are the one-device films either way. */
+static void test_board_backs_up_a_slow_device(void **state)
+{
+    (void)state;
+    ts_sample_order o = order_of(W); /* 11 units */
+    ts_film_state ref;
+    film_alloc(&ref);
+    film_reference(&ref, &o, 0, TOTAL);
+    for (int slow_wins = 0; slow_wins < 2; ++slow_wins) {
+        ts_film_state f;
+        film_alloc(&f);
+        ts_board b;
+        ts_error err = {0};
+        assert_int_equal(board_init(&b, &f, &o, TOTAL, NULL, &err), TS_OK);
+        ts_unit slow, u, copy;
+        ts_unit_result r;
+        assert_true(board_take_as(&b, 2, &slow));
+        assert_true(slow.index == 0 && slow.taker == 2 && !slow.backup);
+        for (uint32_t i = 1; i < H; ++i) { /* the fast device: 2 ms a unit */
+            assert_true(board_take_as(&b, 1, &u));
+            assert_true(u.index == i && u.taker == 1 && !u.backup);
+            sleep_ms(2);
+            trace(&o, &u, &r);
+            assert_int_equal(board_done(&b, &u, &r), 1);
+        }
+        /* Nothing new is left; the slow device's speed is unknown until it has held its
+         * unit 4 times as long as the fast one needs: then the backup. */
+        assert_true(board_take_as(&b, 1, &copy));
+        assert_true(copy.index == 0 && copy.taker == 1 && copy.backup);
+        assert_int_equal(b.backups_taken, 1);
+        assert_false(board_dropped(&b, &slow));
+        const ts_unit *first = slow_wins ? &slow : &copy, *second = slow_wins ? &copy : &slow;
+        trace(&o, first, &r);
+        assert_int_equal(board_done(&b, first, &r), 1);
+        assert_true(board_dropped(&b, second)); /* told to stop */
+        if (slow_wins) {
+            trace(&o, second, &r);
+            assert_int_equal(board_done(&b, second, &r), 0); /* finished, but dropped */
+        } else {
+            board_give_back(&b, second); /* stopped between two waves */
+        }
+        assert_true(board_finished(&b));
+        assert_int_equal(board_samples_done(&b), TOTAL);
+        assert_int_equal(board_take_as(&b, 1, &u), 0);
+        assert_same_films(&ref, &f);
+        board_free(&b);
+        film_state_free(&f);
+    }
+    film_state_free(&ref);
+}
+
+typedef struct late_done {
+    ts_board *b;
+    const ts_sample_order *o;
+    ts_unit u;
+    long ms;
+} late_done;
+
+static void *finish_late(void *arg)
+{
+    late_done *l = arg;
+    ts_unit_result r;
+    sleep_ms(l->ms);
+    trace(l->o, &l->u, &r);
+    board_done(l->b, &l->u, &r);
+    return NULL;
+}
+
+/* No backup of a device at least as fast as the taker (its speed known), nor of any with
+ * TESSERA_BACKUP_UNITS=0: the taker waits for the last unit and gets none. A unit given back
+ * while a backup of it is traced stays out; the backup is merged. */
+static void test_board_backs_up_only_the_slow(void **state)
+{
+    (void)state;
+    ts_sample_order o = order_of(W);
+    for (int off = 0; off < 2; ++off) {
+        if (off) setenv("TESSERA_BACKUP_UNITS", "0", 1);
+        ts_film_state f;
+        film_alloc(&f);
+        ts_board b;
+        ts_error err = {0};
+        assert_int_equal(board_init(&b, &f, &o, TOTAL, NULL, &err), TS_OK);
+        unsetenv("TESSERA_BACKUP_UNITS");
+        ts_unit u;
+        ts_unit_result r;
+        assert_true(board_take_as(&b, 2, &u)); /* device 2 traces a unit at 2 ms */
+        sleep_ms(2);
+        trace(&o, &u, &r);
+        assert_int_equal(board_done(&b, &u, &r), 1);
+        late_done late = {&b, &o, {0}, off ? 60 : 40};
+        assert_true(board_take_as(&b, 2, &late.u)); /* and holds one for 40 or 60 ms */
+        for (uint32_t i = 2; i < H; ++i) {          /* device 1 no faster (10 ms a unit) */
+            assert_true(board_take_as(&b, 1, &u));
+            sleep_ms(10);
+            trace(&o, &u, &r);
+            assert_int_equal(board_done(&b, &u, &r), 1);
+        }
+        pthread_t t;
+        assert_int_equal(pthread_create(&t, NULL, finish_late, &late), 0);
+        assert_int_equal(board_take_as(&b, 1, &u), 0); /* waits: no backup */
+        pthread_join(t, NULL);
+        assert_int_equal(b.backups_taken, 0);
+        assert_true(board_finished(&b));
+        board_free(&b);
+        film_state_free(&f);
+    }
+    /* Given back by its first holder while the backup is out: the backup is merged. */
+    ts_film_state f;
+    film_alloc(&f);
+    ts_board b;
+    ts_error err = {0};
+    assert_int_equal(board_init(&b, &f, &o, TOTAL, NULL, &err), TS_OK);
+    ts_unit slow, u, copy;
+    ts_unit_result r;
+    assert_true(board_take_as(&b, 2, &slow));
+    for (uint32_t i = 1; i < H; ++i) {
+        assert_true(board_take_as(&b, 1, &u));
+        sleep_ms(1);
+        trace(&o, &u, &r);
+        board_done(&b, &u, &r);
+    }
+    assert_true(board_take_as(&b, 1, &copy) && copy.backup);
+    board_give_back(&b, &slow);                  /* its device failed */
+    assert_int_equal(board_try_take(&b, &u), 0); /* not handed out again: the copy is out */
+    trace(&o, &copy, &r);
+    assert_int_equal(board_done(&b, &copy, &r), 1);
+    assert_true(board_finished(&b));
+    board_free(&b);
+    film_state_free(&f);
+}
+
 static void test_units_plan(void **state)
 {
     (void)state;
@@ -480,6 +622,8 @@ int main(void)
         cmocka_unit_test(test_merge_in_order_is_the_film),
         cmocka_unit_test(test_board_merges_in_any_order),
         cmocka_unit_test(test_board_take_give_back_close),
+        cmocka_unit_test(test_board_backs_up_a_slow_device),
+        cmocka_unit_test(test_board_backs_up_only_the_slow),
         cmocka_unit_test(test_units_plan),
     };
     return cmocka_run_group_tests(tests, setup, NULL);

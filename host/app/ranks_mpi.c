@@ -310,7 +310,7 @@ static int serve(ts_ranks *r, ts_board *b, int quiet, ts_error *err)
             ts_unit u;
             int t = board_try_take(b, &u);
             if (t == 0) break;
-            if (t < 0) u = (ts_unit){UINT32_MAX, 0, 0, 0}; /* none left */
+            if (t < 0) u = (ts_unit){.index = UINT32_MAX}; /* none left */
             if (t > 0 && peer_track(p, &u, 1)) {
                 board_give_back(b, &u);
                 return ts_error_set(err, TS_E_MEMORY, "out of memory");
@@ -402,9 +402,10 @@ typedef struct relay {
     relay_item *out, **out_tail; /* finished or given back, oldest first */
 } relay;
 
-static int relay_take(void *ctx, ts_unit *u)
+static int relay_take(void *ctx, uint16_t taker, ts_unit *u)
 {
     relay *q = ctx;
+    (void)taker; /* rank 0's board hands out no backups to other ranks */
     pthread_mutex_lock(&q->lock);
     while (!q->queued && !q->no_more && !q->closed)
         pthread_cond_wait(&q->changed, &q->lock);
@@ -435,9 +436,10 @@ static void relay_out(relay *q, const ts_unit *u, ts_unit_result *r)
     if (r) unit_result_free(r);
 }
 
-static void relay_done(void *ctx, const ts_unit *u, ts_unit_result *r)
+static int relay_done(void *ctx, const ts_unit *u, ts_unit_result *r)
 {
     relay_out(ctx, u, r);
+    return 1;
 }
 
 static void relay_give_back(void *ctx, const ts_unit *u)
@@ -684,8 +686,9 @@ static void follow_devices(ts_workers *g, const ts_frame *f, relay *q, ts_error 
     if (n == 0) ts_error_set(why, TS_E_DEVICE, "no OpenCL device found");
     if (n > 0 && !dev_select(&f->opt->cl, n, indices, &count, why) &&
         !workers_open(g, f, indices, count, why))
-        workers_start(g, (ts_unit_source){q, relay_take, relay_done, relay_give_back, relay_closed},
-                      0, why);
+        workers_start(
+            g, (ts_unit_source){q, relay_take, relay_done, relay_give_back, relay_closed, NULL}, 0,
+            why);
 }
 
 /* After a stop signal: stays up to 10 s before ending. When a rank dies, mpirun sends

@@ -5,6 +5,7 @@
 #include "lib/sample_order.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -88,7 +89,7 @@ int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, ts_un
         while (i < d->count && d->r[i].end <= first)
             ++i;
         if (i < d->count && d->r[i].first <= first) first = d->r[i].end < end ? d->r[i].end : end;
-        if (first < end) u[n] = (ts_unit){n, 0, first, end - first}, ++n;
+        if (first < end) u[n] = (ts_unit){.index = n, .first = first, .count = end - first}, ++n;
     }
     *units = u, *count = n;
     return TS_OK;
@@ -110,15 +111,26 @@ int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint6
         if (done_add(&b->done, held->r[i].first, held->r[i].end, err)) goto fail;
     b->start = done_samples(held);
     if (units_list(o, total, held, &b->units, &b->unit_count, err)) goto fail;
-    if (!(b->state = calloc(b->unit_count ? b->unit_count : 1, 1))) {
+    size_t n = b->unit_count ? b->unit_count : 1;
+    b->state = calloc(n, 1);
+    b->holders = calloc(n, 1);
+    b->holder = calloc(n, sizeof *b->holder);
+    b->since = calloc(n, sizeof *b->since);
+    if (!b->state || !b->holders || !b->holder || !b->since) {
         ts_error_set(err, TS_E_MEMORY, "out of memory");
         goto fail;
     }
+    const char *env = getenv("TESSERA_BACKUP_UNITS"); /* a testing aid: 0 turns them off */
+    b->backups = !(env && strcmp(env, "0") == 0);
     pthread_mutex_init(&b->lock, NULL);
     pthread_cond_init(&b->changed, NULL);
     return TS_OK;
 fail:
     free(b->units);
+    free(b->state);
+    free(b->holders);
+    free(b->holder);
+    free(b->since);
     done_free(&b->done);
     memset(b, 0, sizeof *b);
     return err->code;
@@ -128,6 +140,9 @@ void board_free(ts_board *b)
 {
     if (!b->state) return;
     free(b->state);
+    free(b->holders);
+    free(b->holder);
+    free(b->since);
     free(b->units);
     done_free(&b->done);
     pthread_mutex_destroy(&b->lock);
@@ -135,22 +150,80 @@ void board_free(ts_board *b)
     memset(b, 0, sizeof *b);
 }
 
-/* board_try_take with the lock held. */
-static int take_locked(ts_board *b, ts_unit *u)
+/* Hands unit i out to taker (0: none named) at time now. */
+static void hand_out(ts_board *b, uint32_t i, uint16_t taker, double now, ts_unit *u)
 {
+    b->state[i] = UNIT_OUT;
+    b->holders[i] = 1;
+    b->holder[i] = taker;
+    b->since[i] = now;
+    if (taker) b->taker[taker - 1].since = now;
+    *u = b->units[i];
+    u->taker = taker;
+    u->backup = 0;
+}
+
+/* Samples a second that taker (slot + 1) traced over the units it finished; 0 before its
+ * first. */
+static double taker_rate(const ts_board *b, uint16_t taker)
+{
+    const ts_board_taker *t = taker ? &b->taker[taker - 1] : NULL;
+    return t && t->samples && t->seconds > 0 ? (double)t->samples / t->seconds : 0;
+}
+
+/* The unit out on a slower device that taker should trace a backup of now, or -1; *wake: when
+ * one may become due (INFINITY: none will by waiting alone). board_take_as says the rule. */
+static int64_t backup_pick(ts_board *b, uint16_t taker, double now, double *wake)
+{
+    double mine = taker_rate(b, taker), best = 0;
+    int64_t pick = -1;
+    if (!b->backups || !taker || mine <= 0) return -1;
+    for (uint32_t i = 0; i < b->next; ++i) {
+        if (b->state[i] != UNIT_OUT || b->holders[i] != 1 || !b->holder[i] || b->holder[i] == taker)
+            continue;
+        double need = (double)b->units[i].count / mine, held = now - b->since[i];
+        double theirs = taker_rate(b, b->holder[i]), left;
+        if (theirs > 0) {
+            if (mine < 2 * theirs) continue; /* not much slower: it ends about as soon */
+            left = (double)b->units[i].count / theirs - held;
+            if (left <= 0) left = held; /* overdue: as far from the end as it has gone */
+        } else if (held < 4 * need) {   /* its speed unknown yet: wait until it is clear */
+            if (b->since[i] + 4 * need < *wake) *wake = b->since[i] + 4 * need;
+            continue;
+        } else {
+            left = held;
+        }
+        if (left > 1.5 * need && left > best) best = left, pick = i;
+    }
+    return pick;
+}
+
+/* board_try_take with the lock held; taker may be handed a backup (board_take_as). */
+static int take_locked(ts_board *b, uint16_t taker, ts_unit *u, double *wake)
+{
+    *wake = INFINITY;
     if (b->closed) return -1;
     int out = 0;
+    double now = stats_now();
     for (uint32_t i = 0; i < b->next; ++i) {
         if (b->state[i] == UNIT_GIVEN_BACK) {
-            b->state[i] = UNIT_OUT;
-            *u = b->units[i];
+            hand_out(b, i, taker, now, u);
             return 1;
         }
         out |= b->state[i] == UNIT_OUT;
     }
     if (b->next < b->unit_count) {
-        b->state[b->next] = UNIT_OUT;
-        *u = b->units[b->next++];
+        hand_out(b, b->next++, taker, now, u);
+        return 1;
+    }
+    int64_t i = out ? backup_pick(b, taker, now, wake) : -1;
+    if (i >= 0) {
+        b->holders[i] = 2;
+        b->taker[taker - 1].since = now;
+        b->backups_taken++;
+        *u = b->units[i];
+        u->taker = taker;
+        u->backup = 1;
         return 1;
     }
     /* Units still out may be given back; only when none is can nothing more come. */
@@ -159,56 +232,103 @@ static int take_locked(ts_board *b, ts_unit *u)
 
 int board_try_take(ts_board *b, ts_unit *u)
 {
+    double wake;
     pthread_mutex_lock(&b->lock);
-    int rc = take_locked(b, u);
+    int rc = take_locked(b, 0, u, &wake);
     pthread_mutex_unlock(&b->lock);
     return rc;
 }
 
-int board_take(ts_board *b, ts_unit *u)
+/* Waits on b->changed (lock held) until the monotonic-clock time `until` of stats_now, or
+ * without a limit when it is INFINITY. */
+static void wait_until(ts_board *b, double until)
 {
+    if (!isfinite(until)) {
+        pthread_cond_wait(&b->changed, &b->lock);
+        return;
+    }
+    double left = until - stats_now();
+    if (left < 0.001) left = 0.001;
+    struct timespec at;
+    clock_gettime(CLOCK_REALTIME, &at);
+    long ns = at.tv_nsec + (long)(left * 1e9);
+    at.tv_sec += ns / 1000000000L;
+    at.tv_nsec = ns % 1000000000L;
+    pthread_cond_timedwait(&b->changed, &b->lock, &at);
+}
+
+int board_take_as(ts_board *b, uint16_t taker, ts_unit *u)
+{
+    if (taker > TS_BOARD_TAKERS) taker = 0;
     pthread_mutex_lock(&b->lock);
     int rc;
-    while ((rc = take_locked(b, u)) == 0)
-        pthread_cond_wait(&b->changed, &b->lock);
+    double wake;
+    while ((rc = take_locked(b, taker, u, &wake)) == 0)
+        wait_until(b, wake);
     pthread_mutex_unlock(&b->lock);
     return rc > 0;
 }
 
-void board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
+int board_take(ts_board *b, ts_unit *u)
+{
+    return board_take_as(b, 0, u);
+}
+
+int board_dropped(ts_board *b, const ts_unit *u)
+{
+    pthread_mutex_lock(&b->lock);
+    int dropped = u->index < b->unit_count && b->state[u->index] == UNIT_MERGED;
+    pthread_mutex_unlock(&b->lock);
+    return dropped;
+}
+
+int board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
 {
     pthread_mutex_lock(&b->lock);
     ts_error err = {0};
+    int merged = 0;
     /* The unit's run joins the held samples first: when that cannot grow (out of memory),
      * the unit is handed out again rather than merged unrecorded. */
-    if (u->index >= b->unit_count) { /* not this board's */
+    if (u->index >= b->unit_count || !b->holders[u->index]) { /* not this board's */
         unit_result_free(r);
         pthread_mutex_unlock(&b->lock);
-        return;
+        return 0;
     }
-    if (!b->frozen && b->state[u->index] == UNIT_OUT &&
+    uint32_t i = u->index;
+    b->holders[i]--;
+    if (u->taker && u->taker <= TS_BOARD_TAKERS) { /* its speed, merged or not */
+        ts_board_taker *t = &b->taker[u->taker - 1];
+        t->seconds += stats_now() - t->since;
+        t->samples += u->count;
+    }
+    if (!b->frozen && b->state[i] == UNIT_OUT &&
         done_add(&b->done, u->first, u->first + u->count, &err) == TS_OK) {
         double t0 = stats_now();
         units_merge(b->film, &b->order, u, r);
         b->merge_seconds += stats_now() - t0;
-        b->state[u->index] = UNIT_MERGED;
+        b->state[i] = UNIT_MERGED;
         b->merged++;
         b->samples_finished += u->count;
         b->rays += r->rays;
-    } else if (!b->frozen && b->state[u->index] == UNIT_OUT) {
-        b->state[u->index] = UNIT_GIVEN_BACK;
+        merged = 1;
+    } else if (!b->frozen && b->state[i] == UNIT_OUT && !b->holders[i]) {
+        b->state[i] = UNIT_GIVEN_BACK;
     }
     ts_error_clear(&err);
     unit_result_free(r);
     pthread_cond_broadcast(&b->changed);
     pthread_mutex_unlock(&b->lock);
+    return merged;
 }
 
 void board_give_back(ts_board *b, const ts_unit *u)
 {
     pthread_mutex_lock(&b->lock);
-    if (u->index < b->unit_count && b->state[u->index] == UNIT_OUT)
-        b->state[u->index] = UNIT_GIVEN_BACK;
+    if (u->index < b->unit_count && b->holders[u->index]) {
+        b->holders[u->index]--;
+        if (b->state[u->index] == UNIT_OUT && !b->holders[u->index])
+            b->state[u->index] = UNIT_GIVEN_BACK;
+    }
     pthread_cond_broadcast(&b->changed);
     pthread_mutex_unlock(&b->lock);
 }
@@ -275,14 +395,19 @@ void board_wait(ts_board *b, double seconds)
     pthread_mutex_unlock(&b->lock);
 }
 
-static int source_take(void *ctx, ts_unit *u)
+static int source_take(void *ctx, uint16_t taker, ts_unit *u)
 {
-    return board_take(ctx, u);
+    return board_take_as(ctx, taker, u);
 }
 
-static void source_done(void *ctx, const ts_unit *u, ts_unit_result *r)
+static int source_done(void *ctx, const ts_unit *u, ts_unit_result *r)
 {
-    board_done(ctx, u, r);
+    return board_done(ctx, u, r);
+}
+
+static int source_dropped(void *ctx, const ts_unit *u)
+{
+    return board_dropped(ctx, u);
 }
 
 static void source_give_back(void *ctx, const ts_unit *u)
@@ -301,5 +426,6 @@ static int source_closed(void *ctx)
 
 ts_unit_source board_source(ts_board *b)
 {
-    return (ts_unit_source){b, source_take, source_done, source_give_back, source_closed};
+    return (ts_unit_source){
+        b, source_take, source_done, source_give_back, source_closed, source_dropped};
 }

@@ -22,8 +22,9 @@
 #include <stdint.h>
 
 typedef struct ts_unit {
-    uint32_t index; /* units are numbered from 0 in sample order */
-    uint32_t pad;
+    uint32_t index;        /* units are numbered from 0 in sample order */
+    uint16_t taker;        /* the device slot + 1 that the board handed it to (0: none named) */
+    uint16_t backup;       /* 1: handed out as a backup of a slower device's (board_take_as) */
     uint64_t first, count; /* global samples [first, first + count) */
 } ts_unit;
 
@@ -63,10 +64,27 @@ void units_plan(uint64_t samples, uint32_t workers, uint64_t *unit_samples);
 int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, ts_unit **units,
                uint32_t *count, ts_error *err);
 
+/* Devices of one process that a board keeps the speeds of (slots 0 .. TS_BOARD_TAKERS - 1). */
+#define TS_BOARD_TAKERS 64
+
 /* The units of a frame's samples that the film lacks, handed out in order (given-back ones
  * first) and merged into the film as they finish: no two units share a pixel, so the order
  * of the merges changes no bit. Thread-safe: each device's thread takes and returns
- * units. */
+ * units.
+ *
+ * Backup units: when nothing is left to hand out, a device that asks (board_take_as) may be
+ * given a copy of a unit that a much slower device of the same process still traces (a GPU
+ * beside a CPU: the CPU's last unit would otherwise hold the frame long after the GPU ran
+ * out of work). Whichever finishes first is merged; the other is dropped (board_done
+ * returns 0, board_dropped tells the slower one to stop between two waves). The same unit
+ * traced on another device gives the same samples where the devices compute alike, and a
+ * sample of its own device otherwise (docs/rendering.md "Backup units"). */
+typedef struct ts_board_taker {
+    double seconds;   /* spent on the units it finished */
+    uint64_t samples; /* their samples */
+    double since;     /* when it took the unit it traces now */
+} ts_board_taker;
+
 typedef struct ts_board {
     pthread_mutex_t lock;
     pthread_cond_t changed; /* a unit was merged or given back, or the board closed */
@@ -75,10 +93,16 @@ typedef struct ts_board {
     uint64_t total, start; /* the frame's samples; those the films held at the start */
     ts_unit *units;
     uint32_t unit_count;
-    uint32_t next;   /* the first unit never handed out */
-    uint32_t merged; /* how many units are in the films */
-    uint8_t *state;  /* per unit */
-    ts_done done;    /* the samples the films hold: what they held, and the merged units */
+    uint32_t next;    /* the first unit never handed out */
+    uint32_t merged;  /* how many units are in the films */
+    uint8_t *state;   /* per unit */
+    uint8_t *holders; /* per unit: devices tracing it (2 while it is backed up) */
+    uint16_t *holder; /* per unit: the taker of its first holder (0: none named) */
+    double *since;    /* per unit: when its first holder took it */
+    ts_board_taker taker[TS_BOARD_TAKERS]; /* per device slot: how fast it traces */
+    int backups;                           /* backup units allowed (TESSERA_BACKUP_UNITS) */
+    uint32_t backups_taken;                /* backup units handed out */
+    ts_done done; /* the samples the films hold: what they held, and the merged units */
     uint64_t samples_finished, rays; /* units merged, for progress */
     double merge_seconds;            /* spent in units_merge */
     int closed;                      /* board_close: nothing more is handed out */
@@ -95,12 +119,22 @@ void board_free(ts_board *b);
  * 1, or 0 when there is none left to hand out (every unit is out or merged) or the board is
  * closed. Waits while units are out that may yet be given back. */
 int board_take(ts_board *b, ts_unit *u);
+/* board_take for the device of slot taker - 1 (1 .. TS_BOARD_TAKERS), whose speed the board
+ * learns from the units it finishes: when nothing new is left, it may be handed a backup of
+ * a unit that a device at most half as fast holds (u->backup = 1) — as soon as that one's
+ * speed says the backup ends first with a margin, or, while the holder has finished no
+ * unit yet, once it has held the unit 4 times as long as the taker needs for it. */
+int board_take_as(ts_board *b, uint16_t taker, ts_unit *u);
+/* 1 when unit u is in the films from another device's copy: stop tracing it. */
+int board_dropped(ts_board *b, const ts_unit *u);
 /* The same without waiting: 1 a unit, 0 none now (every unit is out), -1 none ever again
  * (all handed out and merged, or closed). */
 int board_try_take(ts_board *b, ts_unit *u);
-/* Unit u is traced: merged into the films at once, and *r freed. */
-void board_done(ts_board *b, const ts_unit *u, ts_unit_result *r);
-/* Unit u was not traced (its device failed or stopped): it is handed out again first. */
+/* Unit u is traced: merged into the films at once, and *r freed. Returns 1 when it was
+ * merged, 0 when it was dropped (another copy was merged first, or the board is frozen). */
+int board_done(ts_board *b, const ts_unit *u, ts_unit_result *r);
+/* Unit u was not traced (its device failed or stopped, or its copy was dropped): unless
+ * another device still traces it, it is handed out again first. */
 void board_give_back(ts_board *b, const ts_unit *u);
 /* Hands out nothing more (a stop signal, a failure): board_take returns 0 from now on;
  * units being traced may still be finished and merged. */
@@ -123,10 +157,14 @@ void board_wait(ts_board *b, double seconds);
  * relay that another process's board feeds (ranks.c). */
 typedef struct ts_unit_source {
     void *ctx;
-    int (*take)(void *ctx, ts_unit *u); /* 1: a unit; 0: none left, or closed */
-    void (*done)(void *ctx, const ts_unit *u, ts_unit_result *r); /* takes *r */
+    /* 1: a unit for the device of slot taker - 1; 0: none left, or closed */
+    int (*take)(void *ctx, uint16_t taker, ts_unit *u);
+    /* takes *r; 1: merged (or sent on), 0: dropped (another copy was merged first) */
+    int (*done)(void *ctx, const ts_unit *u, ts_unit_result *r);
     void (*give_back)(void *ctx, const ts_unit *u);
     int (*closed)(void *ctx); /* 1: stop at the end of the wave being traced */
+    /* 1: u is merged from another device's copy, stop tracing it (NULL: never) */
+    int (*dropped)(void *ctx, const ts_unit *u);
 } ts_unit_source;
 
 ts_unit_source board_source(ts_board *b);

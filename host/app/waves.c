@@ -65,9 +65,9 @@ int waves_trace_paths(const ts_render_options *o, ts_pipeline *p, const ts_camer
         uint32_t shadows;
         sp.bounce = b;
         p->wave = b;
-        if (pipeline_trace(p, rays, err) ||
-            pipeline_shade(p, &sp, first, n, paths, &paths, &rays, &shadows, err))
-            return err->code;
+        if (pipeline_trace(p, rays, err)) return err->code;
+        if (p->cancelled) return TS_OK; /* the wave's results are dropped (pipeline.h) */
+        if (pipeline_shade(p, &sp, first, n, paths, &paths, &rays, &shadows, err)) return err->code;
         p->stats->counters[TS_COUNTER_rays] += rays - shadows;
         p->stats->counters[TS_COUNTER_shadow_rays] += shadows;
     }

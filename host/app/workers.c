@@ -25,8 +25,9 @@ struct ts_worker {
     uint32_t noted_lod;
     pthread_t thread;
     int started;
-    long slow_ms; /* TESSERA_SLOW_DEVICE: a pause after each wave (tests) */
-    int shares;   /* computes like device 0: shares built patches through g->share */
+    long slow_ms;        /* TESSERA_SLOW_DEVICE: a pause after each wave (tests) */
+    ts_unit cancel_unit; /* the unit being traced, for worker_unit_dropped */
+    int shares;          /* computes like device 0: shares built patches through g->share */
     ts_device_stats out;
     int failed, reported; /* failed: err says why; reported: workers_report said so */
     ts_error err;
@@ -316,8 +317,15 @@ static int worker_read_wave(ts_worker *w, const ts_unit *u, uint64_t first, uint
     return rc ? err->code : TS_OK;
 }
 
-/* Traces unit u in waves into r. *stopped: the source closed between two waves (the unit
- * is not finished). */
+/* 1 when the unit w traces is merged from another device's copy (pipeline.h cancel). */
+static int worker_unit_dropped(void *ctx)
+{
+    ts_worker *w = ctx;
+    return w->g->src.dropped(w->g->src.ctx, &w->cancel_unit);
+}
+
+/* Traces unit u in waves into r. *stopped: 1 the source closed between two waves, 2 another
+ * device's copy of u was merged (the unit is not finished). */
 static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, int *stopped,
                              ts_error *err)
 {
@@ -329,15 +337,25 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
     *stopped = 0;
     for (uint64_t first = u->first; first < u->first + u->count; first += per_wave) {
         if (g->src.closed(g->src.ctx)) return *stopped = 1, TS_OK;
+        if (g->src.dropped && g->src.dropped(g->src.ctx, u)) return *stopped = 2, TS_OK;
         uint64_t left = u->first + u->count - first;
         uint32_t n = (uint32_t)(left < per_wave ? left : per_wave);
         cam.first_sample = (uint32_t)first;
         cam.ray_count = n;
-        if (pipeline_camera(p, &cam, err) || waves_trace_paths(g->frame.opt, p, &cam, err) ||
-            worker_read_wave(w, u, first, n, r, err))
-            return err->code;
-        if (w->slow_ms)
-            nanosleep(&(struct timespec){w->slow_ms / 1000, w->slow_ms % 1000 * 1000000}, NULL);
+        /* A copy of u may be merged from another device meanwhile (a backup, units.h): the
+         * wave then ends after the trace iteration it is in. */
+        w->cancel_unit = *u;
+        p->cancel = g->src.dropped ? worker_unit_dropped : NULL, p->cancel_ctx = w;
+        p->cancelled = 0;
+        int rc = pipeline_camera(p, &cam, err) || waves_trace_paths(g->frame.opt, p, &cam, err);
+        p->cancel = NULL;
+        if (rc) return err->code;
+        if (p->cancelled) return *stopped = 2, TS_OK;
+        if (worker_read_wave(w, u, first, n, r, err)) return err->code;
+        for (long ms = 0; ms < w->slow_ms; ms += 10) { /* the test aid, ended by a drop */
+            if (g->src.dropped && g->src.dropped(g->src.ctx, u)) return *stopped = 2, TS_OK;
+            nanosleep(&(struct timespec){0, 10000000L}, NULL);
+        }
     }
     r->rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays] - rays;
     return TS_OK;
@@ -377,17 +395,26 @@ static int worker_shrink(ts_worker *w, ts_error *err)
 }
 
 /* Takes units until none is left: traces each and hands it back, or gives it back when
- * the source closed in the middle or the device failed. */
+ * the source closed in the middle, another device's copy was merged first (a backup,
+ * units.h) or the device failed. */
 static int worker_units(ts_worker *w, ts_error *err)
 {
     ts_unit_source *src = &w->g->src;
     ts_sample_order order = sample_order_of(&w->g->frame.cam);
     ts_unit u;
-    while (src->take(src->ctx, &u)) {
+    while (src->take(src->ctx, (uint16_t)(w->slot + 1), &u)) {
         double t0 = stats_now();
         ts_unit_result r;
         int stopped = 0, rc = unit_result_alloc(&r, &u, &order, err);
         if (!rc) rc = worker_trace_unit(w, &u, &r, &stopped, err);
+        w->out.backup_units += u.backup;
+        if (!rc && stopped == 2) { /* another device's copy is in the image */
+            unit_result_free(&r);
+            src->give_back(src->ctx, &u);
+            w->out.busy_seconds += stats_now() - t0;
+            w->out.dropped_units++;
+            continue;
+        }
         if (rc || stopped) {
             unit_result_free(&r);
             src->give_back(src->ctx, &u);
@@ -397,9 +424,12 @@ static int worker_units(ts_worker *w, ts_error *err)
             continue;
         }
         w->out.busy_seconds += stats_now() - t0;
-        w->out.units++;
-        w->out.samples += u.count;
-        src->done(src->ctx, &u, &r);
+        if (src->done(src->ctx, &u, &r)) {
+            w->out.units++;
+            w->out.samples += u.count;
+        } else {
+            w->out.dropped_units++;
+        }
     }
     return TS_OK;
 }

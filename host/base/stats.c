@@ -113,6 +113,8 @@ static void stats_devices_json(cJSON *root, const ts_stats *s)
             cJSON_AddNumberToObject(o, "units", (double)d->units);
             cJSON_AddNumberToObject(o, "samples", (double)d->samples);
             cJSON_AddNumberToObject(o, "rays", (double)d->rays);
+            cJSON_AddNumberToObject(o, "backup_units", (double)d->backup_units);
+            cJSON_AddNumberToObject(o, "dropped_units", (double)d->dropped_units);
             cJSON_AddItemToObject(o, "stages", stages_json(d->stage_seconds));
             cJSON_AddNumberToObject(o, "setup_seconds", d->setup_seconds);
             cJSON_AddNumberToObject(o, "busy_seconds", d->busy_seconds);

@@ -58,8 +58,12 @@ typedef struct ts_device_stats {
     char name[256];
     int32_t index;                 /* in `tessera devices` of its machine */
     int32_t rank;                  /* MPI rank; 0 without MPI */
-    uint64_t units, samples, rays; /* rays: with the shadow rays */
-    uint64_t memory_budget_bytes;  /* of the pipeline that finished */
+    uint64_t units, samples, rays; /* units, samples: merged into the image from it; rays: all
+                                      it traced, with the shadow rays */
+    /* Backups it traced of a slower device's units (app/units.h), and units it stopped or
+     * dropped because another device's copy was merged first. */
+    uint64_t backup_units, dropped_units;
+    uint64_t memory_budget_bytes; /* of the pipeline that finished */
     double stage_seconds[TS_STAGE_COUNT];
     double setup_seconds; /* making the pipeline (the scene copied to the device), counting
                              its part of the lod pass and waiting for the frame's levels of

@@ -331,7 +331,8 @@ static cl_program program_from_cache(ts_device *cl, const char *path)
  * N buffer creations fail with CL_MEM_OBJECT_ALLOCATION_FAILURE; TESSERA_FAIL_LAUNCH=K
  * makes the K-th kernel launch (counting from 1) fail with CL_OUT_OF_RESOURCES;
  * TESSERA_FAIL_LAUNCH_DEVICE=NAME counts only launches on devices whose name contains
- * NAME; TESSERA_FAIL_BUILD=NAME fails the program build on such devices. Read once. The counters
+ * NAME; TESSERA_FAIL_BUILD=NAME fails the program build on such devices (* on every one).
+ * Read once. The counters
  * are atomic: several devices launch from their own threads (app/workers.c). */
 static long env_count(const char *name)
 {
@@ -359,7 +360,8 @@ static void fail_init(void)
 static int fail_build_now(const ts_device *cl)
 {
     pthread_once(&fail_once, fail_init);
-    return fail_build_device && strstr(cl->info.name, fail_build_device);
+    return fail_build_device &&
+           (strcmp(fail_build_device, "*") == 0 || strstr(cl->info.name, fail_build_device));
 }
 
 /* 1 when this buffer creation is to fail (TESSERA_FAIL_ALLOC). */

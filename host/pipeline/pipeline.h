@@ -231,6 +231,13 @@ typedef struct ts_pipeline {
     ts_relight_params relight;
     uint32_t wave;   /* the wave of paths being traced (stats iterations) */
     uint32_t in_lod; /* 1 while pipeline_lod traces its pass (stats iterations) */
+    /* Asked after each iteration of pipeline_trace when set (app/workers.c, while a unit
+     * that may be backed up is traced): 1 leaves the trace unfinished and sets cancelled,
+     * which waves_trace_paths reads to end the wave (its results are dropped). Iterations
+     * end with no claim of the share store open, so nothing waits for this device. */
+    int (*cancel)(void *ctx);
+    void *cancel_ctx;
+    int cancelled;
     /* Stages only some commands run, with their own kernels and buffers, made on demand
      * (bake.h: `tessera bake`) and released by pipeline_destroy; NULL otherwise. */
     struct ts_bake_stage *bake;

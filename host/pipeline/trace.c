@@ -702,6 +702,10 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
         p->stats->counters[TS_COUNTER_pairs] += valid;
         p->stats->counters[TS_COUNTER_iterations] += 1;
         if (stage_resolve(p, active, n_per_ray, &active, err)) return err->code;
+        if (active && p->cancel && p->cancel(p->cancel_ctx)) {
+            p->cancelled = 1;
+            break;
+        }
     }
     return TS_OK;
 }

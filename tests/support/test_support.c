@@ -275,6 +275,25 @@ int test_has_device(void)
     return n > 0;
 }
 
+int test_pocl_devices(char *out, size_t cap, int want)
+{
+    char cmd[4200], line[1024];
+    snprintf(cmd, sizeof cmd, "POCL_DEVICES='pthread pthread' '%s' devices 2>/dev/null",
+             test_tessera_binary());
+    FILE *p = popen(cmd, "r");
+    int found = 0, index;
+    out[0] = '\0';
+    while (p && fgets(line, sizeof line, p))
+        if (found < want && sscanf(line, "%d: ", &index) == 1 && strstr(line, "PoCL") &&
+            strstr(line, "[CPU")) {
+            size_t used = strlen(out);
+            snprintf(out + used, cap - used, "%s%d", found ? "," : "", index);
+            ++found;
+        }
+    if (p) pclose(p);
+    return found;
+}
+
 void test_write_text(const char *path, const char *text)
 {
     FILE *f = fopen(path, "w");
