@@ -202,6 +202,11 @@ static int setup(void **state)
     /* mpirun refuses root without these (the CI machine runs as root). */
     setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
     setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+    /* When a rank dies, mpirun gives the others 1 s between SIGTERM and SIGKILL: too little
+     * for rank 0 to notice the signal and write its image under ASan on a loaded machine (a
+     * CI run lost it so; 5 s costs this test about 20 s). docs/rendering.md gives users the
+     * same advice for large images. */
+    setenv("OMPI_MCA_odls_base_sigkill_timeout", "5", 1);
     /* Under tools/test_sanitize.sh: Open MPI's plugins have no frame pointers, so LeakSanitizer
      * needs the slow unwinder to see that what they keep until exit is theirs
      * (tools/lsan.supp). Only the commands under mpirun get it (mpi_env; the ranks inherit
