@@ -1,13 +1,14 @@
 /* noise4.h — kernels only: the fBm of lib/displace.h with several noise evaluations in the
  * lanes of a float8 (noise3_x8). shade.cl's displaced shading normal evaluates its four
- * surface points together, a point per lane and two octaves in the two halves; dice.cl
- * evaluates a vertex's octaves together, one per lane. The scalar fBm was 15% (shade) and 4%
- * (dice) of a teapot_displaced render. Every lane runs the operations of the scalar noise3 /
+ * surface points together, a point per lane and two octaves in the two halves (their Bézier
+ * points and displacement normals in float4 lanes); dice.cl evaluates a vertex's octaves
+ * together, one per lane. The scalar fBm was 15% (shade) and 4% (dice) of a
+ * teapot_displaced render. Every lane runs the operations of the scalar noise3 /
  * displace_value / patch_vertex in their order, and the octaves are added in octave order
  * (kernels are built with FP_CONTRACT OFF), so the results have the same bits as
  * patch_shading_normal and patch_vertex, which stay the host's references: test_dice_build
- * and test_bottom_level compare the diced grids bit for bit; the shading normal is checked
- * by rendering (the golden images, test_pathtrace). */
+ * and test_bottom_level compare the diced grids bit for bit; test_shading_normal compares
+ * the shading normal (through the probe kernel shade_normal_probe). */
 #ifndef TS_NOISE4_H
 #define TS_NOISE4_H
 
