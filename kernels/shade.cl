@@ -354,3 +354,25 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     state[i] = TS_PATH_STATE(out, mode) | relit;
     alive[k] = out;
 }
+
+/* Not a stage: the probe of tests/test_shading_normal.c. Item i: the shading normal
+ * shade_vertex_at takes (patch_shading_normal_x4) of patch pm[2i] diced at m = pm[2i + 1],
+ * at (u, v) = (uv[2i], uv[2i + 1]), which the test compares bit for bit with the host's
+ * patch_shading_normal (lib/patch.h). */
+__kernel void shade_normal_probe(__global const float *uv, __global const uint *pm, uint count,
+                                 __global const ts_vec4 *cp, __global const ts_vec4 *corner_n,
+                                 __global const ts_vec4 *mid_n, __global const ts_patch_attr *attr,
+                                 __global const ts_xform *xform,
+                                 __global const ts_texture *textures,
+                                 __global const uint *tex_pages, __global const ts_vec4 *tex_pool,
+                                 __global ts_vec4 *out)
+{
+    uint i = get_global_id(0);
+    if (i >= count) return;
+    uint q = pm[2u * i], m = pm[2u * i + 1u];
+    __global const ts_patch_attr *a = attr + q;
+    ts_tex_ctx tex = {textures, tex_pages, tex_pool};
+    out[i] = patch_shading_normal_x4(cp + (size_t)q * 16u, corner_n + (size_t)q * 4u,
+                                     mid_n + (size_t)q * 5u, a, xform + a->xform, tex, uv[2u * i],
+                                     uv[2u * i + 1u], m);
+}

@@ -48,6 +48,20 @@ TS_INLINE float bezier_sum4(const float b[4], float x0, float x1, float x2, floa
  * are bitwise equal (tests/test_scene.c). */
 TS_INLINE ts_vec4 bezier_combine(TS_CONST_GLOBAL ts_vec4 *cp, const float bu[4], const float bv[4])
 {
+#ifdef __OPENCL_C_VERSION__
+    /* The same sums with x, y, z (and w, unused) in the lanes of a float4, each lane the
+     * scalar operations in their order: the same bits. The scalar form below is compiled
+     * into gathers of the control points' columns by PoCL (a quarter of shade's time before
+     * the displaced normal went to lib/noise4.h's lanes; most of dice's). */
+    __global const float *f = (__global const float *)cp;
+    float4 r[4];
+    for (int j = 0; j < 4; ++j)
+        r[j] = (bu[0] * vload4(4 * j, f) + bu[3] * vload4(4 * j + 3, f)) +
+               (bu[1] * vload4(4 * j + 1, f) + bu[2] * vload4(4 * j + 2, f));
+    float4 q = (bv[0] * r[0] + bv[3] * r[3]) + (bv[1] * r[1] + bv[2] * r[2]);
+    ts_vec4 o = {q.x, q.y, q.z, 0.0f};
+    return o;
+#else
     float rx[4], ry[4], rz[4];
     for (int j = 0; j < 4; ++j) {
         TS_CONST_GLOBAL ts_vec4 *c = cp + j * 4;
@@ -59,6 +73,7 @@ TS_INLINE ts_vec4 bezier_combine(TS_CONST_GLOBAL ts_vec4 *cp, const float bu[4],
                  bezier_sum4(bv, ry[0], ry[1], ry[2], ry[3]),
                  bezier_sum4(bv, rz[0], rz[1], rz[2], rz[3]), 0.0f};
     return r;
+#endif
 }
 
 /* Position at (u, v) in [0,1]^2; w = 1. */

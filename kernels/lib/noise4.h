@@ -1,13 +1,14 @@
 /* noise4.h — kernels only: the fBm of lib/displace.h with several noise evaluations in the
  * lanes of a float8 (noise3_x8). shade.cl's displaced shading normal evaluates its four
- * surface points together, a point per lane and two octaves in the two halves; dice.cl
- * evaluates a vertex's octaves together, one per lane. The scalar fBm was 15% (shade) and 4%
- * (dice) of a teapot_displaced render. Every lane runs the operations of the scalar noise3 /
+ * surface points together, a point per lane and two octaves in the two halves (their Bézier
+ * points and displacement normals in float4 lanes); dice.cl evaluates a vertex's octaves
+ * together, one per lane. The scalar fBm was 15% (shade) and 4% (dice) of a
+ * teapot_displaced render. Every lane runs the operations of the scalar noise3 /
  * displace_value / patch_vertex in their order, and the octaves are added in octave order
  * (kernels are built with FP_CONTRACT OFF), so the results have the same bits as
  * patch_shading_normal and patch_vertex, which stay the host's references: test_dice_build
- * and test_bottom_level compare the diced grids bit for bit; the shading normal is checked
- * by rendering (the golden images, test_pathtrace). */
+ * and test_bottom_level compare the diced grids bit for bit; test_shading_normal compares
+ * the shading normal (through the probe kernel shade_normal_probe). */
 #ifndef TS_NOISE4_H
 #define TS_NOISE4_H
 
@@ -133,8 +134,84 @@ inline ts_vec4 patch_vertex_x8(__global const ts_vec4 *cp, __global const ts_vec
     return r;
 }
 
+/* bezier_basis (lib/bezier.h) at four parameters, one per lane. */
+inline void bezier_basis_x4(float4 t, float4 b[4])
+{
+    float4 s = 1.0f - t, ts = 3.0f * (t * s);
+    b[0] = s * s * s;
+    b[1] = ts * s;
+    b[2] = ts * t;
+    b[3] = t * t * t;
+}
+
+/* bezier_sum4 with the basis in lanes and the values shared by them. */
+inline float4 bezier_sum4_x4(const float4 b[4], float x0, float x1, float x2, float x3)
+{
+    return (b[0] * x0 + b[3] * x3) + (b[1] * x1 + b[2] * x2);
+}
+
+/* bezier_sum4 with the basis in lanes and a value per lane. */
+inline float4 bezier_sum4_v4(const float4 b[4], float4 x0, float4 x1, float4 x2, float4 x3)
+{
+    return (b[0] * x0 + b[3] * x3) + (b[1] * x1 + b[2] * x2);
+}
+
+/* bezier_eval at four points (u.sk, v.sk), a point per lane, each lane bezier_combine's
+ * operations in their order: the same bits. */
+inline void bezier_eval_x4(__global const ts_vec4 *cp, float4 u, float4 v, float4 *px, float4 *py,
+                           float4 *pz)
+{
+    float4 bu[4], bv[4], rx[4], ry[4], rz[4];
+    bezier_basis_x4(u, bu);
+    bezier_basis_x4(v, bv);
+    for (int j = 0; j < 4; ++j) {
+        __global const ts_vec4 *c = cp + j * 4;
+        rx[j] = bezier_sum4_x4(bu, c[0].x, c[1].x, c[2].x, c[3].x);
+        ry[j] = bezier_sum4_x4(bu, c[0].y, c[1].y, c[2].y, c[3].y);
+        rz[j] = bezier_sum4_x4(bu, c[0].z, c[1].z, c[2].z, c[3].z);
+    }
+    *px = bezier_sum4_v4(bv, rx[0], rx[1], rx[2], rx[3]);
+    *py = bezier_sum4_v4(bv, ry[0], ry[1], ry[2], ry[3]);
+    *pz = bezier_sum4_v4(bv, rz[0], rz[1], rz[2], rz[3]);
+}
+
+/* displace_quad_weights (lib/displace.h) in four lanes. */
+inline void displace_quad_weights_x4(float4 t, float4 w[3])
+{
+    w[0] = (1.0f - t) * (1.0f - 2.0f * t);
+    w[1] = 4.0f * t * (1.0f - t);
+    w[2] = t * (2.0f * t - 1.0f);
+}
+
+/* displace_normal (lib/displace.h) at four points (u.sk, v.sk), the same bits per lane. */
+inline void displace_normal_x4(__global const ts_vec4 *n, __global const ts_vec4 *mid, float4 u,
+                               float4 v, float4 *nx, float4 *ny, float4 *nz)
+{
+    float4 wu[3], wv[3];
+    displace_quad_weights_x4(u, wu);
+    displace_quad_weights_x4(v, wv);
+    /* displace_quad's rows: the v = 0 edge, v = 1/2, the v = 1 edge */
+    ts_vec4 a[3] = {n[0], mid[1], n[2]}, m[3] = {mid[0], mid[4], mid[3]},
+            b[3] = {n[1], mid[2], n[3]};
+    float4 rx[3], ry[3], rz[3];
+    for (int k = 0; k < 3; ++k) {
+        rx[k] = (wu[0] * a[k].x + wu[2] * b[k].x) + wu[1] * m[k].x;
+        ry[k] = (wu[0] * a[k].y + wu[2] * b[k].y) + wu[1] * m[k].y;
+        rz[k] = (wu[0] * a[k].z + wu[2] * b[k].z) + wu[1] * m[k].z;
+    }
+    float4 sx = (wv[0] * rx[0] + wv[2] * rx[2]) + wv[1] * rx[1];
+    float4 sy = (wv[0] * ry[0] + wv[2] * ry[2]) + wv[1] * ry[1];
+    float4 sz = (wv[0] * rz[0] + wv[2] * rz[2]) + wv[1] * rz[1];
+    float4 len = sqrt(sx * sx + sy * sy + sz * sz);
+    int4 ok = len > 1e-12f;
+    *nx = select((float4)(0.0f), sx / len, ok);
+    *ny = select((float4)(0.0f), sy / len, ok);
+    *nz = select((float4)(1.0f), sz / len, ok);
+}
+
 /* patch_shading_normal (lib/patch.h), the same bits: the four points of its central
- * differences displaced together where the displacement is noise. */
+ * differences evaluated together where the displacement is noise, a point per lane (the
+ * Bézier points, their displacement normals, and the noise in displace_value_x4). */
 inline ts_vec4 patch_shading_normal_x4(__global const ts_vec4 *cp, __global const ts_vec4 *n,
                                        __global const ts_vec4 *mid, __global const ts_patch_attr *a,
                                        __global const ts_xform *x, ts_tex_ctx tex, float u, float v,
@@ -144,20 +221,17 @@ inline ts_vec4 patch_shading_normal_x4(__global const ts_vec4 *cp, __global cons
     float h = 0.5f * ldexp(1.0f, -(int)m);
     float u0 = fmax(u - h, 0.0f), u1 = fmin(u + h, 1.0f);
     float v0 = fmax(v - h, 0.0f), v1 = fmin(v + h, 1.0f);
-    float pu[4] = {u0, u1, u, u}, pv[4] = {v, v, v0, v1};
-    ts_vec4 p[4];
-    for (int k = 0; k < 4; ++k)
-        p[k] = bezier_eval(cp, pu[k], pv[k]);
-    float4 d = displace_value_x4(a, x, (float4)(p[0].x, p[1].x, p[2].x, p[3].x),
-                                 (float4)(p[0].y, p[1].y, p[2].y, p[3].y),
-                                 (float4)(p[0].z, p[1].z, p[2].z, p[3].z));
-    float dk[4] = {d.s0, d.s1, d.s2, d.s3};
-    ts_vec4 q[4]; /* patch_vertex's displaced points */
-    for (int k = 0; k < 4; ++k) {
-        ts_vec4 dn = displace_normal(n, mid, pu[k], pv[k]);
-        q[k] =
-            (ts_vec4){p[k].x + dk[k] * dn.x, p[k].y + dk[k] * dn.y, p[k].z + dk[k] * dn.z, dk[k]};
-    }
+    float4 pu = (float4)(u0, u1, u, u), pv = (float4)(v, v, v0, v1);
+    float4 px, py, pz, nx, ny, nz;
+    bezier_eval_x4(cp, pu, pv, &px, &py, &pz);
+    float4 d = displace_value_x4(a, x, px, py, pz);
+    displace_normal_x4(n, mid, pu, pv, &nx, &ny, &nz);
+    /* patch_vertex's displaced points */
+    float4 qx = px + d * nx, qy = py + d * ny, qz = pz + d * nz;
+    ts_vec4 q[4] = {{qx.s0, qy.s0, qz.s0, d.s0},
+                    {qx.s1, qy.s1, qz.s1, d.s1},
+                    {qx.s2, qy.s2, qz.s2, d.s2},
+                    {qx.s3, qy.s3, qz.s3, d.s3}};
     return patch_normal_of_differences(cp, u, v, q[0], q[1], q[2], q[3]);
 }
 
