@@ -27,27 +27,13 @@ enum { W = 48, H = 27, R = W * H, P = 32, M = 5 };
 /* The teapot; displaced: fbm on every patch; moving: and translated over the shutter. */
 static void load(ts_scene *s, int displaced, int moving)
 {
-    FILE *f = fopen(test_source_path("scene/teapot.rib"), "rb");
-    assert_non_null(f);
-    static char text[1 << 20];
-    size_t n = fread(text, 1, sizeof text - 400, f);
-    fclose(f);
-    text[n] = '\0';
     char extra[400] = "";
     if (displaced)
         strcat(extra, "Displacement \"fbm\" \"float amplitude\" [0.05] \"float frequency\" [3] "
                       "\"float octaves\" [3]\n");
     if (moving)
         strcat(extra, "MotionBegin [0 1]\nTranslate 0 0 0\nTranslate 0.15 -0.1 0.05\nMotionEnd\n");
-    char *wb = strstr(text, "WorldBegin\n");
-    assert_non_null(wb);
-    size_t at = (size_t)(wb - text) + strlen("WorldBegin\n"), len = strlen(extra);
-    memmove(text + at + len, text + at, n - at + 1);
-    memcpy(text + at, extra, len);
-    n += len;
-    memset(s, 0, sizeof *s);
-    ts_error err = {0};
-    if (rib_parse_string("teapot.rib", text, n, s, 1, &err)) fail_msg("%s", err.msg);
+    test_parse_scene_with("scene/teapot.rib", extra, s);
     assert_int_equal(s->patch_count, P);
 }
 

@@ -25,21 +25,7 @@ enum { P = 32, N = 6000 };
 /* The teapot with `extra` inserted after WorldBegin. */
 static void load(ts_scene *s, const char *extra)
 {
-    FILE *f = fopen(test_source_path("scene/teapot.rib"), "rb");
-    assert_non_null(f);
-    static char text[1 << 20];
-    size_t n = fread(text, 1, sizeof text - 400, f);
-    fclose(f);
-    text[n] = '\0';
-    char *wb = strstr(text, "WorldBegin\n");
-    assert_non_null(wb);
-    size_t at = (size_t)(wb - text) + strlen("WorldBegin\n"), len = strlen(extra);
-    memmove(text + at + len, text + at, n - at + 1);
-    memcpy(text + at, extra, len);
-    n += len;
-    memset(s, 0, sizeof *s);
-    ts_error err = {0};
-    if (rib_parse_string("teapot.rib", text, n, s, 1, &err)) fail_msg("%s", err.msg);
+    test_parse_scene_with("scene/teapot.rib", extra, s);
     assert_int_equal(s->patch_count, P);
 }
 

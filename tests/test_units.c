@@ -464,6 +464,26 @@ static void sleep_ms(long ms)
     nanosleep(&(struct timespec){ms / 1000, ms % 1000 * 1000000L}, NULL);
 }
 
+/* A board of order o into film f whose unit 0 device 2 holds (*slow) while device 1 takes
+ * and finishes every other unit, `ms` milliseconds each. */
+static void board_with_slow_holder(ts_board *b, ts_film_state *f, const ts_sample_order *o,
+                                   ts_unit *slow, long ms)
+{
+    ts_error err = {0};
+    assert_int_equal(board_init(b, f, o, TOTAL, NULL, &err), TS_OK);
+    assert_true(board_take_as(b, 2, slow));
+    assert_true(slow->index == 0 && slow->taker == 2 && !slow->backup);
+    for (uint32_t i = 1; i < b->unit_count; ++i) {
+        ts_unit u;
+        ts_unit_result r;
+        assert_true(board_take_as(b, 1, &u));
+        assert_true(u.index == i && u.taker == 1 && !u.backup);
+        sleep_ms(ms);
+        trace(o, &u, &r);
+        assert_int_equal(board_done(b, &u, &r), 1);
+    }
+}
+
 /* Backup units (units.h): a device that finished its units is handed a copy of the unit a
  * slow device still holds; whichever copy ends first is merged, the other dropped, and the
  * films are the one-device films either way. */
@@ -478,19 +498,9 @@ static void test_board_backs_up_a_slow_device(void **state)
         ts_film_state f;
         film_alloc(&f);
         ts_board b;
-        ts_error err = {0};
-        assert_int_equal(board_init(&b, &f, &o, TOTAL, NULL, &err), TS_OK);
         ts_unit slow, u, copy;
         ts_unit_result r;
-        assert_true(board_take_as(&b, 2, &slow));
-        assert_true(slow.index == 0 && slow.taker == 2 && !slow.backup);
-        for (uint32_t i = 1; i < H; ++i) { /* the fast device: 2 ms a unit */
-            assert_true(board_take_as(&b, 1, &u));
-            assert_true(u.index == i && u.taker == 1 && !u.backup);
-            sleep_ms(2);
-            trace(&o, &u, &r);
-            assert_int_equal(board_done(&b, &u, &r), 1);
-        }
+        board_with_slow_holder(&b, &f, &o, &slow, 2); /* the fast device: 2 ms a unit */
         /* Nothing new is left; the slow device's speed is unknown until it has held its
          * unit 4 times as long as the fast one needs: then the backup. */
         assert_true(board_take_as(&b, 1, &copy));
@@ -576,17 +586,9 @@ static void test_board_backs_up_only_the_slow(void **state)
     ts_film_state f;
     film_alloc(&f);
     ts_board b;
-    ts_error err = {0};
-    assert_int_equal(board_init(&b, &f, &o, TOTAL, NULL, &err), TS_OK);
     ts_unit slow, u, copy;
     ts_unit_result r;
-    assert_true(board_take_as(&b, 2, &slow));
-    for (uint32_t i = 1; i < H; ++i) {
-        assert_true(board_take_as(&b, 1, &u));
-        sleep_ms(1);
-        trace(&o, &u, &r);
-        board_done(&b, &u, &r);
-    }
+    board_with_slow_holder(&b, &f, &o, &slow, 1);
     assert_true(board_take_as(&b, 1, &copy) && copy.backup);
     board_give_back(&b, &slow);                  /* its device failed */
     assert_int_equal(board_try_take(&b, &u), 0); /* not handed out again: the copy is out */

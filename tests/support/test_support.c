@@ -275,6 +275,27 @@ int test_has_device(void)
     return n > 0;
 }
 
+void test_parse_scene_with(const char *rel, const char *extra, struct ts_scene *s)
+{
+    static char path[4096], text[1 << 20];
+    snprintf(path, sizeof path, "%s", test_source_path(rel));
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    size_t n = fread(text, 1, sizeof text - 401, f), len = strlen(extra);
+    fclose(f);
+    assert_true(len <= 400);
+    text[n] = '\0';
+    char *wb = strstr(text, "WorldBegin\n");
+    assert_non_null(wb);
+    size_t at = (size_t)(wb - text) + strlen("WorldBegin\n");
+    memmove(text + at + len, text + at, n - at + 1);
+    memcpy(text + at, extra, len);
+    n += len;
+    memset(s, 0, sizeof *s);
+    ts_error err = {0};
+    if (rib_parse_string(path, text, n, s, 1, &err)) fail_msg("%s", err.msg);
+}
+
 int test_pocl_devices(char *out, size_t cap, int want)
 {
     char cmd[4200], line[1024];

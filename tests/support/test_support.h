@@ -20,6 +20,9 @@ const char *test_source_path(const char *rel);
 /* Parses RIB text named "t.rib" into a zeroed scene (quiet); returns the loader's code. */
 struct ts_scene;
 int test_parse_rib(const char *text, struct ts_scene *s, ts_error *e);
+/* Parses the source tree's scene file `rel` (under 1 MB) with `extra` (at most 400 bytes)
+ * inserted after its WorldBegin line into *s; fails the test on an error. */
+void test_parse_scene_with(const char *rel, const char *extra, struct ts_scene *s);
 /* The same for text that must load: fails the test with the loader's message otherwise. */
 void test_parse_rib_ok(const char *text, struct ts_scene *s);
 /* The same for text that must fail: TS_E_SCENE, exactly the message `msg`, no patch kept. */
