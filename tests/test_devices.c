@@ -296,19 +296,9 @@ static const char *index_of(const char *pocl, const char *prefix)
 {
     static char out[2][16];
     static int next;
-    char cmd[4400], line[512];
-    snprintf(cmd, sizeof cmd, "POCL_DEVICES='%s' '%s' devices", pocl, test_tessera_binary());
-    FILE *f = popen(cmd, "r");
     char *o = out[next++ % 2];
-    *o = '\0';
-    while (f && fgets(line, sizeof line, f)) {
-        char *colon = strchr(line, ':');
-        if (colon && line[0] >= '0' && line[0] <= '9' &&
-            strncmp(colon + 2, prefix, strlen(prefix)) == 0 && !*o)
-            snprintf(o, 16, "%d", atoi(line));
-    }
-    if (f) pclose(f);
-    if (!*o) fail_msg("no %s device under POCL_DEVICES=%s", prefix, pocl);
+    if (test_devices_named(pocl, prefix, o, 16, 1) != 1)
+        fail_msg("no %s device under POCL_DEVICES=%s", prefix, pocl);
     return o;
 }
 

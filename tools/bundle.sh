@@ -80,7 +80,7 @@ export TESSERA_CACHE_DIR=${TESSERA_CACHE_DIR:-$b/kernel-cache}
 export TESSERA_BINARY=$b/build/tessera TESSERA_SOURCE_DIR=$src TESSERA_SHARED_DIR=$b/shared
 case "$1" in
 tessera) shift; exec "$b/build/tessera" "$@" ;;
-ctest) shift; cd "$b/build" && exec ctest --test-dir "$b/build" --output-on-failure "$@" ;;
+ctest) shift; exec ctest --test-dir "$b/build" --output-on-failure "$@" ;;
 *) exec "$@" ;;
 esac
 RUN

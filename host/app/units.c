@@ -239,6 +239,17 @@ int board_try_take(ts_board *b, ts_unit *u)
     return rc;
 }
 
+/* Waits on b->changed (lock held) for up to `seconds`. */
+static void wait_for(ts_board *b, double seconds)
+{
+    struct timespec at; /* pthread_cond_timedwait's clock */
+    clock_gettime(CLOCK_REALTIME, &at);
+    long ns = at.tv_nsec + (long)(seconds * 1e9);
+    at.tv_sec += ns / 1000000000L;
+    at.tv_nsec = ns % 1000000000L;
+    pthread_cond_timedwait(&b->changed, &b->lock, &at);
+}
+
 /* Waits on b->changed (lock held) until the monotonic-clock time `until` of stats_now, or
  * without a limit when it is INFINITY. */
 static void wait_until(ts_board *b, double until)
@@ -248,13 +259,7 @@ static void wait_until(ts_board *b, double until)
         return;
     }
     double left = until - stats_now();
-    if (left < 0.001) left = 0.001;
-    struct timespec at;
-    clock_gettime(CLOCK_REALTIME, &at);
-    long ns = at.tv_nsec + (long)(left * 1e9);
-    at.tv_sec += ns / 1000000000L;
-    at.tv_nsec = ns % 1000000000L;
-    pthread_cond_timedwait(&b->changed, &b->lock, &at);
+    wait_for(b, left < 0.001 ? 0.001 : left);
 }
 
 int board_take_as(ts_board *b, uint16_t taker, ts_unit *u)
@@ -289,7 +294,7 @@ int board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
     int merged = 0;
     /* The unit's run joins the held samples first: when that cannot grow (out of memory),
      * the unit is handed out again rather than merged unrecorded. */
-    if (u->index >= b->unit_count || !b->holders[u->index]) { /* not this board's */
+    if (u->index >= b->unit_count || !b->holders[u->index]) { /* not this board's, or not out */
         unit_result_free(r);
         pthread_mutex_unlock(&b->lock);
         return 0;
@@ -325,9 +330,12 @@ void board_give_back(ts_board *b, const ts_unit *u)
 {
     pthread_mutex_lock(&b->lock);
     if (u->index < b->unit_count && b->holders[u->index]) {
-        b->holders[u->index]--;
-        if (b->state[u->index] == UNIT_OUT && !b->holders[u->index])
-            b->state[u->index] = UNIT_GIVEN_BACK;
+        uint32_t i = u->index;
+        b->holders[i]--;
+        if (b->state[i] == UNIT_OUT && !b->holders[i]) b->state[i] = UNIT_GIVEN_BACK;
+        /* Its first holder gone, the backup's device holds it: no speed to judge that one
+         * by (holder names the first), so no further backup of it. */
+        if (b->holders[i] && u->taker == b->holder[i] && !u->backup) b->holder[i] = 0;
     }
     pthread_cond_broadcast(&b->changed);
     pthread_mutex_unlock(&b->lock);
@@ -385,13 +393,8 @@ void board_progress(ts_board *b, uint64_t *samples_finished, uint64_t *rays)
 
 void board_wait(ts_board *b, double seconds)
 {
-    struct timespec until;
-    clock_gettime(CLOCK_REALTIME, &until);
-    long ns = until.tv_nsec + (long)(seconds * 1e9);
-    until.tv_sec += ns / 1000000000L;
-    until.tv_nsec = ns % 1000000000L;
     pthread_mutex_lock(&b->lock);
-    pthread_cond_timedwait(&b->changed, &b->lock, &until);
+    wait_for(b, seconds);
     pthread_mutex_unlock(&b->lock);
 }
 

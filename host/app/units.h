@@ -97,7 +97,7 @@ typedef struct ts_board {
     uint32_t merged;  /* how many units are in the films */
     uint8_t *state;   /* per unit */
     uint8_t *holders; /* per unit: devices tracing it (2 while it is backed up) */
-    uint16_t *holder; /* per unit: the taker of its first holder (0: none named) */
+    uint16_t *holder; /* per unit: the taker of its first holder (0: none named, or gone) */
     double *since;    /* per unit: when its first holder took it */
     ts_board_taker taker[TS_BOARD_TAKERS]; /* per device slot: how fast it traces */
     int backups;                           /* backup units allowed (TESSERA_BACKUP_UNITS) */

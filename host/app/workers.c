@@ -25,9 +25,9 @@ struct ts_worker {
     uint32_t noted_lod;
     pthread_t thread;
     int started;
-    long slow_ms;        /* TESSERA_SLOW_DEVICE: a pause after each wave (tests) */
-    ts_unit cancel_unit; /* the unit being traced, for worker_unit_dropped */
-    int shares;          /* computes like device 0: shares built patches through g->share */
+    long slow_ms;               /* TESSERA_SLOW_DEVICE: a pause after each wave (tests) */
+    const ts_unit *cancel_unit; /* the unit being traced, for worker_unit_dropped */
+    int shares;                 /* computes like device 0: shares built patches through g->share */
     ts_device_stats out;
     int failed, reported; /* failed: err says why; reported: workers_report said so */
     ts_error err;
@@ -321,7 +321,7 @@ static int worker_read_wave(ts_worker *w, const ts_unit *u, uint64_t first, uint
 static int worker_unit_dropped(void *ctx)
 {
     ts_worker *w = ctx;
-    return w->g->src.dropped(w->g->src.ctx, &w->cancel_unit);
+    return w->g->src.dropped(w->g->src.ctx, w->cancel_unit);
 }
 
 /* Traces unit u in waves into r. *stopped: 1 the source closed between two waves, 2 another
@@ -344,7 +344,7 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
         cam.ray_count = n;
         /* A copy of u may be merged from another device meanwhile (a backup, units.h): the
          * wave then ends after the trace iteration it is in. */
-        w->cancel_unit = *u;
+        w->cancel_unit = u;
         p->cancel = g->src.dropped ? worker_unit_dropped : NULL, p->cancel_ctx = w;
         p->cancelled = 0;
         int rc = pipeline_camera(p, &cam, err) || waves_trace_paths(g->frame.opt, p, &cam, err);
@@ -408,16 +408,14 @@ static int worker_units(ts_worker *w, ts_error *err)
         int stopped = 0, rc = unit_result_alloc(&r, &u, &order, err);
         if (!rc) rc = worker_trace_unit(w, &u, &r, &stopped, err);
         w->out.backup_units += u.backup;
-        if (!rc && stopped == 2) { /* another device's copy is in the image */
-            unit_result_free(&r);
-            src->give_back(src->ctx, &u);
-            w->out.busy_seconds += stats_now() - t0;
-            w->out.dropped_units++;
-            continue;
-        }
         if (rc || stopped) {
             unit_result_free(&r);
             src->give_back(src->ctx, &u);
+            if (!rc && stopped == 2) { /* another device's copy is in the image */
+                w->out.busy_seconds += stats_now() - t0;
+                w->out.dropped_units++;
+                continue;
+            }
             if (stopped) return TS_OK;
             if (!(dev_is_out_of_memory(err) || err->code == TS_E_MEMORY) || worker_shrink(w, err))
                 return err->code;

@@ -296,23 +296,31 @@ void test_parse_scene_with(const char *rel, const char *extra, struct ts_scene *
     if (rib_parse_string(path, text, n, s, 1, &err)) fail_msg("%s", err.msg);
 }
 
-int test_pocl_devices(char *out, size_t cap, int want)
+int test_devices_named(const char *pocl, const char *prefix, char *out, size_t cap, int want)
 {
     char cmd[4200], line[1024];
-    snprintf(cmd, sizeof cmd, "POCL_DEVICES='pthread pthread' '%s' devices 2>/dev/null",
+    snprintf(cmd, sizeof cmd, "POCL_DEVICES='%s' '%s' devices 2>/dev/null", pocl,
              test_tessera_binary());
     FILE *p = popen(cmd, "r");
     int found = 0, index;
     out[0] = '\0';
-    while (p && fgets(line, sizeof line, p))
-        if (found < want && sscanf(line, "%d: ", &index) == 1 && strstr(line, "PoCL") &&
-            strstr(line, "[CPU")) {
-            size_t used = strlen(out);
-            snprintf(out + used, cap - used, "%s%d", found ? "," : "", index);
-            ++found;
-        }
+    while (p && fgets(line, sizeof line, p)) {
+        const char *colon = strchr(line, ':');
+        if (found == want || sscanf(line, "%d: ", &index) != 1 || !colon) continue;
+        int match = prefix ? strncmp(colon + 2, prefix, strlen(prefix)) == 0
+                           : strstr(line, "PoCL") && strstr(line, "[CPU");
+        if (!match) continue;
+        size_t used = strlen(out);
+        snprintf(out + used, cap - used, "%s%d", found ? "," : "", index);
+        ++found;
+    }
     if (p) pclose(p);
     return found;
+}
+
+int test_pocl_devices(char *out, size_t cap, int want)
+{
+    return test_devices_named("pthread pthread", NULL, out, cap, want);
 }
 
 void test_write_text(const char *path, const char *text)

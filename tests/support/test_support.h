@@ -75,10 +75,12 @@ void test_assert_same_pixels(const char *path_a, const char *path_b);
 #define TEST_RUN_WITH_DEVICE(tests, setup)                                                         \
     (test_has_device() ? cmocka_run_group_tests(tests, setup, NULL) : TS_TEST_SKIP)
 int test_has_device(void);
-/* The indices of up to `want` PoCL CPU devices that `tessera devices` lists with
- * POCL_DEVICES="pthread pthread" (set it the same way for the renders that use them), as
- * "I,J" in out; returns how many. Tests of several alike devices skip with fewer than 2
- * (a machine whose OpenCL is a GPU driver alone). */
+/* The indices of up to `want` devices that `tessera devices` lists with POCL_DEVICES=pocl
+ * (set it the same way for the renders that use them) whose name starts with `prefix`, or,
+ * with prefix NULL, that are PoCL CPU devices, as "I,J" in out; returns how many. */
+int test_devices_named(const char *pocl, const char *prefix, char *out, size_t cap, int want);
+/* test_devices_named("pthread pthread", NULL, ...): tests of several alike devices skip with
+ * fewer than 2 (a machine whose OpenCL is a GPU driver alone). */
 int test_pocl_devices(char *out, size_t cap, int want);
 /* Deterministic uniform floats in [lo, hi). */
 float test_uniform(uint32_t *state, float lo, float hi);
