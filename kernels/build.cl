@@ -8,8 +8,12 @@
  *       the flatness bound E0 * 4^-m (lib/patch.h patch_flatness),
  *     displacement part: [d] x [N] per axis, [d] by interval arithmetic on the noise over
  *       the time-0 undisplaced box (lib/displace.h; its cells eight at a time in float8
- *       lanes, lib/noise4.h displace_interval_x8, the same bits), [N] the box of the bilinear
- *       displacement normal over the square (its values at the four corners).
+ *       lanes, lib/noise4.h displace_interval_x8), [N] the box of the displacement normal
+ *       over the square (lib/displace.h displace_normal_box, with x, y, z in float4 lanes:
+ *       lib/noise4.h displace_normal_box_x4).
+ *   Every lane form runs the scalar operations in their order: the leaf boxes have the bits
+ *   of the plain-C reference (host/ref/dice_build_ref.c; tests/test_bottom_level.c compares
+ *   the trees, tests/test_dice_build.c the normal boxes through build_normal_box_probe).
  * build_level (one launch per level l, deepest first): node k of level l of every tree with
  *   m > l (a prefix of the batch's tree list, which is sorted by decreasing m) gets the union
  *   of its four children — the bottom-up min-max reduction. The root group's lanes 1-3 are
@@ -132,8 +136,8 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                                                          b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
         }
         /* The displacement direction over the micro-quad's whole parameter square. */
-        ts_box nb = displace_normal_box(cn, mn, (float)i * h, (float)j * h, (float)(i + 1u) * h,
-                                        (float)(j + 1u) * h);
+        ts_box nb = displace_normal_box_x4(cn, mn, (float)i * h, (float)j * h, (float)(i + 1u) * h,
+                                           (float)(j + 1u) * h);
         float2 ox = interval_mul(d.lo, d.hi, nb.lo_x, nb.hi_x);
         float2 oy = interval_mul(d.lo, d.hi, nb.lo_y, nb.hi_y);
         float2 oz = interval_mul(d.lo, d.hi, nb.lo_z, nb.hi_z);
@@ -190,4 +194,18 @@ __kernel void build_cull(__global const uint *trees, uint tree_first, uint tree_
     if (g == 0u) cull_levels[seg.shape] = levels;
     if (g + 1u < quadtree_group_count(levels))
         cull[(size_t)seg.shape * TS_CULL_GROUPS + g] = groups[(size_t)seg.group_first + 1u + g];
+}
+
+/* Not a stage: the probe of tests/test_dice_build.c. Item i: displace_normal_box_x4 of the
+ * normals nodes[9i .. 9i + 3] (corners) and nodes[9i + 4 .. 9i + 8] (edge midpoints, centre)
+ * over the rectangle rect[4i .. 4i + 3] = (u0, v0, u1, v1), which the test compares bit for bit
+ * with the host's displace_normal_box (lib/displace.h). */
+__kernel void build_normal_box_probe(__global const ts_vec4 *nodes, __global const float *rect,
+                                     uint count, __global ts_box *out)
+{
+    uint i = get_global_id(0);
+    if (i >= count) return;
+    __global const float *r = rect + 4u * (size_t)i;
+    out[i] = displace_normal_box_x4(nodes + 9u * (size_t)i, nodes + 9u * (size_t)i + 4u, r[0], r[1],
+                                    r[2], r[3]);
 }
