@@ -402,16 +402,18 @@ inline ts_interval displace_interval_x8(__global const ts_patch_attr *a, __globa
         if (!(c1[0] - c0[0] <= 1.0f && c1[1] - c0[1] <= 1.0f && c1[2] - c0[2] <= 1.0f)) continue;
         if (fabs(c0[0]) > 1e6f || fabs(c0[1]) > 1e6f || fabs(c0[2]) > 1e6f) continue;
         full[o] = 0, vlo[o] = INFINITY, vhi[o] = -INFINITY;
-        for (int k = 0; k < 8; ++k) {
-            float c[3] = {c0[0] + (float)(k & 1), c0[1] + (float)((k >> 1) & 1),
-                          c0[2] + (float)(k >> 2)};
-            if (c[0] > c1[0] || c[1] > c1[1] || c[2] > c1[2]) continue;
-            for (int r = 0; r < 3; ++r)
-                t.c[r][t.n] = c[r], t.l[r][t.n] = fmax(bl[r], c[r]),
-                t.h[r][t.n] = fmin(bh[r], c[r] + 1.0f);
-            t.octave[t.n++] = o;
-            if (t.n == 8u) noise_tasks_run(&t, vlo, vhi);
-        }
+        /* The cells c0 + (dx, dy, dz) <= c1 (integers, c1 - c0 in {0, 1}), x fastest. */
+        int nx = c1[0] > c0[0] ? 2 : 1, ny = c1[1] > c0[1] ? 2 : 1, nz = c1[2] > c0[2] ? 2 : 1;
+        for (int dz = 0; dz < nz; ++dz)
+            for (int dy = 0; dy < ny; ++dy)
+                for (int dx = 0; dx < nx; ++dx) {
+                    float c[3] = {c0[0] + (float)dx, c0[1] + (float)dy, c0[2] + (float)dz};
+                    for (int r = 0; r < 3; ++r)
+                        t.c[r][t.n] = c[r], t.l[r][t.n] = fmax(bl[r], c[r]),
+                        t.h[r][t.n] = fmin(bh[r], c[r] + 1.0f);
+                    t.octave[t.n++] = o;
+                    if (t.n == 8u) noise_tasks_run(&t, vlo, vhi);
+                }
     }
     noise_tasks_run(&t, vlo, vhi);
     float w = 1.0f;
