@@ -391,26 +391,27 @@ inline ts_interval displace_interval_x8(__global const ts_patch_attr *a, __globa
     uint n = displace_octaves(a);
     noise_tasks t;
     t.n = 0u;
+    /* x, y, z in lanes 0-2; lane 3 repeats z, so all() and any() test exactly x, y, z */
+    float4 ol = (float4)(olo[0], olo[1], olo[2], olo[2]),
+           oh = (float4)(ohi[0], ohi[1], ohi[2], ohi[2]);
     for (uint o = 0; o < n; ++o) { /* noise3_interval's cells, as tasks */
-        float bl[3], bh[3], c0[3], c1[3];
-        for (int r = 0; r < 3; ++r) {
-            bl[r] = fmin(olo[r] * f, ohi[r] * f), bh[r] = fmax(olo[r] * f, ohi[r] * f);
-            c0[r] = floor(bl[r]), c1[r] = floor(bh[r]);
-        }
+        float4 bl = fmin(ol * f, oh * f), bh = fmax(ol * f, oh * f);
+        float4 c0 = floor(bl), c1 = floor(bh);
         f *= a->disp_lacunarity;
         full[o] = 1;
-        if (!(c1[0] - c0[0] <= 1.0f && c1[1] - c0[1] <= 1.0f && c1[2] - c0[2] <= 1.0f)) continue;
-        if (fabs(c0[0]) > 1e6f || fabs(c0[1]) > 1e6f || fabs(c0[2]) > 1e6f) continue;
+        if (!all(c1 - c0 <= 1.0f)) continue;
+        if (any(fabs(c0) > 1e6f)) continue;
         full[o] = 0, vlo[o] = INFINITY, vhi[o] = -INFINITY;
         /* The cells c0 + (dx, dy, dz) <= c1 (integers, c1 - c0 in {0, 1}), x fastest. */
-        int nx = c1[0] > c0[0] ? 2 : 1, ny = c1[1] > c0[1] ? 2 : 1, nz = c1[2] > c0[2] ? 2 : 1;
+        int nx = c1.x > c0.x ? 2 : 1, ny = c1.y > c0.y ? 2 : 1, nz = c1.z > c0.z ? 2 : 1;
         for (int dz = 0; dz < nz; ++dz)
             for (int dy = 0; dy < ny; ++dy)
                 for (int dx = 0; dx < nx; ++dx) {
-                    float c[3] = {c0[0] + (float)dx, c0[1] + (float)dy, c0[2] + (float)dz};
-                    for (int r = 0; r < 3; ++r)
-                        t.c[r][t.n] = c[r], t.l[r][t.n] = fmax(bl[r], c[r]),
-                        t.h[r][t.n] = fmin(bh[r], c[r] + 1.0f);
+                    float4 c = c0 + (float4)((float)dx, (float)dy, (float)dz, 0.0f);
+                    float4 l = fmax(bl, c), h = fmin(bh, c + 1.0f);
+                    t.c[0][t.n] = c.x, t.c[1][t.n] = c.y, t.c[2][t.n] = c.z;
+                    t.l[0][t.n] = l.x, t.l[1][t.n] = l.y, t.l[2][t.n] = l.z;
+                    t.h[0][t.n] = h.x, t.h[1][t.n] = h.y, t.h[2][t.n] = h.z;
                     t.octave[t.n++] = o;
                     if (t.n == 8u) noise_tasks_run(&t, vlo, vhi);
                 }
