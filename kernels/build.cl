@@ -5,11 +5,16 @@
  *   four vertices, so coarse leaves span every finer tessellation and patches diced at
  *   different m stay hole-free when boxes are the geometry (§3.3):
  *     undisplaced part: box of the four undisplaced corners (vertex - d * normal) grown by
- *       the flatness bound E0 * 4^-m (lib/patch.h patch_flatness),
+ *       the flatness bound E0 * 4^-m (lib/patch.h patch_flatness); the corners' normals in
+ *       the lanes of a float4 (lib/noise4.h displace_normal_x4), shared by both time samples,
  *     displacement part: [d] x [N] per axis, [d] by interval arithmetic on the noise over
  *       the time-0 undisplaced box (lib/displace.h; its cells eight at a time in float8
- *       lanes, lib/noise4.h displace_interval_x8, the same bits), [N] the box of the bilinear
- *       displacement normal over the square (its values at the four corners).
+ *       lanes, lib/noise4.h displace_interval_x8), [N] the box of the displacement normal
+ *       over the square (lib/displace.h displace_normal_box, with x, y, z in float4 lanes:
+ *       lib/noise4.h displace_normal_box_x4).
+ *   Every lane form runs the scalar operations in their order: the leaf boxes have the bits
+ *   of the plain-C reference (host/ref/dice_build_ref.c; tests/test_bottom_level.c compares
+ *   the trees, tests/test_dice_build.c the normal boxes through build_normal_box_probe).
  * build_level (one launch per level l, deepest first): node k of level l of every tree with
  *   m > l (a prefix of the batch's tree list, which is sorted by decreasing m) gets the union
  *   of its four children — the bottom-up min-max reduction. The root group's lanes 1-3 are
@@ -44,24 +49,35 @@ inline void node_store(__global ts_box4 *groups, uint l, uint k, ts_box b)
     }
 }
 
-inline void box_add(ts_box *b, float x, float y, float z)
+/* The displacement normals at the four corners of micro-quad (i, j), h = 2^-m: corner c
+ * (at (i + (c & 1), j + (c >> 1)), host/ref/dice_build_ref.c base_box's order) in lane c, by
+ * displace_normal_x4 (lib/noise4.h: displace_normal's bits per lane). */
+inline void corner_normals(__global const ts_vec4 *cn, __global const ts_vec4 *mn, uint i, uint j,
+                           float h, float4 *nx, float4 *ny, float4 *nz)
 {
-    b->lo_x = fmin(b->lo_x, x), b->hi_x = fmax(b->hi_x, x);
-    b->lo_y = fmin(b->lo_y, y), b->hi_y = fmax(b->hi_y, y);
-    b->lo_z = fmin(b->lo_z, z), b->hi_z = fmax(b->hi_z, z);
+    float4 ci = (float4)((float)i, (float)(i + 1u), (float)i, (float)(i + 1u));
+    float4 cj = (float4)((float)j, (float)j, (float)(j + 1u), (float)(j + 1u));
+    displace_normal_x4(cn, mn, ci * h, cj * h, nx, ny, nz);
 }
 
-/* Box of the undisplaced corners (vertex - d * normal) of micro-quad (i, j) of grid g. */
-inline ts_box base_box(__global const ts_vec4 *g, uint n, uint i, uint j,
-                       __global const ts_vec4 *cn, __global const ts_vec4 *mn, float h)
+/* Box of the undisplaced corners (vertex - d * normal) of micro-quad (i, j) of grid g, the
+ * normals from corner_normals: the host's base_box (host/ref/dice_build_ref.c) with a corner
+ * per lane, and its box_add fold with x, y, z in lanes, corner by corner: the same bits. */
+inline ts_box base_box(__global const ts_vec4 *g, uint n, uint i, uint j, float4 nx, float4 ny,
+                       float4 nz)
 {
-    ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
-    for (uint c = 0; c < 4u; ++c) {
-        uint ci = i + (c & 1u), cj = j + (c >> 1);
-        ts_vec4 p = g[cj * n + ci];
-        ts_vec4 dn = displace_normal(cn, mn, (float)ci * h, (float)cj * h);
-        box_add(&b, p.x - p.w * dn.x, p.y - p.w * dn.y, p.z - p.w * dn.z);
-    }
+    __global const ts_vec4 *r0 = g + j * n + i, *r1 = r0 + n;
+    float4 p0 = vec4_lanes(r0), p1 = vec4_lanes(r0 + 1), p2 = vec4_lanes(r1),
+           p3 = vec4_lanes(r1 + 1);
+    float4 d = (float4)(p0.w, p1.w, p2.w, p3.w);
+    float4 x = (float4)(p0.x, p1.x, p2.x, p3.x) - d * nx;
+    float4 y = (float4)(p0.y, p1.y, p2.y, p3.y) - d * ny;
+    float4 z = (float4)(p0.z, p1.z, p2.z, p3.z) - d * nz;
+    float4 q0 = (float4)(x.s0, y.s0, z.s0, 0.0f), q1 = (float4)(x.s1, y.s1, z.s1, 0.0f),
+           q2 = (float4)(x.s2, y.s2, z.s2, 0.0f), q3 = (float4)(x.s3, y.s3, z.s3, 0.0f);
+    float4 lo = fmin(fmin(fmin(fmin((float4)(INFINITY), q0), q1), q2), q3);
+    float4 hi = fmax(fmax(fmax(fmax((float4)(-INFINITY), q0), q1), q2), q3);
+    ts_box b = {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z};
     return b;
 }
 
@@ -104,7 +120,9 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     __global const ts_vec4 *cn = corner_n + (size_t)seg.shape * 4u;
     __global const ts_vec4 *mn = mid_n + (size_t)seg.shape * 5u;
     __global const ts_vec4 *g = grid + (size_t)seg.vert_first + time * nv;
-    ts_box b = base_box(g, n, i, j, cn, mn, h);
+    float4 nx, ny, nz; /* both time samples' corners share them */
+    corner_normals(cn, mn, i, j, h, &nx, &ny, &nz);
+    ts_box b = base_box(g, n, i, j, nx, ny, nz);
     ts_vec4 e = flatness[seg.shape];
     float s = ldexp(1.0f, -2 * (int)m);
     /* Flatness, plus a few ulps for the rounding of the vertices and of vertex - d * n. */
@@ -122,7 +140,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         } else {
             ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
             if (time == 1u) {
-                b0 = base_box(grid + seg.vert_first, n, i, j, cn, mn, h);
+                b0 = base_box(grid + seg.vert_first, n, i, j, nx, ny, nz);
                 b0.lo_x -= ex, b0.hi_x += ex, b0.lo_y -= ey, b0.hi_y += ey, b0.lo_z -= ez,
                     b0.hi_z += ez;
             }
@@ -132,8 +150,8 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                                                          b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
         }
         /* The displacement direction over the micro-quad's whole parameter square. */
-        ts_box nb = displace_normal_box(cn, mn, (float)i * h, (float)j * h, (float)(i + 1u) * h,
-                                        (float)(j + 1u) * h);
+        ts_box nb = displace_normal_box_x4(cn, mn, (float)i * h, (float)j * h, (float)(i + 1u) * h,
+                                           (float)(j + 1u) * h);
         float2 ox = interval_mul(d.lo, d.hi, nb.lo_x, nb.hi_x);
         float2 oy = interval_mul(d.lo, d.hi, nb.lo_y, nb.hi_y);
         float2 oz = interval_mul(d.lo, d.hi, nb.lo_z, nb.hi_z);
@@ -190,4 +208,18 @@ __kernel void build_cull(__global const uint *trees, uint tree_first, uint tree_
     if (g == 0u) cull_levels[seg.shape] = levels;
     if (g + 1u < quadtree_group_count(levels))
         cull[(size_t)seg.shape * TS_CULL_GROUPS + g] = groups[(size_t)seg.group_first + 1u + g];
+}
+
+/* Not a stage: the probe of tests/test_dice_build.c. Item i: displace_normal_box_x4 of the
+ * normals nodes[9i .. 9i + 3] (corners) and nodes[9i + 4 .. 9i + 8] (edge midpoints, centre)
+ * over the rectangle rect[4i .. 4i + 3] = (u0, v0, u1, v1), which the test compares bit for bit
+ * with the host's displace_normal_box (lib/displace.h). */
+__kernel void build_normal_box_probe(__global const ts_vec4 *nodes, __global const float *rect,
+                                     uint count, __global ts_box *out)
+{
+    uint i = get_global_id(0);
+    if (i >= count) return;
+    __global const float *r = rect + 4u * (size_t)i;
+    out[i] = displace_normal_box_x4(nodes + 9u * (size_t)i, nodes + 9u * (size_t)i + 4u, r[0], r[1],
+                                    r[2], r[3]);
 }

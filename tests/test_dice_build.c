@@ -3,7 +3,8 @@
  * evaluation (bitwise) and, undisplaced, vs an independent de Casteljau in double (tolerance); leaf
  * boxes hold the displaced surface at random points of their parameter squares and inner
  * boxes are the union of their children (exact); every vertex lies in the patch's
- * top-level box. */
+ * top-level box; build's lane form of the displacement-normal box against the host's, bit for
+ * bit, on random normals. */
 #include "test_support.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
@@ -255,9 +256,103 @@ static void test_dice_and_build_textured(void **state)
     scene_free(&s);
 }
 
+/* A random normal node for test_normal_box_lanes: kind 0 near `base` (a smooth patch), 1
+ * components from {0, -0, 1, -1, 1/2, random} (exact and signed zeros), 2 `base` or its
+ * opposite (half a tube: a box around 0), 3 anything in [-1, 1]^3. w is never read: random, or
+ * NaN. */
+static ts_vec4 random_node(uint32_t *seed, int kind, ts_vec4 base)
+{
+    ts_vec4 r;
+    float *c = &r.x;
+    for (int a = 0; a < 3; ++a) {
+        float b = (&base.x)[a];
+        if (kind == 0)
+            c[a] = b + test_uniform(seed, -0.2f, 0.2f);
+        else if (kind == 1) {
+            const float pick[5] = {0.0f, -0.0f, 1.0f, -1.0f, 0.5f};
+            uint32_t w = (uint32_t)test_uniform(seed, 0.0f, 6.0f);
+            c[a] = w < 5u ? pick[w] : test_uniform(seed, -1.0f, 1.0f);
+        } else if (kind == 2)
+            c[a] = b;
+        else
+            c[a] = test_uniform(seed, -1.0f, 1.0f);
+    }
+    if (kind == 2 && test_uniform(seed, 0.0f, 1.0f) < 0.5f) r.x = -r.x, r.y = -r.y, r.z = -r.z;
+    r.w = test_uniform(seed, 0.0f, 1.0f) < 0.2f ? NAN : test_uniform(seed, -5.0f, 5.0f);
+    return r;
+}
+
+/* build's displacement-normal box (displace_normal_box_x4, kernels/lib/noise4.h, x, y, z in
+ * float4 lanes) against the host's displace_normal_box (lib/displace.h), bit for bit, through
+ * the probe kernel build_normal_box_probe: random nodes of the kinds of random_node, over the
+ * micro-quads of m = 0..10 (as build_leaves passes them) and over random rectangles. */
+static void test_normal_box_lanes(void **state)
+{
+    (void)state;
+    enum { N = 6000 };
+    static ts_vec4 nodes[9 * N];
+    static float rect[4 * N];
+    static ts_box dev[N];
+    uint32_t seed = 31337u;
+    for (uint32_t i = 0; i < N; ++i) {
+        ts_vec4 base = {test_uniform(&seed, -1, 1), test_uniform(&seed, -1, 1),
+                        test_uniform(&seed, -1, 1), 0.0f};
+        for (int q = 0; q < 9; ++q)
+            nodes[9 * i + q] = random_node(&seed, (int)(i % 4), base);
+        float *r = &rect[4 * i];
+        if (i % 5 == 4) { /* any rectangle in [0, 1]^2 */
+            float a = test_uniform(&seed, 0, 1), b = test_uniform(&seed, 0, 1);
+            float c = test_uniform(&seed, 0, 1), d = test_uniform(&seed, 0, 1);
+            r[0] = fminf(a, b), r[2] = fmaxf(a, b), r[1] = fminf(c, d), r[3] = fmaxf(c, d);
+        } else { /* micro-quad (x, y) at LOD m */
+            uint32_t m = (uint32_t)test_uniform(&seed, 0.0f, 11.0f) % 11u, side = 1u << m;
+            uint32_t x = (uint32_t)test_uniform(&seed, 0.0f, (float)side) % side;
+            uint32_t y = (uint32_t)test_uniform(&seed, 0.0f, (float)side) % side;
+            float h = ldexpf(1.0f, -(int)m);
+            r[0] = (float)x * h, r[1] = (float)y * h, r[2] = (float)(x + 1u) * h,
+            r[3] = (float)(y + 1u) * h;
+        }
+    }
+    ts_device cl;
+    test_open_device(&cl);
+    ts_error err = {0};
+    cl_mem dn =
+        dev_buffer_create(&cl, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof nodes, nodes, &err);
+    cl_mem dr =
+        dev_buffer_create(&cl, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof rect, rect, &err);
+    cl_mem dout = dev_buffer_create(&cl, CL_MEM_WRITE_ONLY, sizeof dev, NULL, &err);
+    assert_true(dn && dr && dout);
+    cl_kernel k = dev_kernel_create(&cl, "build_normal_box_probe", &err);
+    assert_non_null(k);
+    cl_uint count = N;
+    if (dev_set_args(k, &err, DEV_ARG(dn), DEV_ARG(dr), DEV_ARG(count), DEV_ARG(dout), (size_t)0) ||
+        dev_launch(&cl, k, TS_STAGE_build, N, TS_LOCAL_SIZE, &err) || dev_finish(&cl, NULL, &err))
+        fail_msg("%s", err.msg);
+    assert_int_equal(
+        clEnqueueReadBuffer(cl.queue, dout, CL_TRUE, 0, sizeof dev, dev, 0, NULL, NULL),
+        CL_SUCCESS);
+    int all = 0, tight = 0;
+    for (uint32_t i = 0; i < N; ++i) {
+        const float *r = &rect[4 * i];
+        ts_box h = displace_normal_box(&nodes[9 * i], &nodes[9 * i + 4], r[0], r[1], r[2], r[3]);
+        if (memcmp(&h, &dev[i], sizeof h))
+            fail_msg("item %u (%a %a %a %a): device (%a %a %a, %a %a %a), C (%a %a %a, %a %a %a)",
+                     i, r[0], r[1], r[2], r[3], dev[i].lo_x, dev[i].lo_y, dev[i].lo_z, dev[i].hi_x,
+                     dev[i].hi_y, dev[i].hi_z, h.lo_x, h.lo_y, h.lo_z, h.hi_x, h.hi_y, h.hi_z);
+        all += h.lo_x == -1.0f && h.hi_x == 1.0f && h.lo_y == -1.0f && h.hi_z == 1.0f;
+        tight += h.hi_x - h.lo_x < 0.5f;
+    }
+    /* Both branches ran: boxes around 0 ([-1, 1]^3) and normalised ones. */
+    assert_true(all > N / 10 && tight > N / 10);
+    clReleaseKernel(k);
+    clReleaseMemObject(dn), clReleaseMemObject(dr), clReleaseMemObject(dout);
+    dev_close(&cl);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_dice_and_build_match_reference),
-                                       cmocka_unit_test(test_dice_and_build_textured)};
+                                       cmocka_unit_test(test_dice_and_build_textured),
+                                       cmocka_unit_test(test_normal_box_lanes)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

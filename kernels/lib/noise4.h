@@ -3,12 +3,15 @@
  * surface points together, a point per lane and two octaves in the two halves (their Bézier
  * points and displacement normals in float4 lanes); dice.cl evaluates a vertex's octaves
  * together, one per lane. The scalar fBm was 15% (shade) and 4% (dice) of a
- * teapot_displaced render. Every lane runs the operations of the scalar noise3 /
- * displace_value / patch_vertex in their order, and the octaves are added in octave order
- * (kernels are built with FP_CONTRACT OFF), so the results have the same bits as
- * patch_shading_normal and patch_vertex, which stay the host's references: test_dice_build
- * and test_bottom_level compare the diced grids bit for bit; test_shading_normal compares
- * the shading normal (through the probe kernel shade_normal_probe). */
+ * teapot_displaced render. build.cl takes a micro-quad's four corner normals in float4 lanes
+ * (displace_normal_x4) and its displacement-normal box with x, y, z in lanes
+ * (displace_normal_box_x4): with base_box, 11% of that render as scalar code. Every lane runs
+ * the operations of the scalar noise3 / displace_value / patch_vertex / displace_normal_box in
+ * their order, and the octaves are added in octave order (kernels are built with FP_CONTRACT
+ * OFF), so the results have the same bits as the host's references, which stay scalar:
+ * test_dice_build and test_bottom_level compare the diced grids and built trees bit for bit,
+ * test_dice_build the normal boxes (probe kernel build_normal_box_probe); test_shading_normal
+ * compares the shading normal (through the probe kernel shade_normal_probe). */
 #ifndef TS_NOISE4_H
 #define TS_NOISE4_H
 
@@ -209,6 +212,69 @@ inline void displace_normal_x4(__global const ts_vec4 *n, __global const ts_vec4
     *nz = select((float4)(1.0f), sz / len, ok);
 }
 
+/* A ts_vec4's x, y, z in lanes 0-2 of a float4 (lane 3: w, never read). */
+inline float4 vec4_lanes(__global const ts_vec4 *p)
+{
+    return vload4(0, (__global const float *)p);
+}
+
+/* displace_quad_restrict (lib/displace.h) with x, y, z in lanes: the same operations per
+ * component in their order. */
+inline void displace_quad_restrict_x4(float4 a, float4 m, float4 b, float t0, float t1,
+                                      float4 out[3])
+{
+    float4 c = 2.0f * m - 0.5f * (a + b);
+    float s0 = 1.0f - t0, s1 = 1.0f - t1;
+    float w[3][3] = {{s0 * s0, 2.0f * t0 * s0, t0 * t0},
+                     {s0 * s1, s0 * t1 + t0 * s1, t0 * t1},
+                     {s1 * s1, 2.0f * t1 * s1, t1 * t1}};
+    for (int k = 0; k < 3; ++k)
+        out[k] = w[k][0] * a + w[k][1] * c + w[k][2] * b;
+}
+
+/* displace_div_range (lib/displace.h) with x, y, z in lanes. */
+inline void displace_div_range_x4(float4 lo, float4 hi, float rmin, float rmax, float4 *a,
+                                  float4 *b)
+{
+    *a = fmax(select(lo / rmin, lo / rmax, lo >= 0.0f), -1.0f);
+    *b = fmin(select(hi / rmin, hi / rmax, hi <= 0.0f), 1.0f);
+}
+
+/* displace_normal_box (lib/displace.h), the same bits, with x, y, z in the lanes of a float4
+ * (build.cl): every lane runs the scalar operations of its component in their order; the
+ * lengths rmin, rmax add their squares in the scalar order. displace_normal_box stays the
+ * host's reference: test_dice_build compares the two through build_normal_box_probe. */
+inline ts_box displace_normal_box_x4(__global const ts_vec4 *n, __global const ts_vec4 *mid,
+                                     float u0, float v0, float u1, float v1)
+{
+    float4 rows[3][3], col[3];
+    displace_quad_restrict_x4(vec4_lanes(n + 0), vec4_lanes(mid + 0), vec4_lanes(n + 1), u0, u1,
+                              rows[0]);
+    displace_quad_restrict_x4(vec4_lanes(mid + 1), vec4_lanes(mid + 4), vec4_lanes(mid + 2), u0, u1,
+                              rows[1]);
+    displace_quad_restrict_x4(vec4_lanes(n + 2), vec4_lanes(mid + 3), vec4_lanes(n + 3), u0, u1,
+                              rows[2]);
+    float4 lo = (float4)(INFINITY), hi = (float4)(-INFINITY);
+    for (int k = 0; k < 3; ++k) {
+        displace_quad_restrict_x4(rows[0][k], rows[1][k], rows[2][k], v0, v1, col);
+        for (int j = 0; j < 3; ++j)
+            lo = fmin(lo, col[j]), hi = fmax(hi, col[j]);
+    }
+    const float e = 4e-6f; /* displace_normal_box's rounding allowances */
+    lo -= e, hi += e;
+    float4 dd = fmax(fmax(lo, -hi), 0.0f);
+    float rmin = sqrt(dd.x * dd.x + dd.y * dd.y + dd.z * dd.z);
+    ts_box all = {-1.0f, -1.0f, -1.0f, 1.0f, 1.0f, 1.0f};
+    if (!(rmin > 1e-6f)) return all;
+    float4 ff = fmax(-lo, hi);
+    float rmax = sqrt(ff.x * ff.x + ff.y * ff.y + ff.z * ff.z);
+    float4 rlo, rhi;
+    displace_div_range_x4(lo, hi, rmin, rmax, &rlo, &rhi);
+    rlo -= e, rhi += e;
+    ts_box r = {rlo.x, rlo.y, rlo.z, rhi.x, rhi.y, rhi.z};
+    return r;
+}
+
 /* patch_shading_normal (lib/patch.h), the same bits: the four points of its central
  * differences evaluated together where the displacement is noise, a point per lane (the
  * Bézier points, their displacement normals, and the noise in displace_value_x4). */
@@ -325,27 +391,30 @@ inline ts_interval displace_interval_x8(__global const ts_patch_attr *a, __globa
     uint n = displace_octaves(a);
     noise_tasks t;
     t.n = 0u;
+    /* x, y, z in lanes 0-2; lane 3 repeats z, so all() and any() test exactly x, y, z */
+    float4 ol = (float4)(olo[0], olo[1], olo[2], olo[2]),
+           oh = (float4)(ohi[0], ohi[1], ohi[2], ohi[2]);
     for (uint o = 0; o < n; ++o) { /* noise3_interval's cells, as tasks */
-        float bl[3], bh[3], c0[3], c1[3];
-        for (int r = 0; r < 3; ++r) {
-            bl[r] = fmin(olo[r] * f, ohi[r] * f), bh[r] = fmax(olo[r] * f, ohi[r] * f);
-            c0[r] = floor(bl[r]), c1[r] = floor(bh[r]);
-        }
+        float4 bl = fmin(ol * f, oh * f), bh = fmax(ol * f, oh * f);
+        float4 c0 = floor(bl), c1 = floor(bh);
         f *= a->disp_lacunarity;
         full[o] = 1;
-        if (!(c1[0] - c0[0] <= 1.0f && c1[1] - c0[1] <= 1.0f && c1[2] - c0[2] <= 1.0f)) continue;
-        if (fabs(c0[0]) > 1e6f || fabs(c0[1]) > 1e6f || fabs(c0[2]) > 1e6f) continue;
+        if (!all(c1 - c0 <= 1.0f)) continue;
+        if (any(fabs(c0) > 1e6f)) continue;
         full[o] = 0, vlo[o] = INFINITY, vhi[o] = -INFINITY;
-        for (int k = 0; k < 8; ++k) {
-            float c[3] = {c0[0] + (float)(k & 1), c0[1] + (float)((k >> 1) & 1),
-                          c0[2] + (float)(k >> 2)};
-            if (c[0] > c1[0] || c[1] > c1[1] || c[2] > c1[2]) continue;
-            for (int r = 0; r < 3; ++r)
-                t.c[r][t.n] = c[r], t.l[r][t.n] = fmax(bl[r], c[r]),
-                t.h[r][t.n] = fmin(bh[r], c[r] + 1.0f);
-            t.octave[t.n++] = o;
-            if (t.n == 8u) noise_tasks_run(&t, vlo, vhi);
-        }
+        /* The cells c0 + (dx, dy, dz) <= c1 (integers, c1 - c0 in {0, 1}), x fastest. */
+        int nx = c1.x > c0.x ? 2 : 1, ny = c1.y > c0.y ? 2 : 1, nz = c1.z > c0.z ? 2 : 1;
+        for (int dz = 0; dz < nz; ++dz)
+            for (int dy = 0; dy < ny; ++dy)
+                for (int dx = 0; dx < nx; ++dx) {
+                    float4 c = c0 + (float4)((float)dx, (float)dy, (float)dz, 0.0f);
+                    float4 l = fmax(bl, c), h = fmin(bh, c + 1.0f);
+                    t.c[0][t.n] = c.x, t.c[1][t.n] = c.y, t.c[2][t.n] = c.z;
+                    t.l[0][t.n] = l.x, t.l[1][t.n] = l.y, t.l[2][t.n] = l.z;
+                    t.h[0][t.n] = h.x, t.h[1][t.n] = h.y, t.h[2][t.n] = h.z;
+                    t.octave[t.n++] = o;
+                    if (t.n == 8u) noise_tasks_run(&t, vlo, vhi);
+                }
     }
     noise_tasks_run(&t, vlo, vhi);
     float w = 1.0f;
