@@ -15,7 +15,9 @@
  *         textures (colour at the hit's st, displacement for the normal; every tile the
  *         chunk needs resident, host/pipeline/shade.c); with --occlusion the baked points
  *         (relight_patch, relight_coeffs, relight_normal) and the domes' tables
- *         (relight_light, host/pipeline/relight.c).
+ *         (relight_light, host/pipeline/relight.c); the shading normals build stored at
+ *         micro-quad centres (quad_normals, quad_normal_at: first entry and m per patch,
+ *         TS_INVALID where none; host/pipeline/pipeline.h pipeline_quad_normals).
  * Writes: radiance (accumulated per path), aov (normal, Z) and albedo at the eye hit, the
  *         path's next rays into its two slots (org, dir, hit, entry, flags), path state,
  *         alive[k] (per list slot k): the TS_PATH_TRACED_* bits of the rays it traces next.
@@ -145,18 +147,29 @@ inline void shade_escape(const shade_lights *L, ts_v3 d, const shade_step *s, fl
 
 /* The vertex where ray d (from o, at time) hit patch h.patch: position, shading normal
  * towards the ray's origin, colour. */
-inline shade_vertex shade_vertex_at(ts_hit h, ts_vec4 o4, ts_v3 d, float time,
-                                    __global const ts_vec4 *cp, __global const ts_vec4 *corner_n,
-                                    __global const ts_vec4 *mid_n,
-                                    __global const ts_patch_attr *attr,
-                                    __global const ts_xform *xform, ts_tex_ctx tex)
+inline shade_vertex
+shade_vertex_at(ts_hit h, ts_vec4 o4, ts_v3 d, float time, __global const ts_vec4 *cp,
+                __global const ts_vec4 *corner_n, __global const ts_vec4 *mid_n,
+                __global const ts_patch_attr *attr, __global const ts_xform *xform, ts_tex_ctx tex,
+                __global const ts_vec4 *quad_normals, __global const uint *quad_normal_at)
 {
     shade_vertex v;
     v.a = attr + h.patch;
     __global const ts_vec4 *c = cp + (size_t)h.patch * 16u;
-    ts_vec4 n4 =
-        patch_shading_normal_x4(c, corner_n + (size_t)h.patch * 4u, mid_n + (size_t)h.patch * 5u,
-                                v.a, xform + v.a->xform, tex, h.u, h.v, TS_PRIM_LOD(h.prim));
+    uint m = TS_PRIM_LOD(h.prim), q = TS_PRIM_INDEX(h.prim) >> 1;
+    uint qf = quad_normal_at[2u * h.patch], qm = quad_normal_at[2u * h.patch + 1u];
+    uint qi = q & ((1u << m) - 1u), qj = q >> m;
+    float scale = ldexp(1.0f, -(int)m);
+    ts_vec4 n4;
+    /* At a micro-quad's centre (every leaf-box hit) the normal build_leaves stored there:
+     * the same function of (u, v, m), so the same bits (pipeline_quad_normals). */
+    if (qf != TS_INVALID && qm == m && h.u == ((float)qi + 0.5f) * scale &&
+        h.v == ((float)qj + 0.5f) * scale)
+        n4 = quad_normals[qf + q];
+    else
+        n4 = patch_shading_normal_x4(c, corner_n + (size_t)h.patch * 4u,
+                                     mid_n + (size_t)h.patch * 5u, v.a, xform + v.a->xform, tex,
+                                     h.u, h.v, m);
     tex_surface_colour(v.a, tex, h.u, h.v, v.cs);
     v.n = v3(n4.x, n4.y, n4.z), v.wo = v3_scale(d, -1.0f);
     if (v3_dot(v.n, v.wo) < 0.0f) v.n = v3_scale(v.n, -1.0f);
@@ -291,7 +304,8 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
                          __global const ts_vec4 *tex_pool, __global uint *alive,
                          ts_relight_params rp, __global const uint *relight_patch,
                          __global const float *relight_coeffs, __global const float *relight_normal,
-                         __global const ts_vec4 *relight_light)
+                         __global const ts_vec4 *relight_light,
+                         __global const ts_vec4 *quad_normals, __global const uint *quad_normal_at)
 {
     uint k = get_global_id(0);
     if (k >= path_count) return;
@@ -330,7 +344,8 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
             aov[i] = (ts_vec4){0.0f, 0.0f, 0.0f, INFINITY}, albedo[i] = (ts_vec4){0, 0, 0, 0};
         return;
     }
-    shade_vertex v = shade_vertex_at(h, o4, d, d4.w, cp, corner_n, mid_n, attr, xform, tex);
+    shade_vertex v = shade_vertex_at(h, o4, d, d4.w, cp, corner_n, mid_n, attr, xform, tex,
+                                     quad_normals, quad_normal_at);
     if (s.bounce == 0u) {
         __global const ts_patch_attr *a = v.a;
         aov[i] = (ts_vec4){v.n.x, v.n.y, v.n.z, h.t};
