@@ -290,15 +290,17 @@ static void test_bad_device_lists(void **state)
     test_expect_in_stderr(dir, "unknown device index 41 in TESSERA_DEVICE=0,41");
 }
 
-/* The index of the device whose name starts with `prefix` under POCL_DEVICES=pocl (from
- * `tessera devices`: PoCL may not be the only platform), as text. */
-static const char *index_of(const char *pocl, const char *prefix)
+/* The index of the device of PoCL's driver `driver` under POCL_DEVICES=pocl (from `tessera
+ * devices`: PoCL may not be the only platform), as text; its name prefix (test_pocl_prefix)
+ * goes to *prefix unless NULL. */
+static const char *index_of(const char *pocl, const char *driver, const char **prefix)
 {
     static char out[2][16];
     static int next;
-    char *o = out[next++ % 2];
-    if (test_devices_named(pocl, prefix, o, 16, 1) != 1)
-        fail_msg("no %s device under POCL_DEVICES=%s", prefix, pocl);
+    char *o = out[next++ % 2], name[256];
+    if (test_devices_named(pocl, driver, o, 16, 1, name, sizeof name) != 1)
+        fail_msg("no %s device under POCL_DEVICES=%s", driver, pocl);
+    if (prefix) *prefix = test_pocl_prefix(name);
     return o;
 }
 
@@ -308,8 +310,9 @@ static const char *index_of(const char *pocl, const char *prefix)
 static void test_a_device_that_fails_to_build_is_left_out(void **state)
 {
     (void)state;
-    const char *pt = index_of("pthread basic", "pthread-"),
-               *basic = index_of("pthread basic", "basic-");
+    const char *basic_prefix;
+    const char *pt = index_of("pthread basic", "pthread", NULL),
+               *basic = index_of("pthread basic", "basic", &basic_prefix);
     char both[40], warning[80];
     snprintf(both, sizeof both, "%s,%s", pt, basic);
     snprintf(warning, sizeof warning, "warning: device %s cannot render: CL_BUILD_PROGRAM_FAILURE",
@@ -317,7 +320,7 @@ static void test_a_device_that_fails_to_build_is_left_out(void **state)
     setenv("POCL_DEVICES", "pthread basic", 1);
     const char *args = "--res 64x36 --spp 2 --max-lod 6";
     render("scene/teapot.rib", "alone.exr", pt, "--res 64x36 --spp 2 --max-lod 6 --quiet");
-    setenv("TESSERA_FAIL_BUILD", "basic", 1);
+    setenv("TESSERA_FAIL_BUILD", basic_prefix, 1);
     render("scene/teapot.rib", "left_out.exr", both, args);
     test_expect_in_stderr(dir, warning);
     test_expect_in_stderr(dir, "the other devices go on without it");
@@ -337,11 +340,12 @@ static void test_a_device_that_fails_to_build_is_left_out(void **state)
 static void test_a_device_out_of_memory_mid_frame_retries(void **state)
 {
     (void)state;
-    const char *pt = index_of("pthread basic", "pthread-"),
-               *basic = index_of("pthread basic", "basic-");
+    const char *basic_prefix;
+    const char *pt = index_of("pthread basic", "pthread", NULL),
+               *basic = index_of("pthread basic", "basic", &basic_prefix);
     char both[40], note[80];
     snprintf(both, sizeof both, "%s,%s", pt, basic);
-    snprintf(note, sizeof note, "tessera: device %s (basic-", basic);
+    snprintf(note, sizeof note, "tessera: device %s (%s", basic, basic_prefix);
     setenv("POCL_DEVICES", "pthread basic", 1);
     const char *args = "--res 64x36 --spp 4 --max-lod 6 --memory 64";
     render("scene/teapot.rib", "ref_oom.exr", pt, "--res 64x36 --spp 4 --max-lod 6 --quiet");
@@ -353,7 +357,7 @@ static void test_a_device_out_of_memory_mid_frame_retries(void **state)
     snprintf(slow, sizeof slow, "%s:100", pt);
     setenv("TESSERA_SLOW_DEVICE", slow, 1);
     setenv("TESSERA_FAIL_LAUNCH", "5", 1); /* in the basic device's first unit */
-    setenv("TESSERA_FAIL_LAUNCH_DEVICE", "basic", 1);
+    setenv("TESSERA_FAIL_LAUNCH_DEVICE", basic_prefix, 1);
     setenv("TESSERA_UNIT_SAMPLES", "1024", 1);
     render("scene/teapot.rib", "oom.exr", both, args);
     unsetenv("TESSERA_FAIL_LAUNCH");
@@ -466,7 +470,8 @@ static int setup(void **state)
     ts_error err = {0};
     int n = dev_list(&list, &err), found = 0;
     for (int i = 0; i < n && found < 2; ++i)
-        if (strncmp(list[i].name, "pthread-", 8) == 0) {
+        if (test_pocl_driver(list[i].name) &&
+            strcmp(test_pocl_driver(list[i].name), "pthread") == 0) {
             size_t used = strlen(pair);
             snprintf(pair + used, sizeof pair - used, "%s%d", found ? "," : "", i);
             if (!found) snprintf(first, sizeof first, "%d", i);
@@ -498,7 +503,8 @@ int main(void)
     ts_error err = {0};
     int n = dev_list(&list, &err), pthreads = 0;
     for (int i = 0; i < n; ++i)
-        pthreads += strncmp(list[i].name, "pthread-", 8) == 0;
+        pthreads += test_pocl_driver(list[i].name) &&
+                    strcmp(test_pocl_driver(list[i].name), "pthread") == 0;
     free(list);
     if (pthreads < 2) return TS_TEST_SKIP; /* not PoCL */
     return cmocka_run_group_tests(tests, setup, NULL);

@@ -296,7 +296,24 @@ void test_parse_scene_with(const char *rel, const char *extra, struct ts_scene *
     if (rib_parse_string(path, text, n, s, 1, &err)) fail_msg("%s", err.msg);
 }
 
-int test_devices_named(const char *pocl, const char *prefix, char *out, size_t cap, int want)
+const char *test_pocl_driver(const char *name)
+{
+    if (strncmp(name, "pthread-", 8) == 0) return "pthread";
+    if (strncmp(name, "basic-", 6) == 0 || strncmp(name, "cpu-minimal-", 12) == 0) return "basic";
+    if (strncmp(name, "cpu-", 4) == 0) return "pthread";
+    return NULL;
+}
+
+const char *test_pocl_prefix(const char *name)
+{
+    static const char *const prefixes[] = {"pthread-", "basic-", "cpu-minimal-", "cpu-"};
+    for (size_t i = 0; i < sizeof prefixes / sizeof *prefixes; ++i)
+        if (strncmp(name, prefixes[i], strlen(prefixes[i])) == 0) return prefixes[i];
+    return "";
+}
+
+int test_devices_named(const char *pocl, const char *driver, char *out, size_t cap, int want,
+                       char *name, size_t name_cap)
 {
     char cmd[4200], line[1024];
     snprintf(cmd, sizeof cmd, "POCL_DEVICES='%s' '%s' devices 2>/dev/null", pocl,
@@ -304,12 +321,18 @@ int test_devices_named(const char *pocl, const char *prefix, char *out, size_t c
     FILE *p = popen(cmd, "r");
     int found = 0, index;
     out[0] = '\0';
+    if (name && name_cap) name[0] = '\0';
     while (p && fgets(line, sizeof line, p)) {
         const char *colon = strchr(line, ':');
         if (found == want || sscanf(line, "%d: ", &index) != 1 || !colon) continue;
-        int match = prefix ? strncmp(colon + 2, prefix, strlen(prefix)) == 0
-                           : strstr(line, "PoCL") && strstr(line, "[CPU");
+        const char *d = test_pocl_driver(colon + 2);
+        int match =
+            driver ? d && strcmp(d, driver) == 0 : strstr(line, "PoCL") && strstr(line, "[CPU");
         if (!match) continue;
+        if (name && found == 0) {
+            snprintf(name, name_cap, "%s", colon + 2);
+            name[strcspn(name, "\n")] = '\0';
+        }
         size_t used = strlen(out);
         snprintf(out + used, cap - used, "%s%d", found ? "," : "", index);
         ++found;
@@ -320,7 +343,7 @@ int test_devices_named(const char *pocl, const char *prefix, char *out, size_t c
 
 int test_pocl_devices(char *out, size_t cap, int want)
 {
-    return test_devices_named("pthread pthread", NULL, out, cap, want);
+    return test_devices_named("pthread pthread", NULL, out, cap, want, NULL, 0);
 }
 
 void test_write_text(const char *path, const char *text)

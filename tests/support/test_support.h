@@ -75,10 +75,20 @@ void test_assert_same_pixels(const char *path_a, const char *path_b);
 #define TEST_RUN_WITH_DEVICE(tests, setup)                                                         \
     (test_has_device() ? cmocka_run_group_tests(tests, setup, NULL) : TS_TEST_SKIP)
 int test_has_device(void);
+/* The PoCL driver a device name belongs to: "pthread" for PoCL 3's pthread-... and PoCL 4's
+ * and later cpu-... (the driver renamed), "basic" for basic-... and cpu-minimal-...; NULL for
+ * any other device. POCL_DEVICES takes the old names in every version. */
+const char *test_pocl_driver(const char *name);
+/* The name prefix of that driver's devices in the PoCL of device `name` ("pthread-" or
+ * "cpu-", "basic-" or "cpu-minimal-"): a substring that names them alone, for the variables
+ * that match device names (TESSERA_FAIL_BUILD, TESSERA_FAIL_LAUNCH_DEVICE). */
+const char *test_pocl_prefix(const char *name);
 /* The indices of up to `want` devices that `tessera devices` lists with POCL_DEVICES=pocl
- * (set it the same way for the renders that use them) whose name starts with `prefix`, or,
- * with prefix NULL, that are PoCL CPU devices, as "I,J" in out; returns how many. */
-int test_devices_named(const char *pocl, const char *prefix, char *out, size_t cap, int want);
+ * (set it the same way for the renders that use them) of PoCL's driver `driver` ("pthread"
+ * or "basic", test_pocl_driver), or, with driver NULL, that are PoCL CPU devices, as "I,J"
+ * in out; returns how many. The first one's name goes to name (name_cap bytes) unless NULL. */
+int test_devices_named(const char *pocl, const char *driver, char *out, size_t cap, int want,
+                       char *name, size_t name_cap);
 /* test_devices_named("pthread pthread", NULL, ...): tests of several alike devices skip with
  * fewer than 2 (a machine whose OpenCL is a GPU driver alone). */
 int test_pocl_devices(char *out, size_t cap, int want);
