@@ -169,16 +169,20 @@ static void test_a_slow_device_takes_fewer_units(void **state)
     }
 }
 
-/* The first device 100 ms a wave, the second 3 s: when no unit is left, the first traces a
+/* The first device 100 ms a wave, the second 20 s: when no unit is left, the first traces a
  * backup of the one the second holds (units.h); the backup is merged, the slow copy dropped
- * (stopped in its pause), every sample merged once, and the image is the same. */
+ * (stopped in its pause, so the 20 s are not waited for), every sample merged once, and the
+ * image is the same. The second's pause is long so that it stays more than twice as slow, and
+ * holds its unit more than 4x the first's time a unit, however slow the first runs (a CI run
+ * under ASan with other tests beside it: at 3 s the first took long enough a unit that the
+ * second finished both of its units and nothing was backed up). */
 static void test_a_slow_devices_last_unit_is_backed_up(void **state)
 {
     (void)state;
     const char *args = "--res 96x54 --spp 8 --max-lod 6 --quiet";
     render("scene/teapot.rib", "alone.exr", first, args);
     char slow[64], extra[256];
-    snprintf(slow, sizeof slow, "%d:100,%d:3000", atoi(pair), atoi(strchr(pair, ',') + 1));
+    snprintf(slow, sizeof slow, "%d:100,%d:20000", atoi(pair), atoi(strchr(pair, ',') + 1));
     setenv("TESSERA_SLOW_DEVICE", slow, 1);
     setenv("TESSERA_UNIT_SAMPLES", "1024", 1);
     snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("backup.json"));
