@@ -95,8 +95,7 @@ inline void leaf_box(uint m, uint k, float e, ts_hit *best, uint patch)
 {
     if (!(e < best->t)) return;
     uint i = morton_i(k), j = morton_j(k);
-    float scale = ldexp(1.0f, -(int)m);
-    *best = (ts_hit){e, ((float)i + 0.5f) * scale, ((float)j + 0.5f) * scale, patch,
+    *best = (ts_hit){e, quadtree_centre(i, m), quadtree_centre(j, m), patch,
                      TS_PRIM(m, 2u * (j * (1u << m) + i))};
 }
 

@@ -176,7 +176,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         ts_tex_ctx tex = {textures, tex_pages, tex_pool};
         quad_normals[qf + j * (n - 1u) + i] =
             patch_shading_normal_x4(cp + (size_t)seg.shape * 16u, cn, mn, a, xform + a->xform, tex,
-                                    ((float)i + 0.5f) * h, ((float)j + 0.5f) * h, m);
+                                    quadtree_centre(i, m), quadtree_centre(j, m), m);
     }
 }
 

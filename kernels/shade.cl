@@ -44,6 +44,7 @@
 #include "lib/lights.h"
 #include "lib/noise4.h"
 #include "lib/patch.h"
+#include "lib/quadtree.h"
 #include "lib/relight.h"
 #include "lib/sample_order.h"
 #include "lib/sampler.h"
@@ -159,12 +160,11 @@ shade_vertex_at(ts_hit h, ts_vec4 o4, ts_v3 d, float time, __global const ts_vec
     uint m = TS_PRIM_LOD(h.prim), q = TS_PRIM_INDEX(h.prim) >> 1;
     uint qf = quad_normal_at[2u * h.patch], qm = quad_normal_at[2u * h.patch + 1u];
     uint qi = q & ((1u << m) - 1u), qj = q >> m;
-    float scale = ldexp(1.0f, -(int)m);
     ts_vec4 n4;
     /* At a micro-quad's centre (every leaf-box hit) the normal build_leaves stored there:
      * the same function of (u, v, m), so the same bits (pipeline_quad_normals). */
-    if (qf != TS_INVALID && qm == m && h.u == ((float)qi + 0.5f) * scale &&
-        h.v == ((float)qj + 0.5f) * scale)
+    if (qf != TS_INVALID && qm == m && h.u == quadtree_centre(qi, m) &&
+        h.v == quadtree_centre(qj, m))
         n4 = quad_normals[qf + q];
     else
         n4 = patch_shading_normal_x4(c, corner_n + (size_t)h.patch * 4u,

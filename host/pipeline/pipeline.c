@@ -641,8 +641,8 @@ static int quad_normals_layout(ts_pipeline *p, uint32_t spp, uint64_t room_mb, u
     if (verts > p->plan.vert_capacity || groups > p->plan.group_capacity) return 0;
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         uint32_t m = pipeline_patch_lod(p, i), q = scene_shape(s, i);
-        int noise = s->attr[i].disp_kind == TS_DISP_FBM || s->attr[i].disp_kind == TS_DISP_RIDGED;
-        if (!noise || (q != i && pipeline_patch_lod(p, q) == m)) continue; /* as its master */
+        if (!displace_is_noise(&s->attr[i]) || (q != i && pipeline_patch_lod(p, q) == m))
+            continue; /* as its master */
         p->qn_first[i] = (uint32_t)n;
         n += (uint64_t)1 << (2u * m);
     }

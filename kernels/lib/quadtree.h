@@ -65,6 +65,14 @@ TS_INLINE ts_u32 morton_compact(ts_u32 x)
     return x;
 }
 
+/* The parameter of micro-quad column (or row) i's centre at LOD m: the (u, v) bottom_level
+ * gives every leaf-box hit, where build stores the shading normal and shade looks it up; one
+ * expression, so the three agree to the bit. */
+TS_INLINE float quadtree_centre(ts_u32 i, ts_u32 m)
+{
+    return ((float)i + 0.5f) * ldexp(1.0f, -(int)m);
+}
+
 /* Micro-quad column i (u) and row j (v) of Morton index k. */
 TS_INLINE ts_u32 morton_i(ts_u32 k)
 {
