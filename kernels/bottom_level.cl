@@ -34,6 +34,7 @@
 #include "lib/shared_types.h"
 #include "lib/instance.h"
 #include "lib/intersect.h"
+#include "lib/prefetch.h"
 #include "lib/quadtree.h"
 
 #define BL_STACK (3 * TS_LOD_LIMIT + 2)
@@ -197,12 +198,23 @@ inline void quad_test(const bl_ray *r, const bl_patch *pt, uint qi, uint exact, 
     if (el >= 0.0f && rl >= r->tmin) leaf_box(pt->m, qi, el, best, pt->patch);
 }
 
-/* Starts the traversal at the root. */
-inline void bl_trav_start(bl_trav *s, const bl_ray *r, const bl_patch *pt, float tmax)
+/* Starts the traversal at the root. The root's own box is tested only where it decides
+ * something: when it is itself the block (L = 0), or when the patch moves. A static root
+ * above the blocks is expanded untested: its children lie inside it, and the slab test is
+ * monotone in the box's planes (each rounding is), so a ray that misses the root, or enters
+ * it beyond tmax, misses its children or enters them beyond tmax too, and they are culled
+ * when expanded: the same blocks in the same order (top_level's cull_enter has already
+ * dropped nearly every pair whose ray misses the patch's upper levels). */
+inline void bl_trav_start(bl_trav *s, const bl_ray *r, const bl_patch *pt, float tmax, uint L)
 {
+    s->sp = 0, s->qn = 0, s->qi = 0, s->root_raw = 0.0f;
+    if (L > 0u && !pt->t1) {
+        s->stack[0] = 0u, s->stack_t[0] = -INFINITY, s->sp = 1;
+        return;
+    }
     float4 raw;
     float te = group_enter(pt->t0, pt->t1, r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw).x;
-    s->sp = 0, s->qn = 0, s->qi = 0, s->root_raw = raw.x;
+    s->root_raw = raw.x;
     if (te >= 0.0f) s->stack[0] = 0u, s->stack_t[0] = te, s->sp = 1;
 }
 
@@ -214,6 +226,7 @@ inline void bl_trav_start(bl_trav *s, const bl_ray *r, const bl_patch *pt, float
 inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L, float tmax,
                          float *te, float *raw)
 {
+    uint next = TS_INVALID;
     for (;;) {
         while (s->qi < s->qn && s->blt[s->qi] > tmax)
             ++s->qi;
@@ -221,10 +234,16 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
             *te = s->blt[s->qi], *raw = s->blr[s->qi];
             return (int)s->blk[s->qi++];
         }
-        if (s->sp == 0) return -1;
-        --s->sp;
-        if (s->stack_t[s->sp] > tmax) continue;
-        uint level = s->stack[s->sp] >> 24, k = s->stack[s->sp] & 0xffffffu;
+        uint node;
+        if (next != TS_INVALID) { /* the nearest child of the node just expanded */
+            node = next, next = TS_INVALID;
+        } else {
+            if (s->sp == 0) return -1;
+            --s->sp;
+            if (s->stack_t[s->sp] > tmax) continue;
+            node = s->stack[s->sp];
+        }
+        uint level = node >> 24, k = node & 0xffffffu;
         if (level == L) { /* the root itself is the block */
             s->blk[0] = k, s->blt[0] = s->stack_t[s->sp], s->blr[0] = s->root_raw, s->qn = 1,
             s->qi = 0;
@@ -260,11 +279,14 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
             s->qn = nc, s->qi = 0;
             continue;
         }
-        for (uint q = 0; q < nc; ++q) {
+        if (nc == 0u) continue;
+        for (uint q = 0; q + 1u < nc; ++q) {
             s->stack[s->sp] = ((level + 1u) << 24) | id[q];
             s->stack_t[s->sp] = tc[q];
             ++s->sp;
         }
+        /* The nearest is expanded next, as if pushed and popped at once. */
+        if (!(tc[nc - 1u] > tmax)) next = ((level + 1u) << 24) | id[nc - 1u];
     }
 }
 
@@ -310,6 +332,16 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_tr
     __global uint *utilisation, uint group_base)
 {
     uint gid = get_global_id(0), tests = 0;
+#ifdef TS_PREFETCH /* the rays of the pairs ahead (lib/prefetch.h) */
+    if (gid + 2u * TS_PREFETCH_AHEAD < pair_count)
+        TS_PREFETCH_AT(active +
+                       pairs[pair_first + gid + 2u * TS_PREFETCH_AHEAD].window / n_per_ray);
+    if (gid + TS_PREFETCH_AHEAD < pair_count) {
+        uint ahead = active[pairs[pair_first + gid + TS_PREFETCH_AHEAD].window / n_per_ray];
+        TS_PREFETCH_AT(org + ahead), TS_PREFETCH_AT(dir + ahead), TS_PREFETCH_AT(hit + ahead);
+        TS_PREFETCH_AT(ray_flags + ahead), TS_PREFETCH_AT(ray_from + ahead);
+    }
+#endif
     if (gid < pair_count) {
         bl_ray r;
         bl_patch pt;
@@ -320,7 +352,7 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_tr
                     &best, &window, &ex)) {
             uint b = min(leaf_b, pt.m), L = pt.m - b, nq = 1u << (2u * b);
             bl_trav s;
-            bl_trav_start(&s, &r, &pt, best.t);
+            bl_trav_start(&s, &r, &pt, best.t, L);
             float te, raw;
             for (int k; (k = bl_next_block(&s, &r, &pt, L, best.t, &te, &raw)) >= 0;) {
                 if (!ex && b == 0u) { /* the block is one leaf box, already tested */
@@ -373,7 +405,7 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_gr
                         org, dir, hit, ray_flags, ray_from, grid, groups, instance, inst_xform, &r,
                         &pt, &best, &window, &ex);
         b = min(leaf_b, pt.m), L = pt.m - b;
-        if (!done) bl_trav_start(&s, &r, &pt, best.t);
+        if (!done) bl_trav_start(&s, &r, &pt, best.t, L);
     }
     for (;;) {
         /* 1. Each work-item advances to its next block and posts its micro-quads. */

@@ -13,6 +13,7 @@
  * iterations every leaf box the ray meets within tmax is emitted exactly once. */
 #include "lib/shared_types.h"
 #include "lib/intersect.h"
+#include "lib/prefetch.h"
 #include "lib/qbvh.h"
 
 /* Which of four boxes (SoA: lo_x[4] .. hi_z[4], as ts_qbvh_node and ts_box4 begin) the ray
@@ -65,6 +66,13 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
 {
     uint i = get_global_id(0);
     if (i >= active_count) return;
+#ifdef TS_PREFETCH /* the rays ahead (lib/prefetch.h) */
+    if (i + TS_PREFETCH_AHEAD < active_count) {
+        uint ahead = active[i + TS_PREFETCH_AHEAD];
+        TS_PREFETCH_AT(org + ahead), TS_PREFETCH_AT(dir + ahead);
+        TS_PREFETCH_AT(hit + ahead), TS_PREFETCH_AT(entry + ahead);
+    }
+#endif
     uint ray = active[i];
     ts_vec4 o = org[ray], d = dir[ray];
     float4 o4 = (float4)(o.x, o.y, o.z, 0.0f);

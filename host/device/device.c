@@ -252,10 +252,13 @@ static void dev_build_options(ts_device *cl, int slot)
     clGetDeviceInfo(cl->info.device, CL_DEVICE_SINGLE_FP_CONFIG, sizeof fp, &fp, NULL);
     char define[32] = "";
     if (slot > 0) snprintf(define, sizeof define, " -DTS_DEVICE_SLOT=%d", slot);
-    snprintf(cl->build_options, sizeof cl->build_options, "-cl-std=CL1.2%s%s",
+    /* PoCL's CPU devices: software prefetches (kernels/lib/prefetch.h). */
+    int prefetch = (cl->info.type & CL_DEVICE_TYPE_CPU) &&
+                   strstr(cl->info.platform_name, "Portable Computing Language") != NULL;
+    snprintf(cl->build_options, sizeof cl->build_options, "-cl-std=CL1.2%s%s%s",
              fp & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT ? " -cl-fp32-correctly-rounded-divide-sqrt"
                                                       : "",
-             define);
+             prefetch ? " -DTS_PREFETCH=1" : "", define);
 }
 
 /* Builds `prog` from the program text `src`; on failure returns TS_E_DEVICE with the full
