@@ -54,17 +54,23 @@ void ts_print_line(const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(text, sizeof text, fmt, ap);
     va_end(ap);
+    /* The escaped line is written with one call: stderr is unbuffered, so character by
+     * character it would reach a terminal or mpirun's forwarding as one write each, and the
+     * lines of several ranks or threads would interleave within a line. */
+    char line[4 * sizeof text + 2];
+    size_t n = 0;
     for (const unsigned char *c = (const unsigned char *)text; *c; ++c) {
         if (*c == '\n')
-            fputs("\\n", stderr);
+            line[n++] = '\\', line[n++] = 'n';
         else if (*c == '\t')
-            fputs("\\t", stderr);
+            line[n++] = '\\', line[n++] = 't';
         else if (*c == '\r')
-            fputs("\\r", stderr);
+            line[n++] = '\\', line[n++] = 'r';
         else if (*c < 0x20 || *c == 0x7f)
-            fprintf(stderr, "\\x%02x", *c);
+            n += (size_t)snprintf(line + n, sizeof line - n, "\\x%02x", *c);
         else
-            fputc(*c, stderr);
+            line[n++] = (char)*c;
     }
-    fputc('\n', stderr);
+    line[n++] = '\n';
+    fwrite(line, 1, n, stderr);
 }
