@@ -15,19 +15,14 @@
  *   Every lane form runs the scalar operations in their order: the leaf boxes have the bits
  *   of the plain-C reference (host/ref/dice_build_ref.c; tests/test_bottom_level.c compares
  *   the trees, tests/test_dice_build.c the normal boxes through build_normal_box_probe).
- *   Where the patch has an entry in quad_normal_first (host/pipeline/pipeline.h
- *   pipeline_quad_normals: many samples, noise displacement), the time-0 leaf also stores
- *   the shading normal at the micro-quad's centre (patch_shading_normal_x4 at the (u, v)
- *   every leaf-box hit gets, bottom_level.cl leaf_box), row by row, for shade.
  * build_level (one launch per level l, deepest first): node k of level l of every tree with
  *   m > l (a prefix of the batch's tree list, which is sorted by decreasing m) gets the union
  *   of its four children — the bottom-up min-max reduction. The root group's lanes 1-3 are
  *   left empty.
  * Reads: trees, segments (the patch built is each segment's shape), grid (w = d), corner normals,
  * attributes, transforms, flatness, patch boxes (every leaf box is clamped to its patch's top-level
- * box), textures (the min-max tiles under the leaves' st rectangles must be resident), control
- * points and quad_normal_first (for the normals). Writes: groups[group_first + time *
- * quadtree_group_count(m) ...], quad_normals[quad_normal_first[shape] + j * 2^m + i]. Invariants:
+ * box), textures (the min-max tiles under the leaves' st rectangles must be resident). Writes:
+ * groups[group_first + time * quadtree_group_count(m) ...]. Invariants:
  * every vertex of a micro-quad lies in its leaf box; every inner box is the union of its children
  * (tests/test_dice_build.c, tests/test_bounds.c). */
 #include "lib/shared_types.h"
@@ -111,9 +106,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                            __global const ts_patch_attr *attr, __global const ts_xform *xform,
                            __global const ts_vec4 *flatness, __global const ts_box *patch_box,
                            __global const ts_texture *textures, __global const uint *tex_pages,
-                           __global const ts_vec4 *tex_pool, __global ts_box4 *groups,
-                           __global const ts_vec4 *cp, __global const uint *quad_normal_first,
-                           __global ts_vec4 *quad_normals)
+                           __global const ts_vec4 *tex_pool, __global ts_box4 *groups)
 {
     uint nl = 1u << (2u * m), gid = get_global_id(0);
     uint t = gid / nl, k = gid % nl;
@@ -169,15 +162,6 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     }
     b = leaf_clamp(b, patch_box[seg.shape]);
     node_store(groups + (size_t)seg.group_first + time * quadtree_group_count(m), m, k, b);
-    /* The shading normal at the micro-quad's centre, the (u, v) of its leaf-box hits, which
-     * shade then reads instead of computing per hit (pipeline_quad_normals). */
-    uint qf = quad_normal_first[seg.shape];
-    if (time == 0u && qf != TS_INVALID) {
-        ts_tex_ctx tex = {textures, tex_pages, tex_pool};
-        quad_normals[qf + j * (n - 1u) + i] =
-            patch_shading_normal_x4(cp + (size_t)seg.shape * 16u, cn, mn, a, xform + a->xform, tex,
-                                    quadtree_centre(i, m), quadtree_centre(j, m), m);
-    }
 }
 
 __kernel void build_level(__global const uint *trees, uint tree_first, uint tree_count, uint level,

@@ -15,9 +15,9 @@
  *         textures (colour at the hit's st, displacement for the normal; every tile the
  *         chunk needs resident, host/pipeline/shade.c); with --occlusion the baked points
  *         (relight_patch, relight_coeffs, relight_normal) and the domes' tables
- *         (relight_light, host/pipeline/relight.c); the shading normals build stored at
- *         micro-quad centres (quad_normals, quad_normal_at: first entry and m per patch,
- *         TS_INVALID where none; host/pipeline/pipeline.h pipeline_quad_normals).
+ *         (relight_light, host/pipeline/relight.c); the diced grids of resident patches
+ *         (grid, grid_at: vert_first and m per patch, TS_INVALID where none;
+ *         host/pipeline/pipeline.h pipeline_grid_publish) for the shading normals.
  * Writes: radiance (accumulated per path), aov (normal, Z) and albedo at the eye hit, the
  *         path's next rays into its two slots (org, dir, hit, entry, flags), path state,
  *         alive[k] (per list slot k): the TS_PATH_TRACED_* bits of the rays it traces next.
@@ -148,28 +148,32 @@ inline void shade_escape(const shade_lights *L, ts_v3 d, const shade_step *s, fl
 
 /* The vertex where ray d (from o, at time) hit patch h.patch: position, shading normal
  * towards the ray's origin, colour. */
-inline shade_vertex
-shade_vertex_at(ts_hit h, ts_vec4 o4, ts_v3 d, float time, __global const ts_vec4 *cp,
-                __global const ts_vec4 *corner_n, __global const ts_vec4 *mid_n,
-                __global const ts_patch_attr *attr, __global const ts_xform *xform, ts_tex_ctx tex,
-                __global const ts_vec4 *quad_normals, __global const uint *quad_normal_at)
+inline shade_vertex shade_vertex_at(ts_hit h, ts_vec4 o4, ts_v3 d, float time,
+                                    __global const ts_vec4 *cp, __global const ts_vec4 *corner_n,
+                                    __global const ts_vec4 *mid_n,
+                                    __global const ts_patch_attr *attr,
+                                    __global const ts_xform *xform, ts_tex_ctx tex,
+                                    __global const ts_vec4 *grid, __global const uint *grid_at)
 {
     shade_vertex v;
     v.a = attr + h.patch;
     __global const ts_vec4 *c = cp + (size_t)h.patch * 16u;
     uint m = TS_PRIM_LOD(h.prim), q = TS_PRIM_INDEX(h.prim) >> 1;
-    uint qf = quad_normal_at[2u * h.patch], qm = quad_normal_at[2u * h.patch + 1u];
     uint qi = q & ((1u << m) - 1u), qj = q >> m;
+    uint gf = grid_at[2u * h.patch], gm = grid_at[2u * h.patch + 1u];
     ts_vec4 n4;
-    /* At a micro-quad's centre (every leaf-box hit) the normal build_leaves stored there:
-     * the same function of (u, v, m), so the same bits (pipeline_quad_normals). */
-    if (qf != TS_INVALID && qm == m && h.u == quadtree_centre(qi, m) &&
-        h.v == quadtree_centre(qj, m))
-        n4 = quad_normals[qf + q];
-    else
-        n4 = patch_shading_normal_x4(c, corner_n + (size_t)h.patch * 4u,
-                                     mid_n + (size_t)h.patch * 5u, v.a, xform + v.a->xform, tex,
-                                     h.u, h.v, m);
+    /* The hit micro-quad's normal from its four vertices: read from the diced grid where the
+     * patch is still resident at this m (pipeline_grid_publish), else evaluated (the same
+     * function of (i, j, m), so the same bits). */
+    if (v.a->disp_kind != TS_DISP_NONE && gf != TS_INVALID && gm == m) {
+        uint n = (1u << m) + 1u;
+        __global const ts_vec4 *g = grid + gf + qj * n + qi;
+        n4 = patch_quad_normal(c, h.u, h.v, g[0], g[1], g[n], g[n + 1u]);
+    } else {
+        n4 = patch_quad_shading_normal_x4(c, corner_n + (size_t)h.patch * 4u,
+                                          mid_n + (size_t)h.patch * 5u, v.a, xform + v.a->xform,
+                                          tex, h.u, h.v, qi, qj, m);
+    }
     tex_surface_colour(v.a, tex, h.u, h.v, v.cs);
     v.n = v3(n4.x, n4.y, n4.z), v.wo = v3_scale(d, -1.0f);
     if (v3_dot(v.n, v.wo) < 0.0f) v.n = v3_scale(v.n, -1.0f);
@@ -304,8 +308,8 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
                          __global const ts_vec4 *tex_pool, __global uint *alive,
                          ts_relight_params rp, __global const uint *relight_patch,
                          __global const float *relight_coeffs, __global const float *relight_normal,
-                         __global const ts_vec4 *relight_light,
-                         __global const ts_vec4 *quad_normals, __global const uint *quad_normal_at)
+                         __global const ts_vec4 *relight_light, __global const ts_vec4 *grid,
+                         __global const uint *grid_at)
 {
     uint k = get_global_id(0);
     if (k >= path_count) return;
@@ -344,8 +348,8 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
             aov[i] = (ts_vec4){0.0f, 0.0f, 0.0f, INFINITY}, albedo[i] = (ts_vec4){0, 0, 0, 0};
         return;
     }
-    shade_vertex v = shade_vertex_at(h, o4, d, d4.w, cp, corner_n, mid_n, attr, xform, tex,
-                                     quad_normals, quad_normal_at);
+    shade_vertex v =
+        shade_vertex_at(h, o4, d, d4.w, cp, corner_n, mid_n, attr, xform, tex, grid, grid_at);
     if (s.bounce == 0u) {
         __global const ts_patch_attr *a = v.a;
         aov[i] = (ts_vec4){v.n.x, v.n.y, v.n.z, h.t};
@@ -371,9 +375,9 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
 }
 
 /* Not a stage: the probe of tests/test_shading_normal.c. Item i: the shading normal
- * shade_vertex_at takes (patch_shading_normal_x4) of patch pm[2i] diced at m = pm[2i + 1],
- * at (u, v) = (uv[2i], uv[2i + 1]), which the test compares bit for bit with the host's
- * patch_shading_normal (lib/patch.h). */
+ * shade_vertex_at evaluates (patch_quad_shading_normal_x4) for a hit at (u, v) = (uv[2i],
+ * uv[2i + 1]) in micro-quad (pm[4i + 2], pm[4i + 3]) of patch pm[4i] diced at m = pm[4i + 1],
+ * which the test compares bit for bit with the host's patch_quad_shading_normal (lib/patch.h). */
 __kernel void shade_normal_probe(__global const float *uv, __global const uint *pm, uint count,
                                  __global const ts_vec4 *cp, __global const ts_vec4 *corner_n,
                                  __global const ts_vec4 *mid_n, __global const ts_patch_attr *attr,
@@ -384,10 +388,10 @@ __kernel void shade_normal_probe(__global const float *uv, __global const uint *
 {
     uint i = get_global_id(0);
     if (i >= count) return;
-    uint q = pm[2u * i], m = pm[2u * i + 1u];
+    uint q = pm[4u * i], m = pm[4u * i + 1u];
     __global const ts_patch_attr *a = attr + q;
     ts_tex_ctx tex = {textures, tex_pages, tex_pool};
-    out[i] = patch_shading_normal_x4(cp + (size_t)q * 16u, corner_n + (size_t)q * 4u,
-                                     mid_n + (size_t)q * 5u, a, xform + a->xform, tex, uv[2u * i],
-                                     uv[2u * i + 1u], m);
+    out[i] = patch_quad_shading_normal_x4(
+        cp + (size_t)q * 16u, corner_n + (size_t)q * 4u, mid_n + (size_t)q * 5u, a,
+        xform + a->xform, tex, uv[2u * i], uv[2u * i + 1u], pm[4u * i + 2u], pm[4u * i + 3u], m);
 }

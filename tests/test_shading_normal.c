@@ -1,15 +1,17 @@
-/* test_shading_normal.c — the shading normal of the `shade` kernel (shade_vertex_at:
- * patch_shading_normal_x4, kernels/lib/noise4.h, which evaluates the four points of the
- * central differences in SIMD lanes) against its plain-C reference patch_shading_normal
- * (lib/patch.h): bit for bit, through the probe kernel shade_normal_probe (kernels/shade.cl).
+/* test_shading_normal.c — the shading normal of the `shade` kernel where it evaluates it
+ * (shade_vertex_at: patch_quad_shading_normal_x4, kernels/lib/noise4.h, which evaluates the
+ * hit micro-quad's four corners in SIMD lanes) against its plain-C reference
+ * patch_quad_shading_normal (lib/patch.h): bit for bit, through the probe kernel
+ * shade_normal_probe (kernels/shade.cl). Where the patch is resident shade reads the corners
+ * from the diced grid instead; test_geometry's test_grid_normals_change_no_bit renders both.
  * Scenes: the teapot under fbm displacement with six octaves (three float8 noise
  * evaluations), ridged noise with five (an odd count: the last octave alone), and no
- * displacement (the Bézier normal). Points: random (patch, m, u, v) with m in 0..10, the
- * centres of random micro-quads (the leaf-box hits of box mode), and the patch's edges and
- * corners, where the differences are clamped to [0, 1]. Under Oclgrind (tools/check_kernels.sh)
- * only the scene without displacement runs: Oclgrind 21.10's --uninitialized plugin crashes
- * (SIGSEGV in Uninitialized::instructionExecuted) on the noise's float8 lanes, main's code as
- * well as this. */
+ * displacement (the Bézier normal at (u, v)). Points: random (patch, m, u, v) with m in
+ * 0..10 and the micro-quad holding (u, v), the centres of random micro-quads (the leaf-box hits
+ * of box mode), and the patch's edges and corners (the last micro-quad of a row or column).
+ * Under Oclgrind (tools/check_kernels.sh) only the scene without displacement runs: Oclgrind
+ * 21.10's --uninitialized plugin crashes (SIGSEGV in Uninitialized::instructionExecuted) on
+ * the noise's float8 lanes, main's code as well as this. */
 #include "test_support.h"
 #include "lib/patch.h"
 #include "pipeline/pipeline.h"
@@ -43,7 +45,7 @@ static void check_scene(const char *extra)
     ts_pipeline p;
     if (pipeline_create(&p, &cl, &s, &plan, 64, &stats, &err)) fail_msg("%s", err.msg);
     static float uv[2 * N];
-    static uint32_t pm[2 * N];
+    static uint32_t pm[4 * N];
     static ts_vec4 dev[N];
     uint32_t seed = 1234u;
     for (uint32_t i = 0; i < N; ++i) {
@@ -56,7 +58,10 @@ static void check_scene(const char *extra)
         } else if (i % 11 == 2) { /* on the patch's edges and corners */
             u = (float)(i / 11 % 3) * 0.5f, v = (float)(i / 33 % 3) * 0.5f;
         }
-        uv[2 * i] = u, uv[2 * i + 1] = v, pm[2 * i] = q, pm[2 * i + 1] = m;
+        uint32_t side = 1u << m; /* the micro-quad holding (u, v) */
+        uint32_t qi = (uint32_t)(u * (float)side), qj = (uint32_t)(v * (float)side);
+        uv[2 * i] = u, uv[2 * i + 1] = v, pm[4 * i] = q, pm[4 * i + 1] = m;
+        pm[4 * i + 2] = qi < side ? qi : side - 1u, pm[4 * i + 3] = qj < side ? qj : side - 1u;
     }
     cl_mem duv =
         dev_buffer_create(&cl, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof uv, uv, &err);
@@ -78,14 +83,15 @@ static void check_scene(const char *extra)
         CL_SUCCESS);
     int unit = 0;
     for (uint32_t i = 0; i < N; ++i) {
-        uint32_t q = pm[2 * i], m = pm[2 * i + 1];
+        uint32_t q = pm[4 * i], m = pm[4 * i + 1], qi = pm[4 * i + 2], qj = pm[4 * i + 3];
         dice_build_ref_patch r = dice_build_ref_patch_of(&s, q);
-        ts_vec4 h =
-            patch_shading_normal(r.cp0, r.cn, r.mn, r.a, r.x, r.tex, uv[2 * i], uv[2 * i + 1], m);
+        ts_vec4 h = patch_quad_shading_normal(r.cp0, r.cn, r.mn, r.a, r.x, r.tex, uv[2 * i],
+                                              uv[2 * i + 1], qi, qj, m);
         if (memcmp(&h, &dev[i], sizeof h))
-            fail_msg("patch %u m %u (u, v) = (%a, %a): device (%a %a %a %a), C (%a %a %a %a)", q, m,
-                     uv[2 * i], uv[2 * i + 1], dev[i].x, dev[i].y, dev[i].z, dev[i].w, h.x, h.y,
-                     h.z, h.w);
+            fail_msg("patch %u m %u quad (%u, %u) (u, v) = (%a, %a): device (%a %a %a %a), C (%a "
+                     "%a %a %a)",
+                     q, m, qi, qj, uv[2 * i], uv[2 * i + 1], dev[i].x, dev[i].y, dev[i].z, dev[i].w,
+                     h.x, h.y, h.z, h.w);
         unit += fabsf(h.x * h.x + h.y * h.y + h.z * h.z - 1.0f) < 1e-5f;
     }
     assert_true(unit > N * 9 / 10); /* normals, not zeros: the comparison is not empty */

@@ -449,7 +449,6 @@ static void *worker_main(void *arg)
         rc = worker_take_lod(w, &lod_failed, &w->err);
     if (!rc) /* the frame's patches, once each, if they fit */
         rc = budget_grow_arenas(&w->pipe, w->room_mb, 1, g->frame.opt->quiet, &w->err);
-    if (!rc) rc = pipeline_quad_normals(&w->pipe, g->frame.cam.spp, w->room_mb, &w->err);
     if (!rc) worker_share(w);
     w->out.setup_seconds = stats_now() - t0;
     if (!rc) rc = worker_units(w, &w->err);

@@ -32,7 +32,6 @@
     X(patch_cache_bytes, "bytes of the vertex and tree arenas the cache manages")        \
     X(patch_cache_peak_bytes, "most arena bytes resident patches held at once")          \
     X(patches_shared, "misses filled from another device's dicing (patch_share.h)")       \
-    X(quad_normal_bytes, "shading normals stored at micro-quad centres (0: computed per hit)") \
     X(bake_points, "points baked (tessera bake; their rays are counted in rays)")
 /* clang-format on */
 

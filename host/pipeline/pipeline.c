@@ -284,10 +284,8 @@ static int clear_buffers(ts_pipeline *p, const buffer_counts *c, ts_error *err)
                  "the culling levels", err) ||
         dev_fill(p->cl, p->utilisation, &zero_u, sizeof zero_u, 0,
                  2 * c->util_groups * sizeof(cl_uint), "the leaf utilisation", err) ||
-        dev_fill(p->cl, p->quad_normal_first, &none, sizeof none, 0, c->patches * sizeof(cl_uint),
-                 "the quad normals' table", err) ||
-        dev_fill(p->cl, p->quad_normal_at, &none, sizeof none, 0, 2 * c->patches * sizeof(cl_uint),
-                 "the quad normals' table", err))
+        dev_fill(p->cl, p->grid_at, &none, sizeof none, 0, 2 * c->patches * sizeof(cl_uint),
+                 "the resident grids' table", err))
         return err->code;
     p->util_used = 0;
     return TS_OK;
@@ -322,12 +320,11 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     p->batches = malloc(n * sizeof *p->batches);
     p->patch_lod = malloc(n);
     p->cull_key = calloc(n, sizeof *p->cull_key);
-    p->qn_first = malloc(n * sizeof *p->qn_first);
-    p->qn_built = calloc(n, 1);
+    p->grid_at_host = malloc(2 * n * sizeof *p->grid_at_host);
     if (!*boxes || !p->segments_host || !p->trees_host || !p->batches || !p->patch_lod ||
-        !p->cull_key || !p->qn_first || !p->qn_built)
+        !p->cull_key || !p->grid_at_host)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    memset(p->qn_first, 0xff, n * sizeof *p->qn_first);
+    memset(p->grid_at_host, 0xff, 2 * n * sizeof *p->grid_at_host);
     memset(p->patch_lod, (int)p->plan.max_lod, n);
     for (uint32_t i = 0; i < s->patch_count; ++i)
         (*boxes)[i] = scene_patch_box(s, i);
@@ -375,6 +372,8 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
                                 plan->group_capacity, err);
     const char *cache_env = getenv("TESSERA_PATCH_CACHE");
     p->cache_off = cache_env && strcmp(cache_env, "0") == 0;
+    const char *grid_env = getenv("TESSERA_GRID_NORMALS");
+    p->grid_off = grid_env && strcmp(grid_env, "0") == 0;
     if (rc != TS_OK) {
         pipeline_destroy(p);
         return rc;
@@ -421,8 +420,7 @@ void pipeline_destroy(ts_pipeline *p)
     free(p->batches);
     free(p->patch_lod);
     free(p->cull_key);
-    free(p->qn_first);
-    free(p->qn_built);
+    free(p->grid_at_host);
     qbvh_free(&p->qbvh);
     memset(p, 0, sizeof *p);
 }
@@ -628,79 +626,23 @@ int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_err
     return TS_OK;
 }
 
-/* Whether the frame's normals are worth storing (pipeline_quad_normals): 1 with the
- * first entry of each patch in p->qn_first and their count in *count. */
-static int quad_normals_layout(ts_pipeline *p, uint32_t spp, uint64_t room_mb, uint64_t *count)
-{
-    const ts_scene *s = p->scene;
-    const char *env = getenv("TESSERA_QUAD_NORMALS");
-    if (env && strcmp(env, "0") == 0) return 0;
-    if (!(env && strcmp(env, "1") == 0) && spp < TS_QUAD_NORMALS_SPP) return 0;
-    uint64_t verts, groups, n = 0;
-    pipeline_arena_need(p, &verts, &groups);
-    if (verts > p->plan.vert_capacity || groups > p->plan.group_capacity) return 0;
-    for (uint32_t i = 0; i < s->patch_count; ++i) {
-        uint32_t m = pipeline_patch_lod(p, i), q = scene_shape(s, i);
-        if (!displace_is_noise(&s->attr[i]) || (q != i && pipeline_patch_lod(p, q) == m))
-            continue; /* as its master */
-        p->qn_first[i] = (uint32_t)n;
-        n += (uint64_t)1 << (2u * m);
-    }
-    /* Beside the arenas and the waves' rays, within the room the arenas could grow into
-     * (the budget when there is none beyond it). */
-    uint64_t bytes = n * sizeof(ts_vec4), room = room_mb << 20;
-    uint64_t budget = p->stats->memory_budget_bytes;
-    uint64_t used =
-        pipeline_arena_bytes(&p->plan) + (uint64_t)p->plan.ray_capacity * TS_BYTES_PER_RAY;
-    if (room < budget) room = budget;
-    if (n == 0 || n > UINT32_MAX || bytes > p->cl->info.max_alloc || used + bytes > room) return 0;
-    *count = n;
-    return 1;
-}
-
-int pipeline_quad_normals(ts_pipeline *p, uint32_t spp, uint64_t room_mb, ts_error *err)
+/* Writes grid_at for shade where the patch cache changed since the last time: vert_first
+ * and m of each patch resident in the arenas (its own dicing, not a master's), TS_INVALID
+ * elsewhere, or everywhere with TESSERA_GRID_NORMALS=0. */
+int pipeline_grid_publish(ts_pipeline *p, ts_error *err)
 {
     size_t n = p->scene->patch_count ? p->scene->patch_count : 1;
-    uint64_t count = 0;
-    memset(p->qn_first, 0xff, n * sizeof *p->qn_first);
-    memset(p->qn_built, 0, n);
-    p->qn_dirty = 1;
-    int on = quad_normals_layout(p, spp, room_mb, &count);
-    if (dev_finish(p->cl, p->stats, err)) return err->code; /* nothing uses the old buffer */
-    cl_mem normals =
-        on ? dev_buffer_create(p->cl, CL_MEM_READ_WRITE, count * sizeof(ts_vec4), NULL, err) : NULL;
-    if (!normals) { /* off, or no room after all: shade computes every normal */
-        ts_error_clear(err);
-        on = 0;
-        memset(p->qn_first, 0xff, n * sizeof *p->qn_first);
-        normals = dev_buffer_create(p->cl, CL_MEM_READ_WRITE, sizeof(ts_vec4), NULL, err);
-        if (!normals) return err->code;
+    int changed = 0;
+    for (size_t i = 0; i < p->scene->patch_count; ++i) {
+        const ts_cache_entry *e = &p->cache.entry[i];
+        int ok = !p->grid_off && e->resident; /* entries are per patch diced (its shape) */
+        uint32_t first = ok ? e->vert_first : TS_INVALID, m = ok ? e->lod : TS_INVALID;
+        if (p->grid_at_host[2 * i] != first || p->grid_at_host[2 * i + 1] != m)
+            p->grid_at_host[2 * i] = first, p->grid_at_host[2 * i + 1] = m, changed = 1;
     }
-    clReleaseMemObject(p->quad_normals);
-    p->quad_normals = normals;
-    p->stats->counters[TS_COUNTER_quad_normal_bytes] = on ? count * sizeof(ts_vec4) : 0;
-    return dev_write(p->cl, p->quad_normal_first, 0, n * sizeof *p->qn_first, p->qn_first,
-                     "the quad normals' table", err);
-}
-
-/* Writes quad_normal_at for shade when build_leaves has stored normals since the last time:
- * each patch's first entry and m where they are written, TS_INVALID elsewhere. */
-int pipeline_quad_normals_publish(ts_pipeline *p, ts_error *err)
-{
-    if (!p->qn_dirty) return TS_OK;
-    size_t n = p->scene->patch_count ? p->scene->patch_count : 1;
-    uint32_t *at = malloc(2 * n * sizeof *at);
-    if (!at) return ts_error_set(err, TS_E_MEMORY, "out of memory (quad normals' table)");
-    for (size_t i = 0; i < n; ++i) {
-        int ok = i < p->scene->patch_count && p->qn_built[i];
-        at[2 * i] = ok ? p->qn_first[i] : TS_INVALID;
-        at[2 * i + 1] = ok ? pipeline_patch_lod(p, (uint32_t)i) : TS_INVALID;
-    }
-    int rc = dev_write(p->cl, p->quad_normal_at, 0, 2 * n * sizeof *at, at,
-                       "the quad normals' table", err);
-    free(at);
-    if (rc == TS_OK) p->qn_dirty = 0;
-    return rc;
+    if (!changed) return TS_OK;
+    return dev_write(p->cl, p->grid_at, 0, 2 * n * sizeof *p->grid_at_host, p->grid_at_host,
+                     "the resident grids' table", err);
 }
 
 int pipeline_resize_rays(ts_pipeline *p, uint32_t rays, ts_error *err)

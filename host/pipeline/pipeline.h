@@ -154,10 +154,8 @@ typedef struct ts_trace_mode {
     X(utilisation,     CL_MEM_READ_WRITE, ts_u32,        2 * c.util_groups, NULL)               \
     X(cull,            CL_MEM_READ_WRITE, ts_box4,       TS_CULL_GROUPS * c.patches, NULL)      \
     X(cull_levels,     CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \
-    /* Shading normals at micro-quad centres (pipeline_quad_normals; one entry until on). */    \
-    X(quad_normals,    CL_MEM_READ_WRITE, ts_vec4,       1,              NULL)                  \
-    X(quad_normal_first, CL_MEM_READ_ONLY, ts_u32,       c.patches,      NULL)                  \
-    X(quad_normal_at,  CL_MEM_READ_ONLY,  ts_u32,        2 * c.patches,  NULL)                  \
+    /* Where each patch's diced grid is resident, for shade (pipeline_grid_publish). */        \
+    X(grid_at,         CL_MEM_READ_ONLY,  ts_u32,        2 * c.patches,  NULL)                  \
     /* Per pixel: the film. */                                                                  \
     X(accum,           TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
     X(aov_film,        TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
@@ -223,12 +221,11 @@ typedef struct ts_pipeline {
      * every segment is diced again as before the cache. */
     ts_patch_cache cache;
     int cache_off;
-    /* The shading normals at micro-quad centres (pipeline_quad_normals): each patch's first
-     * entry in quad_normals (TS_INVALID: none), whether build_leaves has written them this
-     * frame, and whether quad_normal_at must be written again before shade. */
-    uint32_t *qn_first;
-    uint8_t *qn_built;
-    int qn_dirty;
+    /* The table shade last got in grid_at (pipeline_grid_publish): vert_first and m of each
+     * patch resident in the arenas, TS_INVALID elsewhere; grid_off (TESSERA_GRID_NORMALS=0,
+     * for checks) publishes none, so shade evaluates every normal. */
+    uint32_t *grid_at_host;
+    int grid_off;
     /* The store this device shares built patches through with the devices of its process
      * that compute alike (patch_share.h; app/workers.c sets it once the frame's levels of
      * detail are known), and its slot there; NULL: every miss is diced here. */
@@ -331,19 +328,13 @@ uint64_t pipeline_arena_bytes(const ts_pipeline_plan *plan);
  * buffer), replacing the old ones, and an empty patch cache over them. When they cannot be
  * had the old ones stay, with the error in *err. */
 int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_error *err);
-/* Whether build_leaves stores each micro-quad's shading normal at its centre for shade,
- * decided once the frame's levels of detail are known (after budget_grow_arenas). A leaf-box
- * hit is always at a micro-quad's centre, so with many samples a micro-quad is shaded many
- * times and its normal (four displaced points with the noise at each) is better computed
- * once per dicing: on when the displacement is noise, spp >= TS_QUAD_NORMALS_SPP (32), every
- * patch fits the arenas at once (each is then built once per frame) and the normals, with
- * the arenas, fit room_mb (0: the budget). TESSERA_QUAD_NORMALS=0 turns it off, =1 on at any
- * spp (for checks). The image does not change: shade computes the same function of (u, v,
- * m) where no normal is stored. */
-#define TS_QUAD_NORMALS_SPP 32u
-int pipeline_quad_normals(ts_pipeline *p, uint32_t spp, uint64_t room_mb, ts_error *err);
-/* Tells shade which patches' normals build_leaves has stored (before each shade launch). */
-int pipeline_quad_normals_publish(ts_pipeline *p, ts_error *err);
+/* Tells shade, before each shade launch, where the patch cache holds each patch's diced grid
+ * (grid_at: vert_first and m; written only when it changed). A displaced patch's shading
+ * normal is its hit micro-quad's, from the quad's four vertices (lib/patch.h
+ * patch_quad_shading_normal): shade reads them from the grid where the patch is resident at
+ * the hit's m and evaluates them (the same bits) where it is not, so the image does not depend
+ * on the cache, --memory or TESSERA_GRID_NORMALS=0 (none published, for checks). */
+int pipeline_grid_publish(ts_pipeline *p, ts_error *err);
 /* Waves of `rays` rays from now on: every buffer sized by the plan's ray_capacity and
  * pair_capacity (the ray and path fields, TS_PIPELINE_WAVE_BUFFERS, the sort's host copies)
  * is released and made again at the new size; nothing in them is kept, so it is called

@@ -334,18 +334,11 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
                          DEV_ARG(p->mid_n), DEV_ARG(p->attr), DEV_ARG(p->xform),
                          DEV_ARG(p->flatness), DEV_ARG(p->patch_box), DEV_ARG(p->textures),
                          DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(p->groups),
-                         DEV_ARG(p->cp), DEV_ARG(p->quad_normal_first), DEV_ARG(p->quad_normals),
                          (size_t)0) ||
             dev_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
                        TS_LOCAL_SIZE, err))
             return err->code;
         t += run;
-    }
-    for (uint32_t t = 0; t < b->tree_count; ++t) { /* their normals, once this batch is built */
-        uint32_t tree = p->trees_host[b->tree_first + t];
-        uint32_t shape = p->segments_host[TS_TREE_SEGMENT(tree)].shape;
-        if (TS_TREE_TIME(tree) == 0u && p->qn_first[shape] != TS_INVALID && !p->qn_built[shape])
-            p->qn_built[shape] = 1, p->qn_dirty = 1;
     }
     for (uint32_t level = top; level-- > 0;) {
         uint32_t deeper = 0; /* trees with m > level: a prefix of the list */

@@ -1,7 +1,8 @@
 /* noise4.h — kernels only: the fBm of lib/displace.h with several noise evaluations in the
- * lanes of a float8 (noise3_x8). shade.cl's displaced shading normal evaluates its four
- * surface points together, a point per lane and two octaves in the two halves (their Bézier
- * points and displacement normals in float4 lanes); dice.cl evaluates a vertex's octaves
+ * lanes of a float8 (noise3_x8). shade.cl's displaced shading normal, where the patch's grid
+ * is not resident, evaluates the micro-quad's four corners together, a point per lane and two
+ * octaves in the two halves (their Bézier points and displacement normals in float4 lanes);
+ * dice.cl evaluates a vertex's octaves
  * together, one per lane. The scalar fBm was 15% (shade) and 4% (dice) of a
  * teapot_displaced render. build.cl takes a micro-quad's four corner normals in float4 lanes
  * (displace_normal_x4) and its displacement-normal box with x, y, z in lanes
@@ -275,19 +276,21 @@ inline ts_box displace_normal_box_x4(__global const ts_vec4 *n, __global const t
     return r;
 }
 
-/* patch_shading_normal (lib/patch.h), the same bits: the four points of its central
- * differences evaluated together where the displacement is noise, a point per lane (the
- * Bézier points, their displacement normals, and the noise in displace_value_x4). */
-inline ts_vec4 patch_shading_normal_x4(__global const ts_vec4 *cp, __global const ts_vec4 *n,
-                                       __global const ts_vec4 *mid, __global const ts_patch_attr *a,
-                                       __global const ts_xform *x, ts_tex_ctx tex, float u, float v,
-                                       uint m)
+/* patch_quad_shading_normal (lib/patch.h), the same bits: the micro-quad's four corners
+ * evaluated together where the displacement is noise, a corner per lane (the Bézier points,
+ * their displacement normals, and the noise in displace_value_x4). shade takes the corners
+ * from the diced grid where the patch is resident; this is the same function of (i, j, m). */
+inline ts_vec4 patch_quad_shading_normal_x4(__global const ts_vec4 *cp, __global const ts_vec4 *n,
+                                            __global const ts_vec4 *mid,
+                                            __global const ts_patch_attr *a,
+                                            __global const ts_xform *x, ts_tex_ctx tex, float u,
+                                            float v, uint i, uint j, uint m)
 {
-    if (!displace_is_noise(a)) return patch_shading_normal(cp, n, mid, a, x, tex, u, v, m);
-    float h = 0.5f * ldexp(1.0f, -(int)m);
-    float u0 = fmax(u - h, 0.0f), u1 = fmin(u + h, 1.0f);
-    float v0 = fmax(v - h, 0.0f), v1 = fmin(v + h, 1.0f);
-    float4 pu = (float4)(u0, u1, u, u), pv = (float4)(v, v, v0, v1);
+    if (!displace_is_noise(a))
+        return patch_quad_shading_normal(cp, n, mid, a, x, tex, u, v, i, j, m);
+    float u0 = ldexp((float)i, -(int)m), u1 = ldexp((float)(i + 1u), -(int)m);
+    float v0 = ldexp((float)j, -(int)m), v1 = ldexp((float)(j + 1u), -(int)m);
+    float4 pu = (float4)(u0, u1, u0, u1), pv = (float4)(v0, v0, v1, v1);
     float4 px, py, pz, nx, ny, nz;
     bezier_eval_x4(cp, pu, pv, &px, &py, &pz);
     float4 d = displace_value_x4(a, x, px, py, pz);
@@ -298,7 +301,7 @@ inline ts_vec4 patch_shading_normal_x4(__global const ts_vec4 *cp, __global cons
                     {qx.s1, qy.s1, qz.s1, d.s1},
                     {qx.s2, qy.s2, qz.s2, d.s2},
                     {qx.s3, qy.s3, qz.s3, d.s3}};
-    return patch_normal_of_differences(cp, u, v, q[0], q[1], q[2], q[3]);
+    return patch_quad_normal(cp, u, v, q[0], q[1], q[2], q[3]);
 }
 
 /* interval_lerp (lib/noise.h) in eight lanes. */

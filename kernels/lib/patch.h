@@ -90,10 +90,9 @@ TS_INLINE ts_vec4 patch_normal_of_differences(TS_CONST_GLOBAL ts_vec4 *cp, float
     return r;
 }
 
-/* The shading normal at (u, v) of patch cp diced at LOD m (shade.cl; the Embree
- * benchmark's bounce rays on the host): the Bézier normal without displacement, else the
- * displaced surface's normal by central differences over one micro-quad (Hanika §3.2),
- * falling back to the Bézier normal at a degenerate corner. */
+/* The normal at (u, v) of patch cp diced at LOD m by central differences over one micro-quad
+ * (Hanika §3.2; the bake's points, bake.cl): the Bézier normal without displacement, else the
+ * displaced surface's, falling back to the Bézier normal at a degenerate corner. */
 TS_INLINE ts_vec4 patch_shading_normal(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLOBAL ts_vec4 *n,
                                        TS_CONST_GLOBAL ts_vec4 *mid,
                                        TS_CONST_GLOBAL ts_patch_attr *a,
@@ -109,6 +108,41 @@ TS_INLINE ts_vec4 patch_shading_normal(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLO
     ts_vec4 pv0 = patch_vertex(cp, cp, n, mid, a, x, tex, u, v0),
             pv1 = patch_vertex(cp, cp, n, mid, a, x, tex, u, v1);
     return patch_normal_of_differences(cp, u, v, pu0, pu1, pv0, pv1);
+}
+
+/* The unit normal at its centre of the bilinear micro-quad with corners p00, p10, p01, p11
+ * (grid vertices (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)): the cross product of its
+ * diagonals, (p11 - p00) x (p01 - p10), or the Bézier normal at (u, v) where it vanishes. */
+TS_INLINE ts_vec4 patch_quad_normal(TS_CONST_GLOBAL ts_vec4 *cp, float u, float v, ts_vec4 p00,
+                                    ts_vec4 p10, ts_vec4 p01, ts_vec4 p11)
+{
+    ts_v3 a = v3(p11.x - p00.x, p11.y - p00.y, p11.z - p00.z);
+    ts_v3 b = v3(p01.x - p10.x, p01.y - p10.y, p01.z - p10.z);
+    ts_v3 c = v3_cross(a, b);
+    float len = sqrt(v3_dot(c, c));
+    if (!(len > 0.0f)) return bezier_normal(cp, u, v);
+    ts_vec4 r = {c.x / len, c.y / len, c.z / len, 0.0f};
+    return r;
+}
+
+/* The shading normal of a hit at (u, v) in micro-quad (i, j) of patch cp diced at LOD m
+ * (shade.cl; the Embree benchmark's bounce rays on the host): the Bézier normal at (u, v)
+ * without displacement, else the normal of the displaced micro-quad itself, patch_quad_normal
+ * of the four vertices dice makes there (parameters i 2^-m exactly, as dice.cl), so that shade
+ * can read them from the diced grid instead (issue 13). */
+TS_INLINE ts_vec4 patch_quad_shading_normal(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLOBAL ts_vec4 *n,
+                                            TS_CONST_GLOBAL ts_vec4 *mid,
+                                            TS_CONST_GLOBAL ts_patch_attr *a,
+                                            TS_CONST_GLOBAL ts_xform *x, ts_tex_ctx tex, float u,
+                                            float v, ts_u32 i, ts_u32 j, ts_u32 m)
+{
+    if (a->disp_kind == TS_DISP_NONE) return bezier_normal(cp, u, v);
+    float u0 = ldexp((float)i, -(int)m), u1 = ldexp((float)(i + 1u), -(int)m);
+    float v0 = ldexp((float)j, -(int)m), v1 = ldexp((float)(j + 1u), -(int)m);
+    return patch_quad_normal(cp, u, v, patch_vertex(cp, cp, n, mid, a, x, tex, u0, v0),
+                             patch_vertex(cp, cp, n, mid, a, x, tex, u1, v0),
+                             patch_vertex(cp, cp, n, mid, a, x, tex, u0, v1),
+                             patch_vertex(cp, cp, n, mid, a, x, tex, u1, v1));
 }
 
 #endif

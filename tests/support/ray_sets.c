@@ -143,11 +143,12 @@ int ray_set_eye(const ts_scene *s, uint32_t w, uint32_t h, uint32_t seed, ts_ray
     return TS_OK;
 }
 
-/* The shading normal at (u, v) of a patch diced at m, as shade computes it
- * (lib/patch.h patch_shading_normal), with pipeline.c's defaults for missing normals and
- * transforms. */
-ts_vec4 ray_set_normal(const ts_scene *s, uint32_t patch, float u, float v, uint32_t m)
+/* The shading normal of hit h on a patch diced at m, as shade computes it (lib/patch.h
+ * patch_quad_shading_normal: the hit micro-quad's, from TS_PRIM_INDEX), with pipeline.c's
+ * defaults for missing normals and transforms. */
+ts_vec4 ray_set_normal(const ts_scene *s, const ts_hit *h, uint32_t m)
 {
+    uint32_t patch = h->patch, q = TS_PRIM_INDEX(h->prim) >> 1;
     const ts_vec4 *cp = &s->cp[(size_t)patch * 16u];
     const ts_patch_attr *a = &s->attr[patch];
     static const ts_vec4 up[5] = {
@@ -156,7 +157,8 @@ ts_vec4 ray_set_normal(const ts_scene *s, uint32_t patch, float u, float v, uint
     const ts_vec4 *mid = s->mid_n ? &s->mid_n[(size_t)patch * 5u] : up;
     static const ts_xform identity = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
     const ts_xform *x = s->xform ? &s->xform[a->xform] : &identity;
-    return patch_shading_normal(cp, n, mid, a, x, scene_tex_ctx(s), u, v, m);
+    return patch_quad_shading_normal(cp, n, mid, a, x, scene_tex_ctx(s), h->u, h->v,
+                                     q & ((1u << m) - 1u), q >> m, m);
 }
 
 /* One generation of diffuse bounce rays from the hits of `eye` (see the top of the file). */
@@ -170,7 +172,7 @@ int ray_set_bounce(const ts_scene *s, uint32_t m, uint32_t seed, const ts_ray_se
         if (h->patch == TS_INVALID) continue;
         ts_vec4 o4 = eye->org[k], d4 = eye->dir[k];
         ts_v3 d = v3(d4.x, d4.y, d4.z), wo = v3_scale(d, -1.0f);
-        ts_vec4 n4 = ray_set_normal(s, h->patch, h->u, h->v, m);
+        ts_vec4 n4 = ray_set_normal(s, h, m);
         ts_v3 nn = v3(n4.x, n4.y, n4.z);
         if (v3_dot(nn, wo) < 0.0f) nn = v3_scale(nn, -1.0f);
         ts_v3 p = v3(o4.x + h->t * d.x, o4.y + h->t * d.y, o4.z + h->t * d.z);

@@ -38,10 +38,10 @@ uint32_t ray_set_count_hits(const ts_hit *h, uint32_t n);
  * centres, time rng_uniform(pixel, 0, 0, 2, seed). */
 int ray_set_eye(const ts_scene *s, uint32_t w, uint32_t h, uint32_t seed, ts_ray_set *r,
                 ts_error *err);
-/* The shade kernel's shading normal (lib/patch.h patch_shading_normal) at (u, v) of `patch`
- * diced at m: the Bézier normal, or for a displaced patch the central difference over one
- * micro-quad. */
-ts_vec4 ray_set_normal(const ts_scene *s, uint32_t patch, float u, float v, uint32_t m);
+/* The shade kernel's shading normal (lib/patch.h patch_quad_shading_normal) of hit h on a
+ * patch diced at m: the Bézier normal at (u, v), or for a displaced patch the normal of the
+ * hit micro-quad from its four diced vertices. */
+ts_vec4 ray_set_normal(const ts_scene *s, const ts_hit *h, uint32_t m);
 /* One bounce ray per eye-ray hit, as the shade kernel makes them for a matte surface:
  * direction cosine-distributed about the shading normal turned towards the eye
  * (rng_uniform(pixel, 0, 1, 5 | 6, seed)), origin the hit point offset by l / 2^m along
