@@ -116,13 +116,7 @@ TS_INLINE ts_vec4 patch_shading_normal(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONST_GLO
 TS_INLINE ts_vec4 patch_quad_normal(TS_CONST_GLOBAL ts_vec4 *cp, float u, float v, ts_vec4 p00,
                                     ts_vec4 p10, ts_vec4 p01, ts_vec4 p11)
 {
-    ts_v3 a = v3(p11.x - p00.x, p11.y - p00.y, p11.z - p00.z);
-    ts_v3 b = v3(p01.x - p10.x, p01.y - p10.y, p01.z - p10.z);
-    ts_v3 c = v3_cross(a, b);
-    float len = sqrt(v3_dot(c, c));
-    if (!(len > 0.0f)) return bezier_normal(cp, u, v);
-    ts_vec4 r = {c.x / len, c.y / len, c.z / len, 0.0f};
-    return r;
+    return patch_normal_of_differences(cp, u, v, p00, p11, p10, p01);
 }
 
 /* The shading normal of a hit at (u, v) in micro-quad (i, j) of patch cp diced at LOD m
