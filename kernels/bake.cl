@@ -70,8 +70,8 @@ __kernel void bake_points(ts_bake_params bp, uint end, __global const uint *poin
      * it, so whether a ray from there meets it is rounding: the point moves a quarter of a
      * micro-quad into the patch. */
     float q = ldexp(0.25f, -(int)m);
-    float u = clamp(ldexp((float)(k % n), -(int)m), q, 1.0f - q);
-    float v = clamp(ldexp((float)(k / n), -(int)m), q, 1.0f - q);
+    float u = clamp(quadtree_vertex_param(k % n, m), q, 1.0f - q);
+    float v = clamp(quadtree_vertex_param(k / n, m), q, 1.0f - q);
     __global const ts_vec4 *c = cp + (size_t)p * 16u;
     __global const ts_vec4 *cn = corner_n + (size_t)p * 4u, *mn = mid_n + (size_t)p * 5u;
     __global const ts_patch_attr *a = attr + p;

@@ -332,7 +332,7 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_tr
     __global uint *utilisation, uint group_base)
 {
     uint gid = get_global_id(0), tests = 0;
-#ifdef TS_PREFETCH /* the rays of the pairs ahead (lib/prefetch.h) */
+#ifdef TS_PREFETCH_AT /* the rays of the pairs ahead (lib/prefetch.h) */
     if (gid + 2u * TS_PREFETCH_AHEAD < pair_count)
         TS_PREFETCH_AT(active +
                        pairs[pair_first + gid + 2u * TS_PREFETCH_AHEAD].window / n_per_ray);

@@ -33,8 +33,8 @@ __kernel void dice_grid(__global const uint *trees, uint tree_first, uint tree_c
     __global const ts_vec4 *c0 = cp0 + (size_t)seg.shape * 16u;
     __global const ts_vec4 *c = time ? cp1 + (size_t)seg.shape * 16u : c0;
     __global const ts_patch_attr *a = attr + seg.shape;
-    float u = ldexp((float)(v % n), -(int)m);
-    float w = ldexp((float)(v / n), -(int)m);
+    float u = quadtree_vertex_param(v % n, m);
+    float w = quadtree_vertex_param(v / n, m);
     grid[(size_t)seg.vert_first + time * nv + v] =
         patch_vertex_x8(c, c0, corner_n + (size_t)seg.shape * 4u, mid_n + (size_t)seg.shape * 5u, a,
                         xform + a->xform, tex, u, w);

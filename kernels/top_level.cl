@@ -66,7 +66,7 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
 {
     uint i = get_global_id(0);
     if (i >= active_count) return;
-#ifdef TS_PREFETCH /* the rays ahead (lib/prefetch.h) */
+#ifdef TS_PREFETCH_AT /* the rays ahead (lib/prefetch.h) */
     if (i + TS_PREFETCH_AHEAD < active_count) {
         uint ahead = active[i + TS_PREFETCH_AHEAD];
         TS_PREFETCH_AT(org + ahead), TS_PREFETCH_AT(dir + ahead);

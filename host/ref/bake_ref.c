@@ -18,8 +18,8 @@ void bake_ref_point(const ts_scene *s, const ts_bake_params *bp, const uint32_t 
     uint32_t m = lod[p], n = (1u << m) + 1u, k = g - point_first[p];
     /* A boundary vertex moves a quarter of a micro-quad inside (docs/bake.md "Points"). */
     float q = ldexpf(0.25f, -(int)m);
-    float u = fminf(fmaxf(ldexpf((float)(k % n), -(int)m), q), 1.0f - q);
-    float v = fminf(fmaxf(ldexpf((float)(k / n), -(int)m), q), 1.0f - q);
+    float u = fminf(fmaxf(quadtree_vertex_param(k % n, m), q), 1.0f - q);
+    float v = fminf(fmaxf(quadtree_vertex_param(k / n, m), q), 1.0f - q);
     dice_build_ref_patch q_ = dice_build_ref_patch_of(s, p);
     ts_vec4 P = patch_vertex(q_.cp0, q_.cp0, q_.cn, q_.mn, q_.a, q_.x, q_.tex, u, v);
     ts_vec4 N = patch_shading_normal(q_.cp0, q_.cn, q_.mn, q_.a, q_.x, q_.tex, u, v, m);

@@ -143,8 +143,8 @@ void dice_build_ref_grid(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *gri
         const ts_vec4 *c = t ? q.cp1 : q.cp0;
         for (uint32_t v = 0; v < nv; ++v)
             grid[t * nv + v] =
-                patch_vertex(c, q.cp0, q.cn, q.mn, q.a, q.x, q.tex, ldexpf((float)(v % n), -(int)m),
-                             ldexpf((float)(v / n), -(int)m));
+                patch_vertex(c, q.cp0, q.cn, q.mn, q.a, q.x, q.tex, quadtree_vertex_param(v % n, m),
+                             quadtree_vertex_param(v / n, m));
     }
 }
 

@@ -288,8 +288,8 @@ inline ts_vec4 patch_quad_shading_normal_x4(__global const ts_vec4 *cp, __global
 {
     if (!displace_is_noise(a))
         return patch_quad_shading_normal(cp, n, mid, a, x, tex, u, v, i, j, m);
-    float u0 = ldexp((float)i, -(int)m), u1 = ldexp((float)(i + 1u), -(int)m);
-    float v0 = ldexp((float)j, -(int)m), v1 = ldexp((float)(j + 1u), -(int)m);
+    float u0 = quadtree_vertex_param(i, m), u1 = quadtree_vertex_param(i + 1u, m);
+    float v0 = quadtree_vertex_param(j, m), v1 = quadtree_vertex_param(j + 1u, m);
     float4 pu = (float4)(u0, u1, u0, u1), pv = (float4)(v0, v0, v1, v1);
     float4 px, py, pz, nx, ny, nz;
     bezier_eval_x4(cp, pu, pv, &px, &py, &pz);

@@ -8,6 +8,7 @@
 #include "lib/bezier.h"
 #include "lib/bsdf.h"
 #include "lib/displace.h"
+#include "lib/quadtree.h"
 #include "lib/shared_types.h"
 
 /* The vertex at (u, v) of patch cp (16 control points of the time sample being diced),
@@ -131,8 +132,8 @@ TS_INLINE ts_vec4 patch_quad_shading_normal(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONS
                                             float v, ts_u32 i, ts_u32 j, ts_u32 m)
 {
     if (a->disp_kind == TS_DISP_NONE) return bezier_normal(cp, u, v);
-    float u0 = ldexp((float)i, -(int)m), u1 = ldexp((float)(i + 1u), -(int)m);
-    float v0 = ldexp((float)j, -(int)m), v1 = ldexp((float)(j + 1u), -(int)m);
+    float u0 = quadtree_vertex_param(i, m), u1 = quadtree_vertex_param(i + 1u, m);
+    float v0 = quadtree_vertex_param(j, m), v1 = quadtree_vertex_param(j + 1u, m);
     return patch_quad_normal(cp, u, v, patch_vertex(cp, cp, n, mid, a, x, tex, u0, v0),
                              patch_vertex(cp, cp, n, mid, a, x, tex, u1, v0),
                              patch_vertex(cp, cp, n, mid, a, x, tex, u0, v1),

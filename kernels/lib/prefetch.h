@@ -9,10 +9,10 @@
 #ifndef TS_PREFETCH_H
 #define TS_PREFETCH_H
 
+/* Defined only where prefetches are made: the kernels leave out the loads that find the
+ * addresses (#ifdef TS_PREFETCH_AT) everywhere else. */
 #if defined(TS_PREFETCH) && defined(__clang__)
 #define TS_PREFETCH_AT(p) __builtin_prefetch(p)
-#else
-#define TS_PREFETCH_AT(p) ((void)0)
 #endif
 
 /* How many work-items ahead the ray fields are fetched; the index list, twice as far. */

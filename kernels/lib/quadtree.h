@@ -66,11 +66,19 @@ TS_INLINE ts_u32 morton_compact(ts_u32 x)
 }
 
 /* The parameter of micro-quad column (or row) i's centre at LOD m: the (u, v) bottom_level
- * gives every leaf-box hit, where build stores the shading normal and shade looks it up; one
- * expression, so the three agree to the bit. */
+ * gives every leaf-box hit. */
 TS_INLINE float quadtree_centre(ts_u32 i, ts_u32 m)
 {
     return ((float)i + 0.5f) * ldexp(1.0f, -(int)m);
+}
+
+/* The parameter of vertex column (or row) i of a patch diced at LOD m, i 2^-m exactly: where
+ * dice evaluates its vertices and every reference and shading normal evaluates them again;
+ * one expression, so they agree to the bit (shade reads a resident grid's vertices or
+ * evaluates them, lib/patch.h patch_quad_shading_normal). */
+TS_INLINE float quadtree_vertex_param(ts_u32 i, ts_u32 m)
+{
+    return ldexp((float)i, -(int)m);
 }
 
 /* Micro-quad column i (u) and row j (v) of Morton index k. */

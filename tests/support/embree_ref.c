@@ -89,8 +89,8 @@ ts_vec4 embree_ref_vertex(const ts_scene *s, uint32_t p, uint32_t m, uint32_t i,
     const ts_vec4 *n = s->corner_n ? &s->corner_n[(size_t)p * 4u] : NULL;
     const ts_vec4 *mid = s->mid_n ? &s->mid_n[(size_t)p * 5u] : NULL;
     const ts_xform *x = s->xform ? &s->xform[a->xform] : NULL;
-    ts_vec4 v = patch_vertex(cp, cp0, n, mid, a, x, scene_tex_ctx(s), ldexpf((float)i, -(int)m),
-                             ldexpf((float)j, -(int)m));
+    ts_vec4 v = patch_vertex(cp, cp0, n, mid, a, x, scene_tex_ctx(s), quadtree_vertex_param(i, m),
+                             quadtree_vertex_param(j, m));
     v.w = 1.0f;
     return v;
 }

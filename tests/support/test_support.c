@@ -296,20 +296,28 @@ void test_parse_scene_with(const char *rel, const char *extra, struct ts_scene *
     if (rib_parse_string(path, text, n, s, 1, &err)) fail_msg("%s", err.msg);
 }
 
+/* PoCL's CPU device name prefixes and their drivers (PoCL 4 renamed pthread to cpu and
+ * basic to cpu-minimal), cpu-minimal- before cpu-, which it starts with. */
+static const char *const pocl_names[][2] = {
+    {"pthread-", "pthread"}, {"basic-", "basic"}, {"cpu-minimal-", "basic"}, {"cpu-", "pthread"}};
+
+static int pocl_name_index(const char *name)
+{
+    for (int i = 0; i < (int)(sizeof pocl_names / sizeof *pocl_names); ++i)
+        if (strncmp(name, pocl_names[i][0], strlen(pocl_names[i][0])) == 0) return i;
+    return -1;
+}
+
 const char *test_pocl_driver(const char *name)
 {
-    if (strncmp(name, "pthread-", 8) == 0) return "pthread";
-    if (strncmp(name, "basic-", 6) == 0 || strncmp(name, "cpu-minimal-", 12) == 0) return "basic";
-    if (strncmp(name, "cpu-", 4) == 0) return "pthread";
-    return NULL;
+    int i = pocl_name_index(name);
+    return i < 0 ? NULL : pocl_names[i][1];
 }
 
 const char *test_pocl_prefix(const char *name)
 {
-    static const char *const prefixes[] = {"pthread-", "basic-", "cpu-minimal-", "cpu-"};
-    for (size_t i = 0; i < sizeof prefixes / sizeof *prefixes; ++i)
-        if (strncmp(name, prefixes[i], strlen(prefixes[i])) == 0) return prefixes[i];
-    return "";
+    int i = pocl_name_index(name);
+    return i < 0 ? "" : pocl_names[i][0];
 }
 
 int test_devices_named(const char *pocl, const char *driver, char *out, size_t cap, int want,
