@@ -202,6 +202,27 @@ static void test_launch_failure_mid_render_is_retried(void **state)
     assert_same_image(ref, "launch.exr");
 }
 
+/* TESSERA_SYNC_LAUNCHES=1 finishes the queue after every launch, so that a kernel that
+ * faults on a GPU is reported at its own launch (docs/errors.md): the image is the same
+ * bits, and the launches' times still reach --stats (they stay pending until the stage's
+ * own dev_finish). */
+static void test_sync_launches_change_no_bit(void **state)
+{
+    (void)state;
+    const char *ref = reference();
+    setenv("TESSERA_SYNC_LAUNCHES", "1", 1);
+    int rc = test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --quiet --stats '%s'",
+                              test_source_path("scene/teapot.rib"), in_dir("sync.exr"),
+                              in_dir("sync.json"));
+    unsetenv("TESSERA_SYNC_LAUNCHES");
+    if (rc != 0) fail_msg("exit status %d:\n%s", rc, test_stderr_of(dir));
+    assert_same_image(ref, "sync.exr");
+    const char *json = read_text(in_dir("sync.json")), *at = strstr(json, "\"bottom_level\":");
+    double seconds = 0.0;
+    if (!at || sscanf(at + strlen("\"bottom_level\":"), "%lf", &seconds) != 1 || !(seconds > 0.0))
+        fail_msg("bottom_level's time is not in --stats:\n%s", json);
+}
+
 /* A launch that fails in the first wave, before any sample is in the film: the smaller
  * budget dices at other levels of detail (m = 7 at 16 MB, m = 8 at 32 MB), which is no
  * reason to refuse it, since no sample was traced at the old ones. The image is the one
@@ -484,6 +505,7 @@ int main(void)
         cmocka_unit_test(test_alloc_failure_gives_up),
         cmocka_unit_test(test_launch_failure_mid_render_is_retried),
         cmocka_unit_test(test_launch_failure_in_the_first_wave_is_retried),
+        cmocka_unit_test(test_sync_launches_change_no_bit),
         cmocka_unit_test(test_out_of_memory_at_the_floor_writes_the_finished_samples),
         cmocka_unit_test(test_sigterm_writes_the_finished_samples),
         cmocka_unit_test(test_resume_matches_the_uninterrupted_render),

@@ -347,12 +347,14 @@ static long env_count(const char *name)
 static pthread_once_t fail_once = PTHREAD_ONCE_INIT;
 static _Atomic long fail_alloc_left, launch_count;
 static long fail_launch_at;
+static int sync_launches; /* TESSERA_SYNC_LAUNCHES=1: finish after each launch */
 static const char *fail_launch_device, *fail_build_device;
 
 static void fail_init(void)
 {
     atomic_store(&fail_alloc_left, env_count("TESSERA_FAIL_ALLOC"));
     fail_launch_at = env_count("TESSERA_FAIL_LAUNCH");
+    sync_launches = env_count("TESSERA_SYNC_LAUNCHES") > 0;
     const char *d = getenv("TESSERA_FAIL_LAUNCH_DEVICE");
     fail_launch_device = d && *d ? d : NULL;
     d = getenv("TESSERA_FAIL_BUILD");
@@ -588,6 +590,8 @@ int dev_set_args(cl_kernel k, ts_error *err, ...)
     return rc;
 }
 
+static int finish_failed(ts_device *cl, cl_int rc, ts_error *err);
+
 int dev_launch(ts_device *cl, cl_kernel k, ts_stage stage, size_t global, size_t local,
                ts_error *err)
 {
@@ -616,13 +620,43 @@ int dev_launch_range(ts_device *cl, cl_kernel k, ts_stage stage, size_t offset, 
         clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);
         return dev_fail(err, rc, "clEnqueueNDRangeKernel(%s, %zu items)", name, rounded);
     }
-    cl->pending[cl->pending_count++] = (ts_kernel_event){ev, stage};
+    cl->pending[cl->pending_count++] = (ts_kernel_event){ev, stage, k};
+    if (sync_launches) { /* the times stay pending for dev_finish */
+        cl_int f = clFinish(cl->queue);
+        if (f != CL_SUCCESS) return finish_failed(cl, f, err);
+    }
     return TS_OK;
+}
+
+/* After a failed clFinish: names the first launch in flight whose command failed (a kernel
+ * that faulted on a GPU reports here, asynchronously), else the stages in flight. */
+static int finish_failed(ts_device *cl, cl_int rc, ts_error *err)
+{
+    char stages[256] = "";
+    size_t used = 0;
+    for (size_t i = 0; i < cl->pending_count; ++i) {
+        const ts_kernel_event *e = &cl->pending[i];
+        cl_int status = CL_COMPLETE;
+        clGetEventInfo(e->event, CL_EVENT_COMMAND_EXECUTION_STATUS, sizeof status, &status, NULL);
+        if (status < 0) {
+            char name[128] = "?";
+            clGetKernelInfo(e->kernel, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);
+            return dev_fail(err, rc, "clFinish: kernel %s (stage %s) ended with %s", name,
+                            ts_stage_names[e->stage], dev_error_name(status));
+        }
+        const char *s = ts_stage_names[e->stage];
+        if (used < sizeof stages && !strstr(stages, s))
+            used +=
+                (size_t)snprintf(stages + used, sizeof stages - used, "%s%s", used ? ", " : "", s);
+    }
+    return dev_fail(err, rc, "clFinish (%zu launches in flight%s%s)", cl->pending_count,
+                    used ? ": " : "", stages);
 }
 
 int dev_finish(ts_device *cl, ts_stats *stats, ts_error *err)
 {
-    CL_CHECK(clFinish(cl->queue), err);
+    cl_int rc = clFinish(cl->queue);
+    if (rc != CL_SUCCESS) return finish_failed(cl, rc, err);
     for (size_t i = 0; i < cl->pending_count; ++i) {
         cl_ulong start = 0, end = 0;
         cl_event ev = cl->pending[i].event;

@@ -62,6 +62,7 @@ extern cl_int ts_dev_inject_alloc_error;
 typedef struct ts_kernel_event {
     cl_event event;
     ts_stage stage;
+    cl_kernel kernel; /* to name it when its command fails */
 } ts_kernel_event;
 
 /* A selected device with its context, in-order profiling queue and built program. */
