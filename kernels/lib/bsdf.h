@@ -22,20 +22,6 @@
 
 #define TS_PI 3.14159265358979f
 
-/* cos and sin of x at once: OpenCL C's sincos (one argument reduction for both on PoCL, the
- * same bits as cos and sin apart); the host's cos and sin. */
-TS_INLINE float ts_sincos(float x, float *c)
-{
-#ifdef __OPENCL_C_VERSION__
-    float cx, sx = sincos(x, &cx);
-    *c = cx;
-    return sx;
-#else
-    *c = cos(x);
-    return sin(x);
-#endif
-}
-
 typedef struct ts_v3 {
     float x, y, z;
 } ts_v3;
@@ -90,8 +76,8 @@ TS_INLINE ts_v3 local_to_world(ts_v3 l, ts_v3 n)
 /* Cosine-weighted direction around n from (u1, u2); pdf cos / pi. */
 TS_INLINE ts_v3 sample_cosine(ts_v3 n, float u1, float u2)
 {
-    float r = sqrt(u1), phi = 2.0f * TS_PI * u2, c, s = ts_sincos(phi, &c);
-    return local_to_world(v3(r * c, r * s, sqrt(fmax(0.0f, 1.0f - u1))), n);
+    float r = sqrt(u1), phi = 2.0f * TS_PI * u2;
+    return local_to_world(v3(r * cos(phi), r * sin(phi), sqrt(fmax(0.0f, 1.0f - u1))), n);
 }
 
 /* GGX normal distribution D(h) for cos(theta_h) = c. */
@@ -161,8 +147,8 @@ TS_INLINE float bsdf_sample(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3],
         /* GGX: tan^2(theta_h) = alpha^2 u1 / (1 - u1). */
         float alpha = a->roughness, t2 = alpha * alpha * u1 / fmax(1.0f - u1, 1e-7f);
         float ch = 1.0f / sqrt(1.0f + t2), sh = sqrt(fmax(0.0f, 1.0f - ch * ch));
-        float phi = 2.0f * TS_PI * u2, c, s = ts_sincos(phi, &c);
-        ts_v3 h = local_to_world(v3(sh * c, sh * s, ch), n);
+        float phi = 2.0f * TS_PI * u2;
+        ts_v3 h = local_to_world(v3(sh * cos(phi), sh * sin(phi), ch), n);
         *wi = v3_sub(v3_scale(h, 2.0f * v3_dot(wo, h)), wo);
     } else {
         *wi = sample_cosine(n, u1, u2);

@@ -95,8 +95,8 @@ TS_INLINE ts_v3 env_sample(TS_CONST_GLOBAL ts_light *l, ts_env env, float u1, fl
 TS_INLINE ts_v3 sample_cone(ts_v3 d, float cos_max, float u1, float u2)
 {
     float c = 1.0f - u1 * (1.0f - cos_max), s = sqrt(fmax(0.0f, 1.0f - c * c));
-    float phi = 2.0f * TS_PI * u2, cp, sp = ts_sincos(phi, &cp);
-    return local_to_world(v3(s * cp, s * sp, c), d);
+    float phi = 2.0f * TS_PI * u2;
+    return local_to_world(v3(s * cos(phi), s * sin(phi), c), d);
 }
 
 /* RenderMan's smoothstep(a, b, x) (RI Spec 3.2 §15.2): 0 below a, 1 from b on, the cubic
