@@ -1,5 +1,6 @@
 /* camera.cl — stage `camera`: generates one wave of eye rays.
- * Reads:  ts_camera_params (by value); a moving camera is interpolated to each ray's time.
+ * Reads:  ts_camera_params and the sample order's divisors (ts_order_divs, by value); a moving
+ *         camera is interpolated to each ray's time.
  * Writes: per ray org, dir (w = time in [0,1)), hit (cleared), entry (TS_ENTRY_START), pixel,
  *         flags (0); active[i] = paths[i] = i; a fresh path state (throughput 1, radiance 0,
  *         its eye-ray slot traced, emission it finds weighted 1).
@@ -30,20 +31,20 @@ inline float3 camera_vector(const ts_camera_params *c, uint k, float t)
     return v;
 }
 
-__kernel void camera_generate(ts_camera_params cam, __global ts_vec4 *org, __global ts_vec4 *dir,
-                              __global ts_hit *hit, __global uint *entry, __global uint *pixel,
-                              __global uint *flags, __global uint *from, __global uint *active,
-                              __global uint *paths, __global ts_vec4 *throughput,
-                              __global float *mis, __global uint *state, __global ts_vec4 *radiance)
+__kernel void camera_generate(ts_camera_params cam, ts_order_divs ord, __global ts_vec4 *org,
+                              __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
+                              __global uint *pixel, __global uint *flags, __global uint *from,
+                              __global uint *active, __global uint *paths,
+                              __global ts_vec4 *throughput, __global float *mis,
+                              __global uint *state, __global ts_vec4 *radiance)
 {
     uint i = get_global_id(0);
     if (i >= cam.ray_count) return;
-    uint npix = cam.width * cam.height;
     uint pix, sample;
-    sample_order_at(cam.first_sample + i, npix, cam.spp, cam.band, &pix, &sample);
-    uint x = pix % cam.width, y = pix / cam.width;
+    sample_order_at_ready(cam.first_sample + i, ord, &pix, &sample);
+    uint y = udiv(pix, ord.width), x = pix - y * cam.width;
     float jx = 0.5f, jy = 0.5f;
-    ts_sampler_set cs = sampler_set(pix, sample, TS_SET_CAMERA, cam.seed, sampler_mask(cam.spp));
+    ts_sampler_set cs = sampler_set(pix, sample, TS_SET_CAMERA, cam.seed, ord.mask);
     if (cam.spp > 1) {
         jx = sampler_set_value(cs, 0u);
         jy = sampler_set_value(cs, 1u);

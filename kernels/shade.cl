@@ -284,14 +284,14 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
 }
 
 /* The sample (of its pixel) that the frame's k-th sample is. */
-static uint shade_sample(uint k, uint pixel_count, ts_shade_params sp)
+static uint shade_sample(uint k, ts_order_divs ord)
 {
     uint pixel, sample;
-    sample_order_at(k, pixel_count, sp.spp, sp.band, &pixel, &sample);
+    sample_order_at_ready(k, ord, &pixel, &sample);
     return sample;
 }
 
-__kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count, uint wave_size,
+__kernel void shade_path(ts_shade_params sp, ts_order_divs ord, uint first_sample, uint wave_size,
                          __global const uint *paths, uint path_count, __global ts_vec4 *org,
                          __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
                          __global uint *ray_flags, __global uint *ray_from,
@@ -337,10 +337,10 @@ __kernel void shade_path(ts_shade_params sp, uint first_sample, uint pixel_count
     shade_step s = {.i = i,
                     .wave_size = wave_size,
                     .pix = pixel[i],
-                    .sample = shade_sample(first_sample + i, pixel_count, sp),
+                    .sample = shade_sample(first_sample + i, ord),
                     .bounce = sp.bounce,
                     .seed = sp.seed,
-                    .mask = sampler_mask(sp.spp),
+                    .mask = ord.mask,
                     .tp = {t4.x, t4.y, t4.z}};
     if (h.patch == TS_INVALID) {
         shade_escape(&L, d, &s, pb, mode, &radiance[i]);

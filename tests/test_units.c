@@ -194,6 +194,60 @@ static void test_sample_order_is_a_permutation(void **state)
     assert_int_equal(sample_order_band(W, H, SPP, TOTAL - 1), (H - 1) * W);
 }
 
+/* udiv gives n / d for divisors of every size and numerators at and about their multiples,
+ * the ends of the 32-bit range and at random; sample_order_at_ready, with the divisors
+ * sample_order_divs makes, is sample_order_at for every sample of the test's orders and of
+ * a 1280x720 frame's first and last bands. */
+static void test_division_by_multiplication(void **state)
+{
+    (void)state;
+    static const uint32_t ds[] = {1u,          2u,         3u,          5u,          7u,
+                                  37u,         641u,       1280u,       4096u,       65537u,
+                                  921600u,     14745600u,  0x7fffffffu, 0x80000000u, 0x80000001u,
+                                  0xfffffffeu, 0xffffffffu};
+    uint32_t x = 12345u;
+    for (size_t i = 0; i < sizeof ds / sizeof *ds; ++i) {
+        ts_udiv u = udiv_make(ds[i]);
+        static const uint32_t ends[] = {0u, 1u, 2u, 0x7fffffffu, 0x80000000u, 0xffffffffu};
+        for (size_t j = 0; j < sizeof ends / sizeof *ends; ++j)
+            assert_int_equal(udiv(ends[j], u), ends[j] / ds[i]);
+        for (uint64_t q = 1; q < 2000 && q * ds[i] <= UINT32_MAX; ++q)
+            for (uint64_t n = q * ds[i] - 1; n <= q * ds[i] + 1 && n <= UINT32_MAX; ++n)
+                assert_int_equal(udiv((uint32_t)n, u), (uint32_t)n / ds[i]);
+        for (int j = 0; j < 20000; ++j) {
+            x = x * 1664525u + 1013904223u;
+            assert_int_equal(udiv(x, u), x / ds[i]);
+        }
+    }
+    for (int j = 0; j < 20000; ++j) { /* random divisors */
+        x = x * 1664525u + 1013904223u;
+        uint32_t d = (x >> 7) | 1u, n = x * 2654435761u;
+        assert_int_equal(udiv(n, udiv_make(d)), n / d);
+    }
+    for (size_t b = 0; b < sizeof bands / sizeof *bands; ++b) {
+        ts_order_divs o = sample_order_divs(P, W, SPP, bands[b]);
+        for (uint32_t k = 0; k < TOTAL; ++k) {
+            uint32_t p, s, p2, s2;
+            sample_order_at(k, P, SPP, bands[b], &p, &s);
+            sample_order_at_ready(k, o, &p2, &s2);
+            assert_int_equal(p2, p);
+            assert_int_equal(s2, s);
+            assert_int_equal(udiv(p, o.width), p / W);
+        }
+        assert_int_equal(o.mask, sampler_mask(SPP));
+    }
+    const uint32_t w = 1280, npix = 1280 * 720, spp = 16, band = 36 * 1280;
+    ts_order_divs o = sample_order_divs(npix, w, spp, band);
+    for (uint32_t k = 0; k < npix * spp;
+         k += k < 2000000u || k > npix * spp - 2000000u ? 1u : 4099u) {
+        uint32_t p, s, p2, s2;
+        sample_order_at(k, npix, spp, band, &p, &s);
+        sample_order_at_ready(k, o, &p2, &s2);
+        assert_int_equal(p2, p);
+        assert_int_equal(s2, s);
+    }
+}
+
 static void assert_same_films(const ts_film_state *a, const ts_film_state *b)
 {
     assert_memory_equal(a->accum, b->accum, P * sizeof(ts_vec4));
@@ -621,6 +675,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sample_order_is_a_permutation),
+        cmocka_unit_test(test_division_by_multiplication),
         cmocka_unit_test(test_merge_in_order_is_the_film),
         cmocka_unit_test(test_board_merges_in_any_order),
         cmocka_unit_test(test_board_take_give_back_close),

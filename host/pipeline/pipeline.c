@@ -4,6 +4,7 @@
 #include "pipeline/relight.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
+#include "lib/sample_order.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -428,11 +429,12 @@ void pipeline_destroy(ts_pipeline *p)
 int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 {
     ts_camera_params c = *cam;
-    if (dev_set_args(p->k_camera, err, DEV_ARG(c), DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir),
-                     DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry), DEV_ARG(p->ray_pixel),
-                     DEV_ARG(p->ray_flags), DEV_ARG(p->ray_from), DEV_ARG(p->active),
-                     DEV_ARG(p->wave_paths), DEV_ARG(p->path_throughput), DEV_ARG(p->path_mis),
-                     DEV_ARG(p->path_state), DEV_ARG(p->radiance), (size_t)0))
+    ts_order_divs ord = sample_order_divs(c.width * c.height, c.width, c.spp, c.band);
+    if (dev_set_args(p->k_camera, err, DEV_ARG(c), DEV_ARG(ord), DEV_ARG(p->ray_org),
+                     DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry),
+                     DEV_ARG(p->ray_pixel), DEV_ARG(p->ray_flags), DEV_ARG(p->ray_from),
+                     DEV_ARG(p->active), DEV_ARG(p->wave_paths), DEV_ARG(p->path_throughput),
+                     DEV_ARG(p->path_mis), DEV_ARG(p->path_state), DEV_ARG(p->radiance), (size_t)0))
         return err->code;
     return dev_launch(p->cl, p->k_camera, TS_STAGE_camera, c.ray_count, TS_LOCAL_SIZE, err);
 }

@@ -173,20 +173,21 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
     ts_shade_params s = *sp;
     *next_paths = *next_rays = *shadow_rays = 0;
     if (path_count == 0) return TS_OK;
-    if (dev_set_args(p->k_shade, err, DEV_ARG(s), DEV_ARG(first_sample), DEV_ARG(p->pixel_count),
-                     DEV_ARG(wave_size), DEV_ARG(p->wave_paths), DEV_ARG(path_count),
-                     DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit),
-                     DEV_ARG(p->ray_entry), DEV_ARG(p->ray_flags), DEV_ARG(p->ray_from),
-                     DEV_ARG(p->ray_pixel), DEV_ARG(p->path_throughput), DEV_ARG(p->path_mis),
-                     DEV_ARG(p->path_state), DEV_ARG(p->path_pending), DEV_ARG(p->radiance),
-                     DEV_ARG(p->aov), DEV_ARG(p->albedo), DEV_ARG(p->cp), DEV_ARG(p->corner_n),
-                     DEV_ARG(p->mid_n), DEV_ARG(p->attr), DEV_ARG(p->xform), DEV_ARG(p->lights),
-                     DEV_ARG(p->emitters), DEV_ARG(p->env_texels), DEV_ARG(p->env_marginal),
-                     DEV_ARG(p->env_conditional), DEV_ARG(p->flatness), DEV_ARG(p->textures),
-                     DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(p->alive),
-                     DEV_ARG(p->relight), DEV_ARG(p->relight_patch), DEV_ARG(p->relight_coeffs),
-                     DEV_ARG(p->relight_normal), DEV_ARG(p->relight_light), DEV_ARG(p->grid),
-                     DEV_ARG(p->grid_at), (size_t)0) ||
+    /* The order's divisors (shade needs each path's sample, not its pixel's row: width 1). */
+    ts_order_divs ord = sample_order_divs(p->pixel_count, 1u, s.spp, s.band);
+    if (dev_set_args(
+            p->k_shade, err, DEV_ARG(s), DEV_ARG(ord), DEV_ARG(first_sample), DEV_ARG(wave_size),
+            DEV_ARG(p->wave_paths), DEV_ARG(path_count), DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir),
+            DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry), DEV_ARG(p->ray_flags), DEV_ARG(p->ray_from),
+            DEV_ARG(p->ray_pixel), DEV_ARG(p->path_throughput), DEV_ARG(p->path_mis),
+            DEV_ARG(p->path_state), DEV_ARG(p->path_pending), DEV_ARG(p->radiance), DEV_ARG(p->aov),
+            DEV_ARG(p->albedo), DEV_ARG(p->cp), DEV_ARG(p->corner_n), DEV_ARG(p->mid_n),
+            DEV_ARG(p->attr), DEV_ARG(p->xform), DEV_ARG(p->lights), DEV_ARG(p->emitters),
+            DEV_ARG(p->env_texels), DEV_ARG(p->env_marginal), DEV_ARG(p->env_conditional),
+            DEV_ARG(p->flatness), DEV_ARG(p->textures), DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool),
+            DEV_ARG(p->alive), DEV_ARG(p->relight), DEV_ARG(p->relight_patch),
+            DEV_ARG(p->relight_coeffs), DEV_ARG(p->relight_normal), DEV_ARG(p->relight_light),
+            DEV_ARG(p->grid), DEV_ARG(p->grid_at), (size_t)0) ||
         pipeline_grid_publish(p, err) || launch_shade(p, wave_size, path_count, err) ||
         dev_finish(p->cl, p->stats, err))
         return err->code;

@@ -20,7 +20,9 @@
 #ifndef TS_SAMPLE_ORDER_H
 #define TS_SAMPLE_ORDER_H
 
+#include "lib/sampler.h"
 #include "lib/shared_types.h"
+#include "lib/udiv.h"
 
 /* The pixel (*pixel) and its sample (*sample) of the frame's k-th sample: npix pixels, spp
  * samples a pixel, bands of band pixels (0: one band). */
@@ -33,6 +35,36 @@ TS_INLINE void sample_order_at(ts_u32 k, ts_u32 npix, ts_u32 spp, ts_u32 band, t
     ts_u32 r = k - base * spp;
     *sample = r / n;
     *pixel = base + r % n;
+}
+
+#ifndef __OPENCL_C_VERSION__
+/* The order of a frame of npix pixels (width a row), spp samples a pixel and bands of band
+ * pixels (0: one band) with its divisions made ready, for the kernels' sample_order_at_ready. */
+TS_INLINE ts_order_divs sample_order_divs(ts_u32 npix, ts_u32 width, ts_u32 spp, ts_u32 band)
+{
+    if (band == 0u || band > npix) band = npix;
+    ts_u32 last_first = (npix - 1u) / band * band;
+    ts_order_divs o = {udiv_make(band * spp),
+                       udiv_make(band),
+                       udiv_make(npix - last_first),
+                       udiv_make(width),
+                       sampler_mask(spp),
+                       npix,
+                       {0u, 0u}};
+    return o;
+}
+#endif
+
+/* sample_order_at with the order's divisions made ready (sample_order_divs): the same
+ * pixel and sample for every k of the frame. */
+TS_INLINE void sample_order_at_ready(ts_u32 k, ts_order_divs o, ts_u32 *pixel, ts_u32 *sample)
+{
+    ts_u32 b = udiv(k, o.band_samples);
+    ts_u32 base = b * o.band.d, r = k - b * o.band_samples.d;
+    ts_udiv n = o.npix - base < o.band.d ? o.last : o.band;
+    ts_u32 s = udiv(r, n);
+    *sample = s;
+    *pixel = base + (r - s * n.d);
 }
 
 /* Pixels [*first, *end) hold every pixel with a sample among the frame's samples

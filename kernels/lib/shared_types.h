@@ -277,6 +277,27 @@ typedef struct ts_camera_params {
     float origin1[4], right1[4], up1[4], forward1[4]; /* at shutter close; 0 when static */
 } ts_camera_params;
 
+/* A divisor d made ready for division by multiplication (lib/sample_order.h udiv: n / d =
+ * (t + ((n - t) >> sh1)) >> sh2 with t the high word of mul n, exact for every 32-bit n;
+ * Granlund and Montgomery 1994, Fig. 4.1). 16 bytes. */
+typedef struct ts_udiv {
+    ts_u32 mul, sh1, sh2;
+    ts_u32 d;
+} ts_udiv;
+
+/* The frame's sample order (lib/sample_order.h) with its divisions made ready, for the
+ * kernels that find the pixel and sample of each of a wave's samples (camera, shade; the
+ * host's sample_order_divs). 80 bytes. */
+typedef struct ts_order_divs {
+    ts_udiv band_samples; /* a band's samples: band x spp */
+    ts_udiv band;         /* a band's pixels */
+    ts_udiv last;         /* the last band's pixels (npix - its first pixel) */
+    ts_udiv width;        /* the image's width: a pixel's row */
+    ts_u32 mask;          /* lib/sampler.h sampler_mask(spp) */
+    ts_u32 npix;          /* the frame's pixels */
+    ts_u32 pad[2];
+} ts_order_divs;
+
 /* Light sampling vs BSDF sampling at each path vertex (ts_shade_params.sampling). */
 #define TS_SAMPLING_MIS 0u   /* both at every vertex, combined by MIS (balance heuristic) */
 #define TS_SAMPLING_LIGHT 1u /* light sampling only (next-event estimation) */
@@ -404,7 +425,9 @@ typedef struct ts_relight_params {
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \
     X(ts_patch_attr, disp_offset) X(ts_patch_attr, st) X(ts_texture, kind)                    \
     X(ts_texture, level_page) X(ts_bake_params, orthographic) X(ts_bake_params, eye)          \
-    X(ts_relight_params, uniform) X(ts_relight_params, patch_count) X(ts_relight_params, pad)
+    X(ts_relight_params, uniform) X(ts_relight_params, patch_count) X(ts_relight_params, pad)     \
+    X(ts_udiv, mul) X(ts_udiv, d) X(ts_order_divs, band) X(ts_order_divs, width)            \
+    X(ts_order_divs, mask) X(ts_order_divs, npix) X(ts_order_divs, pad)
 /* clang-format on */
 
 #endif
