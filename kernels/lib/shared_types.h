@@ -277,7 +277,7 @@ typedef struct ts_camera_params {
     float origin1[4], right1[4], up1[4], forward1[4]; /* at shutter close; 0 when static */
 } ts_camera_params;
 
-/* A divisor d made ready for division by multiplication (lib/sample_order.h udiv: n / d =
+/* A divisor d made ready for division by multiplication (lib/udiv.h udiv: n / d =
  * (t + ((n - t) >> sh1)) >> sh2 with t the high word of mul n, exact for every 32-bit n;
  * Granlund and Montgomery 1994, Fig. 4.1). 16 bytes. */
 typedef struct ts_udiv {
