@@ -253,8 +253,9 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
         float4 raw, e4 = group_enter(pt->t0 + grp, pt->t1 ? pt->t1 + grp : 0, r->inv.w, r->o4,
                                      r->inv, r->tmin, tmax, &raw);
         float e[4] = {e4.x, e4.y, e4.z, e4.w}, er[4] = {raw.x, raw.y, raw.z, raw.w};
-        /* Children that are hit, sorted by entry distance, farthest first. */
-        float tc[4], tr[4];
+        /* Children that are hit, sorted by entry distance, farthest first (a child's raw entry
+         * is er[its id & 3], read only where the children are blocks). */
+        float tc[4];
         uint id[4];
         uint nc = 0;
         /* unrolled: the four children's tests stay in registers (no order change) */
@@ -264,18 +265,16 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
             uint at = nc++;
             while (at > 0u && tc[at - 1u] < e[q]) {
                 tc[at] = tc[at - 1u];
-                tr[at] = tr[at - 1u];
                 id[at] = id[at - 1u];
                 --at;
             }
             tc[at] = e[q];
-            tr[at] = er[q];
             id[at] = 4u * k + q;
         }
         if (level + 1u == L) { /* the children are blocks: visit them nearest first */
             for (uint q = 0; q < nc; ++q)
                 s->blk[q] = id[nc - 1u - q], s->blt[q] = tc[nc - 1u - q],
-                s->blr[q] = tr[nc - 1u - q];
+                s->blr[q] = er[id[nc - 1u - q] & 3u];
             s->qn = nc, s->qi = 0;
             continue;
         }
