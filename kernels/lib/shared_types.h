@@ -311,8 +311,9 @@ typedef struct ts_shade_params {
                         collects emission */
     ts_u32 sampling; /* TS_SAMPLING_* */
     ts_u32 seed;
-    ts_u32 spp;  /* samples per pixel: the sampler's index mask (lib/sampler.h) */
-    ts_u32 band; /* pixels a band of the sample order (lib/sample_order.h); 0: one */
+    ts_u32 spp;  /* samples per pixel, and */
+    ts_u32 band; /* pixels a band of the sample order (0: one): the host makes them ready as
+                    the kernel's ts_order_divs (pipeline_shade), which shade reads instead */
     ts_u32 pad;
 } ts_shade_params;
 
