@@ -2,7 +2,9 @@
  * of a batch traverses its patch's quad-tree front to back.
  * Reads:  pairs[pair_first ..), the batch's segments (found by binary search on begin), ray
  *         org/dir (dir.w = time), hit.t as tmax, the grid(s) and tree(s) of the segment.
- * Writes: pair_hit[pair.window]: the closest hit in this patch below tmax, or t = TS_NO_HIT.
+ * Writes: pair_hit[pair.window]: the closest hit in this patch below tmax, or t = TS_NO_HIT;
+ *         for a shadow ray (TS_RAY_SHADOW) the closest hit of the first leaf block, in visiting
+ *         order, that has one: it only asks whether anything is in the way.
  * Geometry, by `exact`:
  *   0 (default): the leaf boxes themselves (§3.3): conservative over each micro-quad's
  *     parameter square, so patches diced at different m leave no holes; the hit is the
@@ -290,7 +292,8 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
 }
 
 /* The pair of work-item gid: its ray, its patch, and whether it is to be traced at all (a
- * shadow ray is not stopped by the light it aims at). */
+ * shadow ray is not stopped by the light it aims at); *shadow: a shadow ray, which any hit
+ * answers, so its traversal ends after the first block where it finds one. */
 inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
                    __global const ts_segment *segments, uint seg_first, uint seg_count,
                    uint n_per_ray, __global const uint *active, __global const ts_vec4 *org,
@@ -298,13 +301,14 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
                    __global const uint *ray_flags, __global const uint *ray_from,
                    __global const ts_vec4 *grid, __global const ts_box4 *groups,
                    __global const uint *instance, __global const ts_xform *inst_xform, bl_ray *r,
-                   bl_patch *pt, ts_hit *best, uint *window, uint *exact)
+                   bl_patch *pt, ts_hit *best, uint *window, uint *exact, uint *shadow)
 {
     ts_pair pr = pairs[pair_first + gid];
     __global const ts_segment *batch = segments + seg_first;
     ts_segment seg = batch[segment_of(batch, seg_count, pair_first + gid)];
     uint ray = active[pr.window / n_per_ray], flags = ray_flags[ray];
     *window = pr.window;
+    *shadow = (flags & TS_RAY_SHADOW) != 0u;
     ts_vec4 o = org[ray], d = dir[ray];
     if (seg.shape != seg.patch) instance_ray(inst_xform + instance[seg.patch], &o, &d);
     /* The origin-patch rule (issue 13): a secondary ray meets the patch it leaves as that
@@ -345,15 +349,18 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_tr
         bl_ray r;
         bl_patch pt;
         ts_hit best;
-        uint window, ex = exact;
+        uint window, ex = exact, shadow;
         if (bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active, org,
                     dir, hit, ray_flags, ray_from, grid, groups, instance, inst_xform, &r, &pt,
-                    &best, &window, &ex)) {
+                    &best, &window, &ex, &shadow)) {
             uint b = min(leaf_b, pt.m), L = pt.m - b, nq = 1u << (2u * b);
             bl_trav s;
             bl_trav_start(&s, &r, &pt, best.t, L);
             float te, raw;
             for (int k; (k = bl_next_block(&s, &r, &pt, L, best.t, &te, &raw)) >= 0;) {
+                /* A shadow ray needs any hit, not the closest: done after the first block
+                 * that has one (resolve retires it at its first hit). */
+                if (shadow && best.patch != TS_INVALID) break;
                 if (!ex && b == 0u) { /* the block is one leaf box, already tested */
                     if (raw >= r.tmin) leaf_box(pt.m, (uint)k, te, &best, pt.patch);
                     ++tests;
@@ -398,17 +405,20 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_gr
     bl_patch pt;
     ts_hit best;
     bl_trav s;
-    uint window = 0, b = 0, L = 0, done = 1, count = 0, useful = 0, slots = 0, ex = exact;
+    uint window = 0, b = 0, L = 0, done = 1, count = 0, useful = 0, slots = 0, ex = exact,
+         shadow = 0;
     if (gid < pair_count) {
         done = !bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active,
                         org, dir, hit, ray_flags, ray_from, grid, groups, instance, inst_xform, &r,
-                        &pt, &best, &window, &ex);
+                        &pt, &best, &window, &ex, &shadow);
         b = min(leaf_b, pt.m), L = pt.m - b;
         if (!done) bl_trav_start(&s, &r, &pt, best.t, L);
     }
     for (;;) {
         /* 1. Each work-item advances to its next block and posts its micro-quads. */
         float te, raw; /* (the group kernel re-tests single leaf boxes in its tasks) */
+        /* A shadow ray stops at its first block with a hit, as in bottom_level_trace. */
+        if (shadow && best.patch != TS_INVALID) done = 1;
         int k = done ? -1 : bl_next_block(&s, &r, &pt, L, best.t, &te, &raw);
         if (k < 0) done = 1;
         count = done ? 0u : 1u << (2u * b);

@@ -73,7 +73,12 @@ static void make_rays(ts_device *cl, ts_pipeline *p, const ts_scene *s, ts_vec4 
         if (i % 5 == 2 || i % 5 == 4)
             org[i].w = test_uniform(&seed, 7.5f, 10.5f); /* teapot depth */
         if (i % 3 == 1) hit[i].t = test_uniform(&seed, 6.0f, 12.0f);
+        /* Shadow rays, which any hit answers (the first leaf block with one); some aim at a
+         * patch's light, which does not stop them. */
+        if (i % 7 == 3) flags[i] = TS_RAY_SHADOW;
+        if (i % 7 == 5) flags[i] = TS_RAY_SHADOW | (((uint32_t)(i / 7) % P + 1u) << 1);
     }
+    write_buffer(cl, p->ray_flags, R * sizeof *flags, flags);
     write_buffer(cl, p->ray_from, R * sizeof *from, from);
     write_buffer(cl, p->ray_org, R * sizeof *org, org);
     write_buffer(cl, p->ray_hit, R * sizeof *hit, hit);
@@ -130,6 +135,23 @@ static void check_scene(int displaced, int moving)
     bl_ref_batch b = {
         pairs, 0,   R * P, p.segments_host, 0,    P,    P,      0,          0,           active,
         org,   dir, hit,   flags,           from, grid, groups, s.instance, s.inst_xform};
+    /* The shadow rays' any-hit answers are not all the closest hits, so the comparison
+     * below sees where the kernels stop: the reference with every ray a closest-hit ray. */
+    {
+        static uint32_t none[R];
+        static ts_hit closest[R * P], any[R * P];
+        bl_ref_batch c = b;
+        c.ray_flags = none;
+        bottom_level_ref_pairs(&b, 0, R * P, any);
+        bottom_level_ref_pairs(&c, 0, R * P, closest);
+        uint32_t earlier = 0;
+        for (uint32_t w = 0; w < R * P; ++w)
+            if ((flags[w / P] & TS_RAY_SHADOW) && any[w].patch != TS_INVALID) {
+                assert_true(closest[w].patch != TS_INVALID && closest[w].t <= any[w].t);
+                earlier += closest[w].t < any[w].t;
+            }
+        assert_true(earlier > 0u);
+    }
     uint64_t hits_boxes = 0, hits_exact = 0;
     for (int group = 0; group < 2; ++group)
         for (int exact = 0; exact < 2; ++exact)

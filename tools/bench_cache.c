@@ -426,7 +426,7 @@ static int trace_one(const ts_scene *s, const ts_qbvh *q, const frame *f, uint64
                 lru_access(&res->cache[c], p, m);
             bl_ref_patch pt;
             if (memo_get(mm, s, p, m, &pt)) return 1;
-            ts_hit hh = bottom_level_ref_trace(o, d, best.t, &pt, 0, 0u, NULL);
+            ts_hit hh = bottom_level_ref_trace(o, d, best.t, &pt, 0, 0, 0u, NULL);
             if (hh.patch != TS_INVALID && hh.t < best.t) best = hh;
             continue;
         }

@@ -201,7 +201,7 @@ bl_ref_patch bottom_level_ref_patch(const ts_segment *seg, const ts_vec4 *grid,
 }
 
 ts_hit bottom_level_ref_trace(ts_vec4 org, ts_vec4 dir, float tmax, const bl_ref_patch *pt,
-                              int exact, uint32_t leaf_b, uint32_t *tests)
+                              int exact, int any, uint32_t leaf_b, uint32_t *tests)
 {
     ref_ray r = ref_ray_make(org, dir);
     ts_hit best = {tmax, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
@@ -210,6 +210,7 @@ ts_hit bottom_level_ref_trace(ts_vec4 org, ts_vec4 dir, float tmax, const bl_ref
     trav_start(&s, &r, pt, best.t);
     float te, raw;
     for (int k; (k = next_block(&s, &r, pt, L, best.t, &te, &raw)) >= 0;) {
+        if (any && best.patch != TS_INVALID) break;
         if (!exact && b == 0u) { /* the block is one leaf box, already tested */
             if (raw >= r.tmin) leaf_box(pt->m, (uint32_t)k, te, &best, pt->patch);
             ++n;
@@ -259,7 +260,7 @@ uint64_t bottom_level_ref_pairs(const bl_ref_batch *b, uint32_t first, uint32_t 
             int leaving = b->ray_from[ray] == seg->patch + 1u;
             if (!leaving) o.w = 0.0f;
             h = bottom_level_ref_trace(o, d, b->hit[ray].t, &pt, (int)b->exact || leaving,
-                                       b->leaf_b, &n);
+                                       (flags & TS_RAY_SHADOW) != 0u, b->leaf_b, &n);
             tests += n;
         }
         pair_hit[pr.window] = h;

@@ -28,10 +28,11 @@ bl_ref_patch bottom_level_ref_patch(const ts_segment *seg, const ts_vec4 *grid,
 /* Traces one ray through one patch, as bottom_level_trace traces one pair: org.xyz the
  * origin, org.w = tmin; dir.xyz the direction, dir.w = time in [0, 1); only hits below tmax.
  * exact: 1 micro-triangles, 0 leaf boxes; leaf_b: leaves of 2^leaf_b micro-quads a side
- * (clamped to m). Returns the closest hit, or {TS_NO_HIT, 0, 0, TS_INVALID, TS_INVALID}.
+ * (clamped to m); any: a shadow ray, done after the first leaf block that has a hit. Returns
+ * the closest hit (with any, that block's), or {TS_NO_HIT, 0, 0, TS_INVALID, TS_INVALID}.
  * *tests (if not NULL) gets the micro-quad tests made. */
 ts_hit bottom_level_ref_trace(ts_vec4 org, ts_vec4 dir, float tmax, const bl_ref_patch *pt,
-                              int exact, uint32_t leaf_b, uint32_t *tests);
+                              int exact, int any, uint32_t leaf_b, uint32_t *tests);
 
 /* The arguments of one bottom_level launch (trace.c's stage_bottom_level), host side. */
 typedef struct bl_ref_batch {
