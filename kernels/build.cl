@@ -81,6 +81,27 @@ inline ts_box base_box(__global const ts_vec4 *g, uint n, uint i, uint j, float4
     return b;
 }
 
+/* The box of micro-quad (i, j)'s four diced vertices of grid g, grown by a few ulps of its
+ * largest coordinate: in triangle mode (`--intersect triangles`) the geometry is the
+ * micro-quad's two triangles, which lie in it, so the leaf need not bound every finer
+ * dicing's surface as a box-mode leaf must (Hanika §3.3). The host's tight_leaf_box
+ * (host/ref/dice_build_ref.c) does the same operations. */
+inline ts_box tight_leaf_box(__global const ts_vec4 *g, uint n, uint i, uint j)
+{
+    __global const ts_vec4 *r0 = g + j * n + i, *r1 = r0 + n;
+    ts_vec4 p[4] = {r0[0], r0[1], r1[0], r1[1]};
+    ts_box b = {p[0].x, p[0].y, p[0].z, p[0].x, p[0].y, p[0].z};
+    for (int c = 1; c < 4; ++c) {
+        b.lo_x = fmin(b.lo_x, p[c].x), b.lo_y = fmin(b.lo_y, p[c].y), b.lo_z = fmin(b.lo_z, p[c].z);
+        b.hi_x = fmax(b.hi_x, p[c].x), b.hi_y = fmax(b.hi_y, p[c].y), b.hi_z = fmax(b.hi_z, p[c].z);
+    }
+    float mag = fmax(fmax(fmax(fabs(b.lo_x), fabs(b.hi_x)), fmax(fabs(b.lo_y), fabs(b.hi_y))),
+                     fmax(fabs(b.lo_z), fabs(b.hi_z)));
+    float e = 4e-7f * mag;
+    b.lo_x -= e, b.lo_y -= e, b.lo_z -= e, b.hi_x += e, b.hi_y += e, b.hi_z += e;
+    return b;
+}
+
 /* A leaf box clamped to the patch's top-level box (scene_patch_box: the control hull of
  * both time samples grown by the displacement bound and a few ulps). Both contain the
  * leaf's piece of surface, so their intersection does too; without it a coarse leaf (its
@@ -106,7 +127,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                            __global const ts_patch_attr *attr, __global const ts_xform *xform,
                            __global const ts_vec4 *flatness, __global const ts_box *patch_box,
                            __global const ts_texture *textures, __global const uint *tex_pages,
-                           __global const ts_vec4 *tex_pool, __global ts_box4 *groups)
+                           __global const ts_vec4 *tex_pool, uint tight, __global ts_box4 *groups)
 {
     uint nl = 1u << (2u * m), gid = get_global_id(0);
     uint t = gid / nl, k = gid % nl;
@@ -120,6 +141,11 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     __global const ts_vec4 *cn = corner_n + (size_t)seg.shape * 4u;
     __global const ts_vec4 *mn = mid_n + (size_t)seg.shape * 5u;
     __global const ts_vec4 *g = grid + (size_t)seg.vert_first + time * nv;
+    if (tight) { /* triangle mode: the box of the micro-quad's four diced vertices */
+        ts_box b = leaf_clamp(tight_leaf_box(g, n, i, j), patch_box[seg.shape]);
+        node_store(groups + (size_t)seg.group_first + time * quadtree_group_count(m), m, k, b);
+        return;
+    }
     float4 nx, ny, nz; /* both time samples' corners share them */
     corner_normals(cn, mn, i, j, h, &nx, &ny, &nz);
     ts_box b = base_box(g, n, i, j, nx, ny, nz);

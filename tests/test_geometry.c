@@ -190,6 +190,46 @@ static void test_grid_normals_change_no_bit(void **state)
     test_assert_same_pixels(path(exr[0]), path(exr[RUNS - 1])); /* evicted before shade */
 }
 
+/* Triangle mode's leaf boxes (tight: the box of each micro-quad's four diced vertices)
+ * against box mode's (bounding every finer dicing's surface, TESSERA_TIGHT_LEAVES=0): the
+ * triangles are the same, so every hit is, and the images are the same bits: noise and
+ * texture displacement, moving patches, instances, and the bake's visibility. */
+static void test_tight_leaves_change_no_bit(void **state)
+{
+    char args[16384];
+    const char *runs[][3] = {
+        {"scene/teapot_displaced.rib", "tl_td", "render"},
+        {"scene/textured.rib", "tl_tex", "render"},
+        {"scene/motion.rib", "tl_motion", "render"},
+        {"scene/instances_displaced.rib", "tl_inst", "render"},
+        {"scene/teapot_displaced.rib", "tl_bake", "bake"},
+    };
+    enum { RUNS = sizeof runs / sizeof runs[0] };
+    for (int i = 0; i < RUNS; ++i) {
+        char on[64], off[64], son[64], soff[64];
+        snprintf(on, sizeof on, "%s_on.exr", runs[i][1]);
+        snprintf(off, sizeof off, "%s_off.exr", runs[i][1]);
+        snprintf(son, sizeof son, "%s_on.json", runs[i][1]);
+        snprintf(soff, sizeof soff, "%s_off.json", runs[i][1]);
+        const char *size = strcmp(runs[i][2], "bake") == 0 ? "--res 40x24" : "--res 160x90 --spp 2";
+        for (int tight = 1; tight >= 0; --tight) {
+            if (!tight) setenv("TESSERA_TIGHT_LEAVES", "0", 1);
+            snprintf(args, sizeof args,
+                     "%s '%s' -o '%s' %s --intersect triangles --quiet --stats '%s'", runs[i][2],
+                     test_source_path(runs[i][0]), path(tight ? on : off), size,
+                     path(tight ? son : soff));
+            render_ok(args);
+            unsetenv("TESSERA_TIGHT_LEAVES");
+        }
+        test_assert_same_pixels(path(on), path(off));
+        /* The tight boxes are the ones traversed: fewer micro-quads tested. */
+        if (strcmp(runs[i][0], "scene/teapot_displaced.rib") == 0 &&
+            strcmp(runs[i][2], "render") == 0)
+            assert_true(test_stats_number(path(son), "counters.leaf_tests") <
+                        0.5 * test_stats_number(path(soff), "counters.leaf_tests"));
+    }
+}
+
 /* A default budget whose arenas are too small for the frame's patches (its cap lowered to
  * 16 MB: 4 MB of arenas, where the displaced teapot's patches need 5.8 MB at 320x180):
  * after the lod stage the arenas grow to hold them all, each is diced once, nothing is
@@ -396,6 +436,7 @@ int main(void)
         cmocka_unit_test(test_sort_by_copy_matches_mapped_sort),
         cmocka_unit_test(test_patch_cache_dices_once_and_changes_no_bit),
         cmocka_unit_test(test_grid_normals_change_no_bit),
+        cmocka_unit_test(test_tight_leaves_change_no_bit),
         cmocka_unit_test(test_arenas_grow_to_the_frames_patches),
         cmocka_unit_test(test_hidden_patch_is_diced_coarser_under_the_seen_rules),
         cmocka_unit_test(test_ten_billion_potential_micropolygons_in_fixed_memory),

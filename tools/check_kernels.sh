@@ -21,7 +21,8 @@
 #   - scene/textured.rib at 8x6, --max-lod 2 (image textures: displacement and colour);
 #   - scene/lights.rib at 8x6, --max-lod 1 (point, spot and ambient lights in shade);
 #   - scene/teapot_displaced.rib at 12x8, --max-lod 4, --depth 2 (displacement, the grid's
-#     shading normals, bounce rays), without --uninitialized;
+#     shading normals, bounce rays), and at 8x6 with --intersect triangles (the tight leaf
+#     boxes), both without --uninitialized;
 #   - `tessera bake` of the teapot and of textured.rib (tiles paged) at tiny sizes (the
 #     bake kernels; test_bake_kernels traces waves of the teapot, minutes under Oclgrind);
 #   - every test program whose source calls test_open_device() (the kernel unit tests),
@@ -135,6 +136,11 @@ run bake_textured "$build/tessera" bake scene/textured.rib --res 8x6 --rays 4 --
 OCLGRIND_CHECKS="--data-races --check-api" \
   run render_displaced "$build/tessera" render scene/teapot_displaced.rib --res 12x8 --spp 1 \
   --max-lod 4 --depth 2 --memory 8 -o "$work/displaced.exr" --no-kernel-cache --quiet
+# The same in triangle mode: build's tight leaf boxes (the diced vertices' boxes).
+OCLGRIND_CHECKS="--data-races --check-api" \
+  run render_displaced_triangles "$build/tessera" render scene/teapot_displaced.rib --res 8x6 \
+  --spp 1 --max-lod 3 --depth 1 --memory 8 --intersect triangles -o "$work/displaced_tri.exr" \
+  --no-kernel-cache --quiet
 # The shading normal's probe (shade_normal_probe) on the teapot without displacement only:
 # Oclgrind 21.10's --uninitialized plugin crashes (SIGSEGV in
 # Uninitialized::instructionExecuted) on the fbm noise in float8 lanes (lib/noise4.h).

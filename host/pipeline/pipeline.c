@@ -342,7 +342,7 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     p->stats = stats;
     p->plan = *plan;
     p->pixel_count = pixel_count;
-    p->mode = (ts_trace_mode){1u, (int)plan->max_lod, 1, 0, 0u};
+    p->mode = (ts_trace_mode){1u, (int)plan->max_lod, 1, 0, 0u, 0};
     /* One bottom_level launch of every pair, plus one part-filled work-group per batch for
      * many batches (trace.c folds the counters early when an iteration needs more). 8 bytes
      * per 64 pairs: 1/64 of the pair buffers, left out of TS_BYTES_PER_RAY. */

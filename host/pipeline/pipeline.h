@@ -65,6 +65,11 @@ typedef struct ts_trace_mode {
                         geometry, hole-free across LODs (Hanika §3.3) */
     int leaf_group;  /* 1: work-group-wide leaf intersection (PantaRay Fig. 8); 0: per ray */
     uint32_t leaf_b; /* leaves are blocks of 2^leaf_b x 2^leaf_b micro-quads (0..2) */
+    int tight;       /* 1 (with exact): each leaf box is the box of its micro-quad's diced
+                        vertices (build.cl tight_leaf_box), which bounds its two triangles;
+                        0: it bounds the surface over the micro-quad's parameter square and
+                        so every finer dicing (box mode needs that; the origin-patch rule's
+                        triangles are tested inside such boxes too) */
 } ts_trace_mode;
 
 /* The pipeline's kernels, X(field, kernel function name): pipeline_create makes each,

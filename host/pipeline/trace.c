@@ -325,6 +325,7 @@ static int cull_reset_stale(ts_pipeline *p, ts_error *err)
 static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
     uint32_t top = 0;
+    cl_uint tight = p->mode.exact && p->mode.tight ? 1u : 0u;
     for (uint32_t t = 0; t < b->tree_count;) {
         uint32_t m, run = tree_run(p, b, t, &m);
         if (t == 0) top = m;
@@ -333,8 +334,8 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
                          DEV_ARG(m), DEV_ARG(p->segments), DEV_ARG(p->grid), DEV_ARG(p->corner_n),
                          DEV_ARG(p->mid_n), DEV_ARG(p->attr), DEV_ARG(p->xform),
                          DEV_ARG(p->flatness), DEV_ARG(p->patch_box), DEV_ARG(p->textures),
-                         DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(p->groups),
-                         (size_t)0) ||
+                         DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(tight),
+                         DEV_ARG(p->groups), (size_t)0) ||
             dev_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
                        TS_LOCAL_SIZE, err))
             return err->code;
