@@ -332,6 +332,7 @@ static int child_tessera(const ts_scene *s, uint32_t m, const char *dir, int run
                 if (rc) break;
             }
             p.mode.exact = mode == 0;
+            p.mode.tight = p.mode.exact; /* as tessera render --intersect triangles */
             hit[mode][kind] = malloc((r[kind].count ? r[kind].count : 1) * sizeof(ts_hit));
             if (!hit[mode][kind]) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
             for (int run = 0; run < runs && !rc; ++run) {
