@@ -81,27 +81,6 @@ inline ts_box base_box(__global const ts_vec4 *g, uint n, uint i, uint j, float4
     return b;
 }
 
-/* The box of micro-quad (i, j)'s four diced vertices of grid g, grown by a few ulps of its
- * largest coordinate: in triangle mode (`--intersect triangles`) the geometry is the
- * micro-quad's two triangles, which lie in it, so the leaf need not bound every finer
- * dicing's surface as a box-mode leaf must (Hanika §3.3). The host's tight_leaf_box
- * (host/ref/dice_build_ref.c) does the same operations. */
-inline ts_box tight_leaf_box(__global const ts_vec4 *g, uint n, uint i, uint j)
-{
-    __global const ts_vec4 *r0 = g + j * n + i, *r1 = r0 + n;
-    ts_vec4 p[4] = {r0[0], r0[1], r1[0], r1[1]};
-    ts_box b = {p[0].x, p[0].y, p[0].z, p[0].x, p[0].y, p[0].z};
-    for (int c = 1; c < 4; ++c) {
-        b.lo_x = fmin(b.lo_x, p[c].x), b.lo_y = fmin(b.lo_y, p[c].y), b.lo_z = fmin(b.lo_z, p[c].z);
-        b.hi_x = fmax(b.hi_x, p[c].x), b.hi_y = fmax(b.hi_y, p[c].y), b.hi_z = fmax(b.hi_z, p[c].z);
-    }
-    float mag = fmax(fmax(fmax(fabs(b.lo_x), fabs(b.hi_x)), fmax(fabs(b.lo_y), fabs(b.hi_y))),
-                     fmax(fabs(b.lo_z), fabs(b.hi_z)));
-    float e = 4e-7f * mag;
-    b.lo_x -= e, b.lo_y -= e, b.lo_z -= e, b.hi_x += e, b.hi_y += e, b.hi_z += e;
-    return b;
-}
-
 /* A leaf box clamped to the patch's top-level box (scene_patch_box: the control hull of
  * both time samples grown by the displacement bound and a few ulps). Both contain the
  * leaf's piece of surface, so their intersection does too; without it a coarse leaf (its
@@ -152,8 +131,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     ts_vec4 e = flatness[seg.shape];
     float s = ldexp(1.0f, -2 * (int)m);
     /* Flatness, plus a few ulps for the rounding of the vertices and of vertex - d * n. */
-    float mag = fmax(fmax(fabs(b.lo_x), fabs(b.hi_x)),
-                     fmax(fmax(fabs(b.lo_y), fabs(b.hi_y)), fmax(fabs(b.lo_z), fabs(b.hi_z))));
+    float mag = box_magnitude(b);
     float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
     b.lo_x -= ex, b.hi_x += ex, b.lo_y -= ey, b.hi_y += ey, b.lo_z -= ez, b.hi_z += ez;
     __global const ts_patch_attr *a = attr + seg.shape;

@@ -124,7 +124,7 @@ static void check_scene(int displaced, int moving)
         uint32_t times = dice_build_ref_times(&s, q);
         assert_int_equal(times, moving ? 2u : 1u);
         assert_int_equal(sg->flags & TS_PATCH_MOVING, moving ? TS_PATCH_MOVING : 0u);
-        dice_build_ref(&s, q, sg->lod, hgrid, hgroups);
+        dice_build_ref(&s, q, sg->lod, 0, hgrid, hgroups);
         if (memcmp(hgrid, grid + sg->vert_first,
                    times * quadtree_vertex_count(sg->lod) * sizeof *grid))
             fail_msg("patch %u m %u: the host dice reference differs from dice_grid", q, sg->lod);
@@ -261,7 +261,7 @@ static void test_instances(void **state)
     for (uint32_t q = 0; q < Q; ++q) { /* each segment holds its shape's dicing */
         const ts_segment *sg = &p.segments_host[q];
         assert_int_equal(sg->shape, q % P);
-        dice_build_ref(&s, sg->shape, sg->lod, hgrid, hgroups);
+        dice_build_ref(&s, sg->shape, sg->lod, 0, hgrid, hgroups);
         if (memcmp(hgrid, grid + sg->vert_first, quadtree_vertex_count(sg->lod) * sizeof *grid) ||
             memcmp(hgroups, groups + sg->group_first,
                    quadtree_group_count(sg->lod) * sizeof *groups))

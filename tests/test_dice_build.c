@@ -10,6 +10,7 @@
 #include "lib/quadtree.h"
 #include "image/image.h"
 #include "pipeline/pipeline.h"
+#include "ref/dice_build_ref.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -82,7 +83,7 @@ static int box_contains(ts_box b, ts_vec4 p)
 }
 
 static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec4 *grid,
-                          const ts_box4 *nodes, uint32_t *seed)
+                          const ts_box4 *nodes, int tight, uint32_t *seed)
 {
     uint32_t pi = seg->patch;
     const ts_vec4 *cp = &s->cp[pi * 16], *cn = &s->corner_n[pi * 4], *mn = &s->mid_n[pi * 5];
@@ -119,8 +120,9 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
             ts_vec4 g = grid[(j + (c >> 1)) * n + i + (c & 1)];
             if (!box_contains(b, g)) fail_msg("patch %u m %u: vertex outside leaf %u", pi, m, k);
         }
-        /* Texture leaves: more points, their bound is tight (a few texels). */
-        int points = a->disp_kind == TS_DISP_TEXTURE ? 32 : 4;
+        /* Texture leaves: more points, their bound is tight (a few texels). Triangle mode's
+         * leaves bound only their micro-quad's triangles: its vertices, checked above. */
+        int points = tight ? 0 : a->disp_kind == TS_DISP_TEXTURE ? 32 : 4;
         for (int q = 0; q < points; ++q) {
             float u = ((float)i + test_uniform(seed, 0, 1)) * ldexpf(1.0f, -(int)m);
             float v = ((float)j + test_uniform(seed, 0, 1)) * ldexpf(1.0f, -(int)m);
@@ -196,8 +198,9 @@ static void random_textured_scene(ts_scene *s, int patches, uint32_t seed)
 }
 
 /* Dices and builds the six patches of s at LODs lods[] (patch 5 - i gets lods[i]) as one
- * batch and checks every segment against the references. */
-static void dice_build_and_check(ts_scene *s, const uint32_t lods[6])
+ * batch, with box mode's leaves or (tight) triangle mode's, and checks every segment against
+ * the references: dice_build_ref's grid and trees bit for bit, and the properties above. */
+static void dice_build_and_check(ts_scene *s, const uint32_t lods[6], int tight)
 {
     ts_device cl;
     test_open_device(&cl);
@@ -210,6 +213,7 @@ static void dice_build_and_check(ts_scene *s, const uint32_t lods[6])
     if (pipeline_create(&p, &cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
     for (uint32_t i = 0; i < 6; ++i)
         p.segments_host[i] = (ts_segment){.patch = 5 - i, .lod = lods[i]};
+    p.mode.exact = 1, p.mode.tight = tight;
     if (pipeline_dice_build(&p, 6, &err)) fail_msg("%s", err.msg);
     size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4);
     size_t nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
@@ -223,7 +227,17 @@ static void dice_build_and_check(ts_scene *s, const uint32_t lods[6])
     uint32_t seed = 77u;
     for (uint32_t i = 0; i < 6; ++i) {
         const ts_segment *seg = &p.segments_host[i];
-        check_segment(s, seg, grid + seg->vert_first, nodes + seg->group_first, &seed);
+        check_segment(s, seg, grid + seg->vert_first, nodes + seg->group_first, tight, &seed);
+        uint32_t ng = quadtree_group_count(seg->lod);
+        ts_vec4 *hgrid = malloc(2 * quadtree_vertex_count(seg->lod) * sizeof *hgrid);
+        ts_box4 *hnodes = malloc(2 * ng * sizeof *hnodes);
+        assert_true(hgrid && hnodes);
+        dice_build_ref(s, seg->patch, seg->lod, tight, hgrid, hnodes);
+        if (memcmp(hnodes, nodes + seg->group_first,
+                   dice_build_ref_times(s, seg->patch) * ng * sizeof *hnodes))
+            fail_msg("patch %u m %u: build's trees differ from dice_build_ref's (tight %d)",
+                     seg->patch, seg->lod, tight);
+        free(hgrid), free(hnodes);
     }
     assert_int_equal(stats.counters[TS_COUNTER_patches_diced], 6);
     uint64_t quads = 0;
@@ -242,7 +256,8 @@ static void test_dice_and_build_match_reference(void **state)
     ts_scene s;
     random_scene(&s, 6, 12345u);
     const uint32_t lods[6] = {0, 1, 2, 3, 5, 4};
-    dice_build_and_check(&s, lods);
+    dice_build_and_check(&s, lods, 0);
+    dice_build_and_check(&s, lods, 1);
     scene_free(&s);
 }
 
@@ -252,7 +267,8 @@ static void test_dice_and_build_textured(void **state)
     ts_scene s;
     random_textured_scene(&s, 6, 4242u);
     const uint32_t lods[6] = {0, 1, 2, 3, 4, 2}; /* small: minutes under Oclgrind otherwise */
-    dice_build_and_check(&s, lods);
+    dice_build_and_check(&s, lods, 0);
+    dice_build_and_check(&s, lods, 1);
     scene_free(&s);
 }
 

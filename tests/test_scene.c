@@ -463,7 +463,7 @@ static void check_trees_in_patch_boxes(const char *scene, uint32_t stride)
             ts_vec4 *grid = malloc(times * n * n * sizeof *grid);
             ts_box4 *groups = malloc(times * ng * sizeof *groups);
             assert_true(grid && groups);
-            dice_build_ref(&s, p, m, grid, groups);
+            dice_build_ref(&s, p, m, 0, grid, groups);
             for (uint32_t g = 0; g < times * ng; ++g)
                 for (int q = 0; q < 4; ++q) {
                     const ts_box4 *x = &groups[g];

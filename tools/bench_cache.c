@@ -353,7 +353,7 @@ static int memo_get(memo *mm, const ts_scene *s, uint32_t p, uint32_t m, bl_ref_
         if (mm->bytes + gb + nb > mm->limit) memo_clear(mm);
         mm->grid[p] = malloc(gb), mm->groups[p] = malloc(nb);
         if (!mm->grid[p] || !mm->groups[p]) return 1;
-        dice_build_ref(s, p, m, mm->grid[p], mm->groups[p]);
+        dice_build_ref(s, p, m, 0, mm->grid[p], mm->groups[p]);
         mm->bytes += gb + nb;
         mm->dicings++;
     }

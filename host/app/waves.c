@@ -5,12 +5,14 @@
 #include <stdlib.h>
 #include <string.h>
 
+int waves_tight_leaves(int exact)
+{
+    const char *env = getenv("TESSERA_TIGHT_LEAVES");
+    return exact && !(env && strcmp(env, "0") == 0);
+}
+
 ts_trace_mode waves_trace_mode(const ts_render_options *o)
 {
-    /* TESSERA_TIGHT_LEAVES=0 (a testing aid, docs/errors.md): triangle mode keeps box mode's
-     * leaf boxes, which change no hit, only the work (test_geometry). */
-    const char *env = getenv("TESSERA_TIGHT_LEAVES");
-    int tight = o->exact && !(env && strcmp(env, "0") == 0);
     return (ts_trace_mode){(uint32_t)o->spp,
                            o->fixed_lod,
                            o->exact,
@@ -18,7 +20,7 @@ ts_trace_mode waves_trace_mode(const ts_render_options *o)
                            o->leaf_size == 4   ? 2u
                            : o->leaf_size == 2 ? 1u
                                                : 0u,
-                           tight};
+                           waves_tight_leaves(o->exact)};
 }
 
 int waves_lod_rule(ts_lod_rule *rule, ts_error *err)

@@ -13,6 +13,10 @@
  * --leaf-size. */
 ts_trace_mode waves_trace_mode(const ts_render_options *o);
 
+/* ts_trace_mode.tight for a render or bake in mode `exact`: triangle mode's leaf boxes unless
+ * TESSERA_TIGHT_LEAVES=0 (a testing aid, docs/errors.md: box mode's boxes, the same hits). */
+int waves_tight_leaves(int exact);
+
 /* The frame's levels of detail into p->patch_lod: the lod stage (pipeline_lod, by the rule
  * TESSERA_LOD_RULE names, crossed by default) counts the frame's first sample pass even when
  * the film already holds samples [0, job->samples_done) (--resume, a retry): it is

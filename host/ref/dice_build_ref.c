@@ -72,9 +72,7 @@ static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t 
     const ts_vec4 *cn = q->cn, *mn = q->mn;
     ts_box b = base_box(grid + time * nv, n, i, j, cn, mn, h);
     float s = ldexpf(1.0f, -2 * (int)m);
-    float mag =
-        fmaxf(fmaxf(fabsf(b.lo_x), fabsf(b.hi_x)),
-              fmaxf(fmaxf(fabsf(b.lo_y), fabsf(b.hi_y)), fmaxf(fabsf(b.lo_z), fabsf(b.hi_z))));
+    float mag = box_magnitude(b);
     ts_vec4 e = q->e;
     float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
     grow(&b, ex, ey, ez);
@@ -148,8 +146,10 @@ void dice_build_ref_grid(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *gri
     }
 }
 
-void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid, ts_box4 *groups)
+void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, int tight, ts_vec4 *grid,
+                    ts_box4 *groups)
 {
+    uint32_t n = (1u << m) + 1u;
     uint32_t times = dice_build_ref_times(s, p);
     dice_build_ref_patch q = dice_build_ref_patch_of(s, p);
     dice_build_ref_grid(s, p, m, grid);
@@ -157,7 +157,11 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid, ts
     for (uint32_t t = 0; t < times; ++t) {
         ts_box4 *tree = groups + t * ng;
         for (uint32_t k = 0; k < (1u << (2u * m)); ++k)
-            node_store(tree, m, k, dice_build_ref_leaf(&q, grid, t, m, k, NULL, NULL));
+            node_store(
+                tree, m, k,
+                tight ? leaf_clamp(tight_leaf_box(grid + t * n * n, n, morton_i(k), morton_j(k)),
+                                   q.pb)
+                      : dice_build_ref_leaf(&q, grid, t, m, k, NULL, NULL));
         for (uint32_t level = m; level-- > 0;) /* bottom-up min-max reduction */
             for (uint32_t k = 0; k < (1u << (2u * level)); ++k) {
                 const ts_box4 *c = tree + quadtree_group_offset(level + 1u) + k;

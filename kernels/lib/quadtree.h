@@ -81,6 +81,32 @@ TS_INLINE float quadtree_vertex_param(ts_u32 i, ts_u32 m)
     return ldexp((float)i, -(int)m);
 }
 
+/* The largest |coordinate| of box b: the scale of the few ulps a leaf box is grown by. */
+TS_INLINE float box_magnitude(ts_box b)
+{
+    return fmax(fmax(fabs(b.lo_x), fabs(b.hi_x)),
+                fmax(fmax(fabs(b.lo_y), fabs(b.hi_y)), fmax(fabs(b.lo_z), fabs(b.hi_z))));
+}
+
+/* The box of micro-quad (i, j)'s four diced vertices in grid g (rows of n), grown by a few
+ * ulps of its largest coordinate: the leaf box of triangle mode (`--intersect triangles`,
+ * build.cl and host/ref/dice_build_ref.c), where the geometry is the micro-quad's two
+ * triangles, which lie in it; a box-mode leaf must bound every finer dicing's surface
+ * instead (Hanika §3.3). */
+TS_INLINE ts_box tight_leaf_box(TS_CONST_GLOBAL ts_vec4 *g, ts_u32 n, ts_u32 i, ts_u32 j)
+{
+    TS_CONST_GLOBAL ts_vec4 *r0 = g + j * n + i, *r1 = r0 + n;
+    ts_vec4 p[4] = {r0[0], r0[1], r1[0], r1[1]};
+    ts_box b = {p[0].x, p[0].y, p[0].z, p[0].x, p[0].y, p[0].z};
+    for (int c = 1; c < 4; ++c) {
+        b.lo_x = fmin(b.lo_x, p[c].x), b.lo_y = fmin(b.lo_y, p[c].y), b.lo_z = fmin(b.lo_z, p[c].z);
+        b.hi_x = fmax(b.hi_x, p[c].x), b.hi_y = fmax(b.hi_y, p[c].y), b.hi_z = fmax(b.hi_z, p[c].z);
+    }
+    float e = 4e-7f * box_magnitude(b);
+    b.lo_x -= e, b.lo_y -= e, b.lo_z -= e, b.hi_x += e, b.hi_y += e, b.hi_z += e;
+    return b;
+}
+
 /* Micro-quad column i (u) and row j (v) of Morton index k. */
 TS_INLINE ts_u32 morton_i(ts_u32 k)
 {
