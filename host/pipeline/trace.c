@@ -335,7 +335,7 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
                          DEV_ARG(p->mid_n), DEV_ARG(p->attr), DEV_ARG(p->xform),
                          DEV_ARG(p->flatness), DEV_ARG(p->patch_box), DEV_ARG(p->textures),
                          DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(tight),
-                         DEV_ARG(p->groups), (size_t)0) ||
+                         DEV_ARG(p->groups), DEV_ARG(p->tight), (size_t)0) ||
             dev_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
                        TS_LOCAL_SIZE, err))
             return err->code;
@@ -347,7 +347,7 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
             ++deeper;
         if (dev_set_args(p->k_build_level, err, DEV_ARG(p->trees), DEV_ARG(b->tree_first),
                          DEV_ARG(deeper), DEV_ARG(level), DEV_ARG(p->segments), DEV_ARG(p->groups),
-                         (size_t)0) ||
+                         DEV_ARG(p->tight), (size_t)0) ||
             dev_launch(p->cl, p->k_build_level, TS_STAGE_build, (size_t)deeper << (2u * level),
                        TS_LOCAL_SIZE, err))
             return err->code;
@@ -389,23 +389,31 @@ static int trees_make(ts_pipeline *p, const ts_batch *b, uint32_t first, uint32_
 }
 
 /* Copies segment i's blocks between the arenas and host memory at data (vertices, then
- * sibling groups): to the host (read) or from it. Not blocking (dev_finish completes it). */
+ * sibling groups, then their tight codes): to the host (read) or from it. Not blocking (dev_finish
+ * completes it). */
 static int segment_blocks(ts_pipeline *p, uint32_t i, void *data, int read, ts_error *err)
 {
     const ts_segment *s = &p->segments_host[i];
     uint32_t times = s->flags ? 2u : 1u;
     size_t vb = (size_t)patch_cache_vert_count(s->lod, times) * sizeof(ts_vec4);
-    size_t gb = (size_t)patch_cache_group_count(s->lod, times) * sizeof(ts_box4);
+    size_t ng = patch_cache_group_count(s->lod, times);
+    size_t gb = ng * sizeof(ts_box4), cb = ng * sizeof(ts_tight4);
     size_t vo = (size_t)s->vert_first * sizeof(ts_vec4),
-           go = (size_t)s->group_first * sizeof(ts_box4);
+           go = (size_t)s->group_first * sizeof(ts_box4),
+           co = (size_t)s->group_first * sizeof(ts_tight4);
     char *d = data;
     if (read)
         return dev_read_async(p->cl, p->grid, vo, vb, d, "a patch's grid", err) ||
-                       dev_read_async(p->cl, p->groups, go, gb, d + vb, "a patch's tree", err)
+                       dev_read_async(p->cl, p->groups, go, gb, d + vb, "a patch's tree", err) ||
+                       dev_read_async(p->cl, p->tight, co, cb, d + vb + gb, "a patch's tight codes",
+                                      err)
                    ? err->code
                    : TS_OK;
     return dev_write_async(p->cl, p->grid, vo, vb, d, "a shared patch's grid", err) ||
-                   dev_write_async(p->cl, p->groups, go, gb, d + vb, "a shared patch's tree", err)
+                   dev_write_async(p->cl, p->groups, go, gb, d + vb, "a shared patch's tree",
+                                   err) ||
+                   dev_write_async(p->cl, p->tight, co, cb, d + vb + gb,
+                                   "a shared patch's tight codes", err)
                ? err->code
                : TS_OK;
 }
@@ -590,7 +598,7 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
                      DEV_ARG(p->segments), DEV_ARG(first), DEV_ARG(count), DEV_ARG(n_per_ray),
                      DEV_ARG(exact), DEV_ARG(leaf_b), DEV_ARG(p->active), DEV_ARG(p->ray_org),
                      DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_flags),
-                     DEV_ARG(p->ray_from), DEV_ARG(p->grid), DEV_ARG(p->groups),
+                     DEV_ARG(p->ray_from), DEV_ARG(p->grid), DEV_ARG(p->groups), DEV_ARG(p->tight),
                      DEV_ARG(p->instance), DEV_ARG(p->inst_xform), DEV_ARG(p->pair_hit),
                      DEV_ARG(p->utilisation), DEV_ARG(group_base), (size_t)0))
         return err->code;

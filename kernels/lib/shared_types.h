@@ -12,6 +12,7 @@
 #ifdef __OPENCL_C_VERSION__
 typedef uint ts_u32;
 typedef int ts_i32;
+typedef uchar ts_u8;
 #define TS_GLOBAL __global
 #define TS_CONST_GLOBAL __global const
 #define TS_INLINE inline
@@ -22,6 +23,7 @@ typedef int ts_i32;
 #include <tgmath.h>
 typedef uint32_t ts_u32;
 typedef int32_t ts_i32;
+typedef uint8_t ts_u8;
 #define TS_GLOBAL
 #define TS_CONST_GLOBAL const
 #define TS_INLINE static inline
@@ -58,6 +60,19 @@ typedef struct ts_box4 {
     float lo_x[4], lo_y[4], lo_z[4];
     float hi_x[4], hi_y[4], hi_z[4];
 } ts_box4;
+
+/* The tight boxes of a ts_box4's four nodes, in the arena `tight` beside `groups` (the same
+ * index): each node's box of its diced vertices (the micro-quads' tight_leaf_box, and unions
+ * of them), as 8-bit codes inside the node's box. Face lo_x of lane q is
+ * box.lo_x[q] + lo_x[q] * step, hi_x is box.hi_x[q] - hi_x[q] * step, with step =
+ * (box.hi_x[q] - box.lo_x[q]) / 255 (lib/quadtree.h box4_tight_lane). A ray leaving the patch,
+ * traced as micro-triangles (the origin-patch rule, bottom_level.cl), is culled by these in box
+ * mode: its triangles lie in them, and box mode's boxes, which bound every finer dicing, are
+ * far larger on a rough surface. 24 bytes. */
+typedef struct ts_tight4 {
+    ts_u8 lo_x[4], lo_y[4], lo_z[4];
+    ts_u8 hi_x[4], hi_y[4], hi_z[4];
+} ts_tight4;
 
 /* Top-level culling by a built patch's upper quad-tree levels (top_level.cl, build.cl
  * build_cull): TS_CULL_GROUPS sibling groups per patch, its tree's level 1 (group 0) and
@@ -416,7 +431,7 @@ typedef struct ts_relight_params {
  * kernels/layout.cl writes sizeof/offsetof of each entry back for tests/test_layout.c. */
 /* clang-format off */
 #define TS_LAYOUT_FIELDS(X)                                                                 \
-    X(ts_vec4, w) X(ts_box, hi_z) X(ts_box4, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
+    X(ts_vec4, w) X(ts_box, hi_z) X(ts_box4, hi_z) X(ts_tight4, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
     X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_segment, shape) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
