@@ -106,8 +106,9 @@ inline void leaf_box(uint m, uint k, float e, ts_hit *best, uint patch)
 
 /* The four boxes of sibling group g as float4 lanes; with codes c (not 0): the tight boxes
  * they give (lib/quadtree.h box4_tight_lane, lane by lane). */
-inline void group_boxes(__global const ts_box4 *g, __global const ts_tight4 *c, float4 *lx,
-                        float4 *ly, float4 *lz, float4 *hx, float4 *hy, float4 *hz)
+TS_INLINE_ALWAYS void group_boxes(__global const ts_box4 *g, __global const ts_tight4 *c,
+                                  float4 *lx, float4 *ly, float4 *lz, float4 *hx, float4 *hy,
+                                  float4 *hz)
 {
     *lx = vload4(0, g->lo_x), *ly = vload4(0, g->lo_y), *lz = vload4(0, g->lo_z);
     *hx = vload4(0, g->hi_x), *hy = vload4(0, g->hi_y), *hz = vload4(0, g->hi_z);
@@ -126,9 +127,10 @@ inline void group_boxes(__global const ts_box4 *g, __global const ts_tight4 *c, 
  * at `time`, when g1 != 0), or of their tight boxes when c (and c1 with g1) are their codes.
  * Returns the entry distances, -1 in lanes that miss; *raw gets the entries before clamping
  * to tmin (below tmin when the ray starts inside the box). */
-inline float4 group_enter(__global const ts_box4 *g, __global const ts_box4 *g1,
-                          __global const ts_tight4 *c, __global const ts_tight4 *c1, float time,
-                          float4 o, float4 inv, float tmin, float tmax, float4 *raw)
+TS_INLINE_ALWAYS float4 group_enter(__global const ts_box4 *g, __global const ts_box4 *g1,
+                                    __global const ts_tight4 *c, __global const ts_tight4 *c1,
+                                    float time, float4 o, float4 inv, float tmin, float tmax,
+                                    float4 *raw)
 {
     float4 lx, ly, lz, hx, hy, hz;
     group_boxes(g, c, &lx, &ly, &lz, &hx, &hy, &hz);

@@ -93,7 +93,7 @@ TS_INLINE float box_magnitude(ts_box b)
  * build.cl and host/ref/dice_build_ref.c), where the geometry is the micro-quad's two
  * triangles, which lie in it; a box-mode leaf must bound every finer dicing's surface
  * instead (Hanika §3.3). */
-TS_INLINE ts_box tight_leaf_box(TS_CONST_GLOBAL ts_vec4 *g, ts_u32 n, ts_u32 i, ts_u32 j)
+TS_INLINE_ALWAYS ts_box tight_leaf_box(TS_CONST_GLOBAL ts_vec4 *g, ts_u32 n, ts_u32 i, ts_u32 j)
 {
     TS_CONST_GLOBAL ts_vec4 *r0 = g + j * n + i, *r1 = r0 + n;
     ts_vec4 p[4] = {r0[0], r0[1], r1[0], r1[1]};
@@ -147,8 +147,8 @@ TS_INLINE float tight_scale(float step)
  * vertices) as its tight codes at codes (the same index): build.cl and
  * host/ref/dice_build_ref.c. The root group's lanes 1-3 are empty (lo > hi, never hit; codes
  * 0). Each lane writes only its own bytes, so the four siblings' work-items do not race. */
-TS_INLINE void quadtree_store(TS_GLOBAL ts_box4 *groups, TS_GLOBAL ts_tight4 *codes, ts_u32 l,
-                              ts_u32 k, ts_box b, ts_box t)
+TS_INLINE_ALWAYS void quadtree_store(TS_GLOBAL ts_box4 *groups, TS_GLOBAL ts_tight4 *codes,
+                                     ts_u32 l, ts_u32 k, ts_box b, ts_box t)
 {
     ts_u32 at = l == 0u ? 0u : quadtree_group_offset(l) + (k >> 2), q = l == 0u ? 0u : (k & 3u);
     TS_GLOBAL ts_box4 *g = groups + at;
