@@ -104,42 +104,12 @@ inline void leaf_box(uint m, uint k, float e, ts_hit *best, uint patch)
                      TS_PRIM(m, 2u * (j * (1u << m) + i))};
 }
 
-/* The four boxes of sibling group g as float4 lanes; with codes c (not 0): the tight boxes
- * they give (lib/quadtree.h box4_tight_lane, lane by lane). */
-TS_INLINE_ALWAYS void group_boxes(__global const ts_box4 *g, __global const ts_tight4 *c,
-                                  float4 *lx, float4 *ly, float4 *lz, float4 *hx, float4 *hy,
-                                  float4 *hz)
+/* Slab test of four boxes in float4 lanes. Returns the entry distances, -1 in lanes that
+ * miss; *raw gets the entries before clamping to tmin (below tmin when the ray starts inside
+ * the box). */
+TS_INLINE_ALWAYS float4 slab4(float4 lx, float4 ly, float4 lz, float4 hx, float4 hy, float4 hz,
+                              float4 o, float4 inv, float tmin, float tmax, float4 *raw)
 {
-    *lx = vload4(0, g->lo_x), *ly = vload4(0, g->lo_y), *lz = vload4(0, g->lo_z);
-    *hx = vload4(0, g->hi_x), *hy = vload4(0, g->hi_y), *hz = vload4(0, g->hi_z);
-    if (!c) return;
-    float4 sx = (*hx - *lx) * (1.0f / 255.0f), sy = (*hy - *ly) * (1.0f / 255.0f),
-           sz = (*hz - *lz) * (1.0f / 255.0f);
-    *lx = *lx + convert_float4(vload4(0, c->lo_x)) * sx;
-    *ly = *ly + convert_float4(vload4(0, c->lo_y)) * sy;
-    *lz = *lz + convert_float4(vload4(0, c->lo_z)) * sz;
-    *hx = *hx - convert_float4(vload4(0, c->hi_x)) * sx;
-    *hy = *hy - convert_float4(vload4(0, c->hi_y)) * sy;
-    *hz = *hz - convert_float4(vload4(0, c->hi_z)) * sz;
-}
-
-/* Slab test of the four boxes of sibling group g (and of its time-1 twin g1, interpolated
- * at `time`, when g1 != 0), or of their tight boxes when c (and c1 with g1) are their codes.
- * Returns the entry distances, -1 in lanes that miss; *raw gets the entries before clamping
- * to tmin (below tmin when the ray starts inside the box). */
-TS_INLINE_ALWAYS float4 group_enter(__global const ts_box4 *g, __global const ts_box4 *g1,
-                                    __global const ts_tight4 *c, __global const ts_tight4 *c1,
-                                    float time, float4 o, float4 inv, float tmin, float tmax,
-                                    float4 *raw)
-{
-    float4 lx, ly, lz, hx, hy, hz;
-    group_boxes(g, c, &lx, &ly, &lz, &hx, &hy, &hz);
-    if (g1) {
-        float4 mx, my, mz, nx, ny, nz;
-        group_boxes(g1, c1, &mx, &my, &mz, &nx, &ny, &nz);
-        lx += time * (mx - lx), ly += time * (my - ly), lz += time * (mz - lz);
-        hx += time * (nx - hx), hy += time * (ny - hy), hz += time * (nz - hz);
-    }
     float4 tx0 = (lx - o.x) * inv.x, tx1 = (hx - o.x) * inv.x;
     float4 ty0 = (ly - o.y) * inv.y, ty1 = (hy - o.y) * inv.y;
     float4 tz0 = (lz - o.z) * inv.z, tz1 = (hz - o.z) * inv.z;
@@ -150,6 +120,57 @@ TS_INLINE_ALWAYS float4 group_enter(__global const ts_box4 *g, __global const ts
     tf *= 1.0000003576f;
     *raw = in;
     return select((float4)(-1.0f), tn, tn <= tf && lx <= hx);
+}
+
+/* Slab test of the four boxes of sibling group g (and of its time-1 twin g1, interpolated
+ * at `time`, when g1 != 0): slab4's entries. */
+TS_INLINE_ALWAYS float4 group_enter(__global const ts_box4 *g, __global const ts_box4 *g1,
+                                    float time, float4 o, float4 inv, float tmin, float tmax,
+                                    float4 *raw)
+{
+    float4 lx = vload4(0, g->lo_x), ly = vload4(0, g->lo_y), lz = vload4(0, g->lo_z);
+    float4 hx = vload4(0, g->hi_x), hy = vload4(0, g->hi_y), hz = vload4(0, g->hi_z);
+    if (g1) {
+        lx += time * (vload4(0, g1->lo_x) - lx), ly += time * (vload4(0, g1->lo_y) - ly);
+        lz += time * (vload4(0, g1->lo_z) - lz), hx += time * (vload4(0, g1->hi_x) - hx);
+        hy += time * (vload4(0, g1->hi_y) - hy), hz += time * (vload4(0, g1->hi_z) - hz);
+    }
+    return slab4(lx, ly, lz, hx, hy, hz, o, inv, tmin, tmax, raw);
+}
+
+/* The four tight boxes of sibling group g, its codes c, as float4 lanes (lib/quadtree.h
+ * box4_tight_lane, lane by lane). */
+inline void group_tight_boxes(__global const ts_box4 *g, __global const ts_tight4 *c, float4 *lx,
+                              float4 *ly, float4 *lz, float4 *hx, float4 *hy, float4 *hz)
+{
+    float4 bx = vload4(0, g->lo_x), by = vload4(0, g->lo_y), bz = vload4(0, g->lo_z);
+    float4 ex = vload4(0, g->hi_x), ey = vload4(0, g->hi_y), ez = vload4(0, g->hi_z);
+    float4 sx = (ex - bx) * (1.0f / 255.0f), sy = (ey - by) * (1.0f / 255.0f),
+           sz = (ez - bz) * (1.0f / 255.0f);
+    *lx = bx + convert_float4(vload4(0, c->lo_x)) * sx;
+    *ly = by + convert_float4(vload4(0, c->lo_y)) * sy;
+    *lz = bz + convert_float4(vload4(0, c->lo_z)) * sz;
+    *hx = ex - convert_float4(vload4(0, c->hi_x)) * sx;
+    *hy = ey - convert_float4(vload4(0, c->hi_y)) * sy;
+    *hz = ez - convert_float4(vload4(0, c->hi_z)) * sz;
+}
+
+/* group_enter on the tight boxes of g (and g1), their codes c (and c1): the displaced patch a
+ * ray leaves, in box mode. Apart from group_enter, whose path every other pair takes. */
+inline float4 group_enter_tight(__global const ts_box4 *g, __global const ts_box4 *g1,
+                                __global const ts_tight4 *c, __global const ts_tight4 *c1,
+                                float time, float4 o, float4 inv, float tmin, float tmax,
+                                float4 *raw)
+{
+    float4 lx, ly, lz, hx, hy, hz;
+    group_tight_boxes(g, c, &lx, &ly, &lz, &hx, &hy, &hz);
+    if (g1) {
+        float4 mx, my, mz, nx, ny, nz;
+        group_tight_boxes(g1, c1, &mx, &my, &mz, &nx, &ny, &nz);
+        lx += time * (mx - lx), ly += time * (my - ly), lz += time * (mz - lz);
+        hx += time * (nx - hx), hy += time * (ny - hy), hz += time * (nz - hz);
+    }
+    return slab4(lx, ly, lz, hx, hy, hz, o, inv, tmin, tmax, raw);
 }
 
 /* One ray, as the leaf tests need it. */
@@ -222,7 +243,7 @@ inline void quad_test(const bl_ray *r, const bl_patch *pt, uint qi, uint exact, 
     }
     uint grp = pt->m == 0u ? 0u : quadtree_group_offset(pt->m) + (qi >> 2),
          lane = pt->m == 0u ? 0u : (qi & 3u);
-    float4 raw, e = group_enter(pt->t0 + grp, pt->t1 ? pt->t1 + grp : 0, 0, 0, time, r->o4, r->inv,
+    float4 raw, e = group_enter(pt->t0 + grp, pt->t1 ? pt->t1 + grp : 0, time, r->o4, r->inv,
                                 r->tmin, best->t, &raw);
     float el = lane == 0u ? e.x : lane == 1u ? e.y : lane == 2u ? e.z : e.w;
     float rl = lane == 0u ? raw.x : lane == 1u ? raw.y : lane == 2u ? raw.z : raw.w;
@@ -244,8 +265,10 @@ inline void bl_trav_start(bl_trav *s, const bl_ray *r, const bl_patch *pt, float
         return;
     }
     float4 raw;
-    float te =
-        group_enter(pt->t0, pt->t1, pt->c0, pt->c1, r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw).x;
+    float te = (pt->c0 ? group_enter_tight(pt->t0, pt->t1, pt->c0, pt->c1, r->inv.w, r->o4, r->inv,
+                                           r->tmin, tmax, &raw)
+                       : group_enter(pt->t0, pt->t1, r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw))
+                   .x;
     s->root_raw = raw.x;
     if (te >= 0.0f) s->stack[0] = 0u, s->stack_t[0] = te, s->sp = 1;
 }
@@ -282,9 +305,10 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
             continue;
         }
         uint grp = quadtree_group_offset(level + 1u) + k;
-        float4 raw, e4 = group_enter(pt->t0 + grp, pt->t1 ? pt->t1 + grp : 0,
-                                     pt->c0 ? pt->c0 + grp : 0, pt->c1 ? pt->c1 + grp : 0, r->inv.w,
-                                     r->o4, r->inv, r->tmin, tmax, &raw);
+        __global const ts_box4 *g0 = pt->t0 + grp, *g1 = pt->t1 ? pt->t1 + grp : 0;
+        float4 raw, e4 = pt->c0 ? group_enter_tight(g0, g1, pt->c0 + grp, pt->c1 ? pt->c1 + grp : 0,
+                                                    r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw)
+                                : group_enter(g0, g1, r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw);
         float e[4] = {e4.x, e4.y, e4.z, e4.w}, er[4] = {raw.x, raw.y, raw.z, raw.w};
         /* Children that are hit, sorted by entry distance, farthest first (a child's raw entry
          * is er[its id & 3], read only where the children are blocks). */
@@ -352,9 +376,10 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
     int leaving = ray_from[ray] == seg.patch + 1u;
     *r = bl_ray_make(o, d, leaving ? o.w : 0.0f);
     *pt = bl_patch_make(seg, grid, groups);
-    /* In box mode its tree's tight boxes cull it (the boxes of the diced vertices, which
-     * hold the triangles); in triangle mode the node boxes are those already. */
-    if (leaving && !*exact) {
+    /* In box mode a displaced patch's tight boxes cull it (the boxes of the diced vertices,
+     * which hold the triangles); in triangle mode the node boxes are those already, and an
+     * undisplaced patch's are near them (its codes are 0). */
+    if (leaving && !*exact && (seg.flags & TS_PATCH_DISPLACED) != 0u) {
         pt->c0 = codes + seg.group_first;
         pt->c1 = pt->t1 ? pt->c0 + quadtree_group_count(seg.lod) : 0;
     }

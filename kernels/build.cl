@@ -106,12 +106,15 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     __global const ts_vec4 *cn = corner_n + (size_t)seg.shape * 4u;
     __global const ts_vec4 *mn = mid_n + (size_t)seg.shape * 5u;
     __global const ts_vec4 *g = grid + (size_t)seg.vert_first + time * nv;
-    /* The box of the micro-quad's four diced vertices: triangle mode's leaf box, and in
-     * box mode the tight box its codes give (the origin-patch rule's culling). */
-    ts_box tb = leaf_clamp(tight_leaf_box(g, n, i, j), patch_box[seg.shape]);
     size_t at = (size_t)seg.group_first + time * quadtree_group_count(m);
+    /* The box of the micro-quad's four diced vertices: triangle mode's leaf box, and for a
+     * displaced patch in box mode the tight box its codes give (the origin-patch rule's
+     * culling; elsewhere the codes are 0). */
+    uint coded = !tight && (seg.flags & TS_PATCH_DISPLACED) != 0u;
+    ts_box tb = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+    if (tight || coded) tb = leaf_clamp(tight_leaf_box(g, n, i, j), patch_box[seg.shape]);
     if (tight) {
-        quadtree_store(groups + at, codes + at, m, k, tb, tb);
+        quadtree_store(groups + at, codes + at, m, k, tb, tb, 0u);
         return;
     }
     float4 nx, ny, nz; /* both time samples' corners share them */
@@ -154,11 +157,11 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         b.lo_z += oz.x - slack, b.hi_z += oz.y + slack;
     }
     b = leaf_clamp(b, patch_box[seg.shape]);
-    quadtree_store(groups + at, codes + at, m, k, b, tb);
+    quadtree_store(groups + at, codes + at, m, k, b, tb, coded);
 }
 
 __kernel void build_level(__global const uint *trees, uint tree_first, uint tree_count, uint level,
-                          __global const ts_segment *segments, __global ts_box4 *groups,
+                          uint tight, __global const ts_segment *segments, __global ts_box4 *groups,
                           __global ts_tight4 *codes)
 {
     uint per_tree = 1u << (2u * level), gid = get_global_id(0);
@@ -177,16 +180,20 @@ __kernel void build_level(__global const uint *trees, uint tree_first, uint tree
     box.hi_x = fmax(fmax(c->hi_x[0], c->hi_x[1]), fmax(c->hi_x[2], c->hi_x[3]));
     box.hi_y = fmax(fmax(c->hi_y[0], c->hi_y[1]), fmax(c->hi_y[2], c->hi_y[3]));
     box.hi_z = fmax(fmax(c->hi_z[0], c->hi_z[1]), fmax(c->hi_z[2], c->hi_z[3]));
-    /* The tight box: the union of the children's, decoded. */
-    ts_box tb = quadtree_tight_box(base, cbase, level + 1u, 4u * k);
-    for (uint q = 1u; q < 4u; ++q) {
-        ts_box u = quadtree_tight_box(base, cbase, level + 1u, 4u * k + q);
-        tb.lo_x = fmin(tb.lo_x, u.lo_x), tb.lo_y = fmin(tb.lo_y, u.lo_y),
-        tb.lo_z = fmin(tb.lo_z, u.lo_z);
-        tb.hi_x = fmax(tb.hi_x, u.hi_x), tb.hi_y = fmax(tb.hi_y, u.hi_y),
-        tb.hi_z = fmax(tb.hi_z, u.hi_z);
+    /* The tight box: the union of the children's, decoded (build_leaves' coded). */
+    uint coded = !tight && (seg.flags & TS_PATCH_DISPLACED) != 0u;
+    ts_box tb = box;
+    if (coded) {
+        tb = quadtree_tight_box(base, cbase, level + 1u, 4u * k);
+        for (uint q = 1u; q < 4u; ++q) {
+            ts_box u = quadtree_tight_box(base, cbase, level + 1u, 4u * k + q);
+            tb.lo_x = fmin(tb.lo_x, u.lo_x), tb.lo_y = fmin(tb.lo_y, u.lo_y),
+            tb.lo_z = fmin(tb.lo_z, u.lo_z);
+            tb.hi_x = fmax(tb.hi_x, u.hi_x), tb.hi_y = fmax(tb.hi_y, u.hi_y),
+            tb.hi_z = fmax(tb.hi_z, u.hi_z);
+        }
     }
-    quadtree_store(base, cbase, level, k, box, tb);
+    quadtree_store(base, cbase, level, k, box, tb, coded);
 }
 
 /* build_cull (one launch per batch, after build_level): copies levels 1 and 2 of each static

@@ -90,7 +90,8 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
         ts_segment *s = &p->segments_host[i];
         const ts_patch_attr *a = &p->scene->attr[s->patch];
         s->flags = a->flags & TS_PATCH_MOVING; /* a shape moves as its instances do */
-        uint32_t q = segment_shape(p, s), times = s->flags ? 2u : 1u;
+        uint32_t q = segment_shape(p, s), times = s->flags & TS_PATCH_MOVING ? 2u : 1u;
+        if (p->scene->attr[q].disp_kind != TS_DISP_NONE) s->flags |= TS_PATCH_DISPLACED;
         /* Texture tiles: the batch's misses' needs add up to at most the pool (an over-count
          * where they share tiles; each alone fits, tex_cache_create sized the pool so). */
         uint32_t nt = p->tex.paged ? p->tex.patch_tiles[q] : 0u;
@@ -346,8 +347,8 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
         while (deeper < b->tree_count && tree_lod(p, b, deeper) > level)
             ++deeper;
         if (dev_set_args(p->k_build_level, err, DEV_ARG(p->trees), DEV_ARG(b->tree_first),
-                         DEV_ARG(deeper), DEV_ARG(level), DEV_ARG(p->segments), DEV_ARG(p->groups),
-                         DEV_ARG(p->tight), (size_t)0) ||
+                         DEV_ARG(deeper), DEV_ARG(level), DEV_ARG(tight), DEV_ARG(p->segments),
+                         DEV_ARG(p->groups), DEV_ARG(p->tight), (size_t)0) ||
             dev_launch(p->cl, p->k_build_level, TS_STAGE_build, (size_t)deeper << (2u * level),
                        TS_LOCAL_SIZE, err))
             return err->code;
@@ -394,7 +395,7 @@ static int trees_make(ts_pipeline *p, const ts_batch *b, uint32_t first, uint32_
 static int segment_blocks(ts_pipeline *p, uint32_t i, void *data, int read, ts_error *err)
 {
     const ts_segment *s = &p->segments_host[i];
-    uint32_t times = s->flags ? 2u : 1u;
+    uint32_t times = s->flags & TS_PATCH_MOVING ? 2u : 1u;
     size_t vb = (size_t)patch_cache_vert_count(s->lod, times) * sizeof(ts_vec4);
     size_t ng = patch_cache_group_count(s->lod, times);
     size_t gb = ng * sizeof(ts_box4), cb = ng * sizeof(ts_tight4);
@@ -437,13 +438,13 @@ static int share_round(ts_pipeline *p, const ts_batch *b, uint8_t *kind, void **
         const ts_segment *s = &p->segments_host[TS_TREE_SEGMENT(list[t])];
         if (TS_TREE_TIME(list[t]) == 0u &&
             kind[TS_TREE_SEGMENT(list[t]) - b->seg_first] == SHARE_OPEN)
-            open += patch_share_bytes(s->lod, s->flags ? 2u : 1u);
+            open += patch_share_bytes(s->lod, s->flags & TS_PATCH_MOVING ? 2u : 1u);
     }
     for (uint32_t t = *done; t < end && claimed * p->share->devices < open; ++t) {
         uint32_t i = TS_TREE_SEGMENT(list[t]), k = i - b->seg_first;
         const ts_segment *s = &p->segments_host[i];
         if (TS_TREE_TIME(list[t]) != 0u || kind[k] != SHARE_OPEN) continue;
-        uint32_t times = s->flags ? 2u : 1u;
+        uint32_t times = s->flags & TS_PATCH_MOVING ? 2u : 1u;
         uint64_t bytes = patch_share_bytes(s->lod, times);
         kind[k] = (uint8_t)patch_share_take(p->share, s->shape, s->lod, times, bytes,
                                             p->share_owner, &data[k]);

@@ -140,6 +140,8 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, int tight, ts_vec
     dice_build_ref_patch q = dice_build_ref_patch_of(s, p);
     dice_build_ref_grid(s, p, m, grid);
     uint32_t ng = quadtree_group_count(m);
+    /* build.cl: tight codes for a displaced patch in box mode (TS_PATCH_DISPLACED), else 0 */
+    uint32_t coded = !tight && s->attr[p].disp_kind != TS_DISP_NONE;
     for (uint32_t t = 0; t < times; ++t) {
         ts_box4 *tree = groups + t * ng;
         ts_tight4 *ct = codes + t * ng;
@@ -148,7 +150,8 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, int tight, ts_vec
             ts_box tb =
                 leaf_clamp(tight_leaf_box(grid + t * n * n, n, morton_i(k), morton_j(k)), q.pb);
             quadtree_store(tree, ct, m, k,
-                           tight ? tb : dice_build_ref_leaf(&q, grid, t, m, k, NULL, NULL), tb);
+                           tight ? tb : dice_build_ref_leaf(&q, grid, t, m, k, NULL, NULL), tb,
+                           coded);
         }
         for (uint32_t level = m; level-- > 0;) /* bottom-up min-max reduction */
             for (uint32_t k = 0; k < (1u << (2u * level)); ++k) {
@@ -160,15 +163,15 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, int tight, ts_vec
                 b.hi_x = fmaxf(fmaxf(c->hi_x[0], c->hi_x[1]), fmaxf(c->hi_x[2], c->hi_x[3]));
                 b.hi_y = fmaxf(fmaxf(c->hi_y[0], c->hi_y[1]), fmaxf(c->hi_y[2], c->hi_y[3]));
                 b.hi_z = fmaxf(fmaxf(c->hi_z[0], c->hi_z[1]), fmaxf(c->hi_z[2], c->hi_z[3]));
-                ts_box u = quadtree_tight_box(tree, ct, level + 1u, 4u * k);
-                for (uint32_t c4 = 1u; c4 < 4u; ++c4) {
+                ts_box u = coded ? quadtree_tight_box(tree, ct, level + 1u, 4u * k) : b;
+                for (uint32_t c4 = 1u; coded && c4 < 4u; ++c4) {
                     ts_box v = quadtree_tight_box(tree, ct, level + 1u, 4u * k + c4);
                     u.lo_x = fminf(u.lo_x, v.lo_x), u.lo_y = fminf(u.lo_y, v.lo_y),
                     u.lo_z = fminf(u.lo_z, v.lo_z);
                     u.hi_x = fmaxf(u.hi_x, v.hi_x), u.hi_y = fmaxf(u.hi_y, v.hi_y),
                     u.hi_z = fmaxf(u.hi_z, v.hi_z);
                 }
-                quadtree_store(tree, ct, level, k, b, u);
+                quadtree_store(tree, ct, level, k, b, u, coded);
             }
     }
 }

@@ -144,26 +144,32 @@ TS_INLINE float tight_scale(float step)
 }
 
 /* Stores box b as node k of level l of the tree at groups, and t (the box of the node's diced
- * vertices) as its tight codes at codes (the same index): build.cl and
- * host/ref/dice_build_ref.c. The root group's lanes 1-3 are empty (lo > hi, never hit; codes
- * 0). Each lane writes only its own bytes, so the four siblings' work-items do not race. */
+ * vertices) as its tight codes at codes (the same index), or codes 0 (the box itself) unless
+ * coded: build.cl and host/ref/dice_build_ref.c. The root group's lanes 1-3 are empty
+ * (lo > hi, never hit; codes 0). Each lane writes only its own bytes, so the four siblings'
+ * work-items do not race. */
 TS_INLINE_ALWAYS void quadtree_store(TS_GLOBAL ts_box4 *groups, TS_GLOBAL ts_tight4 *codes,
-                                     ts_u32 l, ts_u32 k, ts_box b, ts_box t)
+                                     ts_u32 l, ts_u32 k, ts_box b, ts_box t, ts_u32 coded)
 {
     ts_u32 at = l == 0u ? 0u : quadtree_group_offset(l) + (k >> 2), q = l == 0u ? 0u : (k & 3u);
     TS_GLOBAL ts_box4 *g = groups + at;
     TS_GLOBAL ts_tight4 *c = codes + at;
     g->lo_x[q] = b.lo_x, g->lo_y[q] = b.lo_y, g->lo_z[q] = b.lo_z;
     g->hi_x[q] = b.hi_x, g->hi_y[q] = b.hi_y, g->hi_z[q] = b.hi_z;
-    float sx = tight_step(b.lo_x, b.hi_x), sy = tight_step(b.lo_y, b.hi_y),
-          sz = tight_step(b.lo_z, b.hi_z);
-    float rx = tight_scale(sx), ry = tight_scale(sy), rz = tight_scale(sz);
-    c->lo_x[q] = (ts_u8)tight_code_lo(b.lo_x, sx, rx, t.lo_x);
-    c->lo_y[q] = (ts_u8)tight_code_lo(b.lo_y, sy, ry, t.lo_y);
-    c->lo_z[q] = (ts_u8)tight_code_lo(b.lo_z, sz, rz, t.lo_z);
-    c->hi_x[q] = (ts_u8)tight_code_hi(b.hi_x, sx, rx, t.hi_x);
-    c->hi_y[q] = (ts_u8)tight_code_hi(b.hi_y, sy, ry, t.hi_y);
-    c->hi_z[q] = (ts_u8)tight_code_hi(b.hi_z, sz, rz, t.hi_z);
+    if (coded) {
+        float sx = tight_step(b.lo_x, b.hi_x), sy = tight_step(b.lo_y, b.hi_y),
+              sz = tight_step(b.lo_z, b.hi_z);
+        float rx = tight_scale(sx), ry = tight_scale(sy), rz = tight_scale(sz);
+        c->lo_x[q] = (ts_u8)tight_code_lo(b.lo_x, sx, rx, t.lo_x);
+        c->lo_y[q] = (ts_u8)tight_code_lo(b.lo_y, sy, ry, t.lo_y);
+        c->lo_z[q] = (ts_u8)tight_code_lo(b.lo_z, sz, rz, t.lo_z);
+        c->hi_x[q] = (ts_u8)tight_code_hi(b.hi_x, sx, rx, t.hi_x);
+        c->hi_y[q] = (ts_u8)tight_code_hi(b.hi_y, sy, ry, t.hi_y);
+        c->hi_z[q] = (ts_u8)tight_code_hi(b.hi_z, sz, rz, t.hi_z);
+    } else {
+        c->lo_x[q] = c->lo_y[q] = c->lo_z[q] = 0;
+        c->hi_x[q] = c->hi_y[q] = c->hi_z[q] = 0;
+    }
     if (l == 0u) {
         for (ts_u32 e = 1u; e < 4u; ++e) {
             g->lo_x[e] = g->lo_y[e] = g->lo_z[e] = 1e30f;
