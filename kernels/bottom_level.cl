@@ -12,7 +12,9 @@
  *   1: the two micro-triangles of each micro-quad (split along (i,j)-(i+1,j+1)), with the
  *     watertight test of lib/intersect.h; for cross-checks at a fixed m.
  *   The patch a secondary ray leaves (ray_from = patch + 1) is always its micro-triangles,
- *   with hits nearer than org.w ignored (the origin-patch rule, bl_pair).
+ *   with hits nearer than org.w ignored (the origin-patch rule, bl_pair); in box mode its
+ *   traversal tests the nodes' tight boxes (the ts_tight4 codes: the boxes of the diced
+ *   vertices, which hold the triangles) instead of the boxes that bound every finer dicing.
  * Instances (ObjectInstance, host/scene/instance.c): a segment whose shape is not its patch
  *   traverses its master's grid and tree with the ray moved into the master's frame by the
  *   patch's transform, inst_xform[instance[patch]] (lib/instance.h: t is unchanged); the hit
@@ -102,19 +104,12 @@ inline void leaf_box(uint m, uint k, float e, ts_hit *best, uint patch)
                      TS_PRIM(m, 2u * (j * (1u << m) + i))};
 }
 
-/* Slab test of the four boxes of sibling group g (and of its time-1 twin g1, interpolated
- * at `time`, when g1 != 0). Returns the entry distances, -1 in lanes that miss; *raw gets
- * the entries before clamping to tmin (below tmin when the ray starts inside the box). */
-inline float4 group_enter(__global const ts_box4 *g, __global const ts_box4 *g1, float time,
-                          float4 o, float4 inv, float tmin, float tmax, float4 *raw)
+/* Slab test of four boxes in float4 lanes. Returns the entry distances, -1 in lanes that
+ * miss; *raw gets the entries before clamping to tmin (below tmin when the ray starts inside
+ * the box). */
+TS_INLINE_ALWAYS float4 slab4(float4 lx, float4 ly, float4 lz, float4 hx, float4 hy, float4 hz,
+                              float4 o, float4 inv, float tmin, float tmax, float4 *raw)
 {
-    float4 lx = vload4(0, g->lo_x), ly = vload4(0, g->lo_y), lz = vload4(0, g->lo_z);
-    float4 hx = vload4(0, g->hi_x), hy = vload4(0, g->hi_y), hz = vload4(0, g->hi_z);
-    if (g1) {
-        lx += time * (vload4(0, g1->lo_x) - lx), ly += time * (vload4(0, g1->lo_y) - ly);
-        lz += time * (vload4(0, g1->lo_z) - lz), hx += time * (vload4(0, g1->hi_x) - hx);
-        hy += time * (vload4(0, g1->hi_y) - hy), hz += time * (vload4(0, g1->hi_z) - hz);
-    }
     float4 tx0 = (lx - o.x) * inv.x, tx1 = (hx - o.x) * inv.x;
     float4 ty0 = (ly - o.y) * inv.y, ty1 = (hy - o.y) * inv.y;
     float4 tz0 = (lz - o.z) * inv.z, tz1 = (hz - o.z) * inv.z;
@@ -127,6 +122,57 @@ inline float4 group_enter(__global const ts_box4 *g, __global const ts_box4 *g1,
     return select((float4)(-1.0f), tn, tn <= tf && lx <= hx);
 }
 
+/* Slab test of the four boxes of sibling group g (and of its time-1 twin g1, interpolated
+ * at `time`, when g1 != 0): slab4's entries. */
+TS_INLINE_ALWAYS float4 group_enter(__global const ts_box4 *g, __global const ts_box4 *g1,
+                                    float time, float4 o, float4 inv, float tmin, float tmax,
+                                    float4 *raw)
+{
+    float4 lx = vload4(0, g->lo_x), ly = vload4(0, g->lo_y), lz = vload4(0, g->lo_z);
+    float4 hx = vload4(0, g->hi_x), hy = vload4(0, g->hi_y), hz = vload4(0, g->hi_z);
+    if (g1) {
+        lx += time * (vload4(0, g1->lo_x) - lx), ly += time * (vload4(0, g1->lo_y) - ly);
+        lz += time * (vload4(0, g1->lo_z) - lz), hx += time * (vload4(0, g1->hi_x) - hx);
+        hy += time * (vload4(0, g1->hi_y) - hy), hz += time * (vload4(0, g1->hi_z) - hz);
+    }
+    return slab4(lx, ly, lz, hx, hy, hz, o, inv, tmin, tmax, raw);
+}
+
+/* The four tight boxes of sibling group g, its codes c, as float4 lanes (lib/quadtree.h
+ * box4_tight_lane, lane by lane). */
+inline void group_tight_boxes(__global const ts_box4 *g, __global const ts_tight4 *c, float4 *lx,
+                              float4 *ly, float4 *lz, float4 *hx, float4 *hy, float4 *hz)
+{
+    float4 bx = vload4(0, g->lo_x), by = vload4(0, g->lo_y), bz = vload4(0, g->lo_z);
+    float4 ex = vload4(0, g->hi_x), ey = vload4(0, g->hi_y), ez = vload4(0, g->hi_z);
+    float4 sx = (ex - bx) * (1.0f / 255.0f), sy = (ey - by) * (1.0f / 255.0f),
+           sz = (ez - bz) * (1.0f / 255.0f);
+    *lx = bx + convert_float4(vload4(0, c->lo_x)) * sx;
+    *ly = by + convert_float4(vload4(0, c->lo_y)) * sy;
+    *lz = bz + convert_float4(vload4(0, c->lo_z)) * sz;
+    *hx = ex - convert_float4(vload4(0, c->hi_x)) * sx;
+    *hy = ey - convert_float4(vload4(0, c->hi_y)) * sy;
+    *hz = ez - convert_float4(vload4(0, c->hi_z)) * sz;
+}
+
+/* group_enter on the tight boxes of g (and g1), their codes c (and c1): the displaced patch a
+ * ray leaves, in box mode. Apart from group_enter, whose path every other pair takes. */
+inline float4 group_enter_tight(__global const ts_box4 *g, __global const ts_box4 *g1,
+                                __global const ts_tight4 *c, __global const ts_tight4 *c1,
+                                float time, float4 o, float4 inv, float tmin, float tmax,
+                                float4 *raw)
+{
+    float4 lx, ly, lz, hx, hy, hz;
+    group_tight_boxes(g, c, &lx, &ly, &lz, &hx, &hy, &hz);
+    if (g1) {
+        float4 mx, my, mz, nx, ny, nz;
+        group_tight_boxes(g1, c1, &mx, &my, &mz, &nx, &ny, &nz);
+        lx += time * (mx - lx), ly += time * (my - ly), lz += time * (mz - lz);
+        hx += time * (nx - hx), hy += time * (ny - hy), hz += time * (nz - hz);
+    }
+    return slab4(lx, ly, lz, hx, hy, hz, o, inv, tmin, tmax, raw);
+}
+
 /* One ray, as the leaf tests need it. */
 typedef struct bl_ray {
     float4 o4;  /* origin, w = 0 */
@@ -136,10 +182,13 @@ typedef struct bl_ray {
     float tmin;
 } bl_ray;
 
-/* One diced patch: its grid(s) and tree(s); the second of each only when it moves. */
+/* One diced patch: its grid(s) and tree(s); the second of each only when it moves. c0, c1:
+ * the trees' tight codes, when the traversal tests the tight boxes (the patch a ray leaves,
+ * in box mode), else 0. */
 typedef struct bl_patch {
     __global const float4 *g0, *g1;
     __global const ts_box4 *t0, *t1;
+    __global const ts_tight4 *c0, *c1;
     uint m, patch;
 } bl_patch;
 
@@ -177,6 +226,7 @@ inline bl_patch bl_patch_make(ts_segment seg, __global const ts_vec4 *grid,
     pt.g1 = moving ? pt.g0 + quadtree_vertex_count(seg.lod) : 0;
     pt.t0 = groups + seg.group_first;
     pt.t1 = moving ? pt.t0 + quadtree_group_count(seg.lod) : 0;
+    pt.c0 = pt.c1 = 0;
     return pt;
 }
 
@@ -215,7 +265,10 @@ inline void bl_trav_start(bl_trav *s, const bl_ray *r, const bl_patch *pt, float
         return;
     }
     float4 raw;
-    float te = group_enter(pt->t0, pt->t1, r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw).x;
+    float te = (pt->c0 ? group_enter_tight(pt->t0, pt->t1, pt->c0, pt->c1, r->inv.w, r->o4, r->inv,
+                                           r->tmin, tmax, &raw)
+                       : group_enter(pt->t0, pt->t1, r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw))
+                   .x;
     s->root_raw = raw.x;
     if (te >= 0.0f) s->stack[0] = 0u, s->stack_t[0] = te, s->sp = 1;
 }
@@ -252,8 +305,10 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
             continue;
         }
         uint grp = quadtree_group_offset(level + 1u) + k;
-        float4 raw, e4 = group_enter(pt->t0 + grp, pt->t1 ? pt->t1 + grp : 0, r->inv.w, r->o4,
-                                     r->inv, r->tmin, tmax, &raw);
+        __global const ts_box4 *g0 = pt->t0 + grp, *g1 = pt->t1 ? pt->t1 + grp : 0;
+        float4 raw, e4 = pt->c0 ? group_enter_tight(g0, g1, pt->c0 + grp, pt->c1 ? pt->c1 + grp : 0,
+                                                    r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw)
+                                : group_enter(g0, g1, r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw);
         float e[4] = {e4.x, e4.y, e4.z, e4.w}, er[4] = {raw.x, raw.y, raw.z, raw.w};
         /* Children that are hit, sorted by entry distance, farthest first (a child's raw entry
          * is er[its id & 3], read only where the children are blocks). */
@@ -300,8 +355,9 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
                    __global const ts_vec4 *dir, __global const ts_hit *hit,
                    __global const uint *ray_flags, __global const uint *ray_from,
                    __global const ts_vec4 *grid, __global const ts_box4 *groups,
-                   __global const uint *instance, __global const ts_xform *inst_xform, bl_ray *r,
-                   bl_patch *pt, ts_hit *best, uint *window, uint *exact, uint *shadow)
+                   __global const ts_tight4 *codes, __global const uint *instance,
+                   __global const ts_xform *inst_xform, bl_ray *r, bl_patch *pt, ts_hit *best,
+                   uint *window, uint *exact, uint *shadow)
 {
     ts_pair pr = pairs[pair_first + gid];
     __global const ts_segment *batch = segments + seg_first;
@@ -318,21 +374,30 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
      * there nearer than org.w (one micro-quad) are ignored. Other patches are leaf boxes in
      * box mode, which keeps neighbours at different levels of detail hole-free. */
     int leaving = ray_from[ray] == seg.patch + 1u;
-    *exact = *exact || leaving;
     *r = bl_ray_make(o, d, leaving ? o.w : 0.0f);
     *pt = bl_patch_make(seg, grid, groups);
+    /* In box mode a displaced patch's tight boxes cull it (the boxes of the diced vertices,
+     * which hold the triangles); in triangle mode the node boxes are those already, and an
+     * undisplaced patch's are near them (its codes are 0). */
+    if (leaving && !*exact && (seg.flags & TS_PATCH_DISPLACED) != 0u) {
+        pt->c0 = codes + seg.group_first;
+        pt->c1 = pt->t1 ? pt->c0 + quadtree_group_count(seg.lod) : 0;
+    }
+    *exact = *exact || leaving;
     *best = (ts_hit){hit[ray].t, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
     return !((flags & TS_RAY_SHADOW) && (flags >> 1) == seg.patch + 1u);
 }
 
-__kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_trace(
-    __global const ts_pair *pairs, uint pair_first, uint pair_count,
-    __global const ts_segment *segments, uint seg_first, uint seg_count, uint n_per_ray, uint exact,
-    uint leaf_b, __global const uint *active, __global const ts_vec4 *org,
-    __global const ts_vec4 *dir, __global const ts_hit *hit, __global const uint *ray_flags,
-    __global const uint *ray_from, __global const ts_vec4 *grid, __global const ts_box4 *groups,
-    __global const uint *instance, __global const ts_xform *inst_xform, __global ts_hit *pair_hit,
-    __global uint *utilisation, uint group_base)
+__kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void
+bottom_level_trace(__global const ts_pair *pairs, uint pair_first, uint pair_count,
+                   __global const ts_segment *segments, uint seg_first, uint seg_count,
+                   uint n_per_ray, uint exact, uint leaf_b, __global const uint *active,
+                   __global const ts_vec4 *org, __global const ts_vec4 *dir,
+                   __global const ts_hit *hit, __global const uint *ray_flags,
+                   __global const uint *ray_from, __global const ts_vec4 *grid,
+                   __global const ts_box4 *groups, __global const ts_tight4 *codes,
+                   __global const uint *instance, __global const ts_xform *inst_xform,
+                   __global ts_hit *pair_hit, __global uint *utilisation, uint group_base)
 {
     uint gid = get_global_id(0), tests = 0;
 #ifdef TS_PREFETCH_AT /* the rays of the pairs ahead (lib/prefetch.h) */
@@ -351,8 +416,8 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_tr
         ts_hit best;
         uint window, ex = exact, shadow;
         if (bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active, org,
-                    dir, hit, ray_flags, ray_from, grid, groups, instance, inst_xform, &r, &pt,
-                    &best, &window, &ex, &shadow)) {
+                    dir, hit, ray_flags, ray_from, grid, groups, codes, instance, inst_xform, &r,
+                    &pt, &best, &window, &ex, &shadow)) {
             uint b = min(leaf_b, pt.m), L = pt.m - b, nq = 1u << (2u * b);
             bl_trav s;
             bl_trav_start(&s, &r, &pt, best.t, L);
@@ -386,14 +451,16 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_tr
     }
 }
 
-__kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_group(
-    __global const ts_pair *pairs, uint pair_first, uint pair_count,
-    __global const ts_segment *segments, uint seg_first, uint seg_count, uint n_per_ray, uint exact,
-    uint leaf_b, __global const uint *active, __global const ts_vec4 *org,
-    __global const ts_vec4 *dir, __global const ts_hit *hit, __global const uint *ray_flags,
-    __global const uint *ray_from, __global const ts_vec4 *grid, __global const ts_box4 *groups,
-    __global const uint *instance, __global const ts_xform *inst_xform, __global ts_hit *pair_hit,
-    __global uint *utilisation, uint group_base)
+__kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void
+bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_count,
+                   __global const ts_segment *segments, uint seg_first, uint seg_count,
+                   uint n_per_ray, uint exact, uint leaf_b, __global const uint *active,
+                   __global const ts_vec4 *org, __global const ts_vec4 *dir,
+                   __global const ts_hit *hit, __global const uint *ray_flags,
+                   __global const uint *ray_from, __global const ts_vec4 *grid,
+                   __global const ts_box4 *groups, __global const ts_tight4 *codes,
+                   __global const uint *instance, __global const ts_xform *inst_xform,
+                   __global ts_hit *pair_hit, __global uint *utilisation, uint group_base)
 {
     /* The owners' rays and blocks, and one result slot per task (PantaRay Fig. 8). */
     __local float4 l_o4[BL_WG], l_inv[BL_WG], l_shear[BL_WG];
@@ -409,8 +476,8 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_gr
          shadow = 0;
     if (gid < pair_count) {
         done = !bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active,
-                        org, dir, hit, ray_flags, ray_from, grid, groups, instance, inst_xform, &r,
-                        &pt, &best, &window, &ex, &shadow);
+                        org, dir, hit, ray_flags, ray_from, grid, groups, codes, instance,
+                        inst_xform, &r, &pt, &best, &window, &ex, &shadow);
         b = min(leaf_b, pt.m), L = pt.m - b;
         if (!done) bl_trav_start(&s, &r, &pt, best.t, L);
     }

@@ -15,39 +15,24 @@
  *   Every lane form runs the scalar operations in their order: the leaf boxes have the bits
  *   of the plain-C reference (host/ref/dice_build_ref.c; tests/test_bottom_level.c compares
  *   the trees, tests/test_dice_build.c the normal boxes through build_normal_box_probe).
+ *   Each leaf also gets its tight box, the box of its four diced vertices (lib/quadtree.h
+ *   tight_leaf_box), stored as 8-bit codes inside the leaf box in the arena `codes` beside
+ *   `groups` (ts_tight4; in triangle mode the two are the same box).
  * build_level (one launch per level l, deepest first): node k of level l of every tree with
  *   m > l (a prefix of the batch's tree list, which is sorted by decreasing m) gets the union
- *   of its four children — the bottom-up min-max reduction. The root group's lanes 1-3 are
- *   left empty.
+ *   of its four children — the bottom-up min-max reduction — and the union of their decoded
+ *   tight boxes as its codes. The root group's lanes 1-3 are left empty.
  * Reads: trees, segments (the patch built is each segment's shape), grid (w = d), corner normals,
  * attributes, transforms, flatness, patch boxes (every leaf box is clamped to its patch's top-level
  * box), textures (the min-max tiles under the leaves' st rectangles must be resident). Writes:
- * groups[group_first + time * quadtree_group_count(m) ...]. Invariants:
- * every vertex of a micro-quad lies in its leaf box; every inner box is the union of its children
+ * groups[group_first + time * quadtree_group_count(m) ...] and codes[the same]. Invariants:
+ * every vertex of a micro-quad lies in its leaf box and in its decoded tight box; every inner box
+ * is the union of its children, every inner tight box holds its children's
  * (tests/test_dice_build.c, tests/test_bounds.c). */
 #include "lib/shared_types.h"
 #include "lib/displace.h"
 #include "lib/noise4.h"
 #include "lib/quadtree.h"
-
-/* Stores box b as node k of level l. */
-inline void node_store(__global ts_box4 *groups, uint l, uint k, ts_box b)
-{
-    __global ts_box4 *g = groups + (l == 0u ? 0u : quadtree_group_offset(l) + (k >> 2));
-    uint q = l == 0u ? 0u : (k & 3u);
-    g->lo_x[q] = b.lo_x;
-    g->lo_y[q] = b.lo_y;
-    g->lo_z[q] = b.lo_z;
-    g->hi_x[q] = b.hi_x;
-    g->hi_y[q] = b.hi_y;
-    g->hi_z[q] = b.hi_z;
-    if (l == 0u) {
-        for (uint e = 1u; e < 4u; ++e) { /* empty lanes: lo > hi, never hit */
-            g->lo_x[e] = g->lo_y[e] = g->lo_z[e] = 1e30f;
-            g->hi_x[e] = g->hi_y[e] = g->hi_z[e] = -1e30f;
-        }
-    }
-}
 
 /* The displacement normals at the four corners of micro-quad (i, j), h = 2^-m: corner c
  * (at (i + (c & 1), j + (c >> 1)), host/ref/dice_build_ref.c base_box's order) in lane c, by
@@ -106,7 +91,8 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                            __global const ts_patch_attr *attr, __global const ts_xform *xform,
                            __global const ts_vec4 *flatness, __global const ts_box *patch_box,
                            __global const ts_texture *textures, __global const uint *tex_pages,
-                           __global const ts_vec4 *tex_pool, uint tight, __global ts_box4 *groups)
+                           __global const ts_vec4 *tex_pool, uint tight, __global ts_box4 *groups,
+                           __global ts_tight4 *codes)
 {
     uint nl = 1u << (2u * m), gid = get_global_id(0);
     uint t = gid / nl, k = gid % nl;
@@ -120,9 +106,15 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     __global const ts_vec4 *cn = corner_n + (size_t)seg.shape * 4u;
     __global const ts_vec4 *mn = mid_n + (size_t)seg.shape * 5u;
     __global const ts_vec4 *g = grid + (size_t)seg.vert_first + time * nv;
-    if (tight) { /* triangle mode: the box of the micro-quad's four diced vertices */
-        ts_box b = leaf_clamp(tight_leaf_box(g, n, i, j), patch_box[seg.shape]);
-        node_store(groups + (size_t)seg.group_first + time * quadtree_group_count(m), m, k, b);
+    size_t at = (size_t)seg.group_first + time * quadtree_group_count(m);
+    /* The box of the micro-quad's four diced vertices: triangle mode's leaf box, and for a
+     * displaced patch in box mode the tight box its codes give (the origin-patch rule's
+     * culling; elsewhere the codes are 0). */
+    uint coded = !tight && (seg.flags & TS_PATCH_DISPLACED) != 0u;
+    ts_box tb = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+    if (tight || coded) tb = leaf_clamp(tight_leaf_box(g, n, i, j), patch_box[seg.shape]);
+    if (tight) {
+        quadtree_store(groups + at, codes + at, m, k, tb, tb, 0u);
         return;
     }
     float4 nx, ny, nz; /* both time samples' corners share them */
@@ -165,19 +157,21 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         b.lo_z += oz.x - slack, b.hi_z += oz.y + slack;
     }
     b = leaf_clamp(b, patch_box[seg.shape]);
-    node_store(groups + (size_t)seg.group_first + time * quadtree_group_count(m), m, k, b);
+    quadtree_store(groups + at, codes + at, m, k, b, tb, coded);
 }
 
 __kernel void build_level(__global const uint *trees, uint tree_first, uint tree_count, uint level,
-                          __global const ts_segment *segments, __global ts_box4 *groups)
+                          uint tight, __global const ts_segment *segments, __global ts_box4 *groups,
+                          __global ts_tight4 *codes)
 {
     uint per_tree = 1u << (2u * level), gid = get_global_id(0);
     uint t = gid / per_tree, k = gid % per_tree;
     if (t >= tree_count) return;
     uint tree = trees[tree_first + t];
     ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
-    __global ts_box4 *base =
-        groups + (size_t)seg.group_first + TS_TREE_TIME(tree) * quadtree_group_count(seg.lod);
+    size_t at = (size_t)seg.group_first + TS_TREE_TIME(tree) * quadtree_group_count(seg.lod);
+    __global ts_box4 *base = groups + at;
+    __global ts_tight4 *cbase = codes + at;
     __global const ts_box4 *c = base + quadtree_group_offset(level + 1u) + k;
     ts_box box;
     box.lo_x = fmin(fmin(c->lo_x[0], c->lo_x[1]), fmin(c->lo_x[2], c->lo_x[3]));
@@ -186,7 +180,20 @@ __kernel void build_level(__global const uint *trees, uint tree_first, uint tree
     box.hi_x = fmax(fmax(c->hi_x[0], c->hi_x[1]), fmax(c->hi_x[2], c->hi_x[3]));
     box.hi_y = fmax(fmax(c->hi_y[0], c->hi_y[1]), fmax(c->hi_y[2], c->hi_y[3]));
     box.hi_z = fmax(fmax(c->hi_z[0], c->hi_z[1]), fmax(c->hi_z[2], c->hi_z[3]));
-    node_store(base, level, k, box);
+    /* The tight box: the union of the children's, decoded (build_leaves' coded). */
+    uint coded = !tight && (seg.flags & TS_PATCH_DISPLACED) != 0u;
+    ts_box tb = box;
+    if (coded) {
+        tb = quadtree_tight_box(base, cbase, level + 1u, 4u * k);
+        for (uint q = 1u; q < 4u; ++q) {
+            ts_box u = quadtree_tight_box(base, cbase, level + 1u, 4u * k + q);
+            tb.lo_x = fmin(tb.lo_x, u.lo_x), tb.lo_y = fmin(tb.lo_y, u.lo_y),
+            tb.lo_z = fmin(tb.lo_z, u.lo_z);
+            tb.hi_x = fmax(tb.hi_x, u.hi_x), tb.hi_y = fmax(tb.hi_y, u.hi_y),
+            tb.hi_z = fmax(tb.hi_z, u.hi_z);
+        }
+    }
+    quadtree_store(base, cbase, level, k, box, tb, coded);
 }
 
 /* build_cull (one launch per batch, after build_level): copies levels 1 and 2 of each static

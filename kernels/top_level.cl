@@ -48,7 +48,8 @@ inline uint qbvh_children_hit(__global const ts_qbvh_node *q, float4 o, float4 i
  * enters within [tmin, tmax'] (tmin >= 0, tmax' <= tmax; group_enter: the same slab
  * operations), so a candidate that fails here finds no hit there and is left out: the hits
  * and their order do not change, only the pairs (TS_CULL_GROUPS). */
-inline int cull_enter(__global const ts_box4 *c, uint levels, float4 o, float4 inv, float tmax)
+TS_INLINE_ALWAYS int cull_enter(__global const ts_box4 *c, uint levels, float4 o, float4 inv,
+                                float tmax)
 {
     if (levels == 0u) return 1;
     uint h = box4_hits(c->lo_x, o, inv, tmax);

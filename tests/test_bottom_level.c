@@ -113,28 +113,33 @@ static void check_scene(int displaced, int moving)
     write_buffer(&cl, p.pairs, sizeof pairs, pairs);
     size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4),
            nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
+    size_t cbytes = (size_t)plan.group_capacity * sizeof(ts_tight4);
     ts_vec4 *grid = malloc(gbytes), *hgrid = malloc(gbytes);
     ts_box4 *groups = malloc(nbytes), *hgroups = malloc(nbytes);
-    assert_true(grid && hgrid && groups && hgroups);
+    ts_tight4 *codes = malloc(cbytes), *hcodes = malloc(cbytes);
+    assert_true(grid && hgrid && groups && hgroups && codes && hcodes);
     read_buffer(&cl, p.grid, gbytes, grid);
     read_buffer(&cl, p.groups, nbytes, groups);
+    read_buffer(&cl, p.tight, cbytes, codes);
     /* dice and build: the host references write the same bits. */
     for (uint32_t q = 0; q < P; ++q) {
         const ts_segment *sg = &p.segments_host[q];
         uint32_t times = dice_build_ref_times(&s, q);
         assert_int_equal(times, moving ? 2u : 1u);
         assert_int_equal(sg->flags & TS_PATCH_MOVING, moving ? TS_PATCH_MOVING : 0u);
-        dice_build_ref(&s, q, sg->lod, 0, hgrid, hgroups);
+        dice_build_ref(&s, q, sg->lod, 0, hgrid, hgroups, hcodes);
         if (memcmp(hgrid, grid + sg->vert_first,
                    times * quadtree_vertex_count(sg->lod) * sizeof *grid))
             fail_msg("patch %u m %u: the host dice reference differs from dice_grid", q, sg->lod);
         if (memcmp(hgroups, groups + sg->group_first,
-                   times * quadtree_group_count(sg->lod) * sizeof *groups))
+                   times * quadtree_group_count(sg->lod) * sizeof *groups) ||
+            memcmp(hcodes, codes + sg->group_first,
+                   times * quadtree_group_count(sg->lod) * sizeof *codes))
             fail_msg("patch %u m %u: the host build reference differs from build", q, sg->lod);
     }
     bl_ref_batch b = {
-        pairs, 0,   R * P, p.segments_host, 0,    P,    P,      0,          0,           active,
-        org,   dir, hit,   flags,           from, grid, groups, s.instance, s.inst_xform};
+        pairs, 0,   R * P, p.segments_host, 0,    P,    P,      0,     0,          active,
+        org,   dir, hit,   flags,           from, grid, groups, codes, s.instance, s.inst_xform};
     /* The shadow rays' any-hit answers are not all the closest hits, so the comparison
      * below sees where the kernels stop: the reference with every ray a closest-hit ray. */
     {
@@ -177,7 +182,7 @@ static void check_scene(int displaced, int moving)
             }
     /* Something was hit in both modes: the teapot covers a good part of the frame. */
     assert_true(hits_boxes > (uint64_t)R && hits_exact > (uint64_t)R);
-    free(grid), free(hgrid), free(groups), free(hgroups);
+    free(grid), free(hgrid), free(groups), free(hgroups), free(codes), free(hcodes);
     pipeline_destroy(&p);
     stats_free(&stats);
     scene_free(&s);
@@ -253,23 +258,27 @@ static void test_instances(void **state)
     write_buffer(&cl, p.pairs, sizeof pairs, pairs);
     size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4),
            nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
+    size_t cbytes = (size_t)plan.group_capacity * sizeof(ts_tight4);
     ts_vec4 *grid = malloc(gbytes), *hgrid = malloc(gbytes);
     ts_box4 *groups = malloc(nbytes), *hgroups = malloc(nbytes);
-    assert_true(grid && hgrid && groups && hgroups);
+    ts_tight4 *codes = malloc(cbytes), *hcodes = malloc(cbytes);
+    assert_true(grid && hgrid && groups && hgroups && codes && hcodes);
     read_buffer(&cl, p.grid, gbytes, grid);
     read_buffer(&cl, p.groups, nbytes, groups);
+    read_buffer(&cl, p.tight, cbytes, codes);
     for (uint32_t q = 0; q < Q; ++q) { /* each segment holds its shape's dicing */
         const ts_segment *sg = &p.segments_host[q];
         assert_int_equal(sg->shape, q % P);
-        dice_build_ref(&s, sg->shape, sg->lod, 0, hgrid, hgroups);
+        dice_build_ref(&s, sg->shape, sg->lod, 0, hgrid, hgroups, hcodes);
         if (memcmp(hgrid, grid + sg->vert_first, quadtree_vertex_count(sg->lod) * sizeof *grid) ||
             memcmp(hgroups, groups + sg->group_first,
-                   quadtree_group_count(sg->lod) * sizeof *groups))
+                   quadtree_group_count(sg->lod) * sizeof *groups) ||
+            memcmp(hcodes, codes + sg->group_first, quadtree_group_count(sg->lod) * sizeof *codes))
             fail_msg("segment %u: not the dicing of patch %u", q, sg->shape);
     }
     bl_ref_batch b = {
-        pairs, 0,   R * Q, p.segments_host, 0,    Q,    Q,      0,          0,           active,
-        org,   dir, hit,   flags,           from, grid, groups, s.instance, s.inst_xform};
+        pairs, 0,   R * Q, p.segments_host, 0,    Q,    Q,      0,     0,          active,
+        org,   dir, hit,   flags,           from, grid, groups, codes, s.instance, s.inst_xform};
     uint64_t hits[2] = {0, 0};
     for (int group = 0; group < 2; ++group)
         for (int exact = 0; exact < 2; ++exact) {
@@ -288,7 +297,7 @@ static void test_instances(void **state)
         }
     /* Both instances are hit, the second through the first's dicing, under their own ids. */
     assert_true(hits[0] > (uint64_t)R && hits[1] > (uint64_t)R);
-    free(grid), free(hgrid), free(groups), free(hgroups);
+    free(grid), free(hgrid), free(groups), free(hgroups), free(codes), free(hcodes);
     pipeline_destroy(&p);
     stats_free(&stats);
     scene_free(&s);

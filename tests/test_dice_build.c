@@ -82,6 +82,49 @@ static int box_contains(ts_box b, ts_vec4 p)
            p.z <= b.hi_z;
 }
 
+static int box_inside(ts_box a, ts_box b) /* a within b */
+{
+    return a.lo_x >= b.lo_x && a.lo_y >= b.lo_y && a.lo_z >= b.lo_z && a.hi_x <= b.hi_x &&
+           a.hi_y <= b.hi_y && a.hi_z <= b.hi_z;
+}
+
+static double box_span(ts_box b)
+{
+    return (double)(b.hi_x - b.lo_x) + (b.hi_y - b.lo_y) + (b.hi_z - b.lo_z);
+}
+
+/* The tight codes (ts_tight4) of a segment's tree: every node's decoded tight box lies in its
+ * box and holds its children's tight boxes; a leaf's holds its micro-quad's four vertices. In
+ * triangle mode (tight) the two boxes are the same. *tight_span and *box_span get the sums of
+ * the leaves' extents, for the caller to see that the codes do shrink box mode's leaves. */
+static void check_codes(const ts_segment *seg, const ts_vec4 *grid, const ts_box4 *nodes,
+                        const ts_tight4 *codes, int tight, double *tight_span, double *node_span)
+{
+    uint32_t pi = seg->patch, m = seg->lod, n = (1u << m) + 1u;
+    for (uint32_t l = 0; l <= m; ++l)
+        for (uint32_t k = 0; k < (1u << (2 * l)); ++k) {
+            ts_box b = quadtree_box(nodes, l, k), t = quadtree_tight_box(nodes, codes, l, k);
+            if (!box_inside(t, b))
+                fail_msg("patch %u m %u: the tight box of node %u of level %u is not in its box",
+                         pi, m, k, l);
+            if (tight && !box_equal(t, b))
+                fail_msg("patch %u m %u: triangle mode's node %u of level %u has a tighter box", pi,
+                         m, k, l);
+            if (l < m)
+                for (uint32_t q = 0; q < 4; ++q)
+                    if (!box_inside(quadtree_tight_box(nodes, codes, l + 1, 4 * k + q), t))
+                        fail_msg("patch %u m %u: a child's tight box sticks out of node %u of "
+                                 "level %u's",
+                                 pi, m, k, l);
+            if (l < m) continue;
+            uint32_t i = morton_i(k), j = morton_j(k);
+            for (int c = 0; c < 4; ++c)
+                if (!box_contains(t, grid[(j + (c >> 1)) * n + i + (c & 1)]))
+                    fail_msg("patch %u m %u: a vertex outside leaf %u's tight box", pi, m, k);
+            *tight_span += box_span(t), *node_span += box_span(b);
+        }
+}
+
 static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec4 *grid,
                           const ts_box4 *nodes, int tight, uint32_t *seed)
 {
@@ -217,28 +260,41 @@ static void dice_build_and_check(ts_scene *s, const uint32_t lods[6], int tight)
     if (pipeline_dice_build(&p, 6, &err)) fail_msg("%s", err.msg);
     size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4);
     size_t nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
+    size_t cbytes = (size_t)plan.group_capacity * sizeof(ts_tight4);
     ts_vec4 *grid = malloc(gbytes);
     ts_box4 *nodes = malloc(nbytes);
+    ts_tight4 *codes = malloc(cbytes);
     assert_int_equal(clEnqueueReadBuffer(cl.queue, p.grid, CL_TRUE, 0, gbytes, grid, 0, NULL, NULL),
                      CL_SUCCESS);
     assert_int_equal(
         clEnqueueReadBuffer(cl.queue, p.groups, CL_TRUE, 0, nbytes, nodes, 0, NULL, NULL),
         CL_SUCCESS);
+    assert_int_equal(
+        clEnqueueReadBuffer(cl.queue, p.tight, CL_TRUE, 0, cbytes, codes, 0, NULL, NULL),
+        CL_SUCCESS);
     uint32_t seed = 77u;
+    double tight_span = 0.0, node_span = 0.0;
     for (uint32_t i = 0; i < 6; ++i) {
         const ts_segment *seg = &p.segments_host[i];
         check_segment(s, seg, grid + seg->vert_first, nodes + seg->group_first, tight, &seed);
+        check_codes(seg, grid + seg->vert_first, nodes + seg->group_first, codes + seg->group_first,
+                    tight, &tight_span, &node_span);
         uint32_t ng = quadtree_group_count(seg->lod);
         ts_vec4 *hgrid = malloc(2 * quadtree_vertex_count(seg->lod) * sizeof *hgrid);
         ts_box4 *hnodes = malloc(2 * ng * sizeof *hnodes);
-        assert_true(hgrid && hnodes);
-        dice_build_ref(s, seg->patch, seg->lod, tight, hgrid, hnodes);
-        if (memcmp(hnodes, nodes + seg->group_first,
-                   dice_build_ref_times(s, seg->patch) * ng * sizeof *hnodes))
+        ts_tight4 *hcodes = malloc(2 * ng * sizeof *hcodes);
+        assert_true(hgrid && hnodes && hcodes);
+        dice_build_ref(s, seg->patch, seg->lod, tight, hgrid, hnodes, hcodes);
+        uint32_t times = dice_build_ref_times(s, seg->patch);
+        if (memcmp(hnodes, nodes + seg->group_first, times * ng * sizeof *hnodes) ||
+            memcmp(hcodes, codes + seg->group_first, times * ng * sizeof *hcodes))
             fail_msg("patch %u m %u: build's trees differ from dice_build_ref's (tight %d)",
                      seg->patch, seg->lod, tight);
-        free(hgrid), free(hnodes);
+        free(hgrid), free(hnodes), free(hcodes);
     }
+    /* Box mode's leaves bound every finer dicing of a displaced surface: the boxes of the
+     * vertices alone are well inside them (in triangle mode they are the same boxes). */
+    if (!tight) assert_true(tight_span < 0.8 * node_span);
     assert_int_equal(stats.counters[TS_COUNTER_patches_diced], 6);
     uint64_t quads = 0;
     for (uint32_t i = 0; i < 6; ++i)
@@ -246,6 +302,7 @@ static void dice_build_and_check(ts_scene *s, const uint32_t lods[6], int tight)
     assert_int_equal(stats.counters[TS_COUNTER_micropolygons_created], quads);
     free(grid);
     free(nodes);
+    free(codes);
     pipeline_destroy(&p);
     dev_close(&cl);
 }

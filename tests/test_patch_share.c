@@ -23,11 +23,12 @@
 static void test_bytes(void **state)
 {
     (void)state;
-    /* m = 3: 81 vertices of 16 bytes; 1 + 1 + 4 + 16 sibling groups of ts_box4. */
+    /* m = 3: 81 vertices of 16 bytes; 1 + 1 + 4 + 16 sibling groups of ts_box4 (96 bytes) and
+     * of their ts_tight4 codes (24 bytes). */
     assert_int_equal(patch_cache_group_count(3, 1), 22);
-    assert_int_equal(patch_share_bytes(3, 1), 81 * sizeof(ts_vec4) + 22 * sizeof(ts_box4));
+    assert_int_equal(patch_share_bytes(3, 1), 81 * 16 + 22 * (96 + 24));
     assert_int_equal(patch_share_bytes(3, 2), 2 * patch_share_bytes(3, 1));
-    assert_int_equal(patch_share_bytes(0, 1), 4 * sizeof(ts_vec4) + sizeof(ts_box4));
+    assert_int_equal(patch_share_bytes(0, 1), 4 * 16 + 96 + 24);
 }
 
 /* Claim, wait, publish, read: one copy for every device. */

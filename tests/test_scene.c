@@ -7,6 +7,7 @@
 #include "scene/rib/rib.h"
 #include "scene/scene.h"
 #include "scene/scene_load.h"
+#include "ref/bottom_level_ref.h"
 #include "ref/dice_build_ref.h"
 #include "lib/quadtree.h"
 
@@ -462,8 +463,9 @@ static void check_trees_in_patch_boxes(const char *scene, uint32_t stride)
                      times = dice_build_ref_times(&s, p);
             ts_vec4 *grid = malloc(times * n * n * sizeof *grid);
             ts_box4 *groups = malloc(times * ng * sizeof *groups);
-            assert_true(grid && groups);
-            dice_build_ref(&s, p, m, 0, grid, groups);
+            ts_tight4 *codes = malloc(times * ng * sizeof *codes);
+            assert_true(grid && groups && codes);
+            dice_build_ref(&s, p, m, 0, grid, groups, codes);
             for (uint32_t g = 0; g < times * ng; ++g)
                 for (int q = 0; q < 4; ++q) {
                     const ts_box4 *x = &groups[g];
@@ -481,6 +483,7 @@ static void check_trees_in_patch_boxes(const char *scene, uint32_t stride)
                              v);
             free(grid);
             free(groups);
+            free(codes);
         }
     }
     assert_true(checked > 1000);
@@ -496,6 +499,70 @@ static void test_trees_inside_patch_boxes(void **state)
     check_trees_in_patch_boxes("scene/forest-1.rib", 7);
 }
 
+/* The origin-patch rule's culling by tight boxes (ts_tight4) loses no hit: rays leaving the
+ * displaced teapot's patches from points on their micro-triangles, in every direction (half of
+ * them into the rough surface), traced through the patch as micro-triangles with the tight
+ * boxes and with box mode's node boxes, find the same hits bit for bit (the plain-C
+ * reference, itself bitwise the kernels': test_bottom_level), with far fewer micro-quad
+ * tests. */
+static void test_tight_boxes_lose_no_hit(void **state)
+{
+    (void)state;
+    ts_scene s = {0};
+    ts_error e = {0};
+    if (scene_load(test_source_path("scene/teapot_displaced.rib"), &s, 1, &e) != TS_OK)
+        fail_msg("%s", e.msg);
+    uint32_t seed = 2024u, hits = 0, rays = 0;
+    uint64_t tests_tight = 0, tests_box = 0;
+    for (uint32_t p = 0; p < s.patch_count; p += 3) {
+        uint32_t m = 4u + p % 3u, n = (1u << m) + 1u, ng = quadtree_group_count(m);
+        assert_int_equal(dice_build_ref_times(&s, p), 1u);
+        ts_vec4 *grid = malloc(n * n * sizeof *grid);
+        ts_box4 *groups = malloc(ng * sizeof *groups);
+        ts_tight4 *codes = malloc(ng * sizeof *codes);
+        assert_true(grid && groups && codes);
+        dice_build_ref(&s, p, m, 0, grid, groups, codes);
+        ts_segment seg = {.patch = p, .lod = m, .shape = p};
+        bl_ref_patch box = bottom_level_ref_patch(&seg, grid, groups, NULL),
+                     tight = bottom_level_ref_patch(&seg, grid, groups, codes);
+        for (int r = 0; r < 400; ++r, ++rays) {
+            uint32_t i = (uint32_t)test_uniform(&seed, 0.0f, (float)(n - 1)) % (n - 1u),
+                     j = (uint32_t)test_uniform(&seed, 0.0f, (float)(n - 1)) % (n - 1u);
+            ts_vec4 a = grid[j * n + i], b = grid[j * n + i + 1], c = grid[(j + 1) * n + i + 1];
+            float b1 = test_uniform(&seed, 0.0f, 1.0f), b2 = test_uniform(&seed, 0.0f, 1.0f);
+            if (b1 + b2 > 1.0f) b1 = 1.0f - b1, b2 = 1.0f - b2;
+            /* A point of the micro-triangle; tmin one micro-quad diagonal (shade's org.w). */
+            float dx = c.x - a.x, dy = c.y - a.y, dz = c.z - a.z;
+            ts_vec4 o = {a.x + b1 * (b.x - a.x) + b2 * dx, a.y + b1 * (b.y - a.y) + b2 * dy,
+                         a.z + b1 * (b.z - a.z) + b2 * dz, sqrtf(dx * dx + dy * dy + dz * dz)};
+            float ux = test_uniform(&seed, -1, 1), uy = test_uniform(&seed, -1, 1),
+                  uz = test_uniform(&seed, -1, 1), len = sqrtf(ux * ux + uy * uy + uz * uz);
+            if (len < 0.1f || len > 1.0f) {
+                --r, --rays;
+                continue;
+            }
+            ts_vec4 d = {ux / len, uy / len, uz / len, 0.0f};
+            uint32_t nb = 0, nt = 0;
+            ts_hit hb = bottom_level_ref_trace(o, d, INFINITY, &box, 1, 0, 0u, &nb);
+            ts_hit ht = bottom_level_ref_trace(o, d, INFINITY, &tight, 1, 0, 0u, &nt);
+            if (memcmp(&hb, &ht, sizeof hb))
+                fail_msg("patch %u m %u ray %d: node boxes (%a %a %a %x) tight boxes (%a %a %a %x)",
+                         p, m, r, hb.t, hb.u, hb.v, hb.prim, ht.t, ht.u, ht.v, ht.prim);
+            hits += hb.patch != TS_INVALID;
+            tests_box += nb, tests_tight += nt;
+        }
+        free(grid), free(groups), free(codes);
+    }
+    /* Some rays meet the rough surface again beyond tmin; the tight boxes test a fraction of
+     * the micro-quads. */
+    assert_true(hits > rays / 20u && hits < rays);
+    assert_true(tests_tight < tests_box / 2u);
+    print_message("tight boxes: %u of %u rays hit their patch again; micro-quad tests %llu "
+                  "(node boxes %llu)\n",
+                  hits, rays, (unsigned long long)tests_tight, (unsigned long long)tests_box);
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -508,6 +575,7 @@ int main(void)
         cmocka_unit_test(test_box_displaced),
         cmocka_unit_test(test_box_moving),
         cmocka_unit_test(test_trees_inside_patch_boxes),
+        cmocka_unit_test(test_tight_boxes_lose_no_hit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -352,8 +352,10 @@ static int memo_get(memo *mm, const ts_scene *s, uint32_t p, uint32_t m, bl_ref_
                nb = times * quadtree_group_count(m) * sizeof(ts_box4);
         if (mm->bytes + gb + nb > mm->limit) memo_clear(mm);
         mm->grid[p] = malloc(gb), mm->groups[p] = malloc(nb);
-        if (!mm->grid[p] || !mm->groups[p]) return 1;
-        dice_build_ref(s, p, m, 0, mm->grid[p], mm->groups[p]);
+        ts_tight4 *codes = malloc(times * quadtree_group_count(m) * sizeof *codes);
+        if (!mm->grid[p] || !mm->groups[p] || !codes) return free(codes), 1;
+        dice_build_ref(s, p, m, 0, mm->grid[p], mm->groups[p], codes);
+        free(codes); /* no ray here leaves a patch: the node boxes only */
         mm->bytes += gb + nb;
         mm->dicings++;
     }
@@ -361,6 +363,8 @@ static int memo_get(memo *mm, const ts_scene *s, uint32_t p, uint32_t m, bl_ref_
                           times == 2 ? mm->grid[p] + quadtree_vertex_count(m) : NULL,
                           mm->groups[p],
                           times == 2 ? mm->groups[p] + quadtree_group_count(m) : NULL,
+                          NULL,
+                          NULL,
                           m,
                           p};
     return 0;

@@ -158,6 +158,7 @@ typedef struct bench_setup {
     ts_pair *pairs;
     ts_vec4 *grid;
     ts_box4 *groups;
+    ts_tight4 *codes;
 } bench_setup;
 
 /* Eye rays through pixel centres; the pairs (patch, ray) whose patch box the ray enters;
@@ -253,11 +254,13 @@ static int bench_prepare(const bench_options *o, bench_setup *s, ts_error *err)
              err);
     size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4),
            nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
-    s->grid = malloc(gbytes), s->groups = malloc(nbytes);
-    if (!s->grid || !s->groups) return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    size_t cbytes = (size_t)plan.group_capacity * sizeof(ts_tight4);
+    s->grid = malloc(gbytes), s->groups = malloc(nbytes), s->codes = malloc(cbytes);
+    if (!s->grid || !s->groups || !s->codes) return ts_error_set(err, TS_E_MEMORY, "out of memory");
     CL_CHECK(clEnqueueReadBuffer(qu, s->p.grid, CL_TRUE, 0, gbytes, s->grid, 0, NULL, NULL), err);
     CL_CHECK(clEnqueueReadBuffer(qu, s->p.groups, CL_TRUE, 0, nbytes, s->groups, 0, NULL, NULL),
              err);
+    CL_CHECK(clEnqueueReadBuffer(qu, s->p.tight, CL_TRUE, 0, cbytes, s->codes, 0, NULL, NULL), err);
     return TS_OK;
 }
 
@@ -290,7 +293,8 @@ static int bench_mode_run(const bench_options *o, bench_setup *s, bench_mode *m,
                       s->hit,   s->flags,
                       s->flags, /* ray_from: all 0 */
                       s->grid,  s->groups,
-                      NULL,     NULL}; /* no instances */
+                      s->codes, NULL,
+                      NULL}; /* no instances */
     uint64_t bad = 0;
     for (int r = -1; r < o->repeat && !bad; ++r) {
         double k0 = s->stats.stage_seconds[TS_STAGE_bottom_level], c0 = bench_cpu(),
@@ -429,7 +433,7 @@ int main(int argc, char **argv)
     }
     if (s.p.cl) pipeline_destroy(&s.p);
     free(s.org), free(s.dir), free(s.hit), free(s.flags), free(s.active), free(s.pairs),
-        free(s.grid), free(s.groups);
+        free(s.grid), free(s.groups), free(s.codes);
     scene_free(&s.scene);
     if (s.cl.context) dev_close(&s.cl);
     stats_free(&s.stats);

@@ -109,7 +109,7 @@ static int arenas_grow(ts_pipeline *p, uint64_t verts, uint64_t groups, int quie
 static int trade_rays(ts_pipeline *p, uint64_t verts, uint64_t groups, int quiet, ts_error *err)
 {
     uint64_t have = pipeline_arena_bytes(&p->plan);
-    uint64_t need = verts * sizeof(ts_vec4) + groups * sizeof(ts_box4);
+    uint64_t need = verts * sizeof(ts_vec4) + groups * TS_GROUP_BYTES;
     uint64_t rays_bytes = (uint64_t)p->plan.ray_capacity * TS_BYTES_PER_RAY;
     uint64_t total = have + rays_bytes;
     if (need > total / TS_TRADE_ARENA_DIV * TS_TRADE_ARENA_PART) return 0;
@@ -141,7 +141,7 @@ int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, t
     uint64_t verts, groups;
     pipeline_arena_need(p, &verts, &groups);
     uint64_t have = pipeline_arena_bytes(&p->plan);
-    uint64_t need = verts * sizeof(ts_vec4) + groups * sizeof(ts_box4);
+    uint64_t need = verts * sizeof(ts_vec4) + groups * TS_GROUP_BYTES;
     if (need <= have || (!trade && room_mb <= mb)) return TS_OK;
     uint64_t extra = room_mb > mb ? (room_mb - mb) << 20 : 0;
     if (need - have > extra) {

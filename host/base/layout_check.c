@@ -7,6 +7,8 @@
 
 _Static_assert(sizeof(ts_vec4) == 16, "ts_vec4 is 16 bytes");
 _Static_assert(sizeof(ts_box) == 24, "ts_box is 24 bytes");
+_Static_assert(sizeof(ts_box4) == 96, "ts_box4 is 96 bytes");
+_Static_assert(sizeof(ts_tight4) == 24, "ts_tight4 is 24 bytes");
 _Static_assert(sizeof(ts_qbvh_node) == 128, "ts_qbvh_node is 128 bytes");
 _Static_assert(offsetof(ts_qbvh_node, child) == 96, "child[] follows the 24 box floats");
 _Static_assert(offsetof(ts_qbvh_node, parent) == 112, "parent after child[4]");
@@ -23,7 +25,6 @@ _Static_assert(sizeof(ts_emitter) == 16, "ts_emitter is 16 bytes");
 _Static_assert(offsetof(ts_patch_attr, disp_amplitude) == 24,
                "displacement after colour, flags, kind, octaves");
 _Static_assert(sizeof(ts_xform) == 48, "ts_xform is 48 bytes");
-_Static_assert(sizeof(ts_box4) == 96, "ts_box4 is 96 bytes");
 _Static_assert(sizeof(ts_camera_params) == 176, "ts_camera_params is 176 bytes");
 _Static_assert(offsetof(ts_camera_params, width) == 64, "width after four float[4]");
 _Static_assert(offsetof(ts_camera_params, moving) == 96, "moving after the 96 bytes");

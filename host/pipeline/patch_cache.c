@@ -179,7 +179,7 @@ ts_cache_result patch_cache_acquire(ts_patch_cache *c, uint32_t p, uint32_t m, u
     }
     *e = (ts_cache_entry){vf, nv, gf, ng, c->clock, (uint8_t)m, (uint8_t)times, 1, 1};
     uint64_t bytes =
-        (uint64_t)c->verts.used * sizeof(ts_vec4) + (uint64_t)c->groups.used * sizeof(ts_box4);
+        (uint64_t)c->verts.used * sizeof(ts_vec4) + (uint64_t)c->groups.used * TS_GROUP_BYTES;
     if (bytes > c->peak_bytes) c->peak_bytes = bytes;
     c->resident_list[c->resident_count++] = p;
     *vert_first = vf, *group_first = gf;

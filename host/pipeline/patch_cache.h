@@ -1,9 +1,10 @@
 /* patch_cache.h — which diced and built patches the device arenas hold (DESIGN.md §1, issue
  * 13: "dice once when it fits, reorder when it doesn't").
  *
- * The arenas (the grid buffer of ts_vec4 vertices and the group buffer of ts_box4 tree
- * nodes, pipeline.h) are divided into blocks, one pair per resident patch: its (2^m+1)^2
- * vertices and its quadtree_group_count(m) sibling groups, twice for a moving patch. A patch
+ * The arenas (the grid buffer of ts_vec4 vertices, and the group buffer of ts_box4 tree
+ * nodes with its twin `tight` of ts_tight4 codes at the same indices, pipeline.h) are divided
+ * into blocks, one pair per resident patch: its (2^m+1)^2 vertices and its
+ * quadtree_group_count(m) sibling groups, twice for a moving patch. A patch
  * stays resident across iterations, waves and sample passes until its space is needed, so
  * when the frame's working set fits every patch is diced once per frame; when it does not,
  * the wavefront reordering bounds the memory (Hanika §3) and the cache only removes repeats.
@@ -22,8 +23,12 @@
 #define TS_PATCH_CACHE_H
 
 #include "base/error.h"
+#include "lib/shared_types.h"
 
 #include <stdint.h>
+
+/* Bytes of one sibling group across the two group arenas: its boxes and their tight codes. */
+#define TS_GROUP_BYTES (sizeof(ts_box4) + sizeof(ts_tight4))
 
 /* A free block [first, first + count) of one arena. */
 typedef struct ts_cache_block {

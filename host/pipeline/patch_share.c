@@ -10,7 +10,7 @@
 uint64_t patch_share_bytes(uint32_t m, uint32_t times)
 {
     return (uint64_t)patch_cache_vert_count(m, times) * sizeof(ts_vec4) +
-           (uint64_t)patch_cache_group_count(m, times) * sizeof(ts_box4);
+           (uint64_t)patch_cache_group_count(m, times) * TS_GROUP_BYTES;
 }
 
 int patch_share_create(ts_patch_share *s, uint32_t patch_count, uint32_t devices, ts_error *err)

@@ -14,7 +14,7 @@
 static uint64_t slot_bytes(uint32_t m)
 {
     return (uint64_t)quadtree_vertex_count(m) * sizeof(ts_vec4) +
-           (uint64_t)quadtree_group_count(m) * sizeof(ts_box4);
+           (uint64_t)quadtree_group_count(m) * TS_GROUP_BYTES;
 }
 
 void pipeline_plan_arenas(ts_pipeline_plan *plan, uint32_t patches, uint32_t m)
@@ -575,7 +575,7 @@ uint32_t pipeline_patch_lod(const ts_pipeline *p, uint32_t patch)
 uint64_t pipeline_arena_bytes(const ts_pipeline_plan *plan)
 {
     return (uint64_t)plan->vert_capacity * sizeof(ts_vec4) +
-           (uint64_t)plan->group_capacity * sizeof(ts_box4);
+           (uint64_t)plan->group_capacity * TS_GROUP_BYTES;
 }
 
 void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups)
@@ -602,20 +602,23 @@ int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_err
     cl_mem grid = dev_buffer_create(p->cl, CL_MEM_READ_WRITE, verts * sizeof(ts_vec4), NULL, err);
     if (!grid) return err->code;
     cl_mem tree = dev_buffer_create(p->cl, CL_MEM_READ_WRITE, groups * sizeof(ts_box4), NULL, err);
-    if (!tree) {
-        clReleaseMemObject(grid);
-        return err->code;
-    }
+    cl_mem tight =
+        tree ? dev_buffer_create(p->cl, CL_MEM_READ_WRITE, groups * sizeof(ts_tight4), NULL, err)
+             : NULL;
     ts_patch_cache cache;
-    if (patch_cache_create(&cache, p->scene->patch_count, (uint32_t)verts, (uint32_t)groups, err)) {
+    if (!tight ||
+        patch_cache_create(&cache, p->scene->patch_count, (uint32_t)verts, (uint32_t)groups, err)) {
         clReleaseMemObject(grid);
-        clReleaseMemObject(tree);
+        if (tree) clReleaseMemObject(tree);
+        if (tight) clReleaseMemObject(tight);
         return err->code;
     }
     clReleaseMemObject(p->grid);
     clReleaseMemObject(p->groups);
+    clReleaseMemObject(p->tight);
     p->grid = grid;
     p->groups = tree;
+    p->tight = tight;
     /* The cache's counters go on over the frame. */
     cache.hits = p->cache.hits, cache.misses = p->cache.misses;
     cache.evictions = p->cache.evictions;

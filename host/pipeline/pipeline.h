@@ -156,6 +156,7 @@ typedef struct ts_trace_mode {
     X(trees,           CL_MEM_READ_ONLY,  ts_u32,        2 * c.patches,  NULL)                  \
     X(grid,            CL_MEM_READ_WRITE, ts_vec4,       c.verts,        NULL)                  \
     X(groups,          CL_MEM_READ_WRITE, ts_box4,       c.groups,       NULL)                  \
+    X(tight,           CL_MEM_READ_WRITE, ts_tight4,     c.groups,       NULL)                  \
     X(utilisation,     CL_MEM_READ_WRITE, ts_u32,        2 * c.util_groups, NULL)               \
     X(cull,            CL_MEM_READ_WRITE, ts_box4,       TS_CULL_GROUPS * c.patches, NULL)      \
     X(cull_levels,     CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \

@@ -90,7 +90,8 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
         ts_segment *s = &p->segments_host[i];
         const ts_patch_attr *a = &p->scene->attr[s->patch];
         s->flags = a->flags & TS_PATCH_MOVING; /* a shape moves as its instances do */
-        uint32_t q = segment_shape(p, s), times = s->flags ? 2u : 1u;
+        uint32_t q = segment_shape(p, s), times = s->flags & TS_PATCH_MOVING ? 2u : 1u;
+        if (p->scene->attr[q].disp_kind != TS_DISP_NONE) s->flags |= TS_PATCH_DISPLACED;
         /* Texture tiles: the batch's misses' needs add up to at most the pool (an over-count
          * where they share tiles; each alone fits, tex_cache_create sized the pool so). */
         uint32_t nt = p->tex.paged ? p->tex.patch_tiles[q] : 0u;
@@ -335,7 +336,7 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
                          DEV_ARG(p->mid_n), DEV_ARG(p->attr), DEV_ARG(p->xform),
                          DEV_ARG(p->flatness), DEV_ARG(p->patch_box), DEV_ARG(p->textures),
                          DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(tight),
-                         DEV_ARG(p->groups), (size_t)0) ||
+                         DEV_ARG(p->groups), DEV_ARG(p->tight), (size_t)0) ||
             dev_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
                        TS_LOCAL_SIZE, err))
             return err->code;
@@ -346,8 +347,8 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
         while (deeper < b->tree_count && tree_lod(p, b, deeper) > level)
             ++deeper;
         if (dev_set_args(p->k_build_level, err, DEV_ARG(p->trees), DEV_ARG(b->tree_first),
-                         DEV_ARG(deeper), DEV_ARG(level), DEV_ARG(p->segments), DEV_ARG(p->groups),
-                         (size_t)0) ||
+                         DEV_ARG(deeper), DEV_ARG(level), DEV_ARG(tight), DEV_ARG(p->segments),
+                         DEV_ARG(p->groups), DEV_ARG(p->tight), (size_t)0) ||
             dev_launch(p->cl, p->k_build_level, TS_STAGE_build, (size_t)deeper << (2u * level),
                        TS_LOCAL_SIZE, err))
             return err->code;
@@ -389,23 +390,31 @@ static int trees_make(ts_pipeline *p, const ts_batch *b, uint32_t first, uint32_
 }
 
 /* Copies segment i's blocks between the arenas and host memory at data (vertices, then
- * sibling groups): to the host (read) or from it. Not blocking (dev_finish completes it). */
+ * sibling groups, then their tight codes): to the host (read) or from it. Not blocking (dev_finish
+ * completes it). */
 static int segment_blocks(ts_pipeline *p, uint32_t i, void *data, int read, ts_error *err)
 {
     const ts_segment *s = &p->segments_host[i];
-    uint32_t times = s->flags ? 2u : 1u;
+    uint32_t times = s->flags & TS_PATCH_MOVING ? 2u : 1u;
     size_t vb = (size_t)patch_cache_vert_count(s->lod, times) * sizeof(ts_vec4);
-    size_t gb = (size_t)patch_cache_group_count(s->lod, times) * sizeof(ts_box4);
+    size_t ng = patch_cache_group_count(s->lod, times);
+    size_t gb = ng * sizeof(ts_box4), cb = ng * sizeof(ts_tight4);
     size_t vo = (size_t)s->vert_first * sizeof(ts_vec4),
-           go = (size_t)s->group_first * sizeof(ts_box4);
+           go = (size_t)s->group_first * sizeof(ts_box4),
+           co = (size_t)s->group_first * sizeof(ts_tight4);
     char *d = data;
     if (read)
         return dev_read_async(p->cl, p->grid, vo, vb, d, "a patch's grid", err) ||
-                       dev_read_async(p->cl, p->groups, go, gb, d + vb, "a patch's tree", err)
+                       dev_read_async(p->cl, p->groups, go, gb, d + vb, "a patch's tree", err) ||
+                       dev_read_async(p->cl, p->tight, co, cb, d + vb + gb, "a patch's tight codes",
+                                      err)
                    ? err->code
                    : TS_OK;
     return dev_write_async(p->cl, p->grid, vo, vb, d, "a shared patch's grid", err) ||
-                   dev_write_async(p->cl, p->groups, go, gb, d + vb, "a shared patch's tree", err)
+                   dev_write_async(p->cl, p->groups, go, gb, d + vb, "a shared patch's tree",
+                                   err) ||
+                   dev_write_async(p->cl, p->tight, co, cb, d + vb + gb,
+                                   "a shared patch's tight codes", err)
                ? err->code
                : TS_OK;
 }
@@ -429,13 +438,13 @@ static int share_round(ts_pipeline *p, const ts_batch *b, uint8_t *kind, void **
         const ts_segment *s = &p->segments_host[TS_TREE_SEGMENT(list[t])];
         if (TS_TREE_TIME(list[t]) == 0u &&
             kind[TS_TREE_SEGMENT(list[t]) - b->seg_first] == SHARE_OPEN)
-            open += patch_share_bytes(s->lod, s->flags ? 2u : 1u);
+            open += patch_share_bytes(s->lod, s->flags & TS_PATCH_MOVING ? 2u : 1u);
     }
     for (uint32_t t = *done; t < end && claimed * p->share->devices < open; ++t) {
         uint32_t i = TS_TREE_SEGMENT(list[t]), k = i - b->seg_first;
         const ts_segment *s = &p->segments_host[i];
         if (TS_TREE_TIME(list[t]) != 0u || kind[k] != SHARE_OPEN) continue;
-        uint32_t times = s->flags ? 2u : 1u;
+        uint32_t times = s->flags & TS_PATCH_MOVING ? 2u : 1u;
         uint64_t bytes = patch_share_bytes(s->lod, times);
         kind[k] = (uint8_t)patch_share_take(p->share, s->shape, s->lod, times, bytes,
                                             p->share_owner, &data[k]);
@@ -590,7 +599,7 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
                      DEV_ARG(p->segments), DEV_ARG(first), DEV_ARG(count), DEV_ARG(n_per_ray),
                      DEV_ARG(exact), DEV_ARG(leaf_b), DEV_ARG(p->active), DEV_ARG(p->ray_org),
                      DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_flags),
-                     DEV_ARG(p->ray_from), DEV_ARG(p->grid), DEV_ARG(p->groups),
+                     DEV_ARG(p->ray_from), DEV_ARG(p->grid), DEV_ARG(p->groups), DEV_ARG(p->tight),
                      DEV_ARG(p->instance), DEV_ARG(p->inst_xform), DEV_ARG(p->pair_hit),
                      DEV_ARG(p->utilisation), DEV_ARG(group_base), (size_t)0))
         return err->code;

@@ -31,19 +31,29 @@ static ref_ray ref_ray_make(ts_vec4 o, ts_vec4 d)
     return r;
 }
 
+/* Lane q of sibling group g: its box, or with codes c its tight box (the kernel's
+ * group_boxes). */
+static ts_box lane_box(const ts_box4 *g, const ts_tight4 *c, uint32_t q)
+{
+    if (c) return box4_tight_lane(g, c, q);
+    ts_box b = {g->lo_x[q], g->lo_y[q], g->lo_z[q], g->hi_x[q], g->hi_y[q], g->hi_z[q]};
+    return b;
+}
+
 /* Lane q of the kernel's group_enter: the slab test of box q of sibling group g (and of its
  * time-1 twin g1, interpolated at the ray's time). Returns the entry clamped to tmin, or -1
  * for a miss; *raw gets the unclamped entry. */
-static float lane_enter(const ts_box4 *g, const ts_box4 *g1, uint32_t q, const ref_ray *r,
-                        float tmax, float *raw)
+static float lane_enter(const ts_box4 *g, const ts_box4 *g1, const ts_tight4 *c,
+                        const ts_tight4 *c1, uint32_t q, const ref_ray *r, float tmax, float *raw)
 {
-    float lx = g->lo_x[q], ly = g->lo_y[q], lz = g->lo_z[q];
-    float hx = g->hi_x[q], hy = g->hi_y[q], hz = g->hi_z[q];
+    ts_box b = lane_box(g, c, q);
+    float lx = b.lo_x, ly = b.lo_y, lz = b.lo_z, hx = b.hi_x, hy = b.hi_y, hz = b.hi_z;
     if (g1) {
         float t = r->time;
-        lx = lx + t * (g1->lo_x[q] - lx), ly = ly + t * (g1->lo_y[q] - ly);
-        lz = lz + t * (g1->lo_z[q] - lz), hx = hx + t * (g1->hi_x[q] - hx);
-        hy = hy + t * (g1->hi_y[q] - hy), hz = hz + t * (g1->hi_z[q] - hz);
+        ts_box b1 = lane_box(g1, c1, q);
+        lx = lx + t * (b1.lo_x - lx), ly = ly + t * (b1.lo_y - ly);
+        lz = lz + t * (b1.lo_z - lz), hx = hx + t * (b1.hi_x - hx);
+        hy = hy + t * (b1.hi_y - hy), hz = hz + t * (b1.hi_z - hz);
     }
     float tx0 = (lx - r->o[0]) * r->inv[0], tx1 = (hx - r->o[0]) * r->inv[0];
     float ty0 = (ly - r->o[1]) * r->inv[1], ty1 = (hy - r->o[1]) * r->inv[1];
@@ -108,7 +118,8 @@ static void quad_test(const ref_ray *r, const bl_ref_patch *pt, uint32_t qi, int
     }
     uint32_t grp = pt->m == 0u ? 0u : quadtree_group_offset(pt->m) + (qi >> 2);
     uint32_t lane = pt->m == 0u ? 0u : (qi & 3u);
-    float raw, e = lane_enter(pt->t0 + grp, pt->t1 ? pt->t1 + grp : NULL, lane, r, best->t, &raw);
+    float raw, e = lane_enter(pt->t0 + grp, pt->t1 ? pt->t1 + grp : NULL, NULL, NULL, lane, r,
+                              best->t, &raw);
     if (e >= 0.0f && raw >= r->tmin) leaf_box(pt->m, qi, e, best, pt->patch);
 }
 
@@ -125,7 +136,7 @@ typedef struct ref_trav {
 
 static void trav_start(ref_trav *s, const ref_ray *r, const bl_ref_patch *pt, float tmax)
 {
-    float raw, te = lane_enter(pt->t0, pt->t1, 0u, r, tmax, &raw);
+    float raw, te = lane_enter(pt->t0, pt->t1, pt->c0, pt->c1, 0u, r, tmax, &raw);
     s->sp = 0, s->qn = 0, s->qi = 0, s->root_raw = raw;
     if (te >= 0.0f) s->stack[0] = 0u, s->stack_t[0] = te, s->sp = 1;
 }
@@ -136,8 +147,9 @@ static uint32_t children_hit(const ref_ray *r, const bl_ref_patch *pt, uint32_t 
 {
     uint32_t grp = quadtree_group_offset(level + 1u) + k, nc = 0;
     const ts_box4 *g = pt->t0 + grp, *g1 = pt->t1 ? pt->t1 + grp : NULL;
+    const ts_tight4 *c = pt->c0 ? pt->c0 + grp : NULL, *c1 = pt->c1 ? pt->c1 + grp : NULL;
     for (uint32_t q = 0; q < 4u; ++q) {
-        float raw, e = lane_enter(g, g1, q, r, tmax, &raw);
+        float raw, e = lane_enter(g, g1, c, c1, q, r, tmax, &raw);
         if (e < 0.0f) continue;
         uint32_t at = nc++;
         while (at > 0u && tc[at - 1u] < e) {
@@ -187,7 +199,7 @@ static int next_block(ref_trav *s, const ref_ray *r, const bl_ref_patch *pt, uin
 }
 
 bl_ref_patch bottom_level_ref_patch(const ts_segment *seg, const ts_vec4 *grid,
-                                    const ts_box4 *groups)
+                                    const ts_box4 *groups, const ts_tight4 *codes)
 {
     int moving = (seg->flags & TS_PATCH_MOVING) != 0u;
     bl_ref_patch pt;
@@ -197,6 +209,8 @@ bl_ref_patch bottom_level_ref_patch(const ts_segment *seg, const ts_vec4 *grid,
     pt.g1 = moving ? pt.g0 + quadtree_vertex_count(seg->lod) : NULL;
     pt.t0 = groups + seg->group_first;
     pt.t1 = moving ? pt.t0 + quadtree_group_count(seg->lod) : NULL;
+    pt.c0 = codes ? codes + seg->group_first : NULL;
+    pt.c1 = codes && moving ? pt.c0 + quadtree_group_count(seg->lod) : NULL;
     return pt;
 }
 
@@ -250,7 +264,7 @@ uint64_t bottom_level_ref_pairs(const bl_ref_batch *b, uint32_t first, uint32_t 
         ts_hit h = {TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
         /* A shadow ray is not stopped by the light it aims at. */
         if (!((flags & TS_RAY_SHADOW) && (flags >> 1) == seg->patch + 1u)) {
-            bl_ref_patch pt = bottom_level_ref_patch(seg, b->grid, b->groups);
+            bl_ref_patch pt = bottom_level_ref_patch(seg, b->grid, b->groups, NULL);
             uint32_t n = 0;
             /* bottom_level.cl bl_pair: the patch a ray leaves is micro-triangles, with org.w
              * its tmin; org.w is 0 elsewhere. */
@@ -259,6 +273,9 @@ uint64_t bottom_level_ref_pairs(const bl_ref_batch *b, uint32_t first, uint32_t 
                 instance_ray(b->inst_xform + b->instance[seg->patch], &o, &d);
             int leaving = b->ray_from[ray] == seg->patch + 1u;
             if (!leaving) o.w = 0.0f;
+            if (leaving && !b->exact && (seg->flags & TS_PATCH_DISPLACED))
+                /* box mode: its tight boxes cull it (bottom_level.cl bl_pair) */
+                pt = bottom_level_ref_patch(seg, b->grid, b->groups, b->codes);
             h = bottom_level_ref_trace(o, d, b->hit[ray].t, &pt, (int)b->exact || leaving,
                                        (flags & TS_RAY_SHADOW) != 0u, b->leaf_b, &n);
             tests += n;

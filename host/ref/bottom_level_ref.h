@@ -14,16 +14,20 @@
 #include <stdint.h>
 
 /* One diced patch: its grid(s) ((2^m+1)^2 vertices) and tree(s) (quadtree_group_count(m)
- * sibling groups); g1 and t1 are NULL for a static patch. */
+ * sibling groups); g1 and t1 are NULL for a static patch. c0, c1: the trees' tight codes
+ * (ts_tight4) when the traversal tests the tight boxes, as the kernel does for the patch a
+ * ray leaves in box mode (only with exact, whose triangles lie in them), else NULL. */
 typedef struct bl_ref_patch {
     const ts_vec4 *g0, *g1;
     const ts_box4 *t0, *t1;
+    const ts_tight4 *c0, *c1;
     uint32_t m, patch;
 } bl_ref_patch;
 
-/* The patch of a segment whose grids and trees lie in the arenas `grid` and `groups`. */
+/* The patch of a segment whose grids, trees and tight codes lie in the arenas `grid`,
+ * `groups` and `codes` (codes NULL: the node boxes only). */
 bl_ref_patch bottom_level_ref_patch(const ts_segment *seg, const ts_vec4 *grid,
-                                    const ts_box4 *groups);
+                                    const ts_box4 *groups, const ts_tight4 *codes);
 
 /* Traces one ray through one patch, as bottom_level_trace traces one pair: org.xyz the
  * origin, org.w = tmin; dir.xyz the direction, dir.w = time in [0, 1); only hits below tmax.
@@ -49,6 +53,7 @@ typedef struct bl_ref_batch {
     const uint32_t *ray_from; /* the patch each ray leaves + 1: org.w is its tmin there only */
     const ts_vec4 *grid;
     const ts_box4 *groups;
+    const ts_tight4 *codes; /* the tight codes beside groups (the patch a ray leaves) */
     /* Instances (segments whose shape is not their patch): the ray goes into the master's
      * frame by inst_xform[instance[patch]] (lib/instance.h). NULL when no segment has one. */
     const uint32_t *instance;

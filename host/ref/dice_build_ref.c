@@ -16,20 +16,6 @@ uint32_t dice_build_ref_times(const ts_scene *s, uint32_t p)
     return (s->attr[p].flags & TS_PATCH_MOVING) && s->cp1 ? 2u : 1u;
 }
 
-/* Node k of level l gets box b (build.cl's node_store). */
-static void node_store(ts_box4 *groups, uint32_t l, uint32_t k, ts_box b)
-{
-    ts_box4 *g = groups + (l == 0u ? 0u : quadtree_group_offset(l) + (k >> 2));
-    uint32_t q = l == 0u ? 0u : (k & 3u);
-    g->lo_x[q] = b.lo_x, g->lo_y[q] = b.lo_y, g->lo_z[q] = b.lo_z;
-    g->hi_x[q] = b.hi_x, g->hi_y[q] = b.hi_y, g->hi_z[q] = b.hi_z;
-    if (l == 0u)
-        for (uint32_t e = 1u; e < 4u; ++e) {
-            g->lo_x[e] = g->lo_y[e] = g->lo_z[e] = 1e30f;
-            g->hi_x[e] = g->hi_y[e] = g->hi_z[e] = -1e30f;
-        }
-}
-
 static void box_add(ts_box *b, float x, float y, float z)
 {
     b->lo_x = fminf(b->lo_x, x), b->hi_x = fmaxf(b->hi_x, x);
@@ -147,21 +133,26 @@ void dice_build_ref_grid(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *gri
 }
 
 void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, int tight, ts_vec4 *grid,
-                    ts_box4 *groups)
+                    ts_box4 *groups, ts_tight4 *codes)
 {
     uint32_t n = (1u << m) + 1u;
     uint32_t times = dice_build_ref_times(s, p);
     dice_build_ref_patch q = dice_build_ref_patch_of(s, p);
     dice_build_ref_grid(s, p, m, grid);
     uint32_t ng = quadtree_group_count(m);
+    /* build.cl: tight codes for a displaced patch in box mode (TS_PATCH_DISPLACED), else 0 */
+    uint32_t coded = !tight && s->attr[p].disp_kind != TS_DISP_NONE;
     for (uint32_t t = 0; t < times; ++t) {
         ts_box4 *tree = groups + t * ng;
-        for (uint32_t k = 0; k < (1u << (2u * m)); ++k)
-            node_store(
-                tree, m, k,
-                tight ? leaf_clamp(tight_leaf_box(grid + t * n * n, n, morton_i(k), morton_j(k)),
-                                   q.pb)
-                      : dice_build_ref_leaf(&q, grid, t, m, k, NULL, NULL));
+        ts_tight4 *ct = codes + t * ng;
+        for (uint32_t k = 0; k < (1u << (2u * m)); ++k) {
+            /* build.cl build_leaves: the leaf box and the tight box of the diced vertices */
+            ts_box tb =
+                leaf_clamp(tight_leaf_box(grid + t * n * n, n, morton_i(k), morton_j(k)), q.pb);
+            quadtree_store(tree, ct, m, k,
+                           tight ? tb : dice_build_ref_leaf(&q, grid, t, m, k, NULL, NULL), tb,
+                           coded);
+        }
         for (uint32_t level = m; level-- > 0;) /* bottom-up min-max reduction */
             for (uint32_t k = 0; k < (1u << (2u * level)); ++k) {
                 const ts_box4 *c = tree + quadtree_group_offset(level + 1u) + k;
@@ -172,7 +163,15 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, int tight, ts_vec
                 b.hi_x = fmaxf(fmaxf(c->hi_x[0], c->hi_x[1]), fmaxf(c->hi_x[2], c->hi_x[3]));
                 b.hi_y = fmaxf(fmaxf(c->hi_y[0], c->hi_y[1]), fmaxf(c->hi_y[2], c->hi_y[3]));
                 b.hi_z = fmaxf(fmaxf(c->hi_z[0], c->hi_z[1]), fmaxf(c->hi_z[2], c->hi_z[3]));
-                node_store(tree, level, k, b);
+                ts_box u = coded ? quadtree_tight_box(tree, ct, level + 1u, 4u * k) : b;
+                for (uint32_t c4 = 1u; coded && c4 < 4u; ++c4) {
+                    ts_box v = quadtree_tight_box(tree, ct, level + 1u, 4u * k + c4);
+                    u.lo_x = fminf(u.lo_x, v.lo_x), u.lo_y = fminf(u.lo_y, v.lo_y),
+                    u.lo_z = fminf(u.lo_z, v.lo_z);
+                    u.hi_x = fmaxf(u.hi_x, v.hi_x), u.hi_y = fmaxf(u.hi_y, v.hi_y),
+                    u.hi_z = fmaxf(u.hi_z, v.hi_z);
+                }
+                quadtree_store(tree, ct, level, k, b, u, coded);
             }
     }
 }

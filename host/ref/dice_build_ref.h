@@ -43,10 +43,10 @@ ts_box dice_build_ref_leaf(const dice_build_ref_patch *q, const ts_vec4 *grid, u
                            uint32_t m, uint32_t k, const ts_interval *d, ts_box *domain);
 
 /* Dices patch p at LOD m into grid (times x (2^m+1)^2 vertices, time 0 first) and builds its
- * trees into groups (times x quadtree_group_count(m) sibling groups), laid out as a segment
- * of the arenas is. tight: triangle mode's leaves (lib/quadtree.h tight_leaf_box), as build
- * makes them with ts_trace_mode.tight. */
+ * trees into groups and their tight codes into codes (times x quadtree_group_count(m) sibling
+ * groups each), laid out as a segment of the arenas is. tight: triangle mode's leaves
+ * (lib/quadtree.h tight_leaf_box), as build makes them with ts_trace_mode.tight. */
 void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, int tight, ts_vec4 *grid,
-                    ts_box4 *groups);
+                    ts_box4 *groups, ts_tight4 *codes);
 
 #endif

@@ -93,7 +93,7 @@ TS_INLINE float box_magnitude(ts_box b)
  * build.cl and host/ref/dice_build_ref.c), where the geometry is the micro-quad's two
  * triangles, which lie in it; a box-mode leaf must bound every finer dicing's surface
  * instead (Hanika §3.3). */
-TS_INLINE ts_box tight_leaf_box(TS_CONST_GLOBAL ts_vec4 *g, ts_u32 n, ts_u32 i, ts_u32 j)
+TS_INLINE_ALWAYS ts_box tight_leaf_box(TS_CONST_GLOBAL ts_vec4 *g, ts_u32 n, ts_u32 i, ts_u32 j)
 {
     TS_CONST_GLOBAL ts_vec4 *r0 = g + j * n + i, *r1 = r0 + n;
     ts_vec4 p[4] = {r0[0], r0[1], r1[0], r1[1]};
@@ -105,6 +105,100 @@ TS_INLINE ts_box tight_leaf_box(TS_CONST_GLOBAL ts_vec4 *g, ts_u32 n, ts_u32 i, 
     float e = 4e-7f * box_magnitude(b);
     b.lo_x -= e, b.lo_y -= e, b.lo_z -= e, b.hi_x += e, b.hi_y += e, b.hi_z += e;
     return b;
+}
+
+/* The step of a node box's tight codes along one axis: its extent over 255 (ts_box4). */
+TS_INLINE float tight_step(float lo, float hi)
+{
+    return (hi - lo) * (1.0f / 255.0f);
+}
+
+/* The code of a face that lies d inside the node box's face (scale = 1 / step, 0 for an
+ * empty or flat box): floor(d / step) less one, within [0, 255], a step short of the face so
+ * that decoding's rounding cannot cross it (tight_code_lo and _hi check, and fall back to 0,
+ * the node box's own face). */
+TS_INLINE ts_u32 tight_guess(float d, float scale)
+{
+    float g = floor(d * scale) - 1.0f;
+    return g >= 255.0f ? 255u : g > 0.0f ? (ts_u32)g : 0u;
+}
+
+/* A tight lower face t as a code: lo + c * step <= t, so decoded it holds what t held. */
+TS_INLINE ts_u32 tight_code_lo(float lo, float step, float scale, float t)
+{
+    ts_u32 c = tight_guess(t - lo, scale);
+    return lo + (float)c * step <= t ? c : 0u;
+}
+
+/* A tight upper face t as a code: hi - c * step >= t. */
+TS_INLINE ts_u32 tight_code_hi(float hi, float step, float scale, float t)
+{
+    ts_u32 c = tight_guess(hi - t, scale);
+    return hi - (float)c * step >= t ? c : 0u;
+}
+
+/* 1 / step, or 0 for an empty or flat box (step <= 0). */
+TS_INLINE float tight_scale(float step)
+{
+    return step > 0.0f ? 1.0f / step : 0.0f;
+}
+
+/* Stores box b as node k of level l of the tree at groups, and t (the box of the node's diced
+ * vertices) as its tight codes at codes (the same index), or codes 0 (the box itself) unless
+ * coded: build.cl and host/ref/dice_build_ref.c. The root group's lanes 1-3 are empty
+ * (lo > hi, never hit; codes 0). Each lane writes only its own bytes, so the four siblings'
+ * work-items do not race. */
+TS_INLINE_ALWAYS void quadtree_store(TS_GLOBAL ts_box4 *groups, TS_GLOBAL ts_tight4 *codes,
+                                     ts_u32 l, ts_u32 k, ts_box b, ts_box t, ts_u32 coded)
+{
+    ts_u32 at = l == 0u ? 0u : quadtree_group_offset(l) + (k >> 2), q = l == 0u ? 0u : (k & 3u);
+    TS_GLOBAL ts_box4 *g = groups + at;
+    TS_GLOBAL ts_tight4 *c = codes + at;
+    g->lo_x[q] = b.lo_x, g->lo_y[q] = b.lo_y, g->lo_z[q] = b.lo_z;
+    g->hi_x[q] = b.hi_x, g->hi_y[q] = b.hi_y, g->hi_z[q] = b.hi_z;
+    if (coded) {
+        float sx = tight_step(b.lo_x, b.hi_x), sy = tight_step(b.lo_y, b.hi_y),
+              sz = tight_step(b.lo_z, b.hi_z);
+        float rx = tight_scale(sx), ry = tight_scale(sy), rz = tight_scale(sz);
+        c->lo_x[q] = (ts_u8)tight_code_lo(b.lo_x, sx, rx, t.lo_x);
+        c->lo_y[q] = (ts_u8)tight_code_lo(b.lo_y, sy, ry, t.lo_y);
+        c->lo_z[q] = (ts_u8)tight_code_lo(b.lo_z, sz, rz, t.lo_z);
+        c->hi_x[q] = (ts_u8)tight_code_hi(b.hi_x, sx, rx, t.hi_x);
+        c->hi_y[q] = (ts_u8)tight_code_hi(b.hi_y, sy, ry, t.hi_y);
+        c->hi_z[q] = (ts_u8)tight_code_hi(b.hi_z, sz, rz, t.hi_z);
+    } else {
+        c->lo_x[q] = c->lo_y[q] = c->lo_z[q] = 0;
+        c->hi_x[q] = c->hi_y[q] = c->hi_z[q] = 0;
+    }
+    if (l == 0u) {
+        for (ts_u32 e = 1u; e < 4u; ++e) {
+            g->lo_x[e] = g->lo_y[e] = g->lo_z[e] = 1e30f;
+            g->hi_x[e] = g->hi_y[e] = g->hi_z[e] = -1e30f;
+            c->lo_x[e] = c->lo_y[e] = c->lo_z[e] = 0;
+            c->hi_x[e] = c->hi_y[e] = c->hi_z[e] = 0;
+        }
+    }
+}
+
+/* The tight box of lane q of sibling group g, its codes c, decoded (bottom_level.cl
+ * group_boxes does the same arithmetic in float4 lanes): it holds the node's diced vertices
+ * and lies in the node's box. */
+TS_INLINE ts_box box4_tight_lane(TS_CONST_GLOBAL ts_box4 *g, TS_CONST_GLOBAL ts_tight4 *c, ts_u32 q)
+{
+    float sx = tight_step(g->lo_x[q], g->hi_x[q]), sy = tight_step(g->lo_y[q], g->hi_y[q]),
+          sz = tight_step(g->lo_z[q], g->hi_z[q]);
+    ts_box b = {g->lo_x[q] + (float)c->lo_x[q] * sx, g->lo_y[q] + (float)c->lo_y[q] * sy,
+                g->lo_z[q] + (float)c->lo_z[q] * sz, g->hi_x[q] - (float)c->hi_x[q] * sx,
+                g->hi_y[q] - (float)c->hi_y[q] * sy, g->hi_z[q] - (float)c->hi_z[q] * sz};
+    return b;
+}
+
+/* The tight box of node k of level l. */
+TS_INLINE ts_box quadtree_tight_box(TS_CONST_GLOBAL ts_box4 *groups,
+                                    TS_CONST_GLOBAL ts_tight4 *codes, ts_u32 l, ts_u32 k)
+{
+    ts_u32 at = l == 0u ? 0u : quadtree_group_offset(l) + (k >> 2);
+    return box4_tight_lane(groups + at, codes + at, l == 0u ? 0u : (k & 3u));
 }
 
 /* Micro-quad column i (u) and row j (v) of Morton index k. */

@@ -12,9 +12,18 @@
 #ifdef __OPENCL_C_VERSION__
 typedef uint ts_u32;
 typedef int ts_i32;
+typedef uchar ts_u8;
 #define TS_GLOBAL __global
 #define TS_CONST_GLOBAL __global const
 #define TS_INLINE inline
+/* A small helper of a hot loop that PoCL's compiler would call out of line (group_enter and
+ * slab4 in bottom_level, cull_enter in top_level, the leaf's tight box and store in build: 5%
+ * of the displaced teapot's render, docs/benchmarks.md). */
+#ifdef __OPTIMIZE__
+#define TS_INLINE_ALWAYS __attribute__((always_inline)) inline
+#else /* -cl-opt-disable (Oclgrind, whose interpreter lacks the intrinsics inlining adds) */
+#define TS_INLINE_ALWAYS inline
+#endif
 #else
 #include <stdint.h>
 /* Type-generic maths, as in OpenCL C: fabs, floor, fmin, sqrt... of a float stay in float,
@@ -22,9 +31,11 @@ typedef int ts_i32;
 #include <tgmath.h>
 typedef uint32_t ts_u32;
 typedef int32_t ts_i32;
+typedef uint8_t ts_u8;
 #define TS_GLOBAL
 #define TS_CONST_GLOBAL const
 #define TS_INLINE static inline
+#define TS_INLINE_ALWAYS static inline
 #endif
 
 /* Work-group size of every launch (one size, so PoCL compiles each kernel once); the
@@ -58,6 +69,19 @@ typedef struct ts_box4 {
     float lo_x[4], lo_y[4], lo_z[4];
     float hi_x[4], hi_y[4], hi_z[4];
 } ts_box4;
+
+/* The tight boxes of a ts_box4's four nodes, in the arena `tight` beside `groups` (the same
+ * index): each node's box of its diced vertices (the micro-quads' tight_leaf_box, and unions
+ * of them), as 8-bit codes inside the node's box. Face lo_x of lane q is
+ * box.lo_x[q] + lo_x[q] * step, hi_x is box.hi_x[q] - hi_x[q] * step, with step =
+ * (box.hi_x[q] - box.lo_x[q]) / 255 (lib/quadtree.h box4_tight_lane). A ray leaving the patch,
+ * traced as micro-triangles (the origin-patch rule, bottom_level.cl), is culled by these in box
+ * mode: its triangles lie in them, and box mode's boxes, which bound every finer dicing, are
+ * far larger on a rough surface. 24 bytes. */
+typedef struct ts_tight4 {
+    ts_u8 lo_x[4], lo_y[4], lo_z[4];
+    ts_u8 hi_x[4], hi_y[4], hi_z[4];
+} ts_tight4;
 
 /* Top-level culling by a built patch's upper quad-tree levels (top_level.cl, build.cl
  * build_cull): TS_CULL_GROUPS sibling groups per patch, its tree's level 1 (group 0) and
@@ -103,7 +127,7 @@ typedef struct ts_segment {
     ts_u32 lod;         /* m: (2^m+1)^2 vertices, 4^m micro-quads */
     ts_u32 vert_first;  /* first vertex of its grid(s) in the vertex arena */
     ts_u32 group_first; /* first sibling group of its tree(s) in the group arena */
-    ts_u32 flags;       /* TS_PATCH_MOVING: two time samples */
+    ts_u32 flags;       /* TS_PATCH_MOVING: two time samples; TS_PATCH_DISPLACED */
     ts_u32 shape;       /* the patch diced: patch, or the master an instance shares */
 } ts_segment;
 
@@ -133,7 +157,11 @@ typedef struct ts_hit {
 #define TS_DISP_TEXTURE 3u /* amplitude * (texel - offset): an image texture at the patch's st */
 
 /* ts_patch_attr.flags */
-#define TS_PATCH_MOVING 1u    /* has a second time sample (scene cp1), Hanika §3.4 */
+#define TS_PATCH_MOVING 1u /* has a second time sample (scene cp1), Hanika §3.4 */
+/* ts_segment.flags only: the patch diced is displaced, so in box mode its trees get tight
+ * codes (ts_tight4) and the rays leaving it are culled by them; elsewhere box mode's boxes
+ * are near the boxes of the vertices already and the codes stay 0 (the node boxes). */
+#define TS_PATCH_DISPLACED 2u
 #define TS_PATCH_COLOR_TEX 2u /* Cs is multiplied by texture color_tex at the hit's st */
 
 /* Materials (RIB Surface), with the patch colour Cs. */
@@ -416,7 +444,7 @@ typedef struct ts_relight_params {
  * kernels/layout.cl writes sizeof/offsetof of each entry back for tests/test_layout.c. */
 /* clang-format off */
 #define TS_LAYOUT_FIELDS(X)                                                                 \
-    X(ts_vec4, w) X(ts_box, hi_z) X(ts_box4, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
+    X(ts_vec4, w) X(ts_box, hi_z) X(ts_box4, hi_z) X(ts_tight4, hi_z) X(ts_qbvh_node, hi_z) X(ts_qbvh_node, child)             \
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
     X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_segment, shape) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
