@@ -278,8 +278,8 @@ inline void bl_trav_start(bl_trav *s, const bl_ray *r, const bl_patch *pt, float
  * beyond tmax; then the stack is popped and nodes expanded front to back. *te and *raw get
  * the block box's entry distance (clamped to tmin, and raw), so a block that is a single
  * leaf box (leaf_b = 0, box mode) needs no second test. */
-inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L, float tmax,
-                         float *te, float *raw)
+TS_INLINE_ALWAYS int bl_next_block_any(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L,
+                                       float tmax, float *te, float *raw, const uint tight)
 {
     uint next = TS_INVALID;
     for (;;) {
@@ -306,9 +306,9 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
         }
         uint grp = quadtree_group_offset(level + 1u) + k;
         __global const ts_box4 *g0 = pt->t0 + grp, *g1 = pt->t1 ? pt->t1 + grp : 0;
-        float4 raw, e4 = pt->c0 ? group_enter_tight(g0, g1, pt->c0 + grp, pt->c1 ? pt->c1 + grp : 0,
-                                                    r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw)
-                                : group_enter(g0, g1, r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw);
+        float4 raw, e4 = tight ? group_enter_tight(g0, g1, pt->c0 + grp, pt->c1 ? pt->c1 + grp : 0,
+                                                   r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw)
+                               : group_enter(g0, g1, r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw);
         float e[4] = {e4.x, e4.y, e4.z, e4.w}, er[4] = {raw.x, raw.y, raw.z, raw.w};
         /* Children that are hit, sorted by entry distance, farthest first (a child's raw entry
          * is er[its id & 3], read only where the children are blocks). */
@@ -344,6 +344,21 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
         /* The nearest is expanded next, as if pushed and popped at once. */
         if (!(tc[nc - 1u] > tmax)) next = ((level + 1u) << 24) | id[nc - 1u];
     }
+}
+
+inline int bl_next_block_tight(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L, float tmax,
+                               float *te, float *raw)
+{
+    return bl_next_block_any(s, r, pt, L, tmax, te, raw, 1u);
+}
+
+/* bl_next_block_any for the pairs that test node boxes, and for those that test tight boxes
+ * (pt->c0 set): two copies, so the common one carries no branch per sibling group. */
+inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L, float tmax,
+                         float *te, float *raw)
+{
+    return pt->c0 ? bl_next_block_tight(s, r, pt, L, tmax, te, raw)
+                  : bl_next_block_any(s, r, pt, L, tmax, te, raw, 0u);
 }
 
 /* The pair of work-item gid: its ray, its patch, and whether it is to be traced at all (a
