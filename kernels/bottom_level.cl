@@ -403,16 +403,18 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
     return !((flags & TS_RAY_SHADOW) && (flags >> 1) == seg.patch + 1u);
 }
 
-__kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void
-bottom_level_trace(__global const ts_pair *pairs, uint pair_first, uint pair_count,
-                   __global const ts_segment *segments, uint seg_first, uint seg_count,
-                   uint n_per_ray, uint exact, uint leaf_b, __global const uint *active,
-                   __global const ts_vec4 *org, __global const ts_vec4 *dir,
-                   __global const ts_hit *hit, __global const uint *ray_flags,
-                   __global const uint *ray_from, __global const ts_vec4 *grid,
-                   __global const ts_box4 *groups, __global const ts_tight4 *codes,
-                   __global const uint *instance, __global const ts_xform *inst_xform,
-                   __global ts_hit *pair_hit, __global uint *utilisation, uint group_base)
+/* The arguments of both bottom_level kernels, which the host binds alike (trace.c). */
+#define BL_KERNEL_ARGS                                                                             \
+    __global const ts_pair *pairs, uint pair_first, uint pair_count,                               \
+        __global const ts_segment *segments, uint seg_first, uint seg_count, uint n_per_ray,       \
+        uint exact, uint leaf_b, __global const uint *active, __global const ts_vec4 *org,         \
+        __global const ts_vec4 *dir, __global const ts_hit *hit, __global const uint *ray_flags,   \
+        __global const uint *ray_from, __global const ts_vec4 *grid,                               \
+        __global const ts_box4 *groups, __global const ts_tight4 *codes,                           \
+        __global const uint *instance, __global const ts_xform *inst_xform,                        \
+        __global ts_hit *pair_hit, __global uint *utilisation, uint group_base
+
+__kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_trace(BL_KERNEL_ARGS)
 {
     uint gid = get_global_id(0), tests = 0;
 #ifdef TS_PREFETCH_AT /* the rays of the pairs ahead (lib/prefetch.h) */
@@ -466,16 +468,7 @@ bottom_level_trace(__global const ts_pair *pairs, uint pair_first, uint pair_cou
     }
 }
 
-__kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void
-bottom_level_group(__global const ts_pair *pairs, uint pair_first, uint pair_count,
-                   __global const ts_segment *segments, uint seg_first, uint seg_count,
-                   uint n_per_ray, uint exact, uint leaf_b, __global const uint *active,
-                   __global const ts_vec4 *org, __global const ts_vec4 *dir,
-                   __global const ts_hit *hit, __global const uint *ray_flags,
-                   __global const uint *ray_from, __global const ts_vec4 *grid,
-                   __global const ts_box4 *groups, __global const ts_tight4 *codes,
-                   __global const uint *instance, __global const ts_xform *inst_xform,
-                   __global ts_hit *pair_hit, __global uint *utilisation, uint group_base)
+__kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_group(BL_KERNEL_ARGS)
 {
     /* The owners' rays and blocks, and one result slot per task (PantaRay Fig. 8). */
     __local float4 l_o4[BL_WG], l_inv[BL_WG], l_shear[BL_WG];

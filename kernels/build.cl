@@ -182,17 +182,7 @@ __kernel void build_level(__global const uint *trees, uint tree_first, uint tree
     box.hi_z = fmax(fmax(c->hi_z[0], c->hi_z[1]), fmax(c->hi_z[2], c->hi_z[3]));
     /* The tight box: the union of the children's, decoded (build_leaves' coded). */
     uint coded = !tight && (seg.flags & TS_PATCH_DISPLACED) != 0u;
-    ts_box tb = box;
-    if (coded) {
-        tb = quadtree_tight_box(base, cbase, level + 1u, 4u * k);
-        for (uint q = 1u; q < 4u; ++q) {
-            ts_box u = quadtree_tight_box(base, cbase, level + 1u, 4u * k + q);
-            tb.lo_x = fmin(tb.lo_x, u.lo_x), tb.lo_y = fmin(tb.lo_y, u.lo_y),
-            tb.lo_z = fmin(tb.lo_z, u.lo_z);
-            tb.hi_x = fmax(tb.hi_x, u.hi_x), tb.hi_y = fmax(tb.hi_y, u.hi_y),
-            tb.hi_z = fmax(tb.hi_z, u.hi_z);
-        }
-    }
+    ts_box tb = coded ? quadtree_tight_union(base, cbase, level, k) : box;
     quadtree_store(base, cbase, level, k, box, tb, coded);
 }
 

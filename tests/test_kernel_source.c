@@ -40,7 +40,7 @@ static void test_program_lines_map_to_kernel_files(void **state)
     } cases[] = {
         {"film.cl", "__kernel void film"},
         {"lib/intersect.h", "#ifndef TS_INTERSECT_H"},
-        {"bottom_level.cl", "bottom_level_trace(__global const ts_pair"},
+        {"bottom_level.cl", "void bottom_level_trace(BL_KERNEL_ARGS)"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof *cases; ++i) {
         int want = line_of(embedded(cases[i].path), cases[i].needle);

@@ -163,14 +163,7 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, int tight, ts_vec
                 b.hi_x = fmaxf(fmaxf(c->hi_x[0], c->hi_x[1]), fmaxf(c->hi_x[2], c->hi_x[3]));
                 b.hi_y = fmaxf(fmaxf(c->hi_y[0], c->hi_y[1]), fmaxf(c->hi_y[2], c->hi_y[3]));
                 b.hi_z = fmaxf(fmaxf(c->hi_z[0], c->hi_z[1]), fmaxf(c->hi_z[2], c->hi_z[3]));
-                ts_box u = coded ? quadtree_tight_box(tree, ct, level + 1u, 4u * k) : b;
-                for (uint32_t c4 = 1u; coded && c4 < 4u; ++c4) {
-                    ts_box v = quadtree_tight_box(tree, ct, level + 1u, 4u * k + c4);
-                    u.lo_x = fminf(u.lo_x, v.lo_x), u.lo_y = fminf(u.lo_y, v.lo_y),
-                    u.lo_z = fminf(u.lo_z, v.lo_z);
-                    u.hi_x = fmaxf(u.hi_x, v.hi_x), u.hi_y = fmaxf(u.hi_y, v.hi_y),
-                    u.hi_z = fmaxf(u.hi_z, v.hi_z);
-                }
+                ts_box u = coded ? quadtree_tight_union(tree, ct, level, k) : b;
                 quadtree_store(tree, ct, level, k, b, u, coded);
             }
     }

@@ -201,6 +201,20 @@ TS_INLINE ts_box quadtree_tight_box(TS_CONST_GLOBAL ts_box4 *groups,
     return box4_tight_lane(groups + at, codes + at, l == 0u ? 0u : (k & 3u));
 }
 
+/* The union of the tight boxes of node k of level l's four children: its own tight box
+ * (build.cl build_level, host/ref/dice_build_ref.c). */
+TS_INLINE ts_box quadtree_tight_union(TS_CONST_GLOBAL ts_box4 *groups,
+                                      TS_CONST_GLOBAL ts_tight4 *codes, ts_u32 l, ts_u32 k)
+{
+    ts_box t = quadtree_tight_box(groups, codes, l + 1u, 4u * k);
+    for (ts_u32 q = 1u; q < 4u; ++q) {
+        ts_box u = quadtree_tight_box(groups, codes, l + 1u, 4u * k + q);
+        t.lo_x = fmin(t.lo_x, u.lo_x), t.lo_y = fmin(t.lo_y, u.lo_y), t.lo_z = fmin(t.lo_z, u.lo_z);
+        t.hi_x = fmax(t.hi_x, u.hi_x), t.hi_y = fmax(t.hi_y, u.hi_y), t.hi_z = fmax(t.hi_z, u.hi_z);
+    }
+    return t;
+}
+
 /* Micro-quad column i (u) and row j (v) of Morton index k. */
 TS_INLINE ts_u32 morton_i(ts_u32 k)
 {
