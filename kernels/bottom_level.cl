@@ -394,7 +394,7 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
     /* In box mode a displaced patch's tight boxes cull it (the boxes of the diced vertices,
      * which hold the triangles); in triangle mode the node boxes are those already, and an
      * undisplaced patch's are near them (its codes are 0). */
-    if (leaving && !*exact && (seg.flags & TS_PATCH_DISPLACED) != 0u) {
+    if (leaving && !*exact && (seg.flags & TS_PATCH_ROUGH) != 0u) {
         pt->c0 = codes + seg.group_first;
         pt->c1 = pt->t1 ? pt->c0 + quadtree_group_count(seg.lod) : 0;
     }

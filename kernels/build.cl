@@ -110,7 +110,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     /* The box of the micro-quad's four diced vertices: triangle mode's leaf box, and for a
      * displaced patch in box mode the tight box its codes give (the origin-patch rule's
      * culling; elsewhere the codes are 0). */
-    uint coded = !tight && (seg.flags & TS_PATCH_DISPLACED) != 0u;
+    uint coded = !tight && (seg.flags & TS_PATCH_ROUGH) != 0u;
     ts_box tb = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
     if (tight || coded) tb = leaf_clamp(tight_leaf_box(g, n, i, j), patch_box[seg.shape]);
     if (tight) {
@@ -181,7 +181,7 @@ __kernel void build_level(__global const uint *trees, uint tree_first, uint tree
     box.hi_y = fmax(fmax(c->hi_y[0], c->hi_y[1]), fmax(c->hi_y[2], c->hi_y[3]));
     box.hi_z = fmax(fmax(c->hi_z[0], c->hi_z[1]), fmax(c->hi_z[2], c->hi_z[3]));
     /* The tight box: the union of the children's, decoded (build_leaves' coded). */
-    uint coded = !tight && (seg.flags & TS_PATCH_DISPLACED) != 0u;
+    uint coded = !tight && (seg.flags & TS_PATCH_ROUGH) != 0u;
     ts_box tb = coded ? quadtree_tight_union(base, cbase, level, k) : box;
     quadtree_store(base, cbase, level, k, box, tb, coded);
 }

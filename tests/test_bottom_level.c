@@ -29,8 +29,8 @@ static void load(ts_scene *s, int displaced, int moving)
 {
     char extra[400] = "";
     if (displaced)
-        strcat(extra, "Displacement \"fbm\" \"float amplitude\" [0.05] \"float frequency\" [3] "
-                      "\"float octaves\" [3]\n");
+        strcat(extra, "Displacement \"fbm\" \"float amplitude\" [0.15] \"float frequency\" [3] "
+                      "\"float octaves\" [3]\n"); /* rough at m = 5: tight codes */
     if (moving)
         strcat(extra, "MotionBegin [0 1]\nTranslate 0 0 0\nTranslate 0.15 -0.1 0.05\nMotionEnd\n");
     test_parse_scene_with("scene/teapot.rib", extra, s);
@@ -121,12 +121,14 @@ static void check_scene(int displaced, int moving)
     read_buffer(&cl, p.grid, gbytes, grid);
     read_buffer(&cl, p.groups, nbytes, groups);
     read_buffer(&cl, p.tight, cbytes, codes);
+    uint32_t rough = 0; /* patches with tight codes (TS_PATCH_ROUGH) */
     /* dice and build: the host references write the same bits. */
     for (uint32_t q = 0; q < P; ++q) {
         const ts_segment *sg = &p.segments_host[q];
         uint32_t times = dice_build_ref_times(&s, q);
         assert_int_equal(times, moving ? 2u : 1u);
         assert_int_equal(sg->flags & TS_PATCH_MOVING, moving ? TS_PATCH_MOVING : 0u);
+        rough += (sg->flags & TS_PATCH_ROUGH) != 0u;
         dice_build_ref(&s, q, sg->lod, 0, hgrid, hgroups, hcodes);
         if (memcmp(hgrid, grid + sg->vert_first,
                    times * quadtree_vertex_count(sg->lod) * sizeof *grid))
@@ -137,6 +139,7 @@ static void check_scene(int displaced, int moving)
                    times * quadtree_group_count(sg->lod) * sizeof *codes))
             fail_msg("patch %u m %u: the host build reference differs from build", q, sg->lod);
     }
+    if (displaced) assert_true(rough > 0u); /* the tight traversal is compared too */
     bl_ref_batch b = {
         pairs, 0,   R * P, p.segments_host, 0,    P,    P,      0,     0,          active,
         org,   dir, hit,   flags,           from, grid, groups, codes, s.instance, s.inst_xform};

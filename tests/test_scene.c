@@ -515,8 +515,9 @@ static void test_tight_boxes_lose_no_hit(void **state)
     uint32_t seed = 2024u, hits = 0, rays = 0;
     uint64_t tests_tight = 0, tests_box = 0;
     for (uint32_t p = 0; p < s.patch_count; p += 3) {
-        uint32_t m = 4u + p % 3u, n = (1u << m) + 1u, ng = quadtree_group_count(m);
+        uint32_t m = 7u + p % 2u, n = (1u << m) + 1u, ng = quadtree_group_count(m);
         assert_int_equal(dice_build_ref_times(&s, p), 1u);
+        assert_true(scene_patch_rough(&s, p, m)); /* so build gives it tight codes */
         ts_vec4 *grid = malloc(n * n * sizeof *grid);
         ts_box4 *groups = malloc(ng * sizeof *groups);
         ts_tight4 *codes = malloc(ng * sizeof *codes);
@@ -525,7 +526,7 @@ static void test_tight_boxes_lose_no_hit(void **state)
         ts_segment seg = {.patch = p, .lod = m, .shape = p};
         bl_ref_patch box = bottom_level_ref_patch(&seg, grid, groups, NULL),
                      tight = bottom_level_ref_patch(&seg, grid, groups, codes);
-        for (int r = 0; r < 400; ++r, ++rays) {
+        for (int r = 0; r < 200; ++r, ++rays) {
             uint32_t i = (uint32_t)test_uniform(&seed, 0.0f, (float)(n - 1)) % (n - 1u),
                      j = (uint32_t)test_uniform(&seed, 0.0f, (float)(n - 1)) % (n - 1u);
             ts_vec4 a = grid[j * n + i], b = grid[j * n + i + 1], c = grid[(j + 1) * n + i + 1];

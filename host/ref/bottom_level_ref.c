@@ -273,7 +273,7 @@ uint64_t bottom_level_ref_pairs(const bl_ref_batch *b, uint32_t first, uint32_t 
                 instance_ray(b->inst_xform + b->instance[seg->patch], &o, &d);
             int leaving = b->ray_from[ray] == seg->patch + 1u;
             if (!leaving) o.w = 0.0f;
-            if (leaving && !b->exact && (seg->flags & TS_PATCH_DISPLACED))
+            if (leaving && !b->exact && (seg->flags & TS_PATCH_ROUGH))
                 /* box mode: its tight boxes cull it (bottom_level.cl bl_pair) */
                 pt = bottom_level_ref_patch(seg, b->grid, b->groups, b->codes);
             h = bottom_level_ref_trace(o, d, b->hit[ray].t, &pt, (int)b->exact || leaving,

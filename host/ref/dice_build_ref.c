@@ -140,8 +140,8 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, int tight, ts_vec
     dice_build_ref_patch q = dice_build_ref_patch_of(s, p);
     dice_build_ref_grid(s, p, m, grid);
     uint32_t ng = quadtree_group_count(m);
-    /* build.cl: tight codes for a displaced patch in box mode (TS_PATCH_DISPLACED), else 0 */
-    uint32_t coded = !tight && s->attr[p].disp_kind != TS_DISP_NONE;
+    /* build.cl: tight codes for a rough patch in box mode (TS_PATCH_ROUGH), else 0 */
+    uint32_t coded = !tight && scene_patch_rough(s, p, m);
     for (uint32_t t = 0; t < times; ++t) {
         ts_box4 *tree = groups + t * ng;
         ts_tight4 *ct = codes + t * ng;

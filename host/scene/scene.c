@@ -613,6 +613,24 @@ static void scene_box_points(ts_box *b, const ts_vec4 *c)
     }
 }
 
+float scene_displace_bound(const ts_scene *s, uint32_t p)
+{
+    if (s->attr[p].disp_kind == TS_DISP_TEXTURE) {
+        ts_interval d =
+            displace_texture_interval(&s->attr[p], scene_tex_ctx(s), 0.0f, 0.0f, 1.0f, 1.0f);
+        return fmaxf(fabsf(d.lo), fabsf(d.hi));
+    }
+    return displace_bound(&s->attr[p]);
+}
+
+int scene_patch_rough(const ts_scene *s, uint32_t p, uint32_t m)
+{
+    if (s->attr[p].disp_kind == TS_DISP_NONE) return 0;
+    ts_box b = scene_patch_box(s, p);
+    float side = fmaxf(fmaxf(b.hi_x - b.lo_x, b.hi_y - b.lo_y), b.hi_z - b.lo_z);
+    return scene_displace_bound(s, p) >= TS_ROUGH_MICROQUADS * ldexpf(side, -(int)m);
+}
+
 ts_box scene_patch_box(const ts_scene *s, uint32_t p)
 {
     ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
@@ -623,12 +641,7 @@ ts_box scene_patch_box(const ts_scene *s, uint32_t p)
     /* The displacement normal interpolates unit corner normals: each of its components is
      * at most 1 in magnitude, so d * n moves a point by at most |d| per axis. Rounded
      * outwards so the float box stays conservative. */
-    float g = displace_bound(&s->attr[p]);
-    if (s->attr[p].disp_kind == TS_DISP_TEXTURE) {
-        ts_interval d =
-            displace_texture_interval(&s->attr[p], scene_tex_ctx(s), 0.0f, 0.0f, 1.0f, 1.0f);
-        g = fmaxf(fabsf(d.lo), fabsf(d.hi));
-    }
+    float g = scene_displace_bound(s, p);
     /* A few ulps of |P| as well: the diced vertices are rounded, and build clamps every leaf
      * box to this box (build.cl), so it must hold them. */
     float mag =

@@ -216,6 +216,20 @@ int scene_add_light(ts_scene *s, const ts_scene_light *light, ts_error *err);
  * lib/displace.h; for a texture its min-max pyramid over the patch's st rectangle,
  * displace_texture_interval) in every axis. */
 ts_box scene_patch_box(const ts_scene *s, uint32_t p);
+
+/* The largest |displacement| of patch p: the noise's global bound, or the texture's over the
+ * patch's st rectangle (0 when undisplaced). scene_patch_box grows the hull by it. */
+float scene_displace_bound(const ts_scene *s, uint32_t p);
+
+/* Micro-quads of displacement from which a patch's trees get tight codes. */
+#define TS_ROUGH_MICROQUADS 4.0f
+
+/* Whether patch p diced at m is displaced by at least TS_ROUGH_MICROQUADS micro-quads (the
+ * longest side of its box over 2^m): then box mode's boxes, which bound every finer dicing,
+ * are far larger than its vertices' and build gives it tight codes (TS_PATCH_ROUGH; trace.c
+ * and host/ref/dice_build_ref.c). Below that the codes would barely shrink them: forest-1's
+ * bark is displaced by a median 1.4 micro-quads, teapot_displaced by 8.5 to 19 at m = 8. */
+int scene_patch_rough(const ts_scene *s, uint32_t p, uint32_t m);
 void scene_free(ts_scene *s);
 
 /* Reads an image (any format OpenImageIO reads) as texture kind TS_TEX_MINMAX (the first

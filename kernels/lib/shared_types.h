@@ -127,7 +127,7 @@ typedef struct ts_segment {
     ts_u32 lod;         /* m: (2^m+1)^2 vertices, 4^m micro-quads */
     ts_u32 vert_first;  /* first vertex of its grid(s) in the vertex arena */
     ts_u32 group_first; /* first sibling group of its tree(s) in the group arena */
-    ts_u32 flags;       /* TS_PATCH_MOVING: two time samples; TS_PATCH_DISPLACED */
+    ts_u32 flags;       /* TS_PATCH_MOVING: two time samples; TS_PATCH_ROUGH */
     ts_u32 shape;       /* the patch diced: patch, or the master an instance shares */
 } ts_segment;
 
@@ -158,10 +158,11 @@ typedef struct ts_hit {
 
 /* ts_patch_attr.flags */
 #define TS_PATCH_MOVING 1u /* has a second time sample (scene cp1), Hanika §3.4 */
-/* ts_segment.flags only: the patch diced is displaced, so in box mode its trees get tight
- * codes (ts_tight4) and the rays leaving it are culled by them; elsewhere box mode's boxes
- * are near the boxes of the vertices already and the codes stay 0 (the node boxes). */
-#define TS_PATCH_DISPLACED 2u
+/* ts_segment.flags only: the patch diced is displaced by several micro-quads at its level
+ * (host/scene/scene.c scene_patch_rough), so in box mode its trees get tight codes
+ * (ts_tight4) and the rays leaving it are culled by them; elsewhere box mode's boxes are
+ * near the boxes of the vertices already and the codes stay 0 (the node boxes). */
+#define TS_PATCH_ROUGH 2u
 #define TS_PATCH_COLOR_TEX 2u /* Cs is multiplied by texture color_tex at the hit's st */
 
 /* Materials (RIB Surface), with the patch colour Cs. */
