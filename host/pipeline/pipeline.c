@@ -320,15 +320,21 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     p->trees_host = malloc(2 * n * sizeof *p->trees_host);
     p->batches = malloc(n * sizeof *p->batches);
     p->patch_lod = malloc(n);
+    p->rough_lod = malloc(n);
     p->cull_key = calloc(n, sizeof *p->cull_key);
     p->grid_at_host = malloc(2 * n * sizeof *p->grid_at_host);
     if (!*boxes || !p->segments_host || !p->trees_host || !p->batches || !p->patch_lod ||
-        !p->cull_key || !p->grid_at_host)
+        !p->rough_lod || !p->cull_key || !p->grid_at_host)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     memset(p->grid_at_host, 0xff, 2 * n * sizeof *p->grid_at_host);
     memset(p->patch_lod, (int)p->plan.max_lod, n);
-    for (uint32_t i = 0; i < s->patch_count; ++i)
+    for (uint32_t i = 0; i < s->patch_count; ++i) {
         (*boxes)[i] = scene_patch_box(s, i);
+        uint32_t m = 0;
+        while (m <= TS_LOD_LIMIT && !scene_patch_rough(s, i, m))
+            ++m;
+        p->rough_lod[i] = (uint8_t)m;
+    }
     return TS_OK;
 }
 
@@ -419,7 +425,7 @@ void pipeline_destroy(ts_pipeline *p)
     free(p->segments_host);
     free(p->trees_host);
     free(p->batches);
-    free(p->patch_lod);
+    free(p->patch_lod), free(p->rough_lod);
     free(p->cull_key);
     free(p->grid_at_host);
     qbvh_free(&p->qbvh);

@@ -218,6 +218,8 @@ typedef struct ts_pipeline {
      * iteration's bottom_level launches have used (folded into the stats by resolve). */
     uint32_t util_groups, util_used;
     uint8_t *patch_lod; /* m of each patch for this frame (lod stage); max_lod until counted */
+    uint8_t *rough_lod; /* the least m at which each patch is rough (scene_patch_rough, which
+                           grows with m), TS_LOD_LIMIT + 1 if none: plan_batches' flag */
     /* What each patch's entry of cull was built for (trace.c cull_key: its m and leaf size;
      * 0: none), so that an entry is reset when its patch's m or the leaf size changes. */
     uint16_t *cull_key;

@@ -91,7 +91,7 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
         const ts_patch_attr *a = &p->scene->attr[s->patch];
         s->flags = a->flags & TS_PATCH_MOVING; /* a shape moves as its instances do */
         uint32_t q = segment_shape(p, s), times = s->flags & TS_PATCH_MOVING ? 2u : 1u;
-        if (scene_patch_rough(p->scene, q, s->lod)) s->flags |= TS_PATCH_ROUGH;
+        if (s->lod >= p->rough_lod[q]) s->flags |= TS_PATCH_ROUGH;
         /* Texture tiles: the batch's misses' needs add up to at most the pool (an over-count
          * where they share tiles; each alone fits, tex_cache_create sized the pool so). */
         uint32_t nt = p->tex.paged ? p->tex.patch_tiles[q] : 0u;
