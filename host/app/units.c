@@ -40,10 +40,16 @@ void unit_result_free(ts_unit_result *r)
 void units_merge(ts_film_state *film, const ts_sample_order *o, const ts_unit *u,
                  const ts_unit_result *r)
 {
+    if (u->count == 0) return;
+    /* The pixel and sample of the unit's first sample (lib/sample_order.h), then of each next
+     * one by stepping: k + 1 is the band's next pixel, after its last pixel the first pixel
+     * at the next sample, after the last sample the next band's first pixel at sample 0. */
+    uint32_t band = o->band == 0 || o->band > o->pixels ? o->pixels : o->band;
+    uint32_t p, sample;
+    sample_order_at((uint32_t)u->first, o->pixels, o->spp, o->band, &p, &sample);
+    uint32_t base = p / band * band, end = o->pixels - base < band ? o->pixels : base + band;
     uint64_t j = 0;
     for (uint64_t k = 0; k < u->count; ++k) {
-        uint32_t p, sample;
-        sample_order_at((uint32_t)(u->first + k), o->pixels, o->spp, o->band, &p, &sample);
         /* kernels/film.cl: acc = accum[p]; acc.x += r.x; ... acc.w += 1.0f */
         ts_vec4 acc = film->accum[p], s = r->radiance[k];
         acc.x += s.x;
@@ -53,6 +59,14 @@ void units_merge(ts_film_state *film, const ts_sample_order *o, const ts_unit *u
         film->accum[p] = acc;
         if (sample == 0 && j < r->aov_count)
             film->aov[p] = r->aov[j], film->albedo[p] = r->albedo[j], ++j;
+        if (++p == end) {
+            p = base;
+            if (++sample == o->spp) {
+                sample = 0;
+                base = end, p = base;
+                end = o->pixels - base < band ? o->pixels : base + band;
+            }
+        }
     }
 }
 
