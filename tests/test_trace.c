@@ -143,11 +143,46 @@ static void test_budget_does_not_change_hits(void **state)
     dev_close(&cl);
 }
 
+/* A patch cache too small for the frame evicts, and patches come back diced again: from the
+ * first eviction on, each iteration fills the pair buffer (Hanika's N) instead of ramping
+ * up from one candidate per ray, so fewer iterations dice fewer patches; the hits stay the
+ * same (trace.c pipeline_trace). */
+static void test_evicting_cache_fills_the_pairs(void **state)
+{
+    ts_device cl;
+    test_open_device(&cl);
+    ts_scene s;
+    load_teapot(&s);
+    static traced ramp, fill;
+    ts_pipeline_plan r = {.ray_capacity = W * H, .pair_capacity = W * H * 8, .first_n = 1};
+    ts_pipeline_plan f = {.ray_capacity = W * H, .pair_capacity = W * H * 8}; /* the default */
+    pipeline_plan_arenas(&r, 1, M); /* room for two static patches a batch: it evicts */
+    pipeline_plan_arenas(&f, 1, M);
+    trace_teapot(&cl, &s, &r, &ramp);
+    trace_teapot(&cl, &s, &f, &fill);
+    assert_memory_equal(ramp.hit, fill.hit, sizeof ramp.hit);
+    assert_true(ramp.stats.counters[TS_COUNTER_patch_cache_evictions] > 0);
+    assert_true(fill.stats.counters[TS_COUNTER_patch_cache_evictions] > 0);
+    /* The same first iteration (nothing evicted before it), then more candidates a ray. */
+    assert_int_equal(fill.stats.iterations[0].n_per_ray, 1);
+    assert_true(fill.stats.iteration_count >= 2);
+    assert_true(fill.stats.iterations[1].n_per_ray > ramp.stats.iterations[1].n_per_ray);
+    assert_true(fill.stats.counters[TS_COUNTER_iterations] <
+                ramp.stats.counters[TS_COUNTER_iterations]);
+    assert_true(fill.stats.counters[TS_COUNTER_patch_cache_misses] <
+                ramp.stats.counters[TS_COUNTER_patch_cache_misses]);
+    stats_free(&ramp.stats);
+    stats_free(&fill.stats);
+    scene_free(&s);
+    dev_close(&cl);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_teapot_matches_brute_force),
         cmocka_unit_test(test_budget_does_not_change_hits),
+        cmocka_unit_test(test_evicting_cache_fills_the_pairs),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
