@@ -42,7 +42,9 @@ typedef struct ts_pipeline_plan {
                                 devices in one process share the CPUs (app/workers.c) */
     uint32_t first_n;        /* candidates per ray in a wave's first iteration, doubled each
                                 iteration up to pair_capacity / R (trace.c pairs_per_ray);
-                                0: 1. Changes no hit, only the work (tests compare them) */
+                                0: 1, and pair_capacity / R at once after the patch cache
+                                first evicts (pipeline_trace). Changes no hit, only the work
+                                (tests compare them) */
 } ts_pipeline_plan;
 
 /* Splits a budget of `memory_bytes` between the patch arenas (a quarter) and rays, and sets
