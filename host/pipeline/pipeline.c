@@ -330,10 +330,7 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     memset(p->patch_lod, (int)p->plan.max_lod, n);
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         (*boxes)[i] = scene_patch_box(s, i);
-        uint32_t m = 0;
-        while (m <= TS_LOD_LIMIT && !scene_patch_rough(s, i, m))
-            ++m;
-        p->rough_lod[i] = (uint8_t)m;
+        p->rough_lod[i] = (uint8_t)scene_patch_rough_lod(s, i, (*boxes)[i], TS_LOD_LIMIT);
     }
     return TS_OK;
 }

@@ -623,12 +623,28 @@ float scene_displace_bound(const ts_scene *s, uint32_t p)
     return displace_bound(&s->attr[p]);
 }
 
+/* Whether a displacement bound is at least TS_ROUGH_MICROQUADS micro-quads of a patch with
+ * box b diced at m. */
+static int rough_at(float bound, ts_box b, uint32_t m)
+{
+    float side = fmaxf(fmaxf(b.hi_x - b.lo_x, b.hi_y - b.lo_y), b.hi_z - b.lo_z);
+    return bound >= TS_ROUGH_MICROQUADS * ldexpf(side, -(int)m);
+}
+
 int scene_patch_rough(const ts_scene *s, uint32_t p, uint32_t m)
 {
     if (s->attr[p].disp_kind == TS_DISP_NONE) return 0;
-    ts_box b = scene_patch_box(s, p);
-    float side = fmaxf(fmaxf(b.hi_x - b.lo_x, b.hi_y - b.lo_y), b.hi_z - b.lo_z);
-    return scene_displace_bound(s, p) >= TS_ROUGH_MICROQUADS * ldexpf(side, -(int)m);
+    return rough_at(scene_displace_bound(s, p), scene_patch_box(s, p), m);
+}
+
+uint32_t scene_patch_rough_lod(const ts_scene *s, uint32_t p, ts_box box, uint32_t limit)
+{
+    if (s->attr[p].disp_kind == TS_DISP_NONE) return limit + 1u;
+    float bound = scene_displace_bound(s, p);
+    uint32_t m = 0;
+    while (m <= limit && !rough_at(bound, box, m))
+        ++m;
+    return m;
 }
 
 ts_box scene_patch_box(const ts_scene *s, uint32_t p)

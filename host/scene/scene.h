@@ -230,6 +230,11 @@ float scene_displace_bound(const ts_scene *s, uint32_t p);
  * and host/ref/dice_build_ref.c). Below that the codes would barely shrink them: forest-1's
  * bark is displaced by a median 1.4 micro-quads, teapot_displaced by 8.5 to 19 at m = 8. */
 int scene_patch_rough(const ts_scene *s, uint32_t p, uint32_t m);
+
+/* The least m <= limit at which patch p is rough (scene_patch_rough grows with m), limit + 1
+ * if none, with box = scene_patch_box(s, p) already made: one displacement bound and no
+ * patch box per m (the pipeline's rough_lod for every patch). */
+uint32_t scene_patch_rough_lod(const ts_scene *s, uint32_t p, ts_box box, uint32_t limit);
 void scene_free(ts_scene *s);
 
 /* Reads an image (any format OpenImageIO reads) as texture kind TS_TEX_MINMAX (the first
