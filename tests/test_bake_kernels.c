@@ -109,7 +109,7 @@ static void run_case(ts_device *cl, const ts_scene *s, const bake_case *c, uint3
     if (pipeline_plan(32u << 20, 40000, 6, cl->info.max_alloc, &plan, &err) ||
         pipeline_create(&p, cl, s, &plan, 1, &stats, &err))
         fail_msg("%s", err.msg);
-    p.mode = (ts_trace_mode){1u, -1, 0, 0, 0u, 0};
+    p.mode = (ts_trace_mode){1u, -1, 0, 0, 0u, 0, 1.0};
     ts_bake_setup setup = {.bands = c->bands,
                            .rays = c->rays,
                            .flags = c->flags,

@@ -436,10 +436,20 @@ static void test_resume_matches_the_uninterrupted_render(void **state)
                          scene, in_dir("resumed.exr")),
         1);
     test_expect_in_stderr(dir, "cannot resume: it is 320x180 but this command renders 160x90");
-    /* The same command: continues from the finished samples to the same bits. */
-    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume", scene,
-                                      in_dir("resumed.exr")),
-                     0);
+    assert_int_equal(test_run_tessera(dir,
+                                      "render '%s' -o '%s' " RENDER_ARGS
+                                      " --dicing-rate 2 --resume --quiet",
+                                      scene, in_dir("resumed.exr")),
+                     1);
+    test_expect_in_stderr(dir, "cannot resume: it was rendered from another scene or with other "
+                               "--depth, --sampling, --max-lod, --lod, --dicing-rate or");
+    assert_int_equal(meta_int("resumed.exr", "tessera:samples_done"), done);
+    /* The same command (the default --dicing-rate spelt out is the same): continues from the
+     * finished samples to the same bits. */
+    assert_int_equal(
+        test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --dicing-rate 1 --resume", scene,
+                         in_dir("resumed.exr")),
+        0);
     test_expect_in_stderr(dir, "resuming");
     assert_int_equal(meta_int("resumed.exr", "tessera:samples_done"), (int)TOTAL);
     assert_same_image(ref, "resumed.exr");

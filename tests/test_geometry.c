@@ -8,7 +8,8 @@
  * - bounded memory: a scene of more than 10^10 potential micro-polygons renders in < 2 GiB;
  * - the lod rules (issue 13, item 3): a patch wholly hidden behind another is diced two
  *   levels coarser under TESSERA_LOD_RULE=seen and =visible than under the default, and that
- *   changes no pixel;
+ *   changes no pixel; --dicing-rate D dices at the smallest m with 4^m >= R / D^2: D = 2 one
+ *   level coarser, D = 1/2 one finer, D = 1 the default's bits;
  * - motion blur (§3.4): a moving patch's image equals the average of the patch rendered
  *   static at many times, within a tolerance derived from the sample count. */
 #include "test_support.h"
@@ -89,6 +90,48 @@ static void test_memory_budget_does_not_change_the_image(void **state)
     /* The small budget really split the work: more iterations or waves. */
     assert_true(test_stats_number(path("small.json"), "counters.iterations") >
                 test_stats_number(path("big.json"), "counters.iterations"));
+}
+
+/* The level one_patch.rib's single patch was diced at (its lod_histogram's one entry). */
+static int one_patch_level(const char *json)
+{
+    int level = -1;
+    char key[64];
+    for (int m = 0; m <= 10; ++m) {
+        snprintf(key, sizeof key, "lod_histogram.%d", m);
+        double n = test_stats_number(path(json), key);
+        if (n > 0) {
+            assert_true(n == 1 && level < 0); /* diced once, at one level */
+            level = m;
+        }
+    }
+    assert_true(level >= 0);
+    return level;
+}
+
+static void test_dicing_rate_scales_the_micro_quads(void **state)
+{
+    /* One patch filling most of a 128x128 view: between 4^6 and 4^7 first-pass eye rays
+     * cross its box, so the default rule gives m = 7; D = 2 asks for R / 4 micro-quads and
+     * D = 1/2 for 4 R: one level each way, whatever R is. */
+    const char *runs[4][3] = {{"rate_default", "", ""},
+                              {"rate_1", "--dicing-rate 1", ""},
+                              {"rate_2", "--dicing-rate 2", ""},
+                              {"rate_half", "--dicing-rate 0.5", ""}};
+    char args[16384], exr[64], json[64];
+    for (int i = 0; i < 4; ++i) {
+        snprintf(exr, sizeof exr, "%s.exr", runs[i][0]);
+        snprintf(json, sizeof json, "%s.json", runs[i][0]);
+        snprintf(args, sizeof args, "render '%s' -o '%s' --stats '%s' --res 128x128 --quiet %s",
+                 test_source_path("scene/one_patch.rib"), path(exr), path(json), runs[i][1]);
+        render_ok(args);
+    }
+    int m = one_patch_level("rate_default.json");
+    assert_int_equal(m, 7);
+    assert_int_equal(one_patch_level("rate_1.json"), m);
+    assert_int_equal(one_patch_level("rate_2.json"), m - 1);
+    assert_int_equal(one_patch_level("rate_half.json"), m + 1);
+    test_assert_same_pixels(path("rate_default.exr"), path("rate_1.exr"));
 }
 
 static void test_sort_by_copy_matches_mapped_sort(void **state)
@@ -434,6 +477,7 @@ int main(void)
         cmocka_unit_test(test_displaced_sphere_is_hole_free_from_inside),
         cmocka_unit_test(test_memory_budget_does_not_change_the_image),
         cmocka_unit_test(test_sort_by_copy_matches_mapped_sort),
+        cmocka_unit_test(test_dicing_rate_scales_the_micro_quads),
         cmocka_unit_test(test_patch_cache_dices_once_and_changes_no_bit),
         cmocka_unit_test(test_grid_normals_change_no_bit),
         cmocka_unit_test(test_tight_leaves_change_no_bit),

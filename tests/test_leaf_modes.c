@@ -51,7 +51,7 @@ static void trace(ts_device *cl, const ts_scene *s, int exact, int group, uint32
     pipeline_plan_arenas(&plan, 32, M);
     ts_pipeline p;
     if (pipeline_create(&p, cl, s, &plan, W * H, &stats, &err)) fail_msg("%s", err.msg);
-    p.mode = (ts_trace_mode){1u, M, exact, group, leaf_b, 0};
+    p.mode = (ts_trace_mode){1u, M, exact, group, leaf_b, 0, 1.0};
     ts_camera_params cam;
     if (render_camera_params(&s->camera, W, H, &cam, &err)) fail_msg("%s", err.msg);
     cam.spp = 1;

@@ -123,7 +123,7 @@ static uint32_t check_case(ts_device *cl, ts_scene *s, const ts_occlusion *o)
     if (pipeline_plan(32u << 20, 2 * n, 5, cl->info.max_alloc, &plan, &err) ||
         pipeline_create(&p, cl, s, &plan, n, &stats, &err))
         fail_msg("%s", err.msg);
-    p.mode = (ts_trace_mode){1u, 3, 0, 0, 0u, 0};
+    p.mode = (ts_trace_mode){1u, 3, 0, 0, 0u, 0, 1.0};
     ts_camera_params cam;
     if (render_camera_params(&s->camera, IMG_W, IMG_H, &cam, &err)) fail_msg("%s", err.msg);
     cam.spp = 1, cam.ray_count = n;

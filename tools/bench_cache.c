@@ -271,7 +271,7 @@ static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s,
     cam.band = sample_order_band(cam.width, cam.height, cam.spp, per);
     ts_sample_order order = sample_order_of(&cam);
     res->band_rows = cam.band ? cam.band / cam.width : cam.height;
-    p.mode = (ts_trace_mode){(uint32_t)o->spp, -1, 0, 0, 0u, 0};
+    p.mode = (ts_trace_mode){(uint32_t)o->spp, -1, 0, 0, 0u, 0, 1.0};
     if (!rc)
         rc =
             pipeline_lod(&p, &cam, TS_LOD_RULE_CROSSED, err); /* the lod stage, as tessera render */

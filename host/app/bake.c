@@ -112,7 +112,8 @@ static int bake_pipeline(ts_bake *b, uint64_t rays, ts_error *err)
         dev_finish(&b->cl, b->stats, err))
         return err->code;
     b->max_lod = plan.max_lod;
-    b->pipe.mode = (ts_trace_mode){1u, -1, b->opt.exact, 0, 0u, waves_tight_leaves(b->opt.exact)};
+    b->pipe.mode =
+        (ts_trace_mode){1u, -1, b->opt.exact, 0, 0u, waves_tight_leaves(b->opt.exact), 1.0};
     if (!b->opt.quiet && plan.max_lod < (uint32_t)b->opt.max_lod && b->opt.fixed_lod != 0)
         ts_print_line("tessera: the memory budget of %llu MB holds patches up to m = %u; "
                       "baking at most that finely",

@@ -17,6 +17,7 @@ void render_options_defaults(ts_render_options *o)
     o->seed = 0;
     o->max_lod = 10;
     o->fixed_lod = -1;
+    o->dicing_rate = 1.0; /* Hanika's rule, 4^m >= R / spp */
     o->exact = 0;
     o->leaf_group = 0;
     o->leaf_size = 1;
@@ -32,6 +33,18 @@ int options_parse_int(const char *s, int lo, int hi, int *out)
     long v = strtol(s, &end, 10);
     if (errno || end == s || *end || v < lo || v > hi) return -1;
     *out = (int)v;
+    return 0;
+}
+
+/* A decimal number in [lo, hi] (no sign, space, hexadecimal, infinity or NaN). */
+static int parse_decimal(const char *s, double lo, double hi, double *out)
+{
+    char *end;
+    errno = 0;
+    if (!*s || strspn(s, "0123456789.eE-+") != strlen(s) || *s == '+' || *s == '-') return -1;
+    double v = strtod(s, &end);
+    if (errno || end == s || *end || !(v >= lo && v <= hi)) return -1;
+    *out = v;
     return 0;
 }
 
@@ -53,6 +66,7 @@ int options_parse_res(const char *s, int *w, int *h)
 enum {
     OPT_RES = 256,
     OPT_LOD,
+    OPT_DICING_RATE,
     OPT_INTERSECT,
     OPT_SAMPLING,
     OPT_LEAF_MODE,
@@ -84,6 +98,7 @@ static const struct option render_long_options[] = {
     {"max-lod", required_argument, 0, OPT_MAX_LOD},
     {"memory", required_argument, 0, OPT_MEMORY},
     {"lod", required_argument, 0, OPT_LOD},
+    {"dicing-rate", required_argument, 0, OPT_DICING_RATE},
     {"intersect", required_argument, 0, OPT_INTERSECT},
     {"sampling", required_argument, 0, OPT_SAMPLING},
     {"leaf-mode", required_argument, 0, OPT_LEAF_MODE},
@@ -138,6 +153,8 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
         return options_parse_int(arg, 0, TS_LOD_LIMIT, &o->max_lod);
     case OPT_LOD:
         return options_parse_int(arg, 0, TS_LOD_LIMIT, &o->fixed_lod);
+    case OPT_DICING_RATE:
+        return parse_decimal(arg, 1.0 / 64.0, 64.0, &o->dicing_rate);
     case OPT_INTERSECT:
         o->exact = strcmp(arg, "triangles") == 0;
         return strcmp(arg, "boxes") != 0 && strcmp(arg, "triangles") != 0;

@@ -13,13 +13,15 @@ typedef struct ts_render_options {
     int spp;                /* samples per pixel; 0: the scene's PixelSamples, else 1 */
     int depth;              /* path depth (primary rays only for now; kept for the contract) */
     unsigned seed;
-    int max_lod;    /* the finest m: (2^m)^2 micro-quads per patch */
-    int fixed_lod;  /* -1: m per patch from the frame's ray density; else this m */
-    int exact;      /* 1: intersect micro-triangles; 0: leaf boxes (hole-free) */
-    int sampling;   /* TS_SAMPLING_*: light and BSDF sampling by MIS, or one alone */
-    int leaf_group; /* 1: work-group-wide leaf intersection; 0: per ray */
-    int leaf_size;  /* leaves of leaf_size x leaf_size micro-quads: 1, 2 or 4 */
-    int memory_mb;  /* budget for rays, pairs and patch slots; 0: budget_default */
+    int max_lod;        /* the finest m: (2^m)^2 micro-quads per patch */
+    int fixed_lod;      /* -1: m per patch from the frame's ray density; else this m */
+    double dicing_rate; /* --dicing-rate: the ray-density rule's micro-quad size in pixels
+                           across (pipeline.h ts_trace_mode); 1 */
+    int exact;          /* 1: intersect micro-triangles; 0: leaf boxes (hole-free) */
+    int sampling;       /* TS_SAMPLING_*: light and BSDF sampling by MIS, or one alone */
+    int leaf_group;     /* 1: work-group-wide leaf intersection; 0: per ray */
+    int leaf_size;      /* leaves of leaf_size x leaf_size micro-quads: 1, 2 or 4 */
+    int memory_mb;      /* budget for rays, pairs and patch slots; 0: budget_default */
     int quiet;
     int resume;                 /* 1: continue the partial EXR at output_path (--resume) */
     int frame;                  /* the RIB frame to render (FrameBegin number); -1: the first */

@@ -55,6 +55,8 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
         (int32_t)cam->width, (int32_t)cam->height, o->spp,       o->depth, (int32_t)o->seed,
         o->sampling,         o->max_lod,           o->fixed_lod, o->exact};
     h = ts_fnv1a(h, opts, sizeof opts);
+    /* --dicing-rate only when it is not the default, so files rendered before it resume. */
+    if (o->dicing_rate != 1.0) h = ts_fnv1a(h, &o->dicing_rate, sizeof o->dicing_rate);
     ts_camera_params c = *cam; /* the order's bands and the wave do not change the image */
     c.band = c.first_sample = c.ray_count = 0;
     /* A static camera's bytes as they were before moving cameras (so that files written then
@@ -193,7 +195,8 @@ static int resume_check_job(const ts_render_options *o, int width, int height, c
         return ts_error_set(
             err, TS_E_USAGE,
             "%s: cannot resume: it was rendered from another scene "
-            "or with other --depth, --sampling, --max-lod, --lod or --intersect options "
+            "or with other --depth, --sampling, --max-lod, --lod, --dicing-rate or --intersect "
+            "options "
             "(use the original command, or render without --resume)",
             path);
     if (done > job->total)

@@ -20,7 +20,8 @@ ts_trace_mode waves_trace_mode(const ts_render_options *o)
                            o->leaf_size == 4   ? 2u
                            : o->leaf_size == 2 ? 1u
                                                : 0u,
-                           waves_tight_leaves(o->exact)};
+                           waves_tight_leaves(o->exact),
+                           o->dicing_rate};
 }
 
 int waves_lod_rule(ts_lod_rule *rule, ts_error *err)

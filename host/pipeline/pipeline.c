@@ -345,7 +345,7 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     p->stats = stats;
     p->plan = *plan;
     p->pixel_count = pixel_count;
-    p->mode = (ts_trace_mode){1u, (int)plan->max_lod, 1, 0, 0u, 0};
+    p->mode = (ts_trace_mode){1u, (int)plan->max_lod, 1, 0, 0u, 0, 1.0};
     /* One bottom_level launch of every pair, plus one part-filled work-group per batch for
      * many batches (trace.c folds the counters early when an iteration needs more). 8 bytes
      * per 64 pairs: 1/64 of the pair buffers, left out of TS_BYTES_PER_RAY. */
@@ -452,11 +452,15 @@ int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, int before_hit, ts_er
     return dev_launch(p->cl, p->k_lod, TS_STAGE_lod, ray_count, TS_LOCAL_SIZE, err);
 }
 
-/* The smallest m with 4^m >= count, at most max_lod. */
-static uint32_t lod_of_count(uint32_t count, uint32_t max_lod)
+/* The smallest m with 4^m >= count / rate^2, at most max_lod (ts_trace_mode dicing_rate;
+ * 0, as a zero-initialised mode has it, is 1). At rate 1 the quotient is the count itself,
+ * exact in a double, so the comparison is the integer rule 4^m >= count. */
+static uint32_t lod_of_count(uint32_t count, uint32_t max_lod, double rate)
 {
+    if (!(rate > 0.0)) rate = 1.0;
+    double need = (double)count / (rate * rate);
     uint32_t m = 0;
-    while (m < max_lod && ((uint64_t)1 << (2 * m)) < count)
+    while (m < max_lod && (double)((uint64_t)1 << (2 * m)) < need)
         ++m;
     return m;
 }
@@ -508,7 +512,7 @@ int pipeline_lod_finish_with(ts_pipeline *p, ts_lod_rule rule, int before_hit, c
     for (uint32_t i = 0; rc == TS_OK && more && i < n; ++i)
         counts[i] += more[i]; /* integer sums: the same in any order */
     for (uint32_t i = 0; rc == TS_OK && i < n; ++i) {
-        uint32_t m = lod_of_count(counts[i], p->plan.max_lod);
+        uint32_t m = lod_of_count(counts[i], p->plan.max_lod, p->mode.dicing_rate);
         if (before_hit) { /* p->patch_lod holds m from every crossing */
             uint32_t crossed = p->patch_lod[i];
             uint32_t coarser =

@@ -60,18 +60,21 @@ void pipeline_plan_arenas(ts_pipeline_plan *plan, uint32_t patches, uint32_t m);
 
 /* How the bottom level picks the LOD and what it intersects (DESIGN.md §2-3). */
 typedef struct ts_trace_mode {
-    uint32_t spp;    /* samples per pixel, for the LOD rule 4^m >= R / spp */
-    int fixed_lod;   /* >= 0: every patch at this m (cross-checks); -1: per patch from the lod
-                        stage's counts (pipeline_lod_*) */
-    int exact;       /* 1: micro-triangles (cross-checks at fixed m); 0: leaf boxes as
-                        geometry, hole-free across LODs (Hanika §3.3) */
-    int leaf_group;  /* 1: work-group-wide leaf intersection (PantaRay Fig. 8); 0: per ray */
-    uint32_t leaf_b; /* leaves are blocks of 2^leaf_b x 2^leaf_b micro-quads (0..2) */
-    int tight;       /* 1 (with exact): each leaf box is the box of its micro-quad's diced
-                        vertices (build.cl tight_leaf_box), which bounds its two triangles;
-                        0: it bounds the surface over the micro-quad's parameter square and
-                        so every finer dicing (box mode needs that; the origin-patch rule's
-                        triangles are tested inside such boxes too) */
+    uint32_t spp;       /* samples per pixel, for the LOD rule 4^m >= R / spp */
+    int fixed_lod;      /* >= 0: every patch at this m (cross-checks); -1: per patch from the lod
+                           stage's counts (pipeline_lod_*) */
+    int exact;          /* 1: micro-triangles (cross-checks at fixed m); 0: leaf boxes as
+                           geometry, hole-free across LODs (Hanika §3.3) */
+    int leaf_group;     /* 1: work-group-wide leaf intersection (PantaRay Fig. 8); 0: per ray */
+    uint32_t leaf_b;    /* leaves are blocks of 2^leaf_b x 2^leaf_b micro-quads (0..2) */
+    int tight;          /* 1 (with exact): each leaf box is the box of its micro-quad's diced
+                           vertices (build.cl tight_leaf_box), which bounds its two triangles;
+                           0: it bounds the surface over the micro-quad's parameter square and
+                           so every finer dicing (box mode needs that; the origin-patch rule's
+                           triangles are tested inside such boxes too) */
+    double dicing_rate; /* the lod stage's micro-quad size in pixels across (like Cycles'
+                           dicing rate): patch p at the smallest m with 4^m >= R_p / rate^2
+                           (R_p: its count); 1 (or 0) is Hanika's rule 4^m >= R / spp */
 } ts_trace_mode;
 
 /* The pipeline's kernels, X(field, kernel function name): pipeline_create makes each,
