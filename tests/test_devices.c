@@ -269,6 +269,49 @@ static void test_interrupted_two_device_render_resumes(void **state)
     }
 }
 
+/* One device traces pixel after pixel (bands of one pixel, app/done.h): SIGTERM in the middle
+ * of such a render leaves a prefix of that order, and --resume on two devices finishes it to
+ * the uninterrupted image, its units made of whole pixels (units_list gathers the one-pixel
+ * bands) with the samples 0's AOVs picked from each wave (workers.c). */
+static void test_one_device_render_resumes_on_two(void **state)
+{
+    (void)state;
+    const char *scene = test_source_path("scene/teapot.rib");
+    /* 17 waves of about 14k samples at 16 MB (as in test_failure). */
+    const char *args = "--res 320x180 --spp 4 --memory 16 --max-lod 6";
+    render("scene/teapot.rib", "whole1.exr", first,
+           "--res 320x180 --spp 4 --memory 16 --max-lod 6 --quiet");
+    char cmd[8192];
+    snprintf(cmd, sizeof cmd, "'%s' render '%s' -o '%s' --device %s %s 2>'%s' & echo $! > '%s'",
+             test_tessera_binary(), scene, in_dir("cut1.exr"), first, args, in_dir("stderr.txt"),
+             in_dir("pid"));
+    assert_int_equal(system(cmd), 0);
+    FILE *f = fopen(in_dir("pid"), "r");
+    int pid = 0;
+    assert_true(f && fscanf(f, "%d", &pid) == 1);
+    fclose(f);
+    int progressed = 0;
+    for (int i = 0; i < 6000 && !progressed; ++i) { /* up to 60 s: a wave finished */
+        progressed = progress_samples() > 0;
+        if (!progressed) nanosleep(&(struct timespec){0, 10000000}, NULL);
+    }
+    assert_true(progressed);
+    kill(pid, SIGTERM);
+    for (int i = 0; i < 6000 && kill(pid, 0) == 0; ++i)
+        nanosleep(&(struct timespec){0, 10000000}, NULL);
+    test_expect_in_stderr(dir, "interrupted by SIGTERM after ");
+    int done = -1, band = -1;
+    ts_error err = {0};
+    if (image_read_meta_int(in_dir("cut1.exr"), "tessera:samples_done", &done, &err) ||
+        image_read_meta_int(in_dir("cut1.exr"), "tessera:band", &band, &err))
+        fail_msg("%s", err.msg);
+    assert_true(done > 0 && done < 320 * 180 * 4);
+    assert_int_equal(band, 1); /* the one-device order */
+    test_tessera_ok(dir, "render '%s' -o '%s' --device %s %s --resume --quiet", scene,
+                    in_dir("cut1.exr"), pair, args);
+    test_assert_same_pixels(in_dir("whole1.exr"), in_dir("cut1.exr"));
+}
+
 static void expect_error(const char *devices, const char *needle)
 {
     int rc = test_run_tessera(dir, "render '%s' -o '%s' --device %s --res 16x16",
@@ -498,6 +541,7 @@ int main(void)
         cmocka_unit_test(test_a_slow_device_takes_fewer_units),
         cmocka_unit_test(test_a_slow_devices_last_unit_is_backed_up),
         cmocka_unit_test(test_interrupted_two_device_render_resumes),
+        cmocka_unit_test(test_one_device_render_resumes_on_two),
         cmocka_unit_test(test_bad_device_lists),
         cmocka_unit_test(test_a_device_that_fails_to_build_is_left_out),
         cmocka_unit_test(test_a_device_out_of_memory_mid_frame_retries),

@@ -361,8 +361,10 @@ static void film_holding(ts_film_state *f, const ts_sample_order *o, const ts_do
     }
 }
 
-/* The units of what a film lacks: one a band, each inside its band, no two with a pixel in
- * common, together exactly the samples not held. */
+/* The units of what a film lacks: one a band, each inside its band (bands of one pixel,
+ * one device's order: whole pixels gathered into units of 4096 samples or more, cut only by
+ * what the film holds and the frame's end), no two with a pixel in common, together exactly
+ * the samples not held. */
 static void assert_units_partition(const ts_sample_order *o, const ts_done *held)
 {
     ts_unit *u;
@@ -388,7 +390,41 @@ static void assert_units_partition(const ts_sample_order *o, const ts_done *held
     }
     for (uint64_t k = 0; k < TOTAL; ++k)
         assert_int_equal(covered[k], 1);
+    for (uint32_t i = 0; o->band == 1u && i + 1u < n; ++i)
+        if (u[i].first + u[i].count == u[i + 1].first) assert_true(u[i].count >= 4096u);
+    if (o->band == 1u) assert_true(n < TOTAL / 4096u + 4u);
     free(u);
+}
+
+/* Bands of one pixel (one device's order) resumed on several devices: units_list gathers
+ * the rest of the pixel the film holds a prefix of, and whole pixels after it, into units of
+ * at least 4096 samples, which cover exactly what the film lacks. */
+static void test_units_gather_one_pixel_bands(void **state)
+{
+    (void)state;
+    const uint32_t pixels = 4000, spp = 3;
+    ts_sample_order o = {pixels, spp, 1u};
+    uint64_t total = (uint64_t)pixels * spp;
+    ts_done held = {0};
+    ts_error err = {0};
+    assert_int_equal(done_add(&held, 0, 1001, &err), TS_OK); /* pixel 333's first two samples */
+    ts_unit *u;
+    uint32_t n;
+    assert_int_equal(units_list(&o, total, &held, &u, &n, &err), TS_OK);
+    /* 1 + 1365 pixels = 4096, then 1366 pixels = 4098 (4096 rounded up to pixels), the rest */
+    assert_int_equal(n, 3u);
+    uint64_t at = 1001;
+    for (uint32_t i = 0; i < n; ++i) {
+        assert_int_equal(u[i].index, i);
+        assert_int_equal(u[i].first, at); /* contiguous: together exactly [1001, total) */
+        at += u[i].count;
+        if (i > 0) assert_int_equal(u[i].first % spp, 0); /* whole pixels */
+        if (i + 1 < n) assert_true(u[i].count >= 4096u && u[i].count < 4096u + spp);
+    }
+    assert_int_equal(u[0].count, 4096u);
+    assert_int_equal(at, total);
+    free(u);
+    done_free(&held);
 }
 
 /* Four threads sharing a board: units merged as they finish, in any order, give the plain
@@ -401,7 +437,9 @@ static void test_board_merges_in_any_order(void **state)
     ts_film_state ref, f;
     film_alloc(&ref);
     film_plain(&ref);
-    for (uint32_t band = 0; band <= 3 * W; band += 3 * W) {
+    const uint32_t shapes[] = {0, 1, 3 * W}; /* one band, pixel after pixel, rows */
+    for (int bi = 0; bi < 3; ++bi) {
+        uint32_t band = shapes[bi];
         ts_sample_order o = order_of(band);
         uint64_t span = (band ? band : P) * (uint64_t)SPP;
         for (int start = 0; start < 3; ++start) {
@@ -678,6 +716,7 @@ int main(void)
         cmocka_unit_test(test_division_by_multiplication),
         cmocka_unit_test(test_merge_in_order_is_the_film),
         cmocka_unit_test(test_board_merges_in_any_order),
+        cmocka_unit_test(test_units_gather_one_pixel_bands),
         cmocka_unit_test(test_board_take_give_back_close),
         cmocka_unit_test(test_board_backs_up_a_slow_device),
         cmocka_unit_test(test_board_backs_up_only_the_slow),

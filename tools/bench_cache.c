@@ -267,7 +267,8 @@ static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s,
     double t0 = stats_now();
     uint32_t per = plan.ray_capacity;
     cam.spp = (uint32_t)o->spp;
-    /* The sample order of tessera render: bands of about a wave (kernels/lib/sample_order.h). */
+    /* Bands of rows of about a wave: the rows each of tessera render's waves covers (one device
+     * traces them pixel after pixel, app/done.h: the same patches a wave). */
     cam.band = sample_order_band(cam.width, cam.height, cam.spp, per);
     ts_sample_order order = sample_order_of(&cam);
     res->band_rows = cam.band ? cam.band / cam.width : cam.height;

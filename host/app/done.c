@@ -92,6 +92,13 @@ uint32_t sample_order_band(uint32_t width, uint32_t height, uint32_t spp, uint64
     return rows >= height ? 0u : (uint32_t)rows * width;
 }
 
+uint32_t sample_order_band_pixel(uint32_t width, uint32_t height, uint32_t spp)
+{
+    const char *env = getenv("TESSERA_SAMPLE_BAND_ROWS");
+    if (env && *env) return sample_order_band(width, height, spp, 0);
+    return (uint64_t)width * height > 1u ? 1u : 0u;
+}
+
 int sample_order_band_runs(const ts_sample_order *o, uint64_t b, uint64_t *first, uint64_t *end,
                            uint64_t *zero_end)
 {

@@ -24,6 +24,11 @@ ts_sample_order sample_order_of(const ts_camera_params *cam);
  * hold the whole image. TESSERA_SAMPLE_BAND_ROWS=N sets the rows (a testing aid: the image
  * does not depend on it; 0 gives one band, pass after pass). */
 uint32_t sample_order_band(uint32_t width, uint32_t height, uint32_t spp, uint64_t band_samples);
+/* One device's order: pixel after pixel, each pixel's samples one after another (a band of
+ * one pixel: k = p S + s), so the rays of a wave that meet the same micro-quads are traced
+ * together (docs/rendering.md "The sample order"); TESSERA_SAMPLE_BAND_ROWS still sets
+ * bands of rows (sample_order_band). 0 (one band) for a one-pixel image. */
+uint32_t sample_order_band_pixel(uint32_t width, uint32_t height, uint32_t spp);
 
 /* The samples 0 of their pixels among the samples [first, first + count) of the order o:
  * the next run of them at or after `first`, [*k0, *k1) clipped to the range. 0 when there is

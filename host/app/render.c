@@ -101,7 +101,9 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
     if (waves_frame_lod(o, p, cam, job, err)) return err->code;
     if (budget_grow_arenas(p, room_mb, 1, o->quiet, err)) return err->code;
     uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
-    job_choose_band(job, &cam, per_wave);         /* bands of about a wave each */
+    /* Pixel after pixel: a wave holds the samples of about per_wave / spp consecutive pixels,
+     * the rows a band of rows would give it, each pixel's samples together (done.h). */
+    job_choose_order(job, &cam, sample_order_band_pixel(cam.width, cam.height, cam.spp));
     interrupt_install();
     double t0 = stats_now();
     for (uint64_t first = start; first < total; first += per_wave) {

@@ -105,6 +105,8 @@ int32_t job_lod_hash(const ts_pipeline *p, const ts_render_options *o);
  * (sample_order_band), unless the samples already traced (--resume, a retry) had an order of
  * their own; recorded in job->band and cam->band. */
 void job_choose_band(ts_job *job, ts_camera_params *cam, uint64_t band_samples);
+/* The same with the band given (pixels a band; 0: one band). */
+void job_choose_order(ts_job *job, ts_camera_params *cam, uint32_t band);
 
 /* The samples the film of job holds, into *held (empty before): job->done, or the prefix
  * [0, job->samples_done). TS_E_MEMORY when it cannot. */

@@ -97,13 +97,24 @@ int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, ts_un
     ts_unit *u = malloc((bands ? bands : 1) * sizeof *u);
     if (!u) return ts_error_set(err, TS_E_MEMORY, "out of memory");
     uint32_t n = 0, i = 0;
+    /* Bands of one pixel (one device's order, done.h, resumed on several): a unit takes the
+     * rest of a band and the whole bands after it, up to UNIT_MIN_SAMPLES samples, so that
+     * units stay large enough to fill a device; still no two units share a pixel. */
+    int gather = band == 1u && o->pixels > 1u;
     for (uint64_t b = 0; sample_order_band_runs(o, b, &first, &end, &zero_end); ++b) {
         if (end > total) end = total;
         /* What d holds of the band is a prefix of it (done.h): the unit is the rest. */
         while (i < d->count && d->r[i].end <= first)
             ++i;
-        if (i < d->count && d->r[i].first <= first) first = d->r[i].end < end ? d->r[i].end : end;
-        if (first < end) u[n] = (ts_unit){.index = n, .first = first, .count = end - first}, ++n;
+        int whole = !(i < d->count && d->r[i].first <= first);
+        if (!whole) first = d->r[i].end < end ? d->r[i].end : end;
+        if (first >= end) continue;
+        if (gather && whole && n > 0 && u[n - 1].first + u[n - 1].count == first &&
+            u[n - 1].count < UNIT_MIN_SAMPLES) {
+            u[n - 1].count += end - first;
+            continue;
+        }
+        u[n] = (ts_unit){.index = n, .first = first, .count = end - first}, ++n;
     }
     *units = u, *count = n;
     return TS_OK;
