@@ -370,7 +370,7 @@ static void assert_units_partition(const ts_sample_order *o, const ts_done *held
     ts_unit *u;
     uint32_t n;
     ts_error err = {0};
-    assert_int_equal(units_list(o, TOTAL, held, &u, &n, &err), TS_OK);
+    assert_int_equal(units_list(o, TOTAL, held, 0, &u, &n, &err), TS_OK);
     static uint8_t covered[TOTAL], owner_set[P];
     static uint32_t owner[P];
     memset(covered, 0, sizeof covered);
@@ -410,7 +410,7 @@ static void test_units_gather_one_pixel_bands(void **state)
     assert_int_equal(done_add(&held, 0, 1001, &err), TS_OK); /* pixel 333's first two samples */
     ts_unit *u;
     uint32_t n;
-    assert_int_equal(units_list(&o, total, &held, &u, &n, &err), TS_OK);
+    assert_int_equal(units_list(&o, total, &held, 0, &u, &n, &err), TS_OK);
     /* 1 + 1365 pixels = 4096, then 1366 pixels = 4098 (4096 rounded up to pixels), the rest */
     assert_int_equal(n, 3u);
     uint64_t at = 1001;
@@ -453,7 +453,7 @@ static void test_board_merges_in_any_order(void **state)
             assert_units_partition(&o, &held);
             film_holding(&f, &o, &held);
             ts_board b;
-            assert_int_equal(board_init(&b, &f, &o, TOTAL, &held, &err), TS_OK);
+            assert_int_equal(board_init(&b, &f, &o, TOTAL, 0, &held, &err), TS_OK);
             assert_int_equal(b.start, done_samples(&held));
             taker t[4];
             pthread_t th[4];
@@ -498,7 +498,7 @@ static void test_board_take_give_back_close(void **state)
     ts_error err = {0};
     ts_sample_order o = order_of(W); /* one row a band: 11 units of W * SPP samples */
     const uint64_t span = (uint64_t)W * SPP;
-    assert_int_equal(board_init(&b, &f, &o, TOTAL, NULL, &err), TS_OK);
+    assert_int_equal(board_init(&b, &f, &o, TOTAL, 0, NULL, &err), TS_OK);
     assert_int_equal(b.unit_count, H);
     ts_unit u[H + 1];
     for (int i = 0; i < H; ++i) {
@@ -562,7 +562,7 @@ static void board_with_slow_holder(ts_board *b, ts_film_state *f, const ts_sampl
                                    ts_unit *slow, long ms)
 {
     ts_error err = {0};
-    assert_int_equal(board_init(b, f, o, TOTAL, NULL, &err), TS_OK);
+    assert_int_equal(board_init(b, f, o, TOTAL, 0, NULL, &err), TS_OK);
     assert_true(board_take_as(b, 2, slow));
     assert_true(slow->index == 0 && slow->taker == 2 && !slow->backup);
     for (uint32_t i = 1; i < b->unit_count; ++i) {
@@ -649,7 +649,7 @@ static void test_board_backs_up_only_the_slow(void **state)
         film_alloc(&f);
         ts_board b;
         ts_error err = {0};
-        assert_int_equal(board_init(&b, &f, &o, TOTAL, NULL, &err), TS_OK);
+        assert_int_equal(board_init(&b, &f, &o, TOTAL, 0, NULL, &err), TS_OK);
         unsetenv("TESSERA_BACKUP_UNITS");
         ts_unit u;
         ts_unit_result r;

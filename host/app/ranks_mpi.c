@@ -359,7 +359,7 @@ int ranks_finish(ts_ranks *r, ts_stats *stats, ts_error *err)
     ts_board done;
     memset(&done, 0, sizeof done);
     ts_sample_order one = {1, 1, 0};
-    if (board_init(&done, NULL, &one, 0, NULL, err)) return err->code;
+    if (board_init(&done, NULL, &one, 0, 0, NULL, err)) return err->code;
     int rc = TS_OK;
     while (!rc && ranks_active(r) > 0) {
         rc = serve(r, &done, r->quiet, err);

@@ -482,7 +482,8 @@ static int render_on_devices(ts_render *r, ts_error *err)
         f.unit_samples = r->unit_samples;
     else
         units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples);
-    job_choose_band(&r->job, &r->cam, f.unit_samples); /* a unit a band */
+    /* Pixel after pixel, as one device (done.h); units_list gathers units of whole pixels. */
+    job_choose_order(&r->job, &r->cam, sample_order_band_pixel(r->width, r->height, r->opt.spp));
     f.cam = r->cam;
     if (!r->opt.quiet && r->ranks)
         ts_print_line(
@@ -542,7 +543,8 @@ static int render_tell_ranks(ts_render *r, int rc, int up_to_date, ts_error *err
         units_plan(s.total - s.start, (uint32_t)(r->ranks->size * r->device_count),
                    &r->unit_samples);
         s.unit_samples = r->unit_samples;
-        job_choose_band(&r->job, &r->cam, r->unit_samples);
+        job_choose_order(&r->job, &r->cam,
+                         sample_order_band_pixel(r->width, r->height, r->opt.spp));
         s.cam = r->cam;
     }
     int told = ranks_start(r->ranks, &s, &r->scene, err);

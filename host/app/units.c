@@ -87,8 +87,8 @@ void units_plan(uint64_t samples, uint32_t workers, uint64_t *unit_samples)
     *unit_samples = u;
 }
 
-int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, ts_unit **units,
-               uint32_t *count, ts_error *err)
+int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, uint64_t gather,
+               ts_unit **units, uint32_t *count, ts_error *err)
 {
     *units = NULL, *count = 0;
     uint64_t band = sample_order_band_pixels(o);
@@ -97,10 +97,11 @@ int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, ts_un
     ts_unit *u = malloc((bands ? bands : 1) * sizeof *u);
     if (!u) return ts_error_set(err, TS_E_MEMORY, "out of memory");
     uint32_t n = 0, i = 0;
-    /* Bands of one pixel (one device's order, done.h, resumed on several): a unit takes the
-     * rest of a band and the whole bands after it, up to UNIT_MIN_SAMPLES samples, so that
-     * units stay large enough to fill a device; still no two units share a pixel. */
-    int gather = band == 1u && o->pixels > 1u;
+    /* Bands of one pixel (done.h): a unit takes the rest of a band and the whole bands after
+     * it, up to `gather` samples (units_plan's size; 0: UNIT_MIN_SAMPLES, enough to fill a
+     * device); still no two units share a pixel. */
+    int pixels = band == 1u && o->pixels > 1u;
+    if (gather == 0) gather = UNIT_MIN_SAMPLES;
     for (uint64_t b = 0; sample_order_band_runs(o, b, &first, &end, &zero_end); ++b) {
         if (end > total) end = total;
         /* What d holds of the band is a prefix of it (done.h): the unit is the rest. */
@@ -109,8 +110,8 @@ int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, ts_un
         int whole = !(i < d->count && d->r[i].first <= first);
         if (!whole) first = d->r[i].end < end ? d->r[i].end : end;
         if (first >= end) continue;
-        if (gather && whole && n > 0 && u[n - 1].first + u[n - 1].count == first &&
-            u[n - 1].count < UNIT_MIN_SAMPLES) {
+        if (pixels && whole && n > 0 && u[n - 1].first + u[n - 1].count == first &&
+            u[n - 1].count < gather) {
             u[n - 1].count += end - first;
             continue;
         }
@@ -124,7 +125,7 @@ int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, ts_un
 enum { UNIT_NONE, UNIT_OUT, UNIT_MERGED, UNIT_GIVEN_BACK };
 
 int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint64_t total,
-               const ts_done *held, ts_error *err)
+               uint64_t unit_samples, const ts_done *held, ts_error *err)
 {
     memset(b, 0, sizeof *b);
     b->film = film;
@@ -135,7 +136,7 @@ int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint6
     for (uint32_t i = 0; i < held->count; ++i)
         if (done_add(&b->done, held->r[i].first, held->r[i].end, err)) goto fail;
     b->start = done_samples(held);
-    if (units_list(o, total, held, &b->units, &b->unit_count, err)) goto fail;
+    if (units_list(o, total, held, unit_samples, &b->units, &b->unit_count, err)) goto fail;
     size_t n = b->unit_count ? b->unit_count : 1;
     b->state = calloc(n, 1);
     b->holders = calloc(n, 1);

@@ -55,14 +55,17 @@ void units_merge(ts_film_state *film, const ts_sample_order *o, const ts_unit *u
  * frame, and smaller bands keep each wave's patches closer together; docs/benchmarks.md), at least
  * 4096 samples (a wave too small fills no device) and at most 2^20 (16 MB of radiance), in
  * multiples of 64 (a work-group); TESSERA_UNIT_SAMPLES=N sets it (a testing aid: the image does not
- * depend on it). The frame's bands are made about this size (sample_order_band) and each unit is a
- * band (units_list). */
+ * depend on it). The frame's bands are single pixels (sample_order_band_pixel) gathered into units
+ * of this size, or, with TESSERA_SAMPLE_BAND_ROWS, rows of about this size, a unit each
+ * (units_list). */
 void units_plan(uint64_t samples, uint32_t workers, uint64_t *unit_samples);
 
-/* The units of the samples of [0, total) that d lacks: one a band (each band's run),
- * so that no two units share a pixel. *units is malloc'd (NULL and 0 when nothing is left). */
-int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, ts_unit **units,
-               uint32_t *count, ts_error *err);
+/* The units of the samples of [0, total) that d lacks: one a band (each band's run), or,
+ * for bands of one pixel (done.h sample_order_band_pixel), the rest of a band and the whole
+ * bands after it up to `gather` samples or more (0: 4096); so that no two units share a
+ * pixel. *units is malloc'd (NULL and 0 when nothing is left). */
+int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, uint64_t gather,
+               ts_unit **units, uint32_t *count, ts_error *err);
 
 /* Devices of one process that a board keeps the speeds of (slots 0 .. TS_BOARD_TAKERS - 1). */
 #define TS_BOARD_TAKERS 64
@@ -110,9 +113,10 @@ typedef struct ts_board {
 } ts_board;
 
 /* The board of a frame of `total` samples in order o, merging into film, which holds the
- * samples `held` (copied; NULL: none). TS_E_MEMORY when it cannot. */
+ * samples `held` (copied; NULL: none); units of about unit_samples where the bands are
+ * single pixels (units_list's gather; 0: the least). TS_E_MEMORY when it cannot. */
 int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint64_t total,
-               const ts_done *held, ts_error *err);
+               uint64_t unit_samples, const ts_done *held, ts_error *err);
 void board_free(ts_board *b);
 
 /* The next unit to trace into *u: a unit given back first, else the next in order. Returns

@@ -777,7 +777,9 @@ int workers_render(const ts_frame *frame, ts_film_state *film, const int *indice
     ts_sample_order order = sample_order_of(&frame->cam);
     ts_done held = {0};
     int rc = workers_open(&g, frame, indices, count, err);
-    if (!rc) rc = job_held(job, &held, err) || board_init(&b, film, &order, job->total, &held, err);
+    if (!rc)
+        rc = job_held(job, &held, err) ||
+             board_init(&b, film, &order, job->total, frame->unit_samples, &held, err);
     done_free(&held);
     if (!rc) rc = workers_start(&g, board_source(&b), 1, err);
     if (!rc) rc = frame_wait(&g, &b, service, end, err);
