@@ -214,6 +214,33 @@ static long progress_samples(void)
     return most;
 }
 
+/* Starts `tessera render SCENE -o OUT --device DEVICES ARGS` in the background (stderr to
+ * dir/stderr.txt), waits until its progress line reports more than `after` samples, sends
+ * SIGTERM and waits for it to write the finished samples and exit. */
+static void render_and_interrupt(const char *scene, const char *out, const char *devices,
+                                 const char *args, long after)
+{
+    char cmd[8192];
+    snprintf(cmd, sizeof cmd, "'%s' render '%s' -o '%s' --device %s %s 2>'%s' & echo $! > '%s'",
+             test_tessera_binary(), scene, in_dir(out), devices, args, in_dir("stderr.txt"),
+             in_dir("pid"));
+    assert_int_equal(system(cmd), 0);
+    FILE *f = fopen(in_dir("pid"), "r");
+    int pid = 0;
+    assert_true(f && fscanf(f, "%d", &pid) == 1);
+    fclose(f);
+    int progressed = 0;
+    for (int i = 0; i < 6000 && !progressed; ++i) { /* up to 60 s */
+        progressed = progress_samples() > after;
+        if (!progressed) nanosleep(&(struct timespec){0, 10000000}, NULL);
+    }
+    assert_true(progressed);
+    kill(pid, SIGTERM);
+    for (int i = 0; i < 6000 && kill(pid, 0) == 0; ++i)
+        nanosleep(&(struct timespec){0, 10000000}, NULL);
+    test_expect_in_stderr(dir, "interrupted by SIGTERM after ");
+}
+
 /* SIGTERM in the middle of a two-device render: the units merged so far are written (exit 3)
  * and --resume, on two devices or one, finishes it to the uninterrupted image. Units are
  * merged as they finish (each is a band of rows, no pixel in two), so with one device far
@@ -232,27 +259,10 @@ static void test_interrupted_two_device_render_resumes(void **state)
         snprintf(slow, sizeof slow, "%d:40,%d:3000", atoi(pair), atoi(strchr(pair, ',') + 1));
         setenv("TESSERA_SLOW_DEVICE", slow, 1); /* a render of a few seconds */
         setenv("TESSERA_UNIT_SAMPLES", "1024", 1);
-        char cmd[8192];
-        snprintf(cmd, sizeof cmd, "'%s' render '%s' -o '%s' --device %s %s 2>'%s' & echo $! > '%s'",
-                 test_tessera_binary(), scene, in_dir("cut.exr"), pair, args, in_dir("stderr.txt"),
-                 in_dir("pid"));
-        assert_int_equal(system(cmd), 0);
+        /* The environment is read at the start: interrupted once three units of 768 merged. */
+        render_and_interrupt(scene, "cut.exr", pair, args, 3 * 768 - 1);
         unsetenv("TESSERA_SLOW_DEVICE");
         unsetenv("TESSERA_UNIT_SAMPLES");
-        FILE *f = fopen(in_dir("pid"), "r");
-        int pid = 0;
-        assert_true(f && fscanf(f, "%d", &pid) == 1);
-        fclose(f);
-        int progressed = 0;                             /* three units of 768 merged */
-        for (int i = 0; i < 6000 && !progressed; ++i) { /* up to 60 s */
-            progressed = progress_samples() >= 3 * 768;
-            if (!progressed) nanosleep(&(struct timespec){0, 10000000}, NULL);
-        }
-        assert_true(progressed);
-        kill(pid, SIGTERM);
-        for (int i = 0; i < 6000 && kill(pid, 0) == 0; ++i)
-            nanosleep(&(struct timespec){0, 10000000}, NULL);
-        test_expect_in_stderr(dir, "interrupted by SIGTERM after ");
         int done = -1;
         ts_error err = {0};
         if (image_read_meta_int(in_dir("cut.exr"), "tessera:samples_done", &done, &err))
@@ -281,25 +291,7 @@ static void test_one_device_render_resumes_on_two(void **state)
     const char *args = "--res 320x180 --spp 4 --memory 16 --max-lod 6";
     render("scene/teapot.rib", "whole1.exr", first,
            "--res 320x180 --spp 4 --memory 16 --max-lod 6 --quiet");
-    char cmd[8192];
-    snprintf(cmd, sizeof cmd, "'%s' render '%s' -o '%s' --device %s %s 2>'%s' & echo $! > '%s'",
-             test_tessera_binary(), scene, in_dir("cut1.exr"), first, args, in_dir("stderr.txt"),
-             in_dir("pid"));
-    assert_int_equal(system(cmd), 0);
-    FILE *f = fopen(in_dir("pid"), "r");
-    int pid = 0;
-    assert_true(f && fscanf(f, "%d", &pid) == 1);
-    fclose(f);
-    int progressed = 0;
-    for (int i = 0; i < 6000 && !progressed; ++i) { /* up to 60 s: a wave finished */
-        progressed = progress_samples() > 0;
-        if (!progressed) nanosleep(&(struct timespec){0, 10000000}, NULL);
-    }
-    assert_true(progressed);
-    kill(pid, SIGTERM);
-    for (int i = 0; i < 6000 && kill(pid, 0) == 0; ++i)
-        nanosleep(&(struct timespec){0, 10000000}, NULL);
-    test_expect_in_stderr(dir, "interrupted by SIGTERM after ");
+    render_and_interrupt(scene, "cut1.exr", first, args, 0); /* after a wave */
     int done = -1, band = -1;
     ts_error err = {0};
     if (image_read_meta_int(in_dir("cut1.exr"), "tessera:samples_done", &done, &err) ||
