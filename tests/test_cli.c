@@ -96,6 +96,15 @@ static void test_bad_input(void **state)
     expect_error(args, "bad value '32x24junk' for --res");
     snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res=32x", teapot, dir);
     expect_error(args, "bad value '32x' for --res");
+    /* --dicing-rate: a plain decimal in 1/64..64 (no sign, space, hex, inf or nan). */
+    const char *rates[] = {"0", "-1", "+2", " 2", "0x2", "inf", "nan", "65", "0.015", "2x", ""};
+    for (size_t i = 0; i < sizeof rates / sizeof *rates; ++i) {
+        char want[64];
+        snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --dicing-rate '%s'", teapot, dir,
+                 rates[i]);
+        snprintf(want, sizeof want, "bad value '%s' for --dicing-rate", rates[i]);
+        expect_error(args, want);
+    }
     setenv("TESSERA_DEVICE", "abc", 1);
     snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 8x8", teapot, dir);
     expect_error(args, "TESSERA_DEVICE=abc is not a device index");
