@@ -103,7 +103,7 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
     uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
     /* Pixel after pixel: a wave holds the samples of about per_wave / spp consecutive pixels,
      * the rows a band of rows would give it, each pixel's samples together (done.h). */
-    job_choose_order(job, &cam, sample_order_band_pixel(cam.width, cam.height, cam.spp));
+    job_choose_band(job, &cam);
     interrupt_install();
     double t0 = stats_now();
     for (uint64_t first = start; first < total; first += per_wave) {
@@ -482,8 +482,7 @@ static int render_on_devices(ts_render *r, ts_error *err)
         f.unit_samples = r->unit_samples;
     else
         units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples);
-    /* Pixel after pixel, as one device (done.h); units_list gathers units of whole pixels. */
-    job_choose_order(&r->job, &r->cam, sample_order_band_pixel(r->width, r->height, r->opt.spp));
+    job_choose_band(&r->job, &r->cam); /* units_list gathers units of whole pixels */
     f.cam = r->cam;
     if (!r->opt.quiet && r->ranks)
         ts_print_line(
@@ -543,8 +542,7 @@ static int render_tell_ranks(ts_render *r, int rc, int up_to_date, ts_error *err
         units_plan(s.total - s.start, (uint32_t)(r->ranks->size * r->device_count),
                    &r->unit_samples);
         s.unit_samples = r->unit_samples;
-        job_choose_order(&r->job, &r->cam,
-                         sample_order_band_pixel(r->width, r->height, r->opt.spp));
+        job_choose_band(&r->job, &r->cam);
         s.cam = r->cam;
     }
     int told = ranks_start(r->ranks, &s, &r->scene, err);

@@ -97,17 +97,9 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
     return TS_OK;
 }
 
-void job_choose_band(ts_job *job, ts_camera_params *cam, uint64_t band_samples)
+void job_choose_band(ts_job *job, ts_camera_params *cam)
 {
-    job_choose_order(job, cam,
-                     job->has_band
-                         ? job->band
-                         : sample_order_band(cam->width, cam->height, cam->spp, band_samples));
-}
-
-void job_choose_order(ts_job *job, ts_camera_params *cam, uint32_t band)
-{
-    if (!job->has_band) job->band = band;
+    if (!job->has_band) job->band = sample_order_band_pixel(cam->width, cam->height, cam->spp);
     job->has_band = 1;
     cam->band = job->band;
 }

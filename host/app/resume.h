@@ -101,12 +101,10 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
  * left them in p->patch_lod, or --lod (clamped to the plan like trace.c does). */
 int32_t job_lod_hash(const ts_pipeline *p, const ts_render_options *o);
 
-/* The frame's sample order for job: bands of about band_samples samples
- * (sample_order_band), unless the samples already traced (--resume, a retry) had an order of
- * their own; recorded in job->band and cam->band. */
-void job_choose_band(ts_job *job, ts_camera_params *cam, uint64_t band_samples);
-/* The same with the band given (pixels a band; 0: one band). */
-void job_choose_order(ts_job *job, ts_camera_params *cam, uint32_t band);
+/* The frame's sample order for job: pixel after pixel (done.h sample_order_band_pixel, which
+ * TESSERA_SAMPLE_BAND_ROWS turns into bands of rows), unless the samples already traced
+ * (--resume, a retry) had an order of their own; recorded in job->band and cam->band. */
+void job_choose_band(ts_job *job, ts_camera_params *cam);
 
 /* The samples the film of job holds, into *held (empty before): job->done, or the prefix
  * [0, job->samples_done). TS_E_MEMORY when it cannot. */

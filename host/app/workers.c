@@ -294,15 +294,12 @@ static int worker_take_lod(ts_worker *w, int *lod_failed, ts_error *err)
     return TS_OK;
 }
 
-/* Reads the wave's results (n samples from `first`) into the unit's: radiance, and the
- * AOVs of the samples that are their pixels' samples 0 (in runs, sample_order_zero_run).
- * Timed as `film`. */
+/* The AOVs and albedo of the samples 0 among the wave's n samples from `first`, into aov and
+ * albedo, in pixel order (bands of one pixel, done.h): a sample 0 every spp samples, so the
+ * wave's are read whole and the samples 0 picked out rather than read one by one. */
 static int worker_read_aov_strided(ts_worker *w, const ts_sample_order *o, uint64_t first,
                                    uint32_t n, ts_vec4 *aov, ts_vec4 *albedo, ts_error *err)
 {
-    /* One device's order (bands of one pixel, done.h) resumed here: a sample 0 every spp
-     * samples, so the wave's AOVs are read whole and the samples 0 picked out, rather than
-     * read one by one. */
     ts_pipeline *p = &w->pipe;
     ts_vec4 *tmp = malloc(2 * (size_t)n * sizeof *tmp);
     if (!tmp) return ts_error_set(err, TS_E_MEMORY, "out of memory for the AOVs of a unit");
@@ -318,6 +315,9 @@ static int worker_read_aov_strided(ts_worker *w, const ts_sample_order *o, uint6
     return rc ? err->code : TS_OK;
 }
 
+/* Reads the wave's results (n samples from `first`) into the unit's: radiance, and the
+ * AOVs of the samples that are their pixels' samples 0 (in runs, sample_order_zero_run;
+ * picked from the whole wave's in pixel order). Timed as `film`. */
 static int worker_read_wave(ts_worker *w, const ts_unit *u, uint64_t first, uint32_t n,
                             ts_unit_result *r, ts_error *err)
 {
@@ -328,12 +328,11 @@ static int worker_read_wave(ts_worker *w, const ts_unit *u, uint64_t first, uint
     uint64_t j = sample_order_zero_count(&o, u->first, at); /* the unit's AOVs before it */
     int rc = dev_read(&w->cl, p->radiance, 0, (size_t)n * sizeof(ts_vec4), r->radiance + at,
                       "the radiance of a unit", err);
-    if (!rc && o.band == 1u && o.spp > 1u) { /* pixel after pixel: every spp-th sample */
+    int strided = o.band == 1u && o.spp > 1u; /* pixel after pixel: every spp-th sample */
+    if (!rc && strided)
         rc = worker_read_aov_strided(w, &o, first, n, r->aov + j, r->albedo + j, err);
-        w->stats.stage_seconds[TS_STAGE_film] += stats_now() - t0;
-        return rc ? err->code : TS_OK;
-    }
-    for (uint64_t k = first; !rc && k < end && sample_order_zero_run(&o, k, end - k, &k0, &k1);
+    for (uint64_t k = first;
+         !rc && !strided && k < end && sample_order_zero_run(&o, k, end - k, &k0, &k1);
          k = k1, j += k1 - k0) {
         size_t off = (size_t)(k0 - first) * sizeof(ts_vec4), bytes = (k1 - k0) * sizeof(ts_vec4);
         rc = dev_read(&w->cl, p->aov, off, bytes, r->aov + j, "the AOVs of a unit", err) ||
