@@ -7,7 +7,9 @@
  * Writes: grid[vert_first + time * (2^m+1)^2 + j * (2^m+1) + i] = patch_vertex(i 2^-m, j 2^-m):
  *         xyz the displaced position, w the displacement d (build recovers the undisplaced
  *         point from it).
- * Parameters are i * 2^-m exactly (ldexp), so the host references dice the same points. */
+ * Parameters are i * 2^-m exactly (ldexp), so the host references dice the same points. In
+ * triangle mode the vertices of an edge shared with a patch diced coarser are that patch's
+ * (quadtree_stitch), so no crack opens between them. */
 #include "lib/shared_types.h"
 #include "lib/noise4.h"
 #include "lib/patch.h"
@@ -33,8 +35,12 @@ __kernel void dice_grid(__global const uint *trees, uint tree_first, uint tree_c
     __global const ts_vec4 *c0 = cp0 + (size_t)seg.shape * 16u;
     __global const ts_vec4 *c = time ? cp1 + (size_t)seg.shape * 16u : c0;
     __global const ts_patch_attr *a = attr + seg.shape;
-    float u = quadtree_vertex_param(v % n, m);
-    float w = quadtree_vertex_param(v / n, m);
+    /* Triangle mode moves the vertices of an edge towards a coarser neighbour onto its grid
+     * (lib/quadtree.h quadtree_stitch: the edges' level differences in seg.flags). */
+    uint i = v % n, j = v / n;
+    quadtree_stitch(seg.flags >> TS_SEG_EDGE_SHIFT, m, &i, &j);
+    float u = quadtree_vertex_param(i, m);
+    float w = quadtree_vertex_param(j, m);
     grid[(size_t)seg.vert_first + time * nv + v] =
         patch_vertex_x8(c, c0, corner_n + (size_t)seg.shape * 4u, mid_n + (size_t)seg.shape * 5u, a,
                         xform + a->xform, tex, u, w);

@@ -16,8 +16,9 @@
  *         chunk needs resident, host/pipeline/shade.c); with --occlusion the baked points
  *         (relight_patch, relight_coeffs, relight_normal) and the domes' tables
  *         (relight_light, host/pipeline/relight.c); the diced grids of resident patches
- *         (grid, grid_at: vert_first and m per patch, TS_INVALID where none;
- *         host/pipeline/pipeline.h pipeline_grid_publish) for the shading normals.
+ *         (grid, grid_at: vert_first and m per patch, TS_INVALID where none, and the
+ *         patch's stitched edges in triangle mode; host/pipeline/pipeline.h
+ *         pipeline_grid_publish) for the shading normals.
  * Writes: radiance (accumulated per path), aov (normal, Z) and albedo at the eye hit, the
  *         path's next rays into its two slots (org, dir, hit, entry, flags), path state,
  *         alive[k] (per list slot k): the TS_PATH_TRACED_* bits of the rays it traces next.
@@ -160,7 +161,8 @@ inline shade_vertex shade_vertex_at(ts_hit h, ts_vec4 o4, ts_v3 d, float time,
     __global const ts_vec4 *c = cp + (size_t)h.patch * 16u;
     uint m = TS_PRIM_LOD(h.prim), q = TS_PRIM_INDEX(h.prim) >> 1;
     uint qi = q & ((1u << m) - 1u), qj = q >> m;
-    uint gf = grid_at[2u * h.patch], gm = grid_at[2u * h.patch + 1u];
+    uint gf = grid_at[3u * h.patch], gm = grid_at[3u * h.patch + 1u];
+    uint edges = grid_at[3u * h.patch + 2u]; /* triangle mode's stitching (dice.cl) */
     ts_vec4 n4;
     /* The hit micro-quad's normal from its four vertices: read from the diced grid where the
      * patch is still resident at this m (pipeline_grid_publish), else evaluated (the same
@@ -172,7 +174,7 @@ inline shade_vertex shade_vertex_at(ts_hit h, ts_vec4 o4, ts_v3 d, float time,
     } else {
         n4 = patch_quad_shading_normal_x4(c, corner_n + (size_t)h.patch * 4u,
                                           mid_n + (size_t)h.patch * 5u, v.a, xform + v.a->xform,
-                                          tex, h.u, h.v, qi, qj, m);
+                                          tex, h.u, h.v, qi, qj, m, edges);
     }
     tex_surface_colour(v.a, tex, h.u, h.v, v.cs);
     v.n = v3(n4.x, n4.y, n4.z), v.wo = v3_scale(d, -1.0f);
@@ -391,7 +393,8 @@ __kernel void shade_normal_probe(__global const float *uv, __global const uint *
     uint q = pm[4u * i], m = pm[4u * i + 1u];
     __global const ts_patch_attr *a = attr + q;
     ts_tex_ctx tex = {textures, tex_pages, tex_pool};
-    out[i] = patch_quad_shading_normal_x4(
-        cp + (size_t)q * 16u, corner_n + (size_t)q * 4u, mid_n + (size_t)q * 5u, a,
-        xform + a->xform, tex, uv[2u * i], uv[2u * i + 1u], pm[4u * i + 2u], pm[4u * i + 3u], m);
+    out[i] =
+        patch_quad_shading_normal_x4(cp + (size_t)q * 16u, corner_n + (size_t)q * 4u,
+                                     mid_n + (size_t)q * 5u, a, xform + a->xform, tex, uv[2u * i],
+                                     uv[2u * i + 1u], pm[4u * i + 2u], pm[4u * i + 3u], m, 0u);
 }

@@ -272,7 +272,10 @@ static void test_instances(void **state)
     for (uint32_t q = 0; q < Q; ++q) { /* each segment holds its shape's dicing */
         const ts_segment *sg = &p.segments_host[q];
         assert_int_equal(sg->shape, q % P);
-        dice_build_ref(&s, sg->shape, sg->lod, 0, hgrid, hgroups, hcodes);
+        /* the pipeline's default mode is exact: edges towards coarser masters are stitched */
+        dice_build_ref_stitched(&s, sg->shape, sg->lod, 0,
+                                pipeline_stitch_edges(&p, sg->shape, sg->lod), hgrid, hgroups,
+                                hcodes);
         if (memcmp(hgrid, grid + sg->vert_first, quadtree_vertex_count(sg->lod) * sizeof *grid) ||
             memcmp(hgroups, groups + sg->group_first,
                    quadtree_group_count(sg->lod) * sizeof *groups) ||

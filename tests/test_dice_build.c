@@ -4,7 +4,8 @@
  * boxes hold the displaced surface at random points of their parameter squares and inner
  * boxes are the union of their children (exact); every vertex lies in the patch's
  * top-level box; build's lane form of the displacement-normal box against the host's, bit for
- * bit, on random normals. */
+ * bit, on random normals; triangle mode's stitching across levels of detail against the
+ * reference, and the shared edges' vertices the same on both sides. */
 #include "test_support.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
@@ -325,6 +326,142 @@ static void test_dice_and_build_match_reference(void **state)
     scene_free(&s);
 }
 
+/* Six displaced patches in a 3 x 2 sheet, sharing edges bit for bit (z a function of the
+ * shared x, y), fBm on every one. */
+static void sheet_scene(ts_scene *s)
+{
+    memset(s, 0, sizeof *s);
+    ts_error err = {0};
+    for (int b = 0; b < 2; ++b)
+        for (int a = 0; a < 3; ++a) {
+            double cp[16][3];
+            for (int j = 0; j < 4; ++j)
+                for (int i = 0; i < 4; ++i) {
+                    double x = a + i / 3.0, y = b + j / 3.0;
+                    cp[j * 4 + i][0] = x, cp[j * 4 + i][1] = y;
+                    cp[j * 4 + i][2] = 0.3 * sin(1.7 * x) * cos(1.3 * y);
+                }
+            ts_patch_attr at = {.cs_r = 1, .cs_g = 1, .cs_b = 1, .disp_kind = TS_DISP_FBM};
+            at.disp_octaves = 4, at.disp_amplitude = 0.2f, at.disp_frequency = 2.5f;
+            at.disp_lacunarity = 2.0f, at.disp_gain = 0.5f;
+            assert_int_equal(scene_add_patch(s, cp, &at, &err), TS_OK);
+        }
+    assert_int_equal(scene_finalize(s, &err), TS_OK);
+}
+
+/* Vertex t of edge k (lib/quadtree.h quadtree_stitch's numbering) of an n x n grid. */
+static ts_vec4 edge_vertex(const ts_vec4 *g, uint32_t n, uint32_t k, uint32_t t)
+{
+    return k == 0 ? g[t] : k == 1 ? g[t * n] : k == 2 ? g[t * n + n - 1] : g[(n - 1) * n + t];
+}
+
+/* Triangle mode's stitching across levels of detail (dice.cl, quadtree_stitch): each patch of
+ * a sheet diced at its own m, the edges towards coarser neighbours get their vertices. The
+ * grids and trees equal dice_build_ref_stitched's bit for bit, in both leaf modes (box mode's
+ * leaves grown to hold the moved vertices), and along every shared edge the finer patch's
+ * vertices, repeats removed, are the coarser one's, bit for bit: the same triangle edges on
+ * both sides, so the watertight test opens no crack. Without stitching (m differing) the
+ * finer edge has vertices the coarser lacks. */
+static void test_stitched_edges_share_vertices(void **state)
+{
+    (void)state;
+    ts_scene s;
+    sheet_scene(&s);
+    static const uint32_t lods[6] = {4, 2, 3, 5, 3, 1};
+    for (int tight = 0; tight <= 1; ++tight) {
+        ts_device cl;
+        test_open_device(&cl);
+        ts_stats stats;
+        memset(&stats, 0, sizeof stats);
+        ts_error err = {0};
+        ts_pipeline_plan plan = {.ray_capacity = 64, .pair_capacity = 512};
+        pipeline_plan_arenas(&plan, 6, 5);
+        ts_pipeline p;
+        if (pipeline_create(&p, &cl, &s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
+        p.mode.exact = 1, p.mode.tight = tight, p.mode.fixed_lod = -1; /* levels: patch_lod */
+        for (uint32_t i = 0; i < 6; ++i) {
+            p.patch_lod[i] = (uint8_t)lods[i];
+            p.segments_host[i] = (ts_segment){.patch = i, .lod = lods[i]};
+        }
+        if (pipeline_dice_build(&p, 6, &err)) fail_msg("%s", err.msg);
+        size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4);
+        size_t nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
+        size_t cbytes = (size_t)plan.group_capacity * sizeof(ts_tight4);
+        ts_vec4 *grid = malloc(gbytes);
+        ts_box4 *nodes = malloc(nbytes);
+        ts_tight4 *codes = malloc(cbytes);
+        assert_true(grid && nodes && codes);
+        assert_int_equal(
+            clEnqueueReadBuffer(cl.queue, p.grid, CL_TRUE, 0, gbytes, grid, 0, NULL, NULL),
+            CL_SUCCESS);
+        assert_int_equal(
+            clEnqueueReadBuffer(cl.queue, p.groups, CL_TRUE, 0, nbytes, nodes, 0, NULL, NULL),
+            CL_SUCCESS);
+        assert_int_equal(
+            clEnqueueReadBuffer(cl.queue, p.tight, CL_TRUE, 0, cbytes, codes, 0, NULL, NULL),
+            CL_SUCCESS);
+        const ts_vec4 *at[6];
+        uint32_t stitched = 0;
+        for (uint32_t i = 0; i < 6; ++i) {
+            const ts_segment *seg = NULL;
+            for (uint32_t k = 0; k < 6; ++k)
+                if (p.segments_host[k].patch == i) seg = &p.segments_host[k];
+            assert_non_null(seg);
+            uint32_t m = seg->lod, edges = pipeline_stitch_edges(&p, i, m),
+                     ng = quadtree_group_count(m);
+            assert_int_equal(seg->flags >> TS_SEG_EDGE_SHIFT, edges);
+            stitched += edges != 0;
+            at[i] = grid + seg->vert_first;
+            ts_vec4 *hgrid = malloc(quadtree_vertex_count(m) * sizeof *hgrid);
+            ts_box4 *hnodes = malloc(ng * sizeof *hnodes);
+            ts_tight4 *hcodes = malloc(ng * sizeof *hcodes);
+            assert_true(hgrid && hnodes && hcodes);
+            dice_build_ref_stitched(&s, i, m, tight, edges, hgrid, hnodes, hcodes);
+            if (memcmp(hgrid, at[i], quadtree_vertex_count(m) * sizeof *hgrid) ||
+                memcmp(hnodes, nodes + seg->group_first, ng * sizeof *hnodes) ||
+                memcmp(hcodes, codes + seg->group_first, ng * sizeof *hcodes))
+                fail_msg("patch %u m %u edges %x: dice/build differ from the reference (tight %d)",
+                         i, m, edges, tight);
+            free(hgrid), free(hnodes), free(hcodes);
+        }
+        assert_true(stitched >= 3);
+        /* Every shared edge: the finer side's vertices without repeats are the coarser's. */
+        uint32_t shared = 0;
+        for (uint32_t i = 0; i < 6; ++i)
+            for (uint32_t k = 0; k < 4; ++k) {
+                uint32_t nb = p.edge_nb[4 * i + k];
+                if (nb == TS_INVALID || lods[nb] > lods[i] || (lods[nb] == lods[i] && nb < i))
+                    continue;
+                uint32_t kb = 0; /* the neighbour's edge back to i */
+                while (kb < 4 && p.edge_nb[4 * nb + kb] != i)
+                    ++kb;
+                assert_true(kb < 4);
+                uint32_t n = (1u << lods[i]) + 1u, nn = (1u << lods[nb]) + 1u, len = 0;
+                ts_vec4 seq[33];
+                for (uint32_t t = 0; t < n; ++t) {
+                    ts_vec4 v = edge_vertex(at[i], n, k, t);
+                    if (len == 0 || memcmp(&v, &seq[len - 1], sizeof v) != 0) seq[len++] = v;
+                }
+                assert_int_equal(len, nn);
+                int same = 1, reversed = 1;
+                for (uint32_t t = 0; t < nn; ++t) {
+                    ts_vec4 w = edge_vertex(at[nb], nn, kb, t);
+                    same &= memcmp(&seq[t], &w, sizeof w) == 0;
+                    reversed &= memcmp(&seq[nn - 1 - t], &w, sizeof w) == 0;
+                }
+                if (!same && !reversed)
+                    fail_msg("edge %u of patch %u (m %u) against patch %u (m %u): vertices differ",
+                             k, i, lods[i], nb, lods[nb]);
+                ++shared;
+            }
+        assert_int_equal(shared, 7); /* a 3 x 2 sheet has 7 inner edges */
+        free(grid), free(nodes), free(codes);
+        pipeline_destroy(&p);
+        dev_close(&cl);
+    }
+    scene_free(&s);
+}
+
 static void test_dice_and_build_textured(void **state)
 {
     (void)state;
@@ -433,6 +570,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_dice_and_build_match_reference),
                                        cmocka_unit_test(test_dice_and_build_textured),
+                                       cmocka_unit_test(test_stitched_edges_share_vertices),
                                        cmocka_unit_test(test_normal_box_lanes)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,7 +1,8 @@
 /* test_geometry.c — the complete two-level algorithm as a user runs it (issue 3):
  * - hole-free: a closed sphere of fbm-displaced Bézier patches seen from inside through a
  *   160-degree lens, so ray density and therefore m vary widely between neighbours: with leaf
- *   boxes as geometry (Hanika §3.3) no ray escapes;
+ *   boxes as geometry (Hanika §3.3) no ray escapes, nor with exact micro-triangles, more
+ *   strongly displaced, whose edges towards coarser neighbours are stitched;
  * - the memory budget changes nothing: two very different --memory values give bitwise
  *   identical images; neither does the patch cache, which dices every patch once when the
  *   frame's patches fit and evicts when they do not;
@@ -71,6 +72,45 @@ static void test_displaced_sphere_is_hole_free_from_inside(void **state)
     for (int m = 0; m <= 10; ++m) {
         snprintf(key, sizeof key, "lod_histogram.%d", m);
         levels += test_stats_number(path("sphere.json"), key) > 0;
+    }
+    assert_true(levels >= 3);
+}
+
+/* Triangle mode across levels of detail: the same closed sphere, displaced 2.5x more with
+ * six octaves, seen from inside at levels 6 to 8 side by side. The edges of a patch towards
+ * a coarser neighbour take the neighbour's vertices (dice.cl, quadtree_stitch), so the
+ * watertight triangle test lets no ray out between them (before the stitching one ray of
+ * 131,072 escaped here with seed 1). */
+static void test_triangles_hole_free_across_levels(void **state)
+{
+    FILE *f = fopen(path("sphere_tri.rib"), "w");
+    assert_non_null(f);
+    fprintf(f, "Format 256 256 1\nProjection \"perspective\" \"fov\" [160]\nWorldBegin\n"
+               "Displacement \"fbm\" \"float amplitude\" [0.15] \"float frequency\" [3] "
+               "\"float octaves\" [6]\n");
+    test_write_sphere_patches(f, 3, 1.0);
+    fputs("WorldEnd\n", f);
+    fclose(f);
+    int escaped = 0;
+    for (int seed = 1; seed <= 3; ++seed) {
+        char args[16384];
+        snprintf(args, sizeof args,
+                 "render '%s' -o '%s' --spp 2 --depth 0 --seed %d --max-lod 8 --intersect "
+                 "triangles --stats '%s' --quiet",
+                 path("sphere_tri.rib"), path("sphere_tri.exr"), seed, path("sphere_tri.json"));
+        render_ok(args);
+        ts_image img;
+        load("sphere_tri.exr", &img);
+        for (int i = 0; i < img.width * img.height; ++i)
+            escaped += isinf(img.pixels[i * img.channels + 3]);
+        image_free(&img);
+    }
+    assert_int_equal(escaped, 0);
+    int levels = 0;
+    char key[64];
+    for (int m = 0; m <= 10; ++m) {
+        snprintf(key, sizeof key, "lod_histogram.%d", m);
+        levels += test_stats_number(path("sphere_tri.json"), key) > 0;
     }
     assert_true(levels >= 3);
 }
@@ -478,6 +518,7 @@ int main(void)
         cmocka_unit_test(test_memory_budget_does_not_change_the_image),
         cmocka_unit_test(test_sort_by_copy_matches_mapped_sort),
         cmocka_unit_test(test_dicing_rate_scales_the_micro_quads),
+        cmocka_unit_test(test_triangles_hole_free_across_levels),
         cmocka_unit_test(test_patch_cache_dices_once_and_changes_no_bit),
         cmocka_unit_test(test_grid_normals_change_no_bit),
         cmocka_unit_test(test_tight_leaves_change_no_bit),

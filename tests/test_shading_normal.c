@@ -86,7 +86,7 @@ static void check_scene(const char *extra)
         uint32_t q = pm[4 * i], m = pm[4 * i + 1], qi = pm[4 * i + 2], qj = pm[4 * i + 3];
         dice_build_ref_patch r = dice_build_ref_patch_of(&s, q);
         ts_vec4 h = patch_quad_shading_normal(r.cp0, r.cn, r.mn, r.a, r.x, r.tex, uv[2 * i],
-                                              uv[2 * i + 1], qi, qj, m);
+                                              uv[2 * i + 1], qi, qj, m, 0u);
         if (memcmp(&h, &dev[i], sizeof h))
             fail_msg("patch %u m %u quad (%u, %u) (u, v) = (%a, %a): device (%a %a %a %a), C (%a "
                      "%a %a %a)",

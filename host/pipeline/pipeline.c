@@ -285,7 +285,7 @@ static int clear_buffers(ts_pipeline *p, const buffer_counts *c, ts_error *err)
                  "the culling levels", err) ||
         dev_fill(p->cl, p->utilisation, &zero_u, sizeof zero_u, 0,
                  2 * c->util_groups * sizeof(cl_uint), "the leaf utilisation", err) ||
-        dev_fill(p->cl, p->grid_at, &none, sizeof none, 0, 2 * c->patches * sizeof(cl_uint),
+        dev_fill(p->cl, p->grid_at, &none, sizeof none, 0, 3 * c->patches * sizeof(cl_uint),
                  "the resident grids' table", err))
         return err->code;
     p->util_used = 0;
@@ -322,11 +322,13 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     p->patch_lod = malloc(n);
     p->rough_lod = malloc(n);
     p->cull_key = calloc(n, sizeof *p->cull_key);
-    p->grid_at_host = malloc(2 * n * sizeof *p->grid_at_host);
+    p->grid_at_host = malloc(3 * n * sizeof *p->grid_at_host);
+    p->edge_nb = malloc(4 * n * sizeof *p->edge_nb);
     if (!*boxes || !p->segments_host || !p->trees_host || !p->batches || !p->patch_lod ||
-        !p->rough_lod || !p->cull_key || !p->grid_at_host)
+        !p->rough_lod || !p->cull_key || !p->grid_at_host || !p->edge_nb)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
-    memset(p->grid_at_host, 0xff, 2 * n * sizeof *p->grid_at_host);
+    memset(p->grid_at_host, 0xff, 3 * n * sizeof *p->grid_at_host);
+    if (scene_edge_neighbours(s, p->edge_nb, err)) return err->code;
     memset(p->patch_lod, (int)p->plan.max_lod, n);
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         (*boxes)[i] = scene_patch_box(s, i);
@@ -425,6 +427,7 @@ void pipeline_destroy(ts_pipeline *p)
     free(p->patch_lod), free(p->rough_lod);
     free(p->cull_key);
     free(p->grid_at_host);
+    free(p->edge_nb);
     qbvh_free(&p->qbvh);
     memset(p, 0, sizeof *p);
 }
@@ -526,6 +529,13 @@ int pipeline_lod_finish_with(ts_pipeline *p, ts_lod_rule rule, int before_hit, c
     }
     free(counts);
     if (rc == TS_OK) lod_share(p);
+    /* In triangle mode a patch's grid also depends on its neighbours' levels (stitching), so
+     * what was diced at the old levels goes, and so do the culling copies of its trees. */
+    if (rc == TS_OK && p->mode.exact) {
+        patch_cache_clear(&p->cache);
+        for (uint32_t i = 0; i < n; ++i)
+            if (p->cull_key[i]) p->cull_key[i] = UINT16_MAX;
+    }
     /* The patch cache keeps its patches: each is keyed by its m, so one whose level changed
      * is simply diced again when a segment asks for it. */
     p->stats->stage_seconds[TS_STAGE_lod] += stats_now() - t0;
@@ -641,19 +651,33 @@ int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_err
 /* Writes grid_at for shade where the patch cache changed since the last time: vert_first
  * and m of each patch resident in the arenas (its own dicing, not a master's), TS_INVALID
  * elsewhere, or everywhere with TESSERA_GRID_NORMALS=0. */
+uint32_t pipeline_stitch_edges(const ts_pipeline *p, uint32_t patch, uint32_t m)
+{
+    uint32_t edges = 0;
+    if (!p->mode.exact) return 0;
+    for (uint32_t k = 0; k < 4; ++k) {
+        uint32_t nb = p->edge_nb[4 * (size_t)patch + k];
+        uint32_t mn = nb == TS_INVALID ? m : pipeline_patch_lod(p, nb);
+        if (mn < m) edges |= (m - mn < 15u ? m - mn : 15u) << (4 * k);
+    }
+    return edges;
+}
+
 int pipeline_grid_publish(ts_pipeline *p, ts_error *err)
 {
     size_t n = p->scene->patch_count ? p->scene->patch_count : 1;
     int changed = 0;
-    for (size_t i = 0; i < p->scene->patch_count; ++i) {
+    for (uint32_t i = 0; i < p->scene->patch_count; ++i) {
         const ts_cache_entry *e = &p->cache.entry[i];
         int ok = !p->grid_off && e->resident; /* entries are per patch diced (its shape) */
         uint32_t first = ok ? e->vert_first : TS_INVALID, m = ok ? e->lod : TS_INVALID;
-        if (p->grid_at_host[2 * i] != first || p->grid_at_host[2 * i + 1] != m)
-            p->grid_at_host[2 * i] = first, p->grid_at_host[2 * i + 1] = m, changed = 1;
+        uint32_t edges = pipeline_stitch_edges(p, i, pipeline_patch_lod(p, i));
+        uint32_t *at = &p->grid_at_host[3 * (size_t)i];
+        if (at[0] != first || at[1] != m || at[2] != edges)
+            at[0] = first, at[1] = m, at[2] = edges, changed = 1;
     }
     if (!changed) return TS_OK;
-    return dev_write(p->cl, p->grid_at, 0, 2 * n * sizeof *p->grid_at_host, p->grid_at_host,
+    return dev_write(p->cl, p->grid_at, 0, 3 * n * sizeof *p->grid_at_host, p->grid_at_host,
                      "the resident grids' table", err);
 }
 

@@ -166,7 +166,7 @@ typedef struct ts_trace_mode {
     X(cull,            CL_MEM_READ_WRITE, ts_box4,       TS_CULL_GROUPS * c.patches, NULL)      \
     X(cull_levels,     CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \
     /* Where each patch's diced grid is resident, for shade (pipeline_grid_publish). */        \
-    X(grid_at,         CL_MEM_READ_ONLY,  ts_u32,        2 * c.patches,  NULL)                  \
+    X(grid_at,         CL_MEM_READ_ONLY,  ts_u32,        3 * c.patches,  NULL)                  \
     /* Per pixel: the film. */                                                                  \
     X(accum,           TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
     X(aov_film,        TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
@@ -235,10 +235,14 @@ typedef struct ts_pipeline {
     ts_patch_cache cache;
     int cache_off;
     /* The table shade last got in grid_at (pipeline_grid_publish): vert_first and m of each
-     * patch resident in the arenas, TS_INVALID elsewhere; grid_off (TESSERA_GRID_NORMALS=0,
-     * for checks) publishes none, so shade evaluates every normal. */
+     * patch resident in the arenas, TS_INVALID elsewhere, and the patch's stitched edges
+     * (pipeline_stitch_edges); grid_off (TESSERA_GRID_NORMALS=0, for checks) publishes no
+     * grid, so shade evaluates every normal. */
     uint32_t *grid_at_host;
     int grid_off;
+    /* The patch across each edge of each patch (scene_edge_neighbours), for triangle mode's
+     * stitching. */
+    uint32_t *edge_nb;
     /* The store this device shares built patches through with the devices of its process
      * that compute alike (patch_share.h; app/workers.c sets it once the frame's levels of
      * detail are known), and its slot there; NULL: every miss is diced here. */
@@ -348,6 +352,10 @@ int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_err
  * the hit's m and evaluates them (the same bits) where it is not, so the image does not depend
  * on the cache, --memory or TESSERA_GRID_NORMALS=0 (none published, for checks). */
 int pipeline_grid_publish(ts_pipeline *p, ts_error *err);
+/* Triangle mode's stitching of patch `patch` diced at m (lib/quadtree.h quadtree_stitch): for
+ * each edge k, in bits 4k..4k+3, how many levels coarser the patch across it is diced; 0 in
+ * box mode, where the leaf boxes keep neighbours at different levels hole-free. */
+uint32_t pipeline_stitch_edges(const ts_pipeline *p, uint32_t patch, uint32_t m);
 /* Waves of `rays` rays from now on: every buffer sized by the plan's ray_capacity and
  * pair_capacity (the ray and path fields, TS_PIPELINE_WAVE_BUFFERS, the sort's host copies)
  * is released and made again at the new size; nothing in them is kept, so it is called

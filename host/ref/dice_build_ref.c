@@ -119,26 +119,41 @@ ts_box dice_build_ref_leaf(const dice_build_ref_patch *q, const ts_vec4 *grid, u
     return leaf_clamp(leaf_box(grid, time, m, k, q, d, domain), q->pb);
 }
 
-void dice_build_ref_grid(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid)
+void dice_build_ref_grid_stitched(const ts_scene *s, uint32_t p, uint32_t m, uint32_t edges,
+                                  ts_vec4 *grid)
 {
     uint32_t times = dice_build_ref_times(s, p), n = (1u << m) + 1u, nv = n * n;
     dice_build_ref_patch q = dice_build_ref_patch_of(s, p);
     for (uint32_t t = 0; t < times; ++t) {
         const ts_vec4 *c = t ? q.cp1 : q.cp0;
-        for (uint32_t v = 0; v < nv; ++v)
+        for (uint32_t v = 0; v < nv; ++v) {
+            uint32_t i = v % n, j = v / n;
+            quadtree_stitch(edges, m, &i, &j); /* dice.cl */
             grid[t * nv + v] =
-                patch_vertex(c, q.cp0, q.cn, q.mn, q.a, q.x, q.tex, quadtree_vertex_param(v % n, m),
-                             quadtree_vertex_param(v / n, m));
+                patch_vertex(c, q.cp0, q.cn, q.mn, q.a, q.x, q.tex, quadtree_vertex_param(i, m),
+                             quadtree_vertex_param(j, m));
+        }
     }
+}
+
+void dice_build_ref_grid(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid)
+{
+    dice_build_ref_grid_stitched(s, p, m, 0, grid);
 }
 
 void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, int tight, ts_vec4 *grid,
                     ts_box4 *groups, ts_tight4 *codes)
 {
+    dice_build_ref_stitched(s, p, m, tight, 0, grid, groups, codes);
+}
+
+void dice_build_ref_stitched(const ts_scene *s, uint32_t p, uint32_t m, int tight, uint32_t edges,
+                             ts_vec4 *grid, ts_box4 *groups, ts_tight4 *codes)
+{
     uint32_t n = (1u << m) + 1u;
     uint32_t times = dice_build_ref_times(s, p);
     dice_build_ref_patch q = dice_build_ref_patch_of(s, p);
-    dice_build_ref_grid(s, p, m, grid);
+    dice_build_ref_grid_stitched(s, p, m, edges, grid);
     uint32_t ng = quadtree_group_count(m);
     /* build.cl: tight codes for a rough patch in box mode (TS_PATCH_ROUGH), else 0 */
     uint32_t coded = !tight && scene_patch_rough(s, p, m);
@@ -147,11 +162,18 @@ void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, int tight, ts_vec
         ts_tight4 *ct = codes + t * ng;
         for (uint32_t k = 0; k < (1u << (2u * m)); ++k) {
             /* build.cl build_leaves: the leaf box and the tight box of the diced vertices */
-            ts_box tb =
-                leaf_clamp(tight_leaf_box(grid + t * n * n, n, morton_i(k), morton_j(k)), q.pb);
-            quadtree_store(tree, ct, m, k,
-                           tight ? tb : dice_build_ref_leaf(&q, grid, t, m, k, NULL, NULL), tb,
-                           coded);
+            ts_box vb = tight_leaf_box(grid + t * n * n, n, morton_i(k), morton_j(k));
+            ts_box tb = leaf_clamp(vb, q.pb), lb = tb;
+            if (!tight) {
+                lb = leaf_box(grid, t, m, k, &q, NULL, NULL);
+                if (edges) { /* build.cl: stitched vertices may leave the square */
+                    lb.lo_x = fminf(lb.lo_x, vb.lo_x), lb.lo_y = fminf(lb.lo_y, vb.lo_y);
+                    lb.lo_z = fminf(lb.lo_z, vb.lo_z), lb.hi_x = fmaxf(lb.hi_x, vb.hi_x);
+                    lb.hi_y = fmaxf(lb.hi_y, vb.hi_y), lb.hi_z = fmaxf(lb.hi_z, vb.hi_z);
+                }
+                lb = leaf_clamp(lb, q.pb);
+            }
+            quadtree_store(tree, ct, m, k, lb, tb, coded);
         }
         for (uint32_t level = m; level-- > 0;) /* bottom-up min-max reduction */
             for (uint32_t k = 0; k < (1u << (2u * level)); ++k) {

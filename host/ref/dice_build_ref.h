@@ -48,5 +48,11 @@ ts_box dice_build_ref_leaf(const dice_build_ref_patch *q, const ts_vec4 *grid, u
  * (lib/quadtree.h tight_leaf_box), as build makes them with ts_trace_mode.tight. */
 void dice_build_ref(const ts_scene *s, uint32_t p, uint32_t m, int tight, ts_vec4 *grid,
                     ts_box4 *groups, ts_tight4 *codes);
+/* dice_build_ref_grid and dice_build_ref with triangle mode's stitching: edges as
+ * ts_segment.flags >> TS_SEG_EDGE_SHIFT (lib/quadtree.h quadtree_stitch); 0 is the two above. */
+void dice_build_ref_grid_stitched(const ts_scene *s, uint32_t p, uint32_t m, uint32_t edges,
+                                  ts_vec4 *grid);
+void dice_build_ref_stitched(const ts_scene *s, uint32_t p, uint32_t m, int tight, uint32_t edges,
+                             ts_vec4 *grid, ts_box4 *groups, ts_tight4 *codes);
 
 #endif

@@ -559,6 +559,55 @@ done:
     return rc;
 }
 
+int scene_edge_neighbours(const ts_scene *s, uint32_t *nb, ts_error *err)
+{
+    size_t edges = (size_t)s->patch_count * 4u, slots = 16;
+    while (slots < 2 * edges)
+        slots *= 2;
+    uint32_t *table = malloc(slots * sizeof *table), *first = malloc(edges * sizeof *first);
+    uint32_t *count = calloc(edges ? edges : 1u, sizeof *count);
+    scene_edge_key *keys = malloc(edges * sizeof *keys);
+    int rc = TS_OK;
+    if (edges && (!table || !first || !count || !keys)) {
+        rc = ts_error_set(err, TS_E_MEMORY, "scene: out of memory for edge neighbours");
+        goto done;
+    }
+    if (edges) memset(table, 0xff, slots * sizeof *table);
+    uint32_t unique = 0;
+    for (size_t e = 0; e < edges; e++) { /* each distinct boundary curve: how many, the first */
+        scene_edge_key key = scene_edge_key_of(s->cp + (e / 4u) * 16u, (int)(e % 4u));
+        size_t h = scene_edge_hash(&key) & (slots - 1);
+        while (table[h] != UINT32_MAX && memcmp(&keys[table[h]], &key, sizeof key) != 0)
+            h = (h + 1) & (slots - 1);
+        if (table[h] == UINT32_MAX)
+            table[h] = unique, keys[unique] = key, first[unique++] = (uint32_t)e;
+        nb[e] = table[h]; /* the curve, for now */
+        count[table[h]]++;
+    }
+    /* Second pass: a curve on exactly two edges of two different patches links them. */
+    uint32_t *other = malloc((unique ? unique : 1u) * sizeof *other);
+    if (!other) {
+        rc = ts_error_set(err, TS_E_MEMORY, "scene: out of memory for edge neighbours");
+        goto done;
+    }
+    for (uint32_t u = 0; u < unique; u++)
+        other[u] = TS_INVALID;
+    for (size_t e = 0; e < edges; e++) {
+        uint32_t u = nb[e];
+        if (count[u] == 2 && (size_t)first[u] != e) other[u] = (uint32_t)e;
+    }
+    for (size_t e = 0; e < edges; e++) {
+        uint32_t u = nb[e], a = first[u], b = other[u];
+        size_t mate = (size_t)a == e ? b : a;
+        nb[e] = count[u] == 2 && mate != TS_INVALID && mate / 4u != e / 4u ? (uint32_t)(mate / 4u)
+                                                                           : TS_INVALID;
+    }
+    free(other);
+done:
+    free(table), free(first), free(count), free(keys);
+    return rc;
+}
+
 int scene_finalize(ts_scene *s, ts_error *err)
 {
     int rc = scene_ensure_identity(s, err);

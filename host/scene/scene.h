@@ -194,6 +194,11 @@ int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *ind
  * corner the limit from inside the patch is used), and cp1 copies for static patches when
  * any patch moves. Loaders call it once at the end. */
 int scene_finalize(ts_scene *s, ts_error *err);
+/* The patch across each edge: nb[4 p + k] is the other patch whose boundary curve k (0: v = 0,
+ * 1: u = 0, 2: u = 1, 3: v = 1; the midpoint order of mid_n) has the same four control points
+ * as patch p's, in either direction, when exactly two edges of two patches share it, else
+ * TS_INVALID. nb holds 4 patch_count entries. TS_E_MEMORY when the table cannot be had. */
+int scene_edge_neighbours(const ts_scene *s, uint32_t *nb, ts_error *err);
 /* Records a run of instance patches (rib_object.c); see ts_instance_run. */
 int scene_add_instance_run(ts_scene *s, const ts_instance_run *run, ts_error *err);
 /* Turns the recorded runs into shared dicing (host/scene/instance.c): patch p of a run

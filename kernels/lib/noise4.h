@@ -284,13 +284,17 @@ inline ts_vec4 patch_quad_shading_normal_x4(__global const ts_vec4 *cp, __global
                                             __global const ts_vec4 *mid,
                                             __global const ts_patch_attr *a,
                                             __global const ts_xform *x, ts_tex_ctx tex, float u,
-                                            float v, uint i, uint j, uint m)
+                                            float v, uint i, uint j, uint m, uint edges)
 {
     if (!displace_is_noise(a))
-        return patch_quad_shading_normal(cp, n, mid, a, x, tex, u, v, i, j, m);
-    float u0 = quadtree_vertex_param(i, m), u1 = quadtree_vertex_param(i + 1u, m);
-    float v0 = quadtree_vertex_param(j, m), v1 = quadtree_vertex_param(j + 1u, m);
-    float4 pu = (float4)(u0, u1, u0, u1), pv = (float4)(v0, v0, v1, v1);
+        return patch_quad_shading_normal(cp, n, mid, a, x, tex, u, v, i, j, m, edges);
+    uint ci[4] = {i, i + 1u, i, i + 1u}, cj[4] = {j, j, j + 1u, j + 1u};
+    for (int c = 0; c < 4; ++c)
+        quadtree_stitch(edges, m, &ci[c], &cj[c]);
+    float4 pu = (float4)(quadtree_vertex_param(ci[0], m), quadtree_vertex_param(ci[1], m),
+                         quadtree_vertex_param(ci[2], m), quadtree_vertex_param(ci[3], m));
+    float4 pv = (float4)(quadtree_vertex_param(cj[0], m), quadtree_vertex_param(cj[1], m),
+                         quadtree_vertex_param(cj[2], m), quadtree_vertex_param(cj[3], m));
     float4 px, py, pz, nx, ny, nz;
     bezier_eval_x4(cp, pu, pv, &px, &py, &pz);
     float4 d = displace_value_x4(a, x, px, py, pz);

@@ -129,15 +129,18 @@ TS_INLINE ts_vec4 patch_quad_shading_normal(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONS
                                             TS_CONST_GLOBAL ts_vec4 *mid,
                                             TS_CONST_GLOBAL ts_patch_attr *a,
                                             TS_CONST_GLOBAL ts_xform *x, ts_tex_ctx tex, float u,
-                                            float v, ts_u32 i, ts_u32 j, ts_u32 m)
+                                            float v, ts_u32 i, ts_u32 j, ts_u32 m, ts_u32 edges)
 {
     if (a->disp_kind == TS_DISP_NONE) return bezier_normal(cp, u, v);
-    float u0 = quadtree_vertex_param(i, m), u1 = quadtree_vertex_param(i + 1u, m);
-    float v0 = quadtree_vertex_param(j, m), v1 = quadtree_vertex_param(j + 1u, m);
-    return patch_quad_normal(cp, u, v, patch_vertex(cp, cp, n, mid, a, x, tex, u0, v0),
-                             patch_vertex(cp, cp, n, mid, a, x, tex, u1, v0),
-                             patch_vertex(cp, cp, n, mid, a, x, tex, u0, v1),
-                             patch_vertex(cp, cp, n, mid, a, x, tex, u1, v1));
+    /* the corners where dice put them (edges: triangle mode's stitching, quadtree_stitch) */
+    ts_u32 ci[4] = {i, i + 1u, i, i + 1u}, cj[4] = {j, j, j + 1u, j + 1u};
+    ts_vec4 q[4];
+    for (int c = 0; c < 4; ++c) {
+        quadtree_stitch(edges, m, &ci[c], &cj[c]);
+        q[c] = patch_vertex(cp, cp, n, mid, a, x, tex, quadtree_vertex_param(ci[c], m),
+                            quadtree_vertex_param(cj[c], m));
+    }
+    return patch_quad_normal(cp, u, v, q[0], q[1], q[2], q[3]);
 }
 
 #endif

@@ -81,6 +81,23 @@ TS_INLINE float quadtree_vertex_param(ts_u32 i, ts_u32 m)
     return ldexp((float)i, -(int)m);
 }
 
+/* Triangle mode's stitching across levels of detail: the vertex (i, j) of a patch diced at m
+ * whose edge k borders a patch diced e_k levels coarser (edges: e_k in bits 4k..4k+3) is
+ * moved to the vertex of the coarser grid at or before it along that edge, index rounded
+ * down to a multiple of 2^e_k. The edge's vertices are then the coarser patch's own, each
+ * repeated (the triangles between two copies have no area), so the two patches' triangles
+ * meet on the same edges with the same vertex bits and the watertight test leaves no crack
+ * between them. Corners stay where they are; edges = 0 changes nothing. */
+TS_INLINE void quadtree_stitch(ts_u32 edges, ts_u32 m, ts_u32 *i, ts_u32 *j)
+{
+    ts_u32 n = 1u << m, e;
+    if (edges == 0u) return;
+    if (*j == 0u && (e = edges & 15u) != 0u) *i &= ~((1u << e) - 1u);
+    if (*j == n && (e = (edges >> 12) & 15u) != 0u) *i &= ~((1u << e) - 1u);
+    if (*i == 0u && (e = (edges >> 4) & 15u) != 0u) *j &= ~((1u << e) - 1u);
+    if (*i == n && (e = (edges >> 8) & 15u) != 0u) *j &= ~((1u << e) - 1u);
+}
+
 /* The largest |coordinate| of box b: the scale of the few ulps a leaf box is grown by. */
 TS_INLINE float box_magnitude(ts_box b)
 {

@@ -163,6 +163,10 @@ typedef struct ts_hit {
  * (ts_tight4) and the rays leaving it are culled by them; elsewhere box mode's boxes are
  * near the boxes of the vertices already and the codes stay 0 (the node boxes). */
 #define TS_PATCH_ROUGH 2u
+/* ts_segment.flags bits 16-31, triangle mode only (lib/quadtree.h quadtree_stitch): for each
+ * edge k of the patch diced (0: v = 0, 1: u = 0, 2: u = 1, 3: v = 1), 4 bits from bit
+ * 16 + 4k, how many levels coarser the patch across it is diced; 0 everywhere else. */
+#define TS_SEG_EDGE_SHIFT 16u
 #define TS_PATCH_COLOR_TEX 2u /* Cs is multiplied by texture color_tex at the hit's st */
 
 /* Materials (RIB Surface), with the patch colour Cs. */

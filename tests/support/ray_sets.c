@@ -158,7 +158,7 @@ ts_vec4 ray_set_normal(const ts_scene *s, const ts_hit *h, uint32_t m)
     static const ts_xform identity = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
     const ts_xform *x = s->xform ? &s->xform[a->xform] : &identity;
     return patch_quad_shading_normal(cp, n, mid, a, x, scene_tex_ctx(s), h->u, h->v,
-                                     q & ((1u << m) - 1u), q >> m, m);
+                                     q & ((1u << m) - 1u), q >> m, m, 0u);
 }
 
 /* One generation of diffuse bounce rays from the hits of `eye` (see the top of the file). */
