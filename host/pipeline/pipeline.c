@@ -323,12 +323,10 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     p->rough_lod = malloc(n);
     p->cull_key = calloc(n, sizeof *p->cull_key);
     p->grid_at_host = malloc(3 * n * sizeof *p->grid_at_host);
-    p->edge_nb = malloc(4 * n * sizeof *p->edge_nb);
     if (!*boxes || !p->segments_host || !p->trees_host || !p->batches || !p->patch_lod ||
-        !p->rough_lod || !p->cull_key || !p->grid_at_host || !p->edge_nb)
+        !p->rough_lod || !p->cull_key || !p->grid_at_host)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     memset(p->grid_at_host, 0xff, 3 * n * sizeof *p->grid_at_host);
-    if (scene_edge_neighbours(s, p->edge_nb, err)) return err->code;
     memset(p->patch_lod, (int)p->plan.max_lod, n);
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         (*boxes)[i] = scene_patch_box(s, i);
@@ -651,10 +649,23 @@ int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_err
 /* Writes grid_at for shade where the patch cache changed since the last time: vert_first
  * and m of each patch resident in the arenas (its own dicing, not a master's), TS_INVALID
  * elsewhere, or everywhere with TESSERA_GRID_NORMALS=0. */
+int pipeline_stitch_prepare(ts_pipeline *p, ts_error *err)
+{
+    if (!p->mode.exact || p->edge_nb) return TS_OK;
+    size_t n = p->scene->patch_count ? p->scene->patch_count : 1;
+    if (!(p->edge_nb = malloc(4 * n * sizeof *p->edge_nb)))
+        return ts_error_set(err, TS_E_MEMORY, "out of memory (the patches' edges)");
+    if (scene_edge_neighbours(p->scene, p->edge_nb, err)) {
+        free(p->edge_nb), p->edge_nb = NULL;
+        return err->code;
+    }
+    return TS_OK;
+}
+
 uint32_t pipeline_stitch_edges(const ts_pipeline *p, uint32_t patch, uint32_t m)
 {
     uint32_t edges = 0;
-    if (!p->mode.exact) return 0;
+    if (!p->mode.exact || !p->edge_nb) return 0;
     for (uint32_t k = 0; k < 4; ++k) {
         uint32_t nb = p->edge_nb[4 * (size_t)patch + k];
         uint32_t mn = nb == TS_INVALID ? m : pipeline_patch_lod(p, nb);

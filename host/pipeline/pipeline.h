@@ -241,7 +241,7 @@ typedef struct ts_pipeline {
     uint32_t *grid_at_host;
     int grid_off;
     /* The patch across each edge of each patch (scene_edge_neighbours), for triangle mode's
-     * stitching. */
+     * stitching; made by pipeline_stitch_prepare, NULL until then and in box mode. */
     uint32_t *edge_nb;
     /* The store this device shares built patches through with the devices of its process
      * that compute alike (patch_share.h; app/workers.c sets it once the frame's levels of
@@ -356,6 +356,9 @@ int pipeline_grid_publish(ts_pipeline *p, ts_error *err);
  * each edge k, in bits 4k..4k+3, how many levels coarser the patch across it is diced; 0 in
  * box mode, where the leaf boxes keep neighbours at different levels hole-free. */
 uint32_t pipeline_stitch_edges(const ts_pipeline *p, uint32_t patch, uint32_t m);
+/* In triangle mode, the table of which patch lies across each edge (p->edge_nb, 16 bytes a
+ * patch), once; pipeline_trace and pipeline_dice_build call it. TS_E_MEMORY without it. */
+int pipeline_stitch_prepare(ts_pipeline *p, ts_error *err);
 /* Waves of `rays` rays from now on: every buffer sized by the plan's ray_capacity and
  * pair_capacity (the ray and path fields, TS_PIPELINE_WAVE_BUFFERS, the sort's host copies)
  * is released and made again at the new size; nothing in them is kept, so it is called

@@ -656,6 +656,7 @@ int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray
 
 int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
 {
+    if (pipeline_stitch_prepare(p, err)) return err->code;
     patch_cache_clear(&p->cache); /* dice every segment, whatever was resident */
     plan_batches(p, count);       /* the caller set each segment's LOD */
     if (p->batch_count != 1)
@@ -697,7 +698,7 @@ static uint32_t pairs_per_ray(uint32_t capacity, uint32_t active, uint32_t first
 int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 {
     uint32_t active = ray_count;
-    if (cull_reset_stale(p, err)) return err->code;
+    if (pipeline_stitch_prepare(p, err) || cull_reset_stale(p, err)) return err->code;
     for (uint32_t it = 0; active > 0; ++it) {
         /* Once the patch cache has had to evict, the frame's patches do not all fit and come
          * back diced again: then each iteration may dice them again, and Hanika's N (fill the

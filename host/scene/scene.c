@@ -561,51 +561,38 @@ done:
 
 int scene_edge_neighbours(const ts_scene *s, uint32_t *nb, ts_error *err)
 {
+    /* An open-addressing table of edge indices, keys recomputed from the points on probing:
+     * 8 bytes an edge. nb holds edge indices until the end; MULTI marks a curve on more than
+     * two edges. */
+    const uint32_t MULTI = TS_INVALID - 1u;
     size_t edges = (size_t)s->patch_count * 4u, slots = 16;
     while (slots < 2 * edges)
         slots *= 2;
-    uint32_t *table = malloc(slots * sizeof *table), *first = malloc(edges * sizeof *first);
-    uint32_t *count = calloc(edges ? edges : 1u, sizeof *count);
-    scene_edge_key *keys = malloc(edges * sizeof *keys);
-    int rc = TS_OK;
-    if (edges && (!table || !first || !count || !keys)) {
-        rc = ts_error_set(err, TS_E_MEMORY, "scene: out of memory for edge neighbours");
-        goto done;
-    }
+    uint32_t *table = edges ? malloc(slots * sizeof *table) : NULL;
+    if (edges && !table) return ts_error_set(err, TS_E_MEMORY, "scene: out of memory for edges");
     if (edges) memset(table, 0xff, slots * sizeof *table);
-    uint32_t unique = 0;
-    for (size_t e = 0; e < edges; e++) { /* each distinct boundary curve: how many, the first */
+    for (size_t e = 0; e < edges; e++) {
         scene_edge_key key = scene_edge_key_of(s->cp + (e / 4u) * 16u, (int)(e % 4u));
         size_t h = scene_edge_hash(&key) & (slots - 1);
-        while (table[h] != UINT32_MAX && memcmp(&keys[table[h]], &key, sizeof key) != 0)
-            h = (h + 1) & (slots - 1);
-        if (table[h] == UINT32_MAX)
-            table[h] = unique, keys[unique] = key, first[unique++] = (uint32_t)e;
-        nb[e] = table[h]; /* the curve, for now */
-        count[table[h]]++;
+        nb[e] = TS_INVALID;
+        for (; table[h] != UINT32_MAX; h = (h + 1) & (slots - 1)) {
+            uint32_t f = table[h];
+            scene_edge_key other = scene_edge_key_of(s->cp + (f / 4u) * 16u, (int)(f % 4u));
+            if (memcmp(&other, &key, sizeof key) != 0) continue;
+            if (nb[f] == TS_INVALID) { /* the curve's second edge */
+                nb[f] = (uint32_t)e, nb[e] = f;
+            } else { /* a third: the curve joins no pair */
+                if (nb[f] != MULTI) nb[nb[f]] = MULTI;
+                nb[f] = nb[e] = MULTI;
+            }
+            break;
+        }
+        if (table[h] == UINT32_MAX) table[h] = (uint32_t)e; /* the curve's first edge */
     }
-    /* Second pass: a curve on exactly two edges of two different patches links them. */
-    uint32_t *other = malloc((unique ? unique : 1u) * sizeof *other);
-    if (!other) {
-        rc = ts_error_set(err, TS_E_MEMORY, "scene: out of memory for edge neighbours");
-        goto done;
-    }
-    for (uint32_t u = 0; u < unique; u++)
-        other[u] = TS_INVALID;
-    for (size_t e = 0; e < edges; e++) {
-        uint32_t u = nb[e];
-        if (count[u] == 2 && (size_t)first[u] != e) other[u] = (uint32_t)e;
-    }
-    for (size_t e = 0; e < edges; e++) {
-        uint32_t u = nb[e], a = first[u], b = other[u];
-        size_t mate = (size_t)a == e ? b : a;
-        nb[e] = count[u] == 2 && mate != TS_INVALID && mate / 4u != e / 4u ? (uint32_t)(mate / 4u)
-                                                                           : TS_INVALID;
-    }
-    free(other);
-done:
-    free(table), free(first), free(count), free(keys);
-    return rc;
+    free(table);
+    for (size_t e = 0; e < edges; e++) /* edges to patches; a patch's own two edges: none */
+        nb[e] = nb[e] >= MULTI || nb[e] / 4u == e / 4u ? TS_INVALID : nb[e] / 4u;
+    return TS_OK;
 }
 
 int scene_finalize(ts_scene *s, ts_error *err)
