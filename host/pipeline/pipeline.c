@@ -534,8 +534,8 @@ int pipeline_lod_finish_with(ts_pipeline *p, ts_lod_rule rule, int before_hit, c
         for (uint32_t i = 0; i < n; ++i)
             if (p->cull_key[i]) p->cull_key[i] = UINT16_MAX;
     }
-    /* The patch cache keeps its patches: each is keyed by its m, so one whose level changed
-     * is simply diced again when a segment asks for it. */
+    /* Otherwise the patch cache keeps its patches: each is keyed by its m, so one whose level
+     * changed is simply diced again when a segment asks for it. */
     p->stats->stage_seconds[TS_STAGE_lod] += stats_now() - t0;
     return rc;
 }
@@ -646,9 +646,6 @@ int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_err
     return TS_OK;
 }
 
-/* Writes grid_at for shade where the patch cache changed since the last time: vert_first
- * and m of each patch resident in the arenas (its own dicing, not a master's), TS_INVALID
- * elsewhere, or everywhere with TESSERA_GRID_NORMALS=0. */
 int pipeline_stitch_prepare(ts_pipeline *p, ts_error *err)
 {
     if (!p->mode.exact || p->edge_nb) return TS_OK;
@@ -674,6 +671,9 @@ uint32_t pipeline_stitch_edges(const ts_pipeline *p, uint32_t patch, uint32_t m)
     return edges;
 }
 
+/* Writes grid_at for shade where the patch cache changed since the last time: vert_first
+ * and m of each patch resident in the arenas (its own dicing, not a master's), TS_INVALID
+ * elsewhere, or everywhere with TESSERA_GRID_NORMALS=0; and each patch's stitched edges. */
 int pipeline_grid_publish(ts_pipeline *p, ts_error *err)
 {
     size_t n = p->scene->patch_count ? p->scene->patch_count : 1;
