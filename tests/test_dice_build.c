@@ -244,42 +244,75 @@ static void random_textured_scene(ts_scene *s, int patches, uint32_t seed)
     assert_int_equal(scene_finalize(s, &err), TS_OK);
 }
 
+/* Six patches of a scene diced and built as one batch on the device, read back. */
+typedef struct diced {
+    ts_device cl;
+    ts_stats stats;
+    ts_pipeline_plan plan;
+    ts_pipeline p;
+    ts_vec4 *grid;
+    ts_box4 *nodes;
+    ts_tight4 *codes;
+} diced;
+
+/* Segment i dices patch order[i] at lods[i], with box mode's leaves or (tight) triangle
+ * mode's; with `stitch`, each patch's level is also the frame's (patch_lod), so edges
+ * towards coarser neighbours are stitched (quadtree_stitch). */
+static void dice_six(diced *d, ts_scene *s, const uint32_t order[6], const uint32_t lods[6],
+                     int tight, int stitch)
+{
+    test_open_device(&d->cl);
+    memset(&d->stats, 0, sizeof d->stats);
+    ts_error err = {0};
+    d->plan = (ts_pipeline_plan){.ray_capacity = 64, .pair_capacity = 512};
+    pipeline_plan_arenas(&d->plan, 6, 5);
+    ts_pipeline *p = &d->p;
+    if (pipeline_create(p, &d->cl, s, &d->plan, 1, &d->stats, &err)) fail_msg("%s", err.msg);
+    p->mode.exact = 1, p->mode.tight = tight;
+    if (stitch) p->mode.fixed_lod = -1; /* the levels: patch_lod */
+    for (uint32_t i = 0; i < 6; ++i) {
+        p->segments_host[i] = (ts_segment){.patch = order[i], .lod = lods[i]};
+        if (stitch) p->patch_lod[order[i]] = (uint8_t)lods[i];
+    }
+    if (pipeline_dice_build(p, 6, &err)) fail_msg("%s", err.msg);
+    size_t gbytes = (size_t)d->plan.vert_capacity * sizeof(ts_vec4);
+    size_t nbytes = (size_t)d->plan.group_capacity * sizeof(ts_box4);
+    size_t cbytes = (size_t)d->plan.group_capacity * sizeof(ts_tight4);
+    d->grid = malloc(gbytes), d->nodes = malloc(nbytes), d->codes = malloc(cbytes);
+    assert_true(d->grid && d->nodes && d->codes);
+    cl_command_queue q = d->cl.queue;
+    assert_int_equal(clEnqueueReadBuffer(q, p->grid, CL_TRUE, 0, gbytes, d->grid, 0, NULL, NULL),
+                     CL_SUCCESS);
+    assert_int_equal(clEnqueueReadBuffer(q, p->groups, CL_TRUE, 0, nbytes, d->nodes, 0, NULL, NULL),
+                     CL_SUCCESS);
+    assert_int_equal(clEnqueueReadBuffer(q, p->tight, CL_TRUE, 0, cbytes, d->codes, 0, NULL, NULL),
+                     CL_SUCCESS);
+}
+
+static void diced_free(diced *d)
+{
+    free(d->grid), free(d->nodes), free(d->codes);
+    pipeline_destroy(&d->p);
+    dev_close(&d->cl);
+}
+
 /* Dices and builds the six patches of s at LODs lods[] (patch 5 - i gets lods[i]) as one
  * batch, with box mode's leaves or (tight) triangle mode's, and checks every segment against
  * the references: dice_build_ref's grid and trees bit for bit, and the properties above. */
 static void dice_build_and_check(ts_scene *s, const uint32_t lods[6], int tight, int want_rough)
 {
-    ts_device cl;
-    test_open_device(&cl);
-    ts_stats stats;
-    memset(&stats, 0, sizeof stats);
-    ts_error err = {0};
-    ts_pipeline_plan plan = {.ray_capacity = 64, .pair_capacity = 512};
-    pipeline_plan_arenas(&plan, 6, 5);
-    ts_pipeline p;
-    if (pipeline_create(&p, &cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
-    for (uint32_t i = 0; i < 6; ++i)
-        p.segments_host[i] = (ts_segment){.patch = 5 - i, .lod = lods[i]};
-    p.mode.exact = 1, p.mode.tight = tight;
-    if (pipeline_dice_build(&p, 6, &err)) fail_msg("%s", err.msg);
-    size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4);
-    size_t nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
-    size_t cbytes = (size_t)plan.group_capacity * sizeof(ts_tight4);
-    ts_vec4 *grid = malloc(gbytes);
-    ts_box4 *nodes = malloc(nbytes);
-    ts_tight4 *codes = malloc(cbytes);
-    assert_int_equal(clEnqueueReadBuffer(cl.queue, p.grid, CL_TRUE, 0, gbytes, grid, 0, NULL, NULL),
-                     CL_SUCCESS);
-    assert_int_equal(
-        clEnqueueReadBuffer(cl.queue, p.groups, CL_TRUE, 0, nbytes, nodes, 0, NULL, NULL),
-        CL_SUCCESS);
-    assert_int_equal(
-        clEnqueueReadBuffer(cl.queue, p.tight, CL_TRUE, 0, cbytes, codes, 0, NULL, NULL),
-        CL_SUCCESS);
+    static const uint32_t order[6] = {5, 4, 3, 2, 1, 0};
+    diced d;
+    dice_six(&d, s, order, lods, tight, 0);
+    const ts_pipeline *pp = &d.p;
+    const ts_stats *stats = &d.stats;
+    ts_vec4 *grid = d.grid;
+    ts_box4 *nodes = d.nodes;
+    ts_tight4 *codes = d.codes;
     uint32_t seed = 77u;
     double tight_span = 0.0, node_span = 0.0;
     for (uint32_t i = 0; i < 6; ++i) {
-        const ts_segment *seg = &p.segments_host[i];
+        const ts_segment *seg = &pp->segments_host[i];
         check_segment(s, seg, grid + seg->vert_first, nodes + seg->group_first, tight, &seed);
         check_codes(seg, grid + seg->vert_first, nodes + seg->group_first, codes + seg->group_first,
                     tight, &tight_span, &node_span);
@@ -301,18 +334,14 @@ static void dice_build_and_check(ts_scene *s, const uint32_t lods[6], int tight,
     if (node_span > 0.0) assert_true(tight_span < 0.8 * node_span);
     uint32_t rough = 0;
     for (uint32_t i = 0; i < 6; ++i)
-        rough += (p.segments_host[i].flags & TS_PATCH_ROUGH) != 0u;
+        rough += (pp->segments_host[i].flags & TS_PATCH_ROUGH) != 0u;
     if (want_rough) assert_true(rough > 0u); /* the codes are exercised */
-    assert_int_equal(stats.counters[TS_COUNTER_patches_diced], 6);
+    assert_int_equal(stats->counters[TS_COUNTER_patches_diced], 6);
     uint64_t quads = 0;
     for (uint32_t i = 0; i < 6; ++i)
         quads += 1ull << (2 * lods[i]);
-    assert_int_equal(stats.counters[TS_COUNTER_micropolygons_created], quads);
-    free(grid);
-    free(nodes);
-    free(codes);
-    pipeline_destroy(&p);
-    dev_close(&cl);
+    assert_int_equal(stats->counters[TS_COUNTER_micropolygons_created], quads);
+    diced_free(&d);
 }
 
 static void test_dice_and_build_match_reference(void **state)
@@ -368,46 +397,22 @@ static void test_stitched_edges_share_vertices(void **state)
     ts_scene s;
     sheet_scene(&s);
     static const uint32_t lods[6] = {4, 2, 3, 5, 3, 1};
+    static const uint32_t order[6] = {0, 1, 2, 3, 4, 5};
     for (int tight = 0; tight <= 1; ++tight) {
-        ts_device cl;
-        test_open_device(&cl);
-        ts_stats stats;
-        memset(&stats, 0, sizeof stats);
-        ts_error err = {0};
-        ts_pipeline_plan plan = {.ray_capacity = 64, .pair_capacity = 512};
-        pipeline_plan_arenas(&plan, 6, 5);
-        ts_pipeline p;
-        if (pipeline_create(&p, &cl, &s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
-        p.mode.exact = 1, p.mode.tight = tight, p.mode.fixed_lod = -1; /* levels: patch_lod */
-        for (uint32_t i = 0; i < 6; ++i) {
-            p.patch_lod[i] = (uint8_t)lods[i];
-            p.segments_host[i] = (ts_segment){.patch = i, .lod = lods[i]};
-        }
-        if (pipeline_dice_build(&p, 6, &err)) fail_msg("%s", err.msg);
-        size_t gbytes = (size_t)plan.vert_capacity * sizeof(ts_vec4);
-        size_t nbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
-        size_t cbytes = (size_t)plan.group_capacity * sizeof(ts_tight4);
-        ts_vec4 *grid = malloc(gbytes);
-        ts_box4 *nodes = malloc(nbytes);
-        ts_tight4 *codes = malloc(cbytes);
-        assert_true(grid && nodes && codes);
-        assert_int_equal(
-            clEnqueueReadBuffer(cl.queue, p.grid, CL_TRUE, 0, gbytes, grid, 0, NULL, NULL),
-            CL_SUCCESS);
-        assert_int_equal(
-            clEnqueueReadBuffer(cl.queue, p.groups, CL_TRUE, 0, nbytes, nodes, 0, NULL, NULL),
-            CL_SUCCESS);
-        assert_int_equal(
-            clEnqueueReadBuffer(cl.queue, p.tight, CL_TRUE, 0, cbytes, codes, 0, NULL, NULL),
-            CL_SUCCESS);
+        diced d;
+        dice_six(&d, &s, order, lods, tight, 1);
+        const ts_pipeline *pp = &d.p;
+        ts_vec4 *grid = d.grid;
+        ts_box4 *nodes = d.nodes;
+        ts_tight4 *codes = d.codes;
         const ts_vec4 *at[6];
         uint32_t stitched = 0;
         for (uint32_t i = 0; i < 6; ++i) {
             const ts_segment *seg = NULL;
             for (uint32_t k = 0; k < 6; ++k)
-                if (p.segments_host[k].patch == i) seg = &p.segments_host[k];
+                if (pp->segments_host[k].patch == i) seg = &pp->segments_host[k];
             assert_non_null(seg);
-            uint32_t m = seg->lod, edges = pipeline_stitch_edges(&p, i, m),
+            uint32_t m = seg->lod, edges = pipeline_stitch_edges(pp, i, m),
                      ng = quadtree_group_count(m);
             assert_int_equal(seg->flags >> TS_SEG_EDGE_SHIFT, edges);
             stitched += edges != 0;
@@ -429,11 +434,11 @@ static void test_stitched_edges_share_vertices(void **state)
         uint32_t shared = 0;
         for (uint32_t i = 0; i < 6; ++i)
             for (uint32_t k = 0; k < 4; ++k) {
-                uint32_t nb = p.edge_nb[4 * i + k];
+                uint32_t nb = pp->edge_nb[4 * i + k];
                 if (nb == TS_INVALID || lods[nb] > lods[i] || (lods[nb] == lods[i] && nb < i))
                     continue;
                 uint32_t kb = 0; /* the neighbour's edge back to i */
-                while (kb < 4 && p.edge_nb[4 * nb + kb] != i)
+                while (kb < 4 && pp->edge_nb[4 * nb + kb] != i)
                     ++kb;
                 assert_true(kb < 4);
                 uint32_t n = (1u << lods[i]) + 1u, nn = (1u << lods[nb]) + 1u, len = 0;
@@ -455,9 +460,7 @@ static void test_stitched_edges_share_vertices(void **state)
                 ++shared;
             }
         assert_int_equal(shared, 7); /* a 3 x 2 sheet has 7 inner edges */
-        free(grid), free(nodes), free(codes);
-        pipeline_destroy(&p);
-        dev_close(&cl);
+        diced_free(&d);
     }
     scene_free(&s);
 }

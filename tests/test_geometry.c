@@ -45,52 +45,66 @@ static void load(const char *name, ts_image *img)
     test_read_image(path(name), img);
 }
 
-static void test_displaced_sphere_is_hole_free_from_inside(void **state)
+/* A closed sphere of 54 fBm-displaced patches (amplitude a, `octaves` octaves) seen from
+ * inside through a 160-degree lens, written to `name`. */
+static void write_inside_sphere(const char *name, int res, double a, int octaves)
 {
-    FILE *f = fopen(path("sphere.rib"), "w");
+    FILE *f = fopen(path(name), "w");
     assert_non_null(f);
-    fprintf(f, "Format 160 160 1\nProjection \"perspective\" \"fov\" [160]\nWorldBegin\n"
-               "Displacement \"fbm\" \"float amplitude\" [0.06] \"float frequency\" [3] "
-               "\"float octaves\" [4]\n");
+    fprintf(f,
+            "Format %d %d 1\nProjection \"perspective\" \"fov\" [160]\nWorldBegin\n"
+            "Displacement \"fbm\" \"float amplitude\" [%g] \"float frequency\" [3] "
+            "\"float octaves\" [%d]\n",
+            res, res, a, octaves);
     test_write_sphere_patches(f, 3, 1.0);
     fputs("WorldEnd\n", f);
     fclose(f);
-    char args[16384];
-    snprintf(args, sizeof args, "render '%s' -o '%s' --max-lod 7 --stats '%s' --quiet",
-             path("sphere.rib"), path("sphere.exr"), path("sphere.json"));
-    render_ok(args);
+}
+
+/* The pixels of an EXR whose eye ray escaped (Z = +inf). */
+static int escaped_pixels(const char *exr)
+{
     ts_image img;
-    load("sphere.exr", &img);
+    load(exr, &img);
     int escaped = 0;
     for (int i = 0; i < img.width * img.height; ++i)
         escaped += isinf(img.pixels[i * img.channels + 3]);
     image_free(&img);
-    assert_int_equal(escaped, 0);
-    /* Neighbours really were diced at different levels of detail. */
+    return escaped;
+}
+
+/* How many levels of detail a render's dicings used (its lod_histogram). */
+static int levels_used(const char *json)
+{
     int levels = 0;
     char key[64];
     for (int m = 0; m <= 10; ++m) {
         snprintf(key, sizeof key, "lod_histogram.%d", m);
-        levels += test_stats_number(path("sphere.json"), key) > 0;
+        levels += test_stats_number(path(json), key) > 0;
     }
-    assert_true(levels >= 3);
+    return levels;
+}
+
+static void test_displaced_sphere_is_hole_free_from_inside(void **state)
+{
+    write_inside_sphere("sphere.rib", 160, 0.06, 4);
+    char args[16384];
+    snprintf(args, sizeof args, "render '%s' -o '%s' --max-lod 7 --stats '%s' --quiet",
+             path("sphere.rib"), path("sphere.exr"), path("sphere.json"));
+    render_ok(args);
+    assert_int_equal(escaped_pixels("sphere.exr"), 0);
+    /* Neighbours really were diced at different levels of detail. */
+    assert_true(levels_used("sphere.json") >= 3);
 }
 
 /* Triangle mode across levels of detail: the same closed sphere, displaced 2.5x more with
  * six octaves, seen from inside at levels 6 to 8 side by side. The edges of a patch towards
  * a coarser neighbour take the neighbour's vertices (dice.cl, quadtree_stitch), so the
- * watertight triangle test lets no ray out between them (before the stitching one ray of
- * 131,072 escaped here with seed 1). */
+ * watertight triangle test lets no ray out between them (before the stitching two rays of
+ * 196,608 escaped here in the three seeds). */
 static void test_triangles_hole_free_across_levels(void **state)
 {
-    FILE *f = fopen(path("sphere_tri.rib"), "w");
-    assert_non_null(f);
-    fprintf(f, "Format 256 256 1\nProjection \"perspective\" \"fov\" [160]\nWorldBegin\n"
-               "Displacement \"fbm\" \"float amplitude\" [0.15] \"float frequency\" [3] "
-               "\"float octaves\" [6]\n");
-    test_write_sphere_patches(f, 3, 1.0);
-    fputs("WorldEnd\n", f);
-    fclose(f);
+    write_inside_sphere("sphere_tri.rib", 256, 0.15, 6);
     int escaped = 0;
     for (int seed = 1; seed <= 3; ++seed) {
         char args[16384];
@@ -99,20 +113,10 @@ static void test_triangles_hole_free_across_levels(void **state)
                  "triangles --stats '%s' --quiet",
                  path("sphere_tri.rib"), path("sphere_tri.exr"), seed, path("sphere_tri.json"));
         render_ok(args);
-        ts_image img;
-        load("sphere_tri.exr", &img);
-        for (int i = 0; i < img.width * img.height; ++i)
-            escaped += isinf(img.pixels[i * img.channels + 3]);
-        image_free(&img);
+        escaped += escaped_pixels("sphere_tri.exr");
     }
     assert_int_equal(escaped, 0);
-    int levels = 0;
-    char key[64];
-    for (int m = 0; m <= 10; ++m) {
-        snprintf(key, sizeof key, "lod_histogram.%d", m);
-        levels += test_stats_number(path("sphere_tri.json"), key) > 0;
-    }
-    assert_true(levels >= 3);
+    assert_true(levels_used("sphere_tri.json") >= 3);
 }
 
 static void test_memory_budget_does_not_change_the_image(void **state)
