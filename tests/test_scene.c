@@ -1,6 +1,7 @@
 /* test_scene.c — the scene model (host/scene/scene.c): the displacement direction (a unit
  * vector from nine shared normals: handle and spout displaced like the body, shared edges
- * displaced identically), corner displacement normals from
+ * displaced identically, and which patch lies across each edge), corner displacement normals
+ * from
  * scene_finalize, world-to-object transforms, moving patches and scene_patch_box, which
  * must hold the displaced surface (lib/bezier.h, lib/displace.h) over the whole shutter.
  * Host only: never skips. */
@@ -149,6 +150,70 @@ static void test_displaced_edges_are_shared_exactly(void **state)
                         }
                     }
     assert_true(pairs >= 40); /* the teapot's 32 patches share many edges */
+    scene_free(&s);
+}
+
+/* scene_edge_neighbours (triangle mode's stitching) against brute force on the teapot: an
+ * edge whose four boundary points (either way round) are another patch's edge and no third
+ * one's names that patch; every other edge (the rim's open edges, the poles shared by four
+ * patches) names none. The same on three copies of one patch: each edge then lies on three. */
+static void test_edge_neighbours(void **state)
+{
+    (void)state;
+    ts_scene s;
+    memset(&s, 0, sizeof s);
+    ts_error e = {0};
+    assert_int_equal(scene_load(test_source_path("scene/teapot_displaced.rib"), &s, 1, &e), TS_OK);
+    static const int edge_cp[4][4] = {
+        {0, 1, 2, 3}, {0, 4, 8, 12}, {3, 7, 11, 15}, {12, 13, 14, 15}};
+    uint32_t *nb = malloc(4 * s.patch_count * sizeof *nb);
+    assert_non_null(nb);
+    assert_int_equal(scene_edge_neighbours(&s, nb, &e), TS_OK);
+    int linked = 0;
+    for (uint32_t p = 0; p < s.patch_count; p++)
+        for (int a = 0; a < 4; a++) {
+            uint32_t other = TS_INVALID;
+            int count = 0;
+            for (uint32_t q = 0; q < s.patch_count; q++)
+                for (int b = 0; b < 4; b++) {
+                    if (q == p && b == a) continue;
+                    for (int rev = 0; rev < 2; rev++) {
+                        int same = 1;
+                        for (int k = 0; k < 4 && same; k++) {
+                            const ts_vec4 *x = &s.cp[p * 16 + edge_cp[a][k]];
+                            const ts_vec4 *y = &s.cp[q * 16 + edge_cp[b][rev ? 3 - k : k]];
+                            same = x->x == y->x && x->y == y->y && x->z == y->z;
+                        }
+                        if (same) {
+                            count++, other = q;
+                            break;
+                        }
+                    }
+                }
+            uint32_t want = count == 1 && other != p ? other : TS_INVALID;
+            if (nb[4 * p + a] != want)
+                fail_msg("patch %u edge %d: %u, expected %u (%d other edges)", p, a, nb[4 * p + a],
+                         want, count);
+            linked += want != TS_INVALID;
+        }
+    assert_true(linked >= 80); /* the pairs of test_displaced_edges_are_shared_exactly, twice */
+    /* three copies of patch 5: every edge on three patches, so none is linked */
+    ts_scene t;
+    memset(&t, 0, sizeof t);
+    for (int c = 0; c < 3; c++) {
+        double cp[16][3];
+        for (int k = 0; k < 16; k++)
+            cp[k][0] = s.cp[5 * 16 + k].x, cp[k][1] = s.cp[5 * 16 + k].y,
+            cp[k][2] = s.cp[5 * 16 + k].z;
+        ts_patch_attr at = {.cs_r = 1, .cs_g = 1, .cs_b = 1};
+        assert_int_equal(scene_add_patch(&t, cp, &at, &e), TS_OK);
+    }
+    assert_int_equal(scene_finalize(&t, &e), TS_OK);
+    assert_int_equal(scene_edge_neighbours(&t, nb, &e), TS_OK);
+    for (int k = 0; k < 12; k++)
+        assert_int_equal(nb[k], TS_INVALID);
+    free(nb);
+    scene_free(&t);
     scene_free(&s);
 }
 
@@ -570,6 +635,7 @@ int main(void)
         cmocka_unit_test(test_teapot_corner_normals),
         cmocka_unit_test(test_teapot_handle_and_spout_displaced_like_the_body),
         cmocka_unit_test(test_displaced_edges_are_shared_exactly),
+        cmocka_unit_test(test_edge_neighbours),
         cmocka_unit_test(test_average_across_crease),
         cmocka_unit_test(test_explicit_and_degenerate),
         cmocka_unit_test(test_xform_dedupe),
