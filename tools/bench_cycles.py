@@ -40,6 +40,7 @@ Measures:
           samples; inside the "body" rectangle (--region, fractions of the image; the
           default lies on the teapot's sunlit body) and over the whole image.
 Runs alternate Tessera and Cycles (--runs each, seeds 0, 1, 0, 1, ...); medians reported.
+--intersect boxes,triangles runs Tessera in both geometry modes (a row each, alternated too).
 """
 import argparse
 import json
@@ -349,23 +350,28 @@ def bench_scene(a, scene, tmp, region):
     scene_json = os.path.join(tmp, f"{name}.json")
     with open(scene_json, "w") as f:
         subprocess.run([a.export, scene, "--res", a.res, "--grid", str(a.grid)], stdout=f, check=True)
-    rec = {"scene": os.path.relpath(scene, ROOT), "tessera": {"wall": [], "rss": [], "stats": []},
-           "cycles": {"wall": [], "worker": [], "rss": []}}
-    images = {"tessera": {}, "cycles": {}}
+    # One Tessera renderer per --intersect mode: "tessera" for the first, "tessera_MODE" after.
+    modes = {("tessera" if i == 0 else f"tessera_{m}"): m for i, m in enumerate(a.modes)}
+    rec = {"scene": os.path.relpath(scene, ROOT), "cycles": {"wall": [], "worker": [], "rss": []}}
+    for who in modes:
+        rec[who] = {"wall": [], "rss": [], "stats": []}
+    images = {who: {} for who in list(modes) + ["cycles"]}
+    order = list(modes) + ["cycles"]
     for run in range(a.runs):
         seed = run % 2
-        for who in (("tessera", "cycles") if run % 2 == 0 else ("cycles", "tessera")):
+        for who in (order if run % 2 == 0 else order[::-1]):
             png = os.path.join(tmp, f"{name}-{who}-{run}.png")
-            if who == "tessera":
+            if who in modes:
                 stats = os.path.join(tmp, f"{name}-stats-{run}.json")
                 cmd = [a.tessera, "render", scene, "-o", png, "--res", a.res, "--spp", str(a.spp),
-                       "--depth", str(a.depth), "--seed", str(seed), "--quiet", "--stats", stats] + a.tessera_args
+                       "--depth", str(a.depth), "--seed", str(seed), "--quiet", "--stats", stats,
+                       "--intersect", modes[who]] + a.tessera_args
                 wall, rss, _ = run_timed(cmd)
-                rec["tessera"]["wall"].append(wall)
-                rec["tessera"]["rss"].append(rss)
+                rec[who]["wall"].append(wall)
+                rec[who]["rss"].append(rss)
                 with open(stats) as f:
                     st = json.load(f)
-                rec["tessera"]["stats"].append({"stages": st["stages"], "counters": st["counters"]})
+                rec[who]["stats"].append({"stages": st["stages"], "counters": st["counters"]})
             else:
                 raw = png + ".raw.png"
                 cmd = [a.python, os.path.abspath(__file__), "--worker-scene", scene_json, "--worker-out", raw,
@@ -383,7 +389,7 @@ def bench_scene(a, scene, tmp, region):
             images[who].setdefault(seed, png)
             print(f"  {name} run {run} {who}: {rec[who]['wall'][-1]:.2f} s", file=sys.stderr)
     summary = {"scene": rec["scene"], "res": a.res, "spp": a.spp, "depth": a.depth, "threads": a.threads}
-    for who in ("tessera", "cycles"):
+    for who in order:
         r = rec[who]
         summary[who] = {"wall_seconds": statistics.median(r["wall"]), "walls": r["wall"],
                         "peak_rss_bytes": max(r["rss"]),
@@ -394,13 +400,19 @@ def bench_scene(a, scene, tmp, region):
             body, whole = noise_levels(images[who][0], images[who][1], region)
             summary[who]["noise_body"] = body
             summary[who]["noise_image"] = whole
-    if rec["tessera"]["stats"]:
-        summary["tessera"]["stats_median_run"] = rec["tessera"]["stats"][0]
-    t, c = summary["tessera"], summary["cycles"]
-    summary["ratio_wall"] = t["wall_seconds"] / c["wall_seconds"]
-    summary["ratio_rss"] = t["peak_rss_bytes"] / c["peak_rss_bytes"]
-    if "noise_body" in t and "noise_body" in c and c["noise_body"] > 0:
-        summary["ratio_noise_body"] = t["noise_body"] / c["noise_body"]
+    c = summary["cycles"]
+    for who in modes: # each mode's ratios to Cycles in its own record; the first's also on top
+        t = summary[who]
+        t["intersect"] = modes[who]
+        if rec[who]["stats"]:
+            t["stats_median_run"] = rec[who]["stats"][0]
+        t["ratio_wall"] = t["wall_seconds"] / c["wall_seconds"]
+        t["ratio_rss"] = t["peak_rss_bytes"] / c["peak_rss_bytes"]
+        if "noise_body" in t and "noise_body" in c and c["noise_body"] > 0:
+            t["ratio_noise_body"] = t["noise_body"] / c["noise_body"]
+    for key in ("ratio_wall", "ratio_rss", "ratio_noise_body"):
+        if key in summary["tessera"]:
+            summary[key] = summary["tessera"][key]
     if a.keep:
         os.makedirs(a.keep, exist_ok=True)
         for who in images:
@@ -414,13 +426,15 @@ def print_table(results):
           "noise Tessera | noise Cycles | noise ratio |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in results:
-        t, c = r["tessera"], r["cycles"]
-        nt = f"{t['noise_body']:.2f}" if "noise_body" in t else "-"
-        nc = f"{c['noise_body']:.2f}" if "noise_body" in c else "-"
-        nr = f"{r['ratio_noise_body']:.1f}x" if "ratio_noise_body" in r else "-"
-        print(f"| {r['scene']} {r['res']}x{r['spp']} spp | {t['wall_seconds']:.2f} s | {c['wall_seconds']:.2f} s | "
-              f"{r['ratio_wall']:.2f}x | {t['peak_rss_bytes'] / 2**30:.2f} GiB | {c['peak_rss_bytes'] / 2**30:.2f} GiB | "
-              f"{nt} | {nc} | {nr} |")
+        c = r["cycles"]
+        for who in [k for k in r if k == "tessera" or k.startswith("tessera_")]:
+            t = r[who]
+            nt = f"{t['noise_body']:.2f}" if "noise_body" in t else "-"
+            nc = f"{c['noise_body']:.2f}" if "noise_body" in c else "-"
+            nr = f"{t['ratio_noise_body']:.1f}x" if "ratio_noise_body" in t else "-"
+            print(f"| {r['scene']} {r['res']}x{r['spp']} spp, {t['intersect']} | {t['wall_seconds']:.2f} s | "
+                  f"{c['wall_seconds']:.2f} s | {t['ratio_wall']:.2f}x | {t['peak_rss_bytes'] / 2**30:.2f} GiB | "
+                  f"{c['peak_rss_bytes'] / 2**30:.2f} GiB | {nt} | {nc} | {nr} |")
 
 
 def main():
@@ -439,6 +453,8 @@ def main():
     ap.add_argument("--dicing-rate", type=float, default=1.0, help="Cycles adaptive subdivision, pixels")
     ap.add_argument("--region", default=DEFAULT_REGION, help="x0,y0,x1,y1 fractions for the body noise")
     ap.add_argument("--python", default=sys.executable, help="interpreter with bpy for the Cycles worker")
+    ap.add_argument("--intersect", default="boxes",
+                    help="Tessera's --intersect modes, comma-separated (boxes,triangles: a row each)")
     ap.add_argument("--tessera-arg", dest="tessera_args", action="append", default=[],
                     help="extra argument for tessera render (repeat)")
     ap.add_argument("--keep", default=None, help="keep the seed-0/1 images of both renderers here")
@@ -451,6 +467,9 @@ def main():
     a.res = a.res or size[0]
     a.spp = a.spp or size[1]
     a.runs = a.runs or size[2]
+    a.modes = [m for m in a.intersect.split(",") if m]
+    if not a.modes or any(m not in ("boxes", "triangles") for m in a.modes) or len(set(a.modes)) < len(a.modes):
+        ap.error(f"--intersect {a.intersect}: expected boxes and/or triangles, comma-separated")
     if a.worker_scene:
         return cycles_worker(a)
     probe = subprocess.run([a.python, "-c", "import bpy"], capture_output=True)
