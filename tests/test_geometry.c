@@ -275,6 +275,20 @@ static void test_grid_normals_change_no_bit(void **state)
     for (int i = 0; i + 1 < RUNS; i += 2) /* on against off */
         test_assert_same_pixels(path(exr[i]), path(exr[i + 1]));
     test_assert_same_pixels(path(exr[0]), path(exr[RUNS - 1])); /* evicted before shade */
+    /* Triangle mode at the ray-driven levels: edges towards coarser neighbours are stitched,
+     * and shade's evaluated corners move as dice's did (quadtree_stitch). */
+    for (int i = 0; i < 2; ++i) {
+        setenv("TESSERA_GRID_NORMALS", i ? "0" : "1", 1);
+        snprintf(args, sizeof args,
+                 "render '%s' -o '%s' --res 192x108 --spp 4 --intersect triangles --quiet "
+                 "--stats '%s'",
+                 test_source_path("scene/teapot_displaced.rib"),
+                 path(i ? "gn_stitch_off.exr" : "gn_stitch_on.exr"), path("gn_stitch.json"));
+        render_ok(args);
+    }
+    unsetenv("TESSERA_GRID_NORMALS");
+    test_assert_same_pixels(path("gn_stitch_on.exr"), path("gn_stitch_off.exr"));
+    assert_true(levels_used("gn_stitch.json") >= 2); /* neighbours at different levels */
 }
 
 /* Triangle mode's leaf boxes (tight: the box of each micro-quad's four diced vertices)
