@@ -106,17 +106,34 @@ static void test_teapot_handle_and_spout_displaced_like_the_body(void **state)
     scene_free(&s);
 }
 
+/* The control points of edge k (0: v = 0, 1: u = 0, 2: u = 1, 3: v = 1). */
+static const int edge_cp[4][4] = {{0, 1, 2, 3}, {0, 4, 8, 12}, {3, 7, 11, 15}, {12, 13, 14, 15}};
+
+/* Whether edge a of patch p has the points of edge b of patch q (reversed when rev). */
+static int same_edge(const ts_scene *s, uint32_t p, int a, uint32_t q, int b, int rev)
+{
+    for (int k = 0; k < 4; k++) {
+        const ts_vec4 *x = &s->cp[p * 16 + edge_cp[a][k]];
+        const ts_vec4 *y = &s->cp[q * 16 + edge_cp[b][rev ? 3 - k : k]];
+        if (!(x->x == y->x && x->y == y->y && x->z == y->z)) return 0;
+    }
+    return 1;
+}
+
+static void load_teapot_displaced(ts_scene *s)
+{
+    memset(s, 0, sizeof *s);
+    ts_error e = {0};
+    assert_int_equal(scene_load(test_source_path("scene/teapot_displaced.rib"), s, 1, &e), TS_OK);
+}
+
 /* Neighbours share the displaced edge exactly: for every pair of teapot patches with the
  * same boundary curve (in either direction), the displaced vertices along it at m = 5 are
  * bitwise equal, so no crack opens between them. */
 static void test_displaced_edges_are_shared_exactly(void **state)
 {
     ts_scene s;
-    memset(&s, 0, sizeof s);
-    ts_error e = {0};
-    assert_int_equal(scene_load(test_source_path("scene/teapot_displaced.rib"), &s, 1, &e), TS_OK);
-    static const int edge_cp[4][4] = {
-        {0, 1, 2, 3}, {0, 4, 8, 12}, {3, 7, 11, 15}, {12, 13, 14, 15}};
+    load_teapot_displaced(&s);
     const int n = 32;
     int pairs = 0;
     for (uint32_t p = 0; p < s.patch_count; p++)
@@ -124,13 +141,7 @@ static void test_displaced_edges_are_shared_exactly(void **state)
             for (int a = 0; a < 4; a++)
                 for (int b = 0; b < 4; b++)
                     for (int rev = 0; rev < 2; rev++) {
-                        int same = 1;
-                        for (int k = 0; k < 4 && same; k++) {
-                            const ts_vec4 *x = &s.cp[p * 16 + edge_cp[a][k]];
-                            const ts_vec4 *y = &s.cp[q * 16 + edge_cp[b][rev ? 3 - k : k]];
-                            same = x->x == y->x && x->y == y->y && x->z == y->z;
-                        }
-                        if (!same) continue;
+                        if (!same_edge(&s, p, a, q, b, rev)) continue;
                         const ts_vec4 *c0 = &s.cp[p * 16 + edge_cp[a][0]];
                         const ts_vec4 *c3 = &s.cp[p * 16 + edge_cp[a][3]];
                         if (c0->x == c3->x && c0->y == c3->y && c0->z == c3->z)
@@ -161,11 +172,8 @@ static void test_edge_neighbours(void **state)
 {
     (void)state;
     ts_scene s;
-    memset(&s, 0, sizeof s);
+    load_teapot_displaced(&s);
     ts_error e = {0};
-    assert_int_equal(scene_load(test_source_path("scene/teapot_displaced.rib"), &s, 1, &e), TS_OK);
-    static const int edge_cp[4][4] = {
-        {0, 1, 2, 3}, {0, 4, 8, 12}, {3, 7, 11, 15}, {12, 13, 14, 15}};
     uint32_t *nb = malloc(4 * s.patch_count * sizeof *nb);
     assert_non_null(nb);
     assert_int_equal(scene_edge_neighbours(&s, nb, &e), TS_OK);
@@ -177,18 +185,8 @@ static void test_edge_neighbours(void **state)
             for (uint32_t q = 0; q < s.patch_count; q++)
                 for (int b = 0; b < 4; b++) {
                     if (q == p && b == a) continue;
-                    for (int rev = 0; rev < 2; rev++) {
-                        int same = 1;
-                        for (int k = 0; k < 4 && same; k++) {
-                            const ts_vec4 *x = &s.cp[p * 16 + edge_cp[a][k]];
-                            const ts_vec4 *y = &s.cp[q * 16 + edge_cp[b][rev ? 3 - k : k]];
-                            same = x->x == y->x && x->y == y->y && x->z == y->z;
-                        }
-                        if (same) {
-                            count++, other = q;
-                            break;
-                        }
-                    }
+                    if (same_edge(&s, p, a, q, b, 0) || same_edge(&s, p, a, q, b, 1))
+                        count++, other = q;
                 }
             uint32_t want = count == 1 && other != p ? other : TS_INVALID;
             if (nb[4 * p + a] != want)
