@@ -158,13 +158,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     }
     /* Triangle mode with these boxes (TESSERA_TIGHT_LEAVES=0): a micro-quad on an edge
      * stitched to a coarser neighbour has vertices moved along the edge, outside its square. */
-    if ((seg.flags >> TS_SEG_EDGE_SHIFT) != 0u) {
-        ts_box vb = tight_leaf_box(g, n, i, j);
-        b.lo_x = fmin(b.lo_x, vb.lo_x), b.lo_y = fmin(b.lo_y, vb.lo_y),
-        b.lo_z = fmin(b.lo_z, vb.lo_z);
-        b.hi_x = fmax(b.hi_x, vb.hi_x), b.hi_y = fmax(b.hi_y, vb.hi_y),
-        b.hi_z = fmax(b.hi_z, vb.hi_z);
-    }
+    if ((seg.flags >> TS_SEG_EDGE_SHIFT) != 0u) b = box_union(b, tight_leaf_box(g, n, i, j));
     b = leaf_clamp(b, patch_box[seg.shape]);
     quadtree_store(groups + at, codes + at, m, k, b, tb, coded);
 }

@@ -166,11 +166,7 @@ void dice_build_ref_stitched(const ts_scene *s, uint32_t p, uint32_t m, int tigh
             ts_box tb = leaf_clamp(vb, q.pb), lb = tb;
             if (!tight) {
                 lb = leaf_box(grid, t, m, k, &q, NULL, NULL);
-                if (edges) { /* build.cl: stitched vertices may leave the square */
-                    lb.lo_x = fminf(lb.lo_x, vb.lo_x), lb.lo_y = fminf(lb.lo_y, vb.lo_y);
-                    lb.lo_z = fminf(lb.lo_z, vb.lo_z), lb.hi_x = fmaxf(lb.hi_x, vb.hi_x);
-                    lb.hi_y = fmaxf(lb.hi_y, vb.hi_y), lb.hi_z = fmaxf(lb.hi_z, vb.hi_z);
-                }
+                if (edges) lb = box_union(lb, vb); /* build.cl: stitched vertices move */
                 lb = leaf_clamp(lb, q.pb);
             }
             quadtree_store(tree, ct, m, k, lb, tb, coded);

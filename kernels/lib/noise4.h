@@ -288,13 +288,9 @@ inline ts_vec4 patch_quad_shading_normal_x4(__global const ts_vec4 *cp, __global
 {
     if (!displace_is_noise(a))
         return patch_quad_shading_normal(cp, n, mid, a, x, tex, u, v, i, j, m, edges);
-    uint ci[4] = {i, i + 1u, i, i + 1u}, cj[4] = {j, j, j + 1u, j + 1u};
-    for (int c = 0; c < 4; ++c)
-        quadtree_stitch(edges, m, &ci[c], &cj[c]);
-    float4 pu = (float4)(quadtree_vertex_param(ci[0], m), quadtree_vertex_param(ci[1], m),
-                         quadtree_vertex_param(ci[2], m), quadtree_vertex_param(ci[3], m));
-    float4 pv = (float4)(quadtree_vertex_param(cj[0], m), quadtree_vertex_param(cj[1], m),
-                         quadtree_vertex_param(cj[2], m), quadtree_vertex_param(cj[3], m));
+    float cu[4], cv[4]; /* the corners where dice put them */
+    quadtree_quad_corners(edges, m, i, j, cu, cv);
+    float4 pu = vload4(0, cu), pv = vload4(0, cv);
     float4 px, py, pz, nx, ny, nz;
     bezier_eval_x4(cp, pu, pv, &px, &py, &pz);
     float4 d = displace_value_x4(a, x, px, py, pz);

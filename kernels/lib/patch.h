@@ -133,13 +133,11 @@ TS_INLINE ts_vec4 patch_quad_shading_normal(TS_CONST_GLOBAL ts_vec4 *cp, TS_CONS
 {
     if (a->disp_kind == TS_DISP_NONE) return bezier_normal(cp, u, v);
     /* the corners where dice put them (edges: triangle mode's stitching, quadtree_stitch) */
-    ts_u32 ci[4] = {i, i + 1u, i, i + 1u}, cj[4] = {j, j, j + 1u, j + 1u};
+    float pu[4], pv[4];
+    quadtree_quad_corners(edges, m, i, j, pu, pv);
     ts_vec4 q[4];
-    for (int c = 0; c < 4; ++c) {
-        quadtree_stitch(edges, m, &ci[c], &cj[c]);
-        q[c] = patch_vertex(cp, cp, n, mid, a, x, tex, quadtree_vertex_param(ci[c], m),
-                            quadtree_vertex_param(cj[c], m));
-    }
+    for (int c = 0; c < 4; ++c)
+        q[c] = patch_vertex(cp, cp, n, mid, a, x, tex, pu[c], pv[c]);
     return patch_quad_normal(cp, u, v, q[0], q[1], q[2], q[3]);
 }
 

@@ -98,6 +98,27 @@ TS_INLINE void quadtree_stitch(ts_u32 edges, ts_u32 m, ts_u32 *i, ts_u32 *j)
     if (*i == n && (e = (edges >> 8) & 15u) != 0u) *j &= ~((1u << e) - 1u);
 }
 
+/* The parameters of the four corners of micro-quad (i, j) of a patch diced at m, where dice
+ * puts them: corner c (at (i + (c & 1), j + (c >> 1))) in pu[c], pv[c], moved by
+ * quadtree_stitch (edges 0: the grid's own parameters). */
+TS_INLINE void quadtree_quad_corners(ts_u32 edges, ts_u32 m, ts_u32 i, ts_u32 j, float pu[4],
+                                     float pv[4])
+{
+    for (ts_u32 c = 0; c < 4u; ++c) {
+        ts_u32 ci = i + (c & 1u), cj = j + (c >> 1);
+        quadtree_stitch(edges, m, &ci, &cj);
+        pu[c] = quadtree_vertex_param(ci, m), pv[c] = quadtree_vertex_param(cj, m);
+    }
+}
+
+/* The smallest box holding boxes a and b. */
+TS_INLINE ts_box box_union(ts_box a, ts_box b)
+{
+    ts_box r = {fmin(a.lo_x, b.lo_x), fmin(a.lo_y, b.lo_y), fmin(a.lo_z, b.lo_z),
+                fmax(a.hi_x, b.hi_x), fmax(a.hi_y, b.hi_y), fmax(a.hi_z, b.hi_z)};
+    return r;
+}
+
 /* The largest |coordinate| of box b: the scale of the few ulps a leaf box is grown by. */
 TS_INLINE float box_magnitude(ts_box b)
 {
