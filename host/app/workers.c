@@ -27,6 +27,8 @@ struct ts_worker {
     int started;
     long slow_ms;               /* TESSERA_SLOW_DEVICE: a pause after each wave (tests) */
     const ts_unit *cancel_unit; /* the unit being traced, for worker_unit_dropped */
+    ts_vec4 *aov_wave;          /* a wave's AOVs and albedo, worker_read_aov_strided's */
+    size_t aov_wave_cap;        /* samples aov_wave holds (2 vec4 each) */
     int shares;                 /* computes like device 0: shares built patches through g->share */
     ts_device_stats out;
     int failed, reported; /* failed: err says why; reported: workers_report said so */
@@ -301,8 +303,14 @@ static int worker_read_aov_strided(ts_worker *w, const ts_sample_order *o, uint6
                                    uint32_t n, ts_vec4 *aov, ts_vec4 *albedo, ts_error *err)
 {
     ts_pipeline *p = &w->pipe;
-    ts_vec4 *tmp = malloc(2 * (size_t)n * sizeof *tmp);
-    if (!tmp) return ts_error_set(err, TS_E_MEMORY, "out of memory for the AOVs of a unit");
+    if (w->aov_wave_cap < n) { /* kept from wave to wave: a wave's size at most */
+        free(w->aov_wave);
+        w->aov_wave_cap = 0;
+        if (!(w->aov_wave = malloc(2 * (size_t)n * sizeof *w->aov_wave)))
+            return ts_error_set(err, TS_E_MEMORY, "out of memory for the AOVs of a unit");
+        w->aov_wave_cap = n;
+    }
+    ts_vec4 *tmp = w->aov_wave;
     int rc = dev_read(&w->cl, p->aov, 0, (size_t)n * sizeof *tmp, tmp, "the AOVs of a unit", err) ||
              dev_read(&w->cl, p->albedo, 0, (size_t)n * sizeof *tmp, tmp + n,
                       "the albedo of a unit", err);
@@ -311,7 +319,6 @@ static int worker_read_aov_strided(ts_worker *w, const ts_sample_order *o, uint6
          k = k1)
         for (uint64_t q = k0; q < k1; ++q, ++j)
             aov[j] = tmp[q - first], albedo[j] = tmp[n + (q - first)];
-    free(tmp);
     return rc ? err->code : TS_OK;
 }
 
@@ -666,6 +673,7 @@ void workers_close(ts_workers *g)
     for (uint32_t i = 0; i < g->count; ++i) {
         ts_worker *w = &g->w[i];
         if (w->has_pipe) pipeline_destroy(&w->pipe);
+        free(w->aov_wave);
         dev_close(&w->cl);
         stats_free(&w->stats);
         ts_error_clear(&w->err);

@@ -63,8 +63,9 @@ typedef struct ts_trace_mode {
     uint32_t spp;       /* samples per pixel, for the LOD rule 4^m >= R / spp */
     int fixed_lod;      /* >= 0: every patch at this m (cross-checks); -1: per patch from the lod
                            stage's counts (pipeline_lod_*) */
-    int exact;          /* 1: micro-triangles (cross-checks at fixed m); 0: leaf boxes as
-                           geometry, hole-free across LODs (Hanika §3.3) */
+    int exact;          /* 1: micro-triangles, stitched where patches diced at different m
+                           share an edge (pipeline_stitch_edges); 0: leaf boxes as geometry,
+                           hole-free across LODs whatever the edges (Hanika §3.3) */
     int leaf_group;     /* 1: work-group-wide leaf intersection (PantaRay Fig. 8); 0: per ray */
     uint32_t leaf_b;    /* leaves are blocks of 2^leaf_b x 2^leaf_b micro-quads (0..2) */
     int tight;          /* 1 (with exact): each leaf box is the box of its micro-quad's diced
