@@ -427,6 +427,38 @@ static void test_units_gather_one_pixel_bands(void **state)
     done_free(&held);
 }
 
+/* The last sixteenth of a frame's samples goes in units a quarter the size (no smaller than
+ * 4096 samples), so that the devices' last units end closer together; the units still
+ * cover the frame exactly, in whole pixels. */
+static void test_units_smaller_at_the_frame_end(void **state)
+{
+    (void)state;
+    const uint32_t pixels = 100000, spp = 4;
+    const uint64_t gather = 16384, total = (uint64_t)pixels * spp, tail = total - total / 16;
+    ts_sample_order o = {pixels, spp, 1u};
+    ts_done none = {0};
+    ts_error err = {0};
+    ts_unit *u;
+    uint32_t n, small = 0;
+    assert_int_equal(units_list(&o, total, &none, gather, &u, &n, &err), TS_OK);
+    uint64_t at = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+        assert_int_equal(u[i].first, at);
+        assert_int_equal(u[i].first % spp, 0);
+        at += u[i].count;
+        if (i + 1 == n) break; /* the frame's end cuts the last one */
+        if (u[i].first < tail) {
+            assert_int_equal(u[i].count, gather);
+        } else {
+            assert_int_equal(u[i].count, 4096u);
+            ++small;
+        }
+    }
+    assert_int_equal(at, total);
+    assert_true(small >= (total - tail) / 4096u - 1u); /* not one large unit at the end */
+    free(u);
+}
+
 /* Four threads sharing a board: units merged as they finish, in any order, give the plain
  * sums bit for bit, from a film that held nothing, a prefix ending inside a band, or a
  * prefix and two later bands (what an interrupted several-device render leaves); every
@@ -717,6 +749,7 @@ int main(void)
         cmocka_unit_test(test_merge_in_order_is_the_film),
         cmocka_unit_test(test_board_merges_in_any_order),
         cmocka_unit_test(test_units_gather_one_pixel_bands),
+        cmocka_unit_test(test_units_smaller_at_the_frame_end),
         cmocka_unit_test(test_board_take_give_back_close),
         cmocka_unit_test(test_board_backs_up_a_slow_device),
         cmocka_unit_test(test_board_backs_up_only_the_slow),

@@ -14,6 +14,9 @@
 #define UNITS_PER_WORKER 32u
 #define UNIT_MIN_SAMPLES 4096u
 #define UNIT_MAX_SAMPLES (1u << 20)
+/* The last 1/UNITS_TAIL of a frame's samples go in units 1/UNITS_TAIL_SPLIT the size. */
+#define UNITS_TAIL 16u
+#define UNITS_TAIL_SPLIT 4u
 
 int unit_result_alloc(ts_unit_result *r, const ts_unit *u, const ts_sample_order *o, ts_error *err)
 {
@@ -102,6 +105,12 @@ int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, uint6
      * device); still no two units share a pixel. */
     int pixels = band == 1u && o->pixels > 1u;
     if (gather == 0) gather = UNIT_MIN_SAMPLES;
+    /* The frame's last samples in smaller units (UNITS_TAIL): a device that runs out of units
+     * waits for the others' last ones, for half a unit on average (docs/benchmarks.md "The
+     * frame's last units smaller"). */
+    uint64_t small =
+        gather / UNITS_TAIL_SPLIT > UNIT_MIN_SAMPLES ? gather / UNITS_TAIL_SPLIT : UNIT_MIN_SAMPLES;
+    uint64_t tail_from = total - total / UNITS_TAIL;
     for (uint64_t b = 0; sample_order_band_runs(o, b, &first, &end, &zero_end); ++b) {
         if (end > total) end = total;
         /* What d holds of the band is a prefix of it (done.h): the unit is the rest. */
@@ -111,7 +120,7 @@ int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, uint6
         if (!whole) first = d->r[i].end < end ? d->r[i].end : end;
         if (first >= end) continue;
         if (pixels && whole && n > 0 && u[n - 1].first + u[n - 1].count == first &&
-            u[n - 1].count < gather) {
+            u[n - 1].count < (u[n - 1].first >= tail_from ? small : gather)) {
             u[n - 1].count += end - first;
             continue;
         }

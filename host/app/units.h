@@ -62,8 +62,10 @@ void units_plan(uint64_t samples, uint32_t workers, uint64_t *unit_samples);
 
 /* The units of the samples of [0, total) that d lacks: one a band (each band's run), or,
  * for bands of one pixel (done.h sample_order_band_pixel), the rest of a band and the whole
- * bands after it up to `gather` samples or more (0: 4096); so that no two units share a
- * pixel. *units is malloc'd (NULL and 0 when nothing is left). */
+ * bands after it up to `gather` samples or more (0: 4096), and in the last sixteenth of the
+ * frame up to a quarter of that (at least 4096), so that the devices' last units end close
+ * together; no two units share a pixel. *units is malloc'd (NULL and 0 when nothing is
+ * left). */
 int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, uint64_t gather,
                ts_unit **units, uint32_t *count, ts_error *err);
 
