@@ -47,11 +47,11 @@ typedef struct ts_workers {
     uint8_t *patch_lod;
     ts_error fatal; /* why the lod failed */
     /* The lod stage split over device 0 and the devices that compute like it (the crossed
-     * rule, device 0 making the lod): part k counts pixels [k * P / lod_parts, (k + 1) * P /
-     * lod_parts) of the first sample pass; lod_more sums the counts of parts 1.. (integer
-     * sums: the levels do not depend on the split); lod_part[k] is 0 while part k counts, 1
-     * once added, -1 when its device could not (device 0 counts it then). lod_parts 1: device
-     * 0 counts every pixel. */
+     * rule, device 0 making the lod): the first sample pass's pixels in chunks dealt out in
+     * turn, part k counting chunks k, k + lod_parts, ... (workers.c lod_count_part); lod_more
+     * sums the counts of parts 1.. (integer sums: the levels do not depend on the split);
+     * lod_part[k] is 0 while part k counts, 1 once added, -1 when its device could not
+     * (device 0 counts it then). lod_parts 1: device 0 counts every pixel. */
     uint32_t lod_parts;
     uint32_t *lod_more;
     int8_t *lod_part;
