@@ -91,6 +91,18 @@ static void test_two_devices_give_the_one_device_image(void **state)
     }
 }
 
+/* A frame of 268,800 pixels splits the lod pass into four chunks, two a device, dealt out
+ * in turn (app/workers.c lod_count_part): their sums are the one device's counts, so the
+ * levels and the image are the one device's. */
+static void test_lod_chunks_give_the_one_device_levels(void **state)
+{
+    (void)state;
+    const char *args = "--res 640x420 --spp 1 --max-lod 6 --depth 1 --quiet";
+    render("scene/teapot_displaced.rib", "chunks1.exr", first, args);
+    render("scene/teapot_displaced.rib", "chunks2.exr", pair, args);
+    test_assert_same_pixels(in_dir("chunks1.exr"), in_dir("chunks2.exr"));
+}
+
 /* A device that cannot count its part of the lod pass (TESSERA_FAIL_LOD_PART=1: it gives its
  * part up, as one whose launches fail would) leaves it to device 0: the same image, and
  * device 1 counted nothing. */
@@ -526,6 +538,7 @@ int main(void)
     setenv("POCL_DEVICES", "pthread pthread", 1);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_devices_give_the_one_device_image),
+        cmocka_unit_test(test_lod_chunks_give_the_one_device_levels),
         cmocka_unit_test(test_an_abandoned_lod_part_is_counted_by_device_0),
         cmocka_unit_test(test_two_devices_share_built_patches),
         cmocka_unit_test(test_a_device_failing_with_claims_abandons_them),
