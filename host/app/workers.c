@@ -55,7 +55,7 @@ static void worker_budget(ts_worker *w, uint32_t share)
         ts_memory_room room;
         ts_memory_room_query(NULL, &room);
         if (room.bytes != UINT64_MAX && share > 1) room.bytes /= share;
-        budget_default(&w->cl.info, budget_fixed_bytes(f->scene, f->pixel_count), &room, &c);
+        budget_default(&w->cl.info, budget_fixed_bytes(f->scene, 0), &room, &c); /* no film */
         size_t n = strlen(c.why), which = strlen(room.which);
         if (share > 1 && w->cl.info.host_unified && which && strncmp(c.why, room.which, which) == 0)
             snprintf(c.why + n, sizeof c.why - n, ", shared by %u devices", share);
@@ -160,6 +160,7 @@ static int worker_pipeline(ts_worker *w, ts_error *err)
                           err))
             return err->code;
         plan.sort_threads = w->g->sort_threads;
+        plan.host_film = 1; /* the board merges the units into the host's films */
         if (!f->opt->quiet && plan.max_lod < w->noted_lod)
             ts_print_line("tessera: %s: %llu MB holds patches up to m = %u",
                           worker_name(w, name, sizeof name), (unsigned long long)w->mb,

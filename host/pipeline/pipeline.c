@@ -158,7 +158,7 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
 /* Element counts of the buffers (TS_PIPELINE_BUFFERS' count column reads them as c.NAME).
  * What the scene lacks counts 1. */
 typedef struct buffer_counts {
-    size_t rays, pairs, pixels;                    /* the plan, the image */
+    size_t rays, pairs, pixels, film;              /* the plan, the image, the device films */
     size_t patches, nodes, xforms, textures;       /* the scene */
     size_t instances, inst_xforms;                 /* its instancing tables */
     size_t lights, emitters, env_texels, env_rows; /* lights.h */
@@ -177,6 +177,7 @@ static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads 
         .rays = p->plan.ray_capacity,
         .pairs = p->plan.pair_capacity,
         .pixels = p->pixel_count,
+        .film = p->plan.host_film ? 1 : p->pixel_count,
         .patches = s->patch_count ? s->patch_count : 1,
         .nodes = p->qbvh.node_count,
         .xforms = s->xform_count ? s->xform_count : 1,
@@ -275,7 +276,7 @@ static int clear_buffers(ts_pipeline *p, const buffer_counts *c, ts_error *err)
 {
     const ts_vec4 zero = {0, 0, 0, 0};
     const cl_uint zero_u = 0, none = TS_INVALID;
-    size_t film = c->pixels * sizeof(ts_vec4);
+    size_t film = c->film * sizeof(ts_vec4);
     if (dev_fill(p->cl, p->accum, &zero, sizeof zero, 0, film, "the film", err) ||
         dev_fill(p->cl, p->aov_film, &zero, sizeof zero, 0, film, "the AOV film", err) ||
         dev_fill(p->cl, p->albedo_film, &zero, sizeof zero, 0, film, "the albedo film", err) ||

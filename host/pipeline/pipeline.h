@@ -45,6 +45,9 @@ typedef struct ts_pipeline_plan {
                                 0: 1, and pair_capacity / R at once after the patch cache
                                 first evicts (pipeline_trace). Changes no hit, only the work
                                 (tests compare them) */
+    int host_film;           /* 1: the films are the host's (several devices, app/units.h merges
+                                each wave's samples there): the device films are one pixel
+                                and pipeline_film is not called */
 } ts_pipeline_plan;
 
 /* Splits a budget of `memory_bytes` between the patch arenas (a quarter) and rays, and sets
@@ -169,9 +172,9 @@ typedef struct ts_trace_mode {
     /* Where each patch's diced grid is resident, for shade (pipeline_grid_publish). */        \
     X(grid_at,         CL_MEM_READ_ONLY,  ts_u32,        3 * c.patches,  NULL)                  \
     /* Per pixel: the film. */                                                                  \
-    X(accum,           TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
-    X(aov_film,        TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
-    X(albedo_film,     TS_MEM_HOST_RW,    ts_vec4,       c.pixels,       NULL)                  \
+    X(accum,           TS_MEM_HOST_RW,    ts_vec4,       c.film,         NULL)                  \
+    X(aov_film,        TS_MEM_HOST_RW,    ts_vec4,       c.film,         NULL)                  \
+    X(albedo_film,     TS_MEM_HOST_RW,    ts_vec4,       c.film,         NULL)                  \
     TS_PIPELINE_WAVE_BUFFERS(X)
 /* The buffers of TS_PIPELINE_BUFFERS whose size follows the rays of a wave (the plan's
  * ray_capacity and pair_capacity), made again by pipeline_resize_rays. */

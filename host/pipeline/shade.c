@@ -200,6 +200,8 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
 int pipeline_film(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 {
     if (cam->ray_count == 0) return TS_OK;
+    if (p->plan.host_film)
+        return ts_error_set(err, TS_E_INTERNAL, "the films of this pipeline are the host's");
     cl_uint px0, px1; /* the pixels the wave's samples fall in */
     sample_order_pixels(cam->first_sample, cam->ray_count, p->pixel_count, cam->spp, cam->band,
                         &px0, &px1);
