@@ -106,8 +106,8 @@ int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, uint6
     int pixels = band == 1u && o->pixels > 1u;
     if (gather == 0) gather = UNIT_MIN_SAMPLES;
     /* The frame's last samples in smaller units (UNITS_TAIL): a device that runs out of units
-     * waits for the others' last ones, for half a unit on average (docs/benchmarks.md "The
-     * frame's last units smaller"). */
+     * waits for the others' last ones, half a unit on average (docs/benchmarks.md "Several
+     * devices: where two devices lose to one ..."). */
     uint64_t small =
         gather / UNITS_TAIL_SPLIT > UNIT_MIN_SAMPLES ? gather / UNITS_TAIL_SPLIT : UNIT_MIN_SAMPLES;
     uint64_t tail_from = total - total / UNITS_TAIL;
