@@ -12,16 +12,22 @@
 #define W 16
 #define H 8
 
+/* A scene of nothing, its camera at the origin looking down +z. */
+static void empty_scene(ts_scene *s)
+{
+    memset(s, 0, sizeof *s);
+    for (int i = 0; i < 4; ++i)
+        s->camera.world_to_camera[i * 5] = 1.0; /* the identity */
+    s->camera.fov_deg = 40.0;
+}
+
 static void test_every_ray_misses(void **state)
 {
     (void)state;
     ts_device cl;
     test_open_device(&cl);
     ts_scene s;
-    memset(&s, 0, sizeof s);
-    for (int i = 0; i < 4; ++i)
-        s.camera.world_to_camera[i * 5] = 1.0; /* the identity: at the origin, looking down +z */
-    s.camera.fov_deg = 40.0;
+    empty_scene(&s);
     ts_error err = {0};
     ts_stats stats;
     memset(&stats, 0, sizeof stats);
@@ -64,10 +70,7 @@ static void test_host_film_pipeline_holds_no_film(void **state)
     ts_device cl;
     test_open_device(&cl);
     ts_scene s;
-    memset(&s, 0, sizeof s);
-    s.camera.world_to_camera[0] = s.camera.world_to_camera[5] = 1.0;
-    s.camera.world_to_camera[10] = s.camera.world_to_camera[15] = 1.0;
-    s.camera.fov_deg = 40.0;
+    empty_scene(&s);
     const uint32_t pixels = 1920 * 1080;
     for (int host = 0; host < 2; ++host) {
         ts_error err = {0};
