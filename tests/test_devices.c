@@ -18,6 +18,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -227,10 +228,9 @@ static long progress_samples(void)
 }
 
 /* Starts `tessera render SCENE -o OUT --device DEVICES ARGS` in the background (stderr to
- * dir/stderr.txt), waits until its progress line reports more than `after` samples, sends
- * SIGTERM and waits for it to write the finished samples and exit. */
-static void render_and_interrupt(const char *scene, const char *out, const char *devices,
-                                 const char *args, long after)
+ * dir/stderr.txt); returns its process id. */
+static int render_in_background(const char *scene, const char *out, const char *devices,
+                                const char *args)
 {
     char cmd[8192];
     snprintf(cmd, sizeof cmd, "'%s' render '%s' -o '%s' --device %s %s 2>'%s' & echo $! > '%s'",
@@ -241,6 +241,22 @@ static void render_and_interrupt(const char *scene, const char *out, const char 
     int pid = 0;
     assert_true(f && fscanf(f, "%d", &pid) == 1);
     fclose(f);
+    return pid;
+}
+
+/* Waits up to 60 s for process pid to end. */
+static void wait_for_exit(int pid)
+{
+    for (int i = 0; i < 6000 && kill(pid, 0) == 0; ++i)
+        nanosleep(&(struct timespec){0, 10000000}, NULL);
+}
+
+/* render_in_background, then, once its progress line reports more than `after` samples,
+ * SIGTERM; waits for it to write the finished samples and exit. */
+static void render_and_interrupt(const char *scene, const char *out, const char *devices,
+                                 const char *args, long after)
+{
+    int pid = render_in_background(scene, out, devices, args);
     int progressed = 0;
     for (int i = 0; i < 6000 && !progressed; ++i) { /* up to 60 s */
         progressed = progress_samples() > after;
@@ -248,9 +264,54 @@ static void render_and_interrupt(const char *scene, const char *out, const char 
     }
     assert_true(progressed);
     kill(pid, SIGTERM);
-    for (int i = 0; i < 6000 && kill(pid, 0) == 0; ++i)
-        nanosleep(&(struct timespec){0, 10000000}, NULL);
+    wait_for_exit(pid);
     test_expect_in_stderr(dir, "interrupted by SIGTERM after ");
+}
+
+/* Whether files a and b hold the same bytes. */
+static int same_bytes(const char *a, const char *b)
+{
+    FILE *fa = fopen(a, "rb"), *fb = fopen(b, "rb");
+    int same = fa && fb;
+    while (same) {
+        int ca = fgetc(fa), cb = fgetc(fb);
+        same = ca == cb;
+        if (ca == EOF) break;
+    }
+    if (fa) fclose(fa);
+    if (fb) fclose(fb);
+    return same;
+}
+
+/* Two devices write the EXR's rows while they render (app/output.h): its temporary beside
+ * the output holds compressed rows while the progress line is short of the frame's
+ * samples, and the file it becomes is the one-device render's, byte for byte, with no
+ * temporary left. */
+static void test_the_exr_is_written_while_rendering(void **state)
+{
+    (void)state;
+    const char *args = "--res 96x54 --spp 8 --max-lod 6";
+    render("scene/teapot.rib", "stream1.exr", first, "--res 96x54 --spp 8 --max-lod 6 --quiet");
+    char slow[64];
+    snprintf(slow, sizeof slow, "%d:60,%d:60", atoi(pair), atoi(strchr(pair, ',') + 1));
+    setenv("TESSERA_SLOW_DEVICE", slow, 1); /* 60 ms a wave: a render of about 2 s */
+    setenv("TESSERA_UNIT_SAMPLES", "1024", 1);
+    int pid = render_in_background(test_source_path("scene/teapot.rib"), "stream2.exr", pair, args);
+    unsetenv("TESSERA_SLOW_DEVICE");
+    unsetenv("TESSERA_UNIT_SAMPLES");
+    char tmp[64];
+    snprintf(tmp, sizeof tmp, ".stream2.exr.tmp-%d-0", pid);
+    int seen = 0;
+    for (int i = 0; i < 12000 && !seen && kill(pid, 0) == 0; ++i) { /* up to 60 s */
+        struct stat st;
+        seen = stat(in_dir(tmp), &st) == 0 && st.st_size > 4096 &&
+               progress_samples() < 96 * 54 * 8; /* rows in, the frame not done */
+        if (!seen) nanosleep(&(struct timespec){0, 5000000}, NULL);
+    }
+    wait_for_exit(pid);
+    assert_true(seen);
+    assert_true(access(in_dir(tmp), F_OK) != 0);
+    assert_true(same_bytes(in_dir("stream1.exr"), in_dir("stream2.exr")));
 }
 
 /* SIGTERM in the middle of a two-device render: the units merged so far are written (exit 3)
@@ -545,6 +606,7 @@ int main(void)
         cmocka_unit_test(test_odd_units_give_the_same_image),
         cmocka_unit_test(test_a_slow_device_takes_fewer_units),
         cmocka_unit_test(test_a_slow_devices_last_unit_is_backed_up),
+        cmocka_unit_test(test_the_exr_is_written_while_rendering),
         cmocka_unit_test(test_interrupted_two_device_render_resumes),
         cmocka_unit_test(test_one_device_render_resumes_on_two),
         cmocka_unit_test(test_bad_device_lists),

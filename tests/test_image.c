@@ -187,6 +187,68 @@ static void test_exr_round_trip(void **state)
     assert_dir_holds(s->dir, left, 1);
 }
 
+/* An EXR streamed a few rows at a time (image_exr_stream_*) is the file image_write_exr_text
+ * writes of the same image, byte for byte; nothing takes the output's name before the last
+ * row and the commit; an uncommitted stream, a commit before the last row and a row too
+ * many leave the directory as it was. */
+static void test_exr_stream(void **state)
+{
+    scratch *s = *state;
+    char buf0[256], buf1[256];
+    enum { W = 5, H = 37, C = 3 }; /* 37 rows: three ZIP blocks of 16 lines, the last short */
+    static float px[W * H * C];
+    for (int i = 0; i < W * H * C; i++)
+        px[i] = (float)(i % 97) * 0.37f - 3.0f;
+    const char *names[C] = {"R", "G", "B"};
+    ts_image img = {W, H, C, names, px};
+    ts_image_meta meta[] = {{"tessera:spp", 16}};
+    ts_image_text text = {"tessera:note", "streamed"};
+    ts_error err = {0};
+    const char *whole = scratch_path(buf0, s, "whole.exr"), *path = scratch_path(buf1, s, "s.exr");
+    assert_int_equal(image_write_exr_text(whole, &img, meta, 1, &text, 1, &err), TS_OK);
+    ts_exr_stream *st = NULL;
+    assert_int_equal(image_exr_stream_open(path, &img, meta, 1, &text, 1, &st, &err), TS_OK);
+    const int bands[] = {1, 6, 17, 0, 13};
+    for (int b = 0, at = 0; b < 5; at += bands[b++]) {
+        assert_int_equal(image_exr_stream_next_row(st), at);
+        assert_int_equal(image_exr_stream_rows(st, px + (size_t)at * W * C, bands[b], &err), TS_OK);
+        assert_false(file_exists(path)); /* the name only at the commit */
+    }
+    assert_int_equal(image_exr_stream_close(st, 1, &err), TS_OK);
+    static char a[1 << 16], b2[1 << 16];
+    size_t na = slurp(whole, a, sizeof a), nb = slurp(path, b2, sizeof b2);
+    assert_true(na > 0 && na < sizeof a);
+    assert_int_equal(na, nb);
+    assert_memory_equal(a, b2, na);
+
+    const char *left[] = {"whole.exr", "s.exr"};
+    const char *other = scratch_path(buf1, s, "t.exr");
+    /* Not committed; committed short of the last row; a row too many. */
+    assert_int_equal(image_exr_stream_open(other, &img, NULL, 0, NULL, 0, &st, &err), TS_OK);
+    assert_int_equal(image_exr_stream_rows(st, px, 3, &err), TS_OK);
+    assert_int_equal(image_exr_stream_close(st, 0, NULL), TS_OK);
+    assert_dir_holds(s->dir, left, 2);
+    assert_int_equal(image_exr_stream_open(other, &img, NULL, 0, NULL, 0, &st, &err), TS_OK);
+    assert_int_equal(image_exr_stream_rows(st, px, H - 1, &err), TS_OK);
+    assert_int_equal(image_exr_stream_close(st, 1, &err), TS_E_IO);
+    assert_non_null(strstr(err.msg, "before its last row"));
+    ts_error_clear(&err);
+    assert_dir_holds(s->dir, left, 2);
+    assert_int_equal(image_exr_stream_open(other, &img, NULL, 0, NULL, 0, &st, &err), TS_OK);
+    assert_int_equal(image_exr_stream_rows(st, px, H, &err), TS_OK);
+    assert_int_equal(image_exr_stream_rows(st, px, 1, &err), TS_E_IO);
+    assert_non_null(strstr(err.msg, "more rows"));
+    ts_error_clear(&err);
+    assert_int_equal(image_exr_stream_close(st, 0, NULL), TS_OK);
+    assert_dir_holds(s->dir, left, 2);
+    /* Only an .exr. */
+    assert_int_equal(
+        image_exr_stream_open(scratch_path(buf1, s, "t.png"), &img, NULL, 0, NULL, 0, &st, &err),
+        TS_E_IO);
+    assert_null(st);
+    ts_error_clear(&err);
+}
+
 /* EXR sorts channels by name on disk and OIIO reads them R, G, B, A, Z first; the
  * order the writer gave must come back, with each value under its own name. */
 static void test_exr_channel_order(void **state)
@@ -426,6 +488,7 @@ int main(void)
                                         scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_round_trip, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_channel_order, scratch_setup, scratch_teardown),
+        cmocka_unit_test_setup_teardown(test_exr_stream, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_meta, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_text_meta, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_png_round_trip, scratch_setup, scratch_teardown),

@@ -2,6 +2,7 @@
  * ts_exr_channel computed per pixel from the three films, then an EXR or a PNG. */
 #include "app/output.h"
 #include "base/file.h"
+#include "base/stats.h"
 #include "image/image.h"
 
 #include <math.h>
@@ -118,6 +119,35 @@ static void output_exposure(const ts_camera *cam, float v[TS_EXR_PARTIAL_CHANNEL
     }
 }
 
+/* Pixels [first, first + count) of the image, nch channels each (ts_exr_channel order; a PNG's
+ * R, G, B), into px. */
+static void output_pixels(const ts_film_state *films, const ts_camera *cam, int nch, size_t first,
+                          size_t count, float *px)
+{
+    for (size_t i = first; i < first + count; ++i) {
+        float v[TS_EXR_PARTIAL_CHANNELS];
+        output_pixel(films->accum[i], films->aov[i], films->albedo[i], v);
+        output_exposure(cam, v);
+        memcpy(&px[(i - first) * nch], v, nch * sizeof(float));
+    }
+}
+
+/* The TS_EXR_METAS of an image holding `samples_done` samples of job. */
+enum { OUTPUT_METAS = 7 };
+static void output_metas(const ts_render_options *o, const ts_job *job, uint64_t samples_done,
+                         ts_image_meta meta[OUTPUT_METAS])
+{
+    ts_image_meta m[OUTPUT_METAS] = {
+        {ts_exr_meta_keys[TS_EXR_META_spp], o->spp},
+        {ts_exr_meta_keys[TS_EXR_META_max_lod], (int)job->max_lod},
+        {ts_exr_meta_keys[TS_EXR_META_samples_done], (int)(uint32_t)samples_done},
+        {ts_exr_meta_keys[TS_EXR_META_seed], (int)o->seed},
+        {ts_exr_meta_keys[TS_EXR_META_job], job->hash},
+        {ts_exr_meta_keys[TS_EXR_META_lod], job->lod},
+        {TS_EXR_META_BAND, (int)job->band}};
+    memcpy(meta, m, sizeof m);
+}
+
 int output_write(const ts_render_options *o, const ts_film_state *films, const ts_camera *cam,
                  int width, int height, const ts_job *job, ts_error *err)
 {
@@ -128,24 +158,13 @@ int output_write(const ts_render_options *o, const ts_film_state *films, const t
     int nch = !exr ? 3 : partial ? TS_EXR_PARTIAL_CHANNELS : TS_EXR_COMPLETE_CHANNELS;
     float *px = malloc(npix * (size_t)nch * sizeof *px);
     if (!px) return ts_error_set(err, TS_E_MEMORY, "out of memory (image)");
-    for (size_t i = 0; i < npix; ++i) {
-        float v[TS_EXR_PARTIAL_CHANNELS];
-        output_pixel(films->accum[i], films->aov[i], films->albedo[i], v);
-        output_exposure(cam, v);
-        memcpy(&px[i * nch], v, nch * sizeof(float)); /* PNG: R, G, B */
-    }
+    output_pixels(films, cam, nch, 0, npix, px);
     int rc;
     if (exr) {
         /* image_write_exr only reads the names. */
         ts_image img = {width, height, nch, (const char **)ts_exr_channel_names, px};
-        ts_image_meta meta[] = {
-            {ts_exr_meta_keys[TS_EXR_META_spp], o->spp},
-            {ts_exr_meta_keys[TS_EXR_META_max_lod], (int)job->max_lod},
-            {ts_exr_meta_keys[TS_EXR_META_samples_done], (int)(uint32_t)job->samples_done},
-            {ts_exr_meta_keys[TS_EXR_META_seed], (int)o->seed},
-            {ts_exr_meta_keys[TS_EXR_META_job], job->hash},
-            {ts_exr_meta_keys[TS_EXR_META_lod], job->lod},
-            {TS_EXR_META_BAND, (int)job->band}};
+        ts_image_meta meta[OUTPUT_METAS];
+        output_metas(o, job, job->samples_done, meta);
         /* Samples merged past a gap (several devices or ranks stopped): which ones. */
         char *done = NULL;
         size_t size = 64 + 48 * (size_t)job->done.count;
@@ -155,13 +174,69 @@ int output_write(const ts_render_options *o, const ts_film_state *films, const t
             rc = ts_error_set(err, TS_E_INTERNAL, "the runs of finished samples do not fit");
         else {
             ts_image_text text = {TS_EXR_META_DONE, done};
-            rc = image_write_exr_text(o->output_path, &img, meta, (int)(sizeof meta / sizeof *meta),
-                                      &text, done ? 1 : 0, err);
+            rc = image_write_exr_text(o->output_path, &img, meta, OUTPUT_METAS, &text, done ? 1 : 0,
+                                      err);
         }
         free(done);
     } else {
         rc = image_write_png(o->output_path, width, height, px, err);
     }
     free(px);
+    return rc;
+}
+
+/* Rows a band of output_stream_rows converts and writes at most (a few MB). */
+#define OUTPUT_STREAM_ROWS 64
+
+int output_stream_open(const ts_render_options *o, int width, int height, const ts_job *job,
+                       ts_output_stream *s, ts_error *err)
+{
+    memset(s, 0, sizeof *s);
+    double t0 = stats_now();
+    const char *ext = strrchr(o->output_path, '.');
+    if (!ext || strcmp(ext, ".exr") != 0)
+        return ts_error_set(err, TS_E_USAGE, "%s: only an EXR is written while rendering",
+                            o->output_path);
+    s->rows =
+        malloc((size_t)OUTPUT_STREAM_ROWS * width * TS_EXR_COMPLETE_CHANNELS * sizeof *s->rows);
+    if (!s->rows) return ts_error_set(err, TS_E_MEMORY, "out of memory (image rows)");
+    ts_image shape = {width, height, TS_EXR_COMPLETE_CHANNELS, (const char **)ts_exr_channel_names,
+                      NULL};
+    ts_image_meta meta[OUTPUT_METAS];
+    output_metas(o, job, job->total, meta);
+    if (image_exr_stream_open(o->output_path, &shape, meta, OUTPUT_METAS, NULL, 0, &s->exr, err)) {
+        free(s->rows);
+        memset(s, 0, sizeof *s);
+        return err->code;
+    }
+    s->width = width, s->height = height;
+    s->seconds = stats_now() - t0;
+    return TS_OK;
+}
+
+int output_stream_rows(ts_output_stream *s, const ts_film_state *films, const ts_camera *cam,
+                       int rows_final, ts_error *err)
+{
+    double t0 = stats_now();
+    int rc = TS_OK;
+    for (int at = image_exr_stream_next_row(s->exr); !rc && at < rows_final;) {
+        int n = rows_final - at < OUTPUT_STREAM_ROWS ? rows_final - at : OUTPUT_STREAM_ROWS;
+        output_pixels(films, cam, TS_EXR_COMPLETE_CHANNELS, (size_t)at * s->width,
+                      (size_t)n * s->width, s->rows);
+        rc = image_exr_stream_rows(s->exr, s->rows, n, err);
+        at += n;
+    }
+    s->seconds += stats_now() - t0;
+    return rc;
+}
+
+int output_stream_close(ts_output_stream *s, int commit, ts_error *err)
+{
+    double t0 = stats_now();
+    int rc = image_exr_stream_close(s->exr, commit, err);
+    free(s->rows);
+    double seconds = s->seconds + stats_now() - t0;
+    memset(s, 0, sizeof *s);
+    s->seconds = seconds;
     return rc;
 }

@@ -155,6 +155,10 @@ typedef struct ts_render {
      * and early holds its error, if any. */
     int written;
     ts_error early;
+    /* The EXR written while several devices render (output.h): open once the frame's levels
+     * are known; stream_off once it cannot be (a PNG, a failure: written at the end). */
+    ts_output_stream stream;
+    int stream_off;
     uint64_t unit_samples;
     ts_device cl;
     ts_pipeline pipe;
@@ -172,6 +176,7 @@ static void render_init(ts_render *r, const ts_render_options *o, ts_stats *stat
 
 static void render_free(ts_render *r)
 {
+    output_stream_close(&r->stream, 0, NULL); /* a failure before the frame's end */
     ts_error_clear(&r->early);
     ts_error_clear(&r->stopped);
     film_state_free(&r->state);
@@ -466,6 +471,45 @@ static void render_write_early(void *ctx, uint64_t samples_done)
     render_write(r, &r->early);
 }
 
+/* The waiting thread, after each merge of a render on several devices: the EXR's rows whose
+ * pixels have every sample merged (pixel after pixel: the samples [0, prefix) are pixels
+ * [0, prefix / spp)) written now (output.h), the stream opened first once the frame's
+ * levels of detail are recorded (its header carries them). A stream that fails is dropped:
+ * render_write writes the image at the end, and reports what still fails then. */
+static void render_progress(void *ctx, ts_board *b, ts_workers *g)
+{
+    ts_render *r = ctx;
+    if (r->stream_off) return;
+    ts_error e = {0};
+    if (!r->stream.exr &&
+        (workers_lod_state(g) <= 0 ||
+         output_stream_open(&r->opt, r->width, r->height, &r->job, &r->stream, &e))) {
+        r->stream_off = e.code != 0;
+        ts_error_clear(&e);
+        return;
+    }
+    uint64_t pixels = board_prefix(b) / (uint64_t)r->opt.spp;
+    if (output_stream_rows(&r->stream, &r->state, &r->scene.camera, (int)(pixels / r->width), &e)) {
+        output_stream_close(&r->stream, 0, NULL);
+        r->stream_off = 1;
+        ts_error_clear(&e);
+    }
+}
+
+/* After the frame on several devices: a stream of a finished frame takes its last rows and
+ * becomes the image (r->written); any other is removed, and render_write writes the image. */
+static void render_stream_end(ts_render *r, int finished)
+{
+    if (!r->stream.exr) return;
+    ts_error e = {0};
+    int commit = finished && !r->written && !r->stream_off &&
+                 !output_stream_rows(&r->stream, &r->state, &r->scene.camera, r->height, &e);
+    ts_error_clear(&e);
+    if (!output_stream_close(&r->stream, commit, commit ? &e : NULL) && commit) r->written = 1;
+    ts_error_clear(&e);
+    r->stats->stage_seconds[TS_STAGE_film] += r->stream.seconds;
+}
+
 /* The frame on several devices (workers.h): their units merged into r->state. When every
  * device failed after samples were merged, they are kept for render_write (r->stopped says
  * why); with none merged the render fails with the last device's error. */
@@ -501,11 +545,18 @@ static int render_on_devices(ts_render *r, ts_error *err)
 #endif
     service.on_stop = render_write_early;
     service.stop_ctx = r;
+    /* The EXR's rows as they are final: units follow the pixels (one-pixel bands). */
+    const char *ext = strrchr(r->opt.output_path, '.');
+    r->stream_off = !(ext && strcmp(ext, ".exr") == 0 && f.cam.band == 1u);
+    service.progress = render_progress;
+    service.progress_ctx = r;
     int rc =
         workers_render(&f, &r->state, r->devices, r->device_count, &service, r->stats, &end, err);
 #ifdef TESSERA_HAVE_MPI
     if (!rc && r->ranks && !interrupt_signal()) rc = ranks_finish(r->ranks, r->stats, err);
 #endif
+    render_stream_end(r, !rc && !end.all_failed && !interrupt_signal() &&
+                             end.samples_done == r->job.total);
     if (rc) {
         ts_error_clear(&end.failure);
         return rc;

@@ -110,6 +110,7 @@ int units_list(const ts_sample_order *o, uint64_t total, const ts_done *d, uint6
      * devices: where two devices lose to one ..."). */
     uint64_t small =
         gather / UNITS_TAIL_SPLIT > UNIT_MIN_SAMPLES ? gather / UNITS_TAIL_SPLIT : UNIT_MIN_SAMPLES;
+    if (small > gather) small = gather; /* TESSERA_UNIT_SAMPLES below 4096 */
     uint64_t tail_from = total - total / UNITS_TAIL;
     for (uint64_t b = 0; sample_order_band_runs(o, b, &first, &end, &zero_end); ++b) {
         if (end > total) end = total;
@@ -416,6 +417,14 @@ int board_held(ts_board *b, ts_done *held, ts_error *err)
         rc = done_add(held, b->done.r[i].first, b->done.r[i].end, err);
     pthread_mutex_unlock(&b->lock);
     return rc;
+}
+
+uint64_t board_prefix(ts_board *b)
+{
+    pthread_mutex_lock(&b->lock);
+    uint64_t end = b->done.count && b->done.r[0].first == 0 ? b->done.r[0].end : 0;
+    pthread_mutex_unlock(&b->lock);
+    return end;
 }
 
 void board_progress(ts_board *b, uint64_t *samples_finished, uint64_t *rays)

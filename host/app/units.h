@@ -154,6 +154,9 @@ int board_finished(ts_board *b);
  * before). TS_E_MEMORY in *err when the copy cannot be made. */
 uint64_t board_samples_done(ts_board *b);
 int board_held(ts_board *b, ts_done *held, ts_error *err);
+/* The end of the first run of samples the films hold, from sample 0 (0: they lack sample
+ * 0): every sample before it is in the films and no unit adds to them any more. */
+uint64_t board_prefix(ts_board *b);
 /* Samples of the units merged so far (this run's) and their rays, for the progress line. */
 void board_progress(ts_board *b, uint64_t *samples_finished, uint64_t *rays);
 /* Waits up to `seconds` for the board to change. */

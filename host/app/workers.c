@@ -764,6 +764,7 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
             end->all_failed = 1;
             break;
         }
+        if (service && service->progress) service->progress(service->progress_ctx, b, g);
         if (!f->opt->quiet && !ferror(stderr) && stats_now() - printed > 0.5) {
             frame_progress(b, t0, &shown);
             printed = stats_now();

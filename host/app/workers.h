@@ -115,6 +115,10 @@ typedef struct ts_frame_service {
     double interval; /* seconds between polls */
     void (*on_stop)(void *stop_ctx, uint64_t samples_done);
     void *stop_ctx;
+    /* Called on the waiting thread after each merge (and each interval): what the films
+     * hold so far may be written out (render.c writes the EXR's finished rows). */
+    void (*progress)(void *progress_ctx, ts_board *b, ts_workers *g);
+    void *progress_ctx;
 } ts_frame_service;
 
 /* Renders samples [frame->job->samples_done, total) of the frame on the devices

@@ -135,6 +135,16 @@ int image_write_exr_text(const char *path, const ts_image *img, const ts_image_m
     return rc ? rc : image_exr_write(path, img, meta, meta_count, text, text_count, err);
 }
 
+int image_exr_stream_open(const char *path, const ts_image *shape, const ts_image_meta *meta,
+                          int meta_count, const ts_image_text *text, int text_count,
+                          ts_exr_stream **out, ts_error *err)
+{
+    *out = NULL;
+    int rc = require_extension(path, ".exr", err);
+    return rc ? rc
+              : image_exr_open_stream(path, shape, meta, meta_count, text, text_count, out, err);
+}
+
 int image_write_png(const char *path, int width, int height, const float *rgb_linear, ts_error *err)
 {
     int rc = require_extension(path, ".png", err);

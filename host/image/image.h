@@ -49,6 +49,26 @@ typedef struct ts_image_text {
 int image_write_exr_text(const char *path, const ts_image *img, const ts_image_meta *meta,
                          int meta_count, const ts_image_text *text, int text_count, ts_error *err);
 
+/* An EXR written a band of rows at a time (image_exr_stream_*): the header when it opens,
+ * each band's pixels as they become final, the file under its name only when every row is
+ * in (written through a temporary beside it, like image_write_exr). */
+typedef struct ts_exr_stream ts_exr_stream;
+
+/* Opens the stream of an image of shape's width, height, channels and channel names
+ * (shape->pixels is not read), with image_write_exr_text's metadata; *out on success.
+ * path must end in ".exr". */
+int image_exr_stream_open(const char *path, const ts_image *shape, const ts_image_meta *meta,
+                          int meta_count, const ts_image_text *text, int text_count,
+                          ts_exr_stream **out, ts_error *err);
+/* The next `count` rows, top to bottom: channels interleaved, width * channels floats a row. */
+int image_exr_stream_rows(ts_exr_stream *s, const float *rows, int count, ts_error *err);
+/* The number of rows written so far. */
+int image_exr_stream_next_row(const ts_exr_stream *s);
+/* Ends the stream and frees it (NULL: nothing). commit 1: every row must be written; the
+ * file takes path's name. commit 0: the temporary is removed, path is left as it was, and
+ * err is not touched (it may be NULL). */
+int image_exr_stream_close(ts_exr_stream *s, int commit, ts_error *err);
+
 /* Writes 8-bit sRGB PNG (with the sRGB chunk) from rgb_linear (3 floats per pixel, rows top to
  * bottom), tone-mapped by tonemap_srgb8. path must end in ".png". Returns TS_OK or the code. */
 int image_write_png(const char *path, int width, int height, const float *rgb_linear,

@@ -126,34 +126,48 @@ int make_header(const char *path, const ts_image *img, const std::vector<std::st
     return TS_OK;
 }
 
-/* Writes the pixels into the temporary tmp (the header already made). */
-void write_pixels(const char *tmp, const Imf::Header &h, const ts_image *img,
-                  const std::vector<std::string> &names)
+/* The frame buffer of rows [first, ...) of an image `width` pixels wide whose pixels (the
+ * channels interleaved) start at `rows`: OpenEXR addresses pixel (x, y) at base + x * xs +
+ * y * ys, so the base lies first rows before them. */
+Imf::FrameBuffer frame_buffer(const std::vector<std::string> &names, int width, const float *rows,
+                              int first)
 {
-    size_t xs = sizeof(float) * (size_t)img->channels, ys = xs * (size_t)img->width;
+    size_t xs = sizeof(float) * names.size(), ys = xs * (size_t)width;
+    const char *base = (const char *)rows - (ptrdiff_t)first * (ptrdiff_t)ys;
     Imf::FrameBuffer fb;
-    for (int c = 0; c < img->channels; c++)
-        fb.insert(names[c], Imf::Slice(Imf::FLOAT, (char *)(img->pixels + c), xs, ys));
-    Imf::OutputFile out(tmp, h);
-    out.setFrameBuffer(fb);
-    out.writePixels(img->height);
+    for (size_t c = 0; c < names.size(); c++)
+        fb.insert(names[c], Imf::Slice(Imf::FLOAT, (char *)base + c * sizeof(float), xs, ys));
+    return fb;
+}
+
+/* The header (channels, metadata) and a temporary beside path to write it to: what every
+ * write begins with. */
+int write_begin(const char *path, const ts_image *img, const ts_image_meta *meta, int meta_count,
+                const ts_image_text *text, int text_count, std::vector<std::string> &names,
+                Imf::Header &h, char *tmp, size_t cap, ts_error *err)
+{
+    if (!img) return image_fail(err, path, "no image given");
+    int rc = check_size(path, img->width, img->height, img->channels, err);
+    if (!rc) rc = channel_names(path, img, names, err);
+    if (!rc) rc = make_header(path, img, names, meta, meta_count, text, text_count, h, err);
+    if (!rc) rc = ts_file_temp_create(path, tmp, cap, err);
+    return rc;
 }
 
 int write_exr(const char *path, const ts_image *img, const ts_image_meta *meta, int meta_count,
               const ts_image_text *text, int text_count, ts_error *err)
 {
-    if (!img) return image_fail(err, path, "no image given");
-    int rc = check_size(path, img->width, img->height, img->channels, err);
-    if (!rc && !img->pixels) rc = image_fail(err, path, "no pixel data");
+    if (img && !img->pixels) return image_fail(err, path, "no pixel data");
     std::vector<std::string> names;
-    if (!rc) rc = channel_names(path, img, names, err);
     Imf::Header h;
-    if (!rc) rc = make_header(path, img, names, meta, meta_count, text, text_count, h, err);
     char tmp[8192];
-    if (!rc) rc = ts_file_temp_create(path, tmp, sizeof tmp, err);
+    int rc =
+        write_begin(path, img, meta, meta_count, text, text_count, names, h, tmp, sizeof tmp, err);
     if (rc) return rc;
     try {
-        write_pixels(tmp, h, img, names);
+        Imf::OutputFile out(tmp, h);
+        out.setFrameBuffer(frame_buffer(names, img->width, img->pixels, 0));
+        out.writePixels(img->height);
     } catch (...) {
         unlink(tmp);
         throw; /* guarded reports it */
@@ -293,6 +307,79 @@ int read_meta_string(const char *path, const char *key, char *buf, size_t size, 
 }
 
 } // namespace
+
+/* image.h: the header and the temporary from the start, rows as they come, the name at the
+ * end. */
+struct ts_exr_stream {
+    std::string path;
+    std::vector<std::string> names;
+    std::unique_ptr<Imf::OutputFile> out;
+    int width = 0, height = 0, next = 0;
+    char tmp[8192] = "";
+};
+
+extern "C" int image_exr_open_stream(const char *path, const ts_image *shape,
+                                     const ts_image_meta *meta, int meta_count,
+                                     const ts_image_text *text, int text_count, ts_exr_stream **out,
+                                     ts_error *err)
+{
+    *out = nullptr;
+    return guarded(path, err, [&]() -> int {
+        std::unique_ptr<ts_exr_stream> s(new ts_exr_stream);
+        Imf::Header h;
+        int rc = write_begin(path, shape, meta, meta_count, text, text_count, s->names, h, s->tmp,
+                             sizeof s->tmp, err);
+        if (rc) return rc;
+        try {
+            s->out.reset(new Imf::OutputFile(s->tmp, h));
+        } catch (...) {
+            unlink(s->tmp);
+            throw;
+        }
+        s->path = path;
+        s->width = shape->width, s->height = shape->height;
+        *out = s.release();
+        return TS_OK;
+    });
+}
+
+extern "C" int image_exr_stream_rows(ts_exr_stream *s, const float *rows, int count, ts_error *err)
+{
+    return guarded(s->path.c_str(), err, [&]() -> int {
+        if (count <= 0) return TS_OK;
+        if (count > s->height - s->next)
+            return image_fail(err, s->path.c_str(), "more rows written than the image has");
+        s->out->setFrameBuffer(frame_buffer(s->names, s->width, rows, s->next));
+        s->out->writePixels(count);
+        s->next += count;
+        return TS_OK;
+    });
+}
+
+extern "C" int image_exr_stream_next_row(const ts_exr_stream *s)
+{
+    return s ? s->next : 0;
+}
+
+extern "C" int image_exr_stream_close(ts_exr_stream *s, int commit, ts_error *err)
+{
+    if (!s) return TS_OK;
+    int rc = TS_OK;
+    if (commit && s->next != s->height)
+        rc = image_fail(err, s->path.c_str(), "the image was closed before its last row");
+    if (commit && !rc) /* the line offsets go in as the file closes */
+        rc = guarded(s->path.c_str(), err, [&]() -> int {
+            s->out.reset();
+            return TS_OK;
+        });
+    s->out.reset(); /* not committed: OpenEXR's destructor throws nothing; the file goes */
+    if (rc || !commit)
+        unlink(s->tmp);
+    else
+        rc = ts_file_temp_commit(s->tmp, s->path.c_str(), err);
+    delete s;
+    return rc;
+}
 
 extern "C" int image_exr_check_magic(const char *path)
 {

@@ -15,6 +15,12 @@ int image_exr_check_magic(const char *path);
 int image_exr_write(const char *path, const ts_image *img, const ts_image_meta *meta,
                     int meta_count, const ts_image_text *text, int text_count, ts_error *err);
 
+/* image_exr_stream_open once path's extension was checked (image_exr_stream_rows,
+ * image_exr_stream_next_row and image_exr_stream_close are image_exr.cpp's own). */
+int image_exr_open_stream(const char *path, const ts_image *shape, const ts_image_meta *meta,
+                          int meta_count, const ts_image_text *text, int text_count,
+                          ts_exr_stream **out, ts_error *err);
+
 /* image_read, image_read_meta_int and image_read_meta_string for an EXR file, once image.c
  * checked that path is a readable regular file (they do not check it again). */
 int image_exr_read(const char *path, ts_image *out, ts_error *err);
