@@ -215,11 +215,12 @@ int output_stream_open(const ts_render_options *o, int width, int height, const 
 }
 
 int output_stream_rows(ts_output_stream *s, const ts_film_state *films, const ts_camera *cam,
-                       int rows_final, ts_error *err)
+                       int rows_final, int max_rows, ts_error *err)
 {
     double t0 = stats_now();
-    int rc = TS_OK;
-    for (int at = image_exr_stream_next_row(s->exr); !rc && at < rows_final;) {
+    int rc = TS_OK, at = image_exr_stream_next_row(s->exr);
+    if (max_rows > 0 && rows_final - at > max_rows) rows_final = at + max_rows;
+    while (!rc && at < rows_final) {
         int n = rows_final - at < OUTPUT_STREAM_ROWS ? rows_final - at : OUTPUT_STREAM_ROWS;
         output_pixels(films, cam, TS_EXR_COMPLETE_CHANNELS, (size_t)at * s->width,
                       (size_t)n * s->width, s->rows);

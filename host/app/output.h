@@ -53,9 +53,10 @@ typedef struct ts_output_stream {
  * job->max_lod and job->lod must be the frame's (once the lod stage recorded them). */
 int output_stream_open(const ts_render_options *o, int width, int height, const ts_job *job,
                        ts_output_stream *s, ts_error *err);
-/* Writes rows [written, rows_final) from the films: every sample of their pixels merged. */
+/* Writes rows [written, rows_final) from the films (every sample of their pixels merged),
+ * at most max_rows of them (0: all). */
 int output_stream_rows(ts_output_stream *s, const ts_film_state *films, const ts_camera *cam,
-                       int rows_final, ts_error *err);
+                       int rows_final, int max_rows, ts_error *err);
 /* Ends the stream (see image_exr_stream_close); s->seconds stays for the stats. */
 int output_stream_close(ts_output_stream *s, int commit, ts_error *err);
 
