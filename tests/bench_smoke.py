@@ -394,7 +394,8 @@ def test_multi(ctx):
         close(by["1dev"]["speedup_vs_1dev"], 1.0, 1e-12, "1dev's own speed-up")
         for name, c in by.items():
             check(c["wall_seconds_median"] > 0 and c["speedup_vs_1dev"] > 0, f"{name}: timings")
-            check(c["identical_to_1dev"] in (True, None), f"{name}: not the 1dev image")
+            # every configuration writes the one-device EXR byte for byte
+            check(c["identical_to_1dev"] is True, f"{name}: not the 1dev image")
             close(c["speedup_vs_1dev"], by["1dev"]["wall_seconds_median"] / c["wall_seconds_median"],
                   1e-9, f"{name}: speed-up")
             check(c["cpu_seconds_median"] > 0, f"{name}: CPU seconds")
