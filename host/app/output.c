@@ -185,20 +185,13 @@ int output_write(const ts_render_options *o, const ts_film_state *films, const t
     return rc;
 }
 
-/* Rows a band of output_stream_rows converts and writes at most (a few MB). */
-#define OUTPUT_STREAM_ROWS 64
-
 int output_stream_open(const ts_render_options *o, int width, int height, const ts_job *job,
                        ts_output_stream *s, ts_error *err)
 {
     memset(s, 0, sizeof *s);
     double t0 = stats_now();
-    const char *ext = strrchr(o->output_path, '.');
-    if (!ext || strcmp(ext, ".exr") != 0)
-        return ts_error_set(err, TS_E_USAGE, "%s: only an EXR is written while rendering",
-                            o->output_path);
     s->rows =
-        malloc((size_t)OUTPUT_STREAM_ROWS * width * TS_EXR_COMPLETE_CHANNELS * sizeof *s->rows);
+        malloc((size_t)TS_OUTPUT_STREAM_ROWS * width * TS_EXR_COMPLETE_CHANNELS * sizeof *s->rows);
     if (!s->rows) return ts_error_set(err, TS_E_MEMORY, "out of memory (image rows)");
     ts_image shape = {width, height, TS_EXR_COMPLETE_CHANNELS, (const char **)ts_exr_channel_names,
                       NULL};
@@ -221,7 +214,7 @@ int output_stream_rows(ts_output_stream *s, const ts_film_state *films, const ts
     int rc = TS_OK, at = image_exr_stream_next_row(s->exr);
     if (max_rows > 0 && rows_final - at > max_rows) rows_final = at + max_rows;
     while (!rc && at < rows_final) {
-        int n = rows_final - at < OUTPUT_STREAM_ROWS ? rows_final - at : OUTPUT_STREAM_ROWS;
+        int n = rows_final - at < TS_OUTPUT_STREAM_ROWS ? rows_final - at : TS_OUTPUT_STREAM_ROWS;
         output_pixels(films, cam, TS_EXR_COMPLETE_CHANNELS, (size_t)at * s->width,
                       (size_t)n * s->width, s->rows);
         rc = image_exr_stream_rows(s->exr, s->rows, n, err);

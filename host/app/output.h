@@ -49,7 +49,10 @@ typedef struct ts_output_stream {
     double seconds; /* spent opening, converting, writing and closing (the film stage) */
 } ts_output_stream;
 
-/* Opens the stream of o->output_path (an .exr; TS_E_USAGE otherwise) with job's metadata:
+/* The rows output_stream_rows converts and writes at a time (a few MB). */
+#define TS_OUTPUT_STREAM_ROWS 64
+
+/* Opens the stream of o->output_path (an .exr: image_exr_stream_open) with job's metadata:
  * job->max_lod and job->lod must be the frame's (once the lod stage recorded them). */
 int output_stream_open(const ts_render_options *o, int width, int height, const ts_job *job,
                        ts_output_stream *s, ts_error *err);

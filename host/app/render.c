@@ -488,12 +488,12 @@ static void render_progress(void *ctx, ts_board *b, ts_workers *g)
         ts_error_clear(&e);
         return;
     }
-    /* 64 rows a call at most (about 20 ms at 1920 pixels a row): the waiting thread goes
-     * back soon to its other work (an MPI rank 0 polls the other ranks every 2 ms); the
+    /* One band of rows a call at most (about 20 ms at 1920 pixels a row): the waiting thread
+     * goes back soon to its other work (an MPI rank 0 polls the other ranks every 2 ms); the
      * calls come after every merge, more often than bands of rows become final. */
     uint64_t pixels = board_prefix(b) / (uint64_t)r->opt.spp;
-    if (output_stream_rows(&r->stream, &r->state, &r->scene.camera, (int)(pixels / r->width), 64,
-                           &e)) {
+    if (output_stream_rows(&r->stream, &r->state, &r->scene.camera, (int)(pixels / r->width),
+                           TS_OUTPUT_STREAM_ROWS, &e)) {
         output_stream_close(&r->stream, 0, NULL);
         r->stream_off = 1;
         ts_error_clear(&e);
@@ -504,14 +504,17 @@ static void render_progress(void *ctx, ts_board *b, ts_workers *g)
  * becomes the image (r->written); any other is removed, and render_write writes the image. */
 static void render_stream_end(ts_render *r, int finished)
 {
-    if (!r->stream.exr) return;
-    ts_error e = {0};
-    int commit = finished && !r->written && !r->stream_off &&
-                 !output_stream_rows(&r->stream, &r->state, &r->scene.camera, r->height, 0, &e);
-    ts_error_clear(&e);
-    if (!output_stream_close(&r->stream, commit, commit ? &e : NULL) && commit) r->written = 1;
-    ts_error_clear(&e);
+    if (r->stream.exr) {
+        ts_error e = {0};
+        int commit = finished && !r->written && !r->stream_off &&
+                     !output_stream_rows(&r->stream, &r->state, &r->scene.camera, r->height, 0, &e);
+        ts_error_clear(&e);
+        if (!output_stream_close(&r->stream, commit, commit ? &e : NULL) && commit) r->written = 1;
+        ts_error_clear(&e);
+    }
+    /* its time, also when render_progress dropped it mid-frame */
     r->stats->stage_seconds[TS_STAGE_film] += r->stream.seconds;
+    r->stream.seconds = 0;
 }
 
 /* The frame on several devices (workers.h): their units merged into r->state. When every
