@@ -331,6 +331,31 @@ static void test_tight_leaves_change_no_bit(void **state)
     }
 }
 
+/* The kernels as a GPU builds them (TESSERA_CPU_LANES=0: no -DTS_CPU_LANES, so
+ * lib/bezier.h sums the control points in scalars instead of float4 lanes) give the bits of
+ * a CPU device's: the form GPUs run is compiled and checked here, where CI has no GPU. */
+static void test_cpu_lanes_change_no_bit(void **state)
+{
+    char args[16384];
+    const char *runs[][3] = {
+        {"render", "scene/teapot_displaced.rib", "--res 160x90 --spp 2 --depth 2"},
+        {"render", "scene/textured.rib", "--res 96x54 --spp 2 --intersect triangles"},
+        {"bake", "scene/teapot_displaced.rib", "--res 40x24"},
+    };
+    for (int i = 0; i < 3; ++i) {
+        char exr[2][32];
+        for (int lanes = 1; lanes >= 0; --lanes) {
+            snprintf(exr[lanes], sizeof exr[lanes], "lanes%d_%d.exr", i, lanes);
+            if (!lanes) setenv("TESSERA_CPU_LANES", "0", 1);
+            snprintf(args, sizeof args, "%s '%s' -o '%s' %s --quiet", runs[i][0],
+                     test_source_path(runs[i][1]), path(exr[lanes]), runs[i][2]);
+            render_ok(args);
+            unsetenv("TESSERA_CPU_LANES");
+        }
+        test_assert_same_pixels(path(exr[1]), path(exr[0]));
+    }
+}
+
 /* A default budget whose arenas are too small for the frame's patches (its cap lowered to
  * 16 MB: 4 MB of arenas, where the displaced teapot's patches need 6.7 MB at 320x180):
  * after the lod stage the arenas grow to hold them all, each is diced once, nothing is
@@ -540,6 +565,7 @@ int main(void)
         cmocka_unit_test(test_patch_cache_dices_once_and_changes_no_bit),
         cmocka_unit_test(test_grid_normals_change_no_bit),
         cmocka_unit_test(test_tight_leaves_change_no_bit),
+        cmocka_unit_test(test_cpu_lanes_change_no_bit),
         cmocka_unit_test(test_arenas_grow_to_the_frames_patches),
         cmocka_unit_test(test_hidden_patch_is_diced_coarser_under_the_seen_rules),
         cmocka_unit_test(test_ten_billion_potential_micropolygons_in_fixed_memory),

@@ -252,13 +252,31 @@ static void dev_build_options(ts_device *cl, int slot)
     clGetDeviceInfo(cl->info.device, CL_DEVICE_SINGLE_FP_CONFIG, sizeof fp, &fp, NULL);
     char define[32] = "";
     if (slot > 0) snprintf(define, sizeof define, " -DTS_DEVICE_SLOT=%d", slot);
-    /* PoCL's CPU devices: software prefetches (kernels/lib/prefetch.h). */
-    int prefetch = (cl->info.type & CL_DEVICE_TYPE_CPU) &&
-                   strstr(cl->info.platform_name, "Portable Computing Language") != NULL;
-    snprintf(cl->build_options, sizeof cl->build_options, "-cl-std=CL1.2%s%s%s",
+    /* CPU devices: x, y, z in float4 lanes where a float4 is a SIMD register
+     * (kernels/lib/bezier.h bezier_combine); PoCL's also software prefetches
+     * (kernels/lib/prefetch.h). */
+    int cpu = (cl->info.type & CL_DEVICE_TYPE_CPU) != 0;
+    int prefetch = cpu && strstr(cl->info.platform_name, "Portable Computing Language") != NULL;
+    const char *lanes_env = getenv("TESSERA_CPU_LANES"); /* a testing aid: 0, a GPU's form */
+    int lanes = cpu && !(lanes_env && strcmp(lanes_env, "0") == 0);
+    snprintf(cl->build_options, sizeof cl->build_options, "-cl-std=CL1.2%s%s%s%s",
              fp & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT ? " -cl-fp32-correctly-rounded-divide-sqrt"
                                                       : "",
-             prefetch ? " -DTS_PREFETCH=1" : "", define);
+             lanes ? " -DTS_CPU_LANES=1" : "", prefetch ? " -DTS_PREFETCH=1" : "", define);
+}
+
+/* The driver's own words on an error (clCreateContext's pfn_notify): NVIDIA's names what a
+ * failed launch did ("an illegal memory access", "out of resources") where the API call
+ * that finds it says only CL_INVALID_COMMAND_QUEUE. Written as it comes (any thread), one
+ * line, before the error that ends the render. */
+static void CL_CALLBACK driver_notice(const char *what, const void *info, size_t size, void *user)
+{
+    (void)info, (void)size, (void)user;
+    if (!what) what = "(no text)";
+    size_t n = strlen(what);
+    while (n > 0 && (what[n - 1] == '\n' || what[n - 1] == ' ' || what[n - 1] == '.'))
+        --n;
+    ts_print_line("tessera: OpenCL driver: %.*s", (int)n, what);
 }
 
 /* Builds `prog` from the program text `src`; on failure returns TS_E_DEVICE with the full
@@ -519,7 +537,7 @@ int dev_open(ts_device *cl, const ts_device_options *opt, ts_error *err)
     cl_int rc;
     cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)cl->info.platform,
                                      0};
-    cl->context = clCreateContext(props, 1, &cl->info.device, NULL, NULL, &rc);
+    cl->context = clCreateContext(props, 1, &cl->info.device, driver_notice, NULL, &rc);
     CL_CHECK(rc, err);
     cl->queue = clCreateCommandQueue(cl->context, cl->info.device, CL_QUEUE_PROFILING_ENABLE, &rc);
     CL_CHECK(rc, err);

@@ -75,7 +75,7 @@ typedef struct ts_device {
     size_t pending_count, pending_capacity;
     double build_seconds;
     int cache_hit;
-    char build_options[128]; /* dev_build_options() for this device */
+    char build_options[192]; /* dev_build_options() for this device */
     /* Non-empty when the binary cache held a damaged or foreign entry for this program: what
      * was wrong (the program was built from source and the entry rewritten). The caller
      * prints it once as a warning. */

@@ -48,11 +48,15 @@ TS_INLINE float bezier_sum4(const float b[4], float x0, float x1, float x2, floa
  * are bitwise equal (tests/test_scene.c). */
 TS_INLINE ts_vec4 bezier_combine(TS_CONST_GLOBAL ts_vec4 *cp, const float bu[4], const float bv[4])
 {
-#ifdef __OPENCL_C_VERSION__
-    /* The same sums with x, y, z (and w, unused) in the lanes of a float4, each lane the
-     * scalar operations in their order: the same bits. The scalar form below is compiled
-     * into gathers of the control points' columns by PoCL (a quarter of shade's time before
-     * the displaced normal went to lib/noise4.h's lanes; most of dice's). */
+#if defined(__OPENCL_C_VERSION__) && defined(TS_CPU_LANES)
+    /* CPU devices (-DTS_CPU_LANES, host/device/device.c dev_build_options): the same sums
+     * with x, y, z (and w, unused) in the lanes of a float4, each lane the scalar operations
+     * in their order: the same bits. The scalar form below is compiled into gathers of the
+     * control points' columns by PoCL (a quarter of shade's time before the displaced normal
+     * went to lib/noise4.h's lanes; most of dice's). Not on GPUs, where a work-item's float4
+     * is no SIMD register: there NVIDIA's OpenCL compiler (driver 580.159) built shade_path
+     * with this form into a kernel that fails at every path past the eye hit
+     * (CL_INVALID_COMMAND_QUEUE, "Unknown error executing clFlush"; docs/benchmarks.md). */
     __global const float *f = (__global const float *)cp;
     float4 r[4];
     for (int j = 0; j < 4; ++j)
