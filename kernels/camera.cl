@@ -31,6 +31,91 @@ inline float3 camera_vector(const ts_camera_params *c, uint k, float t)
     return v;
 }
 
+#ifdef TS_CPU_LANES
+/* camera_vector's component c (0..2) of vector k at the lanes' times. */
+inline float8 camera_vector_x8(const ts_camera_params *c, uint k, uint comp, float8 t)
+{
+    const float *a = k == 0u ? c->origin : k == 1u ? c->right : k == 2u ? c->up : c->forward;
+    float8 v = (float8)(a[comp]);
+    if (c->moving) {
+        const float *b = k == 0u   ? c->origin1
+                         : k == 1u ? c->right1
+                         : k == 2u ? c->up1
+                                   : c->forward1;
+        v = (1.0f - t) * v + t * (float8)(b[comp]);
+    }
+    return v;
+}
+
+/* CPU devices (-DTS_CPU_LANES): work-item g makes rays 8 g .. 8 g + 7 in the lanes of uint8
+ * and float8 vectors (the host launches ceil(ray_count / 8) work-items, pipeline_camera),
+ * each lane the operations of the one-ray form below in their order: the same bits
+ * (test_geometry's TESSERA_CPU_LANES=0 case compares them). PoCL vectorises no work-item
+ * loop of this kernel itself (its vector-typed values), so the lanes are written out: about
+ * a third of the stage's time on a teapot frame. */
+inline void camera_generate_x8(const ts_camera_params *c, ts_order_divs ord, __global ts_vec4 *org,
+                               __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
+                               __global uint *pixel, __global uint *flags, __global uint *from,
+                               __global uint *active, __global uint *paths,
+                               __global ts_vec4 *throughput, __global float *mis,
+                               __global uint *state, __global ts_vec4 *radiance)
+{
+    uint g = get_global_id(0), i0 = 8u * g;
+    if (i0 >= c->ray_count) return;
+    uint8 lane = (uint8)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u), pix, sample;
+    sample_order_at_ready_x8((uint8)(c->first_sample + i0) + lane, ord, &pix, &sample);
+    uint8 y = udiv_x8(pix, ord.width), x = pix - y * c->width;
+    float8 jx = (float8)(0.5f), jy = (float8)(0.5f);
+    ts_sampler_set_x8 cs = sampler_set_x8(pix, sample, TS_SET_CAMERA, c->seed, ord.mask);
+    if (c->spp > 1) {
+        jx = sampler_set_value_x8(cs, 0u);
+        jy = sampler_set_value_x8(cs, 1u);
+    }
+    float8 time = sampler_set_value_x8(cs, 2u);
+    float8 sx = 2.0f * (convert_float8(x) + jx) / (float)c->width - 1.0f;
+    float8 sy = 1.0f - 2.0f * (convert_float8(y) + jy) / (float)c->height;
+    float8 e[3], d[3];
+    for (uint k = 0u; k < 3u; ++k) {
+        float8 eye = camera_vector_x8(c, 0u, k, time), right = camera_vector_x8(c, 1u, k, time);
+        float8 up = camera_vector_x8(c, 2u, k, time), fwd = camera_vector_x8(c, 3u, k, time);
+        if (c->projection == TS_PROJECTION_ORTHOGRAPHIC)
+            e[k] = eye + (sx * right + sy * up), d[k] = fwd;
+        else
+            e[k] = eye, d[k] = sx * right + sy * up + fwd;
+    }
+    float8 inv = 1.0f / sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    float ex[8], ey[8], ez[8], dx[8], dy[8], dz[8], tt[8];
+    vstore8(e[0], 0, ex), vstore8(e[1], 0, ey), vstore8(e[2], 0, ez);
+    vstore8(d[0] * inv, 0, dx), vstore8(d[1] * inv, 0, dy), vstore8(d[2] * inv, 0, dz);
+    vstore8(time, 0, tt);
+    uint n = min(8u, c->ray_count - i0);
+    for (uint l = 0u; l < n; ++l) {
+        uint i = i0 + l;
+        org[i] = (ts_vec4){ex[l], ey[l], ez[l], 0.0f};
+        dir[i] = (ts_vec4){dx[l], dy[l], dz[l], tt[l]};
+        hit[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
+        throughput[i] = (ts_vec4){1.0f, 1.0f, 1.0f, 0.0f};
+        radiance[i] = (ts_vec4){0.0f, 0.0f, 0.0f, 0.0f};
+    }
+    if (n == 8u) {
+        vstore8((uint8)(TS_ENTRY_START), g, entry), vstore8(pix, g, pixel);
+        vstore8((uint8)(0u), g, flags), vstore8((uint8)(0u), g, from);
+        vstore8((uint8)(i0) + lane, g, active), vstore8((uint8)(i0) + lane, g, paths);
+        vstore8((float8)(1.0f), g, mis);
+        vstore8((uint8)(TS_PATH_STATE(TS_PATH_TRACED_BSDF, TS_MIS_ONE)), g, state);
+    } else {
+        uint px[8];
+        vstore8(pix, 0, px);
+        for (uint l = 0u; l < n; ++l) {
+            uint i = i0 + l;
+            entry[i] = TS_ENTRY_START, pixel[i] = px[l], flags[i] = 0u, from[i] = 0u;
+            active[i] = i, paths[i] = i, mis[i] = 1.0f;
+            state[i] = TS_PATH_STATE(TS_PATH_TRACED_BSDF, TS_MIS_ONE);
+        }
+    }
+}
+#endif
+
 __kernel void camera_generate(ts_camera_params cam, ts_order_divs ord, __global ts_vec4 *org,
                               __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
                               __global uint *pixel, __global uint *flags, __global uint *from,
@@ -38,6 +123,10 @@ __kernel void camera_generate(ts_camera_params cam, ts_order_divs ord, __global 
                               __global ts_vec4 *throughput, __global float *mis,
                               __global uint *state, __global ts_vec4 *radiance)
 {
+#ifdef TS_CPU_LANES
+    camera_generate_x8(&cam, ord, org, dir, hit, entry, pixel, flags, from, active, paths,
+                       throughput, mis, state, radiance);
+#else
     uint i = get_global_id(0);
     if (i >= cam.ray_count) return;
     uint pix, sample;
@@ -81,4 +170,5 @@ __kernel void camera_generate(ts_camera_params cam, ts_order_divs ord, __global 
     mis[i] = 1.0f;
     state[i] = TS_PATH_STATE(TS_PATH_TRACED_BSDF, TS_MIS_ONE);
     radiance[i] = (ts_vec4){0.0f, 0.0f, 0.0f, 0.0f};
+#endif
 }

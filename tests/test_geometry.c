@@ -332,17 +332,22 @@ static void test_tight_leaves_change_no_bit(void **state)
 }
 
 /* The kernels as a GPU builds them (TESSERA_CPU_LANES=0: no -DTS_CPU_LANES, so
- * lib/bezier.h sums the control points in scalars instead of float4 lanes) give the bits of
- * a CPU device's: the form GPUs run is compiled and checked here, where CI has no GPU. */
+ * lib/bezier.h sums the control points in scalars instead of float4 lanes, and camera.cl
+ * makes one ray a work-item instead of eight in lanes) give the bits of a CPU device's: the
+ * form GPUs run is compiled and checked here, where CI has no GPU. Odd sizes leave the last
+ * work-item of camera's lanes fewer than eight rays; a moving and an orthographic camera. */
 static void test_cpu_lanes_change_no_bit(void **state)
 {
     char args[16384];
     const char *runs[][3] = {
         {"render", "scene/teapot_displaced.rib", "--res 160x90 --spp 2 --depth 2"},
-        {"render", "scene/textured.rib", "--res 96x54 --spp 2 --intersect triangles"},
+        {"render", "scene/textured.rib", "--res 97x55 --spp 3 --intersect triangles"},
+        {"render", "scene/motion.rib", "--res 61x37 --spp 5"},            /* a moving camera */
+        {"render", "scene/teapots.rib", "--res 45x29 --spp 1 --frame 2"}, /* orthographic */
         {"bake", "scene/teapot_displaced.rib", "--res 40x24"},
     };
-    for (int i = 0; i < 3; ++i) {
+    enum { RUNS = sizeof runs / sizeof runs[0] };
+    for (int i = 0; i < RUNS; ++i) {
         char exr[2][32];
         for (int lanes = 1; lanes >= 0; --lanes) {
             snprintf(exr[lanes], sizeof exr[lanes], "lanes%d_%d.exr", i, lanes);

@@ -20,6 +20,8 @@
 #   - the same teapot with --leaf-mode group --leaf-size 2 (the work-group leaf kernel);
 #   - scene/textured.rib at 8x6, --max-lod 2 (image textures: displacement and colour);
 #   - scene/lights.rib at 8x6, --max-lod 1 (point, spot and ambient lights in shade);
+#   - scene/teapot.rib at 7x5, 3 spp, with TESSERA_CPU_LANES=1 (the CPU devices' lanes:
+#     camera's eight rays a work-item, bezier_combine's float4 sums), without --uninitialized;
 #   - scene/teapot_displaced.rib at 12x8, --max-lod 4, --depth 2 (displacement, the grid's
 #     shading normals, bounce rays), and at 8x6 with --intersect triangles (the tight leaf
 #     boxes), both without --uninitialized;
@@ -128,6 +130,13 @@ run bake_teapot "$build/tessera" bake scene/teapot.rib --lod 1 --rays 2 \
   --memory 4 -o "$work/bake.exr" --no-kernel-cache --quiet
 run bake_textured "$build/tessera" bake scene/textured.rib --res 8x6 --rays 4 --max-lod 2 \
   --memory 4 -o "$work/bake_textured.exr" --no-kernel-cache --quiet
+# The CPU devices' lanes (-DTS_CPU_LANES, forced with TESSERA_CPU_LANES=1 on Oclgrind's
+# device, which is a GPU): camera_generate's eight rays a work-item, with a last work-item of
+# fewer (105 rays), and bezier_combine's float4 sums. --uninitialized left out as below
+# (float8 lanes).
+TESSERA_CPU_LANES=1 OCLGRIND_CHECKS="--data-races --check-api" \
+  run render_cpu_lanes "$build/tessera" render scene/teapot.rib --res 7x5 --spp 3 --max-lod 2 \
+  --depth 1 --memory 4 -o "$work/cpu_lanes.exr" --no-kernel-cache --quiet
 # The displaced teapot with bounce and shadow rays: fBm displacement in dice and build (the
 # noise's float4 and float8 lanes), bottom_level over displaced leaf boxes and the origin
 # patch's micro-triangles, and shade's micro-quad normals read from the diced grid where the

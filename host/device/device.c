@@ -257,8 +257,12 @@ static void dev_build_options(ts_device *cl, int slot)
      * (kernels/lib/prefetch.h). */
     int cpu = (cl->info.type & CL_DEVICE_TYPE_CPU) != 0;
     int prefetch = cpu && strstr(cl->info.platform_name, "Portable Computing Language") != NULL;
-    const char *lanes_env = getenv("TESSERA_CPU_LANES"); /* a testing aid: 0, a GPU's form */
-    int lanes = cpu && !(lanes_env && strcmp(lanes_env, "0") == 0);
+    /* A testing aid: 0, a GPU's form on a CPU; 1, the lanes on any device (Oclgrind's). */
+    const char *lanes_env = getenv("TESSERA_CPU_LANES");
+    int lanes = lanes_env && strcmp(lanes_env, "1") == 0   ? 1
+                : lanes_env && strcmp(lanes_env, "0") == 0 ? 0
+                                                           : cpu;
+    cl->cpu_lanes = lanes;
     snprintf(cl->build_options, sizeof cl->build_options, "-cl-std=CL1.2%s%s%s%s",
              fp & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT ? " -cl-fp32-correctly-rounded-divide-sqrt"
                                                       : "",

@@ -76,6 +76,7 @@ typedef struct ts_device {
     double build_seconds;
     int cache_hit;
     char build_options[192]; /* dev_build_options() for this device */
+    int cpu_lanes; /* built with -DTS_CPU_LANES: camera_generate makes 8 rays a work-item */
     /* Non-empty when the binary cache held a damaged or foreign entry for this program: what
      * was wrong (the program was built from source and the entry rewritten). The caller
      * prints it once as a warning. */

@@ -441,7 +441,9 @@ int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
                      DEV_ARG(p->active), DEV_ARG(p->wave_paths), DEV_ARG(p->path_throughput),
                      DEV_ARG(p->path_mis), DEV_ARG(p->path_state), DEV_ARG(p->radiance), (size_t)0))
         return err->code;
-    return dev_launch(p->cl, p->k_camera, TS_STAGE_camera, c.ray_count, TS_LOCAL_SIZE, err);
+    /* Eight rays a work-item where the kernels have CPU lanes (kernels/camera.cl). */
+    size_t items = p->cl->cpu_lanes ? ((size_t)c.ray_count + 7) / 8 : c.ray_count;
+    return dev_launch(p->cl, p->k_camera, TS_STAGE_camera, items, TS_LOCAL_SIZE, err);
 }
 
 int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, int before_hit, ts_error *err)

@@ -67,6 +67,25 @@ TS_INLINE void sample_order_at_ready(ts_u32 k, ts_order_divs o, ts_u32 *pixel, t
     *pixel = base + (r - s * n.d);
 }
 
+#ifdef __OPENCL_C_VERSION__
+/* sample_order_at_ready for eight samples k in the lanes of a uint8 (camera.cl on CPU
+ * devices), each lane the scalar operations: the same pixels and samples. */
+inline void sample_order_at_ready_x8(uint8 k, ts_order_divs o, uint8 *pixel, uint8 *sample)
+{
+    uint8 b = udiv_x8(k, o.band_samples);
+    uint8 base = b * o.band.d, r = k - b * o.band_samples.d;
+    int8 last = convert_int8((uint8)(o.npix) - base < (uint8)(o.band.d));
+    uint8 mul = select((uint8)(o.band.mul), (uint8)(o.last.mul), last);
+    uint8 sh1 = select((uint8)(o.band.sh1), (uint8)(o.last.sh1), last);
+    uint8 sh2 = select((uint8)(o.band.sh2), (uint8)(o.last.sh2), last);
+    uint8 d = select((uint8)(o.band.d), (uint8)(o.last.d), last);
+    uint8 t = mul_hi(mul, r);
+    uint8 s = (t + ((r - t) >> sh1)) >> sh2; /* udiv(r, n) */
+    *sample = s;
+    *pixel = base + (r - s * d);
+}
+#endif
+
 /* Pixels [*first, *end) hold every pixel with a sample among the frame's samples
  * [k, k + count), count >= 1: the bands those samples fall in (the whole image with one
  * band). */

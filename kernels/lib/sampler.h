@@ -145,4 +145,62 @@ TS_INLINE float sampler_value(ts_u32 pixel, ts_u32 sample, ts_u32 set, ts_u32 d,
     return sampler_set_value(sampler_set(pixel, sample, set, seed, mask), d);
 }
 
+#ifdef __OPENCL_C_VERSION__
+/* Kernels only: the functions above for eight (pixel, sample) keys in the lanes of a uint8,
+ * each lane the scalar operations in their order, so the same bits (camera.cl on CPU
+ * devices, -DTS_CPU_LANES; the set, its seed and d are the same for all lanes). */
+inline uint8 sampler_reverse_bits_x8(uint8 x)
+{
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
+    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
+    return (x >> 16) | (x << 16);
+}
+
+inline uint8 sampler_owen_x8(uint8 v, uint8 seed)
+{
+    uint8 x = sampler_reverse_bits_x8(v) + seed; /* sampler_lk */
+    x ^= x * 0x6c50b47cu;
+    x ^= x * 0xb82f1e52u;
+    x ^= x * 0xc7afe638u;
+    x ^= x * 0x8d22f6e6u;
+    return sampler_reverse_bits_x8(x);
+}
+
+inline uint8 sampler_sobol_x8(uint8 index, ts_u32 d)
+{
+    if (d == 0u) return sampler_reverse_bits_x8(index);
+    uint8 x = (uint8)(0u);
+    for (ts_u32 k = 0u; k < 32u; ++k)
+        x ^= (uint8)(ts_sobol_dirs[d - 1u][k]) & ((uint8)(0u) - ((index >> k) & 1u));
+    return x;
+}
+
+typedef struct ts_sampler_set_x8 {
+    uint8 k, index;
+} ts_sampler_set_x8;
+
+inline ts_sampler_set_x8 sampler_set_x8(uint8 pixel, uint8 sample, ts_u32 set, ts_u32 seed,
+                                        ts_u32 mask)
+{
+    ts_sampler_set_x8 s;
+    uint8 k = (uint8)(rng_mix(seed ^ 0x2545f491u)) ^ pixel;
+    TS_LOWBIAS32(k);
+    k ^= set * 0x9e3779b9u;
+    TS_LOWBIAS32(k);
+    s.k = k;
+    s.index = sampler_owen_x8(sample, k) & mask;
+    return s;
+}
+
+inline float8 sampler_set_value_x8(ts_sampler_set_x8 s, ts_u32 d)
+{
+    uint8 m = s.k ^ ((d + 1u) * 0x68e31da4u);
+    TS_LOWBIAS32(m);
+    uint8 bits = sampler_owen_x8(sampler_sobol_x8(s.index, d), m);
+    return convert_float8(bits >> 8) * (1.0f / 16777216.0f);
+}
+#endif
+
 #endif

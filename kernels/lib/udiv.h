@@ -20,6 +20,15 @@ TS_INLINE ts_u32 udiv(ts_u32 n, ts_udiv d)
     return (t + ((n - t) >> d.sh1)) >> d.sh2;
 }
 
+#ifdef __OPENCL_C_VERSION__
+/* udiv of eight numerators in the lanes of a uint8 by one divisor: the same quotients. */
+inline uint8 udiv_x8(uint8 n, ts_udiv d)
+{
+    uint8 t = mul_hi((uint8)(d.mul), n);
+    return (t + ((n - t) >> d.sh1)) >> d.sh2;
+}
+#endif
+
 #ifndef __OPENCL_C_VERSION__
 /* d (>= 1) made ready for udiv: l = ceil(log2 d), mul = floor(2^32 (2^l - d) / d) + 1, which
  * fits 32 bits since 2^l - d < d; sh1 = min(l, 1), sh2 = max(l - 1, 0) (Granlund and
