@@ -588,6 +588,40 @@ static void sleep_ms(long ms)
     nanosleep(&(struct timespec){ms / 1000, ms % 1000 * 1000000L}, NULL);
 }
 
+static double seconds_now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* A change between a look at the board (board_changes) and the wait is not slept through:
+ * frame_wait once slept its whole 0.25 s when the last unit was merged while it wrote the
+ * EXR's rows (a quarter of the displaced teapot's 1.5 s frame on two devices, one run in
+ * three). */
+static void test_board_wait_sees_a_change_it_missed(void **state)
+{
+    (void)state;
+    ts_film_state f;
+    film_alloc(&f);
+    ts_board b;
+    ts_error err = {0};
+    ts_sample_order o = order_of(W);
+    assert_int_equal(board_init(&b, &f, &o, TOTAL, 0, NULL, &err), TS_OK);
+    uint64_t seen = board_changes(&b);
+    ts_unit u;
+    ts_unit_result r;
+    assert_int_equal(board_try_take(&b, &u), 1);
+    trace(&o, &u, &r);
+    board_done(&b, &u, &r);
+    assert_true(board_changes(&b) > seen);
+    double t0 = seconds_now();
+    board_wait(&b, 30.0, seen);
+    assert_true(seconds_now() - t0 < 10.0);
+    board_free(&b);
+    film_state_free(&f);
+}
+
 /* A board of order o into film f whose unit 0 device 2 holds (*slow) while device 1 takes
  * and finishes every other unit, `ms` milliseconds each. */
 static void board_with_slow_holder(ts_board *b, ts_film_state *f, const ts_sample_order *o,
@@ -751,6 +785,7 @@ int main(void)
         cmocka_unit_test(test_units_gather_one_pixel_bands),
         cmocka_unit_test(test_units_smaller_at_the_frame_end),
         cmocka_unit_test(test_board_take_give_back_close),
+        cmocka_unit_test(test_board_wait_sees_a_change_it_missed),
         cmocka_unit_test(test_board_backs_up_a_slow_device),
         cmocka_unit_test(test_board_backs_up_only_the_slow),
         cmocka_unit_test(test_units_plan),

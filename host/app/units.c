@@ -357,6 +357,7 @@ int board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
     }
     ts_error_clear(&err);
     unit_result_free(r);
+    b->changes++;
     pthread_cond_broadcast(&b->changed);
     pthread_mutex_unlock(&b->lock);
     return merged;
@@ -373,6 +374,7 @@ void board_give_back(ts_board *b, const ts_unit *u)
          * by (holder names the first), so no further backup of it. */
         if (b->holders[i] && u->taker == b->holder[i] && !u->backup) b->holder[i] = 0;
     }
+    b->changes++;
     pthread_cond_broadcast(&b->changed);
     pthread_mutex_unlock(&b->lock);
 }
@@ -381,6 +383,7 @@ void board_close(ts_board *b)
 {
     pthread_mutex_lock(&b->lock);
     b->closed = 1;
+    b->changes++;
     pthread_cond_broadcast(&b->changed);
     pthread_mutex_unlock(&b->lock);
 }
@@ -389,6 +392,7 @@ void board_freeze(ts_board *b)
 {
     pthread_mutex_lock(&b->lock);
     b->closed = b->frozen = 1;
+    b->changes++;
     pthread_cond_broadcast(&b->changed);
     pthread_mutex_unlock(&b->lock);
 }
@@ -435,10 +439,18 @@ void board_progress(ts_board *b, uint64_t *samples_finished, uint64_t *rays)
     pthread_mutex_unlock(&b->lock);
 }
 
-void board_wait(ts_board *b, double seconds)
+uint64_t board_changes(ts_board *b)
 {
     pthread_mutex_lock(&b->lock);
-    wait_for(b, seconds);
+    uint64_t n = b->changes;
+    pthread_mutex_unlock(&b->lock);
+    return n;
+}
+
+void board_wait(ts_board *b, double seconds, uint64_t seen)
+{
+    pthread_mutex_lock(&b->lock);
+    if (b->changes == seen) wait_for(b, seconds);
     pthread_mutex_unlock(&b->lock);
 }
 

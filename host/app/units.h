@@ -93,6 +93,7 @@ typedef struct ts_board_taker {
 typedef struct ts_board {
     pthread_mutex_t lock;
     pthread_cond_t changed; /* a unit was merged or given back, or the board closed */
+    uint64_t changes;       /* how many times `changed` was broadcast (board_changes) */
     ts_film_state *film;
     ts_sample_order order;
     uint64_t total, start; /* the frame's samples; those the films held at the start */
@@ -159,8 +160,12 @@ int board_held(ts_board *b, ts_done *held, ts_error *err);
 uint64_t board_prefix(ts_board *b);
 /* Samples of the units merged so far (this run's) and their rays, for the progress line. */
 void board_progress(ts_board *b, uint64_t *samples_finished, uint64_t *rays);
-/* Waits up to `seconds` for the board to change. */
-void board_wait(ts_board *b, double seconds);
+/* How many times the board has changed (a unit merged or given back, the board closed). */
+uint64_t board_changes(ts_board *b);
+/* Waits up to `seconds` for the board to change after `seen` = board_changes: at once when
+ * it already has, so that a change between the caller's look and its wait (the last unit
+ * merged while the EXR stream wrote rows, say) is not slept through. */
+void board_wait(ts_board *b, double seconds, uint64_t seen);
 
 /* How the devices of one process get their units: from the board (board_source), or from a
  * relay that another process's board feeds (ranks.c). */

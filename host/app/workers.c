@@ -736,6 +736,7 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
     double t0 = stats_now(), printed = 0;
     uint64_t shown = 0;
     int rc = TS_OK, lod_state;
+    uint64_t seen = board_changes(b);
     while (!board_finished(b)) {
         if (interrupt_signal()) {
             board_freeze(b);
@@ -769,7 +770,8 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
             frame_progress(b, t0, &shown);
             printed = stats_now();
         }
-        board_wait(b, service && service->poll ? service->interval : 0.25);
+        board_wait(b, service && service->poll ? service->interval : 0.25, seen);
+        seen = board_changes(b);
     }
     /* One more poll once the frame is merged: a frame this process's devices finished
      * before any poll saw its levels of detail (a short --resume) must still send them to
