@@ -56,13 +56,21 @@ static const
          0x800800f8u, 0xc00c0074u, 0x200200a2u, 0x50050093u},
 };
 
+/* The bit reversal and the Laine-Karras steps on the lvalue x: a ts_u32, or in kernels a
+ * vector of them (the _x8 forms below), as rng.h's TS_LOWBIAS32. */
+#define TS_REVERSE_BITS(x)                                                                         \
+    ((x) = (((x) >> 1) & 0x55555555u) | (((x)&0x55555555u) << 1),                                  \
+     (x) = (((x) >> 2) & 0x33333333u) | (((x)&0x33333333u) << 2),                                  \
+     (x) = (((x) >> 4) & 0x0f0f0f0fu) | (((x)&0x0f0f0f0fu) << 4),                                  \
+     (x) = (((x) >> 8) & 0x00ff00ffu) | (((x)&0x00ff00ffu) << 8), (x) = ((x) >> 16) | ((x) << 16))
+#define TS_LK_STEPS(x, seed)                                                                       \
+    ((x) += (seed), (x) ^= (x)*0x6c50b47cu, (x) ^= (x)*0xb82f1e52u, (x) ^= (x)*0xc7afe638u,        \
+     (x) ^= (x)*0x8d22f6e6u)
+
 TS_INLINE ts_u32 sampler_reverse_bits(ts_u32 x)
 {
-    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
-    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
-    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
-    return (x >> 16) | (x << 16);
+    TS_REVERSE_BITS(x);
+    return x;
 }
 
 /* Laine-Karras permutation with Burley's constants: bit q of the result depends only on
@@ -70,11 +78,7 @@ TS_INLINE ts_u32 sampler_reverse_bits(ts_u32 x)
  * a nested uniform (Owen) scramble. */
 TS_INLINE ts_u32 sampler_lk(ts_u32 x, ts_u32 seed)
 {
-    x += seed;
-    x ^= x * 0x6c50b47cu;
-    x ^= x * 0xb82f1e52u;
-    x ^= x * 0xc7afe638u;
-    x ^= x * 0x8d22f6e6u;
+    TS_LK_STEPS(x, seed);
     return x;
 }
 
@@ -151,20 +155,14 @@ TS_INLINE float sampler_value(ts_u32 pixel, ts_u32 sample, ts_u32 set, ts_u32 d,
  * devices, -DTS_CPU_LANES; the set, its seed and d are the same for all lanes). */
 inline uint8 sampler_reverse_bits_x8(uint8 x)
 {
-    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
-    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
-    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
-    return (x >> 16) | (x << 16);
+    TS_REVERSE_BITS(x);
+    return x;
 }
 
 inline uint8 sampler_owen_x8(uint8 v, uint8 seed)
 {
-    uint8 x = sampler_reverse_bits_x8(v) + seed; /* sampler_lk */
-    x ^= x * 0x6c50b47cu;
-    x ^= x * 0xb82f1e52u;
-    x ^= x * 0xc7afe638u;
-    x ^= x * 0x8d22f6e6u;
+    uint8 x = sampler_reverse_bits_x8(v);
+    TS_LK_STEPS(x, seed);
     return sampler_reverse_bits_x8(x);
 }
 
