@@ -51,8 +51,8 @@ inline float8 camera_vector_x8(const ts_camera_params *c, uint k, uint comp, flo
  * and float8 vectors (the host launches ceil(ray_count / 8) work-items, pipeline_camera),
  * each lane the operations of the one-ray form below in their order: the same bits
  * (test_geometry's TESSERA_CPU_LANES=0 case compares them). PoCL vectorises no work-item
- * loop of this kernel itself (its vector-typed values), so the lanes are written out: about
- * a third of the stage's time on a teapot frame. */
+ * loop of this kernel itself (its vector-typed values), so the lanes are written out: the
+ * stage in half the time (0.40 -> 0.20 s on the default teapot, docs/benchmarks.md). */
 inline void camera_generate_x8(const ts_camera_params *c, ts_order_divs ord, __global ts_vec4 *org,
                                __global ts_vec4 *dir, __global ts_hit *hit, __global uint *entry,
                                __global uint *pixel, __global uint *flags, __global uint *from,

@@ -252,9 +252,10 @@ static void dev_build_options(ts_device *cl, int slot)
     clGetDeviceInfo(cl->info.device, CL_DEVICE_SINGLE_FP_CONFIG, sizeof fp, &fp, NULL);
     char define[32] = "";
     if (slot > 0) snprintf(define, sizeof define, " -DTS_DEVICE_SLOT=%d", slot);
-    /* CPU devices: x, y, z in float4 lanes where a float4 is a SIMD register
-     * (kernels/lib/bezier.h bezier_combine); PoCL's also software prefetches
-     * (kernels/lib/prefetch.h). */
+    /* CPU devices: the kernels' SIMD forms, where a float4 or uint8 is a SIMD register
+     * (-DTS_CPU_LANES: kernels/lib/bezier.h bezier_combine's float4 sums, camera.cl's eight
+     * rays a work-item, which pipeline_camera launches by cpu_lanes); PoCL's also software
+     * prefetches (kernels/lib/prefetch.h). */
     int cpu = (cl->info.type & CL_DEVICE_TYPE_CPU) != 0;
     int prefetch = cpu && strstr(cl->info.platform_name, "Portable Computing Language") != NULL;
     /* A testing aid: 0, a GPU's form on a CPU; 1, the lanes on any device (Oclgrind's). */
