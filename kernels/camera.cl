@@ -15,35 +15,33 @@
 #include "lib/sample_order.h"
 #include "lib/sampler.h"
 
-/* Vector k (0 origin, 1 right, 2 up, 3 forward) of the camera at time t: interpolated
- * linearly between shutter open and close when it moves (ts_camera_params). */
+/* The three floats of vector k (0 origin, 1 right, 2 up, 3 forward) of the camera at shutter
+ * open, or (close = 1) at shutter close (ts_camera_params). */
+inline const float *camera_array(const ts_camera_params *c, uint k, int close)
+{
+    if (close) return k == 0u ? c->origin1 : k == 1u ? c->right1 : k == 2u ? c->up1 : c->forward1;
+    return k == 0u ? c->origin : k == 1u ? c->right : k == 2u ? c->up : c->forward;
+}
+
+/* Vector k of the camera at time t: interpolated linearly between shutter open and close
+ * when it moves. */
 inline float3 camera_vector(const ts_camera_params *c, uint k, float t)
 {
-    const float *a = k == 0u ? c->origin : k == 1u ? c->right : k == 2u ? c->up : c->forward;
+    const float *a = camera_array(c, k, 0);
     float3 v = (float3)(a[0], a[1], a[2]);
     if (c->moving) {
-        const float *b = k == 0u   ? c->origin1
-                         : k == 1u ? c->right1
-                         : k == 2u ? c->up1
-                                   : c->forward1;
+        const float *b = camera_array(c, k, 1);
         v = (1.0f - t) * v + t * (float3)(b[0], b[1], b[2]);
     }
     return v;
 }
 
 #ifdef TS_CPU_LANES
-/* camera_vector's component c (0..2) of vector k at the lanes' times. */
+/* camera_vector's component comp (0..2) of vector k at the lanes' times. */
 inline float8 camera_vector_x8(const ts_camera_params *c, uint k, uint comp, float8 t)
 {
-    const float *a = k == 0u ? c->origin : k == 1u ? c->right : k == 2u ? c->up : c->forward;
-    float8 v = (float8)(a[comp]);
-    if (c->moving) {
-        const float *b = k == 0u   ? c->origin1
-                         : k == 1u ? c->right1
-                         : k == 2u ? c->up1
-                                   : c->forward1;
-        v = (1.0f - t) * v + t * (float8)(b[comp]);
-    }
+    float8 v = (float8)(camera_array(c, k, 0)[comp]);
+    if (c->moving) v = (1.0f - t) * v + t * (float8)(camera_array(c, k, 1)[comp]);
     return v;
 }
 

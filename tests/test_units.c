@@ -11,6 +11,7 @@
  * radiance values span 12 orders of magnitude, so any other order of the additions changes bits
  * (asserted too). */
 #include "app/units.h"
+#include "base/stats.h"
 #include "lib/sample_order.h"
 
 #include <pthread.h>
@@ -588,13 +589,6 @@ static void sleep_ms(long ms)
     nanosleep(&(struct timespec){ms / 1000, ms % 1000 * 1000000L}, NULL);
 }
 
-static double seconds_now(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
 /* A change between a look at the board (board_changes) and the wait is not slept through:
  * frame_wait once slept its whole 0.25 s when the last unit was merged while it wrote the
  * EXR's rows (a quarter of the displaced teapot's 1.5 s frame on two devices, one run in
@@ -615,9 +609,9 @@ static void test_board_wait_sees_a_change_it_missed(void **state)
     trace(&o, &u, &r);
     board_done(&b, &u, &r);
     assert_true(board_changes(&b) > seen);
-    double t0 = seconds_now();
+    double t0 = stats_now();
     board_wait(&b, 30.0, seen);
-    assert_true(seconds_now() - t0 < 10.0);
+    assert_true(stats_now() - t0 < 10.0);
     board_free(&b);
     film_state_free(&f);
 }

@@ -158,7 +158,7 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
 /* Element counts of the buffers (TS_PIPELINE_BUFFERS' count column reads them as c.NAME).
  * What the scene lacks counts 1. */
 typedef struct buffer_counts {
-    size_t rays, pairs, pixels, film;              /* the plan, the image, the device films */
+    size_t rays, pairs, film;                      /* the plan, the device films */
     size_t patches, nodes, xforms, textures;       /* the scene */
     size_t instances, inst_xforms;                 /* its instancing tables */
     size_t lights, emitters, env_texels, env_rows; /* lights.h */
@@ -176,7 +176,6 @@ static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads 
     return (buffer_counts){
         .rays = p->plan.ray_capacity,
         .pairs = p->plan.pair_capacity,
-        .pixels = p->pixel_count,
         .film = p->plan.host_film ? 1 : p->pixel_count,
         .patches = s->patch_count ? s->patch_count : 1,
         .nodes = p->qbvh.node_count,

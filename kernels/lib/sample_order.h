@@ -79,8 +79,7 @@ inline void sample_order_at_ready_x8(uint8 k, ts_order_divs o, uint8 *pixel, uin
     uint8 sh1 = select((uint8)(o.band.sh1), (uint8)(o.last.sh1), last);
     uint8 sh2 = select((uint8)(o.band.sh2), (uint8)(o.last.sh2), last);
     uint8 d = select((uint8)(o.band.d), (uint8)(o.last.d), last);
-    uint8 t = mul_hi(mul, r);
-    uint8 s = (t + ((r - t) >> sh1)) >> sh2; /* udiv(r, n) */
+    uint8 s = udiv_lanes(r, mul, sh1, sh2);
     *sample = s;
     *pixel = base + (r - s * d);
 }

@@ -21,11 +21,18 @@ TS_INLINE ts_u32 udiv(ts_u32 n, ts_udiv d)
 }
 
 #ifdef __OPENCL_C_VERSION__
-/* udiv of eight numerators in the lanes of a uint8 by one divisor: the same quotients. */
+/* udiv of eight numerators in the lanes of a uint8, each by its lane's divisor (mul, sh1,
+ * sh2 of udiv_make): the same quotients. */
+inline uint8 udiv_lanes(uint8 n, uint8 mul, uint8 sh1, uint8 sh2)
+{
+    uint8 t = mul_hi(mul, n);
+    return (t + ((n - t) >> sh1)) >> sh2;
+}
+
+/* udiv of eight numerators by one divisor. */
 inline uint8 udiv_x8(uint8 n, ts_udiv d)
 {
-    uint8 t = mul_hi((uint8)(d.mul), n);
-    return (t + ((n - t) >> d.sh1)) >> d.sh2;
+    return udiv_lanes(n, (uint8)(d.mul), (uint8)(d.sh1), (uint8)(d.sh2));
 }
 #endif
 
