@@ -136,7 +136,15 @@ int blobby_compile(ts_blobby *b, const double *code, size_t ncode, const double 
                                        : "instruction %u (code[%zu]): unknown opcode %d",
                             k, at, code_c);
             }
-            size_t f = (size_t)code[c++], n = need[code_c - 1000];
+            double fd = code[c++]; /* the first float's index: not negative, within floats */
+            if (!(fd >= 0.0 && fd <= (double)nfloats)) {
+                blobby_free(b);
+                return fail(why, why_len,
+                            "instruction %u (code[%zu]): opcode %d reads floats from %g, but "
+                            "there are %zu",
+                            k, at, code_c, fd, nfloats);
+            }
+            size_t f = (size_t)fd, n = need[code_c - 1000];
             if (f > nfloats || nfloats - f < n) {
                 blobby_free(b);
                 return fail(why, why_len,
