@@ -251,6 +251,8 @@ static void test_errors(void **state)
         {"[1001 16] [" UNIT "0 0 0 1] [\"\"]",
          "t.rib:2:10: error: Blobby: instruction 0 (code[0]): opcode 1001 reads floats 16 to 31, "
          "but there are 16"},
+        {"[0 -3 0 0 0] [] [\"\"]", /* a negative operand count */
+         "t.rib:2:10: error: Blobby: instruction 0 (code[0]): no operands for opcode 0"},
         {"[1001 -6] [" UNIT "0 0 0 1] [\"\"]", /* the fuzzer's: a negative index */
          "t.rib:2:10: error: Blobby: instruction 0 (code[0]): opcode 1001 reads floats from -6, "
          "but there are 16"},

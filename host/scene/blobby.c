@@ -91,7 +91,7 @@ static size_t op_operands(int code, const double *c, size_t left, size_t *skip)
     if (code >= 0 && code <= 3) {
         if (left < 1) return 0;
         *skip = 1;
-        return (size_t)c[0];
+        return c[0] >= 1.0 ? (size_t)c[0] : 0; /* a count below one: none (not a size_t) */
     }
     *skip = 0;
     return code == 4 || code == 5 ? 2 : code == 6 || code == 7 ? 1 : 0;
