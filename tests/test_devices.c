@@ -6,7 +6,8 @@
  * the slow device's last unit is backed up by the fast one (merged once, the same bits); an
  * interrupted render resumes to the same bits; --stats has one "devices" entry per device;
  * the devices share built patches (each diced once over both, same bits, also when the
- * arenas evict and when a device fails holding claims);
+ * arenas evict and when a device fails holding claims), in one arena for both by default
+ * and through the copying store with TESSERA_SHARED_ARENAS=0;
  * bad input: an unknown device in a list, a repeated one, a device that fails to build (the
  * other goes on), a device that runs out of memory mid-frame (it retries smaller), every
  * device failing. Skipped (77) without PoCL's two devices. */
@@ -517,6 +518,23 @@ static void test_two_devices_share_built_patches(void **state)
     assert_true(diced3 >= 32.0 && diced3 <= 64.0);
     assert_true(diced3 + counter("share3.json", "patches_shared") ==
                 counter("share3.json", "patch_cache_misses"));
+    /* PoCL's devices share host memory: one arena for both, each patch at its own place
+     * (app/workers.c workers_place), said unless quiet; TESSERA_SHARED_ARENAS=0 keeps an arena
+     * a device and copies through the store (a GPU's way): the same bits, twice the arenas. */
+    render("scene/teapot_displaced.rib", "share3n.exr", pair,
+           "--res 160x90 --spp 4 --max-lod 6 --memory 256");
+    test_expect_in_stderr(dir, "share one patch arena of");
+    test_assert_same_pixels(in_dir("share1.exr"), in_dir("share3n.exr"));
+    setenv("TESSERA_SHARED_ARENAS", "0", 1);
+    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share4.json"));
+    render("scene/teapot_displaced.rib", "share4.exr", pair, extra);
+    unsetenv("TESSERA_SHARED_ARENAS");
+    test_assert_same_pixels(in_dir("share1.exr"), in_dir("share4.exr"));
+    assert_true(counter("share4.json", "patches_shared") > 0.0);
+    assert_true(counter("share4.json", "patch_cache_bytes") >
+                counter("share3.json", "patch_cache_bytes"));
+    assert_true(counter("share3.json", "patch_cache_peak_bytes") <=
+                counter("share3.json", "patch_cache_bytes"));
     setenv("TESSERA_SHARE_WAIT", "1", 1);
     snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share2.json"));
     render("scene/teapot_displaced.rib", "share2.exr", pair, extra);

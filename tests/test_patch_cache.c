@@ -4,7 +4,9 @@
  * a patch at another m is placed again; under a random workload every resident patch's
  * blocks lie inside the arenas and overlap no other, the free lists and the used counts
  * account for every entry, and TS_CACHE_FULL only happens when every resident patch is
- * pinned. */
+ * pinned. A cache with fixed places (patch_cache_create_placed) puts each patch at its own
+ * place on a miss, hits it there after, never evicts, refuses another m, and a second cache
+ * over the same places puts every patch at the same place whatever the order. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -67,6 +69,55 @@ static void test_working_set_fits(void **state)
 }
 
 /* Room for three patches: the fourth evicts the least recently used unpinned one. */
+/* Fixed places: the arrays' places on a miss, hits there, none evicted, another m refused; two
+ * caches over one set of places (two devices' views of one arena) agree in any order. */
+static void test_placed(void **state)
+{
+    (void)state;
+    enum { N = 6 };
+    const uint8_t lod[N] = {2, 3, 0, 3, 1, 2};
+    const uint32_t times[N] = {1, 2, 1, 1, 1, 2};
+    uint32_t vf[N], gf[N], v = 0, g = 0;
+    for (uint32_t p = 0; p < N; ++p) {
+        vf[p] = p == 4 ? UINT32_MAX : v, gf[p] = p == 4 ? UINT32_MAX : g; /* 4: an instance */
+        if (p == 4) continue;
+        v += patch_cache_vert_count(lod[p], times[p]),
+            g += patch_cache_group_count(lod[p], times[p]);
+    }
+    ts_patch_cache a, b;
+    ts_error err = {0};
+    assert_int_equal(patch_cache_create_placed(&a, N, vf, gf, lod, &err), TS_OK);
+    assert_int_equal(patch_cache_create_placed(&b, N, vf, gf, lod, &err), TS_OK);
+    for (int pass = 0; pass < 3; ++pass) {
+        for (uint32_t k = 0; k < N; ++k) {
+            if (k == 4) continue;
+            uint32_t pa = k, pb = N - 1 - k == 4 ? 4 : N - 1 - k, va, ga;
+            assert_int_equal(patch_cache_acquire(&a, pa, lod[pa], times[pa], &va, &ga),
+                             pass == 0 ? TS_CACHE_MISS : TS_CACHE_HIT);
+            assert_int_equal(va, vf[pa]);
+            assert_int_equal(ga, gf[pa]);
+            if (pb == 4) continue;
+            assert_int_equal(patch_cache_acquire(&b, pb, lod[pb], times[pb], &va, &ga),
+                             pass == 0 ? TS_CACHE_MISS : TS_CACHE_HIT);
+            assert_int_equal(va, vf[pb]);
+            assert_int_equal(ga, gf[pb]);
+        }
+        patch_cache_end_batch(&a);
+        patch_cache_end_batch(&b);
+    }
+    uint32_t vx, gx;
+    assert_int_equal(patch_cache_acquire(&a, 0, 3, 1, &vx, &gx), TS_CACHE_FULL); /* another m */
+    assert_int_equal(patch_cache_acquire(&a, 4, lod[4], 1, &vx, &gx), TS_CACHE_FULL);
+    assert_int_equal(a.evictions, 0);
+    assert_int_equal(a.misses, N - 1);
+    assert_int_equal(a.peak_bytes, (uint64_t)v * 16u + (uint64_t)g * TS_GROUP_BYTES);
+    patch_cache_clear(&a); /* new levels: every patch placed again */
+    assert_int_equal(patch_cache_acquire(&a, 3, lod[3], times[3], &vx, &gx), TS_CACHE_MISS);
+    assert_int_equal(vx, vf[3]);
+    patch_cache_free(&a);
+    patch_cache_free(&b);
+}
+
 static void test_lru_and_pinning(void **state)
 {
     ts_patch_cache c;
@@ -195,9 +246,8 @@ static void test_random_workload(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_sizes),
-        cmocka_unit_test(test_working_set_fits),
-        cmocka_unit_test(test_lru_and_pinning),
+        cmocka_unit_test(test_sizes),           cmocka_unit_test(test_working_set_fits),
+        cmocka_unit_test(test_lru_and_pinning), cmocka_unit_test(test_placed),
         cmocka_unit_test(test_random_workload),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -5,7 +5,9 @@
  * by an abandon (then it dices itself, and the patch can be claimed again); the bound refuses
  * claims beyond it (TS_TAKE_LOCAL, counted), an abandon frees its room, patch_share_allow
  * never lowers it; a patch held at another m, or taken again by its own claimant, is diced
- * locally. */
+ * locally. In place (patch_share_in_place: the blocks lie in arenas the devices share) a claim
+ * needs no room and stores nothing: the first device claims whatever the bound, the others
+ * wait, and the published patch is READY with no data; an abandon lets another claim it. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -72,6 +74,37 @@ static void test_claim_publish_read(void **state)
     assert_int_equal(s.used, bytes);
     patch_share_free(&s);
     assert_null(s.entry);
+}
+
+/* In place: claims with bound 0, no data, the same claim and wait as the copying store. */
+static void test_in_place(void **state)
+{
+    (void)state;
+    ts_patch_share s;
+    ts_error err = {0};
+    assert_int_equal(patch_share_create(&s, 3, 2, &err), TS_OK);
+    patch_share_in_place(&s);
+    uint64_t bytes = patch_share_bytes(4, 1);
+    void *d = (void *)&s;
+    assert_int_equal(patch_share_take(&s, 0, 4, 1, bytes, 0, &d), TS_TAKE_MINE);
+    assert_null(d);
+    assert_int_equal(s.used, 0);
+    assert_int_equal(patch_share_take(&s, 0, 4, 1, bytes, 1, &d), TS_TAKE_WAIT);
+    const void *got = &s;
+    assert_int_equal(patch_share_poll(&s, 0, &got), -1);
+    patch_share_publish(&s, 0);
+    assert_int_equal(patch_share_wait(&s, 0, &got), 1);
+    assert_null(got);
+    d = (void *)&s;
+    assert_int_equal(patch_share_take(&s, 0, 4, 1, bytes, 1, &d), TS_TAKE_READY);
+    assert_null(d);
+    assert_int_equal(patch_share_take(&s, 2, 4, 1, bytes, 1, &d), TS_TAKE_MINE);
+    patch_share_abandon(&s, 2); /* its device failed: anyone may claim it again */
+    assert_int_equal(patch_share_poll(&s, 2, &got), 0);
+    assert_int_equal(patch_share_take(&s, 2, 4, 1, bytes, 0, &d), TS_TAKE_MINE);
+    assert_int_equal(s.refused, 0);
+    assert_int_equal(s.abandoned, 1);
+    patch_share_free(&s);
 }
 
 /* The bound: claims beyond it are refused; an abandon frees its room; allow never lowers. */
@@ -154,9 +187,8 @@ static void test_waiters_wake(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_bytes),
-        cmocka_unit_test(test_claim_publish_read),
-        cmocka_unit_test(test_bound),
+        cmocka_unit_test(test_bytes),        cmocka_unit_test(test_claim_publish_read),
+        cmocka_unit_test(test_bound),        cmocka_unit_test(test_in_place),
         cmocka_unit_test(test_waiters_wake),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

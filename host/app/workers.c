@@ -418,6 +418,81 @@ static void worker_share(ts_worker *w)
     patch_share_allow(&w->g->share, pipeline_arena_bytes(&w->pipe.plan));
 }
 
+/* 4096-aligned host memory for `bytes` (PoCL's zero copy), or NULL. */
+static void *arena_alloc(uint64_t bytes)
+{
+    return aligned_alloc(4096, (bytes + 4095u) / 4096u * 4096u);
+}
+
+/* Decides, once for the frame (g->lock held, w's pipeline with the frame's levels), whether
+ * the sharing devices' arenas become one host allocation: when every sharing device shares
+ * host memory (PoCL's CPU devices), the frame's patches fit the room each may grow its
+ * arenas to, and TESSERA_SHARED_ARENAS is not "0". Then a patch one device dices lies where
+ * the others read it: no copy into the store and out of it, no second arena to fault in. */
+static void workers_place(ts_workers *g, ts_worker *w)
+{
+    g->placed = -1;
+    const char *env = getenv("TESSERA_SHARED_ARENAS");
+    if (!g->sharing || w->pipe.cache_off || (env && strcmp(env, "0") == 0)) return;
+    for (uint32_t i = 0; i < g->count; ++i)
+        if (g->w[i].shares && !g->w[i].cl.info.host_unified) return;
+    size_t n = g->frame.scene->patch_count ? g->frame.scene->patch_count : 1;
+    g->place_vert = malloc(n * sizeof *g->place_vert);
+    g->place_group = malloc(n * sizeof *g->place_group);
+    g->place_lod = malloc(n);
+    if (!g->place_vert || !g->place_group || !g->place_lod) return;
+    pipeline_arena_places(&w->pipe, g->place_vert, g->place_group, g->place_lod, &g->place_verts,
+                          &g->place_groups);
+    uint64_t need = g->place_verts * sizeof(ts_vec4) + g->place_groups * TS_GROUP_BYTES;
+    for (uint32_t i = 0; i < g->count; ++i) {
+        const ts_worker *o = &g->w[i];
+        uint64_t room = (o->room_mb > o->mb ? o->room_mb : o->mb) << 20;
+        if (o->shares && need > room) return;
+    }
+    if (g->place_verts > UINT32_MAX || g->place_groups > UINT32_MAX) return;
+    g->arena_grid = arena_alloc((g->place_verts ? g->place_verts : 1) * sizeof(ts_vec4));
+    g->arena_tree = arena_alloc((g->place_groups ? g->place_groups : 1) * sizeof(ts_box4));
+    g->arena_tight = arena_alloc((g->place_groups ? g->place_groups : 1) * sizeof(ts_tight4));
+    if (!g->arena_grid || !g->arena_tree || !g->arena_tight) return;
+    patch_share_in_place(&g->share);
+    g->placed = 1;
+    if (g->frame.opt->quiet) return;
+    char list[200] = "";
+    for (uint32_t i = 0, used = 0; i < g->count && used < sizeof list; ++i)
+        if (g->w[i].shares)
+            used += (uint32_t)snprintf(list + used, sizeof list - used, "%s%d", used ? ", " : "",
+                                       g->w[i].index);
+    ts_print_line("tessera: devices %s share one patch arena of %llu MB (each patch diced once, "
+                  "where every device reads it)",
+                  list, (unsigned long long)(need >> 20));
+}
+
+/* Binds w's arenas to the sharing devices' allocation when the frame has one (deciding
+ * first when no device has). 1: bound; 0: w keeps arenas of its own (and, when the others
+ * are bound and w could not be, leaves the store: its blocks would not be where theirs are). */
+static int worker_place(ts_worker *w)
+{
+    ts_workers *g = w->g;
+    if (!w->shares || !g->sharing) return 0;
+    pthread_mutex_lock(&g->lock);
+    if (g->placed == 0) workers_place(g, w);
+    int placed = g->placed > 0;
+    pthread_mutex_unlock(&g->lock);
+    if (!placed) return 0;
+    ts_error e = {0};
+    if (!pipeline_place_arenas(&w->pipe, g->arena_grid, g->arena_tree, g->arena_tight,
+                               g->place_verts, g->place_groups, g->place_vert, g->place_group,
+                               g->place_lod, &e))
+        return 1;
+    char name[300];
+    if (!g->frame.opt->quiet)
+        ts_print_line("tessera: note: %s dices its own patches (the shared arenas: %s)",
+                      worker_name(w, name, sizeof name), e.msg);
+    ts_error_clear(&e);
+    w->shares = 0;
+    return 0;
+}
+
 /* After memory ran out in a unit: the pipeline again at half the budget, with the frame's
  * levels of detail. */
 static int worker_shrink(ts_worker *w, ts_error *err)
@@ -436,6 +511,7 @@ static int worker_shrink(ts_worker *w, ts_error *err)
     w->room_mb = 0; /* memory ran out: the arenas stay within the smaller budget */
     int lod_failed;
     if (worker_pipeline(w, err) || worker_take_lod(w, &lod_failed, err)) return err->code;
+    worker_place(w);
     worker_share(w);
     return TS_OK;
 }
@@ -493,7 +569,7 @@ static void *worker_main(void *arg)
         lod_failed = (rc = worker_make_lod(w, &w->err)) != TS_OK;
     else if (!rc)
         rc = worker_take_lod(w, &lod_failed, &w->err);
-    if (!rc) /* the frame's patches, once each, if they fit */
+    if (!rc && !worker_place(w)) /* the frame's patches, once each, if they fit */
         rc = budget_grow_arenas(&w->pipe, w->room_mb, 1, g->frame.opt->quiet, &w->err);
     if (!rc) worker_share(w);
     w->out.setup_seconds = stats_now() - t0;
@@ -677,6 +753,26 @@ int workers_stats(ts_workers *g, ts_stats *stats, ts_error *err)
         snprintf(stats->device + used, sizeof stats->device - used, "%s%s", used ? " + " : "",
                  w->cl.info.name);
     }
+    if (g->placed > 0) { /* one allocation for the sharing devices, not one each: its bytes,
+                          * and those of the patches any of them placed in it */
+        uint64_t bytes = g->place_verts * sizeof(ts_vec4) + g->place_groups * TS_GROUP_BYTES;
+        uint64_t peak = 0;
+        for (uint32_t i = 0; i < g->count; ++i)
+            if (!g->w[i].shares) {
+                bytes += g->w[i].stats.counters[TS_COUNTER_patch_cache_bytes];
+                peak += g->w[i].stats.counters[TS_COUNTER_patch_cache_peak_bytes];
+            }
+        for (uint32_t q = 0; q < g->frame.scene->patch_count; ++q)
+            for (uint32_t i = 0; i < g->count; ++i) {
+                const ts_worker *o = &g->w[i];
+                if (!o->has_pipe || !o->shares || !o->pipe.cache.entry[q].resident) continue;
+                peak += (uint64_t)o->pipe.cache.entry[q].vert_count * sizeof(ts_vec4) +
+                        (uint64_t)o->pipe.cache.entry[q].group_count * TS_GROUP_BYTES;
+                break;
+            }
+        stats->counters[TS_COUNTER_patch_cache_bytes] = bytes;
+        stats->counters[TS_COUNTER_patch_cache_peak_bytes] = peak;
+    }
     return TS_OK;
 }
 
@@ -694,6 +790,8 @@ void workers_close(ts_workers *g)
     }
     free(g->w);
     if (g->sharing) patch_share_free(&g->share);
+    free(g->arena_grid), free(g->arena_tree), free(g->arena_tight); /* after every pipeline */
+    free(g->place_vert), free(g->place_group), free(g->place_lod);
     free(g->patch_lod);
     free(g->lod_more);
     free(g->lod_part);

@@ -60,6 +60,15 @@ typedef struct ts_workers {
      * TESSERA_PATCH_SHARE=0). */
     ts_patch_share share;
     int sharing;
+    /* The arenas of the sharing devices as one host allocation with a place for every patch
+     * (workers.c workers_place; patch_share_in_place): placed 0 until the first sharing
+     * device with the frame's levels of detail decides, 1 when they are, -1 when not (a
+     * device that does not share host memory, not enough room, or TESSERA_SHARED_ARENAS=0). */
+    int placed;
+    void *arena_grid, *arena_tree, *arena_tight;
+    uint32_t *place_vert, *place_group;
+    uint8_t *place_lod;
+    uint64_t place_verts, place_groups;
     uint32_t alive;   /* threads still rendering or able to */
     uint32_t running; /* threads that have not ended */
     int started;

@@ -110,6 +110,14 @@ int patch_cache_create(ts_patch_cache *c, uint32_t patch_count, uint32_t vert_ca
     return TS_OK;
 }
 
+int patch_cache_create_placed(ts_patch_cache *c, uint32_t patch_count, const uint32_t *fixed_vert,
+                              const uint32_t *fixed_group, const uint8_t *fixed_lod, ts_error *err)
+{
+    if (patch_cache_create(c, patch_count, 0, 0, err)) return err->code;
+    c->fixed_vert = fixed_vert, c->fixed_group = fixed_group, c->fixed_lod = fixed_lod;
+    return TS_OK;
+}
+
 void patch_cache_free(ts_patch_cache *c)
 {
     free(c->entry), free(c->resident_list), free(c->verts.free), free(c->groups.free);
@@ -166,8 +174,29 @@ ts_cache_result patch_cache_acquire(ts_patch_cache *c, uint32_t p, uint32_t m, u
         ++c->hits;
         return TS_CACHE_HIT;
     }
-    if (e->resident) cache_release(c, p); /* another m: its blocks are of no use */
     uint32_t nv = patch_cache_vert_count(m, times), ng = patch_cache_group_count(m, times);
+    if (c->fixed_vert) { /* its own place, always free */
+        if (e->resident || c->fixed_lod[p] != m || c->fixed_vert[p] == UINT32_MAX)
+            return TS_CACHE_FULL; /* another m than the frame's: not met */
+        *e = (ts_cache_entry){c->fixed_vert[p],
+                              nv,
+                              c->fixed_group[p],
+                              ng,
+                              c->clock,
+                              (uint8_t)m,
+                              (uint8_t)times,
+                              1,
+                              1};
+        c->verts.used += nv, c->groups.used += ng;
+        uint64_t bytes =
+            (uint64_t)c->verts.used * sizeof(ts_vec4) + (uint64_t)c->groups.used * TS_GROUP_BYTES;
+        if (bytes > c->peak_bytes) c->peak_bytes = bytes;
+        c->resident_list[c->resident_count++] = p;
+        *vert_first = e->vert_first, *group_first = e->group_first;
+        ++c->misses;
+        return TS_CACHE_MISS;
+    }
+    if (e->resident) cache_release(c, p); /* another m: its blocks are of no use */
     if (nv > c->verts.capacity || ng > c->groups.capacity) return TS_CACHE_FULL;
     uint32_t vf, gf;
     for (;;) {

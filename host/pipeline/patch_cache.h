@@ -55,6 +55,10 @@ typedef struct ts_cache_entry {
 
 typedef struct ts_patch_cache {
     ts_cache_arena verts, groups;
+    /* Fixed places (patch_cache_create_placed): patch p's blocks at fixed_vert[p] and
+     * fixed_group[p] when diced at fixed_lod[p]; not owned. NULL: the arenas' free lists. */
+    const uint32_t *fixed_vert, *fixed_group;
+    const uint8_t *fixed_lod;
     ts_cache_entry *entry; /* one per patch */
     uint32_t patch_count;
     uint32_t *resident_list; /* patches holding space, for eviction scans */
@@ -69,6 +73,15 @@ typedef struct ts_patch_cache {
  * group_capacity sibling groups. */
 int patch_cache_create(ts_patch_cache *c, uint32_t patch_count, uint32_t vert_capacity,
                        uint32_t group_capacity, ts_error *err);
+/* A cache whose every patch has a place of its own, given in advance: patch p (a shape,
+ * diced at fixed_lod[p] with its own `times`) at vertex fixed_vert[p] and group
+ * fixed_group[p] of arenas that hold the frame's patches once each (pipeline_place_arenas:
+ * several devices of one process in one host allocation). Nothing is ever evicted, and a
+ * patch lies at the same place on every device that uses the same arrays. The arrays are the
+ * caller's and must outlive the cache; acquiring a patch at another m than its fixed_lod is
+ * TS_CACHE_FULL (the frame's levels of detail are fixed). */
+int patch_cache_create_placed(ts_patch_cache *c, uint32_t patch_count, const uint32_t *fixed_vert,
+                              const uint32_t *fixed_group, const uint8_t *fixed_lod, ts_error *err);
 void patch_cache_free(ts_patch_cache *c);
 /* Forgets every resident patch (the levels of detail changed): all space is free again. */
 void patch_cache_clear(ts_patch_cache *c);

@@ -45,6 +45,13 @@ void patch_share_allow(ts_patch_share *s, uint64_t bytes)
     pthread_mutex_unlock(&s->lock);
 }
 
+void patch_share_in_place(ts_patch_share *s)
+{
+    pthread_mutex_lock(&s->lock);
+    s->in_place = 1;
+    pthread_mutex_unlock(&s->lock);
+}
+
 ts_share_take patch_share_take(ts_patch_share *s, uint32_t p, uint32_t m, uint32_t times,
                                uint64_t bytes, uint32_t owner, void **data)
 {
@@ -59,6 +66,9 @@ ts_share_take patch_share_take(ts_patch_share *s, uint32_t p, uint32_t m, uint32
         r = TS_TAKE_READY;
     } else if (e->state == TS_SHARE_CLAIMED) {
         r = e->owner == owner ? TS_TAKE_LOCAL : TS_TAKE_WAIT; /* owner: a second segment */
+    } else if (s->in_place) {
+        *e = (ts_share_entry){NULL, 0, TS_SHARE_CLAIMED, (uint8_t)m, (uint8_t)times, 0, owner};
+        r = TS_TAKE_MINE;
     } else if (bytes <= s->bound - (s->used < s->bound ? s->used : s->bound) &&
                (e->data = malloc(bytes)) != NULL) {
         *e = (ts_share_entry){e->data, bytes, TS_SHARE_CLAIMED, (uint8_t)m, (uint8_t)times,

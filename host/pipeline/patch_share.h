@@ -58,6 +58,7 @@ typedef struct ts_patch_share {
     ts_share_entry *entry;  /* one per patch */
     uint32_t patch_count;
     uint32_t devices; /* that share it: a device claims 1/devices of what it needs at a time */
+    int in_place;     /* patch_share_in_place: the blocks lie in arenas the devices share */
     uint64_t bound;   /* bytes the blocks may take */
     uint64_t used;    /* bytes of blocks reserved or published */
     /* Bookkeeping, for tests and notes. */
@@ -69,16 +70,23 @@ typedef struct ts_patch_share {
 int patch_share_create(ts_patch_share *s, uint32_t patch_count, uint32_t devices, ts_error *err);
 /* Frees every block; no thread may use the store any more. */
 void patch_share_free(ts_patch_share *s);
+/* The devices' arenas are one host allocation with a fixed place for every patch
+ * (pipeline_place_arenas): the store then holds no blocks, only who dices what. A claim
+ * reserves nothing (never TS_TAKE_LOCAL for want of room), and a published patch already
+ * lies where every device reads it: TS_TAKE_READY and patch_share_wait give no data. */
+void patch_share_in_place(ts_patch_share *s);
 /* Raises the bound to at least `bytes` (never lowers it). */
 void patch_share_allow(ts_patch_share *s, uint64_t bytes);
 
 /* What patch_share_take found for a patch a device misses. */
 typedef enum ts_share_take {
-    TS_TAKE_READY, /* published: *data holds the blocks (valid until patch_share_free) */
+    TS_TAKE_READY, /* published: *data holds the blocks (valid until patch_share_free; NULL
+                      in place, where the blocks already are) */
     TS_TAKE_WAIT,  /* another device claimed it: patch_share_wait for it, after publishing
                       this batch's own claims */
     TS_TAKE_MINE,  /* claimed by `owner`: *data has room for `bytes`; dice and build it, copy
-                      the blocks there and patch_share_publish (or patch_share_abandon) */
+                      the blocks there and patch_share_publish (or patch_share_abandon); in
+                      place, *data is NULL and the dicing itself is the publishing's content */
     TS_TAKE_LOCAL, /* no room in the bound, or held at another m: dice it, publish nothing */
 } ts_share_take;
 

@@ -607,6 +607,61 @@ void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups
     }
 }
 
+void pipeline_arena_places(const ts_pipeline *p, uint32_t *vert_first, uint32_t *group_first,
+                           uint8_t *lod, uint64_t *verts, uint64_t *groups)
+{
+    *verts = *groups = 0;
+    for (uint32_t i = 0; i < p->scene->patch_count; ++i) {
+        uint32_t m = pipeline_patch_lod(p, i), q = scene_shape(p->scene, i);
+        lod[i] = (uint8_t)m;
+        vert_first[i] = group_first[i] = UINT32_MAX;
+        if (q != i && pipeline_patch_lod(p, q) == m) continue; /* diced as its master */
+        uint64_t times = p->scene->attr[i].flags & TS_PATCH_MOVING ? 2u : 1u;
+        /* past UINT32_MAX the caller's check of *verts and *groups refuses the places */
+        vert_first[i] = (uint32_t)*verts, group_first[i] = (uint32_t)*groups;
+        *verts += times * quadtree_vertex_count(m);
+        *groups += times * quadtree_group_count(m);
+    }
+}
+
+int pipeline_place_arenas(ts_pipeline *p, void *grid, void *tree, void *tight, uint64_t verts,
+                          uint64_t groups, const uint32_t *vert_first, const uint32_t *group_first,
+                          const uint8_t *lod, ts_error *err)
+{
+    if (verts > UINT32_MAX || groups > UINT32_MAX ||
+        verts * sizeof(ts_vec4) > p->cl->info.max_alloc ||
+        groups * sizeof(ts_box4) > p->cl->info.max_alloc)
+        return ts_error_set(err, TS_E_USAGE,
+                            "the shared arenas would exceed the device's largest buffer, %llu MB",
+                            (unsigned long long)(p->cl->info.max_alloc >> 20));
+    if (dev_finish(p->cl, p->stats, err)) return err->code; /* nothing uses the old ones */
+    const cl_mem_flags use = CL_MEM_READ_WRITE | CL_MEM_USE_HOST_PTR;
+    cl_mem g = dev_buffer_create(p->cl, use, verts * sizeof(ts_vec4), grid, err);
+    cl_mem t = g ? dev_buffer_create(p->cl, use, groups * sizeof(ts_box4), tree, err) : NULL;
+    cl_mem c = t ? dev_buffer_create(p->cl, use, groups * sizeof(ts_tight4), tight, err) : NULL;
+    ts_patch_cache cache;
+    if (!c || patch_cache_create_placed(&cache, p->scene->patch_count, vert_first, group_first, lod,
+                                        err)) {
+        if (g) clReleaseMemObject(g);
+        if (t) clReleaseMemObject(t);
+        if (c) clReleaseMemObject(c);
+        return err->code;
+    }
+    clReleaseMemObject(p->grid);
+    clReleaseMemObject(p->groups);
+    clReleaseMemObject(p->tight);
+    p->grid = g, p->groups = t, p->tight = c;
+    cache.hits = p->cache.hits, cache.misses = p->cache.misses;
+    cache.evictions = p->cache.evictions;
+    cache.peak_bytes = p->cache.peak_bytes;
+    patch_cache_free(&p->cache);
+    p->cache = cache;
+    p->plan.vert_capacity = (uint32_t)verts;
+    p->plan.group_capacity = (uint32_t)groups;
+    p->stats->counters[TS_COUNTER_patch_cache_bytes] = pipeline_arena_bytes(&p->plan);
+    return TS_OK;
+}
+
 int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_error *err)
 {
     uint64_t max_alloc = p->cl->info.max_alloc;

@@ -349,6 +349,22 @@ uint64_t pipeline_arena_bytes(const ts_pipeline_plan *plan);
  * buffer), replacing the old ones, and an empty patch cache over them. When they cannot be
  * had the old ones stay, with the error in *err. */
 int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_error *err);
+/* The places of the frame's patches when every one is resident at once (pipeline_arena_need's
+ * count, in patch order): vert_first[i], group_first[i] and lod[i] of each patch i diced as
+ * itself, UINT32_MAX where an instance shares its master's dicing; *verts and *groups: the
+ * arenas' entries. Every array has patch_count entries (at least one). */
+void pipeline_arena_places(const ts_pipeline *p, uint32_t *vert_first, uint32_t *group_first,
+                           uint8_t *lod, uint64_t *verts, uint64_t *groups);
+/* Arenas of verts vertices and groups sibling groups over host memory the caller owns
+ * (grid: verts ts_vec4, tree: groups ts_box4, tight: groups ts_tight4, each 4096-aligned;
+ * CL_MEM_USE_HOST_PTR, zero copy on devices that share host memory), replacing the old ones,
+ * and a patch cache with the fixed places of pipeline_arena_places (patch_cache_create_placed;
+ * the arrays are the caller's too). Devices of one process that compute alike bind the same
+ * memory: a patch one of them dices is where the others read it (app/workers.c). The memory
+ * must outlive the pipeline. */
+int pipeline_place_arenas(ts_pipeline *p, void *grid, void *tree, void *tight, uint64_t verts,
+                          uint64_t groups, const uint32_t *vert_first, const uint32_t *group_first,
+                          const uint8_t *lod, ts_error *err);
 /* Tells shade, before each shade launch, where the patch cache holds each patch's diced grid
  * (grid_at: vert_first and m; written only when it changed). A displaced patch's shading
  * normal is its hit micro-quad's, from the quad's four vertices (lib/patch.h

@@ -454,7 +454,8 @@ static int share_round(ts_pipeline *p, const ts_batch *b, uint8_t *kind, void **
     }
     uint32_t n = trees_partition(p, b, *done, end - *done, kind, dice, tmp);
     int rc = trees_make(p, b, *done, n, err);
-    for (uint32_t t = *done; !rc && mine && t < *done + n; ++t) { /* the claims' blocks */
+    for (uint32_t t = *done; !rc && mine && !p->share->in_place && t < *done + n;
+         ++t) { /* the claims' blocks, copied into the store (in place: they are there) */
         uint32_t i = TS_TREE_SEGMENT(list[t]);
         if (TS_TREE_TIME(list[t]) == 0u && kind[i - b->seg_first] == TS_TAKE_MINE)
             rc = segment_blocks(p, i, data[i - b->seg_first], 1, err);
@@ -479,7 +480,12 @@ static int share_round(ts_pipeline *p, const ts_batch *b, uint8_t *kind, void **
  * devices on forest-1 1920x768x4 (1,178 patches, m 0-7) waited 0.6 s of a 6.3 s frame for
  * such claims; dicing them again cost 3.5% more dicings and made the frame 5% shorter.
  * Larger patches are worth the wait (teapot_displaced, m 6-8: dicing them all again cost
- * 4% more CPU and saved nothing). docs/benchmarks.md "Not waiting for small patches". */
+ * 4% more CPU and saved nothing). docs/benchmarks.md "Not waiting for small patches".
+ * With shared arenas (patch_share_in_place) the patch is diced again at its one place, where
+ * the claimant writes it too: the same bytes (the devices compute alike, and dice and build
+ * store each entry's final value once, with no read-modify-write), so whoever reads the patch
+ * after either dicing ends sees those bytes whichever write lands last. Waiting instead
+ * (TESSERA_SHARE_WAIT=1) made forest-1 on two devices 2.83 s instead of 2.69 s. */
 #define TS_SHARE_DICE_OWN_LOD 6u
 
 /* Whether to take patch `shape` (m = lod) claimed by another device: 1 with *got once it is
@@ -529,7 +535,7 @@ static int batch_make_shared(ts_pipeline *p, const ts_batch *b, uint8_t *kind, v
             kind[k] = TS_TAKE_LOCAL; /* small, or abandoned by a failed device: diced here */
             continue;
         }
-        rc = segment_blocks(p, i, (void *)got, 0, err);
+        if (!p->share->in_place) rc = segment_blocks(p, i, (void *)got, 0, err);
         ++shared;
     }
     if (!rc)
