@@ -53,8 +53,12 @@ void units_merge(ts_film_state *film, const ts_sample_order *o, const ts_unit *u
     uint32_t base = p / band * band, end = o->pixels - base < band ? o->pixels : base + band;
     uint64_t j = 0;
     for (uint64_t k = 0; k < u->count; ++k) {
-        /* kernels/film.cl: acc = accum[p]; acc.x += r.x; ... acc.w += 1.0f */
-        ts_vec4 acc = film->accum[p], s = r->radiance[k];
+        /* kernels/film.cl: acc = accum[p]; acc.x += r.x; ... acc.w += 1.0f. A pixel's sum is
+         * zero before its sample 0 (no unit holds samples of it yet): not read then, so that
+         * the film's pages are written first (one page fault each, not a read of the zero
+         * page and then a copy on write that interrupts every other core). */
+        ts_vec4 acc = sample == 0 ? (ts_vec4){0.0f, 0.0f, 0.0f, 0.0f} : film->accum[p],
+                s = r->radiance[k];
         acc.x += s.x;
         acc.y += s.y;
         acc.z += s.z;

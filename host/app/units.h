@@ -45,7 +45,9 @@ void unit_result_free(ts_unit_result *r);
 
 /* Adds unit u's samples into the films, in order: film->accum[p] += radiance of sample k
  * (x, y, z, and w += 1) for k's pixel p, film->aov and film->albedo set from samples 0:
- * film_accumulate's arithmetic. The units must come in order. */
+ * film_accumulate's arithmetic. A pixel's sum starts from zero at its sample 0 (the films
+ * hold no sample of a pixel before its sample 0; accum[p] is not read then). The units must
+ * come in order. */
 void units_merge(ts_film_state *film, const ts_sample_order *o, const ts_unit *u,
                  const ts_unit_result *r);
 
