@@ -425,8 +425,8 @@ static void *arena_alloc(uint64_t bytes)
 }
 
 /* Decides, once for the frame (g->lock held, w's pipeline with the frame's levels), whether
- * the sharing devices' arenas become one host allocation: when every sharing device shares
- * host memory (PoCL's CPU devices), the frame's patches fit the room each may grow its
+ * the sharing devices' arenas become one host allocation: when every sharing device is a CPU
+ * device sharing host memory (PoCL's), the frame's patches fit the room each may grow its
  * arenas to, and TESSERA_SHARED_ARENAS is not "0". Then a patch one device dices lies where
  * the others read it: no copy into the store and out of it, no second arena to fault in. */
 static void workers_place(ts_workers *g, ts_worker *w)
@@ -434,8 +434,11 @@ static void workers_place(ts_workers *g, ts_worker *w)
     g->placed = -1;
     const char *env = getenv("TESSERA_SHARED_ARENAS");
     if (!g->sharing || w->pipe.cache_off || (env && strcmp(env, "0") == 0)) return;
-    for (uint32_t i = 0; i < g->count; ++i)
-        if (g->w[i].shares && !g->w[i].cl.info.host_unified) return;
+    for (uint32_t i = 0; i < g->count; ++i) /* CPU devices: their memory is the host's (an
+                                             * integrated GPU's needs maps to be seen) */
+        if (g->w[i].shares &&
+            (!g->w[i].cl.info.host_unified || !(g->w[i].cl.info.type & CL_DEVICE_TYPE_CPU)))
+            return;
     size_t n = g->frame.scene->patch_count ? g->frame.scene->patch_count : 1;
     g->place_vert = malloc(n * sizeof *g->place_vert);
     g->place_group = malloc(n * sizeof *g->place_group);
