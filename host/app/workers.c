@@ -465,9 +465,9 @@ static void workers_place(ts_workers *g, ts_worker *w)
         if (g->w[i].shares)
             used += (uint32_t)snprintf(list + used, sizeof list - used, "%s%d", used ? ", " : "",
                                        g->w[i].index);
-    ts_print_line("tessera: devices %s share one patch arena of %llu MB (each patch diced once, "
+    ts_print_line("tessera: devices %s share one patch arena of %.1f MB (each patch diced once, "
                   "where every device reads it)",
-                  list, (unsigned long long)(need >> 20));
+                  list, (double)need / (1 << 20));
 }
 
 /* Binds w's arenas to the sharing devices' allocation when the frame has one (deciding
