@@ -164,6 +164,22 @@ static int cache_evict_one(ts_patch_cache *c)
     return 1;
 }
 
+/* Patch p resident and pinned at [vf, vf + nv) and [gf, gf + ng) (the arenas' used counts
+ * already hold them): a miss. */
+static ts_cache_result cache_place(ts_patch_cache *c, uint32_t p, uint32_t vf, uint32_t nv,
+                                   uint32_t gf, uint32_t ng, uint32_t m, uint32_t times,
+                                   uint32_t *vert_first, uint32_t *group_first)
+{
+    c->entry[p] = (ts_cache_entry){vf, nv, gf, ng, c->clock, (uint8_t)m, (uint8_t)times, 1, 1};
+    uint64_t bytes =
+        (uint64_t)c->verts.used * sizeof(ts_vec4) + (uint64_t)c->groups.used * TS_GROUP_BYTES;
+    if (bytes > c->peak_bytes) c->peak_bytes = bytes;
+    c->resident_list[c->resident_count++] = p;
+    *vert_first = vf, *group_first = gf;
+    ++c->misses;
+    return TS_CACHE_MISS;
+}
+
 ts_cache_result patch_cache_acquire(ts_patch_cache *c, uint32_t p, uint32_t m, uint32_t times,
                                     uint32_t *vert_first, uint32_t *group_first)
 {
@@ -178,23 +194,9 @@ ts_cache_result patch_cache_acquire(ts_patch_cache *c, uint32_t p, uint32_t m, u
     if (c->fixed_vert) { /* its own place, always free */
         if (e->resident || c->fixed_lod[p] != m || c->fixed_vert[p] == UINT32_MAX)
             return TS_CACHE_FULL; /* another m than the frame's: not met */
-        *e = (ts_cache_entry){c->fixed_vert[p],
-                              nv,
-                              c->fixed_group[p],
-                              ng,
-                              c->clock,
-                              (uint8_t)m,
-                              (uint8_t)times,
-                              1,
-                              1};
         c->verts.used += nv, c->groups.used += ng;
-        uint64_t bytes =
-            (uint64_t)c->verts.used * sizeof(ts_vec4) + (uint64_t)c->groups.used * TS_GROUP_BYTES;
-        if (bytes > c->peak_bytes) c->peak_bytes = bytes;
-        c->resident_list[c->resident_count++] = p;
-        *vert_first = e->vert_first, *group_first = e->group_first;
-        ++c->misses;
-        return TS_CACHE_MISS;
+        return cache_place(c, p, c->fixed_vert[p], nv, c->fixed_group[p], ng, m, times, vert_first,
+                           group_first);
     }
     if (e->resident) cache_release(c, p); /* another m: its blocks are of no use */
     if (nv > c->verts.capacity || ng > c->groups.capacity) return TS_CACHE_FULL;
@@ -206,14 +208,7 @@ ts_cache_result patch_cache_acquire(ts_patch_cache *c, uint32_t p, uint32_t m, u
         }
         if (!cache_evict_one(c)) return TS_CACHE_FULL;
     }
-    *e = (ts_cache_entry){vf, nv, gf, ng, c->clock, (uint8_t)m, (uint8_t)times, 1, 1};
-    uint64_t bytes =
-        (uint64_t)c->verts.used * sizeof(ts_vec4) + (uint64_t)c->groups.used * TS_GROUP_BYTES;
-    if (bytes > c->peak_bytes) c->peak_bytes = bytes;
-    c->resident_list[c->resident_count++] = p;
-    *vert_first = vf, *group_first = gf;
-    ++c->misses;
-    return TS_CACHE_MISS;
+    return cache_place(c, p, vf, nv, gf, ng, m, times, vert_first, group_first);
 }
 
 void patch_cache_end_batch(ts_patch_cache *c)

@@ -624,33 +624,42 @@ void pipeline_arena_places(const ts_pipeline *p, uint32_t *vert_first, uint32_t 
     }
 }
 
-int pipeline_place_arenas(ts_pipeline *p, void *grid, void *tree, void *tight, uint64_t verts,
+/* New arenas of verts vertices and groups sibling groups (over the caller's host memory
+ * grid, tree and tight with CL_MEM_USE_HOST_PTR, or allocated when grid is NULL) and a patch
+ * cache over them (with the fixed places vert_first, group_first and lod when given),
+ * replacing the old ones; the old ones stay on an error. */
+static int arenas_replace(ts_pipeline *p, void *grid, void *tree, void *tight, uint64_t verts,
                           uint64_t groups, const uint32_t *vert_first, const uint32_t *group_first,
                           const uint8_t *lod, ts_error *err)
 {
-    if (verts > UINT32_MAX || groups > UINT32_MAX ||
-        verts * sizeof(ts_vec4) > p->cl->info.max_alloc ||
-        groups * sizeof(ts_box4) > p->cl->info.max_alloc)
+    uint64_t max_alloc = p->cl->info.max_alloc;
+    if (verts > UINT32_MAX || groups > UINT32_MAX || verts * sizeof(ts_vec4) > max_alloc ||
+        groups * sizeof(ts_box4) > max_alloc)
         return ts_error_set(err, TS_E_USAGE,
-                            "the shared arenas would exceed the device's largest buffer, %llu MB",
-                            (unsigned long long)(p->cl->info.max_alloc >> 20));
+                            "the arenas would exceed the device's largest buffer, %llu MB",
+                            (unsigned long long)(max_alloc >> 20));
     if (dev_finish(p->cl, p->stats, err)) return err->code; /* nothing uses the old ones */
-    const cl_mem_flags use = CL_MEM_READ_WRITE | CL_MEM_USE_HOST_PTR;
-    cl_mem g = dev_buffer_create(p->cl, use, verts * sizeof(ts_vec4), grid, err);
-    cl_mem t = g ? dev_buffer_create(p->cl, use, groups * sizeof(ts_box4), tree, err) : NULL;
-    cl_mem c = t ? dev_buffer_create(p->cl, use, groups * sizeof(ts_tight4), tight, err) : NULL;
+    cl_mem_flags flags = CL_MEM_READ_WRITE | (grid ? CL_MEM_USE_HOST_PTR : 0);
+    cl_mem g = dev_buffer_create(p->cl, flags, verts * sizeof(ts_vec4), grid, err);
+    cl_mem t = g ? dev_buffer_create(p->cl, flags, groups * sizeof(ts_box4), tree, err) : NULL;
+    cl_mem c = t ? dev_buffer_create(p->cl, flags, groups * sizeof(ts_tight4), tight, err) : NULL;
     ts_patch_cache cache;
-    if (!c || patch_cache_create_placed(&cache, p->scene->patch_count, vert_first, group_first, lod,
-                                        err)) {
+    int rc = !c           ? err->code
+             : vert_first ? patch_cache_create_placed(&cache, p->scene->patch_count, vert_first,
+                                                      group_first, lod, err)
+                          : patch_cache_create(&cache, p->scene->patch_count, (uint32_t)verts,
+                                               (uint32_t)groups, err);
+    if (rc) {
         if (g) clReleaseMemObject(g);
         if (t) clReleaseMemObject(t);
         if (c) clReleaseMemObject(c);
-        return err->code;
+        return rc;
     }
     clReleaseMemObject(p->grid);
     clReleaseMemObject(p->groups);
     clReleaseMemObject(p->tight);
     p->grid = g, p->groups = t, p->tight = c;
+    /* The cache's counters go on over the frame. */
     cache.hits = p->cache.hits, cache.misses = p->cache.misses;
     cache.evictions = p->cache.evictions;
     cache.peak_bytes = p->cache.peak_bytes;
@@ -662,45 +671,16 @@ int pipeline_place_arenas(ts_pipeline *p, void *grid, void *tree, void *tight, u
     return TS_OK;
 }
 
+int pipeline_place_arenas(ts_pipeline *p, void *grid, void *tree, void *tight, uint64_t verts,
+                          uint64_t groups, const uint32_t *vert_first, const uint32_t *group_first,
+                          const uint8_t *lod, ts_error *err)
+{
+    return arenas_replace(p, grid, tree, tight, verts, groups, vert_first, group_first, lod, err);
+}
+
 int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_error *err)
 {
-    uint64_t max_alloc = p->cl->info.max_alloc;
-    if (verts > UINT32_MAX || groups > UINT32_MAX || verts * sizeof(ts_vec4) > max_alloc ||
-        groups * sizeof(ts_box4) > max_alloc)
-        return ts_error_set(err, TS_E_USAGE,
-                            "the arenas would exceed the device's largest buffer, %llu MB",
-                            (unsigned long long)(max_alloc >> 20));
-    if (dev_finish(p->cl, p->stats, err)) return err->code; /* nothing uses the old ones */
-    cl_mem grid = dev_buffer_create(p->cl, CL_MEM_READ_WRITE, verts * sizeof(ts_vec4), NULL, err);
-    if (!grid) return err->code;
-    cl_mem tree = dev_buffer_create(p->cl, CL_MEM_READ_WRITE, groups * sizeof(ts_box4), NULL, err);
-    cl_mem tight =
-        tree ? dev_buffer_create(p->cl, CL_MEM_READ_WRITE, groups * sizeof(ts_tight4), NULL, err)
-             : NULL;
-    ts_patch_cache cache;
-    if (!tight ||
-        patch_cache_create(&cache, p->scene->patch_count, (uint32_t)verts, (uint32_t)groups, err)) {
-        clReleaseMemObject(grid);
-        if (tree) clReleaseMemObject(tree);
-        if (tight) clReleaseMemObject(tight);
-        return err->code;
-    }
-    clReleaseMemObject(p->grid);
-    clReleaseMemObject(p->groups);
-    clReleaseMemObject(p->tight);
-    p->grid = grid;
-    p->groups = tree;
-    p->tight = tight;
-    /* The cache's counters go on over the frame. */
-    cache.hits = p->cache.hits, cache.misses = p->cache.misses;
-    cache.evictions = p->cache.evictions;
-    cache.peak_bytes = p->cache.peak_bytes;
-    patch_cache_free(&p->cache);
-    p->cache = cache;
-    p->plan.vert_capacity = (uint32_t)verts;
-    p->plan.group_capacity = (uint32_t)groups;
-    p->stats->counters[TS_COUNTER_patch_cache_bytes] = pipeline_arena_bytes(&p->plan);
-    return TS_OK;
+    return arenas_replace(p, NULL, NULL, NULL, verts, groups, NULL, NULL, NULL, err);
 }
 
 int pipeline_stitch_prepare(ts_pipeline *p, ts_error *err)
