@@ -87,6 +87,14 @@ static void film_alloc(ts_film_state *f)
     assert_int_equal(film_state_alloc(f, P, &err), TS_OK);
 }
 
+/* f and b: films and a board over the whole of TOTAL samples in order o, nothing held. */
+static void board_open(ts_board *b, ts_film_state *f, const ts_sample_order *o)
+{
+    ts_error err = {0};
+    film_alloc(f);
+    assert_int_equal(board_init(b, f, o, TOTAL, 0, NULL, &err), TS_OK);
+}
+
 /* Each pixel's samples added in sample order, AOVs from sample 0: what every order, wave
  * size and unit size must give. */
 static void film_plain(ts_film_state *f)
@@ -526,12 +534,11 @@ static void test_board_take_give_back_close(void **state)
 {
     (void)state;
     ts_film_state f;
-    film_alloc(&f);
     ts_board b;
     ts_error err = {0};
     ts_sample_order o = order_of(W); /* one row a band: 11 units of W * SPP samples */
     const uint64_t span = (uint64_t)W * SPP;
-    assert_int_equal(board_init(&b, &f, &o, TOTAL, 0, NULL, &err), TS_OK);
+    board_open(&b, &f, &o);
     assert_int_equal(b.unit_count, H);
     ts_unit u[H + 1];
     for (int i = 0; i < H; ++i) {
@@ -597,11 +604,9 @@ static void test_board_wait_sees_a_change_it_missed(void **state)
 {
     (void)state;
     ts_film_state f;
-    film_alloc(&f);
     ts_board b;
-    ts_error err = {0};
     ts_sample_order o = order_of(W);
-    assert_int_equal(board_init(&b, &f, &o, TOTAL, 0, NULL, &err), TS_OK);
+    board_open(&b, &f, &o);
     uint64_t seen = board_changes(&b);
     ts_unit u;
     ts_unit_result r;
@@ -616,13 +621,12 @@ static void test_board_wait_sees_a_change_it_missed(void **state)
     film_state_free(&f);
 }
 
-/* A board of order o into film f whose unit 0 device 2 holds (*slow) while device 1 takes
- * and finishes every other unit, `ms` milliseconds each. */
+/* A board of order o into film f (board_open) whose unit 0 device 2 holds (*slow) while device 1
+ * takes and finishes every other unit, `ms` milliseconds each. */
 static void board_with_slow_holder(ts_board *b, ts_film_state *f, const ts_sample_order *o,
                                    ts_unit *slow, long ms)
 {
-    ts_error err = {0};
-    assert_int_equal(board_init(b, f, o, TOTAL, 0, NULL, &err), TS_OK);
+    board_open(b, f, o);
     assert_true(board_take_as(b, 2, slow));
     assert_true(slow->index == 0 && slow->taker == 2 && !slow->backup);
     for (uint32_t i = 1; i < b->unit_count; ++i) {
@@ -648,7 +652,6 @@ static void test_board_backs_up_a_slow_device(void **state)
     film_reference(&ref, &o, 0, TOTAL);
     for (int slow_wins = 0; slow_wins < 2; ++slow_wins) {
         ts_film_state f;
-        film_alloc(&f);
         ts_board b;
         ts_unit slow, u, copy;
         ts_unit_result r;
@@ -706,10 +709,8 @@ static void test_board_backs_up_only_the_slow(void **state)
     for (int off = 0; off < 2; ++off) {
         if (off) setenv("TESSERA_BACKUP_UNITS", "0", 1);
         ts_film_state f;
-        film_alloc(&f);
         ts_board b;
-        ts_error err = {0};
-        assert_int_equal(board_init(&b, &f, &o, TOTAL, 0, NULL, &err), TS_OK);
+        board_open(&b, &f, &o);
         unsetenv("TESSERA_BACKUP_UNITS");
         ts_unit u;
         ts_unit_result r;
@@ -736,7 +737,6 @@ static void test_board_backs_up_only_the_slow(void **state)
     }
     /* Given back by its first holder while the backup is out: the backup is merged. */
     ts_film_state f;
-    film_alloc(&f);
     ts_board b;
     ts_unit slow, u, copy;
     ts_unit_result r;

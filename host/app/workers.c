@@ -419,9 +419,15 @@ static void worker_share(ts_worker *w)
 }
 
 /* 4096-aligned host memory for `bytes` (PoCL's zero copy), or NULL. */
-static void *arena_alloc(uint64_t bytes)
+static void *shared_arena_alloc(uint64_t bytes)
 {
     return aligned_alloc(4096, (bytes + 4095u) / 4096u * 4096u);
+}
+
+/* The bytes of the sharing devices' one allocation (g->place_verts and g->place_groups). */
+static uint64_t placed_bytes(const ts_workers *g)
+{
+    return g->place_verts * sizeof(ts_vec4) + g->place_groups * TS_GROUP_BYTES;
 }
 
 /* Decides, once for the frame (g->lock held, w's pipeline with the frame's levels), whether
@@ -446,16 +452,17 @@ static void workers_place(ts_workers *g, ts_worker *w)
     if (!g->place_vert || !g->place_group || !g->place_lod) return;
     pipeline_arena_places(&w->pipe, g->place_vert, g->place_group, g->place_lod, &g->place_verts,
                           &g->place_groups);
-    uint64_t need = g->place_verts * sizeof(ts_vec4) + g->place_groups * TS_GROUP_BYTES;
+    uint64_t need = placed_bytes(g);
     for (uint32_t i = 0; i < g->count; ++i) {
         const ts_worker *o = &g->w[i];
         uint64_t room = (o->room_mb > o->mb ? o->room_mb : o->mb) << 20;
         if (o->shares && need > room) return;
     }
     if (g->place_verts > UINT32_MAX || g->place_groups > UINT32_MAX) return;
-    g->arena_grid = arena_alloc((g->place_verts ? g->place_verts : 1) * sizeof(ts_vec4));
-    g->arena_tree = arena_alloc((g->place_groups ? g->place_groups : 1) * sizeof(ts_box4));
-    g->arena_tight = arena_alloc((g->place_groups ? g->place_groups : 1) * sizeof(ts_tight4));
+    g->arena_grid = shared_arena_alloc((g->place_verts ? g->place_verts : 1) * sizeof(ts_vec4));
+    g->arena_tree = shared_arena_alloc((g->place_groups ? g->place_groups : 1) * sizeof(ts_box4));
+    g->arena_tight =
+        shared_arena_alloc((g->place_groups ? g->place_groups : 1) * sizeof(ts_tight4));
     if (!g->arena_grid || !g->arena_tree || !g->arena_tight) return;
     patch_share_in_place(&g->share);
     g->placed = 1;
@@ -758,8 +765,7 @@ int workers_stats(ts_workers *g, ts_stats *stats, ts_error *err)
     }
     if (g->placed > 0) { /* one allocation for the sharing devices, not one each: its bytes,
                           * and those of the patches any of them placed in it */
-        uint64_t bytes = g->place_verts * sizeof(ts_vec4) + g->place_groups * TS_GROUP_BYTES;
-        uint64_t peak = 0;
+        uint64_t bytes = placed_bytes(g), peak = 0;
         for (uint32_t i = 0; i < g->count; ++i)
             if (!g->w[i].shares) {
                 bytes += g->w[i].stats.counters[TS_COUNTER_patch_cache_bytes];
