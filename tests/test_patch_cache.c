@@ -3,8 +3,11 @@
  * eviction is least recently used among unpinned patches and never touches a pinned one;
  * a patch at another m is placed again; under a random workload every resident patch's
  * blocks lie inside the arenas and overlap no other, the free lists and the used counts
- * account for every entry, and TS_CACHE_FULL only happens when every resident patch is
- * pinned. A cache with fixed places (patch_cache_create_placed) puts each patch at its own
+ * account for every entry, TS_CACHE_FULL only happens when the patch's size class has no
+ * unpinned patch nor free slot, and the same patch fits once the batch ends. The entries
+ * examined per acquire stay below a constant from 100 to 20,000 resident patches (a scan
+ * would grow with them), and a frame 5% over the room, its classes planned, keeps over 90%
+ * of the arenas in use while evicting one patch a miss. A cache with fixed places (patch_cache_create_placed) puts each patch at its own
  * place on a miss, hits it there after, never evicts, refuses another m, and a second cache
  * over the same places puts every patch at the same place whatever the order. */
 #include <setjmp.h>
@@ -171,21 +174,29 @@ static void check_invariants(const ts_patch_cache *c)
     }
     assert_int_equal(vused, c->verts.used);
     assert_int_equal(gused, c->groups.used);
-    const ts_cache_arena *arenas[2] = {&c->verts, &c->groups};
-    uint8_t *maps[2] = {vmap, gmap};
-    for (int a = 0; a < 2; ++a) {
-        uint64_t free_total = 0;
-        for (uint32_t i = 0; i < arenas[a]->free_count; ++i) {
-            const ts_cache_block *b = &arenas[a]->free[i];
-            assert_true(b->count > 0);
-            if (i > 0) /* sorted and coalesced */
-                assert_true(arenas[a]->free[i - 1].first + arenas[a]->free[i - 1].count < b->first);
-            for (uint32_t j = 0; j < b->count; ++j)
-                assert_int_equal(maps[a][b->first + j], 0);
-            free_total += b->count;
-        }
-        assert_int_equal(free_total + (a ? gused : vused), arenas[a]->capacity);
+    /* Each class's free slots: inside the handed-out part, on no resident block nor another
+     * free slot; every slot of the top is a class's, resident or free. */
+    uint64_t vslots = 0, gslots = 0, resident_in[TS_CACHE_CLASSES] = {0};
+    for (uint32_t k = 0; k < c->resident_count; ++k) {
+        const ts_cache_entry *e = &c->entry[c->resident_list[k]];
+        resident_in[TS_CACHE_CLASS(e->lod, e->times)]++;
     }
+    for (uint32_t k = 0; k < TS_CACHE_CLASSES; ++k) {
+        const ts_cache_class *cl = &c->cls[k];
+        assert_int_equal(cl->free_count + resident_in[k], cl->slots);
+        for (uint32_t f = 0; f < cl->free_count; ++f) {
+            assert_true((uint64_t)cl->free_vert[f] + cl->nv <= c->verts.top);
+            assert_true((uint64_t)cl->free_group[f] + cl->ng <= c->groups.top);
+            for (uint32_t i = 0; i < cl->nv; ++i)
+                assert_int_equal(vmap[cl->free_vert[f] + i]++, 0);
+            for (uint32_t i = 0; i < cl->ng; ++i)
+                assert_int_equal(gmap[cl->free_group[f] + i]++, 0);
+        }
+        vslots += (uint64_t)cl->slots * cl->nv, gslots += (uint64_t)cl->slots * cl->ng;
+    }
+    assert_int_equal(vslots, c->verts.top);
+    assert_int_equal(gslots, c->groups.top);
+    assert_true(c->verts.top <= c->verts.capacity && c->groups.top <= c->groups.capacity);
     free(vmap), free(gmap);
 }
 
@@ -200,8 +211,12 @@ static void test_random_workload(void **state)
         uint32_t gcap = 50 + (uint32_t)(rng_next(&seed) % 8000);
         assert_int_equal(patch_cache_create(&c, n, vcap, gcap, &err), TS_OK);
         uint8_t *lod = malloc(n);
-        for (uint32_t p = 0; p < n; ++p)
+        uint64_t need[TS_CACHE_CLASSES] = {0};
+        for (uint32_t p = 0; p < n; ++p) {
             lod[p] = (uint8_t)(rng_next(&seed) % 6);
+            need[TS_CACHE_CLASS(lod[p], 1u + (p % 3 == 0))]++;
+        }
+        if (trial % 2) patch_cache_plan(&c, need); /* quotas, as a frame has; else none */
         uint64_t misses = 0, hits = 0;
         for (int batch = 0; batch < 300; ++batch) {
             uint32_t want = 1 + (uint32_t)(rng_next(&seed) % 12);
@@ -218,11 +233,18 @@ static void test_random_workload(void **state)
                     assert_int_equal(r, TS_CACHE_FULL); /* can never fit */
                     continue;
                 }
-                if (r == TS_CACHE_FULL) {
-                    for (uint32_t i = 0; i < c.resident_count; ++i) /* nothing left to evict */
-                        assert_true(c.entry[c.resident_list[i]].pinned);
+                if (r == TS_CACHE_FULL) { /* its class has no slot to give: all pinned */
+                    const ts_cache_class *cl = &c.cls[TS_CACHE_CLASS(lod[p], times)];
+                    assert_int_equal(cl->free_count, 0);
+                    assert_int_equal(cl->lru_head, TS_CACHE_NONE);
+                    assert_true(c.pinned_now > 0);
                     ++fulls;
-                    break; /* the caller ends the batch here */
+                    patch_cache_end_batch(&c); /* the caller ends the batch here, then the */
+                    r = patch_cache_acquire(&c, p, lod[p], times, &v, &g); /* patch fits */
+                    assert_int_equal(r, TS_CACHE_MISS);
+                    ++misses;
+                    check_invariants(&c);
+                    break;
                 }
                 assert_int_equal(r, was ? TS_CACHE_HIT : TS_CACHE_MISS);
                 r == TS_CACHE_HIT ? ++hits : ++misses;
@@ -243,12 +265,86 @@ static void test_random_workload(void **state)
     assert_true(evictions > 0); /* and evicted */
 }
 
+/* Sweeps patches 0..4R-1 of mixed sizes (m 1-4, some moving) through a cache planned for R
+ * of their 4R, in batches of 8 as the sort would: the entries examined per acquire, and the
+ * arenas' use at the end. */
+static void sweep(uint32_t resident, double *examined_per_acquire, double *use)
+{
+    uint32_t n = 4 * resident;
+    uint64_t need[TS_CACHE_CLASSES] = {0}, vneed = 0, gneed = 0;
+    for (uint32_t p = 0; p < n; ++p) {
+        uint32_t m = 1 + p % 4, t = 1 + (p % 7 == 0);
+        need[TS_CACHE_CLASS(m, t)]++;
+        vneed += patch_cache_vert_count(m, t), gneed += patch_cache_group_count(m, t);
+    }
+    ts_patch_cache c;
+    ts_error err = {0};
+    assert_int_equal(patch_cache_create(&c, n, (uint32_t)(vneed / 4), (uint32_t)(gneed / 4), &err),
+                     TS_OK);
+    patch_cache_plan(&c, need);
+    uint64_t acquires = 0;
+    for (int pass = 0; pass < 3; ++pass)
+        for (uint32_t p = 0; p < n; ++p) {
+            uint32_t v, g;
+            assert_int_not_equal(patch_cache_acquire(&c, p, 1 + p % 4, 1 + (p % 7 == 0), &v, &g),
+                                 TS_CACHE_FULL);
+            ++acquires;
+            if (p % 8 == 7) patch_cache_end_batch(&c);
+        }
+    *examined_per_acquire = (double)c.examined / (double)acquires;
+    *use = (double)c.verts.used / c.verts.capacity;
+    patch_cache_free(&c);
+}
+
+static void test_constant_cost(void **state)
+{
+    double small, large, use_small, use_large;
+    sweep(100, &small, &use_small);
+    sweep(20000, &large, &use_large);
+    assert_true(small <= 2.0 && large <= 2.0); /* one entry a hit, two a miss that evicts */
+    assert_true(use_small > 0.9 && use_large > 0.9);
+}
+
+/* 5% over the room: quotas leave no class without slots, the cache fills over 90% of both
+ * arenas, and a miss evicts exactly one patch. */
+static void test_slightly_over(void **state)
+{
+    const uint32_t n = 2000;
+    uint64_t need[TS_CACHE_CLASSES] = {0}, vneed = 0, gneed = 0;
+    for (uint32_t p = 0; p < n; ++p) {
+        uint32_t m = p % 3 ? 3 : 6;
+        need[TS_CACHE_CLASS(m, 1)]++;
+        vneed += patch_cache_vert_count(m, 1), gneed += patch_cache_group_count(m, 1);
+    }
+    ts_patch_cache c;
+    ts_error err = {0};
+    assert_int_equal(patch_cache_create(&c, n, (uint32_t)(vneed / 1.05), (uint32_t)(gneed / 1.05),
+                                        &err),
+                     TS_OK);
+    assert_int_equal(patch_cache_plan(&c, need), 1);
+    assert_int_equal(patch_cache_plan(&c, need), 0); /* the same quotas: kept */
+    for (int pass = 0; pass < 2; ++pass)
+        for (uint32_t p = 0; p < n; ++p) {
+            uint32_t v, g;
+            uint64_t before = c.evictions;
+            ts_cache_result r = patch_cache_acquire(&c, p, p % 3 ? 3 : 6, 1, &v, &g);
+            assert_int_not_equal(r, TS_CACHE_FULL);
+            assert_true(c.evictions - before <= 1);
+            patch_cache_end_batch(&c);
+        }
+    assert_true(c.verts.used > 0.9 * c.verts.capacity);
+    assert_true(c.groups.used > 0.9 * c.groups.capacity);
+    assert_true(c.evictions > 0);
+    patch_cache_free(&c);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sizes),           cmocka_unit_test(test_working_set_fits),
         cmocka_unit_test(test_lru_and_pinning), cmocka_unit_test(test_placed),
-        cmocka_unit_test(test_random_workload),
+        cmocka_unit_test(test_random_workload), cmocka_unit_test(test_constant_cost),
+        cmocka_unit_test(test_slightly_over),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -29,6 +29,7 @@
     X(patch_cache_hits, "segments whose patch was already diced and resident")              \
     X(patch_cache_misses, "segments placed into the cache (= patches_diced + patches_shared)") \
     X(patch_cache_evictions, "resident patches evicted to make room")                      \
+    X(patch_cache_examined, "cache entries looked at: one a hit or miss, one a victim")    \
     X(patch_cache_bytes, "bytes of the vertex and tree arenas the cache manages")        \
     X(patch_cache_peak_bytes, "most arena bytes resident patches held at once")          \
     X(patches_shared, "misses filled from another device's dicing (patch_share.h)")       \

@@ -9,10 +9,19 @@
  * when the frame's working set fits every patch is diced once per frame; when it does not,
  * the wavefront reordering bounds the memory (Hanika §3) and the cache only removes repeats.
  *
- * Eviction: a patch the current batch uses is pinned (the sort lists every patch an
- * iteration needs before anything is diced); among the rest the least recently used goes
- * first. Free space is kept per arena as a sorted list of blocks, first fit, coalesced on
- * release; when no block fits, unpinned patches are evicted in LRU order until one does.
+ * Allocation by size class: a patch's blocks depend only on (m, time samples), so every
+ * class (TS_CACHE_CLASSES of them) has slots of one size, a free list of slots and a list of
+ * its unpinned resident patches in the order they were last used. A slot comes from the
+ * class's free list, else from the unused top of the arenas, else from its least recently
+ * used unpinned patch, which is evicted: exactly one patch's worth, never a scan. So that a
+ * class finds slots of its own, patch_cache_plan gives each class a quota from the frame's
+ * patches at their levels of detail: all of them when they fit, the same fraction of each
+ * class when they do not (Hanika §4: the memory is fixed, the geometry is not). The unused
+ * top beyond the quotas is anyone's. Every operation is O(1) but patch_cache_clear and
+ * patch_cache_end_batch, which visit the resident and the batch's patches once.
+ *
+ * A patch the current batch uses is pinned (the sort lists every patch an iteration needs
+ * before anything is diced): it leaves its class's list until the batch ends.
  *
  * Entries are indexed by the patch diced: a segment's shape (ts_segment.shape), so every
  * instance that shares its master's dicing finds the master's entry (trace.c).
@@ -30,42 +39,60 @@
 /* Bytes of one sibling group across the two group arenas: its boxes and their tight codes. */
 #define TS_GROUP_BYTES (sizeof(ts_box4) + sizeof(ts_tight4))
 
-/* A free block [first, first + count) of one arena. */
-typedef struct ts_cache_block {
-    uint32_t first, count;
-} ts_cache_block;
+/* Size classes: (m, time samples), m in [0, TS_LOD_LIMIT], 1 or 2 samples. */
+#define TS_CACHE_CLASSES (2 * (TS_LOD_LIMIT + 1))
+#define TS_CACHE_CLASS(m, times) (2u * (m) + (times)-1u)
+#define TS_CACHE_NONE UINT32_MAX
 
+/* One arena: entries [0, top) are handed out as slots, [top, capacity) are unused. */
 typedef struct ts_cache_arena {
-    ts_cache_block *free; /* sorted by first, never adjacent (coalesced) */
-    uint32_t free_count, free_capacity;
     uint32_t capacity; /* entries (vertices or sibling groups) */
-    uint32_t used;
+    uint32_t top;      /* the unused part's first entry */
+    uint32_t used;     /* entries resident patches hold */
 } ts_cache_arena;
+
+/* One size class: its slots' size, how many it holds and may take, its free slots and its
+ * unpinned residents from least to most recently used (an intrusive list through the
+ * entries). */
+typedef struct ts_cache_class {
+    uint32_t nv, ng;         /* a slot's vertices and sibling groups */
+    uint32_t quota;          /* slots patch_cache_plan gives it */
+    uint32_t slots;          /* slots it holds, resident or free */
+    uint32_t lru_head, lru_tail; /* patches, TS_CACHE_NONE when empty */
+    uint32_t *free_vert, *free_group; /* its free slots' places */
+    uint32_t free_count, free_capacity;
+} ts_cache_class;
 
 /* A resident patch. */
 typedef struct ts_cache_entry {
     uint32_t vert_first, vert_count;
     uint32_t group_first, group_count;
-    uint64_t last_use; /* the batch clock when it was last pinned */
-    uint8_t lod;       /* m it was diced at */
-    uint8_t times;     /* 1, or 2 for a moving patch */
+    uint32_t prev, next; /* its class's list while resident and unpinned */
+    uint32_t at;         /* its index in resident_list */
+    uint8_t lod;         /* m it was diced at */
+    uint8_t times;       /* 1, or 2 for a moving patch */
     uint8_t resident;
     uint8_t pinned;
 } ts_cache_entry;
 
 typedef struct ts_patch_cache {
     ts_cache_arena verts, groups;
+    ts_cache_class cls[TS_CACHE_CLASSES];
+    uint64_t owed_verts, owed_groups; /* entries the quotas still claim of the unused top */
     /* Fixed places (patch_cache_create_placed): patch p's blocks at fixed_vert[p] and
-     * fixed_group[p] when diced at fixed_lod[p]; not owned. NULL: the arenas' free lists. */
+     * fixed_group[p] when diced at fixed_lod[p]; not owned. NULL: slots by size class. */
     const uint32_t *fixed_vert, *fixed_group;
     const uint8_t *fixed_lod;
     ts_cache_entry *entry; /* one per patch */
     uint32_t patch_count;
-    uint32_t *resident_list; /* patches holding space, for eviction scans */
+    uint32_t *resident_list; /* patches holding space (patch_cache_clear) */
     uint32_t resident_count;
-    uint64_t clock; /* counts batches: the LRU time */
+    uint32_t *pinned_list; /* patches pinned since the batch began (some released since) */
+    uint32_t pinned_count, pinned_now;
+    uint64_t clock; /* counts batches */
     /* Counters for --stats (summed over the frame). */
     uint64_t hits, misses, evictions;
+    uint64_t examined;   /* entries looked at by acquire: one a hit or miss, one a victim */
     uint64_t peak_bytes; /* the most bytes of both arenas resident patches held at once */
 } ts_patch_cache;
 
@@ -85,6 +112,13 @@ int patch_cache_create_placed(ts_patch_cache *c, uint32_t patch_count, const uin
 void patch_cache_free(ts_patch_cache *c);
 /* Forgets every resident patch (the levels of detail changed): all space is free again. */
 void patch_cache_clear(ts_patch_cache *c);
+
+/* Quotas for the frame: need[k] patches of class k (TS_CACHE_CLASS(m, times)) at the
+ * frame's levels of detail. When they all fit, each class may hold all of its patches (each
+ * is diced once); otherwise each class gets the same fraction of its patches (at least one
+ * slot). When the quotas change, the cache is cleared first (between batches: nothing may be
+ * pinned). Returns 1 when it cleared. A placed cache ignores it. */
+int patch_cache_plan(ts_patch_cache *c, const uint64_t need[TS_CACHE_CLASSES]);
 
 /* The outcome of patch_cache_acquire. */
 typedef enum ts_cache_result {

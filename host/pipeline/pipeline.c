@@ -536,8 +536,10 @@ int pipeline_lod_finish_with(ts_pipeline *p, ts_lod_rule rule, int before_hit, c
         for (uint32_t i = 0; i < n; ++i)
             if (p->cull_key[i]) p->cull_key[i] = UINT16_MAX;
     }
-    /* Otherwise the patch cache keeps its patches: each is keyed by its m, so one whose level
-     * changed is simply diced again when a segment asks for it. */
+    /* Otherwise the patch cache keeps its patches (each is keyed by its m, so one whose level
+     * changed is simply diced again when a segment asks for it) unless the new levels give its
+     * size classes other quotas (pipeline_cache_plan, at the next trace). */
+    ++p->lod_version;
     p->stats->stage_seconds[TS_STAGE_lod] += stats_now() - t0;
     return rc;
 }
@@ -607,6 +609,21 @@ void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups
     }
 }
 
+void pipeline_cache_plan(ts_pipeline *p)
+{
+    if (p->planned_version == p->lod_version + 1u && p->planned_fixed_lod == p->mode.fixed_lod)
+        return;
+    uint64_t need[TS_CACHE_CLASSES] = {0};
+    for (uint32_t i = 0; i < p->scene->patch_count; ++i) {
+        uint32_t m = pipeline_patch_lod(p, i), q = scene_shape(p->scene, i);
+        if (q != i && pipeline_patch_lod(p, q) == m) continue; /* diced as its master */
+        need[TS_CACHE_CLASS(m, p->scene->attr[i].flags & TS_PATCH_MOVING ? 2u : 1u)]++;
+    }
+    patch_cache_plan(&p->cache, need);
+    p->planned_version = p->lod_version + 1u;
+    p->planned_fixed_lod = p->mode.fixed_lod;
+}
+
 void pipeline_arena_places(const ts_pipeline *p, uint32_t *vert_first, uint32_t *group_first,
                            uint8_t *lod, uint64_t *verts, uint64_t *groups)
 {
@@ -667,6 +684,7 @@ static int arenas_replace(ts_pipeline *p, void *grid, void *tree, void *tight, u
     p->cache = cache;
     p->plan.vert_capacity = (uint32_t)verts;
     p->plan.group_capacity = (uint32_t)groups;
+    ++p->lod_version; /* an empty cache: its quotas are planned at the next trace */
     p->stats->counters[TS_COUNTER_patch_cache_bytes] = pipeline_arena_bytes(&p->plan);
     return TS_OK;
 }

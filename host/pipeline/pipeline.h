@@ -238,6 +238,12 @@ typedef struct ts_pipeline {
      * every segment is diced again as before the cache. */
     ts_patch_cache cache;
     int cache_off;
+    /* The levels of detail the cache's quotas were planned for (pipeline_cache_plan): the
+     * lod stage's version (lod_version, counted by pipeline_lod_finish_with and new arenas)
+     * and the fixed --lod; planned_version 0: not yet. */
+    uint32_t lod_version, planned_version;
+    int planned_fixed_lod;
+    uint32_t sweep; /* iterations planned: odd ones walk the segments backwards (trace.c) */
     /* The table shade last got in grid_at (pipeline_grid_publish): vert_first and m of each
      * patch resident in the arenas, TS_INVALID elsewhere, and the patch's stitched edges
      * (pipeline_stitch_edges); grid_off (TESSERA_GRID_NORMALS=0, for checks) publishes no
@@ -259,10 +265,11 @@ typedef struct ts_pipeline {
     ts_relight_params relight;
     uint32_t wave;   /* the wave of paths being traced (stats iterations) */
     uint32_t in_lod; /* 1 while pipeline_lod traces its pass (stats iterations) */
-    /* Asked after each iteration of pipeline_trace when set (app/workers.c, while a unit
-     * that may be backed up is traced): 1 leaves the trace unfinished and sets cancelled,
-     * which waves_trace_paths reads to end the wave (its results are dropped). Iterations
-     * end with no claim of the share store open, so nothing waits for this device. */
+    /* Asked after each iteration of pipeline_trace and between its batches when set
+     * (app/workers.c: a unit that may be backed up, or a board closed by a stop signal;
+     * app/render.c: a stop signal): 1 leaves the trace unfinished and sets cancelled, which
+     * waves_trace_paths reads to end the wave (its results are dropped). Batches end with no
+     * claim of the share store open, so nothing waits for this device. */
     int (*cancel)(void *ctx);
     void *cancel_ctx;
     int cancelled;
@@ -340,6 +347,10 @@ int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, 
  * and sibling groups at the level each is diced at (--lod's, else the lod stage's), twice
  * for a moving patch; an instance that shares its master's dicing takes none of its own. */
 void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups);
+/* The patch cache's quotas (patch_cache_plan) from the frame's patches at their levels of
+ * detail, when these changed since the last plan (a new lod stage, --lod, new arenas); the
+ * cache is cleared when the quotas change. Between batches only. */
+void pipeline_cache_plan(ts_pipeline *p);
 /* The level patch `patch` is diced at: --lod's (p->mode.fixed_lod, clamped to the plan's
  * max_lod), else the lod stage's p->patch_lod. */
 uint32_t pipeline_patch_lod(const ts_pipeline *p, uint32_t patch);

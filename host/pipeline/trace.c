@@ -72,7 +72,13 @@ static uint32_t segment_shape(const ts_pipeline *p, ts_segment *s)
 }
 
 /* Gives each segment (its LOD set) its place in the arenas through the patch cache and
- * cuts the segments into batches whose patches are resident together: a segment whose
+ * cuts the segments into batches whose patches are resident together, walking the segments
+ * forwards in one iteration and backwards in the next (p->sweep): when the frame's patches
+ * do not fit, what the last walk left resident is what the next one meets first, so those
+ * are hits before the misses evict them (Pharr et al. 1997 §5: geometry already in the cache
+ * first; a walk in one direction only would evict each patch just before it is wanted,
+ * which is least-recently-used caching's worst case). Batches are contiguous ranges of
+ * segments either way, and the order batches run in changes no hit: a segment whose
  * patch is resident at its m is a hit (traced, not diced); a miss gets space (the cache
  * evicts unpinned patches, least recently used first) and its trees go on the batch's list
  * to be diced and built; when even evicting everything unpinned leaves no room, the batch
@@ -82,11 +88,13 @@ static uint32_t segment_shape(const ts_pipeline *p, ts_segment *s)
 static void plan_batches(ts_pipeline *p, uint32_t segs)
 {
     uint32_t tused = 0, ntrees = 0;
-    uint64_t hits = 0, misses = 0, evicted = p->cache.evictions;
+    uint64_t hits = 0, misses = 0, evicted = p->cache.evictions, examined = p->cache.examined;
     p->batch_count = 0;
     ts_batch *b = NULL;
     if (p->cache_off) patch_cache_clear(&p->cache);
-    for (uint32_t i = 0; i < segs; ++i) {
+    int backward = p->sweep++ & 1u;
+    for (uint32_t j = 0; j < segs; ++j) {
+        uint32_t i = backward ? segs - 1u - j : j;
         ts_segment *s = &p->segments_host[i];
         const ts_patch_attr *a = &p->scene->attr[s->patch];
         s->flags = a->flags & TS_PATCH_MOVING; /* a shape moves as its instances do */
@@ -112,6 +120,7 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
             r = patch_cache_acquire(&p->cache, q, s->lod, times, &s->vert_first,
                                     &s->group_first); /* the plan holds any one patch */
         }
+        if (backward) b->seg_first = i; /* the batch grows downwards */
         b->seg_count++;
         if (r == TS_CACHE_HIT) {
             ++hits;
@@ -128,6 +137,7 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
     p->stats->counters[TS_COUNTER_patch_cache_hits] += hits;
     p->stats->counters[TS_COUNTER_patch_cache_misses] += misses;
     p->stats->counters[TS_COUNTER_patch_cache_evictions] += p->cache.evictions - evicted;
+    p->stats->counters[TS_COUNTER_patch_cache_examined] += p->cache.examined - examined;
     uint64_t *peak = &p->stats->counters[TS_COUNTER_patch_cache_peak_bytes];
     if (p->cache.peak_bytes > *peak) *peak = p->cache.peak_bytes;
 }
@@ -663,6 +673,13 @@ int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray
 int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
 {
     if (pipeline_stitch_prepare(p, err)) return err->code;
+    uint64_t need[TS_CACHE_CLASSES] = {0}; /* quotas for these segments' levels */
+    for (uint32_t i = 0; i < count; ++i) {
+        const ts_segment *s = &p->segments_host[i];
+        need[TS_CACHE_CLASS(s->lod, p->scene->attr[s->patch].flags & TS_PATCH_MOVING ? 2u : 1u)]++;
+    }
+    patch_cache_plan(&p->cache, need);
+    p->planned_version = 0; /* the next trace plans for the frame's levels again */
     patch_cache_clear(&p->cache); /* dice every segment, whatever was resident */
     plan_batches(p, count);       /* the caller set each segment's LOD */
     if (p->batch_count != 1)
@@ -705,6 +722,7 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 {
     uint32_t active = ray_count;
     if (pipeline_stitch_prepare(p, err) || cull_reset_stale(p, err)) return err->code;
+    pipeline_cache_plan(p);
     for (uint32_t it = 0; active > 0; ++it) {
         /* Once the patch cache has had to evict, the frame's patches do not all fit and come
          * back diced again: then each iteration may dice them again, and Hanika's N (fill the
@@ -722,6 +740,12 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
             const ts_batch *b = &p->batches[k];
             if (batch_make(p, b, err) || stage_bottom_level(p, sorted_buffer, b, n_per_ray, err))
                 return err->code;
+            /* A frame whose patches do not fit dices for seconds an iteration: a stop is
+             * honoured between its batches too (the wave's results are dropped). */
+            if (k + 1 < p->batch_count && p->cancel && p->cancel(p->cancel_ctx)) {
+                p->cancelled = 1;
+                return dev_finish(p->cl, p->stats, err);
+            }
         }
         ts_iteration rec = {p->wave, it, active, n_per_ray, valid, segs, p->in_lod};
         if (stats_add_iteration(p->stats, &rec, err)) return err->code;
