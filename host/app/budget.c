@@ -135,6 +135,32 @@ static int trade_rays(ts_pipeline *p, uint64_t verts, uint64_t groups, int quiet
     return 1;
 }
 
+/* The frame's patches (verts and groups entries) do not fit the room: the arenas take all of
+ * it (extra bytes beyond the budget's arenas), split as the patches need, and the patch
+ * cache's size classes each get the same share of their patches (patch_cache_plan); so a frame
+ * 5% over the room keeps 95% of its patches, not the plan's quarter of the budget. */
+static int take_the_room(ts_pipeline *p, uint64_t verts, uint64_t groups, uint64_t extra,
+                         int quiet, ts_error *err)
+{
+    uint64_t have = pipeline_arena_bytes(&p->plan);
+    uint64_t need = verts * sizeof(ts_vec4) + groups * TS_GROUP_BYTES;
+    double share = (double)(have + extra) / (double)need;
+    uint64_t v = (uint64_t)(share * (double)verts), g = (uint64_t)(share * (double)groups);
+    if (v < p->plan.vert_capacity) v = p->plan.vert_capacity; /* a moving patch at max_lod */
+    if (g < p->plan.group_capacity) g = p->plan.group_capacity;
+    if (extra > 0 && !arenas_grow(p, v, g, quiet, err)) return TS_OK;
+    uint64_t now = pipeline_arena_bytes(&p->plan);
+    p->stats->memory_budget_bytes += now - have;
+    if (!quiet)
+        ts_print_line("tessera: the frame's patches need %llu MB at their levels of detail, "
+                      "more than the %llu MB there is room for: the patch cache takes all of it "
+                      "(%.0f%% of the patches at once) and dices the others again when they "
+                      "return (--memory sets the budget)",
+                      (unsigned long long)(need >> 20), (unsigned long long)(now >> 20),
+                      100.0 * (double)now / (double)need);
+    return TS_OK;
+}
+
 int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, ts_error *err)
 {
     uint64_t mb = p->stats->memory_budget_bytes >> 20;
@@ -147,13 +173,8 @@ int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, t
     if (need - have > extra) {
         int traded = trade ? trade_rays(p, verts, groups, quiet, err) : 0;
         if (traded < 0) return err->code;
-        if (!traded && !quiet)
-            ts_print_line("tessera: the frame's patches need %llu MB at their levels of detail, "
-                          "more than the %llu MB there is room for: patches are diced again "
-                          "when they return (--memory sets the budget)",
-                          (unsigned long long)(need >> 20),
-                          (unsigned long long)((have + extra) >> 20));
-        return TS_OK;
+        if (traded) return TS_OK;
+        return take_the_room(p, verts, groups, extra, quiet, err);
     }
     if (!arenas_grow(p, verts, groups, quiet, err)) return TS_OK;
     uint64_t now = pipeline_arena_bytes(&p->plan);
