@@ -89,6 +89,14 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
  * finished samples are written. render_run installs the handlers around the waves, the MPI
  * ranks other than 0 around their render. */
 
+/* The pipeline's cancel hook (pipeline.h) while the waves run: a stop signal ends the wave
+ * between two of its batches, and its samples are dropped. */
+static int render_stop_asked(void *ctx)
+{
+    (void)ctx;
+    return interrupt_signal() != 0;
+}
+
 /* Runs the waves: each is a run of the frame's samples [first, first + rays) in its sample
  * order, from job->samples_done on. After the lod stage the arenas grow to hold the frame's
  * patches as far as room_mb allows (budget_grow_arenas). Stops early
@@ -110,8 +118,11 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
         uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
         cam.first_sample = (uint32_t)first;
         cam.ray_count = n;
-        if (pipeline_camera(p, &cam, err) || waves_trace_paths(o, p, &cam, err) ||
-            pipeline_film(p, &cam, err)) {
+        p->cancel = render_stop_asked, p->cancel_ctx = NULL, p->cancelled = 0;
+        int rc = pipeline_camera(p, &cam, err) || waves_trace_paths(o, p, &cam, err);
+        p->cancel = NULL;
+        if (!rc && p->cancelled) break; /* a stop signal: the wave is not finished */
+        if (rc || pipeline_film(p, &cam, err)) {
             if (!o->quiet && first > start) fputc('\n', stderr); /* end the progress line */
             return err->code;
         }

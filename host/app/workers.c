@@ -363,11 +363,13 @@ static int worker_read_wave(ts_worker *w, const ts_unit *u, uint64_t first, uint
     return rc ? err->code : TS_OK;
 }
 
-/* 1 when the unit w traces is merged from another device's copy (pipeline.h cancel). */
+/* 1 when the unit w traces is merged from another device's copy, or the source closed (a
+ * stop signal closes the board): pipeline.h cancel. */
 static int worker_unit_dropped(void *ctx)
 {
     ts_worker *w = ctx;
-    return w->g->src.dropped(w->g->src.ctx, w->cancel_unit);
+    const ts_unit_source *src = &w->g->src;
+    return src->closed(src->ctx) || (src->dropped && src->dropped(src->ctx, w->cancel_unit));
 }
 
 /* Traces unit u in waves into r. *stopped: 1 the source closed between two waves, 2 another
@@ -388,15 +390,16 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
         uint32_t n = (uint32_t)(left < per_wave ? left : per_wave);
         cam.first_sample = (uint32_t)first;
         cam.ray_count = n;
-        /* A copy of u may be merged from another device meanwhile (a backup, units.h): the
-         * wave then ends after the trace iteration it is in. */
+        /* A copy of u may be merged from another device meanwhile (a backup, units.h), or a
+         * stop signal may close the board: the wave then ends after the trace iteration or
+         * the batch it is in. */
         w->cancel_unit = u;
-        p->cancel = g->src.dropped ? worker_unit_dropped : NULL, p->cancel_ctx = w;
+        p->cancel = worker_unit_dropped, p->cancel_ctx = w;
         p->cancelled = 0;
         int rc = pipeline_camera(p, &cam, err) || waves_trace_paths(g->frame.opt, p, &cam, err);
         p->cancel = NULL;
         if (rc) return err->code;
-        if (p->cancelled) return *stopped = 2, TS_OK;
+        if (p->cancelled) return *stopped = g->src.closed(g->src.ctx) ? 1 : 2, TS_OK;
         if (worker_read_wave(w, u, first, n, r, err)) return err->code;
         for (long ms = 0; ms < w->slow_ms; ms += 10) { /* the test aid, ended by a drop */
             if (g->src.dropped && g->src.dropped(g->src.ctx, u)) return *stopped = 2, TS_OK;
