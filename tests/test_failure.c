@@ -388,6 +388,56 @@ static void test_sighup_writes_the_finished_samples(void **state)
     assert_same_image(ref, "hup.exr");
 }
 
+/* A long wave is not waited for: forest-100 at a budget whose arenas hold an eighth of its
+ * patches (each wave dices for seconds, in many batches); SIGINT once a third of the frame
+ * is finished ends the render within 3 s with exit 3 and those samples kept. Before the cancel hook asked between batches, the render finished the wave it
+ * was in first (tens of seconds here, 90-130 s on forest-1000 at 1920x768). */
+static void test_sigint_in_a_long_wave_is_honoured_at_once(void **state)
+{
+    (void)state;
+    char errpath[4300], outpath[4200];
+    snprintf(errpath, sizeof errpath, "%s", in_dir("long.stderr"));
+    snprintf(outpath, sizeof outpath, "%s", in_dir("long.exr"));
+    const char *bin = test_tessera_binary(), *scene = test_source_path("scene/forest-100.rib");
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        int fd = open(errpath, O_WRONLY | O_CREAT | O_TRUNC, 0644),
+            nul = open("/dev/null", O_WRONLY);
+        if (fd < 0 || nul < 0) _exit(126);
+        dup2(fd, 2), dup2(nul, 1);
+        execl(bin, bin, "render", scene, "-o", outpath, "--res", "640x256", "--spp", "16",
+              "--memory", "128", (char *)NULL);
+        _exit(127);
+    }
+    /* The top quarter of the frame is mostly sky: its waves are quick. Past it each wave dices
+     * for seconds (6-15 s here); the signal comes just after one ended. */
+    int status = 0, progressed = 0;
+    for (int i = 0; i < 18000 && !progressed; ++i) { /* up to 180 s (a cold kernel cache) */
+        if (waitpid(pid, &status, WNOHANG) == pid)
+            fail_msg("the render ended before it was interrupted:\n%s", read_text(errpath));
+        const char *cr = strrchr(read_text(errpath), '\r'); /* "\rtessera: N / T samples" */
+        unsigned long done = cr && strncmp(cr, "\rtessera: ", 10) == 0
+                                 ? strtoul(cr + 10, NULL, 10) : 0;
+        progressed = done >= 640ul * 256ul * 16ul / 3ul;
+        if (!progressed) nanosleep(&(struct timespec){0, 10000000}, NULL);
+    }
+    if (!progressed) kill(pid, SIGKILL);
+    assert_true(progressed);
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    kill(pid, SIGINT);
+    assert_int_equal(waitpid(pid, &status, 0), pid);
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    double seconds = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+    assert_true(WIFEXITED(status));
+    assert_int_equal(WEXITSTATUS(status), 3);
+    if (seconds > 3.0) fail_msg("SIGINT took %.1f s to end the render", seconds);
+    int done = meta_int("long.exr", "tessera:samples_done");
+    assert_true(done >= 640 * 256 * 16 / 3 && done < 640 * 256 * 16); /* the waves' samples, kept */
+    assert_no_temporary();
+}
+
 /* stderr into a pipe that is closed after 100 bytes (`tessera ... 2>&1 | head -c 100`): the
  * render must not die of SIGPIPE; progress stops and the image is written. */
 static void test_closed_stderr_pipe_does_not_kill_the_render(void **state)
@@ -527,6 +577,7 @@ int main(void)
         cmocka_unit_test(test_sigterm_writes_the_finished_samples),
         cmocka_unit_test(test_resume_matches_the_uninterrupted_render),
         cmocka_unit_test(test_sighup_writes_the_finished_samples),
+        cmocka_unit_test(test_sigint_in_a_long_wave_is_honoured_at_once),
         cmocka_unit_test(test_resume_refuses_counts_that_disagree),
         cmocka_unit_test(test_resume_continues_in_the_files_sample_order),
         cmocka_unit_test(test_closed_stderr_pipe_does_not_kill_the_render),
