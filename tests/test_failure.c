@@ -390,8 +390,9 @@ static void test_sighup_writes_the_finished_samples(void **state)
 
 /* A long wave is not waited for: forest-100 at a budget whose arenas hold an eighth of its
  * patches (each wave dices for seconds, in many batches); SIGINT once a third of the frame
- * is finished ends the render within 3 s with exit 3 and those samples kept. Before the cancel hook asked between batches, the render finished the wave it
- * was in first (tens of seconds here, 90-130 s on forest-1000 at 1920x768). */
+ * is finished ends the render within 3 s with exit 3 and those samples kept. Before the cancel hook
+ * asked between batches, the render finished the wave it was in first (tens of seconds here, 90-130
+ * s on forest-1000 at 1920x768). */
 static void test_sigint_in_a_long_wave_is_honoured_at_once(void **state)
 {
     (void)state;
@@ -417,8 +418,8 @@ static void test_sigint_in_a_long_wave_is_honoured_at_once(void **state)
         if (waitpid(pid, &status, WNOHANG) == pid)
             fail_msg("the render ended before it was interrupted:\n%s", read_text(errpath));
         const char *cr = strrchr(read_text(errpath), '\r'); /* "\rtessera: N / T samples" */
-        unsigned long done = cr && strncmp(cr, "\rtessera: ", 10) == 0
-                                 ? strtoul(cr + 10, NULL, 10) : 0;
+        unsigned long done =
+            cr && strncmp(cr, "\rtessera: ", 10) == 0 ? strtoul(cr + 10, NULL, 10) : 0;
         progressed = done >= 640ul * 256ul * 16ul / 3ul;
         if (!progressed) nanosleep(&(struct timespec){0, 10000000}, NULL);
     }

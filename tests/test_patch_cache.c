@@ -7,9 +7,10 @@
  * unpinned patch nor free slot, and the same patch fits once the batch ends. The entries
  * examined per acquire stay below a constant from 100 to 20,000 resident patches (a scan
  * would grow with them), and a frame 5% over the room, its classes planned, keeps over 90%
- * of the arenas in use while evicting one patch a miss. A cache with fixed places (patch_cache_create_placed) puts each patch at its own
- * place on a miss, hits it there after, never evicts, refuses another m, and a second cache
- * over the same places puts every patch at the same place whatever the order. */
+ * of the arenas in use while evicting one patch a miss. A cache with fixed places
+ * (patch_cache_create_placed) puts each patch at its own place on a miss, hits it there after,
+ * never evicts, refuses another m, and a second cache over the same places puts every patch at the
+ * same place whatever the order. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -318,9 +319,8 @@ static void test_slightly_over(void **state)
     }
     ts_patch_cache c;
     ts_error err = {0};
-    assert_int_equal(patch_cache_create(&c, n, (uint32_t)(vneed / 1.05), (uint32_t)(gneed / 1.05),
-                                        &err),
-                     TS_OK);
+    assert_int_equal(
+        patch_cache_create(&c, n, (uint32_t)(vneed / 1.05), (uint32_t)(gneed / 1.05), &err), TS_OK);
     assert_int_equal(patch_cache_plan(&c, need), 1);
     assert_int_equal(patch_cache_plan(&c, need), 0); /* the same quotas: kept */
     for (int pass = 0; pass < 2; ++pass)

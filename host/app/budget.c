@@ -139,8 +139,8 @@ static int trade_rays(ts_pipeline *p, uint64_t verts, uint64_t groups, int quiet
  * it (extra bytes beyond the budget's arenas), split as the patches need, and the patch
  * cache's size classes each get the same share of their patches (patch_cache_plan); so a frame
  * 5% over the room keeps 95% of its patches, not the plan's quarter of the budget. */
-static int take_the_room(ts_pipeline *p, uint64_t verts, uint64_t groups, uint64_t extra,
-                         int quiet, ts_error *err)
+static int take_the_room(ts_pipeline *p, uint64_t verts, uint64_t groups, uint64_t extra, int quiet,
+                         ts_error *err)
 {
     uint64_t have = pipeline_arena_bytes(&p->plan);
     uint64_t need = verts * sizeof(ts_vec4) + groups * TS_GROUP_BYTES;

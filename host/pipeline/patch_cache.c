@@ -74,7 +74,7 @@ int patch_cache_create(ts_patch_cache *c, uint32_t patch_count, uint32_t vert_ca
     c->entry = calloc(n, sizeof *c->entry);
     c->resident_list = malloc(n * sizeof *c->resident_list);
     c->pinned_list = malloc(2 * n * sizeof *c->pinned_list); /* a patch placed again at another
-                                                                * m within a batch: twice */
+                                                              * m within a batch: twice */
     if (!c->entry || !c->resident_list || !c->pinned_list) {
         patch_cache_free(c);
         return ts_error_set(err, TS_E_MEMORY, "out of memory (patch cache of %u patches)",
@@ -218,8 +218,9 @@ static ts_cache_result cache_place(ts_patch_cache *c, uint32_t p, uint32_t vf, u
                                    uint32_t gf, uint32_t ng, uint32_t m, uint32_t times,
                                    uint32_t *vert_first, uint32_t *group_first)
 {
-    c->entry[p] = (ts_cache_entry){vf, nv, gf, ng, TS_CACHE_NONE, TS_CACHE_NONE,
-                                   c->resident_count, (uint8_t)m, (uint8_t)times, 1, 1};
+    c->entry[p] = (ts_cache_entry){
+        vf, nv, gf, ng, TS_CACHE_NONE, TS_CACHE_NONE, c->resident_count, (uint8_t)m, (uint8_t)times,
+        1,  1};
     c->verts.used += nv, c->groups.used += ng;
     uint64_t bytes =
         (uint64_t)c->verts.used * sizeof(ts_vec4) + (uint64_t)c->groups.used * TS_GROUP_BYTES;

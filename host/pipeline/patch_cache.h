@@ -55,10 +55,10 @@ typedef struct ts_cache_arena {
  * unpinned residents from least to most recently used (an intrusive list through the
  * entries). */
 typedef struct ts_cache_class {
-    uint32_t nv, ng;         /* a slot's vertices and sibling groups */
-    uint32_t quota;          /* slots patch_cache_plan gives it */
-    uint32_t slots;          /* slots it holds, resident or free */
-    uint32_t lru_head, lru_tail; /* patches, TS_CACHE_NONE when empty */
+    uint32_t nv, ng;                  /* a slot's vertices and sibling groups */
+    uint32_t quota;                   /* slots patch_cache_plan gives it */
+    uint32_t slots;                   /* slots it holds, resident or free */
+    uint32_t lru_head, lru_tail;      /* patches, TS_CACHE_NONE when empty */
     uint32_t *free_vert, *free_group; /* its free slots' places */
     uint32_t free_count, free_capacity;
 } ts_cache_class;
