@@ -26,6 +26,26 @@ static void test_docs_name_the_stages_in_order(void **state)
     assert_int_equal(next, TS_STAGE_COUNT);
 }
 
+static void test_docs_detail_each_stage_in_order(void **state)
+{
+    /* Below the one-line table, each stage has a "### `name`" section, in the same order. */
+    FILE *f = fopen(test_source_path("docs/stages.md"), "r");
+    assert_non_null(f);
+    char line[4096];
+    int next = 0;
+    while (fgets(line, sizeof line, f)) {
+        char name[64];
+        if (sscanf(line, "### `%63[a-z_]`", name) != 1) continue;
+        if (next >= TS_STAGE_COUNT) fail_msg("docs/stages.md details an extra stage %s", name);
+        if (strcmp(name, ts_stage_names[next]) != 0)
+            fail_msg("docs/stages.md detail section %d is %s, host/base/stages.h says %s", next + 1,
+                     name, ts_stage_names[next]);
+        ++next;
+    }
+    fclose(f);
+    assert_int_equal(next, TS_STAGE_COUNT);
+}
+
 static void test_each_stage_has_a_kernel_file_or_host_file(void **state)
 {
     /* Device stages live in kernels/<stage>.cl; sort is the host's radix sort. */
@@ -45,6 +65,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_docs_name_the_stages_in_order),
+        cmocka_unit_test(test_docs_detail_each_stage_in_order),
         cmocka_unit_test(test_each_stage_has_a_kernel_file_or_host_file),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

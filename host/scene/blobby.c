@@ -97,6 +97,122 @@ static size_t op_operands(int code, const double *c, size_t left, size_t *skip)
     return code == 4 || code == 5 ? 2 : code == 6 || code == 7 ? 1 : 0;
 }
 
+/* Compiles the leaf instruction at code[at] (opcode code_c >= 1000, its float index at
+ * code[*c], which *c passes) into b's next leaf and grows b's box by it (*have_box: the box
+ * holds a leaf already). 0, or -1 with why set; b is freed by the caller. */
+static int compile_leaf(ts_blobby *b, blobby_op *op, unsigned k, size_t at, const double *code,
+                        size_t ncode, size_t *c, const double *floats, size_t nfloats,
+                        int *have_box, char *why, size_t why_len)
+{
+    static const size_t need[3] = {1, 16, 23};
+    int code_c = op->code;
+    if (code_c == 1003 || code_c == 1004 || code_c == 9000)
+        return fail(why, why_len, "instruction %u (code[%zu]): %s (opcode %d) is not supported", k,
+                    at,
+                    code_c == 1003   ? "a repelling plane"
+                    : code_c == 1004 ? "a field plug-in"
+                                     : "an AIR dynamic blob op",
+                    code_c);
+    if (code_c > 1002 || *c >= ncode)
+        return fail(why, why_len,
+                    *c >= ncode ? "instruction %u (code[%zu]): opcode %d lacks its operand"
+                                : "instruction %u (code[%zu]): unknown opcode %d",
+                    k, at, code_c);
+    double fd = code[(*c)++]; /* the first float's index: not negative, within floats */
+    if (!(fd >= 0.0 && fd <= (double)nfloats))
+        return fail(why, why_len,
+                    "instruction %u (code[%zu]): opcode %d reads floats from %g, but there are %zu",
+                    k, at, code_c, fd, nfloats);
+    size_t f = (size_t)fd, n = need[code_c - 1000];
+    if (f > nfloats || nfloats - f < n)
+        return fail(why, why_len,
+                    "instruction %u (code[%zu]): opcode %d reads floats %zu to %zu, but there are "
+                    "%zu",
+                    k, at, code_c, f, f + n - 1, nfloats);
+    blobby_leaf *l = &b->leaf[b->nleaf];
+    l->code = code_c;
+    int ok = 1;
+    if (code_c == 1000)
+        l->value = floats[f], ok = isfinite(l->value);
+    else if (code_c == 1001)
+        ok = leaf_matrix(l, floats + f), l->size *= 0.5;
+    else
+        ok = leaf_segment(l, floats + f), l->size *= 0.5;
+    if (!ok)
+        return fail(why, why_len, "instruction %u (code[%zu]): %s", k, at,
+                    code_c == 1000   ? "the constant is not finite"
+                    : code_c == 1001 ? "the ellipsoid's matrix is singular or projective"
+                                     : "the segment's radius is not positive, or its "
+                                       "matrix is singular or projective");
+    if (code_c != 1000) {
+        for (int j = 0; j < 3; j++) {
+            b->lo[j] = *have_box ? fmin(b->lo[j], l->lo[j]) : l->lo[j];
+            b->hi[j] = *have_box ? fmax(b->hi[j], l->hi[j]) : l->hi[j];
+        }
+        *have_box = 1;
+    }
+    op->leaf = b->nleaf++;
+    return 0;
+}
+
+/* Compiles the combining instruction k at code[at] (opcode 0-7; its count, for 0-3, and
+ * operands from code[*c], which *c passes): the operands must be earlier instructions.
+ * Clears b->sum_only unless it is a sum (0) or an identity (7). 0, or -1 with why set. */
+static int compile_combine(ts_blobby *b, blobby_op *op, unsigned k, size_t at, const double *code,
+                           size_t ncode, size_t *c, char *why, size_t why_len)
+{
+    int code_c = op->code;
+    size_t skip = 0, n = op_operands(code_c, code + *c, ncode - *c, &skip);
+    if (n == 0 || code_c < 0 || code_c > 7)
+        return fail(why, why_len, "instruction %u (code[%zu]): %s %d", k, at,
+                    code_c >= 0 && code_c <= 3 ? "no operands for opcode" : "unknown opcode",
+                    code_c);
+    *c += skip;
+    if (ncode - *c < n)
+        return fail(why, why_len, "instruction %u (code[%zu]): opcode %d needs %zu operands", k, at,
+                    code_c, n);
+    op->first = b->noperand, op->n = (unsigned)n;
+    for (size_t i = 0; i < n; i++) {
+        double x = code[(*c)++];
+        if (!(x >= 0.0 && x < (double)k))
+            return fail(why, why_len,
+                        "instruction %u (code[%zu]): operand %g is not an earlier instruction "
+                        "(0 to %d)",
+                        k, at, x, (int)k - 1);
+        b->operand[b->noperand++] = (unsigned)x;
+    }
+    if (code_c != 0 && code_c != 7) b->sum_only = 0;
+    return 0;
+}
+
+/* Keeps b->sum_only only if the last instruction sums every leaf exactly once: walking down
+ * from the result, each instruction is reached by one path and every leaf is reached.
+ * 0, or -1 ("out of memory") with why set. */
+static int compile_check_sum(ts_blobby *b, char *why, size_t why_len)
+{
+    unsigned *uses = calloc(b->nop, sizeof *uses);
+    unsigned *stack = malloc((b->noperand + 1) * sizeof *stack), top = 0;
+    if (!uses || !stack) {
+        free(uses);
+        free(stack);
+        return fail(why, why_len, "out of memory");
+    }
+    stack[top++] = b->nop - 1;
+    while (top > 0 && b->sum_only) {
+        unsigned k = stack[--top];
+        if (++uses[k] > 1) b->sum_only = 0;
+        const blobby_op *op = &b->op[k];
+        if (op->code < 1000)
+            for (unsigned i = 0; i < op->n && top <= b->noperand; i++)
+                stack[top++] = b->operand[op->first + i];
+    }
+    for (unsigned k = 0; k < b->nop && b->sum_only; k++)
+        if (b->op[k].code >= 1000 && uses[k] != 1) b->sum_only = 0;
+    free(stack);
+    free(uses);
+    return 0;
+}
+
 int blobby_compile(ts_blobby *b, const double *code, size_t ncode, const double *floats,
                    size_t nfloats, char *why, size_t why_len)
 {
@@ -114,97 +230,16 @@ int blobby_compile(ts_blobby *b, const double *code, size_t ncode, const double 
     int have_box = 0;
     for (size_t c = 0; c < ncode;) {
         size_t at = c;
-        int code_c = (int)code[c++];
         unsigned k = b->nop;
         blobby_op *op = &b->op[b->nop++];
-        op->code = code_c;
-        if (code_c >= 1000) {
-            static const size_t need[3] = {1, 16, 23};
-            if (code_c == 1003 || code_c == 1004 || code_c == 9000) {
-                blobby_free(b);
-                return fail(why, why_len,
-                            "instruction %u (code[%zu]): %s (opcode %d) is not supported", k, at,
-                            code_c == 1003   ? "a repelling plane"
-                            : code_c == 1004 ? "a field plug-in"
-                                             : "an AIR dynamic blob op",
-                            code_c);
-            }
-            if (code_c > 1002 || c >= ncode) {
-                blobby_free(b);
-                return fail(why, why_len,
-                            c >= ncode ? "instruction %u (code[%zu]): opcode %d lacks its operand"
-                                       : "instruction %u (code[%zu]): unknown opcode %d",
-                            k, at, code_c);
-            }
-            double fd = code[c++]; /* the first float's index: not negative, within floats */
-            if (!(fd >= 0.0 && fd <= (double)nfloats)) {
-                blobby_free(b);
-                return fail(why, why_len,
-                            "instruction %u (code[%zu]): opcode %d reads floats from %g, but "
-                            "there are %zu",
-                            k, at, code_c, fd, nfloats);
-            }
-            size_t f = (size_t)fd, n = need[code_c - 1000];
-            if (f > nfloats || nfloats - f < n) {
-                blobby_free(b);
-                return fail(why, why_len,
-                            "instruction %u (code[%zu]): opcode %d reads floats %zu to %zu, but "
-                            "there are %zu",
-                            k, at, code_c, f, f + n - 1, nfloats);
-            }
-            blobby_leaf *l = &b->leaf[b->nleaf];
-            l->code = code_c;
-            int ok = 1;
-            if (code_c == 1000)
-                l->value = floats[f], ok = isfinite(l->value);
-            else if (code_c == 1001)
-                ok = leaf_matrix(l, floats + f), l->size *= 0.5;
-            else
-                ok = leaf_segment(l, floats + f), l->size *= 0.5;
-            if (!ok) {
-                blobby_free(b);
-                return fail(why, why_len, "instruction %u (code[%zu]): %s", k, at,
-                            code_c == 1000   ? "the constant is not finite"
-                            : code_c == 1001 ? "the ellipsoid's matrix is singular or projective"
-                                             : "the segment's radius is not positive, or its "
-                                               "matrix is singular or projective");
-            }
-            if (code_c != 1000) {
-                for (int j = 0; j < 3; j++) {
-                    b->lo[j] = have_box ? fmin(b->lo[j], l->lo[j]) : l->lo[j];
-                    b->hi[j] = have_box ? fmax(b->hi[j], l->hi[j]) : l->hi[j];
-                }
-                have_box = 1;
-            }
-            op->leaf = b->nleaf++;
-            continue;
-        }
-        size_t skip = 0, n = op_operands(code_c, code + c, ncode - c, &skip);
-        if (n == 0 || code_c < 0 || code_c > 7) {
+        op->code = (int)code[c++];
+        int rc = op->code >= 1000 ? compile_leaf(b, op, k, at, code, ncode, &c, floats, nfloats,
+                                                 &have_box, why, why_len)
+                                  : compile_combine(b, op, k, at, code, ncode, &c, why, why_len);
+        if (rc != 0) {
             blobby_free(b);
-            return fail(why, why_len, "instruction %u (code[%zu]): %s %d", k, at,
-                        code_c >= 0 && code_c <= 3 ? "no operands for opcode" : "unknown opcode",
-                        code_c);
+            return -1;
         }
-        c += skip;
-        if (ncode - c < n) {
-            blobby_free(b);
-            return fail(why, why_len, "instruction %u (code[%zu]): opcode %d needs %zu operands", k,
-                        at, code_c, n);
-        }
-        op->first = b->noperand, op->n = (unsigned)n;
-        for (size_t i = 0; i < n; i++) {
-            double x = code[c++];
-            if (!(x >= 0.0 && x < (double)k)) {
-                blobby_free(b);
-                return fail(why, why_len,
-                            "instruction %u (code[%zu]): operand %g is not an earlier "
-                            "instruction (0 to %d)",
-                            k, at, x, (int)k - 1);
-            }
-            b->operand[b->noperand++] = (unsigned)x;
-        }
-        if (code_c != 0 && code_c != 7) b->sum_only = 0;
     }
     if (b->nop == 0 || !have_box) {
         fail(why, why_len,
@@ -213,33 +248,9 @@ int blobby_compile(ts_blobby *b, const double *code, size_t ncode, const double 
         blobby_free(b);
         return -1;
     }
-    /* A sum over leaves only if the last instruction sums every leaf exactly once. */
-    if (b->sum_only) {
-        unsigned *uses = calloc(b->nop, sizeof *uses);
-        if (!uses) {
-            blobby_free(b);
-            return fail(why, why_len, "out of memory");
-        }
-        /* Walk down from the result: each instruction reached counts once per path. */
-        unsigned *stack = malloc((b->noperand + 1) * sizeof *stack), top = 0;
-        if (!stack) {
-            free(uses);
-            blobby_free(b);
-            return fail(why, why_len, "out of memory");
-        }
-        stack[top++] = b->nop - 1;
-        while (top > 0 && b->sum_only) {
-            unsigned k = stack[--top];
-            if (++uses[k] > 1) b->sum_only = 0;
-            const blobby_op *op = &b->op[k];
-            if (op->code < 1000)
-                for (unsigned i = 0; i < op->n && top <= b->noperand; i++)
-                    stack[top++] = b->operand[op->first + i];
-        }
-        for (unsigned k = 0; k < b->nop && b->sum_only; k++)
-            if (b->op[k].code >= 1000 && uses[k] != 1) b->sum_only = 0;
-        free(stack);
-        free(uses);
+    if (b->sum_only && compile_check_sum(b, why, why_len) != 0) {
+        blobby_free(b);
+        return -1;
     }
     return 0;
 }
