@@ -573,8 +573,8 @@ static const struct {
     {"Color 1 1 1 ]", "t.rib:1:13: error: ']' without '['"},
     {"1 2 3", "t.rib:1:1: error: expected a request name, found a number"},
     {"Color \x81",
-     "t.rib:1:7: error: binary RIB is not supported (byte 0x81 starts a binary token; "
-     "convert the file to ASCII RIB)"},
+     "t.rib:byte 6: error: binary RIB: an integer (byte 0201) needs 2 more bytes, only 0 are "
+     "left (a truncated file)"},
     {"Display \"a\\q\"", "t.rib:1:12: error: unknown escape sequence '\\q'"},
     {"Basis \"nurbs\" 1 \"bezier\" 3", "t.rib:1:7: error: unknown basis ..."},
     {"PatchMesh \"bicubic\" 5 \"nonperiodic\" 4 \"nonperiodic\" \"P\" [0]",

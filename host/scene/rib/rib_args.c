@@ -23,7 +23,9 @@ int rib_error_at(rib_parser *p, int line, int col, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    return ts_error_set(p->err, TS_E_SCENE, "%s:%d:%d: error: %s", p->lx.file, line, col, msg);
+    char where[1200];
+    rib_lex_where(p->lx.file, line, col, where, sizeof where);
+    return ts_error_set(p->err, TS_E_SCENE, "%s: error: %s", where, msg);
 }
 
 /* Prints "file:line:col: warning: <what>" once per distinct `what` unless quiet. */
@@ -33,7 +35,9 @@ void rib_warn_once(rib_parser *p, int line, int col, const char *what)
     for (int i = 0; i < p->nwarned; i++)
         if (strncmp(p->warned[i], what, RIB_WARN_KEY - 1) == 0) return;
     if (p->nwarned < RIB_MAX_WARNED) snprintf(p->warned[p->nwarned++], RIB_WARN_KEY, "%s", what);
-    ts_print_line("%s:%d:%d: warning: %s", p->lx.file, line, col, what);
+    char where[1200];
+    ts_print_line("%s: warning: %s", rib_lex_where(p->lx.file, line, col, where, sizeof where),
+                  what);
 }
 
 const char *rib_printable(const char *s, char buf[RIB_PRINT_MAX])
@@ -122,10 +126,13 @@ static int rib_read_array(rib_parser *p, const rib_token *open)
         if (t.kind == RIB_TOK_EOF)
             return rib_error_at(p, open->line, open->col,
                                 "unterminated array ('[' without ']' before the end of file)");
-        if (t.kind == RIB_TOK_NAME)
+        if (t.kind == RIB_TOK_NAME) {
+            char at[64];
+            rib_lex_where("", t.line, t.col, at, sizeof at);
             return rib_error_at(p, open->line, open->col,
-                                "unterminated array ('[' without ']' before %s at %d:%d)", t.str,
-                                t.line, t.col);
+                                "unterminated array ('[' without ']' before %s at %s)", t.str,
+                                at + 1);
+        }
         int is_num = t.kind == RIB_TOK_NUMBER;
         if (a.count == 0) {
             a.kind = is_num ? RIB_ARG_NUMBERS : RIB_ARG_STRINGS;
