@@ -402,7 +402,7 @@ static void test_arrays_comments_escapes(void **state)
     /* \n \t \\ \" decode: the projection name comes back in the message. */
     expect_error(
         "Projection \"x\\ty\\\\z\\\"w\\n\"", TS_E_SCENE,
-        "t.rib:1:12: error: unknown projection \"x?y\\z\"w?\" (perspective or orthographic)");
+        "t.rib:1:12: error: unknown projection \"x?y\\z\"w?\" (perspective, PxrPerspective or orthographic)");
     /* Numbers: signs, leading dots, exponents. */
     test_parse_rib_ok("Patch \"bilinear\" \"P\" [+1 -.5 1e1  2.5E-1 0. -0  1 1 1  0 0 0]\n", &s);
     assert_vec(&s.cp[0], 1, -0.5, 10, 0);
@@ -718,7 +718,7 @@ static void test_ignored_requests_warn_once(void **state)
     assert_int_equal(rc, TS_OK);
     assert_string_equal(out, "w.rib:1:1: warning: Atmosphere is ignored\n"
                              "w.rib:3:3: warning: Sides is ignored\n"
-                             "w.rib:4:1: warning: Option is ignored\n");
+                             "w.rib:4:1: warning: Option \"a\" is ignored\n");
 }
 
 /* Hostile input: truncations and byte flips of the teapot file must load or fail cleanly
