@@ -160,8 +160,8 @@ static void test_conditions(void **state)
     assert_int_equal(cond("$pass =~ 'bea.*'"), 1);
     assert_int_equal(cond("$pass =~ '^shadow'"), 2);
     assert_int_equal(cond("defined(pass) && !defined(nothing)"), 1);
-    assert_int_equal(cond("$nothing"), 2); /* undefined: the empty string, false */
-    assert_int_equal(cond("10 < 9"), 2);   /* numbers compare as numbers */
+    assert_int_equal(cond("$nothing"), 2);   /* undefined: the empty string, false */
+    assert_int_equal(cond("10 < 9"), 2);     /* numbers compare as numbers */
     assert_int_equal(cond("'10' < '9'"), 1); /* strings as strings */
     /* ElseIf chains, nesting, a branch not taken is not evaluated. */
     const char *chain = "Option \"user\" \"int n\" [2]\nWorldBegin\n"
@@ -171,10 +171,10 @@ static void test_conditions(void **state)
                         "IfBegin \"0\"\n  IfBegin \"((( bad\"\n" QUAD "  IfEnd\nIfEnd\nWorldEnd\n";
     assert_int_equal(patches_of(chain), 3);
     /* Attribute "user" is scoped to its attribute block. */
-    const char *scoped = "Option \"user\" \"string a\" [\"x\"]\nWorldBegin\nAttributeBegin\n"
-                         "Attribute \"user\" \"string a\" [\"y\"]\nIfBegin \"$a == 'y'\"\n" QUAD
-                         "IfEnd\nAttributeEnd\nIfBegin \"$a == 'x'\"\n" QUAD QUAD
-                         "IfEnd\nWorldEnd\n";
+    const char *scoped =
+        "Option \"user\" \"string a\" [\"x\"]\nWorldBegin\nAttributeBegin\n"
+        "Attribute \"user\" \"string a\" [\"y\"]\nIfBegin \"$a == 'y'\"\n" QUAD
+        "IfEnd\nAttributeEnd\nIfBegin \"$a == 'x'\"\n" QUAD QUAD "IfEnd\nWorldEnd\n";
     assert_int_equal(patches_of(scoped), 3);
     test_parse_rib_error("IfBegin \"1 ==\"", "t.rib:1:9: error: IfBegin: condition \"1 ==\": an "
                                              "operand missing at the end");
@@ -252,6 +252,33 @@ static void test_procedural2_and_searchpath(void **state)
                          "filename\"");
 }
 
+/* PatchMesh wrap modes as older exporters spell them: "nowrap" and "wrap" give the patches of
+ * "nonperiodic" and "periodic", point for point. */
+static void test_patch_mesh_wrap_spellings(void **state)
+{
+    (void)state;
+    static const char *const pairs[2][2] = {{"nonperiodic", "nowrap"}, {"periodic", "wrap"}};
+    for (int k = 0; k < 2; k++) {
+        ts_scene a, b;
+        char text[1024];
+        for (int f = 0; f < 2; f++) {
+            snprintf(text, sizeof text,
+                     "WorldBegin\nPatchMesh \"bilinear\" 3 \"%s\" 2 \"nonperiodic\" \"P\" "
+                     "[0 0 0 1 0 0 2 0 1  0 1 0 1 1 0 2 1 1]\nWorldEnd\n",
+                     pairs[k][f]);
+            test_parse_rib_ok(text, f ? &b : &a);
+        }
+        assert_int_equal(a.patch_count, k ? 3 : 2);
+        assert_int_equal(b.patch_count, a.patch_count);
+        assert_memory_equal(a.cp, b.cp, a.patch_count * 16 * sizeof(ts_vec4));
+        scene_free(&a);
+        scene_free(&b);
+    }
+    test_parse_rib_error("WorldBegin PatchMesh \"bilinear\" 2 \"clamp\" 2 \"nowrap\" \"P\" [0]",
+                         "t.rib:1:35: error: PatchMesh: uwrap must be \"periodic\" or "
+                         "\"nonperiodic\" (or \"wrap\", \"nowrap\")");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -261,6 +288,7 @@ int main(void)
         cmocka_unit_test(test_conditions),
         cmocka_unit_test(test_scoped_coordinate_system),
         cmocka_unit_test(test_procedural2_and_searchpath),
+        cmocka_unit_test(test_patch_mesh_wrap_spellings),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

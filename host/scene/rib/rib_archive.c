@@ -275,7 +275,9 @@ int rib_searchpath_option(rib_parser *p)
         const char *val;
         int rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
-        int which = strcmp(prm.name, "archive") == 0 ? 0 : strcmp(prm.name, "texture") == 0 ? 1 : -1;
+        int which = strcmp(prm.name, "archive") == 0   ? 0
+                    : strcmp(prm.name, "texture") == 0 ? 1
+                                                       : -1;
         if (which < 0) {
             rib_warn_param(p, &prm);
             continue;

@@ -13,8 +13,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define RIB_COND_STR 256   /* bytes of a string value (longer ones are cut) */
-#define RIB_COND_NEST 64   /* parentheses and ! nested in one expression */
+#define RIB_COND_STR 256 /* bytes of a string value (longer ones are cut) */
+#define RIB_COND_NEST 64 /* parentheses and ! nested in one expression */
 
 typedef struct rib_cond_level {
     int line, col;     /* of its IfBegin */
@@ -37,8 +37,8 @@ void rib_cond_free(rib_parser *p)
 
 static int rib_is_cond_request(const char *req)
 {
-    return strcmp(req, "IfBegin") == 0 || strcmp(req, "ElseIf") == 0 ||
-           strcmp(req, "Else") == 0 || strcmp(req, "IfEnd") == 0;
+    return strcmp(req, "IfBegin") == 0 || strcmp(req, "ElseIf") == 0 || strcmp(req, "Else") == 0 ||
+           strcmp(req, "IfEnd") == 0;
 }
 
 int rib_cond_skip(const rib_parser *p)
@@ -255,8 +255,12 @@ static int cond_compare(cond_ctx *c, cond_val *v)
             cond_as_str(&r, b, sizeof b);
             cmp = strcmp(a, b);
         }
-        result = op == 0 ? cmp == 0 : op == 1 ? cmp != 0 : op == 2 ? cmp <= 0 : op == 3 ? cmp >= 0
-                 : op == 5 ? cmp < 0 : cmp > 0;
+        result = op == 0   ? cmp == 0
+                 : op == 1 ? cmp != 0
+                 : op == 2 ? cmp <= 0
+                 : op == 3 ? cmp >= 0
+                 : op == 5 ? cmp < 0
+                           : cmp > 0;
     }
     cond_set_num(v, result);
     return 1;
@@ -342,8 +346,8 @@ int rib_req_if_begin(rib_parser *p)
         int rc = rib_cond_eval(p, &truth);
         if (rc != TS_OK) return rc;
     }
-    c->level[c->depth++] = (rib_cond_level){p->req_line, p->req_col, parent, parent && truth,
-                                            truth, 0};
+    c->level[c->depth++] =
+        (rib_cond_level){p->req_line, p->req_col, parent, parent && truth, truth, 0};
     return TS_OK;
 }
 
@@ -371,8 +375,8 @@ int rib_req_else(rib_parser *p)
     int rc = rib_no_more(p, 0);
     if (rc != TS_OK) return rc;
     if (l->else_seen)
-        return rib_error_at(p, p->req_line, p->req_col, "a second Else (IfBegin at %d:%d)",
-                            l->line, l->col);
+        return rib_error_at(p, p->req_line, p->req_col, "a second Else (IfBegin at %d:%d)", l->line,
+                            l->col);
     l->else_seen = 1;
     l->active = l->parent_active && !l->taken;
     l->taken = 1;

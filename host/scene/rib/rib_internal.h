@@ -19,10 +19,14 @@
  *                  run them again: copies)
  *   rib_frames.c   FrameBegin/FrameEnd (the frame read, shadow-map passes left), Display,
  *                  the checks on a whole scene
- *   rib_coordsys.c CoordinateSystem, CoordSysTransform (named coordinate systems)
+ *   rib_coordsys.c CoordinateSystem, ScopedCoordinateSystem, CoordSysTransform
+ *   rib_ris.c      Integrator, Option, Attribute, Camera, DisplayFilter, SampleFilter, Hider
+ *                  (RenderMan 21-26), the "user" values
+ *   rib_cond.c     IfBegin, ElseIf, Else, IfEnd and their expressions (reads rib_ris.c's
+ *                  user values)
  *   rib_builtin.c  Geometry "teapot" (its patches in teapot_data.c, generated)
  *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
- *   rib_lex.c      tokens
+ *   rib_lex.c      tokens, ASCII and binary
  *   rib_text.c     a file's bytes for the lexer: gzip inflated, a byte order mark skipped
  *   basis.c        change of basis to Bézier
  *

@@ -126,8 +126,13 @@ static int rib_option_ri(rib_parser *p)
     }
     if (rc != TS_OK || !format_at) return rc;
     const ts_camera *c = &p->scene->camera;
-    double f[3] = {res ? res[0] : c->has_format ? c->width : -1,
-                   res ? res[1] : c->has_format ? c->height : -1, aspect ? aspect[0] : -1};
+    double f[3] = {res             ? res[0]
+                   : c->has_format ? c->width
+                                   : -1,
+                   res             ? res[1]
+                   : c->has_format ? c->height
+                                   : -1,
+                   aspect ? aspect[0] : -1};
     return rib_run_as(p, "Format", rib_req_format, f, 3, format_at);
 }
 
