@@ -400,9 +400,9 @@ static void test_arrays_comments_escapes(void **state)
     assert_int_equal(s.patch_count, 1);
     scene_free(&s);
     /* \n \t \\ \" decode: the projection name comes back in the message. */
-    expect_error(
-        "Projection \"x\\ty\\\\z\\\"w\\n\"", TS_E_SCENE,
-        "t.rib:1:12: error: unknown projection \"x?y\\z\"w?\" (perspective or orthographic)");
+    expect_error("Projection \"x\\ty\\\\z\\\"w\\n\"", TS_E_SCENE,
+                 "t.rib:1:12: error: unknown projection \"x?y\\z\"w?\" (perspective, "
+                 "PxrPerspective or orthographic)");
     /* Numbers: signs, leading dots, exponents. */
     test_parse_rib_ok("Patch \"bilinear\" \"P\" [+1 -.5 1e1  2.5E-1 0. -0  1 1 1  0 0 0]\n", &s);
     assert_vec(&s.cp[0], 1, -0.5, 10, 0);
@@ -573,8 +573,8 @@ static const struct {
     {"Color 1 1 1 ]", "t.rib:1:13: error: ']' without '['"},
     {"1 2 3", "t.rib:1:1: error: expected a request name, found a number"},
     {"Color \x81",
-     "t.rib:1:7: error: binary RIB is not supported (byte 0x81 starts a binary token; "
-     "convert the file to ASCII RIB)"},
+     "t.rib:byte 6: error: binary RIB: an integer (byte 0201) needs 2 more bytes, only 0 are "
+     "left (a truncated file)"},
     {"Display \"a\\q\"", "t.rib:1:12: error: unknown escape sequence '\\q'"},
     {"Basis \"nurbs\" 1 \"bezier\" 3", "t.rib:1:7: error: unknown basis ..."},
     {"PatchMesh \"bicubic\" 5 \"nonperiodic\" 4 \"nonperiodic\" \"P\" [0]",
@@ -718,7 +718,7 @@ static void test_ignored_requests_warn_once(void **state)
     assert_int_equal(rc, TS_OK);
     assert_string_equal(out, "w.rib:1:1: warning: Atmosphere is ignored\n"
                              "w.rib:3:3: warning: Sides is ignored\n"
-                             "w.rib:4:1: warning: Option is ignored\n");
+                             "w.rib:4:1: warning: Option \"a\" is ignored\n");
 }
 
 /* Hostile input: truncations and byte flips of the teapot file must load or fail cleanly

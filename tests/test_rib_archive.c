@@ -151,8 +151,10 @@ static void test_clipping_shutter_crop(void **state)
                              "always span the whole shutter)\n"
                              "w.rib:5:1: warning: CropWindow is stored but not applied (the whole "
                              "image is rendered)\n"
-                             "w.rib:6:1: warning: Option is ignored\n"
-                             "w.rib:9:1: warning: Attribute is ignored\n");
+                             "w.rib:6:1: warning: Option \"limits\" is ignored\n"
+                             "w.rib:7:21: warning: Option parameter \"shader\" is ignored\n"
+                             "w.rib:9:1: warning: Attribute \"identifier\" is ignored\n"
+                             "w.rib:10:1: warning: Attribute \"dice\" is ignored\n");
 }
 
 /* ---- primitive variables ------------------------------------------------------------- */

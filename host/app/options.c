@@ -139,6 +139,7 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
     case OPT_SPP:
         return options_parse_int(arg, 1, 1 << 16, &o->spp);
     case OPT_DEPTH:
+        o->depth_given = 1;
         return options_parse_int(arg, 0, 64, &o->depth);
     case OPT_SEED:
         if (options_parse_int(arg, 0, 0x7fffffff, &v)) return 1;

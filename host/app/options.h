@@ -12,6 +12,7 @@ typedef struct ts_render_options {
     int width, height;      /* 0: from the scene's Format, else 640x480 */
     int spp;                /* samples per pixel; 0: the scene's PixelSamples, else 1 */
     int depth;              /* path depth (primary rays only for now; kept for the contract) */
+    int depth_given; /* --depth was given: the scene's Integrator maxPathLength is not used */
     unsigned seed;
     int max_lod;        /* the finest m: (2^m)^2 micro-quads per patch */
     int fixed_lod;      /* -1: m per patch from the frame's ray density; else this m */

@@ -234,6 +234,7 @@ static int render_load_scene(ts_render *r, ts_error *err)
     const char *spp = o->spp > 0 ? "--spp" : c->spp > 0 ? "PixelSamples" : "spp";
     const char *res = o->width ? "--res" : c->has_format ? "Format" : "size";
     if (o->spp <= 0) o->spp = c->spp > 0 ? c->spp : 1;
+    if (!o->depth_given && c->has_depth) o->depth = c->depth; /* Integrator maxPathLength */
     r->width = o->width ? o->width : c->has_format ? c->width : 640;
     r->height = o->height ? o->height : c->has_format ? c->height : 480;
     return render_check_size(r, res, spp, err);

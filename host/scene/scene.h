@@ -25,6 +25,9 @@ typedef struct ts_camera {
     /* PixelSamples xs ys: xs * ys samples per pixel; 0 when the scene sets none. The
      * command line's --spp overrides it. */
     int spp;
+    /* Integrator "PxrPathTracer" "maxPathLength": the path depth when has_depth. The
+     * command line's --depth overrides it. */
+    int has_depth, depth;
     /* Stored from the RIB options but not applied by the renderer yet (docs/rib.md):
      * Clipping near far, Shutter open close, CropWindow xmin xmax ymin ymax. rib_load
      * sets the RenderMan defaults (1e-10 1e30, 0 0, 0 1 0 1); zero in other scenes. */

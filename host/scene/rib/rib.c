@@ -41,6 +41,19 @@ static const struct {
     {"FrameBegin", rib_req_frame_begin},
     {"FrameEnd", rib_req_frame_end},
     {"Geometry", rib_req_geometry},
+    {"Hider", rib_req_ris_ignored},
+    {"IfBegin", rib_req_if_begin},
+    {"IfEnd", rib_req_if_end},
+    {"ElseIf", rib_req_else_if},
+    {"Else", rib_req_else},
+    {"Integrator", rib_req_integrator},
+    {"Camera", rib_req_camera},
+    {"DisplayFilter", rib_req_ris_ignored},
+    {"SampleFilter", rib_req_ris_ignored},
+    {"Option", rib_req_option},
+    {"Attribute", rib_req_attribute},
+    {"ScopedCoordinateSystem", rib_req_scoped_coordinate_system},
+    {"Procedural2", rib_req_procedural2},
     {"Identity", rib_req_identity},
     {"LightSource", rib_req_light_source},
     {"MotionBegin", rib_req_motion_begin},
@@ -90,7 +103,6 @@ static const struct {
 /* Accepted with a warning: they change neither geometry nor camera placement. */
 static const char *const rib_ignored[] = {
     "Atmosphere",
-    "Attribute",
     "Bound",
     "ClippingPlane",
     "ColorSamples",
@@ -103,7 +115,6 @@ static const char *const rib_ignored[] = {
     "FrameAspectRatio",
     "GeometricApproximation",
     "GeometricRepresentation",
-    "Hider",
     "Illuminate",
     "Imager",
     "Interior",
@@ -113,7 +124,6 @@ static const char *const rib_ignored[] = {
     "MakeShadow",
     "MakeTexture",
     "Matte",
-    "Option",
     "Orientation",
     "PixelFilter",
     "PixelVariance",
@@ -169,6 +179,7 @@ static int rib_known(rib_parser *p)
 int rib_dispatch_request(rib_parser *p)
 {
     if (rib_frames_skip(p)) return TS_OK; /* a frame that is not rendered */
+    if (rib_cond_skip(p)) return TS_OK;   /* a branch of IfBegin not taken */
     if (rib_object_recording(p)) {        /* an object's definition: kept, not run */
         int rc = rib_known(p);
         return rc == TS_OK ? rib_object_record(p) : rc;
@@ -215,6 +226,7 @@ int rib_run_requests(rib_parser *p)
 static int rib_run(rib_parser *p)
 {
     int rc = rib_run_requests(p);
+    if (rc == TS_OK) rc = rib_cond_check_closed(p);
     if (rc == TS_OK) rc = rib_frames_finish(p);
     if (rc == TS_OK) rc = rib_check_closed(p);
     if (rc == TS_OK && p->whole_scene) rc = rib_scene_check(p);
@@ -245,6 +257,7 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     scene->camera.width = scene->camera.height = 0;
     scene->camera.has_format = 0;
     scene->camera.spp = 0;
+    scene->camera.has_depth = 0, scene->camera.depth = 0;
     scene->camera.clip_near = 1e-10, scene->camera.clip_far = 1e30;
     scene->camera.shutter[0] = scene->camera.shutter[1] = 0.0;
     scene->camera.crop[0] = scene->camera.crop[2] = 0.0;
@@ -273,6 +286,10 @@ static int rib_parse_once(const char *name, const rib_text *t, int frame, int ke
     rib_archive_free(p);
     rib_object_free(p);
     rib_coordsys_free(p);
+    rib_user_free(p);
+    rib_cond_free(p);
+    free(p->searchpath[0]);
+    free(p->searchpath[1]);
     rib_args_free(p);
     free(p->stack);
     free(p);

@@ -47,7 +47,7 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
     if (inc->depth >= RIB_MAX_INCLUDE)
         return rib_error_at(p, at->line, at->col, "%s: archives nested deeper than %d levels",
                             p->req, RIB_MAX_INCLUDE);
-    char *path = rib_resolve(p, name);
+    char *path = rib_resolve_in(p, name, 0);
     if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
     char *text;
     size_t len;
@@ -222,4 +222,83 @@ int rib_req_procedural(rib_parser *p)
     free(a0);
     free(a1);
     return rc;
+}
+
+/* Procedural2 "DelayedReadArchive2" ["SimpleBound"] "string filename" ["file.rib"]
+ * ["float[6] bound" [...]] (RenderMan 21+): reads the file in place, as ReadArchive does.
+ * The bound is not used (the patches' own boxes are exact). Other Procedural2 kinds name
+ * compiled plug-ins, which Tessera cannot run: an error. */
+int rib_req_procedural2(rib_parser *p)
+{
+    const char *kind, *file = NULL;
+    char shown[RIB_PRINT_MAX];
+    int rc = rib_string_arg(p, 0, "a procedural name", &kind);
+    if (rc != TS_OK) return rc;
+    if (strcmp(kind, "DelayedReadArchive2") != 0)
+        return rib_error_at(p, p->args[0].line, p->args[0].col,
+                            "Procedural2 \"%s\" is not supported (a compiled plug-in; "
+                            "DelayedReadArchive2 is read)",
+                            rib_printable(kind, shown));
+    size_t i = p->nargs % 2 == 0 ? 2 : 1; /* an even count: a bound function name first */
+    const rib_arg *at = &p->args[0];
+    for (; i < p->nargs; i += 2) {
+        rib_param prm;
+        rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        if (strcmp(prm.name, "filename") == 0) {
+            rc = rib_string_arg(p, i + 1, "a file name", &file);
+            if (rc != TS_OK) return rc;
+            at = prm.val;
+        } else if (strcmp(prm.name, "bound") != 0) {
+            rib_warn_param(p, &prm);
+        }
+    }
+    if (!file)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Procedural2 \"DelayedReadArchive2\" without \"string filename\"");
+    char *copy = strdup(file); /* the pools are reused by the archive's requests */
+    if (!copy) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    rib_arg where = *at;
+    rc = rib_include_file(p, copy, &where);
+    free(copy);
+    return rc;
+}
+
+/* Option "searchpath" "archive" ["dir:dir"] "texture" ["dir:dir"]: where relative archive
+ * and texture names are looked for when they are not beside the file that names them
+ * (rib_resolve_in). "&" stands for the previous path; "@" (RenderMan's default places) adds
+ * nothing. Other paths (shader, procedural, display, ...) are ignored with a warning. */
+int rib_searchpath_option(rib_parser *p)
+{
+    for (size_t i = 1; i < p->nargs; i += 2) {
+        rib_param prm;
+        const char *val;
+        int rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        int which = strcmp(prm.name, "archive") == 0   ? 0
+                    : strcmp(prm.name, "texture") == 0 ? 1
+                                                       : -1;
+        if (which < 0) {
+            rib_warn_param(p, &prm);
+            continue;
+        }
+        rc = rib_string_arg(p, i + 1, "a search path", &val);
+        if (rc != TS_OK) return rc;
+        const char *old = p->searchpath[which] ? p->searchpath[which] : "";
+        size_t n = 1, ol = strlen(old);
+        for (const char *s = val; *s; s++)
+            n += *s == '&' ? ol : 1;
+        char *path = malloc(n);
+        if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+        char *o = path;
+        for (const char *s = val; *s; s++)
+            if (*s == '&')
+                memcpy(o, old, ol), o += ol;
+            else
+                *o++ = *s;
+        *o = '\0';
+        free(p->searchpath[which]);
+        p->searchpath[which] = path;
+    }
+    return TS_OK;
 }

@@ -13,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* ---- messages ---------------------------------------------------------------------- */
 
@@ -23,7 +24,9 @@ int rib_error_at(rib_parser *p, int line, int col, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    return ts_error_set(p->err, TS_E_SCENE, "%s:%d:%d: error: %s", p->lx.file, line, col, msg);
+    char where[1200];
+    rib_lex_where(p->lx.file, line, col, where, sizeof where);
+    return ts_error_set(p->err, TS_E_SCENE, "%s: error: %s", where, msg);
 }
 
 /* Prints "file:line:col: warning: <what>" once per distinct `what` unless quiet. */
@@ -33,7 +36,9 @@ void rib_warn_once(rib_parser *p, int line, int col, const char *what)
     for (int i = 0; i < p->nwarned; i++)
         if (strncmp(p->warned[i], what, RIB_WARN_KEY - 1) == 0) return;
     if (p->nwarned < RIB_MAX_WARNED) snprintf(p->warned[p->nwarned++], RIB_WARN_KEY, "%s", what);
-    ts_print_line("%s:%d:%d: warning: %s", p->lx.file, line, col, what);
+    char where[1200];
+    ts_print_line("%s: warning: %s", rib_lex_where(p->lx.file, line, col, where, sizeof where),
+                  what);
 }
 
 const char *rib_printable(const char *s, char buf[RIB_PRINT_MAX])
@@ -122,10 +127,13 @@ static int rib_read_array(rib_parser *p, const rib_token *open)
         if (t.kind == RIB_TOK_EOF)
             return rib_error_at(p, open->line, open->col,
                                 "unterminated array ('[' without ']' before the end of file)");
-        if (t.kind == RIB_TOK_NAME)
+        if (t.kind == RIB_TOK_NAME) {
+            char at[64];
+            rib_lex_where("", t.line, t.col, at, sizeof at);
             return rib_error_at(p, open->line, open->col,
-                                "unterminated array ('[' without ']' before %s at %d:%d)", t.str,
-                                t.line, t.col);
+                                "unterminated array ('[' without ']' before %s at %s)", t.str,
+                                at + 1);
+        }
         int is_num = t.kind == RIB_TOK_NUMBER;
         if (a.count == 0) {
             a.kind = is_num ? RIB_ARG_NUMBERS : RIB_ARG_STRINGS;
@@ -365,12 +373,43 @@ char *rib_resolve(const rib_parser *p, const char *name)
     return out;
 }
 
+char *rib_resolve_in(const rib_parser *p, const char *name, int which)
+{
+    char *here = rib_resolve(p, name);
+    const char *dirs = p->searchpath[which];
+    if (!here || name[0] == '/' || !dirs || access(here, R_OK) == 0) return here;
+    for (const char *d = dirs; *d;) {
+        size_t n = strcspn(d, ":");
+        if (n > 0 && !(n == 1 && (d[0] == '@' || d[0] == '&'))) {
+            char *dir = malloc(n + 1), *full = NULL;
+            if (dir) {
+                memcpy(dir, d, n), dir[n] = '\0';
+                size_t fl = n + strlen(name) + 2;
+                char *joined = malloc(fl);
+                if (joined) {
+                    snprintf(joined, fl, "%s/%s", dir, name);
+                    full = rib_resolve(p, joined); /* a relative directory: beside the file */
+                    free(joined);
+                }
+                free(dir);
+            }
+            if (full && access(full, R_OK) == 0) {
+                free(here);
+                return full;
+            }
+            free(full);
+        }
+        d += n + (d[n] == ':');
+    }
+    return here;
+}
+
 int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, uint32_t *index)
 {
     const char *name;
     int rc = rib_string_arg(p, i, "a texture file name", &name);
     if (rc != TS_OK) return rc;
-    char *path = rib_resolve(p, name);
+    char *path = rib_resolve_in(p, name, 1);
     if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
     ts_error e = {0};
     rc = scene_add_texture(p->scene, path, kind, index, &e);
@@ -383,4 +422,17 @@ int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, uint32_t *index)
     }
     ts_error_clear(&e);
     return rc;
+}
+
+/* ---- arguments made by a handler ------------------------------------------------------ */
+
+int rib_args_push_numbers(rib_parser *p, const double *v, size_t n, int line, int col)
+{
+    rib_arg a = {RIB_ARG_NUMBERS, line, col, p->nnums, n};
+    for (size_t k = 0; k < n; k++) {
+        rib_token t = {RIB_TOK_NUMBER, line, col, v[k], NULL, 0};
+        int rc = rib_push_number(p, &t);
+        if (rc != TS_OK) return rc;
+    }
+    return rib_push_arg(p, &a);
 }

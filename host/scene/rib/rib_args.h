@@ -55,6 +55,11 @@ int rib_args_save(rib_parser *p, rib_saved_request *out);
 int rib_args_restore(rib_parser *p, const rib_saved_request *r);
 void rib_saved_request_free(rib_saved_request *r);
 
+/* Appends an argument [v0 .. vn-1] (at line:col, for messages) after the current ones: a
+ * handler that runs another request's handler on values it read (Option "Ri" runs Format,
+ * CropWindow, Shutter) sets p->nargs to 0 first and puts the arguments back after. */
+int rib_args_push_numbers(rib_parser *p, const double *v, size_t n, int line, int col);
+
 /* ---- positional arguments ---- */
 
 const char *rib_arg_str(const rib_parser *p, const rib_arg *a, size_t k);
@@ -90,6 +95,10 @@ void rib_warn_param(rib_parser *p, const rib_param *prm);
 /* `name` relative to the directory of the file being read (absolute names as they are);
  * a malloc'd path or NULL. */
 char *rib_resolve(const rib_parser *p, const char *name);
+/* As rib_resolve, but a relative name not found there is looked for in each directory of
+ * Option "searchpath" `which` (0: "archive", 1: "texture"; relative directories beside the
+ * file being read); the first readable one is returned, else rib_resolve's path. */
+char *rib_resolve_in(const rib_parser *p, const char *name, int which);
 /* Reads the texture named by string argument args[i] (relative to the RIB file) as kind
  * TS_TEX_* into the scene; an unreadable file is an error at that argument naming it. */
 int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, uint32_t *index);

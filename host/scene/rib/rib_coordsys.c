@@ -11,6 +11,7 @@
 
 #include "base/mat4.h"
 
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,6 +23,7 @@ typedef struct rib_coordsys {
     double m[16], m1[16];
     int moving;
     int camera_space;
+    size_t scope; /* ScopedCoordinateSystem: the block depth it was marked at; else SIZE_MAX */
 } rib_coordsys;
 
 struct rib_coordsystems {
@@ -31,13 +33,21 @@ struct rib_coordsystems {
 
 #define RIB_MAX_COORDSYS 65536 /* distinct names, so that a file cannot exhaust memory */
 
-/* The system named `name`, or NULL. */
-static rib_coordsys *rib_coordsys_find(const rib_parser *p, const char *name)
+/* The system named `name`, or NULL: the latest marked (a scoped one shadows the others while
+ * its block is open); only unscoped ones when `unscoped`. */
+static rib_coordsys *rib_coordsys_find_in(const rib_parser *p, const char *name, int unscoped)
 {
     if (!p->coordsys) return NULL;
-    for (size_t k = 0; k < p->coordsys->count; k++)
-        if (strcmp(p->coordsys->sys[k].name, name) == 0) return &p->coordsys->sys[k];
+    for (size_t k = p->coordsys->count; k-- > 0;)
+        if (strcmp(p->coordsys->sys[k].name, name) == 0 &&
+            (!unscoped || p->coordsys->sys[k].scope == SIZE_MAX))
+            return &p->coordsys->sys[k];
     return NULL;
+}
+
+static rib_coordsys *rib_coordsys_find(const rib_parser *p, const char *name)
+{
+    return rib_coordsys_find_in(p, name, 0);
 }
 
 /* A new, empty entry for `name`; NULL with p->err set when out of memory or past the bound. */
@@ -72,22 +82,56 @@ oom:
     return NULL;
 }
 
-/* CoordinateSystem "name": marks the current transformation (both samples) with name; a
- * name marked again takes the new transformation. */
-int rib_req_coordinate_system(rib_parser *p)
+int rib_coordsys_mark(rib_parser *p, const char *name, int scoped)
 {
-    const char *name;
-    int rc = rib_string_arg(p, 0, "a coordinate system name", &name);
-    if (rc == TS_OK) rc = rib_no_more(p, 1);
-    if (rc != TS_OK) return rc;
-    rib_coordsys *e = rib_coordsys_find(p, name);
+    rib_coordsys *e = scoped ? NULL : rib_coordsys_find_in(p, name, 1);
+    for (size_t k = 0; scoped && p->coordsys && k < p->coordsys->count; k++)
+        if (p->coordsys->sys[k].scope == p->depth && strcmp(p->coordsys->sys[k].name, name) == 0)
+            e = &p->coordsys->sys[k]; /* marked again in the same block */
     if (!e) e = rib_coordsys_add(p, name);
     if (!e) return p->err->code;
     memcpy(e->m, p->ctm, sizeof e->m);
     memcpy(e->m1, p->ctm1, sizeof e->m1);
     e->moving = p->ctm_moving;
     e->camera_space = p->phase == RIB_BEFORE_WORLD;
+    e->scope = scoped ? p->depth : SIZE_MAX;
     return TS_OK;
+}
+
+void rib_coordsys_scope_end(rib_parser *p)
+{
+    if (!p->coordsys) return;
+    size_t n = 0;
+    for (size_t k = 0; k < p->coordsys->count; k++) {
+        rib_coordsys *e = &p->coordsys->sys[k];
+        if (e->scope != SIZE_MAX && e->scope > p->depth)
+            free(e->name);
+        else
+            p->coordsys->sys[n++] = *e;
+    }
+    p->coordsys->count = n;
+}
+
+/* CoordinateSystem "name": marks the current transformation (both samples) with name; a
+ * name marked again takes the new transformation. ScopedCoordinateSystem "name" (RenderMan
+ * 21+) does the same for the rest of the current attribute block only. */
+static int rib_coordsys_request(rib_parser *p, int scoped)
+{
+    const char *name;
+    int rc = rib_string_arg(p, 0, "a coordinate system name", &name);
+    if (rc == TS_OK) rc = rib_no_more(p, 1);
+    if (rc != TS_OK) return rc;
+    return rib_coordsys_mark(p, name, scoped);
+}
+
+int rib_req_coordinate_system(rib_parser *p)
+{
+    return rib_coordsys_request(p, 0);
+}
+
+int rib_req_scoped_coordinate_system(rib_parser *p)
+{
+    return rib_coordsys_request(p, 1);
 }
 
 /* The CTM becomes m (and m1 at shutter close). */

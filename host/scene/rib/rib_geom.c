@@ -547,10 +547,13 @@ static int geom_mesh_direction(rib_parser *p, size_t i, int bicubic, int step, c
     int rc = rib_integer(p, &k, what, RIB_MAX_VALUES, n);
     if (rc == TS_OK) rc = rib_string_arg(p, i + 1, "\"periodic\" or \"nonperiodic\"", &wrap);
     if (rc != TS_OK) return rc;
-    *periodic = strcmp(wrap, "periodic") == 0;
-    if (!*periodic && strcmp(wrap, "nonperiodic") != 0)
+    /* "wrap" and "nowrap": how older exporters spell the two modes. */
+    *periodic = strcmp(wrap, "periodic") == 0 || strcmp(wrap, "wrap") == 0;
+    if (!*periodic && strcmp(wrap, "nonperiodic") != 0 && strcmp(wrap, "nowrap") != 0)
         return rib_error_at(p, p->args[i + 1].line, p->args[i + 1].col,
-                            "PatchMesh: %cwrap must be \"periodic\" or \"nonperiodic\"", dir);
+                            "PatchMesh: %cwrap must be \"periodic\" or \"nonperiodic\" (or "
+                            "\"wrap\", \"nowrap\")",
+                            dir);
     return geom_mesh_count(p, bicubic, *n, step, *periodic, &p->args[i], dir, count);
 }
 

@@ -19,10 +19,14 @@
  *                  run them again: copies)
  *   rib_frames.c   FrameBegin/FrameEnd (the frame read, shadow-map passes left), Display,
  *                  the checks on a whole scene
- *   rib_coordsys.c CoordinateSystem, CoordSysTransform (named coordinate systems)
+ *   rib_coordsys.c CoordinateSystem, ScopedCoordinateSystem, CoordSysTransform
+ *   rib_ris.c      Integrator, Option, Attribute, Camera, DisplayFilter, SampleFilter, Hider
+ *                  (RenderMan 21-26), the "user" values
+ *   rib_cond.c     IfBegin, ElseIf, Else, IfEnd and their expressions (reads rib_ris.c's
+ *                  user values)
  *   rib_builtin.c  Geometry "teapot" (its patches in teapot_data.c, generated)
  *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
- *   rib_lex.c      tokens
+ *   rib_lex.c      tokens, ASCII and binary
  *   rib_text.c     a file's bytes for the lexer: gzip inflated, a byte order mark skipped
  *   basis.c        change of basis to Bézier
  *
@@ -157,6 +161,35 @@ int rib_req_crop_window(rib_parser *p);
 int rib_req_screen_window(rib_parser *p);
 int rib_req_exposure(rib_parser *p);
 
+/* ---- rib_ris.c: Integrator, Option, Attribute, Camera, DisplayFilter, SampleFilter, Hider ---- */
+
+int rib_req_integrator(rib_parser *p);
+int rib_req_option(rib_parser *p);
+int rib_req_attribute(rib_parser *p);
+int rib_req_camera(rib_parser *p);
+int rib_req_ris_ignored(rib_parser *p);
+/* The value of user variable `name` (Option "user", Attribute "user" of the open blocks,
+ * the innermost first): 1 with *str (NULL for a number) and *num, 0 when undefined. */
+int rib_user_get(const rib_parser *p, const char *name, const char **str, double *num);
+/* At the end of an attribute block (p->depth already popped): drops its "user" attributes. */
+void rib_user_scope_end(rib_parser *p);
+/* Frees p->user. */
+void rib_user_free(rib_parser *p);
+
+/* ---- rib_cond.c: IfBegin, ElseIf, Else, IfEnd ---- */
+
+int rib_req_if_begin(rib_parser *p);
+int rib_req_else_if(rib_parser *p);
+int rib_req_else(rib_parser *p);
+int rib_req_if_end(rib_parser *p);
+/* Whether the current request lies in a branch not taken: it is then not dispatched
+ * (IfBegin ... IfEnd are, to keep count of nesting). */
+int rib_cond_skip(const rib_parser *p);
+/* At the end of the top-level file: fails on an IfBegin without IfEnd. */
+int rib_cond_check_closed(rib_parser *p);
+/* Frees p->cond. */
+void rib_cond_free(rib_parser *p);
+
 /* ---- rib_builtin.c and teapot_data.c: Geometry "teapot" ---- */
 
 int rib_req_geometry(rib_parser *p);
@@ -169,6 +202,13 @@ extern const unsigned short rib_teapot_patches[RIB_TEAPOT_PATCHES][16];
 
 int rib_req_coordinate_system(rib_parser *p);
 int rib_req_coord_sys_transform(rib_parser *p);
+int rib_req_scoped_coordinate_system(rib_parser *p);
+/* Marks the current transformation as the system `name`; scoped: only until the current
+ * attribute block ends (ScopedCoordinateSystem; shadows an unscoped one meanwhile). */
+int rib_coordsys_mark(rib_parser *p, const char *name, int scoped);
+/* At the end of an attribute block (p->depth already popped): drops the scoped systems
+ * marked inside it. */
+void rib_coordsys_scope_end(rib_parser *p);
 /* Frees p->coordsys. */
 void rib_coordsys_free(rib_parser *p);
 
@@ -193,6 +233,9 @@ int rib_scene_check(rib_parser *p);
 
 int rib_req_read_archive(rib_parser *p);
 int rib_req_procedural(rib_parser *p);
+int rib_req_procedural2(rib_parser *p);
+/* Option "searchpath" "archive" [paths] "texture" [paths]. */
+int rib_searchpath_option(rib_parser *p);
 /* Frees p->inc. */
 void rib_archive_free(rib_parser *p);
 

@@ -286,7 +286,7 @@ static int light_dome(rib_parser *p, size_t first)
         const char *name;
         rc = rib_string_arg(p, i + 1, "a map name", &name);
         if (rc != TS_OK) return rc;
-        char *path = rib_resolve(p, name);
+        char *path = rib_resolve_in(p, name, 1);
         if (!path || strlen(path) >= sizeof d.mapname) {
             free(path);
             return rib_error_at(p, prm.key->line, prm.key->col,

@@ -189,6 +189,9 @@ typedef struct rib_parser {
     struct rib_include *inc;           /* rib_archive.c: the archives being read, NULL before any */
     struct rib_objects *objects;       /* rib_object.c: ObjectBegin definitions, NULL before any */
     struct rib_coordsystems *coordsys; /* rib_coordsys.c: CoordinateSystem names, or NULL */
+    struct rib_user *user;             /* rib_ris.c: "user" options and attributes, or NULL */
+    struct rib_cond *cond;             /* rib_cond.c: open IfBegin blocks, or NULL */
+    char *searchpath[2];               /* Option "searchpath": "archive", "texture"; or NULL */
     rib_frame_choice frames;
     int world_line, world_col; /* of the WorldBegin read, 0 before it */
     int whole_scene; /* rib_load: the file must make a scene (rib_frames.c rib_scene_check) */

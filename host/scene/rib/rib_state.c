@@ -191,6 +191,10 @@ static void rib_restore(rib_parser *p, rib_frame_kind kind)
 {
     rib_state_restore(p, &p->stack[p->depth - 1], kind != RIB_FRAME_TRANSFORM);
     p->depth--;
+    if (kind != RIB_FRAME_TRANSFORM) { /* what was scoped to the attribute block */
+        rib_coordsys_scope_end(p);
+        rib_user_scope_end(p);
+    }
 }
 
 /* Pops the innermost block, which must be of `kind`. */
@@ -503,9 +507,11 @@ int rib_req_projection(rib_parser *p)
     if (rc != TS_OK) return rc;
     char shown[RIB_PRINT_MAX];
     int ortho = strcmp(name, "orthographic") == 0;
-    if (!ortho && strcmp(name, "perspective") != 0)
+    int pxr = strcmp(name, "PxrPerspective") == 0; /* RenderMan 21+: fov and lens */
+    if (!ortho && !pxr && strcmp(name, "perspective") != 0)
         return rib_error_at(p, p->args[0].line, p->args[0].col,
-                            "unknown projection \"%s\" (perspective or orthographic)",
+                            "unknown projection \"%s\" (perspective, PxrPerspective or "
+                            "orthographic)",
                             rib_printable(name, shown));
     p->scene->camera.projection = ortho ? TS_PROJECTION_ORTHOGRAPHIC : TS_PROJECTION_PERSPECTIVE;
     for (size_t i = 1; i < p->nargs; i += 2) {
@@ -513,6 +519,13 @@ int rib_req_projection(rib_parser *p)
         const double *v;
         rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
+        if (pxr && (strcmp(prm.name, "fStop") == 0 || strcmp(prm.name, "focalLength") == 0 ||
+                    strcmp(prm.name, "focalDistance") == 0)) {
+            rib_warn_once(p, prm.key->line, prm.key->col,
+                          "Projection \"PxrPerspective\": depth of field (fStop, focalLength, "
+                          "focalDistance) is not supported: the camera is a pinhole");
+            continue;
+        }
         if (ortho || strcmp(prm.name, "fov") != 0) {
             rib_warn_param(p, &prm);
             continue;

@@ -2,7 +2,7 @@
  * (rib.c for the top-level file, rib_archive.c for archives): gzip data (found by its
  * content, the magic bytes 1f 8b of RFC 1952, whatever the file is called) is inflated, and
  * a UTF-8 byte order mark at the start is skipped. Everything else goes to the lexer as it
- * is; binary RIB is named by the lexer at its first binary token. */
+ * is: the lexer reads ASCII and binary RIB alike. */
 #ifndef TS_RIB_TEXT_H
 #define TS_RIB_TEXT_H
 

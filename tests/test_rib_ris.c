@@ -1,0 +1,294 @@
+/* test_rib_ris.c — RIB as RenderMan 21-26 writes it (issue 39 items 2, 7, 8): Integrator,
+ * Option "Ri", Camera, Projection "PxrPerspective", DisplayFilter/SampleFilter/Hider;
+ * IfBegin/ElseIf/Else/IfEnd with their expressions, ScopedCoordinateSystem, Procedural2
+ * "DelayedReadArchive2", Option "searchpath". Host only: never skips; every test asserts the
+ * parsed values or exact messages. */
+#include "scene/rib/rib.h"
+#include "scene/scene.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <setjmp.h>
+#include <cmocka.h>
+#include "test_support.h"
+
+#define QUAD "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n"
+
+/* ---- the RIS frame ---------------------------------------------------------------------- */
+
+static void test_integrator(void **state)
+{
+    (void)state;
+    ts_scene s;
+    test_parse_rib_ok("Integrator \"PxrPathTracer\" \"handle\" \"int maxPathLength\" [7] "
+                      "\"int numLightSamples\" [2]\nWorldBegin\n" QUAD "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.camera.has_depth, 1);
+    assert_int_equal(s.camera.depth, 7);
+    scene_free(&s);
+    test_parse_rib_ok("WorldBegin\n" QUAD "WorldEnd\n", &s);
+    assert_int_equal(s.camera.has_depth, 0);
+    scene_free(&s);
+    int rc;
+    const char *out = test_rib_warnings("Integrator \"PxrVCM\" \"h\" \"int maxPathLength\" [5]\n"
+                                        "Integrator \"PxrVCM\" \"h\"\nWorldBegin\nWorldEnd\n",
+                                        &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:1:12: warning: Integrator \"PxrVCM\" renders as PxrPathTracer "
+                             "(path tracing)\n");
+    test_parse_rib_error("Integrator \"PxrPathTracer\" \"h\" \"int maxPathLength\" [2.5]",
+                         "t.rib:1:52: error: Integrator: maxPathLength must be an integer in [0, "
+                         "64], got 2.5");
+    test_parse_rib_error("WorldBegin Integrator \"PxrPathTracer\" \"h\"",
+                         "t.rib:1:12: error: Integrator must come before WorldBegin");
+}
+
+static void test_option_ri(void **state)
+{
+    (void)state;
+    ts_scene s;
+    test_parse_rib_ok("Option \"Ri\" \"int FormatResolution\" [320 200] \"float "
+                      "FormatPixelAspectRatio\" [1] \"float CropWindow\" [0.25 0.75 0 0.5] "
+                      "\"float Shutter\" [0 0.5] \"float[4] ScreenWindow\" [-2 2 -1 1]\n"
+                      "WorldBegin\n" QUAD "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.camera.has_format, 1);
+    assert_int_equal(s.camera.width, 320);
+    assert_int_equal(s.camera.height, 200);
+    assert_true(s.camera.crop[0] == 0.25 && s.camera.crop[1] == 0.75 && s.camera.crop[2] == 0 &&
+                s.camera.crop[3] == 0.5);
+    assert_true(s.camera.shutter[0] == 0 && s.camera.shutter[1] == 0.5);
+    assert_int_equal(s.camera.has_screen, 1);
+    assert_true(s.camera.screen[0] == -2 && s.camera.screen[3] == 1);
+    scene_free(&s);
+    /* An aspect alone keeps the Format given before; a resolution alone the default aspect. */
+    test_parse_rib_ok("Format 64 48 1\nOption \"Ri\" \"float FormatPixelAspectRatio\" [1]\n"
+                      "WorldBegin\n" QUAD "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.camera.width, 64);
+    assert_int_equal(s.camera.height, 48);
+    scene_free(&s);
+    /* The checks of the classic requests, at the option's value. */
+    test_parse_rib_error("Option \"Ri\" \"float CropWindow\" [0.5 0.25 0 1]",
+                         "t.rib:1:32: error: CropWindow: need 0 <= min < max <= 1 on both axes, "
+                         "got 0.5 0.25 0 1");
+    test_parse_rib_error("Option \"Ri\" \"int FormatResolution\" [0.5 10]",
+                         "t.rib:1:36: error: Format: xresolution must be an integer in [1, 65536] "
+                         "(or -1: the default), got 0.5");
+    test_parse_rib_error("Option \"Ri\" \"float Shutter\" [1]",
+                         "t.rib:1:29: error: Option: parameter \"Shutter\" needs 2 values, got 1");
+    int rc;
+    const char *out = test_rib_warnings(
+        "Option \"Ri\" \"float FormatPixelAspectRatio\" [2] \"int PixelVariance\" [1]\n"
+        "Option \"Ri\" \"float Shutter\" [0 1]\nWorldBegin\nWorldEnd\n",
+        &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:1:48: warning: Option parameter \"PixelVariance\" is ignored\n"
+                             "w.rib:1:44: warning: Format pixel aspect ratio is ignored\n"
+                             "w.rib:2:29: warning: Shutter is stored but not applied (motion "
+                             "blocks always span the whole shutter)\n");
+}
+
+static void test_camera_projection(void **state)
+{
+    (void)state;
+    ts_scene s;
+    /* Camera names the camera's coordinate system; PxrPerspective's fov is the fov. */
+    test_parse_rib_ok("Projection \"PxrPerspective\" \"float fov\" [35] \"float fStop\" [2.8]\n"
+                      "Translate 0 0 5\nCamera \"main\" \"float[2] shutterOpening\" [0 1]\n"
+                      "WorldBegin\nCoordSysTransform \"main\"\n" QUAD "WorldEnd\n",
+                      &s);
+    assert_true(s.camera.fov_deg == 35.0);
+    assert_int_equal(s.camera.projection, TS_PROJECTION_PERSPECTIVE);
+    /* The patch placed in the camera's frame: at the camera, 5 units behind the origin. */
+    assert_true(s.cp[0].x == 0.0f && s.cp[0].y == 0.0f && s.cp[0].z == -5.0f);
+    scene_free(&s);
+    int rc;
+    const char *out = test_rib_warnings(
+        "Projection \"PxrPerspective\" \"float fov\" [35] \"float fStop\" [2.8] "
+        "\"float focalDistance\" [3]\nCamera \"c\" \"float[2] shutterOpening\" [0 1]\n"
+        "DisplayFilter \"PxrBackgroundDisplayFilter\" \"bg\"\n"
+        "DisplayFilter \"PxrBackgroundDisplayFilter\" \"bg2\"\n"
+        "SampleFilter \"PxrCryptomatte\" \"c\"\nHider \"raytrace\" \"int minsamples\" [4]\n"
+        "WorldBegin\nWorldEnd\n",
+        &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(
+        out, "w.rib:1:46: warning: Projection \"PxrPerspective\": depth of field (fStop, "
+             "focalLength, focalDistance) is not supported: the camera is a pinhole\n"
+             "w.rib:2:12: warning: Camera parameter \"shutterOpening\" is ignored\n"
+             "w.rib:3:1: warning: DisplayFilter \"PxrBackgroundDisplayFilter\" is ignored\n"
+             "w.rib:5:1: warning: SampleFilter \"PxrCryptomatte\" is ignored\n"
+             "w.rib:6:1: warning: Hider \"raytrace\" is ignored\n");
+}
+
+/* ---- structure ---------------------------------------------------------------------------- */
+
+/* The patches a text makes (0 on error, which fails the test). */
+static uint32_t patches_of(const char *text)
+{
+    ts_scene s;
+    test_parse_rib_ok(text, &s);
+    uint32_t n = s.patch_count;
+    scene_free(&s);
+    return n;
+}
+
+/* A condition under Option "user" pass = "beauty", frame = 3: 1 patch when true, 2 when false. */
+static uint32_t cond(const char *expr)
+{
+    char text[2048];
+    snprintf(text, sizeof text,
+             "Option \"user\" \"string pass\" [\"beauty\"] \"int frame\" [3]\nWorldBegin\n" QUAD
+             "IfBegin \"%s\"\nElse\n" QUAD "IfEnd\nWorldEnd\n",
+             expr);
+    return patches_of(text);
+}
+
+static void test_conditions(void **state)
+{
+    (void)state;
+    assert_int_equal(cond("1"), 1);
+    assert_int_equal(cond("0"), 2);
+    assert_int_equal(cond("$pass == 'beauty'"), 1);
+    assert_int_equal(cond("$user:pass == 'beauty'"), 1);
+    assert_int_equal(cond("$pass != 'beauty'"), 2);
+    assert_int_equal(cond("$frame > 2 && $frame < 4"), 1);
+    assert_int_equal(cond("$frame >= 4 || $frame <= 2"), 2);
+    assert_int_equal(cond("!($frame == 3)"), 2);
+    assert_int_equal(cond("$pass =~ 'bea.*'"), 1);
+    assert_int_equal(cond("$pass =~ '^shadow'"), 2);
+    assert_int_equal(cond("defined(pass) && !defined(nothing)"), 1);
+    assert_int_equal(cond("$nothing"), 2);   /* undefined: the empty string, false */
+    assert_int_equal(cond("10 < 9"), 2);     /* numbers compare as numbers */
+    assert_int_equal(cond("'10' < '9'"), 1); /* strings as strings */
+    /* ElseIf chains, nesting, a branch not taken is not evaluated. */
+    const char *chain = "Option \"user\" \"int n\" [2]\nWorldBegin\n"
+                        "IfBegin \"$n == 1\"\n" QUAD "ElseIf \"$n == 2\"\n" QUAD QUAD
+                        "  IfBegin \"$n == 2\"\n" QUAD "  IfEnd\n"
+                        "ElseIf \"$n >= 2\"\n" QUAD "Else\n" QUAD "IfEnd\n"
+                        "IfBegin \"0\"\n  IfBegin \"((( bad\"\n" QUAD "  IfEnd\nIfEnd\nWorldEnd\n";
+    assert_int_equal(patches_of(chain), 3);
+    /* Attribute "user" is scoped to its attribute block. */
+    const char *scoped =
+        "Option \"user\" \"string a\" [\"x\"]\nWorldBegin\nAttributeBegin\n"
+        "Attribute \"user\" \"string a\" [\"y\"]\nIfBegin \"$a == 'y'\"\n" QUAD
+        "IfEnd\nAttributeEnd\nIfBegin \"$a == 'x'\"\n" QUAD QUAD "IfEnd\nWorldEnd\n";
+    assert_int_equal(patches_of(scoped), 3);
+    test_parse_rib_error("IfBegin \"1 ==\"", "t.rib:1:9: error: IfBegin: condition \"1 ==\": an "
+                                             "operand missing at the end");
+    test_parse_rib_error("IfBegin \"(1\"", "t.rib:1:9: error: IfBegin: condition \"(1\": '(' "
+                                           "without ')'");
+    test_parse_rib_error("IfBegin \"1 2\"", "t.rib:1:9: error: IfBegin: condition \"1 2\": "
+                                            "unexpected '2' after the expression");
+    test_parse_rib_error("IfBegin \"1\"\nWorldBegin WorldEnd",
+                         "t.rib:1:1: error: IfBegin without IfEnd before the end of the file");
+    test_parse_rib_error("IfEnd", "t.rib:1:1: error: IfEnd without IfBegin");
+    test_parse_rib_error("IfBegin \"1\" Else Else IfEnd",
+                         "t.rib:1:18: error: a second Else (IfBegin at 1:1)");
+    test_parse_rib_error("IfBegin \"1\" Else ElseIf \"1\" IfEnd",
+                         "t.rib:1:18: error: ElseIf after Else (IfBegin at 1:1)");
+}
+
+static void test_scoped_coordinate_system(void **state)
+{
+    (void)state;
+    ts_scene s;
+    test_parse_rib_ok("WorldBegin\nTranslate 1 0 0\nCoordinateSystem \"a\"\nAttributeBegin\n"
+                      "Translate 0 2 0\nScopedCoordinateSystem \"a\"\nIdentity\n"
+                      "CoordSysTransform \"a\"\n" QUAD "AttributeEnd\nIdentity\n"
+                      "CoordSysTransform \"a\"\n" QUAD "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.patch_count, 2);
+    assert_true(s.cp[0].x == 1.0f && s.cp[0].y == 2.0f);   /* the scoped system */
+    assert_true(s.cp[16].x == 1.0f && s.cp[16].y == 0.0f); /* the outer one again */
+    scene_free(&s);
+    test_parse_rib_error("WorldBegin\nAttributeBegin\nScopedCoordinateSystem \"b\"\nAttributeEnd\n"
+                         "CoordSysTransform \"b\"\nWorldEnd\n",
+                         "t.rib:5:19: error: CoordSysTransform: no coordinate system \"b\" "
+                         "(CoordinateSystem \"b\" must come before; or world, camera, object)");
+}
+
+static void write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+static void test_procedural2_and_searchpath(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    char sub[4400], path[4500], top[4500];
+    snprintf(sub, sizeof sub, "%s/archives", dir);
+    char cmd[4500];
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s'", sub);
+    assert_int_equal(system(cmd), 0);
+    snprintf(path, sizeof path, "%s/part.rib", sub);
+    write_text(path, QUAD QUAD);
+    snprintf(top, sizeof top, "%s/top.rib", dir);
+    /* Procedural2 with a bound function name and without; the archive found through the
+     * searchpath ("&" keeps the previous one). */
+    write_text(top, "Option \"searchpath\" \"string archive\" [\"nowhere:@\"]\n"
+                    "Option \"searchpath\" \"string archive\" [\"archives:&\"]\nWorldBegin\n"
+                    "Procedural2 \"DelayedReadArchive2\" \"SimpleBound\" \"string filename\" "
+                    "[\"part.rib\"] \"float[6] bound\" [0 1 0 1 0 0]\n"
+                    "Procedural2 \"DelayedReadArchive2\" \"string filename\" [\"part.rib\"]\n"
+                    "ReadArchive \"part.rib\"\nWorldEnd\n");
+    ts_scene s;
+    ts_error e = {0};
+    memset(&s, 0, sizeof s);
+    if (rib_load(top, &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_int_equal(s.patch_count, 6);
+    scene_free(&s);
+    test_parse_rib_error("WorldBegin Procedural2 \"MyPlugin\" \"SimpleBound\"",
+                         "t.rib:1:24: error: Procedural2 \"MyPlugin\" is not supported (a compiled "
+                         "plug-in; DelayedReadArchive2 is read)");
+    test_parse_rib_error("WorldBegin Procedural2 \"DelayedReadArchive2\" \"SimpleBound\"",
+                         "t.rib:1:12: error: Procedural2 \"DelayedReadArchive2\" without \"string "
+                         "filename\"");
+}
+
+/* PatchMesh wrap modes as older exporters spell them: "nowrap" and "wrap" give the patches of
+ * "nonperiodic" and "periodic", point for point. */
+static void test_patch_mesh_wrap_spellings(void **state)
+{
+    (void)state;
+    static const char *const pairs[2][2] = {{"nonperiodic", "nowrap"}, {"periodic", "wrap"}};
+    for (int k = 0; k < 2; k++) {
+        ts_scene a, b;
+        char text[1024];
+        for (int f = 0; f < 2; f++) {
+            snprintf(text, sizeof text,
+                     "WorldBegin\nPatchMesh \"bilinear\" 3 \"%s\" 2 \"nonperiodic\" \"P\" "
+                     "[0 0 0 1 0 0 2 0 1  0 1 0 1 1 0 2 1 1]\nWorldEnd\n",
+                     pairs[k][f]);
+            test_parse_rib_ok(text, f ? &b : &a);
+        }
+        assert_int_equal(a.patch_count, k ? 3 : 2);
+        assert_int_equal(b.patch_count, a.patch_count);
+        assert_memory_equal(a.cp, b.cp, a.patch_count * 16 * sizeof(ts_vec4));
+        scene_free(&a);
+        scene_free(&b);
+    }
+    test_parse_rib_error("WorldBegin PatchMesh \"bilinear\" 2 \"clamp\" 2 \"nowrap\" \"P\" [0]",
+                         "t.rib:1:35: error: PatchMesh: uwrap must be \"periodic\" or "
+                         "\"nonperiodic\" (or \"wrap\", \"nowrap\")");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_integrator),
+        cmocka_unit_test(test_option_ri),
+        cmocka_unit_test(test_camera_projection),
+        cmocka_unit_test(test_conditions),
+        cmocka_unit_test(test_scoped_coordinate_system),
+        cmocka_unit_test(test_procedural2_and_searchpath),
+        cmocka_unit_test(test_patch_mesh_wrap_spellings),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
