@@ -111,8 +111,8 @@ void patch_cache_clear(ts_patch_cache *c)
 
 /* The quotas need[] gives (patch_cache_plan): all of each class when the frame fits, else
  * the fraction f of each that fits, at least one slot a class that has patches. */
-static void plan_quotas(const ts_patch_cache *c, const uint64_t need[TS_CACHE_CLASSES],
-                        uint32_t quota[TS_CACHE_CLASSES])
+static int plan_quotas(const ts_patch_cache *c, const uint64_t need[TS_CACHE_CLASSES],
+                       uint32_t quota[TS_CACHE_CLASSES])
 {
     double nv = 0, ng = 0;
     for (uint32_t k = 0; k < TS_CACHE_CLASSES; ++k)
@@ -125,13 +125,14 @@ static void plan_quotas(const ts_patch_cache *c, const uint64_t need[TS_CACHE_CL
         double q = f < 1.0 ? (double)need[k] * f : (double)need[k];
         quota[k] = need[k] == 0 ? 0u : q < 1.0 ? 1u : q > UINT32_MAX ? UINT32_MAX : (uint32_t)q;
     }
+    return f < 1.0;
 }
 
 int patch_cache_plan(ts_patch_cache *c, const uint64_t need[TS_CACHE_CLASSES])
 {
     if (c->fixed_vert) return 0;
     uint32_t quota[TS_CACHE_CLASSES];
-    plan_quotas(c, need, quota);
+    c->short_of_room = plan_quotas(c, need, quota);
     int same = 1;
     for (uint32_t k = 0; k < TS_CACHE_CLASSES; ++k)
         same &= quota[k] == c->cls[k].quota;

@@ -79,6 +79,7 @@ typedef struct ts_patch_cache {
     ts_cache_arena verts, groups;
     ts_cache_class cls[TS_CACHE_CLASSES];
     uint64_t owed_verts, owed_groups; /* entries the quotas still claim of the unused top */
+    int short_of_room; /* the last plan's patches did not all fit: quotas are shares */
     /* Fixed places (patch_cache_create_placed): patch p's blocks at fixed_vert[p] and
      * fixed_group[p] when diced at fixed_lod[p]; not owned. NULL: slots by size class. */
     const uint32_t *fixed_vert, *fixed_group;
