@@ -70,7 +70,8 @@ int stats_merge(ts_stats *s, const ts_stats *d, ts_error *err)
         s->stage_seconds[i] += d->stage_seconds[i];
     for (int i = 0; i < TS_COUNTER_COUNT; ++i) {
         /* Properties of the scene, the same on every device; the rest adds up. */
-        if (i == TS_COUNTER_micropolygons_potential || i == TS_COUNTER_texture_tiles)
+        if (i == TS_COUNTER_micropolygons_potential || i == TS_COUNTER_texture_tiles ||
+            i == TS_COUNTER_patch_cache_need_bytes)
             s->counters[i] = d->counters[i] > s->counters[i] ? d->counters[i] : s->counters[i];
         else
             s->counters[i] += d->counters[i];

@@ -31,6 +31,7 @@
     X(patch_cache_evictions, "resident patches evicted to make room")                      \
     X(patch_cache_examined, "cache entries looked at: one a hit or miss, one a victim")    \
     X(patch_cache_bytes, "bytes of the vertex and tree arenas the cache manages")        \
+    X(patch_cache_need_bytes, "arena bytes the frame's patches need to be resident at once") \
     X(patch_cache_peak_bytes, "most arena bytes resident patches held at once")          \
     X(patches_shared, "misses filled from another device's dicing (patch_share.h)")       \
     X(bake_points, "points baked (tessera bake; their rays are counted in rays)")

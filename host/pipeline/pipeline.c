@@ -620,6 +620,11 @@ void pipeline_cache_plan(ts_pipeline *p)
         need[TS_CACHE_CLASS(m, p->scene->attr[i].flags & TS_PATCH_MOVING ? 2u : 1u)]++;
     }
     patch_cache_plan(&p->cache, need);
+    uint64_t bytes = 0;
+    for (uint32_t k = 0; k < TS_CACHE_CLASSES; ++k)
+        bytes += need[k] * ((uint64_t)p->cache.cls[k].nv * sizeof(ts_vec4) +
+                            (uint64_t)p->cache.cls[k].ng * TS_GROUP_BYTES);
+    p->stats->counters[TS_COUNTER_patch_cache_need_bytes] = bytes;
     p->planned_version = p->lod_version + 1u;
     p->planned_fixed_lod = p->mode.fixed_lod;
 }
