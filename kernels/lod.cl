@@ -9,14 +9,17 @@
  * tmax = hit.t), to dice patches hidden behind others coarser.
  * Reads:  nodes, a wave of eye rays (org, dir; hit when use_hit).
  * Writes: counts[patch] += 1 per ray whose ordered traversal enters the patch's leaf box
- *         before tmax (integer atomics: the counts do not depend on order). */
+ *         before tmax (integer atomics: the counts do not depend on order);
+ *         crossings[i]: how many leaf boxes ray i entered (the host's cost of its pixel for
+ *         the progress line's estimate, host/app/eta.h). */
 #include "lib/shared_types.h"
 #include "lib/intersect.h"
 #include "lib/qbvh.h"
 
 __kernel void lod_count(__global const ts_qbvh_node *nodes, uint ray_count,
                         __global const ts_vec4 *org, __global const ts_vec4 *dir,
-                        __global const ts_hit *hit, uint use_hit, __global uint *counts)
+                        __global const ts_hit *hit, uint use_hit, __global uint *counts,
+                        __global uint *crossings)
 {
     uint i = get_global_id(0);
     if (i >= ray_count) return;
@@ -24,7 +27,7 @@ __kernel void lod_count(__global const ts_qbvh_node *nodes, uint ray_count,
     /* A crossing at the hit itself counts: the hit patch's box is entered no later. */
     float tmax = use_hit ? hit[i].t : INFINITY;
     float ix = safe_reciprocal(d.x), iy = safe_reciprocal(d.y), iz = safe_reciprocal(d.z);
-    uint node = 0u, pos = 0u, order[4];
+    uint node = 0u, pos = 0u, order[4], crossed = 0u;
     child_order(nodes[0].axes, d.x, d.y, d.z, order);
     for (;;) {
         if (pos < 4u) {
@@ -41,8 +44,10 @@ __kernel void lod_count(__global const ts_qbvh_node *nodes, uint ray_count,
                 child_order(nodes[node].axes, d.x, d.y, d.z, order);
             } else {
                 atomic_inc(&counts[(uint)~child]);
+                ++crossed;
             }
         } else if (node == 0u) {
+            crossings[i] = crossed;
             return;
         } else {
             qbvh_ascend(nodes, &node, &pos, order, d.x, d.y, d.z);

@@ -2,6 +2,7 @@
  * what --resume finds, open the device, then plan, create and trace the frame in waves of
  * samples (again with half the memory when the device runs out), and write the image. */
 #include "app/render.h"
+#include "app/eta.h"
 #include "app/bake_file.h"
 #include "app/budget.h"
 #include "app/interrupt.h"
@@ -89,11 +90,54 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
  * finished samples are written. render_run installs the handlers around the waves, the MPI
  * ranks other than 0 around their render. */
 
+/* The progress of render_waves' frame: samples [start, done) finished of [start, total), the
+ * wave in flight, and the weights the estimate uses (eta.h). */
+typedef struct wave_progress {
+    const ts_render_options *o;
+    ts_pipeline *p;
+    ts_eta eta;
+    uint64_t start, total, done, wave_end;
+    double t0, wave_t0, printed;
+} wave_progress;
+
+/* The progress line: samples finished, the share of the frame's weight they hold, rays per
+ * second, and the time left at the weight per second measured so far. Inside a wave (the
+ * cancel hook, between batches) the wave in flight is credited at that rate for the time it
+ * has run, at most 90% of its weight, so that the line moves while a long wave runs
+ * without claiming what is not finished. Stops for good once stderr fails (a closed pipe:
+ * EPIPE, SIGPIPE being ignored by main); the render goes on. */
+static void wave_progress_print(wave_progress *w, int in_wave)
+{
+    if (w->o->quiet || ferror(stderr)) return;
+    double now = stats_now(), dt = now - w->t0;
+    double base = eta_work(&w->eta, w->start), all = eta_work(&w->eta, w->total) - base;
+    double done = eta_work(&w->eta, w->done) - base;
+    if (in_wave && done > 0.0 && w->wave_t0 > w->t0) {
+        double wave = eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, w->done);
+        double credit = done / (w->wave_t0 - w->t0) * (now - w->wave_t0);
+        done += credit < 0.9 * wave ? credit : 0.9 * wave;
+    }
+    double rays = (double)(w->p->stats->counters[TS_COUNTER_rays] +
+                           w->p->stats->counters[TS_COUNTER_shadow_rays]);
+    double left = eta_seconds_left(&w->eta, done, dt, w->start, w->total);
+    char eta[32];
+    if (left < 0.0)
+        snprintf(eta, sizeof eta, "ETA after the first wave");
+    else
+        snprintf(eta, sizeof eta, "ETA %.0f s", left);
+    fprintf(stderr, "\rtessera: %llu / %llu samples, %.0f%% done, %.2f Mrays/s, %s   ",
+            (unsigned long long)w->done, (unsigned long long)w->total,
+            all > 0.0 ? 100.0 * done / all : 100.0, dt > 0 ? rays / dt / 1e6 : 0.0, eta);
+    w->printed = now;
+}
+
 /* The pipeline's cancel hook (pipeline.h) while the waves run: a stop signal ends the wave
- * between two of its batches, and its samples are dropped. */
+ * between two of its batches, and its samples are dropped; the progress line moves every
+ * second meanwhile. */
 static int render_stop_asked(void *ctx)
 {
-    (void)ctx;
+    wave_progress *w = ctx;
+    if (stats_now() - w->printed >= 1.0) wave_progress_print(w, 1);
     return interrupt_signal() != 0;
 }
 
@@ -112,35 +156,33 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
     /* Pixel after pixel: a wave holds the samples of about per_wave / spp consecutive pixels,
      * the rows a band of rows would give it, each pixel's samples together (done.h). */
     job_choose_band(job, &cam);
+    wave_progress w = {o, p, {0}, start, total, start, start, 0, 0, 0};
+    if (eta_init(&w.eta, o->fixed_lod < 0 ? p->pixel_cost : NULL, cam.width * cam.height,
+                 (uint32_t)o->spp, cam.band, err))
+        return err->code;
     interrupt_install();
-    double t0 = stats_now();
+    w.t0 = w.printed = stats_now();
+    int rc = TS_OK;
     for (uint64_t first = start; first < total; first += per_wave) {
         uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
         cam.first_sample = (uint32_t)first;
         cam.ray_count = n;
-        p->cancel = render_stop_asked, p->cancel_ctx = NULL, p->cancelled = 0;
-        int rc = pipeline_camera(p, &cam, err) || waves_trace_paths(o, p, &cam, err);
+        w.wave_end = first + n, w.wave_t0 = stats_now();
+        p->cancel = render_stop_asked, p->cancel_ctx = &w, p->cancelled = 0;
+        rc = pipeline_camera(p, &cam, err) || waves_trace_paths(o, p, &cam, err);
         p->cancel = NULL;
         if (!rc && p->cancelled) break; /* a stop signal: the wave is not finished */
         if (rc || pipeline_film(p, &cam, err)) {
-            if (!o->quiet && first > start) fputc('\n', stderr); /* end the progress line */
-            return err->code;
+            rc = err->code;
+            break;
         }
-        job->samples_done = first + n;
-        /* Progress stops for good once stderr fails (a closed pipe: EPIPE, SIGPIPE being
-         * ignored by main); the render goes on. */
-        if (!o->quiet && !ferror(stderr)) {
-            double dt = stats_now() - t0, done = (double)(first + n - start);
-            double rays = (double)(p->stats->counters[TS_COUNTER_rays] +
-                                   p->stats->counters[TS_COUNTER_shadow_rays]);
-            fprintf(stderr, "\rtessera: %llu / %llu samples, %.2f Mrays/s, ETA %.0f s   ",
-                    (unsigned long long)(first + n), (unsigned long long)total,
-                    dt > 0 ? rays / dt / 1e6 : 0.0, dt * (double)(total - first - n) / done);
-        }
+        job->samples_done = w.done = first + n;
+        wave_progress_print(&w, 0);
         if (interrupt_signal()) break;
     }
-    if (!o->quiet && !ferror(stderr)) fputc('\n', stderr);
-    return TS_OK;
+    eta_free(&w.eta);
+    if (!o->quiet && !ferror(stderr) && (rc == TS_OK || w.done > start)) fputc('\n', stderr);
+    return rc;
 }
 
 /* Everything one render holds: zeroed by render_init, filled step by step by render_run,

@@ -1,6 +1,7 @@
 /* units.c — units of work, their results, and the board that hands them out and merges them
  * in order (units.h). */
 #include "app/units.h"
+#include "app/eta.h"
 #include "base/stats.h"
 #include "lib/sample_order.h"
 
@@ -441,6 +442,18 @@ void board_progress(ts_board *b, uint64_t *samples_finished, uint64_t *rays)
     *samples_finished = b->samples_finished;
     *rays = b->rays;
     pthread_mutex_unlock(&b->lock);
+}
+
+double board_work_finished(ts_board *b, const ts_eta *eta)
+{
+    double work = 0.0;
+    pthread_mutex_lock(&b->lock);
+    for (uint32_t i = 0; i < b->unit_count; ++i)
+        if (b->state[i] == UNIT_MERGED)
+            work += eta_work(eta, b->units[i].first + b->units[i].count) -
+                    eta_work(eta, b->units[i].first);
+    pthread_mutex_unlock(&b->lock);
+    return work;
 }
 
 uint64_t board_changes(ts_board *b)

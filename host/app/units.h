@@ -15,6 +15,7 @@
 #define TS_UNITS_H
 
 #include "app/done.h"
+#include "app/eta.h"
 #include "app/resume.h"
 #include "lib/shared_types.h"
 
@@ -162,6 +163,8 @@ int board_held(ts_board *b, ts_done *held, ts_error *err);
 uint64_t board_prefix(ts_board *b);
 /* Samples of the units merged so far (this run's) and their rays, for the progress line. */
 void board_progress(ts_board *b, uint64_t *samples_finished, uint64_t *rays);
+/* The weight (eta.h) of the samples of the units merged so far. */
+double board_work_finished(ts_board *b, const ts_eta *eta);
 /* How many times the board has changed (a unit merged or given back, the board closed). */
 uint64_t board_changes(ts_board *b);
 /* Waits up to `seconds` for the board to change after `seen` = board_changes: at once when

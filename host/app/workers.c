@@ -1,5 +1,6 @@
 /* workers.c — one frame on several devices of one process, a host thread each (workers.h). */
 #include "app/workers.h"
+#include "app/eta.h"
 #include "app/interrupt.h"
 #include "app/budget.h"
 #include "app/render.h"
@@ -186,6 +187,17 @@ static int worker_pipeline(ts_worker *w, ts_error *err)
     }
 }
 
+/* Adds a pipeline's pixel weights (0: not counted there) into g->pixel_cost, made on first
+ * use; called with g->lock held. A weight kept from no part is simply not shown. */
+static void pixel_cost_merge(ts_workers *g, const uint32_t *cost)
+{
+    uint64_t npix = (uint64_t)g->frame.cam.width * g->frame.cam.height;
+    if (!cost || npix == 0) return;
+    if (!g->pixel_cost && !(g->pixel_cost = calloc(npix, sizeof *g->pixel_cost))) return;
+    for (uint64_t i = 0; i < npix; ++i)
+        if (cost[i] > g->pixel_cost[i]) g->pixel_cost[i] = cost[i];
+}
+
 /* Publishes the frame's levels of detail (patch_lod: patch_count entries, copied), or
  * their failure (patch_lod NULL; why, when known, becomes g->fatal), which ends every
  * thread waiting for them. */
@@ -248,6 +260,7 @@ static void worker_count_lod_part(ts_worker *w, int pipeline_ok, ts_error *err)
     pthread_mutex_lock(&g->lock);
     for (uint32_t i = 0; ok && i < n; ++i)
         g->lod_more[i] += counts[i];
+    if (ok) pixel_cost_merge(g, w->pipe.pixel_cost);
     g->lod_part[w->lod_part] = ok ? 1 : -1;
     pthread_cond_broadcast(&g->lod_cond);
     pthread_mutex_unlock(&g->lock);
@@ -279,6 +292,11 @@ static int worker_make_lod(ts_worker *w, ts_error *err)
     int rc = w->g->lod_parts > 1
                  ? lod_split_levels(w, err) || waves_lod_record(f->opt, &w->pipe, f->job, err)
                  : waves_frame_lod(f->opt, &w->pipe, f->cam, f->job, err);
+    if (!rc) {
+        pthread_mutex_lock(&w->g->lock);
+        pixel_cost_merge(w->g, w->pipe.pixel_cost);
+        pthread_mutex_unlock(&w->g->lock);
+    }
     lod_publish(w->g, w->pipe.plan.max_lod, rc ? NULL : w->pipe.patch_lod, err);
     return rc ? rc : w->g->lod_state > 0 ? TS_OK : TS_E_MEMORY;
 }
@@ -807,6 +825,7 @@ void workers_close(ts_workers *g)
     free(g->patch_lod);
     free(g->lod_more);
     free(g->lod_part);
+    free(g->pixel_cost);
     ts_error_clear(&g->fatal);
     pthread_mutex_destroy(&g->lock);
     pthread_cond_destroy(&g->lod_cond);
@@ -823,18 +842,38 @@ static int job_from_board(ts_job *job, ts_board *b, ts_error *err)
     return TS_OK;
 }
 
-/* The progress line: samples of the units finished (merged or not), rays per second, ETA;
- * printed when that count moved since *shown. */
-static void frame_progress(ts_board *b, double t0, uint64_t *shown)
+/* The progress line: samples of the units finished (merged or not), the share of the
+ * frame's weight they hold (eta.h, once the levels and the pixels' weights are made), rays per
+ * second, and the time left at the weight per second so far; printed at most every second. */
+typedef struct frame_progress_state {
+    ts_eta eta;
+    int weighed; /* eta holds the pixels' weights (else samples weigh 1) */
+    double t0;
+} frame_progress_state;
+
+static int frame_progress(ts_workers *g, ts_board *b, frame_progress_state *st, int lod_state)
 {
+    if (!st->weighed && lod_state > 0) { /* g->pixel_cost is final once the levels are */
+        ts_error e = {0};
+        eta_free(&st->eta);
+        st->weighed = !eta_init(&st->eta, g->pixel_cost, g->frame.cam.width * g->frame.cam.height,
+                                (uint32_t)g->frame.opt->spp, g->frame.cam.band, &e);
+    }
     uint64_t finished, rays;
     board_progress(b, &finished, &rays);
-    if (finished == *shown) return;
-    *shown = finished;
-    double dt = stats_now() - t0, left = (double)(b->total - b->start - finished);
-    fprintf(stderr, "\rtessera: %llu / %llu samples, %.2f Mrays/s, ETA %.0f s   ",
+    if (finished == 0 && !board_finished(b)) return 0; /* devices still print their notes */
+    double done = board_work_finished(b, &st->eta), dt = stats_now() - st->t0;
+    double all = eta_work(&st->eta, b->total) - eta_work(&st->eta, b->start);
+    double left = eta_seconds_left(&st->eta, done, dt, b->start, b->total);
+    char eta[32];
+    if (left < 0.0)
+        snprintf(eta, sizeof eta, "ETA after the first unit");
+    else
+        snprintf(eta, sizeof eta, "ETA %.0f s", left);
+    fprintf(stderr, "\rtessera: %llu / %llu samples, %.0f%% done, %.2f Mrays/s, %s   ",
             (unsigned long long)(b->start + finished), (unsigned long long)b->total,
-            dt > 0 ? (double)rays / dt / 1e6 : 0.0, finished ? dt * left / (double)finished : 0.0);
+            all > 0.0 ? 100.0 * done / all : 100.0, dt > 0 ? (double)rays / dt / 1e6 : 0.0, eta);
+    return 1;
 }
 
 /* Waits for the frame: until every unit is merged, a stop signal closes the board, the lod
@@ -843,9 +882,11 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
                       ts_frame_end *end, ts_error *err)
 {
     const ts_frame *f = &g->frame;
-    double t0 = stats_now(), printed = 0;
-    uint64_t shown = 0;
-    int rc = TS_OK, lod_state;
+    double printed = 0;
+    frame_progress_state st = {{0}, 0, stats_now()};
+    ts_error weights_err = {0};
+    int shown = 0, rc = TS_OK, lod_state = 0;
+    eta_init(&st.eta, NULL, 0, 1, 0, &weights_err); /* samples weigh 1 until the levels */
     uint64_t seen = board_changes(b);
     while (!board_finished(b)) {
         if (interrupt_signal()) {
@@ -876,8 +917,8 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
             break;
         }
         if (service && service->progress) service->progress(service->progress_ctx, b, g);
-        if (!f->opt->quiet && !ferror(stderr) && stats_now() - printed > 0.5) {
-            frame_progress(b, t0, &shown);
+        if (!f->opt->quiet && !ferror(stderr) && stats_now() - printed >= 1.0) {
+            shown |= frame_progress(g, b, &st, lod_state);
             printed = stats_now();
         }
         board_wait(b, service && service->poll ? service->interval : 0.25, seen);
@@ -892,10 +933,9 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
     board_close(b);
     workers_join(g);
     workers_report(g, &end->failure);
-    if (!f->opt->quiet && !ferror(stderr)) {
-        frame_progress(b, t0, &shown);
-        if (shown) fputc('\n', stderr);
-    }
+    if (!f->opt->quiet && !ferror(stderr) && frame_progress(g, b, &st, lod_state))
+        fputc('\n', stderr);
+    eta_free(&st.eta);
     return rc;
 }
 

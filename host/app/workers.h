@@ -54,6 +54,9 @@ typedef struct ts_workers {
      * (device 0 counts it then). lod_parts 1: device 0 counts every pixel. */
     uint32_t lod_parts;
     uint32_t *lod_more;
+    /* The pixels' weights for the progress line (pipeline.h pixel_cost, the largest of the
+     * parts'), made with the levels (NULL: none); read once lod_state is 1. */
+    uint32_t *pixel_cost;
     int8_t *lod_part;
     /* Built patches shared between the devices that compute like device 0 (patch_share.h;
      * docs/rendering.md "Shared patches"); sharing 0: none (one such device, or

@@ -322,9 +322,10 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     p->patch_lod = malloc(n);
     p->rough_lod = malloc(n);
     p->cull_key = calloc(n, sizeof *p->cull_key);
+    p->pixel_cost = calloc(p->pixel_count ? p->pixel_count : 1, sizeof *p->pixel_cost);
     p->grid_at_host = malloc(3 * n * sizeof *p->grid_at_host);
     if (!*boxes || !p->segments_host || !p->trees_host || !p->batches || !p->patch_lod ||
-        !p->rough_lod || !p->cull_key || !p->grid_at_host)
+        !p->rough_lod || !p->cull_key || !p->grid_at_host || !p->pixel_cost)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     memset(p->grid_at_host, 0xff, 3 * n * sizeof *p->grid_at_host);
     memset(p->patch_lod, (int)p->plan.max_lod, n);
@@ -424,6 +425,7 @@ void pipeline_destroy(ts_pipeline *p)
     free(p->batches);
     free(p->patch_lod), free(p->rough_lod);
     free(p->cull_key);
+    free(p->pixel_cost);
     free(p->grid_at_host);
     free(p->edge_nb);
     qbvh_free(&p->qbvh);
@@ -450,7 +452,7 @@ int pipeline_lod_count(ts_pipeline *p, uint32_t ray_count, int before_hit, ts_er
     uint32_t use_hit = before_hit != 0;
     if (dev_set_args(p->k_lod, err, DEV_ARG(p->qbvh_nodes), DEV_ARG(ray_count), DEV_ARG(p->ray_org),
                      DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(use_hit),
-                     DEV_ARG(p->lod_counts), (size_t)0))
+                     DEV_ARG(p->lod_counts), DEV_ARG(p->count), (size_t)0))
         return err->code;
     return dev_launch(p->cl, p->k_lod, TS_STAGE_lod, ray_count, TS_LOCAL_SIZE, err);
 }
@@ -562,6 +564,14 @@ static int lod_count_pixels(ts_pipeline *p, const ts_camera_params *cam, uint32_
         if (pipeline_camera(p, &c, err) || (pass && pipeline_trace(p, n, err)) ||
             pipeline_lod_count(p, n, pass, err))
             rc = err->code;
+        /* Pass 0's crossings, one ray a pixel: the pixels' costs (pipeline.h pixel_cost). */
+        if (rc == TS_OK && !pass && p->pixel_cost && first + n <= p->pixel_count) {
+            uint32_t *cost = p->pixel_cost + first;
+            if (dev_read(p->cl, p->count, 0, (size_t)n * sizeof *cost, cost, "the crossings", err))
+                rc = err->code;
+            for (uint32_t i = 0; rc == TS_OK && i < n; ++i)
+                cost[i] += 1u; /* 0: a pixel not counted */
+        }
     }
     p->in_lod = 0;
     return rc;

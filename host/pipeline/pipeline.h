@@ -244,6 +244,10 @@ typedef struct ts_pipeline {
     uint32_t lod_version, planned_version;
     int planned_fixed_lod;
     uint32_t sweep; /* iterations planned: odd ones walk the segments backwards (trace.c) */
+    /* Per pixel (pixel_count), 1 + the leaf boxes its first-pass eye ray crossed in the lod
+     * stage (kernels/lod.cl), 0 where this device did not count it: what the progress line
+     * weighs the samples by (app/eta.h). */
+    uint32_t *pixel_cost;
     /* The table shade last got in grid_at (pipeline_grid_publish): vert_first and m of each
      * patch resident in the arenas, TS_INVALID elsewhere, and the patch's stitched edges
      * (pipeline_stitch_edges); grid_off (TESSERA_GRID_NORMALS=0, for checks) publishes no

@@ -725,12 +725,12 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
     pipeline_cache_plan(p);
     for (uint32_t it = 0; active > 0; ++it) {
         /* Once the patch cache has had to evict, or its plan says the frame's patches do not all
-         * fit, they come back diced again: then each iteration may dice them again, and Hanika's N (fill the
-         * pair buffer, fewer iterations) dices less than the ramp (teapot_displaced at
+         * fit, they come back diced again: then each iteration may dice them again, and Hanika's N
+         * (fill the pair buffer, fewer iterations) dices less than the ramp (teapot_displaced at
          * --memory 192: half the dicings; docs/benchmarks.md). */
         uint32_t first_n = p->plan.first_n;
-        if (!first_n && (p->cache.short_of_room ||
-                         p->stats->counters[TS_COUNTER_patch_cache_evictions] > 0))
+        if (!first_n &&
+            (p->cache.short_of_room || p->stats->counters[TS_COUNTER_patch_cache_evictions] > 0))
             first_n = TS_N_MAX;
         uint32_t n_per_ray = pairs_per_ray(p->plan.pair_capacity, active, first_n, it);
         uint32_t sorted_buffer = 0, valid = 0, segs = 0;

@@ -1,0 +1,48 @@
+/* eta.c — the progress line's estimate (eta.h). */
+#include "app/eta.h"
+
+#include <stdlib.h>
+
+int eta_init(ts_eta *e, const uint32_t *cost, uint32_t npix, uint32_t spp, uint32_t band,
+             ts_error *err)
+{
+    e->npix = npix, e->spp = spp ? spp : 1, e->band = band == 0 || band > npix ? npix : band;
+    e->prefix = malloc(((size_t)npix + 1) * sizeof *e->prefix);
+    if (!e->prefix) return ts_error_set(err, TS_E_MEMORY, "out of memory (progress weights)");
+    uint64_t counted = 0, sum = 0;
+    for (uint32_t p = 0; cost && p < npix; ++p)
+        if (cost[p]) ++counted, sum += cost[p];
+    uint64_t mean = counted ? (sum + counted / 2) / counted : 1;
+    e->prefix[0] = 0;
+    for (uint32_t p = 0; p < npix; ++p)
+        e->prefix[p + 1] = e->prefix[p] + (!cost ? 1 : cost[p] ? cost[p] : mean);
+    return TS_OK;
+}
+
+void eta_free(ts_eta *e)
+{
+    free(e->prefix);
+    e->prefix = NULL;
+}
+
+double eta_work(const ts_eta *e, uint64_t k)
+{
+    if (!e->prefix || e->npix == 0) return (double)k;
+    uint64_t per_band = (uint64_t)e->band * e->spp, b = k / per_band;
+    uint64_t base = b * e->band;
+    if (base >= e->npix) return (double)e->spp * (double)e->prefix[e->npix];
+    uint64_t n = e->npix - base < e->band ? e->npix - base : e->band;
+    uint64_t r = k - base * e->spp, s = r / n, rest = r % n;
+    /* whole bands, then whole passes over band b's pixels, then part of one */
+    return (double)e->spp * (double)e->prefix[base] +
+           (double)s * (double)(e->prefix[base + n] - e->prefix[base]) +
+           (double)(e->prefix[base + rest] - e->prefix[base]);
+}
+
+double eta_seconds_left(const ts_eta *e, double done, double seconds, uint64_t start,
+                        uint64_t total)
+{
+    if (!(done > 0.0)) return -1.0;
+    double left = eta_work(e, total) - eta_work(e, start) - done;
+    return left > 0.0 ? seconds * left / done : 0.0;
+}

@@ -1,0 +1,102 @@
+/* test_eta.c — the progress line's estimate (host/app/eta.c). Host only; never skips.
+ * Asserts: the weight of the samples [0, k) equals the sum over the frame's sample order
+ * (kernels/lib/sample_order.h, sample_order_at) of each sample's pixel weight, for one band,
+ * bands of one pixel and of rows, and a last band shorter than the others; pixels not counted
+ * weigh the mean of those counted. On a frame whose top quarter is sky (no box crossed) and
+ * the rest forest (30 crossings a pixel), with a time per sample of 1 + crossings units, the
+ * estimate once the sky is traced is within 2x of the time left, where the samples-only
+ * estimate the progress line used before (time per sample so far times the samples left) is
+ * off by more than 10x. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+
+#include <cmocka.h>
+
+#include "app/eta.h"
+#include "lib/sample_order.h"
+
+static void check_order(const uint32_t *cost, uint32_t npix, uint32_t spp, uint32_t band)
+{
+    ts_eta e;
+    ts_error err = {0};
+    assert_int_equal(eta_init(&e, cost, npix, spp, band, &err), TS_OK);
+    double sum = 0.0;
+    for (uint32_t k = 0; k <= npix * spp; ++k) {
+        assert_true(eta_work(&e, k) == sum); /* integers below 2^53: exact */
+        if (k == npix * spp) break;
+        uint32_t pixel, sample;
+        sample_order_at(k, npix, spp, band, &pixel, &sample);
+        sum += cost[pixel];
+    }
+    eta_free(&e);
+}
+
+static void test_work_follows_the_sample_order(void **state)
+{
+    (void)state;
+    uint32_t cost[60];
+    for (uint32_t p = 0; p < 60; ++p)
+        cost[p] = 1 + (p * 7919u) % 13u;
+    check_order(cost, 60, 4, 0);  /* one band: pass after pass */
+    check_order(cost, 60, 4, 1);  /* pixel after pixel */
+    check_order(cost, 60, 3, 12); /* bands of rows */
+    check_order(cost, 60, 5, 25); /* the last band shorter */
+    check_order(cost, 60, 1, 60);
+}
+
+static void test_uncounted_pixels_weigh_the_mean(void **state)
+{
+    (void)state;
+    uint32_t cost[4] = {2, 0, 4, 0};
+    ts_eta e;
+    ts_error err = {0};
+    assert_int_equal(eta_init(&e, cost, 4, 1, 0, &err), TS_OK);
+    assert_true(eta_work(&e, 4) == 2 + 3 + 4 + 3);
+    eta_free(&e);
+    assert_int_equal(eta_init(&e, NULL, 4, 2, 1, &err), TS_OK); /* no counts: samples */
+    assert_true(eta_work(&e, 5) == 5.0);
+    eta_free(&e);
+}
+
+static void test_sky_above_forest_below(void **state)
+{
+    (void)state;
+    enum { W = 64, H = 32, SPP = 8 };
+    uint32_t *cost = malloc(W * H * sizeof *cost);
+    assert_non_null(cost);
+    for (uint32_t p = 0; p < W * H; ++p)
+        cost[p] = 1 + (p < W * H / 4 ? 0u : 30u); /* 1 + crossings */
+    ts_eta e;
+    ts_error err = {0};
+    assert_int_equal(eta_init(&e, cost, W * H, SPP, 1, &err), TS_OK);
+    uint64_t total = (uint64_t)W * H * SPP, quarter = total / 4;
+    double spent = 0.0, all = 0.0; /* time units: 1 + crossings a sample, plus 10% noise */
+    for (uint64_t k = 0; k < total; ++k) {
+        uint32_t pixel, sample;
+        sample_order_at((uint32_t)k, W * H, SPP, 1, &pixel, &sample);
+        double t = cost[pixel] * (1.0 + 0.1 * (double)((k * 2654435761u) % 100u) / 100.0);
+        all += t;
+        if (k < quarter) spent += t;
+    }
+    double truth = all - spent;
+    double estimate = eta_seconds_left(&e, eta_work(&e, quarter), spent, 0, total);
+    double samples_only = spent * (double)(total - quarter) / (double)quarter;
+    assert_true(estimate > truth / 2 && estimate < truth * 2);
+    assert_true(samples_only < truth / 10);
+    assert_true(eta_seconds_left(&e, 0.0, 1.0, 0, total) < 0); /* nothing done: no estimate */
+    eta_free(&e);
+    free(cost);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_work_follows_the_sample_order),
+        cmocka_unit_test(test_uncounted_pixels_weigh_the_mean),
+        cmocka_unit_test(test_sky_above_forest_below),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
