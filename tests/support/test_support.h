@@ -45,6 +45,11 @@ int test_run_tessera(const char *dir, const char *fmt, ...) __attribute__((forma
  * six faces are each split into k x k bicubic patches interpolating the sphere at thirds,
  * so neighbouring patches share their boundary control points exactly. */
 void test_write_sphere_patches(void *file, int k, double r);
+
+/* The albedo int f cos_i dw_i of the GGX Cook-Torrance lobe (GGX D, separable Smith G,
+ * alpha = roughness, no Fresnel: lib/bsdf.h's model) seen at cos(theta_o) = co, by a
+ * quadrature in double written apart from bsdf.h (error below 1e-5). */
+double test_ggx_albedo(double co, double alpha);
 /* Writes text to the file at path (created or truncated); fails the test if it cannot. */
 void test_write_text(const char *path, const char *text);
 /* Reads a number from a --stats JSON file: `path` like "counters.rays" or
