@@ -272,7 +272,19 @@ int test_has_device(void)
     ts_error err = {0};
     int n = dev_list(&list, &err);
     free(list);
+    if (n <= 0) fprintf(stderr, "skipped: no OpenCL device%s%s\n", err.msg[0] ? ": " : "", err.msg);
     return n > 0;
+}
+
+void test_skip(const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fputs("skipped: ", stderr);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    va_end(ap);
+    skip();
 }
 
 void test_parse_scene_with(const char *rel, const char *extra, struct ts_scene *s)

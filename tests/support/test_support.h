@@ -80,6 +80,10 @@ void test_assert_same_pixels(const char *path_a, const char *path_b);
 #define TEST_RUN_WITH_DEVICE(tests, setup)                                                         \
     (test_has_device() ? cmocka_run_group_tests(tests, setup, NULL) : TS_TEST_SKIP)
 int test_has_device(void);
+/* Inside a cmocka test: prints "skipped: <why>" on stderr and skips the test (cmocka's
+ * skip()), so that a test that cannot run says why instead of passing silently. Where no test
+ * of a program can run, main() prints why and returns TS_TEST_SKIP (77) instead. */
+void test_skip(const char *fmt, ...);
 /* The PoCL driver a device name belongs to: "pthread" for PoCL 3's pthread-... and PoCL 4's
  * and later cpu-... (the driver renamed), "basic" for basic-... and cpu-minimal-...; NULL for
  * any other device. POCL_DEVICES takes the old names in every version. */
