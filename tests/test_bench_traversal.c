@@ -1,6 +1,7 @@
 /* test_bench_traversal.c — smoke test of tools/bench_traversal.c at --size tiny: it runs,
- * the OpenCL and the C traversals agree on every hit record (the program fails otherwise
- * and says so in the JSON), both rates are positive and the ratios are the rates' ratios. */
+ * the OpenCL and the C traversals agree on every hit record (the JSON counts the records
+ * compared and those that differ; the program fails when any does), both rates are positive and the
+ * ratios are the rates' ratios. */
 #include "test_support.h"
 
 #include <cjson/cJSON.h>
@@ -41,6 +42,15 @@ static void test_tiny(void **state)
     const cJSON *m;
     cJSON_ArrayForEach(m, modes)
     {
+        /* Every record of every run (the warm-up and --repeat timed ones) compared, none
+         * differing; hits_agree says the same. */
+        const cJSON *d = cJSON_GetObjectItem(m, "differing_records");
+        assert_non_null(d);
+        double ocl = number(d, "opencl_vs_c"), thr = number(d, "c_threads_vs_c");
+        if (ocl != 0 || thr != 0)
+            fail_msg("%s: %g hit records differ OpenCL vs C, %g C threads vs C",
+                     cJSON_GetObjectItem(m, "intersect")->valuestring, ocl, thr);
+        assert_true(number(m, "records_compared") == pairs * (number(root, "repeat") + 1));
         assert_true(cJSON_IsTrue(cJSON_GetObjectItem(m, "hits_agree")));
         assert_true(number(m, "hits") > 0 && number(m, "hits") <= pairs);
         double rate[4];

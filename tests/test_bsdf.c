@@ -1,7 +1,8 @@
 /* test_bsdf.c — the materials of kernels/lib/bsdf.h (matte, plastic, metal) on the host, the
  * same code the shade kernel runs. For each material and several view angles:
  * - energy: the albedo E[f cos_i / pdf] over bsdf_sample's directions is at most 1 for a
- *   white surface (Kd Cs for matte exactly), and metal's is tinted by Cs channel for channel;
+ *   white surface (Kd Cs for matte exactly), metal's is tinted by Cs channel for channel,
+ *   and every material's equals a Cook-Torrance quadrature written in the test;
  * - the pdf integrates to what the sampler delivers: over bins of the hemisphere, the
  *   fraction of bsdf_sample's directions in a bin matches the integral of bsdf_eval's pdf
  *   over it (estimated by uniform directions), and at normal incidence the whole integral
@@ -75,9 +76,18 @@ static void check_material(const check *c, float co)
         int b = bin_of(wi);
         if (b >= 0) freq[b] += 1.0;
     }
+    /* The albedo the model gives, by quadrature in the test: matte Kd Cs; plastic
+     * Kd Cs + Ks A (its lobe is untinted); metal Ks Cs A, with A the GGX lobe's albedo. */
+    double lobe = c->a.material == TS_MAT_MATTE ? 0.0 : test_ggx_albedo(co, c->a.roughness);
     for (int ch = 0; ch < 3; ch++) {
         double mean = albedo[ch] / N_SAMPLES, var = sq[ch] / N_SAMPLES - mean * mean;
         double tol = 5.0 * sqrt(fmax(var, 0.0) / N_SAMPLES) + 1e-6;
+        double want = c->a.material == TS_MAT_METAL     ? c->a.ks * c->cs[ch] * lobe
+                      : c->a.material == TS_MAT_PLASTIC ? c->a.kd * c->cs[ch] + c->a.ks * lobe
+                                                        : c->a.kd * c->cs[ch];
+        if (fabs(mean - want) > tol + 1e-3)
+            fail_msg("%s at cos %g: albedo %g in channel %d, Cook-Torrance quadrature %g (tol %g)",
+                     c->name, co, mean, ch, want, tol + 1e-3);
         if (mean > c->cs[ch] + tol)
             fail_msg("%s at cos %g: albedo %g in channel %d exceeds Cs %g (tol %g)", c->name, co,
                      mean, ch, c->cs[ch], tol);

@@ -548,14 +548,26 @@ static void test_motion_blur_is_the_time_average(void **state)
         vmax = fmax(vmax, avg[i]);
     double sigma = vmax / (2.0 * sqrt((double)SPP)) * sqrt(1.0 + (double)SPP / (STEPS * 16.0));
     double tol = 5.0 * sigma + vmax / STEPS;
+    /* The sums over the image: a sample is 0 or vmax (covered or not), so a pixel of mean m
+     * has variance m (vmax - m) per sample; the sums' variances add those over SPP moving
+     * samples and STEPS * 16 static ones. The patch stays in the frame, so its covered area,
+     * and the static sum, do not depend on t: the time quadrature adds nothing to the sum. */
+    double sum_mov = 0, sum_avg = 0, var_sum = 0;
     for (int i = 0; i < npix; ++i) {
         double m = mov.pixels[i * mov.channels];
         worst = fmax(worst, fabs(m - avg[i]));
         blurred += m > 0.2 * vmax && m < 0.8 * vmax; /* partly covered over the shutter */
+        sum_mov += m, sum_avg += avg[i];
+        var_sum +=
+            fmax(m * (vmax - m), 0.0) / SPP + fmax(avg[i] * (vmax - avg[i]), 0.0) / (STEPS * 16.0);
     }
     image_free(&mov);
     free(avg);
     if (worst > tol) fail_msg("largest pixel difference %g > tolerance %g", worst, tol);
+    double sum_tol = 5.0 * sqrt(var_sum) + 1e-4 * sum_avg;
+    if (fabs(sum_mov - sum_avg) > sum_tol)
+        fail_msg("the moving image sums to %g, the time average to %g (tolerance %g)", sum_mov,
+                 sum_avg, sum_tol);
     assert_true(blurred >= 32); /* a visible smear, so the comparison means something */
 }
 

@@ -327,7 +327,8 @@ static void test_two_devices_same_bits(void **state)
 {
     (void)state;
     char pair[32];
-    if (test_pocl_devices(pair, sizeof pair, 2) < 2) skip();
+    if (test_pocl_devices(pair, sizeof pair, 2) < 2)
+        test_skip("two devices of PoCL's pthread driver are needed");
     char *text = read_source("scene/instances_displaced.rib");
     write_scene("inst.rib", text);
     free(text);

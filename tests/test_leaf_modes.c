@@ -71,9 +71,10 @@ static void check_scene(int displaced)
     ts_scene s;
     load(&s, displaced);
     static run ray, group, ref;
-    int hits = 0;
+    int box_hits = 0;
     for (int exact = 0; exact < 2; ++exact)
         for (uint32_t b = 0; b <= 2; ++b) {
+            int hits = 0;
             trace(&cl, &s, exact, 0, b, &ray);
             trace(&cl, &s, exact, 1, b, &group);
             for (int i = 0; i < W * H; ++i) {
@@ -93,8 +94,15 @@ static void check_scene(int displaced)
             assert_true(group.tests > 0 && group.tests <= group.slots);
             /* Both variants test the same micro-quads. */
             assert_true(ray.tests == group.tests);
+            /* Each configuration hits, not only their sum: the teapot fills a good part of
+             * the frame (test_trace: over a fifth); the exact triangles hit at most what the
+             * conservative leaf boxes hit, and nearly as much (597 of 620 rays here, 598 of
+             * 657 displaced, whose boxes bound the displacement's range): at least 85%. */
+            if (exact == 0) box_hits = hits;
+            if (hits <= W * H / 5 || (exact && (hits > box_hits || hits < 0.85 * box_hits)))
+                fail_msg("exact %d, leaf %u: %d hits of %d rays (leaf boxes: %d)", exact, 1u << b,
+                         hits, W * H, box_hits);
         }
-    assert_true(hits > W * H); /* the teapot was hit, in every configuration */
     scene_free(&s);
     dev_close(&cl);
 }

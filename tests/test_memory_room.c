@@ -60,7 +60,8 @@ static void query_unlimited(ts_memory_room *room)
     struct rlimit as, data;
     getrlimit(RLIMIT_AS, &as);
     getrlimit(RLIMIT_DATA, &data);
-    if (as.rlim_cur != RLIM_INFINITY || data.rlim_cur != RLIM_INFINITY) skip();
+    if (as.rlim_cur != RLIM_INFINITY || data.rlim_cur != RLIM_INFINITY)
+        test_skip("the process has an RLIMIT_AS or RLIMIT_DATA: no unlimited query");
     query(room);
 }
 
@@ -136,7 +137,7 @@ static void test_rlimits(void **state)
 {
     (void)state;
 #if defined(__SANITIZE_ADDRESS__)
-    skip(); /* ASan's allocator cannot work under a 2000 MB cap on the address space */
+    test_skip("AddressSanitizer's allocator cannot work under a 2000 MB cap on the address space");
 #endif
     fresh_tree("rlimit", 1000000);
     int fds[2];
@@ -165,7 +166,8 @@ static void test_rlimits(void **state)
     close(fds[0]);
     int status;
     waitpid(pid, &status, 0);
-    if (WIFEXITED(status) && WEXITSTATUS(status) == 77) skip(); /* a hard limit below */
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 77)
+        test_skip("a hard rlimit below 2000 MB of address space or 1000 MB of data");
     assert_true(n > 0);
     got[n] = '\0';
     assert_string_equal(got, "1700 RLIMIT_AS|800 RLIMIT_DATA");

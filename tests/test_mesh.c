@@ -491,8 +491,7 @@ static void test_real_model(void **state)
     (void)state;
     FILE *f = fopen(WUSON, "r");
     if (!f) {
-        printf("skipped: %s is missing (apt-get install assimp-testmodels)\n", WUSON);
-        return;
+        test_skip("%s is missing (apt-get install assimp-testmodels)", WUSON);
     }
     vec_list vs = {0}, ns = {0};
     size_t faces = 0;
@@ -666,8 +665,7 @@ static void test_up_axis(void **state)
     const char *fbx = "/usr/share/assimp/models/FBX/close_to_identity_transforms.fbx";
     FILE *f = fopen(fbx, "rb");
     if (!f) {
-        printf("skipped the FBX part: %s is missing (apt-get install assimp-testmodels)\n", fbx);
-        return;
+        test_skip("the FBX part: %s is missing (apt-get install assimp-testmodels)", fbx);
     }
     static char text[1 << 18];
     size_t n = fread(text, 1, sizeof text - 1, f);

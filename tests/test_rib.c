@@ -117,9 +117,26 @@ static void random_grid(uint32_t *seed, double g[16][3])
             g[k][d] = 4.0 * lcg(seed) - 2.0;
 }
 
+/* The bases of the RenderMan Interface Specification 3.2 (RiBasis, ri.h's Ri*Basis), as the
+ * textbook gives them, rows for (u^3, u^2, u, 1): written here, not taken from basis.c, so that
+ * a wrong entry there is caught. Hermite's control points are P0, R0, P1, R1. */
+/* clang-format off */
+static const double textbook_bezier[16] = {-1, 3, -3, 1,   3, -6, 3, 0,   -3, 3, 0, 0,  1, 0, 0, 0};
+static const double textbook_bspline[16] = {-1 / 6.0, 3 / 6.0, -3 / 6.0, 1 / 6.0,
+                                             3 / 6.0, -6 / 6.0, 3 / 6.0, 0,
+                                            -3 / 6.0, 0,        3 / 6.0, 0,
+                                             1 / 6.0, 4 / 6.0,  1 / 6.0, 0};
+static const double textbook_catmull_rom[16] = {-1 / 2.0, 3 / 2.0, -3 / 2.0, 1 / 2.0,
+                                                 2 / 2.0, -5 / 2.0, 4 / 2.0, -1 / 2.0,
+                                                -1 / 2.0, 0,        1 / 2.0, 0,
+                                                 0,       2 / 2.0,  0,       0};
+static const double textbook_hermite[16] = {2, 1, -2, 1,   -3, -2, 3, -1,   0, 1, 0, 0,  1, 0, 0, 0};
+static const double textbook_power[16] = {1, 0, 0, 0,   0, 1, 0, 0,   0, 0, 1, 0,   0, 0, 0, 1};
+/* clang-format on */
+
 /* Loads `basis_line` + one bicubic patch of grid g and compares 50 random surface points
- * with the direct evaluation in bases mu, mv. */
-static void check_basis_patch(const char *basis_line, const ts_basis *bu, const ts_basis *bv)
+ * with the direct evaluation in bases mu, mv (row-major 4x4). */
+static void check_basis_patch(const char *basis_line, const double *mu, const double *mv)
 {
     uint32_t seed = 12345;
     double g[16][3];
@@ -134,7 +151,7 @@ static void check_basis_patch(const char *basis_line, const ts_basis *bu, const 
     for (int k = 0; k < 50; k++) {
         double u = lcg(&seed), v = lcg(&seed), a[3], b[3];
         bezier_eval(&s, 0, u, v, a);
-        direct_eval(bu->m, bv->m, (const double(*)[3])g, u, v, b);
+        direct_eval(mu, mv, (const double(*)[3])g, u, v, b);
         assert_dvec(a, b[0], b[1], b[2], 1e-5);
     }
     scene_free(&s);
@@ -284,15 +301,16 @@ static void test_blocks_restore_state(void **state)
 static void test_basis_conversions(void **state)
 {
     (void)state;
-    check_basis_patch("Basis \"b-spline\" 1 \"b-spline\" 1", &basis_bspline, &basis_bspline);
-    check_basis_patch("Basis \"catmull-rom\" 1 \"catmull-rom\" 1", &basis_catmull_rom,
-                      &basis_catmull_rom);
+    check_basis_patch("Basis \"b-spline\" 1 \"b-spline\" 1", textbook_bspline, textbook_bspline);
+    check_basis_patch("Basis \"catmull-rom\" 1 \"catmull-rom\" 1", textbook_catmull_rom,
+                      textbook_catmull_rom);
     /* Different u and v bases catch a transposed grid. */
-    check_basis_patch("Basis \"catmull-rom\" 1 \"bspline\" 1", &basis_catmull_rom, &basis_bspline);
-    check_basis_patch("Basis \"hermite\" 2 \"power\" 4", &basis_hermite, &basis_power);
+    check_basis_patch("Basis \"catmull-rom\" 1 \"bspline\" 1", textbook_catmull_rom,
+                      textbook_bspline);
+    check_basis_patch("Basis \"hermite\" 2 \"power\" 4", textbook_hermite, textbook_power);
     check_basis_patch("Basis [-1 3 -3 1 3 -6 3 0 -3 0 3 0 1 4 1 0] 1 \"bezier\" 3",
-                      &(ts_basis){{-1, 3, -3, 1, 3, -6, 3, 0, -3, 0, 3, 0, 1, 4, 1, 0}, 1},
-                      &basis_bezier);
+                      (const double[16]){-1, 3, -3, 1, 3, -6, 3, 0, -3, 0, 3, 0, 1, 4, 1, 0},
+                      textbook_bezier);
     /* The named table and steps. */
     assert_ptr_equal(basis_by_name("bspline"), &basis_bspline);
     assert_null(basis_by_name("nurbs"));
@@ -374,7 +392,7 @@ static void test_patch_mesh_counts(void **state)
         for (int i = 0; i < 4; i++)
             memcpy(g[j * 4 + i], p[j * 7 + (5 + i) % 7], sizeof g[0]);
     bezier_eval(&s, 5, 0.3, 0.6, a);
-    direct_eval(basis_bspline.m, basis_bspline.m, (const double(*)[3])g, 0.3, 0.6, b);
+    direct_eval(textbook_bspline, textbook_bspline, (const double(*)[3])g, 0.3, 0.6, b);
     assert_dvec(a, b[0], b[1], b[2], 1e-5);
     scene_free(&s);
 }

@@ -122,8 +122,8 @@ static void test_exposure(void **state)
 }
 
 /* Surface "metal" on a convex sphere under a uniform dome of radiance 1: every path leaves
- * after one reflection, so a pixel is the GGX lobe's albedo times Cs — at most Cs (no energy
- * is made) and tinted by Cs channel for channel. */
+ * after one reflection, so a pixel is the GGX lobe's albedo times Cs — tinted by Cs channel
+ * for channel, and in the mean the albedo a Cook-Torrance quadrature gives. */
 static void test_metal_furnace(void **state)
 {
     (void)state;
@@ -139,8 +139,12 @@ static void test_metal_furnace(void **state)
     render("metal.rib", "metal.exr", "--spp 16");
     ts_image img;
     test_read_image(path("metal.exr"), &img);
-    double sum = 0;
+    double sum = 0, want = 0, res = 0, res2 = 0;
     int hits = 0;
+    const double tan20 = tan(20.0 * M_PI / 180.0);
+    double table[65]; /* the lobe's albedo at cos = k / 64, linearly interpolated below */
+    for (int k = 0; k < 65; k++)
+        table[k] = test_ggx_albedo(fmax(k / 64.0, 1e-3), 0.3);
     for (int i = 0; i < img.width * img.height; i++) {
         /* The sphere's outline is at 0.71 of the half-height (1 / sqrt(4^2 - 1) / tan 20°):
          * pixels well inside it have no sample of the dome behind. */
@@ -150,12 +154,31 @@ static void test_metal_furnace(void **state)
         float r = channel(&img, i, "R"), g = channel(&img, i, "G"), b = channel(&img, i, "B");
         if (fabsf(g - 0.5f * r) > 1e-5f * (1 + r) || fabsf(b - 0.25f * r) > 1e-5f * (1 + r))
             fail_msg("pixel %d: (%g %g %g), want r : g : b = 1 : 0.5 : 0.25", i, r, g, b);
-        sum += r, hits++;
+        /* The pixel's expectation: the lobe's albedo (test_ggx_albedo, a quadrature in the
+         * test) at the cosine between the view ray and the unit sphere's normal at distance
+         * 4, averaged over 4 x 4 points of the pixel. */
+        double a = 0;
+        for (int k = 0; k < 16; k++) {
+            double px = (i % 32 + (k % 4 + 0.5) / 4) / 16 - 1,
+                   py = (i / 32 + (k / 4 + 0.5) / 4) / 16 - 1;
+            double d[3] = {px * tan20, py * tan20, 1}, l = sqrt(d[0] * d[0] + d[1] * d[1] + 1);
+            double hb = 4 * d[2] / l, t = hb - sqrt(hb * hb - 15); /* |t d/l - (0,0,4)| = 1 */
+            double z = t * d[2] / l - 4; /* the normal (x, y, z) of the hit; cos = -n.d/l */
+            double co = -(t * d[0] / l * d[0] + t * d[1] / l * d[1] + z * d[2]) / l;
+            double at = fmin(fmax(co, 0.0), 1.0) * 64;
+            int k0 = (int)fmin(at, 63.0);
+            a += (table[k0] + (at - k0) * (table[k0 + 1] - table[k0])) / 16;
+        }
+        sum += r, want += a, hits++;
+        res += r - a, res2 += (r - a) * (r - a);
     }
     assert_true(hits > 250);
-    /* The mean over 250+ pixels of 16 samples: a rough GGX lobe without multiple scattering
-     * keeps most of the energy, and never more than all of it. */
-    if (!(sum / hits > 0.6 && sum / hits < 1.0)) fail_msg("mean red %g", sum / hits);
+    /* The mean over 250+ pixels of 16 samples against the Cook-Torrance quadrature: 5
+     * standard errors of the pixels' residuals (their spread is the Monte Carlo noise), plus
+     * 2e-3 for the Bezier sphere's normals (within 1e-3 of the sphere's). */
+    double m = res / hits, se = sqrt(fmax(res2 / hits - m * m, 0) / hits), tol = 5 * se + 2e-3;
+    if (fabs(m) > tol)
+        fail_msg("mean red %g, Cook-Torrance quadrature %g (tol %g)", sum / hits, want / hits, tol);
     image_free(&img);
 }
 

@@ -95,7 +95,7 @@ static void test_teapot_matches_brute_force(void **state)
     float *tb = malloc(W * H * sizeof *tb);
     uint32_t *pb = malloc(W * H * sizeof *pb);
     brute_force(&s, &t, tb, pb);
-    int hits = 0, agree = 0;
+    int hits = 0, agree = 0, same = 0;
     for (int r = 0; r < W * H; ++r) {
         int got = t.hit[r].patch != TS_INVALID, want = pb[r] != TS_INVALID;
         if (got != want)
@@ -103,10 +103,17 @@ static void test_teapot_matches_brute_force(void **state)
                      want ? "hit" : "miss");
         if (!want) continue;
         ++hits;
-        if (fabsf(t.hit[r].t - tb[r]) <= 1e-4f * tb[r]) ++agree;
+        /* The same patch at the same t, as test_embree counts agreement: a hit handed to
+         * the wrong patch (shaded with its attributes) at the right distance is a bug. */
+        int same_patch = t.hit[r].patch == pb[r];
+        same += same_patch;
+        if (same_patch && fabsf(t.hit[r].t - tb[r]) <= 1e-4f * tb[r]) ++agree;
     }
     assert_true(hits > W * H / 5); /* the teapot fills a good part of the frame */
-    assert_true(agree >= 0.999 * hits);
+    /* Rays through a seam shared by two patches may take either (ties at the same t). */
+    if (!(same >= 0.999 * hits && agree >= 0.999 * hits))
+        fail_msg("of %d hits, %d on brute force's patch, %d on it at its t (want 99.9%%)", hits,
+                 same, agree);
     assert_true(t.stats.counters[TS_COUNTER_iterations] >= 1);
     free(tb);
     free(pb);

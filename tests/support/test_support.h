@@ -45,6 +45,11 @@ int test_run_tessera(const char *dir, const char *fmt, ...) __attribute__((forma
  * six faces are each split into k x k bicubic patches interpolating the sphere at thirds,
  * so neighbouring patches share their boundary control points exactly. */
 void test_write_sphere_patches(void *file, int k, double r);
+
+/* The albedo int f cos_i dw_i of the GGX Cook-Torrance lobe (GGX D, separable Smith G,
+ * alpha = roughness, no Fresnel: lib/bsdf.h's model) seen at cos(theta_o) = co, by a
+ * quadrature in double written apart from bsdf.h (error below 1e-5). */
+double test_ggx_albedo(double co, double alpha);
 /* Writes text to the file at path (created or truncated); fails the test if it cannot. */
 void test_write_text(const char *path, const char *text);
 /* Reads a number from a --stats JSON file: `path` like "counters.rays" or
@@ -75,6 +80,10 @@ void test_assert_same_pixels(const char *path_a, const char *path_b);
 #define TEST_RUN_WITH_DEVICE(tests, setup)                                                         \
     (test_has_device() ? cmocka_run_group_tests(tests, setup, NULL) : TS_TEST_SKIP)
 int test_has_device(void);
+/* Inside a cmocka test: prints "skipped: <why>" on stderr and skips the test (cmocka's
+ * skip()), so that a test that cannot run says why instead of passing silently. Where no test
+ * of a program can run, main() prints why and returns TS_TEST_SKIP (77) instead. */
+void test_skip(const char *fmt, ...);
 /* The PoCL driver a device name belongs to: "pthread" for PoCL 3's pthread-... and PoCL 4's
  * and later cpu-... (the driver renamed), "basic" for basic-... and cpu-minimal-...; NULL for
  * any other device. POCL_DEVICES takes the old names in every version. */
