@@ -12,6 +12,7 @@ packages=(
   libopenimageio-dev libopenexr-dev libpng-dev libcjson-dev libcmocka-dev
   zlib1g-dev # gzip RIB (host/scene/rib/rib_text.c)
   libopenmpi-dev openmpi-bin # several processes under mpirun (host/app/ranks_mpi.c, optional)
+  mesa-opencl-icd # Rusticl: a second OpenCL implementation for kernel checks (tests/check_rusticl.sh)
   oclgrind clang libclang-rt-14-dev clang-format # checks: tools/check_kernels.sh, tools/fuzz.sh
                                                    # (libFuzzer runtime), tools/check_format.sh
   libembree-dev

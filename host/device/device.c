@@ -258,11 +258,17 @@ static void dev_build_options(ts_device *cl, int slot)
      * prefetches (kernels/lib/prefetch.h). */
     int cpu = (cl->info.type & CL_DEVICE_TYPE_CPU) != 0;
     int prefetch = cpu && strstr(cl->info.platform_name, "Portable Computing Language") != NULL;
+    /* Not on Mesa's Rusticl (llvmpipe, a CPU device): Mesa 22.3 miscompiles bezier_combine's
+     * float4 form where the control points' address varies across work-items and the kernel
+     * combines them twice (bezier_cross_derivs: the second sum comes out wrong), so every
+     * undisplaced shading normal was 0 and shaded surfaces black (issue 40;
+     * tools/rusticl_lanes_repro.c). The scalar form gives PoCL's images there. */
+    int rusticl = strcmp(cl->info.platform_name, "rusticl") == 0;
     /* A testing aid: 0, a GPU's form on a CPU; 1, the lanes on any device (Oclgrind's). */
     const char *lanes_env = getenv("TESSERA_CPU_LANES");
     int lanes = lanes_env && strcmp(lanes_env, "1") == 0   ? 1
                 : lanes_env && strcmp(lanes_env, "0") == 0 ? 0
-                                                           : cpu;
+                                                           : cpu && !rusticl;
     cl->cpu_lanes = lanes;
     snprintf(cl->build_options, sizeof cl->build_options, "-cl-std=CL1.2%s%s%s%s",
              fp & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT ? " -cl-fp32-correctly-rounded-divide-sqrt"
