@@ -29,6 +29,7 @@
     X(patch_cache_hits, "segments whose patch was already diced and resident")              \
     X(patch_cache_misses, "segments placed into the cache (= patches_diced + patches_shared)") \
     X(patch_cache_evictions, "resident patches evicted to make room")                      \
+    X(batches, "batches of segments whose patches were resident together (launch groups)")  \
     X(patch_cache_examined, "cache entries looked at: one a hit or miss, one a victim")    \
     X(patch_cache_bytes, "bytes of the vertex and tree arenas the cache manages")        \
     X(patch_cache_need_bytes, "arena bytes the frame's patches need to be resident at once") \

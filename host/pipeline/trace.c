@@ -138,6 +138,7 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
     p->stats->counters[TS_COUNTER_patch_cache_misses] += misses;
     p->stats->counters[TS_COUNTER_patch_cache_evictions] += p->cache.evictions - evicted;
     p->stats->counters[TS_COUNTER_patch_cache_examined] += p->cache.examined - examined;
+    p->stats->counters[TS_COUNTER_batches] += p->batch_count;
     uint64_t *peak = &p->stats->counters[TS_COUNTER_patch_cache_peak_bytes];
     if (p->cache.peak_bytes > *peak) *peak = p->cache.peak_bytes;
 }
