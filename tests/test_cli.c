@@ -359,6 +359,64 @@ static void test_warning_lines_escape_control_characters(void **state)
     remove(scene);
 }
 
+/* Reads dir/name (an EXR the test rendered) into *img; fails the test otherwise. */
+static void read_exr(const char *name, ts_image *img)
+{
+    char path[4400];
+    ts_error e = {0};
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    if (image_read(path, img, &e) != TS_OK) fail_msg("%s", e.msg);
+}
+
+/* A texture that is not there: `render` warns, naming it and the fallback, and renders the
+ * image of the scene written without it, bit for bit; `render --strict` and `bake --strict`
+ * stop with the error at the file name's line and column and write nothing. */
+static void test_missing_texture_and_strict(void **state)
+{
+    (void)state;
+    static const char *const head = "Format 8 8 1\nWorldBegin\nLightSource \"distantlight\" 1\n";
+    static const char *const tail = "Patch \"bilinear\" \"P\" [-1 -1 5  1 -1 5  -1 1 5  1 1 5]\n"
+                                    "WorldEnd\n";
+    char text[1024], args[16384];
+    snprintf(text, sizeof text, "%sSurface \"matte\" \"texturename\" [\"no-such.png\"]\n%s", head,
+             tail);
+    write_text("missing.rib", text);
+    snprintf(text, sizeof text, "%sSurface \"matte\"\n%s", head, tail);
+    write_text("untextured.rib", text);
+    snprintf(args, sizeof args, "render '%s/missing.rib' -o '%s/missing.exr' --spp 2 --max-lod 2",
+             dir, dir);
+    assert_int_equal(run(args), 0);
+    char err[8192];
+    read_stderr(err, sizeof err);
+    if (!strstr(err, "missing.rib:4:31: warning: Surface: cannot read texture \"no-such.png\": ") ||
+        !strstr(err, "; rendered with Cs alone, untextured (--strict makes this an error)\n"))
+        fail_msg("stderr lacks the warning:\n%s", err);
+    snprintf(args, sizeof args,
+             "render '%s/untextured.rib' -o '%s/untextured.exr' --spp 2 --max-lod 2 --quiet", dir,
+             dir);
+    assert_int_equal(run(args), 0);
+    ts_image a, b;
+    read_exr("missing.exr", &a);
+    read_exr("untextured.exr", &b);
+    assert_int_equal(a.width * a.height * a.channels, 8 * 8 * a.channels);
+    assert_int_equal(a.channels, b.channels);
+    assert_memory_equal(a.pixels, b.pixels, sizeof(float) * 64u * (size_t)a.channels);
+    float sum = 0.0f;
+    for (int k = 0; k < 64 * a.channels; k++)
+        sum += isfinite(a.pixels[k]) ? a.pixels[k] : 0.0f;
+    assert_true(sum > 0.0f); /* lit: not a black image passing for the same */
+    image_free(&a);
+    image_free(&b);
+    const char *cmds[] = {"render", "bake"};
+    for (int k = 0; k < 2; k++) {
+        snprintf(args, sizeof args, "%s '%s/missing.rib' -o '%s/out.%s' --strict", cmds[k], dir,
+                 dir, k ? "exr" : "png");
+        expect_error(args, "missing.rib:4:31: error: Surface: cannot read texture "
+                           "\"no-such.png\": ");
+        assert_false(exists("out.exr"));
+    }
+}
+
 static void test_huge_resolution_is_refused(void **state)
 {
     (void)state;
@@ -399,6 +457,7 @@ int main(void)
         cmocka_unit_test(test_paths_are_checked_before_rendering),
         cmocka_unit_test(test_huge_resolution_is_refused),
         cmocka_unit_test(test_warning_lines_escape_control_characters),
+        cmocka_unit_test(test_missing_texture_and_strict),
         cmocka_unit_test(test_images_without_the_module), /* last: it sets the environment */
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
