@@ -417,6 +417,60 @@ static void test_missing_texture_and_strict(void **state)
     }
 }
 
+/* Renders dir/scene to dir/out with `extra` options; returns the image (EXR) and the sum of
+ * its R, G, B. */
+static double render_exr(const char *scene, const char *out, const char *extra, ts_image *img)
+{
+    char args[16384];
+    snprintf(args, sizeof args, "render '%s/%s' -o '%s/%s' --spp 4 --max-lod 2 --quiet %s", dir,
+             scene, dir, out, extra);
+    assert_int_equal(run(args), 0);
+    read_exr(out, img);
+    assert_true(img->channels >= 3 && img->width == 16 && img->height == 16);
+    double sum = 0.0;
+    for (int k = 0; k < img->width * img->height; k++)
+        for (int c = 0; c < 3; c++)
+            sum += img->pixels[k * img->channels + c];
+    return sum;
+}
+
+/* Integrator "PxrPathTracer" "int maxPathLength" [1] renders at depth 1: the image is bit for
+ * bit the one `--depth 1` makes of the scene without it, and darker than the default depth 3
+ * (the two walls of a corner light each other again at every bounce); `--depth 3` overrides
+ * the Integrator and gives the default's image again. */
+static void test_integrator_depth(void **state)
+{
+    (void)state;
+    static const char *const world =
+        "WorldBegin\nLightSource \"distantlight\" 1 \"intensity\" 2\n"
+        "Patch \"bilinear\" \"P\" [-2 -2 3  0 -2 5  -2 2 3  0 2 5]\n"
+        "Patch \"bilinear\" \"P\" [0 -2 5  2 -2 3  0 2 5  2 2 3]\nWorldEnd\n";
+    char text[1024];
+    snprintf(text, sizeof text,
+             "Format 16 16 1\nIntegrator \"PxrPathTracer\" \"pt\" \"int maxPathLength\" [1]\n%s",
+             world);
+    write_text("depth1.rib", text);
+    snprintf(text, sizeof text, "Format 16 16 1\n%s", world);
+    write_text("nodepth.rib", text);
+    ts_image a, b, c, d;
+    double sa = render_exr("depth1.rib", "a.exr", "", &a);
+    double sb = render_exr("nodepth.rib", "b.exr", "--depth 1", &b);
+    double sc = render_exr("nodepth.rib", "c.exr", "", &c);
+    double sd = render_exr("depth1.rib", "d.exr", "--depth 3", &d);
+    size_t bytes = sizeof(float) * 256u * (size_t)a.channels;
+    assert_int_equal(a.channels, b.channels);
+    assert_memory_equal(a.pixels, b.pixels, bytes);
+    assert_int_equal(c.channels, d.channels);
+    assert_memory_equal(c.pixels, d.pixels, bytes);
+    if (!(sa > 0.0 && sa == sb && sc > sa * 1.05 && sd == sc))
+        fail_msg("sums: maxPathLength 1 %g, --depth 1 %g, default %g, --depth 3 over it %g", sa, sb,
+                 sc, sd);
+    image_free(&a);
+    image_free(&b);
+    image_free(&c);
+    image_free(&d);
+}
+
 static void test_huge_resolution_is_refused(void **state)
 {
     (void)state;
@@ -458,6 +512,7 @@ int main(void)
         cmocka_unit_test(test_huge_resolution_is_refused),
         cmocka_unit_test(test_warning_lines_escape_control_characters),
         cmocka_unit_test(test_missing_texture_and_strict),
+        cmocka_unit_test(test_integrator_depth),
         cmocka_unit_test(test_images_without_the_module), /* last: it sets the environment */
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
