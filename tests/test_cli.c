@@ -96,6 +96,14 @@ static void test_bad_input(void **state)
     expect_error(args, "bad value '32x24junk' for --res");
     snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res=32x", teapot, dir);
     expect_error(args, "bad value '32x' for --res");
+    /* --up: one axis, x, y or z, with an optional sign. */
+    const char *ups[] = {"w", "", "xy", "--z", "+-y", "Z", "2"};
+    for (size_t i = 0; i < sizeof ups / sizeof ups[0]; i++) {
+        snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --up='%s'", teapot, dir, ups[i]);
+        char want[64];
+        snprintf(want, sizeof want, "bad value '%s' for --up", ups[i]);
+        expect_error(args, want);
+    }
     /* --dicing-rate: a plain decimal in 1/64..64 (no sign, space, hex, inf or nan). */
     const char *rates[] = {"0", "-1", "+2", " 2", "0x2", "inf", "nan", "65", "0.015", "2x", ""};
     for (size_t i = 0; i < sizeof rates / sizeof *rates; ++i) {

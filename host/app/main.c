@@ -31,7 +31,7 @@ static const char *usage_text =
     "      --frame N           the RIB animation's FrameBegin N (default: the first)\n"
     "      --strict            a texture or archive that cannot be read is an error, not a\n"
     "                          warning and a fallback\n"
-    "      --up x|y|z|-x|-y|-z a mesh's up axis, where the file does not say (default: y)\n"
+    "      --up x|y|z|-x|-y|-z a mesh's up axis (default: the file's, else its format's)\n"
     "quality (docs/rendering.md \"Samples and determinism\", \"Level of detail\"):\n"
     "      --spp N             samples per pixel (default: the scene's PixelSamples, else 1)\n"
     "      --depth D           bounces after the eye ray, 0..64 (default 3)\n"
