@@ -18,6 +18,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* The files being read, outermost first: their canonical paths (realpath), for the cycle
  * check; NULL where the name is not a file (rib_parse_string's name). */
@@ -54,9 +55,15 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
     size_t len;
     char why[256];
     int rc = ts_file_read_all(path, &text, &len, why, sizeof why);
-    if (rc != TS_OK) { /* strict: an error; else RenderMan's way: a warning, skipped */
-        rc = rc == TS_E_MEMORY ? ts_error_set(p->err, rc, "%s: out of memory", p->lx.file)
-                               : rib_missing_file(p, at->line, at->col, "", path, why, "skipped");
+    if (rc != TS_OK) { /* missing: skipped with a warning unless strict; a FIFO, a device, a
+                          directory: an error either way */
+        if (rc == TS_E_MEMORY)
+            rc = ts_error_set(p->err, rc, "%s: out of memory", p->lx.file);
+        else if (access(path, R_OK) != 0)
+            rc = rib_missing_file(p, at->line, at->col, "", path, why, "skipped");
+        else
+            rc = rib_error_at(p, at->line, at->col, "%s: cannot read \"%s\": %s", p->req,
+                              rib_printable(path, shown), why);
         free(path);
         return rc;
     }
@@ -121,7 +128,7 @@ static int rib_proc_mesh(rib_parser *p, const char *file, const rib_arg *at)
     if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
     ts_error e = {0};
     rc = mesh_load(path, p->ctm, &attr, p->scene, &e);
-    if (rc == TS_E_IO && !p->strict) { /* a missing file: RenderMan's warning, skipped */
+    if (rc == TS_E_IO && !p->strict && access(path, R_OK) != 0) { /* missing: a warning */
         char what[1024];
         snprintf(what, sizeof what,
                  "Procedural \"mesh\": %.900s; skipped (--strict makes this an error)", e.msg);
