@@ -96,6 +96,14 @@ static void test_bad_input(void **state)
     expect_error(args, "bad value '32x24junk' for --res");
     snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res=32x", teapot, dir);
     expect_error(args, "bad value '32x' for --res");
+    /* --up: one axis, x, y or z, with an optional sign. */
+    const char *ups[] = {"w", "", "xy", "--z", "+-y", "Z", "2"};
+    for (size_t i = 0; i < sizeof ups / sizeof ups[0]; i++) {
+        snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --up='%s'", teapot, dir, ups[i]);
+        char want[64];
+        snprintf(want, sizeof want, "bad value '%s' for --up", ups[i]);
+        expect_error(args, want);
+    }
     /* --dicing-rate: a plain decimal in 1/64..64 (no sign, space, hex, inf or nan). */
     const char *rates[] = {"0", "-1", "+2", " 2", "0x2", "inf", "nan", "65", "0.015", "2x", ""};
     for (size_t i = 0; i < sizeof rates / sizeof *rates; ++i) {
@@ -359,6 +367,118 @@ static void test_warning_lines_escape_control_characters(void **state)
     remove(scene);
 }
 
+/* Reads dir/name (an EXR the test rendered) into *img; fails the test otherwise. */
+static void read_exr(const char *name, ts_image *img)
+{
+    char path[4400];
+    ts_error e = {0};
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    if (image_read(path, img, &e) != TS_OK) fail_msg("%s", e.msg);
+}
+
+/* A texture that is not there: `render` warns, naming it and the fallback, and renders the
+ * image of the scene written without it, bit for bit; `render --strict` and `bake --strict`
+ * stop with the error at the file name's line and column and write nothing. */
+static void test_missing_texture_and_strict(void **state)
+{
+    (void)state;
+    static const char *const head = "Format 8 8 1\nWorldBegin\nLightSource \"distantlight\" 1\n";
+    static const char *const tail = "Patch \"bilinear\" \"P\" [-1 -1 5  1 -1 5  -1 1 5  1 1 5]\n"
+                                    "WorldEnd\n";
+    char text[1024], args[16384];
+    snprintf(text, sizeof text, "%sSurface \"matte\" \"texturename\" [\"no-such.png\"]\n%s", head,
+             tail);
+    write_text("missing.rib", text);
+    snprintf(text, sizeof text, "%sSurface \"matte\"\n%s", head, tail);
+    write_text("untextured.rib", text);
+    snprintf(args, sizeof args, "render '%s/missing.rib' -o '%s/missing.exr' --spp 2 --max-lod 2",
+             dir, dir);
+    assert_int_equal(run(args), 0);
+    char err[8192];
+    read_stderr(err, sizeof err);
+    if (!strstr(err, "missing.rib:4:31: warning: Surface: cannot read texture \"no-such.png\": ") ||
+        !strstr(err, "; rendered with Cs alone, untextured (--strict makes this an error)\n"))
+        fail_msg("stderr lacks the warning:\n%s", err);
+    snprintf(args, sizeof args,
+             "render '%s/untextured.rib' -o '%s/untextured.exr' --spp 2 --max-lod 2 --quiet", dir,
+             dir);
+    assert_int_equal(run(args), 0);
+    ts_image a, b;
+    read_exr("missing.exr", &a);
+    read_exr("untextured.exr", &b);
+    assert_int_equal(a.width * a.height * a.channels, 8 * 8 * a.channels);
+    assert_int_equal(a.channels, b.channels);
+    assert_memory_equal(a.pixels, b.pixels, sizeof(float) * 64u * (size_t)a.channels);
+    float sum = 0.0f;
+    for (int k = 0; k < 64 * a.channels; k++)
+        sum += isfinite(a.pixels[k]) ? a.pixels[k] : 0.0f;
+    assert_true(sum > 0.0f); /* lit: not a black image passing for the same */
+    image_free(&a);
+    image_free(&b);
+    const char *cmds[] = {"render", "bake"};
+    for (int k = 0; k < 2; k++) {
+        snprintf(args, sizeof args, "%s '%s/missing.rib' -o '%s/out.%s' --strict", cmds[k], dir,
+                 dir, k ? "exr" : "png");
+        expect_error(args, "missing.rib:4:31: error: Surface: cannot read texture "
+                           "\"no-such.png\": ");
+        assert_false(exists("out.exr"));
+    }
+}
+
+/* Renders dir/scene to dir/out with `extra` options; returns the image (EXR) and the sum of
+ * its R, G, B. */
+static double render_exr(const char *scene, const char *out, const char *extra, ts_image *img)
+{
+    char args[16384];
+    snprintf(args, sizeof args, "render '%s/%s' -o '%s/%s' --spp 4 --max-lod 2 --quiet %s", dir,
+             scene, dir, out, extra);
+    assert_int_equal(run(args), 0);
+    read_exr(out, img);
+    assert_true(img->channels >= 3 && img->width == 16 && img->height == 16);
+    double sum = 0.0;
+    for (int k = 0; k < img->width * img->height; k++)
+        for (int c = 0; c < 3; c++)
+            sum += img->pixels[k * img->channels + c];
+    return sum;
+}
+
+/* Integrator "PxrPathTracer" "int maxPathLength" [1] renders at depth 1: the image is bit for
+ * bit the one `--depth 1` makes of the scene without it, and darker than the default depth 3
+ * (the two walls of a corner light each other again at every bounce); `--depth 3` overrides
+ * the Integrator and gives the default's image again. */
+static void test_integrator_depth(void **state)
+{
+    (void)state;
+    static const char *const world =
+        "WorldBegin\nLightSource \"distantlight\" 1 \"intensity\" 2\n"
+        "Patch \"bilinear\" \"P\" [-2 -2 3  0 -2 5  -2 2 3  0 2 5]\n"
+        "Patch \"bilinear\" \"P\" [0 -2 5  2 -2 3  0 2 5  2 2 3]\nWorldEnd\n";
+    char text[1024];
+    snprintf(text, sizeof text,
+             "Format 16 16 1\nIntegrator \"PxrPathTracer\" \"pt\" \"int maxPathLength\" [1]\n%s",
+             world);
+    write_text("depth1.rib", text);
+    snprintf(text, sizeof text, "Format 16 16 1\n%s", world);
+    write_text("nodepth.rib", text);
+    ts_image a, b, c, d;
+    double sa = render_exr("depth1.rib", "a.exr", "", &a);
+    double sb = render_exr("nodepth.rib", "b.exr", "--depth 1", &b);
+    double sc = render_exr("nodepth.rib", "c.exr", "", &c);
+    double sd = render_exr("depth1.rib", "d.exr", "--depth 3", &d);
+    size_t bytes = sizeof(float) * 256u * (size_t)a.channels;
+    assert_int_equal(a.channels, b.channels);
+    assert_memory_equal(a.pixels, b.pixels, bytes);
+    assert_int_equal(c.channels, d.channels);
+    assert_memory_equal(c.pixels, d.pixels, bytes);
+    if (!(sa > 0.0 && sa == sb && sc > sa * 1.05 && sd == sc))
+        fail_msg("sums: maxPathLength 1 %g, --depth 1 %g, default %g, --depth 3 over it %g", sa, sb,
+                 sc, sd);
+    image_free(&a);
+    image_free(&b);
+    image_free(&c);
+    image_free(&d);
+}
+
 static void test_huge_resolution_is_refused(void **state)
 {
     (void)state;
@@ -399,6 +519,8 @@ int main(void)
         cmocka_unit_test(test_paths_are_checked_before_rendering),
         cmocka_unit_test(test_huge_resolution_is_refused),
         cmocka_unit_test(test_warning_lines_escape_control_characters),
+        cmocka_unit_test(test_missing_texture_and_strict),
+        cmocka_unit_test(test_integrator_depth),
         cmocka_unit_test(test_images_without_the_module), /* last: it sets the environment */
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);

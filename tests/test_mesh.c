@@ -687,6 +687,85 @@ static void test_up_axis(void **state)
     expect_up(path, 2, -1.0);
 }
 
+/* Where the model stands along `axis` (sign: which way is up) relative to its height there:
+ * its lowest control point along the up direction, over its extent. 0: the model stands on
+ * the plane through the origin, as modellers put a figure on the ground. */
+static double ground_offset(const ts_scene *s, int axis, double sign)
+{
+    double lo = INFINITY, hi = -INFINITY;
+    for (size_t k = 0; k < (size_t)s->patch_count * 16u; k++) {
+        const double v[3] = {s->cp[k].x, s->cp[k].y, s->cp[k].z};
+        lo = fmin(lo, v[axis]), hi = fmax(hi, v[axis]);
+    }
+    return (sign > 0 ? lo : -hi) / (hi - lo);
+}
+
+/* One of Debian's assimp-testmodels, loaded as `tessera render` does with `up` (--up; 0 for
+ * the file's own). The automatic camera must stand on (axis, sign) (25 degrees back from it,
+ * looking down); when `ground`, the model's feet are on the plane up = 0 (within 5% of its
+ * height: control points bulge a little past the vertices), and they are not along y, the
+ * axis taken before (more than 15% off), so the test tells the two apart. */
+static void expect_upright(const char *rel, int up, int axis, double sign, int ground)
+{
+    char path[512];
+    snprintf(path, sizeof path, "/usr/share/assimp/models/%s", rel);
+    ts_load_options lo;
+    scene_load_options_defaults(&lo);
+    lo.quiet = 1;
+    lo.up = up;
+    ts_scene s;
+    ts_error e;
+    double cu[3], cf[3];
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    if (scene_load_with(path, &lo, &s, &e) != TS_OK) fail_msg("%s", e.msg);
+    camera_rows(&s, cu, cf);
+    if (fabs(cu[axis] * sign - cos(25 * M_PI / 180)) > 1e-9 ||
+        fabs(cf[axis] * sign + sin(25 * M_PI / 180)) > 1e-9)
+        fail_msg("%s: camera up (%g %g %g), forward (%g %g %g)", rel, cu[0], cu[1], cu[2], cf[0],
+                 cf[1], cf[2]);
+    double g = ground_offset(&s, axis, sign), gy = ground_offset(&s, 1, 1.0);
+    if (ground && !(fabs(g) < 0.05 && fabs(gy) > 0.15))
+        fail_msg("%s: ground at %g of the height along the up axis, %g along +y", rel, g, gy);
+    scene_free(&s);
+}
+
+/* Issue 41: the models a new user saw on their side. COB, SMD and Q3D are z up by their
+ * formats' conventions and Blender by its own; none of their files says so (no Assimp
+ * metadata), so the convention is all there is. Wuson.ac breaks AC3D's y-up convention:
+ * loaded as it says, it stands on its nose (its ground is not at y = 0); --up -z puts it on
+ * its feet, as for the same model in WusonOrange.q3o against Quick3D's +z. */
+static void test_testmodels_upright(void **state)
+{
+    (void)state;
+    if (access("/usr/share/assimp/models/COB/dwarf.cob", R_OK) != 0) {
+        printf("skipped: /usr/share/assimp/models is missing (apt-get install "
+               "assimp-testmodels)\n");
+        return;
+    }
+    expect_upright("COB/dwarf.cob", 0, 2, 1.0, 1);
+    expect_upright("SMD/holy_grailref.smd", 0, 2, 1.0, 1);
+    expect_upright("SMD/WusonSMD.smd", 0, 2, 1.0, 1);
+    expect_upright("Q3D/E-AT-AT.q3o", 0, 2, 1.0, 1);
+    expect_upright("BLEND/Suzanne_248.blend", 0, 2, 1.0, 0); /* a head: no ground to check */
+    expect_upright("BLEND/HUMAN.blend", 0, 2, 1.0, 0);
+    /* AC3D's y: the camera stands on y, but the model does not stand on y = 0 ... */
+    expect_upright("AC/Wuson.ac", 0, 1, 1.0, 0);
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    if (scene_load("/usr/share/assimp/models/AC/Wuson.ac", &s, 1, &e) != TS_OK)
+        fail_msg("%s", e.msg);
+    assert_true(fabs(ground_offset(&s, 1, 1.0)) > 0.15);
+    assert_true(fabs(ground_offset(&s, 2, -1.0)) < 0.05); /* ... it does on z = 0, -z up */
+    scene_free(&s);
+    expect_upright("AC/Wuson.ac", -TS_UP_Z, 2, -1.0, 1);
+    expect_upright("Q3D/WusonOrange.q3o", -TS_UP_Z, 2, -1.0, 1);
+    /* --up overrides a format's convention too (the dwarf laid on its back, seen so). */
+    expect_upright("COB/dwarf.cob", TS_UP_Y, 1, 1.0, 0);
+    expect_upright("COB/dwarf.cob", TS_UP_X, 0, 1.0, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -698,6 +777,7 @@ int main(void)
         cmocka_unit_test(test_real_model),
         cmocka_unit_test(test_flat_faces_without_normals),
         cmocka_unit_test(test_up_axis),
+        cmocka_unit_test(test_testmodels_upright),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -36,14 +36,18 @@ static void expect_error(const char *text, const char *msg)
     assert_int_equal(s.patch_count, 0);
 }
 
-/* Loads the file at path; must fail with TS_E_SCENE and message msg. */
+/* Loads the file at path strictly (--strict: a missing archive or mesh is an error too);
+ * must fail with TS_E_SCENE and message msg. */
 static void expect_file_error(const char *path, const char *msg)
 {
     ts_scene s;
     ts_error e;
+    ts_load_options lo;
+    scene_load_options_defaults(&lo);
+    lo.quiet = lo.strict = 1;
     memset(&s, 0, sizeof s);
     memset(&e, 0, sizeof e);
-    assert_int_equal(rib_load(path, &s, 1, &e), TS_E_SCENE);
+    assert_int_equal(rib_load_with(path, &lo, &s, &e), TS_E_SCENE);
     assert_msg(e.msg, msg);
     assert_int_equal(s.patch_count, 0);
 }
@@ -352,6 +356,61 @@ static const char *const two_quads_obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 
                                          "vn 0 0 1\n"
                                          "f 1//1 2//1 3//1 4//1\nf 2//1 5//1 6//1 3//1\n";
 
+/* Not strict (RenderMan's way), an archive or mesh file that is not there is skipped with one
+ * warning each, naming it: the scene is the one without the request. Strict, the same text is
+ * the error at the file name (expect_file_error above checks the messages). */
+static void test_missing_archive_skipped(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    char text[8192], want[8192];
+    snprintf(text, sizeof text,
+             "WorldBegin\nPatch \"bilinear\" " UNIT_P "\nReadArchive \"%s/nope.rib\"\n"
+             "Procedural \"DelayedReadArchive\" [\"%s/gone.rib\"] [0 1 0 1 0 1]\n"
+             "Procedural \"DynamicLoad\" [\"mesh\" \"%s/none.obj\"] [0 1 0 1 0 1]\n"
+             "Procedural2 \"DelayedReadArchive2\" \"SimpleBound\" \"string filename\" "
+             "[\"%s/lost.rib\"]\nTranslate 0 0 1\nPatch \"bilinear\" " UNIT_P "\nWorldEnd\n",
+             dir, dir, dir, dir);
+    int rc;
+    const char *w = test_rib_warnings(text, &rc);
+    assert_int_equal(rc, TS_OK);
+    /* Each file's warning, as the strict error's text with "; skipped (...)" after it. */
+    const char *names[] = {"nope.rib", "gone.rib", "none.obj", "lost.rib"};
+    const char *reqs[] = {"ReadArchive", "Procedural", "Procedural", "Procedural2"};
+    for (int k = 0; k < 4; k++) {
+        if (k == 2)
+            snprintf(want, sizeof want,
+                     "warning: Procedural \"mesh\": %s/none.obj: No such file or directory; "
+                     "skipped (--strict makes this an error)\n",
+                     dir);
+        else
+            snprintf(want, sizeof want,
+                     "warning: %s: cannot read \"%s/%s\": No such file or directory; skipped "
+                     "(--strict makes this an error)\n",
+                     reqs[k], dir, names[k]);
+        if (!strstr(w, want)) fail_msg("\"%s\" not in \"%s\"", want, w);
+    }
+    char *line = strstr(w, "w.rib:3:13: warning: ReadArchive: cannot read");
+    assert_non_null(line);
+    ts_scene s, ref;
+    ts_error e;
+    assert_int_equal(test_parse_rib(text, &s, &e), TS_OK);
+    test_parse_rib_ok("WorldBegin\nPatch \"bilinear\" " UNIT_P "\nTranslate 0 0 1\n"
+                      "Patch \"bilinear\" " UNIT_P "\nWorldEnd\n",
+                      &ref);
+    assert_int_equal(s.patch_count, 2);
+    assert_int_equal(ref.patch_count, 2);
+    assert_memory_equal(s.cp, ref.cp, 32 * sizeof s.cp[0]);
+    scene_free(&s);
+    scene_free(&ref);
+    assert_int_equal(test_parse_rib_strict(text, &s, &e), TS_E_SCENE);
+    snprintf(want, sizeof want,
+             "t.rib:3:13: error: ReadArchive: cannot read \"%s/nope.rib\": No such file or "
+             "directory",
+             dir);
+    assert_string_equal(e.msg, want);
+}
+
 static void test_procedural(void **state)
 {
     (void)state;
@@ -438,9 +497,13 @@ static void test_procedural(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_pixel_samples), cmocka_unit_test(test_clipping_shutter_crop),
-        cmocka_unit_test(test_cs_classes),    cmocka_unit_test(test_n_classes_and_st),
-        cmocka_unit_test(test_read_archive),  cmocka_unit_test(test_procedural),
+        cmocka_unit_test(test_pixel_samples),
+        cmocka_unit_test(test_clipping_shutter_crop),
+        cmocka_unit_test(test_cs_classes),
+        cmocka_unit_test(test_n_classes_and_st),
+        cmocka_unit_test(test_read_archive),
+        cmocka_unit_test(test_procedural),
+        cmocka_unit_test(test_missing_archive_skipped),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

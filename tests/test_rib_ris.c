@@ -159,6 +159,19 @@ static void test_conditions(void **state)
     assert_int_equal(cond("!($frame == 3)"), 2);
     assert_int_equal(cond("$pass =~ 'bea.*'"), 1);
     assert_int_equal(cond("$pass =~ '^shadow'"), 2);
+    assert_int_equal(cond("$pass =~ '^b[a-z]{2,3}uty$'"), 1); /* small counts are fine */
+    assert_int_equal(cond("$pass =~ '^(b|e|a){3}ut[{]?y'"), 1);
+    /* What makes glibc's matcher slow is refused: a back-reference (40 s on 255 bytes) and
+     * nested counts (copied per count: this one did not compile in minutes). */
+    test_parse_rib_error(
+        "IfBegin \"'aa' =~ '(a*)*\\\\1b'\"",
+        "t.rib:1:9: error: IfBegin: condition \"'aa' =~ '(a*)*\\1b'\": a regular "
+        "expression '(a*)*\\1b' with a back-reference (\\1 to \\9): not supported");
+    test_parse_rib_error("IfBegin \"'a' =~ '((a{1,255}){1,255}){1,255}'\"",
+                         "t.rib:1:9: error: IfBegin: condition \"'a' =~ "
+                         "'((a{1,255}){1,255}){1,255}'\": a regular expression "
+                         "'((a{1,255}){1,255}){1,255}' with repetition counts {m,n} that "
+                         "multiply past 1000: not supported");
     assert_int_equal(cond("defined(pass) && !defined(nothing)"), 1);
     assert_int_equal(cond("$nothing"), 2);   /* undefined: the empty string, false */
     assert_int_equal(cond("10 < 9"), 2);     /* numbers compare as numbers */

@@ -181,12 +181,12 @@ static void test_range_conservative(void **state)
 }
 
 /* Parses `text` (after the texture paths are put in) that must fail with a message
- * starting with `want`. */
+ * starting with `want`, strict as `--strict` (a missing texture is then an error too). */
 static void expect_rib_error(const char *text, const char *want)
 {
     ts_scene s;
     ts_error e;
-    assert_int_not_equal(test_parse_rib(text, &s, &e), TS_OK);
+    assert_int_not_equal(test_parse_rib_strict(text, &s, &e), TS_OK);
     if (strncmp(e.msg, want, strlen(want)) != 0)
         fail_msg("got \"%s\", want \"%s...\"", e.msg, want);
 }
@@ -259,11 +259,70 @@ static void test_rib_requests(void **state)
     char want[8192];
     snprintf(want, sizeof want, "t.rib:1:38: error: Displacement: cannot read texture \"");
     expect_rib_error(text, want);
+    /* Not strict either: the file is there, it is no texture Tessera can use. */
+    ts_scene s1;
+    assert_int_equal(test_parse_rib(text, &s1, &e), TS_E_SCENE);
+    assert_non_null(strstr(e.msg, "texel (1, 0) is not a finite number"));
     ts_scene s2 = {0};
     uint32_t id;
     assert_int_equal(scene_add_texture(&s2, nan_path, TS_TEX_MINMAX, &id, &e), TS_E_IO);
     assert_non_null(strstr(e.msg, "texel (1, 0) is not a finite number"));
     scene_free(&s2);
+}
+
+/* Fails unless `text` holds `part`. */
+static void expect_in(const char *text, const char *part)
+{
+    if (!strstr(text, part)) fail_msg("\"%s\" not in \"%s\"", part, text);
+}
+
+/* A texture that is not there, not strict (RenderMan's way): one warning naming the file and
+ * what the scene does without it, and the scene is exactly the one written without the
+ * texture (Cs alone, no displacement); a domelight's missing map leaves a uniform sky. Strict
+ * (--strict), each is the error at the file name's line and column. */
+static void test_missing_texture(void **state)
+{
+    (void)state;
+    const char *missing =
+        "WorldBegin\n"
+        "Displacement \"texture\" \"texturename\" \"no-such.exr\" \"amplitude\" 0.5\n"
+        "Surface \"matte\" \"texturename\" [\"no-such.png\"]\n" PLANE "\n"
+        "LightSource \"domelight\" 1 \"string mapname\" [\"no-sky.exr\"]\n"
+        "WorldEnd\n";
+    const char *without = "WorldBegin\nDisplacement \"null\"\nSurface \"matte\"\n" PLANE "\n"
+                          "LightSource \"domelight\" 1\nWorldEnd\n";
+    int rc;
+    const char *w = test_rib_warnings(missing, &rc);
+    assert_int_equal(rc, TS_OK);
+    expect_in(w, "w.rib:2:38: warning: Displacement: cannot read texture \"no-such.exr\": ");
+    expect_in(w, "No such file or directory; no displacement (--strict makes this an error)\n");
+    expect_in(w, "w.rib:3:31: warning: Surface: cannot read texture \"no-such.png\": ");
+    expect_in(w, "; rendered with Cs alone, untextured (--strict makes this an error)\n");
+    expect_in(w, "w.rib:5:44: warning: LightSource: cannot read \"no-sky.exr\": No such file or "
+                 "directory; a uniform sky of the light's colour (--strict makes this an "
+                 "error)\n");
+    ts_scene a, b;
+    ts_error e;
+    assert_int_equal(test_parse_rib(missing, &a, &e), TS_OK);
+    assert_int_equal(test_parse_rib(without, &b, &e), TS_OK);
+    assert_int_equal(a.patch_count, 1);
+    assert_int_equal(a.patch_count, b.patch_count);
+    assert_int_equal(a.texture_count, 0);
+    assert_int_equal(a.attr[0].disp_kind, TS_DISP_NONE);
+    assert_int_equal(a.attr[0].flags & TS_PATCH_COLOR_TEX, 0);
+    assert_memory_equal(a.attr, b.attr, sizeof a.attr[0]);
+    assert_memory_equal(a.cp, b.cp, 16 * sizeof a.cp[0]);
+    assert_true(a.dome.present && a.dome.mapname[0] == '\0');
+    assert_memory_equal(&a.dome, &b.dome, sizeof a.dome);
+    scene_free(&a);
+    scene_free(&b);
+    assert_int_equal(test_parse_rib_strict(missing, &a, &e), TS_E_SCENE);
+    expect_in(e.msg, "t.rib:2:38: error: Displacement: cannot read texture \"no-such.exr\": ");
+    assert_int_equal(test_parse_rib_strict(strstr(missing, "Surface"), &a, &e), TS_E_SCENE);
+    expect_in(e.msg, "t.rib:1:31: error: Surface: cannot read texture \"no-such.png\": ");
+    assert_int_equal(test_parse_rib_strict(strstr(missing, "LightSource"), &a, &e), TS_E_SCENE);
+    assert_string_equal(e.msg, "t.rib:1:44: error: LightSource: cannot read \"no-sky.exr\": No "
+                               "such file or directory");
 }
 
 /* A flat patch facing the camera, filling the middle of a 64 x 64 image; the camera at
@@ -452,6 +511,7 @@ int main(void)
         cmocka_unit_test(test_pyramid),
         cmocka_unit_test(test_range_conservative),
         cmocka_unit_test(test_rib_requests),
+        cmocka_unit_test(test_missing_texture),
     };
     const struct CMUnitTest device[] = {
         cmocka_unit_test(test_render_colour),

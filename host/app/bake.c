@@ -61,8 +61,11 @@ static int bake_load(ts_bake *b, ts_error *err)
     if (ext == o->output_path || ext[-1] == '/') /* "-o .exr": a hidden file with no name */
         return ts_error_set(err, TS_E_USAGE, "%s: the output needs a name before .exr",
                             o->output_path);
+    ts_load_options lo;
+    scene_load_options_defaults(&lo);
+    lo.frame = o->frame, lo.quiet = o->quiet, lo.strict = o->strict, lo.up = o->up;
     if (output_check_paths(o->output_path, o->stats_path, o->scene_path, err) ||
-        scene_load_frame(o->scene_path, o->frame, &b->scene, o->quiet, err) ||
+        scene_load_with(o->scene_path, &lo, &b->scene, err) ||
         output_check_inputs_paths(o->output_path, o->stats_path, &b->scene, err))
         return err->code;
     if (b->scene.patch_count == 0)

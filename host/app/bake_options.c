@@ -43,7 +43,9 @@ enum {
     OPT_FRAME,
     OPT_KERNEL_DIR,
     OPT_NO_CACHE,
-    OPT_HELP
+    OPT_HELP,
+    OPT_STRICT,
+    OPT_UP
 };
 
 static const struct option bake_long_options[] = {
@@ -68,6 +70,8 @@ static const struct option bake_long_options[] = {
     {"kernel-dir", required_argument, 0, OPT_KERNEL_DIR},
     {"no-kernel-cache", no_argument, 0, OPT_NO_CACHE},
     {"help", no_argument, 0, OPT_HELP},
+    {"strict", no_argument, 0, OPT_STRICT},
+    {"up", required_argument, 0, OPT_UP},
     {0, 0, 0, 0},
 };
 
@@ -128,6 +132,11 @@ static int apply_option(int c, const char *arg, ts_bake_options *o)
     case OPT_NO_CACHE:
         o->cl.no_cache = 1;
         return 0;
+    case OPT_STRICT:
+        o->strict = 1;
+        return 0;
+    case OPT_UP:
+        return scene_parse_up(arg, &o->up) != 0;
     }
     return 0;
 }

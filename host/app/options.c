@@ -26,6 +26,15 @@ void render_options_defaults(ts_render_options *o)
     o->frame = -1;
 }
 
+void render_load_options(const ts_render_options *o, ts_load_options *lo)
+{
+    scene_load_options_defaults(lo);
+    lo->frame = o->frame;
+    lo->quiet = o->quiet;
+    lo->strict = o->strict;
+    lo->up = o->up;
+}
+
 int options_parse_int(const char *s, int lo, int hi, int *out)
 {
     char *end;
@@ -85,7 +94,9 @@ enum {
     OPT_RESUME,
     OPT_FRAME,
     OPT_MPI_SCENE,
-    OPT_OCCLUSION
+    OPT_OCCLUSION,
+    OPT_STRICT,
+    OPT_UP
 };
 
 static const struct option render_long_options[] = {
@@ -112,6 +123,8 @@ static const struct option render_long_options[] = {
     {"frame", required_argument, 0, OPT_FRAME},
     {"mpi-scene", required_argument, 0, OPT_MPI_SCENE},
     {"occlusion", required_argument, 0, OPT_OCCLUSION},
+    {"strict", no_argument, 0, OPT_STRICT},
+    {"up", required_argument, 0, OPT_UP},
     {0, 0, 0, 0},
 };
 
@@ -178,6 +191,11 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
     case OPT_OCCLUSION:
         o->occlusion_path = arg;
         return 0;
+    case OPT_STRICT:
+        o->strict = 1;
+        return 0;
+    case OPT_UP:
+        return scene_parse_up(arg, &o->up) != 0;
     case OPT_KERNEL_DIR:
         o->cl.kernel_dir = arg;
         return 0;

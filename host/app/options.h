@@ -4,6 +4,7 @@
 #define TS_OPTIONS_H
 
 #include "device/device.h"
+#include "scene/scene_load.h"
 
 typedef struct ts_render_options {
     const char *scene_path;
@@ -26,6 +27,8 @@ typedef struct ts_render_options {
     int quiet;
     int resume;                 /* 1: continue the partial EXR at output_path (--resume) */
     int frame;                  /* the RIB frame to render (FrameBegin number); -1: the first */
+    int strict;                 /* --strict: a missing texture or archive is an error */
+    int up;                     /* --up: a mesh's up axis (scene_load.h TS_UP_*); 0: the file's */
     const char *occlusion_path; /* --occlusion: relight with this bake (docs/bake.md); NULL:
                                    none */
     int mpi_scene_load;         /* --mpi-scene load: every MPI rank loads the scene files; 0
@@ -42,6 +45,9 @@ void render_options_defaults(ts_render_options *o);
  * (an unknown option, a bad value, not exactly one scene file). --help stops the parsing
  * with *help = 1: the caller prints the usage. */
 int render_options_parse(int argc, char **argv, ts_render_options *o, int *help, ts_error *err);
+
+/* How the scene of o is loaded: its --frame, --quiet, --strict and --up. */
+void render_load_options(const ts_render_options *o, ts_load_options *lo);
 
 /* Shared by every subcommand's parser (render, bake), so that they accept and refuse values
  * alike. options_parse_int: a decimal int in [lo, hi], nothing around it; options_parse_res:

@@ -546,7 +546,10 @@ static int follow_start(ts_ranks *r, ts_render_options *o, ts_rank_start *start,
     o->spp = start->spp, o->width = start->width, o->height = start->height;
     if (start->scene_load) {
         int32_t hash = 0;
-        if (!scene_load_frame(o->scene_path, o->frame, scene, 1, why) &&
+        ts_load_options lo;
+        render_load_options(o, &lo);
+        lo.quiet = 1;
+        if (!scene_load_with(o->scene_path, &lo, scene, why) &&
             !job_hash(o, scene, &start->cam, &hash, why) && hash != start->job_hash)
             ts_error_set(why, TS_E_USAGE,
                          "%s here is not the scene rank 0 loaded (another file, or other files "

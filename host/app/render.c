@@ -271,7 +271,9 @@ static int render_check_size(const ts_render *r, const char *res, const char *sp
 static int render_load_scene(ts_render *r, ts_error *err)
 {
     ts_render_options *o = &r->opt;
-    if (scene_load_frame(o->scene_path, o->frame, &r->scene, o->quiet, err)) return err->code;
+    ts_load_options lo;
+    render_load_options(o, &lo);
+    if (scene_load_with(o->scene_path, &lo, &r->scene, err)) return err->code;
     const ts_camera *c = &r->scene.camera;
     const char *spp = o->spp > 0 ? "--spp" : c->spp > 0 ? "PixelSamples" : "spp";
     const char *res = o->width ? "--res" : c->has_format ? "Format" : "size";

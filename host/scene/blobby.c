@@ -637,6 +637,15 @@ static int edge_quad(net_ctx *c, size_t x, size_t y, size_t z, int axis)
     return 0;
 }
 
+/* BLOBBY_MAX_WORK, or less when $TESSERA_BLOBBY_MAX_WORK says so. */
+static double blobby_max_work(void)
+{
+    const char *env = getenv("TESSERA_BLOBBY_MAX_WORK");
+    char *end;
+    double v = env && *env ? strtod(env, &end) : 0.0;
+    return env && *env && !*end && v >= 1.0 && v < BLOBBY_MAX_WORK ? v : BLOBBY_MAX_WORK;
+}
+
 int blobby_polygonize(const ts_blobby *b, const double *leaf_cs, blobby_mesh *m, char *why,
                       size_t why_len)
 {
@@ -657,7 +666,7 @@ int blobby_polygonize(const ts_blobby *b, const double *leaf_cs, blobby_mesh *m,
      * value cleared for a general program. The grid is coarsened until sampling it costs at
      * most BLOBBY_MAX_WORK of them, so that no file makes reading it take minutes. */
     const leaf_bins *g = &c.e.bins;
-    double per_eval = 1.0;
+    double per_eval = 1.0, max_work = blobby_max_work();
     if (rc == 0) {
         size_t nb = (size_t)g->n[0] * g->n[1] * g->n[2];
         per_eval += (double)g->start[nb] / (double)nb + (b->sum_only ? 0.0 : (double)b->nleaf);
@@ -666,7 +675,7 @@ int blobby_polygonize(const ts_blobby *b, const double *leaf_cs, blobby_mesh *m,
         double points = 1.0;
         for (int j = 0; j < 3; j++)
             points *= ceil((b->hi[j] - b->lo[j]) / h) + 3.0;
-        if (points * per_eval <= BLOBBY_MAX_WORK) break;
+        if (points * per_eval <= max_work) break;
         h *= 1.25;
     }
     c.h = h;

@@ -40,7 +40,9 @@
 #define BLOBBY_CELLS_PER_RADIUS 2.0
 #define BLOBBY_MIN_CELLS 8
 #define BLOBBY_MAX_CELLS 160
-/* Leaf evaluations sampling the grid may take: beyond it the grid is coarsened. */
+/* Leaf evaluations sampling the grid may take: beyond it the grid is coarsened (about 0.3 s
+ * in a release build; $TESSERA_BLOBBY_MAX_WORK may lower it, never raise it: the fuzzer,
+ * under ASan 15x slower, runs with 2e6). */
 #define BLOBBY_MAX_WORK 2e8
 
 typedef struct blobby_op {

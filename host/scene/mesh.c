@@ -133,9 +133,13 @@ static int transform_mesh(mesh_ctx *c, const double m[16], const double nm[9])
 
 /* ---- loading ------------------------------------------------------------------------- */
 
-/* Formats whose convention is z up (CAD, 3D printing, 3ds Max, Blender); the others (OBJ,
- * PLY, glTF, Collada after Assimp's own conversion, ...) are taken as y up. */
-static const char *const mesh_z_up_formats[] = {"stl", "3ds", "blend", "3mf", "amf", "dxf", "ifc"};
+/* Formats whose convention is z up: CAD and 3D printing (STL, 3MF, AMF, DXF, IFC), 3ds Max,
+ * Blender (Assimp keeps its coordinates), trueSpace (COB, SCN), Valve's SMD (the Source engine)
+ * and Quick3D (Q3O, Q3S). The others (OBJ, PLY, glTF, AC3D, Collada after Assimp's own
+ * conversion of its <up_axis>, ...) are taken as y up. None of these files says it: a model that
+ * breaks its format's convention needs --up (docs/rib.md "The automatic camera"). */
+static const char *const mesh_z_up_formats[] = {"stl", "3ds", "blend", "3mf", "amf", "dxf",
+                                                "ifc", "cob", "scn",   "smd", "q3o", "q3s"};
 
 /* The file's up axis: Assimp's "UpAxis" (0, 1, 2) and "UpAxisSign" metadata where the format
  * records them (FBX), else the format's convention by the file name's extension. */

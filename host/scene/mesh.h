@@ -30,8 +30,9 @@ int mesh_load(const char *path, const double object_to_world[16], const ts_patch
 
 /* mesh_load that also says which way is up in the file (object space): up[] gets +x, +y,
  * +z or their opposites, from Assimp's "UpAxis"/"UpAxisSign" metadata where the format has
- * it (FBX), else by the format's convention: +z for STL, 3DS, Blender, 3MF, AMF, DXF and
- * IFC files, +y for the others. up may be NULL. */
+ * it (FBX), else by the format's convention: +z for STL, 3DS, Blender, 3MF, AMF, DXF, IFC,
+ * trueSpace (COB, SCN), SMD and Quick3D (Q3O, Q3S) files, +y for the others (Assimp turns a
+ * Collada file's <up_axis> into y up itself). up may be NULL. */
 int mesh_load_ex(const char *path, const double object_to_world[16], const ts_patch_attr *attr,
                  ts_scene *s, double up[3], ts_error *err);
 

@@ -110,6 +110,21 @@ void scene_frame_auto_up(ts_scene *s, const double up_axis[3])
     }
 }
 
+void scene_load_options_defaults(ts_load_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->frame = -1;
+}
+
+int scene_parse_up(const char *s, int *up)
+{
+    int sign = 1;
+    if (*s == '-' || *s == '+') sign = *s++ == '-' ? -1 : 1;
+    if (s[0] < 'x' || s[0] > 'z' || s[1]) return -1;
+    *up = sign * (TS_UP_X + (s[0] - 'x'));
+    return 0;
+}
+
 int scene_load(const char *path, ts_scene *s, int quiet, ts_error *err)
 {
     return scene_load_frame(path, -1, s, quiet, err);
@@ -117,7 +132,17 @@ int scene_load(const char *path, ts_scene *s, int quiet, ts_error *err)
 
 int scene_load_frame(const char *path, int frame, ts_scene *s, int quiet, ts_error *err)
 {
-    if (has_rib_extension(path)) return rib_load_frame(path, frame, s, quiet, err);
+    ts_load_options lo;
+    scene_load_options_defaults(&lo);
+    lo.frame = frame;
+    lo.quiet = quiet;
+    return scene_load_with(path, &lo, s, err);
+}
+
+int scene_load_with(const char *path, const ts_load_options *lo, ts_scene *s, ts_error *err)
+{
+    int frame = lo->frame;
+    if (has_rib_extension(path)) return rib_load_with(path, lo, s, err);
     if (frame >= 0)
         return ts_error_set(err, TS_E_USAGE, "--frame %d: %s is a mesh, which has no frames", frame,
                             path);
@@ -139,6 +164,11 @@ int scene_load_frame(const char *path, int frame, ts_scene *s, int quiet, ts_err
     if (rc != TS_OK) {
         scene_free(s);
         return rc;
+    }
+    if (lo->up != 0) { /* --up: the file's own axis (or the format's convention) overridden */
+        int axis = (lo->up < 0 ? -lo->up : lo->up) - TS_UP_X;
+        up[0] = up[1] = up[2] = 0.0;
+        up[axis] = lo->up < 0 ? -1.0 : 1.0;
     }
     scene_frame_auto_up(s, up);
     return TS_OK;

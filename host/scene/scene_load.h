@@ -18,6 +18,30 @@
  * (0.35). Same errors as rib_load / mesh_load; s is left empty on failure. */
 int scene_load(const char *path, ts_scene *s, int quiet, ts_error *err);
 
+/* How scene_load_with reads a scene; zero-initialise, then scene_load_options_defaults. */
+typedef struct ts_load_options {
+    int frame;  /* the RIB animation's FrameBegin number to read; -1: the first */
+    int quiet;  /* 1: no warnings on stderr */
+    int strict; /* 1: a texture, environment map, archive or mesh file that cannot be read is
+                   an error at its file:line:column; 0 (RenderMan's way): one warning each and
+                   a fallback (docs/rib.md "Missing files") */
+    int up;     /* a mesh's up axis (--up): 0 from the file (mesh_load_ex), else TS_UP_* */
+} ts_load_options;
+
+/* --up: which object axis of a mesh points up. */
+enum { TS_UP_X = 1, TS_UP_Y = 2, TS_UP_Z = 3 }; /* negated for -x, -y, -z */
+
+/* Defaults: the first frame, warnings on, not strict, the up axis from the file. */
+void scene_load_options_defaults(ts_load_options *o);
+
+/* Parses --up's value "x", "y", "z", "-x", "-y" or "-z" ("+x" ... too) into *up (TS_UP_X ...,
+ * negated for a minus); returns 0, or -1 for anything else. */
+int scene_parse_up(const char *s, int *up);
+
+/* scene_load with everything in lo: a RIB file as rib_load_with reads it, a mesh with its up
+ * axis from lo->up when that is not 0 (the automatic camera then stands on it). */
+int scene_load_with(const char *path, const ts_load_options *lo, ts_scene *s, ts_error *err);
+
 /* scene_load of one frame of a RIB animation (rib_load_frame: FrameBegin `frame`, or the
  * first for frame < 0); a mesh has no frames (TS_E_USAGE for frame >= 0). */
 int scene_load_frame(const char *path, int frame, ts_scene *s, int quiet, ts_error *err);

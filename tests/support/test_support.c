@@ -37,6 +37,17 @@ int test_parse_rib(const char *text, ts_scene *s, ts_error *e)
     return rib_parse_string("t.rib", text, strlen(text), s, 1, e);
 }
 
+int test_parse_rib_strict(const char *text, ts_scene *s, ts_error *e)
+{
+    ts_load_options lo;
+    scene_load_options_defaults(&lo);
+    lo.quiet = 1;
+    lo.strict = 1;
+    memset(s, 0, sizeof *s);
+    memset(e, 0, sizeof *e);
+    return rib_parse_string_with("t.rib", text, strlen(text), &lo, s, e);
+}
+
 void test_parse_rib_ok(const char *text, ts_scene *s)
 {
     ts_error e;

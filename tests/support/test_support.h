@@ -20,6 +20,9 @@ const char *test_source_path(const char *rel);
 /* Parses RIB text named "t.rib" into a zeroed scene (quiet); returns the loader's code. */
 struct ts_scene;
 int test_parse_rib(const char *text, struct ts_scene *s, ts_error *e);
+/* The same, strict (rib_parse_string_with, as `tessera render --strict`): a missing texture
+ * or archive is an error. */
+int test_parse_rib_strict(const char *text, struct ts_scene *s, ts_error *e);
 /* Parses the source tree's scene file `rel` (under 1 MB) with `extra` (at most 400 bytes)
  * inserted after its WorldBegin line into *s; fails the test on an error. */
 void test_parse_scene_with(const char *rel, const char *extra, struct ts_scene *s);

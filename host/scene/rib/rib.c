@@ -234,12 +234,13 @@ static int rib_run(rib_parser *p)
 }
 
 static void rib_parser_init(rib_parser *p, const char *name, const char *text, size_t len,
-                            ts_scene *scene, int quiet, ts_error *err)
+                            ts_scene *scene, unsigned flags, ts_error *err)
 {
     rib_lex_init(&p->lx, name ? name : "<string>", text, len, err);
     p->scene = scene;
     p->err = err;
-    p->quiet = quiet;
+    p->quiet = (flags & RIB_QUIET) != 0;
+    p->strict = (flags & RIB_STRICT) != 0;
     mat4_identity(p->ctm);
     mat4_identity(p->ctm1);
     p->disp = (rib_disp){TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0};
@@ -270,12 +271,12 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
 /* One parse of the text (rib_parse); *depth_skipped: whether frames were left as depth-map
  * passes (rib_frames.c rib_req_display). */
 static int rib_parse_once(const char *name, const rib_text *t, int frame, int keep_depth,
-                          int whole_scene, ts_scene *scene, int quiet, ts_error *err,
+                          int whole_scene, ts_scene *scene, unsigned flags, ts_error *err,
                           int *depth_skipped)
 {
     rib_parser *p = calloc(1, sizeof *p);
     if (!p) return ts_error_set(err, TS_E_MEMORY, "%s: out of memory", name ? name : "<string>");
-    rib_parser_init(p, name, t->text, t->len, scene, quiet, err);
+    rib_parser_init(p, name, t->text, t->len, scene, flags, err);
     p->frames.wanted = frame < 0 ? -1 : frame;
     p->frames.keep_depth = keep_depth;
     p->whole_scene = whole_scene;
@@ -301,7 +302,7 @@ static int rib_parse_once(const char *name, const rib_text *t, int frame, int ke
  * next; if what follows them does not make a scene, the text is read again from its first
  * frame. */
 static int rib_parse(const char *name, const char *text, size_t len, int frame, int whole_scene,
-                     ts_scene *scene, int quiet, ts_error *err)
+                     ts_scene *scene, unsigned flags, ts_error *err)
 {
     if (!scene) return ts_error_set(err, TS_E_INTERNAL, "rib_parse_string: no scene");
     rib_text t;
@@ -311,11 +312,11 @@ static int rib_parse(const char *name, const char *text, size_t len, int frame, 
         return rc;
     }
     int depth_skipped = 0;
-    rc = rib_parse_once(name, &t, frame, 0, whole_scene, scene, quiet, err, &depth_skipped);
+    rc = rib_parse_once(name, &t, frame, 0, whole_scene, scene, flags, err, &depth_skipped);
     if (rc != TS_OK && depth_skipped && rc != TS_E_MEMORY) {
         scene_free(scene);
         ts_error_clear(err);
-        rc = rib_parse_once(name, &t, frame, 1, whole_scene, scene, quiet, err, &depth_skipped);
+        rc = rib_parse_once(name, &t, frame, 1, whole_scene, scene, flags, err, &depth_skipped);
     }
     rib_text_free(&t);
     if (rc != TS_OK) scene_free(scene);
@@ -325,17 +326,34 @@ static int rib_parse(const char *name, const char *text, size_t len, int frame, 
 int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *scene, int quiet,
                      ts_error *err)
 {
-    return rib_parse(name, text, len, -1, 0, scene, quiet, err);
+    return rib_parse(name, text, len, -1, 0, scene, quiet ? RIB_QUIET : 0u, err);
+}
+
+int rib_parse_string_with(const char *name, const char *text, size_t len, const ts_load_options *lo,
+                          ts_scene *scene, ts_error *err)
+{
+    unsigned flags = (lo->quiet ? RIB_QUIET : 0u) | (lo->strict ? RIB_STRICT : 0u);
+    return rib_parse(name, text, len, -1, 0, scene, flags, err);
 }
 
 int rib_load_frame(const char *path, int frame, ts_scene *scene, int quiet, ts_error *err)
+{
+    ts_load_options lo;
+    scene_load_options_defaults(&lo);
+    lo.frame = frame;
+    lo.quiet = quiet;
+    return rib_load_with(path, &lo, scene, err);
+}
+
+int rib_load_with(const char *path, const ts_load_options *lo, ts_scene *scene, ts_error *err)
 {
     char *text;
     size_t len;
     char why[256];
     int rc = ts_file_read_all(path, &text, &len, why, sizeof why);
     if (rc != TS_OK) return ts_error_set(err, rc, "%s: %s", path, why);
-    rc = rib_parse(path, text, len, frame, 1, scene, quiet, err);
+    unsigned flags = (lo->quiet ? RIB_QUIET : 0u) | (lo->strict ? RIB_STRICT : 0u);
+    rc = rib_parse(path, text, len, lo->frame, 1, scene, flags, err);
     free(text);
     return rc;
 }

@@ -29,6 +29,19 @@ int rib_load(const char *path, ts_scene *scene, int quiet, ts_error *err);
  * with nothing that gives light gets a warning. */
 int rib_load_frame(const char *path, int frame, ts_scene *scene, int quiet, ts_error *err);
 
+/* rib_load_frame with lo's frame, quiet and strict (scene_load.h ts_load_options; lo->up is
+ * for meshes and not used here). Not strict, a texture, environment map, archive or mesh
+ * file that cannot be read gives one warning and a fallback (docs/rib.md "Missing files"):
+ * an archive or mesh is skipped, a colour texture leaves Cs alone, a displacement texture
+ * turns displacement off, an environment map leaves the dome its uniform colour. Strict,
+ * each is an error at the file name's line and column. rib_load_frame is not strict. */
+int rib_load_with(const char *path, const ts_load_options *lo, ts_scene *scene, ts_error *err);
+
+/* rib_parse_string with lo's quiet and strict (rib_load_with); lo->frame and lo->up are not
+ * used. */
+int rib_parse_string_with(const char *name, const char *text, size_t len, const ts_load_options *lo,
+                          ts_scene *scene, ts_error *err);
+
 /* Parses len bytes of RIB text (no NUL terminator needed); `name` is used in messages.
  * Safe on arbitrary bytes: never reads outside [text, text + len), bounds nesting depth,
  * token and array sizes, and frees everything on failure. Same contract as rib_load, except

@@ -3,7 +3,8 @@
  * (the same, read at once), Procedural "DynamicLoad" ["mesh" "file"] (host/scene/mesh.c) and
  * ["forest" "trees=.. seed=.. detail=.."] (host/scene/forest.c). Relative paths are relative to
  * the directory of the file that holds the request. Nesting is bounded and a file that
- * includes itself, directly or not, is an error. docs/rib.md has the details. */
+ * includes itself, directly or not, is an error. A file that cannot be read is skipped with a
+ * warning, or an error when strict (rib_missing_file). docs/rib.md has the details. */
 #include "scene/rib/rib_internal.h"
 #include "scene/rib/rib_text.h"
 
@@ -17,6 +18,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* The files being read, outermost first: their canonical paths (realpath), for the cycle
  * check; NULL where the name is not a file (rib_parse_string's name). */
@@ -53,9 +55,15 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
     size_t len;
     char why[256];
     int rc = ts_file_read_all(path, &text, &len, why, sizeof why);
-    if (rc != TS_OK) {
-        rc = rib_error_at(p, at->line, at->col, "%s: cannot read \"%s\": %s", p->req,
-                          rib_printable(path, shown), why);
+    if (rc != TS_OK) { /* missing: skipped with a warning unless strict; a FIFO, a device, a
+                          directory: an error either way */
+        if (rc == TS_E_MEMORY)
+            rc = ts_error_set(p->err, rc, "%s: out of memory", p->lx.file);
+        else if (access(path, R_OK) != 0)
+            rc = rib_missing_file(p, at->line, at->col, "", path, why, "skipped");
+        else
+            rc = rib_error_at(p, at->line, at->col, "%s: cannot read \"%s\": %s", p->req,
+                              rib_printable(path, shown), why);
         free(path);
         return rc;
     }
@@ -120,7 +128,13 @@ static int rib_proc_mesh(rib_parser *p, const char *file, const rib_arg *at)
     if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
     ts_error e = {0};
     rc = mesh_load(path, p->ctm, &attr, p->scene, &e);
-    if (rc == TS_E_IO || rc == TS_E_SCENE)
+    if (rc == TS_E_IO && !p->strict && access(path, R_OK) != 0) { /* missing: a warning */
+        char what[1024];
+        snprintf(what, sizeof what,
+                 "Procedural \"mesh\": %.900s; skipped (--strict makes this an error)", e.msg);
+        rib_warn_once(p, at->line, at->col, what);
+        rc = TS_OK;
+    } else if (rc == TS_E_IO || rc == TS_E_SCENE)
         rc = rib_error_at(p, at->line, at->col, "Procedural \"mesh\": %s", e.msg);
     else if (rc != TS_OK)
         rc = ts_error_set(p->err, rc, "%s", e.msg);

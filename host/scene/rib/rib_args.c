@@ -35,10 +35,28 @@ void rib_warn_once(rib_parser *p, int line, int col, const char *what)
     if (p->quiet) return;
     for (int i = 0; i < p->nwarned; i++)
         if (strncmp(p->warned[i], what, RIB_WARN_KEY - 1) == 0) return;
-    if (p->nwarned < RIB_MAX_WARNED) snprintf(p->warned[p->nwarned++], RIB_WARN_KEY, "%s", what);
+    if (p->nwarned < RIB_MAX_WARNED) { /* the key: what's first RIB_WARN_KEY - 1 bytes */
+        size_t n = strnlen(what, RIB_WARN_KEY - 1);
+        memcpy(p->warned[p->nwarned], what, n);
+        p->warned[p->nwarned++][n] = '\0';
+    }
     char where[1200];
     ts_print_line("%s: warning: %s", rib_lex_where(p->lx.file, line, col, where, sizeof where),
                   what);
+}
+
+int rib_missing_file(rib_parser *p, int line, int col, const char *what, const char *name,
+                     const char *why, const char *fallback)
+{
+    char shown[RIB_PRINT_MAX];
+    if (p->strict)
+        return rib_error_at(p, line, col, "%s: cannot read %s\"%s\": %s", p->req, what,
+                            rib_printable(name, shown), why);
+    char text[1024];
+    snprintf(text, sizeof text, "%s: cannot read %s\"%s\": %s; %s (--strict makes this an error)",
+             p->req, what, rib_printable(name, shown), why, fallback);
+    rib_warn_once(p, line, col, text);
+    return TS_OK;
 }
 
 const char *rib_printable(const char *s, char buf[RIB_PRINT_MAX])
@@ -404,18 +422,25 @@ char *rib_resolve_in(const rib_parser *p, const char *name, int which)
     return here;
 }
 
-int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, uint32_t *index)
+int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, const char *fallback, uint32_t *index)
 {
-    const char *name;
+    const char *name = NULL;
     int rc = rib_string_arg(p, i, "a texture file name", &name);
     if (rc != TS_OK) return rc;
     char *path = rib_resolve_in(p, name, 1);
     if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
     ts_error e = {0};
     rc = scene_add_texture(p->scene, path, kind, index, &e);
+    /* Missing (no file to open): RenderMan's warning and fallback unless strict. A file that
+     * is there but is no image Tessera can read (or has no image module) stays an error. */
+    int missing = rc != TS_OK && access(path, R_OK) != 0;
     free(path);
     if (rc == TS_E_MEMORY) return ts_error_set(p->err, rc, "%s", e.msg);
-    if (rc != TS_OK) {
+    if (rc != TS_OK && missing) {
+        *index = TS_INVALID;
+        rc =
+            rib_missing_file(p, p->args[i].line, p->args[i].col, "texture ", name, e.msg, fallback);
+    } else if (rc != TS_OK) {
         char shown[RIB_PRINT_MAX];
         rc = rib_error_at(p, p->args[i].line, p->args[i].col, "%s: cannot read texture \"%s\": %s",
                           p->req, rib_printable(name, shown), e.msg);

@@ -21,6 +21,12 @@ int rib_error_at(rib_parser *p, int line, int col, const char *fmt, ...)
     __attribute__((format(printf, 4, 5)));
 /* Prints "file:line:col: warning: <what>" once per distinct text unless quiet. */
 void rib_warn_once(rib_parser *p, int line, int col, const char *what);
+/* A file the current request names (`what` "texture ", "" ..., then its name) that cannot
+ * be read for reason `why`, at (line, col): strict, the error "REQ: cannot read WHAT\"name\":
+ * why" (TS_E_SCENE); otherwise, as RenderMan does, one warning "...; FALLBACK (--strict makes
+ * this an error)" and TS_OK: the caller goes on without the file. */
+int rib_missing_file(rib_parser *p, int line, int col, const char *what, const char *name,
+                     const char *why, const char *fallback);
 /* s with control and non-ASCII bytes as '?', cut to RIB_PRINT_MAX - 1 bytes ("..."):
  * for echoing file strings in one-line messages. Returns buf. */
 const char *rib_printable(const char *s, char buf[RIB_PRINT_MAX]);
@@ -99,8 +105,11 @@ char *rib_resolve(const rib_parser *p, const char *name);
  * Option "searchpath" `which` (0: "archive", 1: "texture"; relative directories beside the
  * file being read); the first readable one is returned, else rib_resolve's path. */
 char *rib_resolve_in(const rib_parser *p, const char *name, int which);
-/* Reads the texture named by string argument args[i] (relative to the RIB file) as kind
- * TS_TEX_* into the scene; an unreadable file is an error at that argument naming it. */
-int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, uint32_t *index);
+/* Reads the texture named by string argument args[i] (relative to the RIB file, or on the
+ * "texture" search path) as kind TS_TEX_* into the scene. A missing file (none to open) is
+ * rib_missing_file's: an error when strict, else a warning ending in `fallback` (what the
+ * scene does without it), TS_OK and *index = TS_INVALID. A file that is there but cannot be
+ * read as an image is an error at that argument naming it. */
+int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, const char *fallback, uint32_t *index);
 
 #endif

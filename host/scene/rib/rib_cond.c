@@ -8,6 +8,7 @@
 #include "scene/rib/rib_internal.h"
 
 #include <ctype.h>
+#include <math.h>
 #include <regex.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -15,6 +16,8 @@
 
 #define RIB_COND_STR 256 /* bytes of a string value (longer ones are cut) */
 #define RIB_COND_NEST 64 /* parentheses and ! nested in one expression */
+/* The product of the bounded repetitions {m,n} of one =~ pattern (cond_regex_check). */
+#define RIB_COND_REPEAT_MAX 1000
 
 typedef struct rib_cond_level {
     int line, col;     /* of its IfBegin */
@@ -223,6 +226,50 @@ static void cond_as_str(const cond_val *v, char *out, size_t n)
         snprintf(out, n, "%.17g", v->num);
 }
 
+/* Skips the bracket expression opening at *s ('['): returns where it closes (its ']'), or
+ * the end of the string. Inside it '\\', '{' and '(' are plain characters. */
+static const char *cond_skip_bracket(const char *s)
+{
+    s++;
+    if (*s == '^') s++;
+    if (*s == ']') s++; /* a leading ']' is a member */
+    for (; *s && *s != ']'; s++)
+        if (*s == '[' && (s[1] == ':' || s[1] == '.' || s[1] == '=')) { /* [:alpha:] ... */
+            char close = s[1];
+            for (s += 2; *s && !(*s == close && s[1] == ']'); s++)
+                ;
+            if (*s) s++;
+        }
+    return s;
+}
+
+/* What makes glibc's regex engine slow, or NULL: it backtracks on back-references ("(a*)*\\1b"
+ * against 255 a's ran 40 s) and copies a bounded repetition's operand once per count, so that
+ * nested counts multiply ("((a{1,255}){1,255}){1,255}" did not compile in minutes). Refused:
+ * back-references, and counts whose product over the pattern passes RIB_COND_REPEAT_MAX (the
+ * product over all of them, nested or not: a bound, not an exact cost). */
+static const char *cond_regex_check(const char *pat)
+{
+    double product = 1.0;
+    for (const char *s = pat; *s; s++) {
+        if (*s == '\\') {
+            if (s[1] >= '1' && s[1] <= '9') return "a back-reference (\\1 to \\9)";
+            if (s[1]) s++;
+        } else if (*s == '[') {
+            s = cond_skip_bracket(s);
+            if (!*s) break;
+        } else if (*s == '{' && isdigit((unsigned char)s[1])) {
+            char *end;
+            double m = strtod(s + 1, &end), n = m;
+            if (*end == ',' && isdigit((unsigned char)end[1])) n = strtod(end + 1, &end);
+            product *= fmax(fmax(m, n), 1.0);
+            if (product > RIB_COND_REPEAT_MAX)
+                return "repetition counts {m,n} that multiply past 1000";
+        }
+    }
+    return NULL;
+}
+
 static int cond_compare(cond_ctx *c, cond_val *v)
 {
     if (!cond_primary(c, v)) return 0;
@@ -241,6 +288,13 @@ static int cond_compare(cond_ctx *c, cond_val *v)
         cond_as_str(v, text, sizeof text);
         cond_as_str(&r, pat, sizeof pat);
         regex_t re;
+        const char *slow = cond_regex_check(pat);
+        if (slow) {
+            char msg[160];
+            snprintf(msg, sizeof msg, "a regular expression '%.60s' with %s: not supported", pat,
+                     slow);
+            return cond_fail(c, "%s", msg);
+        }
         if (regcomp(&re, pat, REG_EXTENDED | REG_NOSUB) != 0)
             return cond_fail(c, "a bad regular expression '%.60s'", pat);
         result = regexec(&re, text, 0, NULL, 0) == 0;

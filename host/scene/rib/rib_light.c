@@ -15,12 +15,14 @@
 
 #include "base/mat4.h"
 
+#include <errno.h>
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* Every number a light shader here reads, with its default. */
 typedef struct light_args {
@@ -274,7 +276,8 @@ static int light_add(rib_parser *p, size_t k, size_t first)
 /* LightSource "domelight" handle "float intensity" [i] "color lightcolor" [r g b]
  * ["string mapname" ["sky.exr"]]: a sky of radiance i * color, times the lat-long map's
  * texel in each direction when it has one (the path is relative to the RIB file; the image
- * is read when the render starts). One per scene. */
+ * is read when the render starts; a file that cannot be read leaves the sky uniform with a
+ * warning, or is an error when strict). One per scene. */
 static int light_dome(rib_parser *p, size_t first)
 {
     ts_dome_light d = {1, 1.0, {1, 1, 1}, ""};
@@ -292,8 +295,14 @@ static int light_dome(rib_parser *p, size_t first)
             return rib_error_at(p, prm.key->line, prm.key->col,
                                 "domelight \"mapname\": path too long");
         }
-        strcpy(d.mapname, path);
+        /* Read when the render starts; one that cannot be read is found here, at its name. */
+        if (access(path, R_OK) == 0)
+            strcpy(d.mapname, path);
+        else
+            rc = rib_missing_file(p, p->args[i + 1].line, p->args[i + 1].col, "", name,
+                                  strerror(errno), "a uniform sky of the light's colour");
         free(path);
+        if (rc != TS_OK) return rc;
     }
     light_args a = light_defaults(0);
     int rc = light_read_params(p, first, LIGHT_BASIC, &a, NULL, "mapname");

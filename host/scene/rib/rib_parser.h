@@ -149,11 +149,17 @@ typedef struct rib_frame_choice {
     int numbers[RIB_MAX_FRAMES_LISTED]; /* the numbers of the first ones, for messages */
 } rib_frame_choice;
 
+/* How a parse runs (rib.c rib_parse): no warnings; missing files are errors (rib.h
+ * rib_load_with). */
+#define RIB_QUIET 1u
+#define RIB_STRICT 2u
+
 typedef struct rib_parser {
     rib_lexer lx;
     ts_scene *scene;
     ts_error *err;
     int quiet;
+    int strict; /* a file that cannot be read is an error, not a warning and a fallback */
     /* The request being handled and its arguments (pools reset per request). */
     char req[RIB_MAX_NAME + 1];
     int req_line, req_col;

@@ -130,8 +130,8 @@ int rib_req_surface(rib_parser *p)
                           "(the path tracer reflects the scene itself)");
             continue;
         }
-        rc = rib_texture_arg(p, i + 1, TS_TEX_RGB, &s.tex);
-        s.textured = rc == TS_OK;
+        rc = rib_texture_arg(p, i + 1, TS_TEX_RGB, "rendered with Cs alone, untextured", &s.tex);
+        s.textured = rc == TS_OK && s.tex != TS_INVALID;
     }
     if (rc != TS_OK) return rc;
     p->surface = s;

@@ -479,7 +479,7 @@ static int rib_format_size(rib_parser *p, size_t i, const char *what, double v, 
 int rib_req_format(rib_parser *p)
 {
     size_t i = 0;
-    int w, h;
+    int w = 0, h = 0;
     double v[3];
     int rc = rib_before_world(p);
     if (rc == TS_OK) rc = rib_numbers(p, &i, 3, v);
@@ -615,8 +615,9 @@ int rib_req_displacement(rib_parser *p)
     int rc = rib_string_arg(p, 0, "a displacement name", &name);
     if (rc != TS_OK) return rc;
     char shown[RIB_PRINT_MAX];
-    rib_disp d = {TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0};
-    int off = name[0] == '\0' || strcmp(name, "null") == 0, has_tex = 0;
+    const rib_disp none = {TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0};
+    rib_disp d = none;
+    int off = name[0] == '\0' || strcmp(name, "null") == 0, has_tex = 0, missing = 0;
     if (strcmp(name, "fbm") == 0)
         d.kind = TS_DISP_FBM;
     else if (strcmp(name, "ridged") == 0)
@@ -651,9 +652,10 @@ int rib_req_displacement(rib_parser *p)
             continue;
         }
         if (k == 6) {
-            rc = rib_texture_arg(p, i + 1, TS_TEX_MINMAX, &d.tex);
+            rc = rib_texture_arg(p, i + 1, TS_TEX_MINMAX, "no displacement", &d.tex);
             if (rc != TS_OK) return rc;
             has_tex = 1;
+            missing = d.tex == TS_INVALID; /* not strict: the surface stays undisplaced */
             continue;
         }
         rc = rib_param_numbers(p, &prm, 1, &v, NULL);
@@ -677,6 +679,7 @@ int rib_req_displacement(rib_parser *p)
     if (tex && !has_tex)
         return rib_error_at(p, p->req_line, p->req_col,
                             "Displacement \"texture\": missing \"texturename\"");
+    if (missing) d = none; /* as Displacement "null" */
     if (off || d.amplitude == 0.0) d.kind = TS_DISP_NONE;
     p->disp = d;
     return TS_OK;
