@@ -67,16 +67,12 @@ static void assert_no_temporary(void)
     if (system(cmd) == 0) fail_msg("a temporary file is left in %s", dir);
 }
 
-/* Starts `tessera render teapot -o OUT RENDER_ARGS [extra]` in the background with stderr
- * to dir/NAME.stderr; waits for its first progress line (a wave is finished), sends
- * signal `sig` and returns the exit status. */
-static int render_and_signal(const char *out, const char *extra, int sig)
+/* Starts `tessera render SCENE -o OUT --res RES --spp SPP --memory MB [extra]` in the
+ * background with stderr to errpath; returns its pid. */
+static pid_t render_start(const char *errpath, const char *scene, const char *out, const char *res,
+                          const char *spp, const char *mb, const char *extra)
 {
-    char errpath[4300];
-    snprintf(errpath, sizeof errpath, "%s.stderr", in_dir(out));
-    const char *bin = test_tessera_binary(), *scene = test_source_path("scene/teapot.rib");
-    char outpath[4200];
-    snprintf(outpath, sizeof outpath, "%s", in_dir(out));
+    const char *bin = test_tessera_binary();
     pid_t pid = fork();
     assert_true(pid >= 0);
     if (pid == 0) {
@@ -84,10 +80,24 @@ static int render_and_signal(const char *out, const char *extra, int sig)
             nul = open("/dev/null", O_WRONLY);
         if (fd < 0 || nul < 0) _exit(126);
         dup2(fd, 2), dup2(nul, 1);
-        execl(bin, bin, "render", scene, "-o", outpath, "--res", RES, "--spp", SPP, "--memory",
-              MEMORY, extra ? extra : (char *)NULL, (char *)NULL);
+        execl(bin, bin, "render", scene, "-o", out, "--res", res, "--spp", spp, "--memory", mb,
+              extra, (char *)NULL);
         _exit(127);
     }
+    return pid;
+}
+
+/* Starts `tessera render teapot -o OUT RENDER_ARGS [extra]` in the background with stderr
+ * to dir/NAME.stderr; waits for its first progress line (a wave is finished), sends
+ * signal `sig` and returns the exit status. */
+static int render_and_signal(const char *out, const char *extra, int sig)
+{
+    char errpath[4300];
+    snprintf(errpath, sizeof errpath, "%s.stderr", in_dir(out));
+    char outpath[4200];
+    snprintf(outpath, sizeof outpath, "%s", in_dir(out));
+    pid_t pid = render_start(errpath, test_source_path("scene/teapot.rib"), outpath, RES, SPP,
+                             MEMORY, extra);
     int status = 0, progressed = 0;
     for (int i = 0; i < 6000 && !progressed; ++i) { /* up to 60 s (a cold kernel cache) */
         if (waitpid(pid, &status, WNOHANG) == pid)
@@ -399,18 +409,8 @@ static void test_sigint_in_a_long_wave_is_honoured_at_once(void **state)
     char errpath[4300], outpath[4200];
     snprintf(errpath, sizeof errpath, "%s", in_dir("long.stderr"));
     snprintf(outpath, sizeof outpath, "%s", in_dir("long.exr"));
-    const char *bin = test_tessera_binary(), *scene = test_source_path("scene/forest-100.rib");
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        int fd = open(errpath, O_WRONLY | O_CREAT | O_TRUNC, 0644),
-            nul = open("/dev/null", O_WRONLY);
-        if (fd < 0 || nul < 0) _exit(126);
-        dup2(fd, 2), dup2(nul, 1);
-        execl(bin, bin, "render", scene, "-o", outpath, "--res", "640x256", "--spp", "16",
-              "--memory", "128", (char *)NULL);
-        _exit(127);
-    }
+    pid_t pid = render_start(errpath, test_source_path("scene/forest-100.rib"), outpath, "640x256",
+                             "16", "128", NULL);
     /* The top quarter of the frame is mostly sky: its waves are quick. Past it each wave dices
      * for seconds (6-15 s here); the signal comes just after one ended. */
     int status = 0, progressed = 0;

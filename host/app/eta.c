@@ -46,3 +46,18 @@ double eta_seconds_left(const ts_eta *e, double done, double seconds, uint64_t s
     double left = eta_work(e, total) - eta_work(e, start) - done;
     return left > 0.0 ? seconds * left / done : 0.0;
 }
+
+void eta_print(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
+               double rays, double seconds, const char *what)
+{
+    double all = eta_work(e, total) - eta_work(e, start);
+    double left = eta_seconds_left(e, done, seconds, start, total);
+    char eta[48];
+    if (left < 0.0)
+        snprintf(eta, sizeof eta, "ETA after the first %s", what);
+    else
+        snprintf(eta, sizeof eta, "ETA %.0f s", left);
+    fprintf(stderr, "\rtessera: %llu / %llu samples, %.0f%% done, %.2f Mrays/s, %s   ",
+            (unsigned long long)samples, (unsigned long long)total,
+            all > 0.0 ? 100.0 * done / all : 100.0, seconds > 0 ? rays / seconds / 1e6 : 0.0, eta);
+}

@@ -14,6 +14,7 @@
 #include "base/error.h"
 
 #include <stdint.h>
+#include <stdio.h>
 
 typedef struct ts_eta {
     uint64_t *prefix; /* prefix[p]: the weight of pixels [0, p), npix + 1 entries */
@@ -31,5 +32,11 @@ double eta_work(const ts_eta *e, uint64_t k);
  * frame's part to trace; -1 while nothing is done. */
 double eta_seconds_left(const ts_eta *e, double done, double seconds, uint64_t start,
                         uint64_t total);
+
+/* Prints the progress line on stderr (\r, no newline): samples finished of total, the
+ * share `done` of the weight of [start, total), rays per second over `seconds`, and the time
+ * left, or "ETA after the first <what>" while nothing is done. */
+void eta_print(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
+               double rays, double seconds, const char *what);
 
 #endif

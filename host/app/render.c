@@ -110,8 +110,7 @@ static void wave_progress_print(wave_progress *w, int in_wave)
 {
     if (w->o->quiet || ferror(stderr)) return;
     double now = stats_now(), dt = now - w->t0;
-    double base = eta_work(&w->eta, w->start), all = eta_work(&w->eta, w->total) - base;
-    double done = eta_work(&w->eta, w->done) - base;
+    double done = eta_work(&w->eta, w->done) - eta_work(&w->eta, w->start);
     if (in_wave && done > 0.0 && w->wave_t0 > w->t0) {
         double wave = eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, w->done);
         double credit = done / (w->wave_t0 - w->t0) * (now - w->wave_t0);
@@ -119,15 +118,7 @@ static void wave_progress_print(wave_progress *w, int in_wave)
     }
     double rays = (double)(w->p->stats->counters[TS_COUNTER_rays] +
                            w->p->stats->counters[TS_COUNTER_shadow_rays]);
-    double left = eta_seconds_left(&w->eta, done, dt, w->start, w->total);
-    char eta[32];
-    if (left < 0.0)
-        snprintf(eta, sizeof eta, "ETA after the first wave");
-    else
-        snprintf(eta, sizeof eta, "ETA %.0f s", left);
-    fprintf(stderr, "\rtessera: %llu / %llu samples, %.0f%% done, %.2f Mrays/s, %s   ",
-            (unsigned long long)w->done, (unsigned long long)w->total,
-            all > 0.0 ? 100.0 * done / all : 100.0, dt > 0 ? rays / dt / 1e6 : 0.0, eta);
+    eta_print(&w->eta, w->done, w->start, w->total, done, rays, dt, "wave");
     w->printed = now;
 }
 

@@ -863,16 +863,7 @@ static int frame_progress(ts_workers *g, ts_board *b, frame_progress_state *st, 
     board_progress(b, &finished, &rays);
     if (finished == 0 && !board_finished(b)) return 0; /* devices still print their notes */
     double done = board_work_finished(b, &st->eta), dt = stats_now() - st->t0;
-    double all = eta_work(&st->eta, b->total) - eta_work(&st->eta, b->start);
-    double left = eta_seconds_left(&st->eta, done, dt, b->start, b->total);
-    char eta[32];
-    if (left < 0.0)
-        snprintf(eta, sizeof eta, "ETA after the first unit");
-    else
-        snprintf(eta, sizeof eta, "ETA %.0f s", left);
-    fprintf(stderr, "\rtessera: %llu / %llu samples, %.0f%% done, %.2f Mrays/s, %s   ",
-            (unsigned long long)(b->start + finished), (unsigned long long)b->total,
-            all > 0.0 ? 100.0 * done / all : 100.0, dt > 0 ? (double)rays / dt / 1e6 : 0.0, eta);
+    eta_print(&st->eta, b->start + finished, b->start, b->total, done, (double)rays, dt, "unit");
     return 1;
 }
 
