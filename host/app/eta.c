@@ -3,6 +3,11 @@
 
 #include <stdlib.h>
 
+uint64_t eta_weight(uint32_t cost)
+{
+    return TS_ETA_PER_CROSSING * (uint64_t)(cost - 1u) + 1u;
+}
+
 int eta_init(ts_eta *e, const uint32_t *cost, uint32_t npix, uint32_t spp, uint32_t band,
              ts_error *err)
 {
@@ -11,11 +16,11 @@ int eta_init(ts_eta *e, const uint32_t *cost, uint32_t npix, uint32_t spp, uint3
     if (!e->prefix) return ts_error_set(err, TS_E_MEMORY, "out of memory (progress weights)");
     uint64_t counted = 0, sum = 0;
     for (uint32_t p = 0; cost && p < npix; ++p)
-        if (cost[p]) ++counted, sum += cost[p];
+        if (cost[p]) ++counted, sum += eta_weight(cost[p]);
     uint64_t mean = counted ? (sum + counted / 2) / counted : 1;
     e->prefix[0] = 0;
     for (uint32_t p = 0; p < npix; ++p)
-        e->prefix[p + 1] = e->prefix[p] + (!cost ? 1 : cost[p] ? cost[p] : mean);
+        e->prefix[p + 1] = e->prefix[p] + (!cost ? 1 : cost[p] ? eta_weight(cost[p]) : mean);
     return TS_OK;
 }
 
