@@ -6,7 +6,10 @@
 #include <stdio.h>
 #include <string.h>
 
-static void test_docs_name_the_stages_in_order(void **state)
+/* The lines of docs/stages.md that `format` (one %63[a-z_] conversion) reads a stage name
+ * from name the stages of host/base/stages.h, each once, in order; `what` names them in the
+ * message. */
+static void check_docs_stage_lines(const char *format, const char *what)
 {
     FILE *f = fopen(test_source_path("docs/stages.md"), "r");
     assert_non_null(f);
@@ -14,11 +17,10 @@ static void test_docs_name_the_stages_in_order(void **state)
     int next = 0;
     while (fgets(line, sizeof line, f)) {
         char name[64];
-        /* Table rows start with "| `name` |". */
-        if (sscanf(line, "| `%63[a-z_]` |", name) != 1) continue;
-        if (next >= TS_STAGE_COUNT) fail_msg("docs/stages.md lists an extra stage %s", name);
+        if (sscanf(line, format, name) != 1) continue;
+        if (next >= TS_STAGE_COUNT) fail_msg("docs/stages.md: an extra %s, %s", what, name);
         if (strcmp(name, ts_stage_names[next]) != 0)
-            fail_msg("docs/stages.md row %d is %s, host/base/stages.h says %s", next + 1, name,
+            fail_msg("docs/stages.md %s %d is %s, host/base/stages.h says %s", what, next + 1, name,
                      ts_stage_names[next]);
         ++next;
     }
@@ -26,24 +28,15 @@ static void test_docs_name_the_stages_in_order(void **state)
     assert_int_equal(next, TS_STAGE_COUNT);
 }
 
+static void test_docs_name_the_stages_in_order(void **state)
+{
+    check_docs_stage_lines("| `%63[a-z_]` |", "table row"); /* rows start "| `name` |" */
+}
+
 static void test_docs_detail_each_stage_in_order(void **state)
 {
     /* Below the one-line table, each stage has a "### `name`" section, in the same order. */
-    FILE *f = fopen(test_source_path("docs/stages.md"), "r");
-    assert_non_null(f);
-    char line[4096];
-    int next = 0;
-    while (fgets(line, sizeof line, f)) {
-        char name[64];
-        if (sscanf(line, "### `%63[a-z_]`", name) != 1) continue;
-        if (next >= TS_STAGE_COUNT) fail_msg("docs/stages.md details an extra stage %s", name);
-        if (strcmp(name, ts_stage_names[next]) != 0)
-            fail_msg("docs/stages.md detail section %d is %s, host/base/stages.h says %s", next + 1,
-                     name, ts_stage_names[next]);
-        ++next;
-    }
-    fclose(f);
-    assert_int_equal(next, TS_STAGE_COUNT);
+    check_docs_stage_lines("### `%63[a-z_]`", "detail section");
 }
 
 static void test_each_stage_has_a_kernel_file_or_host_file(void **state)
