@@ -4,6 +4,7 @@
  * scene/teapots.rib, written to use the requests of issue 16. Host only: never skips.
  * test_rib_render renders them. */
 #include "scene/rib/rib.h"
+#include "scene/scene_load.h"
 #include "scene/scene.h"
 
 #include <math.h>
@@ -112,7 +113,7 @@ static void test_feature_scene(void **state)
         ts_scene s;
         ts_error e = {0};
         memset(&s, 0, sizeof s);
-        if (rib_load_frame(test_source_path("scene/teapots.rib"), frame, &s, 1, &e) != TS_OK)
+        if (scene_load_frame(test_source_path("scene/teapots.rib"), frame, &s, 1, &e) != TS_OK)
             fail_msg("frame %d: %s", frame, e.msg);
         int top = frame == 2;
         assert_int_equal(s.patch_count, 1 + 4 * 32);

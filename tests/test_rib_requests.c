@@ -96,7 +96,8 @@ static void write_text(const char *path, const char *text)
     write_bytes(path, text, strlen(text));
 }
 
-/* rib_load_frame of path with stderr captured (warnings, not quiet) into a static buffer. */
+/* rib_load_with of path at `frame` with stderr captured (warnings, not quiet) into a static buffer.
+ */
 static const char *load_capturing(const char *path, int frame, ts_scene *s, ts_error *e, int *rc)
 {
     static char out[4096];
@@ -107,7 +108,10 @@ static const char *load_capturing(const char *path, int frame, ts_scene *s, ts_e
     assert_true(saved >= 0 && dup2(fileno(tmp), fileno(stderr)) >= 0);
     memset(s, 0, sizeof *s);
     memset(e, 0, sizeof *e);
-    *rc = rib_load_frame(path, frame, s, 0, e);
+    ts_load_options lo;
+    scene_load_options_defaults(&lo);
+    lo.frame = frame;
+    *rc = rib_load_with(path, &lo, s, e);
     fflush(stderr);
     dup2(saved, fileno(stderr));
     close(saved);
@@ -118,7 +122,7 @@ static const char *load_capturing(const char *path, int frame, ts_scene *s, ts_e
     return out;
 }
 
-/* rib_load_frame of path must fail with exactly msg (with the path in front of ":"). */
+/* rib_load_with of path at `frame` must fail with exactly msg (with the path in front of ":"). */
 static void expect_load_error(const char *path, int frame, const char *msg)
 {
     ts_scene s;

@@ -135,15 +135,14 @@ static int trade_rays(ts_pipeline *p, uint64_t verts, uint64_t groups, int quiet
     return 1;
 }
 
-/* The frame's patches (verts and groups entries) do not fit the room: the arenas take all of
- * it (extra bytes beyond the budget's arenas), split as the patches need, and the patch
+/* The frame's patches (verts and groups entries, need bytes) do not fit the room: the arenas take
+ * all of it (extra bytes beyond the budget's arenas), split as the patches need, and the patch
  * cache's size classes each get the same share of their patches (patch_cache_plan); so a frame
  * 5% over the room keeps 95% of its patches, not the plan's quarter of the budget. */
-static int take_the_room(ts_pipeline *p, uint64_t verts, uint64_t groups, uint64_t extra, int quiet,
-                         ts_error *err)
+static int take_the_room(ts_pipeline *p, uint64_t verts, uint64_t groups, uint64_t need,
+                         uint64_t extra, int quiet, ts_error *err)
 {
     uint64_t have = pipeline_arena_bytes(&p->plan);
-    uint64_t need = verts * sizeof(ts_vec4) + groups * TS_GROUP_BYTES;
     double share = (double)(have + extra) / (double)need;
     uint64_t v = (uint64_t)(share * (double)verts), g = (uint64_t)(share * (double)groups);
     if (v < p->plan.vert_capacity) v = p->plan.vert_capacity; /* a moving patch at max_lod */
@@ -174,7 +173,7 @@ int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, t
         int traded = trade ? trade_rays(p, verts, groups, quiet, err) : 0;
         if (traded < 0) return err->code;
         if (traded) return TS_OK;
-        return take_the_room(p, verts, groups, extra, quiet, err);
+        return take_the_room(p, verts, groups, need, extra, quiet, err);
     }
     if (!arenas_grow(p, verts, groups, quiet, err)) return TS_OK;
     uint64_t now = pipeline_arena_bytes(&p->plan);

@@ -273,5 +273,4 @@ void patch_cache_end_batch(ts_patch_cache *c)
         if (!c->fixed_vert) lru_push(c, p);
     }
     c->pinned_count = c->pinned_now = 0;
-    ++c->clock;
 }

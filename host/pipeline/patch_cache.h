@@ -90,7 +90,6 @@ typedef struct ts_patch_cache {
     uint32_t resident_count;
     uint32_t *pinned_list; /* patches pinned since the batch began (some released since) */
     uint32_t pinned_count, pinned_now;
-    uint64_t clock; /* counts batches */
     /* Counters for --stats (summed over the frame). */
     uint64_t hits, misses, evictions;
     uint64_t examined;   /* entries looked at by acquire: one a hit or miss, one a victim */

@@ -541,7 +541,7 @@ int pipeline_lod_finish_with(ts_pipeline *p, ts_lod_rule rule, int before_hit, c
     /* Otherwise the patch cache keeps its patches (each is keyed by its m, so one whose level
      * changed is simply diced again when a segment asks for it) unless the new levels give its
      * size classes other quotas (pipeline_cache_plan, at the next trace). */
-    ++p->lod_version;
+    p->cache_planned = 0;
     p->stats->stage_seconds[TS_STAGE_lod] += stats_now() - t0;
     return rc;
 }
@@ -607,35 +607,46 @@ uint64_t pipeline_arena_bytes(const ts_pipeline_plan *plan)
            (uint64_t)plan->group_capacity * TS_GROUP_BYTES;
 }
 
-void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups)
+/* How many of the frame's patches each size class (patch_cache.h) holds at their levels of
+ * detail; an instance that shares its master's dicing counts none of its own. */
+static void class_need(const ts_pipeline *p, uint64_t need[TS_CACHE_CLASSES])
 {
-    *verts = *groups = 0;
-    for (uint32_t i = 0; i < p->scene->patch_count; ++i) {
-        uint32_t m = pipeline_patch_lod(p, i), q = scene_shape(p->scene, i);
-        if (q != i && pipeline_patch_lod(p, q) == m) continue; /* diced as its master */
-        uint64_t times = p->scene->attr[i].flags & TS_PATCH_MOVING ? 2u : 1u;
-        *verts += times * quadtree_vertex_count(m);
-        *groups += times * quadtree_group_count(m);
-    }
-}
-
-void pipeline_cache_plan(ts_pipeline *p)
-{
-    if (p->planned_version == p->lod_version + 1u && p->planned_fixed_lod == p->mode.fixed_lod)
-        return;
-    uint64_t need[TS_CACHE_CLASSES] = {0};
+    memset(need, 0, TS_CACHE_CLASSES * sizeof *need);
     for (uint32_t i = 0; i < p->scene->patch_count; ++i) {
         uint32_t m = pipeline_patch_lod(p, i), q = scene_shape(p->scene, i);
         if (q != i && pipeline_patch_lod(p, q) == m) continue; /* diced as its master */
         need[TS_CACHE_CLASS(m, p->scene->attr[i].flags & TS_PATCH_MOVING ? 2u : 1u)]++;
     }
+}
+
+/* The arena entries of need[] patches a class. */
+static void need_entries(const uint64_t need[TS_CACHE_CLASSES], uint64_t *verts, uint64_t *groups)
+{
+    *verts = *groups = 0;
+    for (uint32_t m = 0; m <= TS_LOD_LIMIT; ++m)
+        for (uint32_t t = 1; t <= 2; ++t) {
+            *verts += need[TS_CACHE_CLASS(m, t)] * patch_cache_vert_count(m, t);
+            *groups += need[TS_CACHE_CLASS(m, t)] * patch_cache_group_count(m, t);
+        }
+}
+
+void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups)
+{
+    uint64_t need[TS_CACHE_CLASSES];
+    class_need(p, need);
+    need_entries(need, verts, groups);
+}
+
+void pipeline_cache_plan(ts_pipeline *p)
+{
+    if (p->cache_planned && p->planned_fixed_lod == p->mode.fixed_lod) return;
+    uint64_t need[TS_CACHE_CLASSES], verts, groups;
+    class_need(p, need);
     patch_cache_plan(&p->cache, need);
-    uint64_t bytes = 0;
-    for (uint32_t k = 0; k < TS_CACHE_CLASSES; ++k)
-        bytes += need[k] * ((uint64_t)p->cache.cls[k].nv * sizeof(ts_vec4) +
-                            (uint64_t)p->cache.cls[k].ng * TS_GROUP_BYTES);
-    p->stats->counters[TS_COUNTER_patch_cache_need_bytes] = bytes;
-    p->planned_version = p->lod_version + 1u;
+    need_entries(need, &verts, &groups);
+    p->stats->counters[TS_COUNTER_patch_cache_need_bytes] =
+        verts * sizeof(ts_vec4) + groups * TS_GROUP_BYTES;
+    p->cache_planned = 1;
     p->planned_fixed_lod = p->mode.fixed_lod;
 }
 
@@ -699,7 +710,7 @@ static int arenas_replace(ts_pipeline *p, void *grid, void *tree, void *tight, u
     p->cache = cache;
     p->plan.vert_capacity = (uint32_t)verts;
     p->plan.group_capacity = (uint32_t)groups;
-    ++p->lod_version; /* an empty cache: its quotas are planned at the next trace */
+    p->cache_planned = 0; /* an empty cache: its quotas are planned at the next trace */
     p->stats->counters[TS_COUNTER_patch_cache_bytes] = pipeline_arena_bytes(&p->plan);
     return TS_OK;
 }

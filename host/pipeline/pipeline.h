@@ -238,11 +238,10 @@ typedef struct ts_pipeline {
      * every segment is diced again as before the cache. */
     ts_patch_cache cache;
     int cache_off;
-    /* The levels of detail the cache's quotas were planned for (pipeline_cache_plan): the
-     * lod stage's version (lod_version, counted by pipeline_lod_finish_with and new arenas)
-     * and the fixed --lod; planned_version 0: not yet. */
-    uint32_t lod_version, planned_version;
-    int planned_fixed_lod;
+    /* Whether the cache's quotas are planned for the frame's levels of detail
+     * (pipeline_cache_plan): cleared by pipeline_lod_finish_with, new arenas and
+     * pipeline_dice_build; planned_fixed_lod is the --lod they were planned at. */
+    int cache_planned, planned_fixed_lod;
     uint32_t sweep; /* iterations planned: odd ones walk the segments backwards (trace.c) */
     /* Per pixel (pixel_count), 1 + the leaf boxes its first-pass eye ray crossed in the lod
      * stage (kernels/lod.cl), 0 where this device did not count it: what the progress line

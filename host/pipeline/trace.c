@@ -680,7 +680,7 @@ int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
         need[TS_CACHE_CLASS(s->lod, p->scene->attr[s->patch].flags & TS_PATCH_MOVING ? 2u : 1u)]++;
     }
     patch_cache_plan(&p->cache, need);
-    p->planned_version = 0;       /* the next trace plans for the frame's levels again */
+    p->cache_planned = 0;         /* the next trace plans for the frame's levels again */
     patch_cache_clear(&p->cache); /* dice every segment, whatever was resident */
     plan_batches(p, count);       /* the caller set each segment's LOD */
     if (p->batch_count != 1)

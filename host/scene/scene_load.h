@@ -42,7 +42,7 @@ int scene_parse_up(const char *s, int *up);
  * axis from lo->up when that is not 0 (the automatic camera then stands on it). */
 int scene_load_with(const char *path, const ts_load_options *lo, ts_scene *s, ts_error *err);
 
-/* scene_load of one frame of a RIB animation (rib_load_frame: FrameBegin `frame`, or the
+/* scene_load of one frame of a RIB animation (rib_load_with: FrameBegin `frame`, or the
  * first for frame < 0); a mesh has no frames (TS_E_USAGE for frame >= 0). */
 int scene_load_frame(const char *path, int frame, ts_scene *s, int quiet, ts_error *err);
 

@@ -336,15 +336,6 @@ int rib_parse_string_with(const char *name, const char *text, size_t len, const 
     return rib_parse(name, text, len, -1, 0, scene, flags, err);
 }
 
-int rib_load_frame(const char *path, int frame, ts_scene *scene, int quiet, ts_error *err)
-{
-    ts_load_options lo;
-    scene_load_options_defaults(&lo);
-    lo.frame = frame;
-    lo.quiet = quiet;
-    return rib_load_with(path, &lo, scene, err);
-}
-
 int rib_load_with(const char *path, const ts_load_options *lo, ts_scene *scene, ts_error *err)
 {
     char *text;
@@ -360,5 +351,8 @@ int rib_load_with(const char *path, const ts_load_options *lo, ts_scene *scene, 
 
 int rib_load(const char *path, ts_scene *scene, int quiet, ts_error *err)
 {
-    return rib_load_frame(path, -1, scene, quiet, err);
+    ts_load_options lo;
+    scene_load_options_defaults(&lo);
+    lo.quiet = quiet;
+    return rib_load_with(path, &lo, scene, err);
 }

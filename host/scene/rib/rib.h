@@ -22,19 +22,16 @@
  * stderr, one per request name, unless quiet. */
 int rib_load(const char *path, ts_scene *scene, int quiet, ts_error *err);
 
-/* rib_load of one frame of an animation: the FrameBegin block numbered `frame` (the others
- * are skipped), or the first one for frame < 0. Fails (TS_E_SCENE) when the file has no such
- * frame, naming those it has. rib_load is rib_load_frame(path, -1, ...). As a whole scene,
- * the file (or frame) must hold a world block with geometry: an error otherwise; a scene
- * with nothing that gives light gets a warning. */
-int rib_load_frame(const char *path, int frame, ts_scene *scene, int quiet, ts_error *err);
-
-/* rib_load_frame with lo's frame, quiet and strict (scene_load.h ts_load_options; lo->up is
- * for meshes and not used here). Not strict, a texture, environment map, archive or mesh
+/* rib_load with everything in lo: one frame of an animation (lo->frame: the FrameBegin
+ * block numbered so, the others skipped, or the first one below 0; TS_E_SCENE naming the
+ * frames the file has when it has no such frame), quiet and strict (scene_load.h
+ * ts_load_options; lo->up is for meshes and not used here). As a whole scene, the file (or
+ * frame) must hold a world block with geometry: an error otherwise; a scene with nothing that
+ * gives light gets a warning. Not strict, a texture, environment map, archive or mesh
  * file that cannot be read gives one warning and a fallback (docs/rib.md "Missing files"):
  * an archive or mesh is skipped, a colour texture leaves Cs alone, a displacement texture
  * turns displacement off, an environment map leaves the dome its uniform colour. Strict,
- * each is an error at the file name's line and column. rib_load_frame is not strict. */
+ * each is an error at the file name's line and column. rib_load is not strict. */
 int rib_load_with(const char *path, const ts_load_options *lo, ts_scene *scene, ts_error *err);
 
 /* rib_parse_string with lo's quiet and strict (rib_load_with); lo->frame and lo->up are not
