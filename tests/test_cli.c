@@ -189,8 +189,21 @@ static void test_render_exr_and_stats(void **state)
     assert_true(number(j, "memory_budget_bytes") >= 16 << 20);
     assert_true(number(j, "memory_budget_bytes") <= 1024 << 20);
     const cJSON *stages = cJSON_GetObjectItemCaseSensitive(j, "stages");
-    for (int i = 0; i < TS_STAGE_COUNT; ++i)
+    double all = 0;
+    for (int i = 0; i < TS_STAGE_COUNT; ++i) {
         assert_true(number(stages, ts_stage_names[i]) >= 0);
+        all += number(stages, ts_stage_names[i]);
+    }
+    /* One device's kernels run one at a time: while they ran is their sum, at least the
+     * stages that are kernels alone and at most every stage (host parts included); the host
+     * ran alone the rest of the wall. */
+    double kernels = number(j, "kernel_seconds"), wall = number(j, "wall_seconds");
+    double only_kernels = number(stages, "camera") + number(stages, "top_level") +
+                          number(stages, "dice") + number(stages, "build") +
+                          number(stages, "bottom_level");
+    assert_true(only_kernels > 0 && kernels >= only_kernels - 1e-6);
+    assert_true(kernels <= all + 1e-6 && kernels <= wall);
+    assert_true(fabs(number(j, "host_serial_seconds") - (wall - kernels)) < 1e-6);
     const cJSON *c = cJSON_GetObjectItemCaseSensitive(j, "counters");
     /* Eye rays plus the bounce rays of the paths (depth 3); the teapot is lit: shadow rays. */
     assert_true(number(c, "rays") >= 64 * 36 && number(c, "rays") <= 4 * 64 * 36);

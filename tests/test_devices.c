@@ -16,6 +16,7 @@
 #include "image/image.h"
 
 #include <cjson/cJSON.h>
+#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -96,7 +97,18 @@ static void test_two_devices_give_the_one_device_image(void **state)
         assert_int_equal(cJSON_GetArraySize(devs), 2);
         double samples = device_number(root, 0, "samples") + device_number(root, 1, "samples");
         assert_true(samples == 96.0 * 54 * 4);
+        /* While a kernel ran on either device: at least each one's, at most both's sum. */
+        double k0 = device_number(root, 0, "kernel_seconds");
+        double k1 = device_number(root, 1, "kernel_seconds");
+        double both = cJSON_GetObjectItemCaseSensitive(root, "kernel_seconds")->valuedouble;
+        double wall = cJSON_GetObjectItemCaseSensitive(root, "wall_seconds")->valuedouble;
+        double serial = cJSON_GetObjectItemCaseSensitive(root, "host_serial_seconds")->valuedouble;
+        assert_true(k0 > 0 && k1 > 0 && both >= k0 - 1e-6 && both >= k1 - 1e-6);
+        assert_true(both <= k0 + k1 + 1e-6 && both <= wall);
+        assert_true(fabs(serial - (wall - both)) < 1e-6);
         for (int k = 0; k < 2; ++k) {
+            assert_true(device_number(root, k, "kernel_seconds") <=
+                        device_number(root, k, "frame_seconds"));
             double busy = device_number(root, k, "busy_fraction");
             assert_true(device_number(root, k, "units") >= 1);
             assert_true(busy > 0.0 && busy <= 1.0);

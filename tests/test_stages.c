@@ -2,6 +2,9 @@
  * TS_STAGES list that drives the enum, the --stats keys and the timing table (STYLE.md 4). */
 #include "test_support.h"
 #include "base/stages.h"
+#include "base/stats.h"
+
+#include <math.h>
 
 #include <stdio.h>
 #include <string.h>
@@ -54,12 +57,37 @@ static void test_each_stage_has_a_kernel_file_or_host_file(void **state)
     }
 }
 
+/* --stats "kernel_seconds" is the union of the devices' busy spans: two devices' overlapping
+ * spans count once, a gap not at all, and a span inside another adds nothing. */
+static void test_kernel_seconds_are_the_union_of_the_spans(void **state)
+{
+    ts_stats a = {0}, b = {0}, frame = {0};
+    ts_error err = {0};
+    /* device a: [1, 2] and [2, 3] touch (merged: one span), then [5, 6] */
+    assert_int_equal(stats_add_busy(&a, 1.0, 2.0, &err), TS_OK);
+    assert_int_equal(stats_add_busy(&a, 2.0, 3.0, &err), TS_OK);
+    assert_int_equal(stats_add_busy(&a, 5.0, 6.0, &err), TS_OK);
+    assert_int_equal(a.busy_count, 2);
+    assert_true(fabs(stats_kernel_seconds(&a) - 3.0) < 1e-12);
+    /* device b: [2.5, 4] overlaps a's first span, [5.2, 5.8] lies inside a's second */
+    assert_int_equal(stats_add_busy(&b, 2.5, 4.0, &err), TS_OK);
+    assert_int_equal(stats_add_busy(&b, 5.2, 5.8, &err), TS_OK);
+    assert_true(fabs(stats_kernel_seconds(&b) - 2.1) < 1e-12);
+    assert_int_equal(stats_merge(&frame, &a, &err), TS_OK);
+    assert_int_equal(stats_merge(&frame, &b, &err), TS_OK);
+    /* [1, 4] and [5, 6] */
+    assert_true(fabs(stats_kernel_seconds(&frame) - 4.0) < 1e-12);
+    stats_free(&a), stats_free(&b), stats_free(&frame);
+    assert_true(stats_kernel_seconds(&frame) == 0.0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_docs_name_the_stages_in_order),
         cmocka_unit_test(test_docs_detail_each_stage_in_order),
         cmocka_unit_test(test_each_stage_has_a_kernel_file_or_host_file),
+        cmocka_unit_test(test_kernel_seconds_are_the_union_of_the_spans),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -377,6 +377,8 @@ int ranks_finish(ts_ranks *r, ts_stats *stats, ts_error *err)
         me.units += d->units;
         me.samples += d->samples;
     }
+    me.kernel_seconds = stats_kernel_seconds(stats); /* its spans: the other ranks send none */
+    me.host_serial_seconds = me.seconds > me.kernel_seconds ? me.seconds - me.kernel_seconds : 0;
     if (!rc) rc = stats_add_rank(stats, &me, err);
     if (!rc) qsort(stats->ranks, stats->rank_count, sizeof *stats->ranks, cmp_rank);
     return rc;
@@ -653,6 +655,10 @@ static int follow_bye(ts_ranks *r, ts_workers *g, const ts_error *why, ts_error 
     snprintf(head.rank.host, sizeof head.rank.host, "%s", r->host);
     head.rank.seconds = stats_now() - r->t0;
     head.rank.scene_seconds = r->scene_seconds;
+    head.rank.kernel_seconds = stats_kernel_seconds(&s);
+    head.rank.host_serial_seconds = head.rank.seconds > head.rank.kernel_seconds
+                                        ? head.rank.seconds - head.rank.kernel_seconds
+                                        : 0;
     for (uint32_t i = 0; i < s.device_count; ++i) {
         head.rank.devices += !s.devices[i].failed;
         head.rank.units += s.devices[i].units;

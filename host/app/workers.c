@@ -762,6 +762,7 @@ int workers_stats(ts_workers *g, ts_stats *stats, ts_error *err)
     for (uint32_t i = 0; i < g->count; ++i) {
         ts_worker *w = &g->w[i];
         w->stats.kernel_build_seconds = w->cl.build_seconds;
+        w->out.kernel_seconds = stats_kernel_seconds(&w->stats);
         if (stats_merge(stats, &w->stats, err)) return err->code;
         stats->kernel_cache_hit = (i == 0 || stats->kernel_cache_hit) && w->cl.cache_hit;
         stats->memory_budget_bytes += w->stats.memory_budget_bytes;

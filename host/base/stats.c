@@ -6,6 +6,7 @@
 #include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <sys/resource.h>
 #include <time.h>
 #include <unistd.h>
@@ -46,6 +47,53 @@ int stats_add_iteration(ts_stats *s, const ts_iteration *it, ts_error *err)
     return TS_OK;
 }
 
+int stats_add_busy(ts_stats *s, double start, double end, ts_error *err)
+{
+    if (end < start) end = start;
+    if (s->busy_count > 0) {
+        ts_busy_span *last = &s->busy[s->busy_count - 1];
+        if (start <= last->end && start >= last->start) {
+            if (end > last->end) last->end = end;
+            return TS_OK;
+        }
+    }
+    if (s->busy_count == s->busy_capacity) {
+        uint32_t cap = s->busy_capacity ? 2 * s->busy_capacity : 256;
+        ts_busy_span *p = realloc(s->busy, cap * sizeof *p);
+        if (!p) return ts_error_set(err, TS_E_MEMORY, "out of memory (kernel spans)");
+        s->busy = p;
+        s->busy_capacity = cap;
+    }
+    s->busy[s->busy_count++] = (ts_busy_span){start, end};
+    return TS_OK;
+}
+
+static int busy_by_start(const void *a, const void *b)
+{
+    double x = ((const ts_busy_span *)a)->start, y = ((const ts_busy_span *)b)->start;
+    return (x > y) - (x < y);
+}
+
+double stats_kernel_seconds(const ts_stats *s)
+{
+    if (s->busy_count == 0) return 0.0;
+    ts_busy_span *v = malloc(s->busy_count * sizeof *v);
+    if (!v) return 0.0;
+    memcpy(v, s->busy, s->busy_count * sizeof *v);
+    qsort(v, s->busy_count, sizeof *v, busy_by_start);
+    double total = 0.0, start = v[0].start, end = v[0].end;
+    for (uint32_t i = 1; i < s->busy_count; ++i) {
+        if (v[i].start > end) {
+            total += end - start;
+            start = v[i].start;
+        }
+        if (v[i].end > end) end = v[i].end;
+    }
+    total += end - start;
+    free(v);
+    return total;
+}
+
 int stats_add_device(ts_stats *s, const ts_device_stats *d, ts_error *err)
 {
     ts_device_stats *p = realloc(s->devices, (s->device_count + 1) * sizeof *p);
@@ -81,6 +129,8 @@ int stats_merge(ts_stats *s, const ts_stats *d, ts_error *err)
     s->kernel_build_seconds += d->kernel_build_seconds;
     for (uint32_t i = 0; i < d->iteration_count; ++i)
         if (stats_add_iteration(s, &d->iterations[i], err)) return err->code;
+    for (uint32_t i = 0; i < d->busy_count; ++i)
+        if (stats_add_busy(s, d->busy[i].start, d->busy[i].end, err)) return err->code;
     return TS_OK;
 }
 
@@ -117,6 +167,7 @@ static void stats_devices_json(cJSON *root, const ts_stats *s)
             cJSON_AddNumberToObject(o, "backup_units", (double)d->backup_units);
             cJSON_AddNumberToObject(o, "dropped_units", (double)d->dropped_units);
             cJSON_AddItemToObject(o, "stages", stages_json(d->stage_seconds));
+            cJSON_AddNumberToObject(o, "kernel_seconds", d->kernel_seconds);
             cJSON_AddNumberToObject(o, "setup_seconds", d->setup_seconds);
             cJSON_AddNumberToObject(o, "busy_seconds", d->busy_seconds);
             cJSON_AddNumberToObject(o, "frame_seconds", d->frame_seconds);
@@ -143,6 +194,8 @@ static void stats_devices_json(cJSON *root, const ts_stats *s)
             cJSON_AddNumberToObject(o, "samples", (double)r->samples);
             cJSON_AddNumberToObject(o, "seconds", r->seconds);
             cJSON_AddNumberToObject(o, "scene_seconds", r->scene_seconds);
+            cJSON_AddNumberToObject(o, "kernel_seconds", r->kernel_seconds);
+            cJSON_AddNumberToObject(o, "host_serial_seconds", r->host_serial_seconds);
             if (r->error[0]) cJSON_AddStringToObject(o, "error", r->error);
             cJSON_AddItemToArray(ranks, o);
         }
@@ -154,6 +207,10 @@ static cJSON *stats_to_json(const ts_stats *s)
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "device", s->device);
     cJSON_AddNumberToObject(root, "wall_seconds", s->wall_seconds);
+    double kernel = stats_kernel_seconds(s);
+    cJSON_AddNumberToObject(root, "kernel_seconds", kernel);
+    cJSON_AddNumberToObject(root, "host_serial_seconds",
+                            s->wall_seconds > kernel ? s->wall_seconds - kernel : 0.0);
     cJSON_AddNumberToObject(root, "peak_rss_bytes", (double)stats_peak_rss_bytes());
     cJSON_AddNumberToObject(root, "kernel_build_seconds", s->kernel_build_seconds);
     cJSON_AddBoolToObject(root, "kernel_cache_hit", s->kernel_cache_hit);
@@ -233,6 +290,9 @@ void stats_print_table(const ts_stats *s, void *file)
                 total > 0 ? 100.0 * s->stage_seconds[i] / total : 0.0);
     fprintf(f, "%-14s %10.4f   (wall %.3f s, kernel build %.3f s%s)\n", "sum of stages", total,
             s->wall_seconds, s->kernel_build_seconds, s->kernel_cache_hit ? ", cached" : "");
+    double kernel = stats_kernel_seconds(s);
+    fprintf(f, "kernels ran %.3f s of the wall; the host alone %.3f s\n", kernel,
+            s->wall_seconds > kernel ? s->wall_seconds - kernel : 0.0);
     for (int i = 0; i < TS_COUNTER_COUNT; ++i)
         fprintf(f, "%-24s %llu\n", ts_counter_names[i], (unsigned long long)s->counters[i]);
     if (s->counters[TS_COUNTER_bake_points] && s->bake.seconds > 0)
@@ -252,4 +312,7 @@ void stats_free(ts_stats *s)
     free(s->ranks);
     s->ranks = NULL;
     s->rank_count = 0;
+    free(s->busy);
+    s->busy = NULL;
+    s->busy_count = s->busy_capacity = 0;
 }

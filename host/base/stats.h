@@ -68,11 +68,12 @@ typedef struct ts_device_stats {
     uint64_t backup_units, dropped_units;
     uint64_t memory_budget_bytes; /* of the pipeline that finished */
     double stage_seconds[TS_STAGE_COUNT];
-    double setup_seconds; /* making the pipeline (the scene copied to the device), counting
-                             its part of the lod pass and waiting for the frame's levels of
-                             detail */
-    double busy_seconds;  /* tracing units and reading their results back */
-    double frame_seconds; /* from the start of the device's thread to the frame's end */
+    double kernel_seconds; /* while its kernels ran (the union of its busy spans) */
+    double setup_seconds;  /* making the pipeline (the scene copied to the device), counting
+                              its part of the lod pass and waiting for the frame's levels of
+                              detail */
+    double busy_seconds;   /* tracing units and reading their results back */
+    double frame_seconds;  /* from the start of the device's thread to the frame's end */
     /* Built patches shared with the other devices (pipeline/patch_share.h): misses diced
      * here, misses taken from the store, seconds spent waiting for another device's claims. */
     uint64_t patches_diced, patches_shared;
@@ -88,9 +89,11 @@ typedef struct ts_rank_stats {
     int32_t rank;
     uint32_t devices; /* devices that rendered */
     uint64_t units, samples;
-    double seconds;       /* the rank's render, from the scene to its last unit */
-    double scene_seconds; /* getting the scene: loading the files, or receiving rank 0's */
-    char error[512];      /* why it rendered nothing ("" when it rendered) */
+    double seconds;             /* the rank's render, from the scene to its last unit */
+    double scene_seconds;       /* getting the scene: loading the files, or receiving rank 0's */
+    double kernel_seconds;      /* while a kernel ran on any of its devices */
+    double host_serial_seconds; /* of `seconds`, while none did */
+    char error[512];            /* why it rendered nothing ("" when it rendered) */
 } ts_rank_stats;
 /* What `tessera bake` adds (the "bake" object of --stats, written when points were baked):
  * the waves' wall time and the shape of each point's projection. */
@@ -98,6 +101,11 @@ typedef struct ts_bake_summary {
     double seconds; /* from the first wave's start to the last wave's end */
     uint32_t bands, rays_per_point;
 } ts_bake_summary;
+
+/* A span of host time (stats_now's clock) during which a device ran kernels. */
+typedef struct ts_busy_span {
+    double start, end;
+} ts_busy_span;
 
 typedef struct ts_stats {
     double stage_seconds[TS_STAGE_COUNT];
@@ -120,6 +128,11 @@ typedef struct ts_stats {
     ts_rank_stats *ranks;
     uint64_t unit_samples;
     ts_bake_summary bake;
+    /* When the devices ran kernels (dev_finish: each launch's profiling times on the host's
+     * clock), in the order found, each device's spans merged where they touch: the union is
+     * --stats "kernel_seconds", the wall's rest "host_serial_seconds". */
+    ts_busy_span *busy;
+    uint32_t busy_count, busy_capacity;
 } ts_stats;
 
 extern const char *const ts_counter_names[TS_COUNTER_COUNT];
@@ -127,6 +140,11 @@ extern const char *const ts_counter_names[TS_COUNTER_COUNT];
 /* Seconds on CLOCK_MONOTONIC. */
 double stats_now(void);
 int stats_add_iteration(ts_stats *s, const ts_iteration *it, ts_error *err);
+/* Adds the span [start, end] of host time during which a device ran a kernel; a span that
+ * starts before the last one ends extends it. */
+int stats_add_busy(ts_stats *s, double start, double end, ts_error *err);
+/* Seconds during which at least one device ran a kernel: the union of s->busy. */
+double stats_kernel_seconds(const ts_stats *s);
 /* Appends a copy of *d (of *r) to s->devices (s->ranks). */
 int stats_add_device(ts_stats *s, const ts_device_stats *d, ts_error *err);
 int stats_add_rank(ts_stats *s, const ts_rank_stats *r, ts_error *err);

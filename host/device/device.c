@@ -649,7 +649,7 @@ int dev_launch_range(ts_device *cl, cl_kernel k, ts_stage stage, size_t offset, 
         clGetKernelInfo(k, CL_KERNEL_FUNCTION_NAME, sizeof name, name, NULL);
         return dev_fail(err, rc, "clEnqueueNDRangeKernel(%s, %zu items)", name, rounded);
     }
-    cl->pending[cl->pending_count++] = (ts_kernel_event){ev, stage, k};
+    cl->pending[cl->pending_count++] = (ts_kernel_event){ev, stage, k, 0, 0};
     if (sync_launches) { /* the times stay pending for dev_finish */
         cl_int f = clFinish(cl->queue);
         if (f != CL_SUCCESS) return finish_failed(cl, f, err);
@@ -686,17 +686,32 @@ int dev_finish(ts_device *cl, ts_stats *stats, ts_error *err)
 {
     cl_int rc = clFinish(cl->queue);
     if (rc != CL_SUCCESS) return finish_failed(cl, rc, err);
+    double now = stats_now();
+    cl_ulong last = 0;
     for (size_t i = 0; i < cl->pending_count; ++i) {
-        cl_ulong start = 0, end = 0;
-        cl_event ev = cl->pending[i].event;
-        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof start, &start, NULL);
-        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof end, &end, NULL);
-        if (stats && end > start)
-            stats->stage_seconds[cl->pending[i].stage] += 1e-9 * (double)(end - start);
-        clReleaseEvent(ev);
+        ts_kernel_event *e = &cl->pending[i];
+        e->start = e->end = 0;
+        clGetEventProfilingInfo(e->event, CL_PROFILING_COMMAND_START, sizeof e->start, &e->start,
+                                NULL);
+        clGetEventProfilingInfo(e->event, CL_PROFILING_COMMAND_END, sizeof e->end, &e->end, NULL);
+        if (e->end > last) last = e->end;
+        clReleaseEvent(e->event);
+    }
+    if (last > 0 && (!cl->clock_known || now - 1e-9 * (double)last < cl->clock_offset)) {
+        cl->clock_offset = now - 1e-9 * (double)last;
+        cl->clock_known = 1;
+    }
+    int out = TS_OK;
+    for (size_t i = 0; i < cl->pending_count && stats; ++i) {
+        const ts_kernel_event *e = &cl->pending[i];
+        if (e->end <= e->start) continue;
+        stats->stage_seconds[e->stage] += 1e-9 * (double)(e->end - e->start);
+        if (!out)
+            out = stats_add_busy(stats, 1e-9 * (double)e->start + cl->clock_offset,
+                                 1e-9 * (double)e->end + cl->clock_offset, err);
     }
     cl->pending_count = 0;
-    return TS_OK;
+    return out;
 }
 
 int dev_fail(ts_error *err, cl_int rc, const char *fmt, ...)

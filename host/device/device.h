@@ -62,7 +62,8 @@ extern cl_int ts_dev_inject_alloc_error;
 typedef struct ts_kernel_event {
     cl_event event;
     ts_stage stage;
-    cl_kernel kernel; /* to name it when its command fails */
+    cl_kernel kernel;    /* to name it when its command fails */
+    cl_ulong start, end; /* its profiling times, read by dev_finish */
 } ts_kernel_event;
 
 /* A selected device with its context, in-order profiling queue and built program. */
@@ -73,6 +74,11 @@ typedef struct ts_device {
     cl_program program;
     ts_kernel_event *pending; /* launches whose times are not yet collected */
     size_t pending_count, pending_capacity;
+    /* The host's clock (stats_now) less the device's profiling clock, in seconds: the least
+     * of (the host's time when clFinish returned) - (the last launch's end) seen so far, so
+     * a kernel's span lands on the host's clock at most the latency of one finish late. */
+    double clock_offset;
+    int clock_known;
     double build_seconds;
     int cache_hit;
     char build_options[192]; /* dev_build_options() for this device */
