@@ -131,6 +131,32 @@ static void test_lod_chunks_give_the_one_device_levels(void **state)
     test_assert_same_pixels(in_dir("chunks1.exr"), in_dir("chunks2.exr"));
 }
 
+/* A CPU device leaves the host the cores app/workers.h workers_host_cores names (here
+ * TESSERA_HOST_CORES=1, as no GPU sits beside these CPU devices): each device becomes a
+ * sub-device of the other compute units (the stats say how many), and the image stays the
+ * whole devices' bit for bit. */
+static void test_cpu_devices_leave_the_host_its_cores(void **state)
+{
+    (void)state;
+    char extra[512];
+    const char *args = "--res 96x54 --spp 2 --max-lod 6 --quiet";
+    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("whole.json"));
+    render("scene/teapot_displaced.rib", "whole.exr", pair, extra);
+    cJSON *whole = test_read_json(in_dir("whole.json"));
+    double units = device_number(whole, 0, "compute_units");
+    cJSON_Delete(whole);
+    if (units < 2) test_skip("the CPU device has one compute unit: none to leave the host");
+    setenv("TESSERA_HOST_CORES", "1", 1);
+    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("sub.json"));
+    render("scene/teapot_displaced.rib", "sub.exr", pair, extra);
+    unsetenv("TESSERA_HOST_CORES");
+    test_assert_same_pixels(in_dir("whole.exr"), in_dir("sub.exr"));
+    cJSON *sub = test_read_json(in_dir("sub.json"));
+    for (int k = 0; k < 2; ++k)
+        assert_true(device_number(sub, k, "compute_units") == units - 1);
+    cJSON_Delete(sub);
+}
+
 /* A device that cannot count its part of the lod pass (TESSERA_FAIL_LOD_PART=1: it gives its
  * part up, as one whose launches fail would) leaves it to device 0: the same image, and
  * device 1 counted nothing. */
@@ -641,6 +667,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_devices_give_the_one_device_image),
         cmocka_unit_test(test_lod_chunks_give_the_one_device_levels),
+        cmocka_unit_test(test_cpu_devices_leave_the_host_its_cores),
         cmocka_unit_test(test_an_abandoned_lod_part_is_counted_by_device_0),
         cmocka_unit_test(test_two_devices_share_built_patches),
         cmocka_unit_test(test_a_device_failing_with_claims_abandons_them),

@@ -311,6 +311,7 @@ static int render_start_job(ts_render *r, ts_error *err)
 
 static int render_open_device(ts_render *r, ts_error *err)
 {
+    r->opt.cl.host_cores = workers_host_cores(&r->opt.cl.device_index, 1);
     if (dev_open(&r->cl, &r->opt.cl, err)) return err->code;
     if (!r->opt.quiet && r->cl.cache_note[0])
         ts_print_line("tessera: warning: %s", r->cl.cache_note);

@@ -97,6 +97,24 @@ static int workers_share_open(ts_workers *g, ts_error *err)
     return TS_OK;
 }
 
+unsigned workers_host_cores(const int *indices, int count)
+{
+    const char *env = getenv("TESSERA_HOST_CORES");
+    long set = env && *env ? strtol(env, NULL, 10) : 0;
+    ts_device_info *list = NULL;
+    ts_error e = {0};
+    int n = dev_list(&list, &e), gpu = 0;
+    ts_error_clear(&e);
+    for (int i = 0; i < count; ++i)
+        if (indices[i] >= 0 && indices[i] < n && !(list[indices[i]].type & CL_DEVICE_TYPE_CPU))
+            gpu = 1;
+    free(list);
+    if (set > 0) return (unsigned)set;
+    if (!gpu) return 0;
+    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    return cpus / 4 > 2 ? (unsigned)(cpus / 4) : 2u;
+}
+
 int workers_open(ts_workers *g, const ts_frame *frame, const int *indices, int count, ts_error *err)
 {
     memset(g, 0, sizeof *g);
@@ -106,11 +124,14 @@ int workers_open(ts_workers *g, const ts_frame *frame, const int *indices, int c
     pthread_mutex_init(&g->lock, NULL);
     pthread_cond_init(&g->lod_cond, NULL);
     ts_error first = {0};
+    unsigned host = workers_host_cores(indices, count);
+    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
     for (int i = 0; i < count; ++i) {
         ts_worker *w = &g->w[g->count];
         ts_device_options dopt = frame->opt->cl;
         dopt.device_index = indices[i];
         dopt.slot = (int)g->count;
+        dopt.host_cores = host;
         ts_error e = {0};
         if (dev_open(&w->cl, &dopt, &e)) {
             if (!frame->opt->quiet)
@@ -142,8 +163,8 @@ int workers_open(ts_workers *g, const ts_frame *frame, const int *indices, int c
         worker_budget(&g->w[i], (g->w[i].cl.info.host_unified ? unified : 1u) *
                                     (frame->budget_share ? frame->budget_share : 1u));
     if (workers_share_open(g, err)) return err->code;
-    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
     g->sort_threads = cpus > (long)g->count ? (uint32_t)(cpus / (long)g->count) : 1u;
+    if (host > 0 && host < g->sort_threads) g->sort_threads = host; /* the cores left to it */
     return TS_OK;
 }
 
@@ -771,6 +792,7 @@ int workers_stats(ts_workers *g, ts_stats *stats, ts_error *err)
                  w->cl.info.platform_name);
         d->index = w->index;
         d->rank = g->frame.rank;
+        d->compute_units = w->cl.info.compute_units;
         d->rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays];
         d->memory_budget_bytes = w->stats.memory_budget_bytes;
         d->patches_diced = w->stats.counters[TS_COUNTER_patches_diced];

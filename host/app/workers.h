@@ -77,11 +77,19 @@ typedef struct ts_workers {
     int started;
 } ts_workers;
 
+/* The cores a CPU device among the devices `indices` leaves the host (DESIGN.md §1: a CPU
+ * device beside a GPU takes only the cores the host stages leave it), for
+ * ts_device_options.host_cores: with a GPU or accelerator among them, TESSERA_HOST_CORES,
+ * else a quarter of the CPUs and at least 2 (the GPU's sort, resolve and shade ordering, the
+ * merges and the drivers' threads); without one, TESSERA_HOST_CORES alone (to try it, or on
+ * a CPU-only machine that runs other work); else 0, the whole device. */
+unsigned workers_host_cores(const int *indices, int count);
+
 /* Opens the devices indices[0..count) (dev_select's order) one after the other with
  * their programs; a device that fails is left out with a warning naming it (unless none
  * opens: then its error). Chooses each device's budget (--memory, else budget_default
  * from its own memory, the host's memory shared among the devices that use it) and,
- * unless quiet, says so. */
+ * unless quiet, says so. A CPU device leaves workers_host_cores to the host. */
 int workers_open(ts_workers *g, const ts_frame *frame, const int *indices, int count,
                  ts_error *err);
 /* Starts a thread per device taking units from src. makes_lod: device 0 runs the lod

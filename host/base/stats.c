@@ -161,6 +161,7 @@ static void stats_devices_json(cJSON *root, const ts_stats *s)
             cJSON_AddStringToObject(o, "name", d->name);
             cJSON_AddNumberToObject(o, "index", d->index);
             cJSON_AddNumberToObject(o, "rank", d->rank);
+            cJSON_AddNumberToObject(o, "compute_units", d->compute_units);
             cJSON_AddNumberToObject(o, "units", (double)d->units);
             cJSON_AddNumberToObject(o, "samples", (double)d->samples);
             cJSON_AddNumberToObject(o, "rays", (double)d->rays);

@@ -78,9 +78,9 @@ typedef struct ts_device_stats {
      * here, misses taken from the store, seconds spent waiting for another device's claims. */
     uint64_t patches_diced, patches_shared;
     double share_wait_seconds;
-    int32_t failed; /* 1: it stopped early with an error: */
-    int32_t pad;
-    char error[512]; /* why it stopped ("" when it did not) */
+    int32_t failed;         /* 1: it stopped early with an error: */
+    uint32_t compute_units; /* it rendered with (fewer than the device's on a sub-device) */
+    char error[512];        /* why it stopped ("" when it did not) */
 } ts_device_stats;
 
 /* One process of an MPI render, for rank 0's --stats "ranks". */

@@ -546,6 +546,20 @@ int dev_open(ts_device *cl, const ts_device_options *opt, ts_error *err)
     cl->info = list[index];
     free(list);
     cl_int rc;
+    if (opt->host_cores > 0 && (cl->info.type & CL_DEVICE_TYPE_CPU) &&
+        opt->host_cores < cl->info.compute_units) {
+        cl_uint units = cl->info.compute_units - opt->host_cores, made = 0;
+        cl_device_partition_property by[] = {CL_DEVICE_PARTITION_BY_COUNTS,
+                                             (cl_device_partition_property)units,
+                                             CL_DEVICE_PARTITION_BY_COUNTS_LIST_END, 0};
+        rc = clCreateSubDevices(cl->info.device, by, 1, &cl->sub_device, &made);
+        if (rc != CL_SUCCESS || made != 1)
+            return dev_fail(err, rc != CL_SUCCESS ? rc : CL_DEVICE_PARTITION_FAILED,
+                            "clCreateSubDevices(%u of the %u compute units of %s)", units,
+                            cl->info.compute_units, cl->info.name);
+        cl->info.device = cl->sub_device;
+        cl->info.compute_units = units;
+    }
     cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)cl->info.platform,
                                      0};
     cl->context = clCreateContext(props, 1, &cl->info.device, driver_notice, NULL, &rc);
@@ -563,6 +577,7 @@ void dev_close(ts_device *cl)
     if (cl->program) clReleaseProgram(cl->program);
     if (cl->queue) clReleaseCommandQueue(cl->queue);
     if (cl->context) clReleaseContext(cl->context);
+    if (cl->sub_device) clReleaseDevice(cl->sub_device);
     memset(cl, 0, sizeof *cl);
 }
 

@@ -87,6 +87,7 @@ typedef struct ts_device {
      * was wrong (the program was built from source and the entry rewritten). The caller
      * prints it once as a warning. */
     char cache_note[4400];
+    cl_device_id sub_device; /* the sub-device made for ts_device_options.cpu_units, or NULL */
 } ts_device;
 
 typedef struct ts_device_options {
@@ -99,6 +100,10 @@ typedef struct ts_device_options {
     /* > 0: the program of the slot-th device of a process that renders on several is built
      * with -DTS_DEVICE_SLOT=slot (dev_build_options says why). */
     int slot;
+    /* > 0 and below a CPU device's compute units: the device is a sub-device of the others
+     * (clCreateSubDevices by counts), leaving these cores to the host (app/workers.h
+     * workers_host_cores: a CPU beside a GPU). 0: the whole device. */
+    unsigned host_cores;
 } ts_device_options;
 
 /* The most devices one process renders with (--device all takes the first ones). */
