@@ -101,6 +101,8 @@ unsigned workers_host_cores(const int *indices, int count)
 {
     const char *env = getenv("TESSERA_HOST_CORES");
     long set = env && *env ? strtol(env, NULL, 10) : 0;
+    if (set > 0) return (unsigned)set;
+    if (count < 2) return 0; /* one device: nothing beside it */
     ts_device_info *list = NULL;
     ts_error e = {0};
     int n = dev_list(&list, &e), gpu = 0;
@@ -109,7 +111,6 @@ unsigned workers_host_cores(const int *indices, int count)
         if (indices[i] >= 0 && indices[i] < n && !(list[indices[i]].type & CL_DEVICE_TYPE_CPU))
             gpu = 1;
     free(list);
-    if (set > 0) return (unsigned)set;
     if (!gpu) return 0;
     long cpus = sysconf(_SC_NPROCESSORS_ONLN);
     return cpus / 4 > 2 ? (unsigned)(cpus / 4) : 2u;
