@@ -113,6 +113,15 @@ static void test_bad_input(void **state)
         snprintf(want, sizeof want, "bad value '%s' for --dicing-rate", rates[i]);
         expect_error(args, want);
     }
+    /* --streams: 1..4 waves in flight a device. */
+    const char *streams[] = {"0", "5", "-1", "2x", ""};
+    for (size_t i = 0; i < sizeof streams / sizeof *streams; ++i) {
+        char want[64];
+        snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --streams '%s'", teapot, dir,
+                 streams[i]);
+        snprintf(want, sizeof want, "bad value '%s' for --streams", streams[i]);
+        expect_error(args, want);
+    }
     setenv("TESSERA_DEVICE", "abc", 1);
     snprintf(args, sizeof args, "render '%s' -o '%s/out.png' --res 8x8", teapot, dir);
     expect_error(args, "TESSERA_DEVICE=abc is not a device index");

@@ -131,6 +131,32 @@ static void test_lod_chunks_give_the_one_device_levels(void **state)
     test_assert_same_pixels(in_dir("chunks1.exr"), in_dir("chunks2.exr"));
 }
 
+/* --streams 2 on one device: two workers on it, each with its own queue, host thread and
+ * half its budget, so that one's host stages overlap the other's kernels; the image is the
+ * one stream's bit for bit, the stats list both (same index, half the budget each) and
+ * account for every sample, and each ran kernels. */
+static void test_two_streams_give_the_one_stream_image(void **state)
+{
+    (void)state;
+    const char *args = "--res 96x54 --spp 4 --max-lod 6 --memory 64 --quiet";
+    render("scene/teapot_displaced.rib", "stream1.exr", first, args);
+    char extra[512];
+    snprintf(extra, sizeof extra, "%s --streams 2 --stats '%s'", args, in_dir("streams.json"));
+    render("scene/teapot_displaced.rib", "stream2.exr", first, extra);
+    test_assert_same_pixels(in_dir("stream1.exr"), in_dir("stream2.exr"));
+    cJSON *root = test_read_json(in_dir("streams.json"));
+    assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(root, "devices")), 2);
+    double samples = 0;
+    for (int k = 0; k < 2; ++k) {
+        assert_true(device_number(root, k, "index") == atof(first));
+        assert_true(device_number(root, k, "memory_budget_bytes") == 32.0 * 1024 * 1024);
+        assert_true(device_number(root, k, "kernel_seconds") > 0);
+        samples += device_number(root, k, "samples");
+    }
+    assert_true(samples == 96.0 * 54 * 4);
+    cJSON_Delete(root);
+}
+
 /* A CPU device leaves the host the cores app/workers.h workers_host_cores names (here
  * TESSERA_HOST_CORES=1, as no GPU sits beside these CPU devices): each device becomes a
  * sub-device of the other compute units (the stats say how many), and the image stays the
@@ -668,6 +694,7 @@ int main(void)
         cmocka_unit_test(test_two_devices_give_the_one_device_image),
         cmocka_unit_test(test_lod_chunks_give_the_one_device_levels),
         cmocka_unit_test(test_cpu_devices_leave_the_host_its_cores),
+        cmocka_unit_test(test_two_streams_give_the_one_stream_image),
         cmocka_unit_test(test_an_abandoned_lod_part_is_counted_by_device_0),
         cmocka_unit_test(test_two_devices_share_built_patches),
         cmocka_unit_test(test_a_device_failing_with_claims_abandons_them),

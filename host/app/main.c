@@ -44,6 +44,8 @@ static const char *usage_text =
     "devices (docs/rendering.md \"Several devices\", docs/building.md \"On a GPU\"):\n"
     "      --device I|I,J|all  devices of `tessera devices`; several share a frame\n"
     "                          (default: $TESSERA_DEVICE, else 0)\n"
+    "      --streams N         waves in flight on each device, 1..4 (default 1): the host\n"
+    "                          stages of one overlap the kernels of the others\n"
     "      --mpi-scene HOW     under mpirun: broadcast (default) or load\n"
     "memory (docs/rendering.md \"The memory budget\"):\n"
     "      --memory MB         budget for rays, candidates and diced patches (default: sized\n"

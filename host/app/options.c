@@ -21,6 +21,7 @@ void render_options_defaults(ts_render_options *o)
     o->exact = 0;
     o->leaf_group = 0;
     o->leaf_size = 1;
+    o->streams = 1;
     o->memory_mb = 0; /* app/budget.h: sized to the device and the process's limits */
     o->cl.device_index = -1;
     o->frame = -1;
@@ -96,7 +97,8 @@ enum {
     OPT_MPI_SCENE,
     OPT_OCCLUSION,
     OPT_STRICT,
-    OPT_UP
+    OPT_UP,
+    OPT_STREAMS
 };
 
 static const struct option render_long_options[] = {
@@ -125,6 +127,7 @@ static const struct option render_long_options[] = {
     {"occlusion", required_argument, 0, OPT_OCCLUSION},
     {"strict", no_argument, 0, OPT_STRICT},
     {"up", required_argument, 0, OPT_UP},
+    {"streams", required_argument, 0, OPT_STREAMS},
     {0, 0, 0, 0},
 };
 
@@ -196,6 +199,8 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
         return 0;
     case OPT_UP:
         return scene_parse_up(arg, &o->up) != 0;
+    case OPT_STREAMS:
+        return options_parse_int(arg, 1, 4, &o->streams);
     case OPT_KERNEL_DIR:
         o->cl.kernel_dir = arg;
         return 0;

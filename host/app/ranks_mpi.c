@@ -693,8 +693,9 @@ static void follow_devices(ts_workers *g, const ts_frame *f, relay *q, ts_error 
     int indices[TS_DEVICE_MAX], count = 0, n = dev_list(&list, why);
     free(list);
     if (n == 0) ts_error_set(why, TS_E_DEVICE, "no OpenCL device found");
-    if (n > 0 && !dev_select(&f->opt->cl, n, indices, &count, why) &&
-        !workers_open(g, f, indices, count, why))
+    if (n > 0 && !dev_select(&f->opt->cl, n, indices, &count, why))
+        workers_streams(indices, &count, f->opt->streams);
+    if (n > 0 && count > 0 && !why->code && !workers_open(g, f, indices, count, why))
         workers_start(
             g, (ts_unit_source){q, relay_take, relay_done, relay_give_back, relay_closed, NULL}, 0,
             why);

@@ -503,6 +503,7 @@ static int render_select_devices(ts_render *r, ts_error *err)
     if (n == 0) return TS_OK;
     if (dev_select(&r->opt.cl, n, r->devices, &r->device_count, err)) return err->code;
     r->opt.cl.device_index = r->devices[0];
+    workers_streams(r->devices, &r->device_count, r->opt.streams);
     return TS_OK;
 }
 

@@ -46,12 +46,17 @@ static const char *worker_name(const ts_worker *w, char *buf, size_t cap)
 /* The memory budget of w's device: --memory, else budget_default from its own memory and,
  * when it shares host memory, its share of the room the process has (share devices use
  * it). Unless quiet, the device and its budget on one line. */
-static void worker_budget(ts_worker *w, uint32_t share)
+static void worker_budget(ts_worker *w, uint32_t share, uint32_t streams)
 {
     const ts_frame *f = &w->g->frame;
     ts_budget_choice c;
     if (f->opt->memory_mb > 0) {
         budget_fixed((uint64_t)f->opt->memory_mb, &c);
+        if (streams > 1) {
+            c.mb = c.room_mb = c.mb / streams > TS_MEMORY_FLOOR_MB ? c.mb / streams
+                                                                 : TS_MEMORY_FLOOR_MB;
+            snprintf(c.why, sizeof c.why, "--memory shared by %u streams", streams);
+        }
     } else {
         ts_memory_room room;
         ts_memory_room_query(NULL, &room);
@@ -60,6 +65,11 @@ static void worker_budget(ts_worker *w, uint32_t share)
         size_t n = strlen(c.why), which = strlen(room.which);
         if (share > 1 && w->cl.info.host_unified && which && strncmp(c.why, room.which, which) == 0)
             snprintf(c.why + n, sizeof c.why - n, ", shared by %u devices", share);
+        else if (streams > 1) { /* the device's memory, or the cap, split */
+            c.mb = c.mb / streams > TS_MEMORY_FLOOR_MB ? c.mb / streams : TS_MEMORY_FLOOR_MB;
+            c.room_mb = c.room_mb / streams > c.mb ? c.room_mb / streams : c.mb;
+            snprintf(c.why + n, sizeof c.why - n, ", shared by %u streams", streams);
+        }
     }
     w->mb = c.mb;
     w->room_mb = c.room_mb;
@@ -95,6 +105,16 @@ static int workers_share_open(ts_workers *g, ts_error *err)
     if (patch_share_create(&g->share, g->frame.scene->patch_count, alike, err)) return err->code;
     g->sharing = 1;
     return TS_OK;
+}
+
+void workers_streams(int *indices, int *count, int streams)
+{
+    int n = *count, out = 0, list[TS_DEVICE_MAX];
+    for (int s = 0; s < streams; ++s)
+        for (int i = 0; i < n && out < TS_DEVICE_MAX; ++i)
+            list[out++] = indices[i];
+    memcpy(indices, list, (size_t)out * sizeof *list);
+    *count = out;
 }
 
 unsigned workers_host_cores(const int *indices, int count)
@@ -160,9 +180,15 @@ int workers_open(ts_workers *g, const ts_frame *frame, const int *indices, int c
     uint32_t unified = 0;
     for (uint32_t i = 0; i < g->count; ++i)
         unified += g->w[i].cl.info.host_unified ? 1u : 0u;
-    for (uint32_t i = 0; i < g->count; ++i)
-        worker_budget(&g->w[i], (g->w[i].cl.info.host_unified ? unified : 1u) *
-                                    (frame->budget_share ? frame->budget_share : 1u));
+    for (uint32_t i = 0; i < g->count; ++i) {
+        uint32_t streams = 0; /* workers on this device (--streams) */
+        for (uint32_t j = 0; j < g->count; ++j)
+            streams += g->w[j].index == g->w[i].index;
+        worker_budget(&g->w[i],
+                      (g->w[i].cl.info.host_unified ? unified : 1u) *
+                          (frame->budget_share ? frame->budget_share : 1u),
+                      streams);
+    }
     if (workers_share_open(g, err)) return err->code;
     g->sort_threads = cpus > (long)g->count ? (uint32_t)(cpus / (long)g->count) : 1u;
     if (host > 0 && host < g->sort_threads) g->sort_threads = host; /* the cores left to it */

@@ -77,6 +77,12 @@ typedef struct ts_workers {
     int started;
 } ts_workers;
 
+/* --streams: indices[0..*count) repeated `streams` times (at most TS_DEVICE_MAX in all), the
+ * devices in the same order each time: a worker a stream, each with its own context, queue,
+ * host thread and share of its device's budget, so that one's host stages overlap another's
+ * kernels (DESIGN.md §1 "Host and device overlap"). */
+void workers_streams(int *indices, int *count, int streams);
+
 /* The cores a CPU device among the devices `indices` leaves the host (DESIGN.md §1: a CPU
  * device beside a GPU takes only the cores the host stages leave it), for
  * ts_device_options.host_cores: with a GPU or accelerator among them, TESSERA_HOST_CORES,
