@@ -421,6 +421,11 @@ static int worker_read_wave(ts_worker *w, const ts_unit *u, uint64_t first, uint
     for (uint64_t k = first;
          !rc && !strided && k < end && sample_order_zero_run(&o, k, end - k, &k0, &k1);
          k = k1, j += k1 - k0) {
+        /* runs that follow on are read at once: at 1 spp every sample is a sample 0, one run
+         * a pixel, and a read each made a frame's read-back take longer than its render */
+        uint64_t a, b;
+        while (k1 < end && sample_order_zero_run(&o, k1, end - k1, &a, &b) && a == k1)
+            k1 = b;
         size_t off = (size_t)(k0 - first) * sizeof(ts_vec4), bytes = (k1 - k0) * sizeof(ts_vec4);
         rc = dev_read(&w->cl, p->aov, off, bytes, r->aov + j, "the AOVs of a unit", err) ||
              dev_read(&w->cl, p->albedo, off, bytes, r->albedo + j, "the albedo of a unit", err);
