@@ -16,8 +16,9 @@
 #       4. images against PoCL's references: RMSE of the 8-bit PNGs, limit 1.5 levels
 #          (devices differ in the last bits of their transcendental functions);
 #       5. the benchmark rows of issue 40: teapot_displaced 1280x720 x 16 (three runs) and,
-#          unless --quick, forest-100 1920x768 x 32 (two runs), on the GPU alone, then with
-#          the first CPU device listed beside it (--device GPU,CPU) when there is one: wall,
+#          unless --quick, forest-100 1920x768 x 32 (two runs), on the GPU alone, with
+#          --streams 2, then with the first CPU device listed beside it (--device GPU,CPU)
+#          when there is one: wall,
 #          kernel_seconds / wall (how busy the devices were), host_serial_seconds, sort.
 #       Writes OUT_DIR/gpu-check.md (the report), and beside it each step's log, the images
 #       and the --stats files. Exit status 0 when steps 2-4 passed, 1 when one failed, 2 bad
@@ -87,10 +88,11 @@ EOF
 bench() {
   local label=$1 devices=$2 runs=$3 scene=$4
   shift 4
-  local walls="" busy="" serial="" sort="" ok=0
+  local walls="" busy="" serial="" sort="" ok=0 file
+  file=$(tr -c 'A-Za-z0-9_.\n-' '_' <<<"$label-$devices")
   for i in $(seq 1 "$runs"); do
-    local s="$out/bench-$label-$i.json"
-    if tess render "$scene" "$@" --device "$devices" --quiet -o "$out/bench-$label.exr" \
+    local s="$out/bench-$file-$i.json"
+    if tess render "$scene" "$@" --device "$devices" --quiet -o "$out/bench-$file.exr" \
       --stats "$s" 2>>"$out/bench.log"; then
       ok=$((ok + 1))
       local w k
@@ -206,13 +208,15 @@ EOF
     echo "| scene | devices | runs | wall s, median (runs) | busy | host_serial s | sort s |"
     echo "|---|---|---:|---:|---:|---:|---:|"; } >>"$report"
   bench teapot_displaced "$device" 3 scene/teapot_displaced.rib --res 1280x720 --spp 16
+  bench "teapot_displaced --streams 2" "$device" 3 scene/teapot_displaced.rib --res 1280x720 --spp 16 --streams 2
   [ -n "$cpu" ] && bench teapot_displaced "$device,$cpu" 2 scene/teapot_displaced.rib --res 1280x720 --spp 16
   if [ "$quick" = 0 ]; then
     bench forest-100 "$device" 2 scene/forest-100.rib --res 1920x768 --spp 32
+    bench "forest-100 --streams 2" "$device" 2 scene/forest-100.rib --res 1920x768 --spp 32 --streams 2
     [ -n "$cpu" ] && bench forest-100 "$device,$cpu" 1 scene/forest-100.rib --res 1920x768 --spp 32
   fi
   { echo
-    echo "The rows' --stats files are bench-LABEL-RUN.json beside this report; check_device's"
+    echo "The rows' --stats files are bench-LABEL-DEVICES-RUN.json beside this report; check_device's"
     echo "images and messages are in check_device/, the tests' output in ctest.log."
     echo
     echo "Took $((SECONDS - t0)) s: \`tools/gpu_check.sh run OUT_DIR --device $device\`."; } >>"$report"
