@@ -490,6 +490,39 @@ static void test_creases_corners_watertight(void **state)
     scene_free(&s);
 }
 
+/* RenderMan's HierarchicalSubdivisionMesh: the same mesh and tags as SubdivisionMesh, with
+ * nargs three a tag and [stringargs] after the floats; the same patches bit for bit. A
+ * hierarchical edit tag is ignored with its warning; nargs two a tag is an error there. */
+static void test_hierarchical_form_is_the_same_mesh(void **state)
+{
+    (void)state;
+    char rib[1024], tmp[1024], hier[1100];
+    ts_scene a, b;
+    const char *const tags[][2] = {
+        /* a crease and a hole; nargs two a tag there, three here, and the stringargs */
+        {"[\"crease\" \"hole\"] [2 1  1 0] [0 1  3] [10]",
+         "[\"crease\" \"hole\"] [2 1 0  1 0 0] [0 1  3] [10] []"},
+        /* no tags: the four empty arrays, and the empty stringargs */
+        {"", "[] [] [] [] []"},
+    };
+    const uint32_t patches[] = {5, 6};
+    for (int k = 0; k < 2; ++k) {
+        snprintf(rib, sizeof rib, cube_rib, tags[k][0]);
+        snprintf(tmp, sizeof tmp, cube_rib, tags[k][1]);
+        snprintf(hier, sizeof hier, "Hierarchical%s", tmp);
+        test_parse_rib_ok(rib, &a);
+        test_parse_rib_ok(hier, &b);
+        assert_int_equal(a.patch_count, patches[k]);
+        assert_int_equal(b.patch_count, a.patch_count);
+        assert_memory_equal(a.cp, b.cp, (size_t)a.patch_count * 16 * sizeof *a.cp);
+        scene_free(&a), scene_free(&b);
+    }
+    test_parse_rib_error("HierarchicalSubdivisionMesh \"catmull-clark\" [4] [0 1 2 3] "
+                         "[\"corner\"] [1 1] [0] [10] [] \"P\" [0 0 0 1 0 0 1 1 0 0 1 0]",
+                         "t.rib:1:70: error: HierarchicalSubdivisionMesh: nargs needs 3 numbers "
+                         "per tag (3), got 2");
+}
+
 static void test_primitive_variables(void **state)
 {
     (void)state;
@@ -563,6 +596,7 @@ int main(void)
         cmocka_unit_test(test_boundary_and_crease_exact),
         cmocka_unit_test(test_cube_against_limit),
         cmocka_unit_test(test_creases_corners_watertight),
+        cmocka_unit_test(test_hierarchical_form_is_the_same_mesh),
         cmocka_unit_test(test_primitive_variables),
         cmocka_unit_test(test_errors_and_warnings),
     };

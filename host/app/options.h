@@ -24,8 +24,8 @@ typedef struct ts_render_options {
     int leaf_group;     /* 1: work-group-wide leaf intersection; 0: per ray */
     int leaf_size;      /* leaves of leaf_size x leaf_size micro-quads: 1, 2 or 4 */
     int memory_mb;      /* budget for rays, pairs and patch slots; 0: budget_default */
-    int streams; /* --streams: waves in flight on each device, each with its own host thread,
-                    queue and share of the device's budget (app/workers.c); 1 */
+    int streams;        /* --streams: waves in flight on each device, each with its own host thread,
+                           queue and share of the device's budget (app/workers.c); 1 */
     int quiet;
     int resume;                 /* 1: continue the partial EXR at output_path (--resume) */
     int frame;                  /* the RIB frame to render (FrameBegin number); -1: the first */

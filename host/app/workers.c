@@ -53,8 +53,8 @@ static void worker_budget(ts_worker *w, uint32_t share, uint32_t streams)
     if (f->opt->memory_mb > 0) {
         budget_fixed((uint64_t)f->opt->memory_mb, &c);
         if (streams > 1) {
-            c.mb = c.room_mb = c.mb / streams > TS_MEMORY_FLOOR_MB ? c.mb / streams
-                                                                 : TS_MEMORY_FLOOR_MB;
+            c.mb = c.room_mb =
+                c.mb / streams > TS_MEMORY_FLOOR_MB ? c.mb / streams : TS_MEMORY_FLOOR_MB;
             snprintf(c.why, sizeof c.why, "--memory shared by %u streams", streams);
         }
     } else {

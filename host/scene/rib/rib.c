@@ -97,6 +97,7 @@ static const struct {
     {"Polygon", rib_req_polygon},
     {"Sphere", rib_req_sphere},
     {"SubdivisionMesh", rib_req_subdivision_mesh},
+    {"HierarchicalSubdivisionMesh", rib_req_hierarchical_subdivision_mesh},
     {"Torus", rib_req_torus},
 };
 

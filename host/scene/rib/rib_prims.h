@@ -38,6 +38,7 @@ int rib_req_points_polygons(rib_parser *p);
 int rib_req_points_general_polygons(rib_parser *p);
 int rib_req_nu_patch(rib_parser *p);
 int rib_req_subdivision_mesh(rib_parser *p);
+int rib_req_hierarchical_subdivision_mesh(rib_parser *p);
 int rib_req_points(rib_parser *p);
 int rib_req_curves(rib_parser *p);
 int rib_req_blobby(rib_parser *p);

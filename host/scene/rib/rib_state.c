@@ -696,8 +696,8 @@ static const char *const rib_motion_kinds[] = {"Patch", "Translate",       "Rota
  * Both samples must make the same patches: the same topology and counts. */
 /* clang-format off */
 static const char *const rib_motion_deforms[] = {
-    "PatchMesh", "SubdivisionMesh", "NuPatch", "Polygon", "GeneralPolygon", "PointsPolygons",
-    "PointsGeneralPolygons", "Sphere", "Cone", "Cylinder", "Disk", "Hyperboloid", "Paraboloid",
+    "PatchMesh", "SubdivisionMesh", "HierarchicalSubdivisionMesh", "NuPatch", "Polygon",
+    "GeneralPolygon", "PointsPolygons", "PointsGeneralPolygons", "Sphere", "Cone", "Cylinder", "Disk", "Hyperboloid", "Paraboloid",
     "Torus", "Points", "Curves",
 };
 /* clang-format on */

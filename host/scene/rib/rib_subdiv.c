@@ -1,10 +1,15 @@
-/* rib_subdiv.c — SubdivisionMesh (RI Spec 3.2 §5.3, RiSubdivisionMesh):
+/* rib_subdiv.c — SubdivisionMesh (RI Spec 3.2 §5.3, RiSubdivisionMesh) and RenderMan's
+ * HierarchicalSubdivisionMesh:
  *
  *   SubdivisionMesh "catmull-clark" [nvertices] [vertices]
  *       [tags] [nargs] [intargs] [floatargs] ...params...
+ *   HierarchicalSubdivisionMesh "catmull-clark" [nvertices] [vertices]
+ *       [tags] [nargs] [intargs] [floatargs] [stringargs] ...params...
  *
- * (the four tag arrays may be left out; a fifth, [stringargs], is skipped when nargs holds
- * three numbers per tag). Tags: "crease" (a chain of vertices, one sharpness), "corner"
+ * (SubdivisionMesh's four tag arrays may be left out; a fifth, [stringargs], is skipped when
+ * nargs holds three numbers per tag, as the hierarchical form's always does; its string
+ * arguments, which only its hierarchical edits use, are not read: such tags are ignored as
+ * below). Tags: "crease" (a chain of vertices, one sharpness), "corner"
  * (vertices, one sharpness or one each), "hole" (faces), "interpolateboundary" (0 or 1
  * integer: 0 none, 1 edges and corners (the default), 2 edges only). Any sharpness > 0 is
  * infinitely sharp (a value below 10, RenderMan's "infinite", warns once); 0 or less
@@ -97,7 +102,7 @@ static int sd_tag(rib_parser *p, const char *tag, const double *ints, int ni, co
 }
 
 /* Reads the tag arrays from args[3] (sd_params_first has found where they end). */
-static int sd_read_tags(rib_parser *p, int npoints, int nfaces, sd_tags *t)
+static int sd_read_tags(rib_parser *p, int npoints, int nfaces, int hier, sd_tags *t)
 {
     memset(t, 0, sizeof *t);
     if (p->nargs <= 3 || p->args[3].kind == RIB_ARG_STRING) return TS_OK; /* no tags */
@@ -108,10 +113,10 @@ static int sd_read_tags(rib_parser *p, int npoints, int nfaces, sd_tags *t)
     const double *nargs, *ints, *fl;
     size_t nn, ni, nf;
     int rc = rib_int_array(p, 4, "nargs", 0, RIB_MAX_VALUES, &nargs, &nn);
-    if (rc == TS_OK && nn != 2 * ntags && nn != 3 * ntags)
+    if (rc == TS_OK && (hier ? nn != 3 * ntags : nn != 2 * ntags && nn != 3 * ntags))
         rc = rib_error_at(p, p->args[4].line, p->args[4].col,
-                          "SubdivisionMesh: nargs needs 2 numbers per tag (%zu), got %zu",
-                          2 * ntags, nn);
+                          "%s: nargs needs %d numbers per tag (%zu), got %zu", p->req, hier ? 3 : 2,
+                          (hier ? 3 : 2) * ntags, nn);
     if (rc == TS_OK)
         rc = rib_int_array(p, 5, "intargs", -(double)RIB_MAX_VALUES, RIB_MAX_VALUES, &ints, &ni);
     if (rc == TS_OK &&
@@ -189,11 +194,11 @@ static double *sd_face_values(const rib_pvars *vars, const double *nverts, size_
 
 /* Where the parameter list starts: after the vertices without tags, after floatargs with
  * them (and after stringargs when nargs has three numbers per tag). */
-static size_t sd_params_first(const rib_parser *p)
+static size_t sd_params_first(const rib_parser *p, int hier)
 {
     if (p->nargs <= 3 || p->args[3].kind == RIB_ARG_STRING) return 3;
     size_t ntags = p->args[3].kind == RIB_ARG_STRINGS ? p->args[3].count : 0;
-    int three = p->nargs > 4 && ntags && p->args[4].count == 3 * ntags;
+    int three = hier || (p->nargs > 4 && ntags && p->args[4].count == 3 * ntags);
     return three ? 8 : 7;
 }
 
@@ -227,7 +232,7 @@ static int sd_run(rib_parser *p, subdiv_input *in, const rib_pvars *vars)
     return rc;
 }
 
-int rib_req_subdivision_mesh(rib_parser *p)
+static int sd_request(rib_parser *p, int hier)
 {
     const char *scheme;
     char shown[RIB_PRINT_MAX];
@@ -248,7 +253,7 @@ int rib_req_subdivision_mesh(rib_parser *p)
                           "SubdivisionMesh: the nvertices add up to %zu, but vertices has %zu", nfv,
                           nv);
     if (rc != TS_OK) return rc;
-    const size_t first = sd_params_first(p), npoints = rib_pvars_count(p, first, "P", 3);
+    const size_t first = sd_params_first(p, hier), npoints = rib_pvars_count(p, first, "P", 3);
     if (npoints == 0)
         return rib_error_at(p, p->req_line, p->req_col, "SubdivisionMesh: missing \"P\"");
     for (size_t k = 0; k < nv; k++)
@@ -258,7 +263,7 @@ int rib_req_subdivision_mesh(rib_parser *p)
                                 "points",
                                 k, verts[k], npoints);
     sd_tags tags;
-    rc = sd_read_tags(p, (int)npoints, (int)nfaces, &tags);
+    rc = sd_read_tags(p, (int)npoints, (int)nfaces, hier, &tags);
     rib_pvars vars;
     const size_t counts[RIB_CLASSES] = {1, nfaces, npoints, npoints, nv};
     if (rc == TS_OK) rc = rib_pvars_read(p, first, counts, RIB_PV_P | RIB_PV_CS | RIB_PV_ST, &vars);
@@ -287,4 +292,14 @@ int rib_req_subdivision_mesh(rib_parser *p)
     free(fv), free(nvi), free(vi);
     sd_tags_free(&tags);
     return rc;
+}
+
+int rib_req_subdivision_mesh(rib_parser *p)
+{
+    return sd_request(p, 0);
+}
+
+int rib_req_hierarchical_subdivision_mesh(rib_parser *p)
+{
+    return sd_request(p, 1);
 }
