@@ -223,6 +223,45 @@ static void test_scoped_coordinate_system(void **state)
                          "(CoordinateSystem \"b\" must come before; or world, camera, object)");
 }
 
+/* Resource "attributes": save and restore the graphics state by name, whole or by subset;
+ * a save inside ResourceBegin/ResourceEnd is forgotten at ResourceEnd; the errors. */
+static void test_attribute_resources(void **state)
+{
+    (void)state;
+    ts_scene s;
+    test_parse_rib_ok("WorldBegin\nAttributeBegin\nColor [1 0 0]\nTranslate 0 0 5\n"
+                      "Resource \"red\" \"attributes\" \"string operation\" \"save\"\n"
+                      "AttributeEnd\nResourceBegin\nColor [0 1 0]\n"
+                      "Resource \"red\" \"attributes\" \"string operation\" [\"save\"]\n"
+                      "ResourceEnd\n"
+                      "Resource \"red\" \"attributes\" \"string operation\" \"restore\" "
+                      "\"string subset\" \"shading\"\n" QUAD
+                      "Resource \"red\" \"attributes\" \"string operation\" \"restore\"\n" QUAD
+                      "Color [0 0 1]\nIdentity\n"
+                      "Resource \"red\" \"attributes\" \"string operation\" \"restore\" "
+                      "\"string subset\" \"transform\"\n" QUAD "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.patch_count, 3);
+    /* the shading alone: red (the green save ended with its block), not moved */
+    assert_true(s.attr[0].cs_r == 1.0f && s.attr[0].cs_g == 0.0f && s.cp[0].z == 0.0f);
+    /* all: red and moved */
+    assert_true(s.attr[1].cs_r == 1.0f && s.cp[16].z == 5.0f);
+    /* the transform alone: moved, the blue kept */
+    assert_true(s.attr[2].cs_b == 1.0f && s.attr[2].cs_r == 0.0f && s.cp[32].z == 5.0f);
+    scene_free(&s);
+    test_parse_rib_error("WorldBegin\nResourceBegin\n"
+                         "Resource \"a\" \"attributes\" \"string operation\" \"save\"\n"
+                         "ResourceEnd\n"
+                         "Resource \"a\" \"attributes\" \"string operation\" \"restore\"\n",
+                         "t.rib:5:10: error: Resource \"a\" is restored but was never saved (or "
+                         "its ResourceBegin block has ended)");
+    test_parse_rib_error("WorldBegin\nResourceEnd\n",
+                         "t.rib:2:1: error: ResourceEnd without a ResourceBegin");
+    test_parse_rib_error("WorldBegin\nResource \"a\" \"attributes\" \"string operation\" "
+                         "\"keep\"\n",
+                         "t.rib:2:46: error: Resource: operation \"keep\" is not save or restore");
+}
+
 static void write_text(const char *path, const char *text)
 {
     FILE *f = fopen(path, "wb");
@@ -300,6 +339,7 @@ int main(void)
         cmocka_unit_test(test_camera_projection),
         cmocka_unit_test(test_conditions),
         cmocka_unit_test(test_scoped_coordinate_system),
+        cmocka_unit_test(test_attribute_resources),
         cmocka_unit_test(test_procedural2_and_searchpath),
         cmocka_unit_test(test_patch_mesh_wrap_spellings),
     };

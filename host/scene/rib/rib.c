@@ -98,6 +98,9 @@ static const struct {
     {"Sphere", rib_req_sphere},
     {"SubdivisionMesh", rib_req_subdivision_mesh},
     {"HierarchicalSubdivisionMesh", rib_req_hierarchical_subdivision_mesh},
+    {"Resource", rib_req_resource},
+    {"ResourceBegin", rib_req_resource_begin},
+    {"ResourceEnd", rib_req_resource_end},
     {"Torus", rib_req_torus},
 };
 
@@ -290,6 +293,7 @@ static int rib_parse_once(const char *name, const rib_text *t, int frame, int ke
     rib_coordsys_free(p);
     rib_user_free(p);
     rib_cond_free(p);
+    rib_resource_free(p);
     free(p->searchpath[0]);
     free(p->searchpath[1]);
     rib_args_free(p);

@@ -24,6 +24,7 @@
  *                  (RenderMan 21-26), the "user" values
  *   rib_cond.c     IfBegin, ElseIf, Else, IfEnd and their expressions (reads rib_ris.c's
  *                  user values)
+ *   rib_resource.c Resource "attributes" save and restore, ResourceBegin, ResourceEnd
  *   rib_builtin.c  Geometry "teapot" (its patches in teapot_data.c, generated)
  *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
  *   rib_lex.c      tokens, ASCII and binary
@@ -47,6 +48,7 @@
  *   rib_state.c   -> rib_geom.c (MotionEnd of a block of Patch samples)
  *   rib_options.c -> rib_state.c (rib_before_world)
  *   rib_light.c   -> rib_geom.c (rib_geom_check: where lights may stand)
+ *   rib_resource.c -> rib_state.c (rib_state_save and rib_state_restore)
  *   rib_geom.c, rib_shading.c, rib_coordsys.c -> no other handler
  *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
  *                    handler. rib.c and rib_archive.c also start lexers (on rib_text.c's bytes);
@@ -197,6 +199,13 @@ int rib_req_geometry(rib_parser *p);
 #define RIB_TEAPOT_PATCHES 32
 extern const double rib_teapot_vertices[RIB_TEAPOT_VERTICES][3];
 extern const unsigned short rib_teapot_patches[RIB_TEAPOT_PATCHES][16];
+
+/* ---- rib_resource.c: Resource, ResourceBegin, ResourceEnd ---- */
+
+int rib_req_resource(rib_parser *p);
+int rib_req_resource_begin(rib_parser *p);
+int rib_req_resource_end(rib_parser *p);
+void rib_resource_free(rib_parser *p);
 
 /* ---- rib_coordsys.c: CoordinateSystem, CoordSysTransform ---- */
 

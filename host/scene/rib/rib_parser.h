@@ -197,6 +197,7 @@ typedef struct rib_parser {
     struct rib_coordsystems *coordsys; /* rib_coordsys.c: CoordinateSystem names, or NULL */
     struct rib_user *user;             /* rib_ris.c: "user" options and attributes, or NULL */
     struct rib_cond *cond;             /* rib_cond.c: open IfBegin blocks, or NULL */
+    struct rib_resources *resources;   /* rib_resource.c: saved attribute states, or NULL */
     char *searchpath[2];               /* Option "searchpath": "archive", "texture"; or NULL */
     rib_frame_choice frames;
     int world_line, world_col; /* of the WorldBegin read, 0 before it */
