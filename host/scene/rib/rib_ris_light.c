@@ -123,6 +123,8 @@ static int ris_light_read(rib_parser *p, ris_light_kind kind, size_t first, ris_
         while (k < nk && strcmp(prm.name, known[k].name) != 0)
             k++;
         int usable = k < nk && (k != 5 || kind == RIS_DISTANT) && (k != 7 || kind == RIS_DAY);
+        if (prm.val->kind == RIB_ARG_STRING || prm.val->kind == RIB_ARG_STRINGS)
+            usable = 0; /* a connection to a pattern: lights are not textured here */
         if (!usable) {
             size_t j = 0, nj = sizeof ris_light_neutral / sizeof ris_light_neutral[0];
             while (j < nj && strcmp(prm.name, ris_light_neutral[j].name) != 0)
