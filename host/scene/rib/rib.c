@@ -47,6 +47,11 @@ static const struct {
     {"ElseIf", rib_req_else_if},
     {"Else", rib_req_else},
     {"Integrator", rib_req_integrator},
+    {"Bxdf", rib_req_bxdf},
+    {"Pattern", rib_req_pattern},
+    {"Light", rib_req_light},
+    {"LightFilter", rib_req_ris_ignored},
+    {"Displace", rib_req_displace},
     {"Camera", rib_req_camera},
     {"DisplayFilter", rib_req_ris_ignored},
     {"SampleFilter", rib_req_ris_ignored},
@@ -247,10 +252,10 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     p->strict = (flags & RIB_STRICT) != 0;
     mat4_identity(p->ctm);
     mat4_identity(p->ctm1);
-    p->disp = (rib_disp){TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0};
+    p->disp = (rib_disp){TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0, 0, {0}};
     p->color[0] = p->color[1] = p->color[2] = 1.0;
     p->opacity[0] = p->opacity[1] = p->opacity[2] = 1.0;
-    p->surface = (rib_surface){TS_MAT_MATTE, 1.0, 0.0, 0.1, 0, 0, 0};
+    p->surface = (rib_surface){.material = TS_MAT_MATTE, .kd = 1.0, .roughness = 0.1};
     p->ubasis = basis_bezier;
     p->vbasis = basis_bezier;
     p->phase = RIB_BEFORE_WORLD;
@@ -294,6 +299,7 @@ static int rib_parse_once(const char *name, const rib_text *t, int frame, int ke
     rib_user_free(p);
     rib_cond_free(p);
     rib_resource_free(p);
+    rib_pattern_free(p);
     free(p->searchpath[0]);
     free(p->searchpath[1]);
     rib_args_free(p);

@@ -427,6 +427,33 @@ int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, const char *fallback
     const char *name = NULL;
     int rc = rib_string_arg(p, i, "a texture file name", &name);
     if (rc != TS_OK) return rc;
+    return rib_texture_named(p, name, p->args[i].line, p->args[i].col, kind, fallback, index);
+}
+
+char *rib_texture_sibling(const rib_parser *p, const char *name)
+{
+    const char *dot = strrchr(name, '.');
+    if (!dot || strcmp(dot, ".tex") != 0) return strdup(name);
+    static const char *const exts[] = {".tx", ".exr", ".png", ".tif", ".tiff", ".jpg"};
+    size_t stem = (size_t)(dot - name);
+    for (size_t k = 0; k < sizeof exts / sizeof exts[0]; k++) {
+        size_t n = strlen(exts[k]);
+        char *cand = malloc(stem + n + 1);
+        if (!cand) return NULL;
+        memcpy(cand, name, stem), memcpy(cand + stem, exts[k], n + 1);
+        char *path = rib_resolve_in(p, cand, 1);
+        int found = path && access(path, R_OK) == 0;
+        free(path);
+        if (found) return cand;
+        free(cand);
+    }
+    return NULL;
+}
+
+int rib_texture_named(rib_parser *p, const char *name, int line, int col, uint32_t kind,
+                      const char *fallback, uint32_t *index)
+{
+    int rc;
     char *path = rib_resolve_in(p, name, 1);
     if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
     ts_error e = {0};
@@ -438,12 +465,11 @@ int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, const char *fallback
     if (rc == TS_E_MEMORY) return ts_error_set(p->err, rc, "%s", e.msg);
     if (rc != TS_OK && missing) {
         *index = TS_INVALID;
-        rc =
-            rib_missing_file(p, p->args[i].line, p->args[i].col, "texture ", name, e.msg, fallback);
+        rc = rib_missing_file(p, line, col, "texture ", name, e.msg, fallback);
     } else if (rc != TS_OK) {
         char shown[RIB_PRINT_MAX];
-        rc = rib_error_at(p, p->args[i].line, p->args[i].col, "%s: cannot read texture \"%s\": %s",
-                          p->req, rib_printable(name, shown), e.msg);
+        rc = rib_error_at(p, line, col, "%s: cannot read texture \"%s\": %s", p->req,
+                          rib_printable(name, shown), e.msg);
     }
     ts_error_clear(&e);
     return rc;

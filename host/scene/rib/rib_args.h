@@ -111,5 +111,16 @@ char *rib_resolve_in(const rib_parser *p, const char *name, int which);
  * scene does without it), TS_OK and *index = TS_INVALID. A file that is there but cannot be
  * read as an image is an error at that argument naming it. */
 int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, const char *fallback, uint32_t *index);
+/* The name to read for texture `name` (malloc'd): name itself, except that a RenderMan .tex
+ * (a format Tessera cannot read) gives the first of name.tx, .exr, .png, .tif, .tiff, .jpg
+ * (its extension replaced) found beside the RIB file or on the "texture" search path; NULL
+ * when there is none (why: RIB_TEX_NO_SIBLING) or out of memory. */
+char *rib_texture_sibling(const rib_parser *p, const char *name);
+#define RIB_TEX_NO_SIBLING                                                                         \
+    "a RenderMan .tex, which Tessera cannot read, and no .tx, .exr, .png, .tif, .tiff or .jpg "    \
+    "of the same name beside it"
+/* As rib_texture_arg for a file name read earlier (a Pattern's), at (line, col). */
+int rib_texture_named(rib_parser *p, const char *name, int line, int col, uint32_t kind,
+                      const char *fallback, uint32_t *index);
 
 #endif

@@ -72,6 +72,7 @@ static int geom_xform(rib_parser *p, const double inv[16], uint32_t *index)
  * Surface, AreaLightSource. */
 static ts_patch_attr geom_attr(const rib_parser *p, const double *cs, const double st[4][2])
 {
+    if (p->surface.has_color) cs = p->surface.color; /* a Bxdf's colour: Color and Cs unused */
     if (!cs) cs = p->color;
     ts_patch_attr attr = {.cs_r = (float)cs[0],
                           .cs_g = (float)cs[1],
@@ -99,9 +100,18 @@ static ts_patch_attr geom_attr(const rib_parser *p, const double *cs, const doub
     if (p->surface.textured) attr.flags |= TS_PATCH_COLOR_TEX;
     if (p->surface.constant) /* Surface "constant": Ci = Cs, as an emitter of radiance Cs */
         attr.le_r += (float)cs[0], attr.le_g += (float)cs[1], attr.le_b += (float)cs[2];
-    if (st)
-        for (int c = 0; c < 4; c++)
-            attr.st[2 * c] = (float)st[c][0], attr.st[2 * c + 1] = (float)st[c][1];
+    attr.le_r += (float)p->surface.emit[0], attr.le_g += (float)p->surface.emit[1];
+    attr.le_b += (float)p->surface.emit[2];
+    /* A PxrTexture's manifold (rib_pattern.c): affine in st, so exact at the corners. The
+     * colour texture's wins; rib_bxdf.c warns when the displacement's differs. */
+    const double *map = p->surface.has_st_map ? p->surface.st_map
+                        : p->disp.has_st_map  ? p->disp.st_map
+                                              : NULL;
+    for (int c = 0; c < 4; c++) {
+        double s = st ? st[c][0] : attr.st[2 * c], t = st ? st[c][1] : attr.st[2 * c + 1];
+        if (map) s = map[0] * s + map[1], t = map[2] * t + map[3];
+        attr.st[2 * c] = (float)s, attr.st[2 * c + 1] = (float)t;
+    }
     return attr;
 }
 

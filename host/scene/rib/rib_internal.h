@@ -25,6 +25,11 @@
  *   rib_cond.c     IfBegin, ElseIf, Else, IfEnd and their expressions (reads rib_ris.c's
  *                  user values)
  *   rib_resource.c Resource "attributes" save and restore, ResourceBegin, ResourceEnd
+ *   rib_pattern.c  Pattern (PxrTexture, PxrManifold2D) and the connections to it
+ *   rib_bxdf.c     Bxdf (PxrDiffuse, PxrSurface, PxrDisney, PxrConductor, PxrConstant, Lama...)
+ *                  onto Surface's materials; Displace "PxrDisplace"
+ *   rib_ris_light.c Light (PxrDomeLight, PxrDistantLight, PxrRectLight, PxrDiskLight,
+ *                  PxrSphereLight, PxrCylinderLight, PxrEnvDayLight)
  *   rib_builtin.c  Geometry "teapot" (its patches in teapot_data.c, generated)
  *   rib_args.c     messages, a request's arguments, parameter lists, file names and textures
  *   rib_lex.c      tokens, ASCII and binary
@@ -49,7 +54,9 @@
  *   rib_options.c -> rib_state.c (rib_before_world)
  *   rib_light.c   -> rib_geom.c (rib_geom_check: where lights may stand)
  *   rib_resource.c -> rib_state.c (rib_state_save and rib_state_restore)
- *   rib_geom.c, rib_shading.c, rib_coordsys.c -> no other handler
+ *   rib_bxdf.c    -> rib_pattern.c (connections), rib_shading.c (rib_shading_limits)
+ *   rib_ris_light.c -> rib_geom.c (emissive patches), rib_light.c (rib_light_dome_map)
+ *   rib_geom.c, rib_shading.c, rib_coordsys.c, rib_pattern.c -> no other handler
  *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
  *                    handler. rib.c and rib_archive.c also start lexers (on rib_text.c's bytes);
  * rib.c, rib_state.c and rib_geom.c use basis.c. The cycles are rib.c -> rib_archive.c -> rib.c:
@@ -148,11 +155,18 @@ int rib_geom_bezier(rib_parser *p, const double g[16][3]);
 
 int rib_req_surface(rib_parser *p);
 int rib_req_area_light_source(rib_parser *p);
+/* Kd, Ks >= 0 and finite (else an error naming `name`); Kd + Ks above 1 scaled down to 1 and
+ * roughness clamped into [0.01, 1], each with one warning. */
+int rib_shading_limits(rib_parser *p, const char *name, rib_surface *s);
 int rib_req_opacity(rib_parser *p);
 
 /* ---- rib_light.c: LightSource ---- */
 
 int rib_req_light_source(rib_parser *p);
+/* A dome's "mapname" (or a RIS light's "lightColorMap") `name`, written at (line, col): into
+ * d->mapname when the file is there (a RenderMan .tex: its sibling, rib_texture_sibling), else
+ * rib_missing_file's warning (a uniform sky) or error. */
+int rib_light_dome_map(rib_parser *p, const char *name, int line, int col, ts_dome_light *d);
 
 /* ---- rib_options.c: PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure ---- */
 
@@ -177,6 +191,38 @@ int rib_user_get(const rib_parser *p, const char *name, const char **str, double
 void rib_user_scope_end(rib_parser *p);
 /* Frees p->user. */
 void rib_user_free(rib_parser *p);
+
+/* ---- rib_pattern.c: Pattern, and the connections Bxdf and Displace make to it ---- */
+
+int rib_req_pattern(rib_parser *p);
+/* What a parameter of a Bxdf or Displace is connected to. */
+typedef struct rib_link {
+    int linked;       /* a "reference" parameter: its value names a pattern's output */
+    int textured;     /* to a PxrTexture whose image was read: */
+    uint32_t tex;     /*   the scene texture (of the kind asked for) */
+    double st_map[4]; /*  s' = st_map[0] s + st_map[1], t' = st_map[2] t + st_map[3] */
+} rib_link;
+/* Reads parameter prm's connection into *out: not linked (a literal value: the caller reads
+ * it); linked to a PxrTexture, whose image is read as kind (TS_TEX_RGB or TS_TEX_MINMAX; a
+ * missing file: rib_missing_file's warning ending in `fallback`, or its error when strict);
+ * or linked to something else (undefined, another pattern: one warning; the caller keeps the
+ * parameter's default). */
+int rib_pattern_link(rib_parser *p, const rib_param *prm, uint32_t kind, const char *fallback,
+                     rib_link *out);
+/* Frees p->patterns. */
+void rib_pattern_free(rib_parser *p);
+
+/* ---- rib_bxdf.c: Bxdf, Displace (RIS materials onto Surface's, textured displacement) ---- */
+
+int rib_req_bxdf(rib_parser *p);
+int rib_req_displace(rib_parser *p);
+
+/* ---- rib_ris_light.c: Light (RIS lights onto LightSource's, emissive geometry) ---- */
+
+int rib_req_light(rib_parser *p);
+/* The colour of a black body at `kelvin` (clamped to [1000, 40000]) in linear Rec. 709 RGB
+ * with luminance 1. */
+void rib_blackbody(double kelvin, double rgb[3]);
 
 /* ---- rib_cond.c: IfBegin, ElseIf, Else, IfEnd ---- */
 

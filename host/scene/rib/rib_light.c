@@ -278,6 +278,26 @@ static int light_add(rib_parser *p, size_t k, size_t first)
  * texel in each direction when it has one (the path is relative to the RIB file; the image
  * is read when the render starts; a file that cannot be read leaves the sky uniform with a
  * warning, or is an error when strict). One per scene. */
+int rib_light_dome_map(rib_parser *p, const char *name, int line, int col, ts_dome_light *d)
+{
+    char *use = rib_texture_sibling(p, name); /* a RenderMan .tex: its readable sibling */
+    char *path = use ? rib_resolve_in(p, use, 1) : NULL;
+    free(use);
+    if (path && strlen(path) >= sizeof d->mapname) {
+        free(path);
+        return rib_error_at(p, line, col, "%s: the map's path is too long", p->req);
+    }
+    /* Read when the render starts; one that cannot be read is found here, at its name. */
+    int rc = TS_OK;
+    if (path && access(path, R_OK) == 0)
+        strcpy(d->mapname, path);
+    else
+        rc = rib_missing_file(p, line, col, "", name, path ? strerror(errno) : RIB_TEX_NO_SIBLING,
+                              "a uniform sky of the light's colour");
+    free(path);
+    return rc;
+}
+
 static int light_dome(rib_parser *p, size_t first)
 {
     ts_dome_light d = {1, 1.0, {1, 1, 1}, ""};
@@ -288,20 +308,8 @@ static int light_dome(rib_parser *p, size_t first)
         if (strcmp(prm.name, "mapname") != 0) continue;
         const char *name;
         rc = rib_string_arg(p, i + 1, "a map name", &name);
-        if (rc != TS_OK) return rc;
-        char *path = rib_resolve_in(p, name, 1);
-        if (!path || strlen(path) >= sizeof d.mapname) {
-            free(path);
-            return rib_error_at(p, prm.key->line, prm.key->col,
-                                "domelight \"mapname\": path too long");
-        }
-        /* Read when the render starts; one that cannot be read is found here, at its name. */
-        if (access(path, R_OK) == 0)
-            strcpy(d.mapname, path);
-        else
-            rc = rib_missing_file(p, p->args[i + 1].line, p->args[i + 1].col, "", name,
-                                  strerror(errno), "a uniform sky of the light's colour");
-        free(path);
+        if (rc == TS_OK)
+            rc = rib_light_dome_map(p, name, p->args[i + 1].line, p->args[i + 1].col, &d);
         if (rc != TS_OK) return rc;
     }
     light_args a = light_defaults(0);

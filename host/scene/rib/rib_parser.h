@@ -67,6 +67,10 @@ typedef struct rib_disp {
     double amplitude, frequency, lacunarity, gain;
     uint32_t tex;  /* "texture": the scene texture (TS_TEX_MINMAX) */
     double offset; /* "texture": texel value of zero displacement */
+    /* Displace "PxrDisplace" from a PxrTexture (rib_bxdf.c): its texture coordinates are the
+     * patch's st mapped s' = st_map[0] s + st_map[1], t' = st_map[2] t + st_map[3]. */
+    int has_st_map;
+    double st_map[4];
 } rib_disp;
 
 /* The current Surface (rib_shading.c). */
@@ -76,6 +80,12 @@ typedef struct rib_surface {
     int textured; /* "texturename": Cs is multiplied by scene texture tex (TS_TEX_RGB) */
     uint32_t tex;
     int constant; /* Surface "constant": the patch emits its colour Cs and reflects nothing */
+    /* Bxdf (rib_bxdf.c): its colour replaces Color and "Cs" (has_color); the patch also emits
+     * radiance emit (PxrSurface's glow, PxrConstant); a PxrTexture's st map as rib_disp's. */
+    int has_color;
+    double color[3], emit[3];
+    int has_st_map;
+    double st_map[4];
 } rib_surface;
 
 /* What AttributeBegin / TransformBegin / WorldBegin saved. */
@@ -198,6 +208,7 @@ typedef struct rib_parser {
     struct rib_user *user;             /* rib_ris.c: "user" options and attributes, or NULL */
     struct rib_cond *cond;             /* rib_cond.c: open IfBegin blocks, or NULL */
     struct rib_resources *resources;   /* rib_resource.c: saved attribute states, or NULL */
+    struct rib_patterns *patterns;     /* rib_pattern.c: Pattern nodes by handle, or NULL */
     char *searchpath[2];               /* Option "searchpath": "archive", "texture"; or NULL */
     rib_frame_choice frames;
     int world_line, world_col; /* of the WorldBegin read, 0 before it */

@@ -265,12 +265,39 @@ int rib_req_option(rib_parser *p)
     return TS_OK;
 }
 
+/* Attribute "displacementbound" "sphere" [r] ["coordinatesystem" ["object"]]: read, checked
+ * (r >= 0 and finite) and not needed: Tessera bounds each displaced patch from the
+ * displacement's own parameters (a texture's min-max pyramid), which is never looser. */
+static int rib_displacement_bound(rib_parser *p)
+{
+    for (size_t i = 1; i < p->nargs; i += 2) {
+        rib_param prm;
+        const double *v;
+        int rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        if (strcmp(prm.name, "coordinatesystem") == 0) continue;
+        if (strcmp(prm.name, "sphere") != 0) {
+            rib_warn_param(p, &prm);
+            continue;
+        }
+        rc = rib_param_numbers(p, &prm, 1, &v, NULL);
+        if (rc != TS_OK) return rc;
+        if (!(v[0] >= 0.0 && v[0] <= 1e30))
+            return rib_error_at(p, prm.val->line, prm.val->col,
+                                "Attribute \"displacementbound\": sphere must be >= 0 and "
+                                "finite, got %g",
+                                v[0]);
+    }
+    return TS_OK;
+}
+
 int rib_req_attribute(rib_parser *p)
 {
     const char *name;
     int rc = rib_string_arg(p, 0, "an attribute name", &name);
     if (rc != TS_OK) return rc;
     if (strcmp(name, "user") == 0) return rib_user_params(p, p->depth);
+    if (strcmp(name, "displacementbound") == 0) return rib_displacement_bound(p);
     rib_warn_named(p, name);
     return TS_OK;
 }

@@ -54,28 +54,28 @@ static const struct {
 
 /* Kd, Ks >= 0; Kd + Ks above 1 scaled down to 1 and roughness into [0.01, 1], each with
  * one warning: a file written for another renderer still loads. */
-static int shading_limits(rib_parser *p, const char *name, rib_surface *s)
+int rib_shading_limits(rib_parser *p, const char *name, rib_surface *s)
 {
     char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
     if (!(s->kd >= 0 && s->ks >= 0 && s->kd <= FLT_MAX && s->ks <= FLT_MAX &&
           fabs(s->roughness) <= FLT_MAX))
         return rib_error_at(p, p->req_line, p->req_col,
-                            "Surface \"%s\": Kd and Ks must be >= 0 and finite, got %g %g",
+                            "%s \"%s\": Kd and Ks must be >= 0 and finite, got %g %g", p->req,
                             rib_printable(name, shown), s->kd, s->ks);
     if (s->kd + s->ks > 1.0 + 1e-6) {
         double k = s->kd + s->ks;
         s->kd /= k, s->ks /= k;
         snprintf(what, sizeof what,
-                 "Surface \"%s\": Kd + Ks above 1 is scaled down to 1 (energy conservation)",
+                 "%s \"%s\": Kd + Ks above 1 is scaled down to 1 (energy conservation)", p->req,
                  rib_printable(name, shown));
         rib_warn_once(p, p->req_line, p->req_col, what);
     }
     if (s->roughness < 0.01 || s->roughness > 1.0) {
         s->roughness = s->roughness < 0.01 ? 0.01 : 1.0;
         snprintf(what, sizeof what,
-                 "Surface \"%s\": roughness outside [0.01, 1] is clamped to it (no perfect "
+                 "%s \"%s\": roughness outside [0.01, 1] is clamped to it (no perfect "
                  "mirrors)",
-                 rib_printable(name, shown));
+                 p->req, rib_printable(name, shown));
         rib_warn_once(p, p->req_line, p->req_col, what);
     }
     return TS_OK;
@@ -95,7 +95,7 @@ int rib_req_surface(rib_parser *p)
     size_t k = 0, n = sizeof shading_shaders / sizeof shading_shaders[0];
     while (k < n && strcmp(name, shading_shaders[k].name) != 0)
         k++;
-    rib_surface s = {TS_MAT_MATTE, 1.0, 0.0, 0.1, 0, 0, 0};
+    rib_surface s = {.material = TS_MAT_MATTE, .kd = 1.0, .roughness = 0.1};
     if (k == n) {
         snprintf(what, sizeof what,
                  "Surface \"%s\" is unknown: it renders as matte (matte, plastic, "
@@ -105,13 +105,11 @@ int rib_req_surface(rib_parser *p)
         p->surface = s;
         return TS_OK;
     }
-    s = (rib_surface){shading_shaders[k].material,
-                      shading_shaders[k].kd,
-                      shading_shaders[k].ks,
-                      shading_shaders[k].roughness,
-                      0,
-                      0,
-                      shading_shaders[k].constant};
+    s = (rib_surface){.material = shading_shaders[k].material,
+                      .kd = shading_shaders[k].kd,
+                      .ks = shading_shaders[k].ks,
+                      .roughness = shading_shaders[k].roughness,
+                      .constant = shading_shaders[k].constant};
     static const char *const names[] = {"Kd", "Ks", "roughness"};
     static const size_t counts[] = {1, 1, 1};
     double *out[] = {&s.kd, &s.ks, &s.roughness};
@@ -119,7 +117,7 @@ int rib_req_surface(rib_parser *p)
     int maps = shading_shaders[k].colour_map || shiny;
     rc = shading_params(p, 1, names + first, counts + first, out + first,
                         (size_t)shading_shaders[k].count, maps ? "texturename" : NULL);
-    if (rc == TS_OK) rc = shading_limits(p, name, &s);
+    if (rc == TS_OK) rc = rib_shading_limits(p, name, &s);
     for (size_t i = 1; rc == TS_OK && maps && i < p->nargs; i += 2) {
         rib_param prm;
         rc = rib_param_at(p, i, &prm);

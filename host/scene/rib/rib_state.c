@@ -615,7 +615,7 @@ int rib_req_displacement(rib_parser *p)
     int rc = rib_string_arg(p, 0, "a displacement name", &name);
     if (rc != TS_OK) return rc;
     char shown[RIB_PRINT_MAX];
-    const rib_disp none = {TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0};
+    const rib_disp none = {TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0, 0, {0}};
     rib_disp d = none;
     int off = name[0] == '\0' || strcmp(name, "null") == 0, has_tex = 0, missing = 0;
     if (strcmp(name, "fbm") == 0)

@@ -1,0 +1,418 @@
+/* rib_bxdf.c — Bxdf and Displace (RenderMan 21-26, RIS) onto what Surface and Displacement
+ * give: RenderMan's materials become the nearest of Tessera's matte, plastic and metal
+ * (rib_shading.c's limits), with their colour as the patch colour and an emission for glow;
+ * PxrDisplace from a PxrTexture becomes the textured displacement. What Tessera cannot draw
+ * (refraction, subsurface, presence, other lobes) is named in one warning each, with the
+ * fallback docs/rib.md "RIS shading" lists. Colours and textures connected through Pattern
+ * nodes come from rib_pattern.c. */
+#include "scene/rib/rib_internal.h"
+
+#include <float.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <string.h>
+
+/* Everything a Bxdf here reads, with RenderMan's defaults set per Bxdf (bxdf_defaults). */
+typedef struct bxdf_args {
+    double diffuse_gain, color[3];                 /* the diffuse lobe (or base colour) */
+    double spec_face[3], spec_edge[3], spec_rough; /* the specular lobe (Schlick face/edge) */
+    double coat_face[3], coat_edge[3];             /* PxrSurface's clearcoat */
+    double glow_gain, glow[3];                     /* emission */
+    double metallic, specular;                     /* PxrDisney */
+    double eta[3], kappa[3];                       /* conductors: complex index of refraction */
+    double ior;                                    /* dielectrics */
+    int has_reflectivity;                          /* conductors: artistic face colour given */
+} bxdf_args;
+
+typedef enum bxdf_kind {
+    BXDF_DIFFUSE,   /* PxrDiffuse, LamaDiffuse, LamaSurface: matte */
+    BXDF_SURFACE,   /* PxrSurface: plastic (matte when it has no specular) */
+    BXDF_DISNEY,    /* PxrDisney: plastic or metal by metallic */
+    BXDF_CONDUCTOR, /* PxrConductor, LamaConductor: metal */
+    BXDF_CONSTANT,  /* PxrConstant, LamaEmission: emits, reflects nothing */
+    BXDF_DIELECTRIC /* PxrDielectric, LamaDielectric, ...: refraction not supported */
+} bxdf_kind;
+
+/* One parameter a Bxdf reads: 1 or 3 numbers into bxdf_args at off; colour: a PxrTexture may
+ * be connected to it (its image multiplies nothing: it is the colour). */
+typedef struct bxdf_param {
+    const char *name;
+    size_t n, off;
+    int colour;
+} bxdf_param;
+
+#define BP(name, n, field)                                                                         \
+    {                                                                                              \
+        name, n, offsetof(bxdf_args, field), 0                                                     \
+    }
+#define BC(name, field)                                                                            \
+    {                                                                                              \
+        name, 3, offsetof(bxdf_args, field), 1                                                     \
+    }
+static const bxdf_param bxdf_diffuse_params[] = {BC("diffuseColor", color), BC("color", color),
+                                                 BP("diffuseGain", 1, diffuse_gain)};
+static const bxdf_param bxdf_surface_params[] = {
+    BC("diffuseColor", color),
+    BP("diffuseGain", 1, diffuse_gain),
+    BP("specularFaceColor", 3, spec_face),
+    BP("specularEdgeColor", 3, spec_edge),
+    BP("specularRoughness", 1, spec_rough),
+    BP("clearcoatFaceColor", 3, coat_face),
+    BP("clearcoatEdgeColor", 3, coat_edge),
+    BP("glowGain", 1, glow_gain),
+    BP("glowColor", 3, glow),
+};
+static const bxdf_param bxdf_disney_params[] = {
+    BC("baseColor", color),      BP("metallic", 1, metallic), BP("roughness", 1, spec_rough),
+    BP("specular", 1, specular), BP("emitColor", 3, glow),
+};
+static const bxdf_param bxdf_conductor_params[] = {
+    BP("roughness", 1, spec_rough), BP("eta", 3, eta),
+    BP("kappa", 3, kappa),          BP("IOR", 3, eta),
+    BP("extinction", 3, kappa),     BC("reflectivity", color),
+    BC("specularColor", color),     BP("edgeColor", 3, spec_edge),
+};
+static const bxdf_param bxdf_constant_params[] = {BC("emitColor", color), BC("color", color)};
+static const bxdf_param bxdf_dielectric_params[] = {BP("roughness", 1, spec_rough),
+                                                    BP("ior", 1, ior), BP("IOR", 1, ior)};
+#define BXDF_PARAMS(a) a, sizeof a / sizeof a[0]
+
+/* The Bxdfs Tessera draws. */
+static const struct {
+    const char *name;
+    bxdf_kind kind;
+    const bxdf_param *params;
+    size_t nparams;
+} bxdf_table[] = {
+    {"PxrDiffuse", BXDF_DIFFUSE, BXDF_PARAMS(bxdf_diffuse_params)},
+    {"LamaDiffuse", BXDF_DIFFUSE, BXDF_PARAMS(bxdf_diffuse_params)},
+    {"LamaSurface", BXDF_DIFFUSE, BXDF_PARAMS(bxdf_diffuse_params)},
+    {"PxrSurface", BXDF_SURFACE, BXDF_PARAMS(bxdf_surface_params)},
+    {"PxrDisney", BXDF_DISNEY, BXDF_PARAMS(bxdf_disney_params)},
+    {"PxrConductor", BXDF_CONDUCTOR, BXDF_PARAMS(bxdf_conductor_params)},
+    {"LamaConductor", BXDF_CONDUCTOR, BXDF_PARAMS(bxdf_conductor_params)},
+    {"PxrConstant", BXDF_CONSTANT, BXDF_PARAMS(bxdf_constant_params)},
+    {"LamaEmission", BXDF_CONSTANT, BXDF_PARAMS(bxdf_constant_params)},
+    {"PxrDielectric", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_dielectric_params)},
+    {"LamaDielectric", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_dielectric_params)},
+    {"PxrGlass", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_dielectric_params)},
+};
+#define BXDF_COUNT (sizeof bxdf_table / sizeof bxdf_table[0])
+
+/* PxrSurface's and PxrDisney's lobes Tessera does not draw: a parameter whose name starts with
+ * the prefix is ignored silently while the lobe's weight (`gain`, summed over its values) is 0,
+ * and the weight, when not 0, is named in one warning. */
+static const struct {
+    const char *prefix, *gain, *what;
+} bxdf_lobes[] = {
+    {"refraction", "refractionGain", "refraction is not supported yet"},
+    {"glass", "refractionGain", "refraction is not supported yet"},
+    {"subsurface", "subsurfaceGain", "subsurface scattering is not supported"},
+    {"fuzz", "fuzzGain", "the fuzz lobe is not drawn"},
+    {"singlescatter", "singlescatterGain", "single scattering is not supported"},
+    {"iridescence", "iridescenceFaceGain", "iridescence is not drawn"},
+    {"roughSpecular", "roughSpecularFaceColor", "the rough specular lobe is not drawn"},
+    {"diffuseTransmit", "diffuseTransmitGain", "diffuse transmission is not drawn"},
+    {"subsurface", "subsurface", "subsurface scattering is not supported"},
+    {"sheen", "sheen", "sheen is not drawn"},
+    {"clearcoat", "clearcoat", "PxrDisney's clearcoat is not drawn"},
+    {"specTrans", "specTrans", "refraction is not supported yet"},
+    {"anisotropic", "anisotropic", "anisotropy is not drawn (an isotropic lobe)"},
+};
+#define BXDF_LOBES (sizeof bxdf_lobes / sizeof bxdf_lobes[0])
+
+static bxdf_args bxdf_defaults(bxdf_kind kind)
+{
+    bxdf_args a = {.diffuse_gain = 1.0,
+                   .color = {0.18, 0.18, 0.18},
+                   .spec_rough = 0.2,
+                   .glow = {1, 1, 1},
+                   .specular = 0.5,
+                   .eta = {4.3696, 2.916, 1.6544}, /* PxrConductor's defaults */
+                   .kappa = {5.2057, 4.2142, 3.7519},
+                   .ior = 1.5};
+    if (kind == BXDF_DIFFUSE) a.color[0] = a.color[1] = a.color[2] = 0.5; /* PxrDiffuse */
+    if (kind == BXDF_DISNEY) {
+        a.color[0] = 0.2, a.color[1] = 0.5, a.color[2] = 0.8, a.spec_rough = 0.25;
+        a.glow[0] = a.glow[1] = a.glow[2] = 0.0;
+    }
+    if (kind == BXDF_CONSTANT) a.color[0] = a.color[1] = a.color[2] = 1.0;
+    if (kind == BXDF_DIELECTRIC) a.spec_rough = 0.0;
+    if (kind == BXDF_CONDUCTOR) a.spec_edge[0] = a.spec_edge[1] = a.spec_edge[2] = 1.0;
+    return a;
+}
+
+/* The hemispherical average of Schlick's Fresnel from face colour f0 to edge colour f90:
+ * f0 + (f90 - f0) / 21 (the integral of (1 - cos)^5 against 2 cos). */
+static double bxdf_schlick_mean(double f0, double f90)
+{
+    return f0 + (f90 - f0) / 21.0;
+}
+
+/* Whether args[i] names a lobe weight (bxdf_lobes) or lies in a lobe, and warns about a weight
+ * that is not 0. Returns 1 when the parameter is handled so. */
+static int bxdf_lobe_param(rib_parser *p, const char *bxdf, const rib_param *prm)
+{
+    for (size_t k = 0; k < BXDF_LOBES; k++) {
+        if (strcmp(prm->name, bxdf_lobes[k].gain) != 0) continue;
+        const rib_arg *v = prm->val;
+        double sum = 0.0;
+        if (v->kind == RIB_ARG_NUMBER || v->kind == RIB_ARG_NUMBERS)
+            for (size_t j = 0; j < v->count; j++)
+                sum += fabs(rib_arg_nums(p, v)[j]);
+        else
+            sum = 1.0; /* connected to a pattern */
+        if (sum != 0.0) {
+            char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+            snprintf(what, sizeof what, "Bxdf \"%s\": \"%s\" is not 0, but %s", bxdf,
+                     rib_printable(prm->name, shown), bxdf_lobes[k].what);
+            rib_warn_once(p, prm->key->line, prm->key->col, what);
+        }
+        return 1;
+    }
+    for (size_t k = 0; k < BXDF_LOBES; k++) /* in a lobe: silent, its weight speaks for it */
+        if (strncmp(prm->name, bxdf_lobes[k].prefix, strlen(bxdf_lobes[k].prefix)) == 0) return 1;
+    return 0;
+}
+
+/* Reads Bxdf table entry k's parameters from args[first] into *a; a PxrTexture connected to
+ * its colour parameter into *link. presence and the lobes warn; others are ignored with one
+ * warning each. */
+static int bxdf_read(rib_parser *p, size_t k, size_t first, bxdf_args *a, rib_link *link)
+{
+    const char *bxdf = bxdf_table[k].name;
+    char what[RIB_WARN_KEY];
+    for (size_t i = first; i < p->nargs; i += 2) {
+        rib_param prm;
+        int rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        size_t j = 0;
+        while (j < bxdf_table[k].nparams && strcmp(prm.name, bxdf_table[k].params[j].name) != 0)
+            j++;
+        if (j == bxdf_table[k].nparams) {
+            if (strcmp(prm.name, "presence") == 0) {
+                snprintf(what, sizeof what,
+                         "Bxdf \"%s\": \"presence\" (cut-outs) is not supported: the surface "
+                         "renders opaque",
+                         bxdf);
+                rib_warn_once(p, prm.key->line, prm.key->col, what);
+            } else if (!bxdf_lobe_param(p, bxdf, &prm)) {
+                rib_warn_param(p, &prm);
+            }
+            continue;
+        }
+        const bxdf_param *bp = &bxdf_table[k].params[j];
+        rib_link l;
+        rc = rib_pattern_link(p, &prm, TS_TEX_RGB, "rendered with its colour parameter's default",
+                              &l);
+        if (rc != TS_OK) return rc;
+        if (l.linked) {
+            if (l.textured && bp->colour) *link = l;
+            if (l.textured && !bp->colour) {
+                snprintf(what, sizeof what,
+                         "Bxdf \"%s\": a texture connected to \"%s\" is not drawn (only to its "
+                         "colour): it keeps its default",
+                         bxdf, prm.name);
+                rib_warn_once(p, prm.key->line, prm.key->col, what);
+            }
+            continue;
+        }
+        const double *v;
+        rc = rib_param_numbers(p, &prm, bp->n, &v, NULL);
+        if (rc != TS_OK) return rc;
+        for (size_t c = 0; c < bp->n; c++)
+            if (!(fabs(v[c]) <= FLT_MAX))
+                return rib_error_at(p, prm.val->line, prm.val->col,
+                                    "Bxdf \"%s\": \"%s\" must be finite", bxdf, prm.name);
+        memcpy((char *)a + bp->off, v, bp->n * sizeof *v);
+        if (strcmp(prm.name, "reflectivity") == 0 || strcmp(prm.name, "specularColor") == 0)
+            a->has_reflectivity = 1;
+    }
+    return TS_OK;
+}
+
+/* The material of a Bxdf of `kind` from its arguments (docs/rib.md "RIS shading"). */
+static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const bxdf_args *a,
+                          rib_surface *s)
+{
+    char what[RIB_WARN_KEY];
+    /* Perceptual roughness -> GGX alpha, at least 0.01 (Tessera has no perfect mirrors; the
+     * classic shaders' clamp warns, RIS files write 0 for smooth glass and metal). */
+    double alpha = fmin(fmax(a->spec_rough * a->spec_rough, 0.01), 1.0);
+    *s = (rib_surface){.material = TS_MAT_MATTE, .kd = a->diffuse_gain, .roughness = alpha};
+    s->has_color = 1;
+    memcpy(s->color, a->color, sizeof s->color);
+    if (kind == BXDF_SURFACE) {
+        double ks = 0.0;
+        int grey = 1;
+        for (int c = 0; c < 3; c++) {
+            ks += bxdf_schlick_mean(a->spec_face[c], a->spec_edge[c]) / 3.0;
+            ks += bxdf_schlick_mean(a->coat_face[c], a->coat_edge[c]) / 3.0;
+            grey &= a->spec_face[c] == a->spec_face[0] && a->spec_edge[c] == a->spec_edge[0];
+        }
+        /* Layered, as PxrSurface is: the diffuse lobe sees what the specular does not reflect. */
+        if (ks > 0.0) s->material = TS_MAT_PLASTIC, s->ks = ks, s->kd *= fmax(0.0, 1.0 - ks);
+        if (!grey) {
+            snprintf(what, sizeof what, "Bxdf \"%s\": the specular colour is drawn grey (its mean)",
+                     bxdf);
+            rib_warn_once(p, p->req_line, p->req_col, what);
+        }
+        for (int c = 0; c < 3; c++)
+            s->emit[c] = a->glow_gain * a->glow[c];
+    } else if (kind == BXDF_DISNEY) {
+        if (a->metallic != 0.0 && a->metallic != 1.0) {
+            snprintf(what, sizeof what,
+                     "Bxdf \"%s\": metallic between 0 and 1 is drawn as the nearer of the two",
+                     bxdf);
+            rib_warn_once(p, p->req_line, p->req_col, what);
+        }
+        double f0 = 0.08 * a->specular; /* Burley 2012: specular 0.5 is F0 = 0.04 */
+        if (a->metallic >= 0.5)
+            s->material = TS_MAT_METAL, s->kd = 0.0, s->ks = 1.0;
+        else if (f0 > 0.0)
+            s->material = TS_MAT_PLASTIC, s->ks = bxdf_schlick_mean(f0, 1.0), s->kd = 1.0 - s->ks;
+        else
+            s->kd = 1.0;
+        memcpy(s->emit, a->glow, sizeof s->emit);
+    } else if (kind == BXDF_CONDUCTOR) {
+        s->material = TS_MAT_METAL, s->kd = 0.0, s->ks = 1.0;
+        for (int c = 0; c < 3; c++) {
+            double n = a->eta[c], k = a->kappa[c]; /* normal-incidence Fresnel of n + ik */
+            double f0 = a->has_reflectivity
+                            ? a->color[c]
+                            : ((n - 1) * (n - 1) + k * k) / ((n + 1) * (n + 1) + k * k);
+            s->color[c] = bxdf_schlick_mean(f0, a->spec_edge[c]);
+        }
+    } else if (kind == BXDF_CONSTANT) {
+        s->kd = 0.0, s->constant = 1; /* emits its colour (rib_geom.c), reflects nothing */
+    } else if (kind == BXDF_DIELECTRIC) {
+        double f0 = (a->ior - 1) / (a->ior + 1);
+        f0 *= f0;
+        s->material = TS_MAT_PLASTIC, s->kd = 0.0, s->ks = bxdf_schlick_mean(f0, 1.0);
+        s->color[0] = s->color[1] = s->color[2] = 1.0;
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": refraction is not supported yet: drawn as its reflection alone "
+                 "(plastic with Kd 0)",
+                 bxdf);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
+}
+
+/* Bxdf "name" "handle" params: the material of the following geometry (an attribute, as
+ * Surface), from the Bxdfs of bxdf_table; any other Bxdf renders as matte (its parameters
+ * unread) with one warning naming it. */
+int rib_req_bxdf(rib_parser *p)
+{
+    const char *name;
+    char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+    int rc = rib_string_arg(p, 0, "a Bxdf name", &name);
+    if (rc != TS_OK) return rc;
+    size_t first = (p->nargs % 2 == 0) ? 2 : 1; /* a handle makes the count even */
+    size_t k = 0;
+    while (k < BXDF_COUNT && strcmp(name, bxdf_table[k].name) != 0)
+        k++;
+    if (k == BXDF_COUNT) {
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\" is unknown: it renders as PxrDiffuse (matte) of its default colour",
+                 rib_printable(name, shown));
+        rib_warn_once(p, p->args[0].line, p->args[0].col, what);
+        bxdf_args a = bxdf_defaults(BXDF_DIFFUSE);
+        bxdf_material(p, name, BXDF_DIFFUSE, &a, &p->surface);
+        return TS_OK;
+    }
+    bxdf_args a = bxdf_defaults(bxdf_table[k].kind);
+    rib_link link = {0};
+    rc = bxdf_read(p, k, first, &a, &link);
+    if (rc != TS_OK) return rc;
+    rib_surface s;
+    bxdf_material(p, bxdf_table[k].name, bxdf_table[k].kind, &a, &s);
+    if (bxdf_table[k].kind == BXDF_CONSTANT && link.textured) {
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "Bxdf: a texture connected to an emission colour is not drawn (emission is "
+                      "one colour a patch)");
+        link.textured = 0;
+    }
+    if (link.textured) { /* the texture is the colour: Cs 1 times it */
+        s.textured = 1, s.tex = link.tex;
+        s.color[0] = s.color[1] = s.color[2] = 1.0;
+        s.has_st_map = 1;
+        memcpy(s.st_map, link.st_map, sizeof s.st_map);
+    }
+    rc = rib_shading_limits(p, bxdf_table[k].name, &s);
+    if (rc == TS_OK) p->surface = s;
+    return rc;
+}
+
+/* Displace "PxrDisplace" "handle" ["float dispAmount" [a]] ["reference float dispScalar"
+ * ["tex:resultR"]]: d = a * scalar along the displacement normal; a PxrTexture connected to
+ * dispScalar becomes Displacement "texture" (amplitude a, offset 0). A constant dispScalar
+ * other than 0 (a uniform offset of the surface) is not drawn, with a warning. Other Displace
+ * shaders turn displacement off with one warning, as an unknown Displacement does. */
+int rib_req_displace(rib_parser *p)
+{
+    const char *name;
+    char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+    int rc = rib_string_arg(p, 0, "a displacement name", &name);
+    if (rc != TS_OK) return rc;
+    const rib_disp none = {TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0, 0, {0}};
+    if (strcmp(name, "PxrDisplace") != 0) {
+        snprintf(what, sizeof what, "Displace \"%s\" is unknown: no displacement (PxrDisplace)",
+                 rib_printable(name, shown));
+        rib_warn_once(p, p->args[0].line, p->args[0].col, what);
+        p->disp = none;
+        return TS_OK;
+    }
+    size_t first = (p->nargs % 2 == 0) ? 2 : 1;
+    double amount = 1.0, scalar = 0.0;
+    int enabled = 1;
+    rib_link link = {0};
+    for (size_t i = first; i < p->nargs; i += 2) {
+        rib_param prm;
+        const double *v;
+        rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        int is_amount = strcmp(prm.name, "dispAmount") == 0;
+        int is_scalar = strcmp(prm.name, "dispScalar") == 0;
+        int is_enabled = strcmp(prm.name, "enabled") == 0;
+        if (!is_amount && !is_scalar && !is_enabled) {
+            rib_warn_param(p, &prm);
+            continue;
+        }
+        rib_link l;
+        rc = rib_pattern_link(p, &prm, TS_TEX_MINMAX, "no displacement", &l);
+        if (rc != TS_OK) return rc;
+        if (l.linked) {
+            if (is_scalar) link = l;
+            if (!is_scalar && l.textured)
+                rib_warn_once(p, prm.key->line, prm.key->col,
+                              "Displace \"PxrDisplace\": only dispScalar may be connected to a "
+                              "texture");
+            continue;
+        }
+        rc = rib_param_numbers(p, &prm, 1, &v, NULL);
+        if (rc != TS_OK) return rc;
+        if (!(fabs(v[0]) <= FLT_MAX))
+            return rib_error_at(p, prm.val->line, prm.val->col,
+                                "Displace: \"%s\" must be finite, got %g", prm.name, v[0]);
+        if (is_amount) amount = v[0];
+        if (is_scalar) scalar = v[0];
+        if (is_enabled) enabled = v[0] != 0.0;
+    }
+    rib_disp d = none;
+    if (enabled && link.textured && amount != 0.0) {
+        d.kind = TS_DISP_TEXTURE, d.tex = link.tex, d.amplitude = amount, d.offset = 0.0;
+        d.has_st_map = 1;
+        memcpy(d.st_map, link.st_map, sizeof d.st_map);
+        if (p->surface.has_st_map && memcmp(p->surface.st_map, d.st_map, sizeof d.st_map) != 0)
+            rib_warn_once(p, p->req_line, p->req_col,
+                          "Displace: the displacement texture's manifold differs from the colour "
+                          "texture's; both use the colour's");
+    } else if (enabled && !link.linked && scalar * amount != 0.0) {
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "Displace \"PxrDisplace\": a constant dispScalar (a uniform offset of the "
+                      "surface) is not drawn: no displacement");
+    }
+    p->disp = d;
+    return TS_OK;
+}

@@ -1,0 +1,346 @@
+/* rib_ris_light.c — Light (RenderMan 21-26, RIS) onto Tessera's lights: PxrDomeLight is the
+ * dome (a lat-long map from lightColorMap), PxrDistantLight a distant light whose cone is
+ * angleExtent, PxrRectLight, PxrDiskLight, PxrSphereLight and PxrCylinderLight emissive
+ * geometry (a bilinear patch, a disk, a sphere or a cylinder of Bézier patches, which the
+ * emitter table samples as area lights), PxrEnvDayLight a uniform dome. The radiance of every
+ * light is intensity * 2^exposure * lightColor (times a black body's colour with
+ * enableTemperature), RenderMan's with normalize off; light filters are ignored (rib.c warns
+ * about LightFilter). The light's shape is RenderMan's (USD's UsdLux took it): a unit square
+ * or a disk of diameter 1 in the xy plane facing -z, a sphere of diameter 1, a cylinder of
+ * length 1 and diameter 1 along x; a distant light shines down -z. docs/rib.md "RIS
+ * shading" has the rules. */
+#include "scene/rib/rib_internal.h"
+
+#include "base/mat4.h"
+#include "scene/quadric.h"
+
+#include <float.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef enum ris_light_kind {
+    RIS_DOME,
+    RIS_DISTANT,
+    RIS_RECT,
+    RIS_DISK,
+    RIS_SPHERE,
+    RIS_CYLINDER,
+    RIS_DAY
+} ris_light_kind;
+
+static const struct {
+    const char *name;
+    ris_light_kind kind;
+} ris_lights[] = {
+    {"PxrDomeLight", RIS_DOME},     {"PxrDistantLight", RIS_DISTANT},
+    {"PxrRectLight", RIS_RECT},     {"PxrDiskLight", RIS_DISK},
+    {"PxrSphereLight", RIS_SPHERE}, {"PxrCylinderLight", RIS_CYLINDER},
+    {"PxrEnvDayLight", RIS_DAY},
+};
+#define RIS_LIGHT_COUNT (sizeof ris_lights / sizeof ris_lights[0])
+
+/* What a RIS light reads. */
+typedef struct ris_light_args {
+    double intensity, exposure, color[3], temperature, angle, normalize, enable_temperature;
+    double sky_tint[3];
+    size_t map_arg; /* lightColorMap: the index of its value, 0 for none */
+} ris_light_args;
+
+/* ---- black body ---------------------------------------------------------------------- */
+
+/* A lobe of Wyman, Sloan and Shirley's fit of the CIE 1931 observer (JCGT 2(2), 2013). */
+static double cie_lobe(double l, double mu, double s1, double s2)
+{
+    double t = (l - mu) / (l < mu ? s1 : s2);
+    return exp(-0.5 * t * t);
+}
+
+void rib_blackbody(double kelvin, double rgb[3])
+{
+    double t = fmin(fmax(kelvin, 1000.0), 40000.0), xyz[3] = {0, 0, 0};
+    for (double l = 380.0; l <= 780.0; l += 5.0) { /* nm */
+        double m = l * 1e-9, planck = 1.0 / (pow(m, 5) * expm1(1.4387769e-2 / (m * t)));
+        xyz[0] += planck *
+                  (1.056 * cie_lobe(l, 599.8, 37.9, 31.0) + 0.362 * cie_lobe(l, 442.0, 16.0, 26.7) -
+                   0.065 * cie_lobe(l, 501.1, 20.4, 26.2));
+        xyz[1] += planck *
+                  (0.821 * cie_lobe(l, 568.8, 46.9, 40.5) + 0.286 * cie_lobe(l, 530.9, 16.3, 31.1));
+        xyz[2] += planck *
+                  (1.217 * cie_lobe(l, 437.0, 11.8, 36.0) + 0.681 * cie_lobe(l, 459.0, 26.0, 13.8));
+    }
+    /* XYZ -> linear Rec. 709 (sRGB primaries, D65), negatives (deep red) clipped. */
+    rgb[0] = fmax(0.0, 3.2406 * xyz[0] - 1.5372 * xyz[1] - 0.4986 * xyz[2]);
+    rgb[1] = fmax(0.0, -0.9689 * xyz[0] + 1.8758 * xyz[1] + 0.0415 * xyz[2]);
+    rgb[2] = fmax(0.0, 0.0557 * xyz[0] - 0.2040 * xyz[1] + 1.0570 * xyz[2]);
+    double y = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+    for (int k = 0; k < 3; k++)
+        rgb[k] /= y;
+}
+
+/* ---- parameters ---------------------------------------------------------------------- */
+
+/* Non-physical or sampling controls: ignored with one warning only when not at their default
+ * (a light's default makes no difference to what Tessera draws). */
+static const struct {
+    const char *name;
+    double neutral;
+} ris_light_neutral[] = {
+    {"diffuse", 1.0},         {"specular", 1.0},
+    {"enableShadows", 1.0},   {"areaNormalize", 0.0},
+    {"thinShadow", 1.0},      {"traceLightPaths", 0.0},
+    {"fixedSampleCount", -1}, {"importanceMultiplier", 1.0},
+};
+
+/* Reads the parameters from args[first] into *a; others warn once each. */
+static int ris_light_read(rib_parser *p, ris_light_kind kind, size_t first, ris_light_args *a)
+{
+    static const struct {
+        const char *name;
+        size_t n, off;
+    } known[] = {
+        {"intensity", 1, offsetof(ris_light_args, intensity)},
+        {"exposure", 1, offsetof(ris_light_args, exposure)},
+        {"lightColor", 3, offsetof(ris_light_args, color)},
+        {"temperature", 1, offsetof(ris_light_args, temperature)},
+        {"enableTemperature", 1, offsetof(ris_light_args, enable_temperature)},
+        {"angleExtent", 1, offsetof(ris_light_args, angle)},
+        {"normalize", 1, offsetof(ris_light_args, normalize)},
+        {"skyTint", 3, offsetof(ris_light_args, sky_tint)},
+    };
+    for (size_t i = first; i < p->nargs; i += 2) {
+        rib_param prm;
+        const double *v;
+        int rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        if (strcmp(prm.name, "lightColorMap") == 0 && kind == RIS_DOME) {
+            a->map_arg = i + 1;
+            continue;
+        }
+        size_t k = 0, nk = sizeof known / sizeof known[0];
+        while (k < nk && strcmp(prm.name, known[k].name) != 0)
+            k++;
+        int usable = k < nk && (k != 5 || kind == RIS_DISTANT) && (k != 7 || kind == RIS_DAY);
+        if (prm.val->kind == RIB_ARG_STRING || prm.val->kind == RIB_ARG_STRINGS)
+            usable = 0; /* a connection to a pattern: lights are not textured here */
+        if (!usable) {
+            size_t j = 0, nj = sizeof ris_light_neutral / sizeof ris_light_neutral[0];
+            while (j < nj && strcmp(prm.name, ris_light_neutral[j].name) != 0)
+                j++;
+            const rib_arg *val = prm.val;
+            int neutral = j < nj && (val->kind == RIB_ARG_NUMBER || val->kind == RIB_ARG_NUMBERS) &&
+                          val->count == 1 &&
+                          rib_arg_nums(p, val)[0] == ris_light_neutral[j].neutral;
+            if (!neutral) rib_warn_param(p, &prm);
+            continue;
+        }
+        rc = rib_param_numbers(p, &prm, known[k].n, &v, NULL);
+        if (rc != TS_OK) return rc;
+        for (size_t c = 0; c < known[k].n; c++)
+            if (!(fabs(v[c]) <= FLT_MAX))
+                return rib_error_at(p, prm.val->line, prm.val->col,
+                                    "Light: \"%s\" must be finite, got %g", prm.name, v[c]);
+        memcpy((char *)a + known[k].off, v, known[k].n * sizeof *v);
+    }
+    return TS_OK;
+}
+
+/* The light's radiance: intensity * 2^exposure * lightColor (* skyTint) (* black body). */
+static int ris_light_radiance(rib_parser *p, const char *name, const ris_light_args *a,
+                              double out[3])
+{
+    double bb[3] = {1, 1, 1}, scale = a->intensity * exp2(a->exposure);
+    if (a->enable_temperature != 0.0) {
+        if (!(a->temperature > 0.0))
+            return rib_error_at(p, p->req_line, p->req_col,
+                                "Light \"%s\": temperature must be > 0 (kelvin), got %g", name,
+                                a->temperature);
+        rib_blackbody(a->temperature, bb);
+    }
+    int ok = scale >= 0.0 && scale <= FLT_MAX;
+    for (int k = 0; k < 3; k++) {
+        out[k] = scale * a->color[k] * a->sky_tint[k] * bb[k];
+        ok &= a->color[k] >= 0.0 && a->sky_tint[k] >= 0.0 && out[k] <= FLT_MAX;
+    }
+    if (!ok)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light \"%s\": intensity, 2^exposure and lightColor must be >= 0 and "
+                            "finite, got %g, %g and [%g %g %g]",
+                            name, a->intensity, exp2(a->exposure), a->color[0], a->color[1],
+                            a->color[2]);
+    return TS_OK;
+}
+
+/* ---- lights -------------------------------------------------------------------------- */
+
+/* PxrDomeLight and PxrEnvDayLight: the scene's dome of radiance L (the map's texel times it);
+ * a second dome is ignored with a warning (Tessera has one). */
+static int ris_light_dome(rib_parser *p, const char *name, const ris_light_args *a,
+                          const double L[3])
+{
+    if (p->scene->dome.present) {
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "Light: a second dome light is ignored (one dome per scene)");
+        return TS_OK;
+    }
+    ts_dome_light d = {1, 1.0, {L[0], L[1], L[2]}, ""};
+    if (a->map_arg) {
+        const char *map;
+        int rc = rib_string_arg(p, a->map_arg, "a map name", &map);
+        if (rc == TS_OK && map[0])
+            rc = rib_light_dome_map(p, map, p->args[a->map_arg].line, p->args[a->map_arg].col, &d);
+        if (rc != TS_OK) return rc;
+    }
+    if (strcmp(name, "PxrEnvDayLight") == 0)
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "Light \"PxrEnvDayLight\" is drawn as a uniform dome of intensity * "
+                      "2^exposure * skyTint (its sun and Hosek-Wilkie sky are not)");
+    p->scene->dome = d;
+    return TS_OK;
+}
+
+/* PxrDistantLight: light travelling down -z of the current space, radiance L in a cone of
+ * angular diameter angleExtent (degrees), that is irradiance L pi sin^2(angle / 2) on a
+ * surface facing it (lights.c's cone); with normalize, or angleExtent 0 (a delta light), the
+ * irradiance is L itself. */
+static int ris_light_distant(rib_parser *p, const ris_light_args *a, const double L[3])
+{
+    if (!(a->angle >= 0.0 && a->angle < 180.0))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light \"PxrDistantLight\": angleExtent %g is outside [0, 180) degrees",
+                            a->angle);
+    double half = 0.5 * a->angle * M_PI / 180.0;
+    double e = a->normalize != 0.0 || half == 0.0 ? 1.0 : M_PI * sin(half) * sin(half);
+    ts_scene_light l = {.intensity = e,
+                        .color = {L[0], L[1], L[2]},
+                        .angle = a->angle,
+                        .kind = SCENE_LIGHT_DISTANT};
+    const double from[3] = {0, 0, 0}, to[3] = {0, 0, -1};
+    if (!mat4_point(p->ctm, from, l.from) || !mat4_point(p->ctm, to, l.to))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light: its direction leaves the float range");
+    if (l.from[0] == l.to[0] && l.from[1] == l.to[1] && l.from[2] == l.to[2])
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light \"PxrDistantLight\": the current transformation has no "
+                            "direction for -z");
+    return scene_add_light(p->scene, &l, p->err);
+}
+
+static int ris_light_quadric_patch(void *ctx, const double cp[16][3], const double n[4][3],
+                                   const double uv[4][2])
+{
+    rib_parser *p = ctx;
+    (void)uv;
+    return rib_geom_emit(p, p->req_line, p->req_col, cp, n, NULL, NULL);
+}
+
+/* The world-space area of the light's shape (for normalize): the unit shape's area scaled by
+ * the CTM (its xy columns for a rect or disk; the mean scale squared for a sphere or
+ * cylinder). */
+static double ris_light_area(const rib_parser *p, ris_light_kind kind)
+{
+    const double *m = p->ctm; /* row-major, column vectors: column j is m[j], m[4 + j], ... */
+    double ex[3] = {m[0], m[4], m[8]}, ey[3] = {m[1], m[5], m[9]}, ez[3] = {m[2], m[6], m[10]};
+    double c[3] = {ex[1] * ey[2] - ex[2] * ey[1], ex[2] * ey[0] - ex[0] * ey[2],
+                   ex[0] * ey[1] - ex[1] * ey[0]};
+    double xy = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    double det = fabs(c[0] * ez[0] + c[1] * ez[1] + c[2] * ez[2]), s2 = pow(det, 2.0 / 3.0);
+    switch (kind) {
+    case RIS_RECT:
+        return xy;
+    case RIS_DISK:
+        return 0.25 * M_PI * xy;
+    case RIS_SPHERE:
+        return M_PI * s2; /* 4 pi r^2, r = 1/2 */
+    default:
+        return M_PI * s2 + 0.5 * M_PI * s2; /* side pi d l and two disks (not drawn) */
+    }
+}
+
+/* PxrRectLight, PxrDiskLight, PxrSphereLight, PxrCylinderLight: the shape's patches emit
+ * radiance L (from both sides: Tessera's emitters are two-sided) and reflect nothing, with
+ * neither displacement nor the current Opacity. */
+static int ris_light_shape(rib_parser *p, ris_light_kind kind, const ris_light_args *a, double L[3])
+{
+    if (a->normalize != 0.0) {
+        double area = ris_light_area(p, kind);
+        if (!(area > 0.0))
+            return rib_error_at(p, p->req_line, p->req_col,
+                                "Light: normalize needs a light of non-zero area");
+        for (int k = 0; k < 3; k++)
+            L[k] /= area;
+    }
+    rib_surface surface = p->surface;
+    rib_disp disp = p->disp;
+    double emission[3], opacity[3], ctm[16], ctm1[16];
+    memcpy(emission, p->emission, sizeof emission), memcpy(opacity, p->opacity, sizeof opacity);
+    memcpy(ctm, p->ctm, sizeof ctm), memcpy(ctm1, p->ctm1, sizeof ctm1);
+    p->surface = (rib_surface){.material = TS_MAT_MATTE, .kd = 0.0, .roughness = 0.1};
+    p->disp = (rib_disp){TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0, 0, {0}};
+    memcpy(p->emission, L, sizeof emission);
+    p->opacity[0] = p->opacity[1] = p->opacity[2] = 1.0;
+    int rc = rib_geom_check(p), count = 0;
+    if (rc == TS_OK && kind == RIS_RECT) {
+        double g[16][3];
+        for (int j = 0; j < 4; j++)
+            for (int i = 0; i < 4; i++)
+                g[4 * j + i][0] = i / 3.0 - 0.5, g[4 * j + i][1] = j / 3.0 - 0.5,
+                          g[4 * j + i][2] = 0;
+        rc = rib_geom_bezier(p, (const double(*)[3])g);
+    } else if (rc == TS_OK) {
+        ts_quadric q = {QUADRIC_SPHERE, {0.5, -0.5, 0.5, 360.0}, 0};
+        if (kind == RIS_DISK) q = (ts_quadric){QUADRIC_DISK, {0.0, 0.5, 360.0}, 0};
+        if (kind == RIS_CYLINDER) { /* along x: z -> x by a quarter turn about y */
+            q = (ts_quadric){QUADRIC_CYLINDER, {0.5, -0.5, 0.5, 360.0}, 0};
+            double r[16] = {0, 0, 1, 0, 0, 1, 0, 0, -1, 0, 0, 0, 0, 0, 0, 1};
+            mat4_concat(p->ctm, r), mat4_concat(p->ctm1, r);
+        }
+        char why[256] = "";
+        rc = quadric_patches(&q, ris_light_quadric_patch, p, &count, why, sizeof why);
+        if (rc == TS_E_SCENE && why[0]) rc = rib_error_at(p, p->req_line, p->req_col, "%s", why);
+    }
+    p->surface = surface, p->disp = disp;
+    memcpy(p->emission, emission, sizeof emission), memcpy(p->opacity, opacity, sizeof opacity);
+    memcpy(p->ctm, ctm, sizeof ctm), memcpy(p->ctm1, ctm1, sizeof ctm1);
+    return rc;
+}
+
+/* Light "name" "handle" params (the handle optional and unused, as LightSource's). */
+int rib_req_light(rib_parser *p)
+{
+    const char *name;
+    char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+    int rc = rib_string_arg(p, 0, "a light shader name", &name);
+    if (rc == TS_OK) rc = rib_geom_check(p);
+    if (rc != TS_OK) return rc;
+    size_t first = (p->nargs % 2 == 0) ? 2 : 1; /* a handle makes the count even */
+    size_t k = 0;
+    while (k < RIS_LIGHT_COUNT && strcmp(name, ris_lights[k].name) != 0)
+        k++;
+    if (k == RIS_LIGHT_COUNT) {
+        snprintf(what, sizeof what,
+                 "Light \"%s\" is ignored (PxrDomeLight, PxrDistantLight, PxrRectLight, "
+                 "PxrDiskLight, PxrSphereLight, PxrCylinderLight, PxrEnvDayLight)",
+                 rib_printable(name, shown));
+        rib_warn_once(p, p->req_line, p->req_col, what);
+        return TS_OK;
+    }
+    ris_light_kind kind = ris_lights[k].kind;
+    ris_light_args a = {.intensity = kind == RIS_DISTANT ? 50000.0 : 1.0,
+                        .color = {1, 1, 1},
+                        .temperature = 6500.0,
+                        .angle = 0.53,
+                        .sky_tint = {1, 1, 1}};
+    double L[3];
+    rc = ris_light_read(p, kind, first, &a);
+    if (rc == TS_OK) rc = ris_light_radiance(p, name, &a, L);
+    if (rc != TS_OK) return rc;
+    if (p->ctm_moving && kind != RIS_DOME && kind != RIS_DAY)
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "Light under a moving transformation is placed at shutter open");
+    if (kind == RIS_DOME || kind == RIS_DAY) return ris_light_dome(p, name, &a, L);
+    if (kind == RIS_DISTANT) return ris_light_distant(p, &a, L);
+    return ris_light_shape(p, kind, &a, L);
+}

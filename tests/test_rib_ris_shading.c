@@ -1,0 +1,430 @@
+/* test_rib_ris_shading.c — RenderMan 21-26 shading requests (issue 39): Bxdf onto the
+ * materials, Pattern (PxrTexture, PxrManifold2D) and its connections, Displace
+ * "PxrDisplace", Light (dome, distant and area lights), LightFilter, each with its numbers
+ * and its exact warnings and errors. Host only: never skips. */
+#include "scene/rib/rib.h"
+#include "scene/scene.h"
+#include "image/image.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <setjmp.h>
+#include <cmocka.h>
+#include "test_support.h"
+
+#define QUAD "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n"
+#define SCHLICK(f0) ((f0) + (1.0 - (f0)) / 21.0) /* hemispherical mean, edge colour 1 */
+
+static void assert_near(double got, double want, double tol)
+{
+    if (!(fabs(got - want) <= tol)) fail_msg("got %.9g, want %.9g (+- %g)", got, want, tol);
+}
+
+static void assert_cs(const ts_patch_attr *a, double r, double g, double b)
+{
+    assert_near(a->cs_r, r, 1e-6), assert_near(a->cs_g, g, 1e-6), assert_near(a->cs_b, b, 1e-6);
+}
+
+static void assert_le(const ts_patch_attr *a, double r, double g, double b)
+{
+    assert_near(a->le_r, r, 1e-5 * r + 1e-7), assert_near(a->le_g, g, 1e-5 * g + 1e-7);
+    assert_near(a->le_b, b, 1e-5 * b + 1e-7);
+}
+
+/* The attributes of the one patch `bxdf` (a Bxdf request and what follows) gives a quad. */
+static ts_patch_attr one_patch(const char *bxdf)
+{
+    char text[4096];
+    snprintf(text, sizeof text, "WorldBegin\nColor [1 0 0]\n%s\n" QUAD "WorldEnd\n", bxdf);
+    ts_scene s;
+    test_parse_rib_ok(text, &s);
+    assert_int_equal(s.patch_count, 1);
+    ts_patch_attr a = s.attr[0];
+    scene_free(&s);
+    return a;
+}
+
+/* The warnings of `body` in a world block with one quad after it. */
+static const char *warnings_of(const char *body)
+{
+    static char text[4096];
+    snprintf(text, sizeof text, "WorldBegin\n%s\n" QUAD "WorldEnd\n", body);
+    int rc;
+    const char *out = test_rib_warnings(text, &rc);
+    assert_int_equal(rc, TS_OK);
+    return out;
+}
+
+/* ---- Bxdf --------------------------------------------------------------------------- */
+
+static void test_bxdf_diffuse(void **state)
+{
+    (void)state;
+    ts_patch_attr a = one_patch("Bxdf \"PxrDiffuse\" \"d\" \"color diffuseColor\" [0.2 0.4 0.6]");
+    assert_int_equal(a.material, TS_MAT_MATTE);
+    assert_near(a.kd, 1.0, 0), assert_cs(&a, 0.2, 0.4, 0.6); /* Color [1 0 0] is not used */
+    a = one_patch("Bxdf \"PxrDiffuse\" \"d\"");              /* RenderMan's default colour */
+    assert_cs(&a, 0.5, 0.5, 0.5);
+    a = one_patch("Bxdf \"LamaDiffuse\" \"d\" \"color color\" [0.1 0.2 0.3]");
+    assert_int_equal(a.material, TS_MAT_MATTE), assert_cs(&a, 0.1, 0.2, 0.3);
+    /* An attribute: AttributeEnd restores the Surface before it. */
+    ts_scene s;
+    test_parse_rib_ok("WorldBegin\nSurface \"plastic\"\nAttributeBegin\nBxdf \"PxrDiffuse\" \"d\"\n"
+                      "AttributeEnd\n" QUAD "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.attr[0].material, TS_MAT_PLASTIC);
+    assert_cs(&s.attr[0], 1, 1, 1);
+    scene_free(&s);
+}
+
+/* PxrSurface: Kd = diffuseGain, Cs = diffuseColor, Ks = the hemispherical mean of Schlick's
+ * Fresnel from specularFaceColor to specularEdgeColor (plus the clearcoat's), GGX alpha =
+ * specularRoughness^2; the glow emits glowGain * glowColor. */
+static void test_bxdf_surface(void **state)
+{
+    (void)state;
+    ts_patch_attr a = one_patch("Bxdf \"PxrSurface\" \"s\" \"float diffuseGain\" [0.8] "
+                                "\"color diffuseColor\" [0.5 0.25 0.125] \"color "
+                                "specularFaceColor\" [0.04 0.04 0.04] \"color specularEdgeColor\" "
+                                "[1 1 1] \"float specularRoughness\" [0.3] \"float glowGain\" [2] "
+                                "\"color glowColor\" [1 0.5 0]");
+    assert_int_equal(a.material, TS_MAT_PLASTIC);
+    /* Layered: the diffuse lobe takes what the specular one leaves. */
+    assert_near(a.kd, 0.8 * (1 - SCHLICK(0.04)), 1e-7), assert_near(a.ks, SCHLICK(0.04), 1e-7);
+    assert_near(a.roughness, 0.09, 1e-7);
+    assert_cs(&a, 0.5, 0.25, 0.125);
+    assert_le(&a, 2, 1, 0);
+    /* RenderMan's defaults: no specular (face and edge colours 0), diffuse 0.18. */
+    a = one_patch("Bxdf \"PxrSurface\" \"s\"");
+    assert_int_equal(a.material, TS_MAT_MATTE);
+    assert_near(a.kd, 1.0, 0), assert_cs(&a, 0.18, 0.18, 0.18), assert_le(&a, 0, 0, 0);
+    /* A clearcoat adds to the one lobe. */
+    a = one_patch("Bxdf \"PxrSurface\" \"s\" \"color clearcoatFaceColor\" [0.05 0.05 0.05] "
+                  "\"color clearcoatEdgeColor\" [1 1 1]");
+    assert_int_equal(a.material, TS_MAT_PLASTIC), assert_near(a.ks, SCHLICK(0.05), 1e-7);
+    /* Lobes Tessera does not draw: silent while their weight is 0, else one warning; the
+     * parameters Tessera does not read warn once each. */
+    assert_string_equal(
+        warnings_of("Bxdf \"PxrSurface\" \"s\" \"float subsurfaceGain\" [0] "
+                    "\"color subsurfaceColor\" [1 0 0] \"float refractionGain\" "
+                    "[0.5] \"float presence\" [1] \"int specularFresnelMode\" [0]"),
+        "w.rib:2:82: warning: Bxdf \"PxrSurface\": \"refractionGain\" is not 0, "
+        "but refraction is not supported yet\n"
+        "w.rib:2:111: warning: Bxdf \"PxrSurface\": \"presence\" (cut-outs) is not "
+        "supported: the surface renders opaque\n"
+        "w.rib:2:132: warning: Bxdf parameter \"specularFresnelMode\" is ignored\n");
+}
+
+static void test_bxdf_disney_conductor_constant(void **state)
+{
+    (void)state;
+    ts_patch_attr a = one_patch("Bxdf \"PxrDisney\" \"d\" \"color baseColor\" [0.9 0.6 0.2] "
+                                "\"float metallic\" [1] \"float roughness\" [0.5]");
+    assert_int_equal(a.material, TS_MAT_METAL);
+    assert_near(a.ks, 1.0, 0), assert_near(a.roughness, 0.25, 1e-7), assert_cs(&a, 0.9, 0.6, 0.2);
+    a = one_patch("Bxdf \"PxrDisney\" \"d\" \"color baseColor\" [0.9 0.6 0.2]");
+    assert_int_equal(a.material, TS_MAT_PLASTIC); /* specular 0.5: F0 = 0.04 (Burley) */
+    assert_near(a.kd, 1 - SCHLICK(0.04), 1e-6);   /* layered: Kd + Ks = 1 */
+    assert_near(a.ks, SCHLICK(0.04), 1e-6);
+    /* PxrConductor: Cs is the normal-incidence Fresnel of eta + i kappa, edge colour 1. */
+    a = one_patch("Bxdf \"PxrConductor\" \"c\" \"color eta\" [0.2 0.2 0.2] \"color kappa\" [3 3 "
+                  "3] \"float roughness\" [0.1]");
+    double f0 = (0.8 * 0.8 + 9) / (1.2 * 1.2 + 9);
+    assert_int_equal(a.material, TS_MAT_METAL), assert_near(a.roughness, 0.01, 1e-7);
+    assert_cs(&a, SCHLICK(f0), SCHLICK(f0), SCHLICK(f0));
+    a = one_patch("Bxdf \"LamaConductor\" \"c\" \"color reflectivity\" [0.9 0.5 0.1] \"color "
+                  "edgeColor\" [0.9 0.5 0.1]");
+    assert_cs(&a, 0.9, 0.5, 0.1);
+    /* PxrConstant emits its colour and reflects nothing. */
+    a = one_patch("Bxdf \"PxrConstant\" \"k\" \"color emitColor\" [2 1 0.5]");
+    assert_near(a.kd, 0, 0), assert_near(a.ks, 0, 0), assert_le(&a, 2, 1, 0.5);
+}
+
+static void test_bxdf_fallbacks(void **state)
+{
+    (void)state;
+    /* Refraction: the reflection alone, with one warning. */
+    ts_patch_attr a = one_patch("Bxdf \"PxrDielectric\" \"g\" \"float ior\" [1.5]");
+    assert_int_equal(a.material, TS_MAT_PLASTIC);
+    assert_near(a.kd, 0, 0), assert_near(a.ks, SCHLICK(0.04), 1e-7), assert_cs(&a, 1, 1, 1);
+    assert_string_equal(warnings_of("Bxdf \"LamaDielectric\" \"g\""),
+                        "w.rib:2:1: warning: Bxdf \"LamaDielectric\": refraction is not supported "
+                        "yet: drawn as its reflection alone (plastic with Kd 0)\n");
+    /* An unknown Bxdf: PxrDiffuse's default, one warning. */
+    a = one_patch("Bxdf \"MyOSLBxdf\" \"x\" \"float k\" [3]");
+    assert_int_equal(a.material, TS_MAT_MATTE), assert_cs(&a, 0.5, 0.5, 0.5);
+    assert_string_equal(warnings_of("Bxdf \"MyOSLBxdf\" \"x\"\nBxdf \"MyOSLBxdf\" \"y\""),
+                        "w.rib:2:6: warning: Bxdf \"MyOSLBxdf\" is unknown: it renders as "
+                        "PxrDiffuse (matte) of its default colour\n");
+    test_parse_rib_error("WorldBegin Bxdf \"PxrSurface\" \"s\" \"float diffuseGain\" [-1]",
+                         "t.rib:1:12: error: Bxdf \"PxrSurface\": Kd and Ks must be >= 0 and "
+                         "finite, got -1 0");
+    test_parse_rib_error("WorldBegin Bxdf \"PxrSurface\" \"s\" \"color diffuseColor\" [1 1]",
+                         "t.rib:1:55: error: Bxdf: parameter \"diffuseColor\" needs 3 values, "
+                         "got 2");
+}
+
+/* ---- Pattern ------------------------------------------------------------------------ */
+
+/* A 2 x 2 image at dir/name (PPM, or PNG when the name ends so). */
+static const char *write_image(const char *name)
+{
+    static char path[4096];
+    snprintf(path, sizeof path, "%s/%s", test_scratch_dir(), name);
+    size_t n = strlen(path);
+    if (n > 4 && strcmp(path + n - 4, ".png") == 0) {
+        const float rgb[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
+        ts_error e = {0};
+        assert_int_equal(image_write_png(path, 2, 2, rgb, &e), TS_OK);
+    } else {
+        test_write_text(path, "P3 2 2 255\n255 0 0 0 255 0 0 0 255 255 255 255\n");
+    }
+    return path;
+}
+
+static void test_pattern_texture(void **state)
+{
+    (void)state;
+    const char *img = write_image("ris_colour.ppm");
+    char text[8192];
+    ts_scene s;
+    /* PxrTexture into diffuseColor: the image is the colour (Cs 1); RenderMan's invertT 1
+     * flips t. */
+    snprintf(text, sizeof text,
+             "WorldBegin\nPattern \"PxrTexture\" \"tex\" \"string filename\" [\"%s\"]\n"
+             "Bxdf \"PxrDiffuse\" \"d\" \"reference color diffuseColor\" [\"tex:resultRGB\"]\n" QUAD
+             "WorldEnd\n",
+             img);
+    test_parse_rib_ok(text, &s);
+    assert_int_equal(s.texture_count, 1);
+    assert_true(s.attr[0].flags & TS_PATCH_COLOR_TEX);
+    assert_int_equal(s.attr[0].color_tex, 0), assert_cs(&s.attr[0], 1, 1, 1);
+    const float flipped[8] = {0, 1, 1, 1, 0, 0, 1, 0};
+    for (int k = 0; k < 8; k++)
+        assert_near(s.attr[0].st[k], flipped[k], 0);
+    scene_free(&s);
+    /* A PxrManifold2D: s' = scaleS s + offsetS, t' = scaleT t + offsetT. */
+    snprintf(text, sizeof text,
+             "WorldBegin\nPattern \"PxrManifold2D\" \"m\" \"float scaleS\" [2] \"float offsetT\" "
+             "[0.5]\nPattern \"PxrTexture\" \"tex\" \"string filename\" [\"%s\"] \"int invertT\" "
+             "[0] \"reference struct manifold\" [\"m:result\"]\n"
+             "Bxdf \"PxrSurface\" \"d\" \"reference color diffuseColor\" [\"tex:resultRGB\"]\n" QUAD
+             "WorldEnd\n",
+             img);
+    test_parse_rib_ok(text, &s);
+    const float mapped[8] = {0, 0.5f, 2, 0.5f, 0, 1.5f, 2, 1.5f};
+    for (int k = 0; k < 8; k++)
+        assert_near(s.attr[0].st[k], mapped[k], 0);
+    scene_free(&s);
+}
+
+/* RenderMan's .tex files: the sibling image of the same name is read instead; none: the
+ * missing-file warning and the untextured colour (an error with --strict). */
+static void test_pattern_tex_sibling(void **state)
+{
+    (void)state;
+    const char *png = write_image("ris_wood.png");
+    char tex[4096], text[8192];
+    snprintf(tex, sizeof tex, "%.*s.tex", (int)(strlen(png) - 4), png);
+    snprintf(text, sizeof text,
+             "WorldBegin\nPattern \"PxrTexture\" \"t\" \"string filename\" [\"%s\"]\nBxdf "
+             "\"PxrDiffuse\" \"d\" \"reference color diffuseColor\" [\"t:resultRGB\"]\n" QUAD
+             "WorldEnd\n",
+             tex);
+    ts_scene s;
+    test_parse_rib_ok(text, &s);
+    assert_int_equal(s.texture_count, 1);
+    assert_string_equal(s.tex_source[0], png);
+    scene_free(&s);
+    int rc;
+    const char *out =
+        test_rib_warnings("WorldBegin\nPattern \"PxrTexture\" \"t\" \"string "
+                          "filename\" [\"nowhere/x.tex\"]\nBxdf \"PxrDiffuse\" \"d\" "
+                          "\"reference color diffuseColor\" [\"t:resultRGB\"]\n" QUAD "WorldEnd\n",
+                          &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:2:44: warning: Bxdf: cannot read texture \"nowhere/x.tex\": a "
+                             "RenderMan .tex, which Tessera cannot read, and no .tx, .exr, .png, "
+                             ".tif, .tiff or .jpg of the same name beside it; rendered with its "
+                             "colour parameter's default (--strict makes this an error)\n");
+    ts_error e;
+    assert_int_equal(test_parse_rib_strict("WorldBegin\nPattern \"PxrTexture\" \"t\" \"string "
+                                           "filename\" [\"nowhere/x.tex\"]\nBxdf \"PxrDiffuse\" "
+                                           "\"d\" \"reference color diffuseColor\" "
+                                           "[\"t:resultRGB\"]\n" QUAD "WorldEnd\n",
+                                           &s, &e),
+                     TS_E_SCENE);
+    assert_non_null(strstr(e.msg, "t.rib:2:44: error: Bxdf: cannot read texture"));
+    ts_error_clear(&e);
+}
+
+/* A pattern Tessera does not draw (an OSL shader), or a handle no Pattern defines: the
+ * parameter keeps its default, with one warning. */
+static void test_pattern_unknown(void **state)
+{
+    (void)state;
+    ts_patch_attr a = one_patch("Pattern \"MyNoise\" \"n\" \"float freq\" [4]\nBxdf \"PxrDiffuse\" "
+                                "\"d\" \"reference color diffuseColor\" [\"n:resultRGB\"]");
+    assert_cs(&a, 0.5, 0.5, 0.5);
+    assert_int_equal(a.flags & TS_PATCH_COLOR_TEX, 0);
+    assert_string_equal(warnings_of("Pattern \"MyNoise\" \"n\"\nBxdf \"PxrDiffuse\" \"d\" "
+                                    "\"reference color diffuseColor\" [\"n:resultRGB\"]\n"
+                                    "Bxdf \"PxrDiffuse\" \"d\" \"reference color diffuseColor\" "
+                                    "[\"gone:resultRGB\"]"),
+                        "w.rib:3:54: warning: Pattern \"MyNoise\" is not supported: the parameters "
+                        "connected to it keep their defaults (PxrTexture, PxrManifold2D)\n"
+                        "w.rib:4:54: warning: Bxdf: \"diffuseColor\" is connected to "
+                        "\"gone:resultRGB\", which no Pattern defines: it keeps its default\n");
+}
+
+/* ---- Displace ----------------------------------------------------------------------- */
+
+static void test_displace(void **state)
+{
+    (void)state;
+    const char *img = write_image("ris_height.ppm");
+    char text[8192];
+    snprintf(text, sizeof text,
+             "WorldBegin\nAttribute \"displacementbound\" \"float sphere\" [0.5] \"string "
+             "coordinatesystem\" [\"object\"]\nPattern \"PxrTexture\" \"h\" \"string filename\" "
+             "[\"%s\"]\nDisplace \"PxrDisplace\" \"d\" \"float dispAmount\" [0.2] \"reference "
+             "float dispScalar\" [\"h:resultR\"]\n" QUAD "WorldEnd\n",
+             img);
+    ts_scene s;
+    test_parse_rib_ok(text, &s);
+    assert_int_equal(s.attr[0].disp_kind, TS_DISP_TEXTURE);
+    assert_near(s.attr[0].disp_amplitude, 0.2, 1e-7), assert_near(s.attr[0].disp_offset, 0, 0);
+    assert_near(s.attr[0].st[1], 1, 0); /* invertT */
+    scene_free(&s);
+    int rc;
+    const char *out = test_rib_warnings(text, &rc); /* displacementbound: read silently */
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "");
+    ts_patch_attr a = one_patch("Displace \"PxrDisplace\" \"d\" \"float dispAmount\" [0.2] "
+                                "\"float dispScalar\" [1]");
+    assert_int_equal(a.disp_kind, TS_DISP_NONE);
+    assert_string_equal(warnings_of("Displace \"PxrDisplace\" \"d\" \"float dispScalar\" [1]\n"
+                                    "Displace \"MyDisp\" \"d\""),
+                        "w.rib:2:1: warning: Displace \"PxrDisplace\": a constant dispScalar (a "
+                        "uniform offset of the surface) is not drawn: no displacement\n"
+                        "w.rib:3:10: warning: Displace \"MyDisp\" is unknown: no displacement "
+                        "(PxrDisplace)\n");
+}
+
+/* ---- Light -------------------------------------------------------------------------- */
+
+static void test_light_dome_distant(void **state)
+{
+    (void)state;
+    ts_scene s;
+    test_parse_rib_ok("WorldBegin\nLight \"PxrDomeLight\" \"dome\" \"float intensity\" [2] "
+                      "\"float exposure\" [1] \"color lightColor\" [1 0.5 0.25]\n" QUAD
+                      "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.dome.present, 1);
+    for (int k = 0; k < 3; k++)
+        assert_near(s.dome.intensity * s.dome.color[k], 4.0 / (1 << k), 1e-12);
+    scene_free(&s);
+    /* PxrDistantLight: radiance 50000 in a cone of 0.53 degrees down -z: irradiance
+     * L pi sin^2(0.265 deg); normalize: irradiance L. */
+    test_parse_rib_ok("WorldBegin\nRotate 90 1 0 0\nLight \"PxrDistantLight\" \"sun\"\n"
+                      "Light \"PxrDistantLight\" \"sun2\" \"float intensity\" [3] \"float "
+                      "angleExtent\" [10] \"int normalize\" [1]\n" QUAD "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.light_count, 2);
+    double h = 0.265 * M_PI / 180;
+    assert_near(s.lights[0].intensity * s.lights[0].color[0], 50000 * M_PI * sin(h) * sin(h), 1e-9);
+    assert_near(s.lights[0].angle, 0.53, 0);
+    /* -z rotated 90 degrees about x is +y: light travels along +y. */
+    assert_near(s.lights[0].to[1] - s.lights[0].from[1], 1, 1e-12);
+    assert_near(s.lights[1].intensity * s.lights[1].color[1], 3, 1e-12);
+    scene_free(&s);
+    /* A missing map: a uniform sky, warned. */
+    assert_string_equal(warnings_of("Light \"PxrDomeLight\" \"d\" \"string lightColorMap\" "
+                                    "[\"nowhere/sky.tex\"]\nLightFilter \"PxrBlockerLightFilter\" "
+                                    "\"b\"\nLight \"PxrPortalLight\" \"p\""),
+                        "w.rib:2:49: warning: Light: cannot read \"nowhere/sky.tex\": a RenderMan "
+                        ".tex, which Tessera cannot read, and no .tx, .exr, .png, .tif, .tiff or "
+                        ".jpg of the same name beside it; a uniform sky of the light's colour "
+                        "(--strict makes this an error)\n"
+                        "w.rib:3:1: warning: LightFilter \"PxrBlockerLightFilter\" is ignored\n"
+                        "w.rib:4:1: warning: Light \"PxrPortalLight\" is ignored (PxrDomeLight, "
+                        "PxrDistantLight, PxrRectLight, PxrDiskLight, PxrSphereLight, "
+                        "PxrCylinderLight, PxrEnvDayLight)\n");
+}
+
+/* Area lights are emissive patches of radiance intensity 2^exposure lightColor that reflect
+ * nothing, in RenderMan's shapes; the current Surface and Color are left as they were. */
+static void test_light_shapes(void **state)
+{
+    (void)state;
+    ts_scene s;
+    test_parse_rib_ok(
+        "WorldBegin\nSurface \"plastic\"\nAttributeBegin\nTranslate 0 0 5\nScale 2 4 1\n"
+        "Light \"PxrRectLight\" \"r\" \"float intensity\" [3] \"float exposure\" "
+        "[-1] \"color lightColor\" [1 0.5 1]\nAttributeEnd\n" QUAD "WorldEnd\n",
+        &s);
+    assert_int_equal(s.patch_count, 2);
+    assert_le(&s.attr[0], 1.5, 0.75, 1.5);
+    assert_near(s.attr[0].kd, 0, 0), assert_near(s.attr[0].ks, 0, 0);
+    const ts_vec4 *c0 = &s.cp[0], *c3 = &s.cp[15];
+    assert_near(c0->x, -1, 1e-6), assert_near(c0->y, -2, 1e-6), assert_near(c0->z, 5, 1e-6);
+    assert_near(c3->x, 1, 1e-6), assert_near(c3->y, 2, 1e-6);
+    assert_int_equal(s.attr[1].material, TS_MAT_PLASTIC), assert_le(&s.attr[1], 0, 0, 0);
+    scene_free(&s);
+    /* A sphere of diameter 1, a disk and a cylinder: every patch emits L. */
+    const char *shapes[3] = {"PxrSphereLight", "PxrDiskLight", "PxrCylinderLight"};
+    for (int k = 0; k < 3; k++) {
+        char text[1024];
+        snprintf(text, sizeof text,
+                 "WorldBegin\nLight \"%s\" \"l\" \"float intensity\" [2] \"int "
+                 "enableTemperature\" [1] \"float temperature\" [3000]\nWorldEnd\n",
+                 shapes[k]);
+        test_parse_rib_ok(text, &s);
+        assert_true(s.patch_count >= 1);
+        for (uint32_t i = 0; i < s.patch_count; i++) {
+            const ts_patch_attr *a = &s.attr[i];
+            /* 3000 K: reddish, luminance 2. */
+            assert_near(0.2126 * a->le_r + 0.7152 * a->le_g + 0.0722 * a->le_b, 2, 1e-4);
+            assert_true(a->le_r > a->le_g && a->le_g > a->le_b && a->le_b > 0);
+            for (int j = 0; j < 16; j++) {
+                const ts_vec4 *q = &s.cp[16 * i + j];
+                double r = k == 2 ? sqrt(q->y * q->y + q->z * q->z)
+                                  : sqrt(q->x * q->x + q->y * q->y + q->z * q->z);
+                assert_true(r <= 0.5 * 1.35 + (k == 2 ? 0 : 0.72)); /* control points near */
+                if (k == 1) assert_near(q->z, 0, 1e-12);
+                if (k == 2) assert_true(fabs(q->x) <= 0.5 + 1e-12);
+            }
+        }
+        scene_free(&s);
+    }
+    /* 6500 K is near white. */
+    test_parse_rib_ok("WorldBegin\nLight \"PxrRectLight\" \"r\" \"int enableTemperature\" [1]\n"
+                      "WorldEnd\n",
+                      &s);
+    assert_near(s.attr[0].le_r, 1, 0.06), assert_near(s.attr[0].le_g, 1, 0.06);
+    assert_near(s.attr[0].le_b, 1, 0.06);
+    scene_free(&s);
+    test_parse_rib_error("WorldBegin\nLight \"PxrRectLight\" \"r\" \"float intensity\" [-1]",
+                         "t.rib:2:1: error: Light \"PxrRectLight\": intensity, 2^exposure and "
+                         "lightColor must be >= 0 and finite, got -1, 1 and [1 1 1]");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_bxdf_diffuse),
+        cmocka_unit_test(test_bxdf_surface),
+        cmocka_unit_test(test_bxdf_disney_conductor_constant),
+        cmocka_unit_test(test_bxdf_fallbacks),
+        cmocka_unit_test(test_pattern_texture),
+        cmocka_unit_test(test_pattern_tex_sibling),
+        cmocka_unit_test(test_pattern_unknown),
+        cmocka_unit_test(test_displace),
+        cmocka_unit_test(test_light_dome_distant),
+        cmocka_unit_test(test_light_shapes),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
