@@ -285,6 +285,35 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
     return TS_PATH_TRACED_BSDF;
 }
 
+/* Glass (TS_MAT_GLASS): a delta lobe sampled (lib/bsdf.h glass_sample), so the emission the
+ * ray finds counts whole (TS_MIS_ONE: no light sample could have found it); Russian roulette
+ * as shade_bsdf_bounce. A refracted ray leaves from the far side of the surface and flips
+ * the path's TS_PATH_INSIDE bit in *inside. */
+inline uint shade_glass_bounce(const shade_vertex *v, const shade_step *s,
+                               __global ts_vec4 *throughput, __global float *mis, uint *mode,
+                               uint *inside, shade_rays r)
+{
+    ts_v3 wi;
+    float w[3];
+    ts_sampler_set u = step_bsdf_set(s);
+    int through = glass_sample(v->a, v->cs, v->n, v->wo, (*inside & TS_PATH_INSIDE) != 0u,
+                               sampler_set_value(u, 0u), &wi, w);
+    const float *tp = s->tp;
+    float nt[3] = {tp[0] * w[0], tp[1] * w[1], tp[2] * w[2]};
+    float survive = s->bounce >= 1u ? fmin(1.0f, fmax(nt[0], fmax(nt[1], nt[2]))) : 1.0f;
+    if (!(sampler_set_value(u, 3u) < survive)) return 0u;
+    *throughput = (ts_vec4){nt[0] / survive, nt[1] / survive, nt[2] / survive, 0.0f};
+    *mode = TS_MIS_ONE;
+    *mis = 1.0f;
+    shade_vertex out = *v;
+    if (through) {
+        out.n = v3_scale(v->n, -1.0f);
+        *inside ^= TS_PATH_INSIDE;
+    }
+    emit_ray(r, s->i, &out, wi, TS_NO_HIT, 0u);
+    return TS_PATH_TRACED_BSDF;
+}
+
 /* The sample (of its pixel) that the frame's k-th sample is. */
 static uint shade_sample(uint k, ts_order_divs ord)
 {
@@ -370,9 +399,14 @@ __kernel void shade_path(ts_shade_params sp, ts_order_divs ord, uint first_sampl
         shade_relit(&R, &v, h, &s, &radiance[i]);
     }
     L.sampling = sp.sampling | (relit ? TS_LIGHTS_NO_DOMES : 0u);
-    uint out = shade_direct_light(sp, &L, &v, &s, &pending[i], rays);
-    out |= shade_bsdf_bounce(sp, &v, &s, &throughput[i], &mis[i], &mode, rays);
-    state[i] = TS_PATH_STATE(out, mode) | relit;
+    uint inside = st & TS_PATH_INSIDE, out;
+    if (v.a->material == TS_MAT_GLASS) {
+        out = shade_glass_bounce(&v, &s, &throughput[i], &mis[i], &mode, &inside, rays);
+    } else {
+        out = shade_direct_light(sp, &L, &v, &s, &pending[i], rays);
+        out |= shade_bsdf_bounce(sp, &v, &s, &throughput[i], &mis[i], &mode, rays);
+    }
+    state[i] = TS_PATH_STATE(out, mode) | relit | inside;
     alive[k] = out;
 }
 

@@ -9,6 +9,7 @@
  *   is 1 for the cosine and the smooth GGX lobes (rough ones lose samples below the
  *   horizon, which the bins count);
  * - bsdf_sample's pdf and f are bsdf_eval's for the direction it returns.
+ * Glass, a pair of delta lobes, is checked against Fresnel's and Snell's closed forms.
  * Tolerances are 5 standard errors of the estimates. Host only: never skips. */
 #include "lib/bsdf.h"
 
@@ -166,11 +167,70 @@ static void test_metal_has_no_diffuse(void **state)
     assert_true(fabsf(f[0] - 0.5f / TS_PI) < 0.01f);
 }
 
+/* Glass (TS_MAT_GLASS): fresnel_dielectric against the closed forms, glass_sample's two
+ * lobes against the reflection law and Snell's, the lobe chosen with probability F, the
+ * weights 1 and Cs (eta_o / eta_i)^2, and bsdf_eval 0 (delta lobes). */
+static void test_glass(void **state)
+{
+    (void)state;
+    float ct;
+    /* normal incidence: ((n - 1) / (n + 1))^2 from either side */
+    assert_true(fabsf(fresnel_dielectric(1.0f, 1.0f / 1.5f, &ct) - 0.04f) < 1e-6f && ct == 1.0f);
+    assert_true(fabsf(fresnel_dielectric(1.0f, 1.5f, &ct) - 0.04f) < 1e-6f);
+    /* Brewster's angle from air, tan = 1.5: the p part vanishes, F = rs^2 / 2 */
+    double tb = atan(1.5), ci = cos(tb), st = sin(tb) / 1.5, c2 = sqrt(1 - st * st);
+    double rs = (ci / 1.5 - c2) / (ci / 1.5 + c2);
+    assert_true(fabs(fresnel_dielectric((float)ci, 1.0f / 1.5f, &ct) - 0.5 * rs * rs) < 1e-6);
+    assert_true(fabs(ct - c2) < 1e-6);
+    /* past the critical angle from inside (sin > 1 / 1.5): total internal reflection */
+    assert_true(fresnel_dielectric(cosf(asinf(0.7f)), 1.5f, &ct) == 1.0f && ct == 0.0f);
+    /* the same interface seen from the other side: F(o -> t) = F(t -> o) */
+    for (double c = 0.05; c < 1.0; c += 0.1) {
+        float F1 = fresnel_dielectric((float)c, 1.0f / 1.5f, &ct), ct2;
+        float F2 = fresnel_dielectric(ct, 1.5f, &ct2);
+        assert_true(fabsf(F1 - F2) < 1e-5f && fabsf(ct2 - (float)c) < 1e-5f);
+    }
+    ts_patch_attr a = material(TS_MAT_GLASS, 0.0f, 0.0f, 0.1f);
+    a.ior = 1.5f;
+    const float cs[3] = {0.9f, 0.8f, 0.7f};
+    ts_v3 n = v3(0, 0, 1), wi, got;
+    float f[3], w[3];
+    assert_true(bsdf_eval(&a, cs, n, v3(0, 0.6f, 0.8f), v3(0, -0.6f, 0.8f), f) == 0.0f);
+    assert_true(f[0] == 0.0f && f[1] == 0.0f && f[2] == 0.0f);
+    for (int inside = 0; inside < 2; ++inside)
+        for (double th = 0.1; th < 1.5; th += 0.35) {
+            ts_v3 wo = v3((float)sin(th), 0, (float)cos(th));
+            float eta = inside ? 1.5f : 1.0f / 1.5f;
+            float F = fresnel_dielectric(wo.z, eta, &ct);
+            int reflected = 0, total = 1000;
+            for (int k = 0; k < total; ++k) {
+                int through = glass_sample(&a, cs, n, wo, inside, (k + 0.5f) / total, &got, w);
+                if (!through) {
+                    ++reflected; /* the mirror direction, weight 1 */
+                    assert_true(fabsf(got.x + wo.x) < 1e-6f && fabsf(got.z - wo.z) < 1e-6f);
+                    assert_true(w[0] == 1.0f && w[1] == 1.0f && w[2] == 1.0f);
+                    continue;
+                }
+                /* Snell: eta sin_o = sin_t, on the far side, in the plane of incidence */
+                assert_true(got.z < 0.0f && fabsf(got.y) < 1e-6f);
+                assert_true(fabsf(eta * wo.x + got.x) < 1e-5f);
+                assert_true(fabsf(v3_dot(got, got) - 1.0f) < 1e-5f);
+                for (int c = 0; c < 3; ++c)
+                    assert_true(fabsf(w[c] - cs[c] * eta * eta) < 1e-6f);
+            }
+            /* the lobe chosen with probability F (stratified u0: to 1 / total) */
+            assert_true(fabs((double)reflected / total - F) <= 1.0 / total + 1e-6);
+            wi = got;
+        }
+    (void)wi;
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_materials),
         cmocka_unit_test(test_metal_has_no_diffuse),
+        cmocka_unit_test(test_glass),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

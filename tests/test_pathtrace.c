@@ -119,6 +119,54 @@ static void test_furnace_displaced(void **state)
     check_furnace(1, "mis");
 }
 
+/* A white glass sphere (Surface "glass", eta 1.5) in the furnace: a path that enters leaves
+ * again (radiance scaled by 1/1.5^2 going in and 1.5^2 going out), each reflection weighs 1,
+ * so every path that escapes carries the dome's 1 and Russian roulette keeps the mean: the
+ * sphere's mean is 1 within 5 sigma (samples in [0, 2.25] from the rare internal bounces,
+ * sigma < 1), the dome exactly 1, and the pixels well inside the outline 1 on average too
+ * (so the glass is clear, not a mirror: a mirror's centre would show the camera's side of
+ * the dome, also 1, but the mean of the transmitted-only paths is checked through the
+ * sphere's AOV albedo being 0, Kd 0). --depth 32: internal bounces are not cut short. */
+static void test_glass_furnace(void **state)
+{
+    (void)state;
+    enum { SPP = 64 };
+    FILE *f = fopen(path("glass.rib"), "w");
+    assert_non_null(f);
+    fprintf(f, "Format 64 64 1\nProjection \"perspective\" \"fov\" [40]\n"
+               "LightSource \"domelight\" 1 \"float intensity\" [1]\nTranslate 0 0 4\n"
+               "WorldBegin\nColor [1 1 1]\nSurface \"glass\" \"float eta\" [1.5]\n");
+    test_write_sphere_patches(f, 2, 1.0);
+    fputs("WorldEnd\n", f);
+    fclose(f);
+    char args[64];
+    snprintf(args, sizeof args, "--spp %d --depth 32", SPP);
+    render("glass.rib", "glass.exr", args);
+    ts_image img;
+    load("glass.exr", &img);
+    double sum = 0;
+    int object = 0;
+    for (int i = 0; i < img.width * img.height; ++i) {
+        const float *px = &img.pixels[i * img.channels];
+        int hit = !isinf(px[3]);
+        /* beyond the outline (0.709 of the half-height) by 1.3 pixels: all dome */
+        double sx = (i % img.width + 0.5) / (img.width / 2) - 1,
+               sy = (i / img.width + 0.5) / (img.height / 2) - 1;
+        int dome = sqrt(sx * sx + sy * sy) > 0.75;
+        for (int c = 0; c < 3; ++c) {
+            if (hit) sum += px[c] / 3.0;
+            if (dome && fabs(px[c] - 1.0) > 1e-3)
+                fail_msg("glass: dome pixel %d channel %d: %.6f, expected 1", i, c, px[c]);
+        }
+        if (hit) assert_true(px[7] == 0.0f && px[8] == 0.0f && px[9] == 0.0f); /* albedo */
+        object += hit;
+    }
+    image_free(&img);
+    assert_true(object > 500);
+    double mean = sum / object, tol = 5.0 / sqrt((double)SPP * object);
+    if (fabs(mean - 1.0) > tol) fail_msg("glass: object mean %.5f, expected 1 +- %.5f", mean, tol);
+}
+
 /* A matte plane under a uniform dome of radiance L and nothing else: its radiance is Kd L
  * (irradiance pi L). The dome is sampled cosine-weighted about the normal (light sampling)
  * or found by cosine-weighted BSDF rays (MIS: a uniform dome is left to them), so every
@@ -516,6 +564,7 @@ int main(void)
         cmocka_unit_test(test_furnace),
         cmocka_unit_test(test_furnace_light_sampling),
         cmocka_unit_test(test_furnace_displaced),
+        cmocka_unit_test(test_glass_furnace),
         cmocka_unit_test(test_plane_under_the_sun),
         cmocka_unit_test(test_light_bsdf_and_mis_agree),
         cmocka_unit_test(test_same_bits_whatever_memory_and_threads),

@@ -145,13 +145,31 @@ static void test_bxdf_disney_conductor_constant(void **state)
 static void test_bxdf_fallbacks(void **state)
 {
     (void)state;
-    /* Refraction: the reflection alone, with one warning. */
-    ts_patch_attr a = one_patch("Bxdf \"PxrDielectric\" \"g\" \"float ior\" [1.5]");
-    assert_int_equal(a.material, TS_MAT_PLASTIC);
-    assert_near(a.kd, 0, 0), assert_near(a.ks, SCHLICK(0.04), 1e-7), assert_cs(&a, 1, 1, 1);
-    assert_string_equal(warnings_of("Bxdf \"LamaDielectric\" \"g\""),
-                        "w.rib:2:1: warning: Bxdf \"LamaDielectric\": refraction is not supported "
-                        "yet: drawn as its reflection alone (plastic with Kd 0)\n");
+    /* Dielectrics: glass of their ior, white; rough ones drawn smooth with one warning, an
+     * ior outside [1, 4] replaced by 1.5 with one warning. */
+    ts_patch_attr a = one_patch("Bxdf \"PxrDielectric\" \"g\" \"float ior\" [1.33]");
+    assert_int_equal(a.material, TS_MAT_GLASS);
+    assert_near(a.kd, 0, 0), assert_near(a.ks, 0, 0), assert_near(a.ior, 1.33, 1e-6);
+    assert_cs(&a, 1, 1, 1);
+    a = one_patch("Bxdf \"LamaDielectric\" \"g\"");
+    assert_int_equal(a.material, TS_MAT_GLASS), assert_near(a.ior, 1.5, 0);
+    assert_string_equal(warnings_of("Bxdf \"LamaDielectric\" \"g\""), "");
+    assert_string_equal(warnings_of("Bxdf \"PxrGlass\" \"g\" \"float roughness\" [0.2]"),
+                        "w.rib:2:1: warning: Bxdf \"PxrGlass\": rough refraction is drawn smooth "
+                        "(Tessera's glass is a smooth dielectric)\n");
+    assert_string_equal(warnings_of("Bxdf \"PxrDielectric\" \"g\" \"float ior\" [0.5]"),
+                        "w.rib:2:1: warning: Bxdf \"PxrDielectric\": ior 0.5 outside [1, 4]: 1.5 "
+                        "instead\n");
+    /* The classic Surface "glass": eta, default 1.5, in [1, 4]. */
+    a = one_patch("Surface \"glass\" \"float eta\" [1.33]");
+    assert_int_equal(a.material, TS_MAT_GLASS), assert_near(a.ior, 1.33, 1e-6);
+    a = one_patch("Surface \"glass\"");
+    assert_near(a.ior, 1.5, 0);
+    a = one_patch("Surface \"plastic\"");
+    assert_near(a.ior, 0, 0); /* 0 but for glass: the job hash of older files holds */
+    test_parse_rib_error("WorldBegin\nSurface \"glass\" \"float eta\" [5]\n",
+                         "t.rib:2:1: error: Surface \"glass\": eta must be in [1, 4] (the index "
+                         "of refraction inside), got 5");
     /* An unknown Bxdf: PxrDiffuse's default, one warning. */
     a = one_patch("Bxdf \"MyOSLBxdf\" \"x\" \"float k\" [3]");
     assert_int_equal(a.material, TS_MAT_MATTE), assert_cs(&a, 0.5, 0.5, 0.5);

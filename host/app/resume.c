@@ -70,7 +70,7 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
     if (s->mid_n) h = ts_fnv1a(h, s->mid_n, (size_t)s->patch_count * 5 * sizeof(ts_vec4));
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         ts_patch_attr a = s->attr[i];
-        a.pad[0] = a.pad[1] = 0;
+        a.pad = 0; /* ior, 0 but for glass, keeps the hash of files made before it */
         h = ts_fnv1a(h, &a, sizeof a);
     }
     if (s->texture_count) { /* texel contents, not file names */

@@ -10,7 +10,14 @@
  *            cosine or D(h) cos(theta_h).
  *   metal:   f = Ks Cs D(h) G(wo, wi) / (4 cos_o cos_i): the plastic's GGX lobe tinted by the
  *            surface colour, no diffuse part (RenderMan's metal: Cs Ks specular()); albedo at
- *            most Ks Cs. Always sampled by D(h) cos(theta_h). */
+ *            most Ks Cs. Always sampled by D(h) cos(theta_h).
+ *   glass:   a smooth dielectric of index ior inside, 1 outside (which side the path is on is
+ *            its TS_PATH_INSIDE bit): two delta lobes, specular reflection with the exact
+ *            dielectric Fresnel F (unpolarised; 1 past the critical angle) and refraction by
+ *            Snell's law with 1 - F, the transmitted radiance tinted by Cs and scaled by
+ *            (eta_o / eta_i)^2 (radiance, not importance: Veach 1997 §5.2). bsdf_eval is 0
+ *            (no light sample can hit a delta lobe); glass_sample picks a lobe with
+ *            probability F, so the weight is 1 (reflection) or Cs (eta_o / eta_i)^2. */
 #ifndef TS_BSDF_H
 #define TS_BSDF_H
 
@@ -116,7 +123,7 @@ TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], t
 {
     float ci = v3_dot(n, wi), co = v3_dot(n, wo);
     f[0] = f[1] = f[2] = 0.0f;
-    if (ci <= 0.0f || co <= 0.0f) return 0.0f;
+    if (ci <= 0.0f || co <= 0.0f || a->material == TS_MAT_GLASS) return 0.0f;
     int metal = a->material == TS_MAT_METAL;
     float kd = metal ? 0.0f : a->kd / TS_PI;
     f[0] = kd * cs[0], f[1] = kd * cs[1], f[2] = kd * cs[2];
@@ -154,6 +161,46 @@ TS_INLINE float bsdf_sample(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3],
         *wi = sample_cosine(n, u1, u2);
     }
     return bsdf_eval(a, cs, n, wo, *wi, f);
+}
+
+/* Unpolarised Fresnel reflectance of a smooth dielectric interface, light arriving at cosine
+ * ci > 0 from the side of index ratio eta = eta_i / eta_t (Born and Wolf; Walter et al. 2007
+ * eq. 22 in its exact form); *ct the cosine of the refracted direction, 0 with F = 1 past the
+ * critical angle (total internal reflection). */
+TS_INLINE float fresnel_dielectric(float ci, float eta, float *ct)
+{
+    float st2 = eta * eta * fmax(0.0f, 1.0f - ci * ci);
+    if (st2 >= 1.0f) {
+        *ct = 0.0f;
+        return 1.0f;
+    }
+    float c = sqrt(1.0f - st2);
+    *ct = c;
+    float rs = (eta * ci - c) / (eta * ci + c), rp = (ci - eta * c) / (ci + eta * c);
+    return 0.5f * (rs * rs + rp * rp);
+}
+
+/* Samples glass (TS_MAT_GLASS) from u0: with probability F the mirror direction, else the
+ * refracted one; inside: wo's side is the glass (the path's TS_PATH_INSIDE bit). Writes wi
+ * and the weight f cos / pdf in w[] (1 reflected, Cs (eta_o / eta_i)^2 refracted) and
+ * returns 1 when wi goes through the surface (to the other side of n), 0 when reflected. */
+TS_INLINE int glass_sample(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], ts_v3 n, ts_v3 wo,
+                           int inside, float u0, ts_v3 *wi, float w[3])
+{
+    float ior = a->ior > 0.0f ? a->ior : 1.5f;
+    float eta = inside ? ior : 1.0f / ior; /* eta_o / eta_i: wo's side over the other */
+    float co = fmax(v3_dot(n, wo), 0.0f), ct;
+    float F = fresnel_dielectric(co, eta, &ct);
+    if (u0 < F) {
+        *wi = v3_sub(v3_scale(n, 2.0f * co), wo);
+        w[0] = w[1] = w[2] = 1.0f;
+        return 0;
+    }
+    /* t = -eta wo + (eta co - ct) n: unit, on the far side of n, Snell's sin_t = eta sin_o */
+    *wi = v3_normalize(v3_add(v3_scale(wo, -eta), v3_scale(n, eta * co - ct)));
+    float e2 = eta * eta;
+    w[0] = cs[0] * e2, w[1] = cs[1] * e2, w[2] = cs[2] * e2;
+    return 1;
 }
 
 #endif

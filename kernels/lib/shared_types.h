@@ -173,6 +173,9 @@ typedef struct ts_hit {
 #define TS_MAT_MATTE 0u   /* Lambertian, albedo Kd * Cs */
 #define TS_MAT_PLASTIC 1u /* Kd * Cs / pi plus a GGX lobe of albedo <= Ks, alpha = roughness */
 #define TS_MAT_METAL 2u   /* a GGX lobe of albedo <= Ks * Cs (coloured), alpha = roughness; no Kd */
+#define TS_MAT_GLASS                                                                               \
+    3u /* a smooth dielectric of index ior: Fresnel reflection, and refraction                     \
+          tinted by Cs (lib/bsdf.h glass_sample) */
 
 /* Per-patch attributes from the scene, 128 bytes.
  * Displacement d(P) moves a surface point along its displacement normal (the bilinear
@@ -200,7 +203,8 @@ typedef struct ts_patch_attr {
     ts_u32 color_tex;        /* texture multiplying Cs when flags has TS_PATCH_COLOR_TEX */
     ts_u32 disp_tex;         /* TS_DISP_TEXTURE: the displacement texture */
     float disp_offset;       /* TS_DISP_TEXTURE: texel value of zero displacement */
-    ts_u32 pad[2];
+    float ior;               /* TS_MAT_GLASS: index of refraction inside (outside: 1); else 0 */
+    ts_u32 pad;
     float st[8]; /* (s, t) at the four corners, in corner order */
 } ts_patch_attr;
 
@@ -431,6 +435,9 @@ typedef struct ts_relight_params {
 /* Bit 4: the path's BSDF ray leaves a vertex relit by the baked occlusion (--occlusion), so
  * the domes it finds were counted there already (shade.cl). */
 #define TS_PATH_RELIT 16u
+/* Bit 5: the path is inside glass: its last transmission through a TS_MAT_GLASS surface went
+ * in (each transmission flips it; eye rays start outside). */
+#define TS_PATH_INSIDE 32u
 
 /* Path state as SoA, one entry per path of the wave (path i traces ray i), generated from
  * this list like the ray fields. X(type, name, comment). */

@@ -287,15 +287,21 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
     } else if (kind == BXDF_CONSTANT) {
         s->kd = 0.0, s->constant = 1; /* emits its colour (rib_geom.c), reflects nothing */
     } else if (kind == BXDF_DIELECTRIC) {
-        double f0 = (a->ior - 1) / (a->ior + 1);
-        f0 *= f0;
-        s->material = TS_MAT_PLASTIC, s->kd = 0.0, s->ks = bxdf_schlick_mean(f0, 1.0);
+        s->material = TS_MAT_GLASS, s->kd = 0.0, s->ks = 0.0;
+        s->ior = a->ior >= 1.0 && a->ior <= 4.0 ? a->ior : 1.5;
         s->color[0] = s->color[1] = s->color[2] = 1.0;
-        snprintf(what, sizeof what,
-                 "Bxdf \"%s\": refraction is not supported yet: drawn as its reflection alone "
-                 "(plastic with Kd 0)",
-                 bxdf);
-        rib_warn_once(p, p->req_line, p->req_col, what);
+        if (s->ior != a->ior) {
+            snprintf(what, sizeof what, "Bxdf \"%s\": ior %g outside [1, 4]: 1.5 instead", bxdf,
+                     a->ior);
+            rib_warn_once(p, p->req_line, p->req_col, what);
+        }
+        if (a->spec_rough > 0.0) {
+            snprintf(what, sizeof what,
+                     "Bxdf \"%s\": rough refraction is drawn smooth (Tessera's glass is a "
+                     "smooth dielectric)",
+                     bxdf);
+            rib_warn_once(p, p->req_line, p->req_col, what);
+        }
     }
 }
 

@@ -89,6 +89,7 @@ static ts_patch_attr geom_attr(const rib_parser *p, const double *cs, const doub
                           .kd = (float)p->surface.kd,
                           .ks = (float)p->surface.ks,
                           .roughness = (float)p->surface.roughness,
+                          .ior = p->surface.material == TS_MAT_GLASS ? (float)p->surface.ior : 0.0f,
                           .emitter = TS_INVALID,
                           .le_r = (float)p->emission[0],
                           .le_g = (float)p->emission[1],

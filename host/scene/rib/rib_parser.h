@@ -77,6 +77,7 @@ typedef struct rib_disp {
 typedef struct rib_surface {
     uint32_t material; /* TS_MAT_* */
     double kd, ks, roughness;
+    double ior;   /* TS_MAT_GLASS: the index of refraction inside */
     int textured; /* "texturename": Cs is multiplied by scene texture tex (TS_TEX_RGB) */
     uint32_t tex;
     int constant; /* Surface "constant": the patch emits its colour Cs and reflects nothing */

@@ -50,6 +50,7 @@ static const struct {
     {"metal", TS_MAT_METAL, 0.0, 1.0, 0.1, 1, 2, 0, 0},
     {"shinymetal", TS_MAT_METAL, 0.0, 1.0, 0.1, 1, 2, 0, 0},
     {"constant", TS_MAT_MATTE, 0.0, 0.0, 0.1, 0, 0, 0, 1},
+    {"glass", TS_MAT_GLASS, 0.0, 0.0, 0.1, 3, 1, 0, 0}, /* reads "eta" (default 1.5) */
 };
 
 /* Kd, Ks >= 0; Kd + Ks above 1 scaled down to 1 and roughness into [0.01, 1], each with
@@ -99,7 +100,7 @@ int rib_req_surface(rib_parser *p)
     if (k == n) {
         snprintf(what, sizeof what,
                  "Surface \"%s\" is unknown: it renders as matte (matte, plastic, "
-                 "paintedplastic, metal, shinymetal, constant)",
+                 "paintedplastic, metal, shinymetal, constant, glass)",
                  rib_printable(name, shown));
         rib_warn_once(p, p->req_line, p->req_col, what);
         p->surface = s;
@@ -109,15 +110,21 @@ int rib_req_surface(rib_parser *p)
                       .kd = shading_shaders[k].kd,
                       .ks = shading_shaders[k].ks,
                       .roughness = shading_shaders[k].roughness,
+                      .ior = 1.5,
                       .constant = shading_shaders[k].constant};
-    static const char *const names[] = {"Kd", "Ks", "roughness"};
-    static const size_t counts[] = {1, 1, 1};
-    double *out[] = {&s.kd, &s.ks, &s.roughness};
+    static const char *const names[] = {"Kd", "Ks", "roughness", "eta"};
+    static const size_t counts[] = {1, 1, 1, 1};
+    double *out[] = {&s.kd, &s.ks, &s.roughness, &s.ior};
     int first = shading_shaders[k].first, shiny = strcmp(name, "shinymetal") == 0;
     int maps = shading_shaders[k].colour_map || shiny;
     rc = shading_params(p, 1, names + first, counts + first, out + first,
                         (size_t)shading_shaders[k].count, maps ? "texturename" : NULL);
     if (rc == TS_OK) rc = rib_shading_limits(p, name, &s);
+    if (rc == TS_OK && s.material == TS_MAT_GLASS && !(s.ior >= 1.0 && s.ior <= 4.0))
+        rc = rib_error_at(p, p->req_line, p->req_col,
+                          "Surface \"glass\": eta must be in [1, 4] (the index of refraction "
+                          "inside), got %g",
+                          s.ior);
     for (size_t i = 1; rc == TS_OK && maps && i < p->nargs; i += 2) {
         rib_param prm;
         rc = rib_param_at(p, i, &prm);
