@@ -910,7 +910,7 @@ static void test_shader_warnings(void **state)
     assert_int_equal(rc, TS_OK);
     assert_string_equal(out,
                         "w.rib:1:1: warning: Surface \"wood\" is unknown: it renders as matte "
-                        "(matte, plastic, paintedplastic, metal, shinymetal, constant)\n"
+                        "(matte, plastic, paintedplastic, metal, shinymetal, constant, glass)\n"
                         "w.rib:3:14: warning: Displacement \"dented\" is unknown: no displacement "
                         "(fbm, ridged, texture or null)\n"
                         "w.rib:5:1: warning: Surface \"plastic\": Kd + Ks above 1 is scaled down "
