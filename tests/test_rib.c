@@ -420,7 +420,7 @@ static void test_arrays_comments_escapes(void **state)
     /* \n \t \\ \" decode: the projection name comes back in the message. */
     expect_error("Projection \"x\\ty\\\\z\\\"w\\n\"", TS_E_SCENE,
                  "t.rib:1:12: error: unknown projection \"x?y\\z\"w?\" (perspective, "
-                 "PxrPerspective or orthographic)");
+                 "PxrPerspective, PxrCamera or orthographic)");
     /* Numbers: signs, leading dots, exponents. */
     test_parse_rib_ok("Patch \"bilinear\" \"P\" [+1 -.5 1e1  2.5E-1 0. -0  1 1 1  0 0 0]\n", &s);
     assert_vec(&s.cp[0], 1, -0.5, 10, 0);

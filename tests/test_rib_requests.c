@@ -627,7 +627,7 @@ static void test_camera_requests(void **state)
         {"Exposure 1 0", "t.rib:1:1: error: Exposure: need gain >= 0 and gamma > 0, got 1 0"},
         {"Exposure -1 2", "t.rib:1:1: error: Exposure: need gain >= 0 and gamma > 0, got -1 2"},
         {"Projection \"fisheye\"", "t.rib:1:12: error: unknown projection \"fisheye\" "
-                                   "(perspective, PxrPerspective or orthographic)"},
+                                   "(perspective, PxrPerspective, PxrCamera or orthographic)"},
     };
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++)
         expect_bytes_error(cases[k].text, strlen(cases[k].text), cases[k].msg);

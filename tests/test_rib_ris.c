@@ -104,6 +104,12 @@ static void test_camera_projection(void **state)
     /* The patch placed in the camera's frame: at the camera, 5 units behind the origin. */
     assert_true(s.cp[0].x == 0.0f && s.cp[0].y == 0.0f && s.cp[0].z == -5.0f);
     scene_free(&s);
+    /* PxrCamera (RenderMan 22+) the same: its fov, a pinhole */
+    test_parse_rib_ok("Projection \"PxrCamera\" \"float fov\" [28]\nWorldBegin\n" QUAD "WorldEnd\n",
+                      &s);
+    assert_true(s.camera.fov_deg == 28.0);
+    assert_int_equal(s.camera.projection, TS_PROJECTION_PERSPECTIVE);
+    scene_free(&s);
     int rc;
     const char *out = test_rib_warnings(
         "Projection \"PxrPerspective\" \"float fov\" [35] \"float fStop\" [2.8] "

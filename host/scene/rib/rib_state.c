@@ -507,11 +507,13 @@ int rib_req_projection(rib_parser *p)
     if (rc != TS_OK) return rc;
     char shown[RIB_PRINT_MAX];
     int ortho = strcmp(name, "orthographic") == 0;
-    int pxr = strcmp(name, "PxrPerspective") == 0; /* RenderMan 21+: fov and lens */
+    /* RenderMan 21+: PxrPerspective (fov and lens), PxrCamera (22+: fov, lens and its
+     * distortions, drawn as a pinhole of that fov) */
+    int pxr = strcmp(name, "PxrPerspective") == 0 || strcmp(name, "PxrCamera") == 0;
     if (!ortho && !pxr && strcmp(name, "perspective") != 0)
         return rib_error_at(p, p->args[0].line, p->args[0].col,
-                            "unknown projection \"%s\" (perspective, PxrPerspective or "
-                            "orthographic)",
+                            "unknown projection \"%s\" (perspective, PxrPerspective, PxrCamera "
+                            "or orthographic)",
                             rib_printable(name, shown));
     p->scene->camera.projection = ortho ? TS_PROJECTION_ORTHOGRAPHIC : TS_PROJECTION_PERSPECTIVE;
     for (size_t i = 1; i < p->nargs; i += 2) {
@@ -521,9 +523,12 @@ int rib_req_projection(rib_parser *p)
         if (rc != TS_OK) return rc;
         if (pxr && (strcmp(prm.name, "fStop") == 0 || strcmp(prm.name, "focalLength") == 0 ||
                     strcmp(prm.name, "focalDistance") == 0)) {
-            rib_warn_once(p, prm.key->line, prm.key->col,
-                          "Projection \"PxrPerspective\": depth of field (fStop, focalLength, "
-                          "focalDistance) is not supported: the camera is a pinhole");
+            char what[RIB_WARN_KEY];
+            snprintf(what, sizeof what,
+                     "Projection \"%s\": depth of field (fStop, focalLength, focalDistance) is "
+                     "not supported: the camera is a pinhole",
+                     name);
+            rib_warn_once(p, prm.key->line, prm.key->col, what);
             continue;
         }
         if (ortho || strcmp(prm.name, "fov") != 0) {
