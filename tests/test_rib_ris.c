@@ -5,10 +5,12 @@
  * parsed values or exact messages. */
 #include "scene/rib/rib.h"
 #include "scene/scene.h"
+#include "scene/scene_load.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include <setjmp.h>
 #include <cmocka.h>
 #include "test_support.h"
@@ -276,6 +278,46 @@ static void write_text(const char *path, const char *text)
     fclose(f);
 }
 
+/* A relative archive name not beside the file naming it is found in the working directory,
+ * as RenderMan finds it (RenderMan for Maya: paths relative to the project, rendered from
+ * there); beside the file still comes first. */
+static void test_relative_names_from_the_working_directory(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    char cmd[4500], path[4500], top[4500], old[4096];
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s/proj/rib' '%s/proj/archives'", dir, dir);
+    assert_int_equal(system(cmd), 0);
+    snprintf(path, sizeof path, "%s/proj/archives/part.rib", dir);
+    write_text(path, QUAD QUAD QUAD);
+    snprintf(top, sizeof top, "%s/proj/rib/top.rib", dir);
+    write_text(top, "WorldBegin\nReadArchive \"archives/part.rib\"\nWorldEnd\n");
+    assert_non_null(getcwd(old, sizeof old));
+    snprintf(path, sizeof path, "%s/proj", dir);
+    assert_int_equal(chdir(path), 0);
+    ts_scene s;
+    memset(&s, 0, sizeof s);
+    ts_error err = {0};
+    int rc = scene_load(top, &s, 1, &err);
+    assert_int_equal(chdir(old), 0);
+    if (rc) fail_msg("%s", err.msg);
+    assert_int_equal(s.patch_count, 3);
+    scene_free(&s);
+    /* beside the file first: a part.rib there wins */
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s/proj/rib/archives'", dir);
+    assert_int_equal(system(cmd), 0);
+    snprintf(path, sizeof path, "%s/proj/rib/archives/part.rib", dir);
+    write_text(path, QUAD);
+    snprintf(path, sizeof path, "%s/proj", dir);
+    assert_int_equal(chdir(path), 0);
+    memset(&s, 0, sizeof s);
+    rc = scene_load(top, &s, 1, &err);
+    assert_int_equal(chdir(old), 0);
+    if (rc) fail_msg("%s", err.msg);
+    assert_int_equal(s.patch_count, 1);
+    scene_free(&s);
+}
+
 static void test_procedural2_and_searchpath(void **state)
 {
     (void)state;
@@ -346,6 +388,7 @@ int main(void)
         cmocka_unit_test(test_conditions),
         cmocka_unit_test(test_scoped_coordinate_system),
         cmocka_unit_test(test_attribute_resources),
+        cmocka_unit_test(test_relative_names_from_the_working_directory),
         cmocka_unit_test(test_procedural2_and_searchpath),
         cmocka_unit_test(test_patch_mesh_wrap_spellings),
     };

@@ -395,7 +395,12 @@ char *rib_resolve_in(const rib_parser *p, const char *name, int which)
 {
     char *here = rib_resolve(p, name);
     const char *dirs = p->searchpath[which];
-    if (!here || name[0] == '/' || !dirs || access(here, R_OK) == 0) return here;
+    if (!here || name[0] == '/' || access(here, R_OK) == 0) return here;
+    if (access(name, R_OK) == 0) { /* the working directory, where RenderMan looks */
+        free(here);
+        return strdup(name);
+    }
+    if (!dirs) return here;
     for (const char *d = dirs; *d;) {
         size_t n = strcspn(d, ":");
         if (n > 0 && !(n == 1 && (d[0] == '@' || d[0] == '&'))) {

@@ -101,9 +101,11 @@ void rib_warn_param(rib_parser *p, const rib_param *prm);
 /* `name` relative to the directory of the file being read (absolute names as they are);
  * a malloc'd path or NULL. */
 char *rib_resolve(const rib_parser *p, const char *name);
-/* As rib_resolve, but a relative name not found there is looked for in each directory of
- * Option "searchpath" `which` (0: "archive", 1: "texture"; relative directories beside the
- * file being read); the first readable one is returned, else rib_resolve's path. */
+/* As rib_resolve, but a relative name not found there is looked for in the working
+ * directory (RenderMan's place for relative names: RenderMan for Maya writes archive paths
+ * relative to the Maya project, where it renders from), then in each directory of Option
+ * "searchpath" `which` (0: "archive", 1: "texture"; relative directories beside the file
+ * being read); the first readable one is returned, else rib_resolve's path. */
 char *rib_resolve_in(const rib_parser *p, const char *name, int which);
 /* Reads the texture named by string argument args[i] (relative to the RIB file, or on the
  * "texture" search path) as kind TS_TEX_* into the scene. A missing file (none to open) is
