@@ -123,6 +123,7 @@ static void stats_devices_json(cJSON *root, const ts_stats *s)
             cJSON_AddNumberToObject(o, "busy_fraction",
                                     d->frame_seconds > 0 ? d->busy_seconds / d->frame_seconds : 0);
             cJSON_AddNumberToObject(o, "memory_budget_bytes", (double)d->memory_budget_bytes);
+            cJSON_AddNumberToObject(o, "device_bytes_peak", (double)d->device_bytes_peak);
             cJSON_AddNumberToObject(o, "patches_diced", (double)d->patches_diced);
             cJSON_AddNumberToObject(o, "patches_shared", (double)d->patches_shared);
             cJSON_AddNumberToObject(o, "share_wait_seconds", d->share_wait_seconds);
