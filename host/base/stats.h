@@ -108,6 +108,11 @@ typedef struct ts_stats {
     ts_iteration *iterations;
     uint32_t iteration_count, iteration_capacity;
     uint64_t lod_histogram[TS_LOD_LIMIT + 1]; /* dicings per LOD m */
+    /* The frame's levels of detail, as the waves trace them (pipeline_cache_plan): patches
+     * diced at each m, each once (an instance diced as its master counts none); the lod
+     * stage's own trace (TESSERA_LOD_RULE=visible|seen) is not in it, as it is in
+     * lod_histogram. */
+    uint64_t frame_lod_histogram[TS_LOD_LIMIT + 1];
     char device[256];
     double wall_seconds;
     double kernel_build_seconds;

@@ -677,6 +677,8 @@ void pipeline_cache_plan(ts_pipeline *p)
     need_entries(need, &verts, &groups);
     p->stats->counters[TS_COUNTER_patch_cache_need_bytes] =
         verts * sizeof(ts_vec4) + groups * TS_GROUP_BYTES;
+    for (uint32_t m = 0; m <= TS_LOD_LIMIT; ++m)
+        p->stats->frame_lod_histogram[m] = need[TS_CACHE_CLASS(m, 1)] + need[TS_CACHE_CLASS(m, 2)];
     p->cache_planned = 1;
     p->planned_fixed_lod = p->mode.fixed_lod;
 }
