@@ -1,7 +1,9 @@
 /* test_stages.c — docs/stages.md names the same stages, in the same order, as the
- * TS_STAGES list that drives the enum, the --stats keys and the timing table (STYLE.md 4). */
+ * TS_STAGES list that drives the enum, the --stats keys and the timing table (STYLE.md 4);
+ * docs/profiling.md names every --stats counter of the TS_COUNTERS list. */
 #include "test_support.h"
 #include "base/stages.h"
+#include "base/stats.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -54,12 +56,30 @@ static void test_each_stage_has_a_kernel_file_or_host_file(void **state)
     }
 }
 
+static void test_profiling_doc_names_every_counter(void **state)
+{
+    FILE *f = fopen(test_source_path("docs/profiling.md"), "rb");
+    assert_non_null(f);
+    static char text[1 << 18];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    assert_true(n < sizeof text - 1); /* read whole */
+    text[n] = 0;
+    for (int i = 0; i < TS_COUNTER_COUNT; ++i) {
+        char quoted[80];
+        snprintf(quoted, sizeof quoted, "`%s`", ts_counter_names[i]);
+        if (!strstr(text, quoted))
+            fail_msg("docs/profiling.md does not name the --stats counter %s", quoted);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_docs_name_the_stages_in_order),
         cmocka_unit_test(test_docs_detail_each_stage_in_order),
         cmocka_unit_test(test_each_stage_has_a_kernel_file_or_host_file),
+        cmocka_unit_test(test_profiling_doc_names_every_counter),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
