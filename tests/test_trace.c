@@ -183,12 +183,56 @@ static void test_evicting_cache_fills_the_pairs(void **state)
     dev_close(&cl);
 }
 
+/* pipeline_grow_arenas releases the old arenas before it makes the new ones, so the device
+ * never holds both (the budget holds the new ones alone: --stats device_bytes_peak); when not
+ * even the old sizes can be made again, the pipeline says so (grid NULL) with the
+ * out-of-memory error its callers retry on. Every buffer pipeline_create made is counted and
+ * pipeline_destroy gives every one back through dev_buffer_release. */
+static void test_growing_arenas_never_holds_both(void **state)
+{
+    ts_device cl;
+    test_open_device(&cl);
+    ts_scene s;
+    load_teapot(&s);
+    ts_stats stats = {0};
+    ts_error err = {0};
+    ts_pipeline_plan plan = {.ray_capacity = W * H, .pair_capacity = W * H * 8};
+    pipeline_plan_arenas(&plan, 1, M);
+    ts_pipeline p;
+    uint64_t base = cl.mem_bytes;
+    if (pipeline_create(&p, &cl, &s, &plan, W * H, &stats, &err)) fail_msg("%s", err.msg);
+    uint64_t made = cl.mem_bytes, old = pipeline_arena_bytes(&p.plan);
+    assert_true(made - base > old + (uint64_t)W * H * TS_BYTES_PER_RAY);
+    assert_true(stats.counters[TS_COUNTER_device_bytes_peak] == made);
+    uint64_t verts = 4ull * p.plan.vert_capacity, groups = 4ull * p.plan.group_capacity;
+    if (pipeline_grow_arenas(&p, verts, groups, &err)) fail_msg("%s", err.msg);
+    uint64_t now = pipeline_arena_bytes(&p.plan);
+    assert_true(now == 4 * old);
+    assert_true(cl.mem_bytes == made - old + now);
+    /* made + now had the old ones stayed until the new ones were made */
+    assert_true(stats.counters[TS_COUNTER_device_bytes_peak] == made - old + now);
+    ts_dev_inject_alloc_error = CL_MEM_OBJECT_ALLOCATION_FAILURE;
+    int rc = pipeline_grow_arenas(&p, 2 * verts, 2 * groups, &err);
+    ts_dev_inject_alloc_error = CL_SUCCESS;
+    assert_int_equal(rc, TS_E_DEVICE);
+    assert_true(dev_is_out_of_memory(&err));
+    assert_null(p.grid);
+    assert_true(cl.mem_bytes == made - old);
+    ts_error_clear(&err);
+    pipeline_destroy(&p);
+    assert_true(cl.mem_bytes == base);
+    stats_free(&stats);
+    scene_free(&s);
+    dev_close(&cl);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_teapot_matches_brute_force),
         cmocka_unit_test(test_budget_does_not_change_hits),
         cmocka_unit_test(test_evicting_cache_fills_the_pairs),
+        cmocka_unit_test(test_growing_arenas_never_holds_both),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
