@@ -232,12 +232,11 @@ static int create_buffers(ts_pipeline *p, const buffer_counts *counts, const sce
     };
     /* What the budget holds (pipeline_plan): the ray and path fields (the list's first
      * entries), the wave buffers and the arenas; the rest is outside it. */
-    const cl_mem *budgeted[] = {
+    const cl_mem *budgeted[] = {&p->grid, &p->groups, &p->tight,
 #define TS_BUFFER_ADDRESS(field, flags, type, count, contents) &p->field,
-        TS_PIPELINE_WAVE_BUFFERS(TS_BUFFER_ADDRESS)
+                                TS_PIPELINE_WAVE_BUFFERS(TS_BUFFER_ADDRESS)
 #undef TS_BUFFER_ADDRESS
-            & p->grid,
-        &p->groups, &p->tight};
+    };
     const size_t ray_entries = 0 TS_RAY_FIELDS(TS_COUNT_ONE) TS_PATH_FIELDS(TS_COUNT_ONE);
     /* What the scene lacks is one zeroed element; the largest is a patch's 16 control
      * points (256 bytes). */
