@@ -424,6 +424,28 @@ def test_lod(ctx):
         for row in rows.values():
             check(row["diced"] > 0 and row["micropolygons"] >= row["diced"] and row["rmse"] > 0, "positive figures")
         check(res["noise_floor"] > 0, "a noise floor")
+        # Per patch, visible and seen dice no finer than crossed (pipeline_lod_finish_with:
+        # seen takes crossed's m or m - 2; visible the larger of m - 2 and the m of its count of
+        # crossings before the hit, which are some of the same rays' crossings, and the m of a
+        # count grows with it; instances take their master's m under every rule). So at every
+        # k, at least as many patches lie at m <= k as under crossed, of the same patches.
+        # (patches_diced cannot show it: the lod stage's own trace of visible and seen dices at
+        # crossed's levels, and is counted there.)
+        crossed = rows["crossed"]["frame_lod_histogram"]
+        check(sum(crossed) > 0, f"crossed's frame levels {crossed}")
+        for rule in ("visible", "seen"):
+            h = rows[rule]["frame_lod_histogram"]
+            check(sum(h) == sum(crossed), f"{rule}: {sum(h)} patches, crossed {sum(crossed)}")
+            for k in range(len(h)):
+                check(sum(h[:k + 1]) >= sum(crossed[:k + 1]),
+                      f"{rule} dices finer than crossed: {sum(h[:k + 1])} patches at m <= {k}, "
+                      f"crossed {sum(crossed[:k + 1])} ({h} against {crossed})")
+        # Each image's RMSE from the reference (--lod 5) is its noise and the reference's
+        # (sqrt(2) noise floors) and the geometric error of dicing coarser. On PoCL: crossed
+        # 1.96, visible 2.21, seen 2.02 floors; every patch at m = 0 gives 2.84, at m = 1 2.52.
+        for rule, row in rows.items():
+            check(row["rmse"] <= 2.5 * res["noise_floor"],
+                  f"{rule}: RMSE {row['rmse']:.3f} above 2.5 noise floors ({res['noise_floor']:.3f})")
 
 
 BOUND_METHODS = ["ia", "ia_parent1", "ia_parent2", "ia_sub2", "ia_sub4", "lipschitz", "ia_lipschitz",

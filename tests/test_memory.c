@@ -20,15 +20,16 @@
 static char dir[4096];
 
 /* Renders the teapot at 640x360, 1 spp to dir/out under `ulimit -v kib` (in the shell that
- * execs tessera, so the test itself is not limited); returns the exit status, or 128 + the
- * signal that killed it. */
+ * execs tessera, so the test itself is not limited; 0: unlimited); returns the exit status,
+ * or 128 + the signal that killed it. */
 static int render_limited(long kib, const char *out, const char *extra)
 {
-    char cmd[16384];
+    char cmd[16384], limit[32] = "unlimited";
+    if (kib > 0) snprintf(limit, sizeof limit, "%ld", kib);
     snprintf(cmd, sizeof cmd,
-             "ulimit -v %ld && POCL_MAX_PTHREAD_COUNT=2 exec '%s' render '%s' -o '%s/%s' "
+             "ulimit -v %s && POCL_MAX_PTHREAD_COUNT=2 exec '%s' render '%s' -o '%s/%s' "
              "--res 640x360 --spp 1 %s 2>'%s/stderr.txt' >/dev/null",
-             kib, test_tessera_binary(), test_source_path("scene/teapot.rib"), dir, out, extra,
+             limit, test_tessera_binary(), test_source_path("scene/teapot.rib"), dir, out, extra,
              dir);
     int st = system(cmd);
     return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
@@ -60,17 +61,28 @@ static int device_0_is_pocl(void)
     return test_pocl_devices(one, sizeof one, 1) == 1 && atoi(one) == 0;
 }
 
+/* ... and its pixels are those of the same render without a limit, bit for bit (images never
+ * depend on the budget, DESIGN.md §1), with the device's buffers within the budget the limit
+ * left (--stats device_bytes_peak). */
 static void test_render_finishes_under_ulimit_v(void **state)
 {
     (void)state;
+    char extra[8800], json[4300], a[4300], b[4300];
+    snprintf(a, sizeof a, "%s/free.exr", dir);
+    assert_int_equal(render_limited(0, "free.exr", ""), 0);
     const long levels[] = {1000000, 1300000}; /* KiB */
     for (size_t i = 0; i < sizeof levels / sizeof *levels; ++i) {
         char name[64];
         snprintf(name, sizeof name, "v%ld.exr", levels[i]);
-        int rc = render_limited(levels[i], name, "");
+        snprintf(json, sizeof json, "%s/v%ld.json", dir, levels[i]);
+        snprintf(extra, sizeof extra, "--stats '%s'", json);
+        int rc = render_limited(levels[i], name, extra);
         if (rc != 0)
             fail_msg("ulimit -v %ld: exit status %d:\n%s", levels[i], rc, test_stderr_of(dir));
         assert_complete(name);
+        snprintf(b, sizeof b, "%s/%s", dir, name);
+        test_assert_same_pixels(a, b);
+        test_assert_device_bytes_in_budget(json, 640.0 * 360, 32);
     }
 }
 
@@ -94,12 +106,16 @@ static void test_default_budget_follows_the_limit(void **state)
     if (strstr(err, "retrying")) fail_msg("the default budget did not fit:\n%s", err);
     assert_true(mb >= 16 && mb < 1024);
     assert_true(test_stats_number(json, "memory_budget_bytes") == (double)(mb << 20));
+    test_assert_device_bytes_in_budget(json, 640.0 * 360, 32);
 
     snprintf(extra, sizeof extra, "--stats '%s' --memory 64", json);
     assert_int_equal(render_limited(4000000, "budget64.exr", extra), 0);
     if (!strstr(test_stderr_of(dir), "memory budget 64 MB (--memory)"))
         fail_msg("no --memory header:\n%s", test_stderr_of(dir));
     assert_true(test_stats_number(json, "memory_budget_bytes") == 64.0 * (1 << 20));
+    /* 64 MB is less than the frame's rays want: the device held all of it but for less than
+     * a ray's and a patch slot's bytes. */
+    assert_true(test_assert_device_bytes_in_budget(json, 640.0 * 360, 32) < 64.0 * 1024);
 }
 
 static int setup(void **state)

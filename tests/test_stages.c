@@ -1,5 +1,6 @@
 /* test_stages.c — docs/stages.md names the same stages, in the same order, as the
- * TS_STAGES list that drives the enum, the --stats keys and the timing table (STYLE.md 4). */
+ * TS_STAGES list that drives the enum, the --stats keys and the timing table (STYLE.md 4);
+ * docs/profiling.md names every --stats counter of the TS_COUNTERS list. */
 #include "test_support.h"
 #include "base/stages.h"
 #include "base/stats.h"
@@ -81,6 +82,23 @@ static void test_kernel_seconds_are_the_union_of_the_spans(void **state)
     assert_true(stats_kernel_seconds(&frame) == 0.0);
 }
 
+static void test_profiling_doc_names_every_counter(void **state)
+{
+    FILE *f = fopen(test_source_path("docs/profiling.md"), "rb");
+    assert_non_null(f);
+    static char text[1 << 18];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    assert_true(n < sizeof text - 1); /* read whole */
+    text[n] = 0;
+    for (int i = 0; i < TS_COUNTER_COUNT; ++i) {
+        char quoted[80];
+        snprintf(quoted, sizeof quoted, "`%s`", ts_counter_names[i]);
+        if (!strstr(text, quoted))
+            fail_msg("docs/profiling.md does not name the --stats counter %s", quoted);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -88,6 +106,7 @@ int main(void)
         cmocka_unit_test(test_docs_detail_each_stage_in_order),
         cmocka_unit_test(test_each_stage_has_a_kernel_file_or_host_file),
         cmocka_unit_test(test_kernel_seconds_are_the_union_of_the_spans),
+        cmocka_unit_test(test_profiling_doc_names_every_counter),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

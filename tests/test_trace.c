@@ -10,8 +10,10 @@
 #include "scene/rib/rib.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 
 enum { W = 96, H = 54, M = 4 };
 
@@ -183,12 +185,125 @@ static void test_evicting_cache_fills_the_pairs(void **state)
     dev_close(&cl);
 }
 
+/* pipeline_grow_arenas releases the old arenas before it makes the new ones, so the device
+ * never holds both (the budget holds the new ones alone: --stats device_bytes_peak); when not
+ * even the old sizes can be made again, the pipeline says so (grid NULL) with the
+ * out-of-memory error its callers retry on. Every buffer pipeline_create made is counted and
+ * pipeline_destroy gives every one back through dev_buffer_release. */
+static void test_growing_arenas_never_holds_both(void **state)
+{
+    ts_device cl;
+    test_open_device(&cl);
+    ts_scene s;
+    load_teapot(&s);
+    ts_stats stats = {0};
+    ts_error err = {0};
+    ts_pipeline_plan plan = {.ray_capacity = W * H, .pair_capacity = W * H * 8};
+    pipeline_plan_arenas(&plan, 1, M);
+    ts_pipeline p;
+    uint64_t base = cl.mem_bytes;
+    if (pipeline_create(&p, &cl, &s, &plan, W * H, &stats, &err)) fail_msg("%s", err.msg);
+    uint64_t made = cl.mem_bytes, old = pipeline_arena_bytes(&p.plan);
+    assert_true(made - base > old + (uint64_t)W * H * TS_BYTES_PER_RAY);
+    assert_true(stats.counters[TS_COUNTER_device_bytes_peak] == made);
+    uint64_t verts = 4ull * p.plan.vert_capacity, groups = 4ull * p.plan.group_capacity;
+    if (pipeline_grow_arenas(&p, verts, groups, &err)) fail_msg("%s", err.msg);
+    uint64_t now = pipeline_arena_bytes(&p.plan);
+    assert_true(now == 4 * old);
+    assert_true(cl.mem_bytes == made - old + now);
+    /* made + now had the old ones stayed until the new ones were made */
+    assert_true(stats.counters[TS_COUNTER_device_bytes_peak] == made - old + now);
+    ts_dev_inject_alloc_error = CL_MEM_OBJECT_ALLOCATION_FAILURE;
+    int rc = pipeline_grow_arenas(&p, 2 * verts, 2 * groups, &err);
+    ts_dev_inject_alloc_error = CL_SUCCESS;
+    assert_int_equal(rc, TS_E_DEVICE);
+    assert_true(dev_is_out_of_memory(&err));
+    assert_null(p.grid);
+    assert_true(cl.mem_bytes == made - old);
+    ts_error_clear(&err);
+    pipeline_destroy(&p);
+    assert_true(cl.mem_bytes == base);
+    stats_free(&stats);
+    scene_free(&s);
+    dev_close(&cl);
+}
+
+/* Bytes of address space this process uses (/proc/self/statm's first field, in pages). */
+static uint64_t address_space_in_use(void)
+{
+    FILE *f = fopen("/proc/self/statm", "r");
+    unsigned long long pages = 0;
+    if (!f || fscanf(f, "%llu", &pages) != 1) fail_msg("cannot read /proc/self/statm");
+    fclose(f);
+    return pages * 4096ull;
+}
+
+/* When the new arenas cannot be had (the address space capped 256 MB above what the process
+ * uses, the new arenas 888 MB), arenas of the old sizes come back, empty: the error is the
+ * out-of-memory one the callers note, the device holds what it held, and the pipeline traces
+ * the same hits as a fresh one. */
+static void test_arenas_that_cannot_grow_come_back(void **state)
+{
+#if defined(__SANITIZE_ADDRESS__)
+    test_skip("AddressSanitizer's shadow memory cannot live under a cap on the address space");
+    return;
+#endif
+    ts_device cl;
+    test_open_device(&cl);
+    if (!cl.info.host_unified) {
+        dev_close(&cl);
+        test_skip("device 0 does not allocate from the process's address space");
+        return;
+    }
+    ts_scene s;
+    load_teapot(&s);
+    static traced fresh, again;
+    ts_pipeline_plan plan = {.ray_capacity = W * H, .pair_capacity = W * H * 8};
+    pipeline_plan_arenas(&plan, 1, M);
+    trace_teapot(&cl, &s, &plan, &fresh);
+    ts_error err = {0};
+    ts_pipeline p;
+    if (pipeline_create(&p, &cl, &s, &plan, W * H, &again.stats, &err)) fail_msg("%s", err.msg);
+    uint64_t made = cl.mem_bytes;
+    uint32_t verts = p.plan.vert_capacity, groups = p.plan.group_capacity;
+    struct rlimit old, cap;
+    assert_int_equal(getrlimit(RLIMIT_AS, &old), 0);
+    cap = old;
+    cap.rlim_cur = address_space_in_use() + (256u << 20);
+    if (old.rlim_cur != RLIM_INFINITY && cap.rlim_cur > old.rlim_cur) cap.rlim_cur = old.rlim_cur;
+    assert_int_equal(setrlimit(RLIMIT_AS, &cap), 0);
+    int rc = pipeline_grow_arenas(&p, 48ull << 20, 1ull << 20, &err); /* 768 + 96 + 24 MB */
+    assert_int_equal(setrlimit(RLIMIT_AS, &old), 0);
+    if (rc == TS_OK) fail_msg("888 MB of arenas under a 256 MB cap");
+    assert_true(dev_is_out_of_memory(&err));
+    ts_error_clear(&err);
+    assert_non_null(p.grid);
+    assert_int_equal(p.plan.vert_capacity, verts);
+    assert_int_equal(p.plan.group_capacity, groups);
+    assert_true(cl.mem_bytes == made);
+    ts_camera_params cam;
+    if (render_camera_params(&s.camera, W, H, &cam, &err)) fail_msg("%s", err.msg);
+    cam.spp = 1;
+    cam.ray_count = W * H;
+    if (pipeline_camera(&p, &cam, &err) || pipeline_trace(&p, W * H, &err) ||
+        dev_read(&cl, p.ray_hit, 0, sizeof again.hit, again.hit, "the hits", &err))
+        fail_msg("%s", err.msg);
+    assert_memory_equal(fresh.hit, again.hit, sizeof fresh.hit);
+    pipeline_destroy(&p);
+    stats_free(&fresh.stats);
+    stats_free(&again.stats);
+    scene_free(&s);
+    dev_close(&cl);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_teapot_matches_brute_force),
         cmocka_unit_test(test_budget_does_not_change_hits),
         cmocka_unit_test(test_evicting_cache_fills_the_pairs),
+        cmocka_unit_test(test_growing_arenas_never_holds_both),
+        cmocka_unit_test(test_arenas_that_cannot_grow_come_back),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

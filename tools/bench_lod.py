@@ -11,7 +11,8 @@ seed 0, plus `crossed` with seed 1, and reports per rule:
   diced, micropolygons: counters.patches_diced and counters.micropolygons_created;
   rmse:    root mean square difference from the reference in 8-bit sRGB levels (0-255) of
            the PNG Tessera writes: geometric error plus the Monte Carlo noise of both images;
-  seconds: wall time (warm kernel cache).
+  seconds: wall time (warm kernel cache);
+  frame_lod_histogram: --stats' patches per level m at the frame's levels of detail.
 `noise floor` is the RMSE between the crossed images of seeds 0 and 1 divided by sqrt(2):
 the part of every rmse that is noise, not level of detail.
 
@@ -91,8 +92,10 @@ def main():
                 out, stats = os.path.join(tmp, f"{name}-{rule}.png"), os.path.join(tmp, f"{name}-{rule}.json")
                 seconds = render(a, scene, res, spp, out, 0, rule=rule, stats=stats)
                 with open(stats) as f:
-                    c = json.load(f)["counters"]
+                    j = json.load(f)
+                c = j["counters"]
                 row = {"rule": rule, "diced": c["patches_diced"], "micropolygons": c["micropolygons_created"],
+                       "frame_lod_histogram": j["frame_lod_histogram"],
                        "rmse": noise.rmse_levels(png, ref, out) if ref else None, "seconds": seconds}
                 rows.append(row)
                 print(f"  {name} {rule}: {row['diced']} dicings, {row['micropolygons']} micro-polygons, "

@@ -87,11 +87,13 @@ void budget_fixed(uint64_t mb, ts_budget_choice *out)
 }
 
 /* New arenas of verts and groups entries (pipeline_grow_arenas); when they cannot be had
- * the old ones stay, a note says why unless quiet, and 0 is returned. 1: grown. */
+ * the old sizes stay, a note says why unless quiet, and 0 is returned. 1: grown; -1: not
+ * even the old sizes could be made again (the error in *err). */
 static int arenas_grow(ts_pipeline *p, uint64_t verts, uint64_t groups, int quiet, ts_error *err)
 {
     uint64_t have = pipeline_arena_bytes(&p->plan);
     if (!pipeline_grow_arenas(p, verts, groups, err)) return 1;
+    if (!p->grid) return -1;
     if (!quiet)
         ts_print_line("tessera: note: the patch cache stays at %llu MB (%s)",
                       (unsigned long long)(have >> 20), err->msg);
@@ -123,7 +125,9 @@ static int trade_rays(ts_pipeline *p, uint64_t verts, uint64_t groups, int quiet
     if (g < p->plan.group_capacity) g = p->plan.group_capacity;
     uint32_t old_rays = p->plan.ray_capacity;
     if (pipeline_resize_rays(p, (uint32_t)rays, err)) return -1;
-    if (!arenas_grow(p, v, g, quiet, err)) return 1; /* smaller waves, the old arenas */
+    int grown = arenas_grow(p, v, g, quiet, err);
+    if (grown < 0) return -1;
+    if (!grown) return 1; /* smaller waves, the old arenas */
     uint64_t now = pipeline_arena_bytes(&p->plan);
     if (!quiet)
         ts_print_line("tessera: the frame's patches need %llu MB at their levels of detail: "
@@ -147,7 +151,8 @@ static int take_the_room(ts_pipeline *p, uint64_t verts, uint64_t groups, uint64
     uint64_t v = (uint64_t)(share * (double)verts), g = (uint64_t)(share * (double)groups);
     if (v < p->plan.vert_capacity) v = p->plan.vert_capacity; /* a moving patch at max_lod */
     if (g < p->plan.group_capacity) g = p->plan.group_capacity;
-    if (extra > 0 && !arenas_grow(p, v, g, quiet, err)) return TS_OK;
+    int grown = extra > 0 ? arenas_grow(p, v, g, quiet, err) : 1;
+    if (grown <= 0) return grown < 0 ? err->code : TS_OK;
     uint64_t now = pipeline_arena_bytes(&p->plan);
     p->stats->memory_budget_bytes += now - have;
     if (!quiet)
@@ -175,7 +180,8 @@ int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, t
         if (traded) return TS_OK;
         return take_the_room(p, verts, groups, need, extra, quiet, err);
     }
-    if (!arenas_grow(p, verts, groups, quiet, err)) return TS_OK;
+    int grown = arenas_grow(p, verts, groups, quiet, err);
+    if (grown <= 0) return grown < 0 ? err->code : TS_OK;
     uint64_t now = pipeline_arena_bytes(&p->plan);
     if (!quiet)
         ts_print_line("tessera: the frame's patches need %llu MB at their levels of detail: "

@@ -58,6 +58,7 @@ typedef struct ranks_bye_head {
     double stage_seconds[TS_STAGE_COUNT];
     uint64_t counters[TS_COUNTER_COUNT];
     uint64_t lod_histogram[TS_LOD_LIMIT + 1];
+    uint64_t frame_lod_histogram[TS_LOD_LIMIT + 1];
     double kernel_build_seconds;
     uint32_t device_count;
     int32_t failed; /* 1: it rendered nothing: error says why */
@@ -260,6 +261,7 @@ static int take_bye(ts_ranks *r, ts_board *b, int from, const void *data, int by
     memcpy(s.stage_seconds, head.stage_seconds, sizeof s.stage_seconds);
     memcpy(s.counters, head.counters, sizeof s.counters);
     memcpy(s.lod_histogram, head.lod_histogram, sizeof s.lod_histogram);
+    memcpy(s.frame_lod_histogram, head.frame_lod_histogram, sizeof s.frame_lod_histogram);
     s.kernel_build_seconds = head.kernel_build_seconds;
     if (stats_merge(r->stats, &s, err) || stats_add_rank(r->stats, &head.rank, err))
         return err->code;
@@ -667,6 +669,7 @@ static int follow_bye(ts_ranks *r, ts_workers *g, const ts_error *why, ts_error 
     memcpy(head.stage_seconds, s.stage_seconds, sizeof head.stage_seconds);
     memcpy(head.counters, s.counters, sizeof head.counters);
     memcpy(head.lod_histogram, s.lod_histogram, sizeof head.lod_histogram);
+    memcpy(head.frame_lod_histogram, s.frame_lod_histogram, sizeof head.frame_lod_histogram);
     head.kernel_build_seconds = s.kernel_build_seconds;
     head.device_count = s.device_count;
     head.failed = why && why->code;

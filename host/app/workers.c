@@ -553,8 +553,9 @@ static void workers_place(ts_workers *g, ts_worker *w)
 
 /* Binds w's arenas to the sharing devices' allocation when the frame has one (deciding
  * first when no device has). 1: bound; 0: w keeps arenas of its own (and, when the others
- * are bound and w could not be, leaves the store: its blocks would not be where theirs are). */
-static int worker_place(ts_worker *w)
+ * are bound and w could not be, leaves the store: its blocks would not be where theirs are);
+ * -1: w has no arenas left (pipeline_place_arenas), the error in *err. */
+static int worker_place(ts_worker *w, ts_error *err)
 {
     ts_workers *g = w->g;
     if (!w->shares || !g->sharing) return 0;
@@ -568,6 +569,11 @@ static int worker_place(ts_worker *w)
                                g->place_verts, g->place_groups, g->place_vert, g->place_group,
                                g->place_lod, &e))
         return 1;
+    if (!w->pipe.grid) {
+        ts_error_set_status(err, e.code, e.status, "%s", e.msg);
+        ts_error_clear(&e);
+        return -1;
+    }
     char name[300];
     if (!g->frame.opt->quiet)
         ts_print_line("tessera: note: %s dices its own patches (the shared arenas: %s)",
@@ -595,7 +601,7 @@ static int worker_shrink(ts_worker *w, ts_error *err)
     w->room_mb = 0; /* memory ran out: the arenas stay within the smaller budget */
     int lod_failed;
     if (worker_pipeline(w, err) || worker_take_lod(w, &lod_failed, err)) return err->code;
-    worker_place(w);
+    if (worker_place(w, err) < 0) return err->code;
     worker_share(w);
     return TS_OK;
 }
@@ -653,7 +659,10 @@ static void *worker_main(void *arg)
         lod_failed = (rc = worker_make_lod(w, &w->err)) != TS_OK;
     else if (!rc)
         rc = worker_take_lod(w, &lod_failed, &w->err);
-    if (!rc && !worker_place(w)) /* the frame's patches, once each, if they fit */
+    int placed = rc ? 0 : worker_place(w, &w->err);
+    if (placed < 0)
+        rc = w->err.code;
+    else if (!rc && !placed) /* the frame's patches, once each, if they fit */
         rc = budget_grow_arenas(&w->pipe, w->room_mb, 1, g->frame.opt->quiet, &w->err);
     if (!rc) worker_share(w);
     w->out.setup_seconds = stats_now() - t0;
@@ -827,6 +836,7 @@ int workers_stats(ts_workers *g, ts_stats *stats, ts_error *err)
         d->compute_units = w->cl.info.compute_units;
         d->rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays];
         d->memory_budget_bytes = w->stats.memory_budget_bytes;
+        d->device_bytes_peak = w->stats.counters[TS_COUNTER_device_bytes_peak];
         d->patches_diced = w->stats.counters[TS_COUNTER_patches_diced];
         d->patches_shared = w->stats.counters[TS_COUNTER_patches_shared];
         if (w->has_pipe) d->share_wait_seconds += w->pipe.share_wait_seconds;

@@ -124,8 +124,12 @@ int stats_merge(ts_stats *s, const ts_stats *d, ts_error *err)
         else
             s->counters[i] += d->counters[i];
     }
-    for (int m = 0; m <= TS_LOD_LIMIT; ++m)
+    for (int m = 0; m <= TS_LOD_LIMIT; ++m) {
         s->lod_histogram[m] += d->lod_histogram[m];
+        /* the frame's, the same on every device that traced it */
+        if (d->frame_lod_histogram[m] > s->frame_lod_histogram[m])
+            s->frame_lod_histogram[m] = d->frame_lod_histogram[m];
+    }
     s->kernel_build_seconds += d->kernel_build_seconds;
     for (uint32_t i = 0; i < d->iteration_count; ++i)
         if (stats_add_iteration(s, &d->iterations[i], err)) return err->code;
@@ -175,6 +179,7 @@ static void stats_devices_json(cJSON *root, const ts_stats *s)
             cJSON_AddNumberToObject(o, "busy_fraction",
                                     d->frame_seconds > 0 ? d->busy_seconds / d->frame_seconds : 0);
             cJSON_AddNumberToObject(o, "memory_budget_bytes", (double)d->memory_budget_bytes);
+            cJSON_AddNumberToObject(o, "device_bytes_peak", (double)d->device_bytes_peak);
             cJSON_AddNumberToObject(o, "patches_diced", (double)d->patches_diced);
             cJSON_AddNumberToObject(o, "patches_shared", (double)d->patches_shared);
             cJSON_AddNumberToObject(o, "share_wait_seconds", d->share_wait_seconds);
@@ -241,6 +246,9 @@ static cJSON *stats_to_json(const ts_stats *s)
     cJSON *hist = cJSON_AddArrayToObject(root, "lod_histogram");
     for (int m = 0; m <= TS_LOD_LIMIT; ++m)
         cJSON_AddItemToArray(hist, cJSON_CreateNumber((double)s->lod_histogram[m]));
+    cJSON *frame = cJSON_AddArrayToObject(root, "frame_lod_histogram");
+    for (int m = 0; m <= TS_LOD_LIMIT; ++m)
+        cJSON_AddItemToArray(frame, cJSON_CreateNumber((double)s->frame_lod_histogram[m]));
     cJSON *its = cJSON_AddArrayToObject(root, "iterations");
     for (uint32_t i = 0; i < s->iteration_count; ++i) {
         const ts_iteration *it = &s->iterations[i];

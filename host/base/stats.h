@@ -35,6 +35,8 @@
     X(patch_cache_need_bytes, "arena bytes the frame's patches need to be resident at once") \
     X(patch_cache_peak_bytes, "most arena bytes resident patches held at once")          \
     X(patches_shared, "misses filled from another device's dicing (patch_share.h)")       \
+    X(device_bytes_peak, "most bytes of device buffers the pipeline held at once")        \
+    X(device_bytes_fixed, "bytes of those buffers outside the memory budget (scene, films)") \
     X(bake_points, "points baked (tessera bake; their rays are counted in rays)")
 /* clang-format on */
 
@@ -67,6 +69,7 @@ typedef struct ts_device_stats {
      * dropped because another device's copy was merged first. */
     uint64_t backup_units, dropped_units;
     uint64_t memory_budget_bytes; /* of the pipeline that finished */
+    uint64_t device_bytes_peak;   /* its buffers' bytes at their most (counters) */
     double stage_seconds[TS_STAGE_COUNT];
     double kernel_seconds; /* while its kernels ran (the union of its busy spans) */
     double setup_seconds;  /* making the pipeline (the scene copied to the device), counting
@@ -113,6 +116,11 @@ typedef struct ts_stats {
     ts_iteration *iterations;
     uint32_t iteration_count, iteration_capacity;
     uint64_t lod_histogram[TS_LOD_LIMIT + 1]; /* dicings per LOD m */
+    /* The frame's levels of detail, as the waves trace them (pipeline_cache_plan): patches
+     * diced at each m, each once (an instance diced as its master counts none); the lod
+     * stage's own trace (TESSERA_LOD_RULE=visible|seen) is not in it, as it is in
+     * lod_histogram. */
+    uint64_t frame_lod_histogram[TS_LOD_LIMIT + 1];
     char device[256];
     double wall_seconds;
     double kernel_build_seconds;

@@ -607,7 +607,23 @@ cl_mem dev_buffer_create(ts_device *cl, cl_mem_flags flags, size_t size, void *h
         dev_fail(err, rc, "clCreateBuffer(%zu bytes)", size);
         return NULL;
     }
+    cl->mem_bytes += size ? size : 1;
+    if (cl->mem_bytes > cl->mem_peak) cl->mem_peak = cl->mem_bytes;
     return m;
+}
+
+void dev_buffer_release(ts_device *cl, cl_mem m)
+{
+    if (!m) return;
+    size_t size = 0;
+    if (clGetMemObjectInfo(m, CL_MEM_SIZE, sizeof size, &size, NULL) == CL_SUCCESS)
+        cl->mem_bytes -= size < cl->mem_bytes ? size : cl->mem_bytes;
+    clReleaseMemObject(m);
+}
+
+void dev_mem_peak_reset(ts_device *cl)
+{
+    cl->mem_peak = cl->mem_bytes;
 }
 
 int dev_set_arg(cl_kernel k, cl_uint index, size_t size, const void *value, ts_error *err)

@@ -82,6 +82,11 @@ typedef struct ts_device {
     double build_seconds;
     int cache_hit;
     char build_options[192]; /* dev_build_options() for this device */
+    /* Bytes of the buffers made by dev_buffer_create and not yet released by
+     * dev_buffer_release, and the most they came to at once since dev_mem_peak_reset (what
+     * --stats reports as device_bytes_peak, pipeline.h). A buffer released any other way
+     * stays counted. */
+    uint64_t mem_bytes, mem_peak;
     int cpu_lanes; /* built with -DTS_CPU_LANES: camera_generate makes 8 rays a work-item */
     /* Non-empty when the binary cache held a damaged or foreign entry for this program: what
      * was wrong (the program was built from source and the entry rewritten). The caller
@@ -131,6 +136,11 @@ cl_kernel dev_kernel_create(ts_device *cl, const char *name, ts_error *err);
  * host-unified memory the memory is allocated here (CL_MEM_ALLOC_HOST_PTR), so running out
  * fails this call (CL_OUT_OF_HOST_MEMORY) rather than a later enqueue. */
 cl_mem dev_buffer_create(ts_device *cl, cl_mem_flags flags, size_t size, void *host, ts_error *err);
+/* Releases a buffer made by dev_buffer_create (NULL: nothing) and takes its bytes
+ * (CL_MEM_SIZE) off cl->mem_bytes. */
+void dev_buffer_release(ts_device *cl, cl_mem m);
+/* Starts a new peak: cl->mem_peak = cl->mem_bytes (a pipeline's own, pipeline_create). */
+void dev_mem_peak_reset(ts_device *cl);
 
 /* Sets arguments in order from (size, pointer) pairs; ends at size 0. DEV_ARG(x) is the
  * pair of an lvalue: dev_set_args(k, err, DEV_ARG(a), DEV_ARG(b), (size_t)0). */

@@ -11,7 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-void bake_stage_destroy(ts_bake_stage *b)
+void bake_stage_destroy(ts_device *cl, ts_bake_stage *b)
 {
     if (!b) return;
     const cl_kernel k[] = {b->k_points, b->k_rays, b->k_project};
@@ -20,7 +20,7 @@ void bake_stage_destroy(ts_bake_stage *b)
     const cl_mem m[] = {b->point_first, b->lod,         b->point_pos,
                         b->point_n,     b->point_patch, b->coeffs};
     for (size_t i = 0; i < sizeof m / sizeof *m; ++i)
-        if (m[i]) clReleaseMemObject(m[i]);
+        dev_buffer_release(cl, m[i]);
     free(b->point_first_host);
     free(b);
 }
@@ -42,8 +42,11 @@ static int bake_stage_make(ts_pipeline *p, ts_bake_stage *b, const ts_bake_setup
         !(b->point_pos = dev_buffer_create(cl, rw, np * sizeof(ts_vec4), NULL, err)) ||
         !(b->point_n = dev_buffer_create(cl, rw, np * sizeof(ts_vec4), NULL, err)) ||
         !(b->point_patch = dev_buffer_create(cl, rw, np * sizeof(uint32_t), NULL, err)) ||
-        !(b->coeffs = dev_buffer_create(cl, rw, np * nc * sizeof(float), NULL, err)))
+        !(b->coeffs = dev_buffer_create(cl, rw, np * nc * sizeof(float), NULL, err))) {
+        pipeline_note_device_bytes(p);
         return err->code;
+    }
+    pipeline_note_device_bytes(p);
     return TS_OK;
 }
 

@@ -42,7 +42,7 @@ typedef struct ts_bake_stage {
  * set to -1 and the patch cache cleared) and uploads the point table. TS_E_USAGE when N rays
  * exceed the wave (raise --memory or lower --rays). */
 int bake_stage_create(struct ts_pipeline *p, const ts_bake_setup *setup, ts_error *err);
-void bake_stage_destroy(ts_bake_stage *b);
+void bake_stage_destroy(ts_device *cl, ts_bake_stage *b);
 
 /* Bakes points [first, first + count) (count <= points_per_wave): bake_points, bake_rays,
  * the two-level loop (pipeline_trace), bake_project. Writes count * B^2 coefficients to

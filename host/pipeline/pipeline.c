@@ -199,8 +199,11 @@ static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads 
     };
 }
 
+#define TS_COUNT_ONE(type, name, what) +1
+
 /* Makes every buffer: the ray and path fields (one entry per ray of the wave), then
- * TS_PIPELINE_BUFFERS, the scene's uploaded from *uploads. */
+ * TS_PIPELINE_BUFFERS, the scene's uploaded from *uploads; --stats' device_bytes_fixed is the
+ * bytes of those outside the budget. */
 static int create_buffers(ts_pipeline *p, const buffer_counts *counts, const scene_uploads *uploads,
                           ts_error *err)
 {
@@ -227,14 +230,29 @@ static int create_buffers(ts_pipeline *p, const buffer_counts *counts, const sce
 #undef TS_BUFFER_ENTRY
         /* clang-format on */
     };
+    /* What the budget holds (pipeline_plan): the ray and path fields (the list's first
+     * entries), the wave buffers and the arenas; the rest is outside it. */
+    const cl_mem *budgeted[] = {&p->grid, &p->groups, &p->tight,
+#define TS_BUFFER_ADDRESS(field, flags, type, count, contents) &p->field,
+                                TS_PIPELINE_WAVE_BUFFERS(TS_BUFFER_ADDRESS)
+#undef TS_BUFFER_ADDRESS
+    };
+    const size_t ray_entries = 0 TS_RAY_FIELDS(TS_COUNT_ONE) TS_PATH_FIELDS(TS_COUNT_ONE);
     /* What the scene lacks is one zeroed element; the largest is a patch's 16 control
      * points (256 bytes). */
     static const ts_vec4 zeros[16];
+    uint64_t *fixed = &p->stats->counters[TS_COUNTER_device_bytes_fixed];
+    *fixed = 0;
     for (size_t i = 0; i < sizeof list / sizeof *list; ++i) {
         const void *host = list[i].contents ? list[i].contents : zeros;
         if (!(list[i].flags & CL_MEM_COPY_HOST_PTR)) host = NULL;
         *list[i].m = dev_buffer_create(p->cl, list[i].flags, list[i].bytes, (void *)host, err);
+        pipeline_note_device_bytes(p);
         if (!*list[i].m) return err->code;
+        int in_budget = i < ray_entries;
+        for (size_t k = 0; k < sizeof budgeted / sizeof *budgeted; ++k)
+            in_budget |= list[i].m == budgeted[k];
+        if (!in_budget) *fixed += list[i].bytes ? list[i].bytes : 1;
     }
     return TS_OK;
 }
@@ -263,10 +281,12 @@ static int remake_wave_buffers(ts_pipeline *p, ts_error *err)
         /* clang-format on */
     };
     for (size_t i = 0; i < sizeof list / sizeof *list; ++i)
-        if (*list[i].m) clReleaseMemObject(*list[i].m), *list[i].m = NULL;
-    for (size_t i = 0; i < sizeof list / sizeof *list; ++i)
-        if (!(*list[i].m = dev_buffer_create(p->cl, list[i].flags, list[i].bytes, NULL, err)))
-            return err->code;
+        dev_buffer_release(p->cl, *list[i].m), *list[i].m = NULL;
+    for (size_t i = 0; i < sizeof list / sizeof *list; ++i) {
+        *list[i].m = dev_buffer_create(p->cl, list[i].flags, list[i].bytes, NULL, err);
+        pipeline_note_device_bytes(p);
+        if (!*list[i].m) return err->code;
+    }
     return TS_OK;
 }
 
@@ -336,6 +356,12 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     return TS_OK;
 }
 
+void pipeline_note_device_bytes(ts_pipeline *p)
+{
+    uint64_t *peak = &p->stats->counters[TS_COUNTER_device_bytes_peak];
+    if (p->cl->mem_peak > *peak) *peak = p->cl->mem_peak;
+}
+
 int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
                     const ts_pipeline_plan *plan, uint32_t pixel_count, ts_stats *stats,
                     ts_error *err)
@@ -347,6 +373,10 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     p->plan = *plan;
     p->pixel_count = pixel_count;
     p->mode = (ts_trace_mode){1u, (int)plan->max_lod, 1, 0, 0u, 0, 1.0};
+    /* The peak of this pipeline's buffers: the attempt that finishes a render reports its own
+     * (as memory_budget_bytes is its own), not one that ran out of memory before it. */
+    dev_mem_peak_reset(cl);
+    stats->counters[TS_COUNTER_device_bytes_peak] = 0;
     /* One bottom_level launch of every pair, plus one part-filled work-group per batch for
      * many batches (trace.c folds the counters early when an iteration needs more). 8 bytes
      * per 64 pairs: 1/64 of the pair buffers, left out of TS_BYTES_PER_RAY. */
@@ -412,8 +442,8 @@ void pipeline_destroy(ts_pipeline *p)
         /* clang-format on */
     };
     for (size_t i = 0; i < sizeof buffers / sizeof *buffers; ++i)
-        if (buffers[i]) clReleaseMemObject(buffers[i]);
-    bake_stage_destroy(p->bake);
+        dev_buffer_release(p->cl, buffers[i]);
+    bake_stage_destroy(p->cl, p->bake);
     if (p->sorter) radix_sorter_destroy(p->sorter);
     free(p->sort_host[0]);
     free(p->sort_host[1]);
@@ -646,6 +676,8 @@ void pipeline_cache_plan(ts_pipeline *p)
     need_entries(need, &verts, &groups);
     p->stats->counters[TS_COUNTER_patch_cache_need_bytes] =
         verts * sizeof(ts_vec4) + groups * TS_GROUP_BYTES;
+    for (uint32_t m = 0; m <= TS_LOD_LIMIT; ++m)
+        p->stats->frame_lod_histogram[m] = need[TS_CACHE_CLASS(m, 1)] + need[TS_CACHE_CLASS(m, 2)];
     p->cache_planned = 1;
     p->planned_fixed_lod = p->mode.fixed_lod;
 }
@@ -667,10 +699,31 @@ void pipeline_arena_places(const ts_pipeline *p, uint32_t *vert_first, uint32_t 
     }
 }
 
-/* New arenas of verts vertices and groups sibling groups (over the caller's host memory
- * grid, tree and tight with CL_MEM_USE_HOST_PTR, or allocated when grid is NULL) and a patch
+/* The three arena buffers of verts vertices and groups sibling groups (over the caller's host
+ * memory grid, tree and tight with CL_MEM_USE_HOST_PTR, or allocated when grid is NULL) into
+ * p->grid, p->groups and p->tight, which are NULL; on an error those made are released. */
+static int arena_buffers_make(ts_pipeline *p, void *grid, void *tree, void *tight, uint64_t verts,
+                              uint64_t groups, ts_error *err)
+{
+    cl_mem_flags flags = CL_MEM_READ_WRITE | (grid ? CL_MEM_USE_HOST_PTR : 0);
+    p->grid = dev_buffer_create(p->cl, flags, verts * sizeof(ts_vec4), grid, err);
+    if (p->grid) p->groups = dev_buffer_create(p->cl, flags, groups * sizeof(ts_box4), tree, err);
+    if (p->groups)
+        p->tight = dev_buffer_create(p->cl, flags, groups * sizeof(ts_tight4), tight, err);
+    pipeline_note_device_bytes(p);
+    if (p->tight) return TS_OK;
+    dev_buffer_release(p->cl, p->grid), p->grid = NULL;
+    dev_buffer_release(p->cl, p->groups), p->groups = NULL;
+    return err->code;
+}
+
+/* New arenas of verts vertices and groups sibling groups (arena_buffers_make) and a patch
  * cache over them (with the fixed places vert_first, group_first and lod when given),
- * replacing the old ones; the old ones stay on an error. */
+ * replacing the old ones. The old buffers are released before the new ones are made, so the
+ * two are never held at once: the arenas never take more than the budget gave them (--stats
+ * device_bytes_peak). When the new ones cannot be made, arenas of the old sizes are made
+ * again, empty, and the error returned; when not even those can be (p->grid NULL), the
+ * pipeline is unusable. */
 static int arenas_replace(ts_pipeline *p, void *grid, void *tree, void *tight, uint64_t verts,
                           uint64_t groups, const uint32_t *vert_first, const uint32_t *group_first,
                           const uint8_t *lod, ts_error *err)
@@ -682,26 +735,26 @@ static int arenas_replace(ts_pipeline *p, void *grid, void *tree, void *tight, u
                             "the arenas would exceed the device's largest buffer, %llu MB",
                             (unsigned long long)(max_alloc >> 20));
     if (dev_finish(p->cl, p->stats, err)) return err->code; /* nothing uses the old ones */
-    cl_mem_flags flags = CL_MEM_READ_WRITE | (grid ? CL_MEM_USE_HOST_PTR : 0);
-    cl_mem g = dev_buffer_create(p->cl, flags, verts * sizeof(ts_vec4), grid, err);
-    cl_mem t = g ? dev_buffer_create(p->cl, flags, groups * sizeof(ts_box4), tree, err) : NULL;
-    cl_mem c = t ? dev_buffer_create(p->cl, flags, groups * sizeof(ts_tight4), tight, err) : NULL;
     ts_patch_cache cache;
-    int rc = !c           ? err->code
-             : vert_first ? patch_cache_create_placed(&cache, p->scene->patch_count, vert_first,
-                                                      group_first, lod, err)
-                          : patch_cache_create(&cache, p->scene->patch_count, (uint32_t)verts,
-                                               (uint32_t)groups, err);
+    int rc = vert_first ? patch_cache_create_placed(&cache, p->scene->patch_count, vert_first,
+                                                    group_first, lod, err)
+                        : patch_cache_create(&cache, p->scene->patch_count, (uint32_t)verts,
+                                             (uint32_t)groups, err);
+    if (rc) return rc; /* the old ones stay, as they were */
+    dev_buffer_release(p->cl, p->grid), p->grid = NULL;
+    dev_buffer_release(p->cl, p->groups), p->groups = NULL;
+    dev_buffer_release(p->cl, p->tight), p->tight = NULL;
+    rc = arena_buffers_make(p, grid, tree, tight, verts, groups, err);
     if (rc) {
-        if (g) clReleaseMemObject(g);
-        if (t) clReleaseMemObject(t);
-        if (c) clReleaseMemObject(c);
+        patch_cache_free(&cache);
+        ts_error again = {0};
+        if (!arena_buffers_make(p, NULL, NULL, NULL, p->plan.vert_capacity, p->plan.group_capacity,
+                                &again))
+            patch_cache_clear(&p->cache); /* their patches went with the old buffers */
+        ts_error_clear(&again);
+        p->cache_planned = 0;
         return rc;
     }
-    clReleaseMemObject(p->grid);
-    clReleaseMemObject(p->groups);
-    clReleaseMemObject(p->tight);
-    p->grid = g, p->groups = t, p->tight = c;
     /* The cache's counters go on over the frame. */
     cache.hits = p->cache.hits, cache.misses = p->cache.misses;
     cache.evictions = p->cache.evictions;

@@ -300,6 +300,10 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
                     const ts_pipeline_plan *plan, uint32_t pixel_count, ts_stats *stats,
                     ts_error *err);
 void pipeline_destroy(ts_pipeline *p);
+/* Raises --stats' device_bytes_peak to the most bytes p's device buffers (dev_buffer_create,
+ * dev_buffer_release) have held at once since pipeline_create; called after every buffer
+ * the pipeline and its stages make. */
+void pipeline_note_device_bytes(ts_pipeline *p);
 
 /* camera: generates rays (and paths) first_sample .. first_sample + ray_count; lists them
  * in active and wave_paths. A wave holds at most ray_capacity / 2 paths: each path also
@@ -360,8 +364,10 @@ uint32_t pipeline_patch_lod(const ts_pipeline *p, uint32_t patch);
 /* The bytes of plan's two arenas (vertices and sibling groups). */
 uint64_t pipeline_arena_bytes(const ts_pipeline_plan *plan);
 /* New arenas of verts vertices and groups sibling groups (each within the device's largest
- * buffer), replacing the old ones, and an empty patch cache over them. When they cannot be
- * had the old ones stay, with the error in *err. */
+ * buffer), replacing the old ones, and an empty patch cache over them. The old ones are
+ * released first (never both at once: the budget holds the new ones alone). When the new ones
+ * cannot be had, arenas of the old sizes are made again, empty, with the error in *err; when
+ * not even those can be, p->grid is NULL and the pipeline is unusable (pipeline_destroy). */
 int pipeline_grow_arenas(ts_pipeline *p, uint64_t verts, uint64_t groups, ts_error *err);
 /* The places of the frame's patches when every one is resident at once (pipeline_arena_need's
  * count, in patch order): vert_first[i], group_first[i] and lod[i] of each patch i diced as
@@ -375,7 +381,7 @@ void pipeline_arena_places(const ts_pipeline *p, uint32_t *vert_first, uint32_t 
  * and a patch cache with the fixed places of pipeline_arena_places (patch_cache_create_placed;
  * the arrays are the caller's too). Devices of one process that compute alike bind the same
  * memory: a patch one of them dices is where the others read it (app/workers.c). The memory
- * must outlive the pipeline. */
+ * must outlive the pipeline. Failures as pipeline_grow_arenas'. */
 int pipeline_place_arenas(ts_pipeline *p, void *grid, void *tree, void *tight, uint64_t verts,
                           uint64_t groups, const uint32_t *vert_first, const uint32_t *group_first,
                           const uint8_t *lod, ts_error *err);

@@ -264,6 +264,22 @@ void test_read_image(const char *path, struct ts_image *img)
     if (image_read(path, img, &err)) fail_msg("%s", err.msg);
 }
 
+double test_assert_device_bytes_in_budget(const char *json_path, double pixels, double patches)
+{
+    double budget = test_stats_number(json_path, "memory_budget_bytes");
+    double peak = test_stats_number(json_path, "counters.device_bytes_peak");
+    double fixed = test_stats_number(json_path, "counters.device_bytes_fixed");
+    double films = 48.0 * pixels, most = films + 2048.0 * patches + budget / 64 + 65536.0;
+    if (!(peak <= budget + fixed))
+        fail_msg("%s: device_bytes_peak %.0f > memory_budget_bytes %.0f + device_bytes_fixed %.0f "
+                 "(by %.0f)",
+                 json_path, peak, budget, fixed, peak - budget - fixed);
+    if (!(fixed >= films && fixed <= most))
+        fail_msg("%s: device_bytes_fixed %.0f outside [%.0f, %.0f] (the films and the scene)",
+                 json_path, fixed, films, most);
+    return budget + fixed - peak;
+}
+
 void test_assert_same_pixels(const char *path_a, const char *path_b)
 {
     ts_image a, b;

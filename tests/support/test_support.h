@@ -59,6 +59,15 @@ void test_write_text(const char *path, const char *text);
  * "lod_histogram.3"; fails the test if absent. */
 double test_stats_number(const char *json_path, const char *key);
 
+/* What a render's --stats file says of its device buffers (pipeline.h device_bytes_peak):
+ * they never held more than the memory budget (memory_budget_bytes: rays, candidates, patch
+ * arenas) plus what lies outside it (device_bytes_fixed), and that outside part is the three
+ * films of `pixels` pixels (48 bytes a pixel) and the scene's buffers, at most 2 KiB a patch
+ * of `patches`, with the texture pool (none in the scenes these tests render) and the leaf
+ * utilisation words (1/64 of the candidate buffers, so of the budget), and 64 KiB for the
+ * scene's small tables. Fails the test otherwise; returns the slack, budget + fixed - peak. */
+double test_assert_device_bytes_in_budget(const char *json_path, double pixels, double patches);
+
 /* Parses the JSON file at path (fails the test if it cannot); cJSON_Delete the result. */
 struct cJSON *test_read_json(const char *path);
 /* `dir/name` (static storage, four in rotation). */
