@@ -1,7 +1,8 @@
 /* test_rib_archive.c — the RIB requests real files write beyond the basic subset
  * (host/scene/rib/rib_options.c, host/scene/rib/rib_archive.c, primitive variables in
  * host/scene/rib/rib_geom.c): PixelSamples, Clipping, Shutter, CropWindow, "Cs"/"N" of every
- * storage class, ReadArchive and Procedural (DelayedReadArchive, DynamicLoad "mesh" and "forest").
+ * storage class, ReadArchive and Procedural (DelayedReadArchive, DynamicLoad "mesh" and "forest"),
+ * archives inside zip files ("a.zip!b.rib").
  * Every error path asserts its exact "file:line:col: error:" message. Host only: never skips. */
 #include "scene/rib/rib.h"
 #include "scene/scene.h"
@@ -13,6 +14,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <zip.h>
 
 /* ---- helpers -------------------------------------------------------------------------- */
 
@@ -359,6 +361,75 @@ static const char *const two_quads_obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 
 /* Not strict (RenderMan's way), an archive or mesh file that is not there is skipped with one
  * warning each, naming it: the scene is the one without the request. Strict, the same text is
  * the error at the file name (expect_file_error above checks the messages). */
+/* A zip file with one member: RenderMan for Maya's archives. */
+static void write_zip(const char *dir, const char *name, const char *member, const char *text)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    zipFile z = zipOpen64(path, APPEND_STATUS_CREATE);
+    assert_non_null(z);
+    assert_int_equal(zipOpenNewFileInZip64(z, member, NULL, NULL, 0, NULL, 0, NULL, Z_DEFLATED,
+                                           Z_DEFAULT_COMPRESSION, 0),
+                     ZIP_OK);
+    assert_int_equal(zipWriteInFileInZip(z, text, (unsigned)strlen(text)), ZIP_OK);
+    assert_int_equal(zipCloseFileInZip(z), ZIP_OK);
+    assert_int_equal(zipClose(z, NULL), ZIP_OK);
+}
+
+/* "archive.zip!member.rib" (RenderMan for Maya 21+): the member read as an archive, by
+ * ReadArchive and DelayedReadArchive2; an error inside names "zip!member"; a missing member
+ * is a missing file (a warning and skipped, an error when strict); a file that is not a zip
+ * is an error. */
+static void test_zip_archives(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    char path[4096], want[8192];
+    write_zip(dir, "parts.zip", "cube/part.rib",
+              "Color [0 1 0]\nPatch \"bilinear\" " UNIT_P "\nPatch \"bilinear\" " UNIT_P "\n");
+    write_file(dir, "main.rib",
+               "WorldBegin\nReadArchive \"parts.zip!cube/part.rib\"\n"
+               "Procedural2 \"DelayedReadArchive2\" \"SimpleBound\" \"string filename\" "
+               "[\"parts.zip!cube/part.rib\"]\nWorldEnd\n");
+    snprintf(path, sizeof path, "%s/main.rib", dir);
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    if (rib_load(path, &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_int_equal(s.patch_count, 4);
+    assert_cs(&s, 0, 0, 1, 0);
+    scene_free(&s);
+    /* an error inside the member names it */
+    write_zip(dir, "bad.zip", "x.rib", "\n  Frobnicate 1\n");
+    write_file(dir, "bad.rib", "WorldBegin\nReadArchive \"bad.zip!x.rib\"\nWorldEnd\n");
+    snprintf(path, sizeof path, "%s/bad.rib", dir);
+    snprintf(want, sizeof want, "%s/bad.zip!x.rib:2:3: error: unknown request Frobnicate", dir);
+    expect_file_error(path, want);
+    /* a missing member: the missing-file rule */
+    write_file(dir, "nomember.rib",
+               "WorldBegin\nPatch \"bilinear\" " UNIT_P "\nReadArchive \"parts.zip!none.rib\"\n"
+               "WorldEnd\n");
+    snprintf(path, sizeof path, "%s/nomember.rib", dir);
+    snprintf(want, sizeof want,
+             "%s/nomember.rib:3:13: error: ReadArchive: cannot read \"%s/parts.zip\": the zip has "
+             "no member \"none.rib\"",
+             dir, dir);
+    expect_file_error(path, want);
+    memset(&s, 0, sizeof s);
+    assert_int_equal(rib_load(path, &s, 1, &e), TS_OK);
+    assert_int_equal(s.patch_count, 1);
+    scene_free(&s);
+    /* not a zip */
+    write_file(dir, "fake.zip", "this is not a zip file\n");
+    write_file(dir, "fake.rib", "WorldBegin\nReadArchive \"fake.zip!a.rib\"\nWorldEnd\n");
+    snprintf(path, sizeof path, "%s/fake.rib", dir);
+    snprintf(want, sizeof want,
+             "%s/fake.rib:2:13: error: ReadArchive: cannot read \"%s/fake.zip\": not a zip file",
+             dir, dir);
+    expect_file_error(path, want);
+}
+
 static void test_missing_archive_skipped(void **state)
 {
     (void)state;
@@ -498,6 +569,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_pixel_samples),
+        cmocka_unit_test(test_zip_archives),
         cmocka_unit_test(test_clipping_shutter_crop),
         cmocka_unit_test(test_cs_classes),
         cmocka_unit_test(test_n_classes_and_st),

@@ -365,6 +365,29 @@ static void test_errors(void **state)
 #undef E
 }
 
+/* A binary WorldBegin (line 0, its byte the column) is a world block all the same: a file
+ * whose world holds no geometry says so, not that it has no world block (rib_load checks the
+ * whole scene). */
+static void test_empty_binary_world(void **state)
+{
+    (void)state;
+    static const char bin[] = "\314\000\232WorldBegin\246\000\314\001\230WorldEnd\246\001";
+    char path[4400];
+    snprintf(path, sizeof path, "%s/empty.rib", test_scratch_dir());
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(bin, 1, sizeof bin - 1, f), sizeof bin - 1);
+    fclose(f);
+    ts_scene s;
+    ts_error e;
+    memset(&s, 0, sizeof s);
+    memset(&e, 0, sizeof e);
+    assert_int_equal(rib_load(path, &s, 1, &e), TS_E_SCENE);
+    if (!strstr(e.msg, ": error: the world block holds no geometry: nothing to render"))
+        fail_msg("got \"%s\"", e.msg);
+    ts_error_clear(&e);
+}
+
 /* Every prefix of an encoded scene (and one byte changed at each place in its first 600)
  * either parses or fails with a message naming the file; never a crash (the sanitizer
  * build checks that there is no undefined behaviour either). */
@@ -463,9 +486,10 @@ static void test_render_same_bytes(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_every_scene),           cmocka_unit_test(test_binary_archive),
-        cmocka_unit_test(test_number_forms),          cmocka_unit_test(test_errors),
-        cmocka_unit_test(test_truncated_and_damaged), cmocka_unit_test(test_render_same_bytes),
+        cmocka_unit_test(test_every_scene),        cmocka_unit_test(test_binary_archive),
+        cmocka_unit_test(test_number_forms),       cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_empty_binary_world), cmocka_unit_test(test_truncated_and_damaged),
+        cmocka_unit_test(test_render_same_bytes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

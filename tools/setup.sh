@@ -11,6 +11,7 @@ packages=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo
   libopenimageio-dev libopenexr-dev libpng-dev libcjson-dev libcmocka-dev
   zlib1g-dev # gzip RIB (host/scene/rib/rib_text.c)
+  libminizip-dev # archives inside zip files, "a.zip!b.rib" (host/scene/rib/rib_archive.c)
   libopenmpi-dev openmpi-bin # several processes under mpirun (host/app/ranks_mpi.c, optional)
   mesa-opencl-icd # Rusticl: a second OpenCL implementation for kernel checks (tests/check_rusticl.sh)
   oclgrind clang libclang-rt-14-dev clang-format # checks: tools/check_kernels.sh, tools/fuzz.sh

@@ -19,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
+#include <unzip.h>
 
 /* The files being read, outermost first: their canonical paths (realpath), for the cycle
  * check; NULL where the name is not a file (rib_parse_string's name). */
@@ -37,6 +38,67 @@ void rib_archive_free(rib_parser *p)
 }
 
 /* Reads the RIB file `name` (argument `at` of the current request) in place. */
+#define RIB_ZIP_MEMBER_MAX ((size_t)1 << 30) /* the largest archive read out of a zip */
+
+/* RenderMan for Maya's "archive.zip!member.rib": where name names a member of a zip file,
+ * *zip is the zip's name (malloc'd) and *member points into name; else *zip is NULL. */
+static int zip_split(const char *name, char **zip, const char **member)
+{
+    const char *bang = strstr(name, ".zip!");
+    *zip = NULL;
+    if (!bang) return TS_OK;
+    size_t n = (size_t)(bang - name) + 4;
+    if (!(*zip = malloc(n + 1))) return TS_E_MEMORY;
+    memcpy(*zip, name, n), (*zip)[n] = '\0';
+    *member = bang + 5;
+    return TS_OK;
+}
+
+/* Reads member out of the zip file at path into *text (malloc'd, *len bytes). TS_E_IO with
+ * why when it cannot: *absent 1 when the zip is missing or has no such member (the caller's
+ * missing-file rule), 0 when it is not a zip or is damaged; TS_E_MEMORY. */
+static int zip_read(const char *path, const char *member, char **text, size_t *len, int *absent,
+                    char *why, size_t cap)
+{
+    *text = NULL;
+    *absent = access(path, R_OK) != 0;
+    unzFile z = unzOpen64(path);
+    if (!z) {
+        snprintf(why, cap, "%s", access(path, R_OK) == 0 ? "not a zip file" : strerror(errno));
+        return TS_E_IO;
+    }
+    int rc = TS_E_IO;
+    unz_file_info64 info;
+    if (unzLocateFile(z, member, 1) != UNZ_OK) {
+        snprintf(why, cap, "the zip has no member \"%.200s\"", member);
+        *absent = 1;
+    } else if (unzGetCurrentFileInfo64(z, &info, NULL, 0, NULL, 0, NULL, 0) != UNZ_OK ||
+               unzOpenCurrentFile(z) != UNZ_OK) {
+        snprintf(why, cap, "cannot open its member \"%.200s\"", member);
+    } else {
+        size_t n = (size_t)info.uncompressed_size;
+        if (info.uncompressed_size > RIB_ZIP_MEMBER_MAX) {
+            snprintf(why, cap, "its member \"%.200s\" is larger than %zu MB", member,
+                     RIB_ZIP_MEMBER_MAX >> 20);
+        } else if (!(*text = malloc(n + 1))) {
+            rc = TS_E_MEMORY;
+        } else {
+            int got = n ? unzReadCurrentFile(z, *text, (unsigned)n) : 0;
+            if (got == (int)n && unzCloseCurrentFile(z) == UNZ_OK) { /* the CRC checked */
+                (*text)[n] = '\0';
+                *len = n;
+                rc = TS_OK;
+            } else {
+                snprintf(why, cap, "its member \"%.200s\" is damaged", member);
+                free(*text);
+                *text = NULL;
+            }
+        }
+    }
+    unzClose(z);
+    return rc;
+}
+
 static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
 {
     char shown[RIB_PRINT_MAX];
@@ -49,17 +111,22 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
     if (inc->depth >= RIB_MAX_INCLUDE)
         return rib_error_at(p, at->line, at->col, "%s: archives nested deeper than %d levels",
                             p->req, RIB_MAX_INCLUDE);
-    char *path = rib_resolve_in(p, name, 0);
+    char *zip = NULL, *path = NULL;
+    const char *member = NULL;
+    if (zip_split(name, &zip, &member) == TS_OK) path = rib_resolve_in(p, zip ? zip : name, 0);
+    free(zip);
     if (!path) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
     char *text;
     size_t len;
     char why[256];
-    int rc = ts_file_read_all(path, &text, &len, why, sizeof why);
+    int absent = 0;
+    int rc = member ? zip_read(path, member, &text, &len, &absent, why, sizeof why)
+                    : ts_file_read_all(path, &text, &len, why, sizeof why);
     if (rc != TS_OK) { /* missing: skipped with a warning unless strict; a FIFO, a device, a
                           directory: an error either way */
         if (rc == TS_E_MEMORY)
             rc = ts_error_set(p->err, rc, "%s: out of memory", p->lx.file);
-        else if (access(path, R_OK) != 0)
+        else if (absent || (!member && access(path, R_OK) != 0))
             rc = rib_missing_file(p, at->line, at->col, "", path, why, "skipped");
         else
             rc = rib_error_at(p, at->line, at->col, "%s: cannot read \"%s\": %s", p->req,
@@ -68,6 +135,11 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
         return rc;
     }
     char *real = realpath(path, NULL);
+    if (real && member) { /* the member's own name, "real.zip!member", for the cycle check */
+        size_t a = strlen(real), b = strlen(member);
+        char *both = realloc(real, a + b + 2);
+        if (both) both[a] = '!', memcpy(both + a + 1, member, b + 1), real = both;
+    }
     for (int k = 0; real && k <= inc->depth; k++)
         if (inc->real[k] && strcmp(inc->real[k], real) == 0) {
             rc = rib_error_at(p, at->line, at->col,
@@ -83,11 +155,16 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
     }
     rib_text t = {0}; /* a gzip archive (.rib.gz or not) is inflated here */
     rc = scene_add_input(p->scene, path, p->err);
-    if (rc == TS_OK) rc = rib_text_open(&t, path, text, len, p->err);
+    /* messages name "dir/a.zip!member.rib" */
+    char *shown_name = member ? malloc(strlen(path) + strlen(member) + 2) : path;
+    if (member && shown_name) sprintf(shown_name, "%s!%s", path, member);
+    if (!shown_name && rc == TS_OK)
+        rc = ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    if (rc == TS_OK) rc = rib_text_open(&t, shown_name, text, len, p->err);
     inc->real[++inc->depth] = real;
     rib_lexer saved = p->lx;
     if (rc == TS_OK) {
-        rib_lex_init(&p->lx, path, t.text, t.len, p->err);
+        rib_lex_init(&p->lx, shown_name, t.text, t.len, p->err);
         rc = rib_run_requests(p);
         rib_lex_free(&p->lx);
         p->lx = saved;
@@ -96,6 +173,7 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
     free(inc->real[inc->depth]);
     inc->real[inc->depth--] = NULL;
     free(text);
+    if (shown_name != path) free(shown_name);
     free(path);
     return rc;
 }

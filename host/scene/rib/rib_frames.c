@@ -222,7 +222,7 @@ int rib_scene_check(rib_parser *p)
 {
     const ts_scene *s = p->scene;
     const char *frame = p->frames.count ? " of the frame read" : "";
-    if (s->patch_count == 0 && p->world_line == 0)
+    if (s->patch_count == 0 && !p->world_seen) /* (a binary WorldBegin is at line 0) */
         return rib_error_at(p, p->lx.line, p->lx.col,
                             "the file ends without a world block%s (WorldBegin ... WorldEnd) and "
                             "holds no geometry: nothing to render",

@@ -212,7 +212,8 @@ typedef struct rib_parser {
     struct rib_patterns *patterns;     /* rib_pattern.c: Pattern nodes by handle, or NULL */
     char *searchpath[2];               /* Option "searchpath": "archive", "texture"; or NULL */
     rib_frame_choice frames;
-    int world_line, world_col; /* of the WorldBegin read, 0 before it */
+    int world_line, world_col; /* of the WorldBegin read (binary RIB: line 0, col its byte) */
+    int world_seen;            /* 1 once a WorldBegin was read */
     int whole_scene; /* rib_load: the file must make a scene (rib_frames.c rib_scene_check) */
 } rib_parser;
 

@@ -437,6 +437,7 @@ int rib_req_world_begin(rib_parser *p)
     p->phase = RIB_IN_WORLD;
     p->world_line = p->req_line;
     p->world_col = p->req_col;
+    p->world_seen = 1;
     return TS_OK;
 }
 
