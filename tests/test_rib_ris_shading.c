@@ -430,6 +430,42 @@ static void test_light_shapes(void **state)
                          "lightColor must be >= 0 and finite, got -1, 1 and [1 1 1]");
 }
 
+/* RenderMan 20's RIS lights: AreaLightSource "PxrStd...Light" (also by RenderMan for Maya's
+ * path-named instance) sets the radiance, then Geometry "rectlight" draws the RIS rect light
+ * and "distantlight" and "envsphere" the distant light and the dome; ordinary geometry under
+ * it emits; a light shape without light in effect warns and draws nothing. */
+static void test_renderman_20_lights(void **state)
+{
+    (void)state;
+    ts_scene s;
+    test_parse_rib_ok(
+        "WorldBegin\nAttributeBegin\nAreaLightSource \"PxrStdAreaLight\" \"r\" "
+        "\"float exposure\" [1] \"color lightColor\" [1 0.5 0.25] \"string rman__Shape\" "
+        "[\"rect\"]\nGeometry \"rectlight\"\n" QUAD "AttributeEnd\n"
+        "AttributeBegin\nAreaLightSource \"shaders/PxrStdEnvMapLightShape1_rfm\" \"e\" "
+        "\"float intensity\" [0.5]\nGeometry \"envsphere\" \"constant float[2] resolution\" "
+        "[64 32]\nAttributeEnd\nAttributeBegin\nAreaLightSource \"PxrStdAreaLight\" \"d\" "
+        "\"float exposure\" [2]\nGeometry \"distantlight\" \"constant float anglesubtended\" "
+        "[3]\nAttributeEnd\n" QUAD "WorldEnd\n",
+        &s);
+    /* the rect light's patch and the quad under the same AreaLightSource emit 2 (1 .5 .25) */
+    assert_int_equal(s.patch_count, 3);
+    assert_le(&s.attr[0], 2, 1, 0.5), assert_le(&s.attr[1], 2, 1, 0.5);
+    assert_le(&s.attr[2], 0, 0, 0); /* after the blocks: no light */
+    assert_int_equal(s.dome.present, 1);
+    for (int k = 0; k < 3; k++)
+        assert_near(s.dome.intensity * s.dome.color[k], 0.5, 1e-12);
+    assert_int_equal(s.light_count, 1);
+    double h = 1.5 * M_PI / 180; /* radiance 4 in a cone of 3 degrees */
+    assert_near(s.lights[0].intensity * s.lights[0].color[0], 4 * M_PI * sin(h) * sin(h), 1e-9);
+    assert_near(s.lights[0].angle, 3, 0);
+    scene_free(&s);
+    assert_string_equal(warnings_of("Geometry \"spherelight\""),
+                        "w.rib:2:1: warning: Geometry \"spherelight\" emits nothing: no "
+                        "AreaLightSource \"PxrStdAreaLight\", \"PxrStdEnvMapLight\" or "
+                        "\"PxrStdEnvDayLight\" with light is in effect\n");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -443,6 +479,7 @@ int main(void)
         cmocka_unit_test(test_displace),
         cmocka_unit_test(test_light_dome_distant),
         cmocka_unit_test(test_light_shapes),
+        cmocka_unit_test(test_renderman_20_lights),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -299,6 +299,7 @@ static int rib_parse_once(const char *name, const rib_text *t, int frame, int ke
     rib_user_free(p);
     rib_cond_free(p);
     rib_resource_free(p);
+    free(p->rm20_map);
     rib_pattern_free(p);
     free(p->searchpath[0]);
     free(p->searchpath[1]);

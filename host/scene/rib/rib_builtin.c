@@ -15,6 +15,8 @@ int rib_req_geometry(rib_parser *p)
     const char *name;
     int rc = rib_string_arg(p, 0, "a geometry name", &name);
     if (rc != TS_OK) return rc;
+    rc = rib_rm20_geometry_light(p, name); /* RenderMan 20's light shapes */
+    if (rc >= 0) return rc;
     if (strcmp(name, "teapot") != 0) {
         char shown[RIB_PRINT_MAX];
         return rib_error_at(p, p->args[0].line, p->args[0].col, "unknown Geometry \"%s\" (teapot)",

@@ -56,7 +56,9 @@
  *   rib_resource.c -> rib_state.c (rib_state_save and rib_state_restore)
  *   rib_bxdf.c    -> rib_pattern.c (connections), rib_shading.c (rib_shading_limits)
  *   rib_ris_light.c -> rib_geom.c (emissive patches), rib_light.c (rib_light_dome_map)
- *   rib_geom.c, rib_shading.c, rib_coordsys.c, rib_pattern.c -> no other handler
+ *   rib_shading.c, rib_builtin.c -> rib_ris_light.c (RenderMan 20's AreaLightSource
+ *                    "PxrStd...Light" and Geometry "rectlight", "envsphere", ...)
+ *   rib_geom.c, rib_coordsys.c, rib_pattern.c -> no other handler
  *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
  *                    handler. rib.c and rib_archive.c also start lexers (on rib_text.c's bytes);
  * rib.c, rib_state.c and rib_geom.c use basis.c. The cycles are rib.c -> rib_archive.c -> rib.c:
@@ -167,6 +169,12 @@ int rib_req_light_source(rib_parser *p);
  * d->mapname when the file is there (a RenderMan .tex: its sibling, rib_texture_sibling), else
  * rib_missing_file's warning (a uniform sky) or error. */
 int rib_light_dome_map(rib_parser *p, const char *name, int line, int col, ts_dome_light *d);
+/* rib_ris_light.c, RenderMan 20's lights: AreaLightSource "PxrStdAreaLight",
+ * "PxrStdEnvMapLight" or "PxrStdEnvDayLight" (its parameters from args[first]) and Geometry
+ * "rectlight", "disklight", "spherelight", "cylinderlight", "distantlight", "envsphere";
+ * -1 when `name` is not one of them. */
+int rib_rm20_area_light(rib_parser *p, const char *name, size_t first);
+int rib_rm20_geometry_light(rib_parser *p, const char *name);
 
 /* ---- rib_options.c: PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure ---- */
 

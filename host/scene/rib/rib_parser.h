@@ -214,6 +214,8 @@ typedef struct rib_parser {
     rib_frame_choice frames;
     int world_line, world_col; /* of the WorldBegin read (binary RIB: line 0, col its byte) */
     int world_seen;            /* 1 once a WorldBegin was read */
+    char *rm20_map;            /* RenderMan 20's AreaLightSource "rman__EnvMap" (rib_ris_light.c) */
+    int rm20_map_line, rm20_map_col;
     int whole_scene; /* rib_load: the file must make a scene (rib_frames.c rib_scene_check) */
 } rib_parser;
 

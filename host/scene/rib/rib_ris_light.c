@@ -344,3 +344,118 @@ int rib_req_light(rib_parser *p)
     if (kind == RIS_DISTANT) return ris_light_distant(p, &a, L);
     return ris_light_shape(p, kind, &a, L);
 }
+
+/* ---- RenderMan 20 ----------------------------------------------------------------------- */
+
+/* RenderMan 20's RIS lights were an AreaLightSource shader on geometry: "PxrStdAreaLight",
+ * "PxrStdEnvMapLight", "PxrStdEnvDayLight" (or a path ending in such a name and a suffix, as
+ * RenderMan for Maya writes them) with intensity, exposure and lightColor set the
+ * radiance the following geometry emits (as "arealight" does: a Sphere under it is a sphere
+ * light), and "rman__EnvMap" (or "envMap") the dome's map; then Geometry "rectlight",
+ * "disklight", "spherelight", "cylinderlight" draws the RIS light of that shape, "distantlight"
+ * ("anglesubtended" degrees) the distant light and "envsphere" the dome. */
+static const char *const rm20_shaders[] = {"PxrStdAreaLight", "PxrStdEnvMapLight",
+                                           "PxrStdEnvDayLight"};
+
+int rib_rm20_area_light(rib_parser *p, const char *name, size_t first)
+{
+    /* RenderMan for Maya 20 names its per-light shader instances by path:
+     * "renderman/scene/shaders/PxrStdEnvMapLightShape1_rfm" */
+    const char *base = strrchr(name, '/') ? strrchr(name, '/') + 1 : name;
+    size_t k = 0, n = sizeof rm20_shaders / sizeof rm20_shaders[0];
+    while (k < n && strncmp(base, rm20_shaders[k], strlen(rm20_shaders[k])) != 0)
+        k++;
+    if (k == n) return -1;
+    ris_light_args a = {.intensity = 1.0, .color = {1, 1, 1}, .sky_tint = {1, 1, 1}};
+    free(p->rm20_map);
+    p->rm20_map = NULL;
+    for (size_t i = first; i < p->nargs; i += 2) {
+        rib_param prm;
+        const double *v;
+        int rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        int is_map = strcmp(prm.name, "rman__EnvMap") == 0 || strcmp(prm.name, "envMap") == 0;
+        if (is_map && (prm.val->kind == RIB_ARG_STRING || prm.val->kind == RIB_ARG_STRINGS)) {
+            const char *map = rib_arg_str(p, prm.val, 0);
+            if (map[0] && !(p->rm20_map = strdup(map)))
+                return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+            p->rm20_map_line = prm.val->line, p->rm20_map_col = prm.val->col;
+            continue;
+        }
+        double *out = strcmp(prm.name, "intensity") == 0    ? &a.intensity
+                      : strcmp(prm.name, "exposure") == 0   ? &a.exposure
+                      : strcmp(prm.name, "lightColor") == 0 ? a.color
+                                                            : NULL;
+        if (!out || prm.val->kind == RIB_ARG_STRING || prm.val->kind == RIB_ARG_STRINGS) {
+            if (strcmp(prm.name, "rman__Shape") != 0) rib_warn_param(p, &prm);
+            continue; /* (rman__Shape: the Geometry that follows says it) */
+        }
+        rc = rib_param_numbers(p, &prm, out == a.color ? 3 : 1, &v, NULL);
+        if (rc != TS_OK) return rc;
+        memcpy(out, v, (out == a.color ? 3 : 1) * sizeof *v);
+    }
+    double L[3];
+    int rc = ris_light_radiance(p, name, &a, L);
+    if (rc != TS_OK) return rc;
+    memcpy(p->emission, L, sizeof L);
+    return TS_OK;
+}
+
+int rib_rm20_geometry_light(rib_parser *p, const char *name)
+{
+    static const struct {
+        const char *name;
+        ris_light_kind kind;
+    } shapes[] = {{"rectlight", RIS_RECT},       {"disklight", RIS_DISK},
+                  {"spherelight", RIS_SPHERE},   {"cylinderlight", RIS_CYLINDER},
+                  {"distantlight", RIS_DISTANT}, {"envsphere", RIS_DOME}};
+    size_t k = 0, n = sizeof shapes / sizeof shapes[0];
+    while (k < n && strcmp(name, shapes[k].name) != 0)
+        k++;
+    if (k == n) return -1;
+    int rc = rib_geom_check(p);
+    if (rc != TS_OK) return rc;
+    ris_light_args a = {.intensity = 1.0, .color = {1, 1, 1}, .sky_tint = {1, 1, 1}};
+    double L[3] = {p->emission[0], p->emission[1], p->emission[2]};
+    for (size_t i = 1; i < p->nargs; i += 2) {
+        rib_param prm;
+        const double *v;
+        rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        if (shapes[k].kind == RIS_DISTANT && strcmp(prm.name, "anglesubtended") == 0) {
+            rc = rib_param_numbers(p, &prm, 1, &v, NULL);
+            if (rc != TS_OK) return rc;
+            a.angle = v[0];
+        } else if (strcmp(prm.name, "resolution") != 0 && strcmp(prm.name, "radius") != 0) {
+            rib_warn_param(p, &prm); /* (an envsphere's size and resolution: a dome has none) */
+        }
+    }
+    if (!(L[0] > 0.0 || L[1] > 0.0 || L[2] > 0.0)) {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "Geometry \"%s\" emits nothing: no AreaLightSource \"PxrStdAreaLight\", "
+                 "\"PxrStdEnvMapLight\" or \"PxrStdEnvDayLight\" with light is in effect",
+                 name);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+        return TS_OK;
+    }
+    if (shapes[k].kind == RIS_DISTANT) {
+        if (!(a.angle >= 0.0 && a.angle < 180.0))
+            return rib_error_at(p, p->req_line, p->req_col,
+                                "Geometry \"distantlight\": anglesubtended %g is outside [0, 180) "
+                                "degrees",
+                                a.angle);
+        return ris_light_distant(p, &a, L);
+    }
+    if (shapes[k].kind != RIS_DOME) return ris_light_shape(p, shapes[k].kind, &a, L);
+    if (p->scene->dome.present) {
+        rib_warn_once(
+            p, p->req_line, p->req_col,
+            "Geometry \"envsphere\": a second dome light is ignored (one dome per scene)");
+        return TS_OK;
+    }
+    ts_dome_light d = {1, 1.0, {L[0], L[1], L[2]}, ""};
+    if (p->rm20_map) rc = rib_light_dome_map(p, p->rm20_map, p->rm20_map_line, p->rm20_map_col, &d);
+    if (rc == TS_OK) p->scene->dome = d;
+    return rc;
+}

@@ -150,6 +150,8 @@ int rib_req_area_light_source(rib_parser *p)
     const char *name;
     int rc = rib_string_arg(p, 0, "an area light shader name", &name);
     if (rc != TS_OK) return rc;
+    rc = rib_rm20_area_light(p, name, (p->nargs % 2 == 0) ? 2 : 1);
+    if (rc >= 0) return rc;               /* RenderMan 20's RIS lights */
     if (strcmp(name, "arealight") != 0) { /* like other unknown shaders: warned, left out */
         char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
         snprintf(what, sizeof what,
