@@ -294,6 +294,7 @@ static void diced_free(diced *d)
     free(d->grid), free(d->nodes), free(d->codes);
     pipeline_destroy(&d->p);
     dev_close(&d->cl);
+    stats_free(&d->stats);
 }
 
 /* Dices and builds the six patches of s at LODs lods[] (patch 5 - i gets lods[i]) as one

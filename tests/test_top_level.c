@@ -139,6 +139,7 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
     free(seen);
     free(pairs);
     pipeline_destroy(&p);
+    stats_free(&stats);
 }
 
 static void test_every_box_once(void **state)

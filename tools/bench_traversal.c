@@ -220,6 +220,7 @@ static int bench_prepare(const bench_options *o, bench_setup *s, ts_error *err)
         s->hit[r] = (ts_hit){TS_NO_HIT, 0, 0, TS_INVALID, TS_INVALID};
     ts_pipeline_plan plan = {.ray_capacity = slots, .pair_capacity = n ? n : 1};
     pipeline_plan_arenas(&plan, np, (uint32_t)o->lod);
+    stats_free(&s->stats); /* the probe's */
     memset(&s->stats, 0, sizeof s->stats);
     if (pipeline_create(&s->p, &s->cl, &s->scene, &plan, rays, &s->stats, err)) return err->code;
     uint32_t begin = 0;
