@@ -270,6 +270,23 @@ static void test_attribute_resources(void **state)
                          "t.rib:2:46: error: Resource: operation \"keep\" is not save or restore");
 }
 
+/* An empty texture name is no texture, as RenderMan's shaders take it: untextured, no
+ * warning (it was an error: "" names the file's own directory). */
+static void test_empty_texture_name(void **state)
+{
+    (void)state;
+    ts_scene s;
+    test_parse_rib_ok(
+        "WorldBegin\nSurface \"plastic\" \"string texturename\" [\"\"]\n" QUAD "WorldEnd\n", &s);
+    assert_int_equal(s.patch_count, 1);
+    assert_int_equal(s.attr[0].flags & TS_PATCH_COLOR_TEX, 0);
+    scene_free(&s);
+    int rc;
+    const char *w = test_rib_warnings("Surface \"matte\" \"string texturename\" [\"\"]", &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(w, "");
+}
+
 static void write_text(const char *path, const char *text)
 {
     FILE *f = fopen(path, "wb");
@@ -388,6 +405,7 @@ int main(void)
         cmocka_unit_test(test_conditions),
         cmocka_unit_test(test_scoped_coordinate_system),
         cmocka_unit_test(test_attribute_resources),
+        cmocka_unit_test(test_empty_texture_name),
         cmocka_unit_test(test_relative_names_from_the_working_directory),
         cmocka_unit_test(test_procedural2_and_searchpath),
         cmocka_unit_test(test_patch_mesh_wrap_spellings),

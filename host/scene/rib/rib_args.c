@@ -432,6 +432,10 @@ int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, const char *fallback
     const char *name = NULL;
     int rc = rib_string_arg(p, i, "a texture file name", &name);
     if (rc != TS_OK) return rc;
+    if (!name[0]) { /* "": no map, as RenderMan's shaders take it */
+        *index = TS_INVALID;
+        return TS_OK;
+    }
     return rib_texture_named(p, name, p->args[i].line, p->args[i].col, kind, fallback, index);
 }
 

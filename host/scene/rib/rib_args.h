@@ -111,7 +111,8 @@ char *rib_resolve_in(const rib_parser *p, const char *name, int which);
  * "texture" search path) as kind TS_TEX_* into the scene. A missing file (none to open) is
  * rib_missing_file's: an error when strict, else a warning ending in `fallback` (what the
  * scene does without it), TS_OK and *index = TS_INVALID. A file that is there but cannot be
- * read as an image is an error at that argument naming it. */
+ * read as an image is an error at that argument naming it. An empty name is no texture
+ * (TS_OK, *index = TS_INVALID, no warning), as RenderMan's shaders take "". */
 int rib_texture_arg(rib_parser *p, size_t i, uint32_t kind, const char *fallback, uint32_t *index);
 /* The name to read for texture `name` (malloc'd): name itself, except that a RenderMan .tex
  * (a format Tessera cannot read) gives the first of name.tx, .exr, .png, .tif, .tiff, .jpg
