@@ -256,6 +256,20 @@ inline uint shade_direct_light(ts_shade_params sp, const shade_lights *L, const 
     return TS_PATH_TRACED_SHADOW;
 }
 
+/* The path's new throughput tp f w; from the second bounce on the path survives Russian
+ * roulette with probability min(1, max of it) and is reweighted by it. 1 when it goes on,
+ * with the throughput written. */
+inline int shade_survive(const shade_step *s, ts_sampler_set u, const float f[3], float w,
+                         __global ts_vec4 *throughput)
+{
+    const float *tp = s->tp;
+    float nt[3] = {tp[0] * f[0] * w, tp[1] * f[1] * w, tp[2] * f[2] * w};
+    float survive = s->bounce >= 1u ? fmin(1.0f, fmax(nt[0], fmax(nt[1], nt[2]))) : 1.0f;
+    if (!(sampler_set_value(u, 3u) < survive)) return 0;
+    *throughput = (ts_vec4){nt[0] / survive, nt[1] / survive, nt[2] / survive, 0.0f};
+    return 1;
+}
+
 /* Samples the BSDF for the path's next ray; from the second bounce on the path survives
  * Russian roulette with probability min(1, max(new throughput)) and is reweighted by it.
  * When it goes on: writes its throughput, the sample's pdf (mis) and *mode for the
@@ -271,12 +285,7 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
                            sampler_set_value(u, 1u), sampler_set_value(u, 2u), &wi, f);
     float cosi = v3_dot(v->n, wi);
     if (!(pb > 0.0f && cosi > 0.0f)) return 0u;
-    float w = cosi / pb;
-    const float *tp = s->tp;
-    float nt[3] = {tp[0] * f[0] * w, tp[1] * f[1] * w, tp[2] * f[2] * w};
-    float survive = s->bounce >= 1u ? fmin(1.0f, fmax(nt[0], fmax(nt[1], nt[2]))) : 1.0f;
-    if (!(sampler_set_value(u, 3u) < survive)) return 0u;
-    *throughput = (ts_vec4){nt[0] / survive, nt[1] / survive, nt[2] / survive, 0.0f};
+    if (!shade_survive(s, u, f, cosi / pb, throughput)) return 0u;
     *mode = sp.light_count == 0u || sp.sampling == TS_SAMPLING_BSDF ? TS_MIS_ONE
             : sp.sampling == TS_SAMPLING_LIGHT                      ? TS_MIS_ZERO
                                                                     : TS_MIS_BALANCE;
@@ -287,7 +296,7 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
 
 /* Glass (TS_MAT_GLASS): a delta lobe sampled (lib/bsdf.h glass_sample), so the emission the
  * ray finds counts whole (TS_MIS_ONE: no light sample could have found it); Russian roulette
- * as shade_bsdf_bounce. A refracted ray leaves from the far side of the surface and flips
+ * by shade_survive. A refracted ray leaves from the far side of the surface and flips
  * the path's TS_PATH_INSIDE bit in *inside. */
 inline uint shade_glass_bounce(const shade_vertex *v, const shade_step *s,
                                __global ts_vec4 *throughput, __global float *mis, uint *mode,
@@ -298,11 +307,7 @@ inline uint shade_glass_bounce(const shade_vertex *v, const shade_step *s,
     ts_sampler_set u = step_bsdf_set(s);
     int through = glass_sample(v->a, v->cs, v->n, v->wo, (*inside & TS_PATH_INSIDE) != 0u,
                                sampler_set_value(u, 0u), &wi, w);
-    const float *tp = s->tp;
-    float nt[3] = {tp[0] * w[0], tp[1] * w[1], tp[2] * w[2]};
-    float survive = s->bounce >= 1u ? fmin(1.0f, fmax(nt[0], fmax(nt[1], nt[2]))) : 1.0f;
-    if (!(sampler_set_value(u, 3u) < survive)) return 0u;
-    *throughput = (ts_vec4){nt[0] / survive, nt[1] / survive, nt[2] / survive, 0.0f};
+    if (!shade_survive(s, u, w, 1.0f, throughput)) return 0u;
     *mode = TS_MIS_ONE;
     *mis = 1.0f;
     shade_vertex out = *v;

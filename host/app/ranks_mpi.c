@@ -380,7 +380,7 @@ int ranks_finish(ts_ranks *r, ts_stats *stats, ts_error *err)
         me.samples += d->samples;
     }
     me.kernel_seconds = stats_kernel_seconds(stats); /* its spans: the other ranks send none */
-    me.host_serial_seconds = me.seconds > me.kernel_seconds ? me.seconds - me.kernel_seconds : 0;
+    me.host_serial_seconds = stats_host_serial(me.seconds, me.kernel_seconds);
     if (!rc) rc = stats_add_rank(stats, &me, err);
     if (!rc) qsort(stats->ranks, stats->rank_count, sizeof *stats->ranks, cmp_rank);
     return rc;
@@ -658,9 +658,7 @@ static int follow_bye(ts_ranks *r, ts_workers *g, const ts_error *why, ts_error 
     head.rank.seconds = stats_now() - r->t0;
     head.rank.scene_seconds = r->scene_seconds;
     head.rank.kernel_seconds = stats_kernel_seconds(&s);
-    head.rank.host_serial_seconds = head.rank.seconds > head.rank.kernel_seconds
-                                        ? head.rank.seconds - head.rank.kernel_seconds
-                                        : 0;
+    head.rank.host_serial_seconds = stats_host_serial(head.rank.seconds, head.rank.kernel_seconds);
     for (uint32_t i = 0; i < s.device_count; ++i) {
         head.rank.devices += !s.devices[i].failed;
         head.rank.units += s.devices[i].units;

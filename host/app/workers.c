@@ -50,26 +50,26 @@ static void worker_budget(ts_worker *w, uint32_t share, uint32_t streams)
 {
     const ts_frame *f = &w->g->frame;
     ts_budget_choice c;
+    int split = streams > 1; /* the budget shared by the device's streams */
     if (f->opt->memory_mb > 0) {
         budget_fixed((uint64_t)f->opt->memory_mb, &c);
-        if (streams > 1) {
-            c.mb = c.room_mb =
-                c.mb / streams > TS_MEMORY_FLOOR_MB ? c.mb / streams : TS_MEMORY_FLOOR_MB;
-            snprintf(c.why, sizeof c.why, "--memory shared by %u streams", streams);
-        }
     } else {
         ts_memory_room room;
         ts_memory_room_query(NULL, &room);
         if (room.bytes != UINT64_MAX && share > 1) room.bytes /= share;
         budget_default(&w->cl.info, budget_fixed_bytes(f->scene, 0), &room, &c); /* no film */
         size_t n = strlen(c.why), which = strlen(room.which);
-        if (share > 1 && w->cl.info.host_unified && which && strncmp(c.why, room.which, which) == 0)
+        if (share > 1 && w->cl.info.host_unified && which &&
+            strncmp(c.why, room.which, which) == 0) {
             snprintf(c.why + n, sizeof c.why - n, ", shared by %u devices", share);
-        else if (streams > 1) { /* the device's memory, or the cap, split */
-            c.mb = c.mb / streams > TS_MEMORY_FLOOR_MB ? c.mb / streams : TS_MEMORY_FLOOR_MB;
-            c.room_mb = c.room_mb / streams > c.mb ? c.room_mb / streams : c.mb;
-            snprintf(c.why + n, sizeof c.why - n, ", shared by %u streams", streams);
+            split = 0; /* the room is split already: the streams count among the devices */
         }
+    }
+    if (split) { /* --memory, the device's memory or the cap, split */
+        size_t n = strlen(c.why);
+        c.mb = c.mb / streams > TS_MEMORY_FLOOR_MB ? c.mb / streams : TS_MEMORY_FLOOR_MB;
+        c.room_mb = c.room_mb / streams > c.mb ? c.room_mb / streams : c.mb;
+        snprintf(c.why + n, sizeof c.why - n, ", shared by %u streams", streams);
     }
     w->mb = c.mb;
     w->room_mb = c.room_mb;

@@ -94,6 +94,11 @@ double stats_kernel_seconds(const ts_stats *s)
     return total;
 }
 
+double stats_host_serial(double wall, double kernel)
+{
+    return wall > kernel ? wall - kernel : 0.0;
+}
+
 int stats_add_device(ts_stats *s, const ts_device_stats *d, ts_error *err)
 {
     ts_device_stats *p = realloc(s->devices, (s->device_count + 1) * sizeof *p);
@@ -216,7 +221,7 @@ static cJSON *stats_to_json(const ts_stats *s)
     double kernel = stats_kernel_seconds(s);
     cJSON_AddNumberToObject(root, "kernel_seconds", kernel);
     cJSON_AddNumberToObject(root, "host_serial_seconds",
-                            s->wall_seconds > kernel ? s->wall_seconds - kernel : 0.0);
+                            stats_host_serial(s->wall_seconds, kernel));
     cJSON_AddNumberToObject(root, "peak_rss_bytes", (double)stats_peak_rss_bytes());
     cJSON_AddNumberToObject(root, "kernel_build_seconds", s->kernel_build_seconds);
     cJSON_AddBoolToObject(root, "kernel_cache_hit", s->kernel_cache_hit);
@@ -301,7 +306,7 @@ void stats_print_table(const ts_stats *s, void *file)
             s->wall_seconds, s->kernel_build_seconds, s->kernel_cache_hit ? ", cached" : "");
     double kernel = stats_kernel_seconds(s);
     fprintf(f, "kernels ran %.3f s of the wall; the host alone %.3f s\n", kernel,
-            s->wall_seconds > kernel ? s->wall_seconds - kernel : 0.0);
+            stats_host_serial(s->wall_seconds, kernel));
     for (int i = 0; i < TS_COUNTER_COUNT; ++i)
         fprintf(f, "%-24s %llu\n", ts_counter_names[i], (unsigned long long)s->counters[i]);
     if (s->counters[TS_COUNTER_bake_points] && s->bake.seconds > 0)

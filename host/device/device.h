@@ -92,7 +92,7 @@ typedef struct ts_device {
      * was wrong (the program was built from source and the entry rewritten). The caller
      * prints it once as a warning. */
     char cache_note[4400];
-    cl_device_id sub_device; /* the sub-device made for ts_device_options.cpu_units, or NULL */
+    cl_device_id sub_device; /* the sub-device made for ts_device_options.host_cores, or NULL */
 } ts_device;
 
 typedef struct ts_device_options {

@@ -115,10 +115,14 @@ static int ris_light_read(rib_parser *p, ris_light_kind kind, size_t first, ris_
         const double *v;
         int rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
-        if (strcmp(prm.name, "lightColorMap") == 0 && kind == RIS_DOME) {
+        /* the dome's map; RenderMan 20's PxrStdEnvMapLight calls it rman__EnvMap or envMap */
+        if (kind == RIS_DOME &&
+            (strcmp(prm.name, "lightColorMap") == 0 || strcmp(prm.name, "rman__EnvMap") == 0 ||
+             strcmp(prm.name, "envMap") == 0)) {
             a->map_arg = i + 1;
             continue;
         }
+        if (strcmp(prm.name, "rman__Shape") == 0) continue; /* RenderMan 20: its Geometry says it */
         size_t k = 0, nk = sizeof known / sizeof known[0];
         while (k < nk && strcmp(prm.name, known[k].name) != 0)
             k++;
@@ -177,8 +181,7 @@ static int ris_light_radiance(rib_parser *p, const char *name, const ris_light_a
 
 /* PxrDomeLight and PxrEnvDayLight: the scene's dome of radiance L (the map's texel times it);
  * a second dome is ignored with a warning (Tessera has one). */
-static int ris_light_dome(rib_parser *p, const char *name, const ris_light_args *a,
-                          const double L[3])
+static int ris_dome(rib_parser *p, const char *map, int line, int col, const double L[3])
 {
     if (p->scene->dome.present) {
         rib_warn_once(p, p->req_line, p->req_col,
@@ -186,19 +189,26 @@ static int ris_light_dome(rib_parser *p, const char *name, const ris_light_args 
         return TS_OK;
     }
     ts_dome_light d = {1, 1.0, {L[0], L[1], L[2]}, ""};
+    int rc = map && map[0] ? rib_light_dome_map(p, map, line, col, &d) : TS_OK;
+    if (rc == TS_OK) p->scene->dome = d;
+    return rc;
+}
+
+static int ris_light_dome(rib_parser *p, const char *name, const ris_light_args *a,
+                          const double L[3])
+{
+    if (p->scene->dome.present) return ris_dome(p, NULL, 0, 0, L); /* (warns) */
+    const char *map = NULL;
     if (a->map_arg) {
-        const char *map;
         int rc = rib_string_arg(p, a->map_arg, "a map name", &map);
-        if (rc == TS_OK && map[0])
-            rc = rib_light_dome_map(p, map, p->args[a->map_arg].line, p->args[a->map_arg].col, &d);
         if (rc != TS_OK) return rc;
     }
-    if (strcmp(name, "PxrEnvDayLight") == 0)
+    if (strcmp(name, "PxrEnvDayLight") == 0 && !p->scene->dome.present)
         rib_warn_once(p, p->req_line, p->req_col,
                       "Light \"PxrEnvDayLight\" is drawn as a uniform dome of intensity * "
                       "2^exposure * skyTint (its sun and Hosek-Wilkie sky are not)");
-    p->scene->dome = d;
-    return TS_OK;
+    return ris_dome(p, map, a->map_arg ? p->args[a->map_arg].line : 0,
+                    a->map_arg ? p->args[a->map_arg].col : 0, L);
 }
 
 /* PxrDistantLight: light travelling down -z of the current space, radiance L in a cone of
@@ -359,44 +369,29 @@ static const char *const rm20_shaders[] = {"PxrStdAreaLight", "PxrStdEnvMapLight
 
 int rib_rm20_area_light(rib_parser *p, const char *name, size_t first)
 {
-    /* RenderMan for Maya 20 names its per-light shader instances by path:
+    /* RenderMan for Maya names its per-light shader instances by path:
      * "renderman/scene/shaders/PxrStdEnvMapLightShape1_rfm" */
     const char *base = strrchr(name, '/') ? strrchr(name, '/') + 1 : name;
     size_t k = 0, n = sizeof rm20_shaders / sizeof rm20_shaders[0];
     while (k < n && strncmp(base, rm20_shaders[k], strlen(rm20_shaders[k])) != 0)
         k++;
     if (k == n) return -1;
-    ris_light_args a = {.intensity = 1.0, .color = {1, 1, 1}, .sky_tint = {1, 1, 1}};
+    ris_light_args a = {
+        .intensity = 1.0, .color = {1, 1, 1}, .temperature = 6500.0, .sky_tint = {1, 1, 1}};
+    double L[3];
+    int rc = ris_light_read(p, k == 0 ? RIS_RECT : RIS_DOME, first, &a);
+    if (rc == TS_OK) rc = ris_light_radiance(p, name, &a, L);
+    if (rc != TS_OK) return rc;
     free(p->rm20_map);
     p->rm20_map = NULL;
-    for (size_t i = first; i < p->nargs; i += 2) {
-        rib_param prm;
-        const double *v;
-        int rc = rib_param_at(p, i, &prm);
+    if (a.map_arg) {
+        const char *map;
+        rc = rib_string_arg(p, a.map_arg, "a map name", &map);
         if (rc != TS_OK) return rc;
-        int is_map = strcmp(prm.name, "rman__EnvMap") == 0 || strcmp(prm.name, "envMap") == 0;
-        if (is_map && (prm.val->kind == RIB_ARG_STRING || prm.val->kind == RIB_ARG_STRINGS)) {
-            const char *map = rib_arg_str(p, prm.val, 0);
-            if (map[0] && !(p->rm20_map = strdup(map)))
-                return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
-            p->rm20_map_line = prm.val->line, p->rm20_map_col = prm.val->col;
-            continue;
-        }
-        double *out = strcmp(prm.name, "intensity") == 0    ? &a.intensity
-                      : strcmp(prm.name, "exposure") == 0   ? &a.exposure
-                      : strcmp(prm.name, "lightColor") == 0 ? a.color
-                                                            : NULL;
-        if (!out || prm.val->kind == RIB_ARG_STRING || prm.val->kind == RIB_ARG_STRINGS) {
-            if (strcmp(prm.name, "rman__Shape") != 0) rib_warn_param(p, &prm);
-            continue; /* (rman__Shape: the Geometry that follows says it) */
-        }
-        rc = rib_param_numbers(p, &prm, out == a.color ? 3 : 1, &v, NULL);
-        if (rc != TS_OK) return rc;
-        memcpy(out, v, (out == a.color ? 3 : 1) * sizeof *v);
+        if (map[0] && !(p->rm20_map = strdup(map)))
+            return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+        p->rm20_map_line = p->args[a.map_arg].line, p->rm20_map_col = p->args[a.map_arg].col;
     }
-    double L[3];
-    int rc = ris_light_radiance(p, name, &a, L);
-    if (rc != TS_OK) return rc;
     memcpy(p->emission, L, sizeof L);
     return TS_OK;
 }
@@ -448,14 +443,5 @@ int rib_rm20_geometry_light(rib_parser *p, const char *name)
         return ris_light_distant(p, &a, L);
     }
     if (shapes[k].kind != RIS_DOME) return ris_light_shape(p, shapes[k].kind, &a, L);
-    if (p->scene->dome.present) {
-        rib_warn_once(
-            p, p->req_line, p->req_col,
-            "Geometry \"envsphere\": a second dome light is ignored (one dome per scene)");
-        return TS_OK;
-    }
-    ts_dome_light d = {1, 1.0, {L[0], L[1], L[2]}, ""};
-    if (p->rm20_map) rc = rib_light_dome_map(p, p->rm20_map, p->rm20_map_line, p->rm20_map_col, &d);
-    if (rc == TS_OK) p->scene->dome = d;
-    return rc;
+    return ris_dome(p, p->rm20_map, p->rm20_map_line, p->rm20_map_col, L);
 }
