@@ -361,12 +361,31 @@ inline int bl_next_block(bl_trav *s, const bl_ray *r, const bl_patch *pt, uint L
                   : bl_next_block_any(s, r, pt, L, tmax, te, raw, 0u);
 }
 
+/* Which active ray's candidate window holds slot w (top_level.cl): w / n_per_ray, or with
+ * water-filled windows (n_per_ray 0) the i with window_first[i] <= w < window_first[i + 1]:
+ * the last i with window_first[i] <= w, by binary search over [0, active_count). */
+inline uint window_owner(uint w, uint n_per_ray, __global const uint *window_first,
+                         uint active_count)
+{
+    if (n_per_ray != 0u) return w / n_per_ray;
+    uint lo = 0u, hi = active_count; /* window_first[lo] <= w < window_first[hi] */
+    while (hi - lo > 1u) {
+        uint mid = lo + (hi - lo) / 2u;
+        if (window_first[mid] <= w)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
 /* The pair of work-item gid: its ray, its patch, and whether it is to be traced at all (a
  * shadow ray is not stopped by the light it aims at); *shadow: a shadow ray, which any hit
  * answers, so its traversal ends after the first block where it finds one. */
 inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
                    __global const ts_segment *segments, uint seg_first, uint seg_count,
-                   uint n_per_ray, __global const uint *active, __global const ts_vec4 *org,
+                   uint n_per_ray, __global const uint *window_first, uint active_count,
+                   __global const uint *active, __global const ts_vec4 *org,
                    __global const ts_vec4 *dir, __global const ts_hit *hit,
                    __global const uint *ray_flags, __global const uint *ray_from,
                    __global const ts_vec4 *grid, __global const ts_box4 *groups,
@@ -377,7 +396,8 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
     ts_pair pr = pairs[pair_first + gid];
     __global const ts_segment *batch = segments + seg_first;
     ts_segment seg = batch[segment_of(batch, seg_count, pair_first + gid)];
-    uint ray = active[pr.window / n_per_ray], flags = ray_flags[ray];
+    uint ray = active[window_owner(pr.window, n_per_ray, window_first, active_count)];
+    uint flags = ray_flags[ray];
     *window = pr.window;
     *shadow = (flags & TS_RAY_SHADOW) != 0u;
     ts_vec4 o = org[ray], d = dir[ray];
@@ -407,22 +427,24 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
 #define BL_KERNEL_ARGS                                                                             \
     __global const ts_pair *pairs, uint pair_first, uint pair_count,                               \
         __global const ts_segment *segments, uint seg_first, uint seg_count, uint n_per_ray,       \
-        uint exact, uint leaf_b, __global const uint *active, __global const ts_vec4 *org,         \
-        __global const ts_vec4 *dir, __global const ts_hit *hit, __global const uint *ray_flags,   \
-        __global const uint *ray_from, __global const ts_vec4 *grid,                               \
-        __global const ts_box4 *groups, __global const ts_tight4 *codes,                           \
-        __global const uint *instance, __global const ts_xform *inst_xform,                        \
-        __global ts_hit *pair_hit, __global uint *utilisation, uint group_base
+        __global const uint *window_first, uint active_count, uint exact, uint leaf_b,             \
+        __global const uint *active, __global const ts_vec4 *org, __global const ts_vec4 *dir,     \
+        __global const ts_hit *hit, __global const uint *ray_flags, __global const uint *ray_from, \
+        __global const ts_vec4 *grid, __global const ts_box4 *groups,                              \
+        __global const ts_tight4 *codes, __global const uint *instance,                            \
+        __global const ts_xform *inst_xform, __global ts_hit *pair_hit,                            \
+        __global uint *utilisation, uint group_base
 
 __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_trace(BL_KERNEL_ARGS)
 {
     uint gid = get_global_id(0), tests = 0;
 #ifdef TS_PREFETCH_AT /* the rays of the pairs ahead (lib/prefetch.h) */
-    if (gid + 2u * TS_PREFETCH_AHEAD < pair_count)
+    if (n_per_ray != 0u && gid + 2u * TS_PREFETCH_AHEAD < pair_count)
         TS_PREFETCH_AT(active +
                        pairs[pair_first + gid + 2u * TS_PREFETCH_AHEAD].window / n_per_ray);
     if (gid + TS_PREFETCH_AHEAD < pair_count) {
-        uint ahead = active[pairs[pair_first + gid + TS_PREFETCH_AHEAD].window / n_per_ray];
+        uint ahead = active[window_owner(pairs[pair_first + gid + TS_PREFETCH_AHEAD].window,
+                                         n_per_ray, window_first, active_count)];
         TS_PREFETCH_AT(org + ahead), TS_PREFETCH_AT(dir + ahead), TS_PREFETCH_AT(hit + ahead);
         TS_PREFETCH_AT(ray_flags + ahead), TS_PREFETCH_AT(ray_from + ahead);
     }
@@ -432,9 +454,9 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_tr
         bl_patch pt;
         ts_hit best;
         uint window, ex = exact, shadow;
-        if (bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active, org,
-                    dir, hit, ray_flags, ray_from, grid, groups, codes, instance, inst_xform, &r,
-                    &pt, &best, &window, &ex, &shadow)) {
+        if (bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, window_first,
+                    active_count, active, org, dir, hit, ray_flags, ray_from, grid, groups, codes,
+                    instance, inst_xform, &r, &pt, &best, &window, &ex, &shadow)) {
             uint b = min(leaf_b, pt.m), L = pt.m - b, nq = 1u << (2u * b);
             bl_trav s;
             bl_trav_start(&s, &r, &pt, best.t, L);
@@ -483,9 +505,10 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_gr
     uint window = 0, b = 0, L = 0, done = 1, count = 0, useful = 0, slots = 0, ex = exact,
          shadow = 0;
     if (gid < pair_count) {
-        done = !bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, active,
-                        org, dir, hit, ray_flags, ray_from, grid, groups, codes, instance,
-                        inst_xform, &r, &pt, &best, &window, &ex, &shadow);
+        done =
+            !bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray,
+                     window_first, active_count, active, org, dir, hit, ray_flags, ray_from, grid,
+                     groups, codes, instance, inst_xform, &r, &pt, &best, &window, &ex, &shadow);
         b = min(leaf_b, pt.m), L = pt.m - b;
         if (!done) bl_trav_start(&s, &r, &pt, best.t, L);
     }

@@ -8,6 +8,14 @@
  * Writes: pairs[i*n_per_ray .. +count[i]) and count[i] (the rest of the window is left
  *         as it was: sort reads only the first count[i], radix_sort_windows), entry
  *         (TS_INVALID once the traversal is finished).
+ * Water-filled windows (n_per_ray 0; trace.c, when the frame's patches do not fit): ray i's
+ *         window is [window_first[i], window_first[i + 1]), sized from a counting launch
+ *         before (count_only 1: count[i] = the candidates it would emit, up to n_per_ray,
+ *         and nothing else written), so the pair buffer holds every candidate of the rays
+ *         that have few and the iteration's patches are diced once for all of them. Such a
+ *         window is filled to its end (TS_INVALID leaves where the ray had fewer, which sort
+ *         drops), and a ray whose window is full stops at its next candidate, so one whose
+ *         candidates all fit ends its traversal in this iteration.
  * Invariant: the child order of a node depends only on the signs of the ray direction on
  * the node's split axes, so (node, position) is enough to resume, and across all
  * iterations every leaf box the ray meets within tmax is emitted exactly once. */
@@ -61,12 +69,18 @@ TS_INLINE_ALWAYS int cull_enter(__global const ts_box4 *c, uint levels, float4 o
 
 __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global const ts_box4 *cull,
                                 __global const uint *cull_levels, __global const uint *active,
-                                uint active_count, uint n_per_ray, __global const ts_vec4 *org,
-                                __global const ts_vec4 *dir, __global const ts_hit *hit,
-                                __global uint *entry, __global ts_pair *pairs, __global uint *count)
+                                uint active_count, uint n_per_ray,
+                                __global const uint *window_first, uint count_only,
+                                __global const ts_vec4 *org, __global const ts_vec4 *dir,
+                                __global const ts_hit *hit, __global uint *entry,
+                                __global ts_pair *pairs, __global uint *count)
 {
     uint i = get_global_id(0);
     if (i >= active_count) return;
+    /* The window: uniform, or water-filled (n_per_ray 0); counting, a cap of n_per_ray. */
+    uint filled = n_per_ray == 0u && !count_only;
+    uint base = filled ? window_first[i] : i * n_per_ray;
+    uint limit = filled ? window_first[i + 1u] - base : n_per_ray;
 #ifdef TS_PREFETCH_AT /* the rays ahead (lib/prefetch.h) */
     if (i + TS_PREFETCH_AHEAD < active_count) {
         uint ahead = active[i + TS_PREFETCH_AHEAD];
@@ -101,8 +115,12 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
             uint leaf = (uint)~child;
             if (!cull_enter(cull + (size_t)leaf * TS_CULL_GROUPS, cull_levels[leaf], o4, inv, tmax))
                 continue;
-            pairs[i * n_per_ray + n] = (ts_pair){leaf, i * n_per_ray + n};
-            if (++n == n_per_ray) {
+            if (filled && n == limit) { /* full: resume at this candidate */
+                state = (node << 3) | (pos - 1u);
+                break;
+            }
+            if (!count_only) pairs[base + n] = (ts_pair){leaf, base + n};
+            if (++n == limit && !filled) {
                 state = (node << 3) | pos;
                 break;
             }
@@ -114,5 +132,8 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
         }
     }
     count[i] = n;
+    if (count_only) return;
+    for (uint k = n; filled && k < limit; ++k)
+        pairs[base + k] = (ts_pair){TS_INVALID, base + k};
     entry[ray] = state;
 }

@@ -1,9 +1,9 @@
 /* test_top_level.c — the top_level kernel's resumable ordered traversal against brute force:
  * over all iterations a ray emits exactly the patches whose box it meets within tmax, each
- * once (Hanika §3.1), for N = 1, 3 and 100 candidates per iteration, with infinite and
- * finite tmax, and the traversal ends in TS_INVALID. The reference is a slab test in double
- * written here (not the kernels' box_enter), and the rays must meet a minimum of boxes, so
- * a traversal that rejects every box fails. */
+ * once (Hanika §3.1), for N = 1, 3 and 100 candidates per iteration and for water-filled
+ * windows (trace.c water_fill), with infinite and finite tmax, and the traversal ends in
+ * TS_INVALID. The reference is a slab test in double written here (not the kernels' box_enter), and
+ * the rays must meet a minimum of boxes, so a traversal that rejects every box fails. */
 #include "test_support.h"
 #include "pipeline/pipeline.h"
 
@@ -142,6 +142,105 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
     stats_free(&stats);
 }
 
+/* Water-filled windows (n_per_ray 0, trace.c water_fill) of at most max_n candidates, with a
+ * pair buffer of 1.5 a ray: ray r's window is [first[r], first[r + 1]), filled in order with
+ * its next candidates and then TS_INVALID leaves; a ray whose window is shorter than the cap
+ * N had no more candidates and ends its traversal in that iteration; over all iterations
+ * every box it meets is emitted once, as with uniform windows. */
+static void run_filled_case(ts_device *cl, const ts_scene *s, uint32_t max_n, int finite_tmax)
+{
+    ts_stats stats;
+    memset(&stats, 0, sizeof stats);
+    ts_error err = {0};
+    /* (at least a pair a ray: water_fill's contract, as pipeline_plan's three) */
+    ts_pipeline_plan plan = {.ray_capacity = RAYS, .pair_capacity = RAYS * 3 / 2};
+    pipeline_plan_arenas(&plan, 1, 1);
+    ts_pipeline p;
+    if (pipeline_create(&p, cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
+    ts_vec4 org[RAYS], dir[RAYS];
+    ts_hit hit[RAYS];
+    uint32_t entry[RAYS], active[RAYS], count[RAYS], first[RAYS + 1];
+    uint32_t seed = 5u + (uint32_t)finite_tmax;
+    for (int r = 0; r < RAYS; ++r) {
+        org[r] = (ts_vec4){test_uniform(&seed, -12, 12), test_uniform(&seed, -12, 12),
+                           test_uniform(&seed, -12, 12), 0};
+        dir[r] = (ts_vec4){test_uniform(&seed, -1, 1), test_uniform(&seed, -1, 1),
+                           test_uniform(&seed, -1, 1), 0};
+        hit[r] = (ts_hit){finite_tmax ? test_uniform(&seed, 1, 20) : TS_NO_HIT, 0, 0, TS_INVALID,
+                          TS_INVALID};
+        entry[r] = TS_ENTRY_START;
+        active[r] = (uint32_t)r;
+    }
+    cl_command_queue q = cl->queue;
+    clEnqueueWriteBuffer(q, p.ray_org, CL_TRUE, 0, sizeof org, org, 0, NULL, NULL);
+    clEnqueueWriteBuffer(q, p.ray_dir, CL_TRUE, 0, sizeof dir, dir, 0, NULL, NULL);
+    clEnqueueWriteBuffer(q, p.ray_hit, CL_TRUE, 0, sizeof hit, hit, 0, NULL, NULL);
+    clEnqueueWriteBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL);
+    clEnqueueWriteBuffer(q, p.active, CL_TRUE, 0, sizeof active, active, 0, NULL, NULL);
+    uint8_t *seen = calloc((size_t)RAYS * PATCHES, 1);
+    ts_pair *pairs = malloc((size_t)plan.pair_capacity * sizeof *pairs);
+    int done = 0, iterations = 0, ended_short = 0, capped = 0;
+    for (; iterations < 1000 && !done; ++iterations) {
+        uint32_t n = 0, slots = 0;
+        if (pipeline_water_fill(&p, RAYS, max_n, &n, &slots, &err) ||
+            pipeline_top_level(&p, RAYS, 0, &err))
+            fail_msg("%s", err.msg);
+        assert_true(n >= 1 && n <= max_n && slots <= plan.pair_capacity);
+        clEnqueueReadBuffer(q, p.window_first, CL_TRUE, 0, sizeof first, first, 0, NULL, NULL);
+        clEnqueueReadBuffer(q, p.pairs, CL_TRUE, 0, (size_t)slots * sizeof *pairs, pairs, 0, NULL,
+                            NULL);
+        clEnqueueReadBuffer(q, p.count, CL_TRUE, 0, sizeof count, count, 0, NULL, NULL);
+        clEnqueueReadBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL);
+        assert_int_equal(first[0], 0);
+        assert_int_equal(first[RAYS], slots);
+        done = 1;
+        for (int r = 0; r < RAYS; ++r) {
+            uint32_t len = first[r + 1] - first[r];
+            assert_true(len <= n && count[r] <= len);
+            for (uint32_t k = 0; k < len; ++k) {
+                ts_pair pr = pairs[first[r] + k];
+                assert_int_equal(pr.window, first[r] + k);
+                if (k >= count[r]) {
+                    assert_int_equal(pr.leaf, TS_INVALID);
+                    continue;
+                }
+                assert_true(pr.leaf < PATCHES);
+                if (seen[(size_t)r * PATCHES + pr.leaf]++)
+                    fail_msg("ray %d emitted patch %u twice (filled, N=%u)", r, pr.leaf, n);
+            }
+            if (len < n && entry[r] != TS_INVALID) /* it had no more candidates */
+                fail_msg("ray %d: %u candidates under the cap %u, traversal not ended", r, len, n);
+            ended_short += len < n && len > 0;
+            capped += len == n && entry[r] != TS_INVALID;
+            if (entry[r] != TS_INVALID) done = 0;
+        }
+    }
+    assert_true(done);
+    /* Windows that held all of a ray's candidates occur, and with a cap of two full ones. */
+    assert_true(ended_short > 0);
+    assert_true(max_n > 2 || (capped > 0 && iterations > 1));
+    int wanted = 0, emitted = 0;
+    for (int r = 0; r < RAYS; ++r)
+        for (uint32_t b = 0; b < PATCHES; ++b) {
+            int close = 0;
+            int want = slab_hit(org[r], dir[r], scene_patch_box(s, b), hit[r].t, &close);
+            int got = seen[(size_t)r * PATCHES + b];
+            emitted += got;
+            if (close) continue;
+            wanted += want;
+            if (want != got)
+                fail_msg("ray %d patch %u: slab test in double %d, filled traversal %d", r, b, want,
+                         got);
+        }
+    if (wanted < RAYS / 4 || emitted < wanted)
+        fail_msg("filled, finite tmax %d: %d pairs emitted, %d meetings", finite_tmax, emitted,
+                 wanted);
+    free(seen);
+    free(pairs);
+    pipeline_destroy(&p);
+    stats_free(&stats);
+}
+
 static void test_every_box_once(void **state)
 {
     ts_device cl;
@@ -152,6 +251,10 @@ static void test_every_box_once(void **state)
     for (int i = 0; i < 3; ++i)
         for (int finite = 0; finite < 2; ++finite)
             run_case(&cl, &s, ns[i], finite);
+    for (int finite = 0; finite < 2; ++finite) {
+        run_filled_case(&cl, &s, 2, finite);
+        run_filled_case(&cl, &s, 100, finite);
+    }
     scene_free(&s);
     dev_close(&cl);
 }

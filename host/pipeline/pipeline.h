@@ -15,20 +15,27 @@
 #include "base/stats.h"
 #include "pipeline/tex_cache.h"
 
-/* Candidate pairs reserved per ray of a full wave: N starts near this (Hanika Table 3 starts
- * at N = 8) and grows as rays finish. */
-#define TS_PAIRS_PER_RAY 8u
+/* Candidate pairs reserved per ray of a full wave (Hanika Table 3 starts at N = 8). Three:
+ * a full wave's rays emit two to three candidates each on average (forest-100's bounces),
+ * and the bytes a ray does not reserve for pairs make the waves larger, so a frame whose
+ * patches do not fit needs fewer passes over them (forest-100 1920x768 x 2 at --memory 512:
+ * 848 K dicings with eight, 633 K with three; docs/benchmarks.md); where they fit, N ramps
+ * up from one anyway (trace.c pairs_per_ray). */
+#define TS_PAIRS_PER_RAY 3u
+/* The most candidates a ray gets in a water-filled window (trace.c water_fill): beyond a
+ * dozen or so they lie mostly behind the ray's closest hit and dice patches for nothing. */
+#define TS_FILL_MAX 16u
 /* N is clipped to [1, 100] (Hanika Table 3). */
 #define TS_N_MAX 100u
 /* Work-group size of every launch: one size, so PoCL compiles each kernel once. */
 #define TS_LOCAL_SIZE ((size_t)TS_GROUP_SIZE)
 
 /* Bytes of device memory one ray costs: an entry of every ray and path field, of active,
- * count, alive and wave_paths, of radiance, aov and albedo, and TS_PAIRS_PER_RAY candidates
- * (pairs, pairs_scratch, pair_hit; TS_PIPELINE_BUFFERS). */
+ * count, alive, wave_paths and window_first, of radiance, aov and albedo, and TS_PAIRS_PER_RAY
+ * candidates (pairs, pairs_scratch, pair_hit; TS_PIPELINE_BUFFERS). */
 #define TS_FIELD_BYTES(type, name, what) +sizeof(type)
 #define TS_BYTES_PER_RAY                                                                           \
-    (0 TS_RAY_FIELDS(TS_FIELD_BYTES) TS_PATH_FIELDS(TS_FIELD_BYTES) + 4 * sizeof(ts_u32) +         \
+    (0 TS_RAY_FIELDS(TS_FIELD_BYTES) TS_PATH_FIELDS(TS_FIELD_BYTES) + 5 * sizeof(ts_u32) +         \
      3 * sizeof(ts_vec4) + TS_PAIRS_PER_RAY * (2 * sizeof(ts_pair) + sizeof(ts_hit)))
 
 typedef struct ts_pipeline_plan {
@@ -45,6 +52,9 @@ typedef struct ts_pipeline_plan {
                                 0: 1, and pair_capacity / R at once after the patch cache
                                 first evicts (pipeline_trace). Changes no hit, only the work
                                 (tests compare them) */
+    int fill_windows;        /* 1: water-filled candidate windows in every iteration (tests);
+                                0: only where Hanika's full N is used, when the frame's
+                                patches do not fit (trace.c water_fill). The same hits */
     int host_film;           /* 1: the films are the host's (several devices, app/units.h merges
                                 each wave's samples there): the device films are one pixel
                                 and pipeline_film is not called */
@@ -128,8 +138,9 @@ typedef struct ts_trace_mode {
  *     cull, cull_levels: levels 1 and 2 of each built patch's tree and how many of them
  *     top_level culls candidates by (TS_CULL_GROUPS; build.cl build_cull).
  *   active: the rays being traced; count: candidates per active ray; alive: what goes on
- *     after resolve and shade; wave_paths: the paths being shaded; radiance: per path; aov,
- *     albedo: at the eye hit.
+ *     after resolve and shade; wave_paths: the paths being shaded; window_first: where each
+ *     active ray's candidate window starts when they are water-filled (trace.c water_fill);
+ *     radiance: per path; aov, albedo: at the eye hit.
  *   pairs: top_level's candidates, sorted by sort; pairs_scratch: the radix sort's other
  *     buffer (it may end there); pair_hit: bottom_level's hit per candidate.
  *   accum, aov_film, albedo_film: the film (sums per pixel). */
@@ -184,6 +195,7 @@ typedef struct ts_trace_mode {
     X(count,           CL_MEM_READ_WRITE, ts_u32,        c.rays,         NULL)                  \
     X(alive,           TS_MEM_HOST_RW,    ts_u32,        c.rays,         NULL)                  \
     X(wave_paths,      TS_MEM_HOST_RW,    ts_u32,        c.rays,         NULL)                  \
+    X(window_first,    TS_MEM_HOST_RW,    ts_u32,        c.rays + 1,     NULL)                  \
     X(radiance,        CL_MEM_READ_WRITE, ts_vec4,       c.rays,         NULL)                  \
     X(aov,             CL_MEM_READ_WRITE, ts_vec4,       c.rays,         NULL)                  \
     X(albedo,          CL_MEM_READ_WRITE, ts_vec4,       c.rays,         NULL)                  \
@@ -416,6 +428,11 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err);
  * builds segments_host[0..count) (patch and lod set by the caller; they must fit the
  * arenas together) as one batch and waits. */
 int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err);
+/* The water-filled windows of the next top_level over active[0..active_count) (then run with
+ * n_per_ray 0): window_first, the cap N through *n_fill and the slots through *slots; at
+ * most max_n candidates a ray (trace.c water_fill). */
+int pipeline_water_fill(ts_pipeline *p, uint32_t active_count, uint32_t max_n, uint32_t *n_fill,
+                        uint32_t *slots, ts_error *err);
 int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err);
 /* bottom_level (p->mode's kernel, exact and leaf_b) over the batch pipeline_dice_build made:
  * the pairs in `pairs` from segments_host[0].begin to the last segment's end, sorted by

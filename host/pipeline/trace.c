@@ -13,17 +13,74 @@
 
 #include <string.h>
 
-static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err)
+/* n_per_ray 0: the water-filled windows of window_first; count_only: count[i] only, up to
+ * n_per_ray candidates (top_level.cl). */
+static int top_level_launch(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray,
+                            uint32_t count_only, ts_error *err)
 {
     if (dev_set_args(p->k_top_level, err, DEV_ARG(p->qbvh_nodes), DEV_ARG(p->cull),
                      DEV_ARG(p->cull_levels), DEV_ARG(p->active), DEV_ARG(active_count),
-                     DEV_ARG(n_per_ray), DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir),
-                     DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry), DEV_ARG(p->pairs),
-                     DEV_ARG(p->count), (size_t)0))
+                     DEV_ARG(n_per_ray), DEV_ARG(p->window_first), DEV_ARG(count_only),
+                     DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit),
+                     DEV_ARG(p->ray_entry), DEV_ARG(p->pairs), DEV_ARG(p->count), (size_t)0))
         return err->code;
     if (dev_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
         return err->code;
     return dev_finish(p->cl, p->stats, err);
+}
+
+static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err)
+{
+    return top_level_launch(p, active_count, n_per_ray, 0u, err);
+}
+
+/* Water-filled windows (top_level.cl), for a frame whose patches do not fit, where each
+ * iteration dices its patches again: a counting launch finds each active ray's candidates
+ * (up to max_n), and ray i gets min(count_i, N) slots of the pair buffer, N <= max_n the
+ * largest for which they all fit (at least capacity / active, the uniform windows' N, when
+ * that is below max_n). A uniform window of N leaves the slots of rays with fewer candidates
+ * empty (about half of them on forest-100's bounces) while the rays with more wait for
+ * another iteration that dices their patches again; here every ray with at most N
+ * candidates is done in this one. forest-100 1920x768 x 2 at --memory 512: 541 K dicings
+ * and 96 s against 633 K and 107 s with uniform windows (docs/benchmarks.md).
+ * Writes window_first[0 .. active]; returns N through *n_fill and the slots through *slots. */
+static int water_fill(ts_pipeline *p, uint32_t active, uint32_t max_n, uint32_t *n_fill,
+                      uint32_t *slots, ts_error *err)
+{
+    uint32_t kmax = max_n < 1u ? 1u : max_n > TS_N_MAX ? TS_N_MAX : max_n;
+    if (top_level_launch(p, active, kmax, 1u, err)) return err->code;
+    double t0 = stats_now();
+    size_t bytes = (size_t)active * sizeof(uint32_t);
+    const uint32_t *c = dev_map(p->cl, p->count, CL_MAP_READ, 0, bytes, "the pair counts", err);
+    uint32_t *first = c ? dev_map(p->cl, p->window_first, CL_MAP_WRITE_INVALIDATE_REGION, 0,
+                                  bytes + sizeof(uint32_t), "the candidate windows", err)
+                        : NULL;
+    int rc = first ? TS_OK : err->code;
+    if (rc == TS_OK) {
+        uint64_t hist[TS_N_MAX + 1] = {0}, below = 0, at_least = active;
+        for (uint32_t i = 0; i < active; ++i)
+            hist[c[i] < TS_N_MAX ? c[i] : TS_N_MAX]++;
+        /* sum over rays of min(count, n) = below + n * at_least, for n = 1, 2, ... */
+        uint32_t n = 1;
+        if (active - hist[0] > p->plan.pair_capacity)
+            rc = ts_error_set(err, TS_E_INTERNAL, "water_fill: fewer pairs (%u) than rays (%u)",
+                              p->plan.pair_capacity, active);
+        for (uint32_t k = 1; k <= kmax; ++k) {
+            below += (uint64_t)(k - 1u) * hist[k - 1u], at_least -= hist[k - 1u];
+            if (below + (uint64_t)k * at_least > p->plan.pair_capacity) break;
+            n = k;
+        }
+        uint32_t at = 0;
+        for (uint32_t i = 0; rc == TS_OK && i < active; ++i)
+            first[i] = at, at += c[i] < n ? c[i] : n;
+        first[active] = at;
+        *n_fill = n, *slots = at;
+    }
+    if (first && dev_unmap(p->cl, p->window_first, first, "the candidate windows", err))
+        rc = err->code;
+    if (c && dev_unmap(p->cl, p->count, (void *)c, "the pair counts", err)) rc = err->code;
+    p->stats->stage_seconds[TS_STAGE_top_level] += stats_now() - t0;
+    return rc;
 }
 
 /* Gives each segment its patch's LOD (pipeline_patch_lod). */
@@ -153,12 +210,17 @@ static int sort_via_copy(ts_pipeline *p, uint32_t windows, uint32_t width, uint3
     ts_pair *a = p->sort_host[0], *b = p->sort_host[1];
     uint32_t *counts = p->sort_counts;
     const ts_pair *sorted = NULL;
-    if (dev_read(p->cl, p->count, 0, (size_t)windows * sizeof *counts, counts, "the pair counts",
-                 err) ||
-        dev_read(p->cl, p->pairs, 0, (size_t)windows * width * sizeof(ts_pair), a,
-                 "the candidate pairs", err) ||
-        radix_sort_windows(p->sorter, a, b, counts, windows, width, p->scene->patch_count, &sorted,
-                           valid, err))
+    if (width == 0) { /* dense: `windows` pairs (water-filled windows) */
+        if (dev_read(p->cl, p->pairs, 0, (size_t)windows * sizeof(ts_pair), a,
+                     "the candidate pairs", err) ||
+            radix_sort_pairs(p->sorter, a, b, windows, p->scene->patch_count, &sorted, valid, err))
+            return err->code;
+    } else if (dev_read(p->cl, p->count, 0, (size_t)windows * sizeof *counts, counts,
+                        "the pair counts", err) ||
+               dev_read(p->cl, p->pairs, 0, (size_t)windows * width * sizeof(ts_pair), a,
+                        "the candidate pairs", err) ||
+               radix_sort_windows(p->sorter, a, b, counts, windows, width, p->scene->patch_count,
+                                  &sorted, valid, err))
         return err->code;
     *segs = sort_segments(sorted, *valid, p->segments_host, p->scene->patch_count);
     if (*segs == UINT32_MAX)
@@ -174,15 +236,21 @@ static int sort_mapped(ts_pipeline *p, uint32_t windows, uint32_t width, uint32_
                        uint32_t *valid, uint32_t *segment_count, ts_error *err)
 {
     const cl_map_flags rw = CL_MAP_READ | CL_MAP_WRITE;
-    size_t bytes = (size_t)windows * width * sizeof(ts_pair);
-    uint32_t *counts =
-        dev_map(p->cl, p->count, CL_MAP_READ, 0, windows * sizeof *counts, "the pair counts", err);
-    ts_pair *a = counts ? dev_map(p->cl, p->pairs, rw, 0, bytes, "the candidate pairs", err) : NULL;
-    ts_pair *b =
-        a ? dev_map(p->cl, p->pairs_scratch, rw, 0, bytes, "the second pair buffer", err) : NULL;
+    size_t bytes = (size_t)windows * (width ? width : 1u) * sizeof(ts_pair);
+    uint32_t *counts = width ? dev_map(p->cl, p->count, CL_MAP_READ, 0, windows * sizeof *counts,
+                                       "the pair counts", err)
+                             : NULL;
+    ts_pair *a = counts || !width ? dev_map(p->cl, p->pairs, rw, 0, bytes ? bytes : 1,
+                                            "the candidate pairs", err)
+                                  : NULL;
+    ts_pair *b = a ? dev_map(p->cl, p->pairs_scratch, rw, 0, bytes ? bytes : 1,
+                             "the second pair buffer", err)
+                   : NULL;
     const ts_pair *sorted = NULL;
     int rc = b ? TS_OK : err->code;
-    if (rc == TS_OK)
+    if (rc == TS_OK && width == 0) /* dense: `windows` pairs (water-filled windows) */
+        rc = radix_sort_pairs(p->sorter, a, b, windows, p->scene->patch_count, &sorted, valid, err);
+    else if (rc == TS_OK)
         rc = radix_sort_windows(p->sorter, a, b, counts, windows, width, p->scene->patch_count,
                                 &sorted, valid, err);
     uint32_t segs = 0;
@@ -215,9 +283,10 @@ static int upload_batches(ts_pipeline *p, uint32_t segs, ts_error *err)
 }
 
 /* Sorts the candidate windows on the host (radix_sort.c), by mapping the buffers or, on
- * discrete devices, by copying (pipeline.h sort_host). Sets *sorted_buffer (which buffer
- * holds the result: 0 pairs, 1 pairs_scratch), and the segment table; returns the segment count
- * through *segment_count. */
+ * discrete devices, by copying (pipeline.h sort_host): `windows` windows of `width` pairs,
+ * or with width 0 `windows` pairs one after the other (water_fill's windows). Sets *sorted_buffer
+ * (which buffer holds the result: 0 pairs, 1 pairs_scratch), and the segment table; returns the
+ * segment count through *segment_count. */
 static int stage_sort(ts_pipeline *p, uint32_t windows, uint32_t width, uint32_t *sorted_buffer,
                       uint32_t *valid, uint32_t *segment_count, ts_error *err)
 {
@@ -601,7 +670,7 @@ static int fold_utilisation(ts_pipeline *p, ts_error *err)
 }
 
 static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_batch *b,
-                              uint32_t n_per_ray, ts_error *err)
+                              uint32_t n_per_ray, uint32_t active_count, ts_error *err)
 {
     const ts_segment *s = p->segments_host;
     uint32_t first = b->seg_first, count = b->seg_count, exact = p->mode.exact ? 1u : 0u;
@@ -616,11 +685,12 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
     p->util_used += groups;
     if (dev_set_args(k, err, DEV_ARG(pairs), DEV_ARG(pair_first), DEV_ARG(pair_count),
                      DEV_ARG(p->segments), DEV_ARG(first), DEV_ARG(count), DEV_ARG(n_per_ray),
-                     DEV_ARG(exact), DEV_ARG(leaf_b), DEV_ARG(p->active), DEV_ARG(p->ray_org),
-                     DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_flags),
-                     DEV_ARG(p->ray_from), DEV_ARG(p->grid), DEV_ARG(p->groups), DEV_ARG(p->tight),
-                     DEV_ARG(p->instance), DEV_ARG(p->inst_xform), DEV_ARG(p->pair_hit),
-                     DEV_ARG(p->utilisation), DEV_ARG(group_base), (size_t)0))
+                     DEV_ARG(p->window_first), DEV_ARG(active_count), DEV_ARG(exact),
+                     DEV_ARG(leaf_b), DEV_ARG(p->active), DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir),
+                     DEV_ARG(p->ray_hit), DEV_ARG(p->ray_flags), DEV_ARG(p->ray_from),
+                     DEV_ARG(p->grid), DEV_ARG(p->groups), DEV_ARG(p->tight), DEV_ARG(p->instance),
+                     DEV_ARG(p->inst_xform), DEV_ARG(p->pair_hit), DEV_ARG(p->utilisation),
+                     DEV_ARG(group_base), (size_t)0))
         return err->code;
     return dev_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
 }
@@ -652,9 +722,9 @@ static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_r
                          uint32_t *still_active, ts_error *err)
 {
     if (dev_set_args(p->k_resolve, err, DEV_ARG(p->active), DEV_ARG(active_count),
-                     DEV_ARG(n_per_ray), DEV_ARG(p->count), DEV_ARG(p->pair_hit),
-                     DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry), DEV_ARG(p->ray_flags),
-                     DEV_ARG(p->alive), (size_t)0) ||
+                     DEV_ARG(n_per_ray), DEV_ARG(p->window_first), DEV_ARG(p->count),
+                     DEV_ARG(p->pair_hit), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry),
+                     DEV_ARG(p->ray_flags), DEV_ARG(p->alive), (size_t)0) ||
         dev_launch(p->cl, p->k_resolve, TS_STAGE_resolve, active_count, TS_LOCAL_SIZE, err) ||
         dev_finish(p->cl, p->stats, err))
         return err->code;
@@ -669,6 +739,12 @@ static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_r
 int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err)
 {
     return stage_top_level(p, active_count, n_per_ray, err);
+}
+
+int pipeline_water_fill(ts_pipeline *p, uint32_t active_count, uint32_t max_n, uint32_t *n_fill,
+                        uint32_t *slots, ts_error *err)
+{
+    return water_fill(p, active_count, max_n, n_fill, slots, err);
 }
 
 int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
@@ -696,7 +772,7 @@ int pipeline_bottom_level(ts_pipeline *p, uint32_t n_per_ray, ts_error *err)
 {
     if (p->batch_count != 1)
         return ts_error_set(err, TS_E_INTERNAL, "pipeline_bottom_level: no single batch diced");
-    if (stage_bottom_level(p, 0u, &p->batches[0], n_per_ray, err)) return err->code;
+    if (stage_bottom_level(p, 0u, &p->batches[0], n_per_ray, 0u, err)) return err->code;
     return dev_finish(p->cl, p->stats, err);
 }
 
@@ -734,13 +810,20 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
             (p->cache.short_of_room || p->stats->counters[TS_COUNTER_patch_cache_evictions] > 0))
             first_n = TS_N_MAX;
         uint32_t n_per_ray = pairs_per_ray(p->plan.pair_capacity, active, first_n, it);
+        /* The kernels' N: 0 for water-filled windows, whose N (the cap) the stats record. */
+        uint32_t kernel_n = n_per_ray, windows = active, width = n_per_ray;
+        if (p->plan.fill_windows || (!p->plan.first_n && first_n == TS_N_MAX)) {
+            if (water_fill(p, active, TS_FILL_MAX, &n_per_ray, &windows, err)) return err->code;
+            kernel_n = 0, width = 0;
+        }
         uint32_t sorted_buffer = 0, valid = 0, segs = 0;
-        if (stage_top_level(p, active, n_per_ray, err) ||
-            stage_sort(p, active, n_per_ray, &sorted_buffer, &valid, &segs, err))
+        if (stage_top_level(p, active, kernel_n, err) ||
+            stage_sort(p, windows, width, &sorted_buffer, &valid, &segs, err))
             return err->code;
         for (uint32_t k = 0; k < (segs ? p->batch_count : 0); ++k) {
             const ts_batch *b = &p->batches[k];
-            if (batch_make(p, b, err) || stage_bottom_level(p, sorted_buffer, b, n_per_ray, err))
+            if (batch_make(p, b, err) ||
+                stage_bottom_level(p, sorted_buffer, b, kernel_n, active, err))
                 return err->code;
             /* A frame whose patches do not fit dices for seconds an iteration: a stop is
              * honoured between its batches too (the wave's results are dropped). */
@@ -753,7 +836,7 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
         if (stats_add_iteration(p->stats, &rec, err)) return err->code;
         p->stats->counters[TS_COUNTER_pairs] += valid;
         p->stats->counters[TS_COUNTER_iterations] += 1;
-        if (stage_resolve(p, active, n_per_ray, &active, err)) return err->code;
+        if (stage_resolve(p, active, kernel_n, &active, err)) return err->code;
         if (active && p->cancel && p->cancel(p->cancel_ctx)) {
             p->cancelled = 1;
             break;
