@@ -2,8 +2,10 @@
  * Reads:  ts_camera_params and the sample order's divisors (ts_order_divs, by value); a moving
  *         camera is interpolated to each ray's time.
  * Writes: per ray org, dir (w = time in [0,1)), hit (cleared), entry (TS_ENTRY_START), pixel,
- *         flags (0); active[i] = paths[i] = i; a fresh path state (throughput 1, radiance 0,
- *         its eye-ray slot traced, emission it finds weighted 1).
+ *         flags (0); active[i] = paths[i] = i; for i < path_count (the path buffers hold half
+ *         the rays: a path owns two ray slots) a fresh path state (throughput 1, radiance 0,
+ *         its eye-ray slot traced, emission it finds weighted 1). The lod stage's waves of
+ *         eye rays alone run past path_count; their path state is never read.
  * Ray i is the frame's sample first_sample + i in the sample order (lib/sample_order.h:
  * bands of p.band pixels, each band's samples one after another), so a wave is a run of
  * the frame's samples and the film can sum each pixel's samples in sample order.
@@ -56,7 +58,7 @@ inline void camera_generate_x8(const ts_camera_params *c, ts_order_divs ord, __g
                                __global uint *pixel, __global uint *flags, __global uint *from,
                                __global uint *active, __global uint *paths,
                                __global ts_vec4 *throughput, __global float *mis,
-                               __global uint *state, __global ts_vec4 *radiance)
+                               __global uint *state, __global ts_vec4 *radiance, uint path_count)
 {
     uint g = get_global_id(0), i0 = 8u * g;
     if (i0 >= c->ray_count) return;
@@ -92,23 +94,24 @@ inline void camera_generate_x8(const ts_camera_params *c, ts_order_divs ord, __g
         org[i] = (ts_vec4){ex[l], ey[l], ez[l], 0.0f};
         dir[i] = (ts_vec4){dx[l], dy[l], dz[l], tt[l]};
         hit[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
-        throughput[i] = (ts_vec4){1.0f, 1.0f, 1.0f, 0.0f};
-        radiance[i] = (ts_vec4){0.0f, 0.0f, 0.0f, 0.0f};
+        if (i < path_count) {
+            throughput[i] = (ts_vec4){1.0f, 1.0f, 1.0f, 0.0f};
+            radiance[i] = (ts_vec4){0.0f, 0.0f, 0.0f, 0.0f};
+            mis[i] = 1.0f;
+            state[i] = TS_PATH_STATE(TS_PATH_TRACED_BSDF, TS_MIS_ONE);
+        }
     }
     if (n == 8u) {
         vstore8((uint8)(TS_ENTRY_START), g, entry), vstore8(pix, g, pixel);
         vstore8((uint8)(0u), g, flags), vstore8((uint8)(0u), g, from);
         vstore8((uint8)(i0) + lane, g, active), vstore8((uint8)(i0) + lane, g, paths);
-        vstore8((float8)(1.0f), g, mis);
-        vstore8((uint8)(TS_PATH_STATE(TS_PATH_TRACED_BSDF, TS_MIS_ONE)), g, state);
     } else {
         uint px[8];
         vstore8(pix, 0, px);
         for (uint l = 0u; l < n; ++l) {
             uint i = i0 + l;
             entry[i] = TS_ENTRY_START, pixel[i] = px[l], flags[i] = 0u, from[i] = 0u;
-            active[i] = i, paths[i] = i, mis[i] = 1.0f;
-            state[i] = TS_PATH_STATE(TS_PATH_TRACED_BSDF, TS_MIS_ONE);
+            active[i] = i, paths[i] = i;
         }
     }
 }
@@ -119,11 +122,11 @@ __kernel void camera_generate(ts_camera_params cam, ts_order_divs ord, __global 
                               __global uint *pixel, __global uint *flags, __global uint *from,
                               __global uint *active, __global uint *paths,
                               __global ts_vec4 *throughput, __global float *mis,
-                              __global uint *state, __global ts_vec4 *radiance)
+                              __global uint *state, __global ts_vec4 *radiance, uint path_count)
 {
 #ifdef TS_CPU_LANES
     camera_generate_x8(&cam, ord, org, dir, hit, entry, pixel, flags, from, active, paths,
-                       throughput, mis, state, radiance);
+                       throughput, mis, state, radiance, path_count);
 #else
     uint i = get_global_id(0);
     if (i >= cam.ray_count) return;
@@ -164,6 +167,7 @@ __kernel void camera_generate(ts_camera_params cam, ts_order_divs ord, __global 
     paths[i] = i;
     /* A new path: weight 1, nothing gathered, MIS weight 1 for what the eye ray finds, its
      * BSDF-ray slot traced. */
+    if (i >= path_count) return;
     throughput[i] = (ts_vec4){1.0f, 1.0f, 1.0f, 0.0f};
     mis[i] = 1.0f;
     state[i] = TS_PATH_STATE(TS_PATH_TRACED_BSDF, TS_MIS_ONE);

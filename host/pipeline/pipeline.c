@@ -52,7 +52,8 @@ int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod,
     plan->group_capacity = gcap > UINT32_MAX ? UINT32_MAX : (uint32_t)gcap;
     plan->max_lod = m;
     uint64_t rest = memory_bytes - patches * per;
-    uint64_t rays = rest / TS_BYTES_PER_RAY;
+    uint64_t rays =
+        rest > TS_WAVE_EXTRA_BYTES ? (rest - TS_WAVE_EXTRA_BYTES) / TS_BYTES_PER_RAY : 0;
     uint64_t biggest_per_ray = TS_PAIRS_PER_RAY * sizeof(ts_hit); /* pair_hit buffer */
     if (rays * biggest_per_ray > max_alloc) rays = max_alloc / biggest_per_ray;
     if (rays > rays_wanted) rays = rays_wanted;
@@ -158,7 +159,7 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
 /* Element counts of the buffers (TS_PIPELINE_BUFFERS' count column reads them as c.NAME).
  * What the scene lacks counts 1. */
 typedef struct buffer_counts {
-    size_t rays, pairs, film;                      /* the plan, the device films */
+    size_t rays, paths, pairs, film;               /* the plan, the device films */
     size_t patches, nodes, xforms, textures;       /* the scene */
     size_t instances, inst_xforms;                 /* its instancing tables */
     size_t lights, emitters, env_texels, env_rows; /* lights.h */
@@ -175,6 +176,7 @@ static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads 
     const ts_occlusion *o = s->occlusion;
     return (buffer_counts){
         .rays = p->plan.ray_capacity,
+        .paths = TS_PATHS_OF_RAYS(p->plan.ray_capacity),
         .pairs = p->plan.pair_capacity,
         .film = p->plan.host_film ? 1 : p->pixel_count,
         .patches = s->patch_count ? s->patch_count : 1,
@@ -201,7 +203,8 @@ static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads 
 
 #define TS_COUNT_ONE(type, name, what) +1
 
-/* Makes every buffer: the ray and path fields (one entry per ray of the wave), then
+/* Makes every buffer: the ray fields (one entry per ray of the wave), the path fields (one
+ * per path, TS_PATHS_OF_RAYS), then
  * TS_PIPELINE_BUFFERS, the scene's uploaded from *uploads; --stats' device_bytes_fixed is the
  * bytes of those outside the budget. */
 static int create_buffers(ts_pipeline *p, const buffer_counts *counts, const scene_uploads *uploads,
@@ -221,7 +224,7 @@ static int create_buffers(ts_pipeline *p, const buffer_counts *counts, const sce
         TS_RAY_FIELDS(TS_RAY_ENTRY)
 #undef TS_RAY_ENTRY
 #define TS_PATH_ENTRY(type, name, what)                                                            \
-        {&p->path_##name, CL_MEM_READ_WRITE, c.rays * sizeof(type), NULL},
+        {&p->path_##name, CL_MEM_READ_WRITE, c.paths * sizeof(type), NULL},
         TS_PATH_FIELDS(TS_PATH_ENTRY)
 #undef TS_PATH_ENTRY
 #define TS_BUFFER_ENTRY(field, flags, type, count, contents)                                       \
@@ -262,7 +265,9 @@ static int create_buffers(ts_pipeline *p, const buffer_counts *counts, const sce
  * pair_capacity, with no contents. */
 static int remake_wave_buffers(ts_pipeline *p, ts_error *err)
 {
-    const buffer_counts c = {.rays = p->plan.ray_capacity, .pairs = p->plan.pair_capacity};
+    const buffer_counts c = {.rays = p->plan.ray_capacity,
+                             .paths = TS_PATHS_OF_RAYS(p->plan.ray_capacity),
+                             .pairs = p->plan.pair_capacity};
     const struct {
         cl_mem *m;
         cl_mem_flags flags;
@@ -272,7 +277,7 @@ static int remake_wave_buffers(ts_pipeline *p, ts_error *err)
 #define TS_RAY_ENTRY(type, name, what) {&p->ray_##name, CL_MEM_READ_WRITE, c.rays * sizeof(type)},
         TS_RAY_FIELDS(TS_RAY_ENTRY)
 #undef TS_RAY_ENTRY
-#define TS_PATH_ENTRY(type, name, what) {&p->path_##name, CL_MEM_READ_WRITE, c.rays * sizeof(type)},
+#define TS_PATH_ENTRY(type, name, what) {&p->path_##name, CL_MEM_READ_WRITE, c.paths * sizeof(type)},
         TS_PATH_FIELDS(TS_PATH_ENTRY)
 #undef TS_PATH_ENTRY
 #define TS_BUFFER_ENTRY(field, flags, type, count, contents) {&p->field, flags, (count) * sizeof(type)},
@@ -466,11 +471,13 @@ int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 {
     ts_camera_params c = *cam;
     ts_order_divs ord = sample_order_divs(c.width * c.height, c.width, c.spp, c.band);
+    uint32_t paths = TS_PATHS_OF_RAYS(p->plan.ray_capacity);
     if (dev_set_args(p->k_camera, err, DEV_ARG(c), DEV_ARG(ord), DEV_ARG(p->ray_org),
                      DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry),
                      DEV_ARG(p->ray_pixel), DEV_ARG(p->ray_flags), DEV_ARG(p->ray_from),
                      DEV_ARG(p->active), DEV_ARG(p->wave_paths), DEV_ARG(p->path_throughput),
-                     DEV_ARG(p->path_mis), DEV_ARG(p->path_state), DEV_ARG(p->radiance), (size_t)0))
+                     DEV_ARG(p->path_mis), DEV_ARG(p->path_state), DEV_ARG(p->radiance),
+                     DEV_ARG(paths), (size_t)0))
         return err->code;
     /* Eight rays a work-item where the kernels have CPU lanes (kernels/camera.cl). */
     size_t items = p->cl->cpu_lanes ? ((size_t)c.ray_count + 7) / 8 : c.ray_count;

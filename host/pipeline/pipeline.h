@@ -30,13 +30,21 @@
 /* Work-group size of every launch: one size, so PoCL compiles each kernel once. */
 #define TS_LOCAL_SIZE ((size_t)TS_GROUP_SIZE)
 
-/* Bytes of device memory one ray costs: an entry of every ray and path field, of active,
- * count, alive, wave_paths and window_first, of radiance, aov and albedo, and TS_PAIRS_PER_RAY
- * candidates (pairs, pairs_scratch, pair_hit; TS_PIPELINE_BUFFERS). */
+/* Bytes of device memory one ray costs: an entry of every ray field, of active, count, alive,
+ * wave_paths and window_first, TS_PAIRS_PER_RAY candidates (pairs, pairs_scratch, pair_hit;
+ * TS_PIPELINE_BUFFERS), and half an entry of every path field and of radiance, aov and
+ * albedo: a path owns two ray slots, its BSDF ray's and its shadow ray's (TS_PATHS_OF_RAYS). */
 #define TS_FIELD_BYTES(type, name, what) +sizeof(type)
 #define TS_BYTES_PER_RAY                                                                           \
-    (0 TS_RAY_FIELDS(TS_FIELD_BYTES) TS_PATH_FIELDS(TS_FIELD_BYTES) + 5 * sizeof(ts_u32) +         \
-     3 * sizeof(ts_vec4) + TS_PAIRS_PER_RAY * (2 * sizeof(ts_pair) + sizeof(ts_hit)))
+    (0 TS_RAY_FIELDS(TS_FIELD_BYTES) + 5 * sizeof(ts_u32) +                                        \
+     TS_PAIRS_PER_RAY * (2 * sizeof(ts_pair) + sizeof(ts_hit)) +                                   \
+     (0 TS_PATH_FIELDS(TS_FIELD_BYTES) + 3 * sizeof(ts_vec4) + 1) / 2)
+/* What the wave buffers hold beyond rays x TS_BYTES_PER_RAY, at most: window_first's last
+ * entry, and the last path of an odd number of rays (pipeline_plan keeps it out of the
+ * rays' share). */
+#define TS_WAVE_EXTRA_BYTES 64u
+/* The paths of a wave of `rays` ray slots: each path traces a ray and its shadow ray. */
+#define TS_PATHS_OF_RAYS(rays) (((rays) + 1u) / 2u)
 
 typedef struct ts_pipeline_plan {
     uint32_t ray_capacity;   /* rays per wave */
@@ -196,9 +204,9 @@ typedef struct ts_trace_mode {
     X(alive,           TS_MEM_HOST_RW,    ts_u32,        c.rays,         NULL)                  \
     X(wave_paths,      TS_MEM_HOST_RW,    ts_u32,        c.rays,         NULL)                  \
     X(window_first,    TS_MEM_HOST_RW,    ts_u32,        c.rays + 1,     NULL)                  \
-    X(radiance,        CL_MEM_READ_WRITE, ts_vec4,       c.rays,         NULL)                  \
-    X(aov,             CL_MEM_READ_WRITE, ts_vec4,       c.rays,         NULL)                  \
-    X(albedo,          CL_MEM_READ_WRITE, ts_vec4,       c.rays,         NULL)                  \
+    X(radiance,        CL_MEM_READ_WRITE, ts_vec4,       c.paths,        NULL)                  \
+    X(aov,             CL_MEM_READ_WRITE, ts_vec4,       c.paths,        NULL)                  \
+    X(albedo,          CL_MEM_READ_WRITE, ts_vec4,       c.paths,        NULL)                  \
     /* Per (leaf, ray) candidate of an iteration. */                                            \
     X(pairs,           TS_MEM_HOST_RW,    ts_pair,       c.pairs,        NULL)                  \
     X(pairs_scratch,   TS_MEM_HOST_RW,    ts_pair,       c.pairs,        NULL)                  \
