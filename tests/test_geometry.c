@@ -407,6 +407,37 @@ static void test_arenas_grow_to_the_frames_patches(void **state)
                 64.0 * 1024);
 }
 
+/* Once the frame's patches all fit, waves are cut to TS_FIT_WAVE_RAYS (app/budget.h; the
+ * testing aid TESSERA_FIT_WAVE_RAYS lowers it to 8192 rays, 4096 paths): the same pixels as
+ * one wave of the whole frame; a frame whose patches do not fit keeps its larger waves,
+ * which bound how often they are diced again. */
+static void test_waves_are_cut_once_the_patches_fit(void **state)
+{
+    char args[16384];
+    const char *scene = test_source_path("scene/teapot_displaced.rib");
+    snprintf(args, sizeof args, "render '%s' -o '%s' --stats '%s' --res 160x90 --spp 2 --quiet",
+             scene, path("whole.exr"), path("whole.json"));
+    render_ok(args);
+    setenv("TESSERA_FIT_WAVE_RAYS", "8192", 1);
+    snprintf(args, sizeof args, "render '%s' -o '%s' --stats '%s' --res 160x90 --spp 2 --quiet",
+             scene, path("cut.exr"), path("cut.json"));
+    render_ok(args);
+    snprintf(args, sizeof args,
+             "render '%s' -o '%s' --stats '%s' --res 160x90 --spp 2 --memory 16 --lod 8 "
+             "--quiet",
+             scene, path("squeezed.exr"), path("squeezed.json"));
+    render_ok(args);
+    unsetenv("TESSERA_FIT_WAVE_RAYS");
+    test_assert_same_pixels(path("whole.exr"), path("cut.exr"));
+    /* The first eye rays: every path of the frame at once, then 4096 a wave. */
+    assert_true(test_stats_number(path("whole.json"), "iterations.0.active_rays") ==
+                160.0 * 90 * 2);
+    assert_true(test_stats_number(path("cut.json"), "iterations.0.active_rays") == 4096.0);
+    assert_true(test_stats_number(path("cut.json"), "counters.patch_cache_evictions") == 0.0);
+    assert_true(test_stats_number(path("squeezed.json"), "counters.patch_cache_evictions") > 0.0);
+    assert_true(test_stats_number(path("squeezed.json"), "iterations.0.active_rays") > 4096.0);
+}
+
 /* The lowest level any dicing of the render used (lod_histogram). */
 static int lowest_level(const char *json)
 {
@@ -596,6 +627,7 @@ int main(void)
         cmocka_unit_test(test_tight_leaves_change_no_bit),
         cmocka_unit_test(test_cpu_lanes_change_no_bit),
         cmocka_unit_test(test_arenas_grow_to_the_frames_patches),
+        cmocka_unit_test(test_waves_are_cut_once_the_patches_fit),
         cmocka_unit_test(test_hidden_patch_is_diced_coarser_under_the_seen_rules),
         cmocka_unit_test(test_ten_billion_potential_micropolygons_in_fixed_memory),
         cmocka_unit_test(test_motion_blur_is_the_time_average),

@@ -165,6 +165,22 @@ static int take_the_room(ts_pipeline *p, uint64_t verts, uint64_t groups, uint64
     return TS_OK;
 }
 
+/* The frame's patches are all resident (each is diced once): waves larger than
+ * TS_FIT_WAVE_RAYS would only hold memory, so they are made that size (only where `trade`
+ * allows waves to be resized). */
+static int fit_waves(ts_pipeline *p, int trade, ts_error *err)
+{
+    uint32_t cap = TS_FIT_WAVE_RAYS;
+    const char *env = getenv("TESSERA_FIT_WAVE_RAYS"); /* a testing aid: a lower cap */
+    if (env && *env) {
+        char *end;
+        unsigned long v = strtoul(env, &end, 10);
+        if (!*end && v >= 2 * TS_LOCAL_SIZE && v <= TS_FIT_WAVE_RAYS) cap = (uint32_t)v;
+    }
+    if (!trade || p->plan.ray_capacity <= cap) return TS_OK;
+    return pipeline_resize_rays(p, cap, err);
+}
+
 int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, ts_error *err)
 {
     uint64_t mb = p->stats->memory_budget_bytes >> 20;
@@ -172,16 +188,19 @@ int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, t
     pipeline_arena_need(p, &verts, &groups);
     uint64_t have = pipeline_arena_bytes(&p->plan);
     uint64_t need = verts * sizeof(ts_vec4) + groups * TS_GROUP_BYTES;
-    if (need <= have || (!trade && room_mb <= mb)) return TS_OK;
+    if (need <= have) return fit_waves(p, trade, err);
+    if (!trade && room_mb <= mb) return TS_OK;
     uint64_t extra = room_mb > mb ? (room_mb - mb) << 20 : 0;
     if (need - have > extra) {
         int traded = trade ? trade_rays(p, verts, groups, quiet, err) : 0;
         if (traded < 0) return err->code;
-        if (traded) return TS_OK;
+        if (traded)
+            return pipeline_arena_bytes(&p->plan) >= need ? fit_waves(p, trade, err) : TS_OK;
         return take_the_room(p, verts, groups, need, extra, quiet, err);
     }
     int grown = arenas_grow(p, verts, groups, quiet, err);
     if (grown <= 0) return grown < 0 ? err->code : TS_OK;
+    if (fit_waves(p, trade, err)) return err->code;
     uint64_t now = pipeline_arena_bytes(&p->plan);
     if (!quiet)
         ts_print_line("tessera: the frame's patches need %llu MB at their levels of detail: "

@@ -57,10 +57,16 @@ void budget_fixed(uint64_t mb, ts_budget_choice *out);
  * TS_TRADE_ARENA_PART / TS_TRADE_ARENA_DIV of what the plan gave the arenas and the waves
  * together: the arenas take what they need and the waves the rest (pipeline_resize_rays),
  * so the budget's total stays. When they do not fit even so, the plan's split stays: rays
- * per wave then bound how often the patches are diced again. `trade` only between waves, and only
+ * per wave then bound how often the patches are diced again. When they fit, waves are cut to
+ * TS_FIT_WAVE_RAYS. `trade` only between waves, and only
  * where nothing was sized by the rays of a wave (a bake's points per wave are). The image does not
  * depend on any of it. Notes on stderr unless quiet; TS_E_* in *err only when the pipeline is left
  * unusable. */
+/* Once the frame's patches are all resident, waves of at most this many rays (a million
+ * paths): larger ones dice nothing less and only hold memory (forest-1000 1920x768 x 32 in
+ * the default budget: waves of 3.3 M rays, 5.16 GiB peak, 160.6 s; of 2.1 M, 4.96 GiB,
+ * 165.5 s, the same within this machine's noise; docs/benchmarks.md). */
+#define TS_FIT_WAVE_RAYS (1u << 21)
 #define TS_TRADE_ARENA_PART 3u
 #define TS_TRADE_ARENA_DIV 4u
 int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, ts_error *err);
