@@ -79,6 +79,31 @@ static void test_bxdf_diffuse(void **state)
     scene_free(&s);
 }
 
+/* PxrLMDiffuse: its frontColor (default PxrDiffuse's 0.5), its other parameters warned about
+ * as unread; PxrLightEmission, RenderMan 20's light geometry: it reflects nothing and emits
+ * its AreaLightSource's light, without a warning. */
+static void test_bxdf_lm_diffuse_light_emission(void **state)
+{
+    (void)state;
+    ts_patch_attr a = one_patch("Bxdf \"PxrLMDiffuse\" \"d\" \"color frontColor\" [0.2 0.4 0.6]");
+    assert_int_equal(a.material, TS_MAT_MATTE);
+    assert_near(a.kd, 1.0, 0), assert_cs(&a, 0.2, 0.4, 0.6);
+    a = one_patch("Bxdf \"PxrLMDiffuse\" \"d\"");
+    assert_cs(&a, 0.5, 0.5, 0.5);
+    const char *w = warnings_of("Bxdf \"PxrLMDiffuse\" \"d\" \"color backColor\" [1 1 1]");
+    if (!strstr(w, "w.rib:2:") || !strstr(w, "backColor"))
+        fail_msg("backColor not warned about: %s", w);
+    ts_scene s;
+    test_parse_rib_ok("WorldBegin\nAttributeBegin\nBxdf \"PxrLightEmission\" \"e\"\n"
+                      "AreaLightSource \"PxrStdAreaLight\" \"r\" \"float exposure\" [1]\n" QUAD
+                      "AttributeEnd\nWorldEnd\n",
+                      &s);
+    assert_int_equal(s.patch_count, 1);
+    assert_near(s.attr[0].kd, 0.0, 0), assert_le(&s.attr[0], 2, 2, 2);
+    scene_free(&s);
+    assert_string_equal(warnings_of("Bxdf \"PxrLightEmission\" \"e\""), "");
+}
+
 /* PxrSurface: Kd = diffuseGain, Cs = diffuseColor, Ks = the hemispherical mean of Schlick's
  * Fresnel from specularFaceColor to specularEdgeColor (plus the clearcoat's), GGX alpha =
  * specularRoughness^2; the glow emits glowGain * glowColor. */
@@ -473,6 +498,7 @@ int main(void)
         cmocka_unit_test(test_bxdf_surface),
         cmocka_unit_test(test_bxdf_disney_conductor_constant),
         cmocka_unit_test(test_bxdf_fallbacks),
+        cmocka_unit_test(test_bxdf_lm_diffuse_light_emission),
         cmocka_unit_test(test_pattern_texture),
         cmocka_unit_test(test_pattern_tex_sibling),
         cmocka_unit_test(test_pattern_unknown),

@@ -26,12 +26,13 @@ typedef struct bxdf_args {
 } bxdf_args;
 
 typedef enum bxdf_kind {
-    BXDF_DIFFUSE,   /* PxrDiffuse, LamaDiffuse, LamaSurface: matte */
-    BXDF_SURFACE,   /* PxrSurface: plastic (matte when it has no specular) */
-    BXDF_DISNEY,    /* PxrDisney: plastic or metal by metallic */
-    BXDF_CONDUCTOR, /* PxrConductor, LamaConductor: metal */
-    BXDF_CONSTANT,  /* PxrConstant, LamaEmission: emits, reflects nothing */
-    BXDF_DIELECTRIC /* PxrDielectric, LamaDielectric, ...: refraction not supported */
+    BXDF_DIFFUSE,    /* PxrDiffuse, LamaDiffuse, LamaSurface: matte */
+    BXDF_SURFACE,    /* PxrSurface: plastic (matte when it has no specular) */
+    BXDF_DISNEY,     /* PxrDisney: plastic or metal by metallic */
+    BXDF_CONDUCTOR,  /* PxrConductor, LamaConductor: metal */
+    BXDF_CONSTANT,   /* PxrConstant, LamaEmission: emits, reflects nothing */
+    BXDF_DIELECTRIC, /* PxrDielectric, LamaDielectric, PxrGlass: smooth glass */
+    BXDF_EMISSION    /* PxrLightEmission: reflects nothing; its light is the AreaLightSource's */
 } bxdf_kind;
 
 /* One parameter a Bxdf reads: 1 or 3 numbers into bxdf_args at off; colour: a PxrTexture may
@@ -73,6 +74,9 @@ static const bxdf_param bxdf_conductor_params[] = {
     BP("extinction", 3, kappa),     BC("reflectivity", color),
     BC("specularColor", color),     BP("edgeColor", 3, spec_edge),
 };
+/* PxrLMDiffuse (RenderMan 19-21's layered-material diffuse): its front colour; backColor,
+ * roughness, sheen, translucence, incandescence and its layers are warned about as unread. */
+static const bxdf_param bxdf_lm_diffuse_params[] = {BC("frontColor", color)};
 static const bxdf_param bxdf_constant_params[] = {BC("emitColor", color), BC("color", color)};
 static const bxdf_param bxdf_dielectric_params[] = {BP("roughness", 1, spec_rough),
                                                     BP("ior", 1, ior), BP("IOR", 1, ior)};
@@ -97,6 +101,8 @@ static const struct {
     {"PxrDielectric", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_dielectric_params)},
     {"LamaDielectric", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_dielectric_params)},
     {"PxrGlass", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_dielectric_params)},
+    {"PxrLMDiffuse", BXDF_DIFFUSE, BXDF_PARAMS(bxdf_lm_diffuse_params)},
+    {"PxrLightEmission", BXDF_EMISSION, NULL, 0},
 };
 #define BXDF_COUNT (sizeof bxdf_table / sizeof bxdf_table[0])
 
@@ -286,6 +292,10 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
         }
     } else if (kind == BXDF_CONSTANT) {
         s->kd = 0.0, s->constant = 1; /* emits its colour (rib_geom.c), reflects nothing */
+    } else if (kind == BXDF_EMISSION) {
+        /* RenderMan 20's light geometry (rib_ris_light.c rib_rm20_area_light): the emission
+         * is the AreaLightSource's, and the surface reflects nothing. */
+        s->kd = 0.0;
     } else if (kind == BXDF_DIELECTRIC) {
         s->material = TS_MAT_GLASS, s->kd = 0.0, s->ks = 0.0;
         s->ior = a->ior >= 1.0 && a->ior <= 4.0 ? a->ior : 1.5;
