@@ -27,6 +27,9 @@ void pipeline_plan_arenas(ts_pipeline_plan *plan, uint32_t patches, uint32_t m)
 int pipeline_plan(uint64_t memory_bytes, uint64_t rays_wanted, uint32_t max_lod, uint64_t max_alloc,
                   ts_pipeline_plan *plan, ts_error *err)
 {
+    /* Every field the plan does not set is 0 (host_film, fill_windows: off): callers keep
+     * their plan on the stack. */
+    *plan = (ts_pipeline_plan){0};
     if (max_lod > TS_LOD_LIMIT)
         return ts_error_set(err, TS_E_USAGE, "--max-lod %u is above the limit %d", max_lod,
                             TS_LOD_LIMIT);
