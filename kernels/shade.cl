@@ -295,7 +295,8 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
 }
 
 /* Glass (TS_MAT_GLASS): a delta lobe sampled (lib/bsdf.h glass_sample), so the emission the
- * ray finds counts whole (TS_MIS_ONE: no light sample could have found it); Russian roulette
+ * ray finds counts whole (TS_MIS_ONE: no light sample could have found it; rough glass takes
+ * no light sample either, so the same holds for it); Russian roulette
  * by shade_survive. A refracted ray leaves from the far side of the surface and flips
  * the path's TS_PATH_INSIDE bit in *inside. */
 inline uint shade_glass_bounce(const shade_vertex *v, const shade_step *s,
@@ -306,7 +307,9 @@ inline uint shade_glass_bounce(const shade_vertex *v, const shade_step *s,
     float w[3];
     ts_sampler_set u = step_bsdf_set(s);
     int through = glass_sample(v->a, v->cs, v->n, v->wo, (*inside & TS_PATH_INSIDE) != 0u,
-                               sampler_set_value(u, 0u), &wi, w);
+                               sampler_set_value(u, 0u), sampler_set_value(u, 1u),
+                               sampler_set_value(u, 2u), &wi, w);
+    if (!(w[0] > 0.0f || w[1] > 0.0f || w[2] > 0.0f)) return 0u; /* rough glass's weight 0 */
     if (!shade_survive(s, u, w, 1.0f, throughput)) return 0u;
     *mode = TS_MIS_ONE;
     *mis = 1.0f;

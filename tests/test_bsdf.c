@@ -190,7 +190,7 @@ static void test_glass(void **state)
         float F2 = fresnel_dielectric(ct, 1.5f, &ct2);
         assert_true(fabsf(F1 - F2) < 1e-5f && fabsf(ct2 - (float)c) < 1e-5f);
     }
-    ts_patch_attr a = material(TS_MAT_GLASS, 0.0f, 0.0f, 0.1f);
+    ts_patch_attr a = material(TS_MAT_GLASS, 0.0f, 0.0f, 0.01f); /* smooth: TS_GLASS_SMOOTH */
     a.ior = 1.5f;
     const float cs[3] = {0.9f, 0.8f, 0.7f};
     ts_v3 n = v3(0, 0, 1), wi, got;
@@ -204,7 +204,8 @@ static void test_glass(void **state)
             float F = fresnel_dielectric(wo.z, eta, &ct);
             int reflected = 0, total = 1000;
             for (int k = 0; k < total; ++k) {
-                int through = glass_sample(&a, cs, n, wo, inside, (k + 0.5f) / total, &got, w);
+                int through =
+                    glass_sample(&a, cs, n, wo, inside, (k + 0.5f) / total, 0.3f, 0.7f, &got, w);
                 if (!through) {
                     ++reflected; /* the mirror direction, weight 1 */
                     assert_true(fabsf(got.x + wo.x) < 1e-6f && fabsf(got.z - wo.z) < 1e-6f);
@@ -225,12 +226,101 @@ static void test_glass(void **state)
     (void)wi;
 }
 
+/* Rough glass (Walter et al. 2007): every sampled weight equals f |cos| / pdf from the paper's
+ * BSDF and pdf evaluated here for the direction drawn (eqs. 20-21, 24, 38-40; h from wo and
+ * wi), the lobe's probability F or 1 - F included; reflections stay above the surface,
+ * refractions go below; the mean weight (importance, without the (eta_o / eta_i)^2 of
+ * radiance) is at most 1 and near 1 when smooth; and at the smallest rough alpha the
+ * directions and weights are the smooth glass's. */
+static double walter_weight(double alpha, double eta, ts_v3 n, ts_v3 wo, ts_v3 wi, int through)
+{
+    double on = v3_dot(wo, n), in = v3_dot(wi, n);
+    ts_v3 h = through ? v3_normalize(v3_scale(v3_add(v3_scale(wo, (float)eta), wi), -1.0f))
+                      : v3_normalize(v3_add(wo, wi));
+    if (v3_dot(h, n) < 0.0f) h = v3_scale(h, -1.0f);
+    double hn = v3_dot(h, n), oh = v3_dot(wo, h), ih = v3_dot(wi, h), ct;
+    double a2 = alpha * alpha, d = hn * hn * (a2 - 1.0) + 1.0, D = a2 / (M_PI * d * d);
+    double g1o = 2.0 / (1.0 + sqrt(1.0 + a2 * (1.0 - on * on) / (on * on)));
+    double g1i = 2.0 / (1.0 + sqrt(1.0 + a2 * (1.0 - in * in) / (in * in)));
+    float ctf;
+    double F = fresnel_dielectric((float)oh, (float)eta, &ctf);
+    (void)ct;
+    if (!through) { /* f_r = F D G / (4 |o.n| |i.n|), pdf = F D |h.n| / (4 |i.h|) */
+        double f = F * D * g1o * g1i / (4.0 * fabs(on) * fabs(in));
+        double pdf = F * D * hn / (4.0 * fabs(ih));
+        return f * fabs(in) / pdf;
+    }
+    /* eta_o / eta_i = eta: indices 1 and 1 / eta up to a common factor */
+    double ni = 1.0, nt = 1.0 / eta, den = ni * oh + nt * ih;
+    double f = fabs(oh) * fabs(ih) / (fabs(on) * fabs(in)) * nt * nt * (1.0 - F) * D * g1o * g1i /
+               (den * den);
+    double pdf = (1.0 - F) * D * hn * fabs(ih) * nt * nt / (den * den);
+    return f * fabs(in) / pdf;
+}
+
+static void test_rough_glass(void **state)
+{
+    (void)state;
+    const float cs[3] = {1, 1, 1};
+    ts_v3 n = v3(0, 0, 1);
+    const float alphas[3] = {0.02f, 0.1f, 0.5f};
+    const double floor_mean[3] = {0.99, 0.94, 0.6};
+    int checked = 0;
+    for (int ai = 0; ai < 3; ++ai)
+        for (int inside = 0; inside < 2; ++inside)
+            for (double th = 0.1; th < 1.2; th += 0.35) {
+                float eta = inside ? 1.5f : 1.0f / 1.5f;
+                ts_v3 wo = v3((float)sin(th), 0, (float)cos(th)), wi;
+                double sum = 0.0;
+                const int N = 24;
+                for (int i = 0; i < N; ++i)
+                    for (int j = 0; j < N; ++j)
+                        for (int k = 0; k < N; ++k) {
+                            float w[3];
+                            int t = rough_glass_sample(alphas[ai], eta, cs, n, wo, (i + 0.5f) / N,
+                                                       (j + 0.5f) / N, (k + 0.5f) / N, &wi, w);
+                            double imp = t ? w[0] / (eta * eta) : w[0];
+                            assert_true(imp >= 0.0 &&
+                                        imp <=
+                                            10.0); /* finite; above 1 at grazing wo (Walter §5.3) */
+                            sum += imp;
+                            if (w[0] == 0.0f) continue;
+                            assert_true(t ? wi.z < 0.0f : wi.z > 0.0f);
+                            double want = walter_weight(alphas[ai], eta, n, wo, wi, t);
+                            if (!(fabs(imp - want) <= 2e-3 * want + 1e-6))
+                                fail_msg("alpha %g inside %d th %g: weight %g, Walter's %g",
+                                         alphas[ai], inside, th, imp, want);
+                            ++checked;
+                        }
+                double mean = sum / (N * N * N);
+                if (!(mean <= 1.001 && mean >= floor_mean[ai]))
+                    fail_msg("alpha %g inside %d th %g: mean weight %g", alphas[ai], inside, th,
+                             mean);
+            }
+    assert_true(checked > 50000);
+    /* The smallest rough alpha: within a degree of smooth glass's directions and weights. */
+    ts_patch_attr smooth = material(TS_MAT_GLASS, 0.0f, 0.0f, 0.01f);
+    ts_patch_attr rough = material(TS_MAT_GLASS, 0.0f, 0.0f, 0.0102f);
+    smooth.ior = rough.ior = 1.5f;
+    ts_v3 wo = v3_normalize(v3(0.5f, 0.2f, 0.8f)), a, b;
+    float wa[3], wb[3];
+    for (int k = 0; k < 100; ++k) {
+        float u0 = (k + 0.5f) / 100;
+        int ta = glass_sample(&smooth, cs, n, wo, 0, u0, 0.5f, 0.25f, &a, wa);
+        int tb = glass_sample(&rough, cs, n, wo, 0, u0, 0.5f, 0.25f, &b, wb);
+        if (ta != tb) continue; /* F moved across u0 */
+        assert_true(v3_dot(a, b) > cosf(1.0f * TS_PI / 180.0f));
+        assert_true(fabsf(wa[0] - wb[0]) < 0.02f * wa[0]);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_materials),
         cmocka_unit_test(test_metal_has_no_diffuse),
         cmocka_unit_test(test_glass),
+        cmocka_unit_test(test_rough_glass),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -5,6 +5,7 @@
 #include "scene/rib/rib.h"
 #include "scene/scene.h"
 #include "image/image.h"
+#include "lib/bsdf.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -170,8 +171,8 @@ static void test_bxdf_disney_conductor_constant(void **state)
 static void test_bxdf_fallbacks(void **state)
 {
     (void)state;
-    /* Dielectrics: glass of their ior, white; rough ones drawn smooth with one warning, an
-     * ior outside [1, 4] replaced by 1.5 with one warning. */
+    /* Dielectrics: glass of their ior, white, smooth or rough by roughness; an ior outside
+     * [1, 4] replaced by 1.5 with one warning. */
     ts_patch_attr a = one_patch("Bxdf \"PxrDielectric\" \"g\" \"float ior\" [1.33]");
     assert_int_equal(a.material, TS_MAT_GLASS);
     assert_near(a.kd, 0, 0), assert_near(a.ks, 0, 0), assert_near(a.ior, 1.33, 1e-6);
@@ -179,9 +180,12 @@ static void test_bxdf_fallbacks(void **state)
     a = one_patch("Bxdf \"LamaDielectric\" \"g\"");
     assert_int_equal(a.material, TS_MAT_GLASS), assert_near(a.ior, 1.5, 0);
     assert_string_equal(warnings_of("Bxdf \"LamaDielectric\" \"g\""), "");
-    assert_string_equal(warnings_of("Bxdf \"PxrGlass\" \"g\" \"float roughness\" [0.2]"),
-                        "w.rib:2:1: warning: Bxdf \"PxrGlass\": rough refraction is drawn smooth "
-                        "(Tessera's glass is a smooth dielectric)\n");
+    /* roughness 0 is smooth glass (alpha at the 0.01 floor, lib/bsdf.h TS_GLASS_SMOOTH); 0.2
+     * is rough glass of GGX alpha 0.04, without a warning */
+    assert_true(a.roughness <= TS_GLASS_SMOOTH);
+    a = one_patch("Bxdf \"PxrGlass\" \"g\" \"float roughness\" [0.2]");
+    assert_int_equal(a.material, TS_MAT_GLASS), assert_near(a.roughness, 0.04, 1e-7);
+    assert_string_equal(warnings_of("Bxdf \"PxrGlass\" \"g\" \"float roughness\" [0.2]"), "");
     assert_string_equal(warnings_of("Bxdf \"PxrDielectric\" \"g\" \"float ior\" [0.5]"),
                         "w.rib:2:1: warning: Bxdf \"PxrDielectric\": ior 0.5 outside [1, 4]: 1.5 "
                         "instead\n");
@@ -189,7 +193,7 @@ static void test_bxdf_fallbacks(void **state)
     a = one_patch("Surface \"glass\" \"float eta\" [1.33]");
     assert_int_equal(a.material, TS_MAT_GLASS), assert_near(a.ior, 1.33, 1e-6);
     a = one_patch("Surface \"glass\"");
-    assert_near(a.ior, 1.5, 0);
+    assert_near(a.ior, 1.5, 0), assert_true(a.roughness <= TS_GLASS_SMOOTH);
     a = one_patch("Surface \"plastic\"");
     assert_near(a.ior, 0, 0); /* 0 but for glass: the job hash of older files holds */
     test_parse_rib_error("WorldBegin\nSurface \"glass\" \"float eta\" [5]\n",

@@ -17,7 +17,10 @@
  *            Snell's law with 1 - F, the transmitted radiance tinted by Cs and scaled by
  *            (eta_o / eta_i)^2 (radiance, not importance: Veach 1997 §5.2). bsdf_eval is 0
  *            (no light sample can hit a delta lobe); glass_sample picks a lobe with
- *            probability F, so the weight is 1 (reflection) or Cs (eta_o / eta_i)^2. */
+ *            probability F, so the weight is 1 (reflection) or Cs (eta_o / eta_i)^2.
+ *            Rough glass (roughness = GGX alpha above TS_GLASS_SMOOTH): Walter et al. 2007's
+ *            GGX dielectric, sampled as there (§5.3), still without light samples (its
+ *            emission found counts whole, as behind smooth glass). */
 #ifndef TS_BSDF_H
 #define TS_BSDF_H
 
@@ -180,15 +183,60 @@ TS_INLINE float fresnel_dielectric(float ci, float eta, float *ct)
     return 0.5f * (rs * rs + rp * rp);
 }
 
+/* Glass up to this GGX alpha is smooth (two delta lobes): the parser's floor of 0.01 for
+ * roughness 0, and Surface "glass". */
+#define TS_GLASS_SMOOTH 0.0101f
+
+/* Smith's G1 for GGX of direction v about microfacet normal m on a surface of normal n: 0
+ * when v sees m's back while seeing n's front or the other way (Walter et al. 2007 eq. 34). */
+TS_INLINE float ggx_g1_m(ts_v3 v, ts_v3 m, ts_v3 n, float alpha)
+{
+    float vn = v3_dot(v, n), vm = v3_dot(v, m);
+    return vm * vn > 0.0f ? ggx_g1(fabs(vn), alpha) : 0.0f;
+}
+
+/* Rough glass (glass_sample with roughness alpha > TS_GLASS_SMOOTH), Walter et al. 2007
+ * §5.3: the microfacet normal m from D(m) |m.n| (u1, u2), then the mirror direction about m
+ * with probability F(wo.m), else the refraction through m; the weight f |cos| / pdf is
+ * |wo.m| G(wo, wi) / (|wo.n| |m.n|) (eq. 41), times Cs (eta_o / eta_i)^2 refracted. A
+ * direction on the wrong side of n (reflected below it, refracted above) has weight 0. */
+TS_INLINE int rough_glass_sample(float alpha, float eta, const float cs[3], ts_v3 n, ts_v3 wo,
+                                 float u0, float u1, float u2, ts_v3 *wi, float w[3])
+{
+    float t2 = alpha * alpha * u1 / fmax(1.0f - u1, 1e-7f);
+    float cm = 1.0f / sqrt(1.0f + t2), sm = sqrt(fmax(0.0f, 1.0f - cm * cm));
+    float phi = 2.0f * TS_PI * u2;
+    ts_v3 m = local_to_world(v3(sm * cos(phi), sm * sin(phi), cm), n);
+    float co = v3_dot(n, wo), om = v3_dot(wo, m), ct;
+    w[0] = w[1] = w[2] = 0.0f;
+    *wi = v3_sub(v3_scale(n, 2.0f * fmax(co, 0.0f)), wo); /* (for weight 0) */
+    if (co <= 0.0f || om <= 0.0f) return 0;
+    float F = fresnel_dielectric(om, eta, &ct);
+    int through = u0 >= F;
+    if (through)
+        *wi = v3_normalize(v3_add(v3_scale(wo, -eta), v3_scale(m, eta * om - ct)));
+    else
+        *wi = v3_sub(v3_scale(m, 2.0f * om), wo);
+    float ci = v3_dot(n, *wi);
+    if (through ? ci >= 0.0f : ci <= 0.0f) return through;
+    float g = om * ggx_g1_m(wo, m, n, alpha) * ggx_g1_m(*wi, m, n, alpha) / (co * cm);
+    float k = through ? g * eta * eta : g;
+    w[0] = through ? k * cs[0] : k, w[1] = through ? k * cs[1] : k, w[2] = through ? k * cs[2] : k;
+    return through;
+}
+
 /* Samples glass (TS_MAT_GLASS) from u0: with probability F the mirror direction, else the
  * refracted one; inside: wo's side is the glass (the path's TS_PATH_INSIDE bit). Writes wi
  * and the weight f cos / pdf in w[] (1 reflected, Cs (eta_o / eta_i)^2 refracted) and
- * returns 1 when wi goes through the surface (to the other side of n), 0 when reflected. */
+ * returns 1 when wi goes through the surface (to the other side of n), 0 when reflected.
+ * Rough glass (roughness above TS_GLASS_SMOOTH) also takes u1 and u2 (rough_glass_sample). */
 TS_INLINE int glass_sample(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], ts_v3 n, ts_v3 wo,
-                           int inside, float u0, ts_v3 *wi, float w[3])
+                           int inside, float u0, float u1, float u2, ts_v3 *wi, float w[3])
 {
     float ior = a->ior > 0.0f ? a->ior : 1.5f;
     float eta = inside ? ior : 1.0f / ior; /* eta_o / eta_i: wo's side over the other */
+    if (a->roughness > TS_GLASS_SMOOTH)
+        return rough_glass_sample(a->roughness, eta, cs, n, wo, u0, u1, u2, wi, w);
     float co = fmax(v3_dot(n, wo), 0.0f), ct;
     float F = fresnel_dielectric(co, eta, &ct);
     if (u0 < F) {

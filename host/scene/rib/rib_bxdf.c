@@ -31,7 +31,7 @@ typedef enum bxdf_kind {
     BXDF_DISNEY,     /* PxrDisney: plastic or metal by metallic */
     BXDF_CONDUCTOR,  /* PxrConductor, LamaConductor: metal */
     BXDF_CONSTANT,   /* PxrConstant, LamaEmission: emits, reflects nothing */
-    BXDF_DIELECTRIC, /* PxrDielectric, LamaDielectric, PxrGlass: smooth glass */
+    BXDF_DIELECTRIC, /* PxrDielectric, LamaDielectric, PxrGlass: glass, smooth or rough */
     BXDF_EMISSION    /* PxrLightEmission: reflects nothing; its light is the AreaLightSource's */
 } bxdf_kind;
 
@@ -305,13 +305,8 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
                      a->ior);
             rib_warn_once(p, p->req_line, p->req_col, what);
         }
-        if (a->spec_rough > 0.0) {
-            snprintf(what, sizeof what,
-                     "Bxdf \"%s\": rough refraction is drawn smooth (Tessera's glass is a "
-                     "smooth dielectric)",
-                     bxdf);
-            rib_warn_once(p, p->req_line, p->req_col, what);
-        }
+        /* roughness: GGX alpha as for the other Bxdfs; up to TS_GLASS_SMOOTH (lib/bsdf.h)
+         * the glass is smooth, above it Walter et al. 2007's rough dielectric */
     }
 }
 

@@ -50,7 +50,7 @@ static const struct {
     {"metal", TS_MAT_METAL, 0.0, 1.0, 0.1, 1, 2, 0, 0},
     {"shinymetal", TS_MAT_METAL, 0.0, 1.0, 0.1, 1, 2, 0, 0},
     {"constant", TS_MAT_MATTE, 0.0, 0.0, 0.1, 0, 0, 0, 1},
-    {"glass", TS_MAT_GLASS, 0.0, 0.0, 0.1, 3, 1, 0, 0}, /* reads "eta" (default 1.5) */
+    {"glass", TS_MAT_GLASS, 0.0, 0.0, 0.01, 3, 1, 0, 0}, /* "eta" (1.5); smooth (lib/bsdf.h) */
 };
 
 /* Kd, Ks >= 0; Kd + Ks above 1 scaled down to 1 and roughness into [0.01, 1], each with
