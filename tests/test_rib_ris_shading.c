@@ -80,6 +80,34 @@ static void test_bxdf_diffuse(void **state)
     scene_free(&s);
 }
 
+/* PxrSurface with refractionGain: glass of index glassIor (1.5), GGX alpha glassRoughness^2
+ * (0.1: smooth), tinted by refractionGain * refractionColor; with diffuse or specular lobes
+ * beside it one warning says they are not drawn. */
+static void test_bxdf_surface_glass(void **state)
+{
+    (void)state;
+    ts_patch_attr a = one_patch("Bxdf \"PxrSurface\" \"g\" \"float diffuseGain\" [0] "
+                                "\"float refractionGain\" [1] \"color diffuseColor\" [1 1 1]");
+    assert_int_equal(a.material, TS_MAT_GLASS);
+    assert_near(a.ior, 1.5, 0), assert_cs(&a, 1, 1, 1);
+    assert_true(a.roughness <= TS_GLASS_SMOOTH);
+    assert_string_equal(warnings_of("Bxdf \"PxrSurface\" \"g\" \"float diffuseGain\" [0] "
+                                    "\"float refractionGain\" [1]"),
+                        "");
+    a = one_patch("Bxdf \"PxrSurface\" \"g\" \"float diffuseGain\" [0] \"float refractionGain\" "
+                  "[0.5] \"color refractionColor\" [1 0.8 0.6] \"float glassIor\" [1.33] "
+                  "\"float glassRoughness\" [0.5]");
+    assert_int_equal(a.material, TS_MAT_GLASS);
+    assert_near(a.ior, 1.33, 1e-6), assert_near(a.roughness, 0.25, 1e-7);
+    assert_cs(&a, 0.5, 0.4, 0.3);
+    assert_string_equal(warnings_of("Bxdf \"PxrSurface\" \"g\" \"float refractionGain\" [1]"),
+                        "w.rib:2:1: warning: Bxdf \"PxrSurface\": with refractionGain it is drawn "
+                        "as glass: its diffuse and specular lobes are not drawn\n");
+    /* refractionGain 0 (the default): PxrSurface as before */
+    a = one_patch("Bxdf \"PxrSurface\" \"g\" \"float glassIor\" [1.33]");
+    assert_int_equal(a.material, TS_MAT_MATTE);
+}
+
 /* PxrLMDiffuse: its frontColor (default PxrDiffuse's 0.5), its other parameters warned about
  * as unread; PxrLightEmission, RenderMan 20's light geometry: it reflects nothing and emits
  * its AreaLightSource's light, without a warning. */
@@ -134,13 +162,13 @@ static void test_bxdf_surface(void **state)
      * parameters Tessera does not read warn once each. */
     assert_string_equal(
         warnings_of("Bxdf \"PxrSurface\" \"s\" \"float subsurfaceGain\" [0] "
-                    "\"color subsurfaceColor\" [1 0 0] \"float refractionGain\" "
+                    "\"color subsurfaceColor\" [1 0 0] \"float fuzzGain\" "
                     "[0.5] \"float presence\" [1] \"int specularFresnelMode\" [0]"),
-        "w.rib:2:82: warning: Bxdf \"PxrSurface\": \"refractionGain\" is not 0, "
-        "but refraction is not supported yet\n"
-        "w.rib:2:111: warning: Bxdf \"PxrSurface\": \"presence\" (cut-outs) is not "
+        "w.rib:2:82: warning: Bxdf \"PxrSurface\": \"fuzzGain\" is not 0, "
+        "but the fuzz lobe is not drawn\n"
+        "w.rib:2:105: warning: Bxdf \"PxrSurface\": \"presence\" (cut-outs) is not "
         "supported: the surface renders opaque\n"
-        "w.rib:2:132: warning: Bxdf parameter \"specularFresnelMode\" is ignored\n");
+        "w.rib:2:126: warning: Bxdf parameter \"specularFresnelMode\" is ignored\n");
 }
 
 static void test_bxdf_disney_conductor_constant(void **state)
@@ -503,6 +531,7 @@ int main(void)
         cmocka_unit_test(test_bxdf_disney_conductor_constant),
         cmocka_unit_test(test_bxdf_fallbacks),
         cmocka_unit_test(test_bxdf_lm_diffuse_light_emission),
+        cmocka_unit_test(test_bxdf_surface_glass),
         cmocka_unit_test(test_pattern_texture),
         cmocka_unit_test(test_pattern_tex_sibling),
         cmocka_unit_test(test_pattern_unknown),

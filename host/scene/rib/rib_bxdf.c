@@ -18,6 +18,7 @@ typedef struct bxdf_args {
     double diffuse_gain, color[3];                 /* the diffuse lobe (or base colour) */
     double spec_face[3], spec_edge[3], spec_rough; /* the specular lobe (Schlick face/edge) */
     double coat_face[3], coat_edge[3];             /* PxrSurface's clearcoat */
+    double refr_gain, refr_color[3], glass_rough;  /* PxrSurface's glass (refraction) lobe */
     double glow_gain, glow[3];                     /* emission */
     double metallic, specular;                     /* PxrDisney */
     double eta[3], kappa[3];                       /* conductors: complex index of refraction */
@@ -63,6 +64,10 @@ static const bxdf_param bxdf_surface_params[] = {
     BP("clearcoatEdgeColor", 3, coat_edge),
     BP("glowGain", 1, glow_gain),
     BP("glowColor", 3, glow),
+    BP("refractionGain", 1, refr_gain),
+    BP("refractionColor", 3, refr_color),
+    BP("glassIor", 1, ior),
+    BP("glassRoughness", 1, glass_rough),
 };
 static const bxdf_param bxdf_disney_params[] = {
     BC("baseColor", color),      BP("metallic", 1, metallic), BP("roughness", 1, spec_rough),
@@ -137,7 +142,9 @@ static bxdf_args bxdf_defaults(bxdf_kind kind)
                    .specular = 0.5,
                    .eta = {4.3696, 2.916, 1.6544}, /* PxrConductor's defaults */
                    .kappa = {5.2057, 4.2142, 3.7519},
-                   .ior = 1.5};
+                   .ior = 1.5,
+                   .refr_color = {1, 1, 1},
+                   .glass_rough = 0.1};
     if (kind == BXDF_DIFFUSE) a.color[0] = a.color[1] = a.color[2] = 0.5; /* PxrDiffuse */
     if (kind == BXDF_DISNEY) {
         a.color[0] = 0.2, a.color[1] = 0.5, a.color[2] = 0.8, a.spec_rough = 0.25;
@@ -147,6 +154,21 @@ static bxdf_args bxdf_defaults(bxdf_kind kind)
     if (kind == BXDF_DIELECTRIC) a.spec_rough = 0.0;
     if (kind == BXDF_CONDUCTOR) a.spec_edge[0] = a.spec_edge[1] = a.spec_edge[2] = 1.0;
     return a;
+}
+
+/* Glass (TS_MAT_GLASS) of index ior (outside [1, 4]: 1.5, with a warning) and colour cs,
+ * keeping the roughness and emission *s has. */
+static void bxdf_glass(rib_parser *p, const char *bxdf, double ior, const double cs[3],
+                       rib_surface *s)
+{
+    s->material = TS_MAT_GLASS, s->kd = 0.0, s->ks = 0.0;
+    s->ior = ior >= 1.0 && ior <= 4.0 ? ior : 1.5;
+    memcpy(s->color, cs, sizeof s->color);
+    if (s->ior != ior) {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what, "Bxdf \"%s\": ior %g outside [1, 4]: 1.5 instead", bxdf, ior);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
 }
 
 /* The hemispherical average of Schlick's Fresnel from face colour f0 to edge colour f90:
@@ -297,16 +319,28 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
          * is the AreaLightSource's, and the surface reflects nothing. */
         s->kd = 0.0;
     } else if (kind == BXDF_DIELECTRIC) {
-        s->material = TS_MAT_GLASS, s->kd = 0.0, s->ks = 0.0;
-        s->ior = a->ior >= 1.0 && a->ior <= 4.0 ? a->ior : 1.5;
-        s->color[0] = s->color[1] = s->color[2] = 1.0;
-        if (s->ior != a->ior) {
-            snprintf(what, sizeof what, "Bxdf \"%s\": ior %g outside [1, 4]: 1.5 instead", bxdf,
-                     a->ior);
-            rib_warn_once(p, p->req_line, p->req_col, what);
-        }
         /* roughness: GGX alpha as for the other Bxdfs; up to TS_GLASS_SMOOTH (lib/bsdf.h)
          * the glass is smooth, above it Walter et al. 2007's rough dielectric */
+        const double white[3] = {1, 1, 1};
+        bxdf_glass(p, bxdf, a->ior, white, s);
+    }
+    if (kind == BXDF_SURFACE && a->refr_gain > 0.0) {
+        /* PxrSurface's glass lobe: the surface is glass of index glassIor, alpha
+         * glassRoughness^2, tinted by refractionGain * refractionColor; its other lobes go */
+        double tint[3];
+        for (int c = 0; c < 3; c++)
+            tint[c] = fmin(1.0, fmax(0.0, a->refr_gain * a->refr_color[c]));
+        int others = a->diffuse_gain * (a->color[0] + a->color[1] + a->color[2]) > 0.0 ||
+                     s->material == TS_MAT_PLASTIC;
+        bxdf_glass(p, bxdf, a->ior, tint, s);
+        s->roughness = fmin(fmax(a->glass_rough * a->glass_rough, 0.01), 1.0);
+        if (others) {
+            snprintf(what, sizeof what,
+                     "Bxdf \"%s\": with refractionGain it is drawn as glass: its diffuse and "
+                     "specular lobes are not drawn",
+                     bxdf);
+            rib_warn_once(p, p->req_line, p->req_col, what);
+        }
     }
 }
 
