@@ -41,8 +41,9 @@ static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per
  * that is below max_n). A uniform window of N leaves the slots of rays with fewer candidates
  * empty (about half of them on forest-100's bounces) while the rays with more wait for
  * another iteration that dices their patches again; here every ray with at most N
- * candidates is done in this one. forest-100 1920x768 x 2 at --memory 512: 541 K dicings
- * and 96 s against 633 K and 107 s with uniform windows (docs/benchmarks.md).
+ * candidates is done in this one. forest-100 1920x768 x 2 at --memory 512, three pairs a
+ * ray: 567 K dicings and 97 s against 633 K and 107 s with uniform windows (one run each;
+ * docs/benchmarks.md has today's figures).
  * Writes window_first[0 .. active]; returns N through *n_fill and the slots through *slots. */
 static int water_fill(ts_pipeline *p, uint32_t active, uint32_t max_n, uint32_t *n_fill,
                       uint32_t *slots, ts_error *err)
