@@ -438,6 +438,30 @@ static void test_waves_are_cut_once_the_patches_fit(void **state)
     assert_true(test_stats_number(path("squeezed.json"), "iterations.0.active_rays") > 4096.0);
 }
 
+/* A frame whose patches need far more than the patch arenas hold (forest-1 at m = 6, 260 MB,
+ * in a 16 MB budget) gives three quarters of the arenas to the rays when that makes fewer
+ * waves (app/budget.c thin_arenas): 2 waves instead of 3, the budget kept, the pixels of a
+ * budget that holds every patch. */
+static void test_thin_arenas_make_fewer_waves(void **state)
+{
+    char args[16384];
+    const char *scene = test_source_path("scene/forest-1.rib");
+    const char *common = "--res 160x90 --spp 4 --lod 6";
+    snprintf(args, sizeof args, "render '%s' -o '%s' --stats '%s' %s --memory 512 --quiet", scene,
+             path("roomy.exr"), path("roomy.json"), common);
+    render_ok(args);
+    snprintf(args, sizeof args, "render '%s' -o '%s' --stats '%s' %s --memory 16", scene,
+             path("thin.exr"), path("thin.json"), common);
+    render_ok(args);
+    test_expect_in_stderr(dir, "times what the patch cache holds: it takes 0.9 MB instead of "
+                               "3.5 MB, and waves 66064 rays instead of 54543 (2 waves instead "
+                               "of 3)");
+    test_assert_same_pixels(path("roomy.exr"), path("thin.exr"));
+    assert_true(test_stats_number(path("thin.json"), "iterations.0.active_rays") == 33032.0);
+    assert_true(test_stats_number(path("thin.json"), "memory_budget_bytes") == 16.0 * 1048576);
+    test_assert_device_bytes_in_budget(path("thin.json"), 160.0 * 90, 1110);
+}
+
 /* The lowest level any dicing of the render used (lod_histogram). */
 static int lowest_level(const char *json)
 {
@@ -628,6 +652,7 @@ int main(void)
         cmocka_unit_test(test_cpu_lanes_change_no_bit),
         cmocka_unit_test(test_arenas_grow_to_the_frames_patches),
         cmocka_unit_test(test_waves_are_cut_once_the_patches_fit),
+        cmocka_unit_test(test_thin_arenas_make_fewer_waves),
         cmocka_unit_test(test_hidden_patch_is_diced_coarser_under_the_seen_rules),
         cmocka_unit_test(test_ten_billion_potential_micropolygons_in_fixed_memory),
         cmocka_unit_test(test_motion_blur_is_the_time_average),

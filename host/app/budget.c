@@ -3,6 +3,7 @@
 #include "base/error.h"
 #include "pipeline/qbvh.h"
 #include "pipeline/relight.h"
+#include "lib/quadtree.h"
 #include "lib/sh.h"
 
 #include <stdio.h>
@@ -181,6 +182,44 @@ static int fit_waves(ts_pipeline *p, int trade, ts_error *err)
     return pipeline_resize_rays(p, cap, err);
 }
 
+/* The arenas hold under 1 / TS_THIN_NEED_DIV of the frame's patches: few come back resident
+ * whatever they hold, and each wave dices the rest again. Three quarters of them go to the
+ * rays when that makes fewer waves of the frame's frame_rays rays (0: unknown, nothing done),
+ * keeping room for two moving patches at the frame's finest level; the smaller arenas are
+ * made before the larger waves, so the device never holds more than the budget. */
+static int thin_arenas(ts_pipeline *p, uint64_t need, uint64_t frame_rays, int quiet, ts_error *err)
+{
+    uint64_t have = pipeline_arena_bytes(&p->plan);
+    if (frame_rays == 0 || need / TS_THIN_NEED_DIV <= have) return TS_OK;
+    uint64_t v = p->plan.vert_capacity / 4u, g = p->plan.group_capacity / 4u;
+    uint32_t m = 0; /* still room for a moving patch at the frame's finest level */
+    for (uint32_t i = 0; i < p->scene->patch_count; ++i) {
+        uint32_t l = pipeline_patch_lod(p, i);
+        if (l > m) m = l;
+    }
+    if (v < 2u * quadtree_vertex_count(m) || g < 2u * quadtree_group_count(m)) return TS_OK;
+    uint64_t freed = have - (v * sizeof(ts_vec4) + g * TS_GROUP_BYTES);
+    uint64_t rays = p->plan.ray_capacity + freed / TS_BYTES_PER_RAY;
+    if (rays > (1u << 25)) rays = 1u << 25;
+    uint64_t before = (frame_rays + p->plan.ray_capacity - 1) / p->plan.ray_capacity;
+    uint64_t after = (frame_rays + rays - 1) / rays;
+    if (after >= before) return TS_OK;
+    uint32_t old_rays = p->plan.ray_capacity;
+    int grown = arenas_grow(p, v, g, quiet, err); /* smaller first: the budget holds both */
+    if (grown < 0) return err->code;
+    if (!grown) return TS_OK;
+    if (pipeline_resize_rays(p, (uint32_t)rays, err)) return err->code;
+    if (!quiet)
+        ts_print_line("tessera: the frame's patches need %llu MB, %llu times what the patch cache "
+                      "holds: it takes %.1f MB instead of %.1f MB, and waves %u rays instead of "
+                      "%u (%llu waves instead of %llu)",
+                      (unsigned long long)(need >> 20), (unsigned long long)(need / have),
+                      (double)pipeline_arena_bytes(&p->plan) / 1048576.0, (double)have / 1048576.0,
+                      p->plan.ray_capacity, old_rays, (unsigned long long)after,
+                      (unsigned long long)before);
+    return TS_OK;
+}
+
 int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, ts_error *err)
 {
     uint64_t mb = p->stats->memory_budget_bytes >> 20;
@@ -196,7 +235,8 @@ int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, t
         if (traded < 0) return err->code;
         if (traded)
             return pipeline_arena_bytes(&p->plan) >= need ? fit_waves(p, trade, err) : TS_OK;
-        return take_the_room(p, verts, groups, need, extra, quiet, err);
+        if (take_the_room(p, verts, groups, need, extra, quiet, err)) return err->code;
+        return trade ? thin_arenas(p, need, p->frame_rays, quiet, err) : TS_OK;
     }
     int grown = arenas_grow(p, verts, groups, quiet, err);
     if (grown <= 0) return grown < 0 ? err->code : TS_OK;

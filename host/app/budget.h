@@ -67,6 +67,11 @@ void budget_fixed(uint64_t mb, ts_budget_choice *out);
  * the default budget: waves of 3.3 M rays, 5.16 GiB peak, 160.6 s; of 2.1 M, 4.96 GiB,
  * 165.5 s, the same within this machine's noise; docs/benchmarks.md). */
 #define TS_FIT_WAVE_RAYS (1u << 21)
+/* A frame whose patches need more than this many times the patch arenas (after any growth)
+ * gives three quarters of the arenas to the rays when that makes fewer waves (budget.c
+ * thin_arenas; forest-100 1920x768 x 2 at --memory 512: 3 waves instead of 4, 534 K dicings
+ * and 89.0 s against 571 K and 98.7 s; docs/benchmarks.md). */
+#define TS_THIN_NEED_DIV 8u
 #define TS_TRADE_ARENA_PART 3u
 #define TS_TRADE_ARENA_DIV 4u
 int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, ts_error *err);

@@ -142,6 +142,7 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
     uint64_t total = job->total, start = job->samples_done;
     p->mode = waves_trace_mode(o);
     if (waves_frame_lod(o, p, cam, job, err)) return err->code;
+    p->frame_rays = 2u * (total - start);
     if (budget_grow_arenas(p, room_mb, 1, o->quiet, err)) return err->code;
     uint32_t per_wave = p->plan.ray_capacity / 2; /* each path also owns a shadow-ray slot */
     /* Pixel after pixel: a wave holds the samples of about per_wave / spp consecutive pixels,

@@ -231,6 +231,9 @@ typedef struct ts_pipeline {
     ts_stats *stats;
     ts_pipeline_plan plan;
     uint32_t pixel_count;
+    /* The ray slots the frame's remaining samples take (two a sample: its path's rays), set by
+     * the render before budget_grow_arenas (app/budget.c thin_arenas); 0: unknown. */
+    uint64_t frame_rays;
     ts_qbvh qbvh;
     radix_sorter *sorter;
     /* Discrete devices: host copies of the two pair buffers, so sort reads the window once
