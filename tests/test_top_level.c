@@ -8,6 +8,7 @@
 #include "pipeline/pipeline.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -58,6 +59,59 @@ static int slab_hit(ts_vec4 o, ts_vec4 d, ts_box x, float tmax, int *close)
     return t0 <= t1;
 }
 
+/* RAYS random rays from a cube of 24 into p's ray buffers, all active from the top-level root,
+ * with infinite or random finite tmax; axis_zeros: every 17th has dir.y = 0 (the 0 * inf
+ * path of the slab test). The host copies go to org, dir and hit. */
+static void random_rays(ts_device *cl, ts_pipeline *p, uint32_t seed, int finite_tmax,
+                        int axis_zeros, ts_vec4 *org, ts_vec4 *dir, ts_hit *hit)
+{
+    uint32_t entry[RAYS], active[RAYS];
+    for (int r = 0; r < RAYS; ++r) {
+        org[r] = (ts_vec4){test_uniform(&seed, -12, 12), test_uniform(&seed, -12, 12),
+                           test_uniform(&seed, -12, 12), 0};
+        float dx = test_uniform(&seed, -1, 1), dy = test_uniform(&seed, -1, 1),
+              dz = test_uniform(&seed, -1, 1);
+        if (axis_zeros && r % 17 == 0) dy = 0.0f;
+        dir[r] = (ts_vec4){dx, dy, dz, 0};
+        hit[r] = (ts_hit){finite_tmax ? test_uniform(&seed, 1, 20) : TS_NO_HIT, 0, 0, TS_INVALID,
+                          TS_INVALID};
+        entry[r] = TS_ENTRY_START;
+        active[r] = (uint32_t)r;
+    }
+    cl_command_queue q = cl->queue;
+    clEnqueueWriteBuffer(q, p->ray_org, CL_TRUE, 0, RAYS * sizeof *org, org, 0, NULL, NULL);
+    clEnqueueWriteBuffer(q, p->ray_dir, CL_TRUE, 0, RAYS * sizeof *dir, dir, 0, NULL, NULL);
+    clEnqueueWriteBuffer(q, p->ray_hit, CL_TRUE, 0, RAYS * sizeof *hit, hit, 0, NULL, NULL);
+    clEnqueueWriteBuffer(q, p->ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL);
+    clEnqueueWriteBuffer(q, p->active, CL_TRUE, 0, sizeof active, active, 0, NULL, NULL);
+}
+
+/* Over all iterations ray r emitted patch b (seen[r * PATCHES + b]) exactly when the slab
+ * test in double says it meets b's box within tmax (either way within rounding of a face or
+ * of tmax). The rays meet boxes: with these seeds 210 to 370 meetings a case (500 rays from a
+ * cube of 24 through 300 boxes of up to 2.5 in a cube of 20), at least 125 (a quarter of the
+ * rays) required, so a traversal that rejects every box cannot pass on an empty check. */
+static void assert_every_box_once(const ts_scene *s, const ts_vec4 *org, const ts_vec4 *dir,
+                                  const ts_hit *hit, const uint8_t *seen, const char *what)
+{
+    int wanted = 0, emitted = 0;
+    for (int r = 0; r < RAYS; ++r)
+        for (uint32_t b = 0; b < PATCHES; ++b) {
+            int close = 0;
+            int want = slab_hit(org[r], dir[r], scene_patch_box(s, b), hit[r].t, &close);
+            int got = seen[(size_t)r * PATCHES + b];
+            emitted += got;
+            if (close) continue;
+            wanted += want;
+            if (want != got)
+                fail_msg("ray %d patch %u: slab test in double %d, traversal %d (%s)", r, b, want,
+                         got, what);
+        }
+    if (wanted < RAYS / 4 || emitted < wanted)
+        fail_msg("%s: %d (ray, box) pairs emitted, %d meetings by the slab test", what, emitted,
+                 wanted);
+}
+
 static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int finite_tmax)
 {
     ts_stats stats;
@@ -69,26 +123,9 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
     if (pipeline_create(&p, cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
     ts_vec4 org[RAYS], dir[RAYS];
     ts_hit hit[RAYS];
-    uint32_t entry[RAYS], active[RAYS];
-    uint32_t seed = 99u + n_per_ray;
-    for (int r = 0; r < RAYS; ++r) {
-        org[r] = (ts_vec4){test_uniform(&seed, -12, 12), test_uniform(&seed, -12, 12),
-                           test_uniform(&seed, -12, 12), 0};
-        float dx = test_uniform(&seed, -1, 1), dy = test_uniform(&seed, -1, 1),
-              dz = test_uniform(&seed, -1, 1);
-        if (r % 17 == 0) dy = 0.0f; /* axis-parallel components take the 0 * inf path */
-        dir[r] = (ts_vec4){dx, dy, dz, 0};
-        hit[r] = (ts_hit){finite_tmax ? test_uniform(&seed, 1, 20) : TS_NO_HIT, 0, 0, TS_INVALID,
-                          TS_INVALID};
-        entry[r] = TS_ENTRY_START;
-        active[r] = (uint32_t)r;
-    }
+    uint32_t entry[RAYS];
+    random_rays(cl, &p, 99u + n_per_ray, finite_tmax, 1, org, dir, hit);
     cl_command_queue q = cl->queue;
-    clEnqueueWriteBuffer(q, p.ray_org, CL_TRUE, 0, sizeof org, org, 0, NULL, NULL);
-    clEnqueueWriteBuffer(q, p.ray_dir, CL_TRUE, 0, sizeof dir, dir, 0, NULL, NULL);
-    clEnqueueWriteBuffer(q, p.ray_hit, CL_TRUE, 0, sizeof hit, hit, 0, NULL, NULL);
-    clEnqueueWriteBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL);
-    clEnqueueWriteBuffer(q, p.active, CL_TRUE, 0, sizeof active, active, 0, NULL, NULL);
     uint8_t *seen = calloc((size_t)RAYS * PATCHES, 1);
     ts_pair *pairs = malloc((size_t)RAYS * n_per_ray * sizeof *pairs);
     uint32_t count[RAYS];
@@ -116,26 +153,9 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
         }
     }
     assert_true(done);
-    int wanted = 0, emitted = 0;
-    for (int r = 0; r < RAYS; ++r) {
-        for (uint32_t b = 0; b < PATCHES; ++b) {
-            int close = 0;
-            int want = slab_hit(org[r], dir[r], scene_patch_box(s, b), hit[r].t, &close);
-            int got = seen[(size_t)r * PATCHES + b];
-            emitted += got;
-            if (close) continue; /* within rounding of a face or of tmax: either is right */
-            wanted += want;
-            if (want != got)
-                fail_msg("ray %d patch %u: slab test in double %d, traversal %d (N=%u)", r, b, want,
-                         got, n_per_ray);
-        }
-    }
-    /* The rays meet boxes: with these seeds 210 to 370 meetings a case (500 rays from a cube
-     * of 24 through 300 boxes of up to 2.5 in a cube of 20), at least 125 (a quarter of the
-     * rays) required, so a traversal that rejects every box cannot pass on an empty check. */
-    if (wanted < RAYS / 4 || emitted < wanted)
-        fail_msg("N=%u, finite tmax %d: %d (ray, box) pairs emitted, %d meetings by the slab test",
-                 n_per_ray, finite_tmax, emitted, wanted);
+    char what[64];
+    snprintf(what, sizeof what, "N=%u, finite tmax %d", n_per_ray, finite_tmax);
+    assert_every_box_once(s, org, dir, hit, seen, what);
     free(seen);
     free(pairs);
     pipeline_destroy(&p);
@@ -159,24 +179,9 @@ static void run_filled_case(ts_device *cl, const ts_scene *s, uint32_t max_n, in
     if (pipeline_create(&p, cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
     ts_vec4 org[RAYS], dir[RAYS];
     ts_hit hit[RAYS];
-    uint32_t entry[RAYS], active[RAYS], count[RAYS], first[RAYS + 1];
-    uint32_t seed = 5u + (uint32_t)finite_tmax;
-    for (int r = 0; r < RAYS; ++r) {
-        org[r] = (ts_vec4){test_uniform(&seed, -12, 12), test_uniform(&seed, -12, 12),
-                           test_uniform(&seed, -12, 12), 0};
-        dir[r] = (ts_vec4){test_uniform(&seed, -1, 1), test_uniform(&seed, -1, 1),
-                           test_uniform(&seed, -1, 1), 0};
-        hit[r] = (ts_hit){finite_tmax ? test_uniform(&seed, 1, 20) : TS_NO_HIT, 0, 0, TS_INVALID,
-                          TS_INVALID};
-        entry[r] = TS_ENTRY_START;
-        active[r] = (uint32_t)r;
-    }
+    uint32_t entry[RAYS], count[RAYS], first[RAYS + 1];
+    random_rays(cl, &p, 5u + (uint32_t)finite_tmax, finite_tmax, 0, org, dir, hit);
     cl_command_queue q = cl->queue;
-    clEnqueueWriteBuffer(q, p.ray_org, CL_TRUE, 0, sizeof org, org, 0, NULL, NULL);
-    clEnqueueWriteBuffer(q, p.ray_dir, CL_TRUE, 0, sizeof dir, dir, 0, NULL, NULL);
-    clEnqueueWriteBuffer(q, p.ray_hit, CL_TRUE, 0, sizeof hit, hit, 0, NULL, NULL);
-    clEnqueueWriteBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL);
-    clEnqueueWriteBuffer(q, p.active, CL_TRUE, 0, sizeof active, active, 0, NULL, NULL);
     uint8_t *seen = calloc((size_t)RAYS * PATCHES, 1);
     ts_pair *pairs = malloc((size_t)plan.pair_capacity * sizeof *pairs);
     int done = 0, iterations = 0, ended_short = 0, capped = 0;
@@ -219,22 +224,9 @@ static void run_filled_case(ts_device *cl, const ts_scene *s, uint32_t max_n, in
     /* Windows that held all of a ray's candidates occur, and with a cap of two full ones. */
     assert_true(ended_short > 0);
     assert_true(max_n > 2 || (capped > 0 && iterations > 1));
-    int wanted = 0, emitted = 0;
-    for (int r = 0; r < RAYS; ++r)
-        for (uint32_t b = 0; b < PATCHES; ++b) {
-            int close = 0;
-            int want = slab_hit(org[r], dir[r], scene_patch_box(s, b), hit[r].t, &close);
-            int got = seen[(size_t)r * PATCHES + b];
-            emitted += got;
-            if (close) continue;
-            wanted += want;
-            if (want != got)
-                fail_msg("ray %d patch %u: slab test in double %d, filled traversal %d", r, b, want,
-                         got);
-        }
-    if (wanted < RAYS / 4 || emitted < wanted)
-        fail_msg("filled, finite tmax %d: %d pairs emitted, %d meetings", finite_tmax, emitted,
-                 wanted);
+    char what[64];
+    snprintf(what, sizeof what, "filled, cap %u, finite tmax %d", max_n, finite_tmax);
+    assert_every_box_once(s, org, dir, hit, seen, what);
     free(seen);
     free(pairs);
     pipeline_destroy(&p);

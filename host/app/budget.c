@@ -26,6 +26,17 @@ uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count)
     return 3 * sizeof(ts_vec4) * pixel_count + per_patch * scene->patch_count + occlusion;
 }
 
+/* The value of environment variable `name` when it is a number in [lo, hi], else hi (the
+ * testing aids that lower a limit). */
+static unsigned long env_lower(const char *name, unsigned long lo, unsigned long hi)
+{
+    const char *env = getenv(name);
+    if (!env || !*env) return hi;
+    char *end;
+    unsigned long v = strtoul(env, &end, 10);
+    return !*end && v >= lo && v <= hi ? v : hi;
+}
+
 /* Half of what `total` leaves beside `fixed`, less the texture pool's eighth on top, in MB. */
 static uint64_t half_room_mb(uint64_t total, uint64_t fixed)
 {
@@ -36,13 +47,8 @@ static uint64_t half_room_mb(uint64_t total, uint64_t fixed)
 void budget_default(const ts_device_info *dev, uint64_t fixed_bytes, const ts_memory_room *room,
                     ts_budget_choice *out)
 {
-    unsigned cap = TS_BUDGET_CAP_MB;
-    const char *env = getenv("TESSERA_BUDGET_CAP_MB"); /* a testing aid */
-    if (env && *env) {
-        char *end;
-        unsigned long v = strtoul(env, &end, 10);
-        if (!*end && v >= TS_MEMORY_FLOOR_MB && v <= TS_BUDGET_CAP_MB) cap = (unsigned)v;
-    }
+    unsigned cap = (unsigned)env_lower("TESSERA_BUDGET_CAP_MB", TS_MEMORY_FLOOR_MB,
+                                       TS_BUDGET_CAP_MB); /* a testing aid */
     out->mb = cap;
     snprintf(out->why, sizeof out->why, "the default's cap of %u MB", cap);
     uint64_t mb = half_room_mb(dev->global_mem, fixed_bytes);
@@ -171,13 +177,8 @@ static int take_the_room(ts_pipeline *p, uint64_t verts, uint64_t groups, uint64
  * allows waves to be resized). */
 static int fit_waves(ts_pipeline *p, int trade, ts_error *err)
 {
-    uint32_t cap = TS_FIT_WAVE_RAYS;
-    const char *env = getenv("TESSERA_FIT_WAVE_RAYS"); /* a testing aid: a lower cap */
-    if (env && *env) {
-        char *end;
-        unsigned long v = strtoul(env, &end, 10);
-        if (!*end && v >= 2 * TS_LOCAL_SIZE && v <= TS_FIT_WAVE_RAYS) cap = (uint32_t)v;
-    }
+    uint32_t cap = (uint32_t)env_lower("TESSERA_FIT_WAVE_RAYS", 2 * TS_LOCAL_SIZE,
+                                       TS_FIT_WAVE_RAYS); /* a testing aid: a lower cap */
     if (!trade || p->plan.ray_capacity <= cap) return TS_OK;
     return pipeline_resize_rays(p, cap, err);
 }
