@@ -158,6 +158,31 @@ static void test_payload_scope_and_positions(void **state)
     assert_string_equal(e.msg, want);
 }
 
+/* Binary RIB, as RenderMan for Maya 21 writes it: a nugget right after a binary token (here
+ * the string "objShape", 0230 then 8 bytes) with no line end before it. */
+static void test_binary_rib(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    write_look(test_path_in(dir, "bin.rlf"), "Bxdf \"PxrDiffuse\" \"b\" \"color diffuseColor\" "
+                                             "[0.25 0.5 1]\n");
+    const char *rib = test_path_in(dir, "bin.rib");
+    test_write_text(rib, "\314\001\232WorldBegin\246\001" /* code 1: WorldBegin */
+                         "##RLF ScopeBegin -name s -rlffilename bin.rlf\n"
+                         "\314\002\236AttributeBegin\246\002" /* code 2: AttributeBegin */
+                         "Attribute \"identifier\" \"string name\" [\"obj\"]\n\246\002"
+                         "Attribute \"identifier\" \"string name\" \230objShape"
+                         "##RLF Inject SurfaceShading -attribute sets@,aSG,\n" QUAD
+                         "AttributeEnd\nAttributeEnd\nWorldEnd\n");
+    ts_scene s;
+    ts_error e;
+    char out[8192];
+    if (load_capture(rib, 1, &s, &e, out, sizeof out) != TS_OK) fail_msg("%s", e.msg);
+    assert_int_equal(s.patch_count, 1);
+    assert_cs(&s.attr[0], 0.25, 0.5, 1);
+    scene_free(&s);
+}
+
 /* ---- missing and malformed look files -------------------------------------------------- */
 
 static void test_missing_look_file(void **state)
@@ -296,6 +321,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_looks_scene),
         cmocka_unit_test(test_payload_scope_and_positions),
+        cmocka_unit_test(test_binary_rib),
         cmocka_unit_test(test_missing_look_file),
         cmocka_unit_test(test_malformed_look_files),
         cmocka_unit_test(test_nuggets_not_applied),
