@@ -264,6 +264,19 @@ static void test_malformed_look_files(void **state)
                      "<Payload Id=\"a\">Bxdf <b/></Payload>\n"
                      "</InjectablePayloads></RenderManLookFile>\n",
                      "2:22: an element <b> inside a Payload (its RIB text)");
+    /* A file larger than 64 MiB (sparse: made in no time) is refused before it is read. */
+    const char *big = test_path_in(dir, "big.rlf");
+    FILE *f = fopen(big, "wb");
+    assert_non_null(f);
+    assert_int_equal(ftruncate(fileno(f), (off_t)(64 << 20) + 1), 0);
+    fclose(f);
+    const char *rib = write_scene(dir, "big.rib", "big.rlf");
+    ts_scene s;
+    ts_error e;
+    char out[8192], want[4096];
+    assert_int_equal(load_capture(rib, 1, &s, &e, out, sizeof out), TS_E_SCENE);
+    snprintf(want, sizeof want, "\"%s\": %s: larger than 64 MiB", big, big);
+    expect_in(e.msg, want);
 }
 
 /* ---- what is not applied ----------------------------------------------------------------- */

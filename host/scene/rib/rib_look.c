@@ -20,7 +20,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <limits.h>
+#include <stdint.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 /* Where the reader is: the elements that matter, by depth. */
@@ -358,6 +360,11 @@ int rib_look_read(const char *path, rib_look *look, int *absent, char *why, size
 {
     memset(look, 0, sizeof *look);
     *absent = 0;
+    struct stat st; /* the size before reading: a huge file is refused, not read */
+    if (stat(path, &st) == 0 && S_ISREG(st.st_mode) && (uint64_t)st.st_size > RIB_LOOK_MAX_BYTES) {
+        snprintf(why, cap, "%s: larger than %zu MiB", path, RIB_LOOK_MAX_BYTES >> 20);
+        return TS_E_SCENE;
+    }
     char *text;
     size_t len;
     int rc = ts_file_read_all(path, &text, &len, why, cap);
@@ -365,7 +372,7 @@ int rib_look_read(const char *path, rib_look *look, int *absent, char *why, size
         *absent = rc == TS_E_IO && access(path, F_OK) != 0;
         return rc;
     }
-    if (len > RIB_LOOK_MAX_BYTES) {
+    if (len > RIB_LOOK_MAX_BYTES) { /* grown since the stat */
         free(text);
         snprintf(why, cap, "%s: larger than %zu MiB", path, RIB_LOOK_MAX_BYTES >> 20);
         return TS_E_SCENE;
