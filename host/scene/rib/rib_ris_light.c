@@ -11,8 +11,11 @@
  * shading" has the rules. */
 #include "scene/rib/rib_internal.h"
 
+#include "base/hash.h"
 #include "base/mat4.h"
+#include "image/image.h"
 #include "scene/quadric.h"
+#include "scene/sky.h"
 
 #include <float.h>
 #include <math.h>
@@ -20,6 +23,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 typedef enum ris_light_kind {
     RIS_DOME,
@@ -47,34 +51,24 @@ typedef struct ris_light_args {
     double intensity, exposure, color[3], temperature, angle, normalize, enable_temperature;
     double sky_tint[3];
     size_t map_arg; /* lightColorMap: the index of its value, 0 for none */
+    /* PxrEnvDayLight's own (docs/rib.md "Daylight") */
+    double sun_tint[3], sun_size, sun_direction[3], haziness, ground_color[3];
+    double month, day, year, hour, zone, latitude, longitude;
 } ris_light_args;
 
 /* ---- black body ---------------------------------------------------------------------- */
-
-/* A lobe of Wyman, Sloan and Shirley's fit of the CIE 1931 observer (JCGT 2(2), 2013). */
-static double cie_lobe(double l, double mu, double s1, double s2)
-{
-    double t = (l - mu) / (l < mu ? s1 : s2);
-    return exp(-0.5 * t * t);
-}
 
 void rib_blackbody(double kelvin, double rgb[3])
 {
     double t = fmin(fmax(kelvin, 1000.0), 40000.0), xyz[3] = {0, 0, 0};
     for (double l = 380.0; l <= 780.0; l += 5.0) { /* nm */
-        double m = l * 1e-9, planck = 1.0 / (pow(m, 5) * expm1(1.4387769e-2 / (m * t)));
-        xyz[0] += planck *
-                  (1.056 * cie_lobe(l, 599.8, 37.9, 31.0) + 0.362 * cie_lobe(l, 442.0, 16.0, 26.7) -
-                   0.065 * cie_lobe(l, 501.1, 20.4, 26.2));
-        xyz[1] += planck *
-                  (0.821 * cie_lobe(l, 568.8, 46.9, 40.5) + 0.286 * cie_lobe(l, 530.9, 16.3, 31.1));
-        xyz[2] += planck *
-                  (1.217 * cie_lobe(l, 437.0, 11.8, 36.0) + 0.681 * cie_lobe(l, 459.0, 26.0, 13.8));
+        double m = l * 1e-9, planck = 1.0 / (pow(m, 5) * expm1(1.4387769e-2 / (m * t))), c[3];
+        sky_cie_xyz(l, c); /* Wyman, Sloan and Shirley's fit of the CIE 1931 observer */
+        for (int k = 0; k < 3; k++)
+            xyz[k] += planck * c[k];
     }
     /* XYZ -> linear Rec. 709 (sRGB primaries, D65), negatives (deep red) clipped. */
-    rgb[0] = fmax(0.0, 3.2406 * xyz[0] - 1.5372 * xyz[1] - 0.4986 * xyz[2]);
-    rgb[1] = fmax(0.0, -0.9689 * xyz[0] + 1.8758 * xyz[1] + 0.0415 * xyz[2]);
-    rgb[2] = fmax(0.0, 0.0557 * xyz[0] - 0.2040 * xyz[1] + 1.0570 * xyz[2]);
+    sky_xyz_to_rgb(xyz, rgb);
     double y = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
     for (int k = 0; k < 3; k++)
         rgb[k] /= y;
@@ -97,19 +91,36 @@ static const struct {
 /* Reads the parameters from args[first] into *a; others warn once each. */
 static int ris_light_read(rib_parser *p, ris_light_kind kind, size_t first, ris_light_args *a)
 {
+#define ALL ~0u
+#define DAY (1u << RIS_DAY)
     static const struct {
         const char *name;
         size_t n, off;
+        unsigned kinds; /* the lights that read it: bits 1 << ris_light_kind */
     } known[] = {
-        {"intensity", 1, offsetof(ris_light_args, intensity)},
-        {"exposure", 1, offsetof(ris_light_args, exposure)},
-        {"lightColor", 3, offsetof(ris_light_args, color)},
-        {"temperature", 1, offsetof(ris_light_args, temperature)},
-        {"enableTemperature", 1, offsetof(ris_light_args, enable_temperature)},
-        {"angleExtent", 1, offsetof(ris_light_args, angle)},
-        {"normalize", 1, offsetof(ris_light_args, normalize)},
-        {"skyTint", 3, offsetof(ris_light_args, sky_tint)},
+        {"intensity", 1, offsetof(ris_light_args, intensity), ALL},
+        {"exposure", 1, offsetof(ris_light_args, exposure), ALL},
+        {"lightColor", 3, offsetof(ris_light_args, color), ALL & ~DAY},
+        {"temperature", 1, offsetof(ris_light_args, temperature), ALL & ~DAY},
+        {"enableTemperature", 1, offsetof(ris_light_args, enable_temperature), ALL & ~DAY},
+        {"angleExtent", 1, offsetof(ris_light_args, angle), 1u << RIS_DISTANT},
+        {"normalize", 1, offsetof(ris_light_args, normalize), ALL & ~DAY},
+        {"skyTint", 3, offsetof(ris_light_args, sky_tint), DAY},
+        {"sunTint", 3, offsetof(ris_light_args, sun_tint), DAY},
+        {"sunSize", 1, offsetof(ris_light_args, sun_size), DAY},
+        {"sunDirection", 3, offsetof(ris_light_args, sun_direction), DAY},
+        {"haziness", 1, offsetof(ris_light_args, haziness), DAY},
+        {"groundColor", 3, offsetof(ris_light_args, ground_color), DAY},
+        {"month", 1, offsetof(ris_light_args, month), DAY},
+        {"day", 1, offsetof(ris_light_args, day), DAY},
+        {"year", 1, offsetof(ris_light_args, year), DAY},
+        {"hour", 1, offsetof(ris_light_args, hour), DAY},
+        {"zone", 1, offsetof(ris_light_args, zone), DAY},
+        {"latitude", 1, offsetof(ris_light_args, latitude), DAY},
+        {"longitude", 1, offsetof(ris_light_args, longitude), DAY},
     };
+#undef ALL
+#undef DAY
     for (size_t i = first; i < p->nargs; i += 2) {
         rib_param prm;
         const double *v;
@@ -126,7 +137,7 @@ static int ris_light_read(rib_parser *p, ris_light_kind kind, size_t first, ris_
         size_t k = 0, nk = sizeof known / sizeof known[0];
         while (k < nk && strcmp(prm.name, known[k].name) != 0)
             k++;
-        int usable = k < nk && (k != 5 || kind == RIS_DISTANT) && (k != 7 || kind == RIS_DAY);
+        int usable = k < nk && (known[k].kinds >> kind & 1u);
         if (prm.val->kind == RIB_ARG_STRING || prm.val->kind == RIB_ARG_STRINGS)
             usable = 0; /* a connection to a pattern: lights are not textured here */
         if (!usable) {
@@ -194,8 +205,7 @@ static int ris_dome(rib_parser *p, const char *map, int line, int col, const dou
     return rc;
 }
 
-static int ris_light_dome(rib_parser *p, const char *name, const ris_light_args *a,
-                          const double L[3])
+static int ris_light_dome(rib_parser *p, const ris_light_args *a, const double L[3])
 {
     if (p->scene->dome.present) return ris_dome(p, NULL, 0, 0, L); /* (warns) */
     const char *map = NULL;
@@ -203,10 +213,6 @@ static int ris_light_dome(rib_parser *p, const char *name, const ris_light_args 
         int rc = rib_string_arg(p, a->map_arg, "a map name", &map);
         if (rc != TS_OK) return rc;
     }
-    if (strcmp(name, "PxrEnvDayLight") == 0 && !p->scene->dome.present)
-        rib_warn_once(p, p->req_line, p->req_col,
-                      "Light \"PxrEnvDayLight\" is drawn as a uniform dome of intensity * "
-                      "2^exposure * skyTint (its sun and Hosek-Wilkie sky are not)");
     return ris_dome(p, map, a->map_arg ? p->args[a->map_arg].line : 0,
                     a->map_arg ? p->args[a->map_arg].col : 0, L);
 }
@@ -235,6 +241,144 @@ static int ris_light_distant(rib_parser *p, const ris_light_args *a, const doubl
         return rib_error_at(p, p->req_line, p->req_col,
                             "Light \"PxrDistantLight\": the current transformation has no "
                             "direction for -z");
+    return scene_add_light(p->scene, &l, p->err);
+}
+
+/* ---- PxrEnvDayLight ---------------------------------------------------------------------- */
+
+/* Where baked skies are written: $TESSERA_CACHE_DIR, else $XDG_CACHE_HOME/tessera, else
+ * ~/.cache/tessera (the kernel cache's folder), else $TMPDIR or /tmp. */
+static void day_cache_dir(char *out, size_t cap)
+{
+    const char *dir = getenv("TESSERA_CACHE_DIR"), *xdg = getenv("XDG_CACHE_HOME"),
+               *home = getenv("HOME"), *tmp = getenv("TMPDIR");
+    if (dir && *dir) {
+        snprintf(out, cap, "%s", dir);
+    } else if ((xdg && *xdg) || (home && *home)) {
+        snprintf(out, cap, xdg && *xdg ? "%s" : "%s/.cache", xdg && *xdg ? xdg : home);
+        mkdir(out, 0755);
+        size_t n = strlen(out);
+        if (n + sizeof "/tessera" <= cap) memcpy(out + n, "/tessera", sizeof "/tessera");
+    } else {
+        snprintf(out, cap, "%s", tmp && *tmp ? tmp : "/tmp");
+    }
+    mkdir(out, 0755);
+}
+
+/* The sun's direction in the light's space (z up, x east, y north): sunDirection when month
+ * is 0, else from the date, hour, zone and place. 1 when the sun is above the horizon. */
+static int day_sun(rib_parser *p, const ris_light_args *a, double sun[3])
+{
+    if (a->month == 0.0) {
+        double len = sqrt(a->sun_direction[0] * a->sun_direction[0] +
+                          a->sun_direction[1] * a->sun_direction[1] +
+                          a->sun_direction[2] * a->sun_direction[2]);
+        if (!(len > 0.0))
+            return rib_error_at(p, p->req_line, p->req_col,
+                                "Light \"PxrEnvDayLight\": sunDirection must not be 0");
+        for (int k = 0; k < 3; k++)
+            sun[k] = a->sun_direction[k] / len;
+        return TS_OK;
+    }
+    double elevation, azimuth;
+    if (a->month != floor(a->month) || a->day != floor(a->day) || a->year != floor(a->year) ||
+        fabs(a->year) > 1e6 ||
+        sky_solar_position((int)a->year, (int)a->month, (int)a->day, a->hour, a->zone, a->latitude,
+                           a->longitude, &elevation, &azimuth) != 0)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light \"PxrEnvDayLight\": no such date: year %g, month %g, day %g "
+                            "(month 0 uses sunDirection)",
+                            a->year, a->month, a->day);
+    sky_direction(elevation, azimuth, sun);
+    return TS_OK;
+}
+
+/* Writes the baked map under a name that is the hash of its texels and points the dome at
+ * it (the pipeline reads domes from files). */
+static int day_write_map(rib_parser *p, float *rgb, ts_dome_light *d)
+{
+    size_t n = (size_t)SKY_MAP_WIDTH * SKY_MAP_HEIGHT * 3;
+    uint64_t h = ts_fnv1a(TS_FNV1A_INIT, rgb, n * sizeof *rgb);
+    char dir[4096], name[32];
+    day_cache_dir(dir, sizeof dir);
+    snprintf(name, sizeof name, "/sky-%016llx.exr", (unsigned long long)h);
+    if (strlen(dir) + strlen(name) >= sizeof d->mapname)
+        return ts_error_set(p->err, TS_E_IO, "%s: the cache folder's name is too long", dir);
+    memcpy(d->mapname, dir, strlen(dir));
+    memcpy(d->mapname + strlen(dir), name, strlen(name) + 1);
+    ts_image img = {SKY_MAP_WIDTH, SKY_MAP_HEIGHT, 3, NULL, rgb};
+    return image_write_exr(d->mapname, &img, NULL, 0, p->err);
+}
+
+/* PxrEnvDayLight: Preetham's sky (sky.h) baked into the dome's map, in the light's space
+ * rotated into the world by the CTM (z its zenith), and the sun as a distant light of
+ * diameter sunSize * 0.55 degrees and the disc's radiance through that sky; radiances in
+ * cd/m^2 times intensity * 2^exposure * skyTint (sunTint). docs/rib.md "Daylight". */
+static int ris_light_day(rib_parser *p, const ris_light_args *a, const double scale)
+{
+    double sun[3], t = a->haziness, to_world[9];
+    int rc = day_sun(p, a, sun);
+    if (rc != TS_OK) return rc;
+    if (!(a->sun_size >= 0.0 && a->sun_size * SKY_SUN_DIAMETER_DEG < 180.0))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light \"PxrEnvDayLight\": sunSize %g is outside [0, %g)", a->sun_size,
+                            180.0 / SKY_SUN_DIAMETER_DEG);
+    for (int k = 0; k < 3; k++)
+        if (!(a->sun_tint[k] >= 0.0 && a->ground_color[k] >= 0.0))
+            return rib_error_at(p, p->req_line, p->req_col,
+                                "Light \"PxrEnvDayLight\": sunTint and groundColor must be >= 0");
+    if (!(t >= SKY_TURBIDITY_MIN && t <= SKY_TURBIDITY_MAX)) {
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "Light \"PxrEnvDayLight\": haziness is clamped to the model's [1.7, 10]");
+        t = fmin(fmax(t, SKY_TURBIDITY_MIN), SKY_TURBIDITY_MAX);
+    }
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            to_world[3 * r + c] = p->ctm[4 * r + c];
+    int day = sun[2] > 0.0;
+    if (!day)
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "Light \"PxrEnvDayLight\": the sun is below the horizon; the sky is black "
+                      "(Preetham's model has no twilight)");
+    ts_sky sky;
+    sky_init(&sky, t, sun);
+    double half = 0.5 * a->sun_size * SKY_SUN_DIAMETER_DEG * M_PI / 180.0, sun_rgb[3] = {0, 0, 0};
+    if (day) sky_sun_radiance(t, sky.theta_s, sun_rgb, NULL);
+    sky_bake_args b = {.sky = &sky, .sun_solid_angle = 2.0 * M_PI * (1.0 - cos(half))};
+    memcpy(b.to_world, to_world, sizeof to_world);
+    for (int k = 0; k < 3; k++) {
+        b.sky_tint[k] = day ? a->sky_tint[k] : 0.0;
+        b.sun_rgb[k] = sun_rgb[k] * a->sun_tint[k];
+        b.ground[k] = a->ground_color[k];
+    }
+    if (p->scene->dome.present) {
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "Light: a second dome light is ignored (one dome per scene)");
+    } else {
+        float *rgb = malloc((size_t)SKY_MAP_WIDTH * SKY_MAP_HEIGHT * 3 * sizeof *rgb);
+        if (!rgb) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+        sky_bake(&b, rgb);
+        ts_dome_light d = {1, scale, {1, 1, 1}, ""};
+        rc = day_write_map(p, rgb, &d);
+        free(rgb);
+        if (rc != TS_OK) return rc;
+        p->scene->dome = d;
+    }
+    if (!day || half == 0.0 || !(b.sun_rgb[0] > 0 || b.sun_rgb[1] > 0 || b.sun_rgb[2] > 0))
+        return TS_OK;
+    /* The sun: irradiance L * solid angle on a surface facing it (ris_light_distant's cone). */
+    ts_scene_light l = {.intensity = scale * b.sun_solid_angle,
+                        .color = {b.sun_rgb[0], b.sun_rgb[1], b.sun_rgb[2]},
+                        .angle = 2.0 * half * 180.0 / M_PI,
+                        .kind = SCENE_LIGHT_DISTANT};
+    const double origin[3] = {0, 0, 0};
+    if (!mat4_point(p->ctm, sun, l.from) || !mat4_point(p->ctm, origin, l.to))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light: its direction leaves the float range");
+    if (l.from[0] == l.to[0] && l.from[1] == l.to[1] && l.from[2] == l.to[2])
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light \"PxrEnvDayLight\": the current transformation has no "
+                            "direction for the sun");
     return scene_add_light(p->scene, &l, p->err);
 }
 
@@ -338,11 +482,26 @@ int rib_req_light(rib_parser *p)
         return TS_OK;
     }
     ris_light_kind kind = ris_lights[k].kind;
-    ris_light_args a = {.intensity = kind == RIS_DISTANT ? 50000.0 : 1.0,
+    /* PxrEnvDayLight: RenderMan's documented intensity 1e-5 (1 gives cd/m^2) and month 0 (use
+     * sunDirection); the date and place of its .args file (Seattle, 20 November 2014, 14:38),
+     * used when a month is given. */
+    ris_light_args a = {.intensity = kind == RIS_DISTANT ? 50000.0
+                                     : kind == RIS_DAY   ? 1e-5
+                                                         : 1.0,
                         .color = {1, 1, 1},
                         .temperature = 6500.0,
                         .angle = 0.53,
-                        .sky_tint = {1, 1, 1}};
+                        .sky_tint = {1, 1, 1},
+                        .sun_tint = {1, 1, 1},
+                        .sun_size = 1.0,
+                        .sun_direction = {0, 0, 1},
+                        .haziness = 2.0,
+                        .day = 20,
+                        .year = 2014,
+                        .hour = 14.633333,
+                        .zone = -8,
+                        .latitude = 47.6019,
+                        .longitude = -122.3318};
     double L[3];
     rc = ris_light_read(p, kind, first, &a);
     if (rc == TS_OK) rc = ris_light_radiance(p, name, &a, L);
@@ -350,7 +509,8 @@ int rib_req_light(rib_parser *p)
     if (p->ctm_moving && kind != RIS_DOME && kind != RIS_DAY)
         rib_warn_once(p, p->req_line, p->req_col,
                       "Light under a moving transformation is placed at shutter open");
-    if (kind == RIS_DOME || kind == RIS_DAY) return ris_light_dome(p, name, &a, L);
+    if (kind == RIS_DOME) return ris_light_dome(p, &a, L);
+    if (kind == RIS_DAY) return ris_light_day(p, &a, a.intensity * exp2(a.exposure));
     if (kind == RIS_DISTANT) return ris_light_distant(p, &a, L);
     return ris_light_shape(p, kind, &a, L);
 }
