@@ -92,9 +92,10 @@ static void test_direction(void **state)
     sun_of(l, d);
     assert_dir(d, 0, 1, 1, 1e-12);
     assert_true(fabs(l->angle - SKY_SUN_DIAMETER_DEG) <= 1e-12);
-    /* irradiance = radiance * the disc's solid angle, scaled by intensity * 2^exposure */
-    double omega = 2 * M_PI * (1 - cos(0.5 * SKY_SUN_DIAMETER_DEG * DEG));
-    assert_true(fabs(l->intensity - 4e-5 * omega) <= 1e-12 * l->intensity);
+    /* irradiance = radiance * pi sin^2 of the disc's half angle (a uniform cone facing the
+     * surface), scaled by intensity * 2^exposure */
+    double sh = sin(0.5 * SKY_SUN_DIAMETER_DEG * DEG);
+    assert_true(fabs(l->intensity - 4e-5 * M_PI * sh * sh) <= 1e-12 * l->intensity);
     sky_sun_radiance(3, 45 * DEG, rgb, NULL);
     const double tint[3] = {1, 0.5, 0.25};
     for (int k = 0; k < 3; k++)

@@ -2,9 +2,10 @@
  * dome (a lat-long map from lightColorMap), PxrDistantLight a distant light whose cone is
  * angleExtent, PxrRectLight, PxrDiskLight, PxrSphereLight and PxrCylinderLight emissive
  * geometry (a bilinear patch, a disk, a sphere or a cylinder of Bézier patches, which the
- * emitter table samples as area lights), PxrEnvDayLight a uniform dome. The radiance of every
- * light is intensity * 2^exposure * lightColor (times a black body's colour with
- * enableTemperature), RenderMan's with normalize off; light filters are ignored (rib.c warns
+ * emitter table samples as area lights), PxrEnvDayLight Preetham's sky baked into the dome's
+ * map and the sun as a distant light (sky.h). The radiance of every other light is
+ * intensity * 2^exposure * lightColor (times a black body's colour with enableTemperature),
+ * RenderMan's with normalize off; light filters are ignored (rib.c warns
  * about LightFilter). The light's shape is RenderMan's (USD's UsdLux took it): a unit square
  * or a disk of diameter 1 in the xy plane facing -z, a sphere of diameter 1, a cylinder of
  * length 1 and diameter 1 along x; a distant light shines down -z. docs/rib.md "RIS
@@ -366,8 +367,9 @@ static int ris_light_day(rib_parser *p, const ris_light_args *a, const double sc
     }
     if (!day || half == 0.0 || !(b.sun_rgb[0] > 0 || b.sun_rgb[1] > 0 || b.sun_rgb[2] > 0))
         return TS_OK;
-    /* The sun: irradiance L * solid angle on a surface facing it (ris_light_distant's cone). */
-    ts_scene_light l = {.intensity = scale * b.sun_solid_angle,
+    /* The sun: a cone of radiance L gives irradiance L pi sin^2(half) on a surface facing it
+     * (ris_light_distant's, lights.c's). */
+    ts_scene_light l = {.intensity = scale * M_PI * sin(half) * sin(half),
                         .color = {b.sun_rgb[0], b.sun_rgb[1], b.sun_rgb[2]},
                         .angle = 2.0 * half * 180.0 / M_PI,
                         .kind = SCENE_LIGHT_DISTANT};
@@ -506,7 +508,7 @@ int rib_req_light(rib_parser *p)
     rc = ris_light_read(p, kind, first, &a);
     if (rc == TS_OK) rc = ris_light_radiance(p, name, &a, L);
     if (rc != TS_OK) return rc;
-    if (p->ctm_moving && kind != RIS_DOME && kind != RIS_DAY)
+    if (p->ctm_moving && kind != RIS_DOME)
         rib_warn_once(p, p->req_line, p->req_col,
                       "Light under a moving transformation is placed at shutter open");
     if (kind == RIS_DOME) return ris_light_dome(p, &a, L);
