@@ -3,8 +3,9 @@
  *   (the obliquity of the ecliptic, 23.4366 degrees in 2014) give the noon elevation
  *   90 - |latitude -+ 23.44| at Seattle, Greenwich and Sydney; the equation of time (USNO /
  *   NOAA tables: -1.7 min on 21 June, +16.4 min on 3 November, about -7.5 min on 20 March)
- *   gives the time of solar noon; the equinox sun rises due east; all within 0.5 degree or
- *   2 minutes; dates that do not exist are refused;
+ *   gives the time of solar noon; on the equator the 2014 March equinox sun (16:57 UTC)
+ *   rises at the declination's -0.18 degree south of east; all within 0.5 degree (0.1 for
+ *   the azimuth) or 2 minutes; dates that do not exist are refused;
  * - Preetham's sky against numbers computed separately from the paper's equations (a Python
  *   transcription of its appendix A.2 and section 3, not this code): zenith luminance and
  *   chromaticity, the Perez ratio Y / Y_z at the sun and opposite it, at two turbidities;
