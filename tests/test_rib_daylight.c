@@ -242,12 +242,33 @@ static void test_second_dome(void **state)
     scene_free(&s);
 }
 
+/* RenderMan 20's AreaLightSource "PxrStdEnvDayLight" on Geometry "envsphere" stays a uniform
+ * dome of intensity * 2^exposure, and says so. */
+static void test_rm20_daylight(void **state)
+{
+    (void)state;
+    const char *text = "WorldBegin\nAttributeBegin\nAreaLightSource \"PxrStdEnvDayLight\" 1 "
+                       "\"float exposure\" [1]\nGeometry \"envsphere\"\nAttributeEnd\nWorldEnd\n";
+    int rc;
+    const char *out = test_rib_warnings(text, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:3:1: warning: AreaLightSource \"PxrStdEnvDayLight\" is drawn "
+                             "as a uniform dome of intensity * 2^exposure (its sky and sun are "
+                             "not; Light \"PxrEnvDayLight\" draws them)\n");
+    ts_scene s;
+    test_parse_rib_ok(text, &s);
+    assert_true(s.dome.present && s.dome.mapname[0] == '\0');
+    assert_true(s.dome.color[0] == 2.0 && s.dome.color[2] == 2.0);
+    assert_int_equal(s.light_count, 0);
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_direction),   cmocka_unit_test(test_transform),
         cmocka_unit_test(test_date),        cmocka_unit_test(test_warnings_and_errors),
-        cmocka_unit_test(test_second_dome),
+        cmocka_unit_test(test_second_dome), cmocka_unit_test(test_rm20_daylight),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

@@ -544,6 +544,11 @@ int rib_rm20_area_light(rib_parser *p, const char *name, size_t first)
     int rc = ris_light_read(p, k == 0 ? RIS_RECT : RIS_DOME, first, &a);
     if (rc == TS_OK) rc = ris_light_radiance(p, name, &a, L);
     if (rc != TS_OK) return rc;
+    if (k == 2) /* RenderMan 20's parameters for it differ (a y-up "direction", "method") */
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "AreaLightSource \"PxrStdEnvDayLight\" is drawn as a uniform dome of "
+                      "intensity * 2^exposure (its sky and sun are not; Light \"PxrEnvDayLight\" "
+                      "draws them)");
     free(p->rm20_map);
     p->rm20_map = NULL;
     if (a.map_arg) {
