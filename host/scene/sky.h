@@ -42,7 +42,8 @@
  * `hour` hours after midnight local standard time (fractional) on year-month-day of the
  * Gregorian calendar, in time zone `zone` hours east of UTC, at latitude (north > 0) and
  * longitude (east > 0) in degrees. Returns 0, or -1 when the month or day does not exist
- * (month 1..12, day 1..its length). Accuracy: about 0.01 degree between 1900 and 2100. */
+ * (month 1..12, day 1..its length). Accuracy: about 0.01 degree (Meeus's figure for these
+ * series, for years near 2000), without refraction. */
 int sky_solar_position(int year, int month, int day, double hour, double zone, double latitude,
                        double longitude, double *elevation_deg, double *azimuth_deg);
 /* The unit direction towards (elevation, azimuth), degrees: x east, y north, z up. */
