@@ -186,9 +186,8 @@ static double daylight_irradiance(const char *rib)
     ts_scene s = {0};
     ts_error e = {0};
     if (rib_load(path(rib), &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
-    assert_true(s.dome.present && s.dome.mapname[0]);
-    ts_image map;
-    test_read_image(s.dome.mapname, &map);
+    assert_true(s.dome.present && s.dome.map);
+    ts_image map = {(int)s.dome.map_width, (int)s.dome.map_height, 3, NULL, s.dome.map};
     double sky = 0;
     for (int y = 0; y < map.height; y++) {
         double th = (y + 0.5) * M_PI / map.height, c = -cos(th);
@@ -197,7 +196,7 @@ static double daylight_irradiance(const char *rib)
         for (int x = 0; x < map.width; x++)
             sky += w * map.pixels[((size_t)y * map.width + x) * map.channels];
     }
-    image_free(&map);
+
     double sun = 0;
     if (s.light_count) {
         assert_int_equal(s.light_count, 1);

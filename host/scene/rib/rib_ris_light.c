@@ -12,9 +12,7 @@
  * shading" has the rules. */
 #include "scene/rib/rib_internal.h"
 
-#include "base/hash.h"
 #include "base/mat4.h"
-#include "image/image.h"
 #include "scene/quadric.h"
 #include "scene/sky.h"
 
@@ -24,7 +22,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 typedef enum ris_light_kind {
     RIS_DOME,
@@ -200,7 +197,7 @@ static int ris_dome(rib_parser *p, const char *map, int line, int col, const dou
                       "Light: a second dome light is ignored (one dome per scene)");
         return TS_OK;
     }
-    ts_dome_light d = {1, 1.0, {L[0], L[1], L[2]}, ""};
+    ts_dome_light d = {1, 1.0, {L[0], L[1], L[2]}, "", NULL, 0, 0};
     int rc = map && map[0] ? rib_light_dome_map(p, map, line, col, &d) : TS_OK;
     if (rc == TS_OK) p->scene->dome = d;
     return rc;
@@ -247,25 +244,6 @@ static int ris_light_distant(rib_parser *p, const ris_light_args *a, const doubl
 
 /* ---- PxrEnvDayLight ---------------------------------------------------------------------- */
 
-/* Where baked skies are written: $TESSERA_CACHE_DIR, else $XDG_CACHE_HOME/tessera, else
- * ~/.cache/tessera (the kernel cache's folder), else $TMPDIR or /tmp. */
-static void day_cache_dir(char *out, size_t cap)
-{
-    const char *dir = getenv("TESSERA_CACHE_DIR"), *xdg = getenv("XDG_CACHE_HOME"),
-               *home = getenv("HOME"), *tmp = getenv("TMPDIR");
-    if (dir && *dir) {
-        snprintf(out, cap, "%s", dir);
-    } else if ((xdg && *xdg) || (home && *home)) {
-        snprintf(out, cap, xdg && *xdg ? "%s" : "%s/.cache", xdg && *xdg ? xdg : home);
-        mkdir(out, 0755);
-        size_t n = strlen(out);
-        if (n + sizeof "/tessera" <= cap) memcpy(out + n, "/tessera", sizeof "/tessera");
-    } else {
-        snprintf(out, cap, "%s", tmp && *tmp ? tmp : "/tmp");
-    }
-    mkdir(out, 0755);
-}
-
 /* The sun's direction in the light's space (z up, x east, y north): sunDirection when month
  * is 0, else from the date, hour, zone and place. 1 when the sun is above the horizon. */
 static int day_sun(rib_parser *p, const ris_light_args *a, double sun[3])
@@ -292,23 +270,6 @@ static int day_sun(rib_parser *p, const ris_light_args *a, double sun[3])
                             a->year, a->month, a->day);
     sky_direction(elevation, azimuth, sun);
     return TS_OK;
-}
-
-/* Writes the baked map under a name that is the hash of its texels and points the dome at
- * it (the pipeline reads domes from files). */
-static int day_write_map(rib_parser *p, float *rgb, ts_dome_light *d)
-{
-    size_t n = (size_t)SKY_MAP_WIDTH * SKY_MAP_HEIGHT * 3;
-    uint64_t h = ts_fnv1a(TS_FNV1A_INIT, rgb, n * sizeof *rgb);
-    char dir[4096], name[32];
-    day_cache_dir(dir, sizeof dir);
-    snprintf(name, sizeof name, "/sky-%016llx.exr", (unsigned long long)h);
-    if (strlen(dir) + strlen(name) >= sizeof d->mapname)
-        return ts_error_set(p->err, TS_E_IO, "%s: the cache folder's name is too long", dir);
-    memcpy(d->mapname, dir, strlen(dir));
-    memcpy(d->mapname + strlen(dir), name, strlen(name) + 1);
-    ts_image img = {SKY_MAP_WIDTH, SKY_MAP_HEIGHT, 3, NULL, rgb};
-    return image_write_exr(d->mapname, &img, NULL, 0, p->err);
 }
 
 /* PxrEnvDayLight: Preetham's sky (sky.h) baked into the dome's map, in the light's space
@@ -359,10 +320,8 @@ static int ris_light_day(rib_parser *p, const ris_light_args *a, const double sc
         float *rgb = malloc((size_t)SKY_MAP_WIDTH * SKY_MAP_HEIGHT * 3 * sizeof *rgb);
         if (!rgb) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
         sky_bake(&b, rgb);
-        ts_dome_light d = {1, scale, {1, 1, 1}, ""};
-        rc = day_write_map(p, rgb, &d);
-        free(rgb);
-        if (rc != TS_OK) return rc;
+        /* the map stays in memory: the scene owns it (scene.h ts_dome_light) */
+        ts_dome_light d = {1, scale, {1, 1, 1}, "", rgb, SKY_MAP_WIDTH, SKY_MAP_HEIGHT};
         p->scene->dome = d;
     }
     if (!day || half == 0.0 || !(b.sun_rgb[0] > 0 || b.sun_rgb[1] > 0 || b.sun_rgb[2] > 0))
