@@ -169,6 +169,7 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
 typedef struct buffer_counts {
     size_t rays, paths, pairs, film;               /* the plan, the device films */
     size_t patches, nodes, xforms, textures;       /* the scene */
+    size_t moving;                                 /* patches with cp1: all, or 1 */
     size_t instances, inst_xforms;                 /* its instancing tables */
     size_t lights, emitters, env_texels, env_rows; /* lights.h */
     size_t tex_texels, tex_pages;                  /* tile pool, page table */
@@ -188,6 +189,7 @@ static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads 
         .pairs = p->plan.pair_capacity,
         .film = p->plan.host_film ? 1 : p->pixel_count,
         .patches = s->patch_count ? s->patch_count : 1,
+        .moving = s->cp1 && s->patch_count ? s->patch_count : 1,
         .nodes = p->qbvh.node_count,
         .xforms = s->xform_count ? s->xform_count : 1,
         .instances = s->instance ? s->patch_count : 1,

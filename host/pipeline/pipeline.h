@@ -127,9 +127,10 @@ typedef struct ts_trace_mode {
  * TS_MEM_SCENE buffer starts with; NULL: zeros) are expressions over pipeline.c's
  * buffer_counts c and scene_uploads u; what the scene lacks is one unused element, so no
  * buffer has size 0. pipeline_create makes every buffer, pipeline_destroy releases them.
- *   qbvh_nodes: the top-level BVH (qbvh.h); cp, cp1: control points at times 0 and 1 (cp1 =
- *     cp for a static scene); corner_n, mid_n: displacement normals at the corners and
- *     the edge midpoints and centre (scene.h; +z if the scene has none);
+ *   qbvh_nodes: the top-level BVH (qbvh.h); cp, cp1: control points at times 0 and 1 (a
+ *     static scene's cp1 is one patch's worth, never read: dice reads cp1 only for the
+ *     second time sample of a moving patch; 256 bytes a patch saved); corner_n, mid_n: displacement
+ * normals at the corners and the edge midpoints and centre (scene.h; +z if the scene has none);
  *     attr: with each patch's emitter index; xform: world to object (the identity if none);
  *     flatness: patch_flatness, w = the longest side of the patch's box (secondary-ray
  *     offset l / 2^m); patch_box: scene_patch_box (build clamps leaf boxes to it); lights,
@@ -157,7 +158,7 @@ typedef struct ts_trace_mode {
     /* The scene, read only, uploaded at creation (Hanika §4: only these grow with it). */      \
     X(qbvh_nodes,      TS_MEM_SCENE,      ts_qbvh_node,  c.nodes,        u.nodes)               \
     X(cp,              TS_MEM_SCENE,      ts_vec4,       16 * c.patches, u.cp)                  \
-    X(cp1,             TS_MEM_SCENE,      ts_vec4,       16 * c.patches, u.cp1)                 \
+    X(cp1,             TS_MEM_SCENE,      ts_vec4,       16 * c.moving,  u.cp1)                  \
     X(corner_n,        TS_MEM_SCENE,      ts_vec4,       4 * c.patches,  u.corner_n)            \
     X(mid_n,           TS_MEM_SCENE,      ts_vec4,       5 * c.patches,  u.mid_n)               \
     X(attr,            TS_MEM_SCENE,      ts_patch_attr, c.patches,      u.attr)                \
