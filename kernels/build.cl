@@ -189,8 +189,20 @@ __kernel void build_level(__global const uint *trees, uint tree_first, uint tree
     quadtree_store(base, cbase, level, k, box, tb, coded);
 }
 
+/* The four boxes of sibling group g as codes inside box p (quadtree_cull_code), into *c. */
+inline void cull_encode(__global const ts_box4 *g, ts_box p, __global ts_tight4 *c)
+{
+    for (uint q = 0; q < 4u; ++q) {
+        ts_box b = {g->lo_x[q], g->lo_y[q], g->lo_z[q], g->hi_x[q], g->hi_y[q], g->hi_z[q]};
+        ts_tight4 t = quadtree_cull_code(p, b);
+        c->lo_x[q] = t.lo_x[0], c->lo_y[q] = t.lo_y[0], c->lo_z[q] = t.lo_z[0];
+        c->hi_x[q] = t.hi_x[0], c->hi_y[q] = t.hi_y[0], c->hi_z[q] = t.hi_z[0];
+    }
+}
+
 /* build_cull (one launch per batch, after build_level): copies levels 1 and 2 of each static
- * tree of the batch, TS_CULL_GROUPS groups from its group 1, to its patch's entry of cull,
+ * tree of the batch, TS_CULL_GROUPS groups from its group 1, to its patch's entry of cull as
+ * codes inside the patch's top-level box (cull_encode),
  * and sets cull_levels[patch] to how many of the two levels top_level may cull by
  * (quadtree_cull_levels; groups of levels it may not are left as they were and never read).
  * A moving patch keeps 0 (top_level then never culls it). The entry written is the
@@ -200,7 +212,8 @@ __kernel void build_level(__global const uint *trees, uint tree_first, uint tree
  * One work-item per group. */
 __kernel void build_cull(__global const uint *trees, uint tree_first, uint tree_count, uint leaf_b,
                          __global const ts_segment *segments, __global const ts_box4 *groups,
-                         __global ts_box4 *cull, __global uint *cull_levels)
+                         __global const ts_box *patch_box, __global ts_tight4 *cull,
+                         __global uint *cull_levels)
 {
     uint gid = get_global_id(0);
     uint t = gid / TS_CULL_GROUPS, g = gid % TS_CULL_GROUPS;
@@ -211,7 +224,8 @@ __kernel void build_cull(__global const uint *trees, uint tree_first, uint tree_
     uint levels = quadtree_cull_levels(seg.lod, leaf_b);
     if (g == 0u) cull_levels[seg.shape] = levels;
     if (g + 1u < quadtree_group_count(levels))
-        cull[(size_t)seg.shape * TS_CULL_GROUPS + g] = groups[(size_t)seg.group_first + 1u + g];
+        cull_encode(groups + (size_t)seg.group_first + 1u + g, patch_box[seg.shape],
+                    cull + (size_t)seg.shape * TS_CULL_GROUPS + g);
 }
 
 /* Not a stage: the probe of tests/test_dice_build.c. Item i: displace_normal_box_x4 of the

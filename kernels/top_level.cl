@@ -1,8 +1,9 @@
 /* top_level.cl — stage `top_level` (Hanika §3.1, Fig. 2): each active ray resumes its
  * ordered traversal of the top-level QBVH and appends up to n_per_ray candidate
  * (leaf, window) pairs, front to back.
- * Reads:  nodes, cull and cull_levels (the upper levels of built patches' quad-trees:
- *         candidates that cannot reach a leaf are left out, cull_enter), active[0..active_count),
+ * Reads:  nodes, cull and cull_levels (the upper levels of built patches' quad-trees as codes
+ *         inside patch_box: candidates that cannot reach a leaf are left out, cull_enter),
+ *         active[0..active_count),
  *         org, dir, hit.t (tmax: closest hit so far),
  *         entry (where the ray stopped last iteration).
  * Writes: pairs[i*n_per_ray .. +count[i]) and count[i] (the rest of the window is left
@@ -23,6 +24,7 @@
 #include "lib/intersect.h"
 #include "lib/prefetch.h"
 #include "lib/qbvh.h"
+#include "lib/quadtree.h"
 
 /* Which of four boxes (SoA: lo_x[4] .. hi_z[4], as ts_qbvh_node and ts_box4 begin) the ray
  * enters within [0, tmax]: bit c for box c. The slab test of box_enter (lib/intersect.h), lane
@@ -50,26 +52,53 @@ inline uint qbvh_children_hit(__global const ts_qbvh_node *q, float4 o, float4 i
     return box4_hits(q->lo_x, o, inv, tmax);
 }
 
+/* box4_hits on the four boxes of a culling copy's group c, decoded inside the patch's box p
+ * (lib/quadtree.h quadtree_cull_code; the tight codes' decoding, each box holding the tree's):
+ * the same slab operations on boxes that hold the tree's, so a ray that enters a tree box
+ * within [0, tmax] enters its decoded box too (the slab test is monotone in the planes). */
+inline uint cull4_hits(__global const ts_tight4 *c, ts_box p, float4 o, float4 inv, float tmax)
+{
+    float sx = tight_step(p.lo_x, p.hi_x), sy = tight_step(p.lo_y, p.hi_y),
+          sz = tight_step(p.lo_z, p.hi_z);
+    float4 lx = p.lo_x + convert_float4(vload4(0, c->lo_x)) * sx;
+    float4 ly = p.lo_y + convert_float4(vload4(0, c->lo_y)) * sy;
+    float4 lz = p.lo_z + convert_float4(vload4(0, c->lo_z)) * sz;
+    float4 hx = p.hi_x - convert_float4(vload4(0, c->hi_x)) * sx;
+    float4 hy = p.hi_y - convert_float4(vload4(0, c->hi_y)) * sy;
+    float4 hz = p.hi_z - convert_float4(vload4(0, c->hi_z)) * sz;
+    float4 tx0 = (lx - o.x) * inv.x, tx1 = (hx - o.x) * inv.x;
+    float4 ty0 = (ly - o.y) * inv.y, ty1 = (hy - o.y) * inv.y;
+    float4 tz0 = (lz - o.z) * inv.z, tz1 = (hz - o.z) * inv.z;
+    float4 tn = TS_MAX(TS_MAX(TS_MAX(TS_MIN(tx0, tx1), TS_MIN(ty0, ty1)), TS_MIN(tz0, tz1)),
+                       (float4)(0.0f));
+    float4 tf = TS_MIN(TS_MIN(TS_MAX(tx0, tx1), TS_MAX(ty0, ty1)),
+                       TS_MIN(TS_MAX(tz0, tz1), (float4)(tmax)));
+    tf *= 1.0000003576f;
+    int4 hit = lx <= hx && tn <= tf;
+    return (uint)(hit.x & 1) | (uint)(hit.y & 2) | (uint)(hit.z & 4) | (uint)(hit.w & 8);
+}
+
 /* Whether the ray, within [0, tmax], enters a box of level 2 of a built patch's quad-tree
  * under a level-1 box it enters (levels 2; levels 1: a level-1 box; 0: the patch is not
  * built yet, always). bottom_level reaches a leaf only through boxes of both levels that it
  * enters within [tmin, tmax'] (tmin >= 0, tmax' <= tmax; group_enter: the same slab
  * operations), so a candidate that fails here finds no hit there and is left out: the hits
  * and their order do not change, only the pairs (TS_CULL_GROUPS). */
-TS_INLINE_ALWAYS int cull_enter(__global const ts_box4 *c, uint levels, float4 o, float4 inv,
-                                float tmax)
+TS_INLINE_ALWAYS int cull_enter(__global const ts_tight4 *c, uint levels,
+                                __global const ts_box *patch_box, float4 o, float4 inv, float tmax)
 {
     if (levels == 0u) return 1;
-    uint h = box4_hits(c->lo_x, o, inv, tmax);
+    ts_box p = *patch_box;
+    uint h = cull4_hits(c, p, o, inv, tmax);
     if (levels == 1u || h == 0u) return h != 0u;
     for (uint q = 0; q < 4u; ++q)
-        if (((h >> q) & 1u) && box4_hits(c[1u + q].lo_x, o, inv, tmax) != 0u) return 1;
+        if (((h >> q) & 1u) && cull4_hits(c + 1u + q, p, o, inv, tmax) != 0u) return 1;
     return 0;
 }
 
-__kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global const ts_box4 *cull,
-                                __global const uint *cull_levels, __global const uint *active,
-                                uint active_count, uint n_per_ray,
+__kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global const ts_tight4 *cull,
+                                __global const uint *cull_levels, __global const ts_box *patch_box,
+                                __global const uint *active, uint active_count, uint n_per_ray,
                                 __global const uint *window_first, uint count_only,
                                 __global const ts_vec4 *org, __global const ts_vec4 *dir,
                                 __global const ts_hit *hit, __global uint *entry,
@@ -113,7 +142,8 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
                 continue;
             }
             uint leaf = (uint)~child;
-            if (!cull_enter(cull + (size_t)leaf * TS_CULL_GROUPS, cull_levels[leaf], o4, inv, tmax))
+            if (!cull_enter(cull + (size_t)leaf * TS_CULL_GROUPS, cull_levels[leaf],
+                            patch_box + leaf, o4, inv, tmax))
                 continue;
             if (filled && n == limit) { /* full: resume at this candidate */
                 state = (node << 3) | (pos - 1u);

@@ -336,7 +336,7 @@ static void test_instance_cull(void **state)
             (ts_segment){.patch = P + k, .begin = k, .end = k + 1, .lod = p.patch_lod[P + k]};
     if (pipeline_dice_build(&p, P, &err)) fail_msg("%s", err.msg);
     static cl_uint levels[2 * P];
-    static ts_box4 cull[2 * P * TS_CULL_GROUPS];
+    static ts_tight4 cull[2 * P * TS_CULL_GROUPS];
     size_t gbytes = (size_t)plan.group_capacity * sizeof(ts_box4);
     ts_box4 *groups = malloc(gbytes);
     assert_non_null(groups);
@@ -350,9 +350,30 @@ static void test_instance_cull(void **state)
         uint32_t want = quadtree_cull_levels(sg->lod, 1);
         if (levels[k] != want)
             fail_msg("master %u: %u culling levels, want %u", k, levels[k], want);
-        uint32_t n = quadtree_group_count(want) - 1u; /* the groups below the root */
-        if (memcmp(&cull[k * TS_CULL_GROUPS], groups + sg->group_first + 1, n * sizeof *groups))
-            fail_msg("master %u: the culling boxes are not its tree's", k);
+        /* The groups below the root, as codes in the patch box: decoded, each box holds the
+         * tree's and is within two steps (1/255 of the patch box) of it. */
+        uint32_t n = quadtree_group_count(want) - 1u;
+        ts_box pb = scene_patch_box(&s, k);
+        for (uint32_t g = 0; g < n; ++g)
+            for (uint32_t q = 0; q < 4u; ++q) {
+                const ts_box4 *t = groups + sg->group_first + 1 + g;
+                const ts_tight4 *c = &cull[k * TS_CULL_GROUPS + g];
+                float lo[3] = {t->lo_x[q], t->lo_y[q], t->lo_z[q]};
+                float hi[3] = {t->hi_x[q], t->hi_y[q], t->hi_z[q]};
+                float plo[3] = {pb.lo_x, pb.lo_y, pb.lo_z}, phi[3] = {pb.hi_x, pb.hi_y, pb.hi_z};
+                const uint8_t *clo[3] = {c->lo_x, c->lo_y, c->lo_z};
+                const uint8_t *ch[3] = {c->hi_x, c->hi_y, c->hi_z};
+                for (int a = 0; a < 3; ++a) {
+                    float step = tight_step(plo[a], phi[a]);
+                    float dl = plo[a] + (float)clo[a][q] * step;
+                    float dh = phi[a] - (float)ch[a][q] * step;
+                    if (!(dl <= lo[a] && dh >= hi[a] && lo[a] - dl <= 2.0f * step + 1e-6f &&
+                          dh - hi[a] <= 2.0f * step + 1e-6f))
+                        fail_msg("master %u, culling group %u lane %u axis %d: decoded [%g, %g], "
+                                 "the tree's [%g, %g], step %g",
+                                 k, g, q, a, dl, dh, lo[a], hi[a], step);
+                }
+            }
     }
     free(groups);
     pipeline_destroy(&p);

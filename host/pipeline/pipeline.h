@@ -187,7 +187,7 @@ typedef struct ts_trace_mode {
     X(groups,          CL_MEM_READ_WRITE, ts_box4,       c.groups,       NULL)                  \
     X(tight,           CL_MEM_READ_WRITE, ts_tight4,     c.groups,       NULL)                  \
     X(utilisation,     CL_MEM_READ_WRITE, ts_u32,        2 * c.util_groups, NULL)               \
-    X(cull,            CL_MEM_READ_WRITE, ts_box4,       TS_CULL_GROUPS * c.patches, NULL)      \
+    X(cull,            CL_MEM_READ_WRITE, ts_tight4,     TS_CULL_GROUPS * c.patches, NULL)      \
     X(cull_levels,     CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \
     /* Where each patch's diced grid is resident, for shade (pipeline_grid_publish). */        \
     X(grid_at,         CL_MEM_READ_ONLY,  ts_u32,        3 * c.patches,  NULL)                  \

@@ -19,10 +19,11 @@ static int top_level_launch(ts_pipeline *p, uint32_t active_count, uint32_t n_pe
                             uint32_t count_only, ts_error *err)
 {
     if (dev_set_args(p->k_top_level, err, DEV_ARG(p->qbvh_nodes), DEV_ARG(p->cull),
-                     DEV_ARG(p->cull_levels), DEV_ARG(p->active), DEV_ARG(active_count),
-                     DEV_ARG(n_per_ray), DEV_ARG(p->window_first), DEV_ARG(count_only),
-                     DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir), DEV_ARG(p->ray_hit),
-                     DEV_ARG(p->ray_entry), DEV_ARG(p->pairs), DEV_ARG(p->count), (size_t)0))
+                     DEV_ARG(p->cull_levels), DEV_ARG(p->patch_box), DEV_ARG(p->active),
+                     DEV_ARG(active_count), DEV_ARG(n_per_ray), DEV_ARG(p->window_first),
+                     DEV_ARG(count_only), DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir),
+                     DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry), DEV_ARG(p->pairs),
+                     DEV_ARG(p->count), (size_t)0))
         return err->code;
     if (dev_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
         return err->code;
@@ -376,7 +377,8 @@ static int stage_build_cull(ts_pipeline *p, const ts_batch *b, ts_error *err)
     uint32_t leaf_b = p->mode.leaf_b;
     if (dev_set_args(p->k_build_cull, err, DEV_ARG(p->trees), DEV_ARG(b->tree_first),
                      DEV_ARG(b->tree_count), DEV_ARG(leaf_b), DEV_ARG(p->segments),
-                     DEV_ARG(p->groups), DEV_ARG(p->cull), DEV_ARG(p->cull_levels), (size_t)0) ||
+                     DEV_ARG(p->groups), DEV_ARG(p->patch_box), DEV_ARG(p->cull),
+                     DEV_ARG(p->cull_levels), (size_t)0) ||
         dev_launch(p->cl, p->k_build_cull, TS_STAGE_build, (size_t)b->tree_count * TS_CULL_GROUPS,
                    TS_LOCAL_SIZE, err))
         return err->code;

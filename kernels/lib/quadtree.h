@@ -253,6 +253,24 @@ TS_INLINE ts_box quadtree_tight_union(TS_CONST_GLOBAL ts_box4 *groups,
     return t;
 }
 
+/* Box b (inside p: build clamps every leaf to its patch's top-level box) as the codes of a
+ * culling copy (TS_CULL_GROUPS) in lane 0: the tight codes' rounding with p as the node box,
+ * so quadtree_cull_box gives a box that holds b. */
+TS_INLINE ts_tight4 quadtree_cull_code(ts_box p, ts_box b)
+{
+    float sx = tight_step(p.lo_x, p.hi_x), sy = tight_step(p.lo_y, p.hi_y),
+          sz = tight_step(p.lo_z, p.hi_z);
+    float rx = tight_scale(sx), ry = tight_scale(sy), rz = tight_scale(sz);
+    ts_tight4 t = {{0}, {0}, {0}, {0}, {0}, {0}};
+    t.lo_x[0] = (ts_u8)tight_code_lo(p.lo_x, sx, rx, b.lo_x);
+    t.lo_y[0] = (ts_u8)tight_code_lo(p.lo_y, sy, ry, b.lo_y);
+    t.lo_z[0] = (ts_u8)tight_code_lo(p.lo_z, sz, rz, b.lo_z);
+    t.hi_x[0] = (ts_u8)tight_code_hi(p.hi_x, sx, rx, b.hi_x);
+    t.hi_y[0] = (ts_u8)tight_code_hi(p.hi_y, sy, ry, b.hi_y);
+    t.hi_z[0] = (ts_u8)tight_code_hi(p.hi_z, sz, rz, b.hi_z);
+    return t;
+}
+
 /* Micro-quad column i (u) and row j (v) of Morton index k. */
 TS_INLINE ts_u32 morton_i(ts_u32 k)
 {

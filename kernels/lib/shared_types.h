@@ -86,8 +86,9 @@ typedef struct ts_tight4 {
 /* Top-level culling by a built patch's upper quad-tree levels (top_level.cl, build.cl
  * build_cull): TS_CULL_GROUPS sibling groups per patch, its tree's level 1 (group 0) and
  * level 2 (group 1 + c: the children of level-1 node c), copied from the tree when it is
- * built; a candidate whose ray enters none of them within [0, tmax] could not reach a leaf,
- * so it is not emitted. 480 bytes per patch. */
+ * built as 8-bit codes inside the patch's top-level box (ts_tight4, the trees' tight codes'
+ * rounding: decoded, each box holds the tree's); a candidate whose ray enters none of them
+ * within [0, tmax] could not reach a leaf, so it is not emitted. 120 bytes per patch. */
 #define TS_CULL_GROUPS 5u
 
 /* One node of the top-level 4-wide BVH (Hanika §3.1, Dammertz et al. 2008), 128 bytes.
