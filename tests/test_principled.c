@@ -167,6 +167,7 @@ static void test_furnace_bound(void **state)
         for (int j = 0; j < 8; j++) /* corners for k < 16, random after */
             v[j] = k < 16 ? (float)((k >> (j % 4)) & 1) : test_uniform(&seed, 0.0f, 1.0f);
         if (k < 16) p.roughness = k & 8 ? 1.0f : 0.1f;
+        if (k % 4 == 1) p.clearcoat *= 4.0f; /* PxrSurface's coats reach 4 */
         for (int c = 0; c < 3; c++)
             p.cs[c] = k % 3 == 0 ? 1.0f : test_uniform(&seed, 0.0f, 1.0f);
         ts_patch_attr a = principled(&p);

@@ -3,7 +3,8 @@
  * reflects more than it receives. Included by lib/bsdf.h (bsdf_eval and bsdf_sample dispatch
  * here); the shade kernel and tests/test_principled.c run the same code. Parameters: the base
  * colour Cs (times its texture), ts_patch_attr's roughness (GGX alpha, the square of Burley's
- * roughness) and the metallic ... clearcoat_gloss fields, each in [0, 1].
+ * roughness) and the metallic ... clearcoat_gloss fields, each in [0, 1] but clearcoat, in
+ * [0, 4] (1 is Burley's full coat; 4 a coat of Schlick F0 0.04 to 1, as PxrSurface's).
  * Lobes, with tint = Cs / max(Cs) (Burley's hue, normalised by the largest channel rather than
  * the luminance so that it stays in [0, 1]):
  *   specular  Schlick's F(wo.h) from F0 = mix(0.08 specular mix(1, tint, specular_tint), Cs,

@@ -213,13 +213,14 @@ typedef struct ts_patch_attr {
     float ior;               /* TS_MAT_GLASS: index of refraction inside (outside: 1); else 0 */
     ts_u32 pad;
     float st[8]; /* (s, t) at the four corners, in corner order */
-    /* TS_MAT_PRINCIPLED (lib/principled.h), each in [0, 1]; 0 for the other materials */
+    /* TS_MAT_PRINCIPLED (lib/principled.h), each in [0, 1] (clearcoat [0, 4]); 0 for the other
+     * materials */
     float metallic;        /* blend from the dielectric (0) to the conductor (1) response */
     float specular;        /* the dielectric's F0 = 0.08 specular */
     float specular_tint;   /* blend of that F0 from white towards the base colour's hue */
     float sheen;           /* the grazing sheen lobe's weight */
     float sheen_tint;      /* blend of the sheen from white towards the base colour's hue */
-    float clearcoat;       /* the clear coat's weight (0.25 clearcoat F D G / 4 cos cos) */
+    float clearcoat;       /* the clear coat: 0.25 clearcoat F D G / (4 cos cos), F0 0.04 */
     float clearcoat_gloss; /* the coat's GGX alpha from 0.1 (0) to 0.01 (1) */
     ts_u32 pad2;
 } ts_patch_attr;
