@@ -154,7 +154,7 @@ TS_INLINE float principled_eval(TS_CONST_GLOBAL ts_patch_attr *a, const float cs
     }
     float ps, pc;
     principled_lobe_probs(&p, co, &ps, &pc);
-    float pdf = (1.0f - ps - pc) * ci / TS_PI;
+    float pdf = fmax(1.0f - ps - pc, 0.0f) * ci / TS_PI; /* (not below 0 by rounding) */
     if (oh > 0.0f) pdf += (ps * ds + pc * dc) * ch / (4.0f * oh);
     return pdf;
 }
