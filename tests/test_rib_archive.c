@@ -141,13 +141,14 @@ static void test_clipping_shutter_crop(void **state)
                                              "WorldBegin");
     expect_error("WorldBegin\nShutter 0 1", "t.rib:2:1: error: Shutter must come before "
                                             "WorldBegin");
-    /* Each stored-but-unused option warns once; Option and Attribute once per name. */
+    /* Each stored-but-unused option warns once; Option and Attribute once per name.
+     * Attribute "identifier" "name" is read (look files' paths, rib_rlf.c), "id" is not. */
     int rc;
     const char *out =
         test_rib_warnings("Clipping 0.1 10\nClipping 0.2 10\nShutter 0 1\nShutter 0 1\n"
                           "CropWindow 0 1 0 1\nOption \"limits\" \"bucketsize\" [16 16]\n"
                           "Option \"searchpath\" \"shader\" \"x\"\nWorldBegin\n"
-                          "Attribute \"identifier\" \"name\" \"a\"\n"
+                          "Attribute \"identifier\" \"name\" \"a\" \"float id\" [3]\n"
                           "Attribute \"dice\" \"binary\" [1]\nWorldEnd\n",
                           &rc);
     assert_int_equal(rc, TS_OK);
@@ -159,7 +160,7 @@ static void test_clipping_shutter_crop(void **state)
                              "image is rendered)\n"
                              "w.rib:6:1: warning: Option \"limits\" is ignored\n"
                              "w.rib:7:21: warning: Option parameter \"shader\" is ignored\n"
-                             "w.rib:9:1: warning: Attribute \"identifier\" is ignored\n"
+                             "w.rib:9:35: warning: Attribute parameter \"id\" is ignored\n"
                              "w.rib:10:1: warning: Attribute \"dice\" is ignored\n");
 }
 

@@ -7,10 +7,15 @@
  *   by light sampling alike;
  * - a PxrDiffuse plane lit by a PxrRectLight (Lambert's polygon formula for the irradiance)
  *   and by a PxrSphereLight (pi L sin^2 of the sphere's half angle, times the cosine): the
- *   image's mean is Kd / pi times the irradiance's mean over the pixel centres.
+ *   image's mean is Kd / pi times the irradiance's mean over the pixel centres;
+ * - the same plane under PxrEnvDayLight at Seattle's solar noon on the June solstice and in
+ *   the evening: Kd / pi times the sun's irradiance (the loaded distant light's) times its
+ *   cosine plus the sky's (the baked map integrated against the cosine), and noon brighter.
  * Needs an OpenCL device (skipped, 77, without one). */
 #include "test_support.h"
 #include "image/image.h"
+#include "scene/rib/rib.h"
+#include "scene/scene.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -24,6 +29,7 @@ static int setup(void **state)
     (void)state;
     if (!test_has_device()) test_skip("no OpenCL device");
     snprintf(dir, sizeof dir, "%s", test_scratch_dir());
+    setenv("TESSERA_CACHE_DIR", dir, 1); /* where PxrEnvDayLight's sky maps go */
     return 0;
 }
 
@@ -238,6 +244,70 @@ static void test_sphere_light(void **state)
                 "--sampling bsdf --lod 9", 0.03);
 }
 
+/* The irradiance on the plane's lit side (normal -z) from the scene's sun and dome: the
+ * distant light's intensity * color * cos for a sun above that side, and the dome's map
+ * (intensity times texels) integrated against the cosine over the hemisphere z < 0; red. */
+static double daylight_irradiance(const char *rib)
+{
+    ts_scene s = {0};
+    ts_error e = {0};
+    if (rib_load(path(rib), &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
+    assert_true(s.dome.present && s.dome.map);
+    ts_image map = {(int)s.dome.map_width, (int)s.dome.map_height, 3, NULL, s.dome.map};
+    double sky = 0;
+    for (int y = 0; y < map.height; y++) {
+        double th = (y + 0.5) * M_PI / map.height, c = -cos(th);
+        if (c <= 0) continue;
+        double w = c * sin(th) * (M_PI / map.height) * (2 * M_PI / map.width);
+        for (int x = 0; x < map.width; x++)
+            sky += w * map.pixels[((size_t)y * map.width + x) * map.channels];
+    }
+
+    double sun = 0;
+    if (s.light_count) {
+        assert_int_equal(s.light_count, 1);
+        const ts_scene_light *l = &s.lights[0];
+        double d[3] = {l->from[0] - l->to[0], l->from[1] - l->to[1], l->from[2] - l->to[2]};
+        double c = -d[2] / sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        sun = c > 0 ? l->intensity * l->color[0] * c : 0;
+    }
+    double total = s.dome.intensity * s.dome.color[0] * sky + sun;
+    scene_free(&s);
+    return total;
+}
+
+/* PxrEnvDayLight turned so that its zenith is the lit side's normal (-z), at Seattle on 21
+ * June 2014 at `hour` PST: the image's mean is 0.7 / pi times the irradiance. */
+static double check_daylight(double hour)
+{
+    char light[512];
+    snprintf(light, sizeof light,
+             "Rotate 180 1 0 0\nLight \"PxrEnvDayLight\" \"d\" \"int month\" [6] \"int day\" "
+             "[21] \"int year\" [2014] \"float hour\" [%g] \"float zone\" [-8] "
+             "\"float latitude\" [47.6062] \"float longitude\" [-122.3321]",
+             hour);
+    write_plane("ris_day.rib", light);
+    double want = 0.7 / M_PI * daylight_irradiance("ris_day.rib");
+    render("ris_day.rib", "ris_day.exr", "--spp 16 --depth 1");
+    ts_image img;
+    test_read_image(path("ris_day.exr"), &img);
+    double got = 0;
+    for (int i = 0; i < 64 * 64; ++i)
+        got += img.pixels[(size_t)i * img.channels] / 4096.0;
+    image_free(&img);
+    if (!(fabs(got - want) <= 0.02 * want))
+        fail_msg("daylight at %g h: image mean %.6g, expected %.6g (+- 2 %%)", hour, got, want);
+    return got;
+}
+
+static void test_daylight(void **state)
+{
+    (void)state;
+    double noon = check_daylight(12.184), evening = check_daylight(19.0);
+    if (!(noon > 2.0 * evening))
+        fail_msg("noon %.6g is not brighter than evening %.6g", noon, evening);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -245,6 +315,7 @@ int main(void)
         cmocka_unit_test(test_disney_furnace),
         cmocka_unit_test(test_rect_light),
         cmocka_unit_test(test_sphere_light),
+        cmocka_unit_test(test_daylight),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

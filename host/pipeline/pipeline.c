@@ -150,8 +150,13 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
         ts_box b = boxes[i];
         u->flatness[i].w = fmaxf(b.hi_x - b.lo_x, fmaxf(b.hi_y - b.lo_y, b.hi_z - b.lo_z));
     }
-    if (s->dome.present && s->dome.mapname[0] && env_map_load(s->dome.mapname, &u->env, err))
+    if (s->dome.present && s->dome.map) {
+        ts_image img = {(int)s->dome.map_width, (int)s->dome.map_height, 3, NULL, s->dome.map};
+        if (env_map_from_image(&img, &u->env, err)) return err->code;
+    } else if (s->dome.present && s->dome.mapname[0] &&
+               env_map_load(s->dome.mapname, &u->env, err)) {
         return err->code;
+    }
     if (lights_build(s, &u->env, u->attr, &u->lights, err)) return err->code;
     if (s->occlusion)
         u->relight_patch = s->occlusion->patch, u->relight_coeffs = s->occlusion->coeffs,

@@ -744,6 +744,7 @@ void scene_free(ts_scene *s)
     free(s->shape);
     free(s->instance);
     free(s->inst_xform);
+    free(s->dome.map);
     free(s->lights);
     for (uint32_t i = 0; i < s->texture_count; i++)
         free(s->tex_source[i]);

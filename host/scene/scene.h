@@ -86,6 +86,10 @@ typedef struct ts_dome_light {
     double intensity;
     double color[3];
     char mapname[4096]; /* a lat-long environment map (any OpenImageIO format), "" for none */
+    /* Or a lat-long map made in memory (PxrEnvDayLight's baked sky, rib_ris_light.c): RGB
+     * texels, map_width x map_height, owned by the scene (scene_free); NULL for none. */
+    float *map;
+    uint32_t map_width, map_height;
 } ts_dome_light;
 
 /* A baked spherical-harmonics occlusion for relighting (`tessera render --occlusion`,

@@ -8,7 +8,8 @@
 #include <string.h>
 
 #define PACK_MAGIC "TSSCENE1"
-#define PACK_VERSION 3u /* 3: ts_patch_attr of 160 bytes (the principled fields) */
+/* 3: the dome's map in memory; 4: ts_patch_attr of 160 bytes (the principled fields) */
+#define PACK_VERSION 4u
 
 /* The sections: (pointer, bytes) in a fixed order; NULL with 0 bytes for what the scene
  * lacks. Strings (texture sources) are one section of NUL-separated names. */
@@ -30,6 +31,7 @@ enum {
     SEC_SHAPE,      /* patch_count uint32 (scene.h instancing), or nothing */
     SEC_INSTANCE,   /* patch_count uint32, or nothing */
     SEC_INST_XFORM, /* inst_xform_count ts_xform */
+    SEC_DOME_MAP,   /* the dome's map made in memory: map_width x map_height RGB floats */
     SEC_COUNT
 };
 
@@ -76,6 +78,8 @@ static int pack_sections(const ts_scene *s, uint32_t counts[6], char **names,
     sec[SEC_INSTANCE] = (pack_section){s->instance, shared};
     sec[SEC_INST_XFORM] =
         (pack_section){s->inst_xform, (uint64_t)s->inst_xform_count * sizeof(ts_xform)};
+    sec[SEC_DOME_MAP] = (pack_section){
+        s->dome.map, s->dome.map ? (uint64_t)s->dome.map_width * s->dome.map_height * 3 * 4 : 0};
     return TS_OK;
 }
 
@@ -209,7 +213,11 @@ int scene_unpack(const void *block, size_t size, ts_scene *s, ts_error *err)
         memcpy(&s->camera, sec[SEC_CAMERA].data, sizeof s->camera);
         memcpy(&s->dome, sec[SEC_DOME].data, sizeof s->dome);
         s->dome.mapname[sizeof s->dome.mapname - 1] = '\0';
-        return TS_OK;
+        s->dome.map = NULL; /* the sender's pointer; its texels follow */
+        uint64_t texels =
+            sec[SEC_DOME_MAP].bytes ? (uint64_t)s->dome.map_width * s->dome.map_height : 0;
+        rc = copy_section(&sec[SEC_DOME_MAP], texels * 3 * sizeof(float), (void **)&s->dome.map);
+        if (!rc) return TS_OK;
     }
     /* Counts that the arrays do not match leave arrays NULL; scene_free needs them
      * consistent. */

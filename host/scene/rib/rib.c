@@ -143,6 +143,9 @@ static const char *const rib_ignored[] = {
     "ShadingRate",
     "Sides",
     "TextureCoordinates",
+    "VPAtmosphere", /* RenderMan 20's volume-primitive shaders (look-file payloads write */
+    "VPInterior",   /* VPInterior "null") */
+    "VPSurface",
 };
 
 /* Known RenderMan requests this loader cannot honour: ignoring them would misplace or
@@ -216,6 +219,11 @@ int rib_run_requests(rib_parser *p)
     rib_token t;
     int rc = rib_lex_next(&p->lx, &t);
     while (rc == TS_OK && t.kind != RIB_TOK_EOF) {
+        if (t.kind == RIB_TOK_RLF) { /* a look-file nugget between requests (rib_rlf.c) */
+            rc = rib_rlf_nugget(p, &t);
+            if (rc == TS_OK) rc = rib_lex_next(&p->lx, &t);
+            continue;
+        }
         if (t.kind != RIB_TOK_NAME)
             return rib_error_at(p, t.line, t.col, "expected a request name, found %s",
                                 t.kind == RIB_TOK_NUMBER   ? "a number"
@@ -301,6 +309,7 @@ static int rib_parse_once(const char *name, const rib_text *t, int frame, int ke
     rib_resource_free(p);
     free(p->rm20_map);
     rib_pattern_free(p);
+    rib_rlf_free(p);
     free(p->searchpath[0]);
     free(p->searchpath[1]);
     rib_args_free(p);

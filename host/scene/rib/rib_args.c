@@ -139,6 +139,7 @@ static int rib_read_array(rib_parser *p, const rib_token *open)
         rib_token t;
         int rc = rib_lex_next(&p->lx, &t);
         if (rc != TS_OK) return rc;
+        if (t.kind == RIB_TOK_RLF) continue; /* a look-file nugget inside an array: a comment */
         if (t.kind == RIB_TOK_RBRACKET) return rib_push_arg(p, &a);
         if (t.kind == RIB_TOK_LBRACKET)
             return rib_error_at(p, t.line, t.col, "nested arrays are not allowed");
@@ -188,7 +189,7 @@ int rib_read_args(rib_parser *p, rib_token *next)
         } else if (next->kind == RIB_TOK_RBRACKET) {
             return rib_error_at(p, next->line, next->col, "']' without '['");
         } else {
-            return TS_OK; /* a name or the end */
+            return TS_OK; /* a name, a "##RLF" nugget or the end */
         }
         if (rc == TS_OK) rc = rib_push_arg(p, &a);
         if (rc != TS_OK) return rc;

@@ -26,6 +26,8 @@
  *                  user values)
  *   rib_resource.c Resource "attributes" save and restore, ResourceBegin, ResourceEnd
  *   rib_pattern.c  Pattern (PxrTexture, PxrManifold2D) and the connections to it
+ *   rib_rlf.c      "##RLF" nuggets: RenderMan for Maya's look files (read by rib_look.c with
+ *                  expat) bound to identifier paths, their payloads run in place
  *   rib_bxdf.c     Bxdf (PxrDiffuse, PxrSurface, PxrDisney, PxrConductor, PxrConstant, Lama...)
  *                  onto Surface's materials; Displace "PxrDisplace"
  *   rib_ris_light.c Light (PxrDomeLight, PxrDistantLight, PxrRectLight, PxrDiskLight,
@@ -58,13 +60,17 @@
  *   rib_ris_light.c -> rib_geom.c (emissive patches), rib_light.c (rib_light_dome_map)
  *   rib_shading.c, rib_builtin.c -> rib_ris_light.c (RenderMan 20's AreaLightSource
  *                    "PxrStd...Light" and Geometry "rectlight", "envsphere", ...)
+ *   rib_rlf.c     -> rib.c (rib_run_requests: a payload's requests), rib_look.c (the file)
+ *   rib_state.c   -> rib_rlf.c (rib_rlf_scope_end), rib_ris.c -> rib_rlf.c (identifier names)
  *   rib_geom.c, rib_coordsys.c, rib_pattern.c -> no other handler
  *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
  *                    handler. rib.c and rib_archive.c also start lexers (on rib_text.c's bytes);
  * rib.c, rib_state.c and rib_geom.c use basis.c. The cycles are rib.c -> rib_archive.c -> rib.c:
  * ReadArchive and DelayedReadArchive read the archive's requests through the same loop, nested at
- * most RIB_MAX_INCLUDE deep; and rib.c -> rib_object.c -> rib.c: ObjectInstance dispatches the
- * requests of its object, which may not hold another ObjectInstance (one level).
+ * most RIB_MAX_INCLUDE deep; rib.c -> rib_rlf.c -> rib.c: a look file's payload runs through
+ * the loop (a nugget inside a payload is ignored, so once); and rib.c -> rib_object.c -> rib.c:
+ * ObjectInstance dispatches the requests of its object, which may not hold another ObjectInstance
+ * (one level).
  */
 #ifndef TS_RIB_INTERNAL_H
 #define TS_RIB_INTERNAL_H
@@ -219,6 +225,19 @@ int rib_pattern_link(rib_parser *p, const rib_param *prm, uint32_t kind, const c
                      rib_link *out);
 /* Frees p->patterns. */
 void rib_pattern_free(rib_parser *p);
+
+/* ---- rib_rlf.c: RenderMan for Maya's look files (.rlf), applied at "##RLF" nuggets ---- */
+
+/* A "##RLF ScopeBegin", "ScopeEnd" or "Inject" nugget (the lexer's RIB_TOK_RLF token t), run
+ * where the request loop finds it: an Inject runs the payload the scope's look file binds to
+ * the current identifier path through rib_run_requests. */
+int rib_rlf_nugget(rib_parser *p, const rib_token *t);
+/* Attribute "identifier" "name": the current attribute block's name in identifier paths. */
+int rib_rlf_identifier(rib_parser *p, const char *name);
+/* At the end of an attribute block (p->depth already popped): drops the names set in it. */
+void rib_rlf_scope_end(rib_parser *p);
+/* Frees p->rlf. */
+void rib_rlf_free(rib_parser *p);
 
 /* ---- rib_bxdf.c: Bxdf, Displace (RIS materials onto Surface's, textured displacement) ---- */
 

@@ -140,12 +140,27 @@ static int lex_put(rib_lexer *lx, size_t *n, char c, int line, int col)
     return TS_OK;
 }
 
+/* Whether the text at the current position is a "##RLF" nugget: "##RLF" then a blank or the
+ * end of the line. */
+static int lex_at_rlf(const rib_lexer *lx)
+{
+    static const char mark[] = "##RLF";
+    size_t n = sizeof mark - 1;
+    if (lx->len - lx->pos < n || memcmp(lx->text + lx->pos, mark, n) != 0) return 0;
+    if (lx->pos + n == lx->len) return 1;
+    char c = lx->text[lx->pos + n];
+    return c == ' ' || c == '\t' || c == '\n' || c == '\r';
+}
+
+/* Skips blanks and comments, stopping before a "##RLF" nugget (a token). */
 static void lex_skip_space_and_comments(rib_lexer *lx)
 {
     for (;;) {
         int c = lex_peek(lx);
         if (lex_is_space(c)) {
             lex_advance(lx);
+        } else if (c == '#' && lex_at_rlf(lx)) {
+            return;
         } else if (c == '#') { /* to the end of the line: LF, CR LF or CR */
             while (lex_peek(lx) >= 0 && lex_peek(lx) != '\n' && lex_peek(lx) != '\r')
                 lex_advance(lx);
@@ -600,6 +615,28 @@ static int lex_binary(rib_lexer *lx, rib_token *tok, int c, int *made)
                       (unsigned)c);
 }
 
+/* A "##RLF" nugget (lex_at_rlf): the rest of its line, blanks after "##RLF" skipped. */
+static int lex_rlf(rib_lexer *lx, rib_token *tok)
+{
+    for (int k = 0; k < 5; k++)
+        lex_advance(lx);
+    while (lex_peek(lx) == ' ' || lex_peek(lx) == '\t')
+        lex_advance(lx);
+    size_t n = 0;
+    int rc = lex_put(lx, &n, '\0', tok->line, tok->col); /* the buffer exists when n is 0 */
+    n = 0;
+    while (rc == TS_OK && lex_peek(lx) >= 0 && lex_peek(lx) != '\n' && lex_peek(lx) != '\r') {
+        rc = lex_put(lx, &n, (char)lex_peek(lx), tok->line, tok->col);
+        lex_advance(lx);
+    }
+    if (rc != TS_OK) return rc;
+    lx->buf[n] = '\0';
+    tok->kind = RIB_TOK_RLF;
+    tok->str = lx->buf;
+    tok->len = n;
+    return TS_OK;
+}
+
 int rib_lex_next(rib_lexer *lx, rib_token *tok)
 {
     if (lx->in_array) return lex_array_next(lx, tok);
@@ -624,6 +661,7 @@ int rib_lex_next(rib_lexer *lx, rib_token *tok)
             return TS_OK;
         }
         if (c == '"') return lex_string(lx, tok);
+        if (c == '#') return lex_rlf(lx, tok); /* the only comment not skipped */
         if (lex_is_digit(c) || c == '+' || c == '-' || c == '.') return lex_number(lx, tok);
         if ((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || c == '_') return lex_name(lx, tok);
         return lex_bad_byte(lx, tok, c);

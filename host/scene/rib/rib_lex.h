@@ -24,6 +24,10 @@ typedef enum rib_tok_kind {
     RIB_TOK_STRING, /* tok.str, NUL-terminated, tok.len bytes (may hold NULs) */
     RIB_TOK_LBRACKET,
     RIB_TOK_RBRACKET,
+    /* A comment that starts "##RLF" (RenderMan for Maya's look-file nuggets, rib_rlf.c): tok.str
+     * is the rest of its line after "##RLF" and the blanks that follow, tok.len bytes. Every
+     * other comment is skipped. */
+    RIB_TOK_RLF,
 } rib_tok_kind;
 
 /* Binary RIB: request names bound to codes (0314), strings bound to tokens (0315, 0316),

@@ -300,7 +300,7 @@ int rib_light_dome_map(rib_parser *p, const char *name, int line, int col, ts_do
 
 static int light_dome(rib_parser *p, size_t first)
 {
-    ts_dome_light d = {1, 1.0, {1, 1, 1}, ""};
+    ts_dome_light d = {1, 1.0, {1, 1, 1}, "", NULL, 0, 0};
     for (size_t i = first; i < p->nargs; i += 2) {
         rib_param prm;
         int rc = rib_param_at(p, i, &prm);

@@ -212,6 +212,7 @@ typedef struct rib_parser {
     struct rib_cond *cond;             /* rib_cond.c: open IfBegin blocks, or NULL */
     struct rib_resources *resources;   /* rib_resource.c: saved attribute states, or NULL */
     struct rib_patterns *patterns;     /* rib_pattern.c: Pattern nodes by handle, or NULL */
+    struct rib_rlf *rlf;               /* rib_rlf.c: identifier names, look-file scopes, or NULL */
     char *searchpath[2];               /* Option "searchpath": "archive", "texture"; or NULL */
     rib_frame_choice frames;
     int world_line, world_col; /* of the WorldBegin read (binary RIB: line 0, col its byte) */

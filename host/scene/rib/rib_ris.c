@@ -291,6 +291,26 @@ static int rib_displacement_bound(rib_parser *p)
     return TS_OK;
 }
 
+/* Attribute "identifier" "name" ["pCubeShape1"]: the block's name in the identifier paths of
+ * look files (rib_rlf.c); "id" and the others are ignored with a warning each. */
+static int rib_identifier(rib_parser *p)
+{
+    for (size_t i = 1; i < p->nargs; i += 2) {
+        rib_param prm;
+        int rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        const rib_arg *v = prm.val;
+        int one = (v->kind == RIB_ARG_STRING || v->kind == RIB_ARG_STRINGS) && v->count == 1;
+        if (strcmp(prm.name, "name") != 0 || !one) {
+            rib_warn_param(p, &prm);
+            continue;
+        }
+        rc = rib_rlf_identifier(p, rib_arg_str(p, v, 0));
+        if (rc != TS_OK) return rc;
+    }
+    return TS_OK;
+}
+
 int rib_req_attribute(rib_parser *p)
 {
     const char *name;
@@ -298,6 +318,7 @@ int rib_req_attribute(rib_parser *p)
     if (rc != TS_OK) return rc;
     if (strcmp(name, "user") == 0) return rib_user_params(p, p->depth);
     if (strcmp(name, "displacementbound") == 0) return rib_displacement_bound(p);
+    if (strcmp(name, "identifier") == 0) return rib_identifier(p);
     rib_warn_named(p, name);
     return TS_OK;
 }

@@ -2,9 +2,10 @@
  * dome (a lat-long map from lightColorMap), PxrDistantLight a distant light whose cone is
  * angleExtent, PxrRectLight, PxrDiskLight, PxrSphereLight and PxrCylinderLight emissive
  * geometry (a bilinear patch, a disk, a sphere or a cylinder of Bézier patches, which the
- * emitter table samples as area lights), PxrEnvDayLight a uniform dome. The radiance of every
- * light is intensity * 2^exposure * lightColor (times a black body's colour with
- * enableTemperature), RenderMan's with normalize off; light filters are ignored (rib.c warns
+ * emitter table samples as area lights), PxrEnvDayLight Preetham's sky baked into the dome's
+ * map and the sun as a distant light (sky.h). The radiance of every other light is
+ * intensity * 2^exposure * lightColor (times a black body's colour with enableTemperature),
+ * RenderMan's with normalize off; light filters are ignored (rib.c warns
  * about LightFilter). The light's shape is RenderMan's (USD's UsdLux took it): a unit square
  * or a disk of diameter 1 in the xy plane facing -z, a sphere of diameter 1, a cylinder of
  * length 1 and diameter 1 along x; a distant light shines down -z. docs/rib.md "RIS
@@ -13,6 +14,7 @@
 
 #include "base/mat4.h"
 #include "scene/quadric.h"
+#include "scene/sky.h"
 
 #include <float.h>
 #include <math.h>
@@ -47,34 +49,24 @@ typedef struct ris_light_args {
     double intensity, exposure, color[3], temperature, angle, normalize, enable_temperature;
     double sky_tint[3];
     size_t map_arg; /* lightColorMap: the index of its value, 0 for none */
+    /* PxrEnvDayLight's own (docs/rib.md "Daylight") */
+    double sun_tint[3], sun_size, sun_direction[3], haziness, ground_color[3];
+    double month, day, year, hour, zone, latitude, longitude;
 } ris_light_args;
 
 /* ---- black body ---------------------------------------------------------------------- */
-
-/* A lobe of Wyman, Sloan and Shirley's fit of the CIE 1931 observer (JCGT 2(2), 2013). */
-static double cie_lobe(double l, double mu, double s1, double s2)
-{
-    double t = (l - mu) / (l < mu ? s1 : s2);
-    return exp(-0.5 * t * t);
-}
 
 void rib_blackbody(double kelvin, double rgb[3])
 {
     double t = fmin(fmax(kelvin, 1000.0), 40000.0), xyz[3] = {0, 0, 0};
     for (double l = 380.0; l <= 780.0; l += 5.0) { /* nm */
-        double m = l * 1e-9, planck = 1.0 / (pow(m, 5) * expm1(1.4387769e-2 / (m * t)));
-        xyz[0] += planck *
-                  (1.056 * cie_lobe(l, 599.8, 37.9, 31.0) + 0.362 * cie_lobe(l, 442.0, 16.0, 26.7) -
-                   0.065 * cie_lobe(l, 501.1, 20.4, 26.2));
-        xyz[1] += planck *
-                  (0.821 * cie_lobe(l, 568.8, 46.9, 40.5) + 0.286 * cie_lobe(l, 530.9, 16.3, 31.1));
-        xyz[2] += planck *
-                  (1.217 * cie_lobe(l, 437.0, 11.8, 36.0) + 0.681 * cie_lobe(l, 459.0, 26.0, 13.8));
+        double m = l * 1e-9, planck = 1.0 / (pow(m, 5) * expm1(1.4387769e-2 / (m * t))), c[3];
+        sky_cie_xyz(l, c); /* Wyman, Sloan and Shirley's fit of the CIE 1931 observer */
+        for (int k = 0; k < 3; k++)
+            xyz[k] += planck * c[k];
     }
     /* XYZ -> linear Rec. 709 (sRGB primaries, D65), negatives (deep red) clipped. */
-    rgb[0] = fmax(0.0, 3.2406 * xyz[0] - 1.5372 * xyz[1] - 0.4986 * xyz[2]);
-    rgb[1] = fmax(0.0, -0.9689 * xyz[0] + 1.8758 * xyz[1] + 0.0415 * xyz[2]);
-    rgb[2] = fmax(0.0, 0.0557 * xyz[0] - 0.2040 * xyz[1] + 1.0570 * xyz[2]);
+    sky_xyz_to_rgb(xyz, rgb);
     double y = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
     for (int k = 0; k < 3; k++)
         rgb[k] /= y;
@@ -97,19 +89,36 @@ static const struct {
 /* Reads the parameters from args[first] into *a; others warn once each. */
 static int ris_light_read(rib_parser *p, ris_light_kind kind, size_t first, ris_light_args *a)
 {
+#define ALL ~0u
+#define DAY (1u << RIS_DAY)
     static const struct {
         const char *name;
         size_t n, off;
+        unsigned kinds; /* the lights that read it: bits 1 << ris_light_kind */
     } known[] = {
-        {"intensity", 1, offsetof(ris_light_args, intensity)},
-        {"exposure", 1, offsetof(ris_light_args, exposure)},
-        {"lightColor", 3, offsetof(ris_light_args, color)},
-        {"temperature", 1, offsetof(ris_light_args, temperature)},
-        {"enableTemperature", 1, offsetof(ris_light_args, enable_temperature)},
-        {"angleExtent", 1, offsetof(ris_light_args, angle)},
-        {"normalize", 1, offsetof(ris_light_args, normalize)},
-        {"skyTint", 3, offsetof(ris_light_args, sky_tint)},
+        {"intensity", 1, offsetof(ris_light_args, intensity), ALL},
+        {"exposure", 1, offsetof(ris_light_args, exposure), ALL},
+        {"lightColor", 3, offsetof(ris_light_args, color), ALL & ~DAY},
+        {"temperature", 1, offsetof(ris_light_args, temperature), ALL & ~DAY},
+        {"enableTemperature", 1, offsetof(ris_light_args, enable_temperature), ALL & ~DAY},
+        {"angleExtent", 1, offsetof(ris_light_args, angle), 1u << RIS_DISTANT},
+        {"normalize", 1, offsetof(ris_light_args, normalize), ALL & ~DAY},
+        {"skyTint", 3, offsetof(ris_light_args, sky_tint), DAY},
+        {"sunTint", 3, offsetof(ris_light_args, sun_tint), DAY},
+        {"sunSize", 1, offsetof(ris_light_args, sun_size), DAY},
+        {"sunDirection", 3, offsetof(ris_light_args, sun_direction), DAY},
+        {"haziness", 1, offsetof(ris_light_args, haziness), DAY},
+        {"groundColor", 3, offsetof(ris_light_args, ground_color), DAY},
+        {"month", 1, offsetof(ris_light_args, month), DAY},
+        {"day", 1, offsetof(ris_light_args, day), DAY},
+        {"year", 1, offsetof(ris_light_args, year), DAY},
+        {"hour", 1, offsetof(ris_light_args, hour), DAY},
+        {"zone", 1, offsetof(ris_light_args, zone), DAY},
+        {"latitude", 1, offsetof(ris_light_args, latitude), DAY},
+        {"longitude", 1, offsetof(ris_light_args, longitude), DAY},
     };
+#undef ALL
+#undef DAY
     for (size_t i = first; i < p->nargs; i += 2) {
         rib_param prm;
         const double *v;
@@ -126,7 +135,7 @@ static int ris_light_read(rib_parser *p, ris_light_kind kind, size_t first, ris_
         size_t k = 0, nk = sizeof known / sizeof known[0];
         while (k < nk && strcmp(prm.name, known[k].name) != 0)
             k++;
-        int usable = k < nk && (k != 5 || kind == RIS_DISTANT) && (k != 7 || kind == RIS_DAY);
+        int usable = k < nk && (known[k].kinds >> kind & 1u);
         if (prm.val->kind == RIB_ARG_STRING || prm.val->kind == RIB_ARG_STRINGS)
             usable = 0; /* a connection to a pattern: lights are not textured here */
         if (!usable) {
@@ -188,14 +197,13 @@ static int ris_dome(rib_parser *p, const char *map, int line, int col, const dou
                       "Light: a second dome light is ignored (one dome per scene)");
         return TS_OK;
     }
-    ts_dome_light d = {1, 1.0, {L[0], L[1], L[2]}, ""};
+    ts_dome_light d = {1, 1.0, {L[0], L[1], L[2]}, "", NULL, 0, 0};
     int rc = map && map[0] ? rib_light_dome_map(p, map, line, col, &d) : TS_OK;
     if (rc == TS_OK) p->scene->dome = d;
     return rc;
 }
 
-static int ris_light_dome(rib_parser *p, const char *name, const ris_light_args *a,
-                          const double L[3])
+static int ris_light_dome(rib_parser *p, const ris_light_args *a, const double L[3])
 {
     if (p->scene->dome.present) return ris_dome(p, NULL, 0, 0, L); /* (warns) */
     const char *map = NULL;
@@ -203,10 +211,6 @@ static int ris_light_dome(rib_parser *p, const char *name, const ris_light_args 
         int rc = rib_string_arg(p, a->map_arg, "a map name", &map);
         if (rc != TS_OK) return rc;
     }
-    if (strcmp(name, "PxrEnvDayLight") == 0 && !p->scene->dome.present)
-        rib_warn_once(p, p->req_line, p->req_col,
-                      "Light \"PxrEnvDayLight\" is drawn as a uniform dome of intensity * "
-                      "2^exposure * skyTint (its sun and Hosek-Wilkie sky are not)");
     return ris_dome(p, map, a->map_arg ? p->args[a->map_arg].line : 0,
                     a->map_arg ? p->args[a->map_arg].col : 0, L);
 }
@@ -235,6 +239,107 @@ static int ris_light_distant(rib_parser *p, const ris_light_args *a, const doubl
         return rib_error_at(p, p->req_line, p->req_col,
                             "Light \"PxrDistantLight\": the current transformation has no "
                             "direction for -z");
+    return scene_add_light(p->scene, &l, p->err);
+}
+
+/* ---- PxrEnvDayLight ---------------------------------------------------------------------- */
+
+/* The sun's direction in the light's space (z up, x east, y north): sunDirection when month
+ * is 0, else from the date, hour, zone and place. 1 when the sun is above the horizon. */
+static int day_sun(rib_parser *p, const ris_light_args *a, double sun[3])
+{
+    if (a->month == 0.0) {
+        double len = sqrt(a->sun_direction[0] * a->sun_direction[0] +
+                          a->sun_direction[1] * a->sun_direction[1] +
+                          a->sun_direction[2] * a->sun_direction[2]);
+        if (!(len > 0.0))
+            return rib_error_at(p, p->req_line, p->req_col,
+                                "Light \"PxrEnvDayLight\": sunDirection must not be 0");
+        for (int k = 0; k < 3; k++)
+            sun[k] = a->sun_direction[k] / len;
+        return TS_OK;
+    }
+    double elevation, azimuth;
+    if (a->month != floor(a->month) || a->day != floor(a->day) || a->year != floor(a->year) ||
+        fabs(a->year) > 1e6 ||
+        sky_solar_position((int)a->year, (int)a->month, (int)a->day, a->hour, a->zone, a->latitude,
+                           a->longitude, &elevation, &azimuth) != 0)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light \"PxrEnvDayLight\": no such date: year %g, month %g, day %g "
+                            "(month 0 uses sunDirection)",
+                            a->year, a->month, a->day);
+    sky_direction(elevation, azimuth, sun);
+    return TS_OK;
+}
+
+/* PxrEnvDayLight: Preetham's sky (sky.h) baked into the dome's map, in the light's space
+ * rotated into the world by the CTM (z its zenith), and the sun as a distant light of
+ * diameter sunSize * 0.55 degrees and the disc's radiance through that sky; radiances in
+ * cd/m^2 times intensity * 2^exposure * skyTint (sunTint). docs/rib.md "Daylight". */
+static int ris_light_day(rib_parser *p, const ris_light_args *a, const double scale)
+{
+    double sun[3], t = a->haziness, to_world[9];
+    int rc = day_sun(p, a, sun);
+    if (rc != TS_OK) return rc;
+    if (!(a->sun_size >= 0.0 && a->sun_size * SKY_SUN_DIAMETER_DEG < 180.0))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light \"PxrEnvDayLight\": sunSize %g is outside [0, %g)", a->sun_size,
+                            180.0 / SKY_SUN_DIAMETER_DEG);
+    for (int k = 0; k < 3; k++)
+        if (!(a->sun_tint[k] >= 0.0 && a->ground_color[k] >= 0.0))
+            return rib_error_at(p, p->req_line, p->req_col,
+                                "Light \"PxrEnvDayLight\": sunTint and groundColor must be >= 0");
+    if (!(t >= SKY_TURBIDITY_MIN && t <= SKY_TURBIDITY_MAX)) {
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "Light \"PxrEnvDayLight\": haziness is clamped to the model's [1.7, 10]");
+        t = fmin(fmax(t, SKY_TURBIDITY_MIN), SKY_TURBIDITY_MAX);
+    }
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            to_world[3 * r + c] = p->ctm[4 * r + c];
+    int day = sun[2] > 0.0;
+    if (!day)
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "Light \"PxrEnvDayLight\": the sun is below the horizon; the sky is black "
+                      "(Preetham's model has no twilight)");
+    ts_sky sky;
+    sky_init(&sky, t, sun);
+    double half = 0.5 * a->sun_size * SKY_SUN_DIAMETER_DEG * M_PI / 180.0, sun_rgb[3] = {0, 0, 0};
+    if (day) sky_sun_radiance(t, sky.theta_s, sun_rgb, NULL);
+    sky_bake_args b = {.sky = &sky, .sun_solid_angle = 2.0 * M_PI * (1.0 - cos(half))};
+    memcpy(b.to_world, to_world, sizeof to_world);
+    for (int k = 0; k < 3; k++) {
+        b.sky_tint[k] = day ? a->sky_tint[k] : 0.0;
+        b.sun_rgb[k] = sun_rgb[k] * a->sun_tint[k];
+        b.ground[k] = a->ground_color[k];
+    }
+    if (p->scene->dome.present) {
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "Light: a second dome light is ignored (one dome per scene)");
+    } else {
+        float *rgb = malloc((size_t)SKY_MAP_WIDTH * SKY_MAP_HEIGHT * 3 * sizeof *rgb);
+        if (!rgb) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+        sky_bake(&b, rgb);
+        /* the map stays in memory: the scene owns it (scene.h ts_dome_light) */
+        ts_dome_light d = {1, scale, {1, 1, 1}, "", rgb, SKY_MAP_WIDTH, SKY_MAP_HEIGHT};
+        p->scene->dome = d;
+    }
+    if (!day || half == 0.0 || !(b.sun_rgb[0] > 0 || b.sun_rgb[1] > 0 || b.sun_rgb[2] > 0))
+        return TS_OK;
+    /* The sun: a cone of radiance L gives irradiance L pi sin^2(half) on a surface facing it
+     * (ris_light_distant's, lights.c's). */
+    ts_scene_light l = {.intensity = scale * M_PI * sin(half) * sin(half),
+                        .color = {b.sun_rgb[0], b.sun_rgb[1], b.sun_rgb[2]},
+                        .angle = 2.0 * half * 180.0 / M_PI,
+                        .kind = SCENE_LIGHT_DISTANT};
+    const double origin[3] = {0, 0, 0};
+    if (!mat4_point(p->ctm, sun, l.from) || !mat4_point(p->ctm, origin, l.to))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light: its direction leaves the float range");
+    if (l.from[0] == l.to[0] && l.from[1] == l.to[1] && l.from[2] == l.to[2])
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light \"PxrEnvDayLight\": the current transformation has no "
+                            "direction for the sun");
     return scene_add_light(p->scene, &l, p->err);
 }
 
@@ -338,19 +443,35 @@ int rib_req_light(rib_parser *p)
         return TS_OK;
     }
     ris_light_kind kind = ris_lights[k].kind;
-    ris_light_args a = {.intensity = kind == RIS_DISTANT ? 50000.0 : 1.0,
+    /* PxrEnvDayLight: RenderMan's documented intensity 1e-5 (1 gives cd/m^2) and month 0 (use
+     * sunDirection); the date and place of its .args file (Seattle, 20 November 2014, 14:38),
+     * used when a month is given. */
+    ris_light_args a = {.intensity = kind == RIS_DISTANT ? 50000.0
+                                     : kind == RIS_DAY   ? 1e-5
+                                                         : 1.0,
                         .color = {1, 1, 1},
                         .temperature = 6500.0,
                         .angle = 0.53,
-                        .sky_tint = {1, 1, 1}};
+                        .sky_tint = {1, 1, 1},
+                        .sun_tint = {1, 1, 1},
+                        .sun_size = 1.0,
+                        .sun_direction = {0, 0, 1},
+                        .haziness = 2.0,
+                        .day = 20,
+                        .year = 2014,
+                        .hour = 14.633333,
+                        .zone = -8,
+                        .latitude = 47.6019,
+                        .longitude = -122.3318};
     double L[3];
     rc = ris_light_read(p, kind, first, &a);
     if (rc == TS_OK) rc = ris_light_radiance(p, name, &a, L);
     if (rc != TS_OK) return rc;
-    if (p->ctm_moving && kind != RIS_DOME && kind != RIS_DAY)
+    if (p->ctm_moving && kind != RIS_DOME)
         rib_warn_once(p, p->req_line, p->req_col,
                       "Light under a moving transformation is placed at shutter open");
-    if (kind == RIS_DOME || kind == RIS_DAY) return ris_light_dome(p, name, &a, L);
+    if (kind == RIS_DOME) return ris_light_dome(p, &a, L);
+    if (kind == RIS_DAY) return ris_light_day(p, &a, a.intensity * exp2(a.exposure));
     if (kind == RIS_DISTANT) return ris_light_distant(p, &a, L);
     return ris_light_shape(p, kind, &a, L);
 }
@@ -382,6 +503,11 @@ int rib_rm20_area_light(rib_parser *p, const char *name, size_t first)
     int rc = ris_light_read(p, k == 0 ? RIS_RECT : RIS_DOME, first, &a);
     if (rc == TS_OK) rc = ris_light_radiance(p, name, &a, L);
     if (rc != TS_OK) return rc;
+    if (k == 2) /* RenderMan 20's parameters for it differ (a y-up "direction", "method") */
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "AreaLightSource \"PxrStdEnvDayLight\" is drawn as a uniform dome of "
+                      "intensity * 2^exposure (its sky and sun are not; Light \"PxrEnvDayLight\" "
+                      "draws them)");
     free(p->rm20_map);
     p->rm20_map = NULL;
     if (a.map_arg) {

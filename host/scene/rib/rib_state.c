@@ -194,6 +194,7 @@ static void rib_restore(rib_parser *p, rib_frame_kind kind)
     if (kind != RIB_FRAME_TRANSFORM) { /* what was scoped to the attribute block */
         rib_coordsys_scope_end(p);
         rib_user_scope_end(p);
+        rib_rlf_scope_end(p);
     }
 }
 
