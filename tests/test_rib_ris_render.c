@@ -311,10 +311,8 @@ static void test_daylight(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_dome_furnace),
-        cmocka_unit_test(test_disney_furnace),
-        cmocka_unit_test(test_rect_light),
-        cmocka_unit_test(test_sphere_light),
+        cmocka_unit_test(test_dome_furnace), cmocka_unit_test(test_disney_furnace),
+        cmocka_unit_test(test_rect_light),   cmocka_unit_test(test_sphere_light),
         cmocka_unit_test(test_daylight),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
