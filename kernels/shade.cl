@@ -440,3 +440,22 @@ __kernel void shade_normal_probe(__global const float *uv, __global const uint *
                                      mid_n + (size_t)q * 5u, a, xform + a->xform, tex, uv[2u * i],
                                      uv[2u * i + 1u], pm[4u * i + 2u], pm[4u * i + 3u], m, 0u);
 }
+
+/* Not a stage: the probe of tests/test_principled.c. Item i reads in[12i ...]: the colour
+ * cs[3], wo[3], wi[3] (the normal is +z) and (u0, u1, u2); writes out[12i ...]: bsdf_eval's
+ * f[3] and pdf, bsdf_sample's wi[3], 0, f[3] and pdf, for patch attribute attr[i]. */
+__kernel void shade_bsdf_probe(__global const ts_patch_attr *attr, __global const float *in,
+                               uint count, __global float *out)
+{
+    uint i = get_global_id(0);
+    if (i >= count) return;
+    __global const float *x = in + 12u * i;
+    float cs[3] = {x[0], x[1], x[2]}, f[3], fs[3];
+    ts_v3 n = v3(0.0f, 0.0f, 1.0f), wo = v3(x[3], x[4], x[5]), wi = v3(x[6], x[7], x[8]), ws;
+    float pdf = bsdf_eval(attr + i, cs, n, wo, wi, f);
+    float pdfs = bsdf_sample(attr + i, cs, n, wo, x[9], x[10], x[11], &ws, fs);
+    __global float *o = out + 12u * i;
+    o[0] = f[0], o[1] = f[1], o[2] = f[2], o[3] = pdf;
+    o[4] = ws.x, o[5] = ws.y, o[6] = ws.z, o[7] = 0.0f;
+    o[8] = fs[0], o[9] = fs[1], o[10] = fs[2], o[11] = pdfs;
+}

@@ -2,6 +2,9 @@
  * renderer, against results known in closed form:
  * - PxrDomeLight furnace: a white PxrDiffuse sphere under a dome of radiance
  *   intensity 2^exposure = 1 is 1 wherever every path escapes;
+ * - PxrDisney furnace (the principled BRDF): a white dielectric sphere reflects nearly all the
+ *   dome gives it and never more, a white sphere of every lobe at most all of it, by BSDF and
+ *   by light sampling alike;
  * - a PxrDiffuse plane lit by a PxrRectLight (Lambert's polygon formula for the irradiance)
  *   and by a PxrSphereLight (pi L sin^2 of the sphere's half angle, times the cosine): the
  *   image's mean is Kd / pi times the irradiance's mean over the pixel centres;
@@ -72,6 +75,69 @@ static void test_dome_furnace(void **state)
     }
     image_free(&img);
     assert_true(checked > 1500);
+}
+
+/* The mean and largest pixel over the inside of a sphere of radius 1 at distance 4 (fov 40:
+ * r < 0.67 of the half-height), channel 0 (the furnaces are grey). */
+static void sphere_pixels(const char *exr, double *mean, double *hi)
+{
+    ts_image img;
+    test_read_image(path(exr), &img);
+    double sum = 0.0;
+    int n = 0;
+    *hi = 0.0;
+    for (int i = 0; i < img.width * img.height; ++i) {
+        double sx = (i % img.width + 0.5) / (img.width / 2) - 1,
+               sy = (i / img.width + 0.5) / (img.height / 2) - 1;
+        if (sqrt(sx * sx + sy * sy) >= 0.67) continue;
+        double v = img.pixels[(size_t)i * img.channels];
+        sum += v, n++, *hi = fmax(*hi, v);
+    }
+    image_free(&img);
+    assert_true(n > 1000);
+    *mean = sum / n;
+}
+
+/* White PxrDisney spheres under a dome of radiance 1: the pixel is the albedo of the point
+ * seen, at most 1. A dielectric with specular 0 and no coat or sheen reflects 0.97 to 1 of it
+ * (the diffuse layer takes what the specular lobe leaves, less the table's margin); one of
+ * every lobe (metallic 0.5, sheen, clearcoat) less, and never more. --sampling light gives
+ * the same means through bsdf_eval (the light samples' weights) as BSDF sampling does. */
+static void test_disney_furnace(void **state)
+{
+    (void)state;
+    const char *sets[2] = {"\"float specular\" [0] \"float roughness\" [0.5]",
+                           "\"float metallic\" [0.5] \"float roughness\" [0.4] \"float sheen\" [1] "
+                           "\"float clearcoat\" [1] \"float clearcoatGloss\" [0.5]"};
+    double means[2][2];
+    for (int k = 0; k < 2; k++) {
+        FILE *f = fopen(path("disney_furnace.rib"), "w");
+        assert_non_null(f);
+        fprintf(f,
+                "Format 64 64 1\nProjection \"PxrPerspective\" \"fov\" [40]\nTranslate 0 0 4\n"
+                "WorldBegin\nLight \"PxrDomeLight\" \"dome\" \"float intensity\" [1]\n"
+                "Bxdf \"PxrDisney\" \"white\" \"color baseColor\" [1 1 1] %s\n",
+                sets[k]);
+        test_write_sphere_patches(f, 2, 1.0);
+        fputs("WorldEnd\n", f);
+        fclose(f);
+        for (int light = 0; light < 2; light++) {
+            render("disney_furnace.rib", "disney_furnace.exr",
+                   light ? "--spp 64 --sampling light" : "--spp 64");
+            double hi;
+            sphere_pixels("disney_furnace.exr", &means[k][light], &hi);
+            /* a pixel of 64 BSDF samples: the noise stays under 0.1 above its albedo (light
+             * samples of a uniform dome on a glossy coat make fireflies: their mean only) */
+            if (!light && hi > 1.1) fail_msg("set %d sampling %d: a pixel of %g", k, light, hi);
+        }
+        if (fabs(means[k][0] - means[k][1]) > 0.01)
+            fail_msg("set %d: mean %g by BSDF sampling, %g by light sampling", k, means[k][0],
+                     means[k][1]);
+    }
+    if (!(means[0][0] >= 0.97 && means[0][0] <= 1.002))
+        fail_msg("white dielectric: mean %g, want 0.97 to 1", means[0][0]);
+    if (!(means[1][0] <= 1.002 && means[1][0] > 0.5))
+        fail_msg("every lobe: mean %g, want at most 1", means[1][0]);
 }
 
 /* The plane z = 0 (Kd 0.7, seen orthographically through [-4, 4]^2 from z < 0) and a light
@@ -245,9 +311,8 @@ static void test_daylight(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_dome_furnace),
-        cmocka_unit_test(test_rect_light),
-        cmocka_unit_test(test_sphere_light),
+        cmocka_unit_test(test_dome_furnace), cmocka_unit_test(test_disney_furnace),
+        cmocka_unit_test(test_rect_light),   cmocka_unit_test(test_sphere_light),
         cmocka_unit_test(test_daylight),
     };
     return cmocka_run_group_tests(tests, setup, NULL);

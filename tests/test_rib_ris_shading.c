@@ -133,9 +133,11 @@ static void test_bxdf_lm_diffuse_light_emission(void **state)
     assert_string_equal(warnings_of("Bxdf \"PxrLightEmission\" \"e\""), "");
 }
 
-/* PxrSurface: Kd = diffuseGain, Cs = diffuseColor, Ks = the hemispherical mean of Schlick's
- * Fresnel from specularFaceColor to specularEdgeColor (plus the clearcoat's), GGX alpha =
- * specularRoughness^2; the glow emits glowGain * glowColor. */
+/* PxrSurface onto the principled BRDF: Cs = diffuseGain diffuseColor, specular =
+ * specularFaceColor / 0.08, GGX alpha = specularRoughness^2, clearcoat 4 c / c(0.04) with c
+ * the coat's hemispherical mean Schlick Fresnel, gloss from clearcoatRoughness; a conductor
+ * (metallic 1, Cs = specularFaceColor) when there is no diffuse lobe; the glow emits
+ * glowGain * glowColor. */
 static void test_bxdf_surface(void **state)
 {
     (void)state;
@@ -144,20 +146,45 @@ static void test_bxdf_surface(void **state)
                                 "specularFaceColor\" [0.04 0.04 0.04] \"color specularEdgeColor\" "
                                 "[1 1 1] \"float specularRoughness\" [0.3] \"float glowGain\" [2] "
                                 "\"color glowColor\" [1 0.5 0]");
-    assert_int_equal(a.material, TS_MAT_PLASTIC);
-    /* Layered: the diffuse lobe takes what the specular one leaves. */
-    assert_near(a.kd, 0.8 * (1 - SCHLICK(0.04)), 1e-7), assert_near(a.ks, SCHLICK(0.04), 1e-7);
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED);
+    assert_near(a.specular, 0.5, 1e-7), assert_near(a.metallic, 0, 0);
+    assert_near(a.clearcoat, 0, 0), assert_near(a.kd, 1, 0), assert_near(a.ks, 0, 0);
     assert_near(a.roughness, 0.09, 1e-7);
-    assert_cs(&a, 0.5, 0.25, 0.125);
+    assert_cs(&a, 0.4, 0.2, 0.1);
     assert_le(&a, 2, 1, 0);
     /* RenderMan's defaults: no specular (face and edge colours 0), diffuse 0.18. */
     a = one_patch("Bxdf \"PxrSurface\" \"s\"");
     assert_int_equal(a.material, TS_MAT_MATTE);
     assert_near(a.kd, 1.0, 0), assert_cs(&a, 0.18, 0.18, 0.18), assert_le(&a, 0, 0, 0);
-    /* A clearcoat adds to the one lobe. */
-    a = one_patch("Bxdf \"PxrSurface\" \"s\" \"color clearcoatFaceColor\" [0.05 0.05 0.05] "
+    /* A clear coat alone: specular 0 under it, Schlick F0 0.04 to 1 is clearcoat 4. */
+    a = one_patch("Bxdf \"PxrSurface\" \"s\" \"color clearcoatFaceColor\" [0.03 0.03 0.03] "
+                  "\"color clearcoatEdgeColor\" [1 1 1] \"float clearcoatRoughness\" [0.2]");
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED), assert_near(a.specular, 0, 0);
+    assert_near(a.clearcoat, 4 * SCHLICK(0.03) / SCHLICK(0.04), 1e-6);
+    assert_near(a.clearcoat_gloss, (0.1 - 0.04) / 0.09, 1e-6), assert_cs(&a, 0.18, 0.18, 0.18);
+    a = one_patch("Bxdf \"PxrSurface\" \"s\" \"color clearcoatFaceColor\" [0.5 0.5 0.5] "
                   "\"color clearcoatEdgeColor\" [1 1 1]");
-    assert_int_equal(a.material, TS_MAT_PLASTIC), assert_near(a.ks, SCHLICK(0.05), 1e-7);
+    assert_near(a.clearcoat, 4, 0), assert_near(a.clearcoat_gloss, 1, 1e-7);
+    /* No diffuse lobe and a bright face colour: a conductor of that colour. */
+    a = one_patch("Bxdf \"PxrSurface\" \"s\" \"float diffuseGain\" [0] \"color "
+                  "specularFaceColor\" [0.9 0.6 0.2] \"color specularEdgeColor\" [1 1 1]");
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED), assert_near(a.metallic, 1, 0);
+    assert_near(a.kd, 0, 0), assert_cs(&a, 0.9, 0.6, 0.2);
+    /* What the principled BRDF does not draw of it, one warning each. */
+    assert_string_equal(
+        warnings_of(
+            "Bxdf \"PxrSurface\" \"s\" \"color specularFaceColor\" [0.3 0.2 0.2] "
+            "\"color specularEdgeColor\" [0.5 0.5 0.5] \"color clearcoatFaceColor\" [0.04 "
+            "0.04 0.04] \"float clearcoatRoughness\" [0.5] \"float clearcoatThickness\" [1]"),
+        "w.rib:2:180: warning: Bxdf \"PxrSurface\": \"clearcoatThickness\" is not 0, but the clear "
+        "coat's absorption is not drawn\n"
+        "w.rib:2:1: warning: Bxdf \"PxrSurface\": the specular colour is drawn grey (its mean)\n"
+        "w.rib:2:1: warning: Bxdf \"PxrSurface\": a specularFaceColor above 0.08 over a diffuse "
+        "lobe is drawn as 0.08 (a dielectric's F0 up to index 1.8)\n"
+        "w.rib:2:1: warning: Bxdf \"PxrSurface\": specularEdgeColor is drawn as 1 (Schlick's "
+        "Fresnel to white)\n"
+        "w.rib:2:1: warning: Bxdf \"PxrSurface\": clearcoatRoughness above 0.32 is drawn as 0.32 "
+        "(GGX alpha 0.1)\n");
     /* Lobes Tessera does not draw: silent while their weight is 0, else one warning; the
      * parameters Tessera does not read warn once each. */
     assert_string_equal(
@@ -171,17 +198,35 @@ static void test_bxdf_surface(void **state)
         "w.rib:2:126: warning: Bxdf parameter \"specularFresnelMode\" is ignored\n");
 }
 
+/* PxrDisney: every parameter of Burley 2012 lands in the principled attribute (roughness
+ * squared: GGX alpha), with RenderMan's defaults; out of [0, 1] clamped with a warning. */
 static void test_bxdf_disney_conductor_constant(void **state)
 {
     (void)state;
-    ts_patch_attr a = one_patch("Bxdf \"PxrDisney\" \"d\" \"color baseColor\" [0.9 0.6 0.2] "
-                                "\"float metallic\" [1] \"float roughness\" [0.5]");
-    assert_int_equal(a.material, TS_MAT_METAL);
-    assert_near(a.ks, 1.0, 0), assert_near(a.roughness, 0.25, 1e-7), assert_cs(&a, 0.9, 0.6, 0.2);
-    a = one_patch("Bxdf \"PxrDisney\" \"d\" \"color baseColor\" [0.9 0.6 0.2]");
-    assert_int_equal(a.material, TS_MAT_PLASTIC); /* specular 0.5: F0 = 0.04 (Burley) */
-    assert_near(a.kd, 1 - SCHLICK(0.04), 1e-6);   /* layered: Kd + Ks = 1 */
-    assert_near(a.ks, SCHLICK(0.04), 1e-6);
+    ts_patch_attr a = one_patch(
+        "Bxdf \"PxrDisney\" \"d\" \"color baseColor\" [0.9 0.6 0.2] \"float metallic\" [0.25] "
+        "\"float roughness\" [0.5] \"float specular\" [0.3] \"float specularTint\" [0.4] \"float "
+        "sheen\" [0.6] \"float sheenTint\" [0.2] \"float clearcoat\" [0.7] \"float "
+        "clearcoatGloss\" [0.8]");
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED);
+    assert_near(a.roughness, 0.25, 1e-7), assert_cs(&a, 0.9, 0.6, 0.2);
+    assert_near(a.metallic, 0.25, 1e-7), assert_near(a.specular, 0.3, 1e-7);
+    assert_near(a.specular_tint, 0.4, 1e-7), assert_near(a.sheen, 0.6, 1e-7);
+    assert_near(a.sheen_tint, 0.2, 1e-7), assert_near(a.clearcoat, 0.7, 1e-7);
+    assert_near(a.clearcoat_gloss, 0.8, 1e-7);
+    assert_near(a.kd, 0.75, 1e-7), assert_near(a.ks, 0, 0); /* Kd: the diffuse weight */
+    /* RenderMan's defaults: specular 0.5 (F0 0.04), roughness 0.25, sheenTint 0.5, gloss 1 */
+    a = one_patch("Bxdf \"PxrDisney\" \"d\"");
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED), assert_cs(&a, 0.2, 0.5, 0.8);
+    assert_near(a.specular, 0.5, 0), assert_near(a.roughness, 0.0625, 1e-7);
+    assert_near(a.metallic, 0, 0), assert_near(a.specular_tint, 0, 0);
+    assert_near(a.sheen, 0, 0), assert_near(a.sheen_tint, 0.5, 0);
+    assert_near(a.clearcoat, 0, 0), assert_near(a.clearcoat_gloss, 1, 0);
+    assert_string_equal(
+        warnings_of("Bxdf \"PxrDisney\" \"d\" \"float metallic\" [1.5] \"float subsurface\" [0.5]"),
+        "w.rib:2:45: warning: Bxdf \"PxrDisney\": \"subsurface\" is not 0, but subsurface "
+        "scattering is not supported\n"
+        "w.rib:2:1: warning: Bxdf \"PxrDisney\": \"metallic\" outside [0, 1] is clamped to it\n");
     /* PxrConductor: Cs is the normal-incidence Fresnel of eta + i kappa, edge colour 1. */
     a = one_patch("Bxdf \"PxrConductor\" \"c\" \"color eta\" [0.2 0.2 0.2] \"color kappa\" [3 3 "
                   "3] \"float roughness\" [0.1]");

@@ -107,7 +107,8 @@ static void test_looks_scene(void **state)
     assert_int_equal(s.attr[0].material, TS_MAT_MATTE);
     assert_cs(&s.attr[0], 0.8, 0.1, 0.1);
     /* mid/midShape: bound twice, the later binding (goldSG, metallic PxrDisney) holds */
-    assert_int_equal(s.attr[1].material, TS_MAT_METAL);
+    assert_int_equal(s.attr[1].material, TS_MAT_PRINCIPLED);
+    assert_near(s.attr[1].metallic, 1.0, 0.0);
     assert_cs(&s.attr[1], 0.9, 0.6, 0.2);
     /* inner/innerShape: "inner" replaced "group" (set in the same attribute block) */
     assert_int_equal(s.attr[2].material, TS_MAT_GLASS);

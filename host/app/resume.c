@@ -71,7 +71,10 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         ts_patch_attr a = s->attr[i];
         a.pad = 0; /* ior, 0 but for glass, keeps the hash of files made before it */
-        h = ts_fnv1a(h, &a, sizeof a);
+        /* The principled fields only where they are read, as the 128 bytes before them. */
+        size_t bytes =
+            a.material == TS_MAT_PRINCIPLED ? sizeof a : offsetof(ts_patch_attr, metallic);
+        h = ts_fnv1a(h, &a, bytes);
     }
     if (s->texture_count) { /* texel contents, not file names */
         h = ts_fnv1a(h, s->textures, (size_t)s->texture_count * sizeof(ts_texture));

@@ -8,7 +8,8 @@
 #include <string.h>
 
 #define PACK_MAGIC "TSSCENE1"
-#define PACK_VERSION 3u
+/* 3: the dome's map in memory; 4: ts_patch_attr of 160 bytes (the principled fields) */
+#define PACK_VERSION 4u
 
 /* The sections: (pointer, bytes) in a fixed order; NULL with 0 bytes for what the scene
  * lacks. Strings (texture sources) are one section of NUL-separated names. */

@@ -20,7 +20,8 @@
  *            probability F, so the weight is 1 (reflection) or Cs (eta_o / eta_i)^2.
  *            Rough glass (roughness = GGX alpha above TS_GLASS_SMOOTH): Walter et al. 2007's
  *            GGX dielectric, sampled as there (§5.3), still without light samples (its
- *            emission found counts whole, as behind smooth glass). */
+ *            emission found counts whole, as behind smooth glass).
+ *   principled: Burley 2012's principled BRDF, layered (lib/principled.h). */
 #ifndef TS_BSDF_H
 #define TS_BSDF_H
 
@@ -106,6 +107,19 @@ TS_INLINE float ggx_g1(float c, float alpha)
     return 2.0f / (1.0f + sqrt(1.0f + alpha * alpha * t2));
 }
 
+/* wo mirrored about a microfacet normal h drawn from D(h) cos(theta_h) by (u1, u2):
+ * tan^2(theta_h) = alpha^2 u1 / (1 - u1). */
+TS_INLINE ts_v3 ggx_reflect_sample(ts_v3 n, ts_v3 wo, float alpha, float u1, float u2)
+{
+    float t2 = alpha * alpha * u1 / fmax(1.0f - u1, 1e-7f);
+    float ch = 1.0f / sqrt(1.0f + t2), sh = sqrt(fmax(0.0f, 1.0f - ch * ch));
+    float phi = 2.0f * TS_PI * u2;
+    ts_v3 h = local_to_world(v3(sh * cos(phi), sh * sin(phi), ch), n);
+    return v3_sub(v3_scale(h, 2.0f * v3_dot(wo, h)), wo);
+}
+
+#include "lib/principled.h"
+
 TS_INLINE float plastic_spec_prob(TS_CONST_GLOBAL ts_patch_attr *a)
 {
     float s = a->kd + a->ks;
@@ -127,6 +141,7 @@ TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], t
     float ci = v3_dot(n, wi), co = v3_dot(n, wo);
     f[0] = f[1] = f[2] = 0.0f;
     if (ci <= 0.0f || co <= 0.0f || a->material == TS_MAT_GLASS) return 0.0f;
+    if (a->material == TS_MAT_PRINCIPLED) return principled_eval(a, cs, n, wo, wi, co, ci, f);
     int metal = a->material == TS_MAT_METAL;
     float kd = metal ? 0.0f : a->kd / TS_PI;
     f[0] = kd * cs[0], f[1] = kd * cs[1], f[2] = kd * cs[2];
@@ -152,14 +167,10 @@ TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], t
 TS_INLINE float bsdf_sample(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], ts_v3 n, ts_v3 wo,
                             float u0, float u1, float u2, ts_v3 *wi, float f[3])
 {
+    if (a->material == TS_MAT_PRINCIPLED) return principled_sample(a, cs, n, wo, u0, u1, u2, wi, f);
     float ps = bsdf_spec_prob(a);
     if (u0 < ps) {
-        /* GGX: tan^2(theta_h) = alpha^2 u1 / (1 - u1). */
-        float alpha = a->roughness, t2 = alpha * alpha * u1 / fmax(1.0f - u1, 1e-7f);
-        float ch = 1.0f / sqrt(1.0f + t2), sh = sqrt(fmax(0.0f, 1.0f - ch * ch));
-        float phi = 2.0f * TS_PI * u2;
-        ts_v3 h = local_to_world(v3(sh * cos(phi), sh * sin(phi), ch), n);
-        *wi = v3_sub(v3_scale(h, 2.0f * v3_dot(wo, h)), wo);
+        *wi = ggx_reflect_sample(n, wo, a->roughness, u1, u2);
     } else {
         *wi = sample_cosine(n, u1, u2);
     }

@@ -16,6 +16,8 @@ typedef uchar ts_u8;
 #define TS_GLOBAL __global
 #define TS_CONST_GLOBAL __global const
 #define TS_INLINE inline
+/* A table of constants at program scope (lib/principled_table.h). */
+#define TS_CONSTANT_TABLE __constant
 /* A small helper of a hot loop that PoCL's compiler would call out of line (group_enter and
  * slab4 in bottom_level, cull_enter in top_level, the leaf's tight box and store in build: 5%
  * of the displaced teapot's render, docs/benchmarks.md). */
@@ -36,6 +38,7 @@ typedef uint8_t ts_u8;
 #define TS_CONST_GLOBAL const
 #define TS_INLINE static inline
 #define TS_INLINE_ALWAYS static inline
+#define TS_CONSTANT_TABLE static const
 #endif
 
 /* Work-group size of every launch (one size, so PoCL compiles each kernel once); the
@@ -177,8 +180,12 @@ typedef struct ts_hit {
 #define TS_MAT_GLASS                                                                               \
     3u /* a smooth dielectric of index ior: Fresnel reflection, and refraction                     \
           tinted by Cs (lib/bsdf.h glass_sample) */
+#define TS_MAT_PRINCIPLED                                                                          \
+    4u /* Burley 2012's principled BRDF, base colour Cs, GGX alpha = roughness, the metallic ...   \
+          clearcoat_gloss fields; layered so that it never reflects more than it receives          \
+          (lib/principled.h) */
 
-/* Per-patch attributes from the scene, 128 bytes.
+/* Per-patch attributes from the scene, 160 bytes.
  * Displacement d(P) moves a surface point along its displacement normal (the bilinear
  * interpolation of the patch's corner normals, scene corner_n); the noise is evaluated at
  * the object-space position world_to_object(P), the transform of scene xform[xform].
@@ -207,6 +214,16 @@ typedef struct ts_patch_attr {
     float ior;               /* TS_MAT_GLASS: index of refraction inside (outside: 1); else 0 */
     ts_u32 pad;
     float st[8]; /* (s, t) at the four corners, in corner order */
+    /* TS_MAT_PRINCIPLED (lib/principled.h), each in [0, 1] (clearcoat [0, 4]); 0 for the other
+     * materials */
+    float metallic;        /* blend from the dielectric (0) to the conductor (1) response */
+    float specular;        /* the dielectric's F0 = 0.08 specular */
+    float specular_tint;   /* blend of that F0 from white towards the base colour's hue */
+    float sheen;           /* the grazing sheen lobe's weight */
+    float sheen_tint;      /* blend of the sheen from white towards the base colour's hue */
+    float clearcoat;       /* the clear coat: 0.25 clearcoat F D G / (4 cos cos), F0 0.04 */
+    float clearcoat_gloss; /* the coat's GGX alpha from 0.1 (0) to 0.01 (1) */
+    ts_u32 pad2;
 } ts_patch_attr;
 
 /* Lights (DESIGN.md §3). One light is chosen per light sample, with probability proportional
@@ -466,6 +483,7 @@ typedef struct ts_relight_params {
     X(ts_light, flags) X(ts_light, pos) X(ts_light, cos_inner) X(ts_light, falloff_min)             \
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \
     X(ts_patch_attr, disp_offset) X(ts_patch_attr, st) X(ts_texture, kind)                    \
+    X(ts_patch_attr, metallic) X(ts_patch_attr, clearcoat_gloss) X(ts_patch_attr, pad2)      \
     X(ts_texture, level_page) X(ts_bake_params, orthographic) X(ts_bake_params, eye)          \
     X(ts_relight_params, uniform) X(ts_relight_params, patch_count) X(ts_relight_params, pad)     \
     X(ts_udiv, mul) X(ts_udiv, d) X(ts_order_divs, band) X(ts_order_divs, width)            \

@@ -1,6 +1,7 @@
 /* rib_bxdf.c — Bxdf and Displace (RenderMan 21-26, RIS) onto what Surface and Displacement
- * give: RenderMan's materials become the nearest of Tessera's matte, plastic and metal
- * (rib_shading.c's limits), with their colour as the patch colour and an emission for glow;
+ * give: RenderMan's materials become the nearest of Tessera's matte, metal, glass and the
+ * principled BRDF (PxrDisney, PxrSurface's diffuse, specular and clear coat; lib/principled.h),
+ * with rib_shading.c's limits, their colour as the patch colour and an emission for glow;
  * PxrDisplace from a PxrTexture becomes the textured displacement. What Tessera cannot draw
  * (refraction, subsurface, presence, other lobes) is named in one warning each, with the
  * fallback docs/rib.md "RIS shading" lists. Colours and textures connected through Pattern
@@ -20,16 +21,18 @@ typedef struct bxdf_args {
     double coat_face[3], coat_edge[3];             /* PxrSurface's clearcoat */
     double refr_gain, refr_color[3], glass_rough;  /* PxrSurface's glass (refraction) lobe */
     double glow_gain, glow[3];                     /* emission */
-    double metallic, specular;                     /* PxrDisney */
-    double eta[3], kappa[3];                       /* conductors: complex index of refraction */
-    double ior;                                    /* dielectrics */
-    int has_reflectivity;                          /* conductors: artistic face colour given */
+    double metallic, specular, specular_tint;      /* PxrDisney */
+    double sheen, sheen_tint, clearcoat, clearcoat_gloss;
+    double coat_rough;       /* PxrSurface's clearcoatRoughness */
+    double eta[3], kappa[3]; /* conductors: complex index of refraction */
+    double ior;              /* dielectrics */
+    int has_reflectivity;    /* conductors: artistic face colour given */
 } bxdf_args;
 
 typedef enum bxdf_kind {
     BXDF_DIFFUSE,    /* PxrDiffuse, LamaDiffuse, LamaSurface: matte */
-    BXDF_SURFACE,    /* PxrSurface: plastic (matte when it has no specular) */
-    BXDF_DISNEY,     /* PxrDisney: plastic or metal by metallic */
+    BXDF_SURFACE,    /* PxrSurface: principled (matte when it has no specular) */
+    BXDF_DISNEY,     /* PxrDisney: principled */
     BXDF_CONDUCTOR,  /* PxrConductor, LamaConductor: metal */
     BXDF_CONSTANT,   /* PxrConstant, LamaEmission: emits, reflects nothing */
     BXDF_DIELECTRIC, /* PxrDielectric, LamaDielectric, PxrGlass: glass, smooth or rough */
@@ -62,6 +65,7 @@ static const bxdf_param bxdf_surface_params[] = {
     BP("specularRoughness", 1, spec_rough),
     BP("clearcoatFaceColor", 3, coat_face),
     BP("clearcoatEdgeColor", 3, coat_edge),
+    BP("clearcoatRoughness", 1, coat_rough),
     BP("glowGain", 1, glow_gain),
     BP("glowColor", 3, glow),
     BP("refractionGain", 1, refr_gain),
@@ -70,8 +74,16 @@ static const bxdf_param bxdf_surface_params[] = {
     BP("glassRoughness", 1, glass_rough),
 };
 static const bxdf_param bxdf_disney_params[] = {
-    BC("baseColor", color),      BP("metallic", 1, metallic), BP("roughness", 1, spec_rough),
-    BP("specular", 1, specular), BP("emitColor", 3, glow),
+    BC("baseColor", color),
+    BP("metallic", 1, metallic),
+    BP("roughness", 1, spec_rough),
+    BP("specular", 1, specular),
+    BP("specularTint", 1, specular_tint),
+    BP("sheen", 1, sheen),
+    BP("sheenTint", 1, sheen_tint),
+    BP("clearcoat", 1, clearcoat),
+    BP("clearcoatGloss", 1, clearcoat_gloss),
+    BP("emitColor", 3, glow),
 };
 static const bxdf_param bxdf_conductor_params[] = {
     BP("roughness", 1, spec_rough), BP("eta", 3, eta),
@@ -111,9 +123,9 @@ static const struct {
 };
 #define BXDF_COUNT (sizeof bxdf_table / sizeof bxdf_table[0])
 
-/* PxrSurface's and PxrDisney's lobes Tessera does not draw: a parameter whose name starts with
- * the prefix is ignored silently while the lobe's weight (`gain`, summed over its values) is 0,
- * and the weight, when not 0, is named in one warning. */
+/* PxrSurface's and PxrDisney's lobes (and parts of lobes) Tessera does not draw: a parameter whose
+ * name starts with the prefix is ignored silently while the lobe's weight (`gain`, summed over its
+ * values) is 0, and the weight, when not 0, is named in one warning. */
 static const struct {
     const char *prefix, *gain, *what;
 } bxdf_lobes[] = {
@@ -126,8 +138,7 @@ static const struct {
     {"roughSpecular", "roughSpecularFaceColor", "the rough specular lobe is not drawn"},
     {"diffuseTransmit", "diffuseTransmitGain", "diffuse transmission is not drawn"},
     {"subsurface", "subsurface", "subsurface scattering is not supported"},
-    {"sheen", "sheen", "sheen is not drawn"},
-    {"clearcoat", "clearcoat", "PxrDisney's clearcoat is not drawn"},
+    {"clearcoat", "clearcoatThickness", "the clear coat's absorption is not drawn"},
     {"specTrans", "specTrans", "refraction is not supported yet"},
     {"anisotropic", "anisotropic", "anisotropy is not drawn (an isotropic lobe)"},
 };
@@ -144,7 +155,9 @@ static bxdf_args bxdf_defaults(bxdf_kind kind)
                    .kappa = {5.2057, 4.2142, 3.7519},
                    .ior = 1.5,
                    .refr_color = {1, 1, 1},
-                   .glass_rough = 0.1};
+                   .glass_rough = 0.1,
+                   .sheen_tint = 0.5,
+                   .clearcoat_gloss = 1.0};
     if (kind == BXDF_DIFFUSE) a.color[0] = a.color[1] = a.color[2] = 0.5; /* PxrDiffuse */
     if (kind == BXDF_DISNEY) {
         a.color[0] = 0.2, a.color[1] = 0.5, a.color[2] = 0.8, a.spec_rough = 0.25;
@@ -260,6 +273,94 @@ static int bxdf_read(rib_parser *p, size_t k, size_t first, bxdf_args *a, rib_li
     return TS_OK;
 }
 
+/* v clamped to [0, hi], with one warning naming the parameter when it lay outside. */
+static double bxdf_clamp(rib_parser *p, const char *bxdf, const char *name, double v, double hi)
+{
+    if (v >= 0.0 && v <= hi) return v;
+    char what[RIB_WARN_KEY];
+    snprintf(what, sizeof what, "Bxdf \"%s\": \"%s\" outside [0, %g] is clamped to it", bxdf, name,
+             hi);
+    rib_warn_once(p, p->req_line, p->req_col, what);
+    return fmin(fmax(v, 0.0), hi);
+}
+
+/* PxrDisney onto the principled BRDF (lib/principled.h), parameter for parameter. Kd = 1 -
+ * metallic: the diffuse weight that relighting and the albedo AOV read (the BRDF does not). */
+static void bxdf_disney(rib_parser *p, const char *bxdf, const bxdf_args *a, rib_surface *s)
+{
+    s->material = TS_MAT_PRINCIPLED;
+    s->metallic = bxdf_clamp(p, bxdf, "metallic", a->metallic, 1.0);
+    s->specular = bxdf_clamp(p, bxdf, "specular", a->specular, 1.0);
+    s->specular_tint = bxdf_clamp(p, bxdf, "specularTint", a->specular_tint, 1.0);
+    s->sheen = bxdf_clamp(p, bxdf, "sheen", a->sheen, 1.0);
+    s->sheen_tint = bxdf_clamp(p, bxdf, "sheenTint", a->sheen_tint, 1.0);
+    s->clearcoat = bxdf_clamp(p, bxdf, "clearcoat", a->clearcoat, 1.0);
+    s->clearcoat_gloss = bxdf_clamp(p, bxdf, "clearcoatGloss", a->clearcoat_gloss, 1.0);
+    s->kd = 1.0 - s->metallic, s->ks = 0.0;
+    memcpy(s->emit, a->glow, sizeof s->emit);
+}
+
+/* PxrSurface's diffuse, primary specular and clear coat onto the principled BRDF: Cs =
+ * diffuseGain diffuseColor; the specular's F0 = specularFaceColor (its mean, up to a
+ * dielectric's 0.08: specular = F0 / 0.08), Schlick's Fresnel to 1 at the edge; with no diffuse
+ * and F0 above 0.08 a conductor (metallic 1, Cs = specularFaceColor). The clear coat of mean
+ * Schlick Fresnel c (face to edge colour) is clearcoat = 4 c / c(0.04, 1), up to 4 (0.25 x 4:
+ * Schlick from 0.04 to 1), its GGX alpha clearcoatRoughness^2 in [0.01, 0.1]. Without any
+ * specular or coat it stays matte (Schlick's edge would add a reflection PxrSurface lacks). */
+static void bxdf_surface(rib_parser *p, const char *bxdf, const bxdf_args *a, rib_surface *s)
+{
+    char what[RIB_WARN_KEY];
+    double face = 0.0, coat = 0.0, fmax_c = 0.0, dmax = 0.0;
+    int grey = 1, spec = 0, edge1 = 1;
+    for (int c = 0; c < 3; c++) {
+        face += a->spec_face[c] / 3.0, fmax_c = fmax(fmax_c, a->spec_face[c]);
+        coat += bxdf_schlick_mean(a->coat_face[c], a->coat_edge[c]) / 3.0;
+        grey &= a->spec_face[c] == a->spec_face[0] && a->spec_edge[c] == a->spec_edge[0];
+        spec |= a->spec_face[c] > 0.0 || a->spec_edge[c] > 0.0;
+        edge1 &= a->spec_edge[c] == 1.0;
+        dmax = fmax(dmax, a->diffuse_gain * a->color[c]);
+    }
+    /* matte, as *s is: without specular or coat, or with a negative gain (which
+     * rib_shading_limits reports as Kd) */
+    if ((!spec && !(coat > 0.0)) || !(a->diffuse_gain >= 0.0)) return;
+    s->material = TS_MAT_PRINCIPLED, s->kd = 1.0, s->ks = 0.0;
+    if (!(dmax > 0.0) && fmax_c > 0.08) { /* a conductor: its face colour is Cs */
+        s->metallic = 1.0, s->kd = 0.0;
+        for (int c = 0; c < 3; c++)
+            s->color[c] = fmin(a->spec_face[c], 1.0);
+    } else {
+        for (int c = 0; c < 3; c++)
+            s->color[c] = a->diffuse_gain * a->color[c];
+        s->specular = fmin(face / 0.08, 1.0);
+        if (!grey) {
+            snprintf(what, sizeof what, "Bxdf \"%s\": the specular colour is drawn grey (its mean)",
+                     bxdf);
+            rib_warn_once(p, p->req_line, p->req_col, what);
+        }
+        if (face > 0.08) {
+            snprintf(what, sizeof what,
+                     "Bxdf \"%s\": a specularFaceColor above 0.08 over a diffuse lobe is drawn as "
+                     "0.08 (a dielectric's F0 up to index 1.8)",
+                     bxdf);
+            rib_warn_once(p, p->req_line, p->req_col, what);
+        }
+    }
+    if (spec && !edge1) {
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": specularEdgeColor is drawn as 1 (Schlick's Fresnel to white)", bxdf);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
+    s->clearcoat = fmin(4.0 * coat / bxdf_schlick_mean(0.04, 1.0), 4.0);
+    double alpha_c = a->coat_rough * a->coat_rough;
+    if (coat > 0.0 && alpha_c > 0.1) {
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": clearcoatRoughness above 0.32 is drawn as 0.32 (GGX alpha 0.1)",
+                 bxdf);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
+    s->clearcoat_gloss = (0.1 - fmin(fmax(alpha_c, 0.01), 0.1)) / 0.09;
+}
+
 /* The material of a Bxdf of `kind` from its arguments (docs/rib.md "RIS shading"). */
 static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const bxdf_args *a,
                           rib_surface *s)
@@ -272,37 +373,11 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
     s->has_color = 1;
     memcpy(s->color, a->color, sizeof s->color);
     if (kind == BXDF_SURFACE) {
-        double ks = 0.0;
-        int grey = 1;
-        for (int c = 0; c < 3; c++) {
-            ks += bxdf_schlick_mean(a->spec_face[c], a->spec_edge[c]) / 3.0;
-            ks += bxdf_schlick_mean(a->coat_face[c], a->coat_edge[c]) / 3.0;
-            grey &= a->spec_face[c] == a->spec_face[0] && a->spec_edge[c] == a->spec_edge[0];
-        }
-        /* Layered, as PxrSurface is: the diffuse lobe sees what the specular does not reflect. */
-        if (ks > 0.0) s->material = TS_MAT_PLASTIC, s->ks = ks, s->kd *= fmax(0.0, 1.0 - ks);
-        if (!grey) {
-            snprintf(what, sizeof what, "Bxdf \"%s\": the specular colour is drawn grey (its mean)",
-                     bxdf);
-            rib_warn_once(p, p->req_line, p->req_col, what);
-        }
+        bxdf_surface(p, bxdf, a, s);
         for (int c = 0; c < 3; c++)
             s->emit[c] = a->glow_gain * a->glow[c];
     } else if (kind == BXDF_DISNEY) {
-        if (a->metallic != 0.0 && a->metallic != 1.0) {
-            snprintf(what, sizeof what,
-                     "Bxdf \"%s\": metallic between 0 and 1 is drawn as the nearer of the two",
-                     bxdf);
-            rib_warn_once(p, p->req_line, p->req_col, what);
-        }
-        double f0 = 0.08 * a->specular; /* Burley 2012: specular 0.5 is F0 = 0.04 */
-        if (a->metallic >= 0.5)
-            s->material = TS_MAT_METAL, s->kd = 0.0, s->ks = 1.0;
-        else if (f0 > 0.0)
-            s->material = TS_MAT_PLASTIC, s->ks = bxdf_schlick_mean(f0, 1.0), s->kd = 1.0 - s->ks;
-        else
-            s->kd = 1.0;
-        memcpy(s->emit, a->glow, sizeof s->emit);
+        bxdf_disney(p, bxdf, a, s);
     } else if (kind == BXDF_CONDUCTOR) {
         s->material = TS_MAT_METAL, s->kd = 0.0, s->ks = 1.0;
         for (int c = 0; c < 3; c++) {
@@ -331,7 +406,7 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
         for (int c = 0; c < 3; c++)
             tint[c] = fmin(1.0, fmax(0.0, a->refr_gain * a->refr_color[c]));
         int others = a->diffuse_gain * (a->color[0] + a->color[1] + a->color[2]) > 0.0 ||
-                     s->material == TS_MAT_PLASTIC;
+                     s->material == TS_MAT_PRINCIPLED;
         bxdf_glass(p, bxdf, a->ior, tint, s);
         s->roughness = fmin(fmax(a->glass_rough * a->glass_rough, 0.01), 1.0);
         if (others) {
@@ -377,6 +452,12 @@ int rib_req_bxdf(rib_parser *p)
                       "Bxdf: a texture connected to an emission colour is not drawn (emission is "
                       "one colour a patch)");
         link.textured = 0;
+    }
+    if (link.textured && s.material == TS_MAT_PRINCIPLED && a.diffuse_gain != 1.0) {
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": diffuseGain does not scale a colour connected to a texture",
+                 bxdf_table[k].name);
+        rib_warn_once(p, p->req_line, p->req_col, what);
     }
     if (link.textured) { /* the texture is the colour: Cs 1 times it */
         s.textured = 1, s.tex = link.tex;

@@ -98,6 +98,13 @@ static ts_patch_attr geom_attr(const rib_parser *p, const double *cs, const doub
                           .disp_tex = p->disp.kind == TS_DISP_TEXTURE ? p->disp.tex : 0u,
                           .disp_offset = (float)p->disp.offset,
                           .st = {0, 0, 1, 0, 0, 1, 1, 1}};
+    if (p->surface.material == TS_MAT_PRINCIPLED) {
+        const rib_surface *s = &p->surface;
+        attr.metallic = (float)s->metallic, attr.specular = (float)s->specular;
+        attr.specular_tint = (float)s->specular_tint, attr.sheen = (float)s->sheen;
+        attr.sheen_tint = (float)s->sheen_tint, attr.clearcoat = (float)s->clearcoat;
+        attr.clearcoat_gloss = (float)s->clearcoat_gloss;
+    }
     if (p->surface.textured) attr.flags |= TS_PATCH_COLOR_TEX;
     if (p->surface.constant) /* Surface "constant": Ci = Cs, as an emitter of radiance Cs */
         attr.le_r += (float)cs[0], attr.le_g += (float)cs[1], attr.le_b += (float)cs[2];

@@ -87,6 +87,8 @@ typedef struct rib_surface {
     double color[3], emit[3];
     int has_st_map;
     double st_map[4];
+    /* TS_MAT_PRINCIPLED (rib_bxdf.c): ts_patch_attr's fields of the same names */
+    double metallic, specular, specular_tint, sheen, sheen_tint, clearcoat, clearcoat_gloss;
 } rib_surface;
 
 /* What AttributeBegin / TransformBegin / WorldBegin saved. */
