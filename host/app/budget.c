@@ -11,10 +11,14 @@
 
 uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count)
 {
-    uint64_t per_patch = 2 * 16 * sizeof(ts_vec4) /* cp, cp1 */ + 4 * sizeof(ts_vec4) /* normals */
-                         + sizeof(ts_patch_attr) + sizeof(ts_vec4) /* flatness */ + sizeof(ts_box) +
+    /* The per-patch buffers of pipeline.h's TS_PIPELINE_BUFFERS (cp1 only with motion). */
+    uint64_t per_patch = (scene->cp1 ? 2 : 1) * 16 * sizeof(ts_vec4) /* cp, cp1 */ +
+                         9 * sizeof(ts_vec4) /* corner and mid normals */ +
+                         sizeof(ts_patch_attr) + sizeof(ts_vec4) /* flatness */ + sizeof(ts_box) +
                          sizeof(ts_qbvh_node) /* at most one node a patch */ + sizeof(ts_segment) +
-                         2 * sizeof(uint32_t) /* trees */ + sizeof(uint32_t) /* lod counts */;
+                         2 * sizeof(uint32_t) /* trees */ + sizeof(uint32_t) /* lod counts */ +
+                         TS_CULL_GROUPS * sizeof(ts_tight4) + sizeof(uint32_t) /* culling */ +
+                         3 * sizeof(uint32_t) /* grid_at */;
     const ts_occlusion *o = scene->occlusion; /* --occlusion's points and tables (relight.h) */
     uint64_t occlusion =
         o ? (uint64_t)o->point_count * (o->bands * o->bands + 3) * sizeof(float) +
