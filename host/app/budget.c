@@ -13,8 +13,8 @@ uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count)
 {
     /* The per-patch buffers of pipeline.h's TS_PIPELINE_BUFFERS (cp1 only with motion). */
     uint64_t per_patch = (scene->cp1 ? 2 : 1) * 16 * sizeof(ts_vec4) /* cp, cp1 */ +
-                         9 * sizeof(ts_vec4) /* corner and mid normals */ +
-                         sizeof(ts_patch_attr) + sizeof(ts_vec4) /* flatness */ + sizeof(ts_box) +
+                         9 * sizeof(ts_vec4) /* corner and mid normals */ + sizeof(ts_patch_attr) +
+                         sizeof(ts_vec4) /* flatness */ + sizeof(ts_box) +
                          sizeof(ts_qbvh_node) /* at most one node a patch */ + sizeof(ts_segment) +
                          2 * sizeof(uint32_t) /* trees */ + sizeof(uint32_t) /* lod counts */ +
                          TS_CULL_GROUPS * sizeof(ts_tight4) + sizeof(uint32_t) /* culling */ +
