@@ -413,6 +413,9 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     p->relight = u.relight.params;
     scene_uploads_free(&u);
     free(boxes);
+    /* The device has the top-level BVH now; the host's nodes are never read again (about 64
+     * bytes a patch). node_count stays. */
+    free(p->qbvh.nodes), p->qbvh.nodes = NULL;
     if (rc == TS_OK)
         rc = tex_cache_upload_initial(&p->tex, cl, p->tex_pool, p->tex_pages, scene, stats, err);
     if (rc == TS_OK) rc = clear_buffers(p, &c, err);

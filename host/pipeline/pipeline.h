@@ -235,7 +235,7 @@ typedef struct ts_pipeline {
     /* The ray slots the frame's remaining samples take (two a sample: its path's rays), set by
      * the render before budget_grow_arenas (app/budget.c thin_arenas); 0: unknown. */
     uint64_t frame_rays;
-    ts_qbvh qbvh;
+    ts_qbvh qbvh; /* its nodes freed once uploaded (qbvh_nodes); node_count and depth kept */
     radix_sorter *sorter;
     /* Discrete devices: host copies of the two pair buffers, so sort reads the window once
      * and writes back only the valid pairs instead of mapping both buffers (NULL on devices
