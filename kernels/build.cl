@@ -189,14 +189,13 @@ __kernel void build_level(__global const uint *trees, uint tree_first, uint tree
     quadtree_store(base, cbase, level, k, box, tb, coded);
 }
 
-/* The four boxes of sibling group g as codes inside box p (quadtree_cull_code), into *c. */
+/* The four boxes of sibling group g as codes inside the patch box p (tight_store_lane; every
+ * box lies in p: leaves are clamped to it), into *c. */
 inline void cull_encode(__global const ts_box4 *g, ts_box p, __global ts_tight4 *c)
 {
     for (uint q = 0; q < 4u; ++q) {
         ts_box b = {g->lo_x[q], g->lo_y[q], g->lo_z[q], g->hi_x[q], g->hi_y[q], g->hi_z[q]};
-        ts_tight4 t = quadtree_cull_code(p, b);
-        c->lo_x[q] = t.lo_x[0], c->lo_y[q] = t.lo_y[0], c->lo_z[q] = t.lo_z[0];
-        c->hi_x[q] = t.hi_x[0], c->hi_y[q] = t.hi_y[0], c->hi_z[q] = t.hi_z[0];
+        tight_store_lane(c, q, p, b);
     }
 }
 

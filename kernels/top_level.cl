@@ -26,15 +26,14 @@
 #include "lib/qbvh.h"
 #include "lib/quadtree.h"
 
-/* Which of four boxes (SoA: lo_x[4] .. hi_z[4], as ts_qbvh_node and ts_box4 begin) the ray
- * enters within [0, tmax]: bit c for box c. The slab test of box_enter (lib/intersect.h), lane
- * by lane with the same operations, on all four boxes at once; tmax is fixed for the launch,
- * so testing a node's children when the ray reaches the node decides exactly what testing
- * each one in turn would. */
-inline uint box4_hits(__global const float *b, float4 o, float4 inv, float tmax)
+/* Which of four boxes, their planes in float4 lanes, the ray enters within [0, tmax]: bit c
+ * for box c. The slab test of box_enter (lib/intersect.h), lane by lane with the same
+ * operations, on all four boxes at once; tmax is fixed for the launch, so testing a node's
+ * children when the ray reaches the node decides exactly what testing each one in turn
+ * would. */
+TS_INLINE_ALWAYS uint lanes_hits(float4 lx, float4 ly, float4 lz, float4 hx, float4 hy, float4 hz,
+                                 float4 o, float4 inv, float tmax)
 {
-    float4 lx = vload4(0, b), ly = vload4(1, b), lz = vload4(2, b);
-    float4 hx = vload4(3, b), hy = vload4(4, b), hz = vload4(5, b);
     float4 tx0 = (lx - o.x) * inv.x, tx1 = (hx - o.x) * inv.x;
     float4 ty0 = (ly - o.y) * inv.y, ty1 = (hy - o.y) * inv.y;
     float4 tz0 = (lz - o.z) * inv.z, tz1 = (hz - o.z) * inv.z;
@@ -47,15 +46,23 @@ inline uint box4_hits(__global const float *b, float4 o, float4 inv, float tmax)
     return (uint)(hit.x & 1) | (uint)(hit.y & 2) | (uint)(hit.z & 4) | (uint)(hit.w & 8);
 }
 
+/* lanes_hits on four boxes stored SoA (lo_x[4] .. hi_z[4], as ts_qbvh_node and ts_box4
+ * begin). */
+inline uint box4_hits(__global const float *b, float4 o, float4 inv, float tmax)
+{
+    return lanes_hits(vload4(0, b), vload4(1, b), vload4(2, b), vload4(3, b), vload4(4, b),
+                      vload4(5, b), o, inv, tmax);
+}
+
 inline uint qbvh_children_hit(__global const ts_qbvh_node *q, float4 o, float4 inv, float tmax)
 {
     return box4_hits(q->lo_x, o, inv, tmax);
 }
 
-/* box4_hits on the four boxes of a culling copy's group c, decoded inside the patch's box p
- * (lib/quadtree.h quadtree_cull_code; the tight codes' decoding, each box holding the tree's):
- * the same slab operations on boxes that hold the tree's, so a ray that enters a tree box
- * within [0, tmax] enters its decoded box too (the slab test is monotone in the planes). */
+/* lanes_hits on the four boxes of a culling copy's group c, decoded inside the patch's box p
+ * (build.cl cull_encode; the tight codes' decoding, each box holding the tree's): the same
+ * slab operations on boxes that hold the tree's, so a ray that enters a tree box within
+ * [0, tmax] enters its decoded box too (the slab test is monotone in the planes). */
 inline uint cull4_hits(__global const ts_tight4 *c, ts_box p, float4 o, float4 inv, float tmax)
 {
     float sx = tight_step(p.lo_x, p.hi_x), sy = tight_step(p.lo_y, p.hi_y),
@@ -66,16 +73,7 @@ inline uint cull4_hits(__global const ts_tight4 *c, ts_box p, float4 o, float4 i
     float4 hx = p.hi_x - convert_float4(vload4(0, c->hi_x)) * sx;
     float4 hy = p.hi_y - convert_float4(vload4(0, c->hi_y)) * sy;
     float4 hz = p.hi_z - convert_float4(vload4(0, c->hi_z)) * sz;
-    float4 tx0 = (lx - o.x) * inv.x, tx1 = (hx - o.x) * inv.x;
-    float4 ty0 = (ly - o.y) * inv.y, ty1 = (hy - o.y) * inv.y;
-    float4 tz0 = (lz - o.z) * inv.z, tz1 = (hz - o.z) * inv.z;
-    float4 tn = TS_MAX(TS_MAX(TS_MAX(TS_MIN(tx0, tx1), TS_MIN(ty0, ty1)), TS_MIN(tz0, tz1)),
-                       (float4)(0.0f));
-    float4 tf = TS_MIN(TS_MIN(TS_MAX(tx0, tx1), TS_MAX(ty0, ty1)),
-                       TS_MIN(TS_MAX(tz0, tz1), (float4)(tmax)));
-    tf *= 1.0000003576f;
-    int4 hit = lx <= hx && tn <= tf;
-    return (uint)(hit.x & 1) | (uint)(hit.y & 2) | (uint)(hit.z & 4) | (uint)(hit.w & 8);
+    return lanes_hits(lx, ly, lz, hx, hy, hz, o, inv, tmax);
 }
 
 /* Whether the ray, within [0, tmax], enters a box of level 2 of a built patch's quad-tree

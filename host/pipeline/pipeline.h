@@ -129,8 +129,8 @@ typedef struct ts_trace_mode {
  * buffer has size 0. pipeline_create makes every buffer, pipeline_destroy releases them.
  *   qbvh_nodes: the top-level BVH (qbvh.h); cp, cp1: control points at times 0 and 1 (a
  *     static scene's cp1 is one patch's worth, never read: dice reads cp1 only for the
- *     second time sample of a moving patch; 256 bytes a patch saved); corner_n, mid_n: displacement
- * normals at the corners and the edge midpoints and centre (scene.h; +z if the scene has none);
+ *     second time sample of a moving patch); corner_n, mid_n: displacement normals at the
+ *     corners and the edge midpoints and centre (scene.h; +z if the scene has none);
  *     attr: with each patch's emitter index; xform: world to object (the identity if none);
  *     flatness: patch_flatness, w = the longest side of the patch's box (secondary-ray
  *     offset l / 2^m); patch_box: scene_patch_box (build clamps leaf boxes to it); lights,

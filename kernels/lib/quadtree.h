@@ -181,6 +181,23 @@ TS_INLINE float tight_scale(float step)
     return step > 0.0f ? 1.0f / step : 0.0f;
 }
 
+/* Box t, which lies in box b, as the codes of lane q of c: each face of t a whole number of
+ * b's steps inside b's face, rounded outwards (tight_code_lo, _hi), so that decoding relative
+ * to b gives a box that holds t. The tight codes of a tree node (quadtree_store) and the
+ * culling copies inside the patch box (build.cl cull_encode). */
+TS_INLINE_ALWAYS void tight_store_lane(TS_GLOBAL ts_tight4 *c, ts_u32 q, ts_box b, ts_box t)
+{
+    float sx = tight_step(b.lo_x, b.hi_x), sy = tight_step(b.lo_y, b.hi_y),
+          sz = tight_step(b.lo_z, b.hi_z);
+    float rx = tight_scale(sx), ry = tight_scale(sy), rz = tight_scale(sz);
+    c->lo_x[q] = (ts_u8)tight_code_lo(b.lo_x, sx, rx, t.lo_x);
+    c->lo_y[q] = (ts_u8)tight_code_lo(b.lo_y, sy, ry, t.lo_y);
+    c->lo_z[q] = (ts_u8)tight_code_lo(b.lo_z, sz, rz, t.lo_z);
+    c->hi_x[q] = (ts_u8)tight_code_hi(b.hi_x, sx, rx, t.hi_x);
+    c->hi_y[q] = (ts_u8)tight_code_hi(b.hi_y, sy, ry, t.hi_y);
+    c->hi_z[q] = (ts_u8)tight_code_hi(b.hi_z, sz, rz, t.hi_z);
+}
+
 /* Stores box b as node k of level l of the tree at groups, and t (the box of the node's diced
  * vertices) as its tight codes at codes (the same index), or codes 0 (the box itself) unless
  * coded: build.cl and host/ref/dice_build_ref.c. The root group's lanes 1-3 are empty
@@ -195,15 +212,7 @@ TS_INLINE_ALWAYS void quadtree_store(TS_GLOBAL ts_box4 *groups, TS_GLOBAL ts_tig
     g->lo_x[q] = b.lo_x, g->lo_y[q] = b.lo_y, g->lo_z[q] = b.lo_z;
     g->hi_x[q] = b.hi_x, g->hi_y[q] = b.hi_y, g->hi_z[q] = b.hi_z;
     if (coded) {
-        float sx = tight_step(b.lo_x, b.hi_x), sy = tight_step(b.lo_y, b.hi_y),
-              sz = tight_step(b.lo_z, b.hi_z);
-        float rx = tight_scale(sx), ry = tight_scale(sy), rz = tight_scale(sz);
-        c->lo_x[q] = (ts_u8)tight_code_lo(b.lo_x, sx, rx, t.lo_x);
-        c->lo_y[q] = (ts_u8)tight_code_lo(b.lo_y, sy, ry, t.lo_y);
-        c->lo_z[q] = (ts_u8)tight_code_lo(b.lo_z, sz, rz, t.lo_z);
-        c->hi_x[q] = (ts_u8)tight_code_hi(b.hi_x, sx, rx, t.hi_x);
-        c->hi_y[q] = (ts_u8)tight_code_hi(b.hi_y, sy, ry, t.hi_y);
-        c->hi_z[q] = (ts_u8)tight_code_hi(b.hi_z, sz, rz, t.hi_z);
+        tight_store_lane(c, q, b, t);
     } else {
         c->lo_x[q] = c->lo_y[q] = c->lo_z[q] = 0;
         c->hi_x[q] = c->hi_y[q] = c->hi_z[q] = 0;
@@ -250,24 +259,6 @@ TS_INLINE ts_box quadtree_tight_union(TS_CONST_GLOBAL ts_box4 *groups,
         t.lo_x = fmin(t.lo_x, u.lo_x), t.lo_y = fmin(t.lo_y, u.lo_y), t.lo_z = fmin(t.lo_z, u.lo_z);
         t.hi_x = fmax(t.hi_x, u.hi_x), t.hi_y = fmax(t.hi_y, u.hi_y), t.hi_z = fmax(t.hi_z, u.hi_z);
     }
-    return t;
-}
-
-/* Box b (inside p: build clamps every leaf to its patch's top-level box) as the codes of a
- * culling copy (TS_CULL_GROUPS) in lane 0: the tight codes' rounding with p as the node box,
- * so quadtree_cull_box gives a box that holds b. */
-TS_INLINE ts_tight4 quadtree_cull_code(ts_box p, ts_box b)
-{
-    float sx = tight_step(p.lo_x, p.hi_x), sy = tight_step(p.lo_y, p.hi_y),
-          sz = tight_step(p.lo_z, p.hi_z);
-    float rx = tight_scale(sx), ry = tight_scale(sy), rz = tight_scale(sz);
-    ts_tight4 t = {{0}, {0}, {0}, {0}, {0}, {0}};
-    t.lo_x[0] = (ts_u8)tight_code_lo(p.lo_x, sx, rx, b.lo_x);
-    t.lo_y[0] = (ts_u8)tight_code_lo(p.lo_y, sy, ry, b.lo_y);
-    t.lo_z[0] = (ts_u8)tight_code_lo(p.lo_z, sz, rz, b.lo_z);
-    t.hi_x[0] = (ts_u8)tight_code_hi(p.hi_x, sx, rx, b.hi_x);
-    t.hi_y[0] = (ts_u8)tight_code_hi(p.hi_y, sy, ry, b.hi_y);
-    t.hi_z[0] = (ts_u8)tight_code_hi(p.hi_z, sz, rz, b.hi_z);
     return t;
 }
 

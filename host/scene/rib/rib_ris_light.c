@@ -215,6 +215,21 @@ static int ris_light_dome(rib_parser *p, const ris_light_args *a, const double L
                     a->map_arg ? p->args[a->map_arg].col : 0, L);
 }
 
+/* Adds distant light *l shining from light-space point `from` towards `to`, both through the
+ * CTM; `light` and `toward` name it in the error when the CTM collapses the direction. */
+static int ris_distant_add(rib_parser *p, ts_scene_light *l, const double from[3],
+                           const double to[3], const char *light, const char *toward)
+{
+    if (!mat4_point(p->ctm, from, l->from) || !mat4_point(p->ctm, to, l->to))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light: its direction leaves the float range");
+    if (l->from[0] == l->to[0] && l->from[1] == l->to[1] && l->from[2] == l->to[2])
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Light \"%s\": the current transformation has no direction for %s",
+                            light, toward);
+    return scene_add_light(p->scene, l, p->err);
+}
+
 /* PxrDistantLight: light travelling down -z of the current space, radiance L in a cone of
  * angular diameter angleExtent (degrees), that is irradiance L pi sin^2(angle / 2) on a
  * surface facing it (lights.c's cone); with normalize, or angleExtent 0 (a delta light), the
@@ -232,14 +247,7 @@ static int ris_light_distant(rib_parser *p, const ris_light_args *a, const doubl
                         .angle = a->angle,
                         .kind = SCENE_LIGHT_DISTANT};
     const double from[3] = {0, 0, 0}, to[3] = {0, 0, -1};
-    if (!mat4_point(p->ctm, from, l.from) || !mat4_point(p->ctm, to, l.to))
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "Light: its direction leaves the float range");
-    if (l.from[0] == l.to[0] && l.from[1] == l.to[1] && l.from[2] == l.to[2])
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "Light \"PxrDistantLight\": the current transformation has no "
-                            "direction for -z");
-    return scene_add_light(p->scene, &l, p->err);
+    return ris_distant_add(p, &l, from, to, "PxrDistantLight", "-z");
 }
 
 /* ---- PxrEnvDayLight ---------------------------------------------------------------------- */
@@ -333,14 +341,7 @@ static int ris_light_day(rib_parser *p, const ris_light_args *a, const double sc
                         .angle = 2.0 * half * 180.0 / M_PI,
                         .kind = SCENE_LIGHT_DISTANT};
     const double origin[3] = {0, 0, 0};
-    if (!mat4_point(p->ctm, sun, l.from) || !mat4_point(p->ctm, origin, l.to))
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "Light: its direction leaves the float range");
-    if (l.from[0] == l.to[0] && l.from[1] == l.to[1] && l.from[2] == l.to[2])
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "Light \"PxrEnvDayLight\": the current transformation has no "
-                            "direction for the sun");
-    return scene_add_light(p->scene, &l, p->err);
+    return ris_distant_add(p, &l, sun, origin, "PxrEnvDayLight", "the sun");
 }
 
 static int ris_light_quadric_patch(void *ctx, const double cp[16][3], const double n[4][3],
