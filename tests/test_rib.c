@@ -397,6 +397,63 @@ static void test_patch_mesh_counts(void **state)
     scene_free(&s);
 }
 
+/* Height fields (RI Spec 3.2 §5: "Pz", the points' x and y the mesh's surface parameters):
+ * the same patches, bit for bit, as "P" with x = i / (nu - 1) (i / nu along a periodic
+ * direction), y likewise, and the heights as z. */
+static void test_height_field(void **state)
+{
+    (void)state;
+    char text[8192], zs[2000] = "[", pts[7000] = "";
+    double p[20][3];
+    for (int k = 0; k < 20; k++) {
+        double z = 0.25 * (k % 3) - 0.1 * k;
+        snprintf(zs + strlen(zs), sizeof zs - strlen(zs), "%s%.17g", k ? " " : "", z);
+        p[k][0] = (k % 5) / 4.0, p[k][1] = (k / 5) / 3.0, p[k][2] = z;
+    }
+    strcat(zs, "]");
+    print_points(pts, sizeof pts, (const double(*)[3])p, 20);
+    const char *meshes[][2] = {
+        {"PatchMesh \"bilinear\" 5 \"nonperiodic\" 4 \"nonperiodic\"", "12"},
+        {"Basis \"b-spline\" 1 \"b-spline\" 1\nPatchMesh \"bicubic\" 5 \"nowrap\" 4 \"nowrap\"",
+         "2"},
+    };
+    for (int m = 0; m < 2; m++) {
+        ts_scene a, b;
+        snprintf(text, sizeof text, "%s \"Pz\" %s\n", meshes[m][0], zs);
+        test_parse_rib_ok(text, &a);
+        snprintf(text, sizeof text, "%s \"P\" %s\n", meshes[m][0], pts);
+        test_parse_rib_ok(text, &b);
+        assert_int_equal(a.patch_count, (uint32_t)atoi(meshes[m][1]));
+        assert_int_equal(a.patch_count, b.patch_count);
+        assert_memory_equal(a.cp, b.cp, (size_t)16 * a.patch_count * sizeof a.cp[0]);
+        scene_free(&a);
+        scene_free(&b);
+    }
+    /* Periodic in u: x = i / nu, the last patch wrapping from x = 4/5 back to 0. */
+    ts_scene a;
+    snprintf(text, sizeof text, "PatchMesh \"bilinear\" 5 \"periodic\" 4 \"nonperiodic\" \"Pz\" %s",
+             zs);
+    test_parse_rib_ok(text, &a);
+    assert_int_equal(a.patch_count, 15);
+    assert_vec(&a.cp[4 * 16 + 0], 0.8, 0, p[4][2], 1e-7);
+    assert_vec(&a.cp[4 * 16 + 3], 0, 0, p[0][2], 1e-7);
+    scene_free(&a);
+    /* A single patch: the four corners (0,0), (1,0), (0,1), (1,1). */
+    test_parse_rib_ok("Patch \"bilinear\" \"Pz\" [1 2 3 4]\n", &a);
+    assert_vec(&a.cp[0], 0, 0, 1, 0);
+    assert_vec(&a.cp[3], 1, 0, 2, 0);
+    assert_vec(&a.cp[12], 0, 1, 3, 0);
+    assert_vec(&a.cp[15], 1, 1, 4, 0);
+    scene_free(&a);
+    test_parse_rib_error("Patch \"bilinear\" \"Pz\" [1 2 3]",
+                         "t.rib:1:23: error: Patch: parameter \"Pz\" needs 4 values, got 3");
+    test_parse_rib_error("Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"Pz\" [1 2 3 4]",
+                         "t.rib:1:48: error: Patch: \"Pz\" after the points were given (one of "
+                         "\"P\" or \"Pz\")");
+    test_parse_rib_error("Patch \"bilinear\" \"st\" [0 0 1 0 0 1 1 1]",
+                         "t.rib:1:1: error: Patch: missing \"P\" (or \"Pz\")");
+}
+
 /* ---- lexical details ------------------------------------------------------------------ */
 
 static void test_arrays_comments_escapes(void **state)
@@ -616,18 +673,11 @@ static const struct {
     {"Displacement \"fbm\" \"gain\" \"x\"",
      "t.rib:1:27: error: Displacement: parameter \"gain\" needs numbers"},
     {"Displacement 1", "t.rib:1:14: error: Displacement: expected a displacement name (a string)"},
-    {"Displacement \"fbm\"\nScale 0 1 1\n" BILINEAR_UNIT,
-     "t.rib:3:1: error: Patch: the current transformation is singular; Displacement needs an "
-     "invertible one"},
     /* "N" */
     {"Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1]",
      "t.rib:1:52: error: Patch: parameter \"N\" needs 12 values, got 3"},
     {"Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1 0 0 1 0 0 0 0 0 1]",
      "t.rib:1:52: error: Patch: normal 2 of \"N\" is zero"},
-    {"Scale 1 0 1\nPatch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"N\" [0 0 1 0 0 1 0 0 1 0 0 "
-     "1]",
-     "t.rib:2:1: error: Patch: the current transformation is singular; \"N\" needs an "
-     "invertible one"},
     {"PatchMesh \"bilinear\" 3 \"nonperiodic\" 2 \"nonperiodic\" \"P\" [0 0 0 1 0 0 2 0 0 0 1 0 1 "
      "1 0 2 1 0] \"N\" [0 0 1 0 0 1 0 0 1 0 0 1]",
      "t.rib:1:100: error: PatchMesh: parameter \"N\" needs 18 values, got 12"},
@@ -665,6 +715,57 @@ static const struct {
     {"MotionBegin [0 1]\nPatch \"bicubic\" \"P\" [0]",
      "t.rib:2:21: error: Patch: parameter \"P\" needs 48 values, got 1"},
 };
+
+/* A singular CTM where the surface needs the inverse ("N", noise displacement): RenderMan
+ * draws what the transformation makes of the surface, so Tessera draws it flattened, without
+ * its "N" and its noise displacement, or nothing where no area is left (Scale 0 0 0), with a
+ * warning; with --strict it is the error. */
+static void test_singular_transform(void **state)
+{
+    (void)state;
+    const char *flat =
+        "WorldBegin\nDisplacement \"fbm\"\nScale 1 1 0\n"
+        "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 1 1 1 1] \"N\" [0 0 1 0 0 1 0 0 1 "
+        "0 0 1]\nWorldEnd\n";
+    int rc;
+    const char *w = test_rib_warnings(flat, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(w, "w.rib:4:1: warning: Patch: the current transformation is singular: "
+                           "the surface is drawn flattened, with its own normals and no noise "
+                           "displacement (--strict makes this an error)\n");
+    ts_scene s, ref;
+    ts_error e = {0};
+    assert_int_equal(test_parse_rib(flat, &s, &e), TS_OK);
+    test_parse_rib_ok("WorldBegin\nPatch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]\nWorldEnd\n",
+                      &ref);
+    assert_int_equal(s.patch_count, 1);
+    assert_memory_equal(s.cp, ref.cp, 16 * sizeof s.cp[0]);
+    assert_int_equal(s.attr[0].disp_kind, TS_DISP_NONE);
+    scene_free(&s);
+    scene_free(&ref);
+    assert_int_equal(test_parse_rib_strict(flat, &s, &e), TS_E_SCENE);
+    assert_string_equal(e.msg, "t.rib:4:1: error: Patch: the current transformation is singular; "
+                               "\"N\" needs an invertible one");
+    ts_error_clear(&e);
+    assert_int_equal(
+        test_parse_rib_strict("Displacement \"fbm\"\nScale 0 1 1\n" BILINEAR_UNIT, &s, &e),
+        TS_E_SCENE);
+    assert_string_equal(e.msg, "t.rib:3:1: error: Patch: the current transformation is singular; "
+                               "Displacement needs an invertible one");
+    ts_error_clear(&e);
+    /* No area left: nothing drawn, the rest of the scene is. */
+    const char *point =
+        "WorldBegin\nAttributeBegin\nDisplacement \"fbm\"\nScale 0 0 0\n" BILINEAR_UNIT
+        "AttributeEnd\n" BILINEAR_UNIT "WorldEnd\n";
+    w = test_rib_warnings(point, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(w, "w.rib:5:1: warning: Patch: the current transformation is singular "
+                           "and leaves the surface no area: nothing drawn (--strict makes this "
+                           "an error)\n");
+    assert_int_equal(test_parse_rib(point, &s, &e), TS_OK);
+    assert_int_equal(s.patch_count, 1);
+    scene_free(&s);
+}
 
 static void test_errors(void **state)
 {
@@ -1059,10 +1160,12 @@ int main(void)
         cmocka_unit_test(test_basis_conversions),
         cmocka_unit_test(test_bilinear_exact),
         cmocka_unit_test(test_patch_mesh_counts),
+        cmocka_unit_test(test_height_field),
         cmocka_unit_test(test_arrays_comments_escapes),
         cmocka_unit_test(test_lights),
         cmocka_unit_test(test_teapot_file),
         cmocka_unit_test(test_one_patch_file),
+        cmocka_unit_test(test_singular_transform),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_errors_generated),
         cmocka_unit_test(test_error_missing_file),

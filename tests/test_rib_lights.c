@@ -4,6 +4,7 @@
  * Host only: never skips. Every test asserts numbers or exact messages. */
 #include "scene/rib/rib.h"
 #include "scene/scene.h"
+#include "lib/lights.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -180,12 +181,41 @@ static void test_uberlight(void **state)
            "of the same area (width x height)\n");
 }
 
+/* A coneangle over pi (degrees where radians are due): a warning, and the light spotlight.sl
+ * makes of it — lit where cos(angle to the axis) >= cos(coneangle), a hard edge where
+ * cos(coneangle - conedeltaangle) is the smaller; with --strict the error. */
+static void test_spot_cone_over_pi(void **state)
+{
+    (void)state;
+    const char *text = "WorldBegin\nLightSource \"spotlight\" 1 \"coneangle\" [50]\n"
+                       "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]\nWorldEnd\n";
+    int rc;
+    const char *w = test_rib_warnings(text, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(w, "w.rib:2:1: warning: LightSource \"spotlight\": coneangle 50 is "
+                           "outside (0, pi] (radians): lit as spotlight.sl computes it, where "
+                           "cos(angle) >= cos(50) (--strict makes this an error)\n");
+    ts_scene s;
+    ts_error e = {0};
+    assert_int_equal(test_parse_rib(text, &s, &e), TS_OK);
+    assert_int_equal(s.light_count, 1);
+    assert_true(s.lights[0].cone_angle == 50.0);
+    scene_free(&s);
+    assert_int_equal(test_parse_rib_strict(text, &s, &e), TS_E_SCENE);
+    assert_string_equal(e.msg, "t.rib:2:1: error: LightSource \"spotlight\": coneangle 50 is "
+                               "outside (0, pi] (radians)");
+    ts_error_clear(&e);
+    /* The kernel's falloff (lib/lights.h): cos(50) = 0.96497 > cos(50 - 5 degrees) = 0.93875,
+     * a step at cos(50): lit at 10 degrees from the axis, dark at 20. */
+    float c_max = (float)cos(50.0), c_in = (float)cos(50.0 - 5.0 * M_PI / 180.0);
+    assert_true(c_in < c_max);
+    assert_true(light_smoothstep(c_max, c_in, (float)cos(10.0 * M_PI / 180.0)) == 1.0f);
+    assert_true(light_smoothstep(c_max, c_in, (float)cos(20.0 * M_PI / 180.0)) == 0.0f);
+}
+
 static void test_light_errors(void **state)
 {
     (void)state;
-    expect_error("LightSource \"spotlight\" 1 \"coneangle\" [30]\n",
-                 "t.rib:1:1: error: LightSource \"spotlight\": coneangle 30 is outside (0, pi] "
-                 "(radians)");
     expect_error("LightSource \"shadowspot\" 1 \"coneangle\" [0]\n",
                  "t.rib:1:1: error: LightSource \"shadowspot\": coneangle 0 is outside (0, pi] "
                  "(radians)");
@@ -237,8 +267,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_point_light),   cmocka_unit_test(test_spot_light),
         cmocka_unit_test(test_ambient_light), cmocka_unit_test(test_shadow_lights_warn),
-        cmocka_unit_test(test_uberlight),     cmocka_unit_test(test_light_errors),
-        cmocka_unit_test(test_lights_scene),
+        cmocka_unit_test(test_uberlight),     cmocka_unit_test(test_spot_cone_over_pi),
+        cmocka_unit_test(test_light_errors),  cmocka_unit_test(test_lights_scene),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -147,6 +147,44 @@ static void expect_error(const char *text, const char *msg)
 
 #define OBJ "ObjectBegin 1\nSphere 1 -1 1 360\nObjectEnd\n"
 
+/* An instance of an object never defined: RenderMan reports it and goes on, and so does
+ * Tessera, drawing nothing for it with a warning; with --strict it is the error. */
+static void test_object_undefined(void **state)
+{
+    (void)state;
+    int rc;
+    const char *w = test_rib_warnings(OBJ "WorldBegin\nObjectInstance 2\nObjectInstance 1\n"
+                                          "ObjectInstance 2\nWorldEnd\n",
+                                      &rc);
+    assert_int_equal(rc, TS_OK);
+    const char *want = "w.rib:5:1: warning: ObjectInstance: object 2 is not defined (ObjectBegin 2 "
+                       "... ObjectEnd must come before); nothing drawn (--strict makes this an "
+                       "error)\n";
+    if (!strstr(w, want)) fail_msg("\"%s\" not in \"%s\"", want, w);
+    if (strstr(strstr(w, want) + strlen(want), "object 2")) fail_msg("warned twice: \"%s\"", w);
+    ts_scene s;
+    ts_error e = {0};
+    assert_int_equal(
+        test_parse_rib(OBJ "WorldBegin\nObjectInstance 2\nObjectInstance 1\nWorldEnd\n", &s, &e),
+        TS_OK);
+    ts_scene ref;
+    test_parse_rib_ok(OBJ "WorldBegin\nObjectInstance 1\nWorldEnd\n", &ref);
+    assert_int_equal(s.patch_count, ref.patch_count);
+    assert_true(s.patch_count > 0);
+    assert_memory_equal(s.cp, ref.cp, (size_t)16 * s.patch_count * sizeof s.cp[0]);
+    scene_free(&s);
+    scene_free(&ref);
+    assert_int_equal(test_parse_rib_strict(OBJ "WorldBegin\nObjectInstance 2\n", &s, &e),
+                     TS_E_SCENE);
+    assert_string_equal(e.msg, "t.rib:5:1: error: ObjectInstance: object 2 is not defined "
+                               "(ObjectBegin 2 ... ObjectEnd must come before)");
+    ts_error_clear(&e);
+    assert_int_equal(test_parse_rib_strict(OBJ "ObjectInstance \"1\"\n", &s, &e), TS_E_SCENE);
+    assert_string_equal(e.msg, "t.rib:4:1: error: ObjectInstance: object \"1\" is not defined "
+                               "(ObjectBegin \"1\" ... ObjectEnd must come before)");
+    ts_error_clear(&e);
+}
+
 static void test_object_errors(void **state)
 {
     (void)state;
@@ -156,12 +194,6 @@ static void test_object_errors(void **state)
     expect_error(OBJ "ObjectBegin 2\nObjectInstance 1\nObjectEnd\n",
                  "t.rib:5:1: error: ObjectInstance inside the definition of the object begun at "
                  "4:1 (objects do not nest)");
-    expect_error(OBJ "WorldBegin\nObjectInstance 2\n",
-                 "t.rib:5:1: error: ObjectInstance: object 2 is not defined (ObjectBegin 2 ... "
-                 "ObjectEnd must come before)");
-    expect_error(OBJ "ObjectInstance \"1\"\n",
-                 "t.rib:4:1: error: ObjectInstance: object \"1\" is not defined (ObjectBegin "
-                 "\"1\" ... ObjectEnd must come before)");
     expect_error("ObjectEnd\n", "t.rib:1:1: error: ObjectEnd without ObjectBegin");
     expect_error("WorldBegin\nObjectBegin 1\nSphere 1 -1 1 360\n",
                  "t.rib:2:1: error: ObjectBegin is never closed (missing ObjectEnd)");
@@ -327,6 +359,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_instances_equal_written_out),
         cmocka_unit_test(test_handles_and_redefinition),
+        cmocka_unit_test(test_object_undefined),
         cmocka_unit_test(test_object_errors),
         cmocka_unit_test(test_object_ends_in_its_file),
         cmocka_unit_test(test_instanced_patch_bound),

@@ -341,9 +341,42 @@ static void test_errors(void **state)
         "PointsGeneralPolygons [1 1] [3] [0 1 2] \"P\" [0 0 0 1 0 0 0 1 0]",
         "t.rib:1:23: error: PointsGeneralPolygons: the nloops add up to 2, but nvertices "
         "has 1");
+}
+
+/* A primitive variable other than the position with the wrong number of values: the
+ * primitive is drawn without it, with a warning (exporters write such files, and RenderMan
+ * renders them); with --strict it is the error. The position's count stays an error. */
+static void test_wrong_count_primvar(void **state)
+{
+    (void)state;
+    const char *bad = "WorldBegin\nPolygon \"P\" [0 0 0 1 0 0 0 1 0] \"uniform color Cs\" "
+                      "[1 0 0 1 0 0]\nWorldEnd\n";
+    int rc;
+    const char *w = test_rib_warnings(bad, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(w, "w.rib:2:52: warning: Polygon: parameter \"Cs\" (uniform) needs 3 "
+                           "values, got 6; drawn without it (--strict makes this an error)\n");
+    ts_scene s, ref;
+    ts_error e = {0};
+    assert_int_equal(test_parse_rib(bad, &s, &e), TS_OK);
+    test_parse_rib_ok("WorldBegin\nPolygon \"P\" [0 0 0 1 0 0 0 1 0]\nWorldEnd\n", &ref);
+    assert_int_equal(s.patch_count, ref.patch_count);
+    assert_memory_equal(s.cp, ref.cp, (size_t)16 * s.patch_count * sizeof s.cp[0]);
+    assert_memory_equal(s.attr, ref.attr, s.patch_count * sizeof s.attr[0]);
+    scene_free(&s);
+    scene_free(&ref);
+    assert_int_equal(test_parse_rib_strict(bad, &s, &e), TS_E_SCENE);
+    assert_string_equal(e.msg, "t.rib:2:52: error: Polygon: parameter \"Cs\" (uniform) needs 3 "
+                               "values, got 6");
+    ts_error_clear(&e);
+    assert_int_equal(test_parse_rib_strict("Sphere 1 -1 1 360 \"Cs\" [1 0 0 0 1 0]", &s, &e),
+                     TS_E_SCENE);
+    assert_string_equal(e.msg, "t.rib:1:24: error: Sphere: parameter \"Cs\" (varying) needs 12 "
+                               "values, got 6");
+    ts_error_clear(&e);
     test_parse_rib_error(
-        "Polygon \"P\" [0 0 0 1 0 0 0 1 0] \"uniform color Cs\" [1 0 0 1 0 0]",
-        "t.rib:1:52: error: Polygon: parameter \"Cs\" (uniform) needs 3 values, got 6");
+        "Polygon \"P\" [0 0 0 1 0 0 0 1 0 1]",
+        "t.rib:1:13: error: Polygon: parameter \"P\" (vertex) needs 9 values, got 10");
 }
 
 /* A zero normal in "N" (exporters write them) takes its polygon's normal, as a mesh vertex
@@ -368,13 +401,10 @@ static void test_zero_normal(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_cube_stays_a_cube),
-        cmocka_unit_test(test_zero_normal),
-        cmocka_unit_test(test_quad_with_normals),
-        cmocka_unit_test(test_holes_and_concave),
-        cmocka_unit_test(test_random_holes),
-        cmocka_unit_test(test_primitive_variables),
-        cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_cube_stays_a_cube),   cmocka_unit_test(test_wrong_count_primvar),
+        cmocka_unit_test(test_zero_normal),         cmocka_unit_test(test_quad_with_normals),
+        cmocka_unit_test(test_holes_and_concave),   cmocka_unit_test(test_random_holes),
+        cmocka_unit_test(test_primitive_variables), cmocka_unit_test(test_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

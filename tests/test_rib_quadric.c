@@ -409,14 +409,24 @@ static void test_errors(void **state)
         "Paraboloid 1 -1 1 360",
         "t.rib:1:1: error: Paraboloid: zmin -1 and zmax 1 lie on opposite sides of 0 "
         "(the paraboloid z = zmax (r / rmax)^2 has no points there)");
-    test_parse_rib_error(
-        "Sphere 1 -1 1 360 \"Cs\" [1 0 0 0 1 0]",
-        "t.rib:1:24: error: Sphere: parameter \"Cs\" (varying) needs 12 values, got 6");
     test_parse_rib_error("WorldBegin\nWorldEnd\nDisk 0 1 360",
                          "t.rib:3:1: error: Disk after WorldEnd");
-    test_parse_rib_error("Scale 1 1 0\nSphere 1 -1 1 360",
-                         "t.rib:2:1: error: Sphere: the current transformation is singular; the "
-                         "surface's normals need an invertible one");
+    {
+        ts_scene s;
+        ts_error e = {0};
+        assert_int_equal(test_parse_rib_strict("Scale 1 1 0\nSphere 1 -1 1 360", &s, &e),
+                         TS_E_SCENE);
+        assert_string_equal(e.msg, "t.rib:2:1: error: Sphere: the current transformation is "
+                                   "singular; \"N\" needs an invertible one");
+        ts_error_clear(&e);
+        /* Not strict: the sphere flattened to a disk, z = 0 everywhere (test_rib.c
+         * test_singular_transform has the warning). */
+        assert_int_equal(test_parse_rib("Scale 1 1 0\nSphere 1 -1 1 360", &s, &e), TS_OK);
+        assert_true(s.patch_count > 0);
+        for (uint32_t k = 0; k < 16 * s.patch_count; k++)
+            assert_true(s.cp[k].z == 0.0f);
+        scene_free(&s);
+    }
     /* In a motion block a quadric deforms (test_rib_deform.c): it needs its second sample. */
     test_parse_rib_error("MotionBegin [0 1]\nSphere 1 -1 1 360\nMotionEnd\n",
                          "t.rib:3:1: error: MotionEnd: the motion block at 1:1 has 1 sample for 2 "

@@ -80,6 +80,8 @@ static const struct {
     {"SolidEnd", rib_req_solid_end},
     {"Shutter", rib_req_shutter},
     {"Surface", rib_req_surface},
+    {"ShaderLayer", rib_req_shader_layer},
+    {"ConnectShaderLayers", rib_req_connect_shader_layers},
     {"Transform", rib_req_transform},
     {"TransformBegin", rib_req_transform_begin},
     {"TransformEnd", rib_req_transform_end},

@@ -16,6 +16,7 @@
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* Geometry needs a place in the world block (or a file without one) and an affine CTM
@@ -138,6 +139,40 @@ int rib_geom_procedural_attr(rib_parser *p, ts_patch_attr *attr)
     return geom_xform(p, inv, &attr->xform);
 }
 
+/* A singular CTM where the surface needs its inverse (`needs`: "N" for the normals, or
+ * Displacement for the noise's object space). RenderMan draws what the transformation makes
+ * of the surface: where it leaves no area (the linear part of rank 1 or 0: a line or a point,
+ * as `Scale 0 0 0` makes) *skip is set; else the surface is drawn flattened, with its own
+ * normals and without noise displacement. Either way with a warning; with --strict the
+ * error. */
+static int geom_singular(rib_parser *p, const char *needs, int *skip)
+{
+    if (p->strict)
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "%s: the current transformation is singular; %s needs an "
+                            "invertible one",
+                            p->req, needs);
+    const double *m = p->ctm;
+    double minor = 0.0; /* the largest 2 x 2 minor of the linear part */
+    for (int r0 = 0; r0 < 3; r0++)
+        for (int r1 = r0 + 1; r1 < 3; r1++)
+            for (int c0 = 0; c0 < 3; c0++)
+                for (int c1 = c0 + 1; c1 < 3; c1++)
+                    minor = fmax(minor, fabs(m[4 * r0 + c0] * m[4 * r1 + c1] -
+                                             m[4 * r0 + c1] * m[4 * r1 + c0]));
+    *skip = !(minor > 1e-300);
+    char what[RIB_WARN_KEY + 64];
+    snprintf(what, sizeof what,
+             *skip ? "%s: the current transformation is singular and leaves the surface no "
+                     "area: nothing drawn (--strict makes this an error)"
+                   : "%s: the current transformation is singular: the surface is drawn "
+                     "flattened, with its own normals and no noise displacement (--strict makes "
+                     "this an error)",
+             p->req);
+    rib_warn_once(p, p->req_line, p->req_col, what);
+    return TS_OK;
+}
+
 /* Appends a patch: g0 (and g1, the points at shutter close, or NULL) in object space are
  * moved by the CTM — by its two samples when it moves, which makes the patch move too —
  * with the current attributes, colour cs (NULL: the current Color) and corner texture
@@ -170,11 +205,13 @@ static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
     if (rc != TS_OK) return rc;
     ts_patch_attr attr = geom_attr(p, cs, st);
     int noise = attr.disp_kind == TS_DISP_FBM || attr.disp_kind == TS_DISP_RIDGED;
-    if ((noise || n) && !mat4_invert(p->ctm, inv))
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "%s: the current transformation is singular; %s needs an "
-                            "invertible one",
-                            p->req, n ? "\"N\"" : "Displacement");
+    if ((noise || n) && !mat4_invert(p->ctm, inv)) {
+        int skip = 0;
+        rc = geom_singular(p, n ? "\"N\"" : "Displacement", &skip);
+        if (rc != TS_OK || skip) return rc;
+        if (noise) attr.disp_kind = TS_DISP_NONE, noise = 0;
+        n = NULL;
+    }
     if (noise) {
         rc = geom_xform(p, inv, &attr.xform);
         if (rc != TS_OK) return rc;
@@ -201,12 +238,6 @@ int rib_geom_check(rib_parser *p)
 int rib_geom_emit(rib_parser *p, int line, int col, const double g[16][3], const double n[4][3],
                   const double *cs, const double st[4][2])
 {
-    double inv[16];
-    if (n && !mat4_invert(p->ctm, inv))
-        return rib_error_at(p, p->req_line, p->req_col,
-                            "%s: the current transformation is singular; the surface's normals "
-                            "need an invertible one",
-                            p->req);
     return geom_emit(p, line, col, g, NULL, n, line, col, cs, st);
 }
 
@@ -247,6 +278,7 @@ typedef struct geom_var {
 
 typedef struct geom_vars {
     const double *P;
+    double *P_height; /* "Pz": the points made from the heights (geom_vars_free) */
     const rib_arg *P_at;
     geom_var N, Cs, st;
 } geom_vars;
@@ -344,19 +376,55 @@ static int geom_read_st(rib_parser *p, const rib_param *prm, const geom_grid *g,
     return TS_OK;
 }
 
-/* Finds "P" (3 nu nv numbers), "N" and "Cs" (any class, 3 numbers per value), "st" (2 per
- * value) among the parameters from args[first]. "Pw" and "Pz" are errors (rational and
- * height-field patches are not supported); any other parameter ("s", "t", "Os", ...) is
- * ignored with a warning. */
+/* A height field (RI Spec 3.2 §5: "Pz", one z a control point, whose x and y are the mesh's
+ * surface parameters): point (i, j) of the nu x nv grid is (i / (nu - 1), j / (nv - 1), z),
+ * or i / nu along a periodic direction (whose points wrap around). Into out->P_height. */
+static int geom_height_field(rib_parser *p, const rib_param *prm, const geom_grid *g,
+                             geom_vars *out)
+{
+    const double *z;
+    size_t n = (size_t)g->nu * (size_t)g->nv;
+    int rc = rib_param_numbers(p, prm, n, &z, NULL);
+    if (rc != TS_OK) return rc;
+    if (!(out->P_height = malloc(3 * n * sizeof *out->P_height)))
+        return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->req);
+    double du = g->uper ? g->nu : g->nu - 1, dv = g->vper ? g->nv : g->nv - 1;
+    for (size_t j = 0, k = 0; j < (size_t)g->nv; j++)
+        for (size_t i = 0; i < (size_t)g->nu; i++, k++) {
+            out->P_height[3 * k] = (double)i / du;
+            out->P_height[3 * k + 1] = (double)j / dv;
+            out->P_height[3 * k + 2] = z[k];
+        }
+    out->P = out->P_height;
+    return TS_OK;
+}
+
+static void geom_vars_free(geom_vars *v)
+{
+    free(v->P_height);
+    v->P_height = NULL;
+}
+
+/* Finds "P" (3 nu nv numbers) or "Pz" (nu nv heights: geom_height_field), "N" and "Cs" (any
+ * class, 3 numbers per value), "st" (2 per value) among the parameters from args[first].
+ * "Pw" is an error (rational patches are not supported); any other parameter ("s", "t",
+ * "Os", ...) is ignored with a warning. On success the caller frees *out (geom_vars_free). */
 static int geom_find_vars(rib_parser *p, size_t first, const geom_grid *g, geom_vars *out)
 {
     memset(out, 0, sizeof *out);
     for (size_t i = first; i < p->nargs; i += 2) {
         rib_param prm;
         int rc = rib_param_at(p, i, &prm);
-        if (rc != TS_OK) return rc;
+        if (rc == TS_OK && out->P && (strcmp(prm.name, "P") == 0 || strcmp(prm.name, "Pz") == 0))
+            rc = rib_error_at(p, prm.key->line, prm.key->col,
+                              "%s: \"%s\" after the points were given (one of \"P\" or \"Pz\")",
+                              p->req, prm.name);
+        if (rc != TS_OK) return geom_vars_free(out), rc;
         if (strcmp(prm.name, "P") == 0) {
             rc = rib_param_numbers(p, &prm, 3 * (size_t)g->nu * (size_t)g->nv, &out->P, NULL);
+            out->P_at = prm.val;
+        } else if (strcmp(prm.name, "Pz") == 0) {
+            rc = geom_height_field(p, &prm, g, out);
             out->P_at = prm.val;
         } else if (strcmp(prm.name, "N") == 0) {
             rc = geom_read_var(p, &prm, g, &out->N);
@@ -365,19 +433,17 @@ static int geom_find_vars(rib_parser *p, size_t first, const geom_grid *g, geom_
         } else if (strcmp(prm.name, "st") == 0) {
             rc = geom_read_st(p, &prm, g, &out->st);
         } else if (strcmp(prm.name, "Pw") == 0) {
+            geom_vars_free(out);
             return rib_error_at(p, prm.key->line, prm.key->col,
                                 "%s: rational patches (\"Pw\") are not supported; give \"P\"",
-                                p->req);
-        } else if (strcmp(prm.name, "Pz") == 0) {
-            return rib_error_at(p, prm.key->line, prm.key->col,
-                                "%s: height-field patches (\"Pz\") are not supported; give \"P\"",
                                 p->req);
         } else {
             rib_warn_param(p, &prm);
         }
-        if (rc != TS_OK) return rc;
+        if (rc != TS_OK) return geom_vars_free(out), rc;
     }
-    if (!out->P) return rib_error_at(p, p->req_line, p->req_col, "%s: missing \"P\"", p->req);
+    if (!out->P)
+        return rib_error_at(p, p->req_line, p->req_col, "%s: missing \"P\" (or \"Pz\")", p->req);
     return TS_OK;
 }
 
@@ -471,7 +537,8 @@ static int geom_patch_type(rib_parser *p, int *bicubic)
     return TS_OK;
 }
 
-/* Patch "bicubic" "P" [48] in the current bases, or Patch "bilinear" "P" [12]; optional
+/* Patch "bicubic" "P" [48] in the current bases, or Patch "bilinear" "P" [12] ("Pz": 16 or 4
+ * heights, geom_height_field); optional
  * "N" (corner normals) and "Cs" (colour) of any class. Inside a motion block the patch is
  * a sample, emitted at MotionEnd. */
 int rib_req_patch(rib_parser *p)
@@ -486,6 +553,7 @@ int rib_req_patch(rib_parser *p)
     if (rc != TS_OK) return rc;
     double bez[16][3], n[4][3], cs[3], st[4][2];
     geom_to_bezier(p, &g, vars.P, 0, 0, bez);
+    geom_vars_free(&vars);
     if (vars.N.v) geom_var_corners(p, &g, &vars.N, 0, 0, n);
     if (vars.Cs.v) geom_var_colour(p, &g, &vars.Cs, 0, 0, cs);
     if (vars.st.v) geom_st_corners(p, &g, &vars.st, 0, 0, st);
@@ -575,8 +643,8 @@ static int geom_mesh_direction(rib_parser *p, size_t i, int bicubic, int step, c
     return geom_mesh_count(p, bicubic, *n, step, *periodic, &p->args[i], dir, count);
 }
 
-/* PatchMesh type nu uwrap nv vwrap "P" [3 nu nv] ["N" ...] ["Cs" ...] ["st" ...]: "N" and
- * "Cs" of any class, "st" of any but vertex, counted on the grid of patches
+/* PatchMesh type nu uwrap nv vwrap "P" [3 nu nv] (or "Pz" [nu nv]) ["N" ...] ["Cs" ...] ["st" ...]:
+ * "N" and "Cs" of any class, "st" of any but vertex, counted on the grid of patches
  * (geom_class_count). */
 int rib_req_patch_mesh(rib_parser *p)
 {
@@ -603,6 +671,7 @@ int rib_req_patch_mesh(rib_parser *p)
                            vars.N.v ? (const double(*)[3])n : NULL, vars.N.line, vars.N.col,
                            vars.Cs.v ? cs : NULL, vars.st.v ? (const double(*)[2])st : NULL);
         }
+    geom_vars_free(&vars);
     return rc;
 }
 

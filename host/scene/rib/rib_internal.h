@@ -162,6 +162,8 @@ int rib_geom_bezier(rib_parser *p, const double g[16][3]);
 /* ---- rib_shading.c: Surface, AreaLightSource, Opacity ---- */
 
 int rib_req_surface(rib_parser *p);
+int rib_req_shader_layer(rib_parser *p);
+int rib_req_connect_shader_layers(rib_parser *p);
 int rib_req_area_light_source(rib_parser *p);
 /* Kd, Ks >= 0 and finite (else an error naming `name`); Kd + Ks above 1 scaled down to 1 and
  * roughness clamped into [0.01, 1], each with one warning. */

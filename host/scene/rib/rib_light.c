@@ -181,14 +181,28 @@ static int light_check_energy(rib_parser *p, const char *shader, const light_arg
 
 /* A spot's cone (spotlight.sl) into l: 0 < coneangle <= pi, conedeltaangle >= 0 (at most
  * the cone: a larger one is clamped, the soft edge then reaching the axis), beamdistribution
- * >= 0; the distance falloff 1 / d^2. */
+ * >= 0; the distance falloff 1 / d^2. A finite coneangle over pi (degrees written for
+ * radians, as in files RenderMan renders) warns, an error when strict, and lights what
+ * spotlight.sl lights: where cos(angle to the axis) >= cos(coneangle) (illuminate's cone is
+ * then every direction), the soft edge from cos(coneangle - conedeltaangle), a step where
+ * that is the smaller (lib/lights.h light_smoothstep). */
 static int light_spot(rib_parser *p, const char *shader, const light_args *a, ts_scene_light *l)
 {
     char shown[RIB_PRINT_MAX];
-    if (!(a->coneangle > 0 && a->coneangle <= M_PI))
+    int over = a->coneangle > M_PI && a->coneangle <= DBL_MAX;
+    if (!(a->coneangle > 0 && a->coneangle <= M_PI) && (!over || p->strict))
         return rib_error_at(p, p->req_line, p->req_col,
                             "LightSource \"%s\": coneangle %g is outside (0, pi] (radians)",
                             rib_printable(shader, shown), a->coneangle);
+    if (over) {
+        char what[RIB_WARN_KEY + 96];
+        snprintf(what, sizeof what,
+                 "LightSource \"%s\": coneangle %g is outside (0, pi] (radians): lit as "
+                 "spotlight.sl computes it, where cos(angle) >= cos(%g) (--strict makes this an "
+                 "error)",
+                 rib_printable(shader, shown), a->coneangle, a->coneangle);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
     if (!(a->conedeltaangle >= 0 && a->conedeltaangle <= DBL_MAX) ||
         !(a->beamdistribution >= 0 && a->beamdistribution <= DBL_MAX))
         return rib_error_at(p, p->req_line, p->req_col,

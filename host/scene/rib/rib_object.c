@@ -319,11 +319,20 @@ int rib_req_object_instance(rib_parser *p)
     if (rc == TS_OK) rc = object_handle(p, &key, shown);
     if (rc != TS_OK) return rc;
     rib_object *o = object_find(p->objects, &key);
-    if (!o)
+    if (!o && p->strict)
         return rib_error_at(p, p->req_line, p->req_col,
                             "ObjectInstance: object %s is not defined (ObjectBegin %s ... "
                             "ObjectEnd must come before)",
                             shown, shown);
+    if (!o) { /* RenderMan reports it and goes on: nothing is drawn */
+        char what[512];
+        snprintf(what, sizeof what,
+                 "ObjectInstance: object %s is not defined (ObjectBegin %s ... ObjectEnd must "
+                 "come before); nothing drawn (--strict makes this an error)",
+                 shown, shown);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+        return TS_OK;
+    }
     rc = rib_geom_check(p);
     if (rc == TS_OK) rc = rib_attributes_push(p);
     if (rc != TS_OK) return rc;

@@ -73,10 +73,22 @@ static int rib_pvar_read(rib_parser *p, const rib_param *prm, const size_t count
     const double *v;
     const rib_arg *val = prm->val;
     if ((val->kind == RIB_ARG_NUMBER || val->kind == RIB_ARG_NUMBERS) &&
-        val->count != (size_t)dim * count)
-        return rib_error_at(
-            p, val->line, val->col, "%s: parameter \"%s\" (%s) needs %zu values, got %zu", p->req,
-            rib_printable(prm->name, shown), rib_class_names[cls], (size_t)dim * count, val->count);
+        val->count != (size_t)dim * count) {
+        if (position || p->strict)
+            return rib_error_at(p, val->line, val->col,
+                                "%s: parameter \"%s\" (%s) needs %zu values, got %zu", p->req,
+                                rib_printable(prm->name, shown), rib_class_names[cls],
+                                (size_t)dim * count, val->count);
+        /* Any other variable: the primitive is drawn without it (*out stays unset). */
+        char what[512];
+        snprintf(what, sizeof what,
+                 "%s: parameter \"%s\" (%s) needs %zu values, got %zu; drawn without it "
+                 "(--strict makes this an error)",
+                 p->req, rib_printable(prm->name, shown), rib_class_names[cls], (size_t)dim * count,
+                 val->count);
+        rib_warn_once(p, val->line, val->col, what);
+        return TS_OK;
+    }
     int rc = rib_param_numbers(p, prm, (size_t)dim * count, &v, NULL);
     if (rc != TS_OK) return rc;
     int is_n = strcmp(prm->name, "N") == 0;

@@ -202,3 +202,45 @@ int rib_req_opacity(rib_parser *p)
     memcpy(p->opacity, o, sizeof o);
     return TS_OK;
 }
+
+/* ShaderLayer type name handle params (RenderMan 16's shader layering): the layers of a group
+ * run in order and each writes the shader's outputs, so the group shows what its last
+ * layer makes. Tessera draws each "surface" or "displacement" layer as that request with the
+ * layer's own parameters, the last one staying (an unknown shader warns as the request
+ * does); a layer of another type is ignored with a warning. ConnectShaderLayers (one
+ * layer's output feeding another's parameter) is ignored with a warning: each layer keeps
+ * its parameters' own values. docs/rib.md "Surface shaders". */
+int rib_req_shader_layer(rib_parser *p)
+{
+    const char *type, *name, *handle;
+    int rc = rib_string_arg(p, 0, "a shader type (surface, displacement, ...)", &type);
+    if (rc == TS_OK) rc = rib_string_arg(p, 1, "a shader name", &name);
+    if (rc == TS_OK) rc = rib_string_arg(p, 2, "a layer handle", &handle);
+    if (rc != TS_OK) return rc;
+    int surface = strcmp(type, "surface") == 0, disp = strcmp(type, "displacement") == 0;
+    if (!surface && !disp) {
+        char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+        snprintf(what, sizeof what,
+                 "ShaderLayer \"%s\" is ignored (surface and displacement "
+                 "layers are drawn)",
+                 rib_printable(type, shown));
+        rib_warn_once(p, p->req_line, p->req_col, what);
+        return TS_OK;
+    }
+    /* The request as Surface/Displacement name params: the name moved over the handle, the
+     * two first arguments dropped for the call. */
+    rib_arg saved = p->args[2];
+    p->args[2] = p->args[1];
+    p->args += 2, p->nargs -= 2;
+    rc = surface ? rib_req_surface(p) : rib_req_displacement(p);
+    p->args -= 2, p->nargs += 2;
+    p->args[2] = saved;
+    return rc;
+}
+
+int rib_req_connect_shader_layers(rib_parser *p)
+{
+    rib_warn_once(p, p->req_line, p->req_col,
+                  "ConnectShaderLayers is ignored: each layer keeps its parameters' own values");
+    return TS_OK;
+}
