@@ -6,6 +6,7 @@
 #include "scene/rib/basis.h"
 #include "scene/rib/rib.h"
 #include "scene/scene.h"
+#include "base/mat4.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -200,6 +201,52 @@ static void test_rotate_convention(void **state)
         assert_vec(&s.cp[12], cases[k].ux, cases[k].uy, cases[k].uz, 1e-6);
         scene_free(&s);
     }
+}
+
+/* Skew (RI Spec 3.2 §4.3): points move along the second axis, so that the first axis turns
+ * by the angle towards it. */
+static void test_skew(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *skew;
+        double x, y, z; /* image of (1,0,0) */
+        double a, b, c; /* image of (2,3,4) */
+    } cases[] = {
+        /* x += y: (0,1,0) turns 45 degrees towards x */
+        {"Skew 45 0 1 0 1 0 0", 1, 0, 0, 5, 3, 4},
+        /* x turns 30 degrees towards (0,1,1): (1, k/sqrt2, k/sqrt2), k = tan 30 */
+        {"Skew 30 2 0 0 0 1 1", 1, 0.408248290463863, 0.408248290463863, 2, 3.816496580927726,
+         4.816496580927726},
+        /* a negative angle turns it away: y -= tan(30) x */
+        {"Skew -30 1 0 0 0 1 0", 1, -0.5773502691896258, 0, 2, 1.845299461620748, 4},
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        char text[512];
+        snprintf(text, sizeof text, "WorldBegin\n%s\n%sWorldEnd\n", cases[k].skew, BILINEAR_UNIT);
+        ts_scene s;
+        test_parse_rib_ok(text, &s);
+        assert_vec(&s.cp[0], cases[k].x, cases[k].y, cases[k].z, 1e-6);
+        assert_vec(&s.cp[15], cases[k].a, cases[k].b, cases[k].c, 1e-6);
+        scene_free(&s);
+    }
+    /* The image of the first axis makes the angle with it (mat4_skew directly). */
+    double d1[3] = {1, 2, 0.5}, d2[3] = {-1, 0.3, 2}, m[16];
+    assert_true(mat4_skew(20.0, d1, d2, m));
+    double w[3] = {m[0] * d1[0] + m[1] * d1[1] + m[2] * d1[2],
+                   m[4] * d1[0] + m[5] * d1[1] + m[6] * d1[2],
+                   m[8] * d1[0] + m[9] * d1[1] + m[10] * d1[2]};
+    double dot = w[0] * d1[0] + w[1] * d1[1] + w[2] * d1[2];
+    double lw = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]),
+           l1 = sqrt(d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]);
+    assert_float_equal(acos(dot / (lw * l1)) * 180.0 / M_PI, 20.0, 1e-9);
+    test_parse_rib_error("Skew 90 1 0 0 0 1 0",
+                         "t.rib:1:1: error: Skew 90: the axes must be nonzero and not parallel, "
+                         "and the angle less than theirs and more than theirs - 180 degrees");
+    test_parse_rib_error("Skew 10 1 0 0 2 0 0",
+                         "t.rib:1:1: error: Skew 10: the axes must be nonzero and not parallel, "
+                         "and the angle less than theirs and more than theirs - 180 degrees");
+    test_parse_rib_error("Skew 10 1 0 0", "t.rib:1:1: error: Skew expects 7 numbers, got 4");
 }
 
 static void test_scale_and_matrices(void **state)
@@ -1153,6 +1200,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_translate_then_rotate),
         cmocka_unit_test(test_rotate_convention),
+        cmocka_unit_test(test_skew),
         cmocka_unit_test(test_scale_and_matrices),
         cmocka_unit_test(test_world_to_camera),
         cmocka_unit_test(test_format_and_projection),

@@ -50,6 +50,31 @@ int mat4_rotate(double deg, double x, double y, double z, double m[16])
     return 1;
 }
 
+int mat4_skew(double deg, const double d1[3], const double d2[3], double m[16])
+{
+    double l1 = sqrt(d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]);
+    double l2 = sqrt(d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2]);
+    if (!(l1 > 0.0) || !(l2 > 0.0) || !isfinite(l1) || !isfinite(l2) || !isfinite(deg)) return 0;
+    double a[3], b[3], n[3];
+    for (int k = 0; k < 3; k++)
+        a[k] = d1[k] / l1, b[k] = d2[k] / l2;
+    double c = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; /* cos phi */
+    for (int k = 0; k < 3; k++)
+        n[k] = a[k] - c * b[k];
+    double s = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]); /* sin phi */
+    if (!(s > 1e-12)) return 0;                               /* parallel axes */
+    for (int k = 0; k < 3; k++)
+        n[k] /= s;
+    double phi = atan2(s, c), psi = phi - deg * (3.14159265358979323846 / 180.0);
+    if (!(psi > 0.0 && psi < 3.14159265358979323846)) return 0;
+    double k = cos(psi) / sin(psi) - c / s; /* cot(phi - angle) - cot(phi) */
+    mat4_identity(m);
+    for (int r = 0; r < 3; r++)
+        for (int q = 0; q < 3; q++)
+            m[r * 4 + q] += k * b[r] * n[q];
+    return 1;
+}
+
 /* Gauss-Jordan with partial pivoting. Returns 0 when m is singular or not finite. */
 int mat4_invert(const double m[16], double inv[16])
 {

@@ -9,6 +9,12 @@ void mat4_identity(double m[16]);
 void mat4_concat(double ctm[16], const double t[16]);
 /* Rotation by deg degrees about the axis (x, y, z) (RiRotate); 0 for a zero-length axis. */
 int mat4_rotate(double deg, double x, double y, double z, double m[16]);
+/* RiSkew (RI Spec 3.2 §4.3): the shear that moves points along d2 in proportion to their
+ * distance from d2 in the plane of d1 and d2, so that d1 turns by deg degrees towards d2 (d1
+ * itself goes to a vector at deg from it): m = I + k d2^ n^T, n^ the unit part of d1^ normal
+ * to d2^, k = cot(phi - deg) - cot(phi), phi the angle from d1 to d2. 0 when an axis is zero
+ * or the two are parallel, or deg is not in (phi - 180, phi) (the spec's error). */
+int mat4_skew(double deg, const double d1[3], const double d2[3], double m[16]);
 /* Gauss-Jordan inverse with partial pivoting; 0 when m is singular or not finite. */
 int mat4_invert(const double m[16], double inv[16]);
 /* Bottom row (0 0 0 w), w != 0: the maps under which Bézier patches stay polynomial. */

@@ -74,6 +74,7 @@ static const struct {
     {"Projection", rib_req_projection},
     {"ReadArchive", rib_req_read_archive},
     {"Rotate", rib_req_rotate},
+    {"Skew", rib_req_skew},
     {"Scale", rib_req_scale},
     {"ScreenWindow", rib_req_screen_window},
     {"SolidBegin", rib_req_solid_begin},
@@ -157,7 +158,6 @@ static const char *const rib_ignored[] = {
 static const char *const rib_unsupported[] = {
     "ArchiveRecord",
     "Perspective",
-    "Skew",
     "TrimCurve",
 };
 /* clang-format on */

@@ -96,6 +96,7 @@ int rib_dispatch_request(rib_parser *p);
 int rib_req_identity(rib_parser *p);
 int rib_req_translate(rib_parser *p);
 int rib_req_rotate(rib_parser *p);
+int rib_req_skew(rib_parser *p);
 int rib_req_scale(rib_parser *p);
 int rib_req_concat_transform(rib_parser *p);
 int rib_req_transform(rib_parser *p);

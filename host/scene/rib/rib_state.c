@@ -86,6 +86,22 @@ int rib_req_rotate(rib_parser *p)
     return rib_apply_transform(p, t, 0);
 }
 
+/* Skew angle dx1 dy1 dz1 dx2 dy2 dz2 (mat4_skew). */
+int rib_req_skew(rib_parser *p)
+{
+    double v[7], t[16];
+    size_t i = 0;
+    int rc = rib_numbers(p, &i, 7, v);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    if (rc != TS_OK) return rc;
+    if (!mat4_skew(v[0], v + 1, v + 4, t))
+        return rib_error_at(p, p->req_line, p->req_col,
+                            "Skew %g: the axes must be nonzero and not parallel, and the angle "
+                            "less than theirs and more than theirs - 180 degrees",
+                            v[0]);
+    return rib_apply_transform(p, t, 0);
+}
+
 /* A RIB [16] matrix (row vectors) as a column-vector matrix: its transpose. Exporters
  * write affine matrices through float arithmetic, leaving noise such as -4.8e-09 where the
  * projective column holds 0 (mtor, Maya): entries there below 1e-6 of the matrix's largest
