@@ -333,13 +333,64 @@ static void test_object_instances_render(void **state)
     assert_true(sum > 1.0);
 }
 
+/* A plane under a distant light (a delta: the matte plane's radiance is the same constant
+ * wherever it is lit, no noise) and a black occluder beside the camera's view whose shadow
+ * falls on the plane's left quarter (x < -0.5). By default that quarter is dark; with
+ * Attribute "visibility" "transmission" [0] (or BMRT's "render" "casts_shadows" "none") on
+ * the occluder, shadow rays pass through it and the whole plane is lit alike. The occluder
+ * stays visible to other rays: it is black, so it reflects nothing onto the plane. */
+static void shadow_scene(const char *name, const char *occluder_attr)
+{
+    char text[2048];
+    snprintf(text, sizeof text,
+             "Format 32 32 1\nProjection \"orthographic\"\nScreenWindow -1 1 -1 1\n"
+             "Translate 0 0 5\nWorldBegin\n"
+             "LightSource \"distantlight\" 1 \"from\" [0 0 0] \"to\" [1 0 1] \"intensity\" [2]\n"
+             "AttributeBegin\n%s\nColor [0 0 0]\n"
+             "Patch \"bilinear\" \"P\" [-3 -3 -1  -1.5 -3 -1  -3 3 -1  -1.5 3 -1]\nAttributeEnd\n"
+             "Patch \"bilinear\" \"P\" [-1 -1 0  1 -1 0  -1 1 0  1 1 0]\nWorldEnd\n",
+             occluder_attr);
+    write_scene(name, text);
+}
+
+static void test_casts_no_shadow(void **state)
+{
+    (void)state;
+    const char *attrs[] = {"", "Attribute \"visibility\" \"int transmission\" [0]",
+                           "Attribute \"render\" \"casts_shadows\" [\"none\"]",
+                           "Attribute \"visibility\" \"transmission\" \"transparent\"",
+                           "Attribute \"render\" \"casts_shadows\" \"opaque\""};
+    for (int k = 0; k < 5; k++) {
+        char scene[64], out[64];
+        snprintf(scene, sizeof scene, "shadow%d.rib", k);
+        snprintf(out, sizeof out, "shadow%d.exr", k);
+        shadow_scene(scene, attrs[k]);
+        render(scene, out, "--spp 1 --lod 6"); /* secondary rays leave 2 / 2^6 above it */
+        ts_image img;
+        test_read_image(path(out), &img);
+        int casts = k == 0 || k == 4;
+        float lit = channel(&img, 16 * 32 + 24, "R"); /* x = 0.53: lit in every variant */
+        assert_true(lit > 0.1f);
+        for (int y = 1; y < 31; y++)
+            for (int x = 1; x < 31; x++) {
+                float v = channel(&img, y * 32 + x, "R"), px = -1.0f + (x + 0.5f) / 16.0f;
+                int shadowed = casts && px < -0.5f - 0.07f;
+                if (px > -0.5f - 0.07f && px < -0.5f + 0.07f) continue; /* the shadow's edge */
+                if (shadowed ? v != 0.0f : fabsf(v - lit) > 1e-5f * lit)
+                    fail_msg("%s: pixel (%d %d) %g, want %g", attrs[k], x, y, v,
+                             shadowed ? 0.0f : lit);
+            }
+        image_free(&img);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_orthographic_window), cmocka_unit_test(test_exposure),
         cmocka_unit_test(test_metal_furnace),       cmocka_unit_test(test_constant),
         cmocka_unit_test(test_corpus_renders),      cmocka_unit_test(test_object_instances_render),
-        cmocka_unit_test(test_moving_camera),
+        cmocka_unit_test(test_moving_camera),       cmocka_unit_test(test_casts_no_shadow),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -371,6 +371,62 @@ static void test_procedural2_and_searchpath(void **state)
 
 /* PatchMesh wrap modes as older exporters spell them: "nowrap" and "wrap" give the patches of
  * "nonperiodic" and "periodic", point for point. */
+/* Which patches cast shadows: Attribute "visibility" "transmission" (an int, or before
+ * RenderMan 16 a string) and BMRT's Attribute "render" "casts_shadows" set
+ * TS_PATCH_NO_SHADOW on the patches that follow, until the block ends
+ * (test_rib_render.c test_casts_no_shadow renders it). */
+static void test_shadow_attributes(void **state)
+{
+    (void)state;
+#define QUAD "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]\n"
+    static const struct {
+        const char *attr;
+        int none;
+    } cases[] = {
+        {"Attribute \"visibility\" \"int transmission\" [0]", 1},
+        {"Attribute \"visibility\" \"int transmission\" [1]", 0},
+        {"Attribute \"visibility\" \"transmission\" \"transparent\"", 1},
+        {"Attribute \"visibility\" \"string transmission\" [\"opaque\"]", 0},
+        {"Attribute \"render\" \"casts_shadows\" [\"none\"]", 1},
+        {"Attribute \"render\" \"casts_shadows\" \"shade\"", 0},
+        {"Attribute \"render\" \"casts_shadows\" \"none\"\n"
+         "Attribute \"render\" \"casts_shadows\" \"Os\"",
+         0},
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        char text[512];
+        snprintf(text, sizeof text,
+                 "WorldBegin\n" QUAD "AttributeBegin\n%s\n" QUAD "AttributeEnd\n" QUAD "WorldEnd\n",
+                 cases[k].attr);
+        ts_scene s;
+        test_parse_rib_ok(text, &s);
+        assert_int_equal(s.patch_count, 3);
+        assert_int_equal(s.attr[0].flags & TS_PATCH_NO_SHADOW, 0);
+        assert_int_equal(s.attr[1].flags & TS_PATCH_NO_SHADOW,
+                         cases[k].none ? TS_PATCH_NO_SHADOW : 0);
+        assert_int_equal(s.attr[2].flags & TS_PATCH_NO_SHADOW, 0); /* the block ended */
+        scene_free(&s);
+    }
+    int rc;
+    const char *w =
+        test_rib_warnings("WorldBegin\nAttribute \"render\" \"casts_shadows\" \"shade\" "
+                          "\"integer truedisplacement\" [1]\n" QUAD "WorldEnd\n",
+                          &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(w, "w.rib:2:36: warning: Attribute \"render\" \"casts_shadows\" \"shade\": "
+                           "the shadow is opaque (Tessera's shadows do not read the surface's "
+                           "opacity)\n"
+                           "w.rib:2:44: warning: Attribute \"render\" \"truedisplacement\" is "
+                           "ignored\n");
+    test_parse_rib_error("Attribute \"visibility\" \"transmission\" \"glass\"",
+                         "t.rib:1:39: error: Attribute \"visibility\": unknown \"transmission\" "
+                         "\"glass\" (none, transparent, opaque, Os, shade or shader)");
+    test_parse_rib_error("Attribute \"visibility\" \"transmission\" [0 1]",
+                         "t.rib:1:39: error: Attribute \"visibility\": \"transmission\" takes one "
+                         "value (0 or 1, or a string: none/transparent, opaque, Os, shade/shader)");
+#undef QUAD
+}
+
 static void test_patch_mesh_wrap_spellings(void **state)
 {
     (void)state;
@@ -409,6 +465,7 @@ int main(void)
         cmocka_unit_test(test_relative_names_from_the_working_directory),
         cmocka_unit_test(test_procedural2_and_searchpath),
         cmocka_unit_test(test_patch_mesh_wrap_spellings),
+        cmocka_unit_test(test_shadow_attributes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -172,6 +172,10 @@ typedef struct ts_hit {
  * 16 + 4k, how many levels coarser the patch across it is diced; 0 everywhere else. */
 #define TS_SEG_EDGE_SHIFT 16u
 #define TS_PATCH_COLOR_TEX 2u /* Cs is multiplied by texture color_tex at the hit's st */
+/* Casts no shadow: shadow rays (TS_RAY_SHADOW) pass through the patch, which top_level leaves
+ * out of their candidates; every other ray sees it (RIB Attribute "visibility"
+ * "transmission" 0, BMRT's Attribute "render" "casts_shadows" "none"). */
+#define TS_PATCH_NO_SHADOW 4u
 
 /* Materials (RIB Surface), with the patch colour Cs. */
 #define TS_MAT_MATTE 0u   /* Lambertian, albedo Kd * Cs */

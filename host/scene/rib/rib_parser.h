@@ -103,6 +103,7 @@ typedef struct rib_frame {
     rib_surface surface;
     double emission[3];
     double opacity[3];
+    int no_shadow;      /* the patches cast no shadow (TS_PATCH_NO_SHADOW) */
     rib_solid_op solid; /* RIB_FRAME_SOLID: its operation */
 } rib_frame;
 
@@ -194,6 +195,8 @@ typedef struct rib_parser {
     rib_surface surface; /* Surface: material of the following patches */
     double emission[3];  /* AreaLightSource: radiance the following patches emit */
     double opacity[3];   /* Opacity: 0 0 0 makes the following geometry absent */
+    int no_shadow;       /* Attribute "visibility" "transmission" 0 (rib_ris.c): the following
+                            patches cast no shadow (TS_PATCH_NO_SHADOW) */
     rib_motion motion;
     /* The last world-to-object transform added for a displaced patch, by its CTM. */
     double xf_ctm[16];

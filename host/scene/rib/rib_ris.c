@@ -311,6 +311,55 @@ static int rib_identifier(rib_parser *p)
     return TS_OK;
 }
 
+/* Which patches cast shadows (TS_PATCH_NO_SHADOW), from Attribute "visibility"
+ * "transmission" (PRMan: an int, 0 = casts none; before RenderMan 16 a string, "transparent" =
+ * none, "opaque", "Os" or "shader" = casts one) or BMRT's Attribute "render" "casts_shadows"
+ * ("none"; "opaque", "Os", "shade"). Shadows stay opaque whatever the opacity: "Os" and
+ * "shader"/"shade" cast the opaque shadow, with one warning. The attribute's other
+ * parameters are ignored with a warning each. docs/rib.md "Shadows". */
+static int rib_shadow_attribute(rib_parser *p, const char *name, const char *param)
+{
+    char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+    for (size_t i = 1; i < p->nargs; i += 2) {
+        rib_param prm;
+        int rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        if (strcmp(prm.name, param) != 0) {
+            snprintf(what, sizeof what, "Attribute \"%s\" \"%s\" is ignored", name,
+                     rib_printable(prm.name, shown));
+            rib_warn_once(p, prm.key->line, prm.key->col, what);
+            continue;
+        }
+        const rib_arg *v = prm.val;
+        if ((v->kind == RIB_ARG_NUMBER || v->kind == RIB_ARG_NUMBERS) && v->count == 1) {
+            p->no_shadow = rib_arg_nums(p, v)[0] == 0.0;
+            continue;
+        }
+        if (!((v->kind == RIB_ARG_STRING || v->kind == RIB_ARG_STRINGS) && v->count == 1))
+            return rib_error_at(p, v->line, v->col,
+                                "Attribute \"%s\": \"%s\" takes one value (0 or 1, or a "
+                                "string: none/transparent, opaque, Os, shade/shader)",
+                                name, param);
+        const char *s = rib_arg_str(p, v, 0);
+        int none = strcmp(s, "none") == 0 || strcmp(s, "transparent") == 0;
+        int opacity = strcmp(s, "Os") == 0 || strcmp(s, "shade") == 0 || strcmp(s, "shader") == 0;
+        if (!none && !opacity && strcmp(s, "opaque") != 0)
+            return rib_error_at(p, v->line, v->col,
+                                "Attribute \"%s\": unknown \"%s\" \"%s\" (none, transparent, "
+                                "opaque, Os, shade or shader)",
+                                name, param, rib_printable(s, shown));
+        if (opacity) {
+            snprintf(what, sizeof what,
+                     "Attribute \"%s\" \"%s\" \"%s\": the shadow is opaque (Tessera's "
+                     "shadows do not read the surface's opacity)",
+                     name, param, rib_printable(s, shown));
+            rib_warn_once(p, v->line, v->col, what);
+        }
+        p->no_shadow = none;
+    }
+    return TS_OK;
+}
+
 int rib_req_attribute(rib_parser *p)
 {
     const char *name;
@@ -319,6 +368,8 @@ int rib_req_attribute(rib_parser *p)
     if (strcmp(name, "user") == 0) return rib_user_params(p, p->depth);
     if (strcmp(name, "displacementbound") == 0) return rib_displacement_bound(p);
     if (strcmp(name, "identifier") == 0) return rib_identifier(p);
+    if (strcmp(name, "visibility") == 0) return rib_shadow_attribute(p, name, "transmission");
+    if (strcmp(name, "render") == 0) return rib_shadow_attribute(p, name, "casts_shadows");
     rib_warn_named(p, name);
     return TS_OK;
 }

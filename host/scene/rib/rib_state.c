@@ -163,6 +163,7 @@ void rib_state_save(const rib_parser *p, rib_frame *f)
     f->surface = p->surface;
     memcpy(f->emission, p->emission, sizeof f->emission);
     memcpy(f->opacity, p->opacity, sizeof f->opacity);
+    f->no_shadow = p->no_shadow;
 }
 
 void rib_state_restore(rib_parser *p, const rib_frame *f, int attributes)
@@ -178,6 +179,7 @@ void rib_state_restore(rib_parser *p, const rib_frame *f, int attributes)
     p->surface = f->surface;
     memcpy(p->emission, f->emission, sizeof p->emission);
     memcpy(p->opacity, f->opacity, sizeof p->opacity);
+    p->no_shadow = f->no_shadow;
 }
 
 static int rib_push(rib_parser *p, rib_frame_kind kind)
