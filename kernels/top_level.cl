@@ -3,8 +3,10 @@
  * (leaf, window) pairs, front to back.
  * Reads:  nodes, cull and cull_levels (the upper levels of built patches' quad-trees as codes
  *         inside patch_box: candidates that cannot reach a leaf are left out, cull_enter),
- *         attr[].flags and the ray's flags (a shadow ray gets no candidate of a patch that
- *         casts no shadow, TS_PATCH_NO_SHADOW),
+ *         attr[].flags and the ray's flags and from (a shadow ray gets no candidate of a patch
+ *         that casts no shadow, TS_PATCH_NO_SHADOW, an eye ray none of a patch the camera
+ *         does not see, TS_PATCH_NO_CAMERA; read only where unseen_flags says the scene has
+ *         such patches),
  *         active[0..active_count),
  *         org, dir, hit.t (tmax: closest hit so far),
  *         entry (where the ray stopped last iteration).
@@ -102,7 +104,8 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
                                 __global const uint *window_first, uint count_only,
                                 __global const ts_vec4 *org, __global const ts_vec4 *dir,
                                 __global const ts_hit *hit, __global uint *entry,
-                                __global const uint *ray_flags, __global const ts_patch_attr *attr,
+                                __global const uint *ray_flags, __global const uint *ray_from,
+                                __global const ts_patch_attr *attr, uint unseen_flags,
                                 __global ts_pair *pairs, __global uint *count)
 {
     uint i = get_global_id(0);
@@ -123,7 +126,13 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
     float4 o4 = (float4)(o.x, o.y, o.z, 0.0f);
     float4 inv = (float4)(safe_reciprocal(d.x), safe_reciprocal(d.y), safe_reciprocal(d.z), 0.0f);
     float tmax = hit[ray].t;
-    uint shadow = ray_flags[ray] & TS_RAY_SHADOW;
+    /* The patches this ray passes through: a shadow ray those that cast no shadow, an eye ray
+     * those the camera does not see (unseen_flags: the flags some patch of the scene has, so
+     * that a scene without them reads no attributes here). */
+    uint unseen = !unseen_flags                      ? 0u
+                  : (ray_flags[ray] & TS_RAY_SHADOW) ? TS_PATCH_NO_SHADOW & unseen_flags
+                  : ray_from[ray] == 0u              ? TS_PATCH_NO_CAMERA & unseen_flags
+                                                     : 0u;
     uint state = entry[ray];
     uint node = state >> 3, pos = state & 7u, n = 0, hits = 0u;
     uint order[4];
@@ -144,7 +153,7 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
                 continue;
             }
             uint leaf = (uint)~child;
-            if (shadow && (attr[leaf].flags & TS_PATCH_NO_SHADOW)) continue;
+            if (unseen && (attr[leaf].flags & unseen)) continue;
             if (!cull_enter(cull + (size_t)leaf * TS_CULL_GROUPS, cull_levels[leaf],
                             patch_box + leaf, o4, inv, tmax))
                 continue;

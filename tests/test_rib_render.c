@@ -384,6 +384,36 @@ static void test_casts_no_shadow(void **state)
     }
 }
 
+/* Attribute "visibility" "camera" [0]: eye rays pass through a red constant card over the
+ * left half of a green constant plane, which then shows whole; without it the card covers
+ * the left half. Constant surfaces are seen in their colour exactly. */
+static void test_camera_invisible(void **state)
+{
+    (void)state;
+    for (int k = 0; k < 2; k++) {
+        char text[1024];
+        snprintf(text, sizeof text,
+                 "Format 16 16 1\nProjection \"orthographic\"\nScreenWindow -1 1 -1 1\n"
+                 "Translate 0 0 5\nWorldBegin\nSurface \"constant\"\nAttributeBegin\n%s\n"
+                 "Color [1 0 0]\nPatch \"bilinear\" \"P\" [-2 -2 -1  0 -2 -1  -2 2 -1  0 2 -1]\n"
+                 "AttributeEnd\nColor [0 1 0]\n"
+                 "Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0]\nWorldEnd\n",
+                 k ? "Attribute \"visibility\" \"int camera\" [0]" : "");
+        write_scene("card.rib", text);
+        render("card.rib", "card.exr", "--spp 1");
+        ts_image img;
+        test_read_image(path("card.exr"), &img);
+        for (int i = 0; i < 256; i++) {
+            int card = !k && i % 16 < 8;
+            float r = channel(&img, i, "R"), g = channel(&img, i, "G");
+            if (r != (card ? 1.0f : 0.0f) || g != (card ? 0.0f : 1.0f))
+                fail_msg("%s: pixel %d (%g %g), want the %s", k ? "unseen card" : "card", i, r, g,
+                         card ? "card" : "plane");
+        }
+        image_free(&img);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -391,6 +421,7 @@ int main(void)
         cmocka_unit_test(test_metal_furnace),       cmocka_unit_test(test_constant),
         cmocka_unit_test(test_corpus_renders),      cmocka_unit_test(test_object_instances_render),
         cmocka_unit_test(test_moving_camera),       cmocka_unit_test(test_casts_no_shadow),
+        cmocka_unit_test(test_camera_invisible),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -407,6 +407,15 @@ static void test_shadow_attributes(void **state)
         assert_int_equal(s.attr[2].flags & TS_PATCH_NO_SHADOW, 0); /* the block ended */
         scene_free(&s);
     }
+    /* "camera" 0: unseen by the camera, also until the block ends */
+    ts_scene s;
+    test_parse_rib_ok("WorldBegin\nAttributeBegin\nAttribute \"visibility\" \"int camera\" [0] "
+                      "\"int transmission\" [0]\n" QUAD "AttributeEnd\n" QUAD "WorldEnd\n",
+                      &s);
+    assert_int_equal(s.attr[0].flags & (TS_PATCH_NO_CAMERA | TS_PATCH_NO_SHADOW),
+                     TS_PATCH_NO_CAMERA | TS_PATCH_NO_SHADOW);
+    assert_int_equal(s.attr[1].flags & (TS_PATCH_NO_CAMERA | TS_PATCH_NO_SHADOW), 0);
+    scene_free(&s);
     int rc;
     const char *w =
         test_rib_warnings("WorldBegin\nAttribute \"render\" \"casts_shadows\" \"shade\" "

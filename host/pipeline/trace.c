@@ -23,7 +23,8 @@ static int top_level_launch(ts_pipeline *p, uint32_t active_count, uint32_t n_pe
                      DEV_ARG(active_count), DEV_ARG(n_per_ray), DEV_ARG(p->window_first),
                      DEV_ARG(count_only), DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir),
                      DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry), DEV_ARG(p->ray_flags),
-                     DEV_ARG(p->attr), DEV_ARG(p->pairs), DEV_ARG(p->count), (size_t)0))
+                     DEV_ARG(p->ray_from), DEV_ARG(p->attr), DEV_ARG(p->unseen_flags),
+                     DEV_ARG(p->pairs), DEV_ARG(p->count), (size_t)0))
         return err->code;
     if (dev_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
         return err->code;

@@ -176,6 +176,10 @@ typedef struct ts_hit {
  * out of their candidates; every other ray sees it (RIB Attribute "visibility"
  * "transmission" 0, BMRT's Attribute "render" "casts_shadows" "none"). */
 #define TS_PATCH_NO_SHADOW 4u
+/* Unseen by the camera: eye rays (ray field from 0, not shadow rays) pass through the patch,
+ * which top_level leaves out of their candidates; every other ray sees it (RIB Attribute
+ * "visibility" "camera" 0, as RenderMan scenes hide their lights' cards). */
+#define TS_PATCH_NO_CAMERA 8u
 
 /* Materials (RIB Surface), with the patch colour Cs. */
 #define TS_MAT_MATTE 0u   /* Lambertian, albedo Kd * Cs */

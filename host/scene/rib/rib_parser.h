@@ -104,6 +104,7 @@ typedef struct rib_frame {
     double emission[3];
     double opacity[3];
     int no_shadow;      /* the patches cast no shadow (TS_PATCH_NO_SHADOW) */
+    int no_camera;      /* the camera does not see them (TS_PATCH_NO_CAMERA) */
     rib_solid_op solid; /* RIB_FRAME_SOLID: its operation */
 } rib_frame;
 
@@ -197,6 +198,7 @@ typedef struct rib_parser {
     double opacity[3];   /* Opacity: 0 0 0 makes the following geometry absent */
     int no_shadow;       /* Attribute "visibility" "transmission" 0 (rib_ris.c): the following
                             patches cast no shadow (TS_PATCH_NO_SHADOW) */
+    int no_camera;       /* Attribute "visibility" "camera" 0: the camera does not see them */
     rib_motion motion;
     /* The last world-to-object transform added for a displaced patch, by its CTM. */
     double xf_ctm[16];

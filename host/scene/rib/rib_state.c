@@ -164,6 +164,7 @@ void rib_state_save(const rib_parser *p, rib_frame *f)
     memcpy(f->emission, p->emission, sizeof f->emission);
     memcpy(f->opacity, p->opacity, sizeof f->opacity);
     f->no_shadow = p->no_shadow;
+    f->no_camera = p->no_camera;
 }
 
 void rib_state_restore(rib_parser *p, const rib_frame *f, int attributes)
@@ -180,6 +181,7 @@ void rib_state_restore(rib_parser *p, const rib_frame *f, int attributes)
     memcpy(p->emission, f->emission, sizeof p->emission);
     memcpy(p->opacity, f->opacity, sizeof p->opacity);
     p->no_shadow = f->no_shadow;
+    p->no_camera = f->no_camera;
 }
 
 static int rib_push(rib_parser *p, rib_frame_kind kind)
