@@ -153,7 +153,8 @@ static int math_to_float(pattern_fold *f, const rib_pattern_node *n, double in[]
 }
 
 /* The maths nodes, with the parameters, defaults and formulas of RenderMan 20's pages:
- * renderman.pixar.com/resources/RenderMan_20/PxrMix.html (clampMix from RenderMan 24's) and
+ * renderman.pixar.com/resources/RenderMan_20/PxrMix.html (clampMix: RenderMan 24's "Clamp
+ * Mixer", whose page gives no RIB line or default; 0 keeps RenderMan 20's behaviour) and
  * PxrToFloat as renderman.jp/PxrToFloat.html translates it. A node is here only where its
  * page gives RIB names, defaults and an unambiguous formula (docs/rib.md "RIS shading"). */
 static const pattern_math pattern_maths[] = {
