@@ -151,7 +151,7 @@ static void test_cycle(void **state)
     assert_cs(&a, 0.5, 0.5, 0.5);
     assert_string_equal(warnings_of(cycle),
                         "w.rib:4:54: warning: Pattern \"a\" is reached again through its own "
-                        "inputs (a cycle): that connection keeps its default\n");
+                        "inputs (a cycle): that connection takes its literal value or default\n");
     /* a node that is its own input */
     a = one_patch(
         "Pattern \"PxrMix\" \"s\" \"reference color color2\" [\"s\"] \"float mix\" [1]\n" DIFFUSE(

@@ -436,7 +436,7 @@ static int fold_node(pattern_fold *f, rib_pattern_node *n, int depth, int *ok)
         if (n->busy)
             snprintf(what, sizeof what,
                      "Pattern \"%s\" is reached again through its own inputs (a cycle): that "
-                     "connection keeps its default",
+                     "connection takes its literal value or default",
                      rib_printable(n->handle, shown));
         else
             snprintf(what, sizeof what,
@@ -450,7 +450,10 @@ static int fold_node(pattern_fold *f, rib_pattern_node *n, int depth, int *ok)
     n->busy = 1;
     for (int k = 0; k < n->math->nin; k++) {
         int rc = fold_input(f, n, k, depth, in[k]);
-        if (rc != TS_OK) return n->busy = 0, rc;
+        if (rc != TS_OK) {
+            n->busy = 0;
+            return rc;
+        }
     }
     n->busy = 0;
     *ok = n->math->eval(f, n, in, n->memo);
