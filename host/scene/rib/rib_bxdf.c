@@ -5,7 +5,8 @@
  * PxrDisplace from a PxrTexture becomes the textured displacement. What Tessera cannot draw
  * (refraction, subsurface, presence, other lobes) is named in one warning each, with the
  * fallback docs/rib.md "RIS shading" lists. Colours and textures connected through Pattern
- * nodes come from rib_pattern.c. */
+ * nodes come from rib_pattern.c, as do the constants of maths networks (PxrMix, ...) folded at
+ * load, read as literal values. */
 #include "scene/rib/rib_internal.h"
 
 #include <float.h>
@@ -248,7 +249,7 @@ static int bxdf_read(rib_parser *p, size_t k, size_t first, bxdf_args *a, rib_li
         rc = rib_pattern_link(p, &prm, TS_TEX_RGB, "rendered with its colour parameter's default",
                               &l);
         if (rc != TS_OK) return rc;
-        if (l.linked) {
+        if (l.linked && !l.folded) {
             if (l.textured && bp->colour) *link = l;
             if (l.textured && !bp->colour) {
                 snprintf(what, sizeof what,
@@ -259,8 +260,16 @@ static int bxdf_read(rib_parser *p, size_t k, size_t first, bxdf_args *a, rib_li
             }
             continue;
         }
-        const double *v;
-        rc = rib_param_numbers(p, &prm, bp->n, &v, NULL);
+        if (l.folded && bp->n == 1 && !l.scalar) {
+            snprintf(what, sizeof what,
+                     "Bxdf \"%s\": float \"%s\" is connected to a colour output: it keeps its "
+                     "default (resultR, resultG, resultB or resultF would be read)",
+                     bxdf, prm.name);
+            rib_warn_once(p, prm.val->line, prm.val->col, what);
+            continue;
+        }
+        const double *v = l.value; /* folded from a Pattern network, or the literal's */
+        if (!l.folded) rc = rib_param_numbers(p, &prm, bp->n, &v, NULL);
         if (rc != TS_OK) return rc;
         for (size_t c = 0; c < bp->n; c++)
             if (!(fabs(v[c]) <= FLT_MAX))
@@ -508,7 +517,7 @@ int rib_req_displace(rib_parser *p)
         rib_link l;
         rc = rib_pattern_link(p, &prm, TS_TEX_MINMAX, "no displacement", &l);
         if (rc != TS_OK) return rc;
-        if (l.linked) {
+        if (l.linked && !l.folded) {
             if (is_scalar) link = l;
             if (!is_scalar && l.textured)
                 rib_warn_once(p, prm.key->line, prm.key->col,
@@ -516,7 +525,14 @@ int rib_req_displace(rib_parser *p)
                               "texture");
             continue;
         }
-        rc = rib_param_numbers(p, &prm, 1, &v, NULL);
+        if (l.folded && !l.scalar) {
+            rib_warn_once(p, prm.val->line, prm.val->col,
+                          "Displace \"PxrDisplace\": a float is connected to a colour output: it "
+                          "keeps its default (resultR, resultG, resultB or resultF would be read)");
+            continue;
+        }
+        v = l.value; /* folded from a Pattern network, or the literal's */
+        if (!l.folded) rc = rib_param_numbers(p, &prm, 1, &v, NULL);
         if (rc != TS_OK) return rc;
         if (!(fabs(v[0]) <= FLT_MAX))
             return rib_error_at(p, prm.val->line, prm.val->col,

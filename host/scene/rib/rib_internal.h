@@ -25,7 +25,8 @@
  *   rib_cond.c     IfBegin, ElseIf, Else, IfEnd and their expressions (reads rib_ris.c's
  *                  user values)
  *   rib_resource.c Resource "attributes" save and restore, ResourceBegin, ResourceEnd
- *   rib_pattern.c  Pattern (PxrTexture, PxrManifold2D) and the connections to it
+ *   rib_pattern.c  Pattern (PxrTexture, PxrManifold2D; PxrMix, PxrToFloat folded at load) and
+ *                  the connections to it
  *   rib_rlf.c      "##RLF" nuggets: RenderMan for Maya's look files (read by rib_look.c with
  *                  expat) bound to identifier paths, their payloads run in place
  *   rib_bxdf.c     Bxdf (PxrDiffuse, PxrSurface, PxrDisney, PxrConductor, PxrConstant, Lama...)
@@ -218,12 +219,17 @@ typedef struct rib_link {
     int textured;     /* to a PxrTexture whose image was read: */
     uint32_t tex;     /*   the scene texture (of the kind asked for) */
     double st_map[4]; /*  s' = st_map[0] s + st_map[1], t' = st_map[2] t + st_map[3] */
+    int folded;       /* to a maths node (PxrMix, ...) folded to one finite value: */
+    int scalar;       /*   1: a float output (in all three channels of value), 0: a colour */
+    double value[3];
 } rib_link;
 /* Reads parameter prm's connection into *out: not linked (a literal value: the caller reads
  * it); linked to a PxrTexture, whose image is read as kind (TS_TEX_RGB or TS_TEX_MINMAX; a
  * missing file: rib_missing_file's warning ending in `fallback`, or its error when strict);
- * or linked to something else (undefined, another pattern: one warning; the caller keeps the
- * parameter's default). */
+ * linked to a network of maths nodes folded to one value (folded: the caller uses it as the
+ * literal value; a value that is not finite is an error); or linked to something else
+ * (undefined, another pattern, a network that does not fold: one warning; the caller keeps
+ * the parameter's default). */
 int rib_pattern_link(rib_parser *p, const rib_param *prm, uint32_t kind, const char *fallback,
                      rib_link *out);
 /* Frees p->patterns. */

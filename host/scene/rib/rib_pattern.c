@@ -3,11 +3,15 @@
  * diffuseColor" ["tex:resultRGB"]). Tessera draws two kinds of node: PxrTexture (an image,
  * through the scene's textures; RenderMan's own .tex files cannot be read, so a .tx, .exr,
  * .png, .tif or .jpg beside one is used instead) and PxrManifold2D (a scale and offset of
- * st). Any other pattern (an OSL shader) is warned about once and what it feeds keeps its
- * default value. docs/rib.md "RIS shading" has the rules. */
+ * st). The maths nodes (pattern_math: PxrMix, PxrToFloat) are folded at load: their inputs
+ * are literal values, defaults or the folded outputs of other maths nodes, so the parameter
+ * connected to them gets one constant, as if written literally. Any other pattern (an OSL
+ * shader) is warned about once and what it feeds keeps its default value (a maths node's
+ * input: its literal value or default). docs/rib.md "RIS shading" has the rules. */
 #include "scene/rib/rib_internal.h"
 
 #include <ctype.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -15,13 +19,59 @@
 #include <unistd.h>
 
 #define RIB_MAX_PATTERNS 65536 /* Pattern nodes in one parse */
+#define PATTERN_MAX_INPUTS 4   /* inputs of one maths node */
+#define PATTERN_MAX_DEPTH 64   /* maths nodes in one chain, the Bxdf's parameter's first */
+#define PATTERN_DRAWN "PxrTexture, PxrManifold2D, PxrMix, PxrToFloat" /* for messages */
 
-typedef enum pattern_kind { PATTERN_TEXTURE, PATTERN_MANIFOLD, PATTERN_OTHER } pattern_kind;
+typedef enum pattern_kind {
+    PATTERN_TEXTURE,
+    PATTERN_MANIFOLD,
+    PATTERN_MATH, /* folded at load (pattern_math) */
+    PATTERN_OTHER
+} pattern_kind;
+
+struct pattern_fold;
+struct rib_pattern_node;
+
+/* One input of a maths node: its RIB name, 1 (float, int) or 3 (color) numbers, and the
+ * default RenderMan documents for it. */
+typedef struct pattern_input_def {
+    const char *name;
+    int n;
+    double def[3];
+} pattern_input_def;
+
+/* A maths node: its inputs and its formula. eval computes the node's output from its input
+ * values (in, in the order of `in`): out is the colour resultRGB, or with float_out the one
+ * float resultF in out[0]; it returns 0 after one warning when the inputs ask for something
+ * not drawn (the node is then not folded). */
+typedef struct pattern_math {
+    const char *type;
+    int float_out;
+    int nin;
+    pattern_input_def in[PATTERN_MAX_INPUTS];
+    int (*eval)(struct pattern_fold *f, const struct rib_pattern_node *n, double in[][3],
+                double out[3]);
+} pattern_math;
+
+/* A maths node's input as written: a literal value, a reference ("handle:output"), both
+ * or neither. */
+typedef struct pattern_input {
+    int has_value;
+    double value[3];
+    char *ref; /* NULL: not connected */
+} pattern_input;
 
 /* One Pattern request, what Tessera reads of it. */
 typedef struct rib_pattern_node {
     char *handle, *type;
     pattern_kind kind;
+    const pattern_math *math;             /* PATTERN_MATH: its formula */
+    pattern_input in[PATTERN_MAX_INPUTS]; /* PATTERN_MATH: as math->in */
+    int busy;                             /* being folded (a cycle when met again) */
+    unsigned memo_gen;                    /* the fold whose result memo holds, 0: none */
+    int memo_ok;                          /* that fold gave a value */
+    double memo[3];
     char *filename;             /* PxrTexture: the file, as written; NULL: none given */
     int file_line, file_col;    /* of the file name, for messages */
     int invert_t;               /* PxrTexture: t -> 1 - t (RenderMan's default 1) */
@@ -32,6 +82,7 @@ typedef struct rib_pattern_node {
 struct rib_patterns {
     rib_pattern_node *v;
     size_t count, cap;
+    unsigned gen; /* folds so far: each connection's fold memoises each node once */
 };
 
 void rib_pattern_free(rib_parser *p)
@@ -40,6 +91,8 @@ void rib_pattern_free(rib_parser *p)
     for (size_t k = 0; k < p->patterns->count; k++) {
         rib_pattern_node *n = &p->patterns->v[k];
         free(n->handle), free(n->type), free(n->filename), free(n->manifold);
+        for (int k2 = 0; k2 < PATTERN_MAX_INPUTS; k2++)
+            free(n->in[k2].ref);
     }
     free(p->patterns->v);
     free(p->patterns);
@@ -47,15 +100,72 @@ void rib_pattern_free(rib_parser *p)
 }
 
 /* The latest node defined with `handle` (a later Pattern replaces an earlier one), or NULL. */
-static const rib_pattern_node *pattern_find(const rib_parser *p, const char *handle, size_t len)
+static rib_pattern_node *pattern_find(const rib_parser *p, const char *handle, size_t len)
 {
     if (!p->patterns) return NULL;
     for (size_t k = p->patterns->count; k-- > 0;) {
-        const rib_pattern_node *n = &p->patterns->v[k];
+        rib_pattern_node *n = &p->patterns->v[k];
         if (strlen(n->handle) == len && strncmp(n->handle, handle, len) == 0) return n;
     }
     return NULL;
 }
+
+/* One connection's fold: where its warnings point, and its generation for the memos. */
+typedef struct pattern_fold {
+    rib_parser *p;
+    int line, col; /* the Bxdf or Displace parameter's value */
+    unsigned gen;
+} pattern_fold;
+
+/* PxrMix (RenderMan 20): result = (1 - mix) color1 + mix color2; clampMix (added in later
+ * versions), when not 0, clamps mix into [0, 1] first. */
+static int math_mix(pattern_fold *f, const rib_pattern_node *n, double in[][3], double out[3])
+{
+    (void)f, (void)n;
+    double m = in[3][0] != 0.0 ? fmin(fmax(in[2][0], 0.0), 1.0) : in[2][0];
+    for (int c = 0; c < 3; c++)
+        out[c] = (1.0 - m) * in[0][c] + m * in[1][c];
+    return 1;
+}
+
+/* PxrToFloat (RenderMan 20, its Japanese translation): resultF is channel `mode` (0, 1, 2) of
+ * input, or with mode 4 the mean of its three channels. Mode 3 (luminance) is not folded: the docs
+ * do not give its weights; any other mode is not one. Either warns once and the node is not folded.
+ */
+static int math_to_float(pattern_fold *f, const rib_pattern_node *n, double in[][3], double out[3])
+{
+    double mode = in[1][0];
+    if (mode == 0.0 || mode == 1.0 || mode == 2.0) {
+        out[0] = in[0][(int)mode];
+    } else if (mode == 4.0) {
+        out[0] = (in[0][0] + in[0][1] + in[0][2]) / 3.0;
+    } else {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "Pattern \"%s\": mode %g is not folded (%s): what it feeds keeps its default",
+                 n->type, mode,
+                 mode == 3.0 ? "luminance, whose weights the docs do not give" : "no such mode");
+        rib_warn_once(f->p, f->line, f->col, what);
+        return 0;
+    }
+    out[1] = out[2] = out[0];
+    return 1;
+}
+
+/* The maths nodes, with the parameters, defaults and formulas of RenderMan 20's pages:
+ * renderman.pixar.com/resources/RenderMan_20/PxrMix.html (clampMix: RenderMan 24's "Clamp
+ * Mixer", whose page gives no RIB line or default; 0 keeps RenderMan 20's behaviour) and
+ * PxrToFloat as renderman.jp/PxrToFloat.html translates it. A node is here only where its
+ * page gives RIB names, defaults and an unambiguous formula (docs/rib.md "RIS shading"). */
+static const pattern_math pattern_maths[] = {
+    {"PxrMix",
+     0,
+     4,
+     {{"color1", 3, {0, 0, 0}}, {"color2", 3, {1, 1, 1}}, {"mix", 1, {0}}, {"clampMix", 1, {0}}},
+     math_mix},
+    {"PxrToFloat", 1, 2, {{"input", 3, {0, 0, 0}}, {"mode", 1, {0}}}, math_to_float},
+};
+#define PATTERN_MATHS (sizeof pattern_maths / sizeof pattern_maths[0])
 
 static int pattern_oom(rib_parser *p)
 {
@@ -81,7 +191,54 @@ static int pattern_append(rib_parser *p, rib_pattern_node **out)
     return TS_OK;
 }
 
-/* Reads PxrTexture's and PxrManifold2D's parameters into n; others are warned about. */
+/* Whether the parameter's declaration says "reference" (a connection). */
+static int pattern_is_reference(const rib_parser *p, const rib_param *prm)
+{
+    const char *key = rib_arg_str(p, prm->key, 0);
+    for (const char *s = strstr(key, "reference"); s; s = strstr(s + 1, "reference"))
+        if ((s == key || s[-1] == ' ') && s[9] == ' ') return 1;
+    return 0;
+}
+
+/* A maths node's parameter prm (at args[i]) into n's input of that name: its reference or its
+ * literal value, which must be finite; a parameter the node does not have warns once. */
+static int pattern_math_param(rib_parser *p, rib_pattern_node *n, const rib_param *prm, size_t i)
+{
+    char shown[RIB_PRINT_MAX], what[RIB_WARN_KEY];
+    int k = 0;
+    while (k < n->math->nin && strcmp(prm->name, n->math->in[k].name) != 0)
+        k++;
+    if (k == n->math->nin) {
+        snprintf(what, sizeof what, "Pattern \"%s\" parameter \"%s\" is ignored", n->type,
+                 rib_printable(prm->name, shown));
+        rib_warn_once(p, prm->key->line, prm->key->col, what);
+        return TS_OK;
+    }
+    pattern_input *in = &n->in[k];
+    const char *str;
+    const double *v;
+    if (pattern_is_reference(p, prm)) {
+        int rc = rib_string_arg(p, i + 1, "a connection", &str);
+        if (rc != TS_OK) return rc;
+        free(in->ref);
+        return (in->ref = strdup(str)) ? TS_OK : pattern_oom(p);
+    }
+    int n_in = n->math->in[k].n;
+    int rc = rib_param_numbers(p, prm, (size_t)n_in, &v, NULL);
+    if (rc != TS_OK) return rc;
+    for (int c = 0; c < n_in; c++)
+        if (!(fabs(v[c]) <= FLT_MAX))
+            return rib_error_at(p, prm->val->line, prm->val->col,
+                                "Pattern \"%s\": \"%s\" must be finite, got %g", n->type, prm->name,
+                                v[c]);
+    in->has_value = 1;
+    for (int c = 0; c < 3; c++)
+        in->value[c] = v[n_in == 3 ? c : 0];
+    return TS_OK;
+}
+
+/* Reads PxrTexture's, PxrManifold2D's and the maths nodes' parameters into n; others are
+ * warned about. */
 static int pattern_params(rib_parser *p, rib_pattern_node *n)
 {
     char shown[RIB_PRINT_MAX], what[RIB_WARN_KEY];
@@ -91,6 +248,11 @@ static int pattern_params(rib_parser *p, rib_pattern_node *n)
         const char *str;
         int rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
+        if (n->kind == PATTERN_MATH) {
+            rc = pattern_math_param(p, n, &prm, i);
+            if (rc != TS_OK) return rc;
+            continue;
+        }
         int tex = n->kind == PATTERN_TEXTURE, man = n->kind == PATTERN_MANIFOLD;
         if (tex && strcmp(prm.name, "filename") == 0) {
             rc = rib_string_arg(p, i + 1, "a file name", &str);
@@ -137,9 +299,9 @@ static int pattern_params(rib_parser *p, rib_pattern_node *n)
     return TS_OK;
 }
 
-/* Pattern "type" "handle" params: defines a node of the shading network. PxrTexture and
- * PxrManifold2D are read; other types are kept by handle so that what is connected to them
- * is warned about (once per type) and takes its default. */
+/* Pattern "type" "handle" params: defines a node of the shading network. PxrTexture,
+ * PxrManifold2D and the maths nodes are read; other types are kept by handle so that what
+ * is connected to them is warned about (once per type) and takes its default. */
 int rib_req_pattern(rib_parser *p)
 {
     const char *type, *handle;
@@ -155,20 +317,14 @@ int rib_req_pattern(rib_parser *p)
     n->kind = strcmp(type, "PxrTexture") == 0      ? PATTERN_TEXTURE
               : strcmp(type, "PxrManifold2D") == 0 ? PATTERN_MANIFOLD
                                                    : PATTERN_OTHER;
+    for (size_t k = 0; k < PATTERN_MATHS; k++)
+        if (strcmp(type, pattern_maths[k].type) == 0)
+            n->kind = PATTERN_MATH, n->math = &pattern_maths[k];
     n->invert_t = 1;
     n->scale[0] = n->scale[1] = 1.0;
     if (!(n->handle = strdup(handle)) || !(n->type = strdup(type))) return pattern_oom(p);
     if (n->kind == PATTERN_OTHER) return TS_OK; /* warned about where it is connected */
     return pattern_params(p, n);
-}
-
-/* Whether the parameter's declaration says "reference" (a connection). */
-static int pattern_is_reference(const rib_parser *p, const rib_param *prm)
-{
-    const char *key = rib_arg_str(p, prm->key, 0);
-    for (const char *s = strstr(key, "reference"); s; s = strstr(s + 1, "reference"))
-        if ((s == key || s[-1] == ' ') && s[9] == ' ') return 1;
-    return 0;
 }
 
 /* The texture of PxrTexture node n as kind; *index TS_INVALID when the file is missing
@@ -214,6 +370,133 @@ static void pattern_st_map(rib_parser *p, const rib_pattern_node *n, double map[
     if (n->invert_t) map[2] = -map[2], map[3] = 1.0 - map[3];
 }
 
+static int fold_output(pattern_fold *f, rib_pattern_node *n, const char *output, int depth,
+                       double v[3], int *scalar, int *ok);
+
+/* Input k of maths node n into v (three channels; a float's in all three): its literal value
+ * or default, or, when connected, the folded output of the maths node it names. A connection
+ * to anything else (no node, a PxrTexture, a pattern not folded) warns once and keeps the
+ * literal value or default. */
+static int fold_input(pattern_fold *f, const rib_pattern_node *n, int k, int depth, double v[3])
+{
+    const pattern_input_def *d = &n->math->in[k];
+    const pattern_input *in = &n->in[k];
+    for (int c = 0; c < 3; c++)
+        v[c] = in->has_value ? in->value[c] : d->def[d->n == 3 ? c : 0];
+    if (!in->ref) return TS_OK;
+    char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX], shown2[RIB_PRINT_MAX];
+    const char *keep = in->has_value ? "its value" : "its default";
+    size_t len = strcspn(in->ref, ":");
+    const char *output = in->ref[len] == ':' ? in->ref + len + 1 : "";
+    rib_pattern_node *t = pattern_find(f->p, in->ref, len);
+    if (!t) {
+        snprintf(what, sizeof what,
+                 "Pattern \"%s\": \"%s\" is connected to \"%s\", which no Pattern defines: it "
+                 "takes %s",
+                 n->type, d->name, rib_printable(in->ref, shown), keep);
+    } else if (t->kind == PATTERN_TEXTURE) {
+        snprintf(what, sizeof what,
+                 "Pattern \"%s\": a PxrTexture through %s is not drawn: \"%s\" takes %s", n->type,
+                 n->type, d->name, keep);
+    } else if (t->kind != PATTERN_MATH) {
+        snprintf(what, sizeof what,
+                 "Pattern \"%s\" is not supported: the parameters connected to it keep their "
+                 "defaults (" PATTERN_DRAWN ")",
+                 rib_printable(t->type, shown));
+    } else {
+        double tv[3];
+        int scalar, ok;
+        int rc = fold_output(f, t, output, depth + 1, tv, &scalar, &ok);
+        if (rc != TS_OK || !ok) return rc;
+        if (d->n == 3 || scalar) {
+            memcpy(v, tv, sizeof tv);
+            return TS_OK;
+        }
+        snprintf(what, sizeof what,
+                 "Pattern \"%s\": float \"%s\" is connected to colour output \"%s\": it takes %s",
+                 n->type, d->name, rib_printable(in->ref, shown2), keep);
+    }
+    rib_warn_once(f->p, f->line, f->col, what);
+    return TS_OK;
+}
+
+/* Folds maths node n into n->memo (*ok 0 when it cannot be: a cycle, a chain deeper than
+ * PATTERN_MAX_DEPTH, an input its formula does not draw — each warned once); depth: the
+ * nodes before it on the chain. Each node is folded once per connection (the memo), so a
+ * network that shares nodes costs its node count, and recursion stops at the depth. */
+static int fold_node(pattern_fold *f, rib_pattern_node *n, int depth, int *ok)
+{
+    char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+    *ok = 0;
+    if (n->memo_gen == f->gen) {
+        *ok = n->memo_ok;
+        return TS_OK;
+    }
+    if (n->busy || depth >= PATTERN_MAX_DEPTH) {
+        if (n->busy)
+            snprintf(what, sizeof what,
+                     "Pattern \"%s\" is reached again through its own inputs (a cycle): that "
+                     "connection takes its literal value or default",
+                     rib_printable(n->handle, shown));
+        else
+            snprintf(what, sizeof what,
+                     "Pattern: a chain of more than %d nodes (at \"%s\") is not folded: what "
+                     "it feeds keeps its default",
+                     PATTERN_MAX_DEPTH, rib_printable(n->handle, shown));
+        rib_warn_once(f->p, f->line, f->col, what);
+        return TS_OK;
+    }
+    double in[PATTERN_MAX_INPUTS][3];
+    n->busy = 1;
+    for (int k = 0; k < n->math->nin; k++) {
+        int rc = fold_input(f, n, k, depth, in[k]);
+        if (rc != TS_OK) {
+            n->busy = 0;
+            return rc;
+        }
+    }
+    n->busy = 0;
+    *ok = n->math->eval(f, n, in, n->memo);
+    n->memo_gen = f->gen, n->memo_ok = *ok;
+    return TS_OK;
+}
+
+/* Output `output` ("" is the node's first) of maths node n, folded, into v: resultRGB, or a
+ * float (resultR, resultG, resultB of a colour; resultF) in all three channels with *scalar 1.
+ * *ok 0: not folded, or an output the node lacks (warned). */
+static int fold_output(pattern_fold *f, rib_pattern_node *n, const char *output, int depth,
+                       double v[3], int *scalar, int *ok)
+{
+    int rc = fold_node(f, n, depth, ok);
+    if (rc != TS_OK || !*ok) return rc;
+    const char *rgb[] = {"resultR", "resultG", "resultB"};
+    int c = -1;
+    if (n->math->float_out) {
+        if (!output[0] || strcmp(output, "resultF") == 0) c = 0;
+    } else if (!output[0] || strcmp(output, "resultRGB") == 0) {
+        memcpy(v, n->memo, 3 * sizeof *v);
+        *scalar = 0;
+        return TS_OK;
+    } else {
+        for (int k = 0; k < 3; k++)
+            if (strcmp(output, rgb[k]) == 0) c = k;
+    }
+    if (c >= 0) {
+        v[0] = v[1] = v[2] = n->memo[c];
+        *scalar = 1;
+        return TS_OK;
+    }
+    char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+    snprintf(what, sizeof what,
+             "Pattern \"%s\" has no output \"%s\" (%s): what it feeds keeps "
+             "its default",
+             n->type, rib_printable(output, shown),
+             n->math->float_out ? "resultF" : "resultRGB, resultR, resultG, resultB");
+    rib_warn_once(f->p, f->line, f->col, what);
+    *ok = 0;
+    return TS_OK;
+}
+
 int rib_pattern_link(rib_parser *p, const rib_param *prm, uint32_t kind, const char *fallback,
                      rib_link *out)
 {
@@ -225,7 +508,7 @@ int rib_pattern_link(rib_parser *p, const rib_param *prm, uint32_t kind, const c
     if (rc != TS_OK) return rc;
     char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX], shown2[RIB_PRINT_MAX];
     size_t len = strcspn(to, ":");
-    const rib_pattern_node *n = pattern_find(p, to, len);
+    rib_pattern_node *n = pattern_find(p, to, len);
     if (!n) {
         snprintf(what, sizeof what,
                  "%s: \"%s\" is connected to \"%s\", which no Pattern defines: it keeps its "
@@ -234,15 +517,31 @@ int rib_pattern_link(rib_parser *p, const rib_param *prm, uint32_t kind, const c
         rib_warn_once(p, prm->val->line, prm->val->col, what);
         return TS_OK;
     }
+    const char *output = to[len] == ':' ? to + len + 1 : "";
+    if (n->kind == PATTERN_MATH) { /* folded to one value, the caller's as a literal's */
+        pattern_fold f = {p, prm->val->line, prm->val->col, ++p->patterns->gen};
+        if (f.gen == 0) f.gen = ++p->patterns->gen; /* 0 marks "no memo" */
+        int scalar = 0, ok;
+        rc = fold_output(&f, n, output, 0, out->value, &scalar, &ok);
+        if (rc != TS_OK || !ok) return rc;
+        for (int c = 0; c < 3; c++)
+            if (!(fabs(out->value[c]) <= FLT_MAX))
+                return rib_error_at(p, prm->val->line, prm->val->col,
+                                    "%s: \"%s\" is connected to \"%s\", whose value must be "
+                                    "finite, got %g",
+                                    p->req, rib_printable(prm->name, shown),
+                                    rib_printable(to, shown2), out->value[c]);
+        out->folded = 1, out->scalar = scalar;
+        return TS_OK;
+    }
     if (n->kind != PATTERN_TEXTURE) {
         snprintf(what, sizeof what,
                  "Pattern \"%s\" is not supported: the parameters connected to it keep their "
-                 "defaults (PxrTexture, PxrManifold2D)",
+                 "defaults (" PATTERN_DRAWN ")",
                  rib_printable(n->type, shown));
         rib_warn_once(p, prm->val->line, prm->val->col, what);
         return TS_OK;
     }
-    const char *output = to[len] == ':' ? to + len + 1 : "";
     int wanted = kind == TS_TEX_RGB ? strcmp(output, "resultRGB") == 0
                                     : strcmp(output, "resultR") == 0 || !output[0];
     if (!wanted) {
