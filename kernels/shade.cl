@@ -245,7 +245,11 @@ inline uint shade_direct_light(ts_shade_params sp, const shade_lights *L, const 
     float pb = ls.pdf > 0.0f ? bsdf_eval(v->a, v->cs, v->n, v->wo, ls.dir, f) : 0.0f;
     float cosl = ls.pdf > 0.0f ? v3_dot(v->n, ls.dir) : 0.0f;
     if (!(cosl > 0.0f && (f[0] > 0.0f || f[1] > 0.0f || f[2] > 0.0f))) return 0u;
-    float denom = ls.delta || sp.sampling == TS_SAMPLING_LIGHT ? ls.pdf : ls.pdf + pb;
+    /* Light sampling alone where no BSDF sample can find the light: a delta light, --sampling
+     * light, or an emitter indirect rays do not see (TS_PATCH_NO_INDIRECT, top_level). */
+    int alone = ls.delta || sp.sampling == TS_SAMPLING_LIGHT ||
+                (ls.patch != TS_INVALID && (L->attr[ls.patch].flags & TS_PATCH_NO_INDIRECT));
+    float denom = alone ? ls.pdf : ls.pdf + pb;
     float w = cosl / denom;
     const float *tp = s->tp;
     *pending = (ts_vec4){tp[0] * f[0] * ls.le[0] * w, tp[1] * f[1] * ls.le[1] * w,

@@ -5,8 +5,9 @@
  *         inside patch_box: candidates that cannot reach a leaf are left out, cull_enter),
  *         attr[].flags and the ray's flags and from (a shadow ray gets no candidate of a patch
  *         that casts no shadow, TS_PATCH_NO_SHADOW, an eye ray none of a patch the camera
- *         does not see, TS_PATCH_NO_CAMERA; read only where unseen_flags says the scene has
- *         such patches),
+ *         does not see, TS_PATCH_NO_CAMERA, a bounce's BSDF ray none that indirect rays do not
+ *         see, TS_PATCH_NO_INDIRECT; read only where unseen_flags says the scene has such
+ *         patches),
  *         active[0..active_count),
  *         org, dir, hit.t (tmax: closest hit so far),
  *         entry (where the ray stopped last iteration).
@@ -127,12 +128,13 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
     float4 inv = (float4)(safe_reciprocal(d.x), safe_reciprocal(d.y), safe_reciprocal(d.z), 0.0f);
     float tmax = hit[ray].t;
     /* The patches this ray passes through: a shadow ray those that cast no shadow, an eye ray
-     * those the camera does not see (unseen_flags: the flags some patch of the scene has, so
+     * those the camera does not see, a bounce's BSDF ray those indirect rays do not see
+     * (unseen_flags: the flags some patch of the scene has, so
      * that a scene without them reads no attributes here). */
     uint unseen = !unseen_flags                      ? 0u
                   : (ray_flags[ray] & TS_RAY_SHADOW) ? TS_PATCH_NO_SHADOW & unseen_flags
                   : ray_from[ray] == 0u              ? TS_PATCH_NO_CAMERA & unseen_flags
-                                                     : 0u;
+                                                     : TS_PATCH_NO_INDIRECT & unseen_flags;
     uint state = entry[ray];
     uint node = state >> 3, pos = state & 7u, n = 0, hits = 0u;
     uint order[4];

@@ -414,6 +414,46 @@ static void test_camera_invisible(void **state)
     }
 }
 
+/* Attribute "visibility" "indirect" [0] on an emitter beside the view that lights a matte
+ * plane: the bounces' BSDF rays pass through it, so with --sampling bsdf the plane stays
+ * black (lit without the attribute), and under the default MIS light sampling counts whole
+ * there: the plane's mean is the same as without the attribute, within the noise. */
+static double plane_mean(int unseen, const char *sampling)
+{
+    char text[1024], opts[64];
+    snprintf(text, sizeof text,
+             "Format 16 16 1\nProjection \"orthographic\"\nScreenWindow -1 1 -1 1\n"
+             "Translate 0 0 5\nWorldBegin\nAttributeBegin\n%s\n"
+             "AreaLightSource \"arealight\" 1 \"intensity\" [4]\n"
+             "Patch \"bilinear\" \"P\" [1.2 -1 -0.6  2.2 -1 -0.6  1.2 1 -0.6  2.2 1 -0.6]\n"
+             "AttributeEnd\nPatch \"bilinear\" \"P\" [-1 -1 0  1 -1 0  -1 1 0  1 1 0]\nWorldEnd\n",
+             unseen ? "Attribute \"visibility\" \"int indirect\" [0]" : "");
+    write_scene("indirect.rib", text);
+    /* --lod 7: secondary rays leave 2 / 2^7 above the plane (coarser, that offset makes BSDF
+     * and light sampling see the emitter differently) */
+    snprintf(opts, sizeof opts, "--spp 256 --depth 1 --lod 7 --sampling %s", sampling);
+    render("indirect.rib", "indirect.exr", opts);
+    ts_image img;
+    test_read_image(path("indirect.exr"), &img);
+    double sum = 0.0;
+    for (int i = 0; i < 256; i++)
+        sum += channel(&img, i, "R");
+    image_free(&img);
+    return sum / 256.0;
+}
+
+static void test_indirect_invisible(void **state)
+{
+    (void)state;
+    double bsdf = plane_mean(0, "bsdf"), unseen_bsdf = plane_mean(1, "bsdf");
+    double mis = plane_mean(0, "mis"), unseen_mis = plane_mean(1, "mis");
+    assert_true(bsdf > 0.01);
+    if (unseen_bsdf != 0.0) fail_msg("BSDF rays found the unseen emitter: %g", unseen_bsdf);
+    if (!(fabs(unseen_mis - mis) <= 0.03 * mis))
+        fail_msg("light sampling alone %g, MIS %g: not the same light", unseen_mis, mis);
+    if (!(fabs(bsdf - mis) <= 0.05 * mis)) fail_msg("BSDF sampling %g, MIS %g", bsdf, mis);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -421,7 +461,7 @@ int main(void)
         cmocka_unit_test(test_metal_furnace),       cmocka_unit_test(test_constant),
         cmocka_unit_test(test_corpus_renders),      cmocka_unit_test(test_object_instances_render),
         cmocka_unit_test(test_moving_camera),       cmocka_unit_test(test_casts_no_shadow),
-        cmocka_unit_test(test_camera_invisible),
+        cmocka_unit_test(test_camera_invisible),    cmocka_unit_test(test_indirect_invisible),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -410,11 +410,12 @@ static void test_shadow_attributes(void **state)
     /* "camera" 0: unseen by the camera, also until the block ends */
     ts_scene s;
     test_parse_rib_ok("WorldBegin\nAttributeBegin\nAttribute \"visibility\" \"int camera\" [0] "
-                      "\"int transmission\" [0]\n" QUAD "AttributeEnd\n" QUAD "WorldEnd\n",
+                      "\"int transmission\" [0] \"int indirect\" [0]\n" QUAD "AttributeEnd\n" QUAD
+                      "WorldEnd\n",
                       &s);
-    assert_int_equal(s.attr[0].flags & (TS_PATCH_NO_CAMERA | TS_PATCH_NO_SHADOW),
-                     TS_PATCH_NO_CAMERA | TS_PATCH_NO_SHADOW);
-    assert_int_equal(s.attr[1].flags & (TS_PATCH_NO_CAMERA | TS_PATCH_NO_SHADOW), 0);
+    const uint32_t all = TS_PATCH_NO_CAMERA | TS_PATCH_NO_SHADOW | TS_PATCH_NO_INDIRECT;
+    assert_int_equal(s.attr[0].flags & all, all);
+    assert_int_equal(s.attr[1].flags & all, 0);
     scene_free(&s);
     int rc;
     const char *w =

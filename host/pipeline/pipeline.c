@@ -412,7 +412,8 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     p->light_count = u.lights.light_count;
     p->unseen_flags = 0;
     for (uint32_t i = 0; i < scene->patch_count; ++i)
-        p->unseen_flags |= scene->attr[i].flags & (TS_PATCH_NO_SHADOW | TS_PATCH_NO_CAMERA);
+        p->unseen_flags |=
+            scene->attr[i].flags & (TS_PATCH_NO_SHADOW | TS_PATCH_NO_CAMERA | TS_PATCH_NO_INDIRECT);
     p->relight = u.relight.params;
     scene_uploads_free(&u);
     free(boxes);

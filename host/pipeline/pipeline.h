@@ -288,7 +288,7 @@ typedef struct ts_pipeline {
     double share_wait_seconds; /* waiting for other devices' claims (monotonic clock) */
     ts_tex_cache tex;          /* which tiles tex_pool holds (tex_cache.h) */
     uint32_t light_count;      /* entries of the lights buffer (lights.h) */
-    uint32_t unseen_flags;     /* TS_PATCH_NO_SHADOW | TS_PATCH_NO_CAMERA where some patch has
+    uint32_t unseen_flags;     /* TS_PATCH_NO_SHADOW, _CAMERA, _INDIRECT where some patch has
                                   them: top_level reads patch attributes only then */
     /* Relighting with the scene's baked occlusion (relight.h; bands 0: none). */
     ts_relight_params relight;

@@ -180,6 +180,11 @@ typedef struct ts_hit {
  * which top_level leaves out of their candidates; every other ray sees it (RIB Attribute
  * "visibility" "camera" 0, as RenderMan scenes hide their lights' cards). */
 #define TS_PATCH_NO_CAMERA 8u
+/* Unseen by indirect rays: the BSDF rays of a bounce (ray field from > 0, not shadow rays)
+ * pass through the patch; an emissive one is then lit only by light sampling, whose sample
+ * counts whole (shade.cl shade_direct_light: no BSDF sample can find it) (RIB Attribute
+ * "visibility" "indirect" 0). */
+#define TS_PATCH_NO_INDIRECT 16u
 
 /* Materials (RIB Surface), with the patch colour Cs. */
 #define TS_MAT_MATTE 0u   /* Lambertian, albedo Kd * Cs */

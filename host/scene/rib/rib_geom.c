@@ -109,6 +109,7 @@ static ts_patch_attr geom_attr(const rib_parser *p, const double *cs, const doub
     if (p->surface.textured) attr.flags |= TS_PATCH_COLOR_TEX;
     if (p->no_shadow) attr.flags |= TS_PATCH_NO_SHADOW;
     if (p->no_camera) attr.flags |= TS_PATCH_NO_CAMERA;
+    if (p->no_indirect) attr.flags |= TS_PATCH_NO_INDIRECT;
     if (p->surface.constant) /* Surface "constant": Ci = Cs, as an emitter of radiance Cs */
         attr.le_r += (float)cs[0], attr.le_g += (float)cs[1], attr.le_b += (float)cs[2];
     attr.le_r += (float)p->surface.emit[0], attr.le_g += (float)p->surface.emit[1];

@@ -105,6 +105,7 @@ typedef struct rib_frame {
     double opacity[3];
     int no_shadow;      /* the patches cast no shadow (TS_PATCH_NO_SHADOW) */
     int no_camera;      /* the camera does not see them (TS_PATCH_NO_CAMERA) */
+    int no_indirect;    /* indirect rays do not see them (TS_PATCH_NO_INDIRECT) */
     rib_solid_op solid; /* RIB_FRAME_SOLID: its operation */
 } rib_frame;
 
@@ -199,6 +200,7 @@ typedef struct rib_parser {
     int no_shadow;       /* Attribute "visibility" "transmission" 0 (rib_ris.c): the following
                             patches cast no shadow (TS_PATCH_NO_SHADOW) */
     int no_camera;       /* Attribute "visibility" "camera" 0: the camera does not see them */
+    int no_indirect;     /* Attribute "visibility" "indirect" 0: indirect rays do not */
     rib_motion motion;
     /* The last world-to-object transform added for a displaced patch, by its CTM. */
     double xf_ctm[16];

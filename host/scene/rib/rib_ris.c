@@ -316,8 +316,9 @@ static int rib_identifier(rib_parser *p)
  * none, "opaque", "Os" or "shader" = casts one) or BMRT's Attribute "render" "casts_shadows"
  * ("none"; "opaque", "Os", "shade"). Shadows stay opaque whatever the opacity: "Os" and
  * "shader"/"shade" cast the opaque shadow, with one warning. Attribute "visibility" "camera"
- * 0 hides the patches from the camera (TS_PATCH_NO_CAMERA). The attributes' other parameters
- * are ignored with a warning each. docs/rib.md "Shadows". */
+ * 0 hides the patches from the camera (TS_PATCH_NO_CAMERA), "indirect" 0 from the bounces'
+ * BSDF rays (TS_PATCH_NO_INDIRECT). The attributes' other parameters are ignored with a
+ * warning each. docs/rib.md "Shadows". */
 static int rib_shadow_attribute(rib_parser *p, const char *name, const char *param)
 {
     char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
@@ -325,11 +326,12 @@ static int rib_shadow_attribute(rib_parser *p, const char *name, const char *par
         rib_param prm;
         int rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
-        if (strcmp(name, "visibility") == 0 && strcmp(prm.name, "camera") == 0) {
-            const double *v; /* 0: eye rays pass through (TS_PATCH_NO_CAMERA) */
+        int camera = strcmp(prm.name, "camera") == 0, indirect = strcmp(prm.name, "indirect") == 0;
+        if (strcmp(name, "visibility") == 0 && (camera || indirect)) {
+            const double *v; /* 0: eye rays, or a bounce's BSDF rays, pass through */
             rc = rib_param_numbers(p, &prm, 1, &v, NULL);
             if (rc != TS_OK) return rc;
-            p->no_camera = v[0] == 0.0;
+            *(camera ? &p->no_camera : &p->no_indirect) = v[0] == 0.0;
             continue;
         }
         if (strcmp(prm.name, param) != 0) {

@@ -165,6 +165,7 @@ void rib_state_save(const rib_parser *p, rib_frame *f)
     memcpy(f->opacity, p->opacity, sizeof f->opacity);
     f->no_shadow = p->no_shadow;
     f->no_camera = p->no_camera;
+    f->no_indirect = p->no_indirect;
 }
 
 void rib_state_restore(rib_parser *p, const rib_frame *f, int attributes)
@@ -182,6 +183,7 @@ void rib_state_restore(rib_parser *p, const rib_frame *f, int attributes)
     memcpy(p->opacity, f->opacity, sizeof p->opacity);
     p->no_shadow = f->no_shadow;
     p->no_camera = f->no_camera;
+    p->no_indirect = f->no_indirect;
 }
 
 static int rib_push(rib_parser *p, rib_frame_kind kind)
