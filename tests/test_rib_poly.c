@@ -379,6 +379,34 @@ static void test_wrong_count_primvar(void **state)
         "t.rib:1:13: error: Polygon: parameter \"P\" (vertex) needs 9 values, got 10");
 }
 
+/* "s" and "t" written apart are the texture coordinates "st" = (s, t): the same patches, bit
+ * for bit, as "st" with the values interleaved; one of them alone is ignored with a warning. */
+static void test_separate_s_t(void **state)
+{
+    (void)state;
+    ts_scene a, b;
+    test_parse_rib_ok("WorldBegin\nPointsPolygons [4] [0 1 2 3] \"P\" [0 0 0 1 0 0 1 1 0 0 1 0] "
+                      "\"facevarying float s\" [0.1 0.9 0.8 0.2] \"facevarying float t\" "
+                      "[0.3 0.35 0.7 0.75]\nWorldEnd\n",
+                      &a);
+    test_parse_rib_ok("WorldBegin\nPointsPolygons [4] [0 1 2 3] \"P\" [0 0 0 1 0 0 1 1 0 0 1 0] "
+                      "\"facevarying float[2] st\" [0.1 0.3 0.9 0.35 0.8 0.7 0.2 0.75]\nWorldEnd\n",
+                      &b);
+    assert_int_equal(a.patch_count, b.patch_count);
+    assert_true(a.patch_count > 0);
+    assert_memory_equal(a.attr, b.attr, a.patch_count * sizeof a.attr[0]);
+    assert_true(a.attr[0].st[0] != 0.0f || a.attr[0].st[1] != 0.0f);
+    scene_free(&a);
+    scene_free(&b);
+    int rc;
+    const char *w = test_rib_warnings("WorldBegin\nPolygon \"P\" [0 0 0 1 0 0 0 1 0] \"s\" "
+                                      "[0 1 0]\nWorldEnd\n",
+                                      &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(w, "w.rib:2:37: warning: Polygon: \"s\" and \"t\" are read as the texture "
+                           "coordinates \"st\" only together and of one class: ignored\n");
+}
+
 /* A zero normal in "N" (exporters write them) takes its polygon's normal, as a mesh vertex
  * without a usable normal does, with one warning. */
 static void test_zero_normal(void **state)
@@ -401,10 +429,15 @@ static void test_zero_normal(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_cube_stays_a_cube),   cmocka_unit_test(test_wrong_count_primvar),
-        cmocka_unit_test(test_zero_normal),         cmocka_unit_test(test_quad_with_normals),
-        cmocka_unit_test(test_holes_and_concave),   cmocka_unit_test(test_random_holes),
-        cmocka_unit_test(test_primitive_variables), cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_cube_stays_a_cube),
+        cmocka_unit_test(test_wrong_count_primvar),
+        cmocka_unit_test(test_separate_s_t),
+        cmocka_unit_test(test_zero_normal),
+        cmocka_unit_test(test_quad_with_normals),
+        cmocka_unit_test(test_holes_and_concave),
+        cmocka_unit_test(test_random_holes),
+        cmocka_unit_test(test_primitive_variables),
+        cmocka_unit_test(test_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

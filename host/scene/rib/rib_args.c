@@ -202,6 +202,8 @@ void rib_args_free(rib_parser *p)
     free(p->nums);
     free(p->strs);
     free(p->chars);
+    free(p->st_join);
+    p->st_join = NULL, p->st_join_cap = 0;
     p->args = NULL, p->nums = NULL, p->strs = NULL, p->chars = NULL;
     p->nargs = p->args_cap = p->nnums = p->nums_cap = 0;
     p->nstrs = p->strs_cap = p->nchars = p->chars_cap = 0;

@@ -183,6 +183,8 @@ typedef struct rib_parser {
     size_t nargs, args_cap;
     double *nums;
     size_t nnums, nums_cap;
+    double *st_join; /* "s" and "t" joined into "st" (rib_primvar.c), st_join_cap values */
+    size_t st_join_cap;
     size_t *strs; /* offsets into chars */
     size_t nstrs, strs_cap;
     char *chars;

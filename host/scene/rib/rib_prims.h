@@ -68,6 +68,7 @@ typedef struct rib_pvar {
  * x w, y w, z w, w), "N" (3), "Cs" (3), "st" (2). */
 typedef struct rib_pvars {
     rib_pvar P, Pw, N, Cs, st;
+    rib_pvar s, t; /* "s" and "t" as written; joined into st (rib_pvars_read) */
 } rib_pvars;
 
 /* Which variables a request reads (bits); the others are ignored with a warning. */

@@ -12,6 +12,7 @@
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 static const char *const rib_class_names[RIB_CLASSES] = {"constant", "uniform", "varying", "vertex",
@@ -113,6 +114,33 @@ static int rib_pvar_read(rib_parser *p, const rib_param *prm, const size_t count
     return TS_OK;
 }
 
+/* "s" and "t" written apart (as exporters do: "facevarying float s", "facevarying float t")
+ * are the texture coordinates "st" = (s, t): joined, value by value, into the parser's
+ * st_join (valid until the next request reads its variables). They must come together and
+ * be of one class; otherwise they are ignored with one warning, as before. */
+static int rib_pvars_join_st(rib_parser *p, rib_pvars *v)
+{
+    const rib_pvar *s = &v->s, *t = &v->t;
+    if (!s->v || !t->v || s->cls != t->cls || s->count != t->count) {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "%s: \"s\" and \"t\" are read as the texture coordinates \"st\" only together "
+                 "and of one class: ignored",
+                 p->req);
+        rib_warn_once(p, s->v ? s->line : t->line, s->v ? s->col : t->col, what);
+        return TS_OK;
+    }
+    if (s->count > p->st_join_cap) {
+        double *j = realloc(p->st_join, 2 * s->count * sizeof *j);
+        if (!j) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+        p->st_join = j, p->st_join_cap = s->count;
+    }
+    for (size_t k = 0; k < s->count; k++)
+        p->st_join[2 * k] = s->v[k], p->st_join[2 * k + 1] = t->v[k];
+    v->st = (rib_pvar){p->st_join, s->cls, 2, s->count, s->line, s->col};
+    return TS_OK;
+}
+
 int rib_pvars_read(rib_parser *p, size_t first, const size_t counts[RIB_CLASSES], unsigned accept,
                    rib_pvars *out)
 {
@@ -127,6 +155,8 @@ int rib_pvars_read(rib_parser *p, size_t first, const size_t counts[RIB_CLASSES]
         {"N", RIB_PV_N, 3, offsetof(rib_pvars, N)},
         {"Cs", RIB_PV_CS, 3, offsetof(rib_pvars, Cs)},
         {"st", RIB_PV_ST, 2, offsetof(rib_pvars, st)},
+        {"s", RIB_PV_ST, 1, offsetof(rib_pvars, s)},
+        {"t", RIB_PV_ST, 1, offsetof(rib_pvars, t)},
     };
     memset(out, 0, sizeof *out);
     for (size_t i = first; i < p->nargs; i += 2) {
@@ -143,6 +173,10 @@ int rib_pvars_read(rib_parser *p, size_t first, const size_t counts[RIB_CLASSES]
         rc = rib_pvar_read(p, &prm, counts, known[k].dim, (accept & RIB_PV_NO_VERTEX) != 0,
                            (accept & RIB_PV_ZERO_N) != 0,
                            (rib_pvar *)((char *)out + known[k].offset));
+        if (rc != TS_OK) return rc;
+    }
+    if (!out->st.v && (out->s.v || out->t.v)) {
+        int rc = rib_pvars_join_st(p, out);
         if (rc != TS_OK) return rc;
     }
     if ((accept & (RIB_PV_P | RIB_PV_PW)) && !out->P.v && !out->Pw.v)
