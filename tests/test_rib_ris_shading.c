@@ -186,16 +186,18 @@ static void test_bxdf_surface(void **state)
         "w.rib:2:1: warning: Bxdf \"PxrSurface\": clearcoatRoughness above 0.32 is drawn as 0.32 "
         "(GGX alpha 0.1)\n");
     /* Lobes Tessera does not draw: silent while their weight is 0, else one warning; the
-     * parameters Tessera does not read warn once each. */
+     * parameters Tessera does not read warn once each. A presence of 1 (opaque, what is
+     * drawn) is silent, another one warns. */
     assert_string_equal(
         warnings_of("Bxdf \"PxrSurface\" \"s\" \"float subsurfaceGain\" [0] "
                     "\"color subsurfaceColor\" [1 0 0] \"float fuzzGain\" "
                     "[0.5] \"float presence\" [1] \"int specularFresnelMode\" [0]"),
         "w.rib:2:82: warning: Bxdf \"PxrSurface\": \"fuzzGain\" is not 0, "
         "but the fuzz lobe is not drawn\n"
-        "w.rib:2:105: warning: Bxdf \"PxrSurface\": \"presence\" (cut-outs) is not "
-        "supported: the surface renders opaque\n"
         "w.rib:2:126: warning: Bxdf parameter \"specularFresnelMode\" is ignored\n");
+    assert_string_equal(warnings_of("Bxdf \"PxrSurface\" \"s\" \"float presence\" [0.5]"),
+                        "w.rib:2:23: warning: Bxdf \"PxrSurface\": \"presence\" (cut-outs) is "
+                        "not supported: the surface renders opaque\n");
 }
 
 /* PxrDisney: every parameter of Burley 2012 lands in the principled attribute (roughness

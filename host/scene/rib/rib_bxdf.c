@@ -234,6 +234,11 @@ static int bxdf_read(rib_parser *p, size_t k, size_t first, bxdf_args *a, rib_li
             j++;
         if (j == bxdf_table[k].nparams) {
             if (strcmp(prm.name, "presence") == 0) {
+                /* 1 (RenderMan for Maya writes it everywhere) is what is drawn: silent */
+                const rib_arg *v = prm.val;
+                if ((v->kind == RIB_ARG_NUMBER || v->kind == RIB_ARG_NUMBERS) && v->count == 1 &&
+                    rib_arg_nums(p, v)[0] == 1.0)
+                    continue;
                 snprintf(what, sizeof what,
                          "Bxdf \"%s\": \"presence\" (cut-outs) is not supported: the surface "
                          "renders opaque",
