@@ -233,12 +233,18 @@ static int bxdf_read(rib_parser *p, size_t k, size_t first, bxdf_args *a, rib_li
         while (j < bxdf_table[k].nparams && strcmp(prm.name, bxdf_table[k].params[j].name) != 0)
             j++;
         if (j == bxdf_table[k].nparams) {
+            /* Silent: RenderMan's own bookkeeping ("__instanceid"), and the values that are what
+             * is drawn, which RenderMan for Maya writes on every Bxdf: presence 1 (opaque), a
+             * bumpNormal of 0 0 0 (no bump). */
+            const rib_arg *v = prm.val;
+            int nums = v->kind == RIB_ARG_NUMBER || v->kind == RIB_ARG_NUMBERS;
+            const double *x = nums ? rib_arg_nums(p, v) : NULL;
+            if (strncmp(prm.name, "__", 2) == 0 ||
+                (strcmp(prm.name, "presence") == 0 && nums && v->count == 1 && x[0] == 1.0) ||
+                (strcmp(prm.name, "bumpNormal") == 0 && nums && v->count == 3 && x[0] == 0.0 &&
+                 x[1] == 0.0 && x[2] == 0.0))
+                continue;
             if (strcmp(prm.name, "presence") == 0) {
-                /* 1 (RenderMan for Maya writes it everywhere) is what is drawn: silent */
-                const rib_arg *v = prm.val;
-                if ((v->kind == RIB_ARG_NUMBER || v->kind == RIB_ARG_NUMBERS) && v->count == 1 &&
-                    rib_arg_nums(p, v)[0] == 1.0)
-                    continue;
                 snprintf(what, sizeof what,
                          "Bxdf \"%s\": \"presence\" (cut-outs) is not supported: the surface "
                          "renders opaque",
