@@ -197,7 +197,8 @@ static void test_bxdf_surface(void **state)
         "w.rib:2:126: warning: Bxdf parameter \"specularFresnelMode\" is ignored\n");
     /* RenderMan for Maya's bookkeeping and the values that are what is drawn: silent. */
     assert_string_equal(warnings_of("Bxdf \"PxrDisney\" \"d\" \"normal bumpNormal\" [0 0 0] "
-                                    "\"string __instanceid\" [\"PxrDisney1_0\"]"),
+                                    "\"string __instanceid\" [\"PxrDisney1_0\"] \"int "
+                                    "inputAOV\" [0]"),
                         "");
     assert_string_equal(warnings_of("Bxdf \"PxrSurface\" \"s\" \"normal bumpNormal\" [0 0 1]"),
                         "w.rib:2:23: warning: Bxdf parameter \"bumpNormal\" is ignored\n");
