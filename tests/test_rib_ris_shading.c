@@ -198,8 +198,14 @@ static void test_bxdf_surface(void **state)
     /* RenderMan for Maya's bookkeeping and the values that are what is drawn: silent. */
     assert_string_equal(warnings_of("Bxdf \"PxrDisney\" \"d\" \"normal bumpNormal\" [0 0 0] "
                                     "\"string __instanceid\" [\"PxrDisney1_0\"] \"int "
-                                    "inputAOV\" [0]"),
+                                    "inputAOV\" [0] \"int presenceCached\" [1]"),
                         "");
+    int rc;
+    assert_string_equal(test_rib_warnings("WorldBegin\nLight \"PxrDistantLight\" \"l\" \"string "
+                                          "__instanceid\" [\"l_0\"]\nWorldEnd\n",
+                                          &rc),
+                        "");
+    assert_int_equal(rc, TS_OK);
     assert_string_equal(warnings_of("Bxdf \"PxrSurface\" \"s\" \"normal bumpNormal\" [0 0 1]"),
                         "w.rib:2:23: warning: Bxdf parameter \"bumpNormal\" is ignored\n");
     assert_string_equal(warnings_of("Bxdf \"PxrSurface\" \"s\" \"float presence\" [0.5]"),

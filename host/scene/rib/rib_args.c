@@ -375,6 +375,9 @@ int rib_param_numbers(rib_parser *p, const rib_param *prm, size_t n, const doubl
 void rib_warn_param(rib_parser *p, const rib_param *prm)
 {
     char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+    /* Names beginning "__" are RenderMan's own bookkeeping (__instanceid, __faceindex, ...),
+     * which RenderMan for Maya writes on every request: nothing to draw, nothing to say. */
+    if (strncmp(prm->name, "__", 2) == 0) return;
     snprintf(what, sizeof what, "%s parameter \"%s\" is ignored", p->req,
              rib_printable(prm->name, shown));
     rib_warn_once(p, prm->key->line, prm->key->col, what);

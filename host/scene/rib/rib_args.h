@@ -93,7 +93,8 @@ int rib_param_at(rib_parser *p, size_t i, rib_param *out);
 /* The numbers of a parameter value: exactly n of them unless n == 0. */
 int rib_param_numbers(rib_parser *p, const rib_param *prm, size_t n, const double **out,
                       size_t *count);
-/* Warns once that a parameter of the current request is ignored. */
+/* Warns once that a parameter of the current request is ignored; silent for names beginning
+ * "__", RenderMan's own bookkeeping (__instanceid). */
 void rib_warn_param(rib_parser *p, const rib_param *prm);
 
 /* ---- file names ---- */

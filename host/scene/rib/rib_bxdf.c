@@ -233,13 +233,13 @@ static int bxdf_read(rib_parser *p, size_t k, size_t first, bxdf_args *a, rib_li
         while (j < bxdf_table[k].nparams && strcmp(prm.name, bxdf_table[k].params[j].name) != 0)
             j++;
         if (j == bxdf_table[k].nparams) {
-            /* Silent: RenderMan's own bookkeeping ("__instanceid"), and the values that are what
-             * is drawn, which RenderMan for Maya writes on every Bxdf: presence 1 (opaque), a
-             * bumpNormal of 0 0 0 (no bump), inputAOV 0 (no matte-ID AOV). */
+            /* Silent: the values that are what is drawn, which RenderMan for Maya writes on every
+             * Bxdf: presence 1 (opaque; presenceCached is its bookkeeping), a bumpNormal of 0 0
+             * 0 (no bump), inputAOV 0 (no matte-ID AOV); "__" names: rib_warn_param. */
             const rib_arg *v = prm.val;
             int nums = v->kind == RIB_ARG_NUMBER || v->kind == RIB_ARG_NUMBERS;
             const double *x = nums ? rib_arg_nums(p, v) : NULL;
-            if (strncmp(prm.name, "__", 2) == 0 ||
+            if (strcmp(prm.name, "presenceCached") == 0 ||
                 (strcmp(prm.name, "presence") == 0 && nums && v->count == 1 && x[0] == 1.0) ||
                 (strcmp(prm.name, "inputAOV") == 0 && nums && v->count == 1 && x[0] == 0.0) ||
                 (strcmp(prm.name, "bumpNormal") == 0 && nums && v->count == 3 && x[0] == 0.0 &&
