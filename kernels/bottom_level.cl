@@ -147,12 +147,7 @@ inline void group_tight_boxes(__global const ts_box4 *g, __global const ts_tight
     float4 ex = vload4(0, g->hi_x), ey = vload4(0, g->hi_y), ez = vload4(0, g->hi_z);
     float4 sx = (ex - bx) * (1.0f / 255.0f), sy = (ey - by) * (1.0f / 255.0f),
            sz = (ez - bz) * (1.0f / 255.0f);
-    *lx = bx + convert_float4(vload4(0, c->lo_x)) * sx;
-    *ly = by + convert_float4(vload4(0, c->lo_y)) * sy;
-    *lz = bz + convert_float4(vload4(0, c->lo_z)) * sz;
-    *hx = ex - convert_float4(vload4(0, c->hi_x)) * sx;
-    *hy = ey - convert_float4(vload4(0, c->hi_y)) * sy;
-    *hz = ez - convert_float4(vload4(0, c->hi_z)) * sz;
+    tight4_decode(c, bx, by, bz, ex, ey, ez, sx, sy, sz, lx, ly, lz, hx, hy, hz);
 }
 
 /* group_enter on the tight boxes of g (and g1), their codes c (and c1): the displaced patch a

@@ -70,14 +70,11 @@ inline uint qbvh_children_hit(__global const ts_qbvh_node *q, float4 o, float4 i
  * [0, tmax] enters its decoded box too (the slab test is monotone in the planes). */
 inline uint cull4_hits(__global const ts_tight4 *c, ts_box p, float4 o, float4 inv, float tmax)
 {
-    float sx = tight_step(p.lo_x, p.hi_x), sy = tight_step(p.lo_y, p.hi_y),
-          sz = tight_step(p.lo_z, p.hi_z);
-    float4 lx = p.lo_x + convert_float4(vload4(0, c->lo_x)) * sx;
-    float4 ly = p.lo_y + convert_float4(vload4(0, c->lo_y)) * sy;
-    float4 lz = p.lo_z + convert_float4(vload4(0, c->lo_z)) * sz;
-    float4 hx = p.hi_x - convert_float4(vload4(0, c->hi_x)) * sx;
-    float4 hy = p.hi_y - convert_float4(vload4(0, c->hi_y)) * sy;
-    float4 hz = p.hi_z - convert_float4(vload4(0, c->hi_z)) * sz;
+    float4 lx, ly, lz, hx, hy, hz;
+    tight4_decode(c, (float4)(p.lo_x), (float4)(p.lo_y), (float4)(p.lo_z), (float4)(p.hi_x),
+                  (float4)(p.hi_y), (float4)(p.hi_z), (float4)(tight_step(p.lo_x, p.hi_x)),
+                  (float4)(tight_step(p.lo_y, p.hi_y)), (float4)(tight_step(p.lo_z, p.hi_z)), &lx,
+                  &ly, &lz, &hx, &hy, &hz);
     return lanes_hits(lx, ly, lz, hx, hy, hz, o, inv, tmax);
 }
 

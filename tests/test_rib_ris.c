@@ -15,7 +15,7 @@
 #include <cmocka.h>
 #include "test_support.h"
 
-#define QUAD "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n"
+#define QUAD TEST_RIB_QUAD
 
 /* ---- the RIS frame ---------------------------------------------------------------------- */
 
@@ -378,7 +378,6 @@ static void test_procedural2_and_searchpath(void **state)
 static void test_shadow_attributes(void **state)
 {
     (void)state;
-#define QUAD "Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]\n"
     static const struct {
         const char *attr;
         int none;
@@ -434,7 +433,6 @@ static void test_shadow_attributes(void **state)
     test_parse_rib_error("Attribute \"visibility\" \"transmission\" [0 1]",
                          "t.rib:1:39: error: Attribute \"visibility\": \"transmission\" takes one "
                          "value (0 or 1, or a string: none/transparent, opaque, Os, shade/shader)");
-#undef QUAD
 }
 
 static void test_patch_mesh_wrap_spellings(void **state)

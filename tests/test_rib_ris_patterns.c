@@ -14,105 +14,79 @@
 #include <cmocka.h>
 #include "test_support.h"
 
-#define QUAD "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n"
+#define QUAD TEST_RIB_QUAD
 #define DIFFUSE(node) "Bxdf \"PxrDiffuse\" \"d\" \"reference color diffuseColor\" [\"" node "\"]"
-
-static void assert_near(double got, double want, double tol)
-{
-    if (!(fabs(got - want) <= tol)) fail_msg("got %.9g, want %.9g (+- %g)", got, want, tol);
-}
-
-static void assert_cs(const ts_patch_attr *a, double r, double g, double b)
-{
-    assert_near(a->cs_r, r, 1e-6), assert_near(a->cs_g, g, 1e-6), assert_near(a->cs_b, b, 1e-6);
-}
-
-/* The attributes of the one patch `body` (Patterns, a Bxdf) gives a quad. */
-static ts_patch_attr one_patch(const char *body)
-{
-    static char text[20000];
-    snprintf(text, sizeof text, "WorldBegin\nColor [1 0 0]\n%s\n" QUAD "WorldEnd\n", body);
-    ts_scene s;
-    test_parse_rib_ok(text, &s);
-    assert_int_equal(s.patch_count, 1);
-    ts_patch_attr a = s.attr[0];
-    scene_free(&s);
-    return a;
-}
-
-/* The warnings of `body` in a world block with one quad after it. */
-static const char *warnings_of(const char *body)
-{
-    static char text[20000];
-    snprintf(text, sizeof text, "WorldBegin\n%s\n" QUAD "WorldEnd\n", body);
-    int rc;
-    const char *out = test_rib_warnings(text, &rc);
-    assert_int_equal(rc, TS_OK);
-    return out;
-}
 
 /* PxrMix: (1 - mix) color1 + mix color2; clampMix clamps mix into [0, 1]. */
 static void test_mix(void **state)
 {
     (void)state;
-    ts_patch_attr a = one_patch("Pattern \"PxrMix\" \"m\" \"color color1\" [0.2 0.4 0.6] \"color "
-                                "color2\" [1 0 0.5] \"float mix\" [0.25]\n" DIFFUSE("m:resultRGB"));
+    ts_patch_attr a =
+        test_rib_one_patch("Pattern \"PxrMix\" \"m\" \"color color1\" [0.2 0.4 0.6] \"color "
+                           "color2\" [1 0 0.5] \"float mix\" [0.25]\n" DIFFUSE("m:resultRGB"));
     assert_int_equal(a.material, TS_MAT_MATTE);
-    assert_cs(&a, 0.75 * 0.2 + 0.25, 0.75 * 0.4, 0.75 * 0.6 + 0.25 * 0.5);
+    test_assert_cs(&a, 0.75 * 0.2 + 0.25, 0.75 * 0.4, 0.75 * 0.6 + 0.25 * 0.5);
     /* no output named: resultRGB; resultG: the float in all three channels */
-    a = one_patch("Pattern \"PxrMix\" \"m\" \"color color1\" [0.2 0.4 0.6] \"float mix\" [0.5]\n"
-                  "Bxdf \"PxrDiffuse\" \"d\" \"reference color diffuseColor\" [\"m\"]");
-    assert_cs(&a, 0.6, 0.7, 0.8);
-    a = one_patch(
+    a = test_rib_one_patch(
+        "Pattern \"PxrMix\" \"m\" \"color color1\" [0.2 0.4 0.6] \"float mix\" [0.5]\n"
+        "Bxdf \"PxrDiffuse\" \"d\" \"reference color diffuseColor\" [\"m\"]");
+    test_assert_cs(&a, 0.6, 0.7, 0.8);
+    a = test_rib_one_patch(
         "Pattern \"PxrMix\" \"m\" \"color color1\" [0.2 0.4 0.6] \"float mix\" [0.5]\n" DIFFUSE(
             "m:resultG"));
-    assert_cs(&a, 0.7, 0.7, 0.7);
+    test_assert_cs(&a, 0.7, 0.7, 0.7);
     /* outside [0, 1] mix extrapolates, unless clampMix */
-    a = one_patch("Pattern \"PxrMix\" \"m\" \"color color1\" [0.2 0.2 0.2] \"color color2\" [0.4 "
-                  "0.4 0.4] \"float mix\" [1.5]\n" DIFFUSE("m:resultRGB"));
-    assert_cs(&a, 0.5, 0.5, 0.5);
-    a = one_patch("Pattern \"PxrMix\" \"m\" \"color color1\" [0.2 0.2 0.2] \"color color2\" [0.4 "
-                  "0.4 0.4] \"float mix\" [1.5] \"int clampMix\" [1]\n" DIFFUSE("m:resultRGB"));
-    assert_cs(&a, 0.4, 0.4, 0.4);
+    a = test_rib_one_patch(
+        "Pattern \"PxrMix\" \"m\" \"color color1\" [0.2 0.2 0.2] \"color color2\" [0.4 "
+        "0.4 0.4] \"float mix\" [1.5]\n" DIFFUSE("m:resultRGB"));
+    test_assert_cs(&a, 0.5, 0.5, 0.5);
+    a = test_rib_one_patch(
+        "Pattern \"PxrMix\" \"m\" \"color color1\" [0.2 0.2 0.2] \"color color2\" [0.4 "
+        "0.4 0.4] \"float mix\" [1.5] \"int clampMix\" [1]\n" DIFFUSE("m:resultRGB"));
+    test_assert_cs(&a, 0.4, 0.4, 0.4);
     /* a float parameter reads a float output: diffuseGain = resultB */
-    a = one_patch("Pattern \"PxrMix\" \"m\" \"color color2\" [0 0 0.25] \"float mix\" [1]\n"
-                  "Bxdf \"PxrDiffuse\" \"d\" \"reference float diffuseGain\" [\"m:resultB\"]");
-    assert_near(a.kd, 0.25, 1e-7);
+    a = test_rib_one_patch(
+        "Pattern \"PxrMix\" \"m\" \"color color2\" [0 0 0.25] \"float mix\" [1]\n"
+        "Bxdf \"PxrDiffuse\" \"d\" \"reference float diffuseGain\" [\"m:resultB\"]");
+    test_assert_near(a.kd, 0.25, 1e-7);
 }
 
 /* The documented defaults: color1 0, color2 1, mix 0; PxrToFloat input 0, mode 0. */
 static void test_defaults(void **state)
 {
     (void)state;
-    ts_patch_attr a = one_patch("Pattern \"PxrMix\" \"m\"\n" DIFFUSE("m:resultRGB"));
-    assert_cs(&a, 0, 0, 0);
-    a = one_patch("Pattern \"PxrMix\" \"m\" \"float mix\" [1]\n" DIFFUSE("m:resultRGB"));
-    assert_cs(&a, 1, 1, 1);
-    a = one_patch("Pattern \"PxrToFloat\" \"f\"\n" DIFFUSE("f:resultF"));
-    assert_cs(&a, 0, 0, 0);
-    a = one_patch("Pattern \"PxrToFloat\" \"f\" \"color input\" [0.1 0.2 0.9]\n" DIFFUSE("f"));
-    assert_cs(&a, 0.1, 0.1, 0.1);
+    ts_patch_attr a = test_rib_one_patch("Pattern \"PxrMix\" \"m\"\n" DIFFUSE("m:resultRGB"));
+    test_assert_cs(&a, 0, 0, 0);
+    a = test_rib_one_patch("Pattern \"PxrMix\" \"m\" \"float mix\" [1]\n" DIFFUSE("m:resultRGB"));
+    test_assert_cs(&a, 1, 1, 1);
+    a = test_rib_one_patch("Pattern \"PxrToFloat\" \"f\"\n" DIFFUSE("f:resultF"));
+    test_assert_cs(&a, 0, 0, 0);
+    a = test_rib_one_patch(
+        "Pattern \"PxrToFloat\" \"f\" \"color input\" [0.1 0.2 0.9]\n" DIFFUSE("f"));
+    test_assert_cs(&a, 0.1, 0.1, 0.1);
 }
 
 /* PxrToFloat: channel `mode` of input, or (mode 4) its mean; mode 3 (luminance) warns. */
 static void test_to_float(void **state)
 {
     (void)state;
-    ts_patch_attr a = one_patch("Pattern \"PxrToFloat\" \"f\" \"color input\" [0.1 0.2 0.9] \"int "
-                                "mode\" [1]\n" DIFFUSE("f:resultF"));
-    assert_cs(&a, 0.2, 0.2, 0.2);
-    a = one_patch("Pattern \"PxrToFloat\" \"f\" \"color input\" [0.1 0.2 0.9] \"int mode\" [2]\n"
-                  "Bxdf \"PxrDiffuse\" \"d\" \"reference float diffuseGain\" [\"f:resultF\"]");
-    assert_near(a.kd, 0.9, 1e-7);
-    a = one_patch(
+    ts_patch_attr a =
+        test_rib_one_patch("Pattern \"PxrToFloat\" \"f\" \"color input\" [0.1 0.2 0.9] \"int "
+                           "mode\" [1]\n" DIFFUSE("f:resultF"));
+    test_assert_cs(&a, 0.2, 0.2, 0.2);
+    a = test_rib_one_patch(
+        "Pattern \"PxrToFloat\" \"f\" \"color input\" [0.1 0.2 0.9] \"int mode\" [2]\n"
+        "Bxdf \"PxrDiffuse\" \"d\" \"reference float diffuseGain\" [\"f:resultF\"]");
+    test_assert_near(a.kd, 0.9, 1e-7);
+    a = test_rib_one_patch(
         "Pattern \"PxrToFloat\" \"f\" \"color input\" [0.1 0.2 0.9] \"int mode\" [4]\n" DIFFUSE(
             "f:resultF"));
-    assert_cs(&a, 0.4, 0.4, 0.4);
+    test_assert_cs(&a, 0.4, 0.4, 0.4);
     const char *luminance = "Pattern \"PxrToFloat\" \"f\" \"color input\" [0.1 0.2 0.9] \"int "
                             "mode\" [3]\n" DIFFUSE("f:resultF");
-    a = one_patch(luminance);
-    assert_cs(&a, 0.5, 0.5, 0.5); /* PxrDiffuse's default */
-    assert_string_equal(warnings_of(luminance),
+    a = test_rib_one_patch(luminance);
+    test_assert_cs(&a, 0.5, 0.5, 0.5); /* PxrDiffuse's default */
+    assert_string_equal(test_rib_body_warnings(luminance),
                         "w.rib:3:54: warning: Pattern \"PxrToFloat\": mode 3 is not folded "
                         "(luminance, whose weights the docs do not give): what it feeds keeps its "
                         "default\n");
@@ -122,7 +96,7 @@ static void test_to_float(void **state)
 static void test_chain(void **state)
 {
     (void)state;
-    ts_patch_attr a = one_patch(
+    ts_patch_attr a = test_rib_one_patch(
         "Pattern \"PxrMix\" \"a\" \"color color1\" [0.2 0.4 0.6] \"color color2\" [0.6 0.8 1] "
         "\"float mix\" [0.5]\n"
         "Pattern \"PxrToFloat\" \"f\" \"reference color input\" [\"a:resultRGB\"] \"int mode\" "
@@ -130,13 +104,13 @@ static void test_chain(void **state)
         "Pattern \"PxrMix\" \"b\" \"color color1\" [1 0 0] \"color color2\" [0 0 1] \"reference "
         "float mix\" [\"f:resultF\"]\n" DIFFUSE("b:resultRGB"));
     /* a = (0.4 0.6 0.8), f = 0.6, b = 0.4 (1 0 0) + 0.6 (0 0 1) */
-    assert_cs(&a, 0.4, 0, 0.6);
+    test_assert_cs(&a, 0.4, 0, 0.6);
     /* the same node read twice (color1 and color2) */
-    a = one_patch(
+    a = test_rib_one_patch(
         "Pattern \"PxrMix\" \"a\" \"color color1\" [0.2 0.4 0.6]\n"
         "Pattern \"PxrMix\" \"b\" \"reference color color1\" [\"a:resultRGB\"] "
         "\"reference color color2\" [\"a:resultR\"] \"float mix\" [0.5]\n" DIFFUSE("b:resultRGB"));
-    assert_cs(&a, 0.2, 0.3, 0.4);
+    test_assert_cs(&a, 0.2, 0.3, 0.4);
 }
 
 /* A cycle: the connection that closes it keeps its default, with one warning. */
@@ -147,16 +121,16 @@ static void test_cycle(void **state)
                         "Pattern \"PxrMix\" \"b\" \"reference color color1\" [\"a:resultRGB\"] "
                         "\"float mix\" [0.5]\n" DIFFUSE("a:resultRGB");
     /* b = 0.5 (color1's default 0) + 0.5 (color2 1); a = b (mix 0) */
-    ts_patch_attr a = one_patch(cycle);
-    assert_cs(&a, 0.5, 0.5, 0.5);
-    assert_string_equal(warnings_of(cycle),
+    ts_patch_attr a = test_rib_one_patch(cycle);
+    test_assert_cs(&a, 0.5, 0.5, 0.5);
+    assert_string_equal(test_rib_body_warnings(cycle),
                         "w.rib:4:54: warning: Pattern \"a\" is reached again through its own "
                         "inputs (a cycle): that connection takes its literal value or default\n");
     /* a node that is its own input */
-    a = one_patch(
+    a = test_rib_one_patch(
         "Pattern \"PxrMix\" \"s\" \"reference color color2\" [\"s\"] \"float mix\" [1]\n" DIFFUSE(
             "s"));
-    assert_cs(&a, 1, 1, 1);
+    test_assert_cs(&a, 1, 1, 1);
 }
 
 /* A chain of `len` PxrMix nodes n0 .. n(len-1), each (mix 0) its color1: the previous node;
@@ -180,11 +154,11 @@ static const char *chain_of(int len)
 static void test_depth(void **state)
 {
     (void)state;
-    ts_patch_attr a = one_patch(chain_of(64));
-    assert_cs(&a, 0.7, 0.7, 0.7);
-    a = one_patch(chain_of(70));
-    assert_cs(&a, 0, 0, 0); /* n6's color1 is its default, 0 */
-    assert_string_equal(warnings_of(chain_of(70)),
+    ts_patch_attr a = test_rib_one_patch(chain_of(64));
+    test_assert_cs(&a, 0.7, 0.7, 0.7);
+    a = test_rib_one_patch(chain_of(70));
+    test_assert_cs(&a, 0, 0, 0); /* n6's color1 is its default, 0 */
+    assert_string_equal(test_rib_body_warnings(chain_of(70)),
                         "w.rib:72:54: warning: Pattern: a chain of more than 64 nodes (at \"n5\") "
                         "is not folded: what it feeds keeps its default\n");
 }
@@ -199,9 +173,9 @@ static void test_unfolded_inputs(void **state)
                       "\"color color1\" [0.2 0.3 0.4] \"reference color color2\" [\"n:resultRGB\"] "
                       "\"float mix\" [0.5]\n" DIFFUSE("m:resultRGB");
     /* color1 its literal value, color2 its default (1) */
-    ts_patch_attr a = one_patch(osl);
-    assert_cs(&a, 0.6, 0.65, 0.7);
-    assert_string_equal(warnings_of(osl),
+    ts_patch_attr a = test_rib_one_patch(osl);
+    test_assert_cs(&a, 0.6, 0.65, 0.7);
+    assert_string_equal(test_rib_body_warnings(osl),
                         "w.rib:4:54: warning: Pattern \"MyNoise\" is not supported: the parameters "
                         "connected to it keep their defaults (PxrTexture, PxrManifold2D, PxrMix, "
                         "PxrToFloat)\n");
@@ -209,18 +183,18 @@ static void test_unfolded_inputs(void **state)
     const char *tex = "Pattern \"PxrTexture\" \"t\" \"string filename\" [\"wood.tex\"]\n"
                       "Pattern \"PxrMix\" \"m\" \"reference color color2\" [\"t:resultRGB\"] "
                       "\"float mix\" [0.5] \"color color1\" [0 0.5 0]\n" DIFFUSE("m:resultRGB");
-    a = one_patch(tex);
-    assert_cs(&a, 0.5, 0.75, 0.5);
+    a = test_rib_one_patch(tex);
+    test_assert_cs(&a, 0.5, 0.75, 0.5);
     assert_int_equal(a.flags & TS_PATCH_COLOR_TEX, 0);
-    assert_string_equal(warnings_of(tex),
+    assert_string_equal(test_rib_body_warnings(tex),
                         "w.rib:4:54: warning: Pattern \"PxrMix\": a PxrTexture through PxrMix is "
                         "not drawn: \"color2\" takes its default\n");
     const char *gone =
         "Pattern \"PxrMix\" \"m\" \"reference float mix\" [\"gone:resultF\"]\n" DIFFUSE(
             "m:resultRGB");
-    a = one_patch(gone);
-    assert_cs(&a, 0, 0, 0);
-    assert_string_equal(warnings_of(gone),
+    a = test_rib_one_patch(gone);
+    test_assert_cs(&a, 0, 0, 0);
+    assert_string_equal(test_rib_body_warnings(gone),
                         "w.rib:3:54: warning: Pattern \"PxrMix\": \"mix\" is connected to "
                         "\"gone:resultF\", which no Pattern defines: it takes its default\n");
 }
@@ -231,30 +205,31 @@ static void test_outputs(void **state)
     (void)state;
     const char *rgb = "Pattern \"PxrMix\" \"m\" \"float mix\" [1]\nBxdf \"PxrDiffuse\" \"d\" "
                       "\"reference float diffuseGain\" [\"m:resultRGB\"]";
-    ts_patch_attr a = one_patch(rgb);
-    assert_near(a.kd, 1, 0); /* PxrDiffuse's default gain */
-    assert_string_equal(warnings_of(rgb),
+    ts_patch_attr a = test_rib_one_patch(rgb);
+    test_assert_near(a.kd, 1, 0); /* PxrDiffuse's default gain */
+    assert_string_equal(test_rib_body_warnings(rgb),
                         "w.rib:3:53: warning: Bxdf \"PxrDiffuse\": float \"diffuseGain\" is "
                         "connected to a colour output: it keeps its default (resultR, resultG, "
                         "resultB or resultF would be read)\n");
     const char *alpha = "Pattern \"PxrMix\" \"m\" \"float mix\" [1]\n" DIFFUSE("m:resultA");
-    a = one_patch(alpha);
-    assert_cs(&a, 0.5, 0.5, 0.5);
+    a = test_rib_one_patch(alpha);
+    test_assert_cs(&a, 0.5, 0.5, 0.5);
     assert_string_equal(
-        warnings_of(alpha),
+        test_rib_body_warnings(alpha),
         "w.rib:3:54: warning: Pattern \"PxrMix\" has no output \"resultA\" "
         "(resultRGB, resultR, resultG, resultB): what it feeds keeps its default\n");
     const char *inner = "Pattern \"PxrMix\" \"a\"\nPattern \"PxrMix\" \"b\" \"reference float "
                         "mix\" [\"a:resultRGB\"] \"float mix\" [1]\n" DIFFUSE("b");
-    a = one_patch(inner);
-    assert_cs(&a, 1, 1, 1); /* mix its literal value 1: color2 */
-    assert_string_equal(warnings_of(inner),
+    a = test_rib_one_patch(inner);
+    test_assert_cs(&a, 1, 1, 1); /* mix its literal value 1: color2 */
+    assert_string_equal(test_rib_body_warnings(inner),
                         "w.rib:4:54: warning: Pattern \"PxrMix\": float \"mix\" is connected to "
                         "colour output \"a:resultRGB\": it takes its value\n");
     /* a Pattern parameter the node does not have */
-    assert_string_equal(warnings_of("Pattern \"PxrMix\" \"m\" \"float amount\" [1]\n" DIFFUSE("m")),
-                        "w.rib:2:22: warning: Pattern \"PxrMix\" parameter \"amount\" is "
-                        "ignored\n");
+    assert_string_equal(
+        test_rib_body_warnings("Pattern \"PxrMix\" \"m\" \"float amount\" [1]\n" DIFFUSE("m")),
+        "w.rib:2:22: warning: Pattern \"PxrMix\" parameter \"amount\" is "
+        "ignored\n");
 }
 
 /* Values that are not finite: a literal input (binary RIB's IEEE infinity; ASCII's
@@ -275,11 +250,12 @@ static void test_not_finite(void **state)
 static void test_displace(void **state)
 {
     (void)state;
-    assert_string_equal(warnings_of("Pattern \"PxrToFloat\" \"f\" \"color input\" [0.5 0 0]\n"
-                                    "Displace \"PxrDisplace\" \"d\" \"reference float dispScalar\" "
-                                    "[\"f:resultF\"]"),
-                        "w.rib:3:1: warning: Displace \"PxrDisplace\": a constant dispScalar (a "
-                        "uniform offset of the surface) is not drawn: no displacement\n");
+    assert_string_equal(
+        test_rib_body_warnings("Pattern \"PxrToFloat\" \"f\" \"color input\" [0.5 0 0]\n"
+                               "Displace \"PxrDisplace\" \"d\" \"reference float dispScalar\" "
+                               "[\"f:resultF\"]"),
+        "w.rib:3:1: warning: Displace \"PxrDisplace\": a constant dispScalar (a "
+        "uniform offset of the surface) is not drawn: no displacement\n");
 }
 
 int main(void)

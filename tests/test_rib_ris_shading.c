@@ -15,47 +15,13 @@
 #include <cmocka.h>
 #include "test_support.h"
 
-#define QUAD "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n"
+#define QUAD TEST_RIB_QUAD
 #define SCHLICK(f0) ((f0) + (1.0 - (f0)) / 21.0) /* hemispherical mean, edge colour 1 */
-
-static void assert_near(double got, double want, double tol)
-{
-    if (!(fabs(got - want) <= tol)) fail_msg("got %.9g, want %.9g (+- %g)", got, want, tol);
-}
-
-static void assert_cs(const ts_patch_attr *a, double r, double g, double b)
-{
-    assert_near(a->cs_r, r, 1e-6), assert_near(a->cs_g, g, 1e-6), assert_near(a->cs_b, b, 1e-6);
-}
 
 static void assert_le(const ts_patch_attr *a, double r, double g, double b)
 {
-    assert_near(a->le_r, r, 1e-5 * r + 1e-7), assert_near(a->le_g, g, 1e-5 * g + 1e-7);
-    assert_near(a->le_b, b, 1e-5 * b + 1e-7);
-}
-
-/* The attributes of the one patch `bxdf` (a Bxdf request and what follows) gives a quad. */
-static ts_patch_attr one_patch(const char *bxdf)
-{
-    char text[4096];
-    snprintf(text, sizeof text, "WorldBegin\nColor [1 0 0]\n%s\n" QUAD "WorldEnd\n", bxdf);
-    ts_scene s;
-    test_parse_rib_ok(text, &s);
-    assert_int_equal(s.patch_count, 1);
-    ts_patch_attr a = s.attr[0];
-    scene_free(&s);
-    return a;
-}
-
-/* The warnings of `body` in a world block with one quad after it. */
-static const char *warnings_of(const char *body)
-{
-    static char text[4096];
-    snprintf(text, sizeof text, "WorldBegin\n%s\n" QUAD "WorldEnd\n", body);
-    int rc;
-    const char *out = test_rib_warnings(text, &rc);
-    assert_int_equal(rc, TS_OK);
-    return out;
+    test_assert_near(a->le_r, r, 1e-5 * r + 1e-7), test_assert_near(a->le_g, g, 1e-5 * g + 1e-7);
+    test_assert_near(a->le_b, b, 1e-5 * b + 1e-7);
 }
 
 /* ---- Bxdf --------------------------------------------------------------------------- */
@@ -63,20 +29,22 @@ static const char *warnings_of(const char *body)
 static void test_bxdf_diffuse(void **state)
 {
     (void)state;
-    ts_patch_attr a = one_patch("Bxdf \"PxrDiffuse\" \"d\" \"color diffuseColor\" [0.2 0.4 0.6]");
+    ts_patch_attr a =
+        test_rib_one_patch("Bxdf \"PxrDiffuse\" \"d\" \"color diffuseColor\" [0.2 0.4 0.6]");
     assert_int_equal(a.material, TS_MAT_MATTE);
-    assert_near(a.kd, 1.0, 0), assert_cs(&a, 0.2, 0.4, 0.6); /* Color [1 0 0] is not used */
-    a = one_patch("Bxdf \"PxrDiffuse\" \"d\"");              /* RenderMan's default colour */
-    assert_cs(&a, 0.5, 0.5, 0.5);
-    a = one_patch("Bxdf \"LamaDiffuse\" \"d\" \"color color\" [0.1 0.2 0.3]");
-    assert_int_equal(a.material, TS_MAT_MATTE), assert_cs(&a, 0.1, 0.2, 0.3);
+    test_assert_near(a.kd, 1.0, 0),
+        test_assert_cs(&a, 0.2, 0.4, 0.6);               /* Color [1 0 0] is not used */
+    a = test_rib_one_patch("Bxdf \"PxrDiffuse\" \"d\""); /* RenderMan's default colour */
+    test_assert_cs(&a, 0.5, 0.5, 0.5);
+    a = test_rib_one_patch("Bxdf \"LamaDiffuse\" \"d\" \"color color\" [0.1 0.2 0.3]");
+    assert_int_equal(a.material, TS_MAT_MATTE), test_assert_cs(&a, 0.1, 0.2, 0.3);
     /* An attribute: AttributeEnd restores the Surface before it. */
     ts_scene s;
     test_parse_rib_ok("WorldBegin\nSurface \"plastic\"\nAttributeBegin\nBxdf \"PxrDiffuse\" \"d\"\n"
                       "AttributeEnd\n" QUAD "WorldEnd\n",
                       &s);
     assert_int_equal(s.attr[0].material, TS_MAT_PLASTIC);
-    assert_cs(&s.attr[0], 1, 1, 1);
+    test_assert_cs(&s.attr[0], 1, 1, 1);
     scene_free(&s);
 }
 
@@ -86,25 +54,29 @@ static void test_bxdf_diffuse(void **state)
 static void test_bxdf_surface_glass(void **state)
 {
     (void)state;
-    ts_patch_attr a = one_patch("Bxdf \"PxrSurface\" \"g\" \"float diffuseGain\" [0] "
-                                "\"float refractionGain\" [1] \"color diffuseColor\" [1 1 1]");
+    ts_patch_attr a =
+        test_rib_one_patch("Bxdf \"PxrSurface\" \"g\" \"float diffuseGain\" [0] "
+                           "\"float refractionGain\" [1] \"color diffuseColor\" [1 1 1]");
     assert_int_equal(a.material, TS_MAT_GLASS);
-    assert_near(a.ior, 1.5, 0), assert_cs(&a, 1, 1, 1);
+    test_assert_near(a.ior, 1.5, 0), test_assert_cs(&a, 1, 1, 1);
     assert_true(a.roughness <= TS_GLASS_SMOOTH);
-    assert_string_equal(warnings_of("Bxdf \"PxrSurface\" \"g\" \"float diffuseGain\" [0] "
-                                    "\"float refractionGain\" [1]"),
-                        "");
-    a = one_patch("Bxdf \"PxrSurface\" \"g\" \"float diffuseGain\" [0] \"float refractionGain\" "
-                  "[0.5] \"color refractionColor\" [1 0.8 0.6] \"float glassIor\" [1.33] "
-                  "\"float glassRoughness\" [0.5]");
+    assert_string_equal(
+        test_rib_body_warnings("Bxdf \"PxrSurface\" \"g\" \"float diffuseGain\" [0] "
+                               "\"float refractionGain\" [1]"),
+        "");
+    a = test_rib_one_patch(
+        "Bxdf \"PxrSurface\" \"g\" \"float diffuseGain\" [0] \"float refractionGain\" "
+        "[0.5] \"color refractionColor\" [1 0.8 0.6] \"float glassIor\" [1.33] "
+        "\"float glassRoughness\" [0.5]");
     assert_int_equal(a.material, TS_MAT_GLASS);
-    assert_near(a.ior, 1.33, 1e-6), assert_near(a.roughness, 0.25, 1e-7);
-    assert_cs(&a, 0.5, 0.4, 0.3);
-    assert_string_equal(warnings_of("Bxdf \"PxrSurface\" \"g\" \"float refractionGain\" [1]"),
-                        "w.rib:2:1: warning: Bxdf \"PxrSurface\": with refractionGain it is drawn "
-                        "as glass: its diffuse and specular lobes are not drawn\n");
+    test_assert_near(a.ior, 1.33, 1e-6), test_assert_near(a.roughness, 0.25, 1e-7);
+    test_assert_cs(&a, 0.5, 0.4, 0.3);
+    assert_string_equal(
+        test_rib_body_warnings("Bxdf \"PxrSurface\" \"g\" \"float refractionGain\" [1]"),
+        "w.rib:2:1: warning: Bxdf \"PxrSurface\": with refractionGain it is drawn "
+        "as glass: its diffuse and specular lobes are not drawn\n");
     /* refractionGain 0 (the default): PxrSurface as before */
-    a = one_patch("Bxdf \"PxrSurface\" \"g\" \"float glassIor\" [1.33]");
+    a = test_rib_one_patch("Bxdf \"PxrSurface\" \"g\" \"float glassIor\" [1.33]");
     assert_int_equal(a.material, TS_MAT_MATTE);
 }
 
@@ -114,12 +86,14 @@ static void test_bxdf_surface_glass(void **state)
 static void test_bxdf_lm_diffuse_light_emission(void **state)
 {
     (void)state;
-    ts_patch_attr a = one_patch("Bxdf \"PxrLMDiffuse\" \"d\" \"color frontColor\" [0.2 0.4 0.6]");
+    ts_patch_attr a =
+        test_rib_one_patch("Bxdf \"PxrLMDiffuse\" \"d\" \"color frontColor\" [0.2 0.4 0.6]");
     assert_int_equal(a.material, TS_MAT_MATTE);
-    assert_near(a.kd, 1.0, 0), assert_cs(&a, 0.2, 0.4, 0.6);
-    a = one_patch("Bxdf \"PxrLMDiffuse\" \"d\"");
-    assert_cs(&a, 0.5, 0.5, 0.5);
-    const char *w = warnings_of("Bxdf \"PxrLMDiffuse\" \"d\" \"color backColor\" [1 1 1]");
+    test_assert_near(a.kd, 1.0, 0), test_assert_cs(&a, 0.2, 0.4, 0.6);
+    a = test_rib_one_patch("Bxdf \"PxrLMDiffuse\" \"d\"");
+    test_assert_cs(&a, 0.5, 0.5, 0.5);
+    const char *w =
+        test_rib_body_warnings("Bxdf \"PxrLMDiffuse\" \"d\" \"color backColor\" [1 1 1]");
     if (!strstr(w, "w.rib:2:") || !strstr(w, "backColor"))
         fail_msg("backColor not warned about: %s", w);
     ts_scene s;
@@ -128,9 +102,9 @@ static void test_bxdf_lm_diffuse_light_emission(void **state)
                       "AttributeEnd\nWorldEnd\n",
                       &s);
     assert_int_equal(s.patch_count, 1);
-    assert_near(s.attr[0].kd, 0.0, 0), assert_le(&s.attr[0], 2, 2, 2);
+    test_assert_near(s.attr[0].kd, 0.0, 0), assert_le(&s.attr[0], 2, 2, 2);
     scene_free(&s);
-    assert_string_equal(warnings_of("Bxdf \"PxrLightEmission\" \"e\""), "");
+    assert_string_equal(test_rib_body_warnings("Bxdf \"PxrLightEmission\" \"e\""), "");
 }
 
 /* PxrSurface onto the principled BRDF: Cs = diffuseGain diffuseColor, specular =
@@ -141,38 +115,41 @@ static void test_bxdf_lm_diffuse_light_emission(void **state)
 static void test_bxdf_surface(void **state)
 {
     (void)state;
-    ts_patch_attr a = one_patch("Bxdf \"PxrSurface\" \"s\" \"float diffuseGain\" [0.8] "
-                                "\"color diffuseColor\" [0.5 0.25 0.125] \"color "
-                                "specularFaceColor\" [0.04 0.04 0.04] \"color specularEdgeColor\" "
-                                "[1 1 1] \"float specularRoughness\" [0.3] \"float glowGain\" [2] "
-                                "\"color glowColor\" [1 0.5 0]");
+    ts_patch_attr a =
+        test_rib_one_patch("Bxdf \"PxrSurface\" \"s\" \"float diffuseGain\" [0.8] "
+                           "\"color diffuseColor\" [0.5 0.25 0.125] \"color "
+                           "specularFaceColor\" [0.04 0.04 0.04] \"color specularEdgeColor\" "
+                           "[1 1 1] \"float specularRoughness\" [0.3] \"float glowGain\" [2] "
+                           "\"color glowColor\" [1 0.5 0]");
     assert_int_equal(a.material, TS_MAT_PRINCIPLED);
-    assert_near(a.specular, 0.5, 1e-7), assert_near(a.metallic, 0, 0);
-    assert_near(a.clearcoat, 0, 0), assert_near(a.kd, 1, 0), assert_near(a.ks, 0, 0);
-    assert_near(a.roughness, 0.09, 1e-7);
-    assert_cs(&a, 0.4, 0.2, 0.1);
+    test_assert_near(a.specular, 0.5, 1e-7), test_assert_near(a.metallic, 0, 0);
+    test_assert_near(a.clearcoat, 0, 0), test_assert_near(a.kd, 1, 0), test_assert_near(a.ks, 0, 0);
+    test_assert_near(a.roughness, 0.09, 1e-7);
+    test_assert_cs(&a, 0.4, 0.2, 0.1);
     assert_le(&a, 2, 1, 0);
     /* RenderMan's defaults: no specular (face and edge colours 0), diffuse 0.18. */
-    a = one_patch("Bxdf \"PxrSurface\" \"s\"");
+    a = test_rib_one_patch("Bxdf \"PxrSurface\" \"s\"");
     assert_int_equal(a.material, TS_MAT_MATTE);
-    assert_near(a.kd, 1.0, 0), assert_cs(&a, 0.18, 0.18, 0.18), assert_le(&a, 0, 0, 0);
+    test_assert_near(a.kd, 1.0, 0), test_assert_cs(&a, 0.18, 0.18, 0.18), assert_le(&a, 0, 0, 0);
     /* A clear coat alone: specular 0 under it, Schlick F0 0.04 to 1 is clearcoat 4. */
-    a = one_patch("Bxdf \"PxrSurface\" \"s\" \"color clearcoatFaceColor\" [0.03 0.03 0.03] "
-                  "\"color clearcoatEdgeColor\" [1 1 1] \"float clearcoatRoughness\" [0.2]");
-    assert_int_equal(a.material, TS_MAT_PRINCIPLED), assert_near(a.specular, 0, 0);
-    assert_near(a.clearcoat, 4 * SCHLICK(0.03) / SCHLICK(0.04), 1e-6);
-    assert_near(a.clearcoat_gloss, (0.1 - 0.04) / 0.09, 1e-6), assert_cs(&a, 0.18, 0.18, 0.18);
-    a = one_patch("Bxdf \"PxrSurface\" \"s\" \"color clearcoatFaceColor\" [0.5 0.5 0.5] "
-                  "\"color clearcoatEdgeColor\" [1 1 1]");
-    assert_near(a.clearcoat, 4, 0), assert_near(a.clearcoat_gloss, 1, 1e-7);
+    a = test_rib_one_patch(
+        "Bxdf \"PxrSurface\" \"s\" \"color clearcoatFaceColor\" [0.03 0.03 0.03] "
+        "\"color clearcoatEdgeColor\" [1 1 1] \"float clearcoatRoughness\" [0.2]");
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED), test_assert_near(a.specular, 0, 0);
+    test_assert_near(a.clearcoat, 4 * SCHLICK(0.03) / SCHLICK(0.04), 1e-6);
+    test_assert_near(a.clearcoat_gloss, (0.1 - 0.04) / 0.09, 1e-6),
+        test_assert_cs(&a, 0.18, 0.18, 0.18);
+    a = test_rib_one_patch("Bxdf \"PxrSurface\" \"s\" \"color clearcoatFaceColor\" [0.5 0.5 0.5] "
+                           "\"color clearcoatEdgeColor\" [1 1 1]");
+    test_assert_near(a.clearcoat, 4, 0), test_assert_near(a.clearcoat_gloss, 1, 1e-7);
     /* No diffuse lobe and a bright face colour: a conductor of that colour. */
-    a = one_patch("Bxdf \"PxrSurface\" \"s\" \"float diffuseGain\" [0] \"color "
-                  "specularFaceColor\" [0.9 0.6 0.2] \"color specularEdgeColor\" [1 1 1]");
-    assert_int_equal(a.material, TS_MAT_PRINCIPLED), assert_near(a.metallic, 1, 0);
-    assert_near(a.kd, 0, 0), assert_cs(&a, 0.9, 0.6, 0.2);
+    a = test_rib_one_patch("Bxdf \"PxrSurface\" \"s\" \"float diffuseGain\" [0] \"color "
+                           "specularFaceColor\" [0.9 0.6 0.2] \"color specularEdgeColor\" [1 1 1]");
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED), test_assert_near(a.metallic, 1, 0);
+    test_assert_near(a.kd, 0, 0), test_assert_cs(&a, 0.9, 0.6, 0.2);
     /* What the principled BRDF does not draw of it, one warning each. */
     assert_string_equal(
-        warnings_of(
+        test_rib_body_warnings(
             "Bxdf \"PxrSurface\" \"s\" \"color specularFaceColor\" [0.3 0.2 0.2] "
             "\"color specularEdgeColor\" [0.5 0.5 0.5] \"color clearcoatFaceColor\" [0.04 "
             "0.04 0.04] \"float clearcoatRoughness\" [0.5] \"float clearcoatThickness\" [1]"),
@@ -189,28 +166,31 @@ static void test_bxdf_surface(void **state)
      * parameters Tessera does not read warn once each. A presence of 1 (opaque, what is
      * drawn) is silent, another one warns. */
     assert_string_equal(
-        warnings_of("Bxdf \"PxrSurface\" \"s\" \"float subsurfaceGain\" [0] "
-                    "\"color subsurfaceColor\" [1 0 0] \"float fuzzGain\" "
-                    "[0.5] \"float presence\" [1] \"int specularFresnelMode\" [0]"),
+        test_rib_body_warnings("Bxdf \"PxrSurface\" \"s\" \"float subsurfaceGain\" [0] "
+                               "\"color subsurfaceColor\" [1 0 0] \"float fuzzGain\" "
+                               "[0.5] \"float presence\" [1] \"int specularFresnelMode\" [0]"),
         "w.rib:2:82: warning: Bxdf \"PxrSurface\": \"fuzzGain\" is not 0, "
         "but the fuzz lobe is not drawn\n"
         "w.rib:2:126: warning: Bxdf parameter \"specularFresnelMode\" is ignored\n");
     /* RenderMan for Maya's bookkeeping and the values that are what is drawn: silent. */
-    assert_string_equal(warnings_of("Bxdf \"PxrDisney\" \"d\" \"normal bumpNormal\" [0 0 0] "
-                                    "\"string __instanceid\" [\"PxrDisney1_0\"] \"int "
-                                    "inputAOV\" [0] \"int presenceCached\" [1]"),
-                        "");
+    assert_string_equal(
+        test_rib_body_warnings("Bxdf \"PxrDisney\" \"d\" \"normal bumpNormal\" [0 0 0] "
+                               "\"string __instanceid\" [\"PxrDisney1_0\"] \"int "
+                               "inputAOV\" [0] \"int presenceCached\" [1]"),
+        "");
     int rc;
     assert_string_equal(test_rib_warnings("WorldBegin\nLight \"PxrDistantLight\" \"l\" \"string "
                                           "__instanceid\" [\"l_0\"]\nWorldEnd\n",
                                           &rc),
                         "");
     assert_int_equal(rc, TS_OK);
-    assert_string_equal(warnings_of("Bxdf \"PxrSurface\" \"s\" \"normal bumpNormal\" [0 0 1]"),
-                        "w.rib:2:23: warning: Bxdf parameter \"bumpNormal\" is ignored\n");
-    assert_string_equal(warnings_of("Bxdf \"PxrSurface\" \"s\" \"float presence\" [0.5]"),
-                        "w.rib:2:23: warning: Bxdf \"PxrSurface\": \"presence\" (cut-outs) is "
-                        "not supported: the surface renders opaque\n");
+    assert_string_equal(
+        test_rib_body_warnings("Bxdf \"PxrSurface\" \"s\" \"normal bumpNormal\" [0 0 1]"),
+        "w.rib:2:23: warning: Bxdf parameter \"bumpNormal\" is ignored\n");
+    assert_string_equal(
+        test_rib_body_warnings("Bxdf \"PxrSurface\" \"s\" \"float presence\" [0.5]"),
+        "w.rib:2:23: warning: Bxdf \"PxrSurface\": \"presence\" (cut-outs) is "
+        "not supported: the surface renders opaque\n");
 }
 
 /* PxrDisney: every parameter of Burley 2012 lands in the principled attribute (roughness
@@ -218,42 +198,45 @@ static void test_bxdf_surface(void **state)
 static void test_bxdf_disney_conductor_constant(void **state)
 {
     (void)state;
-    ts_patch_attr a = one_patch(
+    ts_patch_attr a = test_rib_one_patch(
         "Bxdf \"PxrDisney\" \"d\" \"color baseColor\" [0.9 0.6 0.2] \"float metallic\" [0.25] "
         "\"float roughness\" [0.5] \"float specular\" [0.3] \"float specularTint\" [0.4] \"float "
         "sheen\" [0.6] \"float sheenTint\" [0.2] \"float clearcoat\" [0.7] \"float "
         "clearcoatGloss\" [0.8]");
     assert_int_equal(a.material, TS_MAT_PRINCIPLED);
-    assert_near(a.roughness, 0.25, 1e-7), assert_cs(&a, 0.9, 0.6, 0.2);
-    assert_near(a.metallic, 0.25, 1e-7), assert_near(a.specular, 0.3, 1e-7);
-    assert_near(a.specular_tint, 0.4, 1e-7), assert_near(a.sheen, 0.6, 1e-7);
-    assert_near(a.sheen_tint, 0.2, 1e-7), assert_near(a.clearcoat, 0.7, 1e-7);
-    assert_near(a.clearcoat_gloss, 0.8, 1e-7);
-    assert_near(a.kd, 0.75, 1e-7), assert_near(a.ks, 0, 0); /* Kd: the diffuse weight */
+    test_assert_near(a.roughness, 0.25, 1e-7), test_assert_cs(&a, 0.9, 0.6, 0.2);
+    test_assert_near(a.metallic, 0.25, 1e-7), test_assert_near(a.specular, 0.3, 1e-7);
+    test_assert_near(a.specular_tint, 0.4, 1e-7), test_assert_near(a.sheen, 0.6, 1e-7);
+    test_assert_near(a.sheen_tint, 0.2, 1e-7), test_assert_near(a.clearcoat, 0.7, 1e-7);
+    test_assert_near(a.clearcoat_gloss, 0.8, 1e-7);
+    test_assert_near(a.kd, 0.75, 1e-7), test_assert_near(a.ks, 0, 0); /* Kd: the diffuse weight */
     /* RenderMan's defaults: specular 0.5 (F0 0.04), roughness 0.25, sheenTint 0.5, gloss 1 */
-    a = one_patch("Bxdf \"PxrDisney\" \"d\"");
-    assert_int_equal(a.material, TS_MAT_PRINCIPLED), assert_cs(&a, 0.2, 0.5, 0.8);
-    assert_near(a.specular, 0.5, 0), assert_near(a.roughness, 0.0625, 1e-7);
-    assert_near(a.metallic, 0, 0), assert_near(a.specular_tint, 0, 0);
-    assert_near(a.sheen, 0, 0), assert_near(a.sheen_tint, 0.5, 0);
-    assert_near(a.clearcoat, 0, 0), assert_near(a.clearcoat_gloss, 1, 0);
+    a = test_rib_one_patch("Bxdf \"PxrDisney\" \"d\"");
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED), test_assert_cs(&a, 0.2, 0.5, 0.8);
+    test_assert_near(a.specular, 0.5, 0), test_assert_near(a.roughness, 0.0625, 1e-7);
+    test_assert_near(a.metallic, 0, 0), test_assert_near(a.specular_tint, 0, 0);
+    test_assert_near(a.sheen, 0, 0), test_assert_near(a.sheen_tint, 0.5, 0);
+    test_assert_near(a.clearcoat, 0, 0), test_assert_near(a.clearcoat_gloss, 1, 0);
     assert_string_equal(
-        warnings_of("Bxdf \"PxrDisney\" \"d\" \"float metallic\" [1.5] \"float subsurface\" [0.5]"),
+        test_rib_body_warnings(
+            "Bxdf \"PxrDisney\" \"d\" \"float metallic\" [1.5] \"float subsurface\" [0.5]"),
         "w.rib:2:45: warning: Bxdf \"PxrDisney\": \"subsurface\" is not 0, but subsurface "
         "scattering is not supported\n"
         "w.rib:2:1: warning: Bxdf \"PxrDisney\": \"metallic\" outside [0, 1] is clamped to it\n");
     /* PxrConductor: Cs is the normal-incidence Fresnel of eta + i kappa, edge colour 1. */
-    a = one_patch("Bxdf \"PxrConductor\" \"c\" \"color eta\" [0.2 0.2 0.2] \"color kappa\" [3 3 "
-                  "3] \"float roughness\" [0.1]");
+    a = test_rib_one_patch(
+        "Bxdf \"PxrConductor\" \"c\" \"color eta\" [0.2 0.2 0.2] \"color kappa\" [3 3 "
+        "3] \"float roughness\" [0.1]");
     double f0 = (0.8 * 0.8 + 9) / (1.2 * 1.2 + 9);
-    assert_int_equal(a.material, TS_MAT_METAL), assert_near(a.roughness, 0.01, 1e-7);
-    assert_cs(&a, SCHLICK(f0), SCHLICK(f0), SCHLICK(f0));
-    a = one_patch("Bxdf \"LamaConductor\" \"c\" \"color reflectivity\" [0.9 0.5 0.1] \"color "
-                  "edgeColor\" [0.9 0.5 0.1]");
-    assert_cs(&a, 0.9, 0.5, 0.1);
+    assert_int_equal(a.material, TS_MAT_METAL), test_assert_near(a.roughness, 0.01, 1e-7);
+    test_assert_cs(&a, SCHLICK(f0), SCHLICK(f0), SCHLICK(f0));
+    a = test_rib_one_patch(
+        "Bxdf \"LamaConductor\" \"c\" \"color reflectivity\" [0.9 0.5 0.1] \"color "
+        "edgeColor\" [0.9 0.5 0.1]");
+    test_assert_cs(&a, 0.9, 0.5, 0.1);
     /* PxrConstant emits its colour and reflects nothing. */
-    a = one_patch("Bxdf \"PxrConstant\" \"k\" \"color emitColor\" [2 1 0.5]");
-    assert_near(a.kd, 0, 0), assert_near(a.ks, 0, 0), assert_le(&a, 2, 1, 0.5);
+    a = test_rib_one_patch("Bxdf \"PxrConstant\" \"k\" \"color emitColor\" [2 1 0.5]");
+    test_assert_near(a.kd, 0, 0), test_assert_near(a.ks, 0, 0), assert_le(&a, 2, 1, 0.5);
 }
 
 static void test_bxdf_fallbacks(void **state)
@@ -261,38 +244,40 @@ static void test_bxdf_fallbacks(void **state)
     (void)state;
     /* Dielectrics: glass of their ior, white, smooth or rough by roughness; an ior outside
      * [1, 4] replaced by 1.5 with one warning. */
-    ts_patch_attr a = one_patch("Bxdf \"PxrDielectric\" \"g\" \"float ior\" [1.33]");
+    ts_patch_attr a = test_rib_one_patch("Bxdf \"PxrDielectric\" \"g\" \"float ior\" [1.33]");
     assert_int_equal(a.material, TS_MAT_GLASS);
-    assert_near(a.kd, 0, 0), assert_near(a.ks, 0, 0), assert_near(a.ior, 1.33, 1e-6);
-    assert_cs(&a, 1, 1, 1);
-    a = one_patch("Bxdf \"LamaDielectric\" \"g\"");
-    assert_int_equal(a.material, TS_MAT_GLASS), assert_near(a.ior, 1.5, 0);
-    assert_string_equal(warnings_of("Bxdf \"LamaDielectric\" \"g\""), "");
+    test_assert_near(a.kd, 0, 0), test_assert_near(a.ks, 0, 0), test_assert_near(a.ior, 1.33, 1e-6);
+    test_assert_cs(&a, 1, 1, 1);
+    a = test_rib_one_patch("Bxdf \"LamaDielectric\" \"g\"");
+    assert_int_equal(a.material, TS_MAT_GLASS), test_assert_near(a.ior, 1.5, 0);
+    assert_string_equal(test_rib_body_warnings("Bxdf \"LamaDielectric\" \"g\""), "");
     /* roughness 0 is smooth glass (alpha at the 0.01 floor, lib/bsdf.h TS_GLASS_SMOOTH); 0.2
      * is rough glass of GGX alpha 0.04, without a warning */
     assert_true(a.roughness <= TS_GLASS_SMOOTH);
-    a = one_patch("Bxdf \"PxrGlass\" \"g\" \"float roughness\" [0.2]");
-    assert_int_equal(a.material, TS_MAT_GLASS), assert_near(a.roughness, 0.04, 1e-7);
-    assert_string_equal(warnings_of("Bxdf \"PxrGlass\" \"g\" \"float roughness\" [0.2]"), "");
-    assert_string_equal(warnings_of("Bxdf \"PxrDielectric\" \"g\" \"float ior\" [0.5]"),
+    a = test_rib_one_patch("Bxdf \"PxrGlass\" \"g\" \"float roughness\" [0.2]");
+    assert_int_equal(a.material, TS_MAT_GLASS), test_assert_near(a.roughness, 0.04, 1e-7);
+    assert_string_equal(test_rib_body_warnings("Bxdf \"PxrGlass\" \"g\" \"float roughness\" [0.2]"),
+                        "");
+    assert_string_equal(test_rib_body_warnings("Bxdf \"PxrDielectric\" \"g\" \"float ior\" [0.5]"),
                         "w.rib:2:1: warning: Bxdf \"PxrDielectric\": ior 0.5 outside [1, 4]: 1.5 "
                         "instead\n");
     /* The classic Surface "glass": eta, default 1.5, in [1, 4]. */
-    a = one_patch("Surface \"glass\" \"float eta\" [1.33]");
-    assert_int_equal(a.material, TS_MAT_GLASS), assert_near(a.ior, 1.33, 1e-6);
-    a = one_patch("Surface \"glass\"");
-    assert_near(a.ior, 1.5, 0), assert_true(a.roughness <= TS_GLASS_SMOOTH);
-    a = one_patch("Surface \"plastic\"");
-    assert_near(a.ior, 0, 0); /* 0 but for glass: the job hash of older files holds */
+    a = test_rib_one_patch("Surface \"glass\" \"float eta\" [1.33]");
+    assert_int_equal(a.material, TS_MAT_GLASS), test_assert_near(a.ior, 1.33, 1e-6);
+    a = test_rib_one_patch("Surface \"glass\"");
+    test_assert_near(a.ior, 1.5, 0), assert_true(a.roughness <= TS_GLASS_SMOOTH);
+    a = test_rib_one_patch("Surface \"plastic\"");
+    test_assert_near(a.ior, 0, 0); /* 0 but for glass: the job hash of older files holds */
     test_parse_rib_error("WorldBegin\nSurface \"glass\" \"float eta\" [5]\n",
                          "t.rib:2:1: error: Surface \"glass\": eta must be in [1, 4] (the index "
                          "of refraction inside), got 5");
     /* An unknown Bxdf: PxrDiffuse's default, one warning. */
-    a = one_patch("Bxdf \"MyOSLBxdf\" \"x\" \"float k\" [3]");
-    assert_int_equal(a.material, TS_MAT_MATTE), assert_cs(&a, 0.5, 0.5, 0.5);
-    assert_string_equal(warnings_of("Bxdf \"MyOSLBxdf\" \"x\"\nBxdf \"MyOSLBxdf\" \"y\""),
-                        "w.rib:2:6: warning: Bxdf \"MyOSLBxdf\" is unknown: it renders as "
-                        "PxrDiffuse (matte) of its default colour\n");
+    a = test_rib_one_patch("Bxdf \"MyOSLBxdf\" \"x\" \"float k\" [3]");
+    assert_int_equal(a.material, TS_MAT_MATTE), test_assert_cs(&a, 0.5, 0.5, 0.5);
+    assert_string_equal(
+        test_rib_body_warnings("Bxdf \"MyOSLBxdf\" \"x\"\nBxdf \"MyOSLBxdf\" \"y\""),
+        "w.rib:2:6: warning: Bxdf \"MyOSLBxdf\" is unknown: it renders as "
+        "PxrDiffuse (matte) of its default colour\n");
     test_parse_rib_error("WorldBegin Bxdf \"PxrSurface\" \"s\" \"float diffuseGain\" [-1]",
                          "t.rib:1:12: error: Bxdf \"PxrSurface\": Kd and Ks must be >= 0 and "
                          "finite, got -1 0");
@@ -335,10 +320,10 @@ static void test_pattern_texture(void **state)
     test_parse_rib_ok(text, &s);
     assert_int_equal(s.texture_count, 1);
     assert_true(s.attr[0].flags & TS_PATCH_COLOR_TEX);
-    assert_int_equal(s.attr[0].color_tex, 0), assert_cs(&s.attr[0], 1, 1, 1);
+    assert_int_equal(s.attr[0].color_tex, 0), test_assert_cs(&s.attr[0], 1, 1, 1);
     const float flipped[8] = {0, 1, 1, 1, 0, 0, 1, 0};
     for (int k = 0; k < 8; k++)
-        assert_near(s.attr[0].st[k], flipped[k], 0);
+        test_assert_near(s.attr[0].st[k], flipped[k], 0);
     scene_free(&s);
     /* A PxrManifold2D: s' = scaleS s + offsetS, t' = scaleT t + offsetT. */
     snprintf(text, sizeof text,
@@ -351,7 +336,7 @@ static void test_pattern_texture(void **state)
     test_parse_rib_ok(text, &s);
     const float mapped[8] = {0, 0.5f, 2, 0.5f, 0, 1.5f, 2, 1.5f};
     for (int k = 0; k < 8; k++)
-        assert_near(s.attr[0].st[k], mapped[k], 0);
+        test_assert_near(s.attr[0].st[k], mapped[k], 0);
     scene_free(&s);
 }
 
@@ -400,19 +385,21 @@ static void test_pattern_tex_sibling(void **state)
 static void test_pattern_unknown(void **state)
 {
     (void)state;
-    ts_patch_attr a = one_patch("Pattern \"MyNoise\" \"n\" \"float freq\" [4]\nBxdf \"PxrDiffuse\" "
-                                "\"d\" \"reference color diffuseColor\" [\"n:resultRGB\"]");
-    assert_cs(&a, 0.5, 0.5, 0.5);
+    ts_patch_attr a =
+        test_rib_one_patch("Pattern \"MyNoise\" \"n\" \"float freq\" [4]\nBxdf \"PxrDiffuse\" "
+                           "\"d\" \"reference color diffuseColor\" [\"n:resultRGB\"]");
+    test_assert_cs(&a, 0.5, 0.5, 0.5);
     assert_int_equal(a.flags & TS_PATCH_COLOR_TEX, 0);
-    assert_string_equal(warnings_of("Pattern \"MyNoise\" \"n\"\nBxdf \"PxrDiffuse\" \"d\" "
-                                    "\"reference color diffuseColor\" [\"n:resultRGB\"]\n"
-                                    "Bxdf \"PxrDiffuse\" \"d\" \"reference color diffuseColor\" "
-                                    "[\"gone:resultRGB\"]"),
-                        "w.rib:3:54: warning: Pattern \"MyNoise\" is not supported: the parameters "
-                        "connected to it keep their defaults (PxrTexture, PxrManifold2D, PxrMix, "
-                        "PxrToFloat)\n"
-                        "w.rib:4:54: warning: Bxdf: \"diffuseColor\" is connected to "
-                        "\"gone:resultRGB\", which no Pattern defines: it keeps its default\n");
+    assert_string_equal(
+        test_rib_body_warnings("Pattern \"MyNoise\" \"n\"\nBxdf \"PxrDiffuse\" \"d\" "
+                               "\"reference color diffuseColor\" [\"n:resultRGB\"]\n"
+                               "Bxdf \"PxrDiffuse\" \"d\" \"reference color diffuseColor\" "
+                               "[\"gone:resultRGB\"]"),
+        "w.rib:3:54: warning: Pattern \"MyNoise\" is not supported: the parameters "
+        "connected to it keep their defaults (PxrTexture, PxrManifold2D, PxrMix, "
+        "PxrToFloat)\n"
+        "w.rib:4:54: warning: Bxdf: \"diffuseColor\" is connected to "
+        "\"gone:resultRGB\", which no Pattern defines: it keeps its default\n");
 }
 
 /* ---- Displace ----------------------------------------------------------------------- */
@@ -431,22 +418,25 @@ static void test_displace(void **state)
     ts_scene s;
     test_parse_rib_ok(text, &s);
     assert_int_equal(s.attr[0].disp_kind, TS_DISP_TEXTURE);
-    assert_near(s.attr[0].disp_amplitude, 0.2, 1e-7), assert_near(s.attr[0].disp_offset, 0, 0);
-    assert_near(s.attr[0].st[1], 1, 0); /* invertT */
+    test_assert_near(s.attr[0].disp_amplitude, 0.2, 1e-7),
+        test_assert_near(s.attr[0].disp_offset, 0, 0);
+    test_assert_near(s.attr[0].st[1], 1, 0); /* invertT */
     scene_free(&s);
     int rc;
     const char *out = test_rib_warnings(text, &rc); /* displacementbound: read silently */
     assert_int_equal(rc, TS_OK);
     assert_string_equal(out, "");
-    ts_patch_attr a = one_patch("Displace \"PxrDisplace\" \"d\" \"float dispAmount\" [0.2] "
-                                "\"float dispScalar\" [1]");
+    ts_patch_attr a =
+        test_rib_one_patch("Displace \"PxrDisplace\" \"d\" \"float dispAmount\" [0.2] "
+                           "\"float dispScalar\" [1]");
     assert_int_equal(a.disp_kind, TS_DISP_NONE);
-    assert_string_equal(warnings_of("Displace \"PxrDisplace\" \"d\" \"float dispScalar\" [1]\n"
-                                    "Displace \"MyDisp\" \"d\""),
-                        "w.rib:2:1: warning: Displace \"PxrDisplace\": a constant dispScalar (a "
-                        "uniform offset of the surface) is not drawn: no displacement\n"
-                        "w.rib:3:10: warning: Displace \"MyDisp\" is unknown: no displacement "
-                        "(PxrDisplace)\n");
+    assert_string_equal(
+        test_rib_body_warnings("Displace \"PxrDisplace\" \"d\" \"float dispScalar\" [1]\n"
+                               "Displace \"MyDisp\" \"d\""),
+        "w.rib:2:1: warning: Displace \"PxrDisplace\": a constant dispScalar (a "
+        "uniform offset of the surface) is not drawn: no displacement\n"
+        "w.rib:3:10: warning: Displace \"MyDisp\" is unknown: no displacement "
+        "(PxrDisplace)\n");
 }
 
 /* ---- Light -------------------------------------------------------------------------- */
@@ -461,7 +451,7 @@ static void test_light_dome_distant(void **state)
                       &s);
     assert_int_equal(s.dome.present, 1);
     for (int k = 0; k < 3; k++)
-        assert_near(s.dome.intensity * s.dome.color[k], 4.0 / (1 << k), 1e-12);
+        test_assert_near(s.dome.intensity * s.dome.color[k], 4.0 / (1 << k), 1e-12);
     scene_free(&s);
     /* PxrDistantLight: radiance 50000 in a cone of 0.53 degrees down -z: irradiance
      * L pi sin^2(0.265 deg); normalize: irradiance L. */
@@ -471,24 +461,26 @@ static void test_light_dome_distant(void **state)
                       &s);
     assert_int_equal(s.light_count, 2);
     double h = 0.265 * M_PI / 180;
-    assert_near(s.lights[0].intensity * s.lights[0].color[0], 50000 * M_PI * sin(h) * sin(h), 1e-9);
-    assert_near(s.lights[0].angle, 0.53, 0);
+    test_assert_near(s.lights[0].intensity * s.lights[0].color[0], 50000 * M_PI * sin(h) * sin(h),
+                     1e-9);
+    test_assert_near(s.lights[0].angle, 0.53, 0);
     /* -z rotated 90 degrees about x is +y: light travels along +y. */
-    assert_near(s.lights[0].to[1] - s.lights[0].from[1], 1, 1e-12);
-    assert_near(s.lights[1].intensity * s.lights[1].color[1], 3, 1e-12);
+    test_assert_near(s.lights[0].to[1] - s.lights[0].from[1], 1, 1e-12);
+    test_assert_near(s.lights[1].intensity * s.lights[1].color[1], 3, 1e-12);
     scene_free(&s);
     /* A missing map: a uniform sky, warned. */
-    assert_string_equal(warnings_of("Light \"PxrDomeLight\" \"d\" \"string lightColorMap\" "
-                                    "[\"nowhere/sky.tex\"]\nLightFilter \"PxrBlockerLightFilter\" "
-                                    "\"b\"\nLight \"PxrPortalLight\" \"p\""),
-                        "w.rib:2:49: warning: Light: cannot read \"nowhere/sky.tex\": a RenderMan "
-                        ".tex, which Tessera cannot read, and no .tx, .exr, .png, .tif, .tiff or "
-                        ".jpg of the same name beside it; a uniform sky of the light's colour "
-                        "(--strict makes this an error)\n"
-                        "w.rib:3:1: warning: LightFilter \"PxrBlockerLightFilter\" is ignored\n"
-                        "w.rib:4:1: warning: Light \"PxrPortalLight\" is ignored (PxrDomeLight, "
-                        "PxrDistantLight, PxrRectLight, PxrDiskLight, PxrSphereLight, "
-                        "PxrCylinderLight, PxrEnvDayLight)\n");
+    assert_string_equal(
+        test_rib_body_warnings("Light \"PxrDomeLight\" \"d\" \"string lightColorMap\" "
+                               "[\"nowhere/sky.tex\"]\nLightFilter \"PxrBlockerLightFilter\" "
+                               "\"b\"\nLight \"PxrPortalLight\" \"p\""),
+        "w.rib:2:49: warning: Light: cannot read \"nowhere/sky.tex\": a RenderMan "
+        ".tex, which Tessera cannot read, and no .tx, .exr, .png, .tif, .tiff or "
+        ".jpg of the same name beside it; a uniform sky of the light's colour "
+        "(--strict makes this an error)\n"
+        "w.rib:3:1: warning: LightFilter \"PxrBlockerLightFilter\" is ignored\n"
+        "w.rib:4:1: warning: Light \"PxrPortalLight\" is ignored (PxrDomeLight, "
+        "PxrDistantLight, PxrRectLight, PxrDiskLight, PxrSphereLight, "
+        "PxrCylinderLight, PxrEnvDayLight)\n");
 }
 
 /* Area lights are emissive patches of radiance intensity 2^exposure lightColor that reflect
@@ -504,10 +496,11 @@ static void test_light_shapes(void **state)
         &s);
     assert_int_equal(s.patch_count, 2);
     assert_le(&s.attr[0], 1.5, 0.75, 1.5);
-    assert_near(s.attr[0].kd, 0, 0), assert_near(s.attr[0].ks, 0, 0);
+    test_assert_near(s.attr[0].kd, 0, 0), test_assert_near(s.attr[0].ks, 0, 0);
     const ts_vec4 *c0 = &s.cp[0], *c3 = &s.cp[15];
-    assert_near(c0->x, -1, 1e-6), assert_near(c0->y, -2, 1e-6), assert_near(c0->z, 5, 1e-6);
-    assert_near(c3->x, 1, 1e-6), assert_near(c3->y, 2, 1e-6);
+    test_assert_near(c0->x, -1, 1e-6), test_assert_near(c0->y, -2, 1e-6),
+        test_assert_near(c0->z, 5, 1e-6);
+    test_assert_near(c3->x, 1, 1e-6), test_assert_near(c3->y, 2, 1e-6);
     assert_int_equal(s.attr[1].material, TS_MAT_PLASTIC), assert_le(&s.attr[1], 0, 0, 0);
     scene_free(&s);
     /* A sphere of diameter 1, a disk and a cylinder: every patch emits L. */
@@ -523,14 +516,14 @@ static void test_light_shapes(void **state)
         for (uint32_t i = 0; i < s.patch_count; i++) {
             const ts_patch_attr *a = &s.attr[i];
             /* 3000 K: reddish, luminance 2. */
-            assert_near(0.2126 * a->le_r + 0.7152 * a->le_g + 0.0722 * a->le_b, 2, 1e-4);
+            test_assert_near(0.2126 * a->le_r + 0.7152 * a->le_g + 0.0722 * a->le_b, 2, 1e-4);
             assert_true(a->le_r > a->le_g && a->le_g > a->le_b && a->le_b > 0);
             for (int j = 0; j < 16; j++) {
                 const ts_vec4 *q = &s.cp[16 * i + j];
                 double r = k == 2 ? sqrt(q->y * q->y + q->z * q->z)
                                   : sqrt(q->x * q->x + q->y * q->y + q->z * q->z);
                 assert_true(r <= 0.5 * 1.35 + (k == 2 ? 0 : 0.72)); /* control points near */
-                if (k == 1) assert_near(q->z, 0, 1e-12);
+                if (k == 1) test_assert_near(q->z, 0, 1e-12);
                 if (k == 2) assert_true(fabs(q->x) <= 0.5 + 1e-12);
             }
         }
@@ -540,8 +533,8 @@ static void test_light_shapes(void **state)
     test_parse_rib_ok("WorldBegin\nLight \"PxrRectLight\" \"r\" \"int enableTemperature\" [1]\n"
                       "WorldEnd\n",
                       &s);
-    assert_near(s.attr[0].le_r, 1, 0.06), assert_near(s.attr[0].le_g, 1, 0.06);
-    assert_near(s.attr[0].le_b, 1, 0.06);
+    test_assert_near(s.attr[0].le_r, 1, 0.06), test_assert_near(s.attr[0].le_g, 1, 0.06);
+    test_assert_near(s.attr[0].le_b, 1, 0.06);
     scene_free(&s);
     test_parse_rib_error("WorldBegin\nLight \"PxrRectLight\" \"r\" \"float intensity\" [-1]",
                          "t.rib:2:1: error: Light \"PxrRectLight\": intensity, 2^exposure and "
@@ -572,13 +565,14 @@ static void test_renderman_20_lights(void **state)
     assert_le(&s.attr[2], 0, 0, 0); /* after the blocks: no light */
     assert_int_equal(s.dome.present, 1);
     for (int k = 0; k < 3; k++)
-        assert_near(s.dome.intensity * s.dome.color[k], 0.5, 1e-12);
+        test_assert_near(s.dome.intensity * s.dome.color[k], 0.5, 1e-12);
     assert_int_equal(s.light_count, 1);
     double h = 1.5 * M_PI / 180; /* radiance 4 in a cone of 3 degrees */
-    assert_near(s.lights[0].intensity * s.lights[0].color[0], 4 * M_PI * sin(h) * sin(h), 1e-9);
-    assert_near(s.lights[0].angle, 3, 0);
+    test_assert_near(s.lights[0].intensity * s.lights[0].color[0], 4 * M_PI * sin(h) * sin(h),
+                     1e-9);
+    test_assert_near(s.lights[0].angle, 3, 0);
     scene_free(&s);
-    assert_string_equal(warnings_of("Geometry \"spherelight\""),
+    assert_string_equal(test_rib_body_warnings("Geometry \"spherelight\""),
                         "w.rib:2:1: warning: Geometry \"spherelight\" emits nothing: no "
                         "AreaLightSource \"PxrStdAreaLight\", \"PxrStdEnvMapLight\" or "
                         "\"PxrStdEnvDayLight\" with light is in effect\n");

@@ -14,17 +14,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#define QUAD "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n"
-
-static void assert_near(double got, double want, double tol)
-{
-    if (!(fabs(got - want) <= tol)) fail_msg("got %.9g, want %.9g (+- %g)", got, want, tol);
-}
-
-static void assert_cs(const ts_patch_attr *a, double r, double g, double b)
-{
-    assert_near(a->cs_r, r, 1e-6), assert_near(a->cs_g, g, 1e-6), assert_near(a->cs_b, b, 1e-6);
-}
+#define QUAD TEST_RIB_QUAD
 
 /* Loads the file at path (rib_load_with, strict or not) into *s with stderr captured: returns
  * the loader's code, what it printed in out (cap bytes) and its message in *e. */
@@ -105,17 +95,17 @@ static void test_looks_scene(void **state)
     assert_int_equal(s.patch_count, 4);
     /* left/leftShape: redSG's PxrDiffuse, through RfM's IfBegin guard */
     assert_int_equal(s.attr[0].material, TS_MAT_MATTE);
-    assert_cs(&s.attr[0], 0.8, 0.1, 0.1);
+    test_assert_cs(&s.attr[0], 0.8, 0.1, 0.1);
     /* mid/midShape: bound twice, the later binding (goldSG, metallic PxrDisney) holds */
     assert_int_equal(s.attr[1].material, TS_MAT_PRINCIPLED);
-    assert_near(s.attr[1].metallic, 1.0, 0.0);
-    assert_cs(&s.attr[1], 0.9, 0.6, 0.2);
+    test_assert_near(s.attr[1].metallic, 1.0, 0.0);
+    test_assert_cs(&s.attr[1], 0.9, 0.6, 0.2);
     /* inner/innerShape: "inner" replaced "group" (set in the same attribute block) */
     assert_int_equal(s.attr[2].material, TS_MAT_GLASS);
-    assert_near(s.attr[2].ior, 1.33, 1e-6);
+    test_assert_near(s.attr[2].ior, 1.33, 1e-6);
     /* floor/floorShape: no binding ("floor" alone is bound): the RIB's PxrDiffuse */
     assert_int_equal(s.attr[3].material, TS_MAT_MATTE);
-    assert_cs(&s.attr[3], 0.5, 0.5, 0.5);
+    test_assert_cs(&s.attr[3], 0.5, 0.5, 0.5);
     expect_in(out, "looks.rib:24:56: warning: Attribute parameter \"id\" is ignored\n");
     assert_null(strstr(out, "looks.rlf")); /* the payloads read without a warning */
     scene_free(&s);
@@ -135,8 +125,8 @@ static void test_payload_scope_and_positions(void **state)
     char out[8192];
     assert_int_equal(load_capture(rib, 1, &s, &e, out, sizeof out), TS_OK);
     assert_int_equal(s.patch_count, 2);
-    assert_cs(&s.attr[0], 0.1, 0.2, 0.3);
-    assert_cs(&s.attr[1], 0.5, 0.5, 0.5); /* after AttributeEnd: the RIB's default again */
+    test_assert_cs(&s.attr[0], 0.1, 0.2, 0.3);
+    test_assert_cs(&s.attr[1], 0.5, 0.5, 0.5); /* after AttributeEnd: the RIB's default again */
     scene_free(&s);
     /* An error inside the payload: at the look file's line 4 (the CDATA starts on line 4
      * after "##RenderMan RIB"; the request is on line 5), column 1. */
@@ -180,7 +170,7 @@ static void test_binary_rib(void **state)
     char out[8192];
     if (load_capture(rib, 1, &s, &e, out, sizeof out) != TS_OK) fail_msg("%s", e.msg);
     assert_int_equal(s.patch_count, 1);
-    assert_cs(&s.attr[0], 0.25, 0.5, 1);
+    test_assert_cs(&s.attr[0], 0.25, 0.5, 1);
     scene_free(&s);
 }
 
@@ -196,7 +186,7 @@ static void test_missing_look_file(void **state)
     char out[8192], want[4096];
     assert_int_equal(load_capture(rib, 0, &s, &e, out, sizeof out), TS_OK);
     assert_int_equal(s.patch_count, 2);
-    assert_cs(&s.attr[0], 0.5, 0.5, 0.5); /* the RIB's own shading */
+    test_assert_cs(&s.attr[0], 0.5, 0.5, 0.5); /* the RIB's own shading */
     snprintf(want, sizeof want,
              "two.rib:3:1: warning: ##RLF ScopeBegin: cannot read look file \"%s\": No such file "
              "or directory; the objects of its scope keep the shading the RIB gives them "
@@ -224,7 +214,7 @@ static void expect_malformed(const char *dir, const char *look, const char *why)
     char out[8192], want[4096];
     assert_int_equal(load_capture(rib, 0, &s, &e, out, sizeof out), TS_OK);
     assert_int_equal(s.patch_count, 2);
-    assert_cs(&s.attr[0], 0.5, 0.5, 0.5);
+    test_assert_cs(&s.attr[0], 0.5, 0.5, 0.5);
     const char *path = test_path_in(dir, "bad.rlf");
     snprintf(want, sizeof want, "bad.rib:3:1: warning: ##RLF ScopeBegin: cannot read look file ");
     expect_in(out, want);
@@ -303,7 +293,7 @@ static void test_nuggets_not_applied(void **state)
     assert_int_equal(load_capture(rib, 1, &s, &e, out, sizeof out), TS_OK);
     assert_int_equal(s.patch_count, 1);
     /* no Bxdf: the rule is not applied; a nugget inside an array is a comment */
-    assert_cs(&s.attr[0], 1, 0.5, 0.25);
+    test_assert_cs(&s.attr[0], 1, 0.5, 0.25);
     expect_in(out, "n.rib:2:1: warning: ##RLF Inject outside ##RLF ScopeBegin ... ScopeEnd: no "
                    "look file, nothing injected\n");
     expect_in(out, "n.rib:3:1: warning: ##RLF ScopeBegin: -namespace \"ns1\" is not applied "

@@ -240,6 +240,24 @@ TS_INLINE ts_box box4_tight_lane(TS_CONST_GLOBAL ts_box4 *g, TS_CONST_GLOBAL ts_
     return b;
 }
 
+#ifdef __OPENCL_C_VERSION__
+/* The four tight boxes of codes c in float4 lanes, decoded inside the base boxes b (lower
+ * planes) to e (upper planes) of steps s: box4_tight_lane's arithmetic lane by lane. The node
+ * boxes of a sibling group (bottom_level.cl group_tight_boxes) and the culling copies, four
+ * inside one patch box (top_level.cl cull4_hits). */
+inline void tight4_decode(__global const ts_tight4 *c, float4 bx, float4 by, float4 bz, float4 ex,
+                          float4 ey, float4 ez, float4 sx, float4 sy, float4 sz, float4 *lx,
+                          float4 *ly, float4 *lz, float4 *hx, float4 *hy, float4 *hz)
+{
+    *lx = bx + convert_float4(vload4(0, c->lo_x)) * sx;
+    *ly = by + convert_float4(vload4(0, c->lo_y)) * sy;
+    *lz = bz + convert_float4(vload4(0, c->lo_z)) * sz;
+    *hx = ex - convert_float4(vload4(0, c->hi_x)) * sx;
+    *hy = ey - convert_float4(vload4(0, c->hi_y)) * sy;
+    *hz = ez - convert_float4(vload4(0, c->hi_z)) * sz;
+}
+#endif
+
 /* The tight box of node k of level l. */
 TS_INLINE ts_box quadtree_tight_box(TS_CONST_GLOBAL ts_box4 *groups,
                                     TS_CONST_GLOBAL ts_tight4 *codes, ts_u32 l, ts_u32 k)

@@ -88,6 +88,39 @@ const char *test_rib_warnings(const char *text, int *rc)
     return out;
 }
 
+ts_patch_attr test_rib_one_patch(const char *body)
+{
+    static char text[20000];
+    snprintf(text, sizeof text, "WorldBegin\nColor [1 0 0]\n%s\n" TEST_RIB_QUAD "WorldEnd\n", body);
+    ts_scene s;
+    test_parse_rib_ok(text, &s);
+    assert_int_equal(s.patch_count, 1);
+    ts_patch_attr a = s.attr[0];
+    scene_free(&s);
+    return a;
+}
+
+const char *test_rib_body_warnings(const char *body)
+{
+    static char text[20000];
+    snprintf(text, sizeof text, "WorldBegin\n%s\n" TEST_RIB_QUAD "WorldEnd\n", body);
+    int rc;
+    const char *out = test_rib_warnings(text, &rc);
+    assert_int_equal(rc, TS_OK);
+    return out;
+}
+
+void test_assert_near(double got, double want, double tol)
+{
+    if (!(fabs(got - want) <= tol)) fail_msg("got %.9g, want %.9g (+- %g)", got, want, tol);
+}
+
+void test_assert_cs(const ts_patch_attr *a, double r, double g, double b)
+{
+    test_assert_near(a->cs_r, r, 1e-6), test_assert_near(a->cs_g, g, 1e-6);
+    test_assert_near(a->cs_b, b, 1e-6);
+}
+
 const char *test_tessera_binary(void)
 {
     const char *b = getenv("TESSERA_BINARY");

@@ -4,6 +4,7 @@
 #define TS_TEST_SUPPORT_H
 
 #include "device/device.h"
+#include "lib/shared_types.h"
 
 #include <stdarg.h>
 #include <stddef.h>
@@ -34,6 +35,18 @@ void test_parse_rib_error(const char *text, const char *msg);
 /* Parses RIB text as file "w.rib" into a scratch scene (freed) with stderr captured; sets
  * *rc to rib_parse_string's status and returns what it printed (warnings), a static buffer. */
 const char *test_rib_warnings(const char *text, int *rc);
+/* A unit bilinear quad (z = 0), the geometry of RIB fragments in the tests. */
+#define TEST_RIB_QUAD "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n"
+/* The attributes of the one patch a quad gets in a world block after `Color [1 0 0]` and
+ * `body` (Bxdf, Pattern, ... requests); fails the test on a load error or another count. */
+ts_patch_attr test_rib_one_patch(const char *body);
+/* What `body` prints (its warnings) in a world block with a quad after it; fails the test
+ * unless it loads. A static buffer. */
+const char *test_rib_body_warnings(const char *body);
+/* Fails the test unless |got - want| <= tol. */
+void test_assert_near(double got, double want, double tol);
+/* Fails the test unless patch attributes a have the colour (r, g, b) within 1e-6. */
+void test_assert_cs(const ts_patch_attr *a, double r, double g, double b);
 /* Path of the tessera binary ($TESSERA_BINARY). */
 const char *test_tessera_binary(void);
 /* Opens the default device with the embedded kernels; exits 77 (skip) when the machine has
