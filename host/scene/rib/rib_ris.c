@@ -311,15 +311,15 @@ static int rib_identifier(rib_parser *p)
     return TS_OK;
 }
 
-/* Which patches cast shadows (TS_PATCH_NO_SHADOW), from Attribute "visibility"
- * "transmission" (PRMan: an int, 0 = casts none; before RenderMan 16 a string, "transparent" =
- * none, "opaque", "Os" or "shader" = casts one) or BMRT's Attribute "render" "casts_shadows"
- * ("none"; "opaque", "Os", "shade"). Shadows stay opaque whatever the opacity: "Os" and
+/* Which rays see the patches that follow. Whether they cast shadows (TS_PATCH_NO_SHADOW): from
+ * Attribute "visibility" "transmission" (PRMan: an int, 0 = casts none; before RenderMan 16 a
+ * string, "transparent" = none, "opaque", "Os" or "shader" = casts one) or BMRT's Attribute
+ * "render" "casts_shadows" ("none"; "opaque", "Os", "shade"). Shadows stay opaque whatever the opacity: "Os" and
  * "shader"/"shade" cast the opaque shadow, with one warning. Attribute "visibility" "camera"
  * 0 hides the patches from the camera (TS_PATCH_NO_CAMERA), "indirect" 0 from the bounces'
  * BSDF rays (TS_PATCH_NO_INDIRECT). The attributes' other parameters are ignored with a
  * warning each. docs/rib.md "Shadows". */
-static int rib_shadow_attribute(rib_parser *p, const char *name, const char *param)
+static int rib_visibility_attribute(rib_parser *p, const char *name, const char *param)
 {
     char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
     for (size_t i = 1; i < p->nargs; i += 2) {
@@ -378,8 +378,8 @@ int rib_req_attribute(rib_parser *p)
     if (strcmp(name, "user") == 0) return rib_user_params(p, p->depth);
     if (strcmp(name, "displacementbound") == 0) return rib_displacement_bound(p);
     if (strcmp(name, "identifier") == 0) return rib_identifier(p);
-    if (strcmp(name, "visibility") == 0) return rib_shadow_attribute(p, name, "transmission");
-    if (strcmp(name, "render") == 0) return rib_shadow_attribute(p, name, "casts_shadows");
+    if (strcmp(name, "visibility") == 0) return rib_visibility_attribute(p, name, "transmission");
+    if (strcmp(name, "render") == 0) return rib_visibility_attribute(p, name, "casts_shadows");
     rib_warn_named(p, name);
     return TS_OK;
 }
