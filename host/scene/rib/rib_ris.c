@@ -314,11 +314,11 @@ static int rib_identifier(rib_parser *p)
 /* Which rays see the patches that follow. Whether they cast shadows (TS_PATCH_NO_SHADOW): from
  * Attribute "visibility" "transmission" (PRMan: an int, 0 = casts none; before RenderMan 16 a
  * string, "transparent" = none, "opaque", "Os" or "shader" = casts one) or BMRT's Attribute
- * "render" "casts_shadows" ("none"; "opaque", "Os", "shade"). Shadows stay opaque whatever the opacity: "Os" and
- * "shader"/"shade" cast the opaque shadow, with one warning. Attribute "visibility" "camera"
- * 0 hides the patches from the camera (TS_PATCH_NO_CAMERA), "indirect" 0 from the bounces'
- * BSDF rays (TS_PATCH_NO_INDIRECT). The attributes' other parameters are ignored with a
- * warning each. docs/rib.md "Shadows". */
+ * "render" "casts_shadows" ("none"; "opaque", "Os", "shade"). Shadows stay opaque whatever the
+ * opacity: "Os" and "shader"/"shade" cast the opaque shadow, with one warning. Attribute
+ * "visibility" "camera" 0 hides the patches from the camera (TS_PATCH_NO_CAMERA), "indirect" 0 from
+ * the bounces' BSDF rays (TS_PATCH_NO_INDIRECT). The attributes' other parameters are ignored with
+ * a warning each. docs/rib.md "Shadows". */
 static int rib_visibility_attribute(rib_parser *p, const char *name, const char *param)
 {
     char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
