@@ -185,6 +185,7 @@ typedef struct bl_patch {
     __global const ts_box4 *t0, *t1;
     __global const ts_tight4 *c0, *c1;
     uint m, patch;
+    uint trimmed; /* TS_SEG_TRIMMED: micro-quads its trim removes have empty boxes */
 } bl_patch;
 
 /* The traversal of one ray through one patch's tree, stopped at blocks of level L. */
@@ -222,6 +223,7 @@ inline bl_patch bl_patch_make(ts_segment seg, __global const ts_vec4 *grid,
     pt.t0 = groups + seg.group_first;
     pt.t1 = moving ? pt.t0 + quadtree_group_count(seg.lod) : 0;
     pt.c0 = pt.c1 = 0;
+    pt.trimmed = (seg.flags & TS_SEG_TRIMMED) != 0u;
     return pt;
 }
 
@@ -232,6 +234,7 @@ inline void quad_test(const bl_ray *r, const bl_patch *pt, uint qi, uint exact, 
 {
     float time = r->inv.w;
     if (exact) {
+        if (pt->trimmed && quadtree_leaf_empty(pt->t0, pt->m, qi)) return; /* lib/trim.h */
         leaf_triangles(pt->g0, pt->g1, time, pt->m, qi, r->o4, r->tmin, r->perm, &r->sh, best,
                        pt->patch);
         return;
@@ -489,7 +492,8 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_gr
 {
     /* The owners' rays and blocks, and one result slot per task (PantaRay Fig. 8). */
     __local float4 l_o4[BL_WG], l_inv[BL_WG], l_shear[BL_WG];
-    __local uint4 l_meta[BL_WG]; /* m | moving << 8 | exact << 9 | b << 16, patch, vert, group */
+    __local uint4 l_meta[BL_WG]; /* m | moving << 8 | exact << 9 | trimmed << 10 | b << 16, patch,
+                                    vert, group */
     __local uint l_block[BL_WG], l_perm[BL_WG], l_first[BL_WG + 1];
     __local ts_hit l_res[BL_WG * BL_MAX_BLOCK];
     uint lid = get_local_id(0), gid = get_global_id(0);
@@ -521,8 +525,9 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_gr
             l_shear[lid] = (float4)(r.sh.sx, r.sh.sy, r.sh.sz, best.t);
             l_perm[lid] = (uint)r.sh.kx | ((uint)r.sh.ky << 2) | ((uint)r.sh.kz << 4);
             l_meta[lid] =
-                (uint4)(pt.m | ((pt.g1 != 0) << 8) | (ex << 9) | (b << 16), pt.patch,
-                        (uint)(pt.g0 - (__global const float4 *)grid), (uint)(pt.t0 - groups));
+                (uint4)(pt.m | ((pt.g1 != 0) << 8) | (ex << 9) | (pt.trimmed << 10) | (b << 16),
+                        pt.patch, (uint)(pt.g0 - (__global const float4 *)grid),
+                        (uint)(pt.t0 - groups));
             l_block[lid] = (uint)k;
         }
         l_first[lid + 1u] = count;
@@ -557,7 +562,7 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_gr
             tr.sh.sx = l_shear[lo].x, tr.sh.sy = l_shear[lo].y, tr.sh.sz = l_shear[lo].z;
             tr.perm = (uint4)(tr.sh.kx, tr.sh.ky, tr.sh.kz, 3u);
             bl_patch tp;
-            tp.m = meta.x & 0xffu, tp.patch = meta.y;
+            tp.m = meta.x & 0xffu, tp.patch = meta.y, tp.trimmed = (meta.x >> 10) & 1u;
             tp.g0 = (__global const float4 *)grid + meta.z;
             tp.g1 = (meta.x >> 8) & 1u ? tp.g0 + quadtree_vertex_count(tp.m) : 0;
             tp.t0 = groups + meta.w;

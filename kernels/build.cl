@@ -33,6 +33,7 @@
 #include "lib/displace.h"
 #include "lib/noise4.h"
 #include "lib/quadtree.h"
+#include "lib/trim.h"
 
 /* The displacement normals at the four corners of micro-quad (i, j), h = 2^-m: corner c
  * (at (i + (c & 1), j + (c >> 1)), host/ref/dice_build_ref.c base_box's order) in lane c, by
@@ -91,8 +92,8 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                            __global const ts_patch_attr *attr, __global const ts_xform *xform,
                            __global const ts_vec4 *flatness, __global const ts_box *patch_box,
                            __global const ts_texture *textures, __global const uint *tex_pages,
-                           __global const ts_vec4 *tex_pool, uint tight, __global ts_box4 *groups,
-                           __global ts_tight4 *codes)
+                           __global const ts_vec4 *tex_pool, __global const ts_vec4 *trim_seg,
+                           uint tight, __global ts_box4 *groups, __global ts_tight4 *codes)
 {
     uint nl = 1u << (2u * m), gid = get_global_id(0);
     uint t = gid / nl, k = gid % nl;
@@ -111,6 +112,14 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
      * displaced patch in box mode the tight box its codes give (the origin-patch rule's
      * culling; elsewhere the codes are 0). */
     uint coded = !tight && (seg.flags & TS_PATCH_ROUGH) != 0u;
+    __global const ts_patch_attr *a = attr + seg.shape;
+    if ((seg.flags & TS_SEG_TRIMMED) != 0u &&
+        !trim_keeps(trim_seg + a->trim_first, a->trim_count, quadtree_centre(i, m),
+                    quadtree_centre(j, m))) { /* trimmed away: a box no ray enters */
+        ts_box e = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
+        quadtree_store(groups + at, codes + at, m, k, e, e, coded);
+        return;
+    }
     ts_box tb = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
     if (tight || coded) tb = leaf_clamp(tight_leaf_box(g, n, i, j), patch_box[seg.shape]);
     if (tight) {
@@ -126,7 +135,6 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     float mag = box_magnitude(b);
     float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
     b.lo_x -= ex, b.hi_x += ex, b.lo_y -= ey, b.hi_y += ey, b.lo_z -= ez, b.hi_z += ez;
-    __global const ts_patch_attr *a = attr + seg.shape;
     if (a->disp_kind != TS_DISP_NONE) {
         ts_interval d;
         if (a->disp_kind == TS_DISP_TEXTURE) {

@@ -9,7 +9,9 @@
  * inside-the-box rule and motion interpolation are covered. Scenes: the teapot, a displaced
  * (fbm) teapot, and the displaced teapot moving over the shutter; and the displaced teapot
  * as an object instanced twice (ObjectInstance, the second turned), whose second instance's
- * segments trace the first's dicing through the ray moved into its frame (lib/instance.h). */
+ * segments trace the first's dicing through the ray moved into its frame (lib/instance.h); and
+ * the displaced teapot with every other patch trimmed to a ring (lib/trim.h: its removed
+ * micro-quads have empty boxes, which the triangles' test honours too). */
 #include "test_support.h"
 #include "ref/bottom_level_ref.h"
 #include "ref/dice_build_ref.h"
@@ -17,6 +19,9 @@
 #include "pipeline/pipeline.h"
 #include "app/render.h"
 #include "scene/rib/rib.h"
+#include "scene/scene.h"
+
+#include <math.h>
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -84,12 +89,31 @@ static void make_rays(ts_device *cl, ts_pipeline *p, const ts_scene *s, ts_vec4 
     write_buffer(cl, p->ray_hit, R * sizeof *hit, hit);
 }
 
-static void check_scene(int displaced, int moving)
+/* Trims every other patch of s to the ring between circles of radii 0.15 and 0.4 about the
+ * centre of its (u, v) square: two 32-gons, the inner one a hole (the even-odd rule). */
+static void trim_ring(ts_scene *s)
+{
+    ts_vec4 seg[64];
+    for (int k = 0; k < 64; ++k) {
+        double r = k < 32 ? 0.4 : 0.15, a0 = 2.0 * M_PI * (k % 32) / 32.0,
+               a1 = 2.0 * M_PI * (k % 32 + 1) / 32.0;
+        seg[k] = (ts_vec4){(float)(0.5 + r * cos(a0)), (float)(0.5 + r * sin(a0)),
+                           (float)(0.5 + r * cos(a1)), (float)(0.5 + r * sin(a1))};
+    }
+    uint32_t first;
+    ts_error err = {0};
+    if (scene_add_trim(s, seg, 64, &first, &err)) fail_msg("%s", err.msg);
+    for (uint32_t q = 0; q < s->patch_count; q += 2)
+        s->attr[q].trim_first = first, s->attr[q].trim_count = 64;
+}
+
+static void check_scene(int displaced, int moving, int trimmed)
 {
     ts_device cl;
     test_open_device(&cl);
     ts_scene s;
     load(&s, displaced, moving);
+    if (trimmed) trim_ring(&s);
     ts_stats stats;
     memset(&stats, 0, sizeof stats);
     ts_error err = {0};
@@ -121,7 +145,7 @@ static void check_scene(int displaced, int moving)
     read_buffer(&cl, p.grid, gbytes, grid);
     read_buffer(&cl, p.groups, nbytes, groups);
     read_buffer(&cl, p.tight, cbytes, codes);
-    uint32_t rough = 0; /* patches with tight codes (TS_PATCH_ROUGH) */
+    uint32_t rough = 0, empty = 0; /* patches with tight codes; trimmed leaves */
     /* dice and build: the host references write the same bits. */
     for (uint32_t q = 0; q < P; ++q) {
         const ts_segment *sg = &p.segments_host[q];
@@ -129,6 +153,9 @@ static void check_scene(int displaced, int moving)
         assert_int_equal(times, moving ? 2u : 1u);
         assert_int_equal(sg->flags & TS_PATCH_MOVING, moving ? TS_PATCH_MOVING : 0u);
         rough += (sg->flags & TS_PATCH_ROUGH) != 0u;
+        assert_int_equal(sg->flags & TS_SEG_TRIMMED, trimmed && q % 2 == 0 ? TS_SEG_TRIMMED : 0u);
+        for (uint32_t k = 0; trimmed && k < (1u << (2u * sg->lod)); ++k)
+            empty += quadtree_leaf_empty(groups + sg->group_first, sg->lod, k);
         dice_build_ref(&s, q, sg->lod, 0, hgrid, hgroups, hcodes);
         if (memcmp(hgrid, grid + sg->vert_first,
                    times * quadtree_vertex_count(sg->lod) * sizeof *grid))
@@ -140,6 +167,7 @@ static void check_scene(int displaced, int moving)
             fail_msg("patch %u m %u: the host build reference differs from build", q, sg->lod);
     }
     if (displaced) assert_true(rough > 0u); /* the tight traversal is compared too */
+    if (trimmed) assert_true(empty > 0u);
     bl_ref_batch b = {
         pairs, 0,   R * P, p.segments_host, 0,    P,    P,      0,     0,          active,
         org,   dir, hit,   flags,           from, grid, groups, codes, s.instance, s.inst_xform};
@@ -384,15 +412,19 @@ static void test_instance_cull(void **state)
 
 static void test_teapot(void **state)
 {
-    check_scene(0, 0);
+    check_scene(0, 0, 0);
 }
 static void test_displaced_teapot(void **state)
 {
-    check_scene(1, 0);
+    check_scene(1, 0, 0);
 }
 static void test_moving_displaced_teapot(void **state)
 {
-    check_scene(1, 1);
+    check_scene(1, 1, 0);
+}
+static void test_trimmed_displaced_teapot(void **state)
+{
+    check_scene(1, 0, 1);
 }
 
 int main(void)
@@ -401,6 +433,7 @@ int main(void)
         cmocka_unit_test(test_teapot),
         cmocka_unit_test(test_displaced_teapot),
         cmocka_unit_test(test_moving_displaced_teapot),
+        cmocka_unit_test(test_trimmed_displaced_teapot),
         cmocka_unit_test(test_instances),
         cmocka_unit_test(test_instance_cull),
     };

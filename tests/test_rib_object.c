@@ -216,8 +216,8 @@ static void test_object_errors(void **state)
     expect_error("ObjectBegin 1\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 1 0 0\nObjectEnd\n",
                  "t.rib:5:1: error: ObjectEnd: the MotionBegin at 2:1 is never closed");
     /* Unknown requests are refused where they are written, instanced or not. */
-    expect_error("ObjectBegin 1\nTrimCurve [1]\nObjectEnd\n",
-                 "t.rib:2:1: error: TrimCurve is not supported");
+    expect_error("ObjectBegin 1\nPerspective 30\nObjectEnd\n",
+                 "t.rib:2:1: error: Perspective is not supported");
     expect_error("ObjectBegin 1\nSpheer 1 -1 1 360\nObjectEnd\n",
                  "t.rib:2:1: error: unknown request Spheer");
     /* A request of the object that fails when it runs names the instance. */

@@ -373,7 +373,8 @@ static int memo_get(memo *mm, const ts_scene *s, uint32_t p, uint32_t m, bl_ref_
                           NULL,
                           NULL,
                           m,
-                          p};
+                          p,
+                          s->attr[p].trim_count > 0};
     return 0;
 }
 

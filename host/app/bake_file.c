@@ -5,6 +5,7 @@
 #include "image/image.h"
 #include "lib/sh.h"
 #include "lib/texture.h"
+#include "scene/trim.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -365,6 +366,7 @@ int32_t bake_geometry_hash(const ts_scene *s)
         if (a->disp_kind == TS_DISP_TEXTURE) h = ts_fnv1a(h, a->st, sizeof a->st);
     }
     if (s->xform) h = ts_fnv1a(h, s->xform, (size_t)s->xform_count * sizeof(ts_xform));
+    h = trim_hash(s, h);
     for (uint32_t t = 0; t < s->texture_count; ++t) { /* displacement textures' texels */
         const ts_texture *x = &s->textures[t];
         if (x->kind != TS_TEX_MINMAX) continue;

@@ -4,6 +4,7 @@
 #include "base/hash.h"
 #include "image/image.h"
 #include "lib/sample_order.h"
+#include "scene/trim.h"
 
 #include <errno.h>
 #include <stddef.h>
@@ -70,7 +71,7 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
     if (s->mid_n) h = ts_fnv1a(h, s->mid_n, (size_t)s->patch_count * 5 * sizeof(ts_vec4));
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         ts_patch_attr a = s->attr[i];
-        a.pad = 0; /* ior, 0 but for glass, keeps the hash of files made before it */
+        a.trim_first = 0; /* hashed with the trim segments below, where there are any */
         /* The principled fields only where they are read, as the 128 bytes before them. */
         size_t bytes =
             a.material == TS_MAT_PRINCIPLED ? sizeof a : offsetof(ts_patch_attr, metallic);
@@ -82,6 +83,7 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
                      (size_t)s->tex_tile_count * TS_TEX_TILE * TS_TEX_TILE * sizeof(ts_vec4));
     }
     if (s->xform) h = ts_fnv1a(h, s->xform, (size_t)s->xform_count * sizeof(ts_xform));
+    h = trim_hash(s, h);
     for (uint32_t i = 0; i < s->light_count; ++i)
         h = ts_fnv1a(h, &s->lights[i], sizeof s->lights[i]);
     double dome[4] = {s->dome.present, s->dome.intensity, s->dome.color[0], s->dome.color[1]};

@@ -19,7 +19,8 @@ _Static_assert(offsetof(ts_hit, patch) == 12, "ts_hit.patch after t, u, v");
 _Static_assert(sizeof(ts_patch_attr) == 160, "ts_patch_attr is 160 bytes");
 _Static_assert(offsetof(ts_patch_attr, st) == 96, "st after the texture fields");
 _Static_assert(offsetof(ts_patch_attr, metallic) == 128, "the principled fields after st");
-_Static_assert(offsetof(ts_patch_attr, pad2) == 156, "seven principled floats, then pad2");
+_Static_assert(offsetof(ts_patch_attr, trim_count) == 156,
+               "seven principled floats, then trim_count");
 _Static_assert(sizeof(ts_texture) == 80, "ts_texture is 80 bytes");
 _Static_assert(sizeof(ts_light) == 112, "ts_light is 112 bytes");
 _Static_assert(offsetof(ts_light, pos) == 64, "pos after the 64 bytes of distant and dome");

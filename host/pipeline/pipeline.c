@@ -93,6 +93,7 @@ static int create_kernels(ts_pipeline *p, ts_error *err)
 typedef struct scene_uploads {
     const void *nodes, *cp, *cp1, *corner_n, *mid_n, *xform, *boxes, *textures;
     const void *instance, *inst_xform; /* scene.h instancing, NULL when nothing is shared */
+    const void *trim_seg;              /* scene.h trimmed NURBS, NULL when nothing is trimmed */
     ts_patch_attr *attr;       /* the scene's, with each patch's emitter index (lights_build) */
     ts_vec4 *flatness;         /* patch_flatness; w: the longest side of the patch's box */
     ts_vec4 *normals;          /* +z corner normals when the scene has none */
@@ -130,6 +131,7 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
     u->textures = s->textures;
     u->instance = s->instance;
     u->inst_xform = s->inst_xform;
+    u->trim_seg = s->trim_seg_count ? (const void *)s->trim_seg : NULL;
     u->attr = calloc(n, sizeof *u->attr);
     u->flatness = calloc(n, sizeof *u->flatness);
     /* A scene without normals (hand-built in tests): +z at all nine nodes. */
@@ -171,6 +173,7 @@ typedef struct buffer_counts {
     size_t patches, nodes, xforms, textures;       /* the scene */
     size_t moving;                                 /* patches with cp1: all, or 1 */
     size_t instances, inst_xforms;                 /* its instancing tables */
+    size_t trim_segs;                              /* its trim segments */
     size_t lights, emitters, env_texels, env_rows; /* lights.h */
     size_t tex_texels, tex_pages;                  /* tile pool, page table */
     size_t verts, groups;                          /* the arenas */
@@ -194,6 +197,7 @@ static buffer_counts buffer_counts_of(const ts_pipeline *p, const scene_uploads 
         .xforms = s->xform_count ? s->xform_count : 1,
         .instances = s->instance ? s->patch_count : 1,
         .inst_xforms = s->inst_xform_count ? s->inst_xform_count : 1,
+        .trim_segs = s->trim_seg_count ? s->trim_seg_count : 1,
         .textures = s->texture_count ? s->texture_count : 1,
         .lights = u->lights.light_count ? u->lights.light_count : 1,
         .emitters = u->lights.emitter_count ? u->lights.emitter_count : 1,

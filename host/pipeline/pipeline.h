@@ -163,6 +163,7 @@ typedef struct ts_trace_mode {
     X(mid_n,           TS_MEM_SCENE,      ts_vec4,       5 * c.patches,  u.mid_n)               \
     X(attr,            TS_MEM_SCENE,      ts_patch_attr, c.patches,      u.attr)                \
     X(xform,           TS_MEM_SCENE,      ts_xform,      c.xforms,       u.xform)               \
+    X(trim_seg,        TS_MEM_SCENE,      ts_vec4,       c.trim_segs,    u.trim_seg)            \
     X(flatness,        TS_MEM_SCENE,      ts_vec4,       c.patches,      u.flatness)            \
     X(patch_box,       TS_MEM_SCENE,      ts_box,        c.patches,      u.boxes)               \
     X(instance,        TS_MEM_SCENE,      ts_u32,        c.instances,    u.instance)            \

@@ -160,6 +160,7 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
         s->flags = a->flags & TS_PATCH_MOVING; /* a shape moves as its instances do */
         uint32_t q = segment_shape(p, s), times = s->flags & TS_PATCH_MOVING ? 2u : 1u;
         if (s->lod >= p->rough_lod[q]) s->flags |= TS_PATCH_ROUGH;
+        if (p->scene->attr[q].trim_count) s->flags |= TS_SEG_TRIMMED;
         /* triangle mode: the edges towards coarser neighbours take their vertices (dice.cl) */
         s->flags |= pipeline_stitch_edges(p, q, s->lod) << TS_SEG_EDGE_SHIFT;
         /* Texture tiles: the batch's misses' needs add up to at most the pool (an over-count
@@ -421,8 +422,8 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
                          DEV_ARG(m), DEV_ARG(p->segments), DEV_ARG(p->grid), DEV_ARG(p->corner_n),
                          DEV_ARG(p->mid_n), DEV_ARG(p->attr), DEV_ARG(p->xform),
                          DEV_ARG(p->flatness), DEV_ARG(p->patch_box), DEV_ARG(p->textures),
-                         DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(tight),
-                         DEV_ARG(p->groups), DEV_ARG(p->tight), (size_t)0) ||
+                         DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(p->trim_seg),
+                         DEV_ARG(tight), DEV_ARG(p->groups), DEV_ARG(p->tight), (size_t)0) ||
             dev_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
                        TS_LOCAL_SIZE, err))
             return err->code;

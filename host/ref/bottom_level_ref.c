@@ -113,6 +113,7 @@ static void quad_test(const ref_ray *r, const bl_ref_patch *pt, uint32_t qi, int
                       ts_hit *best)
 {
     if (exact) {
+        if (pt->trimmed && quadtree_leaf_empty(pt->t0, pt->m, qi)) return; /* lib/trim.h */
         leaf_triangles(r, pt, qi, best);
         return;
     }
@@ -211,6 +212,7 @@ bl_ref_patch bottom_level_ref_patch(const ts_segment *seg, const ts_vec4 *grid,
     pt.t1 = moving ? pt.t0 + quadtree_group_count(seg->lod) : NULL;
     pt.c0 = codes ? codes + seg->group_first : NULL;
     pt.c1 = codes && moving ? pt.c0 + quadtree_group_count(seg->lod) : NULL;
+    pt.trimmed = (seg->flags & TS_SEG_TRIMMED) != 0u;
     return pt;
 }
 

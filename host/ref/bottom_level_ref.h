@@ -22,6 +22,7 @@ typedef struct bl_ref_patch {
     const ts_box4 *t0, *t1;
     const ts_tight4 *c0, *c1;
     uint32_t m, patch;
+    uint32_t trimmed; /* TS_SEG_TRIMMED: a micro-quad with an empty box is not there */
 } bl_ref_patch;
 
 /* The patch of a segment whose grids, trees and tight codes lie in the arenas `grid`,

@@ -4,6 +4,7 @@
 #include "ref/dice_build_ref.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
+#include "lib/trim.h"
 
 #include <math.h>
 
@@ -157,10 +158,19 @@ void dice_build_ref_stitched(const ts_scene *s, uint32_t p, uint32_t m, int tigh
     uint32_t ng = quadtree_group_count(m);
     /* build.cl: tight codes for a rough patch in box mode (TS_PATCH_ROUGH), else 0 */
     uint32_t coded = !tight && scene_patch_rough(s, p, m);
+    const ts_patch_attr *a = &s->attr[p];
     for (uint32_t t = 0; t < times; ++t) {
         ts_box4 *tree = groups + t * ng;
         ts_tight4 *ct = codes + t * ng;
         for (uint32_t k = 0; k < (1u << (2u * m)); ++k) {
+            /* build.cl build_leaves: a micro-quad its trim removes gets an empty box */
+            if (a->trim_count &&
+                !trim_keeps(s->trim_seg + a->trim_first, a->trim_count,
+                            quadtree_centre(morton_i(k), m), quadtree_centre(morton_j(k), m))) {
+                ts_box e = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
+                quadtree_store(tree, ct, m, k, e, e, coded);
+                continue;
+            }
             /* build.cl build_leaves: the leaf box and the tight box of the diced vertices */
             ts_box vb = tight_leaf_box(grid + t * n * n, n, morton_i(k), morton_j(k));
             ts_box tb = leaf_clamp(vb, q.pb), lb = tb;

@@ -264,6 +264,11 @@ int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16]
     if (a.xform >= s->xform_count)
         return ts_error_set(err, TS_E_INTERNAL, "scene: patch refers to transform %u of %u",
                             a.xform, s->xform_count);
+    if (a.trim_count &&
+        (a.trim_first > s->trim_seg_count || a.trim_count > s->trim_seg_count - a.trim_first))
+        return ts_error_set(err, TS_E_INTERNAL,
+                            "scene: patch refers to trim segments %u + %u of %u", a.trim_first,
+                            a.trim_count, s->trim_seg_count);
     if ((a.disp_kind == TS_DISP_TEXTURE &&
          (a.disp_tex >= s->texture_count || s->textures[a.disp_tex].kind != TS_TEX_MINMAX)) ||
         ((a.flags & TS_PATCH_COLOR_TEX) &&
@@ -354,6 +359,28 @@ int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *ind
     }
     s->xform[s->xform_count] = x;
     *index = s->xform_count++;
+    return TS_OK;
+}
+
+/* ---- trim curves -------------------------------------------------------------------- */
+
+int scene_add_trim(ts_scene *s, const ts_vec4 *seg, uint32_t n, uint32_t *first, ts_error *err)
+{
+    if (n > UINT32_MAX - s->trim_seg_count)
+        return ts_error_set(err, TS_E_MEMORY, "scene: more than %u trim segments", UINT32_MAX);
+    uint32_t need = s->trim_seg_count + n;
+    if (need > s->trim_seg_capacity) {
+        uint64_t cap = s->trim_seg_capacity ? (uint64_t)s->trim_seg_capacity * 2u : 1024u;
+        if (cap < need) cap = need;
+        if (cap > UINT32_MAX) cap = UINT32_MAX;
+        ts_vec4 *t = realloc(s->trim_seg, (size_t)cap * sizeof *t);
+        if (!t) return ts_error_set(err, TS_E_MEMORY, "scene: out of memory for trim curves");
+        s->trim_seg = t;
+        s->trim_seg_capacity = (uint32_t)cap;
+    }
+    if (n) memcpy(s->trim_seg + s->trim_seg_count, seg, (size_t)n * sizeof *seg);
+    *first = s->trim_seg_count;
+    s->trim_seg_count = need;
     return TS_OK;
 }
 
@@ -740,6 +767,7 @@ void scene_free(ts_scene *s)
     free(s->mid_n);
     free(s->attr);
     free(s->xform);
+    free(s->trim_seg);
     free(s->inst_runs);
     free(s->shape);
     free(s->instance);

@@ -146,6 +146,11 @@ typedef struct ts_scene {
      * space); xform[0] is the identity. */
     ts_xform *xform;
     uint32_t xform_count, xform_capacity;
+    /* The trim curves of trimmed NURBS pieces (RiTrimCurve; lib/trim.h, host/scene/trim.h):
+     * segments (x0, y0, x1, y1) in each piece's own (u, v) square, patch p's from
+     * attr[p].trim_first, attr[p].trim_count of them (0: untrimmed). NULL while none. */
+    ts_vec4 *trim_seg;
+    uint32_t trim_seg_count, trim_seg_capacity;
     /* Instancing (ObjectInstance, host/scene/instance.c, docs/rib.md "Objects"): candidate
      * runs from the reader, then after scene_finalize, when some instance patch shares the
      * dicing of its master (NULL otherwise, and every patch is diced as itself):
@@ -195,6 +200,9 @@ int scene_set_patch_motion(ts_scene *s, uint32_t p, const double cp1[16][3], ts_
 /* Adds a world-to-object transform (row-major 4x4, affine) and returns its index for
  * ts_patch_attr.xform; an identical transform already added is reused. */
 int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *index, ts_error *err);
+/* Appends n trim segments (lib/trim.h) and returns the index of the first in *first, for
+ * ts_patch_attr.trim_first. TS_E_MEMORY past UINT32_MAX segments or memory. */
+int scene_add_trim(ts_scene *s, const ts_vec4 *seg, uint32_t n, uint32_t *first, ts_error *err);
 /* Completes a loaded scene: corner normals for patches without explicit ones (the
  * geometric normal of each patch at each corner, averaged over all patches whose corner
  * has exactly the same position, then normalised; where a patch's derivatives vanish at a

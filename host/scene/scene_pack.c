@@ -8,8 +8,9 @@
 #include <string.h>
 
 #define PACK_MAGIC "TSSCENE1"
-/* 3: the dome's map in memory; 4: ts_patch_attr of 160 bytes (the principled fields) */
-#define PACK_VERSION 4u
+/* 3: the dome's map in memory; 4: ts_patch_attr of 160 bytes (the principled fields); 5: the
+ * trim segments */
+#define PACK_VERSION 5u
 
 /* The sections: (pointer, bytes) in a fixed order; NULL with 0 bytes for what the scene
  * lacks. Strings (texture sources) are one section of NUL-separated names. */
@@ -32,6 +33,7 @@ enum {
     SEC_INSTANCE,   /* patch_count uint32, or nothing */
     SEC_INST_XFORM, /* inst_xform_count ts_xform */
     SEC_DOME_MAP,   /* the dome's map made in memory: map_width x map_height RGB floats */
+    SEC_TRIM_SEG,   /* trim_seg_count ts_vec4 (trimmed NURBS), or nothing */
     SEC_COUNT
 };
 
@@ -80,6 +82,7 @@ static int pack_sections(const ts_scene *s, uint32_t counts[6], char **names,
         (pack_section){s->inst_xform, (uint64_t)s->inst_xform_count * sizeof(ts_xform)};
     sec[SEC_DOME_MAP] = (pack_section){
         s->dome.map, s->dome.map ? (uint64_t)s->dome.map_width * s->dome.map_height * 3 * 4 : 0};
+    sec[SEC_TRIM_SEG] = (pack_section){s->trim_seg, (uint64_t)s->trim_seg_count * sizeof(ts_vec4)};
     return TS_OK;
 }
 
@@ -162,6 +165,21 @@ static int unpack_instances(const pack_section sec[SEC_COUNT], ts_scene *s)
     return 0;
 }
 
+/* The trim segments, and every patch's range inside them. */
+static int unpack_trims(const pack_section *sec, ts_scene *s)
+{
+    if (sec->bytes % sizeof(ts_vec4) || sec->bytes / sizeof(ts_vec4) > UINT32_MAX) return -1;
+    uint32_t n = (uint32_t)(sec->bytes / sizeof(ts_vec4));
+    int rc = copy_section(sec, sec->bytes, (void **)&s->trim_seg);
+    if (rc) return rc;
+    s->trim_seg_count = s->trim_seg_capacity = n;
+    for (uint32_t p = 0; p < s->patch_count; ++p) {
+        const ts_patch_attr *a = &s->attr[p];
+        if (a->trim_count && (a->trim_first > n || a->trim_count > n - a->trim_first)) return -1;
+    }
+    return 0;
+}
+
 /* The texture sources: count NUL-terminated names filling the section. */
 static int unpack_sources(const pack_section *sec, uint32_t count, ts_scene *s)
 {
@@ -209,6 +227,7 @@ int scene_unpack(const void *block, size_t size, ts_scene *s, ts_error *err)
     if (!rc)
         rc = copy_section(&sec[SEC_LIGHTS], c[4] * sizeof(ts_scene_light), (void **)&s->lights);
     if (!rc) rc = unpack_instances(sec, s);
+    if (!rc) rc = unpack_trims(&sec[SEC_TRIM_SEG], s);
     if (!rc) {
         memcpy(&s->camera, sec[SEC_CAMERA].data, sizeof s->camera);
         memcpy(&s->dome, sec[SEC_DOME].data, sizeof s->dome);

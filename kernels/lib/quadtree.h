@@ -72,6 +72,14 @@ TS_INLINE float quadtree_centre(ts_u32 i, ts_u32 m)
     return ((float)i + 0.5f) * ldexp(1.0f, -(int)m);
 }
 
+/* Whether leaf k of a tree of depth m has an empty box (lo > hi): a micro-quad a trim curve
+ * removed (build.cl, lib/trim.h). */
+TS_INLINE int quadtree_leaf_empty(TS_CONST_GLOBAL ts_box4 *groups, ts_u32 m, ts_u32 k)
+{
+    ts_u32 at = m == 0u ? 0u : quadtree_group_offset(m) + (k >> 2), q = m == 0u ? 0u : (k & 3u);
+    return groups[at].lo_x[q] > groups[at].hi_x[q];
+}
+
 /* The parameter of vertex column (or row) i of a patch diced at LOD m, i 2^-m exactly: where
  * dice evaluates its vertices and every reference and shading normal evaluates them again;
  * one expression, so they agree to the bit (shade reads a resident grid's vertices or

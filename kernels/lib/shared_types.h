@@ -171,6 +171,10 @@ typedef struct ts_hit {
  * edge k of the patch diced (0: v = 0, 1: u = 0, 2: u = 1, 3: v = 1), 4 bits from bit
  * 16 + 4k, how many levels coarser the patch across it is diced; 0 everywhere else. */
 #define TS_SEG_EDGE_SHIFT 16u
+/* ts_segment.flags only: the patch diced is trimmed (ts_patch_attr.trim_count > 0): build
+ * gives the micro-quads its trim curves remove empty boxes, and bottom_level tests a
+ * micro-quad's triangles only where its box is not empty (lib/trim.h). */
+#define TS_SEG_TRIMMED 4u
 #define TS_PATCH_COLOR_TEX 2u /* Cs is multiplied by texture color_tex at the hit's st */
 /* Casts no shadow: shadow rays (TS_RAY_SHADOW) pass through the patch, which top_level leaves
  * out of their candidates; every other ray sees it (RIB Attribute "visibility"
@@ -225,8 +229,8 @@ typedef struct ts_patch_attr {
     ts_u32 disp_tex;         /* TS_DISP_TEXTURE: the displacement texture */
     float disp_offset;       /* TS_DISP_TEXTURE: texel value of zero displacement */
     float ior;               /* TS_MAT_GLASS: index of refraction inside (outside: 1); else 0 */
-    ts_u32 pad;
-    float st[8]; /* (s, t) at the four corners, in corner order */
+    ts_u32 trim_first;       /* a trimmed NURBS piece (lib/trim.h): its trim_count segments */
+    float st[8];             /* (s, t) at the four corners, in corner order */
     /* TS_MAT_PRINCIPLED (lib/principled.h), each in [0, 1] (clearcoat [0, 4]); 0 for the other
      * materials */
     float metallic;        /* blend from the dielectric (0) to the conductor (1) response */
@@ -236,7 +240,7 @@ typedef struct ts_patch_attr {
     float sheen_tint;      /* blend of the sheen from white towards the base colour's hue */
     float clearcoat;       /* the clear coat: 0.25 clearcoat F D G / (4 cos cos), F0 0.04 */
     float clearcoat_gloss; /* the coat's GGX alpha from 0.1 (0) to 0.01 (1) */
-    ts_u32 pad2;
+    ts_u32 trim_count;     /* segments of the scene's trim_seg from trim_first; 0: untrimmed */
 } ts_patch_attr;
 
 /* Lights (DESIGN.md §3). One light is chosen per light sample, with probability proportional
@@ -496,7 +500,7 @@ typedef struct ts_relight_params {
     X(ts_light, flags) X(ts_light, pos) X(ts_light, cos_inner) X(ts_light, falloff_min)             \
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \
     X(ts_patch_attr, disp_offset) X(ts_patch_attr, st) X(ts_texture, kind)                    \
-    X(ts_patch_attr, metallic) X(ts_patch_attr, clearcoat_gloss) X(ts_patch_attr, pad2)      \
+    X(ts_patch_attr, metallic) X(ts_patch_attr, clearcoat_gloss) X(ts_patch_attr, trim_count)      \
     X(ts_texture, level_page) X(ts_bake_params, orthographic) X(ts_bake_params, eye)          \
     X(ts_relight_params, uniform) X(ts_relight_params, patch_count) X(ts_relight_params, pad)     \
     X(ts_udiv, mul) X(ts_udiv, d) X(ts_order_divs, band) X(ts_order_divs, width)            \

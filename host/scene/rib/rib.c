@@ -98,6 +98,7 @@ static const struct {
     {"GeneralPolygon", rib_req_general_polygon},
     {"Hyperboloid", rib_req_hyperboloid},
     {"NuPatch", rib_req_nu_patch},
+    {"TrimCurve", rib_req_trim_curve},
     {"Paraboloid", rib_req_paraboloid},
     {"Points", rib_req_points},
     {"PointsGeneralPolygons", rib_req_points_general_polygons},
@@ -158,7 +159,6 @@ static const char *const rib_ignored[] = {
 static const char *const rib_unsupported[] = {
     "ArchiveRecord",
     "Perspective",
-    "TrimCurve",
 };
 /* clang-format on */
 
@@ -312,6 +312,7 @@ static int rib_parse_once(const char *name, const rib_text *t, int frame, int ke
     free(p->rm20_map);
     rib_pattern_free(p);
     rib_rlf_free(p);
+    rib_trim_free(p);
     free(p->searchpath[0]);
     free(p->searchpath[1]);
     rib_args_free(p);

@@ -98,6 +98,8 @@ static ts_patch_attr geom_attr(const rib_parser *p, const double *cs, const doub
                           .color_tex = p->surface.textured ? p->surface.tex : 0u,
                           .disp_tex = p->disp.kind == TS_DISP_TEXTURE ? p->disp.tex : 0u,
                           .disp_offset = (float)p->disp.offset,
+                          .trim_first = p->emit_trim_first,
+                          .trim_count = p->emit_trim_count,
                           .st = {0, 0, 1, 0, 0, 1, 1, 1}};
     if (p->surface.material == TS_MAT_PRINCIPLED) {
         const rib_surface *s = &p->surface;

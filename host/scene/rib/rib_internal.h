@@ -8,6 +8,7 @@
  *                  motion blocks
  *   rib_geom.c     Patch and PatchMesh into the scene
  *   rib_light.c    LightSource (distant, point, spot, ambient, dome lights)
+ *   rib_trim.c     TrimCurve (the trims of the NuPatch requests that follow; scene/trim.c)
  *   rib_quadric.c, rib_poly.c, rib_nurbs.c, rib_subdiv.c, rib_curves.c, rib_primvar.c:
  *                  quadrics, polygons, NuPatch, SubdivisionMesh, Points and Curves and their
  *                  primitive variables (rib_prims.h; they call rib_geom.c's rib_geom_emit,
@@ -63,7 +64,8 @@
  *                    "PxrStd...Light" and Geometry "rectlight", "envsphere", ...)
  *   rib_rlf.c     -> rib.c (rib_run_requests: a payload's requests), rib_look.c (the file)
  *   rib_state.c   -> rib_rlf.c (rib_rlf_scope_end), rib_ris.c -> rib_rlf.c (identifier names)
- *   rib_geom.c, rib_coordsys.c, rib_pattern.c -> no other handler
+ *   rib_nurbs.c   -> rib_trim.c (rib_trim_current)
+ *   rib_geom.c, rib_coordsys.c, rib_pattern.c, rib_trim.c -> no other handler
  *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
  *                    handler. rib.c and rib_archive.c also start lexers (on rib_text.c's bytes);
  * rib.c, rib_state.c and rib_geom.c use basis.c. The cycles are rib.c -> rib_archive.c -> rib.c:
@@ -247,6 +249,14 @@ int rib_rlf_identifier(rib_parser *p, const char *name);
 void rib_rlf_scope_end(rib_parser *p);
 /* Frees p->rlf. */
 void rib_rlf_free(rib_parser *p);
+
+/* ---- rib_trim.c: TrimCurve ---- */
+
+int rib_req_trim_curve(rib_parser *p);
+/* The trim of the NuPatch requests that follow, NULL for none. */
+const struct trim_set *rib_trim_current(const rib_parser *p);
+/* Frees p->trims. */
+void rib_trim_free(rib_parser *p);
 
 /* ---- rib_bxdf.c: Bxdf, Displace (RIS materials onto Surface's, textured displacement) ---- */
 

@@ -9,10 +9,13 @@
  * Primitive variables "Cs" and "st": constant (1 value), uniform (one per segment,
  * (nu - uorder + 1) (nv - vorder + 1)), varying (one per segment corner,
  * (nu - uorder + 2) (nv - vorder + 2), blended bilinearly within the segment). Without "st"
- * a patch's corners take their (u, v) knot values. */
+ * a patch's corners take their (u, v) knot values. Under a TrimCurve (rib_trim.c) each piece
+ * is kept whole, dropped, or emitted with the trim segments that cross it (scene/trim.h
+ * trim_piece). */
 #include "scene/rib/rib_prims.h"
 
 #include "scene/nurbs.h"
+#include "scene/trim.h"
 #include "scene/rib/rib_args.h"
 #include "scene/rib/rib_internal.h"
 
@@ -49,6 +52,8 @@ typedef struct nurbs_emit_ctx {
     const ts_nurbs *s;
     const rib_pvars *vars;
     int line, col;
+    const trim_set *trim; /* the current TrimCurve, or NULL */
+    ts_vec4 *trim_buf;    /* room for its segments */
 } nurbs_emit_ctx;
 
 /* Variable var at knot-space (u, v) inside segment (su, sv). */
@@ -91,8 +96,29 @@ static int nurbs_emit(void *ctx, const double cp[16][3], const double uv[4][2], 
                 cs[d] += 0.25 * x[d];
         }
     }
-    return rib_geom_emit(c->p, c->line, c->col, cp, NULL, vars->Cs.v ? cs : NULL,
-                         (const double(*)[2])st);
+    rib_parser *p = c->p;
+    if (c->trim) { /* corners (0,0), (1,0), (0,1), (1,1): the piece is a knot-space rectangle */
+        uint32_t n = 0;
+        int kind = trim_piece(c->trim, uv[0][0], uv[0][1], uv[3][0], uv[3][1], c->trim_buf, &n);
+        if (kind == TRIM_DROP) return TS_OK; /* in both samples of a deforming surface alike */
+        const rib_motion *m = &p->motion;
+        int second = m->active && m->deform && m->sample == 1; /* the first's attributes hold */
+        if (kind == TRIM_PARTIAL && !second) {
+            int rc = scene_add_trim(p->scene, c->trim_buf, n, &p->emit_trim_first, p->err);
+            if (rc != TS_OK) return rc;
+            p->emit_trim_count = n;
+        }
+    }
+    uint32_t before = p->scene->patch_count;
+    int rc =
+        rib_geom_emit(p, c->line, c->col, cp, NULL, vars->Cs.v ? cs : NULL, (const double(*)[2])st);
+    const ts_patch_attr *a = p->scene->patch_count > before ? &p->scene->attr[before] : NULL;
+    if (rc == TS_OK && a && a->trim_count && a->le_r + a->le_g + a->le_b > 0.0f)
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "NuPatch: a trimmed emitter is sampled as a light over its whole pieces "
+                      "(rays see the trim, light sampling does not)");
+    p->emit_trim_first = p->emit_trim_count = 0;
+    return rc;
 }
 
 /* The control points as homogeneous (x w, y w, z w, w): "Pw" as given, "P" with w = 1; a
@@ -135,10 +161,17 @@ int rib_req_nu_patch(rib_parser *p)
         if (rc == TS_OK && nurbs_check(&s, why, sizeof why) != TS_OK)
             rc = rib_error_at(p, p->req_line, p->req_col, "NuPatch: %s", why);
         const rib_pvar *pos = vars.Pw.v ? &vars.Pw : &vars.P;
-        nurbs_emit_ctx c = {p, &s, &vars, rc == TS_OK ? pos->line : 0, rc == TS_OK ? pos->col : 0};
+        nurbs_emit_ctx c = {
+            p, &s, &vars, rc == TS_OK ? pos->line : 0, rc == TS_OK ? pos->col : 0, NULL, NULL};
+        c.trim = rib_trim_current(p);
+        if (rc == TS_OK && c.trim &&
+            !(c.trim_buf = malloc((c.trim->count ? c.trim->count : 1) * sizeof *c.trim_buf)))
+            rc = ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
         nurbs_result res;
         if (rc == TS_OK) rc = nurbs_patches(&s, nurbs_emit, &c, &res, why, sizeof why);
-        if (rc == TS_E_MEMORY) rc = ts_error_set(p->err, rc, "%s: NuPatch: %s", p->lx.file, why);
+        if (rc == TS_E_MEMORY && !p->err->msg[0])
+            rc = ts_error_set(p->err, rc, "%s: NuPatch: %s", p->lx.file, why);
+        free(c.trim_buf);
         free(pw);
         if (rc == TS_OK && res.rational && res.bound > NURBS_TOL_REL) {
             char what[RIB_WARN_KEY];

@@ -106,6 +106,7 @@ typedef struct rib_frame {
     int no_shadow;      /* the patches cast no shadow (TS_PATCH_NO_SHADOW) */
     int no_camera;      /* the camera does not see them (TS_PATCH_NO_CAMERA) */
     int no_indirect;    /* indirect rays do not see them (TS_PATCH_NO_INDIRECT) */
+    int trim;           /* the current TrimCurve (rib_trim.c): its number, 0 for none */
     rib_solid_op solid; /* RIB_FRAME_SOLID: its operation */
 } rib_frame;
 
@@ -203,6 +204,10 @@ typedef struct rib_parser {
                             patches cast no shadow (TS_PATCH_NO_SHADOW) */
     int no_camera;       /* Attribute "visibility" "camera" 0: the camera does not see them */
     int no_indirect;     /* Attribute "visibility" "indirect" 0: indirect rays do not */
+    int trim;            /* TrimCurve: trims the NuPatch requests that follow (rib_trim.c
+                            rib_trim_current); 0 for none */
+    uint32_t emit_trim_first, emit_trim_count; /* the trim segments of the NuPatch piece being
+                                                  emitted (rib_nurbs.c), 0 0 otherwise */
     rib_motion motion;
     /* The last world-to-object transform added for a displaced patch, by its CTM. */
     double xf_ctm[16];
@@ -222,6 +227,7 @@ typedef struct rib_parser {
     struct rib_resources *resources;   /* rib_resource.c: saved attribute states, or NULL */
     struct rib_patterns *patterns;     /* rib_pattern.c: Pattern nodes by handle, or NULL */
     struct rib_rlf *rlf;               /* rib_rlf.c: identifier names, look-file scopes, or NULL */
+    struct rib_trims *trims;           /* rib_trim.c: the TrimCurve requests read, or NULL */
     char *searchpath[2];               /* Option "searchpath": "archive", "texture"; or NULL */
     rib_frame_choice frames;
     int world_line, world_col; /* of the WorldBegin read (binary RIB: line 0, col its byte) */

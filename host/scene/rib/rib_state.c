@@ -166,6 +166,7 @@ void rib_state_save(const rib_parser *p, rib_frame *f)
     f->no_shadow = p->no_shadow;
     f->no_camera = p->no_camera;
     f->no_indirect = p->no_indirect;
+    f->trim = p->trim;
 }
 
 void rib_state_restore(rib_parser *p, const rib_frame *f, int attributes)
@@ -184,6 +185,7 @@ void rib_state_restore(rib_parser *p, const rib_frame *f, int attributes)
     p->no_shadow = f->no_shadow;
     p->no_camera = f->no_camera;
     p->no_indirect = f->no_indirect;
+    p->trim = f->trim;
 }
 
 static int rib_push(rib_parser *p, rib_frame_kind kind)
