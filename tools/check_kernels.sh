@@ -22,6 +22,7 @@
 #   - scene/lights.rib at 8x6, --max-lod 1 (point, spot and ambient lights in shade);
 #   - scene/teapot.rib at 7x5, 3 spp, with TESSERA_CPU_LANES=1 (the CPU devices' lanes:
 #     camera's eight rays a work-item, bezier_combine's float4 sums), without --uninitialized;
+#   - scene/trimmed.rib at 8x6 in both geometry modes (trim curves in build and bottom_level);
 #   - scene/teapot_displaced.rib at 12x8, --max-lod 4, --depth 2 (displacement, the grid's
 #     shading normals, bounce rays), and at 8x6 with --intersect triangles (the tight leaf
 #     boxes), both without --uninitialized;
@@ -149,6 +150,13 @@ OCLGRIND_CHECKS="--data-races --check-api" \
 OCLGRIND_CHECKS="--data-races --check-api" \
   run render_displaced_triangles "$build/tessera" render scene/teapot_displaced.rib --res 8x6 \
   --spp 1 --max-lod 3 --depth 1 --memory 8 --intersect triangles -o "$work/displaced_tri.exr" \
+  --no-kernel-cache --quiet
+# Trim curves (TrimCurve): build's empty boxes for the micro-quads a trim removes (the trim
+# segments read per leaf), and bottom_level's check of them before a micro-quad's triangles.
+run render_trimmed "$build/tessera" render scene/trimmed.rib --res 8x6 --spp 1 --max-lod 3 \
+  --depth 1 --memory 4 -o "$work/trimmed.exr" --no-kernel-cache --quiet
+run render_trimmed_triangles "$build/tessera" render scene/trimmed.rib --res 8x6 --spp 1 \
+  --max-lod 3 --depth 1 --memory 4 --intersect triangles -o "$work/trimmed_tri.exr" \
   --no-kernel-cache --quiet
 # The shading normal's probe (shade_normal_probe) on the teapot without displacement only:
 # Oclgrind 21.10's --uninitialized plugin crashes (SIGSEGV in
