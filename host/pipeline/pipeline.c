@@ -166,6 +166,20 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
     return relight_tables_build(s->occlusion, &u->lights, &u->env, &u->relight, err);
 }
 
+/* Whether the device may read the scene's array at `host` in place (CL_MEM_USE_HOST_PTR)
+ * instead of a copy: on a device that shares host memory, for the largest arrays the scene
+ * keeps anyway (control points and displacement normals: 400 of the 844 bytes a patch's
+ * buffers take, docs/benchmarks.md), when they are SCENE_ALIGN-aligned as the scene makes
+ * them. They live as long as the scene, which outlives its pipelines, and no one writes them
+ * while it renders. */
+static int scene_in_place(const ts_pipeline *p, const void *host)
+{
+    const ts_scene *s = p->scene;
+    if (!p->cl->info.host_unified || ((uintptr_t)host % SCENE_ALIGN) != 0) return 0;
+    return host == s->cp || (s->cp1 && host == s->cp1) || (s->corner_n && host == s->corner_n) ||
+           (s->mid_n && host == s->mid_n);
+}
+
 /* Element counts of the buffers (TS_PIPELINE_BUFFERS' count column reads them as c.NAME).
  * What the scene lacks counts 1. */
 typedef struct buffer_counts {
@@ -262,8 +276,11 @@ static int create_buffers(ts_pipeline *p, const buffer_counts *counts, const sce
     *fixed = 0;
     for (size_t i = 0; i < sizeof list / sizeof *list; ++i) {
         const void *host = list[i].contents ? list[i].contents : zeros;
-        if (!(list[i].flags & CL_MEM_COPY_HOST_PTR)) host = NULL;
-        *list[i].m = dev_buffer_create(p->cl, list[i].flags, list[i].bytes, (void *)host, err);
+        cl_mem_flags flags = list[i].flags;
+        if (!(flags & CL_MEM_COPY_HOST_PTR)) host = NULL;
+        if (host && scene_in_place(p, host))
+            flags = (flags & ~(cl_mem_flags)CL_MEM_COPY_HOST_PTR) | CL_MEM_USE_HOST_PTR;
+        *list[i].m = dev_buffer_create(p->cl, flags, list[i].bytes, (void *)host, err);
         pipeline_note_device_bytes(p);
         if (!*list[i].m) return err->code;
         int in_budget = i < ray_entries;
