@@ -4,8 +4,9 @@
  * its square and the curve say; two loops cut a hole (even-odd); TrimCurve trims the NuPatch
  * requests after it until its attribute block ends, dropping the pieces it removes whole, and
  * its argument errors name file:line:col; the host build reference gives exactly the
- * micro-quads whose centres the trim removes empty boxes, about the circle's area; and a
- * packed scene keeps its trims. Host only (the kernels against the reference:
+ * micro-quads whose centres the trim removes empty boxes, about the circle's area; a
+ * packed scene keeps its trims; and instances share their master's dicing only under the same
+ * trim. Host only (the kernels against the reference:
  * tests/test_bottom_level.c; renders: tests/test_trim_render.c). */
 #include "test_support.h"
 #include "lib/quadtree.h"
@@ -234,12 +235,37 @@ static void test_build_reference(void **state)
     scene_free(&s);
 }
 
+/* An object's NuPatch instanced three times: under the same TrimCurve the second instance
+ * shares the first's dicing (scene_share_instances), under another it is a copy. */
+static void test_instances(void **state)
+{
+    (void)state;
+    char a[2048], b[2048], text[8192];
+    circle_rib(a, sizeof a, 0.5, 0.5, 0.3);
+    circle_rib(b, sizeof b, 0.5, 0.5, 0.2);
+    snprintf(text, sizeof text,
+             "ObjectBegin 1\nNuPatch 2 2 [0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" "
+             "[0 0 0  1 0 0  0 1 0  1 1 0]\nObjectEnd\nWorldBegin\n"
+             "AttributeBegin\n%sObjectInstance 1\nAttributeEnd\n"
+             "AttributeBegin\nTranslate 3 0 0\n%sObjectInstance 1\nAttributeEnd\n"
+             "AttributeBegin\nTranslate 6 0 0\n%sObjectInstance 1\nAttributeEnd\nWorldEnd\n",
+             a, a, b);
+    ts_scene s;
+    test_parse_rib_ok(text, &s);
+    assert_int_equal(s.patch_count, 3);
+    assert_non_null(s.shape);
+    assert_int_equal(s.shape[1], 0); /* the same trim: shares */
+    assert_int_equal(s.shape[2], 2); /* another trim: its own dicing */
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_circle_polyline), cmocka_unit_test(test_bad_curves),
         cmocka_unit_test(test_pieces),          cmocka_unit_test(test_rib_trim),
         cmocka_unit_test(test_rib_trim_errors), cmocka_unit_test(test_build_reference),
+        cmocka_unit_test(test_instances),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

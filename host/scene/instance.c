@@ -14,7 +14,8 @@
  *   - the displacement normals too (a corner averaged with a neighbour outside the instance,
  *     or a mirrored instance, whose normals flip, is a copy);
  *   - the displacement attributes are equal (the noise itself is evaluated in object space,
- *     which the map keeps: world_to_object(P) is the same point for both).
+ *     which the map keeps: world_to_object(P) is the same point for both);
+ *   - the trim segments are equal (an object instanced under two TrimCurves is copied).
  * Each patch is checked on its own, to float rounding (SHARE_TOL relative to the patch's
  * size); a patch that fails is diced as itself, as before sharing existed. */
 #include "scene/scene.h"
@@ -79,10 +80,20 @@ static int share_attr(const ts_patch_attr *a, const ts_patch_attr *b)
            a->disp_offset == b->disp_offset && memcmp(a->st, b->st, sizeof a->st) == 0;
 }
 
+/* Patches p and q are trimmed alike (TrimCurve: the same segments in their own squares, which
+ * build reads from the patch it dices), or neither is. */
+static int share_trim(const ts_scene *s, uint32_t p, uint32_t q)
+{
+    const ts_patch_attr *a = &s->attr[p], *b = &s->attr[q];
+    if (a->trim_count != b->trim_count) return 0;
+    return a->trim_count == 0 || memcmp(s->trim_seg + a->trim_first, s->trim_seg + b->trim_first,
+                                        (size_t)a->trim_count * sizeof *s->trim_seg) == 0;
+}
+
 /* Whether patch p may share the dicing of patch q through the map a (p's world -> q's). */
 static int share_patch(const ts_scene *s, uint32_t p, uint32_t q, const double a[12])
 {
-    if (!share_attr(&s->attr[p], &s->attr[q])) return 0;
+    if (!share_attr(&s->attr[p], &s->attr[q]) || !share_trim(s, p, q)) return 0;
     const ts_vec4 *cp = s->cp + (size_t)p * 16u, *cq = s->cp + (size_t)q * 16u;
     double size = 0.0;
     for (int k = 0; k < 16; k++)
