@@ -49,6 +49,7 @@
 #include "lib/relight.h"
 #include "lib/sample_order.h"
 #include "lib/sampler.h"
+#include "lib/trim.h"
 
 /* One path's step: its slots, the keys of its sample values and its weight so far. */
 typedef struct shade_step {
@@ -78,6 +79,7 @@ typedef struct shade_lights {
     __global const ts_emitter *emitters;
     __global const ts_vec4 *cp;
     __global const ts_patch_attr *attr;
+    __global const ts_vec4 *trim_seg; /* trimmed emitters' segments (lib/trim.h) */
 } shade_lights;
 
 /* A path vertex on a patch. */
@@ -241,6 +243,12 @@ inline uint shade_direct_light(ts_shade_params sp, const shade_lights *L, const 
     ts_light_sample ls =
         light_sample(L->lights, li, choose, L->env, L->emitters, L->cp, L->attr, v->p, v->n,
                      sampler_set_value(u, 1u), sampler_set_value(u, 2u), sampler_set_value(u, 3u));
+    /* A point a trim removes from an emitter gives nothing: the sample's pdf is the whole
+     * piece's, so the estimate is of the light of the part that is there. */
+    if (ls.patch != TS_INVALID && L->attr[ls.patch].trim_count != 0u &&
+        !trim_keeps(L->trim_seg + L->attr[ls.patch].trim_first, L->attr[ls.patch].trim_count, ls.u,
+                    ls.v))
+        return 0u;
     float f[3] = {0.0f, 0.0f, 0.0f};
     float pb = ls.pdf > 0.0f ? bsdf_eval(v->a, v->cs, v->n, v->wo, ls.dir, f) : 0.0f;
     float cosl = ls.pdf > 0.0f ? v3_dot(v->n, ls.dir) : 0.0f;
@@ -352,7 +360,7 @@ __kernel void shade_path(ts_shade_params sp, ts_order_divs ord, uint first_sampl
                          ts_relight_params rp, __global const uint *relight_patch,
                          __global const float *relight_coeffs, __global const float *relight_normal,
                          __global const ts_vec4 *relight_light, __global const ts_vec4 *grid,
-                         __global const uint *grid_at)
+                         __global const uint *grid_at, __global const ts_vec4 *trim_seg)
 {
     uint k = get_global_id(0);
     if (k >= path_count) return;
@@ -369,7 +377,8 @@ __kernel void shade_path(ts_shade_params sp, ts_order_divs ord, uint first_sampl
                       .env = {env_texels, env_marginal, env_conditional},
                       .emitters = emitters,
                       .cp = cp,
-                      .attr = attr};
+                      .attr = attr,
+                      .trim_seg = trim_seg};
     ts_tex_ctx tex = {textures, tex_pages, tex_pool};
     shade_rays rays = {org, dir, hit, entry, ray_flags, ray_from};
     ts_hit h = hit[i];

@@ -4,7 +4,8 @@
  * each), covers pi (0.4^2 - 0.15^2) of the square's pixels in both geometry modes (boxes and
  * triangles) within the pixels along the two circles; and under a distant light straight
  * above, the same ring as an occluder lets the light through its hole and around it, so the
- * floor below is lit exactly where the ring is not (the same count). Needs an OpenCL device
+ * floor below is lit exactly where the ring is not (the same count); as an area light the
+ * ring lights a floor alike by light and by BSDF sampling. Needs an OpenCL device
  * (skipped, 77, without one); the host side: tests/test_trim.c. */
 #include "test_support.h"
 #include "image/image.h"
@@ -120,11 +121,57 @@ static void test_ring_shadow(void **state)
     expect_ring(N * N - lit);
 }
 
+/* The mean red of a matte floor lit only by the unit square (trimmed to the ring or not) as an
+ * area light 1 above it, unseen by the camera, under --sampling `sampling`. */
+static double floor_mean(int trimmed, const char *sampling)
+{
+    char trim[4096], text[8192];
+    ring_trim(trim, sizeof trim);
+    snprintf(text, sizeof text,
+             "Format 16 16 1\nProjection \"orthographic\"\nScreenWindow -2 2 -2 2\n"
+             "Translate 0 0 5\nWorldBegin\nAttributeBegin\n"
+             "Attribute \"visibility\" \"int camera\" [0]\n"
+             "AreaLightSource \"arealight\" 1 \"intensity\" [4]\nTranslate 0 0 -1\n%s%s"
+             "AttributeEnd\nPatch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0]\n"
+             "WorldEnd\n",
+             trimmed ? trim : "", quad);
+    test_write_text(test_path_in(dir, "lit.rib"), text);
+    /* --lod 6: the ring's micro-quads (what BSDF rays meet) follow its curves to 1/64 of the
+     * square; unseen by the camera, it would be diced at m = 3 (8 x 8 micro-quads), whose
+     * centres keep 10% more of it than the curves do (light sampling tests the curves) */
+    test_tessera_ok(dir, "render '%s' -o '%s' --quiet --spp 256 --depth 1 --lod 6 --sampling %s",
+                    test_path_in(dir, "lit.rib"), test_path_in(dir, "lit.exr"), sampling);
+    ts_image img;
+    test_read_image(test_path_in(dir, "lit.exr"), &img);
+    double sum = 0.0;
+    for (int i = 0; i < img.width * img.height; i++)
+        sum += img.pixels[(size_t)i * img.channels];
+    double mean = sum / (img.width * img.height);
+    image_free(&img);
+    return mean;
+}
+
+/* A trimmed emitter gives the light of what is left of it: light sampling (whose samples on
+ * the removed part give nothing) agrees with BSDF sampling (whose rays meet the ring as
+ * trimmed), and both are well below the whole square's. */
+static void test_trimmed_emitter(void **state)
+{
+    (void)state;
+    double light = floor_mean(1, "light"), bsdf = floor_mean(1, "bsdf");
+    double whole = floor_mean(0, "light");
+    if (!(fabs(light - bsdf) <= 0.05 * bsdf))
+        fail_msg("the ring lights the floor %g by light sampling, %g by BSDF sampling", light,
+                 bsdf);
+    if (!(light > 0.25 * whole && light < 0.65 * whole))
+        fail_msg("the ring gives %g of the whole square's %g", light, whole);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_ring_coverage),
         cmocka_unit_test(test_ring_shadow),
+        cmocka_unit_test(test_trimmed_emitter),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -187,7 +187,7 @@ int pipeline_shade(ts_pipeline *p, const ts_shade_params *sp, uint32_t first_sam
             DEV_ARG(p->flatness), DEV_ARG(p->textures), DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool),
             DEV_ARG(p->alive), DEV_ARG(p->relight), DEV_ARG(p->relight_patch),
             DEV_ARG(p->relight_coeffs), DEV_ARG(p->relight_normal), DEV_ARG(p->relight_light),
-            DEV_ARG(p->grid), DEV_ARG(p->grid_at), (size_t)0) ||
+            DEV_ARG(p->grid), DEV_ARG(p->grid_at), DEV_ARG(p->trim_seg), (size_t)0) ||
         pipeline_grid_publish(p, err) || launch_shade(p, wave_size, path_count, err) ||
         dev_finish(p->cl, p->stats, err))
         return err->code;

@@ -33,6 +33,7 @@ typedef struct ts_light_sample {
     float pdf;    /* solid angle, with the light choice; 0 = failed sample */
     int delta;    /* a delta light: no BSDF sample can find it */
     ts_u32 patch; /* area: the sampled patch (its own boxes must not shadow the ray) */
+    float u, v;   /* area: the sampled point's (u, v) on it (shade.cl: a trim may remove it) */
 } ts_light_sample;
 
 /* The environment map of a dome light: texels (rgb), the marginal CDF over rows (H) and the
@@ -195,7 +196,7 @@ TS_INLINE ts_light_sample light_sample(TS_CONST_GLOBAL ts_light *lights, ts_u32 
 {
     ts_light_sample s;
     TS_CONST_GLOBAL ts_light *l = &lights[li];
-    s.dist = TS_NO_HIT, s.delta = 0, s.patch = TS_INVALID, s.pdf = 0.0f;
+    s.dist = TS_NO_HIT, s.delta = 0, s.patch = TS_INVALID, s.pdf = 0.0f, s.u = s.v = 0.0f;
     s.le[0] = l->radiance[0], s.le[1] = l->radiance[1], s.le[2] = l->radiance[2];
     if (l->type == TS_LIGHT_DISTANT) {
         ts_v3 d = v3(l->dir[0], l->dir[1], l->dir[2]);
@@ -241,7 +242,7 @@ TS_INLINE ts_light_sample light_sample(TS_CONST_GLOBAL ts_light *lights, ts_u32 
         if (!(cl > 1e-6f)) return s;
         TS_CONST_GLOBAL ts_patch_attr *a = &attr[e->patch];
         s.le[0] = a->le_r, s.le[1] = a->le_g, s.le[2] = a->le_b;
-        s.patch = e->patch;
+        s.patch = e->patch, s.u = u, s.v = u2;
         s.pdf = choose * e->prob * d2 / (jac * cl);
     }
     return s;

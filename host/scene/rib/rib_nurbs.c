@@ -109,14 +109,8 @@ static int nurbs_emit(void *ctx, const double cp[16][3], const double uv[4][2], 
             p->emit_trim_count = n;
         }
     }
-    uint32_t before = p->scene->patch_count;
     int rc =
         rib_geom_emit(p, c->line, c->col, cp, NULL, vars->Cs.v ? cs : NULL, (const double(*)[2])st);
-    const ts_patch_attr *a = p->scene->patch_count > before ? &p->scene->attr[before] : NULL;
-    if (rc == TS_OK && a && a->trim_count && a->le_r + a->le_g + a->le_b > 0.0f)
-        rib_warn_once(p, p->req_line, p->req_col,
-                      "NuPatch: a trimmed emitter is sampled as a light over its whole pieces "
-                      "(rays see the trim, light sampling does not)");
     p->emit_trim_first = p->emit_trim_count = 0;
     return rc;
 }
