@@ -24,10 +24,12 @@
  *   tight boxes as its codes. The root group's lanes 1-3 are left empty.
  * Reads: trees, segments (the patch built is each segment's shape), grid (w = d), corner normals,
  * attributes, transforms, flatness, patch boxes (every leaf box is clamped to its patch's top-level
- * box), textures (the min-max tiles under the leaves' st rectangles must be resident). Writes:
+ * box), textures (the min-max tiles under the leaves' st rectangles must be resident), trim
+ * segments (a TS_SEG_TRIMMED segment's micro-quads whose centres its trim removes get empty
+ * boxes, lo > hi: lib/trim.h). Writes:
  * groups[group_first + time * quadtree_group_count(m) ...] and codes[the same]. Invariants:
- * every vertex of a micro-quad lies in its leaf box and in its decoded tight box; every inner box
- * is the union of its children, every inner tight box holds its children's
+ * every vertex of a micro-quad kept lies in its leaf box and in its decoded tight box; every inner
+ * box is the union of its children, every inner tight box holds its children's
  * (tests/test_dice_build.c, tests/test_bounds.c). */
 #include "lib/shared_types.h"
 #include "lib/displace.h"

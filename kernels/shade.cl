@@ -30,7 +30,8 @@
  * (path field mis) and the weighting chosen when it was made (state's TS_MIS_* mode):
  * --sampling light or bsdf keeps one strategy at weight 1.
  * Lights: one chosen per vertex by weight (lib/lights.h light_select); a uniform dome is
- * left to BSDF rays unless --sampling light.
+ * left to BSDF rays unless --sampling light. A point sampled on an area light that a trim
+ * removes (TrimCurve, lib/trim.h) gives nothing.
  * Relighting (render --occlusion, rp.bands > 0; lib/relight.h, docs/bake.md): at the eye
  * ray's hit (bounce 0) the domes' light comes from the baked occlusion instead of rays:
  * shade_relit adds Kd Cs / pi times the irradiance E(n) of the domes through the baked
