@@ -95,6 +95,8 @@ typedef struct scene_uploads {
     const void *instance, *inst_xform; /* scene.h instancing, NULL when nothing is shared */
     const void *trim_seg;              /* scene.h trimmed NURBS, NULL when nothing is trimmed */
     ts_patch_attr *attr;       /* the scene's, with each patch's emitter index (lights_build) */
+    const void *attr_src;      /* what the attr buffer holds: attr, or the scene's own array
+                                  where that is the same bytes (no emitter) */
     ts_vec4 *flatness;         /* patch_flatness; w: the longest side of the patch's box */
     ts_vec4 *normals;          /* +z corner normals when the scene has none */
     ts_light_table lights;     /* lights.h */
@@ -160,6 +162,14 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
         return err->code;
     }
     if (lights_build(s, &u->env, u->attr, &u->lights, err)) return err->code;
+    /* Without emitters the copy is the scene's attributes byte for byte: the buffer may read
+     * those in place (scene_in_place) and the copy goes. */
+    u->attr_src = u->attr;
+    if (s->patch_count && u->lights.emitter_count == 0 &&
+        memcmp(u->attr, s->attr, s->patch_count * sizeof *u->attr) == 0) {
+        free(u->attr);
+        u->attr = NULL, u->attr_src = s->attr;
+    }
     if (s->occlusion)
         u->relight_patch = s->occlusion->patch, u->relight_coeffs = s->occlusion->coeffs,
         u->relight_normal = s->occlusion->normal;
@@ -169,15 +179,15 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
 /* Whether the device may read the scene's array at `host` in place (CL_MEM_USE_HOST_PTR)
  * instead of a copy: on a device that shares host memory, for the largest arrays the scene
  * keeps anyway (control points and displacement normals: 400 of the 844 bytes a patch's
- * buffers take, docs/benchmarks.md), when they are SCENE_ALIGN-aligned as the scene makes
- * them. They live as long as the scene, which outlives its pipelines, and no one writes them
- * while it renders. */
+ * buffers take, docs/benchmarks.md; the attributes' 160 where no patch emits), when they are
+ * SCENE_ALIGN-aligned as the scene makes them. They live as long as the scene, which outlives its
+ * pipelines, and no one writes them while it renders. */
 static int scene_in_place(const ts_pipeline *p, const void *host)
 {
     const ts_scene *s = p->scene;
     if (!p->cl->info.host_unified || ((uintptr_t)host % SCENE_ALIGN) != 0) return 0;
     return host == s->cp || (s->cp1 && host == s->cp1) || (s->corner_n && host == s->corner_n) ||
-           (s->mid_n && host == s->mid_n);
+           (s->mid_n && host == s->mid_n) || (s->attr && host == s->attr);
 }
 
 /* Element counts of the buffers (TS_PIPELINE_BUFFERS' count column reads them as c.NAME).

@@ -161,7 +161,7 @@ typedef struct ts_trace_mode {
     X(cp1,             TS_MEM_SCENE,      ts_vec4,       16 * c.moving,  u.cp1)                  \
     X(corner_n,        TS_MEM_SCENE,      ts_vec4,       4 * c.patches,  u.corner_n)            \
     X(mid_n,           TS_MEM_SCENE,      ts_vec4,       5 * c.patches,  u.mid_n)               \
-    X(attr,            TS_MEM_SCENE,      ts_patch_attr, c.patches,      u.attr)                \
+    X(attr,            TS_MEM_SCENE,      ts_patch_attr, c.patches,      u.attr_src)            \
     X(xform,           TS_MEM_SCENE,      ts_xform,      c.xforms,       u.xform)               \
     X(trim_seg,        TS_MEM_SCENE,      ts_vec4,       c.trim_segs,    u.trim_seg)            \
     X(flatness,        TS_MEM_SCENE,      ts_vec4,       c.patches,      u.flatness)            \

@@ -28,7 +28,7 @@
 
 /* *a (used: the first `used` bytes) moved to a new SCENE_ALIGN-aligned block of `bytes`; 0 when
  * there is no memory (*a is then unchanged). */
-static int scene_grow_aligned(ts_vec4 **a, size_t used, size_t bytes)
+static int scene_grow_aligned(void **a, size_t used, size_t bytes)
 {
     void *n = NULL;
     if (posix_memalign(&n, SCENE_ALIGN, bytes) != 0) return 0;
@@ -38,7 +38,7 @@ static int scene_grow_aligned(ts_vec4 **a, size_t used, size_t bytes)
     return 1;
 }
 
-/* Doubles the patch arrays when full (cp, cp1, corner_n and mid_n SCENE_ALIGN-aligned). Each
+/* Doubles the patch arrays when full (cp, cp1, corner_n, mid_n and attr SCENE_ALIGN-aligned). Each
  * array is grown in turn and its pointer kept as soon as it has moved; the capacity only moves
  * when all succeeded, so a failure leaves the scene consistent (some arrays merely larger than
  * needed). */
@@ -49,13 +49,13 @@ static int scene_reserve_patch(ts_scene *s, ts_error *err)
         return ts_error_set(err, TS_E_MEMORY, "scene: more than %u patches", s->patch_capacity);
     uint32_t cap = s->patch_capacity ? s->patch_capacity * 2u : SCENE_FIRST_PATCHES;
     size_t v = sizeof(ts_vec4), n = s->patch_count;
-    if (!scene_grow_aligned(&s->cp, n * 16u * v, (size_t)cap * 16u * v)) goto fail;
-    if (s->cp1 && !scene_grow_aligned(&s->cp1, n * 16u * v, (size_t)cap * 16u * v)) goto fail;
-    if (!scene_grow_aligned(&s->corner_n, n * 4u * v, (size_t)cap * 4u * v)) goto fail;
-    if (!scene_grow_aligned(&s->mid_n, n * 5u * v, (size_t)cap * 5u * v)) goto fail;
-    ts_patch_attr *attr = realloc(s->attr, (size_t)cap * sizeof *attr);
-    if (!attr) goto fail;
-    s->attr = attr;
+    size_t at = sizeof(ts_patch_attr);
+    if (!scene_grow_aligned((void **)&s->cp, n * 16u * v, (size_t)cap * 16u * v)) goto fail;
+    if (s->cp1 && !scene_grow_aligned((void **)&s->cp1, n * 16u * v, (size_t)cap * 16u * v))
+        goto fail;
+    if (!scene_grow_aligned((void **)&s->corner_n, n * 4u * v, (size_t)cap * 4u * v)) goto fail;
+    if (!scene_grow_aligned((void **)&s->mid_n, n * 5u * v, (size_t)cap * 5u * v)) goto fail;
+    if (!scene_grow_aligned((void **)&s->attr, n * at, (size_t)cap * at)) goto fail;
     s->patch_capacity = cap;
     return TS_OK;
 fail:
@@ -67,7 +67,7 @@ static int scene_start_motion(ts_scene *s, ts_error *err)
 {
     if (s->cp1) return TS_OK;
     size_t n = (size_t)s->patch_capacity * 16u;
-    if (!scene_grow_aligned(&s->cp1, 0, (n ? n : 16u) * sizeof *s->cp1))
+    if (!scene_grow_aligned((void **)&s->cp1, 0, (n ? n : 16u) * sizeof *s->cp1))
         return ts_error_set(err, TS_E_MEMORY, "scene: out of memory for motion");
     if (s->patch_count) memcpy(s->cp1, s->cp, (size_t)s->patch_count * 16u * sizeof *s->cp);
     return TS_OK;

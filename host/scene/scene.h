@@ -118,7 +118,7 @@ typedef struct ts_instance_run {
     double to_master[12]; /* the inverse of a: this instance's world -> the master's */
 } ts_instance_run;
 
-/* The alignment of the arrays cp, cp1, corner_n and mid_n as the scene makes them (bytes): a
+/* The alignment of the arrays cp, cp1, corner_n, mid_n and attr as the scene makes them (bytes): a
  * device that shares host memory reads them in place (pipeline.c; PoCL uses a host pointer
  * so aligned without a copy). Scenes unpacked from a block (scene_pack.h) are not aligned. */
 #define SCENE_ALIGN 4096u
