@@ -685,7 +685,7 @@ static const struct {
      "t.rib:2:10: error: Blobby: instruction 0 (code[0]): a repelling plane (opcode 1003) is not "
      "supported"},
     {"Perspective 30", "t.rib:1:1: error: Perspective is not supported"},
-    {"TrimCurve [1]", "t.rib:1:1: error: TrimCurve: missing [order]"},
+    {"TrimCurve [1]", "t.rib:1:1: error: TrimCurve: missing order (an array of integers)"},
     {"Translate 1 2", "t.rib:1:1: error: Translate expects 3 numbers, got 2"},
     {"Translate 1 2 3 4", "t.rib:1:17: error: too many arguments to Translate"},
     {"Rotate 10 0 0 0", "t.rib:1:1: error: Rotate about a zero-length axis"},

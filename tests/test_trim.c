@@ -53,7 +53,7 @@ static void test_circle_polyline(void **state)
     (void)state;
     double u[9], v[9], w[9];
     circle(0.5, 0.5, 0.3, u, v, w);
-    const int nc = 1, order = 3, n = 9;
+    const double nc = 1, order = 3, n = 9;
     const double mn = 0, mx = 1;
     trim_curves c = {1, &nc, &order, &n, circle_knot, &mn, &mx, u, v, w};
     trim_set t;
@@ -86,26 +86,26 @@ static void test_bad_curves(void **state)
     (void)state;
     const double k5[10] = {0, 0, 0, 0, 0, 1, 1, 1, 1, 1}, p5[5] = {0, 1, 2, 3, 4},
                  w5[5] = {1, 1, 1, 1, 1};
-    const int nc = 1, o5 = 5, n5 = 5, o2 = 2, n2 = 2, n1 = 1;
+    const double nc = 1, o5 = 5, n5 = 5, o2 = 2, n2 = 2, n1 = 1;
     const double mn = 0, mx = 1, lo = 2, hi = 3;
     trim_curves c = {1, &nc, &o5, &n5, k5, &mn, &mx, p5, p5, w5};
-    expect_refused(&c, "curve 0: order 5 is not supported (2 to 4)");
+    expect_refused(&c, "curve 0: order 5 is not supported (at most 4, cubic)");
     const double kd[4] = {0, 1, 0.5, 1}, kk[4] = {0, 0, 1, 1}, w0[2] = {1, 0};
     c = (trim_curves){1, &nc, &o2, &n2, kd, &mn, &mx, p5, p5, w5};
-    expect_refused(&c, "curve 0: knot 1 (1) is greater than knot 2 (0.5)");
+    expect_refused(&c, "curve 0: knot 2 (0.5) is less than the one before (1)");
     c = (trim_curves){1, &nc, &o2, &n2, kk, &mn, &mx, p5, p5, w0};
     expect_refused(&c, "curve 0: weight 1 is 0 (weights must be positive)");
     c = (trim_curves){1, &nc, &o2, &n2, kk, &lo, &hi, p5, p5, w5};
-    expect_refused(&c, "curve 0: its range [2, 3] misses the knots' [0, 1]");
+    expect_refused(&c, "curve 0: min 2 and max 3 leave no part of the valid range [0, 1]");
     c = (trim_curves){1, &nc, &o2, &n1, kk, &mn, &mx, p5, p5, w5};
-    expect_refused(&c, "curve 0: 1 control points, fewer than its order 2");
+    expect_refused(&c, "curve 0: n = 1 control points are fewer than the order 2");
 }
 
 /* A circle of radius 0.3 about (0.5, 0.5), and inside it (hole) one of radius 0.1 when hole. */
 static void make_ring(trim_set *t, int hole)
 {
     double u[18], v[18], w[18], knot[24], mn[2] = {0, 0}, mx[2] = {1, 1};
-    int nc[2] = {1, 1}, order[2] = {3, 3}, n[2] = {9, 9};
+    double nc[2] = {1, 1}, order[2] = {3, 3}, n[2] = {9, 9};
     circle(0.5, 0.5, 0.3, u, v, w);
     circle(0.5, 0.5, 0.1, u + 9, v + 9, w + 9);
     memcpy(knot, circle_knot, sizeof circle_knot);
@@ -189,13 +189,15 @@ static void test_rib_trim_errors(void **state)
     test_parse_rib_error("TrimCurve [1] [2] [0 0 1] [0] [1] [2] [0 1] [0 1] [1 1]",
                          "t.rib:1:19: error: TrimCurve: [knot] needs 4 values, got 3");
     test_parse_rib_error("TrimCurve [1] [2.5] [0 0 1 1] [0] [1] [2] [0 1] [0 1] [1 1]",
-                         "t.rib:1:15: error: TrimCurve: order value 0 must be an integer >= 1, "
-                         "got 2.5");
+                         "t.rib:1:15: error: TrimCurve: order: value 0 is 2.5, not an integer in "
+                         "[1, 16777216]");
     test_parse_rib_error("TrimCurve [] [2] [0 0 1 1] [0] [1] [2] [0 1] [0 1] [1 1]",
                          "t.rib:1:11: error: TrimCurve: no loops");
-    test_parse_rib_error("TrimCurve [1] [5] [0 0 0 0 0 1 1 1 1 1] [0] [1] [5] [0 1 2 3 4] "
-                         "[0 1 2 3 4] [1 1 1 1 1]",
-                         "t.rib:1:1: error: TrimCurve: curve 0: order 5 is not supported (2 to 4)");
+    test_parse_rib_error(
+        "TrimCurve [1] [5] [0 0 0 0 0 1 1 1 1 1] [0] [1] [5] [0 1 2 3 4] "
+        "[0 1 2 3 4] [1 1 1 1 1]",
+        "t.rib:1:1: error: TrimCurve: curve 0: order 5 is not supported (at most 4, "
+        "cubic)");
 }
 
 /* The host build reference on a unit quad trimmed to a circle of radius 0.3: a leaf box is

@@ -83,20 +83,15 @@ static void test_ring_coverage(void **state)
     (void)state;
     char trim[4096], text[8192];
     ring_trim(trim, sizeof trim);
-    snprintf(text, sizeof text,
-             "Format %d %d 1\nProjection \"orthographic\"\nScreenWindow -1 1 -1 1\n"
-             "Translate 0 0 5\nWorldBegin\nSurface \"constant\"\nColor [1 1 1]\n%s%s"
-             "WorldEnd\n",
-             N, N, trim, quad);
+    const char *fmt = "Format %d %d 1\nProjection \"orthographic\"\nScreenWindow -1 1 -1 1\n"
+                      "Translate 0 0 5\nWorldBegin\nSurface \"constant\"\nColor [1 1 1]\n%s%s"
+                      "WorldEnd\n";
+    snprintf(text, sizeof text, fmt, N, N, trim, quad);
     int boxes = count_bright(text, "", "R"),
         tris = count_bright(text, "--intersect triangles", "R");
     expect_ring(boxes);
     expect_ring(tris);
-    /* without the trim: the whole square */
-    snprintf(text, sizeof text,
-             "Format %d %d 1\nProjection \"orthographic\"\nScreenWindow -1 1 -1 1\n"
-             "Translate 0 0 5\nWorldBegin\nSurface \"constant\"\nColor [1 1 1]\n%sWorldEnd\n",
-             N, N, quad);
+    snprintf(text, sizeof text, fmt, N, N, "", quad); /* without the trim: the whole square */
     assert_int_equal(count_bright(text, "", "R"), N * N);
 }
 

@@ -13,27 +13,27 @@
 
 /* ---- checks ------------------------------------------------------------------------- */
 
-static int nurbs_check_dir(int n, int order, const double *knot, double *lo, double *hi, char d,
-                           char *why, size_t len)
+int nurbs_check_knots(int n, int order, const double *knot, double *lo, double *hi, const char *d,
+                      char *why, size_t len)
 {
     if (order < 2 || order > NURBS_MAX_ORDER) {
-        snprintf(why, len, "%corder %d is not supported (%s)", d, order,
+        snprintf(why, len, "%sorder %d is not supported (%s)", d, order,
                  order < 2 ? "at least 2: order 1 is a step function" : "at most 4, cubic");
         return TS_E_SCENE;
     }
     if (n < order) {
-        snprintf(why, len, "n%c = %d control points are fewer than the %corder %d", d, n, d, order);
+        snprintf(why, len, "n%s = %d control points are fewer than the %sorder %d", d, n, d, order);
         return TS_E_SCENE;
     }
     for (int k = 1; k < n + order; k++)
         if (!(knot[k] >= knot[k - 1])) {
-            snprintf(why, len, "%cknot %d (%g) is less than the one before (%g)", d, k, knot[k],
+            snprintf(why, len, "%sknot %d (%g) is less than the one before (%g)", d, k, knot[k],
                      knot[k - 1]);
             return TS_E_SCENE;
         }
     double a = knot[order - 1], b = knot[n];
     if (!(*lo < *hi) || !(*lo < b) || !(*hi > a) || !(a < b)) {
-        snprintf(why, len, "%cmin %g and %cmax %g leave no part of the valid range [%g, %g]", d,
+        snprintf(why, len, "%smin %g and %smax %g leave no part of the valid range [%g, %g]", d,
                  *lo, d, *hi, a, b);
         return TS_E_SCENE;
     }
@@ -44,9 +44,9 @@ static int nurbs_check_dir(int n, int order, const double *knot, double *lo, dou
 int nurbs_check(const ts_nurbs *s, char *why, size_t len)
 {
     double lo = s->umin, hi = s->umax;
-    int rc = nurbs_check_dir(s->nu, s->uorder, s->uknot, &lo, &hi, 'u', why, len);
+    int rc = nurbs_check_knots(s->nu, s->uorder, s->uknot, &lo, &hi, "u", why, len);
     lo = s->vmin, hi = s->vmax;
-    if (rc == TS_OK) rc = nurbs_check_dir(s->nv, s->vorder, s->vknot, &lo, &hi, 'v', why, len);
+    if (rc == TS_OK) rc = nurbs_check_knots(s->nv, s->vorder, s->vknot, &lo, &hi, "v", why, len);
     for (size_t k = 0; rc == TS_OK && k < (size_t)s->nu * (size_t)s->nv; k++)
         if (!(s->pw[4 * k + 3] > 0.0)) {
             snprintf(why, len, "the weight of control point %zu is %g (weights must be positive)",

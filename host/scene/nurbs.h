@@ -57,6 +57,12 @@ typedef int (*nurbs_patch_fn)(void *ctx, const double cp[16][3], const double uv
  * ([knot[order - 1], knot[n]]; umin and umax are clamped to it). Returns TS_OK or
  * TS_E_SCENE with `why` set ("uorder 5 is not supported (at most 4, cubic)"). */
 int nurbs_check(const ts_nurbs *s, char *why, size_t why_len);
+/* One direction's part of it, also a trim curve's (scene/trim.c): order in [2,
+ * NURBS_MAX_ORDER], at least `order` points, knots that do not decrease, and [*lo, *hi]
+ * meeting [knot[order - 1], knot[n]], clamped to it; `dir` ("u", "v" or "") begins the names
+ * in `why`. */
+int nurbs_check_knots(int n, int order, const double *knot, double *lo, double *hi, const char *dir,
+                      char *why, size_t why_len);
 
 /* Emits the patches of a checked surface through fn. Returns TS_OK, TS_E_MEMORY (why
  * set) or fn's code. */

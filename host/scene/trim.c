@@ -3,6 +3,7 @@
 
 #include "base/hash.h"
 #include "lib/trim.h"
+#include "scene/nurbs.h"
 #include "scene/scene.h"
 
 #include <math.h>
@@ -15,7 +16,7 @@
 static void curve_point(const double *knot, const double *u, const double *v, const double *w,
                         int order, int k, double t, double out[2])
 {
-    double d[TRIM_MAX_ORDER][3];
+    double d[NURBS_MAX_ORDER][3];
     int p = order - 1;
     for (int j = 0; j <= p; j++)
         d[j][0] = u[j + k - p], d[j][1] = v[j + k - p], d[j][2] = w[j + k - p];
@@ -44,38 +45,24 @@ static int trim_push(trim_set *t, uint32_t *cap, const double a[2], const double
     return TS_OK;
 }
 
-/* Checks curve c (its values from u, v, w and knot) and its range. */
+/* Checks curve k (its knots, weights and range, nurbs_check_knots for all but the weights):
+ * the range it is drawn over in [*lo, *hi]. */
 static int curve_check(const trim_curves *c, int k, const double *knot, const double *w, double *lo,
                        double *hi, char *why, size_t why_len)
 {
-    int order = c->order[k], n = c->n[k];
-    if (order < 2 || order > TRIM_MAX_ORDER) {
-        snprintf(why, why_len, "curve %d: order %d is not supported (2 to %d)", k, order,
-                 TRIM_MAX_ORDER);
+    int order = (int)c->order[k], n = (int)c->n[k];
+    char what[192];
+    *lo = c->min[k], *hi = c->max[k];
+    if (nurbs_check_knots(n, order, knot, lo, hi, "", what, sizeof what) != TS_OK) {
+        snprintf(why, why_len, "curve %d: %s", k, what);
         return TS_E_SCENE;
     }
-    if (n < order) {
-        snprintf(why, why_len, "curve %d: %d control points, fewer than its order %d", k, n, order);
-        return TS_E_SCENE;
-    }
-    for (int i = 0; i + 1 < n + order; i++)
-        if (!(knot[i] <= knot[i + 1])) {
-            snprintf(why, why_len, "curve %d: knot %d (%g) is greater than knot %d (%g)", k, i,
-                     knot[i], i + 1, knot[i + 1]);
-            return TS_E_SCENE;
-        }
     for (int i = 0; i < n; i++)
         if (!(w[i] > 0.0)) {
             snprintf(why, why_len, "curve %d: weight %d is %g (weights must be positive)", k, i,
                      w[i]);
             return TS_E_SCENE;
         }
-    *lo = fmax(c->min[k], knot[order - 1]), *hi = fmin(c->max[k], knot[n]);
-    if (!(*lo < *hi)) {
-        snprintf(why, why_len, "curve %d: its range [%g, %g] misses the knots' [%g, %g]", k,
-                 c->min[k], c->max[k], knot[order - 1], knot[n]);
-        return TS_E_SCENE;
-    }
     return TS_OK;
 }
 
@@ -89,10 +76,10 @@ int trim_make(const trim_curves *c, trim_set *out, char *why, size_t why_len)
     for (int l = 0; l < c->nloops && rc == TS_OK; l++) {
         double first[2] = {0, 0}, last[2] = {0, 0};
         int started = 0;
-        for (int e = 0; e < c->ncurves[l] && rc == TS_OK; e++, k++) {
+        for (int e = 0; e < (int)c->ncurves[l] && rc == TS_OK; e++, k++) {
             const double *knot = c->knot + at_knot, *u = c->u + at_pt, *v = c->v + at_pt,
                          *w = c->w + at_pt;
-            int order = c->order[k], n = c->n[k];
+            int order = (int)c->order[k], n = (int)c->n[k];
             double lo, hi;
             rc = curve_check(c, k, knot, w, &lo, &hi, why, why_len);
             for (int s = order - 1; s < n && rc == TS_OK; s++) {

@@ -22,7 +22,6 @@
 #include <stdint.h>
 
 #define TRIM_SPAN_STEPS 16      /* chords per knot span of a curve of order 3 or 4 */
-#define TRIM_MAX_ORDER 4        /* orders 2 (linear) to 4 (cubic) */
 #define TRIM_MAX_SEGMENTS 65536 /* segments of one TrimCurve at most */
 
 /* RiTrimCurve's arguments (rib_trim.c reads them): nloops loops of ncurves[l] curves; curve c
@@ -31,7 +30,7 @@
  * in loop order. */
 typedef struct trim_curves {
     int nloops;
-    const int *ncurves, *order, *n;
+    const double *ncurves, *order, *n; /* whole numbers (rib_int_array checked them) */
     const double *knot, *min, *max, *u, *v, *w;
 } trim_curves;
 
@@ -42,10 +41,11 @@ typedef struct trim_set {
     uint32_t count;
 } trim_set;
 
-/* Checks the curves (orders in [2, TRIM_MAX_ORDER], at least `order` points, knots that do not
- * decrease, positive weights, a parameter range that meets the valid one, at most
- * TRIM_MAX_SEGMENTS segments) and makes the polylines. TS_E_SCENE with `why` set
- * ("curve 3: order 5 is not supported (2 to 4)"); TS_E_MEMORY. */
+/* Checks the curves (as a NURBS direction is checked, nurbs_check_knots: orders 2 to 4, at
+ * least `order` points, knots that do not decrease, a parameter range that meets the valid one;
+ * and positive weights, at most TRIM_MAX_SEGMENTS segments) and makes the polylines.
+ * TS_E_SCENE with `why` set ("curve 3: order 5 is not supported (at most 4, cubic)");
+ * TS_E_MEMORY. */
 int trim_make(const trim_curves *c, trim_set *out, char *why, size_t why_len);
 void trim_set_free(trim_set *t);
 

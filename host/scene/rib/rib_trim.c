@@ -10,6 +10,7 @@
 #include "scene/rib/rib_internal.h"
 
 #include "scene/rib/rib_args.h"
+#include "scene/rib/rib_prims.h"
 #include "scene/trim.h"
 
 #include <math.h>
@@ -35,25 +36,12 @@ static int trim_array(rib_parser *p, size_t *i, const char *what, const double *
     return TS_OK;
 }
 
-/* The values of an array that must be `want` integers in [lo, RIB_MAX_VALUES], as ints in
- * out (malloc'd). */
-static int trim_ints(rib_parser *p, size_t at, const char *what, const double *v, size_t n,
-                     size_t want, int lo, int **out)
+/* Fails unless argument `at` (`what`) holds `want` values, as `got` says. */
+static int trim_length(rib_parser *p, size_t at, const char *what, size_t got, size_t want)
 {
-    const rib_arg *a = &p->args[at];
-    if (n != want)
-        return rib_error_at(p, a->line, a->col, "TrimCurve: [%s] needs %zu values, got %zu", what,
-                            want, n);
-    *out = malloc((n ? n : 1) * sizeof **out);
-    if (!*out) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
-    for (size_t k = 0; k < n; k++) {
-        if (!(v[k] >= lo && v[k] <= RIB_MAX_VALUES && v[k] == floor(v[k])))
-            return rib_error_at(p, a->line, a->col,
-                                "TrimCurve: %s value %zu must be an integer >= %d, got %g", what, k,
-                                lo, v[k]);
-        (*out)[k] = (int)v[k];
-    }
-    return TS_OK;
+    if (got == want) return TS_OK;
+    return rib_error_at(p, p->args[at].line, p->args[at].col,
+                        "TrimCurve: [%s] needs %zu values, got %zu", what, want, got);
 }
 
 /* Keeps t as the parse's trim number count + 1 (the state's p->trim). */
@@ -75,47 +63,42 @@ oom:
     return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
 }
 
-/* The arrays after ncurves and order: their lengths follow from ncurves, order and n. */
-static int trim_read(rib_parser *p, size_t i, trim_curves *c, int **order, int **n)
+/* The arrays after ncurves (whole numbers, rib_int_array), their lengths following from
+ * ncurves, order and n. */
+static int trim_read(rib_parser *p, trim_curves *c)
 {
     static const char *const names[] = {"knot", "min", "max", "n", "u", "v", "w"};
     const double *v[7];
-    size_t len[7], at[7], curves = 0, knots = 0, points = 0;
+    size_t len[7], curves = 0, knots = 0, points = 0, no;
     for (int l = 0; l < c->nloops; l++)
         curves += (size_t)c->ncurves[l];
-    const double *ov;
-    size_t on, oat = i;
-    int rc = trim_array(p, &i, "order", &ov, &on);
-    if (rc == TS_OK) rc = trim_ints(p, oat, "order", ov, on, curves, 1, order);
+    int rc = rib_int_array(p, 1, "order", 1, RIB_MAX_VALUES, &c->order, &no);
+    if (rc == TS_OK) rc = trim_length(p, 1, "order", no, curves);
+    size_t i = 2;
     for (int k = 0; k < 7 && rc == TS_OK; k++)
-        at[k] = i, rc = trim_array(p, &i, names[k], &v[k], &len[k]);
-    if (rc == TS_OK) rc = trim_ints(p, at[3], "n", v[3], len[3], curves, 1, n);
+        rc = k == 3 ? rib_int_array(p, i++, "n", 1, RIB_MAX_VALUES, &v[k], &len[k])
+                    : trim_array(p, &i, names[k], &v[k], &len[k]);
+    if (rc == TS_OK) rc = trim_length(p, 5, "n", len[3], curves);
     if (rc != TS_OK) return rc;
     for (size_t k = 0; k < curves; k++)
-        knots += (size_t)(*n)[k] + (size_t)(*order)[k], points += (size_t)(*n)[k];
+        knots += (size_t)v[3][k] + (size_t)c->order[k], points += (size_t)v[3][k];
     const size_t want[7] = {knots, curves, curves, curves, points, points, points};
-    for (int k = 0; k < 7; k++)
-        if (len[k] != want[k])
-            return rib_error_at(p, p->args[at[k]].line, p->args[at[k]].col,
-                                "TrimCurve: [%s] needs %zu values, got %zu", names[k], want[k],
-                                len[k]);
-    c->order = *order, c->n = *n;
+    for (int k = 0; k < 7 && rc == TS_OK; k++)
+        rc = trim_length(p, 2 + (size_t)k, names[k], len[k], want[k]);
+    c->n = v[3];
     c->knot = v[0], c->min = v[1], c->max = v[2], c->u = v[4], c->v = v[5], c->w = v[6];
-    return rib_no_more(p, i);
+    return rc == TS_OK ? rib_no_more(p, i) : rc;
 }
 
 int rib_req_trim_curve(rib_parser *p)
 {
-    size_t i = 0;
-    const double *nc;
+    trim_curves c = {0};
     size_t nloops;
-    int *ncurves = NULL, *order = NULL, *n = NULL;
-    int rc = trim_array(p, &i, "ncurves", &nc, &nloops);
+    int rc = rib_int_array(p, 0, "ncurves", 1, RIB_MAX_VALUES, &c.ncurves, &nloops);
     if (rc == TS_OK && nloops == 0)
         rc = rib_error_at(p, p->args[0].line, p->args[0].col, "TrimCurve: no loops");
-    if (rc == TS_OK) rc = trim_ints(p, 0, "ncurves", nc, nloops, nloops, 1, &ncurves);
-    trim_curves c = {(int)nloops, ncurves, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL};
-    if (rc == TS_OK) rc = trim_read(p, i, &c, &order, &n);
+    c.nloops = (int)nloops;
+    if (rc == TS_OK) rc = trim_read(p, &c);
     if (rc == TS_OK) {
         trim_set t;
         char why[256];
@@ -127,9 +110,6 @@ int rib_req_trim_curve(rib_parser *p)
         else
             rc = rib_error_at(p, p->req_line, p->req_col, "TrimCurve: %s", why);
     }
-    free(ncurves);
-    free(order);
-    free(n);
     return rc;
 }
 
