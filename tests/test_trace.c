@@ -263,6 +263,46 @@ static void test_growing_arenas_never_holds_both(void **state)
     dev_close(&cl);
 }
 
+/* On a device that shares host memory, the buffers of the arrays the host keeps anyway are
+ * those arrays (CL_MEM_USE_HOST_PTR, pipeline.c array_in_place): the scene's control points
+ * (and cp1's one patch of them, a scene without motion), normals and, where no patch emits,
+ * attributes, and the pipeline's top-level BVH nodes, patch boxes and flatness bounds, byte
+ * for byte what --stats' device_bytes_in_place counts. With an emitter the attributes are a
+ * copy (they carry its index). */
+static void test_arrays_read_in_place(void **state)
+{
+    (void)state;
+    ts_device cl;
+    test_open_device(&cl);
+    if (!cl.info.host_unified) {
+        dev_close(&cl);
+        skip();
+    }
+    ts_scene s;
+    load_teapot(&s);
+    ts_error err = {0};
+    ts_pipeline_plan plan = {.ray_capacity = W * H, .pair_capacity = W * H * 8};
+    pipeline_plan_arenas(&plan, 1, M);
+    uint64_t per_patch = 16 * sizeof(ts_vec4) + 9 * sizeof(ts_vec4) + sizeof(ts_box) +
+                         sizeof(ts_vec4); /* cp, normals, box, flatness */
+    for (int emits = 0; emits < 2; ++emits) {
+        s.attr[3].le_r = emits ? 1.0f : 0.0f;
+        ts_stats stats = {0};
+        ts_pipeline p;
+        if (pipeline_create(&p, &cl, &s, &plan, W * H, &stats, &err)) fail_msg("%s", err.msg);
+        uint64_t want = s.patch_count * (per_patch + (emits ? 0 : sizeof(ts_patch_attr))) +
+                        16 * sizeof(ts_vec4) + p.qbvh.node_count * sizeof(ts_qbvh_node);
+        assert_non_null(p.qbvh.nodes); /* kept: it is the buffer */
+        assert_non_null(p.box_host);
+        assert_non_null(p.flatness_host);
+        assert_int_equal(stats.counters[TS_COUNTER_device_bytes_in_place], want);
+        pipeline_destroy(&p);
+        stats_free(&stats);
+    }
+    scene_free(&s);
+    dev_close(&cl);
+}
+
 /* Bytes of address space this process uses (/proc/self/statm's first field, in pages). */
 static uint64_t address_space_in_use(void)
 {
@@ -339,6 +379,7 @@ int main(void)
         cmocka_unit_test(test_evicting_cache_fills_the_pairs),
         cmocka_unit_test(test_water_filled_windows_same_hits),
         cmocka_unit_test(test_growing_arenas_never_holds_both),
+        cmocka_unit_test(test_arrays_read_in_place),
         cmocka_unit_test(test_arenas_that_cannot_grow_come_back),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

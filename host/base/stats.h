@@ -37,6 +37,7 @@
     X(patches_shared, "misses filled from another device's dicing (patch_share.h)")       \
     X(device_bytes_peak, "most bytes of device buffers the pipeline held at once")        \
     X(device_bytes_fixed, "bytes of those buffers outside the memory budget (scene, films)") \
+    X(device_bytes_in_place, "of those, read in place from host arrays (CL_MEM_USE_HOST_PTR)") \
     X(bake_points, "points baked (tessera bake; their rays are counted in rays)")
 /* clang-format on */
 

@@ -209,19 +209,22 @@ static ts_light point_light(const ts_scene_light *src, ts_box b)
 }
 
 /* The emitter table: every patch with some le > 0, chosen by power (area times brightest
- * channel); attr[i].emitter names patch i's entry. */
+ * channel); attr[i].emitter names patch i's entry (attr: the caller's copy of s->attr, or NULL
+ * when no patch emits). */
 static int build_emitters(const ts_scene *s, ts_patch_attr *attr, ts_light_table *t, ts_error *err)
 {
+    const ts_patch_attr *sa = s->attr;
     uint32_t ne = 0;
     for (uint32_t i = 0; i < s->patch_count; ++i)
-        ne += attr[i].le_r > 0 || attr[i].le_g > 0 || attr[i].le_b > 0;
+        ne += sa[i].le_r > 0 || sa[i].le_g > 0 || sa[i].le_b > 0;
+    if (ne && !attr) return ts_error_set(err, TS_E_INTERNAL, "lights_build: emitters without attr");
     ts_emitter *em = calloc(ne ? ne : 1, sizeof *em);
     if (!em) return ts_error_set(err, TS_E_MEMORY, "out of memory");
     double total = 0;
     ne = 0;
-    for (uint32_t i = 0; i < s->patch_count; ++i) {
+    for (uint32_t i = 0; attr && i < s->patch_count; ++i) {
         attr[i].emitter = TS_INVALID;
-        float le = fmaxf(attr[i].le_r, fmaxf(attr[i].le_g, attr[i].le_b));
+        float le = fmaxf(sa[i].le_r, fmaxf(sa[i].le_g, sa[i].le_b));
         if (!(le > 0)) continue;
         float area = patch_area(s, i);
         em[ne] = (ts_emitter){i, 0, area * le, area}; /* prob: the power until normalised */

@@ -64,8 +64,9 @@ typedef struct ts_light_table {
  * intensity * color, their falloff and cone (shared_types.h ts_light). The dome has radiance
  * intensity * color and env's size (NULL: uniform). attr (s->patch_count entries, the
  * caller's copy of s->attr) gets each patch's emitter index, TS_INVALID where it does not
- * emit. TS_E_SCENE with more than TS_MAX_SCENE_LIGHTS distant, point and spot lights. Free
- * with lights_free (also after a failure). */
+ * emit; it may be NULL when no patch emits (nothing is written then). TS_E_SCENE with more than
+ * TS_MAX_SCENE_LIGHTS distant, point and spot lights. Free with lights_free (also after a failure).
+ */
 int lights_build(const ts_scene *s, const ts_env_map *env, ts_patch_attr *attr, ts_light_table *t,
                  ts_error *err);
 void lights_free(ts_light_table *t);

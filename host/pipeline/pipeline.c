@@ -116,6 +116,12 @@ static void scene_uploads_free(scene_uploads *u)
     memset(u, 0, sizeof *u);
 }
 
+/* bytes rounded up to whole SCENE_ALIGN pages (aligned_alloc's size). */
+static size_t align_up(size_t bytes)
+{
+    return (bytes + SCENE_ALIGN - 1u) & ~(size_t)(SCENE_ALIGN - 1u);
+}
+
 /* Fills *u for p's scene; boxes: each patch's scene_patch_box. The caller frees *u with
  * scene_uploads_free, also after a failure. */
 static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_uploads *u,
@@ -134,19 +140,28 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
     u->instance = s->instance;
     u->inst_xform = s->inst_xform;
     u->trim_seg = s->trim_seg_count ? (const void *)s->trim_seg : NULL;
-    u->attr = calloc(n, sizeof *u->attr);
-    u->flatness = calloc(n, sizeof *u->flatness);
+    /* The attributes' copy carries the emitter indices lights_build writes: where no patch
+     * emits and every index is TS_INVALID already, the buffer reads the scene's own (and
+     * forest-10000 was not 1.7 GB of copy, compared and freed, at its peak). */
+    int copy = s->patch_count == 0;
+    for (uint32_t i = 0; !copy && i < s->patch_count; ++i) {
+        const ts_patch_attr *a = &s->attr[i];
+        copy = a->le_r > 0 || a->le_g > 0 || a->le_b > 0 || a->emitter != TS_INVALID;
+    }
+    u->attr = copy ? calloc(n, sizeof *u->attr) : NULL;
+    u->flatness = aligned_alloc(SCENE_ALIGN, align_up(n * sizeof *u->flatness));
+    if (u->flatness) memset(u->flatness, 0, n * sizeof *u->flatness);
     /* A scene without normals (hand-built in tests): +z at all nine nodes. */
     int given = s->corner_n && s->mid_n;
     u->normals = given ? NULL : calloc(n * 9, sizeof *u->normals);
     u->corner_n = given ? (const void *)s->corner_n : (const void *)u->normals;
     u->mid_n =
         given ? (const void *)s->mid_n : (const void *)(u->normals ? u->normals + 4 * n : NULL);
-    if (!u->attr || !u->flatness || !u->corner_n)
+    if ((copy && !u->attr) || !u->flatness || !u->corner_n)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     for (size_t i = 0; u->normals && i < n * 9; ++i)
         u->normals[i].z = 1.0f;
-    if (s->patch_count) memcpy(u->attr, s->attr, s->patch_count * sizeof *u->attr);
+    if (s->patch_count && u->attr) memcpy(u->attr, s->attr, s->patch_count * sizeof *u->attr);
     /* w: the longest side of the patch's box, for the secondary-ray offset l / 2^m. */
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         const ts_vec4 *c0 = &s->cp[i * 16], *c1 = s->cp1 ? &s->cp1[i * 16] : c0;
@@ -163,9 +178,9 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
     }
     if (lights_build(s, &u->env, u->attr, &u->lights, err)) return err->code;
     /* Without emitters the copy is the scene's attributes byte for byte: the buffer may read
-     * those in place (scene_in_place) and the copy goes. */
-    u->attr_src = u->attr;
-    if (s->patch_count && u->lights.emitter_count == 0 &&
+     * those in place (array_in_place) and the copy goes. */
+    u->attr_src = u->attr ? u->attr : s->attr;
+    if (u->attr && s->patch_count && u->lights.emitter_count == 0 &&
         memcmp(u->attr, s->attr, s->patch_count * sizeof *u->attr) == 0) {
         free(u->attr);
         u->attr = NULL, u->attr_src = s->attr;
@@ -176,18 +191,23 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
     return relight_tables_build(s->occlusion, &u->lights, &u->env, &u->relight, err);
 }
 
-/* Whether the device may read the scene's array at `host` in place (CL_MEM_USE_HOST_PTR)
- * instead of a copy: on a device that shares host memory, for the largest arrays the scene
- * keeps anyway (control points and displacement normals: 400 of the 844 bytes a patch's
- * buffers take, docs/benchmarks.md; the attributes' 160 where no patch emits), when they are
- * SCENE_ALIGN-aligned as the scene makes them. They live as long as the scene, which outlives its
- * pipelines, and no one writes them while it renders. */
-static int scene_in_place(const ts_pipeline *p, const void *host)
+/* Whether the device may read the array at `host` in place (CL_MEM_USE_HOST_PTR) instead of a
+ * copy: on a device that shares host memory, for the largest arrays the scene keeps anyway
+ * (control points and displacement normals: 400 of the 844 bytes a patch's buffers take,
+ * docs/benchmarks.md; the attributes' 160 where no patch emits), and for those the pipeline
+ * makes to upload (the top-level BVH's nodes, the patch boxes and flatness bounds: about 104
+ * bytes a patch, which a copy would hold twice while the buffers are made, forest-10000's peak),
+ * when they are SCENE_ALIGN-aligned as both make them. The scene's live as long as the scene,
+ * which outlives its pipelines; the pipeline's are then kept until pipeline_destroy; no one
+ * writes them while it renders. */
+static int array_in_place(const ts_pipeline *p, const void *host)
 {
     const ts_scene *s = p->scene;
     if (!p->cl->info.host_unified || ((uintptr_t)host % SCENE_ALIGN) != 0) return 0;
     return host == s->cp || (s->cp1 && host == s->cp1) || (s->corner_n && host == s->corner_n) ||
-           (s->mid_n && host == s->mid_n) || (s->attr && host == s->attr);
+           (s->mid_n && host == s->mid_n) || (s->attr && host == s->attr) ||
+           (p->qbvh.nodes && host == p->qbvh.nodes) || (p->box_host && host == p->box_host) ||
+           (p->flatness_host && host == p->flatness_host);
 }
 
 /* Element counts of the buffers (TS_PIPELINE_BUFFERS' count column reads them as c.NAME).
@@ -283,13 +303,16 @@ static int create_buffers(ts_pipeline *p, const buffer_counts *counts, const sce
      * points (256 bytes). */
     static const ts_vec4 zeros[16];
     uint64_t *fixed = &p->stats->counters[TS_COUNTER_device_bytes_fixed];
-    *fixed = 0;
+    uint64_t *in_place = &p->stats->counters[TS_COUNTER_device_bytes_in_place];
+    *fixed = *in_place = 0;
     for (size_t i = 0; i < sizeof list / sizeof *list; ++i) {
         const void *host = list[i].contents ? list[i].contents : zeros;
         cl_mem_flags flags = list[i].flags;
         if (!(flags & CL_MEM_COPY_HOST_PTR)) host = NULL;
-        if (host && scene_in_place(p, host))
+        if (host && array_in_place(p, host)) {
             flags = (flags & ~(cl_mem_flags)CL_MEM_COPY_HOST_PTR) | CL_MEM_USE_HOST_PTR;
+            *in_place += list[i].bytes;
+        }
         *list[i].m = dev_buffer_create(p->cl, flags, list[i].bytes, (void *)host, err);
         pipeline_note_device_bytes(p);
         if (!*list[i].m) return err->code;
@@ -381,7 +404,7 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
 {
     const ts_scene *s = p->scene;
     size_t n = s->patch_count ? s->patch_count : 1;
-    *boxes = malloc(n * sizeof **boxes);
+    *boxes = aligned_alloc(SCENE_ALIGN, align_up(n * sizeof **boxes)); /* array_in_place */
     p->segments_host = malloc(n * sizeof *p->segments_host);
     p->trees_host = malloc(2 * n * sizeof *p->trees_host);
     p->batches = malloc(n * sizeof *p->batches);
@@ -439,7 +462,18 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     if (rc == TS_OK) rc = scene_uploads_make(p, boxes, &u, err);
     if (rc == TS_OK) rc = tex_cache_create(&p->tex, scene, plan->tex_pool_bytes, err);
     buffer_counts c = buffer_counts_of(p, &u);
+    p->box_host = scene->patch_count ? boxes : NULL, p->flatness_host = u.flatness;
     if (rc == TS_OK) rc = create_buffers(p, &c, &u, err);
+    /* What the device reads in place stays until pipeline_destroy has released its buffers
+     * and frees it (also after a failure); the rest goes below. */
+    if (array_in_place(p, p->box_host))
+        boxes = NULL;
+    else
+        p->box_host = NULL;
+    if (array_in_place(p, p->flatness_host))
+        u.flatness = NULL;
+    else
+        p->flatness_host = NULL;
     p->light_count = u.lights.light_count;
     p->unseen_flags = 0;
     for (uint32_t i = 0; i < scene->patch_count; ++i)
@@ -449,8 +483,8 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     scene_uploads_free(&u);
     free(boxes);
     /* The device has the top-level BVH now; the host's nodes are never read again (about 64
-     * bytes a patch). node_count stays. */
-    free(p->qbvh.nodes), p->qbvh.nodes = NULL;
+     * bytes a patch) unless they are the buffer (array_in_place). node_count stays. */
+    if (!array_in_place(p, p->qbvh.nodes)) free(p->qbvh.nodes), p->qbvh.nodes = NULL;
     if (rc == TS_OK)
         rc = tex_cache_upload_initial(&p->tex, cl, p->tex_pool, p->tex_pages, scene, stats, err);
     if (rc == TS_OK) rc = clear_buffers(p, &c, err);
@@ -511,6 +545,8 @@ void pipeline_destroy(ts_pipeline *p)
     free(p->pixel_cost);
     free(p->grid_at_host);
     free(p->edge_nb);
+    free(p->box_host);
+    free(p->flatness_host);
     qbvh_free(&p->qbvh);
     memset(p, 0, sizeof *p);
 }

@@ -236,7 +236,13 @@ typedef struct ts_pipeline {
     /* The ray slots the frame's remaining samples take (two a sample: its path's rays), set by
      * the render before budget_grow_arenas (app/budget.c thin_arenas); 0: unknown. */
     uint64_t frame_rays;
-    ts_qbvh qbvh; /* its nodes freed once uploaded (qbvh_nodes); node_count and depth kept */
+    ts_qbvh qbvh; /* its nodes freed once uploaded (qbvh_nodes), or kept while the device
+                     reads them in place; node_count and depth kept */
+    /* The patch boxes and flatness bounds the pipeline made for patch_box and flatness, kept
+     * while the device reads them in place (a device that shares host memory: one copy of
+     * them instead of two when the buffers are made); NULL otherwise. */
+    ts_box *box_host;
+    ts_vec4 *flatness_host;
     radix_sorter *sorter;
     /* Discrete devices: host copies of the two pair buffers, so sort reads the window once
      * and writes back only the valid pairs instead of mapping both buffers (NULL on devices

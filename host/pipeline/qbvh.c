@@ -204,7 +204,10 @@ int qbvh_build(ts_qbvh *q, const ts_box *boxes, uint32_t count, ts_error *err)
     b.index = malloc((count ? count : 1) * sizeof *b.index);
     b.centroid = malloc((count ? count : 1) * 3 * sizeof *b.centroid);
     b.nodes = malloc(bn_cap * sizeof *b.nodes);
-    q->nodes = malloc(bn_cap * sizeof *q->nodes); /* 4-wide nodes <= binary inner nodes */
+    /* 4-wide nodes <= binary inner nodes; page-aligned, so that a device sharing host memory
+     * may read them in place (pipeline.c array_in_place) */
+    size_t node_bytes = (bn_cap * sizeof *q->nodes + 4095u) & ~(size_t)4095u;
+    q->nodes = aligned_alloc(4096u, node_bytes);
     if (!b.index || !b.centroid || !b.nodes || !q->nodes) {
         free(b.index), free(b.centroid), free(b.nodes), qbvh_free(q);
         return ts_error_set(err, TS_E_MEMORY, "out of memory (top-level BVH, %u patches)", count);
@@ -224,6 +227,9 @@ int qbvh_build(ts_qbvh *q, const ts_box *boxes, uint32_t count, ts_error *err)
         c.out[0].child[0] = TS_CHILD_EMPTY; /* no patch at all */
     } else {
         build_binary(&b, 0, count);
+        /* The centroids served the splits only: gone before the 4-wide nodes are written,
+         * where the build's memory peaks (12 bytes a patch). */
+        free(b.centroid), b.centroid = NULL;
         collapse(&c, 0, -1, 0, 0);
     }
     q->node_count = c.count;
