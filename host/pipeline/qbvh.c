@@ -7,11 +7,13 @@
 #define SAH_BINS 16
 
 /* Binary build node: leaf when count == 1. */
+/* A node of the binary BVH, built depth first: an inner node's first child is the node after
+ * it, so only the second is kept. A leaf holds one patch. 32 bytes (two a patch, at the
+ * build's memory peak with the 4-wide nodes). */
 typedef struct bnode {
     ts_box box;
-    int32_t left, right;   /* children (binary node indices), -1 for a leaf */
-    uint32_t first, count; /* range in the index array */
-    uint32_t axis;
+    int32_t right; /* the second child (binary node index), -1 for a leaf */
+    uint32_t item; /* a leaf: its patch's place in the index array; an inner node: its axis */
 } bnode;
 
 typedef struct builder {
@@ -103,10 +105,8 @@ static int32_t build_binary(builder *b, uint32_t first, uint32_t count)
     nd->box = box_empty();
     for (uint32_t i = first; i < first + count; ++i)
         box_grow(&nd->box, &b->boxes[b->index[i]]);
-    nd->first = first;
-    nd->count = count;
-    nd->left = nd->right = -1;
-    nd->axis = 0;
+    nd->right = -1;
+    nd->item = first;
     if (count == 1) return id;
     uint32_t axis = 0, mid = first + count / 2;
     float pos;
@@ -124,12 +124,11 @@ static int32_t build_binary(builder *b, uint32_t first, uint32_t count)
         }
         if (i > first && i < first + count) mid = i;
     }
-    int32_t l = build_binary(b, first, mid - first);
+    build_binary(b, first, mid - first); /* node id + 1 */
     int32_t r = build_binary(b, mid, first + count - mid);
     nd = &b->nodes[id]; /* (nodes do not move: preallocated) */
-    nd->left = l;
     nd->right = r;
-    nd->axis = axis;
+    nd->item = axis;
     return id;
 }
 
@@ -158,19 +157,19 @@ static uint32_t collapse(collapser *c, int32_t bn, int32_t parent, uint32_t pare
         n->hi_x[s] = n->hi_y[s] = n->hi_z[s] = -FLT_MAX;
     }
     const bnode *bnd = &c->b->nodes[bn];
-    if (bnd->left < 0) { /* a single leaf at the root */
+    if (bnd->right < 0) { /* a single leaf at the root */
         slot_set(c, q, 0, bn, level);
         return q;
     }
-    uint32_t axes = bnd->axis;
-    const int32_t halves[2] = {bnd->left, bnd->right};
+    uint32_t axes = bnd->item;
+    const int32_t halves[2] = {bn + 1, bnd->right};
     for (int h = 0; h < 2; ++h) {
         const bnode *half = &c->b->nodes[halves[h]];
-        if (half->left < 0) {
+        if (half->right < 0) {
             slot_set(c, q, 2 * h, halves[h], level);
         } else {
-            axes |= half->axis << (2 + 2 * h);
-            slot_set(c, q, 2 * h, half->left, level);
+            axes |= half->item << (2 + 2 * h);
+            slot_set(c, q, 2 * h, halves[h] + 1, level);
             slot_set(c, q, 2 * h + 1, half->right, level);
         }
     }
@@ -188,8 +187,8 @@ static void slot_set(collapser *c, uint32_t q, int slot, int32_t bn, uint32_t le
     n->hi_x[slot] = b->box.hi_x;
     n->hi_y[slot] = b->box.hi_y;
     n->hi_z[slot] = b->box.hi_z;
-    if (b->left < 0) {
-        n->child[slot] = ~(int32_t)c->b->index[b->first];
+    if (b->right < 0) {
+        n->child[slot] = ~(int32_t)c->b->index[b->item];
     } else {
         uint32_t child = collapse(c, bn, (int32_t)q, (uint32_t)slot, level + 1);
         c->out[q].child[slot] = (int32_t)child;
@@ -220,7 +219,7 @@ int qbvh_build(ts_qbvh *q, const ts_box *boxes, uint32_t count, ts_error *err)
     }
     collapser c = {.b = &b, .out = q->nodes};
     if (count == 0) {
-        bnode empty = {.box = box_empty(), .left = -1, .right = -1};
+        bnode empty = {.box = box_empty(), .right = -1, .item = 0};
         b.index[0] = 0;
         b.nodes[0] = empty;
         collapse(&c, 0, -1, 0, 0);
