@@ -203,7 +203,7 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
 static int array_in_place(const ts_pipeline *p, const void *host)
 {
     const ts_scene *s = p->scene;
-    if (!p->cl->info.host_unified || ((uintptr_t)host % SCENE_ALIGN) != 0) return 0;
+    if (!host || !p->cl->info.host_unified || ((uintptr_t)host % SCENE_ALIGN) != 0) return 0;
     return host == s->cp || (s->cp1 && host == s->cp1) || (s->corner_n && host == s->corner_n) ||
            (s->mid_n && host == s->mid_n) || (s->attr && host == s->attr) ||
            (p->qbvh.nodes && host == p->qbvh.nodes) || (p->box_host && host == p->box_host) ||

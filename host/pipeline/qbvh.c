@@ -6,7 +6,6 @@
 
 #define SAH_BINS 16
 
-/* Binary build node: leaf when count == 1. */
 /* A node of the binary BVH, built depth first: an inner node's first child is the node after
  * it, so only the second is kept. A leaf holds one patch. 32 bytes (two a patch, at the
  * build's memory peak with the 4-wide nodes). */
