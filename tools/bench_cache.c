@@ -466,7 +466,7 @@ static int run_cache(const bench_options *o, const ts_scene *s, const frame *f, 
     for (uint32_t i = 0; i < np; ++i)
         boxes[i] = scene_patch_box(s, i);
     ts_qbvh q;
-    int rc = qbvh_build(&q, boxes, np, err);
+    int rc = qbvh_build(&q, boxes, np, 0, err);
     free(boxes);
     if (rc) return rc;
     memo mm = {calloc(np ? np : 1, sizeof(ts_vec4 *)),

@@ -455,7 +455,7 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     ts_box *boxes = NULL;
     scene_uploads u = {0};
     int rc = create_host_tables(p, &boxes, err);
-    if (rc == TS_OK) rc = qbvh_build(&p->qbvh, boxes, scene->patch_count, err);
+    if (rc == TS_OK) rc = qbvh_build(&p->qbvh, boxes, scene->patch_count, plan->sort_threads, err);
     if (rc == TS_OK && !(p->sorter = radix_sorter_create((int)plan->sort_threads, err)))
         rc = err->code;
     if (rc == TS_OK) rc = create_kernels(p, err);

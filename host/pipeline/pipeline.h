@@ -53,7 +53,8 @@ typedef struct ts_pipeline_plan {
     uint32_t group_capacity; /* ts_box4 entries of the group arena (quad-trees) */
     uint32_t max_lod;        /* the finest m; the arenas hold at least one moving patch at it */
     uint64_t tex_pool_bytes; /* texture tile pool (tex_cache.h); 0: every tile resident */
-    uint32_t sort_threads;   /* threads of the host sort (sort.h); 0: every online CPU. Several
+    uint32_t sort_threads;   /* threads of the host sort (sort.h) and of the top-level BVH's
+                                build (qbvh.h); 0: every online CPU. Several
                                 devices in one process share the CPUs (app/workers.c) */
     uint32_t first_n;        /* candidates per ray in a wave's first iteration, doubled each
                                 iteration up to pair_capacity / R (trace.c pairs_per_ray);

@@ -1,8 +1,10 @@
 #include "pipeline/qbvh.h"
 
 #include <float.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #define SAH_BINS 16
 
@@ -20,7 +22,6 @@ typedef struct builder {
     uint32_t *index;
     float *centroid; /* 3 per box */
     bnode *nodes;
-    uint32_t node_count;
 } builder;
 
 static ts_box box_empty(void)
@@ -97,16 +98,40 @@ static int sah_split(const builder *b, uint32_t first, uint32_t count, uint32_t 
     return found;
 }
 
-static int32_t build_binary(builder *b, uint32_t first, uint32_t count)
+/* Subtrees over at least this many boxes may be built on a thread of their own. */
+#define QBVH_THREAD_MIN 16384u
+
+static void build_binary(builder *b, int32_t id, uint32_t first, uint32_t count, uint32_t spawn);
+
+/* One subtree for a thread of its own (build_binary). */
+typedef struct subtree {
+    builder *b;
+    int32_t id;
+    uint32_t first, count, spawn;
+} subtree;
+
+static void *subtree_build(void *arg)
 {
-    int32_t id = (int32_t)b->node_count++;
+    const subtree *t = arg;
+    build_binary(t->b, t->id, t->first, t->count, t->spawn);
+    return NULL;
+}
+
+/* Builds node id over the boxes index[first .. first + count) and its subtree, depth first:
+ * a subtree over n boxes is 2n - 1 nodes (a leaf a box), so the left child is id + 1 and the
+ * right one id + 2 n_left, whatever order the subtrees are built in. For `spawn` levels the
+ * right subtree is built on a thread of its own (when it is large and a thread can be had):
+ * the same nodes as one thread builds, the halves touching disjoint ranges of index and
+ * nodes. */
+static void build_binary(builder *b, int32_t id, uint32_t first, uint32_t count, uint32_t spawn)
+{
     bnode *nd = &b->nodes[id];
     nd->box = box_empty();
     for (uint32_t i = first; i < first + count; ++i)
         box_grow(&nd->box, &b->boxes[b->index[i]]);
     nd->right = -1;
     nd->item = first;
-    if (count == 1) return id;
+    if (count == 1) return;
     uint32_t axis = 0, mid = first + count / 2;
     float pos;
     if (sah_split(b, first, count, &axis, &pos)) {
@@ -123,12 +148,19 @@ static int32_t build_binary(builder *b, uint32_t first, uint32_t count)
         }
         if (i > first && i < first + count) mid = i;
     }
-    build_binary(b, first, mid - first); /* node id + 1 */
-    int32_t r = build_binary(b, mid, first + count - mid);
-    nd = &b->nodes[id]; /* (nodes do not move: preallocated) */
-    nd->right = r;
+    int32_t right = id + 2 * (int32_t)(mid - first);
+    nd->right = right;
     nd->item = axis;
-    return id;
+    uint32_t deeper = spawn ? spawn - 1u : 0u;
+    subtree t = {b, right, mid, first + count - mid, deeper};
+    pthread_t thread;
+    int threaded = spawn && t.count >= QBVH_THREAD_MIN &&
+                   pthread_create(&thread, NULL, subtree_build, &t) == 0;
+    build_binary(b, id + 1, first, mid - first, deeper);
+    if (threaded)
+        pthread_join(thread, NULL);
+    else
+        subtree_build(&t);
 }
 
 typedef struct collapser {
@@ -194,8 +226,15 @@ static void slot_set(collapser *c, uint32_t q, int slot, int32_t bn, uint32_t le
     }
 }
 
-int qbvh_build(ts_qbvh *q, const ts_box *boxes, uint32_t count, ts_error *err)
+int qbvh_build(ts_qbvh *q, const ts_box *boxes, uint32_t count, uint32_t threads, ts_error *err)
 {
+    if (threads == 0) {
+        long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+        threads = cpus > 0 ? (uint32_t)cpus : 1u;
+    }
+    uint32_t spawn = 0; /* levels whose right subtrees get threads: 2^spawn >= threads */
+    while ((1u << spawn) < threads && spawn < 8u)
+        ++spawn;
     memset(q, 0, sizeof *q);
     builder b = {.boxes = boxes};
     size_t bn_cap = count ? 2 * (size_t)count - 1 : 1;
@@ -224,7 +263,7 @@ int qbvh_build(ts_qbvh *q, const ts_box *boxes, uint32_t count, ts_error *err)
         collapse(&c, 0, -1, 0, 0);
         c.out[0].child[0] = TS_CHILD_EMPTY; /* no patch at all */
     } else {
-        build_binary(&b, 0, count);
+        build_binary(&b, 0, 0, count, spawn);
         /* The centroids served the splits only: gone before the 4-wide nodes are written,
          * where the build's memory peaks (12 bytes a patch). */
         free(b.centroid), b.centroid = NULL;

@@ -17,8 +17,9 @@ typedef struct ts_qbvh {
 } ts_qbvh;
 
 /* Builds over `count` boxes (leaf i = patch i). count may be 0 (a root with no children).
- * Time O(n log n), memory ~ 130 bytes per box. */
-int qbvh_build(ts_qbvh *q, const ts_box *boxes, uint32_t count, ts_error *err);
+ * Time O(n log n), memory ~ 130 bytes per box. The binary tree's large subtrees are built on up
+ * to `threads` threads (0: every online CPU): the same nodes whatever the threads. */
+int qbvh_build(ts_qbvh *q, const ts_box *boxes, uint32_t count, uint32_t threads, ts_error *err);
 void qbvh_free(ts_qbvh *q);
 
 #endif
