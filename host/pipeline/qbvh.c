@@ -29,14 +29,15 @@ static ts_box box_empty(void)
     return (ts_box){FLT_MAX, FLT_MAX, FLT_MAX, -FLT_MAX, -FLT_MAX, -FLT_MAX};
 }
 
+/* b grown to hold o (selects rather than branches: scattered boxes mispredict). */
 static void box_grow(ts_box *b, const ts_box *o)
 {
-    if (o->lo_x < b->lo_x) b->lo_x = o->lo_x;
-    if (o->lo_y < b->lo_y) b->lo_y = o->lo_y;
-    if (o->lo_z < b->lo_z) b->lo_z = o->lo_z;
-    if (o->hi_x > b->hi_x) b->hi_x = o->hi_x;
-    if (o->hi_y > b->hi_y) b->hi_y = o->hi_y;
-    if (o->hi_z > b->hi_z) b->hi_z = o->hi_z;
+    b->lo_x = o->lo_x < b->lo_x ? o->lo_x : b->lo_x;
+    b->lo_y = o->lo_y < b->lo_y ? o->lo_y : b->lo_y;
+    b->lo_z = o->lo_z < b->lo_z ? o->lo_z : b->lo_z;
+    b->hi_x = o->hi_x > b->hi_x ? o->hi_x : b->hi_x;
+    b->hi_y = o->hi_y > b->hi_y ? o->hi_y : b->hi_y;
+    b->hi_z = o->hi_z > b->hi_z ? o->hi_z : b->hi_z;
 }
 
 static double box_area(const ts_box *b)
@@ -60,19 +61,31 @@ static int sah_split(const builder *b, uint32_t first, uint32_t count, uint32_t 
         }
     double best = DBL_MAX;
     int found = 0;
+    /* The bins of all three axes in one pass over the boxes. */
+    ts_box bins[3][SAH_BINS];
+    uint32_t bin_counts[3][SAH_BINS] = {{0}};
+    float scales[3];
+    for (uint32_t a = 0; a < 3; ++a) {
+        scales[a] = hi[a] > lo[a] ? SAH_BINS / (hi[a] - lo[a]) : 0.0f;
+        for (int k = 0; k < SAH_BINS; ++k)
+            bins[a][k] = box_empty();
+    }
+    for (uint32_t i = first; i < first + count; ++i) {
+        uint32_t p = b->index[i];
+        const float *c = &b->centroid[3 * p];
+        for (uint32_t a = 0; a < 3; ++a) {
+            if (!(hi[a] > lo[a])) continue;
+            int k = (int)((c[a] - lo[a]) * scales[a]);
+            k = k < 0 ? 0 : k >= SAH_BINS ? SAH_BINS - 1 : k;
+            bin_counts[a][k]++;
+            box_grow(&bins[a][k], &b->boxes[p]);
+        }
+    }
     for (uint32_t a = 0; a < 3; ++a) {
         if (!(hi[a] > lo[a])) continue;
-        ts_box bin_box[SAH_BINS];
-        uint32_t bin_n[SAH_BINS] = {0};
-        for (int k = 0; k < SAH_BINS; ++k)
-            bin_box[k] = box_empty();
-        float scale = SAH_BINS / (hi[a] - lo[a]);
-        for (uint32_t i = first; i < first + count; ++i) {
-            int k = (int)((b->centroid[3 * b->index[i] + a] - lo[a]) * scale);
-            k = k < 0 ? 0 : k >= SAH_BINS ? SAH_BINS - 1 : k;
-            bin_n[k]++;
-            box_grow(&bin_box[k], &b->boxes[b->index[i]]);
-        }
+        const ts_box *bin_box = bins[a];
+        const uint32_t *bin_n = bin_counts[a];
+        float scale = scales[a];
         double right_cost[SAH_BINS];
         ts_box acc = box_empty();
         uint32_t n = 0;
