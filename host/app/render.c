@@ -15,6 +15,7 @@
 #include "scene/scene_load.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -187,6 +188,14 @@ typedef struct ts_render {
     ts_occlusion occlusion; /* --occlusion's bake, attached to scene.occlusion */
     ts_camera_params cam;
     ts_job job;
+    /* job.hash computed on a thread of its own while the devices are set up and render
+     * (render_start_job; 6 s of single-threaded hashing for forest-10000): hash_pending until
+     * render_hash_ready has joined it, under hash_lock (the image may be written from the
+     * board's thread); hash_err its error. */
+    pthread_t hash_thread;
+    pthread_mutex_t hash_lock;
+    int hash_pending, hash_lock_made;
+    ts_error hash_err;
     /* The host copy of the films: the samples [0, job.samples_done) the device's films lack
      * (resumed, or kept over a retry), and the image render_write writes. */
     ts_film_state state;
@@ -219,8 +228,15 @@ static void render_init(ts_render *r, const ts_render_options *o, ts_stats *stat
     r->stats = stats;
 }
 
+static int render_hash_ready(ts_render *r, ts_error *err);
+
 static void render_free(ts_render *r)
 {
+    ts_error e = {0};
+    render_hash_ready(r, &e); /* a failure before the image was written */
+    ts_error_clear(&e);
+    ts_error_clear(&r->hash_err);
+    if (r->hash_lock_made) pthread_mutex_destroy(&r->hash_lock);
     output_stream_close(&r->stream, 0, NULL); /* a failure before the frame's end */
     ts_error_clear(&r->early);
     ts_error_clear(&r->stopped);
@@ -299,14 +315,41 @@ static int render_load_occlusion(ts_render *r, ts_error *err)
     return TS_OK;
 }
 
+static void *render_hash_run(void *arg)
+{
+    ts_render *r = arg;
+    job_hash(&r->opt, &r->scene, &r->cam, &r->job.hash, &r->hash_err);
+    return NULL;
+}
+
+/* Waits for the job's hash when a thread computes it (render_start_job): before anything
+ * reads job.hash (the image's metadata). Returns its error, if any; once joined, at once. */
+static int render_hash_ready(ts_render *r, ts_error *err)
+{
+    if (!r->hash_lock_made) return TS_OK;
+    pthread_mutex_lock(&r->hash_lock);
+    if (r->hash_pending) pthread_join(r->hash_thread, NULL), r->hash_pending = 0;
+    int rc = r->hash_err.code;
+    if (rc) ts_error_set(err, rc, "%s", r->hash_err.msg);
+    pthread_mutex_unlock(&r->hash_lock);
+    return rc;
+}
+
 /* The camera kernel's parameters and the job: its width * height * spp samples and the
- * hash that --resume checks. */
+ * hash that --resume checks. The hash (of the scene file and every patch's data) is only
+ * written with the image unless --resume compares it now or ranks are told it: then it is
+ * computed at once, else on a thread of its own while the render goes on. */
 static int render_start_job(ts_render *r, ts_error *err)
 {
     if (render_camera_params(&r->scene.camera, r->width, r->height, &r->cam, err)) return err->code;
     r->cam.spp = (uint32_t)r->opt.spp;
     r->cam.seed = r->opt.seed;
     r->job.total = (uint64_t)r->width * r->height * (uint64_t)r->opt.spp;
+    if (!r->opt.resume && !r->ranks && pthread_mutex_init(&r->hash_lock, NULL) == 0) {
+        r->hash_lock_made = 1;
+        r->hash_pending = pthread_create(&r->hash_thread, NULL, render_hash_run, r) == 0;
+        if (r->hash_pending) return TS_OK;
+    }
     return job_hash(&r->opt, &r->scene, &r->cam, &r->job.hash, err);
 }
 
@@ -532,7 +575,7 @@ static void render_progress(void *ctx, ts_board *b, ts_workers *g)
     if (r->stream_off) return;
     ts_error e = {0};
     if (!r->stream.exr &&
-        (workers_lod_state(g) <= 0 ||
+        (workers_lod_state(g) <= 0 || render_hash_ready(r, &e) ||
          output_stream_open(&r->opt, r->width, r->height, &r->job, &r->stream, &e))) {
         r->stream_off = e.code != 0;
         ts_error_clear(&e);
@@ -669,6 +712,7 @@ static int render_write(ts_render *r, ts_error *err)
     if (!r->stopped.code && !r->films_on_host)
         rc = film_state_transfer(&r->pipe, &r->state, 0, err);
     pipeline_destroy(&r->pipe);
+    if (!rc) rc = render_hash_ready(r, err);
     if (!rc)
         rc = output_write(&r->opt, &r->state, &r->scene.camera, r->width, r->height, &r->job, err);
     r->stats->stage_seconds[TS_STAGE_film] += stats_now() - t0;
