@@ -1,5 +1,6 @@
 /* workers.c — one frame on several devices of one process, a host thread each (workers.h). */
 #include "app/workers.h"
+#include "base/memory.h"
 #include "app/eta.h"
 #include "app/interrupt.h"
 #include "app/budget.h"
@@ -492,12 +493,6 @@ static void worker_share(ts_worker *w)
     patch_share_allow(&w->g->share, pipeline_arena_bytes(&w->pipe.plan));
 }
 
-/* 4096-aligned host memory for `bytes` (PoCL's zero copy), or NULL. */
-static void *shared_arena_alloc(uint64_t bytes)
-{
-    return aligned_alloc(4096, (bytes + 4095u) / 4096u * 4096u);
-}
-
 /* The bytes of the sharing devices' one allocation (g->place_verts and g->place_groups). */
 static uint64_t placed_bytes(const ts_workers *g)
 {
@@ -533,10 +528,9 @@ static void workers_place(ts_workers *g, ts_worker *w)
         if (o->shares && need > room) return;
     }
     if (g->place_verts > UINT32_MAX || g->place_groups > UINT32_MAX) return;
-    g->arena_grid = shared_arena_alloc((g->place_verts ? g->place_verts : 1) * sizeof(ts_vec4));
-    g->arena_tree = shared_arena_alloc((g->place_groups ? g->place_groups : 1) * sizeof(ts_box4));
-    g->arena_tight =
-        shared_arena_alloc((g->place_groups ? g->place_groups : 1) * sizeof(ts_tight4));
+    g->arena_grid = ts_page_alloc((g->place_verts ? g->place_verts : 1) * sizeof(ts_vec4));
+    g->arena_tree = ts_page_alloc((g->place_groups ? g->place_groups : 1) * sizeof(ts_box4));
+    g->arena_tight = ts_page_alloc((g->place_groups ? g->place_groups : 1) * sizeof(ts_tight4));
     if (!g->arena_grid || !g->arena_tree || !g->arena_tight) return;
     patch_share_in_place(&g->share);
     g->placed = 1;

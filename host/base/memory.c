@@ -121,3 +121,8 @@ void ts_memory_room_query(const ts_memory_sources *src, ts_memory_room *out)
     uint64_t avail = read_kib_field(meminfo, "MemAvailable");
     if (avail != UINT64_MAX) consider(out, avail, 0, "MemAvailable");
 }
+
+void *ts_page_alloc(size_t bytes)
+{
+    return aligned_alloc(4096u, (bytes + 4095u) / 4096u * 4096u);
+}

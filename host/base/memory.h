@@ -4,7 +4,13 @@
 #ifndef TS_MEMORY_H
 #define TS_MEMORY_H
 
+#include <stddef.h>
 #include <stdint.h>
+
+/* Host memory of at least `bytes` that begins on a 4096-byte page (aligned_alloc, the size
+ * rounded up to whole pages): what a device sharing host memory (PoCL) binds with
+ * CL_MEM_USE_HOST_PTR without a copy. NULL when there is none; free() it. */
+void *ts_page_alloc(size_t bytes);
 
 /* Where the system keeps what ts_memory_room reads: "/proc" and "/sys/fs/cgroup" (tests
  * point them at a fake tree). */

@@ -2,6 +2,7 @@
 #include "pipeline/bake.h"
 #include "pipeline/lights.h"
 #include "pipeline/relight.h"
+#include "base/memory.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
 #include "lib/sample_order.h"
@@ -116,12 +117,6 @@ static void scene_uploads_free(scene_uploads *u)
     memset(u, 0, sizeof *u);
 }
 
-/* bytes rounded up to whole SCENE_ALIGN pages (aligned_alloc's size). */
-static size_t align_up(size_t bytes)
-{
-    return (bytes + SCENE_ALIGN - 1u) & ~(size_t)(SCENE_ALIGN - 1u);
-}
-
 /* Fills *u for p's scene; boxes: each patch's scene_patch_box. The caller frees *u with
  * scene_uploads_free, also after a failure. */
 static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_uploads *u,
@@ -149,7 +144,7 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
         copy = a->le_r > 0 || a->le_g > 0 || a->le_b > 0 || a->emitter != TS_INVALID;
     }
     u->attr = copy ? calloc(n, sizeof *u->attr) : NULL;
-    u->flatness = aligned_alloc(SCENE_ALIGN, align_up(n * sizeof *u->flatness));
+    u->flatness = ts_page_alloc(n * sizeof *u->flatness); /* array_in_place */
     if (u->flatness) memset(u->flatness, 0, n * sizeof *u->flatness);
     /* A scene without normals (hand-built in tests): +z at all nine nodes. */
     int given = s->corner_n && s->mid_n;
@@ -177,14 +172,9 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
         return err->code;
     }
     if (lights_build(s, &u->env, u->attr, &u->lights, err)) return err->code;
-    /* Without emitters the copy is the scene's attributes byte for byte: the buffer may read
-     * those in place (array_in_place) and the copy goes. */
+    /* Without the copy (no patch emits, every index TS_INVALID) the buffer reads the scene's
+     * attributes in place (array_in_place). */
     u->attr_src = u->attr ? u->attr : s->attr;
-    if (u->attr && s->patch_count && u->lights.emitter_count == 0 &&
-        memcmp(u->attr, s->attr, s->patch_count * sizeof *u->attr) == 0) {
-        free(u->attr);
-        u->attr = NULL, u->attr_src = s->attr;
-    }
     if (s->occlusion)
         u->relight_patch = s->occlusion->patch, u->relight_coeffs = s->occlusion->coeffs,
         u->relight_normal = s->occlusion->normal;
@@ -389,9 +379,9 @@ static int create_sort_copies(ts_pipeline *p, ts_error *err)
     const char *via_copy = getenv("TESSERA_SORT_VIA_COPY");
     if (!(via_copy && *via_copy ? strcmp(via_copy, "0") != 0 : !p->cl->info.host_unified))
         return TS_OK;
-    size_t bytes = ((size_t)p->plan.pair_capacity * sizeof(ts_pair) + 4095) & ~(size_t)4095;
+    size_t bytes = (size_t)p->plan.pair_capacity * sizeof(ts_pair);
     for (int i = 0; i < 2; ++i)
-        if (!(p->sort_host[i] = aligned_alloc(4096, bytes)))
+        if (!(p->sort_host[i] = ts_page_alloc(bytes)))
             return ts_error_set(err, TS_E_MEMORY, "out of memory (%zu MiB of sort buffers)",
                                 2 * bytes >> 20);
     if (!(p->sort_counts = malloc((size_t)p->plan.ray_capacity * sizeof *p->sort_counts + 4)))
@@ -404,7 +394,7 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
 {
     const ts_scene *s = p->scene;
     size_t n = s->patch_count ? s->patch_count : 1;
-    *boxes = aligned_alloc(SCENE_ALIGN, align_up(n * sizeof **boxes)); /* array_in_place */
+    *boxes = ts_page_alloc(n * sizeof **boxes); /* array_in_place */
     p->segments_host = malloc(n * sizeof *p->segments_host);
     p->trees_host = malloc(2 * n * sizeof *p->trees_host);
     p->batches = malloc(n * sizeof *p->batches);

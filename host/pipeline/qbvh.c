@@ -1,4 +1,5 @@
 #include "pipeline/qbvh.h"
+#include "base/memory.h"
 
 #include <float.h>
 #include <pthread.h>
@@ -256,8 +257,7 @@ int qbvh_build(ts_qbvh *q, const ts_box *boxes, uint32_t count, uint32_t threads
     b.nodes = malloc(bn_cap * sizeof *b.nodes);
     /* 4-wide nodes <= binary inner nodes; page-aligned, so that a device sharing host memory
      * may read them in place (pipeline.c array_in_place) */
-    size_t node_bytes = (bn_cap * sizeof *q->nodes + 4095u) & ~(size_t)4095u;
-    q->nodes = aligned_alloc(4096u, node_bytes);
+    q->nodes = ts_page_alloc(bn_cap * sizeof *q->nodes);
     if (!b.index || !b.centroid || !b.nodes || !q->nodes) {
         free(b.index), free(b.centroid), free(b.nodes), qbvh_free(q);
         return ts_error_set(err, TS_E_MEMORY, "out of memory (top-level BVH, %u patches)", count);
