@@ -35,9 +35,10 @@ int output_check_inputs_paths(const char *output_path, const char *stats_path,
 int output_write(const ts_render_options *o, const ts_film_state *films, const ts_camera *cam,
                  int width, int height, const ts_job *job, ts_error *err);
 
-/* The EXR of a render on several devices or ranks, written while it runs: its rows are
- * final as soon as the units holding their pixels' samples are merged (the pixels are in
- * order, units.h), and each band is converted and compressed then, beside the devices,
+/* The EXR written while the frame renders: on several devices or ranks its rows are final
+ * as soon as the units holding their pixels' samples are merged (the pixels are in order,
+ * units.h), on one device when the wave holding their last pixel ends (writer.h); each band
+ * is converted and compressed then, beside the devices,
  * instead of the whole image after the last sample (0.24 s for 1920x768 on 2 cores). It is
  * the finished image's file (TS_EXR_COMPLETE_CHANNELS, samples_done = job->total), so it
  * is kept only if the frame completes; an interrupted or failed frame closes it without

@@ -10,6 +10,7 @@
 #include "app/resume.h"
 #include "app/waves.h"
 #include "app/workers.h"
+#include "app/writer.h"
 #include "base/mat4.h"
 #include "pipeline/pipeline.h"
 #include "scene/scene_load.h"
@@ -20,6 +21,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 /* Linear part of m applied to (x, y, z), as float[4] with w = 0. */
 static void camera_axis(const double m[16], double x, double y, double z, float out[4])
@@ -136,9 +138,11 @@ static int render_stop_asked(void *ctx)
 /* Runs the waves: each is a run of the frame's samples [first, first + rays) in its sample
  * order, from job->samples_done on. After the lod stage the arenas grow to hold the frame's
  * patches as far as room_mb allows (budget_grow_arenas). Stops early
- * (job->samples_done < job->total) when a stop signal came. */
+ * (job->samples_done < job->total) when a stop signal came. After each wave, wave_done(ctx)
+ * (the image's finished rows to the writer). */
 static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_params cam,
-                        ts_job *job, uint64_t room_mb, ts_error *err)
+                        ts_job *job, uint64_t room_mb, void (*wave_done)(void *ctx), void *ctx,
+                        ts_error *err)
 {
     uint64_t total = job->total, start = job->samples_done;
     p->mode = waves_trace_mode(o);
@@ -155,6 +159,7 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
         return err->code;
     interrupt_install();
     w.t0 = w.printed = stats_now();
+    long slow_ms = waves_slow_ms(o->cl.device_index);
     int rc = TS_OK;
     for (uint64_t first = start; first < total; first += per_wave) {
         uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
@@ -170,7 +175,10 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
             break;
         }
         job->samples_done = w.done = first + n;
+        wave_done(ctx);
         wave_progress_print(&w, 0);
+        for (long ms = 0; ms < slow_ms && !interrupt_signal(); ms += 10) /* the test aid */
+            nanosleep(&(struct timespec){0, 10000000L}, NULL);
         if (interrupt_signal()) break;
     }
     eta_free(&w.eta);
@@ -213,6 +221,10 @@ typedef struct ts_render {
      * are known; stream_off once it cannot be (a PNG, a failure: written at the end). */
     ts_output_stream stream;
     int stream_off;
+    /* The EXR written while one device renders (writer.h; made only for an .exr); rows_sent:
+     * the image's rows copied from the device's films into state for it. */
+    ts_writer writer;
+    int rows_sent;
     uint64_t unit_samples;
     ts_device cl;
     ts_pipeline pipe;
@@ -238,6 +250,7 @@ static void render_free(ts_render *r)
     ts_error_clear(&r->hash_err);
     if (r->hash_lock_made) pthread_mutex_destroy(&r->hash_lock);
     output_stream_close(&r->stream, 0, NULL); /* a failure before the frame's end */
+    writer_free(&r->writer);
     ts_error_clear(&r->early);
     ts_error_clear(&r->stopped);
     film_state_free(&r->state);
@@ -406,6 +419,72 @@ static int render_plan(ts_render *r, ts_budget *b, ts_pipeline_plan *plan, ts_er
     return TS_OK;
 }
 
+static int render_hash_wait(void *ctx, ts_error *err)
+{
+    return render_hash_ready(ctx, err);
+}
+
+/* The writer (writer.h) for a render on one device to an .exr; without it (a PNG, or no
+ * means to lock) render_write writes the image at the end. */
+static void render_writer_start(ts_render *r)
+{
+    const char *ext = strrchr(r->opt.output_path, '.');
+    ts_error e = {0};
+    if (ext && strcmp(ext, ".exr") == 0)
+        writer_init(&r->writer, &r->opt, &r->state, &r->scene.camera, &r->job, r->width, r->height,
+                    render_hash_wait, r, &e);
+    ts_error_clear(&e);
+}
+
+/* After each wave on one device: the rows whose pixels now hold every sample (in the sample
+ * order, job.band pixels a band: whole bands are final) are copied from the films into
+ * r->state and handed to the writer. A copy that fails ends the writer: the device's error
+ * comes back from its next call. */
+static void render_wave_done(void *ctx)
+{
+    ts_render *r = ctx;
+    if (!writer_taking(&r->writer)) return;
+    double t0 = stats_now();
+    uint64_t npix = (uint64_t)r->width * (uint64_t)r->height, spp = (uint64_t)r->opt.spp;
+    uint64_t band = r->job.band && r->job.band < npix ? r->job.band : npix;
+    uint64_t pixels =
+        r->job.samples_done >= r->job.total ? npix : r->job.samples_done / (band * spp) * band;
+    int rows = (int)(pixels / (uint64_t)r->width);
+    if (rows > r->rows_sent) {
+        ts_error e = {0};
+        size_t first = (size_t)r->rows_sent * (size_t)r->width;
+        if (film_state_read_pixels(&r->pipe, &r->state, first,
+                                   (size_t)(rows - r->rows_sent) * (size_t)r->width, &e)) {
+            writer_end(&r->writer, 0, &r->stats->stage_seconds[TS_STAGE_film]);
+        } else {
+            r->rows_sent = rows;
+            writer_rows(&r->writer, rows);
+        }
+        ts_error_clear(&e);
+    }
+    r->stats->stage_seconds[TS_STAGE_film] += stats_now() - t0;
+}
+
+/* After the frame on one device (ok: without error): when every row went to the writer, the
+ * pipeline is released
+ * while it writes the last ones, and the image is written once it commits them (r->written);
+ * else (interrupted, out of memory, a writer that failed) render_write writes it. */
+static void render_writer_finish(ts_render *r, int ok)
+{
+    double *film = &r->stats->stage_seconds[TS_STAGE_film];
+    int complete = ok && r->writer.made && !r->stopped.code &&
+                   r->job.samples_done == r->job.total && r->rows_sent == r->height;
+    if (!complete) {
+        writer_end(&r->writer, 0, film);
+        return;
+    }
+    double t0 = stats_now();
+    pipeline_destroy(&r->pipe);
+    r->films_on_host = 1; /* every row is in r->state */
+    r->written = writer_end(&r->writer, 1, film);
+    *film += stats_now() - t0;
+}
+
 /* One attempt at budget b->mb: plan, create the pipeline, give its films the samples
  * already finished, trace the rest. */
 static int render_attempt(ts_render *r, ts_budget *b, ts_error *err)
@@ -418,7 +497,7 @@ static int render_attempt(ts_render *r, ts_budget *b, ts_error *err)
         (r->job.samples_done > 0 && film_state_transfer(&r->pipe, &r->state, 1, err)) ||
         dev_finish(&r->cl, r->stats, err)) /* the buffers' first use */
         return err->code;
-    return render_waves(&r->opt, &r->pipe, r->cam, &r->job, b->room_mb, err);
+    return render_waves(&r->opt, &r->pipe, r->cam, &r->job, b->room_mb, render_wave_done, r, err);
 }
 
 /* After an attempt that started at sample `before` ran out of memory: copies the samples it
@@ -499,6 +578,7 @@ static int render_with_retry(ts_render *r, ts_error *err)
         ts_error_clear(&b.oom);
         ts_error_set(&b.oom, err->code, "%s", err->msg);
         ts_error_clear(err);
+        writer_end(&r->writer, 0, &r->stats->stage_seconds[TS_STAGE_film]); /* before the copy */
         kept = render_keep_samples(r, before);
         /* With no sample in the film yet, the smaller budget may dice at other levels of
          * detail: there is nothing for them to disagree with. */
@@ -767,7 +847,13 @@ int render_run(const ts_render_options *o, ts_ranks *ranks, ts_stats *stats,
      * retry and the image write need it when memory is scarcest. --resume made it. */
     if (!rc && !up_to_date && !r.state.accum)
         rc = film_state_alloc(&r.state, (size_t)r.width * r.height, err);
-    if (!rc && !up_to_date) rc = alone ? render_with_retry(&r, err) : render_on_devices(&r, err);
+    if (!rc && !up_to_date && alone) {
+        render_writer_start(&r);
+        rc = render_with_retry(&r, err);
+        render_writer_finish(&r, rc == TS_OK);
+    } else if (!rc && !up_to_date) {
+        rc = render_on_devices(&r, err);
+    }
     if (!rc && !up_to_date && !r.written) rc = render_write(&r, err);
     if (!rc && r.early.code) rc = ts_error_set(err, r.early.code, "%s", r.early.msg);
     if (!rc) render_result(&r, up_to_date, result);

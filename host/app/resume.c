@@ -137,15 +137,17 @@ int film_state_alloc(ts_film_state *s, size_t npix, ts_error *err)
     return TS_OK;
 }
 
-int film_state_transfer(ts_pipeline *p, ts_film_state *s, int upload, ts_error *err)
+/* Pixels [first, first + count) of the three films, to the device or from it, blocking. */
+static int film_state_copy(ts_pipeline *p, ts_film_state *s, int upload, size_t first, size_t count,
+                           ts_error *err)
 {
-    size_t bytes = (size_t)p->pixel_count * sizeof(ts_vec4);
+    size_t at = first * sizeof(ts_vec4), bytes = count * sizeof(ts_vec4);
     cl_mem dev[3] = {p->accum, p->aov_film, p->albedo_film};
-    ts_vec4 *host[3] = {s->accum, s->aov, s->albedo};
+    ts_vec4 *host[3] = {s->accum + first, s->aov + first, s->albedo + first};
     for (int i = 0; i < 3; ++i) {
-        cl_int rc = upload ? clEnqueueWriteBuffer(p->cl->queue, dev[i], CL_TRUE, 0, bytes, host[i],
+        cl_int rc = upload ? clEnqueueWriteBuffer(p->cl->queue, dev[i], CL_TRUE, at, bytes, host[i],
                                                   0, NULL, NULL)
-                           : clEnqueueReadBuffer(p->cl->queue, dev[i], CL_TRUE, 0, bytes, host[i],
+                           : clEnqueueReadBuffer(p->cl->queue, dev[i], CL_TRUE, at, bytes, host[i],
                                                  0, NULL, NULL);
         if (rc != CL_SUCCESS)
             return ts_error_set(
@@ -153,6 +155,17 @@ int film_state_transfer(ts_pipeline *p, ts_film_state *s, int upload, ts_error *
                 upload ? "clEnqueueWriteBuffer" : "clEnqueueReadBuffer", upload ? "to" : "from");
     }
     return TS_OK;
+}
+
+int film_state_transfer(ts_pipeline *p, ts_film_state *s, int upload, ts_error *err)
+{
+    return film_state_copy(p, s, upload, 0, p->pixel_count, err);
+}
+
+int film_state_read_pixels(ts_pipeline *p, ts_film_state *s, size_t first, size_t count,
+                           ts_error *err)
+{
+    return film_state_copy(p, s, 0, first, count, err);
 }
 
 /* Reads every ts_exr_meta_keys item of path into v; fails naming the first one missing. */

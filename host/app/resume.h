@@ -122,6 +122,9 @@ int film_state_alloc(ts_film_state *s, size_t npix, ts_error *err);
 void film_state_free(ts_film_state *s);
 /* Copies the films to the device (upload = 1) or from it (0), blocking. */
 int film_state_transfer(ts_pipeline *p, ts_film_state *s, int upload, ts_error *err);
+/* Copies pixels [first, first + count) of the films from the device, blocking. */
+int film_state_read_pixels(ts_pipeline *p, ts_film_state *s, size_t first, size_t count,
+                           ts_error *err);
 
 /* --resume: loads the partial EXR at o->output_path, rendered width x height with the job
  * job->hash of job->total samples, into *state and the job (samples_done, lod, max_lod,

@@ -2,6 +2,7 @@
  * (waves.h). */
 #include "app/waves.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -84,4 +85,18 @@ int waves_trace_paths(const ts_render_options *o, ts_pipeline *p, const ts_camer
         p->stats->counters[TS_COUNTER_shadow_rays] += shadows;
     }
     return TS_OK;
+}
+
+long waves_slow_ms(int index)
+{
+    const char *s = getenv("TESSERA_SLOW_DEVICE");
+    while (s && *s) {
+        int i = -1;
+        long ms = 0;
+        if (sscanf(s, "%d:%ld", &i, &ms) != 2) return 0;
+        if (i == index && ms > 0) return ms;
+        s = strchr(s, ',');
+        s = s ? s + 1 : NULL;
+    }
+    return 0;
 }

@@ -41,4 +41,8 @@ int waves_lod_record(const ts_render_options *o, ts_pipeline *p, ts_job *job, ts
 int waves_trace_paths(const ts_render_options *o, ts_pipeline *p, const ts_camera_params *cam,
                       ts_error *err);
 
+/* TESSERA_SLOW_DEVICE="I:MS[,J:MS...]" (a testing aid, docs/errors.md): the milliseconds device
+ * I pauses after each wave, alone or beside others; 0 when it names no such device. */
+long waves_slow_ms(int device_index);
+
 #endif

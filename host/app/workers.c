@@ -673,22 +673,6 @@ static void *worker_main(void *arg)
     return NULL;
 }
 
-/* TESSERA_SLOW_DEVICE="I:MS[,J:MS...]" (a testing aid, docs/errors.md): device I pauses MS
- * milliseconds after each wave. */
-static long worker_slow_ms(int index)
-{
-    const char *s = getenv("TESSERA_SLOW_DEVICE");
-    while (s && *s) {
-        int i = -1;
-        long ms = 0;
-        if (sscanf(s, "%d:%ld", &i, &ms) != 2) return 0;
-        if (i == index && ms > 0) return ms;
-        s = strchr(s, ',');
-        s = s ? s + 1 : NULL;
-    }
-    return 0;
-}
-
 /* Splits the lod pass over device 0 and the devices that compute like it (they count the
  * same crossings), when device 0 makes the lod by the crossed rule and the frame has no
  * fixed --lod; else (or without memory for the sums) device 0 counts every pixel. */
@@ -727,7 +711,7 @@ int workers_start(ts_workers *g, ts_unit_source src, int makes_lod, ts_error *er
     g->alive = g->running = g->count;
     for (uint32_t i = 0; i < g->count; ++i) {
         ts_worker *w = &g->w[i];
-        w->slow_ms = worker_slow_ms(w->index);
+        w->slow_ms = waves_slow_ms(w->index);
         if (pthread_create(&w->thread, NULL, worker_main, w) != 0) {
             pthread_mutex_lock(&g->lock);
             g->alive -= g->count - i;
