@@ -668,15 +668,28 @@ int scene_add_light(ts_scene *s, const ts_scene_light *light, ts_error *err)
     return TS_OK;
 }
 
+/* fminf and fmaxf as glibc computes them on x86-64 (minss / maxss: y when equal or x is NaN,
+ * x when y is NaN), the same bits, but as selects the compiler inlines: GCC calls libm for
+ * fminf and fmaxf, and forest-1000's 1.1 M patch boxes spent 7% of its load there. */
+static inline float box_minf(float x, float y)
+{
+    return (x < y || y != y) ? x : y;
+}
+
+static inline float box_maxf(float x, float y)
+{
+    return (x > y || y != y) ? x : y;
+}
+
 static void scene_box_points(ts_box *b, const ts_vec4 *c)
 {
     for (int k = 0; k < 16; k++) {
-        b->lo_x = fminf(b->lo_x, c[k].x);
-        b->lo_y = fminf(b->lo_y, c[k].y);
-        b->lo_z = fminf(b->lo_z, c[k].z);
-        b->hi_x = fmaxf(b->hi_x, c[k].x);
-        b->hi_y = fmaxf(b->hi_y, c[k].y);
-        b->hi_z = fmaxf(b->hi_z, c[k].z);
+        b->lo_x = box_minf(b->lo_x, c[k].x);
+        b->lo_y = box_minf(b->lo_y, c[k].y);
+        b->lo_z = box_minf(b->lo_z, c[k].z);
+        b->hi_x = box_maxf(b->hi_x, c[k].x);
+        b->hi_y = box_maxf(b->hi_y, c[k].y);
+        b->hi_z = box_maxf(b->hi_z, c[k].z);
     }
 }
 
