@@ -63,6 +63,32 @@ static void test_deterministic(void **state)
     scene_free(&c);
 }
 
+/* The scene's patch arrays are made as large as the forest at once (its trees counted first,
+ * on threads, scene_reserve_patches), instead of doubling as they are added: the capacity is
+ * the patch count exactly, also after patches that came before; the forest is the one added
+ * patch by patch (a scene of one tree, then the forest of seven, against seven alone). */
+static void test_arrays_sized_at_once(void **state)
+{
+    (void)state;
+    ts_scene a, b;
+    forest_counts ca, cb;
+    generate(7, 5, 1, &a, &ca);
+    assert_int_equal(a.patch_capacity, a.patch_count);
+    forest_params one = {1, 9, 1}, seven = {7, 5, 1};
+    ts_error e = {0};
+    memset(&b, 0, sizeof b);
+    assert_int_equal(forest_generate(&one, identity, NULL, &b, NULL, &e), TS_OK);
+    uint32_t first = b.patch_count;
+    assert_int_equal(b.patch_capacity, first);
+    assert_int_equal(forest_generate(&seven, identity, NULL, &b, &cb, &e), TS_OK);
+    assert_int_equal(b.patch_capacity, b.patch_count);
+    assert_int_equal(b.patch_count - first, a.patch_count);
+    assert_memory_equal(b.cp + (size_t)first * 16, a.cp, (size_t)a.patch_count * 16 * sizeof *a.cp);
+    assert_memory_equal(b.attr + first, a.attr, (size_t)a.patch_count * sizeof *a.attr);
+    scene_free(&a);
+    scene_free(&b);
+}
+
 /* Tree i's shape depends on (seed, detail, i) only: the tree patches of n trees are a sum
  * over trees, so they grow linearly, about 1000 per tree at detail 1. */
 static void test_linear_in_trees(void **state)
@@ -193,7 +219,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_deterministic), cmocka_unit_test(test_linear_in_trees),
         cmocka_unit_test(test_potential),     cmocka_unit_test(test_patches_valid),
-        cmocka_unit_test(test_params),
+        cmocka_unit_test(test_params),        cmocka_unit_test(test_arrays_sized_at_once),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

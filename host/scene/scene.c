@@ -38,16 +38,26 @@ static int scene_grow_aligned(void **a, size_t used, size_t bytes)
     return 1;
 }
 
-/* Doubles the patch arrays when full (cp, cp1, corner_n, mid_n and attr SCENE_ALIGN-aligned). Each
- * array is grown in turn and its pointer kept as soon as it has moved; the capacity only moves
- * when all succeeded, so a failure leaves the scene consistent (some arrays merely larger than
- * needed). */
+/* Doubles the patch arrays when full (scene_reserve_patches). */
 static int scene_reserve_patch(ts_scene *s, ts_error *err)
 {
     if (s->patch_count < s->patch_capacity) return TS_OK;
     if (s->patch_capacity > UINT32_MAX / 2)
         return ts_error_set(err, TS_E_MEMORY, "scene: more than %u patches", s->patch_capacity);
     uint32_t cap = s->patch_capacity ? s->patch_capacity * 2u : SCENE_FIRST_PATCHES;
+    return scene_reserve_patches(s, cap - s->patch_count, err);
+}
+
+/* The patch arrays (cp, cp1, corner_n, mid_n and attr, SCENE_ALIGN-aligned) are grown in turn,
+ * each pointer kept as soon as it has moved; the capacity only moves when all succeeded, so a
+ * failure leaves the scene consistent (some arrays merely larger than needed). */
+int scene_reserve_patches(ts_scene *s, uint64_t more, ts_error *err)
+{
+    uint64_t want = (uint64_t)s->patch_count + more;
+    if (want <= s->patch_capacity) return TS_OK;
+    if (want > UINT32_MAX)
+        return ts_error_set(err, TS_E_MEMORY, "scene: more than %u patches", UINT32_MAX);
+    uint32_t cap = (uint32_t)want;
     size_t v = sizeof(ts_vec4), n = s->patch_count;
     size_t at = sizeof(ts_patch_attr);
     if (!scene_grow_aligned((void **)&s->cp, n * 16u * v, (size_t)cap * 16u * v)) goto fail;
