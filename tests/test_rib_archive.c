@@ -146,7 +146,7 @@ static void test_clipping_shutter_crop(void **state)
     int rc;
     const char *out =
         test_rib_warnings("Clipping 0.1 10\nClipping 0.2 10\nShutter 0 1\nShutter 0 1\n"
-                          "CropWindow 0 1 0 1\nOption \"limits\" \"bucketsize\" [16 16]\n"
+                          "CropWindow 0 0.5 0 1\nOption \"limits\" \"bucketsize\" [16 16]\n"
                           "Option \"searchpath\" \"shader\" \"x\"\nWorldBegin\n"
                           "Attribute \"identifier\" \"name\" \"a\" \"float id\" [3]\n"
                           "Attribute \"dice\" \"binary\" [1]\nWorldEnd\n",
@@ -162,6 +162,10 @@ static void test_clipping_shutter_crop(void **state)
                              "w.rib:7:21: warning: Option parameter \"shader\" is ignored\n"
                              "w.rib:9:35: warning: Attribute parameter \"id\" is ignored\n"
                              "w.rib:10:1: warning: Attribute \"dice\" is ignored\n");
+    /* The whole window leaves nothing out: no warning. */
+    out = test_rib_warnings("CropWindow 0 1 0 1\nWorldBegin\nWorldEnd\n", &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "");
 }
 
 /* ---- primitive variables ------------------------------------------------------------- */

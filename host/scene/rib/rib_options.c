@@ -68,7 +68,8 @@ int rib_req_shutter(rib_parser *p)
     return TS_OK;
 }
 
-/* CropWindow xmin xmax ymin ymax: within [0, 1], min < max. */
+/* CropWindow xmin xmax ymin ymax: within [0, 1], min < max; a warning unless it is the whole
+ * image. */
 int rib_req_crop_window(rib_parser *p)
 {
     double v[4];
@@ -80,8 +81,10 @@ int rib_req_crop_window(rib_parser *p)
                             v[0], v[1], v[2], v[3]);
     for (int k = 0; k < 4; k++)
         p->scene->camera.crop[k] = v[k];
-    rib_warn_once(p, p->req_line, p->req_col,
-                  "CropWindow is stored but not applied (the whole image is rendered)");
+    /* The whole window (RenderMan for Maya writes it in every frame) leaves nothing out. */
+    if (v[0] > 0.0 || v[1] < 1.0 || v[2] > 0.0 || v[3] < 1.0)
+        rib_warn_once(p, p->req_line, p->req_col,
+                      "CropWindow is stored but not applied (the whole image is rendered)");
     return TS_OK;
 }
 
