@@ -466,9 +466,10 @@ static void render_wave_done(void *ctx)
 }
 
 /* After the frame on one device (ok: without error): when every row went to the writer, the
- * pipeline is released
- * while it writes the last ones, and the image is written once it commits them (r->written);
- * else (interrupted, out of memory, a writer that failed) render_write writes it. */
+ * pipeline is released while it writes the last ones, and the image is written once it
+ * commits them (r->written); else (interrupted, out of memory, a writer that failed)
+ * render_write writes it. The film stage counts the release and the writer's own seconds
+ * (writer_end), not the wait for it, which they overlap. */
 static void render_writer_finish(ts_render *r, int ok)
 {
     double *film = &r->stats->stage_seconds[TS_STAGE_film];
@@ -480,9 +481,9 @@ static void render_writer_finish(ts_render *r, int ok)
     }
     double t0 = stats_now();
     pipeline_destroy(&r->pipe);
+    *film += stats_now() - t0;
     r->films_on_host = 1; /* every row is in r->state */
     r->written = writer_end(&r->writer, 1, film);
-    *film += stats_now() - t0;
 }
 
 /* One attempt at budget b->mb: plan, create the pipeline, give its films the samples
