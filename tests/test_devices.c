@@ -390,35 +390,51 @@ static void test_the_exr_is_written_while_rendering(void **state)
     assert_true(same_bytes(in_dir("stream1.exr"), in_dir("stream2.exr")));
 }
 
-/* One device writes the EXR's rows on a thread beside its waves (app/writer.h): with waves of
- * 4096 paths (TESSERA_FIT_WAVE_RAYS, eleven for the frame) and a pause after each, the
- * temporary beside the output holds compressed rows while the progress line is short of the
- * frame's samples, and the file it becomes is the one-wave render's (whose rows all come at
- * the end), byte for byte, with no temporary left. */
-static void test_one_device_writes_the_exr_while_rendering(void **state)
+/* One device writes the image's rows on a thread beside its waves (app/writer.h): with waves
+ * of 4096 paths (TESSERA_FIT_WAVE_RAYS) and a pause after each, the temporary beside the
+ * output holds compressed rows (past `header` bytes) while the progress line is short of the
+ * frame's `samples`, and the file it becomes is the one-wave render's (whose rows all come at
+ * the end), byte for byte, with no temporary left. ext: "exr" or "png". */
+static void one_device_writes_while_rendering(const char *ext, const char *args, long samples,
+                                              long header)
 {
-    (void)state;
-    const char *args = "--res 96x54 --spp 8 --max-lod 6";
-    render("scene/teapot.rib", "wave1.exr", first, "--res 96x54 --spp 8 --max-lod 6 --quiet");
+    char one[64], waves[64], quiet[256];
+    snprintf(one, sizeof one, "wave1.%s", ext);
+    snprintf(waves, sizeof waves, "waves.%s", ext);
+    snprintf(quiet, sizeof quiet, "%s --quiet", args);
+    render("scene/teapot.rib", one, first, quiet);
     char slow[32];
-    snprintf(slow, sizeof slow, "%s:100", first);
-    setenv("TESSERA_SLOW_DEVICE", slow, 1); /* 100 ms a wave: a render of over a second */
+    snprintf(slow, sizeof slow, "%s:150", first);
+    setenv("TESSERA_SLOW_DEVICE", slow, 1); /* 150 ms a wave: a render of seconds */
     setenv("TESSERA_FIT_WAVE_RAYS", "8192", 1);
-    int pid = render_in_background(test_source_path("scene/teapot.rib"), "waves.exr", first, args);
+    int pid = render_in_background(test_source_path("scene/teapot.rib"), waves, first, args);
     unsetenv("TESSERA_SLOW_DEVICE");
     unsetenv("TESSERA_FIT_WAVE_RAYS");
     char tmp[4096];
-    assert_int_equal(ts_file_temp_name(in_dir("waves.exr"), pid, 0, tmp, sizeof tmp), 0);
+    assert_int_equal(ts_file_temp_name(in_dir(waves), pid, 0, tmp, sizeof tmp), 0);
     int seen = 0;
     for (int i = 0; i < 12000 && !seen && kill(pid, 0) == 0; ++i) { /* up to 60 s */
         struct stat st;
-        seen = stat(tmp, &st) == 0 && st.st_size > 4096 && progress_samples() < 96 * 54 * 8;
+        seen = stat(tmp, &st) == 0 && st.st_size > header && progress_samples() < samples;
         if (!seen) nanosleep(&(struct timespec){0, 5000000}, NULL);
     }
     wait_for_exit(pid);
     assert_true(seen);
     assert_true(access(tmp, F_OK) != 0);
-    assert_true(same_bytes(in_dir("wave1.exr"), in_dir("waves.exr")));
+    assert_true(same_bytes(in_dir(one), in_dir(waves)));
+}
+
+static void test_one_device_writes_the_exr_while_rendering(void **state)
+{
+    (void)state;
+    one_device_writes_while_rendering("exr", "--res 96x54 --spp 8 --max-lod 6", 96 * 54 * 8, 4096);
+}
+
+static void test_one_device_writes_the_png_while_rendering(void **state)
+{
+    (void)state;
+    /* zlib and stdio hold a PNG's first 16 KB: a frame whose rows make more */
+    one_device_writes_while_rendering("png", "--res 320x180 --spp 1 --max-lod 6", 320 * 180, 512);
 }
 
 /* SIGTERM in the middle of a two-device render: the units merged so far are written (exit 3)
@@ -727,6 +743,7 @@ int main(void)
         cmocka_unit_test(test_cpu_devices_leave_the_host_its_cores),
         cmocka_unit_test(test_two_streams_give_the_one_stream_image),
         cmocka_unit_test(test_one_device_writes_the_exr_while_rendering),
+        cmocka_unit_test(test_one_device_writes_the_png_while_rendering),
         cmocka_unit_test(test_an_abandoned_lod_part_is_counted_by_device_0),
         cmocka_unit_test(test_two_devices_share_built_patches),
         cmocka_unit_test(test_a_device_failing_with_claims_abandons_them),

@@ -193,11 +193,19 @@ int output_stream_open(const ts_render_options *o, int width, int height, const 
     s->rows =
         malloc((size_t)TS_OUTPUT_STREAM_ROWS * width * TS_EXR_COMPLETE_CHANNELS * sizeof *s->rows);
     if (!s->rows) return ts_error_set(err, TS_E_MEMORY, "out of memory (image rows)");
-    ts_image shape = {width, height, TS_EXR_COMPLETE_CHANNELS, (const char **)ts_exr_channel_names,
-                      NULL};
-    ts_image_meta meta[OUTPUT_METAS];
-    output_metas(o, job, job->total, meta);
-    if (image_exr_stream_open(o->output_path, &shape, meta, OUTPUT_METAS, NULL, 0, &s->exr, err)) {
+    const char *ext = strrchr(o->output_path, '.');
+    int rc;
+    if (ext && strcmp(ext, ".png") == 0) {
+        rc = image_png_stream_open(o->output_path, width, height, &s->png, err);
+    } else {
+        ts_image shape = {width, height, TS_EXR_COMPLETE_CHANNELS,
+                          (const char **)ts_exr_channel_names, NULL};
+        ts_image_meta meta[OUTPUT_METAS];
+        output_metas(o, job, job->total, meta);
+        rc = image_exr_stream_open(o->output_path, &shape, meta, OUTPUT_METAS, NULL, 0, &s->exr,
+                                   err);
+    }
+    if (rc) {
         free(s->rows);
         memset(s, 0, sizeof *s);
         return err->code;
@@ -207,17 +215,24 @@ int output_stream_open(const ts_render_options *o, int width, int height, const 
     return TS_OK;
 }
 
+int output_stream_is_open(const ts_output_stream *s)
+{
+    return s->exr || s->png;
+}
+
 int output_stream_rows(ts_output_stream *s, const ts_film_state *films, const ts_camera *cam,
                        int rows_final, int max_rows, ts_error *err)
 {
     double t0 = stats_now();
-    int rc = TS_OK, at = image_exr_stream_next_row(s->exr);
+    int rc = TS_OK;
+    int at = s->png ? image_png_stream_next_row(s->png) : image_exr_stream_next_row(s->exr);
+    int nch = s->png ? 3 : TS_EXR_COMPLETE_CHANNELS; /* a PNG's R, G, B */
     if (max_rows > 0 && rows_final - at > max_rows) rows_final = at + max_rows;
     while (!rc && at < rows_final) {
         int n = rows_final - at < TS_OUTPUT_STREAM_ROWS ? rows_final - at : TS_OUTPUT_STREAM_ROWS;
-        output_pixels(films, cam, TS_EXR_COMPLETE_CHANNELS, (size_t)at * s->width,
-                      (size_t)n * s->width, s->rows);
-        rc = image_exr_stream_rows(s->exr, s->rows, n, err);
+        output_pixels(films, cam, nch, (size_t)at * s->width, (size_t)n * s->width, s->rows);
+        rc = s->png ? image_png_stream_rows(s->png, s->rows, n, err)
+                    : image_exr_stream_rows(s->exr, s->rows, n, err);
         at += n;
     }
     s->seconds += stats_now() - t0;
@@ -227,7 +242,8 @@ int output_stream_rows(ts_output_stream *s, const ts_film_state *films, const ts
 int output_stream_close(ts_output_stream *s, int commit, ts_error *err)
 {
     double t0 = stats_now();
-    int rc = image_exr_stream_close(s->exr, commit, err);
+    int rc = s->png ? image_png_stream_close(s->png, commit, err)
+                    : image_exr_stream_close(s->exr, commit, err);
     free(s->rows);
     double seconds = s->seconds + stats_now() - t0;
     memset(s, 0, sizeof *s);

@@ -44,7 +44,8 @@ int output_write(const ts_render_options *o, const ts_film_state *films, const t
  * is kept only if the frame completes; an interrupted or failed frame closes it without
  * committing and output_write writes the partial image as before. */
 typedef struct ts_output_stream {
-    ts_exr_stream *exr; /* NULL: not open */
+    ts_exr_stream *exr; /* an .exr; NULL: not open */
+    ts_png_stream *png; /* a .png (the one-device writer); NULL: not open */
     float *rows;        /* one band of converted rows */
     int width, height;
     double seconds; /* spent opening, converting, writing and closing (the film stage) */
@@ -53,14 +54,17 @@ typedef struct ts_output_stream {
 /* The rows output_stream_rows converts and writes at a time (a few MB). */
 #define TS_OUTPUT_STREAM_ROWS 64
 
-/* Opens the stream of o->output_path (an .exr: image_exr_stream_open) with job's metadata:
- * job->max_lod and job->lod must be the frame's (once the lod stage recorded them). */
+/* Opens the stream of o->output_path (an .exr: image_exr_stream_open, with job's metadata:
+ * job->max_lod and job->lod must be the frame's, once the lod stage recorded them; a .png:
+ * image_png_stream_open). */
 int output_stream_open(const ts_render_options *o, int width, int height, const ts_job *job,
                        ts_output_stream *s, ts_error *err);
 /* Writes rows [written, rows_final) from the films (every sample of their pixels merged),
  * at most max_rows of them (0: all). */
 int output_stream_rows(ts_output_stream *s, const ts_film_state *films, const ts_camera *cam,
                        int rows_final, int max_rows, ts_error *err);
+/* Whether s is open. */
+int output_stream_is_open(const ts_output_stream *s);
 /* Ends the stream (see image_exr_stream_close); s->seconds stays for the stats. */
 int output_stream_close(ts_output_stream *s, int commit, ts_error *err);
 

@@ -217,11 +217,11 @@ typedef struct ts_render {
      * and early holds its error, if any. */
     int written;
     ts_error early;
-    /* The EXR written while several devices render (output.h): open once the frame's levels
-     * are known; stream_off once it cannot be (a PNG, a failure: written at the end). */
+    /* The image written while several devices render (output.h): open once the frame's levels
+     * are known; stream_off once it cannot be (bands of rows, a failure: written at the end). */
     ts_output_stream stream;
     int stream_off;
-    /* The EXR written while one device renders (writer.h; made only for an .exr); rows_sent:
+    /* The image written while one device renders (writer.h); rows_sent:
      * the image's rows copied from the device's films into state for it. */
     ts_writer writer;
     int rows_sent;
@@ -424,13 +424,13 @@ static int render_hash_wait(void *ctx, ts_error *err)
     return render_hash_ready(ctx, err);
 }
 
-/* The writer (writer.h) for a render on one device to an .exr; without it (a PNG, or no
- * means to lock) render_write writes the image at the end. */
+/* The writer (writer.h) for a render on one device; without it (no means to lock)
+ * render_write writes the image at the end. */
 static void render_writer_start(ts_render *r)
 {
     const char *ext = strrchr(r->opt.output_path, '.');
     ts_error e = {0};
-    if (ext && strcmp(ext, ".exr") == 0)
+    if (ext && (strcmp(ext, ".exr") == 0 || strcmp(ext, ".png") == 0))
         writer_init(&r->writer, &r->opt, &r->state, &r->scene.camera, &r->job, r->width, r->height,
                     render_hash_wait, r, &e);
     ts_error_clear(&e);
@@ -655,7 +655,7 @@ static void render_progress(void *ctx, ts_board *b, ts_workers *g)
     ts_render *r = ctx;
     if (r->stream_off) return;
     ts_error e = {0};
-    if (!r->stream.exr &&
+    if (!output_stream_is_open(&r->stream) &&
         (workers_lod_state(g) <= 0 || render_hash_ready(r, &e) ||
          output_stream_open(&r->opt, r->width, r->height, &r->job, &r->stream, &e))) {
         r->stream_off = e.code != 0;
@@ -678,7 +678,7 @@ static void render_progress(void *ctx, ts_board *b, ts_workers *g)
  * becomes the image (r->written); any other is removed, and render_write writes the image. */
 static void render_stream_end(ts_render *r, int finished)
 {
-    if (r->stream.exr) {
+    if (output_stream_is_open(&r->stream)) {
         ts_error e = {0};
         int commit = finished && !r->written && !r->stream_off &&
                      !output_stream_rows(&r->stream, &r->state, &r->scene.camera, r->height, 0, &e);
@@ -728,7 +728,8 @@ static int render_on_devices(ts_render *r, ts_error *err)
     service.stop_ctx = r;
     /* The EXR's rows as they are final: units follow the pixels (one-pixel bands). */
     const char *ext = strrchr(r->opt.output_path, '.');
-    r->stream_off = !(ext && strcmp(ext, ".exr") == 0 && f.cam.band == 1u);
+    r->stream_off =
+        !(ext && (strcmp(ext, ".exr") == 0 || strcmp(ext, ".png") == 0) && f.cam.band == 1u);
     service.progress = render_progress;
     service.progress_ctx = r;
     int rc =

@@ -1,4 +1,4 @@
-/* writer.c — the EXR of a one-device render written beside its waves (writer.h). */
+/* writer.c — the image of a one-device render written beside its waves (writer.h). */
 #include "app/writer.h"
 
 #include <string.h>
@@ -35,7 +35,7 @@ static void *writer_run(void *arg)
         pthread_mutex_unlock(&w->lock);
         ts_error e = {0};
         int rc = TS_OK;
-        if (!w->stream.exr)
+        if (!output_stream_is_open(&w->stream))
             rc = (w->hash_ready && w->hash_ready(w->hash_ctx, &e)) ||
                  output_stream_open(w->opt, w->width, w->height, w->job, &w->stream, &e);
         if (!rc)
@@ -82,7 +82,7 @@ int writer_end(ts_writer *w, int commit, double *film_seconds)
     if (w->running) pthread_join(w->thread, NULL), w->running = 0;
     commit = commit && !w->failed && w->written == w->height;
     int committed = 0;
-    if (w->stream.exr) {
+    if (output_stream_is_open(&w->stream)) {
         ts_error e = {0};
         committed = !output_stream_close(&w->stream, commit, commit ? &e : NULL) && commit;
         ts_error_clear(&e);

@@ -151,6 +151,14 @@ int image_write_png(const char *path, int width, int height, const float *rgb_li
     return rc ? rc : image_png_write(path, width, height, rgb_linear, err);
 }
 
+int image_png_stream_open(const char *path, int width, int height, ts_png_stream **out,
+                          ts_error *err)
+{
+    *out = NULL;
+    int rc = require_extension(path, ".png", err);
+    return rc ? rc : image_png_open_stream(path, width, height, out, err);
+}
+
 int image_read(const char *path, ts_image *out, ts_error *err)
 {
     if (!out)

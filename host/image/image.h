@@ -74,6 +74,20 @@ int image_exr_stream_close(ts_exr_stream *s, int commit, ts_error *err);
 int image_write_png(const char *path, int width, int height, const float *rgb_linear,
                     ts_error *err);
 
+/* A PNG written a band of rows at a time, like ts_exr_stream: image_write_png's bytes, the file
+ * under its name only when every row is in. */
+typedef struct ts_png_stream ts_png_stream;
+
+/* Opens the stream of a width x height image; *out on success. path must end in ".png". */
+int image_png_stream_open(const char *path, int width, int height, ts_png_stream **out,
+                          ts_error *err);
+/* The next `count` rows, top to bottom, 3 linear floats a pixel (tonemap_srgb8). */
+int image_png_stream_rows(ts_png_stream *s, const float *rgb_linear, int count, ts_error *err);
+/* The number of rows written so far. */
+int image_png_stream_next_row(const ts_png_stream *s);
+/* Ends the stream and frees it (NULL: nothing), as image_exr_stream_close. */
+int image_png_stream_close(ts_png_stream *s, int commit, ts_error *err);
+
 /* Reads the first subimage of any format OIIO knows, all channels converted to float
  * (8-bit PNG values come back as v / 255). Channel order is the one written by
  * image_write_exr where recorded, else OIIO's (by layer; R, G, B, A, Z first in each). On success
