@@ -362,7 +362,7 @@ static int same_bytes(const char *a, const char *b)
 /* Two devices write the EXR's rows while they render (app/output.h): its temporary beside
  * the output holds compressed rows while the progress line is short of the frame's
  * samples, and the file it becomes is the one-device render's, byte for byte, with no
- * temporary left. */
+ * temporary left; a PNG's too. */
 static void test_the_exr_is_written_while_rendering(void **state)
 {
     (void)state;
@@ -388,6 +388,10 @@ static void test_the_exr_is_written_while_rendering(void **state)
     assert_true(seen);
     assert_true(access(tmp, F_OK) != 0);
     assert_true(same_bytes(in_dir("stream1.exr"), in_dir("stream2.exr")));
+    /* A PNG is streamed the same way: the one-device file, byte for byte. */
+    render("scene/teapot.rib", "stream1.png", first, "--res 96x54 --spp 8 --max-lod 6 --quiet");
+    render("scene/teapot.rib", "stream2.png", pair, "--res 96x54 --spp 8 --max-lod 6 --quiet");
+    assert_true(same_bytes(in_dir("stream1.png"), in_dir("stream2.png")));
 }
 
 /* One device writes the image's rows on a thread beside its waves (app/writer.h): with waves
