@@ -201,7 +201,8 @@ int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16]
                        const double normals[4][3], const ts_patch_attr *attr, ts_error *err);
 /* Makes room for `more` patches beyond patch_count at once: a generator that knows how many it
  * adds (the forest) saves the doublings, each of which copies the arrays into new memory that
- * is touched again (11 M patches: 6 GB written twice over, 3 M page faults). TS_E_MEMORY. */
+ * is touched again (forest-1000: loaded in 1.2-1.5 s instead of 1.9-2.0 s, 680 MiB peak instead
+ * of 950). TS_E_MEMORY. */
 int scene_reserve_patches(ts_scene *s, uint64_t more, ts_error *err);
 /* Makes patch p move: cp1 (world space) becomes its control points at shutter close. Its
  * corner normals stay those of shutter open. */
