@@ -162,7 +162,7 @@ static double number(const cJSON *o, const char *key)
 
 static void test_render_exr_and_stats(void **state)
 {
-    char args[8192], path[4200];
+    char args[16384], path[4200]; /* three paths of up to 4095 bytes each */
     snprintf(
         args, sizeof args,
         "render '%s' -o '%s/t.exr' --res 64x36 --spp 1 --max-lod 4 --stats '%s/s.json' --quiet",
