@@ -223,6 +223,13 @@ static void test_bxdf_disney_conductor_constant(void **state)
         "w.rib:2:45: warning: Bxdf \"PxrDisney\": \"subsurface\" is not 0, but subsurface "
         "scattering is not supported\n"
         "w.rib:2:1: warning: Bxdf \"PxrDisney\": \"metallic\" outside [0, 1] is clamped to it\n");
+    /* A name that differs in case only (made where file names ignore case) is read as the
+     * Bxdf, with one warning. */
+    a = test_rib_one_patch("Bxdf \"PXRDisney\" \"d\" \"float metallic\" [0.25]");
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED), test_assert_near(a.metallic, 0.25, 1e-7);
+    assert_string_equal(test_rib_body_warnings("Bxdf \"PXRDisney\" \"d\""),
+                        "w.rib:2:6: warning: Bxdf \"PXRDisney\" is read as PxrDisney (the names "
+                        "differ in case only)\n");
     /* PxrConductor: Cs is the normal-incidence Fresnel of eta + i kappa, edge colour 1. */
     a = test_rib_one_patch(
         "Bxdf \"PxrConductor\" \"c\" \"color eta\" [0.2 0.2 0.2] \"color kappa\" [3 3 "

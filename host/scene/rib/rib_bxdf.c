@@ -14,6 +14,7 @@
 #include <stddef.h>
 #include <stdio.h>
 #include <string.h>
+#include <strings.h>
 
 /* Everything a Bxdf here reads, with RenderMan's defaults set per Bxdf (bxdf_defaults). */
 typedef struct bxdf_args {
@@ -453,6 +454,15 @@ int rib_req_bxdf(rib_parser *p)
     size_t k = 0;
     while (k < BXDF_COUNT && strcmp(name, bxdf_table[k].name) != 0)
         k++;
+    /* A name that differs in case only (`PXRDisney`): RenderMan finds the plugin by its file
+     * name, which matches regardless of case on macOS and Windows, where such files are made. */
+    for (size_t c = 0; k == BXDF_COUNT && c < BXDF_COUNT; ++c)
+        if (strcasecmp(name, bxdf_table[c].name) == 0) {
+            snprintf(what, sizeof what, "Bxdf \"%s\" is read as %s (the names differ in case only)",
+                     rib_printable(name, shown), bxdf_table[c].name);
+            rib_warn_once(p, p->args[0].line, p->args[0].col, what);
+            k = c;
+        }
     if (k == BXDF_COUNT) {
         snprintf(what, sizeof what,
                  "Bxdf \"%s\" is unknown: it renders as PxrDiffuse (matte) of its default colour",
