@@ -154,8 +154,6 @@ static void test_clipping_shutter_crop(void **state)
     assert_int_equal(rc, TS_OK);
     assert_string_equal(out, "w.rib:1:1: warning: Clipping is stored but not applied (rays are not "
                              "clipped)\n"
-                             "w.rib:3:1: warning: Shutter is stored but not applied (motion blocks "
-                             "always span the whole shutter)\n"
                              "w.rib:5:1: warning: CropWindow is stored but not applied (the whole "
                              "image is rendered)\n"
                              "w.rib:6:1: warning: Option \"limits\" is ignored\n"
@@ -164,6 +162,21 @@ static void test_clipping_shutter_crop(void **state)
                              "w.rib:10:1: warning: Attribute \"dice\" is ignored\n");
     /* The whole window leaves nothing out: no warning. */
     out = test_rib_warnings("CropWindow 0 1 0 1\nWorldBegin\nWorldEnd\n", &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "");
+    /* Shutter matters only to motion: a block whose times differ from it warns there, once;
+     * one whose times are the shutter's does not. */
+    const char *moving = "WorldBegin\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 1 0 0\n"
+                         "MotionEnd\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 1 0 0\n"
+                         "MotionEnd\nWorldEnd\n";
+    char text[512];
+    snprintf(text, sizeof text, "Shutter 0 0\n%s", moving);
+    out = test_rib_warnings(text, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:3:1: warning: Shutter 0 0 is not applied: the motion block "
+                             "[0 1] spans the exposure\n");
+    snprintf(text, sizeof text, "Shutter 0 1\n%s", moving);
+    out = test_rib_warnings(text, &rc);
     assert_int_equal(rc, TS_OK);
     assert_string_equal(out, "");
 }

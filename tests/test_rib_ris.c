@@ -87,9 +87,7 @@ static void test_option_ri(void **state)
         &rc);
     assert_int_equal(rc, TS_OK);
     assert_string_equal(out, "w.rib:1:48: warning: Option parameter \"PixelVariance\" is ignored\n"
-                             "w.rib:1:44: warning: Format pixel aspect ratio is ignored\n"
-                             "w.rib:2:29: warning: Shutter is stored but not applied (motion "
-                             "blocks always span the whole shutter)\n");
+                             "w.rib:1:44: warning: Format pixel aspect ratio is ignored\n");
 }
 
 static void test_camera_projection(void **state)

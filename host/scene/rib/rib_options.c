@@ -50,7 +50,9 @@ int rib_req_clipping(rib_parser *p)
     return TS_OK;
 }
 
-/* Shutter open close: open <= close. */
+/* Shutter open close: open <= close. Stored; a motion block whose times differ says that it
+ * spans the whole frame anyway (rib_req_motion_begin): a scene without motion (RenderMan for
+ * Maya's `Shutter 0 0`) renders as RenderMan renders it, without a warning. */
 int rib_req_shutter(rib_parser *p)
 {
     double v[2];
@@ -62,9 +64,7 @@ int rib_req_shutter(rib_parser *p)
                             v[0], v[1]);
     p->scene->camera.shutter[0] = v[0];
     p->scene->camera.shutter[1] = v[1];
-    rib_warn_once(p, p->req_line, p->req_col,
-                  "Shutter is stored but not applied (motion blocks always span the whole "
-                  "shutter)");
+    p->shutter_given = 1;
     return TS_OK;
 }
 

@@ -209,6 +209,7 @@ typedef struct rib_parser {
     uint32_t emit_trim_first, emit_trim_count; /* the trim segments of the NuPatch piece being
                                                   emitted (rib_nurbs.c), 0 0 otherwise */
     rib_motion motion;
+    int shutter_given; /* a Shutter request was read: motion blocks whose times differ warn */
     /* The last world-to-object transform added for a displaced patch, by its CTM. */
     double xf_ctm[16];
     uint32_t xf_index;

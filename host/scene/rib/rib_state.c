@@ -788,6 +788,14 @@ int rib_req_motion_begin(rib_parser *p)
     if (!(t[0] < t[1]))
         return rib_error_at(p, p->args[0].line, p->args[0].col,
                             "MotionBegin: the times must increase, got %g %g", t[0], t[1]);
+    const double *sh = p->scene->camera.shutter;
+    if (p->shutter_given && (sh[0] != t[0] || sh[1] != t[1])) {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "Shutter %g %g is not applied: the motion block [%g %g] spans the exposure", sh[0],
+                 sh[1], t[0], t[1]);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
     memset(&p->motion, 0, sizeof p->motion);
     p->motion.active = 1;
     p->motion.line = p->req_line;
