@@ -1,7 +1,9 @@
 /* camera.cl — stage `camera`: generates one wave of eye rays.
  * Reads:  ts_camera_params and the sample order's divisors (ts_order_divs, by value); a moving
  *         camera is interpolated to each ray's time.
- * Writes: per ray org, dir (w = time in [0,1)), hit (cleared), entry (TS_ENTRY_START), pixel,
+ * Writes: per ray org (w 0, or with RIB Clipping the distance from the eye to the near plane,
+ *         where the ray starts: camera_clip), dir (w = time in [0,1)), hit (cleared; its t the
+ *         far plane's distance with Clipping), entry (TS_ENTRY_START), pixel,
  *         flags (0); active[i] = paths[i] = i; for i < path_count (the path buffers hold half
  *         the rays: a path owns two ray slots) a fresh path state (throughput 1, radiance 0,
  *         its eye-ray slot traced, emission it finds weighted 1). The lod stage's waves of
@@ -36,6 +38,21 @@ inline float3 camera_vector(const ts_camera_params *c, uint k, float t)
         v = (1.0f - t) * v + t * (float3)(b[0], b[1], b[2]);
     }
     return v;
+}
+
+/* RIB Clipping (c->clip) of an eye ray whose unnormalised direction (forward + screen
+ * offsets along right and up, both perpendicular to forward) has length len and unit
+ * components (nx, ny, nz): a camera-space depth z lies z * len along it. The ray starts at
+ * depth clip_near, o->w its distance from the eye (shade adds it to the Z channel; the
+ * origin-patch rule reads w only for rays that leave a patch), and ends at depth clip_far:
+ * *tmax. What lies nearer or farther is not seen by the camera (reflections, shadows and
+ * indirect light still see it, as in RenderMan). */
+inline void camera_clip(const ts_camera_params *c, float len, float nx, float ny, float nz,
+                        ts_vec4 *o, float *tmax)
+{
+    float tn = c->clip_near * len;
+    o->x += nx * tn, o->y += ny * tn, o->z += nz * tn, o->w = tn;
+    *tmax = fmin(c->clip_far * len - tn, TS_NO_HIT);
 }
 
 #ifdef TS_CPU_LANES
@@ -83,17 +100,20 @@ inline void camera_generate_x8(const ts_camera_params *c, ts_order_divs ord, __g
         else
             e[k] = eye, d[k] = sx * right + sy * up + fwd;
     }
-    float8 inv = 1.0f / sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    float ex[8], ey[8], ez[8], dx[8], dy[8], dz[8], tt[8];
+    float8 len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), inv = 1.0f / len;
+    float ex[8], ey[8], ez[8], dx[8], dy[8], dz[8], tt[8], ln[8];
     vstore8(e[0], 0, ex), vstore8(e[1], 0, ey), vstore8(e[2], 0, ez);
     vstore8(d[0] * inv, 0, dx), vstore8(d[1] * inv, 0, dy), vstore8(d[2] * inv, 0, dz);
-    vstore8(time, 0, tt);
+    vstore8(time, 0, tt), vstore8(len, 0, ln);
     uint n = min(8u, c->ray_count - i0);
     for (uint l = 0u; l < n; ++l) {
         uint i = i0 + l;
-        org[i] = (ts_vec4){ex[l], ey[l], ez[l], 0.0f};
+        ts_vec4 o = {ex[l], ey[l], ez[l], 0.0f};
+        float tmax = TS_NO_HIT;
+        if (c->clip) camera_clip(c, ln[l], dx[l], dy[l], dz[l], &o, &tmax);
+        org[i] = o;
         dir[i] = (ts_vec4){dx[l], dy[l], dz[l], tt[l]};
-        hit[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
+        hit[i] = (ts_hit){tmax, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
         if (i < path_count) {
             throughput[i] = (ts_vec4){1.0f, 1.0f, 1.0f, 0.0f};
             radiance[i] = (ts_vec4){0.0f, 0.0f, 0.0f, 0.0f};
@@ -155,10 +175,12 @@ __kernel void camera_generate(ts_camera_params cam, ts_order_divs ord, __global 
     }
     ts_vec4 o = {eye.x, eye.y, eye.z, 0.0f};
     float dx = d.x, dy = d.y, dz = d.z;
-    float inv = 1.0f / sqrt(dx * dx + dy * dy + dz * dz);
+    float len = sqrt(dx * dx + dy * dy + dz * dz), inv = 1.0f / len;
+    float tmax = TS_NO_HIT;
+    if (cam.clip) camera_clip(&cam, len, dx * inv, dy * inv, dz * inv, &o, &tmax);
     org[i] = o;
     dir[i] = (ts_vec4){dx * inv, dy * inv, dz * inv, time};
-    hit[i] = (ts_hit){TS_NO_HIT, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
+    hit[i] = (ts_hit){tmax, 0.0f, 0.0f, TS_INVALID, TS_INVALID};
     entry[i] = TS_ENTRY_START;
     pixel[i] = pix;
     flags[i] = 0u;

@@ -405,7 +405,7 @@ __kernel void shade_path(ts_shade_params sp, ts_order_divs ord, uint first_sampl
         shade_vertex_at(h, o4, d, d4.w, cp, corner_n, mid_n, attr, xform, tex, grid, grid_at);
     if (s.bounce == 0u) {
         __global const ts_patch_attr *a = v.a;
-        aov[i] = (ts_vec4){v.n.x, v.n.y, v.n.z, h.t};
+        aov[i] = (ts_vec4){v.n.x, v.n.y, v.n.z, h.t + o4.w}; /* o4.w: a clipped eye ray's start */
         albedo[i] = (ts_vec4){a->kd * v.cs[0], a->kd * v.cs[1], a->kd * v.cs[2], 0.0f};
     }
     shade_emission(&L, &v, h, d, &s, pb, mode, &radiance[i]);

@@ -141,7 +141,8 @@ static void test_clipping_shutter_crop(void **state)
                                              "WorldBegin");
     expect_error("WorldBegin\nShutter 0 1", "t.rib:2:1: error: Shutter must come before "
                                             "WorldBegin");
-    /* Each stored-but-unused option warns once; Option and Attribute once per name.
+    /* Each stored-but-unused option warns once (Clipping is applied, Shutter warns at motion);
+     * Option and Attribute once per name.
      * Attribute "identifier" "name" is read (look files' paths, rib_rlf.c), "id" is not. */
     int rc;
     const char *out =
@@ -152,9 +153,7 @@ static void test_clipping_shutter_crop(void **state)
                           "Attribute \"dice\" \"binary\" [1]\nWorldEnd\n",
                           &rc);
     assert_int_equal(rc, TS_OK);
-    assert_string_equal(out, "w.rib:1:1: warning: Clipping is stored but not applied (rays are not "
-                             "clipped)\n"
-                             "w.rib:5:1: warning: CropWindow is stored but not applied (the whole "
+    assert_string_equal(out, "w.rib:5:1: warning: CropWindow is stored but not applied (the whole "
                              "image is rendered)\n"
                              "w.rib:6:1: warning: Option \"limits\" is ignored\n"
                              "w.rib:7:21: warning: Option parameter \"shader\" is ignored\n"

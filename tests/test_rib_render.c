@@ -414,6 +414,64 @@ static void test_camera_invisible(void **state)
     }
 }
 
+/* Clipping near far: the camera sees camera-space depths in [near, far] only. A red card at
+ * depth 4 over the left half of a green plane at depth 5, orthographic (each pixel's Z is
+ * its depth, to a few ulps): without Clipping the card and the plane; with Clipping 4.5 10
+ * the card is clipped (the plane everywhere, Z still 5: the ray starts at the near plane and
+ * Z counts from the eye); with Clipping 0.1 4.5 the plane is (nothing right of the card, Z
+ * infinite).
+ * Through a perspective camera Clipping 1 10 changes no pixel's colour and its Z by at most a
+ * few ulps. */
+static void test_clipping(void **state)
+{
+    (void)state;
+    const char *clip[] = {"", "Clipping 4.5 10", "Clipping 0.1 4.5"};
+    for (int k = 0; k < 3; k++) {
+        char text[1024];
+        snprintf(text, sizeof text,
+                 "Format 16 16 1\nProjection \"orthographic\"\nScreenWindow -1 1 -1 1\n%s\n"
+                 "Translate 0 0 5\nWorldBegin\nSurface \"constant\"\nColor [1 0 0]\n"
+                 "Patch \"bilinear\" \"P\" [-2 -2 -1  0 -2 -1  -2 2 -1  0 2 -1]\nColor [0 1 0]\n"
+                 "Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0]\nWorldEnd\n",
+                 clip[k]);
+        write_scene("clip.rib", text);
+        render("clip.rib", "clip.exr", "--spp 1");
+        ts_image img;
+        test_read_image(path("clip.exr"), &img);
+        for (int i = 0; i < 256; i++) {
+            int left = i % 16 < 8, card = left && k != 1, plane = !card && k != 2;
+            float r = channel(&img, i, "R"), g = channel(&img, i, "G"), z = channel(&img, i, "Z");
+            float want_z = card ? 4.0f : plane ? 5.0f : INFINITY;
+            int z_ok = isinf(want_z) ? isinf(z) : fabsf(z - want_z) <= 1e-5f * want_z;
+            if (r != (card ? 1.0f : 0.0f) || g != (plane ? 1.0f : 0.0f) || !z_ok)
+                fail_msg("'%s': pixel %d (%g %g, Z %g), want %s", clip[k], i, r, g, z,
+                         card    ? "the card"
+                         : plane ? "the plane"
+                                 : "nothing");
+        }
+        image_free(&img);
+    }
+    ts_image img[2];
+    for (int k = 0; k < 2; k++) {
+        char text[1024];
+        snprintf(text, sizeof text,
+                 "Format 16 16 1\nProjection \"perspective\" \"fov\" [60]\n%s\n"
+                 "Translate 0 0 5\nWorldBegin\nSurface \"constant\"\nColor [0 1 0]\n"
+                 "Patch \"bilinear\" \"P\" [-9 -9 0  9 -9 0  -9 9 0  9 9 0]\nWorldEnd\n",
+                 k ? "Clipping 1 10" : "");
+        write_scene("clip.rib", text);
+        render("clip.rib", k ? "clip1.exr" : "clip0.exr", "--spp 1");
+        test_read_image(path(k ? "clip1.exr" : "clip0.exr"), &img[k]);
+    }
+    for (int i = 0; i < 256; i++) {
+        float z0 = channel(&img[0], i, "Z"), z1 = channel(&img[1], i, "Z");
+        assert_true(channel(&img[0], i, "G") == 1.0f && channel(&img[1], i, "G") == 1.0f);
+        if (!(z0 >= 5.0f && fabsf(z1 - z0) <= 4e-6f * z0))
+            fail_msg("perspective pixel %d: Z %.9g clipped against %.9g", i, z1, z0);
+    }
+    image_free(&img[0]), image_free(&img[1]);
+}
+
 /* Attribute "visibility" "indirect" [0] on an emitter beside the view that lights a matte
  * plane: the bounces' BSDF rays pass through it, so with --sampling bsdf the plane stays
  * black (lit without the attribute), and under the default MIS light sampling counts whole
@@ -457,11 +515,17 @@ static void test_indirect_invisible(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_orthographic_window), cmocka_unit_test(test_exposure),
-        cmocka_unit_test(test_metal_furnace),       cmocka_unit_test(test_constant),
-        cmocka_unit_test(test_corpus_renders),      cmocka_unit_test(test_object_instances_render),
-        cmocka_unit_test(test_moving_camera),       cmocka_unit_test(test_casts_no_shadow),
-        cmocka_unit_test(test_camera_invisible),    cmocka_unit_test(test_indirect_invisible),
+        cmocka_unit_test(test_orthographic_window),
+        cmocka_unit_test(test_exposure),
+        cmocka_unit_test(test_metal_furnace),
+        cmocka_unit_test(test_constant),
+        cmocka_unit_test(test_corpus_renders),
+        cmocka_unit_test(test_object_instances_render),
+        cmocka_unit_test(test_moving_camera),
+        cmocka_unit_test(test_casts_no_shadow),
+        cmocka_unit_test(test_camera_invisible),
+        cmocka_unit_test(test_indirect_invisible),
+        cmocka_unit_test(test_clipping),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -85,6 +85,14 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
     out->width = (uint32_t)width;
     out->height = (uint32_t)height;
     out->projection = ortho ? TS_PROJECTION_ORTHOGRAPHIC : TS_PROJECTION_PERSPECTIVE;
+    /* RIB Clipping, where it leaves something out: RenderMan's defaults (1e-10, 1e30) and
+     * scenes without it (0, 0) clip nothing, and their eye rays stay as they were. */
+    if (cam->clip_near > 0.0 && cam->clip_far > cam->clip_near &&
+        (cam->clip_near > 1e-10 || cam->clip_far < 1e30)) {
+        out->clip = 1;
+        out->clip_near = (float)cam->clip_near;
+        out->clip_far = cam->clip_far < 1e30 ? (float)cam->clip_far : INFINITY;
+    }
     return TS_OK;
 }
 

@@ -63,7 +63,10 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
     /* A static camera's bytes as they were before moving cameras (so that files written then
      * still resume), and the shutter-close vectors of a moving one. */
     h = ts_fnv1a(h, &c, offsetof(ts_camera_params, moving));
-    if (c.moving) h = ts_fnv1a(h, &c.moving, sizeof c - offsetof(ts_camera_params, moving));
+    if (c.moving)
+        h = ts_fnv1a(h, &c.moving, sizeof c - offsetof(ts_camera_params, moving));
+    else if (c.clip)
+        h = ts_fnv1a(h, &c.clip, 3 * sizeof c.clip); /* clip, near, far */
     h = ts_fnv1a(h, &s->patch_count, sizeof s->patch_count);
     h = ts_fnv1a(h, s->cp, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
     if (s->cp1) h = ts_fnv1a(h, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));

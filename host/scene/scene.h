@@ -28,9 +28,10 @@ typedef struct ts_camera {
     /* Integrator "PxrPathTracer" "maxPathLength": the path depth when has_depth. The
      * command line's --depth overrides it. */
     int has_depth, depth;
-    /* Stored from the RIB options but not applied by the renderer yet (docs/rib.md):
-     * Clipping near far, Shutter open close, CropWindow xmin xmax ymin ymax. rib_load
-     * sets the RenderMan defaults (1e-10 1e30, 0 0, 0 1 0 1); zero in other scenes. */
+    /* From the RIB options: Clipping near far (the camera sees camera-space depths in
+     * [near, far]); stored but not applied by the renderer yet (docs/rib.md): Shutter open
+     * close, CropWindow xmin xmax ymin ymax. rib_load sets the RenderMan defaults (1e-10
+     * 1e30, 0 0, 0 1 0 1); zero in other scenes (no clipping). */
     double clip_near, clip_far;
     double shutter[2];
     double crop[4];

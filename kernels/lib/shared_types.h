@@ -345,7 +345,8 @@ typedef struct ts_camera_params {
     ts_u32 projection;   /* TS_PROJECTION_* */
     ts_u32 band;         /* pixels a band of the sample order (lib/sample_order.h); 0: one */
     ts_u32 moving;       /* 1: the camera moves (origin1 ... forward1 at shutter close) */
-    ts_u32 pad[3];
+    ts_u32 clip;         /* 1: eye rays see only depths in [clip_near, clip_far] (RIB Clipping) */
+    float clip_near, clip_far; /* camera-space depths (distance along forward) */
     float origin1[4], right1[4], up1[4], forward1[4]; /* at shutter close; 0 when static */
 } ts_camera_params;
 

@@ -34,7 +34,8 @@ int rib_req_pixel_samples(rib_parser *p)
     return TS_OK;
 }
 
-/* Clipping near far: 0 < near < far. */
+/* Clipping near far: 0 < near < far; the camera sees camera-space depths in [near, far]
+ * (render_camera_params, kernels/camera.cl camera_clip). */
 int rib_req_clipping(rib_parser *p)
 {
     double v[2];
@@ -45,8 +46,6 @@ int rib_req_clipping(rib_parser *p)
                             v[0], v[1]);
     p->scene->camera.clip_near = v[0];
     p->scene->camera.clip_far = v[1];
-    rib_warn_once(p, p->req_line, p->req_col,
-                  "Clipping is stored but not applied (rays are not clipped)");
     return TS_OK;
 }
 
