@@ -85,13 +85,13 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
     out->width = (uint32_t)width;
     out->height = (uint32_t)height;
     out->projection = ortho ? TS_PROJECTION_ORTHOGRAPHIC : TS_PROJECTION_PERSPECTIVE;
-    /* RIB Clipping, where it leaves something out: RenderMan's defaults (1e-10, 1e30) and
+    /* RIB Clipping, where it leaves something out: RenderMan's defaults (TS_CLIP_*_DEFAULT) and
      * scenes without it (0, 0) clip nothing, and their eye rays stay as they were. */
     if (cam->clip_near > 0.0 && cam->clip_far > cam->clip_near &&
-        (cam->clip_near > 1e-10 || cam->clip_far < 1e30)) {
+        (cam->clip_near > TS_CLIP_NEAR_DEFAULT || cam->clip_far < TS_CLIP_FAR_DEFAULT)) {
         out->clip = 1;
         out->clip_near = (float)cam->clip_near;
-        out->clip_far = cam->clip_far < 1e30 ? (float)cam->clip_far : INFINITY;
+        out->clip_far = cam->clip_far < TS_CLIP_FAR_DEFAULT ? (float)cam->clip_far : INFINITY;
     }
     return TS_OK;
 }
@@ -432,15 +432,13 @@ static int render_hash_wait(void *ctx, ts_error *err)
     return render_hash_ready(ctx, err);
 }
 
-/* The writer (writer.h) for a render on one device; without it (no means to lock)
- * render_write writes the image at the end. */
+/* The writer (writer.h) for a render on one device (an .exr or a .png: output_check made
+ * sure); without it (no means to lock) render_write writes the image at the end. */
 static void render_writer_start(ts_render *r)
 {
-    const char *ext = strrchr(r->opt.output_path, '.');
     ts_error e = {0};
-    if (ext && (strcmp(ext, ".exr") == 0 || strcmp(ext, ".png") == 0))
-        writer_init(&r->writer, &r->opt, &r->state, &r->scene.camera, &r->job, r->width, r->height,
-                    render_hash_wait, r, &e);
+    writer_init(&r->writer, &r->opt, &r->state, &r->scene.camera, &r->job, r->width, r->height,
+                render_hash_wait, r, &e);
     ts_error_clear(&e);
 }
 
@@ -734,10 +732,9 @@ static int render_on_devices(ts_render *r, ts_error *err)
 #endif
     service.on_stop = render_write_early;
     service.stop_ctx = r;
-    /* The EXR's rows as they are final: units follow the pixels (one-pixel bands). */
-    const char *ext = strrchr(r->opt.output_path, '.');
-    r->stream_off =
-        !(ext && (strcmp(ext, ".exr") == 0 || strcmp(ext, ".png") == 0) && f.cam.band == 1u);
+    /* The image's rows as they are final (an .exr or a .png: output_check): units follow the
+     * pixels (one-pixel bands). */
+    r->stream_off = f.cam.band != 1u;
     service.progress = render_progress;
     service.progress_ctx = r;
     int rc =

@@ -12,6 +12,11 @@
 
 /* The camera as RIB describes it (RenderMan conventions: camera space is left-handed,
  * x right, y up, looking down +z; fov is the full angle of the shorter image axis). */
+/* RenderMan's Clipping defaults (RI Spec: RI_EPSILON, RI_INFINITY): a camera with them clips
+ * nothing (render_camera_params). */
+#define TS_CLIP_NEAR_DEFAULT 1e-10
+#define TS_CLIP_FAR_DEFAULT 1e30
+
 typedef struct ts_camera {
     double world_to_camera[16]; /* row-major 4x4, column vectors: p_cam = M * p_world */
     /* A moving camera (RIB: a motion block before WorldBegin): world_to_camera is at shutter
@@ -30,8 +35,8 @@ typedef struct ts_camera {
     int has_depth, depth;
     /* From the RIB options: Clipping near far (the camera sees camera-space depths in
      * [near, far]); stored but not applied by the renderer yet (docs/rib.md): Shutter open
-     * close, CropWindow xmin xmax ymin ymax. rib_load sets the RenderMan defaults (1e-10
-     * 1e30, 0 0, 0 1 0 1); zero in other scenes (no clipping). */
+     * close, CropWindow xmin xmax ymin ymax. rib_load sets the RenderMan defaults
+     * (TS_CLIP_*_DEFAULT, 0 0, 0 1 0 1); zero in other scenes (no clipping). */
     double clip_near, clip_far;
     double shutter[2];
     double crop[4];

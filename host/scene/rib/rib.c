@@ -278,7 +278,7 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     scene->camera.has_format = 0;
     scene->camera.spp = 0;
     scene->camera.has_depth = 0, scene->camera.depth = 0;
-    scene->camera.clip_near = 1e-10, scene->camera.clip_far = 1e30;
+    scene->camera.clip_near = TS_CLIP_NEAR_DEFAULT, scene->camera.clip_far = TS_CLIP_FAR_DEFAULT;
     scene->camera.shutter[0] = scene->camera.shutter[1] = 0.0;
     scene->camera.crop[0] = scene->camera.crop[2] = 0.0;
     scene->camera.crop[1] = scene->camera.crop[3] = 1.0;
