@@ -141,7 +141,7 @@ static void test_clipping_shutter_crop(void **state)
                                              "WorldBegin");
     expect_error("WorldBegin\nShutter 0 1", "t.rib:2:1: error: Shutter must come before "
                                             "WorldBegin");
-    /* Each stored-but-unused option warns once (Clipping is applied, Shutter warns at motion);
+    /* Each stored-but-unused option warns once (Clipping and Shutter are applied);
      * Option and Attribute once per name.
      * Attribute "identifier" "name" is read (look files' paths, rib_rlf.c), "id" is not. */
     int rc;
@@ -163,21 +163,7 @@ static void test_clipping_shutter_crop(void **state)
     out = test_rib_warnings("CropWindow 0 1 0 1\nWorldBegin\nWorldEnd\n", &rc);
     assert_int_equal(rc, TS_OK);
     assert_string_equal(out, "");
-    /* Shutter matters only to motion: a block whose times differ from it warns there, once;
-     * one whose times are the shutter's does not. */
-    const char *moving = "WorldBegin\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 1 0 0\n"
-                         "MotionEnd\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 1 0 0\n"
-                         "MotionEnd\nWorldEnd\n";
-    char text[512];
-    snprintf(text, sizeof text, "Shutter 0 0\n%s", moving);
-    out = test_rib_warnings(text, &rc);
-    assert_int_equal(rc, TS_OK);
-    assert_string_equal(out, "w.rib:3:1: warning: Shutter 0 0 is not applied: the motion block "
-                             "[0 1] spans the exposure\n");
-    snprintf(text, sizeof text, "Shutter 0 1\n%s", moving);
-    out = test_rib_warnings(text, &rc);
-    assert_int_equal(rc, TS_OK);
-    assert_string_equal(out, "");
+    /* Shutter is applied to motion blocks: test_rib_deform's test_shutter. */
 }
 
 /* ---- primitive variables ------------------------------------------------------------- */

@@ -1,7 +1,8 @@
 /* test_rib_deform.c — surfaces that deform in a motion block (docs/rib.md "Motion blur"):
  * two samples of PatchMesh, SubdivisionMesh, a quadric or a polygon mesh make one set of
  * moving patches, the first sample's points at shutter open and the second's at shutter
- * close, patch for patch; samples that make different patches are errors. Host only: never
+ * close, patch for patch; samples that make different patches are errors; a Shutter other
+ * than the block's times takes its part of the motion (test_shutter). Host only: never
  * skips. */
 #include "scene/rib/rib.h"
 #include "scene/scene.h"
@@ -108,6 +109,112 @@ static void test_quadric(void **state)
     scene_free(&s);
 }
 
+/* Patch q's corner 0 (point 0) at shutter open and close. */
+static void expect_corner(const ts_scene *s, uint32_t q, const double open[3],
+                          const double close[3], int moving)
+{
+    const ts_vec4 *a = &s->cp[(size_t)q * 16], *b = s->cp1 ? &s->cp1[(size_t)q * 16] : a;
+    assert_int_equal((s->attr[q].flags & TS_PATCH_MOVING) != 0, moving);
+    if (fabs(a->x - open[0]) > 1e-6 || fabs(a->y - open[1]) > 1e-6 || fabs(a->z - open[2]) > 1e-6 ||
+        fabs(b->x - close[0]) > 1e-6 || fabs(b->y - close[1]) > 1e-6 ||
+        fabs(b->z - close[2]) > 1e-6)
+        fail_msg("patch %u: (%g %g %g) -> (%g %g %g), want (%g %g %g) -> (%g %g %g)", q, a->x, a->y,
+                 a->z, b->x, b->y, b->z, open[0], open[1], open[2], close[0], close[1], close[2]);
+}
+
+#define FLAT_P "\"P\" [0 0 0 1 0 0 0 1 0 1 1 0]"
+#define LIFTED_P "\"P\" [0 0 4 1 0 4 0 1 4 1 1 4]"
+
+/* Shutter open close with a motion block of other times [t0 t1]: Tessera's two time samples
+ * are the block's motion at open and close (a = (time - t0) / (t1 - t0) of the way), for a
+ * moving transformation (the geometry's and the camera's), a Patch block, a deforming mesh,
+ * and a deforming mesh under a moving transformation; an instant (Shutter 0 0, as RenderMan
+ * for Maya writes it) leaves nothing moving; a Shutter past the block's times warns. */
+static void test_shutter(void **state)
+{
+    (void)state;
+    ts_scene s;
+    /* A transformation from x = 0 to x = 4 over [0 1], seen from 0.25 to 0.75: x 1 to 3. */
+    test_parse_rib_ok("Shutter 0.25 0.75\nWorldBegin\nMotionBegin [0 1]\nTranslate 0 0 0\n"
+                      "Translate 4 0 0\nMotionEnd\nPatch \"bilinear\" " FLAT_P "\nWorldEnd\n",
+                      &s);
+    expect_corner(&s, 0, (double[3]){1, 0, 0}, (double[3]){3, 0, 0}, 1);
+    scene_free(&s);
+    /* The same over [2 4] seen from 3 to 4: x 2 to 4. */
+    test_parse_rib_ok("Shutter 3 4\nWorldBegin\nMotionBegin [2 4]\nTranslate 0 0 0\n"
+                      "Translate 4 0 0\nMotionEnd\nPatch \"bilinear\" " FLAT_P "\nWorldEnd\n",
+                      &s);
+    expect_corner(&s, 0, (double[3]){2, 0, 0}, (double[3]){4, 0, 0}, 1);
+    scene_free(&s);
+    /* An instant: RenderMan for Maya's Shutter 0 0 sees the block's first sample, still. */
+    test_parse_rib_ok("Shutter 0 0\nWorldBegin\nMotionBegin [0 1]\nTranslate 0 0 0\n"
+                      "Translate 4 0 0\nMotionEnd\nPatch \"bilinear\" " FLAT_P "\nWorldEnd\n",
+                      &s);
+    expect_corner(&s, 0, (double[3]){0, 0, 0}, (double[3]){0, 0, 0}, 0);
+    scene_free(&s);
+    /* A Patch block, z 0 to 4, seen from 0.5 to 1: z 2 to 4; in an instant, still. */
+    test_parse_rib_ok("Shutter 0.5 1\nWorldBegin\nMotionBegin [0 1]\nPatch \"bilinear\" " FLAT_P
+                      "\nPatch \"bilinear\" " LIFTED_P "\nMotionEnd\nWorldEnd\n",
+                      &s);
+    expect_corner(&s, 0, (double[3]){0, 0, 2}, (double[3]){0, 0, 4}, 1);
+    scene_free(&s);
+    test_parse_rib_ok("Shutter 0.5 0.5\nWorldBegin\nMotionBegin [0 1]\nPatch \"bilinear\" " FLAT_P
+                      "\nPatch \"bilinear\" " LIFTED_P "\nMotionEnd\nWorldEnd\n",
+                      &s);
+    expect_corner(&s, 0, (double[3]){0, 0, 2}, (double[3]){0, 0, 2}, 0);
+    scene_free(&s);
+    /* A deforming PatchMesh, z 0 to 4, seen from 0.5 to 1: z 2 to 4. */
+    const char *mesh = "MotionBegin [0 1]\nPatchMesh \"bilinear\" 2 \"nonperiodic\" 2 "
+                       "\"nonperiodic\" " FLAT_P "\nPatchMesh \"bilinear\" 2 \"nonperiodic\" 2 "
+                       "\"nonperiodic\" " LIFTED_P "\nMotionEnd\n";
+    char text[1024];
+    snprintf(text, sizeof text, "Shutter 0.5 1\nWorldBegin\n%sWorldEnd\n", mesh);
+    test_parse_rib_ok(text, &s);
+    expect_corner(&s, 0, (double[3]){0, 0, 2}, (double[3]){0, 0, 4}, 1);
+    scene_free(&s);
+    /* ... and under a transformation that moves x 0 to 4 meanwhile: at 0.5 x 2 and z 2, at 1
+     * x 4 and z 4 (the surface at each time under that time's transformation). */
+    snprintf(text, sizeof text,
+             "Shutter 0.5 1\nWorldBegin\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 4 0 0\n"
+             "MotionEnd\n%sWorldEnd\n",
+             mesh);
+    test_parse_rib_ok(text, &s);
+    expect_corner(&s, 0, (double[3]){2, 0, 2}, (double[3]){4, 0, 4}, 1);
+    scene_free(&s);
+    /* In an instant the deforming mesh is still too. */
+    snprintf(text, sizeof text, "Shutter 0 0\nWorldBegin\n%sWorldEnd\n", mesh);
+    test_parse_rib_ok(text, &s);
+    expect_corner(&s, 0, (double[3]){0, 0, 0}, (double[3]){0, 0, 0}, 0);
+    scene_free(&s);
+    /* The camera: world_to_camera moves z by 0 to 2 over [0 1]; seen from 0 to 0.5: 0 to 1. */
+    test_parse_rib_ok("Shutter 0 0.5\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 0 0 2\n"
+                      "MotionEnd\nWorldBegin\nWorldEnd\n",
+                      &s);
+    assert_true(s.camera.moving);
+    assert_true(s.camera.world_to_camera[11] == 0.0 && s.camera.world_to_camera1[11] == 1.0);
+    scene_free(&s);
+    /* Without a Shutter, or with the block's own times, the block spans the exposure, without
+     * a word; a Shutter reaching past the block's times warns once. */
+    const char *moving = "WorldBegin\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 1 0 0\n"
+                         "MotionEnd\nMotionBegin [0 1]\nTranslate 0 0 0\nTranslate 1 0 0\n"
+                         "MotionEnd\nWorldEnd\n";
+    int rc;
+    const char *out;
+    for (int k = 0; k < 3; k++) {
+        static const char *const shutter[3] = {"", "Shutter 0 1\n", "Shutter 0 0\n"};
+        snprintf(text, sizeof text, "%s%s", shutter[k], moving);
+        out = test_rib_warnings(text, &rc);
+        assert_int_equal(rc, TS_OK);
+        assert_string_equal(out, "");
+    }
+    snprintf(text, sizeof text, "Shutter 0 2\n%s", moving);
+    out = test_rib_warnings(text, &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:3:1: warning: Shutter 0 2 reaches past the motion block [0 1]: "
+                             "its motion is spread over the whole exposure (RenderMan holds it "
+                             "still outside the block)\n");
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -148,6 +255,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_patch_mesh_and_subdivision),
         cmocka_unit_test(test_quadric),
+        cmocka_unit_test(test_shutter),
         cmocka_unit_test(test_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

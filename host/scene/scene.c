@@ -247,6 +247,32 @@ int scene_set_patch_motion(ts_scene *s, uint32_t p, const double cp1[16][3], ts_
     return TS_OK;
 }
 
+int scene_set_patch_samples(ts_scene *s, uint32_t p, const double cp0[16][3],
+                            const double cp1[16][3], ts_error *err)
+{
+    if (p >= s->patch_count)
+        return ts_error_set(err, TS_E_INTERNAL, "scene: no patch %u to move", p);
+    ts_vec4 a[16], b[16];
+    if (!scene_points(a, cp0) || !scene_points(b, cp1))
+        return ts_error_set(err, TS_E_SCENE, "scene: patch %u leaves the float range", p);
+    int moving = memcmp(a, b, sizeof a) != 0;
+    if (moving) {
+        int rc = scene_start_motion(s, err);
+        if (rc != TS_OK) return rc;
+    }
+    memcpy(s->cp + (size_t)p * 16u, a, sizeof a);
+    if (s->cp1) memcpy(s->cp1 + (size_t)p * 16u, moving ? b : a, sizeof a);
+    if (moving)
+        s->attr[p].flags |= TS_PATCH_MOVING;
+    else
+        s->attr[p].flags &= ~TS_PATCH_MOVING;
+    if (s->corner_n[(size_t)p * 4u].w != SCENE_N_GIVEN) {
+        scene_own_normals(s, p);
+        scene_mid_normals(s, p, 0);
+    }
+    return TS_OK;
+}
+
 /* The identity transform as xform[0], if there is none yet. */
 static int scene_ensure_identity(ts_scene *s, ts_error *err)
 {

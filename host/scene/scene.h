@@ -213,6 +213,12 @@ int scene_reserve_patches(ts_scene *s, uint64_t more, ts_error *err);
 /* Makes patch p move: cp1 (world space) becomes its control points at shutter close. Its
  * corner normals stay those of shutter open. */
 int scene_set_patch_motion(ts_scene *s, uint32_t p, const double cp1[16][3], ts_error *err);
+/* Gives patch p new points at shutter open (cp0) and close (cp1), world space (the RIB
+ * Shutter's part of a motion block, rib_geom.c): it moves when they differ after rounding to
+ * float, else it is static (TS_PATCH_MOVING cleared); corner normals it did not get from
+ * "N" are its own again, from cp0. */
+int scene_set_patch_samples(ts_scene *s, uint32_t p, const double cp0[16][3],
+                            const double cp1[16][3], ts_error *err);
 /* Adds a world-to-object transform (row-major 4x4, affine) and returns its index for
  * ts_patch_attr.xform; an identical transform already added is reused. */
 int scene_add_xform(ts_scene *s, const double world_to_object[16], uint32_t *index, ts_error *err);

@@ -178,6 +178,30 @@ static int geom_singular(rib_parser *p, const char *needs, int *skip)
     return TS_OK;
 }
 
+/* The second sample of a deforming block whose times are not the Shutter's (a: rib_motion_shutter):
+ * patch q holds the first sample's points under the CTM at shutter open (and at shutter close
+ * in cp1 when the CTM moves), g are the second sample's object-space points and w1 those under
+ * the CTM at shutter close. Each time sample becomes the surface at that Shutter time under
+ * that time's CTM, point by point: (1 - a) first + a second. */
+static int geom_deform_shutter(rib_parser *p, int line, int col, uint32_t q, const double g[16][3],
+                               const double w1[16][3], const double a[2])
+{
+    ts_scene *s = p->scene;
+    double c0[16][3], x0[16][3], x1[16][3];
+    int rc = geom_points(p, line, col, p->ctm, g, c0); /* the second sample at shutter open */
+    if (rc != TS_OK) return rc;
+    const ts_vec4 *f0 = s->cp + (size_t)q * 16u;
+    const ts_vec4 *f1 = s->attr[q].flags & TS_PATCH_MOVING ? s->cp1 + (size_t)q * 16u : f0;
+    for (int k = 0; k < 16; k++) {
+        const double o0[3] = {f0[k].x, f0[k].y, f0[k].z}, o1[3] = {f1[k].x, f1[k].y, f1[k].z};
+        for (int d = 0; d < 3; d++) {
+            x0[k][d] = (1.0 - a[0]) * o0[d] + a[0] * c0[k][d];
+            x1[k][d] = (1.0 - a[1]) * o1[d] + a[1] * w1[k][d];
+        }
+    }
+    return scene_set_patch_samples(s, q, (const double(*)[3])x0, (const double(*)[3])x1, p->err);
+}
+
 /* Appends a patch: g0 (and g1, the points at shutter close, or NULL) in object space are
  * moved by the CTM — by its two samples when it moves, which makes the patch move too —
  * with the current attributes, colour cs (NULL: the current Color) and corner texture
@@ -189,8 +213,7 @@ static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
                      const double g1[16][3], const double n[4][3], int nline, int ncol,
                      const double *cs, const double st[4][2])
 {
-    double w0[16][3], w1[16][3], wn[4][3], inv[16];
-    int moving = g1 != NULL || p->ctm_moving;
+    double w0[16][3], w1[16][3], wn[4][3], inv[16], s0[16][3], s1[16][3], a[2];
     if (rib_geom_transparent(p)) return TS_OK; /* Opacity 0 0 0: not geometry */
     rib_motion *m = &p->motion;
     if (m->active && m->deform && m->sample == 1) { /* shutter close of a patch already made */
@@ -199,12 +222,23 @@ static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
                                 "%s: the second sample makes more patches than the first at "
                                 "%d:%d, %u (the samples must have the same topology)",
                                 p->req, m->first_line, m->first_col, m->made);
+        uint32_t q = m->first_patch + m->set++;
         int rc = geom_points(p, line, col, p->ctm1, g0, w1);
-        if (rc == TS_OK)
-            rc = scene_set_patch_motion(p->scene, m->first_patch + m->set++, (const double(*)[3])w1,
-                                        p->err);
-        return rc;
+        if (rc != TS_OK) return rc;
+        if (rib_motion_shutter(p, a))
+            return geom_deform_shutter(p, line, col, q, g0, (const double(*)[3])w1, a);
+        return scene_set_patch_motion(p->scene, q, (const double(*)[3])w1, p->err);
     }
+    if (g1 && rib_motion_shutter(p, a)) { /* a Patch block: its points at the Shutter's times */
+        for (int k = 0; k < 16; k++)
+            for (int d = 0; d < 3; d++) {
+                s0[k][d] = (1.0 - a[0]) * g0[k][d] + a[0] * g1[k][d];
+                s1[k][d] = (1.0 - a[1]) * g0[k][d] + a[1] * g1[k][d];
+            }
+        g0 = (const double(*)[3])s0;
+        g1 = a[0] == a[1] ? NULL : (const double(*)[3])s1; /* an instant: it does not move */
+    }
+    int moving = g1 != NULL || p->ctm_moving;
     int rc = geom_points(p, line, col, p->ctm, g0, w0);
     if (rc == TS_OK && moving) rc = geom_points(p, line, col, p->ctm1, g1 ? g1 : g0, w1);
     if (rc != TS_OK) return rc;

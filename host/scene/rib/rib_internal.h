@@ -128,6 +128,10 @@ int rib_req_motion_end(rib_parser *p);
  * requests a motion block may not hold, a third sample, or a kind that differs from the
  * first sample's. */
 int rib_motion_check(rib_parser *p);
+/* Where Tessera's two time samples stand in the current motion block: the fractions a[0], a[1]
+ * of its times [t0, t1] at shutter open and close, clamped into [0, 1]; (0, 1) without a
+ * Shutter request (the block spans the exposure). Returns whether they are not (0, 1). */
+int rib_motion_shutter(const rib_parser *p, double a[2]);
 /* At the end of the top-level file (not of an archive, whose blocks may stay open): fails
  * on an open motion block, else on the innermost open Attribute/Transform/World block. */
 int rib_check_closed(rib_parser *p);

@@ -1,8 +1,9 @@
 /* rib_options.c — camera and image options that real RIB files give before WorldBegin:
  * PixelSamples (sets the default samples per pixel), ScreenWindow (the camera kernel's
- * window), Exposure (gain and gamma applied to the image written), Clipping, Shutter and
- * CropWindow (read, checked and stored in ts_camera; the renderer does not apply them yet,
- * which each says once in a warning). docs/rib.md has the rules. */
+ * window), Exposure (gain and gamma applied to the image written), Clipping (applied to the
+ * eye rays), Shutter (applied to motion blocks: rib_motion_shutter) and CropWindow (read,
+ * checked and stored in ts_camera; the renderer does not apply it yet, which it says once in
+ * a warning). docs/rib.md has the rules. */
 #include "scene/rib/rib_internal.h"
 
 #include <float.h>
@@ -49,9 +50,9 @@ int rib_req_clipping(rib_parser *p)
     return TS_OK;
 }
 
-/* Shutter open close: open <= close. Stored; a motion block whose times differ says that it
- * spans the whole frame anyway (rib_req_motion_begin): a scene without motion (RenderMan for
- * Maya's `Shutter 0 0`) renders as RenderMan renders it, without a warning. */
+/* Shutter open close: open <= close. The motion blocks that follow take their motion at these
+ * times as their two time samples (rib_state.c rib_motion_shutter); a scene without motion
+ * (RenderMan for Maya's `Shutter 0 0`) renders as RenderMan renders it, without a warning. */
 int rib_req_shutter(rib_parser *p)
 {
     double v[2];

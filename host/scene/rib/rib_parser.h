@@ -115,6 +115,7 @@ typedef struct rib_frame {
 typedef struct rib_motion {
     int active;
     int line, col;                /* of MotionBegin */
+    double t[2];                  /* its times */
     int count;                    /* samples read so far (0..2) */
     char first[RIB_MAX_NAME + 1]; /* request name of the first sample */
     int first_line, first_col;
@@ -209,7 +210,8 @@ typedef struct rib_parser {
     uint32_t emit_trim_first, emit_trim_count; /* the trim segments of the NuPatch piece being
                                                   emitted (rib_nurbs.c), 0 0 otherwise */
     rib_motion motion;
-    int shutter_given; /* a Shutter request was read: motion blocks whose times differ warn */
+    int shutter_given; /* a Shutter request was read: motion blocks take its part of their times
+                          (rib_motion_shutter) */
     /* The last world-to-object transform added for a displaced patch, by its CTM. */
     double xf_ctm[16];
     uint32_t xf_index;

@@ -773,7 +773,10 @@ int rib_motion_check(rib_parser *p)
     return TS_OK;
 }
 
-/* MotionBegin [t0 t1]: exactly two increasing times, which become shutter open and close. */
+/* MotionBegin [t0 t1]: exactly two increasing times. Tessera's rays have times in [0, 1) and
+ * each moving point two samples, which the block's give at the Shutter's open and close
+ * (rib_motion_shutter); a Shutter that reaches past the block's times warns: RenderMan holds
+ * the points still outside them, Tessera spreads the motion over the whole exposure. */
 int rib_req_motion_begin(rib_parser *p)
 {
     double t[2];
@@ -789,18 +792,32 @@ int rib_req_motion_begin(rib_parser *p)
         return rib_error_at(p, p->args[0].line, p->args[0].col,
                             "MotionBegin: the times must increase, got %g %g", t[0], t[1]);
     const double *sh = p->scene->camera.shutter;
-    if (p->shutter_given && (sh[0] != t[0] || sh[1] != t[1])) {
-        char what[RIB_WARN_KEY];
+    if (p->shutter_given && ((sh[0] < t[0] && t[0] < sh[1]) || (sh[0] < t[1] && t[1] < sh[1]))) {
+        char what[256];
         snprintf(what, sizeof what,
-                 "Shutter %g %g is not applied: the motion block [%g %g] spans the exposure", sh[0],
-                 sh[1], t[0], t[1]);
+                 "Shutter %g %g reaches past the motion block [%g %g]: its motion is spread over "
+                 "the whole exposure (RenderMan holds it still outside the block)",
+                 sh[0], sh[1], t[0], t[1]);
         rib_warn_once(p, p->req_line, p->req_col, what);
     }
     memset(&p->motion, 0, sizeof p->motion);
     p->motion.active = 1;
     p->motion.line = p->req_line;
     p->motion.col = p->req_col;
+    p->motion.t[0] = t[0], p->motion.t[1] = t[1];
     return TS_OK;
+}
+
+int rib_motion_shutter(const rib_parser *p, double a[2])
+{
+    a[0] = 0.0, a[1] = 1.0;
+    if (!p->shutter_given) return 0;
+    const double *t = p->motion.t, *sh = p->scene->camera.shutter;
+    for (int k = 0; k < 2; k++) {
+        double f = (sh[k] - t[0]) / (t[1] - t[0]);
+        a[k] = f < 0.0 ? 0.0 : f > 1.0 ? 1.0 : f;
+    }
+    return a[0] != 0.0 || a[1] != 1.0;
 }
 
 /* MotionEnd: applies the two samples: a moving patch, or a CTM with two time samples. */
@@ -825,6 +842,13 @@ int rib_req_motion_end(rib_parser *p)
                                 m->first, m->line, m->col, m->set, m->made);
         return TS_OK;
     }
+    double a[2];
+    if (rib_motion_shutter(p, a)) /* the transformation at the Shutter's open and close */
+        for (int k = 0; k < 16; k++) {
+            double m0 = m->m[0][k], m1 = m->m[1][k];
+            m->m[0][k] = (1.0 - a[0]) * m0 + a[0] * m1;
+            m->m[1][k] = (1.0 - a[1]) * m0 + a[1] * m1;
+        }
     if (m->replace) {
         memcpy(p->ctm, m->m[0], sizeof p->ctm);
         memcpy(p->ctm1, m->m[1], sizeof p->ctm1);
