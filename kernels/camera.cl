@@ -3,7 +3,9 @@
  *         camera is interpolated to each ray's time.
  * Writes: per ray org (w 0, or with RIB Clipping the distance from the eye to the near plane,
  *         where the ray starts: camera_clip), dir (w = time in [0,1)), hit (cleared; its t the
- *         far plane's distance with Clipping), entry (TS_ENTRY_START), pixel,
+ *         far plane's distance with Clipping), entry (TS_ENTRY_START), pixel (the frame's:
+ *         with a CropWindow the image is a part of it, ts_camera_params; shade keys the
+ *         path's sample values by it),
  *         flags (0); active[i] = paths[i] = i; for i < path_count (the path buffers hold half
  *         the rays: a path owns two ray slots) a fresh path state (throughput 1, radiance 0,
  *         its eye-ray slot traced, emission it finds weighted 1). The lod stage's waves of
@@ -81,7 +83,9 @@ inline void camera_generate_x8(const ts_camera_params *c, ts_order_divs ord, __g
     if (i0 >= c->ray_count) return;
     uint8 lane = (uint8)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u), pix, sample;
     sample_order_at_ready_x8((uint8)(c->first_sample + i0) + lane, ord, &pix, &sample);
-    uint8 y = udiv_x8(pix, ord.width), x = pix - y * c->width;
+    uint8 row = udiv_x8(pix, ord.width);
+    uint8 y = row + c->crop_y, x = pix - row * c->width + c->crop_x; /* in the frame */
+    pix = y * c->full_width + x; /* the frame's pixel: its sample values' key */
     float8 jx = (float8)(0.5f), jy = (float8)(0.5f);
     ts_sampler_set_x8 cs = sampler_set_x8(pix, sample, TS_SET_CAMERA, c->seed, ord.mask);
     if (c->spp > 1) {
@@ -89,8 +93,8 @@ inline void camera_generate_x8(const ts_camera_params *c, ts_order_divs ord, __g
         jy = sampler_set_value_x8(cs, 1u);
     }
     float8 time = sampler_set_value_x8(cs, 2u);
-    float8 sx = 2.0f * (convert_float8(x) + jx) / (float)c->width - 1.0f;
-    float8 sy = 1.0f - 2.0f * (convert_float8(y) + jy) / (float)c->height;
+    float8 sx = 2.0f * (convert_float8(x) + jx) / (float)c->full_width - 1.0f;
+    float8 sy = 1.0f - 2.0f * (convert_float8(y) + jy) / (float)c->full_height;
     float8 e[3], d[3];
     for (uint k = 0u; k < 3u; ++k) {
         float8 eye = camera_vector_x8(c, 0u, k, time), right = camera_vector_x8(c, 1u, k, time);
@@ -152,7 +156,9 @@ __kernel void camera_generate(ts_camera_params cam, ts_order_divs ord, __global 
     if (i >= cam.ray_count) return;
     uint pix, sample;
     sample_order_at_ready(cam.first_sample + i, ord, &pix, &sample);
-    uint y = udiv(pix, ord.width), x = pix - y * cam.width;
+    uint row = udiv(pix, ord.width);
+    uint y = row + cam.crop_y, x = pix - row * cam.width + cam.crop_x; /* in the frame */
+    pix = y * cam.full_width + x; /* the frame's pixel: its sample values' key */
     float jx = 0.5f, jy = 0.5f;
     ts_sampler_set cs = sampler_set(pix, sample, TS_SET_CAMERA, cam.seed, ord.mask);
     if (cam.spp > 1) {
@@ -163,8 +169,8 @@ __kernel void camera_generate(ts_camera_params cam, ts_order_divs ord, __global 
     float time = sampler_set_value(cs, 2u);
     float3 eye = camera_vector(&cam, 0u, time), right = camera_vector(&cam, 1u, time);
     float3 up = camera_vector(&cam, 2u, time), forward = camera_vector(&cam, 3u, time);
-    float sx = 2.0f * ((float)x + jx) / (float)cam.width - 1.0f;
-    float sy = 1.0f - 2.0f * ((float)y + jy) / (float)cam.height;
+    float sx = 2.0f * ((float)x + jx) / (float)cam.full_width - 1.0f;
+    float sy = 1.0f - 2.0f * ((float)y + jy) / (float)cam.full_height;
     float3 d;
     if (cam.projection == TS_PROJECTION_ORTHOGRAPHIC) {
         /* Parallel rays along forward, from the screen point (RIB Projection "orthographic"). */

@@ -205,7 +205,7 @@ static void random_textured_scene(ts_scene *s, int patches, uint32_t seed)
     float *px = malloc((size_t)w * h * sizeof *px);
     for (int i = 0; i < w * h; ++i)
         px[i] = test_uniform(&seed, -1.0f, 2.0f);
-    ts_image img = {w, h, 1, NULL, px};
+    ts_image img = {.width = w, .height = h, .channels = 1, .channel_names = NULL, .pixels = px};
     const char *path = test_path_in(test_scratch_dir(), "disp.exr");
     if (image_write_exr(path, &img, NULL, 0, &err)) fail_msg("%s", err.msg);
     free(px);

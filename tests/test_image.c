@@ -164,7 +164,8 @@ static void test_exr_round_trip(void **state)
     const char *names[EXR_C] = {"R", "G", "B", "Z", "N.x", "N.y", "N.z"};
     float px[EXR_W * EXR_H * EXR_C];
     fill_exr_pixels(px);
-    ts_image img = {EXR_W, EXR_H, EXR_C, names, px};
+    ts_image img = {
+        .width = EXR_W, .height = EXR_H, .channels = EXR_C, .channel_names = names, .pixels = px};
     ts_error err = {0};
     const char *path = scratch_path(buf0, s, "out.exr");
     assert_int_equal(image_write_exr(path, &img, NULL, 0, &err), TS_OK);
@@ -200,7 +201,7 @@ static void test_exr_stream(void **state)
     for (int i = 0; i < W * H * C; i++)
         px[i] = (float)(i % 97) * 0.37f - 3.0f;
     const char *names[C] = {"R", "G", "B"};
-    ts_image img = {W, H, C, names, px};
+    ts_image img = {.width = W, .height = H, .channels = C, .channel_names = names, .pixels = px};
     ts_image_meta meta[] = {{"tessera:spp", 16}};
     ts_image_text text = {"tessera:note", "streamed"};
     ts_error err = {0};
@@ -249,6 +250,51 @@ static void test_exr_stream(void **state)
     ts_error_clear(&err);
 }
 
+/* A part of a frame (a CropWindow's image): the EXR's data window is the part, its display
+ * window the frame, written whole or streamed (the same bytes), read back as the part with
+ * its place; one that does not lie in its frame is refused. */
+static void test_exr_part_of_frame(void **state)
+{
+    scratch *s = *state;
+    char buf0[256], buf1[256];
+    enum { W = 3, H = 19, C = 3 };
+    static float px[W * H * C];
+    for (int i = 0; i < W * H * C; i++)
+        px[i] = (float)(i % 89) * 0.25f - 1.0f;
+    const char *names[C] = {"R", "G", "B"};
+    ts_image img = {.width = W,
+                    .height = H,
+                    .channels = C,
+                    .channel_names = names,
+                    .pixels = px,
+                    .x0 = 5,
+                    .y0 = 2,
+                    .full_width = 10,
+                    .full_height = 30};
+    ts_error err = {0};
+    const char *whole = scratch_path(buf0, s, "part.exr"), *path = scratch_path(buf1, s, "ps.exr");
+    assert_int_equal(image_write_exr(whole, &img, NULL, 0, &err), TS_OK);
+    ts_exr_stream *st = NULL;
+    assert_int_equal(image_exr_stream_open(path, &img, NULL, 0, NULL, 0, &st, &err), TS_OK);
+    assert_int_equal(image_exr_stream_rows(st, px, 7, &err), TS_OK);
+    assert_int_equal(image_exr_stream_rows(st, px + 7 * W * C, H - 7, &err), TS_OK);
+    assert_int_equal(image_exr_stream_close(st, 1, &err), TS_OK);
+    static char a[1 << 14], b[1 << 14];
+    size_t na = slurp(whole, a, sizeof a), nb = slurp(path, b, sizeof b);
+    assert_true(na > 0 && na < sizeof a && na == nb);
+    assert_memory_equal(a, b, na);
+    ts_image back;
+    assert_int_equal(image_read(whole, &back, &err), TS_OK);
+    assert_true(back.width == W && back.height == H && back.channels == C);
+    assert_true(back.x0 == 5 && back.y0 == 2 && back.full_width == 10 && back.full_height == 30);
+    for (int i = 0; i < W * H * C; i++)
+        assert_int_equal(float_bits(back.pixels[i]), float_bits(px[i]));
+    image_free(&back);
+    img.x0 = 8; /* 8 + 3 columns in a frame of 10 */
+    assert_int_equal(image_write_exr(scratch_path(buf0, s, "out.exr"), &img, NULL, 0, &err),
+                     TS_E_IO);
+    assert_non_null(strstr(err.msg, "does not lie in its frame"));
+}
 /* EXR sorts channels by name on disk and OIIO reads them R, G, B, A, Z first; the
  * order the writer gave must come back, with each value under its own name. */
 static void test_exr_channel_order(void **state)
@@ -257,7 +303,7 @@ static void test_exr_channel_order(void **state)
     char buf0[256];
     const char *names[] = {"albedo.R", "Z", "B", "N.x", "G", "R", "N.y"};
     float px[7] = {1, 2, 3, 4, 5, 6, 7};
-    ts_image img = {1, 1, 7, names, px};
+    ts_image img = {.width = 1, .height = 1, .channels = 7, .channel_names = names, .pixels = px};
     ts_error err = {0};
     const char *path = scratch_path(buf0, s, "order.exr");
     assert_int_equal(image_write_exr(path, &img, NULL, 0, &err), TS_OK);
@@ -276,7 +322,7 @@ static void test_exr_meta(void **state)
     scratch *s = *state;
     char buf0[256];
     float px[3] = {0.25f, 0.5f, 1.0f};
-    ts_image img = {1, 1, 3, NULL, px};
+    ts_image img = {.width = 1, .height = 1, .channels = 3, .channel_names = NULL, .pixels = px};
     ts_image_meta meta[] = {{"tessera:spp", 16}, {"tessera:seed", -7}};
     ts_error err = {0};
     const char *path = scratch_path(buf0, s, "meta.exr");
@@ -299,7 +345,7 @@ static void test_exr_text_meta(void **state)
     scratch *s = *state;
     char buf0[256];
     float px[3] = {0.25f, 0.5f, 1.0f};
-    ts_image img = {1, 1, 3, NULL, px};
+    ts_image img = {.width = 1, .height = 1, .channels = 3, .channel_names = NULL, .pixels = px};
     ts_image_meta meta[] = {{"tessera:bake_bands", 3}};
     ts_image_text text[] = {{"tessera:sh_convention", "Y_00 = 1/(2 sqrt(pi))"}};
     ts_error err = {0};
@@ -345,7 +391,7 @@ static void test_exr_and_png_output_need_no_openimageio(void **state)
     scratch *s = *state;
     char buf0[256], buf1[256];
     float px[6] = {0.25f, 0.5f, 1.0f, 2.0f, 0.0f, 0.125f};
-    ts_image img = {2, 1, 3, NULL, px};
+    ts_image img = {.width = 2, .height = 1, .channels = 3, .channel_names = NULL, .pixels = px};
     ts_error err = {0};
     const char *exr = scratch_path(buf0, s, "a.exr"), *png = scratch_path(buf1, s, "a.png");
     assert_int_equal(image_write_exr(exr, &img, NULL, 0, &err), TS_OK);
@@ -404,7 +450,7 @@ static void test_write_into_missing_dir(void **state)
     scratch *s = *state;
     char buf0[256], buf1[256];
     float px[3] = {1, 1, 1};
-    ts_image img = {1, 1, 3, NULL, px};
+    ts_image img = {.width = 1, .height = 1, .channels = 3, .channel_names = NULL, .pixels = px};
     ts_error err = {0};
     const char *exr = scratch_path(buf0, s, "no-such-dir/out.exr");
     assert_int_equal(image_write_exr(exr, &img, NULL, 0, &err), TS_E_IO);
@@ -443,7 +489,7 @@ static void test_failed_write_keeps_target(void **state)
     /* An extension no writer here handles, over an existing file. */
     const char *xyz = scratch_path(buf1, s, "keep.xyz");
     spit(xyz, "old contents");
-    ts_image img = {1, 1, 3, NULL, px};
+    ts_image img = {.width = 1, .height = 1, .channels = 3, .channel_names = NULL, .pixels = px};
     assert_int_equal(image_write_exr(xyz, &img, NULL, 0, &err), TS_E_IO);
     assert_non_null(strstr(err.msg, xyz));
     assert_non_null(strstr(err.msg, "unsupported output format"));
@@ -489,6 +535,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_exr_round_trip, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_channel_order, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_stream, scratch_setup, scratch_teardown),
+        cmocka_unit_test_setup_teardown(test_exr_part_of_frame, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_meta, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_exr_text_meta, scratch_setup, scratch_teardown),
         cmocka_unit_test_setup_teardown(test_png_round_trip, scratch_setup, scratch_teardown),

@@ -507,7 +507,7 @@ static float *fill_image(ts_image *img, int w, int h, int channels, float v)
     assert_non_null(px);
     for (size_t i = 0; i < (size_t)w * h * channels; ++i)
         px[i] = v;
-    *img = (ts_image){w, h, channels, NULL, px};
+    *img = (ts_image){.width = w, .height = h, .channels = channels, .pixels = px};
     return px;
 }
 

@@ -358,7 +358,7 @@ static void write_env(const char *name, int w, int h, int spot)
                 px[((size_t)y * w + x) * 3 + c] = v;
         }
     const char *names[] = {"R", "G", "B"};
-    ts_image img = {w, h, 3, names, px};
+    ts_image img = {.width = w, .height = h, .channels = 3, .channel_names = names, .pixels = px};
     ts_error err = {0};
     if (image_write_exr(path(name), &img, NULL, 0, &err)) fail_msg("%s", err.msg);
     free(px);

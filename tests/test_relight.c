@@ -158,7 +158,7 @@ static void write_sky(const char *name)
             for (int k = 0; k < 3; ++k)
                 px[(y * 64 + x) * 3 + k] = (float)(v * (k == 2 ? 1.0 : 0.9));
         }
-    ts_image img = {64, 32, 3, NULL, px};
+    ts_image img = {.width = 64, .height = 32, .channels = 3, .channel_names = NULL, .pixels = px};
     ts_error err = {0};
     if (image_write_exr(path(name), &img, NULL, 0, &err)) fail_msg("%s", err.msg);
 }

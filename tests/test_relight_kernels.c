@@ -45,7 +45,8 @@ static void write_scene(uint32_t *rng, char *scene_path, size_t size)
         px[i] = test_uniform(rng, 0.0f, 2.0f);
     for (int k = 0; k < 3; ++k)
         px[(3 * MAP_W + 5) * 3 + k] = 40.0f;
-    ts_image img = {MAP_W, MAP_H, 3, NULL, px};
+    ts_image img = {
+        .width = MAP_W, .height = MAP_H, .channels = 3, .channel_names = NULL, .pixels = px};
     ts_error err = {0};
     if (image_write_exr(test_path_in(dir, "env.exr"), &img, NULL, 0, &err)) fail_msg("%s", err.msg);
     snprintf(scene_path, size, "%s", test_path_in(dir, "relight.rib"));

@@ -141,7 +141,8 @@ static void test_clipping_shutter_crop(void **state)
                                              "WorldBegin");
     expect_error("WorldBegin\nShutter 0 1", "t.rib:2:1: error: Shutter must come before "
                                             "WorldBegin");
-    /* Each stored-but-unused option warns once (Clipping and Shutter are applied);
+    /* Clipping, Shutter and CropWindow are applied, without a word (test_rib_render's
+     * test_clipping and test_crop_window, test_rib_deform's test_shutter);
      * Option and Attribute once per name.
      * Attribute "identifier" "name" is read (look files' paths, rib_rlf.c), "id" is not. */
     int rc;
@@ -153,13 +154,11 @@ static void test_clipping_shutter_crop(void **state)
                           "Attribute \"dice\" \"binary\" [1]\nWorldEnd\n",
                           &rc);
     assert_int_equal(rc, TS_OK);
-    assert_string_equal(out, "w.rib:5:1: warning: CropWindow is stored but not applied (the whole "
-                             "image is rendered)\n"
-                             "w.rib:6:1: warning: Option \"limits\" is ignored\n"
+    assert_string_equal(out, "w.rib:6:1: warning: Option \"limits\" is ignored\n"
                              "w.rib:7:21: warning: Option parameter \"shader\" is ignored\n"
                              "w.rib:9:35: warning: Attribute parameter \"id\" is ignored\n"
                              "w.rib:10:1: warning: Attribute \"dice\" is ignored\n");
-    /* The whole window leaves nothing out: no warning. */
+    /* The whole window leaves nothing out. */
     out = test_rib_warnings("CropWindow 0 1 0 1\nWorldBegin\nWorldEnd\n", &rc);
     assert_int_equal(rc, TS_OK);
     assert_string_equal(out, "");

@@ -52,7 +52,11 @@ static ts_image dome_map(const ts_scene *s)
     assert_true(s->dome.mapname[0] == '\0');
     assert_int_equal(s->dome.map_width, SKY_MAP_WIDTH);
     assert_int_equal(s->dome.map_height, SKY_MAP_HEIGHT);
-    ts_image img = {SKY_MAP_WIDTH, SKY_MAP_HEIGHT, 3, NULL, s->dome.map};
+    ts_image img = {.width = SKY_MAP_WIDTH,
+                    .height = SKY_MAP_HEIGHT,
+                    .channels = 3,
+                    .channel_names = NULL,
+                    .pixels = s->dome.map};
     return img;
 }
 

@@ -10,7 +10,8 @@
  * - an object instanced three times, each a copy (no instance is a rigid move of the first,
  *   so none shares its dicing), renders bit for bit like its requests written out
  *   (instances that share: tests/test_instance.c);
- * - a moving camera blurs a static patch as the patch moving the other way would be.
+ * - a moving camera blurs a static patch as the patch moving the other way would be;
+ * - a CropWindow's image is the whole frame's pixels there, bit for bit.
  * Needs an OpenCL device (skipped, 77, without one). */
 #include "test_support.h"
 #include "image/image.h"
@@ -512,6 +513,77 @@ static void test_indirect_invisible(void **state)
     if (!(fabs(bsdf - mis) <= 0.05 * mis)) fail_msg("BSDF sampling %g, MIS %g", bsdf, mis);
 }
 
+/* CropWindow (and --crop) renders a part of the frame: the image is the pixels from column
+ * ceil(W xmin) to ceil(W xmax) - 1 and rows likewise, and each of them is the whole frame's
+ * pixel bit for bit, in every channel (the same rays, sample values and levels of detail: the
+ * lod pass counts the whole frame), on one device and on two. A window that holds no pixel is
+ * an error that names it. */
+static void test_crop_window(void **state)
+{
+    (void)state;
+    const char *teapot = test_source_path("scene/teapot.rib");
+    char text[4096];
+    snprintf(text, sizeof text, "CropWindow 0.3 0.8 0.25 0.7\nReadArchive \"%s\"\n", teapot);
+    write_scene("crop.rib", text);
+    test_tessera_ok(dir, "render '%s' -o '%s' --quiet --res 48x27 --spp 4", teapot,
+                    path("whole.exr"));
+    render("crop.rib", "crop.exr", "--res 48x27 --spp 4");
+    test_tessera_ok(dir, "render '%s' -o '%s' --quiet --res 48x27 --spp 4 --crop 0.3,0.8,0.25,0.7",
+                    teapot, path("crop_cli.exr"));
+    char pair[32];
+    int two = test_pocl_devices(pair, sizeof pair, 2) >= 2; /* PoCL's pthread driver twice */
+    if (two) {
+        setenv("POCL_DEVICES", "pthread pthread", 1);
+        char opts[96];
+        snprintf(opts, sizeof opts, "--res 48x27 --spp 4 --device %s", pair);
+        render("crop.rib", "crop_two.exr", opts);
+        unsetenv("POCL_DEVICES");
+    }
+    ts_image whole, part;
+    test_read_image(path("whole.exr"), &whole);
+    const char *parts[] = {"crop.exr", "crop_cli.exr", "crop_two.exr"};
+    for (int k = 0; k < 2 + two; k++) {
+        test_read_image(path(parts[k]), &part);
+        /* columns ceil(14.4) = 15 .. ceil(38.4) - 1 = 38, rows ceil(6.75) = 7 .. 18 */
+        assert_int_equal(part.width, 24);
+        assert_int_equal(part.height, 12);
+        /* where it lies in the frame: the EXR's data window in its display window */
+        assert_true(part.x0 == 15 && part.y0 == 7);
+        assert_true(part.full_width == 48 && part.full_height == 27);
+        assert_int_equal(part.channels, whole.channels);
+        int lit = 0;
+        for (int y = 0; y < 12; y++)
+            for (int x = 0; x < 24; x++)
+                for (int c = 0; c < part.channels; c++) {
+                    float a = part.pixels[((size_t)y * 24 + (size_t)x) * (size_t)part.channels + c];
+                    float b = whole.pixels[((size_t)(y + 7) * 48 + (size_t)(x + 15)) *
+                                               (size_t)whole.channels +
+                                           c];
+                    lit += c == 0 && a > 0.0f;
+                    if (memcmp(&a, &b, sizeof a) != 0)
+                        fail_msg("%s: pixel (%d, %d) channel %s is %.9g, the frame's %.9g",
+                                 parts[k], x, y, part.channel_names[c], a, b);
+                }
+        assert_true(lit > 24); /* the teapot is in it */
+        image_free(&part);
+    }
+    image_free(&whole);
+    render("crop.rib", "crop.png", "--res 48x27 --spp 4"); /* a PNG is the part alone */
+    test_read_image(path("crop.png"), &part);
+    assert_true(part.width == 24 && part.height == 12 && part.full_width == 0);
+    image_free(&part);
+    write_scene("empty.rib", "CropWindow 0.501 0.502 0 1\nWorldBegin\nSphere 1 -1 1 360\n"
+                             "WorldEnd\n");
+    assert_int_not_equal(test_run_tessera(dir, "render '%s' -o '%s' --quiet --res 48x27",
+                                          path("empty.rib"), path("empty.exr")),
+                         0);
+    test_expect_in_stderr(dir, "CropWindow 0.501 0.502 0 1 holds no pixel of the 48x27 frame");
+    assert_int_not_equal(test_run_tessera(dir, "render '%s' -o '%s' --quiet --crop 0.5,0.4,0,1",
+                                          teapot, path("bad.exr")),
+                         0);
+    test_expect_in_stderr(dir, "bad value '0.5,0.4,0,1' for --crop");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -526,6 +598,7 @@ int main(void)
         cmocka_unit_test(test_camera_invisible),
         cmocka_unit_test(test_indirect_invisible),
         cmocka_unit_test(test_clipping),
+        cmocka_unit_test(test_crop_window),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

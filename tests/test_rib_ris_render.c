@@ -253,7 +253,11 @@ static double daylight_irradiance(const char *rib)
     ts_error e = {0};
     if (rib_load(path(rib), &s, 1, &e) != TS_OK) fail_msg("%s", e.msg);
     assert_true(s.dome.present && s.dome.map);
-    ts_image map = {(int)s.dome.map_width, (int)s.dome.map_height, 3, NULL, s.dome.map};
+    ts_image map = {.width = (int)s.dome.map_width,
+                    .height = (int)s.dome.map_height,
+                    .channels = 3,
+                    .channel_names = NULL,
+                    .pixels = s.dome.map};
     double sky = 0;
     for (int y = 0; y < map.height; y++) {
         double th = (y + 0.5) * M_PI / map.height, c = -cos(th);

@@ -32,7 +32,8 @@ static const char *write_texture(const char *name, int w, int h, int channels,
         for (int x = 0; x < w; x++)
             for (int c = 0; c < channels; c++)
                 px[((size_t)y * w + x) * channels + c] = f(x, y, c, &seed);
-    ts_image img = {w, h, channels, NULL, px};
+    ts_image img = {
+        .width = w, .height = h, .channels = channels, .channel_names = NULL, .pixels = px};
     ts_error e = {0};
     const char *path = test_path_in(dir, name);
     if (image_write_exr(path, &img, NULL, 0, &e)) fail_msg("%s", e.msg);
@@ -251,7 +252,7 @@ static void test_rib_requests(void **state)
     expect_rib_error(PLANE " \"st\" [0 0 1 0 0 1]\n", "t.rib:1:57: error: ");
     /* A texel that is not a number. */
     float bad[4] = {0, NAN, 0, 0};
-    ts_image img = {2, 2, 1, NULL, bad};
+    ts_image img = {.width = 2, .height = 2, .channels = 1, .channel_names = NULL, .pixels = bad};
     ts_error e = {0};
     const char *nan_path = test_path_in(dir, "nan.exr");
     if (image_write_exr(nan_path, &img, NULL, 0, &e)) fail_msg("%s", e.msg);

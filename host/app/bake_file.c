@@ -203,8 +203,11 @@ int bake_image_write(const ts_bake_image *img, const char *path, const ts_bake_m
 {
     const char *names[TS_SH_MAX_COEFFS + TS_BAKE_CH_FIXED];
     channel_names(img->coeffs, names);
-    ts_image out = {(int)img->layout.width, (int)img->layout.height, (int)img->channels, names,
-                    img->pixels};
+    ts_image out = {.width = (int)img->layout.width,
+                    .height = (int)img->layout.height,
+                    .channels = (int)img->channels,
+                    .channel_names = names,
+                    .pixels = img->pixels};
     const ts_image_meta meta[] = {
         {META_POINTS, (int)m->points},
         {META_DONE, (int)m->done},

@@ -73,8 +73,24 @@ int options_parse_res(const char *s, int *w, int *h)
     return 0;
 }
 
+/* --crop XMIN,XMAX,YMIN,YMAX: RenderMan's CropWindow, 0 <= min < max <= 1 on both axes. */
+static int parse_crop(const char *s, double v[4])
+{
+    char part[64];
+    for (int k = 0; k < 4; ++k) {
+        size_t n = strcspn(s, ",");
+        if (n == 0 || n >= sizeof part || (k < 3) != (s[n] == ',')) return -1;
+        memcpy(part, s, n);
+        part[n] = '\0';
+        if (parse_decimal(part, 0.0, 1.0, &v[k])) return -1;
+        s += n + (k < 3);
+    }
+    return !(v[0] < v[1] && v[2] < v[3]);
+}
+
 enum {
     OPT_RES = 256,
+    OPT_CROP,
     OPT_LOD,
     OPT_DICING_RATE,
     OPT_INTERSECT,
@@ -104,6 +120,7 @@ enum {
 static const struct option render_long_options[] = {
     {"output", required_argument, 0, 'o'},
     {"res", required_argument, 0, OPT_RES},
+    {"crop", required_argument, 0, OPT_CROP},
     {"spp", required_argument, 0, OPT_SPP},
     {"depth", required_argument, 0, OPT_DEPTH},
     {"seed", required_argument, 0, OPT_SEED},
@@ -141,6 +158,9 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
         return 0;
     case OPT_RES:
         return options_parse_res(arg, &o->width, &o->height);
+    case OPT_CROP:
+        o->crop_given = 1;
+        return parse_crop(arg, o->crop);
     case OPT_LEAF_MODE:
         o->leaf_group = strcmp(arg, "group") == 0;
         return strcmp(arg, "ray") != 0 && strcmp(arg, "group") != 0;

@@ -11,6 +11,8 @@ typedef struct ts_render_options {
     const char *output_path;
     const char *stats_path; /* NULL: no --stats */
     int width, height;      /* 0: from the scene's Format, else 640x480 */
+    int crop_given;         /* --crop: the part of the frame rendered, instead of the scene's */
+    double crop[4];         /* CropWindow: xmin xmax ymin ymax, fractions of the frame */
     int spp;                /* samples per pixel; 0: the scene's PixelSamples, else 1 */
     int depth;              /* path depth (primary rays only for now; kept for the contract) */
     int depth_given; /* --depth was given: the scene's Integrator maxPathLength is not used */

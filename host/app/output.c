@@ -162,7 +162,15 @@ int output_write(const ts_render_options *o, const ts_film_state *films, const t
     int rc;
     if (exr) {
         /* image_write_exr only reads the names. */
-        ts_image img = {width, height, nch, (const char **)ts_exr_channel_names, px};
+        ts_image img = {width,
+                        height,
+                        nch,
+                        (const char **)ts_exr_channel_names,
+                        px,
+                        job->crop_x,
+                        job->crop_y,
+                        job->full_width,
+                        job->full_height};
         ts_image_meta meta[OUTPUT_METAS];
         output_metas(o, job, job->samples_done, meta);
         /* Samples merged past a gap (several devices or ranks stopped): which ones. */
@@ -198,8 +206,15 @@ int output_stream_open(const ts_render_options *o, int width, int height, const 
     if (ext && strcmp(ext, ".png") == 0) {
         rc = image_png_stream_open(o->output_path, width, height, &s->png, err);
     } else {
-        ts_image shape = {width, height, TS_EXR_COMPLETE_CHANNELS,
-                          (const char **)ts_exr_channel_names, NULL};
+        ts_image shape = {width,
+                          height,
+                          TS_EXR_COMPLETE_CHANNELS,
+                          (const char **)ts_exr_channel_names,
+                          NULL,
+                          job->crop_x,
+                          job->crop_y,
+                          job->full_width,
+                          job->full_height};
         ts_image_meta meta[OUTPUT_METAS];
         output_metas(o, job, job->total, meta);
         rc = image_exr_stream_open(o->output_path, &shape, meta, OUTPUT_METAS, NULL, 0, &s->exr,

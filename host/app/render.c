@@ -199,7 +199,8 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
 typedef struct ts_render {
     ts_render_options opt; /* the command's options, spp resolved from the scene */
     ts_stats *stats;
-    int width, height; /* pixels */
+    int width, height; /* the image's pixels: the frame's, or the part a CropWindow names */
+    int full_width, full_height, crop_x, crop_y; /* the frame, and where the image lies in it */
     ts_scene scene;
     ts_occlusion occlusion; /* --occlusion's bake, attached to scene.occlusion */
     ts_camera_params cam;
@@ -294,6 +295,26 @@ static int render_check_size(const ts_render *r, const char *res, const char *sp
     return TS_OK;
 }
 
+/* The part of the frame rendered: --crop, else the scene's CropWindow (RI Spec 3.2 §4.1.1:
+ * columns ceil(W xmin) to ceil(W xmax) - 1, rows likewise from the top), else all of it; the
+ * image is that part (width x height), full_width x full_height the frame. */
+static int render_crop(ts_render *r, ts_error *err)
+{
+    const double *c = r->opt.crop_given ? r->opt.crop : r->scene.camera.crop;
+    r->full_width = r->width, r->full_height = r->height, r->crop_x = r->crop_y = 0;
+    /* The whole frame, or a camera that never had a window (a mesh's automatic one: 0 0 0 0). */
+    if ((c[0] <= 0.0 && c[1] >= 1.0 && c[2] <= 0.0 && c[3] >= 1.0) || !(c[0] < c[1] && c[2] < c[3]))
+        return TS_OK;
+    int x0 = (int)ceil(r->width * c[0]), x1 = (int)ceil(r->width * c[1]);
+    int y0 = (int)ceil(r->height * c[2]), y1 = (int)ceil(r->height * c[3]);
+    if (x1 <= x0 || y1 <= y0)
+        return ts_error_set(err, TS_E_USAGE, "%s %g %g %g %g holds no pixel of the %dx%d frame",
+                            r->opt.crop_given ? "--crop" : "CropWindow", c[0], c[1], c[2], c[3],
+                            r->width, r->height);
+    r->crop_x = x0, r->crop_y = y0, r->width = x1 - x0, r->height = y1 - y0;
+    return TS_OK;
+}
+
 /* The scene (its --frame, for a RIB animation), and what it decides that the command line
  * left open: samples per pixel (--spp, else the scene's PixelSamples, else 1) and the image
  * size (--res, else the scene's Format, else 640x480). */
@@ -310,7 +331,8 @@ static int render_load_scene(ts_render *r, ts_error *err)
     if (!o->depth_given && c->has_depth) o->depth = c->depth; /* Integrator maxPathLength */
     r->width = o->width ? o->width : c->has_format ? c->width : 640;
     r->height = o->height ? o->height : c->has_format ? c->height : 480;
-    return render_check_size(r, res, spp, err);
+    if (render_check_size(r, res, spp, err)) return err->code;
+    return render_crop(r, err);
 }
 
 /* --occlusion: the bake to relight with, checked against the scene and attached to it (so
@@ -362,7 +384,15 @@ static int render_hash_ready(ts_render *r, ts_error *err)
  * computed at once, else on a thread of its own while the render goes on. */
 static int render_start_job(ts_render *r, ts_error *err)
 {
-    if (render_camera_params(&r->scene.camera, r->width, r->height, &r->cam, err)) return err->code;
+    if (render_camera_params(&r->scene.camera, r->full_width, r->full_height, &r->cam, err))
+        return err->code;
+    if (r->width != r->full_width || r->height != r->full_height) { /* a part of the frame */
+        r->cam.full_width = r->cam.width, r->cam.full_height = r->cam.height;
+        r->cam.width = (uint32_t)r->width, r->cam.height = (uint32_t)r->height;
+        r->cam.crop_x = (uint32_t)r->crop_x, r->cam.crop_y = (uint32_t)r->crop_y;
+        r->job.full_width = r->full_width, r->job.full_height = r->full_height;
+        r->job.crop_x = r->crop_x, r->job.crop_y = r->crop_y;
+    }
     r->cam.spp = (uint32_t)r->opt.spp;
     r->cam.seed = r->opt.seed;
     r->job.total = (uint64_t)r->width * r->height * (uint64_t)r->opt.spp;
@@ -409,6 +439,8 @@ static int render_plan(ts_render *r, ts_budget *b, ts_pipeline_plan *plan, ts_er
 {
     const ts_render_options *o = &r->opt;
     uint64_t rays = 2 * (uint64_t)r->width * r->height * (uint64_t)o->spp; /* + shadow slots */
+    uint64_t frame = (uint64_t)r->full_width * r->full_height; /* the lod pass's eye rays */
+    if (rays < frame) rays = frame; /* a small CropWindow: its lod waves as large as before */
     if (pipeline_plan(b->mb << 20, rays, (uint32_t)o->max_lod, r->cl.info.max_alloc, plan, err)) {
         if (!b->oom.code) return err->code;
         ts_error_clear(err);
@@ -551,7 +583,13 @@ static void render_choose_budget(const ts_render *r, ts_budget_choice *c)
         uint64_t pixels = (uint64_t)r->width * (uint64_t)r->height;
         budget_default(&r->cl.info, budget_fixed_bytes(&r->scene, pixels), &room, c);
     }
-    if (!r->opt.quiet)
+    if (r->opt.quiet) return;
+    if (r->width != r->full_width || r->height != r->full_height) /* a CropWindow */
+        ts_print_line("tessera: %dx%d at (%d, %d) of the %dx%d frame, %d spp, memory budget "
+                      "%llu MB (%s)",
+                      r->width, r->height, r->crop_x, r->crop_y, r->full_width, r->full_height,
+                      r->opt.spp, (unsigned long long)c->mb, c->why);
+    else
         ts_print_line("tessera: %dx%d, %d spp, memory budget %llu MB (%s)", r->width, r->height,
                       r->opt.spp, (unsigned long long)c->mb, c->why);
 }

@@ -64,9 +64,12 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
      * still resume), and the shutter-close vectors of a moving one. */
     h = ts_fnv1a(h, &c, offsetof(ts_camera_params, moving));
     if (c.moving)
-        h = ts_fnv1a(h, &c.moving, sizeof c - offsetof(ts_camera_params, moving));
+        h = ts_fnv1a(h, &c.moving,
+                     offsetof(ts_camera_params, crop_x) - offsetof(ts_camera_params, moving));
     else if (c.clip)
         h = ts_fnv1a(h, &c.clip, 3 * sizeof c.clip); /* clip, near, far */
+    if (c.full_width) /* a CropWindow: where the image lies in which frame */
+        h = ts_fnv1a(h, &c.crop_x, 4 * sizeof c.crop_x);
     h = ts_fnv1a(h, &s->patch_count, sizeof s->patch_count);
     h = ts_fnv1a(h, s->cp, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
     if (s->cp1) h = ts_fnv1a(h, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));

@@ -88,6 +88,8 @@ typedef struct ts_job {
     int check_lod;         /* 1: lod is that of the samples already in the film */
     uint32_t max_lod;      /* the plan's finest m when lod was taken */
     int lod_mismatch;      /* 1: check_lod was set and this run's lod hash differed */
+    int full_width, full_height, crop_x, crop_y; /* a CropWindow's frame and where the image
+                                                    lies in it (an EXR's windows); 0: none */
 } ts_job;
 
 /* The job hash: the scene file's bytes, the geometry it loaded (archives included), the

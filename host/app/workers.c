@@ -283,7 +283,7 @@ static void lod_publish(ts_workers *g, uint32_t max_lod, const uint8_t *patch_lo
 static int lod_count_part(ts_worker *w, uint32_t k, ts_error *err)
 {
     const ts_frame *f = &w->g->frame;
-    uint64_t pixels = (uint64_t)f->cam.width * f->cam.height, parts = w->g->lod_parts;
+    uint64_t pixels = pipeline_frame_pixels(&f->cam), parts = w->g->lod_parts;
     uint64_t per = pixels / (parts * LOD_CHUNK_PIXELS);
     uint64_t chunks = parts * (per < 1 ? 1 : per > LOD_CHUNKS ? LOD_CHUNKS : per);
     for (uint64_t j = k; j < chunks; j += parts)

@@ -22,6 +22,10 @@ typedef struct ts_image {
     int width, height, channels;
     const char **channel_names;
     float *pixels;
+    /* A part of a larger frame (RIB CropWindow): its top-left pixel (x0, y0) in the frame of
+     * full_width x full_height pixels, an EXR's data and display windows; full_width 0: the
+     * image is the whole frame. */
+    int x0, y0, full_width, full_height;
 } ts_image;
 
 /* One integer metadata item, stored as an EXR int attribute, e.g. {"tessera:spp", 16}. */

@@ -107,7 +107,17 @@ int make_header(const char *path, const ts_image *img, const std::vector<std::st
                 const ts_image_meta *meta, int meta_count, const ts_image_text *text,
                 int text_count, Imf::Header &h, ts_error *err)
 {
-    h = Imf::Header(img->width, img->height);
+    if (img->full_width > 0) { /* a part of the frame: its data window in the display window */
+        if (img->x0 < 0 || img->y0 < 0 || img->x0 + img->width > img->full_width ||
+            img->y0 + img->height > img->full_height)
+            return image_fail(err, path, "the image does not lie in its frame");
+        h = Imf::Header(
+            Imath::Box2i(Imath::V2i(0, 0), Imath::V2i(img->full_width - 1, img->full_height - 1)),
+            Imath::Box2i(Imath::V2i(img->x0, img->y0),
+                         Imath::V2i(img->x0 + img->width - 1, img->y0 + img->height - 1)));
+    } else {
+        h = Imf::Header(img->width, img->height);
+    }
     h.compression() = Imf::ZIP_COMPRESSION;
     for (const std::string &n : names)
         h.channels().insert(n, Imf::Channel(Imf::FLOAT));
@@ -127,13 +137,15 @@ int make_header(const char *path, const ts_image *img, const std::vector<std::st
 }
 
 /* The frame buffer of rows [first, ...) of an image `width` pixels wide whose pixels (the
- * channels interleaved) start at `rows`: OpenEXR addresses pixel (x, y) at base + x * xs +
- * y * ys, so the base lies first rows before them. */
+ * channels interleaved) start at `rows` and whose data window starts at (x0, y0): OpenEXR
+ * addresses pixel (x, y) at base + x * xs + y * ys, so the base lies y0 + first rows and x0
+ * pixels before them. */
 Imf::FrameBuffer frame_buffer(const std::vector<std::string> &names, int width, const float *rows,
-                              int first)
+                              int first, int x0, int y0)
 {
     size_t xs = sizeof(float) * names.size(), ys = xs * (size_t)width;
-    const char *base = (const char *)rows - (ptrdiff_t)first * (ptrdiff_t)ys;
+    const char *base = (const char *)rows - ((ptrdiff_t)first + y0) * (ptrdiff_t)ys -
+                       (ptrdiff_t)x0 * (ptrdiff_t)xs;
     Imf::FrameBuffer fb;
     for (size_t c = 0; c < names.size(); c++)
         fb.insert(names[c], Imf::Slice(Imf::FLOAT, (char *)base + c * sizeof(float), xs, ys));
@@ -166,7 +178,7 @@ int write_exr(const char *path, const ts_image *img, const ts_image_meta *meta, 
     if (rc) return rc;
     try {
         Imf::OutputFile out(tmp, h);
-        out.setFrameBuffer(frame_buffer(names, img->width, img->pixels, 0));
+        out.setFrameBuffer(frame_buffer(names, img->width, img->pixels, 0, img->x0, img->y0));
         out.writePixels(img->height);
     } catch (...) {
         unlink(tmp);
@@ -277,6 +289,12 @@ int read_exr(const char *path, ts_image *out, ts_error *err)
     if (!cn) return ts_error_set(err, TS_E_MEMORY, "%s: out of memory for names", path);
     out->width = (int)width;
     out->height = (int)height;
+    const Imath::Box2i disp = h.displayWindow();
+    out->x0 = out->y0 = out->full_width = out->full_height = 0;
+    if (dw != disp && disp.min.x == 0 && disp.min.y == 0) { /* a part of a frame at (0, 0) */
+        out->x0 = dw.min.x, out->y0 = dw.min.y;
+        out->full_width = disp.max.x + 1, out->full_height = disp.max.y + 1;
+    }
     out->channels = (int)nc;
     out->channel_names = cn;
     out->pixels = px.release();
@@ -314,7 +332,7 @@ struct ts_exr_stream {
     std::string path;
     std::vector<std::string> names;
     std::unique_ptr<Imf::OutputFile> out;
-    int width = 0, height = 0, next = 0;
+    int width = 0, height = 0, next = 0, x0 = 0, y0 = 0;
     char tmp[8192] = "";
 };
 
@@ -338,6 +356,8 @@ extern "C" int image_exr_open_stream(const char *path, const ts_image *shape,
         }
         s->path = path;
         s->width = shape->width, s->height = shape->height;
+        s->x0 = shape->full_width > 0 ? shape->x0 : 0,
+        s->y0 = shape->full_width > 0 ? shape->y0 : 0;
         *out = s.release();
         return TS_OK;
     });
@@ -349,7 +369,7 @@ extern "C" int image_exr_stream_rows(ts_exr_stream *s, const float *rows, int co
         if (count <= 0) return TS_OK;
         if (count > s->height - s->next)
             return image_fail(err, s->path.c_str(), "more rows written than the image has");
-        s->out->setFrameBuffer(frame_buffer(s->names, s->width, rows, s->next));
+        s->out->setFrameBuffer(frame_buffer(s->names, s->width, rows, s->next, s->x0, s->y0));
         s->out->writePixels(count);
         s->next += count;
         return TS_OK;

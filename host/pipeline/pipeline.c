@@ -165,7 +165,11 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
         u->flatness[i].w = fmaxf(b.hi_x - b.lo_x, fmaxf(b.hi_y - b.lo_y, b.hi_z - b.lo_z));
     }
     if (s->dome.present && s->dome.map) {
-        ts_image img = {(int)s->dome.map_width, (int)s->dome.map_height, 3, NULL, s->dome.map};
+        ts_image img = {.width = (int)s->dome.map_width,
+                        .height = (int)s->dome.map_height,
+                        .channels = 3,
+                        .channel_names = NULL,
+                        .pixels = s->dome.map};
         if (env_map_from_image(&img, &u->env, err)) return err->code;
     } else if (s->dome.present && s->dome.mapname[0] &&
                env_map_load(s->dome.mapname, &u->env, err)) {
@@ -541,9 +545,22 @@ void pipeline_destroy(ts_pipeline *p)
     memset(p, 0, sizeof *p);
 }
 
+ts_camera_params pipeline_full_frame(const ts_camera_params *cam)
+{
+    ts_camera_params c = *cam;
+    if (c.full_width) {
+        c.width = c.full_width, c.height = c.full_height;
+        c.crop_x = c.crop_y = 0;
+    }
+    c.full_width = c.width, c.full_height = c.height;
+    return c;
+}
+
 int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err)
 {
     ts_camera_params c = *cam;
+    if (!c.full_width)
+        c.full_width = c.width, c.full_height = c.height; /* the image is the frame */
     ts_order_divs ord = sample_order_divs(c.width * c.height, c.width, c.spp, c.band);
     uint32_t paths = TS_PATHS_OF_RAYS(p->plan.ray_capacity);
     if (dev_set_args(p->k_camera, err, DEV_ARG(c), DEV_ARG(ord), DEV_ARG(p->ray_org),
@@ -657,12 +674,15 @@ int pipeline_lod_finish_with(ts_pipeline *p, ts_lod_rule rule, int before_hit, c
     return rc;
 }
 
-/* Counts the first sample pass's pixels [begin, end) (one ray each), wave by wave; pass 1
- * traces them first and counts only the entries before their hits. */
+/* Counts the first sample pass's pixels [begin, end) of the whole frame (one ray each; with a
+ * CropWindow the frame's pixels, not only the image's, so that each patch gets the level it
+ * has in the whole frame and the image its pixels), wave by wave; pass 1 traces them first
+ * and counts only the entries before their hits. */
 static int lod_count_pixels(ts_pipeline *p, const ts_camera_params *cam, uint32_t begin,
                             uint32_t end, int pass, ts_error *err)
 {
-    ts_camera_params c = *cam;
+    ts_camera_params c = pipeline_full_frame(cam);
+    uint32_t cx = cam->full_width ? cam->crop_x : 0u, cy = cam->full_width ? cam->crop_y : 0u;
     c.band = 0; /* samples [0, pixels) are the first sample pass, whatever the frame's order */
     uint32_t per_wave = p->plan.ray_capacity;
     int rc = TS_OK;
@@ -676,12 +696,26 @@ static int lod_count_pixels(ts_pipeline *p, const ts_camera_params *cam, uint32_
             pipeline_lod_count(p, n, pass, err))
             rc = err->code;
         /* Pass 0's crossings, one ray a pixel: the pixels' costs (pipeline.h pixel_cost). */
-        if (rc == TS_OK && !pass && p->pixel_cost && first + n <= p->pixel_count) {
+        int part = c.width != cam->width || c.height != cam->height; /* a CropWindow */
+        if (rc == TS_OK && !pass && p->pixel_cost && !part && first + n <= p->pixel_count) {
             uint32_t *cost = p->pixel_cost + first;
             if (dev_read(p->cl, p->count, 0, (size_t)n * sizeof *cost, cost, "the crossings", err))
                 rc = err->code;
             for (uint32_t i = 0; rc == TS_OK && i < n; ++i)
                 cost[i] += 1u; /* 0: a pixel not counted */
+        } else if (rc == TS_OK && !pass && p->pixel_cost && part &&
+                   (uint64_t)cam->width * cam->height <= p->pixel_count) { /* the image's part */
+            uint32_t *cross = malloc((size_t)n * sizeof *cross);
+            if (!cross) rc = ts_error_set(err, TS_E_MEMORY, "out of memory for the crossings");
+            if (rc == TS_OK && dev_read(p->cl, p->count, 0, (size_t)n * sizeof *cross, cross,
+                                        "the crossings", err))
+                rc = err->code;
+            for (uint32_t i = 0; rc == TS_OK && i < n; ++i) {
+                uint32_t y = (first + i) / c.width, x = (first + i) - y * c.width;
+                if (x >= cx && x - cx < cam->width && y >= cy && y - cy < cam->height)
+                    p->pixel_cost[(size_t)(y - cy) * cam->width + (x - cx)] = cross[i] + 1u;
+            }
+            free(cross);
         }
     }
     p->in_lod = 0;
@@ -696,7 +730,7 @@ int pipeline_lod_count_pixels(ts_pipeline *p, const ts_camera_params *cam, uint3
 
 int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, ts_error *err)
 {
-    uint32_t pixels = cam->width * cam->height;
+    uint32_t pixels = pipeline_frame_pixels(cam);
     int rc = TS_OK;
     for (int pass = 0; rc == TS_OK && pass < (rule == TS_LOD_RULE_CROSSED ? 1 : 2); ++pass) {
         rc = lod_count_pixels(p, cam, 0, pixels, pass, err);

@@ -343,6 +343,14 @@ void pipeline_note_device_bytes(ts_pipeline *p);
  * in active and wave_paths. A wave holds at most ray_capacity / 2 paths: each path also
  * owns a shadow-ray slot. */
 int pipeline_camera(ts_pipeline *p, const ts_camera_params *cam, ts_error *err);
+/* The camera of the whole frame whose part (a CropWindow) cam renders, or cam itself, with
+ * full_width and full_height filled in. */
+ts_camera_params pipeline_full_frame(const ts_camera_params *cam);
+/* The whole frame's pixels: the lod pass counts them all (pipeline_lod_count_pixels). */
+static inline uint32_t pipeline_frame_pixels(const ts_camera_params *cam)
+{
+    return cam->full_width ? cam->full_width * cam->full_height : cam->width * cam->height;
+}
 /* How the lod stage picks each patch's m (pipeline_lod; docs/benchmarks.md "LOD rules"
  * has the measurement behind the default). */
 typedef enum ts_lod_rule {

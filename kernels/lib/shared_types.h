@@ -325,14 +325,19 @@ typedef struct ts_texture {
 #define TS_PROJECTION_PERSPECTIVE 0u
 #define TS_PROJECTION_ORTHOGRAPHIC 1u
 
-/* Everything the camera kernel needs, in world space. 176 bytes.
+/* Everything the camera kernel needs, in world space. 192 bytes.
  * Ray through raster point (px, py): screen (sx, sy) in [-1, 1]^2, y up. Perspective:
  * from origin, direction sx * right + sy * up + forward (RenderMan: x right, y up, looking
  * down +z; forward holds the screen window's centre). Orthographic: from origin + sx *
  * right + sy * up, direction forward (unit). A moving camera (RIB MotionBegin around the
  * camera transformation) has the same four vectors at shutter close in origin1 ... forward1:
  * a ray of time t uses (1 - t) v + t v1 for each, as if the camera's matrix were interpolated
- * linearly, the way moving patches interpolate their points (Hanika §3.4). */
+ * linearly, the way moving patches interpolate their points (Hanika §3.4). The image may be a
+ * part of the frame (RIB CropWindow): its width x height pixels are the frame's from column
+ * crop_x and row crop_y on, the frame full_width x full_height pixels; a pixel's ray and its
+ * sample values are the frame's (pixel key (crop_y + y) full_width + crop_x + x), so the part
+ * has the whole frame's pixels. full_width 0: the image is the frame (the host fills it in,
+ * pipeline_camera). */
 typedef struct ts_camera_params {
     float origin[4];  /* eye position, w unused */
     float right[4];   /* camera x axis in world space, scaled by the screen half-width */
@@ -348,6 +353,8 @@ typedef struct ts_camera_params {
     ts_u32 clip;         /* 1: eye rays see only depths in [clip_near, clip_far] (RIB Clipping) */
     float clip_near, clip_far; /* camera-space depths (distance along forward) */
     float origin1[4], right1[4], up1[4], forward1[4]; /* at shutter close; 0 when static */
+    ts_u32 crop_x, crop_y;          /* the image's first column and row in the frame */
+    ts_u32 full_width, full_height; /* the frame's pixels */
 } ts_camera_params;
 
 /* A divisor d made ready for division by multiplication (lib/udiv.h udiv: n / d =
@@ -496,7 +503,7 @@ typedef struct ts_relight_params {
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
     X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_segment, shape) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
-    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection) X(ts_camera_params, band) X(ts_camera_params, forward1)      \
+    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection) X(ts_camera_params, band) X(ts_camera_params, forward1) X(ts_camera_params, full_height)      \
     X(ts_shade_params, spp) X(ts_shade_params, band) X(ts_light, dir) X(ts_light, radiance) X(ts_light, weight) X(ts_emitter, area) \
     X(ts_light, flags) X(ts_light, pos) X(ts_light, cos_inner) X(ts_light, falloff_min)             \
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \

@@ -1,9 +1,8 @@
 /* rib_options.c — camera and image options that real RIB files give before WorldBegin:
  * PixelSamples (sets the default samples per pixel), ScreenWindow (the camera kernel's
  * window), Exposure (gain and gamma applied to the image written), Clipping (applied to the
- * eye rays), Shutter (applied to motion blocks: rib_motion_shutter) and CropWindow (read,
- * checked and stored in ts_camera; the renderer does not apply it yet, which it says once in
- * a warning). docs/rib.md has the rules. */
+ * eye rays), Shutter (applied to motion blocks: rib_motion_shutter) and CropWindow (the part
+ * of the frame rendered: app/render.c render_crop). docs/rib.md has the rules. */
 #include "scene/rib/rib_internal.h"
 
 #include <float.h>
@@ -68,8 +67,8 @@ int rib_req_shutter(rib_parser *p)
     return TS_OK;
 }
 
-/* CropWindow xmin xmax ymin ymax: within [0, 1], min < max; a warning unless it is the whole
- * image. */
+/* CropWindow xmin xmax ymin ymax: within [0, 1], min < max; tessera render renders that part of
+ * the frame (app/render.c render_crop). */
 int rib_req_crop_window(rib_parser *p)
 {
     double v[4];
@@ -81,10 +80,6 @@ int rib_req_crop_window(rib_parser *p)
                             v[0], v[1], v[2], v[3]);
     for (int k = 0; k < 4; k++)
         p->scene->camera.crop[k] = v[k];
-    /* The whole window (RenderMan for Maya writes it in every frame) leaves nothing out. */
-    if (v[0] > 0.0 || v[1] < 1.0 || v[2] > 0.0 || v[3] < 1.0)
-        rib_warn_once(p, p->req_line, p->req_col,
-                      "CropWindow is stored but not applied (the whole image is rendered)");
     return TS_OK;
 }
 
