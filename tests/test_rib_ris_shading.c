@@ -107,6 +107,112 @@ static void test_bxdf_lm_diffuse_light_emission(void **state)
     assert_string_equal(test_rib_body_warnings("Bxdf \"PxrLightEmission\" \"e\""), "");
 }
 
+/* PxrLMGlass: glass of index eta, its transmission tinted by refractionColor, GGX alpha
+ * roughness^2 (its layers and reflection colour warned about as unread); PxrLMMetal: a
+ * conductor, PxrConductor's parameters (its specularColor the face colour). */
+static void test_bxdf_lm_glass_metal(void **state)
+{
+    (void)state;
+    ts_patch_attr a = test_rib_one_patch("Bxdf \"PxrLMGlass\" \"g\" \"float eta\" [1.4] "
+                                         "\"color refractionColor\" [0.9 0.8 0.7] "
+                                         "\"float roughness\" [0.5]");
+    assert_int_equal(a.material, TS_MAT_GLASS);
+    test_assert_near(a.ior, 1.4, 1e-6), test_assert_near(a.roughness, 0.25, 1e-7);
+    test_assert_cs(&a, 0.9, 0.8, 0.7);
+    a = test_rib_one_patch("Bxdf \"PxrLMGlass\" \"g\"");
+    assert_int_equal(a.material, TS_MAT_GLASS);
+    test_assert_near(a.ior, 1.5, 0), test_assert_cs(&a, 1, 1, 1);
+    assert_true(a.roughness <= TS_GLASS_SMOOTH);
+    const char *w =
+        test_rib_body_warnings("Bxdf \"PxrLMGlass\" \"g\" \"color reflectionColor\" [1 1 1]");
+    if (!strstr(w, "w.rib:2:") || !strstr(w, "reflectionColor"))
+        fail_msg("reflectionColor not warned about: %s", w);
+    a = test_rib_one_patch("Bxdf \"PxrLMMetal\" \"m\" \"color specularColor\" [1 0.75 0.3]");
+    assert_int_equal(a.material, TS_MAT_METAL);
+    test_assert_cs(&a, SCHLICK(1.0), SCHLICK(0.75), SCHLICK(0.3));
+}
+
+/* LamaMix: (1 - mix) material1 + mix material2 of the Bxdfs its references name. Exact where
+ * Tessera's materials hold it (two mattes: their Kd Cs mixed; two metals or two glasses of one
+ * roughness and index: their tints mixed; mix 0 or 1: one of them; the emissions mixed);
+ * mattes, metals and principled BRDFs together: one principled BRDF of mixed parameters, with a
+ * warning; glass with another material: the larger share, with a warning; a handle no Bxdf
+ * defines: PxrDiffuse's default, with a warning. */
+static void test_bxdf_lama_mix(void **state)
+{
+    (void)state;
+    const char *red = "Bxdf \"LamaDiffuse\" \"red\" \"color color\" [0.8 0 0]\n";
+    const char *blue = "Bxdf \"PxrDiffuse\" \"blue\" \"color diffuseColor\" [0 0 0.4] "
+                       "\"float diffuseGain\" [0.5]\n";
+    const char *gold = "Bxdf \"LamaConductor\" \"gold\" \"color reflectivity\" [1 0.8 0.4] "
+                       "\"float roughness\" [0.3]\n";
+    const char *silver = "Bxdf \"LamaConductor\" \"silver\" \"color reflectivity\" [0.9 0.9 "
+                         "0.9] \"float roughness\" [0.3]\n";
+    const char *glass = "Bxdf \"LamaDielectric\" \"glass\" \"float IOR\" [1.5]\n";
+    char body[1024];
+    /* two mattes: Kd Cs mixed, 0.25 of the way */
+    snprintf(body, sizeof body,
+             "%s%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"red:bxdf_out\"] "
+             "\"reference bxdf material2\" [\"blue\"] \"float mix\" [0.25]",
+             red, blue);
+    ts_patch_attr a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_MATTE);
+    test_assert_near(a.kd, 1.0, 0), test_assert_cs(&a, 0.6, 0.0, 0.05);
+    assert_string_equal(test_rib_body_warnings(body), "");
+    /* two metals of one roughness: their tints mixed */
+    snprintf(body, sizeof body,
+             "%s%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"gold\"] "
+             "\"reference bxdf material2\" [\"silver\"] \"float mix\" [0.5]",
+             gold, silver);
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_METAL), test_assert_near(a.roughness, 0.09, 1e-7);
+    test_assert_cs(&a, 0.5 * (SCHLICK(1.0) + SCHLICK(0.9)), 0.5 * (SCHLICK(0.8) + SCHLICK(0.9)),
+                   0.5 * (SCHLICK(0.4) + SCHLICK(0.9)));
+    /* mix 0 and 1 (and beyond: clamped) are the materials themselves; 0.5 is the default */
+    snprintf(body, sizeof body,
+             "%s%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"red\"] "
+             "\"reference bxdf material2\" [\"gold\"] \"float mix\" [1.5]",
+             red, gold);
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_METAL),
+        test_assert_cs(&a, SCHLICK(1.0), SCHLICK(0.8), SCHLICK(0.4));
+    /* a matte and a metal: a principled BRDF, metallic = mix, the metal's roughness */
+    snprintf(body, sizeof body,
+             "%s%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"red\"] "
+             "\"reference bxdf material2\" [\"gold\"] \"float mix\" [0.25]",
+             red, gold);
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED);
+    test_assert_near(a.metallic, 0.25, 1e-7), test_assert_near(a.roughness, 0.09, 1e-7);
+    test_assert_cs(&a, 0.75 * 0.8 + 0.25 * SCHLICK(1.0), 0.25 * SCHLICK(0.8), 0.25 * SCHLICK(0.4));
+    assert_string_equal(test_rib_body_warnings(body),
+                        "w.rib:4:1: warning: Bxdf \"LamaMix\": materials of different kinds are "
+                        "drawn as one principled BRDF of their mixed parameters (an "
+                        "approximation)\n");
+    /* glass and a matte: the larger share */
+    snprintf(body, sizeof body,
+             "%s%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"red\"] "
+             "\"reference bxdf material2\" [\"glass\"] \"float mix\" [0.75]",
+             red, glass);
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_GLASS);
+    assert_string_equal(test_rib_body_warnings(body),
+                        "w.rib:4:1: warning: Bxdf \"LamaMix\": glass with another material cannot "
+                        "be mixed: it is drawn as material2, the larger share\n");
+    /* a handle no Bxdf defines, and an unknown parameter */
+    snprintf(body, sizeof body,
+             "%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"red\"] "
+             "\"reference bxdf material2\" [\"gone\"] \"float mix\" [0.5] \"int x\" [1]",
+             red);
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_MATTE), test_assert_cs(&a, 0.65, 0.25, 0.25);
+    const char *w = test_rib_body_warnings(body);
+    if (!strstr(w, "\"material2\" is connected to \"gone\", which no Bxdf defines: it is "
+                   "PxrDiffuse's default") ||
+        !strstr(w, "Bxdf \"LamaMix\" parameter \"x\" is ignored"))
+        fail_msg("warnings: %s", w);
+}
+
 /* PxrSurface onto the principled BRDF: Cs = diffuseGain diffuseColor, specular =
  * specularFaceColor / 0.08, GGX alpha = specularRoughness^2, clearcoat 4 c / c(0.04) with c
  * the coat's hemispherical mean Schlick Fresnel, gloss from clearcoatRoughness; a conductor
@@ -594,6 +700,8 @@ int main(void)
         cmocka_unit_test(test_bxdf_fallbacks),
         cmocka_unit_test(test_bxdf_lm_diffuse_light_emission),
         cmocka_unit_test(test_bxdf_surface_glass),
+        cmocka_unit_test(test_bxdf_lm_glass_metal),
+        cmocka_unit_test(test_bxdf_lama_mix),
         cmocka_unit_test(test_pattern_texture),
         cmocka_unit_test(test_pattern_tex_sibling),
         cmocka_unit_test(test_pattern_unknown),

@@ -311,6 +311,7 @@ static int rib_parse_once(const char *name, const rib_text *t, int frame, int ke
     rib_resource_free(p);
     free(p->rm20_map);
     rib_pattern_free(p);
+    rib_bxdf_free(p);
     rib_rlf_free(p);
     rib_trim_free(p);
     free(p->searchpath[0]);

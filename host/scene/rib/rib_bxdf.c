@@ -13,6 +13,7 @@
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 
@@ -96,6 +97,10 @@ static const bxdf_param bxdf_conductor_params[] = {
 /* PxrLMDiffuse (RenderMan 19-21's layered-material diffuse): its front colour; backColor,
  * roughness, sheen, translucence, incandescence and its layers are warned about as unread. */
 static const bxdf_param bxdf_lm_diffuse_params[] = {BC("frontColor", color)};
+/* PxrLMGlass (RenderMan 19-21): glass of index eta, its transmission tinted by refractionColor;
+ * reflectionColor, transmissionColor, thin and its layers are warned about as unread. */
+static const bxdf_param bxdf_lm_glass_params[] = {
+    BP("eta", 1, ior), BP("refractionColor", 3, refr_color), BP("roughness", 1, spec_rough)};
 static const bxdf_param bxdf_constant_params[] = {BC("emitColor", color), BC("color", color)};
 static const bxdf_param bxdf_dielectric_params[] = {BP("roughness", 1, spec_rough),
                                                     BP("ior", 1, ior), BP("IOR", 1, ior)};
@@ -121,6 +126,8 @@ static const struct {
     {"LamaDielectric", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_dielectric_params)},
     {"PxrGlass", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_dielectric_params)},
     {"PxrLMDiffuse", BXDF_DIFFUSE, BXDF_PARAMS(bxdf_lm_diffuse_params)},
+    {"PxrLMGlass", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_lm_glass_params)},
+    {"PxrLMMetal", BXDF_CONDUCTOR, BXDF_PARAMS(bxdf_conductor_params)},
     {"PxrLightEmission", BXDF_EMISSION, NULL, 0},
 };
 #define BXDF_COUNT (sizeof bxdf_table / sizeof bxdf_table[0])
@@ -418,8 +425,10 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
     } else if (kind == BXDF_DIELECTRIC) {
         /* roughness: GGX alpha as for the other Bxdfs; up to TS_GLASS_SMOOTH (lib/bsdf.h)
          * the glass is smooth, above it Walter et al. 2007's rough dielectric */
-        const double white[3] = {1, 1, 1};
-        bxdf_glass(p, bxdf, a->ior, white, s);
+        double tint[3]; /* PxrLMGlass's refractionColor; the others' 1 */
+        for (int c = 0; c < 3; c++)
+            tint[c] = fmin(1.0, fmax(0.0, a->refr_color[c]));
+        bxdf_glass(p, bxdf, a->ior, tint, s);
     }
     if (kind == BXDF_SURFACE && a->refr_gain > 0.0) {
         /* PxrSurface's glass lobe: the surface is glass of index glassIor, alpha
@@ -441,9 +450,229 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
     }
 }
 
+#define RIB_MAX_BXDFS 65536 /* Bxdf handles in one parse */
+
+/* The materials of the Bxdfs read so far, by handle (the latest of a handle), for LamaMix. */
+typedef struct bxdf_node {
+    char *handle;
+    rib_surface s;
+} bxdf_node;
+
+struct rib_bxdfs {
+    bxdf_node *v;
+    size_t count, cap;
+};
+
+void rib_bxdf_free(rib_parser *p)
+{
+    if (!p->bxdfs) return;
+    for (size_t k = 0; k < p->bxdfs->count; k++)
+        free(p->bxdfs->v[k].handle);
+    free(p->bxdfs->v);
+    free(p->bxdfs);
+    p->bxdfs = NULL;
+}
+
+static int bxdf_oom(rib_parser *p)
+{
+    return rib_error_at(p, p->req_line, p->req_col, "Bxdf: out of memory");
+}
+
+/* The material of the Bxdf `handle` (its first len bytes), or NULL. */
+static const rib_surface *bxdf_find(const rib_parser *p, const char *handle, size_t len)
+{
+    for (size_t k = p->bxdfs ? p->bxdfs->count : 0; k-- > 0;) {
+        const bxdf_node *n = &p->bxdfs->v[k];
+        if (strlen(n->handle) == len && strncmp(n->handle, handle, len) == 0) return &n->s;
+    }
+    return NULL;
+}
+
+/* Keeps material s under the request's handle (args[1], when it has one). */
+static int bxdf_keep(rib_parser *p, size_t first, const rib_surface *s)
+{
+    const char *handle;
+    if (first != 2 || rib_string_arg(p, 1, "a Bxdf handle", &handle) != TS_OK) return TS_OK;
+    if (!p->bxdfs && !(p->bxdfs = calloc(1, sizeof *p->bxdfs))) return bxdf_oom(p);
+    struct rib_bxdfs *t = p->bxdfs;
+    for (size_t k = 0; k < t->count; k++)
+        if (strcmp(t->v[k].handle, handle) == 0) {
+            t->v[k].s = *s;
+            return TS_OK;
+        }
+    if (t->count == RIB_MAX_BXDFS)
+        return rib_error_at(p, p->req_line, p->req_col, "Bxdf: more than %d handles",
+                            RIB_MAX_BXDFS);
+    if (t->count == t->cap) {
+        size_t cap = t->cap ? 2 * t->cap : 16;
+        bxdf_node *v = realloc(t->v, cap * sizeof *v);
+        if (!v) return bxdf_oom(p);
+        t->v = v, t->cap = cap;
+    }
+    if (!(t->v[t->count].handle = strdup(handle))) return bxdf_oom(p);
+    t->v[t->count++].s = *s;
+    return TS_OK;
+}
+
+/* (1 - w) a + w b, channel by channel. */
+static void mix3(const double a[3], const double b[3], double w, double out[3])
+{
+    for (int c = 0; c < 3; c++)
+        out[c] = (1.0 - w) * a[c] + w * b[c];
+}
+
+/* Material s as principled parameters: a matte's Kd Cs as the base colour of a dielectric
+ * without specular, a metal's as a conductor's (metallic 1); a principled one as it is. */
+static rib_surface bxdf_as_principled(const rib_surface *s)
+{
+    rib_surface o = *s;
+    if (s->material == TS_MAT_PRINCIPLED) return o;
+    int metal = s->material == TS_MAT_METAL;
+    o.material = TS_MAT_PRINCIPLED;
+    for (int c = 0; c < 3; c++)
+        o.color[c] = (metal ? 1.0 : s->kd) * s->color[c];
+    o.metallic = metal ? 1.0 : 0.0, o.specular = 0.0, o.specular_tint = 0.0;
+    o.sheen = 0.0, o.sheen_tint = 0.5, o.clearcoat = 0.0, o.clearcoat_gloss = 1.0;
+    o.kd = 1.0 - o.metallic, o.ks = 0.0;
+    return o;
+}
+
+/* LamaMix's material: (1 - mix) material1 + mix material2, where Tessera's materials can hold
+ * it. Exact: mix 0 or 1; two mattes of one specular lobe (their Kd Cs mixed); two metals, or two
+ * glasses of one index, of one roughness (their tints mixed: each BSDF is linear in Cs); the
+ * emissions always mix. Approximate, with one warning: mattes, metals and principled BRDFs
+ * among each other become one principled BRDF of their mixed parameters. Otherwise (glass or a
+ * texture with another material, an emitter that reflects nothing) the larger share, with one
+ * warning. */
+static int bxdf_mix_surfaces(rib_parser *p, const rib_surface *m1, const rib_surface *m2, double w,
+                             rib_surface *out)
+{
+    char what[RIB_WARN_KEY];
+    if (w <= 0.0 || w >= 1.0) {
+        *out = w <= 0.0 ? *m1 : *m2;
+        return TS_OK;
+    }
+    const rib_surface *big = w < 0.5 ? m1 : m2;
+    int same = m1->material == m2->material && m1->roughness == m2->roughness;
+    int reflective = !m1->constant && !m2->constant;
+    if (m1->textured || m2->textured || !reflective ||
+        ((m1->material == TS_MAT_GLASS) != (m2->material == TS_MAT_GLASS)) ||
+        (m1->material == TS_MAT_GLASS && (!same || m1->ior != m2->ior))) {
+        snprintf(what, sizeof what,
+                 "Bxdf \"LamaMix\": %s cannot be mixed: it is drawn as material%d, the larger "
+                 "share",
+                 m1->textured || m2->textured ? "a textured material"
+                 : !reflective                ? "an emitter that reflects nothing"
+                                              : "glass with another material",
+                 w < 0.5 ? 1 : 2);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+        *out = *big;
+        return TS_OK;
+    }
+    if (same && (m1->material == TS_MAT_METAL || m1->material == TS_MAT_GLASS ||
+                 (m1->material == TS_MAT_MATTE && m1->ks == m2->ks))) {
+        *out = *m1;
+        double a[3], b[3];
+        for (int c = 0; c < 3; c++) /* a matte's diffuse albedo is Kd Cs */
+            a[c] = (m1->material == TS_MAT_MATTE ? m1->kd : 1.0) * m1->color[c],
+            b[c] = (m2->material == TS_MAT_MATTE ? m2->kd : 1.0) * m2->color[c];
+        mix3(a, b, w, out->color);
+        if (m1->material == TS_MAT_MATTE) out->kd = 1.0;
+    } else {
+        snprintf(what, sizeof what,
+                 "Bxdf \"LamaMix\": materials of different kinds are drawn as one principled "
+                 "BRDF of their mixed parameters (an approximation)");
+        rib_warn_once(p, p->req_line, p->req_col, what);
+        rib_surface a = bxdf_as_principled(m1), b = bxdf_as_principled(m2);
+        *out = a;
+        mix3(a.color, b.color, w, out->color);
+        /* a matte has no lobe the roughness shapes: the other's keeps its own */
+        out->roughness = m1->material == TS_MAT_MATTE   ? b.roughness
+                         : m2->material == TS_MAT_MATTE ? a.roughness
+                                                        : (1.0 - w) * a.roughness + w * b.roughness;
+        out->metallic = (1.0 - w) * a.metallic + w * b.metallic;
+        out->specular = (1.0 - w) * a.specular + w * b.specular;
+        out->specular_tint = (1.0 - w) * a.specular_tint + w * b.specular_tint;
+        out->sheen = (1.0 - w) * a.sheen + w * b.sheen;
+        out->sheen_tint = (1.0 - w) * a.sheen_tint + w * b.sheen_tint;
+        out->clearcoat = (1.0 - w) * a.clearcoat + w * b.clearcoat;
+        out->clearcoat_gloss = (1.0 - w) * a.clearcoat_gloss + w * b.clearcoat_gloss;
+        out->kd = 1.0 - out->metallic, out->ks = 0.0;
+    }
+    mix3(m1->emit, m2->emit, w, out->emit);
+    return TS_OK;
+}
+
+/* Bxdf "LamaMix" "handle" "reference bxdf material1" ["h1"] "reference bxdf material2" ["h2"]
+ * "float mix" [w]: the two Bxdfs named (by handle, ":output" ignored) mixed by w (0.5; clamped
+ * into [0, 1]), bxdf_mix_surfaces; a material not connected, or connected to a handle no Bxdf
+ * defines, is PxrDiffuse's default, with one warning. */
+static int bxdf_lama_mix(rib_parser *p, size_t first)
+{
+    char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX], shown2[RIB_PRINT_MAX];
+    bxdf_args def = bxdf_defaults(BXDF_DIFFUSE);
+    rib_surface dflt;
+    bxdf_material(p, "PxrDiffuse", BXDF_DIFFUSE, &def, &dflt);
+    const rib_surface *m[2] = {NULL, NULL};
+    double w = 0.5;
+    for (size_t i = first; i < p->nargs; i += 2) {
+        rib_param prm;
+        int rc = rib_param_at(p, i, &prm);
+        if (rc != TS_OK) return rc;
+        int k = strcmp(prm.name, "material1") == 0   ? 0
+                : strcmp(prm.name, "material2") == 0 ? 1
+                                                     : -1;
+        if (k >= 0) {
+            const char *to;
+            rc = rib_string_arg(p, i + 1, "a Bxdf handle", &to);
+            if (rc != TS_OK) return rc;
+            m[k] = bxdf_find(p, to, strcspn(to, ":"));
+            if (!m[k]) {
+                snprintf(what, sizeof what,
+                         "Bxdf \"LamaMix\": \"%s\" is connected to \"%s\", which no Bxdf "
+                         "defines: it is PxrDiffuse's default",
+                         prm.name, rib_printable(to, shown));
+                rib_warn_once(p, prm.val->line, prm.val->col, what);
+            }
+        } else if (strcmp(prm.name, "mix") == 0) {
+            rib_link l;
+            rc = rib_pattern_link(p, &prm, TS_TEX_RGB, "mixed at its default, 0.5", &l);
+            if (rc != TS_OK) return rc;
+            const double *v = l.value;
+            if (l.linked && !l.folded) {
+                if (l.textured) {
+                    snprintf(what, sizeof what,
+                             "Bxdf \"LamaMix\": a texture connected to \"mix\" is not drawn: "
+                             "it mixes at its default, 0.5");
+                    rib_warn_once(p, prm.val->line, prm.val->col, what);
+                }
+                continue;
+            }
+            if (!l.folded) rc = rib_param_numbers(p, &prm, 1, &v, NULL);
+            if (rc != TS_OK) return rc;
+            if (!(fabs(v[0]) <= FLT_MAX))
+                return rib_error_at(p, prm.val->line, prm.val->col,
+                                    "Bxdf \"LamaMix\": \"mix\" must be finite");
+            w = fmin(1.0, fmax(0.0, v[0]));
+        } else {
+            snprintf(what, sizeof what, "Bxdf \"LamaMix\" parameter \"%s\" is ignored",
+                     rib_printable(prm.name, shown2));
+            rib_warn_once(p, prm.key->line, prm.key->col, what);
+        }
+    }
+    for (int k = 0; k < 2; k++)
+        if (!m[k]) m[k] = &dflt;
+    rib_surface s;
+    int rc = bxdf_mix_surfaces(p, m[0], m[1], w, &s);
+    if (rc == TS_OK) rc = rib_shading_limits(p, "LamaMix", &s);
+    if (rc == TS_OK) p->surface = s;
+    if (rc == TS_OK) rc = bxdf_keep(p, first, &s);
+    return rc;
+}
+
 /* Bxdf "name" "handle" params: the material of the following geometry (an attribute, as
- * Surface), from the Bxdfs of bxdf_table; any other Bxdf renders as matte (its parameters
- * unread) with one warning naming it. */
+ * Surface), from the Bxdfs of bxdf_table or LamaMix; any other Bxdf renders as matte (its
+ * parameters unread) with one warning naming it. Each is kept under its handle, for LamaMix. */
 int rib_req_bxdf(rib_parser *p)
 {
     const char *name;
@@ -451,6 +680,7 @@ int rib_req_bxdf(rib_parser *p)
     int rc = rib_string_arg(p, 0, "a Bxdf name", &name);
     if (rc != TS_OK) return rc;
     size_t first = (p->nargs % 2 == 0) ? 2 : 1; /* a handle makes the count even */
+    if (strcmp(name, "LamaMix") == 0) return bxdf_lama_mix(p, first);
     size_t k = 0;
     while (k < BXDF_COUNT && strcmp(name, bxdf_table[k].name) != 0)
         k++;
@@ -470,7 +700,7 @@ int rib_req_bxdf(rib_parser *p)
         rib_warn_once(p, p->args[0].line, p->args[0].col, what);
         bxdf_args a = bxdf_defaults(BXDF_DIFFUSE);
         bxdf_material(p, name, BXDF_DIFFUSE, &a, &p->surface);
-        return TS_OK;
+        return bxdf_keep(p, first, &p->surface);
     }
     bxdf_args a = bxdf_defaults(bxdf_table[k].kind);
     rib_link link = {0};
@@ -498,6 +728,7 @@ int rib_req_bxdf(rib_parser *p)
     }
     rc = rib_shading_limits(p, bxdf_table[k].name, &s);
     if (rc == TS_OK) p->surface = s;
+    if (rc == TS_OK) rc = bxdf_keep(p, first, &s);
     return rc;
 }
 

@@ -238,6 +238,8 @@ typedef struct rib_link {
  * the parameter's default). */
 int rib_pattern_link(rib_parser *p, const rib_param *prm, uint32_t kind, const char *fallback,
                      rib_link *out);
+/* Frees p->bxdfs. */
+void rib_bxdf_free(rib_parser *p);
 /* Frees p->patterns. */
 void rib_pattern_free(rib_parser *p);
 

@@ -229,6 +229,7 @@ typedef struct rib_parser {
     struct rib_cond *cond;             /* rib_cond.c: open IfBegin blocks, or NULL */
     struct rib_resources *resources;   /* rib_resource.c: saved attribute states, or NULL */
     struct rib_patterns *patterns;     /* rib_pattern.c: Pattern nodes by handle, or NULL */
+    struct rib_bxdfs *bxdfs;           /* rib_bxdf.c: the materials of Bxdf handles (LamaMix) */
     struct rib_rlf *rlf;               /* rib_rlf.c: identifier names, look-file scopes, or NULL */
     struct rib_trims *trims;           /* rib_trim.c: the TrimCurve requests read, or NULL */
     char *searchpath[2];               /* Option "searchpath": "archive", "texture"; or NULL */
