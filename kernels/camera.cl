@@ -16,17 +16,37 @@
  * RenderMan screen: x right, y up; raster y grows downwards; a perspective or an orthographic
  * projection (ts_camera_params in lib/shared_types.h). One sample per pixel goes through the
  * pixel centre; more are jittered by the sampler's camera set (lib/sampler.h: dimensions 0
- * and 1 the position in the pixel, 2 the time). */
+ * and 1 the position in the pixel, 2 the time); a thin lens (RIB DepthOfField) takes its point
+ * from the lens set. */
 #include "lib/shared_types.h"
 #include "lib/sample_order.h"
 #include "lib/sampler.h"
 
-/* The three floats of vector k (0 origin, 1 right, 2 up, 3 forward) of the camera at shutter
- * open, or (close = 1) at shutter close (ts_camera_params). */
+/* The three floats of vector k (0 origin, 1 right, 2 up, 3 forward, 4 and 5 the lens's x and y
+ * half-axes) of the camera at shutter open, or (close = 1) at shutter close (ts_camera_params). */
 inline const float *camera_array(const ts_camera_params *c, uint k, int close)
 {
+    if (k == 4u) return close ? c->lens_x1 : c->lens_x;
+    if (k == 5u) return close ? c->lens_y1 : c->lens_y;
     if (close) return k == 0u ? c->origin1 : k == 1u ? c->right1 : k == 2u ? c->up1 : c->forward1;
     return k == 0u ? c->origin : k == 1u ? c->right : k == 2u ? c->up : c->forward;
+}
+
+/* A point (*a, *b) of the unit disk from (u, v) in [0, 1)^2, area-preserving (Shirley and
+ * Chiu 1997's concentric map: squares to rings, so strata stay compact). */
+inline void lens_disk(float u, float v, float *a, float *b)
+{
+    float x = 2.0f * u - 1.0f, y = 2.0f * v - 1.0f;
+    if (x == 0.0f && y == 0.0f) {
+        *a = 0.0f, *b = 0.0f;
+        return;
+    }
+    float r, phi;
+    if (fabs(x) > fabs(y))
+        r = x, phi = M_PI_4_F * (y / x);
+    else
+        r = y, phi = M_PI_2_F - M_PI_4_F * (x / y);
+    *a = r * cos(phi), *b = r * sin(phi);
 }
 
 /* Vector k of the camera at time t: interpolated linearly between shutter open and close
@@ -104,6 +124,20 @@ inline void camera_generate_x8(const ts_camera_params *c, ts_order_divs ord, __g
         else
             e[k] = eye, d[k] = sx * right + sy * up + fwd;
     }
+    if (c->dof) { /* the thin lens: camera_generate's operations, lane by lane */
+        ts_sampler_set_x8 ls = sampler_set_x8(pix, sample, TS_SET_LENS, c->seed, ord.mask);
+        float lu[8], lv[8], la[8], lb[8];
+        vstore8(sampler_set_value_x8(ls, 0u), 0, lu), vstore8(sampler_set_value_x8(ls, 1u), 0, lv);
+        for (uint l = 0u; l < 8u; ++l)
+            lens_disk(lu[l], lv[l], &la[l], &lb[l]);
+        float8 a = vload8(0, la), b = vload8(0, lb);
+        for (uint k = 0u; k < 3u; ++k) {
+            float8 lx = camera_vector_x8(c, 4u, k, time), ly = camera_vector_x8(c, 5u, k, time);
+            float8 f = e[k] + c->focal * d[k];
+            e[k] = e[k] + (a * lx + b * ly);
+            d[k] = (f - e[k]) / c->focal;
+        }
+    }
     float8 len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), inv = 1.0f / len;
     float ex[8], ey[8], ez[8], dx[8], dy[8], dz[8], tt[8], ln[8];
     vstore8(e[0], 0, ex), vstore8(e[1], 0, ey), vstore8(e[2], 0, ez);
@@ -178,6 +212,15 @@ __kernel void camera_generate(ts_camera_params cam, ts_order_divs ord, __global 
         d = forward;
     } else {
         d = sx * right + sy * up + forward;
+    }
+    if (cam.dof) { /* a thin lens: from a point of the lens through the plane of focus */
+        ts_sampler_set ls = sampler_set(pix, sample, TS_SET_LENS, cam.seed, ord.mask);
+        float a, b;
+        lens_disk(sampler_set_value(ls, 0u), sampler_set_value(ls, 1u), &a, &b);
+        float3 lx = camera_vector(&cam, 4u, time), ly = camera_vector(&cam, 5u, time);
+        float3 f = eye + cam.focal * d;
+        eye = eye + (a * lx + b * ly);
+        d = (f - eye) / cam.focal;
     }
     ts_vec4 o = {eye.x, eye.y, eye.z, 0.0f};
     float dx = d.x, dy = d.y, dz = d.z;

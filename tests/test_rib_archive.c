@@ -567,12 +567,53 @@ static void test_procedural(void **state)
                  "t.rib:5:1: error: Procedural under a moving transformation is not supported");
 }
 
+/* DepthOfField fstop focallength focaldistance and a perspective Projection's fStop,
+ * focalLength and focalDistance: the camera's lens; DepthOfField alone or an infinite fstop
+ * (the classic exporters' "DepthOfField 1e+38 1e-10 1") is a pinhole; values not above 0 are
+ * errors; a Projection that gives only some of the three warns and leaves the lens. */
+static void test_depth_of_field_request(void **state)
+{
+    (void)state;
+    ts_scene s;
+    test_parse_rib_ok("DepthOfField 2.8 0.1 5\nWorldBegin\nWorldEnd\n", &s);
+    assert_true(s.camera.fstop == 2.8 && s.camera.focal_length == 0.1 &&
+                s.camera.focal_distance == 5.0);
+    scene_free(&s);
+    test_parse_rib_ok("DepthOfField 2.8 0.1 5\nDepthOfField\nWorldBegin\nWorldEnd\n", &s);
+    assert_true(s.camera.fstop == 0.0);
+    scene_free(&s);
+    test_parse_rib_ok("DepthOfField 1e+38 1e-10 1\nWorldBegin\nWorldEnd\n", &s);
+    assert_true(s.camera.fstop == 0.0);
+    scene_free(&s);
+    test_parse_rib_ok("Projection \"perspective\" \"fov\" [45] \"float fStop\" [4] "
+                      "\"float focalLength\" [1] \"float focalDistance\" [20]\n"
+                      "WorldBegin\nWorldEnd\n",
+                      &s);
+    assert_true(s.camera.fstop == 4.0 && s.camera.focal_length == 1.0 &&
+                s.camera.focal_distance == 20.0 && s.camera.fov_deg == 45.0);
+    scene_free(&s);
+    expect_error("DepthOfField 0 1 5", "t.rib:1:1: error: DepthOfField: need fstop, focallength "
+                                       "and focaldistance above 0 (fstop 1e+30 for a pinhole), "
+                                       "got 0 1 5");
+    expect_error("DepthOfField 2 1", "t.rib:1:1: error: DepthOfField expects 3 numbers, got 2");
+    expect_error("WorldBegin\nDepthOfField 2 1 5", "t.rib:2:1: error: DepthOfField must come "
+                                                   "before WorldBegin");
+    int rc;
+    const char *out = test_rib_warnings(
+        "Projection \"PxrCamera\" \"float fStop\" [4]\nWorldBegin\nWorldEnd\n", &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:1:24: warning: Projection \"PxrCamera\": depth of field needs "
+                             "fStop, focalLength and focalDistance together: the camera stays as "
+                             "it was\n");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_pixel_samples),
         cmocka_unit_test(test_zip_archives),
         cmocka_unit_test(test_clipping_shutter_crop),
+        cmocka_unit_test(test_depth_of_field_request),
         cmocka_unit_test(test_cs_classes),
         cmocka_unit_test(test_n_classes_and_st),
         cmocka_unit_test(test_read_archive),

@@ -11,7 +11,9 @@
  *   so none shares its dicing), renders bit for bit like its requests written out
  *   (instances that share: tests/test_instance.c);
  * - a moving camera blurs a static patch as the patch moving the other way would be;
- * - a CropWindow's image is the whole frame's pixels there, bit for bit.
+ * - a CropWindow's image is the whole frame's pixels there, bit for bit;
+ * - DepthOfField: a card in focus as through a pinhole, one farther blurred over its circle
+ *   of confusion.
  * Needs an OpenCL device (skipped, 77, without one). */
 #include "test_support.h"
 #include "image/image.h"
@@ -584,6 +586,68 @@ static void test_crop_window(void **state)
     test_expect_in_stderr(dir, "bad value '0.5,0.4,0,1' for --crop");
 }
 
+/* DepthOfField fstop focallength focaldistance: a thin lens. A constant card at the focal
+ * distance renders bit for bit as through a pinhole (every ray of a sample meets the plane of
+ * focus where the pinhole's does); a card twice as far is blurred over the circle of confusion,
+ * A |z - f| / (z f) radians across (A = focallength / fstop the aperture), and keeps its light
+ * (the image's sum, within the noise); the CPU lanes and the one-ray form agree bit for bit;
+ * Projection "perspective"'s fStop, focalLength and focalDistance are the same lens. */
+static void test_depth_of_field(void **state)
+{
+    (void)state;
+    const char *scene =
+        "Format 192 128 1\nProjection \"perspective\" \"fov\" [40] %s\n%s\n"
+        "Translate 0 0 5\nWorldBegin\nSurface \"constant\"\nColor [1 0 0]\n"
+        "Patch \"bilinear\" \"P\" [-1.2 -0.5 0  -0.2 -0.5 0  -1.2 0.5 0  -0.2 0.5 0]\n"
+        "Color [0 1 0]\nTranslate 0 0 5\n"
+        "Patch \"bilinear\" \"P\" [0.5 -1 0  2.5 -1 0  0.5 1 0  2.5 1 0]\nWorldEnd\n";
+    const char *variant[4][2] = {{"", ""},
+                                 {"", "DepthOfField 2 1 5"},
+                                 {"\"float fStop\" [2] \"float focalLength\" [1] "
+                                  "\"float focalDistance\" [5]",
+                                  ""},
+                                 {"", "DepthOfField 2 1 5"}};
+    const char *out[4] = {"pin.exr", "dof.exr", "proj.exr", "lanes.exr"};
+    for (int k = 0; k < 4; k++) {
+        char text[2048];
+        snprintf(text, sizeof text, scene, variant[k][0], variant[k][1]);
+        write_scene("dof.rib", text);
+        if (k == 3) setenv("TESSERA_CPU_LANES", "0", 1);
+        render("dof.rib", out[k], "--spp 64");
+        if (k == 3) unsetenv("TESSERA_CPU_LANES");
+    }
+    test_assert_same_pixels(path("dof.exr"), path("proj.exr"));
+    test_assert_same_pixels(path("dof.exr"), path("lanes.exr"));
+    ts_image pin, dof;
+    test_read_image(path("pin.exr"), &pin);
+    test_read_image(path("dof.exr"), &dof);
+    double sum_pin = 0.0, sum_dof = 0.0;
+    for (int i = 0; i < 192 * 128; i++) {
+        float r0 = channel(&pin, i, "R"), r1 = channel(&dof, i, "R");
+        if (memcmp(&r0, &r1, sizeof r0) != 0)
+            fail_msg("pixel %d: the card in focus is %.9g, through a pinhole %.9g", i, r1, r0);
+        sum_pin += channel(&pin, i, "G"), sum_dof += channel(&dof, i, "G");
+    }
+    /* the far card's left edge (near x = 105) along the middle row: pixels part-covered */
+    int soft_pin = 0, soft_dof = 0;
+    for (int x = 0; x < 192; x++) {
+        float g0 = channel(&pin, 64 * 192 + x, "G"), g1 = channel(&dof, 64 * 192 + x, "G");
+        soft_pin += g0 > 0.03f && g0 < 0.97f && x < 122;
+        soft_dof += g1 > 0.03f && g1 < 0.97f && x < 122;
+    }
+    /* the circle of confusion: 0.5 |10 - 5| / (10 * 5) = 0.05 rad; 128 pixels span
+     * 2 tan(20 degrees) */
+    double coc = 0.05 * 128.0 / (2.0 * tan(20.0 * M_PI / 180.0));
+    if (!(soft_pin <= 1 && fabs(soft_dof - coc) <= 2.0))
+        fail_msg("the far edge is %d pixels soft through the lens (%.1f wanted), %d through a "
+                 "pinhole",
+                 soft_dof, coc, soft_pin);
+    if (fabs(sum_dof - sum_pin) > 0.01 * sum_pin)
+        fail_msg("the far card's light: %g through the lens, %g through a pinhole", sum_dof,
+                 sum_pin);
+    image_free(&pin), image_free(&dof);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -599,6 +663,7 @@ int main(void)
         cmocka_unit_test(test_indirect_invisible),
         cmocka_unit_test(test_clipping),
         cmocka_unit_test(test_crop_window),
+        cmocka_unit_test(test_depth_of_field),
     };
     return TEST_RUN_WITH_DEVICE(tests, setup);
 }

@@ -121,8 +121,8 @@ static void test_camera_projection(void **state)
         &rc);
     assert_int_equal(rc, TS_OK);
     assert_string_equal(
-        out, "w.rib:1:46: warning: Projection \"PxrPerspective\": depth of field (fStop, "
-             "focalLength, focalDistance) is not supported: the camera is a pinhole\n"
+        out, "w.rib:1:66: warning: Projection \"PxrPerspective\": depth of field needs fStop, "
+             "focalLength and focalDistance together: the camera stays as it was\n"
              "w.rib:2:12: warning: Camera parameter \"shutterOpening\" is ignored\n"
              "w.rib:3:1: warning: DisplayFilter \"PxrBackgroundDisplayFilter\" is ignored\n"
              "w.rib:5:1: warning: SampleFilter \"PxrCryptomatte\" is ignored\n"

@@ -82,6 +82,18 @@ int render_camera_params(const ts_camera *cam, int width, int height, ts_camera_
             return err->code;
         out->moving = 1;
     }
+    if (cam->fstop > 0.0 && cam->focal_length > 0.0 && cam->focal_distance > 0.0) {
+        /* A thin lens: its half-axes, the camera's unit x and y times the radius */
+        double r = 0.5 * cam->focal_length / cam->fstop, inv[16];
+        for (int k = 0; k < 1 + cam->moving; ++k) {
+            if (!mat4_invert(k ? cam->world_to_camera1 : cam->world_to_camera, inv))
+                return ts_error_set(err, TS_E_SCENE, "the camera transform is singular");
+            camera_axis(inv, r, 0, 0, k ? out->lens_x1 : out->lens_x);
+            camera_axis(inv, 0, r, 0, k ? out->lens_y1 : out->lens_y);
+        }
+        out->dof = 1;
+        out->focal = (float)cam->focal_distance;
+    }
     out->width = (uint32_t)width;
     out->height = (uint32_t)height;
     out->projection = ortho ? TS_PROJECTION_ORTHOGRAPHIC : TS_PROJECTION_PERSPECTIVE;

@@ -70,6 +70,9 @@ int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_para
         h = ts_fnv1a(h, &c.clip, 3 * sizeof c.clip); /* clip, near, far */
     if (c.full_width) /* a CropWindow: where the image lies in which frame */
         h = ts_fnv1a(h, &c.crop_x, 4 * sizeof c.crop_x);
+    if (c.dof) /* a thin lens: its half-axes, and the plane of focus */
+        h = ts_fnv1a(h, &c.lens_x,
+                     offsetof(ts_camera_params, pad2) - offsetof(ts_camera_params, lens_x));
     h = ts_fnv1a(h, &s->patch_count, sizeof s->patch_count);
     h = ts_fnv1a(h, s->cp, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
     if (s->cp1) h = ts_fnv1a(h, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));

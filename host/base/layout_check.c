@@ -28,11 +28,12 @@ _Static_assert(sizeof(ts_emitter) == 16, "ts_emitter is 16 bytes");
 _Static_assert(offsetof(ts_patch_attr, disp_amplitude) == 24,
                "displacement after colour, flags, kind, octaves");
 _Static_assert(sizeof(ts_xform) == 48, "ts_xform is 48 bytes");
-_Static_assert(sizeof(ts_camera_params) == 192, "ts_camera_params is 192 bytes");
+_Static_assert(sizeof(ts_camera_params) == 272, "ts_camera_params is 272 bytes");
 _Static_assert(offsetof(ts_camera_params, width) == 64, "width after four float[4]");
 _Static_assert(offsetof(ts_camera_params, moving) == 96, "moving after the 96 bytes");
 _Static_assert(offsetof(ts_camera_params, origin1) == 112, "shutter close after moving, pad");
 _Static_assert(offsetof(ts_camera_params, crop_x) == 176, "the crop after shutter close");
+_Static_assert(offsetof(ts_camera_params, lens_x) == 192, "the lens after the crop");
 _Static_assert(sizeof(ts_shade_params) == 32, "ts_shade_params is 32 bytes");
 _Static_assert(sizeof(ts_bake_params) == 48, "ts_bake_params is 48 bytes");
 _Static_assert(offsetof(ts_bake_params, eye) == 32, "eye after eight words");

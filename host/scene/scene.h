@@ -34,12 +34,17 @@ typedef struct ts_camera {
      * command line's --depth overrides it. */
     int has_depth, depth;
     /* From the RIB options: Clipping near far (the camera sees camera-space depths in
-     * [near, far]); stored but not applied by the renderer yet (docs/rib.md): Shutter open
-     * close, CropWindow xmin xmax ymin ymax. rib_load sets the RenderMan defaults
-     * (TS_CLIP_*_DEFAULT, 0 0, 0 1 0 1); zero in other scenes (no clipping). */
+     * [near, far]), Shutter open close (rib_state.c applies it to motion blocks), CropWindow
+     * xmin xmax ymin ymax (the part of the frame rendered: app/render.c). rib_load sets the
+     * RenderMan defaults (TS_CLIP_*_DEFAULT, 0 0, 0 1 0 1); zero in other scenes (no clipping,
+     * the whole frame). */
     double clip_near, clip_far;
     double shutter[2];
     double crop[4];
+    /* DepthOfField fstop focallength focaldistance (or a perspective Projection's fStop,
+     * focalLength, focalDistance): a thin lens of radius focallength / (2 fstop) focused at
+     * camera-space depth focaldistance, when fstop > 0 (ts_camera_params dof); 0: a pinhole. */
+    double fstop, focal_length, focal_distance;
     /* Projection: TS_PROJECTION_PERSPECTIVE (0, with fov_deg) or TS_PROJECTION_ORTHOGRAPHIC
      * (lib/shared_types.h). */
     uint32_t projection;

@@ -29,6 +29,9 @@
 #define TS_SET_CAMERA 0u
 #define TS_SET_LIGHT(b) (1u + 2u * (b))
 #define TS_SET_BSDF(b) (2u + 2u * (b))
+/* The lens of a camera with depth of field (kernels/camera.cl): dimensions 0 and 1, the point
+ * on the lens. Above every vertex's sets (the path depth is at most 64). */
+#define TS_SET_LENS 0xffffu
 
 /* Direction numbers of Sobol dimensions 1-3 (dimension 0 is the bit reversal), 32 bits:
  * primitive polynomials x + 1, x^2 + x + 1, x^3 + x + 1 with initial m = (1), (1, 3),

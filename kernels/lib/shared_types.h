@@ -325,7 +325,7 @@ typedef struct ts_texture {
 #define TS_PROJECTION_PERSPECTIVE 0u
 #define TS_PROJECTION_ORTHOGRAPHIC 1u
 
-/* Everything the camera kernel needs, in world space. 192 bytes.
+/* Everything the camera kernel needs, in world space. 272 bytes.
  * Ray through raster point (px, py): screen (sx, sy) in [-1, 1]^2, y up. Perspective:
  * from origin, direction sx * right + sy * up + forward (RenderMan: x right, y up, looking
  * down +z; forward holds the screen window's centre). Orthographic: from origin + sx *
@@ -337,7 +337,12 @@ typedef struct ts_texture {
  * crop_x and row crop_y on, the frame full_width x full_height pixels; a pixel's ray and its
  * sample values are the frame's (pixel key (crop_y + y) full_width + crop_x + x), so the part
  * has the whole frame's pixels. full_width 0: the image is the frame (the host fills it in,
- * pipeline_camera). */
+ * pipeline_camera). A thin lens (RIB DepthOfField, dof 1): the ray of a pinhole direction d
+ * (its camera-space depth 1) starts at a point of the lens, eye + a lens_x + b lens_y for a
+ * point (a, b) of the unit disk (lens_x, lens_y: the camera's unit x and y axes times the lens
+ * radius focallength / (2 fstop)), and passes through eye + focal d, where the plane of focus
+ * lies at camera-space depth focal; its direction is again of depth 1, (eye + focal d - start)
+ * / focal. */
 typedef struct ts_camera_params {
     float origin[4];  /* eye position, w unused */
     float right[4];   /* camera x axis in world space, scaled by the screen half-width */
@@ -355,6 +360,11 @@ typedef struct ts_camera_params {
     float origin1[4], right1[4], up1[4], forward1[4]; /* at shutter close; 0 when static */
     ts_u32 crop_x, crop_y;          /* the image's first column and row in the frame */
     ts_u32 full_width, full_height; /* the frame's pixels */
+    float lens_x[4], lens_y[4];     /* the lens's half-axes (dof), w unused */
+    float lens_x1[4], lens_y1[4];   /* at shutter close (dof and moving) */
+    ts_u32 dof;                     /* 1: a thin lens; 0: a pinhole */
+    float focal;                    /* the plane of focus's camera-space depth (dof) */
+    ts_u32 pad2[2];
 } ts_camera_params;
 
 /* A divisor d made ready for division by multiplication (lib/udiv.h udiv: n / d =
@@ -503,7 +513,7 @@ typedef struct ts_relight_params {
     X(ts_qbvh_node, parent) X(ts_qbvh_node, axes) X(ts_qbvh_node, parent_slot)               \
     X(ts_pair, window) X(ts_segment, lod) X(ts_segment, flags) X(ts_segment, shape) X(ts_hit, patch)               \
     X(ts_hit, prim) X(ts_patch_attr, flags) X(ts_patch_attr, xform) X(ts_xform, r2) X(ts_camera_params, forward)                     \
-    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection) X(ts_camera_params, band) X(ts_camera_params, forward1) X(ts_camera_params, full_height)      \
+    X(ts_camera_params, width) X(ts_camera_params, seed) X(ts_camera_params, ray_count) X(ts_camera_params, projection) X(ts_camera_params, band) X(ts_camera_params, forward1) X(ts_camera_params, full_height) X(ts_camera_params, focal)      \
     X(ts_shade_params, spp) X(ts_shade_params, band) X(ts_light, dir) X(ts_light, radiance) X(ts_light, weight) X(ts_emitter, area) \
     X(ts_light, flags) X(ts_light, pos) X(ts_light, cos_inner) X(ts_light, falloff_min)             \
     X(ts_patch_attr, kd) X(ts_patch_attr, le_r) X(ts_patch_attr, color_tex)                    \

@@ -198,6 +198,12 @@ int rib_req_pixel_samples(rib_parser *p);
 int rib_req_clipping(rib_parser *p);
 int rib_req_shutter(rib_parser *p);
 int rib_req_crop_window(rib_parser *p);
+int rib_req_depth_of_field(rib_parser *p);
+/* A thin lens for the camera (DepthOfField, a Projection's fStop, focalLength and
+ * focalDistance): fstop at or above 1e30 (RI_INFINITY) is a pinhole; otherwise each must be
+ * above 0 and finite, else an error at (line, col) naming `what`. */
+int rib_set_lens(rib_parser *p, int line, int col, const char *what, double fstop,
+                 double focal_length, double focal_distance);
 int rib_req_screen_window(rib_parser *p);
 int rib_req_exposure(rib_parser *p);
 

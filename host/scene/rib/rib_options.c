@@ -1,8 +1,9 @@
 /* rib_options.c — camera and image options that real RIB files give before WorldBegin:
  * PixelSamples (sets the default samples per pixel), ScreenWindow (the camera kernel's
  * window), Exposure (gain and gamma applied to the image written), Clipping (applied to the
- * eye rays), Shutter (applied to motion blocks: rib_motion_shutter) and CropWindow (the part
- * of the frame rendered: app/render.c render_crop). docs/rib.md has the rules. */
+ * eye rays), Shutter (applied to motion blocks: rib_motion_shutter), CropWindow (the part
+ * of the frame rendered: app/render.c render_crop) and DepthOfField (a thin lens).
+ * docs/rib.md has the rules. */
 #include "scene/rib/rib_internal.h"
 
 #include <float.h>
@@ -81,6 +82,40 @@ int rib_req_crop_window(rib_parser *p)
     for (int k = 0; k < 4; k++)
         p->scene->camera.crop[k] = v[k];
     return TS_OK;
+}
+
+int rib_set_lens(rib_parser *p, int line, int col, const char *what, double fstop,
+                 double focal_length, double focal_distance)
+{
+    ts_camera *c = &p->scene->camera;
+    if (fstop >= 1e30) { /* RI_INFINITY: a pinhole */
+        c->fstop = c->focal_length = c->focal_distance = 0.0;
+        return TS_OK;
+    }
+    if (!(fstop > 0.0 && focal_length > 0.0 && focal_distance > 0.0 && focal_length <= FLT_MAX &&
+          focal_distance <= FLT_MAX))
+        return rib_error_at(p, line, col,
+                            "%s: need fstop, focallength and focaldistance above 0 (fstop %g for "
+                            "a pinhole), got %g %g %g",
+                            what, 1e30, fstop, focal_length, focal_distance);
+    c->fstop = fstop, c->focal_length = focal_length, c->focal_distance = focal_distance;
+    return TS_OK;
+}
+
+/* DepthOfField fstop focallength focaldistance (RI Spec 3.2 §4.1.3): a thin lens of aperture
+ * focallength / fstop focused at focaldistance (camera-space units: the lens radius is
+ * focallength / (2 fstop)); DepthOfField alone, or an infinite fstop, a pinhole. */
+int rib_req_depth_of_field(rib_parser *p)
+{
+    int rc = rib_before_world(p);
+    if (rc != TS_OK) return rc;
+    if (p->nargs == 0) return rib_set_lens(p, p->req_line, p->req_col, "DepthOfField", 1e30, 0, 0);
+    double v[3];
+    size_t i = 0;
+    rc = rib_numbers(p, &i, 3, v);
+    if (rc == TS_OK) rc = rib_no_more(p, i);
+    if (rc != TS_OK) return rc;
+    return rib_set_lens(p, p->req_line, p->req_col, "DepthOfField", v[0], v[1], v[2]);
 }
 
 /* ScreenWindow left right bottom top (RI Spec §4.1.1): the part of the screen plane the

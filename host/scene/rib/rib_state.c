@@ -542,19 +542,24 @@ int rib_req_projection(rib_parser *p)
                             "or orthographic)",
                             rib_printable(name, shown));
     p->scene->camera.projection = ortho ? TS_PROJECTION_ORTHOGRAPHIC : TS_PROJECTION_PERSPECTIVE;
+    /* A perspective projection's lens (RenderMan 21+): fStop, focalLength and focalDistance
+     * together are DepthOfField's three numbers. */
+    static const char *const lens_names[3] = {"fStop", "focalLength", "focalDistance"};
+    double lens[3];
+    int lens_given = 0, lens_line = p->req_line, lens_col = p->req_col;
     for (size_t i = 1; i < p->nargs; i += 2) {
         rib_param prm;
         const double *v;
         rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
-        if (pxr && (strcmp(prm.name, "fStop") == 0 || strcmp(prm.name, "focalLength") == 0 ||
-                    strcmp(prm.name, "focalDistance") == 0)) {
-            char what[RIB_WARN_KEY];
-            snprintf(what, sizeof what,
-                     "Projection \"%s\": depth of field (fStop, focalLength, focalDistance) is "
-                     "not supported: the camera is a pinhole",
-                     name);
-            rib_warn_once(p, prm.key->line, prm.key->col, what);
+        int k = 0;
+        while (!ortho && k < 3 && strcmp(prm.name, lens_names[k]) != 0)
+            k++;
+        if (!ortho && k < 3) {
+            rc = rib_param_numbers(p, &prm, 1, &v, NULL);
+            if (rc != TS_OK) return rc;
+            lens[k] = v[0], lens_given |= 1 << k;
+            lens_line = prm.key->line, lens_col = prm.key->col;
             continue;
         }
         if (ortho || strcmp(prm.name, "fov") != 0) {
@@ -567,6 +572,19 @@ int rib_req_projection(rib_parser *p)
             return rib_error_at(p, prm.val->line, prm.val->col,
                                 "fov must be between 0 and 180 degrees, got %g", v[0]);
         p->scene->camera.fov_deg = v[0];
+    }
+    if (lens_given == 7) {
+        char what[64];
+        snprintf(what, sizeof what, "Projection \"%s\"", name);
+        rc = rib_set_lens(p, lens_line, lens_col, what, lens[0], lens[1], lens[2]);
+        if (rc != TS_OK) return rc;
+    } else if (lens_given) {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "Projection \"%s\": depth of field needs fStop, focalLength and focalDistance "
+                 "together: the camera stays as it was",
+                 name);
+        rib_warn_once(p, lens_line, lens_col, what);
     }
     double id[16];
     mat4_identity(id);
