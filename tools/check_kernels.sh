@@ -22,6 +22,8 @@
 #   - scene/lights.rib at 8x6, --max-lod 1 (point, spot and ambient lights in shade);
 #   - scene/teapot.rib at 7x5, 3 spp, with TESSERA_CPU_LANES=1 (the CPU devices' lanes:
 #     camera's eight rays a work-item, bezier_combine's float4 sums), without --uninitialized;
+#   - scene/depth_of_field.rib at 12x8 cropped to 6x4 (the thin lens, the crop), in both
+#     camera forms (the lanes without --uninitialized);
 #   - scene/trimmed.rib at 8x6 in both geometry modes (trim curves in build and bottom_level);
 #   - scene/teapot_displaced.rib at 12x8, --max-lod 4, --depth 2 (displacement, the grid's
 #     shading normals, bounce rays), and at 8x6 with --intersect triangles (the tight leaf
@@ -138,6 +140,14 @@ run bake_textured "$build/tessera" bake scene/textured.rib --res 8x6 --rays 4 --
 TESSERA_CPU_LANES=1 OCLGRIND_CHECKS="--data-races --check-api" \
   run render_cpu_lanes "$build/tessera" render scene/teapot.rib --res 7x5 --spp 3 --max-lod 2 \
   --depth 1 --memory 4 -o "$work/cpu_lanes.exr" --no-kernel-cache --quiet
+# A thin lens and a part of the frame (DepthOfField, --crop): camera_generate's lens in both
+# of its forms, the lod stage over the whole frame around the part.
+run render_lens "$build/tessera" render scene/depth_of_field.rib --res 12x8 --spp 2 --max-lod 2 \
+  --depth 1 --crop 0.25,0.75,0,0.5 --memory 4 -o "$work/lens.exr" --no-kernel-cache --quiet
+TESSERA_CPU_LANES=1 OCLGRIND_CHECKS="--data-races --check-api" \
+  run render_lens_lanes "$build/tessera" render scene/depth_of_field.rib --res 12x8 --spp 2 \
+  --max-lod 2 --depth 1 --crop 0.25,0.75,0,0.5 --memory 4 -o "$work/lens_lanes.exr" \
+  --no-kernel-cache --quiet
 # The displaced teapot with bounce and shadow rays: fBm displacement in dice and build (the
 # noise's float4 and float8 lanes), bottom_level over displaced leaf boxes and the origin
 # patch's micro-triangles, and shade's micro-quad normals read from the diced grid where the
