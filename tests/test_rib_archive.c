@@ -596,6 +596,8 @@ static void test_depth_of_field_request(void **state)
                                        "and focaldistance above 0 (fstop 1e+30 for a pinhole), "
                                        "got 0 1 5");
     expect_error("DepthOfField 2 1", "t.rib:1:1: error: DepthOfField expects 3 numbers, got 2");
+    expect_error("DepthOfField 1e-30 1 5", "t.rib:1:1: error: DepthOfField: a lens 1e+30 across "
+                                           "focused at 5 is beyond the range rays can hold (1e18)");
     expect_error("WorldBegin\nDepthOfField 2 1 5", "t.rib:2:1: error: DepthOfField must come "
                                                    "before WorldBegin");
     int rc;

@@ -92,12 +92,17 @@ int rib_set_lens(rib_parser *p, int line, int col, const char *what, double fsto
         c->fstop = c->focal_length = c->focal_distance = 0.0;
         return TS_OK;
     }
-    if (!(fstop > 0.0 && focal_length > 0.0 && focal_distance > 0.0 && focal_length <= FLT_MAX &&
-          focal_distance <= FLT_MAX))
+    if (!(fstop > 0.0 && focal_length > 0.0 && focal_distance > 0.0))
         return rib_error_at(p, line, col,
                             "%s: need fstop, focallength and focaldistance above 0 (fstop %g for "
                             "a pinhole), got %g %g %g",
                             what, 1e30, fstop, focal_length, focal_distance);
+    /* The rays' lengths are squared in floats: a lens or a distance beyond 1e18 would overflow */
+    if (!(focal_length / fstop <= 1e18 && focal_distance <= 1e18))
+        return rib_error_at(p, line, col,
+                            "%s: a lens %g across focused at %g is beyond the range rays can "
+                            "hold (1e18)",
+                            what, focal_length / fstop, focal_distance);
     c->fstop = fstop, c->focal_length = focal_length, c->focal_distance = focal_distance;
     return TS_OK;
 }
