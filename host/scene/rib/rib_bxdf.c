@@ -491,8 +491,11 @@ static const rib_surface *bxdf_find(const rib_parser *p, const char *handle, siz
 /* Keeps material s under the request's handle (args[1], when it has one). */
 static int bxdf_keep(rib_parser *p, size_t first, const rib_surface *s)
 {
-    const char *handle;
-    if (first != 2 || rib_string_arg(p, 1, "a Bxdf handle", &handle) != TS_OK) return TS_OK;
+    if (first != 2 || p->nargs < 2) return TS_OK;
+    const rib_arg *h = &p->args[1];
+    if (h->kind != RIB_ARG_STRING && !(h->kind == RIB_ARG_STRINGS && h->count == 1))
+        return TS_OK; /* no handle: nothing to keep it under */
+    const char *handle = rib_arg_str(p, h, 0);
     if (!p->bxdfs && !(p->bxdfs = calloc(1, sizeof *p->bxdfs))) return bxdf_oom(p);
     struct rib_bxdfs *t = p->bxdfs;
     for (size_t k = 0; k < t->count; k++)
