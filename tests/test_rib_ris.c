@@ -113,7 +113,7 @@ static void test_camera_projection(void **state)
     int rc;
     const char *out = test_rib_warnings(
         "Projection \"PxrPerspective\" \"float fov\" [35] \"float fStop\" [2.8] "
-        "\"float focalDistance\" [3]\nCamera \"c\" \"float[2] shutterOpening\" [0 1]\n"
+        "\"float focalDistance\" [3]\nCamera \"c\" \"float[2] shutterOpening\" [0.1 0.9]\n"
         "DisplayFilter \"PxrBackgroundDisplayFilter\" \"bg\"\n"
         "DisplayFilter \"PxrBackgroundDisplayFilter\" \"bg2\"\n"
         "SampleFilter \"PxrCryptomatte\" \"c\"\nHider \"raytrace\" \"int minsamples\" [4]\n"
@@ -127,6 +127,11 @@ static void test_camera_projection(void **state)
              "w.rib:3:1: warning: DisplayFilter \"PxrBackgroundDisplayFilter\" is ignored\n"
              "w.rib:5:1: warning: SampleFilter \"PxrCryptomatte\" is ignored\n"
              "w.rib:6:1: warning: Hider \"raytrace\" is ignored\n");
+    /* RenderMan for Maya's shutterOpening [0 1] is Tessera's shutter: no word */
+    out = test_rib_warnings(
+        "Camera \"world\" \"float[2] shutteropening\" [0 1]\nWorldBegin\nWorldEnd\n", &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "");
 }
 
 /* ---- structure ---------------------------------------------------------------------------- */

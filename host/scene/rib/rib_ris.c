@@ -13,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 /* ---- Integrator ---------------------------------------------------------------------- */
 
@@ -388,7 +389,8 @@ int rib_req_attribute(rib_parser *p)
 
 /* Camera "name" [params]: names the camera's coordinate system (camera space, what
  * CoordSysTransform "camera" gives), as CoordinateSystem would there; the camera rendered is
- * the one in effect at WorldBegin, as before. Parameters are ignored with one warning each. */
+ * the one in effect at WorldBegin, as before. Parameters are ignored with one warning each,
+ * except a shutterOpening of [0 1], which is what Tessera's shutter does. */
 int rib_req_camera(rib_parser *p)
 {
     const char *name;
@@ -405,7 +407,15 @@ int rib_req_camera(rib_parser *p)
     for (size_t i = 1; rc == TS_OK && i < p->nargs; i += 2) {
         rib_param prm;
         rc = rib_param_at(p, i, &prm);
-        if (rc == TS_OK) rib_warn_param(p, &prm);
+        if (rc != TS_OK) break;
+        /* shutterOpening [0 1] (RenderMan for Maya writes it in every frame): a shutter open
+         * from the Shutter's open to its close, as Tessera's is; silent at that value only */
+        const rib_arg *v = prm.val;
+        if (strcasecmp(prm.name, "shutterOpening") == 0 &&
+            (v->kind == RIB_ARG_NUMBERS && v->count == 2) && rib_arg_nums(p, v)[0] == 0.0 &&
+            rib_arg_nums(p, v)[1] == 1.0)
+            continue;
+        rib_warn_param(p, &prm);
     }
     return rc;
 }
