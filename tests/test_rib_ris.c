@@ -39,6 +39,15 @@ static void test_integrator(void **state)
     assert_int_equal(rc, TS_OK);
     assert_string_equal(out, "w.rib:1:12: warning: Integrator \"PxrVCM\" renders as PxrPathTracer "
                              "(path tracing)\n");
+    /* PxrPathTracer's sample counts and roulette steer the noise only: no word; what biases
+     * the image (clampLuminance) warns */
+    out = test_rib_warnings("Integrator \"PxrPathTracer\" \"h\" \"int numLightSamples\" [4] "
+                            "\"int numBxdfSamples\" [2] \"int rouletteDepth\" [3] "
+                            "\"float clampLuminance\" [10]\nWorldBegin\nWorldEnd\n",
+                            &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "w.rib:1:107: warning: Integrator parameter \"clampLuminance\" is "
+                             "ignored\n");
     test_parse_rib_error("Integrator \"PxrPathTracer\" \"h\" \"int maxPathLength\" [2.5]",
                          "t.rib:1:52: error: Integrator: maxPathLength must be an integer in [0, "
                          "64], got 2.5");

@@ -20,6 +20,22 @@
 /* Integrator "PxrPathTracer" "handle" ["int maxPathLength" [n]]: the path depth
  * (camera.depth) unless --depth is given. Every other integrator renders as the path tracer,
  * with one warning; its parameters are not read. */
+/* PxrPathTracer's parameters that only steer the noise, not what the image converges to
+ * (sample counts per bounce and lobe, their mode, Russian roulette, which is unbiased, and the
+ * continuation rays' length): silent whatever their value, as Tessera's estimator stands in
+ * for RenderMan's. The others (allowCaustics, clampDepth and clampLuminance, which bias the
+ * image, ...) still warn once each. */
+static int integrator_steers_noise(const char *name)
+{
+    static const char *const names[] = {
+        "numLightSamples",    "numBxdfSamples",       "numIndirectSamples",   "numDiffuseSamples",
+        "numSpecularSamples", "numSubsurfaceSamples", "numRefractionSamples", "sampleMode",
+        "rouletteDepth",      "rouletteThreshold",    "maxContinuationLength"};
+    for (size_t k = 0; k < sizeof names / sizeof names[0]; k++)
+        if (strcmp(name, names[k]) == 0) return 1;
+    return 0;
+}
+
 int rib_req_integrator(rib_parser *p)
 {
     const char *name;
@@ -43,7 +59,7 @@ int rib_req_integrator(rib_parser *p)
         rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
         if (strcmp(prm.name, "maxPathLength") != 0) {
-            rib_warn_param(p, &prm);
+            if (!integrator_steers_noise(prm.name)) rib_warn_param(p, &prm);
             continue;
         }
         rc = rib_param_numbers(p, &prm, 1, &v, NULL);
