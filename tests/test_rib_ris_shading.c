@@ -596,6 +596,30 @@ static void test_light_dome_distant(void **state)
         "PxrCylinderLight, PxrEnvDayLight)\n");
 }
 
+/* A light's controls that make no difference to what Tessera draws are silent at those values
+ * (RenderMan for Maya writes them on every light: a cone of 90 degrees, black shadows, no
+ * shadow distance or falloff, empty subsets and light groups, any sample count); other values
+ * still warn. */
+static void test_light_neutral_controls(void **state)
+{
+    (void)state;
+    assert_string_equal(
+        test_rib_body_warnings(
+            "Light \"PxrRectLight\" \"r\" \"float coneAngle\" [90] \"float coneSoftness\" [0] "
+            "\"color shadowColor\" [0 0 0] \"float shadowDistance\" [-1] \"float shadowFalloff\" "
+            "[-1] \"float shadowFalloffGamma\" [1] \"float intensityNearDist\" [0] "
+            "\"string lightGroup\" [\"key\"] \"string shadowSubset\" [\"\"] "
+            "\"string shadowExcludeSubset\" [\"\"] \"string iesProfile\" [\"\"] "
+            "\"float iesProfileScale\" [0] \"int fixedSampleCount\" [0]"),
+        "");
+    const char *w = test_rib_body_warnings("Light \"PxrRectLight\" \"r\" \"float coneAngle\" [12] "
+                                           "\"color shadowColor\" [0.5 0 0] "
+                                           "\"string shadowSubset\" [\"set\"]");
+    if (!strstr(w, "\"coneAngle\" is ignored") || !strstr(w, "\"shadowColor\" is ignored") ||
+        !strstr(w, "\"shadowSubset\" is ignored"))
+        fail_msg("not warned: %s", w);
+}
+
 /* Area lights are emissive patches of radiance intensity 2^exposure lightColor that reflect
  * nothing, in RenderMan's shapes; the current Surface and Color are left as they were. */
 static void test_light_shapes(void **state)
@@ -708,6 +732,7 @@ int main(void)
         cmocka_unit_test(test_displace),
         cmocka_unit_test(test_light_dome_distant),
         cmocka_unit_test(test_light_shapes),
+        cmocka_unit_test(test_light_neutral_controls),
         cmocka_unit_test(test_renderman_20_lights),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -74,17 +74,48 @@ void rib_blackbody(double kelvin, double rgb[3])
 
 /* ---- parameters ---------------------------------------------------------------------- */
 
-/* Non-physical or sampling controls: ignored with one warning only when not at their default
- * (a light's default makes no difference to what Tessera draws). */
+/* Non-physical or sampling controls: ignored with one warning only when not at the value
+ * that makes no difference to what Tessera draws (RenderMan's default, or what RenderMan for
+ * Maya writes for "none": a cone of 90 degrees, black shadows, no shadow distance or falloff,
+ * no near-distance fade, no IES profile). Three values for a colour, else one. */
 static const struct {
     const char *name;
-    double neutral;
+    int n;
+    double neutral[3];
 } ris_light_neutral[] = {
-    {"diffuse", 1.0},         {"specular", 1.0},
-    {"enableShadows", 1.0},   {"areaNormalize", 0.0},
-    {"thinShadow", 1.0},      {"traceLightPaths", 0.0},
-    {"fixedSampleCount", -1}, {"importanceMultiplier", 1.0},
+    {"diffuse", 1, {1.0}},
+    {"specular", 1, {1.0}},
+    {"enableShadows", 1, {1.0}},
+    {"areaNormalize", 1, {0.0}},
+    {"thinShadow", 1, {1.0}},
+    {"traceLightPaths", 1, {0.0}},
+    {"importanceMultiplier", 1, {1.0}},
+    {"coneAngle", 1, {90.0}},
+    {"coneSoftness", 1, {0.0}},
+    {"shadowColor", 3, {0.0, 0.0, 0.0}},
+    {"shadowDistance", 1, {-1.0}},
+    {"shadowFalloff", 1, {-1.0}},
+    {"shadowFalloffGamma", 1, {1.0}},
+    {"intensityNearDist", 1, {0.0}},
+    {"iesProfileScale", 1, {0.0}},
 };
+
+/* What only steers the noise or names AOVs and links: silent whatever its value (a number), or
+ * when empty (a string: no subset, no profile). */
+static int ris_light_silent(const rib_parser *p, const rib_param *prm)
+{
+    const rib_arg *v = prm->val;
+    if (strcmp(prm->name, "fixedSampleCount") == 0 || strcmp(prm->name, "lightGroup") == 0)
+        return 1;
+    static const char *const empty_ok[] = {"shadowSubset", "shadowExcludeSubset", "iesProfile",
+                                           "lightGroup"};
+    for (size_t k = 0; k < sizeof empty_ok / sizeof empty_ok[0]; k++)
+        if (strcmp(prm->name, empty_ok[k]) == 0 &&
+            (v->kind == RIB_ARG_STRING || (v->kind == RIB_ARG_STRINGS && v->count == 1)) &&
+            rib_arg_str(p, v, 0)[0] == '\0')
+            return 1;
+    return 0;
+}
 
 /* Reads the parameters from args[first] into *a; others warn once each. */
 static int ris_light_read(rib_parser *p, ris_light_kind kind, size_t first, ris_light_args *a)
@@ -144,9 +175,10 @@ static int ris_light_read(rib_parser *p, ris_light_kind kind, size_t first, ris_
                 j++;
             const rib_arg *val = prm.val;
             int neutral = j < nj && (val->kind == RIB_ARG_NUMBER || val->kind == RIB_ARG_NUMBERS) &&
-                          val->count == 1 &&
-                          rib_arg_nums(p, val)[0] == ris_light_neutral[j].neutral;
-            if (!neutral) rib_warn_param(p, &prm);
+                          val->count == (size_t)ris_light_neutral[j].n;
+            for (int c = 0; neutral && c < ris_light_neutral[j].n; c++)
+                neutral = rib_arg_nums(p, val)[c] == ris_light_neutral[j].neutral[c];
+            if (!neutral && !ris_light_silent(p, &prm)) rib_warn_param(p, &prm);
             continue;
         }
         rc = rib_param_numbers(p, &prm, known[k].n, &v, NULL);
