@@ -274,10 +274,17 @@ static void test_bxdf_surface(void **state)
     assert_string_equal(
         test_rib_body_warnings("Bxdf \"PxrSurface\" \"s\" \"float subsurfaceGain\" [0] "
                                "\"color subsurfaceColor\" [1 0 0] \"float fuzzGain\" "
-                               "[0.5] \"float presence\" [1] \"int specularFresnelMode\" [0]"),
+                               "[0.5] \"float presence\" [1] \"int specularFresnelMode\" [1]"),
         "w.rib:2:82: warning: Bxdf \"PxrSurface\": \"fuzzGain\" is not 0, "
         "but the fuzz lobe is not drawn\n"
         "w.rib:2:126: warning: Bxdf parameter \"specularFresnelMode\" is ignored\n");
+    /* What RenderMan for Maya writes on every PxrSurface at the values Tessera draws: silent */
+    assert_string_equal(
+        test_rib_body_warnings("Bxdf \"PxrSurface\" \"s\" \"int specularFresnelMode\" [0] "
+                               "\"color specularIor\" [1.8 1.8 1.8] \"float specularAnisotropy\" "
+                               "[0] \"int diffuseDoubleSided\" [1] \"color irradianceTint\" [1 1 "
+                               "1] \"color shadowColor\" [0 0 0] \"int maxContinuationHits\" [4]"),
+        "");
     /* RenderMan for Maya's bookkeeping and the values that are what is drawn: silent. */
     assert_string_equal(
         test_rib_body_warnings("Bxdf \"PxrDisney\" \"d\" \"normal bumpNormal\" [0 0 0] "

@@ -226,6 +226,41 @@ static int bxdf_lobe_param(rib_parser *p, const char *bxdf, const rib_param *prm
     return 0;
 }
 
+/* PxrSurface's controls at the values that are what Tessera draws, which RenderMan for Maya
+ * writes on every PxrSurface: silent there, warned about at any other value. The artistic
+ * Fresnel (specularFresnelMode 0: the face and edge colours Tessera reads), no anisotropy, no
+ * energy compensation, lobes lit from both sides (Tessera's are), the irradiance untinted and
+ * unroughened, black shadows, no bump on the specular lobe. specularIor and
+ * specularExtinctionCoeff only matter with the physical Fresnel (specularFresnelMode 1, which
+ * warns itself), and maxContinuationHits only steers the noise: silent at any value. */
+static int bxdf_neutral(const rib_param *prm, const double *x, size_t n)
+{
+    static const struct {
+        const char *name;
+        size_t n;
+        double v[3];
+    } neutral[] = {
+        {"specularFresnelMode", 1, {0}},        {"specularAnisotropy", 1, {0}},
+        {"specularEnergyCompensation", 1, {0}}, {"diffuseDoubleSided", 1, {1}},
+        {"specularDoubleSided", 1, {1}},        {"irradianceTint", 3, {1, 1, 1}},
+        {"irradianceRoughness", 1, {0}},        {"shadowColor", 3, {0, 0, 0}},
+        {"specularBumpNormal", 3, {0, 0, 0}},   {"specularAnisotropyDirection", 3, {0, 0, 0}},
+        {"clearcoatBumpNormal", 3, {0, 0, 0}},  {"diffuseBumpNormal", 3, {0, 0, 0}},
+    };
+    if (strcmp(prm->name, "specularIor") == 0 ||
+        strcmp(prm->name, "specularExtinctionCoeff") == 0 ||
+        strcmp(prm->name, "maxContinuationHits") == 0)
+        return 1;
+    for (size_t k = 0; k < sizeof neutral / sizeof neutral[0]; k++) {
+        if (strcmp(prm->name, neutral[k].name) != 0) continue;
+        if (!x || n != neutral[k].n) return 0;
+        for (size_t c = 0; c < n; c++)
+            if (x[c] != neutral[k].v[c]) return 0;
+        return 1;
+    }
+    return 0;
+}
+
 /* Reads Bxdf table entry k's parameters from args[first] into *a; a PxrTexture connected to
  * its colour parameter into *link. presence and the lobes warn; others are ignored with one
  * warning each. */
@@ -251,7 +286,8 @@ static int bxdf_read(rib_parser *p, size_t k, size_t first, bxdf_args *a, rib_li
                 (strcmp(prm.name, "presence") == 0 && nums && v->count == 1 && x[0] == 1.0) ||
                 (strcmp(prm.name, "inputAOV") == 0 && nums && v->count == 1 && x[0] == 0.0) ||
                 (strcmp(prm.name, "bumpNormal") == 0 && nums && v->count == 3 && x[0] == 0.0 &&
-                 x[1] == 0.0 && x[2] == 0.0))
+                 x[1] == 0.0 && x[2] == 0.0) ||
+                bxdf_neutral(&prm, nums ? x : NULL, nums ? v->count : 0))
                 continue;
             if (strcmp(prm.name, "presence") == 0) {
                 snprintf(what, sizeof what,
