@@ -148,16 +148,24 @@ static void test_clipping_shutter_crop(void **state)
     int rc;
     const char *out =
         test_rib_warnings("Clipping 0.1 10\nClipping 0.2 10\nShutter 0 1\nShutter 0 1\n"
-                          "CropWindow 0 0.5 0 1\nOption \"limits\" \"bucketsize\" [16 16]\n"
-                          "Option \"searchpath\" \"shader\" \"x\"\nWorldBegin\n"
+                          "CropWindow 0 0.5 0 1\nOption \"hair\" \"minwidth\" [0.5]\n"
+                          "Option \"searchpath\" \"foo\" \"x\"\nWorldBegin\n"
                           "Attribute \"identifier\" \"name\" \"a\" \"float id\" [3]\n"
                           "Attribute \"dice\" \"binary\" [1]\nWorldEnd\n",
                           &rc);
     assert_int_equal(rc, TS_OK);
-    assert_string_equal(out, "w.rib:6:1: warning: Option \"limits\" is ignored\n"
-                             "w.rib:7:21: warning: Option parameter \"shader\" is ignored\n"
+    assert_string_equal(out, "w.rib:6:1: warning: Option \"hair\" is ignored\n"
+                             "w.rib:7:21: warning: Option parameter \"foo\" is ignored\n"
                              "w.rib:9:35: warning: Attribute parameter \"id\" is ignored\n"
                              "w.rib:10:1: warning: Attribute \"dice\" is ignored\n");
+    /* Options that change neither the image nor what is read, and the search paths of what
+     * Tessera never loads: no word (RenderMan for Maya writes them in every frame). */
+    out = test_rib_warnings("Option \"limits\" \"bucketsize\" [16 16]\nOption \"statistics\" "
+                            "\"endofframe\" [1]\nOption \"searchpath\" \"shader\" \"x\" "
+                            "\"rixplugin\" \"y\"\nWorldBegin\nWorldEnd\n",
+                            &rc);
+    assert_int_equal(rc, TS_OK);
+    assert_string_equal(out, "");
     /* The whole window leaves nothing out. */
     out = test_rib_warnings("CropWindow 0 1 0 1\nWorldBegin\nWorldEnd\n", &rc);
     assert_int_equal(rc, TS_OK);

@@ -359,7 +359,8 @@ int rib_req_procedural2(rib_parser *p)
 /* Option "searchpath" "archive" ["dir:dir"] "texture" ["dir:dir"]: where relative archive
  * and texture names are looked for when they are not beside the file that names them
  * (rib_resolve_in). "&" stands for the previous path; "@" (RenderMan's default places) adds
- * nothing. Other paths (shader, procedural, display, ...) are ignored with a warning. */
+ * nothing. The places of what Tessera never loads (shader, procedural, rixplugin, rifilter,
+ * display, resource, dirmap) are ignored silently, any other path with a warning. */
 int rib_searchpath_option(rib_parser *p)
 {
     for (size_t i = 1; i < p->nargs; i += 2) {
@@ -371,7 +372,14 @@ int rib_searchpath_option(rib_parser *p)
                     : strcmp(prm.name, "texture") == 0 ? 1
                                                        : -1;
         if (which < 0) {
-            rib_warn_param(p, &prm);
+            /* the places of what Tessera never loads (shaders, plug-ins, display drivers):
+             * RenderMan for Maya writes them in every frame; a name not RenderMan's warns */
+            static const char *const unused[] = {"shader",  "procedural", "rixplugin", "rifilter",
+                                                 "display", "resource",   "dirmap"};
+            size_t u = 0, nu = sizeof unused / sizeof unused[0];
+            while (u < nu && strcmp(prm.name, unused[u]) != 0)
+                u++;
+            if (u == nu) rib_warn_param(p, &prm);
             continue;
         }
         rc = rib_string_arg(p, i + 1, "a search path", &val);

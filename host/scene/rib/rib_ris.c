@@ -278,6 +278,13 @@ int rib_req_option(rib_parser *p)
     if (strcmp(name, "Ri") == 0) return rib_option_ri(p);
     if (strcmp(name, "user") == 0) return rib_user_params(p, SIZE_MAX);
     if (strcmp(name, "searchpath") == 0) return rib_searchpath_option(p);
+    /* What changes neither the image nor what is read: the log, the work's order and memory,
+     * the RIB parser's settings, checkpoints, the AOVs' light path expressions (RenderMan for
+     * Maya writes them in every frame). Other options (trace, hair, ...) warn once each. */
+    static const char *const silent[] = {"statistics", "bucket",     "limits",
+                                         "ribparse",   "checkpoint", "lpe"};
+    for (size_t k = 0; k < sizeof silent / sizeof silent[0]; k++)
+        if (strcmp(name, silent[k]) == 0) return TS_OK;
     rib_warn_named(p, name);
     return TS_OK;
 }
