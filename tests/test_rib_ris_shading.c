@@ -617,7 +617,9 @@ static void test_light_neutral_controls(void **state)
             "[-1] \"float shadowFalloffGamma\" [1] \"float intensityNearDist\" [0] "
             "\"string lightGroup\" [\"key\"] \"string shadowSubset\" [\"\"] "
             "\"string shadowExcludeSubset\" [\"\"] \"string iesProfile\" [\"\"] "
-            "\"float iesProfileScale\" [0] \"int fixedSampleCount\" [0]"),
+            "\"float iesProfileScale\" [0] \"int fixedSampleCount\" [0] \"float emissionFocus\" "
+            "[0] "
+            "\"color emissionFocusTint\" [0 0 0] \"float colorMapSaturation\" [1]"),
         "");
     const char *w = test_rib_body_warnings("Light \"PxrRectLight\" \"r\" \"float coneAngle\" [12] "
                                            "\"color shadowColor\" [0.5 0 0] "

@@ -98,6 +98,7 @@ static const struct {
     {"shadowFalloffGamma", 1, {1.0}},
     {"intensityNearDist", 1, {0.0}},
     {"iesProfileScale", 1, {0.0}},
+    {"emissionFocus", 1, {0.0}},
 };
 
 /* What only steers the noise or names AOVs and links: silent whatever its value (a number), or
@@ -105,7 +106,10 @@ static const struct {
 static int ris_light_silent(const rib_parser *p, const rib_param *prm)
 {
     const rib_arg *v = prm->val;
-    if (strcmp(prm->name, "fixedSampleCount") == 0 || strcmp(prm->name, "lightGroup") == 0)
+    /* and what only shapes a colour map or a focus, which warn themselves when present */
+    if (strcmp(prm->name, "fixedSampleCount") == 0 || strcmp(prm->name, "lightGroup") == 0 ||
+        strcmp(prm->name, "emissionFocusTint") == 0 || strcmp(prm->name, "colorMapGamma") == 0 ||
+        strcmp(prm->name, "colorMapSaturation") == 0)
         return 1;
     static const char *const empty_ok[] = {"shadowSubset", "shadowExcludeSubset", "iesProfile",
                                            "lightGroup"};
