@@ -132,6 +132,16 @@ static void test_bxdf_lm_glass_metal(void **state)
     test_assert_cs(&a, SCHLICK(1.0), SCHLICK(0.75), SCHLICK(0.3));
 }
 
+/* A body defining two Bxdfs (defs1, defs2) and a LamaMix of handles h1 and h2 at mix. */
+static void lama_mix(char body[1024], const char *defs1, const char *defs2, const char *h1,
+                     const char *h2, const char *mix)
+{
+    snprintf(body, 1024,
+             "%s%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"%s\"] "
+             "\"reference bxdf material2\" [\"%s\"] \"float mix\" [%s]",
+             defs1, defs2, h1, h2, mix);
+}
+
 /* LamaMix: (1 - mix) material1 + mix material2 of the Bxdfs its references name. Exact where
  * Tessera's materials hold it (two mattes: their Kd Cs mixed; two metals or two glasses of one
  * roughness and index: their tints mixed; mix 0 or 1: one of them; the emissions mixed);
@@ -151,36 +161,24 @@ static void test_bxdf_lama_mix(void **state)
     const char *glass = "Bxdf \"LamaDielectric\" \"glass\" \"float IOR\" [1.5]\n";
     char body[1024];
     /* two mattes: Kd Cs mixed, 0.25 of the way */
-    snprintf(body, sizeof body,
-             "%s%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"red:bxdf_out\"] "
-             "\"reference bxdf material2\" [\"blue\"] \"float mix\" [0.25]",
-             red, blue);
+    lama_mix(body, red, blue, "red:bxdf_out", "blue", "0.25");
     ts_patch_attr a = test_rib_one_patch(body);
     assert_int_equal(a.material, TS_MAT_MATTE);
     test_assert_near(a.kd, 1.0, 0), test_assert_cs(&a, 0.6, 0.0, 0.05);
     assert_string_equal(test_rib_body_warnings(body), "");
     /* two metals of one roughness: their tints mixed */
-    snprintf(body, sizeof body,
-             "%s%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"gold\"] "
-             "\"reference bxdf material2\" [\"silver\"] \"float mix\" [0.5]",
-             gold, silver);
+    lama_mix(body, gold, silver, "gold", "silver", "0.5");
     a = test_rib_one_patch(body);
     assert_int_equal(a.material, TS_MAT_METAL), test_assert_near(a.roughness, 0.09, 1e-7);
     test_assert_cs(&a, 0.5 * (SCHLICK(1.0) + SCHLICK(0.9)), 0.5 * (SCHLICK(0.8) + SCHLICK(0.9)),
                    0.5 * (SCHLICK(0.4) + SCHLICK(0.9)));
     /* mix 0 and 1 (and beyond: clamped) are the materials themselves; 0.5 is the default */
-    snprintf(body, sizeof body,
-             "%s%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"red\"] "
-             "\"reference bxdf material2\" [\"gold\"] \"float mix\" [1.5]",
-             red, gold);
+    lama_mix(body, red, gold, "red", "gold", "1.5");
     a = test_rib_one_patch(body);
     assert_int_equal(a.material, TS_MAT_METAL),
         test_assert_cs(&a, SCHLICK(1.0), SCHLICK(0.8), SCHLICK(0.4));
     /* a matte and a metal: a principled BRDF, metallic = mix, the metal's roughness */
-    snprintf(body, sizeof body,
-             "%s%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"red\"] "
-             "\"reference bxdf material2\" [\"gold\"] \"float mix\" [0.25]",
-             red, gold);
+    lama_mix(body, red, gold, "red", "gold", "0.25");
     a = test_rib_one_patch(body);
     assert_int_equal(a.material, TS_MAT_PRINCIPLED);
     test_assert_near(a.metallic, 0.25, 1e-7), test_assert_near(a.roughness, 0.09, 1e-7);
@@ -190,10 +188,7 @@ static void test_bxdf_lama_mix(void **state)
                         "drawn as one principled BRDF of their mixed parameters (an "
                         "approximation)\n");
     /* glass and a matte: the larger share */
-    snprintf(body, sizeof body,
-             "%s%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"red\"] "
-             "\"reference bxdf material2\" [\"glass\"] \"float mix\" [0.75]",
-             red, glass);
+    lama_mix(body, red, glass, "red", "glass", "0.75");
     a = test_rib_one_patch(body);
     assert_int_equal(a.material, TS_MAT_GLASS);
     assert_string_equal(test_rib_body_warnings(body),

@@ -148,6 +148,21 @@ static void output_metas(const ts_render_options *o, const ts_job *job, uint64_t
     memcpy(meta, m, sizeof m);
 }
 
+/* The EXR image of nch of the channels ts_exr_channel_names (image_write_exr reads only the
+ * names) over pixels px, where job says it lies in its frame (a CropWindow). */
+static ts_image output_exr_image(const ts_job *job, int width, int height, int nch, float *px)
+{
+    return (ts_image){.width = width,
+                      .height = height,
+                      .channels = nch,
+                      .channel_names = (const char **)ts_exr_channel_names,
+                      .pixels = px,
+                      .x0 = job->crop_x,
+                      .y0 = job->crop_y,
+                      .full_width = job->full_width,
+                      .full_height = job->full_height};
+}
+
 int output_write(const ts_render_options *o, const ts_film_state *films, const ts_camera *cam,
                  int width, int height, const ts_job *job, ts_error *err)
 {
@@ -161,16 +176,7 @@ int output_write(const ts_render_options *o, const ts_film_state *films, const t
     output_pixels(films, cam, nch, 0, npix, px);
     int rc;
     if (exr) {
-        /* image_write_exr only reads the names. */
-        ts_image img = {width,
-                        height,
-                        nch,
-                        (const char **)ts_exr_channel_names,
-                        px,
-                        job->crop_x,
-                        job->crop_y,
-                        job->full_width,
-                        job->full_height};
+        ts_image img = output_exr_image(job, width, height, nch, px);
         ts_image_meta meta[OUTPUT_METAS];
         output_metas(o, job, job->samples_done, meta);
         /* Samples merged past a gap (several devices or ranks stopped): which ones. */
@@ -206,15 +212,7 @@ int output_stream_open(const ts_render_options *o, int width, int height, const 
     if (ext && strcmp(ext, ".png") == 0) {
         rc = image_png_stream_open(o->output_path, width, height, &s->png, err);
     } else {
-        ts_image shape = {width,
-                          height,
-                          TS_EXR_COMPLETE_CHANNELS,
-                          (const char **)ts_exr_channel_names,
-                          NULL,
-                          job->crop_x,
-                          job->crop_y,
-                          job->full_width,
-                          job->full_height};
+        ts_image shape = output_exr_image(job, width, height, TS_EXR_COMPLETE_CHANNELS, NULL);
         ts_image_meta meta[OUTPUT_METAS];
         output_metas(o, job, job->total, meta);
         rc = image_exr_stream_open(o->output_path, &shape, meta, OUTPUT_METAS, NULL, 0, &s->exr,

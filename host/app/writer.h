@@ -3,17 +3,15 @@
  * pixel after pixel (done.h, band 1), so when a wave ends every row above its last pixel is final:
  * the host copies those rows from the device's films (render.c) and hands them over, and this
  * thread converts and compresses them (output_stream_rows: ZIP on OpenEXR's threads, or
- * libpng's deflate) while
- * the device goes on. What is left at the end is the last wave's rows, compressed while the
- * pipeline is released, instead of the whole image after the last sample (forest-1 at
- * 1920x768: 0.4 s of host-only time; on a GPU most of a short frame's wall).
+ * libpng's deflate) while the device goes on. What is left at the end is the last wave's rows,
+ * compressed while the pipeline is released, instead of the whole image after the last sample
+ * (forest-1 at 1920x768: 0.4 s of host-only time; on a GPU most of a short frame's wall).
  *
  * The file is the finished image (output_stream_open: an EXR of TS_EXR_COMPLETE_CHANNELS),
- * committed
- * only when the frame completes; an interrupted, failed or retried frame ends it uncommitted
- * and render_write writes the image as before. The thread reads only rows handed over, which
- * the host never writes again while it runs: writer_end must be called before anything
- * writes the whole host film (a retry's copy, render_write). */
+ * committed only when the frame completes; an interrupted, failed or retried frame ends it
+ * uncommitted and render_write writes the image as before. The thread reads only rows handed over,
+ * which the host never writes again while it runs: writer_end must be called before anything writes
+ * the whole host film (a retry's copy, render_write). */
 #ifndef TS_WRITER_H
 #define TS_WRITER_H
 

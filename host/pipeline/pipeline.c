@@ -682,7 +682,7 @@ static int lod_count_pixels(ts_pipeline *p, const ts_camera_params *cam, uint32_
                             uint32_t end, int pass, ts_error *err)
 {
     ts_camera_params c = pipeline_full_frame(cam);
-    uint32_t cx = cam->full_width ? cam->crop_x : 0u, cy = cam->full_width ? cam->crop_y : 0u;
+    int part = c.width != cam->width || c.height != cam->height; /* a CropWindow */
     c.band = 0; /* samples [0, pixels) are the first sample pass, whatever the frame's order */
     uint32_t per_wave = p->plan.ray_capacity;
     int rc = TS_OK;
@@ -696,7 +696,6 @@ static int lod_count_pixels(ts_pipeline *p, const ts_camera_params *cam, uint32_
             pipeline_lod_count(p, n, pass, err))
             rc = err->code;
         /* Pass 0's crossings, one ray a pixel: the pixels' costs (pipeline.h pixel_cost). */
-        int part = c.width != cam->width || c.height != cam->height; /* a CropWindow */
         if (rc == TS_OK && !pass && p->pixel_cost && !part && first + n <= p->pixel_count) {
             uint32_t *cost = p->pixel_cost + first;
             if (dev_read(p->cl, p->count, 0, (size_t)n * sizeof *cost, cost, "the crossings", err))
@@ -712,6 +711,7 @@ static int lod_count_pixels(ts_pipeline *p, const ts_camera_params *cam, uint32_
                 rc = err->code;
             for (uint32_t i = 0; rc == TS_OK && i < n; ++i) {
                 uint32_t y = (first + i) / c.width, x = (first + i) - y * c.width;
+                uint32_t cx = cam->crop_x, cy = cam->crop_y;
                 if (x >= cx && x - cx < cam->width && y >= cy && y - cy < cam->height)
                     p->pixel_cost[(size_t)(y - cy) * cam->width + (x - cx)] = cross[i] + 1u;
             }

@@ -372,6 +372,22 @@ int rib_param_numbers(rib_parser *p, const rib_param *prm, size_t n, const doubl
     return TS_OK;
 }
 
+int rib_param_neutral(const rib_parser *p, const rib_param *prm, const rib_neutral *table,
+                      size_t count)
+{
+    const rib_arg *v = prm->val;
+    if (v->kind != RIB_ARG_NUMBER && v->kind != RIB_ARG_NUMBERS) return 0;
+    for (size_t k = 0; k < count; k++) {
+        if (strcmp(prm->name, table[k].name) != 0) continue;
+        if (v->count != table[k].n) return 0;
+        const double *x = rib_arg_nums(p, v);
+        for (size_t c = 0; c < table[k].n; c++)
+            if (x[c] != table[k].v[c]) return 0;
+        return 1;
+    }
+    return 0;
+}
+
 void rib_warn_param(rib_parser *p, const rib_param *prm)
 {
     char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];

@@ -93,6 +93,17 @@ int rib_param_at(rib_parser *p, size_t i, rib_param *out);
 /* The numbers of a parameter value: exactly n of them unless n == 0. */
 int rib_param_numbers(rib_parser *p, const rib_param *prm, size_t n, const double **out,
                       size_t *count);
+/* A parameter at a value that changes nothing Tessera draws (RenderMan's default, or what
+ * exporters write for "none"): its name and its n numbers (n <= 3). */
+typedef struct rib_neutral {
+    const char *name;
+    size_t n;
+    double v[3];
+} rib_neutral;
+/* Whether prm is one of table[0 .. count) at exactly its numbers (the ignored parameters that
+ * need no warning). */
+int rib_param_neutral(const rib_parser *p, const rib_param *prm, const rib_neutral *table,
+                      size_t count);
 /* Warns once that a parameter of the current request is ignored; silent for names beginning
  * "__", RenderMan's own bookkeeping (__instanceid). */
 void rib_warn_param(rib_parser *p, const rib_param *prm);

@@ -226,39 +226,36 @@ static int bxdf_lobe_param(rib_parser *p, const char *bxdf, const rib_param *prm
     return 0;
 }
 
-/* PxrSurface's controls at the values that are what Tessera draws, which RenderMan for Maya
- * writes on every PxrSurface: silent there, warned about at any other value. The artistic
- * Fresnel (specularFresnelMode 0: the face and edge colours Tessera reads), no anisotropy, no
- * energy compensation, lobes lit from both sides (Tessera's are), the irradiance untinted and
- * unroughened, black shadows, no bump on the specular lobe. specularIor and
- * specularExtinctionCoeff only matter with the physical Fresnel (specularFresnelMode 1, which
- * warns itself), and maxContinuationHits only steers the noise: silent at any value. */
-static int bxdf_neutral(const rib_param *prm, const double *x, size_t n)
+/* The Bxdf parameters at the values that are what Tessera draws, which RenderMan for Maya
+ * writes on every Bxdf: silent there, warned about at any other value. presence 1 (opaque),
+ * inputAOV 0 (no matte-ID AOV), no bump; PxrSurface's artistic Fresnel (specularFresnelMode 0:
+ * the face and edge colours Tessera reads), no anisotropy, no energy compensation, lobes lit
+ * from both sides (Tessera's are), the irradiance untinted and unroughened, black shadows. */
+static const rib_neutral bxdf_neutral[] = {
+    {"presence", 1, {1}},
+    {"inputAOV", 1, {0}},
+    {"bumpNormal", 3, {0, 0, 0}},
+    {"specularFresnelMode", 1, {0}},
+    {"specularAnisotropy", 1, {0}},
+    {"specularEnergyCompensation", 1, {0}},
+    {"diffuseDoubleSided", 1, {1}},
+    {"specularDoubleSided", 1, {1}},
+    {"irradianceTint", 3, {1, 1, 1}},
+    {"irradianceRoughness", 1, {0}},
+    {"shadowColor", 3, {0, 0, 0}},
+    {"specularBumpNormal", 3, {0, 0, 0}},
+    {"specularAnisotropyDirection", 3, {0, 0, 0}},
+    {"clearcoatBumpNormal", 3, {0, 0, 0}},
+    {"diffuseBumpNormal", 3, {0, 0, 0}},
+};
+
+/* Silent at any value: presenceCached (RenderMan for Maya's bookkeeping), specularIor and
+ * specularExtinctionCoeff (read only by the physical Fresnel, specularFresnelMode 1, which
+ * warns itself), maxContinuationHits (the noise only). */
+static int bxdf_silent(const char *name)
 {
-    static const struct {
-        const char *name;
-        size_t n;
-        double v[3];
-    } neutral[] = {
-        {"specularFresnelMode", 1, {0}},        {"specularAnisotropy", 1, {0}},
-        {"specularEnergyCompensation", 1, {0}}, {"diffuseDoubleSided", 1, {1}},
-        {"specularDoubleSided", 1, {1}},        {"irradianceTint", 3, {1, 1, 1}},
-        {"irradianceRoughness", 1, {0}},        {"shadowColor", 3, {0, 0, 0}},
-        {"specularBumpNormal", 3, {0, 0, 0}},   {"specularAnisotropyDirection", 3, {0, 0, 0}},
-        {"clearcoatBumpNormal", 3, {0, 0, 0}},  {"diffuseBumpNormal", 3, {0, 0, 0}},
-    };
-    if (strcmp(prm->name, "specularIor") == 0 ||
-        strcmp(prm->name, "specularExtinctionCoeff") == 0 ||
-        strcmp(prm->name, "maxContinuationHits") == 0)
-        return 1;
-    for (size_t k = 0; k < sizeof neutral / sizeof neutral[0]; k++) {
-        if (strcmp(prm->name, neutral[k].name) != 0) continue;
-        if (!x || n != neutral[k].n) return 0;
-        for (size_t c = 0; c < n; c++)
-            if (x[c] != neutral[k].v[c]) return 0;
-        return 1;
-    }
-    return 0;
+    return strcmp(name, "presenceCached") == 0 || strcmp(name, "specularIor") == 0 ||
+           strcmp(name, "specularExtinctionCoeff") == 0 || strcmp(name, "maxContinuationHits") == 0;
 }
 
 /* Reads Bxdf table entry k's parameters from args[first] into *a; a PxrTexture connected to
@@ -276,18 +273,11 @@ static int bxdf_read(rib_parser *p, size_t k, size_t first, bxdf_args *a, rib_li
         while (j < bxdf_table[k].nparams && strcmp(prm.name, bxdf_table[k].params[j].name) != 0)
             j++;
         if (j == bxdf_table[k].nparams) {
-            /* Silent: the values that are what is drawn, which RenderMan for Maya writes on every
-             * Bxdf: presence 1 (opaque; presenceCached is its bookkeeping), a bumpNormal of 0 0
-             * 0 (no bump), inputAOV 0 (no matte-ID AOV); "__" names: rib_warn_param. */
-            const rib_arg *v = prm.val;
-            int nums = v->kind == RIB_ARG_NUMBER || v->kind == RIB_ARG_NUMBERS;
-            const double *x = nums ? rib_arg_nums(p, v) : NULL;
-            if (strcmp(prm.name, "presenceCached") == 0 ||
-                (strcmp(prm.name, "presence") == 0 && nums && v->count == 1 && x[0] == 1.0) ||
-                (strcmp(prm.name, "inputAOV") == 0 && nums && v->count == 1 && x[0] == 0.0) ||
-                (strcmp(prm.name, "bumpNormal") == 0 && nums && v->count == 3 && x[0] == 0.0 &&
-                 x[1] == 0.0 && x[2] == 0.0) ||
-                bxdf_neutral(&prm, nums ? x : NULL, nums ? v->count : 0))
+            /* Silent: the values that are what is drawn (bxdf_neutral, bxdf_silent); "__"
+             * names: rib_warn_param. */
+            if (bxdf_silent(prm.name) ||
+                rib_param_neutral(p, &prm, bxdf_neutral,
+                                  sizeof bxdf_neutral / sizeof *bxdf_neutral))
                 continue;
             if (strcmp(prm.name, "presence") == 0) {
                 snprintf(what, sizeof what,

@@ -192,13 +192,12 @@ static int geom_deform_shutter(rib_parser *p, int line, int col, uint32_t q, con
     if (rc != TS_OK) return rc;
     const ts_vec4 *f0 = s->cp + (size_t)q * 16u;
     const ts_vec4 *f1 = s->attr[q].flags & TS_PATCH_MOVING ? s->cp1 + (size_t)q * 16u : f0;
-    for (int k = 0; k < 16; k++) {
-        const double o0[3] = {f0[k].x, f0[k].y, f0[k].z}, o1[3] = {f1[k].x, f1[k].y, f1[k].z};
-        for (int d = 0; d < 3; d++) {
-            x0[k][d] = (1.0 - a[0]) * o0[d] + a[0] * c0[k][d];
-            x1[k][d] = (1.0 - a[1]) * o1[d] + a[1] * w1[k][d];
-        }
+    for (int k = 0; k < 16; k++) { /* the first sample's points, as stored */
+        x0[k][0] = f0[k].x, x0[k][1] = f0[k].y, x0[k][2] = f0[k].z;
+        x1[k][0] = f1[k].x, x1[k][1] = f1[k].y, x1[k][2] = f1[k].z;
     }
+    rib_motion_lerp(&x0[0][0], &c0[0][0], a[0], 48, &x0[0][0]);
+    rib_motion_lerp(&x1[0][0], &w1[0][0], a[1], 48, &x1[0][0]);
     return scene_set_patch_samples(s, q, (const double(*)[3])x0, (const double(*)[3])x1, p->err);
 }
 
@@ -230,11 +229,8 @@ static int geom_emit(rib_parser *p, int line, int col, const double g0[16][3],
         return scene_set_patch_motion(p->scene, q, (const double(*)[3])w1, p->err);
     }
     if (g1 && rib_motion_shutter(p, a)) { /* a Patch block: its points at the Shutter's times */
-        for (int k = 0; k < 16; k++)
-            for (int d = 0; d < 3; d++) {
-                s0[k][d] = (1.0 - a[0]) * g0[k][d] + a[0] * g1[k][d];
-                s1[k][d] = (1.0 - a[1]) * g0[k][d] + a[1] * g1[k][d];
-            }
+        rib_motion_lerp(&g0[0][0], &g1[0][0], a[0], 48, &s0[0][0]);
+        rib_motion_lerp(&g0[0][0], &g1[0][0], a[1], 48, &s1[0][0]);
         g0 = (const double(*)[3])s0;
         g1 = a[0] == a[1] ? NULL : (const double(*)[3])s1; /* an instant: it does not move */
     }

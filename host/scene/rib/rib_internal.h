@@ -132,6 +132,9 @@ int rib_motion_check(rib_parser *p);
  * of its times [t0, t1] at shutter open and close, clamped into [0, 1]; (0, 1) without a
  * Shutter request (the block spans the exposure). Returns whether they are not (0, 1). */
 int rib_motion_shutter(const rib_parser *p, double a[2]);
+/* out[i] = (1 - a) x0[i] + a x1[i] for i < n (out may be x0 or x1): a motion block's values at
+ * fraction a of the way from its first sample to its second. */
+void rib_motion_lerp(const double *x0, const double *x1, double a, size_t n, double *out);
 /* At the end of the top-level file (not of an archive, whose blocks may stay open): fails
  * on an open motion block, else on the innermost open Attribute/Transform/World block. */
 int rib_check_closed(rib_parser *p);

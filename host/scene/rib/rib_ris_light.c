@@ -78,11 +78,7 @@ void rib_blackbody(double kelvin, double rgb[3])
  * that makes no difference to what Tessera draws (RenderMan's default, or what RenderMan for
  * Maya writes for "none": a cone of 90 degrees, black shadows, no shadow distance or falloff,
  * no near-distance fade, no IES profile). Three values for a colour, else one. */
-static const struct {
-    const char *name;
-    int n;
-    double neutral[3];
-} ris_light_neutral[] = {
+static const rib_neutral ris_light_neutral[] = {
     {"diffuse", 1, {1.0}},
     {"specular", 1, {1.0}},
     {"enableShadows", 1, {1.0}},
@@ -174,15 +170,9 @@ static int ris_light_read(rib_parser *p, ris_light_kind kind, size_t first, ris_
         if (prm.val->kind == RIB_ARG_STRING || prm.val->kind == RIB_ARG_STRINGS)
             usable = 0; /* a connection to a pattern: lights are not textured here */
         if (!usable) {
-            size_t j = 0, nj = sizeof ris_light_neutral / sizeof ris_light_neutral[0];
-            while (j < nj && strcmp(prm.name, ris_light_neutral[j].name) != 0)
-                j++;
-            const rib_arg *val = prm.val;
-            int neutral = j < nj && (val->kind == RIB_ARG_NUMBER || val->kind == RIB_ARG_NUMBERS) &&
-                          val->count == (size_t)ris_light_neutral[j].n;
-            for (int c = 0; neutral && c < ris_light_neutral[j].n; c++)
-                neutral = rib_arg_nums(p, val)[c] == ris_light_neutral[j].neutral[c];
-            if (!neutral && !ris_light_silent(p, &prm)) rib_warn_param(p, &prm);
+            size_t nn = sizeof ris_light_neutral / sizeof ris_light_neutral[0];
+            if (!rib_param_neutral(p, &prm, ris_light_neutral, nn) && !ris_light_silent(p, &prm))
+                rib_warn_param(p, &prm);
             continue;
         }
         rc = rib_param_numbers(p, &prm, known[k].n, &v, NULL);

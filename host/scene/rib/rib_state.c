@@ -838,6 +838,12 @@ int rib_motion_shutter(const rib_parser *p, double a[2])
     return a[0] != 0.0 || a[1] != 1.0;
 }
 
+void rib_motion_lerp(const double *x0, const double *x1, double a, size_t n, double *out)
+{
+    for (size_t i = 0; i < n; i++)
+        out[i] = (1.0 - a) * x0[i] + a * x1[i];
+}
+
 /* MotionEnd: applies the two samples: a moving patch, or a CTM with two time samples. */
 int rib_req_motion_end(rib_parser *p)
 {
@@ -861,12 +867,12 @@ int rib_req_motion_end(rib_parser *p)
         return TS_OK;
     }
     double a[2];
-    if (rib_motion_shutter(p, a)) /* the transformation at the Shutter's open and close */
-        for (int k = 0; k < 16; k++) {
-            double m0 = m->m[0][k], m1 = m->m[1][k];
-            m->m[0][k] = (1.0 - a[0]) * m0 + a[0] * m1;
-            m->m[1][k] = (1.0 - a[1]) * m0 + a[1] * m1;
-        }
+    if (rib_motion_shutter(p, a)) { /* the transformation at the Shutter's open and close */
+        double m0[16];
+        memcpy(m0, m->m[0], sizeof m0);
+        rib_motion_lerp(m0, m->m[1], a[0], 16, m->m[0]);
+        rib_motion_lerp(m0, m->m[1], a[1], 16, m->m[1]);
+    }
     if (m->replace) {
         memcpy(p->ctm, m->m[0], sizeof p->ctm);
         memcpy(p->ctm1, m->m[1], sizeof p->ctm1);
