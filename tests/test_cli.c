@@ -447,6 +447,68 @@ static void test_missing_texture_and_strict(void **state)
     }
 }
 
+/* Procedural "RunProgram": the image of a scene whose helper program answers two patches is
+ * the image of the same RIB written in place inside an attribute block, bit for bit (render
+ * and bake alike run it); `--no-programs` skips it with a warning, and renders the scene
+ * without them. */
+static void test_run_program(void **state)
+{
+    (void)state;
+    static const char *const head = "Format 8 8 1\nWorldBegin\nLightSource \"distantlight\" 1\n";
+    static const char *const quad = "Patch \"bilinear\" \"P\" [-1 -1 5  1 -1 5  -1 1 5  1 1 5]\n";
+    static const char *const answer = "Color [1 0.5 0.25]\nScale 0.5 0.5 1\n";
+    char text[2048], args[16384], path[4200];
+    snprintf(text, sizeof text,
+             "#!/bin/sh\nwhile read -r detail data; do\n  printf '%%s%%s' '%s' '%s'\n"
+             "  printf '\\377'\ndone\n",
+             answer, quad);
+    write_text("gen.sh", text);
+    snprintf(path, sizeof path, "%s/gen.sh", dir);
+    assert_int_equal(chmod(path, 0755), 0);
+    snprintf(text, sizeof text,
+             "%sProcedural \"RunProgram\" [\"gen.sh\" \"\"] [-1 1 -1 1 5 5]\n"
+             "Translate 0.5 0.5 0\nProcedural \"RunProgram\" [\"gen.sh\" \"\"] [-1 1 -1 1 5 5]\n"
+             "WorldEnd\n",
+             head);
+    write_text("program.rib", text);
+    snprintf(text, sizeof text,
+             "%sAttributeBegin\n%s%sAttributeEnd\nTranslate 0.5 0.5 0\nAttributeBegin\n%s%s"
+             "AttributeEnd\nWorldEnd\n",
+             head, answer, quad, answer, quad);
+    write_text("inline.rib", text);
+    const char *names[] = {"program", "inline"};
+    ts_image img[2];
+    for (int k = 0; k < 2; k++) {
+        snprintf(args, sizeof args, "render '%s/%s.rib' -o '%s/%s.exr' --spp 2 --max-lod 2 --quiet",
+                 dir, names[k], dir, names[k]);
+        assert_int_equal(run(args), 0);
+        snprintf(path, sizeof path, "%s.exr", names[k]);
+        read_exr(path, &img[k]);
+    }
+    assert_int_equal(img[0].channels, img[1].channels);
+    assert_memory_equal(img[0].pixels, img[1].pixels,
+                        sizeof(float) * 64u * (size_t)img[0].channels);
+    float sum = 0.0f;
+    for (int k = 0; k < 64 * img[0].channels; k++)
+        sum += isfinite(img[0].pixels[k]) ? img[0].pixels[k] : 0.0f;
+    assert_true(sum > 0.0f); /* the patches are there and lit */
+    image_free(&img[0]);
+    image_free(&img[1]);
+    snprintf(args, sizeof args, "bake '%s/program.rib' -o '%s/program-bake.exr' --rays 4 --quiet",
+             dir, dir);
+    assert_int_equal(run(args), 0);
+    snprintf(args, sizeof args,
+             "render '%s/program.rib' -o '%s/none.png' --spp 1 --max-lod 2 --no-programs", dir,
+             dir);
+    assert_int_equal(run(args), 1); /* nothing left to render */
+    char err[8192];
+    read_stderr(err, sizeof err);
+    if (!strstr(err, "program.rib:4:25: warning: Procedural \"RunProgram\": \"gen.sh\" is not run "
+                     "(programs are off: --no-programs); skipped\n"))
+        fail_msg("stderr lacks the warning:\n%s", err);
+    assert_false(exists("none.png"));
+}
+
 /* Renders dir/scene to dir/out with `extra` options; returns the image (EXR) and the sum of
  * its R, G, B. */
 static double render_exr(const char *scene, const char *out, const char *extra, ts_image *img)
@@ -542,6 +604,7 @@ int main(void)
         cmocka_unit_test(test_huge_resolution_is_refused),
         cmocka_unit_test(test_warning_lines_escape_control_characters),
         cmocka_unit_test(test_missing_texture_and_strict),
+        cmocka_unit_test(test_run_program),
         cmocka_unit_test(test_integrator_depth),
         cmocka_unit_test(test_images_without_the_module), /* last: it sets the environment */
     };

@@ -9,6 +9,7 @@
 #include "test_support.h"
 
 #include <math.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -562,17 +563,238 @@ static void test_procedural(void **state)
     expect_error("Procedural \"DynamicLoad\" \"forest\" [0 1 0 1 0 1]",
                  "t.rib:1:26: error: Procedural: expected an array of strings after "
                  "\"DynamicLoad\"");
-    expect_error("Procedural \"RunProgram\" [\"gen\" \"\"] [0 1 0 1 0 1]",
-                 "t.rib:1:12: error: Procedural \"RunProgram\" is not supported (DynamicLoad or "
-                 "DelayedReadArchive)");
+    expect_error("Procedural \"RunProgram\" [\"gen\"] [0 1 0 1 0 1]",
+                 "t.rib:1:25: error: Procedural \"RunProgram\" takes a program and a data block: "
+                 "[\"program\" \"data\"]");
     expect_error("Procedural \"Magic\" [\"x\"] [0 1 0 1 0 1]",
-                 "t.rib:1:12: error: unknown procedural \"Magic\" (DynamicLoad or "
-                 "DelayedReadArchive)");
+                 "t.rib:1:12: error: unknown procedural \"Magic\" (DelayedReadArchive, "
+                 "RunProgram or DynamicLoad)");
     expect_error("WorldBegin\nWorldEnd\nProcedural \"DynamicLoad\" [\"forest\" \"\"] [0 1 0 1 0 1]",
                  "t.rib:3:1: error: Procedural after WorldEnd");
     expect_error("MotionBegin [0 1]\nTranslate 0 0 0\nTranslate 1 0 0\nMotionEnd\n"
                  "Procedural \"DynamicLoad\" [\"forest\" \"\"] [0 1 0 1 0 1]",
                  "t.rib:5:1: error: Procedural under a moving transformation is not supported");
+}
+
+/* ---- Procedural "RunProgram" ------------------------------------------------------ */
+
+/* A helper program (RI Spec 3.2 §5.7): for each request line "detail data" it logs its
+ * process id, the detail and the data to log.txt beside it, then answers a red patch scaled
+ * by data (inside its own block state: the Color and Scale must not leak), a nested
+ * RunProgram of itself for "nest", an error for "bad", an open block for "open", a closing
+ * one for "close", nothing at all for "quit" (it exits with status 3), and for "linger"
+ * a patch, after which it sleeps for an hour instead of reading its end of input (were it
+ * waited for, the test would hang). */
+static const char gen_sh[] =
+    "#!/bin/sh\n"
+    "cd \"$(dirname \"$0\")\"\n"
+    "while read -r detail data; do\n"
+    "  echo \"$$ $detail $data\" >> log.txt\n"
+    "  case $data in\n"
+    "  quit) exit 3 ;;\n"
+    "  nest) echo 'Procedural \"RunProgram\" [\"gen.sh\" \"2\"] [0 1 0 1 0 0]' ;;\n"
+    "  bad) printf 'Color [1 0 0]\\nSphere 1 -1\\n' ;;\n"
+    "  open) echo 'AttributeBegin' ;;\n"
+    "  close) echo 'AttributeEnd' ;;\n"
+    "  linger) echo 'Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]' ;;\n"
+    "  *) printf 'Color [1 0 0]\\nScale %s %s %s\\n' $data $data $data\n"
+    "     echo 'Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]' ;;\n"
+    "  esac\n"
+    "  printf '\\377'\n"
+    "  if [ \"$data\" = linger ]; then exec sleep 3600; fi\n"
+    "done\n";
+
+/* Loads dir/name with programs on (strict or not); returns the status, the scene in *s (the
+ * caller frees it) and what was written to stderr in warn (cap bytes). */
+static int load_programs(const char *dir, const char *name, int strict, ts_scene *s, ts_error *e,
+                         char *warn, size_t cap)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    ts_load_options lo;
+    scene_load_options_defaults(&lo);
+    lo.strict = strict;
+    memset(s, 0, sizeof *s);
+    memset(e, 0, sizeof *e);
+    FILE *tmp = tmpfile();
+    assert_non_null(tmp);
+    fflush(stderr);
+    int saved = dup(fileno(stderr));
+    assert_true(saved >= 0 && dup2(fileno(tmp), fileno(stderr)) >= 0);
+    int rc = rib_load_with(path, &lo, s, e);
+    fflush(stderr);
+    dup2(saved, fileno(stderr));
+    close(saved);
+    rewind(tmp);
+    size_t got = fread(warn, 1, cap - 1, tmp);
+    warn[got] = '\0';
+    fclose(tmp);
+    return rc;
+}
+
+/* The lines of dir/log.txt: process ids, details and data of the requests the helper read. */
+static int read_log(const char *dir, long pid[8], double detail[8], char data[8][16])
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/log.txt", dir);
+    FILE *f = fopen(path, "r");
+    int n = 0;
+    while (f && n < 8 && fscanf(f, "%ld %lf %15s", &pid[n], &detail[n], data[n]) == 3)
+        n++;
+    if (f) fclose(f);
+    return n;
+}
+
+#define PROGRAM_HEAD "Format 320 240 1\nProjection \"perspective\" \"fov\" [60]\nTranslate 0 0 5\n"
+
+/* RunProgram runs the helper beside the file once for all its requests (each answered in
+ * place, inside a block of its own), tells it each bound's raster area (the detail), finds it
+ * along Option "searchpath" "procedural", and reaps it at the end, killed if it lingers. */
+static void test_run_program(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    char warn[4096], sub[4096], path[4096];
+    write_file(dir, "gen.sh", gen_sh);
+    snprintf(path, sizeof path, "%s/gen.sh", dir);
+    assert_int_equal(chmod(path, 0755), 0);
+    write_file(dir, "scene.rib",
+               PROGRAM_HEAD "WorldBegin\nLightSource \"distantlight\" 1\n"
+                            "Procedural \"RunProgram\" [\"gen.sh\" \"1\"] "
+                            "[0 1 0 1 0 0]\nTranslate -1.5 0 0\n"
+                            "Procedural \"RunProgram\" [\"gen.sh\" \"0.5\"] [0 0.5 0 0.5 0 0]\n"
+                            "Procedural \"RunProgram\" [\"gen.sh\" \"nest\"] [0 1 0 1 0 0]\n"
+                            "Patch \"bilinear\" " UNIT_P "\nWorldEnd\n");
+    ts_scene s;
+    ts_error e;
+    if (load_programs(dir, "scene.rib", 0, &s, &e, warn, sizeof warn) != TS_OK)
+        fail_msg("%s", e.msg);
+    assert_string_equal(warn, "");
+    assert_int_equal(s.patch_count, 4);
+    assert_cs(&s, 0, 1, 0, 0); /* the answers' patches, red */
+    assert_cs(&s, 1, 1, 0, 0);
+    assert_cs(&s, 2, 1, 0, 0);
+    assert_cs(&s, 3, 1, 1, 1); /* neither their Color nor their Scale leaks */
+    assert_true(s.cp[15].x == 1.0f && s.cp[15].y == 1.0f && s.cp[15].z == 0.0f);
+    assert_true(s.cp[16].x == -1.5f && s.cp[16 + 15].x == -1.0f);
+    assert_true(s.cp[32 + 15].x == 0.5f); /* the nested answer's patch, Scale 2 */
+    assert_true(s.cp[48 + 15].x == -0.5f);
+    scene_free(&s);
+    long pid[8];
+    double detail[8];
+    char data[8][16];
+    assert_int_equal(read_log(dir, pid, detail, data), 4);
+    /* One process answered all four (the nested request included), each told the raster
+     * area of its bound: a unit square 5 units ahead under a 60-degree view of 320 x 240 is
+     * 320 / (2 * 4/3 * 5 tan 30) = 41.57 pixels wide and as tall. */
+    const char *want[] = {"1", "0.5", "nest", "2"};
+    double side = 320.0 / (2.0 * 4.0 / 3.0 * 5.0 * tan(M_PI / 6.0));
+    double area[] = {side * side, side * side / 4, side * side, side * side};
+    for (int k = 0; k < 4; k++) {
+        assert_int_equal(pid[k], pid[0]);
+        assert_string_equal(data[k], want[k]);
+        if (fabs(detail[k] - area[k]) > 1e-3 * area[k])
+            fail_msg("request %d: detail %g, want %g", k, detail[k], area[k]);
+    }
+    assert_int_equal(kill((pid_t)pid[0], 0), -1); /* reaped at the end of the parse */
+
+    /* Along the procedural search path; a helper that lingers after its input closes is
+     * killed, not waited for. */
+    snprintf(sub, sizeof sub, "%s/bin", dir);
+    assert_int_equal(mkdir(sub, 0755), 0);
+    write_file(dir, "bin/gen.sh", gen_sh);
+    snprintf(path, sizeof path, "%s/bin/gen.sh", dir);
+    assert_int_equal(chmod(path, 0755), 0);
+    snprintf(path, sizeof path, "%s/gen.sh", dir);
+    assert_int_equal(unlink(path), 0);
+    write_file(dir, "scene.rib",
+               PROGRAM_HEAD "Option \"searchpath\" \"procedural\" [\"bin\"]\nWorldBegin\n"
+                            "Procedural \"RunProgram\" [\"gen.sh\" \"linger\"] [0 1 0 1 0 0]\n"
+                            "WorldEnd\n");
+    if (load_programs(dir, "scene.rib", 0, &s, &e, warn, sizeof warn) != TS_OK)
+        fail_msg("%s", e.msg);
+    assert_int_equal(s.patch_count, 1);
+    scene_free(&s);
+    assert_int_equal(read_log(sub, pid, detail, data), 1);
+    assert_string_equal(data[0], "linger");
+    assert_int_equal(kill((pid_t)pid[0], 0), -1);
+}
+
+/* What goes wrong: a program that is not there or cannot run (skipped with a warning, an
+ * error when strict), one that ends without finishing its answer, an answer with an error
+ * (named by the program and its answer's number), an answer that leaves a block open or
+ * closes one it did not open, and programs turned off (rib_parse_string; --no-programs). */
+static void test_run_program_errors(void **state)
+{
+    (void)state;
+    const char *dir = test_scratch_dir();
+    char warn[4096], want[8192], path[4096];
+    write_file(dir, "gen.sh", gen_sh);
+    snprintf(path, sizeof path, "%s/gen.sh", dir);
+    assert_int_equal(chmod(path, 0755), 0);
+    write_file(dir, "plain.sh", gen_sh); /* not executable */
+    ts_scene s;
+    ts_error e;
+    write_file(dir, "scene.rib",
+               "WorldBegin\nPatch \"bilinear\" " UNIT_P "\n"
+               "Procedural \"RunProgram\" [\"no-such-program\" \"1\"] [0 1 0 1 0 0]\n"
+               "Procedural \"RunProgram\" [\"plain.sh\" \"1\"] [0 1 0 1 0 0]\nWorldEnd\n");
+    assert_int_equal(load_programs(dir, "scene.rib", 0, &s, &e, warn, sizeof warn), TS_OK);
+    assert_int_equal(s.patch_count, 1);
+    scene_free(&s);
+    snprintf(want, sizeof want,
+             "%s/scene.rib:3:25: warning: Procedural: cannot read the program \"no-such-program\": "
+             "No such file or directory; skipped (--strict makes this an error)\n",
+             dir);
+    if (!strstr(warn, want)) fail_msg("\"%s\" not in \"%s\"", want, warn);
+    if (!strstr(warn, "plain.sh\": Permission denied (not executable: chmod +x it, or name its "
+                      "interpreter, e.g. \"python3 plain.sh\"); skipped"))
+        fail_msg("no not-executable warning in \"%s\"", warn);
+    assert_int_equal(load_programs(dir, "scene.rib", 1, &s, &e, warn, sizeof warn), TS_E_SCENE);
+    snprintf(want, sizeof want,
+             "%s/scene.rib:3:25: error: Procedural: cannot read the program \"no-such-program\": "
+             "No such file or directory",
+             dir);
+    assert_string_equal(e.msg, want);
+
+    static const struct {
+        const char *data, *msg;
+    } bad[] = {
+        {"quit", "error: Procedural \"RunProgram\": \"gen.sh\" did not finish its answer with "
+                 "\\377: it exited with status 3"},
+        {"bad", "gen.sh[1]:2:1: error: Sphere expects 4 numbers, got 2"},
+        {"open", "error: Procedural \"RunProgram\": the answer of \"gen.sh\" leaves the block "
+                 "begun at 1:1 open"},
+        {"close", "error: Procedural \"RunProgram\": the answer of \"gen.sh\" ends a block it did "
+                  "not begin"},
+    };
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        char text[1024];
+        snprintf(text, sizeof text,
+                 "WorldBegin\nProcedural \"RunProgram\" [\"gen.sh\" \"%s\"] [0 1 0 1 0 0]\n"
+                 "Patch \"bilinear\" " UNIT_P "\nWorldEnd\n",
+                 bad[k].data);
+        write_file(dir, "scene.rib", text);
+        assert_int_equal(load_programs(dir, "scene.rib", 0, &s, &e, warn, sizeof warn), TS_E_SCENE);
+        assert_int_equal(s.patch_count, 0);
+        if (k == 1) {
+            assert_msg(e.msg, bad[k].msg);
+        } else {
+            snprintf(want, sizeof want, "%s/scene.rib:2:25: %s", dir, bad[k].msg);
+            assert_string_equal(e.msg, want);
+        }
+    }
+
+    /* Programs off: rib_parse_string never runs one. */
+    int rc;
+    const char *w = test_rib_warnings("WorldBegin\nPatch \"bilinear\" " UNIT_P "\n"
+                                      "Procedural \"RunProgram\" [\"gen.sh\" \"1\"] "
+                                      "[0 1 0 1 0 0]\nWorldEnd\n",
+                                      &rc);
+    assert_int_equal(rc, TS_OK);
+    if (!strstr(w, "w.rib:3:25: warning: Procedural \"RunProgram\": \"gen.sh\" is not run "
+                   "(programs are off: --no-programs); skipped\n"))
+        fail_msg("no warning in \"%s\"", w);
 }
 
 /* DepthOfField fstop focallength focaldistance and a perspective Projection's fStop,
@@ -628,6 +850,8 @@ int main(void)
         cmocka_unit_test(test_n_classes_and_st),
         cmocka_unit_test(test_read_archive),
         cmocka_unit_test(test_procedural),
+        cmocka_unit_test(test_run_program),
+        cmocka_unit_test(test_run_program_errors),
         cmocka_unit_test(test_missing_archive_skipped),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -64,6 +64,7 @@ static int bake_load(ts_bake *b, ts_error *err)
     ts_load_options lo;
     scene_load_options_defaults(&lo);
     lo.frame = o->frame, lo.quiet = o->quiet, lo.strict = o->strict, lo.up = o->up;
+    lo.programs = !o->no_programs;
     if (output_check_paths(o->output_path, o->stats_path, o->scene_path, err) ||
         scene_load_with(o->scene_path, &lo, &b->scene, err) ||
         output_check_inputs_paths(o->output_path, o->stats_path, &b->scene, err))

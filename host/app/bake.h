@@ -27,8 +27,9 @@ typedef struct ts_bake_options {
     int quiet;
     int resume;
     int frame;
-    int strict; /* --strict, as render's */
-    int up;     /* --up, as render's */
+    int strict;      /* --strict, as render's */
+    int no_programs; /* --no-programs, as render's */
+    int up;          /* --up, as render's */
     ts_device_options cl;
 } ts_bake_options;
 

@@ -45,6 +45,7 @@ enum {
     OPT_NO_CACHE,
     OPT_HELP,
     OPT_STRICT,
+    OPT_NO_PROGRAMS,
     OPT_UP
 };
 
@@ -71,6 +72,7 @@ static const struct option bake_long_options[] = {
     {"no-kernel-cache", no_argument, 0, OPT_NO_CACHE},
     {"help", no_argument, 0, OPT_HELP},
     {"strict", no_argument, 0, OPT_STRICT},
+    {"no-programs", no_argument, 0, OPT_NO_PROGRAMS},
     {"up", required_argument, 0, OPT_UP},
     {0, 0, 0, 0},
 };
@@ -134,6 +136,9 @@ static int apply_option(int c, const char *arg, ts_bake_options *o)
         return 0;
     case OPT_STRICT:
         o->strict = 1;
+        return 0;
+    case OPT_NO_PROGRAMS:
+        o->no_programs = 1;
         return 0;
     case OPT_UP:
         return scene_parse_up(arg, &o->up) != 0;

@@ -33,6 +33,7 @@ void render_load_options(const ts_render_options *o, ts_load_options *lo)
     lo->frame = o->frame;
     lo->quiet = o->quiet;
     lo->strict = o->strict;
+    lo->programs = !o->no_programs;
     lo->up = o->up;
 }
 
@@ -113,6 +114,7 @@ enum {
     OPT_MPI_SCENE,
     OPT_OCCLUSION,
     OPT_STRICT,
+    OPT_NO_PROGRAMS,
     OPT_UP,
     OPT_STREAMS
 };
@@ -143,6 +145,7 @@ static const struct option render_long_options[] = {
     {"mpi-scene", required_argument, 0, OPT_MPI_SCENE},
     {"occlusion", required_argument, 0, OPT_OCCLUSION},
     {"strict", no_argument, 0, OPT_STRICT},
+    {"no-programs", no_argument, 0, OPT_NO_PROGRAMS},
     {"up", required_argument, 0, OPT_UP},
     {"streams", required_argument, 0, OPT_STREAMS},
     {0, 0, 0, 0},
@@ -216,6 +219,9 @@ static int apply_option(int c, const char *arg, ts_render_options *o)
         return 0;
     case OPT_STRICT:
         o->strict = 1;
+        return 0;
+    case OPT_NO_PROGRAMS:
+        o->no_programs = 1;
         return 0;
     case OPT_UP:
         return scene_parse_up(arg, &o->up) != 0;

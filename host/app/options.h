@@ -32,6 +32,7 @@ typedef struct ts_render_options {
     int resume;                 /* 1: continue the partial EXR at output_path (--resume) */
     int frame;                  /* the RIB frame to render (FrameBegin number); -1: the first */
     int strict;                 /* --strict: a missing texture or archive is an error */
+    int no_programs;            /* --no-programs: Procedural "RunProgram" is skipped, not run */
     int up;                     /* --up: a mesh's up axis (scene_load.h TS_UP_*); 0: the file's */
     const char *occlusion_path; /* --occlusion: relight with this bake (docs/bake.md); NULL:
                                    none */
@@ -50,7 +51,7 @@ void render_options_defaults(ts_render_options *o);
  * with *help = 1: the caller prints the usage. */
 int render_options_parse(int argc, char **argv, ts_render_options *o, int *help, ts_error *err);
 
-/* How the scene of o is loaded: its --frame, --quiet, --strict and --up. */
+/* How the scene of o is loaded: its --frame, --quiet, --strict, --no-programs and --up. */
 void render_load_options(const ts_render_options *o, ts_load_options *lo);
 
 /* Shared by every subcommand's parser (render, bake), so that they accept and refuse values

@@ -114,6 +114,7 @@ void scene_load_options_defaults(ts_load_options *o)
 {
     memset(o, 0, sizeof *o);
     o->frame = -1;
+    o->programs = 1;
 }
 
 int scene_parse_up(const char *s, int *up)

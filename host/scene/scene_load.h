@@ -20,18 +20,20 @@ int scene_load(const char *path, ts_scene *s, int quiet, ts_error *err);
 
 /* How scene_load_with reads a scene; zero-initialise, then scene_load_options_defaults. */
 typedef struct ts_load_options {
-    int frame;  /* the RIB animation's FrameBegin number to read; -1: the first */
-    int quiet;  /* 1: no warnings on stderr */
-    int strict; /* 1: a texture, environment map, archive or mesh file that cannot be read is
-                   an error at its file:line:column; 0 (RenderMan's way): one warning each and
-                   a fallback (docs/rib.md "Missing files") */
-    int up;     /* a mesh's up axis (--up): 0 from the file (mesh_load_ex), else TS_UP_* */
+    int frame;    /* the RIB animation's FrameBegin number to read; -1: the first */
+    int quiet;    /* 1: no warnings on stderr */
+    int strict;   /* 1: a texture, environment map, archive or mesh file that cannot be read is
+                     an error at its file:line:column; 0 (RenderMan's way): one warning each and
+                     a fallback (docs/rib.md "Missing files") */
+    int up;       /* a mesh's up axis (--up): 0 from the file (mesh_load_ex), else TS_UP_* */
+    int programs; /* 1 (RenderMan's way): Procedural "RunProgram" runs its program; 0
+                     (--no-programs): such a request is skipped with a warning */
 } ts_load_options;
 
 /* --up: which object axis of a mesh points up. */
 enum { TS_UP_X = 1, TS_UP_Y = 2, TS_UP_Z = 3 }; /* negated for -x, -y, -z */
 
-/* Defaults: the first frame, warnings on, not strict, the up axis from the file. */
+/* Defaults: the first frame, warnings on, not strict, the up axis from the file, programs run. */
 void scene_load_options_defaults(ts_load_options *o);
 
 /* Parses --up's value "x", "y", "z", "-x", "-y" or "-z" ("+x" ... too) into *up (TS_UP_X ...,

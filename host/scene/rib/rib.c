@@ -260,6 +260,7 @@ static void rib_parser_init(rib_parser *p, const char *name, const char *text, s
     p->err = err;
     p->quiet = (flags & RIB_QUIET) != 0;
     p->strict = (flags & RIB_STRICT) != 0;
+    p->run_programs = (flags & RIB_PROGRAMS) != 0;
     mat4_identity(p->ctm);
     mat4_identity(p->ctm1);
     p->disp = (rib_disp){TS_DISP_NONE, 4, 0.1, 1.0, 2.0, 0.5, 0, 0.0, 0, {0}};
@@ -304,6 +305,7 @@ static int rib_parse_once(const char *name, const rib_text *t, int frame, int ke
     *depth_skipped = p->frames.depth_skipped > 0;
     rib_lex_free(&p->lx);
     rib_archive_free(p);
+    rib_program_free(p);
     rib_object_free(p);
     rib_coordsys_free(p);
     rib_user_free(p);
@@ -316,6 +318,7 @@ static int rib_parse_once(const char *name, const rib_text *t, int frame, int ke
     rib_trim_free(p);
     free(p->searchpath[0]);
     free(p->searchpath[1]);
+    free(p->searchpath[2]);
     rib_args_free(p);
     free(p->stack);
     free(p);
@@ -357,7 +360,8 @@ int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *s
 int rib_parse_string_with(const char *name, const char *text, size_t len, const ts_load_options *lo,
                           ts_scene *scene, ts_error *err)
 {
-    unsigned flags = (lo->quiet ? RIB_QUIET : 0u) | (lo->strict ? RIB_STRICT : 0u);
+    unsigned flags = (lo->quiet ? RIB_QUIET : 0u) | (lo->strict ? RIB_STRICT : 0u) |
+                     (lo->programs ? RIB_PROGRAMS : 0u);
     return rib_parse(name, text, len, -1, 0, scene, flags, err);
 }
 
@@ -368,7 +372,8 @@ int rib_load_with(const char *path, const ts_load_options *lo, ts_scene *scene, 
     char why[256];
     int rc = ts_file_read_all(path, &text, &len, why, sizeof why);
     if (rc != TS_OK) return ts_error_set(err, rc, "%s: %s", path, why);
-    unsigned flags = (lo->quiet ? RIB_QUIET : 0u) | (lo->strict ? RIB_STRICT : 0u);
+    unsigned flags = (lo->quiet ? RIB_QUIET : 0u) | (lo->strict ? RIB_STRICT : 0u) |
+                     (lo->programs ? RIB_PROGRAMS : 0u);
     rc = rib_parse(path, text, len, lo->frame, 1, scene, flags, err);
     free(text);
     return rc;

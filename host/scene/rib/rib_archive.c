@@ -1,10 +1,11 @@
 /* rib_archive.c — RIB requests that bring in geometry from elsewhere: ReadArchive (another
  * RIB file, read as if it stood in place of the request), Procedural "DelayedReadArchive"
- * (the same, read at once), Procedural "DynamicLoad" ["mesh" "file"] (host/scene/mesh.c) and
- * ["forest" "trees=.. seed=.. detail=.."] (host/scene/forest.c). Relative paths are relative to
- * the directory of the file that holds the request. Nesting is bounded and a file that
- * includes itself, directly or not, is an error. A file that cannot be read is skipped with a
- * warning, or an error when strict (rib_missing_file). docs/rib.md has the details. */
+ * (the same, read at once), Procedural "RunProgram" (a helper program's answer, rib_program.c,
+ * read in place inside an attribute block), Procedural "DynamicLoad" ["mesh" "file"]
+ * (host/scene/mesh.c) and ["forest" "trees=.. seed=.. detail=.."] (host/scene/forest.c). Relative
+ * paths are relative to the directory of the file that holds the request. Nesting is bounded and a
+ * file that includes itself, directly or not, is an error. A file that cannot be read is skipped
+ * with a warning, or an error when strict (rib_missing_file). docs/rib.md has the details. */
 #include "scene/rib/rib_internal.h"
 #include "scene/rib/rib_text.h"
 
@@ -99,18 +100,48 @@ static int zip_read(const char *path, const char *member, char **text, size_t *l
     return rc;
 }
 
-static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
+/* Before reading something in place of the current request (argument `at`): p->inc made, and
+ * the nesting bound checked. */
+static int include_begin(rib_parser *p, const rib_arg *at)
 {
-    char shown[RIB_PRINT_MAX];
     if (!p->inc) {
         p->inc = calloc(1, sizeof *p->inc);
         if (!p->inc) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
         p->inc->real[0] = realpath(p->lx.file, NULL);
     }
-    struct rib_include *inc = p->inc;
-    if (inc->depth >= RIB_MAX_INCLUDE)
+    if (p->inc->depth >= RIB_MAX_INCLUDE)
         return rib_error_at(p, at->line, at->col, "%s: archives nested deeper than %d levels",
                             p->req, RIB_MAX_INCLUDE);
+    return TS_OK;
+}
+
+/* Runs the requests of text (len bytes; gzip inflated), named `name` in messages, one level
+ * deeper; real: its canonical path for the cycle check (taken), or NULL. */
+static int include_run(rib_parser *p, const char *name, const char *text, size_t len, char *real)
+{
+    struct rib_include *inc = p->inc;
+    rib_text t = {0}; /* a gzip archive (.rib.gz or not) is inflated here */
+    int rc = rib_text_open(&t, name, text, len, p->err);
+    inc->real[++inc->depth] = real;
+    rib_lexer saved = p->lx;
+    if (rc == TS_OK) {
+        rib_lex_init(&p->lx, name, t.text, t.len, p->err);
+        rc = rib_run_requests(p);
+        rib_lex_free(&p->lx);
+        p->lx = saved;
+    }
+    rib_text_free(&t);
+    free(inc->real[inc->depth]);
+    inc->real[inc->depth--] = NULL;
+    return rc;
+}
+
+static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
+{
+    char shown[RIB_PRINT_MAX];
+    int rc = include_begin(p, at);
+    if (rc != TS_OK) return rc;
+    struct rib_include *inc = p->inc;
     char *zip = NULL, *path = NULL;
     const char *member = NULL;
     if (zip_split(name, &zip, &member) == TS_OK) path = rib_resolve_in(p, zip ? zip : name, 0);
@@ -120,8 +151,8 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
     size_t len;
     char why[256];
     int absent = 0;
-    int rc = member ? zip_read(path, member, &text, &len, &absent, why, sizeof why)
-                    : ts_file_read_all(path, &text, &len, why, sizeof why);
+    rc = member ? zip_read(path, member, &text, &len, &absent, why, sizeof why)
+                : ts_file_read_all(path, &text, &len, why, sizeof why);
     if (rc != TS_OK) { /* missing: skipped with a warning unless strict; a FIFO, a device, a
                           directory: an error either way */
         if (rc == TS_E_MEMORY)
@@ -153,25 +184,16 @@ static int rib_include_file(rib_parser *p, const char *name, const rib_arg *at)
         free(path);
         return rc;
     }
-    rib_text t = {0}; /* a gzip archive (.rib.gz or not) is inflated here */
     rc = scene_add_input(p->scene, path, p->err);
     /* messages name "dir/a.zip!member.rib" */
     char *shown_name = member ? malloc(strlen(path) + strlen(member) + 2) : path;
     if (member && shown_name) sprintf(shown_name, "%s!%s", path, member);
     if (!shown_name && rc == TS_OK)
         rc = ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
-    if (rc == TS_OK) rc = rib_text_open(&t, shown_name, text, len, p->err);
-    inc->real[++inc->depth] = real;
-    rib_lexer saved = p->lx;
-    if (rc == TS_OK) {
-        rib_lex_init(&p->lx, shown_name, t.text, t.len, p->err);
-        rc = rib_run_requests(p);
-        rib_lex_free(&p->lx);
-        p->lx = saved;
-    }
-    rib_text_free(&t);
-    free(inc->real[inc->depth]);
-    inc->real[inc->depth--] = NULL;
+    if (rc == TS_OK)
+        rc = include_run(p, shown_name, text, len, real);
+    else
+        free(real);
     free(text);
     if (shown_name != path) free(shown_name);
     free(path);
@@ -242,11 +264,43 @@ static int rib_proc_forest(rib_parser *p, const char *params, const rib_arg *at)
     return rc;
 }
 
+/* RunProgram: the answer of the helper program `command` to request `data` (rib_program.c),
+ * read in place inside an attribute block of its own, which it must leave as it found it. */
+static int rib_proc_program(rib_parser *p, const char *command, const char *data,
+                            const double bound[6], const rib_arg *at)
+{
+    char shown[RIB_PRINT_MAX], *text, *name;
+    size_t len, depth = p->depth;
+    int rc = include_begin(p, at);
+    if (rc == TS_OK) rc = rib_program_run(p, command, data, bound, at, &text, &len, &name);
+    if (rc != TS_OK || !text) return rc;
+    rc = rib_attributes_push(p);
+    if (rc == TS_OK) rc = include_run(p, name, text, len, NULL);
+    if (rc == TS_OK && p->depth > depth + 1) {
+        const rib_frame *f = &p->stack[p->depth - 1];
+        rc = rib_error_at(p, at->line, at->col,
+                          "Procedural \"RunProgram\": the answer of \"%s\" leaves the block "
+                          "begun at %d:%d open",
+                          rib_printable(command, shown), f->line, f->col);
+    } else if (rc == TS_OK &&
+               (p->depth != depth + 1 || p->stack[depth].kind != RIB_FRAME_ATTRIBUTE)) {
+        rc = rib_error_at(p, at->line, at->col,
+                          "Procedural \"RunProgram\": the answer of \"%s\" ends a block it did "
+                          "not begin",
+                          rib_printable(command, shown));
+    }
+    if (rc == TS_OK) rc = rib_attributes_pop(p);
+    free(text);
+    free(name);
+    return rc;
+}
+
 /* Procedural "DelayedReadArchive" ["file.rib"] [bound]
+ * Procedural "RunProgram" ["program args" "datablock"] [bound]
  * Procedural "DynamicLoad" ["mesh" "model.obj"] [bound]
  * Procedural "DynamicLoad" ["forest" "trees=1000 seed=1 detail=1"] [bound]
- * The bound (six numbers, xmin xmax ymin ymax zmin zmax) is checked and not used: the
- * patches' own boxes are exact. */
+ * The bound (six numbers, xmin xmax ymin ymax zmin zmax) is checked, and gives RunProgram's
+ * detail; the patches' own boxes are exact. */
 int rib_req_procedural(rib_parser *p)
 {
     const char *kind;
@@ -269,6 +323,8 @@ int rib_req_procedural(rib_parser *p)
     char *a0 = strdup(rib_arg_str(p, data, 0));
     char *a1 = data->count > 1 ? strdup(rib_arg_str(p, data, 1)) : NULL;
     rib_arg where = *data;
+    double bound[6];
+    memcpy(bound, rib_arg_nums(p, &p->args[2]), sizeof bound);
     if (!a0 || (data->count > 1 && !a1)) {
         free(a0);
         free(a1);
@@ -303,12 +359,21 @@ int rib_req_procedural(rib_parser *p)
         else
             rc = mesh ? rib_proc_mesh(p, a1, &where) : rib_proc_forest(p, a1 ? a1 : "", &where);
     } else if (strcmp(kind, "RunProgram") == 0) {
-        rc = rib_error_at(p, p->args[0].line, p->args[0].col,
-                          "Procedural \"RunProgram\" is not supported (DynamicLoad or "
-                          "DelayedReadArchive)");
+        if (data->count != 2)
+            rc = rib_error_at(p, where.line, where.col,
+                              "Procedural \"RunProgram\" takes a program and a data block: "
+                              "[\"program\" \"data\"]");
+        else if (p->ctm_moving)
+            rc = rib_error_at(p, p->req_line, p->req_col,
+                              "Procedural under a moving transformation is not supported");
+        else if (rib_geom_transparent(p))
+            rc = TS_OK; /* Opacity 0 0 0: the generated geometry would not be there */
+        else
+            rc = rib_proc_program(p, a0, a1, bound, &where);
     } else {
         rc = rib_error_at(p, p->args[0].line, p->args[0].col,
-                          "unknown procedural \"%s\" (DynamicLoad or DelayedReadArchive)",
+                          "unknown procedural \"%s\" (DelayedReadArchive, RunProgram or "
+                          "DynamicLoad)",
                           rib_printable(kind, shown));
     }
     free(a0);
@@ -356,11 +421,12 @@ int rib_req_procedural2(rib_parser *p)
     return rc;
 }
 
-/* Option "searchpath" "archive" ["dir:dir"] "texture" ["dir:dir"]: where relative archive
- * and texture names are looked for when they are not beside the file that names them
- * (rib_resolve_in). "&" stands for the previous path; "@" (RenderMan's default places) adds
- * nothing. The places of what Tessera never loads (shader, procedural, rixplugin, rifilter,
- * display, resource, dirmap) are ignored silently, any other path with a warning. */
+/* Option "searchpath" "archive" ["dir:dir"] "texture" ["dir:dir"] "procedural" ["dir:dir"]:
+ * where relative archive and texture names are looked for when they are not beside the file
+ * that names them (rib_resolve_in), and RunProgram's programs (rib_program.c). "&" stands for
+ * the previous path; "@" (RenderMan's default places) adds nothing. The places of what
+ * Tessera never loads (shader, rixplugin, rifilter, display, resource, dirmap) are ignored
+ * silently, any other path with a warning. */
 int rib_searchpath_option(rib_parser *p)
 {
     for (size_t i = 1; i < p->nargs; i += 2) {
@@ -368,14 +434,15 @@ int rib_searchpath_option(rib_parser *p)
         const char *val;
         int rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
-        int which = strcmp(prm.name, "archive") == 0   ? 0
-                    : strcmp(prm.name, "texture") == 0 ? 1
-                                                       : -1;
+        int which = strcmp(prm.name, "archive") == 0      ? 0
+                    : strcmp(prm.name, "texture") == 0    ? 1
+                    : strcmp(prm.name, "procedural") == 0 ? 2
+                                                          : -1;
         if (which < 0) {
             /* the places of what Tessera never loads (shaders, plug-ins, display drivers):
              * RenderMan for Maya writes them in every frame; a name not RenderMan's warns */
-            static const char *const unused[] = {"shader",  "procedural", "rixplugin", "rifilter",
-                                                 "display", "resource",   "dirmap"};
+            static const char *const unused[] = {"shader",  "rixplugin", "rifilter",
+                                                 "display", "resource",  "dirmap"};
             size_t u = 0, nu = sizeof unused / sizeof unused[0];
             while (u < nu && strcmp(prm.name, unused[u]) != 0)
                 u++;

@@ -16,6 +16,7 @@
  *   rib_shading.c  Surface, AreaLightSource, Opacity
  *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
+ *   rib_program.c  Procedural "RunProgram": the helper programs, their requests and answers
  *   rib_object.c   ObjectBegin, ObjectEnd, ObjectInstance (definitions recorded, instances
  *                  run them again: copies)
  *   rib_frames.c   FrameBegin/FrameEnd (the frame read, shadow-map passes left), Display,
@@ -45,13 +46,13 @@
  *                    object is recorded, rib_object_check_file_end at each file's end;
  *                    rib_motion_check and
  *                    rib_check_closed in rib_state.c, rib_archive_free in
- *                    rib_archive.c, rib_frames_skip/finish and rib_scene_check in
- *                    rib_frames.c)
- *   rib_frames.c  -> rib_state.c (rib_check_closed at FrameEnd)
+ *                    rib_archive.c, rib_program_free in rib_program.c, rib_frames_skip/finish and
+ * rib_scene_check in rib_frames.c) rib_frames.c  -> rib_state.c (rib_check_closed at FrameEnd)
  *   rib_builtin.c -> rib_geom.c (rib_geom_bezier)
  *   rib_archive.c -> rib_geom.c also for rib_geom_transparent (procedurals under Opacity 0)
  *   rib_archive.c -> rib.c (rib_run_requests: an archive's requests), rib_geom.c (the
- *                    attributes of procedural geometry)
+ *                    attributes of procedural geometry), rib_program.c (a RunProgram answer,
+ *                    read as an archive), rib_state.c (its attribute block)
  *   rib_object.c  -> rib.c (rib_dispatch_request: an instance's requests), rib_state.c (the
  *                    instance's attribute block), rib_geom.c (where instances may stand)
  *   rib_state.c   -> rib_geom.c (MotionEnd of a block of Patch samples)
@@ -69,11 +70,11 @@
  *   all of these  -> rib_args.c -> rib_lex.c (and scene.c for textures); rib_args.c calls no
  *                    handler. rib.c and rib_archive.c also start lexers (on rib_text.c's bytes);
  * rib.c, rib_state.c and rib_geom.c use basis.c. The cycles are rib.c -> rib_archive.c -> rib.c:
- * ReadArchive and DelayedReadArchive read the archive's requests through the same loop, nested at
- * most RIB_MAX_INCLUDE deep; rib.c -> rib_rlf.c -> rib.c: a look file's payload runs through
- * the loop (a nugget inside a payload is ignored, so once); and rib.c -> rib_object.c -> rib.c:
- * ObjectInstance dispatches the requests of its object, which may not hold another ObjectInstance
- * (one level).
+ * ReadArchive, DelayedReadArchive and RunProgram read the archive's (the answer's) requests
+ * through the same loop, nested at most RIB_MAX_INCLUDE deep; rib.c -> rib_rlf.c -> rib.c: a look
+ * file's payload runs through the loop (a nugget inside a payload is ignored, so once); and rib.c
+ * -> rib_object.c -> rib.c: ObjectInstance dispatches the requests of its object, which may not
+ * hold another ObjectInstance (one level).
  */
 #ifndef TS_RIB_INTERNAL_H
 #define TS_RIB_INTERNAL_H
@@ -354,6 +355,18 @@ int rib_req_procedural2(rib_parser *p);
 int rib_searchpath_option(rib_parser *p);
 /* Frees p->inc. */
 void rib_archive_free(rib_parser *p);
+
+/* ---- rib_program.c: Procedural "RunProgram" helpers ---- */
+
+/* Asks the helper program `command` (started on first use) for the RIB of request `data`
+ * over the object-space bound [6] (argument `at` of the current request): TS_OK with *text
+ * (malloc'd, *len bytes, NUL-ended, without the \377) and *name (malloc'd, "command[k]" for
+ * its k-th answer) to read in place; or TS_OK with *text NULL when it was not run (programs
+ * off, or a program that cannot be started and is not strict: a warning each). */
+int rib_program_run(rib_parser *p, const char *command, const char *data, const double *bound,
+                    const rib_arg *at, char **text, size_t *len, char **name);
+/* Closes every helper's input and reaps it (killed when it has not exited within a second). */
+void rib_program_free(rib_parser *p);
 
 /* ---- rib_object.c: ObjectBegin, ObjectEnd, ObjectInstance ---- */
 

@@ -171,13 +171,15 @@ typedef struct rib_frame_choice {
  * rib_load_with). */
 #define RIB_QUIET 1u
 #define RIB_STRICT 2u
+#define RIB_PROGRAMS 4u /* Procedural "RunProgram" runs its program (rib_program.c) */
 
 typedef struct rib_parser {
     rib_lexer lx;
     ts_scene *scene;
     ts_error *err;
     int quiet;
-    int strict; /* a file that cannot be read is an error, not a warning and a fallback */
+    int strict;       /* a file that cannot be read is an error, not a warning and a fallback */
+    int run_programs; /* RIB_PROGRAMS: Procedural "RunProgram" runs; else it is skipped */
     /* The request being handled and its arguments (pools reset per request). */
     char req[RIB_MAX_NAME + 1];
     int req_line, req_col;
@@ -232,7 +234,8 @@ typedef struct rib_parser {
     struct rib_bxdfs *bxdfs;           /* rib_bxdf.c: the materials of Bxdf handles (LamaMix) */
     struct rib_rlf *rlf;               /* rib_rlf.c: identifier names, look-file scopes, or NULL */
     struct rib_trims *trims;           /* rib_trim.c: the TrimCurve requests read, or NULL */
-    char *searchpath[2];               /* Option "searchpath": "archive", "texture"; or NULL */
+    struct rib_program *programs;      /* rib_program.c: the RunProgram helpers started */
+    char *searchpath[3]; /* Option "searchpath": "archive", "texture", "procedural"; or NULL */
     rib_frame_choice frames;
     int world_line, world_col; /* of the WorldBegin read (binary RIB: line 0, col its byte) */
     int world_seen;            /* 1 once a WorldBegin was read */

@@ -1,0 +1,386 @@
+/* rib_program.c — Procedural "RunProgram" ["program args" "datablock"] [bound] (RI Spec 3.2
+ * §5.7): a helper program that writes RIB on request. Each program (its command line) is
+ * started once, on the first request that names it, with a socket as its standard input and
+ * output (its standard error is Tessera's): for each request it reads one line,
+ * "detail datablock\n" (detail: the bound's area in raster pixels), and answers with RIB
+ * ended by the byte \377, staying up for the next request. At the end of the parse its
+ * input is closed, which tells it to exit. The answer is read in place of the request inside
+ * an attribute block of its own (rib_archive.c runs it), so what it sets does not leak.
+ * docs/rib.md "Archives and procedurals" has the rules; which program may run is the caller's
+ * choice (RIB_PROGRAMS: `--no-programs` and the fuzzer leave it off). */
+#include "scene/rib/rib_internal.h"
+
+#include <errno.h>
+#include <math.h>
+#include <signal.h>
+#include <spawn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+extern char **environ;
+
+#define RIB_PROGRAM_REPLY_MAX ((size_t)1 << 30) /* the largest answer read */
+#define RIB_PROGRAM_ARGS 64                     /* words of a command line */
+#define RIB_PROGRAM_END 0xffu                   /* the byte that ends an answer */
+#define RIB_PROGRAM_INFINITY 1e38               /* RI_INFINITY: a bound across the eye plane */
+
+/* A program started by this parse. */
+struct rib_program {
+    char *command; /* the request's command line, as written: programs are told apart by it */
+    pid_t pid;
+    int fd;     /* the socket: the program's standard input and output */
+    char *rest; /* bytes read after an answer's \377 (the start of the next), rest_len */
+    size_t rest_len;
+    unsigned answered; /* requests answered so far */
+    struct rib_program *next;
+};
+
+/* Waits up to about `ms` milliseconds for pid to exit; 1 when it did (reaped). */
+static int reap_within(pid_t pid, int ms, int *status)
+{
+    for (int t = 0;; t += 10) {
+        pid_t r = waitpid(pid, status, WNOHANG);
+        if (r == pid || (r < 0 && errno != EINTR)) return 1;
+        if (t >= ms) return 0;
+        struct timespec d = {0, 10 * 1000 * 1000};
+        nanosleep(&d, NULL);
+    }
+}
+
+/* Closes the program's socket (its end of input: it should exit), then reaps it, killing it
+ * after a second if it has not exited. */
+static void program_stop(struct rib_program *g)
+{
+    int status;
+    if (g->fd >= 0) close(g->fd);
+    g->fd = -1;
+    if (g->pid > 0 && !reap_within(g->pid, 1000, &status)) {
+        kill(g->pid, SIGKILL);
+        waitpid(g->pid, &status, 0);
+    }
+    g->pid = 0;
+}
+
+void rib_program_free(rib_parser *p)
+{
+    while (p->programs) {
+        struct rib_program *g = p->programs;
+        p->programs = g->next;
+        program_stop(g);
+        free(g->command);
+        free(g->rest);
+        free(g);
+    }
+}
+
+/* Where `name` (a command line's first word) is run from: a name with a slash relative to the
+ * RIB file's directory (absolute as it is); a bare name beside the RIB file, in the working
+ * directory, along Option "searchpath" "procedural", else along PATH (NULL: posix_spawnp
+ * looks). Returns the malloc'd path, NULL for PATH; *oom on a failed allocation. */
+static char *program_path(const rib_parser *p, const char *name, int *oom)
+{
+    *oom = 0;
+    if (strchr(name, '/')) {
+        char *path = rib_resolve(p, name);
+        if (!path) *oom = 1;
+        return path;
+    }
+    char *here = rib_resolve(p, name);
+    if (!here) {
+        *oom = 1;
+        return NULL;
+    }
+    struct stat st;
+    if (stat(here, &st) == 0 && S_ISREG(st.st_mode)) return here;
+    free(here);
+    if (stat(name, &st) == 0 && S_ISREG(st.st_mode)) { /* the working directory */
+        char *path = malloc(strlen(name) + 3);
+        if (!path)
+            *oom = 1;
+        else
+            sprintf(path, "./%s", name);
+        return path;
+    }
+    for (const char *d = p->searchpath[2]; d && *d;) {
+        size_t n = strcspn(d, ":");
+        if (n > 0 && !(n == 1 && (d[0] == '@' || d[0] == '&'))) {
+            char *joined = malloc(n + strlen(name) + 2);
+            if (!joined) {
+                *oom = 1;
+                return NULL;
+            }
+            sprintf(joined, "%.*s/%s", (int)n, d, name);
+            char *full = rib_resolve(p, joined); /* a relative directory: beside the file */
+            free(joined);
+            if (!full) {
+                *oom = 1;
+                return NULL;
+            }
+            if (stat(full, &st) == 0 && S_ISREG(st.st_mode)) return full;
+            free(full);
+        }
+        d += n + (d[n] == ':');
+    }
+    return NULL;
+}
+
+/* Starts `command` (words split at blanks) with a socket as its standard input and output.
+ * TS_OK with *out; a program that cannot be started is rib_missing_file's case (a warning and
+ * *out NULL, or the error when strict). */
+static int program_start(rib_parser *p, const char *command, const rib_arg *at,
+                         struct rib_program **out)
+{
+    *out = NULL;
+    char *words = strdup(command);
+    char *argv[RIB_PROGRAM_ARGS + 1];
+    int argc = 0;
+    if (!words) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    for (char *save = NULL, *w = strtok_r(words, " \t\n", &save); w;
+         w = strtok_r(NULL, " \t\n", &save)) {
+        if (argc == RIB_PROGRAM_ARGS) {
+            free(words);
+            return rib_error_at(p, at->line, at->col,
+                                "Procedural \"RunProgram\": more than %d words in the command "
+                                "line",
+                                RIB_PROGRAM_ARGS);
+        }
+        argv[argc++] = w;
+    }
+    argv[argc] = NULL;
+    if (argc == 0) {
+        free(words);
+        return rib_error_at(p, at->line, at->col, "Procedural \"RunProgram\": no program named");
+    }
+    int oom;
+    char *path = program_path(p, argv[0], &oom);
+    int sv[2] = {-1, -1};
+    struct rib_program *g = calloc(1, sizeof *g);
+    char *copy = strdup(command);
+    if (oom || !g || !copy || socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0) {
+        int rc = oom || !g || !copy
+                     ? ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file)
+                     : rib_error_at(p, at->line, at->col,
+                                    "Procedural \"RunProgram\": cannot make a socket: %s",
+                                    strerror(errno));
+        free(path), free(words), free(g), free(copy);
+        return rc;
+    }
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, sv[1], 0);
+    posix_spawn_file_actions_adddup2(&fa, sv[1], 1);
+    pid_t pid;
+    int err = path ? posix_spawn(&pid, path, &fa, NULL, argv, environ)
+                   : posix_spawnp(&pid, argv[0], &fa, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    close(sv[1]);
+    int rc = TS_OK;
+    if (err != 0) {
+        close(sv[0]);
+        char why[320];
+        if (err == EACCES)
+            snprintf(why, sizeof why,
+                     "%s (not executable: chmod +x it, or name its interpreter, e.g. "
+                     "\"python3 %s\")",
+                     strerror(err), argv[0]);
+        else
+            snprintf(why, sizeof why, "%s", strerror(err));
+        rc = rib_missing_file(p, at->line, at->col, "the program ", path ? path : argv[0], why,
+                              "skipped");
+        free(copy), free(g);
+    } else {
+        g->command = copy, g->pid = pid, g->fd = sv[0];
+        g->next = p->programs;
+        p->programs = g;
+        *out = g;
+    }
+    free(path);
+    free(words);
+    return rc;
+}
+
+/* The raster area of the object-space box bound (xmin xmax ymin ymax zmin zmax) under the
+ * CTM and the camera: RI Spec 3.2's detail, at the file's Format (RenderMan's 640x480 without
+ * one) and screen window; RI_INFINITY when a corner is not in front of the eye. */
+static double program_detail(const rib_parser *p, const double *bound)
+{
+    const ts_camera *c = &p->scene->camera;
+    double w = c->has_format ? c->width : 640, h = c->has_format ? c->height : 480;
+    double a = w / h, win[4] = {-a, a, -1, 1};
+    if (a < 1) win[0] = -1, win[1] = 1, win[2] = -1 / a, win[3] = 1 / a;
+    if (c->has_screen) memcpy(win, c->screen, sizeof win);
+    double t = tan(c->fov_deg * M_PI / 360.0);
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int k = 0; k < 8; k++) {
+        double o[4] = {bound[k & 1], bound[2 + (k >> 1 & 1)], bound[4 + (k >> 2)], 1}, wp[4], cp[4];
+        for (int r = 0; r < 4; r++)
+            wp[r] = p->ctm[r * 4] * o[0] + p->ctm[r * 4 + 1] * o[1] + p->ctm[r * 4 + 2] * o[2] +
+                    p->ctm[r * 4 + 3] * o[3];
+        for (int r = 0; r < 4; r++)
+            cp[r] = c->world_to_camera[r * 4] * wp[0] + c->world_to_camera[r * 4 + 1] * wp[1] +
+                    c->world_to_camera[r * 4 + 2] * wp[2] + c->world_to_camera[r * 4 + 3] * wp[3];
+        if (!(cp[3] > 0)) return RIB_PROGRAM_INFINITY;
+        double x = cp[0] / cp[3], y = cp[1] / cp[3], z = cp[2] / cp[3], s[2];
+        if (c->projection == TS_PROJECTION_ORTHOGRAPHIC) {
+            s[0] = x, s[1] = y;
+        } else {
+            if (!(z > 1e-12)) return RIB_PROGRAM_INFINITY;
+            s[0] = x / (z * t), s[1] = y / (z * t);
+        }
+        double r[2] = {(s[0] - win[0]) / (win[1] - win[0]) * w,
+                       (win[3] - s[1]) / (win[3] - win[2]) * h};
+        for (int d = 0; d < 2; d++)
+            lo[d] = fmin(lo[d], r[d]), hi[d] = fmax(hi[d], r[d]);
+    }
+    double area = (hi[0] - lo[0]) * (hi[1] - lo[1]);
+    return isfinite(area) ? area : RIB_PROGRAM_INFINITY;
+}
+
+/* Writes all n bytes of buf to the program; 0, or errno. */
+static int program_write(struct rib_program *g, const char *buf, size_t n)
+{
+    while (n > 0) {
+        ssize_t k = send(g->fd, buf, n, MSG_NOSIGNAL);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) return k < 0 ? errno : EPIPE;
+        buf += k, n -= (size_t)k;
+    }
+    return 0;
+}
+
+/* Why the program's answer ended early: its exit status once it has exited (reaped), else
+ * that it closed its output. */
+static void program_gone(struct rib_program *g, char *why, size_t cap)
+{
+    int status;
+    if (g->pid > 0 && reap_within(g->pid, 200, &status)) {
+        g->pid = 0;
+        if (WIFEXITED(status))
+            snprintf(why, cap, "it exited with status %d", WEXITSTATUS(status));
+        else if (WIFSIGNALED(status))
+            snprintf(why, cap, "it was killed by signal %d", WTERMSIG(status));
+        else
+            snprintf(why, cap, "it ended");
+    } else {
+        snprintf(why, cap, "it closed its output");
+    }
+}
+
+int rib_program_run(rib_parser *p, const char *command, const char *data, const double *bound,
+                    const rib_arg *at, char **text, size_t *len, char **name)
+{
+    *text = *name = NULL;
+    *len = 0;
+    char shown[RIB_PRINT_MAX];
+    if (!p->run_programs) {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "Procedural \"RunProgram\": \"%s\" is not run (programs are off: "
+                 "--no-programs); skipped",
+                 rib_printable(command, shown));
+        rib_warn_once(p, at->line, at->col, what);
+        return TS_OK;
+    }
+    struct rib_program *g = p->programs;
+    while (g && strcmp(g->command, command) != 0)
+        g = g->next;
+    if (!g) {
+        int rc = program_start(p, command, at, &g);
+        if (rc != TS_OK || !g) return rc;
+    }
+    char why[256];
+    if (g->fd < 0)
+        return rib_error_at(p, at->line, at->col,
+                            "Procedural \"RunProgram\": \"%s\" has ended (an earlier answer "
+                            "failed)",
+                            rib_printable(command, shown));
+    double detail = program_detail(p, bound);
+    size_t n = strlen(data) + 64;
+    char *line = malloc(n);
+    if (!line) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    snprintf(line, n, "%g %s\n", detail, data);
+    int err = program_write(g, line, strlen(line));
+    free(line);
+    if (err) {
+        program_gone(g, why, sizeof why);
+        program_stop(g);
+        return rib_error_at(p, at->line, at->col,
+                            "Procedural \"RunProgram\": cannot send \"%s\" its request: %s (%s)",
+                            rib_printable(command, shown), strerror(err), why);
+    }
+    /* The answer: what is left from the last read, then reads up to the \377. */
+    size_t cap = g->rest_len + 65536, have = g->rest_len;
+    char *buf = malloc(cap + 1);
+    if (!buf) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    if (have) memcpy(buf, g->rest, have);
+    free(g->rest);
+    g->rest = NULL, g->rest_len = 0;
+    size_t scanned = 0;
+    char *end = NULL;
+    for (;;) {
+        end = memchr(buf + scanned, (int)RIB_PROGRAM_END, have - scanned);
+        if (end) break;
+        scanned = have;
+        if (have == cap) {
+            if (cap >= RIB_PROGRAM_REPLY_MAX) {
+                free(buf);
+                program_stop(g);
+                return rib_error_at(p, at->line, at->col,
+                                    "Procedural \"RunProgram\": \"%s\" answered more than %zu MB "
+                                    "without the \\377 that ends an answer",
+                                    rib_printable(command, shown), RIB_PROGRAM_REPLY_MAX >> 20);
+            }
+            char *more = realloc(buf, cap * 2 + 1);
+            if (!more) {
+                free(buf);
+                return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+            }
+            buf = more, cap *= 2;
+        }
+        ssize_t k = recv(g->fd, buf + have, cap - have, 0);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) {
+            int e = k < 0 ? errno : 0;
+            free(buf);
+            if (e)
+                snprintf(why, sizeof why, "%s", strerror(e));
+            else
+                program_gone(g, why, sizeof why);
+            program_stop(g);
+            return rib_error_at(p, at->line, at->col,
+                                "Procedural \"RunProgram\": \"%s\" did not finish its answer "
+                                "with \\377: %s",
+                                rib_printable(command, shown), why);
+        }
+        have += (size_t)k;
+    }
+    size_t used = (size_t)(end - buf);
+    if (have > used + 1) { /* kept for the next answer */
+        g->rest_len = have - used - 1;
+        g->rest = malloc(g->rest_len);
+        if (!g->rest) {
+            free(buf);
+            return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+        }
+        memcpy(g->rest, end + 1, g->rest_len);
+    }
+    buf[used] = '\0';
+    g->answered++;
+    /* Messages name the answer "program[k]": its k-th answer, from 1. */
+    size_t nn = strlen(command) + 24;
+    *name = malloc(nn);
+    if (!*name) {
+        free(buf);
+        return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+    }
+    snprintf(*name, nn, "%s[%u]", command, g->answered);
+    *text = buf;
+    *len = used;
+    return TS_OK;
+}
