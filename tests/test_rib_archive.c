@@ -732,13 +732,17 @@ static void test_run_program_errors(void **state)
     write_file(dir, "gen.sh", gen_sh);
     snprintf(path, sizeof path, "%s/gen.sh", dir);
     assert_int_equal(chmod(path, 0755), 0);
-    write_file(dir, "plain.sh", gen_sh); /* not executable */
+    write_file(dir, "plain.sh", gen_sh);              /* not executable */
+    write_file(dir, "lost.sh", "#!/no/such/shell\n"); /* its interpreter is not there */
+    snprintf(path, sizeof path, "%s/lost.sh", dir);
+    assert_int_equal(chmod(path, 0755), 0);
     ts_scene s;
     ts_error e;
     write_file(dir, "scene.rib",
                "WorldBegin\nPatch \"bilinear\" " UNIT_P "\n"
                "Procedural \"RunProgram\" [\"no-such-program\" \"1\"] [0 1 0 1 0 0]\n"
-               "Procedural \"RunProgram\" [\"plain.sh\" \"1\"] [0 1 0 1 0 0]\nWorldEnd\n");
+               "Procedural \"RunProgram\" [\"plain.sh\" \"1\"] [0 1 0 1 0 0]\n"
+               "Procedural \"RunProgram\" [\"lost.sh\" \"1\"] [0 1 0 1 0 0]\nWorldEnd\n");
     assert_int_equal(load_programs(dir, "scene.rib", 0, &s, &e, warn, sizeof warn), TS_OK);
     assert_int_equal(s.patch_count, 1);
     scene_free(&s);
@@ -750,6 +754,11 @@ static void test_run_program_errors(void **state)
     if (!strstr(warn, "plain.sh\": Permission denied (not executable: chmod +x it, or name its "
                       "interpreter, e.g. \"python3 plain.sh\"); skipped"))
         fail_msg("no not-executable warning in \"%s\"", warn);
+    snprintf(want, sizeof want,
+             "%s/scene.rib:5:25: warning: Procedural: cannot read the program \"%s/lost.sh\": "
+             "its interpreter \"/no/such/shell\" (its #! line) is not there; skipped",
+             dir, dir);
+    if (!strstr(warn, want)) fail_msg("\"%s\" not in \"%s\"", want, warn);
     assert_int_equal(load_programs(dir, "scene.rib", 1, &s, &e, warn, sizeof warn), TS_E_SCENE);
     snprintf(want, sizeof want,
              "%s/scene.rib:3:25: error: Procedural: cannot read the program \"no-such-program\": "

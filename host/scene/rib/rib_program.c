@@ -130,6 +130,22 @@ static char *program_path(const rib_parser *p, const char *name, int *oom)
     return NULL;
 }
 
+/* The interpreter a script's "#!" line names (its first word), into out; 0 when path does
+ * not start with "#!". */
+static int script_interpreter(const char *path, char *out, size_t cap)
+{
+    char line[256] = {0};
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    size_t n = fread(line, 1, sizeof line - 1, f);
+    fclose(f);
+    line[n] = '\0';
+    if (n < 3 || line[0] != '#' || line[1] != '!') return 0;
+    const char *s = line + 2 + strspn(line + 2, " \t");
+    snprintf(out, cap, "%.*s", (int)strcspn(s, " \t\r\n"), s);
+    return out[0] != '\0';
+}
+
 /* Starts `command` (words split at blanks) with a socket as its standard input and output.
  * TS_OK with *out; a program that cannot be started is rib_missing_file's case (a warning and
  * *out NULL, or the error when strict). */
@@ -184,11 +200,14 @@ static int program_start(rib_parser *p, const char *command, const rib_arg *at,
     if (err != 0) {
         close(sv[0]);
         char why[320];
+        char interp[128];
         if (err == EACCES)
             snprintf(why, sizeof why,
                      "%s (not executable: chmod +x it, or name its interpreter, e.g. "
                      "\"python3 %s\")",
                      strerror(err), argv[0]);
+        else if (err == ENOENT && path && script_interpreter(path, interp, sizeof interp))
+            snprintf(why, sizeof why, "its interpreter \"%s\" (its #! line) is not there", interp);
         else
             snprintf(why, sizeof why, "%s", strerror(err));
         rc = rib_missing_file(p, at->line, at->col, "the program ", path ? path : argv[0], why,
