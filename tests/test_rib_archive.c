@@ -582,7 +582,9 @@ static void test_procedural(void **state)
  * process id, the detail and the data to log.txt beside it, then answers a red patch scaled
  * by data (inside its own block state: the Color and Scale must not leak), a nested
  * RunProgram of itself for "nest", an error for "bad", an open block for "open", a closing
- * one for "close", nothing at all for "quit" (it exits with status 3), and for "linger"
+ * one for "close", nothing at all for "quit" (it exits with status 3), for "utf8" a patch
+ * ended by \377 as Python 3 writes it (UTF-8: C3 BF, which also stands in a string and a
+ * comment before it), and for "linger"
  * a patch, after which it sleeps for an hour instead of reading its end of input (were it
  * waited for, the test would hang). */
 static const char gen_sh[] =
@@ -596,6 +598,9 @@ static const char gen_sh[] =
     "  bad) printf 'Color [1 0 0]\\nSphere 1 -1\\n' ;;\n"
     "  open) echo 'AttributeBegin' ;;\n"
     "  close) echo 'AttributeEnd' ;;\n"
+    "  utf8) printf '# \303\277 in a comment\nAttribute \"identifier\" \"name\" \"\303\277\"\n'\n"
+    "     echo 'Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]'\n"
+    "     printf '\303\277'; continue ;;\n"
     "  linger) echo 'Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]' ;;\n"
     "  *) printf 'Color [1 0 0]\\nScale %s %s %s\\n' $data $data $data\n"
     "     echo 'Patch \"bilinear\" \"P\" [0 0 0 1 0 0 0 1 0 1 1 0]' ;;\n"
@@ -664,13 +669,15 @@ static void test_run_program(void **state)
                             "[0 1 0 1 0 0]\nTranslate -1.5 0 0\n"
                             "Procedural \"RunProgram\" [\"gen.sh\" \"0.5\"] [0 0.5 0 0.5 0 0]\n"
                             "Procedural \"RunProgram\" [\"gen.sh\" \"nest\"] [0 1 0 1 0 0]\n"
-                            "Patch \"bilinear\" " UNIT_P "\nWorldEnd\n");
+                            "Patch \"bilinear\" " UNIT_P "\n"
+                            "Procedural \"RunProgram\" [\"gen.sh\" \"utf8\"] [0 1 0 1 0 0]\n"
+                            "WorldEnd\n");
     ts_scene s;
     ts_error e;
     if (load_programs(dir, "scene.rib", 0, &s, &e, warn, sizeof warn) != TS_OK)
         fail_msg("%s", e.msg);
     assert_string_equal(warn, "");
-    assert_int_equal(s.patch_count, 4);
+    assert_int_equal(s.patch_count, 5);
     assert_cs(&s, 0, 1, 0, 0); /* the answers' patches, red */
     assert_cs(&s, 1, 1, 0, 0);
     assert_cs(&s, 2, 1, 0, 0);
@@ -683,14 +690,14 @@ static void test_run_program(void **state)
     long pid[8];
     double detail[8];
     char data[8][16];
-    assert_int_equal(read_log(dir, pid, detail, data), 4);
-    /* One process answered all four (the nested request included), each told the raster
+    assert_int_equal(read_log(dir, pid, detail, data), 5);
+    /* One process answered all five (the nested request included), each told the raster
      * area of its bound: a unit square 5 units ahead under a 60-degree view of 320 x 240 is
      * 320 / (2 * 4/3 * 5 tan 30) = 41.57 pixels wide and as tall. */
-    const char *want[] = {"1", "0.5", "nest", "2"};
+    const char *want[] = {"1", "0.5", "nest", "2", "utf8"};
     double side = 320.0 / (2.0 * 4.0 / 3.0 * 5.0 * tan(M_PI / 6.0));
-    double area[] = {side * side, side * side / 4, side * side, side * side};
-    for (int k = 0; k < 4; k++) {
+    double area[] = {side * side, side * side / 4, side * side, side * side, side * side};
+    for (int k = 0; k < 5; k++) {
         assert_int_equal(pid[k], pid[0]);
         assert_string_equal(data[k], want[k]);
         if (fabs(detail[k] - area[k]) > 1e-3 * area[k])

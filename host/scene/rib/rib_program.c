@@ -261,6 +261,47 @@ static double program_detail(const rib_parser *p, const double *bound)
     return isfinite(area) ? area : RIB_PROGRAM_INFINITY;
 }
 
+/* Where the answer in buf[0, have) ends: the index of its end mark, *mark its length, or -1
+ * when it has not ended yet (scan from *pos on next time, in *mode). The mark is the byte
+ * \377 anywhere, or outside strings and comments its UTF-8 encoding, C3 BF (what Python 3's
+ * sys.stdout.write("\377") writes: RenderMan's Python helpers are written that way; no RIB
+ * token outside a string holds a byte above 0x7f). mode: 0 between tokens, 1 in a string, 2
+ * after a backslash in it, 3 in a comment. */
+static long answer_end(const char *buf, size_t *pos, size_t have, int *mode, size_t *mark)
+{
+    for (size_t i = *pos; i < have; i++) {
+        unsigned char c = (unsigned char)buf[i];
+        if (c == RIB_PROGRAM_END) {
+            *mark = 1;
+            return (long)i;
+        }
+        if (*mode == 0) {
+            if (c == '"')
+                *mode = 1;
+            else if (c == '#')
+                *mode = 3;
+            else if (c == 0xc3) {
+                if (i + 1 == have) { /* its second byte is still to come */
+                    *pos = i;
+                    return -1;
+                }
+                if ((unsigned char)buf[i + 1] == 0xbf) {
+                    *mark = 2;
+                    return (long)i;
+                }
+            }
+        } else if (*mode == 1) {
+            *mode = c == '\\' ? 2 : c == '"' ? 0 : 1;
+        } else if (*mode == 2) {
+            *mode = 1;
+        } else if (c == '\n' || c == '\r') {
+            *mode = 0;
+        }
+    }
+    *pos = have;
+    return -1;
+}
+
 /* Writes all n bytes of buf to the program; 0, or errno. */
 static int program_write(struct rib_program *g, const char *buf, size_t n)
 {
@@ -340,12 +381,12 @@ int rib_program_run(rib_parser *p, const char *command, const char *data, const 
     if (have) memcpy(buf, g->rest, have);
     free(g->rest);
     g->rest = NULL, g->rest_len = 0;
-    size_t scanned = 0;
-    char *end = NULL;
+    size_t scanned = 0, mark = 0;
+    int mode = 0;
+    long end;
     for (;;) {
-        end = memchr(buf + scanned, (int)RIB_PROGRAM_END, have - scanned);
-        if (end) break;
-        scanned = have;
+        end = answer_end(buf, &scanned, have, &mode, &mark);
+        if (end >= 0) break;
         if (have == cap) {
             if (cap >= RIB_PROGRAM_REPLY_MAX) {
                 free(buf);
@@ -379,15 +420,15 @@ int rib_program_run(rib_parser *p, const char *command, const char *data, const 
         }
         have += (size_t)k;
     }
-    size_t used = (size_t)(end - buf);
-    if (have > used + 1) { /* kept for the next answer */
-        g->rest_len = have - used - 1;
+    size_t used = (size_t)end;
+    if (have > used + mark) { /* kept for the next answer */
+        g->rest_len = have - used - mark;
         g->rest = malloc(g->rest_len);
         if (!g->rest) {
             free(buf);
             return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
         }
-        memcpy(g->rest, end + 1, g->rest_len);
+        memcpy(g->rest, buf + used + mark, g->rest_len);
     }
     buf[used] = '\0';
     g->answered++;
