@@ -406,7 +406,7 @@ int rib_program_run(rib_parser *p, const char *command, const char *data, const 
         ssize_t k = recv(g->fd, buf + have, cap - have, 0);
         if (k < 0 && errno == EINTR) continue;
         if (k <= 0) {
-            int e = k < 0 ? errno : 0;
+            int e = k < 0 && errno != ECONNRESET ? errno : 0; /* reset: it exited unread */
             free(buf);
             if (e)
                 snprintf(why, sizeof why, "%s", strerror(e));
