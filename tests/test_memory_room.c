@@ -1,10 +1,12 @@
-/* test_memory_room.c — ts_memory_room_query (base/memory.h) on fake /proc and cgroup trees:
+/* test_memory_room.c — ts_memory_room_query (base/memory.h) on fake /proc and cgroup trees, and
+ * the default budget's room by the kind of device (app/budget.h):
  * the tightest of RLIMIT_AS and RLIMIT_DATA (against VmSize and VmData), every enclosing
  * cgroup's limit (v2 memory.max, v1 memory.limit_in_bytes) and MemAvailable, with the
  * limit named; missing files and "max" mean no limit. The rlimits are set in a child
  * process, so the test itself is not limited. Host only (never skipped for want of a
  * device). */
 #include "test_support.h"
+#include "app/budget.h"
 #include "base/memory.h"
 
 #include <stdio.h>
@@ -173,6 +175,41 @@ static void test_rlimits(void **state)
     assert_string_equal(got, "1700 RLIMIT_AS|800 RLIMIT_DATA");
 }
 
+/* budget_default (app/budget.h): the room the patch cache may grow into is half of what is
+ * left, times 8/9. A CPU device that shares host memory is bounded by the process's room,
+ * not by the global memory it reports (PoCL's guess, which it does not enforce: 4.75 GiB on
+ * a 24 GiB virtual machine); a GPU by its global memory; an integrated GPU by both; a CPU device
+ * whose process room is unknown by its global memory. */
+static void test_budget_room_by_device(void **state)
+{
+    (void)state;
+    const uint64_t GB = (uint64_t)1 << 30, fixed = 100 * MB;
+    ts_memory_room known = {22 * GB, 22 * GB, "MemAvailable"}, unknown = {UINT64_MAX, 0, ""};
+    ts_device_info cpu = {0};
+    cpu.type = CL_DEVICE_TYPE_CPU, cpu.host_unified = CL_TRUE;
+    cpu.global_mem = 5104100352ull, cpu.max_alloc = 2 * GB;
+    ts_device_info gpu = cpu, igpu = cpu;
+    gpu.type = igpu.type = CL_DEVICE_TYPE_GPU, gpu.host_unified = CL_FALSE;
+    ts_budget_choice c;
+    uint64_t host_half = (22 * GB - fixed) / 2 / 9 * 8 >> 20,
+             dev_half = (cpu.global_mem - fixed) / 2 / 9 * 8 >> 20;
+    budget_default(&cpu, fixed, &known, &c);
+    assert_int_equal(c.mb, TS_BUDGET_CAP_MB);
+    assert_int_equal(c.room_mb, host_half); /* 10 GB, not the 2 GB of its global memory */
+    budget_default(&gpu, fixed, &known, &c);
+    assert_int_equal(c.room_mb, dev_half);
+    budget_default(&igpu, fixed, &known, &c);
+    assert_int_equal(c.room_mb, dev_half);
+    budget_default(&cpu, fixed, &unknown, &c);
+    assert_int_equal(c.room_mb, dev_half);
+    /* A process room below the device's bounds the CPU device too. */
+    ts_memory_room tight = {1 * GB, 4 * GB, "RLIMIT_AS"};
+    budget_default(&cpu, fixed, &tight, &c);
+    assert_int_equal(c.room_mb, (1 * GB - fixed) / 2 / 9 * 8 >> 20);
+    assert_int_equal(c.mb, c.room_mb);
+    assert_non_null(strstr(c.why, "RLIMIT_AS"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -181,6 +218,7 @@ int main(void)
         cmocka_unit_test(test_cgroup_v2_nested),
         cmocka_unit_test(test_cgroup_v1),
         cmocka_unit_test(test_rlimits),
+        cmocka_unit_test(test_budget_room_by_device),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

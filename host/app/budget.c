@@ -48,6 +48,16 @@ static uint64_t half_room_mb(uint64_t total, uint64_t fixed)
     return left / 2 / 9 * 8 >> 20;
 }
 
+/* Whether the device's global memory bounds the room: not on a CPU device that shares host
+ * memory when the process's room is known. Its buffers are the process's memory, and the size
+ * it reports is the implementation's guess, which it does not enforce (PoCL 3.1: hwloc's view
+ * of the machine's memory less 2 GiB, 4.75 GiB on a 24 GiB virtual machine; 7.5 GB of buffers
+ * run there): the process's room (ts_memory_room_query) is the real one. */
+static int global_mem_bounds(const ts_device_info *dev, const ts_memory_room *room)
+{
+    return !(dev->host_unified && (dev->type & CL_DEVICE_TYPE_CPU) && room->bytes != UINT64_MAX);
+}
+
 void budget_default(const ts_device_info *dev, uint64_t fixed_bytes, const ts_memory_room *room,
                     ts_budget_choice *out)
 {
@@ -55,7 +65,8 @@ void budget_default(const ts_device_info *dev, uint64_t fixed_bytes, const ts_me
                                        TS_BUDGET_CAP_MB); /* a testing aid */
     out->mb = cap;
     snprintf(out->why, sizeof out->why, "the default's cap of %u MB", cap);
-    uint64_t mb = half_room_mb(dev->global_mem, fixed_bytes);
+    int global = global_mem_bounds(dev, room);
+    uint64_t mb = global ? half_room_mb(dev->global_mem, fixed_bytes) : UINT64_MAX;
     if (mb < out->mb) {
         out->mb = mb;
         snprintf(out->why, sizeof out->why, "the device's %llu MB of global memory",
@@ -83,7 +94,7 @@ void budget_default(const ts_device_info *dev, uint64_t fixed_bytes, const ts_me
     if (out->mb < TS_MEMORY_FLOOR_MB) out->mb = TS_MEMORY_FLOOR_MB;
     /* The room beside the cap: the device's and the process's halves (the largest buffer
      * limits each arena by itself, in budget_grow_arenas). */
-    out->room_mb = half_room_mb(dev->global_mem, fixed_bytes);
+    out->room_mb = global ? half_room_mb(dev->global_mem, fixed_bytes) : UINT64_MAX;
     if (dev->host_unified && room->bytes != UINT64_MAX) {
         mb = half_room_mb(room->bytes, fixed_bytes);
         if (mb < out->room_mb) out->room_mb = mb;

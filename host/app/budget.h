@@ -33,7 +33,8 @@ typedef struct ts_budget_choice {
 uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count);
 
 /* The default budget: the smallest of TS_BUDGET_CAP_MB; half of what the device's global
- * memory leaves beside the fixed bytes, less the texture pool's eighth on top (x 8/9); four
+ * memory leaves beside the fixed bytes, less the texture pool's eighth on top (x 8/9; not on
+ * a CPU device sharing host memory when the process's room is known: that room bounds it); four
  * times the device's largest buffer (the patch arenas are a quarter of the budget, in
  * single buffers); and, on a device that shares host memory, the same half of the room
  * the process's limits leave (room, from ts_memory_room_query, minus the fixed bytes).
