@@ -576,6 +576,78 @@ static void test_procedural(void **state)
                  "t.rib:5:1: error: Procedural under a moving transformation is not supported");
 }
 
+/* ArchiveBegin "name" ... ArchiveEnd: its requests recorded, not run, then run in place by
+ * each ReadArchive "name" (the state flowing in and out, as a file archive's), before a
+ * file of that name; nested definitions are made when the archive is read; errors name
+ * the archive's own lines. */
+static void test_inline_archive(void **state)
+{
+    (void)state;
+    ts_scene s, ref;
+    test_parse_rib_ok("ArchiveBegin \"quad\" \"string __handleid\" [\"q\"]\n"
+                      "Color [1 0 0]\nPatch \"bilinear\" " UNIT_P "\nArchiveEnd\n"
+                      "ArchiveBegin \"outer\"\nArchiveBegin \"inner\"\nTranslate 0 0 2\n"
+                      "ReadArchive \"quad\"\nArchiveEnd\nReadArchive \"inner\"\nArchiveEnd\n"
+                      "WorldBegin\nReadArchive \"quad\"\nTranslate 0 0 1\nColor [0 1 0]\n"
+                      "ReadArchive \"quad\"\nAttributeBegin\nReadArchive \"outer\"\nAttributeEnd\n"
+                      "Patch \"bilinear\" " UNIT_P "\nWorldEnd\n",
+                      &s);
+    test_parse_rib_ok("WorldBegin\nColor [1 0 0]\nPatch \"bilinear\" " UNIT_P "\n"
+                      "Translate 0 0 1\nColor [0 1 0]\nColor [1 0 0]\nPatch \"bilinear\" " UNIT_P
+                      "\nAttributeBegin\nTranslate 0 0 2\nPatch \"bilinear\" " UNIT_P "\n"
+                      "AttributeEnd\nPatch \"bilinear\" " UNIT_P "\nWorldEnd\n",
+                      &ref);
+    assert_int_equal(s.patch_count, 4);
+    assert_int_equal(ref.patch_count, 4);
+    assert_memory_equal(s.cp, ref.cp, 4 * 16 * sizeof s.cp[0]);
+    for (uint32_t k = 0; k < 4; k++) /* the archive's Color holds after it */
+        assert_cs(&s, k, 1, 0, 0);
+    assert_true(s.cp[32].z == 3.0f);
+    scene_free(&s);
+    scene_free(&ref);
+
+    expect_error("ArchiveEnd", "t.rib:1:1: error: ArchiveEnd without ArchiveBegin");
+    expect_error("WorldBegin\nArchiveBegin \"a\"\nSphere 1 -1 1 360\n",
+                 "t.rib:2:1: error: ArchiveBegin is never closed (missing ArchiveEnd)");
+    expect_error("ArchiveBegin \"a\"\nReadArchive \"a\"\nArchiveEnd\nWorldBegin\n"
+                 "ReadArchive \"a\"\nWorldEnd\n",
+                 "t.rib:2:1: error: ReadArchive: \"a\" is already being read (an include cycle)");
+    expect_error("ArchiveBegin \"a\"\nArchiveBegin \"a\"\nArchiveEnd\nArchiveEnd\nWorldBegin\n"
+                 "ReadArchive \"a\"\nWorldEnd\n",
+                 "t.rib:2:1: error: ArchiveBegin \"a\" while that archive is being read");
+    expect_error("ArchiveBegin \"a\"\nSphere 1 -1\nArchiveEnd\nWorldBegin\nReadArchive \"a\"\n",
+                 "t.rib:2:1: error: Sphere expects 4 numbers, got 2");
+    expect_error("ArchiveBegin \"a\"\nNoSuchRequest 1\nArchiveEnd\n",
+                 "t.rib:2:1: error: unknown request NoSuchRequest");
+
+    /* Reads are copies, bounded: an archive read ten times inside one read ten times ... */
+    char text[4096] = "ArchiveBegin \"a0\"\nIdentity\nArchiveEnd\n";
+    for (int k = 1; k <= 8; k++) {
+        size_t n = strlen(text);
+        snprintf(text + n, sizeof text - n, "ArchiveBegin \"a%d\"\n", k);
+        for (int r = 0; r < 10; r++) {
+            n = strlen(text);
+            snprintf(text + n, sizeof text - n, "ReadArchive \"a%d\"\n", k - 1);
+        }
+        n = strlen(text);
+        snprintf(text + n, sizeof text - n, "ArchiveEnd\n");
+    }
+    strcat(text, "WorldBegin\nReadArchive \"a8\"\nWorldEnd\n");
+    setenv("TESSERA_MAX_INLINE_REQUESTS", "100000", 1);
+    ts_error e;
+    assert_int_equal(test_parse_rib(text, &s, &e), TS_E_SCENE);
+    assert_non_null(strstr(e.msg, "error: ReadArchive: inline archives read again run more than "
+                                  "100000 requests or add more than "));
+    unsetenv("TESSERA_MAX_INLINE_REQUESTS");
+    setenv("TESSERA_MAX_INSTANCED_PATCHES", "3", 1);
+    expect_error("ArchiveBegin \"q\"\nPatch \"bilinear\" " UNIT_P "\nArchiveEnd\nWorldBegin\n"
+                 "ReadArchive \"q\"\nReadArchive \"q\"\nReadArchive \"q\"\n"
+                 "ReadArchive \"q\"\nWorldEnd\n",
+                 "t.rib:8:1: error: ReadArchive: inline archives read again run more than "
+                 "67108864 requests or add more than 3 patches (each read is a copy)");
+    unsetenv("TESSERA_MAX_INSTANCED_PATCHES");
+}
+
 /* ---- Procedural "RunProgram" ------------------------------------------------------ */
 
 /* A helper program (RI Spec 3.2 §5.7): for each request line "detail data" it logs its
@@ -866,6 +938,7 @@ int main(void)
         cmocka_unit_test(test_n_classes_and_st),
         cmocka_unit_test(test_read_archive),
         cmocka_unit_test(test_procedural),
+        cmocka_unit_test(test_inline_archive),
         cmocka_unit_test(test_run_program),
         cmocka_unit_test(test_run_program_errors),
         cmocka_unit_test(test_missing_archive_skipped),

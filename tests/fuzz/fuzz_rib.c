@@ -14,8 +14,9 @@
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerInitialize(int *argc, char ***argv);
 
-/* ObjectInstance copies its object: a 64 KiB input can ask for gigabytes of patches, which is
- * the bound's job (rib_object.c), so the fuzzer runs with a low one. Likewise a Blobby whose
+/* ObjectInstance copies its object, and ReadArchive an inline archive's requests: a 64 KiB
+ * input can ask for gigabytes of patches or 10^16 requests, which is the bounds' job
+ * (rib_object.c, rib_inline.c), so the fuzzer runs with low ones. Likewise a Blobby whose
  * one huge blob widens the box of a tiny one samples its grid up to BLOBBY_MAX_WORK (2e8
  * field evaluations, 0.3 s in a release build, 5 s under ASan, past the 10 s timeout on a busy
  * machine: tests/fuzz/regressions/blobby_grid_work_bound.rib); the fuzzer's bound is 2e6. */
@@ -24,6 +25,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     (void)argc, (void)argv;
     setenv("TESSERA_MAX_INSTANCED_PATCHES", "65536", 1);
     setenv("TESSERA_BLOBBY_MAX_WORK", "2e6", 1);
+    setenv("TESSERA_MAX_INLINE_REQUESTS", "65536", 1);
     return 0;
 }
 

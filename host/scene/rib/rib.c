@@ -74,6 +74,8 @@ static const struct {
     {"Procedural", rib_req_procedural},
     {"Projection", rib_req_projection},
     {"ReadArchive", rib_req_read_archive},
+    {"ArchiveBegin", rib_req_archive_begin},
+    {"ArchiveEnd", rib_req_archive_end},
     {"Rotate", rib_req_rotate},
     {"Skew", rib_req_skew},
     {"Scale", rib_req_scale},
@@ -193,8 +195,12 @@ static int rib_known(rib_parser *p)
 int rib_dispatch_request(rib_parser *p)
 {
     if (rib_frames_skip(p)) return TS_OK; /* a frame that is not rendered */
-    if (rib_cond_skip(p)) return TS_OK;   /* a branch of IfBegin not taken */
-    if (rib_object_recording(p)) {        /* an object's definition: kept, not run */
+    if (rib_inline_recording(p)) {        /* an inline archive: kept, not run */
+        int rc = rib_known(p);
+        return rc == TS_OK ? rib_inline_record(p) : rc;
+    }
+    if (rib_cond_skip(p)) return TS_OK; /* a branch of IfBegin not taken */
+    if (rib_object_recording(p)) {      /* an object's definition: kept, not run */
         int rc = rib_known(p);
         return rc == TS_OK ? rib_object_record(p) : rc;
     }
@@ -237,7 +243,8 @@ int rib_run_requests(rib_parser *p)
         rc = rib_read_args(p, &t);
         if (rc == TS_OK) rc = rib_dispatch_request(p);
     }
-    return rc == TS_OK ? rib_object_check_file_end(p) : rc;
+    if (rc == TS_OK) rc = rib_object_check_file_end(p);
+    return rc == TS_OK ? rib_inline_check_file_end(p) : rc;
 }
 
 /* The whole file: its requests, then every block must be closed, the frame asked for must
@@ -306,6 +313,7 @@ static int rib_parse_once(const char *name, const rib_text *t, int frame, int ke
     rib_lex_free(&p->lx);
     rib_archive_free(p);
     rib_program_free(p);
+    rib_inline_free(p);
     rib_object_free(p);
     rib_coordsys_free(p);
     rib_user_free(p);

@@ -212,7 +212,9 @@ int rib_req_read_archive(rib_parser *p)
     char *copy = strdup(name);
     if (!copy) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
     rib_arg where = *at;
-    rc = rib_include_file(p, copy, &where);
+    int inline_archive = 0; /* ArchiveBegin "name" before: its requests, not a file */
+    rc = rib_inline_read(p, copy, &inline_archive);
+    if (rc == TS_OK && !inline_archive) rc = rib_include_file(p, copy, &where);
     free(copy);
     return rc;
 }

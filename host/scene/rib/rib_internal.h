@@ -17,6 +17,7 @@
  *   rib_options.c  PixelSamples, Clipping, Shutter, CropWindow, ScreenWindow, Exposure
  *   rib_archive.c  ReadArchive, Procedural; reading a whole file
  *   rib_program.c  Procedural "RunProgram": the helper programs, their requests and answers
+ *   rib_inline.c   ArchiveBegin/ArchiveEnd (inline archives recorded, ReadArchive runs them)
  *   rib_object.c   ObjectBegin, ObjectEnd, ObjectInstance (definitions recorded, instances
  *                  run them again: copies)
  *   rib_frames.c   FrameBegin/FrameEnd (the frame read, shadow-map passes left), Display,
@@ -55,6 +56,8 @@
  *                    read as an archive), rib_state.c (its attribute block)
  *   rib_object.c  -> rib.c (rib_dispatch_request: an instance's requests), rib_state.c (the
  *                    instance's attribute block), rib_geom.c (where instances may stand)
+ *   rib_inline.c  -> rib.c (rib_dispatch_request: an inline archive's requests)
+ *   rib_archive.c -> rib_inline.c (ReadArchive of an inline archive's name)
  *   rib_state.c   -> rib_geom.c (MotionEnd of a block of Patch samples)
  *   rib_options.c -> rib_state.c (rib_before_world)
  *   rib_light.c   -> rib_geom.c (rib_geom_check: where lights may stand)
@@ -355,6 +358,26 @@ int rib_req_procedural2(rib_parser *p);
 int rib_searchpath_option(rib_parser *p);
 /* Frees p->inc. */
 void rib_archive_free(rib_parser *p);
+
+/* ---- rib_inline.c: ArchiveBegin ... ArchiveEnd, read by ReadArchive ---- */
+
+int rib_req_archive_begin(rib_parser *p);
+int rib_req_archive_end(rib_parser *p); /* outside a recording: an error */
+/* Whether an inline archive is being recorded: rib.c then hands it every request (known ones
+ * only) to rib_inline_record instead of running it. */
+int rib_inline_recording(const rib_parser *p);
+int rib_inline_record(rib_parser *p);
+/* At the end of each file: fails if an ArchiveBegin of this file is still open. */
+int rib_inline_check_file_end(rib_parser *p);
+/* ReadArchive "name": runs the inline archive of that name in place when there is one
+ * (*found 1), else leaves it to the file of that name (*found 0). */
+int rib_inline_read(rib_parser *p, const char *name, int *found);
+/* Frees p->inlines. */
+void rib_inline_free(rib_parser *p);
+/* RIB_MAX_INSTANCED_PATCHES, or less when $TESSERA_MAX_INSTANCED_PATCHES says so (tests and
+ * the fuzzer: the bound without gigabytes of copies; it never raises it): the patches that
+ * ObjectInstance copies may add, and those inline archives read again may (rib_object.c). */
+uint64_t rib_copies_budget(void);
 
 /* ---- rib_program.c: Procedural "RunProgram" helpers ---- */
 

@@ -256,9 +256,7 @@ int rib_object_check_file_end(rib_parser *p)
                         "ObjectBegin is never closed (missing ObjectEnd)");
 }
 
-/* RIB_MAX_INSTANCED_PATCHES, or less when $TESSERA_MAX_INSTANCED_PATCHES says so (tests and
- * the fuzzer: the bound without gigabytes of copies; it never raises it). */
-static uint64_t object_budget(void)
+uint64_t rib_copies_budget(void)
 {
     const char *env = getenv("TESSERA_MAX_INSTANCED_PATCHES");
     char *end;
@@ -338,7 +336,7 @@ int rib_req_object_instance(rib_parser *p)
     if (rc != TS_OK) return rc;
     int line = p->req_line, col = p->req_col, over = 0;
     const char *file = p->lx.file;
-    uint64_t budget = object_budget();
+    uint64_t budget = rib_copies_budget();
     uint32_t first = p->scene->patch_count;
     double ctm[16];
     memcpy(ctm, p->ctm, sizeof ctm);

@@ -31,6 +31,10 @@
  * a copy (about 0.5 KB a patch on the host), and a few bytes of RIB can instance an object
  * many times, so the copies are bounded (rib_object.c). */
 #define RIB_MAX_INSTANCED_PATCHES (1u << 20)
+/* Requests that inline archives may run, every ReadArchive of them together: an archive that
+ * reads another ten times, sixteen deep, would run 10^16 (rib_inline.c);
+ * $TESSERA_MAX_INLINE_REQUESTS lowers it (the fuzzer). */
+#define RIB_MAX_INLINE_REQUESTS (1u << 26)
 
 typedef enum rib_arg_kind {
     RIB_ARG_NUMBER,
@@ -235,6 +239,7 @@ typedef struct rib_parser {
     struct rib_rlf *rlf;               /* rib_rlf.c: identifier names, look-file scopes, or NULL */
     struct rib_trims *trims;           /* rib_trim.c: the TrimCurve requests read, or NULL */
     struct rib_program *programs;      /* rib_program.c: the RunProgram helpers started */
+    struct rib_inlines *inlines;       /* rib_inline.c: ArchiveBegin archives, or NULL */
     char *searchpath[3]; /* Option "searchpath": "archive", "texture", "procedural"; or NULL */
     rib_frame_choice frames;
     int world_line, world_col; /* of the WorldBegin read (binary RIB: line 0, col its byte) */
