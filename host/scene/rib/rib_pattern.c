@@ -256,11 +256,13 @@ static int pattern_params(rib_parser *p, rib_pattern_node *n)
         int tex = n->kind == PATTERN_TEXTURE, man = n->kind == PATTERN_MANIFOLD;
         if (tex && strcmp(prm.name, "filename") == 0) {
             rc = rib_string_arg(p, i + 1, "a file name", &str);
+            if (rc == TS_OK) free(n->filename); /* given twice: the last one holds */
             if (rc == TS_OK && !(n->filename = strdup(str))) rc = pattern_oom(p);
             n->file_line = prm.val->line, n->file_col = prm.val->col;
         } else if (tex && strcmp(prm.name, "manifold") == 0) {
             rc = rib_string_arg(p, i + 1, "a manifold connection", &str);
             size_t len = rc == TS_OK ? strcspn(str, ":") : 0;
+            if (rc == TS_OK) free(n->manifold);
             if (rc == TS_OK && !(n->manifold = malloc(len + 1))) rc = pattern_oom(p);
             if (rc == TS_OK) memcpy(n->manifold, str, len), n->manifold[len] = '\0';
         } else if ((tex && strcmp(prm.name, "invertT") == 0) ||
