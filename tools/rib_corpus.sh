@@ -8,14 +8,18 @@
 #   by its own lights: lit, and not by the headlight Tessera adds to a scene without lights
 # One line per scene goes to OUT/results.tsv (status, lit, own lights, first line of stderr,
 # file), the counts to stdout.
-# usage: tools/rib_corpus.sh DIR OUT [BINARY]
-#        tools/rib_corpus.sh --list FILE DIR OUT [BINARY]
+# usage: tools/rib_corpus.sh [--programs] DIR OUT [BINARY]
+#        tools/rib_corpus.sh [--programs] --list FILE DIR OUT [BINARY]
+# The scenes are other people's files: their Procedural "RunProgram" helpers are not run
+# (--no-programs: a warning, and the scene without them) unless --programs is given.
 # --list: the scenes FILE names, one a line relative to DIR (binary RIB, whose requests grep
 # cannot see, and top-level files among archives), each optionally followed by a TAB and the
 # directory, relative to DIR, to render it from (RenderMan for Maya's paths are relative to
 # its project); lines starting with # are skipped.
 set -uo pipefail
 list=""
+programs=--no-programs
+if [[ ${1:-} == --programs ]]; then programs=""; shift; fi
 if [[ ${1:-} == --list ]]; then list=${2:?usage: tools/rib_corpus.sh --list FILE DIR OUT [BINARY]}; shift 2; fi
 dir=${1:?usage: tools/rib_corpus.sh DIR OUT [BINARY]}
 out=${2:?usage: tools/rib_corpus.sh DIR OUT [BINARY]}
@@ -57,7 +61,7 @@ while IFS=$'\t' read -r -d '' f from; do
   scenes=$((scenes + 1))
   img="$out/$scenes.png"
   (cd "$from" && timeout 600 "$bin" render "$f" -o "$img" --res 48x36 --spp 1 --max-lod 3 \
-    --memory 64 2>"$out/stderr.txt" >/dev/null)
+    --memory 64 $programs 2>"$out/stderr.txt" >/dev/null)
   rc=$?
   first=$(grep -m1 ': error: ' "$out/stderr.txt" | tr '\t' ' ')
   [[ -n $first ]] || first=$(grep -m1 'warning: ' "$out/stderr.txt" | tr '\t' ' ')
