@@ -439,9 +439,9 @@ static void test_waves_are_cut_once_the_patches_fit(void **state)
 }
 
 /* A frame whose patches need far more than the patch arenas hold (forest-1 at m = 6, 260 MB,
- * in a 16 MB budget) gives three quarters of the arenas to the rays when that makes fewer
- * waves (app/budget.c thin_arenas): 2 waves instead of 3, the budget kept, the pixels of a
- * budget that holds every patch. */
+ * in a 16 MB budget; at m = 4, 16 MB, four times the arenas) gives three quarters of the
+ * arenas to the rays when that makes fewer waves (app/budget.c thin_arenas): 2 waves instead
+ * of 3, the budget kept, the pixels of a budget that holds every patch. */
 static void test_thin_arenas_make_fewer_waves(void **state)
 {
     char args[16384];
@@ -460,6 +460,19 @@ static void test_thin_arenas_make_fewer_waves(void **state)
     assert_true(test_stats_number(path("thin.json"), "iterations.0.active_rays") == 33032.0);
     assert_true(test_stats_number(path("thin.json"), "memory_budget_bytes") == 16.0 * 1048576);
     test_assert_device_bytes_in_budget(path("thin.json"), 160.0 * 90, 1110);
+    /* Four times the arenas (TS_THIN_NEED_DIV): thinned too. */
+    const char *common4 = "--res 160x90 --spp 4 --lod 4";
+    snprintf(args, sizeof args, "render '%s' -o '%s' %s --memory 512 --quiet", scene,
+             path("roomy4.exr"), common4);
+    render_ok(args);
+    snprintf(args, sizeof args, "render '%s' -o '%s' --stats '%s' %s --memory 16", scene,
+             path("thin4.exr"), path("thin4.json"), common4);
+    render_ok(args);
+    test_expect_in_stderr(dir, "the frame's patches need 16 MB, 4 times what the patch cache "
+                               "holds: it takes 0.9 MB instead of 3.5 MB, and waves 66064 rays "
+                               "instead of 54543 (2 waves instead of 3)");
+    test_assert_same_pixels(path("roomy4.exr"), path("thin4.exr"));
+    assert_true(test_stats_number(path("thin4.json"), "iterations.0.active_rays") == 33032.0);
 }
 
 /* The lowest level any dicing of the render used (lod_histogram). */

@@ -70,9 +70,12 @@ void budget_fixed(uint64_t mb, ts_budget_choice *out);
 #define TS_FIT_WAVE_RAYS (1u << 21)
 /* A frame whose patches need more than this many times the patch arenas (after any growth)
  * gives three quarters of the arenas to the rays when that makes fewer waves (budget.c
- * thin_arenas; forest-100 1920x768 x 2 at --memory 512: 3 waves instead of 4, 534 K dicings
- * and 89.0 s against 571 K and 98.7 s; docs/benchmarks.md). */
-#define TS_THIN_NEED_DIV 8u
+ * thin_arenas; forest-100 1920x768 x 2 at --memory 512, 15 times: 3 waves instead of 4, 534 K
+ * dicings and 89.0 s against 571 K and 98.7 s; at --memory 1600, 4.4 times: 1 wave instead of
+ * 2, 306 K and 38.4 s against 380 K and 48.6 s, which the earlier bound of 8 left undone;
+ * docs/benchmarks.md). Trading rays for arenas (TS_TRADE_ARENA_PART) takes the frames whose
+ * patches need under three times the plan's arenas. */
+#define TS_THIN_NEED_DIV 4u
 #define TS_TRADE_ARENA_PART 3u
 #define TS_TRADE_ARENA_DIV 4u
 int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, ts_error *err);
