@@ -444,35 +444,36 @@ static void test_waves_are_cut_once_the_patches_fit(void **state)
  * of 3, the budget kept, the pixels of a budget that holds every patch. */
 static void test_thin_arenas_make_fewer_waves(void **state)
 {
-    char args[16384];
+    static const struct {
+        int lod;
+        const char *note;
+    } cases[] = {
+        {6, "times what the patch cache holds: it takes 0.9 MB instead of 3.5 MB, and waves 66064 "
+            "rays instead of 54543 (2 waves instead of 3)"},
+        /* four times the arenas (TS_THIN_NEED_DIV): thinned too */
+        {4, "the frame's patches need 16 MB, 4 times what the patch cache holds: it takes 0.9 MB "
+            "instead of 3.5 MB, and waves 66064 rays instead of 54543 (2 waves instead of 3)"},
+    };
+    char args[16384], roomy[64], thin[64], json[64];
     const char *scene = test_source_path("scene/forest-1.rib");
-    const char *common = "--res 160x90 --spp 4 --lod 6";
-    snprintf(args, sizeof args, "render '%s' -o '%s' --stats '%s' %s --memory 512 --quiet", scene,
-             path("roomy.exr"), path("roomy.json"), common);
-    render_ok(args);
-    snprintf(args, sizeof args, "render '%s' -o '%s' --stats '%s' %s --memory 16", scene,
-             path("thin.exr"), path("thin.json"), common);
-    render_ok(args);
-    test_expect_in_stderr(dir, "times what the patch cache holds: it takes 0.9 MB instead of "
-                               "3.5 MB, and waves 66064 rays instead of 54543 (2 waves instead "
-                               "of 3)");
-    test_assert_same_pixels(path("roomy.exr"), path("thin.exr"));
-    assert_true(test_stats_number(path("thin.json"), "iterations.0.active_rays") == 33032.0);
-    assert_true(test_stats_number(path("thin.json"), "memory_budget_bytes") == 16.0 * 1048576);
-    test_assert_device_bytes_in_budget(path("thin.json"), 160.0 * 90, 1110);
-    /* Four times the arenas (TS_THIN_NEED_DIV): thinned too. */
-    const char *common4 = "--res 160x90 --spp 4 --lod 4";
-    snprintf(args, sizeof args, "render '%s' -o '%s' %s --memory 512 --quiet", scene,
-             path("roomy4.exr"), common4);
-    render_ok(args);
-    snprintf(args, sizeof args, "render '%s' -o '%s' --stats '%s' %s --memory 16", scene,
-             path("thin4.exr"), path("thin4.json"), common4);
-    render_ok(args);
-    test_expect_in_stderr(dir, "the frame's patches need 16 MB, 4 times what the patch cache "
-                               "holds: it takes 0.9 MB instead of 3.5 MB, and waves 66064 rays "
-                               "instead of 54543 (2 waves instead of 3)");
-    test_assert_same_pixels(path("roomy4.exr"), path("thin4.exr"));
-    assert_true(test_stats_number(path("thin4.json"), "iterations.0.active_rays") == 33032.0);
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        snprintf(roomy, sizeof roomy, "roomy%d.exr", cases[k].lod);
+        snprintf(thin, sizeof thin, "thin%d.exr", cases[k].lod);
+        snprintf(json, sizeof json, "thin%d.json", cases[k].lod);
+        snprintf(args, sizeof args,
+                 "render '%s' -o '%s' --res 160x90 --spp 4 --lod %d --memory 512 --quiet", scene,
+                 path(roomy), cases[k].lod);
+        render_ok(args);
+        snprintf(args, sizeof args,
+                 "render '%s' -o '%s' --stats '%s' --res 160x90 --spp 4 --lod %d --memory 16",
+                 scene, path(thin), path(json), cases[k].lod);
+        render_ok(args);
+        test_expect_in_stderr(dir, cases[k].note);
+        test_assert_same_pixels(path(roomy), path(thin));
+        assert_true(test_stats_number(path(json), "iterations.0.active_rays") == 33032.0);
+        assert_true(test_stats_number(path(json), "memory_budget_bytes") == 16.0 * 1048576);
+        test_assert_device_bytes_in_budget(path(json), 160.0 * 90, 1110);
+    }
 }
 
 /* The lowest level any dicing of the render used (lod_histogram). */

@@ -638,13 +638,14 @@ static void test_inline_archive(void **state)
     assert_int_equal(test_parse_rib(text, &s, &e), TS_E_SCENE);
     assert_non_null(strstr(e.msg, "error: ReadArchive: inline archives read again run more than "
                                   "100000 requests or add more than "));
-    unsetenv("TESSERA_MAX_INLINE_REQUESTS");
+    setenv("TESSERA_MAX_INLINE_REQUESTS", "1000", 1); /* the patches' bound is met first */
     setenv("TESSERA_MAX_INSTANCED_PATCHES", "3", 1);
     expect_error("ArchiveBegin \"q\"\nPatch \"bilinear\" " UNIT_P "\nArchiveEnd\nWorldBegin\n"
                  "ReadArchive \"q\"\nReadArchive \"q\"\nReadArchive \"q\"\n"
                  "ReadArchive \"q\"\nWorldEnd\n",
                  "t.rib:8:1: error: ReadArchive: inline archives read again run more than "
-                 "67108864 requests or add more than 3 patches (each read is a copy)");
+                 "1000 requests or add more than 3 patches (each read is a copy)");
+    unsetenv("TESSERA_MAX_INLINE_REQUESTS");
     unsetenv("TESSERA_MAX_INSTANCED_PATCHES");
 }
 
@@ -681,32 +682,22 @@ static const char gen_sh[] =
     "  if [ \"$data\" = linger ]; then exec sleep 3600; fi\n"
     "done\n";
 
-/* Loads dir/name with programs on (strict or not); returns the status, the scene in *s (the
- * caller frees it) and what was written to stderr in warn (cap bytes). */
+/* Writes dir/name as write_file does, executable. */
+static void write_program(const char *dir, const char *name, const char *text)
+{
+    char path[4096];
+    write_file(dir, name, text);
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    assert_int_equal(chmod(path, 0755), 0);
+}
+
+/* Loads dir/name with programs on (strict or not): test_rib_load_capture. */
 static int load_programs(const char *dir, const char *name, int strict, ts_scene *s, ts_error *e,
                          char *warn, size_t cap)
 {
     char path[4096];
     snprintf(path, sizeof path, "%s/%s", dir, name);
-    ts_load_options lo;
-    scene_load_options_defaults(&lo);
-    lo.strict = strict;
-    memset(s, 0, sizeof *s);
-    memset(e, 0, sizeof *e);
-    FILE *tmp = tmpfile();
-    assert_non_null(tmp);
-    fflush(stderr);
-    int saved = dup(fileno(stderr));
-    assert_true(saved >= 0 && dup2(fileno(tmp), fileno(stderr)) >= 0);
-    int rc = rib_load_with(path, &lo, s, e);
-    fflush(stderr);
-    dup2(saved, fileno(stderr));
-    close(saved);
-    rewind(tmp);
-    size_t got = fread(warn, 1, cap - 1, tmp);
-    warn[got] = '\0';
-    fclose(tmp);
-    return rc;
+    return test_rib_load_capture(path, strict, s, e, warn, cap);
 }
 
 /* The lines of dir/log.txt: process ids, details and data of the requests the helper read. */
@@ -732,9 +723,7 @@ static void test_run_program(void **state)
     (void)state;
     const char *dir = test_scratch_dir();
     char warn[4096], sub[4096], path[4096];
-    write_file(dir, "gen.sh", gen_sh);
-    snprintf(path, sizeof path, "%s/gen.sh", dir);
-    assert_int_equal(chmod(path, 0755), 0);
+    write_program(dir, "gen.sh", gen_sh);
     write_file(dir, "scene.rib",
                PROGRAM_HEAD "WorldBegin\nLightSource \"distantlight\" 1\n"
                             "Procedural \"RunProgram\" [\"gen.sh\" \"1\"] "
@@ -781,9 +770,7 @@ static void test_run_program(void **state)
      * killed, not waited for. */
     snprintf(sub, sizeof sub, "%s/bin", dir);
     assert_int_equal(mkdir(sub, 0755), 0);
-    write_file(dir, "bin/gen.sh", gen_sh);
-    snprintf(path, sizeof path, "%s/bin/gen.sh", dir);
-    assert_int_equal(chmod(path, 0755), 0);
+    write_program(dir, "bin/gen.sh", gen_sh);
     snprintf(path, sizeof path, "%s/gen.sh", dir);
     assert_int_equal(unlink(path), 0);
     write_file(dir, "scene.rib",
@@ -807,14 +794,10 @@ static void test_run_program_errors(void **state)
 {
     (void)state;
     const char *dir = test_scratch_dir();
-    char warn[4096], want[8192], path[4096];
-    write_file(dir, "gen.sh", gen_sh);
-    snprintf(path, sizeof path, "%s/gen.sh", dir);
-    assert_int_equal(chmod(path, 0755), 0);
-    write_file(dir, "plain.sh", gen_sh);              /* not executable */
-    write_file(dir, "lost.sh", "#!/no/such/shell\n"); /* its interpreter is not there */
-    snprintf(path, sizeof path, "%s/lost.sh", dir);
-    assert_int_equal(chmod(path, 0755), 0);
+    char warn[4096], want[8192];
+    write_program(dir, "gen.sh", gen_sh);
+    write_file(dir, "plain.sh", gen_sh);                 /* not executable */
+    write_program(dir, "lost.sh", "#!/no/such/shell\n"); /* its interpreter is not there */
     ts_scene s;
     ts_error e;
     write_file(dir, "scene.rib",

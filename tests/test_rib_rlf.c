@@ -16,33 +16,6 @@
 
 #define QUAD TEST_RIB_QUAD
 
-/* Loads the file at path (rib_load_with, strict or not) into *s with stderr captured: returns
- * the loader's code, what it printed in out (cap bytes) and its message in *e. */
-static int load_capture(const char *path, int strict, ts_scene *s, ts_error *e, char *out,
-                        size_t cap)
-{
-    ts_load_options lo;
-    scene_load_options_defaults(&lo);
-    lo.strict = strict;
-    memset(s, 0, sizeof *s);
-    memset(e, 0, sizeof *e);
-    FILE *tmp = tmpfile();
-    assert_non_null(tmp);
-    fflush(stderr);
-    int saved = dup(fileno(stderr));
-    assert_true(saved >= 0);
-    assert_true(dup2(fileno(tmp), fileno(stderr)) >= 0);
-    int rc = rib_load_with(path, &lo, s, e);
-    fflush(stderr);
-    dup2(saved, fileno(stderr));
-    close(saved);
-    rewind(tmp);
-    size_t got = fread(out, 1, cap - 1, tmp);
-    out[got] = '\0';
-    fclose(tmp);
-    return rc;
-}
-
 static void expect_in(const char *text, const char *needle)
 {
     if (!strstr(text, needle)) fail_msg("\"%s\" not in \"%s\"", needle, text);
@@ -90,7 +63,8 @@ static void test_looks_scene(void **state)
     ts_scene s;
     ts_error e;
     char out[8192];
-    int rc = load_capture(test_source_path("tests/rlf/looks.rib"), 1, &s, &e, out, sizeof out);
+    int rc =
+        test_rib_load_capture(test_source_path("tests/rlf/looks.rib"), 1, &s, &e, out, sizeof out);
     if (rc != TS_OK) fail_msg("%s", e.msg);
     assert_int_equal(s.patch_count, 4);
     /* left/leftShape: redSG's PxrDiffuse, through RfM's IfBegin guard */
@@ -123,7 +97,7 @@ static void test_payload_scope_and_positions(void **state)
     ts_scene s;
     ts_error e;
     char out[8192];
-    assert_int_equal(load_capture(rib, 1, &s, &e, out, sizeof out), TS_OK);
+    assert_int_equal(test_rib_load_capture(rib, 1, &s, &e, out, sizeof out), TS_OK);
     assert_int_equal(s.patch_count, 2);
     test_assert_cs(&s.attr[0], 0.1, 0.2, 0.3);
     test_assert_cs(&s.attr[1], 0.5, 0.5, 0.5); /* after AttributeEnd: the RIB's default again */
@@ -132,7 +106,7 @@ static void test_payload_scope_and_positions(void **state)
      * after "##RenderMan RIB"; the request is on line 5), column 1. */
     write_look(test_path_in(dir, "one.rlf"), "Bogus 1\n");
     char want[4096];
-    assert_int_equal(load_capture(rib, 0, &s, &e, out, sizeof out), TS_E_SCENE);
+    assert_int_equal(test_rib_load_capture(rib, 0, &s, &e, out, sizeof out), TS_E_SCENE);
     snprintf(want, sizeof want, "%s:5:1: error: unknown request Bogus",
              test_path_in(dir, "one.rlf"));
     assert_string_equal(e.msg, want);
@@ -143,7 +117,7 @@ static void test_payload_scope_and_positions(void **state)
                     "</InjectablePayloads>\n<TightBindings>\n"
                     "<Binding Key=\"obj/objShape\" PayloadId=\"aSG\"/>\n</TightBindings>\n"
                     "</RenderManLookFile>\n");
-    assert_int_equal(load_capture(rib, 0, &s, &e, out, sizeof out), TS_E_SCENE);
+    assert_int_equal(test_rib_load_capture(rib, 0, &s, &e, out, sizeof out), TS_E_SCENE);
     snprintf(want, sizeof want, "%s:3:30: error: unknown request Bogus",
              test_path_in(dir, "one.rlf"));
     assert_string_equal(e.msg, want);
@@ -168,7 +142,7 @@ static void test_binary_rib(void **state)
     ts_scene s;
     ts_error e;
     char out[8192];
-    if (load_capture(rib, 1, &s, &e, out, sizeof out) != TS_OK) fail_msg("%s", e.msg);
+    if (test_rib_load_capture(rib, 1, &s, &e, out, sizeof out) != TS_OK) fail_msg("%s", e.msg);
     assert_int_equal(s.patch_count, 1);
     test_assert_cs(&s.attr[0], 0.25, 0.5, 1);
     scene_free(&s);
@@ -184,7 +158,7 @@ static void test_missing_look_file(void **state)
     ts_scene s;
     ts_error e;
     char out[8192], want[4096];
-    assert_int_equal(load_capture(rib, 0, &s, &e, out, sizeof out), TS_OK);
+    assert_int_equal(test_rib_load_capture(rib, 0, &s, &e, out, sizeof out), TS_OK);
     assert_int_equal(s.patch_count, 2);
     test_assert_cs(&s.attr[0], 0.5, 0.5, 0.5); /* the RIB's own shading */
     snprintf(want, sizeof want,
@@ -194,7 +168,7 @@ static void test_missing_look_file(void **state)
              test_path_in(dir, "nope.rlf"));
     expect_in(out, want);
     scene_free(&s);
-    assert_int_equal(load_capture(rib, 1, &s, &e, out, sizeof out), TS_E_SCENE);
+    assert_int_equal(test_rib_load_capture(rib, 1, &s, &e, out, sizeof out), TS_E_SCENE);
     snprintf(want, sizeof want,
              "%s:3:1: error: ##RLF ScopeBegin: cannot read look file \"%s\": No such file or "
              "directory",
@@ -212,7 +186,7 @@ static void expect_malformed(const char *dir, const char *look, const char *why)
     ts_scene s;
     ts_error e;
     char out[8192], want[4096];
-    assert_int_equal(load_capture(rib, 0, &s, &e, out, sizeof out), TS_OK);
+    assert_int_equal(test_rib_load_capture(rib, 0, &s, &e, out, sizeof out), TS_OK);
     assert_int_equal(s.patch_count, 2);
     test_assert_cs(&s.attr[0], 0.5, 0.5, 0.5);
     const char *path = test_path_in(dir, "bad.rlf");
@@ -221,7 +195,7 @@ static void expect_malformed(const char *dir, const char *look, const char *why)
     snprintf(want, sizeof want, "\": %s:%s; the objects of its scope keep", path, why);
     expect_in(out, want);
     scene_free(&s);
-    assert_int_equal(load_capture(rib, 1, &s, &e, out, sizeof out), TS_E_SCENE);
+    assert_int_equal(test_rib_load_capture(rib, 1, &s, &e, out, sizeof out), TS_E_SCENE);
     snprintf(want, sizeof want, "%s:%s", path, why);
     size_t n = strlen(e.msg), k = strlen(want);
     if (n < k || strcmp(e.msg + n - k, want) != 0)
@@ -265,7 +239,7 @@ static void test_malformed_look_files(void **state)
     ts_scene s;
     ts_error e;
     char out[8192], want[4096];
-    assert_int_equal(load_capture(rib, 1, &s, &e, out, sizeof out), TS_E_SCENE);
+    assert_int_equal(test_rib_load_capture(rib, 1, &s, &e, out, sizeof out), TS_E_SCENE);
     snprintf(want, sizeof want, "\"%s\": %s: larger than 64 MiB", big, big);
     expect_in(e.msg, want);
 }
@@ -290,7 +264,7 @@ static void test_nuggets_not_applied(void **state)
     ts_scene s;
     ts_error e;
     char out[8192];
-    assert_int_equal(load_capture(rib, 1, &s, &e, out, sizeof out), TS_OK);
+    assert_int_equal(test_rib_load_capture(rib, 1, &s, &e, out, sizeof out), TS_OK);
     assert_int_equal(s.patch_count, 1);
     /* no Bxdf: the rule is not applied; a nugget inside an array is a comment */
     test_assert_cs(&s.attr[0], 1, 0.5, 0.25);

@@ -683,6 +683,7 @@ static int lod_count_pixels(ts_pipeline *p, const ts_camera_params *cam, uint32_
 {
     ts_camera_params c = pipeline_full_frame(cam);
     int part = c.width != cam->width || c.height != cam->height; /* a CropWindow */
+    uint32_t cx = cam->crop_x, cy = cam->crop_y;                 /* where the part lies */
     c.band = 0; /* samples [0, pixels) are the first sample pass, whatever the frame's order */
     uint32_t per_wave = p->plan.ray_capacity;
     int rc = TS_OK;
@@ -711,7 +712,6 @@ static int lod_count_pixels(ts_pipeline *p, const ts_camera_params *cam, uint32_
                 rc = err->code;
             for (uint32_t i = 0; rc == TS_OK && i < n; ++i) {
                 uint32_t y = (first + i) / c.width, x = (first + i) - y * c.width;
-                uint32_t cx = cam->crop_x, cy = cam->crop_y;
                 if (x >= cx && x - cx < cam->width && y >= cy && y - cy < cam->height)
                     p->pixel_cost[(size_t)(y - cy) * cam->width + (x - cx)] = cross[i] + 1u;
             }

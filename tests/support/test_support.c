@@ -63,29 +63,61 @@ void test_parse_rib_error(const char *text, const char *msg)
     assert_int_equal(s.patch_count, 0);
 }
 
+/* stderr into a temporary file, until capture_end puts it back and reads what was written
+ * into out (cap bytes, NUL-ended). */
+typedef struct capture {
+    FILE *tmp;
+    int saved;
+} capture;
+
+static capture capture_begin(void)
+{
+    capture c = {tmpfile(), -1};
+    assert_non_null(c.tmp);
+    fflush(stderr);
+    c.saved = dup(fileno(stderr));
+    assert_true(c.saved >= 0);
+    assert_true(dup2(fileno(c.tmp), fileno(stderr)) >= 0);
+    return c;
+}
+
+static void capture_end(capture c, char *out, size_t cap)
+{
+    fflush(stderr);
+    dup2(c.saved, fileno(stderr));
+    close(c.saved);
+    rewind(c.tmp);
+    size_t got = fread(out, 1, cap - 1, c.tmp);
+    out[got] = '\0';
+    fclose(c.tmp);
+}
+
 const char *test_rib_warnings(const char *text, int *rc)
 {
     static char out[4096];
-    FILE *tmp = tmpfile();
-    assert_non_null(tmp);
-    fflush(stderr);
-    int saved = dup(fileno(stderr));
-    assert_true(saved >= 0);
-    assert_true(dup2(fileno(tmp), fileno(stderr)) >= 0);
     ts_scene s;
     ts_error e;
     memset(&s, 0, sizeof s);
     memset(&e, 0, sizeof e);
+    capture c = capture_begin();
     *rc = rib_parse_string("w.rib", text, strlen(text), &s, 0, &e);
-    fflush(stderr);
-    dup2(saved, fileno(stderr));
-    close(saved);
-    rewind(tmp);
-    size_t got = fread(out, 1, sizeof out - 1, tmp);
-    out[got] = '\0';
-    fclose(tmp);
+    capture_end(c, out, sizeof out);
     scene_free(&s);
     return out;
+}
+
+int test_rib_load_capture(const char *path, int strict, ts_scene *s, ts_error *e, char *out,
+                          size_t cap)
+{
+    ts_load_options lo;
+    scene_load_options_defaults(&lo);
+    lo.strict = strict;
+    memset(s, 0, sizeof *s);
+    memset(e, 0, sizeof *e);
+    capture c = capture_begin();
+    int rc = rib_load_with(path, &lo, s, e);
+    capture_end(c, out, cap);
+    return rc;
 }
 
 ts_patch_attr test_rib_one_patch(const char *body)

@@ -35,6 +35,11 @@ void test_parse_rib_error(const char *text, const char *msg);
 /* Parses RIB text as file "w.rib" into a scratch scene (freed) with stderr captured; sets
  * *rc to rib_parse_string's status and returns what it printed (warnings), a static buffer. */
 const char *test_rib_warnings(const char *text, int *rc);
+/* Loads the file at path (rib_load_with with the default options, strict or not: programs
+ * run) into *s with stderr captured: returns the loader's code, what it printed in out (cap
+ * bytes) and its message in *e. The caller frees *s. */
+int test_rib_load_capture(const char *path, int strict, struct ts_scene *s, ts_error *e, char *out,
+                          size_t cap);
 /* A unit bilinear quad (z = 0), the geometry of RIB fragments in the tests. */
 #define TEST_RIB_QUAD "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n"
 /* The attributes of the one patch a quad gets in a world block after `Color [1 0 0]` and

@@ -164,15 +164,6 @@ static const char *const rib_unsupported[] = {
 };
 /* clang-format on */
 
-static int rib_in_list(const char *name, const char *const *list, size_t n)
-{
-    for (size_t i = 0; i < n; i++)
-        if (strcmp(name, list[i]) == 0) return 1;
-    return 0;
-}
-
-#define RIB_COUNT(a) (sizeof(a) / sizeof((a)[0]))
-
 /* The handler of the current request, or NULL. */
 static int (*rib_handler(const rib_parser *p))(rib_parser *)
 {
@@ -365,11 +356,17 @@ int rib_parse_string(const char *name, const char *text, size_t len, ts_scene *s
     return rib_parse(name, text, len, -1, 0, scene, quiet ? RIB_QUIET : 0u, err);
 }
 
+/* The parse flags (RIB_QUIET, ...) of lo's quiet, strict and programs. */
+static unsigned load_flags(const ts_load_options *lo)
+{
+    return (lo->quiet ? RIB_QUIET : 0u) | (lo->strict ? RIB_STRICT : 0u) |
+           (lo->programs ? RIB_PROGRAMS : 0u);
+}
+
 int rib_parse_string_with(const char *name, const char *text, size_t len, const ts_load_options *lo,
                           ts_scene *scene, ts_error *err)
 {
-    unsigned flags = (lo->quiet ? RIB_QUIET : 0u) | (lo->strict ? RIB_STRICT : 0u) |
-                     (lo->programs ? RIB_PROGRAMS : 0u);
+    unsigned flags = load_flags(lo);
     return rib_parse(name, text, len, -1, 0, scene, flags, err);
 }
 
@@ -380,8 +377,7 @@ int rib_load_with(const char *path, const ts_load_options *lo, ts_scene *scene, 
     char why[256];
     int rc = ts_file_read_all(path, &text, &len, why, sizeof why);
     if (rc != TS_OK) return ts_error_set(err, rc, "%s: %s", path, why);
-    unsigned flags = (lo->quiet ? RIB_QUIET : 0u) | (lo->strict ? RIB_STRICT : 0u) |
-                     (lo->programs ? RIB_PROGRAMS : 0u);
+    unsigned flags = load_flags(lo);
     rc = rib_parse(path, text, len, lo->frame, 1, scene, flags, err);
     free(text);
     return rc;

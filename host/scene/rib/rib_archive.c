@@ -297,6 +297,18 @@ static int rib_proc_program(rib_parser *p, const char *command, const char *data
     return rc;
 }
 
+/* Whether a procedural that generates geometry (DynamicLoad, RunProgram) stops at the current
+ * request: under a moving CTM (*rc the error), or under Opacity 0 0 0 (*rc TS_OK: what it
+ * would generate would not be there). */
+static int procedural_stops(rib_parser *p, int *rc)
+{
+    *rc = TS_OK;
+    if (p->ctm_moving)
+        *rc = rib_error_at(p, p->req_line, p->req_col,
+                           "Procedural under a moving transformation is not supported");
+    return p->ctm_moving || rib_geom_transparent(p);
+}
+
 /* Procedural "DelayedReadArchive" ["file.rib"] [bound]
  * Procedural "RunProgram" ["program args" "datablock"] [bound]
  * Procedural "DynamicLoad" ["mesh" "model.obj"] [bound]
@@ -353,24 +365,14 @@ int rib_req_procedural(rib_parser *p)
             rc = rib_error_at(p, where.line, where.col,
                               "Procedural \"DynamicLoad\": [\"forest\" \"parameters\"] takes one "
                               "parameter string");
-        else if (p->ctm_moving)
-            rc = rib_error_at(p, p->req_line, p->req_col,
-                              "Procedural under a moving transformation is not supported");
-        else if (rib_geom_transparent(p))
-            rc = TS_OK; /* Opacity 0 0 0: the generated geometry would not be there */
-        else
+        else if (!procedural_stops(p, &rc))
             rc = mesh ? rib_proc_mesh(p, a1, &where) : rib_proc_forest(p, a1 ? a1 : "", &where);
     } else if (strcmp(kind, "RunProgram") == 0) {
         if (data->count != 2)
             rc = rib_error_at(p, where.line, where.col,
                               "Procedural \"RunProgram\" takes a program and a data block: "
                               "[\"program\" \"data\"]");
-        else if (p->ctm_moving)
-            rc = rib_error_at(p, p->req_line, p->req_col,
-                              "Procedural under a moving transformation is not supported");
-        else if (rib_geom_transparent(p))
-            rc = TS_OK; /* Opacity 0 0 0: the generated geometry would not be there */
-        else
+        else if (!procedural_stops(p, &rc))
             rc = rib_proc_program(p, a0, a1, bound, &where);
     } else {
         rc = rib_error_at(p, p->args[0].line, p->args[0].col,
@@ -445,10 +447,7 @@ int rib_searchpath_option(rib_parser *p)
              * RenderMan for Maya writes them in every frame; a name not RenderMan's warns */
             static const char *const unused[] = {"shader",  "rixplugin", "rifilter",
                                                  "display", "resource",  "dirmap"};
-            size_t u = 0, nu = sizeof unused / sizeof unused[0];
-            while (u < nu && strcmp(prm.name, unused[u]) != 0)
-                u++;
-            if (u == nu) rib_warn_param(p, &prm);
+            if (!rib_in_list(prm.name, unused, RIB_COUNT(unused))) rib_warn_param(p, &prm);
             continue;
         }
         rc = rib_string_arg(p, i + 1, "a search path", &val);

@@ -262,6 +262,27 @@ void rib_saved_request_free(rib_saved_request *r)
     memset(r, 0, sizeof *r);
 }
 
+int rib_saved_list_push(rib_parser *p, rib_saved_list *l)
+{
+    if (l->count == l->cap) {
+        size_t cap = l->cap ? l->cap * 2 : 16;
+        rib_saved_request *r = realloc(l->reqs, cap * sizeof *r);
+        if (!r) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
+        l->reqs = r, l->cap = cap;
+    }
+    int rc = rib_args_save(p, &l->reqs[l->count]);
+    if (rc == TS_OK) l->count++;
+    return rc;
+}
+
+void rib_saved_list_free(rib_saved_list *l)
+{
+    for (size_t k = 0; k < l->count; k++)
+        rib_saved_request_free(&l->reqs[k]);
+    free(l->reqs);
+    memset(l, 0, sizeof *l);
+}
+
 /* ---- positional arguments ---------------------------------------------------------- */
 
 const char *rib_arg_str(const rib_parser *p, const rib_arg *a, size_t k)
@@ -370,6 +391,13 @@ int rib_param_numbers(rib_parser *p, const rib_param *prm, size_t n, const doubl
     *out = rib_arg_nums(p, v);
     if (count) *count = v->count;
     return TS_OK;
+}
+
+int rib_in_list(const char *name, const char *const *list, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (strcmp(name, list[i]) == 0) return 1;
+    return 0;
 }
 
 int rib_param_neutral(const rib_parser *p, const rib_param *prm, const rib_neutral *table,

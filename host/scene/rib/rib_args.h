@@ -60,6 +60,15 @@ int rib_args_save(rib_parser *p, rib_saved_request *out);
  * them. */
 int rib_args_restore(rib_parser *p, const rib_saved_request *r);
 void rib_saved_request_free(rib_saved_request *r);
+/* The requests of an object's definition or an inline archive, in order. */
+typedef struct rib_saved_list {
+    rib_saved_request *reqs;
+    size_t count, cap;
+} rib_saved_list;
+/* Appends the current request (rib_args_save) to l. */
+int rib_saved_list_push(rib_parser *p, rib_saved_list *l);
+/* Frees l's requests and empties it. */
+void rib_saved_list_free(rib_saved_list *l);
 
 /* Appends an argument [v0 .. vn-1] (at line:col, for messages) after the current ones: a
  * handler that runs another request's handler on values it read (Option "Ri" runs Format,
@@ -93,6 +102,10 @@ int rib_param_at(rib_parser *p, size_t i, rib_param *out);
 /* The numbers of a parameter value: exactly n of them unless n == 0. */
 int rib_param_numbers(rib_parser *p, const rib_param *prm, size_t n, const double **out,
                       size_t *count);
+/* Whether name is one of list[0 .. n). */
+int rib_in_list(const char *name, const char *const *list, size_t n);
+/* The entries of a static array. */
+#define RIB_COUNT(a) (sizeof(a) / sizeof((a)[0]))
 /* A parameter at a value that changes nothing Tessera draws (RenderMan's default, or what
  * exporters write for "none"): its name and its n numbers (n <= 3). */
 typedef struct rib_neutral {

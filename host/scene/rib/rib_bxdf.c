@@ -254,8 +254,9 @@ static const rib_neutral bxdf_neutral[] = {
  * warns itself), maxContinuationHits (the noise only). */
 static int bxdf_silent(const char *name)
 {
-    return strcmp(name, "presenceCached") == 0 || strcmp(name, "specularIor") == 0 ||
-           strcmp(name, "specularExtinctionCoeff") == 0 || strcmp(name, "maxContinuationHits") == 0;
+    static const char *const names[] = {"presenceCached", "specularIor", "specularExtinctionCoeff",
+                                        "maxContinuationHits"};
+    return rib_in_list(name, names, RIB_COUNT(names));
 }
 
 /* Reads Bxdf table entry k's parameters from args[first] into *a; a PxrTexture connected to

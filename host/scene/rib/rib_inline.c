@@ -16,8 +16,7 @@ typedef struct rib_inline_archive {
     char *name;
     char *file;    /* the file it was defined in: messages and relative paths when it runs */
     int line, col; /* of its ArchiveBegin */
-    rib_saved_request *reqs;
-    size_t count, cap;
+    rib_saved_list reqs;
     int reading; /* its requests are running (ReadArchive): redefining or reading it again fails */
 } rib_inline_archive;
 
@@ -34,21 +33,9 @@ struct rib_inlines {
     uint32_t outer_first;    /* the patch count when the outermost read began */
 };
 
-/* RIB_MAX_INLINE_REQUESTS, or less when $TESSERA_MAX_INLINE_REQUESTS says so. */
-static uint64_t inline_request_budget(void)
-{
-    const char *env = getenv("TESSERA_MAX_INLINE_REQUESTS");
-    char *end;
-    unsigned long long v = env && *env ? strtoull(env, &end, 10) : 0;
-    if (!env || !*env || *end || v >= RIB_MAX_INLINE_REQUESTS) return RIB_MAX_INLINE_REQUESTS;
-    return v;
-}
-
 static void archive_free(rib_inline_archive *a)
 {
-    for (size_t k = 0; k < a->count; k++)
-        rib_saved_request_free(&a->reqs[k]);
-    free(a->reqs);
+    rib_saved_list_free(&a->reqs);
     free(a->name);
     free(a->file);
     memset(a, 0, sizeof *a);
@@ -141,16 +128,7 @@ int rib_inline_record(rib_parser *p)
     struct rib_inlines *in = p->inlines;
     if (strcmp(p->req, "ArchiveEnd") == 0 && in->depth == 0) return archive_end(p);
     in->depth += (strcmp(p->req, "ArchiveBegin") == 0) - (strcmp(p->req, "ArchiveEnd") == 0);
-    rib_inline_archive *a = &in->open;
-    if (a->count == a->cap) {
-        size_t cap = a->cap ? a->cap * 2 : 16;
-        rib_saved_request *r = realloc(a->reqs, cap * sizeof *r);
-        if (!r) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
-        a->reqs = r, a->cap = cap;
-    }
-    int rc = rib_args_save(p, &a->reqs[a->count]);
-    if (rc == TS_OK) a->count++;
-    return rc;
+    return rib_saved_list_push(p, &in->open.reqs);
 }
 
 int rib_inline_check_file_end(rib_parser *p)
@@ -184,10 +162,11 @@ int rib_inline_read(rib_parser *p, const char *name, int *found)
     p->lx.file = a->file; /* messages and relative paths: where the archive was defined */
     if (in->reading == 0) in->outer_first = p->scene->patch_count;
     in->list[at].reading = 1, in->reading++;
-    uint64_t requests = inline_request_budget(), patches = rib_copies_budget();
+    uint64_t requests = rib_env_bound("TESSERA_MAX_INLINE_REQUESTS", RIB_MAX_INLINE_REQUESTS),
+             patches = rib_copies_budget();
     int rc = TS_OK, over = 0;
-    for (size_t k = 0; rc == TS_OK && k < in->list[at].count; k++) {
-        rc = rib_args_restore(p, &in->list[at].reqs[k]);
+    for (size_t k = 0; rc == TS_OK && k < in->list[at].reqs.count; k++) {
+        rc = rib_args_restore(p, &in->list[at].reqs.reqs[k]);
         if (rc == TS_OK) rc = rib_dispatch_request(p);
         over = ++in->ran > requests ||
                in->patches + (p->scene->patch_count - in->outer_first) > patches;

@@ -378,6 +378,9 @@ void rib_inline_free(rib_parser *p);
  * the fuzzer: the bound without gigabytes of copies; it never raises it): the patches that
  * ObjectInstance copies may add, and those inline archives read again may (rib_object.c). */
 uint64_t rib_copies_budget(void);
+/* The value of environment variable `name` when it is a whole number below max, else max (the
+ * testing aids that lower a bound: tests and the fuzzer). */
+uint64_t rib_env_bound(const char *name, uint64_t max);
 
 /* ---- rib_program.c: Procedural "RunProgram" helpers ---- */
 

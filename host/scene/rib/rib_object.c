@@ -34,8 +34,7 @@ typedef struct rib_object {
     char *name;
     char *file;    /* the file it was defined in: messages and relative paths when it runs */
     int line, col; /* of its ObjectBegin */
-    rib_saved_request *reqs;
-    size_t count, cap;
+    rib_saved_list reqs;
     /* Its first instance in the world block, the master of the later ones (instance.c):
      * its first patch, how many it added, and the CTM it stood under (time 0). */
     int has_master;
@@ -64,9 +63,7 @@ static const char *const object_forbidden[] = {
 
 static void object_free(rib_object *o)
 {
-    for (size_t k = 0; k < o->count; k++)
-        rib_saved_request_free(&o->reqs[k]);
-    free(o->reqs);
+    rib_saved_list_free(&o->reqs);
     free(o->name);
     free(o->file);
     memset(o, 0, sizeof *o);
@@ -236,16 +233,7 @@ int rib_object_record(rib_parser *p)
     if (strcmp(p->req, "ObjectEnd") == 0) return object_end(p);
     int rc = object_check(p);
     if (rc != TS_OK) return rc;
-    rib_object *o = &objs->open;
-    if (o->count == o->cap) {
-        size_t cap = o->cap ? o->cap * 2 : 16;
-        rib_saved_request *r = realloc(o->reqs, cap * sizeof *r);
-        if (!r) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
-        o->reqs = r, o->cap = cap;
-    }
-    rc = rib_args_save(p, &o->reqs[o->count]);
-    if (rc == TS_OK) o->count++;
-    return rc;
+    return rib_saved_list_push(p, &objs->open.reqs);
 }
 
 int rib_object_check_file_end(rib_parser *p)
@@ -256,13 +244,18 @@ int rib_object_check_file_end(rib_parser *p)
                         "ObjectBegin is never closed (missing ObjectEnd)");
 }
 
-uint64_t rib_copies_budget(void)
+uint64_t rib_env_bound(const char *name, uint64_t max)
 {
-    const char *env = getenv("TESSERA_MAX_INSTANCED_PATCHES");
+    const char *env = getenv(name);
     char *end;
     unsigned long long v = env && *env ? strtoull(env, &end, 10) : 0;
-    if (!env || !*env || *end || v >= RIB_MAX_INSTANCED_PATCHES) return RIB_MAX_INSTANCED_PATCHES;
+    if (!env || !*env || *end || v >= max) return max;
     return v;
+}
+
+uint64_t rib_copies_budget(void)
+{
+    return rib_env_bound("TESSERA_MAX_INSTANCED_PATCHES", RIB_MAX_INSTANCED_PATCHES);
 }
 
 /* Runs the requests of object o where the ObjectInstance stands; *over is set when the
@@ -273,8 +266,8 @@ static int object_run(rib_parser *p, const rib_object *o, uint64_t budget, int *
     uint64_t before = p->scene->patch_count;
     int rc = TS_OK;
     p->lx.file = o->file; /* messages and relative paths: where the object was defined */
-    for (size_t k = 0; rc == TS_OK && k < o->count; k++) {
-        rc = rib_args_restore(p, &o->reqs[k]);
+    for (size_t k = 0; rc == TS_OK && k < o->reqs.count; k++) {
+        rc = rib_args_restore(p, &o->reqs.reqs[k]);
         if (rc == TS_OK) rc = rib_dispatch_request(p);
         *over = p->objects->instanced + (p->scene->patch_count - before) > budget;
         if (rc == TS_OK && *over) rc = TS_E_SCENE;

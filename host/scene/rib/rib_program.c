@@ -9,6 +9,7 @@
  * docs/rib.md "Archives and procedurals" has the rules; which program may run is the caller's
  * choice (RIB_PROGRAMS: `--no-programs` and the fuzzer leave it off). */
 #include "scene/rib/rib_internal.h"
+#include "base/mat4.h"
 
 #include <errno.h>
 #include <math.h>
@@ -79,55 +80,20 @@ void rib_program_free(rib_parser *p)
     }
 }
 
-/* Where `name` (a command line's first word) is run from: a name with a slash relative to the
- * RIB file's directory (absolute as it is); a bare name beside the RIB file, in the working
- * directory, along Option "searchpath" "procedural", else along PATH (NULL: posix_spawnp
- * looks). Returns the malloc'd path, NULL for PATH; *oom on a failed allocation. */
+/* Where `name` (a command line's first word) is run from: where rib_resolve_in finds it
+ * (beside the RIB file, in the working directory, along Option "searchpath" "procedural"); a
+ * bare name found nowhere as a file is left to PATH (NULL: posix_spawnp looks). Returns the
+ * malloc'd path, or NULL with *oom set on a failed allocation. */
 static char *program_path(const rib_parser *p, const char *name, int *oom)
 {
-    *oom = 0;
-    if (strchr(name, '/')) {
-        char *path = rib_resolve(p, name);
-        if (!path) *oom = 1;
-        return path;
-    }
-    char *here = rib_resolve(p, name);
-    if (!here) {
-        *oom = 1;
-        return NULL;
-    }
+    char *path = rib_resolve_in(p, name, 2);
     struct stat st;
-    if (stat(here, &st) == 0 && S_ISREG(st.st_mode)) return here;
-    free(here);
-    if (stat(name, &st) == 0 && S_ISREG(st.st_mode)) { /* the working directory */
-        char *path = malloc(strlen(name) + 3);
-        if (!path)
-            *oom = 1;
-        else
-            sprintf(path, "./%s", name);
-        return path;
+    *oom = path == NULL;
+    if (path && !strchr(name, '/') && (stat(path, &st) != 0 || !S_ISREG(st.st_mode))) {
+        free(path);
+        path = NULL;
     }
-    for (const char *d = p->searchpath[2]; d && *d;) {
-        size_t n = strcspn(d, ":");
-        if (n > 0 && !(n == 1 && (d[0] == '@' || d[0] == '&'))) {
-            char *joined = malloc(n + strlen(name) + 2);
-            if (!joined) {
-                *oom = 1;
-                return NULL;
-            }
-            sprintf(joined, "%.*s/%s", (int)n, d, name);
-            char *full = rib_resolve(p, joined); /* a relative directory: beside the file */
-            free(joined);
-            if (!full) {
-                *oom = 1;
-                return NULL;
-            }
-            if (stat(full, &st) == 0 && S_ISREG(st.st_mode)) return full;
-            free(full);
-        }
-        d += n + (d[n] == ':');
-    }
-    return NULL;
+    return path;
 }
 
 /* The interpreter a script's "#!" line names (its first word), into out; 0 when path does
@@ -234,16 +200,15 @@ static double program_detail(const rib_parser *p, const double *bound)
     double a = w / h, win[4] = {-a, a, -1, 1};
     if (a < 1) win[0] = -1, win[1] = 1, win[2] = -1 / a, win[3] = 1 / a;
     if (c->has_screen) memcpy(win, c->screen, sizeof win);
-    double t = tan(c->fov_deg * M_PI / 360.0);
+    double t = tan(c->fov_deg * M_PI / 360.0), m[16];
+    memcpy(m, c->world_to_camera, sizeof m);
+    mat4_concat(m, p->ctm); /* object to camera */
     double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
     for (int k = 0; k < 8; k++) {
-        double o[4] = {bound[k & 1], bound[2 + (k >> 1 & 1)], bound[4 + (k >> 2)], 1}, wp[4], cp[4];
+        const double o[3] = {bound[k & 1], bound[2 + (k >> 1 & 1)], bound[4 + (k >> 2)]};
+        double cp[4];
         for (int r = 0; r < 4; r++)
-            wp[r] = p->ctm[r * 4] * o[0] + p->ctm[r * 4 + 1] * o[1] + p->ctm[r * 4 + 2] * o[2] +
-                    p->ctm[r * 4 + 3] * o[3];
-        for (int r = 0; r < 4; r++)
-            cp[r] = c->world_to_camera[r * 4] * wp[0] + c->world_to_camera[r * 4 + 1] * wp[1] +
-                    c->world_to_camera[r * 4 + 2] * wp[2] + c->world_to_camera[r * 4 + 3] * wp[3];
+            cp[r] = m[r * 4] * o[0] + m[r * 4 + 1] * o[1] + m[r * 4 + 2] * o[2] + m[r * 4 + 3];
         if (!(cp[3] > 0)) return RIB_PROGRAM_INFINITY;
         double x = cp[0] / cp[3], y = cp[1] / cp[3], z = cp[2] / cp[3], s[2];
         if (c->projection == TS_PROJECTION_ORTHOGRAPHIC) {
@@ -332,61 +297,40 @@ static void program_gone(struct rib_program *g, char *why, size_t cap)
     }
 }
 
-int rib_program_run(rib_parser *p, const char *command, const char *data, const double *bound,
-                    const rib_arg *at, char **text, size_t *len, char **name)
+/* Sends g the request for `data` over the object-space bound: "detail data\n". */
+static int program_ask(rib_parser *p, struct rib_program *g, const char *command, const char *data,
+                       const double *bound, const rib_arg *at)
 {
-    *text = *name = NULL;
-    *len = 0;
-    char shown[RIB_PRINT_MAX];
-    if (!p->run_programs) {
-        char what[RIB_WARN_KEY];
-        snprintf(what, sizeof what,
-                 "Procedural \"RunProgram\": \"%s\" is not run (programs are off: "
-                 "--no-programs); skipped",
-                 rib_printable(command, shown));
-        rib_warn_once(p, at->line, at->col, what);
-        return TS_OK;
-    }
-    struct rib_program *g = p->programs;
-    while (g && strcmp(g->command, command) != 0)
-        g = g->next;
-    if (!g) {
-        int rc = program_start(p, command, at, &g);
-        if (rc != TS_OK || !g) return rc;
-    }
-    char why[256];
-    if (g->fd < 0)
-        return rib_error_at(p, at->line, at->col,
-                            "Procedural \"RunProgram\": \"%s\" has ended (an earlier answer "
-                            "failed)",
-                            rib_printable(command, shown));
-    double detail = program_detail(p, bound);
+    char shown[RIB_PRINT_MAX], why[256];
     size_t n = strlen(data) + 64;
     char *line = malloc(n);
     if (!line) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
-    snprintf(line, n, "%g %s\n", detail, data);
+    snprintf(line, n, "%g %s\n", program_detail(p, bound), data);
     int err = program_write(g, line, strlen(line));
     free(line);
-    if (err) {
-        program_gone(g, why, sizeof why);
-        program_stop(g);
-        return rib_error_at(p, at->line, at->col,
-                            "Procedural \"RunProgram\": cannot send \"%s\" its request: %s (%s)",
-                            rib_printable(command, shown), strerror(err), why);
-    }
-    /* The answer: what is left from the last read, then reads up to the \377. */
-    size_t cap = g->rest_len + 65536, have = g->rest_len;
+    if (!err) return TS_OK;
+    program_gone(g, why, sizeof why);
+    program_stop(g);
+    return rib_error_at(p, at->line, at->col,
+                        "Procedural \"RunProgram\": cannot send \"%s\" its request: %s (%s)",
+                        rib_printable(command, shown), strerror(err), why);
+}
+
+/* Reads g's answer up to its end mark (answer_end) into *text (malloc'd, NUL-ended, *len
+ * bytes), after what the last read left over; what follows the mark is kept for the next. */
+static int program_answer(rib_parser *p, struct rib_program *g, const char *command,
+                          const rib_arg *at, char **text, size_t *len)
+{
+    char shown[RIB_PRINT_MAX], why[256];
+    size_t cap = g->rest_len + 65536, have = g->rest_len, scanned = 0, mark = 0;
     char *buf = malloc(cap + 1);
     if (!buf) return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
     if (have) memcpy(buf, g->rest, have);
     free(g->rest);
     g->rest = NULL, g->rest_len = 0;
-    size_t scanned = 0, mark = 0;
     int mode = 0;
     long end;
-    for (;;) {
-        end = answer_end(buf, &scanned, have, &mode, &mark);
-        if (end >= 0) break;
+    while ((end = answer_end(buf, &scanned, have, &mode, &mark)) < 0) {
         if (have == cap) {
             if (cap >= RIB_PROGRAM_REPLY_MAX) {
                 free(buf);
@@ -431,16 +375,39 @@ int rib_program_run(rib_parser *p, const char *command, const char *data, const 
         memcpy(g->rest, buf + used + mark, g->rest_len);
     }
     buf[used] = '\0';
-    g->answered++;
+    *text = buf, *len = used;
+    return TS_OK;
+}
+
+int rib_program_run(rib_parser *p, const char *command, const char *data, const double *bound,
+                    const rib_arg *at, char **text, size_t *len, char **name)
+{
+    *text = *name = NULL;
+    *len = 0;
+    if (!p->run_programs) {
+        char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX];
+        snprintf(what, sizeof what,
+                 "Procedural \"RunProgram\": \"%s\" is not run (programs are off: "
+                 "--no-programs); skipped",
+                 rib_printable(command, shown));
+        rib_warn_once(p, at->line, at->col, what);
+        return TS_OK;
+    }
+    struct rib_program *g = p->programs;
+    while (g && strcmp(g->command, command) != 0)
+        g = g->next;
+    int rc = g ? TS_OK : program_start(p, command, at, &g);
+    if (rc != TS_OK || !g) return rc; /* an error, or not started (a warning) */
+    rc = program_ask(p, g, command, data, bound, at);
+    if (rc == TS_OK) rc = program_answer(p, g, command, at, text, len);
+    if (rc != TS_OK) return rc;
     /* Messages name the answer "program[k]": its k-th answer, from 1. */
     size_t nn = strlen(command) + 24;
-    *name = malloc(nn);
-    if (!*name) {
-        free(buf);
+    if (!(*name = malloc(nn))) {
+        free(*text);
+        *text = NULL;
         return ts_error_set(p->err, TS_E_MEMORY, "%s: out of memory", p->lx.file);
     }
-    snprintf(*name, nn, "%s[%u]", command, g->answered);
-    *text = buf;
-    *len = used;
+    snprintf(*name, nn, "%s[%u]", command, ++g->answered);
     return TS_OK;
 }

@@ -17,9 +17,6 @@
 
 /* ---- Integrator ---------------------------------------------------------------------- */
 
-/* Integrator "PxrPathTracer" "handle" ["int maxPathLength" [n]]: the path depth
- * (camera.depth) unless --depth is given. Every other integrator renders as the path tracer,
- * with one warning; its parameters are not read. */
 /* PxrPathTracer's parameters that only steer the noise, not what the image converges to
  * (sample counts per bounce and lobe, their mode, Russian roulette, which is unbiased, and the
  * continuation rays' length): silent whatever their value, as Tessera's estimator stands in
@@ -31,11 +28,12 @@ static int integrator_steers_noise(const char *name)
         "numLightSamples",    "numBxdfSamples",       "numIndirectSamples",   "numDiffuseSamples",
         "numSpecularSamples", "numSubsurfaceSamples", "numRefractionSamples", "sampleMode",
         "rouletteDepth",      "rouletteThreshold",    "maxContinuationLength"};
-    for (size_t k = 0; k < sizeof names / sizeof names[0]; k++)
-        if (strcmp(name, names[k]) == 0) return 1;
-    return 0;
+    return rib_in_list(name, names, RIB_COUNT(names));
 }
 
+/* Integrator "PxrPathTracer" "handle" ["int maxPathLength" [n]]: the path depth
+ * (camera.depth) unless --depth is given. Every other integrator renders as the path tracer,
+ * with one warning; its parameters are not read. */
 int rib_req_integrator(rib_parser *p)
 {
     const char *name;
@@ -283,9 +281,7 @@ int rib_req_option(rib_parser *p)
      * Maya writes them in every frame). Other options (trace, hair, ...) warn once each. */
     static const char *const silent[] = {"statistics", "bucket",     "limits",
                                          "ribparse",   "checkpoint", "lpe"};
-    for (size_t k = 0; k < sizeof silent / sizeof silent[0]; k++)
-        if (strcmp(name, silent[k]) == 0) return TS_OK;
-    rib_warn_named(p, name);
+    if (!rib_in_list(name, silent, RIB_COUNT(silent))) rib_warn_named(p, name);
     return TS_OK;
 }
 

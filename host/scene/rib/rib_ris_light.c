@@ -101,20 +101,15 @@ static const rib_neutral ris_light_neutral[] = {
  * when empty (a string: no subset, no profile). */
 static int ris_light_silent(const rib_parser *p, const rib_param *prm)
 {
-    const rib_arg *v = prm->val;
     /* and what only shapes a colour map or a focus, which warn themselves when present */
-    if (strcmp(prm->name, "fixedSampleCount") == 0 || strcmp(prm->name, "lightGroup") == 0 ||
-        strcmp(prm->name, "emissionFocusTint") == 0 || strcmp(prm->name, "colorMapGamma") == 0 ||
-        strcmp(prm->name, "colorMapSaturation") == 0)
-        return 1;
-    static const char *const empty_ok[] = {"shadowSubset", "shadowExcludeSubset", "iesProfile",
-                                           "lightGroup"};
-    for (size_t k = 0; k < sizeof empty_ok / sizeof empty_ok[0]; k++)
-        if (strcmp(prm->name, empty_ok[k]) == 0 &&
+    static const char *const any[] = {"fixedSampleCount", "lightGroup", "emissionFocusTint",
+                                      "colorMapGamma", "colorMapSaturation"};
+    static const char *const empty_ok[] = {"shadowSubset", "shadowExcludeSubset", "iesProfile"};
+    const rib_arg *v = prm->val;
+    return rib_in_list(prm->name, any, RIB_COUNT(any)) ||
+           (rib_in_list(prm->name, empty_ok, RIB_COUNT(empty_ok)) &&
             (v->kind == RIB_ARG_STRING || (v->kind == RIB_ARG_STRINGS && v->count == 1)) &&
-            rib_arg_str(p, v, 0)[0] == '\0')
-            return 1;
-    return 0;
+            rib_arg_str(p, v, 0)[0] == '\0');
 }
 
 /* Reads the parameters from args[first] into *a; others warn once each. */
