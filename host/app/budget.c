@@ -50,9 +50,10 @@ static uint64_t half_room_mb(uint64_t total, uint64_t fixed)
 
 /* Whether the device's global memory bounds the room: not on a CPU device that shares host
  * memory when the process's room is known. Its buffers are the process's memory, and the size
- * it reports is the implementation's guess, which it does not enforce (PoCL 3.1: hwloc's view
- * of the machine's memory less 2 GiB, 4.75 GiB on a 24 GiB virtual machine; 7.5 GB of buffers
- * run there): the process's room (ts_memory_room_query) is the real one. */
+ * it reports is the implementation's guess, which it does not enforce (PoCL 3.1: its NUMA
+ * node's memory as hwloc sees it less 2 GiB, 4.75 or 9.96 GiB on one 24 GiB virtual machine as
+ * its memory came online; 7.5 GB of buffers run there): the process's room
+ * (ts_memory_room_query) is the real one. */
 static int global_mem_bounds(const ts_device_info *dev, const ts_memory_room *room)
 {
     return !(dev->host_unified && (dev->type & CL_DEVICE_TYPE_CPU) && room->bytes != UINT64_MAX);
