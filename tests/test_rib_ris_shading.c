@@ -155,9 +155,9 @@ static void test_bxdf_lama_mix(void **state)
     const char *blue = "Bxdf \"PxrDiffuse\" \"blue\" \"color diffuseColor\" [0 0 0.4] "
                        "\"float diffuseGain\" [0.5]\n";
     const char *gold = "Bxdf \"LamaConductor\" \"gold\" \"color reflectivity\" [1 0.8 0.4] "
-                       "\"float roughness\" [0.3]\n";
+                       "\"float roughness\" [0.3] \"color edgeColor\" [1 1 1]\n";
     const char *silver = "Bxdf \"LamaConductor\" \"silver\" \"color reflectivity\" [0.9 0.9 "
-                         "0.9] \"float roughness\" [0.3]\n";
+                         "0.9] \"float roughness\" [0.3] \"color edgeColor\" [1 1 1]\n";
     const char *glass = "Bxdf \"LamaDielectric\" \"glass\" \"float IOR\" [1.5]\n";
     char body[1024];
     /* two mattes: Kd Cs mixed, 0.25 of the way */
@@ -194,6 +194,13 @@ static void test_bxdf_lama_mix(void **state)
     assert_string_equal(test_rib_body_warnings(body),
                         "w.rib:4:1: warning: Bxdf \"LamaMix\": glass with another material cannot "
                         "be mixed: it is drawn as material2, the larger share\n");
+    /* a matte and an emitter: exact, the matte's share reflecting, the emitter's emitting */
+    lama_mix(body, red, "Bxdf \"LamaEmission\" \"glow\" \"color color\" [2 1 0]\n", "red", "glow",
+             "0.25");
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_MATTE), assert_le(&a, 0.5, 0.25, 0);
+    test_assert_near(a.kd * a.cs_r, 0.6, 1e-6);
+    assert_string_equal(test_rib_body_warnings(body), "");
     /* a handle no Bxdf defines, and an unknown parameter */
     snprintf(body, sizeof body,
              "%sBxdf \"LamaMix\" \"mix\" \"reference bxdf material1\" [\"red\"] "
@@ -206,6 +213,156 @@ static void test_bxdf_lama_mix(void **state)
                    "PxrDiffuse's default") ||
         !strstr(w, "Bxdf \"LamaMix\" parameter \"x\" is ignored"))
         fail_msg("warnings: %s", w);
+}
+
+/* A body defining Bxdfs defs and a Lama node of the inputs args. */
+static void lama_node(char body[1024], const char *defs, const char *node, const char *args)
+{
+    snprintf(body, 1024, "%sBxdf \"%s\" \"n\" %s", defs, node, args);
+}
+
+/* The Lama nodes' defaults where they differ from the Pxr Bxdfs' (MaterialX's ND_lama_*):
+ * LamaDiffuse 0.18; LamaConductor gold by IOR and extinction (physical Fresnel, to 1 at the
+ * edge), its artistic face and edge colours under fresnelMode 1, times its tint; LamaMix's mix
+ * 0 (material1); LamaDielectric's transmissionTint tints the glass. */
+static void test_bxdf_lama_defaults(void **state)
+{
+    (void)state;
+    ts_patch_attr a = test_rib_one_patch("Bxdf \"LamaDiffuse\" \"d\"");
+    assert_int_equal(a.material, TS_MAT_MATTE), test_assert_cs(&a, 0.18, 0.18, 0.18);
+    a = test_rib_one_patch("Bxdf \"LamaConductor\" \"c\"");
+    const double n[3] = {0.18, 0.42, 1.37}, k[3] = {3.42, 2.35, 1.77};
+    double f0[3];
+    for (int c = 0; c < 3; c++)
+        f0[c] = ((n[c] - 1) * (n[c] - 1) + k[c] * k[c]) / ((n[c] + 1) * (n[c] + 1) + k[c] * k[c]);
+    assert_int_equal(a.material, TS_MAT_METAL), test_assert_near(a.roughness, 0.01, 1e-7);
+    test_assert_cs(&a, SCHLICK(f0[0]), SCHLICK(f0[1]), SCHLICK(f0[2]));
+    a = test_rib_one_patch("Bxdf \"LamaConductor\" \"c\" \"int fresnelMode\" [1] \"color tint\" "
+                           "[0.5 1 1]");
+    test_assert_cs(&a, 0.5 * (0.945 + (0.9979 - 0.945) / 21), 0.7772 + (0.9813 - 0.7772) / 21,
+                   0.3737 + (0.7523 - 0.3737) / 21);
+    const char *physical = "Bxdf \"LamaConductor\" \"c\" \"int fresnelMode\" [0] \"color "
+                           "reflectivity\" [1 1 1]";
+    a = test_rib_one_patch(physical);
+    test_assert_cs(&a, SCHLICK(f0[0]), SCHLICK(f0[1]), SCHLICK(f0[2]));
+    assert_string_equal(test_rib_body_warnings(physical),
+                        "w.rib:2:1: warning: Bxdf \"LamaConductor\": \"reflectivity\" is not read "
+                        "under fresnelMode 0 (physical: IOR and extinction)\n");
+    a = test_rib_one_patch("Bxdf \"LamaDielectric\" \"g\" \"color transmissionTint\" [1 0.5 0.25]");
+    assert_int_equal(a.material, TS_MAT_GLASS), test_assert_cs(&a, 1, 0.5, 0.25);
+    char body[1024];
+    lama_node(body,
+              "Bxdf \"LamaDiffuse\" \"r\" \"color color\" [0.8 0 0]\n"
+              "Bxdf \"LamaDiffuse\" \"b\" \"color color\" [0 0 0.8]\n",
+              "LamaMix",
+              "\"reference bxdf material1\" [\"r\"] \"reference bxdf material2\" [\"b\"]");
+    a = test_rib_one_patch(body);
+    test_assert_cs(&a, 0.8, 0, 0);
+    assert_string_equal(test_rib_body_warnings(body), "");
+}
+
+#define RED "Bxdf \"LamaDiffuse\" \"red\" \"color color\" [0.8 0 0]\n"
+#define BLUE "Bxdf \"LamaDiffuse\" \"blue\" \"color color\" [0 0 0.4]\n"
+#define GLOW "Bxdf \"LamaEmission\" \"glow\" \"color color\" [2 1 0]\n"
+
+/* LamaAdd: weight1 material1 + weight2 material2. Two mattes: their Kd Cs weighted and added;
+ * a matte and an emitter: the matte scaled, emitting the emitter's share; the default weights
+ * (1, 0): material1 itself; one input: it scaled; weights over 1 in sum: drawn at 1, warned. */
+static void test_bxdf_lama_add(void **state)
+{
+    (void)state;
+    char body[1024];
+    const char *both = "\"reference bxdf material1\" [\"red\"] \"reference bxdf material2\" "
+                       "[\"%s\"] \"float weight1\" [%s] \"float weight2\" [%s]";
+    char args[256];
+    snprintf(args, sizeof args, both, "blue", "0.5", "0.25");
+    lama_node(body, RED BLUE, "LamaAdd", args);
+    ts_patch_attr a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_MATTE);
+    test_assert_near(a.kd * a.cs_r, 0.5 * 0.8, 1e-6), test_assert_near(a.kd * a.cs_g, 0, 0);
+    test_assert_near(a.kd * a.cs_b, 0.25 * 0.4, 1e-6);
+    assert_string_equal(test_rib_body_warnings(body), "");
+    snprintf(args, sizeof args, both, "glow", "0.5", "0.5");
+    lama_node(body, RED GLOW, "LamaAdd", args);
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_MATTE), assert_le(&a, 1, 0.5, 0);
+    test_assert_near(a.kd * a.cs_r, 0.4, 1e-6);
+    assert_string_equal(test_rib_body_warnings(body), "");
+    lama_node(body, RED BLUE, "LamaAdd",
+              "\"reference bxdf material1\" [\"red\"] \"reference bxdf material2\" [\"blue\"]");
+    a = test_rib_one_patch(body);
+    test_assert_near(a.kd, 1, 0), test_assert_cs(&a, 0.8, 0, 0);
+    lama_node(body, BLUE, "LamaAdd",
+              "\"reference bxdf material2\" [\"blue\"] \"float weight2\" [0.5]");
+    a = test_rib_one_patch(body);
+    test_assert_near(a.kd * a.cs_b, 0.2, 1e-6);
+    snprintf(args, sizeof args, both, "blue", "1", "0.5");
+    lama_node(body, RED BLUE, "LamaAdd", args);
+    a = test_rib_one_patch(body);
+    test_assert_near(a.kd * a.cs_r, 0.8 / 1.5, 1e-6),
+        test_assert_near(a.kd * a.cs_b, 0.2 / 1.5, 1e-6);
+    assert_string_equal(test_rib_body_warnings(body),
+                        "w.rib:4:1: warning: Bxdf \"LamaAdd\": weights summing to 1.5 would "
+                        "reflect more light than arrives: the sum is drawn at weight 1\n");
+}
+
+/* LamaLayer: a glass top over a reflecting base is a clear coat on the base as a principled
+ * BRDF (4 c / c(0.04) at topMix 1: a whole Fresnel coat for index 1.5), its gloss from the
+ * top's roughness; another top covers the base by topMix (a mix); no top: the base. */
+static void test_bxdf_lama_layer(void **state)
+{
+    (void)state;
+    char body[1024];
+    const char *glass = "Bxdf \"LamaDielectric\" \"coat\" \"float IOR\" [%s] \"float roughness\" "
+                        "[%s] \"color transmissionTint\" [%s]\n";
+    char defs[512];
+    snprintf(defs, sizeof defs, glass, "1.5", "0", "1 1 1");
+    strcat(defs, RED);
+    lama_node(body, defs, "LamaLayer",
+              "\"reference bxdf materialBase\" [\"red\"] \"reference bxdf materialTop\" "
+              "[\"coat:bxdf_out\"]");
+    ts_patch_attr a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED);
+    test_assert_near(a.clearcoat, 4, 1e-6), test_assert_near(a.clearcoat_gloss, 1, 1e-6);
+    test_assert_near(a.metallic, 0, 0), test_assert_near(a.specular, 0, 0);
+    test_assert_cs(&a, 0.8, 0, 0);
+    assert_string_equal(test_rib_body_warnings(body), "");
+    /* half the top, index 2, roughness 0.3 (alpha 0.09), tinted: warned */
+    snprintf(defs, sizeof defs, glass, "2", "0.3", "1 0.5 0.5");
+    strcat(defs, RED);
+    lama_node(body, defs, "LamaLayer",
+              "\"reference bxdf materialBase\" [\"red\"] \"reference bxdf materialTop\" "
+              "[\"coat\"] \"float topMix\" [0.5] \"float topThickness\" [0.1]");
+    a = test_rib_one_patch(body);
+    double f0 = 1.0 / 9.0;
+    test_assert_near(a.clearcoat, 0.5 * 4 * SCHLICK(f0) / SCHLICK(0.04), 1e-6);
+    test_assert_near(a.clearcoat_gloss, (0.1 - 0.09) / 0.09, 1e-5);
+    assert_string_equal(test_rib_body_warnings(body),
+                        "w.rib:4:1: warning: Bxdf \"LamaLayer\": the glass top's tint is not "
+                        "drawn (the coat is clear)\n");
+    /* a matte top covers a matte base by topMix: their Kd Cs mixed */
+    lama_node(body, RED BLUE, "LamaLayer",
+              "\"reference bxdf materialBase\" [\"red\"] \"reference bxdf materialTop\" "
+              "[\"blue\"] \"float topMix\" [0.25]");
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_MATTE), test_assert_cs(&a, 0.6, 0, 0.1);
+    /* no top: the base; no base: the top, by topMix */
+    lama_node(body, RED, "LamaLayer", "\"reference bxdf materialBase\" [\"red\"]");
+    a = test_rib_one_patch(body);
+    test_assert_cs(&a, 0.8, 0, 0);
+    lama_node(body, BLUE, "LamaLayer",
+              "\"reference bxdf materialTop\" [\"blue\"] \"float topMix\" [0.5]");
+    a = test_rib_one_patch(body);
+    test_assert_near(a.kd * a.cs_b, 0.2, 1e-6);
+    /* a glass top over gold: a coated metal */
+    snprintf(defs, sizeof defs, glass, "1.5", "0", "1 1 1");
+    strcat(defs, "Bxdf \"LamaConductor\" \"gold\" \"int fresnelMode\" [1]\n");
+    lama_node(body, defs, "LamaLayer",
+              "\"reference bxdf materialBase\" [\"gold\"] \"reference bxdf materialTop\" "
+              "[\"coat\"]");
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED), test_assert_near(a.metallic, 1, 0);
+    test_assert_near(a.clearcoat, 4, 1e-6);
 }
 
 /* PxrSurface onto the principled BRDF: Cs = diffuseGain diffuseColor, specular =
@@ -730,6 +887,9 @@ int main(void)
         cmocka_unit_test(test_bxdf_surface_glass),
         cmocka_unit_test(test_bxdf_lm_glass_metal),
         cmocka_unit_test(test_bxdf_lama_mix),
+        cmocka_unit_test(test_bxdf_lama_defaults),
+        cmocka_unit_test(test_bxdf_lama_add),
+        cmocka_unit_test(test_bxdf_lama_layer),
         cmocka_unit_test(test_pattern_texture),
         cmocka_unit_test(test_pattern_tex_sibling),
         cmocka_unit_test(test_pattern_unknown),

@@ -29,6 +29,8 @@ typedef struct bxdf_args {
     double coat_rough;       /* PxrSurface's clearcoatRoughness */
     double eta[3], kappa[3]; /* conductors: complex index of refraction */
     double ior;              /* dielectrics */
+    double tint[3];          /* LamaConductor: multiplies the reflected colour */
+    double fresnel_mode;     /* LamaConductor: 0 physical (IOR, extinction), 1 artistic */
     int has_reflectivity;    /* conductors: artistic face colour given */
 } bxdf_args;
 
@@ -94,6 +96,14 @@ static const bxdf_param bxdf_conductor_params[] = {
     BP("extinction", 3, kappa),     BC("reflectivity", color),
     BC("specularColor", color),     BP("edgeColor", 3, spec_edge),
 };
+/* LamaConductor (MaterialX's ND_lama_conductor, Pixar's Lama nodes): PxrConductor's, its Fresnel
+ * mode and its tint. */
+static const bxdf_param bxdf_lama_conductor_params[] = {
+    BP("roughness", 1, spec_rough),     BP("IOR", 3, eta),
+    BP("extinction", 3, kappa),         BC("reflectivity", color),
+    BP("edgeColor", 3, spec_edge),      BP("tint", 3, tint),
+    BP("fresnelMode", 1, fresnel_mode),
+};
 /* PxrLMDiffuse (RenderMan 19-21's layered-material diffuse): its front colour; backColor,
  * roughness, sheen, translucence, incandescence and its layers are warned about as unread. */
 static const bxdf_param bxdf_lm_diffuse_params[] = {BC("frontColor", color)};
@@ -104,6 +114,9 @@ static const bxdf_param bxdf_lm_glass_params[] = {
 static const bxdf_param bxdf_constant_params[] = {BC("emitColor", color), BC("color", color)};
 static const bxdf_param bxdf_dielectric_params[] = {BP("roughness", 1, spec_rough),
                                                     BP("ior", 1, ior), BP("IOR", 1, ior)};
+/* LamaDielectric: its transmissionTint tints what goes through, as PxrLMGlass's refractionColor. */
+static const bxdf_param bxdf_lama_dielectric_params[] = {
+    BP("roughness", 1, spec_rough), BP("IOR", 1, ior), BP("transmissionTint", 3, refr_color)};
 #define BXDF_PARAMS(a) a, sizeof a / sizeof a[0]
 
 /* The Bxdfs Tessera draws. */
@@ -119,11 +132,11 @@ static const struct {
     {"PxrSurface", BXDF_SURFACE, BXDF_PARAMS(bxdf_surface_params)},
     {"PxrDisney", BXDF_DISNEY, BXDF_PARAMS(bxdf_disney_params)},
     {"PxrConductor", BXDF_CONDUCTOR, BXDF_PARAMS(bxdf_conductor_params)},
-    {"LamaConductor", BXDF_CONDUCTOR, BXDF_PARAMS(bxdf_conductor_params)},
+    {"LamaConductor", BXDF_CONDUCTOR, BXDF_PARAMS(bxdf_lama_conductor_params)},
     {"PxrConstant", BXDF_CONSTANT, BXDF_PARAMS(bxdf_constant_params)},
     {"LamaEmission", BXDF_CONSTANT, BXDF_PARAMS(bxdf_constant_params)},
     {"PxrDielectric", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_dielectric_params)},
-    {"LamaDielectric", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_dielectric_params)},
+    {"LamaDielectric", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_lama_dielectric_params)},
     {"PxrGlass", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_dielectric_params)},
     {"PxrLMDiffuse", BXDF_DIFFUSE, BXDF_PARAMS(bxdf_lm_diffuse_params)},
     {"PxrLMGlass", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_lm_glass_params)},
@@ -175,7 +188,27 @@ static bxdf_args bxdf_defaults(bxdf_kind kind)
     if (kind == BXDF_CONSTANT) a.color[0] = a.color[1] = a.color[2] = 1.0;
     if (kind == BXDF_DIELECTRIC) a.spec_rough = 0.0;
     if (kind == BXDF_CONDUCTOR) a.spec_edge[0] = a.spec_edge[1] = a.spec_edge[2] = 1.0;
+    a.tint[0] = a.tint[1] = a.tint[2] = 1.0;
+    a.fresnel_mode = -1.0; /* not given */
     return a;
+}
+
+/* The Lama nodes' own defaults where they differ from the Pxr Bxdfs' of their kind: those of
+ * MaterialX's Lama node definitions (libraries/bxdf/lama, ND_lama_*, written by Pixar for its
+ * Lama nodes): LamaDiffuse's colour 0.18; LamaConductor's IOR and extinction (gold), its
+ * artistic reflectivity and edge colour, roughness 0.1; LamaDielectric's roughness 0.1 (smooth
+ * still: alpha 0.01). */
+static void bxdf_lama_defaults(const char *name, bxdf_args *a)
+{
+    static const double eta[3] = {0.18, 0.42, 1.37}, kappa[3] = {3.42, 2.35, 1.77},
+                        refl[3] = {0.945, 0.7772, 0.3737}, edge[3] = {0.9979, 0.9813, 0.7523};
+    if (strcmp(name, "LamaDiffuse") == 0) a->color[0] = a->color[1] = a->color[2] = 0.18;
+    if (strcmp(name, "LamaConductor") == 0) {
+        memcpy(a->eta, eta, sizeof eta), memcpy(a->kappa, kappa, sizeof kappa);
+        memcpy(a->color, refl, sizeof refl), memcpy(a->spec_edge, edge, sizeof edge);
+        a->spec_rough = 0.1;
+    }
+    if (strcmp(name, "LamaDielectric") == 0) a->spec_rough = 0.1;
 }
 
 /* Glass (TS_MAT_GLASS) of index ior (outside [1, 4]: 1.5, with a warning) and colour cs,
@@ -247,15 +280,23 @@ static const rib_neutral bxdf_neutral[] = {
     {"specularAnisotropyDirection", 3, {0, 0, 0}},
     {"clearcoatBumpNormal", 3, {0, 0, 0}},
     {"diffuseBumpNormal", 3, {0, 0, 0}},
+    /* the Lama nodes' (MaterialX's ND_lama_*): air outside, isotropic, no thin film, the
+     * energy compensation of a roughness Tessera does not draw (which warns itself) */
+    {"exteriorIOR", 1, {1}},
+    {"anisotropy", 1, {0}},
+    {"iridescenceThickness", 1, {0}},
+    {"energyCompensation", 1, {1}},
 };
 
 /* Silent at any value: presenceCached (RenderMan for Maya's bookkeeping), specularIor and
  * specularExtinctionCoeff (read only by the physical Fresnel, specularFresnelMode 1, which
- * warns itself), maxContinuationHits (the noise only). */
+ * warns itself), maxContinuationHits (the noise only), the Lama nodes' lobeName and matte (the
+ * names of AOVs) and bumpShadowing (of a bump Tessera does not draw). */
 static int bxdf_silent(const char *name)
 {
-    static const char *const names[] = {"presenceCached", "specularIor", "specularExtinctionCoeff",
-                                        "maxContinuationHits"};
+    static const char *const names[] = {
+        "presenceCached",      "specularIor", "specularExtinctionCoeff",
+        "maxContinuationHits", "lobeName",    "matte"};
     return rib_in_list(name, names, RIB_COUNT(names));
 }
 
@@ -436,12 +477,24 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
         bxdf_disney(p, bxdf, a, s);
     } else if (kind == BXDF_CONDUCTOR) {
         s->material = TS_MAT_METAL, s->kd = 0.0, s->ks = 1.0;
+        /* Artistic (the face and edge colours): fresnelMode 1, or a reflectivity given without
+         * a fresnelMode; else physical, the face colour from IOR and extinction. LamaConductor's
+         * physical Fresnel goes to 1 at the edge (its edgeColor is the artistic mode's). */
+        int artistic = a->fresnel_mode == 1.0 || (a->fresnel_mode < 0.0 && a->has_reflectivity);
+        int lama = strcmp(bxdf, "LamaConductor") == 0;
+        if (a->fresnel_mode >= 0.0 && a->fresnel_mode != 1.0 && a->has_reflectivity) {
+            snprintf(what, sizeof what,
+                     "Bxdf \"%s\": \"reflectivity\" is not read under fresnelMode %g (physical: "
+                     "IOR and extinction)",
+                     bxdf, a->fresnel_mode);
+            rib_warn_once(p, p->req_line, p->req_col, what);
+        }
         for (int c = 0; c < 3; c++) {
             double n = a->eta[c], k = a->kappa[c]; /* normal-incidence Fresnel of n + ik */
-            double f0 = a->has_reflectivity
-                            ? a->color[c]
-                            : ((n - 1) * (n - 1) + k * k) / ((n + 1) * (n + 1) + k * k);
-            s->color[c] = bxdf_schlick_mean(f0, a->spec_edge[c]);
+            double f0 =
+                artistic ? a->color[c] : ((n - 1) * (n - 1) + k * k) / ((n + 1) * (n + 1) + k * k);
+            double edge = artistic || !lama ? a->spec_edge[c] : 1.0;
+            s->color[c] = a->tint[c] * bxdf_schlick_mean(f0, edge);
         }
     } else if (kind == BXDF_CONSTANT) {
         s->kd = 0.0, s->constant = 1; /* emits its colour (rib_geom.c), reflects nothing */
@@ -479,7 +532,8 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
 
 #define RIB_MAX_BXDFS 65536 /* Bxdf handles in one parse */
 
-/* The materials of the Bxdfs read so far, by handle (the latest of a handle), for LamaMix. */
+/* The materials of the Bxdfs read so far, by handle (the latest of a handle), for the Lama nodes
+ * that combine them (lama_nodes). */
 typedef struct bxdf_node {
     char *handle;
     rib_surface s;
@@ -567,37 +621,88 @@ static rib_surface bxdf_as_principled(const rib_surface *s)
     return o;
 }
 
-/* LamaMix's material: (1 - mix) material1 + mix material2, where Tessera's materials can hold
- * it. Exact: mix 0 or 1; two mattes of one specular lobe (their Kd Cs mixed); two metals, or two
- * glasses of one index, of one roughness (their tints mixed: each BSDF is linear in Cs); the
- * emissions always mix. Approximate, with one warning: mattes, metals and principled BRDFs
- * among each other become one principled BRDF of their mixed parameters. Otherwise (glass or a
- * texture with another material, an emitter that reflects nothing) the larger share, with one
- * warning. */
-static int bxdf_mix_surfaces(rib_parser *p, const rib_surface *m1, const rib_surface *m2, double w,
-                             rib_surface *out)
+/* A Lama node that combines two Bxdfs: its name, its two material inputs (connections to Bxdf
+ * handles), its float inputs and their defaults, MaterialX's ND_lama_mix_bsdf, ND_lama_add_bsdf
+ * and ND_lama_layer_bsdf (Pixar's Lama nodes). */
+typedef struct lama_node {
+    const char *name, *material[2], *param[2];
+    double dflt[2];
+} lama_node;
+
+static const lama_node lama_nodes[] = {
+    {"LamaMix", {"material1", "material2"}, {"mix", NULL}, {0.0, 0.0}},
+    {"LamaAdd", {"material1", "material2"}, {"weight1", "weight2"}, {1.0, 0.0}},
+    {"LamaLayer", {"materialBase", "materialTop"}, {"topMix", "topThickness"}, {1.0, 0.0}},
+};
+#define LAMA_NODES (sizeof lama_nodes / sizeof lama_nodes[0])
+
+/* Material m times weight s in [0, 1] (LamaAdd): exact for a matte (Kd and Ks scaled), a metal
+ * and an emitter (their colour scaled) and every emission; glass and the principled BRDF get
+ * their colour scaled, which leaves their specular reflection as it was (one warning). */
+static void bxdf_scale(rib_parser *p, const lama_node *nd, double s, rib_surface *m)
+{
+    if (s >= 1.0) return;
+    for (int c = 0; c < 3; c++)
+        m->emit[c] *= s;
+    if (m->material == TS_MAT_MATTE || m->material == TS_MAT_PLASTIC) {
+        m->kd *= s, m->ks *= s;
+        if (!m->constant) return;
+    }
+    for (int c = 0; c < 3; c++)
+        m->color[c] *= s;
+    if (!m->constant && (m->material == TS_MAT_GLASS || m->material == TS_MAT_PRINCIPLED)) {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": %s under a weight below 1 has its colour scaled, not its "
+                 "specular reflection (an approximation)",
+                 nd->name, m->material == TS_MAT_GLASS ? "glass" : "a principled BRDF");
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
+}
+
+/* (1 - w) m1 + w m2, node's inputs (LamaMix's, or another node's mixing step), where Tessera's
+ * materials can hold it. Exact: w 0 or 1; two mattes of one specular lobe (their Kd Cs mixed);
+ * two metals, or two glasses of one index, of one roughness (their tints mixed: each BSDF is
+ * linear in Cs); the emissions always mix. Approximate, with one warning: mattes, metals and
+ * principled BRDFs among each other become one principled BRDF of their mixed parameters.
+ * An emitter that reflects nothing (PxrConstant, LamaEmission) mixes exactly: the other
+ * material scaled by its share (bxdf_scale), emitting the emitter's share of its radiance.
+ * Otherwise (glass or a texture with another material) the larger share, with one warning. */
+static void bxdf_mix_surfaces(rib_parser *p, const lama_node *nd, const rib_surface *m1,
+                              const rib_surface *m2, double w, rib_surface *out)
 {
     char what[RIB_WARN_KEY];
     if (w <= 0.0 || w >= 1.0) {
         *out = w <= 0.0 ? *m1 : *m2;
-        return TS_OK;
+        return;
+    }
+    if (m1->constant || m2->constant) { /* emitters that reflect nothing: exact */
+        const rib_surface *e = m1->constant ? m1 : m2, *r = m1->constant ? m2 : m1;
+        double we = m1->constant ? 1.0 - w : w; /* e's share */
+        *out = *r;
+        if (m1->constant && m2->constant) {
+            mix3(m1->color, m2->color, w, out->color);
+            mix3(m1->emit, m2->emit, w, out->emit);
+            return;
+        }
+        bxdf_scale(p, nd, 1.0 - we, out); /* the reflector's share */
+        for (int c = 0; c < 3; c++)       /* Surface "constant"'s radiance is its colour */
+            out->emit[c] += we * (e->color[c] + e->emit[c]);
+        return;
     }
     const rib_surface *big = w < 0.5 ? m1 : m2;
     int same = m1->material == m2->material && m1->roughness == m2->roughness;
-    int reflective = !m1->constant && !m2->constant;
-    if (m1->textured || m2->textured || !reflective ||
+    if (m1->textured || m2->textured ||
         ((m1->material == TS_MAT_GLASS) != (m2->material == TS_MAT_GLASS)) ||
         (m1->material == TS_MAT_GLASS && (!same || m1->ior != m2->ior))) {
         snprintf(what, sizeof what,
-                 "Bxdf \"LamaMix\": %s cannot be mixed: it is drawn as material%d, the larger "
-                 "share",
+                 "Bxdf \"%s\": %s cannot be mixed: it is drawn as %s, the larger share", nd->name,
                  m1->textured || m2->textured ? "a textured material"
-                 : !reflective                ? "an emitter that reflects nothing"
                                               : "glass with another material",
-                 w < 0.5 ? 1 : 2);
+                 nd->material[w < 0.5 ? 0 : 1]);
         rib_warn_once(p, p->req_line, p->req_col, what);
         *out = *big;
-        return TS_OK;
+        return;
     }
     if (same && (m1->material == TS_MAT_METAL || m1->material == TS_MAT_GLASS ||
                  (m1->material == TS_MAT_MATTE && m1->ks == m2->ks))) {
@@ -610,8 +715,9 @@ static int bxdf_mix_surfaces(rib_parser *p, const rib_surface *m1, const rib_sur
         if (m1->material == TS_MAT_MATTE) out->kd = 1.0;
     } else {
         snprintf(what, sizeof what,
-                 "Bxdf \"LamaMix\": materials of different kinds are drawn as one principled "
-                 "BRDF of their mixed parameters (an approximation)");
+                 "Bxdf \"%s\": materials of different kinds are drawn as one principled BRDF of "
+                 "their mixed parameters (an approximation)",
+                 nd->name);
         rib_warn_once(p, p->req_line, p->req_col, what);
         rib_surface a = bxdf_as_principled(m1), b = bxdf_as_principled(m2);
         *out = a;
@@ -630,79 +736,191 @@ static int bxdf_mix_surfaces(rib_parser *p, const rib_surface *m1, const rib_sur
         out->kd = 1.0 - out->metallic, out->ks = 0.0;
     }
     mix3(m1->emit, m2->emit, w, out->emit);
-    return TS_OK;
 }
 
-/* Bxdf "LamaMix" "handle" "reference bxdf material1" ["h1"] "reference bxdf material2" ["h2"]
- * "float mix" [w]: the two Bxdfs named (by handle, ":output" ignored) mixed by w (0.5; clamped
- * into [0, 1]), bxdf_mix_surfaces; a material not connected, or connected to a handle no Bxdf
- * defines, is PxrDiffuse's default, with one warning. */
-static int bxdf_lama_mix(rib_parser *p, size_t first)
+/* LamaAdd: weight1 material1 + weight2 material2 (each weight clamped into [0, 1]). One input
+ * alone: it, scaled (bxdf_scale); both: their mix at weight2 / (weight1 + weight2), scaled by
+ * the sum (above 1, by 1: one warning, as the sum would reflect more than it receives); the
+ * emissions add exactly. */
+static void bxdf_add(rib_parser *p, const lama_node *nd, const rib_surface *m[2],
+                     const int given[2], const double v[2], rib_surface *out)
+{
+    double w1 = fmin(1.0, fmax(0.0, v[0])), w2 = fmin(1.0, fmax(0.0, v[1])), t = w1 + w2;
+    if (!given[0] || !given[1]) {
+        int k = given[1] ? 1 : 0;
+        *out = *m[k];
+        bxdf_scale(p, nd, k ? w2 : w1, out);
+        return;
+    }
+    bxdf_mix_surfaces(p, nd, m[0], m[1], t > 0.0 ? w2 / t : 0.0, out);
+    if (t > 1.0) {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": weights summing to %g would reflect more light than arrives: the "
+                 "sum is drawn at weight 1",
+                 nd->name, t);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
+    bxdf_scale(p, nd, fmin(t, 1.0), out);
+    for (int c = 0; c < 3; c++) { /* the radiance added exactly (an emitter's is its colour) */
+        double e = w1 * (m[0]->emit[c] + (m[0]->constant ? m[0]->color[c] : 0.0)) +
+                   w2 * (m[1]->emit[c] + (m[1]->constant ? m[1]->color[c] : 0.0));
+        if (out->constant)
+            out->color[c] = e, out->emit[c] = 0.0;
+        else
+            out->emit[c] = e;
+    }
+}
+
+/* LamaLayer: materialTop over materialBase, topMix (clamped into [0, 1]) of the top seen. No top
+ * (or topMix 0): the base; no base: the top, scaled by topMix. A glass top over a base that
+ * reflects (matte, metal, principled) is a clear coat: the base as a principled BRDF whose
+ * clearcoat is topMix 4 c / c(0.04, 1), c the hemispherical mean of Schlick's Fresnel from the
+ * top's F0 ((n - 1) / (n + 1))^2 to 1 (PxrSurface's coat, bxdf_surface), its gloss from the top's
+ * GGX alpha in [0.01, 0.1]; the top's tint is not drawn (one warning). Any other top covers
+ * the base where it is seen: (1 - topMix) base + topMix top (bxdf_mix_surfaces). topThickness
+ * (absorption in the top) is read and not drawn. */
+static void bxdf_layer(rib_parser *p, const lama_node *nd, const rib_surface *m[2],
+                       const int given[2], const double v[2], rib_surface *out)
+{
+    char what[RIB_WARN_KEY];
+    const rib_surface *base = m[0], *top = m[1];
+    double w = fmin(1.0, fmax(0.0, v[0]));
+    if (!given[1] || w <= 0.0) {
+        *out = *base;
+        return;
+    }
+    if (!given[0]) {
+        *out = *top;
+        bxdf_scale(p, nd, w, out);
+        return;
+    }
+    if (top->material != TS_MAT_GLASS || base->material == TS_MAT_GLASS || base->constant) {
+        bxdf_mix_surfaces(p, nd, base, top, w, out);
+        return;
+    }
+    *out = bxdf_as_principled(base);
+    double n = top->ior, f0 = (n - 1.0) * (n - 1.0) / ((n + 1.0) * (n + 1.0));
+    double coat = w * 4.0 * bxdf_schlick_mean(f0, 1.0) / bxdf_schlick_mean(0.04, 1.0);
+    double alpha = top->roughness, gloss = (0.1 - fmin(fmax(alpha, 0.01), 0.1)) / 0.09;
+    if (alpha > 0.1) {
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": a glass top rougher than 0.32 is drawn as a coat of roughness 0.32 "
+                 "(GGX alpha 0.1)",
+                 nd->name);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
+    if (out->clearcoat > 0.0) { /* a coat on a coat: one coat, the rougher gloss */
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": a glass top over a coated base is drawn as one coat (their "
+                 "weights added, the rougher)",
+                 nd->name);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+        gloss = fmin(gloss, out->clearcoat_gloss);
+    }
+    out->clearcoat = fmin(out->clearcoat + coat, 4.0), out->clearcoat_gloss = gloss;
+    if (top->color[0] != 1.0 || top->color[1] != 1.0 || top->color[2] != 1.0) {
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": the glass top's tint is not drawn (the coat is clear)", nd->name);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
+    for (int c = 0; c < 3; c++)
+        out->emit[c] = base->emit[c] + w * top->emit[c];
+}
+
+/* Reads node nd's inputs from args[first]: its materials (`"reference bxdf materialTop"
+ * ["h"]`: a Bxdf handle, ":output" ignored) into m[] (given[] set; a handle no Bxdf defines is
+ * *dflt, with one warning), its floats into v[] (their defaults where absent; a texture
+ * connected to one is not drawn, with one warning). Other parameters warn as ignored. */
+static int lama_read(rib_parser *p, const lama_node *nd, size_t first, const rib_surface *dflt,
+                     const rib_surface *m[2], int given[2], double v[2])
 {
     char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX], shown2[RIB_PRINT_MAX];
-    bxdf_args def = bxdf_defaults(BXDF_DIFFUSE);
-    rib_surface dflt;
-    bxdf_material(p, "PxrDiffuse", BXDF_DIFFUSE, &def, &dflt);
-    const rib_surface *m[2] = {NULL, NULL};
-    double w = 0.5;
     for (size_t i = first; i < p->nargs; i += 2) {
         rib_param prm;
         int rc = rib_param_at(p, i, &prm);
         if (rc != TS_OK) return rc;
-        int k = strcmp(prm.name, "material1") == 0   ? 0
-                : strcmp(prm.name, "material2") == 0 ? 1
-                                                     : -1;
+        int k = strcmp(prm.name, nd->material[0]) == 0   ? 0
+                : strcmp(prm.name, nd->material[1]) == 0 ? 1
+                                                         : -1;
+        int j = nd->param[0] && strcmp(prm.name, nd->param[0]) == 0   ? 0
+                : nd->param[1] && strcmp(prm.name, nd->param[1]) == 0 ? 1
+                                                                      : -1;
         if (k >= 0) {
             const char *to;
             rc = rib_string_arg(p, i + 1, "a Bxdf handle", &to);
             if (rc != TS_OK) return rc;
+            given[k] = 1;
             m[k] = bxdf_find(p, to, strcspn(to, ":"));
             if (!m[k]) {
                 snprintf(what, sizeof what,
-                         "Bxdf \"LamaMix\": \"%s\" is connected to \"%s\", which no Bxdf "
-                         "defines: it is PxrDiffuse's default",
-                         prm.name, rib_printable(to, shown));
+                         "Bxdf \"%s\": \"%s\" is connected to \"%s\", which no Bxdf defines: it "
+                         "is PxrDiffuse's default",
+                         nd->name, prm.name, rib_printable(to, shown));
                 rib_warn_once(p, prm.val->line, prm.val->col, what);
+                m[k] = dflt;
             }
-        } else if (strcmp(prm.name, "mix") == 0) {
+        } else if (j >= 0) {
             rib_link l;
-            rc = rib_pattern_link(p, &prm, TS_TEX_RGB, "mixed at its default, 0.5", &l);
+            rc = rib_pattern_link(p, &prm, TS_TEX_RGB, "kept at its default", &l);
             if (rc != TS_OK) return rc;
-            const double *v = l.value;
+            const double *x = l.value;
             if (l.linked && !l.folded) {
                 if (l.textured) {
                     snprintf(what, sizeof what,
-                             "Bxdf \"LamaMix\": a texture connected to \"mix\" is not drawn: "
-                             "it mixes at its default, 0.5");
+                             "Bxdf \"%s\": a texture connected to \"%s\" is not drawn: it keeps "
+                             "its default, %g",
+                             nd->name, prm.name, nd->dflt[j]);
                     rib_warn_once(p, prm.val->line, prm.val->col, what);
                 }
                 continue;
             }
-            if (!l.folded) rc = rib_param_numbers(p, &prm, 1, &v, NULL);
+            if (!l.folded) rc = rib_param_numbers(p, &prm, 1, &x, NULL);
             if (rc != TS_OK) return rc;
-            if (!(fabs(v[0]) <= FLT_MAX))
+            if (!(fabs(x[0]) <= FLT_MAX))
                 return rib_error_at(p, prm.val->line, prm.val->col,
-                                    "Bxdf \"LamaMix\": \"mix\" must be finite");
-            w = fmin(1.0, fmax(0.0, v[0]));
+                                    "Bxdf \"%s\": \"%s\" must be finite", nd->name, prm.name);
+            v[j] = x[0];
         } else {
-            snprintf(what, sizeof what, "Bxdf \"LamaMix\" parameter \"%s\" is ignored",
+            snprintf(what, sizeof what, "Bxdf \"%s\" parameter \"%s\" is ignored", nd->name,
                      rib_printable(prm.name, shown2));
             rib_warn_once(p, prm.key->line, prm.key->col, what);
         }
     }
-    for (int k = 0; k < 2; k++)
-        if (!m[k]) m[k] = &dflt;
+    return TS_OK;
+}
+
+/* Bxdf "LamaMix" | "LamaAdd" | "LamaLayer" "handle" params: the material the node makes of the
+ * Bxdfs it names (bxdf_mix_surfaces, bxdf_add, bxdf_layer). LamaMix: (1 - mix) material1 +
+ * mix material2, mix clamped into [0, 1]; a material it does not name is PxrDiffuse's
+ * default. */
+static int bxdf_lama_node(rib_parser *p, const lama_node *nd, size_t first)
+{
+    bxdf_args def = bxdf_defaults(BXDF_DIFFUSE);
+    rib_surface dflt;
+    bxdf_material(p, "PxrDiffuse", BXDF_DIFFUSE, &def, &dflt);
+    const rib_surface *m[2] = {&dflt, &dflt};
+    int given[2] = {0, 0};
+    double v[2] = {nd->dflt[0], nd->dflt[1]};
+    int rc = lama_read(p, nd, first, &dflt, m, given, v);
+    if (rc != TS_OK) return rc;
     rib_surface s;
-    int rc = bxdf_mix_surfaces(p, m[0], m[1], w, &s);
-    if (rc == TS_OK) rc = rib_shading_limits(p, "LamaMix", &s);
+    if (nd == &lama_nodes[1])
+        bxdf_add(p, nd, m, given, v, &s);
+    else if (nd == &lama_nodes[2])
+        bxdf_layer(p, nd, m, given, v, &s);
+    else
+        bxdf_mix_surfaces(p, nd, m[0], m[1], fmin(1.0, fmax(0.0, v[0])), &s);
+    rc = rib_shading_limits(p, nd->name, &s);
     if (rc == TS_OK) p->surface = s;
     if (rc == TS_OK) rc = bxdf_keep(p, first, &s);
     return rc;
 }
 
 /* Bxdf "name" "handle" params: the material of the following geometry (an attribute, as
- * Surface), from the Bxdfs of bxdf_table or LamaMix; any other Bxdf renders as matte (its
- * parameters unread) with one warning naming it. Each is kept under its handle, for LamaMix. */
+ * Surface), from the Bxdfs of bxdf_table or the Lama nodes that combine them (lama_nodes); any
+ * other Bxdf renders as matte (its parameters unread) with one warning naming it. Each is kept
+ * under its handle, for the Lama nodes. */
 int rib_req_bxdf(rib_parser *p)
 {
     const char *name;
@@ -710,7 +928,8 @@ int rib_req_bxdf(rib_parser *p)
     int rc = rib_string_arg(p, 0, "a Bxdf name", &name);
     if (rc != TS_OK) return rc;
     size_t first = (p->nargs % 2 == 0) ? 2 : 1; /* a handle makes the count even */
-    if (strcmp(name, "LamaMix") == 0) return bxdf_lama_mix(p, first);
+    for (size_t n = 0; n < LAMA_NODES; n++)
+        if (strcmp(name, lama_nodes[n].name) == 0) return bxdf_lama_node(p, &lama_nodes[n], first);
     size_t k = 0;
     while (k < BXDF_COUNT && strcmp(name, bxdf_table[k].name) != 0)
         k++;
@@ -733,6 +952,7 @@ int rib_req_bxdf(rib_parser *p)
         return bxdf_keep(p, first, &p->surface);
     }
     bxdf_args a = bxdf_defaults(bxdf_table[k].kind);
+    bxdf_lama_defaults(bxdf_table[k].name, &a);
     rib_link link = {0};
     rc = bxdf_read(p, k, first, &a, &link);
     if (rc != TS_OK) return rc;
