@@ -241,9 +241,19 @@ inline uint shade_direct_light(ts_shade_params sp, const shade_lights *L, const 
     ts_sampler_set u = step_light_set(s);
     uint li = light_select(L->lights, L->count, L->sampling, sampler_set_value(u, 0u), &choose);
     if (li >= L->count) return 0u; /* no light takes part (a uniform dome only, say) */
+    /* A uniform dome is sampled about the normal (cosine-weighted); a translucent vertex takes
+     * its side by the share each side scatters, with u3, which the dome does not use. */
+    ts_v3 ln = v->n;
+    float side = 1.0f;
+    if (v->a->material == TS_MAT_TRANSLUCENT && L->lights[li].type == TS_LIGHT_DOME &&
+        !L->lights[li].map_width) {
+        side = translucent_front_prob(v->a);
+        if (!(sampler_set_value(u, 3u) < side)) ln = v3_scale(v->n, -1.0f), side = 1.0f - side;
+    }
     ts_light_sample ls =
-        light_sample(L->lights, li, choose, L->env, L->emitters, L->cp, L->attr, v->p, v->n,
+        light_sample(L->lights, li, choose, L->env, L->emitters, L->cp, L->attr, v->p, ln,
                      sampler_set_value(u, 1u), sampler_set_value(u, 2u), sampler_set_value(u, 3u));
+    ls.pdf *= side;
     /* A point a trim removes from an emitter gives nothing: the sample's pdf is the whole
      * piece's, so the estimate is of the light of the part that is there. */
     if (ls.patch != TS_INVALID && L->attr[ls.patch].trim_count != 0u &&
@@ -252,7 +262,8 @@ inline uint shade_direct_light(ts_shade_params sp, const shade_lights *L, const 
         return 0u;
     float f[3] = {0.0f, 0.0f, 0.0f};
     float pb = ls.pdf > 0.0f ? bsdf_eval(v->a, v->cs, v->n, v->wo, ls.dir, f) : 0.0f;
-    float cosl = ls.pdf > 0.0f ? v3_dot(v->n, ls.dir) : 0.0f;
+    /* |cos|: only a translucent material's f is not 0 below the surface */
+    float cosl = ls.pdf > 0.0f ? fabs(v3_dot(v->n, ls.dir)) : 0.0f;
     if (!(cosl > 0.0f && (f[0] > 0.0f || f[1] > 0.0f || f[2] > 0.0f))) return 0u;
     /* Light sampling alone where no BSDF sample can find the light: a delta light, --sampling
      * light, or an emitter indirect rays do not see (TS_PATCH_NO_INDIRECT, top_level). */
@@ -265,7 +276,9 @@ inline uint shade_direct_light(ts_shade_params sp, const shade_lights *L, const 
                          tp[2] * f[2] * ls.le[2] * w, 0.0f};
     float tmax = ls.dist < TS_NO_HIT ? ls.dist * (1.0f - 1e-4f) : TS_NO_HIT;
     uint target = ls.patch == TS_INVALID ? 0u : (ls.patch + 1u) << 1;
-    emit_ray(r, s->wave_size + s->i, v, ls.dir, tmax, TS_RAY_SHADOW | target);
+    shade_vertex out = *v; /* a ray through a translucent sheet leaves from its far side */
+    if (v3_dot(v->n, ls.dir) < 0.0f) out.n = v3_scale(v->n, -1.0f);
+    emit_ray(r, s->wave_size + s->i, &out, ls.dir, tmax, TS_RAY_SHADOW | target);
     return TS_PATH_TRACED_SHADOW;
 }
 
@@ -296,13 +309,15 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
     ts_sampler_set u = step_bsdf_set(s);
     float pb = bsdf_sample(v->a, v->cs, v->n, v->wo, sampler_set_value(u, 0u),
                            sampler_set_value(u, 1u), sampler_set_value(u, 2u), &wi, f);
-    float cosi = v3_dot(v->n, wi);
-    if (!(pb > 0.0f && cosi > 0.0f)) return 0u;
-    if (!shade_survive(s, u, f, cosi / pb, throughput)) return 0u;
+    float cosi = v3_dot(v->n, wi); /* below 0 only through a translucent sheet */
+    if (!(pb > 0.0f && cosi != 0.0f)) return 0u;
+    if (!shade_survive(s, u, f, fabs(cosi) / pb, throughput)) return 0u;
     *mode = sp.light_count == 0u || sp.sampling == TS_SAMPLING_BSDF ? TS_MIS_ONE
             : sp.sampling == TS_SAMPLING_LIGHT                      ? TS_MIS_ZERO
                                                                     : TS_MIS_BALANCE;
-    emit_ray(r, s->i, v, wi, TS_NO_HIT, 0u);
+    shade_vertex out = *v; /* through the sheet: the ray leaves from its far side */
+    if (cosi < 0.0f) out.n = v3_scale(v->n, -1.0f);
+    emit_ray(r, s->i, &out, wi, TS_NO_HIT, 0u);
     *mis = pb;
     return TS_PATH_TRACED_BSDF;
 }

@@ -9,7 +9,9 @@
  *   is 1 for the cosine and the smooth GGX lobes (rough ones lose samples below the
  *   horizon, which the bins count);
  * - bsdf_sample's pdf and f are bsdf_eval's for the direction it returns.
- * Glass, a pair of delta lobes, is checked against Fresnel's and Snell's closed forms.
+ * Glass, a pair of delta lobes, is checked against Fresnel's and Snell's closed forms; the
+ * translucent sheet (diffuse transmission) by its two albedos, its share of samples sent
+ * through and its reciprocity.
  * Tolerances are 5 standard errors of the estimates. Host only: never skips. */
 #include "lib/bsdf.h"
 
@@ -314,13 +316,84 @@ static void test_rough_glass(void **state)
     }
 }
 
+/* TS_MAT_TRANSLUCENT, a thin Lambertian sheet: for several Kd, Ks and view angles, bsdf_sample's
+ * pdf and f are bsdf_eval's; the reflected albedo (samples on wo's side) is Kd Cs and the
+ * transmitted one (the far side) Ks Cs, so a white sheet of Kd + Ks = 1 loses nothing (the
+ * white furnace); the share of samples sent through is Ks / (Kd + Ks); the pdf integrates to 1
+ * over the sphere; f is reciprocal (the same through the sheet either way); a sheet that
+ * scatters nothing has pdf 0. */
+static void test_translucent(void **state)
+{
+    (void)state;
+    const float kds[][2] = {{0.5f, 0.5f}, {0.8f, 0.2f}, {0.0f, 0.7f}, {0.3f, 0.0f}};
+    const float cs[3] = {1.0f, 0.5f, 0.25f}, cos_o[] = {1.0f, 0.5f, 0.1f};
+    ts_v3 n = v3(0, 0, 1);
+    uint32_t seed = 777u;
+    for (size_t k = 0; k < sizeof kds / sizeof kds[0]; k++) {
+        ts_patch_attr a = material(TS_MAT_TRANSLUCENT, kds[k][0], kds[k][1], 0.1f);
+        for (size_t j = 0; j < sizeof cos_o / sizeof cos_o[0]; j++) {
+            float co = cos_o[j];
+            ts_v3 wo = v3(sqrtf(1.0f - co * co), 0.0f, co);
+            double sum[2][3] = {{0}}, sq[2][3] = {{0}}, through = 0;
+            for (int i = 0; i < N_SAMPLES; i++) {
+                float u0 = test_uniform(&seed, 0, 1), u1 = test_uniform(&seed, 0, 1),
+                      u2 = test_uniform(&seed, 0, 1), f[3], fe[3];
+                ts_v3 wi;
+                float pdf = bsdf_sample(&a, cs, n, wo, u0, u1, u2, &wi, f);
+                assert_true(pdf > 0.0f);
+                float pe = bsdf_eval(&a, cs, n, wo, wi, fe);
+                assert_true(pe == pdf && fe[0] == f[0] && fe[1] == f[1] && fe[2] == f[2]);
+                int side = wi.z < 0.0f;
+                through += side;
+                for (int ch = 0; ch < 3; ch++) {
+                    double w = f[ch] * fabsf(wi.z) / pdf;
+                    sum[side][ch] += w, sq[side][ch] += w * w;
+                }
+                /* reciprocity: wi -> wo through the sheet, seen from wi's side */
+                float fr[3];
+                bsdf_eval(&a, cs, side ? v3(0, 0, -1) : n, wi, wo, fr);
+                assert_true(fr[0] == f[0] && fr[1] == f[1] && fr[2] == f[2]);
+            }
+            for (int side = 0; side < 2; side++)
+                for (int ch = 0; ch < 3; ch++) {
+                    double mean = sum[side][ch] / N_SAMPLES,
+                           var = sq[side][ch] / N_SAMPLES - mean * mean;
+                    double want = (side ? a.ks : a.kd) * cs[ch];
+                    double tol = 5.0 * sqrt(fmax(var, 0.0) / N_SAMPLES) + 1e-6;
+                    if (fabs(mean - want) > tol)
+                        fail_msg("Kd %g Ks %g at cos %g: %s albedo %g in channel %d, want %g", a.kd,
+                                 a.ks, co, side ? "transmitted" : "reflected", mean, ch, want);
+                }
+            double share = through / N_SAMPLES, want = a.ks / (a.kd + a.ks);
+            if (fabs(share - want) > 5.0 * sqrt(want * (1 - want) / N_SAMPLES) + 1e-9)
+                fail_msg("Kd %g Ks %g: %g of the samples go through, want %g", a.kd, a.ks, share,
+                         want);
+            /* the pdf over the sphere, by uniform directions (density 1 / 4 pi) */
+            double total = 0;
+            for (int i = 0; i < N_UNIFORM; i++) {
+                float z = test_uniform(&seed, -1, 1), phi = test_uniform(&seed, 0, 2.0f * TS_PI);
+                float r = sqrtf(fmaxf(0.0f, 1.0f - z * z)), f[3];
+                total +=
+                    4.0 * TS_PI * bsdf_eval(&a, cs, n, wo, v3(r * cosf(phi), r * sinf(phi), z), f);
+            }
+            if (fabs(total / N_UNIFORM - 1.0) > 0.01)
+                fail_msg("Kd %g Ks %g: the pdf integrates to %g over the sphere", a.kd, a.ks,
+                         total / N_UNIFORM);
+        }
+    }
+    ts_patch_attr none = material(TS_MAT_TRANSLUCENT, 0.0f, 0.0f, 0.1f);
+    ts_v3 wi;
+    float f[3];
+    assert_true(bsdf_sample(&none, cs, n, n, 0.5f, 0.5f, 0.5f, &wi, f) == 0.0f);
+    assert_true(f[0] == 0.0f && f[1] == 0.0f && f[2] == 0.0f);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_materials),
-        cmocka_unit_test(test_metal_has_no_diffuse),
-        cmocka_unit_test(test_glass),
-        cmocka_unit_test(test_rough_glass),
+        cmocka_unit_test(test_materials),   cmocka_unit_test(test_metal_has_no_diffuse),
+        cmocka_unit_test(test_glass),       cmocka_unit_test(test_rough_glass),
+        cmocka_unit_test(test_translucent),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

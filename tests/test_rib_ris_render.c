@@ -11,6 +11,9 @@
  * - the same plane under PxrEnvDayLight at Seattle's solar noon on the June solstice and in
  *   the evening: Kd / pi times the sun's irradiance (the loaded distant light's) times its
  *   cosine plus the sky's (the baked map integrated against the cosine), and noon brighter.
+ * - LamaTranslucent: the plane lit from behind is 0.7 / pi times the far side's irradiance,
+ *   black lit from the front; a sphere of half-reflecting, half-transmitting white sheets is
+ *   a furnace (1 everywhere).
  * Needs an OpenCL device (skipped, 77, without one). */
 #include "test_support.h"
 #include "image/image.h"
@@ -140,18 +143,19 @@ static void test_disney_furnace(void **state)
         fail_msg("every lobe: mean %g, want at most 1", means[1][0]);
 }
 
-/* The plane z = 0 (Kd 0.7, seen orthographically through [-4, 4]^2 from z < 0) and a light
- * at z = -2 beside the window, centred at x = 6. */
-static void write_plane(const char *name, const char *light)
+#define PLANE_DIFFUSE "Bxdf \"PxrDiffuse\" \"d\" \"color diffuseColor\" [0.7 0.7 0.7]"
+
+/* The plane z = 0 of material bxdf (PLANE_DIFFUSE: Kd 0.7; seen orthographically through
+ * [-4, 4]^2 from z < 0) and a light placed from z = -2 beside the window, centred at x = 6. */
+static void write_plane(const char *name, const char *light, const char *bxdf)
 {
     FILE *f = fopen(path(name), "w");
     assert_non_null(f);
     fprintf(f,
             "Format 64 64 1\nProjection \"orthographic\"\nScreenWindow -4 4 -4 4\n"
             "Translate 0 0 10\nWorldBegin\nAttributeBegin\nTranslate 6 0 -2\n%s\nAttributeEnd\n"
-            "Bxdf \"PxrDiffuse\" \"d\" \"color diffuseColor\" [0.7 0.7 0.7]\n"
-            "Patch \"bilinear\" \"P\" [-5 -5 0  5 -5 0  -5 5 0  5 5 0]\nWorldEnd\n",
-            light);
+            "%s\nPatch \"bilinear\" \"P\" [-5 -5 0  5 -5 0  -5 5 0  5 5 0]\nWorldEnd\n",
+            light, bxdf);
     fclose(f);
 }
 
@@ -182,14 +186,15 @@ static double polygon_irradiance(const double v[][3], int n, double L, const dou
     return 0.5 * L * fabs(sum);
 }
 
-/* Renders `light` over the plane and compares the image's mean with kd / pi times the mean
- * of irradiance(q) over the pixel centres. The estimate of each pixel is unbiased and the
- * irradiance varies smoothly across a pixel, so the two agree within the noise of
- * 64 x 64 x SPP light samples; `tol` is relative. */
-static void check_plane(const char *light, double (*irradiance)(const double q[3]), int spp,
-                        const char *extra, double tol)
+/* Renders `light` over the plane of material bxdf and compares the image's mean with 0.7 / pi
+ * times the mean of irradiance(q) over the pixel centres (0 when irradiance is NULL). The estimate
+ * of each pixel is unbiased and the irradiance varies smoothly across a pixel, so the two agree
+ * within the noise of 64 x 64 x SPP light samples; `tol` is relative. */
+static void check_plane(const char *light, const char *bxdf,
+                        double (*irradiance)(const double q[3]), int spp, const char *extra,
+                        double tol)
 {
-    write_plane("ris_plane.rib", light);
+    write_plane("ris_plane.rib", light, bxdf);
     char args[256];
     snprintf(args, sizeof args, "--spp %d --depth 1 %s", spp, extra);
     render("ris_plane.rib", "ris_plane.exr", args);
@@ -200,11 +205,11 @@ static void check_plane(const char *light, double (*irradiance)(const double q[3
         for (int x = 0; x < 64; ++x) {
             double q[3];
             pixel_point(x, y, q);
-            want += 0.7 / M_PI * irradiance(q);
+            want += irradiance ? 0.7 / M_PI * irradiance(q) : 0.0;
             got += img.pixels[((size_t)y * 64 + x) * img.channels];
         }
     image_free(&img);
-    if (!(fabs(got - want) <= tol * want))
+    if (!(fabs(got - want) <= tol * want) || (!irradiance && got != 0.0))
         fail_msg("%s: image mean %.6g, closed form %.6g (+- %g relative)", light, got / 4096,
                  want / 4096, tol);
 }
@@ -234,14 +239,14 @@ static void test_rect_light(void **state)
     (void)state;
     check_plane("Rotate 180 1 0 0\nScale 2 2 1\nLight \"PxrRectLight\" \"r\" \"float intensity\" "
                 "[3] \"float exposure\" [-1] \"color lightColor\" [2 2 2]",
-                rect_irradiance, 32, "", 0.01);
+                PLANE_DIFFUSE, rect_irradiance, 32, "", 0.01);
 }
 
 static void test_sphere_light(void **state)
 {
     (void)state;
-    check_plane("Light \"PxrSphereLight\" \"s\" \"float intensity\" [4]", sphere_irradiance, 256,
-                "--sampling bsdf --lod 9", 0.03);
+    check_plane("Light \"PxrSphereLight\" \"s\" \"float intensity\" [4]", PLANE_DIFFUSE,
+                sphere_irradiance, 256, "--sampling bsdf --lod 9", 0.03);
 }
 
 /* The irradiance on the plane's lit side (normal -z) from the scene's sun and dome: the
@@ -280,6 +285,66 @@ static double daylight_irradiance(const char *rib)
     return total;
 }
 
+/* The same square light behind the plane (at z = 2, emitting towards -z): the irradiance on
+ * the plane's far side. */
+static double rect_behind_irradiance(const double q[3])
+{
+    const double v[4][3] = {{5, -1, 2}, {7, -1, 2}, {7, 1, 2}, {5, 1, 2}};
+    return polygon_irradiance(v, 4, 3.0, q);
+}
+
+/* LamaTranslucent (TS_MAT_TRANSLUCENT), a thin sheet that transmits all it scatters: lit from
+ * behind by the square light, the side the camera sees is 0.7 / pi times the irradiance on
+ * the far side; lit from the front it is black, and so is a PxrDiffuse plane lit from
+ * behind. LamaMix of the two at 0.5 under the light in front: half the diffuse plane. */
+static void test_translucent_sheet(void **state)
+{
+    (void)state;
+    const char *behind = "Translate 0 0 4\nScale 2 2 1\nLight \"PxrRectLight\" \"r\" \"float "
+                         "intensity\" [3] \"float exposure\" [-1] \"color lightColor\" [2 2 2]";
+    const char *front = "Rotate 180 1 0 0\nScale 2 2 1\nLight \"PxrRectLight\" \"r\" \"float "
+                        "intensity\" [3] \"float exposure\" [-1] \"color lightColor\" [2 2 2]";
+    const char *sheet = "Bxdf \"LamaTranslucent\" \"t\" \"color color\" [0.7 0.7 0.7]";
+    check_plane(behind, sheet, rect_behind_irradiance, 32, "", 0.01);
+    check_plane(front, sheet, NULL, 4, "", 0.0);
+    check_plane(behind, PLANE_DIFFUSE, NULL, 4, "", 0.0);
+    check_plane(front,
+                "Bxdf \"LamaDiffuse\" \"d\" \"color color\" [1.4 1.4 1.4]\n" /* 0.7 at mix 0.5 */
+                "Bxdf \"LamaTranslucent\" \"t\" \"color color\" [0.5 0.5 0.5]\n"
+                "Bxdf \"LamaMix\" \"m\" \"reference bxdf material1\" [\"d\"] \"reference bxdf "
+                "material2\" [\"t\"] \"float mix\" [0.5]",
+                rect_irradiance, 32, "", 0.01);
+}
+
+/* A sphere of thin translucent sheets (LamaMix of a white LamaDiffuse and a white
+ * LamaTranslucent: half reflected, half transmitted, nothing lost) under a dome of radiance
+ * 1: inside and out every path keeps its throughput and leaves with radiance 1, so BSDF
+ * sampling gives 1 in every pixel; light sampling (the dome sampled on the side each vertex
+ * chooses, lib/bsdf.h translucent_front_prob) gives 1 on average. */
+static void test_translucent_furnace(void **state)
+{
+    (void)state;
+    FILE *f = fopen(path("sheet_furnace.rib"), "w");
+    assert_non_null(f);
+    fprintf(f, "Format 64 64 1\nProjection \"PxrPerspective\" \"fov\" [40]\nTranslate 0 0 4\n"
+               "WorldBegin\nLight \"PxrDomeLight\" \"dome\" \"float intensity\" [1]\n"
+               "Bxdf \"LamaDiffuse\" \"d\" \"color color\" [1 1 1]\n"
+               "Bxdf \"LamaTranslucent\" \"t\" \"color color\" [1 1 1]\n"
+               "Bxdf \"LamaMix\" \"m\" \"reference bxdf material1\" [\"d\"] \"reference bxdf "
+               "material2\" [\"t\"] \"float mix\" [0.5]\n");
+    test_write_sphere_patches(f, 2, 1.0);
+    fputs("WorldEnd\n", f);
+    fclose(f);
+    render("sheet_furnace.rib", "sheet_furnace.exr", "--spp 4 --depth 40");
+    double mean, hi;
+    sphere_pixels("sheet_furnace.exr", &mean, &hi);
+    if (!(fabs(mean - 1.0) < 1e-3 && hi < 1.001))
+        fail_msg("BSDF sampling: mean %.6f, largest %.6f, want 1", mean, hi);
+    render("sheet_furnace.rib", "sheet_furnace.exr", "--spp 64 --depth 40 --sampling light");
+    sphere_pixels("sheet_furnace.exr", &mean, &hi);
+    if (!(fabs(mean - 1.0) < 0.01)) fail_msg("light sampling: mean %.6f, want 1", mean);
+}
+
 /* PxrEnvDayLight turned so that its zenith is the lit side's normal (-z), at Seattle on 21
  * June 2014 at `hour` PST: the image's mean is 0.7 / pi times the irradiance. */
 static double check_daylight(double hour)
@@ -290,7 +355,7 @@ static double check_daylight(double hour)
              "[21] \"int year\" [2014] \"float hour\" [%g] \"float zone\" [-8] "
              "\"float latitude\" [47.6062] \"float longitude\" [-122.3321]",
              hour);
-    write_plane("ris_day.rib", light);
+    write_plane("ris_day.rib", light, PLANE_DIFFUSE);
     double want = 0.7 / M_PI * daylight_irradiance("ris_day.rib");
     render("ris_day.rib", "ris_day.exr", "--spp 16 --depth 1");
     ts_image img;
@@ -315,9 +380,13 @@ static void test_daylight(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_dome_furnace), cmocka_unit_test(test_disney_furnace),
-        cmocka_unit_test(test_rect_light),   cmocka_unit_test(test_sphere_light),
+        cmocka_unit_test(test_dome_furnace),
+        cmocka_unit_test(test_disney_furnace),
+        cmocka_unit_test(test_rect_light),
+        cmocka_unit_test(test_sphere_light),
         cmocka_unit_test(test_daylight),
+        cmocka_unit_test(test_translucent_sheet),
+        cmocka_unit_test(test_translucent_furnace),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

@@ -365,6 +365,58 @@ static void test_bxdf_lama_layer(void **state)
     test_assert_near(a.clearcoat, 4, 1e-6);
 }
 
+/* Diffuse transmission (TS_MAT_TRANSLUCENT, Kd Cs reflected and Ks Cs transmitted):
+ * LamaTranslucent transmits all (Kd 0, Ks 1, Cs its colour, 0.18 by default); LamaMix of a
+ * matte and a translucent sheet is one sheet, exact when their colours are proportional (Cs the
+ * sum of the two albedos, Kd and Ks their shares), else one warning; PxrSurface's
+ * diffuseTransmitGain beside its diffuse lobe alone likewise, and beside a specular lobe it is
+ * not drawn (one warning); a translucent sheet with a metal: the larger share. */
+static void test_bxdf_translucent(void **state)
+{
+    (void)state;
+    ts_patch_attr a = test_rib_one_patch("Bxdf \"LamaTranslucent\" \"t\"");
+    assert_int_equal(a.material, TS_MAT_TRANSLUCENT);
+    test_assert_near(a.kd, 0, 0), test_assert_near(a.ks, 1, 0),
+        test_assert_cs(&a, 0.18, 0.18, 0.18);
+    char body[1024];
+    lama_mix(body, RED, "Bxdf \"LamaTranslucent\" \"leaf\" \"color color\" [0.4 0 0]\n", "red",
+             "leaf", "0.5");
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_TRANSLUCENT), test_assert_cs(&a, 0.6, 0, 0);
+    test_assert_near(a.kd, 2.0 / 3.0, 1e-6), test_assert_near(a.ks, 1.0 / 3.0, 1e-6);
+    assert_string_equal(test_rib_body_warnings(body), "");
+    lama_mix(body, RED, "Bxdf \"LamaTranslucent\" \"leaf\" \"color color\" [0 0.4 0]\n", "red",
+             "leaf", "0.5");
+    a = test_rib_one_patch(body);
+    test_assert_cs(&a, 0.4, 0.2, 0), test_assert_near(a.kd, 2.0 / 3.0, 1e-6);
+    assert_string_equal(test_rib_body_warnings(body),
+                        "w.rib:4:1: warning: Bxdf \"LamaMix\": the reflected and transmitted "
+                        "colours differ and are drawn as one, their sum (each lobe keeps its mean "
+                        "albedo: an approximation)\n");
+    const char *leaf = "Bxdf \"PxrSurface\" \"s\" \"float diffuseGain\" [0.5] \"color "
+                       "diffuseColor\" [0.5 0.5 0.5] \"float diffuseTransmitGain\" [0.5] \"color "
+                       "diffuseTransmitColor\" [0.5 0.5 0.5]";
+    a = test_rib_one_patch(leaf);
+    assert_int_equal(a.material, TS_MAT_TRANSLUCENT), test_assert_cs(&a, 0.5, 0.5, 0.5);
+    test_assert_near(a.kd, 0.5, 1e-6), test_assert_near(a.ks, 0.5, 1e-6);
+    assert_string_equal(test_rib_body_warnings(leaf), "");
+    const char *shiny = "Bxdf \"PxrSurface\" \"s\" \"color specularFaceColor\" [0.04 0.04 0.04] "
+                        "\"color specularEdgeColor\" [1 1 1] \"float diffuseTransmitGain\" [1]";
+    a = test_rib_one_patch(shiny);
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED);
+    assert_string_equal(test_rib_body_warnings(shiny),
+                        "w.rib:2:1: warning: Bxdf \"PxrSurface\": \"diffuseTransmitGain\" is not "
+                        "0, but diffuse transmission is drawn only beside a diffuse lobe alone (no "
+                        "specular lobe or clear coat)\n");
+    lama_mix(body, "Bxdf \"LamaConductor\" \"gold\"\n", "Bxdf \"LamaTranslucent\" \"leaf\"\n",
+             "gold", "leaf", "0.75");
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_TRANSLUCENT);
+    assert_string_equal(test_rib_body_warnings(body),
+                        "w.rib:4:1: warning: Bxdf \"LamaMix\": a translucent sheet with another "
+                        "material cannot be mixed: it is drawn as material2, the larger share\n");
+}
+
 /* PxrSurface onto the principled BRDF: Cs = diffuseGain diffuseColor, specular =
  * specularFaceColor / 0.08, GGX alpha = specularRoughness^2, clearcoat 4 c / c(0.04) with c
  * the coat's hemispherical mean Schlick Fresnel, gloss from clearcoatRoughness; a conductor
@@ -890,6 +942,7 @@ int main(void)
         cmocka_unit_test(test_bxdf_lama_defaults),
         cmocka_unit_test(test_bxdf_lama_add),
         cmocka_unit_test(test_bxdf_lama_layer),
+        cmocka_unit_test(test_bxdf_translucent),
         cmocka_unit_test(test_pattern_texture),
         cmocka_unit_test(test_pattern_tex_sibling),
         cmocka_unit_test(test_pattern_unknown),

@@ -132,6 +132,27 @@ TS_INLINE float bsdf_spec_prob(TS_CONST_GLOBAL ts_patch_attr *a)
     return a->material == TS_MAT_METAL ? 1.0f : plastic_spec_prob(a);
 }
 
+/* Probability that bsdf_sample reflects a translucent material's sample (TS_MAT_TRANSLUCENT):
+ * its reflected share Kd / (Kd + Ks), 0 when it scatters nothing. */
+TS_INLINE float translucent_front_prob(TS_CONST_GLOBAL ts_patch_attr *a)
+{
+    float s = a->kd + a->ks;
+    return s > 0.0f ? a->kd / s : 0.0f;
+}
+
+/* TS_MAT_TRANSLUCENT: f = Kd Cs / pi for wi on wo's side of n (ci > 0), Ks Cs / pi on the far
+ * side (ci < 0: diffuse transmission through a thin sheet, which is reciprocal: the same
+ * either way through); the pdf of bsdf_sample's choice of side times |ci| / pi. */
+TS_INLINE float translucent_eval(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], float co,
+                                 float ci, float f[3])
+{
+    f[0] = f[1] = f[2] = 0.0f;
+    if (co <= 0.0f || ci == 0.0f || !(a->kd + a->ks > 0.0f)) return 0.0f;
+    float pr = translucent_front_prob(a), k = (ci > 0.0f ? a->kd : a->ks) / TS_PI;
+    f[0] = k * cs[0], f[1] = k * cs[1], f[2] = k * cs[2];
+    return (ci > 0.0f ? pr : 1.0f - pr) * fabs(ci) / TS_PI;
+}
+
 /* f(wo, wi) (rgb in r[]) and the pdf of sampling wi with bsdf_sample; cs: the surface
  * colour at the point (Cs, times the colour texture if any; lib/texture.h
  * tex_surface_colour). */
@@ -140,6 +161,7 @@ TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], t
 {
     float ci = v3_dot(n, wi), co = v3_dot(n, wo);
     f[0] = f[1] = f[2] = 0.0f;
+    if (a->material == TS_MAT_TRANSLUCENT) return translucent_eval(a, cs, co, ci, f);
     if (ci <= 0.0f || co <= 0.0f || a->material == TS_MAT_GLASS) return 0.0f;
     if (a->material == TS_MAT_PRINCIPLED) return principled_eval(a, cs, n, wo, wi, co, ci, f);
     int metal = a->material == TS_MAT_METAL;
@@ -162,12 +184,16 @@ TS_INLINE float bsdf_eval(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], t
     return pdf;
 }
 
-/* Samples wi from (u0, u1, u2); returns its pdf (0 when the sample is below the surface),
- * with f(wo, wi) in f[]. */
+/* Samples wi from (u0, u1, u2); returns its pdf (0 when the sample is below the surface; a
+ * translucent material's may lie on the far side of n), with f(wo, wi) in f[]. */
 TS_INLINE float bsdf_sample(TS_CONST_GLOBAL ts_patch_attr *a, const float cs[3], ts_v3 n, ts_v3 wo,
                             float u0, float u1, float u2, ts_v3 *wi, float f[3])
 {
     if (a->material == TS_MAT_PRINCIPLED) return principled_sample(a, cs, n, wo, u0, u1, u2, wi, f);
+    if (a->material == TS_MAT_TRANSLUCENT) { /* a side by its share, then cosine about it */
+        *wi = sample_cosine(u0 < translucent_front_prob(a) ? n : v3_scale(n, -1.0f), u1, u2);
+        return bsdf_eval(a, cs, n, wo, *wi, f);
+    }
     float ps = bsdf_spec_prob(a);
     if (u0 < ps) {
         *wi = ggx_reflect_sample(n, wo, a->roughness, u1, u2);

@@ -201,6 +201,10 @@ typedef struct ts_hit {
     4u /* Burley 2012's principled BRDF, base colour Cs, GGX alpha = roughness, the metallic ...   \
           clearcoat_gloss fields; layered so that it never reflects more than it receives          \
           (lib/principled.h) */
+#define TS_MAT_TRANSLUCENT                                                                         \
+    5u /* a thin sheet, Lambertian on both sides: Kd * Cs / pi reflected, Ks * Cs / pi             \
+          transmitted to the far side (diffuse transmission; no medium: lib/bsdf.h                 \
+          translucent_eval) */
 
 /* Per-patch attributes from the scene, 160 bytes.
  * Displacement d(P) moves a surface point along its displacement normal (the bilinear
@@ -222,7 +226,7 @@ typedef struct ts_patch_attr {
     float disp_gain;         /* amplitude ratio between octaves (default 0.5) */
     ts_u32 xform;            /* index of the patch's world-to-object transform */
     ts_u32 material;         /* TS_MAT_* */
-    float kd, ks, roughness; /* diffuse and specular weights, GGX alpha */
+    float kd, ks, roughness; /* diffuse and specular (translucent: transmitted) weights, alpha */
     ts_u32 emitter;          /* index in the emitter table, TS_INVALID if it does not emit */
     float le_r, le_g, le_b;  /* emitted radiance */
     ts_u32 color_tex;        /* texture multiplying Cs when flags has TS_PATCH_COLOR_TEX */

@@ -23,6 +23,7 @@ typedef struct bxdf_args {
     double spec_face[3], spec_edge[3], spec_rough; /* the specular lobe (Schlick face/edge) */
     double coat_face[3], coat_edge[3];             /* PxrSurface's clearcoat */
     double refr_gain, refr_color[3], glass_rough;  /* PxrSurface's glass (refraction) lobe */
+    double dt_gain, dt_color[3];                   /* PxrSurface's diffuse transmission */
     double glow_gain, glow[3];                     /* emission */
     double metallic, specular, specular_tint;      /* PxrDisney */
     double sheen, sheen_tint, clearcoat, clearcoat_gloss;
@@ -41,7 +42,8 @@ typedef enum bxdf_kind {
     BXDF_CONDUCTOR,  /* PxrConductor, LamaConductor: metal */
     BXDF_CONSTANT,   /* PxrConstant, LamaEmission: emits, reflects nothing */
     BXDF_DIELECTRIC, /* PxrDielectric, LamaDielectric, PxrGlass: glass, smooth or rough */
-    BXDF_EMISSION    /* PxrLightEmission: reflects nothing; its light is the AreaLightSource's */
+    BXDF_EMISSION,   /* PxrLightEmission: reflects nothing; its light is the AreaLightSource's */
+    BXDF_TRANSLUCENT /* LamaTranslucent: diffuse transmission through a thin sheet */
 } bxdf_kind;
 
 /* One parameter a Bxdf reads: 1 or 3 numbers into bxdf_args at off; colour: a PxrTexture may
@@ -77,6 +79,8 @@ static const bxdf_param bxdf_surface_params[] = {
     BP("refractionColor", 3, refr_color),
     BP("glassIor", 1, ior),
     BP("glassRoughness", 1, glass_rough),
+    BP("diffuseTransmitGain", 1, dt_gain),
+    BP("diffuseTransmitColor", 3, dt_color),
 };
 static const bxdf_param bxdf_disney_params[] = {
     BC("baseColor", color),
@@ -111,6 +115,8 @@ static const bxdf_param bxdf_lm_diffuse_params[] = {BC("frontColor", color)};
  * reflectionColor, transmissionColor, thin and its layers are warned about as unread. */
 static const bxdf_param bxdf_lm_glass_params[] = {
     BP("eta", 1, ior), BP("refractionColor", 3, refr_color), BP("roughness", 1, spec_rough)};
+/* LamaTranslucent: its colour (ND_lama_translucent's 0.18), all of it transmitted. */
+static const bxdf_param bxdf_translucent_params[] = {BC("color", color)};
 static const bxdf_param bxdf_constant_params[] = {BC("emitColor", color), BC("color", color)};
 static const bxdf_param bxdf_dielectric_params[] = {BP("roughness", 1, spec_rough),
                                                     BP("ior", 1, ior), BP("IOR", 1, ior)};
@@ -142,6 +148,7 @@ static const struct {
     {"PxrLMGlass", BXDF_DIELECTRIC, BXDF_PARAMS(bxdf_lm_glass_params)},
     {"PxrLMMetal", BXDF_CONDUCTOR, BXDF_PARAMS(bxdf_conductor_params)},
     {"PxrLightEmission", BXDF_EMISSION, NULL, 0},
+    {"LamaTranslucent", BXDF_TRANSLUCENT, BXDF_PARAMS(bxdf_translucent_params)},
 };
 #define BXDF_COUNT (sizeof bxdf_table / sizeof bxdf_table[0])
 
@@ -158,7 +165,6 @@ static const struct {
     {"singlescatter", "singlescatterGain", "single scattering is not supported"},
     {"iridescence", "iridescenceFaceGain", "iridescence is not drawn"},
     {"roughSpecular", "roughSpecularFaceColor", "the rough specular lobe is not drawn"},
-    {"diffuseTransmit", "diffuseTransmitGain", "diffuse transmission is not drawn"},
     {"subsurface", "subsurface", "subsurface scattering is not supported"},
     {"clearcoat", "clearcoatThickness", "the clear coat's absorption is not drawn"},
     {"specTrans", "specTrans", "refraction is not supported yet"},
@@ -178,6 +184,7 @@ static bxdf_args bxdf_defaults(bxdf_kind kind)
                    .ior = 1.5,
                    .refr_color = {1, 1, 1},
                    .glass_rough = 0.1,
+                   .dt_color = {0.18, 0.18, 0.18}, /* PxrSurface's diffuseTransmitColor */
                    .sheen_tint = 0.5,
                    .clearcoat_gloss = 1.0};
     if (kind == BXDF_DIFFUSE) a.color[0] = a.color[1] = a.color[2] = 0.5; /* PxrDiffuse */
@@ -458,6 +465,41 @@ static void bxdf_surface(rib_parser *p, const char *bxdf, const bxdf_args *a, ri
     s->clearcoat_gloss = (0.1 - fmin(fmax(alpha_c, 0.01), 0.1)) / 0.09;
 }
 
+/* A thin sheet that reflects albedo refl and transmits albedo trans (per channel), as one
+ * material (TS_MAT_TRANSLUCENT; matte when it transmits nothing): Cs = refl + trans, Kd and Ks
+ * their shares of its mean. Exact when refl and trans are proportional (or one is 0): else
+ * their two colours are drawn as one, with one warning naming `what`. A sum above 1 in a
+ * channel would scatter more than arrives: scaled down to 1, with one warning. */
+static void bxdf_sheet(rib_parser *p, const char *what, const double refl[3], const double trans[3],
+                       rib_surface *s)
+{
+    char msg[RIB_WARN_KEY];
+    double sum[3], mr = 0.0, mt = 0.0, big = 0.0, cross = 0.0;
+    for (int c = 0; c < 3; c++) {
+        sum[c] = refl[c] + trans[c], mr += refl[c], mt += trans[c], big = fmax(big, sum[c]);
+        for (int d = 0; d < 3; d++) /* proportional: refl[c] trans[d] = refl[d] trans[c] */
+            cross = fmax(cross, fabs(refl[c] * trans[d] - refl[d] * trans[c]));
+    }
+    s->material = mt > 0.0 ? TS_MAT_TRANSLUCENT : TS_MAT_MATTE;
+    s->kd = mr + mt > 0.0 ? mr / (mr + mt) : 0.0, s->ks = mr + mt > 0.0 ? mt / (mr + mt) : 0.0;
+    for (int c = 0; c < 3; c++)
+        s->color[c] = big > 1.0 ? sum[c] / big : sum[c];
+    if (cross > 1e-9 * (mr + mt) * (mr + mt)) {
+        snprintf(msg, sizeof msg,
+                 "%s: the reflected and transmitted colours differ and are drawn as one, their "
+                 "sum (each lobe keeps its mean albedo: an approximation)",
+                 what);
+        rib_warn_once(p, p->req_line, p->req_col, msg);
+    }
+    if (big > 1.0) {
+        snprintf(msg, sizeof msg,
+                 "%s: reflection and transmission sum to %g: scaled down to 1 (energy "
+                 "conservation)",
+                 what, big);
+        rib_warn_once(p, p->req_line, p->req_col, msg);
+    }
+}
+
 /* The material of a Bxdf of `kind` from its arguments (docs/rib.md "RIS shading"). */
 static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const bxdf_args *a,
                           rib_surface *s)
@@ -497,7 +539,9 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
             s->color[c] = a->tint[c] * bxdf_schlick_mean(f0, edge);
         }
     } else if (kind == BXDF_CONSTANT) {
-        s->kd = 0.0, s->constant = 1; /* emits its colour (rib_geom.c), reflects nothing */
+        s->kd = 0.0, s->constant = 1;      /* emits its colour (rib_geom.c), reflects nothing */
+    } else if (kind == BXDF_TRANSLUCENT) { /* all of it through: Kd 0, Ks 1 */
+        s->material = TS_MAT_TRANSLUCENT, s->kd = 0.0, s->ks = 1.0;
     } else if (kind == BXDF_EMISSION) {
         /* RenderMan 20's light geometry (rib_ris_light.c rib_rm20_area_light): the emission
          * is the AreaLightSource's, and the surface reflects nothing. */
@@ -509,6 +553,23 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
         for (int c = 0; c < 3; c++)
             tint[c] = fmin(1.0, fmax(0.0, a->refr_color[c]));
         bxdf_glass(p, bxdf, a->ior, tint, s);
+    }
+    if (kind == BXDF_SURFACE && a->dt_gain > 0.0) {
+        /* PxrSurface's diffuse transmission beside its diffuse lobe alone: a translucent
+         * sheet; beside a specular lobe or a coat (the principled BRDF) it is not drawn */
+        snprintf(what, sizeof what, "Bxdf \"%s\"", bxdf);
+        if (s->material == TS_MAT_MATTE) {
+            double refl[3], trans[3];
+            for (int c = 0; c < 3; c++)
+                refl[c] = s->kd * s->color[c], trans[c] = a->dt_gain * a->dt_color[c];
+            bxdf_sheet(p, what, refl, trans, s);
+        } else {
+            snprintf(what, sizeof what,
+                     "Bxdf \"%s\": \"diffuseTransmitGain\" is not 0, but diffuse transmission "
+                     "is drawn only beside a diffuse lobe alone (no specular lobe or clear coat)",
+                     bxdf);
+            rib_warn_once(p, p->req_line, p->req_col, what);
+        }
     }
     if (kind == BXDF_SURFACE && a->refr_gain > 0.0) {
         /* PxrSurface's glass lobe: the surface is glass of index glassIor, alpha
@@ -644,7 +705,8 @@ static void bxdf_scale(rib_parser *p, const lama_node *nd, double s, rib_surface
     if (s >= 1.0) return;
     for (int c = 0; c < 3; c++)
         m->emit[c] *= s;
-    if (m->material == TS_MAT_MATTE || m->material == TS_MAT_PLASTIC) {
+    if (m->material == TS_MAT_MATTE || m->material == TS_MAT_PLASTIC ||
+        m->material == TS_MAT_TRANSLUCENT) {
         m->kd *= s, m->ks *= s;
         if (!m->constant) return;
     }
@@ -690,15 +752,32 @@ static void bxdf_mix_surfaces(rib_parser *p, const lama_node *nd, const rib_surf
             out->emit[c] += we * (e->color[c] + e->emit[c]);
         return;
     }
+    int t1 = m1->material == TS_MAT_TRANSLUCENT, t2 = m2->material == TS_MAT_TRANSLUCENT;
+    int sheets = (t1 || (m1->material == TS_MAT_MATTE && m1->ks == 0.0)) &&
+                 (t2 || (m2->material == TS_MAT_MATTE && m2->ks == 0.0));
+    if ((t1 || t2) && sheets && !m1->textured && !m2->textured) { /* matte and translucent */
+        double refl[3], trans[3];
+        for (int c = 0; c < 3; c++) {
+            double r1 = m1->kd * m1->color[c], r2 = m2->kd * m2->color[c];
+            double x1 = t1 ? m1->ks * m1->color[c] : 0.0, x2 = t2 ? m2->ks * m2->color[c] : 0.0;
+            refl[c] = (1.0 - w) * r1 + w * r2, trans[c] = (1.0 - w) * x1 + w * x2;
+        }
+        snprintf(what, sizeof what, "Bxdf \"%s\"", nd->name);
+        *out = *m1;
+        bxdf_sheet(p, what, refl, trans, out);
+        mix3(m1->emit, m2->emit, w, out->emit);
+        return;
+    }
     const rib_surface *big = w < 0.5 ? m1 : m2;
     int same = m1->material == m2->material && m1->roughness == m2->roughness;
-    if (m1->textured || m2->textured ||
+    if (t1 || t2 || m1->textured || m2->textured ||
         ((m1->material == TS_MAT_GLASS) != (m2->material == TS_MAT_GLASS)) ||
         (m1->material == TS_MAT_GLASS && (!same || m1->ior != m2->ior))) {
         snprintf(what, sizeof what,
                  "Bxdf \"%s\": %s cannot be mixed: it is drawn as %s, the larger share", nd->name,
-                 m1->textured || m2->textured ? "a textured material"
-                                              : "glass with another material",
+                 t1 || t2                       ? "a translucent sheet with another material"
+                 : m1->textured || m2->textured ? "a textured material"
+                                                : "glass with another material",
                  nd->material[w < 0.5 ? 0 : 1]);
         rib_warn_once(p, p->req_line, p->req_col, what);
         *out = *big;
@@ -795,7 +874,8 @@ static void bxdf_layer(rib_parser *p, const lama_node *nd, const rib_surface *m[
         bxdf_scale(p, nd, w, out);
         return;
     }
-    if (top->material != TS_MAT_GLASS || base->material == TS_MAT_GLASS || base->constant) {
+    if (top->material != TS_MAT_GLASS || base->material == TS_MAT_GLASS || base->constant ||
+        base->material == TS_MAT_TRANSLUCENT) {
         bxdf_mix_surfaces(p, nd, base, top, w, out);
         return;
     }
@@ -967,6 +1047,13 @@ int rib_req_bxdf(rib_parser *p)
     if (link.textured && s.material == TS_MAT_PRINCIPLED && a.diffuse_gain != 1.0) {
         snprintf(what, sizeof what,
                  "Bxdf \"%s\": diffuseGain does not scale a colour connected to a texture",
+                 bxdf_table[k].name);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
+    if (link.textured && s.material == TS_MAT_TRANSLUCENT && s.kd > 0.0) {
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": the texture connected to its colour colours the transmitted light "
+                 "too (one colour for both lobes)",
                  bxdf_table[k].name);
         rib_warn_once(p, p->req_line, p->req_col, what);
     }
