@@ -365,6 +365,38 @@ static void test_bxdf_lama_layer(void **state)
     test_assert_near(a.clearcoat, 4, 1e-6);
 }
 
+/* LamaSurface, the end of a Lama network: its materialFront (here a LamaLayer) on the surface,
+ * silent about its feature switches; a different materialBack and a presence below 1 warn.
+ * Without a materialFront it is read as before, a matte of its diffuse colour. */
+static void test_bxdf_lama_surface(void **state)
+{
+    (void)state;
+    char body[1024];
+    lama_node(body,
+              RED "Bxdf \"LamaDielectric\" \"coat\"\n"
+                  "Bxdf \"LamaLayer\" \"paint\" \"reference bxdf materialBase\" [\"red\"] "
+                  "\"reference bxdf materialTop\" [\"coat\"]\n",
+              "LamaSurface",
+              "\"reference bxdf materialFront\" [\"paint:bxdf_out\"] \"int computePresence\" [0] "
+              "\"int materialSides\" [1] \"string lobeName\" [\"x\"]");
+    ts_patch_attr a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_PRINCIPLED), test_assert_near(a.clearcoat, 4, 1e-6);
+    test_assert_cs(&a, 0.8, 0, 0);
+    assert_string_equal(test_rib_body_warnings(body), "");
+    lama_node(body, RED BLUE, "LamaSurface",
+              "\"reference bxdf materialFront\" [\"red\"] \"reference bxdf materialBack\" "
+              "[\"blue\"] \"float presence\" [0.5]");
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_MATTE), test_assert_cs(&a, 0.8, 0, 0);
+    assert_string_equal(test_rib_body_warnings(body),
+                        "w.rib:4:1: warning: Bxdf \"LamaSurface\": materialBack is not drawn: both "
+                        "sides of the surface show materialFront\n"
+                        "w.rib:4:1: warning: Bxdf \"LamaSurface\": \"presence\" (cut-outs) is not "
+                        "supported: the surface renders opaque\n");
+    a = test_rib_one_patch("Bxdf \"LamaSurface\" \"s\" \"color diffuseColor\" [0.1 0.2 0.3]");
+    assert_int_equal(a.material, TS_MAT_MATTE), test_assert_cs(&a, 0.1, 0.2, 0.3);
+}
+
 /* Diffuse transmission (TS_MAT_TRANSLUCENT, Kd Cs reflected and Ks Cs transmitted):
  * LamaTranslucent transmits all (Kd 0, Ks 1, Cs its colour, 0.18 by default); LamaMix of a
  * matte and a translucent sheet is one sheet, exact when their colours are proportional (Cs the
@@ -943,6 +975,7 @@ int main(void)
         cmocka_unit_test(test_bxdf_lama_add),
         cmocka_unit_test(test_bxdf_lama_layer),
         cmocka_unit_test(test_bxdf_translucent),
+        cmocka_unit_test(test_bxdf_lama_surface),
         cmocka_unit_test(test_pattern_texture),
         cmocka_unit_test(test_pattern_tex_sibling),
         cmocka_unit_test(test_pattern_unknown),

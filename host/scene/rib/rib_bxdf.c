@@ -683,8 +683,9 @@ static rib_surface bxdf_as_principled(const rib_surface *s)
 }
 
 /* A Lama node that combines two Bxdfs: its name, its two material inputs (connections to Bxdf
- * handles), its float inputs and their defaults, MaterialX's ND_lama_mix_bsdf, ND_lama_add_bsdf
- * and ND_lama_layer_bsdf (Pixar's Lama nodes). */
+ * handles), its float inputs and their defaults, MaterialX's ND_lama_mix_bsdf, ND_lama_add_bsdf,
+ * ND_lama_layer_bsdf and ND_lama_surface (Pixar's Lama nodes; LamaSurface is the node a Lama
+ * network ends in, its materials by the side of the geometric normal). */
 typedef struct lama_node {
     const char *name, *material[2], *param[2];
     double dflt[2];
@@ -694,6 +695,7 @@ static const lama_node lama_nodes[] = {
     {"LamaMix", {"material1", "material2"}, {"mix", NULL}, {0.0, 0.0}},
     {"LamaAdd", {"material1", "material2"}, {"weight1", "weight2"}, {1.0, 0.0}},
     {"LamaLayer", {"materialBase", "materialTop"}, {"topMix", "topThickness"}, {1.0, 0.0}},
+    {"LamaSurface", {"materialFront", "materialBack"}, {"presence", NULL}, {1.0, 0.0}},
 };
 #define LAMA_NODES (sizeof lama_nodes / sizeof lama_nodes[0])
 
@@ -961,7 +963,11 @@ static int lama_read(rib_parser *p, const lama_node *nd, size_t first, const rib
                 return rib_error_at(p, prm.val->line, prm.val->col,
                                     "Bxdf \"%s\": \"%s\" must be finite", nd->name, prm.name);
             v[j] = x[0];
-        } else {
+        } else if (!bxdf_silent(prm.name) &&
+                   !(nd == &lama_nodes[3] && (strncmp(prm.name, "compute", 7) == 0 ||
+                                              strcmp(prm.name, "materialSides") == 0))) {
+            /* LamaSurface's feature switches (computePresence, ...) and its number of sides
+             * change nothing Tessera draws */
             snprintf(what, sizeof what, "Bxdf \"%s\" parameter \"%s\" is ignored", nd->name,
                      rib_printable(prm.name, shown2));
             rib_warn_once(p, prm.key->line, prm.key->col, what);
@@ -970,10 +976,11 @@ static int lama_read(rib_parser *p, const lama_node *nd, size_t first, const rib
     return TS_OK;
 }
 
-/* Bxdf "LamaMix" | "LamaAdd" | "LamaLayer" "handle" params: the material the node makes of the
- * Bxdfs it names (bxdf_mix_surfaces, bxdf_add, bxdf_layer). LamaMix: (1 - mix) material1 +
- * mix material2, mix clamped into [0, 1]; a material it does not name is PxrDiffuse's
- * default. */
+/* Bxdf "LamaMix" | "LamaAdd" | "LamaLayer" | "LamaSurface" "handle" params: the material the
+ * node makes of the Bxdfs it names (bxdf_mix_surfaces, bxdf_add, bxdf_layer). LamaMix: (1 - mix)
+ * material1 + mix material2, mix clamped into [0, 1]; a material it does not name is
+ * PxrDiffuse's default. LamaSurface: its materialFront on both sides (Tessera's patches have
+ * one material; a different materialBack warns), presence other than 1 warns. */
 static int bxdf_lama_node(rib_parser *p, const lama_node *nd, size_t first)
 {
     bxdf_args def = bxdf_defaults(BXDF_DIFFUSE);
@@ -989,12 +996,35 @@ static int bxdf_lama_node(rib_parser *p, const lama_node *nd, size_t first)
         bxdf_add(p, nd, m, given, v, &s);
     else if (nd == &lama_nodes[2])
         bxdf_layer(p, nd, m, given, v, &s);
-    else
+    else if (nd == &lama_nodes[3]) {
+        char what[RIB_WARN_KEY];
+        s = *m[0];
+        if (given[1] && m[1] != m[0]) /* another handle than the front's */
+            rib_warn_once(p, p->req_line, p->req_col,
+                          "Bxdf \"LamaSurface\": materialBack is not drawn: both sides of the "
+                          "surface show materialFront");
+        if (v[0] != 1.0) {
+            snprintf(what, sizeof what,
+                     "Bxdf \"LamaSurface\": \"presence\" (cut-outs) is not supported: the "
+                     "surface renders opaque");
+            rib_warn_once(p, p->req_line, p->req_col, what);
+        }
+    } else
         bxdf_mix_surfaces(p, nd, m[0], m[1], fmin(1.0, fmax(0.0, v[0])), &s);
     rc = rib_shading_limits(p, nd->name, &s);
     if (rc == TS_OK) p->surface = s;
     if (rc == TS_OK) rc = bxdf_keep(p, first, &s);
     return rc;
+}
+
+/* Whether the request's parameters from args[first] name `name`. */
+static int bxdf_has_param(rib_parser *p, size_t first, const char *name)
+{
+    for (size_t i = first; i < p->nargs; i += 2) {
+        rib_param prm;
+        if (rib_param_at(p, i, &prm) == TS_OK && strcmp(prm.name, name) == 0) return 1;
+    }
+    return 0;
 }
 
 /* Bxdf "name" "handle" params: the material of the following geometry (an attribute, as
@@ -1008,8 +1038,12 @@ int rib_req_bxdf(rib_parser *p)
     int rc = rib_string_arg(p, 0, "a Bxdf name", &name);
     if (rc != TS_OK) return rc;
     size_t first = (p->nargs % 2 == 0) ? 2 : 1; /* a handle makes the count even */
+    /* LamaSurface with a materialFront is the end of a Lama network; without, it is read as
+     * a matte of its diffuse colour (bxdf_table), as files written for it so are */
+    int lama_end = strcmp(name, "LamaSurface") == 0 && bxdf_has_param(p, first, "materialFront");
     for (size_t n = 0; n < LAMA_NODES; n++)
-        if (strcmp(name, lama_nodes[n].name) == 0) return bxdf_lama_node(p, &lama_nodes[n], first);
+        if (strcmp(name, lama_nodes[n].name) == 0 && (n != 3 || lama_end))
+            return bxdf_lama_node(p, &lama_nodes[n], first);
     size_t k = 0;
     while (k < BXDF_COUNT && strcmp(name, bxdf_table[k].name) != 0)
         k++;
