@@ -354,6 +354,23 @@ static void test_bxdf_lama_layer(void **state)
               "\"reference bxdf materialTop\" [\"blue\"] \"float topMix\" [0.5]");
     a = test_rib_one_patch(body);
     test_assert_near(a.kd * a.cs_b, 0.2, 1e-6);
+    /* a sheen top is not drawn: the base as it is, one warning (at the LamaSheen) */
+    lama_node(body, RED "Bxdf \"LamaSheen\" \"fuzz\" \"color color\" [1 1 1]\n", "LamaLayer",
+              "\"reference bxdf materialBase\" [\"red\"] \"reference bxdf materialTop\" "
+              "[\"fuzz\"]");
+    a = test_rib_one_patch(body);
+    assert_int_equal(a.material, TS_MAT_MATTE), test_assert_cs(&a, 0.8, 0, 0);
+    assert_string_equal(test_rib_body_warnings(body),
+                        "w.rib:3:1: warning: Bxdf \"LamaSheen\": the sheen lobe is not drawn: "
+                        "alone it reflects nothing, as a LamaLayer's top it leaves the base as it "
+                        "is\n");
+    /* LamaSSS: its Lambertian lobe (0.18 by default); a radius warns */
+    a = test_rib_one_patch("Bxdf \"LamaSSS\" \"s\"");
+    assert_int_equal(a.material, TS_MAT_MATTE), test_assert_cs(&a, 0.18, 0.18, 0.18);
+    assert_string_equal(test_rib_body_warnings("Bxdf \"LamaSSS\" \"s\" \"color sssRadius\" [1 0.5 "
+                                               "0.2] \"float sssScale\" [0.1]"),
+                        "w.rib:2:20: warning: Bxdf \"LamaSSS\": \"sssRadius\" is not 0, but "
+                        "subsurface scattering is not supported (its Lambertian lobe is drawn)\n");
     /* a glass top over gold: a coated metal */
     snprintf(defs, sizeof defs, glass, "1.5", "0", "1 1 1");
     strcat(defs, "Bxdf \"LamaConductor\" \"gold\" \"int fresnelMode\" [1]\n");

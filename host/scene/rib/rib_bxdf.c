@@ -36,14 +36,15 @@ typedef struct bxdf_args {
 } bxdf_args;
 
 typedef enum bxdf_kind {
-    BXDF_DIFFUSE,    /* PxrDiffuse, LamaDiffuse, LamaSurface: matte */
-    BXDF_SURFACE,    /* PxrSurface: principled (matte when it has no specular) */
-    BXDF_DISNEY,     /* PxrDisney: principled */
-    BXDF_CONDUCTOR,  /* PxrConductor, LamaConductor: metal */
-    BXDF_CONSTANT,   /* PxrConstant, LamaEmission: emits, reflects nothing */
-    BXDF_DIELECTRIC, /* PxrDielectric, LamaDielectric, PxrGlass: glass, smooth or rough */
-    BXDF_EMISSION,   /* PxrLightEmission: reflects nothing; its light is the AreaLightSource's */
-    BXDF_TRANSLUCENT /* LamaTranslucent: diffuse transmission through a thin sheet */
+    BXDF_DIFFUSE,     /* PxrDiffuse, LamaDiffuse, LamaSurface, LamaSSS: matte */
+    BXDF_SURFACE,     /* PxrSurface: principled (matte when it has no specular) */
+    BXDF_DISNEY,      /* PxrDisney: principled */
+    BXDF_CONDUCTOR,   /* PxrConductor, LamaConductor: metal */
+    BXDF_CONSTANT,    /* PxrConstant, LamaEmission: emits, reflects nothing */
+    BXDF_DIELECTRIC,  /* PxrDielectric, LamaDielectric, PxrGlass: glass, smooth or rough */
+    BXDF_EMISSION,    /* PxrLightEmission: reflects nothing; its light is the AreaLightSource's */
+    BXDF_TRANSLUCENT, /* LamaTranslucent: diffuse transmission through a thin sheet */
+    BXDF_SHEEN        /* LamaSheen: not drawn (reflects nothing; a LamaLayer top leaves the base) */
 } bxdf_kind;
 
 /* One parameter a Bxdf reads: 1 or 3 numbers into bxdf_args at off; colour: a PxrTexture may
@@ -149,6 +150,8 @@ static const struct {
     {"PxrLMMetal", BXDF_CONDUCTOR, BXDF_PARAMS(bxdf_conductor_params)},
     {"PxrLightEmission", BXDF_EMISSION, NULL, 0},
     {"LamaTranslucent", BXDF_TRANSLUCENT, BXDF_PARAMS(bxdf_translucent_params)},
+    {"LamaSSS", BXDF_DIFFUSE, BXDF_PARAMS(bxdf_diffuse_params)},
+    {"LamaSheen", BXDF_SHEEN, BXDF_PARAMS(bxdf_translucent_params)},
 };
 #define BXDF_COUNT (sizeof bxdf_table / sizeof bxdf_table[0])
 
@@ -169,6 +172,7 @@ static const struct {
     {"clearcoat", "clearcoatThickness", "the clear coat's absorption is not drawn"},
     {"specTrans", "specTrans", "refraction is not supported yet"},
     {"anisotropic", "anisotropic", "anisotropy is not drawn (an isotropic lobe)"},
+    {"sss", "sssRadius", "subsurface scattering is not supported (its Lambertian lobe is drawn)"},
 };
 #define BXDF_LOBES (sizeof bxdf_lobes / sizeof bxdf_lobes[0])
 
@@ -209,7 +213,8 @@ static void bxdf_lama_defaults(const char *name, bxdf_args *a)
 {
     static const double eta[3] = {0.18, 0.42, 1.37}, kappa[3] = {3.42, 2.35, 1.77},
                         refl[3] = {0.945, 0.7772, 0.3737}, edge[3] = {0.9979, 0.9813, 0.7523};
-    if (strcmp(name, "LamaDiffuse") == 0) a->color[0] = a->color[1] = a->color[2] = 0.18;
+    if (strcmp(name, "LamaDiffuse") == 0 || strcmp(name, "LamaSSS") == 0)
+        a->color[0] = a->color[1] = a->color[2] = 0.18;
     if (strcmp(name, "LamaConductor") == 0) {
         memcpy(a->eta, eta, sizeof eta), memcpy(a->kappa, kappa, sizeof kappa);
         memcpy(a->color, refl, sizeof refl), memcpy(a->spec_edge, edge, sizeof edge);
@@ -539,7 +544,14 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
             s->color[c] = a->tint[c] * bxdf_schlick_mean(f0, edge);
         }
     } else if (kind == BXDF_CONSTANT) {
-        s->kd = 0.0, s->constant = 1;      /* emits its colour (rib_geom.c), reflects nothing */
+        s->kd = 0.0, s->constant = 1; /* emits its colour (rib_geom.c), reflects nothing */
+    } else if (kind == BXDF_SHEEN) {
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": the sheen lobe is not drawn: alone it reflects nothing, as a "
+                 "LamaLayer's top it leaves the base as it is",
+                 bxdf);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+        s->kd = 0.0, s->sheen_only = 1;
     } else if (kind == BXDF_TRANSLUCENT) { /* all of it through: Kd 0, Ks 1 */
         s->material = TS_MAT_TRANSLUCENT, s->kd = 0.0, s->ks = 1.0;
     } else if (kind == BXDF_EMISSION) {
@@ -867,7 +879,7 @@ static void bxdf_layer(rib_parser *p, const lama_node *nd, const rib_surface *m[
     char what[RIB_WARN_KEY];
     const rib_surface *base = m[0], *top = m[1];
     double w = fmin(1.0, fmax(0.0, v[0]));
-    if (!given[1] || w <= 0.0) {
+    if (!given[1] || w <= 0.0 || top->sheen_only) { /* a sheen top: not drawn (bxdf_material) */
         *out = *base;
         return;
     }
@@ -1011,6 +1023,7 @@ static int bxdf_lama_node(rib_parser *p, const lama_node *nd, size_t first)
         }
     } else
         bxdf_mix_surfaces(p, nd, m[0], m[1], fmin(1.0, fmax(0.0, v[0])), &s);
+    s.sheen_only = 0; /* a node's result is drawn (a LamaLayer's sheen top gives its base) */
     rc = rib_shading_limits(p, nd->name, &s);
     if (rc == TS_OK) p->surface = s;
     if (rc == TS_OK) rc = bxdf_keep(p, first, &s);

@@ -93,6 +93,9 @@ typedef struct rib_surface {
     double st_map[4];
     /* TS_MAT_PRINCIPLED (rib_bxdf.c): ts_patch_attr's fields of the same names */
     double metallic, specular, specular_tint, sheen, sheen_tint, clearcoat, clearcoat_gloss;
+    /* LamaSheen (rib_bxdf.c): a lobe Tessera does not draw; black alone, and as a LamaLayer's
+     * top it leaves the base as it is */
+    int sheen_only;
 } rib_surface;
 
 /* What AttributeBegin / TransformBegin / WorldBegin saved. */
