@@ -1,8 +1,8 @@
 /* test_rib_ris_patterns.c — the maths Pattern nodes folded at load (rib_pattern.c
- * pattern_maths: PxrMix, PxrToFloat): each formula against hand values through PxrDiffuse's
- * diffuseColor (the patch's Cs) and diffuseGain (its Kd), their defaults, a chain of three,
- * a cycle, a chain past the depth limit, an unknown pattern's and a PxrTexture's input, and
- * the exact warnings and errors. Host only: never skips. */
+ * pattern_maths: PxrMix, PxrToFloat, PxrToFloat3, PxrExposure, PxrClamp, PxrInvert): each formula
+ * against hand values through PxrDiffuse's diffuseColor (the patch's Cs) and diffuseGain (its Kd),
+ * their defaults, a chain of three, a cycle, a chain past the depth limit, an unknown pattern's and
+ * a PxrTexture's input, and the exact warnings and errors. Host only: never skips. */
 #include "scene/rib/rib.h"
 #include "scene/scene.h"
 
@@ -113,6 +113,43 @@ static void test_chain(void **state)
     test_assert_cs(&a, 0.2, 0.3, 0.4);
 }
 
+/* RenderMan 22's plugins: PxrToFloat3 (input in all channels, or inputR/G/B when one is
+ * connected), PxrExposure (times 2^stops), PxrClamp (into [min, max]; modulus warns) and
+ * PxrInvert (RGB: 1 - c on the channels asked, clamped into [0, 1]; HSL/HSV warn). */
+static void test_plugins(void **state)
+{
+    (void)state;
+    ts_patch_attr a = test_rib_one_patch("Pattern \"PxrToFloat3\" \"t\" \"float input\" [0.3] "
+                                         "\"float inputR\" [0.9]\n" DIFFUSE("t:resultRGB"));
+    test_assert_cs(&a, 0.3, 0.3, 0.3);
+    a = test_rib_one_patch(
+        "Pattern \"PxrMix\" \"m\" \"color color1\" [0.2 0.4 0.6]\n"
+        "Pattern \"PxrToFloat3\" \"t\" \"float input\" [0.3] \"reference float inputR\" "
+        "[\"m:resultB\"] \"float inputG\" [0.5]\n" DIFFUSE("t:resultRGB"));
+    test_assert_cs(&a, 0.6, 0.5, 0);
+    a = test_rib_one_patch("Pattern \"PxrExposure\" \"e\" \"color inputRGB\" [0.1 0.2 0.05] "
+                           "\"float stops\" [2]\n" DIFFUSE("e:resultRGB"));
+    test_assert_cs(&a, 0.4, 0.8, 0.2);
+    a = test_rib_one_patch("Pattern \"PxrClamp\" \"c\" \"color inputRGB\" [-0.5 0.5 1.5] \"color "
+                           "min\" [0 0.6 0] \"color max\" [1 1 0.8]\n" DIFFUSE("c:resultRGB"));
+    test_assert_cs(&a, 0, 0.6, 0.8);
+    const char *modulus = "Pattern \"PxrClamp\" \"c\" \"color inputRGB\" [0.5 0.5 0.5] \"int "
+                          "modulus\" [1]\n" DIFFUSE("c:resultRGB");
+    a = test_rib_one_patch(modulus);
+    test_assert_cs(&a, 0.5, 0.5, 0.5); /* PxrDiffuse's default */
+    assert_string_equal(test_rib_body_warnings(modulus),
+                        "w.rib:3:54: warning: Pattern \"PxrClamp\": modulus 1 is not folded: what "
+                        "it feeds keeps its default\n");
+    a = test_rib_one_patch("Pattern \"PxrInvert\" \"i\" \"color inputRGB\" [0.25 1.5 0.6] \"int "
+                           "invertChannel2\" [0]\n" DIFFUSE("i:resultRGB"));
+    test_assert_cs(&a, 0.75, 0, 0.6);
+    const char *hsv = "Pattern \"PxrInvert\" \"i\" \"color inputRGB\" [0.25 0.5 0.6] \"int "
+                      "colorModel\" [2]\n" DIFFUSE("i:resultRGB");
+    assert_string_equal(test_rib_body_warnings(hsv),
+                        "w.rib:3:54: warning: Pattern \"PxrInvert\": colorModel 2 (HSL or HSV) is "
+                        "not folded: what it feeds keeps its default\n");
+}
+
 /* A cycle: the connection that closes it keeps its default, with one warning. */
 static void test_cycle(void **state)
 {
@@ -177,8 +214,8 @@ static void test_unfolded_inputs(void **state)
     test_assert_cs(&a, 0.6, 0.65, 0.7);
     assert_string_equal(test_rib_body_warnings(osl),
                         "w.rib:4:54: warning: Pattern \"MyNoise\" is not supported: the parameters "
-                        "connected to it keep their defaults (PxrTexture, PxrManifold2D, PxrMix, "
-                        "PxrToFloat)\n");
+                        "connected to it keep their defaults (docs/rib.md lists the patterns "
+                        "drawn)\n");
     /* A PxrTexture feeding PxrMix is not drawn through it: the input's default, no texture. */
     const char *tex = "Pattern \"PxrTexture\" \"t\" \"string filename\" [\"wood.tex\"]\n"
                       "Pattern \"PxrMix\" \"m\" \"reference color color2\" [\"t:resultRGB\"] "
@@ -261,15 +298,11 @@ static void test_displace(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_mix),
-        cmocka_unit_test(test_defaults),
-        cmocka_unit_test(test_to_float),
-        cmocka_unit_test(test_chain),
-        cmocka_unit_test(test_cycle),
-        cmocka_unit_test(test_depth),
-        cmocka_unit_test(test_unfolded_inputs),
-        cmocka_unit_test(test_outputs),
-        cmocka_unit_test(test_not_finite),
+        cmocka_unit_test(test_mix),      cmocka_unit_test(test_defaults),
+        cmocka_unit_test(test_to_float), cmocka_unit_test(test_chain),
+        cmocka_unit_test(test_plugins),  cmocka_unit_test(test_cycle),
+        cmocka_unit_test(test_depth),    cmocka_unit_test(test_unfolded_inputs),
+        cmocka_unit_test(test_outputs),  cmocka_unit_test(test_not_finite),
         cmocka_unit_test(test_displace),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -769,8 +769,7 @@ static void test_pattern_unknown(void **state)
                                "Bxdf \"PxrDiffuse\" \"d\" \"reference color diffuseColor\" "
                                "[\"gone:resultRGB\"]"),
         "w.rib:3:54: warning: Pattern \"MyNoise\" is not supported: the parameters "
-        "connected to it keep their defaults (PxrTexture, PxrManifold2D, PxrMix, "
-        "PxrToFloat)\n"
+        "connected to it keep their defaults (docs/rib.md lists the patterns drawn)\n"
         "w.rib:4:54: warning: Bxdf: \"diffuseColor\" is connected to "
         "\"gone:resultRGB\", which no Pattern defines: it keeps its default\n");
 }

@@ -3,7 +3,7 @@
  * diffuseColor" ["tex:resultRGB"]). Tessera draws two kinds of node: PxrTexture (an image,
  * through the scene's textures; RenderMan's own .tex files cannot be read, so a .tx, .exr,
  * .png, .tif or .jpg beside one is used instead) and PxrManifold2D (a scale and offset of
- * st). The maths nodes (pattern_math: PxrMix, PxrToFloat) are folded at load: their inputs
+ * st). The maths nodes (pattern_math: PxrMix, PxrToFloat, ...) are folded at load: their inputs
  * are literal values, defaults or the folded outputs of other maths nodes, so the parameter
  * connected to them gets one constant, as if written literally. Any other pattern (an OSL
  * shader) is warned about once and what it feeds keeps its default value (a maths node's
@@ -19,9 +19,9 @@
 #include <unistd.h>
 
 #define RIB_MAX_PATTERNS 65536 /* Pattern nodes in one parse */
-#define PATTERN_MAX_INPUTS 4   /* inputs of one maths node */
+#define PATTERN_MAX_INPUTS 5   /* inputs of one maths node */
 #define PATTERN_MAX_DEPTH 64   /* maths nodes in one chain, the Bxdf's parameter's first */
-#define PATTERN_DRAWN "PxrTexture, PxrManifold2D, PxrMix, PxrToFloat" /* for messages */
+#define PATTERN_DRAWN "docs/rib.md lists the patterns drawn" /* for messages */
 
 typedef enum pattern_kind {
     PATTERN_TEXTURE,
@@ -152,6 +152,64 @@ static int math_to_float(pattern_fold *f, const rib_pattern_node *n, double in[]
     return 1;
 }
 
+/* PxrToFloat3: input in all three channels; when inputR, inputG or inputB is connected, the
+ * colour (inputR, inputG, inputB) instead (its page: "if inputR, inputG, inputB are connected,
+ * then those will be converted to a color"). */
+static int math_to_float3(pattern_fold *f, const rib_pattern_node *n, double in[][3], double out[3])
+{
+    (void)f;
+    int split = n->in[1].ref || n->in[2].ref || n->in[3].ref;
+    for (int c = 0; c < 3; c++)
+        out[c] = split ? in[1 + c][0] : in[0][0];
+    return 1;
+}
+
+/* PxrExposure: inputRGB 2^stops (each stop doubles it). */
+static int math_exposure(pattern_fold *f, const rib_pattern_node *n, double in[][3], double out[3])
+{
+    (void)f, (void)n;
+    double k = exp2(in[1][0]);
+    for (int c = 0; c < 3; c++)
+        out[c] = in[0][c] * k;
+    return 1;
+}
+
+/* PxrClamp: each channel of inputRGB clamped into [min, max]; modulus other than 0 (its page
+ * gives no formula) is not folded, with one warning. */
+static int math_clamp(pattern_fold *f, const rib_pattern_node *n, double in[][3], double out[3])
+{
+    if (in[3][0] != 0.0) {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "Pattern \"%s\": modulus %g is not folded: what it feeds keeps its default",
+                 n->type, in[3][0]);
+        rib_warn_once(f->p, f->line, f->col, what);
+        return 0;
+    }
+    for (int c = 0; c < 3; c++)
+        out[c] = fmin(fmax(in[0][c], in[1][c]), in[2][c]);
+    return 1;
+}
+
+/* PxrInvert in the RGB model (colorModel 0): channel c becomes 1 - c where invertChannel<c> is
+ * not 0, and the result is clamped into [0, 1] (its page: "the output is a RGB color clamped to
+ * the [0 0 0] to [1 1 1] range"). The HSL and HSV models (1, 2) are not folded: one warning. */
+static int math_invert(pattern_fold *f, const rib_pattern_node *n, double in[][3], double out[3])
+{
+    if (in[1][0] != 0.0) {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "Pattern \"%s\": colorModel %g (HSL or HSV) is not folded: what it feeds keeps "
+                 "its default",
+                 n->type, in[1][0]);
+        rib_warn_once(f->p, f->line, f->col, what);
+        return 0;
+    }
+    for (int c = 0; c < 3; c++)
+        out[c] = fmin(fmax(in[2 + c][0] != 0.0 ? 1.0 - in[0][c] : in[0][c], 0.0), 1.0);
+    return 1;
+}
+
 /* The maths nodes, with the parameters, defaults and formulas of RenderMan 20's pages:
  * renderman.pixar.com/resources/RenderMan_20/PxrMix.html (clampMix: RenderMan 24's "Clamp
  * Mixer", whose page gives no RIB line or default; 0 keeps RenderMan 20's behaviour) and
@@ -164,6 +222,31 @@ static const pattern_math pattern_maths[] = {
      {{"color1", 3, {0, 0, 0}}, {"color2", 3, {1, 1, 1}}, {"mix", 1, {0}}, {"clampMix", 1, {0}}},
      math_mix},
     {"PxrToFloat", 1, 2, {{"input", 3, {0, 0, 0}}, {"mode", 1, {0}}}, math_to_float},
+    /* RenderMan 22's pattern plugins as their args files give them (the RIB lines and
+     * defaults) and their one-line descriptions (the formulas) */
+    {"PxrToFloat3",
+     0,
+     4,
+     {{"input", 1, {0}}, {"inputR", 1, {0}}, {"inputG", 1, {0}}, {"inputB", 1, {0}}},
+     math_to_float3},
+    {"PxrExposure", 0, 2, {{"inputRGB", 3, {0, 0, 0}}, {"stops", 1, {0}}}, math_exposure},
+    {"PxrClamp",
+     0,
+     4,
+     {{"inputRGB", 3, {0, 0, 0}},
+      {"min", 3, {0, 0, 0}},
+      {"max", 3, {1, 1, 1}},
+      {"modulus", 1, {0}}},
+     math_clamp},
+    {"PxrInvert",
+     0,
+     5,
+     {{"inputRGB", 3, {0, 0, 0}},
+      {"colorModel", 1, {0}},
+      {"invertChannel0", 1, {1}},
+      {"invertChannel1", 1, {1}},
+      {"invertChannel2", 1, {1}}},
+     math_invert},
 };
 #define PATTERN_MATHS (sizeof pattern_maths / sizeof pattern_maths[0])
 
