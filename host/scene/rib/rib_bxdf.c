@@ -698,16 +698,28 @@ static rib_surface bxdf_as_principled(const rib_surface *s)
  * handles), its float inputs and their defaults, MaterialX's ND_lama_mix_bsdf, ND_lama_add_bsdf,
  * ND_lama_layer_bsdf and ND_lama_surface (Pixar's Lama nodes; LamaSurface is the node a Lama
  * network ends in, its materials by the side of the geometric normal). */
+typedef enum lama_op { LAMA_MIX, LAMA_ADD, LAMA_LAYER, LAMA_SURFACE } lama_op;
+
 typedef struct lama_node {
-    const char *name, *material[2], *param[2];
+    const char *name;
+    lama_op op;
+    const char *material[2], *param[2];
     double dflt[2];
 } lama_node;
 
 static const lama_node lama_nodes[] = {
-    {"LamaMix", {"material1", "material2"}, {"mix", NULL}, {0.0, 0.0}},
-    {"LamaAdd", {"material1", "material2"}, {"weight1", "weight2"}, {1.0, 0.0}},
-    {"LamaLayer", {"materialBase", "materialTop"}, {"topMix", "topThickness"}, {1.0, 0.0}},
-    {"LamaSurface", {"materialFront", "materialBack"}, {"presence", NULL}, {1.0, 0.0}},
+    {"LamaMix", LAMA_MIX, {"material1", "material2"}, {"mix", NULL}, {0.0, 0.0}},
+    {"LamaAdd", LAMA_ADD, {"material1", "material2"}, {"weight1", "weight2"}, {1.0, 0.0}},
+    {"LamaLayer",
+     LAMA_LAYER,
+     {"materialBase", "materialTop"},
+     {"topMix", "topThickness"},
+     {1.0, 0.0}},
+    {"LamaSurface",
+     LAMA_SURFACE,
+     {"materialFront", "materialBack"},
+     {"presence", NULL},
+     {1.0, 0.0}},
 };
 #define LAMA_NODES (sizeof lama_nodes / sizeof lama_nodes[0])
 
@@ -976,8 +988,8 @@ static int lama_read(rib_parser *p, const lama_node *nd, size_t first, const rib
                                     "Bxdf \"%s\": \"%s\" must be finite", nd->name, prm.name);
             v[j] = x[0];
         } else if (!bxdf_silent(prm.name) &&
-                   !(nd == &lama_nodes[3] && (strncmp(prm.name, "compute", 7) == 0 ||
-                                              strcmp(prm.name, "materialSides") == 0))) {
+                   !(nd->op == LAMA_SURFACE && (strncmp(prm.name, "compute", 7) == 0 ||
+                                                strcmp(prm.name, "materialSides") == 0))) {
             /* LamaSurface's feature switches (computePresence, ...) and its number of sides
              * change nothing Tessera draws */
             snprintf(what, sizeof what, "Bxdf \"%s\" parameter \"%s\" is ignored", nd->name,
@@ -1004,25 +1016,23 @@ static int bxdf_lama_node(rib_parser *p, const lama_node *nd, size_t first)
     int rc = lama_read(p, nd, first, &dflt, m, given, v);
     if (rc != TS_OK) return rc;
     rib_surface s;
-    if (nd == &lama_nodes[1])
+    if (nd->op == LAMA_ADD) {
         bxdf_add(p, nd, m, given, v, &s);
-    else if (nd == &lama_nodes[2])
+    } else if (nd->op == LAMA_LAYER) {
         bxdf_layer(p, nd, m, given, v, &s);
-    else if (nd == &lama_nodes[3]) {
-        char what[RIB_WARN_KEY];
+    } else if (nd->op == LAMA_SURFACE) {
         s = *m[0];
         if (given[1] && m[1] != m[0]) /* another handle than the front's */
             rib_warn_once(p, p->req_line, p->req_col,
                           "Bxdf \"LamaSurface\": materialBack is not drawn: both sides of the "
                           "surface show materialFront");
-        if (v[0] != 1.0) {
-            snprintf(what, sizeof what,
-                     "Bxdf \"LamaSurface\": \"presence\" (cut-outs) is not supported: the "
-                     "surface renders opaque");
-            rib_warn_once(p, p->req_line, p->req_col, what);
-        }
-    } else
+        if (v[0] != 1.0)
+            rib_warn_once(p, p->req_line, p->req_col,
+                          "Bxdf \"LamaSurface\": \"presence\" (cut-outs) is not supported: the "
+                          "surface renders opaque");
+    } else {
         bxdf_mix_surfaces(p, nd, m[0], m[1], fmin(1.0, fmax(0.0, v[0])), &s);
+    }
     s.sheen_only = 0; /* a node's result is drawn (a LamaLayer's sheen top gives its base) */
     rc = rib_shading_limits(p, nd->name, &s);
     if (rc == TS_OK) p->surface = s;
@@ -1055,7 +1065,7 @@ int rib_req_bxdf(rib_parser *p)
      * a matte of its diffuse colour (bxdf_table), as files written for it so are */
     int lama_end = strcmp(name, "LamaSurface") == 0 && bxdf_has_param(p, first, "materialFront");
     for (size_t n = 0; n < LAMA_NODES; n++)
-        if (strcmp(name, lama_nodes[n].name) == 0 && (n != 3 || lama_end))
+        if (strcmp(name, lama_nodes[n].name) == 0 && (lama_nodes[n].op != LAMA_SURFACE || lama_end))
             return bxdf_lama_node(p, &lama_nodes[n], first);
     size_t k = 0;
     while (k < BXDF_COUNT && strcmp(name, bxdf_table[k].name) != 0)
