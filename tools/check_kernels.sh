@@ -20,6 +20,7 @@
 #   - the same teapot with --leaf-mode group --leaf-size 2 (the work-group leaf kernel);
 #   - scene/textured.rib at 8x6, --max-lod 2 (image textures: displacement and colour);
 #   - scene/lights.rib at 8x6, --max-lod 1 (point, spot and ambient lights in shade);
+#   - scene/lama.rib at 8x6, --max-lod 1 (translucent sheets and a clear coat in shade);
 #   - scene/teapot.rib at 7x5, 3 spp, with TESSERA_CPU_LANES=1 (the CPU devices' lanes:
 #     camera's eight rays a work-item, bezier_combine's float4 sums), without --uninitialized;
 #   - scene/depth_of_field.rib at 12x8 cropped to 6x4 (the thin lens, the crop), in both
@@ -126,6 +127,10 @@ run render_textured "$build/tessera" render scene/textured.rib --res 8x6 --spp 1
 # Point, spot and ambient lights (light_sample, light_escape's eye rays) in shade.
 run render_lights "$build/tessera" render scene/lights.rib --res 8x6 --spp 2 --max-lod 1 \
   --memory 4 -o "$work/lights.exr" --no-kernel-cache --quiet
+# Translucent sheets, a clear coat and an emitting mix (scene/lama.rib: shade's light samples
+# and rays through a sheet, from its far side, and the principled coat).
+run render_lama "$build/tessera" render scene/lama.rib --res 8x6 --spp 2 --max-lod 1 --depth 3 \
+  --memory 4 -o "$work/lama.exr" --no-kernel-cache --quiet
 # The bake (kernels/bake.cl: points, rays, SH projection) through the pipeline, every patch
 # at m = 1, two rays per point; textured.rib's tiles are paged at 4 MB (bake_points in
 # ranges).
