@@ -24,9 +24,10 @@
  *   tight boxes as its codes. The root group's lanes 1-3 are left empty.
  * Reads: trees, segments (the patch built is each segment's shape), grid (w = d), corner normals,
  * attributes, transforms, flatness, patch boxes (every leaf box is clamped to its patch's top-level
- * box), textures (the min-max tiles under the leaves' st rectangles must be resident), trim
- * segments (a TS_SEG_TRIMMED segment's micro-quads whose centres its trim removes get empty
- * boxes, lo > hi: lib/trim.h). Writes:
+ * box), textures (the min-max tiles under the leaves' st rectangles must be resident; a cut-out
+ * patch's mask tiles at level 0), trim segments (a TS_SEG_TRIMMED segment's micro-quads whose
+ * centres its trim, or its cutout mask, removes get empty boxes, lo > hi: lib/trim.h,
+ * lib/texture.h tex_cutout_keeps). Writes:
  * groups[group_first + time * quadtree_group_count(m) ...] and codes[the same]. Invariants:
  * every vertex of a micro-quad kept lies in its leaf box and in its decoded tight box; every inner
  * box is the union of its children, every inner tight box holds its children's
@@ -115,9 +116,12 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
      * culling; elsewhere the codes are 0). */
     uint coded = !tight && (seg.flags & TS_PATCH_ROUGH) != 0u;
     __global const ts_patch_attr *a = attr + seg.shape;
+    ts_tex_ctx tex = {textures, tex_pages, tex_pool};
     if ((seg.flags & TS_SEG_TRIMMED) != 0u &&
-        !trim_keeps(trim_seg + a->trim_first, a->trim_count, quadtree_centre(i, m),
-                    quadtree_centre(j, m))) { /* trimmed away: a box no ray enters */
+        ((a->trim_count != 0u && !trim_keeps(trim_seg + a->trim_first, a->trim_count,
+                                             quadtree_centre(i, m), quadtree_centre(j, m))) ||
+         !tex_cutout_keeps(a, tex, quadtree_centre(i, m), quadtree_centre(j, m)))) {
+        /* trimmed or cut away: a box no ray enters */
         ts_box e = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
         quadtree_store(groups + at, codes + at, m, k, e, e, coded);
         return;
@@ -140,7 +144,6 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     if (a->disp_kind != TS_DISP_NONE) {
         ts_interval d;
         if (a->disp_kind == TS_DISP_TEXTURE) {
-            ts_tex_ctx tex = {textures, tex_pages, tex_pool};
             d = displace_texture_interval(a, tex, (float)i * h, (float)j * h, (float)(i + 1u) * h,
                                           (float)(j + 1u) * h);
         } else {

@@ -120,7 +120,7 @@ static void check_codes(const ts_segment *seg, const ts_vec4 *grid, const ts_box
                         fail_msg("patch %u m %u: a child's tight box sticks out of node %u of "
                                  "level %u's",
                                  pi, m, k, l);
-            if (l < m) continue;
+            if (l < m || b.lo_x > b.hi_x) continue; /* empty: cut out (check_segment) */
             uint32_t i = morton_i(k), j = morton_j(k);
             for (int c = 0; c < 4; ++c)
                 if (!box_contains(t, grid[(j + (c >> 1)) * n + i + (c & 1)]))
@@ -128,6 +128,9 @@ static void check_codes(const ts_segment *seg, const ts_vec4 *grid, const ts_box
             if (coded) *tight_span += box_span(t), *node_span += box_span(b);
         }
 }
+
+/* Leaves of cut-out patches (TS_PATCH_CUTOUT) check_segment found cut away and kept. */
+static unsigned cut_leaves, kept_cutout_leaves;
 
 static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec4 *grid,
                           const ts_box4 *nodes, int tight, uint32_t *seed)
@@ -163,6 +166,14 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
     for (uint32_t k = 0; k < side * side; ++k) {
         uint32_t i = morton_i(k), j = morton_j(k);
         ts_box b = quadtree_box(nodes, m, k);
+        /* A micro-quad its cutout mask removes has an empty box (lib/texture.h) */
+        if (!tex_cutout_keeps(a, scene_tex_ctx(s), quadtree_centre(i, m), quadtree_centre(j, m))) {
+            if (!(b.lo_x > b.hi_x && b.lo_y > b.hi_y && b.lo_z > b.hi_z))
+                fail_msg("patch %u m %u: leaf %u is cut out but its box is not empty", pi, m, k);
+            cut_leaves++;
+            continue;
+        }
+        kept_cutout_leaves += (a->flags & TS_PATCH_CUTOUT) != 0u;
         for (int c = 0; c < 4; ++c) {
             ts_vec4 g = grid[(j + (c >> 1)) * n + i + (c & 1)];
             if (!box_contains(b, g)) fail_msg("patch %u m %u: vertex outside leaf %u", pi, m, k);
@@ -196,7 +207,9 @@ static void check_segment(const ts_scene *s, const ts_segment *seg, const ts_vec
 }
 
 /* Patches with an image displacement texture (random texels, 53 x 40) at random corner st:
- * spanning less than a texel up to several periods, negative and large coordinates. */
+ * spanning less than a texel up to several periods, negative and large coordinates. Patches
+ * 1 and 4 are also cut out by a mask (an RGBA texture of 9 x 7 texels, random alpha and red
+ * in [0, 1]): 1 by its alpha, 4 by its red channel (TS_PATCH_CUTOUT_RED). */
 static void random_textured_scene(ts_scene *s, int patches, uint32_t seed)
 {
     memset(s, 0, sizeof *s);
@@ -209,8 +222,16 @@ static void random_textured_scene(ts_scene *s, int patches, uint32_t seed)
     const char *path = test_path_in(test_scratch_dir(), "disp.exr");
     if (image_write_exr(path, &img, NULL, 0, &err)) fail_msg("%s", err.msg);
     free(px);
-    uint32_t tex;
+    uint32_t tex, mask;
     if (scene_add_texture(s, path, TS_TEX_MINMAX, &tex, &err)) fail_msg("%s", err.msg);
+    float mpx[9 * 7 * 4];
+    for (int i = 0; i < 9 * 7 * 4; ++i)
+        mpx[i] = test_uniform(&seed, 0.0f, 1.0f);
+    const char *names[4] = {"R", "G", "B", "A"};
+    ts_image mimg = {.width = 9, .height = 7, .channels = 4, .channel_names = names, .pixels = mpx};
+    const char *mpath = test_path_in(test_scratch_dir(), "mask.exr");
+    if (image_write_exr(mpath, &mimg, NULL, 0, &err)) fail_msg("%s", err.msg);
+    if (scene_add_texture(s, mpath, TS_TEX_RGB, &mask, &err)) fail_msg("%s", err.msg);
     for (int p = 0; p < patches; ++p) {
         double cp[16][3];
         float ox = test_uniform(&seed, -5, 5), oy = test_uniform(&seed, -5, 5),
@@ -231,6 +252,8 @@ static void random_textured_scene(ts_scene *s, int patches, uint32_t seed)
                            .disp_amplitude = p % 2 ? 0.3f : -0.2f,
                            .disp_offset = 0.5f,
                            .disp_tex = tex};
+        if (p == 1 || p == 4) /* cut out by the mask's alpha, or its red */
+            a.flags = TS_PATCH_CUTOUT | (p == 4 ? TS_PATCH_CUTOUT_RED : 0u), a.color_tex = mask;
         /* Corner st: a random place, then within a square of side 10^-2.5 .. 10^0.6. */
         float span = powf(10.0f, test_uniform(&seed, -2.5f, 0.6f)), base = p == 3 ? 1000.0f : 0.0f;
         float s0 = base + test_uniform(&seed, -2.0f, 2.0f),
@@ -472,8 +495,10 @@ static void test_dice_and_build_textured(void **state)
     ts_scene s;
     random_textured_scene(&s, 6, 4242u);
     const uint32_t lods[6] = {0, 1, 2, 3, 4, 2}; /* small: minutes under Oclgrind otherwise */
+    cut_leaves = kept_cutout_leaves = 0;
     dice_build_and_check(&s, lods, 0, 0);
     dice_build_and_check(&s, lods, 1, 0);
+    assert_true(cut_leaves > 4 && kept_cutout_leaves > 4); /* the masks cut and keep */
     scene_free(&s);
 }
 

@@ -14,6 +14,8 @@
  * - LamaTranslucent: the plane lit from behind is 0.7 / pi times the far side's irradiance,
  *   black lit from the front; a sphere of half-reflecting, half-transmitting white sheets is
  *   a furnace (1 everywhere).
+ * - presence from a texture's alpha: the plane kept where the alpha is 1 (its albedo under a
+ *   dome of 1), cut away where it is 0 (the dome), in both geometry modes.
  * Needs an OpenCL device (skipped, 77, without one). */
 #include "test_support.h"
 #include "image/image.h"
@@ -345,6 +347,56 @@ static void test_translucent_furnace(void **state)
     if (!(fabs(mean - 1.0) < 0.01)) fail_msg("light sampling: mean %.6f, want 1", mean);
 }
 
+/* presence from a texture's alpha (TS_PATCH_CUTOUT): the plane z = 0 seen orthographically,
+ * coloured 0.7 by an RGBA texture whose alpha is 1 on u < 0.5 and 0 beyond, under a dome of
+ * radiance 1 (depth 1: every BSDF sample of the plane finds the dome). Where the plane is
+ * kept a pixel is its albedo, 0.7; where it is cut away the eye ray finds the dome, 1 — in box
+ * and in triangle mode. The columns within a texel of the mask's edge are not checked. */
+static void test_cutout(void **state)
+{
+    (void)state;
+    enum { W = 8 };
+    float px[W * W * 4];
+    for (int i = 0; i < W * W; i++) {
+        px[4 * i] = px[4 * i + 1] = px[4 * i + 2] = 0.7f;
+        px[4 * i + 3] = i % W < W / 2 ? 1.0f : 0.0f;
+    }
+    const char *names[4] = {"R", "G", "B", "A"};
+    ts_image tex = {.width = W, .height = W, .channels = 4, .channel_names = names, .pixels = px};
+    ts_error err = {0};
+    if (image_write_exr(path("cutout.exr"), &tex, NULL, 0, &err)) fail_msg("%s", err.msg);
+    FILE *f = fopen(path("cutout.rib"), "w");
+    assert_non_null(f);
+    fprintf(f, "Format 64 64 1\nProjection \"orthographic\"\nScreenWindow -4 4 -4 4\n"
+               "Translate 0 0 10\nWorldBegin\nLight \"PxrDomeLight\" \"dome\" \"float intensity\" "
+               "[1]\nPattern \"PxrTexture\" \"t\" \"string filename\" [\"cutout.exr\"]\n"
+               "Bxdf \"PxrDiffuse\" \"d\" \"reference color diffuseColor\" [\"t:resultRGB\"] "
+               "\"reference float presence\" [\"t:resultA\"]\n"
+               "Patch \"bilinear\" \"P\" [-5 -5 0  5 -5 0  -5 5 0  5 5 0]\nWorldEnd\n");
+    fclose(f);
+    for (int mode = 0; mode < 2; mode++) {
+        render("cutout.rib", "cutout.exr.out.exr",
+               mode ? "--spp 4 --depth 1 --intersect triangles" : "--spp 4 --depth 1");
+        ts_image img;
+        test_read_image(path("cutout.exr.out.exr"), &img);
+        int kept = 0, cut = 0;
+        for (int y = 0; y < 64; y++)
+            for (int x = 0; x < 64; x++) {
+                /* u = (q + 5) / 10 at the pixel centre q = -4 + 8 (x + 0.5) / 64 */
+                double q = -4 + 8 * (x + 0.5) / 64, u = (q + 5) / 10;
+                if (u > 0.4 && u < 0.6) continue;
+                double want = u < 0.5 ? 0.7 : 1.0,
+                       got = img.pixels[((size_t)y * 64 + x) * img.channels];
+                if (fabs(got - want) > 1e-3)
+                    fail_msg("mode %d pixel (%d, %d), u %.3f: %.6f, want %.1f (%s)", mode, x, y, u,
+                             got, want, u < 0.5 ? "kept" : "cut away");
+                kept += u < 0.5, cut += u >= 0.5;
+            }
+        image_free(&img);
+        assert_true(kept > 1000 && cut > 1000);
+    }
+}
+
 /* PxrEnvDayLight turned so that its zenith is the lit side's normal (-z), at Seattle on 21
  * June 2014 at `hour` PST: the image's mean is 0.7 / pi times the irradiance. */
 static double check_daylight(double hour)
@@ -387,6 +439,7 @@ int main(void)
         cmocka_unit_test(test_daylight),
         cmocka_unit_test(test_translucent_sheet),
         cmocka_unit_test(test_translucent_furnace),
+        cmocka_unit_test(test_cutout),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

@@ -408,8 +408,9 @@ static void test_bxdf_lama_surface(void **state)
     assert_string_equal(test_rib_body_warnings(body),
                         "w.rib:4:1: warning: Bxdf \"LamaSurface\": materialBack is not drawn: both "
                         "sides of the surface show materialFront\n"
-                        "w.rib:4:1: warning: Bxdf \"LamaSurface\": \"presence\" (cut-outs) is not "
-                        "supported: the surface renders opaque\n");
+                        "w.rib:4:1: warning: Bxdf \"LamaSurface\": a \"presence\" below 1 that is "
+                        "not a texture (partial transparency) is not supported: the surface "
+                        "renders opaque\n");
     a = test_rib_one_patch("Bxdf \"LamaSurface\" \"s\" \"color diffuseColor\" [0.1 0.2 0.3]");
     assert_int_equal(a.material, TS_MAT_MATTE), test_assert_cs(&a, 0.1, 0.2, 0.3);
 }
@@ -555,8 +556,8 @@ static void test_bxdf_surface(void **state)
         "w.rib:2:23: warning: Bxdf parameter \"bumpNormal\" is ignored\n");
     assert_string_equal(
         test_rib_body_warnings("Bxdf \"PxrSurface\" \"s\" \"float presence\" [0.5]"),
-        "w.rib:2:23: warning: Bxdf \"PxrSurface\": \"presence\" (cut-outs) is "
-        "not supported: the surface renders opaque\n");
+        "w.rib:2:23: warning: Bxdf \"PxrSurface\": a \"presence\" below 1 that is not a "
+        "texture (partial transparency) is not supported: the surface renders opaque\n");
 }
 
 /* PxrDisney: every parameter of Burley 2012 lands in the principled attribute (roughness
@@ -710,6 +711,88 @@ static void test_pattern_texture(void **state)
     const float mapped[8] = {0, 0.5f, 2, 0.5f, 0, 1.5f, 2, 1.5f};
     for (int k = 0; k < 8; k++)
         test_assert_near(s.attr[0].st[k], mapped[k], 0);
+    scene_free(&s);
+}
+
+/* The warnings of loading RIB `text` from a file (textures are read), the scene in *s. */
+static const char *load_warnings(const char *text, ts_scene *s)
+{
+    static char out[4096];
+    char path[4096];
+    snprintf(path, sizeof path, "%s/load_warnings.rib", test_scratch_dir());
+    test_write_text(path, text);
+    ts_error e;
+    if (test_rib_load_capture(path, 0, s, &e, out, sizeof out) != TS_OK) fail_msg("%s", e.msg);
+    return out;
+}
+
+/* presence from a PxrTexture: its alpha (resultA) or first channel (resultR) cuts the patch
+ * out (TS_PATCH_CUTOUT, the texture in color_tex: the colour's own, or alone when the colour
+ * is not textured; the RGB texture keeps the alpha in w); a mask other than the colour's
+ * texture, or on an emitter, warns and the surface stays opaque; LamaSurface's presence alike. */
+static void test_presence_cutout(void **state)
+{
+    (void)state;
+    char img[4096]; /* write_image returns its own buffer */
+    snprintf(img, sizeof img, "%s", write_image("ris_mask.ppm"));
+    const char *other = write_image("ris_other.png");
+    char text[8192];
+    ts_scene s;
+    snprintf(text, sizeof text,
+             "WorldBegin\nPattern \"PxrTexture\" \"tex\" \"string filename\" [\"%s\"]\n"
+             "Bxdf \"PxrSurface\" \"d\" \"reference color diffuseColor\" [\"tex:resultRGB\"] "
+             "\"reference float presence\" [\"tex:resultA\"]\n" QUAD "WorldEnd\n",
+             img);
+    test_parse_rib_ok(text, &s);
+    uint32_t f = s.attr[0].flags;
+    assert_true((f & TS_PATCH_COLOR_TEX) && (f & TS_PATCH_CUTOUT) && !(f & TS_PATCH_CUTOUT_RED));
+    assert_int_equal(s.attr[0].color_tex, 0);
+    test_assert_near(s.textures[0].kind, TS_TEX_RGB, 0);
+    scene_free(&s);
+    /* a mask alone (the colour constant): resultR of the texture, Cs as it is */
+    snprintf(text, sizeof text,
+             "WorldBegin\nPattern \"PxrTexture\" \"m\" \"string filename\" [\"%s\"]\n"
+             "Bxdf \"PxrDiffuse\" \"d\" \"color diffuseColor\" [0.5 0.25 1] "
+             "\"reference float presence\" [\"m:resultR\"]\n" QUAD "WorldEnd\n",
+             img);
+    test_parse_rib_ok(text, &s);
+    f = s.attr[0].flags;
+    assert_true(!(f & TS_PATCH_COLOR_TEX) && (f & TS_PATCH_CUTOUT) && (f & TS_PATCH_CUTOUT_RED));
+    test_assert_cs(&s.attr[0], 0.5, 0.25, 1);
+    scene_free(&s);
+    /* another texture than the colour's: opaque, one warning */
+    snprintf(text, sizeof text,
+             "WorldBegin\nPattern \"PxrTexture\" \"c\" \"string filename\" [\"%s\"]\n"
+             "Pattern \"PxrTexture\" \"m\" \"string filename\" [\"%s\"]\n"
+             "Bxdf \"PxrSurface\" \"d\" \"reference color diffuseColor\" [\"c:resultRGB\"] "
+             "\"reference float presence\" [\"m:resultA\"]\n" QUAD "WorldEnd\n",
+             img, other);
+    const char *w = load_warnings(text, &s);
+    if (!strstr(w, "Bxdf \"PxrSurface\": \"presence\" from another texture (or manifold) than its "
+                   "colour's is not drawn: the surface renders opaque"))
+        fail_msg("warnings: %s", w);
+    assert_false(s.attr[0].flags & TS_PATCH_CUTOUT);
+    scene_free(&s);
+    /* an emitter: opaque, one warning */
+    snprintf(text, sizeof text,
+             "WorldBegin\nPattern \"PxrTexture\" \"m\" \"string filename\" [\"%s\"]\n"
+             "Bxdf \"PxrSurface\" \"d\" \"float glowGain\" [1] \"reference float presence\" "
+             "[\"m:resultA\"]\n" QUAD "WorldEnd\n",
+             img);
+    w = load_warnings(text, &s);
+    if (!strstr(w, "\"presence\" on a surface that emits is not drawn"))
+        fail_msg("warnings: %s", w);
+    assert_false(s.attr[0].flags & TS_PATCH_CUTOUT);
+    scene_free(&s);
+    /* LamaSurface's presence */
+    snprintf(text, sizeof text,
+             "WorldBegin\nPattern \"PxrTexture\" \"m\" \"string filename\" [\"%s\"]\n"
+             "Bxdf \"LamaDiffuse\" \"leaf\" \"color color\" [0.2 0.5 0.1]\n"
+             "Bxdf \"LamaSurface\" \"s\" \"reference bxdf materialFront\" [\"leaf\"] "
+             "\"reference float presence\" [\"m:resultA\"]\n" QUAD "WorldEnd\n",
+             img);
+    test_parse_rib_ok(text, &s);
+    assert_true(s.attr[0].flags & TS_PATCH_CUTOUT), test_assert_cs(&s.attr[0], 0.2, 0.5, 0.1);
     scene_free(&s);
 }
 
@@ -993,6 +1076,7 @@ int main(void)
         cmocka_unit_test(test_bxdf_translucent),
         cmocka_unit_test(test_bxdf_lama_surface),
         cmocka_unit_test(test_pattern_texture),
+        cmocka_unit_test(test_presence_cutout),
         cmocka_unit_test(test_pattern_tex_sibling),
         cmocka_unit_test(test_pattern_unknown),
         cmocka_unit_test(test_displace),

@@ -1,11 +1,14 @@
 #!/usr/bin/env python3
-"""tools/make_textures.py — writes the textures of scene/textured.rib (standard library only).
+"""tools/make_textures.py — writes the textures of scene/textured.rib and scene/lama.rib
+(standard library only).
 
   scene/textures/cobbles_height.pgm  128 x 128, 8 bit: a 4 x 4 grid of rounded cobbles
                                      (value 1 at a cobble's crown, 0 in the mortar), each
                                      cobble a little higher or lower and rougher than the next
   scene/textures/cobbles_colour.ppm  128 x 128, 8 bit: the matching colours, warm greys per
                                      cobble and dark mortar
+  scene/textures/leaf_mask.pgm       64 x 64, 8 bit: a leaf's silhouette along t, 1 inside and
+                                     0 outside, for scene/lama.rib's cut-out leaves (presence)
 
 Both tile seamlessly (the renderer repeats textures with period 1 in s and t). Values are
 written as stored: 8-bit texels read back as v / 255 (no colour-space conversion).
@@ -63,6 +66,23 @@ def main():
         f.write(b"P5\n%d %d\n255\n" % (N, N) + bytes(height))
     with open(os.path.join(out, "cobbles_colour.ppm"), "wb") as f:
         f.write(b"P6\n%d %d\n255\n" % (N, N) + bytes(colour))
+    with open(os.path.join(out, "leaf_mask.pgm"), "wb") as f:
+        f.write(b"P5\n%d %d\n255\n" % (LEAF, LEAF) + leaf_mask())
+
+
+LEAF = 64  # texels a side of the leaf mask
+
+
+def leaf_mask():
+    """A leaf along t: inside where |s - 1/2| is below its half-width 0.45 sin(pi t)^0.7,
+    pointed at both ends; 255 inside, 0 outside, at the texel centres."""
+    texels = bytearray()
+    for y in range(LEAF):
+        for x in range(LEAF):
+            s, t = (x + 0.5) / LEAF, (y + 0.5) / LEAF
+            half = 0.45 * math.sin(math.pi * t) ** 0.7
+            texels.append(255 if abs(s - 0.5) < half else 0)
+    return bytes(texels)
 
 
 if __name__ == "__main__":

@@ -68,13 +68,13 @@ void tex_cache_begin(ts_tex_cache *c)
 void tex_cache_mark_patch(ts_tex_cache *c, const ts_scene *s, uint32_t p)
 {
     const ts_patch_attr *a = &s->attr[p];
-    if (a->disp_kind != TS_DISP_TEXTURE && !(a->flags & TS_PATCH_COLOR_TEX)) return;
+    uint32_t colour = a->flags & (TS_PATCH_COLOR_TEX | TS_PATCH_CUTOUT); /* build reads a mask */
+    if (a->disp_kind != TS_DISP_TEXTURE && !colour) return;
     float lo[2], hi[2];
     st_box(a, 0.0f, 0.0f, 1.0f, 1.0f, lo, hi);
     if (a->disp_kind == TS_DISP_TEXTURE)
         mark_rect(c, s, a->disp_tex, lo[0], lo[1], hi[0], hi[1], TS_TEX_MAX_LEVELS, NULL);
-    if (a->flags & TS_PATCH_COLOR_TEX)
-        mark_rect(c, s, a->color_tex, lo[0], lo[1], hi[0], hi[1], 0u, NULL);
+    if (colour) mark_rect(c, s, a->color_tex, lo[0], lo[1], hi[0], hi[1], 0u, NULL);
 }
 
 uint32_t tex_cache_mark_hit(ts_tex_cache *c, const ts_scene *s, uint32_t p, float u0, float v0,

@@ -112,11 +112,14 @@ int scene_add_texture(ts_scene *s, const char *path, uint32_t kind, uint32_t *in
                  : ts_error_set(err, TS_E_MEMORY, "%s: out of memory for the texture", path);
     for (size_t i = 0; rc == TS_OK && i < (size_t)w * h; i++) {
         const float *px = img.pixels + i * ch;
+        /* grey, grey and alpha, RGB, RGBA: the alpha a cutout reads (tex_cutout_keeps) */
         float r = px[0], g = ch >= 3 ? px[1] : r, b = ch >= 3 ? px[2] : r;
-        if (!(fabsf(r) <= 3.0e38f && fabsf(g) <= 3.0e38f && fabsf(b) <= 3.0e38f))
+        float alpha = ch == 2 ? px[1] : ch >= 4 ? px[3] : 1.0f;
+        if (!(fabsf(r) <= 3.0e38f && fabsf(g) <= 3.0e38f && fabsf(b) <= 3.0e38f &&
+              fabsf(alpha) <= 3.0e38f))
             rc = ts_error_set(err, TS_E_IO, "%s: texel (%zu, %zu) is not a finite number", path,
                               i % w, i / w);
-        cur[i] = kind == TS_TEX_MINMAX ? (ts_vec4){r, r, 0.0f, 0.0f} : (ts_vec4){r, g, b, 0.0f};
+        cur[i] = kind == TS_TEX_MINMAX ? (ts_vec4){r, r, 0.0f, 0.0f} : (ts_vec4){r, g, b, alpha};
     }
     image_free(&img);
     if (rc == TS_OK) {

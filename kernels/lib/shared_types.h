@@ -189,6 +189,13 @@ typedef struct ts_hit {
  * counts whole (shade.cl shade_direct_light: no BSDF sample can find it) (RIB Attribute
  * "visibility" "indirect" 0). */
 #define TS_PATCH_NO_INDIRECT 16u
+/* Cut out (RIS `presence` from a texture): a micro-quad whose centre has a mask value below 0.5
+ * is not there (build gives it an empty box, as a trim does: lib/texture.h tex_cutout_keeps).
+ * The mask is texture color_tex at the point's st, its alpha (texel w), or with
+ * TS_PATCH_CUTOUT_RED its first channel; Cs is multiplied by the same texture only when
+ * TS_PATCH_COLOR_TEX is set too. */
+#define TS_PATCH_CUTOUT 32u
+#define TS_PATCH_CUTOUT_RED 64u
 
 /* Materials (RIB Surface), with the patch colour Cs. */
 #define TS_MAT_MATTE 0u   /* Lambertian, albedo Kd * Cs */
@@ -310,7 +317,7 @@ typedef struct ts_xform {
  * TS_TEX_TILE^2 ts_vec4 texels, row-major. width_k = ceil(width / 2^k).
  * TS_TEX_MINMAX: x = the minimum, y = the maximum of the first channel over the level-0
  * texels the texel covers (level 0: x = y = the value); levels down to 1 x 1.
- * TS_TEX_RGB: xyz = colour, level 0 only. */
+ * TS_TEX_RGB: xyz = colour, w = alpha (1 without an alpha channel), level 0 only. */
 #define TS_TEX_TILE_LOG2 5u
 #define TS_TEX_TILE (1u << TS_TEX_TILE_LOG2)
 #define TS_TEX_MAX_LEVELS 16u /* up to 32768 texels a side */

@@ -86,7 +86,8 @@ TS_INLINE ts_vec4 tex_bilinear(ts_tex_ctx c, ts_u32 id, float s, float t)
           w11 = fx * fy;
     ts_vec4 r = {w00 * a.x + w10 * b.x + w01 * d.x + w11 * e.x,
                  w00 * a.y + w10 * b.y + w01 * d.y + w11 * e.y,
-                 w00 * a.z + w10 * b.z + w01 * d.z + w11 * e.z, 0.0f};
+                 w00 * a.z + w10 * b.z + w01 * d.z + w11 * e.z,
+                 w00 * a.w + w10 * b.w + w01 * d.w + w11 * e.w};
     return r;
 }
 
@@ -96,6 +97,19 @@ TS_INLINE void tex_patch_st(TS_CONST_GLOBAL ts_patch_attr *a, float u, float v, 
     float w00 = (1.0f - u) * (1.0f - v), w10 = u * (1.0f - v), w01 = (1.0f - u) * v, w11 = u * v;
     *s = w00 * a->st[0] + w10 * a->st[2] + w01 * a->st[4] + w11 * a->st[6];
     *t = w00 * a->st[1] + w10 * a->st[3] + w01 * a->st[5] + w11 * a->st[7];
+}
+
+/* Whether a cut-out patch (TS_PATCH_CUTOUT) is there at (u, v): its mask (texture color_tex
+ * at the point's st, bilinear at level 0: the alpha, or with TS_PATCH_CUTOUT_RED the first
+ * channel) is at least 0.5. 1 for a patch without a cutout. build_leaves asks it at each
+ * micro-quad's centre. */
+TS_INLINE int tex_cutout_keeps(TS_CONST_GLOBAL ts_patch_attr *a, ts_tex_ctx tex, float u, float v)
+{
+    if (!(a->flags & TS_PATCH_CUTOUT)) return 1;
+    float s, t;
+    tex_patch_st(a, u, v, &s, &t);
+    ts_vec4 c = tex_bilinear(tex, a->color_tex, s, t);
+    return ((a->flags & TS_PATCH_CUTOUT_RED) ? c.x : c.w) >= 0.5f;
 }
 
 /* The surface colour at (u, v): Cs, times the colour texture at the point's st when the

@@ -3,8 +3,9 @@
  * principled BRDF (PxrDisney, PxrSurface's diffuse, specular and clear coat; lib/principled.h),
  * with rib_shading.c's limits, their colour as the patch colour and an emission for glow;
  * PxrDisplace from a PxrTexture becomes the textured displacement. What Tessera cannot draw
- * (refraction, subsurface, presence, other lobes) is named in one warning each, with the
- * fallback docs/rib.md "RIS shading" lists. Colours and textures connected through Pattern
+ * (subsurface, partial presence, other lobes) is named in one warning each, with the
+ * fallback docs/rib.md "RIS shading" lists; presence from a texture cuts the surface out
+ * (bxdf_cutout). Colours and textures connected through Pattern
  * nodes come from rib_pattern.c, as do the constants of maths networks (PxrMix, ...) folded at
  * load, read as literal values. */
 #include "scene/rib/rib_internal.h"
@@ -315,7 +316,8 @@ static int bxdf_silent(const char *name)
 /* Reads Bxdf table entry k's parameters from args[first] into *a; a PxrTexture connected to
  * its colour parameter into *link. presence and the lobes warn; others are ignored with one
  * warning each. */
-static int bxdf_read(rib_parser *p, size_t k, size_t first, bxdf_args *a, rib_link *link)
+static int bxdf_read(rib_parser *p, size_t k, size_t first, bxdf_args *a, rib_link *link,
+                     rib_link *mask)
 {
     const char *bxdf = bxdf_table[k].name;
     char what[RIB_WARN_KEY];
@@ -334,9 +336,15 @@ static int bxdf_read(rib_parser *p, size_t k, size_t first, bxdf_args *a, rib_li
                                   sizeof bxdf_neutral / sizeof *bxdf_neutral))
                 continue;
             if (strcmp(prm.name, "presence") == 0) {
+                rib_link l; /* a PxrTexture's alpha (or resultR) cuts the surface out */
+                rc = rib_pattern_link(p, &prm, RIB_LINK_MASK, "the surface renders opaque", &l);
+                if (rc != TS_OK) return rc;
+                if (l.textured) *mask = l;
+                if (l.textured || (l.linked && !(l.folded && l.value[0] < 1.0)))
+                    continue; /* a mask, or opaque (an unfolded link has warned) */
                 snprintf(what, sizeof what,
-                         "Bxdf \"%s\": \"presence\" (cut-outs) is not supported: the surface "
-                         "renders opaque",
+                         "Bxdf \"%s\": a \"presence\" below 1 that is not a texture (partial "
+                         "transparency) is not supported: the surface renders opaque",
                          bxdf);
                 rib_warn_once(p, prm.key->line, prm.key->col, what);
             } else if (!bxdf_lobe_param(p, bxdf, &prm)) {
@@ -694,6 +702,34 @@ static rib_surface bxdf_as_principled(const rib_surface *s)
     return o;
 }
 
+/* A presence mask (a PxrTexture's alpha or resultR, `mask`) on material s: the patch is cut out
+ * where the mask is below 0.5 (TS_PATCH_CUTOUT, at the micro-quads' centres: build.cl). A
+ * patch reads one texture, with one st map: when s is coloured by a texture the mask must be
+ * that texture, read through the same manifold; else (one warning) the surface stays opaque,
+ * as it does on an emitter (whose light samples would land on the parts cut away). */
+static void bxdf_cutout(rib_parser *p, const char *bxdf, const rib_link *mask, rib_surface *s)
+{
+    char what[RIB_WARN_KEY];
+    const char *why = NULL;
+    if (s->constant || s->emit[0] > 0.0 || s->emit[1] > 0.0 || s->emit[2] > 0.0)
+        why = "on a surface that emits";
+    else if (s->textured &&
+             (s->tex != mask->tex || memcmp(s->st_map, mask->st_map, sizeof s->st_map) != 0))
+        why = "from another texture (or manifold) than its colour's";
+    if (why) {
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": \"presence\" %s is not drawn: the surface renders opaque", bxdf,
+                 why);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+        return;
+    }
+    s->cutout = 1, s->cutout_red = mask->mask_red, s->cutout_tex = mask->tex;
+    if (!s->textured) {
+        s->has_st_map = 1;
+        memcpy(s->st_map, mask->st_map, sizeof s->st_map);
+    }
+}
+
 /* A Lama node that combines two Bxdfs: its name, its two material inputs (connections to Bxdf
  * handles), its float inputs and their defaults, MaterialX's ND_lama_mix_bsdf, ND_lama_add_bsdf,
  * ND_lama_layer_bsdf and ND_lama_surface (Pixar's Lama nodes; LamaSurface is the node a Lama
@@ -939,7 +975,7 @@ static void bxdf_layer(rib_parser *p, const lama_node *nd, const rib_surface *m[
  * *dflt, with one warning), its floats into v[] (their defaults where absent; a texture
  * connected to one is not drawn, with one warning). Other parameters warn as ignored. */
 static int lama_read(rib_parser *p, const lama_node *nd, size_t first, const rib_surface *dflt,
-                     const rib_surface *m[2], int given[2], double v[2])
+                     const rib_surface *m[2], int given[2], double v[2], rib_link *mask)
 {
     char what[RIB_WARN_KEY], shown[RIB_PRINT_MAX], shown2[RIB_PRINT_MAX];
     for (size_t i = first; i < p->nargs; i += 2) {
@@ -967,12 +1003,15 @@ static int lama_read(rib_parser *p, const lama_node *nd, size_t first, const rib
                 m[k] = dflt;
             }
         } else if (j >= 0) {
-            rib_link l;
-            rc = rib_pattern_link(p, &prm, TS_TEX_RGB, "kept at its default", &l);
+            rib_link l; /* LamaSurface's presence: a PxrTexture's alpha cuts it out (*mask) */
+            int presence = nd->op == LAMA_SURFACE && j == 0;
+            rc = rib_pattern_link(p, &prm, presence ? RIB_LINK_MASK : TS_TEX_RGB,
+                                  "kept at its default", &l);
             if (rc != TS_OK) return rc;
+            if (presence && l.textured) *mask = l;
             const double *x = l.value;
             if (l.linked && !l.folded) {
-                if (l.textured) {
+                if (l.textured && !presence) {
                     snprintf(what, sizeof what,
                              "Bxdf \"%s\": a texture connected to \"%s\" is not drawn: it keeps "
                              "its default, %g",
@@ -1013,7 +1052,8 @@ static int bxdf_lama_node(rib_parser *p, const lama_node *nd, size_t first)
     const rib_surface *m[2] = {&dflt, &dflt};
     int given[2] = {0, 0};
     double v[2] = {nd->dflt[0], nd->dflt[1]};
-    int rc = lama_read(p, nd, first, &dflt, m, given, v);
+    rib_link mask = {0};
+    int rc = lama_read(p, nd, first, &dflt, m, given, v, &mask);
     if (rc != TS_OK) return rc;
     rib_surface s;
     if (nd->op == LAMA_ADD) {
@@ -1026,10 +1066,12 @@ static int bxdf_lama_node(rib_parser *p, const lama_node *nd, size_t first)
             rib_warn_once(p, p->req_line, p->req_col,
                           "Bxdf \"LamaSurface\": materialBack is not drawn: both sides of the "
                           "surface show materialFront");
-        if (v[0] != 1.0)
+        if (mask.textured)
+            bxdf_cutout(p, nd->name, &mask, &s);
+        else if (v[0] < 1.0)
             rib_warn_once(p, p->req_line, p->req_col,
-                          "Bxdf \"LamaSurface\": \"presence\" (cut-outs) is not supported: the "
-                          "surface renders opaque");
+                          "Bxdf \"LamaSurface\": a \"presence\" below 1 that is not a texture "
+                          "(partial transparency) is not supported: the surface renders opaque");
     } else {
         bxdf_mix_surfaces(p, nd, m[0], m[1], fmin(1.0, fmax(0.0, v[0])), &s);
     }
@@ -1091,7 +1133,8 @@ int rib_req_bxdf(rib_parser *p)
     bxdf_args a = bxdf_defaults(bxdf_table[k].kind);
     bxdf_lama_defaults(bxdf_table[k].name, &a);
     rib_link link = {0};
-    rc = bxdf_read(p, k, first, &a, &link);
+    rib_link mask = {0};
+    rc = bxdf_read(p, k, first, &a, &link, &mask);
     if (rc != TS_OK) return rc;
     rib_surface s;
     bxdf_material(p, bxdf_table[k].name, bxdf_table[k].kind, &a, &s);
@@ -1120,6 +1163,7 @@ int rib_req_bxdf(rib_parser *p)
         s.has_st_map = 1;
         memcpy(s.st_map, link.st_map, sizeof s.st_map);
     }
+    if (mask.textured) bxdf_cutout(p, bxdf_table[k].name, &mask, &s);
     rc = rib_shading_limits(p, bxdf_table[k].name, &s);
     if (rc == TS_OK) p->surface = s;
     if (rc == TS_OK) rc = bxdf_keep(p, first, &s);

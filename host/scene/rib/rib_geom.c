@@ -109,6 +109,10 @@ static ts_patch_attr geom_attr(const rib_parser *p, const double *cs, const doub
         attr.clearcoat_gloss = (float)s->clearcoat_gloss;
     }
     if (p->surface.textured) attr.flags |= TS_PATCH_COLOR_TEX;
+    if (p->surface.cutout) { /* the mask is the colour texture, or alone in its place */
+        attr.flags |= TS_PATCH_CUTOUT | (p->surface.cutout_red ? TS_PATCH_CUTOUT_RED : 0u);
+        if (!p->surface.textured) attr.color_tex = p->surface.cutout_tex;
+    }
     if (p->no_shadow) attr.flags |= TS_PATCH_NO_SHADOW;
     if (p->no_camera) attr.flags |= TS_PATCH_NO_CAMERA;
     if (p->no_indirect) attr.flags |= TS_PATCH_NO_INDIRECT;

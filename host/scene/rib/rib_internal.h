@@ -241,7 +241,11 @@ typedef struct rib_link {
     int folded;       /* to a maths node (PxrMix, ...) folded to one finite value: */
     int scalar;       /*   1: a float output (in all three channels of value), 0: a colour */
     double value[3];
+    int mask_red; /* kind RIB_LINK_MASK: the texture's first channel (resultR), not its alpha */
 } rib_link;
+/* rib_pattern_link's kind for a cutout mask (presence): a PxrTexture's resultA (its alpha) or
+ * resultR, read as a TS_TEX_RGB texture (ts_patch_attr TS_PATCH_CUTOUT). */
+#define RIB_LINK_MASK 0x100u
 /* Reads parameter prm's connection into *out: not linked (a literal value: the caller reads
  * it); linked to a PxrTexture, whose image is read as kind (TS_TEX_RGB or TS_TEX_MINMAX; a
  * missing file: rib_missing_file's warning ending in `fallback`, or its error when strict);

@@ -96,6 +96,11 @@ typedef struct rib_surface {
     /* LamaSheen (rib_bxdf.c): a lobe Tessera does not draw; black alone, and as a LamaLayer's
      * top it leaves the base as it is */
     int sheen_only;
+    /* presence from a texture (rib_bxdf.c bxdf_cutout): the patch is cut out where the mask,
+     * texture cutout_tex's alpha (its first channel with cutout_red), is below 0.5; the
+     * texture is the colour texture when textured, and shares its st map */
+    int cutout, cutout_red;
+    uint32_t cutout_tex;
 } rib_surface;
 
 /* What AttributeBegin / TransformBegin / WorldBegin saved. */

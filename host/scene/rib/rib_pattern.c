@@ -627,15 +627,20 @@ int rib_pattern_link(rib_parser *p, const rib_param *prm, uint32_t kind, const c
         rib_warn_once(p, prm->val->line, prm->val->col, what);
         return TS_OK;
     }
-    int wanted = kind == TS_TEX_RGB ? strcmp(output, "resultRGB") == 0
-                                    : strcmp(output, "resultR") == 0 || !output[0];
+    int mask = kind == RIB_LINK_MASK; /* resultA (the alpha) or resultR, of an RGB texture */
+    int wanted = mask ? strcmp(output, "resultA") == 0 || strcmp(output, "resultR") == 0
+                 : kind == TS_TEX_RGB ? strcmp(output, "resultRGB") == 0
+                                      : strcmp(output, "resultR") == 0 || !output[0];
     if (!wanted) {
         snprintf(what, sizeof what, "%s: \"%s\" reads PxrTexture output \"%s\" as %s", p->req,
                  rib_printable(prm->name, shown), rib_printable(output, shown2),
-                 kind == TS_TEX_RGB ? "resultRGB" : "resultR (the first channel)");
+                 mask                 ? "resultA (its alpha)"
+                 : kind == TS_TEX_RGB ? "resultRGB"
+                                      : "resultR (the first channel)");
         rib_warn_once(p, prm->val->line, prm->val->col, what);
     }
-    rc = pattern_texture(p, n, kind, fallback, &out->tex);
+    out->mask_red = mask && strcmp(output, "resultR") == 0;
+    rc = pattern_texture(p, n, mask ? TS_TEX_RGB : kind, fallback, &out->tex);
     if (rc != TS_OK || out->tex == TS_INVALID) return rc;
     out->textured = 1;
     pattern_st_map(p, n, out->st_map);
