@@ -5,8 +5,9 @@
 #   1. tools/check_device.sh: every stage and kernel path renders;
 #   2. test_shading_normal on it: shade's normals equal the host's bit for bit (the check that
 #      caught Mesa 22.3 miscompiling bezier_combine's float4 form, issue 40);
-#   3. scene/teapot.rib 160x90 x 4 on Rusticl against PoCL: RMSE of the 8-bit PNGs at most
-#      1.5 levels (devices may differ in the last bits of their transcendental functions).
+#   3. scene/teapot.rib and scene/lama.rib (translucent sheets, a clear coat, cut-outs) at
+#      160x90 x 4 on Rusticl against PoCL: RMSE of the 8-bit PNGs at most 1.5 levels (devices
+#      may differ in the last bits of their transcendental functions).
 # Skipped (77) where Rusticl or PoCL lists no device (RUSTICL_ENABLE=llvmpipe is set here
 # unless already set). The first run builds the kernels on llvmpipe, a minute or two; later
 # runs take them from the kernel cache.
@@ -33,11 +34,14 @@ TESSERA_DEVICE=$rc_dev TESSERA_SOURCE_DIR=$src "$build/tests/test_shading_normal
     { echo "check_rusticl: test_shading_normal failed on Rusticl"; exit 1; }
 work=$(mktemp -d "${TMPDIR:-/tmp}/check-rusticl-XXXXXX")
 trap 'rm -rf "$work"' EXIT
-for d in "$pocl_dev" "$rc_dev"; do
-    "$bin" render "$src/scene/teapot.rib" --res 160x90 --spp 4 --quiet --device "$d" \
-        -o "$work/teapot-$d.png" || { echo "check_rusticl: the teapot failed on device $d"; exit 1; }
-done
-python3 - "$src/tools/bench_cycles.py" "$work/teapot-$pocl_dev.png" "$work/teapot-$rc_dev.png" <<'EOF'
+# The teapot, and scene/lama.rib (translucent sheets, a clear coat, cut-outs from a mask).
+for scene in teapot lama; do
+    for d in "$pocl_dev" "$rc_dev"; do
+        "$bin" render "$src/scene/$scene.rib" --res 160x90 --spp 4 --quiet --device "$d" \
+            -o "$work/$scene-$d.png" || { echo "check_rusticl: $scene failed on device $d"; exit 1; }
+    done
+    python3 - "$src/tools/bench_cycles.py" "$work/$scene-$pocl_dev.png" "$work/$scene-$rc_dev.png" \
+        "$scene" <<'EOF' || exit 1
 import importlib.util, math, sys
 spec = importlib.util.spec_from_file_location("bench_cycles", sys.argv[1])
 png = importlib.util.module_from_spec(spec)
@@ -47,6 +51,7 @@ w2, h2, b = png.png_read(sys.argv[3])
 assert (w, h) == (w2, h2) == (160, 90), "the images differ in size"
 ss = sum((ra[i] - rb[i]) ** 2 for ra, rb in zip(a, b) for i in range(3 * w))
 rmse = math.sqrt(ss / (3 * w * h))
-print(f"check_rusticl: teapot 160x90 x 4, Rusticl vs PoCL: RMSE {rmse:.3f} levels (limit 1.5)")
+print(f"check_rusticl: {sys.argv[4]} 160x90 x 4, Rusticl vs PoCL: RMSE {rmse:.3f} levels (limit 1.5)")
 sys.exit(0 if rmse <= 1.5 else 1)
 EOF
+done
