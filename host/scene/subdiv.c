@@ -107,6 +107,69 @@ static int sd_twins(sd_mesh *m, char *why, size_t len)
 
 /* ---- topology ------------------------------------------------------------------------------ */
 
+/* Room for np points in every per-vertex array (the new ones zeroed). 0 when out of memory. */
+static int sd_grow_points(sd_mesh *m, int np)
+{
+    size_t P = (size_t)np + 1, old = (size_t)m->npoints + 1;
+#define SD_GROW(f, n)                                                                              \
+    do {                                                                                           \
+        void *q = realloc(m->f, (n)*P * sizeof *m->f);                                             \
+        if (!q) return 0;                                                                          \
+        m->f = q;                                                                                  \
+        memset(m->f + (n)*old, 0, (n) * (P - old) * sizeof *m->f);                                 \
+    } while (0)
+    SD_GROW(p, 1);
+    SD_GROW(corner, 1);
+    SD_GROW(vout, 1);
+    SD_GROW(valence, 1);
+    SD_GROW(nsharp, 1);
+    SD_GROW(sharpnb, 2);
+    SD_GROW(vclass, 1);
+    SD_GROW(vbound, 1);
+#undef SD_GROW
+    m->npoints = np;
+    return 1;
+}
+
+/* A vertex whose faces form several fans (sheets that meet at a point: not a manifold there)
+ * becomes one vertex a fan: the first fan keeps it, each other fan gets a copy at the same
+ * position, and all of them are tagged corners, so each fan is a manifold neighbourhood with
+ * the point as its limit and the sheets still meet there (OpenSubdiv makes such a vertex
+ * infinitely sharp too). The twins stay as they were: an edge at the vertex lies in one fan.
+ * Counts the vertices split in m->split; TS_E_MEMORY when out of memory. */
+static int sd_split_fans(sd_mesh *m)
+{
+    int *fan = malloc(((size_t)m->nhalf + 1) * sizeof *fan);
+    unsigned char *seen = calloc((size_t)m->npoints + 1, 1);
+    int added = 0, np = m->npoints, rc = fan && seen ? TS_OK : TS_E_MEMORY;
+    for (int h = 0; rc == TS_OK && h < m->nhalf; h++)
+        fan[h] = -1;
+    for (int h = 0; rc == TS_OK && h < m->nhalf; h++) {
+        if (fan[h] >= 0) continue;
+        int v = m->from[h], id = seen[v] ? np + added++ : v;
+        if (seen[v] == 1) m->split++, seen[v] = 2; /* counted once however many fans */
+        if (!seen[v]) seen[v] = 1;
+        /* the fan's outgoing half-edges: around v one way, then the other from h */
+        for (int g = h, n = 0; g >= 0 && fan[g] < 0 && n <= m->nhalf; n++)
+            fan[g] = id, g = m->twin[sd_prev(m, g)];
+        for (int t = m->twin[h], n = 0; t >= 0 && n <= m->nhalf; n++) {
+            int g = sd_next(m, t);
+            if (fan[g] >= 0) break;
+            fan[g] = id, t = m->twin[g];
+        }
+    }
+    if (rc == TS_OK && added > 0 && !sd_grow_points(m, np + added)) rc = TS_E_MEMORY;
+    for (int h = 0; rc == TS_OK && added > 0 && h < m->nhalf; h++) {
+        int v = m->from[h], id = fan[h];
+        if (id == v) continue;
+        memcpy(m->p[id], m->p[v], sizeof m->p[id]);
+        m->corner[id] = m->corner[v] = 1;
+        m->from[h] = id;
+    }
+    free(fan), free(seen);
+    return rc;
+}
+
 /* The faces around v from vout[v], counted; the rotation h -> twin(prev(h)). */
 static int sd_fan(const sd_mesh *m, int v)
 {
@@ -133,6 +196,7 @@ static void sd_count_sharp(sd_mesh *m)
 int sd_topology(sd_mesh *m, char *why, size_t len)
 {
     int rc = sd_twins(m, why, len);
+    if (rc == TS_OK) rc = sd_split_fans(m);
     if (rc != TS_OK) return rc;
     int *count = calloc((size_t)m->npoints + 1, sizeof *count);
     if (!count) return TS_E_MEMORY;
@@ -374,6 +438,7 @@ int subdiv_patches(const subdiv_input *in, subdiv_patch_fn fn, void *ctx, subdiv
     int rc = sd_build(in, &a, why, len);
     if (rc == TS_OK) rc = sd_tag_creases(&a, in->creases, in->ncreases, &res->creases_unused);
     if (rc == TS_OK) rc = sd_topology(&a, why, len);
+    res->split = a.split;
     for (int f = 0; rc == TS_OK && f < a.nfaces; f++) {
         int quad = a.fcount[f] == 4;
         res->refined |= !quad;

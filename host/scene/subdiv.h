@@ -54,6 +54,7 @@ typedef struct subdiv_result {
     int patches;
     int refined;        /* 1 when the mesh had faces other than quads */
     int creases_unused; /* crease edges that are not edges of the mesh */
+    int split;          /* vertices whose faces form several fans, split into sharp corners */
 } subdiv_result;
 
 /* Receives one patch: 16 object-space Bézier points (u fastest), the face-vertex values
@@ -63,11 +64,12 @@ typedef struct subdiv_result {
 typedef int (*subdiv_patch_fn)(void *ctx, const double cp[16][3], const double *fv, int face);
 
 /* Emits the patches of mesh m through fn (corner normals are left to scene_finalize: the
- * patches share their corners exactly). Returns TS_OK, fn's code, TS_E_MEMORY, or
- * TS_E_SCENE with `why` set for a mesh that is not a manifold with consistently oriented
- * faces ("edge 3-7 is used twice in the same direction (faces 2 and 5) ...", "vertex 4 has
- * faces that form more than one fan") or a face that repeats a vertex. Indices must be in
- * range (the caller checks them). */
+ * patches share their corners exactly). A vertex whose faces form several fans (sheets that
+ * meet only there) is split into one sharp corner a fan, at its position (res->split counts
+ * them). Returns TS_OK, fn's code, TS_E_MEMORY, or TS_E_SCENE with `why` set for an edge of
+ * more than two faces or inconsistently oriented faces ("edge 3-7 is used twice in the same
+ * direction (faces 2 and 5) ...") or a face that repeats a vertex. Indices must be in range
+ * (the caller checks them). */
 int subdiv_patches(const subdiv_input *m, subdiv_patch_fn fn, void *ctx, subdiv_result *res,
                    char *why, size_t why_len);
 

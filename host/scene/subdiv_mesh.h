@@ -29,6 +29,7 @@ typedef struct sd_mesh {
     double *fv;               /* per half-edge: dim values, or NULL */
     int dim;
     int interp_boundary;
+    int split; /* vertices sd_topology split into one a fan (non-manifold: sheets at a point) */
     /* Derived by sd_topology. */
     int *vout;             /* per vertex: an outgoing half-edge (the boundary one), -1 unused */
     int *valence;          /* edges at the vertex */

@@ -222,6 +222,14 @@ static int sd_run(rib_parser *p, subdiv_input *in, const rib_pvars *vars)
         return rib_error_at(p, p->req_line, p->req_col, "SubdivisionMesh: %s", why);
     if (rc == TS_E_MEMORY && p->err->code == TS_OK)
         return ts_error_set(p->err, rc, "%s: SubdivisionMesh: %s", p->lx.file, why);
+    if (rc == TS_OK && res.split) {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "SubdivisionMesh: %d vertex(es) where faces meet only at the point (not "
+                 "manifold) are drawn as sharp corners",
+                 res.split);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
     if (rc == TS_OK && res.creases_unused) {
         char what[RIB_WARN_KEY];
         snprintf(what, sizeof what,
