@@ -34,6 +34,8 @@
  *                  expat) bound to identifier paths, their payloads run in place
  *   rib_bxdf.c     Bxdf (PxrDiffuse, PxrSurface, PxrDisney, PxrConductor, PxrConstant, Lama...)
  *                  onto Surface's materials; Displace "PxrDisplace"
+ *   rib_lama.c     the Lama nodes combining Bxdfs (LamaMix, LamaAdd, LamaLayer, LamaSurface),
+ *                  the Bxdfs kept by handle
  *   rib_ris_light.c Light (PxrDomeLight, PxrDistantLight, PxrRectLight, PxrDiskLight,
  *                  PxrSphereLight, PxrCylinderLight, PxrEnvDayLight)
  *   rib_builtin.c  Geometry "teapot" (its patches in teapot_data.c, generated)
@@ -62,7 +64,9 @@
  *   rib_options.c -> rib_state.c (rib_before_world)
  *   rib_light.c   -> rib_geom.c (rib_geom_check: where lights may stand)
  *   rib_resource.c -> rib_state.c (rib_state_save and rib_state_restore)
- *   rib_bxdf.c    -> rib_pattern.c (connections), rib_shading.c (rib_shading_limits)
+ *   rib_bxdf.c    -> rib_pattern.c (connections), rib_shading.c (rib_shading_limits),
+ *                    rib_lama.c (the Lama nodes, rib_bxdf_keep); rib_lama.c -> rib_bxdf.c
+ *                    (the default material, sheets, cutouts), rib_pattern.c, rib_shading.c
  *   rib_ris_light.c -> rib_geom.c (emissive patches), rib_light.c (rib_light_dome_map)
  *   rib_shading.c, rib_builtin.c -> rib_ris_light.c (RenderMan 20's AreaLightSource
  *                    "PxrStd...Light" and Geometry "rectlight", "envsphere", ...)
@@ -285,6 +289,31 @@ void rib_trim_free(rib_parser *p);
 
 int rib_req_bxdf(rib_parser *p);
 int rib_req_displace(rib_parser *p);
+/* PxrDiffuse's default material into *s. */
+void rib_bxdf_default(rib_parser *p, rib_surface *s);
+/* The hemispherical average of Schlick's Fresnel from face colour f0 to edge colour f90. */
+double rib_schlick_mean(double f0, double f90);
+/* Whether a Bxdf parameter is silent at any value (AOV names, bookkeeping). */
+int rib_bxdf_silent(const char *name);
+/* A thin sheet reflecting albedo refl and transmitting trans as one material into *s
+ * (TS_MAT_TRANSLUCENT; matte without transmission); `what` names the request in warnings. */
+void rib_bxdf_sheet(rib_parser *p, const char *what, const double refl[3], const double trans[3],
+                    rib_surface *s);
+/* presence from a texture (`mask`, a RIB_LINK_MASK link) on material *s: a cutout, or one
+ * warning when it cannot be drawn (another texture than the colour's, an emitter). */
+void rib_bxdf_cutout(rib_parser *p, const char *bxdf, const rib_link *mask, rib_surface *s);
+
+/* ---- rib_lama.c: the Lama nodes that combine Bxdfs, the Bxdfs kept by handle ---- */
+
+/* Whether `name` is a Lama node rib_lama_node draws (LamaMix, LamaAdd, LamaLayer,
+ * LamaSurface). */
+int rib_lama_node_known(const char *name);
+/* Bxdf request of Lama node `name`, its parameters from args[first]: the material it makes of
+ * the Bxdfs it names becomes the current surface, kept under its handle. */
+int rib_lama_node(rib_parser *p, const char *name, size_t first);
+/* Keeps material *s under the request's handle (args[1], when first is 2), for the Lama
+ * nodes; an error past 65536 handles. */
+int rib_bxdf_keep(rib_parser *p, size_t first, const rib_surface *s);
 
 /* ---- rib_ris_light.c: Light (RIS lights onto LightSource's, emissive geometry) ---- */
 
