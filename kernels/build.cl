@@ -118,9 +118,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     __global const ts_patch_attr *a = attr + seg.shape;
     ts_tex_ctx tex = {textures, tex_pages, tex_pool};
     if ((seg.flags & TS_SEG_TRIMMED) != 0u &&
-        ((a->trim_count != 0u && !trim_keeps(trim_seg + a->trim_first, a->trim_count,
-                                             quadtree_centre(i, m), quadtree_centre(j, m))) ||
-         !tex_cutout_keeps(a, tex, quadtree_centre(i, m), quadtree_centre(j, m)))) {
+        !patch_keeps(a, trim_seg, tex, quadtree_centre(i, m), quadtree_centre(j, m))) {
         /* trimmed or cut away: a box no ray enters */
         ts_box e = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
         quadtree_store(groups + at, codes + at, m, k, e, e, coded);

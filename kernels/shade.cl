@@ -113,10 +113,11 @@ inline void add_rgb(__global ts_vec4 *acc, const float t[3], const float l[3], f
     *acc = a;
 }
 
-/* Writes ray slot i: from the vertex, offset by eps along n, towards dir, up to tmax. */
+/* Writes ray slot i: from the vertex, offset by eps along n on the side dir goes to (the far
+ * side for a ray through a translucent sheet), towards dir, up to tmax. */
 inline void emit_ray(shade_rays r, uint i, const shade_vertex *v, ts_v3 dir, float tmax, uint flags)
 {
-    ts_v3 p = v->p, n = v->n;
+    ts_v3 p = v->p, n = v3_dot(v->n, dir) < 0.0f ? v3_scale(v->n, -1.0f) : v->n;
     float eps = v->eps;
     r.org[i] = (ts_vec4){p.x + eps * n.x, p.y + eps * n.y, p.z + eps * n.z, v->self};
     r.dir[i] = (ts_vec4){dir.x, dir.y, dir.z, v->time};
@@ -276,9 +277,7 @@ inline uint shade_direct_light(ts_shade_params sp, const shade_lights *L, const 
                          tp[2] * f[2] * ls.le[2] * w, 0.0f};
     float tmax = ls.dist < TS_NO_HIT ? ls.dist * (1.0f - 1e-4f) : TS_NO_HIT;
     uint target = ls.patch == TS_INVALID ? 0u : (ls.patch + 1u) << 1;
-    shade_vertex out = *v; /* a ray through a translucent sheet leaves from its far side */
-    if (v3_dot(v->n, ls.dir) < 0.0f) out.n = v3_scale(v->n, -1.0f);
-    emit_ray(r, s->wave_size + s->i, &out, ls.dir, tmax, TS_RAY_SHADOW | target);
+    emit_ray(r, s->wave_size + s->i, v, ls.dir, tmax, TS_RAY_SHADOW | target);
     return TS_PATH_TRACED_SHADOW;
 }
 
@@ -315,9 +314,7 @@ inline uint shade_bsdf_bounce(ts_shade_params sp, const shade_vertex *v, const s
     *mode = sp.light_count == 0u || sp.sampling == TS_SAMPLING_BSDF ? TS_MIS_ONE
             : sp.sampling == TS_SAMPLING_LIGHT                      ? TS_MIS_ZERO
                                                                     : TS_MIS_BALANCE;
-    shade_vertex out = *v; /* through the sheet: the ray leaves from its far side */
-    if (cosi < 0.0f) out.n = v3_scale(v->n, -1.0f);
-    emit_ray(r, s->i, &out, wi, TS_NO_HIT, 0u);
+    emit_ray(r, s->i, v, wi, TS_NO_HIT, 0u);
     *mis = pb;
     return TS_PATH_TRACED_BSDF;
 }

@@ -230,6 +230,11 @@ static void test_bxdf_lama_defaults(void **state)
     (void)state;
     ts_patch_attr a = test_rib_one_patch("Bxdf \"LamaDiffuse\" \"d\"");
     assert_int_equal(a.material, TS_MAT_MATTE), test_assert_cs(&a, 0.18, 0.18, 0.18);
+    /* silent: the names of AOVs, and the shadowing of a bump Tessera does not draw */
+    assert_string_equal(test_rib_body_warnings("Bxdf \"LamaDiffuse\" \"d\" \"string lobeName\" "
+                                               "[\"diffuse\"] \"string matte\" [\"\"] \"int "
+                                               "bumpShadowing\" [1]"),
+                        "");
     a = test_rib_one_patch("Bxdf \"LamaConductor\" \"c\"");
     const double n[3] = {0.18, 0.42, 1.37}, k[3] = {3.42, 2.35, 1.77};
     double f0[3];

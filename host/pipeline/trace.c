@@ -8,6 +8,7 @@
  * their profiling events (dev_launch / dev_finish). */
 #include "pipeline/pipeline.h"
 #include "lib/quadtree.h"
+#include "lib/trim.h"
 
 #include <stdlib.h>
 
@@ -160,8 +161,7 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
         s->flags = a->flags & TS_PATCH_MOVING; /* a shape moves as its instances do */
         uint32_t q = segment_shape(p, s), times = s->flags & TS_PATCH_MOVING ? 2u : 1u;
         if (s->lod >= p->rough_lod[q]) s->flags |= TS_PATCH_ROUGH;
-        if (p->scene->attr[q].trim_count || (p->scene->attr[q].flags & TS_PATCH_CUTOUT))
-            s->flags |= TS_SEG_TRIMMED;
+        if (patch_has_holes(&p->scene->attr[q])) s->flags |= TS_SEG_TRIMMED;
         /* triangle mode: the edges towards coarser neighbours take their vertices (dice.cl) */
         s->flags |= pipeline_stitch_edges(p, q, s->lod) << TS_SEG_EDGE_SHIFT;
         /* Texture tiles: the batch's misses' needs add up to at most the pool (an over-count

@@ -165,10 +165,8 @@ void dice_build_ref_stitched(const ts_scene *s, uint32_t p, uint32_t m, int tigh
         for (uint32_t k = 0; k < (1u << (2u * m)); ++k) {
             /* build.cl build_leaves: a micro-quad its trim or its cutout removes gets an empty
              * box */
-            float cu = quadtree_centre(morton_i(k), m), cv = quadtree_centre(morton_j(k), m);
-            if ((a->trim_count &&
-                 !trim_keeps(s->trim_seg + a->trim_first, a->trim_count, cu, cv)) ||
-                !tex_cutout_keeps(a, q.tex, cu, cv)) {
+            if (!patch_keeps(a, s->trim_seg, q.tex, quadtree_centre(morton_i(k), m),
+                             quadtree_centre(morton_j(k), m))) {
                 ts_box e = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
                 quadtree_store(tree, ct, m, k, e, e, coded);
                 continue;

@@ -198,27 +198,17 @@ int sd_topology(sd_mesh *m, char *why, size_t len)
     int rc = sd_twins(m, why, len);
     if (rc == TS_OK) rc = sd_split_fans(m);
     if (rc != TS_OK) return rc;
-    int *count = calloc((size_t)m->npoints + 1, sizeof *count);
-    if (!count) return TS_E_MEMORY;
     for (int v = 0; v < m->npoints; v++)
         m->vout[v] = -1;
     for (int h = 0; h < m->nhalf; h++) { /* prefer the outgoing boundary half-edge */
         int v = m->from[h];
-        count[v]++;
         if (m->vout[v] < 0 || m->twin[h] < 0) m->vout[v] = h;
     }
-    for (int v = 0; rc == TS_OK && v < m->npoints; v++) {
+    for (int v = 0; v < m->npoints; v++) { /* one fan a vertex now (sd_split_fans) */
         if (m->vout[v] < 0) continue;
         m->vbound[v] = m->twin[m->vout[v]] < 0;
-        int faces = sd_fan(m, v);
-        if (faces != count[v]) {
-            snprintf(why, len, "vertex %d has faces that form more than one fan (not manifold)", v);
-            rc = TS_E_SCENE;
-        }
-        m->valence[v] = faces + m->vbound[v];
+        m->valence[v] = sd_fan(m, v) + m->vbound[v];
     }
-    free(count);
-    if (rc != TS_OK) return rc;
     sd_count_sharp(m);
     for (int v = 0; v < m->npoints; v++) {
         int corner = m->corner[v] || m->nsharp[v] >= 3 ||

@@ -65,8 +65,9 @@ static inline int sd_sharp(const sd_mesh *m, int h)
 int sd_alloc(sd_mesh *m, int np, int nf, int nh, int dim);
 void sd_free(sd_mesh *m);
 
-/* Twins, one outgoing half-edge per vertex, valences, sharp edges and vertex classes.
- * Fails (TS_E_SCENE, why) for a non-manifold or inconsistently oriented mesh. */
+/* Twins, vertices split into one a fan (sheets meeting at a point: sharp corners), one outgoing
+ * half-edge per vertex, valences, sharp edges and vertex classes. Fails (TS_E_SCENE, why) for
+ * an edge of more than two faces or inconsistently oriented faces. */
 int sd_topology(sd_mesh *m, char *why, size_t len);
 
 /* One Catmull-Clark step (subdiv_refine.c): every face of `in` (after sd_topology) becomes

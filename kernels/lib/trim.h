@@ -11,6 +11,7 @@
 #define TS_TRIM_H
 
 #include "lib/shared_types.h"
+#include "lib/texture.h"
 
 /* 1 when (s, t) is inside the `count` segments from seg by the even-odd rule: each segment
  * whose ends lie on either side of t (half-open: y0 < t or y1 < t, not both) and that the
@@ -27,6 +28,23 @@ TS_INLINE ts_u32 trim_keeps(TS_CONST_GLOBAL ts_vec4 *seg, ts_u32 count, float s,
         }
     }
     return odd;
+}
+
+/* Whether micro-quads of patch a may be removed: it is trimmed (trim_count) or cut out by a
+ * mask (TS_PATCH_CUTOUT); the segments diced from it get TS_SEG_TRIMMED. */
+TS_INLINE int patch_has_holes(TS_CONST_GLOBAL ts_patch_attr *a)
+{
+    return a->trim_count != 0u || (a->flags & TS_PATCH_CUTOUT) != 0u;
+}
+
+/* Whether patch a keeps its point (u, v): inside its trim curves (trim_keeps, when it has any)
+ * and where its cutout mask keeps it (lib/texture.h tex_cutout_keeps). build_leaves and the
+ * host's reference ask it at each micro-quad's centre. */
+TS_INLINE int patch_keeps(TS_CONST_GLOBAL ts_patch_attr *a, TS_CONST_GLOBAL ts_vec4 *trim_seg,
+                          ts_tex_ctx tex, float u, float v)
+{
+    return (a->trim_count == 0u || trim_keeps(trim_seg + a->trim_first, a->trim_count, u, v)) &&
+           tex_cutout_keeps(a, tex, u, v);
 }
 
 #endif

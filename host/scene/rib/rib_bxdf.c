@@ -309,7 +309,8 @@ int rib_bxdf_silent(const char *name)
 {
     static const char *const names[] = {
         "presenceCached",      "specularIor", "specularExtinctionCoeff",
-        "maxContinuationHits", "lobeName",    "matte"};
+        "maxContinuationHits", "lobeName",    "matte",
+        "bumpShadowing"};
     return rib_in_list(name, names, RIB_COUNT(names));
 }
 
@@ -513,6 +514,75 @@ void rib_bxdf_sheet(rib_parser *p, const char *what, const double refl[3], const
     }
 }
 
+/* PxrConductor, LamaConductor and PxrLMMetal onto metal: Cs per channel = tint x the Schlick
+ * average from the face colour to the edge colour. Artistic (the face and edge colours):
+ * fresnelMode 1, or a reflectivity given without a fresnelMode; else physical, the face colour
+ * from IOR and extinction. LamaConductor's physical Fresnel goes to 1 at the edge (its
+ * edgeColor is the artistic mode's). */
+static void bxdf_conductor(rib_parser *p, const char *bxdf, const bxdf_args *a, rib_surface *s)
+{
+    s->material = TS_MAT_METAL, s->kd = 0.0, s->ks = 1.0;
+    int artistic = a->fresnel_mode == 1.0 || (a->fresnel_mode < 0.0 && a->has_reflectivity);
+    int lama = strcmp(bxdf, "LamaConductor") == 0;
+    if (a->fresnel_mode >= 0.0 && a->fresnel_mode != 1.0 && a->has_reflectivity) {
+        char what[RIB_WARN_KEY];
+        snprintf(what, sizeof what,
+                 "Bxdf \"%s\": \"reflectivity\" is not read under fresnelMode %g (physical: IOR "
+                 "and extinction)",
+                 bxdf, a->fresnel_mode);
+        rib_warn_once(p, p->req_line, p->req_col, what);
+    }
+    for (int c = 0; c < 3; c++) {
+        double n = a->eta[c], k = a->kappa[c]; /* normal-incidence Fresnel of n + ik */
+        double f0 =
+            artistic ? a->color[c] : ((n - 1) * (n - 1) + k * k) / ((n + 1) * (n + 1) + k * k);
+        double edge = artistic || !lama ? a->spec_edge[c] : 1.0;
+        s->color[c] = a->tint[c] * rib_schlick_mean(f0, edge);
+    }
+}
+
+/* PxrSurface's lobes that go through the surface, after bxdf_surface: diffuse transmission
+ * beside its diffuse lobe alone makes a translucent sheet (beside a specular lobe or a coat,
+ * the principled BRDF, it is not drawn: one warning); refraction makes it glass. */
+static void bxdf_surface_through(rib_parser *p, const char *bxdf, const bxdf_args *a,
+                                 rib_surface *s)
+{
+    char what[RIB_WARN_KEY];
+    if (a->dt_gain > 0.0) {
+        snprintf(what, sizeof what, "Bxdf \"%s\"", bxdf);
+        if (s->material == TS_MAT_MATTE) {
+            double refl[3], trans[3];
+            for (int c = 0; c < 3; c++)
+                refl[c] = s->kd * s->color[c], trans[c] = a->dt_gain * a->dt_color[c];
+            rib_bxdf_sheet(p, what, refl, trans, s);
+        } else {
+            snprintf(what, sizeof what,
+                     "Bxdf \"%s\": \"diffuseTransmitGain\" is not 0, but diffuse transmission "
+                     "is drawn only beside a diffuse lobe alone (no specular lobe or clear coat)",
+                     bxdf);
+            rib_warn_once(p, p->req_line, p->req_col, what);
+        }
+    }
+    if (a->refr_gain > 0.0) {
+        /* PxrSurface's glass lobe: the surface is glass of index glassIor, alpha
+         * glassRoughness^2, tinted by refractionGain * refractionColor; its other lobes go */
+        double tint[3];
+        for (int c = 0; c < 3; c++)
+            tint[c] = fmin(1.0, fmax(0.0, a->refr_gain * a->refr_color[c]));
+        int others = a->diffuse_gain * (a->color[0] + a->color[1] + a->color[2]) > 0.0 ||
+                     s->material == TS_MAT_PRINCIPLED;
+        bxdf_glass(p, bxdf, a->ior, tint, s);
+        s->roughness = fmin(fmax(a->glass_rough * a->glass_rough, 0.01), 1.0);
+        if (others) {
+            snprintf(what, sizeof what,
+                     "Bxdf \"%s\": with refractionGain it is drawn as glass: its diffuse and "
+                     "specular lobes are not drawn",
+                     bxdf);
+            rib_warn_once(p, p->req_line, p->req_col, what);
+        }
+    }
+}
+
 /* The material of a Bxdf of `kind` from its arguments (docs/rib.md "RIS shading"). */
 static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const bxdf_args *a,
                           rib_surface *s)
@@ -531,26 +601,7 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
     } else if (kind == BXDF_DISNEY) {
         bxdf_disney(p, bxdf, a, s);
     } else if (kind == BXDF_CONDUCTOR) {
-        s->material = TS_MAT_METAL, s->kd = 0.0, s->ks = 1.0;
-        /* Artistic (the face and edge colours): fresnelMode 1, or a reflectivity given without
-         * a fresnelMode; else physical, the face colour from IOR and extinction. LamaConductor's
-         * physical Fresnel goes to 1 at the edge (its edgeColor is the artistic mode's). */
-        int artistic = a->fresnel_mode == 1.0 || (a->fresnel_mode < 0.0 && a->has_reflectivity);
-        int lama = strcmp(bxdf, "LamaConductor") == 0;
-        if (a->fresnel_mode >= 0.0 && a->fresnel_mode != 1.0 && a->has_reflectivity) {
-            snprintf(what, sizeof what,
-                     "Bxdf \"%s\": \"reflectivity\" is not read under fresnelMode %g (physical: "
-                     "IOR and extinction)",
-                     bxdf, a->fresnel_mode);
-            rib_warn_once(p, p->req_line, p->req_col, what);
-        }
-        for (int c = 0; c < 3; c++) {
-            double n = a->eta[c], k = a->kappa[c]; /* normal-incidence Fresnel of n + ik */
-            double f0 =
-                artistic ? a->color[c] : ((n - 1) * (n - 1) + k * k) / ((n + 1) * (n + 1) + k * k);
-            double edge = artistic || !lama ? a->spec_edge[c] : 1.0;
-            s->color[c] = a->tint[c] * rib_schlick_mean(f0, edge);
-        }
+        bxdf_conductor(p, bxdf, a, s);
     } else if (kind == BXDF_CONSTANT) {
         s->kd = 0.0, s->constant = 1; /* emits its colour (rib_geom.c), reflects nothing */
     } else if (kind == BXDF_SHEEN) {
@@ -574,41 +625,7 @@ static void bxdf_material(rib_parser *p, const char *bxdf, bxdf_kind kind, const
             tint[c] = fmin(1.0, fmax(0.0, a->refr_color[c]));
         bxdf_glass(p, bxdf, a->ior, tint, s);
     }
-    if (kind == BXDF_SURFACE && a->dt_gain > 0.0) {
-        /* PxrSurface's diffuse transmission beside its diffuse lobe alone: a translucent
-         * sheet; beside a specular lobe or a coat (the principled BRDF) it is not drawn */
-        snprintf(what, sizeof what, "Bxdf \"%s\"", bxdf);
-        if (s->material == TS_MAT_MATTE) {
-            double refl[3], trans[3];
-            for (int c = 0; c < 3; c++)
-                refl[c] = s->kd * s->color[c], trans[c] = a->dt_gain * a->dt_color[c];
-            rib_bxdf_sheet(p, what, refl, trans, s);
-        } else {
-            snprintf(what, sizeof what,
-                     "Bxdf \"%s\": \"diffuseTransmitGain\" is not 0, but diffuse transmission "
-                     "is drawn only beside a diffuse lobe alone (no specular lobe or clear coat)",
-                     bxdf);
-            rib_warn_once(p, p->req_line, p->req_col, what);
-        }
-    }
-    if (kind == BXDF_SURFACE && a->refr_gain > 0.0) {
-        /* PxrSurface's glass lobe: the surface is glass of index glassIor, alpha
-         * glassRoughness^2, tinted by refractionGain * refractionColor; its other lobes go */
-        double tint[3];
-        for (int c = 0; c < 3; c++)
-            tint[c] = fmin(1.0, fmax(0.0, a->refr_gain * a->refr_color[c]));
-        int others = a->diffuse_gain * (a->color[0] + a->color[1] + a->color[2]) > 0.0 ||
-                     s->material == TS_MAT_PRINCIPLED;
-        bxdf_glass(p, bxdf, a->ior, tint, s);
-        s->roughness = fmin(fmax(a->glass_rough * a->glass_rough, 0.01), 1.0);
-        if (others) {
-            snprintf(what, sizeof what,
-                     "Bxdf \"%s\": with refractionGain it is drawn as glass: its diffuse and "
-                     "specular lobes are not drawn",
-                     bxdf);
-            rib_warn_once(p, p->req_line, p->req_col, what);
-        }
-    }
+    if (kind == BXDF_SURFACE) bxdf_surface_through(p, bxdf, a, s);
 }
 
 /* A presence mask (a PxrTexture's alpha or resultR, `mask`) on material s: the patch is cut out
@@ -670,7 +687,9 @@ int rib_req_bxdf(rib_parser *p)
     /* LamaSurface with a materialFront is the end of a Lama network; without, it is read as
      * a matte of its diffuse colour (bxdf_table), as files written for it so are */
     int lama_end = strcmp(name, "LamaSurface") != 0 || bxdf_has_param(p, first, "materialFront");
-    if (lama_end && rib_lama_node_known(name)) return rib_lama_node(p, name, first);
+    int lama = 0;
+    rc = lama_end ? rib_lama_node(p, name, first, &lama) : TS_OK;
+    if (lama || rc != TS_OK) return rc;
     size_t k = 0;
     while (k < BXDF_COUNT && strcmp(name, bxdf_table[k].name) != 0)
         k++;
@@ -688,8 +707,7 @@ int rib_req_bxdf(rib_parser *p)
                  "Bxdf \"%s\" is unknown: it renders as PxrDiffuse (matte) of its default colour",
                  rib_printable(name, shown));
         rib_warn_once(p, p->args[0].line, p->args[0].col, what);
-        bxdf_args a = bxdf_defaults(BXDF_DIFFUSE);
-        bxdf_material(p, name, BXDF_DIFFUSE, &a, &p->surface);
+        rib_bxdf_default(p, &p->surface);
         return rib_bxdf_keep(p, first, &p->surface);
     }
     bxdf_args a = bxdf_defaults(bxdf_table[k].kind);

@@ -305,12 +305,11 @@ void rib_bxdf_cutout(rib_parser *p, const char *bxdf, const rib_link *mask, rib_
 
 /* ---- rib_lama.c: the Lama nodes that combine Bxdfs, the Bxdfs kept by handle ---- */
 
-/* Whether `name` is a Lama node rib_lama_node draws (LamaMix, LamaAdd, LamaLayer,
- * LamaSurface). */
-int rib_lama_node_known(const char *name);
-/* Bxdf request of Lama node `name`, its parameters from args[first]: the material it makes of
- * the Bxdfs it names becomes the current surface, kept under its handle. */
-int rib_lama_node(rib_parser *p, const char *name, size_t first);
+/* Bxdf request `name`, its parameters from args[first], when it is a Lama node that combines
+ * Bxdfs (LamaMix, LamaAdd, LamaLayer, LamaSurface; *is_lama 1): the material it makes of the
+ * Bxdfs it names becomes the current surface, kept under its handle. *is_lama 0 (and TS_OK)
+ * for any other name. */
+int rib_lama_node(rib_parser *p, const char *name, size_t first, int *is_lama);
 /* Keeps material *s under the request's handle (args[1], when first is 2), for the Lama
  * nodes; an error past 65536 handles. */
 int rib_bxdf_keep(rib_parser *p, size_t first, const rib_surface *s);

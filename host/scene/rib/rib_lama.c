@@ -155,6 +155,28 @@ static void bxdf_scale(rib_parser *p, const lama_node *nd, double s, rib_surface
     }
 }
 
+/* (1 - w) m1 + w m2 as one principled BRDF of their mixed parameters (bxdf_as_principled):
+ * mattes, metals and principled BRDFs among each other, an approximation. */
+static void bxdf_mix_principled(const rib_surface *m1, const rib_surface *m2, double w,
+                                rib_surface *out)
+{
+    rib_surface a = bxdf_as_principled(m1), b = bxdf_as_principled(m2);
+    *out = a;
+    mix3(a.color, b.color, w, out->color);
+    /* a matte has no lobe the roughness shapes: the other's keeps its own */
+    out->roughness = m1->material == TS_MAT_MATTE   ? b.roughness
+                     : m2->material == TS_MAT_MATTE ? a.roughness
+                                                    : (1.0 - w) * a.roughness + w * b.roughness;
+    out->metallic = (1.0 - w) * a.metallic + w * b.metallic;
+    out->specular = (1.0 - w) * a.specular + w * b.specular;
+    out->specular_tint = (1.0 - w) * a.specular_tint + w * b.specular_tint;
+    out->sheen = (1.0 - w) * a.sheen + w * b.sheen;
+    out->sheen_tint = (1.0 - w) * a.sheen_tint + w * b.sheen_tint;
+    out->clearcoat = (1.0 - w) * a.clearcoat + w * b.clearcoat;
+    out->clearcoat_gloss = (1.0 - w) * a.clearcoat_gloss + w * b.clearcoat_gloss;
+    out->kd = 1.0 - out->metallic, out->ks = 0.0;
+}
+
 /* (1 - w) m1 + w m2, node's inputs (LamaMix's, or another node's mixing step), where Tessera's
  * materials can hold it. Exact: w 0 or 1; two mattes of one specular lobe (their Kd Cs mixed);
  * two metals, or two glasses of one index, of one roughness (their tints mixed: each BSDF is
@@ -231,21 +253,7 @@ static void bxdf_mix_surfaces(rib_parser *p, const lama_node *nd, const rib_surf
                  "their mixed parameters (an approximation)",
                  nd->name);
         rib_warn_once(p, p->req_line, p->req_col, what);
-        rib_surface a = bxdf_as_principled(m1), b = bxdf_as_principled(m2);
-        *out = a;
-        mix3(a.color, b.color, w, out->color);
-        /* a matte has no lobe the roughness shapes: the other's keeps its own */
-        out->roughness = m1->material == TS_MAT_MATTE   ? b.roughness
-                         : m2->material == TS_MAT_MATTE ? a.roughness
-                                                        : (1.0 - w) * a.roughness + w * b.roughness;
-        out->metallic = (1.0 - w) * a.metallic + w * b.metallic;
-        out->specular = (1.0 - w) * a.specular + w * b.specular;
-        out->specular_tint = (1.0 - w) * a.specular_tint + w * b.specular_tint;
-        out->sheen = (1.0 - w) * a.sheen + w * b.sheen;
-        out->sheen_tint = (1.0 - w) * a.sheen_tint + w * b.sheen_tint;
-        out->clearcoat = (1.0 - w) * a.clearcoat + w * b.clearcoat;
-        out->clearcoat_gloss = (1.0 - w) * a.clearcoat_gloss + w * b.clearcoat_gloss;
-        out->kd = 1.0 - out->metallic, out->ks = 0.0;
+        bxdf_mix_principled(m1, m2, w, out);
     }
     mix3(m1->emit, m2->emit, w, out->emit);
 }
@@ -452,16 +460,13 @@ static int lama_node_run(rib_parser *p, const lama_node *nd, size_t first)
     return rc;
 }
 
-int rib_lama_node_known(const char *name)
+int rib_lama_node(rib_parser *p, const char *name, size_t first, int *is_lama)
 {
     for (size_t n = 0; n < LAMA_NODES; n++)
-        if (strcmp(name, lama_nodes[n].name) == 0) return 1;
-    return 0;
-}
-
-int rib_lama_node(rib_parser *p, const char *name, size_t first)
-{
-    for (size_t n = 0; n < LAMA_NODES; n++)
-        if (strcmp(name, lama_nodes[n].name) == 0) return lama_node_run(p, &lama_nodes[n], first);
-    return rib_error_at(p, p->req_line, p->req_col, "Bxdf \"%s\" is not a Lama node", name);
+        if (strcmp(name, lama_nodes[n].name) == 0) {
+            *is_lama = 1;
+            return lama_node_run(p, &lama_nodes[n], first);
+        }
+    *is_lama = 0;
+    return TS_OK;
 }
