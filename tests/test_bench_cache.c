@@ -2,7 +2,8 @@
  * reordering vs caching counts are consistent: dicings(reorder) <= dicings(cache 10),
  * cache 1000 <= cache 100 <= cache 10, a cache never dices more often than it is looked up
  * nor fewer times than the patches it must hold at least once, micro-polygons follow the
- * dicings, and the wavefront tracer and the one-ray-at-a-time tracer hit the same rays. */
+ * dicings, and the wavefront tracer and the one-ray-at-a-time tracer hit the same rays; for
+ * the eye rays alone and, with --paths, for every ray of the paths. */
 #include "test_support.h"
 
 #include <cjson/cJSON.h>
@@ -19,24 +20,25 @@ static double number(const cJSON *o, const char *key)
     return v->valuedouble;
 }
 
-static void test_tiny(void **state)
+/* Runs bench_cache at --size tiny on forest-1 with `extra` arguments; its JSON. */
+static cJSON *run_tiny(const char *extra, const char *name)
 {
     char bin[4096], cmd[16384];
     snprintf(bin, sizeof bin, "%s", test_tessera_binary());
-    const char *json = test_path_in(test_scratch_dir(), "cache.json");
+    const char *json = test_path_in(test_scratch_dir(), name);
     snprintf(cmd, sizeof cmd,
-             "'%s/bench_cache' --size tiny --scene '%s' --json '%s' > /dev/null 2>&1", dirname(bin),
-             test_source_path("scene/forest-1.rib"), json);
+             "'%s/bench_cache' --size tiny %s --scene '%s' --json '%s' > /dev/null 2>&1",
+             dirname(bin), extra, test_source_path("scene/forest-1.rib"), json);
     assert_int_equal(system(cmd), 0); /* the program's own checks passed */
     cJSON *root = test_read_json(json);
     assert_string_equal(cJSON_GetObjectItem(root, "benchmark")->valuestring, "cache");
     assert_true(number(root, "spp") >= 1);
-    const cJSON *scenes = cJSON_GetObjectItem(root, "scenes");
-    assert_int_equal(cJSON_GetArraySize(scenes), 1);
-    const cJSON *s = cJSON_GetArrayItem(scenes, 0);
-    assert_true(number(s, "patches") > 1000); /* forest-1: one tree on terrain */
-    assert_true(number(s, "rays") ==
-                number(root, "width") * number(root, "height") * number(root, "spp"));
+    return root;
+}
+
+/* The counts of one scene's run that hold for eye rays and for whole paths alike. */
+static void check_counts(const cJSON *s)
+{
     const cJSON *ro = cJSON_GetObjectItem(s, "reorder"), *ca = cJSON_GetObjectItem(s, "cache");
     assert_int_equal(cJSON_GetArraySize(ca), 3);
     double d[3], mp[3], lookups = number(s, "cache_lookups");
@@ -59,17 +61,58 @@ static void test_tiny(void **state)
     double hits = number(ro, "hits");
     assert_true(hits > 0.05 * number(s, "rays"));
     assert_true(number(s, "cache_hits") == hits);
-    assert_true(number(s, "hit_t_equal") >= 0.99 * hits);
+    assert_true(number(s, "hits_compared") <= hits);
+    assert_true(number(s, "hit_t_equal") >= 0.99 * number(s, "hits_compared"));
     /* The program's own verdicts, as reported. */
     const cJSON *ck = cJSON_GetObjectItem(s, "checks");
     assert_true(cJSON_IsTrue(cJSON_GetObjectItem(ck, "reorder_le_cache_10")));
     assert_true(cJSON_IsTrue(cJSON_GetObjectItem(ck, "cache_1000_le_100_le_10")));
     assert_true(cJSON_IsTrue(cJSON_GetObjectItem(ck, "same_rays_hit")));
+}
+
+static void test_tiny(void **state)
+{
+    (void)state;
+    cJSON *root = run_tiny("", "cache.json");
+    assert_string_equal(cJSON_GetObjectItem(root, "rays")->valuestring, "eye");
+    const cJSON *scenes = cJSON_GetObjectItem(root, "scenes");
+    assert_int_equal(cJSON_GetArraySize(scenes), 1);
+    const cJSON *s = cJSON_GetArrayItem(scenes, 0);
+    assert_true(number(s, "rays") ==
+                number(root, "width") * number(root, "height") * number(root, "spp"));
+    assert_true(number(s, "eye_rays") == number(s, "rays"));
+    assert_true(number(s, "hits_compared") == number(cJSON_GetObjectItem(s, "reorder"), "hits"));
+    check_counts(s);
+    cJSON_Delete(root);
+}
+
+/* --paths: every ray of the paths `tessera render` traces (Hanika's Table 2 counts path
+ * tracing's rays), each one's answer the same in both tracers: a shadow ray occluded or not,
+ * the others' hits at the same distances. */
+static void test_tiny_paths(void **state)
+{
+    (void)state;
+    cJSON *root = run_tiny("--paths", "cache_paths.json");
+    assert_string_equal(cJSON_GetObjectItem(root, "rays")->valuestring, "paths");
+    const cJSON *s = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "scenes"), 0);
+    double eye = number(s, "eye_rays"), bsdf = number(s, "bsdf_rays"),
+           shadow = number(s, "shadow_rays"), rays = number(s, "rays");
+    assert_true(eye == number(root, "width") * number(root, "height") * number(root, "spp"));
+    assert_true(bsdf > 0.1 * eye && shadow > 0.1 * eye); /* the sun lights the tree */
+    assert_true(rays == eye + bsdf + shadow);
+    assert_true(number(s, "answers_equal") == rays);
+    check_counts(s);
+    /* The eye rays are among them, with the same hits: the patches reached are a superset. */
+    cJSON *eye_root = run_tiny("", "cache_eye.json");
+    const cJSON *e = cJSON_GetArrayItem(cJSON_GetObjectItem(eye_root, "scenes"), 0);
+    assert_true(number(s, "patches_reached") > number(e, "patches_reached"));
+    cJSON_Delete(eye_root);
     cJSON_Delete(root);
 }
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {cmocka_unit_test(test_tiny)};
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_tiny),
+                                       cmocka_unit_test(test_tiny_paths)};
     return TEST_RUN_WITH_DEVICE(tests, NULL);
 }

@@ -1,5 +1,7 @@
 /* bench_cache.c — reordering vs caching (Hanika et al. 2010, Table 2; Pharr et al. 1997):
- * how many times patches are diced to trace the same eye rays (issue 8 item 1, DESIGN.md §6).
+ * how many times patches are diced to trace the same rays (issue 8 item 1, DESIGN.md §6): the
+ * frame's eye rays, or with --paths every ray of its paths (eye, BSDF and shadow rays of each
+ * bounce, as `tessera render` traces them), as the paper's Table 2 counts path tracing's rays.
  *
  * reordering: Tessera's wavefront loop (host/pipeline/trace.c) traces the frame's eye rays in waves
  *   of the plan's ray capacity (--memory; `tessera render` makes its waves half that, as
@@ -9,22 +11,30 @@
  *   `tessera render` does; without --memory the arenas then grow to the frame's patches
  *   where the machine has room, as `tessera render`'s default budget does
  *   (budget_grow_arenas), and with --memory they stay a quarter of it.
+ *   With --paths the waves are `tessera render`'s (app/waves.c waves_trace_paths: half the
+ *   capacity in paths, each with a BSDF and a shadow-ray slot), every bounce's rays read
+ *   back before and after their trace (ts_wave_watch).
  * cache C (10, 100, 1000 diced patches, LRU): the same rays (read back from the device) are
  *   traced one at a time in the original order — scanline order of pixels, each pixel's
- *   samples in turn — by a plain-C tracer: exact front-to-back traversal of the same patch
+ *   samples in turn, each path's rays bounce by bounce (a path tracer without reordering:
+ *   Pharr and Hanrahan 1996) — by a plain-C tracer: exact front-to-back traversal of the same patch
  *   QBVH (host/pipeline/qbvh.c) with a priority queue on entry distance, stopping when the nearest
  *   entry left is beyond the closest hit so far; each patch reached is looked up in the
  *   cache (a miss is one dicing of the patch at Tessera's m for it), then intersected with
  *   the plain-C bottom level (host/ref/bottom_level_ref.c, leaf boxes, leaf size 1) on the grid
- *   and tree of the plain-C dice/build references (host/ref/dice_build_ref.c). The three caches
+ *   and tree of the plain-C dice/build references (host/ref/dice_build_ref.c), with the
+ *   kernels' rules for the patch a ray leaves (its triangles, org.w its tmin), for shadow rays
+ *   (done at their first hit below the light's distance, not stopped by the light they aim
+ *   at) and for the patches a kind of ray does not see. The three caches
  *   see the same sequence of lookups, so one pass serves all three. The host keeps the grids
  *   it really dices in a memo (cleared when it passes --memo-mb) so each patch is not
  *   recomputed on every simulated miss; that changes no count.
  * every patch: the patches the exact tracer reaches at all, which an unbounded cache dices
  *   once each: the floor of any order of the same rays that dices only what they reach.
  * Both tracers find the closest hit of every ray among the same micro-geometry, so the
- * benchmark fails unless they hit the same rays (and it reports how many hit distances are
- * bitwise equal). Checks: dicings(reorder) <= dicings(cache 10) and cache 1000 <= cache 100
+ * benchmark fails unless every ray gets the same answer from both (hit or not; a shadow ray's
+ * first hit need not be its nearest), and it reports how many hit distances are bitwise equal.
+ * Checks: dicings(reorder) <= dicings(cache 10) and cache 1000 <= cache 100
  * <= cache 10. Every check is recorded under "checks" in the JSON. The two that are
  * properties of a correct run (LRU caches are inclusive, so a larger one never dices more;
  * both tracers hit the same rays) make the exit status 1 when they fail; reordering dicing
@@ -32,9 +42,13 @@
  * each patch), and is printed as such. The ctest smoke test asserts it at --size tiny.
  *
  * usage: bench_cache [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N]
- *                    [--memory MB] [--memo-mb MB] [--order pixel|pass] [--json PATH]
+ *                    [--memory MB] [--memo-mb MB] [--order pixel|pass|wave] [--paths]
+ *                    [--json PATH]
  *   --order pass: the caches see the rays sample pass by sample pass (the order of Tessera's
- *   camera), instead of scanline order with each pixel's samples in turn (default, pixel).
+ *   camera), instead of scanline order with each pixel's samples in turn (default, pixel);
+ *   --order wave: as Tessera's waves list them before their sort (wave by wave, bounce by
+ *   bounce, each bounce's rays in path order): a cache in place of the reordering, in the
+ *   same renderer (Hanika's comparison).
  *   tiny:  scene/forest-1.rib at 160x64, 1 spp
  *   small: scene/forest-100.rib and scene/forest-1000.rib at 480x192, 4 spp
  *   full:  the same at 1920x768, 4 spp (the paper: 1920x768x64 rays, with motion blur)
@@ -45,8 +59,10 @@
 #include "lib/quadtree.h"
 #include "pipeline/pipeline.h"
 #include "app/budget.h"
+#include "app/options.h"
 #include "app/render.h"
 #include "app/units.h"
+#include "app/waves.h"
 #include "lib/sample_order.h"
 #include "scene/rib/rib.h"
 
@@ -57,14 +73,18 @@
 #include <string.h>
 
 #define BENCH_CACHES 3
+/* The order the caches meet the rays in (--order). */
+enum { ORDER_PIXEL, ORDER_PASS, ORDER_WAVE };
+static const char *const order_names[] = {"pixel", "pass", "wave"};
 static const uint32_t cache_sizes[BENCH_CACHES] = {10, 100, 1000};
 
 typedef struct bench_options {
     const char *size, *json_path;
     const char *scenes[4];
     int scene_count, width, height, spp, memory_mb, memo_mb;
-    int pass_order; /* 0: scanline, each pixel's samples in turn; 1: sample pass by pass */
-    int grow;       /* no --memory: the arenas grow to the frame's patches, as render's do */
+    int order; /* ORDER_PIXEL, ORDER_PASS, ORDER_WAVE */
+    int paths; /* --paths: every ray of the paths, not the eye rays alone */
+    int grow;  /* no --memory: the arenas grow to the frame's patches, as render's do */
 } bench_options;
 
 /* One LRU cache of diced patches: a doubly linked list over `cap` slots, most recent first. */
@@ -81,7 +101,10 @@ typedef struct bench_result {
     uint32_t patches, max_lod, waves, band_rows;
     uint64_t arena_bytes; /* the patch arenas after the lod stage (grown, without --memory) */
     uint64_t rays, reorder_dicings, reorder_micropolygons, reorder_iterations, reorder_pairs;
+    uint64_t eye_rays, bsdf_rays, shadow_rays; /* with --paths: the rays of every bounce */
     uint64_t lookups, hits_reorder, hits_cache, hit_t_equal, host_dicings;
+    uint64_t answers_equal; /* rays both tracers hit, or both miss */
+    uint64_t hits_compared; /* hits of both, not of shadow rays: their distances compared */
     /* Patches the exact tracer reaches at least once: an unbounded cache's dicings, the floor
      * of any method that dices only what the rays reach before their closest hits. */
     uint64_t reached;
@@ -155,18 +178,48 @@ static void lru_access(lru *c, uint32_t p, uint32_t m)
     lru_push_front(c, slot);
 }
 
+/* --size's resolution, samples and scenes (when no --scene named any); 1: an unknown size. */
+static int bench_size(bench_options *o)
+{
+    int big = 0;
+    if (!strcmp(o->size, "tiny"))
+        o->width = 160, o->height = 64, o->spp = 1;
+    else if (!strcmp(o->size, "small"))
+        o->width = 480, o->height = 192, o->spp = 4, big = 1;
+    else if (!strcmp(o->size, "full"))
+        o->width = 1920, o->height = 768, o->spp = 4, big = 1;
+    else {
+        fprintf(stderr, "bench_cache: --size must be tiny, small or full, not '%s'\n", o->size);
+        return 1;
+    }
+    if (o->scene_count == 0) {
+        if (big)
+            o->scenes[0] = "scene/forest-100.rib", o->scenes[1] = "scene/forest-1000.rib",
+            o->scene_count = 2;
+        else
+            o->scenes[0] = "scene/forest-1.rib", o->scene_count = 1;
+    }
+    return 0;
+}
+
 static int bench_parse(int argc, char **argv, bench_options *o)
 {
     static const struct option longopts[] = {
-        {"size", required_argument, NULL, 's'},   {"scene", required_argument, NULL, 'S'},
-        {"res", required_argument, NULL, 'r'},    {"spp", required_argument, NULL, 'p'},
-        {"memory", required_argument, NULL, 'm'}, {"memo-mb", required_argument, NULL, 'M'},
-        {"json", required_argument, NULL, 'j'},   {"order", required_argument, NULL, 'o'},
-        {"help", no_argument, NULL, 'h'},         {NULL, 0, NULL, 0},
+        {"size", required_argument, NULL, 's'},
+        {"scene", required_argument, NULL, 'S'},
+        {"res", required_argument, NULL, 'r'},
+        {"spp", required_argument, NULL, 'p'},
+        {"memory", required_argument, NULL, 'm'},
+        {"memo-mb", required_argument, NULL, 'M'},
+        {"json", required_argument, NULL, 'j'},
+        {"order", required_argument, NULL, 'o'},
+        {"paths", no_argument, NULL, 'P'},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0},
     };
     *o = (bench_options){.size = "small", .memory_mb = 1024, .memo_mb = 2048, .grow = 1};
     int c, w = 0, h = 0, spp = 0;
-    while ((c = getopt_long(argc, argv, "s:S:r:p:m:M:j:o:h", longopts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, "s:S:r:p:m:M:j:o:Ph", longopts, NULL)) != -1) {
         switch (c) {
         case 's':
             o->size = optarg;
@@ -198,38 +251,29 @@ static int bench_parse(int argc, char **argv, bench_options *o)
             o->json_path = optarg;
             break;
         case 'o':
-            if (strcmp(optarg, "pixel") && strcmp(optarg, "pass")) {
-                fprintf(stderr, "bench_cache: --order must be pixel or pass, not '%s'\n", optarg);
+            o->order = !strcmp(optarg, "pixel")  ? ORDER_PIXEL
+                       : !strcmp(optarg, "pass") ? ORDER_PASS
+                       : !strcmp(optarg, "wave") ? ORDER_WAVE
+                                                 : -1;
+            if (o->order < 0) {
+                fprintf(stderr, "bench_cache: --order must be pixel, pass or wave, not '%s'\n",
+                        optarg);
                 return 1;
             }
-            o->pass_order = !strcmp(optarg, "pass");
+            break;
+        case 'P':
+            o->paths = 1;
             break;
         default:
-            fprintf(stderr,
-                    "usage: %s [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N] "
-                    "[--memory MB] [--memo-mb MB] [--order pixel|pass] [--json PATH]\n",
-                    argv[0]);
+            fprintf(
+                stderr,
+                "usage: %s [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N] "
+                "[--memory MB] [--memo-mb MB] [--order pixel|pass|wave] [--paths] [--json PATH]\n",
+                argv[0]);
             return c == 'h' ? 0 : 1;
         }
     }
-    int big = 0;
-    if (!strcmp(o->size, "tiny"))
-        o->width = 160, o->height = 64, o->spp = 1;
-    else if (!strcmp(o->size, "small"))
-        o->width = 480, o->height = 192, o->spp = 4, big = 1;
-    else if (!strcmp(o->size, "full"))
-        o->width = 1920, o->height = 768, o->spp = 4, big = 1;
-    else {
-        fprintf(stderr, "bench_cache: --size must be tiny, small or full, not '%s'\n", o->size);
-        return 1;
-    }
-    if (o->scene_count == 0) {
-        if (big)
-            o->scenes[0] = "scene/forest-100.rib", o->scenes[1] = "scene/forest-1000.rib",
-            o->scene_count = 2;
-        else
-            o->scenes[0] = "scene/forest-1.rib", o->scene_count = 1;
-    }
+    if (bench_size(o)) return 1;
     if (w) o->width = w, o->height = h;
     if (spp) o->spp = spp;
     if (o->spp < 1 || o->memory_mb < 16 || o->memo_mb < 1) {
@@ -240,23 +284,145 @@ static int bench_parse(int argc, char **argv, bench_options *o)
     return -1;
 }
 
-/* The frame's eye rays, their hits by Tessera's wavefront loop, and each patch's m. */
+/* One ray Tessera traced, kept for the caches: its key orders the rays as a tracer without
+ * reordering meets them (scanline order of pixels, or pass by pass; then each path's rays by
+ * bounce, a shadow ray before the BSDF ray made at the same vertex). */
+typedef struct bench_ray {
+    uint64_t key;
+    ts_vec4 org, dir;
+    float tmax; /* hit.t before the trace: a shadow ray's distance to its light */
+    uint32_t flags, from;
+    ts_hit hit; /* Tessera's */
+} bench_ray;
+
+/* The frame's rays, their hits by Tessera's wavefront loop, and each patch's m. */
 typedef struct frame {
+    bench_ray *r;
+    uint64_t count, cap;
+    uint64_t eye, bsdf, shadow; /* rays by kind */
+    uint8_t *lod;
+    /* the wave being recorded */
+    uint32_t first, wave_size, slots, *active;
+    uint64_t *at; /* per listed ray: its record */
     ts_vec4 *org, *dir;
     ts_hit *hit;
-    uint8_t *lod;
-    uint64_t rays;
+    uint32_t *flags, *from;
+    ts_sample_order order;
+    int order_of; /* bench_options.order */
 } frame;
 
-/* reordering: lod stage over the frame, then the eye rays wave by wave through
- * pipeline_trace, as `tessera render` does (one wave = the plan's ray capacity here: eye
- * rays only, no shadow-ray slots). Keeps every ray and its hit, in global sample order. */
+/* Reads `count` entries of buffer m, one a ray slot at most, into *host (made f->slots long). */
+static int read_slots(ts_pipeline *p, const frame *f, cl_mem m, size_t size, uint32_t count,
+                      void **host, ts_error *err)
+{
+    if (!*host && !(*host = malloc((size_t)f->slots * size)))
+        return ts_error_set(err, TS_E_MEMORY, "out of memory for the rays");
+    return dev_read(p->cl, m, 0, (size_t)count * size, *host, "the rays", err);
+}
+
+/* ts_wave_watch (app/waves.h): before bounce b is traced, a record for each of its rays;
+ * after, their hits. Eye rays are bounce 0 (read before any shade in the eye-ray mode). */
+static int frame_watch(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_t rays, int after,
+                       ts_error *err)
+{
+    frame *f = ctx;
+    if (after) {
+        if (dev_read(p->cl, p->ray_hit, 0, (size_t)f->slots * sizeof *f->hit, f->hit, "the hits",
+                     err))
+            return err->code;
+        for (uint32_t i = 0; i < rays; ++i)
+            f->r[f->at[i]].hit = f->hit[f->active[i]];
+        return TS_OK;
+    }
+    if (f->count + rays > f->cap) {
+        uint64_t cap = f->cap ? 2 * f->cap : 1u << 20;
+        while (cap < f->count + rays)
+            cap *= 2;
+        bench_ray *r = realloc(f->r, cap * sizeof *r);
+        if (!r)
+            return ts_error_set(err, TS_E_MEMORY, "out of memory for %llu rays",
+                                (unsigned long long)cap);
+        f->r = r, f->cap = cap;
+    }
+    if (read_slots(p, f, p->active, sizeof *f->active, rays, (void **)&f->active, err) ||
+        read_slots(p, f, p->ray_org, sizeof *f->org, f->slots, (void **)&f->org, err) ||
+        read_slots(p, f, p->ray_dir, sizeof *f->dir, f->slots, (void **)&f->dir, err) ||
+        read_slots(p, f, p->ray_hit, sizeof *f->hit, f->slots, (void **)&f->hit, err) ||
+        read_slots(p, f, p->ray_flags, sizeof *f->flags, f->slots, (void **)&f->flags, err) ||
+        read_slots(p, f, p->ray_from, sizeof *f->from, f->slots, (void **)&f->from, err))
+        return err->code;
+    for (uint32_t i = 0; i < rays; ++i) {
+        uint32_t slot = f->active[i], shadow = slot >= f->wave_size;
+        uint32_t path = shadow ? slot - f->wave_size : slot, px, sample;
+        sample_order_at(f->first + path, f->order.pixels, f->order.spp, f->order.band, &px,
+                        &sample);
+        uint64_t g = f->order_of == ORDER_PASS ? (uint64_t)sample * f->order.pixels + px
+                                               : (uint64_t)px * f->order.spp + sample;
+        f->at[i] = f->count;
+        f->r[f->count] =
+            (bench_ray){f->order_of == ORDER_WAVE ? f->count : (g << 5) | (bounce << 1) | !shadow,
+                        f->org[slot],
+                        f->dir[slot],
+                        f->hit[slot].t,
+                        f->flags[slot],
+                        f->from[slot],
+                        {TS_NO_HIT, 0, 0, TS_INVALID, TS_INVALID}};
+        f->count++;
+        f->eye += !shadow && bounce == 0, f->bsdf += !shadow && bounce > 0, f->shadow += shadow;
+    }
+    return TS_OK;
+}
+
+static int key_cmp(const void *a, const void *b)
+{
+    uint64_t x = ((const bench_ray *)a)->key, y = ((const bench_ray *)b)->key;
+    return (x > y) - (x < y);
+}
+
+/* The waves: the eye rays alone (pipeline_trace, `per` a wave), or, with --paths, whole paths
+ * as `tessera render` traces them (waves_trace_paths: per / 2 paths a wave, each with a
+ * BSDF and a shadow-ray slot), each wave recorded by frame_watch. */
+static int trace_waves(const bench_options *o, ts_pipeline *p, ts_camera_params *cam,
+                       uint64_t total, uint32_t per, frame *f, bench_result *res, ts_error *err)
+{
+    ts_render_options ro;
+    render_options_defaults(&ro);
+    ro.spp = o->spp;
+    int rc = TS_OK;
+    f->slots = per;
+    if (!(f->at = malloc((size_t)per * sizeof *f->at)))
+        return ts_error_set(err, TS_E_MEMORY, "out of memory");
+    if (o->paths) per /= 2;
+    res->waves = 0;
+    for (uint64_t first = 0; !rc && first < total; first += per, res->waves++) {
+        cam->first_sample = (uint32_t)first;
+        cam->ray_count = (uint32_t)(total - first < per ? total - first : per);
+        f->first = (uint32_t)first, f->wave_size = o->paths ? cam->ray_count : per;
+        rc = pipeline_camera(p, cam, err);
+        if (!rc && o->paths) rc = waves_trace_paths_watched(&ro, p, cam, frame_watch, f, err);
+        if (!rc && !o->paths)
+            rc = frame_watch(f, p, 0, cam->ray_count, 0, err) ||
+                 pipeline_trace(p, cam->ray_count, err) ||
+                 frame_watch(f, p, 0, cam->ray_count, 1, err);
+    }
+    free(f->active), free(f->at), free(f->org), free(f->dir), free(f->hit), free(f->flags),
+        free(f->from);
+    f->active = NULL, f->at = NULL, f->org = f->dir = NULL, f->hit = NULL;
+    f->flags = f->from = NULL;
+    if (!rc) qsort(f->r, f->count, sizeof *f->r, key_cmp);
+    return rc ? err->code : TS_OK;
+}
+
+/* reordering: lod stage over the frame, then its rays wave by wave as `tessera render` traces
+ * them (the eye rays alone: one wave = the plan's ray capacity, no shadow-ray slots). Keeps
+ * every ray and its hit, in the order the caches meet them. */
 static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s, frame *f,
                        bench_result *res, ts_error *err)
 {
     uint64_t total = (uint64_t)o->width * o->height * o->spp;
     ts_pipeline_plan plan;
-    if (pipeline_plan((uint64_t)o->memory_mb << 20, total, 10, cl->info.max_alloc, &plan, err))
+    if (pipeline_plan((uint64_t)o->memory_mb << 20, o->paths ? 2 * total : total, 10,
+                      cl->info.max_alloc, &plan, err))
         return err->code;
     ts_stats st;
     memset(&st, 0, sizeof st);
@@ -264,19 +430,16 @@ static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s,
     int rc = pipeline_create(&p, cl, s, &plan, (uint32_t)(o->width * o->height), &st, err);
     ts_camera_params cam;
     if (!rc) rc = render_camera_params(&s->camera, o->width, o->height, &cam, err);
-    f->rays = total;
-    f->org = malloc(total * sizeof *f->org), f->dir = malloc(total * sizeof *f->dir);
-    f->hit = malloc(total * sizeof *f->hit), f->lod = malloc(s->patch_count ? s->patch_count : 1);
-    if (!rc && (!f->org || !f->dir || !f->hit || !f->lod))
-        rc = ts_error_set(err, TS_E_MEMORY, "out of memory for %llu rays",
-                          (unsigned long long)total);
+    f->lod = malloc(s->patch_count ? s->patch_count : 1);
+    if (!rc && !f->lod) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
     double t0 = stats_now();
     uint32_t per = plan.ray_capacity;
     cam.spp = (uint32_t)o->spp;
     /* Bands of rows of about a wave: the rows each of tessera render's waves covers (one device
      * traces them pixel after pixel, app/done.h: the same patches a wave). */
-    cam.band = sample_order_band(cam.width, cam.height, cam.spp, per);
-    ts_sample_order order = sample_order_of(&cam);
+    cam.band = sample_order_band(cam.width, cam.height, cam.spp, o->paths ? per / 2 : per);
+    f->order = sample_order_of(&cam);
+    f->order_of = o->order;
     res->band_rows = cam.band ? cam.band / cam.width : cam.height;
     p.mode = (ts_trace_mode){(uint32_t)o->spp, -1, 0, 0, 0u, 0, 1.0};
     if (!rc)
@@ -292,34 +455,7 @@ static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s,
         rc = budget_grow_arenas(&p, c.room_mb, 0, 1, err);
     }
     res->arena_bytes = pipeline_arena_bytes(&p.plan);
-    ts_vec4 *org = malloc(per * sizeof *org), *dir = malloc(per * sizeof *dir);
-    ts_hit *hit = malloc(per * sizeof *hit);
-    if (!rc && (!org || !dir || !hit)) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
-    res->waves = 0;
-    for (uint64_t first = 0; !rc && first < total; first += per, res->waves++) {
-        cam.first_sample = (uint32_t)first;
-        cam.ray_count = (uint32_t)(total - first < per ? total - first : per);
-        uint32_t n = cam.ray_count;
-        if ((rc = pipeline_camera(&p, &cam, err) || pipeline_trace(&p, n, err))) break;
-        cl_command_queue q = cl->queue;
-        cl_int e =
-            clEnqueueReadBuffer(q, p.ray_org, CL_TRUE, 0, n * sizeof(ts_vec4), org, 0, NULL, NULL);
-        if (!e)
-            e = clEnqueueReadBuffer(q, p.ray_dir, CL_TRUE, 0, n * sizeof(ts_vec4), dir, 0, NULL,
-                                    NULL);
-        if (!e)
-            e = clEnqueueReadBuffer(q, p.ray_hit, CL_TRUE, 0, n * sizeof(ts_hit), hit, 0, NULL,
-                                    NULL);
-        if (e) rc = ts_error_set(err, TS_E_DEVICE, "%s reading the rays back", dev_error_name(e));
-        /* f holds the rays by pass index: sample * P + pixel. */
-        for (uint32_t i = 0; !rc && i < n; ++i) {
-            uint32_t px, sample;
-            sample_order_at((uint32_t)first + i, order.pixels, order.spp, order.band, &px, &sample);
-            uint64_t g = (uint64_t)sample * order.pixels + px;
-            f->org[g] = org[i], f->dir[g] = dir[i], f->hit[g] = hit[i];
-        }
-    }
-    free(org), free(dir), free(hit);
+    if (!rc) rc = trace_waves(o, &p, &cam, total, per, f, res, err);
     res->reorder_seconds = stats_now() - t0;
     if (!rc) {
         memcpy(f->lod, p.patch_lod, s->patch_count);
@@ -334,10 +470,12 @@ static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s,
     return rc ? err->code : TS_OK;
 }
 
-/* The host's diced patches (a memo of real dicing work, not the simulated cache). */
+/* The host's diced patches (a memo of real dicing work, not the simulated cache): grids,
+ * trees and their tight codes (which a ray leaving a rough patch tests, as the kernel does). */
 typedef struct memo {
     ts_vec4 **grid;
     ts_box4 **groups;
+    ts_tight4 **codes;
     uint64_t bytes, limit, dicings;
     uint32_t count;
 } memo;
@@ -345,33 +483,35 @@ typedef struct memo {
 static void memo_clear(memo *mm)
 {
     for (uint32_t i = 0; i < mm->count; ++i) {
-        free(mm->grid[i]), free(mm->groups[i]);
-        mm->grid[i] = NULL, mm->groups[i] = NULL;
+        free(mm->grid[i]), free(mm->groups[i]), free(mm->codes[i]);
+        mm->grid[i] = NULL, mm->groups[i] = NULL, mm->codes[i] = NULL;
     }
     mm->bytes = 0;
 }
 
-static int memo_get(memo *mm, const ts_scene *s, uint32_t p, uint32_t m, bl_ref_patch *out)
+/* Patch p diced at m; codes: with its tight codes (the patch a ray leaves in box mode). */
+static int memo_get(memo *mm, const ts_scene *s, uint32_t p, uint32_t m, int codes,
+                    bl_ref_patch *out)
 {
     uint32_t times = dice_build_ref_times(s, p);
     if (!mm->grid[p]) {
         size_t gb = times * quadtree_vertex_count(m) * sizeof(ts_vec4),
-               nb = times * quadtree_group_count(m) * sizeof(ts_box4);
-        if (mm->bytes + gb + nb > mm->limit) memo_clear(mm);
-        mm->grid[p] = malloc(gb), mm->groups[p] = malloc(nb);
-        ts_tight4 *codes = malloc(times * quadtree_group_count(m) * sizeof *codes);
-        if (!mm->grid[p] || !mm->groups[p] || !codes) return free(codes), 1;
-        dice_build_ref(s, p, m, 0, mm->grid[p], mm->groups[p], codes);
-        free(codes); /* no ray here leaves a patch: the node boxes only */
-        mm->bytes += gb + nb;
+               nb = times * quadtree_group_count(m) * sizeof(ts_box4),
+               cb = times * quadtree_group_count(m) * sizeof(ts_tight4);
+        if (mm->bytes + gb + nb + cb > mm->limit) memo_clear(mm);
+        mm->grid[p] = malloc(gb), mm->groups[p] = malloc(nb), mm->codes[p] = malloc(cb);
+        if (!mm->grid[p] || !mm->groups[p] || !mm->codes[p]) return 1;
+        dice_build_ref(s, p, m, 0, mm->grid[p], mm->groups[p], mm->codes[p]);
+        mm->bytes += gb + nb + cb;
         mm->dicings++;
     }
+    uint32_t nv = quadtree_vertex_count(m), ng = quadtree_group_count(m), two = times == 2;
     *out = (bl_ref_patch){mm->grid[p],
-                          times == 2 ? mm->grid[p] + quadtree_vertex_count(m) : NULL,
+                          two ? mm->grid[p] + nv : NULL,
                           mm->groups[p],
-                          times == 2 ? mm->groups[p] + quadtree_group_count(m) : NULL,
-                          NULL,
-                          NULL,
+                          two ? mm->groups[p] + ng : NULL,
+                          codes ? mm->codes[p] : NULL,
+                          codes && two ? mm->codes[p] + ng : NULL,
                           m,
                           p,
                           s->attr[p].trim_count > 0};
@@ -419,27 +559,57 @@ static heap_item heap_pop(heap *h)
     return top;
 }
 
-/* One ray, one at a time: patches in order of entry distance until the nearest entry left
- * is beyond the closest hit; each is looked up in every cache and intersected. */
-static int trace_one(const ts_scene *s, const ts_qbvh *q, const frame *f, uint64_t g, memo *mm,
-                     heap *h, bench_result *res, ts_hit *out)
+/* The patches ray r passes through (top_level.cl): a shadow ray those that cast no shadow, an
+ * eye ray those the camera does not see, a bounce's BSDF ray those indirect rays do not see. */
+static uint32_t unseen_flags(const bench_ray *r)
 {
-    ts_vec4 o = f->org[g], d = f->dir[g];
+    return (r->flags & TS_RAY_SHADOW) ? TS_PATCH_NO_SHADOW
+           : r->from == 0u            ? TS_PATCH_NO_CAMERA
+                                      : TS_PATCH_NO_INDIRECT;
+}
+
+/* Ray r through patch p, as bottom_level_ref_pairs traces a pair (box mode, leaves of one
+ * micro-quad): the patch it leaves is micro-triangles with org.w its tmin (tested in its
+ * tight boxes when rough), a shadow ray is not stopped by the light it aims at and ends at
+ * its first hit. */
+static int trace_patch(const ts_scene *s, const bench_ray *r, uint32_t p, uint32_t m, memo *mm,
+                       float tmax, ts_hit *out)
+{
+    int leaving = r->from == p + 1u, shadow = (r->flags & TS_RAY_SHADOW) != 0u;
+    *out = (ts_hit){TS_NO_HIT, 0, 0, TS_INVALID, TS_INVALID};
+    if (shadow && (r->flags >> 1) == p + 1u) return 0;
+    bl_ref_patch pt;
+    if (memo_get(mm, s, p, m, leaving && (s->attr[p].flags & TS_PATCH_ROUGH), &pt)) return 1;
+    ts_vec4 o = r->org;
+    if (!leaving) o.w = 0.0f;
+    *out = bottom_level_ref_trace(o, r->dir, tmax, &pt, leaving, shadow, 0u, NULL);
+    return 0;
+}
+
+/* One ray, one at a time: patches in order of entry distance until the nearest entry left
+ * is beyond the closest hit (a shadow ray: until its first hit); each is looked up in every
+ * cache and intersected. */
+static int trace_one(const ts_scene *s, const ts_qbvh *q, const frame *f, const bench_ray *r,
+                     memo *mm, heap *h, bench_result *res, ts_hit *out)
+{
+    ts_vec4 o = r->org, d = r->dir;
     float ix = safe_reciprocal(d.x), iy = safe_reciprocal(d.y), iz = safe_reciprocal(d.z);
-    ts_hit best = {TS_NO_HIT, 0, 0, TS_INVALID, TS_INVALID};
+    ts_hit best = {r->tmax, 0, 0, TS_INVALID, TS_INVALID};
+    uint32_t unseen = unseen_flags(r);
+    int shadow = (r->flags & TS_RAY_SHADOW) != 0u;
     h->n = 0;
-    if (heap_push(h, o.w, 0)) return 1;
-    while (h->n && !(h->v[0].t > best.t)) {
+    if (heap_push(h, 0.0f, 0)) return 1;
+    while (h->n && !(h->v[0].t > best.t) && !(shadow && best.patch != TS_INVALID)) {
         heap_item it = heap_pop(h);
         if (it.item < 0) {
             uint32_t p = (uint32_t)~it.item, m = f->lod[p];
+            if (s->attr[p].flags & unseen) continue;
             res->lookups++;
             if (!res->seen[p]) res->seen[p] = 1, res->reached++;
             for (int c = 0; c < BENCH_CACHES; ++c)
                 lru_access(&res->cache[c], p, m);
-            bl_ref_patch pt;
-            if (memo_get(mm, s, p, m, &pt)) return 1;
-            ts_hit hh = bottom_level_ref_trace(o, d, best.t, &pt, 0, 0, 0u, NULL);
+            ts_hit hh;
+            if (trace_patch(s, r, p, m, mm, best.t, &hh)) return 1;
             if (hh.patch != TS_INVALID && hh.t < best.t) best = hh;
             continue;
         }
@@ -448,7 +618,7 @@ static int trace_one(const ts_scene *s, const ts_qbvh *q, const frame *f, uint64
             int32_t child = nd->child[c];
             if (child == TS_CHILD_EMPTY) continue;
             float te = box_enter(o.x, o.y, o.z, ix, iy, iz, nd->lo_x[c], nd->lo_y[c], nd->lo_z[c],
-                                 nd->hi_x[c], nd->hi_y[c], nd->hi_z[c], o.w, best.t);
+                                 nd->hi_x[c], nd->hi_y[c], nd->hi_z[c], 0.0f, best.t);
             if (te >= 0.0f && heap_push(h, te, child)) return 1;
         }
     }
@@ -456,7 +626,23 @@ static int trace_one(const ts_scene *s, const ts_qbvh *q, const frame *f, uint64
     return 0;
 }
 
-/* The cache baseline over the frame's rays in scanline order, each pixel's samples in turn. */
+/* Tallies how the two tracers' answers for ray r compare: hit or not (for a shadow ray,
+ * occluded or not: its first hit need not be the nearest), and for the others the
+ * distance. */
+static void compare_hits(const bench_ray *r, const ts_hit *hc, bench_result *res)
+{
+    const ts_hit *hr = &r->hit;
+    int c = hc->patch != TS_INVALID, t = hr->patch != TS_INVALID;
+    res->hits_cache += c, res->hits_reorder += t;
+    res->answers_equal += c == t;
+    if (!c || !t || (r->flags & TS_RAY_SHADOW)) return;
+    res->hits_compared++;
+    res->hit_t_equal += hc->t == hr->t;
+    res->t_reorder_nearer += hr->t < hc->t;
+    res->t_cache_nearer += hc->t < hr->t;
+}
+
+/* The cache baseline over the frame's rays in their order (frame.key). */
 static int run_cache(const bench_options *o, const ts_scene *s, const frame *f, bench_result *res,
                      ts_error *err)
 {
@@ -471,6 +657,7 @@ static int run_cache(const bench_options *o, const ts_scene *s, const frame *f, 
     if (rc) return rc;
     memo mm = {calloc(np ? np : 1, sizeof(ts_vec4 *)),
                calloc(np ? np : 1, sizeof(ts_box4 *)),
+               calloc(np ? np : 1, sizeof(ts_tight4 *)),
                0,
                (uint64_t)o->memo_mb << 20,
                0,
@@ -481,30 +668,20 @@ static int run_cache(const bench_options *o, const ts_scene *s, const frame *f, 
     for (int c = 0; c < BENCH_CACHES && !rc; ++c)
         if (lru_init(&res->cache[c], cache_sizes[c], np ? np : 1))
             rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
-    if (!mm.grid || !mm.groups) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
+    if (!mm.grid || !mm.groups || !mm.codes) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
     double t0 = stats_now();
-    uint64_t npix = (uint64_t)o->width * o->height;
-    for (uint64_t pix = 0; pix < npix && !rc; ++pix)
-        for (uint64_t smp = 0; smp < (uint64_t)o->spp && !rc; ++smp) {
-            /* g: the camera's global sample index of the ray traced now */
-            uint64_t g = o->pass_order ? pix * (uint64_t)o->spp + smp : smp * npix + pix;
-            ts_hit hc;
-            if (trace_one(s, &q, f, g, &mm, &h, res, &hc)) {
-                rc = ts_error_set(err, TS_E_MEMORY, "out of memory in the cache tracer");
-                break;
-            }
-            const ts_hit *hr = &f->hit[g];
-            res->hits_cache += hc.patch != TS_INVALID;
-            res->hits_reorder += hr->patch != TS_INVALID;
-            int both = hc.patch != TS_INVALID && hr->patch != TS_INVALID;
-            res->hit_t_equal += both && hc.t == hr->t;
-            res->t_reorder_nearer += both && hr->t < hc.t;
-            res->t_cache_nearer += both && hc.t < hr->t;
+    for (uint64_t k = 0; k < f->count && !rc; ++k) {
+        ts_hit hc;
+        if (trace_one(s, &q, f, &f->r[k], &mm, &h, res, &hc)) {
+            rc = ts_error_set(err, TS_E_MEMORY, "out of memory in the cache tracer");
+            break;
         }
+        compare_hits(&f->r[k], &hc, res);
+    }
     res->cache_seconds = stats_now() - t0;
     res->host_dicings = mm.dicings;
     memo_clear(&mm);
-    free(mm.grid), free(mm.groups), free(h.v);
+    free(mm.grid), free(mm.groups), free(mm.codes), free(h.v);
     free(res->seen), res->seen = NULL;
     qbvh_free(&q);
     return rc;
@@ -522,10 +699,11 @@ static int bench_scene(const bench_options *o, ts_device *cl, const char *path, 
     frame f = {0};
     fprintf(stderr, "bench_cache: %s: reordering (Tessera's wavefront loop)...\n", path);
     int rc = run_reorder(o, cl, &s, &f, res, err);
-    res->rays = f.rays;
+    res->rays = f.count;
+    res->eye_rays = f.eye, res->bsdf_rays = f.bsdf, res->shadow_rays = f.shadow;
     if (!rc) fprintf(stderr, "bench_cache: %s: caches, one ray at a time...\n", path);
     if (!rc) rc = run_cache(o, &s, &f, res, err);
-    free(f.org), free(f.dir), free(f.hit), free(f.lod);
+    free(f.r), free(f.lod);
     scene_free(&s);
     return rc;
 }
@@ -537,31 +715,38 @@ static int bench_check(bench_result *r)
     const lru *c = r->cache;
     r->check_reorder_le_cache10 = r->reorder_dicings <= c[0].dicings;
     r->check_caches_monotone = c[2].dicings <= c[1].dicings && c[1].dicings <= c[0].dicings;
-    r->check_same_hits = r->hits_cache == r->hits_reorder;
+    r->check_same_hits = r->hits_cache == r->hits_reorder && r->answers_equal == r->rays;
     if (!r->check_reorder_le_cache10)
         fprintf(stderr, "bench_cache: note: %s: reordering dices more than a 10-entry cache here\n",
                 r->scene);
     if (!r->check_caches_monotone)
         fprintf(stderr, "bench_cache: CHECK FAILED: %s: larger caches dice more\n", r->scene);
     if (!r->check_same_hits)
-        fprintf(
-            stderr,
-            "bench_cache: CHECK FAILED: %s: %llu rays hit in the cache tracer, %llu in Tessera\n",
-            r->scene, (unsigned long long)r->hits_cache, (unsigned long long)r->hits_reorder);
+        fprintf(stderr,
+                "bench_cache: CHECK FAILED: %s: %llu rays hit in the cache tracer, %llu in Tessera "
+                "(%llu of %llu answers alike)\n",
+                r->scene, (unsigned long long)r->hits_cache, (unsigned long long)r->hits_reorder,
+                (unsigned long long)r->answers_equal, (unsigned long long)r->rays);
     return !r->check_caches_monotone + !r->check_same_hits;
 }
 
 static void bench_print(const bench_options *o, const bench_result *r)
 {
-    printf("%s: %u patches, %dx%d x %d spp = %llu eye rays, %s %d MB (%llu MB of patch "
+    char kinds[160] = "";
+    if (o->paths)
+        snprintf(kinds, sizeof kinds, " (eye %llu, BSDF %llu, shadow %llu; each path's in turn)",
+                 (unsigned long long)r->eye_rays, (unsigned long long)r->bsdf_rays,
+                 (unsigned long long)r->shadow_rays);
+    printf("%s: %u patches, %dx%d x %d spp = %llu %s%s, %s %d MB (%llu MB of patch "
            "arenas): %u waves in bands of %u rows, %llu iterations, max m %u; caches see the "
            "rays %s\n",
            r->scene, r->patches, o->width, o->height, o->spp, (unsigned long long)r->rays,
-           o->grow ? "default budget" : "--memory", o->memory_mb,
-           (unsigned long long)(r->arena_bytes >> 20), r->waves, r->band_rows,
+           o->paths ? "rays of paths" : "eye rays", kinds, o->grow ? "default budget" : "--memory",
+           o->memory_mb, (unsigned long long)(r->arena_bytes >> 20), r->waves, r->band_rows,
            (unsigned long long)r->reorder_iterations, r->max_lod,
-           o->pass_order ? "sample pass by pass"
-                         : "in scanline order, each pixel's samples in turn");
+           o->order == ORDER_PASS   ? "sample pass by pass"
+           : o->order == ORDER_WAVE ? "as the waves list them (bounce by bounce, unsorted)"
+                                    : "in scanline order, each pixel's samples in turn");
     printf("  %-12s %12s %16s %14s\n", "method", "dicings", "micro-polygons", "vs cache 1000");
     for (int c = 0; c < BENCH_CACHES; ++c)
         printf("  cache %-6u %12llu %16llu %14.2f\n", r->cache[c].cap,
@@ -574,12 +759,12 @@ static void bench_print(const bench_options *o, const bench_result *r)
     printf("  %-12s %12llu %16llu %14.2f\n", "reordering", (unsigned long long)r->reorder_dicings,
            (unsigned long long)r->reorder_micropolygons,
            (double)r->reorder_dicings / (double)r->cache[2].dicings);
-    printf("  rays hit: %llu (Tessera) / %llu (cache tracer); hit distances equal %llu, nearer in "
-           "Tessera %llu, "
-           "nearer in the cache tracer %llu\n",
+    printf("  rays hit: %llu (Tessera) / %llu (cache tracer); of %llu hits compared (not shadow "
+           "rays') distances equal %llu, nearer in Tessera %llu, nearer in the cache tracer "
+           "%llu\n",
            (unsigned long long)r->hits_reorder, (unsigned long long)r->hits_cache,
-           (unsigned long long)r->hit_t_equal, (unsigned long long)r->t_reorder_nearer,
-           (unsigned long long)r->t_cache_nearer);
+           (unsigned long long)r->hits_compared, (unsigned long long)r->hit_t_equal,
+           (unsigned long long)r->t_reorder_nearer, (unsigned long long)r->t_cache_nearer);
     printf("  patch lookups %llu (%.2f per ray); %.1f s wavefront, %.1f s cache tracer\n",
            (unsigned long long)r->lookups, (double)r->lookups / (double)r->rays, r->reorder_seconds,
            r->cache_seconds);
@@ -596,7 +781,8 @@ static int bench_json(const bench_options *o, const bench_result *rs, int n, con
     cJSON_AddNumberToObject(root, "spp", o->spp);
     cJSON_AddNumberToObject(root, "memory_mb", o->memory_mb);
     cJSON_AddBoolToObject(root, "arenas_grow", o->grow);
-    cJSON_AddStringToObject(root, "ray_order", o->pass_order ? "pass" : "pixel");
+    cJSON_AddStringToObject(root, "ray_order", order_names[o->order]);
+    cJSON_AddStringToObject(root, "rays", o->paths ? "paths" : "eye");
     cJSON *arr = cJSON_AddArrayToObject(root, "scenes");
     for (int i = 0; i < n; ++i) {
         const bench_result *r = &rs[i];
@@ -604,6 +790,9 @@ static int bench_json(const bench_options *o, const bench_result *rs, int n, con
         cJSON_AddStringToObject(j, "scene", r->scene);
         cJSON_AddNumberToObject(j, "patches", r->patches);
         cJSON_AddNumberToObject(j, "rays", (double)r->rays);
+        cJSON_AddNumberToObject(j, "eye_rays", (double)r->eye_rays);
+        cJSON_AddNumberToObject(j, "bsdf_rays", (double)r->bsdf_rays);
+        cJSON_AddNumberToObject(j, "shadow_rays", (double)r->shadow_rays);
         cJSON_AddNumberToObject(j, "max_lod", r->max_lod);
         cJSON *ro = cJSON_AddObjectToObject(j, "reorder");
         cJSON_AddNumberToObject(ro, "dicings", (double)r->reorder_dicings);
@@ -626,6 +815,8 @@ static int bench_json(const bench_options *o, const bench_result *rs, int n, con
         cJSON_AddNumberToObject(j, "cache_lookups", (double)r->lookups);
         cJSON_AddNumberToObject(j, "patches_reached", (double)r->reached);
         cJSON_AddNumberToObject(j, "cache_hits", (double)r->hits_cache);
+        cJSON_AddNumberToObject(j, "answers_equal", (double)r->answers_equal);
+        cJSON_AddNumberToObject(j, "hits_compared", (double)r->hits_compared);
         cJSON_AddNumberToObject(j, "hit_t_equal", (double)r->hit_t_equal);
         cJSON_AddNumberToObject(j, "hit_t_nearer_reorder", (double)r->t_reorder_nearer);
         cJSON_AddNumberToObject(j, "hit_t_nearer_cache", (double)r->t_cache_nearer);

@@ -65,6 +65,13 @@ int waves_lod_record(const ts_render_options *o, ts_pipeline *p, ts_job *job, ts
 int waves_trace_paths(const ts_render_options *o, ts_pipeline *p, const ts_camera_params *cam,
                       ts_error *err)
 {
+    return waves_trace_paths_watched(o, p, cam, NULL, NULL, err);
+}
+
+int waves_trace_paths_watched(const ts_render_options *o, ts_pipeline *p,
+                              const ts_camera_params *cam, ts_wave_watch watch, void *ctx,
+                              ts_error *err)
+{
     ts_shade_params sp = {.light_count = p->light_count,
                           .depth = (uint32_t)o->depth,
                           .sampling = (uint32_t)o->sampling,
@@ -78,8 +85,10 @@ int waves_trace_paths(const ts_render_options *o, ts_pipeline *p, const ts_camer
         uint32_t shadows;
         sp.bounce = b;
         p->wave = b;
+        if (watch && watch(ctx, p, b, rays, 0, err)) return err->code;
         if (pipeline_trace(p, rays, err)) return err->code;
         if (p->cancelled) return TS_OK; /* the wave's results are dropped (pipeline.h) */
+        if (watch && watch(ctx, p, b, rays, 1, err)) return err->code;
         if (pipeline_shade(p, &sp, first, n, paths, &paths, &rays, &shadows, err)) return err->code;
         p->stats->counters[TS_COUNTER_rays] += rays - shadows;
         p->stats->counters[TS_COUNTER_shadow_rays] += shadows;

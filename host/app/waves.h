@@ -41,6 +41,18 @@ int waves_lod_record(const ts_render_options *o, ts_pipeline *p, ts_job *job, ts
 int waves_trace_paths(const ts_render_options *o, ts_pipeline *p, const ts_camera_params *cam,
                       ts_error *err);
 
+/* What a caller may watch of waves_trace_paths (tools/bench_cache.c records every ray it
+ * traces): called for bounce b with its rays listed in p->active[0..rays) (ray slot i < n:
+ * path i's eye or BSDF ray, n + i: its shadow ray; n = cam->ray_count) before they are
+ * traced (after 0: their origins, directions, flags and tmax in hit.t) and once they are
+ * (after 1: their hits; active may be reordered by then). A non-zero return stops the wave
+ * with the error in *err. */
+typedef int (*ts_wave_watch)(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_t rays, int after,
+                             ts_error *err);
+int waves_trace_paths_watched(const ts_render_options *o, ts_pipeline *p,
+                              const ts_camera_params *cam, ts_wave_watch watch, void *ctx,
+                              ts_error *err);
+
 /* TESSERA_SLOW_DEVICE="I:MS[,J:MS...]" (a testing aid, docs/errors.md): the milliseconds device
  * I pauses after each wave, alone or beside others; 0 when it names no such device. */
 long waves_slow_ms(int device_index);
