@@ -55,8 +55,44 @@ double eta_seconds_left(const ts_eta *e, double done, double seconds, uint64_t s
 void eta_print(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
                double rays, double seconds, const char *what)
 {
+    eta_print_left(e, samples, start, total, done, rays, seconds,
+                   eta_seconds_left(e, done, seconds, start, total), what);
+}
+
+void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing, int evicted)
+{
+    w->work += work;
+    w->seconds += evicted && dicing < seconds ? seconds - dicing : seconds;
+    if (evicted) w->dicing += dicing < seconds ? dicing : seconds, w->evicting++;
+    w->last_evicted = evicted;
+}
+
+double eta_waves_expect(const ts_eta_waves *w, double work)
+{
+    if (!(w->work > 0.0) && !(w->seconds > 0.0)) return -1.0;
+    double rate = w->work > 0.0 ? w->seconds / w->work : 0.0; /* seconds a unit of weight */
+    double dicing = w->last_evicted && w->evicting ? w->dicing / w->evicting : 0.0;
+    return rate * work + dicing;
+}
+
+double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, double after,
+                      uint32_t waves_after)
+{
+    double per_wave = eta_waves_expect(w, 0.0); /* a wave's recurring dicing */
+    if (per_wave < 0.0) return -1.0;
+    double left = 0.0;
+    if (current > 0.0) {
+        double now = eta_waves_expect(w, current);
+        left += now > elapsed ? now - elapsed : 0.0;
+    }
+    if (waves_after) left += eta_waves_expect(w, after) + per_wave * (waves_after - 1);
+    return left;
+}
+
+void eta_print_left(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
+                    double rays, double seconds, double left, const char *what)
+{
     double all = eta_work(e, total) - eta_work(e, start);
-    double left = eta_seconds_left(e, done, seconds, start, total);
     char eta[48];
     if (left < 0.0)
         snprintf(eta, sizeof eta, "ETA after the first %s", what);

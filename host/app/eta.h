@@ -48,5 +48,35 @@ double eta_seconds_left(const ts_eta *e, double done, double seconds, uint64_t s
  * left, or "ETA after the first <what>" while nothing is done. */
 void eta_print(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
                double rays, double seconds, const char *what);
+/* The same line with the time left given (`left` < 0: "ETA after the first <what>"). */
+void eta_print_left(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
+                    double rays, double seconds, double left, const char *what);
+
+/* Waves that dice again what they need. When a frame's patches do not fit, each wave dices
+ * about as much whatever its share of the weight: its bounces reach the whole scene (issue 38;
+ * docs/benchmarks.md "Scenes that don't fit"). Measured on a first wave of sky and treetops,
+ * the weight rate alone put the time left of forest-100 1920x768 x 2 at --memory 512 at 119 s
+ * when 47 s were left. So a wave in which the patch cache evicted counts its dicing seconds
+ * (stages dice and build) apart: the rate is the weight per second of the rest, and while the
+ * waves evict, each wave left adds the mean dicing seconds of those that did. A wave that did
+ * not evict counts whole (what it dices is new to the frame, and as the weight shows more of
+ * the scene, more is new: the rate holds it). */
+typedef struct ts_eta_waves {
+    double work, seconds; /* the finished waves' weight, and their seconds less recurring dicing */
+    double dicing;        /* the dicing seconds of the finished waves that evicted */
+    uint32_t evicting;    /* how many those are */
+    int last_evicted;     /* the last finished wave evicted */
+} ts_eta_waves;
+
+/* A finished wave of weight `work` took `seconds`, of which `dicing` diced and built; the
+ * patch cache evicted during it when `evicted`. */
+void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing, int evicted);
+/* The seconds a wave of weight `work` is expected to take; -1 before a wave finished. */
+double eta_waves_expect(const ts_eta_waves *w, double work);
+/* The seconds left: the rest of the wave in flight, of weight `current`, which has run
+ * `elapsed` seconds (none: current 0), then waves_after waves of weight `after` together; -1
+ * before a wave finished. */
+double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, double after,
+                      uint32_t waves_after);
 
 #endif

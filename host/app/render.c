@@ -119,30 +119,62 @@ typedef struct wave_progress {
     const ts_render_options *o;
     ts_pipeline *p;
     ts_eta eta;
-    uint64_t start, total, done, wave_end;
+    ts_eta_waves waves; /* what the finished waves took */
+    uint64_t start, total, done, wave_end, per_wave;
     double t0, wave_t0, printed;
+    double wave_dicing;      /* stages dice and build's seconds when the wave began */
+    uint64_t wave_evictions; /* the patch cache's evictions then */
 } wave_progress;
 
 /* The progress line: samples finished, the share of the frame's weight they hold, rays per
- * second, and the time left at the weight per second measured so far. Inside a wave (the
- * cancel hook, between batches) the wave in flight is credited at that rate for the time it
- * has run, at most 90% of its weight, so that the line moves while a long wave runs
- * without claiming what is not finished. Stops for good once stderr fails (a closed pipe:
- * EPIPE, SIGPIPE being ignored by main); the render goes on. */
+ * second, and the time left as the finished waves predict it (eta.h ts_eta_waves: the weight
+ * per second, and a squeezed frame's dicing a wave). Inside a wave (the cancel hook, between
+ * batches) the wave in flight is credited for the share of its expected time it has run, at
+ * most 90% of its weight, so that the line moves while a long wave runs without claiming
+ * what is not finished. Stops for good once stderr fails (a closed pipe: EPIPE, SIGPIPE being
+ * ignored by main); the render goes on. */
 static void wave_progress_print(wave_progress *w, int in_wave)
 {
     if (w->o->quiet || ferror(stderr)) return;
-    double now = stats_now(), dt = now - w->t0;
+    double now = stats_now();
     double done = eta_work(&w->eta, w->done) - eta_work(&w->eta, w->start);
-    if (in_wave && done > 0.0 && w->wave_t0 > w->t0) {
-        double wave = eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, w->done);
-        double credit = done / (w->wave_t0 - w->t0) * (now - w->wave_t0);
+    uint64_t from = in_wave ? w->wave_end : w->done;
+    double wave = in_wave ? eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, w->done) : 0.0;
+    double after = eta_work(&w->eta, w->total) - eta_work(&w->eta, from);
+    uint32_t waves_after = (uint32_t)((w->total - from + w->per_wave - 1) / w->per_wave);
+    double elapsed = now - w->wave_t0, expect = eta_waves_expect(&w->waves, wave);
+    if (in_wave && expect > 0.0) {
+        double credit = wave * elapsed / expect;
         done += credit < 0.9 * wave ? credit : 0.9 * wave;
     }
     double rays = (double)(w->p->stats->counters[TS_COUNTER_rays] +
                            w->p->stats->counters[TS_COUNTER_shadow_rays]);
-    eta_print(&w->eta, w->done, w->start, w->total, done, rays, dt, "wave");
+    eta_print_left(&w->eta, w->done, w->start, w->total, done, rays, now - w->t0,
+                   eta_waves_left(&w->waves, wave, elapsed, after, waves_after), "wave");
     w->printed = now;
+}
+
+/* The stages that dice: their seconds so far. */
+static double dicing_seconds(const ts_pipeline *p)
+{
+    return p->stats->stage_seconds[TS_STAGE_dice] + p->stats->stage_seconds[TS_STAGE_build];
+}
+
+/* Wave [first, w->wave_end) began: what it will be measured against. */
+static void wave_progress_begin(wave_progress *w, uint64_t first, uint32_t n)
+{
+    w->wave_end = first + n, w->wave_t0 = stats_now();
+    w->wave_dicing = dicing_seconds(w->p);
+    w->wave_evictions = w->p->stats->counters[TS_COUNTER_patch_cache_evictions];
+}
+
+/* The wave that began at `first` is finished (its film and rows handed on): what it took. */
+static void wave_progress_end(wave_progress *w, uint64_t first)
+{
+    eta_waves_done(&w->waves, eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, first),
+                   stats_now() - w->wave_t0, dicing_seconds(w->p) - w->wave_dicing,
+                   w->p->stats->counters[TS_COUNTER_patch_cache_evictions] > w->wave_evictions);
+    w->done = w->wave_end;
 }
 
 /* The pipeline's cancel hook (pipeline.h) while the waves run: a stop signal ends the wave
@@ -173,7 +205,13 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
     /* Pixel after pixel: a wave holds the samples of about per_wave / spp consecutive pixels,
      * the rows a band of rows would give it, each pixel's samples together (done.h). */
     job_choose_band(job, &cam);
-    wave_progress w = {o, p, {0}, start, total, start, start, 0, 0, 0};
+    wave_progress w = {.o = o,
+                       .p = p,
+                       .start = start,
+                       .total = total,
+                       .done = start,
+                       .wave_end = start,
+                       .per_wave = per_wave ? per_wave : 1};
     if (eta_init(&w.eta, o->fixed_lod < 0 ? p->pixel_cost : NULL, cam.width * cam.height,
                  (uint32_t)o->spp, cam.band, err))
         return err->code;
@@ -185,7 +223,7 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
         uint32_t n = (uint32_t)(total - first < per_wave ? total - first : per_wave);
         cam.first_sample = (uint32_t)first;
         cam.ray_count = n;
-        w.wave_end = first + n, w.wave_t0 = stats_now();
+        wave_progress_begin(&w, first, n);
         p->cancel = render_stop_asked, p->cancel_ctx = &w, p->cancelled = 0;
         rc = pipeline_camera(p, &cam, err) || waves_trace_paths(o, p, &cam, err);
         p->cancel = NULL;
@@ -194,8 +232,9 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
             rc = err->code;
             break;
         }
-        job->samples_done = w.done = first + n;
+        job->samples_done = first + n;
         wave_done(ctx);
+        wave_progress_end(&w, first);
         wave_progress_print(&w, 0);
         for (long ms = 0; ms < slow_ms && !interrupt_signal(); ms += 10) /* the test aid */
             nanosleep(&(struct timespec){0, 10000000L}, NULL);
