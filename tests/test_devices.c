@@ -7,7 +7,8 @@
  * interrupted render resumes to the same bits; --stats has one "devices" entry per device;
  * the devices share built patches (each diced once over both, same bits, also when the
  * arenas evict and when a device fails holding claims), in one arena for both by default
- * and through the copying store with TESSERA_SHARED_ARENAS=0;
+ * and through the copying store with TESSERA_SHARED_ARENAS=0; a frame whose patches do not fit
+ * the budget dices about as often on two devices as on one;
  * bad input: an unknown device in a list, a repeated one, a device that fails to build (the
  * other goes on), a device that runs out of memory mid-frame (it retries smaller), every
  * device failing. Skipped (77) without PoCL's two devices. */
@@ -618,6 +619,32 @@ static double counter(const char *json, const char *name)
     return test_stats_number(in_dir(json), key);
 }
 
+/* A frame whose patches do not fit its budget (forest-100 320x128 x 2 at --memory 24: 63 MB of
+ * patches, arenas of a few MB) on two devices. Each of the plan's small units was a wave of
+ * its own that diced the forest again (214 K dicings where one device made 154 K, at
+ * 1.7 times the time of one) with three quarters of each budget unused; now each device
+ * traces its share of the frame in waves as large as its budget holds (app/workers.c
+ * worker_squeeze, units.c board_regather): at most 1.15 times one device's dicings, one unit
+ * or more a device, the same image. */
+static void test_two_devices_squeezed_dice_as_one(void **state)
+{
+    (void)state;
+    char extra[512];
+    const char *args = "--res 320x128 --spp 2 --memory 24 --quiet";
+    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("sq1.json"));
+    render("scene/forest-100.rib", "sq1.exr", first, extra);
+    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("sq2.json"));
+    render("scene/forest-100.rib", "sq2.exr", pair, extra);
+    test_assert_same_pixels(in_dir("sq1.exr"), in_dir("sq2.exr"));
+    assert_true(counter("sq2.json", "patch_cache_evictions") > 0.0); /* it does not fit */
+    assert_true(counter("sq2.json", "patches_diced") <=
+                1.15 * counter("sq1.json", "patches_diced"));
+    cJSON *root = test_read_json(in_dir("sq2.json"));
+    for (int k = 0; k < 2; ++k)
+        assert_true(device_number(root, k, "units") >= 1);
+    cJSON_Delete(root);
+}
+
 /* Built patches shared between the two devices (host/pipeline/patch_share.h): the image is
  * the one-device image bit for bit; with every patch fitting the arenas and every claim waited
  * for (TESSERA_SHARE_WAIT=1), each is diced once over both devices (as many dicings as one
@@ -750,6 +777,7 @@ int main(void)
         cmocka_unit_test(test_one_device_writes_the_png_while_rendering),
         cmocka_unit_test(test_an_abandoned_lod_part_is_counted_by_device_0),
         cmocka_unit_test(test_two_devices_share_built_patches),
+        cmocka_unit_test(test_two_devices_squeezed_dice_as_one),
         cmocka_unit_test(test_a_device_failing_with_claims_abandons_them),
         cmocka_unit_test(test_odd_units_give_the_same_image),
         cmocka_unit_test(test_a_slow_device_takes_fewer_units),

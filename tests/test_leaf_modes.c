@@ -2,7 +2,7 @@
  * issue 6): the per-ray and the work-group variants of bottom_level return identical hits
  * (patch, micro-polygon, t bitwise) on the teapot and on a displaced teapot, for leaf blocks
  * of 1, 2 and 4 micro-quads a side, in both geometry modes; the leaf size changes no hit
- * distance; the utilisation counters are consistent. */
+ * distance; the utilisation counters are consistent, also after the waves were made larger. */
 #include "test_support.h"
 #include "pipeline/pipeline.h"
 #include "app/render.h"
@@ -116,11 +116,63 @@ static void test_displaced_teapot(void **state)
     check_scene(1);
 }
 
+/* Waves made larger after creation (pipeline_resize_rays, as budget_grow_arenas and a squeezed
+ * frame on several devices do): the leaf counters keep the buffer made for the creation's
+ * waves, a work-group an entry, so a batch with more pairs than it has entries is traced in
+ * several bottom_level launches (a single launch wrote past it). The hits and the counts are
+ * those of a pipeline made at the larger size, in both leaf modes. */
+static void test_larger_waves_keep_their_counters(void **state)
+{
+    (void)state;
+    enum { W2 = 512, H2 = 288 };
+    ts_device cl;
+    test_open_device(&cl);
+    ts_scene s;
+    load(&s, 0);
+    ts_error err = {0};
+    static ts_hit hit[2][W2 * H2];
+    for (int group = 0; group < 2; ++group) {
+        double tests[2], slots[2], pairs = 0;
+        uint32_t entries = 0;
+        for (int resized = 0; resized < 2; ++resized) {
+            ts_stats stats;
+            memset(&stats, 0, sizeof stats);
+            uint32_t big = W2 * H2, rays = resized ? TS_LOCAL_SIZE : big;
+            ts_pipeline_plan plan = {.ray_capacity = rays,
+                                     .pair_capacity = rays * TS_PAIRS_PER_RAY};
+            pipeline_plan_arenas(&plan, s.patch_count, M); /* one batch: every pair in it */
+            ts_pipeline p;
+            if (pipeline_create(&p, &cl, &s, &plan, big, &stats, &err)) fail_msg("%s", err.msg);
+            if (resized && pipeline_resize_rays(&p, big, &err)) fail_msg("%s", err.msg);
+            p.mode = (ts_trace_mode){1u, M, 0, (uint32_t)group, 0u, 0, 1.0};
+            ts_camera_params cam;
+            if (render_camera_params(&s.camera, W2, H2, &cam, &err)) fail_msg("%s", err.msg);
+            cam.spp = 1;
+            cam.ray_count = big;
+            if (pipeline_camera(&p, &cam, &err) || pipeline_trace(&p, big, &err))
+                fail_msg("%s", err.msg);
+            clEnqueueReadBuffer(cl.queue, p.ray_hit, CL_TRUE, 0, sizeof hit[resized], hit[resized],
+                                0, NULL, NULL);
+            tests[resized] = (double)stats.counters[TS_COUNTER_leaf_tests];
+            slots[resized] = (double)stats.counters[TS_COUNTER_leaf_slots];
+            if (resized) pairs = (double)stats.counters[TS_COUNTER_pairs], entries = p.util_groups;
+            pipeline_destroy(&p);
+            stats_free(&stats);
+        }
+        assert_true(pairs > 2.0 * entries * TS_GROUP_SIZE); /* several launches a batch */
+        assert_memory_equal(hit[0], hit[1], sizeof hit[0]);
+        assert_true(tests[0] > 0 && tests[1] == tests[0] && slots[1] == slots[0]);
+    }
+    scene_free(&s);
+    dev_close(&cl);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_teapot),
         cmocka_unit_test(test_displaced_teapot),
+        cmocka_unit_test(test_larger_waves_keep_their_counters),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

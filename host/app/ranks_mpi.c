@@ -698,8 +698,9 @@ static void follow_devices(ts_workers *g, const ts_frame *f, relay *q, ts_error 
         workers_streams(indices, &count, f->opt->streams);
     if (n > 0 && count > 0 && !why->code && !workers_open(g, f, indices, count, why))
         workers_start(
-            g, (ts_unit_source){q, relay_take, relay_done, relay_give_back, relay_closed, NULL}, 0,
-            why);
+            g,
+            (ts_unit_source){q, relay_take, relay_done, relay_give_back, relay_closed, NULL, NULL},
+            0, why);
 }
 
 /* After a stop signal: stays up to 10 s before ending. When a rank dies, mpirun sends

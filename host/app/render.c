@@ -796,7 +796,8 @@ static int render_on_devices(ts_render *r, ts_error *err)
                   .cam = r->cam,
                   .pixel_count = (uint32_t)((uint64_t)r->width * r->height),
                   .job = &r->job,
-                  .budget_share = r->ranks ? (uint32_t)r->ranks->node_ranks : 1u};
+                  .budget_share = r->ranks ? (uint32_t)r->ranks->node_ranks : 1u,
+                  .fixed_units = r->ranks != NULL};
     uint64_t start = r->job.samples_done;
     if (r->ranks)
         f.unit_samples = r->unit_samples;

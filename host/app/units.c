@@ -152,6 +152,7 @@ int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint6
         if (done_add(&b->done, held->r[i].first, held->r[i].end, err)) goto fail;
     b->start = done_samples(held);
     if (units_list(o, total, held, unit_samples, &b->units, &b->unit_count, err)) goto fail;
+    b->gather = unit_samples ? unit_samples : UNIT_MIN_SAMPLES;
     size_t n = b->unit_count ? b->unit_count : 1;
     b->state = calloc(n, 1);
     b->holders = calloc(n, 1);
@@ -189,6 +190,26 @@ void board_free(ts_board *b)
     pthread_mutex_destroy(&b->lock);
     pthread_cond_destroy(&b->changed);
     memset(b, 0, sizeof *b);
+}
+
+void board_regather(ts_board *b, uint64_t samples)
+{
+    pthread_mutex_lock(&b->lock);
+    ts_unit *units = NULL;
+    uint32_t count = 0;
+    ts_error err = {0};
+    /* Nothing handed out yet: every unit's state is UNIT_NONE, and the films hold what they
+     * held at the start (b->done); larger units are no more of them, so the per-unit
+     * arrays keep their room. */
+    if (b->next == 0 && b->merged == 0 && !b->closed && samples > b->gather &&
+        units_list(&b->order, b->total, &b->done, samples, &units, &count, &err) == TS_OK &&
+        count <= b->unit_count) {
+        free(b->units);
+        b->units = units, b->unit_count = count, b->gather = samples;
+        units = NULL;
+    }
+    free(units);
+    pthread_mutex_unlock(&b->lock);
 }
 
 /* Hands unit i out to taker (0: none named) at time now. */
@@ -491,6 +512,11 @@ static void source_give_back(void *ctx, const ts_unit *u)
     board_give_back(ctx, u);
 }
 
+static void source_regather(void *ctx, uint64_t samples)
+{
+    board_regather(ctx, samples);
+}
+
 static int source_closed(void *ctx)
 {
     ts_board *b = ctx;
@@ -502,6 +528,11 @@ static int source_closed(void *ctx)
 
 ts_unit_source board_source(ts_board *b)
 {
-    return (ts_unit_source){
-        b, source_take, source_done, source_give_back, source_closed, source_dropped};
+    return (ts_unit_source){b,
+                            source_take,
+                            source_done,
+                            source_give_back,
+                            source_closed,
+                            source_dropped,
+                            source_regather};
 }

@@ -114,6 +114,7 @@ typedef struct ts_board {
     ts_done done; /* the samples the films hold: what they held, and the merged units */
     uint64_t samples_finished, rays; /* units merged, for progress */
     double merge_seconds;            /* spent in units_merge */
+    uint64_t gather;                 /* units_list's gather the units were made with */
     int closed;                      /* board_close: nothing more is handed out */
     int frozen;                      /* board_freeze: nothing more is merged either */
 } ts_board;
@@ -124,6 +125,11 @@ typedef struct ts_board {
 int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint64_t total,
                uint64_t unit_samples, const ts_done *held, ts_error *err);
 void board_free(ts_board *b);
+/* Before any unit is handed out: the units made again of up to `samples` samples each
+ * (units_list's gather), when that is more than they were made with; otherwise nothing. For
+ * a frame whose patches do not fit (workers.c worker_squeeze): each unit is a wave of its own
+ * and dices the scene again, so fewer, larger ones dice less. */
+void board_regather(ts_board *b, uint64_t samples);
 
 /* The next unit to trace into *u: a unit given back first, else the next in order. Returns
  * 1, or 0 when there is none left to hand out (every unit is out or merged) or the board is
@@ -184,6 +190,8 @@ typedef struct ts_unit_source {
     int (*closed)(void *ctx); /* 1: stop at the end of the wave being traced */
     /* 1: u is merged from another device's copy, stop tracing it (NULL: never) */
     int (*dropped)(void *ctx, const ts_unit *u);
+    /* board_regather (NULL: the units keep their size, as other MPI ranks sized for them) */
+    void (*regather)(void *ctx, uint64_t samples);
 } ts_unit_source;
 
 ts_unit_source board_source(ts_board *b);

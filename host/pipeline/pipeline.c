@@ -951,8 +951,8 @@ int pipeline_resize_rays(ts_pipeline *p, uint32_t rays, ts_error *err)
     free(p->sort_counts), p->sort_counts = NULL;
     p->plan.ray_capacity = rays;
     p->plan.pair_capacity = rays * TS_PAIRS_PER_RAY;
-    /* The utilisation counters keep their buffer: trace.c folds them early when an
-     * iteration needs more work-groups than util_groups. */
+    /* The utilisation counters keep their buffer: a bottom_level launch covers at most
+     * util_groups work-groups (trace.c stage_bottom_level), folding between launches. */
     if (remake_wave_buffers(p, err) || create_sort_copies(p, err)) return err->code;
     return TS_OK;
 }

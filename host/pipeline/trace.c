@@ -675,16 +675,15 @@ static int fold_utilisation(ts_pipeline *p, ts_error *err)
     return TS_OK;
 }
 
-static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_batch *b,
-                              uint32_t n_per_ray, uint32_t active_count, ts_error *err)
+/* One bottom_level launch over pairs [pair_first, pair_first + pair_count) of the batch;
+ * each work-group counts its leaf tests in its own entry of `utilisation`. */
+static int bottom_level_launch(ts_pipeline *p, cl_mem pairs, const ts_batch *b, uint32_t pair_first,
+                               uint32_t pair_count, uint32_t n_per_ray, uint32_t active_count,
+                               ts_error *err)
 {
-    const ts_segment *s = p->segments_host;
     uint32_t first = b->seg_first, count = b->seg_count, exact = p->mode.exact ? 1u : 0u;
-    uint32_t pair_first = s[first].begin, pair_count = s[first + count - 1].end - pair_first;
     uint32_t leaf_b = p->mode.leaf_b;
     cl_kernel k = p->mode.leaf_group ? p->k_bottom_group : p->k_bottom_level;
-    cl_mem pairs = sorted_buffer ? p->pairs_scratch : p->pairs;
-    /* Each work-group counts its leaf tests in its own entry of `utilisation`. */
     uint32_t groups = (pair_count + TS_GROUP_SIZE - 1u) / TS_GROUP_SIZE;
     if (p->util_used + groups > p->util_groups && fold_utilisation(p, err)) return err->code;
     uint32_t group_base = p->util_used;
@@ -699,6 +698,26 @@ static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_b
                      DEV_ARG(group_base), (size_t)0))
         return err->code;
     return dev_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
+}
+
+/* bottom_level over the batch's pairs: in launches of at most util_groups work-groups (the
+ * counters' buffer keeps its size when the waves grow, pipeline_resize_rays), cut at whole
+ * work-groups from the batch's first pair, so that every work-group holds the pairs it would
+ * in one launch (bottom_level_group shares leaves within one). */
+static int stage_bottom_level(ts_pipeline *p, uint32_t sorted_buffer, const ts_batch *b,
+                              uint32_t n_per_ray, uint32_t active_count, ts_error *err)
+{
+    const ts_segment *s = p->segments_host;
+    uint32_t pair_first = s[b->seg_first].begin;
+    uint32_t pair_count = s[b->seg_first + b->seg_count - 1].end - pair_first;
+    cl_mem pairs = sorted_buffer ? p->pairs_scratch : p->pairs;
+    uint32_t most = p->util_groups * TS_GROUP_SIZE;
+    for (uint32_t done = 0; done < pair_count; done += most) {
+        uint32_t n = pair_count - done < most ? pair_count - done : most;
+        if (bottom_level_launch(p, pairs, b, pair_first + done, n, n_per_ray, active_count, err))
+            return err->code;
+    }
+    return TS_OK;
 }
 
 /* Keeps the rays of active[0..active_count) whose alive flag is set, in order; returns
