@@ -190,7 +190,8 @@ typedef struct ts_unit_source {
     int (*closed)(void *ctx); /* 1: stop at the end of the wave being traced */
     /* 1: u is merged from another device's copy, stop tracing it (NULL: never) */
     int (*dropped)(void *ctx, const ts_unit *u);
-    /* board_regather (NULL: the units keep their size, as other MPI ranks sized for them) */
+    /* board_regather (NULL: the units keep their size: the other MPI ranks planned their
+     * waves for the size rank 0 told them) */
     void (*regather)(void *ctx, uint64_t samples);
 } ts_unit_source;
 

@@ -27,8 +27,8 @@ typedef struct ts_frame {
     int rank;              /* MPI rank (0 without MPI), for the stats */
     uint32_t budget_share; /* devices sharing the host's memory with this process's ones
                               (several ranks on one machine): each takes a share of it */
-    int fixed_units;       /* the units keep unit_samples (other MPI ranks sized for them):
-                              no board_regather */
+    int fixed_units;       /* the units keep unit_samples (the other MPI ranks planned
+                              their waves for it): no board_regather */
 } ts_frame;
 
 typedef struct ts_worker ts_worker;
