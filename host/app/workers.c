@@ -672,8 +672,11 @@ static int worker_squeeze(ts_worker *w, ts_error *err)
     if (pipeline_plan(w->mb << 20, 2 * share, p->plan.max_lod, w->cl.info.max_alloc, &plan, err))
         return err->code;
     p->frame_rays = 2 * share;
-    if (plan.ray_capacity <= p->plan.ray_capacity) return TS_OK;
-    return pipeline_resize_rays(p, plan.ray_capacity, err);
+    uint32_t had = p->plan.ray_capacity;
+    if (plan.ray_capacity <= had || !pipeline_resize_rays(p, plan.ray_capacity, err)) return TS_OK;
+    if (!(dev_is_out_of_memory(err) || err->code == TS_E_MEMORY)) return err->code;
+    ts_error_clear(err); /* the device could not: the waves it had */
+    return pipeline_resize_rays(p, had, err);
 }
 
 /* After budget_grow_arenas: when w's frame's patches still do not fit, the board's units are
