@@ -4,7 +4,8 @@
  * loaded by every rank (--mpi-scene load); rank 0's --stats has one "ranks" entry per rank
  * and every device of every rank under "devices"; a rank killed in mid-frame (SIGKILL,
  * TESSERA_KILL_RANK) leaves a resumable EXR that --resume, alone or under mpirun, finishes to
- * the same bits; a rank whose device cannot build the kernels is left out with a warning.
+ * the same bits; a rank whose device cannot build the kernels is left out with a warning; a
+ * frame whose patches do not fit dices about as often on two ranks as in one process.
  * Built without MPI, these are skipped and the test checks instead that a
  * process started by mpirun as one of several ranks refuses to render. */
 #include "test_support.h"
@@ -97,6 +98,29 @@ static void test_ranks_give_the_one_process_image(void **state)
             cJSON_Delete(root);
         }
     }
+}
+
+/* A frame whose patches do not fit its budget (forest-100 320x128 x 2 at --memory 24) on two
+ * ranks of one device each: the units rank 0 told them of (sized for four devices' load) were
+ * each a wave that diced the forest again; now every rank's device sizes its waves for its
+ * share of the frame, and rank 0's board waits for its own device to make the units as large
+ * before it hands any out (units.c board_gate, board_regather): at most 1.15 times one
+ * process's dicings, the one-process image. */
+static void test_squeezed_ranks_dice_as_one(void **state)
+{
+    (void)state;
+    const char *scene = "scene/forest-100.rib";
+    const char *args = "--res 320x128 --spp 2 --max-lod 6 --memory 24 --quiet";
+    test_tessera_ok(dir, "render '%s' -o '%s' %s --stats '%s'", test_source_path(scene),
+                    in_dir("sq1.exr"), args, in_dir("sq1.json"));
+    char extra[4300];
+    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("sq2.json"));
+    mpirun_ok(2, scene, "sq2.exr", extra);
+    test_assert_same_pixels(in_dir("sq1.exr"), in_dir("sq2.exr"));
+    double one = test_stats_number(in_dir("sq1.json"), "counters.patches_diced");
+    double two = test_stats_number(in_dir("sq2.json"), "counters.patches_diced");
+    assert_true(test_stats_number(in_dir("sq2.json"), "counters.patch_cache_evictions") > 0);
+    if (!(two <= 1.15 * one)) fail_msg("two ranks diced %.0f patches, one process %.0f", two, one);
 }
 
 /* Every rank loads the files itself: the same image. */
@@ -229,6 +253,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_ranks_give_the_one_process_image),
         cmocka_unit_test(test_ranks_that_load_the_scene),
+        cmocka_unit_test(test_squeezed_ranks_dice_as_one),
         cmocka_unit_test(test_a_rank_whose_devices_fail_is_left_out),
         cmocka_unit_test(test_a_rank_that_dies_leaves_a_resumable_image),
     };

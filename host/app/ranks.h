@@ -59,6 +59,7 @@ typedef struct ts_rank_start {
     int32_t scene_load; /* 1: every rank loads the scene files (--mpi-scene load) */
     int32_t width, height, spp, job_hash;
     uint64_t total, start, unit_samples; /* samples; start: resumed from */
+    uint64_t share_samples;              /* a device's share of them (ts_frame) */
     uint64_t scene_bytes;                /* of the packed scene that follows */
     ts_camera_params cam;
 } ts_rank_start;

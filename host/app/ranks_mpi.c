@@ -735,6 +735,7 @@ int ranks_follow(ts_ranks *r, ts_render_options *o, ts_error *err)
                   .cam = start.cam,
                   .pixel_count = (uint32_t)((uint64_t)start.width * (uint64_t)start.height),
                   .unit_samples = start.unit_samples,
+                  .share_samples = start.share_samples,
                   .rank = r->rank,
                   .budget_share = (uint32_t)r->node_ranks};
     relay q = {.out_tail = &q.out};

@@ -796,13 +796,14 @@ static int render_on_devices(ts_render *r, ts_error *err)
                   .cam = r->cam,
                   .pixel_count = (uint32_t)((uint64_t)r->width * r->height),
                   .job = &r->job,
-                  .budget_share = r->ranks ? (uint32_t)r->ranks->node_ranks : 1u,
-                  .fixed_units = r->ranks != NULL};
+                  .budget_share = r->ranks ? (uint32_t)r->ranks->node_ranks : 1u};
     uint64_t start = r->job.samples_done;
     if (r->ranks)
         f.unit_samples = r->unit_samples;
     else
         units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples);
+    uint64_t devices = (uint64_t)r->device_count * (r->ranks ? (uint64_t)r->ranks->size : 1u);
+    f.share_samples = (r->job.total - start + devices - 1) / devices;
     job_choose_band(&r->job, &r->cam); /* units_list gathers units of whole pixels */
     f.cam = r->cam;
     if (!r->opt.quiet && r->ranks)
@@ -870,6 +871,8 @@ static int render_tell_ranks(ts_render *r, int rc, int up_to_date, ts_error *err
         units_plan(s.total - s.start, (uint32_t)(r->ranks->size * r->device_count),
                    &r->unit_samples);
         s.unit_samples = r->unit_samples;
+        uint64_t devices = (uint64_t)r->ranks->size * (uint64_t)r->device_count;
+        s.share_samples = (s.total - s.start + devices - 1) / devices;
         job_choose_band(&r->job, &r->cam);
         s.cam = r->cam;
     }

@@ -209,6 +209,14 @@ void board_regather(ts_board *b, uint64_t samples)
         units = NULL;
     }
     free(units);
+    if (b->gated) b->gated = 0, b->changes++, pthread_cond_broadcast(&b->changed);
+    pthread_mutex_unlock(&b->lock);
+}
+
+void board_gate(ts_board *b)
+{
+    pthread_mutex_lock(&b->lock);
+    b->gated = b->next == 0;
     pthread_mutex_unlock(&b->lock);
 }
 
@@ -265,6 +273,7 @@ static int take_locked(ts_board *b, uint16_t taker, ts_unit *u, double *wake)
 {
     *wake = INFINITY;
     if (b->closed) return -1;
+    if (b->gated) return 0; /* board_regather opens it */
     int out = 0;
     double now = stats_now();
     for (uint32_t i = 0; i < b->next; ++i) {

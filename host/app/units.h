@@ -115,6 +115,7 @@ typedef struct ts_board {
     uint64_t samples_finished, rays; /* units merged, for progress */
     double merge_seconds;            /* spent in units_merge */
     uint64_t gather;                 /* units_list's gather the units were made with */
+    int gated;                       /* board_gate: nothing handed out until board_regather */
     int closed;                      /* board_close: nothing more is handed out */
     int frozen;                      /* board_freeze: nothing more is merged either */
 } ts_board;
@@ -130,6 +131,9 @@ void board_free(ts_board *b);
  * a frame whose patches do not fit (workers.c worker_squeeze): each unit is a wave of its own
  * and dices the scene again, so fewer, larger ones dice less. */
 void board_regather(ts_board *b, uint64_t samples);
+/* Hands out nothing until the first board_regather (rank 0 of several MPI ranks: the other
+ * ranks' requests wait for its devices to decide the units' size). */
+void board_gate(ts_board *b);
 
 /* The next unit to trace into *u: a unit given back first, else the next in order. Returns
  * 1, or 0 when there is none left to hand out (every unit is out or merged) or the board is
@@ -190,8 +194,7 @@ typedef struct ts_unit_source {
     int (*closed)(void *ctx); /* 1: stop at the end of the wave being traced */
     /* 1: u is merged from another device's copy, stop tracing it (NULL: never) */
     int (*dropped)(void *ctx, const ts_unit *u);
-    /* board_regather (NULL: the units keep their size: the other MPI ranks planned their
-     * waves for the size rank 0 told them) */
+    /* board_regather (NULL: the units are another process's: an MPI rank's from rank 0) */
     void (*regather)(void *ctx, uint64_t samples);
 } ts_unit_source;
 

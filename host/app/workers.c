@@ -638,14 +638,6 @@ static int worker_units(ts_worker *w, ts_error *err)
     return TS_OK;
 }
 
-/* The samples of the frame left to trace, shared by w's process's devices. */
-static uint64_t worker_share_samples(const ts_worker *w)
-{
-    const ts_workers *g = w->g;
-    uint64_t left = g->frame.job->total - g->frame.job->samples_done;
-    return (left + g->count - 1) / g->count;
-}
-
 /* The bytes w's frame's patches need at once, against those its arenas hold. */
 static int worker_fits(const ts_worker *w, uint64_t extra)
 {
@@ -660,14 +652,14 @@ static int worker_fits(const ts_worker *w, uint64_t extra)
  * rays (two a sample of a unit) left three quarters of the budget unused. The waves then take
  * what the budget holds for w's share of the frame, as one device's render would (rays for
  * it, and p->frame_rays, by which budget_grow_arenas may thin the arenas for fewer waves);
- * worker_regather makes the units as large. Not where the board's units keep their size. */
+ * worker_regather makes the units as large (on rank 0; another MPI rank's devices trace the
+ * units rank 0's board hands them, made large by rank 0's devices when they ask first). */
 static int worker_squeeze(ts_worker *w, ts_error *err)
 {
     ts_pipeline *p = &w->pipe;
     uint64_t room = w->room_mb > w->mb ? (w->room_mb - w->mb) << 20 : 0;
-    if (!w->g->src.regather || !w->g->frame.job || worker_fits(w, room)) return TS_OK;
-    uint64_t share = worker_share_samples(w);
-    if (share <= w->g->frame.unit_samples) return TS_OK;
+    uint64_t share = w->g->frame.share_samples;
+    if (share <= w->g->frame.unit_samples || worker_fits(w, room)) return TS_OK;
     ts_pipeline_plan plan;
     if (pipeline_plan(w->mb << 20, 2 * share, p->plan.max_lod, w->cl.info.max_alloc, &plan, err))
         return err->code;
@@ -679,19 +671,20 @@ static int worker_squeeze(ts_worker *w, ts_error *err)
     return pipeline_resize_rays(p, had, err);
 }
 
-/* After budget_grow_arenas: when w's frame's patches still do not fit, the board's units are
- * made as large as a wave of w's (and no larger than w's share of the frame), before any is
- * handed out (board_regather; the first device to ask decides). */
-static int worker_regather(ts_worker *w, ts_error *err)
+/* Once w is set up (or has failed, `skip`): when its frame's patches still do not fit its
+ * arenas, the board's units are made as large as a wave of w's (and no larger than a device's
+ * share of the frame), before any is handed out (board_regather; the first device to ask
+ * decides). Every device asks, so that a board that waits for its devices' word before it
+ * hands units to other MPI ranks hears it. */
+static void worker_regather(ts_worker *w, int skip)
 {
-    (void)err;
     const ts_unit_source *src = &w->g->src;
-    if (!src->regather || !w->g->frame.job || worker_fits(w, 0)) return TS_OK;
-    uint64_t wave = w->pipe.plan.ray_capacity / 2, share = worker_share_samples(w);
+    if (!src->regather) return;
+    uint64_t wave = w->pipe.plan.ray_capacity / 2, share = w->g->frame.share_samples;
     uint64_t samples = wave < share ? wave : share;
     samples = samples / 64 * 64;
-    if (samples > w->g->frame.unit_samples) src->regather(src->ctx, samples);
-    return TS_OK;
+    if (skip || worker_fits(w, 0) || samples <= w->g->frame.unit_samples) samples = 0;
+    src->regather(src->ctx, samples);
 }
 
 static void *worker_main(void *arg)
@@ -714,8 +707,8 @@ static void *worker_main(void *arg)
         rc = w->err.code;
     else if (!rc && !placed) /* the frame's patches, once each, if they fit */
         rc = worker_squeeze(w, &w->err) ||
-             budget_grow_arenas(&w->pipe, w->room_mb, 1, g->frame.opt->quiet, &w->err) ||
-             worker_regather(w, &w->err);
+             budget_grow_arenas(&w->pipe, w->room_mb, 1, g->frame.opt->quiet, &w->err);
+    worker_regather(w, rc || placed); /* whatever the set-up gave: it opens the board */
     if (!rc) worker_share(w);
     w->out.setup_seconds = stats_now() - t0;
     if (!rc) rc = worker_units(w, &w->err);
@@ -1047,9 +1040,8 @@ int workers_render(const ts_frame *frame, ts_film_state *film, const int *indice
         rc = job_held(job, &held, err) ||
              board_init(&b, film, &order, job->total, frame->unit_samples, &held, err);
     done_free(&held);
-    ts_unit_source src = board_source(&b);
-    if (frame->fixed_units) src.regather = NULL;
-    if (!rc) rc = workers_start(&g, src, 1, err);
+    if (!rc && service && service->poll) board_gate(&b); /* other ranks: after our devices' word */
+    if (!rc) rc = workers_start(&g, board_source(&b), 1, err);
     if (!rc) rc = frame_wait(&g, &b, service, end, err);
     if (rc && b.state) board_close(&b); /* threads started before a failure end */
     if (rc && g.w && workers_lod_state(&g) == 0) lod_publish(&g, 0, NULL, NULL);

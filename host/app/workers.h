@@ -22,13 +22,13 @@ typedef struct ts_frame {
     const ts_scene *scene;
     ts_camera_params cam; /* spp and seed set */
     uint32_t pixel_count;
-    uint64_t unit_samples; /* units_plan: the units' size (the bands' samples) */
-    ts_job *job;           /* the lod device checks and records the lod hash in it */
-    int rank;              /* MPI rank (0 without MPI), for the stats */
-    uint32_t budget_share; /* devices sharing the host's memory with this process's ones
-                              (several ranks on one machine): each takes a share of it */
-    int fixed_units;       /* the units keep unit_samples (the other MPI ranks planned
-                              their waves for it): no board_regather */
+    uint64_t unit_samples;  /* units_plan: the units' size (the bands' samples) */
+    ts_job *job;            /* the lod device checks and records the lod hash in it */
+    int rank;               /* MPI rank (0 without MPI), for the stats */
+    uint32_t budget_share;  /* devices sharing the host's memory with this process's ones
+                               (several ranks on one machine): each takes a share of it */
+    uint64_t share_samples; /* a device's share of the samples left: of every device of
+                               every rank (0: not known) */
 } ts_frame;
 
 typedef struct ts_worker ts_worker;
