@@ -192,7 +192,7 @@ void board_free(ts_board *b)
     memset(b, 0, sizeof *b);
 }
 
-void board_regather(ts_board *b, uint64_t samples)
+int board_regather(ts_board *b, uint64_t samples)
 {
     pthread_mutex_lock(&b->lock);
     ts_unit *units = NULL;
@@ -208,9 +208,11 @@ void board_regather(ts_board *b, uint64_t samples)
         b->units = units, b->unit_count = count, b->gather = samples;
         units = NULL;
     }
+    int made = units == NULL && count > 0;
     free(units);
     if (b->gated) b->gated = 0, b->changes++, pthread_cond_broadcast(&b->changed);
     pthread_mutex_unlock(&b->lock);
+    return made;
 }
 
 void board_gate(ts_board *b)
@@ -521,9 +523,9 @@ static void source_give_back(void *ctx, const ts_unit *u)
     board_give_back(ctx, u);
 }
 
-static void source_regather(void *ctx, uint64_t samples)
+static int source_regather(void *ctx, uint64_t samples)
 {
-    board_regather(ctx, samples);
+    return board_regather(ctx, samples);
 }
 
 static int source_closed(void *ctx)

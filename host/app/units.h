@@ -127,10 +127,11 @@ int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint6
                uint64_t unit_samples, const ts_done *held, ts_error *err);
 void board_free(ts_board *b);
 /* Before any unit is handed out: the units made again of up to `samples` samples each
- * (units_list's gather), when that is more than they were made with; otherwise nothing. For
+ * (units_list's gather), when that is more than they were made with (returns 1); otherwise
+ * nothing (0). For
  * a frame whose patches do not fit (workers.c worker_squeeze): each unit is a wave of its own
  * and dices the scene again, so fewer, larger ones dice less. */
-void board_regather(ts_board *b, uint64_t samples);
+int board_regather(ts_board *b, uint64_t samples);
 /* Hands out nothing until the first board_regather (rank 0 of several MPI ranks: the other
  * ranks' requests wait for its devices to decide the units' size). */
 void board_gate(ts_board *b);
@@ -195,7 +196,7 @@ typedef struct ts_unit_source {
     /* 1: u is merged from another device's copy, stop tracing it (NULL: never) */
     int (*dropped)(void *ctx, const ts_unit *u);
     /* board_regather (NULL: the units are another process's: an MPI rank's from rank 0) */
-    void (*regather)(void *ctx, uint64_t samples);
+    int (*regather)(void *ctx, uint64_t samples);
 } ts_unit_source;
 
 ts_unit_source board_source(ts_board *b);

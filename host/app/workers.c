@@ -638,7 +638,7 @@ static int worker_units(ts_worker *w, ts_error *err)
     return TS_OK;
 }
 
-/* The bytes w's frame's patches need at once, against those its arenas hold. */
+/* 1 when w's frame's patches fit its arenas (grown by `extra` bytes) all at once. */
 static int worker_fits(const ts_worker *w, uint64_t extra)
 {
     uint64_t verts, groups;
@@ -684,7 +684,10 @@ static void worker_regather(ts_worker *w, int skip)
     uint64_t samples = wave < share ? wave : share;
     samples = samples / 64 * 64;
     if (skip || worker_fits(w, 0) || samples <= w->g->frame.unit_samples) samples = 0;
-    src->regather(src->ctx, samples);
+    if (src->regather(src->ctx, samples) && !w->g->frame.opt->quiet)
+        ts_print_line("tessera: the frame's patches do not fit: units of %llu samples instead "
+                      "of %llu, each a wave that dices them again",
+                      (unsigned long long)samples, (unsigned long long)w->g->frame.unit_samples);
 }
 
 static void *worker_main(void *arg)
@@ -1051,7 +1054,7 @@ int workers_render(const ts_frame *frame, ts_film_state *film, const int *indice
         if (!rc) rc = job_from_board(job, &b, err);
         stats->stage_seconds[TS_STAGE_film] += b.merge_seconds;
     }
-    stats->unit_samples = frame->unit_samples;
+    stats->unit_samples = b.state ? b.gather : frame->unit_samples; /* board_regather's */
     if (!rc) rc = workers_stats(&g, stats, err);
     board_free(&b);
     workers_close(&g);
