@@ -7,7 +7,8 @@
  * order, given back and taken again, from an empty film, a prefix or runs past a gap, give
  * the same bits and record the runs the film holds; take, give back, close, freeze;
  * backup units of a slow device's (merged once, whichever copy ends first; none of a device
- * no slower, or with TESSERA_BACKUP_UNITS=0); units_plan's and sample_order_band's sizes. The
+ * no slower, or with TESSERA_BACKUP_UNITS=0); units made larger before any is handed out
+ * (board_regather) and a gated board; units_plan's and sample_order_band's sizes. The
  * radiance values span 12 orders of magnitude, so any other order of the additions changes bits
  * (asserted too). */
 #include "app/units.h"
@@ -751,6 +752,54 @@ static void test_board_backs_up_only_the_slow(void **state)
     film_state_free(&f);
 }
 
+/* A frame whose patches do not fit takes larger units (app/workers.c worker_squeeze): before
+ * any unit is handed out the board makes them again over the same samples, contiguous and in
+ * whole pixels, fewer of them (the last sixteenth still in quarter units); not to a smaller
+ * size, nor once one is out. A gated board (rank 0 of several MPI ranks) hands out nothing
+ * until the first board_regather, which opens it whatever size it asks for. */
+static void test_board_regathers_before_handing_out(void **state)
+{
+    (void)state;
+    const uint32_t pixels = 40000, spp = 3;
+    const uint64_t total = (uint64_t)pixels * spp, big = 30000;
+    ts_sample_order o = {pixels, spp, 1u};
+    ts_film_state f;
+    ts_board b;
+    ts_error err = {0};
+    ts_unit u;
+    assert_int_equal(film_state_alloc(&f, pixels, &err), TS_OK);
+    assert_int_equal(board_init(&b, &f, &o, total, 4096, NULL, &err), TS_OK);
+    uint32_t before = b.unit_count;
+    assert_true(before >= 29);
+    assert_int_equal(board_regather(&b, 1024), 0); /* smaller: as they were */
+    assert_int_equal(b.unit_count, before);
+    assert_int_equal(board_regather(&b, big), 1);
+    assert_true(b.unit_count >= 4 && b.unit_count < before / 4);
+    uint64_t at = 0;
+    for (uint32_t i = 0; i < b.unit_count; ++i) {
+        assert_int_equal(b.units[i].index, i);
+        assert_int_equal(b.units[i].first, at);
+        assert_int_equal(b.units[i].first % spp, 0);
+        assert_true(b.units[i].count <= big + spp);
+        at += b.units[i].count;
+    }
+    assert_int_equal(at, total);
+    assert_int_equal(board_try_take(&b, &u), 1);
+    assert_true(u.first == 0 && u.count >= big && u.count < big + spp);
+    uint32_t now = b.unit_count;
+    assert_int_equal(board_regather(&b, 2 * big), 0); /* one is out: as they are */
+    assert_int_equal(b.unit_count, now);
+    board_free(&b);
+    assert_int_equal(board_init(&b, &f, &o, total, 4096, NULL, &err), TS_OK);
+    board_gate(&b);
+    assert_int_equal(board_try_take(&b, &u), 0); /* gated: wait */
+    assert_int_equal(board_regather(&b, 0), 0);  /* opens it, sizes unchanged */
+    assert_int_equal(b.unit_count, before);
+    assert_int_equal(board_try_take(&b, &u), 1);
+    board_free(&b);
+    film_state_free(&f);
+}
+
 static void test_units_plan(void **state)
 {
     (void)state;
@@ -782,6 +831,7 @@ int main(void)
         cmocka_unit_test(test_board_wait_sees_a_change_it_missed),
         cmocka_unit_test(test_board_backs_up_a_slow_device),
         cmocka_unit_test(test_board_backs_up_only_the_slow),
+        cmocka_unit_test(test_board_regathers_before_handing_out),
         cmocka_unit_test(test_units_plan),
     };
     return cmocka_run_group_tests(tests, setup, NULL);

@@ -128,9 +128,9 @@ int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint6
 void board_free(ts_board *b);
 /* Before any unit is handed out: the units made again of up to `samples` samples each
  * (units_list's gather), when that is more than they were made with (returns 1); otherwise
- * nothing (0). For
- * a frame whose patches do not fit (workers.c worker_squeeze): each unit is a wave of its own
- * and dices the scene again, so fewer, larger ones dice less. */
+ * nothing (0). For a frame whose patches do not fit (workers.c worker_squeeze): each unit is
+ * a wave of its own and dices the scene again, so fewer, larger ones dice less. Opens a gated
+ * board (board_gate) in either case. */
 int board_regather(ts_board *b, uint64_t samples);
 /* Hands out nothing until the first board_regather (rank 0 of several MPI ranks: the other
  * ranks' requests wait for its devices to decide the units' size). */
