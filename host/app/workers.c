@@ -641,10 +641,7 @@ static int worker_units(ts_worker *w, ts_error *err)
 /* 1 when w's frame's patches fit its arenas (grown by `extra` bytes) all at once. */
 static int worker_fits(const ts_worker *w, uint64_t extra)
 {
-    uint64_t verts, groups;
-    pipeline_arena_need(&w->pipe, &verts, &groups);
-    uint64_t need = verts * sizeof(ts_vec4) + groups * TS_GROUP_BYTES;
-    return need <= pipeline_arena_bytes(&w->pipe.plan) + extra;
+    return pipeline_arena_need_bytes(&w->pipe) <= pipeline_arena_bytes(&w->pipe.plan) + extra;
 }
 
 /* Once the frame's levels of detail are known: when its patches will not fit w's arenas even
@@ -681,8 +678,7 @@ static void worker_regather(ts_worker *w, int skip)
     const ts_unit_source *src = &w->g->src;
     if (!src->regather) return;
     uint64_t wave = w->pipe.plan.ray_capacity / 2, share = w->g->frame.share_samples;
-    uint64_t samples = wave < share ? wave : share;
-    samples = samples / 64 * 64;
+    uint64_t samples = wave < share ? wave : share; /* units_list keeps whole pixels */
     if (skip || worker_fits(w, 0) || samples <= w->g->frame.unit_samples) samples = 0;
     if (src->regather(src->ctx, samples) && !w->g->frame.opt->quiet)
         ts_print_line("tessera: the frame's patches do not fit: units of %llu samples instead "

@@ -782,6 +782,13 @@ void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups
     need_entries(need, verts, groups);
 }
 
+uint64_t pipeline_arena_need_bytes(const ts_pipeline *p)
+{
+    uint64_t verts, groups;
+    pipeline_arena_need(p, &verts, &groups);
+    return verts * sizeof(ts_vec4) + groups * TS_GROUP_BYTES;
+}
+
 void pipeline_cache_plan(ts_pipeline *p)
 {
     if (p->cache_planned && p->planned_fixed_lod == p->mode.fixed_lod) return;

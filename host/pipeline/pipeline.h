@@ -396,6 +396,8 @@ int pipeline_lod(ts_pipeline *p, const ts_camera_params *cam, ts_lod_rule rule, 
  * and sibling groups at the level each is diced at (--lod's, else the lod stage's), twice
  * for a moving patch; an instance that shares its master's dicing takes none of its own. */
 void pipeline_arena_need(const ts_pipeline *p, uint64_t *verts, uint64_t *groups);
+/* Their bytes: pipeline_arena_need's entries at the arenas' sizes. */
+uint64_t pipeline_arena_need_bytes(const ts_pipeline *p);
 /* The patch cache's quotas (patch_cache_plan) from the frame's patches at their levels of
  * detail, when these changed since the last plan (a new lod stage, --lod, new arenas); the
  * cache is cleared when the quotas change. Between batches only. */
