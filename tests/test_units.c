@@ -800,6 +800,49 @@ static void test_board_regathers_before_handing_out(void **state)
     film_state_free(&f);
 }
 
+/* The progress line's credit for the units out: nothing before a unit is merged; then each
+ * unit out is credited its time out at the seconds a unit of weight the merged ones took,
+ * at most 90% of its weight; merged units are not counted twice. Samples weigh 1 here
+ * (eta_init without costs), the times are set on the board as its takes would have. */
+static void test_board_credits_units_in_flight(void **state)
+{
+    (void)state;
+    ts_film_state f;
+    ts_board b;
+    ts_error err = {0};
+    ts_sample_order o = order_of(W); /* one row a band: units of W * SPP samples */
+    const double span = (double)W * SPP;
+    ts_eta eta;
+    assert_int_equal(eta_init(&eta, NULL, W * H, SPP, W, &err), TS_OK);
+    board_open(&b, &f, &o);
+    ts_unit u[3];
+    for (int i = 0; i < 3; ++i)
+        assert_int_equal(board_try_take(&b, &u[i]), 1);
+    double now = stats_now();
+    b.since[0] = now - 100.0, b.since[1] = now - 100.0;
+    assert_true(board_work_in_flight(&b, &eta, now) == 0.0); /* no rate yet */
+    ts_unit_result r;
+    trace(&o, &u[0], &r);
+    assert_int_equal(board_done(&b, &u[0], &r), 1); /* took about 100 s */
+    double took = b.took[0];
+    assert_true(took >= 100.0 && took < 101.0);
+    b.since[1] = now - took / 4, b.since[2] = now - took / 2;
+    double c = board_work_in_flight(&b, &eta, now);
+    assert_true(c > 0.749 * span && c < 0.751 * span); /* a quarter and a half */
+    b.since[1] = now - 10 * took;
+    c = board_work_in_flight(&b, &eta, now);
+    assert_true(c > 1.399 * span && c < 1.401 * span); /* 0.9 at most, and a half */
+    trace(&o, &u[1], &r);
+    assert_int_equal(board_done(&b, &u[1], &r), 1);
+    c = board_work_in_flight(&b, &eta, now); /* rate: (took + 10 took) / 2 units */
+    double expect = (took / 2) / ((took + (b.took[1])) / 2) * span;
+    assert_true(c > 0.999 * expect && c < 1.001 * expect);
+    assert_true(board_work_finished(&b, &eta) == 2 * span);
+    eta_free(&eta);
+    board_free(&b);
+    film_state_free(&f);
+}
+
 static void test_units_plan(void **state)
 {
     (void)state;
@@ -832,6 +875,7 @@ int main(void)
         cmocka_unit_test(test_board_backs_up_a_slow_device),
         cmocka_unit_test(test_board_backs_up_only_the_slow),
         cmocka_unit_test(test_board_regathers_before_handing_out),
+        cmocka_unit_test(test_board_credits_units_in_flight),
         cmocka_unit_test(test_units_plan),
     };
     return cmocka_run_group_tests(tests, setup, NULL);

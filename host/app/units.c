@@ -158,7 +158,8 @@ int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint6
     b->holders = calloc(n, 1);
     b->holder = calloc(n, sizeof *b->holder);
     b->since = calloc(n, sizeof *b->since);
-    if (!b->state || !b->holders || !b->holder || !b->since) {
+    b->took = calloc(n, sizeof *b->took);
+    if (!b->state || !b->holders || !b->holder || !b->since || !b->took) {
         ts_error_set(err, TS_E_MEMORY, "out of memory");
         goto fail;
     }
@@ -173,6 +174,7 @@ fail:
     free(b->holders);
     free(b->holder);
     free(b->since);
+    free(b->took);
     done_free(&b->done);
     memset(b, 0, sizeof *b);
     return err->code;
@@ -185,6 +187,7 @@ void board_free(ts_board *b)
     free(b->holders);
     free(b->holder);
     free(b->since);
+    free(b->took);
     free(b->units);
     done_free(&b->done);
     pthread_mutex_destroy(&b->lock);
@@ -385,6 +388,7 @@ int board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
         units_merge(b->film, &b->order, u, r);
         b->merge_seconds += stats_now() - t0;
         b->state[i] = UNIT_MERGED;
+        b->took[i] = t0 - b->since[i];
         b->merged++;
         b->samples_finished += u->count;
         b->rays += r->rays;
@@ -486,6 +490,26 @@ double board_work_finished(ts_board *b, const ts_eta *eta)
                     eta_work(eta, b->units[i].first);
     pthread_mutex_unlock(&b->lock);
     return work;
+}
+
+double board_work_in_flight(ts_board *b, const ts_eta *eta, double now)
+{
+    double work = 0.0, seconds = 0.0, credit = 0.0;
+    pthread_mutex_lock(&b->lock);
+    for (uint32_t i = 0; i < b->unit_count; ++i)
+        if (b->state[i] == UNIT_MERGED)
+            work += eta_work(eta, b->units[i].first + b->units[i].count) -
+                    eta_work(eta, b->units[i].first),
+                seconds += b->took[i];
+    for (uint32_t i = 0; work > 0.0 && seconds > 0.0 && i < b->unit_count; ++i) {
+        if (b->state[i] != UNIT_OUT) continue;
+        double w =
+            eta_work(eta, b->units[i].first + b->units[i].count) - eta_work(eta, b->units[i].first);
+        double c = (now - b->since[i]) * work / seconds; /* elapsed / (seconds a weight) */
+        credit += c < 0.0 ? 0.0 : c < 0.9 * w ? c : 0.9 * w;
+    }
+    pthread_mutex_unlock(&b->lock);
+    return credit;
 }
 
 uint64_t board_changes(ts_board *b)

@@ -108,6 +108,7 @@ typedef struct ts_board {
     uint8_t *holders; /* per unit: devices tracing it (2 while it is backed up) */
     uint16_t *holder; /* per unit: the taker of its first holder (0: none named, or gone) */
     double *since;    /* per unit: when its first holder took it */
+    double *took;     /* per unit merged: the seconds from then to its merge */
     ts_board_taker taker[TS_BOARD_TAKERS]; /* per device slot: how fast it traces */
     int backups;                           /* backup units allowed (TESSERA_BACKUP_UNITS) */
     uint32_t backups_taken;                /* backup units handed out */
@@ -176,6 +177,13 @@ uint64_t board_prefix(ts_board *b);
 void board_progress(ts_board *b, uint64_t *samples_finished, uint64_t *rays);
 /* The weight (eta.h) of the samples of the units merged so far. */
 double board_work_finished(ts_board *b, const ts_eta *eta);
+/* The weight of the units out at time `now` that the progress line credits: each for the
+ * share of its expected time it has been out, at most 90% of its weight, the expected time
+ * being its weight at the seconds a unit of weight the merged units took from their take to
+ * their merge (0 before the first is merged). So that the line moves while a device traces
+ * a long unit (a frame whose patches do not fit: a unit or two a device) without claiming
+ * samples that are not in the films. */
+double board_work_in_flight(ts_board *b, const ts_eta *eta, double now);
 /* How many times the board has changed (a unit merged or given back, the board closed). */
 uint64_t board_changes(ts_board *b);
 /* Waits up to `seconds` for the board to change after `seen` = board_changes: at once when

@@ -709,6 +709,9 @@ static void *worker_main(void *arg)
              budget_grow_arenas(&w->pipe, w->room_mb, 1, g->frame.opt->quiet, &w->err);
     worker_regather(w, rc || placed); /* whatever the set-up gave: it opens the board */
     if (!rc) worker_share(w);
+    pthread_mutex_lock(&g->lock);
+    g->set_up++;
+    pthread_mutex_unlock(&g->lock);
     w->out.setup_seconds = stats_now() - t0;
     if (!rc) rc = worker_units(w, &w->err);
     w->out.frame_seconds = stats_now() - t0;
@@ -936,15 +939,18 @@ static int job_from_board(ts_job *job, ts_board *b, ts_error *err)
 }
 
 /* The progress line: samples of the units finished (merged or not), the share of the
- * frame's weight they hold (eta.h, once the levels and the pixels' weights are made), rays per
- * second, and the time left at the weight per second so far; printed at most every second. */
+ * frame's weight they hold (eta.h, once the levels and the pixels' weights are made) with the
+ * units out credited for the time they have run (board_work_in_flight), rays per second, and
+ * the time left at the weight per second so far; printed at most every second, from when every
+ * device is set up (its notes printed) or a unit is finished. */
 typedef struct frame_progress_state {
     ts_eta eta;
     int weighed; /* eta holds the pixels' weights (else samples weigh 1) */
     double t0;
 } frame_progress_state;
 
-static int frame_progress(ts_workers *g, ts_board *b, frame_progress_state *st, int lod_state)
+static int frame_progress(ts_workers *g, ts_board *b, frame_progress_state *st, int lod_state,
+                          int set_up)
 {
     if (!st->weighed && lod_state > 0) { /* g->pixel_cost is final once the levels are */
         ts_error e = {0};
@@ -954,9 +960,14 @@ static int frame_progress(ts_workers *g, ts_board *b, frame_progress_state *st, 
     }
     uint64_t finished, rays;
     board_progress(b, &finished, &rays);
-    if (finished == 0 && !board_finished(b)) return 0; /* devices still print their notes */
-    double done = board_work_finished(b, &st->eta), dt = stats_now() - st->t0;
-    eta_print(&st->eta, b->start + finished, b->start, b->total, done, (double)rays, dt, "unit");
+    if (finished == 0 && !set_up && !board_finished(b)) return 0; /* devices print notes */
+    double now = stats_now(), finished_work = board_work_finished(b, &st->eta);
+    double done = finished_work + board_work_in_flight(b, &st->eta, now);
+    double left = finished_work > 0.0
+                      ? eta_seconds_left(&st->eta, done, now - st->t0, b->start, b->total)
+                      : -1.0;
+    eta_print_left(&st->eta, b->start + finished, b->start, b->total, done, (double)rays,
+                   now - st->t0, left, "unit");
     return 1;
 }
 
@@ -969,7 +980,7 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
     double printed = 0;
     frame_progress_state st = {{0}, 0, stats_now()};
     ts_error weights_err = {0};
-    int shown = 0, rc = TS_OK, lod_state = 0;
+    int shown = 0, rc = TS_OK, lod_state = 0, set_up = 0;
     eta_init(&st.eta, NULL, 0, 1, 0, &weights_err); /* samples weigh 1 until the levels */
     uint64_t seen = board_changes(b);
     while (!board_finished(b)) {
@@ -986,6 +997,7 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
         workers_report(g, &end->failure);
         pthread_mutex_lock(&g->lock);
         lod_state = g->lod_state;
+        set_up = g->set_up == g->count;
         pthread_mutex_unlock(&g->lock);
         if (lod_state < 0) {
             rc = ts_error_set_status(err, g->fatal.code, g->fatal.status, "%s", g->fatal.msg);
@@ -1002,7 +1014,7 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
         }
         if (service && service->progress) service->progress(service->progress_ctx, b, g);
         if (!f->opt->quiet && !ferror(stderr) && stats_now() - printed >= 1.0) {
-            shown |= frame_progress(g, b, &st, lod_state);
+            shown |= frame_progress(g, b, &st, lod_state, set_up);
             printed = stats_now();
         }
         board_wait(b, service && service->poll ? service->interval : 0.25, seen);
@@ -1017,7 +1029,7 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
     board_close(b);
     workers_join(g);
     workers_report(g, &end->failure);
-    if (!f->opt->quiet && !ferror(stderr) && frame_progress(g, b, &st, lod_state))
+    if (!f->opt->quiet && !ferror(stderr) && frame_progress(g, b, &st, lod_state, set_up))
         fputc('\n', stderr);
     eta_free(&st.eta);
     return rc;

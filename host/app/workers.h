@@ -76,6 +76,7 @@ typedef struct ts_workers {
     uint64_t place_verts, place_groups;
     uint32_t alive;   /* threads still rendering or able to */
     uint32_t running; /* threads that have not ended */
+    uint32_t set_up; /* threads past their set-up, its notes printed: the progress line may begin */
     int started;
 } ts_workers;
 
