@@ -107,6 +107,17 @@ static void test_tiny_paths(void **state)
     const cJSON *e = cJSON_GetArrayItem(cJSON_GetObjectItem(eye_root, "scenes"), 0);
     assert_true(number(s, "patches_reached") > number(e, "patches_reached"));
     cJSON_Delete(eye_root);
+    /* As the waves list them, pass by pass (a bounce of a wave): each pass's patches once,
+     * summed, lie above the patches reached at all (the bounces reach patches the eye rays
+     * reached) and at most the lookups; other orders do not count them. */
+    assert_null(cJSON_GetObjectItem(s, "patches_reached_per_pass"));
+    cJSON *wave_root = run_tiny("--paths --order wave", "cache_wave.json");
+    const cJSON *w = cJSON_GetArrayItem(cJSON_GetObjectItem(wave_root, "scenes"), 0);
+    double per_pass = number(w, "patches_reached_per_pass");
+    assert_true(number(w, "patches_reached") == number(s, "patches_reached"));
+    assert_true(per_pass > number(w, "patches_reached"));
+    assert_true(per_pass <= number(w, "cache_lookups"));
+    cJSON_Delete(wave_root);
     cJSON_Delete(root);
 }
 

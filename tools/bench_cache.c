@@ -31,6 +31,11 @@
  *   recomputed on every simulated miss; that changes no count.
  * every patch: the patches the exact tracer reaches at all, which an unbounded cache dices
  *   once each: the floor of any order of the same rays that dices only what they reach.
+ * every pass (--order wave, where the rays come pass by pass: a bounce of a wave): the
+ *   patches each pass's rays reach, once a pass, summed: what reordering would dice if each
+ *   pass diced exactly the patches its rays reach before their closest hits, once (no
+ *   candidate behind a closest hit, no patch twice in a pass), with no patch kept between
+ *   passes. Reordering's culling by the trees' upper levels may take it below that.
  * Both tracers find the closest hit of every ray among the same micro-geometry, so the
  * benchmark fails unless every ray gets the same answer from both (hit or not; a shadow ray's
  * first hit need not be its nearest), and it reports how many hit distances are bitwise equal.
@@ -259,6 +264,7 @@ static int frame_watch(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_t rays
                         f->hit[slot].t,
                         f->flags[slot],
                         f->from[slot],
+                        ((uint64_t)f->first << 5) | bounce,
                         {TS_NO_HIT, 0, 0, TS_INVALID, TS_INVALID}};
         f->count++;
         f->eye += !shadow && bounce == 0, f->bsdf += !shadow && bounce > 0, f->shadow += shadow;
@@ -378,6 +384,7 @@ static int bench_scene(const bench_options *o, ts_device *cl, const char *path, 
     res->rays = f.count;
     res->eye_rays = f.eye, res->bsdf_rays = f.bsdf, res->shadow_rays = f.shadow;
     if (!rc) fprintf(stderr, "bench_cache: %s: caches, one ray at a time...\n", path);
+    res->by_pass = o->order == ORDER_WAVE; /* the rays come pass by pass */
     if (!rc) rc = cache_trace(&s, f.lod, f.r, f.count, (uint64_t)o->memo_mb, res, err);
     free(f.r), free(f.lod);
     scene_free(&s);
@@ -432,6 +439,10 @@ static void bench_print(const bench_options *o, const bench_result *r)
     printf("  %-12s %12llu %16s %14.2f   (each patch the rays reach, once: the floor)\n",
            "every patch", (unsigned long long)r->reached, "",
            (double)r->reached / (double)r->cache[2].dicings);
+    if (r->by_pass)
+        printf("  %-12s %12llu %16s %14.2f   (each patch a pass reaches, once a pass)\n",
+               "every pass", (unsigned long long)r->pass_reached, "",
+               (double)r->pass_reached / (double)r->cache[2].dicings);
     printf("  %-12s %12llu %16llu %14.2f\n", "reordering", (unsigned long long)r->reorder_dicings,
            (unsigned long long)r->reorder_micropolygons,
            (double)r->reorder_dicings / (double)r->cache[2].dicings);
@@ -490,6 +501,8 @@ static int bench_json(const bench_options *o, const bench_result *rs, int n, con
         }
         cJSON_AddNumberToObject(j, "cache_lookups", (double)r->lookups);
         cJSON_AddNumberToObject(j, "patches_reached", (double)r->reached);
+        if (r->by_pass)
+            cJSON_AddNumberToObject(j, "patches_reached_per_pass", (double)r->pass_reached);
         cJSON_AddNumberToObject(j, "cache_hits", (double)r->hits_cache);
         cJSON_AddNumberToObject(j, "answers_equal", (double)r->answers_equal);
         cJSON_AddNumberToObject(j, "hits_compared", (double)r->hits_compared);

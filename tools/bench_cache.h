@@ -32,7 +32,12 @@ typedef struct bench_result {
     /* Patches the exact tracer reaches at least once: an unbounded cache's dicings, the floor
      * of any method that dices only what the rays reach before their closest hits. */
     uint64_t reached;
-    uint8_t *seen;                             /* per patch, during cache_trace */
+    uint8_t *seen; /* per patch, during cache_trace */
+    /* With --order wave (the rays pass by pass): the patches each pass (a bounce of a wave)
+     * reaches, counted once a pass and summed: what a method that dices each patch a pass
+     * needs exactly once would dice; pass_seen holds per patch the last pass (+ 1) that did. */
+    int by_pass;
+    uint64_t pass_reached, pass_now, *pass_seen;
     uint64_t t_reorder_nearer, t_cache_nearer; /* both hit, at different distances */
     int check_reorder_le_cache10, check_caches_monotone, check_same_hits;
     lru cache[BENCH_CACHES];
@@ -47,7 +52,8 @@ typedef struct bench_ray {
     ts_vec4 org, dir;
     float tmax; /* hit.t before the trace: a shadow ray's distance to its light */
     uint32_t flags, from;
-    ts_hit hit; /* Tessera's */
+    uint64_t pass; /* the pass it was traced in: its wave's first sample << 5 | its bounce */
+    ts_hit hit;    /* Tessera's */
 } bench_ray;
 
 /* The cache baseline: rays[0..count) traced one at a time in that order (their keys' order)

@@ -213,6 +213,8 @@ static int trace_one(const ts_scene *s, const ts_qbvh *q, const uint8_t *lod, co
             if (s->attr[p].flags & unseen) continue;
             res->lookups++;
             if (!res->seen[p]) res->seen[p] = 1, res->reached++;
+            if (res->by_pass && res->pass_seen[p] != res->pass_now)
+                res->pass_seen[p] = res->pass_now, res->pass_reached++;
             for (int c = 0; c < BENCH_CACHES; ++c)
                 lru_access(&res->cache[c], p, m);
             ts_hit hh;
@@ -270,7 +272,8 @@ int cache_trace(const ts_scene *s, const uint8_t *lod, const bench_ray *rays, ui
                np};
     heap h = {0};
     res->seen = calloc(np ? np : 1, 1);
-    if (!res->seen) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
+    res->pass_seen = calloc(np ? np : 1, sizeof *res->pass_seen);
+    if (!res->seen || !res->pass_seen) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
     for (int c = 0; c < BENCH_CACHES && !rc; ++c)
         if (lru_init(&res->cache[c], cache_sizes[c], np ? np : 1))
             rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
@@ -278,6 +281,7 @@ int cache_trace(const ts_scene *s, const uint8_t *lod, const bench_ray *rays, ui
     double t0 = stats_now();
     for (uint64_t k = 0; k < count && !rc; ++k) {
         ts_hit hc;
+        res->pass_now = rays[k].pass + 1;
         if (trace_one(s, &q, lod, &rays[k], &mm, &h, res, &hc)) {
             rc = ts_error_set(err, TS_E_MEMORY, "out of memory in the cache tracer");
             break;
@@ -289,6 +293,7 @@ int cache_trace(const ts_scene *s, const uint8_t *lod, const bench_ray *rays, ui
     memo_clear(&mm);
     free(mm.grid), free(mm.groups), free(mm.codes), free(h.v);
     free(res->seen), res->seen = NULL;
+    free(res->pass_seen), res->pass_seen = NULL;
     qbvh_free(&q);
     return rc;
 }
