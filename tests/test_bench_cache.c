@@ -20,20 +20,25 @@ static double number(const cJSON *o, const char *key)
     return v->valuedouble;
 }
 
-/* Runs bench_cache at --size tiny on forest-1 with `extra` arguments; its JSON. */
-static cJSON *run_tiny(const char *extra, const char *name)
+/* Runs bench_cache at --size tiny on `scene` with `extra` arguments; its JSON. */
+static cJSON *run_tiny_on(const char *scene, const char *extra, const char *name)
 {
     char bin[4096], cmd[16384];
     snprintf(bin, sizeof bin, "%s", test_tessera_binary());
     const char *json = test_path_in(test_scratch_dir(), name);
     snprintf(cmd, sizeof cmd,
              "'%s/bench_cache' --size tiny %s --scene '%s' --json '%s' > /dev/null 2>&1",
-             dirname(bin), extra, test_source_path("scene/forest-1.rib"), json);
+             dirname(bin), extra, test_source_path(scene), json);
     assert_int_equal(system(cmd), 0); /* the program's own checks passed */
     cJSON *root = test_read_json(json);
     assert_string_equal(cJSON_GetObjectItem(root, "benchmark")->valuestring, "cache");
     assert_true(number(root, "spp") >= 1);
     return root;
+}
+
+static cJSON *run_tiny(const char *extra, const char *name)
+{
+    return run_tiny_on("scene/forest-1.rib", extra, name);
 }
 
 /* The counts of one scene's run that hold for eye rays and for whole paths alike. */
@@ -82,6 +87,7 @@ static void test_tiny(void **state)
                 number(root, "width") * number(root, "height") * number(root, "spp"));
     assert_true(number(s, "eye_rays") == number(s, "rays"));
     assert_true(number(s, "hits_compared") == number(cJSON_GetObjectItem(s, "reorder"), "hits"));
+    assert_null(cJSON_GetObjectItem(cJSON_GetObjectItem(s, "reorder"), "lazy")); /* no --lazy */
     check_counts(s);
     cJSON_Delete(root);
 }
@@ -121,9 +127,28 @@ static void test_tiny_paths(void **state)
     cJSON_Delete(root);
 }
 
+/* --lazy: every iteration replayed as a trace that dices a patch only when one of its rays
+ * still needs it. forest-100 at 160x64 with --memory 24 takes several batches an iteration:
+ * the replay sees the patches the reordering diced, and dicing lazily near first leaves a
+ * good part of them (a lazy trace in the batches' own order, some). */
+static void test_tiny_lazy(void **state)
+{
+    (void)state;
+    cJSON *root = run_tiny_on("scene/forest-100.rib", "--paths --lazy --memory 24", "lazy.json");
+    const cJSON *s = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "scenes"), 0);
+    const cJSON *ro = cJSON_GetObjectItem(s, "reorder"), *lz = cJSON_GetObjectItem(ro, "lazy");
+    double diced = number(lz, "diced"), batch = number(lz, "batch_order"),
+           near = number(lz, "near_first");
+    assert_true(diced == number(ro, "dicings"));
+    assert_true(batch > 0 && batch < diced);
+    assert_true(near > 0 && near < 0.9 * diced);
+    cJSON_Delete(root);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_tiny),
-                                       cmocka_unit_test(test_tiny_paths)};
+                                       cmocka_unit_test(test_tiny_paths),
+                                       cmocka_unit_test(test_tiny_lazy)};
     return TEST_RUN_WITH_DEVICE(tests, NULL);
 }

@@ -48,12 +48,15 @@
  *
  * usage: bench_cache [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N]
  *                    [--memory MB] [--memo-mb MB] [--order pixel|pass|wave] [--paths]
- *                    [--json PATH]
+ *                    [--lazy] [--json PATH]
  *   --order pass: the caches see the rays sample pass by sample pass (the order of Tessera's
  *   camera), instead of scanline order with each pixel's samples in turn (default, pixel);
  *   --order wave: as Tessera's waves list them before their sort (wave by wave, bounce by
  *   bounce, each bounce's rays in path order): a cache in place of the reordering, in the
  *   same renderer (Hanika's comparison).
+ *   --lazy: each iteration of the reordering is also replayed as a trace that dices a patch
+ *   only when one of its rays still needs it, in Tessera's batch order and near first
+ *   (tools/lazy_sim.c): the dicings that would save, the same hits.
  *   tiny:  scene/forest-1.rib at 160x64, 1 spp
  *   small: scene/forest-100.rib and scene/forest-1000.rib at 480x192, 4 spp
  *   full:  the same at 1920x768, 4 spp (the paper: 1920x768x64 rays, with motion blur)
@@ -84,6 +87,7 @@ typedef struct bench_options {
     int scene_count, width, height, spp, memory_mb, memo_mb;
     int order; /* ORDER_PIXEL, ORDER_PASS, ORDER_WAVE */
     int paths; /* --paths: every ray of the paths, not the eye rays alone */
+    int lazy;  /* --lazy: each iteration replayed as a lazy trace would dice (lazy_sim.c) */
     int grow;  /* no --memory: the arenas grow to the frame's patches, as render's do */
 } bench_options;
 
@@ -114,21 +118,16 @@ static int bench_size(bench_options *o)
 static int bench_parse(int argc, char **argv, bench_options *o)
 {
     static const struct option longopts[] = {
-        {"size", required_argument, NULL, 's'},
-        {"scene", required_argument, NULL, 'S'},
-        {"res", required_argument, NULL, 'r'},
-        {"spp", required_argument, NULL, 'p'},
-        {"memory", required_argument, NULL, 'm'},
-        {"memo-mb", required_argument, NULL, 'M'},
-        {"json", required_argument, NULL, 'j'},
-        {"order", required_argument, NULL, 'o'},
-        {"paths", no_argument, NULL, 'P'},
-        {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0},
+        {"size", required_argument, NULL, 's'},   {"scene", required_argument, NULL, 'S'},
+        {"res", required_argument, NULL, 'r'},    {"spp", required_argument, NULL, 'p'},
+        {"memory", required_argument, NULL, 'm'}, {"memo-mb", required_argument, NULL, 'M'},
+        {"json", required_argument, NULL, 'j'},   {"order", required_argument, NULL, 'o'},
+        {"paths", no_argument, NULL, 'P'},        {"lazy", no_argument, NULL, 'L'},
+        {"help", no_argument, NULL, 'h'},         {NULL, 0, NULL, 0},
     };
     *o = (bench_options){.size = "small", .memory_mb = 1024, .memo_mb = 2048, .grow = 1};
     int c, w = 0, h = 0, spp = 0;
-    while ((c = getopt_long(argc, argv, "s:S:r:p:m:M:j:o:Ph", longopts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, "s:S:r:p:m:M:j:o:PLh", longopts, NULL)) != -1) {
         switch (c) {
         case 's':
             o->size = optarg;
@@ -173,12 +172,15 @@ static int bench_parse(int argc, char **argv, bench_options *o)
         case 'P':
             o->paths = 1;
             break;
+        case 'L':
+            o->lazy = 1;
+            break;
         default:
-            fprintf(
-                stderr,
-                "usage: %s [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N] "
-                "[--memory MB] [--memo-mb MB] [--order pixel|pass|wave] [--paths] [--json PATH]\n",
-                argv[0]);
+            fprintf(stderr,
+                    "usage: %s [--size tiny|small|full] [--scene RIB]... [--res WxH] [--spp N] "
+                    "[--memory MB] [--memo-mb MB] [--order pixel|pass|wave] [--paths] [--lazy] "
+                    "[--json PATH]\n",
+                    argv[0]);
             return c == 'h' ? 0 : 1;
         }
     }
@@ -341,6 +343,8 @@ static int run_reorder(const bench_options *o, ts_device *cl, const ts_scene *s,
     f->order_of = o->order;
     res->band_rows = cam.band ? cam.band / cam.width : cam.height;
     p.mode = (ts_trace_mode){(uint32_t)o->spp, -1, 0, 0, 0u, 0, 1.0};
+    if (!rc && o->lazy) p.iteration_watch = lazy_watch, p.iteration_ctx = &res->lazy_dicings;
+    res->lazy = o->lazy;
     if (!rc)
         rc =
             pipeline_lod(&p, &cam, TS_LOD_RULE_CROSSED, err); /* the lod stage, as tessera render */
@@ -446,6 +450,14 @@ static void bench_print(const bench_options *o, const bench_result *r)
     printf("  %-12s %12llu %16llu %14.2f\n", "reordering", (unsigned long long)r->reorder_dicings,
            (unsigned long long)r->reorder_micropolygons,
            (double)r->reorder_dicings / (double)r->cache[2].dicings);
+    if (r->lazy)
+        printf("  lazy dicing (replayed): of the %llu diced, %llu in Tessera's batch order (%.2f), "
+               "%llu near first (%.2f)\n",
+               (unsigned long long)r->lazy_dicings.misses,
+               (unsigned long long)r->lazy_dicings.batch_order,
+               (double)r->lazy_dicings.batch_order / (double)r->lazy_dicings.misses,
+               (unsigned long long)r->lazy_dicings.near_first,
+               (double)r->lazy_dicings.near_first / (double)r->lazy_dicings.misses);
     printf("  rays hit: %llu (Tessera) / %llu (cache tracer); of %llu hits compared (not shadow "
            "rays') distances equal %llu, nearer in Tessera %llu, nearer in the cache tracer "
            "%llu\n",
@@ -491,6 +503,12 @@ static int bench_json(const bench_options *o, const bench_result *rs, int n, con
         cJSON_AddNumberToObject(ro, "pairs", (double)r->reorder_pairs);
         cJSON_AddNumberToObject(ro, "hits", (double)r->hits_reorder);
         cJSON_AddNumberToObject(ro, "seconds", r->reorder_seconds);
+        if (r->lazy) {
+            cJSON *lz = cJSON_AddObjectToObject(ro, "lazy");
+            cJSON_AddNumberToObject(lz, "diced", (double)r->lazy_dicings.misses);
+            cJSON_AddNumberToObject(lz, "batch_order", (double)r->lazy_dicings.batch_order);
+            cJSON_AddNumberToObject(lz, "near_first", (double)r->lazy_dicings.near_first);
+        }
         cJSON *ca = cJSON_AddArrayToObject(j, "cache");
         for (int c = 0; c < BENCH_CACHES; ++c) {
             cJSON *e = cJSON_CreateObject();

@@ -4,6 +4,7 @@
 #define TS_BENCH_CACHE_H
 
 #include "base/error.h"
+#include "device/device.h"
 #include "lib/shared_types.h"
 #include "scene/scene.h"
 
@@ -20,6 +21,12 @@ typedef struct lru {
     uint64_t dicings, micropolygons;
 } lru;
 
+/* bench_cache --lazy (tools/lazy_sim.c): over every iteration traced, the patches diced (the
+ * misses), and how many of them a trace that dices a patch only when one of its rays still
+ * needs it would dice, in Tessera's batch order and near first. */
+typedef struct lazy_counts {
+    uint64_t misses, batch_order, near_first;
+} lazy_counts;
 typedef struct bench_result {
     const char *scene;
     uint32_t patches, max_lod, waves, band_rows;
@@ -41,6 +48,8 @@ typedef struct bench_result {
     uint64_t t_reorder_nearer, t_cache_nearer; /* both hit, at different distances */
     int check_reorder_le_cache10, check_caches_monotone, check_same_hits;
     lru cache[BENCH_CACHES];
+    int lazy; /* --lazy: the replay ran (lazy_counts) */
+    lazy_counts lazy_dicings;
     double reorder_seconds, cache_seconds;
 } bench_result;
 
@@ -64,5 +73,10 @@ typedef struct bench_ray {
 int cache_trace(const ts_scene *s, const uint8_t *lod, const bench_ray *rays, uint64_t count,
                 uint64_t memo_mb, bench_result *res, ts_error *err);
 void lru_free(lru *c);
+
+struct ts_pipeline;
+/* ts_pipeline's iteration_watch; ctx a lazy_counts. */
+int lazy_watch(void *ctx, struct ts_pipeline *p, uint32_t active, uint32_t n_per_ray, cl_mem pairs,
+               uint32_t valid, uint32_t segs, ts_error *err);
 
 #endif

@@ -310,6 +310,15 @@ typedef struct ts_pipeline {
     int (*cancel)(void *ctx);
     void *cancel_ctx;
     int cancelled;
+    /* Called by pipeline_trace after each iteration's batches are traced, before resolve,
+     * when set (tools/bench_cache --lazy, which replays the iteration in other orders; NULL in
+     * a render): the iteration's rays (active[0..active), windows of n_per_ray pairs, or
+     * window_first's when 0), its `valid` pairs sorted by patch in `pairs` (pairs or
+     * pairs_scratch), and its segments and batches in segments_host, batches and trees_host;
+     * pair_hit holds each pair's hit. */
+    int (*iteration_watch)(void *ctx, struct ts_pipeline *p, uint32_t active, uint32_t n_per_ray,
+                           cl_mem pairs, uint32_t valid, uint32_t segs, ts_error *err);
+    void *iteration_ctx;
     /* Stages only some commands run, with their own kernels and buffers, made on demand
      * (bake.h: `tessera bake`) and released by pipeline_destroy; NULL otherwise. */
     struct ts_bake_stage *bake;

@@ -857,6 +857,11 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
                 return dev_finish(p->cl, p->stats, err);
             }
         }
+        if (segs && p->iteration_watch &&
+            (dev_finish(p->cl, p->stats, err) ||
+             p->iteration_watch(p->iteration_ctx, p, active, kernel_n,
+                                sorted_buffer ? p->pairs_scratch : p->pairs, valid, segs, err)))
+            return err->code;
         ts_iteration rec = {p->wave, it, active, n_per_ray, valid, segs, p->in_lod};
         if (stats_add_iteration(p->stats, &rec, err)) return err->code;
         p->stats->counters[TS_COUNTER_pairs] += valid;
