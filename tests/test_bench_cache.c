@@ -142,6 +142,11 @@ static void test_tiny_lazy(void **state)
     assert_true(diced == number(ro, "dicings"));
     assert_true(batch > 0 && batch < diced);
     assert_true(near > 0 && near < 0.9 * diced);
+    /* in micro-quads: the reordering's own count, and less near first */
+    double mp = number(lz, "diced_micropolygons");
+    assert_true(mp == number(ro, "micropolygons"));
+    assert_true(number(lz, "near_first_micropolygons") < mp);
+    assert_true(number(lz, "batch_order_micropolygons") <= mp);
     cJSON_Delete(root);
 }
 

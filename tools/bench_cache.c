@@ -450,14 +450,18 @@ static void bench_print(const bench_options *o, const bench_result *r)
     printf("  %-12s %12llu %16llu %14.2f\n", "reordering", (unsigned long long)r->reorder_dicings,
            (unsigned long long)r->reorder_micropolygons,
            (double)r->reorder_dicings / (double)r->cache[2].dicings);
-    if (r->lazy)
-        printf("  lazy dicing (replayed): of the %llu diced, %llu in Tessera's batch order (%.2f), "
-               "%llu near first (%.2f)\n",
-               (unsigned long long)r->lazy_dicings.misses,
-               (unsigned long long)r->lazy_dicings.batch_order,
-               (double)r->lazy_dicings.batch_order / (double)r->lazy_dicings.misses,
-               (unsigned long long)r->lazy_dicings.near_first,
-               (double)r->lazy_dicings.near_first / (double)r->lazy_dicings.misses);
+    if (r->lazy) {
+        const lazy_counts *z = &r->lazy_dicings;
+        printf(
+            "  lazy dicing (replayed): of the %llu diced, %llu in Tessera's batch order (%.2f), "
+            "%llu near first (%.2f); of their %llu micro-polygons, %llu (%.2f) and %llu "
+            "(%.2f)\n",
+            (unsigned long long)z->misses, (unsigned long long)z->batch_order,
+            (double)z->batch_order / (double)z->misses, (unsigned long long)z->near_first,
+            (double)z->near_first / (double)z->misses, (unsigned long long)z->misses_mp,
+            (unsigned long long)z->batch_order_mp, (double)z->batch_order_mp / (double)z->misses_mp,
+            (unsigned long long)z->near_first_mp, (double)z->near_first_mp / (double)z->misses_mp);
+    }
     printf("  rays hit: %llu (Tessera) / %llu (cache tracer); of %llu hits compared (not shadow "
            "rays') distances equal %llu, nearer in Tessera %llu, nearer in the cache tracer "
            "%llu\n",
@@ -508,6 +512,11 @@ static int bench_json(const bench_options *o, const bench_result *rs, int n, con
             cJSON_AddNumberToObject(lz, "diced", (double)r->lazy_dicings.misses);
             cJSON_AddNumberToObject(lz, "batch_order", (double)r->lazy_dicings.batch_order);
             cJSON_AddNumberToObject(lz, "near_first", (double)r->lazy_dicings.near_first);
+            cJSON_AddNumberToObject(lz, "diced_micropolygons", (double)r->lazy_dicings.misses_mp);
+            cJSON_AddNumberToObject(lz, "batch_order_micropolygons",
+                                    (double)r->lazy_dicings.batch_order_mp);
+            cJSON_AddNumberToObject(lz, "near_first_micropolygons",
+                                    (double)r->lazy_dicings.near_first_mp);
         }
         cJSON *ca = cJSON_AddArrayToObject(j, "cache");
         for (int c = 0; c < BENCH_CACHES; ++c) {

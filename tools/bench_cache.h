@@ -23,9 +23,11 @@ typedef struct lru {
 
 /* bench_cache --lazy (tools/lazy_sim.c): over every iteration traced, the patches diced (the
  * misses), and how many of them a trace that dices a patch only when one of its rays still
- * needs it would dice, in Tessera's batch order and near first. */
+ * needs it would dice, in Tessera's batch order and near first; in patches and micro-quads. */
 typedef struct lazy_counts {
     uint64_t misses, batch_order, near_first;
+    /* the same in micro-quads (4^m a dicing): what the dicing costs */
+    uint64_t misses_mp, batch_order_mp, near_first_mp;
 } lazy_counts;
 typedef struct bench_result {
     const char *scene;

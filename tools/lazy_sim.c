@@ -87,9 +87,9 @@ static void replay_fold(const replay *r, const ts_segment *s)
 }
 
 /* Replays segments order[0..n) in chunks ending at ends[0..chunks) (the last at n): returns the
- * misses a lazy trace dices. */
+ * misses a lazy trace dices, and their micro-quads through *mp. */
 static uint64_t replay_order(replay *r, const uint32_t *order, const uint32_t *ends,
-                             uint32_t chunks, uint8_t *need)
+                             uint32_t chunks, uint8_t *need, uint64_t *mp)
 {
     for (uint32_t i = 0; i < r->active; ++i)
         r->near[i] = r->hit[r->act[i]].t;
@@ -98,7 +98,7 @@ static uint64_t replay_order(replay *r, const uint32_t *order, const uint32_t *e
         for (uint32_t j = c0; j < ends[c]; ++j) {
             const ts_segment *s = &r->p->segments_host[order[j]];
             need[j] = !r->miss[order[j]] || replay_needed(r, s);
-            diced += r->miss[order[j]] && need[j];
+            if (r->miss[order[j]] && need[j]) diced++, *mp += 1ull << (2u * s->lod);
         }
         for (uint32_t j = c0; j < ends[c]; ++j)
             if (need[j]) replay_fold(r, &r->p->segments_host[order[j]]);
@@ -196,7 +196,7 @@ int lazy_watch(void *ctx, ts_pipeline *p, uint32_t active, uint32_t n_per_ray, c
             for (uint32_t t = 0; t < p->batches[b].tree_count; ++t)
                 r.miss[TS_TREE_SEGMENT(p->trees_host[p->batches[b].tree_first + t])] = 1;
         for (uint32_t g = 0; g < segs; ++g)
-            c->misses += r.miss[g];
+            if (r.miss[g]) c->misses++, c->misses_mp += 1ull << (2u * p->segments_host[g].lod);
         /* The batches as they ran: each a run of consecutive segments. */
         uint32_t n = 0;
         for (uint32_t b = 0; b < p->batch_count; ++b) {
@@ -204,13 +204,13 @@ int lazy_watch(void *ctx, ts_pipeline *p, uint32_t active, uint32_t n_per_ray, c
                 order[n++] = p->batches[b].seg_first + j;
             ends[b] = n;
         }
-        c->batch_order += replay_order(&r, order, ends, p->batch_count, need);
+        c->batch_order += replay_order(&r, order, ends, p->batch_count, need, &c->batch_order_mp);
         /* Near first, in chunks of the batches' mean size. */
         replay_near_first(&r, segs, k, order);
         uint32_t chunk = (segs + nb - 1u) / nb;
         for (uint32_t b = 0; b < nb; ++b)
             ends[b] = (b + 1u) * chunk < segs ? (b + 1u) * chunk : segs;
-        c->near_first += replay_order(&r, order, ends, nb, need);
+        c->near_first += replay_order(&r, order, ends, nb, need, &c->near_first_mp);
     }
     replay_unmap(&r, pairs, err);
     free(order), free(ends), free(k), free(need), free(r.near), free(r.miss);
