@@ -44,6 +44,14 @@ static void render(const char *scene, const char *out, const char *devices, cons
                     devices, extra);
 }
 
+/* render() with `args` and --stats into dir/stats. */
+static void render_with_stats(const char *scene, const char *out, const char *devices,
+                              const char *args, const char *stats)
+{
+    test_tessera_ok(dir, "render '%s' -o '%s' --device %s %s --stats '%s'", test_source_path(scene),
+                    in_dir(out), devices, args, in_dir(stats));
+}
+
 /* The seconds of stage `stage` in device k's entry of a --stats file. */
 static double device_stage(cJSON *root, int k, const char *stage)
 {
@@ -165,17 +173,14 @@ static void test_two_streams_give_the_one_stream_image(void **state)
 static void test_cpu_devices_leave_the_host_its_cores(void **state)
 {
     (void)state;
-    char extra[512];
     const char *args = "--res 96x54 --spp 2 --max-lod 6 --quiet";
-    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("whole.json"));
-    render("scene/teapot_displaced.rib", "whole.exr", pair, extra);
+    render_with_stats("scene/teapot_displaced.rib", "whole.exr", pair, args, "whole.json");
     cJSON *whole = test_read_json(in_dir("whole.json"));
     double units = device_number(whole, 0, "compute_units");
     cJSON_Delete(whole);
     if (units < 2) test_skip("the CPU device has one compute unit: none to leave the host");
     setenv("TESSERA_HOST_CORES", "1", 1);
-    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("sub.json"));
-    render("scene/teapot_displaced.rib", "sub.exr", pair, extra);
+    render_with_stats("scene/teapot_displaced.rib", "sub.exr", pair, args, "sub.json");
     unsetenv("TESSERA_HOST_CORES");
     test_assert_same_pixels(in_dir("whole.exr"), in_dir("sub.exr"));
     cJSON *sub = test_read_json(in_dir("sub.json"));
@@ -274,12 +279,11 @@ static void test_a_slow_devices_last_unit_is_backed_up(void **state)
     (void)state;
     const char *args = "--res 96x54 --spp 8 --max-lod 6 --quiet";
     render("scene/teapot.rib", "alone.exr", first, args);
-    char slow[64], extra[256];
+    char slow[64];
     snprintf(slow, sizeof slow, "%d:100,%d:20000", atoi(pair), atoi(strchr(pair, ',') + 1));
     setenv("TESSERA_SLOW_DEVICE", slow, 1);
     setenv("TESSERA_UNIT_SAMPLES", "1024", 1);
-    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("backup.json"));
-    render("scene/teapot.rib", "backup.exr", pair, extra);
+    render_with_stats("scene/teapot.rib", "backup.exr", pair, args, "backup.json");
     unsetenv("TESSERA_SLOW_DEVICE");
     unsetenv("TESSERA_UNIT_SAMPLES");
     cJSON *root = test_read_json(in_dir("backup.json"));
@@ -629,12 +633,9 @@ static double counter(const char *json, const char *name)
 static void test_two_devices_squeezed_dice_as_one(void **state)
 {
     (void)state;
-    char extra[512];
     const char *args = "--res 320x128 --spp 2 --memory 24 --quiet";
-    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("sq1.json"));
-    render("scene/forest-100.rib", "sq1.exr", first, extra);
-    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("sq2.json"));
-    render("scene/forest-100.rib", "sq2.exr", pair, extra);
+    render_with_stats("scene/forest-100.rib", "sq1.exr", first, args, "sq1.json");
+    render_with_stats("scene/forest-100.rib", "sq2.exr", pair, args, "sq2.json");
     test_assert_same_pixels(in_dir("sq1.exr"), in_dir("sq2.exr"));
     assert_true(counter("sq2.json", "patch_cache_evictions") > 0.0); /* it does not fit */
     assert_true(counter("sq2.json", "patches_diced") <=
@@ -659,8 +660,7 @@ static void test_two_devices_share_built_patches(void **state)
     (void)state;
     char extra[512];
     const char *args = "--res 160x90 --spp 4 --max-lod 6 --memory 256 --quiet";
-    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share1.json"));
-    render("scene/teapot_displaced.rib", "share1.exr", first, extra);
+    render_with_stats("scene/teapot_displaced.rib", "share1.exr", first, args, "share1.json");
     snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share3.json"));
     render("scene/teapot_displaced.rib", "share3.exr", pair, extra); /* the default */
     test_assert_same_pixels(in_dir("share1.exr"), in_dir("share3.exr"));
@@ -676,8 +676,7 @@ static void test_two_devices_share_built_patches(void **state)
     test_expect_in_stderr(dir, "share one patch arena of");
     test_assert_same_pixels(in_dir("share1.exr"), in_dir("share3n.exr"));
     setenv("TESSERA_SHARED_ARENAS", "0", 1);
-    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share4.json"));
-    render("scene/teapot_displaced.rib", "share4.exr", pair, extra);
+    render_with_stats("scene/teapot_displaced.rib", "share4.exr", pair, args, "share4.json");
     unsetenv("TESSERA_SHARED_ARENAS");
     test_assert_same_pixels(in_dir("share1.exr"), in_dir("share4.exr"));
     assert_true(counter("share4.json", "patches_shared") > 0.0);
@@ -686,8 +685,7 @@ static void test_two_devices_share_built_patches(void **state)
     assert_true(counter("share3.json", "patch_cache_peak_bytes") <=
                 counter("share3.json", "patch_cache_bytes"));
     setenv("TESSERA_SHARE_WAIT", "1", 1);
-    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share2.json"));
-    render("scene/teapot_displaced.rib", "share2.exr", pair, extra);
+    render_with_stats("scene/teapot_displaced.rib", "share2.exr", pair, args, "share2.json");
     unsetenv("TESSERA_SHARE_WAIT");
     test_assert_same_pixels(in_dir("share1.exr"), in_dir("share2.exr"));
     double diced = counter("share1.json", "patches_diced");
@@ -709,8 +707,7 @@ static void test_two_devices_share_built_patches(void **state)
     assert_true(own_diced == diced);
     assert_true(own_shared == counter("share2.json", "patches_shared"));
     setenv("TESSERA_PATCH_SHARE", "0", 1);
-    snprintf(extra, sizeof extra, "%s --stats '%s'", args, in_dir("share0.json"));
-    render("scene/teapot_displaced.rib", "share0.exr", pair, extra);
+    render_with_stats("scene/teapot_displaced.rib", "share0.exr", pair, args, "share0.json");
     unsetenv("TESSERA_PATCH_SHARE");
     test_assert_same_pixels(in_dir("share1.exr"), in_dir("share0.exr"));
     assert_true(counter("share0.json", "patches_shared") == 0.0);
@@ -718,8 +715,7 @@ static void test_two_devices_share_built_patches(void **state)
     /* Arenas that evict: batches of several per iteration, the store full before the end. */
     const char *tight = "--res 160x90 --spp 2 --lod 7 --memory 16 --quiet";
     render("scene/teapot_displaced.rib", "tight1.exr", first, tight);
-    snprintf(extra, sizeof extra, "%s --stats '%s'", tight, in_dir("tight2.json"));
-    render("scene/teapot_displaced.rib", "tight2.exr", pair, extra);
+    render_with_stats("scene/teapot_displaced.rib", "tight2.exr", pair, tight, "tight2.json");
     test_assert_same_pixels(in_dir("tight1.exr"), in_dir("tight2.exr"));
     assert_true(counter("tight2.json", "patch_cache_evictions") > 0.0);
     assert_true(counter("tight2.json", "patches_shared") > 0.0);
