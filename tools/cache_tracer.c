@@ -272,8 +272,9 @@ int cache_trace(const ts_scene *s, const uint8_t *lod, const bench_ray *rays, ui
                np};
     heap h = {0};
     res->seen = calloc(np ? np : 1, 1);
-    res->pass_seen = calloc(np ? np : 1, sizeof *res->pass_seen);
-    if (!res->seen || !res->pass_seen) rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
+    res->pass_seen = res->by_pass ? calloc(np ? np : 1, sizeof *res->pass_seen) : NULL;
+    if (!res->seen || (res->by_pass && !res->pass_seen))
+        rc = ts_error_set(err, TS_E_MEMORY, "out of memory");
     for (int c = 0; c < BENCH_CACHES && !rc; ++c)
         if (lru_init(&res->cache[c], cache_sizes[c], np ? np : 1))
             rc = ts_error_set(err, TS_E_MEMORY, "out of memory");

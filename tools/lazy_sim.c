@@ -34,22 +34,23 @@ typedef struct replay {
     const ts_hit *hit, *pair_hit;
     const ts_pair *pairs;
     float *near;   /* per active ray */
+    uint32_t *ray; /* per pair slot: the active ray whose window holds it */
+    ts_box *box;   /* per segment: its patch's top-level box */
     uint8_t *miss; /* per segment: diced this iteration */
 } replay;
 
-/* The active ray whose window holds pair slot w. */
-static uint32_t replay_ray(const replay *r, uint32_t w)
+/* Each pair slot's ray (windows of n_per_ray slots, or window_first's) and each segment's
+ * patch box, once for the iteration. */
+static void replay_index(replay *r, uint32_t segs)
 {
-    if (r->n_per_ray) return w / r->n_per_ray;
-    uint32_t lo = 0, hi = r->active; /* window_first[lo] <= w < window_first[hi] */
-    while (hi - lo > 1) {
-        uint32_t mid = lo + (hi - lo) / 2;
-        if (r->window_first[mid] <= w)
-            lo = mid;
-        else
-            hi = mid;
+    for (uint32_t i = 0; i < r->active; ++i) {
+        uint32_t w0 = r->n_per_ray ? i * r->n_per_ray : r->window_first[i];
+        uint32_t w1 = r->n_per_ray ? w0 + r->n_per_ray : r->window_first[i + 1u];
+        for (uint32_t w = w0; w < w1; ++w)
+            r->ray[w] = i;
     }
-    return lo;
+    for (uint32_t g = 0; g < segs; ++g)
+        r->box[g] = scene_patch_box(r->p->scene, r->p->segments_host[g].patch);
 }
 
 /* Where ray i enters box b within [0, tmax] (negative: it does not). */
@@ -62,16 +63,16 @@ static float replay_enter(const replay *r, uint32_t i, ts_box b, float tmax)
                      tmax);
 }
 
-/* 1 when a pair of segment s belongs to a ray that may still meet the patch nearer than its
- * closest hit so far (the slab test widened as top_level widens it). */
-static int replay_needed(const replay *r, const ts_segment *s)
+/* 1 when a pair of segment g belongs to a ray that may still meet the patch nearer than its
+ * closest hit so far (the slab test widened as top_level widens it). The sorted pairs are
+ * valid ones (sort drops the windows' TS_INVALID fill). */
+static int replay_needed(const replay *r, uint32_t g)
 {
-    ts_box b = scene_patch_box(r->p->scene, s->patch);
+    const ts_segment *s = &r->p->segments_host[g];
     for (uint32_t k = s->begin; k < s->end; ++k) {
-        if (r->pairs[k].leaf == TS_INVALID) continue;
-        uint32_t i = replay_ray(r, r->pairs[k].window), ray = r->act[i];
+        uint32_t i = r->ray[r->pairs[k].window], ray = r->act[i];
         int occluded = (r->flags[ray] & TS_RAY_SHADOW) && r->near[i] < r->hit[ray].t;
-        if (!occluded && replay_enter(r, i, b, r->near[i] * 1.0000004f) >= 0.0f) return 1;
+        if (!occluded && replay_enter(r, i, r->box[g], r->near[i] * 1.0000004f) >= 0.0f) return 1;
     }
     return 0;
 }
@@ -80,8 +81,7 @@ static int replay_needed(const replay *r, const ts_segment *s)
 static void replay_fold(const replay *r, const ts_segment *s)
 {
     for (uint32_t k = s->begin; k < s->end; ++k) {
-        if (r->pairs[k].leaf == TS_INVALID) continue;
-        uint32_t w = r->pairs[k].window, i = replay_ray(r, w);
+        uint32_t w = r->pairs[k].window, i = r->ray[w];
         if (r->pair_hit[w].t < r->near[i]) r->near[i] = r->pair_hit[w].t;
     }
 }
@@ -97,7 +97,7 @@ static uint64_t replay_order(replay *r, const uint32_t *order, const uint32_t *e
     for (uint32_t c = 0, c0 = 0; c < chunks; c0 = ends[c++]) {
         for (uint32_t j = c0; j < ends[c]; ++j) {
             const ts_segment *s = &r->p->segments_host[order[j]];
-            need[j] = !r->miss[order[j]] || replay_needed(r, s);
+            need[j] = !r->miss[order[j]] || replay_needed(r, order[j]);
             if (r->miss[order[j]] && need[j]) diced++, *mp += 1ull << (2u * s->lod);
         }
         for (uint32_t j = c0; j < ends[c]; ++j)
@@ -123,11 +123,9 @@ static void replay_near_first(const replay *r, uint32_t segs, keyed *k, uint32_t
 {
     for (uint32_t g = 0; g < segs; ++g) {
         const ts_segment *s = &r->p->segments_host[g];
-        ts_box b = scene_patch_box(r->p->scene, s->patch);
         float best = INFINITY;
         for (uint32_t j = s->begin; r->miss[g] && j < s->end; ++j) {
-            if (r->pairs[j].leaf == TS_INVALID) continue;
-            float t = replay_enter(r, replay_ray(r, r->pairs[j].window), b, INFINITY);
+            float t = replay_enter(r, r->ray[r->pairs[j].window], r->box[g], INFINITY);
             if (t >= 0.0f && t < best) best = t;
         }
         k[g] = (keyed){r->miss[g] ? best : -1.0f, g};
@@ -188,10 +186,13 @@ int lazy_watch(void *ctx, ts_pipeline *p, uint32_t active, uint32_t n_per_ray, c
     uint8_t *need = malloc(segs);
     r.near = malloc((size_t)(active ? active : 1u) * sizeof *r.near);
     r.miss = calloc(segs, 1);
-    int rc = order && ends && k && need && r.near && r.miss
+    r.ray = malloc((size_t)p->plan.pair_capacity * sizeof *r.ray);
+    r.box = malloc((size_t)segs * sizeof *r.box);
+    int rc = order && ends && k && need && r.near && r.miss && r.ray && r.box
                  ? replay_map(&r, pairs, valid, err)
                  : ts_error_set(err, TS_E_MEMORY, "out of memory for the lazy replay");
     if (!rc) {
+        replay_index(&r, segs);
         for (uint32_t b = 0; b < p->batch_count; ++b)
             for (uint32_t t = 0; t < p->batches[b].tree_count; ++t)
                 r.miss[TS_TREE_SEGMENT(p->trees_host[p->batches[b].tree_first + t])] = 1;
@@ -213,6 +214,7 @@ int lazy_watch(void *ctx, ts_pipeline *p, uint32_t active, uint32_t n_per_ray, c
         c->near_first += replay_order(&r, order, ends, nb, need, &c->near_first_mp);
     }
     replay_unmap(&r, pairs, err);
-    free(order), free(ends), free(k), free(need), free(r.near), free(r.miss);
+    free(order), free(ends), free(k), free(need), free(r.near), free(r.miss), free(r.ray),
+        free(r.box);
     return rc ? err->code : TS_OK;
 }

@@ -786,6 +786,14 @@ static void render_stream_end(ts_render *r, int finished)
     r->stream.seconds = 0;
 }
 
+/* A device's share of the samples the frame has left: of every device of every MPI rank
+ * (ts_frame.share_samples, ts_rank_start.share_samples). */
+static uint64_t render_share_samples(const ts_render *r)
+{
+    uint64_t devices = (uint64_t)r->device_count * (r->ranks ? (uint64_t)r->ranks->size : 1u);
+    return (r->job.total - r->job.samples_done + devices - 1) / devices;
+}
+
 /* The frame on several devices (workers.h): their units merged into r->state. When every
  * device failed after samples were merged, they are kept for render_write (r->stopped says
  * why); with none merged the render fails with the last device's error. */
@@ -802,8 +810,7 @@ static int render_on_devices(ts_render *r, ts_error *err)
         f.unit_samples = r->unit_samples;
     else
         units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples);
-    uint64_t devices = (uint64_t)r->device_count * (r->ranks ? (uint64_t)r->ranks->size : 1u);
-    f.share_samples = (r->job.total - start + devices - 1) / devices;
+    f.share_samples = render_share_samples(r);
     job_choose_band(&r->job, &r->cam); /* units_list gathers units of whole pixels */
     f.cam = r->cam;
     if (!r->opt.quiet && r->ranks)
@@ -871,8 +878,7 @@ static int render_tell_ranks(ts_render *r, int rc, int up_to_date, ts_error *err
         units_plan(s.total - s.start, (uint32_t)(r->ranks->size * r->device_count),
                    &r->unit_samples);
         s.unit_samples = r->unit_samples;
-        uint64_t devices = (uint64_t)r->ranks->size * (uint64_t)r->device_count;
-        s.share_samples = (s.total - s.start + devices - 1) / devices;
+        s.share_samples = render_share_samples(r);
         job_choose_band(&r->job, &r->cam);
         s.cam = r->cam;
     }

@@ -961,13 +961,11 @@ static int frame_progress(ts_workers *g, ts_board *b, frame_progress_state *st, 
     uint64_t finished, rays;
     board_progress(b, &finished, &rays);
     if (finished == 0 && !set_up && !board_finished(b)) return 0; /* devices print notes */
-    double now = stats_now(), finished_work = board_work_finished(b, &st->eta);
-    double done = finished_work + board_work_in_flight(b, &st->eta, now);
-    double left = finished_work > 0.0
-                      ? eta_seconds_left(&st->eta, done, now - st->t0, b->start, b->total)
-                      : -1.0;
-    eta_print_left(&st->eta, b->start + finished, b->start, b->total, done, (double)rays,
-                   now - st->t0, left, "unit");
+    /* nothing merged: no credit either, so done is 0 and the ETA waits for the first unit */
+    double now = stats_now();
+    double done = board_work_finished(b, &st->eta) + board_work_in_flight(b, &st->eta, now);
+    eta_print(&st->eta, b->start + finished, b->start, b->total, done, (double)rays, now - st->t0,
+              "unit");
     return 1;
 }
 
