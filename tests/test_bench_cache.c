@@ -123,6 +123,10 @@ static void test_tiny_paths(void **state)
     assert_true(number(w, "patches_reached") == number(s, "patches_reached"));
     assert_true(per_pass > number(w, "patches_reached"));
     assert_true(per_pass <= number(w, "cache_lookups"));
+    /* and their micro-quads, 4^m a patch at its frame level m <= max_lod */
+    double mp = number(w, "micropolygons_reached_per_pass");
+    assert_true(mp >= per_pass && mp <= per_pass * pow(4.0, number(w, "max_lod")));
+    assert_null(cJSON_GetObjectItem(s, "micropolygons_reached_per_pass"));
     cJSON_Delete(wave_root);
     cJSON_Delete(root);
 }

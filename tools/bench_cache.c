@@ -35,7 +35,8 @@
  *   patches each pass's rays reach, once a pass, summed: what reordering would dice if each
  *   pass diced exactly the patches its rays reach before their closest hits, once (no
  *   candidate behind a closest hit, no patch twice in a pass), with no patch kept between
- *   passes. Reordering's culling by the trees' upper levels may take it below that.
+ *   passes, and their micro-quads at the frame's levels (what those dicings would cost).
+ *   Reordering's culling by the trees' upper levels may take it below that.
  * Both tracers find the closest hit of every ray among the same micro-geometry, so the
  * benchmark fails unless every ray gets the same answer from both (hit or not; a shadow ray's
  * first hit need not be its nearest), and it reports how many hit distances are bitwise equal.
@@ -444,8 +445,9 @@ static void bench_print(const bench_options *o, const bench_result *r)
            "every patch", (unsigned long long)r->reached, "",
            (double)r->reached / (double)r->cache[2].dicings);
     if (r->by_pass)
-        printf("  %-12s %12llu %16s %14.2f   (each patch a pass reaches, once a pass)\n",
-               "every pass", (unsigned long long)r->pass_reached, "",
+        printf("  %-12s %12llu %16llu %14.2f   (each patch a pass reaches, once a pass)\n",
+               "every pass", (unsigned long long)r->pass_reached,
+               (unsigned long long)r->pass_reached_mp,
                (double)r->pass_reached / (double)r->cache[2].dicings);
     printf("  %-12s %12llu %16llu %14.2f\n", "reordering", (unsigned long long)r->reorder_dicings,
            (unsigned long long)r->reorder_micropolygons,
@@ -528,8 +530,11 @@ static int bench_json(const bench_options *o, const bench_result *rs, int n, con
         }
         cJSON_AddNumberToObject(j, "cache_lookups", (double)r->lookups);
         cJSON_AddNumberToObject(j, "patches_reached", (double)r->reached);
-        if (r->by_pass)
+        if (r->by_pass) {
             cJSON_AddNumberToObject(j, "patches_reached_per_pass", (double)r->pass_reached);
+            cJSON_AddNumberToObject(j, "micropolygons_reached_per_pass",
+                                    (double)r->pass_reached_mp);
+        }
         cJSON_AddNumberToObject(j, "cache_hits", (double)r->hits_cache);
         cJSON_AddNumberToObject(j, "answers_equal", (double)r->answers_equal);
         cJSON_AddNumberToObject(j, "hits_compared", (double)r->hits_compared);

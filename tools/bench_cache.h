@@ -44,9 +44,10 @@ typedef struct bench_result {
     uint8_t *seen; /* per patch, during cache_trace */
     /* With --order wave (the rays pass by pass): the patches each pass (a bounce of a wave)
      * reaches, counted once a pass and summed: what a method that dices each patch a pass
-     * needs exactly once would dice; pass_seen holds per patch the last pass (+ 1) that did. */
+     * needs exactly once would dice, and pass_reached_mp their micro-quads (4^m each: what
+     * those dicings cost); pass_seen holds per patch the last pass (+ 1) that did. */
     int by_pass;
-    uint64_t pass_reached, pass_now, *pass_seen;
+    uint64_t pass_reached, pass_reached_mp, pass_now, *pass_seen;
     uint64_t t_reorder_nearer, t_cache_nearer; /* both hit, at different distances */
     int check_reorder_le_cache10, check_caches_monotone, check_same_hits;
     lru cache[BENCH_CACHES];

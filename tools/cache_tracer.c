@@ -213,8 +213,10 @@ static int trace_one(const ts_scene *s, const ts_qbvh *q, const uint8_t *lod, co
             if (s->attr[p].flags & unseen) continue;
             res->lookups++;
             if (!res->seen[p]) res->seen[p] = 1, res->reached++;
-            if (res->by_pass && res->pass_seen[p] != res->pass_now)
+            if (res->by_pass && res->pass_seen[p] != res->pass_now) {
                 res->pass_seen[p] = res->pass_now, res->pass_reached++;
+                res->pass_reached_mp += 1ull << (2u * m);
+            }
             for (int c = 0; c < BENCH_CACHES; ++c)
                 lru_access(&res->cache[c], p, m);
             ts_hit hh;
