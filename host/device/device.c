@@ -742,7 +742,20 @@ int dev_finish(ts_device *cl, ts_stats *stats, ts_error *err)
                                  1e-9 * (double)e->end + cl->clock_offset, err);
     }
     cl->pending_count = 0;
+    cl->finishes++;
     return out;
+}
+
+ts_dev_mark dev_mark(const ts_device *cl)
+{
+    return (ts_dev_mark){cl->finishes, cl->pending_count};
+}
+
+int dev_wait_mark(ts_device *cl, ts_dev_mark m, ts_error *err)
+{
+    if (m.finishes != cl->finishes || m.count == 0 || m.count > cl->pending_count) return TS_OK;
+    cl_int rc = clWaitForEvents(1, &cl->pending[m.count - 1].event);
+    return rc == CL_SUCCESS ? TS_OK : finish_failed(cl, rc, err);
 }
 
 int dev_fail(ts_error *err, cl_int rc, const char *fmt, ...)

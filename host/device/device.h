@@ -74,6 +74,7 @@ typedef struct ts_device {
     cl_program program;
     ts_kernel_event *pending; /* launches whose times are not yet collected */
     size_t pending_count, pending_capacity;
+    uint64_t finishes; /* dev_finish calls so far: each empties pending (dev_mark) */
     /* The host's clock (stats_now) less the device's profiling clock, in seconds: the least
      * of (the host's time when clFinish returned) - (the last launch's end) seen so far, so
      * a kernel's span lands on the host's clock at most the latency of one finish late. */
@@ -181,5 +182,17 @@ int dev_unmap(ts_device *cl, cl_mem m, void *ptr, const char *what, ts_error *er
 
 /* Waits for the queue and adds every pending launch's (end - start) to stats. */
 int dev_finish(ts_device *cl, ts_stats *stats, ts_error *err);
+
+/* A point in the queue: the launches enqueued before it (dev_mark). dev_wait_mark waits until
+ * they have ended (the queue is in order), without waiting for those enqueued since, so that
+ * a caller may keep the device a step ahead of it and still stop within one step (a stop
+ * signal cannot take back what is enqueued: trace.c's batches). At once when a dev_finish
+ * has waited for them already. */
+typedef struct ts_dev_mark {
+    uint64_t finishes;
+    size_t count;
+} ts_dev_mark;
+ts_dev_mark dev_mark(const ts_device *cl);
+int dev_wait_mark(ts_device *cl, ts_dev_mark m, ts_error *err);
 
 #endif

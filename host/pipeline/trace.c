@@ -845,13 +845,21 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
         if (stage_top_level(p, active, kernel_n, err) ||
             stage_sort(p, windows, width, &sorted_buffer, &valid, &segs, err))
             return err->code;
+        ts_dev_mark ahead = dev_mark(p->cl); /* the batches before the last one enqueued */
         for (uint32_t k = 0; k < (segs ? p->batch_count : 0); ++k) {
             const ts_batch *b = &p->batches[k];
             if (batch_make(p, b, err) ||
                 stage_bottom_level(p, sorted_buffer, b, kernel_n, active, err))
                 return err->code;
             /* A frame whose patches do not fit dices for seconds an iteration: a stop is
-             * honoured between its batches too (the wave's results are dropped). */
+             * honoured between its batches too (the wave's results are dropped), with the
+             * device a batch ahead of the host, no more: what is enqueued must run before
+             * the stop, and thousands of batches enqueued at once kept a squeezed forest-100
+             * at 1920x768 five seconds after SIGINT. */
+            if (k + 1 < p->batch_count && p->cancel) {
+                if (dev_wait_mark(p->cl, ahead, err)) return err->code;
+                ahead = dev_mark(p->cl);
+            }
             if (k + 1 < p->batch_count && p->cancel && p->cancel(p->cancel_ctx)) {
                 p->cancelled = 1;
                 return dev_finish(p->cl, p->stats, err);
