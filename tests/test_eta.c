@@ -11,6 +11,7 @@
  * left within 1.5x (the weight rate alone: 2.5x), after the second within 1.25x; waves that
  * fit give the weight rate's estimate. */
 #include <math.h>
+#include <string.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -110,7 +111,7 @@ static void test_waves_that_dice_again(void **state)
                  dicing[3] = {10.34, 19.94, 16.46};
     ts_eta_waves w = {0};
     assert_true(eta_waves_left(&w, 0.0, 0.0, 1.0, 3) < 0.0); /* nothing finished: no estimate */
-    eta_waves_done(&w, work[0], secs[0], dicing[0], 1);
+    eta_waves_done(&w, work[0], secs[0], dicing[0], 1, NULL);
     double truth = secs[1] + secs[2], left = eta_waves_left(&w, 0.0, 0.0, 1.0 - work[0], 2);
     double by_weight = secs[0] / work[0] * (1.0 - work[0]); /* the weight rate alone: 123 s */
     assert_true(left > 0.5 * truth && left < 1.5 * truth);
@@ -120,10 +121,64 @@ static void test_waves_that_dice_again(void **state)
     assert_true(fabs(in_wave - (left - 5.0)) < 1e-9);
     assert_true(eta_waves_left(&w, work[1], 1e3, work[2], 1) ==
                 eta_waves_left(&w, 0.0, 0.0, work[2], 1)); /* overrun: the rest */
-    eta_waves_done(&w, work[1], secs[1], dicing[1], 1);
+    eta_waves_done(&w, work[1], secs[1], dicing[1], 1, NULL);
     left = eta_waves_left(&w, 0.0, 0.0, work[2], 1);
     assert_true(left > 0.75 * secs[2] && left < 1.25 * secs[2]);
     assert_true(eta_waves_left(&w, 0.0, 0.0, 0.0, 0) == 0.0); /* nothing after: done */
+}
+
+/* The same frame's waves pass by pass (2026-11-30, stop 56: the eye rays' pass, then each
+ * bounce's, as they ended in seconds from the wave's start, and the dicing seconds by then).
+ * The first wave's eye pass took 8% of it, the second's 23%: a wave's time follows the last
+ * one's over its passes once the first two have ended, not before. Inside the second wave the
+ * weight's estimate stays at the third wave's 15 s once the second overruns its expected 17 s
+ * (it takes 27 s); from its passes the time left is within 10% of the truth. */
+static void test_waves_by_passes(void **state)
+{
+    (void)state;
+    const double work[3] = {0.0847, 0.5358, 0.3795};
+    const double end[3][4] = {
+        {0.96, 6.54, 9.83, 11.42}, {6.25, 15.93, 22.54, 27.41}, {4.25, 12.18, 17.43, 21.65}};
+    const double dice[3][4] = {
+        {0.58, 5.76, 8.87, 10.40}, {3.72, 9.86, 15.55, 20.23}, {2.34, 7.51, 12.16, 16.22}};
+    ts_eta_passes p[3];
+    memset(p, 0, sizeof p);
+    for (int v = 0; v < 3; ++v)
+        for (int i = 0; i < 4; ++i)
+            eta_passes_add(&p[v], end[v][i], dice[v][i]);
+    ts_eta_waves w = {0};
+    eta_waves_done(&w, work[0], end[0][3], dice[0][3], 1, &p[0]);
+    /* The second wave, after its first pass: nothing to project from yet. */
+    ts_eta_passes now = {.count = 0};
+    double d;
+    eta_passes_add(&now, end[1][0], dice[1][0]);
+    assert_true(eta_waves_project(&w, &now, &d) < 0.0);
+    assert_true(eta_waves_left_passes(&w, work[1], 7.0, work[2], 1, &now) ==
+                eta_waves_left(&w, work[1], 7.0, work[2], 1));
+    /* After its second pass, and later in its third, the time left from the passes. */
+    eta_passes_add(&now, end[1][1], dice[1][1]);
+    double at[2] = {end[1][1], 20.0};
+    for (int k = 0; k < 2; ++k) {
+        double truth = end[1][3] - at[k] + end[2][3];
+        double by_weight = eta_waves_left(&w, work[1], at[k], work[2], 1);
+        double by_passes = eta_waves_left_passes(&w, work[1], at[k], work[2], 1, &now);
+        assert_true(by_weight < 0.75 * truth);
+        assert_true(by_passes > 0.9 * truth && by_passes < 1.1 * truth);
+    }
+    double seconds = eta_waves_project(&w, &now, &d);
+    assert_true(fabs(seconds - end[1][1] * end[0][3] / end[0][1]) < 1e-9);
+    assert_true(fabs(d - dice[1][1] * seconds / end[1][1]) < 1e-9);
+    /* The third wave after its second pass, from the second's passes. */
+    eta_waves_done(&w, work[1], end[1][3], dice[1][3], 1, &p[1]);
+    ts_eta_passes third = {.count = 0};
+    eta_passes_add(&third, end[2][0], dice[2][0]);
+    eta_passes_add(&third, end[2][1], dice[2][1]);
+    double left = eta_waves_left_passes(&w, work[2], end[2][1], 0.0, 0, &third);
+    double truth = end[2][3] - end[2][1];
+    assert_true(left > 0.9 * truth && left < 1.1 * truth);
+    /* A wave that did not evict leaves nothing to project from. */
+    eta_waves_done(&w, 0.0, 1.0, 0.0, 0, &p[2]);
+    assert_true(eta_waves_project(&w, &third, &d) < 0.0);
 }
 
 /* Waves that do not evict count whole: the time left is the weight left at the weight per
@@ -132,8 +187,8 @@ static void test_waves_that_fit(void **state)
 {
     (void)state;
     ts_eta_waves w = {0};
-    eta_waves_done(&w, 0.2, 4.0, 3.0, 0); /* its dicing is new to the frame: counted whole */
-    eta_waves_done(&w, 0.3, 5.0, 0.5, 0);
+    eta_waves_done(&w, 0.2, 4.0, 3.0, 0, NULL); /* its dicing is new to the frame: counted whole */
+    eta_waves_done(&w, 0.3, 5.0, 0.5, 0, NULL);
     double rate = 9.0 / 0.5;
     assert_true(fabs(eta_waves_left(&w, 0.0, 0.0, 0.5, 2) - rate * 0.5) < 1e-9);
     assert_true(fabs(eta_waves_expect(&w, 0.25) - rate * 0.25) < 1e-9);
@@ -146,6 +201,7 @@ int main(void)
         cmocka_unit_test(test_uncounted_pixels_weigh_the_mean),
         cmocka_unit_test(test_sky_above_forest_below),
         cmocka_unit_test(test_waves_that_dice_again),
+        cmocka_unit_test(test_waves_by_passes),
         cmocka_unit_test(test_waves_that_fit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

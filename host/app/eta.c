@@ -59,12 +59,21 @@ void eta_print(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total
                    eta_seconds_left(e, done, seconds, start, total), what);
 }
 
-void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing, int evicted)
+void eta_passes_add(ts_eta_passes *p, double seconds, double dicing)
+{
+    if (p->count >= TS_ETA_PASSES) return;
+    p->end[p->count] = seconds, p->dicing[p->count] = dicing;
+    p->count++;
+}
+
+void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing, int evicted,
+                    const ts_eta_passes *passes)
 {
     w->work += work;
     w->seconds += evicted && dicing < seconds ? seconds - dicing : seconds;
     if (evicted) w->dicing += dicing < seconds ? dicing : seconds, w->evicting++;
     w->last_evicted = evicted;
+    if (evicted && passes) w->last = *passes, w->last_seconds = seconds;
 }
 
 double eta_waves_expect(const ts_eta_waves *w, double work)
@@ -87,6 +96,28 @@ double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, dou
     }
     if (waves_after) left += eta_waves_expect(w, after) + per_wave * (waves_after - 1);
     return left;
+}
+
+double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double *dicing)
+{
+    uint32_t k = now->count;
+    if (!w->last_evicted || k < TS_ETA_PROJECT_PASSES || k > w->last.count) return -1.0;
+    double then = w->last.end[k - 1], ran = now->end[k - 1];
+    if (!(then > 0.0) || !(ran > 0.0) || !(w->last_seconds >= then)) return -1.0;
+    double seconds = ran * w->last_seconds / then;
+    *dicing = now->dicing[k - 1] * seconds / ran;
+    return seconds;
+}
+
+double eta_waves_left_passes(const ts_eta_waves *w, double current, double elapsed, double after,
+                             uint32_t waves_after, const ts_eta_passes *now)
+{
+    double dicing = 0.0, seconds = now && current > 0.0 ? eta_waves_project(w, now, &dicing) : -1.0;
+    if (seconds < 0.0) return eta_waves_left(w, current, elapsed, after, waves_after);
+    ts_eta_waves then = *w; /* as if the wave in flight had finished as projected */
+    eta_waves_done(&then, current, seconds, dicing, 1, NULL);
+    double left = seconds > elapsed ? seconds - elapsed : 0.0;
+    return left + eta_waves_left(&then, 0.0, 0.0, after, waves_after);
 }
 
 void eta_print_left(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,

@@ -61,16 +61,32 @@ void eta_print_left(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t 
  * waves evict, each wave left adds the mean dicing seconds of those that did. A wave that did
  * not evict counts whole (what it dices is new to the frame, and as the weight shows more of
  * the scene, more is new: the rate holds it). */
+/* The passes of a wave (its eye rays', then each bounce's: waves_trace_paths), as they end:
+ * the seconds from the wave's start to the end of pass i, and its dicing seconds by then. */
+#define TS_ETA_PASSES 16u
+typedef struct ts_eta_passes {
+    double end[TS_ETA_PASSES], dicing[TS_ETA_PASSES];
+    uint32_t count;
+} ts_eta_passes;
+
+/* Pass i of the wave ended `seconds` after its start, with `dicing` seconds diced by then
+ * (passes beyond TS_ETA_PASSES are not kept). */
+void eta_passes_add(ts_eta_passes *p, double seconds, double dicing);
+
 typedef struct ts_eta_waves {
     double work, seconds; /* the finished waves' weight, and their seconds less recurring dicing */
     double dicing;        /* the dicing seconds of the finished waves that evicted */
     uint32_t evicting;    /* how many those are */
     int last_evicted;     /* the last finished wave evicted */
+    ts_eta_passes last;   /* the passes of the last finished wave that evicted */
+    double last_seconds;  /* and its seconds */
 } ts_eta_waves;
 
 /* A finished wave of weight `work` took `seconds`, of which `dicing` diced and built; the
- * patch cache evicted during it when `evicted`. */
-void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing, int evicted);
+ * patch cache evicted during it when `evicted`; `passes` (NULL: not known) how its time went
+ * by pass. */
+void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing, int evicted,
+                    const ts_eta_passes *passes);
 /* The seconds a wave of weight `work` is expected to take; -1 before a wave finished. */
 double eta_waves_expect(const ts_eta_waves *w, double work);
 /* The seconds left: the rest of the wave in flight, of weight `current`, which has run
@@ -78,5 +94,20 @@ double eta_waves_expect(const ts_eta_waves *w, double work);
  * before a wave finished. */
 double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, double after,
                       uint32_t waves_after);
+
+/* Inside a wave that dices again (the last finished wave evicted): the waves' weight alone
+ * cannot say what the wave in flight takes (forest-100 1920x768 x 2 at --memory 512: its first
+ * wave, of sky and treetops, diced 10 s, the second 20 s), but its passes can. Once it has
+ * finished TS_ETA_PROJECT_PASSES passes (`now`; the eye rays' pass alone varies with the sky
+ * the wave holds: 8% of the first wave, 23% of the second), its seconds are projected as the
+ * last evicting wave spent its own over the same passes, and its dicing seconds in the
+ * proportion of those it has run. Returns the projected seconds (and *dicing), or -1 where
+ * there is nothing to project from. */
+#define TS_ETA_PROJECT_PASSES 2u
+double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double *dicing);
+/* eta_waves_left with the wave in flight projected from its passes where eta_waves_project
+ * can (the waves after it then estimated as if it had finished so), else the same. */
+double eta_waves_left_passes(const ts_eta_waves *w, double current, double elapsed, double after,
+                             uint32_t waves_after, const ts_eta_passes *now);
 
 #endif

@@ -124,15 +124,18 @@ typedef struct wave_progress {
     double t0, wave_t0, printed;
     double wave_dicing;      /* stages dice and build's seconds when the wave began */
     uint64_t wave_evictions; /* the patch cache's evictions then */
+    ts_eta_passes passes;    /* the wave's passes finished so far (render_pass_ended) */
+    double shown;            /* the most weight the line has shown done: it never goes back */
 } wave_progress;
 
 /* The progress line: samples finished, the share of the frame's weight they hold, rays per
  * second, and the time left as the finished waves predict it (eta.h ts_eta_waves: the weight
- * per second, and a squeezed frame's dicing a wave). Inside a wave (the cancel hook, between
- * batches) the wave in flight is credited for the share of its expected time it has run, at
- * most 90% of its weight, so that the line moves while a long wave runs without claiming
- * what is not finished. Stops for good once stderr fails (a closed pipe: EPIPE, SIGPIPE being
- * ignored by main); the render goes on. */
+ * per second, and a squeezed frame's dicing a wave; in a squeezed frame's wave, from its
+ * passes once eta_waves_project can). Inside a wave (the cancel hook, between batches) the
+ * wave in flight is credited for the share of its expected time it has run, at most 90% of
+ * its weight, so that the line moves while a long wave runs without claiming what is not
+ * finished. Stops for good once stderr fails (a closed pipe: EPIPE, SIGPIPE being ignored by
+ * main); the render goes on. */
 static void wave_progress_print(wave_progress *w, int in_wave)
 {
     if (w->o->quiet || ferror(stderr)) return;
@@ -142,15 +145,23 @@ static void wave_progress_print(wave_progress *w, int in_wave)
     double wave = in_wave ? eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, w->done) : 0.0;
     double after = eta_work(&w->eta, w->total) - eta_work(&w->eta, from);
     uint32_t waves_after = (uint32_t)((w->total - from + w->per_wave - 1) / w->per_wave);
-    double elapsed = now - w->wave_t0, expect = eta_waves_expect(&w->waves, wave);
+    double elapsed = now - w->wave_t0, expect = eta_waves_expect(&w->waves, wave), dicing;
+    double projected = in_wave ? eta_waves_project(&w->waves, &w->passes, &dicing) : -1.0;
+    if (projected > 0.0) expect = projected;
     if (in_wave && expect > 0.0) {
         double credit = wave * elapsed / expect;
         done += credit < 0.9 * wave ? credit : 0.9 * wave;
     }
+    /* A wave projected longer than it was expected (eta_waves_project) is credited less than
+     * before: the share shown holds until the wave catches up. */
+    if (done < w->shown) done = w->shown;
+    w->shown = done;
     double rays = (double)(w->p->stats->counters[TS_COUNTER_rays] +
                            w->p->stats->counters[TS_COUNTER_shadow_rays]);
     eta_print_left(&w->eta, w->done, w->start, w->total, done, rays, now - w->t0,
-                   eta_waves_left(&w->waves, wave, elapsed, after, waves_after), "wave");
+                   eta_waves_left_passes(&w->waves, wave, elapsed, after, waves_after,
+                                         in_wave ? &w->passes : NULL),
+                   "wave");
     w->printed = now;
 }
 
@@ -166,14 +177,33 @@ static void wave_progress_begin(wave_progress *w, uint64_t first, uint32_t n)
     w->wave_end = first + n, w->wave_t0 = stats_now();
     w->wave_dicing = dicing_seconds(w->p);
     w->wave_evictions = w->p->stats->counters[TS_COUNTER_patch_cache_evictions];
+    w->passes.count = 0;
+}
+
+/* The wave in flight's last pass ended now: its seconds and dicing seconds so far. */
+static void wave_progress_pass(wave_progress *w)
+{
+    eta_passes_add(&w->passes, stats_now() - w->wave_t0, dicing_seconds(w->p) - w->wave_dicing);
+}
+
+/* waves_trace_paths' watch (waves.h): before bounce b > 0 is traced, pass b - 1 (the bounce
+ * before it, traced and shaded) has ended. */
+static int render_pass_ended(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_t rays, int after,
+                             ts_error *err)
+{
+    (void)p, (void)rays, (void)err;
+    if (!after && bounce > 0) wave_progress_pass(ctx);
+    return TS_OK;
 }
 
 /* The wave that began at `first` is finished (its film and rows handed on): what it took. */
 static void wave_progress_end(wave_progress *w, uint64_t first)
 {
+    wave_progress_pass(w); /* the last pass, and the film */
     eta_waves_done(&w->waves, eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, first),
                    stats_now() - w->wave_t0, dicing_seconds(w->p) - w->wave_dicing,
-                   w->p->stats->counters[TS_COUNTER_patch_cache_evictions] > w->wave_evictions);
+                   w->p->stats->counters[TS_COUNTER_patch_cache_evictions] > w->wave_evictions,
+                   &w->passes);
     w->done = w->wave_end;
 }
 
@@ -225,7 +255,8 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
         cam.ray_count = n;
         wave_progress_begin(&w, first, n);
         p->cancel = render_stop_asked, p->cancel_ctx = &w, p->cancelled = 0;
-        rc = pipeline_camera(p, &cam, err) || waves_trace_paths(o, p, &cam, err);
+        rc = pipeline_camera(p, &cam, err) ||
+             waves_trace_paths_watched(o, p, &cam, render_pass_ended, &w, err);
         p->cancel = NULL;
         if (!rc && p->cancelled) break; /* a stop signal: the wave is not finished */
         if (rc || pipeline_film(p, &cam, err)) {
