@@ -11,7 +11,9 @@
  * left within 1.5x (the weight rate alone: 2.5x), after the second within 1.25x; waves that
  * fit give the weight rate's estimate. */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -181,6 +183,39 @@ static void test_waves_by_passes(void **state)
     assert_true(eta_waves_project(&w, &third, &d) < 0.0);
 }
 
+/* The progress line on a terminal: a shorter line after a longer one ("ETA after the first
+ * wave (now its bounce 2 of 3)", then "ETA 30 s") is padded with spaces over the rest. */
+static void test_line_covers_the_longer_one(void **state)
+{
+    (void)state;
+    char path[] = "/tmp/test_eta_line_XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    fflush(stderr);
+    int saved = dup(2);
+    dup2(fd, 2);
+    ts_eta e = {0};
+    eta_print_left(&e, 0, 0, 100, 0.0, 1e6, 1.0, -1.0, "wave (now its bounce 2 of 3)");
+    eta_print_left(&e, 50, 0, 100, 50.0, 2e6, 2.0, 30.0, "wave");
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    char text[1024] = "";
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    size_t got = fread(text, 1, sizeof text - 1, f);
+    text[got] = 0;
+    fclose(f), close(fd), unlink(path);
+    char *second = strrchr(text, '\r');
+    assert_non_null(second);
+    *second++ = 0;
+    const char *first = text + 1;
+    assert_non_null(strstr(first, "ETA after the first wave (now its bounce 2 of 3)"));
+    assert_non_null(strstr(second, "50% done"));
+    assert_non_null(strstr(second, "ETA 30 s"));
+    assert_true(strlen(second) >= strlen(first));
+}
+
 /* Waves that do not evict count whole: the time left is the weight left at the weight per
  * second so far, what eta_seconds_left gives. */
 static void test_waves_that_fit(void **state)
@@ -203,6 +238,7 @@ int main(void)
         cmocka_unit_test(test_waves_that_dice_again),
         cmocka_unit_test(test_waves_by_passes),
         cmocka_unit_test(test_waves_that_fit),
+        cmocka_unit_test(test_line_covers_the_longer_one),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -124,12 +124,20 @@ void eta_print_left(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t 
                     double rays, double seconds, double left, const char *what)
 {
     double all = eta_work(e, total) - eta_work(e, start);
-    char eta[48];
+    char eta[112];
     if (left < 0.0)
         snprintf(eta, sizeof eta, "ETA after the first %s", what);
     else
         snprintf(eta, sizeof eta, "ETA %.0f s", left);
-    fprintf(stderr, "\rtessera: %llu / %llu samples, %.0f%% done, %.2f Mrays/s, %s   ",
-            (unsigned long long)samples, (unsigned long long)total,
-            all > 0.0 ? 100.0 * done / all : 100.0, seconds > 0 ? rays / seconds / 1e6 : 0.0, eta);
+    char line[256];
+    int n = snprintf(
+        line, sizeof line, "tessera: %llu / %llu samples, %.0f%% done, %.2f Mrays/s, %s",
+        (unsigned long long)samples, (unsigned long long)total,
+        all > 0.0 ? 100.0 * done / all : 100.0, seconds > 0 ? rays / seconds / 1e6 : 0.0, eta);
+    /* Spaces over what a longer line before it left on the terminal ("ETA after the first
+     * wave (now its bounce 2 of 3)" followed by "ETA 30 s"). One progress line a process. */
+    static int longest;
+    if (n < 0) return;
+    if (n > longest) longest = n;
+    fprintf(stderr, "\r%s%*s", line, longest - n + 3, "");
 }
