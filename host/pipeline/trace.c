@@ -820,6 +820,12 @@ static uint32_t pairs_per_ray(uint32_t capacity, uint32_t active, uint32_t first
     return n < ramp ? n : (uint32_t)ramp;
 }
 
+/* How many batches of an iteration the device may run behind the host while a cancel hook
+ * is set: enough that a device whose batches are short (a GPU's, a fraction of a millisecond)
+ * always has the next ones queued while the host makes more, few enough that a stop waits
+ * for no more than those (on PoCL about 15 ms a batch in a squeezed forest-100). */
+#define TS_BATCHES_AHEAD 4u
+
 int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 {
     uint32_t active = ray_count;
@@ -845,7 +851,10 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
         if (stage_top_level(p, active, kernel_n, err) ||
             stage_sort(p, windows, width, &sorted_buffer, &valid, &segs, err))
             return err->code;
-        ts_dev_mark ahead = dev_mark(p->cl); /* the batches before the last one enqueued */
+        /* The queue as each of the last TS_BATCHES_AHEAD batches was enqueued (a ring). */
+        ts_dev_mark ahead[TS_BATCHES_AHEAD];
+        for (uint32_t a = 0; a < TS_BATCHES_AHEAD; ++a)
+            ahead[a] = dev_mark(p->cl);
         for (uint32_t k = 0; k < (segs ? p->batch_count : 0); ++k) {
             const ts_batch *b = &p->batches[k];
             if (batch_make(p, b, err) ||
@@ -853,12 +862,13 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
                 return err->code;
             /* A frame whose patches do not fit dices for seconds an iteration: a stop is
              * honoured between its batches too (the wave's results are dropped), with the
-             * device a batch ahead of the host, no more: what is enqueued must run before
-             * the stop, and thousands of batches enqueued at once kept a squeezed forest-100
-             * at 1920x768 five seconds after SIGINT. */
+             * device TS_BATCHES_AHEAD batches ahead of the host at most: what is enqueued
+             * must run before the stop, and thousands of batches enqueued at once kept a
+             * squeezed forest-100 at 1920x768 five seconds after SIGINT. */
             if (k + 1 < p->batch_count && p->cancel) {
-                if (dev_wait_mark(p->cl, ahead, err)) return err->code;
-                ahead = dev_mark(p->cl);
+                uint32_t a = k % TS_BATCHES_AHEAD;
+                if (dev_wait_mark(p->cl, ahead[a], err)) return err->code;
+                ahead[a] = dev_mark(p->cl);
             }
             if (k + 1 < p->batch_count && p->cancel && p->cancel(p->cancel_ctx)) {
                 p->cancelled = 1;
