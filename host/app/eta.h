@@ -52,15 +52,6 @@ void eta_print(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total
 void eta_print_left(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
                     double rays, double seconds, double left, const char *what);
 
-/* Waves that dice again what they need. When a frame's patches do not fit, each wave dices
- * about as much whatever its share of the weight: its bounces reach the whole scene (issue 38;
- * docs/benchmarks.md "Scenes that don't fit"). Measured on a first wave of sky and treetops,
- * the weight rate alone put the time left of forest-100 1920x768 x 2 at --memory 512 at 119 s
- * when 47 s were left. So a wave in which the patch cache evicted counts its dicing seconds
- * (stages dice and build) apart: the rate is the weight per second of the rest, and while the
- * waves evict, each wave left adds the mean dicing seconds of those that did. A wave that did
- * not evict counts whole (what it dices is new to the frame, and as the weight shows more of
- * the scene, more is new: the rate holds it). */
 /* The passes of a wave (its eye rays', then each bounce's: waves_trace_paths), as they end:
  * the seconds from the wave's start to the end of pass i, and its dicing seconds by then. */
 #define TS_ETA_PASSES 16u
@@ -73,6 +64,15 @@ typedef struct ts_eta_passes {
  * (passes beyond TS_ETA_PASSES are not kept). */
 void eta_passes_add(ts_eta_passes *p, double seconds, double dicing);
 
+/* Waves that dice again what they need. When a frame's patches do not fit, each wave dices
+ * about as much whatever its share of the weight: its bounces reach the whole scene (issue 38;
+ * docs/benchmarks.md "Scenes that don't fit"). Measured on a first wave of sky and treetops,
+ * the weight rate alone put the time left of forest-100 1920x768 x 2 at --memory 512 at 119 s
+ * when 47 s were left. So a wave in which the patch cache evicted counts its dicing seconds
+ * (stages dice and build) apart: the rate is the weight per second of the rest, and while the
+ * waves evict, each wave left adds the mean dicing seconds of those that did. A wave that did
+ * not evict counts whole (what it dices is new to the frame, and as the weight shows more of
+ * the scene, more is new: the rate holds it). */
 typedef struct ts_eta_waves {
     double work, seconds; /* the finished waves' weight, and their seconds less recurring dicing */
     double dicing;        /* the dicing seconds of the finished waves that evicted */
