@@ -18,7 +18,8 @@
 #       5. the benchmark rows of issue 40: teapot_displaced 1280x720 x 16 (three runs) and,
 #          unless --quick, forest-100 1920x768 x 32 (two runs), on the GPU alone, with
 #          --streams 2, then with the first CPU device listed beside it (--device GPU,CPU)
-#          when there is one: wall,
+#          when there is one; unless --quick, issue 38's cliff on the GPU alone (forest-100
+#          1920x768 x 2 as it fits and at --memory 512, one run each): wall,
 #          kernel_seconds / wall (how busy the devices were), host_serial_seconds, sort.
 #       Writes OUT_DIR/gpu-check.md (the report), and beside it each step's log, the images
 #       and the --stats files. Exit status 0 when steps 2-4 passed, 1 when one failed, 2 bad
@@ -214,6 +215,10 @@ EOF
     bench forest-100 "$device" 2 scene/forest-100.rib --res 1920x768 --spp 32
     bench "forest-100 --streams 2" "$device" 2 scene/forest-100.rib --res 1920x768 --spp 32 --streams 2
     [ -n "$cpu" ] && bench forest-100 "$device,$cpu" 1 scene/forest-100.rib --res 1920x768 --spp 32
+    # issue 38's cliff on the GPU: the frame that fits, and squeezed to 512 MB (its patches 15
+    # times the arenas: thousands of batches an iteration, the device kept four ahead)
+    bench "forest-100 x 2" "$device" 1 scene/forest-100.rib --res 1920x768 --spp 2
+    bench "forest-100 x 2 --memory 512" "$device" 1 scene/forest-100.rib --res 1920x768 --spp 2 --memory 512
   fi
   { echo
     echo "The rows' --stats files are bench-LABEL-DEVICES-RUN.json beside this report; check_device's"
