@@ -129,16 +129,20 @@ static void test_waves_that_dice_again(void **state)
     assert_true(eta_waves_left(&w, 0.0, 0.0, 0.0, 0) == 0.0); /* nothing after: done */
 }
 
-/* The same frame's waves pass by pass (2026-11-30, stop 56: the eye rays' pass, then each
- * bounce's, as they ended in seconds from the wave's start, and the dicing seconds by then).
- * The first wave's eye pass took 8% of it, the second's 23%: a wave's time follows the last
- * one's over its passes once the first two have ended, not before. Inside the second wave the
- * weight's estimate stays at the third wave's 15 s once the second overruns its expected 17 s
- * (it takes 27 s); from its passes the time left is within 10% of the truth. */
+/* The same frame's waves pass by pass (2026-11-30, stop 56: the rays each pass traced, the
+ * eye rays' first, and as they ended the seconds from the wave's start and the dicing seconds
+ * by then). The first wave's eye pass took 8% of it, the second's 23%: after the eye pass a
+ * wave's bounces follow the last wave's, scaled by their first bounce's rays (10x the rays,
+ * 2x the time: they reach most of the forest whatever their number), and after two passes the
+ * last wave's share of its time by pass. Inside the second wave the weights' estimate stays
+ * at the third wave's 15 s once the second overruns its expected 17 s (it takes 27 s). */
 static void test_waves_by_passes(void **state)
 {
     (void)state;
     const double work[3] = {0.0847, 0.5358, 0.3795};
+    const double rays[3][4] = {{1057279, 157594, 44001, 5782},
+                               {1057279, 1633716, 327276, 46388},
+                               {834562, 1535541, 286660, 43871}};
     const double end[3][4] = {
         {0.96, 6.54, 9.83, 11.42}, {6.25, 15.93, 22.54, 27.41}, {4.25, 12.18, 17.43, 21.65}};
     const double dice[3][4] = {
@@ -147,36 +151,49 @@ static void test_waves_by_passes(void **state)
     memset(p, 0, sizeof p);
     for (int v = 0; v < 3; ++v)
         for (int i = 0; i < 4; ++i)
-            eta_passes_add(&p[v], end[v][i], dice[v][i]);
+            eta_passes_start(&p[v], rays[v][i]), eta_passes_add(&p[v], end[v][i], dice[v][i]);
     ts_eta_waves w = {0};
     eta_waves_done(&w, work[0], end[0][3], dice[0][3], 1, &p[0]);
-    /* The second wave, after its first pass: nothing to project from yet. */
-    ts_eta_passes now = {.count = 0};
+    /* The second wave in its eye pass: nothing to project from yet. */
+    ts_eta_passes now;
+    memset(&now, 0, sizeof now);
     double d;
-    eta_passes_add(&now, end[1][0], dice[1][0]);
+    eta_passes_start(&now, rays[1][0]);
     assert_true(eta_waves_project(&w, &now, &d) < 0.0);
+    eta_passes_add(&now, end[1][0], dice[1][0]);
+    assert_true(eta_waves_project(&w, &now, &d) < 0.0); /* the first bounce's rays unknown */
     assert_true(eta_waves_left_passes(&w, work[1], 7.0, work[2], 1, &now) ==
                 eta_waves_left(&w, work[1], 7.0, work[2], 1));
-    /* After its second pass, and later in its third, the time left from the passes. */
-    eta_passes_add(&now, end[1][1], dice[1][1]);
-    double at[2] = {end[1][1], 20.0};
-    for (int k = 0; k < 2; ++k) {
+    /* In its first bounce, then after its second pass and later in its third: the time left
+     * from the passes, where the weights' estimate is 0.5-0.7 of it. */
+    eta_passes_start(&now, rays[1][1]);
+    double seconds = eta_waves_project(&w, &now, &d);
+    assert_true(fabs(seconds - (end[1][0] + (end[0][3] - end[0][0]) *
+                                                pow(rays[1][1] / rays[0][1], 0.3))) < 1e-9);
+    double at[3] = {10.0, end[1][1], 20.0};
+    for (int k = 0; k < 3; ++k) {
+        if (k == 1) eta_passes_add(&now, end[1][1], dice[1][1]), eta_passes_start(&now, rays[1][2]);
         double truth = end[1][3] - at[k] + end[2][3];
         double by_weight = eta_waves_left(&w, work[1], at[k], work[2], 1);
         double by_passes = eta_waves_left_passes(&w, work[1], at[k], work[2], 1, &now);
         assert_true(by_weight < 0.75 * truth);
         assert_true(by_passes > 0.9 * truth && by_passes < 1.1 * truth);
     }
-    double seconds = eta_waves_project(&w, &now, &d);
+    seconds = eta_waves_project(&w, &now, &d);
     assert_true(fabs(seconds - end[1][1] * end[0][3] / end[0][1]) < 1e-9);
     assert_true(fabs(d - dice[1][1] * seconds / end[1][1]) < 1e-9);
-    /* The third wave after its second pass, from the second's passes. */
+    /* The third wave from the second's passes: after its eye pass, and after its second. */
     eta_waves_done(&w, work[1], end[1][3], dice[1][3], 1, &p[1]);
-    ts_eta_passes third = {.count = 0};
-    eta_passes_add(&third, end[2][0], dice[2][0]);
+    ts_eta_passes third;
+    memset(&third, 0, sizeof third);
+    eta_passes_start(&third, rays[2][0]), eta_passes_add(&third, end[2][0], dice[2][0]);
+    eta_passes_start(&third, rays[2][1]);
+    double left = eta_waves_left_passes(&w, work[2], end[2][0], 0.0, 0, &third);
+    double truth = end[2][3] - end[2][0];
+    assert_true(left > 0.9 * truth && left < 1.25 * truth);
     eta_passes_add(&third, end[2][1], dice[2][1]);
-    double left = eta_waves_left_passes(&w, work[2], end[2][1], 0.0, 0, &third);
-    double truth = end[2][3] - end[2][1];
+    left = eta_waves_left_passes(&w, work[2], end[2][1], 0.0, 0, &third);
+    truth = end[2][3] - end[2][1];
     assert_true(left > 0.9 * truth && left < 1.1 * truth);
     /* A wave that did not evict leaves nothing to project from. */
     eta_waves_done(&w, 0.0, 1.0, 0.0, 0, &p[2]);

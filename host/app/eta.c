@@ -1,6 +1,7 @@
 /* eta.c — the progress line's estimate (eta.h). */
 #include "app/eta.h"
 
+#include <math.h>
 #include <stdlib.h>
 
 uint64_t eta_weight(uint32_t cost)
@@ -59,11 +60,32 @@ void eta_print(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total
                    eta_seconds_left(e, done, seconds, start, total), what);
 }
 
+void eta_passes_start(ts_eta_passes *p, double rays)
+{
+    if (p->started >= TS_ETA_PASSES) return;
+    p->rays[p->started++] = rays;
+}
+
 void eta_passes_add(ts_eta_passes *p, double seconds, double dicing)
 {
     if (p->count >= TS_ETA_PASSES) return;
     p->end[p->count] = seconds, p->dicing[p->count] = dicing;
     p->count++;
+}
+
+/* After the eye rays' pass alone (eta.h eta_waves_project): the bounces as the last wave's,
+ * scaled by the first bounce's rays. */
+static double project_bounces(const ts_eta_waves *w, const ts_eta_passes *now, double *dicing)
+{
+    const ts_eta_passes *then = &w->last;
+    if (now->count != 1 || now->started < 2 || then->count < 2 || then->started < 2) return -1.0;
+    if (!(now->rays[1] > 0.0) || !(then->rays[1] > 0.0) || !(w->last_seconds >= then->end[0]))
+        return -1.0;
+    double scale = pow(now->rays[1] / then->rays[1], TS_ETA_REACH_EXPONENT);
+    double then_dicing = then->dicing[then->count - 1];
+    *dicing = now->dicing[0] +
+              scale * (then_dicing > then->dicing[0] ? then_dicing - then->dicing[0] : 0.0);
+    return now->end[0] + scale * (w->last_seconds - then->end[0]);
 }
 
 void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing, int evicted,
@@ -101,7 +123,9 @@ double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, dou
 double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double *dicing)
 {
     uint32_t k = now->count;
-    if (!w->last_evicted || k < TS_ETA_PROJECT_PASSES || k > w->last.count) return -1.0;
+    if (!w->last_evicted) return -1.0;
+    if (k < TS_ETA_PROJECT_PASSES) return project_bounces(w, now, dicing);
+    if (k > w->last.count) return -1.0;
     double then = w->last.end[k - 1], ran = now->end[k - 1];
     if (!(then > 0.0) || !(ran > 0.0) || !(w->last_seconds >= then)) return -1.0;
     double seconds = ran * w->last_seconds / then;

@@ -185,7 +185,7 @@ static void wave_progress_begin(wave_progress *w, uint64_t first, uint32_t n)
     w->wave_end = first + n, w->wave_t0 = stats_now();
     w->wave_dicing = dicing_seconds(w->p);
     w->wave_evictions = w->p->stats->counters[TS_COUNTER_patch_cache_evictions];
-    w->passes.count = 0;
+    w->passes.count = w->passes.started = 0;
 }
 
 /* The wave in flight's last pass ended now: its seconds and dicing seconds so far. */
@@ -199,10 +199,10 @@ static void wave_progress_pass(wave_progress *w)
 static int render_pass_ended(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_t rays, int after,
                              ts_error *err)
 {
-    (void)p, (void)rays, (void)err;
+    (void)p, (void)err;
     wave_progress *w = ctx;
     if (!after && bounce > 0) wave_progress_pass(w);
-    if (!after) w->bounce = bounce;
+    if (!after) w->bounce = bounce, eta_passes_start(&w->passes, (double)rays);
     return TS_OK;
 }
 
