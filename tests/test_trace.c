@@ -218,9 +218,9 @@ static int watch_queue(void *ctx)
 
 /* A stop signal cannot take back what is enqueued, so the batches of an iteration whose
  * patches do not fit are not enqueued all at once: when the cancel hook is asked after a
- * batch, every launch enqueued before the last few batches has ended (the device is at most
- * TS_BATCHES_AHEAD batches ahead). Thousands of batches enqueued at once kept forest-100 at
- * 1920x768 x 2 with --memory 512 running five seconds after SIGINT. */
+ * batch, every launch enqueued before the last few batches has ended (at most
+ * TS_BATCHES_AHEAD batches wait in the queue). Thousands of batches enqueued at once kept
+ * forest-100 at 1920x768 x 2 with --memory 512 running five seconds after SIGINT. */
 static void test_cancel_hook_finds_few_batches_in_flight(void **state)
 {
     ts_device cl;

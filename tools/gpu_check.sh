@@ -216,7 +216,7 @@ EOF
     bench "forest-100 --streams 2" "$device" 2 scene/forest-100.rib --res 1920x768 --spp 32 --streams 2
     [ -n "$cpu" ] && bench forest-100 "$device,$cpu" 1 scene/forest-100.rib --res 1920x768 --spp 32
     # issue 38's cliff on the GPU: the frame that fits, and squeezed to 512 MB (its patches 15
-    # times the arenas: thousands of batches an iteration, the device kept four ahead)
+    # times the arenas: thousands of batches an iteration, at most four of them queued)
     bench "forest-100 x 2" "$device" 1 scene/forest-100.rib --res 1920x768 --spp 2
     bench "forest-100 x 2 --memory 512" "$device" 1 scene/forest-100.rib --res 1920x768 --spp 2 --memory 512
   fi

@@ -861,9 +861,9 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
                 stage_bottom_level(p, sorted_buffer, b, kernel_n, active, err))
                 return err->code;
             /* A frame whose patches do not fit dices for seconds an iteration: a stop is
-             * honoured between its batches too (the wave's results are dropped), with the
-             * device TS_BATCHES_AHEAD batches ahead of the host at most: what is enqueued
-             * must run before the stop, and thousands of batches enqueued at once kept a
+             * honoured between its batches too (the wave's results are dropped), with at
+             * most TS_BATCHES_AHEAD batches enqueued and not yet run: what is enqueued must
+             * run before the stop, and thousands of batches enqueued at once kept a
              * squeezed forest-100 at 1920x768 five seconds after SIGINT. */
             if (k + 1 < p->batch_count && p->cancel) {
                 uint32_t a = k % TS_BATCHES_AHEAD;
