@@ -3,6 +3,7 @@
 
 #include <math.h>
 #include <stdlib.h>
+#include <unistd.h>
 
 uint64_t eta_weight(uint32_t cost)
 {
@@ -144,24 +145,26 @@ double eta_waves_left_passes(const ts_eta_waves *w, double current, double elaps
     return left + eta_waves_left(&then, 0.0, 0.0, after, waves_after);
 }
 
+/* "\rtessera: N / T samples, P% done, R Mrays/s, TAIL": under 80 columns (a longer line
+ * wraps on a terminal and each update then scrolls). On a terminal the rest of a longer line
+ * before it is erased (ESC [ K); elsewhere (a log) three spaces follow, as ever. */
+void eta_print_tail(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
+                    double rays, double seconds, const char *tail)
+{
+    double all = eta_work(e, total) - eta_work(e, start);
+    fprintf(stderr, "\rtessera: %llu / %llu samples, %.0f%% done, %.2f Mrays/s, %s%s",
+            (unsigned long long)samples, (unsigned long long)total,
+            all > 0.0 ? 100.0 * done / all : 100.0, seconds > 0 ? rays / seconds / 1e6 : 0.0, tail,
+            isatty(fileno(stderr)) ? "\x1b[K" : "   ");
+}
+
 void eta_print_left(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
                     double rays, double seconds, double left, const char *what)
 {
-    double all = eta_work(e, total) - eta_work(e, start);
-    char eta[112];
+    char eta[48];
     if (left < 0.0)
-        snprintf(eta, sizeof eta, "ETA after the first %s", what);
+        snprintf(eta, sizeof eta, "ETA after one %s", what);
     else
         snprintf(eta, sizeof eta, "ETA %.0f s", left);
-    char line[256];
-    int n = snprintf(
-        line, sizeof line, "tessera: %llu / %llu samples, %.0f%% done, %.2f Mrays/s, %s",
-        (unsigned long long)samples, (unsigned long long)total,
-        all > 0.0 ? 100.0 * done / all : 100.0, seconds > 0 ? rays / seconds / 1e6 : 0.0, eta);
-    /* Spaces over what a longer line before it left on the terminal ("ETA after the first
-     * wave (now its bounce 2 of 3)" followed by "ETA 30 s"). One progress line a process. */
-    static int longest;
-    if (n < 0) return;
-    if (n > longest) longest = n;
-    fprintf(stderr, "\r%s%*s", line, longest - n + 3, "");
+    eta_print_tail(e, samples, start, total, done, rays, seconds, eta);
 }

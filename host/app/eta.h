@@ -45,12 +45,16 @@ double eta_seconds_left(const ts_eta *e, double done, double seconds, uint64_t s
 
 /* Prints the progress line on stderr (\r, no newline): samples finished of total, the
  * share `done` of the weight of [start, total), rays per second over `seconds`, and the time
- * left, or "ETA after the first <what>" while nothing is done. */
+ * left, or "ETA after one <what>" while nothing is done. */
 void eta_print(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
                double rays, double seconds, const char *what);
-/* The same line with the time left given (`left` < 0: "ETA after the first <what>"). */
+/* The same line with the time left given (`left` < 0: "ETA after one <what>"). */
 void eta_print_left(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
                     double rays, double seconds, double left, const char *what);
+/* The same line with `tail` where the time left goes (a note while there is none yet). The
+ * line stays under 80 columns for tails of up to 20 characters. */
+void eta_print_tail(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
+                    double rays, double seconds, const char *tail);
 
 /* The passes of a wave (its eye rays', then each bounce's: waves_trace_paths): the rays
  * each traced, as they begin (`started` of them), and as they end (`count`) the seconds from

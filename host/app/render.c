@@ -159,17 +159,19 @@ static void wave_progress_print(wave_progress *w, int in_wave)
     w->shown = done;
     double rays = (double)(w->p->stats->counters[TS_COUNTER_rays] +
                            w->p->stats->counters[TS_COUNTER_shadow_rays]);
+    double left = eta_waves_left_passes(&w->waves, wave, elapsed, after, waves_after,
+                                        in_wave ? &w->passes : NULL);
     /* Before the first wave ends there is no estimate; the pass in flight shows it moving (a
      * frame in one wave: forest-1000 at 1920x768 x 1 with --memory 1024, 40 s). */
-    char what[64] = "wave";
-    if (in_wave && w->bounce == 0)
-        snprintf(what, sizeof what, "wave (now its eye rays)");
-    else if (in_wave)
-        snprintf(what, sizeof what, "wave (now its bounce %u of %d)", w->bounce, w->o->depth);
-    eta_print_left(&w->eta, w->done, w->start, w->total, done, rays, now - w->t0,
-                   eta_waves_left_passes(&w->waves, wave, elapsed, after, waves_after,
-                                         in_wave ? &w->passes : NULL),
-                   what);
+    char pass[32];
+    if (in_wave && left < 0.0 && w->bounce == 0)
+        snprintf(pass, sizeof pass, "wave 1: eye rays");
+    else if (in_wave && left < 0.0)
+        snprintf(pass, sizeof pass, "wave 1: bounce %u/%d", w->bounce, w->o->depth);
+    if (in_wave && left < 0.0)
+        eta_print_tail(&w->eta, w->done, w->start, w->total, done, rays, now - w->t0, pass);
+    else
+        eta_print_left(&w->eta, w->done, w->start, w->total, done, rays, now - w->t0, left, "wave");
     w->printed = now;
 }
 
