@@ -249,6 +249,33 @@ static void test_waves_that_fit(void **state)
     assert_true(fabs(eta_waves_expect(&w, 0.25) - rate * 0.25) < 1e-9);
 }
 
+/* Waves of background dice nothing: of the waves left, only those holding a pixel whose eye
+ * ray crosses a patch box add a wave's dicing (a wave whose eye rays cross none has no hit to
+ * bounce from). Without the pixels' costs every wave counts. */
+static void test_waves_of_background(void **state)
+{
+    (void)state;
+    enum { N = 64 };
+    uint32_t cost[N];
+    for (int p = 0; p < N; ++p)
+        cost[p] = p < N / 2 ? 3 : 1; /* the top half crosses patch boxes, the bottom is sky */
+    ts_eta e, plain;
+    ts_error err = {0};
+    assert_int_equal(eta_init(&e, cost, N, 1, N, &err), TS_OK);
+    assert_int_equal(eta_init(&plain, NULL, N, 1, N, &err), TS_OK);
+    assert_int_equal(eta_waves_with_geometry(&e, 0, N, 16), 2);
+    assert_int_equal(eta_waves_with_geometry(&e, 24, N, 16), 1); /* [24, 40) holds 24..31 */
+    assert_int_equal(eta_waves_with_geometry(&e, 32, N, 16), 0);
+    assert_int_equal(eta_waves_with_geometry(&plain, 32, N, 16), 2);
+    ts_eta_waves w = {0};
+    eta_waves_done(&w, 1.0, 12.0, 10.0, 1, NULL); /* 2 s of weight, 10 s of dicing */
+    double sky = eta_work(&e, N) - eta_work(&e, N / 2);
+    assert_true(fabs(eta_waves_left(&w, 0.0, 0.0, sky, 0) - 2.0 * sky) < 1e-9);
+    assert_true(fabs(eta_waves_left(&w, 0.0, 0.0, sky, 2) - (2.0 * sky + 20.0)) < 1e-9);
+    eta_free(&e);
+    eta_free(&plain);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -258,6 +285,7 @@ int main(void)
         cmocka_unit_test(test_waves_that_dice_again),
         cmocka_unit_test(test_waves_by_passes),
         cmocka_unit_test(test_waves_that_fit),
+        cmocka_unit_test(test_waves_of_background),
         cmocka_unit_test(test_line_fits_80_columns),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

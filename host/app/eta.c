@@ -14,6 +14,7 @@ int eta_init(ts_eta *e, const uint32_t *cost, uint32_t npix, uint32_t spp, uint3
              ts_error *err)
 {
     e->npix = npix, e->spp = spp ? spp : 1, e->band = band == 0 || band > npix ? npix : band;
+    e->weighted = cost != NULL;
     e->prefix = malloc(((size_t)npix + 1) * sizeof *e->prefix);
     if (!e->prefix) return ts_error_set(err, TS_E_MEMORY, "out of memory (progress weights)");
     uint64_t counted = 0, sum = 0;
@@ -44,6 +45,17 @@ double eta_work(const ts_eta *e, uint64_t k)
     return (double)e->spp * (double)e->prefix[base] +
            (double)s * (double)(e->prefix[base + n] - e->prefix[base]) +
            (double)(e->prefix[base + rest] - e->prefix[base]);
+}
+
+uint32_t eta_waves_with_geometry(const ts_eta *e, uint64_t from, uint64_t total, uint64_t per_wave)
+{
+    uint32_t n = 0;
+    if (per_wave == 0) per_wave = 1;
+    for (uint64_t a = from; a < total; a += per_wave) {
+        uint64_t b = total - a < per_wave ? total : a + per_wave;
+        n += !e->weighted || eta_work(e, b) - eta_work(e, a) > (double)(b - a) + 0.5;
+    }
+    return n;
 }
 
 double eta_seconds_left(const ts_eta *e, double done, double seconds, uint64_t start,
@@ -117,8 +129,9 @@ double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, dou
         double now = eta_waves_expect(w, current);
         left += now > elapsed ? now - elapsed : 0.0;
     }
-    if (waves_after) left += eta_waves_expect(w, after) + per_wave * (waves_after - 1);
-    return left;
+    /* the weight's seconds, and a wave's dicing for each wave after that dices */
+    if (after > 0.0) left += eta_waves_expect(w, after) - per_wave;
+    return left + per_wave * waves_after;
 }
 
 double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double *dicing)

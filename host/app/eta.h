@@ -27,6 +27,7 @@
 typedef struct ts_eta {
     uint64_t *prefix; /* prefix[p]: the weight of pixels [0, p), npix + 1 entries */
     uint32_t npix, spp, band;
+    int weighted; /* the pixels' costs were given (not every sample 1) */
 } ts_eta;
 
 /* The weight of a sample of a pixel whose pixel_cost is cost (>= 1). */
@@ -38,6 +39,11 @@ int eta_init(ts_eta *e, const uint32_t *cost, uint32_t npix, uint32_t spp, uint3
 void eta_free(ts_eta *e);
 /* The weight of the frame's samples [0, k) in its sample order. */
 double eta_work(const ts_eta *e, uint64_t k);
+/* Of the waves of `per_wave` samples from `from` to `total`, how many hold a sample whose
+ * eye ray crosses a patch box (a weight above 1): the waves that dice, where the frame's
+ * patches do not fit: a wave whose eye rays cross no patch box has no hit to bounce from,
+ * and dices nothing. All of them where the pixels' costs are not known. */
+uint32_t eta_waves_with_geometry(const ts_eta *e, uint64_t from, uint64_t total, uint64_t per_wave);
 /* The seconds left when the samples of weight `done` took `seconds` and [start, total) is the
  * frame's part to trace; -1 while nothing is done. */
 double eta_seconds_left(const ts_eta *e, double done, double seconds, uint64_t start,
@@ -97,8 +103,8 @@ void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing,
 /* The seconds a wave of weight `work` is expected to take; -1 before a wave finished. */
 double eta_waves_expect(const ts_eta_waves *w, double work);
 /* The seconds left: the rest of the wave in flight, of weight `current`, which has run
- * `elapsed` seconds (none: current 0), then waves_after waves of weight `after` together; -1
- * before a wave finished. */
+ * `elapsed` seconds (none: current 0), then the waves after it, of weight `after` together,
+ * waves_after of which dice (eta_waves_with_geometry); -1 before a wave finished. */
 double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, double after,
                       uint32_t waves_after);
 

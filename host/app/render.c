@@ -145,7 +145,7 @@ static void wave_progress_print(wave_progress *w, int in_wave)
     uint64_t from = in_wave ? w->wave_end : w->done;
     double wave = in_wave ? eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, w->done) : 0.0;
     double after = eta_work(&w->eta, w->total) - eta_work(&w->eta, from);
-    uint32_t waves_after = (uint32_t)((w->total - from + w->per_wave - 1) / w->per_wave);
+    uint32_t waves_after = eta_waves_with_geometry(&w->eta, from, w->total, w->per_wave);
     double elapsed = now - w->wave_t0, expect = eta_waves_expect(&w->waves, wave), dicing;
     double projected = in_wave ? eta_waves_project(&w->waves, &w->passes, &dicing) : -1.0;
     if (projected > 0.0) expect = projected;
