@@ -162,7 +162,7 @@ static void test_waves_by_passes(void **state)
     assert_true(eta_waves_project(&w, &now, &d) < 0.0);
     eta_passes_add(&now, end[1][0], dice[1][0]);
     assert_true(eta_waves_project(&w, &now, &d) < 0.0); /* the first bounce's rays unknown */
-    assert_true(eta_waves_left_passes(&w, work[1], 7.0, work[2], 1, &now) ==
+    assert_true(eta_waves_left_passes(&w, work[1], 7.0, work[2], 1, &now, NULL) ==
                 eta_waves_left(&w, work[1], 7.0, work[2], 1));
     /* In its first bounce, then after its second pass and later in its third: the time left
      * from the passes, where the weights' estimate is 0.5-0.7 of it. */
@@ -175,7 +175,7 @@ static void test_waves_by_passes(void **state)
         if (k == 1) eta_passes_add(&now, end[1][1], dice[1][1]), eta_passes_start(&now, rays[1][2]);
         double truth = end[1][3] - at[k] + end[2][3];
         double by_weight = eta_waves_left(&w, work[1], at[k], work[2], 1);
-        double by_passes = eta_waves_left_passes(&w, work[1], at[k], work[2], 1, &now);
+        double by_passes = eta_waves_left_passes(&w, work[1], at[k], work[2], 1, &now, NULL);
         assert_true(by_weight < 0.75 * truth);
         assert_true(by_passes > 0.9 * truth && by_passes < 1.1 * truth);
     }
@@ -188,11 +188,11 @@ static void test_waves_by_passes(void **state)
     memset(&third, 0, sizeof third);
     eta_passes_start(&third, rays[2][0]), eta_passes_add(&third, end[2][0], dice[2][0]);
     eta_passes_start(&third, rays[2][1]);
-    double left = eta_waves_left_passes(&w, work[2], end[2][0], 0.0, 0, &third);
+    double left = eta_waves_left_passes(&w, work[2], end[2][0], 0.0, 0, &third, NULL);
     double truth = end[2][3] - end[2][0];
     assert_true(left > 0.9 * truth && left < 1.25 * truth);
     eta_passes_add(&third, end[2][1], dice[2][1]);
-    left = eta_waves_left_passes(&w, work[2], end[2][1], 0.0, 0, &third);
+    left = eta_waves_left_passes(&w, work[2], end[2][1], 0.0, 0, &third, NULL);
     truth = end[2][3] - end[2][1];
     assert_true(left > 0.9 * truth && left < 1.1 * truth);
     /* A wave that did not evict leaves nothing to project from. */

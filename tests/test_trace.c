@@ -23,8 +23,10 @@ typedef struct traced {
     ts_stats stats;
 } traced;
 
-static void trace_teapot(ts_device *cl, const ts_scene *s, const ts_pipeline_plan *plan,
-                         traced *out)
+/* The teapot's eye rays traced with `plan`, the pipeline's cancel hook set to `cancel` (NULL:
+ * none); returns whether the hook cancelled the trace. */
+static int trace_teapot_hooked(ts_device *cl, const ts_scene *s, const ts_pipeline_plan *plan,
+                               traced *out, int (*cancel)(void *ctx), void *ctx)
 {
     ts_error err = {0};
     memset(&out->stats, 0, sizeof out->stats);
@@ -34,11 +36,20 @@ static void trace_teapot(ts_device *cl, const ts_scene *s, const ts_pipeline_pla
     if (render_camera_params(&s->camera, W, H, &cam, &err)) fail_msg("%s", err.msg);
     cam.spp = 1;
     cam.ray_count = W * H;
+    p.cancel = cancel, p.cancel_ctx = ctx;
     if (pipeline_camera(&p, &cam, &err) || pipeline_trace(&p, W * H, &err)) fail_msg("%s", err.msg);
+    int cancelled = p.cancelled;
     clEnqueueReadBuffer(cl->queue, p.ray_org, CL_TRUE, 0, sizeof out->org, out->org, 0, NULL, NULL);
     clEnqueueReadBuffer(cl->queue, p.ray_dir, CL_TRUE, 0, sizeof out->dir, out->dir, 0, NULL, NULL);
     clEnqueueReadBuffer(cl->queue, p.ray_hit, CL_TRUE, 0, sizeof out->hit, out->hit, 0, NULL, NULL);
     pipeline_destroy(&p);
+    return cancelled;
+}
+
+static void trace_teapot(ts_device *cl, const ts_scene *s, const ts_pipeline_plan *plan,
+                         traced *out)
+{
+    trace_teapot_hooked(cl, s, plan, out, NULL, NULL);
 }
 
 /* Every patch diced at m on the host with the shared evaluation, every ray against every
@@ -227,25 +238,14 @@ static void test_cancel_hook_finds_few_batches_in_flight(void **state)
     test_open_device(&cl);
     ts_scene s;
     load_teapot(&s);
-    ts_error err = {0};
-    ts_stats st;
-    memset(&st, 0, sizeof st);
+    static traced t;
     ts_pipeline_plan plan = {.ray_capacity = W * H, .pair_capacity = W * H * 8};
     pipeline_plan_arenas(&plan, 1, M); /* two static patches a batch: many batches */
-    ts_pipeline p;
-    if (pipeline_create(&p, &cl, &s, &plan, W * H, &st, &err)) fail_msg("%s", err.msg);
-    ts_camera_params cam;
-    if (render_camera_params(&s.camera, W, H, &cam, &err)) fail_msg("%s", err.msg);
-    cam.spp = 1;
-    cam.ray_count = W * H;
     queue_watch q = {.cl = &cl};
-    p.cancel = watch_queue, p.cancel_ctx = &q;
-    if (pipeline_camera(&p, &cam, &err) || pipeline_trace(&p, W * H, &err)) fail_msg("%s", err.msg);
-    assert_false(p.cancelled);
+    assert_false(trace_teapot_hooked(&cl, &s, &plan, &t, watch_queue, &q));
     assert_true(q.calls > 8);
     assert_int_equal(q.behind, 0);
-    pipeline_destroy(&p);
-    stats_free(&st);
+    stats_free(&t.stats);
     scene_free(&s);
     dev_close(&cl);
 }

@@ -51,9 +51,12 @@ uint32_t eta_waves_with_geometry(const ts_eta *e, uint64_t from, uint64_t total,
 {
     uint32_t n = 0;
     if (per_wave == 0) per_wave = 1;
+    double wa = eta_work(e, from);
     for (uint64_t a = from; a < total; a += per_wave) {
         uint64_t b = total - a < per_wave ? total : a + per_wave;
-        n += !e->weighted || eta_work(e, b) - eta_work(e, a) > (double)(b - a) + 0.5;
+        double wb = eta_work(e, b);
+        n += !e->weighted || wb - wa > (double)(b - a) + 0.5;
+        wa = wb;
     }
     return n;
 }
@@ -75,8 +78,8 @@ void eta_print(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total
 
 void eta_passes_start(ts_eta_passes *p, double rays)
 {
-    if (p->started >= TS_ETA_PASSES) return;
-    p->rays[p->started++] = rays;
+    if (p->started < TS_ETA_PASSES) p->rays[p->started] = rays;
+    p->started++;
 }
 
 void eta_passes_add(ts_eta_passes *p, double seconds, double dicing)
@@ -148,9 +151,10 @@ double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double
 }
 
 double eta_waves_left_passes(const ts_eta_waves *w, double current, double elapsed, double after,
-                             uint32_t waves_after, const ts_eta_passes *now)
+                             uint32_t waves_after, const ts_eta_passes *now, double *projected)
 {
     double dicing = 0.0, seconds = now && current > 0.0 ? eta_waves_project(w, now, &dicing) : -1.0;
+    if (projected) *projected = seconds;
     if (seconds < 0.0) return eta_waves_left(w, current, elapsed, after, waves_after);
     ts_eta_waves then = *w; /* as if the wave in flight had finished as projected */
     eta_waves_done(&then, current, seconds, dicing, 1, NULL);

@@ -62,16 +62,18 @@ void eta_print_left(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t 
 void eta_print_tail(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t total, double done,
                     double rays, double seconds, const char *tail);
 
-/* The passes of a wave (its eye rays', then each bounce's: waves_trace_paths): the rays
- * each traced, as they begin (`started` of them), and as they end (`count`) the seconds from
- * the wave's start to the end of pass i and its dicing seconds by then. */
+/* The passes of a wave (its eye rays', then each bounce's: waves_trace_paths): how many have
+ * begun (`started`: the pass in flight is bounce started - 1) and the rays each traced, and as
+ * they end (`count`) the seconds from the wave's start to the end of pass i and its dicing
+ * seconds by then. */
 #define TS_ETA_PASSES 16u
 typedef struct ts_eta_passes {
     double end[TS_ETA_PASSES], dicing[TS_ETA_PASSES], rays[TS_ETA_PASSES];
     uint32_t count, started;
 } ts_eta_passes;
 
-/* The wave's next pass begins with `rays` rays (passes beyond TS_ETA_PASSES are not kept). */
+/* The wave's next pass begins with `rays` rays (counted always; the rays of passes beyond
+ * TS_ETA_PASSES are not kept). */
 void eta_passes_start(ts_eta_passes *p, double rays);
 /* Its pass `count` ended `seconds` after the wave's start, with `dicing` seconds diced by
  * then. */
@@ -124,8 +126,9 @@ double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, dou
 #define TS_ETA_REACH_EXPONENT 0.3
 double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double *dicing);
 /* eta_waves_left with the wave in flight projected from its passes where eta_waves_project
- * can (the waves after it then estimated as if it had finished so), else the same. */
+ * can (the waves after it then estimated as if it had finished so), else the same;
+ * *projected (when not NULL): the wave's projected seconds, -1 without. */
 double eta_waves_left_passes(const ts_eta_waves *w, double current, double elapsed, double after,
-                             uint32_t waves_after, const ts_eta_passes *now);
+                             uint32_t waves_after, const ts_eta_passes *now, double *projected);
 
 #endif

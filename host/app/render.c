@@ -124,8 +124,7 @@ typedef struct wave_progress {
     double t0, wave_t0, printed;
     double wave_dicing;      /* stages dice and build's seconds when the wave began */
     uint64_t wave_evictions; /* the patch cache's evictions then */
-    ts_eta_passes passes;    /* the wave's passes finished so far (render_pass_ended) */
-    uint32_t bounce;         /* the pass in flight: 0 the eye rays, b the b-th bounce */
+    ts_eta_passes passes;    /* the wave's passes begun and ended (render_pass_ended) */
     double shown;            /* the most weight the line has shown done: it never goes back */
 } wave_progress;
 
@@ -146,9 +145,10 @@ static void wave_progress_print(wave_progress *w, int in_wave)
     double wave = in_wave ? eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, w->done) : 0.0;
     double after = eta_work(&w->eta, w->total) - eta_work(&w->eta, from);
     uint32_t waves_after = eta_waves_with_geometry(&w->eta, from, w->total, w->per_wave);
-    double elapsed = now - w->wave_t0, expect = eta_waves_expect(&w->waves, wave), dicing;
-    double projected = in_wave ? eta_waves_project(&w->waves, &w->passes, &dicing) : -1.0;
-    if (projected > 0.0) expect = projected;
+    double elapsed = now - w->wave_t0, projected;
+    double left = eta_waves_left_passes(&w->waves, wave, elapsed, after, waves_after,
+                                        in_wave ? &w->passes : NULL, &projected);
+    double expect = projected > 0.0 ? projected : eta_waves_expect(&w->waves, wave);
     if (in_wave && expect > 0.0) {
         double credit = wave * elapsed / expect;
         done += credit < 0.9 * wave ? credit : 0.9 * wave;
@@ -159,18 +159,14 @@ static void wave_progress_print(wave_progress *w, int in_wave)
     w->shown = done;
     double rays = (double)(w->p->stats->counters[TS_COUNTER_rays] +
                            w->p->stats->counters[TS_COUNTER_shadow_rays]);
-    double left = eta_waves_left_passes(&w->waves, wave, elapsed, after, waves_after,
-                                        in_wave ? &w->passes : NULL);
     /* Before the first wave ends there is no estimate; the pass in flight shows it moving (a
      * frame in one wave: forest-1000 at 1920x768 x 1 with --memory 1024, 40 s). */
-    char pass[32];
-    if (in_wave && left < 0.0 && w->bounce == 0)
-        snprintf(pass, sizeof pass, "wave 1: eye rays");
-    else if (in_wave && left < 0.0)
-        snprintf(pass, sizeof pass, "wave 1: bounce %u/%d", w->bounce, w->o->depth);
-    if (in_wave && left < 0.0)
+    if (in_wave && left < 0.0) {
+        char pass[32] = "wave 1: eye rays";
+        if (w->passes.started > 1)
+            snprintf(pass, sizeof pass, "wave 1: bounce %u/%d", w->passes.started - 1, w->o->depth);
         eta_print_tail(&w->eta, w->done, w->start, w->total, done, rays, now - w->t0, pass);
-    else
+    } else
         eta_print_left(&w->eta, w->done, w->start, w->total, done, rays, now - w->t0, left, "wave");
     w->printed = now;
 }
@@ -204,7 +200,7 @@ static int render_pass_ended(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_
     (void)p, (void)err;
     wave_progress *w = ctx;
     if (!after && bounce > 0) wave_progress_pass(w);
-    if (!after) w->bounce = bounce, eta_passes_start(&w->passes, (double)rays);
+    if (!after) eta_passes_start(&w->passes, (double)rays);
     return TS_OK;
 }
 

@@ -869,10 +869,10 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
                 uint32_t a = k % TS_BATCHES_AHEAD;
                 if (dev_wait_mark(p->cl, ahead[a], err)) return err->code;
                 ahead[a] = dev_mark(p->cl);
-            }
-            if (k + 1 < p->batch_count && p->cancel && p->cancel(p->cancel_ctx)) {
-                p->cancelled = 1;
-                return dev_finish(p->cl, p->stats, err);
+                if (p->cancel(p->cancel_ctx)) {
+                    p->cancelled = 1;
+                    return dev_finish(p->cl, p->stats, err);
+                }
             }
         }
         if (segs && p->iteration_watch &&
