@@ -135,6 +135,11 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
     uint state = entry[ray];
     uint node = state >> 3, pos = state & 7u, n = 0, hits = 0u;
     uint order[4];
+    /* The hit masks of the nodes above, a nibble each (the last 8), pushed as the traversal
+     * descends, so that climbing back needs no second test of the parent's children: the
+     * same mask, tmax being fixed for the launch. Above what this launch pushed (a traversal
+     * resumed below the root, or more than 8 levels up) the children are tested again. */
+    uint above = 0u, held = 0u;
     if (state != TS_INVALID) {
         child_order(nodes[node].axes, d.x, d.y, d.z, order);
         hits = qbvh_children_hit(&nodes[node], o4, inv, tmax);
@@ -145,6 +150,8 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
             int child = nodes[node].child[c];
             if (!((hits >> c) & 1u) || child == TS_CHILD_EMPTY) continue;
             if (child >= 0) {
+                above = (above << 4) | hits;
+                held = held < 8u ? held + 1u : 8u;
                 node = (uint)child;
                 pos = 0u;
                 child_order(nodes[node].axes, d.x, d.y, d.z, order);
@@ -169,7 +176,11 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
             state = TS_INVALID; /* back at the root with every child done */
         } else {
             qbvh_ascend(nodes, &node, &pos, order, d.x, d.y, d.z);
-            hits = qbvh_children_hit(&nodes[node], o4, inv, tmax);
+            if (held != 0u) {
+                hits = above & 15u, above >>= 4, --held;
+            } else {
+                hits = qbvh_children_hit(&nodes[node], o4, inv, tmax);
+            }
         }
     }
     count[i] = n;

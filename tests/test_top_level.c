@@ -32,6 +32,53 @@ static void random_patches(ts_scene *s, uint32_t seed)
     }
 }
 
+/* A top-level BVH of CHAIN_NODES nodes in a chain (for test_deep_tree_every_box_once): node
+ * i holds patches 3i .. 3i + 2 in children 0-2 and node i + 1, whose box is the union of the
+ * patches after them, in child 3; every box spans most of the cube, so most rays descend to
+ * the bottom, far deeper than the 8 levels whose hit masks top_level_collect remembers. */
+enum { CHAIN_NODES = PATCHES / 3 };
+
+static void chain_nodes(const ts_scene *s, ts_qbvh_node nodes[CHAIN_NODES])
+{
+    for (int i = CHAIN_NODES - 1; i >= 0; --i) {
+        ts_qbvh_node *n = &nodes[i];
+        memset(n, 0, sizeof *n);
+        n->parent = i - 1, n->parent_slot = 3u, n->axes = 0u;
+        ts_box below = {1, 1, 1, -1, -1, -1}; /* empty */
+        if (i + 1 < CHAIN_NODES) {
+            const ts_qbvh_node *c = &nodes[i + 1];
+            below =
+                (ts_box){c->lo_x[0], c->lo_y[0], c->lo_z[0], c->hi_x[0], c->hi_y[0], c->hi_z[0]};
+            for (int k = 1; k < 4; ++k)
+                if (c->child[k] != TS_CHILD_EMPTY) {
+                    below.lo_x = fminf(below.lo_x, c->lo_x[k]),
+                    below.hi_x = fmaxf(below.hi_x, c->hi_x[k]);
+                    below.lo_y = fminf(below.lo_y, c->lo_y[k]),
+                    below.hi_y = fmaxf(below.hi_y, c->hi_y[k]);
+                    below.lo_z = fminf(below.lo_z, c->lo_z[k]),
+                    below.hi_z = fmaxf(below.hi_z, c->hi_z[k]);
+                }
+        }
+        for (int k = 0; k < 4; ++k) {
+            ts_box b = k < 3 ? scene_patch_box(s, (uint32_t)(3 * i + k)) : below;
+            n->child[k] = k < 3                 ? ~(ts_i32)(3 * i + k)
+                          : i + 1 < CHAIN_NODES ? i + 1
+                                                : TS_CHILD_EMPTY;
+            n->lo_x[k] = b.lo_x, n->lo_y[k] = b.lo_y, n->lo_z[k] = b.lo_z;
+            n->hi_x[k] = b.hi_x, n->hi_y[k] = b.hi_y, n->hi_z[k] = b.hi_z;
+        }
+    }
+}
+
+/* Replaces the pipeline's top-level BVH by the chain (its buffer holds as many nodes). */
+static void use_chain(ts_device *cl, ts_pipeline *p, const ts_scene *s)
+{
+    assert_true(p->qbvh.node_count >= CHAIN_NODES);
+    ts_qbvh_node nodes[CHAIN_NODES];
+    chain_nodes(s, nodes);
+    clEnqueueWriteBuffer(cl->queue, p->qbvh_nodes, CL_TRUE, 0, sizeof nodes, nodes, 0, NULL, NULL);
+}
+
 /* Whether the ray org + t dir, 0 <= t <= tmax, meets box x: the slab test in double,
  * written here apart from lib/intersect.h's box_enter (float, reciprocal directions, widened
  * far distance) that the kernel uses. A zero direction component meets its slab when the
@@ -112,7 +159,8 @@ static void assert_every_box_once(const ts_scene *s, const ts_vec4 *org, const t
                  wanted);
 }
 
-static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int finite_tmax)
+static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int finite_tmax,
+                     int chain)
 {
     ts_stats stats;
     memset(&stats, 0, sizeof stats);
@@ -121,6 +169,7 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
     pipeline_plan_arenas(&plan, 1, 1);
     ts_pipeline p;
     if (pipeline_create(&p, cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
+    if (chain) use_chain(cl, &p, s);
     ts_vec4 org[RAYS], dir[RAYS];
     ts_hit hit[RAYS];
     uint32_t entry[RAYS];
@@ -154,7 +203,8 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
     }
     assert_true(done);
     char what[64];
-    snprintf(what, sizeof what, "N=%u, finite tmax %d", n_per_ray, finite_tmax);
+    snprintf(what, sizeof what, "N=%u, finite tmax %d%s", n_per_ray, finite_tmax,
+             chain ? ", chain" : "");
     assert_every_box_once(s, org, dir, hit, seen, what);
     free(seen);
     free(pairs);
@@ -167,7 +217,8 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
  * its next candidates and then TS_INVALID leaves; a ray whose window is shorter than the cap
  * N had no more candidates and ends its traversal in that iteration; over all iterations
  * every box it meets is emitted once, as with uniform windows. */
-static void run_filled_case(ts_device *cl, const ts_scene *s, uint32_t max_n, int finite_tmax)
+static void run_filled_case(ts_device *cl, const ts_scene *s, uint32_t max_n, int finite_tmax,
+                            int chain)
 {
     ts_stats stats;
     memset(&stats, 0, sizeof stats);
@@ -177,6 +228,7 @@ static void run_filled_case(ts_device *cl, const ts_scene *s, uint32_t max_n, in
     pipeline_plan_arenas(&plan, 1, 1);
     ts_pipeline p;
     if (pipeline_create(&p, cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
+    if (chain) use_chain(cl, &p, s);
     ts_vec4 org[RAYS], dir[RAYS];
     ts_hit hit[RAYS];
     uint32_t entry[RAYS], count[RAYS], first[RAYS + 1];
@@ -225,7 +277,8 @@ static void run_filled_case(ts_device *cl, const ts_scene *s, uint32_t max_n, in
     assert_true(ended_short > 0);
     assert_true(max_n > 2 || (capped > 0 && iterations > 1));
     char what[64];
-    snprintf(what, sizeof what, "filled, cap %u, finite tmax %d", max_n, finite_tmax);
+    snprintf(what, sizeof what, "filled, cap %u, finite tmax %d%s", max_n, finite_tmax,
+             chain ? ", chain" : "");
     assert_every_box_once(s, org, dir, hit, seen, what);
     free(seen);
     free(pairs);
@@ -242,10 +295,28 @@ static void test_every_box_once(void **state)
     const uint32_t ns[3] = {1, 3, 100};
     for (int i = 0; i < 3; ++i)
         for (int finite = 0; finite < 2; ++finite)
-            run_case(&cl, &s, ns[i], finite);
+            run_case(&cl, &s, ns[i], finite, 0);
     for (int finite = 0; finite < 2; ++finite) {
-        run_filled_case(&cl, &s, 2, finite);
-        run_filled_case(&cl, &s, 100, finite);
+        run_filled_case(&cl, &s, 2, finite, 0);
+        run_filled_case(&cl, &s, 100, finite, 0);
+    }
+    scene_free(&s);
+    dev_close(&cl);
+}
+
+/* The same through a top-level BVH deeper than the 8 levels whose hit masks
+ * top_level_collect remembers (chain_nodes: it tests a node's children again when it climbs
+ * above them), from the root and resumed below it. */
+static void test_deep_tree_every_box_once(void **state)
+{
+    ts_device cl;
+    test_open_device(&cl);
+    ts_scene s;
+    random_patches(&s, 7u);
+    for (int finite = 0; finite < 2; ++finite) {
+        run_case(&cl, &s, 3, finite, 1);
+        run_case(&cl, &s, 100, finite, 1);
+        run_filled_case(&cl, &s, 100, finite, 1);
     }
     scene_free(&s);
     dev_close(&cl);
@@ -253,6 +324,7 @@ static void test_every_box_once(void **state)
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {cmocka_unit_test(test_every_box_once)};
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_every_box_once),
+                                       cmocka_unit_test(test_deep_tree_every_box_once)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
