@@ -276,6 +276,46 @@ static void test_waves_of_background(void **state)
     eta_free(&plain);
 }
 
+/* eta_units_left: the units out longest run, one a device, the others wait in line (an MPI
+ * rank's next unit while it traces one); a unit of background adds no dicing; -1 until a
+ * merged unit evicted. The frame measured: forest-100 1920x768 x 2 at --memory 512 on two
+ * devices, whose first unit (sky and treetops, 2% of the weight) took 10 s, and whose line
+ * said 784 s with 67 s left by the weights' rate. */
+static void test_units_that_dice_again(void **state)
+{
+    (void)state;
+    ts_eta_unit u[5] = {
+        {.work = 2.0,
+         .seconds = 10.0,
+         .dicing = 8.0,
+         .state = TS_ETA_UNIT_MERGED,
+         .evicted = 0,
+         .geometry = 1},
+        {.work = 40.0, .seconds = 4.0, .state = TS_ETA_UNIT_OUT, .geometry = 1},
+        {.work = 40.0, .seconds = 10.0, .state = TS_ETA_UNIT_OUT, .geometry = 1},
+        {.work = 10.0, .state = TS_ETA_UNIT_WAITING, .geometry = 1},
+        {.work = 8.0, .state = TS_ETA_UNIT_WAITING, .geometry = 0},
+    };
+    assert_true(eta_units_left(u, 5, 2) == -1.0); /* nothing evicted: the weights hold */
+    u[0].evicted = 1;                             /* 2 of weight in 2 s, and 8 s of dicing a unit */
+    /* two devices: units 2 and 1 end in 40 + 8 - 10 = 38 s and 44 s, unit 3 (10 + 8) follows
+     * unit 2 (56 s), unit 4 (sky: 8, no dicing) unit 1 (52 s) */
+    assert_true(fabs(eta_units_left(u, 5, 2) - 56.0) < 1e-9);
+    /* one device (an MPI rank that took unit 1 ahead): unit 2, out longer, runs, unit 1 waits */
+    assert_true(fabs(eta_units_left(u, 5, 1) - (38.0 + 48.0 + 18.0 + 8.0)) < 1e-9);
+    /* four: every unit at once, the last to end the one out least long */
+    assert_true(fabs(eta_units_left(u, 5, 4) - 44.0) < 1e-9);
+    assert_true(eta_units_left(u, 5, 0) == -1.0);
+    /* unit 2 waits behind unit 1 on its device (queued: an MPI rank's next): unit 1 runs (44 s
+     * left), unit 2 (48) goes first in line to the free device, then unit 3 (44 + 18) and
+     * unit 4 (48 + 8) */
+    u[2].queued = 1, u[2].seconds = 0.0;
+    assert_true(fabs(eta_units_left(u, 5, 2) - 62.0) < 1e-9);
+    /* a unit out longer than expected has a quarter of its time so far left, not nothing */
+    u[2].queued = 0, u[2].seconds = 80.0;
+    assert_true(fabs(eta_units_left(u, 5, 1) - (20.0 + 48.0 + 18.0 + 8.0)) < 1e-9);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -286,6 +326,7 @@ int main(void)
         cmocka_unit_test(test_waves_by_passes),
         cmocka_unit_test(test_waves_that_fit),
         cmocka_unit_test(test_waves_of_background),
+        cmocka_unit_test(test_units_that_dice_again),
         cmocka_unit_test(test_line_fits_80_columns),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

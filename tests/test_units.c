@@ -15,6 +15,7 @@
 #include "base/stats.h"
 #include "lib/sample_order.h"
 
+#include <math.h>
 #include <pthread.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -843,6 +844,82 @@ static void test_board_credits_units_in_flight(void **state)
     film_state_free(&f);
 }
 
+/* Units that dice again (the frame's patches do not fit: each unit a wave): the board hands
+ * eta_units_left each unit's weight, its seconds (merged: taken to merged; out: so far) and
+ * what its result says it diced, and the estimate waits for a unit that evicted. */
+static void test_board_units_left_when_units_dice_again(void **state)
+{
+    (void)state;
+    ts_film_state f;
+    ts_board b;
+    ts_error err = {0};
+    ts_sample_order o = order_of(W); /* one row a band: H units of W * SPP samples */
+    const double span = (double)W * SPP;
+    ts_eta eta;
+    assert_int_equal(eta_init(&eta, NULL, W * H, SPP, W, &err), TS_OK);
+    board_open(&b, &f, &o);
+    assert_int_equal(b.unit_count, H);
+    ts_unit u[3];
+    for (int i = 0; i < 3; ++i)
+        assert_int_equal(board_try_take(&b, &u[i]), 1);
+    double now = stats_now();
+    for (int i = 0; i < 3; ++i)
+        b.since[i] = b.started[i] = now - 100.0;
+    ts_unit_result r;
+    trace(&o, &u[0], &r);
+    r.dicing = 60.0, r.evicted = 0; /* fits: the weights' rate holds */
+    assert_int_equal(board_done(&b, &u[0], &r), 1);
+    assert_true(board_units_left(&b, &eta, now, 2) == -1.0);
+    trace(&o, &u[1], &r);
+    r.dicing = 60.0, r.evicted = 1;
+    assert_int_equal(board_done(&b, &u[1], &r), 1);
+    now = b.since[0] + b.took[1]; /* when unit 1 was merged: units 1 and 2 out as long */
+    double took0 = b.took[0], took1 = b.took[1];
+    /* a unit: its weight at (took0 + took1 - 60) / (2 span), plus 60 s of dicing */
+    double unit = (took0 + took1 - 60.0) / 2.0 + 60.0, out = unit - took1;
+    double k = H - 3; /* units not out */
+    double one = board_units_left(&b, &eta, now, 1), two = board_units_left(&b, &eta, now, 2);
+    assert_true(fabs(one - (out + k * unit)) < 1e-6 * one);
+    /* two devices: the one free takes the first, the other its next as unit 2 ends, ... */
+    double even = (double)((int)k / 2), odd = k - even; /* units to the free one, to the other */
+    double expect = fmax(odd * unit, out + even * unit);
+    assert_true(fabs(two - expect) < 1e-6 * two);
+    (void)span;
+    eta_free(&eta);
+    board_free(&b);
+    film_state_free(&f);
+}
+
+/* An MPI rank takes its next unit while it traces one (board_try_take_for): that unit begins
+ * when the one before is done with, merged or given back, and waits until then. */
+static void test_board_owner_takes_ahead(void **state)
+{
+    (void)state;
+    ts_film_state f;
+    ts_board b;
+    ts_sample_order o = order_of(W);
+    board_open(&b, &f, &o);
+    const uint32_t rank = TS_BOARD_TAKERS + 1;
+    ts_unit u[4];
+    assert_int_equal(board_try_take_for(&b, rank, &u[0]), 1);
+    assert_int_equal(board_try_take_for(&b, rank, &u[1]), 1);
+    assert_int_equal(board_try_take_for(&b, rank, &u[2]), 1);
+    assert_int_equal(board_try_take_for(&b, rank + 1, &u[3]), 1); /* another rank's: begins */
+    assert_true(b.started[u[0].index] == b.since[u[0].index]);
+    assert_true(b.started[u[1].index] < 0.0 && b.started[u[2].index] < 0.0);
+    assert_true(b.started[u[3].index] == b.since[u[3].index]);
+    double before = stats_now();
+    ts_unit_result r;
+    trace(&o, &u[0], &r);
+    assert_int_equal(board_done(&b, &u[0], &r), 1);
+    assert_true(b.started[u[1].index] >= before); /* the next in order begins */
+    assert_true(b.started[u[2].index] < 0.0);
+    board_give_back(&b, &u[1]);
+    assert_true(b.started[u[2].index] >= before);
+    board_free(&b);
+    film_state_free(&f);
+}
+
 static void test_units_plan(void **state)
 {
     (void)state;
@@ -876,6 +953,8 @@ int main(void)
         cmocka_unit_test(test_board_backs_up_only_the_slow),
         cmocka_unit_test(test_board_regathers_before_handing_out),
         cmocka_unit_test(test_board_credits_units_in_flight),
+        cmocka_unit_test(test_board_units_left_when_units_dice_again),
+        cmocka_unit_test(test_board_owner_takes_ahead),
         cmocka_unit_test(test_units_plan),
     };
     return cmocka_run_group_tests(tests, setup, NULL);

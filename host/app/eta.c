@@ -162,6 +162,63 @@ double eta_waves_left_passes(const ts_eta_waves *w, double current, double elaps
     return left + eta_waves_left(&then, 0.0, 0.0, after, waves_after);
 }
 
+/* The first of free[0..n) to free (the least). */
+static uint32_t earliest(const double *free_at, uint32_t n)
+{
+    uint32_t k = 0;
+    for (uint32_t i = 1; i < n; ++i)
+        if (free_at[i] < free_at[k]) k = i;
+    return k;
+}
+
+/* The seconds unit u is expected to take (eta_units_left). */
+static double unit_expect(const ts_eta_unit *u, double rate, double dicing)
+{
+    return rate * u->work + (u->geometry ? dicing : 0.0);
+}
+
+double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
+{
+    ts_eta_waves w = {0};
+    for (uint32_t i = 0; i < n; ++i)
+        if (u[i].state == TS_ETA_UNIT_MERGED)
+            eta_waves_done(&w, u[i].work, u[i].seconds, u[i].dicing, u[i].evicted, NULL);
+    if (!w.evicting || parallel == 0) return -1.0;
+    double rate = w.work > 0.0 ? w.seconds / w.work : 0.0, dicing = w.dicing / w.evicting;
+    double *free_at = calloc(parallel, sizeof *free_at);
+    uint8_t *placed = calloc(n ? n : 1, 1);
+    if (!free_at || !placed) {
+        free(free_at), free(placed);
+        return -1.0;
+    }
+    /* The units a device traces, out longest first, each on a device of its own: it frees when
+     * the unit ends, or, for a unit out longer than expected, after another quarter of its
+     * time so far (it has not ended: 0 would be no estimate). */
+    for (uint32_t running = 0; running < parallel; ++running) {
+        int64_t next = -1;
+        for (uint32_t i = 0; i < n; ++i)
+            if (u[i].state == TS_ETA_UNIT_OUT && !u[i].queued && !placed[i] &&
+                (next < 0 || u[i].seconds > u[next].seconds))
+                next = i;
+        if (next < 0) break;
+        placed[next] = 1;
+        double left = unit_expect(&u[next], rate, dicing) - u[next].seconds;
+        free_at[running] = left > 0.25 * u[next].seconds ? left : 0.25 * u[next].seconds;
+    }
+    /* Then the units out that wait (a device traces another, or more are out than devices),
+     * and the units not out, in order: each to the device that frees first. */
+    for (int pass = 0; pass < 2; ++pass)
+        for (uint32_t i = 0; i < n; ++i)
+            if (!placed[i] && u[i].state == (pass == 0 ? TS_ETA_UNIT_OUT : TS_ETA_UNIT_WAITING))
+                free_at[earliest(free_at, parallel)] += unit_expect(&u[i], rate, dicing);
+    double left = 0.0;
+    for (uint32_t i = 0; i < parallel; ++i)
+        left = free_at[i] > left ? free_at[i] : left;
+    free(free_at);
+    free(placed);
+    return left;
+}
+
 /* "\rtessera: N / T samples, P% done, R Mrays/s, TAIL": under 80 columns (a longer line
  * wraps on a terminal and each update then scrolls). On a terminal the rest of a longer line
  * before it is erased (ESC [ K); elsewhere (a log) three spaces follow, as ever. */

@@ -131,4 +131,29 @@ double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double
 double eta_waves_left_passes(const ts_eta_waves *w, double current, double elapsed, double after,
                              uint32_t waves_after, const ts_eta_passes *now, double *projected);
 
+/* The units of several devices or MPI ranks (units.h) when the frame's patches do not fit:
+ * each is a wave that dices the scene again (workers.c worker_squeeze), so a unit's time is
+ * not its weight at the rate so far (forest-100 1920x768 x 2 at --memory 512 on two devices:
+ * its first unit, of sky, 2% of the weight in 15 s, put the time left at 784 s when 65 s were
+ * left). As eta_waves_expect models one device's waves, from the merged units (their weight,
+ * seconds, dicing seconds, whether they evicted): a unit is expected to take its weight at
+ * the rate of the rest plus a unit's mean dicing where its eye rays cross a patch box; the
+ * `parallel` devices then finish the units out and take the others in order, each the next as
+ * it frees (the units out longest run first; those beyond `parallel` wait, as an MPI rank's
+ * next unit does while it traces one). */
+enum { TS_ETA_UNIT_WAITING, TS_ETA_UNIT_OUT, TS_ETA_UNIT_MERGED };
+typedef struct ts_eta_unit {
+    double work;    /* its weight (eta_work) */
+    double seconds; /* merged: from taken to merged; out: since it was taken */
+    double dicing;  /* merged: its dicing seconds */
+    int state;      /* TS_ETA_UNIT_... */
+    int evicted;    /* merged: the patch cache evicted while it was traced */
+    int geometry;   /* its eye rays cross a patch box (eta_waves_with_geometry) */
+    int queued;     /* out, but its device traces another first (seconds 0) */
+} ts_eta_unit;
+
+/* The seconds left for units u[0..n) on `parallel` devices (>= 1) as above; -1 unless a
+ * merged unit evicted (then the weights' rate holds: eta_seconds_left). */
+double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel);
+
 #endif

@@ -50,6 +50,8 @@ typedef struct ranks_lod_head {
 typedef struct ranks_result_head {
     ts_unit unit;
     uint64_t rays, aov_count;
+    double dicing;    /* ts_unit_result's */
+    uint64_t evicted; /* likewise */
 } ranks_result_head;
 
 /* A rank's goodbye: this header, then device_count ts_device_stats. */
@@ -229,6 +231,7 @@ static int take_result(ranks_peer *p, ts_board *b, const void *data, int bytes, 
     }
     memcpy(res.radiance, (const char *)data + sizeof head, payload);
     res.rays = head.rays;
+    res.dicing = head.dicing, res.evicted = head.evicted != 0;
     peer_track(p, &head.unit, 0);
     board_done(b, &head.unit, &res);
     return TS_OK;
@@ -310,7 +313,7 @@ static int serve(ts_ranks *r, ts_board *b, int quiet, ts_error *err)
         ranks_peer *p = &r->peers[k];
         while (p->wants > 0 && !p->bye) {
             ts_unit u;
-            int t = board_try_take(b, &u);
+            int t = board_try_take_for(b, TS_BOARD_TAKERS + (uint32_t)k, &u);
             if (t == 0) break;
             if (t < 0) u = (ts_unit){.index = UINT32_MAX}; /* none left */
             if (t > 0 && peer_track(p, &u, 1)) {
@@ -516,7 +519,8 @@ static int send_items(relay_item *it, ts_error *err)
             rc = send_bytes(&it->unit, sizeof it->unit, 0, RANKS_TAG_GIVE_BACK, err);
         } else if (!rc) {
             ts_unit_result *res = &it->result;
-            ranks_result_head head = {it->unit, res->rays, res->aov_count};
+            ranks_result_head head = {it->unit, res->rays, res->aov_count, res->dicing,
+                                      res->evicted};
             size_t payload = (size_t)(it->unit.count + 2 * res->aov_count) * sizeof(ts_vec4);
             char *msg = malloc(sizeof head + payload);
             if (!msg) rc = ts_error_set(err, TS_E_MEMORY, "out of memory (sending a unit)");

@@ -827,9 +827,14 @@ static void render_stream_end(ts_render *r, int finished)
 
 /* A device's share of the samples the frame has left: of every device of every MPI rank
  * (ts_frame.share_samples, ts_rank_start.share_samples). */
+static uint32_t render_devices_all(const ts_render *r)
+{
+    return (uint32_t)r->device_count * (r->ranks ? (uint32_t)r->ranks->size : 1u);
+}
+
 static uint64_t render_share_samples(const ts_render *r)
 {
-    uint64_t devices = (uint64_t)r->device_count * (r->ranks ? (uint64_t)r->ranks->size : 1u);
+    uint64_t devices = render_devices_all(r);
     return (r->job.total - r->job.samples_done + devices - 1) / devices;
 }
 
@@ -850,6 +855,7 @@ static int render_on_devices(ts_render *r, ts_error *err)
     else
         units_plan(r->job.total - start, (uint32_t)r->device_count, &f.unit_samples);
     f.share_samples = render_share_samples(r);
+    f.devices_all = render_devices_all(r);
     job_choose_band(&r->job, &r->cam); /* units_list gathers units of whole pixels */
     f.cam = r->cam;
     if (!r->opt.quiet && r->ranks)

@@ -159,7 +159,12 @@ int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint6
     b->holder = calloc(n, sizeof *b->holder);
     b->since = calloc(n, sizeof *b->since);
     b->took = calloc(n, sizeof *b->took);
-    if (!b->state || !b->holders || !b->holder || !b->since || !b->took) {
+    b->diced = calloc(n, sizeof *b->diced);
+    b->evicted = calloc(n, 1);
+    b->owner = calloc(n, sizeof *b->owner);
+    b->started = calloc(n, sizeof *b->started);
+    if (!b->state || !b->holders || !b->holder || !b->since || !b->took || !b->diced ||
+        !b->evicted || !b->owner || !b->started) {
         ts_error_set(err, TS_E_MEMORY, "out of memory");
         goto fail;
     }
@@ -175,6 +180,10 @@ fail:
     free(b->holder);
     free(b->since);
     free(b->took);
+    free(b->diced);
+    free(b->evicted);
+    free(b->owner);
+    free(b->started);
     done_free(&b->done);
     memset(b, 0, sizeof *b);
     return err->code;
@@ -188,6 +197,10 @@ void board_free(ts_board *b)
     free(b->holder);
     free(b->since);
     free(b->took);
+    free(b->diced);
+    free(b->evicted);
+    free(b->owner);
+    free(b->started);
     free(b->units);
     done_free(&b->done);
     pthread_mutex_destroy(&b->lock);
@@ -232,6 +245,7 @@ static void hand_out(ts_board *b, uint32_t i, uint16_t taker, double now, ts_uni
     b->holders[i] = 1;
     b->holder[i] = taker;
     b->since[i] = now;
+    b->owner[i] = taker, b->started[i] = now;
     if (taker) b->taker[taker - 1].since = now;
     *u = b->units[i];
     u->taker = taker;
@@ -306,6 +320,36 @@ static int take_locked(ts_board *b, uint16_t taker, ts_unit *u, double *wake)
     return out ? 0 : -1;
 }
 
+/* Unit i (out or not) is done with or given back: its owner's next unit out, waiting behind
+ * it (started < 0), starts now. */
+static void owner_next(ts_board *b, uint32_t i, double now)
+{
+    uint32_t o = b->owner[i];
+    int64_t next = -1;
+    for (uint32_t k = 0; o && k < b->next; ++k)
+        if (k != i && b->state[k] == UNIT_OUT && b->owner[k] == o && b->started[k] < 0 &&
+            (next < 0 || b->since[k] < b->since[next]))
+            next = k;
+    if (next >= 0) b->started[next] = now;
+}
+
+int board_try_take_for(ts_board *b, uint32_t owner, ts_unit *u)
+{
+    double wake;
+    pthread_mutex_lock(&b->lock);
+    int rc = take_locked(b, 0, u, &wake);
+    if (rc == 1 && owner) {
+        uint32_t i = u->index;
+        int busy = 0;
+        for (uint32_t k = 0; k < b->next; ++k)
+            busy |= k != i && b->state[k] == UNIT_OUT && b->owner[k] == owner;
+        b->owner[i] = owner;
+        b->started[i] = busy ? -1.0 : b->since[i];
+    }
+    pthread_mutex_unlock(&b->lock);
+    return rc;
+}
+
 int board_try_take(ts_board *b, ts_unit *u)
 {
     double wake;
@@ -377,6 +421,7 @@ int board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
     }
     uint32_t i = u->index;
     b->holders[i]--;
+    owner_next(b, i, stats_now());
     if (u->taker && u->taker <= TS_BOARD_TAKERS) { /* its speed, merged or not */
         ts_board_taker *t = &b->taker[u->taker - 1];
         t->seconds += stats_now() - t->since;
@@ -389,6 +434,7 @@ int board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
         b->merge_seconds += stats_now() - t0;
         b->state[i] = UNIT_MERGED;
         b->took[i] = t0 - b->since[i];
+        b->diced[i] = r->dicing, b->evicted[i] = r->evicted != 0;
         b->merged++;
         b->samples_finished += u->count;
         b->rays += r->rays;
@@ -410,6 +456,7 @@ void board_give_back(ts_board *b, const ts_unit *u)
     if (u->index < b->unit_count && b->holders[u->index]) {
         uint32_t i = u->index;
         b->holders[i]--;
+        owner_next(b, i, stats_now());
         if (b->state[i] == UNIT_OUT && !b->holders[i]) b->state[i] = UNIT_GIVEN_BACK;
         /* Its first holder gone, the backup's device holds it: no speed to judge that one
          * by (holder names the first), so no further backup of it. */
@@ -510,6 +557,30 @@ double board_work_in_flight(ts_board *b, const ts_eta *eta, double now)
     }
     pthread_mutex_unlock(&b->lock);
     return credit;
+}
+
+double board_units_left(ts_board *b, const ts_eta *eta, double now, uint32_t parallel)
+{
+    pthread_mutex_lock(&b->lock);
+    uint32_t n = b->unit_count;
+    ts_eta_unit *u = calloc(n ? n : 1, sizeof *u);
+    for (uint32_t i = 0; u && i < n; ++i) {
+        uint64_t first = b->units[i].first, end = first + b->units[i].count;
+        u[i].work = eta_work(eta, end) - eta_work(eta, first);
+        u[i].geometry = eta_waves_with_geometry(eta, first, end, b->units[i].count) != 0;
+        u[i].state = b->state[i] == UNIT_MERGED ? TS_ETA_UNIT_MERGED
+                     : b->state[i] == UNIT_OUT  ? TS_ETA_UNIT_OUT
+                                                : TS_ETA_UNIT_WAITING;
+        u[i].seconds = b->state[i] == UNIT_MERGED                        ? b->took[i]
+                       : b->state[i] == UNIT_OUT && b->started[i] >= 0.0 ? now - b->started[i]
+                                                                         : 0.0;
+        u[i].queued = b->state[i] == UNIT_OUT && b->started[i] < 0.0;
+        u[i].dicing = b->diced[i], u[i].evicted = b->evicted[i];
+    }
+    pthread_mutex_unlock(&b->lock);
+    double left = u ? eta_units_left(u, n, parallel) : -1.0;
+    free(u);
+    return left;
 }
 
 uint64_t board_changes(ts_board *b)

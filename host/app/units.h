@@ -37,6 +37,8 @@ typedef struct ts_unit_result {
     ts_vec4 *radiance, *aov, *albedo;
     uint64_t aov_count;
     uint64_t rays;
+    double dicing;    /* seconds its waves spent in the stages dice and build */
+    uint32_t evicted; /* the patch cache evicted while it was traced (the patches do not fit) */
 } ts_unit_result;
 
 /* Allocates the result of unit u of a frame of order o (16 bytes a sample, 32 more for each
@@ -109,6 +111,13 @@ typedef struct ts_board {
     uint16_t *holder; /* per unit: the taker of its first holder (0: none named, or gone) */
     double *since;    /* per unit: when its first holder took it */
     double *took;     /* per unit merged: the seconds from then to its merge */
+    double *diced;    /* per unit merged: its ts_unit_result dicing */
+    uint8_t *evicted; /* per unit merged: its ts_unit_result evicted */
+    /* per unit out: who traces it (a device slot + 1, board_try_take_for's owner; 0: not
+     * known), and when it began (its take, or when its owner's unit before it was done with:
+     * an MPI rank takes its next unit ahead; -1 until then) */
+    uint32_t *owner;
+    double *started;
     ts_board_taker taker[TS_BOARD_TAKERS]; /* per device slot: how fast it traces */
     int backups;                           /* backup units allowed (TESSERA_BACKUP_UNITS) */
     uint32_t backups_taken;                /* backup units handed out */
@@ -152,6 +161,10 @@ int board_dropped(ts_board *b, const ts_unit *u);
 /* The same without waiting: 1 a unit, 0 none now (every unit is out), -1 none ever again
  * (all handed out and merged, or closed). */
 int board_try_take(ts_board *b, ts_unit *u);
+/* board_try_take for `owner` (> TS_BOARD_TAKERS: an MPI rank's), which may take a unit while
+ * it traces another: the new one is counted as begun once the one before is done with
+ * (merged, dropped or given back), for the progress line's estimate (board_units_left). */
+int board_try_take_for(ts_board *b, uint32_t owner, ts_unit *u);
 /* Unit u is traced: merged into the films at once, and *r freed. Returns 1 when it was
  * merged, 0 when it was dropped (another copy was merged first, or the board is frozen). */
 int board_done(ts_board *b, const ts_unit *u, ts_unit_result *r);
@@ -184,6 +197,9 @@ double board_work_finished(ts_board *b, const ts_eta *eta);
  * a long unit (a frame whose patches do not fit: a unit or two a device) without claiming
  * samples that are not in the films. */
 double board_work_in_flight(ts_board *b, const ts_eta *eta, double now);
+/* The seconds left by eta_units_left (eta.h) on `parallel` devices: the units merged and out
+ * at `now`, their weights by eta; -1 unless a merged unit evicted. */
+double board_units_left(ts_board *b, const ts_eta *eta, double now, uint32_t parallel);
 /* How many times the board has changed (a unit merged or given back, the board closed). */
 uint64_t board_changes(ts_board *b);
 /* Waits up to `seconds` for the board to change after `seen` = board_changes: at once when

@@ -454,6 +454,8 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
     ts_camera_params cam = g->frame.cam;
     uint32_t per_wave = p->plan.ray_capacity / 2;
     uint64_t rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays];
+    uint64_t evictions = w->stats.counters[TS_COUNTER_patch_cache_evictions];
+    double dicing = w->stats.stage_seconds[TS_STAGE_dice] + w->stats.stage_seconds[TS_STAGE_build];
     *stopped = 0;
     for (uint64_t first = u->first; first < u->first + u->count; first += per_wave) {
         if (g->src.closed(g->src.ctx)) return *stopped = 1, TS_OK;
@@ -479,6 +481,10 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
         }
     }
     r->rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays] - rays;
+    /* what the progress line's estimate of squeezed units needs (eta.h eta_units_left) */
+    r->dicing =
+        w->stats.stage_seconds[TS_STAGE_dice] + w->stats.stage_seconds[TS_STAGE_build] - dicing;
+    r->evicted = w->stats.counters[TS_COUNTER_patch_cache_evictions] != evictions;
     return TS_OK;
 }
 
@@ -964,8 +970,19 @@ static int frame_progress(ts_workers *g, ts_board *b, frame_progress_state *st, 
     /* nothing merged: no credit either, so done is 0 and the ETA waits for the first unit */
     double now = stats_now();
     double done = board_work_finished(b, &st->eta) + board_work_in_flight(b, &st->eta, now);
-    eta_print(&st->eta, b->start + finished, b->start, b->total, done, (double)rays, now - st->t0,
-              "unit");
+    /* units that dice again (the frame's patches do not fit): as eta_units_left models them */
+    pthread_mutex_lock(&g->lock);
+    uint32_t failed = (uint32_t)(g->count - g->alive), all = g->frame.devices_all;
+    pthread_mutex_unlock(&g->lock);
+    all = all > (uint32_t)g->count ? all : (uint32_t)g->count;
+    double left =
+        st->weighed ? board_units_left(b, &st->eta, now, all > failed ? all - failed : 1u) : -1.0;
+    if (left >= 0.0)
+        eta_print_left(&st->eta, b->start + finished, b->start, b->total, done, (double)rays,
+                       now - st->t0, left, "unit");
+    else
+        eta_print(&st->eta, b->start + finished, b->start, b->total, done, (double)rays,
+                  now - st->t0, "unit");
     return 1;
 }
 

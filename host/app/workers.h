@@ -29,6 +29,8 @@ typedef struct ts_frame {
                                (several ranks on one machine): each takes a share of it */
     uint64_t share_samples; /* a device's share of the samples left: of every device of
                                every rank (0: not known) */
+    uint32_t devices_all;   /* the devices of every rank (each with as many as this one's, as
+                               share_samples counts them; 0: this process's) */
 } ts_frame;
 
 typedef struct ts_worker ts_worker;
