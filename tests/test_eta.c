@@ -316,6 +316,40 @@ static void test_units_that_dice_again(void **state)
     assert_true(fabs(eta_units_left(u, 5, 1) - (20.0 + 48.0 + 18.0 + 8.0)) < 1e-9);
 }
 
+/* A unit a device traces is projected from its wave's passes, as one device's wave is
+ * (eta_waves_project, against the last merged unit's passes), and the units after it are
+ * expected as if it had ended so. */
+static void test_units_by_passes(void **state)
+{
+    (void)state;
+    ts_eta_passes then = {.end = {4, 12, 17, 20},
+                          .dicing = {2, 7, 10, 12},
+                          .rays = {100, 50, 10, 2},
+                          .count = 4,
+                          .started = 4};
+    ts_eta_passes now = {
+        .end = {5, 9}, .dicing = {3, 6}, .rays = {100, 50, 20}, .count = 2, .started = 3};
+    ts_eta_unit u[3] = {
+        {.work = 2.0,
+         .seconds = 20.0,
+         .dicing = 12.0,
+         .state = TS_ETA_UNIT_MERGED,
+         .evicted = 1,
+         .geometry = 1,
+         .passes = &then},
+        {.work = 10.0, .seconds = 10.0, .state = TS_ETA_UNIT_OUT, .geometry = 1, .passes = &now},
+        {.work = 10.0, .state = TS_ETA_UNIT_WAITING, .geometry = 1},
+    };
+    /* unit 1: 9 s through the two passes that took unit 0 12 of its 20 s: 15 s (5 left), 10 of
+     * them dicing; unit 2 then at (8 + 5) s for 12 of weight and (12 + 10) / 2 s of dicing */
+    double unit2 = 13.0 / 12.0 * 10.0 + 11.0;
+    assert_true(fabs(eta_units_left(u, 3, 2) - unit2) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 3, 1) - (5.0 + unit2)) < 1e-9);
+    /* without its passes unit 1 is its weight at 4 s a unit of weight and 12 s of dicing */
+    u[1].passes = NULL;
+    assert_true(fabs(eta_units_left(u, 3, 1) - (42.0 + 52.0)) < 1e-9);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -327,6 +361,7 @@ int main(void)
         cmocka_unit_test(test_waves_that_fit),
         cmocka_unit_test(test_waves_of_background),
         cmocka_unit_test(test_units_that_dice_again),
+        cmocka_unit_test(test_units_by_passes),
         cmocka_unit_test(test_line_fits_80_columns),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -884,6 +884,12 @@ static void test_board_units_left_when_units_dice_again(void **state)
     double even = (double)((int)k / 2), odd = k - even; /* units to the free one, to the other */
     double expect = fmax(odd * unit, out + even * unit);
     assert_true(fabs(two - expect) < 1e-6 * two);
+    /* a unit out keeps its device's passes so far; one merged, its result's */
+    ts_eta_passes p = {.end = {1, 2}, .count = 2, .started = 3};
+    board_unit_passes(&b, &u[2], &p);
+    assert_int_equal(b.passes[u[2].index].count, 2);
+    board_unit_passes(&b, &u[1], &p); /* merged: kept as its result said */
+    assert_int_equal(b.passes[u[1].index].count, 0);
     (void)span;
     eta_free(&eta);
     board_free(&b);

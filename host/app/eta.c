@@ -171,10 +171,13 @@ static uint32_t earliest(const double *free_at, uint32_t n)
     return k;
 }
 
-/* The seconds unit u is expected to take (eta_units_left). */
-static double unit_expect(const ts_eta_unit *u, double rate, double dicing)
+/* The seconds a unit of weight `work` is expected to take by the units that ended, w
+ * (eta_units_left): its weight at their rate, less their dicing, and, where its eye rays cross
+ * a patch box, their mean dicing. */
+static double unit_expect(const ts_eta_waves *w, double work, int geometry)
 {
-    return rate * u->work + (u->geometry ? dicing : 0.0);
+    double rate = w->work > 0.0 ? w->seconds / w->work : 0.0;
+    return rate * work + (geometry && w->evicting ? w->dicing / w->evicting : 0.0);
 }
 
 double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
@@ -182,18 +185,20 @@ double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
     ts_eta_waves w = {0};
     for (uint32_t i = 0; i < n; ++i)
         if (u[i].state == TS_ETA_UNIT_MERGED)
-            eta_waves_done(&w, u[i].work, u[i].seconds, u[i].dicing, u[i].evicted, NULL);
+            eta_waves_done(&w, u[i].work, u[i].seconds, u[i].dicing, u[i].evicted, u[i].passes);
     if (!w.evicting || parallel == 0) return -1.0;
-    double rate = w.work > 0.0 ? w.seconds / w.work : 0.0, dicing = w.dicing / w.evicting;
     double *free_at = calloc(parallel, sizeof *free_at);
     uint8_t *placed = calloc(n ? n : 1, 1);
     if (!free_at || !placed) {
         free(free_at), free(placed);
         return -1.0;
     }
-    /* The units a device traces, out longest first, each on a device of its own: it frees when
-     * the unit ends, or, for a unit out longer than expected, after another quarter of its
-     * time so far (it has not ended: 0 would be no estimate). */
+    /* The units a device traces, out longest first, each on a device of its own: projected
+     * from its wave's passes where eta_waves_project can (and then counted, as projected,
+     * for the units after it: `then`), else expected as above. A device frees when its unit
+     * ends, or, for a unit out longer than that, after another quarter of its time so far (it
+     * has not ended: 0 would be no estimate). */
+    ts_eta_waves then = w;
     for (uint32_t running = 0; running < parallel; ++running) {
         int64_t next = -1;
         for (uint32_t i = 0; i < n; ++i)
@@ -201,16 +206,23 @@ double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
                 (next < 0 || u[i].seconds > u[next].seconds))
                 next = i;
         if (next < 0) break;
+        const ts_eta_unit *x = &u[next];
         placed[next] = 1;
-        double left = unit_expect(&u[next], rate, dicing) - u[next].seconds;
-        free_at[running] = left > 0.25 * u[next].seconds ? left : 0.25 * u[next].seconds;
+        double dicing = 0.0, expect = x->passes ? eta_waves_project(&w, x->passes, &dicing) : -1.0;
+        if (expect >= 0.0)
+            eta_waves_done(&then, x->work, expect, dicing, 1, NULL);
+        else
+            expect = unit_expect(&w, x->work, x->geometry);
+        double left = expect - x->seconds;
+        free_at[running] = left > 0.25 * x->seconds ? left : 0.25 * x->seconds;
     }
     /* Then the units out that wait (a device traces another, or more are out than devices),
      * and the units not out, in order: each to the device that frees first. */
     for (int pass = 0; pass < 2; ++pass)
         for (uint32_t i = 0; i < n; ++i)
             if (!placed[i] && u[i].state == (pass == 0 ? TS_ETA_UNIT_OUT : TS_ETA_UNIT_WAITING))
-                free_at[earliest(free_at, parallel)] += unit_expect(&u[i], rate, dicing);
+                free_at[earliest(free_at, parallel)] +=
+                    unit_expect(&then, u[i].work, u[i].geometry);
     double left = 0.0;
     for (uint32_t i = 0; i < parallel; ++i)
         left = free_at[i] > left ? free_at[i] : left;

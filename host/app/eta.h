@@ -135,12 +135,15 @@ double eta_waves_left_passes(const ts_eta_waves *w, double current, double elaps
  * each is a wave that dices the scene again (workers.c worker_squeeze), so a unit's time is
  * not its weight at the rate so far (forest-100 1920x768 x 2 at --memory 512 on two devices:
  * its first unit, of sky, 2% of the weight in 15 s, put the time left at 784 s when 65 s were
- * left). As eta_waves_expect models one device's waves, from the merged units (their weight,
- * seconds, dicing seconds, whether they evicted): a unit is expected to take its weight at
- * the rate of the rest plus a unit's mean dicing where its eye rays cross a patch box; the
- * `parallel` devices then finish the units out and take the others in order, each the next as
- * it frees (the units out longest run first; those beyond `parallel` wait, as an MPI rank's
- * next unit does while it traces one). */
+ * left). As one device's waves are modelled, from the merged units (their weight, seconds,
+ * dicing seconds, whether they evicted, their passes): a unit out is projected from its
+ * wave's passes so far (eta_waves_project) where it can, and otherwise, as every unit not out,
+ * expected to take its weight at the rate of the rest plus a unit's mean dicing where its eye
+ * rays cross a patch box (the units projected counted as ended so); the `parallel` devices
+ * then finish the units out and take the others in order, each the next as it frees (the
+ * units out longest run first; those queued, or beyond `parallel`, wait, as an MPI rank's next
+ * unit does while it traces one); a unit out longer than expected has a quarter of its time
+ * so far left. */
 enum { TS_ETA_UNIT_WAITING, TS_ETA_UNIT_OUT, TS_ETA_UNIT_MERGED };
 typedef struct ts_eta_unit {
     double work;    /* its weight (eta_work) */
@@ -150,6 +153,9 @@ typedef struct ts_eta_unit {
     int evicted;    /* merged: the patch cache evicted while it was traced */
     int geometry;   /* its eye rays cross a patch box (eta_waves_with_geometry) */
     int queued;     /* out, but its device traces another first (seconds 0) */
+    /* merged: the passes of its (last) wave; out: those of the wave it traces, so far (NULL:
+     * not known: another MPI rank's unit out) */
+    const ts_eta_passes *passes;
 } ts_eta_unit;
 
 /* The seconds left for units u[0..n) on `parallel` devices (>= 1) as above; -1 unless a

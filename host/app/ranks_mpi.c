@@ -50,8 +50,9 @@ typedef struct ranks_lod_head {
 typedef struct ranks_result_head {
     ts_unit unit;
     uint64_t rays, aov_count;
-    double dicing;    /* ts_unit_result's */
-    uint64_t evicted; /* likewise */
+    double dicing;        /* ts_unit_result's */
+    uint64_t evicted;     /* likewise */
+    ts_eta_passes passes; /* likewise */
 } ranks_result_head;
 
 /* A rank's goodbye: this header, then device_count ts_device_stats. */
@@ -231,7 +232,7 @@ static int take_result(ranks_peer *p, ts_board *b, const void *data, int bytes, 
     }
     memcpy(res.radiance, (const char *)data + sizeof head, payload);
     res.rays = head.rays;
-    res.dicing = head.dicing, res.evicted = head.evicted != 0;
+    res.dicing = head.dicing, res.evicted = head.evicted != 0, res.passes = head.passes;
     peer_track(p, &head.unit, 0);
     board_done(b, &head.unit, &res);
     return TS_OK;
@@ -519,8 +520,8 @@ static int send_items(relay_item *it, ts_error *err)
             rc = send_bytes(&it->unit, sizeof it->unit, 0, RANKS_TAG_GIVE_BACK, err);
         } else if (!rc) {
             ts_unit_result *res = &it->result;
-            ranks_result_head head = {it->unit, res->rays, res->aov_count, res->dicing,
-                                      res->evicted};
+            ranks_result_head head = {it->unit,    res->rays,    res->aov_count,
+                                      res->dicing, res->evicted, res->passes};
             size_t payload = (size_t)(it->unit.count + 2 * res->aov_count) * sizeof(ts_vec4);
             char *msg = malloc(sizeof head + payload);
             if (!msg) rc = ts_error_set(err, TS_E_MEMORY, "out of memory (sending a unit)");
@@ -701,10 +702,10 @@ static void follow_devices(ts_workers *g, const ts_frame *f, relay *q, ts_error 
     if (n > 0 && !dev_select(&f->opt->cl, n, indices, &count, why))
         workers_streams(indices, &count, f->opt->streams);
     if (n > 0 && count > 0 && !why->code && !workers_open(g, f, indices, count, why))
-        workers_start(
-            g,
-            (ts_unit_source){q, relay_take, relay_done, relay_give_back, relay_closed, NULL, NULL},
-            0, why);
+        workers_start(g,
+                      (ts_unit_source){q, relay_take, relay_done, relay_give_back, relay_closed,
+                                       NULL, NULL, NULL},
+                      0, why);
 }
 
 /* After a stop signal: stays up to 10 s before ending. When a rank dies, mpirun sends

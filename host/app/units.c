@@ -163,8 +163,9 @@ int board_init(ts_board *b, ts_film_state *film, const ts_sample_order *o, uint6
     b->evicted = calloc(n, 1);
     b->owner = calloc(n, sizeof *b->owner);
     b->started = calloc(n, sizeof *b->started);
+    b->passes = calloc(n, sizeof *b->passes);
     if (!b->state || !b->holders || !b->holder || !b->since || !b->took || !b->diced ||
-        !b->evicted || !b->owner || !b->started) {
+        !b->evicted || !b->owner || !b->started || !b->passes) {
         ts_error_set(err, TS_E_MEMORY, "out of memory");
         goto fail;
     }
@@ -184,6 +185,7 @@ fail:
     free(b->evicted);
     free(b->owner);
     free(b->started);
+    free(b->passes);
     done_free(&b->done);
     memset(b, 0, sizeof *b);
     return err->code;
@@ -201,6 +203,7 @@ void board_free(ts_board *b)
     free(b->evicted);
     free(b->owner);
     free(b->started);
+    free(b->passes);
     free(b->units);
     done_free(&b->done);
     pthread_mutex_destroy(&b->lock);
@@ -246,6 +249,7 @@ static void hand_out(ts_board *b, uint32_t i, uint16_t taker, double now, ts_uni
     b->holder[i] = taker;
     b->since[i] = now;
     b->owner[i] = taker, b->started[i] = now;
+    memset(&b->passes[i], 0, sizeof b->passes[i]);
     if (taker) b->taker[taker - 1].since = now;
     *u = b->units[i];
     u->taker = taker;
@@ -350,6 +354,14 @@ int board_try_take_for(ts_board *b, uint32_t owner, ts_unit *u)
     return rc;
 }
 
+void board_unit_passes(ts_board *b, const ts_unit *u, const ts_eta_passes *p)
+{
+    pthread_mutex_lock(&b->lock);
+    if (u->index < b->unit_count && b->state[u->index] == UNIT_OUT && !u->backup)
+        b->passes[u->index] = *p;
+    pthread_mutex_unlock(&b->lock);
+}
+
 int board_try_take(ts_board *b, ts_unit *u)
 {
     double wake;
@@ -435,6 +447,7 @@ int board_done(ts_board *b, const ts_unit *u, ts_unit_result *r)
         b->state[i] = UNIT_MERGED;
         b->took[i] = t0 - b->since[i];
         b->diced[i] = r->dicing, b->evicted[i] = r->evicted != 0;
+        b->passes[i] = r->passes;
         b->merged++;
         b->samples_finished += u->count;
         b->rays += r->rays;
@@ -575,10 +588,11 @@ double board_units_left(ts_board *b, const ts_eta *eta, double now, uint32_t par
                        : b->state[i] == UNIT_OUT && b->started[i] >= 0.0 ? now - b->started[i]
                                                                          : 0.0;
         u[i].queued = b->state[i] == UNIT_OUT && b->started[i] < 0.0;
+        u[i].passes = b->passes[i].started ? &b->passes[i] : NULL;
         u[i].dicing = b->diced[i], u[i].evicted = b->evicted[i];
     }
+    double left = u ? eta_units_left(u, n, parallel) : -1.0; /* u[].passes point into b */
     pthread_mutex_unlock(&b->lock);
-    double left = u ? eta_units_left(u, n, parallel) : -1.0;
     free(u);
     return left;
 }
@@ -623,6 +637,11 @@ static int source_regather(void *ctx, uint64_t samples)
     return board_regather(ctx, samples);
 }
 
+static void source_passes(void *ctx, const ts_unit *u, const ts_eta_passes *p)
+{
+    board_unit_passes(ctx, u, p);
+}
+
 static int source_closed(void *ctx)
 {
     ts_board *b = ctx;
@@ -640,5 +659,6 @@ ts_unit_source board_source(ts_board *b)
                             source_give_back,
                             source_closed,
                             source_dropped,
-                            source_regather};
+                            source_regather,
+                            source_passes};
 }

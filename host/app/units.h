@@ -37,8 +37,9 @@ typedef struct ts_unit_result {
     ts_vec4 *radiance, *aov, *albedo;
     uint64_t aov_count;
     uint64_t rays;
-    double dicing;    /* seconds its waves spent in the stages dice and build */
-    uint32_t evicted; /* the patch cache evicted while it was traced (the patches do not fit) */
+    double dicing;        /* seconds its waves spent in the stages dice and build */
+    uint32_t evicted;     /* the patch cache evicted while it was traced (the patches do not fit) */
+    ts_eta_passes passes; /* its last wave's passes (eta.h), from that wave's start */
 } ts_unit_result;
 
 /* Allocates the result of unit u of a frame of order o (16 bytes a sample, 32 more for each
@@ -118,6 +119,7 @@ typedef struct ts_board {
      * an MPI rank takes its next unit ahead; -1 until then) */
     uint32_t *owner;
     double *started;
+    ts_eta_passes *passes; /* per unit: merged, its result's; out, its wave's so far */
     ts_board_taker taker[TS_BOARD_TAKERS]; /* per device slot: how fast it traces */
     int backups;                           /* backup units allowed (TESSERA_BACKUP_UNITS) */
     uint32_t backups_taken;                /* backup units handed out */
@@ -165,6 +167,9 @@ int board_try_take(ts_board *b, ts_unit *u);
  * it traces another: the new one is counted as begun once the one before is done with
  * (merged, dropped or given back), for the progress line's estimate (board_units_left). */
 int board_try_take_for(ts_board *b, uint32_t owner, ts_unit *u);
+/* The passes of the wave that unit u's device traces, so far (board_units_left projects the
+ * unit from them); a backup's are not kept. */
+void board_unit_passes(ts_board *b, const ts_unit *u, const ts_eta_passes *p);
 /* Unit u is traced: merged into the films at once, and *r freed. Returns 1 when it was
  * merged, 0 when it was dropped (another copy was merged first, or the board is frozen). */
 int board_done(ts_board *b, const ts_unit *u, ts_unit_result *r);
@@ -221,6 +226,8 @@ typedef struct ts_unit_source {
     int (*dropped)(void *ctx, const ts_unit *u);
     /* board_regather (NULL: the units are another process's: an MPI rank's from rank 0) */
     int (*regather)(void *ctx, uint64_t samples);
+    /* board_unit_passes (NULL: likewise) */
+    void (*passes)(void *ctx, const ts_unit *u, const ts_eta_passes *p);
 } ts_unit_source;
 
 ts_unit_source board_source(ts_board *b);

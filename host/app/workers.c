@@ -444,6 +444,39 @@ static int worker_unit_dropped(void *ctx)
     return src->closed(src->ctx) || (src->dropped && src->dropped(src->ctx, w->cancel_unit));
 }
 
+/* The passes of the wave a worker traces (render.c's render_pass_ended for one device), handed
+ * to the board as they end (ts_unit_source.passes) for the progress line's estimate. */
+typedef struct unit_passes {
+    ts_worker *w;
+    const ts_unit *u;
+    ts_eta_passes passes;
+    double t0, dicing;
+} unit_passes;
+
+static double worker_dicing(const ts_worker *w)
+{
+    return w->stats.stage_seconds[TS_STAGE_dice] + w->stats.stage_seconds[TS_STAGE_build];
+}
+
+/* The pass before ended (bounce > 0), a pass begins with `rays` rays (eta_passes_start); with
+ * `last`, the wave's last pass ended. */
+static void unit_passes_note(unit_passes *up, uint32_t bounce, uint32_t rays, int last)
+{
+    if (last || bounce > 0)
+        eta_passes_add(&up->passes, stats_now() - up->t0, worker_dicing(up->w) - up->dicing);
+    if (!last) eta_passes_start(&up->passes, (double)rays);
+    const ts_unit_source *src = &up->w->g->src;
+    if (src->passes) src->passes(src->ctx, up->u, &up->passes);
+}
+
+static int unit_pass_ended(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_t rays, int after,
+                           ts_error *err)
+{
+    (void)p, (void)err;
+    if (!after) unit_passes_note(ctx, bounce, rays, 0);
+    return TS_OK;
+}
+
 /* Traces unit u in waves into r. *stopped: 1 the source closed between two waves, 2 another
  * device's copy of u was merged (the unit is not finished). */
 static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, int *stopped,
@@ -455,7 +488,8 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
     uint32_t per_wave = p->plan.ray_capacity / 2;
     uint64_t rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays];
     uint64_t evictions = w->stats.counters[TS_COUNTER_patch_cache_evictions];
-    double dicing = w->stats.stage_seconds[TS_STAGE_dice] + w->stats.stage_seconds[TS_STAGE_build];
+    double dicing = worker_dicing(w);
+    unit_passes up = {.w = w, .u = u};
     *stopped = 0;
     for (uint64_t first = u->first; first < u->first + u->count; first += per_wave) {
         if (g->src.closed(g->src.ctx)) return *stopped = 1, TS_OK;
@@ -470,10 +504,14 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
         w->cancel_unit = u;
         p->cancel = worker_unit_dropped, p->cancel_ctx = w;
         p->cancelled = 0;
-        int rc = pipeline_camera(p, &cam, err) || waves_trace_paths(g->frame.opt, p, &cam, err);
+        memset(&up.passes, 0, sizeof up.passes);
+        up.t0 = stats_now(), up.dicing = worker_dicing(w);
+        int rc = pipeline_camera(p, &cam, err) ||
+                 waves_trace_paths_watched(g->frame.opt, p, &cam, unit_pass_ended, &up, err);
         p->cancel = NULL;
         if (rc) return err->code;
         if (p->cancelled) return *stopped = g->src.closed(g->src.ctx) ? 1 : 2, TS_OK;
+        unit_passes_note(&up, 0, 0, 1);
         if (worker_read_wave(w, u, first, n, r, err)) return err->code;
         for (long ms = 0; ms < w->slow_ms; ms += 10) { /* the test aid, ended by a drop */
             if (g->src.dropped && g->src.dropped(g->src.ctx, u)) return *stopped = 2, TS_OK;
@@ -482,8 +520,8 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
     }
     r->rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays] - rays;
     /* what the progress line's estimate of squeezed units needs (eta.h eta_units_left) */
-    r->dicing =
-        w->stats.stage_seconds[TS_STAGE_dice] + w->stats.stage_seconds[TS_STAGE_build] - dicing;
+    r->dicing = worker_dicing(w) - dicing;
+    r->passes = up.passes;
     r->evicted = w->stats.counters[TS_COUNTER_patch_cache_evictions] != evictions;
     return TS_OK;
 }
