@@ -112,21 +112,61 @@ static void test_waves_that_dice_again(void **state)
     const double work[3] = {0.0847, 0.5358, 0.3795}, secs[3] = {11.4, 26.9, 22.3},
                  dicing[3] = {10.34, 19.94, 16.46};
     ts_eta_waves w = {0};
-    assert_true(eta_waves_left(&w, 0.0, 0.0, 1.0, 3) < 0.0); /* nothing finished: no estimate */
+    assert_true(eta_waves_left(&w, 0.0, 0.0, 1.0, work, 3) < 0.0); /* nothing finished yet */
     eta_waves_done(&w, work[0], secs[0], dicing[0], 1, NULL);
-    double truth = secs[1] + secs[2], left = eta_waves_left(&w, 0.0, 0.0, 1.0 - work[0], 2);
+    double truth = secs[1] + secs[2];
+    double left = eta_waves_left(&w, 0.0, 0.0, 1.0 - work[0], work + 1, 2);
     double by_weight = secs[0] / work[0] * (1.0 - work[0]); /* the weight rate alone: 123 s */
-    assert_true(left > 0.5 * truth && left < 1.5 * truth);
-    assert_true(by_weight > 2.0 * truth);
+    /* a wave's dicing as the first's, whatever its weight: 32 s */
+    double flat = (secs[0] - dicing[0]) / work[0] * (1.0 - work[0]) + 2.0 * dicing[0];
+    assert_true(left > 0.9 * truth && left < 1.1 * truth); /* 45.6 s of 49.2 */
+    assert_true(by_weight > 2.0 * truth && flat < 0.7 * truth);
+    /* the second wave's dicing, from the first's at the power 0.3: 18.0 s of 19.9 */
+    assert_true(fabs(eta_waves_dicing(&w, work[1]) - dicing[0] * pow(work[1] / work[0], 0.3)) <
+                1e-9);
     /* In the second wave: what is left of it, less the time it has run. */
-    double in_wave = eta_waves_left(&w, work[1], 5.0, work[2], 1);
+    double in_wave = eta_waves_left(&w, work[1], 5.0, work[2], work + 2, 1);
     assert_true(fabs(in_wave - (left - 5.0)) < 1e-9);
-    assert_true(eta_waves_left(&w, work[1], 1e3, work[2], 1) ==
-                eta_waves_left(&w, 0.0, 0.0, work[2], 1)); /* overrun: the rest */
+    assert_true(eta_waves_left(&w, work[1], 1e3, work[2], work + 2, 1) ==
+                eta_waves_left(&w, 0.0, 0.0, work[2], work + 2, 1)); /* overrun: the rest */
     eta_waves_done(&w, work[1], secs[1], dicing[1], 1, NULL);
-    left = eta_waves_left(&w, 0.0, 0.0, work[2], 1);
-    assert_true(left > 0.75 * secs[2] && left < 1.25 * secs[2]);
-    assert_true(eta_waves_left(&w, 0.0, 0.0, 0.0, 0) == 0.0); /* nothing after: done */
+    /* two waves fit the power: log(19.94 / 10.34) / log(0.5358 / 0.0847) = 0.356 */
+    assert_true(fabs(eta_waves_exponent(&w) - log(dicing[1] / dicing[0]) / log(work[1] / work[0])) <
+                1e-9);
+    left = eta_waves_left(&w, 0.0, 0.0, work[2], work + 2, 1);
+    assert_true(left > 0.9 * secs[2] && left < 1.1 * secs[2]);      /* 22.6 s of 22.3 */
+    assert_true(eta_waves_left(&w, 0.0, 0.0, 0.0, NULL, 0) == 0.0); /* nothing after: done */
+}
+
+/* The power of the dicing fit (eta.h ts_eta_waves): 0.3 until two waves of different weights
+ * evicted, then their slope of log d on log w, kept within [0, 0.5]: the displaced teapot's
+ * bands (weights 9, 22, 33 a sample, 1.1, 1.8, 1.3 s) about 0.2, dicing that falls as the
+ * weight grows 0, a steep one 0.5. */
+static void test_waves_fit_exponent(void **state)
+{
+    (void)state;
+    ts_eta_waves w = {0};
+    assert_true(eta_waves_exponent(&w) == 0.3);
+    eta_waves_done(&w, 9.0, 3.0, 1.1, 1, NULL);
+    eta_waves_done(&w, 9.0, 3.0, 1.5, 1, NULL);
+    assert_true(eta_waves_exponent(&w) == 0.3); /* the weights alike */
+    ts_eta_waves t = {0};
+    eta_waves_done(&t, 9.0, 3.0, 1.1, 1, NULL);
+    eta_waves_done(&t, 22.0, 3.0, 1.8, 1, NULL);
+    eta_waves_done(&t, 33.0, 3.0, 1.3, 1, NULL);
+    assert_true(eta_waves_exponent(&t) > 0.15 && eta_waves_exponent(&t) < 0.25);
+    /* the fit's dicing at the weights' geometric mean: the dicing's */
+    double g = cbrt(9.0 * 22.0 * 33.0);
+    assert_true(fabs(eta_waves_dicing(&t, g) - cbrt(1.1 * 1.8 * 1.3)) < 1e-9);
+    ts_eta_waves f = {0}, s = {0};
+    eta_waves_done(&f, 1.0, 9.0, 8.0, 1, NULL);
+    eta_waves_done(&f, 4.0, 9.0, 4.0, 1, NULL);
+    assert_true(eta_waves_exponent(&f) == 0.0);
+    eta_waves_done(&s, 1.0, 90.0, 1.0, 1, NULL);
+    eta_waves_done(&s, 4.0, 90.0, 16.0, 1, NULL);
+    assert_true(eta_waves_exponent(&s) == 0.5);
+    eta_waves_done(&s, 4.0, 90.0, 16.0, 0, NULL); /* the last did not evict: no dicing after */
+    assert_true(eta_waves_dicing(&s, 4.0) == 0.0);
 }
 
 /* The same frame's waves pass by pass (2026-11-30, stop 56: the rays each pass traced, the
@@ -162,8 +202,8 @@ static void test_waves_by_passes(void **state)
     assert_true(eta_waves_project(&w, &now, &d) < 0.0);
     eta_passes_add(&now, end[1][0], dice[1][0]);
     assert_true(eta_waves_project(&w, &now, &d) < 0.0); /* the first bounce's rays unknown */
-    assert_true(eta_waves_left_passes(&w, work[1], 7.0, work[2], 1, &now, NULL) ==
-                eta_waves_left(&w, work[1], 7.0, work[2], 1));
+    assert_true(eta_waves_left_passes(&w, work[1], 7.0, work[2], work + 2, 1, &now, NULL) ==
+                eta_waves_left(&w, work[1], 7.0, work[2], work + 2, 1));
     /* In its first bounce, then after its second pass and later in its third: the time left
      * from the passes, where the weights' estimate is 0.5-0.7 of it. */
     eta_passes_start(&now, rays[1][1]);
@@ -174,9 +214,10 @@ static void test_waves_by_passes(void **state)
     for (int k = 0; k < 3; ++k) {
         if (k == 1) eta_passes_add(&now, end[1][1], dice[1][1]), eta_passes_start(&now, rays[1][2]);
         double truth = end[1][3] - at[k] + end[2][3];
-        double by_weight = eta_waves_left(&w, work[1], at[k], work[2], 1);
-        double by_passes = eta_waves_left_passes(&w, work[1], at[k], work[2], 1, &now, NULL);
-        assert_true(by_weight < 0.75 * truth);
+        double by_weight = eta_waves_left(&w, work[1], at[k], work[2], work + 2, 1);
+        double by_passes =
+            eta_waves_left_passes(&w, work[1], at[k], work[2], work + 2, 1, &now, NULL);
+        assert_true(by_weight > 0.85 * truth && by_weight < truth); /* 0.87-0.91 */
         assert_true(by_passes > 0.9 * truth && by_passes < 1.1 * truth);
     }
     seconds = eta_waves_project(&w, &now, &d);
@@ -188,11 +229,11 @@ static void test_waves_by_passes(void **state)
     memset(&third, 0, sizeof third);
     eta_passes_start(&third, rays[2][0]), eta_passes_add(&third, end[2][0], dice[2][0]);
     eta_passes_start(&third, rays[2][1]);
-    double left = eta_waves_left_passes(&w, work[2], end[2][0], 0.0, 0, &third, NULL);
+    double left = eta_waves_left_passes(&w, work[2], end[2][0], 0.0, NULL, 0, &third, NULL);
     double truth = end[2][3] - end[2][0];
     assert_true(left > 0.9 * truth && left < 1.25 * truth);
     eta_passes_add(&third, end[2][1], dice[2][1]);
-    left = eta_waves_left_passes(&w, work[2], end[2][1], 0.0, 0, &third, NULL);
+    left = eta_waves_left_passes(&w, work[2], end[2][1], 0.0, NULL, 0, &third, NULL);
     truth = end[2][3] - end[2][1];
     assert_true(left > 0.9 * truth && left < 1.1 * truth);
     /* A wave that did not evict leaves nothing to project from. */
@@ -245,7 +286,8 @@ static void test_waves_that_fit(void **state)
     eta_waves_done(&w, 0.2, 4.0, 3.0, 0, NULL); /* its dicing is new to the frame: counted whole */
     eta_waves_done(&w, 0.3, 5.0, 0.5, 0, NULL);
     double rate = 9.0 / 0.5;
-    assert_true(fabs(eta_waves_left(&w, 0.0, 0.0, 0.5, 2) - rate * 0.5) < 1e-9);
+    const double halves[2] = {0.25, 0.25};
+    assert_true(fabs(eta_waves_left(&w, 0.0, 0.0, 0.5, halves, 2) - rate * 0.5) < 1e-9);
     assert_true(fabs(eta_waves_expect(&w, 0.25) - rate * 0.25) < 1e-9);
 }
 
@@ -270,8 +312,16 @@ static void test_waves_of_background(void **state)
     ts_eta_waves w = {0};
     eta_waves_done(&w, 1.0, 12.0, 10.0, 1, NULL); /* 2 s of weight, 10 s of dicing */
     double sky = eta_work(&e, N) - eta_work(&e, N / 2);
-    assert_true(fabs(eta_waves_left(&w, 0.0, 0.0, sky, 0) - 2.0 * sky) < 1e-9);
-    assert_true(fabs(eta_waves_left(&w, 0.0, 0.0, sky, 2) - (2.0 * sky + 20.0)) < 1e-9);
+    /* the waves that dice, by weight: none of the sky's, both of the unweighted frame's */
+    double works[4];
+    assert_int_equal(eta_waves_works(&e, 32, N, 16, works), 0);
+    assert_int_equal(eta_waves_works(&plain, 32, N, 16, works), 2);
+    assert_true(works[0] == 16.0 && works[1] == 16.0);
+    assert_int_equal(eta_waves_works(&e, 0, N, 16, works), 2);
+    assert_true(works[0] == eta_work(&e, 16) && works[1] == eta_work(&e, 32) - eta_work(&e, 16));
+    assert_true(fabs(eta_waves_left(&w, 0.0, 0.0, sky, works, 0) - 2.0 * sky) < 1e-9);
+    const double ones[2] = {1.0, 1.0}; /* two waves of the first's weight: its 10 s each */
+    assert_true(fabs(eta_waves_left(&w, 0.0, 0.0, sky, ones, 2) - (2.0 * sky + 20.0)) < 1e-9);
     eta_free(&e);
     eta_free(&plain);
 }
@@ -284,36 +334,38 @@ static void test_waves_of_background(void **state)
 static void test_units_that_dice_again(void **state)
 {
     (void)state;
+    /* weights 1 and 1024 (1024^0.3 = 8): unit 0 took 8 s of dicing and 1/64 s for its
+     * weight of 1, so a unit of weight 1024 is expected to take 16 + 8 * 8 = 80 s */
     ts_eta_unit u[5] = {
-        {.work = 2.0,
-         .seconds = 10.0,
+        {.work = 1.0,
+         .seconds = 8.015625,
          .dicing = 8.0,
          .state = TS_ETA_UNIT_MERGED,
          .evicted = 0,
          .geometry = 1},
-        {.work = 40.0, .seconds = 4.0, .state = TS_ETA_UNIT_OUT, .geometry = 1},
-        {.work = 40.0, .seconds = 10.0, .state = TS_ETA_UNIT_OUT, .geometry = 1},
-        {.work = 10.0, .state = TS_ETA_UNIT_WAITING, .geometry = 1},
-        {.work = 8.0, .state = TS_ETA_UNIT_WAITING, .geometry = 0},
+        {.work = 1024.0, .seconds = 4.0, .state = TS_ETA_UNIT_OUT, .geometry = 1},
+        {.work = 1024.0, .seconds = 10.0, .state = TS_ETA_UNIT_OUT, .geometry = 1},
+        {.work = 1.0, .state = TS_ETA_UNIT_WAITING, .geometry = 1},
+        {.work = 1024.0, .state = TS_ETA_UNIT_WAITING, .geometry = 0},
     };
     assert_true(eta_units_left(u, 5, 2) == -1.0); /* nothing evicted: the weights hold */
-    u[0].evicted = 1;                             /* 2 of weight in 2 s, and 8 s of dicing a unit */
-    /* two devices: units 2 and 1 end in 40 + 8 - 10 = 38 s and 44 s, unit 3 (10 + 8) follows
-     * unit 2 (56 s), unit 4 (sky: 8, no dicing) unit 1 (52 s) */
-    assert_true(fabs(eta_units_left(u, 5, 2) - 56.0) < 1e-9);
+    u[0].evicted = 1;
+    /* two devices: units 2 and 1 end in 70 s and 76 s, unit 3 (8.015625) follows unit 2,
+     * unit 4 (sky: 16, no dicing) unit 1 (92 s) */
+    assert_true(fabs(eta_units_left(u, 5, 2) - 92.0) < 1e-9);
     /* one device (an MPI rank that took unit 1 ahead): unit 2, out longer, runs, unit 1 waits */
-    assert_true(fabs(eta_units_left(u, 5, 1) - (38.0 + 48.0 + 18.0 + 8.0)) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 5, 1) - (70.0 + 80.0 + 8.015625 + 16.0)) < 1e-9);
     /* four: every unit at once, the last to end the one out least long */
-    assert_true(fabs(eta_units_left(u, 5, 4) - 44.0) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 5, 4) - 76.0) < 1e-9);
     assert_true(eta_units_left(u, 5, 0) == -1.0);
-    /* unit 2 waits behind unit 1 on its device (queued: an MPI rank's next): unit 1 runs (44 s
-     * left), unit 2 (48) goes first in line to the free device, then unit 3 (44 + 18) and
-     * unit 4 (48 + 8) */
+    /* unit 2 waits behind unit 1 on its device (queued: an MPI rank's next): unit 1 runs (76 s
+     * left), unit 2 (80) goes first in line to the free device, then unit 3 after unit 1 and
+     * unit 4 after unit 2 (96 s) */
     u[2].queued = 1, u[2].seconds = 0.0;
-    assert_true(fabs(eta_units_left(u, 5, 2) - 62.0) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 5, 2) - 96.0) < 1e-9);
     /* a unit out longer than expected has a quarter of its time so far left, not nothing */
-    u[2].queued = 0, u[2].seconds = 80.0;
-    assert_true(fabs(eta_units_left(u, 5, 1) - (20.0 + 48.0 + 18.0 + 8.0)) < 1e-9);
+    u[2].queued = 0, u[2].seconds = 400.0;
+    assert_true(fabs(eta_units_left(u, 5, 1) - (100.0 + 80.0 + 8.015625 + 16.0)) < 1e-9);
 }
 
 /* A unit a device traces is projected from its wave's passes, as one device's wave is
@@ -330,24 +382,25 @@ static void test_units_by_passes(void **state)
     ts_eta_passes now = {
         .end = {5, 9}, .dicing = {3, 6}, .rays = {100, 50, 20}, .count = 2, .started = 3};
     ts_eta_unit u[3] = {
-        {.work = 2.0,
+        {.work = 1.0,
          .seconds = 20.0,
          .dicing = 12.0,
          .state = TS_ETA_UNIT_MERGED,
          .evicted = 1,
          .geometry = 1,
          .passes = &then},
-        {.work = 10.0, .seconds = 10.0, .state = TS_ETA_UNIT_OUT, .geometry = 1, .passes = &now},
-        {.work = 10.0, .state = TS_ETA_UNIT_WAITING, .geometry = 1},
+        {.work = 1024.0, .seconds = 10.0, .state = TS_ETA_UNIT_OUT, .geometry = 1, .passes = &now},
+        {.work = 1024.0, .state = TS_ETA_UNIT_WAITING, .geometry = 1},
     };
     /* unit 1: 9 s through the two passes that took unit 0 12 of its 20 s: 15 s (5 left), 10 of
-     * them dicing; unit 2 then at (8 + 5) s for 12 of weight and (12 + 10) / 2 s of dicing */
-    double unit2 = 13.0 / 12.0 * 10.0 + 11.0;
+     * them dicing; unit 2 then at (8 + 5) s for 1025 of weight, and the dicing of units 0 and 1
+     * (12 s at weight 1, 10 s at 1024: no growth, their geometric mean) */
+    double unit2 = 13.0 / 1025.0 * 1024.0 + sqrt(12.0 * 10.0);
     assert_true(fabs(eta_units_left(u, 3, 2) - unit2) < 1e-9);
     assert_true(fabs(eta_units_left(u, 3, 1) - (5.0 + unit2)) < 1e-9);
-    /* without its passes unit 1 is its weight at 4 s a unit of weight and 12 s of dicing */
+    /* without its passes unit 1 is its weight at 8 s a unit of weight and 8 x 12 s of dicing */
     u[1].passes = NULL;
-    assert_true(fabs(eta_units_left(u, 3, 1) - (42.0 + 52.0)) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 3, 1) - (8192.0 + 96.0 - 10.0 + 8192.0 + 96.0)) < 1e-9);
 }
 
 int main(void)
@@ -358,6 +411,7 @@ int main(void)
         cmocka_unit_test(test_sky_above_forest_below),
         cmocka_unit_test(test_waves_that_dice_again),
         cmocka_unit_test(test_waves_by_passes),
+        cmocka_unit_test(test_waves_fit_exponent),
         cmocka_unit_test(test_waves_that_fit),
         cmocka_unit_test(test_waves_of_background),
         cmocka_unit_test(test_units_that_dice_again),

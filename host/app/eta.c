@@ -47,7 +47,8 @@ double eta_work(const ts_eta *e, uint64_t k)
            (double)(e->prefix[base + rest] - e->prefix[base]);
 }
 
-uint32_t eta_waves_with_geometry(const ts_eta *e, uint64_t from, uint64_t total, uint64_t per_wave)
+uint32_t eta_waves_works(const ts_eta *e, uint64_t from, uint64_t total, uint64_t per_wave,
+                         double *out)
 {
     uint32_t n = 0;
     if (per_wave == 0) per_wave = 1;
@@ -55,10 +56,18 @@ uint32_t eta_waves_with_geometry(const ts_eta *e, uint64_t from, uint64_t total,
     for (uint64_t a = from; a < total; a += per_wave) {
         uint64_t b = total - a < per_wave ? total : a + per_wave;
         double wb = eta_work(e, b);
-        n += !e->weighted || wb - wa > (double)(b - a) + 0.5;
+        if (!e->weighted || wb - wa > (double)(b - a) + 0.5) {
+            if (out) out[n] = wb - wa;
+            n++;
+        }
         wa = wb;
     }
     return n;
+}
+
+uint32_t eta_waves_with_geometry(const ts_eta *e, uint64_t from, uint64_t total, uint64_t per_wave)
+{
+    return eta_waves_works(e, from, total, per_wave, NULL);
 }
 
 double eta_seconds_left(const ts_eta *e, double done, double seconds, uint64_t start,
@@ -110,31 +119,61 @@ void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing,
     w->work += work;
     w->seconds += evicted && dicing < seconds ? seconds - dicing : seconds;
     if (evicted) w->dicing += dicing < seconds ? dicing : seconds, w->evicting++;
+    if (evicted && work > 0.0 && dicing > 0.0) {
+        double x = log(work), y = log(dicing < seconds ? dicing : seconds);
+        w->logged++, w->log_w += x, w->log_d += y, w->log_ww += x * x, w->log_wd += x * y;
+    }
     w->last_evicted = evicted;
     if (evicted && passes) w->last = *passes, w->last_seconds = seconds;
+}
+
+double eta_waves_exponent(const ts_eta_waves *w)
+{
+    double n = (double)w->logged;
+    if (w->logged < 2) return TS_ETA_REACH_EXPONENT;
+    double mx = w->log_w / n, var = w->log_ww / n - mx * mx;
+    if (!(var > 1e-4)) return TS_ETA_REACH_EXPONENT; /* the weights alike: no slope to see */
+    double e = (w->log_wd / n - mx * w->log_d / n) / var;
+    return e < 0.0 ? 0.0 : e > 0.5 ? 0.5 : e;
+}
+
+/* The dicing seconds of a wave of weight `work` as fitted to the waves that evicted (eta.h
+ * ts_eta_waves): exp(mean log d + e (log work - mean log w)); their mean where none has both
+ * a weight and dicing seconds; 0 when none evicted. */
+static double dicing_fit(const ts_eta_waves *w, double work)
+{
+    if (!w->evicting) return 0.0;
+    if (!w->logged || !(work > 0.0)) return w->dicing / w->evicting;
+    double n = (double)w->logged;
+    return exp(w->log_d / n + eta_waves_exponent(w) * (log(work) - w->log_w / n));
+}
+
+double eta_waves_dicing(const ts_eta_waves *w, double work)
+{
+    return w->last_evicted ? dicing_fit(w, work) : 0.0;
 }
 
 double eta_waves_expect(const ts_eta_waves *w, double work)
 {
     if (!(w->work > 0.0) && !(w->seconds > 0.0)) return -1.0;
     double rate = w->work > 0.0 ? w->seconds / w->work : 0.0; /* seconds a unit of weight */
-    double dicing = w->last_evicted && w->evicting ? w->dicing / w->evicting : 0.0;
-    return rate * work + dicing;
+    return rate * work + eta_waves_dicing(w, work);
 }
 
 double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, double after,
-                      uint32_t waves_after)
+                      const double *works, uint32_t n)
 {
-    double per_wave = eta_waves_expect(w, 0.0); /* a wave's recurring dicing */
-    if (per_wave < 0.0) return -1.0;
+    if (!(w->work > 0.0) && !(w->seconds > 0.0)) return -1.0;
     double left = 0.0;
     if (current > 0.0) {
         double now = eta_waves_expect(w, current);
         left += now > elapsed ? now - elapsed : 0.0;
     }
-    /* the weight's seconds, and a wave's dicing for each wave after that dices */
-    if (after > 0.0) left += eta_waves_expect(w, after) - per_wave;
-    return left + per_wave * waves_after;
+    /* the weight's seconds, and the dicing of the waves after that dice */
+    double rate = w->work > 0.0 ? w->seconds / w->work : 0.0;
+    for (uint32_t i = 0; i < n; ++i)
+        left += eta_waves_dicing(w, works[i]);
+    return left + rate * after;
 }
 
 double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double *dicing)
@@ -151,15 +190,16 @@ double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double
 }
 
 double eta_waves_left_passes(const ts_eta_waves *w, double current, double elapsed, double after,
-                             uint32_t waves_after, const ts_eta_passes *now, double *projected)
+                             const double *works, uint32_t n, const ts_eta_passes *now,
+                             double *projected)
 {
     double dicing = 0.0, seconds = now && current > 0.0 ? eta_waves_project(w, now, &dicing) : -1.0;
     if (projected) *projected = seconds;
-    if (seconds < 0.0) return eta_waves_left(w, current, elapsed, after, waves_after);
+    if (seconds < 0.0) return eta_waves_left(w, current, elapsed, after, works, n);
     ts_eta_waves then = *w; /* as if the wave in flight had finished as projected */
     eta_waves_done(&then, current, seconds, dicing, 1, NULL);
     double left = seconds > elapsed ? seconds - elapsed : 0.0;
-    return left + eta_waves_left(&then, 0.0, 0.0, after, waves_after);
+    return left + eta_waves_left(&then, 0.0, 0.0, after, works, n);
 }
 
 /* The first of free[0..n) to free (the least). */
@@ -173,11 +213,11 @@ static uint32_t earliest(const double *free_at, uint32_t n)
 
 /* The seconds a unit of weight `work` is expected to take by the units that ended, w
  * (eta_units_left): its weight at their rate, less their dicing, and, where its eye rays cross
- * a patch box, their mean dicing. */
+ * a patch box, their dicing fitted to its weight (dicing_fit). */
 static double unit_expect(const ts_eta_waves *w, double work, int geometry)
 {
     double rate = w->work > 0.0 ? w->seconds / w->work : 0.0;
-    return rate * work + (geometry && w->evicting ? w->dicing / w->evicting : 0.0);
+    return rate * work + (geometry ? dicing_fit(w, work) : 0.0);
 }
 
 double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)

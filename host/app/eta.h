@@ -85,16 +85,28 @@ void eta_passes_add(ts_eta_passes *p, double seconds, double dicing);
  * the weight rate alone put the time left of forest-100 1920x768 x 2 at --memory 512 at 119 s
  * when 47 s were left. So a wave in which the patch cache evicted counts its dicing seconds
  * (stages dice and build) apart: the rate is the weight per second of the rest, and while the
- * waves evict, each wave left adds the mean dicing seconds of those that did. A wave that did
- * not evict counts whole (what it dices is new to the frame, and as the weight shows more of
- * the scene, more is new: the rate holds it). */
+ * waves evict, each wave left that dices adds dicing seconds as a power of its weight, c w^e,
+ * fitted to those that did (least squares of log d on log w; e within [0, 0.5], and
+ * TS_ETA_REACH_EXPONENT until two waves of different weights have evicted). The power varies
+ * with the scene: a forest wave's bounces reach most of it whatever their number (forest-100's
+ * three waves, of 0.085, 0.536 and 0.380 of the weight, diced 10.3, 19.9 and 16.5 s: from the
+ * first the power 0.3 predicts 18.0 and 16.2 s, their mean 10.3 and 10.3), a band of the
+ * displaced teapot dices the few patches its rays meet whatever its weight (1.1 s at 9 a
+ * sample, 1.8 s at 22, 1.3 s at 33: about 0). A wave that did not evict counts whole (what it
+ * dices is new to the frame, and as the weight shows more of the scene, more is new: the rate
+ * holds it). */
+#define TS_ETA_REACH_EXPONENT 0.3
 typedef struct ts_eta_waves {
     double work, seconds; /* the finished waves' weight, and their seconds less recurring dicing */
     double dicing;        /* the dicing seconds of the finished waves that evicted */
     uint32_t evicting;    /* how many those are */
-    int last_evicted;     /* the last finished wave evicted */
-    ts_eta_passes last;   /* the passes of the last finished wave that evicted */
-    double last_seconds;  /* and its seconds */
+    /* of those with weight and dicing: how many, and their sums of log w, log d, (log w)^2 and
+     * log w log d (the fit above) */
+    uint32_t logged;
+    double log_w, log_d, log_ww, log_wd;
+    int last_evicted;    /* the last finished wave evicted */
+    ts_eta_passes last;  /* the passes of the last finished wave that evicted */
+    double last_seconds; /* and its seconds */
 } ts_eta_waves;
 
 /* A finished wave of weight `work` took `seconds`, of which `dicing` diced and built; the
@@ -104,11 +116,22 @@ void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing,
                     const ts_eta_passes *passes);
 /* The seconds a wave of weight `work` is expected to take; -1 before a wave finished. */
 double eta_waves_expect(const ts_eta_waves *w, double work);
+/* The dicing seconds, among those, of a wave of weight `work` that dices (0 while the last
+ * finished wave did not evict). */
+double eta_waves_dicing(const ts_eta_waves *w, double work);
+/* The exponent of the fit (TS_ETA_REACH_EXPONENT until it can be fitted). */
+double eta_waves_exponent(const ts_eta_waves *w);
+/* Of the waves of `per_wave` samples from `from` to `total`, those that dice (as
+ * eta_waves_with_geometry counts them): their weights into out[0 ..) (NULL: none), returns
+ * how many. */
+uint32_t eta_waves_works(const ts_eta *e, uint64_t from, uint64_t total, uint64_t per_wave,
+                         double *out);
 /* The seconds left: the rest of the wave in flight, of weight `current`, which has run
  * `elapsed` seconds (none: current 0), then the waves after it, of weight `after` together,
- * waves_after of which dice (eta_waves_with_geometry); -1 before a wave finished. */
+ * those of which dice of weights works[0 .. n) (eta_waves_works); -1 before a wave
+ * finished. */
 double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, double after,
-                      uint32_t waves_after);
+                      const double *works, uint32_t n);
 
 /* Inside a wave that dices again (the last finished wave evicted): the waves' weight alone
  * cannot say what the wave in flight takes (forest-100 1920x768 x 2 at --memory 512: its first
@@ -123,13 +146,13 @@ double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, dou
  * 21.2 s after 1.63 M and 17.4 s after 1.54 M). Returns the projected seconds (and *dicing),
  * or -1 where there is nothing to project from. */
 #define TS_ETA_PROJECT_PASSES 2u
-#define TS_ETA_REACH_EXPONENT 0.3
 double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double *dicing);
 /* eta_waves_left with the wave in flight projected from its passes where eta_waves_project
  * can (the waves after it then estimated as if it had finished so), else the same;
  * *projected (when not NULL): the wave's projected seconds, -1 without. */
 double eta_waves_left_passes(const ts_eta_waves *w, double current, double elapsed, double after,
-                             uint32_t waves_after, const ts_eta_passes *now, double *projected);
+                             const double *works, uint32_t n, const ts_eta_passes *now,
+                             double *projected);
 
 /* The units of several devices or MPI ranks (units.h) when the frame's patches do not fit:
  * each is a wave that dices the scene again (workers.c worker_squeeze), so a unit's time is
@@ -138,12 +161,11 @@ double eta_waves_left_passes(const ts_eta_waves *w, double current, double elaps
  * left). As one device's waves are modelled, from the merged units (their weight, seconds,
  * dicing seconds, whether they evicted, their passes): a unit out is projected from its
  * wave's passes so far (eta_waves_project) where it can, and otherwise, as every unit not out,
- * expected to take its weight at the rate of the rest plus a unit's mean dicing where its eye
- * rays cross a patch box (the units projected counted as ended so); the `parallel` devices
- * then finish the units out and take the others in order, each the next as it frees (the
- * units out longest run first; those queued, or beyond `parallel`, wait, as an MPI rank's next
- * unit does while it traces one); a unit out longer than expected has a quarter of its time
- * so far left. */
+ * expected to take its weight at the rate of the rest plus dicing as fitted to its weight where its
+ * eye rays cross a patch box (the units projected counted as ended so); the `parallel` devices then
+ * finish the units out and take the others in order, each the next as it frees (the units out
+ * longest run first; those queued, or beyond `parallel`, wait, as an MPI rank's next unit does
+ * while it traces one); a unit out longer than expected has a quarter of its time so far left. */
 enum { TS_ETA_UNIT_WAITING, TS_ETA_UNIT_OUT, TS_ETA_UNIT_MERGED };
 typedef struct ts_eta_unit {
     double work;    /* its weight (eta_work) */

@@ -144,10 +144,13 @@ static void wave_progress_print(wave_progress *w, int in_wave)
     uint64_t from = in_wave ? w->wave_end : w->done;
     double wave = in_wave ? eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, w->done) : 0.0;
     double after = eta_work(&w->eta, w->total) - eta_work(&w->eta, from);
-    uint32_t waves_after = eta_waves_with_geometry(&w->eta, from, w->total, w->per_wave);
+    uint32_t n = eta_waves_with_geometry(&w->eta, from, w->total, w->per_wave);
+    double *works = malloc((n ? n : 1) * sizeof *works); /* the waves after that dice */
+    n = works ? eta_waves_works(&w->eta, from, w->total, w->per_wave, works) : 0;
     double elapsed = now - w->wave_t0, projected;
-    double left = eta_waves_left_passes(&w->waves, wave, elapsed, after, waves_after,
+    double left = eta_waves_left_passes(&w->waves, wave, elapsed, after, works, n,
                                         in_wave ? &w->passes : NULL, &projected);
+    free(works);
     double expect = projected > 0.0 ? projected : eta_waves_expect(&w->waves, wave);
     if (in_wave && expect > 0.0) {
         double credit = wave * elapsed / expect;
