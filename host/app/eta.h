@@ -169,7 +169,7 @@ double eta_waves_left_passes(const ts_eta_waves *w, double current, double elaps
 enum { TS_ETA_UNIT_WAITING, TS_ETA_UNIT_OUT, TS_ETA_UNIT_MERGED };
 typedef struct ts_eta_unit {
     double work;    /* its weight (eta_work) */
-    double seconds; /* merged: from taken to merged; out: since it was taken */
+    double seconds; /* merged: from taken to merged; out: since it began (0 when queued) */
     double dicing;  /* merged: its dicing seconds */
     int state;      /* TS_ETA_UNIT_... */
     int evicted;    /* merged: the patch cache evicted while it was traced */
