@@ -96,6 +96,9 @@ TS_INLINE_ALWAYS int cull_enter(__global const ts_tight4 *c, uint levels,
     return 0;
 }
 
+/* The hit masks top_level_collect keeps on its way down: the nibbles of a uint. */
+#define TL_HELD 8u
+
 __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global const ts_tight4 *cull,
                                 __global const uint *cull_levels, __global const ts_box *patch_box,
                                 __global const uint *active, uint active_count, uint n_per_ray,
@@ -135,10 +138,11 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
     uint state = entry[ray];
     uint node = state >> 3, pos = state & 7u, n = 0, hits = 0u;
     uint order[4];
-    /* The hit masks of the nodes above, a nibble each (the last 8), pushed as the traversal
-     * descends, so that climbing back needs no second test of the parent's children: the
-     * same mask, tmax being fixed for the launch. Above what this launch pushed (a traversal
-     * resumed below the root, or more than 8 levels up) the children are tested again. */
+    /* The hit masks of the nodes above, a nibble each (the last TL_HELD), pushed as the
+     * traversal descends, so that climbing back needs no second test of the parent's
+     * children: the same mask, tmax being fixed for the launch. Above what this launch pushed
+     * (a traversal resumed below the root, or more than TL_HELD levels up) the children are
+     * tested again. */
     uint above = 0u, held = 0u;
     if (state != TS_INVALID) {
         child_order(nodes[node].axes, d.x, d.y, d.z, order);
@@ -151,7 +155,7 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
             if (!((hits >> c) & 1u) || child == TS_CHILD_EMPTY) continue;
             if (child >= 0) {
                 above = (above << 4) | hits;
-                held = held < 8u ? held + 1u : 8u;
+                held = held < TL_HELD ? held + 1u : TL_HELD;
                 node = (uint)child;
                 pos = 0u;
                 child_order(nodes[node].axes, d.x, d.y, d.z, order);

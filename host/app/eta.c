@@ -98,6 +98,13 @@ void eta_passes_add(ts_eta_passes *p, double seconds, double dicing)
     p->count++;
 }
 
+void eta_passes_before(ts_eta_passes *p, uint32_t bounce, double rays, double seconds,
+                       double dicing)
+{
+    if (bounce > 0) eta_passes_add(p, seconds, dicing);
+    eta_passes_start(p, rays);
+}
+
 /* After the eye rays' pass alone (eta.h eta_waves_project): the bounces as the last wave's,
  * scaled by the first bounce's rays. */
 static double project_bounces(const ts_eta_waves *w, const ts_eta_passes *now, double *dicing)
@@ -153,11 +160,16 @@ double eta_waves_dicing(const ts_eta_waves *w, double work)
     return w->last_evicted ? dicing_fit(w, work) : 0.0;
 }
 
+/* The seconds a unit of weight takes, less recurring dicing, over the finished waves. */
+static double waves_rate(const ts_eta_waves *w)
+{
+    return w->work > 0.0 ? w->seconds / w->work : 0.0;
+}
+
 double eta_waves_expect(const ts_eta_waves *w, double work)
 {
     if (!(w->work > 0.0) && !(w->seconds > 0.0)) return -1.0;
-    double rate = w->work > 0.0 ? w->seconds / w->work : 0.0; /* seconds a unit of weight */
-    return rate * work + eta_waves_dicing(w, work);
+    return waves_rate(w) * work + eta_waves_dicing(w, work);
 }
 
 double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, double after,
@@ -170,10 +182,9 @@ double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, dou
         left += now > elapsed ? now - elapsed : 0.0;
     }
     /* the weight's seconds, and the dicing of the waves after that dice */
-    double rate = w->work > 0.0 ? w->seconds / w->work : 0.0;
     for (uint32_t i = 0; i < n; ++i)
         left += eta_waves_dicing(w, works[i]);
-    return left + rate * after;
+    return left + waves_rate(w) * after;
 }
 
 double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double *dicing)
@@ -216,8 +227,7 @@ static uint32_t earliest(const double *free_at, uint32_t n)
  * a patch box, their dicing fitted to its weight (dicing_fit). */
 static double unit_expect(const ts_eta_waves *w, double work, int geometry)
 {
-    double rate = w->work > 0.0 ? w->seconds / w->work : 0.0;
-    return rate * work + (geometry ? dicing_fit(w, work) : 0.0);
+    return waves_rate(w) * work + (geometry ? dicing_fit(w, work) : 0.0);
 }
 
 double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
@@ -254,7 +264,8 @@ double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
         else
             expect = unit_expect(&w, x->work, x->geometry);
         double left = expect - x->seconds;
-        free_at[running] = left > 0.25 * x->seconds ? left : 0.25 * x->seconds;
+        double least = TS_ETA_OVERRUN_LEFT * x->seconds;
+        free_at[running] = left > least ? left : least;
     }
     /* Then the units out that wait (a device traces another, or more are out than devices),
      * and the units not out, in order: each to the device that frees first. */

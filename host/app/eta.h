@@ -78,6 +78,11 @@ void eta_passes_start(ts_eta_passes *p, double rays);
 /* Its pass `count` ended `seconds` after the wave's start, with `dicing` seconds diced by
  * then. */
 void eta_passes_add(ts_eta_passes *p, double seconds, double dicing);
+/* waves_trace_paths' watch (app/waves.h) before bounce b is traced, with `rays` rays: pass
+ * b - 1 (b > 0) ended `seconds` after the wave's start, `dicing` seconds diced by then, and
+ * pass b begins (eta_passes_add, eta_passes_start). */
+void eta_passes_before(ts_eta_passes *p, uint32_t bounce, double rays, double seconds,
+                       double dicing);
 
 /* Waves that dice again what they need. When a frame's patches do not fit, each wave dices
  * about as much whatever its share of the weight: its bounces reach the whole scene (issue 38;
@@ -180,6 +185,8 @@ typedef struct ts_eta_unit {
     const ts_eta_passes *passes;
 } ts_eta_unit;
 
+/* The share of its time so far that a unit out longer than expected is given to run still. */
+#define TS_ETA_OVERRUN_LEFT 0.25
 /* The seconds left for units u[0..n) on `parallel` devices (>= 1) as above; -1 unless a
  * merged unit evicted (then the weights' rate holds: eta_seconds_left). */
 double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel);

@@ -126,6 +126,8 @@ typedef struct wave_progress {
     uint64_t wave_evictions; /* the patch cache's evictions then */
     ts_eta_passes passes;    /* the wave's passes begun and ended (render_pass_ended) */
     double shown;            /* the most weight the line has shown done: it never goes back */
+    double *after;           /* the weights of the waves after the one in flight that dice */
+    uint32_t after_count;    /* (eta_waves_works, once a wave) */
 } wave_progress;
 
 /* The progress line: samples finished, the share of the frame's weight they hold, rays per
@@ -141,16 +143,12 @@ static void wave_progress_print(wave_progress *w, int in_wave)
     if (w->o->quiet || ferror(stderr)) return;
     double now = stats_now();
     double done = eta_work(&w->eta, w->done) - eta_work(&w->eta, w->start);
-    uint64_t from = in_wave ? w->wave_end : w->done;
+    /* in a wave and after it, the waves after are those after wave_end (done is wave_end) */
     double wave = in_wave ? eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, w->done) : 0.0;
-    double after = eta_work(&w->eta, w->total) - eta_work(&w->eta, from);
-    uint32_t n = eta_waves_with_geometry(&w->eta, from, w->total, w->per_wave);
-    double *works = malloc((n ? n : 1) * sizeof *works); /* the waves after that dice */
-    n = works ? eta_waves_works(&w->eta, from, w->total, w->per_wave, works) : 0;
+    double after = eta_work(&w->eta, w->total) - eta_work(&w->eta, w->wave_end);
     double elapsed = now - w->wave_t0, projected;
-    double left = eta_waves_left_passes(&w->waves, wave, elapsed, after, works, n,
+    double left = eta_waves_left_passes(&w->waves, wave, elapsed, after, w->after, w->after_count,
                                         in_wave ? &w->passes : NULL, &projected);
-    free(works);
     double expect = projected > 0.0 ? projected : eta_waves_expect(&w->waves, wave);
     if (in_wave && expect > 0.0) {
         double credit = wave * elapsed / expect;
@@ -174,25 +172,21 @@ static void wave_progress_print(wave_progress *w, int in_wave)
     w->printed = now;
 }
 
-/* The stages that dice: their seconds so far. */
-static double dicing_seconds(const ts_pipeline *p)
-{
-    return p->stats->stage_seconds[TS_STAGE_dice] + p->stats->stage_seconds[TS_STAGE_build];
-}
-
 /* Wave [first, w->wave_end) began: what it will be measured against. */
 static void wave_progress_begin(wave_progress *w, uint64_t first, uint32_t n)
 {
     w->wave_end = first + n, w->wave_t0 = stats_now();
-    w->wave_dicing = dicing_seconds(w->p);
+    w->wave_dicing = stats_dicing_seconds(w->p->stats);
     w->wave_evictions = w->p->stats->counters[TS_COUNTER_patch_cache_evictions];
     w->passes.count = w->passes.started = 0;
+    w->after_count = eta_waves_works(&w->eta, w->wave_end, w->total, w->per_wave, w->after);
 }
 
 /* The wave in flight's last pass ended now: its seconds and dicing seconds so far. */
 static void wave_progress_pass(wave_progress *w)
 {
-    eta_passes_add(&w->passes, stats_now() - w->wave_t0, dicing_seconds(w->p) - w->wave_dicing);
+    eta_passes_add(&w->passes, stats_now() - w->wave_t0,
+                   stats_dicing_seconds(w->p->stats) - w->wave_dicing);
 }
 
 /* waves_trace_paths' watch (waves.h): before bounce b > 0 is traced, pass b - 1 (the bounce
@@ -202,8 +196,9 @@ static int render_pass_ended(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_
 {
     (void)p, (void)err;
     wave_progress *w = ctx;
-    if (!after && bounce > 0) wave_progress_pass(w);
-    if (!after) eta_passes_start(&w->passes, (double)rays);
+    if (!after)
+        eta_passes_before(&w->passes, bounce, (double)rays, stats_now() - w->wave_t0,
+                          stats_dicing_seconds(w->p->stats) - w->wave_dicing);
     return TS_OK;
 }
 
@@ -212,7 +207,7 @@ static void wave_progress_end(wave_progress *w, uint64_t first)
 {
     wave_progress_pass(w); /* the last pass, and the film */
     eta_waves_done(&w->waves, eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, first),
-                   stats_now() - w->wave_t0, dicing_seconds(w->p) - w->wave_dicing,
+                   stats_now() - w->wave_t0, stats_dicing_seconds(w->p->stats) - w->wave_dicing,
                    w->p->stats->counters[TS_COUNTER_patch_cache_evictions] > w->wave_evictions,
                    &w->passes);
     w->done = w->wave_end;
@@ -256,6 +251,11 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
     if (eta_init(&w.eta, o->fixed_lod < 0 ? p->pixel_cost : NULL, cam.width * cam.height,
                  (uint32_t)o->spp, cam.band, err))
         return err->code;
+    w.after = malloc(((total - start) / w.per_wave + 1) * sizeof *w.after);
+    if (!w.after) {
+        eta_free(&w.eta);
+        return ts_error_set(err, TS_E_MEMORY, "out of memory (progress weights)");
+    }
     interrupt_install();
     w.t0 = w.printed = stats_now();
     long slow_ms = waves_slow_ms(o->cl.device_index);
@@ -283,6 +283,7 @@ static int render_waves(const ts_render_options *o, ts_pipeline *p, ts_camera_pa
         if (interrupt_signal()) break;
     }
     eta_free(&w.eta);
+    free(w.after);
     if (!o->quiet && !ferror(stderr) && (rc == TS_OK || w.done > start)) fputc('\n', stderr);
     return rc;
 }
@@ -828,13 +829,15 @@ static void render_stream_end(ts_render *r, int finished)
     r->stream.seconds = 0;
 }
 
-/* A device's share of the samples the frame has left: of every device of every MPI rank
- * (ts_frame.share_samples, ts_rank_start.share_samples). */
+/* The devices of every MPI rank, each rank counted with as many as this one
+ * (ts_frame.devices_all). */
 static uint32_t render_devices_all(const ts_render *r)
 {
     return (uint32_t)r->device_count * (r->ranks ? (uint32_t)r->ranks->size : 1u);
 }
 
+/* A device's share of the samples the frame has left: of every device of every MPI rank
+ * (ts_frame.share_samples, ts_rank_start.share_samples). */
 static uint64_t render_share_samples(const ts_render *r)
 {
     uint64_t devices = render_devices_all(r);

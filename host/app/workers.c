@@ -453,27 +453,23 @@ typedef struct unit_passes {
     double t0, dicing;
 } unit_passes;
 
-static double worker_dicing(const ts_worker *w)
+/* The passes so far to the board (ts_unit_source.passes). */
+static void unit_passes_hand(const unit_passes *up)
 {
-    return w->stats.stage_seconds[TS_STAGE_dice] + w->stats.stage_seconds[TS_STAGE_build];
-}
-
-/* The pass before ended (bounce > 0), a pass begins with `rays` rays (eta_passes_start); with
- * `last`, the wave's last pass ended. */
-static void unit_passes_note(unit_passes *up, uint32_t bounce, uint32_t rays, int last)
-{
-    if (last || bounce > 0)
-        eta_passes_add(&up->passes, stats_now() - up->t0, worker_dicing(up->w) - up->dicing);
-    if (!last) eta_passes_start(&up->passes, (double)rays);
     const ts_unit_source *src = &up->w->g->src;
     if (src->passes) src->passes(src->ctx, up->u, &up->passes);
 }
 
+/* waves_trace_paths' watch: the pass before ended, bounce begins (eta_passes_before). */
 static int unit_pass_ended(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_t rays, int after,
                            ts_error *err)
 {
     (void)p, (void)err;
-    if (!after) unit_passes_note(ctx, bounce, rays, 0);
+    unit_passes *up = ctx;
+    if (after) return TS_OK;
+    eta_passes_before(&up->passes, bounce, (double)rays, stats_now() - up->t0,
+                      stats_dicing_seconds(&up->w->stats) - up->dicing);
+    unit_passes_hand(up);
     return TS_OK;
 }
 
@@ -488,7 +484,7 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
     uint32_t per_wave = p->plan.ray_capacity / 2;
     uint64_t rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays];
     uint64_t evictions = w->stats.counters[TS_COUNTER_patch_cache_evictions];
-    double dicing = worker_dicing(w);
+    double dicing = stats_dicing_seconds(&w->stats);
     unit_passes up = {.w = w, .u = u};
     *stopped = 0;
     for (uint64_t first = u->first; first < u->first + u->count; first += per_wave) {
@@ -505,13 +501,16 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
         p->cancel = worker_unit_dropped, p->cancel_ctx = w;
         p->cancelled = 0;
         memset(&up.passes, 0, sizeof up.passes);
-        up.t0 = stats_now(), up.dicing = worker_dicing(w);
+        up.t0 = stats_now(), up.dicing = stats_dicing_seconds(&w->stats);
         int rc = pipeline_camera(p, &cam, err) ||
                  waves_trace_paths_watched(g->frame.opt, p, &cam, unit_pass_ended, &up, err);
         p->cancel = NULL;
         if (rc) return err->code;
         if (p->cancelled) return *stopped = g->src.closed(g->src.ctx) ? 1 : 2, TS_OK;
-        unit_passes_note(&up, 0, 0, 1);
+        /* the wave's last pass ended */
+        eta_passes_add(&up.passes, stats_now() - up.t0,
+                       stats_dicing_seconds(&w->stats) - up.dicing);
+        unit_passes_hand(&up);
         if (worker_read_wave(w, u, first, n, r, err)) return err->code;
         for (long ms = 0; ms < w->slow_ms; ms += 10) { /* the test aid, ended by a drop */
             if (g->src.dropped && g->src.dropped(g->src.ctx, u)) return *stopped = 2, TS_OK;
@@ -520,7 +519,7 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
     }
     r->rays = w->stats.counters[TS_COUNTER_rays] + w->stats.counters[TS_COUNTER_shadow_rays] - rays;
     /* what the progress line's estimate of squeezed units needs (eta.h eta_units_left) */
-    r->dicing = worker_dicing(w) - dicing;
+    r->dicing = stats_dicing_seconds(&w->stats) - dicing;
     r->passes = up.passes;
     r->evicted = w->stats.counters[TS_COUNTER_patch_cache_evictions] != evictions;
     return TS_OK;

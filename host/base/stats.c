@@ -74,6 +74,11 @@ static int busy_by_start(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+double stats_dicing_seconds(const ts_stats *s)
+{
+    return s->stage_seconds[TS_STAGE_dice] + s->stage_seconds[TS_STAGE_build];
+}
+
 double stats_kernel_seconds(const ts_stats *s)
 {
     if (s->busy_count == 0) return 0.0;

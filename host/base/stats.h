@@ -154,6 +154,9 @@ int stats_add_iteration(ts_stats *s, const ts_iteration *it, ts_error *err);
 int stats_add_busy(ts_stats *s, double start, double end, ts_error *err);
 /* Seconds during which at least one device ran a kernel: the union of s->busy. */
 double stats_kernel_seconds(const ts_stats *s);
+/* The seconds of the stages that make a patch (dice and build): what a patch diced again costs
+ * (the progress line's estimate of a frame whose patches do not fit, app/eta.h). */
+double stats_dicing_seconds(const ts_stats *s);
 /* --stats "host_serial_seconds": of `wall` seconds, those no kernel ran (`kernel`). */
 double stats_host_serial(double wall, double kernel);
 /* Appends a copy of *d (of *r) to s->devices (s->ranks). */
