@@ -9,7 +9,10 @@
  * far times the samples left) is off by more than 10x. Waves of a frame whose patches do not
  * fit (ts_eta_waves), as forest-100 at --memory 512 took them: after the first, the time
  * left within 1.5x (the weight rate alone: 2.5x), after the second within 1.25x; waves that
- * fit give the weight rate's estimate. */
+ * fit give the weight rate's estimate. A frame's first wave, before any wave finished, is
+ * projected from its own passes and batches (as forest-100 at 960x384 with --memory 192 took
+ * them: within 10% of its time from a third of the eye rays' pass), and the waves after it
+ * from that projection. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -241,6 +244,91 @@ static void test_waves_by_passes(void **state)
     assert_true(eta_waves_project(&w, &third, &d) < 0.0);
 }
 
+/* A wave with no finished wave before it, projected from its own passes (eta_wave_alone), as
+ * forest-100 at 960x384 x 1 with --memory 192 traced its one wave (pass ends 2.56, 4.79,
+ * 6.28, 7.25 s): nothing before a quarter of the eye rays' work has run; then within 10% of
+ * its 7.25 s from the eye rays' batches, within 20% from the pass before the first bounce,
+ * within 5% from the rays of the second; a pass runs at least what it has run; --depth 0 is
+ * one pass. */
+static void test_wave_alone(void **state)
+{
+    (void)state;
+    const double end[4] = {2.557, 4.794, 6.276, 7.250};
+    const double rays[4] = {368640, 414682, 84567, 12465};
+    const double truth = end[3];
+    const double later = 1.0 + TS_ETA_FIRST_BOUNCE + TS_ETA_FIRST_BOUNCE * TS_ETA_NEXT_BOUNCE +
+                         TS_ETA_FIRST_BOUNCE * TS_ETA_NEXT_BOUNCE * TS_ETA_NEXT_BOUNCE;
+    ts_eta_passes p = {.depth = 3};
+    assert_true(eta_wave_alone(&p, 0.5) < 0.0); /* no pass begun */
+    eta_passes_start(&p, rays[0]);
+    assert_true(eta_wave_alone(&p, 0.5) < 0.0);
+    p.flight = (ts_eta_flight){.work = 9.3e6, .done = 2.0e6, .t0 = 0.20};
+    assert_true(eta_wave_alone(&p, 0.8) < 0.0); /* under a quarter of the work run */
+    p.flight.done = 4.12e6;                     /* 1.01 s into the wave */
+    double d0 = 0.20 + (1.01 - 0.20) * 9.3e6 / 4.12e6;
+    double s = eta_wave_alone(&p, 1.01);
+    assert_true(fabs(s - d0 * later) < 1e-9);
+    assert_true(s > 0.9 * truth && s < 1.1 * truth);
+    /* the first bounce begun, its batches not yet seen (the flight is the eye rays' pass's) */
+    eta_passes_add(&p, end[0], 1.96), eta_passes_start(&p, rays[1]);
+    s = eta_wave_alone(&p, 2.7);
+    double d1 = end[0] * TS_ETA_FIRST_BOUNCE;
+    assert_true(fabs(s - (end[0] + d1 * (1.0 + TS_ETA_NEXT_BOUNCE +
+                                         TS_ETA_NEXT_BOUNCE * TS_ETA_NEXT_BOUNCE))) < 1e-9);
+    assert_true(s > 0.9 * truth && s < 1.2 * truth);
+    /* a pass that runs past its projection is given what it has run */
+    assert_true(fabs(eta_wave_alone(&p, end[0] + 20.0) -
+                     (end[0] + 20.0 * (1.0 + TS_ETA_NEXT_BOUNCE +
+                                       TS_ETA_NEXT_BOUNCE * TS_ETA_NEXT_BOUNCE))) < 1e-9);
+    /* the second bounce, from the first's time and the rays' ratio */
+    eta_passes_add(&p, end[1], 3.42), eta_passes_start(&p, rays[2]);
+    s = eta_wave_alone(&p, 5.0);
+    double d2 = (end[1] - end[0]) * pow(rays[2] / rays[1], TS_ETA_REACH_EXPONENT);
+    assert_true(fabs(s - (end[1] + d2 * (1.0 + TS_ETA_NEXT_BOUNCE))) < 1e-9);
+    assert_true(s > 0.95 * truth && s < 1.05 * truth);
+    /* --depth 0: the eye rays' pass is the wave */
+    ts_eta_passes one = {.depth = 0};
+    eta_passes_start(&one, rays[0]);
+    one.flight = (ts_eta_flight){.work = 9.3e6, .done = 4.12e6, .t0 = 0.20};
+    assert_true(fabs(eta_wave_alone(&one, 1.01) - d0) < 1e-9);
+}
+
+/* The first wave of forest-100 at 1920x768 x 2 with --memory 512 (sky and treetops, 0.085 of
+ * the weight, its passes ending at 0.96, 6.54, 9.83 and 11.42 s; the frame 60.5 s) in its
+ * first bounce, half of that pass's work run: the waves after it estimated as if it had
+ * finished as projected, its dicing those of the eye rays' pass and TS_ETA_BOUNCE_DICING of
+ * the rest (the stages' dicing seconds lag: the line saw 0.55 s until 5 s into the wave).
+ * Within 25% of the 57.3 s left (45.5 s), where the wave's dicing share so far (0.55 of
+ * 3.17 s) puts it at over 1.5 times that; with no wave after it, its own time left. */
+static void test_first_wave_and_after(void **state)
+{
+    (void)state;
+    const double work[3] = {0.0847, 0.5358, 0.3795};
+    ts_eta_passes p = {.depth = 3};
+    eta_passes_start(&p, 1057279), eta_passes_add(&p, 0.96, 0.58), eta_passes_start(&p, 157594);
+    p.flight =
+        (ts_eta_flight){.work = 2.16e7, .done = 1.09e7, .t0 = 1.14, .dicing = 0.55, .evicted = 1};
+    ts_eta_waves w = {0};
+    double projected;
+    double left =
+        eta_waves_left_passes(&w, work[0], 3.17, work[1] + work[2], work + 1, 2, &p, &projected);
+    double truth = 60.5 - 3.17;
+    assert_true(fabs(projected - eta_wave_alone(&p, 3.17)) < 1e-9);
+    assert_true(left > 0.75 * truth && left < 1.25 * truth); /* 0.79 */
+    /* with the wave's dicing share so far instead */
+    ts_eta_waves then = {0};
+    eta_waves_done(&then, work[0], projected, 0.55 * projected / 3.17, 1, NULL);
+    double share =
+        projected - 3.17 + eta_waves_left(&then, 0.0, 0.0, work[1] + work[2], work + 1, 2);
+    assert_true(share > 1.5 * truth);
+    left = eta_waves_left_passes(&w, work[0], 3.17, 0.0, NULL, 0, &p, NULL);
+    assert_true(fabs(left - (projected - 3.17)) < 1e-9);
+    /* before the eye rays' batches are seen: no estimate */
+    ts_eta_passes eye = {.depth = 3};
+    eta_passes_start(&eye, 1057279);
+    assert_true(eta_waves_left_passes(&w, work[0], 0.5, 0.9153, work + 1, 2, &eye, NULL) < 0.0);
+}
+
 /* The progress line stays under 80 columns (a longer one wraps on a terminal, and every
  * update then scrolls), with a frame of 47 M samples (1920x768 x 32): done and left, and the
  * pass of the first wave in flight at the deepest --depth. */
@@ -416,6 +504,8 @@ int main(void)
         cmocka_unit_test(test_waves_of_background),
         cmocka_unit_test(test_units_that_dice_again),
         cmocka_unit_test(test_units_by_passes),
+        cmocka_unit_test(test_wave_alone),
+        cmocka_unit_test(test_first_wave_and_after),
         cmocka_unit_test(test_line_fits_80_columns),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -200,15 +200,60 @@ double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double
     return seconds;
 }
 
+double eta_wave_alone(const ts_eta_passes *now, double elapsed)
+{
+    uint32_t c = now->count; /* the pass in flight */
+    if (now->started <= c || c >= TS_ETA_PASSES) return -1.0;
+    double start = c > 0 ? now->end[c - 1] : 0.0;
+    double before = c > 0 ? start - (c > 1 ? now->end[c - 2] : 0.0) : 0.0;
+    const ts_eta_flight *f = &now->flight;
+    double d; /* pass c's seconds */
+    if (f->work > 0.0 && f->done >= TS_ETA_BATCHES_SEEN * f->work && f->t0 >= start &&
+        elapsed > f->t0)
+        d = f->t0 - start + (elapsed - f->t0) * f->work / f->done;
+    else if (c == 0)
+        return -1.0;
+    else if (c == 1 || !(now->rays[c - 1] > 0.0))
+        d = before * (c == 1 ? TS_ETA_FIRST_BOUNCE : TS_ETA_NEXT_BOUNCE);
+    else
+        d = before * pow(now->rays[c] / now->rays[c - 1], TS_ETA_REACH_EXPONENT);
+    if (d < elapsed - start) d = elapsed - start;
+    double seconds = start + d;
+    for (uint32_t k = c + 1; k <= now->depth; ++k) {
+        d *= k == 1 ? TS_ETA_FIRST_BOUNCE : TS_ETA_NEXT_BOUNCE;
+        seconds += d;
+    }
+    return seconds;
+}
+
+/* The dicing seconds of a wave projected by eta_wave_alone to take `seconds`: those by the
+ * end of the last pass that ended (stages dice and build are counted as their launches are
+ * collected, seconds late), and TS_ETA_BOUNCE_DICING of the time after it, or of the time
+ * left in the eye rays' pass. */
+static double wave_alone_dicing(const ts_eta_passes *now, double elapsed, double seconds)
+{
+    uint32_t c = now->count;
+    double from = c > 0 ? now->end[c - 1] : elapsed, diced = c > 0 ? now->dicing[c - 1] : 0.0;
+    if (c == 0 && now->flight.dicing > diced) diced = now->flight.dicing;
+    double d = diced + (seconds > from ? seconds - from : 0.0) * TS_ETA_BOUNCE_DICING;
+    return d < seconds ? d : seconds;
+}
+
 double eta_waves_left_passes(const ts_eta_waves *w, double current, double elapsed, double after,
                              const double *works, uint32_t n, const ts_eta_passes *now,
                              double *projected)
 {
     double dicing = 0.0, seconds = now && current > 0.0 ? eta_waves_project(w, now, &dicing) : -1.0;
+    int evicted = 1;
+    if (seconds < 0.0 && now && current > 0.0 && !(w->work > 0.0) && !(w->seconds > 0.0)) {
+        seconds = eta_wave_alone(now, elapsed);
+        dicing = wave_alone_dicing(now, elapsed, seconds);
+        evicted = now->flight.evicted;
+    }
     if (projected) *projected = seconds;
     if (seconds < 0.0) return eta_waves_left(w, current, elapsed, after, works, n);
     ts_eta_waves then = *w; /* as if the wave in flight had finished as projected */
-    eta_waves_done(&then, current, seconds, dicing, 1, NULL);
+    eta_waves_done(&then, current, seconds, dicing, evicted, NULL);
     double left = seconds > elapsed ? seconds - elapsed : 0.0;
     return left + eta_waves_left(&then, 0.0, 0.0, after, works, n);
 }

@@ -67,9 +67,19 @@ void eta_print_tail(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t 
  * they end (`count`) the seconds from the wave's start to the end of pass i and its dicing
  * seconds by then. */
 #define TS_ETA_PASSES 16u
+/* The wave in flight as the progress line last saw it: the work of its pass in flight's
+ * batches so far and of those the device has run, and when the first of them began, in
+ * seconds from the wave's start (pipeline.h trace_progress); the wave's dicing seconds so far
+ * and whether its patch cache has evicted. */
+typedef struct ts_eta_flight {
+    double work, done, t0, dicing;
+    int evicted;
+} ts_eta_flight;
 typedef struct ts_eta_passes {
     double end[TS_ETA_PASSES], dicing[TS_ETA_PASSES], rays[TS_ETA_PASSES];
     uint32_t count, started;
+    uint32_t depth;       /* the deepest bounce (--depth): passes 0 .. depth */
+    ts_eta_flight flight; /* eta_wave_alone */
 } ts_eta_passes;
 
 /* The wave's next pass begins with `rays` rays (counted always; the rays of passes beyond
@@ -152,9 +162,33 @@ double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, dou
  * or -1 where there is nothing to project from. */
 #define TS_ETA_PROJECT_PASSES 2u
 double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double *dicing);
+/* A wave with no finished wave to compare with (the frame's first): its seconds projected
+ * from its own passes. A squeezed frame may be one wave (forest-1000 at 1920x768 x 2 with
+ * --memory 1536: 2.9 M paths, 50 s, in which the line said only which pass was in flight).
+ * The pass in flight takes what its batches say once the device has run TS_ETA_BATCHES_SEEN
+ * of their work (now->flight: its time before them, then their time so far over the share
+ * of their work run, a batch's work being its misses' micro-quads and its pairs; a later
+ * iteration adds its batches as it begins), and otherwise the pass before it times
+ * TS_ETA_FIRST_BOUNCE for the first bounce (forest-100, waves of 960x384 at --memory 128-256,
+ * and forest-1000's: a first bounce took 0.87-1.68 times the eye rays' pass) and for a later
+ * one its rays' ratio to the pass before's to the power TS_ETA_REACH_EXPONENT (the same waves'
+ * second and third bounces: 0.40-0.68 of the pass before, that power of the rays' ratio
+ * 0.55-0.65); each pass after it up to now->depth, whose rays are not known yet, takes the
+ * one before's times TS_ETA_FIRST_BOUNCE or TS_ETA_NEXT_BOUNCE. A pass takes at least what it
+ * has run. Returns the wave's projected seconds, -1 in the eye rays' pass before then. */
+#define TS_ETA_BATCHES_SEEN 0.25
+/* Where such a wave's patch cache has evicted, the waves after it are estimated as if it had
+ * finished as projected (eta_waves_left_passes), its dicing seconds those so far and this
+ * share of the rest: a squeezed frame's bounces dice most of their time (forest-100 at
+ * 1920x768 x 2 with --memory 512: 0.93-0.96; at 960x384 with --memory 192: 0.65-0.93). */
+#define TS_ETA_BOUNCE_DICING 0.9
+#define TS_ETA_FIRST_BOUNCE 1.2
+#define TS_ETA_NEXT_BOUNCE 0.6
+double eta_wave_alone(const ts_eta_passes *now, double elapsed);
 /* eta_waves_left with the wave in flight projected from its passes where eta_waves_project
- * can (the waves after it then estimated as if it had finished so), else the same;
- * *projected (when not NULL): the wave's projected seconds, -1 without. */
+ * can, or before any wave finished where eta_wave_alone can (the waves after it then
+ * estimated as if it had finished so), else the same; *projected (when not NULL): the
+ * wave's projected seconds, -1 without. */
 double eta_waves_left_passes(const ts_eta_waves *w, double current, double elapsed, double after,
                              const double *works, uint32_t n, const ts_eta_passes *now,
                              double *projected);

@@ -133,15 +133,23 @@ typedef struct wave_progress {
 /* The progress line: samples finished, the share of the frame's weight they hold, rays per
  * second, and the time left as the finished waves predict it (eta.h ts_eta_waves: the weight
  * per second, and a squeezed frame's dicing a wave; in a squeezed frame's wave, from its
- * passes once eta_waves_project can). Inside a wave (the cancel hook, between batches) the
- * wave in flight is credited for the share of its expected time it has run, at most 90% of
- * its weight, so that the line moves while a long wave runs without claiming what is not
+ * passes once eta_waves_project can; in the frame's first wave, from its own passes and the
+ * work of its batches the device has run: eta_wave_alone). Inside a wave (the cancel hook, between
+ * batches) the wave in flight is credited for the share of its expected time it has run, at most
+ * 90% of its weight, so that the line moves while a long wave runs without claiming what is not
  * finished. Stops for good once stderr fails (a closed pipe: EPIPE, SIGPIPE being ignored by
  * main); the render goes on. */
 static void wave_progress_print(wave_progress *w, int in_wave)
 {
     if (w->o->quiet || ferror(stderr)) return;
     double now = stats_now();
+    if (in_wave) { /* what the first wave is projected from (eta_wave_alone) */
+        ts_eta_flight *f = &w->passes.flight;
+        f->work = w->p->trace_progress.work, f->done = w->p->trace_progress.done;
+        f->t0 = w->p->trace_progress.t0 - w->wave_t0;
+        f->dicing = stats_dicing_seconds(w->p->stats) - w->wave_dicing;
+        f->evicted = w->p->stats->counters[TS_COUNTER_patch_cache_evictions] > w->wave_evictions;
+    }
     double done = eta_work(&w->eta, w->done) - eta_work(&w->eta, w->start);
     /* in a wave and after it, the waves after are those after wave_end (done is wave_end) */
     double wave = in_wave ? eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, w->done) : 0.0;
@@ -160,8 +168,8 @@ static void wave_progress_print(wave_progress *w, int in_wave)
     w->shown = done;
     double rays = (double)(w->p->stats->counters[TS_COUNTER_rays] +
                            w->p->stats->counters[TS_COUNTER_shadow_rays]);
-    /* Before the first wave ends there is no estimate; the pass in flight shows it moving (a
-     * frame in one wave: forest-1000 at 1920x768 x 1 with --memory 1024, 40 s). */
+    /* Until a quarter of the first wave's eye rays' work has run there is no estimate; the
+     * pass in flight shows it moving. */
     if (in_wave && left < 0.0) {
         char pass[32] = "wave 1: eye rays";
         if (w->passes.started > 1)
@@ -178,7 +186,7 @@ static void wave_progress_begin(wave_progress *w, uint64_t first, uint32_t n)
     w->wave_end = first + n, w->wave_t0 = stats_now();
     w->wave_dicing = stats_dicing_seconds(w->p->stats);
     w->wave_evictions = w->p->stats->counters[TS_COUNTER_patch_cache_evictions];
-    w->passes.count = w->passes.started = 0;
+    w->passes = (ts_eta_passes){.depth = (uint32_t)w->o->depth};
     w->after_count = eta_waves_works(&w->eta, w->wave_end, w->total, w->per_wave, w->after);
 }
 

@@ -310,6 +310,14 @@ typedef struct ts_pipeline {
     int (*cancel)(void *ctx);
     void *cancel_ctx;
     int cancelled;
+    /* The pass pipeline_trace is tracing, for the cancel hook's progress line (app/eta.h
+     * eta_wave_alone): the work of its iterations' batches so far, and of those the device
+     * has finished (a batch's work: its misses' micro-quads and its segments' pairs, which
+     * cost about alike: 193 and 190 ns in forest-100 at --memory 512), and when its first
+     * batch was enqueued (stats_now; 0 before). */
+    struct {
+        double work, done, t0;
+    } trace_progress;
     /* Called by pipeline_trace after each iteration's batches are traced, before resolve,
      * when set (tools/bench_cache --lazy, which replays the iteration in other orders; NULL in
      * a render): the iteration's rays (active[0..active), windows of n_per_ray pairs, or

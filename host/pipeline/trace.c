@@ -826,9 +826,21 @@ static uint32_t pairs_per_ray(uint32_t capacity, uint32_t active, uint32_t first
  * for no more than those (on PoCL about 15 ms a batch in a squeezed forest-100). */
 #define TS_BATCHES_AHEAD 4u
 
+/* A batch's work for the progress line (pipeline.h trace_progress). */
+static double batch_work(const ts_pipeline *p, const ts_batch *b)
+{
+    double w = 0.0;
+    for (uint32_t t = 0; t < b->tree_count; ++t)
+        w += (double)((uint64_t)1 << (2u * tree_lod(p, b, t)));
+    for (uint32_t i = b->seg_first; i < b->seg_first + b->seg_count; ++i)
+        w += p->segments_host[i].end - p->segments_host[i].begin;
+    return w;
+}
+
 int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 {
     uint32_t active = ray_count;
+    p->trace_progress.work = p->trace_progress.done = p->trace_progress.t0 = 0.0;
     if (pipeline_stitch_prepare(p, err) || cull_reset_stale(p, err)) return err->code;
     pipeline_cache_plan(p);
     for (uint32_t it = 0; active > 0; ++it) {
@@ -855,6 +867,9 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
         ts_dev_mark ahead[TS_BATCHES_AHEAD];
         for (uint32_t a = 0; a < TS_BATCHES_AHEAD; ++a)
             ahead[a] = dev_mark(p->cl);
+        if (it == 0) p->trace_progress.t0 = stats_now();
+        for (uint32_t k = 0; k < (segs ? p->batch_count : 0); ++k)
+            p->trace_progress.work += batch_work(p, &p->batches[k]);
         for (uint32_t k = 0; k < (segs ? p->batch_count : 0); ++k) {
             const ts_batch *b = &p->batches[k];
             if (batch_make(p, b, err) ||
@@ -869,12 +884,16 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
                 uint32_t a = k % TS_BATCHES_AHEAD;
                 if (dev_wait_mark(p->cl, ahead[a], err)) return err->code;
                 ahead[a] = dev_mark(p->cl);
+                /* ahead[a] was marked after batch k - TS_BATCHES_AHEAD: it has run */
+                if (k >= TS_BATCHES_AHEAD)
+                    p->trace_progress.done += batch_work(p, &p->batches[k - TS_BATCHES_AHEAD]);
                 if (p->cancel(p->cancel_ctx)) {
                     p->cancelled = 1;
                     return dev_finish(p->cl, p->stats, err);
                 }
             }
         }
+        p->trace_progress.done = p->trace_progress.work; /* run, or before resolve's */
         if (segs && p->iteration_watch &&
             (dev_finish(p->cl, p->stats, err) ||
              p->iteration_watch(p->iteration_ctx, p, active, kernel_n,
