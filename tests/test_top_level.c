@@ -2,8 +2,10 @@
  * over all iterations a ray emits exactly the patches whose box it meets within tmax, each
  * once (Hanika §3.1), for N = 1, 3 and 100 candidates per iteration and for water-filled
  * windows (trace.c water_fill), with infinite and finite tmax, and the traversal ends in
- * TS_INVALID. The reference is a slab test in double written here (not the kernels' box_enter), and
- * the rays must meet a minimum of boxes, so a traversal that rejects every box fails. */
+ * TS_INVALID, also launched in runs of rays with a cancel hook asked between them (which,
+ * when it says stop, leaves the rays after the run untraversed). The reference is a slab test in
+ * double written here (not the kernels' box_enter), and the rays must meet a minimum of boxes, so a
+ * traversal that rejects every box fails. */
 #include "test_support.h"
 #include "pipeline/pipeline.h"
 
@@ -159,8 +161,19 @@ static void assert_every_box_once(const ts_scene *s, const ts_vec4 *org, const t
                  wanted);
 }
 
+/* A cancel hook that never stops the trace and counts how often it was asked. */
+static int asked;
+static int ask_and_go_on(void *ctx)
+{
+    (void)ctx;
+    ++asked;
+    return 0;
+}
+
+/* With `runs`, top_level is launched in runs of 128 rays with the hook asked between them
+ * (pipeline.h top_level_run): the same pairs, the hook asked 3 times a launch of 500. */
 static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int finite_tmax,
-                     int chain)
+                     int chain, int runs)
 {
     ts_stats stats;
     memset(&stats, 0, sizeof stats);
@@ -170,6 +183,8 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
     ts_pipeline p;
     if (pipeline_create(&p, cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
     if (chain) use_chain(cl, &p, s);
+    if (runs) p.cancel = ask_and_go_on, p.top_level_run = 128u;
+    asked = 0;
     ts_vec4 org[RAYS], dir[RAYS];
     ts_hit hit[RAYS];
     uint32_t entry[RAYS];
@@ -179,8 +194,10 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
     ts_pair *pairs = malloc((size_t)RAYS * n_per_ray * sizeof *pairs);
     uint32_t count[RAYS];
     int done = 0;
-    for (int it = 0; it < 1000 && !done; ++it) {
+    int launches = 0;
+    for (int it = 0; it < 1000 && !done; ++it, ++launches) {
         if (pipeline_top_level(&p, RAYS, n_per_ray, &err)) fail_msg("%s", err.msg);
+        assert_false(p.cancelled);
         clEnqueueReadBuffer(q, p.pairs, CL_TRUE, 0, (size_t)RAYS * n_per_ray * sizeof *pairs, pairs,
                             0, NULL, NULL);
         clEnqueueReadBuffer(q, p.count, CL_TRUE, 0, sizeof count, count, 0, NULL, NULL);
@@ -202,9 +219,10 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
         }
     }
     assert_true(done);
+    assert_int_equal(asked, runs ? 3 * launches : 0);
     char what[64];
-    snprintf(what, sizeof what, "N=%u, finite tmax %d%s", n_per_ray, finite_tmax,
-             chain ? ", chain" : "");
+    snprintf(what, sizeof what, "N=%u, finite tmax %d%s%s", n_per_ray, finite_tmax,
+             chain ? ", chain" : "", runs ? ", runs" : "");
     assert_every_box_once(s, org, dir, hit, seen, what);
     free(seen);
     free(pairs);
@@ -295,7 +313,7 @@ static void test_every_box_once(void **state)
     const uint32_t ns[3] = {1, 3, 100};
     for (int i = 0; i < 3; ++i)
         for (int finite = 0; finite < 2; ++finite)
-            run_case(&cl, &s, ns[i], finite, 0);
+            run_case(&cl, &s, ns[i], finite, 0, 0);
     for (int finite = 0; finite < 2; ++finite) {
         run_filled_case(&cl, &s, 2, finite, 0);
         run_filled_case(&cl, &s, 100, finite, 0);
@@ -314,10 +332,55 @@ static void test_deep_tree_every_box_once(void **state)
     ts_scene s;
     random_patches(&s, 7u);
     for (int finite = 0; finite < 2; ++finite) {
-        run_case(&cl, &s, 3, finite, 1);
-        run_case(&cl, &s, 100, finite, 1);
+        run_case(&cl, &s, 3, finite, 1, 0);
+        run_case(&cl, &s, 100, finite, 1, 0);
         run_filled_case(&cl, &s, 100, finite, 1);
     }
+    scene_free(&s);
+    dev_close(&cl);
+}
+
+/* top_level in runs of rays with a cancel hook asked between them: every box once, as in
+ * one launch; and a hook that says stop leaves the rays after the first run untraversed
+ * (their counts as they were), sets cancelled, and asks no more. */
+static int stop_asked(void *ctx)
+{
+    (void)ctx;
+    ++asked;
+    return 1;
+}
+
+static void test_runs_between_stops(void **state)
+{
+    ts_device cl;
+    test_open_device(&cl);
+    ts_scene s;
+    random_patches(&s, 7u);
+    for (int finite = 0; finite < 2; ++finite)
+        run_case(&cl, &s, 3, finite, 0, 1);
+    ts_stats stats;
+    memset(&stats, 0, sizeof stats);
+    ts_error err = {0};
+    ts_pipeline_plan plan = {.ray_capacity = RAYS, .pair_capacity = RAYS * 3};
+    pipeline_plan_arenas(&plan, 1, 1);
+    ts_pipeline p;
+    if (pipeline_create(&p, &cl, &s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
+    ts_vec4 org[RAYS], dir[RAYS];
+    ts_hit hit[RAYS];
+    random_rays(&cl, &p, 3u, 0, 0, org, dir, hit);
+    uint32_t count[RAYS];
+    for (int r = 0; r < RAYS; ++r)
+        count[r] = 0xdeadbeefu;
+    clEnqueueWriteBuffer(cl.queue, p.count, CL_TRUE, 0, sizeof count, count, 0, NULL, NULL);
+    p.cancel = stop_asked, p.top_level_run = 128u, asked = 0;
+    if (pipeline_top_level(&p, RAYS, 3, &err)) fail_msg("%s", err.msg);
+    assert_true(p.cancelled);
+    assert_int_equal(asked, 1);
+    clEnqueueReadBuffer(cl.queue, p.count, CL_TRUE, 0, sizeof count, count, 0, NULL, NULL);
+    for (int r = 0; r < RAYS; ++r)
+        if ((count[r] == 0xdeadbeefu) != (r >= 128)) fail_msg("ray %d: count %x", r, count[r]);
+    pipeline_destroy(&p);
+    stats_free(&stats);
     scene_free(&s);
     dev_close(&cl);
 }
@@ -325,6 +388,7 @@ static void test_deep_tree_every_box_once(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_every_box_once),
-                                       cmocka_unit_test(test_deep_tree_every_box_once)};
+                                       cmocka_unit_test(test_deep_tree_every_box_once),
+                                       cmocka_unit_test(test_runs_between_stops)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -436,6 +436,7 @@ int pipeline_create(ts_pipeline *p, ts_device *cl, const ts_scene *scene,
     p->plan = *plan;
     p->pixel_count = pixel_count;
     p->mode = (ts_trace_mode){1u, (int)plan->max_lod, 1, 0, 0u, 0, 1.0};
+    p->top_level_run = TS_TOP_LEVEL_RUN;
     /* The peak of this pipeline's buffers: the attempt that finishes a render reports its own
      * (as memory_budget_bytes is its own), not one that ran out of memory before it. */
     dev_mem_peak_reset(cl);

@@ -25,6 +25,11 @@
 /* The most candidates a ray gets in a water-filled window (trace.c water_fill): beyond a
  * dozen or so they lie mostly behind the ray's closest hit and dice patches for nothing. */
 #define TS_FILL_MAX 16u
+/* pipeline.h top_level_run: one launch over a squeezed forest-1000's 3.8 M first-bounce rays
+ * (its counting launch and its collecting one, 6 s before the pass's first batch) kept a stop
+ * waiting 4-6 s; a run of this many is 0.1-0.3 s there, and on a GPU a launch large enough
+ * to fill it. */
+#define TS_TOP_LEVEL_RUN (1u << 18)
 /* N is clipped to [1, 100] (Hanika Table 3). */
 #define TS_N_MAX 100u
 /* Work-group size of every launch: one size, so PoCL compiles each kernel once. */
@@ -310,6 +315,9 @@ typedef struct ts_pipeline {
     int (*cancel)(void *ctx);
     void *cancel_ctx;
     int cancelled;
+    /* The most rays a launch of top_level takes while cancel is set, so that a stop is
+     * honoured between such runs too (TS_TOP_LEVEL_RUN; tests lower it). */
+    uint32_t top_level_run;
     /* The pass pipeline_trace is tracing, for the cancel hook's progress line (app/eta.h
      * eta_wave_alone): the work of its iterations' batches so far, and of those the device
      * has finished (a batch's work: its misses' micro-quads and its segments' pairs, which

@@ -14,8 +14,10 @@
 
 #include <string.h>
 
-/* n_per_ray 0: the water-filled windows of window_first; count_only: count[i] only, up to
- * n_per_ray candidates (top_level.cl). */
+/* top_level over the active rays (n_per_ray 0: the water-filled windows of window_first;
+ * count_only: count[i] only, up to n_per_ray candidates; top_level.cl): one launch, or, while
+ * a cancel hook is set, runs of p->top_level_run rays with the hook asked between them
+ * (p->cancelled set when it says stop: the rays after are not traversed). */
 static int top_level_launch(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray,
                             uint32_t count_only, ts_error *err)
 {
@@ -27,8 +29,26 @@ static int top_level_launch(ts_pipeline *p, uint32_t active_count, uint32_t n_pe
                      DEV_ARG(p->ray_from), DEV_ARG(p->attr), DEV_ARG(p->unseen_flags),
                      DEV_ARG(p->pairs), DEV_ARG(p->count), (size_t)0))
         return err->code;
-    if (dev_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
-        return err->code;
+    if (!p->cancel) {
+        if (dev_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
+            return err->code;
+        return dev_finish(p->cl, p->stats, err);
+    }
+    /* One run goes on while the host waits for the one before it. */
+    ts_dev_mark before = dev_mark(p->cl);
+    uint32_t run = p->top_level_run ? p->top_level_run : active_count;
+    for (uint32_t first = 0; first < active_count; first += run) {
+        uint32_t n = active_count - first < run ? active_count - first : run;
+        if (dev_launch_range(p->cl, p->k_top_level, TS_STAGE_top_level, first, n, TS_LOCAL_SIZE,
+                             err) ||
+            dev_wait_mark(p->cl, before, err))
+            return err->code;
+        before = dev_mark(p->cl);
+        if (first + n < active_count && p->cancel(p->cancel_ctx)) {
+            p->cancelled = 1;
+            break;
+        }
+    }
     return dev_finish(p->cl, p->stats, err);
 }
 
@@ -53,6 +73,7 @@ static int water_fill(ts_pipeline *p, uint32_t active, uint32_t max_n, uint32_t 
 {
     uint32_t kmax = max_n < 1u ? 1u : max_n > TS_N_MAX ? TS_N_MAX : max_n;
     if (top_level_launch(p, active, kmax, 1u, err)) return err->code;
+    if (p->cancelled) return TS_OK;
     double t0 = stats_now();
     size_t bytes = (size_t)active * sizeof(uint32_t);
     const uint32_t *c = dev_map(p->cl, p->count, CL_MAP_READ, 0, bytes, "the pair counts", err);
@@ -857,12 +878,13 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
         uint32_t kernel_n = n_per_ray, windows = active, width = n_per_ray;
         if (p->plan.fill_windows || (!p->plan.first_n && first_n == TS_N_MAX)) {
             if (water_fill(p, active, TS_FILL_MAX, &n_per_ray, &windows, err)) return err->code;
+            if (p->cancelled) return TS_OK;
             kernel_n = 0, width = 0;
         }
         uint32_t sorted_buffer = 0, valid = 0, segs = 0;
-        if (stage_top_level(p, active, kernel_n, err) ||
-            stage_sort(p, windows, width, &sorted_buffer, &valid, &segs, err))
-            return err->code;
+        if (stage_top_level(p, active, kernel_n, err)) return err->code;
+        if (p->cancelled) return TS_OK;
+        if (stage_sort(p, windows, width, &sorted_buffer, &valid, &segs, err)) return err->code;
         /* The queue as each of the last TS_BATCHES_AHEAD batches was enqueued (a ring). */
         ts_dev_mark ahead[TS_BATCHES_AHEAD];
         for (uint32_t a = 0; a < TS_BATCHES_AHEAD; ++a)
