@@ -5,7 +5,15 @@
 #ifndef TS_INTERRUPT_H
 #define TS_INTERRUPT_H
 
-/* Installs the handlers (once; a second call does nothing) and clears the recorded signal. */
+/* Notes which of the three signals the process began with ignored: `nohup tessera render ...`
+ * (SIGHUP), a render a script starts in the background (SIGINT). Called first in main, before
+ * a library can install handlers of its own over them (PoCL's LLVM takes SIGHUP, SIGINT and
+ * SIGTERM for its crash handler, which ends the process: under nohup, a closed session ended
+ * the render). */
+void interrupt_note_ignored(void);
+/* Installs the handlers (once; a second call does nothing) and clears the recorded signal. A
+ * signal the process began with ignored (interrupt_note_ignored; without that call, one
+ * ignored now) is ignored until interrupt_restore instead. */
 void interrupt_install(void);
 /* Puts the previous handlers back. */
 void interrupt_restore(void);

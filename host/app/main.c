@@ -255,6 +255,7 @@ int main(int argc, char **argv)
      * and lose its samples: writes to it fail with EPIPE instead, and the progress line
      * stops (render.c). */
     signal(SIGPIPE, SIG_IGN);
+    interrupt_note_ignored(); /* nohup's SIGHUP stays ignored (interrupt.h) */
     if (argc < 2 || strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
         fputs(usage_text, argc < 2 ? stderr : stdout);
         return argc < 2 ? 1 : 0;
