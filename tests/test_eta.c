@@ -248,7 +248,8 @@ static void test_waves_by_passes(void **state)
  * forest-100 at 960x384 x 1 with --memory 192 traced its one wave (pass ends 2.56, 4.79,
  * 6.28, 7.25 s): nothing before a quarter of the eye rays' work has run; then within 10% of
  * its 7.25 s from the eye rays' batches, within 20% from the pass before the first bounce,
- * within 5% from the rays of the second; a pass runs at least what it has run; --depth 0 is
+ * within 5% once the first bounce's batches are planned (at the eye rays' seconds a unit of
+ * work) and from the rays of the second; a pass runs at least what it has run; --depth 0 is
  * one pass. */
 static void test_wave_alone(void **state)
 {
@@ -276,6 +277,17 @@ static void test_wave_alone(void **state)
     assert_true(fabs(s - (end[0] + d1 * (1.0 + TS_ETA_NEXT_BOUNCE +
                                          TS_ETA_NEXT_BOUNCE * TS_ETA_NEXT_BOUNCE))) < 1e-9);
     assert_true(s > 0.9 * truth && s < 1.2 * truth);
+    /* its batches planned: at the eye rays' batches' seconds a unit of work (their work,
+     * 1.2e7, from 0.20 s to the pass's end), within 5% */
+    eta_passes_batches(&p, 1.2e7, 0.20);
+    p.flight = (ts_eta_flight){.work = 8.86e6, .done = 1.0e6, .t0 = 3.09};
+    double d1w = 3.09 - end[0] + 8.86e6 * (end[0] - 0.20) / 1.2e7;
+    s = eta_wave_alone(&p, 3.2);
+    assert_true(fabs(s - (end[0] + d1w * (1.0 + TS_ETA_NEXT_BOUNCE +
+                                          TS_ETA_NEXT_BOUNCE * TS_ETA_NEXT_BOUNCE))) < 1e-9);
+    assert_true(s > 0.95 * truth && s < 1.05 * truth);
+    p.flight = (ts_eta_flight){0};
+    eta_passes_batches(&p, 0.0, 0.0);
     /* a pass that runs past its projection is given what it has run */
     assert_true(fabs(eta_wave_alone(&p, end[0] + 20.0) -
                      (end[0] + 20.0 * (1.0 + TS_ETA_NEXT_BOUNCE +

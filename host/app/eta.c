@@ -98,6 +98,12 @@ void eta_passes_add(ts_eta_passes *p, double seconds, double dicing)
     p->count++;
 }
 
+void eta_passes_batches(ts_eta_passes *p, double work, double t0)
+{
+    if (p->count == 0 || p->count > TS_ETA_PASSES) return;
+    p->work[p->count - 1] = work, p->batches_t0[p->count - 1] = t0;
+}
+
 void eta_passes_before(ts_eta_passes *p, uint32_t bounce, double rays, double seconds,
                        double dicing)
 {
@@ -207,10 +213,15 @@ double eta_wave_alone(const ts_eta_passes *now, double elapsed)
     double start = c > 0 ? now->end[c - 1] : 0.0;
     double before = c > 0 ? start - (c > 1 ? now->end[c - 2] : 0.0) : 0.0;
     const ts_eta_flight *f = &now->flight;
-    double d; /* pass c's seconds */
-    if (f->work > 0.0 && f->done >= TS_ETA_BATCHES_SEEN * f->work && f->t0 >= start &&
-        elapsed > f->t0)
+    double d;                                                          /* pass c's seconds */
+    int planned = f->work > 0.0 && f->t0 >= start && elapsed >= f->t0; /* pass c's batches */
+    double rate = c > 0 && now->work[c - 1] > 0.0 && now->end[c - 1] > now->batches_t0[c - 1]
+                      ? (now->end[c - 1] - now->batches_t0[c - 1]) / now->work[c - 1]
+                      : 0.0; /* the pass before's seconds a unit of batch work */
+    if (planned && f->done >= TS_ETA_BATCHES_SEEN * f->work && elapsed > f->t0)
         d = f->t0 - start + (elapsed - f->t0) * f->work / f->done;
+    else if (planned && rate > 0.0)
+        d = f->t0 - start + f->work * rate;
     else if (c == 0)
         return -1.0;
     else if (c == 1 || !(now->rays[c - 1] > 0.0))

@@ -80,6 +80,9 @@ typedef struct ts_eta_passes {
     uint32_t count, started;
     uint32_t depth;       /* the deepest bounce (--depth): passes 0 .. depth */
     ts_eta_flight flight; /* eta_wave_alone */
+    /* Of each ended pass, its batches' work and when the first began (seconds from the
+     * wave's start; eta_passes_batches) */
+    double work[TS_ETA_PASSES], batches_t0[TS_ETA_PASSES];
 } ts_eta_passes;
 
 /* The wave's next pass begins with `rays` rays (counted always; the rays of passes beyond
@@ -88,6 +91,9 @@ void eta_passes_start(ts_eta_passes *p, double rays);
 /* Its pass `count` ended `seconds` after the wave's start, with `dicing` seconds diced by
  * then. */
 void eta_passes_add(ts_eta_passes *p, double seconds, double dicing);
+/* Pass `count - 1`, which has ended, had batches of `work` from `t0` seconds after the
+ * wave's start (pipeline.h trace_progress; work 0: none). */
+void eta_passes_batches(ts_eta_passes *p, double work, double t0);
 /* waves_trace_paths' watch (app/waves.h) before bounce b is traced, with `rays` rays: pass
  * b - 1 (b > 0) ended `seconds` after the wave's start, `dicing` seconds diced by then, and
  * pass b begins (eta_passes_add, eta_passes_start). */
@@ -168,14 +174,18 @@ double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double
  * The pass in flight takes what its batches say once the device has run TS_ETA_BATCHES_SEEN
  * of their work (now->flight: its time before them, then their time so far over the share
  * of their work run, a batch's work being its misses' micro-quads and its pairs; a later
- * iteration adds its batches as it begins), and otherwise the pass before it times
- * TS_ETA_FIRST_BOUNCE for the first bounce (forest-100, waves of 960x384 at --memory 128-256,
- * and forest-1000's: a first bounce took 0.87-1.68 times the eye rays' pass) and for a later
- * one its rays' ratio to the pass before's to the power TS_ETA_REACH_EXPONENT (the same waves'
- * second and third bounces: 0.40-0.68 of the pass before, that power of the rays' ratio
- * 0.55-0.65); each pass after it up to now->depth, whose rays are not known yet, takes the
- * one before's times TS_ETA_FIRST_BOUNCE or TS_ETA_NEXT_BOUNCE. A pass takes at least what it
- * has run. Returns the wave's projected seconds, -1 in the eye rays' pass before then. */
+ * iteration adds its batches as it begins); before then, once its batches are planned, at the
+ * seconds a unit of work took in the pass before (forest-1000's first bounce: 16.9 s, true
+ * 18.2, where 1.2 times the eye rays' pass says 19.4; a wave of sky whose eye rays hit
+ * little and whose bounces reach the forest: its first bounce took 5.9 times its eye rays'
+ * pass); and otherwise the pass before it times TS_ETA_FIRST_BOUNCE for the first bounce
+ * (forest-100, waves of 960x384 at --memory 128-256, and forest-1000's: a first bounce took
+ * 0.87-1.68 times the eye rays' pass) and for a later one its rays' ratio to the pass before's to
+ * the power TS_ETA_REACH_EXPONENT (the same waves' second and third bounces: 0.40-0.68 of the pass
+ * before, that power of the rays' ratio 0.55-0.65); each pass after it up to now->depth, whose rays
+ * are not known yet, takes the one before's times TS_ETA_FIRST_BOUNCE or TS_ETA_NEXT_BOUNCE. A pass
+ * takes at least what it has run. Returns the wave's projected seconds, -1 in the eye rays' pass
+ * before then. */
 #define TS_ETA_BATCHES_SEEN 0.25
 /* Where such a wave's patch cache has evicted, the waves after it are estimated as if it had
  * finished as projected (eta_waves_left_passes), its dicing seconds those so far and this

@@ -202,11 +202,15 @@ static void wave_progress_pass(wave_progress *w)
 static int render_pass_ended(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_t rays, int after,
                              ts_error *err)
 {
-    (void)p, (void)err;
+    (void)err;
     wave_progress *w = ctx;
-    if (!after)
+    if (!after) {
         eta_passes_before(&w->passes, bounce, (double)rays, stats_now() - w->wave_t0,
                           stats_dicing_seconds(w->p->stats) - w->wave_dicing);
+        if (bounce > 0) /* trace_progress still holds the pass that ended */
+            eta_passes_batches(&w->passes, p->trace_progress.work,
+                               p->trace_progress.t0 - w->wave_t0);
+    }
     return TS_OK;
 }
 
