@@ -7,7 +7,7 @@
 
 uint64_t eta_weight(uint32_t cost)
 {
-    return TS_ETA_PER_CROSSING * (uint64_t)(cost - 1u) + 1u;
+    return cost > 1u ? TS_ETA_GEOMETRY_WEIGHT : 1u;
 }
 
 int eta_init(ts_eta *e, const uint32_t *cost, uint32_t npix, uint32_t spp, uint32_t band,
@@ -129,6 +129,17 @@ static double project_bounces(const ts_eta_waves *w, const ts_eta_passes *now, d
 void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing, int evicted,
                     const ts_eta_passes *passes)
 {
+    eta_waves_done_diced(w, work, seconds, dicing, evicted, passes, 0.0);
+}
+
+void eta_waves_done_diced(ts_eta_waves *w, double work, double seconds, double dicing, int evicted,
+                          const ts_eta_passes *passes, double mp)
+{
+    int first = !evicted && mp > 0.0 && dicing > 0.0; /* the frame's first dicing */
+    if (first) {
+        w->first_dicing += dicing < seconds ? dicing : seconds, w->first_mp += mp;
+        seconds = dicing < seconds ? seconds - dicing : 0.0;
+    }
     w->work += work;
     w->seconds += evicted && dicing < seconds ? seconds - dicing : seconds;
     if (evicted) w->dicing += dicing < seconds ? dicing : seconds, w->evicting++;
@@ -187,9 +198,12 @@ double eta_waves_left(const ts_eta_waves *w, double current, double elapsed, dou
         double now = eta_waves_expect(w, current);
         left += now > elapsed ? now - elapsed : 0.0;
     }
-    /* the weight's seconds, and the dicing of the waves after that dice */
+    /* the weight's seconds, and the dicing of the waves after that dice; where the waves
+     * fit, the first dicing of the patches not diced yet */
     for (uint32_t i = 0; i < n; ++i)
         left += eta_waves_dicing(w, works[i]);
+    if (!w->last_evicted && w->first_mp > 0.0 && w->mp_left > 0.0)
+        left += w->first_dicing / w->first_mp * w->mp_left;
     return left + waves_rate(w) * after;
 }
 
@@ -264,7 +278,9 @@ double eta_waves_left_passes(const ts_eta_waves *w, double current, double elaps
     if (projected) *projected = seconds;
     if (seconds < 0.0) return eta_waves_left(w, current, elapsed, after, works, n);
     ts_eta_waves then = *w; /* as if the wave in flight had finished as projected */
-    eta_waves_done(&then, current, seconds, dicing, evicted, NULL);
+    double mp = 0.0;        /* where it fits: its first dicing so far, the rest in mp_left */
+    if (!evicted && now && now->flight.mp > 0.0) dicing = now->flight.dicing, mp = now->flight.mp;
+    eta_waves_done_diced(&then, current, seconds, dicing, evicted, NULL, mp);
     double left = seconds > elapsed ? seconds - elapsed : 0.0;
     return left + eta_waves_left(&then, 0.0, 0.0, after, works, n);
 }

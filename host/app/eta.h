@@ -3,8 +3,8 @@
  * Samples do not cost the same: a sky pixel's path ends at once, a forest pixel's crosses
  * dozens of patch boxes and bounces. The lod stage traces every pixel's first eye ray
  * through the top level before any wave (kernels/lod.cl) and counts the leaf boxes it
- * crosses; a sample of pixel p is then weighed 1 + TS_ETA_PER_CROSSING x crossings(p)
- * (pipeline.h pixel_cost holds 1 + crossings), and
+ * crosses; a sample of pixel p is then weighed TS_ETA_GEOMETRY_WEIGHT where it crosses one,
+ * 1 where it crosses none (pipeline.h pixel_cost holds 1 + crossings), and
  * the frame's progress is the weight of the samples finished over the weight of all of them,
  * in the frame's sample order (kernels/lib/sample_order.h). The time left is the weight left
  * at the rate measured so far (weight finished per second). Without the lod stage (a fixed
@@ -17,12 +17,15 @@
 #include <stdint.h>
 #include <stdio.h>
 
-/* A crossing's weight against a sample's own: a sample whose eye ray crosses no patch box
- * (sky) ends at once, one that crosses some is traced, shaded and bounced. forest-100 at
- * 640x256 x 16 on PoCL: the sky's samples took 0.07 us, the forest's 26 us at 20-50
- * crossings, so a crossing weighs 16 samples' own work (with 1, the estimate at a quarter of
- * that frame, all sky, said 2 s of 55). */
-#define TS_ETA_PER_CROSSING 16u
+/* The weight of a sample whose eye ray crosses a patch box against one that crosses none
+ * (sky), whose path ends at once. Measured per wave on PoCL (2026-11-30, stop 58): forest-100
+ * at 1920x768 x 8, waves of 1.05 M samples, took 0.06-0.08 s of sky and 2.2-2.6 s of forest
+ * apart from their dicing, whatever the forest's crossings (11-20 a sample); so a forest wave's
+ * seconds less dicing over its weight are 0.061-0.074 us with this weight, where 1 + 16
+ * crossings, the weight before, gave 0.006-0.066 us (the line said 645 s left of a 26 s frame
+ * once a sky wave had set the rate). At 640x256 x 16 in waves of 131 K samples: 0.14-0.20
+ * us a unit of weight in the forest, 0.08-0.11 in the sky (a wave's fixed cost). */
+#define TS_ETA_GEOMETRY_WEIGHT 37u
 
 typedef struct ts_eta {
     uint64_t *prefix; /* prefix[p]: the weight of pixels [0, p), npix + 1 entries */
@@ -69,10 +72,11 @@ void eta_print_tail(const ts_eta *e, uint64_t samples, uint64_t start, uint64_t 
 #define TS_ETA_PASSES 16u
 /* The wave in flight as the progress line last saw it: the work of its pass in flight's
  * batches so far and of those the device has run, and when the first of them began, in
- * seconds from the wave's start (pipeline.h trace_progress); the wave's dicing seconds so far
- * and whether its patch cache has evicted. */
+ * seconds from the wave's start (pipeline.h trace_progress); the wave's dicing seconds and
+ * micro-polygons so far and whether its patch cache has evicted. */
 typedef struct ts_eta_flight {
     double work, done, t0, dicing;
+    double mp; /* the micro-polygons the wave has diced so far */
     int evicted;
 } ts_eta_flight;
 typedef struct ts_eta_passes {
@@ -110,12 +114,12 @@ void eta_passes_before(ts_eta_passes *p, uint32_t bounce, double rays, double se
  * fitted to those that did (least squares of log d on log w; e within [0, 0.5], and
  * TS_ETA_REACH_EXPONENT until two waves of different weights have evicted). The power varies
  * with the scene: a forest wave's bounces reach most of it whatever their number (forest-100's
- * three waves, of 0.085, 0.536 and 0.380 of the weight, diced 10.3, 19.9 and 16.5 s: from the
- * first the power 0.3 predicts 18.0 and 16.2 s, their mean 10.3 and 10.3), a band of the
- * displaced teapot dices the few patches its rays meet whatever its weight (1.1 s at 9 a
- * sample, 1.8 s at 22, 1.3 s at 33: about 0). A wave that did not evict counts whole (what it
- * dices is new to the frame, and as the weight shows more of the scene, more is new: the rate
- * holds it). */
+ * three waves, of 0.085, 0.536 and 0.380 of the weight as 1 + 16 crossings weighed it,
+ * diced 10.3, 19.9 and 16.5 s: from the first the power 0.3 predicts 18.0 and 16.2 s, their
+ * mean 10.3 and 10.3), a band of the displaced teapot dices the few patches its rays meet whatever
+ * its weight (1.1 s at 9 a sample, 1.8 s at 22, 1.3 s at 33: about 0). A wave that did not evict
+ * counts whole (what it dices is new to the frame, and as the weight shows more of the scene, more
+ * is new: the rate holds it). */
 #define TS_ETA_REACH_EXPONENT 0.3
 typedef struct ts_eta_waves {
     double work, seconds; /* the finished waves' weight, and their seconds less recurring dicing */
@@ -125,7 +129,11 @@ typedef struct ts_eta_waves {
      * log w log d (the fit above) */
     uint32_t logged;
     double log_w, log_d, log_ww, log_wd;
-    int last_evicted;    /* the last finished wave evicted */
+    int last_evicted; /* the last finished wave evicted */
+    /* Waves that did not evict but diced (eta_waves_done_diced): their dicing seconds and
+     * micro-polygons, counted apart from the rate; and the frame's micro-polygons at their
+     * levels not diced yet (the caller keeps it current) */
+    double first_dicing, first_mp, mp_left;
     ts_eta_passes last;  /* the passes of the last finished wave that evicted */
     double last_seconds; /* and its seconds */
 } ts_eta_waves;
@@ -135,6 +143,14 @@ typedef struct ts_eta_waves {
  * by pass. */
 void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing, int evicted,
                     const ts_eta_passes *passes);
+/* The same for a wave that created `mp` micro-polygons (0: not known). Where it did not evict,
+ * what it diced is the frame's first dicing of those patches: a frame that fits dices each
+ * once, most in its first waves with geometry (forest-100 1920x768 x 8: 3.96 of the 5.0 s of
+ * the wave of 7.7% of its weight that met the forest first), so its dicing seconds count
+ * apart from the weight's rate, and the waves left add the frame's micro-polygons not diced
+ * yet (mp_left) at their seconds a micro-polygon (eta_waves_left). */
+void eta_waves_done_diced(ts_eta_waves *w, double work, double seconds, double dicing, int evicted,
+                          const ts_eta_passes *passes, double mp);
 /* The seconds a wave of weight `work` is expected to take; -1 before a wave finished. */
 double eta_waves_expect(const ts_eta_waves *w, double work);
 /* The dicing seconds, among those, of a wave of weight `work` that dices (0 while the last

@@ -123,12 +123,24 @@ typedef struct wave_progress {
     uint64_t start, total, done, wave_end, per_wave;
     double t0, wave_t0, printed;
     double wave_dicing;      /* stages dice and build's seconds when the wave began */
+    uint64_t wave_mp;        /* the micro-polygons created then */
     uint64_t wave_evictions; /* the patch cache's evictions then */
     ts_eta_passes passes;    /* the wave's passes begun and ended (render_pass_ended) */
     double shown;            /* the most weight the line has shown done: it never goes back */
     double *after;           /* the weights of the waves after the one in flight that dice */
     uint32_t after_count;    /* (eta_waves_works, once a wave) */
 } wave_progress;
+
+/* The frame's micro-polygons at their levels (the patch cache's plan, pipeline.c
+ * frame_lod_histogram) less those diced so far: what a frame that fits has yet to dice. */
+static double frame_mp_left(const ts_pipeline *p)
+{
+    double need = 0.0;
+    for (uint32_t m = 0; m <= TS_LOD_LIMIT; ++m)
+        need += (double)p->stats->frame_lod_histogram[m] * (double)((uint64_t)1 << (2u * m));
+    double made = (double)p->stats->counters[TS_COUNTER_micropolygons_created];
+    return need > made ? need - made : 0.0;
+}
 
 /* The progress line: samples finished, the share of the frame's weight they hold, rays per
  * second, and the time left as the finished waves predict it (eta.h ts_eta_waves: the weight
@@ -143,11 +155,13 @@ static void wave_progress_print(wave_progress *w, int in_wave)
 {
     if (w->o->quiet || ferror(stderr)) return;
     double now = stats_now();
+    w->waves.mp_left = frame_mp_left(w->p);
     if (in_wave) { /* what the first wave is projected from (eta_wave_alone) */
         ts_eta_flight *f = &w->passes.flight;
         f->work = w->p->trace_progress.work, f->done = w->p->trace_progress.done;
         f->t0 = w->p->trace_progress.t0 - w->wave_t0;
         f->dicing = stats_dicing_seconds(w->p->stats) - w->wave_dicing;
+        f->mp = (double)(w->p->stats->counters[TS_COUNTER_micropolygons_created] - w->wave_mp);
         f->evicted = w->p->stats->counters[TS_COUNTER_patch_cache_evictions] > w->wave_evictions;
     }
     double done = eta_work(&w->eta, w->done) - eta_work(&w->eta, w->start);
@@ -185,6 +199,7 @@ static void wave_progress_begin(wave_progress *w, uint64_t first, uint32_t n)
 {
     w->wave_end = first + n, w->wave_t0 = stats_now();
     w->wave_dicing = stats_dicing_seconds(w->p->stats);
+    w->wave_mp = w->p->stats->counters[TS_COUNTER_micropolygons_created];
     w->wave_evictions = w->p->stats->counters[TS_COUNTER_patch_cache_evictions];
     w->passes = (ts_eta_passes){.depth = (uint32_t)w->o->depth};
     w->after_count = eta_waves_works(&w->eta, w->wave_end, w->total, w->per_wave, w->after);
@@ -218,10 +233,11 @@ static int render_pass_ended(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_
 static void wave_progress_end(wave_progress *w, uint64_t first)
 {
     wave_progress_pass(w); /* the last pass, and the film */
-    eta_waves_done(&w->waves, eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, first),
-                   stats_now() - w->wave_t0, stats_dicing_seconds(w->p->stats) - w->wave_dicing,
-                   w->p->stats->counters[TS_COUNTER_patch_cache_evictions] > w->wave_evictions,
-                   &w->passes);
+    eta_waves_done_diced(
+        &w->waves, eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, first),
+        stats_now() - w->wave_t0, stats_dicing_seconds(w->p->stats) - w->wave_dicing,
+        w->p->stats->counters[TS_COUNTER_patch_cache_evictions] > w->wave_evictions, &w->passes,
+        (double)(w->p->stats->counters[TS_COUNTER_micropolygons_created] - w->wave_mp));
     w->done = w->wave_end;
 }
 
