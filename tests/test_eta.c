@@ -61,14 +61,15 @@ static void test_work_follows_the_sample_order(void **state)
 static void test_uncounted_pixels_weigh_the_mean(void **state)
 {
     (void)state;
-    uint32_t cost[4] = {1, 0, 4, 0}; /* weights 1 and 37: the uncounted weigh 19 */
+    uint32_t cost[4] = {1, 0, 4, 0}; /* weights 1 and 28: the uncounted weigh 15 */
     ts_eta e;
     ts_error err = {0};
     assert_int_equal(eta_init(&e, cost, 4, 1, 0, &err), TS_OK);
-    assert_int_equal(eta_weight(2), TS_ETA_GEOMETRY_WEIGHT);
-    assert_int_equal(eta_weight(31), TS_ETA_GEOMETRY_WEIGHT); /* whatever the crossings */
-    assert_int_equal(eta_weight(1), 1);
-    assert_true(eta_work(&e, 4) == 1 + 19 + 37 + 19);
+    assert_int_equal(eta_weight(1), 1); /* sky */
+    assert_int_equal(eta_weight(2), 1 + (TS_ETA_GEOMETRY_WEIGHT - 1) / TS_ETA_CROSSINGS_SEEN);
+    assert_int_equal(eta_weight(1 + TS_ETA_CROSSINGS_SEEN), TS_ETA_GEOMETRY_WEIGHT);
+    assert_int_equal(eta_weight(31), TS_ETA_GEOMETRY_WEIGHT); /* however many more */
+    assert_true(eta_work(&e, 4) == 1 + 15 + 28 + 15);
     eta_free(&e);
     assert_int_equal(eta_init(&e, NULL, 4, 2, 1, &err), TS_OK); /* no counts: samples */
     assert_true(eta_work(&e, 5) == 5.0);
@@ -395,7 +396,7 @@ static void test_waves_that_fit(void **state)
 }
 
 /* A frame that fits, as forest-100 1920x768 x 8 took its waves at the default budget (weights
- * in millions as 37 a sample with geometry weighs them; seconds; dicing seconds; micro-
+ * in millions, 37 a sample whose eye ray crosses a box; seconds; dicing seconds; micro-
  * polygons created): two sky waves, then the first to meet the forest, whose dicing is the
  * frame's first of those patches. After its fourth wave the time left is within 10% of the
  * 17.9 s its other eight took, counting the first dicing apart and the frame's 5.6 M

@@ -7,7 +7,8 @@
 
 uint64_t eta_weight(uint32_t cost)
 {
-    return cost > 1u ? TS_ETA_GEOMETRY_WEIGHT : 1u;
+    uint32_t c = cost - 1u < TS_ETA_CROSSINGS_SEEN ? cost - 1u : TS_ETA_CROSSINGS_SEEN;
+    return 1u + c * (TS_ETA_GEOMETRY_WEIGHT - 1u) / TS_ETA_CROSSINGS_SEEN;
 }
 
 int eta_init(ts_eta *e, const uint32_t *cost, uint32_t npix, uint32_t spp, uint32_t band,

@@ -3,8 +3,9 @@
  * Samples do not cost the same: a sky pixel's path ends at once, a forest pixel's crosses
  * dozens of patch boxes and bounces. The lod stage traces every pixel's first eye ray
  * through the top level before any wave (kernels/lod.cl) and counts the leaf boxes it
- * crosses; a sample of pixel p is then weighed TS_ETA_GEOMETRY_WEIGHT where it crosses one,
- * 1 where it crosses none (pipeline.h pixel_cost holds 1 + crossings), and
+ * crosses; a sample of pixel p is then weighed 1 in the sky, where it crosses none, and up to
+ * TS_ETA_GEOMETRY_WEIGHT as it crosses up to TS_ETA_CROSSINGS_SEEN (pipeline.h pixel_cost
+ * holds 1 + crossings), and
  * the frame's progress is the weight of the samples finished over the weight of all of them,
  * in the frame's sample order (kernels/lib/sample_order.h). The time left is the weight left
  * at the rate measured so far (weight finished per second). Without the lod stage (a fixed
@@ -26,6 +27,12 @@
  * once a sky wave had set the rate). At 640x256 x 16 in waves of 131 K samples: 0.14-0.20
  * us a unit of weight in the forest, 0.08-0.11 in the sky (a wave's fixed cost). */
 #define TS_ETA_GEOMETRY_WEIGHT 37u
+/* The crossings at which a sample weighs TS_ETA_GEOMETRY_WEIGHT; with fewer it weighs
+ * 1 + (37 - 1) crossings / 4. The displaced teapot at 1280x720 x 16 with --memory 48 ends in
+ * waves of samples that cross a box or two and miss the teapot, cheap as sky: weighed 37
+ * each, the line said 34 s 8 s before the end (26 s with this, 20 s with 1 + 16 crossings);
+ * forest-100's samples cross 11-20 and weigh 37 either way. */
+#define TS_ETA_CROSSINGS_SEEN 4u
 
 typedef struct ts_eta {
     uint64_t *prefix; /* prefix[p]: the weight of pixels [0, p), npix + 1 entries */
