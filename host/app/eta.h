@@ -155,7 +155,8 @@ void eta_waves_done(ts_eta_waves *w, double work, double seconds, double dicing,
  * once, most in its first waves with geometry (forest-100 1920x768 x 8: 3.96 of the 5.0 s of
  * the wave of 7.7% of its weight that met the forest first), so its dicing seconds count
  * apart from the weight's rate, and the waves left add the frame's micro-polygons not diced
- * yet (mp_left) at their seconds a micro-polygon (eta_waves_left). */
+ * yet (mp_left) at their seconds a micro-polygon, in the share of the weight left
+ * (eta_waves_left). */
 void eta_waves_done_diced(ts_eta_waves *w, double work, double seconds, double dicing, int evicted,
                           const ts_eta_passes *passes, double mp);
 /* The seconds a wave of weight `work` is expected to take; -1 before a wave finished. */
