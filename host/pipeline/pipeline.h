@@ -227,6 +227,7 @@ typedef struct ts_trace_mode {
 typedef struct ts_batch {
     uint32_t seg_first, seg_count;
     uint32_t tree_first, tree_count; /* the misses' trees, in the tree list, by decreasing m */
+    double work; /* its misses' micro-quads and its segments' pairs (trace_progress) */
 } ts_batch;
 
 typedef struct ts_pipeline {

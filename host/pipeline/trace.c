@@ -29,14 +29,9 @@ static int top_level_launch(ts_pipeline *p, uint32_t active_count, uint32_t n_pe
                      DEV_ARG(p->ray_from), DEV_ARG(p->attr), DEV_ARG(p->unseen_flags),
                      DEV_ARG(p->pairs), DEV_ARG(p->count), (size_t)0))
         return err->code;
-    if (!p->cancel) {
-        if (dev_launch(p->cl, p->k_top_level, TS_STAGE_top_level, active_count, TS_LOCAL_SIZE, err))
-            return err->code;
-        return dev_finish(p->cl, p->stats, err);
-    }
     /* One run goes on while the host waits for the one before it. */
     ts_dev_mark before = dev_mark(p->cl);
-    uint32_t run = p->top_level_run ? p->top_level_run : active_count;
+    uint32_t run = p->cancel && p->top_level_run ? p->top_level_run : active_count;
     for (uint32_t first = 0; first < active_count; first += run) {
         uint32_t n = active_count - first < run ? active_count - first : run;
         if (dev_launch_range(p->cl, p->k_top_level, TS_STAGE_top_level, first, n, TS_LOCAL_SIZE,
@@ -119,7 +114,7 @@ static void assign_lods(ts_pipeline *p, uint32_t segs)
 static ts_batch *batch_open(ts_pipeline *p, uint32_t i, uint32_t ntrees)
 {
     ts_batch *b = &p->batches[p->batch_count++];
-    *b = (ts_batch){i, 0, ntrees, 0};
+    *b = (ts_batch){i, 0, ntrees, 0, 0.0};
     return b;
 }
 
@@ -205,6 +200,7 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
         }
         if (backward) b->seg_first = i; /* the batch grows downwards */
         b->seg_count++;
+        b->work += s->end - s->begin;
         if (r == TS_CACHE_HIT) {
             ++hits;
             continue;
@@ -213,6 +209,7 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
         tused += nt;
         for (uint32_t t = 0; t < times; ++t)
             p->trees_host[ntrees++] = (i << 1) | t, b->tree_count++;
+        b->work += (double)times * (double)((uint64_t)1 << (2u * s->lod));
     }
     patch_cache_end_batch(&p->cache);
     for (uint32_t k = 0; k < p->batch_count; ++k)
@@ -847,17 +844,6 @@ static uint32_t pairs_per_ray(uint32_t capacity, uint32_t active, uint32_t first
  * for no more than those (on PoCL about 15 ms a batch in a squeezed forest-100). */
 #define TS_BATCHES_AHEAD 4u
 
-/* A batch's work for the progress line (pipeline.h trace_progress). */
-static double batch_work(const ts_pipeline *p, const ts_batch *b)
-{
-    double w = 0.0;
-    for (uint32_t t = 0; t < b->tree_count; ++t)
-        w += (double)((uint64_t)1 << (2u * tree_lod(p, b, t)));
-    for (uint32_t i = b->seg_first; i < b->seg_first + b->seg_count; ++i)
-        w += p->segments_host[i].end - p->segments_host[i].begin;
-    return w;
-}
-
 int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 {
     uint32_t active = ray_count;
@@ -891,7 +877,7 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
             ahead[a] = dev_mark(p->cl);
         if (it == 0) p->trace_progress.t0 = stats_now();
         for (uint32_t k = 0; k < (segs ? p->batch_count : 0); ++k)
-            p->trace_progress.work += batch_work(p, &p->batches[k]);
+            p->trace_progress.work += p->batches[k].work;
         for (uint32_t k = 0; k < (segs ? p->batch_count : 0); ++k) {
             const ts_batch *b = &p->batches[k];
             if (batch_make(p, b, err) ||
@@ -908,7 +894,7 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
                 ahead[a] = dev_mark(p->cl);
                 /* ahead[a] was marked after batch k - TS_BATCHES_AHEAD: it has run */
                 if (k >= TS_BATCHES_AHEAD)
-                    p->trace_progress.done += batch_work(p, &p->batches[k - TS_BATCHES_AHEAD]);
+                    p->trace_progress.done += p->batches[k - TS_BATCHES_AHEAD].work;
                 if (p->cancel(p->cancel_ctx)) {
                     p->cancelled = 1;
                     return dev_finish(p->cl, p->stats, err);
