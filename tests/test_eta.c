@@ -13,7 +13,10 @@
  * projected from its own passes and batches (as forest-100 at 960x384 with --memory 192 took
  * them: within 10% of its time from a third of the eye rays' pass), and the waves after it
  * from that projection. A frame that fits counts its first dicing apart from the weights'
- * rate and adds what it has not diced yet (forest-100 1920x768 x 8: within 10%). */
+ * rate and adds what it has not diced yet (forest-100 1920x768 x 8: within 10%). Units of
+ * several devices or ranks: projected from their own passes where the merged ones are unlike
+ * them, a band's first bounce longer than the frame's (its share of the weight), and the
+ * batches planned only a floor while rays overflow their windows. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -500,9 +503,11 @@ static void test_units_that_dice_again(void **state)
     assert_true(fabs(eta_units_left(u, 5, 1) - (100.0 + 80.0 + 8.015625 + 16.0)) < 1e-9);
 }
 
-/* A unit a device traces is projected from its wave's passes, as one device's wave is
- * (eta_waves_project, against the last merged unit's passes), and the units after it are
- * expected as if it had ended so. */
+/* A unit a device traces is projected from its wave's passes: as the last merged unit spent
+ * its own (eta_waves_project) where that one is alike (weights within 2x), else from its own
+ * passes (eta_wave_alone, with its share of the weight), and the units after it are expected
+ * as if it had ended so. In its eye rays' pass, before its batches say anything, with only
+ * lighter units merged, there is no estimate (TS_ETA_UNITS_EYE_RAYS). */
 static void test_units_by_passes(void **state)
 {
     (void)state;
@@ -510,11 +515,16 @@ static void test_units_by_passes(void **state)
                           .dicing = {2, 7, 10, 12},
                           .rays = {100, 50, 10, 2},
                           .count = 4,
-                          .started = 4};
-    ts_eta_passes now = {
-        .end = {5, 9}, .dicing = {3, 6}, .rays = {100, 50, 20}, .count = 2, .started = 3};
+                          .started = 4,
+                          .depth = 3};
+    ts_eta_passes now = {.end = {5, 9},
+                         .dicing = {3, 6},
+                         .rays = {100, 50, 20},
+                         .count = 2,
+                         .started = 3,
+                         .depth = 3};
     ts_eta_unit u[3] = {
-        {.work = 1.0,
+        {.work = 512.0,
          .seconds = 20.0,
          .dicing = 12.0,
          .state = TS_ETA_UNIT_MERGED,
@@ -525,14 +535,64 @@ static void test_units_by_passes(void **state)
         {.work = 1024.0, .state = TS_ETA_UNIT_WAITING, .geometry = 1},
     };
     /* unit 1: 9 s through the two passes that took unit 0 12 of its 20 s: 15 s (5 left), 10 of
-     * them dicing; unit 2 then at (8 + 5) s for 1025 of weight, and the dicing of units 0 and 1
-     * (12 s at weight 1, 10 s at 1024: no growth, their geometric mean) */
-    double unit2 = 13.0 / 1025.0 * 1024.0 + sqrt(12.0 * 10.0);
+     * them dicing; unit 2 then at (8 + 5) s for 1536 of weight, and the dicing of units 0 and 1
+     * (12 s at weight 512, 10 s at 1024: no growth, their geometric mean) */
+    double unit2 = 13.0 / 1536.0 * 1024.0 + sqrt(12.0 * 10.0);
     assert_true(fabs(eta_units_left(u, 3, 2) - unit2) < 1e-9);
     assert_true(fabs(eta_units_left(u, 3, 1) - (5.0 + unit2)) < 1e-9);
-    /* without its passes unit 1 is its weight at 8 s a unit of weight and 8 x 12 s of dicing */
+    /* without its passes unit 1 is its weight at 8/512 s a unit of weight and 12 x 2^0.3 s of
+     * dicing (one unit: the exponent TS_ETA_REACH_EXPONENT) */
     u[1].passes = NULL;
-    assert_true(fabs(eta_units_left(u, 3, 1) - (8192.0 + 96.0 - 10.0 + 8192.0 + 96.0)) < 1e-9);
+    double alone = 16.0 + 12.0 * pow(2.0, TS_ETA_REACH_EXPONENT);
+    assert_true(fabs(eta_units_left(u, 3, 1) - (alone - 10.0 + alone)) < 1e-9);
+    /* unit 0 unlike it (of sky, 1/64 of its weight): unit 1 from its own passes, its second
+     * bounce at the first's 4 s times the rays' ratio to 0.3, the third 0.6 of that; its
+     * dicing those by its last pass (6 s) and 0.9 of the rest */
+    u[0].work = 16.0, u[1].passes = &now;
+    double b2 = 4.0 * pow(20.0 / 50.0, TS_ETA_REACH_EXPONENT);
+    double s1 = 9.0 + b2 * (1.0 + TS_ETA_NEXT_BOUNCE), d1 = 6.0 + (s1 - 9.0) * 0.9;
+    ts_eta_passes own = now;
+    own.share = 1024.0 / 2064.0;
+    assert_true(fabs(eta_wave_alone(&own, 10.0) - s1) < 1e-9);
+    double after = (8.0 + s1 - d1) / 1040.0 * 1024.0 + sqrt(12.0 * d1);
+    assert_true(fabs(eta_units_left(u, 3, 1) - (s1 - 10.0 + after)) < 1e-9);
+    /* in its eye rays' pass, its batches not a quarter run: no estimate */
+    ts_eta_passes eye = {.rays = {100}, .started = 1, .depth = 3};
+    eye.flight = (ts_eta_flight){.work = 1e6, .done = 1e5, .t0 = 0.5};
+    u[1].passes = &eye;
+    assert_true(eta_units_left(u, 3, 1) == TS_ETA_UNITS_EYE_RAYS);
+    /* ... unless the units merged weigh as much: then they are its rate */
+    u[0].work = 1024.0;
+    assert_true(eta_units_left(u, 3, 1) > 0.0);
+}
+
+/* The first bounce of a unit of the eye rays' 11.4 s (forest-100 1920x768 x 2 at --memory 512
+ * on two MPI ranks, 0.45 of the weight): TS_ETA_FIRST_BOUNCE times its share to the power
+ * -TS_ETA_BAND_EXPONENT (it took 21.2 s; 1.2 alone says 13.7); a frame in one wave keeps 1.2.
+ * Its first iteration's batches (3.4e7 of the pass's 4.9e7 work) at the eye rays' seconds a
+ * unit of work say 13.6 s: where rays have candidates beyond their windows (a later iteration
+ * adds batches) the ratio's 18.8 s holds; where none has, the batches do. */
+static void test_unit_first_bounce(void **state)
+{
+    (void)state;
+    assert_true(eta_first_bounce(0.0) == TS_ETA_FIRST_BOUNCE);
+    assert_true(eta_first_bounce(1.0) == TS_ETA_FIRST_BOUNCE);
+    assert_true(fabs(eta_first_bounce(0.45) - 1.2 * pow(0.45, -0.4)) < 1e-12);
+    assert_true(eta_first_bounce(0.001) == eta_first_bounce(0.01));
+    ts_eta_passes p = {
+        .end = {11.4}, .rays = {873676, 1598393}, .count = 1, .started = 2, .depth = 3};
+    p.share = 0.45;
+    p.work[0] = 2.77e7, p.batches_t0[0] = 1.1;
+    p.flight = (ts_eta_flight){.work = 3.39e7, .done = 1.0e6, .t0 = 14.1 - 11.4 + 11.4};
+    double first = 11.4 * eta_first_bounce(0.45);
+    double rest = 1.0 + TS_ETA_NEXT_BOUNCE + TS_ETA_NEXT_BOUNCE * TS_ETA_NEXT_BOUNCE;
+    double batches = 14.1 - 11.4 + 3.39e7 * (11.4 - 1.1) / 2.77e7;
+    assert_true(batches < first);
+    assert_true(fabs(eta_wave_alone(&p, 15.0) - (11.4 + batches * rest)) < 1e-9);
+    p.flight.more = 1;
+    double s = eta_wave_alone(&p, 15.0);
+    assert_true(fabs(s - (11.4 + first * rest)) < 1e-9);
+    assert_true(s > 0.8 * 53.0 && s < 1.2 * 53.0); /* the unit took 53.0 s */
 }
 
 int main(void)
@@ -549,6 +609,7 @@ int main(void)
         cmocka_unit_test(test_waves_of_background),
         cmocka_unit_test(test_units_that_dice_again),
         cmocka_unit_test(test_units_by_passes),
+        cmocka_unit_test(test_unit_first_bounce),
         cmocka_unit_test(test_wave_alone),
         cmocka_unit_test(test_first_wave_and_after),
         cmocka_unit_test(test_line_fits_80_columns),

@@ -123,6 +123,35 @@ static void test_squeezed_ranks_dice_as_one(void **state)
     if (!(two <= 1.15 * one)) fail_msg("two ranks diced %.0f patches, one process %.0f", two, one);
 }
 
+/* A frame of a few long units (forest-100 320x128 x 4 at --memory 24: four units of 49,172
+ * samples or fewer, each a wave that dices the forest again): rank 1 is handed one unit for
+ * its device and no more while fewer than two units a rank wait (ranks_mpi.c serve), so rank
+ * 0, whose first unit is the frame's top band of sky and treetops, takes another when it
+ * ends. When rank 1 kept one more than it had devices waiting, it held the other three from
+ * the start and rank 0 traced its first unit alone (49,172 samples; forest-100 1920x768 x 2
+ * at --memory 512 took up to 130 s instead of 82). */
+static void test_few_long_units_are_shared(void **state)
+{
+    (void)state;
+    int rc =
+        mpirun(2,
+               "render '%s' -o '%s' --res 320x128 --spp 4 --max-lod 6 --memory 24 --quiet "
+               "--stats '%s'",
+               test_source_path("scene/forest-100.rib"), in_dir("few.exr"), in_dir("few.json"));
+    if (rc != 0) fail_msg("mpirun -np 2 exited %d:\n%s", rc, test_stderr_of(dir));
+    cJSON *root = test_read_json(in_dir("few.json"));
+    double unit = number(root, "unit_samples");
+    cJSON *ranks = cJSON_GetObjectItemCaseSensitive(root, "ranks");
+    assert_int_equal(cJSON_GetArraySize(ranks), 2);
+    double rank0 = number(cJSON_GetArrayItem(ranks, 0), "samples");
+    double rank1 = number(cJSON_GetArrayItem(ranks, 1), "samples");
+    cJSON_Delete(root);
+    assert_true(unit < 320.0 * 128 * 4 / 3); /* at least four units */
+    assert_true(rank0 + rank1 == 320.0 * 128 * 4);
+    if (!(rank0 > unit && rank1 > 0))
+        fail_msg("rank 0 traced %.0f samples, rank 1 %.0f, in units of %.0f", rank0, rank1, unit);
+}
+
 /* Every rank loads the files itself: the same image. */
 static void test_ranks_that_load_the_scene(void **state)
 {
@@ -254,6 +283,7 @@ int main(void)
         cmocka_unit_test(test_ranks_give_the_one_process_image),
         cmocka_unit_test(test_ranks_that_load_the_scene),
         cmocka_unit_test(test_squeezed_ranks_dice_as_one),
+        cmocka_unit_test(test_few_long_units_are_shared),
         cmocka_unit_test(test_a_rank_whose_devices_fail_is_left_out),
         cmocka_unit_test(test_a_rank_that_dies_leaves_a_resumable_image),
     };

@@ -225,8 +225,15 @@ double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double
     return seconds;
 }
 
+double eta_first_bounce(double share)
+{
+    if (!(share > 0.0) || share >= 1.0) return TS_ETA_FIRST_BOUNCE;
+    return TS_ETA_FIRST_BOUNCE * pow(share < 0.01 ? 0.01 : share, -TS_ETA_BAND_EXPONENT);
+}
+
 double eta_wave_alone(const ts_eta_passes *now, double elapsed)
 {
+    double first = eta_first_bounce(now->share);
     uint32_t c = now->count; /* the pass in flight */
     if (now->started <= c || c >= TS_ETA_PASSES) return -1.0;
     double start = c > 0 ? now->end[c - 1] : 0.0;
@@ -237,20 +244,29 @@ double eta_wave_alone(const ts_eta_passes *now, double elapsed)
     double rate = c > 0 && now->work[c - 1] > 0.0 && now->end[c - 1] > now->batches_t0[c - 1]
                       ? (now->end[c - 1] - now->batches_t0[c - 1]) / now->work[c - 1]
                       : 0.0; /* the pass before's seconds a unit of batch work */
-    if (planned && f->done >= TS_ETA_BATCHES_SEEN * f->work && elapsed > f->t0)
-        d = f->t0 - start + (elapsed - f->t0) * f->work / f->done;
+    /* from the pass before: -1 for the eye rays' pass */
+    double ratio = c == 0 ? -1.0
+                   : c == 1 || !(now->rays[c - 1] > 0.0)
+                       ? before * (c == 1 ? first : TS_ETA_NEXT_BOUNCE)
+                       : before * pow(now->rays[c] / now->rays[c - 1], TS_ETA_REACH_EXPONENT);
+    double seen = f->at > 0.0 && f->at < elapsed ? f->at : elapsed; /* when f was seen */
+    if (planned && f->done >= TS_ETA_BATCHES_SEEN * f->work && seen > f->t0)
+        d = f->t0 - start + (seen - f->t0) * f->work / f->done;
     else if (planned && rate > 0.0)
         d = f->t0 - start + f->work * rate;
     else if (c == 0)
         return -1.0;
-    else if (c == 1 || !(now->rays[c - 1] > 0.0))
-        d = before * (c == 1 ? TS_ETA_FIRST_BOUNCE : TS_ETA_NEXT_BOUNCE);
     else
-        d = before * pow(now->rays[c] / now->rays[c - 1], TS_ETA_REACH_EXPONENT);
+        d = ratio;
+    /* Where rays have candidates beyond their windows the batches planned so far are a floor:
+     * a later iteration adds its own as it begins (the first bounce of a unit of forest-100 at
+     * --memory 512 on two MPI ranks: 3.4e7 of its 4.9e7); the pass before's ratio then holds
+     * where it says more. */
+    if (planned && f->more && d < ratio) d = ratio;
     if (d < elapsed - start) d = elapsed - start;
     double seconds = start + d;
     for (uint32_t k = c + 1; k <= now->depth; ++k) {
-        d *= k == 1 ? TS_ETA_FIRST_BOUNCE : TS_ETA_NEXT_BOUNCE;
+        d *= k == 1 ? first : TS_ETA_NEXT_BOUNCE;
         seconds += d;
     }
     return seconds;
@@ -307,25 +323,73 @@ static double unit_expect(const ts_eta_waves *w, double work, int geometry)
     return waves_rate(w) * work + (geometry ? dicing_fit(w, work) : 0.0);
 }
 
+/* The seconds unit x, out on a device of this process, is projected to take from its
+ * wave's passes so far, and its dicing seconds into *dicing; -1 where they say nothing yet.
+ * As the last merged unit that evicted spent its passes (eta_waves_project) where that unit
+ * is like it, of a weight within TS_ETA_UNITS_ALIKE of its own; else, or where that cannot
+ * say, from its own passes (eta_wave_alone, the unit holding `share` of the weight): a first
+ * unit of sky and treetops, whose eye rays' pass is short and whose bounces reach the forest,
+ * put a forest unit of 53 s at 40 s in its first bounce, its own passes at 48-55 s. */
+static double unit_project(const ts_eta_waves *w, double last_work, const ts_eta_unit *x,
+                           double share, double *dicing)
+{
+    if (!x->passes) return -1.0;
+    ts_eta_passes p = *x->passes;
+    p.share = share;
+    double seconds = -1.0;
+    if (last_work * TS_ETA_UNITS_ALIKE >= x->work && x->work * TS_ETA_UNITS_ALIKE >= last_work)
+        seconds = eta_waves_project(w, &p, dicing);
+    if (seconds >= 0.0) return seconds;
+    seconds = eta_wave_alone(&p, x->seconds);
+    if (seconds >= 0.0) {
+        *dicing = wave_alone_dicing(&p, x->seconds, seconds);
+        return seconds;
+    }
+    return eta_waves_project(w, &p, dicing);
+}
+
 double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
 {
     ts_eta_waves w = {0};
+    double last_work = 0.0; /* the weight of the unit whose passes are w.last */
     for (uint32_t i = 0; i < n; ++i)
-        if (u[i].state == TS_ETA_UNIT_MERGED)
+        if (u[i].state == TS_ETA_UNIT_MERGED) {
             eta_waves_done(&w, u[i].work, u[i].seconds, u[i].dicing, u[i].evicted, u[i].passes);
+            if (u[i].evicted && u[i].passes) last_work = u[i].work;
+        }
     if (!w.evicting || parallel == 0) return -1.0;
     double *free_at = calloc(parallel, sizeof *free_at);
+    double *expect = calloc(n ? n : 1, sizeof *expect);
     uint8_t *placed = calloc(n ? n : 1, 1);
-    if (!free_at || !placed) {
-        free(free_at), free(placed);
+    if (!free_at || !expect || !placed) {
+        free(free_at), free(expect), free(placed);
         return -1.0;
     }
-    /* The units a device traces, out longest first, each on a device of its own: projected
-     * from its wave's passes where eta_waves_project can (and then counted, as projected,
-     * for the units after it: `then`), else expected as above. A device frees when its unit
-     * ends, or, for a unit out longer than that, after another quarter of its time so far (it
-     * has not ended: 0 would be no estimate). */
+    /* The units out on this process's devices, projected from their passes, count as ended
+     * so for the rest (`then`): a unit another rank traces is known only from its result. */
     ts_eta_waves then = w;
+    int unknown = 0;
+    double all = 0.0; /* the units' weight: each unit's share of it (ts_eta_passes.share) */
+    for (uint32_t i = 0; i < n; ++i)
+        all += u[i].work;
+    for (uint32_t i = 0; i < n; ++i) {
+        expect[i] = -1.0;
+        if (u[i].state != TS_ETA_UNIT_OUT || u[i].queued) continue;
+        double dicing = 0.0;
+        expect[i] = unit_project(&w, last_work, &u[i], all > 0.0 ? u[i].work / all : 0.0, &dicing);
+        if (expect[i] >= 0.0)
+            eta_waves_done(&then, u[i].work, expect[i], dicing, 1, NULL);
+        else if (u[i].passes && w.work < u[i].work) /* the merged ones say little of it */
+            unknown = 1;
+    }
+    if (unknown) {
+        free(free_at), free(expect), free(placed);
+        return TS_ETA_UNITS_EYE_RAYS;
+    }
+    /* The units a device traces, out longest first, each on a device of its own: as projected,
+     * else expected by the rest. A device frees when its unit ends, or, for a unit out longer
+     * than that, after another quarter of its time so far (it has not ended: 0 would be no
+     * estimate). */
     for (uint32_t running = 0; running < parallel; ++running) {
         int64_t next = -1;
         for (uint32_t i = 0; i < n; ++i)
@@ -335,12 +399,8 @@ double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
         if (next < 0) break;
         const ts_eta_unit *x = &u[next];
         placed[next] = 1;
-        double dicing = 0.0, expect = x->passes ? eta_waves_project(&w, x->passes, &dicing) : -1.0;
-        if (expect >= 0.0)
-            eta_waves_done(&then, x->work, expect, dicing, 1, NULL);
-        else
-            expect = unit_expect(&w, x->work, x->geometry);
-        double left = expect - x->seconds;
+        double e = expect[next] >= 0.0 ? expect[next] : unit_expect(&then, x->work, x->geometry);
+        double left = e - x->seconds;
         double least = TS_ETA_OVERRUN_LEFT * x->seconds;
         free_at[running] = left > least ? left : least;
     }
@@ -355,6 +415,7 @@ double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
     for (uint32_t i = 0; i < parallel; ++i)
         left = free_at[i] > left ? free_at[i] : left;
     free(free_at);
+    free(expect);
     free(placed);
     return left;
 }

@@ -85,6 +85,11 @@ typedef struct ts_eta_flight {
     double work, done, t0, dicing;
     double mp; /* the micro-polygons the wave has diced so far */
     int evicted;
+    int more; /* rays of the pass's iteration in flight have candidates beyond their windows:
+               * a later iteration adds batches (pipeline.h trace_progress.overflow) */
+    /* when it was seen, in seconds from the wave's start (0: now); a unit's reaches the
+     * progress line up to 0.25 s later, another MPI rank's up to 0.75 s */
+    double at;
 } ts_eta_flight;
 typedef struct ts_eta_passes {
     double end[TS_ETA_PASSES], dicing[TS_ETA_PASSES], rays[TS_ETA_PASSES];
@@ -94,6 +99,9 @@ typedef struct ts_eta_passes {
     /* Of each ended pass, its batches' work and when the first began (seconds from the
      * wave's start; eta_passes_batches) */
     double work[TS_ETA_PASSES], batches_t0[TS_ETA_PASSES];
+    /* The wave's share of the weight of the frame's part to trace (0: not known; taken as
+     * the whole: eta_first_bounce) */
+    double share;
 } ts_eta_passes;
 
 /* The wave's next pass begins with `rays` rays (counted always; the rays of passes beyond
@@ -219,6 +227,16 @@ double eta_waves_project(const ts_eta_waves *w, const ts_eta_passes *now, double
 #define TS_ETA_FIRST_BOUNCE 1.2
 #define TS_ETA_NEXT_BOUNCE 0.6
 double eta_wave_alone(const ts_eta_passes *now, double elapsed);
+/* The first bounce's seconds over the eye rays' pass in a wave holding `share` (0..1] of the
+ * frame's weight: TS_ETA_FIRST_BOUNCE times share to the power -TS_ETA_BAND_EXPONENT (share at
+ * least 0.01). A wave's eye rays see its band of the image, its bounces reach most of the
+ * scene whatever the band: forest-100 1920x768 x 2 at --memory 512 in four units of 873,676
+ * samples on two MPI ranks (2026-11-30, stop 59), units of 0.45, 0.36 and 0.17 of the weight had
+ * first bounces of 1.86, 1.55 and 3.3 times their eye rays' pass (this says 1.65, 1.81, 2.45;
+ * 1.2 alone 35%, 23%, 64% short), the one of sky and treetops (0.022) 16 times (this: 5.5). A
+ * frame in one wave (share 1) keeps 1.2. */
+#define TS_ETA_BAND_EXPONENT 0.4
+double eta_first_bounce(double share);
 /* eta_waves_left with the wave in flight projected from its passes where eta_waves_project
  * can, or before any wave finished where eta_wave_alone can (the waves after it then
  * estimated as if it had finished so), else the same; *projected (when not NULL): the
@@ -232,10 +250,13 @@ double eta_waves_left_passes(const ts_eta_waves *w, double current, double elaps
  * not its weight at the rate so far (forest-100 1920x768 x 2 at --memory 512 on two devices:
  * its first unit, of sky, 2% of the weight in 15 s, put the time left at 784 s when 65 s were
  * left). As one device's waves are modelled, from the merged units (their weight, seconds,
- * dicing seconds, whether they evicted, their passes): a unit out is projected from its
- * wave's passes so far (eta_waves_project) where it can, and otherwise, as every unit not out,
- * expected to take its weight at the rate of the rest plus dicing as fitted to its weight where its
- * eye rays cross a patch box (the units projected counted as ended so); the `parallel` devices then
+ * dicing seconds, whether they evicted, their passes): a unit out on a device of this process
+ * is projected from its wave's passes so far (eta.c unit_project: as the last merged unit's
+ * where that one is alike, else from its own passes and batches, eta_wave_alone), and every
+ * other unit (another rank's unit out, whose passes come only with its result, and the units
+ * not out) expected to take its weight at the rate of the rest plus dicing as fitted to its
+ * weight where its eye rays cross a patch box, the units projected counted as ended so; the
+ * `parallel` devices then
  * finish the units out and take the others in order, each the next as it frees (the units out
  * longest run first; those queued, or beyond `parallel`, wait, as an MPI rank's next unit does
  * while it traces one); a unit out longer than expected has a quarter of its time so far left. */
@@ -256,7 +277,15 @@ typedef struct ts_eta_unit {
 /* The share of its time so far that a unit out longer than expected is given to run still. */
 #define TS_ETA_OVERRUN_LEFT 0.25
 /* The seconds left for units u[0..n) on `parallel` devices (>= 1) as above; -1 unless a
- * merged unit evicted (then the weights' rate holds: eta_seconds_left). */
+ * merged unit evicted (then the weights' rate holds: eta_seconds_left); TS_ETA_UNITS_EYE_RAYS
+ * while a unit out on this process cannot be projected from its passes yet (in its eye rays'
+ * pass) and the units merged weigh less than it: they say little of it (forest-100 1920x768
+ * x 2 at --memory 512 on two MPI ranks: after the first unit, of sky and treetops, 1.4 M of the
+ * frame's 62.5 M, the others expected at its rate put 32 s left when 70 were; 6 s later the
+ * unit's passes said 47). */
+#define TS_ETA_UNITS_EYE_RAYS (-2.0)
+/* Units alike: weights within this factor of each other (eta.c unit_project). */
+#define TS_ETA_UNITS_ALIKE 2.0
 double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel);
 
 #endif

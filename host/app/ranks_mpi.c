@@ -24,19 +24,24 @@ enum {
     RANKS_TAG_RESULT,
     RANKS_TAG_GIVE_BACK,
     RANKS_TAG_BYE,
+    RANKS_TAG_PASSES,
 };
 
 /* Seconds between two looks at the messages: the main thread of a rank has nothing else to
  * do while its devices' threads render. */
 #define RANKS_POLL_SECONDS 0.002
+/* A rank is handed a unit beyond one for each of its devices while at least this many units a
+ * rank wait on the board (serve). */
+#define RANKS_AHEAD_WAITING 2u
 /* Broadcasts move at most this many bytes at a time (MPI counts are ints). */
 #define RANKS_CHUNK ((size_t)1 << 30)
 
 /* What rank 0 knows of another rank. */
 typedef struct ranks_peer {
-    uint32_t wants; /* units asked for and not yet sent */
-    int bye;        /* its stats came: it takes nothing more */
-    ts_unit *out;   /* units sent to it and not yet back (out_count of out_capacity) */
+    uint32_t wants;   /* units asked for and not yet sent */
+    uint32_t devices; /* its devices rendering, as its last request said */
+    int bye;          /* its stats came: it takes nothing more */
+    ts_unit *out;     /* units sent to it and not yet back (out_count of out_capacity) */
     uint32_t out_count, out_capacity;
 } ranks_peer;
 
@@ -292,13 +297,18 @@ static int serve(ts_ranks *r, ts_board *b, int quiet, ts_error *err)
     while ((got = recv_any(MPI_ANY_SOURCE, &from, &tag, &data, &bytes, err)) > 0) {
         int rc = TS_OK;
         ts_unit u;
-        uint32_t n;
+        uint32_t n[2]; /* a request: how many units, and the rank's devices rendering */
+        ts_eta_passes passes;
         if (tag == RANKS_TAG_REQUEST && bytes == (int)sizeof n)
-            memcpy(&n, data, sizeof n), r->peers[from].wants += n;
+            memcpy(n, data, sizeof n), r->peers[from].wants += n[0], r->peers[from].devices = n[1];
         else if (r->peers[from].bye) /* units it had in flight: given back at its bye */
             rc = TS_OK;
         else if (tag == RANKS_TAG_RESULT)
             rc = take_result(&r->peers[from], b, data, bytes, err);
+        else if (tag == RANKS_TAG_PASSES && bytes == (int)(sizeof u + sizeof passes))
+            memcpy(&u, data, sizeof u),
+                memcpy(&passes, (const char *)data + sizeof u, sizeof passes),
+                board_unit_passes(b, &u, &passes); /* for the progress line */
         else if (tag == RANKS_TAG_GIVE_BACK && bytes == (int)sizeof u)
             memcpy(&u, data, sizeof u), peer_track(&r->peers[from], &u, 0), board_give_back(b, &u);
         else if (tag == RANKS_TAG_BYE)
@@ -313,6 +323,13 @@ static int serve(ts_ranks *r, ts_board *b, int quiet, ts_error *err)
     for (int k = 1; k < r->size; ++k) {
         ranks_peer *p = &r->peers[k];
         while (p->wants > 0 && !p->bye) {
+            /* One unit a device; one more, to start at once when one ends, only while many
+             * wait: a frame whose patches do not fit has a few long units (forest-100
+             * 1920x768 x 2 at --memory 512: four of 30-50 s), and a rank holding the next
+             * while it traces one left rank 0 without work for 86 of 126 s. */
+            if (p->out_count >= (p->devices ? p->devices : 1u) &&
+                board_waiting(b) < RANKS_AHEAD_WAITING * (uint32_t)r->size)
+                break;
             ts_unit u;
             int t = board_try_take_for(b, TS_BOARD_TAKERS + (uint32_t)k, &u);
             if (t == 0) break;
@@ -400,6 +417,17 @@ typedef struct relay_item {
     struct relay_item *next;
 } relay_item;
 
+/* The passes of a unit this rank traces, as its device last handed them (units.h
+ * ts_unit_source.passes), for rank 0's progress line (eta.h eta_units_left): sent at most
+ * every RANKS_PASSES_SECONDS while they change. */
+typedef struct relay_passes {
+    ts_unit unit;
+    ts_eta_passes passes;
+    int fresh; /* changed since sent */
+} relay_passes;
+#define RANKS_PASSES_UNITS 16u
+#define RANKS_PASSES_SECONDS 0.5
+
 /* The units rank 0 gave this rank, as a unit source for its devices (units.h). */
 typedef struct relay {
     pthread_mutex_t lock;
@@ -407,7 +435,8 @@ typedef struct relay {
     ts_unit *queue; /* units not yet taken, in order */
     uint32_t queued, capacity;
     int no_more, closed;
-    relay_item *out, **out_tail; /* finished or given back, oldest first */
+    relay_item *out, **out_tail;             /* finished or given back, oldest first */
+    relay_passes passes[RANKS_PASSES_UNITS]; /* unit.count 0: a free entry */
 } relay;
 
 static int relay_take(void *ctx, uint16_t taker, ts_unit *u)
@@ -426,6 +455,27 @@ static int relay_take(void *ctx, uint16_t taker, ts_unit *u)
     return got;
 }
 
+/* The entry of unit u's passes in q (lock held): its own, else a free one (NULL: none). */
+static relay_passes *relay_passes_of(relay *q, const ts_unit *u, int add)
+{
+    relay_passes *free_entry = NULL;
+    for (uint32_t i = 0; i < RANKS_PASSES_UNITS; ++i) {
+        relay_passes *e = &q->passes[i];
+        if (e->unit.count && e->unit.index == u->index) return e;
+        if (!e->unit.count && !free_entry) free_entry = e;
+    }
+    return add ? free_entry : NULL;
+}
+
+static void relay_unit_passes(void *ctx, const ts_unit *u, const ts_eta_passes *p)
+{
+    relay *q = ctx;
+    pthread_mutex_lock(&q->lock);
+    relay_passes *e = relay_passes_of(q, u, 1);
+    if (e) e->unit = *u, e->passes = *p, e->fresh = 1;
+    pthread_mutex_unlock(&q->lock);
+}
+
 /* Queues a finished unit (result, or given back) for the main thread to send. A unit whose
  * item cannot be allocated is lost to this rank: rank 0 never hears of it and the frame
  * waits for it until the render is stopped, as for a rank that dies. */
@@ -433,6 +483,8 @@ static void relay_out(relay *q, const ts_unit *u, ts_unit_result *r)
 {
     relay_item *it = calloc(1, sizeof *it);
     pthread_mutex_lock(&q->lock);
+    relay_passes *e = relay_passes_of(q, u, 0); /* its result carries its last passes */
+    if (e) memset(e, 0, sizeof *e);
     if (it) {
         it->unit = *u;
         it->given_back = r == NULL;
@@ -540,6 +592,26 @@ static int send_items(relay_item *it, ts_error *err)
     return rc;
 }
 
+/* The passes of the units this rank traces that changed since they were last sent. */
+static int send_passes(relay *q, ts_error *err)
+{
+    struct {
+        ts_unit unit;
+        ts_eta_passes passes;
+    } msg[RANKS_PASSES_UNITS];
+    uint32_t n = 0;
+    pthread_mutex_lock(&q->lock);
+    for (uint32_t i = 0; i < RANKS_PASSES_UNITS; ++i)
+        if (q->passes[i].unit.count && q->passes[i].fresh) {
+            msg[n].unit = q->passes[i].unit, msg[n].passes = q->passes[i].passes, n++;
+            q->passes[i].fresh = 0;
+        }
+    pthread_mutex_unlock(&q->lock);
+    for (uint32_t i = 0; i < n; ++i)
+        if (send_bytes(&msg[i], sizeof msg[i], 0, RANKS_TAG_PASSES, err)) return err->code;
+    return TS_OK;
+}
+
 /* What this rank needs of rank 0's start: the options it resolved, the scene (received, or
  * loaded and checked against rank 0's job hash) and the camera. *skip: rank 0 ends the
  * frame without rendering (a failure there, or nothing to do). A scene this rank cannot
@@ -632,17 +704,20 @@ static int follow_units(ts_workers *g, relay *q, int *stopped, ts_error *err)
 {
     uint32_t requested = 0;
     int rc = TS_OK;
+    double sent_passes = 0.0;
     while (!rc && workers_running(g) > 0) {
         if ((*stopped = interrupt_signal() != 0)) break;
         rc = send_items(relay_drain(q), err);
+        if (!rc && stats_now() - sent_passes >= RANKS_PASSES_SECONDS)
+            rc = send_passes(q, err), sent_passes = stats_now();
         pthread_mutex_lock(&q->lock);
         uint32_t queued = q->queued, no_more = (uint32_t)q->no_more;
         pthread_mutex_unlock(&q->lock);
         uint32_t alive = workers_alive(g);
         if (!rc && !no_more && alive && queued + requested < alive + 1) {
-            uint32_t n = alive + 1 - queued - requested;
-            rc = send_bytes(&n, sizeof n, 0, RANKS_TAG_REQUEST, err);
-            requested += n;
+            uint32_t n[2] = {alive + 1 - queued - requested, alive};
+            rc = send_bytes(n, sizeof n, 0, RANKS_TAG_REQUEST, err);
+            requested += n[0];
         }
         if (!rc) rc = follow_receive(q, &requested, err);
         sleep_seconds(RANKS_POLL_SECONDS);
@@ -704,7 +779,7 @@ static void follow_devices(ts_workers *g, const ts_frame *f, relay *q, ts_error 
     if (n > 0 && count > 0 && !why->code && !workers_open(g, f, indices, count, why))
         workers_start(g,
                       (ts_unit_source){q, relay_take, relay_done, relay_give_back, relay_closed,
-                                       NULL, NULL, NULL},
+                                       NULL, NULL, relay_unit_passes},
                       0, why);
 }
 

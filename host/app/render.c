@@ -160,6 +160,7 @@ static void wave_progress_print(wave_progress *w, int in_wave)
         ts_eta_flight *f = &w->passes.flight;
         f->work = w->p->trace_progress.work, f->done = w->p->trace_progress.done;
         f->t0 = w->p->trace_progress.t0 - w->wave_t0;
+        f->more = w->p->trace_progress.overflow > 0;
         f->dicing = stats_dicing_seconds(w->p->stats) - w->wave_dicing;
         f->mp = (double)(w->p->stats->counters[TS_COUNTER_micropolygons_created] - w->wave_mp);
         f->evicted = w->p->stats->counters[TS_COUNTER_patch_cache_evictions] > w->wave_evictions;
@@ -201,7 +202,11 @@ static void wave_progress_begin(wave_progress *w, uint64_t first, uint32_t n)
     w->wave_dicing = stats_dicing_seconds(w->p->stats);
     w->wave_mp = w->p->stats->counters[TS_COUNTER_micropolygons_created];
     w->wave_evictions = w->p->stats->counters[TS_COUNTER_patch_cache_evictions];
-    w->passes = (ts_eta_passes){.depth = (uint32_t)w->o->depth};
+    double all = eta_work(&w->eta, w->total) - eta_work(&w->eta, w->start);
+    w->passes = (ts_eta_passes){
+        .depth = (uint32_t)w->o->depth,
+        .share =
+            all > 0.0 ? (eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, first)) / all : 0.0};
     w->after_count = eta_waves_works(&w->eta, w->wave_end, w->total, w->per_wave, w->after);
 }
 

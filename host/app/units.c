@@ -498,6 +498,16 @@ void board_freeze(ts_board *b)
     pthread_mutex_unlock(&b->lock);
 }
 
+uint32_t board_waiting(ts_board *b)
+{
+    pthread_mutex_lock(&b->lock);
+    uint32_t n = b->unit_count - b->next;
+    for (uint32_t i = 0; i < b->next; ++i)
+        n += b->state[i] == UNIT_GIVEN_BACK;
+    pthread_mutex_unlock(&b->lock);
+    return n;
+}
+
 int board_finished(ts_board *b)
 {
     pthread_mutex_lock(&b->lock);

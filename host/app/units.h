@@ -184,6 +184,9 @@ void board_close(ts_board *b);
 void board_freeze(ts_board *b);
 /* 1 when every unit is merged. */
 int board_finished(ts_board *b);
+/* How many units are waiting to be handed out (not out, not merged: given back or never
+ * taken). */
+uint32_t board_waiting(ts_board *b);
 /* The samples the films hold, and (when held is not NULL) which: a copy into *held (empty
  * before). TS_E_MEMORY in *err when the copy cannot be made. */
 uint64_t board_samples_done(ts_board *b);

@@ -29,6 +29,7 @@ struct ts_worker {
     int started;
     long slow_ms;               /* TESSERA_SLOW_DEVICE: a pause after each wave (tests) */
     const ts_unit *cancel_unit; /* the unit being traced, for worker_unit_dropped */
+    struct unit_passes *passes; /* its wave's passes, which worker_unit_dropped hands on */
     ts_vec4 *aov_wave;          /* a wave's AOVs and albedo, worker_read_aov_strided's */
     size_t aov_wave_cap;        /* samples aov_wave holds (2 vec4 each) */
     int shares;                 /* computes like device 0: shares built patches through g->share */
@@ -435,40 +436,66 @@ static int worker_read_wave(ts_worker *w, const ts_unit *u, uint64_t first, uint
     return rc ? err->code : TS_OK;
 }
 
-/* 1 when the unit w traces is merged from another device's copy, or the source closed (a
- * stop signal closes the board): pipeline.h cancel. */
-static int worker_unit_dropped(void *ctx)
-{
-    ts_worker *w = ctx;
-    const ts_unit_source *src = &w->g->src;
-    return src->closed(src->ctx) || (src->dropped && src->dropped(src->ctx, w->cancel_unit));
-}
-
 /* The passes of the wave a worker traces (render.c's render_pass_ended for one device), handed
- * to the board as they end (ts_unit_source.passes) for the progress line's estimate. */
+ * to the board as they end (ts_unit_source.passes) for the progress line's estimate, and
+ * between them the pass in flight's batches (eta.h ts_eta_flight), at most every
+ * UNIT_FLIGHT_SECONDS. */
 typedef struct unit_passes {
     ts_worker *w;
     const ts_unit *u;
     ts_eta_passes passes;
-    double t0, dicing;
+    double t0, dicing, handed;
+    uint64_t mp, evictions; /* the worker's counters as the wave began */
 } unit_passes;
+#define UNIT_FLIGHT_SECONDS 0.25
 
 /* The passes so far to the board (ts_unit_source.passes). */
-static void unit_passes_hand(const unit_passes *up)
+static void unit_passes_hand(unit_passes *up)
 {
     const ts_unit_source *src = &up->w->g->src;
+    up->handed = stats_now();
     if (src->passes) src->passes(src->ctx, up->u, &up->passes);
+}
+
+/* The pass in flight as pipeline_trace left it (render.c's wave_progress_print for one
+ * device), handed on unless it was less than UNIT_FLIGHT_SECONDS ago. */
+static void unit_flight(unit_passes *up, const ts_pipeline *p)
+{
+    double now = stats_now();
+    if (now - up->handed < UNIT_FLIGHT_SECONDS) return;
+    const ts_stats *st = &up->w->stats;
+    ts_eta_flight *f = &up->passes.flight;
+    f->work = p->trace_progress.work, f->done = p->trace_progress.done;
+    f->t0 = p->trace_progress.t0 - up->t0, f->at = now - up->t0;
+    f->more = p->trace_progress.overflow > 0;
+    f->dicing = stats_dicing_seconds(st) - up->dicing;
+    f->mp = (double)(st->counters[TS_COUNTER_micropolygons_created] - up->mp);
+    f->evicted = st->counters[TS_COUNTER_patch_cache_evictions] > up->evictions;
+    unit_passes_hand(up);
+}
+
+/* 1 when the unit w traces is merged from another device's copy, or the source closed (a
+ * stop signal closes the board): pipeline.h cancel. Between its batches, the pass in flight
+ * to the board (unit_flight). */
+static int worker_unit_dropped(void *ctx)
+{
+    ts_worker *w = ctx;
+    const ts_unit_source *src = &w->g->src;
+    if (w->passes) unit_flight(w->passes, &w->pipe);
+    return src->closed(src->ctx) || (src->dropped && src->dropped(src->ctx, w->cancel_unit));
 }
 
 /* waves_trace_paths' watch: the pass before ended, bounce begins (eta_passes_before). */
 static int unit_pass_ended(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_t rays, int after,
                            ts_error *err)
 {
-    (void)p, (void)err;
+    (void)err;
     unit_passes *up = ctx;
     if (after) return TS_OK;
     eta_passes_before(&up->passes, bounce, (double)rays, stats_now() - up->t0,
                       stats_dicing_seconds(&up->w->stats) - up->dicing);
+    if (bounce > 0) /* trace_progress still holds the pass that ended */
+        eta_passes_batches(&up->passes, p->trace_progress.work, p->trace_progress.t0 - up->t0);
     unit_passes_hand(up);
     return TS_OK;
 }
@@ -500,11 +527,14 @@ static int worker_trace_unit(ts_worker *w, const ts_unit *u, ts_unit_result *r, 
         w->cancel_unit = u;
         p->cancel = worker_unit_dropped, p->cancel_ctx = w;
         p->cancelled = 0;
-        memset(&up.passes, 0, sizeof up.passes);
+        up.passes = (ts_eta_passes){.depth = (uint32_t)g->frame.opt->depth};
         up.t0 = stats_now(), up.dicing = stats_dicing_seconds(&w->stats);
+        up.mp = w->stats.counters[TS_COUNTER_micropolygons_created];
+        up.evictions = w->stats.counters[TS_COUNTER_patch_cache_evictions];
+        w->passes = &up;
         int rc = pipeline_camera(p, &cam, err) ||
                  waves_trace_paths_watched(g->frame.opt, p, &cam, unit_pass_ended, &up, err);
-        p->cancel = NULL;
+        p->cancel = NULL, w->passes = NULL;
         if (rc) return err->code;
         if (p->cancelled) return *stopped = g->src.closed(g->src.ctx) ? 1 : 2, TS_OK;
         /* the wave's last pass ended */
@@ -1017,6 +1047,9 @@ static int frame_progress(ts_workers *g, ts_board *b, frame_progress_state *st, 
     if (left >= 0.0)
         eta_print_left(&st->eta, b->start + finished, b->start, b->total, done, (double)rays,
                        now - st->t0, left, "unit");
+    else if (left == TS_ETA_UNITS_EYE_RAYS)
+        eta_print_tail(&st->eta, b->start + finished, b->start, b->total, done, (double)rays,
+                       now - st->t0, "ETA after eye rays");
     else
         eta_print(&st->eta, b->start + finished, b->start, b->total, done, (double)rays,
                   now - st->t0, "unit");
