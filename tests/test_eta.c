@@ -488,6 +488,15 @@ static void test_units_that_dice_again(void **state)
     /* two devices: units 2 and 1 end in 70 s and 76 s, unit 3 (8.015625) follows unit 2,
      * unit 4 (sky: 16, no dicing) unit 1 (92 s) */
     assert_true(fabs(eta_units_left(u, 5, 2) - 92.0) < 1e-9);
+    /* the line's credit: units 2 and 1, each expected to take 80 s, 10 s and 4 s in */
+    double credit = -1.0;
+    assert_true(fabs(eta_units_left_credit(u, 5, 2, &credit) - 92.0) < 1e-9);
+    assert_true(fabs(credit - 1024.0 * (10.0 + 4.0) / 80.0) < 1e-9);
+    /* at most 0.9 of a unit's weight, however long it has run */
+    u[2].seconds = 400.0;
+    assert_true(eta_units_left_credit(u, 5, 2, &credit) > 0.0);
+    assert_true(fabs(credit - 1024.0 * (0.9 + 4.0 / 80.0)) < 1e-9);
+    u[2].seconds = 10.0;
     /* one device (an MPI rank that took unit 1 ahead): unit 2, out longer, runs, unit 1 waits */
     assert_true(fabs(eta_units_left(u, 5, 1) - (70.0 + 80.0 + 8.015625 + 16.0)) < 1e-9);
     /* four: every unit at once, the last to end the one out least long */

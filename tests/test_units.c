@@ -869,7 +869,7 @@ static void test_board_units_left_when_units_dice_again(void **state)
     trace(&o, &u[0], &r);
     r.dicing = 60.0, r.evicted = 0; /* fits: the weights' rate holds */
     assert_int_equal(board_done(&b, &u[0], &r), 1);
-    assert_true(board_units_left(&b, &eta, now, 2) == -1.0);
+    assert_true(board_units_left(&b, &eta, now, 2, NULL) == -1.0);
     trace(&o, &u[1], &r);
     r.dicing = 60.0, r.evicted = 1;
     assert_int_equal(board_done(&b, &u[1], &r), 1);
@@ -878,12 +878,16 @@ static void test_board_units_left_when_units_dice_again(void **state)
     /* a unit: its weight at (took0 + took1 - 60) / (2 span), plus 60 s of dicing */
     double unit = (took0 + took1 - 60.0) / 2.0 + 60.0, out = unit - took1;
     double k = H - 3; /* units not out */
-    double one = board_units_left(&b, &eta, now, 1), two = board_units_left(&b, &eta, now, 2);
+    double credit = -1.0, one = board_units_left(&b, &eta, now, 1, NULL);
+    double two = board_units_left(&b, &eta, now, 2, &credit);
     assert_true(fabs(one - (out + k * unit)) < 1e-6 * one);
     /* two devices: the one free takes the first, the other its next as unit 2 ends, ... */
     double even = (double)((int)k / 2), odd = k - even; /* units to the free one, to the other */
     double expect = fmax(odd * unit, out + even * unit);
     assert_true(fabs(two - expect) < 1e-6 * two);
+    /* the line's credit: unit 2, out as long as unit 1 took, for that share of a unit */
+    double w2 = eta_work(&eta, u[2].first + u[2].count) - eta_work(&eta, u[2].first);
+    assert_true(fabs(credit - w2 * fmin(took1 / unit, 0.9)) < 1e-6 * w2);
     /* a unit out keeps its device's passes so far; one merged, its result's */
     ts_eta_passes p = {.end = {1, 2}, .count = 2, .started = 3};
     board_unit_passes(&b, &u[2], &p);

@@ -323,8 +323,8 @@ static double unit_expect(const ts_eta_waves *w, double work, int geometry)
     return waves_rate(w) * work + (geometry ? dicing_fit(w, work) : 0.0);
 }
 
-/* The seconds unit x, out on a device of this process, is projected to take from its
- * wave's passes so far, and its dicing seconds into *dicing; -1 where they say nothing yet.
+/* The seconds unit x, out, is projected to take from its wave's passes so far (NULL: not
+ * known), and its dicing seconds into *dicing; -1 where they say nothing yet.
  * As the last merged unit that evicted spent its passes (eta_waves_project) where that unit
  * is like it, of a weight within TS_ETA_UNITS_ALIKE of its own; else, or where that cannot
  * say, from its own passes (eta_wave_alone, the unit holding `share` of the weight): a first
@@ -350,6 +350,12 @@ static double unit_project(const ts_eta_waves *w, double last_work, const ts_eta
 
 double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
 {
+    return eta_units_left_credit(u, n, parallel, NULL);
+}
+
+double eta_units_left_credit(const ts_eta_unit *u, uint32_t n, uint32_t parallel, double *credit)
+{
+    if (credit) *credit = 0.0;
     ts_eta_waves w = {0};
     double last_work = 0.0; /* the weight of the unit whose passes are w.last */
     for (uint32_t i = 0; i < n; ++i)
@@ -365,8 +371,8 @@ double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
         free(free_at), free(expect), free(placed);
         return -1.0;
     }
-    /* The units out on this process's devices, projected from their passes, count as ended
-     * so for the rest (`then`): a unit another rank traces is known only from its result. */
+    /* The units out whose passes are known (those of this process's devices, and those other
+     * MPI ranks send), projected from them, count as ended so for the rest (`then`). */
     ts_eta_waves then = w;
     int unknown = 0;
     double all = 0.0; /* the units' weight: each unit's share of it (ts_eta_passes.share) */
@@ -401,6 +407,8 @@ double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
         placed[next] = 1;
         double e = expect[next] >= 0.0 ? expect[next] : unit_expect(&then, x->work, x->geometry);
         double left = e - x->seconds;
+        if (credit && e > 0.0) /* the share of its expected time it has run, at most 0.9 */
+            *credit += x->work * (x->seconds < 0.9 * e ? x->seconds / e : 0.9);
         double least = TS_ETA_OVERRUN_LEFT * x->seconds;
         free_at[running] = left > least ? left : least;
     }

@@ -250,11 +250,11 @@ double eta_waves_left_passes(const ts_eta_waves *w, double current, double elaps
  * not its weight at the rate so far (forest-100 1920x768 x 2 at --memory 512 on two devices:
  * its first unit, of sky, 2% of the weight in 15 s, put the time left at 784 s when 65 s were
  * left). As one device's waves are modelled, from the merged units (their weight, seconds,
- * dicing seconds, whether they evicted, their passes): a unit out on a device of this process
- * is projected from its wave's passes so far (eta.c unit_project: as the last merged unit's
- * where that one is alike, else from its own passes and batches, eta_wave_alone), and every
- * other unit (another rank's unit out, whose passes come only with its result, and the units
- * not out) expected to take its weight at the rate of the rest plus dicing as fitted to its
+ * dicing seconds, whether they evicted, their passes): a unit out is projected from its
+ * wave's passes so far (eta.c unit_project: as the last merged unit's where that one is alike,
+ * else from its own passes and batches, eta_wave_alone; another MPI rank sends its units'
+ * every half second), and every other unit (out without passes yet, or not out) expected to
+ * take its weight at the rate of the rest plus dicing as fitted to its
  * weight where its eye rays cross a patch box, the units projected counted as ended so; the
  * `parallel` devices then
  * finish the units out and take the others in order, each the next as it frees (the units out
@@ -270,7 +270,7 @@ typedef struct ts_eta_unit {
     int geometry;   /* its eye rays cross a patch box (eta_waves_with_geometry) */
     int queued;     /* out, but its device traces another first (seconds 0) */
     /* merged: the passes of its (last) wave; out: those of the wave it traces, so far (NULL:
-     * not known: another MPI rank's unit out) */
+     * not known yet: another MPI rank's unit before its first report) */
     const ts_eta_passes *passes;
 } ts_eta_unit;
 
@@ -278,7 +278,7 @@ typedef struct ts_eta_unit {
 #define TS_ETA_OVERRUN_LEFT 0.25
 /* The seconds left for units u[0..n) on `parallel` devices (>= 1) as above; -1 unless a
  * merged unit evicted (then the weights' rate holds: eta_seconds_left); TS_ETA_UNITS_EYE_RAYS
- * while a unit out on this process cannot be projected from its passes yet (in its eye rays'
+ * while a unit out cannot be projected from its passes yet (in its eye rays'
  * pass) and the units merged weigh less than it: they say little of it (forest-100 1920x768
  * x 2 at --memory 512 on two MPI ranks: after the first unit, of sky and treetops, 1.4 M of the
  * frame's 62.5 M, the others expected at its rate put 32 s left when 70 were; 6 s later the
@@ -287,5 +287,11 @@ typedef struct ts_eta_unit {
 /* Units alike: weights within this factor of each other (eta.c unit_project). */
 #define TS_ETA_UNITS_ALIKE 2.0
 double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel);
+/* The same, and into *credit the weight the units a device traces have done as the line
+ * credits it: each unit's weight times the share of its expected time it has run, at most 0.9
+ * (0 where the time left is not estimated). The weights' credit (units.h board_work_in_flight,
+ * the merged units' seconds a unit of weight) put forest-100 1920x768 x 2 at --memory 512 on
+ * two MPI ranks at 25% done 47 s into its 82 s, after a first unit of sky. */
+double eta_units_left_credit(const ts_eta_unit *u, uint32_t n, uint32_t parallel, double *credit);
 
 #endif

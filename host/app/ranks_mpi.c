@@ -592,23 +592,22 @@ static int send_items(relay_item *it, ts_error *err)
     return rc;
 }
 
-/* The passes of the units this rank traces that changed since they were last sent. */
+/* The passes of the units this rank traces that changed since they were last sent: a unit,
+ * then its passes, as serve reads them. */
 static int send_passes(relay *q, ts_error *err)
 {
-    struct {
-        ts_unit unit;
-        ts_eta_passes passes;
-    } msg[RANKS_PASSES_UNITS];
+    char msg[RANKS_PASSES_UNITS][sizeof(ts_unit) + sizeof(ts_eta_passes)];
     uint32_t n = 0;
     pthread_mutex_lock(&q->lock);
     for (uint32_t i = 0; i < RANKS_PASSES_UNITS; ++i)
         if (q->passes[i].unit.count && q->passes[i].fresh) {
-            msg[n].unit = q->passes[i].unit, msg[n].passes = q->passes[i].passes, n++;
-            q->passes[i].fresh = 0;
+            memcpy(msg[n], &q->passes[i].unit, sizeof(ts_unit));
+            memcpy(msg[n] + sizeof(ts_unit), &q->passes[i].passes, sizeof(ts_eta_passes));
+            q->passes[i].fresh = 0, n++;
         }
     pthread_mutex_unlock(&q->lock);
     for (uint32_t i = 0; i < n; ++i)
-        if (send_bytes(&msg[i], sizeof msg[i], 0, RANKS_TAG_PASSES, err)) return err->code;
+        if (send_bytes(msg[i], sizeof msg[i], 0, RANKS_TAG_PASSES, err)) return err->code;
     return TS_OK;
 }
 

@@ -582,7 +582,8 @@ double board_work_in_flight(ts_board *b, const ts_eta *eta, double now)
     return credit;
 }
 
-double board_units_left(ts_board *b, const ts_eta *eta, double now, uint32_t parallel)
+double board_units_left(ts_board *b, const ts_eta *eta, double now, uint32_t parallel,
+                        double *credit)
 {
     pthread_mutex_lock(&b->lock);
     uint32_t n = b->unit_count;
@@ -601,7 +602,8 @@ double board_units_left(ts_board *b, const ts_eta *eta, double now, uint32_t par
         u[i].passes = b->passes[i].started ? &b->passes[i] : NULL;
         u[i].dicing = b->diced[i], u[i].evicted = b->evicted[i];
     }
-    double left = u ? eta_units_left(u, n, parallel) : -1.0; /* u[].passes point into b */
+    if (credit) *credit = 0.0;
+    double left = u ? eta_units_left_credit(u, n, parallel, credit) : -1.0; /* u[].passes: b's */
     pthread_mutex_unlock(&b->lock);
     free(u);
     return left;

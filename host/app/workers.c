@@ -1013,13 +1013,15 @@ static int job_from_board(ts_job *job, ts_board *b, ts_error *err)
 
 /* The progress line: samples of the units finished (merged or not), the share of the
  * frame's weight they hold (eta.h, once the levels and the pixels' weights are made) with the
- * units out credited for the time they have run (board_work_in_flight), rays per second, and
+ * units out credited for the time they have run (for the share of their expected time where
+ * eta_units_left estimates the time left, else board_work_in_flight), rays per second, and
  * the time left at the weight per second so far; printed at most every second, from when every
  * device is set up (its notes printed) or a unit is finished. */
 typedef struct frame_progress_state {
     ts_eta eta;
     int weighed; /* eta holds the pixels' weights (else samples weigh 1) */
     double t0;
+    double shown; /* the weight done the line last showed: it shows no less */
 } frame_progress_state;
 
 static int frame_progress(ts_workers *g, ts_board *b, frame_progress_state *st, int lod_state,
@@ -1036,14 +1038,20 @@ static int frame_progress(ts_workers *g, ts_board *b, frame_progress_state *st, 
     if (finished == 0 && !set_up && !board_finished(b)) return 0; /* devices print notes */
     /* nothing merged: no credit either, so done is 0 and the ETA waits for the first unit */
     double now = stats_now();
-    double done = board_work_finished(b, &st->eta) + board_work_in_flight(b, &st->eta, now);
-    /* units that dice again (the frame's patches do not fit): as eta_units_left models them */
+    double done = board_work_finished(b, &st->eta);
+    /* units that dice again (the frame's patches do not fit): as eta_units_left models them,
+     * and the units out credited for the share of their expected time they have run */
     pthread_mutex_lock(&g->lock);
     uint32_t failed = (uint32_t)(g->count - g->alive), all = g->frame.devices_all;
     pthread_mutex_unlock(&g->lock);
     all = all > (uint32_t)g->count ? all : (uint32_t)g->count;
+    double credit = 0.0;
     double left =
-        st->weighed ? board_units_left(b, &st->eta, now, all > failed ? all - failed : 1u) : -1.0;
+        st->weighed ? board_units_left(b, &st->eta, now, all > failed ? all - failed : 1u, &credit)
+                    : -1.0;
+    done += left >= 0.0 ? credit : board_work_in_flight(b, &st->eta, now);
+    if (done < st->shown) done = st->shown;
+    st->shown = done;
     if (left >= 0.0)
         eta_print_left(&st->eta, b->start + finished, b->start, b->total, done, (double)rays,
                        now - st->t0, left, "unit");
@@ -1063,7 +1071,7 @@ static int frame_wait(ts_workers *g, ts_board *b, const ts_frame_service *servic
 {
     const ts_frame *f = &g->frame;
     double printed = 0;
-    frame_progress_state st = {{0}, 0, stats_now()};
+    frame_progress_state st = {{0}, 0, stats_now(), 0.0};
     ts_error weights_err = {0};
     int shown = 0, rc = TS_OK, lod_state = 0, set_up = 0;
     eta_init(&st.eta, NULL, 0, 1, 0, &weights_err); /* samples weigh 1 until the levels */
