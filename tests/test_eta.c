@@ -573,6 +573,20 @@ static void test_units_by_passes(void **state)
     /* ... unless the units merged weigh as much: then they are its rate */
     u[0].work = 1024.0;
     assert_true(eta_units_left(u, 3, 1) > 0.0);
+    /* Nothing merged yet (two MPI ranks with a unit each): units out whose patch caches evict
+     * are projected from their own passes; while their caches have not evicted, the weights'
+     * rate holds (-1) */
+    ts_eta_unit two[2] = {
+        {.work = 1024.0, .seconds = 10.0, .state = TS_ETA_UNIT_OUT, .geometry = 1, .passes = &now},
+        {.work = 1024.0, .seconds = 10.0, .state = TS_ETA_UNIT_OUT, .geometry = 1, .passes = &now},
+    };
+    now.share = 0.5;
+    assert_true(eta_units_left(two, 2, 2) == -1.0);
+    now.flight.evicted = 1;
+    own = now;
+    assert_true(fabs(eta_units_left(two, 2, 2) - (eta_wave_alone(&own, 10.0) - 10.0)) < 1e-9);
+    two[1].passes = &eye; /* one in its eye rays' pass */
+    assert_true(eta_units_left(two, 2, 2) == TS_ETA_UNITS_EYE_RAYS);
 }
 
 /* The first bounce of a unit of the eye rays' 11.4 s (forest-100 1920x768 x 2 at --memory 512

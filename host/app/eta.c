@@ -363,7 +363,14 @@ double eta_units_left_credit(const ts_eta_unit *u, uint32_t n, uint32_t parallel
             eta_waves_done(&w, u[i].work, u[i].seconds, u[i].dicing, u[i].evicted, u[i].passes);
             if (u[i].evicted && u[i].passes) last_work = u[i].work;
         }
-    if (!w.evicting || parallel == 0) return -1.0;
+    if (parallel == 0) return -1.0;
+    /* Before a merged unit evicted, only units out whose patch caches evict, projected from
+     * their own passes, can say (two MPI ranks with a unit each: nothing is merged until the
+     * frame is nearly done). */
+    int squeezed = w.evicting > 0;
+    for (uint32_t i = 0; i < n && !squeezed; ++i)
+        squeezed = u[i].state == TS_ETA_UNIT_OUT && u[i].passes && u[i].passes->flight.evicted;
+    if (!squeezed) return -1.0;
     double *free_at = calloc(parallel, sizeof *free_at);
     double *expect = calloc(n ? n : 1, sizeof *expect);
     uint8_t *placed = calloc(n ? n : 1, 1);
@@ -388,9 +395,9 @@ double eta_units_left_credit(const ts_eta_unit *u, uint32_t n, uint32_t parallel
         else if (u[i].passes && w.work < u[i].work) /* the merged ones say little of it */
             unknown = 1;
     }
-    if (unknown) {
+    if (unknown || !then.evicting) {
         free(free_at), free(expect), free(placed);
-        return TS_ETA_UNITS_EYE_RAYS;
+        return unknown ? TS_ETA_UNITS_EYE_RAYS : -1.0;
     }
     /* The units a device traces, out longest first, each on a device of its own: as projected,
      * else expected by the rest. A device frees when its unit ends, or, for a unit out longer

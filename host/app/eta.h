@@ -277,7 +277,9 @@ typedef struct ts_eta_unit {
 /* The share of its time so far that a unit out longer than expected is given to run still. */
 #define TS_ETA_OVERRUN_LEFT 0.25
 /* The seconds left for units u[0..n) on `parallel` devices (>= 1) as above; -1 unless a
- * merged unit evicted (then the weights' rate holds: eta_seconds_left); TS_ETA_UNITS_EYE_RAYS
+ * merged unit evicted or a unit out says its patch cache has (its passes' flight.evicted;
+ * else the weights' rate holds: eta_seconds_left), or while nothing merged or projected can
+ * say what the units take; TS_ETA_UNITS_EYE_RAYS
  * while a unit out cannot be projected from its passes yet (in its eye rays'
  * pass) and the units merged weigh less than it: they say little of it (forest-100 1920x768
  * x 2 at --memory 512 on two MPI ranks: after the first unit, of sky and treetops, 1.4 M of the

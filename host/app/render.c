@@ -156,15 +156,9 @@ static void wave_progress_print(wave_progress *w, int in_wave)
     if (w->o->quiet || ferror(stderr)) return;
     double now = stats_now();
     w->waves.mp_left = frame_mp_left(w->p);
-    if (in_wave) { /* what the first wave is projected from (eta_wave_alone) */
-        ts_eta_flight *f = &w->passes.flight;
-        f->work = w->p->trace_progress.work, f->done = w->p->trace_progress.done;
-        f->t0 = w->p->trace_progress.t0 - w->wave_t0;
-        f->more = w->p->trace_progress.overflow > 0;
-        f->dicing = stats_dicing_seconds(w->p->stats) - w->wave_dicing;
-        f->mp = (double)(w->p->stats->counters[TS_COUNTER_micropolygons_created] - w->wave_mp);
-        f->evicted = w->p->stats->counters[TS_COUNTER_patch_cache_evictions] > w->wave_evictions;
-    }
+    if (in_wave) /* what the first wave is projected from (eta_wave_alone) */
+        waves_flight(w->p, w->wave_t0, w->wave_dicing, w->wave_mp, w->wave_evictions,
+                     &w->passes.flight);
     double done = eta_work(&w->eta, w->done) - eta_work(&w->eta, w->start);
     /* in a wave and after it, the waves after are those after wave_end (done is wave_end) */
     double wave = in_wave ? eta_work(&w->eta, w->wave_end) - eta_work(&w->eta, w->done) : 0.0;

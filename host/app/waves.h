@@ -5,6 +5,7 @@
 #ifndef TS_WAVES_H
 #define TS_WAVES_H
 
+#include "app/eta.h"
 #include "app/options.h"
 #include "app/resume.h"
 #include "pipeline/pipeline.h"
@@ -52,6 +53,13 @@ typedef int (*ts_wave_watch)(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_
 int waves_trace_paths_watched(const ts_render_options *o, ts_pipeline *p,
                               const ts_camera_params *cam, ts_wave_watch watch, void *ctx,
                               ts_error *err);
+
+/* The pass p traces, as the progress line projects a wave from it (eta.h ts_eta_flight,
+ * eta_wave_alone), into *f: its batches' work so far and run (pipeline.h trace_progress), and
+ * the wave's dicing seconds, micro-polygons and evictions since it began at stats_now() = t0,
+ * when p->stats held dicing seconds, mp micro-polygons and `evictions` evictions. */
+void waves_flight(const ts_pipeline *p, double t0, double dicing, uint64_t mp, uint64_t evictions,
+                  ts_eta_flight *f);
 
 /* TESSERA_SLOW_DEVICE="I:MS[,J:MS...]" (a testing aid, docs/errors.md): the milliseconds device
  * I pauses after each wave, alone or beside others; 0 when it names no such device. */

@@ -461,16 +461,8 @@ static void unit_passes_hand(unit_passes *up)
  * device), handed on unless it was less than UNIT_FLIGHT_SECONDS ago. */
 static void unit_flight(unit_passes *up, const ts_pipeline *p)
 {
-    double now = stats_now();
-    if (now - up->handed < UNIT_FLIGHT_SECONDS) return;
-    const ts_stats *st = &up->w->stats;
-    ts_eta_flight *f = &up->passes.flight;
-    f->work = p->trace_progress.work, f->done = p->trace_progress.done;
-    f->t0 = p->trace_progress.t0 - up->t0, f->at = now - up->t0;
-    f->more = p->trace_progress.overflow > 0;
-    f->dicing = stats_dicing_seconds(st) - up->dicing;
-    f->mp = (double)(st->counters[TS_COUNTER_micropolygons_created] - up->mp);
-    f->evicted = st->counters[TS_COUNTER_patch_cache_evictions] > up->evictions;
+    if (stats_now() - up->handed < UNIT_FLIGHT_SECONDS) return;
+    waves_flight(p, up->t0, up->dicing, up->mp, up->evictions, &up->passes.flight);
     unit_passes_hand(up);
 }
 
