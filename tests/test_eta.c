@@ -15,8 +15,7 @@
  * from that projection. A frame that fits counts its first dicing apart from the weights'
  * rate and adds what it has not diced yet (forest-100 1920x768 x 8: within 10%). Units of
  * several devices or ranks: projected from their own passes where the merged ones are unlike
- * them, a band's first bounce longer than the frame's (its share of the weight), and the
- * batches planned only a floor while rays overflow their windows. */
+ * them, a band's first bounce longer than the frame's (its share of the weight). */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -570,9 +569,18 @@ static void test_units_by_passes(void **state)
     eye.flight = (ts_eta_flight){.work = 1e6, .done = 1e5, .t0 = 0.5};
     u[1].passes = &eye;
     assert_true(eta_units_left(u, 3, 1) == TS_ETA_UNITS_EYE_RAYS);
-    /* ... unless the units merged weigh as much: then they are its rate */
+    /* ... unless the units merged weigh as much: then they are its rate, even once its eye
+     * rays' batches could project it (a band's first bounce may take 3 times that pass) */
     u[0].work = 1024.0;
-    assert_true(eta_units_left(u, 3, 1) > 0.0);
+    double left = eta_units_left(u, 3, 1);
+    assert_true(left > 0.0);
+    eye.flight.done = 5e5;
+    assert_true(eta_wave_alone(&eye, 10.0) > 0.0);
+    assert_true(eta_units_left(u, 3, 1) == left);
+    u[1].passes = NULL;
+    assert_true(eta_units_left(u, 3, 1) == left);
+    u[1].passes = &eye;
+    eye.flight.done = 1e5;
     /* Nothing merged yet (two MPI ranks with a unit each): units out whose patch caches evict
      * are projected from their own passes; while their caches have not evicted, the weights'
      * rate holds (-1) */
@@ -589,33 +597,30 @@ static void test_units_by_passes(void **state)
     assert_true(eta_units_left(two, 2, 2) == TS_ETA_UNITS_EYE_RAYS);
 }
 
-/* The first bounce of a unit of the eye rays' 11.4 s (forest-100 1920x768 x 2 at --memory 512
- * on two MPI ranks, 0.45 of the weight): TS_ETA_FIRST_BOUNCE times its share to the power
- * -TS_ETA_BAND_EXPONENT (it took 21.2 s; 1.2 alone says 13.7); a frame in one wave keeps 1.2.
- * Its first iteration's batches (3.4e7 of the pass's 4.9e7 work) at the eye rays' seconds a
- * unit of work say 13.6 s: where rays have candidates beyond their windows (a later iteration
- * adds batches) the ratio's 18.8 s holds; where none has, the batches do. */
+/* The first bounce of a wave that is a band of the image, from its eye rays' pass:
+ * TS_ETA_FIRST_BOUNCE times its share of the weight to the power -TS_ETA_BAND_EXPONENT (a unit
+ * of forest-100 1920x768 x 2 at --memory 512 on two MPI ranks, 0.45 of the weight: its eye rays'
+ * pass 11.4 s, its first bounce 21.2 s, where 1.2 alone says 13.7 s); a frame in one wave
+ * keeps 1.2. Projected in the eye rays' pass, the passes after it take that factor. */
 static void test_unit_first_bounce(void **state)
 {
     (void)state;
     assert_true(eta_first_bounce(0.0) == TS_ETA_FIRST_BOUNCE);
     assert_true(eta_first_bounce(1.0) == TS_ETA_FIRST_BOUNCE);
-    assert_true(fabs(eta_first_bounce(0.45) - 1.2 * pow(0.45, -0.4)) < 1e-12);
+    double f = eta_first_bounce(0.45);
+    assert_true(fabs(f - TS_ETA_FIRST_BOUNCE * pow(0.45, -TS_ETA_BAND_EXPONENT)) < 1e-12);
+    assert_true(f > TS_ETA_FIRST_BOUNCE && 11.4 * f < 21.2);
     assert_true(eta_first_bounce(0.001) == eta_first_bounce(0.01));
-    ts_eta_passes p = {
-        .end = {11.4}, .rays = {873676, 1598393}, .count = 1, .started = 2, .depth = 3};
-    p.share = 0.45;
-    p.work[0] = 2.77e7, p.batches_t0[0] = 1.1;
-    p.flight = (ts_eta_flight){.work = 3.39e7, .done = 1.0e6, .t0 = 14.1 - 11.4 + 11.4};
-    double first = 11.4 * eta_first_bounce(0.45);
-    double rest = 1.0 + TS_ETA_NEXT_BOUNCE + TS_ETA_NEXT_BOUNCE * TS_ETA_NEXT_BOUNCE;
-    double batches = 14.1 - 11.4 + 3.39e7 * (11.4 - 1.1) / 2.77e7;
-    assert_true(batches < first);
-    assert_true(fabs(eta_wave_alone(&p, 15.0) - (11.4 + batches * rest)) < 1e-9);
-    p.flight.more = 1;
-    double s = eta_wave_alone(&p, 15.0);
-    assert_true(fabs(s - (11.4 + first * rest)) < 1e-9);
-    assert_true(s > 0.8 * 53.0 && s < 1.2 * 53.0); /* the unit took 53.0 s */
+    /* in its eye rays' pass, half its batches' work run in 5 s from 1.1 s */
+    ts_eta_passes p = {.rays = {873676}, .started = 1, .depth = 3, .share = 0.45};
+    p.flight = (ts_eta_flight){.work = 2.77e7, .done = 1.385e7, .t0 = 1.1};
+    double eye = 1.1 + (6.1 - 1.1) * 2.0;
+    double later = 1.0 + f + f * TS_ETA_NEXT_BOUNCE + f * TS_ETA_NEXT_BOUNCE * TS_ETA_NEXT_BOUNCE;
+    assert_true(fabs(eta_wave_alone(&p, 6.1) - eye * later) < 1e-9);
+    p.share = 1.0;
+    double one = 1.0 + TS_ETA_FIRST_BOUNCE + TS_ETA_FIRST_BOUNCE * TS_ETA_NEXT_BOUNCE +
+                 TS_ETA_FIRST_BOUNCE * TS_ETA_NEXT_BOUNCE * TS_ETA_NEXT_BOUNCE;
+    assert_true(fabs(eta_wave_alone(&p, 6.1) - eye * one) < 1e-9);
 }
 
 int main(void)

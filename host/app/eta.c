@@ -244,11 +244,6 @@ double eta_wave_alone(const ts_eta_passes *now, double elapsed)
     double rate = c > 0 && now->work[c - 1] > 0.0 && now->end[c - 1] > now->batches_t0[c - 1]
                       ? (now->end[c - 1] - now->batches_t0[c - 1]) / now->work[c - 1]
                       : 0.0; /* the pass before's seconds a unit of batch work */
-    /* from the pass before: -1 for the eye rays' pass */
-    double ratio = c == 0 ? -1.0
-                   : c == 1 || !(now->rays[c - 1] > 0.0)
-                       ? before * (c == 1 ? first : TS_ETA_NEXT_BOUNCE)
-                       : before * pow(now->rays[c] / now->rays[c - 1], TS_ETA_REACH_EXPONENT);
     double seen = f->at > 0.0 && f->at < elapsed ? f->at : elapsed; /* when f was seen */
     if (planned && f->done >= TS_ETA_BATCHES_SEEN * f->work && seen > f->t0)
         d = f->t0 - start + (seen - f->t0) * f->work / f->done;
@@ -256,13 +251,10 @@ double eta_wave_alone(const ts_eta_passes *now, double elapsed)
         d = f->t0 - start + f->work * rate;
     else if (c == 0)
         return -1.0;
+    else if (c == 1 || !(now->rays[c - 1] > 0.0))
+        d = before * (c == 1 ? first : TS_ETA_NEXT_BOUNCE);
     else
-        d = ratio;
-    /* Where rays have candidates beyond their windows the batches planned so far are a floor:
-     * a later iteration adds its own as it begins (the first bounce of a unit of forest-100 at
-     * --memory 512 on two MPI ranks: 3.4e7 of its 4.9e7); the pass before's ratio then holds
-     * where it says more. */
-    if (planned && f->more && d < ratio) d = ratio;
+        d = before * pow(now->rays[c] / now->rays[c - 1], TS_ETA_REACH_EXPONENT);
     if (d < elapsed - start) d = elapsed - start;
     double seconds = start + d;
     for (uint32_t k = c + 1; k <= now->depth; ++k) {
@@ -340,6 +332,13 @@ static double unit_project(const ts_eta_waves *w, double last_work, const ts_eta
     if (last_work * TS_ETA_UNITS_ALIKE >= x->work && x->work * TS_ETA_UNITS_ALIKE >= last_work)
         seconds = eta_waves_project(w, &p, dicing);
     if (seconds >= 0.0) return seconds;
+    /* Before its first bounce's batches are planned, where the units merged weigh more than
+     * it, they say more than its eye rays' pass: their rate (forest-100 1920x768 x 2 at
+     * --memory 512: the last unit, a band of 0.17 of the weight, took 3.3 times its eye rays'
+     * pass in its first bounce; projected from that pass the line said 12 s with 25 left). */
+    double begun = p.count > 0 ? p.end[p.count - 1] : 0.0; /* the pass in flight began */
+    int planned = p.flight.work > 0.0 && p.flight.t0 >= begun;
+    if ((p.count == 0 || (p.count == 1 && !planned)) && w->work >= x->work) return -1.0;
     seconds = eta_wave_alone(&p, x->seconds);
     if (seconds >= 0.0) {
         *dicing = wave_alone_dicing(&p, x->seconds, seconds);

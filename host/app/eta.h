@@ -85,8 +85,6 @@ typedef struct ts_eta_flight {
     double work, done, t0, dicing;
     double mp; /* the micro-polygons the wave has diced so far */
     int evicted;
-    int more; /* rays of the pass's iteration in flight have candidates beyond their windows:
-               * a later iteration adds batches (pipeline.h trace_progress.overflow) */
     /* when it was seen, in seconds from the wave's start (0: now); a unit's reaches the
      * progress line up to 0.25 s later, another MPI rank's up to 0.75 s */
     double at;
@@ -231,11 +229,13 @@ double eta_wave_alone(const ts_eta_passes *now, double elapsed);
  * frame's weight: TS_ETA_FIRST_BOUNCE times share to the power -TS_ETA_BAND_EXPONENT (share at
  * least 0.01). A wave's eye rays see its band of the image, its bounces reach most of the
  * scene whatever the band: forest-100 1920x768 x 2 at --memory 512 in four units of 873,676
- * samples on two MPI ranks (2026-11-30, stop 59), units of 0.45, 0.36 and 0.17 of the weight had
- * first bounces of 1.86, 1.55 and 3.3 times their eye rays' pass (this says 1.65, 1.81, 2.45;
- * 1.2 alone 35%, 23%, 64% short), the one of sky and treetops (0.022) 16 times (this: 5.5). A
- * frame in one wave (share 1) keeps 1.2. */
-#define TS_ETA_BAND_EXPONENT 0.4
+ * samples on two MPI ranks (2026-11-30, stop 59), units of 0.45, 0.36 and 0.17 of the weight
+ * had first bounces of 1.86, 1.55 and 3.3 times their eye rays' pass, the one of sky and
+ * treetops (0.022) 16 times; but at 960x384 x 2 with --memory 192 on three ranks, units of 0.44
+ * and 0.51 had 1.10 and 0.98. Replaying both frames' lines (every unit's passes at every
+ * update): the time left within 14.9% and 44% on average with the power 0.4, 15.8% and 40%
+ * with 0.2, 16.9% and 35% with none. A frame in one wave (share 1) keeps 1.2. */
+#define TS_ETA_BAND_EXPONENT 0.2
 double eta_first_bounce(double share);
 /* eta_waves_left with the wave in flight projected from its passes where eta_waves_project
  * can, or before any wave finished where eta_wave_alone can (the waves after it then

@@ -116,7 +116,6 @@ void waves_flight(const ts_pipeline *p, double t0, double dicing, uint64_t mp, u
     const ts_stats *st = p->stats;
     f->work = p->trace_progress.work, f->done = p->trace_progress.done;
     f->t0 = p->trace_progress.t0 - t0, f->at = stats_now() - t0;
-    f->more = p->trace_progress.overflow > 0;
     f->dicing = stats_dicing_seconds(st) - dicing;
     f->mp = (double)(st->counters[TS_COUNTER_micropolygons_created] - mp);
     f->evicted = st->counters[TS_COUNTER_patch_cache_evictions] > evictions;

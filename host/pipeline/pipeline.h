@@ -323,14 +323,9 @@ typedef struct ts_pipeline {
      * eta_wave_alone): the work of its iterations' batches so far, and of those the device
      * has finished (a batch's work: its misses' micro-quads and its segments' pairs, which
      * cost about alike: 193 and 190 ns in forest-100 at --memory 512), and when its first
-     * batch was enqueued (stats_now; 0 before); and how many rays of the iteration in
-     * flight have more candidates than their water-filled window holds: a later iteration
-     * follows with batches of its own (a unit of forest-100 at --memory 512 on two MPI ranks:
-     * windows of 9 for the first bounce's 1.6 M rays, 167 K of them left for a second
-     * iteration that added 45% to the pass's work). */
+     * batch was enqueued (stats_now; 0 before). */
     struct {
         double work, done, t0;
-        uint32_t overflow;
     } trace_progress;
     /* Called by pipeline_trace after each iteration's batches are traced, before resolve,
      * when set (tools/bench_cache --lazy, which replays the iteration in other orders; NULL in

@@ -64,7 +64,7 @@ static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per
  * docs/benchmarks.md has today's figures).
  * Writes window_first[0 .. active]; returns N through *n_fill and the slots through *slots. */
 static int water_fill(ts_pipeline *p, uint32_t active, uint32_t max_n, uint32_t *n_fill,
-                      uint32_t *slots, uint32_t *over, ts_error *err)
+                      uint32_t *slots, ts_error *err)
 {
     uint32_t kmax = max_n < 1u ? 1u : max_n > TS_N_MAX ? TS_N_MAX : max_n;
     if (top_level_launch(p, active, kmax, 1u, err)) return err->code;
@@ -90,11 +90,11 @@ static int water_fill(ts_pipeline *p, uint32_t active, uint32_t max_n, uint32_t 
             if (below + (uint64_t)k * at_least > p->plan.pair_capacity) break;
             n = k;
         }
-        uint32_t at = 0, more = 0;
+        uint32_t at = 0;
         for (uint32_t i = 0; rc == TS_OK && i < active; ++i)
-            first[i] = at, at += c[i] < n ? c[i] : n, more += c[i] > n;
+            first[i] = at, at += c[i] < n ? c[i] : n;
         first[active] = at;
-        *n_fill = n, *slots = at, *over = more;
+        *n_fill = n, *slots = at;
     }
     if (first && dev_unmap(p->cl, p->window_first, first, "the candidate windows", err))
         rc = err->code;
@@ -787,8 +787,7 @@ int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray
 int pipeline_water_fill(ts_pipeline *p, uint32_t active_count, uint32_t max_n, uint32_t *n_fill,
                         uint32_t *slots, ts_error *err)
 {
-    uint32_t over;
-    return water_fill(p, active_count, max_n, n_fill, slots, &over, err);
+    return water_fill(p, active_count, max_n, n_fill, slots, err);
 }
 
 int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
@@ -849,7 +848,6 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
 {
     uint32_t active = ray_count;
     p->trace_progress.work = p->trace_progress.done = p->trace_progress.t0 = 0.0;
-    p->trace_progress.overflow = 0;
     if (pipeline_stitch_prepare(p, err) || cull_reset_stale(p, err)) return err->code;
     pipeline_cache_plan(p);
     for (uint32_t it = 0; active > 0; ++it) {
@@ -864,11 +862,8 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
         uint32_t n_per_ray = pairs_per_ray(p->plan.pair_capacity, active, first_n, it);
         /* The kernels' N: 0 for water-filled windows, whose N (the cap) the stats record. */
         uint32_t kernel_n = n_per_ray, windows = active, width = n_per_ray;
-        p->trace_progress.overflow = 0;
         if (p->plan.fill_windows || (!p->plan.first_n && first_n == TS_N_MAX)) {
-            if (water_fill(p, active, TS_FILL_MAX, &n_per_ray, &windows,
-                           &p->trace_progress.overflow, err))
-                return err->code;
+            if (water_fill(p, active, TS_FILL_MAX, &n_per_ray, &windows, err)) return err->code;
             if (p->cancelled) return TS_OK;
             kernel_n = 0, width = 0;
         }
