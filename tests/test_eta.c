@@ -482,33 +482,33 @@ static void test_units_that_dice_again(void **state)
         {.work = 1.0, .state = TS_ETA_UNIT_WAITING, .geometry = 1},
         {.work = 1024.0, .state = TS_ETA_UNIT_WAITING, .geometry = 0},
     };
-    assert_true(eta_units_left(u, 5, 2) == -1.0); /* nothing evicted: the weights hold */
+    assert_true(eta_units_left(u, 5, 2, NULL) == -1.0); /* nothing evicted: the weights hold */
     u[0].evicted = 1;
     /* two devices: units 2 and 1 end in 70 s and 76 s, unit 3 (8.015625) follows unit 2,
      * unit 4 (sky: 16, no dicing) unit 1 (92 s) */
-    assert_true(fabs(eta_units_left(u, 5, 2) - 92.0) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 5, 2, NULL) - 92.0) < 1e-9);
     /* the line's credit: units 2 and 1, each expected to take 80 s, 10 s and 4 s in */
     double credit = -1.0;
-    assert_true(fabs(eta_units_left_credit(u, 5, 2, &credit) - 92.0) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 5, 2, &credit) - 92.0) < 1e-9);
     assert_true(fabs(credit - 1024.0 * (10.0 + 4.0) / 80.0) < 1e-9);
     /* at most 0.9 of a unit's weight, however long it has run */
     u[2].seconds = 400.0;
-    assert_true(eta_units_left_credit(u, 5, 2, &credit) > 0.0);
+    assert_true(eta_units_left(u, 5, 2, &credit) > 0.0);
     assert_true(fabs(credit - 1024.0 * (0.9 + 4.0 / 80.0)) < 1e-9);
     u[2].seconds = 10.0;
     /* one device (an MPI rank that took unit 1 ahead): unit 2, out longer, runs, unit 1 waits */
-    assert_true(fabs(eta_units_left(u, 5, 1) - (70.0 + 80.0 + 8.015625 + 16.0)) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 5, 1, NULL) - (70.0 + 80.0 + 8.015625 + 16.0)) < 1e-9);
     /* four: every unit at once, the last to end the one out least long */
-    assert_true(fabs(eta_units_left(u, 5, 4) - 76.0) < 1e-9);
-    assert_true(eta_units_left(u, 5, 0) == -1.0);
+    assert_true(fabs(eta_units_left(u, 5, 4, NULL) - 76.0) < 1e-9);
+    assert_true(eta_units_left(u, 5, 0, NULL) == -1.0);
     /* unit 2 waits behind unit 1 on its device (queued: an MPI rank's next): unit 1 runs (76 s
      * left), unit 2 (80) goes first in line to the free device, then unit 3 after unit 1 and
      * unit 4 after unit 2 (96 s) */
     u[2].queued = 1, u[2].seconds = 0.0;
-    assert_true(fabs(eta_units_left(u, 5, 2) - 96.0) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 5, 2, NULL) - 96.0) < 1e-9);
     /* a unit out longer than expected has a quarter of its time so far left, not nothing */
     u[2].queued = 0, u[2].seconds = 400.0;
-    assert_true(fabs(eta_units_left(u, 5, 1) - (100.0 + 80.0 + 8.015625 + 16.0)) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 5, 1, NULL) - (100.0 + 80.0 + 8.015625 + 16.0)) < 1e-9);
 }
 
 /* A unit a device traces is projected from its wave's passes: as the last merged unit spent
@@ -546,13 +546,13 @@ static void test_units_by_passes(void **state)
      * them dicing; unit 2 then at (8 + 5) s for 1536 of weight, and the dicing of units 0 and 1
      * (12 s at weight 512, 10 s at 1024: no growth, their geometric mean) */
     double unit2 = 13.0 / 1536.0 * 1024.0 + sqrt(12.0 * 10.0);
-    assert_true(fabs(eta_units_left(u, 3, 2) - unit2) < 1e-9);
-    assert_true(fabs(eta_units_left(u, 3, 1) - (5.0 + unit2)) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 3, 2, NULL) - unit2) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 3, 1, NULL) - (5.0 + unit2)) < 1e-9);
     /* without its passes unit 1 is its weight at 8/512 s a unit of weight and 12 x 2^0.3 s of
      * dicing (one unit: the exponent TS_ETA_REACH_EXPONENT) */
     u[1].passes = NULL;
     double alone = 16.0 + 12.0 * pow(2.0, TS_ETA_REACH_EXPONENT);
-    assert_true(fabs(eta_units_left(u, 3, 1) - (alone - 10.0 + alone)) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 3, 1, NULL) - (alone - 10.0 + alone)) < 1e-9);
     /* unit 0 unlike it (of sky, 1/64 of its weight): unit 1 from its own passes, its second
      * bounce at the first's 4 s times the rays' ratio to 0.3, the third 0.6 of that; its
      * dicing those by its last pass (6 s) and 0.9 of the rest */
@@ -563,22 +563,22 @@ static void test_units_by_passes(void **state)
     own.share = 1024.0 / 2064.0;
     assert_true(fabs(eta_wave_alone(&own, 10.0) - s1) < 1e-9);
     double after = (8.0 + s1 - d1) / 1040.0 * 1024.0 + sqrt(12.0 * d1);
-    assert_true(fabs(eta_units_left(u, 3, 1) - (s1 - 10.0 + after)) < 1e-9);
+    assert_true(fabs(eta_units_left(u, 3, 1, NULL) - (s1 - 10.0 + after)) < 1e-9);
     /* in its eye rays' pass, its batches not a quarter run: no estimate */
     ts_eta_passes eye = {.rays = {100}, .started = 1, .depth = 3};
     eye.flight = (ts_eta_flight){.work = 1e6, .done = 1e5, .t0 = 0.5};
     u[1].passes = &eye;
-    assert_true(eta_units_left(u, 3, 1) == TS_ETA_UNITS_EYE_RAYS);
+    assert_true(eta_units_left(u, 3, 1, NULL) == TS_ETA_UNITS_EYE_RAYS);
     /* ... unless the units merged weigh as much: then they are its rate, even once its eye
      * rays' batches could project it (a band's first bounce may take 3 times that pass) */
     u[0].work = 1024.0;
-    double left = eta_units_left(u, 3, 1);
+    double left = eta_units_left(u, 3, 1, NULL);
     assert_true(left > 0.0);
     eye.flight.done = 5e5;
     assert_true(eta_wave_alone(&eye, 10.0) > 0.0);
-    assert_true(eta_units_left(u, 3, 1) == left);
+    assert_true(eta_units_left(u, 3, 1, NULL) == left);
     u[1].passes = NULL;
-    assert_true(eta_units_left(u, 3, 1) == left);
+    assert_true(eta_units_left(u, 3, 1, NULL) == left);
     u[1].passes = &eye;
     eye.flight.done = 1e5;
     /* Nothing merged yet (two MPI ranks with a unit each): units out whose patch caches evict
@@ -589,12 +589,12 @@ static void test_units_by_passes(void **state)
         {.work = 1024.0, .seconds = 10.0, .state = TS_ETA_UNIT_OUT, .geometry = 1, .passes = &now},
     };
     now.share = 0.5;
-    assert_true(eta_units_left(two, 2, 2) == -1.0);
+    assert_true(eta_units_left(two, 2, 2, NULL) == -1.0);
     now.flight.evicted = 1;
     own = now;
-    assert_true(fabs(eta_units_left(two, 2, 2) - (eta_wave_alone(&own, 10.0) - 10.0)) < 1e-9);
+    assert_true(fabs(eta_units_left(two, 2, 2, NULL) - (eta_wave_alone(&own, 10.0) - 10.0)) < 1e-9);
     two[1].passes = &eye; /* one in its eye rays' pass */
-    assert_true(eta_units_left(two, 2, 2) == TS_ETA_UNITS_EYE_RAYS);
+    assert_true(eta_units_left(two, 2, 2, NULL) == TS_ETA_UNITS_EYE_RAYS);
 }
 
 /* The first bounce of a wave that is a band of the image, from its eye rays' pass:

@@ -36,19 +36,25 @@ static void test_signals_recorded(void **state)
     }
 }
 
+/* Installed: SIGHUP stays ignored (raised, nothing is recorded), `other` is taken. */
+static void hup_ignored_other_taken(int other)
+{
+    interrupt_install();
+    assert_true(handler_of(SIGHUP) == SIG_IGN);
+    raise(SIGHUP);
+    assert_int_equal(interrupt_signal(), 0);
+    raise(other);
+    assert_int_equal(interrupt_signal(), other);
+    interrupt_restore();
+}
+
 /* nohup: SIGHUP ignored before the render stays ignored through it; the others are taken. */
 static void test_ignored_signal_stays_ignored(void **state)
 {
     (void)state;
     signal(SIGHUP, SIG_IGN);
     signal(SIGTERM, SIG_DFL);
-    interrupt_install();
-    assert_true(handler_of(SIGHUP) == SIG_IGN);
-    raise(SIGHUP);
-    assert_int_equal(interrupt_signal(), 0);
-    raise(SIGTERM);
-    assert_int_equal(interrupt_signal(), SIGTERM);
-    interrupt_restore();
+    hup_ignored_other_taken(SIGTERM);
     assert_true(handler_of(SIGHUP) == SIG_IGN);
     assert_true(handler_of(SIGTERM) == SIG_DFL);
     signal(SIGHUP, SIG_DFL);
@@ -69,13 +75,7 @@ static void test_ignored_at_start_stays_ignored(void **state)
     signal(SIGINT, SIG_DFL);
     interrupt_note_ignored();
     signal(SIGHUP, other_handler); /* a library's, after main began */
-    interrupt_install();
-    assert_true(handler_of(SIGHUP) == SIG_IGN);
-    raise(SIGHUP);
-    assert_int_equal(interrupt_signal(), 0);
-    raise(SIGINT);
-    assert_int_equal(interrupt_signal(), SIGINT);
-    interrupt_restore();
+    hup_ignored_other_taken(SIGINT);
     assert_true(handler_of(SIGHUP) == other_handler);
     signal(SIGHUP, SIG_DFL);
     interrupt_note_ignored(); /* none ignored now */

@@ -162,6 +162,17 @@ static void assert_every_box_once(const ts_scene *s, const ts_vec4 *org, const t
 }
 
 /* A cancel hook that never stops the trace and counts how often it was asked. */
+/* A pipeline over scene s for RAYS rays and pair_capacity pairs, its stats in *stats. */
+static void open_pipeline(ts_device *cl, const ts_scene *s, uint32_t pair_capacity, ts_pipeline *p,
+                          ts_stats *stats)
+{
+    memset(stats, 0, sizeof *stats);
+    ts_error err = {0};
+    ts_pipeline_plan plan = {.ray_capacity = RAYS, .pair_capacity = pair_capacity};
+    pipeline_plan_arenas(&plan, 1, 1);
+    if (pipeline_create(p, cl, s, &plan, 1, stats, &err)) fail_msg("%s", err.msg);
+}
+
 static int asked;
 static int ask_and_go_on(void *ctx)
 {
@@ -176,12 +187,9 @@ static void run_case(ts_device *cl, const ts_scene *s, uint32_t n_per_ray, int f
                      int chain, int runs)
 {
     ts_stats stats;
-    memset(&stats, 0, sizeof stats);
     ts_error err = {0};
-    ts_pipeline_plan plan = {.ray_capacity = RAYS, .pair_capacity = RAYS * 100};
-    pipeline_plan_arenas(&plan, 1, 1);
     ts_pipeline p;
-    if (pipeline_create(&p, cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
+    open_pipeline(cl, s, RAYS * 100, &p, &stats);
     if (chain) use_chain(cl, &p, s);
     if (runs) p.cancel = ask_and_go_on, p.top_level_run = 128u;
     asked = 0;
@@ -239,13 +247,10 @@ static void run_filled_case(ts_device *cl, const ts_scene *s, uint32_t max_n, in
                             int chain)
 {
     ts_stats stats;
-    memset(&stats, 0, sizeof stats);
     ts_error err = {0};
-    /* (at least a pair a ray: water_fill's contract, as pipeline_plan's three) */
-    ts_pipeline_plan plan = {.ray_capacity = RAYS, .pair_capacity = RAYS * 3 / 2};
-    pipeline_plan_arenas(&plan, 1, 1);
     ts_pipeline p;
-    if (pipeline_create(&p, cl, s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
+    /* (at least a pair a ray: water_fill's contract, as pipeline_plan's three) */
+    open_pipeline(cl, s, RAYS * 3 / 2, &p, &stats);
     if (chain) use_chain(cl, &p, s);
     ts_vec4 org[RAYS], dir[RAYS];
     ts_hit hit[RAYS];
@@ -253,14 +258,14 @@ static void run_filled_case(ts_device *cl, const ts_scene *s, uint32_t max_n, in
     random_rays(cl, &p, 5u + (uint32_t)finite_tmax, finite_tmax, 0, org, dir, hit);
     cl_command_queue q = cl->queue;
     uint8_t *seen = calloc((size_t)RAYS * PATCHES, 1);
-    ts_pair *pairs = malloc((size_t)plan.pair_capacity * sizeof *pairs);
+    ts_pair *pairs = malloc((size_t)p.plan.pair_capacity * sizeof *pairs);
     int done = 0, iterations = 0, ended_short = 0, capped = 0;
     for (; iterations < 1000 && !done; ++iterations) {
         uint32_t n = 0, slots = 0;
         if (pipeline_water_fill(&p, RAYS, max_n, &n, &slots, &err) ||
             pipeline_top_level(&p, RAYS, 0, &err))
             fail_msg("%s", err.msg);
-        assert_true(n >= 1 && n <= max_n && slots <= plan.pair_capacity);
+        assert_true(n >= 1 && n <= max_n && slots <= p.plan.pair_capacity);
         clEnqueueReadBuffer(q, p.window_first, CL_TRUE, 0, sizeof first, first, 0, NULL, NULL);
         clEnqueueReadBuffer(q, p.pairs, CL_TRUE, 0, (size_t)slots * sizeof *pairs, pairs, 0, NULL,
                             NULL);
@@ -359,12 +364,9 @@ static void test_runs_between_stops(void **state)
     for (int finite = 0; finite < 2; ++finite)
         run_case(&cl, &s, 3, finite, 0, 1);
     ts_stats stats;
-    memset(&stats, 0, sizeof stats);
     ts_error err = {0};
-    ts_pipeline_plan plan = {.ray_capacity = RAYS, .pair_capacity = RAYS * 3};
-    pipeline_plan_arenas(&plan, 1, 1);
     ts_pipeline p;
-    if (pipeline_create(&p, &cl, &s, &plan, 1, &stats, &err)) fail_msg("%s", err.msg);
+    open_pipeline(&cl, &s, RAYS * 3, &p, &stats);
     ts_vec4 org[RAYS], dir[RAYS];
     ts_hit hit[RAYS];
     random_rays(&cl, &p, 3u, 0, 0, org, dir, hit);

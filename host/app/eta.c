@@ -231,6 +231,14 @@ double eta_first_bounce(double share)
     return TS_ETA_FIRST_BOUNCE * pow(share < 0.01 ? 0.01 : share, -TS_ETA_BAND_EXPONENT);
 }
 
+/* The batches of the pass in flight are planned: trace_progress holds its own, not the pass
+ * before's (their first began after the pass before ended). */
+static int batches_planned(const ts_eta_passes *now)
+{
+    double begun = now->count > 0 ? now->end[now->count - 1] : 0.0; /* the pass in flight */
+    return now->flight.work > 0.0 && now->flight.t0 >= begun;
+}
+
 double eta_wave_alone(const ts_eta_passes *now, double elapsed)
 {
     double first = eta_first_bounce(now->share);
@@ -239,8 +247,8 @@ double eta_wave_alone(const ts_eta_passes *now, double elapsed)
     double start = c > 0 ? now->end[c - 1] : 0.0;
     double before = c > 0 ? start - (c > 1 ? now->end[c - 2] : 0.0) : 0.0;
     const ts_eta_flight *f = &now->flight;
-    double d;                                                          /* pass c's seconds */
-    int planned = f->work > 0.0 && f->t0 >= start && elapsed >= f->t0; /* pass c's batches */
+    double d;                                               /* pass c's seconds */
+    int planned = batches_planned(now) && elapsed >= f->t0; /* pass c's batches */
     double rate = c > 0 && now->work[c - 1] > 0.0 && now->end[c - 1] > now->batches_t0[c - 1]
                       ? (now->end[c - 1] - now->batches_t0[c - 1]) / now->work[c - 1]
                       : 0.0; /* the pass before's seconds a unit of batch work */
@@ -336,9 +344,7 @@ static double unit_project(const ts_eta_waves *w, double last_work, const ts_eta
      * it, they say more than its eye rays' pass: their rate (forest-100 1920x768 x 2 at
      * --memory 512: the last unit, a band of 0.17 of the weight, took 3.3 times its eye rays'
      * pass in its first bounce; projected from that pass the line said 12 s with 25 left). */
-    double begun = p.count > 0 ? p.end[p.count - 1] : 0.0; /* the pass in flight began */
-    int planned = p.flight.work > 0.0 && p.flight.t0 >= begun;
-    if ((p.count == 0 || (p.count == 1 && !planned)) && w->work >= x->work) return -1.0;
+    if ((p.count == 0 || (p.count == 1 && !batches_planned(&p))) && w->work >= x->work) return -1.0;
     seconds = eta_wave_alone(&p, x->seconds);
     if (seconds >= 0.0) {
         *dicing = wave_alone_dicing(&p, x->seconds, seconds);
@@ -347,12 +353,7 @@ static double unit_project(const ts_eta_waves *w, double last_work, const ts_eta
     return eta_waves_project(w, &p, dicing);
 }
 
-double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel)
-{
-    return eta_units_left_credit(u, n, parallel, NULL);
-}
-
-double eta_units_left_credit(const ts_eta_unit *u, uint32_t n, uint32_t parallel, double *credit)
+double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel, double *credit)
 {
     if (credit) *credit = 0.0;
     ts_eta_waves w = {0};

@@ -288,12 +288,11 @@ typedef struct ts_eta_unit {
 #define TS_ETA_UNITS_EYE_RAYS (-2.0)
 /* Units alike: weights within this factor of each other (eta.c unit_project). */
 #define TS_ETA_UNITS_ALIKE 2.0
-double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel);
-/* The same, and into *credit the weight the units a device traces have done as the line
- * credits it: each unit's weight times the share of its expected time it has run, at most 0.9
- * (0 where the time left is not estimated). The weights' credit (units.h board_work_in_flight,
- * the merged units' seconds a unit of weight) put forest-100 1920x768 x 2 at --memory 512 on
- * two MPI ranks at 25% done 47 s into its 82 s, after a first unit of sky. */
-double eta_units_left_credit(const ts_eta_unit *u, uint32_t n, uint32_t parallel, double *credit);
+/* *credit (when not NULL): the weight the units a device traces have done as the line credits
+ * it: each unit's weight times the share of its expected time it has run, at most 0.9 (0 where
+ * the time left is not estimated). The weights' credit (units.h board_work_in_flight, the
+ * merged units' seconds a unit of weight) put forest-100 1920x768 x 2 at --memory 512 on two
+ * MPI ranks at 25% done 47 s into its 82 s, after a first unit of sky. */
+double eta_units_left(const ts_eta_unit *u, uint32_t n, uint32_t parallel, double *credit);
 
 #endif

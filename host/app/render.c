@@ -218,13 +218,7 @@ static int render_pass_ended(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_
 {
     (void)err;
     wave_progress *w = ctx;
-    if (!after) {
-        eta_passes_before(&w->passes, bounce, (double)rays, stats_now() - w->wave_t0,
-                          stats_dicing_seconds(w->p->stats) - w->wave_dicing);
-        if (bounce > 0) /* trace_progress still holds the pass that ended */
-            eta_passes_batches(&w->passes, p->trace_progress.work,
-                               p->trace_progress.t0 - w->wave_t0);
-    }
+    if (!after) waves_pass_begins(&w->passes, p, bounce, rays, w->wave_t0, w->wave_dicing);
     return TS_OK;
 }
 

@@ -603,7 +603,7 @@ double board_units_left(ts_board *b, const ts_eta *eta, double now, uint32_t par
         u[i].dicing = b->diced[i], u[i].evicted = b->evicted[i];
     }
     if (credit) *credit = 0.0;
-    double left = u ? eta_units_left_credit(u, n, parallel, credit) : -1.0; /* u[].passes: b's */
+    double left = u ? eta_units_left(u, n, parallel, credit) : -1.0; /* u[].passes: b's */
     pthread_mutex_unlock(&b->lock);
     free(u);
     return left;

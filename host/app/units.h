@@ -207,7 +207,7 @@ double board_work_finished(ts_board *b, const ts_eta *eta);
 double board_work_in_flight(ts_board *b, const ts_eta *eta, double now);
 /* The seconds left by eta_units_left (eta.h) on `parallel` devices: the units merged and out
  * at `now`, their weights by eta; -1 unless a unit evicted (eta.h); *credit (when not NULL):
- * the weight of the units out done as eta_units_left_credit credits it. */
+ * the weight of the units out done as eta_units_left credits it. */
 double board_units_left(ts_board *b, const ts_eta *eta, double now, uint32_t parallel,
                         double *credit);
 /* How many times the board has changed (a unit merged or given back, the board closed). */

@@ -120,3 +120,12 @@ void waves_flight(const ts_pipeline *p, double t0, double dicing, uint64_t mp, u
     f->mp = (double)(st->counters[TS_COUNTER_micropolygons_created] - mp);
     f->evicted = st->counters[TS_COUNTER_patch_cache_evictions] > evictions;
 }
+
+void waves_pass_begins(ts_eta_passes *e, const ts_pipeline *p, uint32_t bounce, uint32_t rays,
+                       double t0, double dicing)
+{
+    eta_passes_before(e, bounce, (double)rays, stats_now() - t0,
+                      stats_dicing_seconds(p->stats) - dicing);
+    if (bounce > 0) /* trace_progress still holds the pass that ended */
+        eta_passes_batches(e, p->trace_progress.work, p->trace_progress.t0 - t0);
+}

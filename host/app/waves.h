@@ -54,6 +54,13 @@ int waves_trace_paths_watched(const ts_render_options *o, ts_pipeline *p,
                               const ts_camera_params *cam, ts_wave_watch watch, void *ctx,
                               ts_error *err);
 
+/* A wave's pass `bounce` begins with `rays` rays (ts_wave_watch before it is traced), the
+ * wave having begun at stats_now() = t0 when p->stats held `dicing` dicing seconds: the pass
+ * before it ended (eta_passes_before) with the batch work pipeline_trace left for it
+ * (eta_passes_batches), into *e. One device's line (render.c) and a unit's (workers.c). */
+void waves_pass_begins(ts_eta_passes *e, const ts_pipeline *p, uint32_t bounce, uint32_t rays,
+                       double t0, double dicing);
+
 /* The pass p traces, as the progress line projects a wave from it (eta.h ts_eta_flight,
  * eta_wave_alone), into *f: its batches' work so far and run (pipeline.h trace_progress), and
  * the wave's dicing seconds, micro-polygons and evictions since it began at stats_now() = t0,

@@ -484,10 +484,7 @@ static int unit_pass_ended(void *ctx, ts_pipeline *p, uint32_t bounce, uint32_t 
     (void)err;
     unit_passes *up = ctx;
     if (after) return TS_OK;
-    eta_passes_before(&up->passes, bounce, (double)rays, stats_now() - up->t0,
-                      stats_dicing_seconds(&up->w->stats) - up->dicing);
-    if (bounce > 0) /* trace_progress still holds the pass that ended */
-        eta_passes_batches(&up->passes, p->trace_progress.work, p->trace_progress.t0 - up->t0);
+    waves_pass_begins(&up->passes, p, bounce, rays, up->t0, up->dicing);
     unit_passes_hand(up);
     return TS_OK;
 }
