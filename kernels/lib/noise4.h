@@ -350,25 +350,42 @@ inline void noise3_cell_interval_x8(float8 cx, float8 cy, float8 cz, float8 lx, 
     interval_lerp_x8(y0l, y0h, y1l, y1h, w0, w1, rlo, rhi);
 }
 
-/* The (octave, cell) tasks of displace_interval_x8 waiting for a float8 evaluation: the
- * cell's corner and the part of the octave's box inside it. */
+/* The (octave, cell) tasks of displace_interval_x8 waiting for a float8 evaluation, a task a
+ * lane: the cell's corner and the part of the octave's box inside it. Lanes are filled by
+ * select (noise_task_add), not by scalar stores read back as vectors: a vector load of
+ * eight just-stored floats waits for the stores to retire. */
 typedef struct noise_tasks {
-    float c[3][8], l[3][8], h[3][8];
+    float8 cx, cy, cz, lx, ly, lz, hx, hy, hz;
     uint octave[8], n;
 } noise_tasks;
 
-/* Evaluates the waiting tasks (spare lanes repeat task 0 and are not read) and folds each
- * into its octave's interval in task order: the scalar loop's fmin / fmax sequence. */
+/* Task n of the lanes: lane n gets (c, l, h); with n = 0 every lane does, so that spare lanes
+ * repeat task 0 (evaluated, not read). */
+inline void noise_task_add(noise_tasks *t, float4 c, float4 l, float4 h, uint o)
+{
+    if (t->n == 0u) {
+        t->cx = (float8)(c.x), t->cy = (float8)(c.y), t->cz = (float8)(c.z);
+        t->lx = (float8)(l.x), t->ly = (float8)(l.y), t->lz = (float8)(l.z);
+        t->hx = (float8)(h.x), t->hy = (float8)(h.y), t->hz = (float8)(h.z);
+    } else {
+        int8 at = (int8)(0, 1, 2, 3, 4, 5, 6, 7) == (int8)((int)t->n);
+        t->cx = select(t->cx, (float8)(c.x), at), t->cy = select(t->cy, (float8)(c.y), at);
+        t->cz = select(t->cz, (float8)(c.z), at), t->lx = select(t->lx, (float8)(l.x), at);
+        t->ly = select(t->ly, (float8)(l.y), at), t->lz = select(t->lz, (float8)(l.z), at);
+        t->hx = select(t->hx, (float8)(h.x), at), t->hy = select(t->hy, (float8)(h.y), at);
+        t->hz = select(t->hz, (float8)(h.z), at);
+    }
+    t->octave[t->n++] = o;
+}
+
+/* Evaluates the waiting tasks and folds each into its octave's interval in task order: the
+ * scalar loop's fmin / fmax sequence. */
 inline void noise_tasks_run(noise_tasks *t, float *lo, float *hi)
 {
     if (t->n == 0u) return;
-    for (uint k = t->n; k < 8u; ++k)
-        for (int a = 0; a < 3; ++a)
-            t->c[a][k] = t->c[a][0], t->l[a][k] = t->l[a][0], t->h[a][k] = t->h[a][0];
     float8 rlo, rhi;
-    noise3_cell_interval_x8(vload8(0, t->c[0]), vload8(0, t->c[1]), vload8(0, t->c[2]),
-                            vload8(0, t->l[0]), vload8(0, t->l[1]), vload8(0, t->l[2]),
-                            vload8(0, t->h[0]), vload8(0, t->h[1]), vload8(0, t->h[2]), &rlo, &rhi);
+    noise3_cell_interval_x8(t->cx, t->cy, t->cz, t->lx, t->ly, t->lz, t->hx, t->hy, t->hz, &rlo,
+                            &rhi);
     float rl[8], rh[8];
     vstore8(rlo, 0, rl);
     vstore8(rhi, 0, rh);
@@ -411,11 +428,7 @@ inline ts_interval displace_interval_x8(__global const ts_patch_attr *a, __globa
             for (int dy = 0; dy < ny; ++dy)
                 for (int dx = 0; dx < nx; ++dx) {
                     float4 c = c0 + (float4)((float)dx, (float)dy, (float)dz, 0.0f);
-                    float4 l = fmax(bl, c), h = fmin(bh, c + 1.0f);
-                    t.c[0][t.n] = c.x, t.c[1][t.n] = c.y, t.c[2][t.n] = c.z;
-                    t.l[0][t.n] = l.x, t.l[1][t.n] = l.y, t.l[2][t.n] = l.z;
-                    t.h[0][t.n] = h.x, t.h[1][t.n] = h.y, t.h[2][t.n] = h.z;
-                    t.octave[t.n++] = o;
+                    noise_task_add(&t, c, fmax(bl, c), fmin(bh, c + 1.0f), o);
                     if (t.n == 8u) noise_tasks_run(&t, vlo, vhi);
                 }
     }
