@@ -123,6 +123,40 @@ inline float displace_value_octaves(__global const ts_patch_attr *a, __global co
     return a->disp_amplitude * sum;
 }
 
+/* displace_value at two world points (a noise function of at most four octaves: the caller
+ * checked), their octaves in the two halves of one float8 (point a in lanes 0-3, b in 4-7;
+ * spare lanes repeat the last octave) and added in octave order: the bits of
+ * displace_value_octaves at each point, one noise evaluation instead of two. */
+inline float2 displace_value_pair(__global const ts_patch_attr *a, __global const ts_xform *x,
+                                  float4 pa, float4 pb)
+{
+    float4 px = (float4)(pa.x, pa.x, pb.x, pb.x), py = (float4)(pa.y, pa.y, pb.y, pb.y),
+           pz = (float4)(pa.z, pa.z, pb.z, pb.z); /* lanes 0-1: a, 2-3: b */
+    float4 ox = x->r0[0] * px + x->r0[1] * py + x->r0[2] * pz + x->r0[3];
+    float4 oy = x->r1[0] * px + x->r1[1] * py + x->r1[2] * pz + x->r1[3];
+    float4 oz = x->r2[0] * px + x->r2[1] * py + x->r2[2] * pz + x->r2[3];
+    uint n = displace_octaves(a);
+    float f[4], w[4];
+    f[0] = a->disp_frequency, w[0] = 1.0f;
+    for (uint o = 0; o + 1u < n; ++o) /* the scalar loop's running products */
+        f[o + 1] = f[o] * a->disp_lacunarity, w[o + 1] = w[o] * a->disp_gain;
+    for (uint o = n; o < 4u; ++o) /* spare lanes: the last octave again */
+        f[o] = f[n - 1u];
+    float4 fo = vload4(0, f);
+    float8 v = noise3_x8((float8)(ox.s0 * fo, ox.s2 * fo), (float8)(oy.s0 * fo, oy.s2 * fo),
+                         (float8)(oz.s0 * fo, oz.s2 * fo));
+    float va[4], vb[4];
+    vstore4(v.lo, 0, va);
+    vstore4(v.hi, 0, vb);
+    float sa = 0.0f, sb = 0.0f;
+    int ridged = a->disp_kind == TS_DISP_RIDGED;
+    for (uint o = 0; o < n; ++o) {
+        sa += ridged ? w[o] * (1.0f - 2.0f * fabs(va[o])) : w[o] * va[o];
+        sb += ridged ? w[o] * (1.0f - 2.0f * fabs(vb[o])) : w[o] * vb[o];
+    }
+    return (float2)(a->disp_amplitude * sa, a->disp_amplitude * sb);
+}
+
 /* patch_vertex (lib/patch.h), the same bits, with displace_value_octaves (dice.cl). */
 inline ts_vec4 patch_vertex_x8(__global const ts_vec4 *cp, __global const ts_vec4 *cp0,
                                __global const ts_vec4 *n, __global const ts_vec4 *mid,
