@@ -17,11 +17,11 @@
 
 /* The parameters (u, v) of vertex v of a grid of n x n at level m, stitched in triangle mode
  * (lib/quadtree.h quadtree_stitch: the edges' level differences in flags). */
-inline float2 dice_param(uint flags, uint m, uint n, uint v)
+inline void dice_param(uint flags, uint m, uint n, uint v, float *u, float *w)
 {
     uint i = v % n, j = v / n;
     quadtree_stitch(flags >> TS_SEG_EDGE_SHIFT, m, &i, &j);
-    return (float2)(quadtree_vertex_param(i, m), quadtree_vertex_param(j, m));
+    *u = quadtree_vertex_param(i, m), *w = quadtree_vertex_param(j, m);
 }
 
 /* Two vertices a work-item (v0 = 2 k and v0 + 1, the last one alone when the count is odd):
@@ -54,20 +54,23 @@ __kernel void dice_grid(__global const uint *trees, uint tree_first, uint tree_c
     __global ts_vec4 *out = grid + (size_t)seg.vert_first + time * nv + v0;
     uint count = v0 + 1u < nv ? 2u : 1u;
     if (count == 2u && displace_is_noise(a) && displace_octaves(a) <= 4u) {
-        float2 pa = dice_param(seg.flags, m, n, v0), pb = dice_param(seg.flags, m, n, v0 + 1u);
-        ts_vec4 qa = bezier_eval(c, pa.x, pa.y), qb = bezier_eval(c, pb.x, pb.y);
-        ts_vec4 ra = c == c0 ? qa : bezier_eval(c0, pa.x, pa.y);
-        ts_vec4 rb = c == c0 ? qb : bezier_eval(c0, pb.x, pb.y);
+        float ua, va, ub, vb;
+        dice_param(seg.flags, m, n, v0, &ua, &va);
+        dice_param(seg.flags, m, n, v0 + 1u, &ub, &vb);
+        ts_vec4 qa = bezier_eval(c, ua, va), qb = bezier_eval(c, ub, vb);
+        ts_vec4 ra = c == c0 ? qa : bezier_eval(c0, ua, va);
+        ts_vec4 rb = c == c0 ? qb : bezier_eval(c0, ub, vb);
         float2 d = displace_value_pair(a, x, (float4)(ra.x, ra.y, ra.z, 0.0f),
                                        (float4)(rb.x, rb.y, rb.z, 0.0f));
-        ts_vec4 na = displace_normal(cn, mn, pa.x, pa.y), nb = displace_normal(cn, mn, pb.x, pb.y);
-        ts_vec4 wa = {qa.x + d.x * na.x, qa.y + d.x * na.y, qa.z + d.x * na.z, d.x};
-        ts_vec4 wb = {qb.x + d.y * nb.x, qb.y + d.y * nb.y, qb.z + d.y * nb.z, d.y};
-        out[0] = wa, out[1] = wb;
+        ts_vec4 na = displace_normal(cn, mn, ua, va), nb = displace_normal(cn, mn, ub, vb);
+        ts_vec4 oa = {qa.x + d.x * na.x, qa.y + d.x * na.y, qa.z + d.x * na.z, d.x};
+        ts_vec4 ob = {qb.x + d.y * nb.x, qb.y + d.y * nb.y, qb.z + d.y * nb.z, d.y};
+        out[0] = oa, out[1] = ob;
         return;
     }
     for (uint k = 0; k < count; ++k) {
-        float2 p = dice_param(seg.flags, m, n, v0 + k);
-        out[k] = patch_vertex_x8(c, c0, cn, mn, a, x, tex, p.x, p.y);
+        float u, v;
+        dice_param(seg.flags, m, n, v0 + k, &u, &v);
+        out[k] = patch_vertex_x8(c, c0, cn, mn, a, x, tex, u, v);
     }
 }

@@ -130,11 +130,12 @@ inline float displace_value_octaves(__global const ts_patch_attr *a, __global co
 inline float2 displace_value_pair(__global const ts_patch_attr *a, __global const ts_xform *x,
                                   float4 pa, float4 pb)
 {
-    float4 px = (float4)(pa.x, pa.x, pb.x, pb.x), py = (float4)(pa.y, pa.y, pb.y, pb.y),
-           pz = (float4)(pa.z, pa.z, pb.z, pb.z); /* lanes 0-1: a, 2-3: b */
-    float4 ox = x->r0[0] * px + x->r0[1] * py + x->r0[2] * pz + x->r0[3];
-    float4 oy = x->r1[0] * px + x->r1[1] * py + x->r1[2] * pz + x->r1[3];
-    float4 oz = x->r2[0] * px + x->r2[1] * py + x->r2[2] * pz + x->r2[3];
+    float oxa = x->r0[0] * pa.x + x->r0[1] * pa.y + x->r0[2] * pa.z + x->r0[3];
+    float oya = x->r1[0] * pa.x + x->r1[1] * pa.y + x->r1[2] * pa.z + x->r1[3];
+    float oza = x->r2[0] * pa.x + x->r2[1] * pa.y + x->r2[2] * pa.z + x->r2[3];
+    float oxb = x->r0[0] * pb.x + x->r0[1] * pb.y + x->r0[2] * pb.z + x->r0[3];
+    float oyb = x->r1[0] * pb.x + x->r1[1] * pb.y + x->r1[2] * pb.z + x->r1[3];
+    float ozb = x->r2[0] * pb.x + x->r2[1] * pb.y + x->r2[2] * pb.z + x->r2[3];
     uint n = displace_octaves(a);
     float f[4], w[4];
     f[0] = a->disp_frequency, w[0] = 1.0f;
@@ -142,12 +143,16 @@ inline float2 displace_value_pair(__global const ts_patch_attr *a, __global cons
         f[o + 1] = f[o] * a->disp_lacunarity, w[o + 1] = w[o] * a->disp_gain;
     for (uint o = n; o < 4u; ++o) /* spare lanes: the last octave again */
         f[o] = f[n - 1u];
-    float4 fo = vload4(0, f);
-    float8 v = noise3_x8((float8)(ox.s0 * fo, ox.s2 * fo), (float8)(oy.s0 * fo, oy.s2 * fo),
-                         (float8)(oz.s0 * fo, oz.s2 * fo));
-    float va[4], vb[4];
-    vstore4(v.lo, 0, va);
-    vstore4(v.hi, 0, vb);
+    /* Lanes 0-3: a's octaves, 4-7: b's (built by select: Oclgrind 21.10's uninitialized-value
+     * check crashes on a float8 made of two float4) */
+    float8 fo = (float8)(f[0], f[1], f[2], f[3], f[0], f[1], f[2], f[3]);
+    int8 at_b = (int8)(0, 0, 0, 0, -1, -1, -1, -1);
+    float8 v = noise3_x8(select((float8)(oxa), (float8)(oxb), at_b) * fo,
+                         select((float8)(oya), (float8)(oyb), at_b) * fo,
+                         select((float8)(oza), (float8)(ozb), at_b) * fo);
+    float vv[8];
+    vstore8(v, 0, vv);
+    const float *va = vv, *vb = vv + 4;
     float sa = 0.0f, sb = 0.0f;
     int ridged = a->disp_kind == TS_DISP_RIDGED;
     for (uint o = 0; o < n; ++o) {
