@@ -3,6 +3,7 @@
 #include "pipeline/lights.h"
 #include "pipeline/relight.h"
 #include "base/memory.h"
+#include "base/parallel.h"
 #include "lib/patch.h"
 #include "lib/quadtree.h"
 #include "lib/sample_order.h"
@@ -10,6 +11,10 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* The fewest patches a thread of the per-patch passes takes (ts_parallel_for): below it a
+ * thread's start costs more than it saves. */
+#define PATCH_GRAIN 16384u
 
 /* Bytes of one patch's grid and tree at LOD m, one time sample. */
 static uint64_t slot_bytes(uint32_t m)
@@ -106,6 +111,26 @@ typedef struct scene_uploads {
     const void *relight_patch, *relight_coeffs, *relight_normal; /* the scene's occlusion */
 } scene_uploads;
 
+/* Patches [begin, end) of scene_uploads_make: their flatness bounds, w the longest side of
+ * the patch's box, for the secondary-ray offset l / 2^m. */
+typedef struct patch_flat {
+    const ts_scene *scene;
+    const ts_box *boxes;
+    ts_vec4 *flatness;
+} patch_flat;
+
+static void patch_flat_run(void *ctx, size_t begin, size_t end)
+{
+    const patch_flat *t = ctx;
+    const ts_scene *s = t->scene;
+    for (size_t i = begin; i < end; ++i) {
+        const ts_vec4 *c0 = &s->cp[i * 16], *c1 = s->cp1 ? &s->cp1[i * 16] : c0;
+        t->flatness[i] = patch_flatness(c0, c1, 0);
+        ts_box b = t->boxes[i];
+        t->flatness[i].w = fmaxf(b.hi_x - b.lo_x, fmaxf(b.hi_y - b.lo_y, b.hi_z - b.lo_z));
+    }
+}
+
 static void scene_uploads_free(scene_uploads *u)
 {
     free(u->attr);
@@ -157,13 +182,8 @@ static int scene_uploads_make(const ts_pipeline *p, const ts_box *boxes, scene_u
     for (size_t i = 0; u->normals && i < n * 9; ++i)
         u->normals[i].z = 1.0f;
     if (s->patch_count && u->attr) memcpy(u->attr, s->attr, s->patch_count * sizeof *u->attr);
-    /* w: the longest side of the patch's box, for the secondary-ray offset l / 2^m. */
-    for (uint32_t i = 0; i < s->patch_count; ++i) {
-        const ts_vec4 *c0 = &s->cp[i * 16], *c1 = s->cp1 ? &s->cp1[i * 16] : c0;
-        u->flatness[i] = patch_flatness(c0, c1, 0);
-        ts_box b = boxes[i];
-        u->flatness[i].w = fmaxf(b.hi_x - b.lo_x, fmaxf(b.hi_y - b.lo_y, b.hi_z - b.lo_z));
-    }
+    patch_flat t = {s, boxes, u->flatness};
+    ts_parallel_for(s->patch_count, PATCH_GRAIN, 0, patch_flat_run, &t);
     if (s->dome.present && s->dome.map) {
         ts_image img = {.width = (int)s->dome.map_width,
                         .height = (int)s->dome.map_height,
@@ -393,6 +413,23 @@ static int create_sort_copies(ts_pipeline *p, ts_error *err)
     return TS_OK;
 }
 
+/* Patches [begin, end) of create_host_tables: their boxes and rough levels. */
+typedef struct patch_boxes {
+    const ts_scene *scene;
+    ts_box *boxes;
+    uint8_t *rough_lod;
+} patch_boxes;
+
+static void patch_boxes_run(void *ctx, size_t begin, size_t end)
+{
+    const patch_boxes *t = ctx;
+    for (size_t i = begin; i < end; ++i) {
+        t->boxes[i] = scene_patch_box(t->scene, (uint32_t)i);
+        t->rough_lod[i] =
+            (uint8_t)scene_patch_rough_lod(t->scene, (uint32_t)i, t->boxes[i], TS_LOD_LIMIT);
+    }
+}
+
 /* The host's per-patch tables and each patch's box (*boxes, freed by the caller). */
 static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
 {
@@ -412,10 +449,8 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     memset(p->grid_at_host, 0xff, 3 * n * sizeof *p->grid_at_host);
     memset(p->patch_lod, (int)p->plan.max_lod, n);
-    for (uint32_t i = 0; i < s->patch_count; ++i) {
-        (*boxes)[i] = scene_patch_box(s, i);
-        p->rough_lod[i] = (uint8_t)scene_patch_rough_lod(s, i, (*boxes)[i], TS_LOD_LIMIT);
-    }
+    patch_boxes t = {s, *boxes, p->rough_lod};
+    ts_parallel_for(s->patch_count, PATCH_GRAIN, 0, patch_boxes_run, &t);
     return TS_OK;
 }
 
