@@ -16,7 +16,7 @@ static const double identity[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0,
 
 static void generate(int trees, uint32_t seed, int detail, ts_scene *s, forest_counts *c)
 {
-    forest_params fp = {trees, seed, detail};
+    forest_params fp = {trees, seed, detail, 0};
     ts_error e = {0};
     memset(s, 0, sizeof *s);
     if (forest_generate(&fp, identity, NULL, s, c, &e) != TS_OK) fail_msg("%s", e.msg);
@@ -25,7 +25,7 @@ static void generate(int trees, uint32_t seed, int detail, ts_scene *s, forest_c
 
 static forest_counts count_only(int trees, uint32_t seed, int detail)
 {
-    forest_params fp = {trees, seed, detail};
+    forest_params fp = {trees, seed, detail, 0};
     forest_counts c;
     ts_error e = {0};
     if (forest_generate(&fp, identity, NULL, NULL, &c, &e) != TS_OK) fail_msg("%s", e.msg);
@@ -74,7 +74,7 @@ static void test_arrays_sized_at_once(void **state)
     forest_counts ca, cb;
     generate(7, 5, 1, &a, &ca);
     assert_int_equal(a.patch_capacity, a.patch_count);
-    forest_params one = {1, 9, 1}, seven = {7, 5, 1};
+    forest_params one = {1, 9, 1, 0}, seven = {7, 5, 1, 0};
     ts_error e = {0};
     memset(&b, 0, sizeof b);
     assert_int_equal(forest_generate(&one, identity, NULL, &b, NULL, &e), TS_OK);
@@ -87,6 +87,34 @@ static void test_arrays_sized_at_once(void **state)
     assert_memory_equal(b.attr + first, a.attr, (size_t)a.patch_count * sizeof *a.attr);
     scene_free(&a);
     scene_free(&b);
+}
+
+/* The trees are added on threads, each into the slots its count gives it: on one thread, on
+ * three (chunks of 4, 4 and 5 trees) and on every processor, the same scene byte for byte. */
+static void test_same_on_threads(void **state)
+{
+    (void)state;
+    ts_scene s[3];
+    forest_counts c[3];
+    const int threads[3] = {1, 3, 0};
+    for (int k = 0; k < 3; k++) {
+        forest_params fp = {13, 4, 1, threads[k]};
+        ts_error e = {0};
+        memset(&s[k], 0, sizeof s[k]);
+        if (forest_generate(&fp, identity, NULL, &s[k], &c[k], &e) != TS_OK) fail_msg("%s", e.msg);
+    }
+    for (int k = 1; k < 3; k++) {
+        size_t n = s[0].patch_count;
+        assert_int_equal(s[k].patch_count, n);
+        assert_int_equal(c[k].bark, c[0].bark);
+        assert_int_equal(c[k].leaves, c[0].leaves);
+        assert_memory_equal(s[k].cp, s[0].cp, n * 16 * sizeof *s[0].cp);
+        assert_memory_equal(s[k].corner_n, s[0].corner_n, n * 4 * sizeof *s[0].corner_n);
+        assert_memory_equal(s[k].mid_n, s[0].mid_n, n * 5 * sizeof *s[0].mid_n);
+        assert_memory_equal(s[k].attr, s[0].attr, n * sizeof *s[0].attr);
+    }
+    for (int k = 0; k < 3; k++)
+        scene_free(&s[k]);
 }
 
 /* Tree i's shape depends on (seed, detail, i) only: the tree patches of n trees are a sum
@@ -132,7 +160,7 @@ static void test_patches_valid(void **state)
     ts_scene s;
     forest_counts c;
     /* Placed by a transform: scaled by 2, moved. */
-    forest_params fp = {12, 3, 1};
+    forest_params fp = {12, 3, 1, 0};
     const double m[16] = {2, 0, 0, 10, 0, 2, 0, -1, 0, 0, 2, 5, 0, 0, 0, 1};
     ts_error e = {0};
     memset(&s, 0, sizeof s);
@@ -205,7 +233,7 @@ static void test_params(void **state)
     }
     /* A singular placement is an error. */
     const double flat[16] = {1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-    forest_params one = {1, 1, 0};
+    forest_params one = {1, 1, 0, 0};
     ts_scene s;
     memset(&s, 0, sizeof s);
     ts_error e = {0};
@@ -217,9 +245,10 @@ static void test_params(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_deterministic), cmocka_unit_test(test_linear_in_trees),
-        cmocka_unit_test(test_potential),     cmocka_unit_test(test_patches_valid),
-        cmocka_unit_test(test_params),        cmocka_unit_test(test_arrays_sized_at_once),
+        cmocka_unit_test(test_deterministic),   cmocka_unit_test(test_linear_in_trees),
+        cmocka_unit_test(test_potential),       cmocka_unit_test(test_patches_valid),
+        cmocka_unit_test(test_params),          cmocka_unit_test(test_arrays_sized_at_once),
+        cmocka_unit_test(test_same_on_threads),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -18,6 +18,7 @@
  * it, as in the paper's trees.
  */
 #include "scene/forest.h"
+#include "base/parallel.h"
 
 #include "lib/noise.h"
 
@@ -125,6 +126,9 @@ typedef struct forest_out {
     double scale; /* |det|^(1/3): object units to world units, for amplitudes */
     uint32_t xform;
     ts_patch_attr base;
+    /* put: write patch slots next, next + 1, ... (scene_put_patch) instead of appending */
+    int put;
+    uint32_t next;
 } forest_out;
 
 static int out_patch(forest_out *o, const v3 cp[16], const v3 n[4], const ts_patch_attr *a)
@@ -146,6 +150,7 @@ static int out_patch(forest_out *o, const v3 cp[16], const v3 n[4], const ts_pat
         for (int r = 0; r < 3; r++)
             wn[c][r] = o->nm[r * 3] * q[0] + o->nm[r * 3 + 1] * q[1] + o->nm[r * 3 + 2] * q[2];
     }
+    if (o->put) return scene_put_patch(o->s, o->next++, w, wn, a, o->err);
     return scene_add_patch_ex(o->s, (const double(*)[3])w, NULL, (const double(*)[3])wn, a, o->err);
 }
 
@@ -538,14 +543,14 @@ static v3 tree_base(const forest_params *fp, const terrain *ter, int g, double s
 }
 
 /* Trees first, first + step, ... derived and interpreted without output (out_patch only
- * counts without a scene): how many patches they make. */
+ * counts without a scene): how many patches each makes (per_tree). */
 typedef struct tree_count {
     const forest_params *fp;
     const forest_out *o;
     const terrain *ter;
     int g, first, step;
     double side;
-    uint64_t patches;
+    uint32_t *per_tree;
     int failed;
 } tree_count;
 
@@ -558,40 +563,137 @@ static void *tree_count_run(void *arg)
     for (int i = c->first; i < c->fp->trees && !c->failed; i += c->step) {
         uint64_t bark = 0, leaves = 0;
         c->failed = tree_emit(&o, c->fp, i, tree_base(c->fp, c->ter, c->g, c->side, i), &bark,
-                              &leaves) != TS_OK;
-        c->patches += bark + leaves;
+                              &leaves) != TS_OK ||
+                    bark + leaves > UINT32_MAX;
+        c->per_tree[i] = (uint32_t)(bark + leaves);
     }
     ts_error_clear(&e);
     return NULL;
 }
 
-/* The trees' patches counted on threads (a tenth of the time it takes to add them to the
+/* Each tree's patches counted on threads (a tenth of the time it takes to add them to the
  * scene), so that the scene's arrays are made that large at once (scene_reserve_patches)
- * instead of doubling while the trees are added. UINT64_MAX when a tree failed (the pass that
- * adds them reports why). */
-static uint64_t trees_count(const forest_params *fp, const forest_out *o, const terrain *ter, int g,
-                            double side)
+ * instead of doubling while the trees are added, and each tree knows its slots. 0 when a tree
+ * failed (the pass that adds them reports why). */
+static int trees_count(const forest_params *fp, const forest_out *o, const terrain *ter, int g,
+                       double side, uint32_t *per_tree)
 {
     enum { MAX_THREADS = 16 };
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    long cores = fp->threads > 0 ? fp->threads : sysconf(_SC_NPROCESSORS_ONLN);
     int n = cores < 1 ? 1 : cores > MAX_THREADS ? MAX_THREADS : (int)cores;
     if (n > fp->trees) n = fp->trees;
     tree_count c[MAX_THREADS];
     pthread_t tid[MAX_THREADS];
     int started[MAX_THREADS] = {0};
     for (int k = 0; k < n; k++) {
-        c[k] = (tree_count){fp, o, ter, g, k, n, side, 0, 0};
+        c[k] = (tree_count){fp, o, ter, g, k, n, side, per_tree, 0};
         started[k] = k > 0 && pthread_create(&tid[k], NULL, tree_count_run, &c[k]) == 0;
     }
     for (int k = 0; k < n; k++)
         if (!started[k]) tree_count_run(&c[k]); /* the caller's share, and any not started */
-    uint64_t total = 0;
     int failed = 0;
     for (int k = 0; k < n; k++) {
         if (started[k]) pthread_join(tid[k], NULL);
-        total += c[k].patches, failed |= c[k].failed;
+        failed |= c[k].failed;
     }
-    return failed ? UINT64_MAX : total;
+    return !failed;
+}
+
+/* The trees cut into `chunks` runs of consecutive trees, each written into its slots
+ * (first[i], from trees_count) on a thread of ts_parallel_for, with its own forest_out and
+ * error, and the bark and leaves it made. */
+enum { TREES_CHUNKS = 64 };
+
+typedef struct trees_chunk {
+    ts_error err;
+    int rc;
+    uint64_t bark, leaves;
+} trees_chunk;
+
+typedef struct trees_put {
+    const forest_params *fp;
+    const forest_out *o;
+    const terrain *ter;
+    int g;
+    double side;
+    const uint64_t *first; /* tree i's first slot; first[trees]: the end */
+    size_t chunks;
+    trees_chunk *out;
+} trees_put;
+
+static void trees_put_run(void *ctx, size_t begin, size_t end)
+{
+    const trees_put *t = ctx;
+    size_t n = (size_t)t->fp->trees;
+    for (size_t c = begin; c < end; ++c) {
+        trees_chunk *r = &t->out[c];
+        forest_out o = *t->o;
+        o.err = &r->err, o.put = 1;
+        r->rc = TS_OK;
+        for (size_t i = n * c / t->chunks; r->rc == TS_OK && i < n * (c + 1) / t->chunks; ++i) {
+            o.next = (uint32_t)t->first[i];
+            r->rc = tree_emit(&o, t->fp, (int)i, tree_base(t->fp, t->ter, t->g, t->side, (int)i),
+                              &r->bark, &r->leaves);
+            if (r->rc == TS_OK && o.next != t->first[i + 1])
+                r->rc = ts_error_set(o.err, TS_E_INTERNAL,
+                                     "forest: tree %zu made %llu patches, not %llu", i,
+                                     (unsigned long long)(o.next - t->first[i]),
+                                     (unsigned long long)(t->first[i + 1] - t->first[i]));
+        }
+    }
+}
+
+/* Each tree's patch count (trees_count), or NULL when a tree fails (adding the trees one
+ * after the other says why) or there is no memory for the table; *total: their sum. */
+static uint32_t *trees_counted(const forest_params *fp, const forest_out *o, const terrain *ter,
+                               int g, double side, uint64_t *total)
+{
+    uint32_t *per_tree = calloc((size_t)fp->trees, sizeof *per_tree);
+    if (per_tree && !trees_count(fp, o, ter, g, side, per_tree)) free(per_tree), per_tree = NULL;
+    *total = 0;
+    for (int i = 0; per_tree && i < fp->trees; ++i)
+        *total += per_tree[i];
+    return per_tree;
+}
+
+/* The trees added to s on threads, tree i into the per_tree[i] slots after those of the trees
+ * before it: the same patches in the same slots as added one after the other (tree_emit
+ * depends on the tree's index alone); s has room for them. Returns TS_OK, or the error of the
+ * first chunk of trees that failed. */
+static int trees_put_all(const forest_params *fp, forest_out *o, const terrain *ter, int g,
+                         double side, const uint32_t *per_tree, forest_counts *cnt, ts_error *err)
+{
+    size_t n = (size_t)fp->trees;
+    unsigned threads = fp->threads > 0 ? (unsigned)fp->threads : 0u;
+    if (threads == 0) {
+        long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+        threads = cpus > 0 ? (unsigned)cpus : 1u;
+    }
+    size_t chunks = threads < TREES_CHUNKS ? threads : TREES_CHUNKS;
+    if (chunks > n) chunks = n;
+    uint64_t *first = malloc((n + 1) * sizeof *first);
+    trees_chunk *out = calloc(chunks, sizeof *out);
+    int rc = first && out ? TS_OK : ts_error_set(err, TS_E_MEMORY, "forest: out of memory");
+    if (rc == TS_OK) {
+        first[0] = o->s->patch_count;
+        for (size_t i = 0; i < n; ++i)
+            first[i + 1] = first[i] + per_tree[i];
+        if (first[n] > o->s->patch_capacity)
+            rc = ts_error_set(err, TS_E_INTERNAL, "forest: no room for the trees' patches");
+    }
+    if (rc == TS_OK) {
+        trees_put t = {fp, o, ter, g, side, first, chunks, out};
+        ts_parallel_for(chunks, 1, threads, trees_put_run, &t);
+        for (size_t c = 0; c < chunks && rc == TS_OK; ++c) /* in tree order */
+            if (out[c].rc != TS_OK) rc = ts_error_set(err, out[c].err.code, "%s", out[c].err.msg);
+        for (size_t c = 0; c < chunks; ++c)
+            cnt->bark += out[c].bark, cnt->leaves += out[c].leaves;
+        if (rc == TS_OK) o->s->patch_count = (uint32_t)first[n];
+    }
+    for (size_t c = 0; out && c < chunks; ++c)
+        ts_error_clear(&out[c].err);
+    free(first), free(out);
+    return rc;
 }
 
 /* ---- parameters and the whole forest ------------------------------------------------------ */
@@ -721,13 +823,20 @@ int forest_generate(const forest_params *fp, const double object_to_world[16],
     terrain ter = {frng_range(&tr, 0.0, 500.0), frng_range(&tr, 0.0, 500.0)};
     double tside = side + 2.0 * FOREST_MARGIN;
     int tn = (int)ceil(tside / FOREST_TERRAIN_PATCH);
+    /* The trees counted first, then added on threads, each into its slots; where they cannot
+     * be counted (a tree that fails, or no memory for the table), one after the other, which
+     * says why. */
+    uint32_t *per_tree = NULL;
     if (s) {
-        uint64_t trees = trees_count(fp, &o, &ter, g, side);
-        if (trees != UINT64_MAX) rc = scene_reserve_patches(s, (uint64_t)tn * tn + trees, err);
+        uint64_t trees = 0;
+        per_tree = trees_counted(fp, &o, &ter, g, side, &trees);
+        if (per_tree) rc = scene_reserve_patches(s, (uint64_t)tn * tn + trees, err);
     }
     if (rc == TS_OK) rc = terrain_emit(&o, &ter, tside, tn, &cnt.terrain);
-    for (int i = 0; rc == TS_OK && i < fp->trees; i++)
+    if (rc == TS_OK && per_tree) rc = trees_put_all(fp, &o, &ter, g, side, per_tree, &cnt, err);
+    for (int i = 0; !per_tree && rc == TS_OK && i < fp->trees; i++)
         rc = tree_emit(&o, fp, i, tree_base(fp, &ter, g, side, i), &cnt.bark, &cnt.leaves);
+    free(per_tree);
     if (counts) *counts = cnt;
     return rc;
 }

@@ -28,6 +28,8 @@ typedef struct forest_params {
     uint32_t seed; /* any (default 1) */
     int detail;    /* 0..FOREST_MAX_DETAIL (default 1): L-system iterations = 5 + detail;
                       detail 1 gives about 1000 patches per tree */
+    int threads;   /* trees generated on this many threads (0: every online processor); the
+                      same scene on any number */
 } forest_params;
 
 /* What forest_generate added. */

@@ -282,8 +282,12 @@ static int scene_ensure_identity(ts_scene *s, ts_error *err)
     return scene_add_xform(s, id, &index, err);
 }
 
-int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16][3],
-                       const double normals[4][3], const ts_patch_attr *attr, ts_error *err)
+/* Patch p's attributes as stored (*a, from attr or the defaults; moving with cp1) and its
+ * corner normals made unit (nn), checked against the scene's transforms, trim segments and
+ * textures. Writes nothing. */
+static int scene_patch_checked(const ts_scene *s, uint32_t p, const double cp1[16][3],
+                               const double normals[4][3], const ts_patch_attr *attr,
+                               ts_patch_attr *out, double nn[4][3], ts_error *err)
 {
     ts_patch_attr a = {.cs_r = 1.0f,
                        .cs_g = 1.0f,
@@ -299,8 +303,6 @@ int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16]
                        .st = {0, 0, 1, 0, 0, 1, 1, 1}};
     if (attr) a = *attr;
     a.flags = cp1 ? (a.flags | TS_PATCH_MOVING) : (a.flags & ~TS_PATCH_MOVING);
-    int rc = scene_ensure_identity(s, err);
-    if (rc != TS_OK) return rc;
     if (a.xform >= s->xform_count)
         return ts_error_set(err, TS_E_INTERNAL, "scene: patch refers to transform %u of %u",
                             a.xform, s->xform_count);
@@ -314,28 +316,32 @@ int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16]
         ((a.flags & TS_PATCH_COLOR_TEX) &&
          (a.color_tex >= s->texture_count || s->textures[a.color_tex].kind != TS_TEX_RGB)))
         return ts_error_set(err, TS_E_INTERNAL, "scene: patch refers to a texture it cannot use");
-    double nn[4][3];
     if (normals)
         for (int c = 0; c < 4; c++) {
             double len = sqrt(normals[c][0] * normals[c][0] + normals[c][1] * normals[c][1] +
                               normals[c][2] * normals[c][2]);
             if (!(len > 0.0) || !isfinite(len))
                 return ts_error_set(err, TS_E_SCENE, "scene: corner normal %d of patch %u has %s",
-                                    c, s->patch_count,
-                                    len > 0.0 ? "no finite length" : "zero length");
+                                    c, p, len > 0.0 ? "no finite length" : "zero length");
             for (int d = 0; d < 3; d++)
                 nn[c][d] = normals[c][d] / len;
         }
-    rc = scene_reserve_patch(s, err);
-    if (rc == TS_OK && cp1) rc = scene_start_motion(s, err);
-    if (rc != TS_OK) return rc;
-    uint32_t p = s->patch_count;
+    *out = a;
+    return TS_OK;
+}
+
+/* Writes checked patch p (scene_patch_checked) into its slot (p < patch_capacity; with cp1,
+ * s->cp1 made): slot p alone, so patches in distinct slots may be written at once. */
+static int scene_patch_store(ts_scene *s, uint32_t p, const double cp[16][3],
+                             const double cp1[16][3], const ts_patch_attr *a, int given,
+                             const double nn[4][3], ts_error *err)
+{
     ts_vec4 *dst = s->cp + (size_t)p * 16u;
     if (!scene_points(dst, cp) || (cp1 && !scene_points(s->cp1 + (size_t)p * 16u, cp1)))
         return ts_error_set(err, TS_E_SCENE, "scene: patch %u leaves the float range", p);
     if (s->cp1 && !cp1) memcpy(s->cp1 + (size_t)p * 16u, dst, 16u * sizeof *dst);
-    s->attr[p] = a;
-    if (normals) {
+    s->attr[p] = *a;
+    if (given) {
         for (int c = 0; c < 4; c++) {
             ts_vec4 *o = &s->corner_n[(size_t)p * 4u + (size_t)c];
             o->x = (float)nn[c][0], o->y = (float)nn[c][1], o->z = (float)nn[c][2];
@@ -344,9 +350,35 @@ int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16]
     } else {
         scene_own_normals(s, p);
     }
-    scene_mid_normals(s, p, normals != NULL);
-    s->patch_count = p + 1u;
+    scene_mid_normals(s, p, given);
     return TS_OK;
+}
+
+int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16][3],
+                       const double normals[4][3], const ts_patch_attr *attr, ts_error *err)
+{
+    ts_patch_attr a;
+    double nn[4][3];
+    int rc = scene_ensure_identity(s, err);
+    if (rc == TS_OK) rc = scene_patch_checked(s, s->patch_count, cp1, normals, attr, &a, nn, err);
+    if (rc == TS_OK) rc = scene_reserve_patch(s, err);
+    if (rc == TS_OK && cp1) rc = scene_start_motion(s, err);
+    if (rc == TS_OK)
+        rc = scene_patch_store(s, s->patch_count, cp, cp1, &a, normals != NULL, nn, err);
+    if (rc == TS_OK) s->patch_count++;
+    return rc;
+}
+
+int scene_put_patch(ts_scene *s, uint32_t p, const double cp[16][3], const double normals[4][3],
+                    const ts_patch_attr *attr, ts_error *err)
+{
+    ts_patch_attr a;
+    double nn[4][3];
+    if (s->xform_count == 0 || p >= s->patch_capacity)
+        return ts_error_set(err, TS_E_INTERNAL, "scene: no slot for patch %u", p);
+    int rc = scene_patch_checked(s, p, NULL, normals, attr, &a, nn, err);
+    if (rc == TS_OK) rc = scene_patch_store(s, p, cp, NULL, &a, normals != NULL, nn, err);
+    return rc;
 }
 
 /* ---- transforms ---------------------------------------------------------------------- */

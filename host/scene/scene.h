@@ -210,6 +210,12 @@ int scene_add_patch(ts_scene *s, const double cp[16][3], const ts_patch_attr *at
  * world space, any length) NULL to have scene_finalize average them. */
 int scene_add_patch_ex(ts_scene *s, const double cp[16][3], const double cp1[16][3],
                        const double normals[4][3], const ts_patch_attr *attr, ts_error *err);
+/* scene_add_patch_ex without motion into slot p below patch_capacity (made by
+ * scene_reserve_patches), patch_count left as it is, the scene's transforms made: it writes
+ * slot p alone, so threads may fill distinct slots at once (the forest's trees); the caller
+ * sets patch_count once every slot below it is filled. */
+int scene_put_patch(ts_scene *s, uint32_t p, const double cp[16][3], const double normals[4][3],
+                    const ts_patch_attr *attr, ts_error *err);
 /* Makes room for `more` patches beyond patch_count at once: a generator that knows how many it
  * adds (the forest) saves the doublings, each of which copies the arrays into new memory that
  * is touched again (forest-1000: loaded in 1.2-1.5 s instead of 1.9-2.0 s, 680 MiB peak instead
