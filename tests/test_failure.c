@@ -6,7 +6,11 @@
  * uninterrupted render and refuses one made by another command; a kernel that does not
  * compile names kernels/FILE.cl:LINE. */
 #include "test_support.h"
+#include "app/options.h"
+#include "app/render.h"
+#include "app/resume.h"
 #include "image/image.h"
+#include "scene/scene_load.h"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -327,6 +331,70 @@ static void edit_partial(const char *name, int shift, int pixel, float count_shi
     image_free(&img);
 }
 
+/* The job hashes of `render teapot RENDER_ARGS` (seed 0), computed here as render.c does:
+ * today's (job_hash) and that of images written before 2026-11-30 (job_hash_legacy). */
+static void teapot_job_hashes(int32_t *now, int32_t *legacy)
+{
+    ts_render_options o;
+    render_options_defaults(&o);
+    o.scene_path = test_source_path("scene/teapot.rib");
+    o.spp = atoi(SPP);
+    ts_load_options lo;
+    render_load_options(&o, &lo);
+    ts_scene scene;
+    ts_error err = {0};
+    memset(&scene, 0, sizeof scene);
+    if (scene_load_with(o.scene_path, &lo, &scene, &err)) fail_msg("%s", err.msg);
+    ts_camera_params cam;
+    if (render_camera_params(&scene.camera, 320, 180, &cam, &err)) fail_msg("%s", err.msg);
+    cam.spp = (uint32_t)o.spp, cam.seed = o.seed;
+    if (job_hash(&o, &scene, &cam, now, &err) || job_hash_legacy(&o, &scene, &cam, legacy, &err))
+        fail_msg("%s", err.msg);
+    scene_free(&scene);
+}
+
+/* An image written before the job hash took the XXH3 digests of the scene's large pieces
+ * (its "tessera:job" the FNV-1a hash of every byte) still resumes, to the same bits; and is
+ * written back with today's hash. */
+static void test_resume_accepts_the_legacy_job_hash(void **state)
+{
+    (void)state;
+    const char *ref = reference(), *scene = test_source_path("scene/teapot.rib");
+    assert_int_equal(render_and_interrupt("legacy.exr", NULL), 3);
+    int32_t now, legacy;
+    teapot_job_hashes(&now, &legacy);
+    assert_int_equal(meta_int("legacy.exr", "tessera:job"), now);
+    assert_int_not_equal(now, legacy);
+    /* The same file with the legacy hash, then with one that is neither: refused. */
+    for (int k = 0; k < 2; ++k) {
+        static const char *keys[] = {"tessera:samples_done", "tessera:spp", "tessera:seed",
+                                     "tessera:job",          "tessera:lod", "tessera:max_lod",
+                                     "tessera:band"};
+        ts_image_meta meta[7];
+        for (int i = 0; i < 7; ++i)
+            meta[i] = (ts_image_meta){keys[i], meta_int("legacy.exr", keys[i])};
+        meta[3].value = k == 0 ? legacy + 1 : legacy;
+        ts_image img;
+        ts_error err = {0};
+        if (image_read(in_dir("legacy.exr"), &img, &err)) fail_msg("%s", err.msg);
+        if (image_write_exr(in_dir("legacy.exr"), &img, meta, 7, &err)) fail_msg("%s", err.msg);
+        image_free(&img);
+        if (k == 1) break;
+        assert_int_equal(test_run_tessera(dir,
+                                          "render '%s' -o '%s' " RENDER_ARGS " --resume --quiet",
+                                          scene, in_dir("legacy.exr")),
+                         1);
+        test_expect_in_stderr(dir, "cannot resume: it was rendered from another scene");
+    }
+    assert_int_equal(test_run_tessera(dir, "render '%s' -o '%s' " RENDER_ARGS " --resume", scene,
+                                      in_dir("legacy.exr")),
+                     0);
+    test_expect_in_stderr(dir, "resuming");
+    assert_int_equal(meta_int("legacy.exr", "tessera:samples_done"), (int)TOTAL);
+    assert_int_equal(meta_int("legacy.exr", "tessera:job"), now);
+    assert_same_image(ref, "legacy.exr");
+}
+
 /* --resume checks "tessera:samples_done" against the count channel pixel by pixel: a file
  * edited by hand (or damaged) is refused instead of counting samples twice. */
 static void test_resume_refuses_counts_that_disagree(void **state)
@@ -577,6 +645,7 @@ int main(void)
         cmocka_unit_test(test_out_of_memory_at_the_floor_writes_the_finished_samples),
         cmocka_unit_test(test_sigterm_writes_the_finished_samples),
         cmocka_unit_test(test_resume_matches_the_uninterrupted_render),
+        cmocka_unit_test(test_resume_accepts_the_legacy_job_hash),
         cmocka_unit_test(test_sighup_writes_the_finished_samples),
         cmocka_unit_test(test_sigint_in_a_long_wave_is_honoured_at_once),
         cmocka_unit_test(test_resume_refuses_counts_that_disagree),

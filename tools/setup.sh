@@ -13,6 +13,7 @@ packages=(
   zlib1g-dev # gzip RIB (host/scene/rib/rib_text.c)
   libminizip-dev # archives inside zip files, "a.zip!b.rib" (host/scene/rib/rib_archive.c)
   libexpat1-dev # RenderMan for Maya's look files, .rlf (XML; host/scene/rib/rib_look.c)
+  libxxhash-dev # the job hash --resume checks (host/app/resume.c)
   libopenmpi-dev openmpi-bin # several processes under mpirun (host/app/ranks_mpi.c, optional)
   mesa-opencl-icd # Rusticl: a second OpenCL implementation for kernel checks (tests/check_rusticl.sh)
   oclgrind clang libclang-rt-14-dev clang-format # checks: tools/check_kernels.sh, tools/fuzz.sh

@@ -1011,7 +1011,8 @@ int render_run(const ts_render_options *o, ts_ranks *ranks, ts_stats *stats,
     if (!rc && o->occlusion_path) rc = render_load_occlusion(&r, err);
     if (!rc) rc = render_start_job(&r, err);
     if (!rc && o->resume)
-        rc = resume_load(&r.opt, r.width, r.height, &r.job, &r.state, &up_to_date, err);
+        rc = resume_load(&r.opt, r.width, r.height, &r.scene, &r.cam, &r.job, &r.state, &up_to_date,
+                         err);
     if (!rc && !up_to_date) rc = render_select_devices(&r, err);
 #ifdef TESSERA_HAVE_MPI
     if (r.ranks) rc = render_tell_ranks(&r, rc, up_to_date, err);

@@ -98,6 +98,11 @@ typedef struct ts_job {
  * be read again. */
 int job_hash(const ts_render_options *o, const ts_scene *s, const ts_camera_params *cam,
              int32_t *out, ts_error *err);
+/* The job hash as images written before 2026-11-30 have it: FNV-1a over every byte, where
+ * job_hash takes the XXH3 digests of the large pieces (the scene file, the patches' arrays
+ * and attributes, the textures). --resume accepts either. */
+int job_hash_legacy(const ts_render_options *o, const ts_scene *s, const ts_camera_params *cam,
+                    int32_t *out, ts_error *err);
 
 /* The lod hash: the levels of detail the frame's patches are diced at, as the lod stage
  * left them in p->patch_lod, or --lod (clamped to the plan like trace.c does). */
@@ -129,11 +134,13 @@ int film_state_read_pixels(ts_pipeline *p, ts_film_state *s, size_t first, size_
                            ts_error *err);
 
 /* --resume: loads the partial EXR at o->output_path, rendered width x height with the job
- * job->hash of job->total samples, into *state and the job (samples_done, lod, max_lod,
- * check_lod). No file: a note on stderr (unless quiet), state stays empty (render from the
- * start). A complete image: *complete = 1, state stays empty. An image of another command,
- * or not from tessera: TS_E_USAGE (TS_E_IO when it cannot be read) naming what differs. */
-int resume_load(const ts_render_options *o, int width, int height, ts_job *job,
-                ts_film_state *state, int *complete, ts_error *err);
+ * job->hash of job->total samples (or its legacy form, job_hash_legacy of the scene and
+ * camera), into *state and the job (samples_done, lod, max_lod, check_lod). No file: a note on
+ * stderr (unless quiet), state stays empty (render from the start). A complete image: *complete =
+ * 1, state stays empty. An image of another command, or not from tessera: TS_E_USAGE (TS_E_IO when
+ * it cannot be read) naming what differs. */
+int resume_load(const ts_render_options *o, int width, int height, const ts_scene *scene,
+                const ts_camera_params *cam, ts_job *job, ts_film_state *state, int *complete,
+                ts_error *err);
 
 #endif
