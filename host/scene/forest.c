@@ -26,7 +26,7 @@
 #include <errno.h>
 #include <float.h>
 #include <math.h>
-#include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -542,33 +542,33 @@ static v3 tree_base(const forest_params *fp, const terrain *ter, int g, double s
     return v3_make(x, terrain_height(ter, x, z) - FOREST_SINK, z);
 }
 
-/* Trees first, first + step, ... derived and interpreted without output (out_patch only
- * counts without a scene): how many patches each makes (per_tree). */
+/* Trees [begin, end) derived and interpreted without output (out_patch only counts without
+ * a scene), on a thread of ts_parallel_for: how many patches each makes (per_tree). */
 typedef struct tree_count {
     const forest_params *fp;
     const forest_out *o;
     const terrain *ter;
-    int g, first, step;
+    int g;
     double side;
     uint32_t *per_tree;
-    int failed;
+    atomic_int failed;
 } tree_count;
 
-static void *tree_count_run(void *arg)
+static void tree_count_run(void *ctx, size_t begin, size_t end)
 {
-    tree_count *c = arg;
+    tree_count *c = ctx;
     ts_error e = {0};
     forest_out o = *c->o;
     o.s = NULL, o.err = &e;
-    for (int i = c->first; i < c->fp->trees && !c->failed; i += c->step) {
+    for (size_t i = begin; i < end && !atomic_load(&c->failed); ++i) {
         uint64_t bark = 0, leaves = 0;
-        c->failed = tree_emit(&o, c->fp, i, tree_base(c->fp, c->ter, c->g, c->side, i), &bark,
-                              &leaves) != TS_OK ||
-                    bark + leaves > UINT32_MAX;
+        if (tree_emit(&o, c->fp, (int)i, tree_base(c->fp, c->ter, c->g, c->side, (int)i), &bark,
+                      &leaves) != TS_OK ||
+            bark + leaves > UINT32_MAX)
+            atomic_store(&c->failed, 1);
         c->per_tree[i] = (uint32_t)(bark + leaves);
     }
     ts_error_clear(&e);
-    return NULL;
 }
 
 /* Each tree's patches counted on threads (a tenth of the time it takes to add them to the
@@ -578,25 +578,10 @@ static void *tree_count_run(void *arg)
 static int trees_count(const forest_params *fp, const forest_out *o, const terrain *ter, int g,
                        double side, uint32_t *per_tree)
 {
-    enum { MAX_THREADS = 16 };
-    long cores = fp->threads > 0 ? fp->threads : sysconf(_SC_NPROCESSORS_ONLN);
-    int n = cores < 1 ? 1 : cores > MAX_THREADS ? MAX_THREADS : (int)cores;
-    if (n > fp->trees) n = fp->trees;
-    tree_count c[MAX_THREADS];
-    pthread_t tid[MAX_THREADS];
-    int started[MAX_THREADS] = {0};
-    for (int k = 0; k < n; k++) {
-        c[k] = (tree_count){fp, o, ter, g, k, n, side, per_tree, 0};
-        started[k] = k > 0 && pthread_create(&tid[k], NULL, tree_count_run, &c[k]) == 0;
-    }
-    for (int k = 0; k < n; k++)
-        if (!started[k]) tree_count_run(&c[k]); /* the caller's share, and any not started */
-    int failed = 0;
-    for (int k = 0; k < n; k++) {
-        if (started[k]) pthread_join(tid[k], NULL);
-        failed |= c[k].failed;
-    }
-    return !failed;
+    tree_count c = {fp, o, ter, g, side, per_tree, 0};
+    ts_parallel_for((size_t)fp->trees, 1, fp->threads > 0 ? (unsigned)fp->threads : 0u,
+                    tree_count_run, &c);
+    return !atomic_load(&c.failed);
 }
 
 /* The trees cut into `chunks` runs of consecutive trees, each written into its slots
