@@ -2,10 +2,10 @@
  * lanes of a float8 (noise3_x8). shade.cl's displaced shading normal, where the patch's grid
  * is not resident, evaluates the micro-quad's four corners together, a point per lane and two
  * octaves in the two halves (their Bézier points and displacement normals in float4 lanes);
- * dice.cl evaluates a vertex's octaves
- * together, one per lane. The scalar fBm was 15% (shade) and 4% (dice) of a
- * teapot_displaced render. build.cl takes a micro-quad's four corner normals in float4 lanes
- * (displace_normal_x4) and its displacement-normal box with x, y, z in lanes
+ * dice.cl evaluates a vertex's octaves together, one per lane, or two vertices' octaves in
+ * the two halves where there are at most four (displace_value_pair). The scalar fBm was 15% (shade)
+ * and 4% (dice) of a teapot_displaced render. build.cl takes a micro-quad's four corner normals in
+ * float4 lanes (displace_normal_x4) and its displacement-normal box with x, y, z in lanes
  * (displace_normal_box_x4): with base_box, 11% of that render as scalar code. Every lane runs
  * the operations of the scalar noise3 / displace_value / patch_vertex / displace_normal_box in
  * their order, and the octaves are added in octave order (kernels are built with FP_CONTRACT
