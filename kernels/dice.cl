@@ -6,7 +6,7 @@
  *         the level-0 tiles under the batch's st rectangles must be resident).
  * Writes: grid[vert_first + time * (2^m+1)^2 + j * (2^m+1) + i] = patch_vertex(i 2^-m, j 2^-m):
  *         xyz the displaced position, w the displacement d (build recovers the undisplaced
- *         point from it); two vertices a work-item.
+ *         point from it); TS_DICE_VERTICES (two) vertices a work-item.
  * Parameters are i * 2^-m exactly (ldexp), so the host references dice the same points. In
  * triangle mode the vertices of an edge shared with a patch diced coarser are that patch's
  * (quadtree_stitch), so no crack opens between them. */
@@ -36,9 +36,9 @@ __kernel void dice_grid(__global const uint *trees, uint tree_first, uint tree_c
                         __global const uint *tex_pages, __global const ts_vec4 *tex_pool,
                         __global ts_vec4 *grid)
 {
-    uint nv = quadtree_vertex_count(m), pairs = (nv + 1u) / 2u;
+    uint nv = quadtree_vertex_count(m), pairs = (nv + TS_DICE_VERTICES - 1u) / TS_DICE_VERTICES;
     uint gid = get_global_id(0);
-    uint t = gid / pairs, v0 = 2u * (gid % pairs);
+    uint t = gid / pairs, v0 = TS_DICE_VERTICES * (gid % pairs);
     if (t >= tree_count) return;
     uint tree = trees[tree_first + t];
     ts_segment seg = segments[TS_TREE_SEGMENT(tree)];

@@ -50,7 +50,7 @@ int32_t job_lod_hash(const ts_pipeline *p, const ts_render_options *o)
 typedef struct job_hasher {
     int legacy;
     uint64_t h;
-    XXH3_state_t *x; /* a large piece fed in parts (job_part), NULL otherwise */
+    XXH3_state_t *x; /* the large piece being fed (job_part); NULL when legacy */
 } job_hasher;
 
 static void job_small(job_hasher *j, const void *p, size_t n)
@@ -58,22 +58,10 @@ static void job_small(job_hasher *j, const void *p, size_t n)
     j->h = ts_fnv1a(j->h, p, n);
 }
 
-static void job_large(job_hasher *j, const void *p, size_t n)
+/* A large piece, fed in parts: job_part_begin, job_part (any number), job_part_end. */
+static void job_part_begin(job_hasher *j)
 {
-    if (j->legacy) {
-        j->h = ts_fnv1a(j->h, p, n);
-        return;
-    }
-    uint64_t d = XXH3_64bits(p, n);
-    j->h = ts_fnv1a(j->h, &d, sizeof d);
-}
-
-/* A large piece in parts: job_part_begin, job_part (any number), job_part_end. */
-static int job_part_begin(job_hasher *j)
-{
-    if (j->legacy) return 1;
-    j->x = XXH3_createState();
-    return j->x && XXH3_64bits_reset(j->x) == XXH_OK;
+    if (!j->legacy) XXH3_64bits_reset(j->x);
 }
 
 static void job_part(job_hasher *j, const void *p, size_t n)
@@ -86,22 +74,30 @@ static void job_part(job_hasher *j, const void *p, size_t n)
 
 static void job_part_end(job_hasher *j)
 {
-    if (j->legacy || !j->x) return;
+    if (j->legacy) return;
     uint64_t d = XXH3_64bits_digest(j->x);
-    XXH3_freeState(j->x), j->x = NULL;
     j->h = ts_fnv1a(j->h, &d, sizeof d);
+}
+
+/* A large piece in one part. */
+static void job_large(job_hasher *j, const void *p, size_t n)
+{
+    job_part_begin(j);
+    job_part(j, p, n);
+    job_part_end(j);
 }
 
 static int job_hash_of(const ts_render_options *o, const ts_scene *s, const ts_camera_params *cam,
                        int legacy, int32_t *out, ts_error *err)
 {
-    job_hasher j = {legacy, TS_FNV1A_INIT, NULL};
+    job_hasher j = {legacy, TS_FNV1A_INIT, legacy ? NULL : XXH3_createState()};
+    if (!legacy && !j.x) return ts_error_set(err, TS_E_MEMORY, "out of memory (the job's hash)");
     FILE *f = fopen(o->scene_path, "rb");
-    if (!f) return ts_error_set(err, TS_E_IO, "%s: %s", o->scene_path, strerror(errno));
-    if (!job_part_begin(&j)) {
-        fclose(f);
-        return ts_error_set(err, TS_E_MEMORY, "out of memory (the job's hash)");
+    if (!f) {
+        XXH3_freeState(j.x);
+        return ts_error_set(err, TS_E_IO, "%s: %s", o->scene_path, strerror(errno));
     }
+    job_part_begin(&j);
     unsigned char buf[65536];
     size_t n;
     while ((n = fread(buf, 1, sizeof buf, f)) > 0)
@@ -134,8 +130,7 @@ static int job_hash_of(const ts_render_options *o, const ts_scene *s, const ts_c
     if (s->cp1) job_large(&j, s->cp1, (size_t)s->patch_count * 16 * sizeof(ts_vec4));
     if (s->corner_n) job_large(&j, s->corner_n, (size_t)s->patch_count * 4 * sizeof(ts_vec4));
     if (s->mid_n) job_large(&j, s->mid_n, (size_t)s->patch_count * 5 * sizeof(ts_vec4));
-    if (!job_part_begin(&j))
-        return ts_error_set(err, TS_E_MEMORY, "out of memory (the job's hash)");
+    job_part_begin(&j);
     for (uint32_t i = 0; i < s->patch_count; ++i) {
         ts_patch_attr a = s->attr[i];
         a.trim_first = 0; /* hashed with the trim segments below, where there are any */
@@ -166,6 +161,7 @@ static int job_hash_of(const ts_render_options *o, const ts_scene *s, const ts_c
                   (size_t)occ->point_count * occ->bands * occ->bands * sizeof *occ->coeffs);
         job_large(&j, occ->normal, (size_t)occ->point_count * 3 * sizeof *occ->normal);
     }
+    XXH3_freeState(j.x);
     *out = fold32(j.h);
     return TS_OK;
 }

@@ -19,15 +19,20 @@ static void *chunk_run(void *arg)
     return NULL;
 }
 
-void ts_parallel_for(size_t n, size_t grain, unsigned threads,
-                     void (*fn)(void *ctx, size_t begin, size_t end), void *ctx)
+unsigned ts_parallel_threads(unsigned threads)
 {
-    if (n == 0) return;
     if (threads == 0) {
         long cpus = sysconf(_SC_NPROCESSORS_ONLN);
         threads = cpus > 0 ? (unsigned)cpus : 1u;
     }
-    if (threads > PARALLEL_MAX) threads = PARALLEL_MAX;
+    return threads > PARALLEL_MAX ? PARALLEL_MAX : threads;
+}
+
+void ts_parallel_for(size_t n, size_t grain, unsigned threads,
+                     void (*fn)(void *ctx, size_t begin, size_t end), void *ctx)
+{
+    if (n == 0) return;
+    threads = ts_parallel_threads(threads);
     size_t k = grain ? n / grain : n;
     if (k > threads) k = threads;
     if (k < 2) {

@@ -7,6 +7,10 @@
 
 #include <stddef.h>
 
+/* The threads ts_parallel_for starts at most for `threads` (0: every online processor), at
+ * most 64. */
+unsigned ts_parallel_threads(unsigned threads);
+
 /* fn(ctx, begin, end) over consecutive chunks of [0, n): one chunk a thread, on up to
  * `threads` threads (0: every online processor), none smaller than `grain` items; the
  * calling thread takes the first chunk, and a chunk whose thread cannot be started too.

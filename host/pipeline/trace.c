@@ -369,7 +369,9 @@ static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
                          DEV_ARG(p->xform), DEV_ARG(p->textures), DEV_ARG(p->tex_pages),
                          DEV_ARG(p->tex_pool), DEV_ARG(p->grid), (size_t)0) ||
             dev_launch(p->cl, p->k_dice, TS_STAGE_dice,
-                       (size_t)run * ((quadtree_vertex_count(m) + 1u) / 2u), TS_LOCAL_SIZE, err))
+                       (size_t)run *
+                           ((quadtree_vertex_count(m) + TS_DICE_VERTICES - 1u) / TS_DICE_VERTICES),
+                       TS_LOCAL_SIZE, err))
             return err->code;
         t += run;
     }

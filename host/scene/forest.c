@@ -30,7 +30,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #define FOREST_PI 3.14159265358979323846
 #define FOREST_SPACING 7.0       /* between neighbouring trees */
@@ -542,14 +541,34 @@ static v3 tree_base(const forest_params *fp, const terrain *ter, int g, double s
     return v3_make(x, terrain_height(ter, x, z) - FOREST_SINK, z);
 }
 
-/* Trees [begin, end) derived and interpreted without output (out_patch only counts without
- * a scene), on a thread of ts_parallel_for: how many patches each makes (per_tree). */
-typedef struct tree_count {
+/* The forest's trees: tree i of a g x g grid of cells `side` wide on terrain ter, made by
+ * forest_tree into an output like o. */
+typedef struct forest_trees {
     const forest_params *fp;
     const forest_out *o;
     const terrain *ter;
     int g;
     double side;
+} forest_trees;
+
+/* Tree i into o (tree_emit where tree_base stands it); its bark and leaves added. */
+static int forest_tree(const forest_trees *t, forest_out *o, size_t i, uint64_t *bark,
+                       uint64_t *leaves)
+{
+    return tree_emit(o, t->fp, (int)i, tree_base(t->fp, t->ter, t->g, t->side, (int)i), bark,
+                     leaves);
+}
+
+/* Threads for the trees: forest_params.threads, else every processor (ts_parallel_threads). */
+static unsigned forest_threads(const forest_params *fp)
+{
+    return ts_parallel_threads(fp->threads > 0 ? (unsigned)fp->threads : 0u);
+}
+
+/* Trees [begin, end) derived and interpreted without output (out_patch only counts without
+ * a scene), on a thread of ts_parallel_for: how many patches each makes (per_tree). */
+typedef struct tree_count {
+    const forest_trees *t;
     uint32_t *per_tree;
     atomic_int failed;
 } tree_count;
@@ -558,36 +577,40 @@ static void tree_count_run(void *ctx, size_t begin, size_t end)
 {
     tree_count *c = ctx;
     ts_error e = {0};
-    forest_out o = *c->o;
+    forest_out o = *c->t->o;
     o.s = NULL, o.err = &e;
     for (size_t i = begin; i < end && !atomic_load(&c->failed); ++i) {
         uint64_t bark = 0, leaves = 0;
-        if (tree_emit(&o, c->fp, (int)i, tree_base(c->fp, c->ter, c->g, c->side, (int)i), &bark,
-                      &leaves) != TS_OK ||
-            bark + leaves > UINT32_MAX)
+        if (forest_tree(c->t, &o, i, &bark, &leaves) != TS_OK || bark + leaves > UINT32_MAX)
             atomic_store(&c->failed, 1);
         c->per_tree[i] = (uint32_t)(bark + leaves);
     }
     ts_error_clear(&e);
 }
 
-/* Each tree's patches counted on threads (a tenth of the time it takes to add them to the
- * scene), so that the scene's arrays are made that large at once (scene_reserve_patches)
- * instead of doubling while the trees are added, and each tree knows its slots. 0 when a tree
- * failed (the pass that adds them reports why). */
-static int trees_count(const forest_params *fp, const forest_out *o, const terrain *ter, int g,
-                       double side, uint32_t *per_tree)
+/* Each tree's patch count, counted on threads (a tenth of the time it takes to add them to
+ * the scene), so that the scene's arrays are made that large at once (scene_reserve_patches)
+ * instead of doubling while the trees are added, and each tree knows its slots; *total: their
+ * sum. NULL when a tree fails (adding the trees one after the other says why) or there is no
+ * memory for the table. */
+static uint32_t *trees_counted(const forest_trees *t, uint64_t *total)
 {
-    tree_count c = {fp, o, ter, g, side, per_tree, 0};
-    ts_parallel_for((size_t)fp->trees, 1, fp->threads > 0 ? (unsigned)fp->threads : 0u,
-                    tree_count_run, &c);
-    return !atomic_load(&c.failed);
+    tree_count c = {t, calloc((size_t)t->fp->trees, sizeof(uint32_t)), 0};
+    *total = 0;
+    if (!c.per_tree) return NULL;
+    ts_parallel_for((size_t)t->fp->trees, 1, forest_threads(t->fp), tree_count_run, &c);
+    if (atomic_load(&c.failed)) {
+        free(c.per_tree);
+        return NULL;
+    }
+    for (int i = 0; i < t->fp->trees; ++i)
+        *total += c.per_tree[i];
+    return c.per_tree;
 }
 
-/* The trees cut into `chunks` runs of consecutive trees, each written into its slots
- * (first[i], from trees_count) on a thread of ts_parallel_for, with its own forest_out and
- * error, and the bark and leaves it made. */
-enum { TREES_CHUNKS = 64 };
+/* The trees cut into `chunks` runs of consecutive trees (one a thread), each written into
+ * its slots (first[i], from trees_counted) on a thread of ts_parallel_for, with its own
+ * forest_out and error, and the bark and leaves it made. */
 
 typedef struct trees_chunk {
     ts_error err;
@@ -596,11 +619,7 @@ typedef struct trees_chunk {
 } trees_chunk;
 
 typedef struct trees_put {
-    const forest_params *fp;
-    const forest_out *o;
-    const terrain *ter;
-    int g;
-    double side;
+    const forest_trees *t;
     const uint64_t *first; /* tree i's first slot; first[trees]: the end */
     size_t chunks;
     trees_chunk *out;
@@ -609,16 +628,15 @@ typedef struct trees_put {
 static void trees_put_run(void *ctx, size_t begin, size_t end)
 {
     const trees_put *t = ctx;
-    size_t n = (size_t)t->fp->trees;
+    size_t n = (size_t)t->t->fp->trees;
     for (size_t c = begin; c < end; ++c) {
         trees_chunk *r = &t->out[c];
-        forest_out o = *t->o;
+        forest_out o = *t->t->o;
         o.err = &r->err, o.put = 1;
         r->rc = TS_OK;
         for (size_t i = n * c / t->chunks; r->rc == TS_OK && i < n * (c + 1) / t->chunks; ++i) {
             o.next = (uint32_t)t->first[i];
-            r->rc = tree_emit(&o, t->fp, (int)i, tree_base(t->fp, t->ter, t->g, t->side, (int)i),
-                              &r->bark, &r->leaves);
+            r->rc = forest_tree(t->t, &o, i, &r->bark, &r->leaves);
             if (r->rc == TS_OK && o.next != t->first[i + 1])
                 r->rc = ts_error_set(o.err, TS_E_INTERNAL,
                                      "forest: tree %zu made %llu patches, not %llu", i,
@@ -628,52 +646,35 @@ static void trees_put_run(void *ctx, size_t begin, size_t end)
     }
 }
 
-/* Each tree's patch count (trees_count), or NULL when a tree fails (adding the trees one
- * after the other says why) or there is no memory for the table; *total: their sum. */
-static uint32_t *trees_counted(const forest_params *fp, const forest_out *o, const terrain *ter,
-                               int g, double side, uint64_t *total)
+/* The trees added to s (t->o's scene) on threads, tree i into the per_tree[i] slots after
+ * those of the trees before it: the same patches in the same slots as added one after the
+ * other (tree_emit depends on the tree's index alone); s has room for them. Returns TS_OK, or
+ * the error of the first chunk of trees that failed. */
+static int trees_put_all(const forest_trees *t, const uint32_t *per_tree, forest_counts *cnt,
+                         ts_error *err)
 {
-    uint32_t *per_tree = calloc((size_t)fp->trees, sizeof *per_tree);
-    if (per_tree && !trees_count(fp, o, ter, g, side, per_tree)) free(per_tree), per_tree = NULL;
-    *total = 0;
-    for (int i = 0; per_tree && i < fp->trees; ++i)
-        *total += per_tree[i];
-    return per_tree;
-}
-
-/* The trees added to s on threads, tree i into the per_tree[i] slots after those of the trees
- * before it: the same patches in the same slots as added one after the other (tree_emit
- * depends on the tree's index alone); s has room for them. Returns TS_OK, or the error of the
- * first chunk of trees that failed. */
-static int trees_put_all(const forest_params *fp, forest_out *o, const terrain *ter, int g,
-                         double side, const uint32_t *per_tree, forest_counts *cnt, ts_error *err)
-{
-    size_t n = (size_t)fp->trees;
-    unsigned threads = fp->threads > 0 ? (unsigned)fp->threads : 0u;
-    if (threads == 0) {
-        long cpus = sysconf(_SC_NPROCESSORS_ONLN);
-        threads = cpus > 0 ? (unsigned)cpus : 1u;
-    }
-    size_t chunks = threads < TREES_CHUNKS ? threads : TREES_CHUNKS;
-    if (chunks > n) chunks = n;
+    ts_scene *s = t->o->s;
+    size_t n = (size_t)t->fp->trees;
+    unsigned threads = forest_threads(t->fp);
+    size_t chunks = threads < n ? threads : n;
     uint64_t *first = malloc((n + 1) * sizeof *first);
     trees_chunk *out = calloc(chunks, sizeof *out);
     int rc = first && out ? TS_OK : ts_error_set(err, TS_E_MEMORY, "forest: out of memory");
     if (rc == TS_OK) {
-        first[0] = o->s->patch_count;
+        first[0] = s->patch_count;
         for (size_t i = 0; i < n; ++i)
             first[i + 1] = first[i] + per_tree[i];
-        if (first[n] > o->s->patch_capacity)
+        if (first[n] > s->patch_capacity)
             rc = ts_error_set(err, TS_E_INTERNAL, "forest: no room for the trees' patches");
     }
     if (rc == TS_OK) {
-        trees_put t = {fp, o, ter, g, side, first, chunks, out};
-        ts_parallel_for(chunks, 1, threads, trees_put_run, &t);
+        trees_put p = {t, first, chunks, out};
+        ts_parallel_for(chunks, 1, threads, trees_put_run, &p);
         for (size_t c = 0; c < chunks && rc == TS_OK; ++c) /* in tree order */
             if (out[c].rc != TS_OK) rc = ts_error_set(err, out[c].err.code, "%s", out[c].err.msg);
         for (size_t c = 0; c < chunks; ++c)
             cnt->bark += out[c].bark, cnt->leaves += out[c].leaves;
-        if (rc == TS_OK) o->s->patch_count = (uint32_t)first[n];
+        if (rc == TS_OK) s->patch_count = (uint32_t)first[n];
     }
     for (size_t c = 0; out && c < chunks; ++c)
         ts_error_clear(&out[c].err);
@@ -811,16 +812,17 @@ int forest_generate(const forest_params *fp, const double object_to_world[16],
     /* The trees counted first, then added on threads, each into its slots; where they cannot
      * be counted (a tree that fails, or no memory for the table), one after the other, which
      * says why. */
+    forest_trees trees = {fp, &o, &ter, g, side};
     uint32_t *per_tree = NULL;
     if (s) {
-        uint64_t trees = 0;
-        per_tree = trees_counted(fp, &o, &ter, g, side, &trees);
-        if (per_tree) rc = scene_reserve_patches(s, (uint64_t)tn * tn + trees, err);
+        uint64_t total = 0;
+        per_tree = trees_counted(&trees, &total);
+        if (per_tree) rc = scene_reserve_patches(s, (uint64_t)tn * tn + total, err);
     }
     if (rc == TS_OK) rc = terrain_emit(&o, &ter, tside, tn, &cnt.terrain);
-    if (rc == TS_OK && per_tree) rc = trees_put_all(fp, &o, &ter, g, side, per_tree, &cnt, err);
+    if (rc == TS_OK && per_tree) rc = trees_put_all(&trees, per_tree, &cnt, err);
     for (int i = 0; !per_tree && rc == TS_OK && i < fp->trees; i++)
-        rc = tree_emit(&o, fp, i, tree_base(fp, &ter, g, side, i), &cnt.bark, &cnt.leaves);
+        rc = forest_tree(&trees, &o, (size_t)i, &cnt.bark, &cnt.leaves);
     free(per_tree);
     if (counts) *counts = cnt;
     return rc;

@@ -45,6 +45,10 @@ typedef uint8_t ts_u8;
  * work-group leaf intersection sizes its local memory by it. */
 #define TS_GROUP_SIZE 64
 
+/* Vertices a work-item of `dice` evaluates (dice.cl: two, displace_value_pair's points): a
+ * launch over a tree run has ceil((2^m + 1)^2 / TS_DICE_VERTICES) work-items a tree. */
+#define TS_DICE_VERTICES 2u
+
 /* Hard ceiling on the level of detail: 4^10 micro-quads per patch (Hanika §4 uses m <= 10).
  * Kernel stacks are sized from it. */
 #define TS_LOD_LIMIT 10
