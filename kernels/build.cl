@@ -4,9 +4,9 @@
  *   holds the displaced surface over the micro-quad's whole parameter square, not only its
  *   four vertices, so coarse leaves span every finer tessellation and patches diced at
  *   different m stay hole-free when boxes are the geometry (§3.3):
- *     undisplaced part: box of the four undisplaced corners (vertex - d * normal) grown by
- *       the flatness bound E0 * 4^-m (lib/patch.h patch_flatness); the corners' normals in
- *       the lanes of a float4 (lib/noise4.h displace_normal_x4), shared by both time samples,
+ *     undisplaced part: box of the four undisplaced corners (the Bézier patch of the time
+ *       sample at the corners, a corner per lane: lib/noise4.h bezier_eval_x4) grown by the
+ *       flatness bound E0 * 4^-m (lib/patch.h patch_flatness),
  *     displacement part: [d] x [N] per axis, [d] by interval arithmetic on the noise over
  *       the time-0 undisplaced box (lib/displace.h; its cells eight at a time in float8
  *       lanes, lib/noise4.h displace_interval_x8), [N] the box of the displacement normal
@@ -22,7 +22,9 @@
  *   m > l (a prefix of the batch's tree list, which is sorted by decreasing m) gets the union
  *   of its four children — the bottom-up min-max reduction — and the union of their decoded
  *   tight boxes as its codes. The root group's lanes 1-3 are left empty.
- * Reads: trees, segments (the patch built is each segment's shape), grid (w = d), corner normals,
+ * Reads: trees, segments (the patch built is each segment's shape), control points, grid (only for
+ * tight boxes: triangle mode, rough patches, stitched edges; dice need not have run otherwise),
+ * corner normals,
  * attributes, transforms, flatness, patch boxes (every leaf box is clamped to its patch's top-level
  * box), textures (the min-max tiles under the leaves' st rectangles must be resident; a cut-out
  * patch's mask tiles at level 0), trim segments (a TS_SEG_TRIMMED segment's micro-quads whose
@@ -38,30 +40,16 @@
 #include "lib/quadtree.h"
 #include "lib/trim.h"
 
-/* The displacement normals at the four corners of micro-quad (i, j), h = 2^-m: corner c
- * (at (i + (c & 1), j + (c >> 1)), host/ref/dice_build_ref.c base_box's order) in lane c, by
- * displace_normal_x4 (lib/noise4.h: displace_normal's bits per lane). */
-inline void corner_normals(__global const ts_vec4 *cn, __global const ts_vec4 *mn, uint i, uint j,
-                           float h, float4 *nx, float4 *ny, float4 *nz)
+/* Box of the undisplaced corners of micro-quad (i, j), h = 2^-m: the Bézier patch cp at the
+ * four corners, a corner per lane (bezier_eval_x4: bezier_eval's bits), folded corner by
+ * corner with x, y, z in lanes as the host's base_box (host/ref/dice_build_ref.c) adds them:
+ * the same bits, and no read of the diced grid. */
+inline ts_box base_box(__global const ts_vec4 *cp, uint i, uint j, float h)
 {
-    float4 ci = (float4)((float)i, (float)(i + 1u), (float)i, (float)(i + 1u));
-    float4 cj = (float4)((float)j, (float)j, (float)(j + 1u), (float)(j + 1u));
-    displace_normal_x4(cn, mn, ci * h, cj * h, nx, ny, nz);
-}
-
-/* Box of the undisplaced corners (vertex - d * normal) of micro-quad (i, j) of grid g, the
- * normals from corner_normals: the host's base_box (host/ref/dice_build_ref.c) with a corner
- * per lane, and its box_add fold with x, y, z in lanes, corner by corner: the same bits. */
-inline ts_box base_box(__global const ts_vec4 *g, uint n, uint i, uint j, float4 nx, float4 ny,
-                       float4 nz)
-{
-    __global const ts_vec4 *r0 = g + j * n + i, *r1 = r0 + n;
-    float4 p0 = vec4_lanes(r0), p1 = vec4_lanes(r0 + 1), p2 = vec4_lanes(r1),
-           p3 = vec4_lanes(r1 + 1);
-    float4 d = (float4)(p0.w, p1.w, p2.w, p3.w);
-    float4 x = (float4)(p0.x, p1.x, p2.x, p3.x) - d * nx;
-    float4 y = (float4)(p0.y, p1.y, p2.y, p3.y) - d * ny;
-    float4 z = (float4)(p0.z, p1.z, p2.z, p3.z) - d * nz;
+    float4 cu = (float4)((float)i * h, (float)(i + 1u) * h, (float)i * h, (float)(i + 1u) * h);
+    float4 cv = (float4)((float)j * h, (float)j * h, (float)(j + 1u) * h, (float)(j + 1u) * h);
+    float4 x, y, z;
+    bezier_eval_x4(cp, cu, cv, &x, &y, &z);
     float4 q0 = (float4)(x.s0, y.s0, z.s0, 0.0f), q1 = (float4)(x.s1, y.s1, z.s1, 0.0f),
            q2 = (float4)(x.s2, y.s2, z.s2, 0.0f), q3 = (float4)(x.s3, y.s3, z.s3, 0.0f);
     float4 lo = fmin(fmin(fmin(fmin((float4)(INFINITY), q0), q1), q2), q3);
@@ -90,7 +78,8 @@ inline float2 interval_mul(float lo, float hi, float a, float b)
 }
 
 __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tree_count, uint m,
-                           __global const ts_segment *segments, __global const ts_vec4 *grid,
+                           __global const ts_segment *segments, __global const ts_vec4 *cp,
+                           __global const ts_vec4 *cp1, __global const ts_vec4 *grid,
                            __global const ts_vec4 *corner_n, __global const ts_vec4 *mid_n,
                            __global const ts_patch_attr *attr, __global const ts_xform *xform,
                            __global const ts_vec4 *flatness, __global const ts_box *patch_box,
@@ -130,12 +119,11 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         quadtree_store(groups + at, codes + at, m, k, tb, tb, 0u);
         return;
     }
-    float4 nx, ny, nz; /* both time samples' corners share them */
-    corner_normals(cn, mn, i, j, h, &nx, &ny, &nz);
-    ts_box b = base_box(g, n, i, j, nx, ny, nz);
+    __global const ts_vec4 *cp0 = cp + (size_t)seg.shape * 16u;
+    ts_box b = base_box(time ? cp1 + (size_t)seg.shape * 16u : cp0, i, j, h);
     ts_vec4 e = flatness[seg.shape];
     float s = ldexp(1.0f, -2 * (int)m);
-    /* Flatness, plus a few ulps for the rounding of the vertices and of vertex - d * n. */
+    /* Flatness, plus a few ulps for the rounding of the corners. */
     float mag = box_magnitude(b);
     float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
     b.lo_x -= ex, b.hi_x += ex, b.lo_y -= ey, b.hi_y += ey, b.lo_z -= ez, b.hi_z += ez;
@@ -147,7 +135,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         } else {
             ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
             if (time == 1u) {
-                b0 = base_box(grid + seg.vert_first, n, i, j, nx, ny, nz);
+                b0 = base_box(cp0, i, j, h);
                 b0.lo_x -= ex, b0.hi_x += ex, b0.lo_y -= ey, b0.hi_y += ey, b0.lo_z -= ez,
                     b0.hi_z += ez;
             }

@@ -398,9 +398,9 @@ static int check_leaf(const leaf_in *l, const ts_vec4 *pts, int np, lod_result *
     for (int mi = 0; mi < METHODS; ++mi) {
         method_stats *st = &res->st[mi];
         ts_interval d = methods[mi].fn(l);
-        ts_box b = dice_build_ref_leaf(q, l->pi->grid, 0, l->m, l->k, &d, NULL);
+        ts_box b = dice_build_ref_leaf(q, 0, l->m, l->k, &d, NULL);
         if (mi == 0) {
-            ts_box ref = dice_build_ref_leaf(q, l->pi->grid, 0, l->m, l->k, NULL, NULL);
+            ts_box ref = dice_build_ref_leaf(q, 0, l->m, l->k, NULL, NULL);
             if (memcmp(&ref, &b, sizeof b) != 0) return 1;
         }
         for (int k = 0; k < np; ++k) {
@@ -435,8 +435,8 @@ static void time_chunk(const leaf_in *leaves, uint32_t l0, uint32_t l1, int r, t
         double t0 = bench_cpu();
         if (mi == METHODS) {
             for (uint32_t l = l0; l < l1; ++l) {
-                ts_box b = dice_build_ref_leaf(&leaves[l].pi->q, leaves[l].pi->grid, 0, leaves[l].m,
-                                               leaves[l].k, NULL, NULL);
+                ts_box b =
+                    dice_build_ref_leaf(&leaves[l].pi->q, 0, leaves[l].m, leaves[l].k, NULL, NULL);
                 sum += b.hi_x;
             }
         } else {
@@ -477,7 +477,7 @@ static uint32_t pick_leaves(const patch_info *pi, uint32_t p, uint32_t m, uint32
         l->pi = pi, l->m = m;
         l->k = s * stride + rng_mix(rng_mix(p * 0x9e3779b9u + m) ^ s) % stride;
         l->i = morton_i(l->k), l->j = morton_j(l->k);
-        dice_build_ref_leaf(&pi->q, pi->grid, 0, m, l->k, NULL, &l->domain);
+        dice_build_ref_leaf(&pi->q, 0, m, l->k, NULL, &l->domain);
         for (uint32_t c = 0; c < 4u; ++c) {
             uint32_t ci = l->i + (c & 1u), cj = l->j + (c >> 1);
             l->corner[c] =

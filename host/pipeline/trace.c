@@ -440,11 +440,12 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
         if (t == 0) top = m;
         uint32_t first = b->tree_first + t;
         if (dev_set_args(p->k_build_leaves, err, DEV_ARG(p->trees), DEV_ARG(first), DEV_ARG(run),
-                         DEV_ARG(m), DEV_ARG(p->segments), DEV_ARG(p->grid), DEV_ARG(p->corner_n),
-                         DEV_ARG(p->mid_n), DEV_ARG(p->attr), DEV_ARG(p->xform),
-                         DEV_ARG(p->flatness), DEV_ARG(p->patch_box), DEV_ARG(p->textures),
-                         DEV_ARG(p->tex_pages), DEV_ARG(p->tex_pool), DEV_ARG(p->trim_seg),
-                         DEV_ARG(tight), DEV_ARG(p->groups), DEV_ARG(p->tight), (size_t)0) ||
+                         DEV_ARG(m), DEV_ARG(p->segments), DEV_ARG(p->cp), DEV_ARG(p->cp1),
+                         DEV_ARG(p->grid), DEV_ARG(p->corner_n), DEV_ARG(p->mid_n),
+                         DEV_ARG(p->attr), DEV_ARG(p->xform), DEV_ARG(p->flatness),
+                         DEV_ARG(p->patch_box), DEV_ARG(p->textures), DEV_ARG(p->tex_pages),
+                         DEV_ARG(p->tex_pool), DEV_ARG(p->trim_seg), DEV_ARG(tight),
+                         DEV_ARG(p->groups), DEV_ARG(p->tight), (size_t)0) ||
             dev_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run << (2u * m),
                        TS_LOCAL_SIZE, err))
             return err->code;

@@ -24,16 +24,15 @@ static void box_add(ts_box *b, float x, float y, float z)
     b->lo_z = fminf(b->lo_z, z), b->hi_z = fmaxf(b->hi_z, z);
 }
 
-/* Box of the undisplaced corners of micro-quad (i, j) of grid g (build.cl's base_box). */
-static ts_box base_box(const ts_vec4 *g, uint32_t n, uint32_t i, uint32_t j, const ts_vec4 *cn,
-                       const ts_vec4 *mn, float h)
+/* Box of the undisplaced corners of micro-quad (i, j), h = 2^-m: the Bézier patch cp at the
+ * four corners (build.cl's base_box). */
+static ts_box base_box(const ts_vec4 *cp, uint32_t i, uint32_t j, float h)
 {
     ts_box b = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (uint32_t c = 0; c < 4u; ++c) {
         uint32_t ci = i + (c & 1u), cj = j + (c >> 1);
-        ts_vec4 p = g[cj * n + ci];
-        ts_vec4 dn = displace_normal(cn, mn, (float)ci * h, (float)cj * h);
-        box_add(&b, p.x - p.w * dn.x, p.y - p.w * dn.y, p.z - p.w * dn.z);
+        ts_vec4 p = bezier_eval(cp, (float)ci * h, (float)cj * h);
+        box_add(&b, p.x, p.y, p.z);
     }
     return b;
 }
@@ -51,13 +50,13 @@ static void grow(ts_box *b, float ex, float ey, float ez)
 }
 
 /* Leaf k of the tree of time `time` (build_leaves for one work-item), before the clamp. */
-static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t k,
-                       const dice_build_ref_patch *q, const ts_interval *d_given, ts_box *domain)
+static ts_box leaf_box(uint32_t time, uint32_t m, uint32_t k, const dice_build_ref_patch *q,
+                       const ts_interval *d_given, ts_box *domain)
 {
-    uint32_t n = (1u << m) + 1u, nv = n * n, i = morton_i(k), j = morton_j(k);
+    uint32_t i = morton_i(k), j = morton_j(k);
     float h = ldexpf(1.0f, -(int)m);
     const ts_vec4 *cn = q->cn, *mn = q->mn;
-    ts_box b = base_box(grid + time * nv, n, i, j, cn, mn, h);
+    ts_box b = base_box(time ? q->cp1 : q->cp0, i, j, h);
     float s = ldexpf(1.0f, -2 * (int)m);
     float mag = box_magnitude(b);
     ts_vec4 e = q->e;
@@ -65,7 +64,7 @@ static ts_box leaf_box(const ts_vec4 *grid, uint32_t time, uint32_t m, uint32_t 
     grow(&b, ex, ey, ez);
     ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
     if (time == 1u && (domain || (!d_given && q->a->disp_kind != TS_DISP_TEXTURE))) {
-        b0 = base_box(grid, n, i, j, cn, mn, h);
+        b0 = base_box(q->cp0, i, j, h);
         grow(&b0, ex, ey, ez);
     }
     if (domain) *domain = b0;
@@ -114,10 +113,10 @@ dice_build_ref_patch dice_build_ref_patch_of(const ts_scene *s, uint32_t p)
     return q;
 }
 
-ts_box dice_build_ref_leaf(const dice_build_ref_patch *q, const ts_vec4 *grid, uint32_t time,
-                           uint32_t m, uint32_t k, const ts_interval *d, ts_box *domain)
+ts_box dice_build_ref_leaf(const dice_build_ref_patch *q, uint32_t time, uint32_t m, uint32_t k,
+                           const ts_interval *d, ts_box *domain)
 {
-    return leaf_clamp(leaf_box(grid, time, m, k, q, d, domain), q->pb);
+    return leaf_clamp(leaf_box(time, m, k, q, d, domain), q->pb);
 }
 
 void dice_build_ref_grid_stitched(const ts_scene *s, uint32_t p, uint32_t m, uint32_t edges,
@@ -175,7 +174,7 @@ void dice_build_ref_stitched(const ts_scene *s, uint32_t p, uint32_t m, int tigh
             ts_box vb = tight_leaf_box(grid + t * n * n, n, morton_i(k), morton_j(k));
             ts_box tb = leaf_clamp(vb, q.pb), lb = tb;
             if (!tight) {
-                lb = leaf_box(grid, t, m, k, &q, NULL, NULL);
+                lb = leaf_box(t, m, k, &q, NULL, NULL);
                 if (edges) lb = box_union(lb, vb); /* build.cl: stitched vertices move */
                 lb = leaf_clamp(lb, q.pb);
             }

@@ -33,14 +33,14 @@ dice_build_ref_patch dice_build_ref_patch_of(const ts_scene *s, uint32_t p);
 /* Dices patch p at LOD m into grid (times x (2^m+1)^2 vertices, time 0 first), as dice does. */
 void dice_build_ref_grid(const ts_scene *s, uint32_t p, uint32_t m, ts_vec4 *grid);
 
-/* Leaf k (Morton order) of the tree of time `time` of a patch diced at m into grid: the box
- * build_leaves writes. With d NULL the displacement interval is build's own (interval
- * arithmetic on the noise over the time-0 undisplaced box, lib/displace.h; the texture's
- * min-max pyramid); a non-NULL d replaces it, so tools/bench_bounds.c can finish a leaf box
- * from another bound the same way. domain, when not NULL, receives the time-0 undisplaced
+/* Leaf k (Morton order) of the tree of time `time` of a patch at m: the box build_leaves
+ * writes (it reads the control points, not the diced grid). With d NULL the displacement interval
+ * is build's own (interval arithmetic on the noise over the time-0 undisplaced box, lib/displace.h;
+ * the texture's min-max pyramid); a non-NULL d replaces it, so tools/bench_bounds.c can finish a
+ * leaf box from another bound the same way. domain, when not NULL, receives the time-0 undisplaced
  * box grown by the flatness bound (the box the noise interval is taken over). */
-ts_box dice_build_ref_leaf(const dice_build_ref_patch *q, const ts_vec4 *grid, uint32_t time,
-                           uint32_t m, uint32_t k, const ts_interval *d, ts_box *domain);
+ts_box dice_build_ref_leaf(const dice_build_ref_patch *q, uint32_t time, uint32_t m, uint32_t k,
+                           const ts_interval *d, ts_box *domain);
 
 /* Dices patch p at LOD m into grid (times x (2^m+1)^2 vertices, time 0 first) and builds its
  * trees into groups and their tight codes into codes (times x quadtree_group_count(m) sibling
