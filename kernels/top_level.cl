@@ -13,7 +13,11 @@
  *         entry (where the ray stopped last iteration).
  * Writes: pairs[i*n_per_ray .. +count[i]) and count[i] (the rest of the window is left
  *         as it was: sort reads only the first count[i], radix_sort_windows), entry
- *         (TS_INVALID once the traversal is finished).
+ *         (TS_INVALID once the traversal is finished); with stamp != 0 (trace.c, when the
+ *         frame's patches do not fit) leaving[leaf] = stamp for a candidate of a ray that
+ *         leaves that patch (from == leaf + 1): the patches whose diced vertices bottom_level
+ *         reads this iteration (the origin-patch rule), the others' trees being enough in box
+ *         mode.
  * Water-filled windows (n_per_ray 0; trace.c, when the frame's patches do not fit): ray i's
  *         window is [window_first[i], window_first[i + 1]), sized from a counting launch
  *         before (count_only 1: count[i] = the candidates it would emit, up to n_per_ray,
@@ -107,7 +111,8 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
                                 __global const ts_hit *hit, __global uint *entry,
                                 __global const uint *ray_flags, __global const uint *ray_from,
                                 __global const ts_patch_attr *attr, uint unseen_flags,
-                                __global ts_pair *pairs, __global uint *count)
+                                __global ts_pair *pairs, __global uint *count,
+                                __global uint *leaving, uint stamp)
 {
     uint i = get_global_id(0);
     if (i >= active_count) return;
@@ -124,6 +129,8 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
 #endif
     uint ray = active[i];
     ts_vec4 o = org[ray], d = dir[ray];
+    /* the patch this ray leaves + 1 where leaving is marked (0: none, or not marked) */
+    uint leaves = stamp != 0u && !count_only ? ray_from[ray] : 0u;
     float4 o4 = (float4)(o.x, o.y, o.z, 0.0f);
     float4 inv = (float4)(safe_reciprocal(d.x), safe_reciprocal(d.y), safe_reciprocal(d.z), 0.0f);
     float tmax = hit[ray].t;
@@ -172,6 +179,7 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
                 break;
             }
             if (!count_only) pairs[base + n] = (ts_pair){leaf, base + n};
+            if (leaves == leaf + 1u) atomic_xchg(leaving + leaf, stamp); /* rays alike */
             if (++n == limit && !filled) {
                 state = (node << 3) | pos;
                 break;

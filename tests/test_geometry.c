@@ -228,6 +228,38 @@ static void test_patch_cache_dices_once_and_changes_no_bit(void **state)
     assert_true(test_stats_number(path("off.json"), "counters.patches_diced") > 3 * diced);
 }
 
+/* A frame whose patches do not fit builds a missed patch without its vertices when no ray of
+ * the iteration leaves it (trace.c plan_batches, top_level's leaving marks): in box mode only
+ * the rays leaving a patch read them (the origin-patch rule), and build reads the control
+ * points. The same bits as the frame that fits, where every patch is diced whole, for noise
+ * displacement and none; some misses are built without their vertices, not all (the bounces
+ * leave the patches they hit, and those need them). */
+static void test_squeezed_frames_skip_unread_vertices(void **state)
+{
+    (void)state;
+    const struct {
+        const char *scene, *lod, *squeeze;
+    } runs[] = {{"scene/teapot_displaced.rib", "--lod 6", "--memory 8"},
+                {"scene/teapot.rib", "--lod 7", "--memory 12"}};
+    for (size_t r = 0; r < sizeof runs / sizeof runs[0]; ++r) {
+        for (int squeezed = 0; squeezed < 2; ++squeezed) {
+            char args[16384];
+            snprintf(args, sizeof args,
+                     "render '%s' -o '%s' --stats '%s' %s %s --res 192x108 --spp 2 --quiet",
+                     test_source_path(runs[r].scene), path(squeezed ? "sq.exr" : "fit.exr"),
+                     path(squeezed ? "sq.json" : "fit.json"), runs[r].lod,
+                     squeezed ? runs[r].squeeze : "--memory 512");
+            render_ok(args);
+        }
+        test_assert_same_pixels(path("fit.exr"), path("sq.exr"));
+        double diced = test_stats_number(path("sq.json"), "counters.patches_diced");
+        double skipped = test_stats_number(path("sq.json"), "counters.grids_skipped");
+        assert_true(test_stats_number(path("sq.json"), "counters.patch_cache_evictions") > 0.0);
+        assert_true(skipped > 0.0 && skipped < diced);
+        assert_true(test_stats_number(path("fit.json"), "counters.grids_skipped") == 0.0);
+    }
+}
+
 /* Shading normals from the diced grid (pipeline_grid_publish): shade reads the hit
  * micro-quad's four vertices from the grid where its patch is resident, and evaluates them
  * where it is not (TESSERA_GRID_NORMALS=0: everywhere). The images are the same bits in
@@ -661,6 +693,7 @@ int main(void)
         cmocka_unit_test(test_dicing_rate_scales_the_micro_quads),
         cmocka_unit_test(test_triangles_hole_free_across_levels),
         cmocka_unit_test(test_patch_cache_dices_once_and_changes_no_bit),
+        cmocka_unit_test(test_squeezed_frames_skip_unread_vertices),
         cmocka_unit_test(test_grid_normals_change_no_bit),
         cmocka_unit_test(test_tight_leaves_change_no_bit),
         cmocka_unit_test(test_cpu_lanes_change_no_bit),

@@ -18,7 +18,7 @@ uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count)
                          sizeof(ts_qbvh_node) /* at most one node a patch */ + sizeof(ts_segment) +
                          2 * sizeof(uint32_t) /* trees */ + sizeof(uint32_t) /* lod counts */ +
                          TS_CULL_GROUPS * sizeof(ts_tight4) + sizeof(uint32_t) /* culling */ +
-                         3 * sizeof(uint32_t) /* grid_at */;
+                         sizeof(uint32_t) /* leaving */ + 3 * sizeof(uint32_t) /* grid_at */;
     const ts_occlusion *o = scene->occlusion; /* --occlusion's points and tables (relight.h) */
     uint64_t occlusion =
         o ? (uint64_t)o->point_count * (o->bands * o->bands + 3) * sizeof(float) +

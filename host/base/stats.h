@@ -35,6 +35,7 @@
     X(patch_cache_need_bytes, "arena bytes the frame's patches need to be resident at once") \
     X(patch_cache_peak_bytes, "most arena bytes resident patches held at once")          \
     X(patches_shared, "misses filled from another device's dicing (patch_share.h)")       \
+    X(grids_skipped, "of patches_diced, built without their vertices: no ray left them")   \
     X(device_bytes_peak, "most bytes of device buffers the pipeline held at once")        \
     X(device_bytes_fixed, "bytes of those buffers outside the memory budget (scene, films)") \
     X(device_bytes_in_place, "of those, read in place from host arrays (CL_MEM_USE_HOST_PTR)") \

@@ -221,7 +221,7 @@ static ts_cache_result cache_place(ts_patch_cache *c, uint32_t p, uint32_t vf, u
 {
     c->entry[p] = (ts_cache_entry){
         vf, nv, gf, ng, TS_CACHE_NONE, TS_CACHE_NONE, c->resident_count, (uint8_t)m, (uint8_t)times,
-        1,  1};
+        1,  1,  0};
     c->verts.used += nv, c->groups.used += ng;
     uint64_t bytes =
         (uint64_t)c->verts.used * sizeof(ts_vec4) + (uint64_t)c->groups.used * TS_GROUP_BYTES;

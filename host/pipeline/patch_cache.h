@@ -73,6 +73,7 @@ typedef struct ts_cache_entry {
     uint8_t times;       /* 1, or 2 for a moving patch */
     uint8_t resident;
     uint8_t pinned;
+    uint8_t gridded; /* its vertices were diced too, not only its trees (trace.c; 0 until then) */
 } ts_cache_entry;
 
 typedef struct ts_patch_cache {

@@ -386,6 +386,8 @@ static int clear_buffers(ts_pipeline *p, const buffer_counts *c, ts_error *err)
                  "the LOD counts", err) ||
         dev_fill(p->cl, p->cull_levels, &zero_u, sizeof zero_u, 0, c->patches * sizeof(cl_uint),
                  "the culling levels", err) ||
+        dev_fill(p->cl, p->leaving, &zero_u, sizeof zero_u, 0, c->patches * sizeof(cl_uint),
+                 "the leaving rays' patches", err) ||
         dev_fill(p->cl, p->utilisation, &zero_u, sizeof zero_u, 0,
                  2 * c->util_groups * sizeof(cl_uint), "the leaf utilisation", err) ||
         dev_fill(p->cl, p->grid_at, &none, sizeof none, 0, 3 * c->patches * sizeof(cl_uint),
@@ -437,6 +439,7 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     size_t n = s->patch_count ? s->patch_count : 1;
     *boxes = ts_page_alloc(n * sizeof **boxes); /* array_in_place */
     p->segments_host = malloc(n * sizeof *p->segments_host);
+    p->seg_grid = malloc(n);
     p->trees_host = malloc(2 * n * sizeof *p->trees_host);
     p->batches = malloc(n * sizeof *p->batches);
     p->patch_lod = malloc(n);
@@ -444,8 +447,8 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     p->cull_key = calloc(n, sizeof *p->cull_key);
     p->pixel_cost = calloc(p->pixel_count ? p->pixel_count : 1, sizeof *p->pixel_cost);
     p->grid_at_host = malloc(3 * n * sizeof *p->grid_at_host);
-    if (!*boxes || !p->segments_host || !p->trees_host || !p->batches || !p->patch_lod ||
-        !p->rough_lod || !p->cull_key || !p->grid_at_host || !p->pixel_cost)
+    if (!*boxes || !p->segments_host || !p->seg_grid || !p->trees_host || !p->batches ||
+        !p->patch_lod || !p->rough_lod || !p->cull_key || !p->grid_at_host || !p->pixel_cost)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     memset(p->grid_at_host, 0xff, 3 * n * sizeof *p->grid_at_host);
     memset(p->patch_lod, (int)p->plan.max_lod, n);
@@ -568,6 +571,7 @@ void pipeline_destroy(ts_pipeline *p)
     tex_cache_free(&p->tex);
     patch_cache_free(&p->cache);
     free(p->segments_host);
+    free(p->seg_grid);
     free(p->trees_host);
     free(p->batches);
     free(p->patch_lod), free(p->rough_lod);
@@ -972,7 +976,8 @@ int pipeline_grid_publish(ts_pipeline *p, ts_error *err)
     int changed = 0;
     for (uint32_t i = 0; i < p->scene->patch_count; ++i) {
         const ts_cache_entry *e = &p->cache.entry[i];
-        int ok = !p->grid_off && e->resident; /* entries are per patch diced (its shape) */
+        /* entries are per patch diced (its shape); gridded: its vertices too */
+        int ok = !p->grid_off && e->resident && e->gridded;
         uint32_t first = ok ? e->vert_first : TS_INVALID, m = ok ? e->lod : TS_INVALID;
         uint32_t edges = pipeline_stitch_edges(p, i, pipeline_patch_lod(p, i));
         uint32_t *at = &p->grid_at_host[3 * (size_t)i];

@@ -196,6 +196,8 @@ typedef struct ts_trace_mode {
     X(utilisation,     CL_MEM_READ_WRITE, ts_u32,        2 * c.util_groups, NULL)               \
     X(cull,            CL_MEM_READ_WRITE, ts_tight4,     TS_CULL_GROUPS * c.patches, NULL)      \
     X(cull_levels,     CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \
+    /* The last iteration in which a ray leaving the patch had it among its candidates. */     \
+    X(leaving,         TS_MEM_HOST_RW,    ts_u32,        c.patches,      NULL)                  \
     /* Where each patch's diced grid is resident, for shade (pipeline_grid_publish). */        \
     X(grid_at,         CL_MEM_READ_ONLY,  ts_u32,        3 * c.patches,  NULL)                  \
     /* Per pixel: the film. */                                                                  \
@@ -228,6 +230,7 @@ typedef struct ts_batch {
     uint32_t seg_first, seg_count;
     uint32_t tree_first, tree_count; /* the misses' trees, in the tree list, by decreasing m */
     double work; /* its misses' micro-quads and its segments' pairs (trace_progress) */
+    int sorted;  /* its trees in trace.c's tree_key order (else dice dices them all) */
 } ts_batch;
 
 typedef struct ts_pipeline {
@@ -281,6 +284,12 @@ typedef struct ts_pipeline {
      * pipeline_dice_build; planned_fixed_lod is the --lod they were planned at. */
     int cache_planned, planned_fixed_lod;
     uint32_t sweep; /* iterations planned: odd ones walk the segments backwards (trace.c) */
+    /* When the frame's patches do not fit, an iteration's misses are diced whole only where a
+     * ray leaves the patch (top_level marks leaving[patch] with the iteration's stamp; trace.c
+     * leave_stamp), the others built without their vertices: leave_stamp the last stamp,
+     * seg_grid[i] whether segment i's patch needs its vertices this iteration. */
+    uint32_t leave_stamp;
+    uint8_t *seg_grid;
     /* Per pixel (pixel_count), 1 + the leaf boxes its first-pass eye ray crossed in the lod
      * stage (kernels/lod.cl), 0 where this device did not count it: what the progress line
      * weighs the samples by (app/eta.h). */

@@ -19,15 +19,15 @@
  * a cancel hook is set, runs of p->top_level_run rays with the hook asked between them
  * (p->cancelled set when it says stop: the rays after are not traversed). */
 static int top_level_launch(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray,
-                            uint32_t count_only, ts_error *err)
+                            uint32_t count_only, uint32_t stamp, ts_error *err)
 {
-    if (dev_set_args(p->k_top_level, err, DEV_ARG(p->qbvh_nodes), DEV_ARG(p->cull),
-                     DEV_ARG(p->cull_levels), DEV_ARG(p->patch_box), DEV_ARG(p->active),
-                     DEV_ARG(active_count), DEV_ARG(n_per_ray), DEV_ARG(p->window_first),
-                     DEV_ARG(count_only), DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir),
-                     DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry), DEV_ARG(p->ray_flags),
-                     DEV_ARG(p->ray_from), DEV_ARG(p->attr), DEV_ARG(p->unseen_flags),
-                     DEV_ARG(p->pairs), DEV_ARG(p->count), (size_t)0))
+    if (dev_set_args(
+            p->k_top_level, err, DEV_ARG(p->qbvh_nodes), DEV_ARG(p->cull), DEV_ARG(p->cull_levels),
+            DEV_ARG(p->patch_box), DEV_ARG(p->active), DEV_ARG(active_count), DEV_ARG(n_per_ray),
+            DEV_ARG(p->window_first), DEV_ARG(count_only), DEV_ARG(p->ray_org), DEV_ARG(p->ray_dir),
+            DEV_ARG(p->ray_hit), DEV_ARG(p->ray_entry), DEV_ARG(p->ray_flags), DEV_ARG(p->ray_from),
+            DEV_ARG(p->attr), DEV_ARG(p->unseen_flags), DEV_ARG(p->pairs), DEV_ARG(p->count),
+            DEV_ARG(p->leaving), DEV_ARG(stamp), (size_t)0))
         return err->code;
     /* One run goes on while the host waits for the one before it. */
     ts_dev_mark before = dev_mark(p->cl);
@@ -47,9 +47,10 @@ static int top_level_launch(ts_pipeline *p, uint32_t active_count, uint32_t n_pe
     return dev_finish(p->cl, p->stats, err);
 }
 
-static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err)
+static int stage_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray,
+                           uint32_t stamp, ts_error *err)
 {
-    return top_level_launch(p, active_count, n_per_ray, 0u, err);
+    return top_level_launch(p, active_count, n_per_ray, 0u, stamp, err);
 }
 
 /* Water-filled windows (top_level.cl), for a frame whose patches do not fit, where each
@@ -67,7 +68,7 @@ static int water_fill(ts_pipeline *p, uint32_t active, uint32_t max_n, uint32_t 
                       uint32_t *slots, ts_error *err)
 {
     uint32_t kmax = max_n < 1u ? 1u : max_n > TS_N_MAX ? TS_N_MAX : max_n;
-    if (top_level_launch(p, active, kmax, 1u, err)) return err->code;
+    if (top_level_launch(p, active, kmax, 1u, 0u, err)) return err->code;
     if (p->cancelled) return TS_OK;
     double t0 = stats_now();
     size_t bytes = (size_t)active * sizeof(uint32_t);
@@ -114,25 +115,37 @@ static void assign_lods(ts_pipeline *p, uint32_t segs)
 static ts_batch *batch_open(ts_pipeline *p, uint32_t i, uint32_t ntrees)
 {
     ts_batch *b = &p->batches[p->batch_count++];
-    *b = (ts_batch){i, 0, ntrees, 0, 0.0};
+    *b = (ts_batch){i, 0, ntrees, 0, 0.0, 0};
     return b;
 }
 
-/* Sorts batch b's trees by decreasing m (a stable counting sort), so that the trees deeper
- * than a level are a prefix of the list (stage_build). */
+/* A tree's place in its batch's order: by decreasing m, and within one m those whose
+ * vertices are diced first (seg_grid). */
+static uint32_t tree_key(const ts_pipeline *p, uint32_t tree)
+{
+    uint32_t i = TS_TREE_SEGMENT(tree);
+    return 2u * (TS_LOD_LIMIT - p->segments_host[i].lod) + (p->seg_grid[i] ? 0u : 1u);
+}
+
+/* Sorts batch b's trees by tree_key (a stable counting sort), so that the trees deeper than a
+ * level are a prefix of the list (stage_build) and the trees of one m to dice a prefix of
+ * theirs (stage_dice). Unsorted when out of memory: build_level then visits idle trees, and
+ * dice dices every tree, both still correct. */
 static void batch_sort_trees(ts_pipeline *p, ts_batch *b)
 {
-    uint32_t *list = &p->trees_host[b->tree_first], count[TS_LOD_LIMIT + 1] = {0};
+    enum { KEYS = 2 * (TS_LOD_LIMIT + 1) };
+    uint32_t *list = &p->trees_host[b->tree_first], count[KEYS] = {0};
     uint32_t tmp[2 * 64],
         *scratch = b->tree_count <= 128 ? tmp : malloc(b->tree_count * sizeof *scratch);
-    if (!scratch) return; /* unsorted: build_level then visits idle trees, still correct */
+    b->sorted = scratch != NULL;
+    if (!scratch) return;
     for (uint32_t t = 0; t < b->tree_count; ++t)
-        count[p->segments_host[TS_TREE_SEGMENT(list[t])].lod]++;
-    uint32_t start[TS_LOD_LIMIT + 1], at = 0;
-    for (int m = TS_LOD_LIMIT; m >= 0; --m)
-        start[m] = at, at += count[m];
+        count[tree_key(p, list[t])]++;
+    uint32_t start[KEYS], at = 0;
+    for (int k = 0; k < KEYS; ++k)
+        start[k] = at, at += count[k];
     for (uint32_t t = 0; t < b->tree_count; ++t)
-        scratch[start[p->segments_host[TS_TREE_SEGMENT(list[t])].lod]++] = list[t];
+        scratch[start[tree_key(p, list[t])]++] = list[t];
     memcpy(list, scratch, b->tree_count * sizeof *list);
     if (scratch != tmp) free(scratch);
 }
@@ -161,8 +174,15 @@ static uint32_t segment_shape(const ts_pipeline *p, ts_segment *s)
  * to be diced and built; when even evicting everything unpinned leaves no room, the batch
  * ends there. Batches run in order on the in-order queue, so a later batch may overwrite
  * space an earlier one used only after that one's bottom_level. Paged textures also end a
- * batch when its misses' tiles would not fit the pool together. */
-static void plan_batches(ts_pipeline *p, uint32_t segs)
+ * batch when its misses' tiles would not fit the pool together.
+ * With `leaving` (top_level's marks, pipeline.h leave_stamp) a miss is diced whole only where
+ * a ray of the iteration leaves its patch (leaving[patch] == stamp: bottom_level reads those
+ * vertices, the origin-patch rule) or the patch is rough (build reads its vertices for the
+ * tight boxes); the others are built without their vertices (seg_grid 0), which box mode's
+ * other rays never read, and shade then evaluates their normals (pipeline_grid_publish). A
+ * resident patch built so whose vertices a ray leaving it now needs is diced and built again
+ * in its place, as a miss. Without, every miss is diced whole. */
+static void plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving, uint32_t stamp)
 {
     uint32_t tused = 0, ntrees = 0;
     uint64_t hits = 0, misses = 0, evicted = p->cache.evictions, examined = p->cache.examined;
@@ -201,10 +221,14 @@ static void plan_batches(ts_pipeline *p, uint32_t segs)
         if (backward) b->seg_first = i; /* the batch grows downwards */
         b->seg_count++;
         b->work += s->end - s->begin;
-        if (r == TS_CACHE_HIT) {
+        ts_cache_entry *e = &p->cache.entry[q];
+        int grid = !leaving || (s->flags & TS_PATCH_ROUGH) || leaving[s->patch] == stamp;
+        p->seg_grid[i] = (uint8_t)grid;
+        if (r == TS_CACHE_HIT && (!grid || e->gridded)) {
             ++hits;
             continue;
         }
+        e->gridded = (uint8_t)grid;
         ++misses;
         tused += nt;
         for (uint32_t t = 0; t < times; ++t)
@@ -310,18 +334,27 @@ static int upload_batches(ts_pipeline *p, uint32_t segs, ts_error *err)
  * or with width 0 `windows` pairs one after the other (water_fill's windows). Sets *sorted_buffer
  * (which buffer holds the result: 0 pairs, 1 pairs_scratch), and the segment table; returns the
  * segment count through *segment_count. */
-static int stage_sort(ts_pipeline *p, uint32_t windows, uint32_t width, uint32_t *sorted_buffer,
-                      uint32_t *valid, uint32_t *segment_count, ts_error *err)
+static int stage_sort(ts_pipeline *p, uint32_t windows, uint32_t width, uint32_t stamp,
+                      uint32_t *sorted_buffer, uint32_t *valid, uint32_t *segment_count,
+                      ts_error *err)
 {
     double t0 = stats_now();
     uint32_t segs = 0;
     int rc = p->sort_host[0] ? sort_via_copy(p, windows, width, sorted_buffer, valid, &segs, err)
                              : sort_mapped(p, windows, width, sorted_buffer, valid, &segs, err);
+    size_t bytes = (size_t)p->scene->patch_count * sizeof(uint32_t);
+    const uint32_t *leaving =
+        rc == TS_OK && stamp && bytes
+            ? dev_map(p->cl, p->leaving, CL_MAP_READ, 0, bytes, "the leaving rays' patches", err)
+            : NULL;
+    if (rc == TS_OK && stamp && bytes && !leaving) rc = err->code;
     if (rc == TS_OK) {
         assign_lods(p, segs);
-        plan_batches(p, segs);
+        plan_batches(p, segs, leaving, stamp);
         rc = upload_batches(p, segs, err);
     }
+    if (leaving && dev_unmap(p->cl, p->leaving, (void *)leaving, "the leaving rays' patches", err))
+        rc = err->code;
     *segment_count = segs;
     p->stats->stage_seconds[TS_STAGE_sort] += stats_now() - t0;
     return rc;
@@ -344,6 +377,17 @@ static uint32_t tree_run(const ts_pipeline *p, const ts_batch *b, uint32_t t, ui
     return run;
 }
 
+/* Of the run of trees [t, t + run) of one m, how many dice their vertices: a prefix of the
+ * run (batch_sort_trees), or all of it when the batch is not sorted. */
+static uint32_t tree_run_gridded(const ts_pipeline *p, const ts_batch *b, uint32_t t, uint32_t run)
+{
+    if (!b->sorted) return run;
+    uint32_t g = 0;
+    while (g < run && p->seg_grid[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t + g])])
+        ++g;
+    return g;
+}
+
 /* Makes the texture tiles the batch's dice and build read resident (tex_cache.h). */
 static int batch_textures(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
@@ -361,8 +405,10 @@ static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
     if (batch_textures(p, b, err)) return err->code;
     for (uint32_t t = 0; t < b->tree_count;) {
-        uint32_t m, run = tree_run(p, b, t, &m);
+        uint32_t m, all = tree_run(p, b, t, &m), run = tree_run_gridded(p, b, t, all);
         uint32_t first = b->tree_first + t;
+        t += all;
+        if (run == 0) continue;
         if (dev_set_args(p->k_dice, err, DEV_ARG(p->trees), DEV_ARG(first), DEV_ARG(run),
                          DEV_ARG(m), DEV_ARG(p->segments), DEV_ARG(p->cp), DEV_ARG(p->cp1),
                          DEV_ARG(p->corner_n), DEV_ARG(p->mid_n), DEV_ARG(p->attr),
@@ -373,12 +419,13 @@ static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
                            ((quadtree_vertex_count(m) + TS_DICE_VERTICES - 1u) / TS_DICE_VERTICES),
                        TS_LOCAL_SIZE, err))
             return err->code;
-        t += run;
     }
     for (uint32_t t = 0; t < b->tree_count; ++t) {
         uint32_t tree = p->trees_host[b->tree_first + t], lod = tree_lod(p, b, t);
         if (TS_TREE_TIME(tree) != 0u) continue; /* one dicing per patch, not per time */
         p->stats->counters[TS_COUNTER_patches_diced] += 1;
+        if (b->sorted && !p->seg_grid[TS_TREE_SEGMENT(tree)])
+            p->stats->counters[TS_COUNTER_grids_skipped] += 1;
         p->stats->counters[TS_COUNTER_micropolygons_created] += 1ull << (2u * lod);
         p->stats->lod_histogram[lod] += 1;
     }
@@ -784,7 +831,7 @@ static int stage_resolve(ts_pipeline *p, uint32_t active_count, uint32_t n_per_r
 
 int pipeline_top_level(ts_pipeline *p, uint32_t active_count, uint32_t n_per_ray, ts_error *err)
 {
-    return stage_top_level(p, active_count, n_per_ray, err);
+    return stage_top_level(p, active_count, n_per_ray, 0u, err);
 }
 
 int pipeline_water_fill(ts_pipeline *p, uint32_t active_count, uint32_t max_n, uint32_t *n_fill,
@@ -802,9 +849,9 @@ int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
         need[TS_CACHE_CLASS(s->lod, p->scene->attr[s->patch].flags & TS_PATCH_MOVING ? 2u : 1u)]++;
     }
     patch_cache_plan(&p->cache, need);
-    p->cache_planned = 0;         /* the next trace plans for the frame's levels again */
-    patch_cache_clear(&p->cache); /* dice every segment, whatever was resident */
-    plan_batches(p, count);       /* the caller set each segment's LOD */
+    p->cache_planned = 0;             /* the next trace plans for the frame's levels again */
+    patch_cache_clear(&p->cache);     /* dice every segment, whatever was resident */
+    plan_batches(p, count, NULL, 0u); /* the caller set each segment's LOD */
     if (p->batch_count != 1)
         return ts_error_set(err, TS_E_INTERNAL,
                             "pipeline_dice_build: the segments do not fit one batch");
@@ -841,6 +888,21 @@ static uint32_t pairs_per_ray(uint32_t capacity, uint32_t active, uint32_t first
     return n < ramp ? n : (uint32_t)ramp;
 }
 
+/* The stamp top_level marks the patches that rays leave with in this iteration (pipeline.h
+ * leave_stamp), or 0 where every miss is diced whole: when the frame's patches fit (each is
+ * diced once anyway, and shade reads the resident vertices), in triangle mode (bottom_level
+ * reads every patch's vertices), on devices that share their dicings (a shared patch is
+ * whole), with instances (one dicing serves segments of several patches) and with paged
+ * textures (a resident patch diced again would need tiles the batch has not counted). */
+static uint32_t leave_stamp(ts_pipeline *p)
+{
+    int squeezed =
+        p->cache.short_of_room || p->stats->counters[TS_COUNTER_patch_cache_evictions] > 0;
+    if (!squeezed || p->mode.exact || p->share || p->scene->shape || p->tex.paged) return 0u;
+    if (++p->leave_stamp == 0u) p->leave_stamp = 1u; /* 0 marks nothing */
+    return p->leave_stamp;
+}
+
 /* How many batches of an iteration the device may run behind the host while a cancel hook
  * is set: enough that a device whose batches are short (a GPU's, a fraction of a millisecond)
  * always has the next ones queued while the host makes more, few enough that a stop waits
@@ -870,10 +932,11 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
             if (p->cancelled) return TS_OK;
             kernel_n = 0, width = 0;
         }
-        uint32_t sorted_buffer = 0, valid = 0, segs = 0;
-        if (stage_top_level(p, active, kernel_n, err)) return err->code;
+        uint32_t sorted_buffer = 0, valid = 0, segs = 0, stamp = leave_stamp(p);
+        if (stage_top_level(p, active, kernel_n, stamp, err)) return err->code;
         if (p->cancelled) return TS_OK;
-        if (stage_sort(p, windows, width, &sorted_buffer, &valid, &segs, err)) return err->code;
+        if (stage_sort(p, windows, width, stamp, &sorted_buffer, &valid, &segs, err))
+            return err->code;
         /* The queue as each of the last TS_BATCHES_AHEAD batches was enqueued (a ring). */
         ts_dev_mark ahead[TS_BATCHES_AHEAD];
         for (uint32_t a = 0; a < TS_BATCHES_AHEAD; ++a)
