@@ -1048,11 +1048,16 @@ int render_run(const ts_render_options *o, ts_ranks *ranks, ts_stats *stats,
         rc = resume_load(&r.opt, r.width, r.height, &r.scene, &r.cam, &r.job, &r.state, &up_to_date,
                          err);
     /* The host copy of the films (48 bytes a pixel), its pages touched while the devices open
-     * (render_films_touch); where it cannot be had yet, again below, after the device's own
-     * checks (a film larger than its largest buffer is the error to report first). */
+     * (render_films_touch), where it takes at most half the memory there is room for; else,
+     * or where it cannot be had yet, below, after the device's own checks (a film larger than
+     * its largest buffer is the error to report first, not a failed allocation). */
     if (!rc && !up_to_date && !r.state.accum) {
+        ts_memory_room room;
+        ts_memory_room_query(NULL, &room);
+        uint64_t bytes = 3u * sizeof(ts_vec4) * (uint64_t)r.width * (uint64_t)r.height;
         ts_error e = {0};
-        if (film_state_alloc(&r.state, (size_t)r.width * r.height, &e) == TS_OK)
+        if (bytes <= room.bytes / 2 &&
+            film_state_alloc(&r.state, (size_t)r.width * r.height, &e) == TS_OK)
             render_films_touch(&r);
         ts_error_clear(&e);
     }
