@@ -17,6 +17,8 @@
 #   - `tessera render` of scene/teapot.rib at 16x9, 2 spp, --max-lod 3, and of
 #     scene/one_patch.rib at 8x8, --max-lod 0, both with --memory 4 (the whole pipeline,
 #     every stage);
+#   - the teapot at 16x9, --lod 4, --memory 2 (its patches do not fit: top_level's leaving
+#     marks, dice over part of a batch's trees, trees built without vertices);
 #   - the same teapot with --leaf-mode group --leaf-size 2 (the work-group leaf kernel);
 #   - scene/textured.rib at 8x6, --max-lod 2 (image textures: displacement and colour);
 #   - scene/lights.rib at 8x6, --max-lod 1 (point, spot and ambient lights in shade);
@@ -116,6 +118,10 @@ run render_teapot "$build/tessera" render scene/teapot.rib --res 16x9 --spp 2 --
   --memory 4 -o "$work/teapot.exr" --no-kernel-cache --quiet
 run render_one_patch "$build/tessera" render scene/one_patch.rib --res 8x8 --max-lod 0 \
   --memory 4 -o "$work/one_patch.exr" --no-kernel-cache --quiet
+# A frame whose patches do not fit (one eviction at --memory 2): top_level marks the patches
+# rays leave (atomic_xchg), dice runs over each m's first trees only, build without vertices.
+run render_squeezed "$build/tessera" render scene/teapot.rib --res 16x9 --spp 1 --lod 4 \
+  --memory 2 -o "$work/squeezed.exr" --no-kernel-cache --quiet
 # The work-group leaf intersection (bottom_level_group, local memory and barriers): leaf
 # blocks of 2x2, so work-items of one group share tasks.
 run render_leaf_group "$build/tessera" render scene/teapot.rib --res 16x9 --spp 1 --max-lod 3 \
