@@ -228,7 +228,8 @@ typedef struct ts_trace_mode {
  * diced and built first. */
 typedef struct ts_batch {
     uint32_t seg_first, seg_count;
-    uint32_t tree_first, tree_count; /* the misses' trees, in the tree list, by decreasing m */
+    uint32_t tree_first, tree_count; /* the misses' trees in the tree list (trace.c tree_key:
+                                        by decreasing m, each m's to dice first) */
     double work; /* its misses' micro-quads and its segments' pairs (trace_progress) */
     int sorted;  /* its trees in trace.c's tree_key order (else dice dices them all) */
 } ts_batch;

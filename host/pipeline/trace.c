@@ -400,7 +400,8 @@ static int batch_textures(ts_pipeline *p, const ts_batch *b, ts_error *err)
     return tex_cache_commit(&p->tex, p->cl, p->tex_pool, p->tex_pages, p->scene, p->stats, err);
 }
 
-/* Dices each tree run of one LOD with one launch. */
+/* Dices the trees of each LOD that need their vertices (the first of the LOD's run,
+ * tree_run_gridded) with one launch; counts every tree of the batch as a patch diced. */
 static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
     if (batch_textures(p, b, err)) return err->code;
