@@ -232,15 +232,17 @@ static void test_patch_cache_dices_once_and_changes_no_bit(void **state)
  * the iteration leaves it (trace.c plan_batches, top_level's leaving marks): in box mode only
  * the rays leaving a patch read them (the origin-patch rule), and build reads the control
  * points. The same bits as the frame that fits, where every patch is diced whole, for noise
- * displacement and none; some misses are built without their vertices, not all (the bounces
- * leave the patches they hit, and those need them). */
+ * displacement and none, and for instances sharing their master's dicing (the shape's
+ * vertices are diced when any of its segments needs them); some misses are built without
+ * their vertices, not all (the bounces leave the patches they hit, and those need them). */
 static void test_squeezed_frames_skip_unread_vertices(void **state)
 {
     (void)state;
     const struct {
         const char *scene, *lod, *squeeze;
     } runs[] = {{"scene/teapot_displaced.rib", "--lod 6", "--memory 8"},
-                {"scene/teapot.rib", "--lod 7", "--memory 12"}};
+                {"scene/teapot.rib", "--lod 7", "--memory 12"},
+                {"scene/instances.rib", "--lod 6", "--memory 8"}};
     for (size_t r = 0; r < sizeof runs / sizeof runs[0]; ++r) {
         for (int squeezed = 0; squeezed < 2; ++squeezed) {
             char args[16384];

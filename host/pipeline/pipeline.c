@@ -440,6 +440,7 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     *boxes = ts_page_alloc(n * sizeof **boxes); /* array_in_place */
     p->segments_host = malloc(n * sizeof *p->segments_host);
     p->seg_grid = malloc(n);
+    p->grid_mark = calloc(n, sizeof *p->grid_mark);
     p->trees_host = malloc(2 * n * sizeof *p->trees_host);
     p->batches = malloc(n * sizeof *p->batches);
     p->patch_lod = malloc(n);
@@ -447,8 +448,9 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     p->cull_key = calloc(n, sizeof *p->cull_key);
     p->pixel_cost = calloc(p->pixel_count ? p->pixel_count : 1, sizeof *p->pixel_cost);
     p->grid_at_host = malloc(3 * n * sizeof *p->grid_at_host);
-    if (!*boxes || !p->segments_host || !p->seg_grid || !p->trees_host || !p->batches ||
-        !p->patch_lod || !p->rough_lod || !p->cull_key || !p->grid_at_host || !p->pixel_cost)
+    if (!*boxes || !p->segments_host || !p->seg_grid || !p->grid_mark || !p->trees_host ||
+        !p->batches || !p->patch_lod || !p->rough_lod || !p->cull_key || !p->grid_at_host ||
+        !p->pixel_cost)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     memset(p->grid_at_host, 0xff, 3 * n * sizeof *p->grid_at_host);
     memset(p->patch_lod, (int)p->plan.max_lod, n);
@@ -572,6 +574,7 @@ void pipeline_destroy(ts_pipeline *p)
     patch_cache_free(&p->cache);
     free(p->segments_host);
     free(p->seg_grid);
+    free(p->grid_mark);
     free(p->trees_host);
     free(p->batches);
     free(p->patch_lod), free(p->rough_lod);

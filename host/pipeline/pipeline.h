@@ -288,9 +288,11 @@ typedef struct ts_pipeline {
     /* When the frame's patches do not fit, an iteration's misses are diced whole only where a
      * ray leaves the patch (top_level marks leaving[patch] with the iteration's stamp; trace.c
      * leave_stamp), the others built without their vertices: leave_stamp the last stamp,
-     * seg_grid[i] whether segment i's patch needs its vertices this iteration. */
+     * seg_grid[i] whether segment i's patch needs its vertices this iteration, grid_mark[q] the
+     * last stamp with which a segment of shape q needed them. */
     uint32_t leave_stamp;
     uint8_t *seg_grid;
+    uint32_t *grid_mark;
     /* Per pixel (pixel_count), 1 + the leaf boxes its first-pass eye ray crossed in the lod
      * stage (kernels/lod.cl), 0 where this device did not count it: what the progress line
      * weighs the samples by (app/eta.h). */

@@ -181,7 +181,10 @@ static uint32_t segment_shape(const ts_pipeline *p, ts_segment *s)
  * tight boxes); the others are built without their vertices (seg_grid 0), which box mode's
  * other rays never read, and shade then evaluates their normals (pipeline_grid_publish). A
  * resident patch built so whose vertices a ray leaving it now needs is diced and built again
- * in its place, as a miss. Without, every miss is diced whole. */
+ * in its place, as a miss. What is decided is the shape's (the patch diced): its vertices are
+ * diced when any segment of the iteration that shares it needs them (grid_mark, marked
+ * before the walk), so that an instance and its master in one batch ask once. Without
+ * `leaving`, every miss is diced whole. */
 static void plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving, uint32_t stamp)
 {
     uint32_t tused = 0, ntrees = 0;
@@ -189,6 +192,11 @@ static void plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving,
     p->batch_count = 0;
     ts_batch *b = NULL;
     if (p->cache_off) patch_cache_clear(&p->cache);
+    for (uint32_t i = 0; leaving && i < segs; ++i) {
+        ts_segment *s = &p->segments_host[i];
+        uint32_t q = segment_shape(p, s);
+        if (s->lod >= p->rough_lod[q] || leaving[s->patch] == stamp) p->grid_mark[q] = stamp;
+    }
     int backward = p->sweep++ & 1u;
     for (uint32_t j = 0; j < segs; ++j) {
         uint32_t i = backward ? segs - 1u - j : j;
@@ -222,7 +230,7 @@ static void plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving,
         b->seg_count++;
         b->work += s->end - s->begin;
         ts_cache_entry *e = &p->cache.entry[q];
-        int grid = !leaving || (s->flags & TS_PATCH_ROUGH) || leaving[s->patch] == stamp;
+        int grid = !leaving || p->grid_mark[q] == stamp;
         p->seg_grid[i] = (uint8_t)grid;
         if (r == TS_CACHE_HIT && (!grid || e->gridded)) {
             ++hits;
@@ -893,13 +901,13 @@ static uint32_t pairs_per_ray(uint32_t capacity, uint32_t active, uint32_t first
  * leave_stamp), or 0 where every miss is diced whole: when the frame's patches fit (each is
  * diced once anyway, and shade reads the resident vertices), in triangle mode (bottom_level
  * reads every patch's vertices), on devices that share their dicings (a shared patch is
- * whole), with instances (one dicing serves segments of several patches) and with paged
- * textures (a resident patch diced again would need tiles the batch has not counted). */
+ * whole) and with paged textures (a resident patch diced again would need tiles the batch
+ * has not counted). */
 static uint32_t leave_stamp(ts_pipeline *p)
 {
     int squeezed =
         p->cache.short_of_room || p->stats->counters[TS_COUNTER_patch_cache_evictions] > 0;
-    if (!squeezed || p->mode.exact || p->share || p->scene->shape || p->tex.paged) return 0u;
+    if (!squeezed || p->mode.exact || p->share || p->tex.paged) return 0u;
     if (++p->leave_stamp == 0u) p->leave_stamp = 1u; /* 0 marks nothing */
     return p->leave_stamp;
 }
