@@ -288,8 +288,9 @@ typedef struct ts_pipeline {
     /* When the frame's patches do not fit, an iteration's misses are diced whole only where a
      * ray leaves the patch (top_level marks leaving[patch] with the iteration's stamp; trace.c
      * leave_stamp), the others built without their vertices: leave_stamp the last stamp,
-     * seg_grid[i] whether segment i's patch needs its vertices this iteration, grid_mark[q] the
-     * last stamp with which a segment of shape q needed them. */
+     * seg_grid[i] whether segment i's shape has its vertices diced this iteration (the cache
+     * entry's `gridded` says it only while the patch is resident), grid_mark[q] the last stamp
+     * with which a segment of shape q needed them. */
     uint32_t leave_stamp;
     uint8_t *seg_grid;
     uint32_t *grid_mark;

@@ -119,12 +119,19 @@ static ts_batch *batch_open(ts_pipeline *p, uint32_t i, uint32_t ntrees)
     return b;
 }
 
+/* Whether tree `tree` of the list dices its vertices too (plan_batches's seg_grid: the cache
+ * entry's `gridded` may be gone by then, a later batch of the iteration having evicted it). */
+static int tree_gridded(const ts_pipeline *p, uint32_t tree)
+{
+    return p->seg_grid[TS_TREE_SEGMENT(tree)];
+}
+
 /* A tree's place in its batch's order: by decreasing m, and within one m those whose
- * vertices are diced first (seg_grid). */
+ * vertices are diced first (tree_gridded). */
 static uint32_t tree_key(const ts_pipeline *p, uint32_t tree)
 {
-    uint32_t i = TS_TREE_SEGMENT(tree);
-    return 2u * (TS_LOD_LIMIT - p->segments_host[i].lod) + (p->seg_grid[i] ? 0u : 1u);
+    uint32_t m = p->segments_host[TS_TREE_SEGMENT(tree)].lod;
+    return 2u * (TS_LOD_LIMIT - m) + (tree_gridded(p, tree) ? 0u : 1u);
 }
 
 /* Sorts batch b's trees by tree_key (a stable counting sort), so that the trees deeper than a
@@ -161,6 +168,18 @@ static uint32_t segment_shape(const ts_pipeline *p, ts_segment *s)
     return s->shape = q;
 }
 
+/* Segment s's shape and flags as the dice, build and bottom_level kernels read them: moving
+ * (a shape moves as its instances do), rough, trimmed, and in triangle mode the edges towards
+ * coarser neighbours, which take their vertices (dice.cl). */
+static void segment_prepare(const ts_pipeline *p, ts_segment *s)
+{
+    s->flags = p->scene->attr[s->patch].flags & TS_PATCH_MOVING;
+    uint32_t q = segment_shape(p, s);
+    if (s->lod >= p->rough_lod[q]) s->flags |= TS_PATCH_ROUGH;
+    if (patch_has_holes(&p->scene->attr[q])) s->flags |= TS_SEG_TRIMMED;
+    s->flags |= pipeline_stitch_edges(p, q, s->lod) << TS_SEG_EDGE_SHIFT;
+}
+
 /* Gives each segment (its LOD set) its place in the arenas through the patch cache and
  * cuts the segments into batches whose patches are resident together, walking the segments
  * forwards in one iteration and backwards in the next (p->sweep): when the frame's patches
@@ -192,22 +211,17 @@ static void plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving,
     p->batch_count = 0;
     ts_batch *b = NULL;
     if (p->cache_off) patch_cache_clear(&p->cache);
-    for (uint32_t i = 0; leaving && i < segs; ++i) {
+    for (uint32_t i = 0; i < segs; ++i) { /* shapes and flags, and the shapes that need vertices */
         ts_segment *s = &p->segments_host[i];
-        uint32_t q = segment_shape(p, s);
-        if (s->lod >= p->rough_lod[q] || leaving[s->patch] == stamp) p->grid_mark[q] = stamp;
+        segment_prepare(p, s);
+        if (leaving && ((s->flags & TS_PATCH_ROUGH) || leaving[s->patch] == stamp))
+            p->grid_mark[s->shape] = stamp;
     }
     int backward = p->sweep++ & 1u;
     for (uint32_t j = 0; j < segs; ++j) {
         uint32_t i = backward ? segs - 1u - j : j;
         ts_segment *s = &p->segments_host[i];
-        const ts_patch_attr *a = &p->scene->attr[s->patch];
-        s->flags = a->flags & TS_PATCH_MOVING; /* a shape moves as its instances do */
-        uint32_t q = segment_shape(p, s), times = s->flags & TS_PATCH_MOVING ? 2u : 1u;
-        if (s->lod >= p->rough_lod[q]) s->flags |= TS_PATCH_ROUGH;
-        if (patch_has_holes(&p->scene->attr[q])) s->flags |= TS_SEG_TRIMMED;
-        /* triangle mode: the edges towards coarser neighbours take their vertices (dice.cl) */
-        s->flags |= pipeline_stitch_edges(p, q, s->lod) << TS_SEG_EDGE_SHIFT;
+        uint32_t q = s->shape, times = s->flags & TS_PATCH_MOVING ? 2u : 1u;
         /* Texture tiles: the batch's misses' needs add up to at most the pool (an over-count
          * where they share tiles; each alone fits, tex_cache_create sized the pool so). */
         uint32_t nt = p->tex.paged ? p->tex.patch_tiles[q] : 0u;
@@ -391,7 +405,7 @@ static uint32_t tree_run_gridded(const ts_pipeline *p, const ts_batch *b, uint32
 {
     if (!b->sorted) return run;
     uint32_t g = 0;
-    while (g < run && p->seg_grid[TS_TREE_SEGMENT(p->trees_host[b->tree_first + t + g])])
+    while (g < run && tree_gridded(p, p->trees_host[b->tree_first + t + g]))
         ++g;
     return g;
 }
@@ -433,8 +447,7 @@ static int stage_dice(ts_pipeline *p, const ts_batch *b, ts_error *err)
         uint32_t tree = p->trees_host[b->tree_first + t], lod = tree_lod(p, b, t);
         if (TS_TREE_TIME(tree) != 0u) continue; /* one dicing per patch, not per time */
         p->stats->counters[TS_COUNTER_patches_diced] += 1;
-        if (b->sorted && !p->seg_grid[TS_TREE_SEGMENT(tree)])
-            p->stats->counters[TS_COUNTER_grids_skipped] += 1;
+        if (b->sorted && !tree_gridded(p, tree)) p->stats->counters[TS_COUNTER_grids_skipped] += 1;
         p->stats->counters[TS_COUNTER_micropolygons_created] += 1ull << (2u * lod);
         p->stats->lod_histogram[lod] += 1;
     }

@@ -31,14 +31,24 @@ TS_INLINE int displace_is_noise(TS_CONST_GLOBAL ts_patch_attr *a)
     return a->disp_kind == TS_DISP_FBM || a->disp_kind == TS_DISP_RIDGED;
 }
 
+/* World point (px, py, pz) in the noise's object space (x: world to object), o[0..2]: the
+ * point transform every evaluation of the noise takes, in one operation order. */
+TS_INLINE void displace_object_point(TS_CONST_GLOBAL ts_xform *x, float px, float py, float pz,
+                                     float o[3])
+{
+    o[0] = x->r0[0] * px + x->r0[1] * py + x->r0[2] * pz + x->r0[3];
+    o[1] = x->r1[0] * px + x->r1[1] * py + x->r1[2] * pz + x->r1[3];
+    o[2] = x->r2[0] * px + x->r2[1] * py + x->r2[2] * pz + x->r2[3];
+}
+
 /* d(P) at world point (px, py, pz). 0 unless a noise function. */
 TS_INLINE float displace_value(TS_CONST_GLOBAL ts_patch_attr *a, TS_CONST_GLOBAL ts_xform *x,
                                float px, float py, float pz)
 {
     if (!displace_is_noise(a)) return 0.0f;
-    float ox = x->r0[0] * px + x->r0[1] * py + x->r0[2] * pz + x->r0[3];
-    float oy = x->r1[0] * px + x->r1[1] * py + x->r1[2] * pz + x->r1[3];
-    float oz = x->r2[0] * px + x->r2[1] * py + x->r2[2] * pz + x->r2[3];
+    float op[3];
+    displace_object_point(x, px, py, pz, op);
+    float ox = op[0], oy = op[1], oz = op[2];
     float f = a->disp_frequency, w = 1.0f, sum = 0.0f;
     ts_u32 n = displace_octaves(a);
     for (ts_u32 o = 0; o < n; ++o) {

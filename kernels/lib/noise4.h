@@ -97,21 +97,29 @@ inline float4 displace_value_x4(__global const ts_patch_attr *a, __global const 
     return a->disp_amplitude * sum;
 }
 
+/* The n octaves' frequencies f[o] and weights w[o], displace_value's running products, and f
+ * of the last octave again up to `lanes` (the spare lanes of a vector evaluation). */
+inline void displace_octave_steps(__global const ts_patch_attr *a, uint n, uint lanes, float *f,
+                                  float *w)
+{
+    f[0] = a->disp_frequency, w[0] = 1.0f;
+    for (uint o = 0; o + 1u < n; ++o)
+        f[o + 1] = f[o] * a->disp_lacunarity, w[o + 1] = w[o] * a->disp_gain;
+    for (uint o = n; o < lanes; ++o)
+        f[o] = f[n - 1u];
+}
+
 /* displace_value at one world point, eight octaves at a time in the lanes of a float8 and
  * added in octave order (dice.cl). */
 inline float displace_value_octaves(__global const ts_patch_attr *a, __global const ts_xform *x,
                                     float px, float py, float pz)
 {
-    float ox = x->r0[0] * px + x->r0[1] * py + x->r0[2] * pz + x->r0[3];
-    float oy = x->r1[0] * px + x->r1[1] * py + x->r1[2] * pz + x->r1[3];
-    float oz = x->r2[0] * px + x->r2[1] * py + x->r2[2] * pz + x->r2[3];
+    float op[3];
+    displace_object_point(x, px, py, pz, op);
+    float ox = op[0], oy = op[1], oz = op[2];
     uint n = displace_octaves(a);
     float f[TS_DISP_MAX_OCTAVES + 8], w[TS_DISP_MAX_OCTAVES + 8];
-    f[0] = a->disp_frequency, w[0] = 1.0f;
-    for (uint o = 0; o + 1u < n; ++o) /* the scalar loop's running products */
-        f[o + 1] = f[o] * a->disp_lacunarity, w[o + 1] = w[o] * a->disp_gain;
-    for (uint o = n; o < ((n + 7u) & ~7u); ++o) /* spare lanes: the last octave again */
-        f[o] = f[n - 1u];
+    displace_octave_steps(a, n, (n + 7u) & ~7u, f, w);
     float sum = 0.0f, v[8];
     int ridged = a->disp_kind == TS_DISP_RIDGED;
     for (uint o = 0; o < n; o += 8u) {
@@ -130,26 +138,19 @@ inline float displace_value_octaves(__global const ts_patch_attr *a, __global co
 inline float2 displace_value_pair(__global const ts_patch_attr *a, __global const ts_xform *x,
                                   float4 pa, float4 pb)
 {
-    float oxa = x->r0[0] * pa.x + x->r0[1] * pa.y + x->r0[2] * pa.z + x->r0[3];
-    float oya = x->r1[0] * pa.x + x->r1[1] * pa.y + x->r1[2] * pa.z + x->r1[3];
-    float oza = x->r2[0] * pa.x + x->r2[1] * pa.y + x->r2[2] * pa.z + x->r2[3];
-    float oxb = x->r0[0] * pb.x + x->r0[1] * pb.y + x->r0[2] * pb.z + x->r0[3];
-    float oyb = x->r1[0] * pb.x + x->r1[1] * pb.y + x->r1[2] * pb.z + x->r1[3];
-    float ozb = x->r2[0] * pb.x + x->r2[1] * pb.y + x->r2[2] * pb.z + x->r2[3];
+    float oa[3], ob[3];
+    displace_object_point(x, pa.x, pa.y, pa.z, oa);
+    displace_object_point(x, pb.x, pb.y, pb.z, ob);
     uint n = displace_octaves(a);
     float f[4], w[4];
-    f[0] = a->disp_frequency, w[0] = 1.0f;
-    for (uint o = 0; o + 1u < n; ++o) /* the scalar loop's running products */
-        f[o + 1] = f[o] * a->disp_lacunarity, w[o + 1] = w[o] * a->disp_gain;
-    for (uint o = n; o < 4u; ++o) /* spare lanes: the last octave again */
-        f[o] = f[n - 1u];
+    displace_octave_steps(a, n, 4u, f, w);
     /* Lanes 0-3: a's octaves, 4-7: b's (built by select: Oclgrind 21.10's uninitialized-value
      * check crashes on a float8 made of two float4) */
     float8 fo = (float8)(f[0], f[1], f[2], f[3], f[0], f[1], f[2], f[3]);
     int8 at_b = (int8)(0, 0, 0, 0, -1, -1, -1, -1);
-    float8 v = noise3_x8(select((float8)(oxa), (float8)(oxb), at_b) * fo,
-                         select((float8)(oya), (float8)(oyb), at_b) * fo,
-                         select((float8)(oza), (float8)(ozb), at_b) * fo);
+    float8 v = noise3_x8(select((float8)(oa[0]), (float8)(ob[0]), at_b) * fo,
+                         select((float8)(oa[1]), (float8)(ob[1]), at_b) * fo,
+                         select((float8)(oa[2]), (float8)(ob[2]), at_b) * fo);
     float vv[8];
     vstore8(v, 0, vv);
     const float *va = vv, *vb = vv + 4;
