@@ -6,7 +6,9 @@
 #   2. test_shading_normal on it: shade's normals equal the host's bit for bit (the check that
 #      caught Mesa 22.3 miscompiling bezier_combine's float4 form, issue 40);
 #   3. scene/teapot.rib and scene/lama.rib (translucent sheets, a clear coat, cut-outs) at
-#      160x90 x 4 on Rusticl against PoCL: RMSE of the 8-bit PNGs at most 1.5 levels (devices
+#      160x90 x 4, and scene/teapot_displaced.rib squeezed (--lod 5 --memory 1: its patches
+#      do not fit, most are diced again without their vertices, top_level marks the patches
+#      rays leave) on Rusticl against PoCL: RMSE of the 8-bit PNGs at most 1.5 levels (devices
 #      may differ in the last bits of their transcendental functions).
 # Skipped (77) where Rusticl or PoCL lists no device (RUSTICL_ENABLE=llvmpipe is set here
 # unless already set). The first run builds the kernels on llvmpipe, a minute or two; later
@@ -34,12 +36,27 @@ TESSERA_DEVICE=$rc_dev TESSERA_SOURCE_DIR=$src "$build/tests/test_shading_normal
     { echo "check_rusticl: test_shading_normal failed on Rusticl"; exit 1; }
 work=$(mktemp -d "${TMPDIR:-/tmp}/check-rusticl-XXXXXX")
 trap 'rm -rf "$work"' EXIT
-# The teapot, and scene/lama.rib (translucent sheets, a clear coat, cut-outs from a mask).
-for scene in teapot lama; do
+# The teapot, scene/lama.rib (translucent sheets, a clear coat, cut-outs from a mask), and the
+# displaced teapot in a budget its patches do not fit (the squeezed frame's own paths: the
+# leaving marks, trees built without a grid, patches diced again).
+for scene in teapot lama squeezed; do
+    file=$scene args=()
+    [ "$scene" = squeezed ] && file=teapot_displaced args=(--lod 5 --memory 1)
     for d in "$pocl_dev" "$rc_dev"; do
-        "$bin" render "$src/scene/$scene.rib" --res 160x90 --spp 4 --quiet --device "$d" \
-            -o "$work/$scene-$d.png" || { echo "check_rusticl: $scene failed on device $d"; exit 1; }
+        "$bin" render "$src/scene/$file.rib" --res 160x90 --spp 4 "${args[@]}" --quiet \
+            --device "$d" -o "$work/$scene-$d.png" --stats "$work/$scene-$d.json" ||
+            { echo "check_rusticl: $scene failed on device $d"; exit 1; }
     done
+    if [ "$scene" = squeezed ]; then # still the regime it is here for, on both devices
+        python3 - "$work/$scene-$pocl_dev.json" "$work/$scene-$rc_dev.json" <<'EOF' || exit 1
+import json, sys
+for f in sys.argv[1:]:
+    c = json.load(open(f))["counters"]
+    if not (c["patch_cache_evictions"] > 0 and 0 < c["grids_skipped"] < c["patches_diced"]):
+        sys.exit(f"check_rusticl: the squeezed teapot fits ({f}: {c['patch_cache_evictions']} "
+                 f"evictions, {c['grids_skipped']} of {c['patches_diced']} without vertices)")
+EOF
+    fi
     python3 - "$src/tools/bench_cycles.py" "$work/$scene-$pocl_dev.png" "$work/$scene-$rc_dev.png" \
         "$scene" <<'EOF' || exit 1
 import importlib.util, math, sys
