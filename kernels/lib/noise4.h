@@ -24,11 +24,17 @@ inline uint8 noise_mix8(uint8 x)
     return x;
 }
 
+/* The lattice and cell helpers below are always inlined: PoCL 3.1 left them as calls, their
+ * float8 arrays passed through memory; inlined, forest-100's squeezed 960x384 frame spends 4%
+ * less in `build` and 8% less in `dice`, the same bits (docs/benchmarks.md). Inlining
+ * displace_interval_x8 and displace_normal_box_x4 into build_leaves as well was slower. */
+
 /* noise_gradient at the eight corners k (x bit 1, y bit 2, z bit 4) of the lattice cells at
  * (ix, iy, iz), lane by lane: two components are +-1, one is 0. The lattice hash of
  * noise_hash, its inner words shared by the corners with equal z (and y): the same values,
  * fewer mixes. */
-inline void noise_gradients_x8(int8 ix, int8 iy, int8 iz, float8 gx[8], float8 gy[8], float8 gz[8])
+TS_INLINE_ALWAYS void noise_gradients_x8(int8 ix, int8 iy, int8 iz, float8 gx[8], float8 gy[8],
+                                         float8 gz[8])
 {
     uint8 hz[2], hy[4];
     for (int dz = 0; dz < 2; ++dz)
@@ -345,8 +351,8 @@ inline ts_vec4 patch_quad_shading_normal_x4(__global const ts_vec4 *cp, __global
 }
 
 /* interval_lerp (lib/noise.h) in eight lanes. */
-inline void interval_lerp_x8(float8 alo, float8 ahi, float8 blo, float8 bhi, float8 t0, float8 t1,
-                             float8 *rlo, float8 *rhi)
+TS_INLINE_ALWAYS void interval_lerp_x8(float8 alo, float8 ahi, float8 blo, float8 bhi, float8 t0,
+                                       float8 t1, float8 *rlo, float8 *rhi)
 {
     float8 l0 = alo + t0 * (blo - alo), l1 = alo + t1 * (blo - alo);
     float8 h0 = ahi + t0 * (bhi - ahi), h1 = ahi + t1 * (bhi - ahi);
@@ -356,9 +362,9 @@ inline void interval_lerp_x8(float8 alo, float8 ahi, float8 blo, float8 bhi, flo
 /* noise3_cell_interval (lib/noise.h) in eight lanes: lane l bounds the noise over the box
  * [l, h] inside the lattice cell with corner c (floats holding integers, as noise3_interval
  * passes them), with the scalar operations in their order, so each lane has its bits. */
-inline void noise3_cell_interval_x8(float8 cx, float8 cy, float8 cz, float8 lx, float8 ly,
-                                    float8 lz, float8 hx, float8 hy, float8 hz, float8 *rlo,
-                                    float8 *rhi)
+TS_INLINE_ALWAYS void noise3_cell_interval_x8(float8 cx, float8 cy, float8 cz, float8 lx, float8 ly,
+                                              float8 lz, float8 hx, float8 hy, float8 hz,
+                                              float8 *rlo, float8 *rhi)
 {
     int8 ix = convert_int8(cx), iy = convert_int8(cy), iz = convert_int8(cz);
     float8 ax = lx - cx, ay = ly - cy, az = lz - cz;
@@ -401,7 +407,7 @@ typedef struct noise_tasks {
 
 /* Task n of the lanes: lane n gets (c, l, h); with n = 0 every lane does, so that spare lanes
  * repeat task 0 (evaluated, not read). */
-inline void noise_task_add(noise_tasks *t, float4 c, float4 l, float4 h, uint o)
+TS_INLINE_ALWAYS void noise_task_add(noise_tasks *t, float4 c, float4 l, float4 h, uint o)
 {
     if (t->n == 0u) {
         t->cx = (float8)(c.x), t->cy = (float8)(c.y), t->cz = (float8)(c.z);
@@ -420,7 +426,7 @@ inline void noise_task_add(noise_tasks *t, float4 c, float4 l, float4 h, uint o)
 
 /* Evaluates the waiting tasks and folds each into its octave's interval in task order: the
  * scalar loop's fmin / fmax sequence. */
-inline void noise_tasks_run(noise_tasks *t, float *lo, float *hi)
+TS_INLINE_ALWAYS void noise_tasks_run(noise_tasks *t, float *lo, float *hi)
 {
     if (t->n == 0u) return;
     float8 rlo, rhi;
