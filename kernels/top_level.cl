@@ -25,7 +25,11 @@
  *         that have few and the iteration's patches are diced once for all of them. Such a
  *         window is filled to its end (TS_INVALID leaves where the ray had fewer, which sort
  *         drops), and a ray whose window is full stops at its next candidate, so one whose
- *         candidates all fit ends its traversal in this iteration.
+ *         candidates all fit ends its traversal in this iteration. The counting launch also
+ *         writes ray i's first stash_n candidates to stash[i * stash_n ..] (trace.c
+ *         water_fill: pairs_scratch, unused until sort; stash_n < its cap), and the
+ *         collecting launch copies them for a ray with count[i] <= stash_n, whose traversal
+ *         ended in the counting launch, instead of traversing again: the same pairs.
  * Invariant: the child order of a node depends only on the signs of the ray direction on
  * the node's split axes, so (node, position) is enough to resume, and across all
  * iterations every leaf box the ray meets within tmax is emitted exactly once. */
@@ -103,16 +107,14 @@ TS_INLINE_ALWAYS int cull_enter(__global const ts_tight4 *c, uint levels,
 /* The hit masks top_level_collect keeps on its way down: the nibbles of a uint. */
 #define TL_HELD 8u
 
-__kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global const ts_tight4 *cull,
-                                __global const uint *cull_levels, __global const ts_box *patch_box,
-                                __global const uint *active, uint active_count, uint n_per_ray,
-                                __global const uint *window_first, uint count_only,
-                                __global const ts_vec4 *org, __global const ts_vec4 *dir,
-                                __global const ts_hit *hit, __global uint *entry,
-                                __global const uint *ray_flags, __global const uint *ray_from,
-                                __global const ts_patch_attr *attr, uint unseen_flags,
-                                __global ts_pair *pairs, __global uint *count,
-                                __global uint *leaving, uint stamp)
+__kernel void top_level_collect(
+    __global const ts_qbvh_node *nodes, __global const ts_tight4 *cull,
+    __global const uint *cull_levels, __global const ts_box *patch_box, __global const uint *active,
+    uint active_count, uint n_per_ray, __global const uint *window_first, uint count_only,
+    __global const ts_vec4 *org, __global const ts_vec4 *dir, __global const ts_hit *hit,
+    __global uint *entry, __global const uint *ray_flags, __global const uint *ray_from,
+    __global const ts_patch_attr *attr, uint unseen_flags, __global ts_pair *pairs,
+    __global uint *count, __global uint *leaving, uint stamp, __global uint *stash, uint stash_n)
 {
     uint i = get_global_id(0);
     if (i >= active_count) return;
@@ -131,6 +133,22 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
     ts_vec4 o = org[ray], d = dir[ray];
     /* the patch this ray leaves + 1 where leaving is marked (0: none, or not marked) */
     uint leaves = stamp != 0u && !count_only ? ray_from[ray] : 0u;
+    /* A ray whose every candidate the counting launch found and stashed (count[i] <=
+     * stash_n, fewer than its cap: its traversal ended there): its window takes them all,
+     * copied in the order the traversal emitted them. */
+    if (filled && stash_n != 0u && count[i] <= stash_n && count[i] <= limit) {
+        uint c = count[i];
+        __global const uint *st = stash + (size_t)i * stash_n;
+        for (uint k = 0; k < c; ++k) {
+            uint leaf = st[k];
+            pairs[base + k] = (ts_pair){leaf, base + k};
+            if (leaves == leaf + 1u) atomic_xchg(leaving + leaf, stamp); /* rays alike */
+        }
+        for (uint k = c; k < limit; ++k)
+            pairs[base + k] = (ts_pair){TS_INVALID, base + k};
+        entry[ray] = TS_INVALID;
+        return; /* count[i] stays c */
+    }
     float4 o4 = (float4)(o.x, o.y, o.z, 0.0f);
     float4 inv = (float4)(safe_reciprocal(d.x), safe_reciprocal(d.y), safe_reciprocal(d.z), 0.0f);
     float tmax = hit[ray].t;
@@ -178,7 +196,10 @@ __kernel void top_level_collect(__global const ts_qbvh_node *nodes, __global con
                 state = (node << 3) | (pos - 1u);
                 break;
             }
-            if (!count_only) pairs[base + n] = (ts_pair){leaf, base + n};
+            if (!count_only)
+                pairs[base + n] = (ts_pair){leaf, base + n};
+            else if (n < stash_n)
+                stash[(size_t)i * stash_n + n] = leaf;
             if (leaves == leaf + 1u) atomic_xchg(leaving + leaf, stamp); /* rays alike */
             if (++n == limit && !filled) {
                 state = (node << 3) | pos;

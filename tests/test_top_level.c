@@ -1,7 +1,8 @@
 /* test_top_level.c — the top_level kernel's resumable ordered traversal against brute force:
  * over all iterations a ray emits exactly the patches whose box it meets within tmax, each
  * once (Hanika §3.1), for N = 1, 3 and 100 candidates per iteration and for water-filled
- * windows (trace.c water_fill), with infinite and finite tmax, and the traversal ends in
+ * windows (trace.c water_fill; the rays whose candidates the counting launch stashed copied,
+ * the same pairs as a traversal again), with infinite and finite tmax, and the traversal ends in
  * TS_INVALID, also launched in runs of rays with a cancel hook asked between them (which,
  * when it says stop, leaves the rays after the run untraversed). The reference is a slab test in
  * double written here (not the kernels' box_enter), and the rays must meet a minimum of boxes, so a
@@ -259,18 +260,38 @@ static void run_filled_case(ts_device *cl, const ts_scene *s, uint32_t max_n, in
     cl_command_queue q = cl->queue;
     uint8_t *seen = calloc((size_t)RAYS * PATCHES, 1);
     ts_pair *pairs = malloc((size_t)p.plan.pair_capacity * sizeof *pairs);
-    int done = 0, iterations = 0, ended_short = 0, capped = 0;
+    ts_pair *traversed = malloc((size_t)p.plan.pair_capacity * sizeof *traversed);
+    uint32_t entry0[RAYS], entry_t[RAYS], count_t[RAYS];
+    int done = 0, iterations = 0, ended_short = 0, capped = 0, stashed = 0;
     for (; iterations < 1000 && !done; ++iterations) {
-        uint32_t n = 0, slots = 0;
-        if (pipeline_water_fill(&p, RAYS, max_n, &n, &slots, &err) ||
-            pipeline_top_level(&p, RAYS, 0, &err))
-            fail_msg("%s", err.msg);
+        uint32_t n = 0, slots = 0, slots_t = 0;
+        /* First every ray traversed again by the collecting launch (no stash), from the same
+         * start; then, from that start again, as the pipeline runs it: the rays whose
+         * candidates the counting launch stashed copied. The same pairs, counts and ends. */
+        clEnqueueReadBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry0, entry0, 0, NULL, NULL);
+        if (pipeline_water_fill(&p, RAYS, max_n, &n, &slots_t, &err)) fail_msg("%s", err.msg);
+        p.stash_n = 0;
+        if (pipeline_top_level(&p, RAYS, 0, &err)) fail_msg("%s", err.msg);
+        clEnqueueReadBuffer(q, p.pairs, CL_TRUE, 0, (size_t)slots_t * sizeof *traversed, traversed,
+                            0, NULL, NULL);
+        clEnqueueReadBuffer(q, p.count, CL_TRUE, 0, sizeof count_t, count_t, 0, NULL, NULL);
+        clEnqueueReadBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry_t, entry_t, 0, NULL, NULL);
+        clEnqueueWriteBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry0, entry0, 0, NULL, NULL);
+        if (pipeline_water_fill(&p, RAYS, max_n, &n, &slots, &err)) fail_msg("%s", err.msg);
+        uint32_t stash_n = p.stash_n;
+        if (pipeline_top_level(&p, RAYS, 0, &err)) fail_msg("%s", err.msg);
         assert_true(n >= 1 && n <= max_n && slots <= p.plan.pair_capacity);
         clEnqueueReadBuffer(q, p.window_first, CL_TRUE, 0, sizeof first, first, 0, NULL, NULL);
         clEnqueueReadBuffer(q, p.pairs, CL_TRUE, 0, (size_t)slots * sizeof *pairs, pairs, 0, NULL,
                             NULL);
         clEnqueueReadBuffer(q, p.count, CL_TRUE, 0, sizeof count, count, 0, NULL, NULL);
         clEnqueueReadBuffer(q, p.ray_entry, CL_TRUE, 0, sizeof entry, entry, 0, NULL, NULL);
+        assert_int_equal(slots, slots_t);
+        assert_memory_equal(pairs, traversed, (size_t)slots * sizeof *pairs);
+        assert_memory_equal(count, count_t, sizeof count);
+        assert_memory_equal(entry, entry_t, sizeof entry);
+        for (int r = 0; r < RAYS; ++r)
+            stashed += count[r] > 0 && count[r] <= stash_n;
         assert_int_equal(first[0], 0);
         assert_int_equal(first[RAYS], slots);
         done = 1;
@@ -296,8 +317,10 @@ static void run_filled_case(ts_device *cl, const ts_scene *s, uint32_t max_n, in
         }
     }
     assert_true(done);
-    /* Windows that held all of a ray's candidates occur, and with a cap of two full ones. */
+    /* Windows that held all of a ray's candidates occur, and with a cap of two full ones;
+     * rays copied from the stash occur. */
     assert_true(ended_short > 0);
+    assert_true(stashed > 0);
     assert_true(max_n > 2 || (capped > 0 && iterations > 1));
     char what[64];
     snprintf(what, sizeof what, "filled, cap %u, finite tmax %d%s", max_n, finite_tmax,
@@ -305,6 +328,7 @@ static void run_filled_case(ts_device *cl, const ts_scene *s, uint32_t max_n, in
     assert_every_box_once(s, org, dir, hit, seen, what);
     free(seen);
     free(pairs);
+    free(traversed);
     pipeline_destroy(&p);
     stats_free(&stats);
 }

@@ -292,6 +292,10 @@ typedef struct ts_pipeline {
      * entry's `gridded` says it only while the patch is resident), grid_mark[q] the last stamp
      * with which a segment of shape q needed them. */
     uint32_t leave_stamp;
+    /* Water-filled windows (trace.c water_fill): the counting launch of top_level keeps each
+     * ray's first stash_n candidates in pairs_scratch (free until sort), and the collecting
+     * launch copies them for a ray that has no more instead of traversing again; 0: none. */
+    uint32_t stash_n;
     uint8_t *seg_grid;
     uint32_t *grid_mark;
     /* Per pixel (pixel_count), 1 + the leaf boxes its first-pass eye ray crossed in the lod
