@@ -121,7 +121,16 @@ run render_one_patch "$build/tessera" render scene/one_patch.rib --res 8x8 --max
 # A frame whose patches do not fit (one eviction at --memory 2): top_level marks the patches
 # rays leave (atomic_xchg), dice runs over each m's first trees only, build without vertices.
 run render_squeezed "$build/tessera" render scene/teapot.rib --res 16x9 --spp 1 --lod 4 \
-  --memory 2 -o "$work/squeezed.exr" --no-kernel-cache --quiet
+  --memory 2 -o "$work/squeezed.exr" --stats "$work/squeezed.json" --no-kernel-cache --quiet
+# ... and still that regime, or the run above checks a frame that fits.
+if ! python3 - "$work/squeezed.json" <<'EOF'; then
+import json, sys
+c = json.load(open(sys.argv[1]))["counters"]
+sys.exit(not (c["patch_cache_evictions"] > 0 and 0 < c["grids_skipped"] < c["patches_diced"]))
+EOF
+  echo "FAIL  render_squeezed: its patches fit (no eviction, or no tree built without vertices)"
+  failed=1
+fi
 # The work-group leaf intersection (bottom_level_group, local memory and barriers): leaf
 # blocks of 2x2, so work-items of one group share tasks.
 run render_leaf_group "$build/tessera" render scene/teapot.rib --res 16x9 --spp 1 --max-lod 3 \

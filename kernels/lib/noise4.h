@@ -78,31 +78,6 @@ inline float8 noise3_x8(float8 x, float8 y, float8 z)
     return y0 + w * (y1 - y0);
 }
 
-/* displace_value at four world points (a noise function: the caller checked); two octaves
- * at a time, one in each half of a float8, added in octave order. */
-inline float4 displace_value_x4(__global const ts_patch_attr *a, __global const ts_xform *x,
-                                float4 px, float4 py, float4 pz)
-{
-    float4 ox = x->r0[0] * px + x->r0[1] * py + x->r0[2] * pz + x->r0[3];
-    float4 oy = x->r1[0] * px + x->r1[1] * py + x->r1[2] * pz + x->r1[3];
-    float4 oz = x->r2[0] * px + x->r2[1] * py + x->r2[2] * pz + x->r2[3];
-    float f[TS_DISP_MAX_OCTAVES + 1], w[TS_DISP_MAX_OCTAVES + 1];
-    uint n = displace_octaves(a);
-    f[0] = a->disp_frequency, w[0] = 1.0f;
-    for (uint o = 0; o < n; ++o) /* the scalar loop's running products */
-        f[o + 1] = f[o] * a->disp_lacunarity, w[o + 1] = w[o] * a->disp_gain;
-    float4 sum = (float4)(0.0f);
-    int ridged = a->disp_kind == TS_DISP_RIDGED;
-    for (uint o = 0; o < n; o += 2) {
-        float f1 = o + 1u < n ? f[o + 1] : f[o]; /* n odd: the last octave twice, added once */
-        float8 v = noise3_x8((float8)(ox * f[o], ox * f1), (float8)(oy * f[o], oy * f1),
-                             (float8)(oz * f[o], oz * f1));
-        sum += ridged ? w[o] * (1.0f - 2.0f * fabs(v.lo)) : w[o] * v.lo;
-        if (o + 1u < n) sum += ridged ? w[o + 1] * (1.0f - 2.0f * fabs(v.hi)) : w[o + 1] * v.hi;
-    }
-    return a->disp_amplitude * sum;
-}
-
 /* The n octaves' frequencies f[o] and weights w[o], displace_value's running products, and f
  * of the last octave again up to `lanes` (the spare lanes of a vector evaluation). */
 inline void displace_octave_steps(__global const ts_patch_attr *a, uint n, uint lanes, float *f,
@@ -113,6 +88,29 @@ inline void displace_octave_steps(__global const ts_patch_attr *a, uint n, uint 
         f[o + 1] = f[o] * a->disp_lacunarity, w[o + 1] = w[o] * a->disp_gain;
     for (uint o = n; o < lanes; ++o)
         f[o] = f[n - 1u];
+}
+
+/* displace_value at four world points (a noise function: the caller checked); two octaves
+ * at a time, one in each half of a float8, added in octave order. */
+inline float4 displace_value_x4(__global const ts_patch_attr *a, __global const ts_xform *x,
+                                float4 px, float4 py, float4 pz)
+{
+    float4 ox = x->r0[0] * px + x->r0[1] * py + x->r0[2] * pz + x->r0[3];
+    float4 oy = x->r1[0] * px + x->r1[1] * py + x->r1[2] * pz + x->r1[3];
+    float4 oz = x->r2[0] * px + x->r2[1] * py + x->r2[2] * pz + x->r2[3];
+    float f[TS_DISP_MAX_OCTAVES], w[TS_DISP_MAX_OCTAVES];
+    uint n = displace_octaves(a);
+    displace_octave_steps(a, n, n, f, w);
+    float4 sum = (float4)(0.0f);
+    int ridged = a->disp_kind == TS_DISP_RIDGED;
+    for (uint o = 0; o < n; o += 2) {
+        float f1 = o + 1u < n ? f[o + 1] : f[o]; /* n odd: the last octave twice, added once */
+        float8 v = noise3_x8((float8)(ox * f[o], ox * f1), (float8)(oy * f[o], oy * f1),
+                             (float8)(oz * f[o], oz * f1));
+        sum += ridged ? w[o] * (1.0f - 2.0f * fabs(v.lo)) : w[o] * v.lo;
+        if (o + 1u < n) sum += ridged ? w[o + 1] * (1.0f - 2.0f * fabs(v.hi)) : w[o + 1] * v.hi;
+    }
+    return a->disp_amplitude * sum;
 }
 
 /* displace_value at one world point, eight octaves at a time in the lanes of a float8 and
