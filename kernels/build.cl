@@ -9,7 +9,8 @@
  *       flatness bound E0 * 4^-m (lib/patch.h patch_flatness),
  *     displacement part: [d] x [N] per axis, [d] by interval arithmetic on the noise over
  *       the time-0 undisplaced box (lib/displace.h; its cells eight at a time in float8
- *       lanes, lib/noise4.h displace_interval_x8), [N] the box of the displacement normal
+ *       lanes, the cells of a work-item's TS_BUILD_LEAF_RUN leaves sharing them, lib/noise4.h
+ *       displace_interval_tasks), [N] the box of the displacement normal
  *       over the square (lib/displace.h displace_normal_box, with x, y, z in float4 lanes:
  *       lib/noise4.h displace_normal_box_x4).
  *   Every lane form runs the scalar operations in their order: the leaf boxes have the bits
@@ -87,13 +88,14 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                            __global const ts_vec4 *tex_pool, __global const ts_vec4 *trim_seg,
                            uint tight, __global ts_box4 *groups, __global ts_tight4 *codes)
 {
-    uint nl = 1u << (2u * m), gid = get_global_id(0);
-    uint t = gid / nl, k = gid % nl;
+    /* A work-item builds `per` consecutive leaves k0 .. k0 + per - 1 of one tree. */
+    uint nl = 1u << (2u * m), per = min(nl, (uint)TS_BUILD_LEAF_RUN), gid = get_global_id(0);
+    uint items = nl / per;
+    uint t = gid / items, k0 = (gid % items) * per;
     if (t >= tree_count) return;
     uint tree = trees[tree_first + t];
     ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
     uint time = TS_TREE_TIME(tree), n = (1u << m) + 1u, nv = n * n;
-    uint i = morton_i(k), j = morton_j(k);
     float h = ldexp(1.0f, -(int)m);
     /* The segment's shape: the patch diced (itself, or the master an instance shares). */
     __global const ts_vec4 *cn = corner_n + (size_t)seg.shape * 4u;
@@ -105,61 +107,91 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
      * culling; elsewhere the codes are 0). */
     uint coded = !tight && (seg.flags & TS_PATCH_ROUGH) != 0u;
     __global const ts_patch_attr *a = attr + seg.shape;
+    __global const ts_xform *ax = xform + a->xform;
     ts_tex_ctx tex = {textures, tex_pages, tex_pool};
-    if ((seg.flags & TS_SEG_TRIMMED) != 0u &&
-        !patch_keeps(a, trim_seg, tex, quadtree_centre(i, m), quadtree_centre(j, m))) {
-        /* trimmed or cut away: a box no ray enters */
-        ts_box e = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
-        quadtree_store(groups + at, codes + at, m, k, e, e, coded);
-        return;
-    }
-    ts_box tb = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
-    if (tight || coded) tb = leaf_clamp(tight_leaf_box(g, n, i, j), patch_box[seg.shape]);
-    if (tight) {
-        quadtree_store(groups + at, codes + at, m, k, tb, tb, 0u);
-        return;
-    }
     __global const ts_vec4 *cp0 = cp + (size_t)seg.shape * 16u;
-    ts_box b = base_box(time ? cp1 + (size_t)seg.shape * 16u : cp0, i, j, h);
     ts_vec4 e = flatness[seg.shape];
+    ts_box pbox = patch_box[seg.shape];
     float s = ldexp(1.0f, -2 * (int)m);
-    /* Flatness, plus a few ulps for the rounding of the corners. */
-    float mag = box_magnitude(b);
-    float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
-    b.lo_x -= ex, b.hi_x += ex, b.lo_y -= ey, b.hi_y += ey, b.lo_z -= ez, b.hi_z += ez;
-    if (a->disp_kind != TS_DISP_NONE) {
-        ts_interval d;
+    int noise = displace_is_noise(a);
+    /* First pass: each leaf's undisplaced box, its displacement interval queued as noise
+     * cell tasks (the leaves' cells share the lanes), or computed where it is not noise. */
+    ts_box bq[TS_BUILD_LEAF_RUN], tq[TS_BUILD_LEAF_RUN];
+    ts_interval dq[TS_BUILD_LEAF_RUN];
+    float magq[TS_BUILD_LEAF_RUN];
+    float vlo[TS_BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES],
+        vhi[TS_BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES];
+    int full[TS_BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES];
+    noise_tasks tasks;
+    tasks.n = 0u;
+    uint live = 0u;
+    for (uint q = 0; q < per; ++q) {
+        uint k = k0 + q, i = morton_i(k), j = morton_j(k);
+        if ((seg.flags & TS_SEG_TRIMMED) != 0u &&
+            !patch_keeps(a, trim_seg, tex, quadtree_centre(i, m), quadtree_centre(j, m))) {
+            /* trimmed or cut away: a box no ray enters */
+            ts_box empty = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
+            quadtree_store(groups + at, codes + at, m, k, empty, empty, coded);
+            continue;
+        }
+        ts_box tb = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+        if (tight || coded) tb = leaf_clamp(tight_leaf_box(g, n, i, j), pbox);
+        if (tight) {
+            quadtree_store(groups + at, codes + at, m, k, tb, tb, 0u);
+            continue;
+        }
+        ts_box b = base_box(time ? cp1 + (size_t)seg.shape * 16u : cp0, i, j, h);
+        /* Flatness, plus a few ulps for the rounding of the corners. */
+        float mag = box_magnitude(b);
+        float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
+        b.lo_x -= ex, b.hi_x += ex, b.lo_y -= ey, b.hi_y += ey, b.lo_z -= ez, b.hi_z += ez;
+        ts_interval d = {0.0f, 0.0f};
         if (a->disp_kind == TS_DISP_TEXTURE) {
             d = displace_texture_interval(a, tex, (float)i * h, (float)j * h, (float)(i + 1u) * h,
                                           (float)(j + 1u) * h);
-        } else {
+        } else if (a->disp_kind != TS_DISP_NONE) {
             ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
             if (time == 1u) {
                 b0 = base_box(cp0, i, j, h);
                 b0.lo_x -= ex, b0.hi_x += ex, b0.lo_y -= ey, b0.hi_y += ey, b0.lo_z -= ez,
                     b0.hi_z += ez;
             }
-            d = displace_is_noise(a) ? displace_interval_x8(a, xform + a->xform, b0.lo_x, b0.lo_y,
-                                                            b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z)
-                                     : displace_interval(a, xform + a->xform, b0.lo_x, b0.lo_y,
-                                                         b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
+            if (noise)
+                displace_interval_tasks(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z,
+                                        q * TS_DISP_MAX_OCTAVES, &tasks, vlo, vhi, full);
+            else
+                d = displace_interval(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
         }
-        /* The displacement direction over the micro-quad's whole parameter square. */
-        ts_box nb = displace_normal_box_x4(cn, mn, (float)i * h, (float)j * h, (float)(i + 1u) * h,
-                                           (float)(j + 1u) * h);
-        float2 ox = interval_mul(d.lo, d.hi, nb.lo_x, nb.hi_x);
-        float2 oy = interval_mul(d.lo, d.hi, nb.lo_y, nb.hi_y);
-        float2 oz = interval_mul(d.lo, d.hi, nb.lo_z, nb.hi_z);
-        float slack = 4e-7f * (mag + fmax(fabs(d.lo), fabs(d.hi)));
-        b.lo_x += ox.x - slack, b.hi_x += ox.y + slack;
-        b.lo_y += oy.x - slack, b.hi_y += oy.y + slack;
-        b.lo_z += oz.x - slack, b.hi_z += oz.y + slack;
+        bq[q] = b, tq[q] = tb, dq[q] = d, magq[q] = mag, live |= 1u << q;
     }
-    /* Triangle mode with these boxes (TESSERA_TIGHT_LEAVES=0): a micro-quad on an edge
-     * stitched to a coarser neighbour has vertices moved along the edge, outside its square. */
-    if ((seg.flags >> TS_SEG_EDGE_SHIFT) != 0u) b = box_union(b, tight_leaf_box(g, n, i, j));
-    b = leaf_clamp(b, patch_box[seg.shape]);
-    quadtree_store(groups + at, codes + at, m, k, b, tb, coded);
+    noise_tasks_run(&tasks, vlo, vhi);
+    /* Second pass: each leaf's box grown by its displacement, clamped and stored. */
+    for (uint q = 0; q < per; ++q) {
+        if ((live >> q & 1u) == 0u) continue;
+        uint k = k0 + q, i = morton_i(k), j = morton_j(k);
+        ts_box b = bq[q];
+        if (a->disp_kind != TS_DISP_NONE) {
+            ts_interval d = noise && a->disp_kind != TS_DISP_TEXTURE
+                                ? displace_interval_sum(a, q * TS_DISP_MAX_OCTAVES, vlo, vhi, full)
+                                : dq[q];
+            /* The displacement direction over the micro-quad's whole parameter square. */
+            ts_box nb = displace_normal_box_x4(cn, mn, (float)i * h, (float)j * h,
+                                               (float)(i + 1u) * h, (float)(j + 1u) * h);
+            float2 ox = interval_mul(d.lo, d.hi, nb.lo_x, nb.hi_x);
+            float2 oy = interval_mul(d.lo, d.hi, nb.lo_y, nb.hi_y);
+            float2 oz = interval_mul(d.lo, d.hi, nb.lo_z, nb.hi_z);
+            float slack = 4e-7f * (magq[q] + fmax(fabs(d.lo), fabs(d.hi)));
+            b.lo_x += ox.x - slack, b.hi_x += ox.y + slack;
+            b.lo_y += oy.x - slack, b.hi_y += oy.y + slack;
+            b.lo_z += oz.x - slack, b.hi_z += oz.y + slack;
+        }
+        /* Triangle mode with these boxes (TESSERA_TIGHT_LEAVES=0): a micro-quad on an edge
+         * stitched to a coarser neighbour has vertices moved along the edge, outside its
+         * square. */
+        if ((seg.flags >> TS_SEG_EDGE_SHIFT) != 0u) b = box_union(b, tight_leaf_box(g, n, i, j));
+        b = leaf_clamp(b, pbox);
+        quadtree_store(groups + at, codes + at, m, k, b, tq[q], coded);
+    }
 }
 
 __kernel void build_level(__global const uint *trees, uint tree_first, uint tree_count, uint level,

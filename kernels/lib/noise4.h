@@ -27,7 +27,8 @@ inline uint8 noise_mix8(uint8 x)
 /* The lattice and cell helpers below are always inlined: PoCL 3.1 left them as calls, their
  * float8 arrays passed through memory; inlined, forest-100's squeezed 960x384 frame spends 4%
  * less in `build` and 8% less in `dice`, the same bits (stop 62, 77a43ad). Inlining
- * displace_interval_x8 and displace_normal_box_x4 into build_leaves as well was slower. */
+ * displace_interval_x8 (now displace_interval_tasks) and displace_normal_box_x4 into
+ * build_leaves as well was slower (forced for displace_interval_tasks: no faster). */
 
 /* noise_gradient at the eight corners k (x bit 1, y bit 2, z bit 4) of the lattice cells at
  * (ix, iy, iz), lane by lane: two components are +-1, one is 0. The lattice hash of
@@ -394,18 +395,20 @@ TS_INLINE_ALWAYS void noise3_cell_interval_x8(float8 cx, float8 cy, float8 cz, f
     interval_lerp_x8(y0l, y0h, y1l, y1h, w0, w1, rlo, rhi);
 }
 
-/* The (octave, cell) tasks of displace_interval_x8 waiting for a float8 evaluation, a task a
- * lane: the cell's corner and the part of the octave's box inside it. Lanes are filled by
- * select (noise_task_add), not by scalar stores read back as vectors: a vector load of
- * eight just-stored floats waits for the stores to retire. */
+/* The (octave, cell) tasks of displace_interval's cells waiting for a float8 evaluation, a
+ * task a lane: the cell's corner, the part of the octave's box inside it, and the slot of
+ * the octave's interval it folds into (leaf q's octave o: q * TS_DISP_MAX_OCTAVES + o, so
+ * that the tasks of several leaves share the lanes). Lanes are filled by select
+ * (noise_task_add), not by scalar stores read back as vectors: a vector load of eight
+ * just-stored floats waits for the stores to retire. */
 typedef struct noise_tasks {
     float8 cx, cy, cz, lx, ly, lz, hx, hy, hz;
-    uint octave[8], n;
+    uint slot[8], n;
 } noise_tasks;
 
 /* Task n of the lanes: lane n gets (c, l, h); with n = 0 every lane does, so that spare lanes
  * repeat task 0 (evaluated, not read). */
-TS_INLINE_ALWAYS void noise_task_add(noise_tasks *t, float4 c, float4 l, float4 h, uint o)
+TS_INLINE_ALWAYS void noise_task_add(noise_tasks *t, float4 c, float4 l, float4 h, uint slot)
 {
     if (t->n == 0u) {
         t->cx = (float8)(c.x), t->cy = (float8)(c.y), t->cz = (float8)(c.z);
@@ -419,10 +422,10 @@ TS_INLINE_ALWAYS void noise_task_add(noise_tasks *t, float4 c, float4 l, float4 
         t->hx = select(t->hx, (float8)(h.x), at), t->hy = select(t->hy, (float8)(h.y), at);
         t->hz = select(t->hz, (float8)(h.z), at);
     }
-    t->octave[t->n++] = o;
+    t->slot[t->n++] = slot;
 }
 
-/* Evaluates the waiting tasks and folds each into its octave's interval in task order: the
+/* Evaluates the waiting tasks and folds each into its slot's interval in task order: the
  * scalar loop's fmin / fmax sequence. */
 TS_INLINE_ALWAYS void noise_tasks_run(noise_tasks *t, float *lo, float *hi)
 {
@@ -434,27 +437,29 @@ TS_INLINE_ALWAYS void noise_tasks_run(noise_tasks *t, float *lo, float *hi)
     vstore8(rlo, 0, rl);
     vstore8(rhi, 0, rh);
     for (uint k = 0; k < t->n; ++k) {
-        uint o = t->octave[k];
-        lo[o] = fmin(lo[o], rl[k]), hi[o] = fmax(hi[o], rh[k]);
+        uint s = t->slot[k];
+        lo[s] = fmin(lo[s], rl[k]), hi[s] = fmax(hi[s], rh[k]);
     }
     t->n = 0u;
 }
 
-/* displace_interval (lib/displace.h), the same bits, for the noise functions (the caller
- * checked): noise3_interval's cells of every octave are evaluated eight at a time, a cell per
- * lane (build.cl; each leaf's six octaves cover about a dozen cells), then folded and summed
- * in the scalar order. displace_interval stays the host's reference: test_dice_build compares
- * the built trees bit for bit. */
-inline ts_interval displace_interval_x8(__global const ts_patch_attr *a, __global const ts_xform *x,
-                                        float lx, float ly, float lz, float hx, float hy, float hz)
+/* displace_interval (lib/displace.h) in two halves, the same bits, for the noise functions
+ * (the caller checked); build.cl's leaves. This first half, over the world box [l, h]:
+ * noise3_interval's cells of every octave queued as tasks into slots base + o of lo, hi
+ * (evaluated whenever eight wait; the caller runs the rest), and full[base + o] set where the
+ * octave's box spans too many cells (the global bound). A leaf's octaves cover 4-6 cells on
+ * forest-100's bark, so one leaf alone left a third to a half of the lanes spare; build_leaves
+ * queues the cells of TS_BUILD_LEAF_RUN leaves into the same lanes (`build` 5-6% faster on
+ * forest-100's squeezed frames, the same bits). displace_interval stays the host's reference:
+ * test_dice_build and test_bottom_level compare the built trees bit for bit. */
+inline void displace_interval_tasks(__global const ts_patch_attr *a, __global const ts_xform *x,
+                                    float lx, float ly, float lz, float hx, float hy, float hz,
+                                    uint base, noise_tasks *t, float *lo, float *hi, int *full)
 {
     float olo[3], ohi[3];
     displace_object_box(x, lx, ly, lz, hx, hy, hz, olo, ohi);
-    float f = a->disp_frequency, vlo[TS_DISP_MAX_OCTAVES], vhi[TS_DISP_MAX_OCTAVES];
-    int full[TS_DISP_MAX_OCTAVES]; /* the octave's box spans too many cells: the global bound */
+    float f = a->disp_frequency;
     uint n = displace_octaves(a);
-    noise_tasks t;
-    t.n = 0u;
     /* x, y, z in lanes 0-2; lane 3 repeats z, so all() and any() test exactly x, y, z */
     float4 ol = (float4)(olo[0], olo[1], olo[2], olo[2]),
            oh = (float4)(ohi[0], ohi[1], ohi[2], ohi[2]);
@@ -462,27 +467,35 @@ inline ts_interval displace_interval_x8(__global const ts_patch_attr *a, __globa
         float4 bl = fmin(ol * f, oh * f), bh = fmax(ol * f, oh * f);
         float4 c0 = floor(bl), c1 = floor(bh);
         f *= a->disp_lacunarity;
-        full[o] = 1;
+        full[base + o] = 1;
         if (!all(c1 - c0 <= 1.0f)) continue;
         if (any(fabs(c0) > 1e6f)) continue;
-        full[o] = 0, vlo[o] = INFINITY, vhi[o] = -INFINITY;
+        full[base + o] = 0, lo[base + o] = INFINITY, hi[base + o] = -INFINITY;
         /* The cells c0 + (dx, dy, dz) <= c1 (integers, c1 - c0 in {0, 1}), x fastest. */
         int nx = c1.x > c0.x ? 2 : 1, ny = c1.y > c0.y ? 2 : 1, nz = c1.z > c0.z ? 2 : 1;
         for (int dz = 0; dz < nz; ++dz)
             for (int dy = 0; dy < ny; ++dy)
                 for (int dx = 0; dx < nx; ++dx) {
                     float4 c = c0 + (float4)((float)dx, (float)dy, (float)dz, 0.0f);
-                    noise_task_add(&t, c, fmax(bl, c), fmin(bh, c + 1.0f), o);
-                    if (t.n == 8u) noise_tasks_run(&t, vlo, vhi);
+                    noise_task_add(t, c, fmax(bl, c), fmin(bh, c + 1.0f), base + o);
+                    if (t->n == 8u) noise_tasks_run(t, lo, hi);
                 }
     }
-    noise_tasks_run(&t, vlo, vhi);
+}
+
+/* The second half: the octaves' intervals in slots base + o, widened and summed in the
+ * scalar order. */
+inline ts_interval displace_interval_sum(__global const ts_patch_attr *a, uint base,
+                                         const float *lo, const float *hi, const int *full)
+{
+    uint n = displace_octaves(a);
     float w = 1.0f;
     ts_interval sum = {0.0f, 0.0f};
     for (uint o = 0; o < n; ++o) {
         ts_interval v = {-NOISE_BOUND, NOISE_BOUND};
-        if (!full[o]) /* noise3_interval's widening for the point evaluation's rounding */
-            v.lo = fmax(vlo[o] - 1e-5f, -NOISE_BOUND), v.hi = fmin(vhi[o] + 1e-5f, NOISE_BOUND);
+        if (!full[base + o]) /* noise3_interval's widening for the point evaluation's rounding */
+            v.lo = fmax(lo[base + o] - 1e-5f, -NOISE_BOUND),
+            v.hi = fmin(hi[base + o] + 1e-5f, NOISE_BOUND);
         displace_interval_add(a, v, w, &sum);
         w *= a->disp_gain;
     }

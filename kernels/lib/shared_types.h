@@ -45,6 +45,11 @@ typedef uint8_t ts_u8;
  * work-group leaf intersection sizes its local memory by it. */
 #define TS_GROUP_SIZE 64
 
+/* Leaves a work-item of `build_leaves` builds (build.cl; fewer in a tree of fewer leaves): the
+ * noise cells of their displacement intervals share the float8 lanes. A launch over a tree
+ * run has 4^m / min(4^m, TS_BUILD_LEAF_RUN) work-items a tree. */
+#define TS_BUILD_LEAF_RUN 4u
+
 /* Vertices a work-item of `dice` evaluates (dice.cl: two, displace_value_pair's points): a
  * launch over a tree run has ceil((2^m + 1)^2 / TS_DICE_VERTICES) work-items a tree. */
 #define TS_DICE_VERTICES 2u
