@@ -78,6 +78,13 @@ inline float2 interval_mul(float lo, float hi, float a, float b)
     return (float2)(fmin(fmin(p0, p1), fmin(p2, p3)), fmax(fmax(p0, p1), fmax(p2, p3)));
 }
 
+/* Leaves a work-item of build_leaves (TS_BUILD_LEAF_RUN on CPU devices, shared_types.h). */
+#ifdef TS_CPU_LANES
+#define BUILD_LEAF_RUN TS_BUILD_LEAF_RUN
+#else
+#define BUILD_LEAF_RUN 1u
+#endif
+
 __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tree_count, uint m,
                            __global const ts_segment *segments, __global const ts_vec4 *cp,
                            __global const ts_vec4 *cp1, __global const ts_vec4 *grid,
@@ -89,7 +96,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                            uint tight, __global ts_box4 *groups, __global ts_tight4 *codes)
 {
     /* A work-item builds `per` consecutive leaves k0 .. k0 + per - 1 of one tree. */
-    uint nl = 1u << (2u * m), per = min(nl, (uint)TS_BUILD_LEAF_RUN), gid = get_global_id(0);
+    uint nl = 1u << (2u * m), per = min(nl, (uint)BUILD_LEAF_RUN), gid = get_global_id(0);
     uint items = nl / per;
     uint t = gid / items, k0 = (gid % items) * per;
     if (t >= tree_count) return;

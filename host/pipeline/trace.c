@@ -508,11 +508,12 @@ static int cull_reset_stale(ts_pipeline *p, ts_error *err)
     return TS_OK;
 }
 
-/* Work-items of build_leaves a tree at level m: TS_BUILD_LEAF_RUN leaves each. */
-static size_t build_leaf_items(uint32_t m)
+/* Work-items of build_leaves a tree at level m: TS_BUILD_LEAF_RUN leaves each on a device
+ * built with the CPU lanes, else one (build.cl BUILD_LEAF_RUN). */
+static size_t build_leaf_items(const ts_pipeline *p, uint32_t m)
 {
-    size_t leaves = (size_t)1 << (2u * m);
-    return leaves < TS_BUILD_LEAF_RUN ? 1 : leaves / TS_BUILD_LEAF_RUN;
+    size_t leaves = (size_t)1 << (2u * m), run = p->cl->cpu_lanes ? TS_BUILD_LEAF_RUN : 1u;
+    return leaves < run ? 1 : leaves / run;
 }
 
 /* Leaves per LOD run, then one launch per level over the trees deeper than it, then the
@@ -532,8 +533,8 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
                          DEV_ARG(p->patch_box), DEV_ARG(p->textures), DEV_ARG(p->tex_pages),
                          DEV_ARG(p->tex_pool), DEV_ARG(p->trim_seg), DEV_ARG(tight),
                          DEV_ARG(p->groups), DEV_ARG(p->tight), (size_t)0) ||
-            dev_launch(p->cl, p->k_build_leaves, TS_STAGE_build, (size_t)run * build_leaf_items(m),
-                       TS_LOCAL_SIZE, err))
+            dev_launch(p->cl, p->k_build_leaves, TS_STAGE_build,
+                       (size_t)run * build_leaf_items(p, m), TS_LOCAL_SIZE, err))
             return err->code;
         t += run;
     }

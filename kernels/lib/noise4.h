@@ -449,9 +449,9 @@ TS_INLINE_ALWAYS void noise_tasks_run(noise_tasks *t, float *lo, float *hi)
  * (evaluated whenever eight wait; the caller runs the rest), and full[base + o] set where the
  * octave's box spans too many cells (the global bound). A leaf's octaves cover 4-6 cells on
  * forest-100's bark, so one leaf alone left a third to a half of the lanes spare; build_leaves
- * queues the cells of TS_BUILD_LEAF_RUN leaves into the same lanes (`build` 5-6% faster on
- * forest-100's squeezed frames, the same bits). displace_interval stays the host's reference:
- * test_dice_build and test_bottom_level compare the built trees bit for bit. */
+ * on CPU devices queues the cells of TS_BUILD_LEAF_RUN leaves into the same lanes (`build` 5-6%
+ * faster on forest-100's squeezed frames, the same bits). displace_interval stays the host's
+ * reference: test_dice_build and test_bottom_level compare the built trees bit for bit. */
 inline void displace_interval_tasks(__global const ts_patch_attr *a, __global const ts_xform *x,
                                     float lx, float ly, float lz, float hx, float hy, float hz,
                                     uint base, noise_tasks *t, float *lo, float *hi, int *full)

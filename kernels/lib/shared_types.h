@@ -45,9 +45,11 @@ typedef uint8_t ts_u8;
  * work-group leaf intersection sizes its local memory by it. */
 #define TS_GROUP_SIZE 64
 
-/* Leaves a work-item of `build_leaves` builds (build.cl; fewer in a tree of fewer leaves): the
- * noise cells of their displacement intervals share the float8 lanes. A launch over a tree
- * run has 4^m / min(4^m, TS_BUILD_LEAF_RUN) work-items a tree. */
+/* Leaves a work-item of `build_leaves` builds on CPU devices (build.cl, -DTS_CPU_LANES; fewer
+ * in a tree of fewer leaves): the noise cells of their displacement intervals share the float8
+ * lanes, which are SIMD registers there. Elsewhere (GPUs, where a float8 is eight scalar
+ * operations and private arrays cost registers) one leaf. A launch over a tree run has
+ * 4^m / min(4^m, run) work-items a tree (trace.c build_leaf_items). */
 #define TS_BUILD_LEAF_RUN 4u
 
 /* Vertices a work-item of `dice` evaluates (dice.cl: two, displace_value_pair's points): a
