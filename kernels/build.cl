@@ -9,8 +9,8 @@
  *       flatness bound E0 * 4^-m (lib/patch.h patch_flatness),
  *     displacement part: [d] x [N] per axis, [d] by interval arithmetic on the noise over
  *       the time-0 undisplaced box (lib/displace.h; its cells eight at a time in float8
- *       lanes, the cells of a work-item's TS_BUILD_LEAF_RUN leaves sharing them, lib/noise4.h
- *       displace_interval_tasks), [N] the box of the displacement normal
+ *       lanes, on CPU devices the cells of a work-item's TS_BUILD_LEAF_RUN leaves sharing
+ *       them, lib/noise4.h displace_interval_tasks), [N] the box of the displacement normal
  *       over the square (lib/displace.h displace_normal_box, with x, y, z in float4 lanes:
  *       lib/noise4.h displace_normal_box_x4).
  *   Every lane form runs the scalar operations in their order: the leaf boxes have the bits
@@ -123,12 +123,11 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     int noise = displace_is_noise(a);
     /* First pass: each leaf's undisplaced box, its displacement interval queued as noise
      * cell tasks (the leaves' cells share the lanes), or computed where it is not noise. */
-    ts_box bq[TS_BUILD_LEAF_RUN], tq[TS_BUILD_LEAF_RUN];
-    ts_interval dq[TS_BUILD_LEAF_RUN];
-    float magq[TS_BUILD_LEAF_RUN];
-    float vlo[TS_BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES],
-        vhi[TS_BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES];
-    int full[TS_BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES];
+    ts_box bq[BUILD_LEAF_RUN], tq[BUILD_LEAF_RUN];
+    ts_interval dq[BUILD_LEAF_RUN];
+    float magq[BUILD_LEAF_RUN];
+    float vlo[BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES], vhi[BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES];
+    int full[BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES];
     noise_tasks tasks;
     tasks.n = 0u;
     uint live = 0u;
@@ -178,9 +177,8 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         uint k = k0 + q, i = morton_i(k), j = morton_j(k);
         ts_box b = bq[q];
         if (a->disp_kind != TS_DISP_NONE) {
-            ts_interval d = noise && a->disp_kind != TS_DISP_TEXTURE
-                                ? displace_interval_sum(a, q * TS_DISP_MAX_OCTAVES, vlo, vhi, full)
-                                : dq[q];
+            ts_interval d =
+                noise ? displace_interval_sum(a, q * TS_DISP_MAX_OCTAVES, vlo, vhi, full) : dq[q];
             /* The displacement direction over the micro-quad's whole parameter square. */
             ts_box nb = displace_normal_box_x4(cn, mn, (float)i * h, (float)j * h,
                                                (float)(i + 1u) * h, (float)(j + 1u) * h);
