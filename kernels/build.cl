@@ -121,6 +121,10 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     ts_box pbox = patch_box[seg.shape];
     float s = ldexp(1.0f, -2 * (int)m);
     int noise = displace_is_noise(a);
+    /* the octaves' frequencies and weights, once for the work-item's leaves */
+    float freq[TS_DISP_MAX_OCTAVES], weight[TS_DISP_MAX_OCTAVES];
+    uint octaves = displace_octaves(a);
+    if (noise) displace_octave_steps(a, octaves, octaves, freq, weight);
     /* First pass: each leaf's undisplaced box, its displacement interval queued as noise
      * cell tasks (the leaves' cells share the lanes), or computed where it is not noise. */
     ts_box bq[BUILD_LEAF_RUN], tq[BUILD_LEAF_RUN];
@@ -164,7 +168,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
             }
             if (noise)
                 displace_interval_tasks(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z,
-                                        q * TS_DISP_MAX_OCTAVES, &tasks, vlo, vhi, full);
+                                        freq, q * TS_DISP_MAX_OCTAVES, &tasks, vlo, vhi, full);
             else
                 d = displace_interval(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
         }
@@ -178,7 +182,8 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         ts_box b = bq[q];
         if (a->disp_kind != TS_DISP_NONE) {
             ts_interval d =
-                noise ? displace_interval_sum(a, q * TS_DISP_MAX_OCTAVES, vlo, vhi, full) : dq[q];
+                noise ? displace_interval_sum(a, weight, q * TS_DISP_MAX_OCTAVES, vlo, vhi, full)
+                      : dq[q];
             /* The displacement direction over the micro-quad's whole parameter square. */
             ts_box nb = displace_normal_box_x4(cn, mn, (float)i * h, (float)j * h,
                                                (float)(i + 1u) * h, (float)(j + 1u) * h);

@@ -48,14 +48,8 @@ for scene in teapot lama squeezed; do
             { echo "check_rusticl: $scene failed on device $d"; exit 1; }
     done
     if [ "$scene" = squeezed ]; then # still the regime it is here for, on both devices
-        python3 - "$work/$scene-$pocl_dev.json" "$work/$scene-$rc_dev.json" <<'EOF' || exit 1
-import json, sys
-for f in sys.argv[1:]:
-    c = json.load(open(f))["counters"]
-    if not (c["patch_cache_evictions"] > 0 and 0 < c["grids_skipped"] < c["patches_diced"]):
-        sys.exit(f"check_rusticl: the squeezed teapot fits ({f}: {c['patch_cache_evictions']} "
-                 f"evictions, {c['grids_skipped']} of {c['patches_diced']} without vertices)")
-EOF
+        python3 "$src/tools/check_squeezed.py" "$work/$scene-$pocl_dev.json" \
+            "$work/$scene-$rc_dev.json" || exit 1
     fi
     python3 - "$src/tools/bench_cycles.py" "$work/$scene-$pocl_dev.png" "$work/$scene-$rc_dev.png" \
         "$scene" <<'EOF' || exit 1

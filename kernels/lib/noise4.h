@@ -444,7 +444,9 @@ TS_INLINE_ALWAYS void noise_tasks_run(noise_tasks *t, float *lo, float *hi)
 }
 
 /* displace_interval (lib/displace.h) in two halves, the same bits, for the noise functions
- * (the caller checked); build.cl's leaves. This first half, over the world box [l, h]:
+ * (the caller checked); build.cl's leaves, whose work-item takes the octaves' frequencies f
+ * and weights w from displace_octave_steps once for all its leaves (the scalar loop's running
+ * products). This first half, over the world box [l, h]:
  * noise3_interval's cells of every octave queued as tasks into slots base + o of lo, hi
  * (evaluated whenever eight wait; the caller runs the rest), and full[base + o] set where the
  * octave's box spans too many cells (the global bound). A leaf's octaves cover 4-6 cells on
@@ -454,19 +456,18 @@ TS_INLINE_ALWAYS void noise_tasks_run(noise_tasks *t, float *lo, float *hi)
  * reference: test_dice_build and test_bottom_level compare the built trees bit for bit. */
 inline void displace_interval_tasks(__global const ts_patch_attr *a, __global const ts_xform *x,
                                     float lx, float ly, float lz, float hx, float hy, float hz,
-                                    uint base, noise_tasks *t, float *lo, float *hi, int *full)
+                                    const float *f, uint base, noise_tasks *t, float *lo, float *hi,
+                                    int *full)
 {
     float olo[3], ohi[3];
     displace_object_box(x, lx, ly, lz, hx, hy, hz, olo, ohi);
-    float f = a->disp_frequency;
     uint n = displace_octaves(a);
     /* x, y, z in lanes 0-2; lane 3 repeats z, so all() and any() test exactly x, y, z */
     float4 ol = (float4)(olo[0], olo[1], olo[2], olo[2]),
            oh = (float4)(ohi[0], ohi[1], ohi[2], ohi[2]);
     for (uint o = 0; o < n; ++o) { /* noise3_interval's cells, as tasks */
-        float4 bl = fmin(ol * f, oh * f), bh = fmax(ol * f, oh * f);
+        float4 bl = fmin(ol * f[o], oh * f[o]), bh = fmax(ol * f[o], oh * f[o]);
         float4 c0 = floor(bl), c1 = floor(bh);
-        f *= a->disp_lacunarity;
         full[base + o] = 1;
         if (!all(c1 - c0 <= 1.0f)) continue;
         if (any(fabs(c0) > 1e6f)) continue;
@@ -485,19 +486,17 @@ inline void displace_interval_tasks(__global const ts_patch_attr *a, __global co
 
 /* The second half: the octaves' intervals in slots base + o, widened and summed in the
  * scalar order. */
-inline ts_interval displace_interval_sum(__global const ts_patch_attr *a, uint base,
+inline ts_interval displace_interval_sum(__global const ts_patch_attr *a, const float *w, uint base,
                                          const float *lo, const float *hi, const int *full)
 {
     uint n = displace_octaves(a);
-    float w = 1.0f;
     ts_interval sum = {0.0f, 0.0f};
     for (uint o = 0; o < n; ++o) {
         ts_interval v = {-NOISE_BOUND, NOISE_BOUND};
         if (!full[base + o]) /* noise3_interval's widening for the point evaluation's rounding */
             v.lo = fmax(lo[base + o] - 1e-5f, -NOISE_BOUND),
             v.hi = fmin(hi[base + o] + 1e-5f, NOISE_BOUND);
-        displace_interval_add(a, v, w, &sum);
-        w *= a->disp_gain;
+        displace_interval_add(a, v, w[o], &sum);
     }
     return displace_interval_end(a, sum, n);
 }
