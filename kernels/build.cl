@@ -78,6 +78,74 @@ inline float2 interval_mul(float lo, float hi, float a, float b)
     return (float2)(fmin(fmin(p0, p1), fmin(p2, p3)), fmax(fmax(p0, p1), fmax(p2, p3)));
 }
 
+/* Starts leaf k = (i, j) of a tree at m: a micro-quad trimmed or cut away gets a box no ray
+ * enters, a leaf in triangle mode (tight) the box of its diced vertices, both stored (returns
+ * 0); any other gets *b, the box of its undisplaced corners on cp (the tree's time sample)
+ * grown by the flatness e * s and a few ulps for the corners' rounding, *mag their magnitude,
+ * *b0 the same box at time 0 (cp0: where the noise is evaluated), *tb its tight box (0 unless
+ * coded), and returns 1. */
+TS_INLINE_ALWAYS int leaf_begin(__global const ts_patch_attr *a, __global const ts_vec4 *trim_seg,
+                                ts_tex_ctx tex, __global const ts_vec4 *cp0,
+                                __global const ts_vec4 *cp, ts_vec4 e, float s,
+                                __global const ts_vec4 *g, uint n, uint i, uint j, uint m, float h,
+                                uint seg_flags, uint tight, uint coded, ts_box pbox,
+                                __global ts_box4 *groups, __global ts_tight4 *codes, uint k,
+                                ts_box *b, ts_box *b0, ts_box *tb, float *mag)
+{
+    if ((seg_flags & TS_SEG_TRIMMED) != 0u &&
+        !patch_keeps(a, trim_seg, tex, quadtree_centre(i, m), quadtree_centre(j, m))) {
+        ts_box empty = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
+        quadtree_store(groups, codes, m, k, empty, empty, coded);
+        return 0;
+    }
+    ts_box zero = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+    *tb = tight || coded ? leaf_clamp(tight_leaf_box(g, n, i, j), pbox) : zero;
+    if (tight) {
+        quadtree_store(groups, codes, m, k, *tb, *tb, 0u);
+        return 0;
+    }
+    *b = base_box(cp, i, j, h);
+    *mag = box_magnitude(*b);
+    float ex = e.x * s + 4e-7f * *mag, ey = e.y * s + 4e-7f * *mag, ez = e.z * s + 4e-7f * *mag;
+    b->lo_x -= ex, b->hi_x += ex, b->lo_y -= ey, b->hi_y += ey, b->lo_z -= ez, b->hi_z += ez;
+    *b0 = *b;
+    if (cp != cp0 && a->disp_kind != TS_DISP_NONE && a->disp_kind != TS_DISP_TEXTURE) {
+        *b0 = base_box(cp0, i, j, h);
+        b0->lo_x -= ex, b0->hi_x += ex, b0->lo_y -= ey, b0->hi_y += ey, b0->lo_z -= ez,
+            b0->hi_z += ez;
+    }
+    return 1;
+}
+
+/* Finishes leaf k = (i, j) of a tree at m from b, the box of its undisplaced corners grown by
+ * the flatness (mag: their magnitude): where displaced, grown by the displacement interval d
+ * times the box of the displacement normal over the micro-quad's whole parameter square;
+ * with a stitched edge, by the box of its diced vertices; clamped to the patch box and
+ * stored with its tight box tb. */
+TS_INLINE_ALWAYS void leaf_finish(ts_box b, float mag, ts_interval d, uint displaced,
+                                  __global const ts_vec4 *cn, __global const ts_vec4 *mn,
+                                  __global const ts_vec4 *g, uint n, uint i, uint j, float h,
+                                  uint seg_flags, ts_box pbox, __global ts_box4 *groups,
+                                  __global ts_tight4 *codes, uint m, uint k, ts_box tb, uint coded)
+{
+    if (displaced) {
+        ts_box nb = displace_normal_box_x4(cn, mn, (float)i * h, (float)j * h, (float)(i + 1u) * h,
+                                           (float)(j + 1u) * h);
+        float2 ox = interval_mul(d.lo, d.hi, nb.lo_x, nb.hi_x);
+        float2 oy = interval_mul(d.lo, d.hi, nb.lo_y, nb.hi_y);
+        float2 oz = interval_mul(d.lo, d.hi, nb.lo_z, nb.hi_z);
+        float slack = 4e-7f * (mag + fmax(fabs(d.lo), fabs(d.hi)));
+        b.lo_x += ox.x - slack, b.hi_x += ox.y + slack;
+        b.lo_y += oy.x - slack, b.hi_y += oy.y + slack;
+        b.lo_z += oz.x - slack, b.hi_z += oz.y + slack;
+    }
+    /* Triangle mode with these boxes (TESSERA_TIGHT_LEAVES=0): a micro-quad on an edge
+     * stitched to a coarser neighbour has vertices moved along the edge, outside its square. */
+    if ((seg_flags >> TS_SEG_EDGE_SHIFT) != 0u) b = box_union(b, tight_leaf_box(g, n, i, j));
+    b = leaf_clamp(b, pbox);
+    quadtree_store(groups, codes, m, k, b, tb, coded);
+}
+
 /* Leaves a work-item of build_leaves (TS_BUILD_LEAF_RUN on CPU devices, shared_types.h). */
 #ifdef TS_CPU_LANES
 #define BUILD_LEAF_RUN TS_BUILD_LEAF_RUN
@@ -121,86 +189,58 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     ts_box pbox = patch_box[seg.shape];
     float s = ldexp(1.0f, -2 * (int)m);
     int noise = displace_is_noise(a);
-    /* the octaves' frequencies and weights, once for the work-item's leaves */
-    float freq[TS_DISP_MAX_OCTAVES], weight[TS_DISP_MAX_OCTAVES];
+    if (!noise) { /* each leaf at once */
+        for (uint q = 0; q < per; ++q) {
+            uint k = k0 + q, i = morton_i(k), j = morton_j(k);
+            ts_box b, b0, tb;
+            float mag;
+            if (!leaf_begin(a, trim_seg, tex, cp0, time ? cp1 + (size_t)seg.shape * 16u : cp0, e, s,
+                            g, n, i, j, m, h, seg.flags, tight, coded, pbox, groups + at,
+                            codes + at, k, &b, &b0, &tb, &mag))
+                continue;
+            ts_interval d = {0.0f, 0.0f};
+            if (a->disp_kind == TS_DISP_TEXTURE)
+                d = displace_texture_interval(a, tex, (float)i * h, (float)j * h,
+                                              (float)(i + 1u) * h, (float)(j + 1u) * h);
+            else if (a->disp_kind != TS_DISP_NONE)
+                d = displace_interval(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
+            leaf_finish(b, mag, d, a->disp_kind != TS_DISP_NONE, cn, mn, g, n, i, j, h, seg.flags,
+                        pbox, groups + at, codes + at, m, k, tb, coded);
+        }
+        return;
+    }
+    /* Noise: each leaf's interval queued as cell tasks (the leaves' cells share the lanes),
+     * then the leaves finished once the tasks have run. */
+    float freq[TS_DISP_MAX_OCTAVES], weight[TS_DISP_MAX_OCTAVES]; /* once for the leaves */
     uint octaves = displace_octaves(a);
-    if (noise) displace_octave_steps(a, octaves, octaves, freq, weight);
-    /* First pass: each leaf's undisplaced box, its displacement interval queued as noise
-     * cell tasks (the leaves' cells share the lanes), or computed where it is not noise. */
+    displace_octave_steps(a, octaves, octaves, freq, weight);
     ts_box bq[BUILD_LEAF_RUN], tq[BUILD_LEAF_RUN];
-    ts_interval dq[BUILD_LEAF_RUN];
     float magq[BUILD_LEAF_RUN];
     float vlo[BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES], vhi[BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES];
     int full[BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES];
     noise_tasks tasks;
     tasks.n = 0u;
-    uint live = 0u;
+    uint queued = 0u;
     for (uint q = 0; q < per; ++q) {
         uint k = k0 + q, i = morton_i(k), j = morton_j(k);
-        if ((seg.flags & TS_SEG_TRIMMED) != 0u &&
-            !patch_keeps(a, trim_seg, tex, quadtree_centre(i, m), quadtree_centre(j, m))) {
-            /* trimmed or cut away: a box no ray enters */
-            ts_box empty = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
-            quadtree_store(groups + at, codes + at, m, k, empty, empty, coded);
+        ts_box b, b0, tb;
+        float mag;
+        if (!leaf_begin(a, trim_seg, tex, cp0, time ? cp1 + (size_t)seg.shape * 16u : cp0, e, s, g,
+                        n, i, j, m, h, seg.flags, tight, coded, pbox, groups + at, codes + at, k,
+                        &b, &b0, &tb, &mag))
             continue;
-        }
-        ts_box tb = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
-        if (tight || coded) tb = leaf_clamp(tight_leaf_box(g, n, i, j), pbox);
-        if (tight) {
-            quadtree_store(groups + at, codes + at, m, k, tb, tb, 0u);
-            continue;
-        }
-        ts_box b = base_box(time ? cp1 + (size_t)seg.shape * 16u : cp0, i, j, h);
-        /* Flatness, plus a few ulps for the rounding of the corners. */
-        float mag = box_magnitude(b);
-        float ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
-        b.lo_x -= ex, b.hi_x += ex, b.lo_y -= ey, b.hi_y += ey, b.lo_z -= ez, b.hi_z += ez;
-        ts_interval d = {0.0f, 0.0f};
-        if (a->disp_kind == TS_DISP_TEXTURE) {
-            d = displace_texture_interval(a, tex, (float)i * h, (float)j * h, (float)(i + 1u) * h,
-                                          (float)(j + 1u) * h);
-        } else if (a->disp_kind != TS_DISP_NONE) {
-            ts_box b0 = b; /* the noise is evaluated on the time-0 undisplaced surface */
-            if (time == 1u) {
-                b0 = base_box(cp0, i, j, h);
-                b0.lo_x -= ex, b0.hi_x += ex, b0.lo_y -= ey, b0.hi_y += ey, b0.lo_z -= ez,
-                    b0.hi_z += ez;
-            }
-            if (noise)
-                displace_interval_tasks(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z,
-                                        freq, q * TS_DISP_MAX_OCTAVES, &tasks, vlo, vhi, full);
-            else
-                d = displace_interval(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
-        }
-        bq[q] = b, tq[q] = tb, dq[q] = d, magq[q] = mag, live |= 1u << q;
+        displace_interval_tasks(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z, freq,
+                                q * TS_DISP_MAX_OCTAVES, &tasks, vlo, vhi, full);
+        bq[q] = b, tq[q] = tb, magq[q] = mag, queued |= 1u << q;
     }
+    if (queued == 0u) return;
     noise_tasks_run(&tasks, vlo, vhi);
-    /* Second pass: each leaf's box grown by its displacement, clamped and stored. */
     for (uint q = 0; q < per; ++q) {
-        if ((live >> q & 1u) == 0u) continue;
-        uint k = k0 + q, i = morton_i(k), j = morton_j(k);
-        ts_box b = bq[q];
-        if (a->disp_kind != TS_DISP_NONE) {
-            ts_interval d =
-                noise ? displace_interval_sum(a, weight, q * TS_DISP_MAX_OCTAVES, vlo, vhi, full)
-                      : dq[q];
-            /* The displacement direction over the micro-quad's whole parameter square. */
-            ts_box nb = displace_normal_box_x4(cn, mn, (float)i * h, (float)j * h,
-                                               (float)(i + 1u) * h, (float)(j + 1u) * h);
-            float2 ox = interval_mul(d.lo, d.hi, nb.lo_x, nb.hi_x);
-            float2 oy = interval_mul(d.lo, d.hi, nb.lo_y, nb.hi_y);
-            float2 oz = interval_mul(d.lo, d.hi, nb.lo_z, nb.hi_z);
-            float slack = 4e-7f * (magq[q] + fmax(fabs(d.lo), fabs(d.hi)));
-            b.lo_x += ox.x - slack, b.hi_x += ox.y + slack;
-            b.lo_y += oy.x - slack, b.hi_y += oy.y + slack;
-            b.lo_z += oz.x - slack, b.hi_z += oz.y + slack;
-        }
-        /* Triangle mode with these boxes (TESSERA_TIGHT_LEAVES=0): a micro-quad on an edge
-         * stitched to a coarser neighbour has vertices moved along the edge, outside its
-         * square. */
-        if ((seg.flags >> TS_SEG_EDGE_SHIFT) != 0u) b = box_union(b, tight_leaf_box(g, n, i, j));
-        b = leaf_clamp(b, pbox);
-        quadtree_store(groups + at, codes + at, m, k, b, tq[q], coded);
+        if ((queued >> q & 1u) == 0u) continue;
+        uint k = k0 + q;
+        ts_interval d = displace_interval_sum(a, weight, q * TS_DISP_MAX_OCTAVES, vlo, vhi, full);
+        leaf_finish(bq[q], magq[q], d, 1u, cn, mn, g, n, morton_i(k), morton_j(k), h, seg.flags,
+                    pbox, groups + at, codes + at, m, k, tq[q], coded);
     }
 }
 
