@@ -5,7 +5,8 @@
  *   four vertices, so coarse leaves span every finer tessellation and patches diced at
  *   different m stay hole-free when boxes are the geometry (§3.3):
  *     undisplaced part: box of the four undisplaced corners (the Bézier patch of the time
- *       sample at the corners, a corner per lane: lib/noise4.h bezier_eval_x4) grown by the
+ *       sample at the corners, a corner per lane: lib/noise4.h bezier_eval_x4; on CPU devices
+ *       the 2 x 2 leaves of a work-item from their 9 corners, block_base_boxes) grown by the
  *       flatness bound E0 * 4^-m (lib/patch.h patch_flatness),
  *     displacement part: [d] x [N] per axis, [d] by interval arithmetic on the noise over
  *       the time-0 undisplaced box (lib/displace.h; its cells eight at a time in float8
@@ -45,6 +46,15 @@
  * four corners, a corner per lane (bezier_eval_x4: bezier_eval's bits), folded corner by
  * corner with x, y, z in lanes as the host's base_box (host/ref/dice_build_ref.c) adds them:
  * the same bits, and no read of the diced grid. */
+/* The box of four corners (x, y, z, 0), folded in base_box's order. */
+TS_INLINE_ALWAYS ts_box corner_fold(float4 q0, float4 q1, float4 q2, float4 q3)
+{
+    float4 lo = fmin(fmin(fmin(fmin((float4)(INFINITY), q0), q1), q2), q3);
+    float4 hi = fmax(fmax(fmax(fmax((float4)(-INFINITY), q0), q1), q2), q3);
+    ts_box b = {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z};
+    return b;
+}
+
 inline ts_box base_box(__global const ts_vec4 *cp, uint i, uint j, float h)
 {
     float4 cu = (float4)((float)i * h, (float)(i + 1u) * h, (float)i * h, (float)(i + 1u) * h);
@@ -53,11 +63,51 @@ inline ts_box base_box(__global const ts_vec4 *cp, uint i, uint j, float h)
     bezier_eval_x4(cp, cu, cv, &x, &y, &z);
     float4 q0 = (float4)(x.s0, y.s0, z.s0, 0.0f), q1 = (float4)(x.s1, y.s1, z.s1, 0.0f),
            q2 = (float4)(x.s2, y.s2, z.s2, 0.0f), q3 = (float4)(x.s3, y.s3, z.s3, 0.0f);
-    float4 lo = fmin(fmin(fmin(fmin((float4)(INFINITY), q0), q1), q2), q3);
-    float4 hi = fmax(fmax(fmax(fmax((float4)(-INFINITY), q0), q1), q2), q3);
-    ts_box b = {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z};
-    return b;
+    return corner_fold(q0, q1, q2, q3);
 }
+
+#ifdef TS_CPU_LANES
+/* base_box of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)), q = 0..3, into b[q]: their 9
+ * corners, bezier_eval_x4's operations per point in their order (the same bits), with the
+ * u-rows shared: the 12 row sums of bezier_eval at the three u in lanes, then the sums over
+ * v at each of the three v. A third of the operations of four base_box calls. */
+inline void block_base_boxes(__global const ts_vec4 *cp, uint i0, uint j0, float h, ts_box b[4])
+{
+    float4 cu =
+        (float4)((float)i0 * h, (float)(i0 + 1u) * h, (float)(i0 + 2u) * h, (float)(i0 + 2u) * h);
+    float4 cv =
+        (float4)((float)j0 * h, (float)(j0 + 1u) * h, (float)(j0 + 2u) * h, (float)(j0 + 2u) * h);
+    float4 bu[4], bv[4], rx[4], ry[4], rz[4];
+    bezier_basis_x4(cu, bu);
+    bezier_basis_x4(cv, bv);
+    for (int j = 0; j < 4; ++j) {
+        __global const ts_vec4 *c = cp + j * 4;
+        rx[j] = bezier_sum4_x4(bu, c[0].x, c[1].x, c[2].x, c[3].x);
+        ry[j] = bezier_sum4_x4(bu, c[0].y, c[1].y, c[2].y, c[3].y);
+        rz[j] = bezier_sum4_x4(bu, c[0].z, c[1].z, c[2].z, c[3].z);
+    }
+    float4 p[3][3]; /* p[v][u]: the corner (x, y, z, 0) at u = cu[u], v = cv[v] */
+#define BLOCK_ROW(v, sv)                                                                           \
+    {                                                                                              \
+        float4 w[4] = {(float4)(bv[0].sv), (float4)(bv[1].sv), (float4)(bv[2].sv),                 \
+                       (float4)(bv[3].sv)};                                                        \
+        float4 x = bezier_sum4_v4(w, rx[0], rx[1], rx[2], rx[3]);                                  \
+        float4 y = bezier_sum4_v4(w, ry[0], ry[1], ry[2], ry[3]);                                  \
+        float4 z = bezier_sum4_v4(w, rz[0], rz[1], rz[2], rz[3]);                                  \
+        p[v][0] = (float4)(x.s0, y.s0, z.s0, 0.0f);                                                \
+        p[v][1] = (float4)(x.s1, y.s1, z.s1, 0.0f);                                                \
+        p[v][2] = (float4)(x.s2, y.s2, z.s2, 0.0f);                                                \
+    }
+    BLOCK_ROW(0, s0)
+    BLOCK_ROW(1, s1)
+    BLOCK_ROW(2, s2)
+#undef BLOCK_ROW
+    for (uint q = 0; q < 4u; ++q) {
+        uint a = q & 1u, c = q >> 1;
+        b[q] = corner_fold(p[c][a], p[c][a + 1u], p[c + 1u][a], p[c + 1u][a + 1u]);
+    }
+}
+#endif
 
 /* A leaf box clamped to the patch's top-level box (scene_patch_box: the control hull of
  * both time samples grown by the displacement bound and a few ulps). Both contain the
@@ -83,14 +133,16 @@ inline float2 interval_mul(float lo, float hi, float a, float b)
  * 0); any other gets *b, the box of its undisplaced corners on cp (the tree's time sample)
  * grown by the flatness e * s and a few ulps for the corners' rounding, *mag their magnitude,
  * *b0 the same box at time 0 (cp0: where the noise is evaluated), *tb its tight box (0 unless
- * coded), and returns 1. */
+ * coded), and returns 1. The corners' boxes on cp and cp0 come from pre and pre0 where the caller
+ * made them (block_base_boxes), else from base_box. */
 TS_INLINE_ALWAYS int leaf_begin(__global const ts_patch_attr *a, __global const ts_vec4 *trim_seg,
                                 ts_tex_ctx tex, __global const ts_vec4 *cp0,
                                 __global const ts_vec4 *cp, ts_vec4 e, float s,
                                 __global const ts_vec4 *g, uint n, uint i, uint j, uint m, float h,
                                 uint seg_flags, uint tight, uint coded, ts_box pbox,
                                 __global ts_box4 *groups, __global ts_tight4 *codes, uint k,
-                                ts_box *b, ts_box *b0, ts_box *tb, float *mag)
+                                const ts_box *pre, const ts_box *pre0, ts_box *b, ts_box *b0,
+                                ts_box *tb, float *mag)
 {
     if ((seg_flags & TS_SEG_TRIMMED) != 0u &&
         !patch_keeps(a, trim_seg, tex, quadtree_centre(i, m), quadtree_centre(j, m))) {
@@ -104,13 +156,13 @@ TS_INLINE_ALWAYS int leaf_begin(__global const ts_patch_attr *a, __global const 
         quadtree_store(groups, codes, m, k, *tb, *tb, 0u);
         return 0;
     }
-    *b = base_box(cp, i, j, h);
+    *b = pre ? *pre : base_box(cp, i, j, h);
     *mag = box_magnitude(*b);
     float ex = e.x * s + 4e-7f * *mag, ey = e.y * s + 4e-7f * *mag, ez = e.z * s + 4e-7f * *mag;
     b->lo_x -= ex, b->hi_x += ex, b->lo_y -= ey, b->hi_y += ey, b->lo_z -= ez, b->hi_z += ez;
     *b0 = *b;
     if (cp != cp0 && a->disp_kind != TS_DISP_NONE && a->disp_kind != TS_DISP_TEXTURE) {
-        *b0 = base_box(cp0, i, j, h);
+        *b0 = pre0 ? *pre0 : base_box(cp0, i, j, h);
         b0->lo_x -= ex, b0->hi_x += ex, b0->lo_y -= ey, b0->hi_y += ey, b0->lo_z -= ez,
             b0->hi_z += ez;
     }
@@ -189,14 +241,28 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     ts_box pbox = patch_box[seg.shape];
     float s = ldexp(1.0f, -2 * (int)m);
     int noise = displace_is_noise(a);
+    __global const ts_vec4 *cpt = time ? cp1 + (size_t)seg.shape * 16u : cp0;
+    /* The corners' boxes of a 2 x 2 block of leaves at once (a third of the Bézier points' work),
+     * on the tree's time sample and, where the noise is evaluated at time 0, on cp0. */
+    const ts_box *pre = NULL, *pre0 = NULL;
+#ifdef TS_CPU_LANES
+    ts_box blk[4], blk0[4];
+    if (per == 4u && !tight) {
+        uint i0 = morton_i(k0), j0 = morton_j(k0);
+        block_base_boxes(cpt, i0, j0, h, blk);
+        pre = blk;
+        if (cpt != cp0 && a->disp_kind != TS_DISP_NONE && a->disp_kind != TS_DISP_TEXTURE)
+            block_base_boxes(cp0, i0, j0, h, blk0), pre0 = blk0;
+    }
+#endif
     if (!noise) { /* each leaf at once */
         for (uint q = 0; q < per; ++q) {
             uint k = k0 + q, i = morton_i(k), j = morton_j(k);
             ts_box b, b0, tb;
             float mag;
-            if (!leaf_begin(a, trim_seg, tex, cp0, time ? cp1 + (size_t)seg.shape * 16u : cp0, e, s,
-                            g, n, i, j, m, h, seg.flags, tight, coded, pbox, groups + at,
-                            codes + at, k, &b, &b0, &tb, &mag))
+            if (!leaf_begin(a, trim_seg, tex, cp0, cpt, e, s, g, n, i, j, m, h, seg.flags, tight,
+                            coded, pbox, groups + at, codes + at, k, pre ? pre + q : NULL,
+                            pre0 ? pre0 + q : NULL, &b, &b0, &tb, &mag))
                 continue;
             ts_interval d = {0.0f, 0.0f};
             if (a->disp_kind == TS_DISP_TEXTURE)
@@ -225,9 +291,9 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         uint k = k0 + q, i = morton_i(k), j = morton_j(k);
         ts_box b, b0, tb;
         float mag;
-        if (!leaf_begin(a, trim_seg, tex, cp0, time ? cp1 + (size_t)seg.shape * 16u : cp0, e, s, g,
-                        n, i, j, m, h, seg.flags, tight, coded, pbox, groups + at, codes + at, k,
-                        &b, &b0, &tb, &mag))
+        if (!leaf_begin(a, trim_seg, tex, cp0, cpt, e, s, g, n, i, j, m, h, seg.flags, tight, coded,
+                        pbox, groups + at, codes + at, k, pre ? pre + q : NULL,
+                        pre0 ? pre0 + q : NULL, &b, &b0, &tb, &mag))
             continue;
         displace_interval_tasks(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z, freq,
                                 q * TS_DISP_MAX_OCTAVES, &tasks, vlo, vhi, full);
