@@ -13,7 +13,8 @@
  *       lanes, on CPU devices the cells of a work-item's TS_BUILD_LEAF_RUN leaves sharing
  *       them, lib/noise4.h displace_interval_tasks), [N] the box of the displacement normal
  *       over the square (lib/displace.h displace_normal_box, with x, y, z in float4 lanes:
- *       lib/noise4.h displace_normal_box_x4).
+ *       lib/noise4.h displace_normal_box_x4; on CPU devices the 2 x 2 leaves of a work-item
+ *       together, a leaf per lane, block_normal_boxes).
  *   Every lane form runs the scalar operations in their order: the leaf boxes have the bits
  *   of the plain-C reference (host/ref/dice_build_ref.c; tests/test_bottom_level.c compares
  *   the trees, tests/test_dice_build.c the normal boxes through build_normal_box_probe).
@@ -107,6 +108,76 @@ inline void block_base_boxes(__global const ts_vec4 *cp, uint i0, uint j0, float
         b[q] = corner_fold(p[c][a], p[c][a + 1u], p[c + 1u][a], p[c + 1u][a + 1u]);
     }
 }
+
+/* displace_normal_box_x4 of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)), q = 0..3, into
+ * b[q], the same bits: the rows restricted to the block's two u-intervals (x, y, z in lanes,
+ * displace_quad_restrict_x4), then the columns, the box and its normalisation with the four
+ * leaves in the lanes of a float4 per component, each lane displace_normal_box's operations in
+ * their order. */
+inline void block_normal_boxes(__global const ts_vec4 *n, __global const ts_vec4 *mid, uint i0,
+                               uint j0, float h, ts_box b[4])
+{
+    float u0 = (float)i0 * h, u1 = (float)(i0 + 1u) * h, u2 = (float)(i0 + 2u) * h;
+    float4 ra[3][3], rb[3][3]; /* rows restricted to [u0, u1] (leaves 0, 2), [u1, u2] (1, 3) */
+    displace_quad_restrict_x4(vec4_lanes(n + 0), vec4_lanes(mid + 0), vec4_lanes(n + 1), u0, u1,
+                              ra[0]);
+    displace_quad_restrict_x4(vec4_lanes(mid + 1), vec4_lanes(mid + 4), vec4_lanes(mid + 2), u0, u1,
+                              ra[1]);
+    displace_quad_restrict_x4(vec4_lanes(n + 2), vec4_lanes(mid + 3), vec4_lanes(n + 3), u0, u1,
+                              ra[2]);
+    displace_quad_restrict_x4(vec4_lanes(n + 0), vec4_lanes(mid + 0), vec4_lanes(n + 1), u1, u2,
+                              rb[0]);
+    displace_quad_restrict_x4(vec4_lanes(mid + 1), vec4_lanes(mid + 4), vec4_lanes(mid + 2), u1, u2,
+                              rb[1]);
+    displace_quad_restrict_x4(vec4_lanes(n + 2), vec4_lanes(mid + 3), vec4_lanes(n + 3), u1, u2,
+                              rb[2]);
+    /* displace_quad_restrict's weights in v, a leaf per lane */
+    float va = (float)j0 * h, vb = (float)(j0 + 1u) * h, vc = (float)(j0 + 2u) * h;
+    float4 t0 = (float4)(va, va, vb, vb), t1 = (float4)(vb, vb, vc, vc);
+    float4 s0 = 1.0f - t0, s1 = 1.0f - t1;
+    float4 w[3][3] = {{s0 * s0, 2.0f * t0 * s0, t0 * t0},
+                      {s0 * s1, s0 * t1 + t0 * s1, t0 * t1},
+                      {s1 * s1, 2.0f * t1 * s1, t1 * t1}};
+    float4 lx = (float4)(INFINITY), ly = lx, lz = lx, hx = (float4)(-INFINITY), hy = hx, hz = hx;
+    for (int k = 0; k < 3; ++k) {
+#define BLOCK_COLUMN(comp, lo, hi)                                                                 \
+    {                                                                                              \
+        float4 a = (float4)(ra[0][k].comp, rb[0][k].comp, ra[0][k].comp, rb[0][k].comp);           \
+        float4 m = (float4)(ra[1][k].comp, rb[1][k].comp, ra[1][k].comp, rb[1][k].comp);           \
+        float4 e = (float4)(ra[2][k].comp, rb[2][k].comp, ra[2][k].comp, rb[2][k].comp);           \
+        float4 c = 2.0f * m - 0.5f * (a + e);                                                      \
+        for (int j = 0; j < 3; ++j) {                                                              \
+            float4 o = w[j][0] * a + w[j][1] * c + w[j][2] * e;                                    \
+            lo = fmin(lo, o), hi = fmax(hi, o);                                                    \
+        }                                                                                          \
+    }
+        BLOCK_COLUMN(x, lx, hx)
+        BLOCK_COLUMN(y, ly, hy)
+        BLOCK_COLUMN(z, lz, hz)
+#undef BLOCK_COLUMN
+    }
+    const float e = 4e-6f; /* displace_normal_box's rounding allowances */
+    lx -= e, ly -= e, lz -= e, hx += e, hy += e, hz += e;
+    float4 dx = fmax(fmax(lx, -hx), 0.0f), dy = fmax(fmax(ly, -hy), 0.0f),
+           dz = fmax(fmax(lz, -hz), 0.0f);
+    float4 rmin = sqrt(dx * dx + dy * dy + dz * dz);
+    float4 fx = fmax(-lx, hx), fy = fmax(-ly, hy), fz = fmax(-lz, hz);
+    float4 rmax = sqrt(fx * fx + fy * fy + fz * fz);
+    int4 all = !(rmin > 1e-6f); /* displace_normal_box's [-1, 1]^3 */
+    float4 ax = fmax(select(lx / rmin, lx / rmax, lx >= 0.0f), -1.0f) - e;
+    float4 ay = fmax(select(ly / rmin, ly / rmax, ly >= 0.0f), -1.0f) - e;
+    float4 az = fmax(select(lz / rmin, lz / rmax, lz >= 0.0f), -1.0f) - e;
+    float4 bx = fmin(select(hx / rmin, hx / rmax, hx <= 0.0f), 1.0f) + e;
+    float4 by = fmin(select(hy / rmin, hy / rmax, hy <= 0.0f), 1.0f) + e;
+    float4 bz = fmin(select(hz / rmin, hz / rmax, hz <= 0.0f), 1.0f) + e;
+    ax = select(ax, (float4)(-1.0f), all), ay = select(ay, (float4)(-1.0f), all);
+    az = select(az, (float4)(-1.0f), all), bx = select(bx, (float4)(1.0f), all);
+    by = select(by, (float4)(1.0f), all), bz = select(bz, (float4)(1.0f), all);
+    b[0] = (ts_box){ax.s0, ay.s0, az.s0, bx.s0, by.s0, bz.s0};
+    b[1] = (ts_box){ax.s1, ay.s1, az.s1, bx.s1, by.s1, bz.s1};
+    b[2] = (ts_box){ax.s2, ay.s2, az.s2, bx.s2, by.s2, bz.s2};
+    b[3] = (ts_box){ax.s3, ay.s3, az.s3, bx.s3, by.s3, bz.s3};
+}
 #endif
 
 /* A leaf box clamped to the patch's top-level box (scene_patch_box: the control hull of
@@ -178,11 +249,13 @@ TS_INLINE_ALWAYS void leaf_finish(ts_box b, float mag, ts_interval d, uint displ
                                   __global const ts_vec4 *cn, __global const ts_vec4 *mn,
                                   __global const ts_vec4 *g, uint n, uint i, uint j, float h,
                                   uint seg_flags, ts_box pbox, __global ts_box4 *groups,
-                                  __global ts_tight4 *codes, uint m, uint k, ts_box tb, uint coded)
+                                  __global ts_tight4 *codes, uint m, uint k, ts_box tb, uint coded,
+                                  const ts_box *pre_nb)
 {
     if (displaced) {
-        ts_box nb = displace_normal_box_x4(cn, mn, (float)i * h, (float)j * h, (float)(i + 1u) * h,
-                                           (float)(j + 1u) * h);
+        ts_box nb = pre_nb ? *pre_nb
+                           : displace_normal_box_x4(cn, mn, (float)i * h, (float)j * h,
+                                                    (float)(i + 1u) * h, (float)(j + 1u) * h);
         float2 ox = interval_mul(d.lo, d.hi, nb.lo_x, nb.hi_x);
         float2 oy = interval_mul(d.lo, d.hi, nb.lo_y, nb.hi_y);
         float2 oz = interval_mul(d.lo, d.hi, nb.lo_z, nb.hi_z);
@@ -244,15 +317,16 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     __global const ts_vec4 *cpt = time ? cp1 + (size_t)seg.shape * 16u : cp0;
     /* The corners' boxes of a 2 x 2 block of leaves at once (a third of the Bézier points' work),
      * on the tree's time sample and, where the noise is evaluated at time 0, on cp0. */
-    const ts_box *pre = NULL, *pre0 = NULL;
+    const ts_box *pre = NULL, *pre0 = NULL, *pre_nb = NULL;
 #ifdef TS_CPU_LANES
-    ts_box blk[4], blk0[4];
+    ts_box blk[4], blk0[4], nbs[4];
     if (per == 4u && !tight) {
         uint i0 = morton_i(k0), j0 = morton_j(k0);
         block_base_boxes(cpt, i0, j0, h, blk);
         pre = blk;
         if (cpt != cp0 && a->disp_kind != TS_DISP_NONE && a->disp_kind != TS_DISP_TEXTURE)
             block_base_boxes(cp0, i0, j0, h, blk0), pre0 = blk0;
+        if (a->disp_kind != TS_DISP_NONE) block_normal_boxes(cn, mn, i0, j0, h, nbs), pre_nb = nbs;
     }
 #endif
     if (!noise) { /* each leaf at once */
@@ -271,7 +345,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
             else if (a->disp_kind != TS_DISP_NONE)
                 d = displace_interval(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
             leaf_finish(b, mag, d, a->disp_kind != TS_DISP_NONE, cn, mn, g, n, i, j, h, seg.flags,
-                        pbox, groups + at, codes + at, m, k, tb, coded);
+                        pbox, groups + at, codes + at, m, k, tb, coded, pre_nb ? pre_nb + q : NULL);
         }
         return;
     }
@@ -306,7 +380,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
         uint k = k0 + q;
         ts_interval d = displace_interval_sum(a, weight, q * TS_DISP_MAX_OCTAVES, vlo, vhi, full);
         leaf_finish(bq[q], magq[q], d, 1u, cn, mn, g, n, morton_i(k), morton_j(k), h, seg.flags,
-                    pbox, groups + at, codes + at, m, k, tq[q], coded);
+                    pbox, groups + at, codes + at, m, k, tq[q], coded, pre_nb ? pre_nb + q : NULL);
     }
 }
 
