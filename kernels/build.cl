@@ -68,11 +68,12 @@ inline ts_box base_box(__global const ts_vec4 *cp, uint i, uint j, float h)
 }
 
 #ifdef TS_CPU_LANES
-/* base_box of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)), q = 0..3, into b[q]: their 9
+/* base_box of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)), q = 0..3, into b (block_box's
+ * layout): their 9
  * corners, bezier_eval_x4's operations per point in their order (the same bits), with the
  * u-rows shared: the 12 row sums of bezier_eval at the three u in lanes, then the sums over
  * v at each of the three v. A third of the operations of four base_box calls. */
-inline void block_base_boxes(__global const ts_vec4 *cp, uint i0, uint j0, float h, ts_box b[4])
+inline void block_base_boxes(__global const ts_vec4 *cp, uint i0, uint j0, float h, float b[24])
 {
     float4 cu =
         (float4)((float)i0 * h, (float)(i0 + 1u) * h, (float)(i0 + 2u) * h, (float)(i0 + 2u) * h);
@@ -105,17 +106,19 @@ inline void block_base_boxes(__global const ts_vec4 *cp, uint i0, uint j0, float
 #undef BLOCK_ROW
     for (uint q = 0; q < 4u; ++q) {
         uint a = q & 1u, c = q >> 1;
-        b[q] = corner_fold(p[c][a], p[c][a + 1u], p[c + 1u][a], p[c + 1u][a + 1u]);
+        ts_box f = corner_fold(p[c][a], p[c][a + 1u], p[c + 1u][a], p[c + 1u][a + 1u]);
+        b[q] = f.lo_x, b[4u + q] = f.lo_y, b[8u + q] = f.lo_z;
+        b[12u + q] = f.hi_x, b[16u + q] = f.hi_y, b[20u + q] = f.hi_z;
     }
 }
 
-/* displace_normal_box_x4 of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)), q = 0..3, into
- * b[q], the same bits: the rows restricted to the block's two u-intervals (x, y, z in lanes,
- * displace_quad_restrict_x4), then the columns, the box and its normalisation with the four
- * leaves in the lanes of a float4 per component, each lane displace_normal_box's operations in
+/* displace_normal_box_x4 of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)), q = 0..3, into b
+ * (block_box's layout), the same bits: the rows restricted to the block's two u-intervals (x, y, z
+ * in lanes, displace_quad_restrict_x4), then the columns, the box and its normalisation with the
+ * four leaves in the lanes of a float4 per component, each lane displace_normal_box's operations in
  * their order. */
 inline void block_normal_boxes(__global const ts_vec4 *n, __global const ts_vec4 *mid, uint i0,
-                               uint j0, float h, ts_box b[4])
+                               uint j0, float h, float b[24])
 {
     float u0 = (float)i0 * h, u1 = (float)(i0 + 1u) * h, u2 = (float)(i0 + 2u) * h;
     float4 ra[3][3], rb[3][3]; /* rows restricted to [u0, u1] (leaves 0, 2), [u1, u2] (1, 3) */
@@ -173,10 +176,8 @@ inline void block_normal_boxes(__global const ts_vec4 *n, __global const ts_vec4
     ax = select(ax, (float4)(-1.0f), all), ay = select(ay, (float4)(-1.0f), all);
     az = select(az, (float4)(-1.0f), all), bx = select(bx, (float4)(1.0f), all);
     by = select(by, (float4)(1.0f), all), bz = select(bz, (float4)(1.0f), all);
-    b[0] = (ts_box){ax.s0, ay.s0, az.s0, bx.s0, by.s0, bz.s0};
-    b[1] = (ts_box){ax.s1, ay.s1, az.s1, bx.s1, by.s1, bz.s1};
-    b[2] = (ts_box){ax.s2, ay.s2, az.s2, bx.s2, by.s2, bz.s2};
-    b[3] = (ts_box){ax.s3, ay.s3, az.s3, bx.s3, by.s3, bz.s3};
+    vstore4(ax, 0, b), vstore4(ay, 1, b), vstore4(az, 2, b);
+    vstore4(bx, 3, b), vstore4(by, 4, b), vstore4(bz, 5, b);
 }
 #endif
 
@@ -199,6 +200,15 @@ inline float2 interval_mul(float lo, float hi, float a, float b)
     return (float2)(fmin(fmin(p0, p1), fmin(p2, p3)), fmax(fmax(p0, p1), fmax(p2, p3)));
 }
 
+/* Lane q of a block's boxes (block_base_boxes, block_normal_boxes: lo_x, lo_y, lo_z, hi_x, hi_y,
+ * hi_z of the four leaves, four floats each), from s = the boxes + q. Kept as floats written by
+ * vector stores, so that each read is forwarded from one store. */
+TS_INLINE_ALWAYS ts_box block_box(const float *s)
+{
+    ts_box b = {s[0], s[4], s[8], s[12], s[16], s[20]};
+    return b;
+}
+
 /* Starts leaf k = (i, j) of a tree at m: a micro-quad trimmed or cut away gets a box no ray
  * enters, a leaf in triangle mode (tight) the box of its diced vertices, both stored (returns
  * 0); any other gets *b, the box of its undisplaced corners on cp (the tree's time sample)
@@ -212,7 +222,7 @@ TS_INLINE_ALWAYS int leaf_begin(__global const ts_patch_attr *a, __global const 
                                 __global const ts_vec4 *g, uint n, uint i, uint j, uint m, float h,
                                 uint seg_flags, uint tight, uint coded, ts_box pbox,
                                 __global ts_box4 *groups, __global ts_tight4 *codes, uint k,
-                                const ts_box *pre, const ts_box *pre0, ts_box *b, ts_box *b0,
+                                const float *pre, const float *pre0, ts_box *b, ts_box *b0,
                                 ts_box *tb, float *mag)
 {
     if ((seg_flags & TS_SEG_TRIMMED) != 0u &&
@@ -227,13 +237,13 @@ TS_INLINE_ALWAYS int leaf_begin(__global const ts_patch_attr *a, __global const 
         quadtree_store(groups, codes, m, k, *tb, *tb, 0u);
         return 0;
     }
-    *b = pre ? *pre : base_box(cp, i, j, h);
+    *b = pre ? block_box(pre) : base_box(cp, i, j, h);
     *mag = box_magnitude(*b);
     float ex = e.x * s + 4e-7f * *mag, ey = e.y * s + 4e-7f * *mag, ez = e.z * s + 4e-7f * *mag;
     b->lo_x -= ex, b->hi_x += ex, b->lo_y -= ey, b->hi_y += ey, b->lo_z -= ez, b->hi_z += ez;
     *b0 = *b;
     if (cp != cp0 && a->disp_kind != TS_DISP_NONE && a->disp_kind != TS_DISP_TEXTURE) {
-        *b0 = pre0 ? *pre0 : base_box(cp0, i, j, h);
+        *b0 = pre0 ? block_box(pre0) : base_box(cp0, i, j, h);
         b0->lo_x -= ex, b0->hi_x += ex, b0->lo_y -= ey, b0->hi_y += ey, b0->lo_z -= ez,
             b0->hi_z += ez;
     }
@@ -250,10 +260,10 @@ TS_INLINE_ALWAYS void leaf_finish(ts_box b, float mag, ts_interval d, uint displ
                                   __global const ts_vec4 *g, uint n, uint i, uint j, float h,
                                   uint seg_flags, ts_box pbox, __global ts_box4 *groups,
                                   __global ts_tight4 *codes, uint m, uint k, ts_box tb, uint coded,
-                                  const ts_box *pre_nb)
+                                  const float *pre_nb)
 {
     if (displaced) {
-        ts_box nb = pre_nb ? *pre_nb
+        ts_box nb = pre_nb ? block_box(pre_nb)
                            : displace_normal_box_x4(cn, mn, (float)i * h, (float)j * h,
                                                     (float)(i + 1u) * h, (float)(j + 1u) * h);
         float2 ox = interval_mul(d.lo, d.hi, nb.lo_x, nb.hi_x);
@@ -317,9 +327,9 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     __global const ts_vec4 *cpt = time ? cp1 + (size_t)seg.shape * 16u : cp0;
     /* The corners' boxes of a 2 x 2 block of leaves at once (a third of the Bézier points' work),
      * on the tree's time sample and, where the noise is evaluated at time 0, on cp0. */
-    const ts_box *pre = NULL, *pre0 = NULL, *pre_nb = NULL;
+    const float *pre = NULL, *pre0 = NULL, *pre_nb = NULL;
 #ifdef TS_CPU_LANES
-    ts_box blk[4], blk0[4], nbs[4];
+    float blk[24], blk0[24], nbs[24];
     if (per == 4u && !tight) {
         uint i0 = morton_i(k0), j0 = morton_j(k0);
         block_base_boxes(cpt, i0, j0, h, blk);
