@@ -68,12 +68,24 @@ inline ts_box base_box(__global const ts_vec4 *cp, uint i, uint j, float h)
 }
 
 #ifdef TS_CPU_LANES
-/* base_box of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)), q = 0..3, into b (block_box's
- * layout): their 9
- * corners, bezier_eval_x4's operations per point in their order (the same bits), with the
- * u-rows shared: the 12 row sums of bezier_eval at the three u in lanes, then the sums over
- * v at each of the three v. A third of the operations of four base_box calls. */
-inline void block_base_boxes(__global const ts_vec4 *cp, uint i0, uint j0, float h, float b[24])
+/* Boxes of a work-item's 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)), leaf q in lane q. */
+typedef struct block_box4 {
+    float4 lx, ly, lz, hx, hy, hz;
+} block_box4;
+
+/* b as block_box's layout (lo_x, lo_y, lo_z, hi_x, hi_y, hi_z of the four leaves, four floats
+ * each), written by vector stores so that each float read later is forwarded from one store. */
+TS_INLINE_ALWAYS void block_spill(block_box4 b, float s[24])
+{
+    vstore4(b.lx, 0, s), vstore4(b.ly, 1, s), vstore4(b.lz, 2, s);
+    vstore4(b.hx, 3, s), vstore4(b.hy, 4, s), vstore4(b.hz, 5, s);
+}
+
+/* base_box of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)), q = 0..3: their 9 corners,
+ * bezier_eval_x4's operations per point in their order (the same bits), with the u-rows shared: the
+ * 12 row sums of bezier_eval at the three u in lanes, then the sums over v at each of the three v.
+ * A third of the operations of four base_box calls. */
+TS_INLINE_ALWAYS block_box4 block_base_boxes(__global const ts_vec4 *cp, uint i0, uint j0, float h)
 {
     float4 cu =
         (float4)((float)i0 * h, (float)(i0 + 1u) * h, (float)(i0 + 2u) * h, (float)(i0 + 2u) * h);
@@ -88,37 +100,43 @@ inline void block_base_boxes(__global const ts_vec4 *cp, uint i0, uint j0, float
         ry[j] = bezier_sum4_x4(bu, c[0].y, c[1].y, c[2].y, c[3].y);
         rz[j] = bezier_sum4_x4(bu, c[0].z, c[1].z, c[2].z, c[3].z);
     }
-    float4 p[3][3]; /* p[v][u]: the corner (x, y, z, 0) at u = cu[u], v = cv[v] */
+    float4 x[3], y[3], z[3]; /* the corners at v = cv[v], u = cu[lane] */
 #define BLOCK_ROW(v, sv)                                                                           \
     {                                                                                              \
         float4 w[4] = {(float4)(bv[0].sv), (float4)(bv[1].sv), (float4)(bv[2].sv),                 \
                        (float4)(bv[3].sv)};                                                        \
-        float4 x = bezier_sum4_v4(w, rx[0], rx[1], rx[2], rx[3]);                                  \
-        float4 y = bezier_sum4_v4(w, ry[0], ry[1], ry[2], ry[3]);                                  \
-        float4 z = bezier_sum4_v4(w, rz[0], rz[1], rz[2], rz[3]);                                  \
-        p[v][0] = (float4)(x.s0, y.s0, z.s0, 0.0f);                                                \
-        p[v][1] = (float4)(x.s1, y.s1, z.s1, 0.0f);                                                \
-        p[v][2] = (float4)(x.s2, y.s2, z.s2, 0.0f);                                                \
+        x[v] = bezier_sum4_v4(w, rx[0], rx[1], rx[2], rx[3]);                                      \
+        y[v] = bezier_sum4_v4(w, ry[0], ry[1], ry[2], ry[3]);                                      \
+        z[v] = bezier_sum4_v4(w, rz[0], rz[1], rz[2], rz[3]);                                      \
     }
     BLOCK_ROW(0, s0)
     BLOCK_ROW(1, s1)
     BLOCK_ROW(2, s2)
 #undef BLOCK_ROW
-    for (uint q = 0; q < 4u; ++q) {
-        uint a = q & 1u, c = q >> 1;
-        ts_box f = corner_fold(p[c][a], p[c][a + 1u], p[c + 1u][a], p[c + 1u][a + 1u]);
-        b[q] = f.lo_x, b[4u + q] = f.lo_y, b[8u + q] = f.lo_z;
-        b[12u + q] = f.hi_x, b[16u + q] = f.hi_y, b[20u + q] = f.hi_z;
+    /* corner_fold's order per leaf: (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1) */
+    block_box4 b;
+#define BLOCK_FOLD(r, lo, hi)                                                                      \
+    {                                                                                              \
+        float4 c00 = (float4)(r[0].s01, r[1].s01), c10 = (float4)(r[0].s12, r[1].s12);             \
+        float4 c01 = (float4)(r[1].s01, r[2].s01), c11 = (float4)(r[1].s12, r[2].s12);             \
+        lo = fmin(fmin(fmin(fmin((float4)(INFINITY), c00), c10), c01), c11);                       \
+        hi = fmax(fmax(fmax(fmax((float4)(-INFINITY), c00), c10), c01), c11);                      \
     }
+    BLOCK_FOLD(x, b.lx, b.hx)
+    BLOCK_FOLD(y, b.ly, b.hy)
+    BLOCK_FOLD(z, b.lz, b.hz)
+#undef BLOCK_FOLD
+    return b;
 }
 
-/* displace_normal_box_x4 of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)), q = 0..3, into b
- * (block_box's layout), the same bits: the rows restricted to the block's two u-intervals (x, y, z
+/* displace_normal_box_x4 of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)), q = 0..3, the same
+ * bits: the rows restricted to the block's two u-intervals (x, y, z
  * in lanes, displace_quad_restrict_x4), then the columns, the box and its normalisation with the
  * four leaves in the lanes of a float4 per component, each lane displace_normal_box's operations in
  * their order. */
-inline void block_normal_boxes(__global const ts_vec4 *n, __global const ts_vec4 *mid, uint i0,
-                               uint j0, float h, float b[24])
+TS_INLINE_ALWAYS block_box4 block_normal_boxes(__global const ts_vec4 *n,
+                                               __global const ts_vec4 *mid, uint i0, uint j0,
+                                               float h)
 {
     float u0 = (float)i0 * h, u1 = (float)(i0 + 1u) * h, u2 = (float)(i0 + 2u) * h;
     float4 ra[3][3], rb[3][3]; /* rows restricted to [u0, u1] (leaves 0, 2), [u1, u2] (1, 3) */
@@ -176,8 +194,8 @@ inline void block_normal_boxes(__global const ts_vec4 *n, __global const ts_vec4
     ax = select(ax, (float4)(-1.0f), all), ay = select(ay, (float4)(-1.0f), all);
     az = select(az, (float4)(-1.0f), all), bx = select(bx, (float4)(1.0f), all);
     by = select(by, (float4)(1.0f), all), bz = select(bz, (float4)(1.0f), all);
-    vstore4(ax, 0, b), vstore4(ay, 1, b), vstore4(az, 2, b);
-    vstore4(bx, 3, b), vstore4(by, 4, b), vstore4(bz, 5, b);
+    block_box4 b = {ax, ay, az, bx, by, bz};
+    return b;
 }
 #endif
 
@@ -281,6 +299,77 @@ TS_INLINE_ALWAYS void leaf_finish(ts_box b, float mag, ts_interval d, uint displ
     quadtree_store(groups, codes, m, k, b, tb, coded);
 }
 
+#ifdef TS_CPU_LANES
+/* The 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)) of a noise-displaced tree at m >= 1 built
+ * together, leaf q in lane q of each float4: leaf_begin, the noise intervals
+ * (displace_interval_tasks, queued into the lanes of tasks, and displace_interval_sum) and
+ * leaf_finish, each lane their operations in their order (the same bits), the four boxes
+ * stored as their sibling group g with codes 0 in c (quadtree_store). Not for trimmed,
+ * stitched, coded (rough) or triangle-mode trees, which build_leaves finishes leaf by leaf. */
+inline void block_leaves(__global const ts_patch_attr *a, __global const ts_xform *ax,
+                         __global const ts_vec4 *cp0, __global const ts_vec4 *cp,
+                         __global const ts_vec4 *cn, __global const ts_vec4 *mn, ts_vec4 e, float s,
+                         float h, uint i0, uint j0, ts_box pbox, const float *freq,
+                         const float *weight, uint octaves, noise_tasks *tasks, float *vlo,
+                         float *vhi, __global ts_box4 *g, __global ts_tight4 *c)
+{
+    block_box4 b = block_base_boxes(cp, i0, j0, h);
+    float4 mag = fmax(fmax(fabs(b.lx), fabs(b.hx)),
+                      fmax(fmax(fabs(b.ly), fabs(b.hy)), fmax(fabs(b.lz), fabs(b.hz))));
+    float4 ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
+    b.lx -= ex, b.hx += ex, b.ly -= ey, b.hy += ey, b.lz -= ez, b.hz += ez;
+    block_box4 b0 = b; /* where the noise is evaluated: time 0 */
+    if (cp != cp0) {
+        b0 = block_base_boxes(cp0, i0, j0, h);
+        b0.lx -= ex, b0.hx += ex, b0.ly -= ey, b0.hy += ey, b0.lz -= ez, b0.hz += ez;
+    }
+    float w0[24];
+    block_spill(b0, w0);
+    for (uint q = 0; q < 4u; ++q)
+        displace_interval_tasks(a, ax, w0[q], w0[4u + q], w0[8u + q], w0[12u + q], w0[16u + q],
+                                w0[20u + q], freq, q, 4u, tasks, vlo, vhi);
+    noise_tasks_run(tasks, vlo, vhi);
+    /* displace_interval_sum, displace_interval_add and displace_interval_end in the lanes */
+    float4 slo = (float4)(0.0f), shi = (float4)(0.0f);
+    int ridged = a->disp_kind == TS_DISP_RIDGED;
+    for (uint o = 0; o < octaves; ++o) {
+        float4 lo = fmax(vload4(o, vlo) - 1e-5f, -NOISE_BOUND);
+        float4 hi = fmin(vload4(o, vhi) + 1e-5f, NOISE_BOUND);
+        if (ridged) { /* 1 - 2|v| */
+            float4 alo = select(select((float4)(0.0f), -hi, hi <= 0.0f), lo, lo >= 0.0f);
+            float4 ahi = fmax(fabs(lo), fabs(hi));
+            lo = 1.0f - 2.0f * ahi;
+            hi = 1.0f - 2.0f * alo;
+        }
+        float4 p0 = weight[o] * lo, p1 = weight[o] * hi;
+        slo += fmin(p0, p1);
+        shi += fmax(p0, p1);
+    }
+    float4 d0 = a->disp_amplitude * slo, d1 = a->disp_amplitude * shi;
+    float slack = 1e-5f * fabs(a->disp_amplitude) * (float)octaves;
+    float4 dlo = fmin(d0, d1) - slack, dhi = fmax(d0, d1) + slack;
+    /* leaf_finish: grown by the interval times the normal box, clamped, stored */
+    block_box4 nb = block_normal_boxes(cn, mn, i0, j0, h);
+    float4 grow = 4e-7f * (mag + fmax(fabs(dlo), fabs(dhi)));
+#define BLOCK_GROW(l, hh, nl, nh)                                                                  \
+    {                                                                                              \
+        float4 p0 = dlo * nl, p1 = dlo * nh, p2 = dhi * nl, p3 = dhi * nh;                         \
+        l += fmin(fmin(p0, p1), fmin(p2, p3)) - grow;                                              \
+        hh += fmax(fmax(p0, p1), fmax(p2, p3)) + grow;                                             \
+    }
+    BLOCK_GROW(b.lx, b.hx, nb.lx, nb.hx)
+    BLOCK_GROW(b.ly, b.hy, nb.ly, nb.hy)
+    BLOCK_GROW(b.lz, b.hz, nb.lz, nb.hz)
+#undef BLOCK_GROW
+    vstore4(fmax(b.lx, pbox.lo_x), 0, g->lo_x), vstore4(fmax(b.ly, pbox.lo_y), 0, g->lo_y);
+    vstore4(fmax(b.lz, pbox.lo_z), 0, g->lo_z), vstore4(fmin(b.hx, pbox.hi_x), 0, g->hi_x);
+    vstore4(fmin(b.hy, pbox.hi_y), 0, g->hi_y), vstore4(fmin(b.hz, pbox.hi_z), 0, g->hi_z);
+    uchar4 zero = (uchar4)(0);
+    vstore4(zero, 0, c->lo_x), vstore4(zero, 0, c->lo_y), vstore4(zero, 0, c->lo_z);
+    vstore4(zero, 0, c->hi_x), vstore4(zero, 0, c->hi_y), vstore4(zero, 0, c->hi_z);
+}
+#endif
+
 /* Leaves a work-item of build_leaves (TS_BUILD_LEAF_RUN on CPU devices, shared_types.h). */
 #ifdef TS_CPU_LANES
 #define BUILD_LEAF_RUN TS_BUILD_LEAF_RUN
@@ -332,11 +421,12 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     float blk[24], blk0[24], nbs[24];
     if (per == 4u && !tight) {
         uint i0 = morton_i(k0), j0 = morton_j(k0);
-        block_base_boxes(cpt, i0, j0, h, blk);
+        block_spill(block_base_boxes(cpt, i0, j0, h), blk);
         pre = blk;
         if (cpt != cp0 && a->disp_kind != TS_DISP_NONE && a->disp_kind != TS_DISP_TEXTURE)
-            block_base_boxes(cp0, i0, j0, h, blk0), pre0 = blk0;
-        if (a->disp_kind != TS_DISP_NONE) block_normal_boxes(cn, mn, i0, j0, h, nbs), pre_nb = nbs;
+            block_spill(block_base_boxes(cp0, i0, j0, h), blk0), pre0 = blk0;
+        if (a->disp_kind != TS_DISP_NONE)
+            block_spill(block_normal_boxes(cn, mn, i0, j0, h), nbs), pre_nb = nbs;
     }
 #endif
     if (!noise) { /* each leaf at once */
@@ -364,12 +454,22 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     float freq[TS_DISP_MAX_OCTAVES], weight[TS_DISP_MAX_OCTAVES]; /* once for the leaves */
     uint octaves = displace_octaves(a);
     displace_octave_steps(a, octaves, octaves, freq, weight);
-    ts_box bq[BUILD_LEAF_RUN], tq[BUILD_LEAF_RUN];
-    float magq[BUILD_LEAF_RUN];
+    /* leaf q's octave o in slot o * BUILD_LEAF_RUN + q of vlo, vhi */
     float vlo[BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES], vhi[BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES];
-    int full[BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES];
     noise_tasks tasks;
     tasks.n = 0u;
+#ifdef TS_CPU_LANES
+    if (pre && !coded && (seg.flags & TS_SEG_TRIMMED) == 0u &&
+        (seg.flags >> TS_SEG_EDGE_SHIFT) == 0u) { /* the block's leaves a leaf per lane */
+        block_leaves(a, ax, cp0, cpt, cn, mn, e, s, h, morton_i(k0), morton_j(k0), pbox, freq,
+                     weight, octaves, &tasks, vlo, vhi,
+                     groups + at + quadtree_group_offset(m) + (k0 >> 2),
+                     codes + at + quadtree_group_offset(m) + (k0 >> 2));
+        return;
+    }
+#endif
+    ts_box bq[BUILD_LEAF_RUN], tq[BUILD_LEAF_RUN];
+    float magq[BUILD_LEAF_RUN];
     uint queued = 0u;
     for (uint q = 0; q < per; ++q) {
         uint k = k0 + q, i = morton_i(k), j = morton_j(k);
@@ -380,7 +480,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                         pre0 ? pre0 + q : NULL, &b, &b0, &tb, &mag))
             continue;
         displace_interval_tasks(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z, freq,
-                                q * TS_DISP_MAX_OCTAVES, &tasks, vlo, vhi, full);
+                                q, BUILD_LEAF_RUN, &tasks, vlo, vhi);
         bq[q] = b, tq[q] = tb, magq[q] = mag, queued |= 1u << q;
     }
     if (queued == 0u) return;
@@ -388,7 +488,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     for (uint q = 0; q < per; ++q) {
         if ((queued >> q & 1u) == 0u) continue;
         uint k = k0 + q;
-        ts_interval d = displace_interval_sum(a, weight, q * TS_DISP_MAX_OCTAVES, vlo, vhi, full);
+        ts_interval d = displace_interval_sum(a, weight, q, BUILD_LEAF_RUN, vlo, vhi);
         leaf_finish(bq[q], magq[q], d, 1u, cn, mn, g, n, morton_i(k), morton_j(k), h, seg.flags,
                     pbox, groups + at, codes + at, m, k, tq[q], coded, pre_nb ? pre_nb + q : NULL);
     }

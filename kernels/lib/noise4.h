@@ -397,7 +397,7 @@ TS_INLINE_ALWAYS void noise3_cell_interval_x8(float8 cx, float8 cy, float8 cz, f
 
 /* The (octave, cell) tasks of displace_interval's cells waiting for a float8 evaluation, a
  * task a lane: the cell's corner, the part of the octave's box inside it, and the slot of
- * the octave's interval it folds into (leaf q's octave o: q * TS_DISP_MAX_OCTAVES + o, so
+ * the octave's interval it folds into (leaf q's octave o: o * TS_BUILD_LEAF_RUN + q, so
  * that the tasks of several leaves share the lanes). Lanes are filled by select
  * (noise_task_add), not by scalar stores read back as vectors: a vector load of eight
  * just-stored floats waits for the stores to retire. */
@@ -447,17 +447,18 @@ TS_INLINE_ALWAYS void noise_tasks_run(noise_tasks *t, float *lo, float *hi)
  * (the caller checked); build.cl's leaves, whose work-item takes the octaves' frequencies f
  * and weights w from displace_octave_steps once for all its leaves (the scalar loop's running
  * products). This first half, over the world box [l, h]:
- * noise3_interval's cells of every octave queued as tasks into slots base + o of lo, hi
- * (evaluated whenever eight wait; the caller runs the rest), and full[base + o] set where the
- * octave's box spans too many cells (the global bound). A leaf's octaves cover 4-6 cells on
- * forest-100's bark, so one leaf alone left a third to a half of the lanes spare; build_leaves
- * on CPU devices queues the cells of TS_BUILD_LEAF_RUN leaves into the same lanes (`build` 5-6%
- * faster on forest-100's squeezed frames, the same bits). displace_interval stays the host's
- * reference: test_dice_build and test_bottom_level compare the built trees bit for bit. */
+ * noise3_interval's cells of every octave queued as tasks into slots base + o * stride of lo,
+ * hi (evaluated whenever eight wait; the caller runs the rest), or the global bound
+ * [-NOISE_BOUND, NOISE_BOUND] where the octave's box spans too many cells (noise3_interval's
+ * `full`, which the widening in displace_interval_sum leaves as it is). A leaf's octaves cover 4-6
+ * cells on forest-100's bark, so one leaf alone left a third to a half of the lanes spare;
+ * build_leaves on CPU devices queues the cells of TS_BUILD_LEAF_RUN leaves into the same lanes
+ * (`build` 5-6% faster on forest-100's squeezed frames, the same bits). displace_interval stays the
+ * host's reference: test_dice_build and test_bottom_level compare the built trees bit for bit. */
 inline void displace_interval_tasks(__global const ts_patch_attr *a, __global const ts_xform *x,
                                     float lx, float ly, float lz, float hx, float hy, float hz,
-                                    const float *f, uint base, noise_tasks *t, float *lo, float *hi,
-                                    int *full)
+                                    const float *f, uint base, uint stride, noise_tasks *t,
+                                    float *lo, float *hi)
 {
     float olo[3], ohi[3];
     displace_object_box(x, lx, ly, lz, hx, hy, hz, olo, ohi);
@@ -468,34 +469,35 @@ inline void displace_interval_tasks(__global const ts_patch_attr *a, __global co
     for (uint o = 0; o < n; ++o) { /* noise3_interval's cells, as tasks */
         float4 bl = fmin(ol * f[o], oh * f[o]), bh = fmax(ol * f[o], oh * f[o]);
         float4 c0 = floor(bl), c1 = floor(bh);
-        full[base + o] = 1;
+        uint slot = base + o * stride;
+        lo[slot] = -NOISE_BOUND, hi[slot] = NOISE_BOUND; /* the global bound, which the sum keeps */
         if (!all(c1 - c0 <= 1.0f)) continue;
         if (any(fabs(c0) > 1e6f)) continue;
-        full[base + o] = 0, lo[base + o] = INFINITY, hi[base + o] = -INFINITY;
+        lo[slot] = INFINITY, hi[slot] = -INFINITY;
         /* The cells c0 + (dx, dy, dz) <= c1 (integers, c1 - c0 in {0, 1}), x fastest. */
         int nx = c1.x > c0.x ? 2 : 1, ny = c1.y > c0.y ? 2 : 1, nz = c1.z > c0.z ? 2 : 1;
         for (int dz = 0; dz < nz; ++dz)
             for (int dy = 0; dy < ny; ++dy)
                 for (int dx = 0; dx < nx; ++dx) {
                     float4 c = c0 + (float4)((float)dx, (float)dy, (float)dz, 0.0f);
-                    noise_task_add(t, c, fmax(bl, c), fmin(bh, c + 1.0f), base + o);
+                    noise_task_add(t, c, fmax(bl, c), fmin(bh, c + 1.0f), slot);
                     if (t->n == 8u) noise_tasks_run(t, lo, hi);
                 }
     }
 }
 
-/* The second half: the octaves' intervals in slots base + o, widened and summed in the
+/* The second half: the octaves' intervals in slots base + o * stride, widened and summed in the
  * scalar order. */
 inline ts_interval displace_interval_sum(__global const ts_patch_attr *a, const float *w, uint base,
-                                         const float *lo, const float *hi, const int *full)
+                                         uint stride, const float *lo, const float *hi)
 {
     uint n = displace_octaves(a);
     ts_interval sum = {0.0f, 0.0f};
     for (uint o = 0; o < n; ++o) {
-        ts_interval v = {-NOISE_BOUND, NOISE_BOUND};
-        if (!full[base + o]) /* noise3_interval's widening for the point evaluation's rounding */
-            v.lo = fmax(lo[base + o] - 1e-5f, -NOISE_BOUND),
-            v.hi = fmin(hi[base + o] + 1e-5f, NOISE_BOUND);
+        uint slot = base + o * stride;
+        /* noise3_interval's widening for the point evaluation's rounding (the global bound stays
+         * itself: -NOISE_BOUND - 1e-5 rounds to at most -NOISE_BOUND) */
+        ts_interval v = {fmax(lo[slot] - 1e-5f, -NOISE_BOUND), fmin(hi[slot] + 1e-5f, NOISE_BOUND)};
         displace_interval_add(a, v, w[o], &sum);
     }
     return displace_interval_end(a, sum, n);
