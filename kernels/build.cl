@@ -117,8 +117,12 @@ TS_INLINE_ALWAYS block_box4 block_base_boxes(__global const ts_vec4 *cp, uint i0
     block_box4 b;
 #define BLOCK_FOLD(r, lo, hi)                                                                      \
     {                                                                                              \
-        float4 c00 = (float4)(r[0].s01, r[1].s01), c10 = (float4)(r[0].s12, r[1].s12);             \
-        float4 c01 = (float4)(r[1].s01, r[2].s01), c11 = (float4)(r[1].s12, r[2].s12);             \
+        /* element by element: Oclgrind 21.10's --uninitialized crashes on (float4)(a.s01, b.s01)  \
+         */                                                                                        \
+        float4 c00 = (float4)(r[0].s0, r[0].s1, r[1].s0, r[1].s1);                                 \
+        float4 c10 = (float4)(r[0].s1, r[0].s2, r[1].s1, r[1].s2);                                 \
+        float4 c01 = (float4)(r[1].s0, r[1].s1, r[2].s0, r[2].s1);                                 \
+        float4 c11 = (float4)(r[1].s1, r[1].s2, r[2].s1, r[2].s2);                                 \
         lo = fmin(fmin(fmin(fmin((float4)(INFINITY), c00), c10), c01), c11);                       \
         hi = fmax(fmax(fmax(fmax((float4)(-INFINITY), c00), c10), c01), c11);                      \
     }
@@ -323,11 +327,57 @@ inline void block_leaves(__global const ts_patch_attr *a, __global const ts_xfor
         b0 = block_base_boxes(cp0, i0, j0, h);
         b0.lx -= ex, b0.hx += ex, b0.ly -= ey, b0.hy += ey, b0.lz -= ez, b0.hz += ez;
     }
-    float w0[24];
-    block_spill(b0, w0);
-    for (uint q = 0; q < 4u; ++q)
-        displace_interval_tasks(a, ax, w0[q], w0[4u + q], w0[8u + q], w0[12u + q], w0[16u + q],
-                                w0[20u + q], freq, q, 4u, tasks, vlo, vhi);
+    /* displace_interval_tasks in the lanes: displace_object_box, then per octave the cells'
+     * range, and the cells queued leaf by leaf (each slot's cells in their order) */
+    float4 ol[3], oh[3];
+    __global const float *rows[3] = {ax->r0, ax->r1, ax->r2};
+    for (int r = 0; r < 3; ++r) {
+        float4 l = (float4)(rows[r][3]), hh = l;
+        float4 e0 = rows[r][0] * b0.lx, e1 = rows[r][0] * b0.hx;
+        l += fmin(e0, e1), hh += fmax(e0, e1);
+        e0 = rows[r][1] * b0.ly, e1 = rows[r][1] * b0.hy;
+        l += fmin(e0, e1), hh += fmax(e0, e1);
+        e0 = rows[r][2] * b0.lz, e1 = rows[r][2] * b0.hz;
+        l += fmin(e0, e1), hh += fmax(e0, e1);
+        float4 slack = 1e-6f * (fabs(l) + fabs(hh));
+        ol[r] = l - slack, oh[r] = hh + slack;
+    }
+    for (uint o = 0; o < octaves; ++o) {
+        float f = freq[o];
+        float4 bl[3], bh[3], c0[3];
+        int4 ok = (int4)(-1), ext = (int4)(0);
+        for (int r = 0; r < 3; ++r) {
+            bl[r] = fmin(ol[r] * f, oh[r] * f), bh[r] = fmax(ol[r] * f, oh[r] * f);
+            c0[r] = floor(bl[r]);
+            float4 c1 = floor(bh[r]);
+            ok &= c1 - c0[r] <= 1.0f;
+            ok &= !(fabs(c0[r]) > 1e6f);
+            ext |= (c1 > c0[r]) & (int4)(1 << r); /* the axes spanning two cells */
+        }
+        /* every slot the global bound, or empty for its cells' folds */
+        vstore4(select((float4)(-NOISE_BOUND), (float4)(INFINITY), ok), o, vlo);
+        vstore4(select((float4)(NOISE_BOUND), (float4)(-INFINITY), ok), o, vhi);
+        float sp[3 * 12];
+        int spi[8];
+        for (int r = 0; r < 3; ++r)
+            vstore4(bl[r], r, sp), vstore4(bh[r], 3 + r, sp), vstore4(c0[r], 6 + r, sp);
+        vstore4(ok, 0, spi), vstore4(ext, 1, spi);
+        for (uint q = 0; q < 4u; ++q) {
+            if (!spi[q]) continue;
+            float4 l = (float4)(sp[q], sp[4u + q], sp[8u + q], sp[8u + q]);
+            float4 hq = (float4)(sp[12u + q], sp[16u + q], sp[20u + q], sp[20u + q]);
+            float4 c = (float4)(sp[24u + q], sp[28u + q], sp[32u + q], 0.0f);
+            int x2 = spi[4u + q];
+            int nx = x2 & 1 ? 2 : 1, ny = x2 & 2 ? 2 : 1, nz = x2 & 4 ? 2 : 1;
+            for (int dz = 0; dz < nz; ++dz)
+                for (int dy = 0; dy < ny; ++dy)
+                    for (int dx = 0; dx < nx; ++dx) {
+                        float4 cc = c + (float4)((float)dx, (float)dy, (float)dz, 0.0f);
+                        noise_task_add(tasks, cc, fmax(l, cc), fmin(hq, cc + 1.0f), o * 4u + q);
+                        if (tasks->n == 8u) noise_tasks_run(tasks, vlo, vhi);
+                    }
+        }
+    }
     noise_tasks_run(tasks, vlo, vhi);
     /* displace_interval_sum, displace_interval_add and displace_interval_end in the lanes */
     float4 slo = (float4)(0.0f), shi = (float4)(0.0f);
