@@ -15,6 +15,10 @@
  *       over the square (lib/displace.h displace_normal_box, with x, y, z in float4 lanes:
  *       lib/noise4.h displace_normal_box_x4; on CPU devices the 2 x 2 leaves of a work-item
  *       together, a leaf per lane, block_normal_boxes).
+ *   On CPU devices the 2 x 2 leaves of a noise-displaced tree (not trimmed, stitched, rough or
+ *   in triangle mode) are built together, a leaf per float4 lane from the corners to the
+ *   group's store, their noise cells queued into the float8 lanes (block_leaves): forest-100's
+ *   `build` took a third less than with one leaf at a time through the same functions.
  *   Every lane form runs the scalar operations in their order: the leaf boxes have the bits
  *   of the plain-C reference (host/ref/dice_build_ref.c; tests/test_bottom_level.c compares
  *   the trees, tests/test_dice_build.c the normal boxes through build_normal_box_probe).

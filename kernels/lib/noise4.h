@@ -266,16 +266,14 @@ inline float4 vec4_lanes(__global const ts_vec4 *p)
 
 /* displace_quad_restrict (lib/displace.h) with x, y, z in lanes: the same operations per
  * component in their order. */
-inline void displace_quad_restrict_x4(float4 a, float4 m, float4 b, float t0, float t1,
-                                      float4 out[3])
+TS_INLINE_ALWAYS void displace_quad_restrict_x4(float4 a, float4 m, float4 b, float t0, float t1,
+                                                float4 out[3])
 {
     float4 c = 2.0f * m - 0.5f * (a + b);
     float s0 = 1.0f - t0, s1 = 1.0f - t1;
-    float w[3][3] = {{s0 * s0, 2.0f * t0 * s0, t0 * t0},
-                     {s0 * s1, s0 * t1 + t0 * s1, t0 * t1},
-                     {s1 * s1, 2.0f * t1 * s1, t1 * t1}};
-    for (int k = 0; k < 3; ++k)
-        out[k] = w[k][0] * a + w[k][1] * c + w[k][2] * b;
+    out[0] = (s0 * s0) * a + (2.0f * t0 * s0) * c + (t0 * t0) * b;
+    out[1] = (s0 * s1) * a + (s0 * t1 + t0 * s1) * c + (t0 * t1) * b;
+    out[2] = (s1 * s1) * a + (2.0f * t1 * s1) * c + (t1 * t1) * b;
 }
 
 /* displace_div_range (lib/displace.h) with x, y, z in lanes. */
