@@ -430,6 +430,8 @@ inline void block_leaves(__global const ts_patch_attr *a, __global const ts_xfor
 #else
 #define BUILD_LEAF_RUN 1u
 #endif
+/* ... taken in blocks of up to 2 x 2 leaves (consecutive in Morton order) */
+#define BUILD_LEAF_BLOCK (BUILD_LEAF_RUN < 4u ? BUILD_LEAF_RUN : 4u)
 
 __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tree_count, uint m,
                            __global const ts_segment *segments, __global const ts_vec4 *cp,
@@ -468,83 +470,92 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     float s = ldexp(1.0f, -2 * (int)m);
     int noise = displace_is_noise(a);
     __global const ts_vec4 *cpt = time ? cp1 + (size_t)seg.shape * 16u : cp0;
-    /* The corners' boxes of a 2 x 2 block of leaves at once (a third of the Bézier points' work),
-     * on the tree's time sample and, where the noise is evaluated at time 0, on cp0. */
-    const float *pre = NULL, *pre0 = NULL, *pre_nb = NULL;
+    float freq[TS_DISP_MAX_OCTAVES], weight[TS_DISP_MAX_OCTAVES]; /* once for the leaves */
+    uint octaves = noise ? displace_octaves(a) : 0u;
+    if (noise) displace_octave_steps(a, octaves, octaves, freq, weight);
+    /* leaf q of a block's octave o in slot o * BUILD_LEAF_BLOCK + q of vlo, vhi */
+    float vlo[BUILD_LEAF_BLOCK * TS_DISP_MAX_OCTAVES], vhi[BUILD_LEAF_BLOCK * TS_DISP_MAX_OCTAVES];
+    noise_tasks tasks;
+    tasks.n = 0u;
+    uint blk = min(per, (uint)BUILD_LEAF_BLOCK);
 #ifdef TS_CPU_LANES
-    float blk[24], blk0[24], nbs[24];
-    if (per == 4u && !tight) {
-        uint i0 = morton_i(k0), j0 = morton_j(k0);
-        block_spill(block_base_boxes(cpt, i0, j0, h), blk);
-        pre = blk;
-        if (cpt != cp0 && a->disp_kind != TS_DISP_NONE && a->disp_kind != TS_DISP_TEXTURE)
-            block_spill(block_base_boxes(cp0, i0, j0, h), blk0), pre0 = blk0;
-        if (a->disp_kind != TS_DISP_NONE)
-            block_spill(block_normal_boxes(cn, mn, i0, j0, h), nbs), pre_nb = nbs;
+    if (noise && blk == 4u && !tight && !coded && (seg.flags & TS_SEG_TRIMMED) == 0u &&
+        (seg.flags >> TS_SEG_EDGE_SHIFT) == 0u) { /* each block's leaves a leaf per lane */
+        __global ts_box4 *gq = groups + at + quadtree_group_offset(m) + (k0 >> 2);
+        __global ts_tight4 *cq = codes + at + quadtree_group_offset(m) + (k0 >> 2);
+        for (uint b = 0; b < per / 4u; ++b)
+            block_leaves(a, ax, cp0, cpt, cn, mn, e, s, h, morton_i(k0 + 4u * b),
+                         morton_j(k0 + 4u * b), pbox, freq, weight, octaves, &tasks, vlo, vhi,
+                         gq + b, cq + b);
+        return;
     }
 #endif
-    if (!noise) { /* each leaf at once */
-        for (uint q = 0; q < per; ++q) {
-            uint k = k0 + q, i = morton_i(k), j = morton_j(k);
+    for (uint k1 = k0; k1 < k0 + per; k1 += blk) { /* a block of leaves k1 .. k1 + blk - 1 */
+        /* The corners' boxes of a 2 x 2 block of leaves at once (a third of the Bézier points'
+         * work), on the tree's time sample and, where the noise is evaluated at time 0, on
+         * cp0. */
+        const float *pre = NULL, *pre0 = NULL, *pre_nb = NULL;
+#ifdef TS_CPU_LANES
+        float bb[24], bb0[24], nbs[24];
+        if (blk == 4u && !tight) {
+            uint i0 = morton_i(k1), j0 = morton_j(k1);
+            block_spill(block_base_boxes(cpt, i0, j0, h), bb);
+            pre = bb;
+            if (cpt != cp0 && a->disp_kind != TS_DISP_NONE && a->disp_kind != TS_DISP_TEXTURE)
+                block_spill(block_base_boxes(cp0, i0, j0, h), bb0), pre0 = bb0;
+            if (a->disp_kind != TS_DISP_NONE)
+                block_spill(block_normal_boxes(cn, mn, i0, j0, h), nbs), pre_nb = nbs;
+        }
+#endif
+        if (!noise) { /* each leaf at once */
+            for (uint q = 0; q < blk; ++q) {
+                uint k = k1 + q, i = morton_i(k), j = morton_j(k);
+                ts_box b, b0, tb;
+                float mag;
+                if (!leaf_begin(a, trim_seg, tex, cp0, cpt, e, s, g, n, i, j, m, h, seg.flags,
+                                tight, coded, pbox, groups + at, codes + at, k,
+                                pre ? pre + q : NULL, pre0 ? pre0 + q : NULL, &b, &b0, &tb, &mag))
+                    continue;
+                ts_interval d = {0.0f, 0.0f};
+                if (a->disp_kind == TS_DISP_TEXTURE)
+                    d = displace_texture_interval(a, tex, (float)i * h, (float)j * h,
+                                                  (float)(i + 1u) * h, (float)(j + 1u) * h);
+                else if (a->disp_kind != TS_DISP_NONE)
+                    d = displace_interval(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y,
+                                          b0.hi_z);
+                leaf_finish(b, mag, d, a->disp_kind != TS_DISP_NONE, cn, mn, g, n, i, j, h,
+                            seg.flags, pbox, groups + at, codes + at, m, k, tb, coded,
+                            pre_nb ? pre_nb + q : NULL);
+            }
+            continue;
+        }
+        /* Noise: each leaf's interval queued as cell tasks (the block's cells share the lanes),
+         * then the leaves finished once the tasks have run. */
+        ts_box bq[BUILD_LEAF_BLOCK], tq[BUILD_LEAF_BLOCK];
+        float magq[BUILD_LEAF_BLOCK];
+        uint queued = 0u;
+        for (uint q = 0; q < blk; ++q) {
+            uint k = k1 + q, i = morton_i(k), j = morton_j(k);
             ts_box b, b0, tb;
             float mag;
             if (!leaf_begin(a, trim_seg, tex, cp0, cpt, e, s, g, n, i, j, m, h, seg.flags, tight,
                             coded, pbox, groups + at, codes + at, k, pre ? pre + q : NULL,
                             pre0 ? pre0 + q : NULL, &b, &b0, &tb, &mag))
                 continue;
-            ts_interval d = {0.0f, 0.0f};
-            if (a->disp_kind == TS_DISP_TEXTURE)
-                d = displace_texture_interval(a, tex, (float)i * h, (float)j * h,
-                                              (float)(i + 1u) * h, (float)(j + 1u) * h);
-            else if (a->disp_kind != TS_DISP_NONE)
-                d = displace_interval(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z);
-            leaf_finish(b, mag, d, a->disp_kind != TS_DISP_NONE, cn, mn, g, n, i, j, h, seg.flags,
-                        pbox, groups + at, codes + at, m, k, tb, coded, pre_nb ? pre_nb + q : NULL);
+            displace_interval_tasks(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z,
+                                    freq, q, BUILD_LEAF_BLOCK, &tasks, vlo, vhi);
+            bq[q] = b, tq[q] = tb, magq[q] = mag, queued |= 1u << q;
         }
-        return;
-    }
-    /* Noise: each leaf's interval queued as cell tasks (the leaves' cells share the lanes),
-     * then the leaves finished once the tasks have run. */
-    float freq[TS_DISP_MAX_OCTAVES], weight[TS_DISP_MAX_OCTAVES]; /* once for the leaves */
-    uint octaves = displace_octaves(a);
-    displace_octave_steps(a, octaves, octaves, freq, weight);
-    /* leaf q's octave o in slot o * BUILD_LEAF_RUN + q of vlo, vhi */
-    float vlo[BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES], vhi[BUILD_LEAF_RUN * TS_DISP_MAX_OCTAVES];
-    noise_tasks tasks;
-    tasks.n = 0u;
-#ifdef TS_CPU_LANES
-    if (pre && !coded && (seg.flags & TS_SEG_TRIMMED) == 0u &&
-        (seg.flags >> TS_SEG_EDGE_SHIFT) == 0u) { /* the block's leaves a leaf per lane */
-        block_leaves(a, ax, cp0, cpt, cn, mn, e, s, h, morton_i(k0), morton_j(k0), pbox, freq,
-                     weight, octaves, &tasks, vlo, vhi,
-                     groups + at + quadtree_group_offset(m) + (k0 >> 2),
-                     codes + at + quadtree_group_offset(m) + (k0 >> 2));
-        return;
-    }
-#endif
-    ts_box bq[BUILD_LEAF_RUN], tq[BUILD_LEAF_RUN];
-    float magq[BUILD_LEAF_RUN];
-    uint queued = 0u;
-    for (uint q = 0; q < per; ++q) {
-        uint k = k0 + q, i = morton_i(k), j = morton_j(k);
-        ts_box b, b0, tb;
-        float mag;
-        if (!leaf_begin(a, trim_seg, tex, cp0, cpt, e, s, g, n, i, j, m, h, seg.flags, tight, coded,
-                        pbox, groups + at, codes + at, k, pre ? pre + q : NULL,
-                        pre0 ? pre0 + q : NULL, &b, &b0, &tb, &mag))
-            continue;
-        displace_interval_tasks(a, ax, b0.lo_x, b0.lo_y, b0.lo_z, b0.hi_x, b0.hi_y, b0.hi_z, freq,
-                                q, BUILD_LEAF_RUN, &tasks, vlo, vhi);
-        bq[q] = b, tq[q] = tb, magq[q] = mag, queued |= 1u << q;
-    }
-    if (queued == 0u) return;
-    noise_tasks_run(&tasks, vlo, vhi);
-    for (uint q = 0; q < per; ++q) {
-        if ((queued >> q & 1u) == 0u) continue;
-        uint k = k0 + q;
-        ts_interval d = displace_interval_sum(a, weight, q, BUILD_LEAF_RUN, vlo, vhi);
-        leaf_finish(bq[q], magq[q], d, 1u, cn, mn, g, n, morton_i(k), morton_j(k), h, seg.flags,
-                    pbox, groups + at, codes + at, m, k, tq[q], coded, pre_nb ? pre_nb + q : NULL);
+        if (queued == 0u) continue;
+        noise_tasks_run(&tasks, vlo, vhi);
+        for (uint q = 0; q < blk; ++q) {
+            if ((queued >> q & 1u) == 0u) continue;
+            uint k = k1 + q;
+            ts_interval d = displace_interval_sum(a, weight, q, BUILD_LEAF_BLOCK, vlo, vhi);
+            leaf_finish(bq[q], magq[q], d, 1u, cn, mn, g, n, morton_i(k), morton_j(k), h, seg.flags,
+                        pbox, groups + at, codes + at, m, k, tq[q], coded,
+                        pre_nb ? pre_nb + q : NULL);
+        }
     }
 }
 

@@ -50,7 +50,7 @@ typedef uint8_t ts_u8;
  * lanes, which are SIMD registers there. Elsewhere (GPUs, where a float8 is eight scalar
  * operations and private arrays cost registers) one leaf. A launch over a tree run has
  * 4^m / min(4^m, run) work-items a tree (trace.c build_leaf_items). */
-#define TS_BUILD_LEAF_RUN 4u
+#define TS_BUILD_LEAF_RUN 8u
 
 /* Vertices a work-item of `dice` evaluates (dice.cl: two, displace_value_pair's points): a
  * launch over a tree run has ceil((2^m + 1)^2 / TS_DICE_VERTICES) work-items a tree. */
