@@ -312,14 +312,16 @@ TS_INLINE_ALWAYS void leaf_finish(ts_box b, float mag, ts_interval d, uint displ
  * together, leaf q in lane q of each float4: leaf_begin, the noise intervals
  * (displace_interval_tasks, queued into the lanes of tasks, and displace_interval_sum) and
  * leaf_finish, each lane their operations in their order (the same bits), the four boxes
- * stored as their sibling group g with codes 0 in c (quadtree_store). Not for trimmed,
- * stitched, coded (rough) or triangle-mode trees, which build_leaves finishes leaf by leaf. */
+ * stored as their sibling group g with their codes in c (quadtree_store: 0, or where coded the
+ * tight boxes of their vertices in grid, rows of n). Not for trimmed, stitched or
+ * triangle-mode trees, which build_leaves finishes leaf by leaf. */
 inline void block_leaves(__global const ts_patch_attr *a, __global const ts_xform *ax,
                          __global const ts_vec4 *cp0, __global const ts_vec4 *cp,
                          __global const ts_vec4 *cn, __global const ts_vec4 *mn, ts_vec4 e, float s,
                          float h, uint i0, uint j0, ts_box pbox, const float *freq,
                          const float *weight, uint octaves, noise_tasks *tasks, float *vlo,
-                         float *vhi, __global ts_box4 *g, __global ts_tight4 *c)
+                         float *vhi, __global const ts_vec4 *grid, uint n, uint coded,
+                         __global ts_box4 *g, __global ts_tight4 *c)
 {
     block_box4 b = block_base_boxes(cp, i0, j0, h);
     float4 mag = fmax(fmax(fabs(b.lx), fabs(b.hx)),
@@ -415,12 +417,21 @@ inline void block_leaves(__global const ts_patch_attr *a, __global const ts_xfor
     BLOCK_GROW(b.ly, b.hy, nb.ly, nb.hy)
     BLOCK_GROW(b.lz, b.hz, nb.lz, nb.hz)
 #undef BLOCK_GROW
-    vstore4(fmax(b.lx, pbox.lo_x), 0, g->lo_x), vstore4(fmax(b.ly, pbox.lo_y), 0, g->lo_y);
-    vstore4(fmax(b.lz, pbox.lo_z), 0, g->lo_z), vstore4(fmin(b.hx, pbox.hi_x), 0, g->hi_x);
-    vstore4(fmin(b.hy, pbox.hi_y), 0, g->hi_y), vstore4(fmin(b.hz, pbox.hi_z), 0, g->hi_z);
-    uchar4 zero = (uchar4)(0);
-    vstore4(zero, 0, c->lo_x), vstore4(zero, 0, c->lo_y), vstore4(zero, 0, c->lo_z);
-    vstore4(zero, 0, c->hi_x), vstore4(zero, 0, c->hi_y), vstore4(zero, 0, c->hi_z);
+    b.lx = fmax(b.lx, pbox.lo_x), b.ly = fmax(b.ly, pbox.lo_y), b.lz = fmax(b.lz, pbox.lo_z);
+    b.hx = fmin(b.hx, pbox.hi_x), b.hy = fmin(b.hy, pbox.hi_y), b.hz = fmin(b.hz, pbox.hi_z);
+    vstore4(b.lx, 0, g->lo_x), vstore4(b.ly, 0, g->lo_y), vstore4(b.lz, 0, g->lo_z);
+    vstore4(b.hx, 0, g->hi_x), vstore4(b.hy, 0, g->hi_y), vstore4(b.hz, 0, g->hi_z);
+    if (!coded) {
+        uchar4 zero = (uchar4)(0);
+        vstore4(zero, 0, c->lo_x), vstore4(zero, 0, c->lo_y), vstore4(zero, 0, c->lo_z);
+        vstore4(zero, 0, c->hi_x), vstore4(zero, 0, c->hi_y), vstore4(zero, 0, c->hi_z);
+        return;
+    }
+    float fb[24]; /* a rough patch: each leaf's tight box, as codes inside its box */
+    block_spill(b, fb);
+    for (uint q = 0; q < 4u; ++q)
+        tight_store_lane(c, q, block_box(fb + q),
+                         leaf_clamp(tight_leaf_box(grid, n, i0 + (q & 1u), j0 + (q >> 1)), pbox));
 }
 #endif
 
@@ -479,14 +490,14 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
     tasks.n = 0u;
     uint blk = min(per, (uint)BUILD_LEAF_BLOCK);
 #ifdef TS_CPU_LANES
-    if (noise && blk == 4u && !tight && !coded && (seg.flags & TS_SEG_TRIMMED) == 0u &&
+    if (noise && blk == 4u && !tight && (seg.flags & TS_SEG_TRIMMED) == 0u &&
         (seg.flags >> TS_SEG_EDGE_SHIFT) == 0u) { /* each block's leaves a leaf per lane */
         __global ts_box4 *gq = groups + at + quadtree_group_offset(m) + (k0 >> 2);
         __global ts_tight4 *cq = codes + at + quadtree_group_offset(m) + (k0 >> 2);
         for (uint b = 0; b < per / 4u; ++b)
             block_leaves(a, ax, cp0, cpt, cn, mn, e, s, h, morton_i(k0 + 4u * b),
-                         morton_j(k0 + 4u * b), pbox, freq, weight, octaves, &tasks, vlo, vhi,
-                         gq + b, cq + b);
+                         morton_j(k0 + 4u * b), pbox, freq, weight, octaves, &tasks, vlo, vhi, g, n,
+                         coded, gq + b, cq + b);
         return;
     }
 #endif
