@@ -309,8 +309,8 @@ TS_INLINE_ALWAYS void leaf_finish(ts_box b, float mag, ts_interval d, uint displ
 
 #ifdef TS_CPU_LANES
 /* The 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)) of a noise-displaced tree at m >= 1 built
- * together, leaf q in lane q of each float4: leaf_begin, the noise intervals
- * (displace_interval_tasks, queued into the lanes of tasks, and displace_interval_sum) and
+ * together, leaf q in lane q of each float4: leaf_begin, the noise intervals (the cells of
+ * displace_interval_tasks, queued into the lanes of tasks, and displace_interval_sum) and
  * leaf_finish, each lane their operations in their order (the same bits), the four boxes
  * stored as their sibling group g with their codes in c (quadtree_store: 0, or where coded the
  * tight boxes of their vertices in grid, rows of n). Not for trimmed, stitched or

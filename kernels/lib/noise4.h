@@ -450,9 +450,11 @@ TS_INLINE_ALWAYS void noise_tasks_run(noise_tasks *t, float *lo, float *hi)
  * [-NOISE_BOUND, NOISE_BOUND] where the octave's box spans too many cells (noise3_interval's
  * `full`, which the widening in displace_interval_sum leaves as it is). A leaf's octaves cover 4-6
  * cells on forest-100's bark, so one leaf alone left a third to a half of the lanes spare;
- * build_leaves on CPU devices queues the cells of TS_BUILD_LEAF_RUN leaves into the same lanes
- * (`build` 5-6% faster on forest-100's squeezed frames, the same bits). displace_interval stays the
- * host's reference: test_dice_build and test_bottom_level compare the built trees bit for bit. */
+ * build_leaves on CPU devices queues the cells of a 2 x 2 block of leaves into the same lanes
+ * (this function for trimmed and stitched trees, and a leaf alone on GPUs; build.cl block_leaves,
+ * the same queue from the four leaves' boxes in float4 lanes, for the others), the same bits.
+ * displace_interval stays the host's reference: test_dice_build and test_bottom_level compare the
+ * built trees bit for bit. */
 inline void displace_interval_tasks(__global const ts_patch_attr *a, __global const ts_xform *x,
                                     float lx, float ly, float lz, float hx, float hy, float hz,
                                     const float *f, uint base, uint stride, noise_tasks *t,

@@ -46,10 +46,12 @@ typedef uint8_t ts_u8;
 #define TS_GROUP_SIZE 64
 
 /* Leaves a work-item of `build_leaves` builds on CPU devices (build.cl, -DTS_CPU_LANES; fewer
- * in a tree of fewer leaves): the noise cells of their displacement intervals share the float8
- * lanes, which are SIMD registers there. Elsewhere (GPUs, where a float8 is eight scalar
- * operations and private arrays cost registers) one leaf. A launch over a tree run has
- * 4^m / min(4^m, run) work-items a tree (trace.c build_leaf_items). */
+ * in a tree of fewer leaves): two 2 x 2 blocks, each built a leaf per float4 lane with the noise
+ * cells of its displacement intervals sharing the float8 lanes, which are SIMD registers there
+ * (four leaves a work-item: 5% slower on forest-100's squeezed frames; sixteen: no faster).
+ * Elsewhere (GPUs, where a float8 is eight scalar operations and private arrays cost
+ * registers) one leaf. A launch over a tree run has 4^m / min(4^m, run) work-items a tree
+ * (trace.c build_leaf_items). */
 #define TS_BUILD_LEAF_RUN 8u
 
 /* Vertices a work-item of `dice` evaluates (dice.cl: two, displace_value_pair's points): a
