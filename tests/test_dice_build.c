@@ -42,8 +42,9 @@ static void reference_point(const ts_vec4 *cp, double u, double v, double out[3]
     casteljau(rows, v, out);
 }
 
-/* Patches in random places; the odd ones carry fbm displacement in a scaled object space. */
-static void random_scene(ts_scene *s, int patches, uint32_t seed)
+/* Patches in random places; the odd ones carry fbm or ridged displacement of `octaves`
+ * octaves in a scaled object space. */
+static void random_scene(ts_scene *s, int patches, uint32_t seed, uint32_t octaves)
 {
     memset(s, 0, sizeof *s);
     ts_error err = {0};
@@ -64,7 +65,8 @@ static void random_scene(ts_scene *s, int patches, uint32_t seed)
         if (p % 2) {
             a.disp_kind = p % 4 == 1 ? TS_DISP_FBM : TS_DISP_RIDGED;
             /* patch 1 (diced at m = 5) rough: TS_PATCH_ROUGH, tight codes */
-            a.disp_octaves = 3, a.disp_amplitude = p == 1 ? 1.2f : 0.3f, a.disp_frequency = 1.7f;
+            a.disp_octaves = octaves, a.disp_amplitude = p == 1 ? 1.2f : 0.3f;
+            a.disp_frequency = 1.7f;
             a.disp_lacunarity = 2.0f, a.disp_gain = 0.5f, a.xform = xf;
         }
         assert_int_equal(scene_add_patch(s, cp, &a, &err), TS_OK);
@@ -372,11 +374,26 @@ static void test_dice_and_build_match_reference(void **state)
 {
     (void)state;
     ts_scene s;
-    random_scene(&s, 6, 12345u);
+    random_scene(&s, 6, 12345u, 3u);
     const uint32_t lods[6] = {0, 1, 2, 3, 5, 4};
     dice_build_and_check(&s, lods, 0, 1);
     dice_build_and_check(&s, lods, 1, 0);
     scene_free(&s);
+}
+
+/* One and two octaves, fbm and ridged: dice's and build's lane forms (noise4.h
+ * displace_value_pair's spare lanes, build.cl block_leaves' octave slots) against the
+ * reference. */
+static void test_dice_few_octaves_match_reference(void **state)
+{
+    (void)state;
+    for (uint32_t octaves = 1; octaves <= 2; ++octaves) {
+        ts_scene s;
+        random_scene(&s, 6, 777u + octaves, octaves);
+        const uint32_t lods[6] = {2, 0, 3, 1, 4, 5};
+        dice_build_and_check(&s, lods, 0, 0);
+        scene_free(&s);
+    }
 }
 
 /* Six displaced patches in a 3 x 2 sheet, sharing edges bit for bit (z a function of the
@@ -598,6 +615,7 @@ static void test_normal_box_lanes(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_dice_and_build_match_reference),
+                                       cmocka_unit_test(test_dice_few_octaves_match_reference),
                                        cmocka_unit_test(test_dice_and_build_textured),
                                        cmocka_unit_test(test_stitched_edges_share_vertices),
                                        cmocka_unit_test(test_normal_box_lanes)};
