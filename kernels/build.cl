@@ -47,10 +47,6 @@
 #include "lib/quadtree.h"
 #include "lib/trim.h"
 
-/* Box of the undisplaced corners of micro-quad (i, j), h = 2^-m: the Bézier patch cp at the
- * four corners, a corner per lane (bezier_eval_x4: bezier_eval's bits), folded corner by
- * corner with x, y, z in lanes as the host's base_box (host/ref/dice_build_ref.c) adds them:
- * the same bits, and no read of the diced grid. */
 /* The box of four corners (x, y, z, 0), folded in base_box's order. */
 TS_INLINE_ALWAYS ts_box corner_fold(float4 q0, float4 q1, float4 q2, float4 q3)
 {
@@ -60,6 +56,10 @@ TS_INLINE_ALWAYS ts_box corner_fold(float4 q0, float4 q1, float4 q2, float4 q3)
     return b;
 }
 
+/* Box of the undisplaced corners of micro-quad (i, j), h = 2^-m: the Bézier patch cp at the
+ * four corners, a corner per lane (bezier_eval_x4: bezier_eval's bits), folded corner by
+ * corner with x, y, z in lanes as the host's base_box (host/ref/dice_build_ref.c) adds them:
+ * the same bits, and no read of the diced grid. */
 inline ts_box base_box(__global const ts_vec4 *cp, uint i, uint j, float h)
 {
     float4 cu = (float4)((float)i * h, (float)(i + 1u) * h, (float)i * h, (float)(i + 1u) * h);
@@ -98,12 +98,7 @@ TS_INLINE_ALWAYS block_box4 block_base_boxes(__global const ts_vec4 *cp, uint i0
     float4 bu[4], bv[4], rx[4], ry[4], rz[4];
     bezier_basis_x4(cu, bu);
     bezier_basis_x4(cv, bv);
-    for (int j = 0; j < 4; ++j) {
-        __global const ts_vec4 *c = cp + j * 4;
-        rx[j] = bezier_sum4_x4(bu, c[0].x, c[1].x, c[2].x, c[3].x);
-        ry[j] = bezier_sum4_x4(bu, c[0].y, c[1].y, c[2].y, c[3].y);
-        rz[j] = bezier_sum4_x4(bu, c[0].z, c[1].z, c[2].z, c[3].z);
-    }
+    bezier_rows_x4(cp, bu, rx, ry, rz);
     float4 x[3], y[3], z[3]; /* the corners at v = cv[v], u = cu[lane] */
 #define BLOCK_ROW(v, sv)                                                                           \
     {                                                                                              \
@@ -148,18 +143,8 @@ TS_INLINE_ALWAYS block_box4 block_normal_boxes(__global const ts_vec4 *n,
 {
     float u0 = (float)i0 * h, u1 = (float)(i0 + 1u) * h, u2 = (float)(i0 + 2u) * h;
     float4 ra[3][3], rb[3][3]; /* rows restricted to [u0, u1] (leaves 0, 2), [u1, u2] (1, 3) */
-    displace_quad_restrict_x4(vec4_lanes(n + 0), vec4_lanes(mid + 0), vec4_lanes(n + 1), u0, u1,
-                              ra[0]);
-    displace_quad_restrict_x4(vec4_lanes(mid + 1), vec4_lanes(mid + 4), vec4_lanes(mid + 2), u0, u1,
-                              ra[1]);
-    displace_quad_restrict_x4(vec4_lanes(n + 2), vec4_lanes(mid + 3), vec4_lanes(n + 3), u0, u1,
-                              ra[2]);
-    displace_quad_restrict_x4(vec4_lanes(n + 0), vec4_lanes(mid + 0), vec4_lanes(n + 1), u1, u2,
-                              rb[0]);
-    displace_quad_restrict_x4(vec4_lanes(mid + 1), vec4_lanes(mid + 4), vec4_lanes(mid + 2), u1, u2,
-                              rb[1]);
-    displace_quad_restrict_x4(vec4_lanes(n + 2), vec4_lanes(mid + 3), vec4_lanes(n + 3), u1, u2,
-                              rb[2]);
+    displace_normal_rows_x4(n, mid, u0, u1, ra);
+    displace_normal_rows_x4(n, mid, u1, u2, rb);
     /* displace_quad_restrict's weights in v, a leaf per lane */
     float va = (float)j0 * h, vb = (float)(j0 + 1u) * h, vc = (float)(j0 + 2u) * h;
     float4 t0 = (float4)(va, va, vb, vb), t1 = (float4)(vb, vb, vc, vc);
@@ -333,8 +318,9 @@ inline void block_leaves(__global const ts_patch_attr *a, __global const ts_xfor
         b0 = block_base_boxes(cp0, i0, j0, h);
         b0.lx -= ex, b0.hx += ex, b0.ly -= ey, b0.hy += ey, b0.lz -= ez, b0.hz += ez;
     }
-    /* displace_interval_tasks in the lanes: displace_object_box, then per octave the cells'
-     * range, and the cells queued leaf by leaf (each slot's cells in their order) */
+    /* displace_interval_tasks in the lanes: displace_object_box (lib/displace.h) a leaf per
+     * lane, then per octave the cells' range, and the cells queued leaf by leaf (each slot's
+     * cells in their order) */
     float4 ol[3], oh[3];
     __global const float *rows[3] = {ax->r0, ax->r1, ax->r2};
     for (int r = 0; r < 3; ++r) {

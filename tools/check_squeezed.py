@@ -8,6 +8,8 @@ checking a frame that fits."""
 import json
 import sys
 
+if len(sys.argv) < 2:
+    sys.exit("usage: check_squeezed.py STATS.json...")
 failed = False
 for path in sys.argv[1:]:
     c = json.load(open(path))["counters"]

@@ -205,6 +205,19 @@ inline float4 bezier_sum4_v4(const float4 b[4], float4 x0, float4 x1, float4 x2,
     return (b[0] * x0 + b[3] * x3) + (b[1] * x1 + b[2] * x2);
 }
 
+/* bezier_eval's row sums: row j of the control points cp combined by the u basis bu (a
+ * parameter per lane), x, y, z into rx[j], ry[j], rz[j]. */
+TS_INLINE_ALWAYS void bezier_rows_x4(__global const ts_vec4 *cp, const float4 bu[4], float4 rx[4],
+                                     float4 ry[4], float4 rz[4])
+{
+    for (int j = 0; j < 4; ++j) {
+        __global const ts_vec4 *c = cp + j * 4;
+        rx[j] = bezier_sum4_x4(bu, c[0].x, c[1].x, c[2].x, c[3].x);
+        ry[j] = bezier_sum4_x4(bu, c[0].y, c[1].y, c[2].y, c[3].y);
+        rz[j] = bezier_sum4_x4(bu, c[0].z, c[1].z, c[2].z, c[3].z);
+    }
+}
+
 /* bezier_eval at four points (u.sk, v.sk), a point per lane, each lane bezier_combine's
  * operations in their order: the same bits. */
 inline void bezier_eval_x4(__global const ts_vec4 *cp, float4 u, float4 v, float4 *px, float4 *py,
@@ -213,12 +226,7 @@ inline void bezier_eval_x4(__global const ts_vec4 *cp, float4 u, float4 v, float
     float4 bu[4], bv[4], rx[4], ry[4], rz[4];
     bezier_basis_x4(u, bu);
     bezier_basis_x4(v, bv);
-    for (int j = 0; j < 4; ++j) {
-        __global const ts_vec4 *c = cp + j * 4;
-        rx[j] = bezier_sum4_x4(bu, c[0].x, c[1].x, c[2].x, c[3].x);
-        ry[j] = bezier_sum4_x4(bu, c[0].y, c[1].y, c[2].y, c[3].y);
-        rz[j] = bezier_sum4_x4(bu, c[0].z, c[1].z, c[2].z, c[3].z);
-    }
+    bezier_rows_x4(cp, bu, rx, ry, rz);
     *px = bezier_sum4_v4(bv, rx[0], rx[1], rx[2], rx[3]);
     *py = bezier_sum4_v4(bv, ry[0], ry[1], ry[2], ry[3]);
     *pz = bezier_sum4_v4(bv, rz[0], rz[1], rz[2], rz[3]);
@@ -284,6 +292,20 @@ inline void displace_div_range_x4(float4 lo, float4 hi, float rmin, float rmax, 
     *b = fmin(select(hi / rmin, hi / rmax, hi <= 0.0f), 1.0f);
 }
 
+/* displace_normal_box's first step: the normals' three rows (the v = 0 edge, v = 1/2, the v = 1
+ * edge) restricted to [u0, u1], x, y, z in lanes. */
+TS_INLINE_ALWAYS void displace_normal_rows_x4(__global const ts_vec4 *n,
+                                              __global const ts_vec4 *mid, float u0, float u1,
+                                              float4 rows[3][3])
+{
+    displace_quad_restrict_x4(vec4_lanes(n + 0), vec4_lanes(mid + 0), vec4_lanes(n + 1), u0, u1,
+                              rows[0]);
+    displace_quad_restrict_x4(vec4_lanes(mid + 1), vec4_lanes(mid + 4), vec4_lanes(mid + 2), u0, u1,
+                              rows[1]);
+    displace_quad_restrict_x4(vec4_lanes(n + 2), vec4_lanes(mid + 3), vec4_lanes(n + 3), u0, u1,
+                              rows[2]);
+}
+
 /* displace_normal_box (lib/displace.h), the same bits, with x, y, z in the lanes of a float4
  * (build.cl): every lane runs the scalar operations of its component in their order; the
  * lengths rmin, rmax add their squares in the scalar order. displace_normal_box stays the
@@ -292,12 +314,7 @@ inline ts_box displace_normal_box_x4(__global const ts_vec4 *n, __global const t
                                      float u0, float v0, float u1, float v1)
 {
     float4 rows[3][3], col[3];
-    displace_quad_restrict_x4(vec4_lanes(n + 0), vec4_lanes(mid + 0), vec4_lanes(n + 1), u0, u1,
-                              rows[0]);
-    displace_quad_restrict_x4(vec4_lanes(mid + 1), vec4_lanes(mid + 4), vec4_lanes(mid + 2), u0, u1,
-                              rows[1]);
-    displace_quad_restrict_x4(vec4_lanes(n + 2), vec4_lanes(mid + 3), vec4_lanes(n + 3), u0, u1,
-                              rows[2]);
+    displace_normal_rows_x4(n, mid, u0, u1, rows);
     float4 lo = (float4)(INFINITY), hi = (float4)(-INFINITY);
     for (int k = 0; k < 3; ++k) {
         displace_quad_restrict_x4(rows[0][k], rows[1][k], rows[2][k], v0, v1, col);
