@@ -98,14 +98,15 @@ static void leaf_triangles(const ref_ray *r, const bl_ref_patch *pt, uint32_t k,
                          TS_PRIM(m, 2u * quad + 1u)};
 }
 
-/* Leaf box k hit at entry e: the hit is the entry, (u, v) the centre of its square. */
+/* Leaf box k hit at entry e: the hit is the entry, (u, v) the centre of its square. Of equal
+ * entries the larger micro-quad index wins, whatever the visiting order (the kernel's
+ * box_hit_nearer). */
 static void leaf_box(uint32_t m, uint32_t k, float e, ts_hit *best, uint32_t patch)
 {
-    if (!(e < best->t)) return;
-    uint32_t i = morton_i(k), j = morton_j(k);
+    uint32_t i = morton_i(k), j = morton_j(k), prim = TS_PRIM(m, 2u * (j * (1u << m) + i));
+    if (!(e < best->t || (e == best->t && best->patch != TS_INVALID && prim > best->prim))) return;
     float scale = ldexpf(1.0f, -(int)m);
-    *best = (ts_hit){e, ((float)i + 0.5f) * scale, ((float)j + 0.5f) * scale, patch,
-                     TS_PRIM(m, 2u * (j * (1u << m) + i))};
+    *best = (ts_hit){e, ((float)i + 0.5f) * scale, ((float)j + 0.5f) * scale, patch, prim};
 }
 
 /* Micro-quad qi against the ray (the kernel's quad_test). */
