@@ -28,7 +28,10 @@
  * build_level (one launch per level l, deepest first): node k of level l of every tree with
  *   m > l (a prefix of the batch's tree list, which is sorted by decreasing m) gets the union
  *   of its four children — the bottom-up min-max reduction — and the union of their decoded
- *   tight boxes as its codes. The root group's lanes 1-3 are left empty.
+ *   tight boxes as its codes. The root group's lanes 1-3 are left empty. On CPU devices a
+ *   work-item of build_leaves makes the parents of its two sibling groups too (level m - 1,
+ *   build_parents: the same union, read back from its own stores), and build_level runs only
+ *   for the levels above: its launch over m - 1 was three quarters of its work.
  * Reads: trees, segments (the patch built is each segment's shape), control points, grid (only for
  * tight boxes: triangle mode, rough patches, stitched edges; dice need not have run otherwise),
  * corner normals,
@@ -421,6 +424,35 @@ inline void block_leaves(__global const ts_patch_attr *a, __global const ts_xfor
 }
 #endif
 
+/* Node k of level l of the tree at base (groups) and cbase (codes): the union of its four
+ * children, group k of level l + 1, and (coded) the union of their tight boxes, decoded. */
+inline void build_node(__global ts_box4 *base, __global ts_tight4 *cbase, uint l, uint k,
+                       uint coded)
+{
+    __global const ts_box4 *c = base + quadtree_group_offset(l + 1u) + k;
+    ts_box box;
+    box.lo_x = fmin(fmin(c->lo_x[0], c->lo_x[1]), fmin(c->lo_x[2], c->lo_x[3]));
+    box.lo_y = fmin(fmin(c->lo_y[0], c->lo_y[1]), fmin(c->lo_y[2], c->lo_y[3]));
+    box.lo_z = fmin(fmin(c->lo_z[0], c->lo_z[1]), fmin(c->lo_z[2], c->lo_z[3]));
+    box.hi_x = fmax(fmax(c->hi_x[0], c->hi_x[1]), fmax(c->hi_x[2], c->hi_x[3]));
+    box.hi_y = fmax(fmax(c->hi_y[0], c->hi_y[1]), fmax(c->hi_y[2], c->hi_y[3]));
+    box.hi_z = fmax(fmax(c->hi_z[0], c->hi_z[1]), fmax(c->hi_z[2], c->hi_z[3]));
+    ts_box tb = coded ? quadtree_tight_union(base, cbase, l, k) : box;
+    quadtree_store(base, cbase, l, k, box, tb, coded);
+}
+
+/* The parents of leaves k0 .. k0 + per - 1 (level m - 1, build_node) where they are whole
+ * sibling groups (per >= 4: on CPU devices, BUILD_LEAF_RUN leaves a work-item), read back from
+ * what the work-item stored; the host then starts build_level a level higher for the trees
+ * (trace.c stage_build). Saves build_level's largest launch and its reads of the leaves. */
+inline void build_parents(__global ts_box4 *base, __global ts_tight4 *cbase, uint m, uint k0,
+                          uint per, uint coded)
+{
+    if (per < 4u) return;
+    for (uint k = k0 >> 2; k < (k0 + per) >> 2; ++k)
+        build_node(base, cbase, m - 1u, k, coded);
+}
+
 /* Leaves a work-item of build_leaves (TS_BUILD_LEAF_RUN on CPU devices, shared_types.h). */
 #ifdef TS_CPU_LANES
 #define BUILD_LEAF_RUN TS_BUILD_LEAF_RUN
@@ -484,6 +516,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
             block_leaves(a, ax, cp0, cpt, cn, mn, e, s, h, morton_i(k0 + 4u * b),
                          morton_j(k0 + 4u * b), pbox, freq, weight, octaves, &tasks, vlo, vhi, g, n,
                          coded, gq + b, cq + b);
+        build_parents(groups + at, codes + at, m, k0, per, coded);
         return;
     }
 #endif
@@ -554,6 +587,7 @@ __kernel void build_leaves(__global const uint *trees, uint tree_first, uint tre
                         pre_nb ? pre_nb + q : NULL);
         }
     }
+    build_parents(groups + at, codes + at, m, k0, per, coded);
 }
 
 __kernel void build_level(__global const uint *trees, uint tree_first, uint tree_count, uint level,
@@ -566,20 +600,8 @@ __kernel void build_level(__global const uint *trees, uint tree_first, uint tree
     uint tree = trees[tree_first + t];
     ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
     size_t at = (size_t)seg.group_first + TS_TREE_TIME(tree) * quadtree_group_count(seg.lod);
-    __global ts_box4 *base = groups + at;
-    __global ts_tight4 *cbase = codes + at;
-    __global const ts_box4 *c = base + quadtree_group_offset(level + 1u) + k;
-    ts_box box;
-    box.lo_x = fmin(fmin(c->lo_x[0], c->lo_x[1]), fmin(c->lo_x[2], c->lo_x[3]));
-    box.lo_y = fmin(fmin(c->lo_y[0], c->lo_y[1]), fmin(c->lo_y[2], c->lo_y[3]));
-    box.lo_z = fmin(fmin(c->lo_z[0], c->lo_z[1]), fmin(c->lo_z[2], c->lo_z[3]));
-    box.hi_x = fmax(fmax(c->hi_x[0], c->hi_x[1]), fmax(c->hi_x[2], c->hi_x[3]));
-    box.hi_y = fmax(fmax(c->hi_y[0], c->hi_y[1]), fmax(c->hi_y[2], c->hi_y[3]));
-    box.hi_z = fmax(fmax(c->hi_z[0], c->hi_z[1]), fmax(c->hi_z[2], c->hi_z[3]));
     /* The tight box: the union of the children's, decoded (build_leaves' coded). */
-    uint coded = !tight && (seg.flags & TS_PATCH_ROUGH) != 0u;
-    ts_box tb = coded ? quadtree_tight_union(base, cbase, level, k) : box;
-    quadtree_store(base, cbase, level, k, box, tb, coded);
+    build_node(groups + at, codes + at, level, k, !tight && (seg.flags & TS_PATCH_ROUGH) != 0u);
 }
 
 /* The four boxes of sibling group g as codes inside the patch box p (tight_store_lane; every

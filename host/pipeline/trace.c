@@ -517,7 +517,8 @@ static size_t build_leaf_items(const ts_pipeline *p, uint32_t m)
 }
 
 /* Leaves per LOD run, then one launch per level over the trees deeper than it, then the
- * culling copy. */
+ * culling copy. On a device built with the CPU lanes build_leaves also makes each tree's level
+ * m - 1 (build.cl build_parents), so build_level starts a level higher for every tree. */
 static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
     uint32_t top = 0;
@@ -538,10 +539,12 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
             return err->code;
         t += run;
     }
+    uint32_t made = p->cl->cpu_lanes ? 1u : 0u; /* levels below m build_leaves made */
     for (uint32_t level = top; level-- > 0;) {
-        uint32_t deeper = 0; /* trees with m > level: a prefix of the list */
-        while (deeper < b->tree_count && tree_lod(p, b, deeper) > level)
+        uint32_t deeper = 0; /* trees with m > level + made: a prefix of the list */
+        while (deeper < b->tree_count && tree_lod(p, b, deeper) > level + made)
             ++deeper;
+        if (deeper == 0) continue;
         if (dev_set_args(p->k_build_level, err, DEV_ARG(p->trees), DEV_ARG(b->tree_first),
                          DEV_ARG(deeper), DEV_ARG(level), DEV_ARG(tight), DEV_ARG(p->segments),
                          DEV_ARG(p->groups), DEV_ARG(p->tight), (size_t)0) ||
