@@ -19,6 +19,9 @@
  *   traverses its master's grid and tree with the ray moved into the master's frame by the
  *   patch's transform, inst_xform[instance[patch]] (lib/instance.h: t is unchanged); the hit
  *   keeps the segment's own patch, so shading sees the instance.
+ * Skeletons: a TS_SEG_SKELETON segment has no tree in the arenas; its pairs traverse the
+ *   patch's kept skeleton and make the leaves of the blocks they enter (bl_skeleton, CPU
+ *   devices), the same hits.
  * Motion (§3.4): a moving segment has a tree and a grid per time sample; boxes and vertices
  * are interpolated linearly at the ray's time.
  * Sibling boxes are tested four at a time (SoA groups, lib/quadtree.h). Stack: at most 3
@@ -42,6 +45,7 @@
 #include "lib/intersect.h"
 #include "lib/prefetch.h"
 #include "lib/quadtree.h"
+#include "lib/leaf4.h"
 
 #define BL_STACK (3 * TS_LOD_LIMIT + 2)
 #define BL_WG TS_GROUP_SIZE /* work-group size of bottom_level_group */
@@ -202,7 +206,9 @@ typedef struct bl_patch {
     __global const ts_box4 *t0, *t1;
     __global const ts_tight4 *c0, *c1;
     uint m, patch;
-    uint trimmed; /* TS_SEG_TRIMMED: micro-quads its trim removes have empty boxes */
+    uint trimmed;  /* TS_SEG_TRIMMED: micro-quads its trim removes have empty boxes */
+    uint shape;    /* the patch diced (itself, or the master an instance shares) */
+    uint skeleton; /* TS_SEG_SKELETON: no tree in the arenas; traced by bl_skeleton */
 } bl_patch;
 
 /* The traversal of one ray through one patch's tree, stopped at blocks of level L. */
@@ -241,6 +247,8 @@ inline bl_patch bl_patch_make(ts_segment seg, __global const ts_vec4 *grid,
     pt.t1 = moving ? pt.t0 + quadtree_group_count(seg.lod) : 0;
     pt.c0 = pt.c1 = 0;
     pt.trimmed = (seg.flags & TS_SEG_TRIMMED) != 0u;
+    pt.shape = seg.shape;
+    pt.skeleton = (seg.flags & TS_SEG_SKELETON) != 0u;
     return pt;
 }
 
@@ -438,6 +446,98 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
     return !((flags & TS_RAY_SHADOW) && (flags >> 1) == seg.patch + 1u);
 }
 
+#ifdef TS_CPU_LANES
+/* The leaves' inputs of a patch traced through its skeleton (block_leaf_boxes'). */
+typedef struct bl_leaf_src {
+    __global const ts_patch_attr *a;
+    __global const ts_xform *ax;
+    __global const ts_vec4 *cp, *cn, *mn;
+    ts_vec4 e;
+    ts_box pbox;
+} bl_leaf_src;
+
+/* A pair of a TS_SEG_SKELETON segment (a static, noise-displaced patch at m >= 4 without its
+ * tree in the arenas; no ray of it leaves the patch, so its leaves are boxes): the ray
+ * traverses the skeleton sk (build.cl build_skeleton: levels 1 .. m - 2, each group decoded
+ * inside its parent's decoded box, the root's the patch box) nearest first, and at a node of
+ * level m - 2 makes its 16 leaves, four 2 x 2 blocks by block_leaf_boxes (what build_leaves
+ * stores: the same bits), and tests them as the tree's leaves are (slab4, leaf_box). Every
+ * skeleton box holds its tree box, so every leaf the tree's traversal could reach within
+ * tmax is reached here, and of equal entries the larger micro-quad wins (box_hit_nearer):
+ * the same hit as through the tree. A shadow ray stops after the first block with a hit.
+ * Returns the micro-quads tested. */
+inline uint bl_skeleton(const bl_ray *r, uint m, uint patch, __global const ts_tight4 *sk,
+                        const bl_leaf_src *src, uint shadow, ts_hit *best)
+{
+    uint L = m - TS_SKELETON_DROP, tests = 0u, sp = 0u;
+    float h = ldexp(1.0f, -(int)m), s = ldexp(1.0f, -2 * (int)m);
+    float freq[TS_DISP_MAX_OCTAVES], weight[TS_DISP_MAX_OCTAVES];
+    uint octaves = displace_octaves(src->a);
+    displace_octave_steps(src->a, octaves, octaves, freq, weight);
+    float vlo[4 * TS_DISP_MAX_OCTAVES], vhi[4 * TS_DISP_MAX_OCTAVES];
+    noise_tasks tasks;
+    tasks.n = 0u;
+    uint node[BL_STACK];
+    float node_t[BL_STACK];
+    ts_box node_b[BL_STACK];
+    node[0] = 0u, node_t[0] = 0.0f, node_b[0] = src->pbox, sp = 1u;
+    while (sp > 0u) {
+        --sp;
+        if (node_t[sp] > best->t) continue;
+        uint level = node[sp] >> 24, k = node[sp] & 0xffffffu;
+        ts_box d = node_b[sp];
+        if (level == L) { /* a block: its leaves, 2 x 2 at a time in Morton order */
+            for (uint sb = 0; sb < (1u << (2u * TS_SKELETON_DROP)) / 4u; ++sb) {
+                uint k1 = (k << (2u * TS_SKELETON_DROP)) + 4u * sb;
+                block_box4 b = block_leaf_boxes(src->a, src->ax, src->cp, src->cp, src->cn, src->mn,
+                                                src->e, s, h, morton_i(k1), morton_j(k1), src->pbox,
+                                                freq, weight, octaves, &tasks, vlo, vhi);
+                float4 raw, e4 = slab4(b.lx, b.ly, b.lz, b.hx, b.hy, b.hz, r->o4, r->inv, r->tmin,
+                                       best->t, &raw);
+                float e[4] = {e4.x, e4.y, e4.z, e4.w}, er[4] = {raw.x, raw.y, raw.z, raw.w};
+                for (uint q = 0; q < 4u; ++q)
+                    if (e[q] >= 0.0f && er[q] >= r->tmin) leaf_box(m, k1 + q, e[q], best, patch);
+                tests += 4u;
+            }
+            if (shadow && best->patch != TS_INVALID) break;
+            continue;
+        }
+        /* The children: group offset(level + 1) + k of the tree, entry - 1 of the skeleton. */
+        __global const ts_tight4 *c = sk + quadtree_group_offset(level + 1u) + k - 1u;
+        float4 lx, ly, lz, hx, hy, hz;
+        tight4_decode(c, (float4)(d.lo_x), (float4)(d.lo_y), (float4)(d.lo_z), (float4)(d.hi_x),
+                      (float4)(d.hi_y), (float4)(d.hi_z), (float4)(tight_step(d.lo_x, d.hi_x)),
+                      (float4)(tight_step(d.lo_y, d.hi_y)), (float4)(tight_step(d.lo_z, d.hi_z)),
+                      &lx, &ly, &lz, &hx, &hy, &hz);
+        float4 raw, e4 = slab4(lx, ly, lz, hx, hy, hz, r->o4, r->inv, r->tmin, best->t, &raw);
+        float e[4] = {e4.x, e4.y, e4.z, e4.w};
+        float bl[24];
+        vstore4(lx, 0, bl), vstore4(ly, 1, bl), vstore4(lz, 2, bl);
+        vstore4(hx, 3, bl), vstore4(hy, 4, bl), vstore4(hz, 5, bl);
+        /* the children entered, farthest pushed first so that the nearest is popped next */
+        uint id[4], nc = 0u;
+        float tc[4];
+        for (uint q = 0; q < 4u; ++q) {
+            if (e[q] < 0.0f) continue;
+            uint at = nc++;
+            while (at > 0u && tc[at - 1u] < e[q]) {
+                tc[at] = tc[at - 1u], id[at] = id[at - 1u];
+                --at;
+            }
+            tc[at] = e[q], id[at] = q;
+        }
+        for (uint j = 0; j < nc; ++j) {
+            uint q = id[j];
+            node[sp] = ((level + 1u) << 24) | (4u * k + q), node_t[sp] = tc[j];
+            node_b[sp] =
+                (ts_box){bl[q], bl[4u + q], bl[8u + q], bl[12u + q], bl[16u + q], bl[20u + q]};
+            ++sp;
+        }
+    }
+    return tests;
+}
+#endif
+
 /* The arguments of both bottom_level kernels, which the host binds alike (trace.c). */
 #define BL_KERNEL_ARGS                                                                             \
     __global const ts_pair *pairs, uint pair_first, uint pair_count,                               \
@@ -448,7 +548,11 @@ inline int bl_pair(uint gid, __global const ts_pair *pairs, uint pair_first,
         __global const ts_vec4 *grid, __global const ts_box4 *groups,                              \
         __global const ts_tight4 *codes, __global const uint *instance,                            \
         __global const ts_xform *inst_xform, __global ts_hit *pair_hit,                            \
-        __global uint *utilisation, uint group_base
+        __global uint *utilisation, uint group_base, __global const ts_tight4 *skel,               \
+        __global const uint *skel_first, __global const ts_vec4 *cp,                               \
+        __global const ts_vec4 *corner_n, __global const ts_vec4 *mid_n,                           \
+        __global const ts_patch_attr *attr, __global const ts_xform *xform,                        \
+        __global const ts_vec4 *flatness, __global const ts_box *patch_box
 
 __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_trace(BL_KERNEL_ARGS)
 {
@@ -472,21 +576,34 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_tr
         if (bl_pair(gid, pairs, pair_first, segments, seg_first, seg_count, n_per_ray, window_first,
                     active_count, active, org, dir, hit, ray_flags, ray_from, grid, groups, codes,
                     instance, inst_xform, &r, &pt, &best, &window, &ex, &shadow)) {
-            uint b = min(leaf_b, pt.m), L = pt.m - b, nq = 1u << (2u * b);
-            bl_trav s;
-            bl_trav_start(&s, &r, &pt, best.t, L);
-            float te, raw;
-            for (int k; (k = bl_next_block(&s, &r, &pt, L, best.t, &te, &raw)) >= 0;) {
-                /* A shadow ray needs any hit, not the closest: done after the first block
-                 * that has one (resolve retires it at its first hit). */
-                if (shadow && best.patch != TS_INVALID) break;
-                if (!ex && b == 0u) { /* the block is one leaf box, already tested */
-                    if (raw >= r.tmin) leaf_box(pt.m, (uint)k, te, &best, pt.patch);
-                    ++tests;
-                    continue;
+#ifdef TS_CPU_LANES
+            if (pt.skeleton) {
+                bl_leaf_src src;
+                src.a = attr + pt.shape, src.ax = xform + src.a->xform;
+                src.cp = cp + (size_t)pt.shape * 16u, src.cn = corner_n + (size_t)pt.shape * 4u;
+                src.mn = mid_n + (size_t)pt.shape * 5u, src.e = flatness[pt.shape];
+                src.pbox = patch_box[pt.shape];
+                tests += bl_skeleton(&r, pt.m, pt.patch, skel + skel_first[pt.shape], &src, shadow,
+                                     &best);
+            } else
+#endif
+            {
+                uint b = min(leaf_b, pt.m), L = pt.m - b, nq = 1u << (2u * b);
+                bl_trav s;
+                bl_trav_start(&s, &r, &pt, best.t, L);
+                float te, raw;
+                for (int k; (k = bl_next_block(&s, &r, &pt, L, best.t, &te, &raw)) >= 0;) {
+                    /* A shadow ray needs any hit, not the closest: done after the first block
+                     * that has one (resolve retires it at its first hit). */
+                    if (shadow && best.patch != TS_INVALID) break;
+                    if (!ex && b == 0u) { /* the block is one leaf box, already tested */
+                        if (raw >= r.tmin) leaf_box(pt.m, (uint)k, te, &best, pt.patch);
+                        ++tests;
+                        continue;
+                    }
+                    for (uint q = 0; q < nq; ++q, ++tests)
+                        quad_test(&r, &pt, ((uint)k << (2u * b)) + q, ex, &best);
                 }
-                for (uint q = 0; q < nq; ++q, ++tests)
-                    quad_test(&r, &pt, ((uint)k << (2u * b)) + q, ex, &best);
             }
         }
         if (best.patch == TS_INVALID) best.t = TS_NO_HIT;

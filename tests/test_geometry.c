@@ -262,6 +262,47 @@ static void test_squeezed_frames_skip_unread_vertices(void **state)
     }
 }
 
+/* A squeezed frame traces a missed, box-only patch with few pairs through the kept skeleton of
+ * its tree (trace.c plan_batches, build.cl build_skeleton, bottom_level.cl bl_skeleton): the
+ * leaves its rays enter made in bottom_level, with the same bits as build's, so the same hits
+ * and pixels as the frame that fits, and as the same squeezed frame without skeletons
+ * (TESSERA_SKELETON_PAIR_LEAVES=0). With 1, every such segment whose tree has a skeleton takes
+ * it; with the default, some. forest-1 at --memory 16 thins its arenas (as
+ * test_thin_arenas_make_fewer_waves), which keeps room for the skeletons within the budget. */
+static void test_squeezed_frames_trace_skeletons(void **state)
+{
+    (void)state;
+    const char *scene = test_source_path("scene/forest-1.rib");
+    const int lods[] = {6, 5};
+    const char *leaves[] = {"", "1", "0"}; /* the default, every segment it may, none */
+    for (size_t r = 0; r < sizeof lods / sizeof lods[0]; ++r) {
+        char args[16384];
+        snprintf(args, sizeof args,
+                 "render '%s' -o '%s' --stats '%s' --lod %d --memory 512 --res 160x90 --spp 4 "
+                 "--quiet",
+                 scene, path("fit.exr"), path("fit.json"), lods[r]);
+        render_ok(args);
+        assert_true(test_stats_number(path("fit.json"), "counters.skeleton_segments") == 0.0);
+        double kept[3];
+        for (int k = 0; k < 3; ++k) {
+            setenv("TESSERA_SKELETON_PAIR_LEAVES", leaves[k], 1);
+            snprintf(args, sizeof args,
+                     "render '%s' -o '%s' --stats '%s' --lod %d --memory 16 --res 160x90 --spp 4 "
+                     "--quiet",
+                     scene, path("sq.exr"), path("sq.json"), lods[r]);
+            render_ok(args);
+            unsetenv("TESSERA_SKELETON_PAIR_LEAVES");
+            test_assert_same_pixels(path("fit.exr"), path("sq.exr"));
+            kept[k] = test_stats_number(path("sq.json"), "counters.skeleton_segments");
+            test_assert_device_bytes_in_budget(path("sq.json"), 160.0 * 90, 1110);
+        }
+        print_message("[ skeleton ] --lod %d: %g segments through skeletons (default), %g (all), "
+                      "%g (off)\n",
+                      lods[r], kept[0], kept[1], kept[2]);
+        assert_true(kept[0] > 0.0 && kept[1] > kept[0] && kept[2] == 0.0);
+    }
+}
+
 /* Shading normals from the diced grid (pipeline_grid_publish): shade reads the hit
  * micro-quad's four vertices from the grid where its patch is resident, and evaluates them
  * where it is not (TESSERA_GRID_NORMALS=0: everywhere). The images are the same bits in
@@ -490,6 +531,7 @@ static void test_thin_arenas_make_fewer_waves(void **state)
     };
     char args[16384], roomy[64], thin[64], json[64];
     const char *scene = test_source_path("scene/forest-1.rib");
+    setenv("TESSERA_SKELETON_PAIR_LEAVES", "0", 1); /* no room kept for skeletons: the rays' */
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
         snprintf(roomy, sizeof roomy, "roomy%d.exr", cases[k].lod);
         snprintf(thin, sizeof thin, "thin%d.exr", cases[k].lod);
@@ -508,6 +550,7 @@ static void test_thin_arenas_make_fewer_waves(void **state)
         assert_true(test_stats_number(path(json), "memory_budget_bytes") == 16.0 * 1048576);
         test_assert_device_bytes_in_budget(path(json), 160.0 * 90, 1110);
     }
+    unsetenv("TESSERA_SKELETON_PAIR_LEAVES");
 }
 
 /* The lowest level any dicing of the render used (lod_histogram). */
@@ -696,6 +739,7 @@ int main(void)
         cmocka_unit_test(test_triangles_hole_free_across_levels),
         cmocka_unit_test(test_patch_cache_dices_once_and_changes_no_bit),
         cmocka_unit_test(test_squeezed_frames_skip_unread_vertices),
+        cmocka_unit_test(test_squeezed_frames_trace_skeletons),
         cmocka_unit_test(test_grid_normals_change_no_bit),
         cmocka_unit_test(test_tight_leaves_change_no_bit),
         cmocka_unit_test(test_cpu_lanes_change_no_bit),

@@ -156,6 +156,19 @@ run bake_textured "$build/tessera" bake scene/textured.rib --res 8x6 --rays 4 --
 TESSERA_CPU_LANES=1 OCLGRIND_CHECKS="--data-races --check-api" \
   run render_cpu_lanes "$build/tessera" render scene/teapot.rib --res 7x5 --spp 3 --max-lod 2 \
   --depth 1 --memory 4 -o "$work/cpu_lanes.exr" --no-kernel-cache --quiet
+# Skeletons (build_skeleton, bottom_level's bl_skeleton making the leaves a ray enters with the
+# lanes' block_leaf_boxes): a squeezed frame too small to thin its arenas, given room for
+# skeletons by the testing aid, every segment that may taking one; and still that regime.
+TESSERA_CPU_LANES=1 TESSERA_SKELETON_ROOM=4000000 TESSERA_SKELETON_PAIR_LEAVES=1 \
+  OCLGRIND_CHECKS="--data-races --check-api" \
+  run render_skeleton "$build/tessera" render scene/teapot_displaced.rib --res 16x9 --spp 4 \
+  --lod 4 --memory 1 -o "$work/skeleton.exr" --stats "$work/skeleton.json" --no-kernel-cache \
+  --quiet
+if ! python3 -c 'import json, sys; sys.exit(json.load(open(sys.argv[1]))["counters"]["skeleton_segments"] == 0)' \
+  "$work/skeleton.json"; then
+  echo "FAIL  render_skeleton: no segment went through a skeleton"
+  failed=1
+fi
 # A thin lens and a part of the frame (DepthOfField, --crop): camera_generate's lens in both
 # of its forms, the lod stage over the whole frame around the part.
 run render_lens "$build/tessera" render scene/depth_of_field.rib --res 12x8 --spp 2 --max-lod 2 \

@@ -18,7 +18,8 @@ uint64_t budget_fixed_bytes(const ts_scene *scene, uint64_t pixel_count)
                          sizeof(ts_qbvh_node) /* at most one node a patch */ + sizeof(ts_segment) +
                          2 * sizeof(uint32_t) /* trees */ + sizeof(uint32_t) /* lod counts */ +
                          TS_CULL_GROUPS * sizeof(ts_tight4) + sizeof(uint32_t) /* culling */ +
-                         sizeof(uint32_t) /* leaving */ + 3 * sizeof(uint32_t) /* grid_at */;
+                         sizeof(uint32_t) /* leaving */ + 3 * sizeof(uint32_t) /* grid_at */ +
+                         sizeof(uint32_t) /* skel_first */;
     const ts_occlusion *o = scene->occlusion; /* --occlusion's points and tables (relight.h) */
     uint64_t occlusion =
         o ? (uint64_t)o->point_count * (o->bands * o->bands + 3) * sizeof(float) +
@@ -221,11 +222,21 @@ static int thin_arenas(ts_pipeline *p, uint64_t need, uint64_t frame_rays, int q
     uint64_t before = (frame_rays + p->plan.ray_capacity - 1) / p->plan.ray_capacity;
     uint64_t after = (frame_rays + rays - 1) / rays;
     if (after >= before) return TS_OK;
+    /* The skeletons (trace.c skeleton_prepare) from the freed bytes too, where the waves stay
+     * as few without them: a pass then traces a patch's few rays through its kept skeleton
+     * instead of dicing it again. */
+    uint64_t skel = pipeline_skeleton_bytes(p), room = 0;
+    if (skel > 0 && skel < freed) {
+        uint64_t fewer = p->plan.ray_capacity + (freed - skel) / TS_BYTES_PER_RAY;
+        if (fewer > (1u << 25)) fewer = 1u << 25;
+        if ((frame_rays + fewer - 1) / fewer == after) rays = fewer, room = skel;
+    }
     uint32_t old_rays = p->plan.ray_capacity;
     int grown = arenas_grow(p, v, g, quiet, err); /* smaller first: the budget holds both */
     if (grown < 0) return err->code;
     if (!grown) return TS_OK;
     if (pipeline_resize_rays(p, (uint32_t)rays, err)) return err->code;
+    if (room) p->skel_room = room;
     if (!quiet)
         ts_print_line("tessera: the frame's patches need %llu MB, %llu times what the patch cache "
                       "holds: it takes %.1f MB instead of %.1f MB, and waves %u rays instead of "
@@ -239,6 +250,11 @@ static int thin_arenas(ts_pipeline *p, uint64_t need, uint64_t frame_rays, int q
 
 int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, ts_error *err)
 {
+    /* thin_arenas may make room for skeletons; TESSERA_SKELETON_ROOM (bytes, beside the
+     * budget) gives them room anyway: a testing aid for frames too small to thin (check_kernels
+     * runs the skeletons' kernels under Oclgrind so) */
+    p->skel_room = env_lower("TESSERA_SKELETON_ROOM", 0, 1ul << 30);
+    if (p->skel_room == 1ul << 30) p->skel_room = 0;
     uint64_t mb = p->stats->memory_budget_bytes >> 20;
     uint64_t verts, groups;
     pipeline_arena_need(p, &verts, &groups);

@@ -446,11 +446,13 @@ static int create_host_tables(ts_pipeline *p, ts_box **boxes, ts_error *err)
     p->patch_lod = malloc(n);
     p->rough_lod = malloc(n);
     p->cull_key = calloc(n, sizeof *p->cull_key);
+    p->skel_first_host = malloc(n * sizeof *p->skel_first_host);
+    p->skel_key = calloc(n, 1);
     p->pixel_cost = calloc(p->pixel_count ? p->pixel_count : 1, sizeof *p->pixel_cost);
     p->grid_at_host = malloc(3 * n * sizeof *p->grid_at_host);
     if (!*boxes || !p->segments_host || !p->seg_grid || !p->grid_mark || !p->trees_host ||
         !p->batches || !p->patch_lod || !p->rough_lod || !p->cull_key || !p->grid_at_host ||
-        !p->pixel_cost)
+        !p->pixel_cost || !p->skel_first_host || !p->skel_key)
         return ts_error_set(err, TS_E_MEMORY, "out of memory");
     memset(p->grid_at_host, 0xff, 3 * n * sizeof *p->grid_at_host);
     memset(p->patch_lod, (int)p->plan.max_lod, n);
@@ -579,6 +581,9 @@ void pipeline_destroy(ts_pipeline *p)
     free(p->batches);
     free(p->patch_lod), free(p->rough_lod);
     free(p->cull_key);
+    free(p->skel_first_host);
+    free(p->skel_key);
+    if (p->skel) dev_buffer_release(p->cl, p->skel);
     free(p->pixel_cost);
     free(p->grid_at_host);
     free(p->edge_nb);
@@ -713,6 +718,7 @@ int pipeline_lod_finish_with(ts_pipeline *p, ts_lod_rule rule, int before_hit, c
      * changed is simply diced again when a segment asks for it) unless the new levels give its
      * size classes other quotas (pipeline_cache_plan, at the next trace). */
     p->cache_planned = 0;
+    p->skel_planned = 0; /* skeletons are laid out by m */
     p->stats->stage_seconds[TS_STAGE_lod] += stats_now() - t0;
     return rc;
 }

@@ -116,6 +116,7 @@ typedef struct ts_trace_mode {
     X(k_build_leaves, "build_leaves")                                                           \
     X(k_build_level, "build_level")                                                             \
     X(k_build_cull, "build_cull")                                                               \
+    X(k_build_skeleton, "build_skeleton")                                                       \
     X(k_bottom_level, "bottom_level_trace")                                                     \
     X(k_bottom_group, "bottom_level_group")                                                     \
     X(k_resolve, "resolve_closest")                                                             \
@@ -196,6 +197,7 @@ typedef struct ts_trace_mode {
     X(utilisation,     CL_MEM_READ_WRITE, ts_u32,        2 * c.util_groups, NULL)               \
     X(cull,            CL_MEM_READ_WRITE, ts_tight4,     TS_CULL_GROUPS * c.patches, NULL)      \
     X(cull_levels,     CL_MEM_READ_WRITE, ts_u32,        c.patches,      NULL)                  \
+    X(skel_first,      CL_MEM_READ_ONLY,  ts_u32,        c.patches,      NULL)                  \
     /* The last iteration in which a ray leaving the patch had it among its candidates. */     \
     X(leaving,         TS_MEM_HOST_RW,    ts_u32,        c.patches,      NULL)                  \
     /* Where each patch's diced grid is resident, for shade (pipeline_grid_publish). */        \
@@ -232,6 +234,9 @@ typedef struct ts_batch {
                                         by decreasing m, each m's to dice first) */
     double work; /* its misses' micro-quads and its segments' pairs (trace_progress) */
     int sorted;  /* its trees in trace.c's tree_key order (else dice dices them all) */
+    /* Its trees whose skeletons are kept once built (trace.c stage_build_skeleton), listed
+     * after all the batches' trees in the tree list, by decreasing m. */
+    uint32_t skel_tree_first, skel_tree_count;
 } ts_batch;
 
 typedef struct ts_pipeline {
@@ -274,6 +279,21 @@ typedef struct ts_pipeline {
     /* What each patch's entry of cull was built for (trace.c cull_key: its m and leaf size;
      * 0: none), so that an entry is reset when its patch's m or the leaf size changes. */
     uint16_t *cull_key;
+    /* Skeletons (trace.c skeleton_prepare, build.cl build_skeleton, bottom_level.cl
+     * bl_skeleton): where the frame's patches do not fit, each static, noise-displaced tree at
+     * m >= TS_SKELETON_MIN_LOD keeps its levels 1 .. m - 2 as codes in skel (skel_groups
+     * ts_tight4 entries) from skel_first_host[shape] (TS_INVALID: no place) once built, and
+     * skel_key[shape] says the m it was kept at (0: none), so that a later pass may trace a
+     * few rays through it without dicing the patch. skel_on: this trace may; skel_planned:
+     * laid out for the frame's levels of detail (cleared by the lod stage). */
+    cl_mem skel;
+    uint64_t skel_groups;
+    uint32_t *skel_first_host;
+    uint8_t *skel_key;
+    int skel_on, skel_planned;
+    /* The budget's bytes for skeletons (app/budget.c thin_arenas takes them from the arenas
+     * it thins); 0: none, skeletons off. */
+    uint64_t skel_room;
     /* Which diced patches the grid and groups arenas hold, kept across iterations, waves and
      * sample passes (patch_cache.h); cleared when the levels of detail change. With
      * cache_off (TESSERA_PATCH_CACHE=0, for checks) it is cleared before every batch, so
@@ -381,6 +401,12 @@ void pipeline_destroy(ts_pipeline *p);
  * dev_buffer_release) have held at once since pipeline_create; called after every buffer
  * the pipeline and its stages make. */
 void pipeline_note_device_bytes(ts_pipeline *p);
+
+/* The bytes the skeletons of the frame's patches would take (trace.c skeleton_prepare's
+ * layout at the levels of detail the lod stage gave them), 0 where this device and mode trace
+ * none (not a CPU device built with the lanes, triangle mode, leaves of several micro-quads,
+ * the group leaf kernel, shared dicings, paged textures). */
+uint64_t pipeline_skeleton_bytes(const ts_pipeline *p);
 
 /* camera: generates rays (and paths) first_sample .. first_sample + ray_count; lists them
  * in active and wave_paths. A wave holds at most ray_capacity / 2 paths: each path also

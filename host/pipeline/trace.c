@@ -125,7 +125,7 @@ static void assign_lods(ts_pipeline *p, uint32_t segs)
 static ts_batch *batch_open(ts_pipeline *p, uint32_t i, uint32_t ntrees)
 {
     ts_batch *b = &p->batches[p->batch_count++];
-    *b = (ts_batch){i, 0, ntrees, 0, 0.0, 0};
+    *b = (ts_batch){i, 0, ntrees, 0, 0.0, 0, 0, 0};
     return b;
 }
 
@@ -190,6 +190,130 @@ static void segment_prepare(const ts_pipeline *p, ts_segment *s)
     s->flags |= pipeline_stitch_edges(p, q, s->lod) << TS_SEG_EDGE_SHIFT;
 }
 
+/* Groups of a tree of depth m that its skeleton keeps: levels 1 .. m - TS_SKELETON_DROP. */
+static uint32_t skeleton_group_count(uint32_t m)
+{
+    return TS_SKELETON_GROUPS(m);
+}
+
+/* The largest share of a tree's leaves a segment may ask for through its skeleton: each of
+ * its pairs costs about one 4 x 4 block of leaves made in bottom_level (--leaf-size 4 on
+ * forest-100 at --memory 192: 66 M micro-quads tested for 4.2 M pairs), the tree all of its
+ * leaves, and a pair's block costs a little more than 16 leaves of build_leaves. So a segment
+ * goes through its skeleton where pairs x TS_SKELETON_PAIR_LEAVES <= 4^m (env
+ * TESSERA_SKELETON_PAIR_LEAVES, for measurements: 0 turns skeletons off). */
+#define TS_SKELETON_PAIR_LEAVES 32u
+
+static uint32_t skeleton_pair_leaves(void)
+{
+    const char *env = getenv("TESSERA_SKELETON_PAIR_LEAVES");
+    if (!env || !*env) return TS_SKELETON_PAIR_LEAVES;
+    char *end;
+    unsigned long v = strtoul(env, &end, 10);
+    return *end || v > (1ul << 24) ? TS_SKELETON_PAIR_LEAVES : (uint32_t)v;
+}
+
+/* Whether patch i's tree may keep a skeleton: static, noise-displaced (bl_skeleton makes its
+ * leaves with block_leaf_boxes), untrimmed, at m >= TS_SKELETON_MIN_LOD. */
+static int skeleton_patch(const ts_pipeline *p, uint32_t i)
+{
+    const ts_patch_attr *a = &p->scene->attr[i];
+    return pipeline_patch_lod(p, i) >= TS_SKELETON_MIN_LOD && !(a->flags & TS_PATCH_MOVING) &&
+           (a->disp_kind == TS_DISP_FBM || a->disp_kind == TS_DISP_RIDGED) && !patch_has_holes(a);
+}
+
+/* Whether this device and mode trace skeletons: a device built with the CPU lanes (bl_skeleton
+ * makes its leaves in them), box mode with leaves of one micro-quad and the per-ray leaf kernel,
+ * each device dicing for itself, textures resident. */
+static int skeleton_mode(const ts_pipeline *p)
+{
+    return p->cl->cpu_lanes && !p->mode.exact && p->mode.leaf_b == 0 && !p->mode.leaf_group &&
+           !p->share && !p->tex.paged && skeleton_pair_leaves() > 0;
+}
+
+uint64_t pipeline_skeleton_bytes(const ts_pipeline *p)
+{
+    uint64_t groups = 0;
+    for (uint32_t i = 0; skeleton_mode(p) && i < p->scene->patch_count; ++i)
+        if (skeleton_patch(p, i)) groups += skeleton_group_count(pipeline_patch_lod(p, i));
+    return groups * sizeof(ts_tight4);
+}
+
+/* Before a trace: whether its segments may go through skeletons (p->skel_on): in
+ * skeleton_mode, when the frame's patches do not fit and the budget made room for them
+ * (skel_room); and where they may, the skeletons laid out for the frame's levels of detail (a
+ * place for each patch skeleton_patch allows, none kept yet). The skel buffer always exists
+ * (bottom_level binds it). */
+static int skeleton_prepare(ts_pipeline *p, ts_error *err)
+{
+    uint32_t n = p->scene->patch_count;
+    p->skel_on = skeleton_mode(p) && p->cache.short_of_room && p->skel_room > 0;
+    uint64_t total = 0;
+    if (p->skel_on && !p->skel_planned && pipeline_skeleton_bytes(p) > p->skel_room)
+        p->skel_on = 0; /* the levels changed since the budget made room */
+    if (p->skel_on && !p->skel_planned) {
+        for (uint32_t i = 0; i < n; ++i) {
+            p->skel_first_host[i] = TS_INVALID;
+            if (skeleton_patch(p, i) &&
+                total + skeleton_group_count(pipeline_patch_lod(p, i)) < (uint64_t)UINT32_MAX) {
+                p->skel_first_host[i] = (uint32_t)total;
+                total += skeleton_group_count(pipeline_patch_lod(p, i));
+            }
+        }
+    }
+    if (!p->skel || total > p->skel_groups) {
+        uint64_t groups = total > p->skel_groups ? total : p->skel_groups;
+        if (groups == 0) groups = 1;
+        cl_mem m =
+            dev_buffer_create(p->cl, CL_MEM_READ_WRITE, groups * sizeof(ts_tight4), NULL, err);
+        if (!m) {
+            if (!p->skel) return err->code;
+            ts_error_clear(err); /* no room: the patches are diced as before */
+            p->skel_on = 0;
+            return TS_OK;
+        }
+        /* the first buffer's one entry beside the budget; the layout's within skel_room */
+        if (!p->skel) p->stats->counters[TS_COUNTER_device_bytes_fixed] += sizeof(ts_tight4);
+        if (p->skel) dev_buffer_release(p->cl, p->skel);
+        p->skel = m, p->skel_groups = groups;
+        pipeline_note_device_bytes(p);
+    }
+    if (!p->skel_on || p->skel_planned) return TS_OK;
+    memset(p->skel_key, 0, n);
+    if (dev_write(p->cl, p->skel_first, 0, n * sizeof(uint32_t), p->skel_first_host,
+                  "the skeletons' places", err))
+        return err->code;
+    p->skel_planned = 1;
+    return TS_OK;
+}
+
+/* Whether segment s's tree keeps its skeleton once built: its patch may (a place in skel),
+ * it is static and untrimmed, and its m is at least TS_SKELETON_MIN_LOD. */
+static int skeleton_tree(const ts_pipeline *p, const ts_segment *s)
+{
+    return p->skel_first_host[s->shape] != TS_INVALID && s->lod >= TS_SKELETON_MIN_LOD &&
+           !(s->flags & (TS_PATCH_MOVING | TS_PATCH_ROUGH | TS_SEG_TRIMMED)) &&
+           (s->flags >> TS_SEG_EDGE_SHIFT) == 0u;
+}
+
+/* Lists after the batches' trees (from ntrees on) each batch's trees whose skeleton is to be
+ * kept and is not yet (skel_key), in the batch's order (by decreasing m): a tree kept already
+ * would be copied the same again. The tree list holds two entries a patch, and a static
+ * patch's tree is listed at most twice. */
+static void skeleton_lists(ts_pipeline *p, uint32_t ntrees)
+{
+    for (uint32_t k = 0; k < p->batch_count; ++k) {
+        ts_batch *b = &p->batches[k];
+        b->skel_tree_first = ntrees, b->skel_tree_count = 0;
+        for (uint32_t t = 0; p->skel_on && t < b->tree_count; ++t) {
+            uint32_t tree = p->trees_host[b->tree_first + t];
+            const ts_segment *s = &p->segments_host[TS_TREE_SEGMENT(tree)];
+            if (TS_TREE_TIME(tree) == 0u && skeleton_tree(p, s) && p->skel_key[s->shape] != s->lod)
+                p->trees_host[ntrees++] = tree, b->skel_tree_count++;
+        }
+    }
+}
+
 /* Gives each segment (its LOD set) its place in the arenas through the patch cache and
  * cuts the segments into batches whose patches are resident together, walking the segments
  * forwards in one iteration and backwards in the next (p->sweep): when the frame's patches
@@ -228,6 +352,8 @@ static void plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving,
             p->grid_mark[s->shape] = stamp;
     }
     int backward = p->sweep++ & 1u;
+    /* skeletons only where the vertices are marked (box mode, frame over the room) */
+    uint32_t skel_leaves = p->skel_on && leaving ? skeleton_pair_leaves() : 0u, skeletons = 0;
     for (uint32_t j = 0; j < segs; ++j) {
         uint32_t i = backward ? segs - 1u - j : j;
         ts_segment *s = &p->segments_host[i];
@@ -241,6 +367,20 @@ static void plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving,
             b = NULL;
         }
         if (!b) b = batch_open(p, i, ntrees), tused = 0;
+        /* A patch that is not resident, needs no vertices and has few pairs goes through its
+         * kept skeleton (bottom_level makes the leaves its rays enter) instead of a dicing. */
+        if (skel_leaves && p->skel_key[q] == s->lod && p->grid_mark[q] != stamp &&
+            skeleton_tree(p, s) &&
+            (uint64_t)(s->end - s->begin) * skel_leaves <= (uint64_t)1 << (2u * s->lod) &&
+            !(p->cache.entry[q].resident && p->cache.entry[q].lod == s->lod)) {
+            s->flags |= TS_SEG_SKELETON;
+            p->seg_grid[i] = 0;
+            if (backward) b->seg_first = i;
+            b->seg_count++;
+            b->work += s->end - s->begin;
+            ++skeletons;
+            continue;
+        }
         ts_cache_result r =
             patch_cache_acquire(&p->cache, q, s->lod, times, &s->vert_first, &s->group_first);
         if (r == TS_CACHE_FULL) { /* the batch is as full as it gets: start the next */
@@ -270,6 +410,8 @@ static void plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving,
     patch_cache_end_batch(&p->cache);
     for (uint32_t k = 0; k < p->batch_count; ++k)
         batch_sort_trees(p, &p->batches[k]);
+    skeleton_lists(p, ntrees);
+    p->stats->counters[TS_COUNTER_skeleton_segments] += skeletons;
     p->stats->counters[TS_COUNTER_patch_cache_hits] += hits;
     p->stats->counters[TS_COUNTER_patch_cache_misses] += misses;
     p->stats->counters[TS_COUNTER_patch_cache_evictions] += p->cache.evictions - evicted;
@@ -352,7 +494,10 @@ static int upload_batches(ts_pipeline *p, uint32_t segs, ts_error *err)
 {
     if (segs == 0) return TS_OK;
     const ts_batch *last = &p->batches[p->batch_count - 1];
-    uint32_t trees = last->tree_first + last->tree_count; /* 0 when every segment hit */
+    /* the trees, then the skeletons' lists (skeleton_lists); 0 when every segment hit */
+    uint32_t trees = last->tree_first + last->tree_count;
+    if (last->skel_tree_first + last->skel_tree_count > trees)
+        trees = last->skel_tree_first + last->skel_tree_count;
     if (dev_write(p->cl, p->segments, 0, segs * sizeof(ts_segment), p->segments_host,
                   "the segments", err) ||
         dev_write(p->cl, p->trees, 0, trees * sizeof(uint32_t), p->trees_host, "the tree lists",
@@ -516,6 +661,29 @@ static size_t build_leaf_items(const ts_pipeline *p, uint32_t m)
     return leaves < run ? 1 : leaves / run;
 }
 
+/* Keeps the skeletons of the batch's trees that may keep one (build.cl build_skeleton, one
+ * launch per m >= TS_SKELETON_MIN_LOD; the kernel passes over the others), and notes their m. */
+static int stage_build_skeleton(ts_pipeline *p, const ts_batch *b, ts_error *err)
+{
+    if (!p->skel_on) return TS_OK;
+    ts_batch list = *b; /* tree_run over the batch's skeleton list */
+    list.tree_first = b->skel_tree_first, list.tree_count = b->skel_tree_count;
+    for (uint32_t t = 0; t < list.tree_count;) {
+        uint32_t m, run = tree_run(p, &list, t, &m), first = list.tree_first + t;
+        t += run;
+        if (dev_set_args(p->k_build_skeleton, err, DEV_ARG(p->trees), DEV_ARG(first), DEV_ARG(run),
+                         DEV_ARG(m), DEV_ARG(p->segments), DEV_ARG(p->groups),
+                         DEV_ARG(p->patch_box), DEV_ARG(p->skel), DEV_ARG(p->skel_first),
+                         (size_t)0) ||
+            dev_launch(p->cl, p->k_build_skeleton, TS_STAGE_build,
+                       (size_t)run * skeleton_group_count(m), TS_LOCAL_SIZE, err))
+            return err->code;
+        for (uint32_t k = first; k < first + run; ++k)
+            p->skel_key[p->segments_host[TS_TREE_SEGMENT(p->trees_host[k])].shape] = (uint8_t)m;
+    }
+    return TS_OK;
+}
+
 /* Leaves per LOD run, then one launch per level over the trees deeper than it, then the
  * culling copy. On a device built with the CPU lanes build_leaves also makes each tree's level
  * m - 1 (build.cl build_parents), so build_level starts a level higher for every tree. */
@@ -552,6 +720,7 @@ static int stage_build(ts_pipeline *p, const ts_batch *b, ts_error *err)
                        TS_LOCAL_SIZE, err))
             return err->code;
     }
+    if (stage_build_skeleton(p, b, err)) return err->code;
     return stage_build_cull(p, b, err);
 }
 
@@ -806,7 +975,9 @@ static int bottom_level_launch(ts_pipeline *p, cl_mem pairs, const ts_batch *b, 
                      DEV_ARG(p->ray_hit), DEV_ARG(p->ray_flags), DEV_ARG(p->ray_from),
                      DEV_ARG(p->grid), DEV_ARG(p->groups), DEV_ARG(p->tight), DEV_ARG(p->instance),
                      DEV_ARG(p->inst_xform), DEV_ARG(p->pair_hit), DEV_ARG(p->utilisation),
-                     DEV_ARG(group_base), (size_t)0))
+                     DEV_ARG(group_base), DEV_ARG(p->skel), DEV_ARG(p->skel_first), DEV_ARG(p->cp),
+                     DEV_ARG(p->corner_n), DEV_ARG(p->mid_n), DEV_ARG(p->attr), DEV_ARG(p->xform),
+                     DEV_ARG(p->flatness), DEV_ARG(p->patch_box), (size_t)0))
         return err->code;
     return dev_launch(p->cl, k, TS_STAGE_bottom_level, pair_count, TS_LOCAL_SIZE, err);
 }
@@ -958,6 +1129,7 @@ int pipeline_trace(ts_pipeline *p, uint32_t ray_count, ts_error *err)
     p->trace_progress.work = p->trace_progress.done = p->trace_progress.t0 = 0.0;
     if (pipeline_stitch_prepare(p, err) || cull_reset_stale(p, err)) return err->code;
     pipeline_cache_plan(p);
+    if (skeleton_prepare(p, err)) return err->code;
     for (uint32_t it = 0; active > 0; ++it) {
         /* Once the patch cache has had to evict, or its plan says the frame's patches do not all
          * fit, they come back diced again: then each iteration may dice them again, and Hanika's N

@@ -188,6 +188,19 @@ typedef struct ts_hit {
  * gives the micro-quads its trim curves remove empty boxes, and bottom_level tests a
  * micro-quad's triangles only where its box is not empty (lib/trim.h). */
 #define TS_SEG_TRIMMED 4u
+/* ts_segment.flags only: the segment has no tree in the arenas; bottom_level traces its pairs
+ * through the kept skeleton of the patch's tree (levels 1 .. m - 2 as codes, build.cl
+ * build_skeleton) and makes the 4 x 4 blocks of leaves its rays enter (bottom_level.cl
+ * bl_skeleton): where a pass meets a patch that does not fit with few rays. */
+#define TS_SEG_SKELETON 8u
+/* The levels of leaves below a skeleton: it keeps levels 1 .. m - TS_SKELETON_DROP of a tree,
+ * and bottom_level makes the leaves of its nodes of level m - TS_SKELETON_DROP (blocks of
+ * 2^DROP x 2^DROP leaves). */
+#define TS_SKELETON_DROP 2u
+/* The coarsest m whose trees keep a skeleton. */
+#define TS_SKELETON_MIN_LOD 4u
+/* Sibling groups of a tree of depth m that its skeleton keeps. */
+#define TS_SKELETON_GROUPS(m) (quadtree_group_offset((m) + 1u - TS_SKELETON_DROP) - 1u)
 #define TS_PATCH_COLOR_TEX 2u /* Cs is multiplied by texture color_tex at the hit's st */
 /* Casts no shadow: shadow rays (TS_RAY_SHADOW) pass through the patch, which top_level leaves
  * out of their candidates; every other ray sees it (RIB Attribute "visibility"
