@@ -512,8 +512,7 @@ inline uint bl_skeleton(const bl_ray *r, uint m, uint patch, __global const ts_t
         float4 raw, e4 = slab4(lx, ly, lz, hx, hy, hz, r->o4, r->inv, r->tmin, best->t, &raw);
         float e[4] = {e4.x, e4.y, e4.z, e4.w};
         float bl[24];
-        vstore4(lx, 0, bl), vstore4(ly, 1, bl), vstore4(lz, 2, bl);
-        vstore4(hx, 3, bl), vstore4(hy, 4, bl), vstore4(hz, 5, bl);
+        block_spill((block_box4){lx, ly, lz, hx, hy, hz}, bl);
         /* the children entered, farthest pushed first so that the nearest is popped next */
         uint id[4], nc = 0u;
         float tc[4];
@@ -529,8 +528,7 @@ inline uint bl_skeleton(const bl_ray *r, uint m, uint patch, __global const ts_t
         for (uint j = 0; j < nc; ++j) {
             uint q = id[j];
             node[sp] = ((level + 1u) << 24) | (4u * k + q), node_t[sp] = tc[j];
-            node_b[sp] =
-                (ts_box){bl[q], bl[4u + q], bl[8u + q], bl[12u + q], bl[16u + q], bl[20u + q]};
+            node_b[sp] = block_box(bl + q);
             ++sp;
         }
     }

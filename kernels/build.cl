@@ -72,15 +72,6 @@ inline float2 interval_mul(float lo, float hi, float a, float b)
     return (float2)(fmin(fmin(p0, p1), fmin(p2, p3)), fmax(fmax(p0, p1), fmax(p2, p3)));
 }
 
-/* Lane q of a block's boxes (block_base_boxes, block_normal_boxes: lo_x, lo_y, lo_z, hi_x, hi_y,
- * hi_z of the four leaves, four floats each), from s = the boxes + q. Kept as floats written by
- * vector stores, so that each read is forwarded from one store. */
-TS_INLINE_ALWAYS ts_box block_box(const float *s)
-{
-    ts_box b = {s[0], s[4], s[8], s[12], s[16], s[20]};
-    return b;
-}
-
 /* Starts leaf k = (i, j) of a tree at m: a micro-quad trimmed or cut away gets a box no ray
  * enters, a leaf in triangle mode (tight) the box of its diced vertices, both stored (returns
  * 0); any other gets *b, the box of its undisplaced corners on cp (the tree's time sample)
@@ -416,11 +407,10 @@ inline ts_box skeleton_code_box(ts_box b, ts_box t)
     return d;
 }
 
-/* build_skeleton (after build_level, one launch per m >= TS_SKELETON_MIN_LOD of the batch's
- * trees): the skeleton of each static tree whose patch has a place in skel (skel_first[shape]
- * != TS_INVALID; not rough, trimmed or stitched): its sibling groups of levels 1 ..
- * m - TS_SKELETON_DROP,
- * group g of the tree at entry g - 1 from skel_first, as codes inside the parent's box
+/* build_skeleton (after build_level, one launch per m of the batch's list of trees to keep,
+ * trace.c skeleton_lists: static, not rough, their patch given a place in skel): the sibling
+ * groups of levels 1 .. m - TS_SKELETON_DROP of each tree, group g of the tree at entry g - 1
+ * from skel_first[shape], as codes inside the parent's box
  * decoded from the skeleton (the root's: the patch box). Each decoded box holds the tree's
  * (tight_store_lane rounds outwards), so a ray that enters a tree box enters its skeleton box
  * too, and bottom_level can trace the patch down to its 4 x 4 blocks of leaves without the
@@ -436,11 +426,6 @@ __kernel void build_skeleton(__global const uint *trees, uint tree_first, uint t
     if (t >= tree_count) return;
     uint tree = trees[tree_first + t];
     ts_segment seg = segments[TS_TREE_SEGMENT(tree)];
-    uint first = skel_first[seg.shape];
-    if (first == TS_INVALID || TS_TREE_TIME(tree) != 0u ||
-        (seg.flags & (TS_PATCH_MOVING | TS_PATCH_ROUGH | TS_SEG_TRIMMED)) != 0u ||
-        (seg.flags >> TS_SEG_EDGE_SHIFT) != 0u)
-        return;
     __global const ts_box4 *base = groups + seg.group_first;
     uint l = 1u;
     while (quadtree_group_offset(l + 1u) <= g)
@@ -449,11 +434,9 @@ __kernel void build_skeleton(__global const uint *trees, uint tree_first, uint t
     ts_box d = patch_box[seg.shape];
     for (uint a = 1u; a < l; ++a)
         d = skeleton_code_box(d, quadtree_box(base, a, kp >> (2u * (l - 1u - a))));
-    __global const ts_box4 *c = base + g;
-    for (uint q = 0; q < 4u; ++q) {
-        ts_box b = {c->lo_x[q], c->lo_y[q], c->lo_z[q], c->hi_x[q], c->hi_y[q], c->hi_z[q]};
-        tight_store_lane(skel + first + g - 1u, q, d, b);
-    }
+    __global ts_tight4 *out = skel + skel_first[seg.shape] + g - 1u;
+    for (uint q = 0; q < 4u; ++q) /* group g holds the children 4 kp .. 4 kp + 3 of level l */
+        tight_store_lane(out, q, d, quadtree_box(base, l, 4u * kp + q));
 }
 
 /* Not a stage: the probe of tests/test_dice_build.c. Item i: displace_normal_box_x4 of the

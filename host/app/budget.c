@@ -253,8 +253,8 @@ int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, t
     /* thin_arenas may make room for skeletons; TESSERA_SKELETON_ROOM (bytes, beside the
      * budget) gives them room anyway: a testing aid for frames too small to thin (check_kernels
      * runs the skeletons' kernels under Oclgrind so) */
-    p->skel_room = env_lower("TESSERA_SKELETON_ROOM", 0, 1ul << 30);
-    if (p->skel_room == 1ul << 30) p->skel_room = 0;
+    const char *aid = getenv("TESSERA_SKELETON_ROOM");
+    p->skel_room = aid ? strtoull(aid, NULL, 10) : 0;
     uint64_t mb = p->stats->memory_budget_bytes >> 20;
     uint64_t verts, groups;
     pipeline_arena_need(p, &verts, &groups);

@@ -190,12 +190,6 @@ static void segment_prepare(const ts_pipeline *p, ts_segment *s)
     s->flags |= pipeline_stitch_edges(p, q, s->lod) << TS_SEG_EDGE_SHIFT;
 }
 
-/* Groups of a tree of depth m that its skeleton keeps: levels 1 .. m - TS_SKELETON_DROP. */
-static uint32_t skeleton_group_count(uint32_t m)
-{
-    return TS_SKELETON_GROUPS(m);
-}
-
 /* The largest share of a tree's leaves a segment may ask for through its skeleton: each of
  * its pairs costs about one 4 x 4 block of leaves made in bottom_level (--leaf-size 4 on
  * forest-100 at --memory 192: 66 M micro-quads tested for 4.2 M pairs), the tree all of its
@@ -235,7 +229,7 @@ uint64_t pipeline_skeleton_bytes(const ts_pipeline *p)
 {
     uint64_t groups = 0;
     for (uint32_t i = 0; skeleton_mode(p) && i < p->scene->patch_count; ++i)
-        if (skeleton_patch(p, i)) groups += skeleton_group_count(pipeline_patch_lod(p, i));
+        if (skeleton_patch(p, i)) groups += TS_SKELETON_GROUPS(pipeline_patch_lod(p, i));
     return groups * sizeof(ts_tight4);
 }
 
@@ -248,19 +242,13 @@ static int skeleton_prepare(ts_pipeline *p, ts_error *err)
 {
     uint32_t n = p->scene->patch_count;
     p->skel_on = skeleton_mode(p) && p->cache.short_of_room && p->skel_room > 0;
-    uint64_t total = 0;
-    if (p->skel_on && !p->skel_planned && pipeline_skeleton_bytes(p) > p->skel_room)
-        p->skel_on = 0; /* the levels changed since the budget made room */
-    if (p->skel_on && !p->skel_planned) {
-        for (uint32_t i = 0; i < n; ++i) {
-            p->skel_first_host[i] = TS_INVALID;
-            if (skeleton_patch(p, i) &&
-                total + skeleton_group_count(pipeline_patch_lod(p, i)) < (uint64_t)UINT32_MAX) {
-                p->skel_first_host[i] = (uint32_t)total;
-                total += skeleton_group_count(pipeline_patch_lod(p, i));
-            }
-        }
+    uint64_t total = 0; /* groups (places of 32 bits: up to 96 GB of skeletons) */
+    for (uint32_t i = 0; p->skel_on && !p->skel_planned && i < n; ++i) {
+        p->skel_first_host[i] = skeleton_patch(p, i) ? (uint32_t)total : TS_INVALID;
+        if (skeleton_patch(p, i)) total += TS_SKELETON_GROUPS(pipeline_patch_lod(p, i));
     }
+    if (total * sizeof(ts_tight4) > p->skel_room)
+        p->skel_on = 0, total = 0; /* the levels changed since the budget made room */
     if (!p->skel || total > p->skel_groups) {
         uint64_t groups = total > p->skel_groups ? total : p->skel_groups;
         if (groups == 0) groups = 1;
@@ -287,13 +275,15 @@ static int skeleton_prepare(ts_pipeline *p, ts_error *err)
     return TS_OK;
 }
 
-/* Whether segment s's tree keeps its skeleton once built: its patch may (a place in skel),
- * it is static and untrimmed, and its m is at least TS_SKELETON_MIN_LOD. */
+/* Whether segment s's tree keeps its skeleton once built: its shape has a place in skel
+ * (skeleton_patch: static, noise-displaced, untrimmed, m >= TS_SKELETON_MIN_LOD at the shape's
+ * m, which is the segment's), the segment does not move (an instance may where its master does
+ * not), and it is not rough (its rays need its vertices: never traced through a skeleton). No
+ * stitched edges: skeleton_mode is box mode. */
 static int skeleton_tree(const ts_pipeline *p, const ts_segment *s)
 {
-    return p->skel_first_host[s->shape] != TS_INVALID && s->lod >= TS_SKELETON_MIN_LOD &&
-           !(s->flags & (TS_PATCH_MOVING | TS_PATCH_ROUGH | TS_SEG_TRIMMED)) &&
-           (s->flags >> TS_SEG_EDGE_SHIFT) == 0u;
+    return p->skel_first_host[s->shape] != TS_INVALID &&
+           !(s->flags & (TS_PATCH_MOVING | TS_PATCH_ROUGH));
 }
 
 /* Lists after the batches' trees (from ntrees on) each batch's trees whose skeleton is to be
@@ -661,8 +651,8 @@ static size_t build_leaf_items(const ts_pipeline *p, uint32_t m)
     return leaves < run ? 1 : leaves / run;
 }
 
-/* Keeps the skeletons of the batch's trees that may keep one (build.cl build_skeleton, one
- * launch per m >= TS_SKELETON_MIN_LOD; the kernel passes over the others), and notes their m. */
+/* Keeps the skeletons of the batch's list of trees to keep (skeleton_lists; build.cl
+ * build_skeleton, one launch per m), and notes their m. */
 static int stage_build_skeleton(ts_pipeline *p, const ts_batch *b, ts_error *err)
 {
     if (!p->skel_on) return TS_OK;
@@ -676,7 +666,7 @@ static int stage_build_skeleton(ts_pipeline *p, const ts_batch *b, ts_error *err
                          DEV_ARG(p->patch_box), DEV_ARG(p->skel), DEV_ARG(p->skel_first),
                          (size_t)0) ||
             dev_launch(p->cl, p->k_build_skeleton, TS_STAGE_build,
-                       (size_t)run * skeleton_group_count(m), TS_LOCAL_SIZE, err))
+                       (size_t)run * TS_SKELETON_GROUPS(m), TS_LOCAL_SIZE, err))
             return err->code;
         for (uint32_t k = first; k < first + run; ++k)
             p->skel_key[p->segments_host[TS_TREE_SEGMENT(p->trees_host[k])].shape] = (uint8_t)m;

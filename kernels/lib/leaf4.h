@@ -48,6 +48,18 @@ TS_INLINE_ALWAYS void block_spill(block_box4 b, float s[24])
     vstore4(b.lx, 0, s), vstore4(b.ly, 1, s), vstore4(b.lz, 2, s);
     vstore4(b.hx, 3, s), vstore4(b.hy, 4, s), vstore4(b.hz, 5, s);
 }
+#endif
+
+/* Lane q of a block's boxes in block_spill's layout (lo_x, lo_y, lo_z, hi_x, hi_y, hi_z of the
+ * four leaves, four floats each), from s = the boxes + q. Kept as floats written by vector
+ * stores, so that each read is forwarded from one store. */
+TS_INLINE_ALWAYS ts_box block_box(const float *s)
+{
+    ts_box b = {s[0], s[4], s[8], s[12], s[16], s[20]};
+    return b;
+}
+
+#ifdef TS_CPU_LANES
 
 /* base_box of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)), q = 0..3: their 9 corners,
  * bezier_eval_x4's operations per point in their order (the same bits), with the u-rows shared: the

@@ -412,7 +412,7 @@ TS_INLINE_ALWAYS void noise3_cell_interval_x8(float8 cx, float8 cy, float8 cz, f
 
 /* The (octave, cell) tasks of displace_interval's cells waiting for a float8 evaluation, a
  * task a lane: the cell's corner, the part of the octave's box inside it, and the slot of
- * the octave's interval it folds into (leaf q's octave o: o * TS_BUILD_LEAF_RUN + q, so
+ * the octave's interval it folds into (leaf q's octave o: o * 4 + q in a 2 x 2 block, so
  * that the tasks of several leaves share the lanes). Lanes are filled by select
  * (noise_task_add), not by scalar stores read back as vectors: a vector load of eight
  * just-stored floats waits for the stores to retire. */
@@ -468,8 +468,9 @@ TS_INLINE_ALWAYS void noise_tasks_run(noise_tasks *t, float *lo, float *hi)
  * `full`, which the widening in displace_interval_sum leaves as it is). A leaf's octaves cover 4-6
  * cells on forest-100's bark, so one leaf alone left a third to a half of the lanes spare;
  * build_leaves on CPU devices queues the cells of a 2 x 2 block of leaves into the same lanes
- * (this function for trimmed and stitched trees, and a leaf alone on GPUs; build.cl block_leaves,
- * the same queue from the four leaves' boxes in float4 lanes, for the others), the same bits.
+ * (this function for trimmed and stitched trees, and a leaf alone on GPUs; leaf4.h
+ * block_leaf_boxes, the same queue from the four leaves' boxes in float4 lanes, for the others),
+ * the same bits.
  * displace_interval stays the host's reference: test_dice_build and test_bottom_level compare the
  * built trees bit for bit. */
 inline void displace_interval_tasks(__global const ts_patch_attr *a, __global const ts_xform *x,
