@@ -20,8 +20,8 @@
  *   patch's transform, inst_xform[instance[patch]] (lib/instance.h: t is unchanged); the hit
  *   keeps the segment's own patch, so shading sees the instance.
  * Skeletons: a TS_SEG_SKELETON segment has no tree in the arenas; its pairs traverse the
- *   patch's kept skeleton and make the leaves of the blocks they enter (bl_skeleton, CPU
- *   devices), the same hits.
+ *   patch's kept skeleton and make the leaves, or for a ray that leaves the patch the
+ *   vertices, of the blocks they enter (bl_skeleton, CPU devices), the same hits.
  * Motion (§3.4): a moving segment has a tree and a grid per time sample; boxes and vertices
  * are interpolated linearly at the ray's time.
  * Sibling boxes are tested four at a time (SoA groups, lib/quadtree.h). Stack: at most 3
@@ -50,6 +50,8 @@
 #define BL_STACK (3 * TS_LOD_LIMIT + 2)
 #define BL_WG TS_GROUP_SIZE /* work-group size of bottom_level_group */
 #define BL_MAX_BLOCK 16u    /* micro-quads in the largest leaf block (4 x 4) */
+/* the vertices of a skeleton's block of leaves */
+#define BL_SKEL_VERTS (((1u << TS_SKELETON_DROP) + 1u) * ((1u << TS_SKELETON_DROP) + 1u))
 
 /* Index (within the batch) of the segment holding sorted pair p: the last with begin <= p. */
 inline uint segment_of(__global const ts_segment *seg, uint count, uint p)
@@ -73,20 +75,18 @@ inline float4 vertex_at(__global const float4 *g0, __global const float4 *g1, ui
     return p;
 }
 
-/* Tests the micro-triangles of micro-quad k of a patch diced at m; updates *best. The
- * vertices are made relative to the origin and permuted to the shear's axes with one
- * shuffle each (the host reference, triangle_hit, does the same arithmetic). */
-inline void leaf_triangles(__global const float4 *g0, __global const float4 *g1, float time, uint m,
-                           uint k, float4 o4, float tmin, uint4 perm, const ts_ray_shear *sh,
-                           ts_hit *best, uint patch)
+/* Tests the micro-triangles of micro-quad (i, j) of a patch diced at m, its vertices p00, p10,
+ * p01, p11 (at the ray's time); updates *best. The vertices are made relative to the origin and
+ * permuted to the shear's axes with one shuffle each (the host reference, triangle_hit, does
+ * the same arithmetic). */
+TS_INLINE_ALWAYS void quad_triangles(float4 p00, float4 p10, float4 p01, float4 p11, uint m, uint i,
+                                     uint j, float4 o4, float tmin, uint4 perm,
+                                     const ts_ray_shear *sh, ts_hit *best, uint patch)
 {
-    uint i = morton_i(k), j = morton_j(k), n = (1u << m) + 1u;
-    float4 v00 = shuffle(vertex_at(g0, g1, j * n + i, time) - o4, perm);
-    float4 v10 = shuffle(vertex_at(g0, g1, j * n + i + 1u, time) - o4, perm);
-    float4 v01 = shuffle(vertex_at(g0, g1, (j + 1u) * n + i, time) - o4, perm);
-    float4 v11 = shuffle(vertex_at(g0, g1, (j + 1u) * n + i + 1u, time) - o4, perm);
+    float4 v00 = shuffle(p00 - o4, perm), v10 = shuffle(p10 - o4, perm);
+    float4 v01 = shuffle(p01 - o4, perm), v11 = shuffle(p11 - o4, perm);
     float b1, b2, scale = ldexp(1.0f, -(int)m);
-    uint quad = j * (n - 1u) + i;
+    uint quad = j * (1u << m) + i;
     float t = triangle_hit_permuted(sh, v00.x, v00.y, v00.z, v10.x, v10.y, v10.z, v11.x, v11.y,
                                     v11.z, tmin, best->t, &b1, &b2);
     if (t >= 0.0f) {
@@ -99,6 +99,18 @@ inline void leaf_triangles(__global const float4 *g0, __global const float4 *g1,
         *best = (ts_hit){t, ((float)i + b1) * scale, ((float)j + b1 + b2) * scale, patch,
                          TS_PRIM(m, 2u * quad + 1u)};
     }
+}
+
+/* quad_triangles of micro-quad k (Morton order) with its vertices from the grid(s). */
+inline void leaf_triangles(__global const float4 *g0, __global const float4 *g1, float time, uint m,
+                           uint k, float4 o4, float tmin, uint4 perm, const ts_ray_shear *sh,
+                           ts_hit *best, uint patch)
+{
+    uint i = morton_i(k), j = morton_j(k), n = (1u << m) + 1u;
+    quad_triangles(vertex_at(g0, g1, j * n + i, time), vertex_at(g0, g1, j * n + i + 1u, time),
+                   vertex_at(g0, g1, (j + 1u) * n + i, time),
+                   vertex_at(g0, g1, (j + 1u) * n + i + 1u, time), m, i, j, o4, tmin, perm, sh,
+                   best, patch);
 }
 
 /* Whether a leaf box entered at e (micro-quad prim) is the patch's hit rather than *best: it is
@@ -456,19 +468,26 @@ typedef struct bl_leaf_src {
     ts_box pbox;
 } bl_leaf_src;
 
-/* A pair of a TS_SEG_SKELETON segment (a static, noise-displaced patch at m >= 4 without its
- * tree in the arenas; no ray of it leaves the patch, so its leaves are boxes): the ray
- * traverses the skeleton sk (build.cl build_skeleton: levels 1 .. m - 2, each group decoded
- * inside its parent's decoded box, the root's the patch box) nearest first, and at a node of
- * level m - 2 makes its 16 leaves, four 2 x 2 blocks by block_leaf_boxes (what build_leaves
- * stores: the same bits), and tests them as the tree's leaves are (slab4, leaf_box). Every
- * skeleton box holds its tree box, so every leaf the tree's traversal could reach within
- * tmax is reached here, and of equal entries the larger micro-quad wins (box_hit_nearer):
- * the same hit as through the tree. A shadow ray stops after the first block with a hit.
- * Returns the micro-quads tested. */
+/* A pair of a TS_SEG_SKELETON segment (a static, noise-displaced or undisplaced patch at
+ * m >= 4 without its tree in the arenas): the ray traverses the skeleton sk (build.cl
+ * build_skeleton: levels 1 .. m - 2, each group decoded inside its parent's decoded box, the
+ * root's the patch box) nearest first, and at a node of level m - 2, a block of 4 x 4 leaves:
+ *   a ray that does not leave the patch makes its 16 leaf boxes, four 2 x 2 blocks by
+ *   block_leaf_boxes (what build_leaves stores: the same bits), and tests them as the tree's
+ *   leaves are (slab4, leaf_box); of equal entries the larger micro-quad wins (box_hit_nearer);
+ *   a ray that leaves it (`leaving`: the origin-patch rule, bl_pair) makes the block's 25
+ *   vertices, patch_vertex_x8 at the grid's parameters (what dice stores: the same bits), and
+ *   tests the 16 micro-quads' triangles (quad_triangles) in Morton order.
+ * Every skeleton box holds its tree box, which holds its leaves, its leaves' tight boxes and
+ * so its triangles, so every leaf or triangle the tree's traversal could reach within tmax
+ * is reached here too: the same hit as through the tree (triangles: the nearest; two at
+ * exactly the same distance in different micro-quads, which the tree visits in another
+ * order, are the one case that could differ). A shadow ray stops after the first block with
+ * a hit. Returns the micro-quads tested. */
 inline uint bl_skeleton(const bl_ray *r, uint m, uint patch, __global const ts_tight4 *sk,
-                        const bl_leaf_src *src, uint shadow, ts_hit *best)
+                        const bl_leaf_src *src, uint shadow, uint leaving, ts_hit *best)
 {
+    const ts_tex_ctx no_tex = {0, 0, 0}; /* skeletons are not texture-displaced */
     uint L = m - TS_SKELETON_DROP, tests = 0u, sp = 0u;
     float h = ldexp(1.0f, -(int)m), s = ldexp(1.0f, -2 * (int)m);
     float freq[TS_DISP_MAX_OCTAVES], weight[TS_DISP_MAX_OCTAVES];
@@ -486,6 +505,25 @@ inline uint bl_skeleton(const bl_ray *r, uint m, uint patch, __global const ts_t
         if (node_t[sp] > best->t) continue;
         uint level = node[sp] >> 24, k = node[sp] & 0xffffffu;
         ts_box d = node_b[sp];
+        if (level == L && leaving) { /* a block's vertices, as dice makes them, and triangles */
+            uint side = 1u << TS_SKELETON_DROP, i0 = morton_i(k) * side, j0 = morton_j(k) * side;
+            float4 v[BL_SKEL_VERTS];
+            for (uint j = 0; j <= side; ++j)
+                for (uint i = 0; i <= side; ++i) {
+                    ts_vec4 p = patch_vertex_x8(src->cp, src->cp, src->cn, src->mn, src->a, src->ax,
+                                                no_tex, quadtree_vertex_param(i0 + i, m),
+                                                quadtree_vertex_param(j0 + j, m));
+                    v[j * (side + 1u) + i] = (float4)(p.x, p.y, p.z, p.w);
+                }
+            for (uint q = 0; q < side * side; ++q) { /* Morton order, as the tree's blocks */
+                uint i = morton_i(q), j = morton_j(q), at = j * (side + 1u) + i;
+                quad_triangles(v[at], v[at + 1u], v[at + side + 1u], v[at + side + 2u], m, i0 + i,
+                               j0 + j, r->o4, r->tmin, r->perm, &r->sh, best, patch);
+            }
+            tests += side * side;
+            if (shadow && best->patch != TS_INVALID) break;
+            continue;
+        }
         if (level == L) { /* a block: its leaves, 2 x 2 at a time in Morton order */
             for (uint sb = 0; sb < (1u << (2u * TS_SKELETON_DROP)) / 4u; ++sb) {
                 uint k1 = (k << (2u * TS_SKELETON_DROP)) + 4u * sb;
@@ -582,7 +620,7 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_tr
                 src.mn = mid_n + (size_t)pt.shape * 5u, src.e = flatness[pt.shape];
                 src.pbox = patch_box[pt.shape];
                 tests += bl_skeleton(&r, pt.m, pt.patch, skel + skel_first[pt.shape], &src, shadow,
-                                     &best);
+                                     ex, &best);
             } else
 #endif
             {

@@ -33,7 +33,8 @@
  *   build_parents: the same union, read back from its own stores), and build_level runs only
  *   for the levels above: its launch over m - 1 was three quarters of its work.
  * build_skeleton (where the frame's patches do not fit): a copy of the upper levels of each
- *   static noise-displaced tree as codes, which bottom_level traces without the tree.
+ *   static noise-displaced or undisplaced tree as codes, which bottom_level traces without the
+ *   tree.
  * Reads: trees, segments (the patch built is each segment's shape), control points, grid (only for
  * tight boxes: triangle mode, rough patches, stitched edges; dice need not have run otherwise),
  * corner normals,
@@ -408,7 +409,7 @@ inline ts_box skeleton_code_box(ts_box b, ts_box t)
 }
 
 /* build_skeleton (after build_level, one launch per m of the batch's list of trees to keep,
- * trace.c skeleton_lists: static, not rough, their patch given a place in skel): the sibling
+ * trace.c skeleton_lists: static, their patch given a place in skel): the sibling
  * groups of levels 1 .. m - TS_SKELETON_DROP of each tree, group g of the tree at entry g - 1
  * from skel_first[shape], as codes inside the parent's box
  * decoded from the skeleton (the root's: the patch box). Each decoded box holds the tree's

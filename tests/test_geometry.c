@@ -262,13 +262,16 @@ static void test_squeezed_frames_skip_unread_vertices(void **state)
     }
 }
 
-/* A squeezed frame traces a missed, box-only patch with few pairs through the kept skeleton of
- * its tree (trace.c plan_batches, build.cl build_skeleton, bottom_level.cl bl_skeleton): the
- * leaves its rays enter made in bottom_level, with the same bits as build's, so the same hits
- * and pixels as the frame that fits, and as the same squeezed frame without skeletons
- * (TESSERA_SKELETON_PAIR_LEAVES=0). With 1, every such segment whose tree has a skeleton takes
- * it; with the default, some. forest-1 at --memory 16 thins its arenas (as
- * test_thin_arenas_make_fewer_waves), which keeps room for the skeletons within the budget. */
+/* A squeezed frame traces a missed patch with few pairs through the kept skeleton of its tree
+ * (trace.c plan_batches, build.cl build_skeleton, bottom_level.cl bl_skeleton): the leaves its
+ * rays enter made in bottom_level with the same bits as build's, and for the rays that leave
+ * the patch the vertices with dice's bits, so the same hits and pixels as the frame that fits,
+ * and as the same squeezed frame without skeletons (TESSERA_SKELETON_PAIR_LEAVES=0). With 1,
+ * every segment whose tree has a skeleton takes it; with the default, some. forest-1 has all
+ * three kinds of tree (ridged bark, fBm ground, undisplaced leaves) and at --memory 16 thins
+ * its arenas (as test_thin_arenas_make_fewer_waves), which keeps room for the skeletons within
+ * the budget (skeleton_bytes). Leaving out a block's first micro-quad for the rays that leave
+ * the patch, or growing an undisplaced leaf box, fails it. */
 static void test_squeezed_frames_trace_skeletons(void **state)
 {
     (void)state;
@@ -294,6 +297,8 @@ static void test_squeezed_frames_trace_skeletons(void **state)
             unsetenv("TESSERA_SKELETON_PAIR_LEAVES");
             test_assert_same_pixels(path("fit.exr"), path("sq.exr"));
             kept[k] = test_stats_number(path("sq.json"), "counters.skeleton_segments");
+            double bytes = test_stats_number(path("sq.json"), "counters.skeleton_bytes");
+            assert_true(kept[k] > 0.0 ? bytes > 0.0 : 1);
             test_assert_device_bytes_in_budget(path("sq.json"), 160.0 * 90, 1110);
         }
         print_message("[ skeleton ] --lod %d: %g segments through skeletons (default), %g (all), "

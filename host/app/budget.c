@@ -222,14 +222,15 @@ static int thin_arenas(ts_pipeline *p, uint64_t need, uint64_t frame_rays, int q
     uint64_t before = (frame_rays + p->plan.ray_capacity - 1) / p->plan.ray_capacity;
     uint64_t after = (frame_rays + rays - 1) / rays;
     if (after >= before) return TS_OK;
-    /* The skeletons (trace.c skeleton_prepare) from the freed bytes too, where the waves stay
-     * as few without them: a pass then traces a patch's few rays through its kept skeleton
-     * instead of dicing it again. */
+    /* The skeletons (trace.c skeleton_prepare) from the freed bytes too, as many as the waves
+     * leave room for while they stay as few: a pass then traces a patch's few rays through its
+     * kept skeleton instead of dicing it again. */
     uint64_t skel = pipeline_skeleton_bytes(p), room = 0;
-    if (skel > 0 && skel < freed) {
-        uint64_t fewer = p->plan.ray_capacity + (freed - skel) / TS_BYTES_PER_RAY;
-        if (fewer > (1u << 25)) fewer = 1u << 25;
-        if ((frame_rays + fewer - 1) / fewer == after) rays = fewer, room = skel;
+    uint64_t least = (frame_rays + after - 1) / after; /* the rays a wave needs for `after` */
+    if (skel > 0 && least < rays) {
+        room = (rays - least) * TS_BYTES_PER_RAY;
+        if (room > skel) room = skel;
+        rays -= (room + TS_BYTES_PER_RAY - 1) / TS_BYTES_PER_RAY;
     }
     uint32_t old_rays = p->plan.ray_capacity;
     int grown = arenas_grow(p, v, g, quiet, err); /* smaller first: the budget holds both */

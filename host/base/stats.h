@@ -38,6 +38,7 @@
     X(grids_skipped, "of patches_diced, built without their vertices: no ray left them")   \
     X(skeleton_segments, "segments traced through their tree's kept skeleton, the leaves "  \
                          "their rays enter made in bottom_level (not diced)")                \
+    X(skeleton_bytes, "most bytes of kept skeletons (within the budget) at once")          \
     X(device_bytes_peak, "most bytes of device buffers the pipeline held at once")        \
     X(device_bytes_fixed, "bytes of those buffers outside the memory budget (scene, films)") \
     X(device_bytes_in_place, "of those, read in place from host arrays (CL_MEM_USE_HOST_PTR)") \

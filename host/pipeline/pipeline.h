@@ -280,14 +280,15 @@ typedef struct ts_pipeline {
      * 0: none), so that an entry is reset when its patch's m or the leaf size changes. */
     uint16_t *cull_key;
     /* Skeletons (trace.c skeleton_prepare, build.cl build_skeleton, bottom_level.cl
-     * bl_skeleton): where the frame's patches do not fit, each static, noise-displaced tree at
-     * m >= TS_SKELETON_MIN_LOD keeps its levels 1 .. m - 2 as codes in skel (skel_groups
-     * ts_tight4 entries) from skel_first_host[shape] (TS_INVALID: no place) once built, and
-     * skel_key[shape] says the m it was kept at (0: none), so that a later pass may trace a
-     * few rays through it without dicing the patch. skel_on: this trace may; skel_planned:
-     * laid out for the frame's levels of detail (cleared by the lod stage). */
+     * bl_skeleton): where the frame's patches do not fit, each static, noise-displaced or
+     * undisplaced tree at m >= TS_SKELETON_MIN_LOD keeps its levels 1 .. m - 2 as codes in skel
+     * (skel_groups ts_tight4 entries) from skel_first_host[shape] (TS_INVALID: no place; the
+     * places are given in turn, skel_used of skel_cap groups) once built, and skel_key[shape]
+     * says the m it was kept at (0: none), so that a later pass may trace a few rays through it
+     * without dicing the patch. skel_on: this trace may; skel_planned: laid out for the frame's
+     * levels of detail (cleared by the lod stage). */
     cl_mem skel;
-    uint64_t skel_groups;
+    uint64_t skel_groups, skel_used, skel_cap;
     uint32_t *skel_first_host;
     uint8_t *skel_key;
     int skel_on, skel_planned;

@@ -207,13 +207,16 @@ static uint32_t skeleton_pair_leaves(void)
     return *end || v > (1ul << 24) ? TS_SKELETON_PAIR_LEAVES : (uint32_t)v;
 }
 
-/* Whether patch i's tree may keep a skeleton: static, noise-displaced (bl_skeleton makes its
- * leaves with block_leaf_boxes), untrimmed, at m >= TS_SKELETON_MIN_LOD. */
+/* Whether patch i's tree may keep a skeleton: static, noise-displaced or undisplaced
+ * (bl_skeleton makes its leaves with block_leaf_boxes, and its vertices with patch_vertex_x8),
+ * untrimmed, at m >= TS_SKELETON_MIN_LOD. */
 static int skeleton_patch(const ts_pipeline *p, uint32_t i)
 {
     const ts_patch_attr *a = &p->scene->attr[i];
     return pipeline_patch_lod(p, i) >= TS_SKELETON_MIN_LOD && !(a->flags & TS_PATCH_MOVING) &&
-           (a->disp_kind == TS_DISP_FBM || a->disp_kind == TS_DISP_RIDGED) && !patch_has_holes(a);
+           (a->disp_kind == TS_DISP_FBM || a->disp_kind == TS_DISP_RIDGED ||
+            a->disp_kind == TS_DISP_NONE) &&
+           !patch_has_holes(a);
 }
 
 /* Whether this device and mode trace skeletons: a device built with the CPU lanes (bl_skeleton
@@ -235,22 +238,18 @@ uint64_t pipeline_skeleton_bytes(const ts_pipeline *p)
 
 /* Before a trace: whether its segments may go through skeletons (p->skel_on): in
  * skeleton_mode, when the frame's patches do not fit and the budget made room for them
- * (skel_room); and where they may, the skeletons laid out for the frame's levels of detail (a
- * place for each patch skeleton_patch allows, none kept yet). The skel buffer always exists
- * (bottom_level binds it). */
+ * (skel_room). Where they may, the room is laid out afresh for the frame's levels of detail:
+ * no patch has a place yet; skeleton_lists gives each tree kept the next one, as long as the
+ * room lasts. The skel buffer always exists (bottom_level binds it). */
 static int skeleton_prepare(ts_pipeline *p, ts_error *err)
 {
     uint32_t n = p->scene->patch_count;
     p->skel_on = skeleton_mode(p) && p->cache.short_of_room && p->skel_room > 0;
-    uint64_t total = 0; /* groups (places of 32 bits: up to 96 GB of skeletons) */
-    for (uint32_t i = 0; p->skel_on && !p->skel_planned && i < n; ++i) {
-        p->skel_first_host[i] = skeleton_patch(p, i) ? (uint32_t)total : TS_INVALID;
-        if (skeleton_patch(p, i)) total += TS_SKELETON_GROUPS(pipeline_patch_lod(p, i));
-    }
-    if (total * sizeof(ts_tight4) > p->skel_room)
-        p->skel_on = 0, total = 0; /* the levels changed since the budget made room */
-    if (!p->skel || total > p->skel_groups) {
-        uint64_t groups = total > p->skel_groups ? total : p->skel_groups;
+    uint64_t want = p->skel_on ? pipeline_skeleton_bytes(p) / sizeof(ts_tight4) : 0u;
+    uint64_t cap = p->skel_room / sizeof(ts_tight4); /* groups: up to 96 GB of skeletons */
+    if (want > cap) want = cap;
+    if (!p->skel || want > p->skel_groups) {
+        uint64_t groups = want > p->skel_groups ? want : p->skel_groups;
         if (groups == 0) groups = 1;
         cl_mem m =
             dev_buffer_create(p->cl, CL_MEM_READ_WRITE, groups * sizeof(ts_tight4), NULL, err);
@@ -260,48 +259,64 @@ static int skeleton_prepare(ts_pipeline *p, ts_error *err)
             p->skel_on = 0;
             return TS_OK;
         }
-        /* the first buffer's one entry beside the budget; the layout's within skel_room */
+        /* the first buffer's one entry beside the budget; the rest within skel_room */
         if (!p->skel) p->stats->counters[TS_COUNTER_device_bytes_fixed] += sizeof(ts_tight4);
         if (p->skel) dev_buffer_release(p->cl, p->skel);
         p->skel = m, p->skel_groups = groups;
         pipeline_note_device_bytes(p);
     }
     if (!p->skel_on || p->skel_planned) return TS_OK;
+    for (uint32_t i = 0; i < n; ++i)
+        p->skel_first_host[i] = TS_INVALID;
     memset(p->skel_key, 0, n);
-    if (dev_write(p->cl, p->skel_first, 0, n * sizeof(uint32_t), p->skel_first_host,
-                  "the skeletons' places", err))
-        return err->code;
+    p->skel_used = 0, p->skel_cap = want;
     p->skel_planned = 1;
     return TS_OK;
 }
 
 /* Whether segment s's tree keeps its skeleton once built: its shape has a place in skel
- * (skeleton_patch: static, noise-displaced, untrimmed, m >= TS_SKELETON_MIN_LOD at the shape's
- * m, which is the segment's), the segment does not move (an instance may where its master does
- * not), and it is not rough (its rays need its vertices: never traced through a skeleton). No
- * stitched edges: skeleton_mode is box mode. */
+ * (skeleton_patch: static, noise-displaced or undisplaced, untrimmed, m >= TS_SKELETON_MIN_LOD
+ * at the shape's m, which is the segment's) and the segment does not move (an instance may
+ * where its master does not). A rough tree's too: its tight boxes only cull the rays that
+ * leave it, which bl_skeleton traces through the skeleton's boxes, which hold them. No stitched
+ * edges: skeleton_mode is box mode. */
 static int skeleton_tree(const ts_pipeline *p, const ts_segment *s)
 {
-    return p->skel_first_host[s->shape] != TS_INVALID &&
-           !(s->flags & (TS_PATCH_MOVING | TS_PATCH_ROUGH));
+    return !(s->flags & TS_PATCH_MOVING) && skeleton_patch(p, s->shape);
 }
 
 /* Lists after the batches' trees (from ntrees on) each batch's trees whose skeleton is to be
  * kept and is not yet (skel_key), in the batch's order (by decreasing m): a tree kept already
- * would be copied the same again. The tree list holds two entries a patch, and a static
- * patch's tree is listed at most twice. */
-static void skeleton_lists(ts_pipeline *p, uint32_t ntrees)
+ * would be copied the same again. A tree's shape gets its place in skel the first time, the
+ * next TS_SKELETON_GROUPS(m) groups while the room lasts (none after: not kept); the places
+ * given are written to the device's skel_first. The tree list holds two entries a patch, and
+ * a static patch's tree is listed at most twice. */
+static int skeleton_lists(ts_pipeline *p, uint32_t ntrees, ts_error *err)
 {
+    uint32_t lo = UINT32_MAX, hi = 0; /* the places given, [lo, hi] */
     for (uint32_t k = 0; k < p->batch_count; ++k) {
         ts_batch *b = &p->batches[k];
         b->skel_tree_first = ntrees, b->skel_tree_count = 0;
         for (uint32_t t = 0; p->skel_on && t < b->tree_count; ++t) {
             uint32_t tree = p->trees_host[b->tree_first + t];
             const ts_segment *s = &p->segments_host[TS_TREE_SEGMENT(tree)];
-            if (TS_TREE_TIME(tree) == 0u && skeleton_tree(p, s) && p->skel_key[s->shape] != s->lod)
-                p->trees_host[ntrees++] = tree, b->skel_tree_count++;
+            uint32_t q = s->shape;
+            if (TS_TREE_TIME(tree) != 0u || !skeleton_tree(p, s) || p->skel_key[q] == s->lod)
+                continue;
+            if (p->skel_first_host[q] == TS_INVALID) {
+                uint64_t groups = TS_SKELETON_GROUPS(s->lod);
+                if (p->skel_used + groups > p->skel_cap) continue; /* the room is taken */
+                p->skel_first_host[q] = (uint32_t)p->skel_used, p->skel_used += groups;
+                lo = q < lo ? q : lo, hi = q > hi ? q : hi;
+            }
+            p->trees_host[ntrees++] = tree, b->skel_tree_count++;
         }
     }
+    uint64_t *kept = &p->stats->counters[TS_COUNTER_skeleton_bytes];
+    if (p->skel_used * sizeof(ts_tight4) > *kept) *kept = p->skel_used * sizeof(ts_tight4);
+    if (lo > hi) return TS_OK;
+    return dev_write(p->cl, p->skel_first, lo * sizeof(uint32_t), (hi - lo + 1u) * sizeof(uint32_t),
+                     &p->skel_first_host[lo], "the skeletons' places", err);
 }
 
 /* Gives each segment (its LOD set) its place in the arenas through the patch cache and
@@ -328,7 +343,8 @@ static void skeleton_lists(ts_pipeline *p, uint32_t ntrees)
  * diced when any segment of the iteration that shares it needs them (grid_mark, marked
  * before the walk), so that an instance and its master in one batch ask once. Without
  * `leaving`, every miss is diced whole. */
-static void plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving, uint32_t stamp)
+static int plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving, uint32_t stamp,
+                        ts_error *err)
 {
     uint32_t tused = 0, ntrees = 0;
     uint64_t hits = 0, misses = 0, evicted = p->cache.evictions, examined = p->cache.examined;
@@ -357,10 +373,10 @@ static void plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving,
             b = NULL;
         }
         if (!b) b = batch_open(p, i, ntrees), tused = 0;
-        /* A patch that is not resident, needs no vertices and has few pairs goes through its
-         * kept skeleton (bottom_level makes the leaves its rays enter) instead of a dicing. */
-        if (skel_leaves && p->skel_key[q] == s->lod && p->grid_mark[q] != stamp &&
-            skeleton_tree(p, s) &&
+        /* A patch that is not resident and has few pairs goes through its kept skeleton
+         * (bottom_level makes the leaves its rays enter, and the vertices around the origins
+         * of those that leave it) instead of a dicing. */
+        if (skel_leaves && p->skel_key[q] == s->lod && skeleton_tree(p, s) &&
             (uint64_t)(s->end - s->begin) * skel_leaves <= (uint64_t)1 << (2u * s->lod) &&
             !(p->cache.entry[q].resident && p->cache.entry[q].lod == s->lod)) {
             s->flags |= TS_SEG_SKELETON;
@@ -400,7 +416,6 @@ static void plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving,
     patch_cache_end_batch(&p->cache);
     for (uint32_t k = 0; k < p->batch_count; ++k)
         batch_sort_trees(p, &p->batches[k]);
-    skeleton_lists(p, ntrees);
     p->stats->counters[TS_COUNTER_skeleton_segments] += skeletons;
     p->stats->counters[TS_COUNTER_patch_cache_hits] += hits;
     p->stats->counters[TS_COUNTER_patch_cache_misses] += misses;
@@ -409,6 +424,7 @@ static void plan_batches(ts_pipeline *p, uint32_t segs, const uint32_t *leaving,
     p->stats->counters[TS_COUNTER_batches] += p->batch_count;
     uint64_t *peak = &p->stats->counters[TS_COUNTER_patch_cache_peak_bytes];
     if (p->cache.peak_bytes > *peak) *peak = p->cache.peak_bytes;
+    return skeleton_lists(p, ntrees, err);
 }
 
 /* Discrete devices: reads the windows' counts and the windows into host memory, sorts them
@@ -517,8 +533,8 @@ static int stage_sort(ts_pipeline *p, uint32_t windows, uint32_t width, uint32_t
     if (rc == TS_OK && stamp && bytes && !leaving) rc = err->code;
     if (rc == TS_OK) {
         assign_lods(p, segs);
-        plan_batches(p, segs, leaving, stamp);
-        rc = upload_batches(p, segs, err);
+        rc = plan_batches(p, segs, leaving, stamp, err);
+        if (rc == TS_OK) rc = upload_batches(p, segs, err);
     }
     if (leaving && dev_unmap(p->cl, p->leaving, (void *)leaving, "the leaving rays' patches", err))
         rc = err->code;
@@ -1053,9 +1069,10 @@ int pipeline_dice_build(ts_pipeline *p, uint32_t count, ts_error *err)
         need[TS_CACHE_CLASS(s->lod, p->scene->attr[s->patch].flags & TS_PATCH_MOVING ? 2u : 1u)]++;
     }
     patch_cache_plan(&p->cache, need);
-    p->cache_planned = 0;             /* the next trace plans for the frame's levels again */
-    patch_cache_clear(&p->cache);     /* dice every segment, whatever was resident */
-    plan_batches(p, count, NULL, 0u); /* the caller set each segment's LOD */
+    p->cache_planned = 0;         /* the next trace plans for the frame's levels again */
+    patch_cache_clear(&p->cache); /* dice every segment, whatever was resident */
+    if (plan_batches(p, count, NULL, 0u, err)) /* the caller set each segment's LOD */
+        return err->code;
     if (p->batch_count != 1)
         return ts_error_set(err, TS_E_INTERNAL,
                             "pipeline_dice_build: the segments do not fit one batch");

@@ -169,12 +169,14 @@ TS_INLINE_ALWAYS block_box4 block_normal_boxes(__global const ts_vec4 *n,
 #endif
 
 #ifdef TS_CPU_LANES
-/* The boxes of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)) of a noise-displaced tree at
- * m >= 1, made together, leaf q in lane q of each float4: leaf_begin, the noise intervals (the
- * cells of displace_interval_tasks, queued into the lanes of tasks, and displace_interval_sum)
- * and leaf_finish up to the clamp to the patch box, each lane their operations in their order
- * (the same bits). build.cl block_leaves stores them; bottom_level.cl bl_skeleton tests them.
- * Not for trimmed, stitched or triangle-mode trees, which build_leaves finishes leaf by leaf. */
+/* The boxes of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)) of a noise-displaced or an
+ * undisplaced tree at m >= 1, made together, leaf q in lane q of each float4: leaf_begin, the
+ * noise intervals (the cells of displace_interval_tasks, queued into the lanes of tasks, and
+ * displace_interval_sum) and leaf_finish up to the clamp to the patch box, each lane their
+ * operations in their order (the same bits; undisplaced, leaf_begin and the clamp). build.cl
+ * block_leaves stores a noise-displaced tree's (build_leaves makes an undisplaced tree's leaf by
+ * leaf from block_base_boxes, the same bits); bottom_level.cl bl_skeleton tests them. Not for
+ * trimmed, stitched or triangle-mode trees, which build_leaves finishes leaf by leaf. */
 TS_INLINE_ALWAYS block_box4 block_leaf_boxes(
     __global const ts_patch_attr *a, __global const ts_xform *ax, __global const ts_vec4 *cp0,
     __global const ts_vec4 *cp, __global const ts_vec4 *cn, __global const ts_vec4 *mn, ts_vec4 e,
@@ -186,6 +188,11 @@ TS_INLINE_ALWAYS block_box4 block_leaf_boxes(
                       fmax(fmax(fabs(b.ly), fabs(b.hy)), fmax(fabs(b.lz), fabs(b.hz))));
     float4 ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
     b.lx -= ex, b.hx += ex, b.ly -= ey, b.hy += ey, b.lz -= ez, b.hz += ez;
+    if (a->disp_kind == TS_DISP_NONE) { /* leaf_finish undisplaced: only the clamp */
+        b.lx = fmax(b.lx, pbox.lo_x), b.ly = fmax(b.ly, pbox.lo_y), b.lz = fmax(b.lz, pbox.lo_z);
+        b.hx = fmin(b.hx, pbox.hi_x), b.hy = fmin(b.hy, pbox.hi_y), b.hz = fmin(b.hz, pbox.hi_z);
+        return b;
+    }
     block_box4 b0 = b; /* where the noise is evaluated: time 0 */
     if (cp != cp0) {
         b0 = block_base_boxes(cp0, i0, j0, h);
