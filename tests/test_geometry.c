@@ -270,7 +270,8 @@ static void test_squeezed_frames_skip_unread_vertices(void **state)
  * every segment whose tree has a skeleton takes it; with the default, some. forest-1 has all
  * three kinds of tree (ridged bark, fBm ground, undisplaced leaves) and at --memory 16 thins
  * its arenas (as test_thin_arenas_make_fewer_waves), which keeps room for the skeletons within
- * the budget (skeleton_bytes). Leaving out a block's first micro-quad for the rays that leave
+ * the budget (skeleton_bytes); at twice the arenas it is not thinned, and the skeletons take a
+ * part of the arenas. The reference, --memory 2048, fits. Leaving out a block's first micro-quad for the rays that leave
  * the patch, or growing an undisplaced leaf box, fails it. */
 static void test_squeezed_frames_trace_skeletons(void **state)
 {
@@ -281,10 +282,11 @@ static void test_squeezed_frames_trace_skeletons(void **state)
     for (size_t r = 0; r < sizeof lods / sizeof lods[0]; ++r) {
         char args[16384];
         snprintf(args, sizeof args,
-                 "render '%s' -o '%s' --stats '%s' --lod %d --memory 512 --res 160x90 --spp 4 "
+                 "render '%s' -o '%s' --stats '%s' --lod %d --memory 2048 --res 160x90 --spp 4 "
                  "--quiet",
                  scene, path("fit.exr"), path("fit.json"), lods[r]);
         render_ok(args);
+        assert_true(test_stats_number(path("fit.json"), "counters.patch_cache_evictions") == 0.0);
         assert_true(test_stats_number(path("fit.json"), "counters.skeleton_segments") == 0.0);
         double kept[3];
         for (int k = 0; k < 3; ++k) {
@@ -305,6 +307,17 @@ static void test_squeezed_frames_trace_skeletons(void **state)
                       "%g (off)\n",
                       lods[r], kept[0], kept[1], kept[2]);
         assert_true(kept[0] > 0.0 && kept[1] > kept[0] && kept[2] == 0.0);
+        /* not thinned (the patches need twice the arenas, --memory 512 at --lod 6, 128 at 5):
+         * the skeletons' room taken from the arenas (budget.c skeleton_room) */
+        snprintf(args, sizeof args,
+                 "render '%s' -o '%s' --stats '%s' --lod %d --memory %d --res 160x90 --spp 4 "
+                 "--quiet",
+                 scene, path("sq.exr"), path("sq.json"), lods[r], lods[r] == 6 ? 512 : 128);
+        render_ok(args);
+        test_assert_same_pixels(path("fit.exr"), path("sq.exr"));
+        assert_true(test_stats_number(path("sq.json"), "counters.skeleton_segments") > 0.0);
+        assert_true(test_stats_number(path("sq.json"), "counters.patch_cache_evictions") > 0.0);
+        test_assert_device_bytes_in_budget(path("sq.json"), 160.0 * 90, 1110);
     }
 }
 

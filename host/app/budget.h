@@ -76,6 +76,11 @@ void budget_fixed(uint64_t mb, ts_budget_choice *out);
  * docs/benchmarks.md). Trading rays for arenas (TS_TRADE_ARENA_PART) takes the frames whose
  * patches need under three times the plan's arenas. */
 #define TS_THIN_NEED_DIV 4u
+/* A frame whose patches need more than TS_SKELETON_NEED_DIV times the arenas and are not
+ * thinned gives up to 1 / TS_SKELETON_ARENA_DIV of the arenas to skeletons (budget.c
+ * skeleton_room). */
+#define TS_SKELETON_NEED_DIV 1u
+#define TS_SKELETON_ARENA_DIV 8u
 #define TS_TRADE_ARENA_PART 3u
 #define TS_TRADE_ARENA_DIV 4u
 int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, ts_error *err);
