@@ -271,8 +271,8 @@ static void test_squeezed_frames_skip_unread_vertices(void **state)
  * three kinds of tree (ridged bark, fBm ground, undisplaced leaves) and at --memory 16 thins
  * its arenas (as test_thin_arenas_make_fewer_waves), which keeps room for the skeletons within
  * the budget (skeleton_bytes); at twice the arenas it is not thinned, and the skeletons take a
- * part of the arenas. The reference, --memory 2048, fits. Leaving out a block's first micro-quad for the rays that leave
- * the patch, or growing an undisplaced leaf box, fails it. */
+ * part of the arenas. The reference, --memory 2048, fits. Leaving out a block's first micro-quad
+ * for the rays that leave the patch, or growing an undisplaced leaf box, fails it. */
 static void test_squeezed_frames_trace_skeletons(void **state)
 {
     (void)state;
