@@ -34,12 +34,12 @@
  *     an exclusive scan in local memory gives each (ray, micro-quad) task a slot, every
  *     work-item runs tasks with the owner's ray copied through local memory, and each owner
  *     folds its results back in order. Every work-item reaches every barrier.
- * Identical hits: both visit blocks in the same order (nearest first, the same culling),
- * test each micro-quad with quad_test, and keep the first of equal distances in the order
- * block, micro-quad (Morton), triangle; of leaf boxes entered at the same distance the one
- * with the larger micro-quad index (box_hit_nearer), so that the box hits do not depend on
- * the visiting order at all (leaf sizes, leaf modes). Both count leaf-stage utilisation: micro-quad
- * tests over work-item slots (a work-group in lockstep for the per-ray kernel). */
+ * Identical hits: both visit blocks in the same order (nearest first, the same culling) and
+ * test each micro-quad with quad_test; of hits at the same distance (leaf boxes entered at
+ * one distance, triangles met on a shared edge) the one with the larger prim wins
+ * (hit_nearer), so that the hits do not depend on the visiting order at all (leaf sizes, leaf
+ * modes, skeletons). Both count leaf-stage utilisation: micro-quad tests over work-item slots
+ * (a work-group in lockstep for the per-ray kernel). */
 #include "lib/shared_types.h"
 #include "lib/instance.h"
 #include "lib/intersect.h"
@@ -75,6 +75,30 @@ inline float4 vertex_at(__global const float4 *g0, __global const float4 *g1, ui
     return p;
 }
 
+/* Whether a hit at distance e (a leaf box's entry, or a micro-triangle's prim) is the patch's
+ * hit rather than *best: it is nearer, or as near as a hit already (best->patch set) with a
+ * larger prim. Adjacent leaf boxes often share the plane a ray enters by (their clamp to the
+ * patch box, or their common faces), and a ray through a shared edge can meet two triangles
+ * at one distance; a fixed rule makes the hit the same whatever order the leaves are visited
+ * in: every leaf size and leaf mode, a skeleton's blocks (bl_skeleton), and the C reference
+ * (host/ref/bottom_level_ref.c). The larger index is the one the traversal mostly met first
+ * anyway (children of equal entry are expanded last child first): with the smaller one,
+ * forest-100 960x384 changed at 1.8% of its pixels, and test_instance's displaced instances
+ * drifted from their copies by 1.5 of the noise allowance (a bias in the hits' (u, v)); with the
+ * larger, 0.06% changed. A hit at exactly the tmax the pair began with stays the earlier one's
+ * (best->patch unset). */
+inline int hit_nearer(float e, uint prim, const ts_hit *best)
+{
+    return e < best->t || (e == best->t && best->patch != TS_INVALID && prim > best->prim);
+}
+
+/* The tmax a triangle is tested below: best->t, or just past it where an equal hit may win
+ * (hit_nearer). */
+inline float triangle_tmax(const ts_hit *best)
+{
+    return best->patch != TS_INVALID ? nextafter(best->t, INFINITY) : best->t;
+}
+
 /* Tests the micro-triangles of micro-quad (i, j) of a patch diced at m, its vertices p00, p10,
  * p01, p11 (at the ray's time); updates *best. The vertices are made relative to the origin and
  * permuted to the shear's axes with one shuffle each (the host reference, triangle_hit, does
@@ -86,18 +110,17 @@ TS_INLINE_ALWAYS void quad_triangles(float4 p00, float4 p10, float4 p01, float4 
     float4 v00 = shuffle(p00 - o4, perm), v10 = shuffle(p10 - o4, perm);
     float4 v01 = shuffle(p01 - o4, perm), v11 = shuffle(p11 - o4, perm);
     float b1, b2, scale = ldexp(1.0f, -(int)m);
-    uint quad = j * (1u << m) + i;
+    uint quad = j * (1u << m) + i, prim = TS_PRIM(m, 2u * quad);
     float t = triangle_hit_permuted(sh, v00.x, v00.y, v00.z, v10.x, v10.y, v10.z, v11.x, v11.y,
-                                    v11.z, tmin, best->t, &b1, &b2);
-    if (t >= 0.0f) {
-        *best = (ts_hit){t, ((float)i + b1 + b2) * scale, ((float)j + b2) * scale, patch,
-                         TS_PRIM(m, 2u * quad)};
+                                    v11.z, tmin, triangle_tmax(best), &b1, &b2);
+    if (t >= 0.0f && hit_nearer(t, prim, best)) {
+        *best = (ts_hit){t, ((float)i + b1 + b2) * scale, ((float)j + b2) * scale, patch, prim};
     }
     t = triangle_hit_permuted(sh, v00.x, v00.y, v00.z, v11.x, v11.y, v11.z, v01.x, v01.y, v01.z,
-                              tmin, best->t, &b1, &b2);
-    if (t >= 0.0f) {
-        *best = (ts_hit){t, ((float)i + b1) * scale, ((float)j + b1 + b2) * scale, patch,
-                         TS_PRIM(m, 2u * quad + 1u)};
+                              tmin, triangle_tmax(best), &b1, &b2);
+    if (t >= 0.0f && hit_nearer(t, prim + 1u, best)) {
+        *best =
+            (ts_hit){t, ((float)i + b1) * scale, ((float)j + b1 + b2) * scale, patch, prim + 1u};
     }
 }
 
@@ -113,27 +136,11 @@ inline void leaf_triangles(__global const float4 *g0, __global const float4 *g1,
                    best, patch);
 }
 
-/* Whether a leaf box entered at e (micro-quad prim) is the patch's hit rather than *best: it is
- * nearer, or as near as a leaf box hit already (best->patch set) with a larger micro-quad
- * index. Adjacent leaf boxes often share the plane a ray enters by (their clamp to the patch
- * box, or their common faces), and a fixed rule makes the hit the same whatever order the
- * leaves are visited in: every leaf size and leaf mode, and the C reference
- * (host/ref/bottom_level_ref.c). The larger index is the one the traversal mostly met first
- * anyway (children of equal entry are expanded last child first): with the smaller one,
- * forest-100 960x384 changed at 1.8% of its pixels, and test_instance's displaced instances
- * drifted from their copies by 1.5 of the noise allowance (a bias in the hits' (u, v)); with the
- * larger, 0.06% changed. A hit at exactly the tmax the pair began with stays the earlier one's
- * (best->patch unset). */
-inline int box_hit_nearer(float e, uint prim, const ts_hit *best)
-{
-    return e < best->t || (e == best->t && best->patch != TS_INVALID && prim > best->prim);
-}
-
 /* A leaf box hit at entry distance e (box mode). */
 inline void leaf_box(uint m, uint k, float e, ts_hit *best, uint patch)
 {
     uint i = morton_i(k), j = morton_j(k), prim = TS_PRIM(m, 2u * (j * (1u << m) + i));
-    if (!box_hit_nearer(e, prim, best)) return;
+    if (!hit_nearer(e, prim, best)) return;
     *best = (ts_hit){e, quadtree_centre(i, m), quadtree_centre(j, m), patch, prim};
 }
 
@@ -474,16 +481,15 @@ typedef struct bl_leaf_src {
  * root's the patch box) nearest first, and at a node of level m - 2, a block of 4 x 4 leaves:
  *   a ray that does not leave the patch makes its 16 leaf boxes, four 2 x 2 blocks by
  *   block_leaf_boxes (what build_leaves stores: the same bits), and tests them as the tree's
- *   leaves are (slab4, leaf_box); of equal entries the larger micro-quad wins (box_hit_nearer);
+ *   leaves are (slab4, leaf_box); of equal entries the larger micro-quad wins (hit_nearer);
  *   a ray that leaves it (`leaving`: the origin-patch rule, bl_pair) makes the block's 25
  *   vertices, patch_vertex_x8 at the grid's parameters (what dice stores: the same bits), and
  *   tests the 16 micro-quads' triangles (quad_triangles) in Morton order.
  * Every skeleton box holds its tree box, which holds its leaves, its leaves' tight boxes and
  * so its triangles, so every leaf or triangle the tree's traversal could reach within tmax
- * is reached here too: the same hit as through the tree (triangles: the nearest; two at
- * exactly the same distance in different micro-quads, which the tree visits in another
- * order, are the one case that could differ). A shadow ray stops after the first block with
- * a hit. Returns the micro-quads tested. */
+ * is reached here too, and of equal distances the larger prim wins (hit_nearer) whatever the
+ * order: the same hit as through the tree. A shadow ray stops after the first block with a
+ * hit. Returns the micro-quads tested. */
 inline uint bl_skeleton(const bl_ray *r, uint m, uint patch, __global const ts_tight4 *sk,
                         const bl_leaf_src *src, uint shadow, uint leaving, ts_hit *best)
 {
@@ -741,7 +747,7 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_gr
             tp.t1 = (meta.x >> 8) & 1u ? tp.t0 + quadtree_group_count(tp.m) : 0;
             uint tb = meta.x >> 16;
             /* From the owner's best so far, so that a leaf box as near as it with a larger
-             * micro-quad wins (box_hit_nearer); a task that finds nothing better returns it. */
+             * micro-quad wins (hit_nearer); a task that finds nothing better returns it. */
             uint bp = l_prim[lo];
             ts_hit h = {l_shear[lo].w, 0.0f, 0.0f, bp == TS_INVALID ? TS_INVALID : meta.y, bp};
             quad_test(&tr, &tp, (l_block[lo] << (2u * tb)) + (j - l_first[lo]), (meta.x >> 9) & 1u,
@@ -749,11 +755,10 @@ __kernel __attribute__((reqd_work_group_size(BL_WG, 1, 1))) void bottom_level_gr
             l_res[j] = h;
         }
         barrier(CLK_LOCAL_MEM_FENCE);
-        /* 4. Each owner folds its results in order: of equal distances the first triangle
-         * wins, and the leaf box with the larger micro-quad (leaf_box). */
+        /* 4. Each owner folds its results in order: of equal distances the larger prim wins
+         * (hit_nearer), so the order does not matter. */
         for (uint j = l_first[lid]; j < l_first[lid] + count; ++j)
-            if (l_res[j].patch != TS_INVALID &&
-                (ex ? l_res[j].t < best.t : box_hit_nearer(l_res[j].t, l_res[j].prim, &best)))
+            if (l_res[j].patch != TS_INVALID && hit_nearer(l_res[j].t, l_res[j].prim, &best))
                 best = l_res[j];
         useful += total, slots += (total + BL_WG - 1u) / BL_WG * BL_WG;
         barrier(CLK_LOCAL_MEM_FENCE);

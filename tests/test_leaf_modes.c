@@ -89,7 +89,7 @@ static void check_scene(int displaced)
                 if (ray.hit[i].patch == TS_INVALID) continue;
                 assert_true(ray.hit[i].t == ref.hit[i].t), ++hits;
                 /* Leaf boxes: the same box too, the larger micro-quad of equal entries
-                 * (bottom_level.cl box_hit_nearer), whatever order the leaf size visits them in. */
+                 * (bottom_level.cl hit_nearer), whatever order the leaf size visits them in. */
                 if (!exact &&
                     (ray.hit[i].patch != ref.hit[i].patch || ray.hit[i].prim != ref.hit[i].prim))
                     fail_msg("ray %d (leaf %u): (%u, %#x) against leaf 1's (%u, %#x)", i, 1u << b,

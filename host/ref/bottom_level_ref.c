@@ -78,6 +78,20 @@ static ts_vec4 vertex_at(const bl_ref_patch *pt, uint32_t v, float time)
     return p;
 }
 
+/* Whether a hit at distance e (leaf box entry or triangle) of prim replaces *best: nearer, or
+ * as near as a hit already with a larger prim, whatever the visiting order (the kernel's
+ * hit_nearer). */
+static int hit_nearer(float e, uint32_t prim, const ts_hit *best)
+{
+    return e < best->t || (e == best->t && best->patch != TS_INVALID && prim > best->prim);
+}
+
+/* The tmax a triangle is tested below: best->t, or just past it where an equal hit may win. */
+static float triangle_tmax(const ts_hit *best)
+{
+    return best->patch != TS_INVALID ? nextafterf(best->t, INFINITY) : best->t;
+}
+
 /* The two micro-triangles of micro-quad k, split along (i,j)-(i+1,j+1). */
 static void leaf_triangles(const ref_ray *r, const bl_ref_patch *pt, uint32_t k, ts_hit *best)
 {
@@ -86,25 +100,24 @@ static void leaf_triangles(const ref_ray *r, const bl_ref_patch *pt, uint32_t k,
     ts_vec4 v01 = vertex_at(pt, (j + 1u) * n + i, r->time);
     ts_vec4 v11 = vertex_at(pt, (j + 1u) * n + i + 1u, r->time);
     float b1 = 0.0f, b2 = 0.0f, scale = ldexpf(1.0f, -(int)m);
-    uint32_t quad = j * (n - 1u) + i;
-    float t =
-        triangle_hit(&r->sh, r->o[0], r->o[1], r->o[2], v00, v10, v11, r->tmin, best->t, &b1, &b2);
-    if (t >= 0.0f)
-        *best = (ts_hit){t, ((float)i + b1 + b2) * scale, ((float)j + b2) * scale, pt->patch,
-                         TS_PRIM(m, 2u * quad)};
-    t = triangle_hit(&r->sh, r->o[0], r->o[1], r->o[2], v00, v11, v01, r->tmin, best->t, &b1, &b2);
-    if (t >= 0.0f)
+    uint32_t quad = j * (n - 1u) + i, prim = TS_PRIM(m, 2u * quad);
+    float t = triangle_hit(&r->sh, r->o[0], r->o[1], r->o[2], v00, v10, v11, r->tmin,
+                           triangle_tmax(best), &b1, &b2);
+    if (t >= 0.0f && hit_nearer(t, prim, best))
+        *best = (ts_hit){t, ((float)i + b1 + b2) * scale, ((float)j + b2) * scale, pt->patch, prim};
+    t = triangle_hit(&r->sh, r->o[0], r->o[1], r->o[2], v00, v11, v01, r->tmin, triangle_tmax(best),
+                     &b1, &b2);
+    if (t >= 0.0f && hit_nearer(t, prim + 1u, best))
         *best = (ts_hit){t, ((float)i + b1) * scale, ((float)j + b1 + b2) * scale, pt->patch,
-                         TS_PRIM(m, 2u * quad + 1u)};
+                         prim + 1u};
 }
 
 /* Leaf box k hit at entry e: the hit is the entry, (u, v) the centre of its square. Of equal
- * entries the larger micro-quad index wins, whatever the visiting order (the kernel's
- * box_hit_nearer). */
+ * entries the larger micro-quad index wins, whatever the visiting order (hit_nearer). */
 static void leaf_box(uint32_t m, uint32_t k, float e, ts_hit *best, uint32_t patch)
 {
     uint32_t i = morton_i(k), j = morton_j(k), prim = TS_PRIM(m, 2u * (j * (1u << m) + i));
-    if (!(e < best->t || (e == best->t && best->patch != TS_INVALID && prim > best->prim))) return;
+    if (!hit_nearer(e, prim, best)) return;
     float scale = ldexpf(1.0f, -(int)m);
     *best = (ts_hit){e, ((float)i + 0.5f) * scale, ((float)j + 0.5f) * scale, patch, prim};
 }
