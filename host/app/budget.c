@@ -249,16 +249,15 @@ static int thin_arenas(ts_pipeline *p, uint64_t need, uint64_t frame_rays, int q
     return TS_OK;
 }
 
-/* The frame's patches need more than TS_SKELETON_NEED_DIV times the arenas and thin_arenas
- * kept no room for skeletons (it did not thin them): up to 1 / TS_SKELETON_ARENA_DIV of the
- * arenas goes to the skeletons (trace.c skeleton_prepare), at most what the frame's trees
- * would take, keeping room for two moving patches at the frame's finest level. The patch cache
- * then holds a little less, and a pass traces a patch's few rays through its skeleton instead
- * of dicing it again. */
-static int skeleton_room(ts_pipeline *p, uint64_t need, int quiet, ts_error *err)
+/* The frame's patches do not fit the arenas and thin_arenas kept no room for skeletons (it
+ * did not thin them): up to 1 / TS_SKELETON_ARENA_DIV of the arenas goes to the skeletons
+ * (trace.c skeleton_prepare), at most what the frame's trees would take, keeping room for two
+ * moving patches at the frame's finest level. The patch cache then holds a little less, and a
+ * pass traces a patch's few rays through its skeleton instead of dicing it again. */
+static int skeleton_room(ts_pipeline *p, int quiet, ts_error *err)
 {
     uint64_t have = pipeline_arena_bytes(&p->plan), skel = pipeline_skeleton_bytes(p);
-    if (p->skel_room || skel == 0 || need / TS_SKELETON_NEED_DIV <= have) return TS_OK;
+    if (p->skel_room || skel == 0 || have == 0) return TS_OK;
     uint64_t room = have / TS_SKELETON_ARENA_DIV < skel ? have / TS_SKELETON_ARENA_DIV : skel;
     double keep = (double)(have - room) / (double)have;
     uint64_t v = (uint64_t)(keep * (double)p->plan.vert_capacity),
@@ -298,7 +297,7 @@ int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, t
             return pipeline_arena_bytes(&p->plan) >= need ? fit_waves(p, trade, err) : TS_OK;
         if (take_the_room(p, verts, groups, need, extra, quiet, err)) return err->code;
         if (trade && thin_arenas(p, need, p->frame_rays, quiet, err)) return err->code;
-        return skeleton_room(p, need, quiet, err);
+        return skeleton_room(p, quiet, err);
     }
     int grown = arenas_grow(p, verts, groups, quiet, err);
     if (grown <= 0) return grown < 0 ? err->code : TS_OK;

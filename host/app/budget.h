@@ -76,10 +76,10 @@ void budget_fixed(uint64_t mb, ts_budget_choice *out);
  * docs/benchmarks.md). Trading rays for arenas (TS_TRADE_ARENA_PART) takes the frames whose
  * patches need under three times the plan's arenas. */
 #define TS_THIN_NEED_DIV 4u
-/* A frame whose patches need more than TS_SKELETON_NEED_DIV times the arenas and are not
- * thinned gives up to 1 / TS_SKELETON_ARENA_DIV of the arenas to skeletons (budget.c
- * skeleton_room). */
-#define TS_SKELETON_NEED_DIV 1u
+/* A frame whose patches do not fit and whose arenas are not thinned gives up to
+ * 1 / TS_SKELETON_ARENA_DIV of them to skeletons (budget.c skeleton_room; forest-100 960x384
+ * x 1 at --memory 1024 .. 128, 2.7 MB of skeletons: 2.80-3.08 s against 3.22-4.34 s without;
+ * docs/benchmarks.md). */
 #define TS_SKELETON_ARENA_DIV 8u
 #define TS_TRADE_ARENA_PART 3u
 #define TS_TRADE_ARENA_DIV 4u

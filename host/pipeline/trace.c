@@ -245,7 +245,9 @@ static int skeleton_prepare(ts_pipeline *p, ts_error *err)
 {
     uint32_t n = p->scene->patch_count;
     p->skel_on = skeleton_mode(p) && p->cache.short_of_room && p->skel_room > 0;
-    uint64_t want = p->skel_on ? pipeline_skeleton_bytes(p) / sizeof(ts_tight4) : 0u;
+    uint64_t want = p->skel_on && !p->skel_planned /* laid out: the buffer holds it */
+                        ? pipeline_skeleton_bytes(p) / sizeof(ts_tight4)
+                        : 0u;
     uint64_t cap = p->skel_room / sizeof(ts_tight4); /* groups: up to 96 GB of skeletons */
     if (want > cap) want = cap;
     if (!p->skel || want > p->skel_groups) {
