@@ -315,6 +315,26 @@ inline void bl_trav_start(bl_trav *s, const bl_ray *r, const bl_patch *pt, float
     if (te >= 0.0f) s->stack[0] = 0u, s->stack_t[0] = te, s->sp = 1;
 }
 
+/* The children a ray enters (entry e[q] >= 0, q = 0..3), sorted by entry, farthest first:
+ * their entries in tc, their lanes in id; returns how many. Of equal entries the earlier lane
+ * comes first (is visited later). Unrolled: the four children's tests stay in registers (no order
+ * change). */
+TS_INLINE_ALWAYS uint children_far_first(const float e[4], float tc[4], uint id[4])
+{
+    uint nc = 0u;
+#pragma unroll
+    for (uint q = 0; q < 4u; ++q) {
+        if (e[q] < 0.0f) continue;
+        uint at = nc++;
+        while (at > 0u && tc[at - 1u] < e[q]) {
+            tc[at] = tc[at - 1u], id[at] = id[at - 1u];
+            --at;
+        }
+        tc[at] = e[q], id[at] = q;
+    }
+    return nc;
+}
+
 /* The next block of level L to visit (its index), or -1 when the traversal is done:
  * blocks are taken from the last expanded node nearest first, skipping those that start
  * beyond tmax; then the stack is popped and nodes expanded front to back. *te and *raw get
@@ -352,39 +372,25 @@ TS_INLINE_ALWAYS int bl_next_block_any(bl_trav *s, const bl_ray *r, const bl_pat
                                                    r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw)
                                : group_enter(g0, g1, r->inv.w, r->o4, r->inv, r->tmin, tmax, &raw);
         float e[4] = {e4.x, e4.y, e4.z, e4.w}, er[4] = {raw.x, raw.y, raw.z, raw.w};
-        /* Children that are hit, sorted by entry distance, farthest first (a child's raw entry
-         * is er[its id & 3], read only where the children are blocks). */
+        /* Children that are hit, farthest first (a child's raw entry is er[its lane], read only
+         * where the children are blocks). */
         float tc[4];
-        uint id[4];
-        uint nc = 0;
-        /* unrolled: the four children's tests stay in registers (no order change) */
-#pragma unroll
-        for (uint q = 0; q < 4u; ++q) {
-            if (e[q] < 0.0f) continue;
-            uint at = nc++;
-            while (at > 0u && tc[at - 1u] < e[q]) {
-                tc[at] = tc[at - 1u];
-                id[at] = id[at - 1u];
-                --at;
-            }
-            tc[at] = e[q];
-            id[at] = 4u * k + q;
-        }
+        uint id[4], nc = children_far_first(e, tc, id);
         if (level + 1u == L) { /* the children are blocks: visit them nearest first */
             for (uint q = 0; q < nc; ++q)
-                s->blk[q] = id[nc - 1u - q], s->blt[q] = tc[nc - 1u - q],
-                s->blr[q] = er[id[nc - 1u - q] & 3u];
+                s->blk[q] = 4u * k + id[nc - 1u - q], s->blt[q] = tc[nc - 1u - q],
+                s->blr[q] = er[id[nc - 1u - q]];
             s->qn = nc, s->qi = 0;
             continue;
         }
         if (nc == 0u) continue;
         for (uint q = 0; q + 1u < nc; ++q) {
-            s->stack[s->sp] = ((level + 1u) << 24) | id[q];
+            s->stack[s->sp] = ((level + 1u) << 24) | (4u * k + id[q]);
             s->stack_t[s->sp] = tc[q];
             ++s->sp;
         }
         /* The nearest is expanded next, as if pushed and popped at once. */
-        if (!(tc[nc - 1u] > tmax)) next = ((level + 1u) << 24) | id[nc - 1u];
+        if (!(tc[nc - 1u] > tmax)) next = ((level + 1u) << 24) | (4u * k + id[nc - 1u]);
     }
 }
 
@@ -496,9 +502,10 @@ inline uint bl_skeleton(const bl_ray *r, uint m, uint patch, __global const ts_t
     const ts_tex_ctx no_tex = {0, 0, 0}; /* skeletons are not texture-displaced */
     uint L = m - TS_SKELETON_DROP, tests = 0u, sp = 0u;
     float h = ldexp(1.0f, -(int)m), s = ldexp(1.0f, -2 * (int)m);
+    /* the noise's octaves, for the leaf boxes of a noise-displaced patch only */
     float freq[TS_DISP_MAX_OCTAVES], weight[TS_DISP_MAX_OCTAVES];
-    uint octaves = displace_octaves(src->a);
-    displace_octave_steps(src->a, octaves, octaves, freq, weight);
+    uint octaves = !leaving && displace_is_noise(src->a) ? displace_octaves(src->a) : 0u;
+    if (octaves) displace_octave_steps(src->a, octaves, octaves, freq, weight);
     float vlo[4 * TS_DISP_MAX_OCTAVES], vhi[4 * TS_DISP_MAX_OCTAVES];
     noise_tasks tasks;
     tasks.n = 0u;
@@ -558,17 +565,8 @@ inline uint bl_skeleton(const bl_ray *r, uint m, uint patch, __global const ts_t
         float bl[24];
         block_spill((block_box4){lx, ly, lz, hx, hy, hz}, bl);
         /* the children entered, farthest pushed first so that the nearest is popped next */
-        uint id[4], nc = 0u;
         float tc[4];
-        for (uint q = 0; q < 4u; ++q) {
-            if (e[q] < 0.0f) continue;
-            uint at = nc++;
-            while (at > 0u && tc[at - 1u] < e[q]) {
-                tc[at] = tc[at - 1u], id[at] = id[at - 1u];
-                --at;
-            }
-            tc[at] = e[q], id[at] = q;
-        }
+        uint id[4], nc = children_far_first(e, tc, id);
         for (uint j = 0; j < nc; ++j) {
             uint q = id[j];
             node[sp] = ((level + 1u) << 24) | (4u * k + q), node_t[sp] = tc[j];

@@ -157,9 +157,10 @@ TESSERA_CPU_LANES=1 OCLGRIND_CHECKS="--data-races --check-api" \
   run render_cpu_lanes "$build/tessera" render scene/teapot.rib --res 7x5 --spp 3 --max-lod 2 \
   --depth 1 --memory 4 -o "$work/cpu_lanes.exr" --no-kernel-cache --quiet
 # Skeletons (build_skeleton, bottom_level's bl_skeleton making the leaves a ray enters with the
-# lanes' block_leaf_boxes): a squeezed frame too small to thin its arenas, given room for
-# skeletons by the testing aid, every segment that may taking one; and still that regime.
-TESSERA_CPU_LANES=1 TESSERA_SKELETON_ROOM=4000000 TESSERA_SKELETON_PAIR_LEAVES=1 \
+# lanes' block_leaf_boxes, and the vertices of those leaving the patch): a squeezed frame, its
+# skeletons' room taken from the arenas (budget.c skeleton_room), every segment that may taking
+# one.
+TESSERA_CPU_LANES=1 TESSERA_SKELETON_PAIR_LEAVES=1 \
   OCLGRIND_CHECKS="--data-races --check-api" \
   run render_skeleton "$build/tessera" render scene/teapot_displaced.rib --res 16x9 --spp 4 \
   --lod 4 --memory 1 -o "$work/skeleton.exr" --stats "$work/skeleton.json" --no-kernel-cache \

@@ -277,11 +277,7 @@ static int skeleton_room(ts_pipeline *p, int quiet, ts_error *err)
 
 int budget_grow_arenas(ts_pipeline *p, uint64_t room_mb, int trade, int quiet, ts_error *err)
 {
-    /* thin_arenas may make room for skeletons; TESSERA_SKELETON_ROOM (bytes, beside the
-     * budget) gives them room anyway: a testing aid for frames too small to thin (check_kernels
-     * runs the skeletons' kernels under Oclgrind so) */
-    const char *aid = getenv("TESSERA_SKELETON_ROOM");
-    p->skel_room = aid ? strtoull(aid, NULL, 10) : 0;
+    p->skel_room = 0; /* thin_arenas or skeleton_room make room for skeletons */
     uint64_t mb = p->stats->memory_budget_bytes >> 20;
     uint64_t verts, groups;
     pipeline_arena_need(p, &verts, &groups);

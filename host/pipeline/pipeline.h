@@ -292,8 +292,8 @@ typedef struct ts_pipeline {
     uint32_t *skel_first_host;
     uint8_t *skel_key;
     int skel_on, skel_planned;
-    /* The budget's bytes for skeletons (app/budget.c thin_arenas takes them from the arenas
-     * it thins); 0: none, skeletons off. */
+    /* The budget's bytes for skeletons (app/budget.c: thin_arenas takes them from the arenas it
+     * thins, skeleton_room from arenas it does not); 0: none, skeletons off. */
     uint64_t skel_room;
     /* Which diced patches the grid and groups arenas hold, kept across iterations, waves and
      * sample passes (patch_cache.h); cleared when the levels of detail change. With

@@ -231,7 +231,8 @@ static int skeleton_mode(const ts_pipeline *p)
 uint64_t pipeline_skeleton_bytes(const ts_pipeline *p)
 {
     uint64_t groups = 0;
-    for (uint32_t i = 0; skeleton_mode(p) && i < p->scene->patch_count; ++i)
+    if (!skeleton_mode(p)) return 0;
+    for (uint32_t i = 0; i < p->scene->patch_count; ++i)
         if (skeleton_patch(p, i)) groups += TS_SKELETON_GROUPS(pipeline_patch_lod(p, i));
     return groups * sizeof(ts_tight4);
 }
@@ -276,12 +277,12 @@ static int skeleton_prepare(ts_pipeline *p, ts_error *err)
     return TS_OK;
 }
 
-/* Whether segment s's tree keeps its skeleton once built: its shape has a place in skel
- * (skeleton_patch: static, noise-displaced or undisplaced, untrimmed, m >= TS_SKELETON_MIN_LOD
- * at the shape's m, which is the segment's) and the segment does not move (an instance may
- * where its master does not). A rough tree's too: its tight boxes only cull the rays that
- * leave it, which bl_skeleton traces through the skeleton's boxes, which hold them. No stitched
- * edges: skeleton_mode is box mode. */
+/* Whether segment s's tree may keep its skeleton once built: its shape may (skeleton_patch:
+ * static, noise-displaced or undisplaced, untrimmed, m >= TS_SKELETON_MIN_LOD at the shape's m,
+ * which is the segment's; a place is given in skeleton_lists) and the segment does not move (an
+ * instance may where its master does not). A rough tree's too: its tight boxes only cull the rays
+ * that leave it, which bl_skeleton traces through the skeleton's boxes, which hold them. No
+ * stitched edges: skeleton_mode is box mode. */
 static int skeleton_tree(const ts_pipeline *p, const ts_segment *s)
 {
     return !(s->flags & TS_PATCH_MOVING) && skeleton_patch(p, s->shape);

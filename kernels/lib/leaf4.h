@@ -169,6 +169,14 @@ TS_INLINE_ALWAYS block_box4 block_normal_boxes(__global const ts_vec4 *n,
 #endif
 
 #ifdef TS_CPU_LANES
+/* build.cl leaf_clamp of the four boxes: each clamped to the patch box p. */
+TS_INLINE_ALWAYS block_box4 block_clamp(block_box4 b, ts_box p)
+{
+    b.lx = fmax(b.lx, p.lo_x), b.ly = fmax(b.ly, p.lo_y), b.lz = fmax(b.lz, p.lo_z);
+    b.hx = fmin(b.hx, p.hi_x), b.hy = fmin(b.hy, p.hi_y), b.hz = fmin(b.hz, p.hi_z);
+    return b;
+}
+
 /* The boxes of the 2 x 2 leaves (i0 + (q & 1), j0 + (q >> 1)) of a noise-displaced or an
  * undisplaced tree at m >= 1, made together, leaf q in lane q of each float4: leaf_begin, the
  * noise intervals (the cells of displace_interval_tasks, queued into the lanes of tasks, and
@@ -188,11 +196,7 @@ TS_INLINE_ALWAYS block_box4 block_leaf_boxes(
                       fmax(fmax(fabs(b.ly), fabs(b.hy)), fmax(fabs(b.lz), fabs(b.hz))));
     float4 ex = e.x * s + 4e-7f * mag, ey = e.y * s + 4e-7f * mag, ez = e.z * s + 4e-7f * mag;
     b.lx -= ex, b.hx += ex, b.ly -= ey, b.hy += ey, b.lz -= ez, b.hz += ez;
-    if (a->disp_kind == TS_DISP_NONE) { /* leaf_finish undisplaced: only the clamp */
-        b.lx = fmax(b.lx, pbox.lo_x), b.ly = fmax(b.ly, pbox.lo_y), b.lz = fmax(b.lz, pbox.lo_z);
-        b.hx = fmin(b.hx, pbox.hi_x), b.hy = fmin(b.hy, pbox.hi_y), b.hz = fmin(b.hz, pbox.hi_z);
-        return b;
-    }
+    if (a->disp_kind == TS_DISP_NONE) return block_clamp(b, pbox); /* leaf_finish: the clamp */
     block_box4 b0 = b; /* where the noise is evaluated: time 0 */
     if (cp != cp0) {
         b0 = block_base_boxes(cp0, i0, j0, h);
@@ -283,9 +287,7 @@ TS_INLINE_ALWAYS block_box4 block_leaf_boxes(
     BLOCK_GROW(b.ly, b.hy, nb.ly, nb.hy)
     BLOCK_GROW(b.lz, b.hz, nb.lz, nb.hz)
 #undef BLOCK_GROW
-    b.lx = fmax(b.lx, pbox.lo_x), b.ly = fmax(b.ly, pbox.lo_y), b.lz = fmax(b.lz, pbox.lo_z);
-    b.hx = fmin(b.hx, pbox.hi_x), b.hy = fmin(b.hy, pbox.hi_y), b.hz = fmin(b.hz, pbox.hi_z);
-    return b;
+    return block_clamp(b, pbox);
 }
 #endif
 

@@ -190,8 +190,9 @@ typedef struct ts_hit {
 #define TS_SEG_TRIMMED 4u
 /* ts_segment.flags only: the segment has no tree in the arenas; bottom_level traces its pairs
  * through the kept skeleton of the patch's tree (levels 1 .. m - 2 as codes, build.cl
- * build_skeleton) and makes the 4 x 4 blocks of leaves its rays enter (bottom_level.cl
- * bl_skeleton): where a pass meets a patch that does not fit with few rays. */
+ * build_skeleton) and makes the 4 x 4 blocks of leaves its rays enter, or the blocks' vertices
+ * for the rays that leave the patch (bottom_level.cl bl_skeleton): where a pass meets a patch
+ * that does not fit with few rays. */
 #define TS_SEG_SKELETON 8u
 /* The levels of leaves below a skeleton: it keeps levels 1 .. m - TS_SKELETON_DROP of a tree,
  * and bottom_level makes the leaves of its nodes of level m - TS_SKELETON_DROP (blocks of
